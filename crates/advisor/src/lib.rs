@@ -1,0 +1,1 @@
+//! The ABBA adaptive basal-bolus advisor and its baselines.

@@ -1,0 +1,46 @@
+//! The device event log: everything a person's devices record that the
+//! advisor may see.
+
+use crate::therapy::MealSlot;
+use crate::time::Timestamp;
+use crate::units::{Grams, MgDl, Units, UnitsPerHour};
+use serde::{Deserialize, Serialize};
+
+/// One device-visible happening.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum EventKind {
+    /// A CGM reading.
+    Cgm(MgDl),
+    /// A finger-stick (SMBG) reading.
+    Smbg(MgDl),
+    /// The person announced a meal with the carbohydrate they estimated.
+    MealAnnounced {
+        /// Estimated carbohydrate.
+        carbs: Grams,
+        /// Which meal.
+        slot: MealSlot,
+    },
+    /// Bolus insulin delivered.
+    Bolus(Units),
+    /// The basal rate in force from now on.
+    BasalRate(UnitsPerHour),
+    /// The last reading of the day was announced (SMBG mode) or midnight passed (CGM mode).
+    DayClosed,
+}
+
+/// An event with its time.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Event {
+    /// When it happened.
+    pub at: Timestamp,
+    /// What happened.
+    pub kind: EventKind,
+}
+
+impl Event {
+    /// An event at `at`.
+    pub fn new(at: Timestamp, kind: EventKind) -> Self {
+        Self { at, kind }
+    }
+}

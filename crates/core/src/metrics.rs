@@ -1,0 +1,1 @@
+//! Glucose metrics (iglu's definitions). Filled in by the metrics work.

@@ -1,0 +1,1 @@
+//! The paper's in-silico trial: closed loop, runner, statistics and report.

@@ -1,2 +1,10 @@
 //! UVA/Padova 2008 type 1 diabetes simulator: the patient model and its
 //! solver, virtual cohorts, CGM, SMBG meter and pump, and scenario generation.
+
+pub mod cohort;
+pub mod devices;
+pub mod error;
+pub mod patient;
+pub mod scenario;
+
+pub use error::SimError;

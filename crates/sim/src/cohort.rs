@@ -1,0 +1,1 @@
+//! Virtual cohorts (being built).

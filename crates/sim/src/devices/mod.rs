@@ -1,0 +1,1 @@
+//! Devices: CGM, SMBG meter, insulin pump (being built).

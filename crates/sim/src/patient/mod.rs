@@ -1,0 +1,1 @@
+//! The UVA/Padova 2008 patient model (being built).

@@ -1,0 +1,1 @@
+//! Scenario generation: meals, insulin sensitivity, SMBG schedule (being built).

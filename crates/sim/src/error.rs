@@ -59,4 +59,13 @@ pub enum SimError {
     /// A device or scenario configuration was invalid.
     #[error("invalid configuration: {0}")]
     Config(String),
+    /// A device (CGM, meter, pump) was given an impossible input
+    /// (a negative or non-finite dose, a non-finite glucose value, ...).
+    #[error("{device}: invalid input: {reason}")]
+    DeviceInput {
+        /// Which device.
+        device: String,
+        /// What was wrong.
+        reason: String,
+    },
 }

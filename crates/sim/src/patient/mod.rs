@@ -1,1 +1,163 @@
-//! The UVA/Padova 2008 patient model (being built).
+//! The UVA/Padova 2008 patient model as simglucose computes it
+//! (`spec/uva-padova-model.md`), advanced minute by minute.
+//!
+//! ```
+//! use abba_sim::patient::{Patient, PatientParams};
+//! let mut p = Patient::new(PatientParams::public("adult#001").unwrap()).unwrap();
+//! let basal = p.params().basal_u_per_min();
+//! for _ in 0..60 {
+//!     p.step(0.0, basal, 1.0).unwrap();
+//! }
+//! assert!((p.glucose_mg_dl() - 138.56).abs() < 1e-6);
+//! ```
+
+pub mod eating;
+pub mod model;
+pub mod params;
+pub mod solver;
+pub mod state;
+
+pub use eating::{EatingQueue, EAT_RATE_G_PER_MIN};
+pub use model::{derivatives, MinuteInput, ModelConsts};
+pub use params::{PatientParams, QuestRow, N_STATES};
+pub use solver::Solver;
+pub use state::PatientState;
+
+use crate::error::SimError;
+use abba_core::units::MG_PER_G;
+
+/// One virtual patient: parameters, state and the eating-episode
+/// bookkeeping that defines Dbar.
+#[derive(Debug, Clone)]
+pub struct Patient {
+    params: PatientParams,
+    consts: ModelConsts,
+    solver: Solver,
+    x: [f64; 13],
+    minute: i64,
+    /// Eating rate of the previous minute (g/min).
+    last_cho_g_per_min: f64,
+    /// Stomach content when the current/last eating episode began (mg).
+    last_q_sto_mg: f64,
+    /// Grams eaten so far in the current/last episode.
+    last_food_taken_g: f64,
+}
+
+impl Patient {
+    /// A patient at its initial state (`x0`, a steady state at basal for
+    /// every public patient), minute 0, nothing eaten yet.
+    pub fn new(params: PatientParams) -> Result<Self, SimError> {
+        Self::with_solver(params, Solver::DEFAULT)
+    }
+
+    /// Like [`Patient::new`] with a chosen solver.
+    pub fn with_solver(params: PatientParams, solver: Solver) -> Result<Self, SimError> {
+        params.validate()?;
+        if solver.substeps == 0 {
+            return Err(SimError::Config("solver substeps must be >= 1".into()));
+        }
+        Ok(Self {
+            consts: ModelConsts::from_params(&params),
+            x: params.x0,
+            params,
+            solver,
+            minute: 0,
+            last_cho_g_per_min: 0.0,
+            last_q_sto_mg: 0.0,
+            last_food_taken_g: 0.0,
+        })
+    }
+
+    /// The patient's parameters.
+    pub fn params(&self) -> &PatientParams {
+        &self.params
+    }
+
+    /// Minutes simulated so far.
+    pub fn minute(&self) -> i64 {
+        self.minute
+    }
+
+    /// The current state.
+    pub fn state(&self) -> PatientState {
+        PatientState::from_array(&self.x)
+    }
+
+    /// The current state as the solver's array (x1..x13).
+    pub fn state_array(&self) -> &[f64; 13] {
+        &self.x
+    }
+
+    /// True plasma glucose G = Gp/Vg (mg/dL).
+    pub fn glucose_mg_dl(&self) -> f64 {
+        self.x[model::ix::GP] / self.params.vg
+    }
+
+    /// Subcutaneous glucose Gs/Vg (mg/dL): what a CGM reads.
+    pub fn subcutaneous_glucose_mg_dl(&self) -> f64 {
+        self.x[model::ix::GS] / self.params.vg
+    }
+
+    /// Dbar (mg) of the gastric-emptying law as it stands now (the value
+    /// used for the last integrated minute).
+    pub fn dbar_mg(&self) -> f64 {
+        self.last_q_sto_mg + MG_PER_G * self.last_food_taken_g
+    }
+
+    /// Advances one minute with carbohydrate eaten at `cho_g_per_min`
+    /// (g/min, already through the 5 g/min eating queue) and insulin infused
+    /// at `insulin_u_per_min` (U/min, basal plus bolus), both constant over
+    /// the minute, and insulin sensitivity `sensitivity` (1 = nominal).
+    pub fn step(
+        &mut self,
+        cho_g_per_min: f64,
+        insulin_u_per_min: f64,
+        sensitivity: f64,
+    ) -> Result<(), SimError> {
+        if !(cho_g_per_min.is_finite() && cho_g_per_min >= 0.0)
+            || !(insulin_u_per_min.is_finite() && insulin_u_per_min >= 0.0)
+            || !(sensitivity.is_finite() && sensitivity > 0.0)
+        {
+            return Err(self.bad_input(cho_g_per_min, insulin_u_per_min, sensitivity));
+        }
+        // Eating-episode bookkeeping (§1.4): an episode starts when eating
+        // follows a minute without eating; the stomach content is read
+        // before this minute is integrated, and this minute's grams count.
+        if cho_g_per_min > 0.0 {
+            if self.last_cho_g_per_min <= 0.0 {
+                self.last_q_sto_mg = self.x[model::ix::Q_STO1] + self.x[model::ix::Q_STO2];
+                self.last_food_taken_g = 0.0;
+            }
+            self.last_food_taken_g += cho_g_per_min;
+        }
+        self.last_cho_g_per_min = cho_g_per_min;
+        let u = MinuteInput::new(
+            &self.consts,
+            cho_g_per_min,
+            insulin_u_per_min,
+            self.dbar_mg(),
+            sensitivity,
+        );
+        self.solver.advance_minute(&self.consts, &u, &mut self.x);
+        self.minute += 1;
+        if let Some(k) = self.x.iter().position(|v| !v.is_finite()) {
+            return Err(SimError::NonFinite {
+                patient: self.params.name.clone(),
+                minute: self.minute,
+                state: PatientState::NAMES[k].to_string(),
+            });
+        }
+        Ok(())
+    }
+
+    fn bad_input(&self, cho: f64, ins: f64, s: f64) -> SimError {
+        let reason = if !(cho.is_finite() && cho >= 0.0) {
+            format!("carbohydrate rate must be a finite number >= 0 g/min, got {cho}")
+        } else if !(ins.is_finite() && ins >= 0.0) {
+            format!("insulin rate must be a finite number >= 0 U/min, got {ins}")
+        } else {
+            format!("insulin sensitivity must be a finite number > 0, got {s}")
+        };
+        SimError::InvalidInput { patient: self.params.name.clone(), minute: self.minute, reason }
+    }
+}

@@ -1,1 +1,0 @@
-//! Scenario generation: meals, insulin sensitivity, SMBG schedule (being built).

@@ -4,6 +4,7 @@
 pub mod cohort;
 pub mod devices;
 pub mod error;
+pub mod inputs;
 pub mod patient;
 pub mod scenario;
 

@@ -23,6 +23,28 @@ pub enum CoreError {
         /// Why not.
         reason: String,
     },
+    /// One reading of a series was invalid (`index` counts from 0).
+    #[error("reading {index}: {what} must be {expected}, got {got}")]
+    BadReading {
+        /// Position of the reading in the series, from 0.
+        index: usize,
+        /// Which quantity.
+        what: &'static str,
+        /// What was expected, in words.
+        expected: &'static str,
+        /// The value received.
+        got: f64,
+    },
+    /// Reading times were not strictly increasing.
+    #[error("reading {index}: time {got} min is not after the previous reading's time {previous} min (times must be strictly increasing)")]
+    UnsortedTimes {
+        /// Position of the offending reading, from 0.
+        index: usize,
+        /// Time of the reading before it, in minutes.
+        previous: f64,
+        /// Its own time, in minutes.
+        got: f64,
+    },
 }
 
 /// Checks that `value` is finite and strictly positive.

@@ -1,1 +1,0 @@
-//! Glucose metrics (iglu's definitions). Filled in by the metrics work.

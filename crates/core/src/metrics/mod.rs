@@ -1,0 +1,333 @@
+//! Glucose metrics with the definitions of iglu (Broll et al., the R package
+//! for CGM metrics, and its Python port iglu-python), so that our numbers can
+//! be checked against theirs.
+//!
+//! Definitions (all glucose in mg/dL):
+//! - percentages count **readings**, not time: `in range` is inclusive
+//!   (70 ≤ g ≤ 180), `below t` is strict (g < t), `above t` is strict (g > t);
+//!   the seed paper's bands are hypo [50, 70), severe hypo < 50,
+//!   hyper (180, 300], severe hyper > 300;
+//! - SD is the sample SD (n − 1); CV = 100·SD/mean; GMI = 3.31 + 0.02392·mean
+//!   (Bergenstal et al. 2018);
+//! - LBGI/HBGI (Kovatchev et al.): f(g) = 1.509·((ln g)^1.084 − 5.381),
+//!   r = 10·f²; LBGI = Σ_{f<0} r / n and HBGI = Σ_{f>0} r / n, i.e. averaged
+//!   over **all** readings;
+//! - MAGE: iglu's default moving-average algorithm (Fernandes et al. 2022),
+//!   direction "avg"; see [`mage`].
+//!
+//! Two entry points: [`metrics_regular`] for a gap-free series sampled every
+//! 5 min (the trial's plasma glucose; no timestamps needed) and
+//! [`metrics_timed`] for timestamped, possibly irregular readings (a CGM
+//! export).
+//!
+//! ```
+//! use abba_core::metrics::metrics_regular;
+//! // One day every 5 min: 130 ± 40 mg/dL, a swing every ~10 h.
+//! let day: Vec<f64> = (0..288).map(|i| 130.0 + 40.0 * (i as f64 / 20.0).sin()).collect();
+//! let m = metrics_regular(&day).unwrap();
+//! assert_eq!(m.tir_70_180, 100.0);
+//! let mage = m.mage.unwrap();
+//! assert!(mage > 60.0 && mage <= 80.0, "{mage}");
+//! ```
+
+mod grid;
+pub mod mage;
+
+use serde::Serialize;
+
+use crate::error::CoreError;
+pub use mage::{mage_regular, mage_timed, Mage, MageDirection, MageOptions, GRID_MINUTES};
+
+/// The metrics of one series of readings. The field names are the metric keys
+/// of the protocol (§8), and serialize as exactly those 15 keys (`sd_mg_dl`
+/// and `n_readings` are not serialized).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct GlucoseMetrics {
+    /// % of readings in the target band 70 ≤ g ≤ 180 mg/dL.
+    pub tir_70_180: f64,
+    /// % of readings with 50 ≤ g < 70 mg/dL (the seed's hypoglycaemia).
+    pub hypo_50_70: f64,
+    /// % of readings with g < 50 mg/dL (the seed's severe hypoglycaemia).
+    pub severe_hypo_lt50: f64,
+    /// % of readings with 180 < g ≤ 300 mg/dL (the seed's hyperglycaemia).
+    pub hyper_180_300: f64,
+    /// % of readings with g > 300 mg/dL (the seed's severe hyperglycaemia).
+    pub severe_hyper_gt300: f64,
+    /// Low blood glucose index (Kovatchev), averaged over all readings.
+    pub lbgi: f64,
+    /// High blood glucose index (Kovatchev), averaged over all readings.
+    pub hbgi: f64,
+    /// MAGE in mg/dL, iglu's moving-average algorithm, direction "avg";
+    /// `None` (JSON `null`) when no segment holds a countable excursion.
+    pub mage: Option<f64>,
+    /// Mean glucose, mg/dL.
+    pub mean_mg_dl: f64,
+    /// Coefficient of variation, % (100·SD/mean, SD with n − 1).
+    pub cv_pct: f64,
+    /// Glucose management indicator, % (3.31 + 0.02392·mean).
+    pub gmi_pct: f64,
+    /// % of readings with g < 54 mg/dL (2019 consensus).
+    pub below_54: f64,
+    /// % of readings with g < 70 mg/dL (2019 consensus).
+    pub below_70: f64,
+    /// % of readings with g > 180 mg/dL (2019 consensus).
+    pub above_180: f64,
+    /// % of readings with g > 250 mg/dL (2019 consensus).
+    pub above_250: f64,
+    /// Sample standard deviation (n − 1), mg/dL. Not serialized.
+    #[serde(skip)]
+    pub sd_mg_dl: f64,
+    /// Number of readings the metrics were computed from. Not serialized.
+    #[serde(skip)]
+    pub n_readings: usize,
+}
+
+impl GlucoseMetrics {
+    /// The 15 metric keys, in the protocol's order (§8, without `tdi_u_per_day`).
+    pub const KEYS: [&'static str; 15] = [
+        "tir_70_180",
+        "hypo_50_70",
+        "severe_hypo_lt50",
+        "hyper_180_300",
+        "severe_hyper_gt300",
+        "lbgi",
+        "hbgi",
+        "mage",
+        "mean_mg_dl",
+        "cv_pct",
+        "gmi_pct",
+        "below_54",
+        "below_70",
+        "above_180",
+        "above_250",
+    ];
+
+    /// Each key of [`Self::KEYS`] with its value (`None` only for an undefined MAGE).
+    pub fn entries(&self) -> [(&'static str, Option<f64>); 15] {
+        let v = [
+            Some(self.tir_70_180),
+            Some(self.hypo_50_70),
+            Some(self.severe_hypo_lt50),
+            Some(self.hyper_180_300),
+            Some(self.severe_hyper_gt300),
+            Some(self.lbgi),
+            Some(self.hbgi),
+            self.mage,
+            Some(self.mean_mg_dl),
+            Some(self.cv_pct),
+            Some(self.gmi_pct),
+            Some(self.below_54),
+            Some(self.below_70),
+            Some(self.above_180),
+            Some(self.above_250),
+        ];
+        std::array::from_fn(|i| (Self::KEYS[i], v[i]))
+    }
+
+    /// The value of one metric by its key; `None` for an unknown key or an undefined MAGE.
+    pub fn get(&self, key: &str) -> Option<f64> {
+        self.entries()
+            .iter()
+            .find(|(k, _)| *k == key)
+            .and_then(|(_, v)| *v)
+    }
+}
+
+/// Metrics of a gap-free series sampled every 5 min (mg/dL). MAGE uses the
+/// series itself as iglu's 5-min grid.
+///
+/// Errors: fewer than 2 readings, or a reading that is not finite and > 0.
+pub fn metrics_regular(glucose_mg_dl: &[f64]) -> Result<GlucoseMetrics, CoreError> {
+    let mut m = basic_metrics(glucose_mg_dl)?;
+    m.mage = mage_regular(glucose_mg_dl, &MageOptions::default())?.value(MageDirection::Avg);
+    Ok(m)
+}
+
+/// Metrics of timestamped readings: `times_min` in minutes from a midnight
+/// (for example minutes since 1970-01-01 00:00 of the local wall clock),
+/// strictly increasing, one per glucose value (mg/dL). The percentages and
+/// moments count the readings as given; MAGE interpolates them on iglu's
+/// 5-min grid (see [`mage_timed`]).
+///
+/// Errors: fewer than 2 readings, lengths that differ, a reading that is not
+/// finite and > 0, a time that is not finite or not after the previous one.
+pub fn metrics_timed(
+    times_min: &[f64],
+    glucose_mg_dl: &[f64],
+) -> Result<GlucoseMetrics, CoreError> {
+    let mut m = basic_metrics(glucose_mg_dl)?;
+    m.mage =
+        mage_timed(times_min, glucose_mg_dl, &MageOptions::default())?.value(MageDirection::Avg);
+    Ok(m)
+}
+
+/// Checks that every glucose value is finite and > 0 mg/dL.
+pub(crate) fn validate_glucose(glucose_mg_dl: &[f64]) -> Result<(), CoreError> {
+    for (index, &g) in glucose_mg_dl.iter().enumerate() {
+        if !(g.is_finite() && g > 0.0) {
+            return Err(CoreError::BadReading {
+                index,
+                what: "glucose (mg/dL)",
+                expected: "a finite number > 0",
+                got: g,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Kovatchev's symmetrised risk: f(g) = 1.509·((ln g)^1.084 − 5.381)
+/// (Kovatchev et al., Diabetes Care 1997), g in mg/dL.
+fn kovatchev_f(g_mg_dl: f64) -> f64 {
+    1.509 * (g_mg_dl.ln().powf(1.084) - 5.381)
+}
+
+/// Everything but MAGE (left `None`), in one pass for the sums and one for the SD.
+fn basic_metrics(glucose_mg_dl: &[f64]) -> Result<GlucoseMetrics, CoreError> {
+    let n = glucose_mg_dl.len();
+    if n < 2 {
+        return Err(CoreError::Metric {
+            metric: "glucose metrics",
+            reason: format!("need at least 2 readings (for the SD), got {n}"),
+        });
+    }
+    validate_glucose(glucose_mg_dl)?;
+    let mut count = [0usize; 9];
+    let (mut sum, mut low_risk, mut high_risk) = (0.0, 0.0, 0.0);
+    for &g in glucose_mg_dl {
+        sum += g;
+        let bands = [
+            (70.0..=180.0).contains(&g),
+            (50.0..70.0).contains(&g),
+            g < 50.0,
+            g > 180.0 && g <= 300.0,
+            g > 300.0,
+            g < 54.0,
+            g < 70.0,
+            g > 180.0,
+            g > 250.0,
+        ];
+        for (c, hit) in count.iter_mut().zip(bands) {
+            *c += usize::from(hit);
+        }
+        let f = kovatchev_f(g);
+        let r = 10.0 * f * f;
+        if f < 0.0 {
+            low_risk += r;
+        } else if f > 0.0 {
+            high_risk += r;
+        }
+    }
+    let nf = n as f64;
+    let mean = sum / nf;
+    let ss: f64 = glucose_mg_dl.iter().map(|g| (g - mean) * (g - mean)).sum();
+    let sd = (ss / (nf - 1.0)).sqrt();
+    let pct = |c: usize| 100.0 * c as f64 / nf;
+    Ok(GlucoseMetrics {
+        tir_70_180: pct(count[0]),
+        hypo_50_70: pct(count[1]),
+        severe_hypo_lt50: pct(count[2]),
+        hyper_180_300: pct(count[3]),
+        severe_hyper_gt300: pct(count[4]),
+        lbgi: low_risk / nf,
+        hbgi: high_risk / nf,
+        mage: None,
+        mean_mg_dl: mean,
+        cv_pct: 100.0 * sd / mean,
+        gmi_pct: 3.31 + 0.02392 * mean,
+        below_54: pct(count[5]),
+        below_70: pct(count[6]),
+        above_180: pct(count[7]),
+        above_250: pct(count[8]),
+        sd_mg_dl: sd,
+        n_readings: n,
+    })
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bands_follow_iglu_boundaries() {
+        // One reading on each boundary.
+        let g = [50.0, 54.0, 70.0, 180.0, 250.0, 300.0, 49.0, 301.0];
+        let m = metrics_regular(&g).unwrap();
+        let p = |k: f64| 100.0 * k / 8.0;
+        assert_eq!(m.tir_70_180, p(2.0), "70 and 180 are in range");
+        assert_eq!(m.hypo_50_70, p(2.0), "50 and 54 are hypo, 70 is not");
+        assert_eq!(m.severe_hypo_lt50, p(1.0));
+        assert_eq!(m.hyper_180_300, p(2.0), "250 and 300, not 180");
+        assert_eq!(m.severe_hyper_gt300, p(1.0));
+        assert_eq!(m.below_54, p(2.0), "49 and 50; 54 is not below 54");
+        assert_eq!(m.below_70, p(3.0));
+        assert_eq!(m.above_180, p(3.0));
+        assert_eq!(m.above_250, p(2.0), "300 and 301; 250 is not above 250");
+    }
+
+    #[test]
+    fn moments_and_gmi() {
+        let m = metrics_regular(&[100.0, 200.0]).unwrap();
+        let sd = 50.0 * 2f64.sqrt();
+        assert!((m.mean_mg_dl - 150.0).abs() < 1e-12);
+        assert!((m.sd_mg_dl - sd).abs() < 1e-12, "sd {} vs {sd}", m.sd_mg_dl);
+        assert!((m.cv_pct - 100.0 * sd / 150.0).abs() < 1e-12);
+        assert!((m.gmi_pct - (3.31 + 0.02392 * 150.0)).abs() < 1e-12);
+        assert_eq!(m.mage, None, "two readings hold no excursion");
+    }
+
+    #[test]
+    fn risk_indices_average_over_all_readings() {
+        // f(112.5) ≈ 0: the neutral point of Kovatchev's scale.
+        let g = [60.0, 250.0];
+        let m = metrics_regular(&g).unwrap();
+        let f_lo = kovatchev_f(60.0);
+        let f_hi = kovatchev_f(250.0);
+        assert!(f_lo < 0.0 && f_hi > 0.0);
+        assert!((m.lbgi - 10.0 * f_lo * f_lo / 2.0).abs() < 1e-12);
+        assert!((m.hbgi - 10.0 * f_hi * f_hi / 2.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn bad_input_is_an_error() {
+        assert!(matches!(
+            metrics_regular(&[]),
+            Err(CoreError::Metric { .. })
+        ));
+        assert!(matches!(
+            metrics_regular(&[100.0, f64::NAN]),
+            Err(CoreError::BadReading { index: 1, .. })
+        ));
+        assert!(matches!(
+            metrics_regular(&[100.0, 120.0, 0.0]),
+            Err(CoreError::BadReading { index: 2, .. })
+        ));
+        assert!(matches!(
+            metrics_timed(&[0.0, 10.0, 5.0], &[100.0, 110.0, 120.0]),
+            Err(CoreError::UnsortedTimes { index: 2, .. })
+        ));
+        assert!(matches!(
+            metrics_timed(&[0.0, 5.0, 5.0], &[100.0, 110.0, 120.0]),
+            Err(CoreError::UnsortedTimes { index: 2, .. })
+        ));
+        assert!(matches!(
+            metrics_timed(&[0.0, 5.0], &[100.0, 110.0, 120.0]),
+            Err(CoreError::Metric { .. })
+        ));
+    }
+
+    #[test]
+    fn serializes_exactly_the_fifteen_keys() {
+        let m = metrics_regular(&[100.0, 200.0, 150.0]).unwrap();
+        let v = serde_json::to_value(m).unwrap();
+        let keys: Vec<&str> = v.as_object().unwrap().keys().map(|k| k.as_str()).collect();
+        let mut want = GlucoseMetrics::KEYS.to_vec();
+        want.sort_unstable();
+        let mut got = keys.clone();
+        got.sort_unstable();
+        assert_eq!(got, want);
+        assert_eq!(m.get("mean_mg_dl"), Some(150.0));
+        assert_eq!(m.get("tdi_u_per_day"), None);
+    }
+}

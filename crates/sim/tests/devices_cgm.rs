@@ -364,7 +364,7 @@ fn stats_with_se(x: &[f64]) -> ([f64; 3], [f64; 3]) {
 /// probability ~6e-5 (the statistics of 100 block means are close to
 /// normal), so the test is not flaky, while it still resolves differences of
 /// ~0.4 mg/dL in mean and SD and ~0.002 in the 5-minute autocorrelation.
-/// (The bit-for-bit comparison with the independent implementation above is
+/// (The comparison with the independent implementation above, to 1e-9, is
 /// the sharper check of the algorithm; this one checks the model's
 /// statistics as derived on paper.)
 const Z: f64 = 4.0;

@@ -1,1 +1,3 @@
 //! The paper's in-silico trial: closed loop, runner, statistics and report.
+
+pub mod stats;

@@ -1,0 +1,398 @@
+//! The ABBA advisor: the daily timeline of spec §2 driven by device events.
+
+use crate::agent::{Agent, AgentCounters};
+use crate::config::{AbbaConfig, Mode};
+use crate::decision::{
+    AbbaExplanation, Decision, DecisionDetail, DecisionLog, Parameter, SkipReason,
+};
+use crate::error::AdvisorError;
+use crate::features::{local_cost, WindowStats};
+use crate::fusion::apply_action;
+use crate::guard::{closed_day, EventGuard};
+use crate::supervisor::{supervisory, ParamKind};
+use crate::te::{te_scale, theta0, transfer_entropy, TeCollector, TeEstimate};
+use crate::windows::{DayWindows, MealWindows};
+use crate::Advisor;
+use abba_core::{
+    Event, EventKind, GramsPerUnit, MealSlot, TherapySettings, Timestamp, UnitsPerHour,
+};
+use serde::{Deserialize, Serialize};
+
+/// The outcome of the TE estimation at the end of the initialisation week.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", tag = "kind")]
+pub enum TeOutcome {
+    /// TE was estimated.
+    Estimated(TeEstimate),
+    /// TE could not be estimated (too little CGM data); TE_n = 1 (nominal θ0) was used.
+    Failed {
+        /// Why, with the counts involved.
+        reason: String,
+    },
+}
+
+/// What the initialisation did (spec §7).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct InitReport {
+    /// The `DayClosed` that ended the initialisation week.
+    pub at: Timestamp,
+    /// The TE estimate or why there is none.
+    pub te: TeOutcome,
+    /// TE_n, the scale of θ0.
+    pub te_n: f64,
+    /// θ0 of the basal agent (hyper, hypo).
+    pub theta0_basal: [f64; 2],
+    /// θ0 of each carb-ratio agent (hyper, hypo).
+    pub theta0_carb_ratio: [f64; 2],
+}
+
+/// The ABBA advisor (SMBG or CGM mode). See the crate documentation for the
+/// event contract. The whole struct is plain data: serialise it (e.g. with
+/// [`Abba::save_json`]) after any event and resume with [`Abba::load_json`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Abba {
+    config: AbbaConfig,
+    start: TherapySettings,
+    settings: TherapySettings,
+    guard: EventGuard,
+    initialised: bool,
+    te: Option<TeCollector>,
+    init: Option<InitReport>,
+    /// 0: basal; 1..=3: carb ratios of breakfast, lunch, dinner.
+    agents: [Agent; 4],
+    day_windows: DayWindows<WindowStats>,
+    meal_windows: MealWindows<WindowStats>,
+    last_br_change: Option<(f64, f64)>,
+    log: DecisionLog,
+}
+
+fn agent_index(p: Parameter) -> usize {
+    match p {
+        Parameter::Basal => 0,
+        Parameter::CarbRatio(s) => s.main_index().map_or(0, |i| i + 1),
+    }
+}
+
+impl Abba {
+    /// A new advisor starting from the clinic's `start` therapy.
+    pub fn new(config: AbbaConfig, start: TherapySettings) -> Result<Self, AdvisorError> {
+        config.validate()?;
+        start.validate().map_err(|e| AdvisorError::Config {
+            field: "start settings".into(),
+            problem: e.to_string(),
+        })?;
+        let v = config.critic.variant;
+        let seed = config.exploration_seed;
+        let agents = [
+            Agent::new(ParamKind::Basal, v, seed, 0),
+            Agent::new(ParamKind::CarbRatio, v, seed, 1),
+            Agent::new(ParamKind::CarbRatio, v, seed, 2),
+            Agent::new(ParamKind::CarbRatio, v, seed, 3),
+        ];
+        Ok(Self {
+            log: DecisionLog::new(config.decision_log_capacity),
+            config,
+            start,
+            settings: start,
+            guard: EventGuard::default(),
+            initialised: false,
+            te: None,
+            init: None,
+            agents,
+            day_windows: DayWindows::default(),
+            meal_windows: MealWindows::default(),
+            last_br_change: None,
+        })
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &AbbaConfig {
+        &self.config
+    }
+
+    /// The therapy the advisor started from.
+    pub fn start_settings(&self) -> &TherapySettings {
+        &self.start
+    }
+
+    /// True once the initialisation week is over and θ0 is set.
+    pub fn is_initialised(&self) -> bool {
+        self.initialised
+    }
+
+    /// The TE initialisation report (after the initialisation week).
+    pub fn init_report(&self) -> Option<&InitReport> {
+        self.init.as_ref()
+    }
+
+    /// The policy θ (hyper, hypo) of a parameter's agent.
+    pub fn theta(&self, p: Parameter) -> [f64; 2] {
+        self.agents[agent_index(p)].theta
+    }
+
+    /// The critic weights of a parameter's agent (w for Variant A, r for Variant B).
+    pub fn critic_weights(&self, p: Parameter) -> Vec<f64> {
+        self.agents[agent_index(p)].critic_weights()
+    }
+
+    /// Counters of a parameter's agent (decisions, actor steps, clips, skips).
+    pub fn counters(&self, p: Parameter) -> AgentCounters {
+        self.agents[agent_index(p)].counters
+    }
+
+    /// Decisions dropped from the bounded log because it was not drained.
+    pub fn decisions_dropped(&self) -> u64 {
+        self.log.dropped()
+    }
+
+    /// The whole state as JSON.
+    pub fn save_json(&self) -> Result<String, AdvisorError> {
+        serde_json::to_string(self).map_err(|e| AdvisorError::State(e.to_string()))
+    }
+
+    /// Restores a state saved with [`Abba::save_json`], re-validating it.
+    pub fn load_json(json: &str) -> Result<Self, AdvisorError> {
+        let a: Self = serde_json::from_str(json).map_err(|e| AdvisorError::State(e.to_string()))?;
+        a.config.validate()?;
+        for (what, s) in [("start", &a.start), ("current", &a.settings)] {
+            s.validate()
+                .map_err(|e| AdvisorError::State(format!("{what} settings: {e}")))?;
+        }
+        for ag in &a.agents {
+            if !ag.theta.iter().all(|t| t.is_finite()) {
+                return Err(AdvisorError::State(format!(
+                    "non-finite policy θ {:?}",
+                    ag.theta
+                )));
+            }
+        }
+        Ok(a)
+    }
+
+    fn value(&self, p: Parameter) -> f64 {
+        match p {
+            Parameter::Basal => self.settings.basal.0,
+            Parameter::CarbRatio(s) => s
+                .main_index()
+                .map_or(f64::NAN, |i| self.settings.carb_ratio[i].0),
+        }
+    }
+
+    fn set_value(&mut self, p: Parameter, v: f64) {
+        match p {
+            Parameter::Basal => self.settings.basal = UnitsPerHour(v),
+            Parameter::CarbRatio(s) => {
+                if let Some(i) = s.main_index() {
+                    self.settings.carb_ratio[i] = GramsPerUnit(v);
+                }
+            }
+        }
+    }
+
+    fn initialise(&mut self, at: Timestamp) {
+        let te = match self.te.take() {
+            Some(c) => {
+                let (g, i) = c.finish(at);
+                match transfer_entropy(&g, &i, &self.config.te) {
+                    Ok(e) => TeOutcome::Estimated(e),
+                    Err(e) => TeOutcome::Failed {
+                        reason: e.to_string(),
+                    },
+                }
+            }
+            None => TeOutcome::Failed {
+                reason: "no data was collected".into(),
+            },
+        };
+        let te_n = match &te {
+            TeOutcome::Estimated(e) => te_scale(e.te_bits, &self.config.te),
+            TeOutcome::Failed { .. } => 1.0,
+        };
+        let (br, cir) = theta0(te_n, &self.config.te);
+        self.agents[0].theta = br;
+        for a in &mut self.agents[1..] {
+            a.theta = cir;
+        }
+        self.init = Some(InitReport {
+            at,
+            te,
+            te_n,
+            theta0_basal: br,
+            theta0_carb_ratio: cir,
+        });
+        self.initialised = true;
+    }
+
+    /// One update of parameter `p` from `window` = (start, end, stats).
+    fn decide(
+        &mut self,
+        at: Timestamp,
+        p: Parameter,
+        window: Result<(Timestamp, Timestamp, WindowStats), SkipReason>,
+    ) {
+        let old = self.value(p);
+        let skipped = |reason| Decision {
+            at,
+            parameter: p,
+            old,
+            new: old,
+            detail: DecisionDetail::Skipped { reason },
+        };
+        let (start, end, stats) = match window {
+            Err(reason) => return self.log.push(skipped(reason)),
+            Ok(w) if w.2.is_empty() => return self.log.push(skipped(SkipReason::EmptyWindow)),
+            Ok(w) => w,
+        };
+        let cfg = &self.config;
+        let kind = match p {
+            Parameter::Basal => ParamKind::Basal,
+            Parameter::CarbRatio(_) => ParamKind::CarbRatio,
+        };
+        let f = stats.features(&cfg.features);
+        let cost = local_cost(&f, cfg.a_hyper, cfg.a_hypo);
+        let (p_s, rule) = supervisory(cfg.mode, kind, &f, &stats, &cfg.supervisor);
+        let br_change = match kind {
+            ParamKind::Basal => None,
+            ParamKind::CarbRatio => self.last_br_change,
+        };
+        let (m, switch, max) = (
+            cfg.update.fusion_m,
+            cfg.update.switch_rule,
+            cfg.update.max_relative_change,
+        );
+        let (learning, action, applied) =
+            self.agents[agent_index(p)].decide(&f, cost, p_s, cfg, |p_e| {
+                apply_action(kind, old, p_e, m, br_change, switch, max)
+            });
+        self.set_value(p, applied.new);
+        if kind == ParamKind::Basal {
+            self.last_br_change = Some((old, applied.new));
+        }
+        self.log.push(Decision {
+            at,
+            parameter: p,
+            old,
+            new: applied.new,
+            detail: DecisionDetail::Abba(Box::new(AbbaExplanation {
+                window_start: start,
+                window_end: end,
+                window: stats,
+                features: f,
+                cost,
+                learning,
+                supervisory_rule: rule,
+                action,
+                br_change,
+                applied,
+            })),
+        });
+    }
+
+    fn reading(&mut self, at: Timestamp, g_mg_dl: f64) {
+        let cfg = &self.config.features;
+        self.day_windows.day_mut(at.day_index()).push(g_mg_dl, cfg);
+        if let Some((_, acc)) = self.meal_windows.open_mut() {
+            acc.push(g_mg_dl, cfg);
+        }
+    }
+
+    fn process(&mut self, e: &Event) -> Option<TherapySettings> {
+        if self.guard.first_day().is_none() {
+            let first_day = match e.kind {
+                EventKind::DayClosed => closed_day(e.at),
+                _ => e.at.day_index(),
+            };
+            self.te = Some(TeCollector::new(
+                first_day,
+                self.config.init_days,
+                self.config.te.bin_minutes,
+                self.start.basal,
+            ));
+        }
+        match e.kind {
+            EventKind::Cgm(g) => {
+                if let Some(te) = &mut self.te {
+                    te.cgm(e.at, g.0);
+                }
+                if self.config.mode == Mode::Cgm {
+                    self.reading(e.at, g.0);
+                }
+                None
+            }
+            EventKind::Smbg(g) => {
+                if self.config.mode == Mode::Smbg {
+                    self.reading(e.at, g.0);
+                }
+                None
+            }
+            EventKind::Bolus(u) => {
+                if let Some(te) = &mut self.te {
+                    te.bolus(e.at, u.0);
+                }
+                None
+            }
+            EventKind::BasalRate(r) => {
+                if let Some(te) = &mut self.te {
+                    te.basal(e.at, r.0);
+                }
+                None
+            }
+            EventKind::MealAnnounced { slot, .. } => {
+                let i = slot.main_index()?;
+                let prev = self.meal_windows.announce(i, e.at);
+                if !self.initialised {
+                    return None;
+                }
+                let window = prev
+                    .map(|w| (w.start, w.end, w.acc))
+                    .ok_or(SkipReason::NoPreviousDayWindow);
+                self.decide(e.at, Parameter::CarbRatio(MealSlot::MAIN[i]), window);
+                Some(self.settings)
+            }
+            EventKind::DayClosed => {
+                let day = closed_day(e.at);
+                let stats = self.day_windows.close(day);
+                if !self.initialised {
+                    let first = self.guard.first_day().unwrap_or(day);
+                    if day < first + i64::from(self.config.init_days) - 1 {
+                        return None;
+                    }
+                    self.initialise(e.at);
+                }
+                let start = Timestamp::from_day_and_minute(day, 0);
+                let window = stats.map(|s| (start, e.at, s)).ok_or(SkipReason::NoDayData);
+                self.decide(e.at, Parameter::Basal, window);
+                Some(self.settings)
+            }
+        }
+    }
+}
+
+impl Advisor for Abba {
+    fn observe(&mut self, event: &Event) -> Result<Option<TherapySettings>, AdvisorError> {
+        self.guard.check(event, &self.config.limits)?;
+        let out = self.process(event);
+        self.guard.commit(event);
+        Ok(out)
+    }
+
+    fn settings(&self) -> &TherapySettings {
+        &self.settings
+    }
+
+    fn decisions(&self) -> &[Decision] {
+        self.log.as_slice()
+    }
+
+    fn take_decisions(&mut self) -> Vec<Decision> {
+        self.log.take()
+    }
+
+    fn name(&self) -> &'static str {
+        match self.config.mode {
+            Mode::Smbg => "abba-smbg",
+            Mode::Cgm => "abba-cgm",
+        }
+    }
+}

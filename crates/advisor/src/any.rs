@@ -1,0 +1,104 @@
+//! Building any arm of a trial from a serialisable description.
+
+use crate::abba::Abba;
+use crate::baselines::fixed::FixedTherapy;
+use crate::baselines::r2r::{R2rConfig, RunToRun};
+use crate::config::{AbbaConfig, EventLimits};
+use crate::decision::Decision;
+use crate::error::AdvisorError;
+use crate::Advisor;
+use abba_core::{Event, TherapySettings};
+use serde::{Deserialize, Serialize};
+
+/// Which advisor to build, with its configuration.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+// Built once per patient and arm; boxing would only add noise.
+#[allow(clippy::large_enum_variant)]
+#[serde(rename_all = "snake_case", tag = "kind")]
+pub enum AdvisorSpec {
+    /// ABBA. Its `exploration_seed` is replaced by the seed given to [`AdvisorSpec::build`].
+    Abba(AbbaConfig),
+    /// The standard therapy, unchanged.
+    Fixed {
+        /// Event plausibility limits.
+        limits: EventLimits,
+    },
+    /// Run-to-run.
+    RunToRun(R2rConfig),
+}
+
+impl AdvisorSpec {
+    /// Builds the advisor for one patient from its starting therapy and its
+    /// exploration seed (`derive_seed(trial, patient, scenario, Stream::Exploration)`).
+    pub fn build(
+        &self,
+        start: TherapySettings,
+        exploration_seed: u64,
+    ) -> Result<AnyAdvisor, AdvisorError> {
+        Ok(match self {
+            AdvisorSpec::Abba(c) => {
+                let mut c = c.clone();
+                c.exploration_seed = exploration_seed;
+                AnyAdvisor::Abba(Box::new(Abba::new(c, start)?))
+            }
+            AdvisorSpec::Fixed { limits } => {
+                AnyAdvisor::Fixed(FixedTherapy::new(start, limits.clone())?)
+            }
+            AdvisorSpec::RunToRun(c) => AnyAdvisor::RunToRun(RunToRun::new(c.clone(), start)?),
+        })
+    }
+}
+
+/// Any advisor behind one type (serialisable, so a run can be saved and resumed).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+// One per patient and arm; the size difference is irrelevant.
+#[allow(clippy::large_enum_variant)]
+#[serde(rename_all = "snake_case", tag = "kind", content = "state")]
+pub enum AnyAdvisor {
+    /// ABBA.
+    Abba(Box<Abba>),
+    /// Standard therapy.
+    Fixed(FixedTherapy),
+    /// Run-to-run.
+    RunToRun(RunToRun),
+}
+
+impl AnyAdvisor {
+    fn inner(&self) -> &dyn Advisor {
+        match self {
+            AnyAdvisor::Abba(a) => a.as_ref(),
+            AnyAdvisor::Fixed(a) => a,
+            AnyAdvisor::RunToRun(a) => a,
+        }
+    }
+
+    fn inner_mut(&mut self) -> &mut dyn Advisor {
+        match self {
+            AnyAdvisor::Abba(a) => a.as_mut(),
+            AnyAdvisor::Fixed(a) => a,
+            AnyAdvisor::RunToRun(a) => a,
+        }
+    }
+}
+
+impl Advisor for AnyAdvisor {
+    fn observe(&mut self, event: &Event) -> Result<Option<TherapySettings>, AdvisorError> {
+        self.inner_mut().observe(event)
+    }
+
+    fn settings(&self) -> &TherapySettings {
+        self.inner().settings()
+    }
+
+    fn decisions(&self) -> &[Decision] {
+        self.inner().decisions()
+    }
+
+    fn take_decisions(&mut self) -> Vec<Decision> {
+        self.inner_mut().take_decisions()
+    }
+
+    fn name(&self) -> &'static str {
+        self.inner().name()
+    }
+}

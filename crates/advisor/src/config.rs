@@ -1,0 +1,608 @@
+//! `AbbaConfig`: every constant of the algorithm as a named, documented knob.
+//!
+//! Tags follow `shared/spec/abba-algorithm.md`: **[SEED]** values are stated
+//! in the paper (kept as knobs for ablations); **[GUESS]** values are the
+//! spec's choices where no source was readable and must be listed in any
+//! results write-up. Defaults are exactly the spec's.
+
+use crate::error::{check_positive, check_range, config_err, AdvisorError};
+use serde::{Deserialize, Serialize};
+
+/// Which measurements drive the advisor.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Mode {
+    /// Four finger-stick readings a day (spec §2.2); BR updated at the bedtime reading.
+    Smbg,
+    /// CGM every 5 min (spec §2.3); BR updated at midnight.
+    Cgm,
+}
+
+impl Mode {
+    /// Lower-case name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Smbg => "smbg",
+            Mode::Cgm => "cgm",
+        }
+    }
+}
+
+/// Plausibility limits for incoming events; values outside are rejected with an error.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EventLimits {
+    /// Lowest plausible glucose reading (mg/dL). Default 10: below any device's range.
+    pub glucose_min_mg_dl: f64,
+    /// Highest plausible glucose reading (mg/dL). Default 1000.
+    pub glucose_max_mg_dl: f64,
+    /// Largest plausible announced meal (g). Default 500.
+    pub carbs_max_g: f64,
+    /// Largest plausible single bolus (U). Default 50 (the modelled pump caps at 30).
+    pub bolus_max_u: f64,
+    /// Largest plausible basal rate (U/h). Default 50 (the modelled pump caps at 30).
+    pub basal_max_u_per_h: f64,
+    /// Largest accepted timestamp (minutes since 00:00 of day 1). Default 100 years.
+    pub max_timestamp_min: i64,
+}
+
+impl Default for EventLimits {
+    fn default() -> Self {
+        Self {
+            glucose_min_mg_dl: 10.0,
+            glucose_max_mg_dl: 1000.0,
+            carbs_max_g: 500.0,
+            bolus_max_u: 50.0,
+            basal_max_u_per_h: 50.0,
+            max_timestamp_min: 100 * 365 * 1440,
+        }
+    }
+}
+
+impl EventLimits {
+    /// Checks the limits themselves.
+    pub fn validate(&self) -> Result<(), AdvisorError> {
+        check_positive("limits.glucose_min_mg_dl", self.glucose_min_mg_dl)?;
+        check_range(
+            "limits.glucose_max_mg_dl",
+            self.glucose_max_mg_dl,
+            self.glucose_min_mg_dl,
+            1e6,
+        )?;
+        check_positive("limits.carbs_max_g", self.carbs_max_g)?;
+        check_positive("limits.bolus_max_u", self.bolus_max_u)?;
+        check_positive("limits.basal_max_u_per_h", self.basal_max_u_per_h)?;
+        if self.max_timestamp_min <= 0 || self.max_timestamp_min > i64::MAX / 4 {
+            return Err(config_err(
+                "limits.max_timestamp_min",
+                format!(
+                    "must be in 1..={}, got {}",
+                    i64::MAX / 4,
+                    self.max_timestamp_min
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Feature thresholds and normalisation (spec §3).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FeatureConfig {
+    /// G_L, lower border of the tight range (mg/dL). [SEED eq11] 90.
+    pub g_low_mg_dl: f64,
+    /// G_H, upper border of the tight range (mg/dL). [SEED eq10] 150.
+    pub g_high_mg_dl: f64,
+    /// G_max: F_hyper = raw / (G_max − G_H). [GUESS §3] 400 (CGM reporting ceiling).
+    pub g_max_mg_dl: f64,
+    /// G_min: F_hypo = raw / (G_L − G_min). [GUESS §3] 40 (CGM reporting floor).
+    pub g_min_mg_dl: f64,
+    /// "Hyponumber" counts readings below this (mg/dL). [SEED eq27] 70.
+    pub hyponumber_below_mg_dl: f64,
+    /// N1 counts readings below this (mg/dL). [SEED eq27] 80.
+    pub n1_below_mg_dl: f64,
+    /// N2 counts readings above this (mg/dL). [SEED eq27] 130.
+    pub n2_above_mg_dl: f64,
+}
+
+impl Default for FeatureConfig {
+    fn default() -> Self {
+        Self {
+            g_low_mg_dl: 90.0,
+            g_high_mg_dl: 150.0,
+            g_max_mg_dl: 400.0,
+            g_min_mg_dl: 40.0,
+            hyponumber_below_mg_dl: 70.0,
+            n1_below_mg_dl: 80.0,
+            n2_above_mg_dl: 130.0,
+        }
+    }
+}
+
+impl FeatureConfig {
+    /// Checks ordering G_min < G_L < G_H < G_max and positivity.
+    pub fn validate(&self) -> Result<(), AdvisorError> {
+        check_positive("features.g_min_mg_dl", self.g_min_mg_dl)?;
+        check_range(
+            "features.g_low_mg_dl",
+            self.g_low_mg_dl,
+            self.g_min_mg_dl + 1e-9,
+            1e4,
+        )?;
+        check_range(
+            "features.g_high_mg_dl",
+            self.g_high_mg_dl,
+            self.g_low_mg_dl,
+            1e4,
+        )?;
+        check_range(
+            "features.g_max_mg_dl",
+            self.g_max_mg_dl,
+            self.g_high_mg_dl + 1e-9,
+            1e4,
+        )?;
+        check_positive(
+            "features.hyponumber_below_mg_dl",
+            self.hyponumber_below_mg_dl,
+        )?;
+        check_positive("features.n1_below_mg_dl", self.n1_below_mg_dl)?;
+        check_positive("features.n2_above_mg_dl", self.n2_above_mg_dl)?;
+        Ok(())
+    }
+}
+
+/// Which critic to run (spec §5).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CriticVariant {
+    /// Variant A: discounted linear V-critic with TD(λ), actor driven by the TD error (seed eq4-7, 28). Default.
+    ValueTd,
+    /// Variant B: Konda-Tsitsiklis average-cost Q-critic with compatible features (ablation).
+    KondaTsitsiklis,
+}
+
+/// Critic basis g(x) (spec §5.1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CriticBasis {
+    /// g = (1, F_hyper, F_hypo). [GUESS] default.
+    WithBias,
+    /// g = (F_hyper, F_hypo) (the spec's fallback); stored as (0, F_hyper, F_hypo).
+    FeaturesOnly,
+}
+
+/// Which cost enters the TD error of decision k (spec §5.1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CostTiming {
+    /// d_k = c(F_{k+1}) + γV(F_{k+1}) − V(F_k): the cost of the decision's outcome. [GUESS] default.
+    Outcome,
+    /// d_k = c(F_k) + γV(F_{k+1}) − V(F_k): the literal reading of eq5.
+    Literal,
+}
+
+/// Critic knobs (spec §5).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CriticConfig {
+    /// Variant A (default) or B.
+    pub variant: CriticVariant,
+    /// Basis of the V-critic (Variant A; also the state part of φ in Variant B). [GUESS]
+    pub basis: CriticBasis,
+    /// Cost timing in the TD error. [GUESS] Outcome.
+    pub cost_timing: CostTiming,
+    /// Discount γ (Variant A). [GUESS] 0.9.
+    pub gamma: f64,
+    /// Trace decay λ. [GUESS] 0.5.
+    pub lambda: f64,
+    /// a_0 in a_k = a_0/(1 + k/κ). [GUESS] 0.1.
+    pub a0: f64,
+    /// κ (in updates, i.e. days) in a_k = a_0/(1 + k/κ). [GUESS] 30.
+    pub kappa: f64,
+}
+
+impl Default for CriticConfig {
+    fn default() -> Self {
+        Self {
+            variant: CriticVariant::ValueTd,
+            basis: CriticBasis::WithBias,
+            cost_timing: CostTiming::Outcome,
+            gamma: 0.9,
+            lambda: 0.5,
+            a0: 0.1,
+            kappa: 30.0,
+        }
+    }
+}
+
+/// Which action enters the policy gradient (spec §6.4).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GradientAction {
+    /// The sampled P_e, even if the switch rule or the clamp changed what was applied. [GUESS] default.
+    Sampled,
+    /// The effective P_e,eff = (AP_final/AP_old − 1)/(1 − m) (ablation).
+    Effective,
+}
+
+/// Actor, exploration and supervisor-weight knobs (spec §6.1, §6.4).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ActorConfig {
+    /// h in P_d = h·P_a + (1−h)·P_s. [SEED eq23-24] 0.5.
+    pub h: f64,
+    /// c_σ in σ = c_σ·‖F‖². [SEED eq22] 0.05.
+    pub c_sigma: f64,
+    /// Actor step β. [SEED eq28] 0.5.
+    pub beta: f64,
+    /// Skip the actor step when the stored σ_k is below this. [GUESS §6.4] 1e-4.
+    pub sigma_min: f64,
+    /// Clip each |Δθ_j| per update to this. [GUESS §6.4] 0.5.
+    pub theta_step_clip: f64,
+    /// Which P_e enters eq28. [GUESS] Sampled.
+    pub gradient_action: GradientAction,
+}
+
+impl Default for ActorConfig {
+    fn default() -> Self {
+        Self {
+            h: 0.5,
+            c_sigma: 0.05,
+            beta: 0.5,
+            sigma_min: 1e-4,
+            theta_step_clip: 0.5,
+            gradient_action: GradientAction::Sampled,
+        }
+    }
+}
+
+/// Supervisory-action gains (spec §6.2); all [SEED].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SupervisorConfig {
+    /// SMBG CIR gain (eq26): ±0.02·F.
+    pub smbg_cir_gain: f64,
+    /// SMBG BR: P_s = −F_hypo / this when Hyponumber > 0 (eq27). 8.
+    pub smbg_br_hypo_divisor: f64,
+    /// SMBG BR: P_s = +F_hyper / this when N1 ≤ 1 and N2 ≥ 2 (eq27). 30.
+    pub smbg_br_high_divisor: f64,
+    /// SMBG BR: P_s = −F_hypo / this when N1 ≥ 2 and N2 ≤ 1 (eq27). 30.
+    pub smbg_br_low_divisor: f64,
+    /// CGM gain when only hypo excursions (eq29). 0.10.
+    pub cgm_hypo_only_gain: f64,
+    /// CGM gain when both hypo and hyper excursions (eq29). 0.05.
+    pub cgm_mixed_gain: f64,
+}
+
+impl Default for SupervisorConfig {
+    fn default() -> Self {
+        Self {
+            smbg_cir_gain: 0.02,
+            smbg_br_hypo_divisor: 8.0,
+            smbg_br_high_divisor: 30.0,
+            smbg_br_low_divisor: 30.0,
+            cgm_hypo_only_gain: 0.10,
+            cgm_mixed_gain: 0.05,
+        }
+    }
+}
+
+/// From P_e to the new value (spec §6.3).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct UpdateConfig {
+    /// m in AP_fusion = m·AP_old + (1−m)·AP_new. [SEED eq17] 0.5.
+    pub fusion_m: f64,
+    /// Largest relative change per update. [SEED "within 5%"] 0.05.
+    pub max_relative_change: f64,
+    /// Apply the CIR switch rule l (eq20-21). [SEED] true.
+    pub switch_rule: bool,
+}
+
+impl Default for UpdateConfig {
+    fn default() -> Self {
+        Self {
+            fusion_m: 0.5,
+            max_relative_change: 0.05,
+            switch_rule: true,
+        }
+    }
+}
+
+/// How the (bias-corrected) TE becomes the policy scale TE_n (spec §7.3).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", tag = "kind")]
+pub enum TeMapping {
+    /// TE_n = TE / TE_ref. [GUESS] default.
+    Proportional,
+    /// TE_n = TE_ref / TE (the other direction; spec says the direction is unverified).
+    Inverse,
+    /// TE_n = 1: nominal θ for everyone (no personalisation; ablation).
+    Constant,
+    /// TE_n = intercept + slope·TE (the spec's fitted regression of s* on TE).
+    Linear {
+        /// Intercept (dimensionless).
+        intercept: f64,
+        /// Slope per bit.
+        slope_per_bit: f64,
+    },
+}
+
+/// Default TE_ref (bits). [GUESS, uncalibrated]: the spec defines TE_ref as
+/// the median bias-corrected TE of a training cohort's first week; no cohort
+/// was available when this default was set. Calibrate it with
+/// [`crate::te::first_week_te`] over a cohort and set `te.te_ref_bits`.
+pub const DEFAULT_TE_REF_BITS: f64 = 0.02;
+
+/// Transfer-entropy initialisation knobs (spec §7).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TeConfig {
+    /// Grid step of the signals (min). [GUESS] 5.
+    pub bin_minutes: i64,
+    /// Peak of the insulin-activity kernel (min). [GUESS §7.2] 75.
+    pub kernel_peak_min: f64,
+    /// Duration of the insulin-activity kernel (min). [GUESS §7.2] 360.
+    pub kernel_duration_min: f64,
+    /// Number of equiprobable (quantile) bins per signal. [GUESS] 4.
+    pub bins: usize,
+    /// Largest source lag, in grid steps (24 = 120 min). [GUESS] 24.
+    pub max_lag_steps: usize,
+    /// Number of circularly shifted surrogates for bias correction. [GUESS] 20.
+    pub surrogates: usize,
+    /// Smallest circular shift of a surrogate, in grid steps (288 = 1 day). [GUESS]
+    pub min_surrogate_shift_steps: usize,
+    /// Fewest usable (g_t, g_t+1, ĩ) triples to accept an estimate. [GUESS] 500.
+    pub min_pairs: usize,
+    /// TE_ref (bits), see [`DEFAULT_TE_REF_BITS`]. [GUESS]
+    pub te_ref_bits: f64,
+    /// TE → TE_n mapping. [GUESS] proportional.
+    pub mapping: TeMapping,
+    /// Lower clamp of TE_n. [GUESS] 0.25.
+    pub te_n_min: f64,
+    /// Upper clamp of TE_n. [GUESS] 4.
+    pub te_n_max: f64,
+    /// θ0 for BR per unit TE_n: (hyper, hypo). [GUESS] (+0.10, −0.20).
+    pub theta0_br: [f64; 2],
+    /// θ0 for each CIR per unit TE_n: (hyper, hypo). [GUESS] (−0.10, +0.20).
+    pub theta0_cir: [f64; 2],
+}
+
+impl Default for TeConfig {
+    fn default() -> Self {
+        Self {
+            bin_minutes: 5,
+            kernel_peak_min: 75.0,
+            kernel_duration_min: 360.0,
+            bins: 4,
+            max_lag_steps: 24,
+            surrogates: 20,
+            min_surrogate_shift_steps: 288,
+            min_pairs: 500,
+            te_ref_bits: DEFAULT_TE_REF_BITS,
+            mapping: TeMapping::Proportional,
+            te_n_min: 0.25,
+            te_n_max: 4.0,
+            theta0_br: [0.10, -0.20],
+            theta0_cir: [-0.10, 0.20],
+        }
+    }
+}
+
+impl TeConfig {
+    /// Checks every TE knob.
+    pub fn validate(&self) -> Result<(), AdvisorError> {
+        if !(1..=60).contains(&self.bin_minutes) {
+            return Err(config_err(
+                "te.bin_minutes",
+                format!("must be in 1..=60, got {}", self.bin_minutes),
+            ));
+        }
+        check_positive("te.kernel_peak_min", self.kernel_peak_min)?;
+        // The exponential activity model needs t_peak < t_duration / 2.
+        check_range(
+            "te.kernel_duration_min",
+            self.kernel_duration_min,
+            2.0 * self.kernel_peak_min + 1e-6,
+            24.0 * 60.0,
+        )?;
+        if !(2..=16).contains(&self.bins) {
+            return Err(config_err(
+                "te.bins",
+                format!("must be in 2..=16, got {}", self.bins),
+            ));
+        }
+        if self.max_lag_steps > 288 {
+            return Err(config_err(
+                "te.max_lag_steps",
+                format!("must be at most 288, got {}", self.max_lag_steps),
+            ));
+        }
+        if self.surrogates > 1000 {
+            return Err(config_err(
+                "te.surrogates",
+                format!("must be at most 1000, got {}", self.surrogates),
+            ));
+        }
+        if self.min_pairs < 16 {
+            return Err(config_err(
+                "te.min_pairs",
+                format!("must be at least 16, got {}", self.min_pairs),
+            ));
+        }
+        check_positive("te.te_ref_bits", self.te_ref_bits)?;
+        check_positive("te.te_n_min", self.te_n_min)?;
+        check_range("te.te_n_max", self.te_n_max, self.te_n_min, 1e3)?;
+        if let TeMapping::Linear {
+            intercept,
+            slope_per_bit,
+        } = self.mapping
+        {
+            check_range("te.mapping.intercept", intercept, -1e6, 1e6)?;
+            check_range("te.mapping.slope_per_bit", slope_per_bit, -1e6, 1e6)?;
+        }
+        for (name, v) in [
+            ("te.theta0_br", self.theta0_br),
+            ("te.theta0_cir", self.theta0_cir),
+        ] {
+            for x in v {
+                check_range(name, x, -10.0, 10.0)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The complete configuration of an [`crate::Abba`] advisor.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AbbaConfig {
+    /// SMBG or CGM mode.
+    pub mode: Mode,
+    /// Seed of the exploration generator; use
+    /// `abba_core::derive_seed(trial, patient, scenario, Stream::Exploration)`.
+    pub exploration_seed: u64,
+    /// Days of data collected under the starting therapy before adapting. [SEED] 7.
+    pub init_days: u32,
+    /// Local-cost weight of F_hyper. [SEED eq13] 1.
+    pub a_hyper: f64,
+    /// Local-cost weight of F_hypo. [SEED eq13] 10.
+    pub a_hypo: f64,
+    /// Feature thresholds and normalisation.
+    pub features: FeatureConfig,
+    /// Critic.
+    pub critic: CriticConfig,
+    /// Actor and exploration.
+    pub actor: ActorConfig,
+    /// Supervisory gains.
+    pub supervisor: SupervisorConfig,
+    /// Fusion, switch rule and clamp.
+    pub update: UpdateConfig,
+    /// TE initialisation.
+    pub te: TeConfig,
+    /// Event plausibility limits.
+    pub limits: EventLimits,
+    /// Most decisions kept before the oldest are dropped (drain them with
+    /// `take_decisions`); the number dropped is counted. Default 4096.
+    pub decision_log_capacity: usize,
+}
+
+impl AbbaConfig {
+    /// The spec's defaults in the given mode.
+    pub fn new(mode: Mode, exploration_seed: u64) -> Self {
+        Self {
+            mode,
+            exploration_seed,
+            init_days: 7,
+            a_hyper: 1.0,
+            a_hypo: 10.0,
+            features: FeatureConfig::default(),
+            critic: CriticConfig::default(),
+            actor: ActorConfig::default(),
+            supervisor: SupervisorConfig::default(),
+            update: UpdateConfig::default(),
+            te: TeConfig::default(),
+            limits: EventLimits::default(),
+            decision_log_capacity: 4096,
+        }
+    }
+
+    /// Checks every field; the error names the field and the value.
+    pub fn validate(&self) -> Result<(), AdvisorError> {
+        if !(1..=60).contains(&self.init_days) {
+            return Err(config_err(
+                "init_days",
+                format!("must be in 1..=60, got {}", self.init_days),
+            ));
+        }
+        check_range("a_hyper", self.a_hyper, 0.0, 1e3)?;
+        check_range("a_hypo", self.a_hypo, 0.0, 1e3)?;
+        self.features.validate()?;
+        let c = &self.critic;
+        check_range("critic.gamma", c.gamma, 0.0, 0.999_999)?;
+        check_range("critic.lambda", c.lambda, 0.0, 1.0)?;
+        check_range("critic.a0", c.a0, 1e-12, 10.0)?;
+        check_positive("critic.kappa", c.kappa)?;
+        let a = &self.actor;
+        check_range("actor.h", a.h, 0.0, 1.0)?;
+        check_range("actor.c_sigma", a.c_sigma, 0.0, 10.0)?;
+        check_range("actor.beta", a.beta, 0.0, 100.0)?;
+        check_range("actor.sigma_min", a.sigma_min, 1e-12, 1.0)?;
+        check_range("actor.theta_step_clip", a.theta_step_clip, 0.0, 100.0)?;
+        let s = &self.supervisor;
+        check_range("supervisor.smbg_cir_gain", s.smbg_cir_gain, 0.0, 10.0)?;
+        check_positive("supervisor.smbg_br_hypo_divisor", s.smbg_br_hypo_divisor)?;
+        check_positive("supervisor.smbg_br_high_divisor", s.smbg_br_high_divisor)?;
+        check_positive("supervisor.smbg_br_low_divisor", s.smbg_br_low_divisor)?;
+        check_range(
+            "supervisor.cgm_hypo_only_gain",
+            s.cgm_hypo_only_gain,
+            0.0,
+            10.0,
+        )?;
+        check_range("supervisor.cgm_mixed_gain", s.cgm_mixed_gain, 0.0, 10.0)?;
+        check_range("update.fusion_m", self.update.fusion_m, 0.0, 0.999_999)?;
+        check_range(
+            "update.max_relative_change",
+            self.update.max_relative_change,
+            0.0,
+            0.5,
+        )?;
+        self.te.validate()?;
+        self.limits.validate()?;
+        if self.decision_log_capacity == 0 {
+            return Err(config_err(
+                "decision_log_capacity",
+                "must be at least 1, got 0",
+            ));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_valid_and_round_trip_through_json() {
+        let c = AbbaConfig::new(Mode::Cgm, 42);
+        c.validate().unwrap();
+        let s = serde_json::to_string(&c).unwrap();
+        let back: AbbaConfig = serde_json::from_str(&s).unwrap();
+        assert_eq!(back, c);
+    }
+
+    #[test]
+    fn bad_fields_are_named_in_the_error() {
+        let mut c = AbbaConfig::new(Mode::Smbg, 1);
+        c.critic.gamma = 1.5;
+        let e = c.validate().unwrap_err().to_string();
+        assert!(e.contains("critic.gamma") && e.contains("1.5"), "{e}");
+        let mut c = AbbaConfig::new(Mode::Smbg, 1);
+        c.features.g_high_mg_dl = 80.0;
+        let e = c.validate().unwrap_err().to_string();
+        assert!(e.contains("features.g_high_mg_dl"), "{e}");
+        let mut c = AbbaConfig::new(Mode::Smbg, 1);
+        c.te.kernel_duration_min = 100.0;
+        assert!(c
+            .validate()
+            .unwrap_err()
+            .to_string()
+            .contains("te.kernel_duration_min"));
+        let mut c = AbbaConfig::new(Mode::Smbg, 1);
+        c.update.max_relative_change = f64::NAN;
+        assert!(c.validate().is_err());
+    }
+
+    #[test]
+    fn unknown_fields_are_rejected() {
+        let mut v = serde_json::to_value(AbbaConfig::new(Mode::Cgm, 1)).unwrap();
+        v["gama"] = serde_json::json!(0.9);
+        let e = serde_json::from_value::<AbbaConfig>(v)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("gama"), "{e}");
+    }
+}

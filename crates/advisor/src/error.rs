@@ -1,0 +1,104 @@
+//! The one error type of abba-advisor.
+
+use abba_core::Timestamp;
+use thiserror::Error;
+
+/// Everything that can go wrong in the advisor: bad configuration, bad
+/// events (rejected, never used), bad saved state, or too little data for an
+/// estimate.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum AdvisorError {
+    /// A configuration field is outside its allowed range.
+    #[error("invalid configuration: field `{field}` {problem}")]
+    Config {
+        /// Dotted path of the field, e.g. `critic.gamma`.
+        field: String,
+        /// What is wrong with it, including the value received.
+        problem: String,
+    },
+    /// The event's timestamp is earlier than an event already accepted.
+    #[error("event at {at} ({kind}) is out of order: an event at {previous} was already accepted")]
+    OutOfOrder {
+        /// Timestamp of the rejected event.
+        at: Timestamp,
+        /// Kind of the rejected event.
+        kind: &'static str,
+        /// Timestamp of the latest accepted event.
+        previous: Timestamp,
+    },
+    /// The event's timestamp is outside the representable range.
+    #[error("event at minute {minutes} ({kind}): timestamp must be within 0..={max} minutes")]
+    TimestampRange {
+        /// Minutes since the start of the log.
+        minutes: i64,
+        /// Kind of the rejected event.
+        kind: &'static str,
+        /// Largest accepted timestamp.
+        max: i64,
+    },
+    /// A value carried by the event is not finite or not plausible.
+    #[error("event at {at}: {what} must be {expected}, got {got}")]
+    InvalidValue {
+        /// Timestamp of the rejected event.
+        at: Timestamp,
+        /// Which value (with its unit).
+        what: &'static str,
+        /// The accepted range, in words.
+        expected: String,
+        /// The value received.
+        got: f64,
+    },
+    /// The event repeats or contradicts one already accepted.
+    #[error("event at {at} ({kind}) rejected as a duplicate: {detail}")]
+    Duplicate {
+        /// Timestamp of the rejected event.
+        at: Timestamp,
+        /// Kind of the rejected event.
+        kind: &'static str,
+        /// What it duplicates.
+        detail: String,
+    },
+    /// Saved advisor state could not be read or is inconsistent.
+    #[error("invalid saved advisor state: {0}")]
+    State(String),
+    /// Not enough data to estimate something (e.g. transfer entropy).
+    #[error("insufficient data for {what}: {detail}")]
+    InsufficientData {
+        /// What could not be estimated.
+        what: &'static str,
+        /// Why, with the counts involved.
+        detail: String,
+    },
+}
+
+/// Shorthand for configuration errors.
+pub(crate) fn config_err(field: &str, problem: impl Into<String>) -> AdvisorError {
+    AdvisorError::Config {
+        field: field.to_string(),
+        problem: problem.into(),
+    }
+}
+
+/// Checks `lo <= value <= hi` (and finiteness) for a configuration field.
+pub(crate) fn check_range(field: &str, value: f64, lo: f64, hi: f64) -> Result<(), AdvisorError> {
+    if value.is_finite() && value >= lo && value <= hi {
+        Ok(())
+    } else {
+        Err(config_err(
+            field,
+            format!("must be a finite number in [{lo}, {hi}], got {value}"),
+        ))
+    }
+}
+
+/// Checks `value > 0` (and finiteness) for a configuration field.
+pub(crate) fn check_positive(field: &str, value: f64) -> Result<(), AdvisorError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err(config_err(
+            field,
+            format!("must be a finite number > 0, got {value}"),
+        ))
+    }
+}

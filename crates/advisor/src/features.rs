@@ -1,0 +1,180 @@
+//! Window statistics, features (seed eq10-12) and the local cost (eq13).
+//!
+//! A window's readings are folded into [`WindowStats`] as they arrive, so no
+//! reading is stored: the features only need counts and sums of excursions.
+
+use crate::config::FeatureConfig;
+use serde::{Deserialize, Serialize};
+
+/// Running statistics of the readings of one window.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct WindowStats {
+    /// Number of readings.
+    pub n: u32,
+    /// Readings above G_H.
+    pub n_hyper: u32,
+    /// Σ (M − G_H) over readings above G_H (mg/dL).
+    pub sum_hyper_mg_dl: f64,
+    /// Readings below G_L.
+    pub n_hypo: u32,
+    /// Σ (G_L − M) over readings below G_L (mg/dL).
+    pub sum_hypo_mg_dl: f64,
+    /// Hyponumber: readings below 70 mg/dL (eq27).
+    pub hyponumber: u32,
+    /// N1: readings below 80 mg/dL (eq27).
+    pub n1: u32,
+    /// N2: readings above 130 mg/dL (eq27).
+    pub n2: u32,
+}
+
+impl WindowStats {
+    /// Adds one reading (mg/dL).
+    pub fn push(&mut self, g_mg_dl: f64, cfg: &FeatureConfig) {
+        self.n += 1;
+        if g_mg_dl > cfg.g_high_mg_dl {
+            self.n_hyper += 1;
+            self.sum_hyper_mg_dl += g_mg_dl - cfg.g_high_mg_dl;
+        }
+        if g_mg_dl < cfg.g_low_mg_dl {
+            self.n_hypo += 1;
+            self.sum_hypo_mg_dl += cfg.g_low_mg_dl - g_mg_dl;
+        }
+        if g_mg_dl < cfg.hyponumber_below_mg_dl {
+            self.hyponumber += 1;
+        }
+        if g_mg_dl < cfg.n1_below_mg_dl {
+            self.n1 += 1;
+        }
+        if g_mg_dl > cfg.n2_above_mg_dl {
+            self.n2 += 1;
+        }
+    }
+
+    /// True when no reading fell in the window.
+    pub fn is_empty(&self) -> bool {
+        self.n == 0
+    }
+
+    /// The features of this window.
+    pub fn features(&self, cfg: &FeatureConfig) -> Features {
+        Features::from_stats(self, cfg)
+    }
+}
+
+/// The feature vector F = (F_hyper, F_hypo) with its raw (mg/dL) parts.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Features {
+    /// Mean excursion above G_H of the readings above G_H (mg/dL), eq10; 0 if none.
+    pub raw_hyper_mg_dl: f64,
+    /// Mean excursion below G_L of the readings below G_L (mg/dL), eq11; 0 if none.
+    pub raw_hypo_mg_dl: f64,
+    /// Normalised F_hyper = clamp(raw / (G_max − G_H), 0, 1).
+    pub hyper: f64,
+    /// Normalised F_hypo = clamp(raw / (G_L − G_min), 0, 1).
+    pub hypo: f64,
+}
+
+impl Features {
+    /// Eq10-12 with the spec's normalisation (§3).
+    pub fn from_stats(s: &WindowStats, cfg: &FeatureConfig) -> Self {
+        // eq10: mean over the out-of-range samples only.
+        let raw_hyper = if s.n_hyper > 0 {
+            s.sum_hyper_mg_dl / f64::from(s.n_hyper)
+        } else {
+            0.0
+        };
+        // eq11
+        let raw_hypo = if s.n_hypo > 0 {
+            s.sum_hypo_mg_dl / f64::from(s.n_hypo)
+        } else {
+            0.0
+        };
+        Self {
+            raw_hyper_mg_dl: raw_hyper,
+            raw_hypo_mg_dl: raw_hypo,
+            hyper: (raw_hyper / (cfg.g_max_mg_dl - cfg.g_high_mg_dl)).clamp(0.0, 1.0),
+            hypo: (raw_hypo / (cfg.g_low_mg_dl - cfg.g_min_mg_dl)).clamp(0.0, 1.0),
+        }
+    }
+
+    /// F as an array (hyper, hypo), eq12.
+    pub fn vector(&self) -> [f64; 2] {
+        [self.hyper, self.hypo]
+    }
+
+    /// ‖F‖² = F_hyper² + F_hypo².
+    pub fn norm_sq(&self) -> f64 {
+        self.hyper * self.hyper + self.hypo * self.hypo
+    }
+}
+
+/// Local cost c = a_hyper·F_hyper + a_hypo·F_hypo (seed eq13).
+pub fn local_cost(f: &Features, a_hyper: f64, a_hypo: f64) -> f64 {
+    a_hyper * f.hyper + a_hypo * f.hypo
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn stats(values: &[f64]) -> WindowStats {
+        let cfg = FeatureConfig::default();
+        let mut s = WindowStats::default();
+        for &v in values {
+            s.push(v, &cfg);
+        }
+        s
+    }
+
+    fn close(name: &str, expected: f64, got: f64) {
+        assert!(
+            (expected - got).abs() < 1e-12,
+            "{name}: expected {expected}, got {got}"
+        );
+    }
+
+    #[test]
+    fn eq10_eq11_mean_excursion_of_out_of_range_samples_only() {
+        // 200 and 250 are above 150 (excursions 50, 100 -> mean 75);
+        // 60 is below 90 (excursion 30); 120 is in range and does not dilute.
+        let s = stats(&[200.0, 120.0, 250.0, 60.0]);
+        let f = s.features(&FeatureConfig::default());
+        close("raw hyper (eq10)", 75.0, f.raw_hyper_mg_dl);
+        close("raw hypo (eq11)", 30.0, f.raw_hypo_mg_dl);
+        assert_eq!((s.n, s.n_hyper, s.n_hypo), (4, 2, 1));
+        // eq27 counts: <70: {60}; <80: {60}; >130: {200, 250}
+        assert_eq!((s.hyponumber, s.n1, s.n2), (1, 1, 2));
+    }
+
+    #[test]
+    fn eq12_normalisation_divides_by_250_and_50_and_clamps() {
+        let f = stats(&[200.0, 250.0, 60.0]).features(&FeatureConfig::default());
+        close("F_hyper = 75/250", 0.3, f.hyper);
+        close("F_hypo = 30/50", 0.6, f.hypo);
+        assert_eq!(f.vector(), [f.hyper, f.hypo]);
+        // 600 mg/dL: excursion 450 > 250 -> clamped to 1; 20 mg/dL: 70 > 50 -> 1.
+        let f = stats(&[600.0, 20.0]).features(&FeatureConfig::default());
+        close("F_hyper clamped", 1.0, f.hyper);
+        close("F_hypo clamped", 1.0, f.hypo);
+    }
+
+    #[test]
+    fn in_range_or_empty_windows_give_zero_features() {
+        let f = stats(&[90.0, 150.0, 120.0]).features(&FeatureConfig::default());
+        assert_eq!(f.vector(), [0.0, 0.0], "thresholds are strict");
+        let s = stats(&[]);
+        assert!(s.is_empty());
+        assert_eq!(s.features(&FeatureConfig::default()).vector(), [0.0, 0.0]);
+    }
+
+    #[test]
+    fn eq13_local_cost_weights_hypo_ten_times() {
+        let f = Features {
+            hyper: 0.3,
+            hypo: 0.6,
+            ..Default::default()
+        };
+        close("c = 1*0.3 + 10*0.6", 6.3, local_cost(&f, 1.0, 10.0));
+        close("norm^2", 0.45, f.norm_sq());
+    }
+}

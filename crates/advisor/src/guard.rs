@@ -1,0 +1,251 @@
+//! Validation of the incoming event stream, shared by every advisor.
+//!
+//! An event is rejected with an [`AdvisorError`] (and the advisor's state is
+//! left untouched) when:
+//! - its timestamp is negative, beyond `limits.max_timestamp_min`, or earlier
+//!   than an event already accepted (events at the same minute are fine);
+//! - a value is not finite or outside the plausibility limits
+//!   ([`EventLimits`]): glucose readings, announced carbohydrate (≥ 0), bolus
+//!   (≥ 0), basal rate (≥ 0; 0 is a suspension);
+//! - it duplicates an event at the same minute: an identical event, or a
+//!   second reading of the same kind (a device gives one reading per minute);
+//! - it announces a main meal that was already announced that day or whose
+//!   slot comes before one already announced that day (breakfast, lunch,
+//!   dinner are announced in order; snacks are free);
+//! - it closes a day that is already closed or earlier than one already
+//!   closed. A `DayClosed` event closes the calendar day that contains the
+//!   minute before it: 23:00 of D8 closes D8, 00:00 of D9 closes D8.
+
+use crate::config::EventLimits;
+use crate::error::AdvisorError;
+use abba_core::{Event, EventKind, Timestamp};
+use serde::{Deserialize, Serialize};
+
+/// Name of an event kind for messages.
+pub fn kind_name(kind: &EventKind) -> &'static str {
+    match kind {
+        EventKind::Cgm(_) => "CGM reading",
+        EventKind::Smbg(_) => "SMBG reading",
+        EventKind::MealAnnounced { .. } => "meal announcement",
+        EventKind::Bolus(_) => "bolus",
+        EventKind::BasalRate(_) => "basal rate",
+        EventKind::DayClosed => "day closed",
+    }
+}
+
+/// The calendar day (0-based index) that a `DayClosed` at `at` closes.
+pub fn closed_day(at: Timestamp) -> i64 {
+    at.plus(-1).day_index()
+}
+
+/// Stream state needed to validate the next event.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct EventGuard {
+    last_at: Option<Timestamp>,
+    /// Events accepted at `last_at` (for duplicate detection); reused buffer.
+    same_minute: Vec<EventKind>,
+    last_closed_day: Option<i64>,
+    /// (day, highest main-meal index announced that day).
+    last_main_meal: Option<(i64, usize)>,
+    /// Day of the first accepted event (for `DayClosed`, the day it closes).
+    first_day: Option<i64>,
+}
+
+fn check_value(
+    at: Timestamp,
+    what: &'static str,
+    v: f64,
+    lo: f64,
+    hi: f64,
+) -> Result<(), AdvisorError> {
+    if v.is_finite() && v >= lo && v <= hi {
+        Ok(())
+    } else {
+        Err(AdvisorError::InvalidValue {
+            at,
+            what,
+            expected: format!("a finite number in [{lo}, {hi}]"),
+            got: v,
+        })
+    }
+}
+
+impl EventGuard {
+    /// Day of the first accepted event, if any.
+    pub fn first_day(&self) -> Option<i64> {
+        self.first_day
+    }
+
+    /// Checks `e` against the stream so far without changing anything.
+    pub fn check(&self, e: &Event, limits: &EventLimits) -> Result<(), AdvisorError> {
+        let kind = kind_name(&e.kind);
+        let m = e.at.minutes();
+        if m < 0 || m > limits.max_timestamp_min {
+            return Err(AdvisorError::TimestampRange {
+                minutes: m,
+                kind,
+                max: limits.max_timestamp_min,
+            });
+        }
+        if let Some(prev) = self.last_at {
+            if e.at < prev {
+                return Err(AdvisorError::OutOfOrder {
+                    at: e.at,
+                    kind,
+                    previous: prev,
+                });
+            }
+            if e.at == prev {
+                for seen in &self.same_minute {
+                    let same_reading_kind = matches!(
+                        (seen, &e.kind),
+                        (EventKind::Cgm(_), EventKind::Cgm(_))
+                            | (EventKind::Smbg(_), EventKind::Smbg(_))
+                            | (EventKind::BasalRate(_), EventKind::BasalRate(_))
+                    );
+                    if *seen == e.kind || same_reading_kind {
+                        return Err(AdvisorError::Duplicate {
+                            at: e.at,
+                            kind,
+                            detail: format!(
+                                "an event {seen:?} was already accepted at this minute"
+                            ),
+                        });
+                    }
+                }
+            }
+        }
+        match e.kind {
+            EventKind::Cgm(g) => check_value(
+                e.at,
+                "CGM glucose (mg/dL)",
+                g.0,
+                limits.glucose_min_mg_dl,
+                limits.glucose_max_mg_dl,
+            )?,
+            EventKind::Smbg(g) => check_value(
+                e.at,
+                "SMBG glucose (mg/dL)",
+                g.0,
+                limits.glucose_min_mg_dl,
+                limits.glucose_max_mg_dl,
+            )?,
+            EventKind::MealAnnounced { carbs, slot } => {
+                check_value(
+                    e.at,
+                    "announced carbohydrate (g)",
+                    carbs.0,
+                    0.0,
+                    limits.carbs_max_g,
+                )?;
+                if let (Some(i), Some((day, last))) = (slot.main_index(), self.last_main_meal) {
+                    if day == e.at.day_index() && i <= last {
+                        return Err(AdvisorError::Duplicate {
+                            at: e.at,
+                            kind,
+                            detail: format!(
+                                "{} announced after {} on the same day (main meals are announced once each, in order)",
+                                slot.name(),
+                                abba_core::MealSlot::MAIN[last].name()
+                            ),
+                        });
+                    }
+                }
+            }
+            EventKind::Bolus(u) => check_value(e.at, "bolus (U)", u.0, 0.0, limits.bolus_max_u)?,
+            EventKind::BasalRate(r) => {
+                check_value(e.at, "basal rate (U/h)", r.0, 0.0, limits.basal_max_u_per_h)?
+            }
+            EventKind::DayClosed => {
+                let d = closed_day(e.at);
+                if let Some(last) = self.last_closed_day {
+                    if d <= last {
+                        return Err(AdvisorError::Duplicate {
+                            at: e.at,
+                            kind,
+                            detail: format!(
+                                "it closes day D{} but D{} is already closed",
+                                d + 1,
+                                last + 1
+                            ),
+                        });
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Records an accepted event (call after `check` succeeded).
+    pub fn commit(&mut self, e: &Event) {
+        if self.last_at != Some(e.at) {
+            self.same_minute.clear();
+            self.last_at = Some(e.at);
+        }
+        self.same_minute.push(e.kind);
+        if self.first_day.is_none() {
+            self.first_day = Some(match e.kind {
+                EventKind::DayClosed => closed_day(e.at),
+                _ => e.at.day_index(),
+            });
+        }
+        match e.kind {
+            EventKind::DayClosed => self.last_closed_day = Some(closed_day(e.at)),
+            EventKind::MealAnnounced { slot, .. } => {
+                if let Some(i) = slot.main_index() {
+                    self.last_main_meal = Some((e.at.day_index(), i));
+                }
+            }
+            _ => {}
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use abba_core::{Grams, MealSlot, MgDl, Units};
+
+    fn ev(min: i64, kind: EventKind) -> Event {
+        Event::new(Timestamp(min), kind)
+    }
+
+    fn feed(g: &mut EventGuard, e: Event) -> Result<(), AdvisorError> {
+        let l = EventLimits::default();
+        g.check(&e, &l)?;
+        g.commit(&e);
+        Ok(())
+    }
+
+    #[test]
+    fn rejects_bad_streams_with_clear_errors() {
+        let mut g = EventGuard::default();
+        feed(&mut g, ev(100, EventKind::Cgm(MgDl(120.0)))).unwrap();
+        let e = feed(&mut g, ev(99, EventKind::Cgm(MgDl(120.0)))).unwrap_err();
+        assert!(matches!(e, AdvisorError::OutOfOrder { .. }), "{e}");
+        let e = feed(&mut g, ev(100, EventKind::Cgm(MgDl(121.0)))).unwrap_err();
+        assert!(matches!(e, AdvisorError::Duplicate { .. }), "{e}");
+        feed(&mut g, ev(100, EventKind::Smbg(MgDl(121.0)))).unwrap();
+        let e = feed(&mut g, ev(105, EventKind::Cgm(MgDl(f64::NAN)))).unwrap_err();
+        assert!(e.to_string().contains("CGM glucose"), "{e}");
+        assert!(feed(&mut g, ev(105, EventKind::Cgm(MgDl(5000.0)))).is_err());
+        assert!(feed(&mut g, ev(105, EventKind::Bolus(Units(-1.0)))).is_err());
+        assert!(feed(&mut g, ev(-5, EventKind::Bolus(Units(1.0)))).is_err());
+        let meal = |slot| EventKind::MealAnnounced {
+            carbs: Grams(50.0),
+            slot,
+        };
+        feed(&mut g, ev(420, meal(MealSlot::Lunch))).unwrap();
+        let e = feed(&mut g, ev(500, meal(MealSlot::Breakfast))).unwrap_err();
+        assert!(
+            e.to_string().contains("breakfast announced after lunch"),
+            "{e}"
+        );
+        feed(&mut g, ev(1440 + 420, meal(MealSlot::Breakfast))).unwrap();
+        feed(&mut g, ev(1440, EventKind::DayClosed)).unwrap_err(); // out of order
+        feed(&mut g, ev(1440 + 1380, EventKind::DayClosed)).unwrap();
+        let e = feed(&mut g, ev(2880, EventKind::DayClosed)).unwrap_err();
+        assert!(e.to_string().contains("already closed"), "{e}");
+        feed(&mut g, ev(2881, EventKind::DayClosed)).unwrap();
+    }
+}

@@ -1,0 +1,510 @@
+//! Transfer-entropy initialisation (spec §7): insulin → glucose TE from the
+//! first week's CGM and pump data, and its mapping to the initial policy θ0.
+//!
+//! Estimator ([GUESS], spec §7.2): Schreiber's transfer entropy
+//! (Schreiber, Phys. Rev. Lett. 85:461, 2000) with history length 1, plug-in
+//! probabilities on equiprobable (quantile) bins, maximised over source lags
+//! 0-120 min, bias-corrected by circularly shifted surrogates and floored at 0.
+//! Insulin delivered per 5-min bin is first smoothed with an insulin-activity
+//! kernel: the exponential activity curve with peak t_p and duration t_d
+//! (the "exponential insulin model" of D. Maksimovic, 2017, as used by the
+//! open-source Loop/oref projects; only the published formula is used):
+//! τ = t_p(1 − t_p/t_d)/(1 − 2t_p/t_d), a = 2τ/t_d, S = 1/(1 − a + (1 + a)e^{−t_d/τ}),
+//! activity(t) = S/τ²·t·(1 − t/t_d)·e^{−t/τ}, evaluated at bin midpoints and
+//! normalised to sum 1.
+
+use crate::config::{TeConfig, TeMapping};
+use crate::error::AdvisorError;
+use abba_core::{Event, EventKind, Timestamp, UnitsPerHour, MINUTES_PER_DAY};
+use serde::{Deserialize, Serialize};
+
+/// The result of one TE estimate.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct TeEstimate {
+    /// Bias-corrected TE (bits): max(0, observed − surrogate mean).
+    pub te_bits: f64,
+    /// max over lags of TE_u on the real signals (bits).
+    pub observed_bits: f64,
+    /// Mean over the surrogates of their max-over-lags TE (bits).
+    pub surrogate_mean_bits: f64,
+    /// The lag (min) at which the observed TE peaked.
+    pub best_lag_min: i64,
+    /// Usable (g_t, g_t+1, ĩ_t−u) triples at lag 0.
+    pub pairs: usize,
+    /// Fraction of grid bins that held a CGM reading.
+    pub glucose_coverage: f64,
+}
+
+/// Collects CGM and delivered insulin on a regular grid over the first week.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TeCollector {
+    start_min: i64,
+    bin_minutes: i64,
+    glucose_sum: Vec<f64>,
+    glucose_n: Vec<u32>,
+    insulin_u: Vec<f64>,
+    basal_u_per_h: f64,
+    basal_since_min: i64,
+}
+
+impl TeCollector {
+    /// A grid of `days` days from 00:00 of day index `start_day`; the basal
+    /// rate in force before the first `BasalRate` event is `basal` (the
+    /// starting therapy: the pump runs it until told otherwise).
+    pub fn new(start_day: i64, days: u32, bin_minutes: i64, basal: UnitsPerHour) -> Self {
+        let n = (i64::from(days) * MINUTES_PER_DAY / bin_minutes).max(0) as usize;
+        let start_min = start_day * MINUTES_PER_DAY;
+        Self {
+            start_min,
+            bin_minutes,
+            glucose_sum: vec![0.0; n],
+            glucose_n: vec![0; n],
+            insulin_u: vec![0.0; n],
+            basal_u_per_h: basal.0,
+            basal_since_min: start_min,
+        }
+    }
+
+    fn end_min(&self) -> i64 {
+        self.start_min + self.insulin_u.len() as i64 * self.bin_minutes
+    }
+
+    fn bin(&self, at: Timestamp) -> Option<usize> {
+        let m = at.minutes();
+        if m < self.start_min || m >= self.end_min() {
+            None
+        } else {
+            Some(((m - self.start_min) / self.bin_minutes) as usize)
+        }
+    }
+
+    /// Adds a CGM reading.
+    pub fn cgm(&mut self, at: Timestamp, g_mg_dl: f64) {
+        if let Some(b) = self.bin(at) {
+            self.glucose_sum[b] += g_mg_dl;
+            self.glucose_n[b] += 1;
+        }
+    }
+
+    /// Adds a delivered bolus (all of it in the bin of its timestamp).
+    pub fn bolus(&mut self, at: Timestamp, units: f64) {
+        if let Some(b) = self.bin(at) {
+            self.insulin_u[b] += units;
+        }
+    }
+
+    /// A new basal rate in force from `at`.
+    pub fn basal(&mut self, at: Timestamp, rate_u_per_h: f64) {
+        self.integrate_basal_to(at.minutes());
+        self.basal_u_per_h = rate_u_per_h;
+    }
+
+    fn integrate_basal_to(&mut self, to_min: i64) {
+        let from = self.basal_since_min.max(self.start_min);
+        let to = to_min.min(self.end_min());
+        let rate_per_min = self.basal_u_per_h / 60.0;
+        let mut t = from;
+        while t < to {
+            let b = ((t - self.start_min) / self.bin_minutes) as usize;
+            let bin_end = self.start_min + (b as i64 + 1) * self.bin_minutes;
+            let seg_end = bin_end.min(to);
+            self.insulin_u[b] += rate_per_min * (seg_end - t) as f64;
+            t = seg_end;
+        }
+        self.basal_since_min = self.basal_since_min.max(to_min);
+    }
+
+    /// Closes the collection at `at` and returns (glucose per bin, NaN where
+    /// missing; insulin per bin, U). Bins after `at` have no glucose and only
+    /// the basal known to be running.
+    pub fn finish(mut self, at: Timestamp) -> (Vec<f64>, Vec<f64>) {
+        self.integrate_basal_to(at.minutes());
+        let g = self
+            .glucose_sum
+            .iter()
+            .zip(&self.glucose_n)
+            .map(|(s, &n)| if n > 0 { s / f64::from(n) } else { f64::NAN })
+            .collect();
+        (g, self.insulin_u)
+    }
+}
+
+/// The insulin-activity kernel weights per bin (sum 1).
+pub fn activity_kernel(cfg: &TeConfig) -> Vec<f64> {
+    let tp = cfg.kernel_peak_min;
+    let td = cfg.kernel_duration_min;
+    let tau = tp * (1.0 - tp / td) / (1.0 - 2.0 * tp / td);
+    let a = 2.0 * tau / td;
+    let s = 1.0 / (1.0 - a + (1.0 + a) * (-td / tau).exp());
+    let step = cfg.bin_minutes as f64;
+    let n = (td / step).ceil() as usize;
+    let mut k: Vec<f64> = (0..n)
+        .map(|j| {
+            let t = (j as f64 + 0.5) * step;
+            if t >= td {
+                0.0
+            } else {
+                s / (tau * tau) * t * (1.0 - t / td) * (-t / tau).exp()
+            }
+        })
+        .collect();
+    let total: f64 = k.iter().sum();
+    for w in &mut k {
+        *w /= total;
+    }
+    k
+}
+
+const MISSING: u8 = u8::MAX;
+
+/// Quantile bins: thresholds at the b/B quantiles; ties share a bin.
+fn quantile_bins(x: &[f64], bins: usize) -> Vec<u8> {
+    let mut sorted: Vec<f64> = x.iter().copied().filter(|v| v.is_finite()).collect();
+    sorted.sort_by(f64::total_cmp);
+    let n = sorted.len();
+    let thresholds: Vec<f64> = (1..bins)
+        .map(|b| sorted.get(b * n / bins).copied().unwrap_or(f64::INFINITY))
+        .collect();
+    x.iter()
+        .map(|v| {
+            if v.is_finite() {
+                thresholds.iter().filter(|&&t| *v >= t).count() as u8
+            } else {
+                MISSING
+            }
+        })
+        .collect()
+}
+
+/// TE_u for one lag on binned signals; returns (bits, triples used).
+fn te_at_lag(g: &[u8], i: &[u8], lag: usize, bins: usize, counts: &mut [u32]) -> (f64, usize) {
+    counts.iter_mut().for_each(|c| *c = 0);
+    let b = bins;
+    let mut n = 0usize;
+    for t in lag..g.len().saturating_sub(1) {
+        let (a, bb, c) = (g[t + 1], g[t], i[t - lag]);
+        if a == MISSING || bb == MISSING || c == MISSING {
+            continue;
+        }
+        counts[(a as usize * b + bb as usize) * b + c as usize] += 1;
+        n += 1;
+    }
+    if n == 0 {
+        return (0.0, 0);
+    }
+    // TE = Σ p(a,b,c) log2[ p(a,b,c) p(b) / (p(b,c) p(a,b)) ]
+    let mut n_b = vec![0u32; b];
+    let mut n_ab = vec![0u32; b * b];
+    let mut n_bc = vec![0u32; b * b];
+    for a in 0..b {
+        for bb in 0..b {
+            for c in 0..b {
+                let k = counts[(a * b + bb) * b + c];
+                n_b[bb] += k;
+                n_ab[a * b + bb] += k;
+                n_bc[bb * b + c] += k;
+            }
+        }
+    }
+    let mut te = 0.0;
+    for a in 0..b {
+        for bb in 0..b {
+            for c in 0..b {
+                let k = counts[(a * b + bb) * b + c];
+                if k == 0 {
+                    continue;
+                }
+                let ratio = f64::from(k) * f64::from(n_b[bb])
+                    / (f64::from(n_bc[bb * b + c]) * f64::from(n_ab[a * b + bb]));
+                te += f64::from(k) / n as f64 * ratio.log2();
+            }
+        }
+    }
+    (te, n)
+}
+
+fn max_over_lags(g: &[u8], i: &[u8], cfg: &TeConfig, counts: &mut [u32]) -> (f64, usize, usize) {
+    let mut best = (f64::NEG_INFINITY, 0usize);
+    let mut pairs0 = 0;
+    for lag in 0..=cfg.max_lag_steps {
+        let (te, n) = te_at_lag(g, i, lag, cfg.bins, counts);
+        if lag == 0 {
+            pairs0 = n;
+        }
+        if te > best.0 {
+            best = (te, lag);
+        }
+    }
+    (best.0, best.1, pairs0)
+}
+
+/// Bias-corrected insulin → glucose TE of signals on a regular grid.
+///
+/// `glucose_mg_dl[t]` is NaN where no reading; `insulin_u[t]` is the insulin
+/// delivered in bin t. Ĩ_t is only defined once a full kernel of history is
+/// available (the first 6 h are not used as source values).
+pub fn transfer_entropy(
+    glucose_mg_dl: &[f64],
+    insulin_u: &[f64],
+    cfg: &TeConfig,
+) -> Result<TeEstimate, AdvisorError> {
+    cfg.validate()?;
+    if glucose_mg_dl.len() != insulin_u.len() {
+        return Err(AdvisorError::InsufficientData {
+            what: "transfer entropy",
+            detail: format!(
+                "glucose has {} bins but insulin has {}",
+                glucose_mg_dl.len(),
+                insulin_u.len()
+            ),
+        });
+    }
+    let n = glucose_mg_dl.len();
+    if let Some(bad) = insulin_u.iter().find(|u| !u.is_finite() || **u < 0.0) {
+        return Err(AdvisorError::InsufficientData {
+            what: "transfer entropy",
+            detail: format!("insulin per bin must be finite and >= 0, found {bad}"),
+        });
+    }
+    let kernel = activity_kernel(cfg);
+    let itil: Vec<f64> = (0..n)
+        .map(|t| {
+            if t + 1 < kernel.len() {
+                f64::NAN
+            } else {
+                kernel
+                    .iter()
+                    .enumerate()
+                    .map(|(j, k)| k * insulin_u[t - j])
+                    .sum()
+            }
+        })
+        .collect();
+    let g_bins = quantile_bins(glucose_mg_dl, cfg.bins);
+    let i_bins = quantile_bins(&itil, cfg.bins);
+    let mut counts = vec![0u32; cfg.bins.pow(3)];
+    let (observed, best_lag, pairs) = max_over_lags(&g_bins, &i_bins, cfg, &mut counts);
+    let coverage = glucose_mg_dl.iter().filter(|g| g.is_finite()).count() as f64 / n.max(1) as f64;
+    if pairs < cfg.min_pairs {
+        return Err(AdvisorError::InsufficientData {
+            what: "transfer entropy",
+            detail: format!(
+                "{pairs} usable glucose/insulin triples, need at least {} (glucose coverage {:.0} %)",
+                cfg.min_pairs,
+                100.0 * coverage
+            ),
+        });
+    }
+    let min_shift = cfg.min_surrogate_shift_steps;
+    let mut surrogate_sum = 0.0;
+    if cfg.surrogates > 0 {
+        if n <= 2 * min_shift {
+            return Err(AdvisorError::InsufficientData {
+                what: "transfer entropy surrogates",
+                detail: format!("{n} bins, need more than {} for the shifts", 2 * min_shift),
+            });
+        }
+        let span = n - 2 * min_shift;
+        let mut shifted = vec![MISSING; n];
+        for s in 0..cfg.surrogates {
+            // Evenly spaced deterministic shifts in [min_shift, n − min_shift].
+            let shift = min_shift + s * span / cfg.surrogates.max(2).saturating_sub(1).max(1);
+            let shift = shift.min(n - min_shift);
+            for (t, v) in shifted.iter_mut().enumerate() {
+                *v = i_bins[(t + shift) % n];
+            }
+            surrogate_sum += max_over_lags(&g_bins, &shifted, cfg, &mut counts).0;
+        }
+    }
+    let surrogate_mean = if cfg.surrogates > 0 {
+        surrogate_sum / cfg.surrogates as f64
+    } else {
+        0.0
+    };
+    Ok(TeEstimate {
+        te_bits: (observed - surrogate_mean).max(0.0),
+        observed_bits: observed,
+        surrogate_mean_bits: surrogate_mean,
+        best_lag_min: best_lag as i64 * cfg.bin_minutes,
+        pairs,
+        glucose_coverage: coverage,
+    })
+}
+
+/// TE of one person's first week from their device events (for calibrating
+/// `te.te_ref_bits` over a cohort). The grid starts at 00:00 of the first
+/// event's day and spans `init_days` days; `start_basal` is the basal rate
+/// running before the first `BasalRate` event. Events must be chronological.
+pub fn first_week_te(
+    events: &[Event],
+    start_basal: UnitsPerHour,
+    init_days: u32,
+    cfg: &TeConfig,
+) -> Result<TeEstimate, AdvisorError> {
+    cfg.validate()?;
+    let Some(first) = events.first() else {
+        return Err(AdvisorError::InsufficientData {
+            what: "transfer entropy",
+            detail: "no events".to_string(),
+        });
+    };
+    let start_day = first.at.day_index();
+    let mut c = TeCollector::new(start_day, init_days, cfg.bin_minutes, start_basal);
+    let mut last = first.at;
+    for e in events {
+        if e.at < last {
+            return Err(AdvisorError::OutOfOrder {
+                at: e.at,
+                kind: crate::guard::kind_name(&e.kind),
+                previous: last,
+            });
+        }
+        last = e.at;
+        match e.kind {
+            EventKind::Cgm(g) => c.cgm(e.at, g.0),
+            EventKind::Bolus(u) => c.bolus(e.at, u.0),
+            EventKind::BasalRate(r) => c.basal(e.at, r.0),
+            _ => {}
+        }
+    }
+    let end = Timestamp::from_day_and_minute(start_day + i64::from(init_days), 0);
+    let (g, i) = c.finish(end);
+    transfer_entropy(&g, &i, cfg)
+}
+
+/// TE_n from a TE estimate (spec §7.3), clamped to [te_n_min, te_n_max].
+pub fn te_scale(te_bits: f64, cfg: &TeConfig) -> f64 {
+    let raw = match cfg.mapping {
+        TeMapping::Proportional => te_bits / cfg.te_ref_bits,
+        TeMapping::Inverse => {
+            if te_bits > 0.0 {
+                cfg.te_ref_bits / te_bits
+            } else {
+                f64::INFINITY
+            }
+        }
+        TeMapping::Constant => 1.0,
+        TeMapping::Linear {
+            intercept,
+            slope_per_bit,
+        } => intercept + slope_per_bit * te_bits,
+    };
+    if raw.is_nan() {
+        1.0
+    } else {
+        raw.clamp(cfg.te_n_min, cfg.te_n_max)
+    }
+}
+
+/// θ0 for (BR, CIR) from TE_n: TE_n·theta0_br and TE_n·theta0_cir.
+pub fn theta0(te_n: f64, cfg: &TeConfig) -> ([f64; 2], [f64; 2]) {
+    (
+        [te_n * cfg.theta0_br[0], te_n * cfg.theta0_br[1]],
+        [te_n * cfg.theta0_cir[0], te_n * cfg.theta0_cir[1]],
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn kernel_peaks_near_75_min_and_sums_to_one() {
+        let k = activity_kernel(&TeConfig::default());
+        assert_eq!(k.len(), 72);
+        let sum: f64 = k.iter().sum();
+        assert!((sum - 1.0).abs() < 1e-12, "sum {sum}");
+        let peak = k
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.total_cmp(b.1))
+            .map(|(j, _)| j)
+            .unwrap();
+        // bin midpoint 72.5 or 77.5 min
+        assert!(peak == 14 || peak == 15, "peak bin {peak}");
+    }
+
+    #[test]
+    fn te_of_independent_signals_is_near_zero_and_driven_signal_is_positive() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
+        let n = 2016;
+        let insulin: Vec<f64> = (0..n)
+            .map(|_| {
+                if rng.gen_bool(0.05) {
+                    rng.gen_range(1.0..6.0)
+                } else {
+                    0.08
+                }
+            })
+            .collect();
+        let cfg = TeConfig::default();
+        let k = activity_kernel(&cfg);
+        // Driven: glucose falls with insulin action (plus noise and slow drift).
+        let mean_u = insulin.iter().sum::<f64>() / n as f64;
+        let mut g = vec![150.0; n];
+        for t in 1..n {
+            let act: f64 = (0..k.len().min(t + 1)).map(|j| k[j] * insulin[t - j]).sum();
+            let step = 0.05 * (150.0 - g[t - 1]) - 60.0 * (act - mean_u);
+            g[t] = (g[t - 1] + step + rng.gen_range(-3.0..3.0)).clamp(40.0, 400.0);
+        }
+        let driven = transfer_entropy(&g, &insulin, &cfg).unwrap();
+        let noise: Vec<f64> = (0..n).map(|_| rng.gen_range(80.0..200.0)).collect();
+        let indep = transfer_entropy(&noise, &insulin, &cfg).unwrap();
+        assert!(
+            driven.te_bits > 0.02,
+            "driven TE expected > 0.02 bits, got {driven:?}"
+        );
+        assert!(
+            indep.te_bits < 0.01,
+            "independent TE expected < 0.01 bits, got {indep:?}"
+        );
+    }
+
+    #[test]
+    fn too_little_data_is_an_error() {
+        let g = vec![f64::NAN; 2016];
+        let i = vec![0.1; 2016];
+        let e = transfer_entropy(&g, &i, &TeConfig::default()).unwrap_err();
+        assert!(e.to_string().contains("0 usable"), "{e}");
+    }
+
+    #[test]
+    fn basal_is_integrated_per_bin() {
+        let mut c = TeCollector::new(1, 1, 5, UnitsPerHour(1.2));
+        c.basal(Timestamp::from_day_and_minute(1, 7), 0.6);
+        c.bolus(Timestamp::from_day_and_minute(1, 12), 2.0);
+        let (_, ins) = c.finish(Timestamp::from_day_and_minute(2, 0));
+        // bin 0: 5 min at 0.02 U/min = 0.1 ; bin 1: 2 min at 0.02 + 3 min at 0.01 = 0.07;
+        // bin 2: 5 min at 0.01 + 2 U bolus = 2.05
+        for (b, exp) in [(0, 0.1), (1, 0.07), (2, 2.05), (287, 0.05)] {
+            assert!(
+                (ins[b] - exp).abs() < 1e-12,
+                "bin {b}: expected {exp}, got {}",
+                ins[b]
+            );
+        }
+    }
+
+    #[test]
+    fn mapping_scales_and_clamps() {
+        let cfg = TeConfig::default();
+        let check = |name: &str, exp: f64, got: f64| {
+            assert!(
+                (exp - got).abs() < 1e-12,
+                "{name}: expected {exp}, got {got}"
+            )
+        };
+        check("proportional", 1.5, te_scale(0.03, &cfg));
+        check("clamped low", 0.25, te_scale(0.0, &cfg));
+        check("clamped high", 4.0, te_scale(1.0, &cfg));
+        let (br, cir) = theta0(2.0, &cfg);
+        assert_eq!(br, [0.2, -0.4]);
+        assert_eq!(cir, [-0.2, 0.4]);
+        let inv = TeConfig {
+            mapping: TeMapping::Inverse,
+            ..TeConfig::default()
+        };
+        check("inverse", 0.5, te_scale(0.04, &inv));
+    }
+}

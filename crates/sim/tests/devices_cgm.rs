@@ -4,6 +4,8 @@
 //!
 //! Run: `cargo test --release -p abba-sim --test devices_cgm`
 
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 use abba_core::{MgDl, Timestamp};
 use abba_sim::devices::cgm::{CgmConfig, CgmSensor, JohnsonSu};
 use abba_sim::devices::spline::{NotAKnotWeights, KNOTS};
@@ -160,7 +162,10 @@ fn spline_weights_match_the_independent_not_a_knot_construction() {
     for (j, &x) in pos.iter().enumerate() {
         let expected = eval_reference(&coef, x);
         let got = w.evaluate(j, &data);
-        assert!((got - expected).abs() < 1e-12, "x = {x}: expected {expected}, got {got}");
+        assert!(
+            (got - expected).abs() < 1e-12,
+            "x = {x}: expected {expected}, got {got}"
+        );
     }
     // The not-a-knot property itself: the first two pieces are one cubic.
     let (c0, c1) = (coef[0], coef[1]);
@@ -217,7 +222,10 @@ impl ReferenceNoise {
 #[test]
 fn sensor_noise_equals_an_independent_implementation_of_the_model() {
     for (sample_time, seed) in [(1, 11), (3, 12), (5, 13), (15, 14), (30, 15), (150, 16)] {
-        let cfg = CgmConfig::protocol().unwrap().with_sample_time(sample_time).unwrap();
+        let cfg = CgmConfig::protocol()
+            .unwrap()
+            .with_sample_time(sample_time)
+            .unwrap();
         let mut sensor = CgmSensor::new(cfg.clone(), seed).unwrap();
         let mut reference = ReferenceNoise::new(&cfg, seed);
         for i in 0..3000 {
@@ -330,9 +338,20 @@ fn closed_form_johnson_su_moments_agree_with_quadrature() {
         e2 += wt * h * dens * eta * eta;
     }
     let sd = (e2 - e1 * e1).sqrt();
-    println!("mean: closed form {} quadrature {e1}; SD: closed form {} quadrature {sd}", t.mean, t.knot_sd);
-    assert!((t.mean - e1).abs() < 1e-9, "mean: expected {e1}, got {}", t.mean);
-    assert!((t.knot_sd - sd).abs() < 1e-9, "SD: expected {sd}, got {}", t.knot_sd);
+    println!(
+        "mean: closed form {} quadrature {e1}; SD: closed form {} quadrature {sd}",
+        t.mean, t.knot_sd
+    );
+    assert!(
+        (t.mean - e1).abs() < 1e-9,
+        "mean: expected {e1}, got {}",
+        t.mean
+    );
+    assert!(
+        (t.knot_sd - sd).abs() < 1e-9,
+        "SD: expected {sd}, got {}",
+        t.knot_sd
+    );
 }
 
 /// Sample mean, SD and lag-1 autocorrelation.
@@ -340,7 +359,11 @@ fn stats(x: &[f64]) -> [f64; 3] {
     let n = x.len() as f64;
     let mean = x.iter().sum::<f64>() / n;
     let var = x.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n;
-    let c1 = x.windows(2).map(|w| (w[0] - mean) * (w[1] - mean)).sum::<f64>() / n;
+    let c1 = x
+        .windows(2)
+        .map(|w| (w[0] - mean) * (w[1] - mean))
+        .sum::<f64>()
+        / n;
     [mean, var.sqrt(), c1 / var]
 }
 
@@ -350,7 +373,9 @@ fn stats(x: &[f64]) -> [f64; 3] {
 fn stats_with_se(x: &[f64]) -> ([f64; 3], [f64; 3]) {
     let blocks = 100;
     let len = x.len() / blocks;
-    let per: Vec<[f64; 3]> = (0..blocks).map(|b| stats(&x[b * len..(b + 1) * len])).collect();
+    let per: Vec<[f64; 3]> = (0..blocks)
+        .map(|b| stats(&x[b * len..(b + 1) * len]))
+        .collect();
     let mut se = [0.0; 3];
     for (k, s) in se.iter_mut().enumerate() {
         let m = per.iter().map(|p| p[k]).sum::<f64>() / blocks as f64;
@@ -370,7 +395,10 @@ fn stats_with_se(x: &[f64]) -> ([f64; 3], [f64; 3]) {
 const Z: f64 = 4.0;
 
 fn check(what: &str, expected: f64, got: f64, se: f64) {
-    println!("{what}: expected {expected:.5}, got {got:.5} (SE {se:.5}, tolerance {:.5})", Z * se);
+    println!(
+        "{what}: expected {expected:.5}, got {got:.5} (SE {se:.5}, tolerance {:.5})",
+        Z * se
+    );
     assert!(
         (got - expected).abs() <= Z * se,
         "{what}: expected {expected}, got {got}, |diff| = {} > {Z} SE = {}",
@@ -395,9 +423,19 @@ fn noise_statistics_match_the_model_at_5_min() {
     let knots: Vec<f64> = x.iter().skip(2).step_by(3).copied().collect();
     let (k, kse) = stats_with_se(&knots);
     check("SD at the knots (mg/dL)", t.knot_sd, k[1], kse[1]);
-    check("lag-1 (15 min) autocorrelation at the knots", t.knot_lag1, k[2], kse[2]);
+    check(
+        "lag-1 (15 min) autocorrelation at the knots",
+        t.knot_lag1,
+        k[2],
+        kse[2],
+    );
     // The spline lowers the SD between knots, slightly.
-    assert!(t.grid_sd < t.knot_sd && t.grid_sd > 0.95 * t.knot_sd, "{} vs {}", t.grid_sd, t.knot_sd);
+    assert!(
+        t.grid_sd < t.knot_sd && t.grid_sd > 0.95 * t.knot_sd,
+        "{} vs {}",
+        t.grid_sd,
+        t.knot_sd
+    );
 }
 
 #[test]
@@ -446,12 +484,18 @@ fn reading_is_glucose_plus_noise_clipped_to_the_range() {
         let noise = b.noise_sample();
         let expected = (gs + noise).clamp(39.0, 600.0);
         let got = a.read(MgDl(gs)).unwrap().0;
-        assert_eq!(got, expected, "reading {i}, Gs {gs}: expected {expected}, got {got}");
+        assert_eq!(
+            got, expected,
+            "reading {i}, Gs {gs}: expected {expected}, got {got}"
+        );
         assert!((39.0..=600.0).contains(&got));
         at_min += usize::from(got == 39.0);
         at_max += usize::from(got == 600.0);
     }
-    assert!(at_min > 100 && at_max > 100, "limits hit {at_min} and {at_max} times");
+    assert!(
+        at_min > 100 && at_max > 100,
+        "limits hit {at_min} and {at_max} times"
+    );
     assert!(a.read(MgDl(f64::NAN)).is_err());
     let mut nav = CgmSensor::new(CgmConfig::from_table("Navigator").unwrap(), 1).unwrap();
     assert_eq!(nav.read(MgDl(0.0)).unwrap().0, 32.0);
@@ -495,7 +539,10 @@ fn sample_time_must_divide_150() {
         assert!(e.is_err(), "sample_time {bad} accepted");
     }
     for good in [1, 2, 3, 5, 6, 10, 15, 25, 30, 50, 75, 150] {
-        let cfg = CgmConfig::protocol().unwrap().with_sample_time(good).unwrap();
+        let cfg = CgmConfig::protocol()
+            .unwrap()
+            .with_sample_time(good)
+            .unwrap();
         assert_eq!(cfg.samples_per_batch() as u32 * good, 150);
     }
 }

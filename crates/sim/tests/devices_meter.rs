@@ -2,6 +2,8 @@
 //!
 //! Run: `cargo test --release -p abba-sim --test devices_meter`
 
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 use abba_core::MgDl;
 use abba_sim::devices::meter::{MeterConfig, SmbgMeter};
 
@@ -26,8 +28,13 @@ fn p_reading_in(g: f64, sd: f64, lo: f64, hi: f64) -> f64 {
 
 /// Four binomial standard errors (false alarm ~6e-5 per comparison).
 fn within_4se(what: &str, expected: f64, got: f64, n: usize) {
-    let se = (expected * (1.0 - expected) / n as f64).sqrt().max(1.0 / n as f64);
-    println!("{what}: expected {expected:.4}, got {got:.4} (tolerance {:.4})", 4.0 * se);
+    let se = (expected * (1.0 - expected) / n as f64)
+        .sqrt()
+        .max(1.0 / n as f64);
+    println!(
+        "{what}: expected {expected:.4}, got {got:.4} (tolerance {:.4})",
+        4.0 * se
+    );
     assert!(
         (got - expected).abs() <= 4.0 * se,
         "{what}: expected {expected}, got {got}, tolerance {}",
@@ -46,20 +53,31 @@ fn accuracy_meets_the_iso_15197_criterion_and_the_model() {
             (0.15 * g, 0.075 * g)
         };
         let readings: Vec<f64> = (0..n).map(|_| meter.measure(MgDl(g)).unwrap().0).collect();
-        assert!(readings.iter().all(|r| r.fract() == 0.0), "non-integer reading at {g}");
+        assert!(
+            readings.iter().all(|r| r.fract() == 0.0),
+            "non-integer reading at {g}"
+        );
         let inside = readings.iter().filter(|&&r| (r - g).abs() <= tol).count();
         let got = inside as f64 / n as f64;
         // ISO 15197:2013: at least 95 % within ±15 mg/dL / ±15 %.
         assert!(got >= 0.95, "G = {g}: only {got} within ±{tol}");
         // The model's exact probability, rounding included.
         let expected = p_reading_in(g, sd, (g - tol).ceil(), (g + tol).floor());
-        within_4se(&format!("G = {g}: fraction within ±{tol:.2}"), expected, got, n);
+        within_4se(
+            &format!("G = {g}: fraction within ±{tol:.2}"),
+            expected,
+            got,
+            n,
+        );
         // Unbiased, with the stated SD (rounding adds 1/12 mg²/dL² of variance).
         let mean = readings.iter().sum::<f64>() / n as f64;
         let var = readings.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / n as f64;
         let expected_sd = (sd * sd + 1.0 / 12.0).sqrt();
         let se_mean = expected_sd / (n as f64).sqrt();
-        println!("G = {g}: mean {mean:.3} (SE {se_mean:.3}), SD {:.3} expected {expected_sd:.3}", var.sqrt());
+        println!(
+            "G = {g}: mean {mean:.3} (SE {se_mean:.3}), SD {:.3} expected {expected_sd:.3}",
+            var.sqrt()
+        );
         assert!((mean - g).abs() <= 4.0 * se_mean, "G = {g}: mean {mean}");
         // SE of a normal SD estimate: sd / sqrt(2n).
         let se_sd = expected_sd / (2.0 * n as f64).sqrt();
@@ -77,15 +95,29 @@ fn readings_are_clipped_to_20_and_600() {
     let mut meter = SmbgMeter::new(MeterConfig::default(), 2).unwrap();
     // G = 5: the reading is 20 when the raw value rounds to 20 or less, i.e.
     // is below 20.5: probability Φ(15.5/7.5).
-    let low: Vec<f64> = (0..n).map(|_| meter.measure(MgDl(5.0)).unwrap().0).collect();
+    let low: Vec<f64> = (0..n)
+        .map(|_| meter.measure(MgDl(5.0)).unwrap().0)
+        .collect();
     assert!(low.iter().all(|&r| r >= 20.0 && r.fract() == 0.0));
     let at_20 = low.iter().filter(|&&r| r == 20.0).count() as f64 / n as f64;
-    within_4se("share of readings at 20 for G = 5", phi(15.5 / 7.5), at_20, n);
+    within_4se(
+        "share of readings at 20 for G = 5",
+        phi(15.5 / 7.5),
+        at_20,
+        n,
+    );
     // G = 600: SD 45; the raw value is at or above 599.5 with probability Φ(0.5/45).
-    let high: Vec<f64> = (0..n).map(|_| meter.measure(MgDl(600.0)).unwrap().0).collect();
+    let high: Vec<f64> = (0..n)
+        .map(|_| meter.measure(MgDl(600.0)).unwrap().0)
+        .collect();
     assert!(high.iter().all(|&r| r <= 600.0 && r.fract() == 0.0));
     let at_600 = high.iter().filter(|&&r| r == 600.0).count() as f64 / n as f64;
-    within_4se("share of readings at 600 for G = 600", phi(0.5 / 45.0), at_600, n);
+    within_4se(
+        "share of readings at 600 for G = 600",
+        phi(0.5 / 45.0),
+        at_600,
+        n,
+    );
     for _ in 0..100 {
         assert!(meter.measure(MgDl(0.0)).unwrap().0 >= 20.0);
     }
@@ -103,7 +135,14 @@ fn rounding_is_to_the_nearest_whole_mg_dl() {
         ..MeterConfig::default()
     };
     let mut meter = SmbgMeter::new(cfg, 1).unwrap();
-    for (g, expected) in [(99.4, 99.0), (99.5, 100.0), (120.49, 120.0), (120.5, 121.0), (19.0, 20.0), (650.0, 600.0)] {
+    for (g, expected) in [
+        (99.4, 99.0),
+        (99.5, 100.0),
+        (120.49, 120.0),
+        (120.5, 121.0),
+        (19.0, 20.0),
+        (650.0, 600.0),
+    ] {
         assert_eq!(meter.measure(MgDl(g)).unwrap().0, expected, "G = {g}");
     }
 }
@@ -117,13 +156,18 @@ fn sd_fields_are_configurable() {
     };
     let n = 20_000;
     let mut meter = SmbgMeter::new(cfg, 9).unwrap();
-    let r: Vec<f64> = (0..n).map(|_| meter.measure(MgDl(200.0)).unwrap().0).collect();
+    let r: Vec<f64> = (0..n)
+        .map(|_| meter.measure(MgDl(200.0)).unwrap().0)
+        .collect();
     let mean = r.iter().sum::<f64>() / n as f64;
     let sd = (r.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n as f64).sqrt();
     let expected = (36.0f64 + 1.0 / 12.0).sqrt();
     let se = expected / (2.0 * n as f64).sqrt();
     println!("SD expected {expected:.3}, got {sd:.3}");
-    assert!((sd - expected).abs() <= 4.0 * se, "SD expected {expected}, got {sd}");
+    assert!(
+        (sd - expected).abs() <= 4.0 * se,
+        "SD expected {expected}, got {sd}"
+    );
 }
 
 #[test]

@@ -190,7 +190,7 @@ impl CgmConfig {
         if !j.xi_mg_dl.is_finite() {
             return bad("xi", j.xi_mg_dl, "a finite number (mg/dL)");
         }
-        if self.sample_time_min == 0 || BATCH_MIN % self.sample_time_min != 0 {
+        if self.sample_time_min == 0 || !BATCH_MIN.is_multiple_of(self.sample_time_min) {
             return bad(
                 "sample_time",
                 f64::from(self.sample_time_min),
@@ -346,6 +346,7 @@ impl CgmSensor {
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
 

@@ -145,8 +145,9 @@ fn solve(mut a: [[f64; KNOTS]; KNOTS], mut b: [f64; KNOTS]) -> Result<[f64; KNOT
         for row in col + 1..n {
             let f = a[row][col] / a[col][col];
             if f != 0.0 {
-                for k in col..n {
-                    a[row][k] -= f * a[col][k];
+                let pivot_row = a[col];
+                for (x, p) in a[row][col..].iter_mut().zip(&pivot_row[col..]) {
+                    *x -= f * p;
                 }
                 b[row] -= f * b[col];
             }
@@ -161,6 +162,7 @@ fn solve(mut a: [[f64; KNOTS]; KNOTS], mut b: [f64; KNOTS]) -> Result<[f64; KNOT
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
 

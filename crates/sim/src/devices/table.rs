@@ -170,6 +170,7 @@ fn table_error(table: &str, line: u64, reason: String) -> SimError {
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
 

@@ -1,1 +1,0 @@
-//! Virtual cohorts (being built).

@@ -304,3 +304,47 @@ fn bad_configurations_are_clear_errors() {
         UnitsPerHour(0.9)
     );
 }
+
+mod properties {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// A bolus is a whole number of 0.05 U steps, never more than asked,
+        /// less by under one step (unless capped), capped exactly above 30 U,
+        /// and delivered in full at 1.5 U/min at most.
+        #[test]
+        fn bolus_rounding_and_capping(req in 0.0f64..100.0) {
+            let mut p = pump();
+            let o = p.request_bolus(Units(req)).unwrap();
+            let steps = o.programmed.0 * 20.0;
+            prop_assert!((steps - steps.round()).abs() < 1e-9, "{o:?}");
+            prop_assert_eq!(o.capped, req > 30.0);
+            if o.capped {
+                prop_assert_eq!(o.programmed, Units(30.0));
+            } else {
+                prop_assert!(o.programmed.0 <= req + 1e-12 && req - o.programmed.0 < 0.05, "{o:?}");
+            }
+            let d = deliver_all(&mut p);
+            prop_assert!(d.iter().all(|&u| u <= 1.5));
+            prop_assert_eq!(d.len() as f64, (o.programmed.0 / 1.5 - 1e-9).ceil().max(0.0));
+            prop_assert_eq!(p.totals().bolus, o.programmed);
+        }
+
+        /// A basal rate is the nearest 0.05 U/h step (within half a step) or
+        /// the 30 U/h cap.
+        #[test]
+        fn basal_rounding_and_capping(req in 0.0f64..40.0) {
+            let mut p = pump();
+            let o = p.set_basal(UnitsPerHour(req)).unwrap();
+            let steps = o.set.0 * 20.0;
+            prop_assert!((steps - steps.round()).abs() < 1e-9, "{o:?}");
+            prop_assert_eq!(o.capped, req > 30.0);
+            if o.capped {
+                prop_assert_eq!(o.set, UnitsPerHour(30.0));
+            } else {
+                prop_assert!((o.set.0 - req).abs() <= 0.025 + 1e-12, "{o:?}");
+            }
+        }
+    }
+}

@@ -192,26 +192,50 @@ fn iglu_example_subject_basic_metrics_match_a_direct_recomputation() {
     }
 }
 
+fn example_reference() -> serde_json::Value {
+    let path = format!("{DATA}/iglu_example_data_1_subject.iglu_python.json");
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
 #[test]
-fn iglu_example_subject_mage_is_sane() {
+fn iglu_example_subject_matches_iglu_python() {
+    let r = example_reference();
+    let f = |k: &str| r["iglu"][k].as_f64().unwrap();
+    let (t, g) = read("iglu_example_data_1_subject.csv");
+    let m = metrics_timed(&t, &g).unwrap();
+    for (key, iglu_key) in [
+        ("tir_70_180", "in_range_percent_70_180"),
+        ("lbgi", "lbgi"),
+        ("hbgi", "hbgi"),
+        ("mage", "mage_default"),
+        ("mean_mg_dl", "mean_glu"),
+        ("cv_pct", "cv_glu"),
+        ("gmi_pct", "gmi"),
+        ("below_54", "below_54"),
+        ("below_70", "below_70"),
+        ("above_180", "above_180"),
+        ("above_250", "above_250"),
+    ] {
+        close(key, f(iglu_key), m.get(key).unwrap(), 1e-6);
+    }
+    close("sd_mg_dl", f("sd_glu"), m.sd_mg_dl, 1e-6);
+}
+
+#[test]
+fn iglu_example_subject_mage_with_gaps_matches_iglu_python() {
+    // This Dexcom trace has 14 gaps over 45 min (not interpolated) and 4 over
+    // 180 min, which cut it into 5 segments; one (14:00-14:10 on 12 June) is
+    // too short to measure.
+    let r = example_reference();
     let (t, g) = read("iglu_example_data_1_subject.csv");
     let mage = mage_timed(&t, &g, &MageOptions::default()).unwrap();
-    println!("iglu example subject, our MAGE (ma, 5/32, 45/180 min): {mage:?}");
-    let avg = mage.avg.unwrap();
-    let (plus, minus) = (mage.plus.unwrap(), mage.minus.unwrap());
-    // The gaps of this Dexcom trace cut it into several segments.
-    assert!(mage.segments > 1, "segments: {}", mage.segments);
-    assert!(mage.segments_with_excursions >= 1);
-    // "avg" lies between MAGE+ and MAGE−, and every excursion is at least one
-    // SD of some segment and at most the range of the whole trace.
-    assert!(
-        avg >= plus.min(minus) && avg <= plus.max(minus),
-        "{avg} vs {plus}, {minus}"
-    );
-    let lo = g.iter().cloned().fold(f64::INFINITY, f64::min);
-    let hi = g.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-    assert!(
-        avg > 20.0 && avg < hi - lo,
-        "MAGE {avg} vs range {lo}..{hi}"
-    );
+    println!("iglu example subject: {mage:?}");
+    assert_eq!((mage.segments, mage.segments_with_excursions), (5, 4));
+    let f = |k: &str| r["iglu"][k].as_f64().unwrap();
+    close("avg", f("mage_default"), mage.avg.unwrap(), 1e-6);
+    close("plus", f("mage_ma_plus"), mage.plus.unwrap(), 1e-6);
+    close("minus", f("mage_ma_minus"), mage.minus.unwrap(), 1e-6);
+    let d = |k: &str| r["derived_from_segments"][k].as_f64().unwrap();
+    close("service", d("mage_ma_service"), mage.service.unwrap(), 1e-6);
+    close("max", d("mage_ma_max"), mage.max.unwrap(), 1e-6);
 }

@@ -8,7 +8,8 @@
 //!   ([`EventLimits`]): glucose readings, announced carbohydrate (≥ 0), bolus
 //!   (≥ 0), basal rate (≥ 0; 0 is a suspension);
 //! - it duplicates an event at the same minute: an identical event, or a
-//!   second reading of the same kind (a device gives one reading per minute);
+//!   second reading of the same kind (a device gives one reading per minute;
+//!   two different basal rates in one minute are fine, the last one holds);
 //! - it announces a main meal that was already announced that day or whose
 //!   slot comes before one already announced that day (breakfast, lunch,
 //!   dinner are announced in order; snacks are free);
@@ -101,7 +102,6 @@ impl EventGuard {
                         (seen, &e.kind),
                         (EventKind::Cgm(_), EventKind::Cgm(_))
                             | (EventKind::Smbg(_), EventKind::Smbg(_))
-                            | (EventKind::BasalRate(_), EventKind::BasalRate(_))
                     );
                     if *seen == e.kind || same_reading_kind {
                         return Err(AdvisorError::Duplicate {

@@ -12,6 +12,9 @@
 //!   not mix the two;
 //! - every row needs a time and a glucose value > 0; an empty or unreadable
 //!   cell is an error naming the file, line, column and value;
+//! - one subject per run: if the file has an `id` column (iglu's layout)
+//!   holding more than one value, `--subject ID` must pick one (its rows are
+//!   used, the other subjects' rows are skipped);
 //! - readings must be in strictly increasing time order. iglu sorts silently;
 //!   we reject a file out of order unless `--sort` is given, and two readings
 //!   at the same time are always an error (iglu keeps the last one).
@@ -55,6 +58,9 @@ pub struct Args {
     /// Sort the readings by time instead of rejecting a file that is out of order.
     #[arg(long)]
     pub sort: bool,
+    /// Use only the rows whose `id` column equals ID (needed when the file holds several subjects).
+    #[arg(long, value_name = "ID")]
+    pub subject: Option<String>,
 }
 
 /// One accepted reading and where it came from.
@@ -152,12 +158,40 @@ fn read_readings(args: &Args) -> Result<Vec<Reading>> {
         )
     })?;
 
+    let id_at = find("id");
+    if args.subject.is_some() && id_at.is_none() {
+        bail!(
+            "{file}: --subject needs an \"id\" column; the columns found are {}",
+            found()
+        );
+    }
     let mut readings = Vec::new();
     let mut with_offset: Option<(bool, u64)> = None;
+    let mut first_id: Option<(String, u64)> = None;
+    let mut subject_seen = false;
     for record in reader.records() {
         let record = record.with_context(|| format!("{file}: unreadable CSV row"))?;
         let line = record.position().map_or(0, |p| p.line());
         let cell = |at: usize| record.get(at).unwrap_or("").trim();
+        if let Some(at) = id_at {
+            let id = cell(at);
+            match &args.subject {
+                Some(wanted) => {
+                    if id != wanted {
+                        continue;
+                    }
+                    subject_seen = true;
+                }
+                None => match &first_id {
+                    None => first_id = Some((id.to_string(), line)),
+                    Some((first, first_line)) if first != id => bail!(
+                        "{file}: line {line}: subject \"{id}\" differs from \"{first}\" on line \
+                         {first_line}; the file holds several subjects, choose one with --subject"
+                    ),
+                    Some(_) => {}
+                },
+            }
+        }
         let time_text = cell(time_at);
         let (minutes, has_offset) = parse_time(time_text).with_context(|| {
             format!(
@@ -197,6 +231,9 @@ fn read_readings(args: &Args) -> Result<Vec<Reading>> {
             minutes,
             glucose_mg_dl,
         });
+    }
+    if let (Some(wanted), false) = (&args.subject, subject_seen) {
+        bail!("{file}: no rows with id \"{wanted}\"");
     }
     Ok(readings)
 }
@@ -252,7 +289,10 @@ fn print_table(
     mage: &abba_core::metrics::Mage,
 ) {
     let (first, last) = (readings[0].minutes, readings[readings.len() - 1].minutes);
-    println!("Glucose metrics of {file}");
+    match &args.subject {
+        Some(id) => println!("Glucose metrics of {file}, subject \"{id}\""),
+        None => println!("Glucose metrics of {file}"),
+    }
     println!(
         "  {} readings, {} .. {} ({:.1} days){}",
         m.n_readings,

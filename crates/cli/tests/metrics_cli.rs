@@ -257,3 +257,32 @@ fn mixing_times_with_and_without_offset_is_rejected() {
     assert!(!out.status.success());
     assert!(err.contains("line 3") && err.contains("mix"), "{err}");
 }
+
+#[test]
+fn several_subjects_need_a_choice() {
+    let csv = "id,time,gl\na,2024-01-01 00:00,100\na,2024-01-01 00:05,120\nb,2024-01-01 00:00,200\nb,2024-01-01 00:05,220\n";
+    let path = temp_csv("subjects", csv);
+    let out = abba(&["metrics", "--input", path.to_str().unwrap()]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("line 4") && err.contains("--subject"), "{err}");
+    let out = abba(&[
+        "metrics",
+        "--input",
+        path.to_str().unwrap(),
+        "--subject",
+        "b",
+        "--json",
+    ]);
+    assert_eq!(json_of(&out)["mean_mg_dl"].as_f64(), Some(210.0));
+    let out = abba(&[
+        "metrics",
+        "--input",
+        path.to_str().unwrap(),
+        "--subject",
+        "c",
+    ]);
+    std::fs::remove_file(&path).ok();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no rows with id \"c\""));
+}

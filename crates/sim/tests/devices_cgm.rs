@@ -32,8 +32,9 @@ fn solve_dense(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Vec<f64> {
         for r in 0..n {
             if r != col {
                 let f = a[r][col] / a[col][col];
-                for k in col..n {
-                    a[r][k] -= f * a[col][k];
+                let pivot_row = a[col].clone();
+                for (x, q) in a[r][col..].iter_mut().zip(&pivot_row[col..]) {
+                    *x -= f * q;
                 }
                 b[r] -= f * b[col];
             }
@@ -296,9 +297,9 @@ fn theory(cfg: &CgmConfig) -> Theory {
     // Covariance of a sample with weights wa and one with weights wb whose knots start `offset` later.
     let cross = |wa: &[f64; KNOTS], wb: &[f64; KNOTS], offset: i64| {
         let mut c = 0.0;
-        for i in 0..KNOTS {
-            for k in 0..KNOTS {
-                c += wa[i] * wb[k] * cov(i as i64, k as i64 + offset);
+        for (i, wi) in wa.iter().enumerate() {
+            for (k, wk) in wb.iter().enumerate() {
+                c += wi * wk * cov(i as i64, k as i64 + offset);
             }
         }
         c

@@ -91,6 +91,18 @@ pub fn summarize(values: &[f64]) -> Result<Summary, CoreError> {
     })
 }
 
+/// Summary of the values that are defined (`None` marks a patient for whom
+/// the metric is undefined, e.g. a MAGE without any countable excursion);
+/// `Ok(None)` when no value is defined. `n` of the summary tells how many
+/// values it holds.
+pub fn summarize_present(values: &[Option<f64>]) -> Result<Option<Summary>, CoreError> {
+    let present: Vec<f64> = values.iter().flatten().copied().collect();
+    if present.is_empty() {
+        return Ok(None);
+    }
+    summarize(&present).map(Some)
+}
+
 /// Type-7 quantile of values already sorted ascending (not empty), p in [0, 1].
 pub fn quantile_sorted(sorted: &[f64], p: f64) -> f64 {
     let h = (sorted.len() - 1) as f64 * p.clamp(0.0, 1.0);
@@ -141,6 +153,37 @@ pub struct Wilcoxon {
     /// Pairs with a zero difference.
     #[serde(skip)]
     pub n_zero: usize,
+    /// Pairs left out because a value was undefined ([`wilcoxon_signed_rank_present`]).
+    #[serde(skip)]
+    pub n_incomplete: usize,
+}
+
+/// [`wilcoxon_signed_rank`] on the complete pairs only: a pair where either
+/// value is `None` (an undefined metric) is left out and counted in
+/// `n_incomplete`. Error when no pair is complete.
+pub fn wilcoxon_signed_rank_present(
+    first: &[Option<f64>],
+    second: &[Option<f64>],
+    options: WilcoxonOptions,
+) -> Result<Wilcoxon, CoreError> {
+    if first.len() != second.len() {
+        return Err(stats_error(
+            "Wilcoxon signed-rank test",
+            format!(
+                "paired samples differ in length: {} and {}",
+                first.len(),
+                second.len()
+            ),
+        ));
+    }
+    let (a, b): (Vec<f64>, Vec<f64>) = first
+        .iter()
+        .zip(second)
+        .filter_map(|(x, y)| Some(((*x)?, (*y)?)))
+        .unzip();
+    let mut w = wilcoxon_signed_rank(&a, &b, options)?;
+    w.n_incomplete = first.len() - a.len();
+    Ok(w)
 }
 
 /// Paired, two-sided Wilcoxon signed-rank test of `second − first` (e.g.
@@ -179,6 +222,7 @@ pub fn wilcoxon_signed_rank(
             w_minus: 0.0,
             n_nonzero,
             n_zero,
+            n_incomplete: 0,
         });
     }
     let ranked: Vec<f64> = match options.zero_method {
@@ -232,6 +276,7 @@ pub fn wilcoxon_signed_rank(
         w_minus,
         n_nonzero,
         n_zero,
+        n_incomplete: 0,
     })
 }
 
@@ -379,6 +424,31 @@ mod tests {
         assert_eq!((w.statistic, w.p), (0.0, 1.0));
         let json = serde_json::to_value(w).unwrap();
         assert_eq!(json, serde_json::json!({"statistic": 0.0, "p": 1.0}));
+    }
+
+    #[test]
+    fn undefined_values_are_left_out_and_counted() {
+        let s = summarize_present(&[Some(1.0), None, Some(3.0)])
+            .unwrap()
+            .unwrap();
+        assert_eq!((s.n, s.mean, s.median), (2, 2.0, 2.0));
+        assert_eq!(summarize_present(&[None, None]).unwrap(), None);
+        // The scipy example again, with two incomplete pairs added.
+        let d = [
+            6.0, 8.0, 14.0, 16.0, 23.0, 24.0, 28.0, 29.0, 41.0, -48.0, 49.0, 56.0, 60.0, -67.0,
+            75.0,
+        ];
+        let mut first: Vec<Option<f64>> = vec![Some(0.0); d.len()];
+        let mut second: Vec<Option<f64>> = d.iter().map(|&x| Some(x)).collect();
+        first.extend([None, Some(1.0)]);
+        second.extend([Some(5.0), None]);
+        let w = wilcoxon_signed_rank_present(&first, &second, WilcoxonOptions::default()).unwrap();
+        assert_eq!((w.statistic, w.n_nonzero, w.n_incomplete), (24.0, 15, 2));
+        close("p", 0.04088813291185591, w.p, 1e-12);
+        assert!(
+            wilcoxon_signed_rank_present(&[None], &[Some(1.0)], WilcoxonOptions::default())
+                .is_err()
+        );
     }
 
     #[test]

@@ -1,6 +1,8 @@
 //! The steady-state derivation reproduces the derived columns of the public
 //! table, and the primary / common / derived split covers every column.
 
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 use abba_sim::cohort::derive::{
     derive_steady_state, steady_state_residual, COMMON, DERIVED, PRIMARY,
 };

@@ -1,6 +1,8 @@
 //! Statistical and structural tests of the scenario generator (protocol.md §4)
 //! over many simulated days.
 
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 use abba_core::{MealSlot, MINUTES_PER_DAY};
 use abba_sim::scenario::{
     DayPlan, ScenarioConfig, ScenarioGenerator, ScenarioId, SmbgPurpose, DAY_MINUTES,

@@ -340,7 +340,7 @@ pub fn check_patient(
     let residual = derive::steady_state_residual(p)
         .iter()
         .fold(0.0f64, |m, v| m.max(v.abs()));
-    if !(residual < lim.steady_state_tolerance) {
+    if residual.is_nan() || residual >= lim.steady_state_tolerance {
         return fail(
             "not_steady",
             format!("max |dx/dt| = {residual:e} at the initial state"),

@@ -12,7 +12,11 @@ const PATIENTS: u64 = 100;
 fn days_of(id: ScenarioId) -> Vec<DayPlan> {
     let mut out = Vec::new();
     for p in 1..=PATIENTS {
-        out.extend(ScenarioGenerator::paper(id, TRIAL_SEED, p).unwrap().all_days());
+        out.extend(
+            ScenarioGenerator::paper(id, TRIAL_SEED, p)
+                .unwrap()
+                .all_days(),
+        );
     }
     out
 }
@@ -110,13 +114,20 @@ fn meal_times_and_sizes_are_uniform_in_their_ranges_with_the_papers_means() {
             size.push(m.carbs.0);
         }
         // Uniform on [c - h, c + h): SD = 2h/√12.
-        size.assert_mean(&format!("{slot:?} size (g)"), carbs, 2.0 * half / 12f64.sqrt());
+        size.assert_mean(
+            &format!("{slot:?} size (g)"),
+            carbs,
+            2.0 * half / 12f64.sqrt(),
+        );
         // Uniform integer on [-15, 15]: variance (31² - 1)/12 = 80.
         time.assert_mean(&format!("{slot:?} time offset (min)"), 0.0, 80f64.sqrt());
         let chi = chi_square_uniform(&offsets);
         // 30 degrees of freedom: P(chi² > 70) ≈ 5e-5.
         println!("{slot:?} time offsets: chi² = {chi:.1} (df 30, limit 70); counts {offsets:?}");
-        assert!(offsets.iter().all(|&c| c > 0), "every whole-minute offset occurs");
+        assert!(
+            offsets.iter().all(|&c| c > 0),
+            "every whole-minute offset occurs"
+        );
         assert!(chi < 70.0, "{slot:?} time offsets not uniform: chi² {chi}");
     }
 }
@@ -145,7 +156,9 @@ fn announced_carbs_are_actual_times_uniform_half_to_one_and_a_half() {
 fn s4_skips_exactly_two_main_meals_per_week_and_no_other_scenario_skips() {
     for id in [ScenarioId::S1, ScenarioId::S2, ScenarioId::S3] {
         assert!(
-            days_of(id).iter().all(|d| d.meals.iter().all(|m| !m.skipped)),
+            days_of(id)
+                .iter()
+                .all(|d| d.meals.iter().all(|m| !m.skipped)),
             "{id} skips a meal"
         );
     }
@@ -158,7 +171,11 @@ fn s4_skips_exactly_two_main_meals_per_week_and_no_other_scenario_skips() {
         assert_eq!(days.len(), 98);
         for (b, week) in days.chunks(7).enumerate() {
             assert_eq!(week.len(), 7);
-            assert_eq!(week[0].day_number() as usize, 7 * b + 1, "blocks start on D1, D8, ...");
+            assert_eq!(
+                week[0].day_number() as usize,
+                7 * b + 1,
+                "blocks start on D1, D8, ..."
+            );
             let mut skipped = 0;
             for (k, d) in week.iter().enumerate() {
                 for m in &d.meals {
@@ -179,7 +196,9 @@ fn s4_skips_exactly_two_main_meals_per_week_and_no_other_scenario_skips() {
     }
     // Each of the 21 positions is skipped with probability 2/21.
     let chi = chi_square_uniform(&position);
-    println!("skip positions over {blocks} blocks: chi² = {chi:.1} (df 20, limit 52); {position:?}");
+    println!(
+        "skip positions over {blocks} blocks: chi² = {chi:.1} (df 20, limit 52); {position:?}"
+    );
     assert!(chi < 52.0, "skip positions not uniform: chi² {chi}");
 }
 
@@ -213,7 +232,11 @@ fn sensitivity_follows_the_daily_factor_and_dawn_profile_until_day_90() {
             close(prof[5 * 60], 0.5 * f, "minute 05:00");
             close(prof[10 * 60], f, "minute 10:00");
             close(prof[0], f, "minute 00:00");
-            close(prof[240], f * (1.0 - 0.5 * 0.5 / 30.0), "minute 04:00 (mean over the minute)");
+            close(
+                prof[240],
+                f * (1.0 - 0.5 * 0.5 / 30.0),
+                "minute 04:00 (mean over the minute)",
+            );
             // The per-minute value is the mean of the continuous s over the minute.
             for m in [239usize, 240, 255, 269, 270, 449, 450, 465, 479, 480] {
                 let steps = 1000;
@@ -230,7 +253,11 @@ fn sensitivity_follows_the_daily_factor_and_dawn_profile_until_day_90() {
             assert!(prof.iter().all(|&v| v >= 0.5 * f - 1e-12 && v <= f + 1e-12));
         } else {
             assert_eq!(s.daily_factor, 1.0, "day {}", d.day_number());
-            assert!(prof.iter().all(|&v| v == 1.0), "day {}: s != 1", d.day_number());
+            assert!(
+                prof.iter().all(|&v| v == 1.0),
+                "day {}: s != 1",
+                d.day_number()
+            );
             assert_eq!(s.at(5.0 * 60.0), 1.0);
         }
     }
@@ -239,14 +266,20 @@ fn sensitivity_follows_the_daily_factor_and_dawn_profile_until_day_90() {
 
 #[test]
 fn smbg_is_20_min_before_meals_and_at_23_jittered_only_in_s3_s4() {
-    assert!(days_of(ScenarioId::S1).iter().all(|d| d.smbg.is_empty()), "S1 has no SMBG");
+    assert!(
+        days_of(ScenarioId::S1).iter().all(|d| d.smbg.is_empty()),
+        "S1 has no SMBG"
+    );
     for id in [ScenarioId::S2, ScenarioId::S3, ScenarioId::S4] {
         let jittered = id != ScenarioId::S2;
         let mut offsets = [0u64; 21];
         let mut jitter = Stats::new();
         for d in &days_of(id) {
             assert_eq!(d.smbg.len(), 4, "{id} day {}", d.day_number());
-            assert!(d.smbg.windows(2).all(|w| w[0].at <= w[1].at), "in time order");
+            assert!(
+                d.smbg.windows(2).all(|w| w[0].at <= w[1].at),
+                "in time order"
+            );
             for r in &d.smbg {
                 assert_eq!(r.at.day_index(), i64::from(d.day_index));
                 let nominal = match r.purpose {
@@ -273,7 +306,11 @@ fn smbg_is_20_min_before_meals_and_at_23_jittered_only_in_s3_s4() {
         }
         if jittered {
             // Uniform integer on [-10, 10]: variance (21² - 1)/12.
-            jitter.assert_mean(&format!("{id} SMBG jitter (min)"), 0.0, (440f64 / 12.0).sqrt());
+            jitter.assert_mean(
+                &format!("{id} SMBG jitter (min)"),
+                0.0,
+                (440f64 / 12.0).sqrt(),
+            );
             let chi = chi_square_uniform(&offsets);
             println!("{id} SMBG jitter: chi² = {chi:.1} (df 20, limit 52)");
             assert!(chi < 52.0);
@@ -287,7 +324,12 @@ fn cgm_is_worn_days_1_to_8_everywhere_and_throughout_in_s1() {
         let gen = ScenarioGenerator::paper(id, TRIAL_SEED, 3).unwrap();
         for d in gen.all_days() {
             let expect = id == ScenarioId::S1 || d.day_number() <= 8;
-            assert_eq!(d.cgm_period_min.is_some(), expect, "{id} day {}", d.day_number());
+            assert_eq!(
+                d.cgm_period_min.is_some(),
+                expect,
+                "{id} day {}",
+                d.day_number()
+            );
             if expect {
                 assert_eq!(d.cgm_period_min, Some(5));
                 assert!(d.cgm_sample_at(0) && d.cgm_sample_at(1435) && !d.cgm_sample_at(7));
@@ -311,9 +353,13 @@ fn a_day_plan_depends_only_on_seeds_and_day_index() {
     let short = ScenarioGenerator::new(cfg, 7, 12).unwrap().all_days();
     assert_eq!(short.as_slice(), &all[..10]);
     // Another patient, another trial seed: different days.
-    let other = ScenarioGenerator::paper(ScenarioId::S4, 7, 13).unwrap().day(5);
+    let other = ScenarioGenerator::paper(ScenarioId::S4, 7, 13)
+        .unwrap()
+        .day(5);
     assert_ne!(other.meals, all[5].meals);
-    let other = ScenarioGenerator::paper(ScenarioId::S4, 8, 12).unwrap().day(5);
+    let other = ScenarioGenerator::paper(ScenarioId::S4, 8, 12)
+        .unwrap()
+        .day(5);
     assert_ne!(other.meals, all[5].meals);
 }
 
@@ -343,7 +389,9 @@ fn paper_scenarios_share_their_days_except_for_what_the_protocol_changes() {
     let mut cfg = ScenarioConfig::paper(ScenarioId::S2);
     cfg.random_key = 2;
     let a = ScenarioGenerator::new(cfg, TRIAL_SEED, 1).unwrap().day(3);
-    let b = ScenarioGenerator::paper(ScenarioId::S2, TRIAL_SEED, 1).unwrap().day(3);
+    let b = ScenarioGenerator::paper(ScenarioId::S2, TRIAL_SEED, 1)
+        .unwrap()
+        .day(3);
     assert_ne!(a.meals, b.meals);
 }
 
@@ -389,19 +437,40 @@ fn invalid_configurations_are_rejected_naming_the_field() {
         f(&mut cfg);
         let err = ScenarioGenerator::new(cfg, 1, 1).unwrap_err().to_string();
         println!("{err}");
-        assert!(err.contains(field), "expected the error to name {field}: {err}");
+        assert!(
+            err.contains(field),
+            "expected the error to name {field}: {err}"
+        );
     };
     check(&|c| c.days = 0, "days");
     check(&|c| c.meals.announce_factor_min = -0.1, "announce_factor");
-    check(&|c| c.meals.meals[0].size_jitter = abba_core::Grams(60.0), "meals.meals[0] (breakfast)");
-    check(&|c| c.meals.meals[3].minute_of_day = 1430, "meals.meals[3] (snack)");
-    check(&|c| c.meals.meals[3].announced = true, "meals.meals[3] (snack)");
+    check(
+        &|c| c.meals.meals[0].size_jitter = abba_core::Grams(60.0),
+        "meals.meals[0] (breakfast)",
+    );
+    check(
+        &|c| c.meals.meals[3].minute_of_day = 1430,
+        "meals.meals[3] (snack)",
+    );
+    check(
+        &|c| c.meals.meals[3].announced = true,
+        "meals.meals[3] (snack)",
+    );
     check(&|c| c.meals.meals.swap(0, 1), "meals.meals[1]");
     check(&|c| c.skip.as_mut().unwrap().from_day = 9, "skip.from_day");
-    check(&|c| c.skip.as_mut().unwrap().per_block = 22, "skip.per_block");
-    check(&|c| c.sensitivity.daily_factor_max = 0.5, "sensitivity.daily_factor");
+    check(
+        &|c| c.skip.as_mut().unwrap().per_block = 22,
+        "skip.per_block",
+    );
+    check(
+        &|c| c.sensitivity.daily_factor_max = 0.5,
+        "sensitivity.daily_factor",
+    );
     check(&|c| c.sensitivity.dawn_ramp_min = 200, "sensitivity.dawn");
-    check(&|c| c.smbg.as_mut().unwrap().bedtime_min = 1435, "smbg.bedtime_min");
+    check(
+        &|c| c.smbg.as_mut().unwrap().bedtime_min = 1435,
+        "smbg.bedtime_min",
+    );
     check(&|c| c.cgm.period_min = 7, "cgm.period_min");
     assert!("s3".parse::<ScenarioId>().unwrap() == ScenarioId::S3);
     assert!("S5".parse::<ScenarioId>().is_err());
@@ -413,7 +482,9 @@ fn skip_blocks_can_start_later() {
     cfg.skip.as_mut().unwrap().from_day = 15;
     let gen = ScenarioGenerator::new(cfg, 3, 4).unwrap();
     let days = gen.all_days();
-    let paper = ScenarioGenerator::paper(ScenarioId::S4, 3, 4).unwrap().all_days();
+    let paper = ScenarioGenerator::paper(ScenarioId::S4, 3, 4)
+        .unwrap()
+        .all_days();
     for (k, d) in days.iter().enumerate() {
         let n = d.meals.iter().filter(|m| m.skipped).count();
         if k < 14 {

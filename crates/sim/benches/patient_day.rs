@@ -11,9 +11,10 @@ fn patient_day(c: &mut Criterion) {
     let day = InputDay::standard(&params, 10.0);
     let mut group = c.benchmark_group("patient_day");
     for (label, solver) in [
-        ("rk4_h1", Solver { substeps: 1 }),
-        ("rk4_h1/2_default", Solver::DEFAULT),
-        ("rk4_h1/4", Solver { substeps: 4 }),
+        ("rk4_h1", Solver::fixed(1)),
+        ("rk4_h1/2", Solver::fixed(2)),
+        ("default_gut_adaptive", Solver::DEFAULT),
+        ("rk4_h1/4", Solver::fixed(4)),
     ] {
         let start = Patient::with_solver(params.clone(), solver).expect("valid patient");
         group.bench_function(label, |b| {

@@ -1,5 +1,5 @@
-//! Prints the largest plasma-glucose error of RK4 with 1, 2 and 4 sub-steps
-//! per minute against RK4 with 64 sub-steps, for every public patient on
+//! Prints the largest plasma-glucose error of RK4 with 1, 2, 4 and 8 sub-steps
+//! per minute and of the default gut-adaptive solver against RK4 with 64 sub-steps, for every public patient on
 //! every built-in hard day. Used for the accuracy table in BENCHMARKS.md:
 //! `cargo run --release -p abba-sim --example solver_accuracy`.
 
@@ -9,11 +9,18 @@ use abba_sim::patient::{Patient, PatientParams, QuestRow, Solver};
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let patients = PatientParams::all_public()?;
     println!(
-        "{:<20} {:>12} {:>12} {:>12}  worst case (h=1 min)",
-        "day", "h=1", "h=1/2", "h=1/4"
+        "{:<20} {:>10} {:>10} {:>10} {:>10} {:>10}  worst case (h=1 min)",
+        "day", "h=1", "h=1/2", "h=1/4", "default", "h=1/8"
     );
+    let solvers = [
+        Solver::fixed(1),
+        Solver::fixed(2),
+        Solver::fixed(4),
+        Solver::DEFAULT,
+        Solver::fixed(8),
+    ];
     for day_name in hard_days::NAMES {
-        let mut worst = [0.0f64; 3];
+        let mut worst = [0.0f64; 5];
         let mut worst_who = String::new();
         for p in &patients {
             let cr = QuestRow::for_patient(&p.name)?.cr;
@@ -22,11 +29,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 &mut Patient::with_solver(p.clone(), Solver::REFERENCE)?,
                 1.0,
             )?;
-            for (k, n) in [1u32, 2, 4].into_iter().enumerate() {
-                let bg = day.simulate(
-                    &mut Patient::with_solver(p.clone(), Solver { substeps: n })?,
-                    1.0,
-                )?;
+            for (k, solver) in solvers.iter().enumerate() {
+                let bg = day.simulate(&mut Patient::with_solver(p.clone(), *solver)?, 1.0)?;
                 let err = bg
                     .iter()
                     .zip(&reference)
@@ -41,8 +45,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
         }
         println!(
-            "{:<20} {:>12.2e} {:>12.2e} {:>12.2e}  {}",
-            day_name, worst[0], worst[1], worst[2], worst_who
+            "{:<20} {:>10.2e} {:>10.2e} {:>10.2e} {:>10.2e} {:>10.2e}  {}",
+            day_name, worst[0], worst[1], worst[2], worst[3], worst[4], worst_who
         );
     }
     Ok(())

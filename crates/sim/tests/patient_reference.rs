@@ -1,5 +1,7 @@
 //! The patient model against simglucose's reference day for adult#001.
 
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 use abba_sim::patient::{Patient, PatientParams, Solver};
 
 struct Row {
@@ -16,7 +18,12 @@ fn reference() -> Vec<Row> {
         .map(|r| {
             let r = r.unwrap();
             let f = |i: usize| r[i].parse::<f64>().unwrap_or(0.0);
-            Row { minute: r[0].parse().unwrap(), bg: f(1), cho: f(2), insulin: f(3) }
+            Row {
+                minute: r[0].parse().unwrap(),
+                bg: f(1),
+                cho: f(2),
+                insulin: f(3),
+            }
         })
         .collect()
 }
@@ -42,7 +49,10 @@ fn max_error(solver: Solver) -> (f64, i64) {
 fn default_solver_reproduces_simglucose_within_0_05_mg_dl() {
     let (err, at) = max_error(Solver::DEFAULT);
     println!("default solver: max |G - G_ref| = {err:.2e} mg/dL at minute {at}");
-    assert!(err < 0.05, "max error {err} mg/dL at minute {at} (expected < 0.05)");
+    assert!(
+        err < 0.05,
+        "max error {err} mg/dL at minute {at} (expected < 0.05)"
+    );
 }
 
 #[test]
@@ -60,12 +70,19 @@ fn dbar_and_states_follow_the_reference() {
     let mut rdr = csv::Reader::from_reader(text.as_bytes());
     let rows: Vec<Vec<f64>> = rdr
         .records()
-        .map(|r| r.unwrap().iter().map(|s| s.parse::<f64>().unwrap_or(f64::NAN)).collect())
+        .map(|r| {
+            r.unwrap()
+                .iter()
+                .map(|s| s.parse::<f64>().unwrap_or(f64::NAN))
+                .collect()
+        })
         .collect();
     let inputs = reference();
-    let mut p =
-        Patient::with_solver(PatientParams::public("adult#001").unwrap(), Solver::REFERENCE)
-            .unwrap();
+    let mut p = Patient::with_solver(
+        PatientParams::public("adult#001").unwrap(),
+        Solver::REFERENCE,
+    )
+    .unwrap();
     for (row, input) in rows.iter().zip(&inputs) {
         let x = p.state_array();
         for k in 0..13 {

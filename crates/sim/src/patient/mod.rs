@@ -53,8 +53,15 @@ impl Patient {
     /// Like [`Patient::new`] with a chosen solver.
     pub fn with_solver(params: PatientParams, solver: Solver) -> Result<Self, SimError> {
         params.validate()?;
-        if solver.substeps == 0 {
-            return Err(SimError::Config("solver substeps must be >= 1".into()));
+        if solver.substeps == 0 || solver.busy_substeps == 0 {
+            return Err(SimError::Config(
+                "solver sub-steps per minute must be >= 1".into(),
+            ));
+        }
+        if !(solver.tanh_window.is_finite() && solver.tanh_window >= 0.0) {
+            return Err(SimError::Config(
+                "solver tanh_window must be a finite number >= 0".into(),
+            ));
         }
         Ok(Self {
             consts: ModelConsts::from_params(&params),
@@ -114,10 +121,13 @@ impl Patient {
         insulin_u_per_min: f64,
         sensitivity: f64,
     ) -> Result<(), SimError> {
-        if !(cho_g_per_min.is_finite() && cho_g_per_min >= 0.0)
-            || !(insulin_u_per_min.is_finite() && insulin_u_per_min >= 0.0)
-            || !(sensitivity.is_finite() && sensitivity > 0.0)
-        {
+        let ok = cho_g_per_min.is_finite()
+            && cho_g_per_min >= 0.0
+            && insulin_u_per_min.is_finite()
+            && insulin_u_per_min >= 0.0
+            && sensitivity.is_finite()
+            && sensitivity > 0.0;
+        if !ok {
             return Err(self.bad_input(cho_g_per_min, insulin_u_per_min, sensitivity));
         }
         // Eating-episode bookkeeping (§1.4): an episode starts when eating
@@ -158,6 +168,10 @@ impl Patient {
         } else {
             format!("insulin sensitivity must be a finite number > 0, got {s}")
         };
-        SimError::InvalidInput { patient: self.params.name.clone(), minute: self.minute, reason }
+        SimError::InvalidInput {
+            patient: self.params.name.clone(),
+            minute: self.minute,
+            reason,
+        }
     }
 }

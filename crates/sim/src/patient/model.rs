@@ -102,6 +102,10 @@ pub struct ModelConsts {
     pub ki: f64,
     /// ksc (1/min).
     pub ksc: f64,
+    /// f·kabs/BW, the factor from Qgut to Ra (1/(kg·min)).
+    pub ra_per_q_gut: f64,
+    /// 1/Vi (kg/L).
+    pub inv_vi: f64,
 }
 
 impl ModelConsts {
@@ -138,6 +142,8 @@ impl ModelConsts {
             p2u: p.p2u,
             ki: p.ki,
             ksc: p.ksc,
+            ra_per_q_gut: p.f * p.kabs / p.bw,
+            inv_vi: 1.0 / p.vi,
         }
     }
 }
@@ -153,6 +159,10 @@ pub struct MinuteInput {
     pub dbar_mg: f64,
     /// Insulin-sensitivity multiplier s(t) on Vmx and kp3 (1 = nominal).
     pub sensitivity: f64,
+    /// Slope α of the first tanh of kempt, 5/(2·Dbar·(1−b)) (1/mg); 0 if Dbar = 0.
+    pub alpha: f64,
+    /// Slope β of the second tanh of kempt, 5/(2·Dbar·d) (1/mg); 0 if Dbar = 0.
+    pub beta: f64,
 }
 
 impl MinuteInput {
@@ -164,11 +174,21 @@ impl MinuteInput {
         dbar_mg: f64,
         sensitivity: f64,
     ) -> Self {
+        let (alpha, beta) = if dbar_mg > 0.0 {
+            (
+                5.0 / (2.0 * dbar_mg * (1.0 - c.b)),
+                5.0 / (2.0 * dbar_mg * c.d),
+            )
+        } else {
+            (0.0, 0.0)
+        };
         Self {
             meal_mg_per_min: MG_PER_G * cho_g_per_min,
             insulin_pmol_per_kg_min: insulin_u_per_min * PMOL_PER_UNIT / c.bw,
             dbar_mg,
             sensitivity,
+            alpha,
+            beta,
         }
     }
 }
@@ -176,13 +196,12 @@ impl MinuteInput {
 /// The gastric emptying rate kempt(Qsto, Dbar) (DM07 eq. 7; simglucose's
 /// "kgut"). With Dbar = 0 it is kmax.
 #[inline]
-pub fn k_empt(c: &ModelConsts, q_sto: f64, dbar_mg: f64) -> f64 {
-    if dbar_mg > 0.0 {
-        let alpha = 5.0 / (2.0 * dbar_mg * (1.0 - c.b));
-        let beta = 5.0 / (2.0 * dbar_mg * c.d);
+pub fn k_empt(c: &ModelConsts, u: &MinuteInput, q_sto: f64) -> f64 {
+    if u.dbar_mg > 0.0 {
         c.kmin
             + (c.kmax - c.kmin) / 2.0
-                * ((alpha * (q_sto - c.b * dbar_mg)).tanh() - (beta * (q_sto - c.d * dbar_mg)).tanh()
+                * ((u.alpha * (q_sto - c.b * u.dbar_mg)).tanh()
+                    - (u.beta * (q_sto - c.d * u.dbar_mg)).tanh()
                     + 2.0)
     } else {
         c.kmax
@@ -201,24 +220,32 @@ pub fn derivatives(c: &ModelConsts, u: &MinuteInput, x: &[f64; 13]) -> [f64; 13]
     // Gastrointestinal tract (DM07 eqs. 4-8). Grinding kgri = kmax.
     let q_sto = x[Q_STO1] + x[Q_STO2];
     // kempt only multiplies Qsto2; skip the two tanh when it is exactly zero.
-    let kempt = if x[Q_STO2] == 0.0 { c.kmax } else { k_empt(c, q_sto, u.dbar_mg) };
+    let kempt = if x[Q_STO2] == 0.0 {
+        c.kmax
+    } else {
+        k_empt(c, u, q_sto)
+    };
     dx[Q_STO1] = -c.kmax * x[Q_STO1] + u.meal_mg_per_min;
     dx[Q_STO2] = c.kmax * x[Q_STO1] - kempt * x[Q_STO2];
     dx[Q_GUT] = kempt * x[Q_STO2] - c.kabs * x[Q_GUT];
-    let ra = c.f * c.kabs * x[Q_GUT] / c.bw; // rate of appearance (mg/kg/min)
+    let ra = c.ra_per_q_gut * x[Q_GUT]; // rate of appearance f·kabs·Qgut/BW (mg/kg/min)
 
     // Glucose subsystem (DM07 eqs. 1, 10-15 without the portal term).
     // s(t) scales the insulin actions on EGP (kp3) and utilisation (Vmx).
     let egp = c.kp1 - c.kp2 * x[GP] - u.sensitivity * c.kp3 * x[ID];
     let uii = c.fsnc;
-    let renal = if x[GP] > c.ke2 { c.ke1 * (x[GP] - c.ke2) } else { 0.0 };
+    let renal = if x[GP] > c.ke2 {
+        c.ke1 * (x[GP] - c.ke2)
+    } else {
+        0.0
+    };
     dx[GP] = egp.max(0.0) + ra - uii - renal - c.k1 * x[GP] + c.k2 * x[GT];
     let uid = (c.vm0 + u.sensitivity * c.vmx * x[X]) * x[GT] / (c.km0 + x[GT]);
     dx[GT] = -uid + c.k1 * x[GP] - c.k2 * x[GT];
 
     // Insulin subsystem (DM07 eqs. 2-3, 17-21; Kovatchev 2009 s.c. route).
     dx[IP] = -(c.m2 + c.m4) * x[IP] + c.m1 * x[IL] + c.ka1 * x[ISC1] + c.ka2 * x[ISC2];
-    let plasma_insulin = x[IP] / c.vi; // I (pmol/L)
+    let plasma_insulin = x[IP] * c.inv_vi; // I = Ip/Vi (pmol/L)
     dx[X] = -c.p2u * x[X] + c.p2u * (plasma_insulin - c.ib);
     dx[I1] = -c.ki * (x[I1] - plasma_insulin);
     dx[ID] = -c.ki * (x[ID] - x[I1]);

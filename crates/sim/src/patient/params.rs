@@ -147,13 +147,19 @@ impl PatientParams {
         record: &csv::StringRecord,
         line: u64,
     ) -> Result<Self, SimError> {
-        let err = |reason: String| SimError::Table { table: table.to_string(), line, reason };
+        let err = |reason: String| SimError::Table {
+            table: table.to_string(),
+            line,
+            reason,
+        };
         let get = |col: &str| -> Result<&str, SimError> {
             let idx = header
                 .iter()
                 .position(|h| h == col)
                 .ok_or_else(|| err(format!("missing column '{col}'")))?;
-            record.get(idx).ok_or_else(|| err(format!("row has no value for column '{col}'")))
+            record
+                .get(idx)
+                .ok_or_else(|| err(format!("row has no value for column '{col}'")))
         };
         let num = |col: &str| -> Result<f64, SimError> {
             let s = get(col)?;
@@ -162,7 +168,9 @@ impl PatientParams {
                 .parse()
                 .map_err(|_| err(format!("column '{col}': expected a number, got '{s}'")))?;
             if !v.is_finite() {
-                return Err(err(format!("column '{col}': expected a finite number, got '{s}'")));
+                return Err(err(format!(
+                    "column '{col}': expected a finite number, got '{s}'"
+                )));
             }
             Ok(v)
         };
@@ -171,10 +179,11 @@ impl PatientParams {
             return Err(err("column 'Name' is empty".into()));
         }
         let i_str = get("i")?;
-        let i: u32 = i_str
-            .trim()
-            .parse()
-            .map_err(|_| err(format!("column 'i': expected a non-negative integer, got '{i_str}'")))?;
+        let i: u32 = i_str.trim().parse().map_err(|_| {
+            err(format!(
+                "column 'i': expected a non-negative integer, got '{i_str}'"
+            ))
+        })?;
         let mut x0 = [0.0; N_STATES];
         for (k, col) in X0_COLUMNS.iter().enumerate() {
             x0[k] = num(col)?;
@@ -190,7 +199,7 @@ impl PatientParams {
     }
 
     fn zeroed(name: String, i: u32, x0: [f64; N_STATES]) -> Self {
-        let mut p = PatientParams {
+        PatientParams {
             name,
             i,
             x0,
@@ -241,23 +250,30 @@ impl PatientParams {
             isc2ss: 0.0,
             kp1: 0.0,
             patient_history: 0.0,
-        };
-        p.patient_history = 0.0;
-        p
+        }
     }
 
     /// Reads a whole parameter table (CSV text with the 62 columns).
     pub fn read_table(table: &str, csv_text: &str) -> Result<Vec<PatientParams>, SimError> {
-        let mut rdr = csv::ReaderBuilder::new().has_headers(true).from_reader(csv_text.as_bytes());
+        let mut rdr = csv::ReaderBuilder::new()
+            .has_headers(true)
+            .from_reader(csv_text.as_bytes());
         let header = rdr
             .headers()
-            .map_err(|e| SimError::Table { table: table.into(), line: 1, reason: e.to_string() })?
+            .map_err(|e| SimError::Table {
+                table: table.into(),
+                line: 1,
+                reason: e.to_string(),
+            })?
             .clone();
         let mut out = Vec::new();
         for (k, rec) in rdr.records().enumerate() {
             let line = k as u64 + 2;
-            let rec = rec
-                .map_err(|e| SimError::Table { table: table.into(), line, reason: e.to_string() })?;
+            let rec = rec.map_err(|e| SimError::Table {
+                table: table.into(),
+                line,
+                reason: e.to_string(),
+            })?;
             let p = PatientParams::from_record(table, &header, &rec, line)?;
             p.validate()?;
             out.push(p);
@@ -274,10 +290,17 @@ impl PatientParams {
     pub fn public(name: &str) -> Result<PatientParams, SimError> {
         let all = Self::all_public()?;
         let names: Vec<String> = all.iter().map(|p| p.name.clone()).collect();
-        all.into_iter().find(|p| p.name == name).ok_or_else(|| SimError::UnknownPatient {
-            name: name.to_string(),
-            known: format!("{} .. {} ({} patients)", names[0], names[names.len() - 1], names.len()),
-        })
+        all.into_iter()
+            .find(|p| p.name == name)
+            .ok_or_else(|| SimError::UnknownPatient {
+                name: name.to_string(),
+                known: format!(
+                    "{} .. {} ({} patients)",
+                    names[0],
+                    names[names.len() - 1],
+                    names.len()
+                ),
+            })
     }
 
     /// Checks every parameter the model reads: finite, and positive where
@@ -402,9 +425,13 @@ impl QuestRow {
 
     /// The Quest row of a public patient.
     pub fn for_patient(name: &str) -> Result<QuestRow, SimError> {
-        Self::all()?.into_iter().find(|q| q.name == name).ok_or_else(|| {
-            SimError::UnknownPatient { name: name.into(), known: "the 30 public patients".into() }
-        })
+        Self::all()?
+            .into_iter()
+            .find(|q| q.name == name)
+            .ok_or_else(|| SimError::UnknownPatient {
+                name: name.into(),
+                known: "the 30 public patients".into(),
+            })
     }
 }
 
@@ -440,9 +467,18 @@ mod tests {
 
     #[test]
     fn bad_value_names_line_and_column() {
-        let mut text = PUBLIC_TABLE_CSV.lines().take(3).collect::<Vec<_>>().join("\n");
+        let mut text = PUBLIC_TABLE_CSV
+            .lines()
+            .take(3)
+            .collect::<Vec<_>>()
+            .join("\n");
         text = text.replacen("68.706", "abc", 1);
-        let e = PatientParams::read_table("t.csv", &text).unwrap_err().to_string();
-        assert!(e.contains("line 2") && e.contains("BW") && e.contains("abc"), "{e}");
+        let e = PatientParams::read_table("t.csv", &text)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("line 2") && e.contains("BW") && e.contains("abc"),
+            "{e}"
+        );
     }
 }

@@ -1,3 +1,4 @@
 //! The paper's in-silico trial: closed loop, runner, statistics and report.
 
+pub mod results;
 pub mod stats;

@@ -3,10 +3,10 @@
 //! The report is computed from these alone.
 
 use abba_core::metrics::GlucoseMetrics;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
 /// One evaluation window of one patient in one arm.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct WeekResult {
     /// `W1`..`W12` (Wk = D(7k−5)..D(7k+1)), then the paper's `W13` (D84-D90) and `W14` (D92-D98).
     pub week: String,
@@ -21,7 +21,7 @@ pub struct WeekResult {
 }
 
 /// One patient's run in one arm.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PatientResult {
     /// Patient name (e.g. `adult#001`).
     pub patient: String,
@@ -50,7 +50,7 @@ impl PatientResult {
 }
 
 /// All patients of one scenario × advisor arm.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ArmResult {
     /// `S1`..`S4`.
     pub scenario: String,

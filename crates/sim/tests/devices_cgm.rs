@@ -507,14 +507,18 @@ fn measures_only_at_multiples_of_the_sample_time() {
     let cfg = CgmConfig::protocol().unwrap();
     let mut a = CgmSensor::new(cfg.clone(), 5).unwrap();
     let mut b = CgmSensor::new(cfg, 5).unwrap();
+    assert_eq!(a.last_reading(), None);
+    let mut held = None;
     for minute in 0..300 {
         let got = a.measure(Timestamp(minute), MgDl(150.0)).unwrap();
         if minute % 5 == 0 {
             let expected = b.read(MgDl(150.0)).unwrap();
             assert_eq!(got, Some(expected), "minute {minute}");
+            held = got;
         } else {
             assert_eq!(got, None, "minute {minute}");
         }
+        assert_eq!(a.last_reading(), held, "minute {minute}");
     }
 }
 

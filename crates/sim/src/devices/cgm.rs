@@ -41,6 +41,7 @@ use abba_core::{MgDl, Timestamp};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
+use serde::{Deserialize, Serialize};
 
 /// The sensor parameter table (simglucose's `sensor_params.csv`).
 const SENSOR_TABLE: &str = include_str!("../../../../data/uva-padova/sensor_params.csv");
@@ -68,7 +69,7 @@ pub const PROTOCOL_SAMPLE_TIME_MIN: u32 = 5;
 
 /// The Johnson SU transform η = ξ + λ·sinh((e − γ)/δ) that turns the
 /// latent normal process into the sensor error in mg/dL.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct JohnsonSu {
     /// γ, shape (dimensionless); γ < 0 makes the error right-skewed.
     pub gamma: f64,
@@ -89,7 +90,7 @@ impl JohnsonSu {
 }
 
 /// Everything that defines a CGM sensor model.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CgmConfig {
     /// Model name (a row of `sensor_params.csv`, or a user's label).
     pub name: String,
@@ -289,13 +290,18 @@ impl CgmNoise {
 pub struct CgmSensor {
     config: CgmConfig,
     noise: CgmNoise,
+    last: Option<MgDl>,
 }
 
 impl CgmSensor {
     /// A sensor of model `config` with its own noise seed.
     pub fn new(config: CgmConfig, seed: u64) -> Result<Self, SimError> {
         let noise = CgmNoise::new(&config, seed)?;
-        Ok(Self { config, noise })
+        Ok(Self {
+            config,
+            noise,
+            last: None,
+        })
     }
 
     /// The sensor's configuration.
@@ -323,9 +329,16 @@ impl CgmSensor {
             });
         }
         let noise_mg_dl = self.noise.next_sample();
-        Ok(MgDl(
-            (gs.0 + noise_mg_dl).clamp(self.config.min_mg_dl, self.config.max_mg_dl),
-        ))
+        let reading =
+            MgDl((gs.0 + noise_mg_dl).clamp(self.config.min_mg_dl, self.config.max_mg_dl));
+        self.last = Some(reading);
+        Ok(reading)
+    }
+
+    /// The most recent reading (what the receiver shows between samples,
+    /// a zero-order hold as in simglucose), or `None` before the first.
+    pub fn last_reading(&self) -> Option<MgDl> {
+        self.last
     }
 
     /// A reading at `at` if `at` is a sample time, else `None` (and no noise

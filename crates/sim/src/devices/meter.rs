@@ -21,9 +21,10 @@ use abba_core::MgDl;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
+use serde::{Deserialize, Serialize};
 
 /// The meter's error model and range.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct MeterConfig {
     /// Error SD below the threshold, mg/dL (default 7.5).
     pub sd_below_threshold_mg_dl: f64,

@@ -42,6 +42,7 @@ use crate::devices::table::Table;
 use crate::error::SimError;
 use abba_core::units::MINUTES_PER_HOUR;
 use abba_core::{Event, EventKind, Timestamp, Units, UnitsPerHour};
+use serde::{Deserialize, Serialize};
 
 /// The pump parameter table (simglucose's `pump_params.csv`).
 const PUMP_TABLE: &str = include_str!("../../../../data/uva-padova/pump_params.csv");
@@ -62,7 +63,7 @@ const PUMP_COLUMNS: &[&str] = &[
 const SNAP: f64 = 1e-9;
 
 /// The pump's increments, limits and delivery speed.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PumpConfig {
     /// A label for messages.
     pub name: String,
@@ -211,7 +212,7 @@ impl PumpConfig {
 
 /// What the pump made of a bolus request.
 #[must_use = "a capped or rounded bolus should be logged"]
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct BolusOutcome {
     /// What was asked for.
     pub requested: Units,
@@ -225,7 +226,7 @@ pub struct BolusOutcome {
 
 /// What the pump made of a basal-rate request.
 #[must_use = "a capped or rounded basal rate should be logged"]
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct BasalOutcome {
     /// What was asked for.
     pub requested: UnitsPerHour,
@@ -238,7 +239,7 @@ pub struct BasalOutcome {
 }
 
 /// Insulin delivered so far, split by kind.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct DeliveryTotals {
     /// Bolus insulin delivered.
     pub bolus: Units,

@@ -296,6 +296,12 @@ fn quantise(requested: f64, per: u64, max: u64, rounding: Rounding) -> (u64, boo
 
 /// An insulin pump with its own clock and device log.
 ///
+/// Per simulated minute: first apply the person's requests
+/// ([`set_basal`](Self::set_basal), [`request_bolus`](Self::request_bolus);
+/// they are logged at [`now`](Self::now)), then call
+/// [`insulin_for_minute`](Self::insulin_for_minute) once for the insulin
+/// rate over that minute (a bolus programmed at minute t starts at t).
+///
 /// ```
 /// use abba_core::{Timestamp, Units, UnitsPerHour};
 /// use abba_sim::devices::pump::{Pump, PumpConfig};

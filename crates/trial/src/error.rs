@@ -65,4 +65,34 @@ pub enum TrialError {
         /// The plotting backend's error, as text.
         reason: String,
     },
+    /// The simulator failed (bad configuration, non-finite state, ...).
+    #[error("{context}: {source}")]
+    Sim {
+        /// Which patient, arm and scenario.
+        context: String,
+        /// The simulator's error.
+        #[source]
+        source: abba_sim::SimError,
+    },
+    /// The advisor rejected an event or its configuration.
+    #[error("{context}: {source}")]
+    Advisor {
+        /// Which patient, arm and scenario.
+        context: String,
+        /// The advisor's error.
+        #[source]
+        source: abba_advisor::AdvisorError,
+    },
+    /// A metric could not be computed for a patient's evaluation week.
+    #[error("{context}: {source}")]
+    Metric {
+        /// Which patient, arm, scenario and week.
+        context: String,
+        /// The core error.
+        #[source]
+        source: CoreError,
+    },
+    /// The trial configuration is invalid.
+    #[error("invalid trial configuration: {0}")]
+    Config(String),
 }

@@ -1,7 +1,11 @@
 //! The paper's in-silico trial: closed loop, runner, statistics and report.
 
+pub mod closed_loop;
 pub mod error;
+pub mod protocol;
 pub mod results;
+pub mod runner;
 pub mod stats;
 
 pub use error::TrialError;
+pub use protocol::{ArmKind, TrialConfig};

@@ -71,8 +71,9 @@ impl ArmResult {
 
 /// The evaluation windows: (name, first day, last day), days 1-based inclusive.
 pub fn evaluation_windows() -> Vec<(String, u32, u32)> {
-    let mut w: Vec<(String, u32, u32)> =
-        (1..=12).map(|k| (format!("W{k}"), 7 * k - 5, 7 * k + 1)).collect();
+    let mut w: Vec<(String, u32, u32)> = (1..=12)
+        .map(|k| (format!("W{k}"), 7 * k - 5, 7 * k + 1))
+        .collect();
     w.push(("W13".into(), 84, 90));
     w.push(("W14".into(), 92, 98));
     w

@@ -1,0 +1,346 @@
+//! One patient in one arm of one scenario, minute by minute
+//! (`spec/architecture.md`, "The closed loop").
+//!
+//! Per minute: the scenario says what the person does; readings are taken
+//! from the state at the start of the minute (CGM from subcutaneous glucose,
+//! the meter from plasma glucose); a meal is announced to the advisor,
+//! which may update that meal's carb ratio; the person boluses announced
+//! carbs / carb ratio; the pump quantises and delivers; the patient model
+//! advances one minute. Device events go to the advisor from D2 on, and its
+//! answers change the pump's basal rate and the next boluses. Plasma glucose
+//! is sampled every 5 min for evaluation only and never shown to the
+//! advisor.
+
+use crate::error::TrialError;
+use crate::protocol::{ArmKind, TrialConfig};
+use crate::results::{evaluation_windows, PatientResult, WeekResult};
+use abba_advisor::any::{AdvisorSpec, AnyAdvisor};
+use abba_advisor::{Advisor, Mode};
+use abba_core::metrics::metrics_regular;
+use abba_core::{
+    derive_seed, Event, EventKind, MgDl, Stream, TherapySettings, Timestamp, Units, MINUTES_PER_DAY,
+};
+use abba_sim::cohort::VirtualPatient;
+use abba_sim::devices::cgm::{CgmConfig, CgmSensor};
+use abba_sim::devices::meter::{MeterConfig, SmbgMeter};
+use abba_sim::devices::pump::{Pump, PumpConfig};
+use abba_sim::patient::{EatingQueue, Patient};
+use abba_sim::scenario::{ScenarioConfig, ScenarioGenerator, SmbgPurpose};
+
+/// Minutes between evaluation samples of plasma glucose.
+pub const EVAL_PERIOD_MIN: usize = 5;
+const SAMPLES_PER_DAY: usize = MINUTES_PER_DAY as usize / EVAL_PERIOD_MIN;
+
+/// Builds the advisor of an arm for one scenario.
+pub fn advisor_spec(config: &TrialConfig, arm: ArmKind, mode: Mode) -> AdvisorSpec {
+    match arm {
+        ArmKind::Abba => {
+            let mut c = config.abba.clone();
+            c.mode = mode;
+            c.init_days = config.init_days;
+            AdvisorSpec::Abba(c)
+        }
+        ArmKind::Standard => AdvisorSpec::Fixed {
+            limits: config.fixed_limits.clone(),
+        },
+        ArmKind::R2r => {
+            let mut c = config.r2r.clone();
+            c.mode = mode;
+            c.init_days = config.init_days;
+            AdvisorSpec::RunToRun(c)
+        }
+    }
+}
+
+/// The device models of the trial.
+pub fn devices(config: &TrialConfig) -> Result<(CgmConfig, MeterConfig, PumpConfig), TrialError> {
+    let d = &config.devices;
+    let sim = |source| TrialError::Sim {
+        context: "device configuration".into(),
+        source,
+    };
+    let cgm = CgmConfig::from_table(&d.cgm_model)
+        .and_then(|c| c.with_sample_time(d.cgm_sample_time_min))
+        .map_err(sim)?;
+    let meter = MeterConfig {
+        sd_below_threshold_mg_dl: d.meter_sd_below_mg_dl,
+        sd_fraction_from_threshold: d.meter_sd_fraction_above,
+        ..MeterConfig::default()
+    };
+    meter.validate().map_err(sim)?;
+    let pump = PumpConfig {
+        bolus_increment_u: d.pump_bolus_step_u,
+        basal_increment_u_per_h: d.pump_basal_step_u_per_h,
+        max_bolus_u: d.pump_max_bolus_u,
+        max_basal_u_per_h: d.pump_max_basal_u_per_h,
+        bolus_speed_u_per_min: d.pump_bolus_speed_u_per_min,
+        ..PumpConfig::default()
+    };
+    pump.validate().map_err(sim)?;
+    Ok((cgm, meter, pump))
+}
+
+/// Runs one patient (number `patient_no` in its cohort, 1-based) through
+/// one scenario in one arm.
+pub fn run_patient(
+    config: &TrialConfig,
+    vp: &VirtualPatient,
+    patient_no: u64,
+    scenario: &ScenarioConfig,
+    arm: ArmKind,
+) -> Result<PatientResult, TrialError> {
+    let context = format!("{} {}/{}", vp.params.name, scenario.name, arm.name());
+    let sim = |source| TrialError::Sim {
+        context: context.clone(),
+        source,
+    };
+    let adv = |source| TrialError::Advisor {
+        context: context.clone(),
+        source,
+    };
+
+    let mode = TrialConfig::mode_for(scenario);
+    let generator =
+        ScenarioGenerator::new(scenario.clone(), config.seed, patient_no).map_err(sim)?;
+    let seeds = *generator.seeds();
+    let (cgm_cfg, meter_cfg, pump_cfg) = devices(config)?;
+    let mut cgm = CgmSensor::new(cgm_cfg, seeds.cgm_noise).map_err(sim)?;
+    let mut meter = SmbgMeter::new(meter_cfg, seeds.meter_noise).map_err(sim)?;
+    let mut pump = Pump::new(pump_cfg, Timestamp(0)).map_err(sim)?;
+    let mut patient = Patient::new(vp.params.clone()).map_err(sim)?;
+    let mut queue = EatingQueue::new();
+    let start: TherapySettings = vp.therapy;
+    let exploration = derive_seed(
+        config.seed,
+        patient_no,
+        scenario.random_key,
+        Stream::Exploration,
+    );
+    let mut advisor: AnyAdvisor = advisor_spec(config, arm, mode)
+        .build(start, exploration)
+        .map_err(adv)?;
+    let mut capped = 0u32;
+    let mut requested_basal = start.basal;
+    if pump.set_basal(start.basal).map_err(sim)?.capped {
+        capped += 1;
+    }
+    pump.drain_events().for_each(drop);
+
+    let days = scenario.days as usize;
+    let mut glucose = vec![0.0; days * SAMPLES_PER_DAY];
+    let mut daily_insulin = vec![0.0; days];
+    let mut min_glucose = f64::INFINITY;
+    let mut events: Vec<Event> = Vec::with_capacity(8);
+
+    for day in 0..days {
+        let plan = generator.day(day as u32);
+        let s_per_minute = plan.sensitivity.per_minute();
+        let insulin_at_midnight = pump.totals().total().0;
+        let feed = day >= 1; // D1 is warm-up: the advisor starts at D2.
+        for m in 0..MINUTES_PER_DAY as u32 {
+            let now = plan.at(m);
+            events.clear();
+            let plasma = patient.glucose_mg_dl();
+            if m as usize % EVAL_PERIOD_MIN == 0 {
+                glucose[day * SAMPLES_PER_DAY + m as usize / EVAL_PERIOD_MIN] = plasma;
+            }
+            min_glucose = min_glucose.min(plasma);
+
+            // Readings.
+            if plan.cgm_sample_at(m) {
+                let reading = cgm
+                    .read(MgDl(patient.subcutaneous_glucose_mg_dl()))
+                    .map_err(sim)?;
+                events.push(Event::new(now, EventKind::Cgm(reading)));
+            }
+            let mut bedtime_reading = false;
+            for r in plan.smbg.iter().filter(|r| r.at == now) {
+                let reading = meter.measure(MgDl(plasma)).map_err(sim)?;
+                events.push(Event::new(now, EventKind::Smbg(reading)));
+                bedtime_reading |= r.purpose == SmbgPurpose::Bedtime;
+            }
+            // CGM mode: midnight closes the previous day (from D3's midnight,
+            // which closes D2, the first day the advisor sees).
+            let close_at_midnight = mode == Mode::Cgm && m == 0 && day >= 2;
+            if feed {
+                for e in &events {
+                    apply(
+                        &mut advisor,
+                        &mut pump,
+                        e,
+                        &mut requested_basal,
+                        &mut capped,
+                    )
+                    .map_err(|e| e.with(&context))?;
+                }
+            }
+            events.clear();
+
+            // Meals: announce (the advisor may update this meal's carb
+            // ratio), then bolus announced carbs / carb ratio.
+            for meal in plan
+                .meals
+                .iter()
+                .filter(|meal| meal.at == now && !meal.skipped)
+            {
+                queue.add(meal.carbs.0);
+                if let Some(announced) = meal.announced {
+                    let announce = Event::new(
+                        now,
+                        EventKind::MealAnnounced {
+                            carbs: announced,
+                            slot: meal.slot,
+                        },
+                    );
+                    if feed {
+                        apply(
+                            &mut advisor,
+                            &mut pump,
+                            &announce,
+                            &mut requested_basal,
+                            &mut capped,
+                        )
+                        .map_err(|e| e.with(&context))?;
+                    }
+                    let ratio = advisor.settings().carb_ratio_for(meal.slot);
+                    if let Some(ratio) = ratio {
+                        let outcome = pump
+                            .request_bolus(Units(announced.0 / ratio.0))
+                            .map_err(sim)?;
+                        if outcome.capped {
+                            capped += 1;
+                        }
+                    }
+                }
+            }
+            // Pump events (bolus programmed) to the advisor.
+            events.extend(pump.drain_events());
+            if bedtime_reading && mode == Mode::Smbg && day >= 1 {
+                events.push(Event::new(now, EventKind::DayClosed));
+            }
+            if close_at_midnight {
+                events.push(Event::new(now, EventKind::DayClosed));
+            }
+            if feed {
+                for k in 0..events.len() {
+                    let e = events[k];
+                    apply(
+                        &mut advisor,
+                        &mut pump,
+                        &e,
+                        &mut requested_basal,
+                        &mut capped,
+                    )
+                    .map_err(|e| e.with(&context))?;
+                }
+                // A basal change decided just now is a pump event too.
+                let basal_events: Vec<Event> = pump.drain_events().collect();
+                for e in &basal_events {
+                    apply(
+                        &mut advisor,
+                        &mut pump,
+                        e,
+                        &mut requested_basal,
+                        &mut capped,
+                    )
+                    .map_err(|e| e.with(&context))?;
+                }
+            } else {
+                pump.drain_events().for_each(drop);
+            }
+
+            // Deliver and advance one minute.
+            let insulin = pump.insulin_for_minute();
+            let cho = queue.eat_minute();
+            patient
+                .step(cho, insulin, s_per_minute[m as usize])
+                .map_err(sim)?;
+        }
+        daily_insulin[day] = pump.totals().total().0 - insulin_at_midnight;
+    }
+
+    let mut weeks = Vec::new();
+    for (name, first, last) in evaluation_windows() {
+        if last as usize > days {
+            continue;
+        }
+        let (a, b) = (
+            (first as usize - 1) * SAMPLES_PER_DAY,
+            last as usize * SAMPLES_PER_DAY,
+        );
+        let metrics = metrics_regular(&glucose[a..b]).map_err(|source| TrialError::Metric {
+            context: format!("{context} {name}"),
+            source,
+        })?;
+        let n_days = (last - first + 1) as f64;
+        let tdi = daily_insulin[first as usize - 1..last as usize]
+            .iter()
+            .sum::<f64>()
+            / n_days;
+        weeks.push(WeekResult {
+            week: name,
+            first_day: first,
+            last_day: last,
+            metrics,
+            tdi_u_per_day: tdi,
+        });
+    }
+    let fin = advisor.settings();
+    Ok(PatientResult {
+        patient: vp.params.name.clone(),
+        weeks,
+        final_basal_u_per_h: fin.basal.0,
+        final_carb_ratio_g_per_u: [
+            fin.carb_ratio[0].0,
+            fin.carb_ratio[1].0,
+            fin.carb_ratio[2].0,
+        ],
+        start_basal_u_per_h: start.basal.0,
+        start_carb_ratio_g_per_u: start.carb_ratio[0].0,
+        pump_capped: capped,
+        min_glucose_mg_dl: min_glucose,
+    })
+}
+
+/// An error on the way from the advisor to the pump.
+enum LoopError {
+    Advisor(abba_advisor::AdvisorError),
+    Sim(abba_sim::SimError),
+}
+
+impl LoopError {
+    fn with(self, context: &str) -> TrialError {
+        match self {
+            LoopError::Advisor(source) => TrialError::Advisor {
+                context: context.into(),
+                source,
+            },
+            LoopError::Sim(source) => TrialError::Sim {
+                context: context.into(),
+                source,
+            },
+        }
+    }
+}
+
+/// Feeds one event; a new basal rate goes to the pump at once (its
+/// `BasalRate` event is fed afterwards by the caller). The pump rounds the
+/// rate to its step; it is reprogrammed only when the advisor's rate moves.
+fn apply(
+    advisor: &mut AnyAdvisor,
+    pump: &mut Pump,
+    event: &Event,
+    requested_basal: &mut abba_core::UnitsPerHour,
+    capped: &mut u32,
+) -> Result<(), LoopError> {
+    if let Some(new) = advisor.observe(event).map_err(LoopError::Advisor)? {
+        if new.basal != *requested_basal {
+            *requested_basal = new.basal;
+            let outcome = pump.set_basal(new.basal).map_err(LoopError::Sim)?;
+            if outcome.capped {
+                *capped += 1;
+            }
+        }
+    }
+    Ok(())
+}

@@ -89,6 +89,20 @@ pub fn run_patient(
     scenario: &ScenarioConfig,
     arm: ArmKind,
 ) -> Result<PatientResult, TrialError> {
+    run_patient_with(config, vp, patient_no, scenario, arm, None)
+}
+
+/// Like [`run_patient`]; when `record` is given, every event fed to the
+/// advisor is also appended to it (used to calibrate the TE reference from
+/// the standard-therapy week).
+pub fn run_patient_with(
+    config: &TrialConfig,
+    vp: &VirtualPatient,
+    patient_no: u64,
+    scenario: &ScenarioConfig,
+    arm: ArmKind,
+    mut record: Option<&mut Vec<Event>>,
+) -> Result<PatientResult, TrialError> {
     let context = format!("{} {}/{}", vp.params.name, scenario.name, arm.name());
     let sim = |source| TrialError::Sim {
         context: context.clone(),
@@ -163,6 +177,9 @@ pub fn run_patient(
             // which closes D2, the first day the advisor sees).
             let close_at_midnight = mode == Mode::Cgm && m == 0 && day >= 2;
             if feed {
+                if let Some(r) = record.as_deref_mut() {
+                    r.extend_from_slice(&events);
+                }
                 for e in &events {
                     apply(
                         &mut advisor,
@@ -193,6 +210,9 @@ pub fn run_patient(
                         },
                     );
                     if feed {
+                        if let Some(r) = record.as_deref_mut() {
+                            r.push(announce);
+                        }
                         apply(
                             &mut advisor,
                             &mut pump,
@@ -222,20 +242,26 @@ pub fn run_patient(
                 events.push(Event::new(now, EventKind::DayClosed));
             }
             if feed {
-                for k in 0..events.len() {
-                    let e = events[k];
+                if let Some(r) = record.as_deref_mut() {
+                    r.extend_from_slice(&events);
+                }
+                for e in &events {
                     apply(
                         &mut advisor,
                         &mut pump,
-                        &e,
+                        e,
                         &mut requested_basal,
                         &mut capped,
                     )
                     .map_err(|e| e.with(&context))?;
                 }
                 // A basal change decided just now is a pump event too.
-                let basal_events: Vec<Event> = pump.drain_events().collect();
-                for e in &basal_events {
+                events.clear();
+                events.extend(pump.drain_events());
+                if let Some(r) = record.as_deref_mut() {
+                    r.extend_from_slice(&events);
+                }
+                for e in &events {
                     apply(
                         &mut advisor,
                         &mut pump,

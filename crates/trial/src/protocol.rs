@@ -115,6 +115,12 @@ pub struct TrialConfig {
     pub fixed_limits: EventLimits,
     /// Devices.
     pub devices: DeviceConfig,
+    /// Set ABBA's TE reference `abba.te.te_ref_bits` to the median
+    /// first-week transfer entropy of the cohort (spec §7.3: "TE_ref = median
+    /// TE over the training cohort's D2-D8"), computed from the
+    /// standard-therapy week before the arms run. When false, the configured
+    /// value is used as is.
+    pub calibrate_te_ref: bool,
     /// Scenario overrides: when set, replaces the paper's configuration of
     /// the scenario with that name.
     pub scenario_overrides: Vec<ScenarioConfig>,
@@ -135,6 +141,7 @@ impl Default for TrialConfig {
             r2r: R2rConfig::new(Mode::Cgm),
             fixed_limits: EventLimits::default(),
             devices: DeviceConfig::default(),
+            calibrate_te_ref: true,
             scenario_overrides: Vec::new(),
         }
     }

@@ -2,7 +2,9 @@
 //! job; rayon runs them and the results come back in job order, so serial
 //! and parallel runs give identical bytes.
 
-use crate::closed_loop::run_patient;
+use crate::closed_loop::{run_patient, run_patient_with};
+use crate::protocol::ArmKind;
+use abba_advisor::te::first_week_te;
 use crate::error::TrialError;
 use crate::protocol::TrialConfig;
 use crate::results::ArmResult;
@@ -27,6 +29,10 @@ impl Progress for Silent {
 /// A finished trial.
 #[derive(Debug, Clone)]
 pub struct TrialOutput {
+    /// The configuration actually run (with the calibrated TE reference).
+    pub config: TrialConfig,
+    /// The cohort's first-week transfer entropies (bits), when calibrated.
+    pub first_week_te_bits: Vec<f64>,
     /// The cohort that was simulated.
     pub cohort: Cohort,
     /// One entry per scenario × arm, in configuration order.
@@ -46,8 +52,8 @@ pub fn build_cohort(config: &TrialConfig) -> Result<Cohort, TrialError> {
     })
 }
 
-/// Runs the whole trial. `threads` = 0 uses rayon's default pool; 1 runs
-/// serially on the calling thread.
+/// Runs the whole trial. `threads` = 0 uses rayon's default pool (one
+/// thread per core); 1 runs serially on the calling thread.
 pub fn run_trial(
     config: &TrialConfig,
     threads: usize,
@@ -55,6 +61,22 @@ pub fn run_trial(
 ) -> Result<TrialOutput, TrialError> {
     config.validate()?;
     let cohort = build_cohort(config)?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| TrialError::Config(format!("cannot start {threads} threads: {e}")))?;
+    let mut config = config.clone();
+    let mut first_week_te_bits = Vec::new();
+    if config.calibrate_te_ref && config.arms.contains(&ArmKind::Abba) {
+        first_week_te_bits = pool.install(|| calibrate_te(&config, &cohort, threads))?;
+        let mut sorted = first_week_te_bits.clone();
+        sorted.sort_by(f64::total_cmp);
+        let median = crate::stats::quantile_sorted(&sorted, 0.5);
+        if median > 0.0 {
+            config.abba.te.te_ref_bits = median;
+        }
+    }
+    let config = &config;
     let scenarios: Vec<_> = config
         .scenarios
         .iter()
@@ -84,10 +106,6 @@ pub fn run_trial(
     let results: Vec<_> = if threads == 1 {
         jobs.iter().map(job).collect::<Result<_, _>>()?
     } else {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .map_err(|e| TrialError::Config(format!("cannot start {threads} threads: {e}")))?;
         pool.install(|| jobs.par_iter().map(job).collect::<Result<_, _>>())?
     };
     let mut arms = Vec::new();
@@ -103,5 +121,44 @@ pub fn run_trial(
             });
         }
     }
-    Ok(TrialOutput { cohort, arms })
+    Ok(TrialOutput {
+        config: config.clone(),
+        first_week_te_bits,
+        cohort,
+        arms,
+    })
+}
+
+/// Each patient's transfer entropy from insulin to glucose over the
+/// standard-therapy week D2..D(1+init_days) of the first configured
+/// scenario (CGM is worn then in every scenario), in cohort order.
+fn calibrate_te(
+    config: &TrialConfig,
+    cohort: &Cohort,
+    threads: usize,
+) -> Result<Vec<f64>, TrialError> {
+    let mut scenario = config.scenario(config.scenarios[0]);
+    scenario.days = config.init_days + 1;
+    let one = |(pi, vp): (usize, &abba_sim::cohort::VirtualPatient)| {
+        let mut events = Vec::new();
+        run_patient_with(
+            config,
+            vp,
+            pi as u64 + 1,
+            &scenario,
+            ArmKind::Standard,
+            Some(&mut events),
+        )?;
+        let estimate = first_week_te(&events, vp.therapy.basal, config.init_days, &config.abba.te)
+            .map_err(|source| TrialError::Advisor {
+                context: format!("{} TE calibration", vp.params.name),
+                source,
+            })?;
+        Ok(estimate.te_bits)
+    };
+    if threads == 1 {
+        cohort.patients.iter().enumerate().map(one).collect()
+    } else {
+        cohort.patients.par_iter().enumerate().map(one).collect()
+    }
 }

@@ -103,19 +103,42 @@ fn summary_of(arm: &ArmResult, week: &str, key: &str) -> Result<Option<Summary>,
     })
 }
 
-/// A round upper limit ≥ `v` (1, 2, 2.5, 5 × 10^k), at least `floor`.
-fn nice_ceiling(v: f64, floor: f64) -> f64 {
-    let v = v.max(floor);
-    if !(v.is_finite() && v > 0.0) {
+/// A round step (1, 2, 2.5 or 5 × 10^k) of at least `raw`.
+fn nice_step(raw: f64) -> f64 {
+    if !(raw.is_finite() && raw > 0.0) {
         return 1.0;
     }
-    let mag = 10f64.powf(v.log10().floor());
-    for m in [1.0, 2.0, 2.5, 5.0, 10.0] {
-        if m * mag >= v {
-            return m * mag;
-        }
+    let mag = 10f64.powf(raw.log10().floor());
+    [1.0, 2.0, 2.5, 5.0, 10.0]
+        .into_iter()
+        .map(|m| m * mag)
+        .find(|s| *s >= raw * (1.0 - 1e-12))
+        .unwrap_or(10.0 * mag)
+}
+
+/// A y range from `lo` to `hi` widened to multiples of a round step (about
+/// six intervals).
+fn nice_range(lo: f64, hi: f64) -> (f64, f64) {
+    let (lo, hi) = if hi > lo {
+        (lo, hi)
+    } else {
+        (lo - 0.5, lo + 0.5)
+    };
+    let step = nice_step((hi - lo) / 6.0);
+    let a = (lo / step + 1e-9).floor() * step;
+    let b = (hi / step - 1e-9).ceil() * step;
+    (a, b)
+}
+
+/// A tick label without needless decimals (`40`, `2.5`, `0.25`).
+fn tidy(v: &f64) -> String {
+    let s = format!("{v:.2}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" {
+        "0".to_string()
+    } else {
+        s.to_string()
     }
-    10.0 * mag
 }
 
 /// x range and label settings shared by the weekly panels.
@@ -191,7 +214,9 @@ fn draw_weekly_panel(
         .configure_mesh()
         .x_labels(axis.labels)
         .x_label_formatter(&week_tick)
-        .y_labels(6)
+        .y_labels(8)
+        .y_label_formatter(&tidy)
+        .y_max_light_lines(1)
         .disable_x_mesh()
         .light_line_style(RGBColor(235, 235, 235))
         .bold_line_style(RGBColor(215, 215, 215))
@@ -216,11 +241,11 @@ fn draw_weekly_panel(
         chart
             .draw_series(std::iter::once(Text::new(
                 label.to_string(),
-                (axis.lo + 0.1, *y),
+                (axis.hi - 0.05, *y),
                 (FONT, 12)
                     .into_font()
                     .color(&REF_COLOR)
-                    .pos(Pos::new(HPos::Left, VPos::Bottom)),
+                    .pos(Pos::new(HPos::Right, VPos::Bottom)),
             )))
             .map_err(&pe)?;
     }
@@ -437,6 +462,18 @@ fn max_of(lines: &[Line]) -> f64 {
         .fold(0.0, f64::max)
 }
 
+fn min_of(lines: &[Line]) -> f64 {
+    lines
+        .iter()
+        .flat_map(|l| {
+            l.points
+                .iter()
+                .map(|(_, m, s)| s.map_or(*m, |(lo, _)| lo.min(*m)))
+        })
+        .fold(f64::INFINITY, f64::min)
+        .max(0.0)
+}
+
 fn week_notes() -> String {
     "Week k = days 7k-5 to 7k+1 (week 1 = D2-D8, standard therapy before any adaptation); \
      week 13 = D84-D90 (with insulin-sensitivity variability), week 14 = D92-D98 (without)."
@@ -468,8 +505,8 @@ pub fn fig5_lbgi_hbgi(arms: &[ArmResult]) -> Result<String, TrialError> {
                 lbgi.push(mean_sd_line(arm, &weeks, "lbgi", c)?);
                 hbgi.push(mean_sd_line(arm, &weeks, "hbgi", c)?);
             }
-            let lbgi_max = nice_ceiling(max_of(&lbgi), 3.0);
-            let hbgi_max = nice_ceiling(max_of(&hbgi), 6.0);
+            let lbgi_max = nice_range(0.0, max_of(&lbgi).max(3.0)).1;
+            let hbgi_max = nice_range(0.0, max_of(&hbgi).max(6.0)).1;
             let panels = main.split_evenly((2, abba.len()));
             for (i, arm) in abba.iter().enumerate() {
                 let n = arm.patients.len();
@@ -559,14 +596,14 @@ pub fn fig6_mage(arms: &[ArmResult]) -> Result<String, TrialError> {
                     undefined += col.iter().filter(|v| v.is_none()).count();
                 }
             }
-            let y_max = nice_ceiling(max_of(&lines), 10.0);
+            let y_range = nice_range(min_of(&lines), max_of(&lines));
             draw_weekly_panel(
                 &main,
                 &weeks,
                 &Panel {
                     caption: String::new(),
                     y_desc: "MAGE (mg/dL)",
-                    y_range: (0.0, y_max),
+                    y_range,
                     refs: &[],
                     spread: Spread::ErrorBars { dodge: 0.12 },
                 },
@@ -646,7 +683,7 @@ pub fn fig7_tdi(arms: &[ArmResult]) -> Result<String, TrialError> {
             draw_message(&main, "No ABBA arm in this trial.", FIG)?;
         } else {
             let mut boxes = Vec::new();
-            let mut y_max: f64 = 0.0;
+            let (mut y_min, mut y_max) = (f64::INFINITY, 0.0f64);
             for (j, arm) in abba.iter().enumerate() {
                 for w in &weeks {
                     let values: Vec<f64> = metric_column(arm, w, "tdi_u_per_day")
@@ -664,22 +701,29 @@ pub fn fig7_tdi(arms: &[ArmResult]) -> Result<String, TrialError> {
                     }
                     let b = tukey_box(&values);
                     y_max = y_max.max(values.iter().copied().fold(0.0, f64::max));
+                    y_min = y_min.min(values.iter().copied().fold(f64::INFINITY, f64::min));
                     boxes.push((j, week_number(w), scenario_color(&arm.scenario), b));
                 }
             }
             let axis = axis_of(&weeks);
-            let y_top = nice_ceiling(y_max * 1.05, 10.0);
+            let (y_bottom, y_top) = if y_min.is_finite() {
+                nice_range(y_min.max(0.0), y_max)
+            } else {
+                (0.0, 1.0)
+            };
             let mut chart = ChartBuilder::on(&main)
                 .margin(8)
                 .x_label_area_size(42)
                 .y_label_area_size(62)
-                .build_cartesian_2d(axis.lo..axis.hi, 0.0..y_top)
+                .build_cartesian_2d(axis.lo..axis.hi, y_bottom..y_top)
                 .map_err(&pe)?;
             chart
                 .configure_mesh()
                 .x_labels(axis.labels)
                 .x_label_formatter(&week_tick)
                 .y_labels(8)
+                .y_label_formatter(&tidy)
+                .y_max_light_lines(1)
                 .disable_x_mesh()
                 .light_line_style(RGBColor(235, 235, 235))
                 .bold_line_style(RGBColor(215, 215, 215))
@@ -809,18 +853,19 @@ pub fn fig_arms(arms: &[ArmResult]) -> Result<String, TrialError> {
                 .flatten()
                 .flat_map(|l| l.points.iter().map(|p| p.1))
                 .collect();
+            // TIR: zoomed on the data, up to 100 %; the others from 0 up
+            // to at least `hi_floor`.
+            let lo = all.iter().copied().fold(f64::INFINITY, f64::min);
+            let hi = all.iter().copied().fold(0.0, f64::max);
             let y_range = if *key == "tir_70_180" {
-                // Zoom on the data, in steps of 10 %, within 0-100.
-                let lo = all.iter().copied().fold(f64::INFINITY, f64::min);
                 let lo = if lo.is_finite() {
-                    ((lo - 5.0) / 10.0).floor() * 10.0
+                    lo.min(90.0)
                 } else {
                     *lo_floor
                 };
-                (lo.clamp(0.0, 90.0), *hi_floor)
+                (nice_range(lo, 100.0).0.max(0.0), 100.0)
             } else {
-                let hi = all.iter().copied().fold(0.0, f64::max);
-                (*lo_floor, nice_ceiling(hi * 1.1, *hi_floor))
+                nice_range(*lo_floor, hi.max(*hi_floor))
             };
             for (c, s) in scenarios.iter().enumerate() {
                 draw_weekly_panel(
@@ -853,21 +898,29 @@ mod tests {
     use super::*;
 
     #[test]
-    fn nice_ceilings() {
-        for (v, floor, want) in [
-            (2.3, 0.0, 2.5),
-            (2.5, 0.0, 2.5),
-            (0.7, 0.0, 1.0),
-            (37.0, 0.0, 50.0),
-            (0.1, 3.0, 5.0),
-            (101.0, 0.0, 200.0),
+    fn nice_ranges_and_labels() {
+        for (lo, hi, want) in [
+            (0.0, 3.0, (0.0, 3.0)),
+            (0.0, 2.3, (0.0, 2.5)),
+            (0.0, 6.5, (0.0, 8.0)),
+            (38.4, 57.7, (35.0, 60.0)),
+            (75.2, 100.0, (75.0, 100.0)),
         ] {
-            let got = nice_ceiling(v, floor);
+            let got = nice_range(lo, hi);
             assert_eq!(
                 got, want,
-                "nice_ceiling({v}, {floor}): expected {want}, got {got}"
+                "nice_range({lo}, {hi}): expected {want:?}, got {got:?}"
             );
         }
+        // A flat series still gets a range around it.
+        let (a, b) = nice_range(40.0, 40.0);
+        assert!(a < 40.0 && b > 40.0, "nice_range(40, 40) = ({a}, {b})");
+        assert_eq!(nice_step(0.4), 0.5);
+        assert_eq!(nice_step(1.08), 2.0);
+        assert_eq!(
+            (tidy(&40.0), tidy(&2.5), tidy(&0.25), tidy(&-0.0)),
+            ("40".into(), "2.5".into(), "0.25".into(), "0".into())
+        );
     }
 
     #[test]

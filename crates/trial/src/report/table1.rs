@@ -394,6 +394,66 @@ fn scenario_title(scenario: &str) -> &'static str {
     }
 }
 
+/// For one scenario with more than one arm: the arms' means ± SD side by
+/// side in W13 and W14 (the weeks after adaptation), one row per metric.
+fn arms_side_by_side(s: &mut String, rows: &[Table1Row], scenario: &str) {
+    let mut advisors: Vec<(&str, &str)> = Vec::new();
+    for r in rows.iter().filter(|r| r.scenario == scenario) {
+        if !advisors.iter().any(|(a, _)| *a == r.advisor) {
+            advisors.push((&r.advisor, &r.mode));
+        }
+    }
+    let weeks: Vec<&str> = ["W13", "W14"]
+        .into_iter()
+        .filter(|w| rows.iter().any(|r| r.scenario == scenario && r.week == *w))
+        .collect();
+    if advisors.len() < 2 || weeks.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        s,
+        "Arms side by side after adaptation (mean ± SD; same patients and scenario realisation in every arm):\n"
+    );
+    let mut header = String::from("| Metric |");
+    let mut rule = String::from("|---|");
+    for w in &weeks {
+        for (a, _) in &advisors {
+            let _ = write!(header, " {w} {} |", short_advisor(a));
+            rule.push_str("---:|");
+        }
+    }
+    let _ = writeln!(s, "{header}\n{rule}");
+    for metric in TABLE1_METRICS {
+        let decimals = if SEED_BANDS.contains(&metric) { 1 } else { 2 };
+        let mut line = format!("| {} |", metric_label(metric));
+        for w in &weeks {
+            for (a, _) in &advisors {
+                let cell = rows
+                    .iter()
+                    .find(|r| {
+                        r.scenario == scenario
+                            && r.advisor == *a
+                            && r.week == *w
+                            && r.metric == metric
+                    })
+                    .map_or("—".to_string(), |r| pm(r.ours.mean, r.ours.sd, decimals));
+                let _ = write!(line, " {cell} |");
+            }
+        }
+        let _ = writeln!(s, "{line}");
+    }
+    let _ = writeln!(s);
+}
+
+fn short_advisor(advisor: &str) -> String {
+    match advisor {
+        "abba" => "ABBA".to_string(),
+        "standard" => "standard".to_string(),
+        "r2r" => "run-to-run".to_string(),
+        other => other.to_string(),
+    }
+}
+
 /// `table1.md`: for each scenario and arm, a table of the five bands, LBGI
 /// and HBGI in W1, W13 and W14 (ours and the paper's mean ± SD) with our
 /// Wilcoxon p-values against W1, then the paper's LBGI/HBGI statements
@@ -434,6 +494,7 @@ pub fn table1_markdown(arms: &[ArmResult]) -> Result<String, TrialError> {
         i = end;
         if scenario != last_scenario {
             let _ = writeln!(s, "## {scenario}: {}\n", scenario_title(&scenario));
+            arms_side_by_side(&mut s, &rows, &scenario);
             last_scenario = scenario.clone();
         }
         let _ = writeln!(

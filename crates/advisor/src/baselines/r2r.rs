@@ -269,7 +269,7 @@ impl RunToRun {
             (
                 old * c.basal_hypo_factor,
                 R2rExplanation {
-                    measure_mg_dl: measure.unwrap_or(f64::NAN),
+                    measure_mg_dl: measure,
                     reference_mg_dl: c.basal_ref_mg_dl,
                     raw_relative_change: c.basal_hypo_factor - 1.0,
                     capped: false,
@@ -282,7 +282,7 @@ impl RunToRun {
             (
                 old * (1.0 + rel),
                 R2rExplanation {
-                    measure_mg_dl: y,
+                    measure_mg_dl: Some(y),
                     reference_mg_dl: c.basal_ref_mg_dl,
                     raw_relative_change: raw,
                     capped: rel != raw,
@@ -321,7 +321,7 @@ impl RunToRun {
             (
                 old * c.cir_hypo_factor,
                 R2rExplanation {
-                    measure_mg_dl: measure.unwrap_or(f64::NAN),
+                    measure_mg_dl: measure,
                     reference_mg_dl: c.cir_ref_mg_dl,
                     raw_relative_change: 1.0 / c.cir_hypo_factor - 1.0,
                     capped: false,
@@ -335,7 +335,7 @@ impl RunToRun {
             (
                 old / (1.0 + rel),
                 R2rExplanation {
-                    measure_mg_dl: y,
+                    measure_mg_dl: Some(y),
                     reference_mg_dl: c.cir_ref_mg_dl,
                     raw_relative_change: raw,
                     capped: rel != raw,

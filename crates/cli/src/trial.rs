@@ -99,13 +99,19 @@ fn config_from(args: &Args) -> Result<TrialConfig> {
     if let Some(s) = &args.scenarios {
         c.scenarios = s
             .iter()
-            .map(|x| x.parse::<ScenarioId>().map_err(|e| anyhow::anyhow!("--scenarios: {e}")))
+            .map(|x| {
+                x.parse::<ScenarioId>()
+                    .map_err(|e| anyhow::anyhow!("--scenarios: {e}"))
+            })
             .collect::<Result<_>>()?;
     }
     if let Some(a) = &args.arms {
         c.arms = a
             .iter()
-            .map(|x| x.parse::<ArmKind>().map_err(|e| anyhow::anyhow!("--arms: {e}")))
+            .map(|x| {
+                x.parse::<ArmKind>()
+                    .map_err(|e| anyhow::anyhow!("--arms: {e}"))
+            })
             .collect::<Result<_>>()?;
     }
     if let Some(s) = args.seed {
@@ -182,8 +188,11 @@ pub fn run(args: Args) -> Result<()> {
     // manifest.json also records how the run went (timing, threads);
     // summary.json's copy leaves that out so it is identical across runs.
     let manifest_path = args.out.join("manifest.json");
-    std::fs::write(&manifest_path, serde_json::to_string_pretty(&manifest)? + "\n")
-        .with_context(|| format!("cannot write {}", manifest_path.display()))?;
+    std::fs::write(
+        &manifest_path,
+        serde_json::to_string_pretty(&manifest)? + "\n",
+    )
+    .with_context(|| format!("cannot write {}", manifest_path.display()))?;
     if !args.quiet {
         eprintln!(
             "abba trial: {} patient-runs in {:.1} s; report in {} ({} files)",
@@ -197,5 +206,7 @@ pub fn run(args: Args) -> Result<()> {
 }
 
 fn rayon_threads() -> usize {
-    std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1)
+    std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1)
 }

@@ -89,20 +89,29 @@ pub fn run_patient(
     scenario: &ScenarioConfig,
     arm: ArmKind,
 ) -> Result<PatientResult, TrialError> {
-    run_patient_with(config, vp, patient_no, scenario, arm, None)
+    run_patient_with(config, vp, patient_no, scenario, arm, &mut Trace::default())
 }
 
-/// Like [`run_patient`]; when `record` is given, every event fed to the
-/// advisor is also appended to it (used to calibrate the TE reference from
-/// the standard-therapy week).
+/// What a run can record beside its result.
+#[derive(Debug, Default)]
+pub struct Trace {
+    /// Every event fed to the advisor (used to calibrate the TE reference
+    /// from the standard-therapy week).
+    pub events: Option<Vec<Event>>,
+    /// Every decision of the advisor with its explanation.
+    pub decisions: Option<Vec<abba_advisor::decision::Decision>>,
+}
+
+/// Like [`run_patient`], recording what `trace` asks for.
 pub fn run_patient_with(
     config: &TrialConfig,
     vp: &VirtualPatient,
     patient_no: u64,
     scenario: &ScenarioConfig,
     arm: ArmKind,
-    mut record: Option<&mut Vec<Event>>,
+    trace: &mut Trace,
 ) -> Result<PatientResult, TrialError> {
+    let mut record = trace.events.as_mut();
     let context = format!("{} {}/{}", vp.params.name, scenario.name, arm.name());
     let sim = |source| TrialError::Sim {
         context: context.clone(),
@@ -283,6 +292,12 @@ pub fn run_patient_with(
                 .map_err(sim)?;
         }
         daily_insulin[day] = pump.totals().total().0 - insulin_at_midnight;
+        // Keep the advisor's decision log bounded; keep the decisions only
+        // when asked to.
+        let decisions = advisor.take_decisions();
+        if let Some(d) = trace.decisions.as_mut() {
+            d.extend(decisions);
+        }
     }
 
     let mut weeks = Vec::new();

@@ -2,12 +2,12 @@
 //! job; rayon runs them and the results come back in job order, so serial
 //! and parallel runs give identical bytes.
 
-use crate::closed_loop::{run_patient, run_patient_with};
-use crate::protocol::ArmKind;
-use abba_advisor::te::first_week_te;
+use crate::closed_loop::{run_patient, run_patient_with, Trace};
 use crate::error::TrialError;
+use crate::protocol::ArmKind;
 use crate::protocol::TrialConfig;
 use crate::results::ArmResult;
+use abba_advisor::te::first_week_te;
 use abba_sim::cohort::{Cohort, CohortConfig};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -140,15 +140,19 @@ fn calibrate_te(
     let mut scenario = config.scenario(config.scenarios[0]);
     scenario.days = config.init_days + 1;
     let one = |(pi, vp): (usize, &abba_sim::cohort::VirtualPatient)| {
-        let mut events = Vec::new();
+        let mut trace = Trace {
+            events: Some(Vec::new()),
+            decisions: None,
+        };
         run_patient_with(
             config,
             vp,
             pi as u64 + 1,
             &scenario,
             ArmKind::Standard,
-            Some(&mut events),
+            &mut trace,
         )?;
+        let events = trace.events.unwrap_or_default();
         let estimate = first_week_te(&events, vp.therapy.basal, config.init_days, &config.abba.te)
             .map_err(|source| TrialError::Advisor {
                 context: format!("{} TE calibration", vp.params.name),

@@ -193,6 +193,16 @@ impl MinuteInput {
     }
 }
 
+/// tanh(x) as 1 − 2/(e^{2x} + 1): one `exp` instead of libm's `tanh`
+/// (which goes through `expm1` and dominated the profile of a trial). The
+/// absolute error is below 2e-16 for every x, and kempt only needs absolute
+/// accuracy: the two tanh terms are added to 2. Saturates cleanly: e^{2x}
+/// overflowing to infinity gives 1, underflowing to 0 gives −1.
+#[inline]
+pub fn tanh_fast(x: f64) -> f64 {
+    1.0 - 2.0 / ((2.0 * x).exp() + 1.0)
+}
+
 /// The gastric emptying rate kempt(Qsto, Dbar) (DM07 eq. 7; simglucose's
 /// "kgut"). With Dbar = 0 it is kmax.
 #[inline]
@@ -200,8 +210,8 @@ pub fn k_empt(c: &ModelConsts, u: &MinuteInput, q_sto: f64) -> f64 {
     if u.dbar_mg > 0.0 {
         c.kmin
             + (c.kmax - c.kmin) / 2.0
-                * ((u.alpha * (q_sto - c.b * u.dbar_mg)).tanh()
-                    - (u.beta * (q_sto - c.d * u.dbar_mg)).tanh()
+                * (tanh_fast(u.alpha * (q_sto - c.b * u.dbar_mg))
+                    - tanh_fast(u.beta * (q_sto - c.d * u.dbar_mg))
                     + 2.0)
     } else {
         c.kmax
@@ -263,4 +273,22 @@ pub fn derivatives(c: &ModelConsts, u: &MinuteInput, x: &[f64; 13]) -> [f64; 13]
         }
     }
     dx
+}
+
+#[cfg(test)]
+mod tests {
+    use super::tanh_fast;
+
+    #[test]
+    fn fast_tanh_matches_libm_to_machine_precision() {
+        let mut worst: f64 = 0.0;
+        for k in -400_000..=400_000 {
+            let x = k as f64 * 1e-4;
+            worst = worst.max((tanh_fast(x) - x.tanh()).abs());
+        }
+        for x in [-1e6, -800.0, -355.0, 355.0, 800.0, 1e6, f64::MAX, f64::MIN] {
+            worst = worst.max((tanh_fast(x) - x.tanh()).abs());
+        }
+        assert!(worst < 4e-16, "largest |tanh_fast - tanh| = {worst:e}");
+    }
 }

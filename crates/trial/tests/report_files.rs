@@ -543,3 +543,34 @@ fn a_full_size_synthetic_trial_reports_every_arm() {
         }
     }
 }
+
+#[test]
+fn a_short_one_scenario_trial_still_draws_every_figure() {
+    // S1 only, three arms, weeks W1..W3 (a 22-day run).
+    let arms: Vec<ArmResult> = full_trial()
+        .into_iter()
+        .filter(|a| a.scenario == "S1")
+        .map(|mut a| {
+            for p in &mut a.patients {
+                p.weeks.truncate(3);
+            }
+            a
+        })
+        .collect();
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("report_short");
+    write_report(&dir, &arms, &manifest()).unwrap();
+    let s = summary_json(&arms, &manifest()).unwrap();
+    assert_eq!(s["arms"]["S1/abba"]["weekly"].as_array().unwrap().len(), 3);
+    let md = std::fs::read_to_string(dir.join("table1.md")).unwrap();
+    assert!(!md.contains("W13 ours"), "{md}");
+    assert!(md.contains("W13, W14: not simulated in this run"), "{md}");
+    for f in [
+        "fig5_lbgi_hbgi.svg",
+        "fig6_mage.svg",
+        "fig7_tdi.svg",
+        "fig_arms.svg",
+    ] {
+        let svg = std::fs::read_to_string(dir.join(f)).unwrap();
+        assert!(svg.contains("<svg") && svg.contains("</svg>"), "{f}");
+    }
+}

@@ -46,6 +46,7 @@ const ARM_COLORS: [(&str, RGBColor); 3] = [
 ];
 const FONT: &str = "sans-serif";
 const REF_COLOR: RGBColor = RGBColor(150, 30, 30);
+const NEUTRAL: RGBColor = RGBColor(90, 90, 90);
 
 type Area<'a> = DrawingArea<SVGBackend<'a>, Shift>;
 
@@ -541,12 +542,8 @@ pub fn fig5_lbgi_hbgi(arms: &[ArmResult]) -> Result<String, TrialError> {
         draw_footer(
             &footer,
             &[
-                ("mean".to_string(), SCENARIO_COLORS[0], Key::Line),
-                (
-                    "mean ± 1 SD (cut at 0)".to_string(),
-                    SCENARIO_COLORS[0],
-                    Key::Band,
-                ),
+                ("mean".to_string(), NEUTRAL, Key::Line),
+                ("mean ± 1 SD (cut at 0)".to_string(), NEUTRAL, Key::Band),
                 (
                     "paper's risk limits: LBGI minimal < 1.1, low 1.1-2.5; HBGI minimal < 5"
                         .to_string(),
@@ -735,7 +732,7 @@ pub fn fig7_tdi(arms: &[ArmResult]) -> Result<String, TrialError> {
                 .map_err(&pe)?;
             let k = abba.len() as f64;
             let slot = 0.8 / k;
-            let half = slot * 0.36;
+            let half = (slot * 0.36).min(0.15);
             for (j, x, color, (q1, med, q3, lo, hi, outliers)) in boxes {
                 let xc = x + (j as f64 - (k - 1.0) / 2.0) * slot;
                 let stroke = color.stroke_width(1);

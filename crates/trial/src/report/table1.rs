@@ -507,6 +507,23 @@ pub fn table1_markdown(arms: &[ArmResult]) -> Result<String, TrialError> {
             .into_iter()
             .filter(|w| arm_rows.iter().any(|r| r.week == *w))
             .collect();
+        let missing: Vec<&str> = super::TABLE_WEEKS
+            .into_iter()
+            .filter(|w| !weeks.contains(w))
+            .collect();
+        if !missing.is_empty() {
+            let present = arms
+                .iter()
+                .find(|a| a.scenario == scenario && a.advisor == advisor)
+                .map(arm_weeks)
+                .unwrap_or_default();
+            let _ = writeln!(
+                s,
+                "{}: not simulated in this run (weeks present: {}).\n",
+                missing.join(", "),
+                present.join(", ")
+            );
+        }
         let mut header = String::from("| Metric |");
         let mut rule = String::from("|---|");
         for w in &weeks {

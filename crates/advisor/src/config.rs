@@ -298,6 +298,12 @@ pub struct UpdateConfig {
     pub max_relative_change: f64,
     /// Apply the CIR switch rule l (eq20-21). [SEED] true.
     pub switch_rule: bool,
+    /// Extra safety, **not in the seed or the spec** (a deviation when on):
+    /// cancel any update that would add insulin (basal up, carb ratio down)
+    /// when its window holds a reading below `features.hyponumber_below_mg_dl`.
+    /// Default false (spec-literal). The supervisory action alone never adds
+    /// insulin on such windows, but P_a (the learned part) can.
+    pub hypo_guard: bool,
 }
 
 impl Default for UpdateConfig {
@@ -306,6 +312,7 @@ impl Default for UpdateConfig {
             fusion_m: 0.5,
             max_relative_change: 0.05,
             switch_rule: true,
+            hypo_guard: false,
         }
     }
 }

@@ -186,6 +186,9 @@ impl std::fmt::Display for Decision {
                 if x.applied.clamp_fired {
                     write!(f, ", 5 % clamp fired")?;
                 }
+                if x.applied.hypo_guard_fired {
+                    write!(f, ", hypo guard cancelled an insulin increase")?;
+                }
                 if x.applied.non_finite {
                     write!(f, ", non-finite action ignored")?;
                 }

@@ -574,3 +574,20 @@ fn a_short_one_scenario_trial_still_draws_every_figure() {
         assert!(svg.contains("<svg") && svg.contains("</svg>"), "{f}");
     }
 }
+
+#[test]
+fn one_patient_has_no_sd() {
+    let mut arm = small_arm("S3", "abba");
+    arm.patients.truncate(1);
+    let arms = vec![arm];
+    let s = summary_json(&arms, &manifest()).unwrap();
+    let tir = &s["arms"]["S3/abba"]["weeks"]["W1"]["tir_70_180"];
+    assert_eq!(tir["sd"], Value::Null, "{tir}");
+    close("mean", 80.0, &tir["mean"]);
+    let md = table1::table1_markdown(&arms).unwrap();
+    assert!(md.contains("80.0 (SD n/a)"), "{md}");
+    // One pair: W+ or W- is the only rank; p from the normal approximation.
+    let t = &s["arms"]["S3/abba"]["wilcoxon"]["W1_vs_W13"]["tir_70_180"];
+    close("statistic", 0.0, &t["statistic"]);
+    build_report(&arms, &manifest()).unwrap();
+}

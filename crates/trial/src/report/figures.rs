@@ -14,8 +14,9 @@
 //!   to Q3 (type-7 quartiles), bar = median, whiskers (Tukey) = the most
 //!   extreme values within 1.5 IQR of the box, dots = values beyond them.
 //! - [`fig_arms`]: ABBA against the baselines. Rows: % time in range
-//!   70-180, % time < 70 and % time > 180 mg/dL; one column per scenario;
-//!   weekly mean over patients of each arm (abba, standard, r2r).
+//!   70-180, % time < 70, % time > 180 mg/dL and total daily insulin; one
+//!   column per scenario; weekly mean over patients of each arm (abba,
+//!   standard, r2r).
 //!
 //! Weeks on the x axis are numbered 1..14: Wk = D(7k−5)-D(7k+1) for
 //! k = 1..12 (W1 is standard therapy), 13 = D84-D90 and 14 = D92-D98, the
@@ -812,17 +813,18 @@ pub fn fig_arms(arms: &[ArmResult]) -> Result<String, TrialError> {
         }
     }
     let weeks = week_axis(&ordered);
-    let rows: [(&str, &str, f64, f64); 3] = [
+    let rows: [(&str, &str, f64, f64); 4] = [
         ("tir_70_180", "% time 70-180 mg/dL", 0.0, 100.0),
         ("below_70", "% time < 70 mg/dL", 0.0, 2.0),
         ("above_180", "% time > 180 mg/dL", 0.0, 10.0),
+        ("tdi_u_per_day", "TDI (U/day)", 0.0, 10.0),
     ];
     let mut svg = String::new();
     {
-        let root = SVGBackend::with_string(&mut svg, (1600, 1080)).into_drawing_area();
+        let root = SVGBackend::with_string(&mut svg, (1600, 1400)).into_drawing_area();
         let (main, footer) = frame(
             &root,
-            "ABBA vs baselines - weekly time in ranges (mean over patients)",
+            "ABBA vs baselines - weekly time in ranges and insulin (mean over patients)",
             70,
             FIG,
         )?;
@@ -850,8 +852,8 @@ pub fn fig_arms(arms: &[ArmResult]) -> Result<String, TrialError> {
                 .flatten()
                 .flat_map(|l| l.points.iter().map(|p| p.1))
                 .collect();
-            // TIR: zoomed on the data, up to 100 %; the others from 0 up
-            // to at least `hi_floor`.
+            // TIR: zoomed on the data, up to 100 %; TDI: zoomed on the
+            // data; the others from 0 up to at least `hi_floor`.
             let lo = all.iter().copied().fold(f64::INFINITY, f64::min);
             let hi = all.iter().copied().fold(0.0, f64::max);
             let y_range = if *key == "tir_70_180" {
@@ -861,6 +863,9 @@ pub fn fig_arms(arms: &[ArmResult]) -> Result<String, TrialError> {
                     *lo_floor
                 };
                 (nice_range(lo, 100.0).0.max(0.0), 100.0)
+            } else if *key == "tdi_u_per_day" && lo.is_finite() {
+                let (a, b) = nice_range(lo, hi);
+                (a.max(0.0), b)
             } else {
                 nice_range(*lo_floor, hi.max(*hi_floor))
             };

@@ -61,6 +61,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             w("W1", &|m| m.hbgi), w("W13", &|m| m.hbgi),
         );
     }
+    for arm in &out.arms {
+        let failed: Vec<String> = arm
+            .patients
+            .iter()
+            .filter_map(|p| p.failure.map(|f| format!("{} D{}", p.patient, f.day)))
+            .collect();
+        if !failed.is_empty() {
+            println!(
+                "{}/{}: {} failed runs: {}",
+                arm.scenario,
+                arm.advisor,
+                failed.len(),
+                failed.join(", ")
+            );
+        }
+    }
     println!("TE reference (bits): {}", out.config.abba.te.te_ref_bits);
     Ok(())
 }

@@ -13,7 +13,7 @@
 
 use crate::error::TrialError;
 use crate::protocol::{ArmKind, TrialConfig};
-use crate::results::{evaluation_windows, PatientResult, WeekResult};
+use crate::results::{evaluation_windows, PatientResult, RunFailure, WeekResult};
 use abba_advisor::any::{AdvisorSpec, AnyAdvisor};
 use abba_advisor::{Advisor, Mode};
 use abba_core::metrics::metrics_regular;
@@ -154,8 +154,9 @@ pub fn run_patient_with(
     let mut daily_insulin = vec![0.0; days];
     let mut min_glucose = f64::INFINITY;
     let mut events: Vec<Event> = Vec::with_capacity(8);
+    let mut failure = None;
 
-    for day in 0..days {
+    'days: for day in 0..days {
         let plan = generator.day(day as u32);
         let s_per_minute = plan.sensitivity.per_minute();
         let insulin_at_midnight = pump.totals().total().0;
@@ -168,6 +169,14 @@ pub fn run_patient_with(
                 glucose[day * SAMPLES_PER_DAY + m as usize / EVAL_PERIOD_MIN] = plasma;
             }
             min_glucose = min_glucose.min(plasma);
+            if plasma < config.failure_glucose_mg_dl {
+                failure = Some(RunFailure {
+                    day: day as u32 + 1,
+                    minute_of_day: m,
+                    glucose_mg_dl: plasma,
+                });
+                break 'days;
+            }
 
             // Readings.
             if plan.cgm_sample_at(m) {
@@ -300,9 +309,11 @@ pub fn run_patient_with(
         }
     }
 
+    // Whole days simulated (a failed run ends before its failure day).
+    let complete_days = failure.map_or(days, |f| f.day as usize - 1);
     let mut weeks = Vec::new();
     for (name, first, last) in evaluation_windows() {
-        if last as usize > days {
+        if last as usize > complete_days {
             continue;
         }
         let (a, b) = (
@@ -340,6 +351,7 @@ pub fn run_patient_with(
         start_carb_ratio_g_per_u: start.carb_ratio[0].0,
         pump_capped: capped,
         min_glucose_mg_dl: min_glucose,
+        failure,
     })
 }
 

@@ -121,6 +121,9 @@ pub struct TrialConfig {
     /// standard-therapy week before the arms run. When false, the configured
     /// value is used as is.
     pub calibrate_te_ref: bool,
+    /// A run stops when plasma glucose falls below this (mg/dL); the report
+    /// counts such runs per arm (10, simglucose's end-of-episode threshold).
+    pub failure_glucose_mg_dl: f64,
     /// Scenario overrides: when set, replaces the paper's configuration of
     /// the scenario with that name.
     pub scenario_overrides: Vec<ScenarioConfig>,
@@ -142,6 +145,7 @@ impl Default for TrialConfig {
             fixed_limits: EventLimits::default(),
             devices: DeviceConfig::default(),
             calibrate_te_ref: true,
+            failure_glucose_mg_dl: 10.0,
             scenario_overrides: Vec::new(),
         }
     }
@@ -183,6 +187,12 @@ impl TrialConfig {
                 2 + self.init_days,
                 self.init_days,
                 self.days
+            ));
+        }
+        if !(self.failure_glucose_mg_dl.is_finite() && self.failure_glucose_mg_dl > 0.0) {
+            return bad(format!(
+                "failure_glucose_mg_dl must be a finite number > 0, got {}",
+                self.failure_glucose_mg_dl
             ));
         }
         if self.scenarios.is_empty() {

@@ -40,6 +40,24 @@ pub struct PatientResult {
     pub pump_capped: u32,
     /// Minimum plasma glucose over the whole run (mg/dL).
     pub min_glucose_mg_dl: f64,
+    /// Set when plasma glucose fell below the trial's failure threshold: the
+    /// run stopped there, and only the evaluation windows that ended before
+    /// it are in `weeks`.
+    pub failure: Option<RunFailure>,
+}
+
+/// Where a run stopped because plasma glucose fell below the failure
+/// threshold (simglucose ends a run below 10 mg/dL the same way: the 2008
+/// model has no counter-regulation, and past that point it only holds
+/// glucose near zero).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct RunFailure {
+    /// Day (1-based) of the failure.
+    pub day: u32,
+    /// Minute of that day.
+    pub minute_of_day: u32,
+    /// Plasma glucose then (mg/dL).
+    pub glucose_mg_dl: f64,
 }
 
 impl PatientResult {

@@ -11,7 +11,7 @@
 //! ```
 //!
 //! M = `{ "<metric>": {"mean", "sd", "median", "q1", "q3"} }` over the arm's
-//! patients for all 16 [`METRIC_KEYS`](super::METRIC_KEYS) (see
+//! patients for all 16 [`super::METRIC_KEYS`] (see
 //! [`crate::stats::summarize`]: SD with n − 1, type-7 quartiles).
 //!
 //! Choices:

@@ -10,7 +10,7 @@ use abba_trial::report::{
     build_report, patients_csv::patients_csv, summary::summary_json, table1, write_report,
     METRIC_KEYS, REPORT_FILES,
 };
-use abba_trial::results::{evaluation_windows, ArmResult, PatientResult, WeekResult};
+use abba_trial::results::{evaluation_windows, ArmResult, PatientResult, RunFailure, WeekResult};
 use serde_json::{json, Value};
 
 fn metrics(tir: f64, hypo: f64, lbgi: f64, mage: Option<f64>) -> GlucoseMetrics {
@@ -59,6 +59,7 @@ fn patient(name: &str, weeks: Vec<WeekResult>) -> PatientResult {
         start_carb_ratio_g_per_u: 10.0,
         pump_capped: 0,
         min_glucose_mg_dl: 61.5,
+        failure: None,
     }
 }
 
@@ -361,6 +362,9 @@ fn patients_csv_has_one_row_per_patient_arm_and_week() {
             "final_carb_ratio_dinner_g_per_u",
             "pump_capped",
             "min_glucose_mg_dl",
+            "stopped_day",
+            "stopped_minute_of_day",
+            "stopped_glucose_mg_dl",
         ]
         .iter()
         .map(|s| s.to_string()),
@@ -590,4 +594,89 @@ fn one_patient_has_no_sd() {
     let t = &s["arms"]["S3/abba"]["wilcoxon"]["W1_vs_W13"]["tir_70_180"];
     close("statistic", 0.0, &t["statistic"]);
     build_report(&arms, &manifest()).unwrap();
+}
+
+#[test]
+fn a_stopped_run_counts_only_in_the_weeks_before_the_stop() {
+    let mut arms: Vec<ArmResult> = full_trial()
+        .into_iter()
+        .filter(|a| a.scenario == "S1")
+        .collect();
+    // adult#005 of S1/abba stops on D50 at 03:20: W1..W6 end before (W6 = D37-D43, W7 = D44-D50).
+    let abba = arms.iter_mut().find(|a| a.advisor == "abba").unwrap();
+    let p = &mut abba.patients[4];
+    p.failure = Some(RunFailure {
+        day: 50,
+        minute_of_day: 200,
+        glucose_mg_dl: 9.5,
+    });
+    p.weeks.retain(|w| w.last_day < 50);
+    assert_eq!(p.weeks.len(), 6);
+    let abba = arms.iter().find(|a| a.advisor == "abba").unwrap().clone();
+
+    let s = summary_json(&arms, &manifest()).unwrap();
+    let notes = &s["notes"]["arms"]["S1/abba"];
+    assert_eq!(notes["n_patients_per_week"]["W1"], json!(20));
+    assert_eq!(notes["n_patients_per_week"]["W13"], json!(19));
+    assert_eq!(
+        notes["stopped_runs"],
+        json!([{"patient": "adult#005", "day": 50, "minute_of_day": 200, "glucose_mg_dl": 9.5}])
+    );
+    // W13 TIR is the mean over the 19 others.
+    let others: Vec<f64> = abba
+        .patients
+        .iter()
+        .filter_map(|p| p.week("W13"))
+        .map(|w| w.metrics.tir_70_180)
+        .collect();
+    assert_eq!(others.len(), 19);
+    let mean = others.iter().sum::<f64>() / 19.0;
+    close(
+        "W13 tir mean",
+        mean,
+        &s["arms"]["S1/abba"]["weeks"]["W13"]["tir_70_180"]["mean"],
+    );
+    assert_eq!(
+        notes["wilcoxon"]["W1_vs_W13"]["tir_70_180"]["n_incomplete"],
+        json!(1)
+    );
+    assert_eq!(s["notes"]["arms"]["S1/standard"]["stopped_runs"], json!([]));
+
+    let md = table1::table1_markdown(&arms).unwrap();
+    assert!(
+        md.contains("| patients evaluated | 20 | 100 | 19 | 100 | | 19 | 100 | |"),
+        "{md}"
+    );
+    assert!(
+        md.contains("- adult#005: D50 03:20, plasma glucose 9.5 mg/dL"),
+        "{md}"
+    );
+
+    let text = patients_csv(&arms).unwrap();
+    assert_eq!(text.lines().count(), 1 + 3 * 20 * 14 - 8);
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("S1,abba,cgm,adult#005,W6,"))
+        .unwrap();
+    assert!(line.ends_with(",50,200,9.5"), "{line}");
+
+    let files = build_report(&arms, &manifest()).unwrap();
+    let svg = |name: &str| {
+        String::from_utf8(files.iter().find(|f| f.name == name).unwrap().bytes.clone()).unwrap()
+    };
+    assert!(svg("fig5_lbgi_hbgi.svg").contains("1 of 20 runs stopped early"));
+    assert!(svg("fig_arms.svg").contains("1 of 60 runs stopped early"));
+
+    // A stopped run may not have a week that ends after the stop.
+    let mut bad = arms.clone();
+    bad[0].patients[4].failure = Some(RunFailure {
+        day: 40,
+        minute_of_day: 0,
+        glucose_mg_dl: 9.0,
+    });
+    let e = build_report(&bad, &manifest()).unwrap_err().to_string();
+    assert!(
+        e.contains("adult#005: week W6 ends on D43 but the run stopped on D40"),
+        "{e}"
+    );
 }

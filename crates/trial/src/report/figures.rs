@@ -27,7 +27,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
-use super::{arm_weeks, metric_column, ordered_arms, validate_arms};
+use super::{arm_weeks, metric_column, ordered_arms, stopped_runs, validate_arms};
 use crate::error::TrialError;
 use crate::results::{evaluation_windows, ArmResult};
 use crate::stats::{quantile_sorted, summarize_present, Summary};
@@ -476,6 +476,18 @@ fn min_of(lines: &[Line]) -> f64 {
         .max(0.0)
 }
 
+/// A note on runs stopped early among `arms`, if any.
+fn stopped_note(arms: &[&ArmResult]) -> Option<String> {
+    let stopped: usize = arms.iter().map(|a| stopped_runs(a).len()).sum();
+    let total: usize = arms.iter().map(|a| a.patients.len()).sum();
+    (stopped > 0).then(|| {
+        format!(
+            "{stopped} of {total} runs stopped early (plasma glucose below the failure threshold); \
+             weeks after a stop are summarised over the remaining patients."
+        )
+    })
+}
+
 fn week_notes() -> String {
     "Week k = days 7k-5 to 7k+1 (week 1 = D2-D8, standard therapy before any adaptation); \
      week 13 = D84-D90 (with insulin-sensitivity variability), week 14 = D92-D98 (without)."
@@ -552,7 +564,10 @@ pub fn fig5_lbgi_hbgi(arms: &[ArmResult]) -> Result<String, TrialError> {
                     Key::Dashed,
                 ),
             ],
-            &[week_notes()],
+            &[Some(week_notes()), stopped_note(&abba)]
+                .into_iter()
+                .flatten()
+                .collect::<Vec<_>>(),
             FIG,
         )?;
         root.present().map_err(plot_err(FIG))?;
@@ -588,10 +603,9 @@ pub fn fig6_mage(arms: &[ArmResult]) -> Result<String, TrialError> {
                     "mage",
                     scenario_color(&arm.scenario),
                 )?);
-                for w in arm_weeks(arm) {
-                    let col = metric_column(arm, &w, "mage");
-                    total += col.len();
-                    undefined += col.iter().filter(|v| v.is_none()).count();
+                for wk in arm.patients.iter().flat_map(|p| &p.weeks) {
+                    total += 1;
+                    undefined += usize::from(wk.metrics.mage.is_none());
                 }
             }
             let y_range = nice_range(min_of(&lines), max_of(&lines));
@@ -623,12 +637,16 @@ pub fn fig6_mage(arms: &[ArmResult]) -> Result<String, TrialError> {
             &footer,
             &items,
             &[
-                format!(
+                Some(format!(
                     "Bars: ± 1 SD. MAGE: iglu's moving-average algorithm; undefined (no countable excursion) \
                      for {undefined} of {total} patient-weeks, left out of the means."
-                ),
-                week_notes(),
-            ],
+                )),
+                    Some(week_notes()),
+                stopped_note(&abba),
+            ]
+            .into_iter()
+            .flatten()
+            .collect::<Vec<_>>(),
             FIG,
         )?;
         root.present().map_err(plot_err(FIG))?;
@@ -783,11 +801,17 @@ pub fn fig7_tdi(arms: &[ArmResult]) -> Result<String, TrialError> {
             &footer,
             &items,
             &[
-                "Box: Q1-Q3 of the patients' weekly mean TDI; thick bar: median; whiskers: most extreme values \
-                 within 1.5 IQR of the box (Tukey); dots: values beyond."
-                    .to_string(),
-                week_notes(),
-            ],
+                Some(
+                    "Box: Q1-Q3 of the patients' weekly mean TDI; thick bar: median; whiskers: most extreme values \
+                     within 1.5 IQR of the box (Tukey); dots: values beyond."
+                        .to_string(),
+                ),
+                    Some(week_notes()),
+                stopped_note(&abba),
+            ]
+            .into_iter()
+            .flatten()
+            .collect::<Vec<_>>(),
             FIG,
         )?;
         root.present().map_err(plot_err(FIG))?;
@@ -825,7 +849,7 @@ pub fn fig_arms(arms: &[ArmResult]) -> Result<String, TrialError> {
         let (main, footer) = frame(
             &root,
             "ABBA vs baselines - weekly time in ranges and insulin (mean over patients)",
-            70,
+            80,
             FIG,
         )?;
         let panels = main.split_evenly((rows.len(), scenarios.len()));
@@ -889,7 +913,11 @@ pub fn fig_arms(arms: &[ArmResult]) -> Result<String, TrialError> {
             .iter()
             .map(|a| (arm_label(a), arm_color(a), Key::Line))
             .collect();
-        draw_footer(&footer, &items, &[week_notes()], FIG)?;
+        let notes: Vec<String> = [Some(week_notes()), stopped_note(&ordered)]
+            .into_iter()
+            .flatten()
+            .collect();
+        draw_footer(&footer, &items, &notes, FIG)?;
         root.present().map_err(plot_err(FIG))?;
     }
     Ok(svg)

@@ -28,7 +28,7 @@ use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
 use crate::error::TrialError;
-use crate::results::{evaluation_windows, ArmResult, WeekResult};
+use crate::results::{evaluation_windows, ArmResult, RunFailure, WeekResult};
 
 /// The protocol's 16 metric keys (§8), in its order: the 15 glucose metrics
 /// with `tdi_u_per_day` after `mage`.
@@ -102,13 +102,42 @@ pub fn metric_label(key: &str) -> &'static str {
     }
 }
 
-/// The evaluation weeks every patient of `arm` has, in protocol order
-/// (W1..W12, W13, W14). The arm must have passed [`validate_arms`].
+/// The evaluation weeks of `arm`: those any of its patients has, in
+/// protocol order (W1..W12, W13, W14). Patients whose run stopped early
+/// (see [`validate_arms`]) may lack the later ones.
 pub fn arm_weeks(arm: &ArmResult) -> Vec<String> {
+    evaluation_windows()
+        .into_iter()
+        .map(|(w, _, _)| w)
+        .filter(|w| arm.patients.iter().any(|p| p.week(w).is_some()))
+        .collect()
+}
+
+/// How many patients of `arm` have week `week`.
+pub fn patients_with_week(arm: &ArmResult, week: &str) -> usize {
     arm.patients
-        .first()
-        .map(|p| p.weeks.iter().map(|w| w.week.clone()).collect())
-        .unwrap_or_default()
+        .iter()
+        .filter(|p| p.week(week).is_some())
+        .count()
+}
+
+/// The patients of `arm` whose run stopped early (plasma glucose below the
+/// trial's failure threshold).
+pub fn stopped_runs(arm: &ArmResult) -> Vec<(&str, RunFailure)> {
+    arm.patients
+        .iter()
+        .filter_map(|p| p.failure.map(|f| (p.patient.as_str(), f)))
+        .collect()
+}
+
+/// `D45 03:20` style time of a stopped run.
+pub fn failure_time(f: &RunFailure) -> String {
+    format!(
+        "D{} {:02}:{:02}",
+        f.day,
+        f.minute_of_day / 60,
+        f.minute_of_day % 60
+    )
 }
 
 /// The values of metric `key` in week `week` for every patient of `arm`, in
@@ -150,8 +179,12 @@ pub fn ordered_arms(arms: &[ArmResult]) -> Vec<&ArmResult> {
 /// - every arm has at least one patient, and no patient name twice;
 /// - every patient's weeks are evaluation windows of the protocol (name and
 ///   days as in [`evaluation_windows`]), in protocol order, each once;
-/// - all patients of one arm have the same weeks (paired statistics need
-///   them), and at least one week.
+/// - all patients of one arm whose run completed have the same weeks (paired
+///   statistics need them); a patient whose run stopped early (`failure`)
+///   has a leading part of them, and none that ends after the stop day.
+///
+/// Stopped runs are reported, not hidden: each summary is over the patients
+/// that have the week, and the counts are in the report.
 pub fn validate_arms(arms: &[ArmResult]) -> Result<(), TrialError> {
     let bad = |msg: String| Err(TrialError::InconsistentResults(msg));
     if arms.is_empty() {
@@ -164,9 +197,9 @@ pub fn validate_arms(arms: &[ArmResult]) -> Result<(), TrialError> {
         if !keys.insert(key.clone()) {
             return bad(format!("arm {key} appears more than once"));
         }
-        let Some(first) = arm.patients.first() else {
+        if arm.patients.is_empty() {
             return bad(format!("arm {key} has no patients"));
-        };
+        }
         let mut names = BTreeSet::new();
         for p in &arm.patients {
             if !names.insert(p.patient.as_str()) {
@@ -196,22 +229,44 @@ pub fn validate_arms(arms: &[ArmResult]) -> Result<(), TrialError> {
                         p.patient, w.week
                     ));
                 }
+                if let Some(f) = p.failure {
+                    if w.last_day > f.day {
+                        return bad(format!(
+                            "arm {key}, patient {}: week {} ends on D{} but the run stopped on D{}",
+                            p.patient, w.week, w.last_day, f.day
+                        ));
+                    }
+                }
                 last_index = Some(index);
             }
-            let mine: Vec<&str> = p.weeks.iter().map(|w| w.week.as_str()).collect();
-            let theirs: Vec<&str> = first.weeks.iter().map(|w| w.week.as_str()).collect();
-            if mine != theirs {
-                return bad(format!(
-                    "arm {key}: patient {} has weeks [{}] but patient {} has [{}]",
-                    p.patient,
-                    mine.join(", "),
-                    first.patient,
-                    theirs.join(", ")
-                ));
-            }
         }
-        if first.weeks.is_empty() {
-            return bad(format!("arm {key}: no evaluation week was simulated"));
+        let names_of = |p: &crate::results::PatientResult| -> Vec<String> {
+            p.weeks.iter().map(|w| w.week.clone()).collect()
+        };
+        if let Some(full) = arm.patients.iter().find(|p| p.failure.is_none()) {
+            let theirs = names_of(full);
+            for p in &arm.patients {
+                let mine = names_of(p);
+                let ok = if p.failure.is_none() {
+                    mine == theirs
+                } else {
+                    theirs.starts_with(&mine)
+                };
+                if !ok {
+                    return bad(format!(
+                        "arm {key}: patient {} has weeks [{}] but patient {} has [{}]{}",
+                        p.patient,
+                        mine.join(", "),
+                        full.patient,
+                        theirs.join(", "),
+                        if p.failure.is_some() {
+                            " (a stopped run must have a leading part of them)"
+                        } else {
+                            ""
+                        }
+                    ));
+                }
+            }
         }
     }
     Ok(())

@@ -2,7 +2,10 @@
 //! simulated, W1..W12, W13, W14), with the window's days, the 16 metric keys
 //! in the protocol's order ([`METRIC_KEYS`]; an undefined MAGE is an empty
 //! cell) and, repeated on each of the patient's rows, the patient's start and
-//! final therapy settings, pump caps and minimum glucose over the run. Rows
+//! final therapy settings, pump caps, minimum glucose over the run and, for
+//! a run stopped early (plasma glucose below the failure threshold), where
+//! it stopped (`stopped_*`, empty otherwise; such a patient has rows only
+//! for the weeks that ended before the stop). Rows
 //! follow the report's arm order (S1..S4; abba, standard, r2r), then cohort
 //! order, then week order. Numbers are written in full precision (shortest
 //! round-trip form).
@@ -32,6 +35,9 @@ pub fn patients_csv_header() -> Vec<&'static str> {
         "final_carb_ratio_dinner_g_per_u",
         "pump_capped",
         "min_glucose_mg_dl",
+        "stopped_day",
+        "stopped_minute_of_day",
+        "stopped_glucose_mg_dl",
     ]);
     h
 }
@@ -72,6 +78,13 @@ pub fn patients_csv(arms: &[ArmResult]) -> Result<String, TrialError> {
                     p.final_carb_ratio_g_per_u[2].to_string(),
                     p.pump_capped.to_string(),
                     p.min_glucose_mg_dl.to_string(),
+                    p.failure.map(|f| f.day.to_string()).unwrap_or_default(),
+                    p.failure
+                        .map(|f| f.minute_of_day.to_string())
+                        .unwrap_or_default(),
+                    p.failure
+                        .map(|f| f.glucose_mg_dl.to_string())
+                        .unwrap_or_default(),
                 ]);
                 w.write_record(&rec).map_err(|e| err(e.to_string()))?;
             }

@@ -28,13 +28,20 @@
 //!   approximation with tie correction, zero differences dropped
 //!   (SciPy's default), no continuity correction; `statistic` = min(W+, W−).
 //!   All-zero differences give statistic 0, p = 1.
-//! - Extra per-arm facts (mode, number of patients, weeks present, the
-//!   counts above, z of every test) are under `notes.arms`, so that each arm
-//!   object holds exactly the protocol's keys.
+//! - A run that stopped early (plasma glucose below the failure threshold)
+//!   contributes only the weeks that ended before the stop: later summaries
+//!   are over fewer patients and tests over the complete pairs. The number
+//!   of patients per week and every stop are in `notes.arms.<key>`.
+//! - Extra per-arm facts (mode, number of patients, weeks present, patients
+//!   per week, stopped runs, the counts above, z of every test) are under
+//!   `notes.arms`, so that each arm object holds exactly the protocol's keys.
 
 use serde_json::{json, Map, Value};
 
-use super::{arm_weeks, metric_column, ordered_arms, validate_arms, METRIC_KEYS, TABLE_WEEKS};
+use super::{
+    arm_weeks, metric_column, ordered_arms, patients_with_week, stopped_runs, validate_arms,
+    METRIC_KEYS, TABLE_WEEKS,
+};
 use crate::error::TrialError;
 use crate::results::ArmResult;
 use crate::stats::{summarize_present, wilcoxon_signed_rank_present, Wilcoxon, WilcoxonOptions};
@@ -103,13 +110,18 @@ pub fn summary_json(arms: &[ArmResult], manifest: &Value) -> Result<Value, Trial
 
         let mut weekly = Vec::with_capacity(weeks_present.len());
         let mut mage_undefined = Map::new();
+        let mut n_per_week = Map::new();
         for w in &weeks_present {
+            n_per_week.insert(w.clone(), json!(patients_with_week(arm, w)));
             let mut m = week_summary(arm, w)?;
             m.insert("week".to_string(), Value::String(w.clone()));
             weekly.push(Value::Object(m));
-            let undefined = metric_column(arm, w, "mage")
+            // Undefined among the patients that have the week.
+            let undefined = arm
+                .patients
                 .iter()
-                .filter(|v| v.is_none())
+                .filter_map(|p| p.week(w))
+                .filter(|wk| wk.metrics.mage.is_none())
                 .count();
             mage_undefined.insert(w.clone(), json!(undefined));
         }
@@ -161,6 +173,16 @@ pub fn summary_json(arms: &[ArmResult], manifest: &Value) -> Result<Value, Trial
                 "mode": arm.mode,
                 "n_patients": arm.patients.len(),
                 "weeks_present": weeks_present,
+                "n_patients_per_week": Value::Object(n_per_week),
+                "stopped_runs": stopped_runs(arm)
+                    .into_iter()
+                    .map(|(patient, f)| json!({
+                        "patient": patient,
+                        "day": f.day,
+                        "minute_of_day": f.minute_of_day,
+                        "glucose_mg_dl": finite_or_null(f.glucose_mg_dl),
+                    }))
+                    .collect::<Vec<_>>(),
                 "mage_undefined": Value::Object(mage_undefined),
                 "wilcoxon": Value::Object(wilcoxon_notes),
             }),
@@ -176,6 +198,7 @@ pub fn summary_json(arms: &[ArmResult], manifest: &Value) -> Result<Value, Trial
                 "undefined_values": "MAGE is undefined for a patient-week without a countable excursion: summaries use the defined values only and tests the complete pairs only; counts in notes.arms.<arm>.mage_undefined and .wilcoxon.<test>.<metric>.n_incomplete; a metric with no defined value is null",
                 "wilcoxon": "paired by patient, d = later week - W1; two-sided; normal approximation with tie correction; zero differences dropped (Wilcoxon's rule, SciPy's default); no continuity correction; statistic = min(W+, W-); all differences zero gives statistic 0, p 1",
                 "weeks": "W1 = D2-D8 (standard therapy); Wk = D(7k-5)-D(7k+1) for k = 1..12; W13 = D84-D90; W14 = D92-D98; D91 not evaluated; a week not simulated is null in 'weeks', absent from 'weekly', and its comparisons are null",
+                "stopped_runs": "a run stops when plasma glucose falls below the trial's failure threshold; the patient then contributes only the weeks that ended before the stop, so later summaries are over fewer patients (notes.arms.<arm>.n_patients_per_week) and tests over the complete pairs only (n_incomplete); every stop is listed in notes.arms.<arm>.stopped_runs",
                 "glucose": "metrics of plasma glucose sampled every 5 min; tdi_u_per_day = mean total insulin delivered per day over the week",
             },
         },

@@ -24,7 +24,10 @@
 use std::fmt::Write as _;
 
 use super::summary::wilcoxon_vs_w1;
-use super::{arm_weeks, metric_column, metric_label, ordered_arms, validate_arms, SEED_BANDS};
+use super::{
+    arm_weeks, failure_time, metric_column, metric_label, ordered_arms, patients_with_week,
+    stopped_runs, validate_arms, SEED_BANDS,
+};
 use crate::error::TrialError;
 use crate::results::ArmResult;
 use crate::stats::{summarize_present, Summary};
@@ -306,6 +309,7 @@ pub fn table1_csv(arms: &[ArmResult]) -> Result<String, TrialError> {
         "n_patients",
         "week",
         "metric",
+        "n_values",
         "ours_mean",
         "ours_sd",
         "ours_median",
@@ -328,6 +332,7 @@ pub fn table1_csv(arms: &[ArmResult]) -> Result<String, TrialError> {
             r.n_patients.to_string(),
             r.week.clone(),
             r.metric.clone(),
+            r.ours.n.to_string(),
             r.ours.mean.to_string(),
             opt(r.ours.sd),
             r.ours.median.to_string(),
@@ -479,6 +484,12 @@ pub fn table1_markdown(arms: &[ArmResult]) -> Result<String, TrialError> {
     );
     let _ = writeln!(
         s,
+        "**Stopped runs**: a run stops when plasma glucose falls below the trial's failure threshold; \
+         the patient then counts only in the weeks that ended before the stop (\"patients evaluated\" \
+         gives the number per week, and each stop is listed under its arm). The paper's n is 100 adults.\n"
+    );
+    let _ = writeln!(
+        s,
         "**p**: our paired two-sided Wilcoxon signed-rank test of the week against W1 \
          (normal approximation, tie correction, zero differences dropped).\n"
     );
@@ -535,6 +546,23 @@ pub fn table1_markdown(arms: &[ArmResult]) -> Result<String, TrialError> {
             }
         }
         let _ = writeln!(s, "{header}\n{rule}");
+        let arm = arms
+            .iter()
+            .find(|a| a.scenario == scenario && a.advisor == advisor);
+        let mut n_line = String::from("| patients evaluated |");
+        for w in &weeks {
+            let n = arm.map_or(0, |a| patients_with_week(a, w));
+            let paper_n = if arm_rows.iter().any(|r| r.week == *w && r.paper.is_some()) {
+                "100"
+            } else {
+                "—"
+            };
+            let _ = write!(n_line, " {n} | {paper_n} |");
+            if *w != "W1" {
+                n_line.push_str(" |");
+            }
+        }
+        let _ = writeln!(s, "{n_line}");
         for metric in TABLE1_METRICS {
             let mut line = format!("| {} |", metric_label(metric));
             for w in &weeks {
@@ -558,6 +586,26 @@ pub fn table1_markdown(arms: &[ArmResult]) -> Result<String, TrialError> {
                 }
             }
             let _ = writeln!(s, "{line}");
+        }
+        if let Some(arm) = arm {
+            let stops = stopped_runs(arm);
+            if !stops.is_empty() {
+                let _ = writeln!(
+                    s,
+                    "\nRuns stopped early ({} of {}; plasma glucose below the failure threshold; \
+                     these patients count only in the weeks that ended before the stop):\n",
+                    stops.len(),
+                    arm.patients.len()
+                );
+                for (patient, f) in stops {
+                    let _ = writeln!(
+                        s,
+                        "- {patient}: {}, plasma glucose {:.1} mg/dL",
+                        failure_time(&f),
+                        f.glucose_mg_dl
+                    );
+                }
+            }
         }
         let anchored: Vec<&Table1Row> = arm_rows.iter().filter(|r| r.anchor.is_some()).collect();
         if !anchored.is_empty() {

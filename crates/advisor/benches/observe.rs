@@ -5,7 +5,7 @@
 
 use abba_advisor::{AbbaConfig, Advisor, AdvisorSpec, Mode, R2rConfig};
 use abba_core::{
-    Event, EventKind, Grams, GramsPerUnit, MealSlot, MgDl, Timestamp, TherapySettings, Units,
+    Event, EventKind, Grams, GramsPerUnit, MealSlot, MgDl, TherapySettings, Timestamp, Units,
     UnitsPerHour,
 };
 use criterion::{criterion_group, criterion_main, Criterion};

@@ -1,7 +1,7 @@
 //! Transfer-entropy initialisation (spec §7): insulin → glucose TE from the
 //! first week's CGM and pump data, and its mapping to the initial policy θ0.
 //!
-//! Estimator ([GUESS], spec §7.2): Schreiber's transfer entropy
+//! Estimator (\[GUESS], spec §7.2): Schreiber's transfer entropy
 //! (Schreiber, Phys. Rev. Lett. 85:461, 2000) with history length 1, plug-in
 //! probabilities on equiprobable (quantile) bins, maximised over source lags
 //! 0-120 min, bias-corrected by circularly shifted surrogates and floored at 0.

@@ -380,7 +380,10 @@ fn optional_hypo_guard_cancels_insulin_increases_on_hypo_windows() {
         })
         .count();
     println!("spec-literal insulin increases on hypo windows: {violations}");
-    assert!(violations > 0, "expected the literal algorithm to add insulin on some hypo window");
+    assert!(
+        violations > 0,
+        "expected the literal algorithm to add insulin on some hypo window"
+    );
 }
 
 #[test]

@@ -515,6 +515,14 @@ impl AbbaConfig {
         }
     }
 
+    /// Parses a JSON configuration and validates it.
+    pub fn from_json(json: &str) -> Result<Self, AdvisorError> {
+        let c: Self =
+            serde_json::from_str(json).map_err(|e| config_err("(json)", e.to_string()))?;
+        c.validate()?;
+        Ok(c)
+    }
+
     /// Checks every field; the error names the field and the value.
     pub fn validate(&self) -> Result<(), AdvisorError> {
         if !(1..=60).contains(&self.init_days) {
@@ -601,6 +609,18 @@ mod tests {
         let mut c = AbbaConfig::new(Mode::Smbg, 1);
         c.update.max_relative_change = f64::NAN;
         assert!(c.validate().is_err());
+    }
+
+    #[test]
+    fn from_json_parses_and_validates() {
+        let mut c = AbbaConfig::new(Mode::Smbg, 3);
+        c.actor.h = 0.25;
+        let back = AbbaConfig::from_json(&serde_json::to_string(&c).unwrap()).unwrap();
+        assert_eq!(back, c);
+        c.actor.h = 2.0;
+        let e = AbbaConfig::from_json(&serde_json::to_string(&c).unwrap()).unwrap_err();
+        assert!(e.to_string().contains("actor.h"), "{e}");
+        assert!(AbbaConfig::from_json("{").is_err());
     }
 
     #[test]

@@ -91,6 +91,14 @@ impl R2rConfig {
         }
     }
 
+    /// Parses a JSON configuration and validates it.
+    pub fn from_json(json: &str) -> Result<Self, AdvisorError> {
+        let c: Self =
+            serde_json::from_str(json).map_err(|e| config_err("(json)", e.to_string()))?;
+        c.validate()?;
+        Ok(c)
+    }
+
     /// Checks every field.
     pub fn validate(&self) -> Result<(), AdvisorError> {
         if !(1..=60).contains(&self.init_days) {
@@ -442,6 +450,26 @@ mod tests {
         assert!(
             (exp - got).abs() < 1e-12,
             "{name}: expected {exp}, got {got}"
+        );
+    }
+
+    #[test]
+    fn config_validation_names_the_field() {
+        R2rConfig::new(Mode::Cgm).validate().unwrap();
+        let mut c = R2rConfig::new(Mode::Cgm);
+        c.basal_cap = 0.9;
+        assert!(c.validate().unwrap_err().to_string().contains("basal_cap"));
+        let mut c = R2rConfig::new(Mode::Cgm);
+        c.night_window_min = [400, 300];
+        assert!(c
+            .validate()
+            .unwrap_err()
+            .to_string()
+            .contains("night_window_min"));
+        let json = serde_json::to_string(&R2rConfig::new(Mode::Smbg)).unwrap();
+        assert_eq!(
+            R2rConfig::from_json(&json).unwrap(),
+            R2rConfig::new(Mode::Smbg)
         );
     }
 

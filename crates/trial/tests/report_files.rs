@@ -665,6 +665,7 @@ fn a_stopped_run_counts_only_in_the_weeks_before_the_stop() {
         String::from_utf8(files.iter().find(|f| f.name == name).unwrap().bytes.clone()).unwrap()
     };
     assert!(svg("fig5_lbgi_hbgi.svg").contains("1 of 20 runs stopped early"));
+    assert!(svg("fig5_lbgi_hbgi.svg").contains("S1 · LBGI (n = 20, 1 stopped)"));
     assert!(svg("fig_arms.svg").contains("1 of 60 runs stopped early"));
 
     // A stopped run may not have a week that ends after the stop.

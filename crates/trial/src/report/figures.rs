@@ -476,6 +476,16 @@ fn min_of(lines: &[Line]) -> f64 {
         .max(0.0)
 }
 
+/// `n = 20` or, with stopped runs, `n = 20, 3 stopped`.
+fn n_text(arm: &ArmResult) -> String {
+    let stopped = stopped_runs(arm).len();
+    if stopped == 0 {
+        format!("n = {}", arm.patients.len())
+    } else {
+        format!("n = {}, {stopped} stopped", arm.patients.len())
+    }
+}
+
 /// A note on runs stopped early among `arms`, if any.
 fn stopped_note(arms: &[&ArmResult]) -> Option<String> {
     let stopped: usize = arms.iter().map(|a| stopped_runs(a).len()).sum();
@@ -523,12 +533,12 @@ pub fn fig5_lbgi_hbgi(arms: &[ArmResult]) -> Result<String, TrialError> {
             let hbgi_max = nice_range(0.0, max_of(&hbgi).max(6.0)).1;
             let panels = main.split_evenly((2, abba.len()));
             for (i, arm) in abba.iter().enumerate() {
-                let n = arm.patients.len();
+                let n = n_text(arm);
                 draw_weekly_panel(
                     &panels[i],
                     &weeks,
                     &Panel {
-                        caption: format!("{} · LBGI (n = {n})", arm.scenario),
+                        caption: format!("{} · LBGI ({n})", arm.scenario),
                         y_desc: "LBGI",
                         y_range: (0.0, lbgi_max),
                         refs: &[(1.1, "1.1"), (2.5, "2.5")],
@@ -541,7 +551,7 @@ pub fn fig5_lbgi_hbgi(arms: &[ArmResult]) -> Result<String, TrialError> {
                     &panels[abba.len() + i],
                     &weeks,
                     &Panel {
-                        caption: format!("{} · HBGI (n = {n})", arm.scenario),
+                        caption: format!("{} · HBGI ({n})", arm.scenario),
                         y_desc: "HBGI",
                         y_range: (0.0, hbgi_max),
                         refs: &[(5.0, "5")],
@@ -627,7 +637,7 @@ pub fn fig6_mage(arms: &[ArmResult]) -> Result<String, TrialError> {
             .iter()
             .map(|a| {
                 (
-                    format!("{} (n = {})", a.scenario, a.patients.len()),
+                    format!("{} ({})", a.scenario, n_text(a)),
                     scenario_color(&a.scenario),
                     Key::Line,
                 )
@@ -791,7 +801,7 @@ pub fn fig7_tdi(arms: &[ArmResult]) -> Result<String, TrialError> {
             .iter()
             .map(|a| {
                 (
-                    format!("{} (n = {})", a.scenario, a.patients.len()),
+                    format!("{} ({})", a.scenario, n_text(a)),
                     scenario_color(&a.scenario),
                     Key::Box,
                 )

@@ -9,7 +9,7 @@ use crate::error::AdvisorError;
 use crate::features::{local_cost, WindowStats};
 use crate::fusion::apply_action;
 use crate::guard::{closed_day, EventGuard};
-use crate::supervisor::{supervisory, ParamKind};
+use crate::supervisor::{adds_insulin, supervisory, ParamKind};
 use crate::te::{te_scale, theta0, transfer_entropy, TeCollector, TeEstimate};
 use crate::windows::{DayWindows, MealWindows};
 use crate::Advisor;
@@ -261,9 +261,15 @@ impl Abba {
             cfg.update.switch_rule,
             cfg.update.max_relative_change,
         );
+        let guard_hypo = cfg.update.hypo_guard && stats.hyponumber > 0;
         let (learning, action, applied) =
             self.agents[agent_index(p)].decide(&f, cost, p_s, cfg, |p_e| {
-                apply_action(kind, old, p_e, m, br_change, switch, max)
+                let mut a = apply_action(kind, old, p_e, m, br_change, switch, max);
+                if guard_hypo && adds_insulin(kind, a.new / old - 1.0) {
+                    a.new = old;
+                    a.hypo_guard_fired = true;
+                }
+                a
             });
         self.set_value(p, applied.new);
         if kind == ParamKind::Basal {

@@ -64,6 +64,19 @@ pub enum AnyAdvisor {
 }
 
 impl AnyAdvisor {
+    /// The ABBA advisor inside, if this arm is ABBA (for θ, critic weights, counters).
+    pub fn as_abba(&self) -> Option<&Abba> {
+        match self {
+            AnyAdvisor::Abba(a) => Some(a),
+            _ => None,
+        }
+    }
+
+    /// The TE initialisation report, if this arm is ABBA and has initialised.
+    pub fn init_report(&self) -> Option<&crate::abba::InitReport> {
+        self.as_abba().and_then(Abba::init_report)
+    }
+
     fn inner(&self) -> &dyn Advisor {
         match self {
             AnyAdvisor::Abba(a) => a.as_ref(),

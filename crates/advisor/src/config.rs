@@ -1,7 +1,7 @@
 //! `AbbaConfig`: every constant of the algorithm as a named, documented knob.
 //!
-//! Tags follow `shared/spec/abba-algorithm.md`: **[SEED]** values are stated
-//! in the paper (kept as knobs for ablations); **[GUESS]** values are the
+//! Tags follow `shared/spec/abba-algorithm.md`: **\[SEED]** values are stated
+//! in the paper (kept as knobs for ablations); **\[GUESS]** values are the
 //! spec's choices where no source was readable and must be listed in any
 //! results write-up. Defaults are exactly the spec's.
 
@@ -90,19 +90,19 @@ impl EventLimits {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FeatureConfig {
-    /// G_L, lower border of the tight range (mg/dL). [SEED eq11] 90.
+    /// G_L, lower border of the tight range (mg/dL). \[SEED eq11] 90.
     pub g_low_mg_dl: f64,
-    /// G_H, upper border of the tight range (mg/dL). [SEED eq10] 150.
+    /// G_H, upper border of the tight range (mg/dL). \[SEED eq10] 150.
     pub g_high_mg_dl: f64,
-    /// G_max: F_hyper = raw / (G_max − G_H). [GUESS §3] 400 (CGM reporting ceiling).
+    /// G_max: F_hyper = raw / (G_max − G_H). \[GUESS §3] 400 (CGM reporting ceiling).
     pub g_max_mg_dl: f64,
-    /// G_min: F_hypo = raw / (G_L − G_min). [GUESS §3] 40 (CGM reporting floor).
+    /// G_min: F_hypo = raw / (G_L − G_min). \[GUESS §3] 40 (CGM reporting floor).
     pub g_min_mg_dl: f64,
-    /// "Hyponumber" counts readings below this (mg/dL). [SEED eq27] 70.
+    /// "Hyponumber" counts readings below this (mg/dL). \[SEED eq27] 70.
     pub hyponumber_below_mg_dl: f64,
-    /// N1 counts readings below this (mg/dL). [SEED eq27] 80.
+    /// N1 counts readings below this (mg/dL). \[SEED eq27] 80.
     pub n1_below_mg_dl: f64,
-    /// N2 counts readings above this (mg/dL). [SEED eq27] 130.
+    /// N2 counts readings above this (mg/dL). \[SEED eq27] 130.
     pub n2_above_mg_dl: f64,
 }
 
@@ -166,7 +166,7 @@ pub enum CriticVariant {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum CriticBasis {
-    /// g = (1, F_hyper, F_hypo). [GUESS] default.
+    /// g = (1, F_hyper, F_hypo). \[GUESS] default.
     WithBias,
     /// g = (F_hyper, F_hypo) (the spec's fallback); stored as (0, F_hyper, F_hypo).
     FeaturesOnly,
@@ -176,7 +176,7 @@ pub enum CriticBasis {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum CostTiming {
-    /// d_k = c(F_{k+1}) + γV(F_{k+1}) − V(F_k): the cost of the decision's outcome. [GUESS] default.
+    /// d_k = c(F_{k+1}) + γV(F_{k+1}) − V(F_k): the cost of the decision's outcome. \[GUESS] default.
     Outcome,
     /// d_k = c(F_k) + γV(F_{k+1}) − V(F_k): the literal reading of eq5.
     Literal,
@@ -188,17 +188,17 @@ pub enum CostTiming {
 pub struct CriticConfig {
     /// Variant A (default) or B.
     pub variant: CriticVariant,
-    /// Basis of the V-critic (Variant A; also the state part of φ in Variant B). [GUESS]
+    /// Basis of the V-critic (Variant A; also the state part of φ in Variant B). \[GUESS]
     pub basis: CriticBasis,
-    /// Cost timing in the TD error. [GUESS] Outcome.
+    /// Cost timing in the TD error. \[GUESS] Outcome.
     pub cost_timing: CostTiming,
-    /// Discount γ (Variant A). [GUESS] 0.9.
+    /// Discount γ (Variant A). \[GUESS] 0.9.
     pub gamma: f64,
-    /// Trace decay λ. [GUESS] 0.5.
+    /// Trace decay λ. \[GUESS] 0.5.
     pub lambda: f64,
-    /// a_0 in a_k = a_0/(1 + k/κ). [GUESS] 0.1.
+    /// a_0 in a_k = a_0/(1 + k/κ). \[GUESS] 0.1.
     pub a0: f64,
-    /// κ (in updates, i.e. days) in a_k = a_0/(1 + k/κ). [GUESS] 30.
+    /// κ (in updates, i.e. days) in a_k = a_0/(1 + k/κ). \[GUESS] 30.
     pub kappa: f64,
 }
 
@@ -220,7 +220,7 @@ impl Default for CriticConfig {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum GradientAction {
-    /// The sampled P_e, even if the switch rule or the clamp changed what was applied. [GUESS] default.
+    /// The sampled P_e, even if the switch rule or the clamp changed what was applied. \[GUESS] default.
     Sampled,
     /// The effective P_e,eff = (AP_final/AP_old − 1)/(1 − m) (ablation).
     Effective,
@@ -230,17 +230,17 @@ pub enum GradientAction {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ActorConfig {
-    /// h in P_d = h·P_a + (1−h)·P_s. [SEED eq23-24] 0.5.
+    /// h in P_d = h·P_a + (1−h)·P_s. \[SEED eq23-24] 0.5.
     pub h: f64,
-    /// c_σ in σ = c_σ·‖F‖². [SEED eq22] 0.05.
+    /// c_σ in σ = c_σ·‖F‖². \[SEED eq22] 0.05.
     pub c_sigma: f64,
-    /// Actor step β. [SEED eq28] 0.5.
+    /// Actor step β. \[SEED eq28] 0.5.
     pub beta: f64,
-    /// Skip the actor step when the stored σ_k is below this. [GUESS §6.4] 1e-4.
+    /// Skip the actor step when the stored σ_k is below this. \[GUESS §6.4] 1e-4.
     pub sigma_min: f64,
-    /// Clip each |Δθ_j| per update to this. [GUESS §6.4] 0.5.
+    /// Clip each |Δθ_j| per update to this. \[GUESS §6.4] 0.5.
     pub theta_step_clip: f64,
-    /// Which P_e enters eq28. [GUESS] Sampled.
+    /// Which P_e enters eq28. \[GUESS] Sampled.
     pub gradient_action: GradientAction,
 }
 
@@ -257,7 +257,7 @@ impl Default for ActorConfig {
     }
 }
 
-/// Supervisory-action gains (spec §6.2); all [SEED].
+/// Supervisory-action gains (spec §6.2); all \[SEED].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SupervisorConfig {
@@ -292,12 +292,18 @@ impl Default for SupervisorConfig {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct UpdateConfig {
-    /// m in AP_fusion = m·AP_old + (1−m)·AP_new. [SEED eq17] 0.5.
+    /// m in AP_fusion = m·AP_old + (1−m)·AP_new. \[SEED eq17] 0.5.
     pub fusion_m: f64,
-    /// Largest relative change per update. [SEED "within 5%"] 0.05.
+    /// Largest relative change per update. \[SEED "within 5%"] 0.05.
     pub max_relative_change: f64,
-    /// Apply the CIR switch rule l (eq20-21). [SEED] true.
+    /// Apply the CIR switch rule l (eq20-21). \[SEED] true.
     pub switch_rule: bool,
+    /// Extra safety, **not in the seed or the spec** (a deviation when on):
+    /// cancel any update that would add insulin (basal up, carb ratio down)
+    /// when its window holds a reading below `features.hyponumber_below_mg_dl`.
+    /// Default false (spec-literal). The supervisory action alone never adds
+    /// insulin on such windows, but P_a (the learned part) can.
+    pub hypo_guard: bool,
 }
 
 impl Default for UpdateConfig {
@@ -306,6 +312,7 @@ impl Default for UpdateConfig {
             fusion_m: 0.5,
             max_relative_change: 0.05,
             switch_rule: true,
+            hypo_guard: false,
         }
     }
 }
@@ -314,7 +321,7 @@ impl Default for UpdateConfig {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case", tag = "kind")]
 pub enum TeMapping {
-    /// TE_n = TE / TE_ref. [GUESS] default.
+    /// TE_n = TE / TE_ref. \[GUESS] default.
     Proportional,
     /// TE_n = TE_ref / TE (the other direction; spec says the direction is unverified).
     Inverse,
@@ -329,7 +336,7 @@ pub enum TeMapping {
     },
 }
 
-/// Default TE_ref (bits). [GUESS, uncalibrated]: the spec defines TE_ref as
+/// Default TE_ref (bits). \[GUESS, uncalibrated]: the spec defines TE_ref as
 /// the median bias-corrected TE of a training cohort's first week; no cohort
 /// was available when this default was set. Calibrate it with
 /// [`crate::te::first_week_te`] over a cohort and set `te.te_ref_bits`.
@@ -339,33 +346,33 @@ pub const DEFAULT_TE_REF_BITS: f64 = 0.02;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TeConfig {
-    /// Grid step of the signals (min). [GUESS] 5.
+    /// Grid step of the signals (min). \[GUESS] 5.
     pub bin_minutes: i64,
-    /// Peak of the insulin-activity kernel (min). [GUESS §7.2] 75.
+    /// Peak of the insulin-activity kernel (min). \[GUESS §7.2] 75.
     pub kernel_peak_min: f64,
-    /// Duration of the insulin-activity kernel (min). [GUESS §7.2] 360.
+    /// Duration of the insulin-activity kernel (min). \[GUESS §7.2] 360.
     pub kernel_duration_min: f64,
-    /// Number of equiprobable (quantile) bins per signal. [GUESS] 4.
+    /// Number of equiprobable (quantile) bins per signal. \[GUESS] 4.
     pub bins: usize,
-    /// Largest source lag, in grid steps (24 = 120 min). [GUESS] 24.
+    /// Largest source lag, in grid steps (24 = 120 min). \[GUESS] 24.
     pub max_lag_steps: usize,
-    /// Number of circularly shifted surrogates for bias correction. [GUESS] 20.
+    /// Number of circularly shifted surrogates for bias correction. \[GUESS] 20.
     pub surrogates: usize,
-    /// Smallest circular shift of a surrogate, in grid steps (288 = 1 day). [GUESS]
+    /// Smallest circular shift of a surrogate, in grid steps (288 = 1 day). \[GUESS]
     pub min_surrogate_shift_steps: usize,
-    /// Fewest usable (g_t, g_t+1, ĩ) triples to accept an estimate. [GUESS] 500.
+    /// Fewest usable (g_t, g_t+1, ĩ) triples to accept an estimate. \[GUESS] 500.
     pub min_pairs: usize,
-    /// TE_ref (bits), see [`DEFAULT_TE_REF_BITS`]. [GUESS]
+    /// TE_ref (bits), see [`DEFAULT_TE_REF_BITS`]. \[GUESS]
     pub te_ref_bits: f64,
-    /// TE → TE_n mapping. [GUESS] proportional.
+    /// TE → TE_n mapping. \[GUESS] proportional.
     pub mapping: TeMapping,
-    /// Lower clamp of TE_n. [GUESS] 0.25.
+    /// Lower clamp of TE_n. \[GUESS] 0.25.
     pub te_n_min: f64,
-    /// Upper clamp of TE_n. [GUESS] 4.
+    /// Upper clamp of TE_n. \[GUESS] 4.
     pub te_n_max: f64,
-    /// θ0 for BR per unit TE_n: (hyper, hypo). [GUESS] (+0.10, −0.20).
+    /// θ0 for BR per unit TE_n: (hyper, hypo). \[GUESS] (+0.10, −0.20).
     pub theta0_br: [f64; 2],
-    /// θ0 for each CIR per unit TE_n: (hyper, hypo). [GUESS] (−0.10, +0.20).
+    /// θ0 for each CIR per unit TE_n: (hyper, hypo). \[GUESS] (−0.10, +0.20).
     pub theta0_cir: [f64; 2],
 }
 
@@ -463,11 +470,11 @@ pub struct AbbaConfig {
     /// Seed of the exploration generator; use
     /// `abba_core::derive_seed(trial, patient, scenario, Stream::Exploration)`.
     pub exploration_seed: u64,
-    /// Days of data collected under the starting therapy before adapting. [SEED] 7.
+    /// Days of data collected under the starting therapy before adapting. \[SEED] 7.
     pub init_days: u32,
-    /// Local-cost weight of F_hyper. [SEED eq13] 1.
+    /// Local-cost weight of F_hyper. \[SEED eq13] 1.
     pub a_hyper: f64,
-    /// Local-cost weight of F_hypo. [SEED eq13] 10.
+    /// Local-cost weight of F_hypo. \[SEED eq13] 10.
     pub a_hypo: f64,
     /// Feature thresholds and normalisation.
     pub features: FeatureConfig,
@@ -506,6 +513,14 @@ impl AbbaConfig {
             limits: EventLimits::default(),
             decision_log_capacity: 4096,
         }
+    }
+
+    /// Parses a JSON configuration and validates it.
+    pub fn from_json(json: &str) -> Result<Self, AdvisorError> {
+        let c: Self =
+            serde_json::from_str(json).map_err(|e| config_err("(json)", e.to_string()))?;
+        c.validate()?;
+        Ok(c)
     }
 
     /// Checks every field; the error names the field and the value.
@@ -594,6 +609,18 @@ mod tests {
         let mut c = AbbaConfig::new(Mode::Smbg, 1);
         c.update.max_relative_change = f64::NAN;
         assert!(c.validate().is_err());
+    }
+
+    #[test]
+    fn from_json_parses_and_validates() {
+        let mut c = AbbaConfig::new(Mode::Smbg, 3);
+        c.actor.h = 0.25;
+        let back = AbbaConfig::from_json(&serde_json::to_string(&c).unwrap()).unwrap();
+        assert_eq!(back, c);
+        c.actor.h = 2.0;
+        let e = AbbaConfig::from_json(&serde_json::to_string(&c).unwrap()).unwrap_err();
+        assert!(e.to_string().contains("actor.h"), "{e}");
+        assert!(AbbaConfig::from_json("{").is_err());
     }
 
     #[test]

@@ -80,8 +80,9 @@ pub struct AbbaExplanation {
 /// What a run-to-run update computed.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct R2rExplanation {
-    /// The performance measure y (mg/dL): fasting/night glucose or post-meal glucose.
-    pub measure_mg_dl: f64,
+    /// The performance measure y (mg/dL): fasting/night glucose or post-meal
+    /// glucose (None when a hypo override fired without one).
+    pub measure_mg_dl: Option<f64>,
     /// Reference G_ref (mg/dL).
     pub reference_mg_dl: f64,
     /// Relative change requested K·e/G_ref before the cap (for a carb ratio: of I:C).
@@ -138,8 +139,9 @@ impl std::fmt::Display for Decision {
             DecisionDetail::Skipped { reason } => write!(f, "; skipped: {reason:?}"),
             DecisionDetail::RunToRun(r) => write!(
                 f,
-                "; run-to-run: y = {:.1} mg/dL vs {:.0}, requested {:+.2} %{}{}",
-                r.measure_mg_dl,
+                "; run-to-run: y = {} mg/dL vs {:.0}, requested {:+.2} %{}{}",
+                r.measure_mg_dl
+                    .map_or("none".to_string(), |y| format!("{y:.1}")),
                 r.reference_mg_dl,
                 100.0 * r.raw_relative_change,
                 if r.capped { ", capped" } else { "" },
@@ -183,6 +185,9 @@ impl std::fmt::Display for Decision {
                 }
                 if x.applied.clamp_fired {
                     write!(f, ", 5 % clamp fired")?;
+                }
+                if x.applied.hypo_guard_fired {
+                    write!(f, ", hypo guard cancelled an insulin increase")?;
                 }
                 if x.applied.non_finite {
                     write!(f, ", non-finite action ignored")?;

@@ -18,6 +18,9 @@ pub struct Applied {
     pub clamp_fired: bool,
     /// The non-finite guard fired (a non-finite action left the value unchanged).
     pub non_finite: bool,
+    /// The optional hypo guard (`update.hypo_guard`) cancelled an insulin increase.
+    #[serde(default)]
+    pub hypo_guard_fired: bool,
     /// AP_final, the value from now on.
     pub new: f64,
 }
@@ -58,6 +61,7 @@ pub fn apply_action(
             switch_fired,
             clamp_fired: false,
             non_finite: true,
+            hypo_guard_fired: false,
             new: old,
         };
     }
@@ -72,6 +76,7 @@ pub fn apply_action(
         switch_fired,
         clamp_fired: clamped != value,
         non_finite: false,
+        hypo_guard_fired: false,
         new: clamped,
     }
 }

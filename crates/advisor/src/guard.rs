@@ -19,8 +19,38 @@
 
 use crate::config::EventLimits;
 use crate::error::AdvisorError;
-use abba_core::{Event, EventKind, Timestamp};
+use abba_core::{Event, EventKind, MealSlot, Timestamp};
 use serde::{Deserialize, Serialize};
+
+/// A serialisable copy of an accepted event's kind. (abba-core's `EventKind`
+/// is an internally tagged enum whose newtype variants hold floats, which
+/// serde_json cannot serialise, so the guard keeps its own form.)
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+enum Seen {
+    Cgm(f64),
+    Smbg(f64),
+    Meal { carbs: f64, slot: MealSlot },
+    Bolus(f64),
+    Basal(f64),
+    DayClosed,
+}
+
+impl From<&EventKind> for Seen {
+    fn from(k: &EventKind) -> Self {
+        match *k {
+            EventKind::Cgm(g) => Seen::Cgm(g.0),
+            EventKind::Smbg(g) => Seen::Smbg(g.0),
+            EventKind::MealAnnounced { carbs, slot } => Seen::Meal {
+                carbs: carbs.0,
+                slot,
+            },
+            EventKind::Bolus(u) => Seen::Bolus(u.0),
+            EventKind::BasalRate(r) => Seen::Basal(r.0),
+            EventKind::DayClosed => Seen::DayClosed,
+        }
+    }
+}
 
 /// Name of an event kind for messages.
 pub fn kind_name(kind: &EventKind) -> &'static str {
@@ -44,7 +74,7 @@ pub fn closed_day(at: Timestamp) -> i64 {
 pub struct EventGuard {
     last_at: Option<Timestamp>,
     /// Events accepted at `last_at` (for duplicate detection); reused buffer.
-    same_minute: Vec<EventKind>,
+    same_minute: Vec<Seen>,
     last_closed_day: Option<i64>,
     /// (day, highest main-meal index announced that day).
     last_main_meal: Option<(i64, usize)>,
@@ -97,13 +127,13 @@ impl EventGuard {
                 });
             }
             if e.at == prev {
+                let this = Seen::from(&e.kind);
                 for seen in &self.same_minute {
                     let same_reading_kind = matches!(
-                        (seen, &e.kind),
-                        (EventKind::Cgm(_), EventKind::Cgm(_))
-                            | (EventKind::Smbg(_), EventKind::Smbg(_))
+                        (seen, &this),
+                        (Seen::Cgm(_), Seen::Cgm(_)) | (Seen::Smbg(_), Seen::Smbg(_))
                     );
-                    if *seen == e.kind || same_reading_kind {
+                    if *seen == this || same_reading_kind {
                         return Err(AdvisorError::Duplicate {
                             at: e.at,
                             kind,
@@ -146,7 +176,7 @@ impl EventGuard {
                             detail: format!(
                                 "{} announced after {} on the same day (main meals are announced once each, in order)",
                                 slot.name(),
-                                abba_core::MealSlot::MAIN[last].name()
+                                MealSlot::MAIN[last].name()
                             ),
                         });
                     }
@@ -182,7 +212,7 @@ impl EventGuard {
             self.same_minute.clear();
             self.last_at = Some(e.at);
         }
-        self.same_minute.push(e.kind);
+        self.same_minute.push(Seen::from(&e.kind));
         if self.first_day.is_none() {
             self.first_day = Some(match e.kind {
                 EventKind::DayClosed => closed_day(e.at),

@@ -28,6 +28,11 @@
 //!   non-finite or implausible value ([`EventLimits`]) or a timestamp outside
 //!   `0..=limits.max_timestamp_min` returns an [`AdvisorError`] and leaves the
 //!   advisor exactly as it was.
+//! - Send `BasalRate` when the rate in force changes (an identical event at
+//!   the same minute is a duplicate and is rejected; a different rate at the
+//!   same minute replaces the previous one). `Bolus` is the insulin actually
+//!   delivered; two identical boluses in one minute are rejected as a
+//!   duplicate.
 //! - Events at one minute: readings, then `MealAnnounced`, then `Bolus`,
 //!   `BasalRate`, `DayClosed`. The carb-ratio update of meal i happens inside
 //!   `observe(MealAnnounced)`, so read [`Advisor::settings`] *after* it returns
@@ -43,8 +48,12 @@
 //!   mode sends it right after the bedtime reading (23:00 of day k closes k),
 //!   CGM mode at 00:00 of the next day (00:00 of k+1 closes k; the CGM reading
 //!   at 00:00 of k+1 belongs to k+1). When the last initialisation day
-//!   closes, TE is estimated, θ0 is set, and the first basal update follows at
-//!   once from that day's readings. Then every `DayClosed` updates the basal
+//!   closes, TE is estimated from the grid collected so far (in SMBG mode the
+//!   week therefore ends at D8's bedtime reading), θ0 is set, and the first
+//!   basal update follows at once from that day's readings. [`InitReport`]
+//!   (via [`Abba::init_report`] or [`AnyAdvisor::init_report`]) records TE,
+//!   TE_n and θ0; if TE cannot be estimated (too little CGM), TE_n = 1 is used
+//!   and the report says why. Then every `DayClosed` updates the basal
 //!   rate and every main-meal announcement updates that meal's carb ratio from
 //!   the previous day's window (announcement to the next main-meal
 //!   announcement). A meal skipped yesterday means no update today (its

@@ -1,7 +1,7 @@
 //! Transfer-entropy initialisation (spec §7): insulin → glucose TE from the
 //! first week's CGM and pump data, and its mapping to the initial policy θ0.
 //!
-//! Estimator ([GUESS], spec §7.2): Schreiber's transfer entropy
+//! Estimator (\[GUESS], spec §7.2): Schreiber's transfer entropy
 //! (Schreiber, Phys. Rev. Lett. 85:461, 2000) with history length 1, plug-in
 //! probabilities on equiprobable (quantile) bins, maximised over source lags
 //! 0-120 min, bias-corrected by circularly shifted surrogates and floored at 0.
@@ -372,6 +372,33 @@ pub fn first_week_te(
     transfer_entropy(&g, &i, cfg)
 }
 
+/// TE_ref as the spec defines it: the median bias-corrected TE (bits) of a
+/// training cohort's first weeks (e.g. from [`first_week_te`] per person).
+pub fn median_te_ref(te_bits: &[f64]) -> Result<f64, AdvisorError> {
+    let mut v: Vec<f64> = te_bits.to_vec();
+    if v.is_empty() || v.iter().any(|x| !x.is_finite() || *x < 0.0) {
+        return Err(AdvisorError::InsufficientData {
+            what: "TE reference",
+            detail: format!("need at least one finite TE >= 0, got {te_bits:?}"),
+        });
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    let median = if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    };
+    if median > 0.0 {
+        Ok(median)
+    } else {
+        Err(AdvisorError::InsufficientData {
+            what: "TE reference",
+            detail: "the median TE is 0 bits; TE_ref must be > 0".into(),
+        })
+    }
+}
+
 /// TE_n from a TE estimate (spec §7.3), clamped to [te_n_min, te_n_max].
 pub fn te_scale(te_bits: f64, cfg: &TeConfig) -> f64 {
     let raw = match cfg.mapping {
@@ -484,6 +511,15 @@ mod tests {
                 ins[b]
             );
         }
+    }
+
+    #[test]
+    fn median_reference() {
+        assert_eq!(median_te_ref(&[0.03, 0.01, 0.02]).unwrap(), 0.02);
+        assert_eq!(median_te_ref(&[0.04, 0.01, 0.02, 0.03]).unwrap(), 0.025);
+        assert!(median_te_ref(&[]).is_err());
+        assert!(median_te_ref(&[0.0, 0.0, 0.1]).is_err());
+        assert!(median_te_ref(&[f64::NAN]).is_err());
     }
 
     #[test]

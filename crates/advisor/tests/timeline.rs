@@ -340,3 +340,64 @@ fn literal_actor_step_is_clipped_at_almost_every_update() {
         "expected the clip on >= 80 % of steps, got {c:?}"
     );
 }
+
+#[test]
+fn optional_hypo_guard_cancels_insulin_increases_on_hypo_windows() {
+    let toy = Toy {
+        basal_need: 0.7,
+        cr_need: [14.0; 3],
+        ..NEUTRAL
+    };
+    let mut cfg = AbbaConfig::new(Mode::Cgm, 11);
+    cfg.update.hypo_guard = true;
+    let (_, d) = final_settings_with(cfg, toy, 40);
+    let mut checked = 0;
+    for x in &d {
+        let DecisionDetail::Abba(e) = &x.detail else {
+            continue;
+        };
+        if e.window.hyponumber > 0 {
+            checked += 1;
+            let more = match x.parameter {
+                Parameter::Basal => x.new > x.old,
+                Parameter::CarbRatio(_) => x.new < x.old,
+            };
+            assert!(!more, "insulin added despite a hypo in the window: {x}");
+        }
+    }
+    assert!(checked > 10, "only {checked} hypo windows");
+    // Without the guard (spec-literal), the learned P_a does add insulin on
+    // some hypo windows of this toy person: the guard is not vacuous.
+    let (_, d) = final_settings_with(AbbaConfig::new(Mode::Cgm, 11), toy, 40);
+    let violations = d
+        .iter()
+        .filter(|x| match &x.detail {
+            DecisionDetail::Abba(e) if e.window.hyponumber > 0 => match x.parameter {
+                Parameter::Basal => x.new > x.old,
+                Parameter::CarbRatio(_) => x.new < x.old,
+            },
+            _ => false,
+        })
+        .count();
+    println!("spec-literal insulin increases on hypo windows: {violations}");
+    assert!(
+        violations > 0,
+        "expected the literal algorithm to add insulin on some hypo window"
+    );
+}
+
+#[test]
+fn first_week_te_matches_the_advisors_own_estimate() {
+    let mut a = abba(Mode::Cgm, 1);
+    let toy = Toy {
+        basal_need: 1.2,
+        ..NEUTRAL
+    };
+    let events = toy.run(&mut a, Mode::Cgm, 1, 9, 7);
+    let week: Vec<_> = events.iter().copied().filter(|e| e.at < t(8, 0)).collect();
+    let te = abba_advisor::te::first_week_te(&week, start().basal, 7, &a.config().te).unwrap();
+    match &a.init_report().unwrap().te {
+        TeOutcome::Estimated(own) => assert_eq!(*own, te),
+        other => panic!("expected an estimate, got {other:?}"),
+    }
+}

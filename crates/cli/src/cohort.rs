@@ -1,11 +1,71 @@
-//! `abba cohort`.
-use anyhow::{bail, Result};
+//! `abba cohort`: build a virtual cohort (protocol.md §2-§3) and write its
+//! parameters and standard therapy as CSV, and/or print a JSON summary.
+use abba_sim::cohort::{Cohort, CohortConfig, Population};
+use anyhow::{bail, Context, Result};
+use std::io::Write;
+use std::path::PathBuf;
 
 /// Arguments of `abba cohort`.
 #[derive(clap::Args, Debug)]
-pub struct Args {}
+pub struct Args {
+    /// Which group: adults, adolescents or children.
+    #[arg(long, default_value = "adults")]
+    pub population: String,
+    /// Number of patients (the first 10 are the public ones).
+    #[arg(long, default_value_t = 100)]
+    pub size: u32,
+    /// Cohort seed: the generated patients are a pure function of it.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Write the cohort table here (the 62 columns of vpatient_params.csv,
+    /// then basal_u_per_h, carb_ratio_g_per_u and the patient's origin).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Print a JSON summary on stdout: per-parameter mean, SD, min, max;
+    /// rejected candidates; titrated against Quest carb ratios.
+    #[arg(long)]
+    pub json: bool,
+}
 
 /// Runs `abba cohort`.
-pub fn run(_args: Args) -> Result<()> {
-    bail!("abba cohort is not implemented yet")
+pub fn run(args: Args) -> Result<()> {
+    if args.out.is_none() && !args.json {
+        bail!("nothing to do: give --out FILE.csv and/or --json");
+    }
+    let population: Population = args.population.parse()?;
+    let config = CohortConfig::new(population, args.size, args.seed);
+    let cohort = Cohort::generate(&config)
+        .with_context(|| format!("building the {population} cohort (seed {})", args.seed))?;
+    if let Some(path) = &args.out {
+        let mut buf = Vec::new();
+        cohort.write_csv(&mut buf)?;
+        std::fs::write(path, &buf)
+            .with_context(|| format!("writing the cohort table to {}", path.display()))?;
+    }
+    let summary = cohort.summary()?;
+    let stdout = std::io::stdout();
+    let mut out = stdout.lock();
+    if args.json {
+        serde_json::to_writer_pretty(&mut out, &summary)?;
+        writeln!(out)?;
+    } else {
+        let t = &summary.titration_vs_quest;
+        writeln!(
+            out,
+            "{} {}: {} public + {} generated patients (seed {}), {} candidates rejected; \
+             titrated/Quest carb ratio: geometric mean {:.2}, SD of log {:.2}",
+            summary.size,
+            population,
+            summary.public,
+            summary.generated,
+            summary.seed,
+            summary.rejections.total,
+            t.geometric_mean_ratio,
+            t.sd_log_ratio,
+        )?;
+        if let Some(path) = &args.out {
+            writeln!(out, "wrote {}", path.display())?;
+        }
+    }
+    Ok(())
 }

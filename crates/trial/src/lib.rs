@@ -3,6 +3,7 @@
 pub mod closed_loop;
 pub mod error;
 pub mod protocol;
+pub mod report;
 pub mod results;
 pub mod runner;
 pub mod stats;

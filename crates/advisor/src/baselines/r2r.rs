@@ -1,6 +1,6 @@
 //! `RunToRun`: integral (run-to-run) adaptation of the basal rate and the
 //! three carb ratios (spec §10.2). Gains and references are tuned stand-ins
-//! ([GUESS]), not the published controllers of Palerm, Zisser, Owens or
+//! (\[GUESS]), not the published controllers of Palerm, Zisser, Owens or
 //! Herrero, whose full texts were not available.
 //!
 //! Each update is u_{k+1} = u_k·(1 + K·e_k/G_ref), capped, with a hypo
@@ -28,32 +28,32 @@ pub struct R2rConfig {
     pub mode: Mode,
     /// Days under the starting therapy before adapting (as ABBA). 7.
     pub init_days: u32,
-    /// Basal gain K_B. [GUESS] 0.3.
+    /// Basal gain K_B. \[GUESS] 0.3.
     pub basal_gain: f64,
-    /// Basal reference G_ref (mg/dL). [GUESS] 110.
+    /// Basal reference G_ref (mg/dL). \[GUESS] 110.
     pub basal_ref_mg_dl: f64,
-    /// Cap of the basal relative change per update. [GUESS] 0.10.
+    /// Cap of the basal relative change per update. \[GUESS] 0.10.
     pub basal_cap: f64,
-    /// Basal factor when glucose < `hypo_mg_dl` in the night window. [GUESS] 0.9.
+    /// Basal factor when glucose < `hypo_mg_dl` in the night window. \[GUESS] 0.9.
     pub basal_hypo_factor: f64,
-    /// Night window for the basal hypo override, minutes after 00:00: [start, end). [GUESS] 0-420.
+    /// Night window for the basal hypo override, minutes after 00:00: [start, end). \[GUESS] 0-420.
     pub night_window_min: [i64; 2],
-    /// CGM mode: fasting window for the basal error, minutes after 00:00. [GUESS] 180-390 (03:00-06:30).
+    /// CGM mode: fasting window for the basal error, minutes after 00:00. \[GUESS] 180-390 (03:00-06:30).
     pub cgm_fasting_window_min: [i64; 2],
     /// SMBG mode: the fasting reading is the last SMBG in this window before the day's first
-    /// main-meal announcement. [GUESS] 240-600 (04:00-10:00).
+    /// main-meal announcement. \[GUESS] 240-600 (04:00-10:00).
     pub smbg_fasting_window_min: [i64; 2],
-    /// Carb-ratio gain K_C (on I:C = 1/CIR). [GUESS] 0.25.
+    /// Carb-ratio gain K_C (on I:C = 1/CIR). \[GUESS] 0.25.
     pub cir_gain: f64,
-    /// Post-meal reference G_ref (mg/dL). [GUESS] 120.
+    /// Post-meal reference G_ref (mg/dL). \[GUESS] 120.
     pub cir_ref_mg_dl: f64,
-    /// Cap of the I:C relative change per update. [GUESS] 0.10.
+    /// Cap of the I:C relative change per update. \[GUESS] 0.10.
     pub cir_cap: f64,
-    /// Carb-ratio factor on a hypo in the window. [GUESS] 1.1.
+    /// Carb-ratio factor on a hypo in the window. \[GUESS] 1.1.
     pub cir_hypo_factor: f64,
-    /// CGM mode: post-meal window after the announcement (min), inclusive. [GUESS] 90-180.
+    /// CGM mode: post-meal window after the announcement (min), inclusive. \[GUESS] 90-180.
     pub cgm_post_meal_window_min: [i64; 2],
-    /// CGM mode: override when time below `hypo_mg_dl` in the window exceeds this (min). [GUESS] 15.
+    /// CGM mode: override when time below `hypo_mg_dl` in the window exceeds this (min). \[GUESS] 15.
     pub cgm_hypo_minutes: f64,
     /// CGM sampling interval used to turn counts into time (min). 5.
     pub cgm_interval_min: f64,
@@ -89,6 +89,14 @@ impl R2rConfig {
             limits: EventLimits::default(),
             decision_log_capacity: 4096,
         }
+    }
+
+    /// Parses a JSON configuration and validates it.
+    pub fn from_json(json: &str) -> Result<Self, AdvisorError> {
+        let c: Self =
+            serde_json::from_str(json).map_err(|e| config_err("(json)", e.to_string()))?;
+        c.validate()?;
+        Ok(c)
     }
 
     /// Checks every field.
@@ -269,7 +277,7 @@ impl RunToRun {
             (
                 old * c.basal_hypo_factor,
                 R2rExplanation {
-                    measure_mg_dl: measure.unwrap_or(f64::NAN),
+                    measure_mg_dl: measure,
                     reference_mg_dl: c.basal_ref_mg_dl,
                     raw_relative_change: c.basal_hypo_factor - 1.0,
                     capped: false,
@@ -282,7 +290,7 @@ impl RunToRun {
             (
                 old * (1.0 + rel),
                 R2rExplanation {
-                    measure_mg_dl: y,
+                    measure_mg_dl: Some(y),
                     reference_mg_dl: c.basal_ref_mg_dl,
                     raw_relative_change: raw,
                     capped: rel != raw,
@@ -321,7 +329,7 @@ impl RunToRun {
             (
                 old * c.cir_hypo_factor,
                 R2rExplanation {
-                    measure_mg_dl: measure.unwrap_or(f64::NAN),
+                    measure_mg_dl: measure,
                     reference_mg_dl: c.cir_ref_mg_dl,
                     raw_relative_change: 1.0 / c.cir_hypo_factor - 1.0,
                     capped: false,
@@ -335,7 +343,7 @@ impl RunToRun {
             (
                 old / (1.0 + rel),
                 R2rExplanation {
-                    measure_mg_dl: y,
+                    measure_mg_dl: Some(y),
                     reference_mg_dl: c.cir_ref_mg_dl,
                     raw_relative_change: raw,
                     capped: rel != raw,
@@ -446,6 +454,26 @@ mod tests {
     }
 
     #[test]
+    fn config_validation_names_the_field() {
+        R2rConfig::new(Mode::Cgm).validate().unwrap();
+        let mut c = R2rConfig::new(Mode::Cgm);
+        c.basal_cap = 0.9;
+        assert!(c.validate().unwrap_err().to_string().contains("basal_cap"));
+        let mut c = R2rConfig::new(Mode::Cgm);
+        c.night_window_min = [400, 300];
+        assert!(c
+            .validate()
+            .unwrap_err()
+            .to_string()
+            .contains("night_window_min"));
+        let json = serde_json::to_string(&R2rConfig::new(Mode::Smbg)).unwrap();
+        assert_eq!(
+            R2rConfig::from_json(&json).unwrap(),
+            R2rConfig::new(Mode::Smbg)
+        );
+    }
+
+    #[test]
     fn smbg_basal_and_carb_ratio_laws() {
         let mut cfg = R2rConfig::new(Mode::Smbg);
         cfg.init_days = 1;
@@ -495,6 +523,53 @@ mod tests {
         close("CIR3 override", 11.0, s.carb_ratio[2].0);
         assert_eq!(r.decisions().len(), 4);
         assert!(r.decisions()[3].to_string().contains("hypo override"));
+    }
+
+    #[test]
+    fn cgm_carb_ratio_uses_post_meal_mean_and_time_below_70() {
+        let mut cfg = R2rConfig::new(Mode::Cgm);
+        cfg.init_days = 1;
+        let mut r = RunToRun::new(cfg, start()).unwrap();
+        r.observe(&meal(t(1, 420), MealSlot::Breakfast)).unwrap();
+        r.observe(&meal(t(1, 720), MealSlot::Lunch)).unwrap();
+        for m in (720..1110).step_by(5) {
+            // lunch window: 3 samples below 70 (15 min, not > 15) then high
+            let g = if m < 735 {
+                65.0
+            } else if (810..=900).contains(&m) {
+                168.0
+            } else {
+                140.0
+            };
+            r.observe(&Event::new(t(1, m), EventKind::Cgm(MgDl(g))))
+                .unwrap();
+        }
+        r.observe(&meal(t(1, 1110), MealSlot::Dinner)).unwrap();
+        for m in (1110..1440).step_by(5) {
+            // dinner window: 4 samples below 70 = 20 min > 15 -> override
+            let g = if m < 1130 { 60.0 } else { 200.0 };
+            r.observe(&Event::new(t(1, m), EventKind::Cgm(MgDl(g))))
+                .unwrap();
+        }
+        r.observe(&Event::new(t(2, 0), EventKind::DayClosed))
+            .unwrap();
+        // Lunch of day 2: post-meal mean over [+90, +180] min = 168 -> e = 48 -> +10 % (capped).
+        let s = r
+            .observe(&meal(t(2, 720), MealSlot::Lunch))
+            .unwrap()
+            .unwrap();
+        close("CIR2 from post-meal mean", 10.0 / 1.1, s.carb_ratio[1].0);
+        let s = r
+            .observe(&meal(t(2, 1110), MealSlot::Dinner))
+            .unwrap()
+            .unwrap();
+        close("CIR3 time-below override", 11.0, s.carb_ratio[2].0);
+        // Breakfast of day 2 was never announced: no breakfast decision at all;
+        // the lunch decision is the first carb-ratio decision.
+        assert!(r
+            .decisions()
+            .iter()
+            .all(|d| d.parameter != Parameter::CarbRatio(MealSlot::Breakfast)));
     }
 
     #[test]

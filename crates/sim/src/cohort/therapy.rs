@@ -145,10 +145,10 @@ pub fn titrate_carb_ratio(p: &PatientParams, rule: &TitrationRule) -> Result<Tit
         (bisect_log(back, hi, floor_ok)?, true)
     };
     let step = rule.step_g_per_u;
-    let mut cr = ((exact / step).round() * step).max(step);
+    let mut cr = round_to_step(exact, step);
     let (mut delta, mut nadir) = meal_test(p, rule, cr)?;
     if nadir < rule.nadir_floor_mg_dl {
-        cr += step;
+        cr = round_to_step(cr + step, step);
         (delta, nadir) = meal_test(p, rule, cr)?;
     }
     Ok(Titration {
@@ -163,8 +163,21 @@ pub fn titrate_carb_ratio(p: &PatientParams, rule: &TitrationRule) -> Result<Tit
 /// The steady-state basal rate u2ss·BW/6000·60 U/h rounded to the nearest
 /// multiple of `increment_u_per_h` (never below one increment).
 pub fn standard_basal_u_per_h(p: &PatientParams, increment_u_per_h: f64) -> f64 {
-    let exact = p.basal_u_per_min() * MINUTES_PER_HOUR;
-    ((exact / increment_u_per_h).round() * increment_u_per_h).max(increment_u_per_h)
+    round_to_step(p.basal_u_per_min() * MINUTES_PER_HOUR, increment_u_per_h)
+}
+
+/// `value` rounded to the nearest multiple of `step` (at least one step).
+/// When 1/step is a whole number (0.05 → 20) the result is computed as
+/// n/20, so that it is the double nearest the decimal (1.45, not
+/// 1.4500000000000002) and prints as a clinician would write it.
+pub fn round_to_step(value: f64, step: f64) -> f64 {
+    let n = (value / step).round().max(1.0);
+    let per_unit = 1.0 / step;
+    if (per_unit - per_unit.round()).abs() < 1e-9 {
+        n / per_unit.round()
+    } else {
+        n * step
+    }
 }
 
 /// Plasma glucose over a standard day.

@@ -21,6 +21,13 @@
 //! - SMBG-timing stream, day d: one offset per reading (uniform integer in
 //!   [-w, w]) in the order of the main meals, then bedtime, drawn only when
 //!   the jitter is non-zero.
+//!
+//! A draw whose range is a single value (a jitter of 0, equal factor
+//! bounds) is not made; the day streams make this harmless.
+//!
+//! Patients are numbered from 1 in cohort order (adult#001 is 1, the
+//! cohort's k-th patient is k + 1 with k 0-based); the `i` column of the
+//! parameter table is not a usable number (adult#004 has i = 42).
 
 use super::config::{ScenarioConfig, ScenarioId};
 use super::plan::{Dawn, DayPlan, PlannedMeal, SensitivityDay, SmbgPurpose, SmbgReading};

@@ -1,0 +1,704 @@
+//! Our Table I beside the paper's.
+//!
+//! The paper's values come from `data/paper-table1.csv`, compiled in: Sun Q,
+//! Jankovic MV, Budzinski J, Moore B, Diem P, Stettler C, Mougiakakou SG,
+//! "A dual mode adaptive basal-bolus advisor based on reinforcement
+//! learning", IEEE Journal of Biomedical and Health Informatics, 2019,
+//! Table I (mean ± SD over 100 virtual adults of the commercial UVA/Padova
+//! simulator). The paper reports the ABBA arms only. Its W1 (D2-D8, standard
+//! treatment before any adaptation) is printed once and applies to S1-S3;
+//! S4 has no W1 entry. Because W1 is standard therapy in every arm, the
+//! paper's W1 is shown beside the W1 of every arm of S1-S3; its W13 and W14
+//! only beside the `abba` arms.
+//!
+//! The paper gives LBGI and HBGI only in Fig. 5 and in words (section IV):
+//! LBGI fell from the low-risk range (1.1-2.5) in W1 to the minimal range
+//! (< 1.1) in W13, and HBGI stayed in the minimal range (< 5) throughout.
+//! These statements are the anchors of our LBGI/HBGI rows: W1 LBGI in every
+//! arm of S1-S3, W13 LBGI in the `abba` arms, HBGI in W1 of every arm and in
+//! every week of the `abba` arms (all four scenarios).
+//!
+//! The p-values are our paired Wilcoxon signed-rank tests (see
+//! [`super::summary`]) of W13 and W14 against W1.
+
+use std::fmt::Write as _;
+
+use super::summary::wilcoxon_vs_w1;
+use super::{
+    arm_weeks, failure_time, metric_column, metric_label, ordered_arms, patients_with_week,
+    stopped_runs, validate_arms, SEED_BANDS,
+};
+use crate::error::TrialError;
+use crate::results::ArmResult;
+use crate::stats::{summarize_present, Summary};
+
+/// The paper's Table I as compiled in (CSV: scenario,week,metric,mean,sd).
+pub const PAPER_TABLE1_CSV: &str = include_str!("../../../../data/paper-table1.csv");
+
+const PAPER_FILE: &str = "data/paper-table1.csv";
+
+/// One mean ± SD of the paper's Table I.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PaperValue {
+    /// The scenario column as printed: `S1`..`S4`, or `S1-S3` for the shared W1.
+    pub scenarios: String,
+    /// `W1`, `W13` or `W14`.
+    pub week: String,
+    /// One of [`SEED_BANDS`].
+    pub metric: String,
+    /// Mean over patients (% of time).
+    pub mean: f64,
+    /// SD over patients (% of time).
+    pub sd: f64,
+}
+
+impl PaperValue {
+    /// Whether this entry applies to `scenario` (`S1-S3` covers S1, S2, S3).
+    pub fn covers(&self, scenario: &str) -> bool {
+        if self.scenarios == "S1-S3" {
+            matches!(scenario, "S1" | "S2" | "S3")
+        } else {
+            self.scenarios == scenario
+        }
+    }
+}
+
+/// Parses the compiled-in paper table, checking every field; an error names
+/// the line and what was expected.
+pub fn paper_table1() -> Result<Vec<PaperValue>, TrialError> {
+    parse_paper_table(PAPER_TABLE1_CSV)
+}
+
+fn parse_paper_table(text: &str) -> Result<Vec<PaperValue>, TrialError> {
+    let err = |line: usize, reason: String| TrialError::PaperTable {
+        file: PAPER_FILE,
+        line,
+        reason,
+    };
+    let mut lines = text.lines().enumerate();
+    match lines.next() {
+        Some((_, "scenario,week,metric,mean,sd")) => {}
+        other => {
+            return Err(err(
+                1,
+                format!(
+                    "header {:?}, expected \"scenario,week,metric,mean,sd\"",
+                    other.map(|(_, l)| l).unwrap_or("")
+                ),
+            ))
+        }
+    }
+    let mut out: Vec<PaperValue> = Vec::new();
+    for (i, line) in lines {
+        let n = i + 1;
+        if line.trim().is_empty() {
+            continue;
+        }
+        let f: Vec<&str> = line.split(',').collect();
+        if f.len() != 5 {
+            return Err(err(n, format!("{} fields, expected 5", f.len())));
+        }
+        if !matches!(f[0], "S1-S3" | "S1" | "S2" | "S3" | "S4") {
+            return Err(err(
+                n,
+                format!("scenario {:?}, expected S1..S4 or S1-S3", f[0]),
+            ));
+        }
+        if !matches!(f[1], "W1" | "W13" | "W14") {
+            return Err(err(n, format!("week {:?}, expected W1, W13 or W14", f[1])));
+        }
+        if !SEED_BANDS.contains(&f[2]) {
+            return Err(err(
+                n,
+                format!(
+                    "metric {:?}, expected one of {}",
+                    f[2],
+                    SEED_BANDS.join(", ")
+                ),
+            ));
+        }
+        let number = |s: &str, what: &str| -> Result<f64, TrialError> {
+            s.parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite() && *v >= 0.0)
+                .ok_or_else(|| err(n, format!("{what} {s:?}, expected a number >= 0")))
+        };
+        let value = PaperValue {
+            scenarios: f[0].to_string(),
+            week: f[1].to_string(),
+            metric: f[2].to_string(),
+            mean: number(f[3], "mean")?,
+            sd: number(f[4], "sd")?,
+        };
+        if out.iter().any(|o| {
+            o.week == value.week
+                && o.metric == value.metric
+                && ["S1", "S2", "S3", "S4"]
+                    .iter()
+                    .any(|s| o.covers(s) && value.covers(s))
+        }) {
+            return Err(err(
+                n,
+                format!(
+                    "{} {} {} given twice",
+                    value.scenarios, value.week, value.metric
+                ),
+            ));
+        }
+        out.push(value);
+    }
+    Ok(out)
+}
+
+/// The paper's value for one scenario, week and band of an arm, if the
+/// paper reports it for that arm (W1: any arm of S1-S3; W13/W14: `abba`).
+pub fn paper_value<'a>(
+    paper: &'a [PaperValue],
+    scenario: &str,
+    advisor: &str,
+    week: &str,
+    metric: &str,
+) -> Option<&'a PaperValue> {
+    if week != "W1" && advisor != "abba" {
+        return None;
+    }
+    paper
+        .iter()
+        .find(|p| p.week == week && p.metric == metric && p.covers(scenario))
+}
+
+/// A range the paper's text states for LBGI or HBGI.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Anchor {
+    /// Lower bound (inclusive), if any.
+    pub low: Option<f64>,
+    /// Upper bound (exclusive).
+    pub high: f64,
+    /// The statement, as text.
+    pub text: &'static str,
+}
+
+impl Anchor {
+    /// Whether a mean lies in the stated range.
+    pub fn holds(&self, mean: f64) -> bool {
+        self.low.is_none_or(|l| mean >= l) && mean < self.high
+    }
+}
+
+/// The paper's textual LBGI/HBGI statement that applies to an arm's week and
+/// metric (see the module docs), if any.
+pub fn anchor(scenario: &str, advisor: &str, week: &str, metric: &str) -> Option<Anchor> {
+    let shared_w1 = week == "W1" && matches!(scenario, "S1" | "S2" | "S3");
+    match metric {
+        "lbgi" if shared_w1 => Some(Anchor {
+            low: Some(1.1),
+            high: 2.5,
+            text: "low range 1.1-2.5",
+        }),
+        "lbgi" if week == "W13" && advisor == "abba" => Some(Anchor {
+            low: None,
+            high: 1.1,
+            text: "minimal range < 1.1",
+        }),
+        "hbgi" if week == "W1" || advisor == "abba" => Some(Anchor {
+            low: None,
+            high: 5.0,
+            text: "minimal range < 5",
+        }),
+        _ => None,
+    }
+}
+
+/// The metrics of our Table I: the five bands, then LBGI and HBGI.
+pub const TABLE1_METRICS: [&str; 7] = [
+    "tir_70_180",
+    "hypo_50_70",
+    "severe_hypo_lt50",
+    "hyper_180_300",
+    "severe_hyper_gt300",
+    "lbgi",
+    "hbgi",
+];
+
+/// One cell group of our Table I: an arm, week and metric.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Table1Row {
+    /// `S1`..`S4`.
+    pub scenario: String,
+    /// `abba`, `standard`, `r2r`.
+    pub advisor: String,
+    /// `cgm` or `smbg`.
+    pub mode: String,
+    /// Patients in the arm.
+    pub n_patients: usize,
+    /// `W1`, `W13` or `W14`.
+    pub week: String,
+    /// One of [`TABLE1_METRICS`].
+    pub metric: String,
+    /// Our summary over patients.
+    pub ours: Summary,
+    /// The paper's mean ± SD, where it reports this cell.
+    pub paper: Option<PaperValue>,
+    /// Our two-sided Wilcoxon p of this week against W1 (W13, W14 only).
+    pub p_vs_w1: Option<f64>,
+    /// The paper's textual statement for LBGI/HBGI, where it makes one.
+    pub anchor: Option<Anchor>,
+}
+
+/// Every row of our Table I, arm by arm (report order), week by week (W1,
+/// W13, W14 as simulated), metric by metric ([`TABLE1_METRICS`]).
+pub fn table1_rows(arms: &[ArmResult]) -> Result<Vec<Table1Row>, TrialError> {
+    validate_arms(arms)?;
+    let paper = paper_table1()?;
+    let mut rows = Vec::new();
+    for arm in ordered_arms(arms) {
+        let weeks = arm_weeks(arm);
+        for week in super::TABLE_WEEKS {
+            if !weeks.iter().any(|w| w == week) {
+                continue;
+            }
+            for metric in TABLE1_METRICS {
+                let values = metric_column(arm, week, metric);
+                let ours = summarize_present(&values)
+                    .map_err(|source| TrialError::Stats {
+                        what: format!("arm {}, week {week}, metric {metric}", arm.key()),
+                        source,
+                    })?
+                    .ok_or_else(|| {
+                        TrialError::InconsistentResults(format!(
+                            "arm {}, week {week}: no patient has a value of {metric}",
+                            arm.key()
+                        ))
+                    })?;
+                let p_vs_w1 = if week != "W1" && weeks.iter().any(|w| w == "W1") {
+                    wilcoxon_vs_w1(arm, week, metric)?.map(|w| w.p)
+                } else {
+                    None
+                };
+                rows.push(Table1Row {
+                    scenario: arm.scenario.clone(),
+                    advisor: arm.advisor.clone(),
+                    mode: arm.mode.clone(),
+                    n_patients: arm.patients.len(),
+                    week: week.to_string(),
+                    metric: metric.to_string(),
+                    ours,
+                    paper: paper_value(&paper, &arm.scenario, &arm.advisor, week, metric).cloned(),
+                    p_vs_w1,
+                    anchor: anchor(&arm.scenario, &arm.advisor, week, metric),
+                });
+            }
+        }
+    }
+    Ok(rows)
+}
+
+/// `table1.csv`: one row per arm, week and metric (see [`Table1Row`]); full
+/// precision; empty cells where a value does not exist.
+pub fn table1_csv(arms: &[ArmResult]) -> Result<String, TrialError> {
+    let rows = table1_rows(arms)?;
+    let mut w = csv::Writer::from_writer(Vec::new());
+    let csv_err = |e: csv::Error| TrialError::Csv {
+        what: "table1.csv",
+        reason: e.to_string(),
+    };
+    w.write_record([
+        "scenario",
+        "advisor",
+        "mode",
+        "n_patients",
+        "week",
+        "metric",
+        "n_values",
+        "ours_mean",
+        "ours_sd",
+        "ours_median",
+        "ours_q1",
+        "ours_q3",
+        "paper_scenarios",
+        "paper_mean",
+        "paper_sd",
+        "wilcoxon_p_vs_w1",
+        "paper_statement",
+        "ours_mean_within_statement",
+    ])
+    .map_err(csv_err)?;
+    let opt = |v: Option<f64>| v.map(|x| x.to_string()).unwrap_or_default();
+    for r in &rows {
+        w.write_record([
+            r.scenario.clone(),
+            r.advisor.clone(),
+            r.mode.clone(),
+            r.n_patients.to_string(),
+            r.week.clone(),
+            r.metric.clone(),
+            r.ours.n.to_string(),
+            r.ours.mean.to_string(),
+            opt(r.ours.sd),
+            r.ours.median.to_string(),
+            r.ours.q1.to_string(),
+            r.ours.q3.to_string(),
+            r.paper
+                .as_ref()
+                .map(|p| p.scenarios.clone())
+                .unwrap_or_default(),
+            opt(r.paper.as_ref().map(|p| p.mean)),
+            opt(r.paper.as_ref().map(|p| p.sd)),
+            opt(r.p_vs_w1),
+            r.anchor.map(|a| a.text.to_string()).unwrap_or_default(),
+            r.anchor
+                .map(|a| if a.holds(r.ours.mean) { "yes" } else { "no" }.to_string())
+                .unwrap_or_default(),
+        ])
+        .map_err(csv_err)?;
+    }
+    let bytes = w.into_inner().map_err(|e| TrialError::Csv {
+        what: "table1.csv",
+        reason: e.to_string(),
+    })?;
+    String::from_utf8(bytes).map_err(|e| TrialError::Csv {
+        what: "table1.csv",
+        reason: e.to_string(),
+    })
+}
+
+/// Mean ± SD with `decimals` decimals (SD "n/a" for one patient).
+fn pm(mean: f64, sd: Option<f64>, decimals: usize) -> String {
+    match sd {
+        Some(sd) => format!("{mean:.decimals$} ± {sd:.decimals$}"),
+        None => format!("{mean:.decimals$} (SD n/a)"),
+    }
+}
+
+/// A p-value for reading: three decimals, `<0.001` below that.
+pub fn format_p(p: f64) -> String {
+    if p < 0.001 {
+        "<0.001".to_string()
+    } else {
+        format!("{p:.3}")
+    }
+}
+
+fn advisor_title(advisor: &str, mode: &str) -> String {
+    let mode = mode.to_uppercase();
+    match advisor {
+        "abba" => format!("ABBA ({mode} mode)"),
+        "standard" => "standard therapy (settings never change)".to_string(),
+        "r2r" => format!("run-to-run baseline ({mode} mode)"),
+        other => format!("{other} ({mode} mode)"),
+    }
+}
+
+fn scenario_title(scenario: &str) -> &'static str {
+    match scenario {
+        "S1" => "CGM throughout",
+        "S2" => "SMBG 4/day after the CGM week",
+        "S3" => "SMBG with ±10 min timing uncertainty",
+        "S4" => "as S3, plus 2 of 21 main meals skipped per week",
+        _ => "",
+    }
+}
+
+/// For one scenario with more than one arm: the arms' means ± SD side by
+/// side in W13 and W14 (the weeks after adaptation), one row per metric.
+fn arms_side_by_side(s: &mut String, rows: &[Table1Row], scenario: &str) {
+    let mut advisors: Vec<(&str, &str)> = Vec::new();
+    for r in rows.iter().filter(|r| r.scenario == scenario) {
+        if !advisors.iter().any(|(a, _)| *a == r.advisor) {
+            advisors.push((&r.advisor, &r.mode));
+        }
+    }
+    let weeks: Vec<&str> = ["W13", "W14"]
+        .into_iter()
+        .filter(|w| rows.iter().any(|r| r.scenario == scenario && r.week == *w))
+        .collect();
+    if advisors.len() < 2 || weeks.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        s,
+        "Arms side by side after adaptation (mean ± SD; same patients and scenario realisation in every arm):\n"
+    );
+    let mut header = String::from("| Metric |");
+    let mut rule = String::from("|---|");
+    for w in &weeks {
+        for (a, _) in &advisors {
+            let _ = write!(header, " {w} {} |", short_advisor(a));
+            rule.push_str("---:|");
+        }
+    }
+    let _ = writeln!(s, "{header}\n{rule}");
+    for metric in TABLE1_METRICS {
+        let decimals = if SEED_BANDS.contains(&metric) { 1 } else { 2 };
+        let mut line = format!("| {} |", metric_label(metric));
+        for w in &weeks {
+            for (a, _) in &advisors {
+                let cell = rows
+                    .iter()
+                    .find(|r| {
+                        r.scenario == scenario
+                            && r.advisor == *a
+                            && r.week == *w
+                            && r.metric == metric
+                    })
+                    .map_or("—".to_string(), |r| pm(r.ours.mean, r.ours.sd, decimals));
+                let _ = write!(line, " {cell} |");
+            }
+        }
+        let _ = writeln!(s, "{line}");
+    }
+    let _ = writeln!(s);
+}
+
+fn short_advisor(advisor: &str) -> String {
+    match advisor {
+        "abba" => "ABBA".to_string(),
+        "standard" => "standard".to_string(),
+        "r2r" => "run-to-run".to_string(),
+        other => other.to_string(),
+    }
+}
+
+/// `table1.md`: for each scenario and arm, a table of the five bands, LBGI
+/// and HBGI in W1, W13 and W14 (ours and the paper's mean ± SD) with our
+/// Wilcoxon p-values against W1, then the paper's LBGI/HBGI statements
+/// checked against our means.
+pub fn table1_markdown(arms: &[ArmResult]) -> Result<String, TrialError> {
+    let rows = table1_rows(arms)?;
+    let mut s = String::new();
+    let _ = writeln!(s, "# Table I: glucose outcomes, ours beside the paper's\n");
+    let _ = writeln!(
+        s,
+        "Mean ± SD over the patients of each arm, plasma glucose every 5 min. \
+         W1 = D2-D8 (standard therapy in every arm), W13 = D84-D90 (with day-to-day \
+         insulin-sensitivity variability), W14 = D92-D98 (without).\n"
+    );
+    let _ = writeln!(
+        s,
+        "**Paper**: Sun Q, Jankovic MV, Budzinski J, Moore B, Diem P, Stettler C, Mougiakakou SG. \
+         A dual mode adaptive basal-bolus advisor based on reinforcement learning. \
+         IEEE J Biomed Health Inform, 2019; Table I (100 adults of the commercial UVA/Padova simulator; \
+         ABBA arms only). Its W1 row is printed once and applies to S1-S3; it has no W1 for S4, \
+         and no LBGI/HBGI values (only the statements of section IV, shown as \"text:\"). \
+         \"—\" means the paper reports nothing for that cell.\n"
+    );
+    let _ = writeln!(
+        s,
+        "**Stopped runs**: a run stops when plasma glucose falls below the trial's failure threshold; \
+         the patient then counts only in the weeks that ended before the stop (\"patients evaluated\" \
+         gives the number per week, and each stop is listed under its arm). The paper's n is 100 adults.\n"
+    );
+    let _ = writeln!(
+        s,
+        "**p**: our paired two-sided Wilcoxon signed-rank test of the week against W1 \
+         (normal approximation, tie correction, zero differences dropped).\n"
+    );
+    let mut i = 0;
+    let mut last_scenario = String::new();
+    while i < rows.len() {
+        let (scenario, advisor) = (rows[i].scenario.clone(), rows[i].advisor.clone());
+        let end = rows[i..]
+            .iter()
+            .position(|r| r.scenario != scenario || r.advisor != advisor)
+            .map_or(rows.len(), |k| i + k);
+        let arm_rows = &rows[i..end];
+        i = end;
+        if scenario != last_scenario {
+            let _ = writeln!(s, "## {scenario}: {}\n", scenario_title(&scenario));
+            arms_side_by_side(&mut s, &rows, &scenario);
+            last_scenario = scenario.clone();
+        }
+        let _ = writeln!(
+            s,
+            "### {scenario} · {} · n = {} patients\n",
+            advisor_title(&advisor, &arm_rows[0].mode),
+            arm_rows[0].n_patients
+        );
+        let weeks: Vec<&str> = super::TABLE_WEEKS
+            .into_iter()
+            .filter(|w| arm_rows.iter().any(|r| r.week == *w))
+            .collect();
+        let missing: Vec<&str> = super::TABLE_WEEKS
+            .into_iter()
+            .filter(|w| !weeks.contains(w))
+            .collect();
+        if !missing.is_empty() {
+            let present = arms
+                .iter()
+                .find(|a| a.scenario == scenario && a.advisor == advisor)
+                .map(arm_weeks)
+                .unwrap_or_default();
+            let _ = writeln!(
+                s,
+                "{}: not simulated in this run (weeks present: {}).\n",
+                missing.join(", "),
+                present.join(", ")
+            );
+        }
+        let mut header = String::from("| Metric |");
+        let mut rule = String::from("|---|");
+        for w in &weeks {
+            let _ = write!(header, " {w} ours | {w} paper |");
+            rule.push_str("---:|---:|");
+            if *w != "W1" {
+                let _ = write!(header, " p {w} vs W1 |");
+                rule.push_str("---:|");
+            }
+        }
+        let _ = writeln!(s, "{header}\n{rule}");
+        let arm = arms
+            .iter()
+            .find(|a| a.scenario == scenario && a.advisor == advisor);
+        let mut n_line = String::from("| patients evaluated |");
+        for w in &weeks {
+            let n = arm.map_or(0, |a| patients_with_week(a, w));
+            let paper_n = if arm_rows.iter().any(|r| r.week == *w && r.paper.is_some()) {
+                "100"
+            } else {
+                "—"
+            };
+            let _ = write!(n_line, " {n} | {paper_n} |");
+            if *w != "W1" {
+                n_line.push_str(" |");
+            }
+        }
+        let _ = writeln!(s, "{n_line}");
+        for metric in TABLE1_METRICS {
+            let mut line = format!("| {} |", metric_label(metric));
+            for w in &weeks {
+                let Some(r) = arm_rows.iter().find(|r| r.week == *w && r.metric == metric) else {
+                    continue;
+                };
+                let decimals = if SEED_BANDS.contains(&metric) { 1 } else { 2 };
+                let paper = match (&r.paper, r.anchor) {
+                    (Some(p), _) => format!("{:.1} ± {:.1}", p.mean, p.sd),
+                    (None, Some(a)) => format!("text: {}", a.text),
+                    (None, None) => "—".to_string(),
+                };
+                let _ = write!(
+                    line,
+                    " {} | {paper} |",
+                    pm(r.ours.mean, r.ours.sd, decimals)
+                );
+                if *w != "W1" {
+                    let p = r.p_vs_w1.map_or("—".to_string(), format_p);
+                    let _ = write!(line, " {p} |");
+                }
+            }
+            let _ = writeln!(s, "{line}");
+        }
+        if let Some(arm) = arm {
+            let stops = stopped_runs(arm);
+            if !stops.is_empty() {
+                let _ = writeln!(
+                    s,
+                    "\nRuns stopped early ({} of {}; plasma glucose below the failure threshold; \
+                     these patients count only in the weeks that ended before the stop):\n",
+                    stops.len(),
+                    arm.patients.len()
+                );
+                for (patient, f) in stops {
+                    let _ = writeln!(
+                        s,
+                        "- {patient}: {}, plasma glucose {:.1} mg/dL",
+                        failure_time(&f),
+                        f.glucose_mg_dl
+                    );
+                }
+            }
+        }
+        let anchored: Vec<&Table1Row> = arm_rows.iter().filter(|r| r.anchor.is_some()).collect();
+        if !anchored.is_empty() {
+            let _ = writeln!(
+                s,
+                "\nPaper's statements on LBGI/HBGI (section IV) against our means:\n"
+            );
+            for r in anchored {
+                if let Some(a) = r.anchor {
+                    let _ = writeln!(
+                        s,
+                        "- {} {}: paper \"{}\"; ours {:.2} — {}",
+                        r.metric.to_uppercase(),
+                        r.week,
+                        a.text,
+                        r.ours.mean,
+                        if a.holds(r.ours.mean) {
+                            "consistent"
+                        } else {
+                            "NOT consistent"
+                        }
+                    );
+                }
+            }
+        }
+        let _ = writeln!(s);
+    }
+    // Arms that have no W1/W13/W14 at all (a very short trial).
+    for arm in ordered_arms(arms) {
+        if !rows
+            .iter()
+            .any(|r| r.scenario == arm.scenario && r.advisor == arm.advisor)
+        {
+            let _ = writeln!(
+                s,
+                "{} · {}: none of W1, W13, W14 was simulated (weeks present: {}).\n",
+                arm.scenario,
+                arm.advisor,
+                arm_weeks(arm).join(", ")
+            );
+        }
+    }
+    Ok(s)
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_compiled_in_paper_table_parses() {
+        let t = paper_table1().unwrap();
+        // W1 (5 bands, shared) + W13 and W14 for four scenarios.
+        assert_eq!(t.len(), 5 + 2 * 4 * 5);
+        let v = paper_value(&t, "S2", "abba", "W1", "tir_70_180").unwrap();
+        assert_eq!((v.scenarios.as_str(), v.mean, v.sd), ("S1-S3", 89.9, 8.7));
+        assert!(paper_value(&t, "S4", "abba", "W1", "tir_70_180").is_none());
+        assert!(paper_value(&t, "S1", "r2r", "W13", "tir_70_180").is_none());
+        let v = paper_value(&t, "S4", "abba", "W13", "hyper_180_300").unwrap();
+        assert_eq!((v.mean, v.sd), (21.5, 15.0));
+    }
+
+    #[test]
+    fn bad_paper_rows_name_the_line() {
+        let e = parse_paper_table("scenario,week,metric,mean,sd\nS1,W13,tir_70_180,x,1\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("line 2") && e.contains("mean \"x\""), "{e}");
+        let e = parse_paper_table("scenario,week,metric,mean,sd\nS1,W13,tir,1,1\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("metric \"tir\""), "{e}");
+        let e = parse_paper_table(
+            "scenario,week,metric,mean,sd\nS1-S3,W1,tir_70_180,1,1\nS2,W1,tir_70_180,1,1\n",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("line 3") && e.contains("twice"), "{e}");
+        assert!(parse_paper_table("a,b\n").is_err());
+    }
+
+    #[test]
+    fn anchors_follow_the_papers_statements() {
+        let a = anchor("S1", "standard", "W1", "lbgi").unwrap();
+        assert!(a.holds(1.1) && a.holds(2.49) && !a.holds(1.0) && !a.holds(2.5));
+        assert!(anchor("S4", "abba", "W1", "lbgi").is_none());
+        assert!(anchor("S4", "abba", "W13", "lbgi").unwrap().holds(1.0));
+        assert!(anchor("S4", "r2r", "W13", "lbgi").is_none());
+        assert!(anchor("S3", "abba", "W14", "hbgi").is_some());
+        assert!(anchor("S3", "standard", "W14", "hbgi").is_none());
+        assert!(anchor("S3", "abba", "W14", "lbgi").is_none());
+        assert_eq!(format_p(0.0004), "<0.001");
+        assert_eq!(format_p(0.04088), "0.041");
+    }
+}

@@ -2,6 +2,8 @@
 //! meals, three bolused), minute by minute, with the default solver and
 //! with the alternatives. `cargo bench -p abba-sim --bench patient_day`.
 
+#![allow(clippy::expect_used, missing_docs)]
+
 use abba_sim::inputs::InputDay;
 use abba_sim::patient::{Patient, PatientParams, Solver};
 use criterion::{black_box, criterion_group, criterion_main, Criterion};

@@ -3,6 +3,8 @@
 //! every built-in hard day. Used for the accuracy table in BENCHMARKS.md:
 //! `cargo run --release -p abba-sim --example solver_accuracy`.
 
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 use abba_sim::inputs::hard_days;
 use abba_sim::patient::{Patient, PatientParams, QuestRow, Solver};
 

@@ -1,4 +1,9 @@
-//! Debug: one patient, one scenario/arm, prints daily settings and glucose range.
+//! One patient in one scenario and arm: every decision with its
+//! explanation, then the settings every week.
+//! `cargo run --release -p abba-trial --example debug_patient -- [patient index] [days] [arm] [scenario]`
+
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 use abba_sim::scenario::ScenarioId;
 use abba_trial::closed_loop::run_patient;
 use abba_trial::runner::build_cohort;

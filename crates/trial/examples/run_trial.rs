@@ -1,6 +1,8 @@
 //! Runs a trial without writing the report and prints where the time went:
 //! `cargo run --release -p abba-trial --example run_trial -- [patients] [days] [threads] [arms]`.
 
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 use abba_trial::runner::{build_cohort, run_trial, Silent};
 use abba_trial::TrialConfig;
 use std::time::Instant;

@@ -165,7 +165,7 @@ pub fn run_patient_with(
             let now = plan.at(m);
             events.clear();
             let plasma = patient.glucose_mg_dl();
-            if m as usize % EVAL_PERIOD_MIN == 0 {
+            if (m as usize).is_multiple_of(EVAL_PERIOD_MIN) {
                 glucose[day * SAMPLES_PER_DAY + m as usize / EVAL_PERIOD_MIN] = plasma;
             }
             min_glucose = min_glucose.min(plasma);

@@ -42,7 +42,8 @@ fn arms_share_the_standard_therapy_week() {
     // (In SMBG mode the first basal update comes at the bedtime reading of
     // D8, spec §2.4, so the last hour of W1 may differ.)
     let out = run_trial(&short(), 2, &Silent).unwrap();
-    for s in ["S1"] {
+    {
+        let s = "S1";
         let w1: Vec<String> = out
             .arms
             .iter()

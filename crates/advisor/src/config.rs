@@ -227,6 +227,12 @@ pub enum GradientAction {
 }
 
 /// Actor, exploration and supervisor-weight knobs (spec §6.1, §6.4).
+///
+/// Note on the defaults: the literal eq28 step is of order β·d·z/σ with
+/// σ = c_σ‖F‖² ≈ 0.001-0.01, so with β = 0.5 the ±`theta_step_clip` clip
+/// fires on most updates and θ moves by ±0.5 per update in the direction
+/// opposite to the exploration draw while the critic's baseline is still
+/// near 0 (d ≈ c > 0). See `AgentCounters` and the timeline tests.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ActorConfig {

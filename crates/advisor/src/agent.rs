@@ -503,12 +503,13 @@ mod tests {
         // Δθ = −β d (P_e − P_d)/σ² h F0 = −0.5*0.2*(ε0/σ0²)*0.5*(0.4, 0)
         let eps0 = act0.p_e - act0.p_d;
         let expected = -0.5 * 0.2 * eps0 / (0.008 * 0.008) * 0.5 * 0.4;
-        let expected_clipped = expected.clamp(-0.5, 0.5);
+        let clip = cfg.actor.theta_step_clip;
+        let expected_clipped = expected.clamp(-clip, clip);
         match l1.actor {
             ActorStep::Applied { delta, clipped } => {
                 close("eq28 Δθ_hyper", expected_clipped, delta[0]);
                 close("eq28 Δθ_hypo", 0.0, delta[1]);
-                assert_eq!(clipped, expected.abs() > 0.5);
+                assert_eq!(clipped, expected.abs() > clip);
             }
             other => panic!("expected an actor step, got {other:?}"),
         }
@@ -518,8 +519,10 @@ mod tests {
     #[test]
     fn eq28_direction_lowers_cost() {
         // A positive TD error (worse than expected) after an exploratory push
-        // up must move θ against that push; a negative one along it.
-        let cfg = AbbaConfig::new(Mode::Cgm, 5);
+        // up must move θ against that push; a negative one along it. The
+        // spec-literal clip of 0.5 keeps the raw eq28 step visible.
+        let mut cfg = AbbaConfig::new(Mode::Cgm, 5);
+        cfg.actor.theta_step_clip = 0.5;
         let prev = LastDecision {
             f: [0.2, 0.0],
             g: [1.0, 0.2, 0.0],

@@ -230,9 +230,14 @@ pub enum GradientAction {
 ///
 /// Note on the defaults: the literal eq28 step is of order β·d·z/σ with
 /// σ = c_σ‖F‖² ≈ 0.001-0.01, so with β = 0.5 the ±`theta_step_clip` clip
-/// fires on most updates and θ moves by ±0.5 per update in the direction
-/// opposite to the exploration draw while the critic's baseline is still
-/// near 0 (d ≈ c > 0). See `AgentCounters` and the timeline tests.
+/// fires on most updates and θ moves by ± the clip per update in the
+/// direction opposite to the exploration draw while the critic's baseline
+/// is still near 0 (d ≈ c > 0): a random walk. With the spec's clip of 0.5,
+/// θ leaves its sign pattern within days and the learned action adds
+/// insulin on hypoglycaemic days; in our trial that stopped 17 of 30 S1
+/// runs below 10 mg/dL. The clip therefore defaults to 0.01 (a deviation
+/// from spec §6.4, measured in BENCHMARKS.md "ABBA actor clip"): after 90
+/// updates the walk has moved θ by about 0.1, the size of θ0 itself.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ActorConfig {
@@ -244,7 +249,8 @@ pub struct ActorConfig {
     pub beta: f64,
     /// Skip the actor step when the stored σ_k is below this. \[GUESS §6.4] 1e-4.
     pub sigma_min: f64,
-    /// Clip each |Δθ_j| per update to this. \[GUESS §6.4] 0.5.
+    /// Clip each |Δθ_j| per update to this. \[GUESS §6.4; DEVIATION] 0.01
+    /// (the spec's 0.5 lets θ random-walk into unsafe signs; see above).
     pub theta_step_clip: f64,
     /// Which P_e enters eq28. \[GUESS] Sampled.
     pub gradient_action: GradientAction,
@@ -257,7 +263,7 @@ impl Default for ActorConfig {
             c_sigma: 0.05,
             beta: 0.5,
             sigma_min: 1e-4,
-            theta_step_clip: 0.5,
+            theta_step_clip: 0.01,
             gradient_action: GradientAction::Sampled,
         }
     }

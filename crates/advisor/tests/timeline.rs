@@ -330,7 +330,11 @@ fn literal_actor_step_is_clipped_at_almost_every_update() {
         cr_need: [7.0; 3],
         ..NEUTRAL
     };
-    let mut a = abba(Mode::Cgm, 11);
+    // The spec-literal clip of 0.5 (our default is 0.01, where the clip
+    // fires even more often).
+    let mut config = AbbaConfig::new(Mode::Cgm, 11);
+    config.actor.theta_step_clip = 0.5;
+    let mut a = Abba::new(config, start()).unwrap();
     toy.run(&mut a, Mode::Cgm, 1, 30, 7);
     let c = a.counters(Parameter::Basal);
     println!("basal agent counters: {c:?}");
@@ -366,23 +370,35 @@ fn optional_hypo_guard_cancels_insulin_increases_on_hypo_windows() {
         }
     }
     assert!(checked > 10, "only {checked} hypo windows");
-    // Without the guard (spec-literal), the learned P_a does add insulin on
-    // some hypo windows of this toy person: the guard is not vacuous.
-    let (_, d) = final_settings_with(AbbaConfig::new(Mode::Cgm, 11), toy, 40);
-    let violations = d
-        .iter()
-        .filter(|x| match &x.detail {
-            DecisionDetail::Abba(e) if e.window.hyponumber > 0 => match x.parameter {
-                Parameter::Basal => x.new > x.old,
-                Parameter::CarbRatio(_) => x.new < x.old,
-            },
-            _ => false,
-        })
-        .count();
-    println!("spec-literal insulin increases on hypo windows: {violations}");
+    // Without the guard and with the spec-literal actor clip of 0.5, the
+    // learned P_a does add insulin on some hypo windows of this toy person:
+    // the guard is not vacuous. With the default clip (0.01) it does not.
+    let count = |cfg: AbbaConfig| {
+        let (_, d) = final_settings_with(cfg, toy, 40);
+        d.iter()
+            .filter(|x| match &x.detail {
+                DecisionDetail::Abba(e) if e.window.hyponumber > 0 => match x.parameter {
+                    Parameter::Basal => x.new > x.old,
+                    Parameter::CarbRatio(_) => x.new < x.old,
+                },
+                _ => false,
+            })
+            .count()
+    };
+    let mut literal = AbbaConfig::new(Mode::Cgm, 11);
+    literal.actor.theta_step_clip = 0.5;
+    let violations = count(literal);
+    let default_violations = count(AbbaConfig::new(Mode::Cgm, 11));
+    println!(
+        "insulin increases on hypo windows: clip 0.5 {violations}, default {default_violations}"
+    );
     assert!(
         violations > 0,
         "expected the literal algorithm to add insulin on some hypo window"
+    );
+    assert_eq!(
+        default_violations, 0,
+        "the default actor added insulin on a hypo window"
     );
 }
 

@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 
 /// One device-visible happening.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "type", rename_all = "snake_case")]
+#[serde(tag = "type", content = "value", rename_all = "snake_case")]
 pub enum EventKind {
     /// A CGM reading.
     Cgm(MgDl),
@@ -42,5 +42,35 @@ impl Event {
     /// An event at `at`.
     pub fn new(at: Timestamp, kind: EventKind) -> Self {
         Self { at, kind }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn events_round_trip_through_json() {
+        let events = [
+            Event::new(Timestamp(5), EventKind::Cgm(MgDl(142.5))),
+            Event::new(Timestamp(6), EventKind::Smbg(MgDl(98.0))),
+            Event::new(
+                Timestamp(420),
+                EventKind::MealAnnounced {
+                    carbs: Grams(50.0),
+                    slot: MealSlot::Breakfast,
+                },
+            ),
+            Event::new(Timestamp(420), EventKind::Bolus(Units(5.05))),
+            Event::new(Timestamp(421), EventKind::BasalRate(UnitsPerHour(1.25))),
+            Event::new(Timestamp(1380), EventKind::DayClosed),
+        ];
+        let json = serde_json::to_string(&events).unwrap();
+        assert!(
+            json.contains(r#"{"at":5,"kind":{"type":"cgm","value":142.5}}"#),
+            "{json}"
+        );
+        let back: Vec<Event> = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, events);
     }
 }

@@ -52,6 +52,12 @@ pub struct Args {
     /// Use the configured TE reference instead of calibrating it on the cohort.
     #[arg(long)]
     pub no_te_calibration: bool,
+    /// Also write a full trace of these patients (comma-separated names,
+    /// e.g. adult#001,adult#042) in every scenario and arm: every simulated
+    /// minute (`traces/<patient>-<scenario>-<arm>.csv`) and every decision
+    /// with its explanation (`... .decisions.jsonl`).
+    #[arg(long, value_delimiter = ',')]
+    pub trace: Vec<String>,
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -193,6 +199,9 @@ pub fn run(args: Args) -> Result<()> {
         serde_json::to_string_pretty(&manifest)? + "\n",
     )
     .with_context(|| format!("cannot write {}", manifest_path.display()))?;
+    if !args.trace.is_empty() {
+        write_traces(&args, &output)?;
+    }
     if !args.quiet {
         eprintln!(
             "abba trial: {} patient-runs in {:.1} s; report in {} ({} files)",
@@ -201,6 +210,66 @@ pub fn run(args: Args) -> Result<()> {
             files.dir.display(),
             files.files.len()
         );
+    }
+    Ok(())
+}
+
+/// Writes the 1-minute traces and decision logs asked for with `--trace`.
+fn write_traces(args: &Args, output: &abba_trial::runner::TrialOutput) -> Result<()> {
+    use std::fmt::Write as _;
+    let dir = args.out.join("traces");
+    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let opt = |v: Option<f64>| v.map(|x| x.to_string()).unwrap_or_default();
+    for patient in &args.trace {
+        for scenario in &output.config.scenarios {
+            for arm in &output.config.arms {
+                let (_, trace) = abba_trial::runner::trace_patient(
+                    &output.config,
+                    &output.cohort,
+                    patient,
+                    *scenario,
+                    *arm,
+                )?;
+                let stem = format!("{}-{}-{}", patient.replace('#', "-"), scenario, arm.name());
+                let mut csv = String::from(
+                    "minute,day,time,plasma_mg_dl,subcutaneous_mg_dl,cgm_mg_dl,smbg_mg_dl,cho_g_per_min,insulin_u_per_min,sensitivity,basal_u_per_h,cr_breakfast_g_per_u,cr_lunch_g_per_u,cr_dinner_g_per_u\n",
+                );
+                for r in trace.minutes.unwrap_or_default() {
+                    let t = abba_core::Timestamp(r.minute);
+                    let m = t.minute_of_day();
+                    writeln!(
+                        csv,
+                        "{},{},{:02}:{:02},{},{},{},{},{},{},{},{},{},{},{}",
+                        r.minute,
+                        t.day_number(),
+                        m / 60,
+                        m % 60,
+                        r.plasma_mg_dl,
+                        r.subcutaneous_mg_dl,
+                        opt(r.cgm_mg_dl),
+                        opt(r.smbg_mg_dl),
+                        r.cho_g_per_min,
+                        r.insulin_u_per_min,
+                        r.sensitivity,
+                        r.basal_u_per_h,
+                        r.carb_ratio_g_per_u[0],
+                        r.carb_ratio_g_per_u[1],
+                        r.carb_ratio_g_per_u[2]
+                    )?;
+                }
+                let path = dir.join(format!("{stem}.csv"));
+                std::fs::write(&path, csv)
+                    .with_context(|| format!("cannot write {}", path.display()))?;
+                let mut jsonl = String::new();
+                for d in trace.decisions.unwrap_or_default() {
+                    jsonl.push_str(&serde_json::to_string(&d)?);
+                    jsonl.push('\n');
+                }
+                let path = dir.join(format!("{stem}.decisions.jsonl"));
+                std::fs::write(&path, jsonl)
+                    .with_context(|| format!("cannot write {}", path.display()))?;
+            }
+        }
     }
     Ok(())
 }

@@ -100,6 +100,34 @@ pub struct Trace {
     pub events: Option<Vec<Event>>,
     /// Every decision of the advisor with its explanation.
     pub decisions: Option<Vec<abba_advisor::decision::Decision>>,
+    /// One record per simulated minute (a 1-minute trace; about 140,000
+    /// records for a 98-day run, so only on request).
+    pub minutes: Option<Vec<MinuteRecord>>,
+}
+
+/// What happened in one simulated minute (for a 1-minute trace).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct MinuteRecord {
+    /// Minutes since 00:00 of D1.
+    pub minute: i64,
+    /// Plasma glucose at the start of the minute (mg/dL).
+    pub plasma_mg_dl: f64,
+    /// Subcutaneous glucose at the start of the minute (mg/dL).
+    pub subcutaneous_mg_dl: f64,
+    /// CGM reading taken this minute, if any (mg/dL).
+    pub cgm_mg_dl: Option<f64>,
+    /// Finger-stick reading taken this minute, if any (mg/dL).
+    pub smbg_mg_dl: Option<f64>,
+    /// Carbohydrate eaten during the minute (g/min).
+    pub cho_g_per_min: f64,
+    /// Insulin infused during the minute, basal plus bolus (U/min).
+    pub insulin_u_per_min: f64,
+    /// Insulin-sensitivity multiplier s(t) during the minute.
+    pub sensitivity: f64,
+    /// Basal rate in force on the pump (U/h).
+    pub basal_u_per_h: f64,
+    /// The advisor's carb ratios (breakfast, lunch, dinner; g/U).
+    pub carb_ratio_g_per_u: [f64; 3],
 }
 
 /// Like [`run_patient`], recording what `trace` asks for.
@@ -179,15 +207,18 @@ pub fn run_patient_with(
             }
 
             // Readings.
+            let (mut cgm_reading, mut smbg_reading) = (None, None);
             if plan.cgm_sample_at(m) {
                 let reading = cgm
                     .read(MgDl(patient.subcutaneous_glucose_mg_dl()))
                     .map_err(sim)?;
+                cgm_reading = Some(reading.0);
                 events.push(Event::new(now, EventKind::Cgm(reading)));
             }
             let mut bedtime_reading = false;
             for r in plan.smbg.iter().filter(|r| r.at == now) {
                 let reading = meter.measure(MgDl(plasma)).map_err(sim)?;
+                smbg_reading = Some(reading.0);
                 events.push(Event::new(now, EventKind::Smbg(reading)));
                 bedtime_reading |= r.purpose == SmbgPurpose::Bedtime;
             }
@@ -296,6 +327,21 @@ pub fn run_patient_with(
             // Deliver and advance one minute.
             let insulin = pump.insulin_for_minute();
             let cho = queue.eat_minute();
+            if let Some(trace_minutes) = trace.minutes.as_mut() {
+                let cr = advisor.settings().carb_ratio;
+                trace_minutes.push(MinuteRecord {
+                    minute: now.minutes(),
+                    plasma_mg_dl: plasma,
+                    subcutaneous_mg_dl: patient.subcutaneous_glucose_mg_dl(),
+                    cgm_mg_dl: cgm_reading,
+                    smbg_mg_dl: smbg_reading,
+                    cho_g_per_min: cho,
+                    insulin_u_per_min: insulin,
+                    sensitivity: s_per_minute[m as usize],
+                    basal_u_per_h: pump.basal_rate().0,
+                    carb_ratio_g_per_u: [cr[0].0, cr[1].0, cr[2].0],
+                });
+            }
             patient
                 .step(cho, insulin, s_per_minute[m as usize])
                 .map_err(sim)?;

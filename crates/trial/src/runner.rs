@@ -142,7 +142,7 @@ fn calibrate_te(
     let one = |(pi, vp): (usize, &abba_sim::cohort::VirtualPatient)| {
         let mut trace = Trace {
             events: Some(Vec::new()),
-            decisions: None,
+            ..Trace::default()
         };
         run_patient_with(
             config,
@@ -165,4 +165,47 @@ fn calibrate_te(
     } else {
         cohort.patients.par_iter().enumerate().map(one).collect()
     }
+}
+
+/// Re-runs one patient of the trial's cohort in one scenario and arm with a
+/// full trace (every minute, every decision). Runs are pure functions of the
+/// configuration, so this reproduces exactly what the trial simulated.
+pub fn trace_patient(
+    config: &TrialConfig,
+    cohort: &Cohort,
+    patient: &str,
+    scenario: abba_sim::scenario::ScenarioId,
+    arm: ArmKind,
+) -> Result<(crate::results::PatientResult, Trace), TrialError> {
+    let Some(index) = cohort
+        .patients
+        .iter()
+        .position(|p| p.params.name == patient)
+    else {
+        return Err(TrialError::Config(format!(
+            "--trace: no patient '{patient}' in the cohort ({} .. {})",
+            cohort
+                .patients
+                .first()
+                .map_or("", |p| p.params.name.as_str()),
+            cohort
+                .patients
+                .last()
+                .map_or("", |p| p.params.name.as_str()),
+        )));
+    };
+    let mut trace = Trace {
+        events: Some(Vec::new()),
+        decisions: Some(Vec::new()),
+        minutes: Some(Vec::new()),
+    };
+    let result = run_patient_with(
+        config,
+        &cohort.patients[index],
+        index as u64 + 1,
+        &config.scenario(scenario),
+        arm,
+        &mut trace,
+    )?;
+    Ok((result, trace))
 }

@@ -1,0 +1,119 @@
+//! `abba trial` end to end on a small trial: the report files, byte-identical
+//! reruns, traces, and clear errors.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn abba() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_abba"))
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("abba-trial-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+fn small_trial(out: &Path, threads: &str, extra: &[&str]) {
+    let st = abba()
+        .args([
+            "trial",
+            "--patients",
+            "4",
+            "--days",
+            "16",
+            "--scenarios",
+            "S1,S3",
+            "--quiet",
+        ])
+        .args(["--threads", threads, "--out"])
+        .arg(out)
+        .args(extra)
+        .status()
+        .unwrap();
+    assert!(st.success());
+}
+
+#[test]
+fn writes_the_report_and_reruns_byte_identical() {
+    let (a, b) = (tmp("a"), tmp("b"));
+    small_trial(&a, "1", &[]);
+    small_trial(&b, "2", &[]);
+    for f in [
+        "summary.json",
+        "table1.md",
+        "table1.csv",
+        "patients.csv",
+        "fig5_lbgi_hbgi.svg",
+        "fig6_mage.svg",
+        "fig7_tdi.svg",
+        "fig_arms.svg",
+    ] {
+        let x = std::fs::read(a.join(f)).unwrap();
+        let y = std::fs::read(b.join(f)).unwrap();
+        assert!(!x.is_empty(), "{f} is empty");
+        assert!(x == y, "{f} differs between a serial and a parallel run");
+    }
+    let manifest: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(a.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(manifest["seed"], 1);
+    assert_eq!(manifest["knobs"]["abba"]["actor"]["theta_step_clip"], 0.01);
+    assert!(manifest["run"]["wall_time_s"].is_number());
+    // 4 patients x 2 scenarios x 3 arms x 2 weeks (W1, W2) + header.
+    let rows = std::fs::read_to_string(a.join("patients.csv"))
+        .unwrap()
+        .lines()
+        .count();
+    assert_eq!(rows, 1 + 4 * 2 * 3 * 2);
+}
+
+#[test]
+fn traces_every_minute_and_decision() {
+    let out = tmp("traced");
+    small_trial(&out, "0", &["--arms", "abba", "--trace", "adult#003"]);
+    for s in ["S1", "S3"] {
+        let csv =
+            std::fs::read_to_string(out.join(format!("traces/adult-003-{s}-abba.csv"))).unwrap();
+        assert_eq!(csv.lines().count(), 1 + 16 * 1440);
+        let decisions =
+            std::fs::read_to_string(out.join(format!("traces/adult-003-{s}-abba.decisions.jsonl")))
+                .unwrap();
+        // From D9 on: the basal update and three carb-ratio updates a day.
+        assert!(
+            decisions.lines().count() >= 4 * 7,
+            "{s}: {} decisions",
+            decisions.lines().count()
+        );
+        for line in decisions.lines() {
+            let d: serde_json::Value = serde_json::from_str(line).unwrap();
+            assert!(d["old"].is_number() && d["new"].is_number() && d["detail"].is_object());
+        }
+    }
+}
+
+#[test]
+fn bad_options_are_clear_errors() {
+    let cases: [(&[&str], &str); 4] = [
+        (&["--scenarios", "S5"], "S5"),
+        (&["--arms", "magic"], "magic"),
+        (&["--days", "5"], "days"),
+        (
+            &["--patients", "3", "--days", "10", "--trace", "adult#099"],
+            "adult#099",
+        ),
+    ];
+    for (args, needle) in cases {
+        let out = abba()
+            .arg("trial")
+            .args(args)
+            .arg("--out")
+            .arg(tmp("bad"))
+            .output()
+            .unwrap();
+        assert!(!out.status.success(), "{args:?} should fail");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(needle), "{args:?}: {err}");
+    }
+}

@@ -29,6 +29,10 @@ pub struct Args {
     /// Also write the 13 model states and Dbar on every row.
     #[arg(long)]
     pub states: bool,
+    /// Also write the per-minute inputs that were replayed (the format of
+    /// --inputs), e.g. to feed the same day to another simulator.
+    #[arg(long)]
+    pub inputs_out: Option<PathBuf>,
     /// Constant insulin-sensitivity multiplier on Vmx and kp3.
     #[arg(long, default_value_t = 1.0)]
     pub sensitivity: f64,
@@ -55,6 +59,16 @@ pub fn run(args: Args) -> Result<()> {
             "--sensitivity must be a finite number > 0, got {}",
             args.sensitivity
         );
+    }
+    if let Some(path) = &args.inputs_out {
+        let mut text = String::from("minute,cho_g_per_min,insulin_u_per_min\n");
+        for (m, r) in day.minutes.iter().enumerate() {
+            text.push_str(&format!(
+                "{m},{},{}\n",
+                r.cho_g_per_min, r.insulin_u_per_min
+            ));
+        }
+        std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))?;
     }
     let mut patient = Patient::new(params)?;
     let file = std::fs::File::create(&args.out)

@@ -27,11 +27,13 @@ def run(clip, patients, cohort_seed, scenarios="S1,S2,S4"):
                        check=True)
         with open(f"{tmp}/summary.json") as f:
             summary = json.load(f)
+        with open(f"{tmp}/summary_notes.json") as f:
+            notes = json.load(f)
     for key, arm in summary["arms"].items():
         def mean(week, metric):
             w = arm["weeks"].get(week)
             return w[metric]["mean"] if w and w.get(metric) else float("nan")
-        stops = len(summary["notes"]["arms"][key]["stopped_runs"])
+        stops = len(notes["arms"][key]["stopped_runs"])
         print(f"| {clip} | {key} | {stops} | "
               + " | ".join(f"{mean(w, m):.1f}" for m in ("tir_70_180", "below_70", "above_180")
                            for w in ("W1", "W13", "W14"))

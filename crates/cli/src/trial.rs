@@ -179,7 +179,9 @@ pub fn run(args: Args) -> Result<()> {
         },
         "te_calibration": {
             "calibrated": used.calibrate_te_ref && used.arms.contains(&ArmKind::Abba),
-            "te_ref_bits": used.abba.te.te_ref_bits,
+            "te_ref_bits_cgm": used.abba.te.te_ref_bits,
+            "te_ref_bits_smbg": used.te_ref_bits_smbg.unwrap_or(used.abba.te.te_ref_bits),
+            "how": "median over the cohort of ABBA's own first-week TE estimate in each mode (spec §7.3)",
             "first_week_te_bits": output.first_week_te_bits,
         },
         "knobs": used,

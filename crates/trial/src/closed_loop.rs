@@ -38,6 +38,9 @@ pub fn advisor_spec(config: &TrialConfig, arm: ArmKind, mode: Mode) -> AdvisorSp
             let mut c = config.abba.clone();
             c.mode = mode;
             c.init_days = config.init_days;
+            if let (Mode::Smbg, Some(te_ref)) = (mode, config.te_ref_bits_smbg) {
+                c.te.te_ref_bits = te_ref;
+            }
             AdvisorSpec::Abba(c)
         }
         ArmKind::Standard => AdvisorSpec::Fixed {
@@ -103,6 +106,9 @@ pub struct Trace {
     /// One record per simulated minute (a 1-minute trace; about 140,000
     /// records for a 98-day run, so only on request).
     pub minutes: Option<Vec<MinuteRecord>>,
+    /// Filled at the end of every run of an ABBA arm that got past its
+    /// initialisation week: what the transfer-entropy initialisation did.
+    pub init: Option<abba_advisor::abba::InitReport>,
 }
 
 /// What happened in one simulated minute (for a 1-minute trace).
@@ -383,6 +389,7 @@ pub fn run_patient_with(
             tdi_u_per_day: tdi,
         });
     }
+    trace.init = advisor.init_report().cloned();
     let fin = advisor.settings();
     Ok(PatientResult {
         patient: vp.params.name.clone(),

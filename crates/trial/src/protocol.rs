@@ -121,6 +121,12 @@ pub struct TrialConfig {
     /// standard-therapy week before the arms run. When false, the configured
     /// value is used as is.
     pub calibrate_te_ref: bool,
+    /// TE reference of ABBA in SMBG mode (bits); `None` uses
+    /// `abba.te.te_ref_bits`. SMBG-mode ABBA initialises at the bedtime
+    /// reading of the last initialisation day, so its TE grid ends about an
+    /// hour earlier than in CGM mode; calibration sets this from SMBG-mode
+    /// runs.
+    pub te_ref_bits_smbg: Option<f64>,
     /// A run stops when plasma glucose falls below this (mg/dL); the report
     /// counts such runs per arm (10, simglucose's end-of-episode threshold).
     pub failure_glucose_mg_dl: f64,
@@ -145,6 +151,7 @@ impl Default for TrialConfig {
             fixed_limits: EventLimits::default(),
             devices: DeviceConfig::default(),
             calibrate_te_ref: true,
+            te_ref_bits_smbg: None,
             failure_glucose_mg_dl: 10.0,
             scenario_overrides: Vec::new(),
         }
@@ -195,6 +202,13 @@ impl TrialConfig {
                 self.failure_glucose_mg_dl
             ));
         }
+        if let Some(x) = self.te_ref_bits_smbg {
+            if !(x.is_finite() && x > 0.0) {
+                return bad(format!(
+                    "te_ref_bits_smbg must be a finite number > 0, got {x}"
+                ));
+            }
+        }
         if self.scenarios.is_empty() {
             return bad("at least one scenario is needed".into());
         }
@@ -214,9 +228,17 @@ impl TrialConfig {
             }
         }
         for id in &self.scenarios {
-            self.scenario(*id)
-                .validate()
+            let s = self.scenario(*id);
+            s.validate()
                 .map_err(|e| TrialError::Config(e.to_string()))?;
+            // SMBG mode needs finger sticks: its day closes at the bedtime reading.
+            if Self::mode_for(&s) == Mode::Smbg && s.smbg.is_none() {
+                return bad(format!(
+                    "scenario {}: the CGM stops after day {} but there are no SMBG readings, so the advisor would have no glucose and its day would never close",
+                    s.name,
+                    s.cgm.until_day.unwrap_or(0)
+                ));
+            }
         }
         Ok(())
     }

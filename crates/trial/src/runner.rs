@@ -7,7 +7,8 @@ use crate::error::TrialError;
 use crate::protocol::ArmKind;
 use crate::protocol::TrialConfig;
 use crate::results::ArmResult;
-use abba_advisor::te::first_week_te;
+use abba_advisor::abba::TeOutcome;
+use abba_advisor::Mode;
 use abba_sim::cohort::{Cohort, CohortConfig};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -31,8 +32,9 @@ impl Progress for Silent {
 pub struct TrialOutput {
     /// The configuration actually run (with the calibrated TE reference).
     pub config: TrialConfig,
-    /// The cohort's first-week transfer entropies (bits), when calibrated.
-    pub first_week_te_bits: Vec<f64>,
+    /// The cohort's first-week transfer entropies (bits) per advisor mode
+    /// (`cgm`, `smbg`), when calibrated.
+    pub first_week_te_bits: std::collections::BTreeMap<String, Vec<f64>>,
     /// The cohort that was simulated.
     pub cohort: Cohort,
     /// One entry per scenario × arm, in configuration order.
@@ -66,14 +68,20 @@ pub fn run_trial(
         .build()
         .map_err(|e| TrialError::Config(format!("cannot start {threads} threads: {e}")))?;
     let mut config = config.clone();
-    let mut first_week_te_bits = Vec::new();
+    let mut first_week_te_bits = std::collections::BTreeMap::new();
     if config.calibrate_te_ref && config.arms.contains(&ArmKind::Abba) {
-        first_week_te_bits = pool.install(|| calibrate_te(&config, &cohort, threads))?;
-        let mut sorted = first_week_te_bits.clone();
-        sorted.sort_by(f64::total_cmp);
-        let median = crate::stats::quantile_sorted(&sorted, 0.5);
-        if median > 0.0 {
-            config.abba.te.te_ref_bits = median;
+        // The TE estimate does not depend on TE_ref, so one pass per mode.
+        let base = config.clone();
+        for mode in [Mode::Cgm, Mode::Smbg] {
+            let te = pool.install(|| calibrate_te(&base, &cohort, threads, mode))?;
+            match (mode, positive_median(&te)) {
+                (Mode::Cgm, Some(m)) => config.abba.te.te_ref_bits = m,
+                (Mode::Smbg, Some(m)) => config.te_ref_bits_smbg = Some(m),
+                _ => {}
+            }
+            if !te.is_empty() {
+                first_week_te_bits.insert(mode.name().to_string(), te);
+            }
         }
     }
     let config = &config;
@@ -130,41 +138,64 @@ pub fn run_trial(
 }
 
 /// Each patient's transfer entropy from insulin to glucose over the
-/// standard-therapy week D2..D(1+init_days) of the first configured
-/// scenario (CGM is worn then in every scenario), in cohort order.
+/// standard-therapy week, as ABBA itself estimates it at the end of its
+/// initialisation week in `mode` (in cohort order; patients whose estimate
+/// failed are left out). Runs the first configured scenario of that mode
+/// just past the initialisation.
 fn calibrate_te(
     config: &TrialConfig,
     cohort: &Cohort,
     threads: usize,
+    mode: Mode,
 ) -> Result<Vec<f64>, TrialError> {
-    let mut scenario = config.scenario(config.scenarios[0]);
-    scenario.days = config.init_days + 1;
+    let Some(id) = config
+        .scenarios
+        .iter()
+        .find(|id| TrialConfig::mode_for(&config.scenario(**id)) == mode)
+    else {
+        return Ok(Vec::new());
+    };
+    let mut scenario = config.scenario(*id);
+    scenario.days = config.init_days + 2;
     let one = |(pi, vp): (usize, &abba_sim::cohort::VirtualPatient)| {
-        let mut trace = Trace {
-            events: Some(Vec::new()),
-            ..Trace::default()
-        };
+        let mut trace = Trace::default();
         run_patient_with(
             config,
             vp,
             pi as u64 + 1,
             &scenario,
-            ArmKind::Standard,
+            ArmKind::Abba,
             &mut trace,
         )?;
-        let events = trace.events.unwrap_or_default();
-        let estimate = first_week_te(&events, vp.therapy.basal, config.init_days, &config.abba.te)
-            .map_err(|source| TrialError::Advisor {
-                context: format!("{} TE calibration", vp.params.name),
-                source,
-            })?;
-        Ok(estimate.te_bits)
+        Ok(match trace.init.map(|r| r.te) {
+            Some(TeOutcome::Estimated(e)) => Some(e.te_bits),
+            _ => None,
+        })
     };
-    if threads == 1 {
-        cohort.patients.iter().enumerate().map(one).collect()
+    let all: Vec<Option<f64>> = if threads == 1 {
+        cohort
+            .patients
+            .iter()
+            .enumerate()
+            .map(one)
+            .collect::<Result<_, TrialError>>()?
     } else {
-        cohort.patients.par_iter().enumerate().map(one).collect()
-    }
+        cohort
+            .patients
+            .par_iter()
+            .enumerate()
+            .map(one)
+            .collect::<Result<_, TrialError>>()?
+    };
+    Ok(all.into_iter().flatten().collect())
+}
+
+/// The median of positive values, if any.
+fn positive_median(values: &[f64]) -> Option<f64> {
+    let mut sorted = values.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let median = crate::stats::quantile_sorted(&sorted, 0.5);
+    (!sorted.is_empty() && median > 0.0).then_some(median)
 }
 
 /// Re-runs one patient of the trial's cohort in one scenario and arm with a
@@ -198,6 +229,7 @@ pub fn trace_patient(
         events: Some(Vec::new()),
         decisions: Some(Vec::new()),
         minutes: Some(Vec::new()),
+        init: None,
     };
     let result = run_patient_with(
         config,

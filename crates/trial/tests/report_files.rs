@@ -465,9 +465,16 @@ fn write_report_is_byte_identical_across_runs() {
     let m: Value =
         serde_json::from_slice(&std::fs::read(base.join("a/manifest.json")).unwrap()).unwrap();
     assert_eq!(m, manifest());
+    // summary.json holds exactly the protocol's keys; the notes have their own file.
     let s: Value =
         serde_json::from_slice(&std::fs::read(base.join("a/summary.json")).unwrap()).unwrap();
-    assert_eq!(s, summary_json(&arms, &manifest()).unwrap());
+    let mut full = summary_json(&arms, &manifest()).unwrap();
+    let notes = full.as_object_mut().unwrap().remove("notes").unwrap();
+    assert_eq!(keys(&s), sorted(&["manifest", "arms"]));
+    assert_eq!(s, full);
+    let n: Value =
+        serde_json::from_slice(&std::fs::read(base.join("a/summary_notes.json")).unwrap()).unwrap();
+    assert_eq!(n, notes);
 }
 
 /// splitmix64: a tiny deterministic generator for plausible synthetic data.
@@ -679,5 +686,44 @@ fn a_stopped_run_counts_only_in_the_weeks_before_the_stop() {
     assert!(
         e.contains("adult#005: week W6 ends on D43 but the run stopped on D40"),
         "{e}"
+    );
+}
+
+#[test]
+fn arms_side_by_side_compare_the_same_patients() {
+    let mut arms: Vec<ArmResult> = full_trial()
+        .into_iter()
+        .filter(|a| a.scenario == "S1")
+        .collect();
+    let n = arms[0].patients.len();
+    // The standard arm loses its first patient on D60: that patient leaves
+    // the side-by-side block of every arm in W13 and W14.
+    let standard = arms.iter_mut().find(|a| a.advisor == "standard").unwrap();
+    let p = &mut standard.patients[0];
+    p.failure = Some(RunFailure {
+        day: 60,
+        minute_of_day: 0,
+        glucose_mg_dl: 9.0,
+    });
+    p.weeks.retain(|w| w.last_day < 60);
+    let md = table1::table1_markdown(&arms).unwrap();
+    let expected_n = format!("W13: n = {}, W14: n = {}", n - 1, n - 1);
+    assert!(md.contains(&expected_n), "expected '{expected_n}' in\n{md}");
+    // The ABBA W13 TIR cell of the block is the mean over patients 2..n.
+    let abba = arms.iter().find(|a| a.advisor == "abba").unwrap();
+    let tir: Vec<f64> = abba.patients[1..]
+        .iter()
+        .map(|p| p.week("W13").unwrap().metrics.tir_70_180)
+        .collect();
+    let mean = tir.iter().sum::<f64>() / tir.len() as f64;
+    let block = md.split("### ").next().unwrap();
+    let row = block
+        .lines()
+        .find(|l| l.starts_with("| % time in target"))
+        .unwrap();
+    let first_cell = row.split('|').nth(2).unwrap().trim();
+    assert!(
+        first_cell.starts_with(&format!("{mean:.1} ±")),
+        "expected mean {mean:.1} over the common patients, got '{first_cell}'"
     );
 }

@@ -282,8 +282,9 @@ pub struct ReportFile {
 }
 
 /// File names of the report, in the order [`build_report`] produces them.
-pub const REPORT_FILES: [&str; 10] = [
+pub const REPORT_FILES: [&str; 11] = [
     "summary.json",
+    "summary_notes.json",
     "table1.md",
     "table1.csv",
     "patients.csv",
@@ -301,9 +302,19 @@ pub fn build_report(
     manifest: &serde_json::Value,
 ) -> Result<Vec<ReportFile>, TrialError> {
     validate_arms(arms)?;
-    let summary = summary::summary_json(arms, manifest)?;
-    let files: [(&'static str, Vec<u8>); 10] = [
+    let mut summary = summary::summary_json(arms, manifest)?;
+    // summary.json keeps exactly the protocol's schema (§8); the method
+    // statements, counts and stops go to summary_notes.json.
+    let notes = summary
+        .as_object_mut()
+        .and_then(|o| o.remove("notes"))
+        .unwrap_or(serde_json::Value::Null);
+    let files: [(&'static str, Vec<u8>); 11] = [
         ("summary.json", pretty_json(&summary, "summary.json")?),
+        (
+            "summary_notes.json",
+            pretty_json(&notes, "summary_notes.json")?,
+        ),
         ("table1.md", table1::table1_markdown(arms)?.into_bytes()),
         ("table1.csv", table1::table1_csv(arms)?.into_bytes()),
         (
@@ -376,7 +387,7 @@ fn readme() -> String {
     let mut s = String::from("# Trial report\n\n");
     s.push_str(
         "Files (protocol section 8):\n\n\
-         - `summary.json`: per arm (`S1/abba` ...), the summary over patients (mean, SD, median, Q1, Q3) of every metric in W1, W13, W14 (`weeks`) and in every evaluation week (`weekly`), and the paired Wilcoxon signed-rank tests W1 vs W13 and W1 vs W14 (`wilcoxon`). `notes` holds the method statements and the counts of undefined values (MAGE without a countable excursion).\n\
+         - `summary.json`: per arm (`S1/abba` ...), the summary over patients (mean, SD, median, Q1, Q3) of every metric in W1, W13, W14 (`weeks`) and in every evaluation week (`weekly`), and the paired Wilcoxon signed-rank tests W1 vs W13 and W1 vs W14 (`wilcoxon`). `summary_notes.json` holds the method statements, the number of patients per week, every stopped run and the counts of undefined values (MAGE without a countable excursion), so that `summary.json` has exactly the protocol's schema.\n\
          - `table1.md`, `table1.csv`: our Table I beside the paper's (Sun et al., IEEE JBHI 2019, Table I).\n\
          - `patients.csv`: one row per patient, arm and evaluation week, with the final therapy settings.\n\
          - `fig5_lbgi_hbgi.svg`: weekly LBGI and HBGI, ABBA arms (paper Fig. 5).\n\

@@ -25,7 +25,7 @@
 //! - A week that was not simulated (a short trial) is `null` in `weeks`, is
 //!   absent from `weekly`, and its comparisons in `wilcoxon` are `null`.
 //! - Wilcoxon: paired by patient, d = later week − W1, two-sided, normal
-//!   approximation with tie correction, zero differences dropped
+//!   approximation with tie correction and Pratt's zero correction
 //!   (SciPy's default), no continuity correction; `statistic` = min(W+, W−).
 //!   All-zero differences give statistic 0, p = 1.
 //! - A run that stopped early (plasma glucose below the failure threshold)
@@ -44,7 +44,18 @@ use super::{
 };
 use crate::error::TrialError;
 use crate::results::ArmResult;
-use crate::stats::{summarize_present, wilcoxon_signed_rank_present, Wilcoxon, WilcoxonOptions};
+use crate::stats::{
+    summarize_present, wilcoxon_signed_rank_present, Wilcoxon, WilcoxonOptions, ZeroMethod,
+};
+
+/// The report's signed-rank test: protocol.md §7 asks for the normal
+/// approximation "with tie and zero corrections", i.e. Pratt's treatment of
+/// zero differences (ranked with the rest, then dropped, with the mean and
+/// variance corrected), which matters for the sparse hypo bands.
+pub const REPORT_WILCOXON: WilcoxonOptions = WilcoxonOptions {
+    zero_method: ZeroMethod::Pratt,
+    continuity_correction: false,
+};
 
 /// The comparisons of the `wilcoxon` object: (key, later week).
 pub const COMPARISONS: [(&str, &str); 2] = [("W1_vs_W13", "W13"), ("W1_vs_W14", "W14")];
@@ -80,7 +91,7 @@ pub fn wilcoxon_vs_w1(
     {
         return Ok(None);
     }
-    wilcoxon_signed_rank_present(&first, &second, WilcoxonOptions::default())
+    wilcoxon_signed_rank_present(&first, &second, REPORT_WILCOXON)
         .map(Some)
         .map_err(|source| TrialError::Stats {
             what: format!("arm {}, W1 vs {later}, metric {key}", arm.key()),
@@ -196,7 +207,7 @@ pub fn summary_json(arms: &[ArmResult], manifest: &Value) -> Result<Value, Trial
             "methods": {
                 "summary": "over the patients of the arm: mean; sample SD (n - 1; null for one patient); median and quartiles Q1, Q3 by linear interpolation (Hyndman-Fan type 7, R's default)",
                 "undefined_values": "MAGE is undefined for a patient-week without a countable excursion: summaries use the defined values only and tests the complete pairs only; counts in notes.arms.<arm>.mage_undefined and .wilcoxon.<test>.<metric>.n_incomplete; a metric with no defined value is null",
-                "wilcoxon": "paired by patient, d = later week - W1; two-sided; normal approximation with tie correction; zero differences dropped (Wilcoxon's rule, SciPy's default); no continuity correction; statistic = min(W+, W-); all differences zero gives statistic 0, p 1",
+                "wilcoxon": "paired by patient, d = later week - W1; two-sided; normal approximation with tie correction; zero differences ranked then dropped with corrected mean and variance (Pratt, SciPy's zero_method='pratt'); no continuity correction; statistic = min(W+, W-); all differences zero gives statistic 0, p 1",
                 "weeks": "W1 = D2-D8 (standard therapy); Wk = D(7k-5)-D(7k+1) for k = 1..12; W13 = D84-D90; W14 = D92-D98; D91 not evaluated; a week not simulated is null in 'weeks', absent from 'weekly', and its comparisons are null",
                 "stopped_runs": "a run stops when plasma glucose falls below the trial's failure threshold; the patient then contributes only the weeks that ended before the stop, so later summaries are over fewer patients (notes.arms.<arm>.n_patients_per_week) and tests over the complete pairs only (n_incomplete); every stop is listed in notes.arms.<arm>.stopped_runs",
                 "glucose": "metrics of plasma glucose sampled every 5 min; tdi_u_per_day = mean total insulin delivered per day over the week",

@@ -400,30 +400,52 @@ fn scenario_title(scenario: &str) -> &'static str {
 }
 
 /// For one scenario with more than one arm: the arms' means ± SD side by
-/// side in W13 and W14 (the weeks after adaptation), one row per metric.
-fn arms_side_by_side(s: &mut String, rows: &[Table1Row], scenario: &str) {
-    let mut advisors: Vec<(&str, &str)> = Vec::new();
-    for r in rows.iter().filter(|r| r.scenario == scenario) {
-        if !advisors.iter().any(|(a, _)| *a == r.advisor) {
-            advisors.push((&r.advisor, &r.mode));
-        }
-    }
+/// side in W13 and W14 (the weeks after adaptation), one row per metric,
+/// over the patients every arm still has in that week (a run that stopped
+/// early drops out of every arm here, so the columns compare the same
+/// people; the per-arm tables below keep each arm's own patients).
+fn arms_side_by_side(s: &mut String, arms: &[ArmResult], scenario: &str) {
+    let in_scenario: Vec<&ArmResult> = arms.iter().filter(|a| a.scenario == scenario).collect();
     let weeks: Vec<&str> = ["W13", "W14"]
         .into_iter()
-        .filter(|w| rows.iter().any(|r| r.scenario == scenario && r.week == *w))
+        .filter(|w| {
+            in_scenario
+                .iter()
+                .any(|a| a.patients.iter().any(|p| p.week(w).is_some()))
+        })
         .collect();
-    if advisors.len() < 2 || weeks.is_empty() {
+    if in_scenario.len() < 2 || weeks.is_empty() {
         return;
     }
+    // Patients (by cohort position) present in a week in every arm.
+    let common = |week: &str| -> Vec<usize> {
+        let n = in_scenario
+            .iter()
+            .map(|a| a.patients.len())
+            .min()
+            .unwrap_or(0);
+        (0..n)
+            .filter(|&i| {
+                in_scenario
+                    .iter()
+                    .all(|a| a.patients[i].week(week).is_some())
+            })
+            .collect()
+    };
+    let counts: Vec<String> = weeks
+        .iter()
+        .map(|w| format!("{w}: n = {}", common(w).len()))
+        .collect();
     let _ = writeln!(
         s,
-        "Arms side by side after adaptation (mean ± SD; same patients and scenario realisation in every arm):\n"
+        "Arms side by side after adaptation (mean ± SD over the patients every arm still has in that week, {}; same scenario realisation in every arm):\n",
+        counts.join(", ")
     );
     let mut header = String::from("| Metric |");
     let mut rule = String::from("|---|");
     for w in &weeks {
-        for (a, _) in &advisors {
-            let _ = write!(header, " {w} {} |", short_advisor(a));
+        for a in &in_scenario {
+            let _ = write!(header, " {w} {} |", short_advisor(&a.advisor));
             rule.push_str("---:|");
         }
     }
@@ -432,16 +454,16 @@ fn arms_side_by_side(s: &mut String, rows: &[Table1Row], scenario: &str) {
         let decimals = if SEED_BANDS.contains(&metric) { 1 } else { 2 };
         let mut line = format!("| {} |", metric_label(metric));
         for w in &weeks {
-            for (a, _) in &advisors {
-                let cell = rows
+            let patients = common(w);
+            for a in &in_scenario {
+                let values: Vec<Option<f64>> = patients
                     .iter()
-                    .find(|r| {
-                        r.scenario == scenario
-                            && r.advisor == *a
-                            && r.week == *w
-                            && r.metric == metric
-                    })
-                    .map_or("—".to_string(), |r| pm(r.ours.mean, r.ours.sd, decimals));
+                    .map(|&i| a.patients[i].week(w).and_then(|r| r.metrics.get(metric)))
+                    .collect();
+                let cell = match summarize_present(&values) {
+                    Ok(Some(sum)) => pm(sum.mean, sum.sd, decimals),
+                    _ => "—".to_string(),
+                };
                 let _ = write!(line, " {cell} |");
             }
         }
@@ -491,7 +513,7 @@ pub fn table1_markdown(arms: &[ArmResult]) -> Result<String, TrialError> {
     let _ = writeln!(
         s,
         "**p**: our paired two-sided Wilcoxon signed-rank test of the week against W1 \
-         (normal approximation, tie correction, zero differences dropped).\n"
+         (normal approximation, tie correction, Pratt's zero correction).\n"
     );
     let mut i = 0;
     let mut last_scenario = String::new();
@@ -505,7 +527,7 @@ pub fn table1_markdown(arms: &[ArmResult]) -> Result<String, TrialError> {
         i = end;
         if scenario != last_scenario {
             let _ = writeln!(s, "## {scenario}: {}\n", scenario_title(&scenario));
-            arms_side_by_side(&mut s, &rows, &scenario);
+            arms_side_by_side(&mut s, arms, &scenario);
             last_scenario = scenario.clone();
         }
         let _ = writeln!(

@@ -18,7 +18,8 @@ use abba_advisor::any::{AdvisorSpec, AnyAdvisor};
 use abba_advisor::{Advisor, Mode};
 use abba_core::metrics::metrics_regular;
 use abba_core::{
-    derive_seed, Event, EventKind, MgDl, Stream, TherapySettings, Timestamp, Units, MINUTES_PER_DAY,
+    derive_seed, Event, EventKind, MgDl, Stream, TherapySettings, Timestamp, Units, UnitsPerHour,
+    MINUTES_PER_DAY,
 };
 use abba_sim::cohort::VirtualPatient;
 use abba_sim::devices::cgm::{CgmConfig, CgmSensor};
@@ -163,7 +164,7 @@ pub fn run_patient_with(
     let (cgm_cfg, meter_cfg, pump_cfg) = devices(config)?;
     let mut cgm = CgmSensor::new(cgm_cfg, seeds.cgm_noise).map_err(sim)?;
     let mut meter = SmbgMeter::new(meter_cfg, seeds.meter_noise).map_err(sim)?;
-    let mut pump = Pump::new(pump_cfg, Timestamp(0)).map_err(sim)?;
+    let pump = Pump::new(pump_cfg, Timestamp(0)).map_err(sim)?;
     let mut patient = Patient::new(vp.params.clone()).map_err(sim)?;
     let mut queue = EatingQueue::new();
     let start: TherapySettings = vp.therapy;
@@ -173,15 +174,20 @@ pub fn run_patient_with(
         scenario.random_key,
         Stream::Exploration,
     );
-    let mut advisor: AnyAdvisor = advisor_spec(config, arm, mode)
+    let advisor: AnyAdvisor = advisor_spec(config, arm, mode)
         .build(start, exploration)
         .map_err(adv)?;
-    let mut capped = 0u32;
-    let mut requested_basal = start.basal;
-    if pump.set_basal(start.basal).map_err(sim)?.capped {
-        capped += 1;
+    let mut ctl = Controls {
+        advisor,
+        pump,
+        requested_basal: start.basal,
+        capped: 0,
+        pump_events: Vec::with_capacity(4),
+    };
+    if ctl.pump.set_basal(start.basal).map_err(sim)?.capped {
+        ctl.capped += 1;
     }
-    pump.drain_events().for_each(drop);
+    ctl.pump.drain_events().for_each(drop);
 
     let days = scenario.days as usize;
     let mut glucose = vec![0.0; days * SAMPLES_PER_DAY];
@@ -193,7 +199,7 @@ pub fn run_patient_with(
     'days: for day in 0..days {
         let plan = generator.day(day as u32);
         let s_per_minute = plan.sensitivity.per_minute();
-        let insulin_at_midnight = pump.totals().total().0;
+        let insulin_at_midnight = ctl.pump.totals().total().0;
         let feed = day >= 1; // D1 is warm-up: the advisor starts at D2.
         for m in 0..MINUTES_PER_DAY as u32 {
             let now = plan.at(m);
@@ -228,23 +234,9 @@ pub fn run_patient_with(
                 events.push(Event::new(now, EventKind::Smbg(reading)));
                 bedtime_reading |= r.purpose == SmbgPurpose::Bedtime;
             }
-            // CGM mode: midnight closes the previous day (from D3's midnight,
-            // which closes D2, the first day the advisor sees).
-            let close_at_midnight = mode == Mode::Cgm && m == 0 && day >= 2;
             if feed {
-                if let Some(r) = record.as_deref_mut() {
-                    r.extend_from_slice(&events);
-                }
-                for e in &events {
-                    apply(
-                        &mut advisor,
-                        &mut pump,
-                        e,
-                        &mut requested_basal,
-                        &mut capped,
-                    )
+                ctl.feed(&events, record.as_deref_mut())
                     .map_err(|e| e.with(&context))?;
-                }
             }
             events.clear();
 
@@ -256,7 +248,10 @@ pub fn run_patient_with(
                 .filter(|meal| meal.at == now && !meal.skipped)
             {
                 queue.add(meal.carbs.0);
-                if let Some(announced) = meal.announced {
+                let Some(announced) = meal.announced else {
+                    continue; // the snack: eaten, not announced, no bolus
+                };
+                if feed {
                     let announce = Event::new(
                         now,
                         EventKind::MealAnnounced {
@@ -264,77 +259,42 @@ pub fn run_patient_with(
                             slot: meal.slot,
                         },
                     );
-                    if feed {
-                        if let Some(r) = record.as_deref_mut() {
-                            r.push(announce);
-                        }
-                        apply(
-                            &mut advisor,
-                            &mut pump,
-                            &announce,
-                            &mut requested_basal,
-                            &mut capped,
-                        )
+                    ctl.feed(&[announce], record.as_deref_mut())
                         .map_err(|e| e.with(&context))?;
-                    }
-                    let ratio = advisor.settings().carb_ratio_for(meal.slot);
-                    if let Some(ratio) = ratio {
-                        let outcome = pump
-                            .request_bolus(Units(announced.0 / ratio.0))
-                            .map_err(sim)?;
-                        if outcome.capped {
-                            capped += 1;
-                        }
+                }
+                if let Some(ratio) = ctl.advisor.settings().carb_ratio_for(meal.slot) {
+                    let outcome = ctl
+                        .pump
+                        .request_bolus(Units(announced.0 / ratio.0))
+                        .map_err(sim)?;
+                    if outcome.capped {
+                        ctl.capped += 1;
                     }
                 }
             }
-            // Pump events (bolus programmed) to the advisor.
-            events.extend(pump.drain_events());
-            if bedtime_reading && mode == Mode::Smbg && day >= 1 {
-                events.push(Event::new(now, EventKind::DayClosed));
-            }
-            if close_at_midnight {
+
+            // The day closes after the bedtime reading (SMBG mode) or at
+            // midnight (CGM mode, from D3's midnight, which closes D2, the
+            // first day the advisor sees).
+            let day_closes = (bedtime_reading && mode == Mode::Smbg && day >= 1)
+                || (mode == Mode::Cgm && m == 0 && day >= 2);
+            if day_closes {
                 events.push(Event::new(now, EventKind::DayClosed));
             }
             if feed {
-                if let Some(r) = record.as_deref_mut() {
-                    r.extend_from_slice(&events);
-                }
-                for e in &events {
-                    apply(
-                        &mut advisor,
-                        &mut pump,
-                        e,
-                        &mut requested_basal,
-                        &mut capped,
-                    )
+                // Pending pump events (the bolus just programmed) go first.
+                ctl.feed(&events, record.as_deref_mut())
                     .map_err(|e| e.with(&context))?;
-                }
-                // A basal change decided just now is a pump event too.
-                events.clear();
-                events.extend(pump.drain_events());
-                if let Some(r) = record.as_deref_mut() {
-                    r.extend_from_slice(&events);
-                }
-                for e in &events {
-                    apply(
-                        &mut advisor,
-                        &mut pump,
-                        e,
-                        &mut requested_basal,
-                        &mut capped,
-                    )
-                    .map_err(|e| e.with(&context))?;
-                }
             } else {
-                pump.drain_events().for_each(drop);
+                ctl.pump.drain_events().for_each(drop);
             }
+            events.clear();
 
             // Deliver and advance one minute.
-            let insulin = pump.insulin_for_minute();
+            let insulin = ctl.pump.insulin_for_minute();
             let cho = queue.eat_minute();
             if let Some(trace_minutes) = trace.minutes.as_mut() {
-                let cr = advisor.settings().carb_ratio;
+                let cr = ctl.advisor.settings().carb_ratio;
                 trace_minutes.push(MinuteRecord {
                     minute: now.minutes(),
                     plasma_mg_dl: plasma,
@@ -344,7 +304,7 @@ pub fn run_patient_with(
                     cho_g_per_min: cho,
                     insulin_u_per_min: insulin,
                     sensitivity: s_per_minute[m as usize],
-                    basal_u_per_h: pump.basal_rate().0,
+                    basal_u_per_h: ctl.pump.basal_rate().0,
                     carb_ratio_g_per_u: [cr[0].0, cr[1].0, cr[2].0],
                 });
             }
@@ -352,10 +312,10 @@ pub fn run_patient_with(
                 .step(cho, insulin, s_per_minute[m as usize])
                 .map_err(sim)?;
         }
-        daily_insulin[day] = pump.totals().total().0 - insulin_at_midnight;
+        daily_insulin[day] = ctl.pump.totals().total().0 - insulin_at_midnight;
         // Keep the advisor's decision log bounded; keep the decisions only
         // when asked to.
-        let decisions = advisor.take_decisions();
+        let decisions = ctl.advisor.take_decisions();
         if let Some(d) = trace.decisions.as_mut() {
             d.extend(decisions);
         }
@@ -389,8 +349,8 @@ pub fn run_patient_with(
             tdi_u_per_day: tdi,
         });
     }
-    trace.init = advisor.init_report().cloned();
-    let fin = advisor.settings();
+    trace.init = ctl.advisor.init_report().cloned();
+    let fin = ctl.advisor.settings();
     Ok(PatientResult {
         patient: vp.params.name.clone(),
         weeks,
@@ -402,7 +362,7 @@ pub fn run_patient_with(
         ],
         start_basal_u_per_h: start.basal.0,
         start_carb_ratio_g_per_u: start.carb_ratio[0].0,
-        pump_capped: capped,
+        pump_capped: ctl.capped,
         min_glucose_mg_dl: min_glucose,
         failure,
     })
@@ -429,24 +389,68 @@ impl LoopError {
     }
 }
 
-/// Feeds one event; a new basal rate goes to the pump at once (its
-/// `BasalRate` event is fed afterwards by the caller). The pump rounds the
-/// rate to its step; it is reprogrammed only when the advisor's rate moves.
-fn apply(
-    advisor: &mut AnyAdvisor,
-    pump: &mut Pump,
-    event: &Event,
-    requested_basal: &mut abba_core::UnitsPerHour,
-    capped: &mut u32,
-) -> Result<(), LoopError> {
-    if let Some(new) = advisor.observe(event).map_err(LoopError::Advisor)? {
-        if new.basal != *requested_basal {
-            *requested_basal = new.basal;
-            let outcome = pump.set_basal(new.basal).map_err(LoopError::Sim)?;
-            if outcome.capped {
-                *capped += 1;
+/// The advisor and the pump it programs.
+struct Controls {
+    advisor: AnyAdvisor,
+    pump: Pump,
+    /// The advisor's basal rate last sent to the pump (the pump rounds it,
+    /// so it is reprogrammed only when the advisor's rate moves).
+    requested_basal: UnitsPerHour,
+    /// Requests the pump capped at its maximum.
+    capped: u32,
+    /// Reused buffer for the pump's events.
+    pump_events: Vec<Event>,
+}
+
+impl Controls {
+    /// Feeds the pump's pending events, then `events`, to the advisor; a new
+    /// basal rate goes to the pump at once and its `BasalRate` event is fed
+    /// right after. Every event fed is also appended to `record`.
+    fn feed(
+        &mut self,
+        events: &[Event],
+        mut record: Option<&mut Vec<Event>>,
+    ) -> Result<(), LoopError> {
+        self.feed_pump_events(record.as_deref_mut())?;
+        for e in events {
+            self.observe(e, record.as_deref_mut())?;
+        }
+        self.feed_pump_events(record)
+    }
+
+    fn feed_pump_events(&mut self, mut record: Option<&mut Vec<Event>>) -> Result<(), LoopError> {
+        let mut pending = std::mem::take(&mut self.pump_events);
+        loop {
+            pending.clear();
+            pending.extend(self.pump.drain_events());
+            if pending.is_empty() {
+                break;
+            }
+            for e in &pending {
+                self.observe(e, record.as_deref_mut())?;
             }
         }
+        self.pump_events = pending;
+        Ok(())
     }
-    Ok(())
+
+    fn observe(&mut self, event: &Event, record: Option<&mut Vec<Event>>) -> Result<(), LoopError> {
+        if let Some(r) = record {
+            r.push(*event);
+        }
+        if let Some(new) = self.advisor.observe(event).map_err(LoopError::Advisor)? {
+            if new.basal != self.requested_basal {
+                self.requested_basal = new.basal;
+                if self
+                    .pump
+                    .set_basal(new.basal)
+                    .map_err(LoopError::Sim)?
+                    .capped
+                {
+                    self.capped += 1;
+                }
+            }
+        }
+        Ok(())
+    }
 }

@@ -14,7 +14,8 @@ pub struct Args {
     pub patient: String,
     /// CSV with header `minute,cho_g_per_min,insulin_u_per_min` (other columns are
     /// ignored), one row per minute from 0: the carbohydrate eaten and insulin
-    /// infused (basal + bolus) during that minute.
+    /// infused (basal + bolus) during that minute. A last row with both input
+    /// cells empty (a final-glucose row) is allowed and carries no input.
     #[arg(long, conflicts_with = "day")]
     pub inputs: Option<PathBuf>,
     /// A built-in input day instead of a file: standard, overlapping-meals,
@@ -136,6 +137,10 @@ pub fn read_inputs(path: &Path) -> Result<InputDay> {
         col("insulin_u_per_min")?,
     );
     let mut minutes = Vec::new();
+    // A last row whose two input cells are both empty only carries the final
+    // glucose (the layout of the simglucose reference files); anywhere else
+    // an empty cell is an error.
+    let mut final_row: Option<usize> = None;
     for (k, rec) in rdr.records().enumerate() {
         let line = k + 2;
         let rec = rec.with_context(|| format!("{shown}, line {line}: malformed CSV row"))?;
@@ -143,6 +148,11 @@ pub fn read_inputs(path: &Path) -> Result<InputDay> {
             rec.get(c)
                 .ok_or_else(|| anyhow!("{shown}, line {line}: no value for column '{name}'"))
         };
+        if let Some(at) = final_row {
+            bail!(
+                "{shown}, line {at}: empty cho_g_per_min and insulin_u_per_min are only allowed on the last row (the final-glucose row), but line {line} follows"
+            );
+        }
         let minute_s = field(c_min, "minute")?;
         let minute: usize = minute_s.parse().map_err(|_| {
             anyhow!(
@@ -154,6 +164,12 @@ pub fn read_inputs(path: &Path) -> Result<InputDay> {
                 "{shown}, line {line}, column 'minute': expected minute {} (rows must be consecutive from 0), got {minute}",
                 minutes.len()
             );
+        }
+        if field(c_cho, "cho_g_per_min")?.is_empty()
+            && field(c_ins, "insulin_u_per_min")?.is_empty()
+        {
+            final_row = Some(line);
+            continue;
         }
         let rate = |c: usize, name: &str, unit: &str| -> Result<f64> {
             let s = field(c, name)?;

@@ -64,6 +64,52 @@ fn error_of(tag: &str, input: &str) -> String {
 }
 
 #[test]
+fn a_final_glucose_row_without_inputs_is_accepted_only_at_the_end() {
+    // The reference layout: the last row holds only the final glucose.
+    let mut text: String = REFERENCE.lines().take(1441).collect::<Vec<_>>().join("\n");
+    text.push_str("\n1440,125.17,,\n");
+    let input = tmp("final-row.csv");
+    std::fs::write(&input, &text).unwrap();
+    let out = tmp("final-row-out.csv");
+    let st = abba()
+        .args(["simulate", "--patient", "adult#001", "--inputs"])
+        .arg(&input)
+        .arg("--out")
+        .arg(&out)
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let got = std::fs::read_to_string(&out).unwrap();
+    // Minutes 0..=1440 plus the header.
+    assert_eq!(got.lines().count(), 1442);
+    let last: f64 = got
+        .lines()
+        .last()
+        .unwrap()
+        .split(',')
+        .nth(1)
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!((last - 125.167610798).abs() < 0.05, "final glucose {last}");
+    // An empty row in the middle is an error naming both lines.
+    let e = error_of(
+        "mid",
+        "minute,cho_g_per_min,insulin_u_per_min\n0,0,0.02\n1,,\n2,0,0.02\n",
+    );
+    assert!(
+        e.contains("line 3") && e.contains("line 4") && e.contains("last row"),
+        "{e}"
+    );
+    // One empty cell is an error.
+    let e = error_of(
+        "one",
+        "minute,cho_g_per_min,insulin_u_per_min\n0,0,0.02\n1,,0.02\n",
+    );
+    assert!(e.contains("line 3") && e.contains("cho_g_per_min"), "{e}");
+}
+
+#[test]
 fn bad_inputs_give_clear_errors() {
     let e = error_of(
         "a",

@@ -234,7 +234,7 @@ pub fn run_patient_with(
                 events.push(Event::new(now, EventKind::Smbg(reading)));
                 bedtime_reading |= r.purpose == SmbgPurpose::Bedtime;
             }
-            if feed {
+            if feed && !events.is_empty() {
                 ctl.feed(&events, record.as_deref_mut())
                     .map_err(|e| e.with(&context))?;
             }
@@ -419,6 +419,9 @@ impl Controls {
     }
 
     fn feed_pump_events(&mut self, mut record: Option<&mut Vec<Event>>) -> Result<(), LoopError> {
+        if self.pump.events().is_empty() {
+            return Ok(()); // the usual minute: nothing to move
+        }
         let mut pending = std::mem::take(&mut self.pump_events);
         loop {
             pending.clear();

@@ -117,3 +117,27 @@ fn bad_options_are_clear_errors() {
         assert!(err.contains(needle), "{args:?}: {err}");
     }
 }
+
+#[test]
+fn the_defaults_are_the_paper_protocol() {
+    let out = abba().args(["trial", "--print-config"]).output().unwrap();
+    assert!(out.status.success());
+    let c: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(c["seed"], 1);
+    assert_eq!(c["population"], "adults");
+    assert_eq!(c["patients"], 100);
+    assert_eq!(c["days"], 98);
+    assert_eq!(c["init_days"], 7);
+    assert_eq!(c["scenarios"], serde_json::json!(["S1", "S2", "S3", "S4"]));
+    assert_eq!(c["arms"], serde_json::json!(["abba", "standard", "r2r"]));
+    // The printed configuration reads back as a configuration.
+    let path = tmp("printed.json");
+    std::fs::write(&path, &out.stdout).unwrap();
+    let again = abba()
+        .args(["trial", "--print-config", "--config"])
+        .arg(&path)
+        .output()
+        .unwrap();
+    assert!(again.status.success());
+    assert_eq!(again.stdout, out.stdout);
+}

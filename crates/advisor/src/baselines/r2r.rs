@@ -290,18 +290,8 @@ impl RunToRun {
                 },
             )
         } else if let Some(y) = measure {
-            let raw = c.basal_gain * (y - c.basal_ref_mg_dl) / c.basal_ref_mg_dl;
-            let rel = raw.clamp(-c.basal_cap, c.basal_cap);
-            (
-                old * (1.0 + rel),
-                R2rExplanation {
-                    measure_mg_dl: Some(y),
-                    reference_mg_dl: c.basal_ref_mg_dl,
-                    raw_relative_change: raw,
-                    capped: rel != raw,
-                    hypo_override: false,
-                },
-            )
+            let (rel, expl) = integral_step(c.basal_gain, y, c.basal_ref_mg_dl, c.basal_cap);
+            (old * (1.0 + rel), expl)
         } else {
             let d = DecisionDetail::Skipped {
                 reason: SkipReason::NoFastingGlucose,
@@ -343,18 +333,8 @@ impl RunToRun {
             )
         } else if let Some(y) = measure {
             // Integral law on I:C = 1/CIR: IC_{k+1} = IC_k·(1 + K_C·e/G_ref).
-            let raw = c.cir_gain * (y - c.cir_ref_mg_dl) / c.cir_ref_mg_dl;
-            let rel = raw.clamp(-c.cir_cap, c.cir_cap);
-            (
-                old / (1.0 + rel),
-                R2rExplanation {
-                    measure_mg_dl: Some(y),
-                    reference_mg_dl: c.cir_ref_mg_dl,
-                    raw_relative_change: raw,
-                    capped: rel != raw,
-                    hypo_override: false,
-                },
-            )
+            let (rel, expl) = integral_step(c.cir_gain, y, c.cir_ref_mg_dl, c.cir_cap);
+            (old / (1.0 + rel), expl)
         } else {
             let d = DecisionDetail::Skipped {
                 reason: SkipReason::NoPostMealGlucose,
@@ -401,6 +381,22 @@ impl RunToRun {
             _ => None,
         }
     }
+}
+
+/// The run-to-run integral law shared by basal and carb ratio (spec
+/// §10.2): the relative change K·(y − G_ref)/G_ref, capped at ±`cap`, with
+/// its explanation.
+fn integral_step(gain: f64, y: f64, reference: f64, cap: f64) -> (f64, R2rExplanation) {
+    let raw = gain * (y - reference) / reference;
+    let rel = raw.clamp(-cap, cap);
+    let expl = R2rExplanation {
+        measure_mg_dl: Some(y),
+        reference_mg_dl: reference,
+        raw_relative_change: raw,
+        capped: rel != raw,
+        hypo_override: false,
+    };
+    (rel, expl)
 }
 
 impl Advisor for RunToRun {

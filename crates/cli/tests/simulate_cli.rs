@@ -194,3 +194,45 @@ fn built_in_day_runs() {
     assert_eq!(text.lines().count(), 1442);
     assert!(text.lines().next().unwrap().ends_with(",gs,dbar_mg"));
 }
+
+#[test]
+fn inputs_out_replays_to_the_same_glucose() {
+    let (day_out, inputs, replay) = (
+        tmp("io-day.csv"),
+        tmp("io-inputs.csv"),
+        tmp("io-replay.csv"),
+    );
+    let st = abba()
+        .args([
+            "simulate",
+            "--patient",
+            "adolescent#004",
+            "--day",
+            "missed-boluses",
+            "--out",
+        ])
+        .arg(&day_out)
+        .arg("--inputs-out")
+        .arg(&inputs)
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let text = std::fs::read_to_string(&inputs).unwrap();
+    assert_eq!(
+        text.lines().next().unwrap(),
+        "minute,cho_g_per_min,insulin_u_per_min"
+    );
+    assert_eq!(text.lines().count(), 1 + 1440);
+    let st = abba()
+        .args(["simulate", "--patient", "adolescent#004", "--inputs"])
+        .arg(&inputs)
+        .arg("--out")
+        .arg(&replay)
+        .status()
+        .unwrap();
+    assert!(st.success());
+    assert_eq!(
+        std::fs::read(&day_out).unwrap(),
+        std::fs::read(&replay).unwrap()
+    );
+}

@@ -15,7 +15,7 @@ use jiff::tz::TimeZone;
 use serde::Serialize;
 
 use crate::error::IoError;
-use crate::record::{Origin, OriginAt, Record};
+use crate::record::{Origin, OriginAt, Record, RecordKind};
 use crate::units::GlucoseUnit;
 
 /// The export formats abba reads.
@@ -207,7 +207,10 @@ pub fn merge(files: Vec<String>, formats: Vec<Format>, mut records: Vec<Record>)
         if kept.last().is_none_or(|l| l.at != r.at) {
             group_start = kept.len();
         }
-        if kept[group_start..].iter().any(|k| k.kind == r.kind) {
+        if kept[group_start..]
+            .iter()
+            .any(|k| k.kind == r.kind && (!matches!(r.kind, RecordKind::Ignored { .. }) || k.id == r.id))
+        {
             *duplicates.entry(r.kind.name().to_string()).or_default() += 1;
             continue;
         }

@@ -17,6 +17,12 @@ pub struct Table<'a> {
     reader: csv::Reader<&'a [u8]>,
     /// Lines before the CSV reader's input.
     offset: u64,
+    /// The CSV reader's input (line numbers are counted here, not by the
+    /// CSV reader, so that CRLF and LF files count alike).
+    input: &'a [u8],
+    /// Bytes of `input` whose newlines are counted in `newlines`.
+    counted: usize,
+    newlines: u64,
     record: csv::ByteRecord,
 }
 
@@ -84,6 +90,9 @@ impl<'a> Table<'a> {
             delimiter,
             reader,
             offset,
+            input: rest,
+            counted: 0,
+            newlines: 0,
             record,
         })
     }
@@ -107,7 +116,8 @@ impl<'a> Table<'a> {
     pub fn next_row(&mut self) -> Result<Option<u64>, IoError> {
         loop {
             let ok = self.reader.read_byte_record(&mut self.record).map_err(|e| {
-                let line = e.position().map_or(0, |p| p.line()) + self.offset;
+                let byte = e.position().map_or(self.counted, |p| p.byte() as usize);
+                let line = self.line_at(byte);
                 IoError::invalid(
                     Location::line(self.file, line),
                     "row",
@@ -117,12 +127,28 @@ impl<'a> Table<'a> {
             if !ok {
                 return Ok(None);
             }
-            let line = self.record.position().map_or(0, |p| p.line()) + self.offset;
+            // The CSV reader's position can sit on the line end before the
+            // record (CRLF) or on skipped blank lines: start at the first
+            // byte that is not a line end.
+            let mut byte = self.record.position().map_or(0, |p| p.byte()) as usize;
+            while matches!(self.input.get(byte), Some(b'\r' | b'\n')) {
+                byte += 1;
+            }
+            let line = self.line_at(byte);
             if self.record.iter().all(|c| c.iter().all(u8::is_ascii_whitespace)) {
                 continue;
             }
             return Ok(Some(line));
         }
+    }
+
+    /// The 1-based file line of byte `byte` of the input (bytes only
+    /// move forward).
+    fn line_at(&mut self, byte: usize) -> u64 {
+        let end = byte.min(self.input.len()).max(self.counted);
+        self.newlines += self.input[self.counted..end].iter().filter(|&&b| b == b'\n').count() as u64;
+        self.counted = end;
+        self.offset + self.newlines + 1
     }
 
     /// Cell `i` of the current row, trimmed (empty if the row is short or
@@ -173,4 +199,24 @@ pub fn required_number(
             format!("expected {what}, got \"{text}\""),
         )
     })
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lines_count_alike_with_lf_and_crlf() {
+        for text in ["a,b\n1,2\n\n3,4\n", "a,b\r\n1,2\r\n\r\n3,4\r\n", "pre\na,b\n1,2\n\n3,4"] {
+            let header_at = usize::from(text.starts_with("pre"));
+            let mut t = Table::open("f", text.as_bytes(), header_at).unwrap();
+            let mut lines = Vec::new();
+            while let Some(l) = t.next_row().unwrap() {
+                lines.push((l, t.cell(0).to_string()));
+            }
+            let h = header_at as u64;
+            assert_eq!(lines, vec![(h + 2, "1".to_string()), (h + 4, "3".to_string())], "{text:?}");
+        }
+    }
 }

@@ -3,6 +3,7 @@
 use crate::agent::{Agent, AgentCounters};
 use crate::bounds::ClinicianBounds;
 use crate::config::{AbbaConfig, Mode};
+use crate::data_rule::MinData;
 use crate::decision::{
     AbbaExplanation, Decision, DecisionDetail, DecisionLog, Parameter, SkipReason,
 };
@@ -70,6 +71,9 @@ pub struct Abba {
     /// Clinician bounds, applied after the clamp (none by default).
     #[serde(default)]
     bounds: ClinicianBounds,
+    /// Minimum data per window (none by default).
+    #[serde(default)]
+    min_data: Option<MinData>,
 }
 
 fn agent_index(p: Parameter) -> usize {
@@ -109,6 +113,7 @@ impl Abba {
             meal_windows: MealWindows::default(),
             last_br_change: None,
             bounds: ClinicianBounds::default(),
+            min_data: None,
         })
     }
 
@@ -139,6 +144,13 @@ impl Abba {
         }
         self.bounds = bounds;
         Ok(self)
+    }
+
+    /// Asks each window for a minimum of readings; a window with fewer gets
+    /// no update ([`SkipReason::TooFewReadings`]).
+    pub fn with_min_data(mut self, rule: MinData) -> Self {
+        self.min_data = Some(rule);
+        self
     }
 
     /// The clinician bounds.
@@ -301,6 +313,17 @@ impl Abba {
             Ok(w) if w.2.is_empty() => return self.log.push(skipped(SkipReason::EmptyWindow)),
             Ok(w) => w,
         };
+        if let Some(rule) = self.min_data {
+            let day = p == Parameter::Basal;
+            let required = rule.required(self.config.mode, start, end, day);
+            if stats.n < required {
+                let reason = SkipReason::TooFewReadings {
+                    n: stats.n,
+                    required,
+                };
+                return self.log.push(skipped(reason));
+            }
+        }
         let cfg = &self.config;
         let kind = match p {
             Parameter::Basal => ParamKind::Basal,

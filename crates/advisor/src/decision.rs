@@ -50,6 +50,14 @@ pub enum SkipReason {
     NoFastingGlucose,
     /// Run-to-run: no post-meal glucose in the window.
     NoPostMealGlucose,
+    /// The window held fewer readings than the minimum set with
+    /// [`crate::Abba::with_min_data`] (a sensor gap, missing meter readings).
+    TooFewReadings {
+        /// Readings in the window.
+        n: u32,
+        /// Readings required.
+        required: u32,
+    },
 }
 
 /// Everything ABBA computed for one update.

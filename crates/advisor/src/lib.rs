@@ -85,6 +85,7 @@ pub mod any;
 pub mod baselines;
 pub mod bounds;
 pub mod config;
+pub mod data_rule;
 pub mod decision;
 pub mod error;
 pub mod features;
@@ -101,6 +102,7 @@ pub use baselines::fixed::FixedTherapy;
 pub use baselines::r2r::{R2rConfig, RunToRun};
 pub use bounds::{BoundHeld, ClinicianBounds};
 pub use config::{AbbaConfig, CriticVariant, EventLimits, Mode};
+pub use data_rule::MinData;
 pub use decision::{Decision, DecisionDetail, Parameter, SkipReason};
 pub use error::AdvisorError;
 

@@ -3,13 +3,13 @@
 //! "defines the type of meal based on the meal time".
 
 use abba_core::MealSlot;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::error::IoError;
 
 /// Local-time windows `[start, end)` in minutes of the day for the three
 /// main meals.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub struct MealWindows {
     /// Breakfast window.
     pub breakfast: (u32, u32),

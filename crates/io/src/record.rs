@@ -1,10 +1,10 @@
 //! The normalised record stream: what every reader produces.
 
 use abba_core::{Grams, MgDl, Units, UnitsPerHour};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// Which kind of export a record came from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Source {
     /// Nightscout API JSON (entries, treatments, profile).
@@ -33,7 +33,7 @@ impl Source {
 }
 
 /// A record's identity in its source.
-#[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+#[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum SourceId {
     /// The source's own id (Nightscout `_id`, Tidepool `id`).
@@ -66,7 +66,7 @@ pub enum OriginAt {
 }
 
 /// A glucose value as the device reported it.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Glucose {
     /// The value in mg/dL (for a censored reading: the device's limit).
     pub mg_dl: MgDl,
@@ -75,7 +75,7 @@ pub struct Glucose {
 }
 
 /// Censoring of a glucose reading.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Censor {
     /// A measured value.
@@ -97,7 +97,7 @@ impl Glucose {
 }
 
 /// A temporary basal's rate.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum TempRate {
     /// An absolute rate.
@@ -107,7 +107,7 @@ pub enum TempRate {
 }
 
 /// A basal schedule: rates from given minutes of the local day.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct BasalSchedule {
     /// (minute of local day, rate) pairs, strictly increasing minutes, the
     /// first at minute 0.
@@ -134,7 +134,7 @@ impl BasalSchedule {
 }
 
 /// What a record says.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "snake_case")]
 pub enum RecordKind {
     /// A CGM reading.

@@ -173,14 +173,16 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
                 Some(_) => subject_seen = true,
                 None => match &first_id {
                     None => first_id = Some((id.to_string(), line)),
-                    Some((first, first_line)) if first != id => return Err(IoError::invalid(
-                        at,
-                        "id",
-                        format!(
+                    Some((first, first_line)) if first != id => {
+                        return Err(IoError::invalid(
+                            at,
+                            "id",
+                            format!(
                             "subject \"{id}\" differs from \"{first}\" on line {first_line}; the \
                                  file holds several subjects, choose one with --subject"
                         ),
-                    )),
+                        ))
+                    }
                     Some(_) => {}
                 },
             }

@@ -3,8 +3,13 @@
 use anyhow::Result;
 use clap::{Parser, Subcommand};
 
+mod advise;
+mod answer;
 mod cohort;
+mod history;
+mod import;
 mod metrics;
+mod person;
 mod simulate;
 mod trial;
 
@@ -26,6 +31,16 @@ enum Command {
     Metrics(metrics::Args),
     /// Run the paper's 98-day in-silico trial and write the report.
     Trial(trial::Args),
+    /// Create or list persons in a store file (research software, not a medical device).
+    Person(person::Args),
+    /// Import device exports into a person's log (idempotent).
+    Import(import::Args),
+    /// Today's advice for a person: what is in force, what to use, why.
+    Advise(advise::Args),
+    /// Answer the open suggestions: --accept, --reject or --set.
+    Answer(answer::Args),
+    /// Every suggestion, the answer and the value in force, by day.
+    History(history::Args),
 }
 
 fn main() -> Result<()> {
@@ -34,5 +49,10 @@ fn main() -> Result<()> {
         Command::Cohort(a) => cohort::run(a),
         Command::Metrics(a) => metrics::run(a),
         Command::Trial(a) => trial::run(a),
+        Command::Person(a) => person::run(a),
+        Command::Import(a) => import::run(a),
+        Command::Advise(a) => advise::run(a),
+        Command::Answer(a) => answer::run(a),
+        Command::History(a) => history::run(a),
     }
 }

@@ -225,6 +225,11 @@ impl Store {
         Ok(self.state(name, false)?.1.advisor)
     }
 
+    /// Every decision of the log with its explanation, oldest first.
+    pub fn decisions(&mut self, name: &str) -> Result<Vec<Decision>, StoreError> {
+        Ok(self.state(name, true)?.1.decisions)
+    }
+
     /// Today's advice.
     pub fn advise(&mut self, name: &str) -> Result<Advice, StoreError> {
         let (p, s) = self.state(name, true)?;

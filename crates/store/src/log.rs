@@ -17,6 +17,20 @@ use abba_io::record::{Origin, OriginAt};
 use abba_io::{Record, RecordKind, Source, SourceId};
 use rusqlite::{params, Connection};
 
+fn parse_source(s: &str) -> Result<Source, StoreError> {
+    Ok(match s {
+        "nightscout" => Source::Nightscout,
+        "clarity" => Source::Clarity,
+        "libre_view" => Source::LibreView,
+        "tidepool" => Source::Tidepool,
+        "plain_csv" => Source::PlainCsv,
+        other => {
+            return serde_json::from_value(serde_json::Value::String(other.into()))
+                .map_err(|e| StoreError::corrupt("record source", e))
+        }
+    })
+}
+
 /// A record's key columns: (source, source id) as stored.
 pub fn key(r: &Record) -> Result<(String, String), StoreError> {
     let source = match serde_json::to_value(r.source) {
@@ -31,9 +45,8 @@ pub fn key(r: &Record) -> Result<(String, String), StoreError> {
 /// same set of records always gives the same list, whatever the order in
 /// which they were imported.
 pub fn records(conn: &Connection, person: i64) -> Result<Vec<Record>, StoreError> {
-    let mut st = conn.prepare(
-        "SELECT source, source_id, at_ms, kind FROM record WHERE person_id = ?1 ORDER BY at_ms, source, source_id",
-    )?;
+    // A scan of the primary key (no per-row index look-ups), sorted here.
+    let mut st = conn.prepare("SELECT source, source_id, at_ms, kind FROM record WHERE person_id = ?1")?;
     let rows = st.query_map(params![person], |r| {
         Ok((
             r.get::<_, String>(0)?,
@@ -42,11 +55,11 @@ pub fn records(conn: &Connection, person: i64) -> Result<Vec<Record>, StoreError
             r.get::<_, String>(3)?,
         ))
     })?;
-    let mut out = Vec::new();
-    for row in rows {
-        let (source, id, at_ms, kind) = row?;
-        let source: Source = serde_json::from_value(serde_json::Value::String(source))
-            .map_err(|e| StoreError::corrupt("record source", e))?;
+    let mut raw = rows.collect::<Result<Vec<_>, _>>()?;
+    raw.sort_by(|a, b| (a.2, &a.0, &a.1).cmp(&(b.2, &b.0, &b.1)));
+    let mut out = Vec::with_capacity(raw.len());
+    for (source, id, at_ms, kind) in raw {
+        let source = parse_source(&source)?;
         let id: SourceId =
             serde_json::from_str(&id).map_err(|e| StoreError::corrupt("record id", e))?;
         let kind: RecordKind =

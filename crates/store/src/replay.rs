@@ -8,8 +8,9 @@
 use crate::answer::{param_key, Answers};
 use crate::error::StoreError;
 use crate::person::Person;
-use abba_advisor::{Abba, Advisor, Decision};
-use abba_core::Event;
+use abba_advisor::{Abba, Advisor, Decision, DecisionDetail};
+use std::collections::{BTreeMap, VecDeque};
+use abba_core::{Event, EventKind};
 use serde::{Deserialize, Serialize};
 
 /// A saved advisor state and what it was made from.
@@ -43,16 +44,55 @@ pub struct Replay {
     pub snapshot: Snapshot,
 }
 
-/// Hash of a list of events.
-pub fn events_hash(events: &[Event]) -> String {
-    let parts: Vec<Vec<u8>> = events
+/// How many checkpoints a replay keeps.
+const CHECKPOINTS: usize = 12;
+
+struct Checkpoint {
+    index: usize,
+    advisor: Abba,
+    applied: Vec<(i64, String)>,
+    unused: usize,
+}
+
+/// True when the minute starting at `events[i]` holds a decision point
+/// (a day's close or a main meal's announcement).
+fn decision_minute(events: &[Event], i: usize) -> bool {
+    events[i..]
         .iter()
-        .map(|e| serde_json::to_vec(e).unwrap_or_default())
-        .collect();
-    format!(
-        "{:016x}",
-        abba_io::record::content_hash(parts.iter().map(Vec::as_slice))
-    )
+        .take_while(|e| e.at == events[i].at)
+        .any(|e| match e.kind {
+            EventKind::DayClosed => true,
+            EventKind::MealAnnounced { slot, .. } => slot.main_index().is_some(),
+            _ => false,
+        })
+}
+
+/// Hash of a list of events (FNV-1a over each event's minute and its
+/// serialised kind; a kind's JSON is only built for the rare non-reading
+/// events).
+pub fn events_hash(events: &[Event]) -> String {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut eat = |bytes: &[u8]| {
+        for &b in bytes {
+            h ^= u64::from(b);
+            h = h.wrapping_mul(0x0100_0000_01b3);
+        }
+    };
+    for e in events {
+        eat(&e.at.0.to_le_bytes());
+        match e.kind {
+            EventKind::Cgm(g) => {
+                eat(&[1]);
+                eat(&g.0.to_bits().to_le_bytes());
+            }
+            EventKind::Smbg(g) => {
+                eat(&[2]);
+                eat(&g.0.to_bits().to_le_bytes());
+            }
+            other => eat(&serde_json::to_vec(&other).unwrap_or_default()),
+        }
+    }
+    format!("{h:016x}")
 }
 
 fn usable(snap: &Snapshot, events: &[Event], answers: &Answers) -> bool {
@@ -93,7 +133,23 @@ pub fn replay(
     };
     let mut decisions = Vec::new();
     let mut refused = Vec::new();
-    for e in &events[start..] {
+    // States at the start of the last minutes holding a decision point: the
+    // snapshot is taken before the earliest open suggestion, so answering
+    // it does not invalidate the snapshot.
+    let mut checkpoints: VecDeque<Checkpoint> = VecDeque::new();
+    for (i, e) in events.iter().enumerate().skip(start) {
+        let minute_start = i == 0 || events[i - 1].at != e.at;
+        if minute_start && i > start && decision_minute(events, i) {
+            if checkpoints.len() == CHECKPOINTS {
+                checkpoints.pop_front();
+            }
+            checkpoints.push_back(Checkpoint {
+                index: i,
+                advisor: advisor.clone(),
+                applied: applied.clone(),
+                unused,
+            });
+        }
         if let Err(err) = advisor.observe(e) {
             unused += 1;
             refused.push((*e, err.to_string()));
@@ -109,13 +165,39 @@ pub fn replay(
             decisions.push(d);
         }
     }
-    applied.sort();
-    let snapshot = Snapshot {
-        events: events.len(),
-        events_hash: events_hash(events),
-        answers: applied,
-        unused,
-        state: advisor.save_json()?,
+    let mut latest: BTreeMap<&str, &Decision> = BTreeMap::new();
+    for d in &decisions {
+        latest.insert(param_key(d.parameter), d);
+    }
+    let earliest_open = latest
+        .values()
+        .filter(|d| !matches!(d.detail, DecisionDetail::Skipped { .. }))
+        .filter(|d| !answers.contains_key(&(d.at.0, param_key(d.parameter))))
+        .map(|d| d.at)
+        .min();
+    let cp = earliest_open.and_then(|t| checkpoints.iter().find(|c| events[c.index].at == t));
+    let snapshot = match cp {
+        Some(c) => {
+            let mut applied = c.applied.clone();
+            applied.sort();
+            Snapshot {
+                events: c.index,
+                events_hash: events_hash(&events[..c.index]),
+                answers: applied,
+                unused: c.unused,
+                state: c.advisor.save_json()?,
+            }
+        }
+        None => {
+            applied.sort();
+            Snapshot {
+                events: events.len(),
+                events_hash: events_hash(events),
+                answers: applied,
+                unused,
+                state: advisor.save_json()?,
+            }
+        }
     };
     Ok(Replay {
         advisor,

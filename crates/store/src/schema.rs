@@ -89,6 +89,8 @@ pub fn open(path: &Path) -> Result<Connection, StoreError> {
     conn.pragma_update(None, "journal_mode", "WAL")?;
     conn.pragma_update(None, "synchronous", "NORMAL")?;
     conn.pragma_update(None, "foreign_keys", "ON")?;
+    // 64 MiB of page cache: a person's whole log is read at every advice.
+    conn.pragma_update(None, "cache_size", -65536)?;
     migrate(&mut conn)?;
     Ok(conn)
 }

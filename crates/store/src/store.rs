@@ -12,7 +12,10 @@ use abba_core::Event;
 use abba_io::read::{read_files, Batch, Format, ReadOptions};
 use abba_io::Record;
 use rusqlite::{params, Connection, OptionalExtension};
+use abba_io::events::EventStream;
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::rc::Rc;
 
 /// What the person answers.
 #[derive(Debug, Clone, PartialEq)]
@@ -28,11 +31,20 @@ pub enum AnswerRequest {
 /// A person store (one SQLite file).
 pub struct Store {
     conn: Connection,
+    /// Events per person, keyed by (record count, last import id): the log
+    /// only grows, so an unchanged key means unchanged records.
+    cache: HashMap<i64, Cached>,
+}
+
+struct Cached {
+    key: (i64, i64),
+    records: usize,
+    stream: Rc<EventStream>,
 }
 
 /// Everything one refresh knows.
 struct State {
-    stream: abba_io::events::EventStream,
+    stream: Rc<EventStream>,
     records: usize,
     advisor: Abba,
     decisions: Vec<Decision>,
@@ -86,10 +98,34 @@ fn decisions(conn: &Connection, person: i64) -> Result<Vec<Decision>, StoreError
 
 /// Replays the log (from the snapshot when usable), stores new decisions
 /// and the new snapshot. Call inside a transaction.
-fn refresh(conn: &Connection, person: &Person, use_snapshot: bool) -> Result<State, StoreError> {
-    let recs = log::records(conn, person.id)?;
-    let records = recs.len();
-    let stream = log::events(person, recs)?;
+fn refresh(
+    conn: &Connection,
+    cache: &mut HashMap<i64, Cached>,
+    person: &Person,
+    use_snapshot: bool,
+) -> Result<State, StoreError> {
+    let key: (i64, i64) = conn.query_row(
+        "SELECT count(*), coalesce(max(import_id), 0) FROM record WHERE person_id = ?1",
+        params![person.id],
+        |r| Ok((r.get(0)?, r.get(1)?)),
+    )?;
+    let (records, stream) = match cache.get(&person.id) {
+        Some(c) if c.key == key => (c.records, Rc::clone(&c.stream)),
+        _ => {
+            let recs = log::records(conn, person.id)?;
+            let records = recs.len();
+            let stream = Rc::new(log::events(person, recs)?);
+            cache.insert(
+                person.id,
+                Cached {
+                    key,
+                    records,
+                    stream: Rc::clone(&stream),
+                },
+            );
+            (records, stream)
+        }
+    };
     let answers = answer::load(conn, person.id)?;
     let snap = if use_snapshot {
         load_snapshot(conn, person.id)?
@@ -146,6 +182,7 @@ impl Store {
     pub fn open(path: &Path) -> Result<Self, StoreError> {
         Ok(Self {
             conn: crate::schema::open(path)?,
+            cache: HashMap::new(),
         })
     }
 
@@ -210,7 +247,7 @@ impl Store {
     fn state(&mut self, name: &str, use_snapshot: bool) -> Result<(Person, State), StoreError> {
         let p = self.person(name)?;
         let tx = self.conn.transaction()?;
-        let s = refresh(&tx, &p, use_snapshot)?;
+        let s = refresh(&tx, &mut self.cache, &p, use_snapshot)?;
         tx.commit()?;
         Ok((p, s))
     }
@@ -254,7 +291,7 @@ impl Store {
     pub fn answer(&mut self, name: &str, req: &AnswerRequest) -> Result<Vec<Answer>, StoreError> {
         let p = self.person(name)?;
         let tx = self.conn.transaction()?;
-        let s = refresh(&tx, &p, true)?;
+        let s = refresh(&tx, &mut self.cache, &p, true)?;
         let views = advise::views(&p, &s.decisions, &s.answers);
         let open: Vec<&SuggestionView> = views.iter().filter(|v| v.status == "open").collect();
         if open.is_empty() {
@@ -314,7 +351,7 @@ impl Store {
         answer::insert(&tx, p.id, &out)?;
         // The new answers change the advisor from their decision on: rebuild
         // now so the stored snapshot and suggestions include them.
-        refresh(&tx, &p, true)?;
+        refresh(&tx, &mut self.cache, &p, true)?;
         tx.commit()?;
         Ok(out)
     }

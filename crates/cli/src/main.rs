@@ -4,6 +4,9 @@ use anyhow::Result;
 use clap::{Parser, Subcommand};
 
 mod cohort;
+mod events;
+mod export;
+mod input;
 mod metrics;
 mod simulate;
 mod trial;
@@ -22,8 +25,12 @@ enum Command {
     Simulate(simulate::Args),
     /// Build a virtual cohort and write its parameters and standard therapy.
     Cohort(cohort::Args),
-    /// Compute glucose metrics for a CSV of readings.
+    /// Coverage and glucose metrics of CGM exports (Nightscout, Clarity, LibreView, Tidepool, CSV).
     Metrics(metrics::Args),
+    /// Device exports as normalised records and the advisor's events.
+    Events(events::Args),
+    /// A simulated patient's device data as Nightscout JSON.
+    Export(export::Args),
     /// Run the paper's 98-day in-silico trial and write the report.
     Trial(trial::Args),
 }
@@ -33,6 +40,8 @@ fn main() -> Result<()> {
         Command::Simulate(a) => simulate::run(a),
         Command::Cohort(a) => cohort::run(a),
         Command::Metrics(a) => metrics::run(a),
+        Command::Events(a) => events::run(a),
+        Command::Export(a) => export::run(a),
         Command::Trial(a) => trial::run(a),
     }
 }

@@ -3,6 +3,7 @@
 use std::path::PathBuf;
 
 use abba_io::clock::AdvisorClock;
+use abba_sim::scenario::ScenarioId;
 use abba_trial::protocol::{ArmKind, TrialConfig};
 use anyhow::{anyhow, Result};
 
@@ -37,12 +38,15 @@ pub fn run(args: Args) -> Result<()> {
         .into_iter()
         .find(|a| a.name() == args.arm)
         .ok_or_else(|| anyhow!("--arm {}: expected abba, standard or r2r", args.arm))?;
-    let config = TrialConfig { days: args.days, patients: 1, ..TrialConfig::default() };
-    let mut config = config;
-    let cohort_patients = abba_trial::runner::build_cohort(&TrialConfig { patients: 30, ..config.clone() })?;
-    config.patients = 30;
-    let (_, trace) = abba_trial::runner::trace_patient(&config, &cohort_patients, &args.patient, abba_sim::scenario::ScenarioId::S1, arm)?;
-    let therapy = cohort_patients.patients.iter().find(|p| p.params.name == args.patient).map(|p| p.therapy).ok_or_else(|| anyhow!("no patient {}", args.patient))?;
+    let config = TrialConfig { days: args.days, ..TrialConfig::default() };
+    let cohort = abba_trial::runner::build_cohort(&config)?;
+    let (_, trace) = abba_trial::runner::trace_patient(&config, &cohort, &args.patient, ScenarioId::S1, arm)?;
+    let therapy = cohort
+        .patients
+        .iter()
+        .find(|p| p.params.name == args.patient)
+        .map(|p| p.therapy)
+        .ok_or_else(|| anyhow!("no patient {} in the cohort", args.patient))?;
     let clock = AdvisorClock::new(abba_io::time::zone(&args.tz)?, date("--start", &args.start)?);
     let files = abba_io::nightscout_out::write(trace.events.as_deref().unwrap_or(&[]), &therapy, &clock)?;
     abba_io::nightscout_out::write_dir(&files, &args.out)?;

@@ -31,12 +31,21 @@ pub fn run(args: Args) -> Result<()> {
     let from = args.from.as_deref().map(|d| date("--from", d)).transpose()?;
     let to = args.to.as_deref().map(|d| date("--to", d)).transpose()?;
     let (mut times, mut glucose, mut censored) = (Vec::new(), Vec::new(), 0usize);
+    let mut last: Option<&abba_io::Record> = None;
     for r in &batch.records {
         let RecordKind::Cgm { glucose: g } = r.kind else { continue };
         let day = tz.to_datetime(r.at).date();
         if from.is_some_and(|f| day < f) || to.is_some_and(|t| day > t) {
             continue;
         }
+        if let Some(prev) = last.filter(|p| p.at == r.at) {
+            bail!(
+                "{} has the same time as {} but another glucose value; each reading needs its own time",
+                batch.origin(r),
+                batch.origin(prev)
+            );
+        }
+        last = Some(r);
         censored += usize::from(g.censor != Censor::Exact);
         times.push(r.at.as_millisecond() as f64 / 60_000.0);
         glucose.push(g.mg_dl.0);

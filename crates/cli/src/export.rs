@@ -15,6 +15,9 @@ pub struct Args {
     /// Patient name in the trial's cohort (for example adult#001).
     #[arg(long, value_name = "PATIENT")]
     patient: String,
+    /// Cohort size (the trial's --patients; the first 10 are the public patients).
+    #[arg(long, default_value_t = 10)]
+    patients: u32,
     /// Days to simulate.
     #[arg(long, default_value_t = 14)]
     days: u32,
@@ -38,7 +41,7 @@ pub fn run(args: Args) -> Result<()> {
         .into_iter()
         .find(|a| a.name() == args.arm)
         .ok_or_else(|| anyhow!("--arm {}: expected abba, standard or r2r", args.arm))?;
-    let config = TrialConfig { days: args.days, ..TrialConfig::default() };
+    let config = TrialConfig { days: args.days, patients: args.patients, ..TrialConfig::default() };
     let cohort = abba_trial::runner::build_cohort(&config)?;
     let (_, trace) = abba_trial::runner::trace_patient(&config, &cohort, &args.patient, ScenarioId::S1, arm)?;
     let therapy = cohort

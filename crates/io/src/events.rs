@@ -272,7 +272,7 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
                 }
             }
             RecordKind::Schedule { basal: s, .. } => {
-                basal.schedule = Some(s.clone());
+                basal.schedule = Some(BasalSchedule::clone(s));
                 emit_rate(&mut basal, r.at, true, &mut events);
             }
             RecordKind::TempBasal { rate, duration_min } => {

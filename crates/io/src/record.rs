@@ -37,7 +37,7 @@ impl Source {
 #[serde(rename_all = "snake_case")]
 pub enum SourceId {
     /// The source's own id (Nightscout `_id`, Tidepool `id`).
-    Id(String),
+    Id(Box<str>),
     /// The source's own row index (Clarity `Index`).
     Index(u64),
     /// A hash of the row's content, for sources with no id (FNV-1a 64 of
@@ -60,9 +60,9 @@ pub struct Origin {
 #[serde(rename_all = "snake_case")]
 pub enum OriginAt {
     /// 1-based line.
-    Line(u64),
+    Line(u32),
     /// 0-based index in the file's top-level JSON array.
-    Item(u64),
+    Item(u32),
 }
 
 /// A glucose value as the device reported it.
@@ -173,10 +173,10 @@ pub enum RecordKind {
     },
     /// A basal schedule (profile) in force from this instant on.
     Schedule {
-        /// The schedule.
-        basal: BasalSchedule,
+        /// The schedule (boxed: records stay small).
+        basal: Box<BasalSchedule>,
         /// The time zone the profile names, if any.
-        timezone: Option<String>,
+        timezone: Option<Box<str>>,
     },
     /// A temporary basal rate for `duration_min` minutes.
     TempBasal {
@@ -246,4 +246,17 @@ pub fn content_hash<'a>(parts: impl IntoIterator<Item = &'a [u8]>) -> u64 {
         }
     }
     h
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_record_stays_small() {
+        // A 10-year CGM file is a million records (BENCHMARKS.md).
+        let size = std::mem::size_of::<Record>();
+        println!("Record: {size} bytes, RecordKind: {}", std::mem::size_of::<RecordKind>());
+        assert!(size <= 96, "{size}");
+    }
 }

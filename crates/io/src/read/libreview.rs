@@ -10,7 +10,7 @@ use abba_core::{Grams, MgDl, Units};
 
 use super::table::{number, Table};
 use super::Ctx;
-use crate::error::{IoError, Location};
+use crate::error::{IoError, Location, Place};
 use crate::record::{content_hash, Glucose, Record, RecordKind, Source, SourceId};
 use crate::time::{parse_wall, DateOrder, WallClock};
 use crate::units::{self, check_range};
@@ -76,9 +76,11 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     let time_name = t.header[time_at].clone();
     let delim = t.delimiter;
     let mut order = None;
-    let mut out = Vec::new();
+    let mut out = Vec::with_capacity(t.lines_left());
+    // One location reused for every row (no allocation per row).
+    let mut at = Location::line(file, 0);
     while let Some(line) = t.next_row()? {
-        let at = Location::line(file, line);
+        at.place = Place::Line(line);
         let text = t.cell(time_at);
         let order = *order.get_or_insert_with(|| date_order(text));
         let dt = parse_wall(text, order).ok_or_else(|| {

@@ -23,7 +23,7 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     for item in objects(ctx.file, &items)? {
         let at = instant(&item)?;
         let id = match item.str("_id")? {
-            Some(id) => SourceId::Id(id.to_string()),
+            Some(id) => SourceId::Id(id.into()),
             None => SourceId::Hash(content_hash([Value::Object(item.obj.clone()).to_string().as_bytes()])),
         };
         let kinds = if item.get("store").is_some() {
@@ -36,7 +36,7 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
         for (n, kind) in kinds.into_iter().enumerate() {
             let id = match (&id, n) {
                 (id, 0) => id.clone(),
-                (SourceId::Id(s), n) => SourceId::Id(format!("{s}#{n}")),
+                (SourceId::Id(s), n) => SourceId::Id(format!("{s}#{n}").into()),
                 (SourceId::Hash(h), n) => SourceId::Hash(h.wrapping_add(n as u64)),
                 (SourceId::Index(i), _) => SourceId::Index(*i),
             };
@@ -215,5 +215,5 @@ fn schedule_of(p: &Item<'_>, prefix: &str) -> Result<RecordKind, IoError> {
     if segments.is_empty() {
         return Err(p.err(&field, "the basal schedule is empty"));
     }
-    Ok(RecordKind::Schedule { basal: BasalSchedule { segments }, timezone: p.str("timezone")?.map(str::to_string) })
+    Ok(RecordKind::Schedule { basal: Box::new(BasalSchedule { segments }), timezone: p.str("timezone")?.map(Into::into) })
 }

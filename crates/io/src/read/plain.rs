@@ -8,7 +8,7 @@ use abba_core::{Grams, Units, UnitsPerHour};
 
 use super::table::{required_number, Table};
 use super::Ctx;
-use crate::error::{IoError, Location};
+use crate::error::{IoError, Location, Place};
 use crate::record::{content_hash, BasalSchedule, Glucose, Record, RecordKind, Source, SourceId};
 use crate::time::{has_offset, parse_instant, parse_wall, DateOrder, WallClock};
 use crate::units::{self, check_range, GlucoseUnit};
@@ -129,10 +129,12 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     let mut first_id: Option<(String, u64)> = None;
     let mut subject_seen = false;
     let mut raw_glucose = Vec::new();
-    let mut out = Vec::new();
+    let mut out = Vec::with_capacity(t.lines_left());
     let delim = t.delimiter;
+    // One location reused for every row (no allocation per row).
+    let mut at = Location::line(file, 0);
     while let Some(line) = t.next_row()? {
-        let at = Location::line(file, line);
+        at.place = Place::Line(line);
         if let Some(i) = id_at {
             let id = t.cell(i);
             match &ctx.opts.subject {
@@ -235,7 +237,7 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
                 1 => RecordKind::Carbs { grams: Grams(check_range(&at, &name, v, 0.0, units::CARBS_MAX_G, "carbohydrate (g)")?) },
                 2 => RecordKind::Bolus { units: Units(check_range(&at, &name, v, 0.0, units::BOLUS_MAX_U, "bolus (U)")?) },
                 _ => RecordKind::Schedule {
-                    basal: BasalSchedule::flat(UnitsPerHour(check_range(&at, &name, v, 0.0, units::BASAL_MAX_U_PER_H, "basal rate (U/h)")?)),
+                    basal: Box::new(BasalSchedule::flat(UnitsPerHour(check_range(&at, &name, v, 0.0, units::BASAL_MAX_U_PER_H, "basal rate (U/h)")?))),
                     timezone: None,
                 },
             };

@@ -33,7 +33,7 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
         };
         let at = parse_instant(time).ok_or_else(|| item.err("time", format!("expected an ISO 8601 time with Z or offset, got \"{time}\"")))?;
         let id = match item.str("id")? {
-            Some(id) => SourceId::Id(id.to_string()),
+            Some(id) => SourceId::Id(id.into()),
             None => SourceId::Hash(content_hash([Value::Object(item.obj.clone()).to_string().as_bytes()])),
         };
         out.push(Record { at, kind, source: Source::Tidepool, id, origin: ctx.origin_item(item.index) });
@@ -102,7 +102,7 @@ fn datum(item: &Item<'_>, ty: &str) -> Result<RecordKind, IoError> {
                 Ok(UnitsPerHour(check_range(&item.at("rate"), "rate", r, 0.0, units::BASAL_MAX_U_PER_H, "basal rate (U/h)")?))
             };
             match delivery {
-                "scheduled" | "automated" => RecordKind::Schedule { basal: BasalSchedule::flat(rate(item)?), timezone: None },
+                "scheduled" | "automated" => RecordKind::Schedule { basal: Box::new(BasalSchedule::flat(rate(item)?)), timezone: None },
                 "temp" => RecordKind::TempBasal {
                     rate: TempRate::Absolute(rate(item)?),
                     duration_min: duration.ok_or_else(|| item.err("duration", "missing: a temp basal needs its duration (ms)"))?,

@@ -31,10 +31,17 @@ pub struct Args {
 /// Runs `abba events`.
 pub fn run(args: Args) -> Result<()> {
     let opts = args.input.options()?;
-    let tz = opts.tz.clone().context("--tz ZONE is required: the advisor's days are the person's local days")?;
+    let tz = opts
+        .tz
+        .clone()
+        .context("--tz ZONE is required: the advisor's days are the person's local days")?;
     let batch = abba_io::read_files(&args.input.input, &opts)?;
     let mut person = PersonSettings::new(tz);
-    person.first_day = args.first_day.as_deref().map(|d| date("--first-day", d)).transpose()?;
+    person.first_day = args
+        .first_day
+        .as_deref()
+        .map(|d| date("--first-day", d))
+        .transpose()?;
     person.meals = MealWindows {
         breakfast: MealWindows::parse_window(&args.breakfast)?,
         lunch: MealWindows::parse_window(&args.lunch)?,
@@ -52,8 +59,15 @@ pub fn run(args: Args) -> Result<()> {
         println!("{}", serde_json::to_string(&out)?);
         return Ok(());
     }
-    println!("Events of {} (abba is research software, not a medical device)", batch.files.join(", "));
-    println!("  formats: {:?}; {} records after merging", batch.formats, batch.records.len());
+    println!(
+        "Events of {} (abba is research software, not a medical device)",
+        batch.files.join(", ")
+    );
+    println!(
+        "  formats: {:?}; {} records after merging",
+        batch.formats,
+        batch.records.len()
+    );
     let mut kinds = std::collections::BTreeMap::<&str, usize>::new();
     for r in &batch.records {
         *kinds.entry(r.kind.name()).or_default() += 1;
@@ -62,8 +76,14 @@ pub fn run(args: Args) -> Result<()> {
     println!("  duplicates removed: {:?}", batch.duplicates);
     println!("  ignored by kind: {:?}", stream.ignored);
     println!("  kept but not mapped: {:?}", stream.not_mapped);
-    println!("  advisor events (day 1 = {}, {}): {:?}", stream.first_day, stream.tz, stream.counts);
-    println!("  readings reported as Low/High, passed on at the sensor's limit: {}", stream.censored);
+    println!(
+        "  advisor events (day 1 = {}, {}): {:?}",
+        stream.first_day, stream.tz, stream.counts
+    );
+    println!(
+        "  readings reported as Low/High, passed on at the sensor's limit: {}",
+        stream.censored
+    );
     println!("  meal rule: {}", stream.meal_rule);
     println!("  rejected: {}", stream.rejected.len());
     for r in &stream.rejected {

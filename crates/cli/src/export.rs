@@ -41,17 +41,26 @@ pub fn run(args: Args) -> Result<()> {
         .into_iter()
         .find(|a| a.name() == args.arm)
         .ok_or_else(|| anyhow!("--arm {}: expected abba, standard or r2r", args.arm))?;
-    let config = TrialConfig { days: args.days, patients: args.patients, ..TrialConfig::default() };
+    let config = TrialConfig {
+        days: args.days,
+        patients: args.patients,
+        ..TrialConfig::default()
+    };
     let cohort = abba_trial::runner::build_cohort(&config)?;
-    let (_, trace) = abba_trial::runner::trace_patient(&config, &cohort, &args.patient, ScenarioId::S1, arm)?;
+    let (_, trace) =
+        abba_trial::runner::trace_patient(&config, &cohort, &args.patient, ScenarioId::S1, arm)?;
     let therapy = cohort
         .patients
         .iter()
         .find(|p| p.params.name == args.patient)
         .map(|p| p.therapy)
         .ok_or_else(|| anyhow!("no patient {} in the cohort", args.patient))?;
-    let clock = AdvisorClock::new(abba_io::time::zone(&args.tz)?, date("--start", &args.start)?);
-    let files = abba_io::nightscout_out::write(trace.events.as_deref().unwrap_or(&[]), &therapy, &clock)?;
+    let clock = AdvisorClock::new(
+        abba_io::time::zone(&args.tz)?,
+        date("--start", &args.start)?,
+    );
+    let files =
+        abba_io::nightscout_out::write(trace.events.as_deref().unwrap_or(&[]), &therapy, &clock)?;
     abba_io::nightscout_out::write_dir(&files, &args.out)?;
     println!("wrote {}/{{entries,treatments,profile}}.json for {} (simulated; abba is research software, not a medical device)", args.out.display(), args.patient);
     Ok(())

@@ -37,7 +37,9 @@ impl InputArgs {
         Ok(ReadOptions {
             format: match &self.format {
                 Some(f) => Some(Format::parse(f).ok_or_else(|| {
-                    anyhow!("--format {f}: expected nightscout, clarity, libreview, tidepool or csv")
+                    anyhow!(
+                        "--format {f}: expected nightscout, clarity, libreview, tidepool or csv"
+                    )
                 })?),
                 None => None,
             },

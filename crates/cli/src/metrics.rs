@@ -28,12 +28,18 @@ pub fn run(args: Args) -> Result<()> {
     let opts = args.input.options()?;
     let batch = abba_io::read_files(&args.input.input, &opts)?;
     let tz = opts.tz.clone().unwrap_or(jiff::tz::TimeZone::UTC);
-    let from = args.from.as_deref().map(|d| date("--from", d)).transpose()?;
+    let from = args
+        .from
+        .as_deref()
+        .map(|d| date("--from", d))
+        .transpose()?;
     let to = args.to.as_deref().map(|d| date("--to", d)).transpose()?;
     let (mut times, mut glucose, mut censored) = (Vec::new(), Vec::new(), 0usize);
     let mut last: Option<&abba_io::Record> = None;
     for r in &batch.records {
-        let RecordKind::Cgm { glucose: g } = r.kind else { continue };
+        let RecordKind::Cgm { glucose: g } = r.kind else {
+            continue;
+        };
         let day = tz.to_datetime(r.at).date();
         if from.is_some_and(|f| day < f) || to.is_some_and(|t| day > t) {
             continue;
@@ -52,7 +58,10 @@ pub fn run(args: Args) -> Result<()> {
     }
     let files = batch.files.join(", ");
     if times.len() < 2 {
-        bail!("{files}: need at least 2 CGM readings in the chosen days, found {}", times.len());
+        bail!(
+            "{files}: need at least 2 CGM readings in the chosen days, found {}",
+            times.len()
+        );
     }
     let cov = coverage(&times).context("coverage")?;
     if cov.percent < MIN_COVERAGE_PERCENT {
@@ -69,7 +78,15 @@ pub fn run(args: Args) -> Result<()> {
     let mage = mage_timed(&times, &glucose, &Default::default())
         .with_context(|| format!("{files}: MAGE"))?;
     let first = tz.to_datetime(batch_first(&times));
-    print_table(&files, &batch.formats, &cov, censored, &metrics, &mage, first);
+    print_table(
+        &files,
+        &batch.formats,
+        &cov,
+        censored,
+        &metrics,
+        &mage,
+        first,
+    );
     Ok(())
 }
 
@@ -95,13 +112,23 @@ fn print_table(
     if censored > 0 {
         println!("  {censored} readings were reported only as Low/High and are counted at the sensor's limit");
     }
-    println!("  percentages count readings (iglu); bands as in the seed paper and the 2019 consensus");
+    println!(
+        "  percentages count readings (iglu); bands as in the seed paper and the 2019 consensus"
+    );
     let pct = |label: &str, key: &str, v: f64| println!("  {label:<34} {v:>8.2} %   {key}");
     pct("target 70-180 mg/dL", "tir_70_180", m.tir_70_180);
     pct("hypo 50-<70 mg/dL", "hypo_50_70", m.hypo_50_70);
-    pct("severe hypo <50 mg/dL", "severe_hypo_lt50", m.severe_hypo_lt50);
+    pct(
+        "severe hypo <50 mg/dL",
+        "severe_hypo_lt50",
+        m.severe_hypo_lt50,
+    );
     pct("hyper >180-300 mg/dL", "hyper_180_300", m.hyper_180_300);
-    pct("severe hyper >300 mg/dL", "severe_hyper_gt300", m.severe_hyper_gt300);
+    pct(
+        "severe hyper >300 mg/dL",
+        "severe_hyper_gt300",
+        m.severe_hyper_gt300,
+    );
     pct("below 54 mg/dL", "below_54", m.below_54);
     pct("below 70 mg/dL", "below_70", m.below_70);
     pct("above 180 mg/dL", "above_180", m.above_180);
@@ -113,9 +140,17 @@ fn print_table(
     println!("  {:<34} {:>8.3}         lbgi", "LBGI (Kovatchev)", m.lbgi);
     println!("  {:<34} {:>8.3}         hbgi", "HBGI (Kovatchev)", m.hbgi);
     let opt = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.2}"));
-    println!("  {:<34} {:>8} mg/dL   mage", "MAGE (iglu ma 5/32, avg)", opt(m.mage));
+    println!(
+        "  {:<34} {:>8} mg/dL   mage",
+        "MAGE (iglu ma 5/32, avg)",
+        opt(m.mage)
+    );
     println!(
         "  {:<34} MAGE+ {} / MAGE- {} mg/dL; {} of {} segments with excursions",
-        "", opt(mage.plus), opt(mage.minus), mage.segments_with_excursions, mage.segments
+        "",
+        opt(mage.plus),
+        opt(mage.minus),
+        mage.segments_with_excursions,
+        mage.segments
     );
 }

@@ -42,7 +42,12 @@ fn clarity(r: &[(String, f64)]) -> String {
     let mut s = String::from("\u{feff}Index,Timestamp (YYYY-MM-DDThh:mm:ss),Event Type,Event Subtype,Patient Info,Device Info,Source Device ID,Glucose Value (mg/dL),Insulin Value (u),Carb Value (grams),Duration (hh:mm:ss),Glucose Rate of Change (mg/dL/min),Transmitter Time (Long Integer),Transmitter ID\r\n");
     s.push_str("1,,FirstName,,Test,,,,,,,,,\r\n2,,Device,,,Dexcom G6 Mobile App,android G6,,,,,,,\r\n3,,Alert,High,,,android G6,250,,,,,,\r\n");
     for (i, (t, g)) in r.iter().enumerate() {
-        s.push_str(&format!("{},{},EGV,,,,android G6,{g},,,,,{},X\r\n", i + 4, t.replace(' ', "T"), 1000 + 300 * i));
+        s.push_str(&format!(
+            "{},{},EGV,,,,android G6,{g},,,,,{},X\r\n",
+            i + 4,
+            t.replace(' ', "T"),
+            1000 + 300 * i
+        ));
     }
     s
 }
@@ -55,7 +60,8 @@ fn libreview(r: &[(String, f64)]) -> String {
         assert!(t.ends_with(":00"));
         let when = format!("{}-{}-{} {}", &t[8..10], &t[5..7], &t[..4], &t[11..16]);
         s.push_str(&format!("FreeStyle Libre 3,SN,{when},0,{g},,,,,\n"));
-        s.push_str(&format!("FreeStyle Libre 3,SN,{when},1,,{},,,,\n", g + 3.0)); // a scan: not a historic reading
+        s.push_str(&format!("FreeStyle Libre 3,SN,{when},1,,{},,,,\n", g + 3.0));
+        // a scan: not a historic reading
     }
     s
 }
@@ -78,33 +84,68 @@ fn semicolon_csv(r: &[(String, f64)]) -> String {
 }
 
 fn metrics_json(name: &str, content: &str) -> serde_json::Map<String, serde_json::Value> {
-    let path = std::env::temp_dir().join(format!("abba_metrics_formats_{}_{name}", std::process::id()));
+    let path = std::env::temp_dir().join(format!(
+        "abba_metrics_formats_{}_{name}",
+        std::process::id()
+    ));
     std::fs::write(&path, content).unwrap();
     let out = Command::new(env!("CARGO_BIN_EXE_abba"))
-        .args(["metrics", "--input", path.to_str().unwrap(), "--tz", "UTC", "--json"])
+        .args([
+            "metrics",
+            "--input",
+            path.to_str().unwrap(),
+            "--tz",
+            "UTC",
+            "--json",
+        ])
         .output()
         .unwrap();
     std::fs::remove_file(&path).ok();
-    assert!(out.status.success(), "{name}: {}", String::from_utf8_lossy(&out.stderr));
-    serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap().as_object().unwrap().clone()
+    assert!(
+        out.status.success(),
+        "{name}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice::<serde_json::Value>(&out.stdout)
+        .unwrap()
+        .as_object()
+        .unwrap()
+        .clone()
 }
 
 #[test]
 fn every_format_gives_iglus_metrics() {
     let r = readings();
     assert_eq!(r.len(), 576);
-    let fixture: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(format!("{CORE_DATA}/synthetic_2day_5min.metrics.json")).unwrap()).unwrap();
+    let fixture: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(format!("{CORE_DATA}/synthetic_2day_5min.metrics.json")).unwrap(),
+    )
+    .unwrap();
     let iglu = &fixture["iglu"];
     let expect = [
         ("mean_mg_dl", iglu["mean_glu"].as_f64().unwrap()),
         ("cv_pct", iglu["cv_glu"].as_f64().unwrap()),
         ("gmi_pct", iglu["gmi"].as_f64().unwrap()),
-        ("tir_70_180", iglu["in_range_percent_70_180"].as_f64().unwrap()),
-        ("below_54", iglu["below_percent"]["below_54"].as_f64().unwrap()),
-        ("below_70", iglu["below_percent"]["below_70"].as_f64().unwrap()),
-        ("above_180", iglu["above_percent"]["above_180"].as_f64().unwrap()),
-        ("above_250", iglu["above_percent"]["above_250"].as_f64().unwrap()),
+        (
+            "tir_70_180",
+            iglu["in_range_percent_70_180"].as_f64().unwrap(),
+        ),
+        (
+            "below_54",
+            iglu["below_percent"]["below_54"].as_f64().unwrap(),
+        ),
+        (
+            "below_70",
+            iglu["below_percent"]["below_70"].as_f64().unwrap(),
+        ),
+        (
+            "above_180",
+            iglu["above_percent"]["above_180"].as_f64().unwrap(),
+        ),
+        (
+            "above_250",
+            iglu["above_percent"]["above_250"].as_f64().unwrap(),
+        ),
         ("lbgi", iglu["lbgi"].as_f64().unwrap()),
         ("hbgi", iglu["hbgi"].as_f64().unwrap()),
         ("mage", iglu["mage_default"].as_f64().unwrap()),
@@ -121,7 +162,10 @@ fn every_format_gives_iglus_metrics() {
         let got = metrics_json(name, content);
         for (key, want) in expect {
             let v = got[key].as_f64().unwrap();
-            assert!((v - want).abs() < 1e-6, "{name} {key}: iglu {want}, abba {v}");
+            assert!(
+                (v - want).abs() < 1e-6,
+                "{name} {key}: iglu {want}, abba {v}"
+            );
         }
         all.push(got);
     }

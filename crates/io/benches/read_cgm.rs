@@ -16,13 +16,22 @@ fn bench(c: &mut Criterion) {
     group.sample_size(10);
     for (name, bytes, tz) in [
         ("plain_csv_utc", ten_years::plain_csv(), None),
-        ("clarity_zurich", ten_years::clarity(), Some("Europe/Zurich")),
+        (
+            "clarity_zurich",
+            ten_years::clarity(),
+            Some("Europe/Zurich"),
+        ),
     ] {
-        let opts = ReadOptions { tz: tz.map(|z| abba_io::time::zone(z).unwrap()), ..ReadOptions::default() };
+        let opts = ReadOptions {
+            tz: tz.map(|z| abba_io::time::zone(z).unwrap()),
+            ..ReadOptions::default()
+        };
         let input = vec![(name.to_string(), bytes)];
         let n = read_all(&input, &opts).unwrap().records.len();
         assert_eq!(n, ten_years::ROWS);
-        group.bench_function(name, |b| b.iter(|| read_all(&input, &opts).unwrap().records.len()));
+        group.bench_function(name, |b| {
+            b.iter(|| read_all(&input, &opts).unwrap().records.len())
+        });
     }
     group.finish();
 }

@@ -13,7 +13,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         None => None,
     };
     let paths: Vec<std::path::PathBuf> = args.iter().map(Into::into).collect();
-    let batch = abba_io::read_files(&paths, &abba_io::ReadOptions { tz, ..Default::default() })?;
-    println!("{} records ({} cgm)", batch.records.len(), batch.count("cgm"));
+    let batch = abba_io::read_files(
+        &paths,
+        &abba_io::ReadOptions {
+            tz,
+            ..Default::default()
+        },
+    )?;
+    println!(
+        "{} records ({} cgm)",
+        batch.records.len(),
+        batch.count("cgm")
+    );
     Ok(())
 }

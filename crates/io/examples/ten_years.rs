@@ -34,7 +34,14 @@ pub fn clarity() -> Vec<u8> {
     for i in 0..ROWS {
         let t = start + jiff::SignedDuration::from_mins(5 * i as i64);
         let wall = zone.to_datetime(t);
-        let _ = write!(s, "{},{},EGV,,,,android G6,{},,,,,{},X\r\n", i + 1, wall.strftime("%Y-%m-%dT%H:%M:%S"), glucose(i), 300 * i);
+        let _ = write!(
+            s,
+            "{},{},EGV,,,,android G6,{},,,,,{},X\r\n",
+            i + 1,
+            wall.strftime("%Y-%m-%dT%H:%M:%S"),
+            glucose(i),
+            300 * i
+        );
     }
     s.into_bytes()
 }

@@ -63,7 +63,10 @@ impl AdvisorClock {
         let mut m = wall;
         while m > 0 {
             let dt = date.at(((m - 1) / 60) as i8, ((m - 1) % 60) as i8, 0, 0);
-            if !matches!(self.tz.to_ambiguous_timestamp(dt).offset(), AmbiguousOffset::Fold { .. }) {
+            if !matches!(
+                self.tz.to_ambiguous_timestamp(dt).offset(),
+                AmbiguousOffset::Fold { .. }
+            ) {
                 break;
             }
             m -= 1;

@@ -50,7 +50,12 @@ pub struct PersonSettings {
 impl PersonSettings {
     /// Default windows, days closing at midnight.
     pub fn new(tz: TimeZone) -> Self {
-        Self { tz, first_day: None, meals: MealWindows::default(), day_close: DayClose::Midnight }
+        Self {
+            tz,
+            first_day: None,
+            meals: MealWindows::default(),
+            day_close: DayClose::Midnight,
+        }
     }
 }
 
@@ -135,7 +140,10 @@ impl Basal {
         if self.suspended_until.is_some() {
             return 0.0;
         }
-        let scheduled = self.schedule.as_ref().map_or(0.0, |s| s.rate_at(minute_of_day).0);
+        let scheduled = self
+            .schedule
+            .as_ref()
+            .map_or(0.0, |s| s.rate_at(minute_of_day).0);
         let base = match self.temp {
             Some((TempRate::Absolute(r), _)) => r.0,
             Some((TempRate::Percent(p), _)) => scheduled * p / 100.0,
@@ -187,13 +195,26 @@ impl Basal {
 }
 
 fn plus_min(t: jiff::Timestamp, m: u32) -> jiff::Timestamp {
-    t.checked_add(jiff::SignedDuration::from_mins(i64::from(m))).unwrap_or(t)
+    t.checked_add(jiff::SignedDuration::from_mins(i64::from(m)))
+        .unwrap_or(t)
 }
 
 /// Maps a merged batch to the advisor's events.
 pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, crate::IoError> {
     person.meals.validate()?;
-    let first_day = match (person.first_day, batch.records.first()) {
+    // Day 1 defaults to the local day of the first record that is data (a
+    // profile in force since long before does not make the first day).
+    let first_data = batch
+        .records
+        .iter()
+        .find(|r| {
+            !matches!(
+                r.kind,
+                RecordKind::Schedule { .. } | RecordKind::Ignored { .. }
+            )
+        })
+        .or(batch.records.first());
+    let first_day = match (person.first_day, first_data) {
         (Some(d), _) => d,
         (None, Some(r)) => person.tz.to_datetime(r.at).date(),
         (None, None) => return Err(crate::IoError::Settings("no records to map".into())),
@@ -213,19 +234,25 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
     let mut basal = Basal::default();
     let mut meals_taken: BTreeMap<(i64, MealSlot), ()> = BTreeMap::new();
     let mut events: Vec<Event> = Vec::with_capacity(batch.records.len());
-    let emit_rate = |basal: &mut Basal, at: jiff::Timestamp, force: bool, events: &mut Vec<Event>| {
-        let ts = clock.timestamp(at);
-        let rate = basal.rate(ts.minute_of_day() as u32);
-        match basal.last {
-            None => basal.last = Some(rate),
-            Some(last) if force || last != rate => {
-                basal.last = Some(rate);
-                events.push(Event::new(ts, EventKind::BasalRate(UnitsPerHour(rate))));
+    let emit_rate =
+        |basal: &mut Basal, at: jiff::Timestamp, force: bool, events: &mut Vec<Event>| {
+            let ts = clock.timestamp(at);
+            let rate = basal.rate(ts.minute_of_day() as u32);
+            // Basal state before day 1 is followed but emits nothing.
+            match basal.last {
+                _ if ts.day_index() < 0 => basal.last = Some(rate),
+                None => basal.last = Some(rate),
+                Some(last) if force || last != rate => {
+                    basal.last = Some(rate);
+                    events.push(Event::new(ts, EventKind::BasalRate(UnitsPerHour(rate))));
+                }
+                Some(_) => {}
             }
-            Some(_) => {}
-        }
-    };
-    let mut now = batch.records.first().map_or(jiff::Timestamp::UNIX_EPOCH, |r| r.at);
+        };
+    let mut now = batch
+        .records
+        .first()
+        .map_or(jiff::Timestamp::UNIX_EPOCH, |r| r.at);
     for r in &batch.records {
         // Changes of the basal rate in force before this record.
         while let Some(t) = basal.next_change(now, &clock).filter(|&t| t <= r.at) {
@@ -237,9 +264,20 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
         basal.expire(r.at);
         let ts = clock.timestamp(r.at);
         let reject = |out: &mut EventStream, r: &Record, reason: String| {
-            out.rejected.push(Rejected { origin: batch.origin(r), kind: r.kind.name().into(), reason })
+            out.rejected.push(Rejected {
+                origin: batch.origin(r),
+                kind: r.kind.name().into(),
+                reason,
+            })
         };
-        if ts.day_index() < 0 {
+        let basal_state = matches!(
+            r.kind,
+            RecordKind::Schedule { .. }
+                | RecordKind::TempBasal { .. }
+                | RecordKind::Suspend { .. }
+                | RecordKind::Resume
+        );
+        if ts.day_index() < 0 && !basal_state {
             reject(&mut out, r, format!("before the first day {first_day}"));
             continue;
         }
@@ -249,25 +287,49 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
                     out.censored += 1;
                 }
                 let g = MgDl(glucose.mg_dl.0);
-                let kind = if matches!(r.kind, RecordKind::Cgm { .. }) { EventKind::Cgm(g) } else { EventKind::Smbg(g) };
+                let kind = if matches!(r.kind, RecordKind::Cgm { .. }) {
+                    EventKind::Cgm(g)
+                } else {
+                    EventKind::Smbg(g)
+                };
                 events.push(Event::new(ts, kind));
             }
             RecordKind::Carbs { grams } => {
-                let mut slot = person.meals.window_of(ts.minute_of_day() as u32).unwrap_or(MealSlot::Snack);
-                if slot != MealSlot::Snack && meals_taken.insert((ts.day_index(), slot), ()).is_some() {
+                let mut slot = person
+                    .meals
+                    .window_of(ts.minute_of_day() as u32)
+                    .unwrap_or(MealSlot::Snack);
+                if slot != MealSlot::Snack
+                    && meals_taken.insert((ts.day_index(), slot), ()).is_some()
+                {
                     slot = MealSlot::Snack;
                 }
-                events.push(Event::new(ts, EventKind::MealAnnounced { carbs: Grams(grams.0), slot }));
+                events.push(Event::new(
+                    ts,
+                    EventKind::MealAnnounced {
+                        carbs: Grams(grams.0),
+                        slot,
+                    },
+                ));
             }
-            RecordKind::Bolus { units } => events.push(Event::new(ts, EventKind::Bolus(Units(units.0)))),
-            RecordKind::ExtendedBolus { now: u_now, extended, duration_min } => {
+            RecordKind::Bolus { units } => {
+                events.push(Event::new(ts, EventKind::Bolus(Units(units.0))))
+            }
+            RecordKind::ExtendedBolus {
+                now: u_now,
+                extended,
+                duration_min,
+            } => {
                 if u_now.0 > 0.0 {
                     events.push(Event::new(ts, EventKind::Bolus(*u_now)));
                 }
                 if *duration_min == 0 {
                     events.push(Event::new(ts, EventKind::Bolus(*extended)));
                 } else if extended.0 > 0.0 {
-                    basal.extended.push((extended.0 * 60.0 / f64::from(*duration_min), plus_min(r.at, *duration_min)));
+                    basal.extended.push((
+                        extended.0 * 60.0 / f64::from(*duration_min),
+                        plus_min(r.at, *duration_min),
+                    ));
                     emit_rate(&mut basal, r.at, false, &mut events);
                 }
             }
@@ -288,7 +350,9 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
                 emit_rate(&mut basal, r.at, false, &mut events);
             }
             RecordKind::LongActing { .. } => {
-                *out.not_mapped.entry("long-acting insulin (the advisor follows a pump's basal rate)".into()).or_default() += 1;
+                *out.not_mapped
+                    .entry("long-acting insulin (the advisor follows a pump's basal rate)".into())
+                    .or_default() += 1;
             }
             RecordKind::Ignored { kind } => *out.ignored.entry(kind.clone()).or_default() += 1,
         }
@@ -296,11 +360,18 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
     events.sort_by_key(|e| (e.at, rank(&e.kind)));
     // Day closes at local midnights strictly after the first event and not
     // after the last one.
-    if let (DayClose::Midnight, Some(first), Some(last)) = (person.day_close, events.first().map(|e| e.at), events.last().map(|e| e.at)) {
+    if let (DayClose::Midnight, Some(first), Some(last)) = (
+        person.day_close,
+        events.first().map(|e| e.at),
+        events.last().map(|e| e.at),
+    ) {
         let mut closes = Vec::new();
         let mut day = first.day_index() + 1;
         while Timestamp::from_day_and_minute(day, 0) <= last {
-            closes.push(Event::new(Timestamp::from_day_and_minute(day, 0), EventKind::DayClosed));
+            closes.push(Event::new(
+                Timestamp::from_day_and_minute(day, 0),
+                EventKind::DayClosed,
+            ));
             day += 1;
         }
         events.extend(closes);
@@ -310,7 +381,9 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
     let mut kept: Vec<Event> = Vec::with_capacity(events.len());
     for e in events {
         if let Some(prev) = kept.last_mut() {
-            if prev.at == e.at && std::mem::discriminant(&prev.kind) == std::mem::discriminant(&e.kind) {
+            if prev.at == e.at
+                && std::mem::discriminant(&prev.kind) == std::mem::discriminant(&e.kind)
+            {
                 match e.kind {
                     EventKind::BasalRate(_) => {
                         *prev = e;

@@ -52,11 +52,19 @@ impl MealWindows {
         let w = [self.breakfast, self.lunch, self.dinner];
         for (i, (s, e)) in w.iter().enumerate() {
             if s >= e {
-                return Err(IoError::Settings(format!("the {} window {}-{} is empty", MealSlot::MAIN[i].name(), hhmm(*s), hhmm(*e))));
+                return Err(IoError::Settings(format!(
+                    "the {} window {}-{} is empty",
+                    MealSlot::MAIN[i].name(),
+                    hhmm(*s),
+                    hhmm(*e)
+                )));
             }
         }
         if w[0].1 > w[1].0 || w[1].1 > w[2].0 {
-            return Err(IoError::Settings("meal windows must be in order breakfast, lunch, dinner and must not overlap".into()));
+            return Err(IoError::Settings(
+                "meal windows must be in order breakfast, lunch, dinner and must not overlap"
+                    .into(),
+            ));
         }
         Ok(())
     }

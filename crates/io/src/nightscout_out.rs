@@ -4,8 +4,8 @@
 //! same clock and meal windows, they give the same events (DayClosed is
 //! not written: the reader derives it at local midnights).
 
-use abba_core::{EventKind, TherapySettings, Timestamp};
 use abba_core::Event;
+use abba_core::{EventKind, TherapySettings, Timestamp};
 use serde_json::{json, Value};
 
 use crate::clock::AdvisorClock;
@@ -24,10 +24,19 @@ pub struct NightscoutFiles {
 }
 
 fn id(parts: &[&[u8]]) -> String {
-    format!("{:016x}{:08x}", content_hash(parts.iter().copied()), parts.len())
+    format!(
+        "{:016x}{:08x}",
+        content_hash(parts.iter().copied()),
+        parts.len()
+    )
 }
 
-fn profile_doc(clock: &AdvisorClock, at: jiff::Timestamp, basal: f64, start: &TherapySettings) -> Value {
+fn profile_doc(
+    clock: &AdvisorClock,
+    at: jiff::Timestamp,
+    basal: f64,
+    start: &TherapySettings,
+) -> Value {
     let tz = clock.tz().iana_name().unwrap_or("UTC");
     let ratios: Vec<Value> = [(0, 0), (630, 1), (930, 2)]
         .iter()
@@ -52,10 +61,19 @@ fn profile_doc(clock: &AdvisorClock, at: jiff::Timestamp, basal: f64, start: &Th
 
 /// Writes `events` (with the starting settings, in force from 00:00 of day
 /// 1) as Nightscout JSON on `clock`.
-pub fn write(events: &[Event], start: &TherapySettings, clock: &AdvisorClock) -> Result<NightscoutFiles, IoError> {
+pub fn write(
+    events: &[Event],
+    start: &TherapySettings,
+    clock: &AdvisorClock,
+) -> Result<NightscoutFiles, IoError> {
     let mut entries = Vec::new();
     let mut treatments = Vec::new();
-    let mut profiles = vec![profile_doc(clock, clock.instant(Timestamp(0))?, start.basal.0, start)];
+    let mut profiles = vec![profile_doc(
+        clock,
+        clock.instant(Timestamp(0))?,
+        start.basal.0,
+        start,
+    )];
     let mut i = 0;
     while i < events.len() {
         let e = events[i];
@@ -64,7 +82,11 @@ pub fn write(events: &[Event], start: &TherapySettings, clock: &AdvisorClock) ->
         let iso = at.to_string();
         match e.kind {
             EventKind::Cgm(g) | EventKind::Smbg(g) => {
-                let ty = if matches!(e.kind, EventKind::Cgm(_)) { "sgv" } else { "mbg" };
+                let ty = if matches!(e.kind, EventKind::Cgm(_)) {
+                    "sgv"
+                } else {
+                    "mbg"
+                };
                 let mut v = json!({
                     "_id": id(&[ty.as_bytes(), &ms.to_le_bytes(), &g.0.to_le_bytes()]),
                     "device": "abba-sim",
@@ -109,15 +131,29 @@ pub fn write(events: &[Event], start: &TherapySettings, clock: &AdvisorClock) ->
         v.reverse();
         serde_json::to_string_pretty(&Value::Array(v)).unwrap_or_default()
     };
-    Ok(NightscoutFiles { entries: newest_first(entries), treatments: newest_first(treatments), profile: newest_first(profiles) })
+    Ok(NightscoutFiles {
+        entries: newest_first(entries),
+        treatments: newest_first(treatments),
+        profile: newest_first(profiles),
+    })
 }
 
 /// Writes the three files into `dir`.
 pub fn write_dir(files: &NightscoutFiles, dir: &std::path::Path) -> Result<(), IoError> {
-    std::fs::create_dir_all(dir).map_err(|source| IoError::Write { file: dir.display().to_string(), source })?;
-    for (name, text) in [("entries.json", &files.entries), ("treatments.json", &files.treatments), ("profile.json", &files.profile)] {
+    std::fs::create_dir_all(dir).map_err(|source| IoError::Write {
+        file: dir.display().to_string(),
+        source,
+    })?;
+    for (name, text) in [
+        ("entries.json", &files.entries),
+        ("treatments.json", &files.treatments),
+        ("profile.json", &files.profile),
+    ] {
         let path = dir.join(name);
-        std::fs::write(&path, text).map_err(|source| IoError::Write { file: path.display().to_string(), source })?;
+        std::fs::write(&path, text).map_err(|source| IoError::Write {
+            file: path.display().to_string(),
+            source,
+        })?;
     }
     Ok(())
 }

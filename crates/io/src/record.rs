@@ -256,7 +256,10 @@ mod tests {
     fn a_record_stays_small() {
         // A 10-year CGM file is a million records (BENCHMARKS.md).
         let size = std::mem::size_of::<Record>();
-        println!("Record: {size} bytes, RecordKind: {}", std::mem::size_of::<RecordKind>());
+        println!(
+            "Record: {size} bytes, RecordKind: {}",
+            std::mem::size_of::<RecordKind>()
+        );
         assert!(size <= 96, "{size}");
     }
 }

@@ -221,17 +221,41 @@ mod tests {
     #[test]
     fn wall_times_in_every_date_order() {
         let want = DateTime::new(2024, 5, 1, 0, 3, 0, 0).unwrap();
-        assert_eq!(parse_wall("2024-05-01 00:03", DateOrder::YearFirst), Some(want));
-        assert_eq!(parse_wall("2024-05-01T00:03:00", DateOrder::YearFirst), Some(want));
-        assert_eq!(parse_wall("01-05-2024 00:03", DateOrder::DayFirst), Some(want));
-        assert_eq!(parse_wall("01.05.2024 00:03", DateOrder::DayFirst), Some(want));
-        assert_eq!(parse_wall("05-01-2024 12:03 AM", DateOrder::MonthFirst), Some(want));
-        assert_eq!(parse_wall("05/01/2024 12:03 am", DateOrder::MonthFirst), Some(want));
+        assert_eq!(
+            parse_wall("2024-05-01 00:03", DateOrder::YearFirst),
+            Some(want)
+        );
+        assert_eq!(
+            parse_wall("2024-05-01T00:03:00", DateOrder::YearFirst),
+            Some(want)
+        );
+        assert_eq!(
+            parse_wall("01-05-2024 00:03", DateOrder::DayFirst),
+            Some(want)
+        );
+        assert_eq!(
+            parse_wall("01.05.2024 00:03", DateOrder::DayFirst),
+            Some(want)
+        );
+        assert_eq!(
+            parse_wall("05-01-2024 12:03 AM", DateOrder::MonthFirst),
+            Some(want)
+        );
+        assert_eq!(
+            parse_wall("05/01/2024 12:03 am", DateOrder::MonthFirst),
+            Some(want)
+        );
         assert_eq!(
             parse_wall("05/01/2024 12:03 PM", DateOrder::MonthFirst).map(|d| d.hour()),
             Some(12)
         );
-        for bad in ["", "2024-05-01", "31-02-2024 00:00", "2024-05-01 25:00", "x y"] {
+        for bad in [
+            "",
+            "2024-05-01",
+            "31-02-2024 00:00",
+            "2024-05-01 25:00",
+            "x y",
+        ] {
             assert_eq!(parse_wall(bad, DateOrder::DayFirst), None, "{bad}");
             assert_eq!(parse_wall(bad, DateOrder::YearFirst), None, "{bad}");
         }

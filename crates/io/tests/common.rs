@@ -13,11 +13,17 @@ pub fn fixture(name: &str) -> Vec<u8> {
 
 /// Options with a zone.
 pub fn opts(tz: &str) -> ReadOptions {
-    ReadOptions { tz: Some(abba_io::time::zone(tz).unwrap()), ..ReadOptions::default() }
+    ReadOptions {
+        tz: Some(abba_io::time::zone(tz).unwrap()),
+        ..ReadOptions::default()
+    }
 }
 
 /// Reads named in-memory files.
 pub fn read(files: &[(&str, Vec<u8>)], o: &ReadOptions) -> Result<Batch, IoError> {
-    let inputs: Vec<(String, Vec<u8>)> = files.iter().map(|(n, b)| (n.to_string(), b.clone())).collect();
+    let inputs: Vec<(String, Vec<u8>)> = files
+        .iter()
+        .map(|(n, b)| (n.to_string(), b.clone()))
+        .collect();
     read_all(&inputs, o)
 }

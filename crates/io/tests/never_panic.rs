@@ -33,7 +33,9 @@ fn check(name: &str, bytes: Vec<u8>, format: Option<Format>) -> Result<(), TestC
                     prop_assert!(msg.contains(": line ") || msg.contains(": $["), "{}", msg);
                     prop_assert!(msg.contains(", field \""), "{}", msg);
                 }
-                IoError::Format { .. } | IoError::Units { .. } => prop_assert!(msg.starts_with(name), "{}", msg),
+                IoError::Format { .. } | IoError::Units { .. } => {
+                    prop_assert!(msg.starts_with(name), "{}", msg)
+                }
                 other => prop_assert!(false, "unexpected error kind: {other}"),
             }
         }
@@ -52,14 +54,30 @@ enum Mutation {
 
 fn mutation() -> impl Strategy<Value = Mutation> {
     let tokens = prop::sample::select(vec![
-        b",".to_vec(), b";".to_vec(), b"\"".to_vec(), b"\r\n".to_vec(), b"\n".to_vec(), b"-".to_vec(),
-        b"1e308".to_vec(), b"NaN".to_vec(), b"null".to_vec(), b"{".to_vec(), b"]".to_vec(), b"Low".to_vec(),
-        b"\xEF\xBB\xBF".to_vec(), b"\xff\xfe".to_vec(), b"25:61".to_vec(), b"31-02-2024".to_vec(),
+        b",".to_vec(),
+        b";".to_vec(),
+        b"\"".to_vec(),
+        b"\r\n".to_vec(),
+        b"\n".to_vec(),
+        b"-".to_vec(),
+        b"1e308".to_vec(),
+        b"NaN".to_vec(),
+        b"null".to_vec(),
+        b"{".to_vec(),
+        b"]".to_vec(),
+        b"Low".to_vec(),
+        b"\xEF\xBB\xBF".to_vec(),
+        b"\xff\xfe".to_vec(),
+        b"25:61".to_vec(),
+        b"31-02-2024".to_vec(),
     ]);
     prop_oneof![
-        (any::<prop::sample::Index>(), any::<u8>()).prop_map(|(i, b)| Mutation::Set(i.index(usize::MAX), b)),
-        (any::<prop::sample::Index>(), tokens).prop_map(|(i, t)| Mutation::Insert(i.index(usize::MAX), t)),
-        (any::<prop::sample::Index>(), 1usize..64).prop_map(|(i, n)| Mutation::Delete(i.index(usize::MAX), n)),
+        (any::<prop::sample::Index>(), any::<u8>())
+            .prop_map(|(i, b)| Mutation::Set(i.index(usize::MAX), b)),
+        (any::<prop::sample::Index>(), tokens)
+            .prop_map(|(i, t)| Mutation::Insert(i.index(usize::MAX), t)),
+        (any::<prop::sample::Index>(), 1usize..64)
+            .prop_map(|(i, n)| Mutation::Delete(i.index(usize::MAX), n)),
         any::<prop::sample::Index>().prop_map(|i| Mutation::Truncate(i.index(usize::MAX))),
     ]
 }
@@ -136,8 +154,18 @@ proptest! {
 #[test]
 fn an_unchanged_fixture_reads_without_error() {
     // The property tests above would pass vacuously if every fixture failed.
-    for name in ["clarity_export_synthetic.csv", "libreview_libre3_synthetic.csv", "nightscout_entries_synthetic.json"] {
-        let o = ReadOptions { tz: opts("Europe/Zurich").tz, ..ReadOptions::default() };
-        assert!(read_all(&[(name.to_string(), fixture(name))], &o).is_ok(), "{name}");
+    for name in [
+        "clarity_export_synthetic.csv",
+        "libreview_libre3_synthetic.csv",
+        "nightscout_entries_synthetic.json",
+    ] {
+        let o = ReadOptions {
+            tz: opts("Europe/Zurich").tz,
+            ..ReadOptions::default()
+        };
+        assert!(
+            read_all(&[(name.to_string(), fixture(name))], &o).is_ok(),
+            "{name}"
+        );
     }
 }

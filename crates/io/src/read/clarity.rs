@@ -90,24 +90,46 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
                 "low" => (low, Censor::Below),
                 "high" => (high, Censor::Above),
                 _ => (
-                    required_number(file, line, &glucose_name, text, delim, "a glucose number, Low or High")?,
+                    required_number(
+                        file,
+                        line,
+                        &glucose_name,
+                        text,
+                        delim,
+                        "a glucose number, Low or High",
+                    )?,
                     Censor::Exact,
                 ),
             };
             let mg = units::glucose_mg_dl(&at, &glucose_name, value, unit)?;
-            Ok(Glucose { mg_dl: abba_core::MgDl(mg), censor })
+            Ok(Glucose {
+                mg_dl: abba_core::MgDl(mg),
+                censor,
+            })
         };
-        let number = |t: &Table<'_>, i: Option<usize>, what: &str| -> Result<(String, f64), IoError> {
-            let i = i.ok_or_else(|| IoError::format(file, format!("{kind_text} rows need a {what} column")))?;
-            let name = t.header[i].clone();
-            let v = required_number(file, line, &name, t.cell(i), delim, what)?;
-            Ok((name, v))
-        };
+        let number =
+            |t: &Table<'_>, i: Option<usize>, what: &str| -> Result<(String, f64), IoError> {
+                let i = i.ok_or_else(|| {
+                    IoError::format(file, format!("{kind_text} rows need a {what} column"))
+                })?;
+                let name = t.header[i].clone();
+                let v = required_number(file, line, &name, t.cell(i), delim, what)?;
+                Ok((name, v))
+            };
         let kind = match kind_text {
-            "EGV" => RecordKind::Cgm { glucose: glucose(&t)? },
+            "EGV" => RecordKind::Cgm {
+                glucose: glucose(&t)?,
+            },
             "Insulin" => {
                 let (name, v) = number(&t, insulin_at, "insulin (U)")?;
-                let u = Units(check_range(&at, &name, v, 0.0, units::BOLUS_MAX_U, "insulin (U)")?);
+                let u = Units(check_range(
+                    &at,
+                    &name,
+                    v,
+                    0.0,
+                    units::BOLUS_MAX_U,
+                    "insulin (U)",
+                )?);
                 if subtype.eq_ignore_ascii_case("Long-Acting") {
                     RecordKind::LongActing { units: u }
                 } else {
@@ -117,20 +139,39 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
             "Carbs" => {
                 let (name, v) = number(&t, carbs_at, "carbohydrate (g)")?;
                 RecordKind::Carbs {
-                    grams: Grams(check_range(&at, &name, v, 0.0, units::CARBS_MAX_G, "carbohydrate (g)")?),
+                    grams: Grams(check_range(
+                        &at,
+                        &name,
+                        v,
+                        0.0,
+                        units::CARBS_MAX_G,
+                        "carbohydrate (g)",
+                    )?),
                 }
             }
             other => {
                 let _ = duration_at;
                 RecordKind::Ignored {
-                    kind: if subtype.is_empty() { other.to_string() } else { format!("{other} {subtype}") },
+                    kind: if subtype.is_empty() {
+                        other.to_string()
+                    } else {
+                        format!("{other} {subtype}")
+                    },
                 }
             }
         };
-        let id = t.cell(0).parse::<u64>().map(SourceId::Index).unwrap_or_else(|_| {
-            SourceId::Hash(crate::record::content_hash(t.raw()))
+        let id = t
+            .cell(0)
+            .parse::<u64>()
+            .map(SourceId::Index)
+            .unwrap_or_else(|_| SourceId::Hash(crate::record::content_hash(t.raw())));
+        out.push(Record {
+            at: instant,
+            kind,
+            source: Source::Clarity,
+            id,
+            origin: ctx.origin_line(line),
         });
-        out.push(Record { at: instant, kind, source: Source::Clarity, id, origin: ctx.origin_line(line) });
     }
     Ok(out)
 }

@@ -25,7 +25,9 @@ pub fn looks_like(first: &str, second: &str) -> bool {
 fn date_order(sample: &str) -> DateOrder {
     let s = sample.trim();
     let upper = s.to_ascii_uppercase();
-    if s.get(4..5).is_some_and(|c| c == "-" || c == "/" || c == ".") {
+    if s.get(4..5)
+        .is_some_and(|c| c == "-" || c == "/" || c == ".")
+    {
         DateOrder::YearFirst
     } else if upper.ends_with("AM") || upper.ends_with("PM") {
         DateOrder::MonthFirst
@@ -45,7 +47,10 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
         col(t, prefix).ok_or_else(|| {
             IoError::format(
                 file,
-                format!("a LibreView export needs a \"{prefix}\" column; the columns found are {}", t.columns_found()),
+                format!(
+                    "a LibreView export needs a \"{prefix}\" column; the columns found are {}",
+                    t.columns_found()
+                ),
             )
         })
     };
@@ -55,7 +60,8 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     let scan_at = col(&t, "Scan Glucose");
     let strip_at = col(&t, "Strip Glucose");
     let rapid_at = col(&t, "Rapid-Acting Insulin (units)");
-    let long_at = col(&t, "Long-Acting Insulin Value (units)").or_else(|| col(&t, "Long-Acting Insulin (units)"));
+    let long_at = col(&t, "Long-Acting Insulin Value (units)")
+        .or_else(|| col(&t, "Long-Acting Insulin (units)"));
     let meal_at = col(&t, "Meal Insulin (units)");
     let corr_at = col(&t, "Correction Insulin (units)");
     let carbs_at = col(&t, "Carbohydrates (grams)");
@@ -68,7 +74,11 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     if let Some(given) = ctx.opts.units.filter(|&g| g != unit) {
         return Err(IoError::Units {
             file: file.to_string(),
-            message: format!("the file says {} (column \"{historic_name}\") but --units says {}", unit.name(), given.name()),
+            message: format!(
+                "the file says {} (column \"{historic_name}\") but --units says {}",
+                unit.name(),
+                given.name()
+            ),
         });
     }
     let tz = ctx.require_tz("LibreView writes device times without an offset")?;
@@ -87,11 +97,17 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
             IoError::invalid(
                 at.clone(),
                 &time_name,
-                format!("expected a device time like {} , got \"{text}\"", match order {
-                    DateOrder::DayFirst => "12-04-2024 22:30 (day first, as the file's first row)",
-                    DateOrder::MonthFirst => "04-12-2024 10:30 PM (month first, as the file's first row)",
-                    DateOrder::YearFirst => "2024-04-12 22:30 (year first, as the file's first row)",
-                }),
+                format!(
+                    "expected a device time like {} , got \"{text}\"",
+                    match order {
+                        DateOrder::DayFirst =>
+                            "12-04-2024 22:30 (day first, as the file's first row)",
+                        DateOrder::MonthFirst =>
+                            "04-12-2024 10:30 PM (month first, as the file's first row)",
+                        DateOrder::YearFirst =>
+                            "2024-04-12 22:30 (year first, as the file's first row)",
+                    }
+                ),
             )
         })?;
         let instant = wall.resolve(dt, &at, &time_name)?;
@@ -102,53 +118,122 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
                 return Ok(None);
             }
             let name = t.header[i].clone();
-            let v = number(text, delim).ok_or_else(|| IoError::invalid(at.clone(), &name, format!("expected a number, got \"{text}\"")))?;
+            let v = number(text, delim).ok_or_else(|| {
+                IoError::invalid(
+                    at.clone(),
+                    &name,
+                    format!("expected a number, got \"{text}\""),
+                )
+            })?;
             Ok(Some((name, v)))
         };
         let glucose = |t: &Table<'_>, i: Option<usize>| -> Result<Option<Glucose>, IoError> {
             match value(t, i)? {
                 None => Ok(None),
-                Some((name, v)) => Ok(Some(Glucose { mg_dl: MgDl(units::glucose_mg_dl(&at, &name, v, unit)?), censor: crate::record::Censor::Exact })),
+                Some((name, v)) => Ok(Some(Glucose {
+                    mg_dl: MgDl(units::glucose_mg_dl(&at, &name, v, unit)?),
+                    censor: crate::record::Censor::Exact,
+                })),
             }
         };
-        let missing = |what: &str| IoError::invalid(at.clone(), what, "the record type needs this value; the cell is empty");
+        let missing = |what: &str| {
+            IoError::invalid(
+                at.clone(),
+                what,
+                "the record type needs this value; the cell is empty",
+            )
+        };
         let rtype = t.cell(type_at).to_string();
         let mut kinds = Vec::new();
         match rtype.as_str() {
-            "0" => kinds.push(RecordKind::Cgm { glucose: glucose(&t, Some(historic_at))?.ok_or_else(|| missing(&historic_name))? }),
-            "1" => kinds.push(RecordKind::Ignored { kind: "scan glucose".into() }),
-            "2" => kinds.push(RecordKind::Smbg { glucose: glucose(&t, strip_at)?.ok_or_else(|| missing("Strip Glucose"))? }),
-            "3" => kinds.push(RecordKind::Ignored { kind: "ketone".into() }),
+            "0" => kinds.push(RecordKind::Cgm {
+                glucose: glucose(&t, Some(historic_at))?.ok_or_else(|| missing(&historic_name))?,
+            }),
+            "1" => kinds.push(RecordKind::Ignored {
+                kind: "scan glucose".into(),
+            }),
+            "2" => kinds.push(RecordKind::Smbg {
+                glucose: glucose(&t, strip_at)?.ok_or_else(|| missing("Strip Glucose"))?,
+            }),
+            "3" => kinds.push(RecordKind::Ignored {
+                kind: "ketone".into(),
+            }),
             "4" => {
                 let bolus = match value(&t, rapid_at)? {
                     Some(v) => Some(v),
                     None => match (value(&t, meal_at)?, value(&t, corr_at)?) {
                         (None, None) => None,
-                        (a, b) => Some(("Meal + Correction Insulin (units)".to_string(), a.map_or(0.0, |a| a.1) + b.map_or(0.0, |b| b.1))),
+                        (a, b) => Some((
+                            "Meal + Correction Insulin (units)".to_string(),
+                            a.map_or(0.0, |a| a.1) + b.map_or(0.0, |b| b.1),
+                        )),
                     },
                 };
                 if let Some((name, u)) = bolus {
-                    kinds.push(RecordKind::Bolus { units: Units(check_range(&at, &name, u, 0.0, units::BOLUS_MAX_U, "insulin (U)")?) });
+                    kinds.push(RecordKind::Bolus {
+                        units: Units(check_range(
+                            &at,
+                            &name,
+                            u,
+                            0.0,
+                            units::BOLUS_MAX_U,
+                            "insulin (U)",
+                        )?),
+                    });
                 }
                 if let Some((name, u)) = value(&t, long_at)? {
-                    kinds.push(RecordKind::LongActing { units: Units(check_range(&at, &name, u, 0.0, units::BOLUS_MAX_U, "insulin (U)")?) });
+                    kinds.push(RecordKind::LongActing {
+                        units: Units(check_range(
+                            &at,
+                            &name,
+                            u,
+                            0.0,
+                            units::BOLUS_MAX_U,
+                            "insulin (U)",
+                        )?),
+                    });
                 }
                 if kinds.is_empty() {
-                    kinds.push(RecordKind::Ignored { kind: "insulin without a number".into() });
+                    kinds.push(RecordKind::Ignored {
+                        kind: "insulin without a number".into(),
+                    });
                 }
             }
             "5" => match value(&t, carbs_at)? {
-                Some((name, g)) => kinds.push(RecordKind::Carbs { grams: Grams(check_range(&at, &name, g, 0.0, units::CARBS_MAX_G, "carbohydrate (g)")?) }),
-                None if value(&t, servings_at)?.is_some() => kinds.push(RecordKind::Ignored { kind: "food in servings (grams per serving unknown)".into() }),
-                None => kinds.push(RecordKind::Ignored { kind: "food without carbohydrate".into() }),
+                Some((name, g)) => kinds.push(RecordKind::Carbs {
+                    grams: Grams(check_range(
+                        &at,
+                        &name,
+                        g,
+                        0.0,
+                        units::CARBS_MAX_G,
+                        "carbohydrate (g)",
+                    )?),
+                }),
+                None if value(&t, servings_at)?.is_some() => kinds.push(RecordKind::Ignored {
+                    kind: "food in servings (grams per serving unknown)".into(),
+                }),
+                None => kinds.push(RecordKind::Ignored {
+                    kind: "food without carbohydrate".into(),
+                }),
             },
-            "6" => kinds.push(RecordKind::Ignored { kind: "note or time change".into() }),
-            other => kinds.push(RecordKind::Ignored { kind: format!("record type {other}") }),
+            "6" => kinds.push(RecordKind::Ignored {
+                kind: "note or time change".into(),
+            }),
+            other => kinds.push(RecordKind::Ignored {
+                kind: format!("record type {other}"),
+            }),
         }
         let _ = scan_at;
         let hash = content_hash(t.raw());
         for (n, kind) in kinds.into_iter().enumerate() {
-            out.push(Record { at: instant, kind, source: Source::LibreView, id: SourceId::Hash(hash.wrapping_add(n as u64)), origin: ctx.origin_line(line) });
+            out.push(Record {
+                at: instant,
+                kind,
+                source: Source::LibreView,
+                id: SourceId::Hash(hash.wrapping_add(n as u64)),
+                origin: ctx.origin_line(line),
+            });
         }
     }
     Ok(out)

@@ -80,16 +80,25 @@ pub struct Ctx<'a> {
 impl Ctx<'_> {
     /// The origin of a CSV line.
     pub fn origin_line(&self, line: u64) -> Origin {
-        Origin { file: self.index, at: OriginAt::Line(u32::try_from(line).unwrap_or(u32::MAX)) }
+        Origin {
+            file: self.index,
+            at: OriginAt::Line(u32::try_from(line).unwrap_or(u32::MAX)),
+        }
     }
     /// The origin of a JSON array item.
     pub fn origin_item(&self, index: usize) -> Origin {
-        Origin { file: self.index, at: OriginAt::Item(u32::try_from(index).unwrap_or(u32::MAX)) }
+        Origin {
+            file: self.index,
+            at: OriginAt::Item(u32::try_from(index).unwrap_or(u32::MAX)),
+        }
     }
     /// The zone for wall times, or an error saying why it is needed.
     pub fn require_tz(&self, why: &str) -> Result<TimeZone, IoError> {
         self.opts.tz.clone().ok_or_else(|| {
-            IoError::format(self.file, format!("{why}: give the person's zone with --tz (for example --tz Europe/Zurich)"))
+            IoError::format(
+                self.file,
+                format!("{why}: give the person's zone with --tz (for example --tz Europe/Zurich)"),
+            )
         })
     }
 }
@@ -97,16 +106,25 @@ impl Ctx<'_> {
 /// Detects the format from the first bytes of the content.
 pub fn detect(file: &str, bytes: &[u8]) -> Result<Format, IoError> {
     let text = table::strip_bom(bytes);
-    let start = text.iter().position(|b| !b.is_ascii_whitespace()).unwrap_or(text.len());
+    let start = text
+        .iter()
+        .position(|b| !b.is_ascii_whitespace())
+        .unwrap_or(text.len());
     let head = String::from_utf8_lossy(&text[start..text.len().min(start + 4096)]);
     if head.starts_with('[') || head.starts_with('{') {
         // Tidepool data carry `type` and `time`; Nightscout uses `date`,
         // `created_at`, `eventType`, `sgv`, `store`.
-        let tidepool = tidepool::TYPES.iter().any(|t| head.contains(&format!("\"type\": \"{t}\"")) || head.contains(&format!("\"type\":\"{t}\"")))
-            && head.contains("\"time\"")
+        let tidepool = tidepool::TYPES.iter().any(|t| {
+            head.contains(&format!("\"type\": \"{t}\""))
+                || head.contains(&format!("\"type\":\"{t}\""))
+        }) && head.contains("\"time\"")
             && !head.contains("\"eventType\"")
             && !head.contains("\"sgv\"");
-        return Ok(if tidepool { Format::Tidepool } else { Format::Nightscout });
+        return Ok(if tidepool {
+            Format::Tidepool
+        } else {
+            Format::Nightscout
+        });
     }
     let mut lines = head.lines();
     let (first, second) = (lines.next().unwrap_or(""), lines.next().unwrap_or(""));
@@ -123,7 +141,12 @@ pub fn detect(file: &str, bytes: &[u8]) -> Result<Format, IoError> {
 }
 
 /// Reads one file's bytes (named `file`, index `index` in the batch).
-pub fn read_bytes(file: &str, index: u16, bytes: &[u8], opts: &ReadOptions) -> Result<(Format, Vec<Record>), IoError> {
+pub fn read_bytes(
+    file: &str,
+    index: u16,
+    bytes: &[u8],
+    opts: &ReadOptions,
+) -> Result<(Format, Vec<Record>), IoError> {
     let format = match opts.format {
         Some(f) => f,
         None => detect(file, bytes)?,
@@ -157,7 +180,10 @@ pub struct Batch {
 impl Batch {
     /// Where a record was read, for messages (`file: line N` or `file: $[i]`).
     pub fn origin(&self, r: &Record) -> String {
-        let file = self.files.get(usize::from(r.origin.file)).map_or("?", String::as_str);
+        let file = self
+            .files
+            .get(usize::from(r.origin.file))
+            .map_or("?", String::as_str);
         match r.origin.at {
             OriginAt::Line(n) => format!("{file}: line {n}"),
             OriginAt::Item(i) => format!("{file}: $[{i}]"),
@@ -165,14 +191,20 @@ impl Batch {
     }
     /// Records of a kind name (see [`crate::RecordKind::name`]).
     pub fn count(&self, kind: &str) -> usize {
-        self.records.iter().filter(|r| r.kind.name() == kind).count()
+        self.records
+            .iter()
+            .filter(|r| r.kind.name() == kind)
+            .count()
     }
 }
 
 /// Reads files already in memory (name, bytes) and merges them.
 pub fn read_all(inputs: &[(String, Vec<u8>)], opts: &ReadOptions) -> Result<Batch, IoError> {
     if inputs.len() > usize::from(u16::MAX) {
-        return Err(IoError::Settings(format!("at most {} files at once", u16::MAX)));
+        return Err(IoError::Settings(format!(
+            "at most {} files at once",
+            u16::MAX
+        )));
     }
     let mut records = Vec::new();
     let mut formats = Vec::new();
@@ -185,7 +217,11 @@ pub fn read_all(inputs: &[(String, Vec<u8>)], opts: &ReadOptions) -> Result<Batc
             records.append(&mut r);
         }
     }
-    Ok(merge(inputs.iter().map(|(n, _)| n.clone()).collect(), formats, records))
+    Ok(merge(
+        inputs.iter().map(|(n, _)| n.clone()).collect(),
+        formats,
+        records,
+    ))
 }
 
 /// Reads files from disk and merges them.
@@ -194,7 +230,9 @@ pub fn read_files(paths: &[std::path::PathBuf], opts: &ReadOptions) -> Result<Ba
         .iter()
         .map(|p| {
             let name = p.display().to_string();
-            std::fs::read(p).map(|b| (name.clone(), b)).map_err(|source| IoError::Open { file: name, source })
+            std::fs::read(p)
+                .map(|b| (name.clone(), b))
+                .map_err(|source| IoError::Open { file: name, source })
         })
         .collect::<Result<Vec<_>, _>>()?;
     read_all(&inputs, opts)
@@ -206,7 +244,7 @@ pub fn read_files(paths: &[std::path::PathBuf], opts: &ReadOptions) -> Result<Ba
 /// records.
 pub fn merge(files: Vec<String>, formats: Vec<Format>, mut records: Vec<Record>) -> Batch {
     if !records.is_sorted_by(|a, b| a.at <= b.at) {
-        records.sort_by(|a, b| a.at.cmp(&b.at));
+        records.sort_by_key(|r| r.at);
     }
     let mut duplicates: BTreeMap<String, usize> = BTreeMap::new();
     let mut write = 0;
@@ -227,5 +265,10 @@ pub fn merge(files: Vec<String>, formats: Vec<Format>, mut records: Vec<Record>)
         write += 1;
     }
     records.truncate(write);
-    Batch { files, formats, records, duplicates }
+    Batch {
+        files,
+        formats,
+        records,
+        duplicates,
+    }
 }

@@ -13,12 +13,29 @@ use crate::record::{content_hash, BasalSchedule, Glucose, Record, RecordKind, So
 use crate::time::{has_offset, parse_instant, parse_wall, DateOrder, WallClock};
 use crate::units::{self, check_range, GlucoseUnit};
 
-const TIME_NAMES: [&str; 6] = ["time", "timestamp", "datetime", "date_time", "date", "minute"];
-const GLUCOSE_NAMES: [&str; 7] = ["glucose", "gl", "sgv", "cgm", "cgm_mg_dl", "glucose_mg_dl", "glucose_mmol_l"];
+const TIME_NAMES: [&str; 6] = [
+    "time",
+    "timestamp",
+    "datetime",
+    "date_time",
+    "date",
+    "minute",
+];
+const GLUCOSE_NAMES: [&str; 7] = [
+    "glucose",
+    "gl",
+    "sgv",
+    "cgm",
+    "cgm_mg_dl",
+    "glucose_mg_dl",
+    "glucose_mmol_l",
+];
 
 /// The unit a column name declares, if any.
 pub fn unit_in_name(name: &str) -> Option<GlucoseUnit> {
-    let n = name.to_ascii_lowercase().replace([' ', '(', ')', '[', ']'], "");
+    let n = name
+        .to_ascii_lowercase()
+        .replace([' ', '(', ')', '[', ']'], "");
     if n.contains("mg/dl") || n.ends_with("mg_dl") || n.ends_with("mgdl") {
         Some(GlucoseUnit::MgDl)
     } else if n.contains("mmol/l") || n.ends_with("mmol_l") || n.ends_with("mmol") {
@@ -40,7 +57,10 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
         Some(name) => find(&t, name).ok_or_else(|| {
             IoError::format(
                 file,
-                format!("no time column \"{name}\"; the columns found are {}", t.columns_found()),
+                format!(
+                    "no time column \"{name}\"; the columns found are {}",
+                    t.columns_found()
+                ),
             )
         })?,
         None => TIME_NAMES.iter().find_map(|n| find(&t, n)).ok_or_else(|| {
@@ -56,29 +76,34 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     };
     let time_name = t.header[time_at].clone();
     let minute_clock = time_name.eq_ignore_ascii_case("minute");
-    let glucose_at = match &ctx.opts.glucose_column {
-        Some(name) => Some(find(&t, name).ok_or_else(|| {
-            IoError::format(
-                file,
-                format!("no glucose column \"{name}\"; the columns found are {}", t.columns_found()),
-            )
-        })?),
-        None => {
-            let hits: Vec<usize> = GLUCOSE_NAMES.iter().filter_map(|n| find(&t, n)).collect();
-            let sim: Vec<usize> = ["bg_mg_dl", "gs_mg_dl"].iter().filter_map(|n| find(&t, n)).collect();
-            match (hits.first(), sim.len()) {
-                (Some(&i), _) => Some(i),
-                (None, 0) => None,
-                (None, _) => {
-                    return Err(IoError::format(
+    let glucose_at =
+        match &ctx.opts.glucose_column {
+            Some(name) => Some(find(&t, name).ok_or_else(|| {
+                IoError::format(
+                    file,
+                    format!(
+                        "no glucose column \"{name}\"; the columns found are {}",
+                        t.columns_found()
+                    ),
+                )
+            })?),
+            None => {
+                let hits: Vec<usize> = GLUCOSE_NAMES.iter().filter_map(|n| find(&t, n)).collect();
+                let sim: Vec<usize> = ["bg_mg_dl", "gs_mg_dl"]
+                    .iter()
+                    .filter_map(|n| find(&t, n))
+                    .collect();
+                match (hits.first(), sim.len()) {
+                    (Some(&i), _) => Some(i),
+                    (None, 0) => None,
+                    (None, _) => return Err(IoError::format(
                         file,
                         "abba simulate output has plasma (bg_mg_dl) and subcutaneous (gs_mg_dl) \
                          glucose; choose one with --glucose-column",
-                    ))
+                    )),
                 }
             }
-        }
-    };
+        };
     let carbs_at = find(&t, "carbs").or_else(|| find(&t, "carbs_g"));
     let bolus_at = find(&t, "bolus").or_else(|| find(&t, "bolus_u"));
     let basal_at = find(&t, "basal").or_else(|| find(&t, "basal_u_per_h"));
@@ -93,7 +118,10 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
         ));
     }
     let glucose_name = glucose_at.map(|i| t.header[i].clone()).unwrap_or_default();
-    let unit = match (glucose_at.and_then(|i| unit_in_name(&t.header[i])), ctx.opts.units) {
+    let unit = match (
+        glucose_at.and_then(|i| unit_in_name(&t.header[i])),
+        ctx.opts.units,
+    ) {
         (Some(named), Some(given)) if named != given => {
             return Err(IoError::Units {
                 file: file.to_string(),
@@ -107,7 +135,9 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
         (Some(named), _) => Some(named),
         (None, given) => given,
     };
-    let declared_in_file = glucose_at.and_then(|i| unit_in_name(&t.header[i])).is_some();
+    let declared_in_file = glucose_at
+        .and_then(|i| unit_in_name(&t.header[i]))
+        .is_some();
     if glucose_at.is_some() && unit.is_none() {
         return Err(IoError::Units {
             file: file.to_string(),
@@ -120,7 +150,10 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     if ctx.opts.subject.is_some() && id_at.is_none() {
         return Err(IoError::format(
             file,
-            format!("--subject needs an \"id\" column; the columns found are {}", t.columns_found()),
+            format!(
+                "--subject needs an \"id\" column; the columns found are {}",
+                t.columns_found()
+            ),
         ));
     }
     let tz = ctx.opts.tz.clone().unwrap_or(jiff::tz::TimeZone::UTC);
@@ -147,9 +180,9 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
                             at,
                             "id",
                             format!(
-                                "subject \"{id}\" differs from \"{first}\" on line {first_line}; the \
+                            "subject \"{id}\" differs from \"{first}\" on line {first_line}; the \
                                  file holds several subjects, choose one with --subject"
-                            ),
+                        ),
                         ))
                     }
                     Some(_) => {}
@@ -160,7 +193,11 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
         let instant = if minute_clock {
             let m = required_number(file, line, &time_name, text, delim, "a whole minute")?;
             if m.fract() != 0.0 || m.abs() > 1e9 {
-                return Err(IoError::invalid(at, &time_name, format!("expected a whole minute, got \"{text}\"")));
+                return Err(IoError::invalid(
+                    at,
+                    &time_name,
+                    format!("expected a whole minute, got \"{text}\""),
+                ));
             }
             // Minutes since 00:00 of day 1, placed at 1970-01-01 00:00 in
             // the given zone (UTC without --tz): only differences matter.
@@ -218,11 +255,19 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
         };
         if let (Some(i), Some(unit)) = (glucose_at, unit) {
             let text = t.cell(i);
-            if !(text.is_empty() && (carbs_at.is_some() || bolus_at.is_some() || basal_at.is_some())) {
-                let v = required_number(file, line, &glucose_name, text, delim, "a glucose number")?;
+            if !(text.is_empty()
+                && (carbs_at.is_some() || bolus_at.is_some() || basal_at.is_some()))
+            {
+                let v =
+                    required_number(file, line, &glucose_name, text, delim, "a glucose number")?;
                 let mg = units::glucose_mg_dl(&at, &glucose_name, v, unit)?;
                 raw_glucose.push(v);
-                push(RecordKind::Cgm { glucose: Glucose::exact(mg) }, 0);
+                push(
+                    RecordKind::Cgm {
+                        glucose: Glucose::exact(mg),
+                    },
+                    0,
+                );
             }
         }
         for (col, n) in [(carbs_at, 1), (bolus_at, 2), (basal_at, 3)] {
@@ -234,10 +279,35 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
             let name = t.header[i].clone();
             let v = required_number(file, line, &name, text, delim, "a number")?;
             let kind = match n {
-                1 => RecordKind::Carbs { grams: Grams(check_range(&at, &name, v, 0.0, units::CARBS_MAX_G, "carbohydrate (g)")?) },
-                2 => RecordKind::Bolus { units: Units(check_range(&at, &name, v, 0.0, units::BOLUS_MAX_U, "bolus (U)")?) },
+                1 => RecordKind::Carbs {
+                    grams: Grams(check_range(
+                        &at,
+                        &name,
+                        v,
+                        0.0,
+                        units::CARBS_MAX_G,
+                        "carbohydrate (g)",
+                    )?),
+                },
+                2 => RecordKind::Bolus {
+                    units: Units(check_range(
+                        &at,
+                        &name,
+                        v,
+                        0.0,
+                        units::BOLUS_MAX_U,
+                        "bolus (U)",
+                    )?),
+                },
                 _ => RecordKind::Schedule {
-                    basal: Box::new(BasalSchedule::flat(UnitsPerHour(check_range(&at, &name, v, 0.0, units::BASAL_MAX_U_PER_H, "basal rate (U/h)")?))),
+                    basal: Box::new(BasalSchedule::flat(UnitsPerHour(check_range(
+                        &at,
+                        &name,
+                        v,
+                        0.0,
+                        units::BASAL_MAX_U_PER_H,
+                        "basal rate (U/h)",
+                    )?))),
                     timezone: None,
                 },
             };
@@ -245,7 +315,10 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
         }
     }
     if let (Some(wanted), false) = (&ctx.opts.subject, subject_seen) {
-        return Err(IoError::format(file, format!("no rows with id \"{wanted}\"")));
+        return Err(IoError::format(
+            file,
+            format!("no rows with id \"{wanted}\""),
+        ));
     }
     if let (Some(unit), false) = (unit, declared_in_file) {
         units::check_median(file, &raw_glucose, unit)?;

@@ -121,15 +121,18 @@ impl<'a> Table<'a> {
     /// line, or `None` at the end. Blank lines are skipped.
     pub fn next_row(&mut self) -> Result<Option<u64>, IoError> {
         loop {
-            let ok = self.reader.read_byte_record(&mut self.record).map_err(|e| {
-                let byte = e.position().map_or(self.counted, |p| p.byte() as usize);
-                let line = self.line_at(byte);
-                IoError::invalid(
-                    Location::line(self.file, line),
-                    "row",
-                    format!("unreadable CSV: {e}"),
-                )
-            })?;
+            let ok = self
+                .reader
+                .read_byte_record(&mut self.record)
+                .map_err(|e| {
+                    let byte = e.position().map_or(self.counted, |p| p.byte() as usize);
+                    let line = self.line_at(byte);
+                    IoError::invalid(
+                        Location::line(self.file, line),
+                        "row",
+                        format!("unreadable CSV: {e}"),
+                    )
+                })?;
             if !ok {
                 return Ok(None);
             }
@@ -141,7 +144,11 @@ impl<'a> Table<'a> {
                 byte += 1;
             }
             let line = self.line_at(byte);
-            if self.record.iter().all(|c| c.iter().all(u8::is_ascii_whitespace)) {
+            if self
+                .record
+                .iter()
+                .all(|c| c.iter().all(u8::is_ascii_whitespace))
+            {
                 continue;
             }
             return Ok(Some(line));
@@ -152,7 +159,10 @@ impl<'a> Table<'a> {
     /// move forward).
     fn line_at(&mut self, byte: usize) -> u64 {
         let end = byte.min(self.input.len()).max(self.counted);
-        self.newlines += self.input[self.counted..end].iter().filter(|&&b| b == b'\n').count() as u64;
+        self.newlines += self.input[self.counted..end]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count() as u64;
         self.counted = end;
         self.offset + self.newlines + 1
     }
@@ -214,7 +224,11 @@ mod tests {
 
     #[test]
     fn lines_count_alike_with_lf_and_crlf() {
-        for text in ["a,b\n1,2\n\n3,4\n", "a,b\r\n1,2\r\n\r\n3,4\r\n", "pre\na,b\n1,2\n\n3,4"] {
+        for text in [
+            "a,b\n1,2\n\n3,4\n",
+            "a,b\r\n1,2\r\n\r\n3,4\r\n",
+            "pre\na,b\n1,2\n\n3,4",
+        ] {
             let header_at = usize::from(text.starts_with("pre"));
             let mut t = Table::open("f", text.as_bytes(), header_at).unwrap();
             let mut lines = Vec::new();
@@ -222,7 +236,11 @@ mod tests {
                 lines.push((l, t.cell(0).to_string()));
             }
             let h = header_at as u64;
-            assert_eq!(lines, vec![(h + 2, "1".to_string()), (h + 4, "3".to_string())], "{text:?}");
+            assert_eq!(
+                lines,
+                vec![(h + 2, "1".to_string()), (h + 4, "3".to_string())],
+                "{text:?}"
+            );
         }
     }
 }

@@ -2,8 +2,9 @@
 //! read them. Parsing only; reading is abba-io's.
 use std::path::PathBuf;
 
+use abba_io::time::DateOrder;
 use abba_io::{Format, GlucoseUnit, ReadOptions};
-use anyhow::{anyhow, Result};
+use anyhow::{anyhow, bail, Result};
 
 /// How to read the input files.
 #[derive(clap::Args, Debug)]
@@ -29,6 +30,9 @@ pub struct InputArgs {
     /// Plain CSV: use only the rows whose `id` column equals ID.
     #[arg(long, value_name = "ID")]
     pub subject: Option<String>,
+    /// LibreView dates that do not tell (no day above 12, no AM/PM): day-first or month-first.
+    #[arg(long, value_name = "ORDER")]
+    pub date_order: Option<String>,
 }
 
 impl InputArgs {
@@ -57,6 +61,12 @@ impl InputArgs {
             time_column: self.time_column.clone(),
             glucose_column: self.glucose_column.clone(),
             subject: self.subject.clone(),
+            date_order: match self.date_order.as_deref() {
+                None => None,
+                Some("day-first") => Some(DateOrder::DayFirst),
+                Some("month-first") => Some(DateOrder::MonthFirst),
+                Some(o) => bail!("--date-order {o}: expected day-first or month-first"),
+            },
         })
     }
 }

@@ -262,6 +262,23 @@ mod tests {
     }
 
     #[test]
+    fn instants_with_every_offset_spelling() {
+        let want: Timestamp = "2023-11-17T02:32:37.089Z".parse().unwrap();
+        for text in [
+            "2023-11-17T03:32:37.089+01:00",
+            "2023-11-17T03:32:37.089+0100",
+            "2023-11-17 03:32:37.089+01:00",
+            "2023-11-17T02:32:37.089Z",
+        ] {
+            assert_eq!(parse_instant(text), Some(want), "{text}");
+            assert!(has_offset(text), "{text}");
+        }
+        assert!(!has_offset("2023-11-17T03:32:37"));
+        assert!(!has_offset("2023-11-17 03:32é"));
+        assert_eq!(parse_instant("2023-11-17T03:32:37"), None);
+    }
+
+    #[test]
     fn epoch_days_agree_with_jiff() {
         for (y, m, d) in [(1970, 1, 1), (1961, 4, 12), (2000, 2, 29), (2026, 12, 31)] {
             let date = jiff::civil::date(y, m, d);

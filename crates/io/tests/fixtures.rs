@@ -188,11 +188,17 @@ fn libreview_semicolon_mmol() -> Vec<u8> {
 
 #[test]
 fn libreview_with_semicolons_decimal_commas_and_mmol() {
-    let b = read(
+    // Every date is 01.02.2024: day-first or month-first cannot be told
+    // from the file, so it is an error unless the user says.
+    let err = read(
         &[("de.csv", libreview_semicolon_mmol())],
         &opts("Europe/Berlin"),
     )
-    .unwrap();
+    .unwrap_err();
+    assert!(err.to_string().contains("--date-order"), "{err}");
+    let mut o = opts("Europe/Berlin");
+    o.date_order = Some(abba_io::time::DateOrder::DayFirst);
+    let b = read(&[("de.csv", libreview_semicolon_mmol())], &o).unwrap();
     assert_eq!(b.count("cgm"), 12);
     let first = match b.records[0].kind {
         RecordKind::Cgm { glucose } => glucose.mg_dl.0,

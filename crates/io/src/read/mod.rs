@@ -65,6 +65,9 @@ pub struct ReadOptions {
     pub glucose_column: Option<String>,
     /// Plain CSV: the subject (`id` column) to keep.
     pub subject: Option<String>,
+    /// LibreView: day-first or month-first dates, for a file whose dates
+    /// do not tell (used only then).
+    pub date_order: Option<crate::time::DateOrder>,
 }
 
 /// What a reader needs: the file's name and index, and the options.

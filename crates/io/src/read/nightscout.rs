@@ -24,11 +24,17 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     let mut out = Vec::with_capacity(items.len());
     for item in objects(ctx.file, &items)? {
         let at = instant(&item)?;
-        let id = match item.str("_id")? {
-            Some(id) => SourceId::Id(id.into()),
+        // `_id` is a string from the API, `{"$oid": ...}` from a MongoDB dump.
+        let id = match item.get("_id") {
+            Some(Value::String(id)) => SourceId::Id(id.as_str().into()),
+            Some(Value::Object(o)) => match o.get("$oid") {
+                Some(Value::String(id)) => SourceId::Id(id.as_str().into()),
+                _ => return Err(item.err("_id", "expected a string or {\"$oid\": string}")),
+            },
             None => SourceId::Hash(content_hash([Value::Object(item.obj.clone())
                 .to_string()
                 .as_bytes()])),
+            Some(other) => return Err(item.err("_id", format!("expected a string, got {other}"))),
         };
         let kinds = if item.get("store").is_some() {
             vec![profile(&item)?]

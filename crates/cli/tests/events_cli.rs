@@ -132,3 +132,51 @@ fn export_writes_nightscout_that_events_reads_back() {
     assert_eq!(counts["meal_announced"], 9, "{counts}");
     assert_eq!(v["mapping"]["rejected"].as_array().unwrap().len(), 0);
 }
+
+#[test]
+fn metrics_reads_abbas_own_simulate_output() {
+    let dir = std::env::temp_dir().join(format!("abba_sim_out_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out_csv = dir.join("day.csv");
+    let f = out_csv.to_str().unwrap();
+    ok(&abba(&[
+        "simulate",
+        "--patient",
+        "adult#001",
+        "--day",
+        "standard",
+        "--out",
+        f,
+    ]));
+    // Plasma and subcutaneous glucose are both there: the user chooses.
+    let both = abba(&["metrics", "--input", f]);
+    assert!(!both.status.success());
+    assert!(String::from_utf8_lossy(&both.stderr).contains("--glucose-column"));
+    let v: serde_json::Value = serde_json::from_str(&ok(&abba(&[
+        "metrics",
+        "--input",
+        f,
+        "--glucose-column",
+        "gs_mg_dl",
+        "--json",
+    ])))
+    .unwrap();
+    // The mean of the gs_mg_dl column, computed here from the file.
+    let text = std::fs::read_to_string(&out_csv).unwrap();
+    let col = text
+        .lines()
+        .next()
+        .unwrap()
+        .split(',')
+        .position(|c| c == "gs_mg_dl")
+        .unwrap();
+    let gs: Vec<f64> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(col).unwrap().parse().unwrap())
+        .collect();
+    std::fs::remove_dir_all(&dir).ok();
+    let want = gs.iter().sum::<f64>() / gs.len() as f64;
+    let mean = v["mean_mg_dl"].as_f64().unwrap();
+    assert!((mean - want).abs() < 1e-6, "{mean} vs {want}");
+}

@@ -194,7 +194,24 @@ fn datum(item: &Item<'_>, ty: &str) -> Result<RecordKind, IoError> {
                     timezone: None,
                 },
                 "temp" => RecordKind::TempBasal {
-                    rate: TempRate::Absolute(rate(item)?),
+                    // Tidepool gives the rate, and for percentage temps the
+                    // fraction of the schedule (0.5 = half).
+                    rate: match (item.num("rate")?, item.num("percent")?) {
+                        (Some(_), _) => TempRate::Absolute(rate(item)?),
+                        (None, Some(p)) => TempRate::Percent(check_range(
+                            &item.at("percent"),
+                            "percent",
+                            100.0 * p,
+                            0.0,
+                            units::PERCENT_MAX,
+                            "percentage of the scheduled rate",
+                        )?),
+                        (None, None) => {
+                            return Err(
+                                item.err("rate", "missing: a temp basal needs rate or percent")
+                            )
+                        }
+                    },
                     duration_min: duration.ok_or_else(|| {
                         item.err("duration", "missing: a temp basal needs its duration (ms)")
                     })?,

@@ -26,6 +26,9 @@ pub struct Args {
     /// Print records and events as JSON.
     #[arg(long)]
     json: bool,
+    /// Also list every record and every advisor event, one a line.
+    #[arg(long)]
+    list: bool,
 }
 
 /// Runs `abba events`.
@@ -88,6 +91,22 @@ pub fn run(args: Args) -> Result<()> {
     println!("  rejected: {}", stream.rejected.len());
     for r in &stream.rejected {
         println!("    {} ({}): {}", r.origin, r.kind, r.reason);
+    }
+    if args.list {
+        println!("records (UTC instant, source, where, what):");
+        for r in &batch.records {
+            println!(
+                "  {} {} {} {:?}",
+                r.at,
+                r.source.name(),
+                batch.origin(r),
+                r.kind
+            );
+        }
+        println!("advisor events (day and local minute):");
+        for e in &stream.events {
+            println!("  {} {:?}", e.at, e.kind);
+        }
     }
     Ok(())
 }

@@ -45,6 +45,15 @@ fn events_prints_counts_ignored_kinds_and_the_meal_rule() {
     ] {
         assert!(text.contains(part), "lacks {part}:\n{text}");
     }
+    let mut listed = args.clone();
+    listed.push("--list");
+    let list = ok(&abba(&listed));
+    assert!(
+        list.contains("advisor events (day and local minute):")
+            && list.contains("D1 00:00 Cgm(MgDl("),
+        "{}",
+        &list[..list.len().min(3000)]
+    );
     args.push("--json");
     let v: serde_json::Value = serde_json::from_str(&ok(&abba(&args))).unwrap();
     assert_eq!(v["mapping"]["counts"]["cgm"], 859);

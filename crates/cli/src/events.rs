@@ -88,6 +88,9 @@ pub fn run(args: Args) -> Result<()> {
         stream.censored
     );
     println!("  meal rule: {}", stream.meal_rule);
+    for note in &stream.notes {
+        println!("  note: {note}");
+    }
     println!("  rejected: {}", stream.rejected.len());
     for r in &stream.rejected {
         println!("    {} ({}): {}", r.origin, r.kind, r.reason);

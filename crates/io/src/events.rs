@@ -93,6 +93,8 @@ pub struct EventStream {
     pub rejected: Vec<Rejected>,
     /// The meal rule applied.
     pub meal_rule: String,
+    /// Things the user should know (a profile naming another time zone).
+    pub notes: Vec<String>,
 }
 
 /// Name of an event kind.
@@ -230,6 +232,7 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
         censored: 0,
         rejected: Vec::new(),
         meal_rule: person.meals.rule(),
+        notes: Vec::new(),
     };
     let mut basal = Basal::default();
     let mut meals_taken: BTreeMap<(i64, MealSlot), ()> = BTreeMap::new();
@@ -333,8 +336,19 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
                     emit_rate(&mut basal, r.at, false, &mut events);
                 }
             }
-            RecordKind::Schedule { basal: s, .. } => {
-                basal.schedule = Some(BasalSchedule::clone(s));
+            RecordKind::Schedule { profile } => {
+                if let Some(zone) = profile
+                    .timezone
+                    .as_deref()
+                    .filter(|z| Some(*z) != person.tz.iana_name())
+                {
+                    out.notes.push(format!(
+                        "{}: the profile names time zone {zone}, the person's is {}; times are read in the person's",
+                        batch.origin(r),
+                        person.tz.iana_name().unwrap_or("?")
+                    ));
+                }
+                basal.schedule = Some(profile.basal.clone());
                 emit_rate(&mut basal, r.at, true, &mut events);
             }
             RecordKind::TempBasal { rate, duration_min } => {

@@ -133,6 +133,28 @@ impl BasalSchedule {
     }
 }
 
+/// A therapy profile as a pump, Nightscout or a CSV gives it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Profile {
+    /// The basal schedule.
+    pub basal: BasalSchedule,
+    /// Carb ratios from minutes of the local day (empty when the source has none).
+    pub carb_ratio: Vec<(u32, abba_core::GramsPerUnit)>,
+    /// The time zone the profile names, if any.
+    pub timezone: Option<String>,
+}
+
+impl Profile {
+    /// A profile with only a basal schedule.
+    pub fn basal_only(basal: BasalSchedule) -> Self {
+        Self {
+            basal,
+            carb_ratio: Vec::new(),
+            timezone: None,
+        }
+    }
+}
+
 /// What a record says.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 #[serde(tag = "type", rename_all = "snake_case")]
@@ -171,12 +193,11 @@ pub enum RecordKind {
         /// Insulin.
         units: Units,
     },
-    /// A basal schedule (profile) in force from this instant on.
+    /// A therapy profile (basal schedule, carb ratios) in force from this
+    /// instant on.
     Schedule {
-        /// The schedule (boxed: records stay small).
-        basal: Box<BasalSchedule>,
-        /// The time zone the profile names, if any.
-        timezone: Option<Box<str>>,
+        /// The profile (boxed: records stay small).
+        profile: Box<Profile>,
     },
     /// A temporary basal rate for `duration_min` minutes.
     TempBasal {

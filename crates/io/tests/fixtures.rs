@@ -91,8 +91,33 @@ fn nightscout_fixtures_load_newest_first_with_their_counts() {
     assert_eq!(b.count("bolus"), 11);
     assert_eq!(b.count("temp_basal"), 3);
     assert_eq!(b.count("basal_schedule"), 1);
-    assert_eq!(b.count("ignored"), 2); // Sensor Start, Site Change
-                                       // The file is newest first; the stream is oldest first.
+    let profile = b
+        .records
+        .iter()
+        .find_map(|r| match &r.kind {
+            RecordKind::Schedule { profile } => Some(profile),
+            _ => None,
+        })
+        .unwrap();
+    let basal: Vec<(u32, f64)> = profile
+        .basal
+        .segments
+        .iter()
+        .map(|&(m, r)| (m, r.0))
+        .collect();
+    assert_eq!(basal, vec![(0, 0.8), (240, 0.95), (540, 0.8)]);
+    assert_eq!(
+        profile.carb_ratio.first().map(|&(m, r)| (m, r.0)),
+        Some((0, 11.0))
+    );
+    assert_eq!(
+        profile.carb_ratio.get(1).map(|&(m, r)| (m, r.0)),
+        Some((360, 10.0))
+    );
+    assert_eq!(profile.timezone.as_deref(), Some("Europe/Zurich"));
+    // Sensor Start, Site Change.
+    assert_eq!(b.count("ignored"), 2);
+    // The file is newest first; the stream is oldest first.
     assert!(b.records.windows(2).all(|w| w[0].at <= w[1].at));
     let temp = b
         .records

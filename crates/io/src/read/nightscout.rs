@@ -5,14 +5,15 @@
 //! store glucose in mg/dL whatever the display unit; a treatment's
 //! `glucose` (BG Check) says its unit in `units`.
 
-use abba_core::{Grams, MgDl, Units, UnitsPerHour};
+use abba_core::{Grams, GramsPerUnit, MgDl, Units, UnitsPerHour};
 use serde_json::Value;
 
 use super::json::{objects, parse_array, Item};
 use super::Ctx;
 use crate::error::IoError;
 use crate::record::{
-    content_hash, BasalSchedule, Censor, Glucose, Record, RecordKind, Source, SourceId, TempRate,
+    content_hash, BasalSchedule, Censor, Glucose, Profile, Record, RecordKind, Source, SourceId,
+    TempRate,
 };
 use crate::time::parse_instant;
 use crate::units::{self, check_range, GlucoseUnit};
@@ -345,13 +346,20 @@ fn profile(item: &Item<'_>) -> Result<RecordKind, IoError> {
     schedule_of(&inner, &format!("store.{name}"))
 }
 
-/// The `basal` array (and `timezone`) of one profile object.
-fn schedule_of(p: &Item<'_>, prefix: &str) -> Result<RecordKind, IoError> {
-    let field = format!("{prefix}.basal");
-    let Some(Value::Array(rows)) = p.get("basal") else {
+/// A time-of-day array (`[{time | timeAsSeconds, value}]`) of a profile,
+/// values checked against `[min, max]`: starts at 00:00, strictly
+/// increasing.
+fn by_time_of_day(
+    p: &Item<'_>,
+    prefix: &str,
+    name: &str,
+    (min, max, what): (f64, f64, &str),
+) -> Result<Vec<(u32, f64)>, IoError> {
+    let field = format!("{prefix}.{name}");
+    let Some(Value::Array(rows)) = p.get(name) else {
         return Err(p.err(&field, "missing: expected an array of {time, value}"));
     };
-    let mut segments: Vec<(u32, UnitsPerHour)> = Vec::new();
+    let mut out: Vec<(u32, f64)> = Vec::new();
     for (i, row) in rows.iter().enumerate() {
         let f = format!("{field}[{i}]");
         let Value::Object(obj) = row else {
@@ -382,32 +390,55 @@ fn schedule_of(p: &Item<'_>, prefix: &str) -> Result<RecordKind, IoError> {
             1439.0,
             "minute of day",
         )? as u32;
-        let rate = r.need_num("value", "a basal rate in U/h").map_err(|_| {
-            p.err(
-                &format!("{f}.value"),
-                "missing: expected a basal rate in U/h",
-            )
-        })?;
-        let rate = check_range(
-            &p.at(&f),
-            &format!("{f}.value"),
-            rate,
-            0.0,
-            units::BASAL_MAX_U_PER_H,
-            "basal rate (U/h)",
-        )?;
-        if segments.last().is_some_and(|&(prev, _)| minute <= prev)
-            || (segments.is_empty() && minute != 0)
-        {
-            return Err(p.err(&f, "basal times must start at 00:00 and increase"));
+        let value = r
+            .need_num("value", what)
+            .map_err(|_| p.err(&format!("{f}.value"), format!("missing: expected {what}")))?;
+        let value = check_range(&p.at(&f), &format!("{f}.value"), value, min, max, what)?;
+        if out.last().is_some_and(|&(prev, _)| minute <= prev) || (out.is_empty() && minute != 0) {
+            return Err(p.err(&f, "times must start at 00:00 and increase"));
         }
-        segments.push((minute, UnitsPerHour(rate)));
+        out.push((minute, value));
     }
-    if segments.is_empty() {
-        return Err(p.err(&field, "the basal schedule is empty"));
+    if out.is_empty() {
+        return Err(p.err(&field, "the schedule is empty"));
     }
+    Ok(out)
+}
+
+/// One profile object: its basal schedule, carb ratios (if any) and zone.
+fn schedule_of(p: &Item<'_>, prefix: &str) -> Result<RecordKind, IoError> {
+    let basal = by_time_of_day(
+        p,
+        prefix,
+        "basal",
+        (0.0, units::BASAL_MAX_U_PER_H, "a basal rate in U/h"),
+    )?;
+    let carb_ratio = match p.get("carbratio") {
+        None => Vec::new(),
+        Some(_) => by_time_of_day(
+            p,
+            prefix,
+            "carbratio",
+            (
+                units::CARB_RATIO_MIN_G_PER_U,
+                units::CARB_RATIO_MAX_G_PER_U,
+                "a carb ratio in g/U",
+            ),
+        )?,
+    };
     Ok(RecordKind::Schedule {
-        basal: Box::new(BasalSchedule { segments }),
-        timezone: p.str("timezone")?.map(Into::into),
+        profile: Box::new(Profile {
+            basal: BasalSchedule {
+                segments: basal
+                    .into_iter()
+                    .map(|(m, r)| (m, UnitsPerHour(r)))
+                    .collect(),
+            },
+            carb_ratio: carb_ratio
+                .into_iter()
+                .map(|(m, r)| (m, GramsPerUnit(r)))
+                .collect(),
+            timezone: p.str("timezone")?.map(str::to_string),
+        }),
     })
 }

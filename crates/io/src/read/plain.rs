@@ -9,7 +9,9 @@ use abba_core::{Grams, Units, UnitsPerHour};
 use super::table::{required_number, Table};
 use super::Ctx;
 use crate::error::{IoError, Location, Place};
-use crate::record::{content_hash, BasalSchedule, Glucose, Record, RecordKind, Source, SourceId};
+use crate::record::{
+    content_hash, BasalSchedule, Glucose, Profile, Record, RecordKind, Source, SourceId,
+};
 use crate::time::{has_offset, parse_instant, parse_wall, DateOrder, WallClock};
 use crate::units::{self, check_range, GlucoseUnit};
 
@@ -300,15 +302,16 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
                     )?),
                 },
                 _ => RecordKind::Schedule {
-                    basal: Box::new(BasalSchedule::flat(UnitsPerHour(check_range(
-                        &at,
-                        &name,
-                        v,
-                        0.0,
-                        units::BASAL_MAX_U_PER_H,
-                        "basal rate (U/h)",
-                    )?))),
-                    timezone: None,
+                    profile: Box::new(Profile::basal_only(BasalSchedule::flat(UnitsPerHour(
+                        check_range(
+                            &at,
+                            &name,
+                            v,
+                            0.0,
+                            units::BASAL_MAX_U_PER_H,
+                            "basal rate (U/h)",
+                        )?,
+                    )))),
                 },
             };
             push(kind, n);

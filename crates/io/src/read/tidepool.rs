@@ -12,7 +12,8 @@ use super::json::{objects, parse_array, Item};
 use super::Ctx;
 use crate::error::IoError;
 use crate::record::{
-    content_hash, BasalSchedule, Censor, Glucose, Record, RecordKind, Source, SourceId, TempRate,
+    content_hash, BasalSchedule, Censor, Glucose, Profile, Record, RecordKind, Source, SourceId,
+    TempRate,
 };
 use crate::time::parse_instant;
 use crate::units::{
@@ -190,8 +191,7 @@ fn datum(item: &Item<'_>, ty: &str) -> Result<RecordKind, IoError> {
             };
             match delivery {
                 "scheduled" | "automated" => RecordKind::Schedule {
-                    basal: Box::new(BasalSchedule::flat(rate(item)?)),
-                    timezone: None,
+                    profile: Box::new(Profile::basal_only(BasalSchedule::flat(rate(item)?))),
                 },
                 "temp" => RecordKind::TempBasal {
                     // Tidepool gives the rate, and for percentage temps the

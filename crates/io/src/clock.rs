@@ -102,3 +102,36 @@ impl AdvisorClock {
         }
     }
 }
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_repeated_hour_maps_at_half_speed_and_back() {
+        let tz = TimeZone::get("Europe/Zurich").unwrap();
+        let clock = AdvisorClock::new(tz, jiff::civil::date(2024, 10, 27));
+        // 02:00 CEST = 00:00Z (first pass), 02:00 CET = 01:00Z (second pass).
+        let at = |s: &str| s.parse::<jiff::Timestamp>().unwrap();
+        assert_eq!(clock.timestamp(at("2024-10-27T00:00:00Z")), Timestamp(120));
+        assert_eq!(clock.timestamp(at("2024-10-27T00:30:00Z")), Timestamp(135));
+        assert_eq!(clock.timestamp(at("2024-10-27T01:00:00Z")), Timestamp(150));
+        assert_eq!(clock.timestamp(at("2024-10-27T01:58:00Z")), Timestamp(179));
+        assert_eq!(clock.timestamp(at("2024-10-27T02:00:00Z")), Timestamp(180));
+        for m in [120, 135, 150, 179, 180, 0, 1439] {
+            assert_eq!(
+                clock.timestamp(clock.instant(Timestamp(m)).unwrap()),
+                Timestamp(m),
+                "{m}"
+            );
+        }
+        // Spring: 02:00-02:59 does not exist on 31 March; 03:00 CEST is minute 180.
+        let spring = AdvisorClock::new(
+            TimeZone::get("Europe/Zurich").unwrap(),
+            jiff::civil::date(2024, 3, 31),
+        );
+        assert_eq!(spring.timestamp(at("2024-03-31T01:00:00Z")), Timestamp(180));
+        assert_eq!(spring.timestamp(at("2024-03-31T00:59:00Z")), Timestamp(119));
+    }
+}

@@ -93,6 +93,8 @@ pub struct EventStream {
     pub rejected: Vec<Rejected>,
     /// The meal rule applied.
     pub meal_rule: String,
+    /// Things the user should know (a profile naming another time zone).
+    pub notes: Vec<String>,
 }
 
 /// Name of an event kind.
@@ -202,7 +204,19 @@ fn plus_min(t: jiff::Timestamp, m: u32) -> jiff::Timestamp {
 /// Maps a merged batch to the advisor's events.
 pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, crate::IoError> {
     person.meals.validate()?;
-    let first_day = match (person.first_day, batch.records.first()) {
+    // Day 1 defaults to the local day of the first record that is data (a
+    // profile in force since long before does not make the first day).
+    let first_data = batch
+        .records
+        .iter()
+        .find(|r| {
+            !matches!(
+                r.kind,
+                RecordKind::Schedule { .. } | RecordKind::Ignored { .. }
+            )
+        })
+        .or(batch.records.first());
+    let first_day = match (person.first_day, first_data) {
         (Some(d), _) => d,
         (None, Some(r)) => person.tz.to_datetime(r.at).date(),
         (None, None) => return Err(crate::IoError::Settings("no records to map".into())),
@@ -218,6 +232,7 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
         censored: 0,
         rejected: Vec::new(),
         meal_rule: person.meals.rule(),
+        notes: Vec::new(),
     };
     let mut basal = Basal::default();
     let mut meals_taken: BTreeMap<(i64, MealSlot), ()> = BTreeMap::new();
@@ -226,7 +241,9 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
         |basal: &mut Basal, at: jiff::Timestamp, force: bool, events: &mut Vec<Event>| {
             let ts = clock.timestamp(at);
             let rate = basal.rate(ts.minute_of_day() as u32);
+            // Basal state before day 1 is followed but emits nothing.
             match basal.last {
+                _ if ts.day_index() < 0 => basal.last = Some(rate),
                 None => basal.last = Some(rate),
                 Some(last) if force || last != rate => {
                     basal.last = Some(rate);
@@ -256,7 +273,14 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
                 reason,
             })
         };
-        if ts.day_index() < 0 {
+        let basal_state = matches!(
+            r.kind,
+            RecordKind::Schedule { .. }
+                | RecordKind::TempBasal { .. }
+                | RecordKind::Suspend { .. }
+                | RecordKind::Resume
+        );
+        if ts.day_index() < 0 && !basal_state {
             reject(&mut out, r, format!("before the first day {first_day}"));
             continue;
         }
@@ -312,8 +336,19 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
                     emit_rate(&mut basal, r.at, false, &mut events);
                 }
             }
-            RecordKind::Schedule { basal: s, .. } => {
-                basal.schedule = Some(s.clone());
+            RecordKind::Schedule { profile } => {
+                if let Some(zone) = profile
+                    .timezone
+                    .as_deref()
+                    .filter(|z| Some(*z) != person.tz.iana_name())
+                {
+                    out.notes.push(format!(
+                        "{}: the profile names time zone {zone}, the person's is {}; times are read in the person's",
+                        batch.origin(r),
+                        person.tz.iana_name().unwrap_or("?")
+                    ));
+                }
+                basal.schedule = Some(profile.basal.clone());
                 emit_rate(&mut basal, r.at, true, &mut events);
             }
             RecordKind::TempBasal { rate, duration_min } => {

@@ -37,7 +37,7 @@ impl Source {
 #[serde(rename_all = "snake_case")]
 pub enum SourceId {
     /// The source's own id (Nightscout `_id`, Tidepool `id`).
-    Id(String),
+    Id(Box<str>),
     /// The source's own row index (Clarity `Index`).
     Index(u64),
     /// A hash of the row's content, for sources with no id (FNV-1a 64 of
@@ -60,9 +60,9 @@ pub struct Origin {
 #[serde(rename_all = "snake_case")]
 pub enum OriginAt {
     /// 1-based line.
-    Line(u64),
+    Line(u32),
     /// 0-based index in the file's top-level JSON array.
-    Item(u64),
+    Item(u32),
 }
 
 /// A glucose value as the device reported it.
@@ -133,6 +133,28 @@ impl BasalSchedule {
     }
 }
 
+/// A therapy profile as a pump, Nightscout or a CSV gives it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Profile {
+    /// The basal schedule.
+    pub basal: BasalSchedule,
+    /// Carb ratios from minutes of the local day (empty when the source has none).
+    pub carb_ratio: Vec<(u32, abba_core::GramsPerUnit)>,
+    /// The time zone the profile names, if any.
+    pub timezone: Option<String>,
+}
+
+impl Profile {
+    /// A profile with only a basal schedule.
+    pub fn basal_only(basal: BasalSchedule) -> Self {
+        Self {
+            basal,
+            carb_ratio: Vec::new(),
+            timezone: None,
+        }
+    }
+}
+
 /// What a record says.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "snake_case")]
@@ -171,12 +193,11 @@ pub enum RecordKind {
         /// Insulin.
         units: Units,
     },
-    /// A basal schedule (profile) in force from this instant on.
+    /// A therapy profile (basal schedule, carb ratios) in force from this
+    /// instant on.
     Schedule {
-        /// The schedule.
-        basal: BasalSchedule,
-        /// The time zone the profile names, if any.
-        timezone: Option<String>,
+        /// The profile (boxed: records stay small).
+        profile: Box<Profile>,
     },
     /// A temporary basal rate for `duration_min` minutes.
     TempBasal {
@@ -246,4 +267,20 @@ pub fn content_hash<'a>(parts: impl IntoIterator<Item = &'a [u8]>) -> u64 {
         }
     }
     h
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_record_stays_small() {
+        // A 10-year CGM file is a million records (BENCHMARKS.md).
+        let size = std::mem::size_of::<Record>();
+        println!(
+            "Record: {size} bytes, RecordKind: {}",
+            std::mem::size_of::<RecordKind>()
+        );
+        assert!(size <= 96, "{size}");
+    }
 }

@@ -39,21 +39,17 @@ pub fn parse_instant(text: &str) -> Option<Timestamp> {
 }
 
 /// Whether `text` ends with an offset or `Z` (so it is an instant, not a
-/// wall time).
+/// wall time): `Z`, or `±hh:mm` / `±hhmm` after the time of day.
 pub fn has_offset(text: &str) -> bool {
-    let t = text.trim();
-    if t.ends_with('Z') || t.ends_with('z') {
+    let b = text.trim().as_bytes();
+    if matches!(b.last(), Some(b'Z' | b'z')) {
         return true;
     }
-    // ±hh:mm or ±hhmm after the time part.
-    let b = t.as_bytes();
-    b.len() > 16 && {
-        let tail = &t[t.len().saturating_sub(6)..];
-        tail.starts_with('+')
-            || tail.starts_with('-')
-            || tail[1..].starts_with('+')
-            || tail[1..].starts_with('-')
+    if b.len() <= 16 {
+        return false;
     }
+    let tail = &b[b.len() - 6..];
+    tail[0] == b'+' || tail[0] == b'-' || tail[1] == b'+' || tail[1] == b'-'
 }
 
 /// Order of day and month in a numeric date.
@@ -159,7 +155,7 @@ impl WallClock {
         field: &str,
     ) -> Result<Timestamp, IoError> {
         let amb = self.tz.to_ambiguous_timestamp(dt);
-        let zone = self.tz.iana_name().unwrap_or("the given zone").to_string();
+        let zone = self.tz.iana_name().unwrap_or("the given zone");
         let ts = match amb.offset() {
             AmbiguousOffset::Unambiguous { offset } => offset.to_timestamp(dt),
             AmbiguousOffset::Gap { .. } => {
@@ -263,6 +259,23 @@ mod tests {
             assert_eq!(parse_wall(bad, DateOrder::DayFirst), None, "{bad}");
             assert_eq!(parse_wall(bad, DateOrder::YearFirst), None, "{bad}");
         }
+    }
+
+    #[test]
+    fn instants_with_every_offset_spelling() {
+        let want: Timestamp = "2023-11-17T02:32:37.089Z".parse().unwrap();
+        for text in [
+            "2023-11-17T03:32:37.089+01:00",
+            "2023-11-17T03:32:37.089+0100",
+            "2023-11-17 03:32:37.089+01:00",
+            "2023-11-17T02:32:37.089Z",
+        ] {
+            assert_eq!(parse_instant(text), Some(want), "{text}");
+            assert!(has_offset(text), "{text}");
+        }
+        assert!(!has_offset("2023-11-17T03:32:37"));
+        assert!(!has_offset("2023-11-17 03:32é"));
+        assert_eq!(parse_instant("2023-11-17T03:32:37"), None);
     }
 
     #[test]

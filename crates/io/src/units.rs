@@ -21,6 +21,10 @@ pub const CARBS_MAX_G: f64 = 500.0;
 pub const BASAL_MAX_U_PER_H: f64 = 50.0;
 /// Longest plausible temporary basal, extended bolus or suspension (min).
 pub const DURATION_MAX_MIN: f64 = 1440.0;
+/// Smallest plausible carb ratio (g/U).
+pub const CARB_RATIO_MIN_G_PER_U: f64 = 1.0;
+/// Largest plausible carb ratio (g/U).
+pub const CARB_RATIO_MAX_G_PER_U: f64 = 150.0;
 /// Largest plausible temporary-basal percentage.
 pub const PERCENT_MAX: f64 = 1000.0;
 

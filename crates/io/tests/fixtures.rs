@@ -91,8 +91,33 @@ fn nightscout_fixtures_load_newest_first_with_their_counts() {
     assert_eq!(b.count("bolus"), 11);
     assert_eq!(b.count("temp_basal"), 3);
     assert_eq!(b.count("basal_schedule"), 1);
-    assert_eq!(b.count("ignored"), 2); // Sensor Start, Site Change
-                                       // The file is newest first; the stream is oldest first.
+    let profile = b
+        .records
+        .iter()
+        .find_map(|r| match &r.kind {
+            RecordKind::Schedule { profile } => Some(profile),
+            _ => None,
+        })
+        .unwrap();
+    let basal: Vec<(u32, f64)> = profile
+        .basal
+        .segments
+        .iter()
+        .map(|&(m, r)| (m, r.0))
+        .collect();
+    assert_eq!(basal, vec![(0, 0.8), (240, 0.95), (540, 0.8)]);
+    assert_eq!(
+        profile.carb_ratio.first().map(|&(m, r)| (m, r.0)),
+        Some((0, 11.0))
+    );
+    assert_eq!(
+        profile.carb_ratio.get(1).map(|&(m, r)| (m, r.0)),
+        Some((360, 10.0))
+    );
+    assert_eq!(profile.timezone.as_deref(), Some("Europe/Zurich"));
+    // Sensor Start, Site Change.
+    assert_eq!(b.count("ignored"), 2);
+    // The file is newest first; the stream is oldest first.
     assert!(b.records.windows(2).all(|w| w[0].at <= w[1].at));
     let temp = b
         .records
@@ -188,11 +213,17 @@ fn libreview_semicolon_mmol() -> Vec<u8> {
 
 #[test]
 fn libreview_with_semicolons_decimal_commas_and_mmol() {
-    let b = read(
+    // Every date is 01.02.2024: day-first or month-first cannot be told
+    // from the file, so it is an error unless the user says.
+    let err = read(
         &[("de.csv", libreview_semicolon_mmol())],
         &opts("Europe/Berlin"),
     )
-    .unwrap();
+    .unwrap_err();
+    assert!(err.to_string().contains("--date-order"), "{err}");
+    let mut o = opts("Europe/Berlin");
+    o.date_order = Some(abba_io::time::DateOrder::DayFirst);
+    let b = read(&[("de.csv", libreview_semicolon_mmol())], &o).unwrap();
     assert_eq!(b.count("cgm"), 12);
     let first = match b.records[0].kind {
         RecordKind::Cgm { glucose } => glucose.mg_dl.0,

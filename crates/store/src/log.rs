@@ -73,7 +73,7 @@ pub fn records(conn: &Connection, person: i64) -> Result<Vec<Record>, StoreError
             id,
             origin: Origin {
                 file: 0,
-                at: OriginAt::Item(out.len() as u64),
+                at: OriginAt::Item(u32::try_from(out.len()).unwrap_or(u32::MAX)),
             },
         });
     }
@@ -93,6 +93,7 @@ pub fn events(person: &Person, records: Vec<Record>) -> Result<EventStream, Stor
             censored: 0,
             rejected: Vec::new(),
             meal_rule: person.settings.meal_windows.rule(),
+            notes: Vec::new(),
         });
     }
     let batch = merge(vec!["store".into()], vec![Format::Nightscout], records);

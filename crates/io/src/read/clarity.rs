@@ -9,7 +9,7 @@ use abba_core::{Grams, Units};
 
 use super::table::{required_number, Table};
 use super::Ctx;
-use crate::error::{IoError, Location};
+use crate::error::{IoError, Location, Place};
 use crate::record::{Censor, Glucose, Record, RecordKind, Source, SourceId};
 use crate::time::{parse_wall, DateOrder, WallClock};
 use crate::units::{self, check_range, GlucoseUnit};
@@ -65,11 +65,13 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     let mut wall = WallClock::new(tz);
     let time_name = t.header[time_at].clone();
     let delim = t.delimiter;
-    let mut out = Vec::new();
+    let mut out = Vec::with_capacity(t.lines_left());
+    // One location reused for every row (no allocation per row).
+    let mut at = Location::line(file, 0);
     while let Some(line) = t.next_row()? {
-        let at = Location::line(file, line);
+        at.place = Place::Line(line);
         let time_text = t.cell(time_at);
-        let kind_text = t.cell(type_at).to_string();
+        let kind_text = t.cell(type_at);
         if time_text.is_empty() {
             continue; // preamble: patient, device and alert settings
         }
@@ -81,9 +83,7 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
             )
         })?;
         let instant = wall.resolve(dt, &at, &time_name)?;
-        let subtype = subtype_at
-            .map(|i| t.cell(i).to_string())
-            .unwrap_or_default();
+        let subtype = subtype_at.map_or("", |i| t.cell(i));
         let glucose = |t: &Table<'_>| -> Result<Glucose, IoError> {
             let text = t.cell(glucose_at);
             let (value, censor) = match text.to_ascii_lowercase().as_str() {
@@ -116,7 +116,7 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
                 let v = required_number(file, line, &name, t.cell(i), delim, what)?;
                 Ok((name, v))
             };
-        let kind = match kind_text.as_str() {
+        let kind = match kind_text {
             "EGV" => RecordKind::Cgm {
                 glucose: glucose(&t)?,
             },

@@ -10,7 +10,7 @@ use abba_core::{Grams, MgDl, Units};
 
 use super::table::{number, Table};
 use super::Ctx;
-use crate::error::{IoError, Location};
+use crate::error::{IoError, Location, Place};
 use crate::record::{content_hash, Glucose, Record, RecordKind, Source, SourceId};
 use crate::time::{parse_wall, DateOrder, WallClock};
 use crate::units::{self, check_range};
@@ -21,19 +21,52 @@ pub fn looks_like(first: &str, second: &str) -> bool {
         || first.contains("Device Timestamp") && first.contains("Record Type")
 }
 
-/// The date order of the file's time cells.
-fn date_order(sample: &str) -> DateOrder {
-    let s = sample.trim();
-    let upper = s.to_ascii_uppercase();
+/// What one time cell says about the date order, if anything: year
+/// first, AM/PM (month first, as US accounts write), a first field above 12
+/// (day first) or a second field above 12 (month first).
+fn order_evidence(cell: &str) -> Option<DateOrder> {
+    let s = cell.trim().trim_matches('"');
     if s.get(4..5)
         .is_some_and(|c| c == "-" || c == "/" || c == ".")
     {
-        DateOrder::YearFirst
-    } else if upper.ends_with("AM") || upper.ends_with("PM") {
-        DateOrder::MonthFirst
-    } else {
-        DateOrder::DayFirst
+        return Some(DateOrder::YearFirst);
     }
+    let upper = s.to_ascii_uppercase();
+    if upper.ends_with("AM") || upper.ends_with("PM") {
+        return Some(DateOrder::MonthFirst);
+    }
+    let mut parts = s.split(['-', '/', '.', ' ']);
+    let a: u32 = parts.next()?.parse().ok()?;
+    let b: u32 = parts.next()?.parse().ok()?;
+    match (a > 12, b > 12) {
+        (true, false) => Some(DateOrder::DayFirst),
+        (false, true) => Some(DateOrder::MonthFirst),
+        _ => None,
+    }
+}
+
+/// The file's date order: the first time cell that tells, else the one
+/// the user gave, else an error (never guessed).
+fn date_order(
+    file: &str,
+    rows: &[u8],
+    delimiter: u8,
+    column: usize,
+    given: Option<DateOrder>,
+) -> Result<DateOrder, IoError> {
+    for line in rows.split(|&b| b == b'\n') {
+        let cell = line.split(|&b| b == delimiter).nth(column).unwrap_or(b"");
+        if let Some(o) = order_evidence(&String::from_utf8_lossy(cell)) {
+            return Ok(o);
+        }
+    }
+    given.ok_or_else(|| {
+        IoError::format(
+            file,
+            "every date could be day-first or month-first (no day above 12, no AM/PM); give \
+             --date-order day-first or month-first",
+        )
+    })
 }
 
 /// Reads a LibreView export.
@@ -85,12 +118,25 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     let mut wall = WallClock::new(tz);
     let time_name = t.header[time_at].clone();
     let delim = t.delimiter;
-    let mut order = None;
-    let mut out = Vec::new();
+    let rows_start = bytes
+        .iter()
+        .enumerate()
+        .filter(|&(_, &b)| b == b'\n')
+        .nth(header_at)
+        .map_or(bytes.len(), |(i, _)| i + 1);
+    let order = date_order(
+        file,
+        &bytes[rows_start..],
+        delim,
+        time_at,
+        ctx.opts.date_order,
+    )?;
+    let mut out = Vec::with_capacity(t.lines_left());
+    // One location reused for every row (no allocation per row).
+    let mut at = Location::line(file, 0);
     while let Some(line) = t.next_row()? {
-        let at = Location::line(file, line);
+        at.place = Place::Line(line);
         let text = t.cell(time_at);
-        let order = *order.get_or_insert_with(|| date_order(text));
         let dt = parse_wall(text, order).ok_or_else(|| {
             IoError::invalid(
                 at.clone(),

@@ -5,14 +5,15 @@
 //! store glucose in mg/dL whatever the display unit; a treatment's
 //! `glucose` (BG Check) says its unit in `units`.
 
-use abba_core::{Grams, MgDl, Units, UnitsPerHour};
+use abba_core::{Grams, GramsPerUnit, MgDl, Units, UnitsPerHour};
 use serde_json::Value;
 
 use super::json::{objects, parse_array, Item};
 use super::Ctx;
 use crate::error::IoError;
 use crate::record::{
-    content_hash, BasalSchedule, Censor, Glucose, Record, RecordKind, Source, SourceId, TempRate,
+    content_hash, BasalSchedule, Censor, Glucose, Profile, Record, RecordKind, Source, SourceId,
+    TempRate,
 };
 use crate::time::parse_instant;
 use crate::units::{self, check_range, GlucoseUnit};
@@ -24,11 +25,17 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     let mut out = Vec::with_capacity(items.len());
     for item in objects(ctx.file, &items)? {
         let at = instant(&item)?;
-        let id = match item.str("_id")? {
-            Some(id) => SourceId::Id(id.to_string()),
+        // `_id` is a string from the API, `{"$oid": ...}` from a MongoDB dump.
+        let id = match item.get("_id") {
+            Some(Value::String(id)) => SourceId::Id(id.as_str().into()),
+            Some(Value::Object(o)) => match o.get("$oid") {
+                Some(Value::String(id)) => SourceId::Id(id.as_str().into()),
+                _ => return Err(item.err("_id", "expected a string or {\"$oid\": string}")),
+            },
             None => SourceId::Hash(content_hash([Value::Object(item.obj.clone())
                 .to_string()
                 .as_bytes()])),
+            Some(other) => return Err(item.err("_id", format!("expected a string, got {other}"))),
         };
         let kinds = if item.get("store").is_some() {
             vec![profile(&item)?]
@@ -40,7 +47,7 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
         for (n, kind) in kinds.into_iter().enumerate() {
             let id = match (&id, n) {
                 (id, 0) => id.clone(),
-                (SourceId::Id(s), n) => SourceId::Id(format!("{s}#{n}")),
+                (SourceId::Id(s), n) => SourceId::Id(format!("{s}#{n}").into()),
                 (SourceId::Hash(h), n) => SourceId::Hash(h.wrapping_add(n as u64)),
                 (SourceId::Index(i), _) => SourceId::Index(*i),
             };
@@ -187,14 +194,13 @@ fn treatment(ctx: &Ctx<'_>, item: &Item<'_>, event: &str) -> Result<Vec<RecordKi
         "Combo Bolus" => {
             carbs(&mut kinds)?;
             let now = item.num("insulin")?.unwrap_or(0.0);
-            let ext = item
-                .num("relative")
-                .or_else(|_| Ok::<_, IoError>(None))?
-                .unwrap_or(0.0);
             let duration = minutes(item, "duration")?.unwrap_or(0);
-            let ext = match item.num("enteredinsulin")? {
-                Some(total) if ext == 0.0 => (total - now).max(0.0),
-                _ => ext * f64::from(duration) / 60.0,
+            // Careportal: `enteredinsulin` is the total, `insulin` the part
+            // given now, `relative` the extended part's rate (U/h).
+            let ext = match (item.num("enteredinsulin")?, item.num("relative")?) {
+                (Some(total), _) => (total - now).max(0.0),
+                (None, Some(rate)) => rate * f64::from(duration) / 60.0,
+                (None, None) => 0.0,
             };
             kinds.push(RecordKind::ExtendedBolus {
                 now: Units(check_range(
@@ -340,13 +346,20 @@ fn profile(item: &Item<'_>) -> Result<RecordKind, IoError> {
     schedule_of(&inner, &format!("store.{name}"))
 }
 
-/// The `basal` array (and `timezone`) of one profile object.
-fn schedule_of(p: &Item<'_>, prefix: &str) -> Result<RecordKind, IoError> {
-    let field = format!("{prefix}.basal");
-    let Some(Value::Array(rows)) = p.get("basal") else {
+/// A time-of-day array (`[{time | timeAsSeconds, value}]`) of a profile,
+/// values checked against `[min, max]`: starts at 00:00, strictly
+/// increasing.
+fn by_time_of_day(
+    p: &Item<'_>,
+    prefix: &str,
+    name: &str,
+    (min, max, what): (f64, f64, &str),
+) -> Result<Vec<(u32, f64)>, IoError> {
+    let field = format!("{prefix}.{name}");
+    let Some(Value::Array(rows)) = p.get(name) else {
         return Err(p.err(&field, "missing: expected an array of {time, value}"));
     };
-    let mut segments: Vec<(u32, UnitsPerHour)> = Vec::new();
+    let mut out: Vec<(u32, f64)> = Vec::new();
     for (i, row) in rows.iter().enumerate() {
         let f = format!("{field}[{i}]");
         let Value::Object(obj) = row else {
@@ -377,32 +390,55 @@ fn schedule_of(p: &Item<'_>, prefix: &str) -> Result<RecordKind, IoError> {
             1439.0,
             "minute of day",
         )? as u32;
-        let rate = r.need_num("value", "a basal rate in U/h").map_err(|_| {
-            p.err(
-                &format!("{f}.value"),
-                "missing: expected a basal rate in U/h",
-            )
-        })?;
-        let rate = check_range(
-            &p.at(&f),
-            &format!("{f}.value"),
-            rate,
-            0.0,
-            units::BASAL_MAX_U_PER_H,
-            "basal rate (U/h)",
-        )?;
-        if segments.last().is_some_and(|&(prev, _)| minute <= prev)
-            || (segments.is_empty() && minute != 0)
-        {
-            return Err(p.err(&f, "basal times must start at 00:00 and increase"));
+        let value = r
+            .need_num("value", what)
+            .map_err(|_| p.err(&format!("{f}.value"), format!("missing: expected {what}")))?;
+        let value = check_range(&p.at(&f), &format!("{f}.value"), value, min, max, what)?;
+        if out.last().is_some_and(|&(prev, _)| minute <= prev) || (out.is_empty() && minute != 0) {
+            return Err(p.err(&f, "times must start at 00:00 and increase"));
         }
-        segments.push((minute, UnitsPerHour(rate)));
+        out.push((minute, value));
     }
-    if segments.is_empty() {
-        return Err(p.err(&field, "the basal schedule is empty"));
+    if out.is_empty() {
+        return Err(p.err(&field, "the schedule is empty"));
     }
+    Ok(out)
+}
+
+/// One profile object: its basal schedule, carb ratios (if any) and zone.
+fn schedule_of(p: &Item<'_>, prefix: &str) -> Result<RecordKind, IoError> {
+    let basal = by_time_of_day(
+        p,
+        prefix,
+        "basal",
+        (0.0, units::BASAL_MAX_U_PER_H, "a basal rate in U/h"),
+    )?;
+    let carb_ratio = match p.get("carbratio") {
+        None => Vec::new(),
+        Some(_) => by_time_of_day(
+            p,
+            prefix,
+            "carbratio",
+            (
+                units::CARB_RATIO_MIN_G_PER_U,
+                units::CARB_RATIO_MAX_G_PER_U,
+                "a carb ratio in g/U",
+            ),
+        )?,
+    };
     Ok(RecordKind::Schedule {
-        basal: BasalSchedule { segments },
-        timezone: p.str("timezone")?.map(str::to_string),
+        profile: Box::new(Profile {
+            basal: BasalSchedule {
+                segments: basal
+                    .into_iter()
+                    .map(|(m, r)| (m, UnitsPerHour(r)))
+                    .collect(),
+            },
+            carb_ratio: carb_ratio
+                .into_iter()
+                .map(|(m, r)| (m, GramsPerUnit(r)))
+                .collect(),
+            timezone: p.str("timezone")?.map(str::to_string),
+        }),
     })
 }

@@ -8,8 +8,10 @@ use abba_core::{Grams, Units, UnitsPerHour};
 
 use super::table::{required_number, Table};
 use super::Ctx;
-use crate::error::{IoError, Location};
-use crate::record::{content_hash, BasalSchedule, Glucose, Record, RecordKind, Source, SourceId};
+use crate::error::{IoError, Location, Place};
+use crate::record::{
+    content_hash, BasalSchedule, Glucose, Profile, Record, RecordKind, Source, SourceId,
+};
 use crate::time::{has_offset, parse_instant, parse_wall, DateOrder, WallClock};
 use crate::units::{self, check_range, GlucoseUnit};
 
@@ -162,10 +164,12 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     let mut first_id: Option<(String, u64)> = None;
     let mut subject_seen = false;
     let mut raw_glucose = Vec::new();
-    let mut out = Vec::new();
+    let mut out = Vec::with_capacity(t.lines_left());
     let delim = t.delimiter;
+    // One location reused for every row (no allocation per row).
+    let mut at = Location::line(file, 0);
     while let Some(line) = t.next_row()? {
-        let at = Location::line(file, line);
+        at.place = Place::Line(line);
         if let Some(i) = id_at {
             let id = t.cell(i);
             match &ctx.opts.subject {
@@ -298,15 +302,16 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
                     )?),
                 },
                 _ => RecordKind::Schedule {
-                    basal: BasalSchedule::flat(UnitsPerHour(check_range(
-                        &at,
-                        &name,
-                        v,
-                        0.0,
-                        units::BASAL_MAX_U_PER_H,
-                        "basal rate (U/h)",
-                    )?)),
-                    timezone: None,
+                    profile: Box::new(Profile::basal_only(BasalSchedule::flat(UnitsPerHour(
+                        check_range(
+                            &at,
+                            &name,
+                            v,
+                            0.0,
+                            units::BASAL_MAX_U_PER_H,
+                            "basal rate (U/h)",
+                        )?,
+                    )))),
                 },
             };
             push(kind, n);

@@ -97,6 +97,12 @@ impl<'a> Table<'a> {
         })
     }
 
+    /// Lines after the header (an upper bound of the rows, to reserve
+    /// memory once).
+    pub fn lines_left(&self) -> usize {
+        self.input.iter().filter(|&&b| b == b'\n').count()
+    }
+
     /// Index of the first header cell for which `pred` holds.
     pub fn column(&self, pred: impl Fn(&str) -> bool) -> Option<usize> {
         self.header.iter().position(|h| pred(h))

@@ -12,7 +12,8 @@ use super::json::{objects, parse_array, Item};
 use super::Ctx;
 use crate::error::IoError;
 use crate::record::{
-    content_hash, BasalSchedule, Censor, Glucose, Record, RecordKind, Source, SourceId, TempRate,
+    content_hash, BasalSchedule, Censor, Glucose, Profile, Record, RecordKind, Source, SourceId,
+    TempRate,
 };
 use crate::time::parse_instant;
 use crate::units::{
@@ -57,7 +58,7 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
             )
         })?;
         let id = match item.str("id")? {
-            Some(id) => SourceId::Id(id.to_string()),
+            Some(id) => SourceId::Id(id.into()),
             None => SourceId::Hash(content_hash([Value::Object(item.obj.clone())
                 .to_string()
                 .as_bytes()])),
@@ -190,11 +191,27 @@ fn datum(item: &Item<'_>, ty: &str) -> Result<RecordKind, IoError> {
             };
             match delivery {
                 "scheduled" | "automated" => RecordKind::Schedule {
-                    basal: BasalSchedule::flat(rate(item)?),
-                    timezone: None,
+                    profile: Box::new(Profile::basal_only(BasalSchedule::flat(rate(item)?))),
                 },
                 "temp" => RecordKind::TempBasal {
-                    rate: TempRate::Absolute(rate(item)?),
+                    // Tidepool gives the rate, and for percentage temps the
+                    // fraction of the schedule (0.5 = half).
+                    rate: match (item.num("rate")?, item.num("percent")?) {
+                        (Some(_), _) => TempRate::Absolute(rate(item)?),
+                        (None, Some(p)) => TempRate::Percent(check_range(
+                            &item.at("percent"),
+                            "percent",
+                            100.0 * p,
+                            0.0,
+                            units::PERCENT_MAX,
+                            "percentage of the scheduled rate",
+                        )?),
+                        (None, None) => {
+                            return Err(
+                                item.err("rate", "missing: a temp basal needs rate or percent")
+                            )
+                        }
+                    },
                     duration_min: duration.ok_or_else(|| {
                         item.err("duration", "missing: a temp basal needs its duration (ms)")
                     })?,

@@ -46,7 +46,8 @@ pub fn key(r: &Record) -> Result<(String, String), StoreError> {
 /// which they were imported.
 pub fn records(conn: &Connection, person: i64) -> Result<Vec<Record>, StoreError> {
     // A scan of the primary key (no per-row index look-ups), sorted here.
-    let mut st = conn.prepare("SELECT source, source_id, at_ms, kind FROM record WHERE person_id = ?1")?;
+    let mut st =
+        conn.prepare("SELECT source, source_id, at_ms, kind FROM record WHERE person_id = ?1")?;
     let rows = st.query_map(params![person], |r| {
         Ok((
             r.get::<_, String>(0)?,

@@ -9,9 +9,9 @@ use crate::answer::{param_key, Answers};
 use crate::error::StoreError;
 use crate::person::Person;
 use abba_advisor::{Abba, Advisor, Decision, DecisionDetail};
-use std::collections::{BTreeMap, VecDeque};
 use abba_core::{Event, EventKind};
 use serde::{Deserialize, Serialize};
+use std::collections::{BTreeMap, VecDeque};
 
 /// A saved advisor state and what it was made from.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -61,7 +61,7 @@ pub struct SettingAdvice {
     pub setting: &'static str,
     /// Unit.
     pub unit: &'static str,
-    /// Value in force now (what the advisor's next update starts from).
+    /// Value in force now (before the open suggestion, if there is one).
     pub in_force: f64,
     /// What to use today: the open suggestion if there is one, else the value in force.
     pub use_today: f64,
@@ -277,10 +277,10 @@ pub fn advice(
         .map(|&p| {
             let key = param_key(p);
             let latest = all.iter().rev().find(|v| v.setting == key).cloned();
-            let in_force = value(advisor, p);
-            let use_today = match &latest {
-                Some(v) if v.status == "open" => v.suggested,
-                _ => in_force,
+            // An open suggestion is not in force until answered.
+            let (in_force, use_today) = match &latest {
+                Some(v) if v.status == "open" => (v.previous, v.suggested),
+                _ => (value(advisor, p), value(advisor, p)),
             };
             SettingAdvice {
                 setting: key,

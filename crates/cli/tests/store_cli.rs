@@ -1,0 +1,381 @@
+//! `abba person new`, `import`, `advise`, `answer`, `history` from outside:
+//! a first run, the notice on every human-readable output, errors that name
+//! the file and field, and crash safety (SIGKILL during `abba import`).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::time::{Duration, Instant};
+
+fn abba(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_abba"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn ok(args: &[&str]) -> String {
+    let out = abba(args);
+    let text = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(
+        out.status.success(),
+        "abba {args:?} failed: {}{}",
+        text,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    text
+}
+
+fn tmp(tag: &str) -> PathBuf {
+    let p = std::env::temp_dir().join(format!("abba-store-cli-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&p);
+    std::fs::create_dir_all(&p).unwrap();
+    p
+}
+
+fn export(dir: &Path, name: &str, days: u32) -> Vec<String> {
+    let out = dir.join(name);
+    ok(&[
+        "export",
+        "--patient",
+        "adult#002",
+        "--days",
+        &days.to_string(),
+        "--tz",
+        "Europe/Zurich",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    ["entries.json", "treatments.json", "profile.json"]
+        .iter()
+        .map(|f| out.join(f).display().to_string())
+        .collect()
+}
+
+const NOTICE: &str = "research software, not a medical device";
+const CLINICIAN: &str = "belong with your clinician";
+
+#[test]
+fn a_first_run() {
+    let dir = tmp("first");
+    let db = dir.join("abba.db");
+    let db = db.to_str().unwrap();
+    let files = export(&dir, "ns", 12);
+    let base = ["--db", db, "--person", "ana"];
+    let text = ok(&[
+        "person",
+        "new",
+        "--db",
+        db,
+        "--name",
+        "ana",
+        "--tz",
+        "Europe/Zurich",
+        "--mode",
+        "cgm",
+        "--basal",
+        "1.0",
+        "--carb-ratio",
+        "10,12,11",
+        "--basal-range",
+        "0.8-1.2",
+        "--carb-ratio-range",
+        "8-14",
+    ]);
+    assert!(text.contains(NOTICE) && text.contains(CLINICIAN), "{text}");
+    let mut import: Vec<&str> = vec!["import"];
+    import.extend(base);
+    import.extend(files.iter().map(String::as_str));
+    let text = ok(&import);
+    assert!(
+        text.contains("new records") && text.contains(NOTICE),
+        "{text}"
+    );
+    let text = ok(&import);
+    assert!(
+        text.contains("Nothing new") && text.contains(NOTICE),
+        "{text}"
+    );
+    let text = ok(&[&["advise"][..], &base].concat());
+    assert!(text.contains(NOTICE) && text.contains(CLINICIAN), "{text}");
+    assert!(
+        text.contains("waiting for your answer") && text.contains("readings from"),
+        "{text}"
+    );
+    let json = ok(&[&["advise"][..], &base, &["--json"]].concat());
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(v["phase"]["phase"], "adapting");
+    assert!(v["notice"].as_str().unwrap().contains(NOTICE));
+    let basal = &v["settings"][0];
+    assert_eq!(basal["latest"]["status"], "open");
+    // Outside the clinician's bounds: refused, naming the flag.
+    let out = abba(&[&["answer"][..], &base, &["--set", "basal=2.5"]].concat());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("--set basal") && err.contains("bounds"),
+        "{err}"
+    );
+    let text = ok(&[&["answer"][..], &base, &["--set", "basal=0.95"]].concat());
+    assert!(
+        text.contains("overridden") && text.contains(NOTICE),
+        "{text}"
+    );
+    let text = ok(&[&["answer"][..], &base, &["--accept"]].concat());
+    assert!(text.contains("accepted"), "{text}");
+    let out = abba(&[&["answer"][..], &base, &["--reject"]].concat());
+    assert!(
+        !out.status.success() && String::from_utf8_lossy(&out.stderr).contains("nothing to answer")
+    );
+    let json = ok(&[&["advise"][..], &base, &["--json"]].concat());
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(v["settings"][0]["in_force"], 0.95);
+    let text = ok(&[&["history"][..], &base].concat());
+    assert!(
+        text.contains(NOTICE) && text.contains("overridden") && text.contains("superseded"),
+        "{text}"
+    );
+    let json = ok(&[&["history"][..], &base, &["--json"]].concat());
+    let rows: Vec<serde_json::Value> = serde_json::from_str(&json).unwrap();
+    assert!(rows
+        .iter()
+        .any(|r| r["status"] == "overridden" && r["in_force"] == 0.95));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn errors_name_the_file_and_field() {
+    let dir = tmp("errors");
+    let db = dir.join("abba.db");
+    let db = db.to_str().unwrap();
+    let out = abba(&[
+        "person",
+        "new",
+        "--db",
+        db,
+        "--name",
+        "ana",
+        "--tz",
+        "Mars/Olympus",
+        "--mode",
+        "cgm",
+        "--basal",
+        "1",
+        "--carb-ratio",
+        "10,10,10",
+    ]);
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("--tz"));
+    let out = abba(&[
+        "person",
+        "new",
+        "--db",
+        db,
+        "--name",
+        "ana",
+        "--tz",
+        "UTC",
+        "--mode",
+        "cgm",
+        "--basal",
+        "1",
+        "--carb-ratio",
+        "10,10",
+    ]);
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("--carb-ratio"));
+    ok(&[
+        "person",
+        "new",
+        "--db",
+        db,
+        "--name",
+        "ana",
+        "--tz",
+        "UTC",
+        "--mode",
+        "smbg",
+        "--basal",
+        "1",
+        "--carb-ratio",
+        "10,10,10",
+    ]);
+    let bad = dir.join("entries.json");
+    std::fs::write(&bad, r#"[{"_id":"1","type":"sgv","sgv":120,"date":1777860000000},{"_id":"2","type":"sgv","sgv":"lots","date":1777860300000}]"#).unwrap();
+    let out = abba(&[
+        "import",
+        "--db",
+        db,
+        "--person",
+        "ana",
+        bad.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("entries.json") && err.contains("sgv"),
+        "{err}"
+    );
+    let out = abba(&["advise", "--db", db, "--person", "nobody"]);
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("nobody"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+fn check(db: &Path, allowed: &[i64]) -> i64 {
+    let conn = rusqlite::Connection::open(db).unwrap();
+    let ok: String = conn
+        .query_row("PRAGMA integrity_check", [], |r| r.get(0))
+        .unwrap();
+    assert_eq!(ok, "ok");
+    let mut st = conn.prepare("SELECT i.records_added, (SELECT count(*) FROM record r WHERE r.import_id = i.id) FROM import i").unwrap();
+    let rows: Vec<(i64, i64)> = st
+        .query_map([], |r| Ok((r.get(0)?, r.get(1)?)))
+        .unwrap()
+        .collect::<Result<_, _>>()
+        .unwrap();
+    for (added, present) in &rows {
+        assert!(
+            *added > 0 && added == present,
+            "an import is partly present: {added} recorded, {present} present"
+        );
+    }
+    let orphans: i64 = conn
+        .query_row(
+            "SELECT count(*) FROM record WHERE import_id NOT IN (SELECT id FROM import)",
+            [],
+            |r| r.get(0),
+        )
+        .unwrap();
+    assert_eq!(orphans, 0);
+    let n: i64 = conn
+        .query_row("SELECT count(*) FROM record", [], |r| r.get(0))
+        .unwrap();
+    assert!(
+        allowed.contains(&n),
+        "{n} records: not one of the whole imports {allowed:?}"
+    );
+    n
+}
+
+/// Kills `abba import` with SIGKILL at pseudo-random points, 40 times
+/// (bounded: each import takes a fraction of a second), checking after
+/// each kill that the file passes `PRAGMA integrity_check` and that every
+/// import is wholly present or wholly absent.
+#[test]
+fn sigkill_during_import_leaves_whole_imports_only() {
+    const KILLS: u32 = 40;
+    let dir = tmp("kill");
+    let small = export(&dir, "small", 20);
+    let big = export(&dir, "big", 30);
+    // Reference counts from clean imports.
+    let count = |files: &[String]| -> i64 {
+        let db = dir.join(format!("ref{}.db", files.len() + files[0].len()));
+        let db = db.to_str().unwrap().to_string();
+        ok(&[
+            "person",
+            "new",
+            "--db",
+            &db,
+            "--name",
+            "p",
+            "--tz",
+            "Europe/Zurich",
+            "--mode",
+            "cgm",
+            "--basal",
+            "1",
+            "--carb-ratio",
+            "10,10,10",
+        ]);
+        let mut a = vec!["import", "--db", &db, "--person", "p", "--json"];
+        a.extend(files.iter().map(String::as_str));
+        let v: serde_json::Value = serde_json::from_str(&ok(&a)).unwrap();
+        v["added"].as_i64().unwrap()
+    };
+    let n_small = count(&small);
+    let n_big = count(&big);
+    let db = dir.join("abba.db");
+    let dbs = db.to_str().unwrap().to_string();
+    ok(&[
+        "person",
+        "new",
+        "--db",
+        &dbs,
+        "--name",
+        "p",
+        "--tz",
+        "Europe/Zurich",
+        "--mode",
+        "cgm",
+        "--basal",
+        "1",
+        "--carb-ratio",
+        "10,10,10",
+    ]);
+    // How long a whole import of the big export takes (process included).
+    let t = Instant::now();
+    let probe = dir.join("probe.db");
+    let probe = probe.to_str().unwrap().to_string();
+    ok(&[
+        "person",
+        "new",
+        "--db",
+        &probe,
+        "--name",
+        "p",
+        "--tz",
+        "UTC",
+        "--mode",
+        "cgm",
+        "--basal",
+        "1",
+        "--carb-ratio",
+        "10,10,10",
+    ]);
+    let mut a = vec!["import", "--db", probe.as_str(), "--person", "p"];
+    a.extend(big.iter().map(String::as_str));
+    ok(&a);
+    let full = t.elapsed().as_micros() as u64;
+    let allowed = [0, n_small, n_big];
+    let mut seed: u64 = 0x5eed;
+    let (mut interrupted, mut completed) = (0, 0);
+    let mut last = 0;
+    for k in 0..KILLS {
+        let files = if k % 2 == 0 { &small } else { &big };
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        let delay = Duration::from_micros((seed >> 20) % (full * 3 / 2 + 1));
+        let mut child = Command::new(env!("CARGO_BIN_EXE_abba"))
+            .args(["import", "--db", &dbs, "--person", "p"])
+            .args(files)
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(delay);
+        child.kill().unwrap(); // SIGKILL
+        let status = child.wait().unwrap();
+        let n = check(&db, &allowed);
+        if status.success() || n != last {
+            completed += 1;
+        } else {
+            interrupted += 1;
+        }
+        last = n;
+        // Start over now and then so that imports keep having work to do.
+        if k % 8 == 7 {
+            let conn = rusqlite::Connection::open(&db).unwrap();
+            conn.execute_batch("DELETE FROM record; DELETE FROM import;")
+                .unwrap();
+            last = 0;
+        }
+    }
+    eprintln!("{KILLS} SIGKILLs: {interrupted} killed `abba import` before it finished, {completed} came after it had finished");
+    assert!(
+        interrupted >= 5,
+        "only {interrupted} kills interrupted an import"
+    );
+    // A clean import afterwards completes the log.
+    let mut a = vec!["import", "--db", dbs.as_str(), "--person", "p"];
+    a.extend(big.iter().map(String::as_str));
+    ok(&a);
+    assert_eq!(check(&db, &allowed), n_big);
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -28,6 +28,25 @@ pub enum AdvisorSpec {
 }
 
 impl AdvisorSpec {
+    /// The arm this spec builds.
+    pub fn arm(&self) -> ArmKind {
+        match self {
+            AdvisorSpec::Abba(_) => ArmKind::Abba,
+            AdvisorSpec::Fixed { .. } => ArmKind::Standard,
+            AdvisorSpec::RunToRun(_) => ArmKind::R2r,
+        }
+    }
+
+    /// Checks the configuration inside (what [`AdvisorSpec::build`] would
+    /// refuse), without a starting therapy.
+    pub fn validate(&self) -> Result<(), AdvisorError> {
+        match self {
+            AdvisorSpec::Abba(c) => c.validate(),
+            AdvisorSpec::Fixed { limits } => limits.validate(),
+            AdvisorSpec::RunToRun(c) => c.validate(),
+        }
+    }
+
     /// Builds the advisor for one patient from its starting therapy and its
     /// exploration seed (`derive_seed(trial, patient, scenario, Stream::Exploration)`).
     pub fn build(

@@ -6,6 +6,7 @@ pub mod devices;
 pub mod error;
 pub mod inputs;
 pub mod patient;
+pub mod person;
 pub mod scenario;
 
 pub use error::SimError;

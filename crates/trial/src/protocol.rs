@@ -1,57 +1,37 @@
 //! The trial's configuration: cohort, scenarios, arms, devices and every
 //! knob, with the paper's protocol as the default (`spec/protocol.md` §6).
+//!
+//! Two types: [`RawTrialConfig`] is what a user writes (JSON, every field
+//! required, unknown fields refused at every level) and what `abba trial
+//! --print-config` prints; [`TrialConfig`] is the checked plan, made from
+//! it in one step ([`TryFrom`], or [`TrialConfig::from_json`]) before any
+//! simulation starts. Every value is checked there, the advisors' nested
+//! knobs included, and every scenario is resolved with its advisor mode, so
+//! no job can fail later on configuration.
+//!
+//! Knobs that the trial sets itself are not in the configuration: each
+//! advisor's `mode` (from the scenario), `init_days` (the trial's), ABBA's
+//! `exploration_seed` (derived per patient) and run-to-run's
+//! `cgm_interval_min` (the CGM's sample time). [`TrialConfig::advisor_spec`]
+//! gives what actually runs.
 
 use crate::error::TrialError;
+use abba_advisor::any::AdvisorSpec;
 use abba_advisor::baselines::r2r::R2rConfig;
 use abba_advisor::{AbbaConfig, EventLimits, Mode};
 use abba_sim::cohort::Population;
+use abba_sim::devices::DeviceSet;
+use abba_sim::person::{Behaviour, DayClosing};
 use abba_sim::scenario::{ScenarioConfig, ScenarioId};
 use serde::{Deserialize, Serialize};
 
 pub use abba_advisor::ArmKind;
 
-/// Device settings of the trial.
+/// Everything that defines a trial, as written by a user (see the module
+/// docs); check it with [`TrialConfig::try_from`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct DeviceConfig {
-    /// CGM model row of `sensor_params.csv` (the noise parameters).
-    pub cgm_model: String,
-    /// CGM sample time (min).
-    pub cgm_sample_time_min: u32,
-    /// Meter error SD below 100 mg/dL (mg/dL).
-    pub meter_sd_below_mg_dl: f64,
-    /// Meter error SD from 100 mg/dL up (fraction).
-    pub meter_sd_fraction_above: f64,
-    /// Pump bolus step (U).
-    pub pump_bolus_step_u: f64,
-    /// Pump bolus delivery speed (U/min).
-    pub pump_bolus_speed_u_per_min: f64,
-    /// Pump basal step (U/h).
-    pub pump_basal_step_u_per_h: f64,
-    /// Largest bolus (U).
-    pub pump_max_bolus_u: f64,
-    /// Largest basal rate (U/h).
-    pub pump_max_basal_u_per_h: f64,
-}
-
-impl Default for DeviceConfig {
-    fn default() -> Self {
-        Self {
-            cgm_model: "GuardianRT".into(),
-            cgm_sample_time_min: 5,
-            meter_sd_below_mg_dl: 7.5,
-            meter_sd_fraction_above: 0.075,
-            pump_bolus_step_u: 0.05,
-            pump_bolus_speed_u_per_min: 1.5,
-            pump_basal_step_u_per_h: 0.05,
-            pump_max_bolus_u: 30.0,
-            pump_max_basal_u_per_h: 30.0,
-        }
-    }
-}
-
-/// Everything that defines a trial. Serialised into the manifest.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct TrialConfig {
+#[serde(deny_unknown_fields)]
+pub struct RawTrialConfig {
     /// Trial seed (every random stream derives from it).
     pub seed: u64,
     /// Cohort population.
@@ -69,14 +49,18 @@ pub struct TrialConfig {
     pub scenarios: Vec<ScenarioId>,
     /// Arms to run in every scenario.
     pub arms: Vec<ArmKind>,
-    /// ABBA's knobs (mode and seed are set per scenario and patient).
+    /// ABBA's knobs (without `mode`, `init_days` and `exploration_seed`,
+    /// which the trial sets; in memory they hold placeholders).
+    #[serde(with = "trial_set::abba")]
     pub abba: AbbaConfig,
-    /// Run-to-run knobs (mode set per scenario).
+    /// Run-to-run knobs (without `mode`, `init_days` and `cgm_interval_min`,
+    /// which the trial sets).
+    #[serde(with = "trial_set::r2r")]
     pub r2r: R2rConfig,
     /// Plausibility limits of the fixed-therapy arm's event checks.
     pub fixed_limits: EventLimits,
-    /// Devices.
-    pub devices: DeviceConfig,
+    /// Devices, in the simulator's own types.
+    pub devices: DeviceSet,
     /// Set ABBA's TE reference `abba.te.te_ref_bits` to the median
     /// first-week transfer entropy of the cohort (spec §7.3: "TE_ref = median
     /// TE over the training cohort's D2-D8"), computed from the
@@ -92,12 +76,13 @@ pub struct TrialConfig {
     /// A run stops when plasma glucose falls below this (mg/dL); the report
     /// counts such runs per arm (10, simglucose's end-of-episode threshold).
     pub failure_glucose_mg_dl: f64,
-    /// Scenario overrides: when set, replaces the paper's configuration of
-    /// the scenario with that name.
+    /// Scenario overrides: each replaces the paper's configuration of the
+    /// scenario with its name (S1-S4), which must be one of `scenarios`;
+    /// its `days` must equal the trial's.
     pub scenario_overrides: Vec<ScenarioConfig>,
 }
 
-impl Default for TrialConfig {
+impl Default for RawTrialConfig {
     fn default() -> Self {
         Self {
             seed: 1,
@@ -111,7 +96,7 @@ impl Default for TrialConfig {
             abba: AbbaConfig::new(Mode::Cgm, 0),
             r2r: R2rConfig::new(Mode::Cgm),
             fixed_limits: EventLimits::default(),
-            devices: DeviceConfig::default(),
+            devices: DeviceSet::default(),
             calibrate_te_ref: true,
             te_ref_bits_smbg: None,
             failure_glucose_mg_dl: 10.0,
@@ -120,7 +105,80 @@ impl Default for TrialConfig {
     }
 }
 
+/// One scenario of a checked plan.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlannedScenario {
+    /// Which scenario.
+    pub id: ScenarioId,
+    /// Its configuration (override or paper) with the trial's length.
+    pub config: ScenarioConfig,
+    /// The advisor mode it runs in.
+    pub mode: Mode,
+}
+
+/// A checked trial plan (see the module docs). Read any knob through
+/// `Deref` to [`RawTrialConfig`]; to change one, change the raw form and
+/// check it again. Serialises as its raw form.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(try_from = "RawTrialConfig")]
+pub struct TrialConfig {
+    raw: RawTrialConfig,
+    planned: Vec<PlannedScenario>,
+}
+
+impl Serialize for TrialConfig {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        self.raw.serialize(s)
+    }
+}
+
+impl std::ops::Deref for TrialConfig {
+    type Target = RawTrialConfig;
+    fn deref(&self) -> &RawTrialConfig {
+        &self.raw
+    }
+}
+
+impl TryFrom<RawTrialConfig> for TrialConfig {
+    type Error = TrialError;
+    fn try_from(raw: RawTrialConfig) -> Result<Self, TrialError> {
+        let planned = check(&raw)?;
+        Ok(Self { raw, planned })
+    }
+}
+
 impl TrialConfig {
+    /// The paper's protocol with every default.
+    pub fn paper() -> Result<Self, TrialError> {
+        Self::try_from(RawTrialConfig::default())
+    }
+
+    /// Reads and checks a JSON configuration (a UTF-8 byte-order mark is
+    /// allowed). Errors give the line, column and field.
+    pub fn from_json(text: &str) -> Result<Self, TrialError> {
+        Self::try_from(RawTrialConfig::from_json(text)?)
+    }
+
+    /// The raw form.
+    pub fn raw(&self) -> &RawTrialConfig {
+        &self.raw
+    }
+
+    /// The raw form, to change and check again.
+    pub fn into_raw(self) -> RawTrialConfig {
+        self.raw
+    }
+
+    /// The scenarios to run, resolved, in configuration order.
+    pub fn planned(&self) -> &[PlannedScenario] {
+        &self.planned
+    }
+
+    /// The planned scenario `id`, if the trial runs it.
+    pub fn planned_scenario(&self, id: ScenarioId) -> Option<&PlannedScenario> {
+        self.planned.iter().find(|p| p.id == id)
+    }
+
     /// The advisor mode of a scenario: CGM when the CGM is worn throughout
     /// (S1), SMBG otherwise.
     pub fn mode_for(scenario: &ScenarioConfig) -> Mode {
@@ -129,6 +187,30 @@ impl TrialConfig {
         } else {
             Mode::Smbg
         }
+    }
+
+    /// The advisor an arm runs in `mode`, with every knob the trial sets
+    /// (ABBA's `exploration_seed` is replaced per patient when it is built).
+    pub fn advisor_spec(&self, arm: ArmKind, mode: Mode) -> AdvisorSpec {
+        advisor_spec(&self.raw, arm, mode)
+    }
+
+    /// The simulated person's behaviour in `mode`: the app from D2 (D1 is
+    /// warm-up), days closed at the bedtime reading (SMBG) or midnight (CGM).
+    pub fn behaviour(mode: Mode) -> Behaviour {
+        Behaviour::paper(match mode {
+            Mode::Smbg => DayClosing::AfterBedtimeReading,
+            Mode::Cgm => DayClosing::AtMidnight,
+        })
+    }
+}
+
+impl RawTrialConfig {
+    /// Parses a JSON configuration without checking its values (a UTF-8
+    /// byte-order mark is allowed).
+    pub fn from_json(text: &str) -> Result<Self, TrialError> {
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+        serde_json::from_str(text).map_err(|e| TrialError::Config(e.to_string()))
     }
 
     /// The scenario configuration used for `id` (override or paper), with
@@ -143,65 +225,257 @@ impl TrialConfig {
         s.days = self.days;
         s
     }
+}
 
-    /// Checks the configuration; errors name the field.
-    pub fn validate(&self) -> Result<(), TrialError> {
-        let bad = |m: String| Err(TrialError::Config(m));
-        if self.patients == 0 {
-            return bad("patients must be at least 1".into());
+fn advisor_spec(raw: &RawTrialConfig, arm: ArmKind, mode: Mode) -> AdvisorSpec {
+    match arm {
+        ArmKind::Abba => {
+            let mut c = raw.abba.clone();
+            c.mode = mode;
+            c.init_days = raw.init_days;
+            c.exploration_seed = 0;
+            if let (Mode::Smbg, Some(te_ref)) = (mode, raw.te_ref_bits_smbg) {
+                c.te.te_ref_bits = te_ref;
+            }
+            AdvisorSpec::Abba(c)
         }
-        if self.days < 2 + self.init_days {
+        ArmKind::Standard => AdvisorSpec::Fixed {
+            limits: raw.fixed_limits.clone(),
+        },
+        ArmKind::R2r => {
+            let mut c = raw.r2r.clone();
+            c.mode = mode;
+            c.init_days = raw.init_days;
+            c.cgm_interval_min = f64::from(raw.devices.cgm.sample_time_min);
+            AdvisorSpec::RunToRun(c)
+        }
+    }
+}
+
+/// Every check of the plan; the scenarios resolved.
+fn check(c: &RawTrialConfig) -> Result<Vec<PlannedScenario>, TrialError> {
+    let bad = |m: String| Err(TrialError::Config(m));
+    if c.patients == 0 {
+        return bad("patients must be at least 1".into());
+    }
+    if c.days < 2 + c.init_days {
+        return bad(format!(
+            "days must be at least {} (warm-up day + {} initialisation days + 1), got {}",
+            2 + c.init_days,
+            c.init_days,
+            c.days
+        ));
+    }
+    if !(c.failure_glucose_mg_dl.is_finite() && c.failure_glucose_mg_dl > 0.0) {
+        return bad(format!(
+            "failure_glucose_mg_dl must be a finite number > 0, got {}",
+            c.failure_glucose_mg_dl
+        ));
+    }
+    if let Some(x) = c.te_ref_bits_smbg {
+        if !(x.is_finite() && x > 0.0) {
             return bad(format!(
-                "days must be at least {} (warm-up day + {} initialisation days + 1), got {}",
-                2 + self.init_days,
-                self.init_days,
-                self.days
+                "te_ref_bits_smbg must be a finite number > 0, got {x}"
             ));
         }
-        if !(self.failure_glucose_mg_dl.is_finite() && self.failure_glucose_mg_dl > 0.0) {
+    }
+    if c.scenarios.is_empty() {
+        return bad("at least one scenario is needed".into());
+    }
+    if c.arms.is_empty() {
+        return bad("at least one arm is needed".into());
+    }
+    let mut seen = std::collections::BTreeSet::new();
+    for s in &c.scenarios {
+        if !seen.insert(*s) {
+            return bad(format!("scenario {s} is listed twice"));
+        }
+    }
+    let mut seen = std::collections::BTreeSet::new();
+    for a in &c.arms {
+        if !seen.insert(*a) {
+            return bad(format!("arm {a} is listed twice"));
+        }
+    }
+    let mut overridden = std::collections::BTreeSet::new();
+    for (k, o) in c.scenario_overrides.iter().enumerate() {
+        let at = format!("scenario_overrides[{k}]");
+        let Ok(id) = o.name.parse::<ScenarioId>() else {
             return bad(format!(
-                "failure_glucose_mg_dl must be a finite number > 0, got {}",
-                self.failure_glucose_mg_dl
+                "{at}: name '{}' is not a scenario (expected S1, S2, S3 or S4)",
+                o.name
+            ));
+        };
+        if id.name() != o.name {
+            return bad(format!("{at}: name '{}' must be written {id}", o.name));
+        }
+        if !overridden.insert(id) {
+            return bad(format!("{at}: a second override of {id}"));
+        }
+        if !c.scenarios.contains(&id) {
+            return bad(format!(
+                "{at}: overrides {id}, which is not among the scenarios run ({})",
+                c.scenarios
+                    .iter()
+                    .map(|s| s.name())
+                    .collect::<Vec<_>>()
+                    .join(", ")
             ));
         }
-        if let Some(x) = self.te_ref_bits_smbg {
-            if !(x.is_finite() && x > 0.0) {
-                return bad(format!(
-                    "te_ref_bits_smbg must be a finite number > 0, got {x}"
-                ));
+        if o.days != c.days {
+            return bad(format!(
+                "{at}.days is {} but the trial runs {} days (set `days` at the top level)",
+                o.days, c.days
+            ));
+        }
+    }
+    c.devices
+        .validate()
+        .map_err(|e| TrialError::Config(format!("devices: {e}")))?;
+    c.fixed_limits
+        .validate()
+        .map_err(|e| TrialError::Config(format!("fixed_limits: {e}")))?;
+    let mut planned = Vec::with_capacity(c.scenarios.len());
+    for id in &c.scenarios {
+        let s = c.scenario(*id);
+        s.validate()
+            .map_err(|e| TrialError::Config(e.to_string()))?;
+        let mode = TrialConfig::mode_for(&s);
+        // SMBG mode needs finger sticks: its day closes at the bedtime reading.
+        if mode == Mode::Smbg && s.smbg.is_none() {
+            return bad(format!(
+                "scenario {}: the CGM stops after day {} but there are no SMBG readings, so the advisor would have no glucose and its day would never close",
+                s.name,
+                s.cgm.until_day.unwrap_or(0)
+            ));
+        }
+        planned.push(PlannedScenario {
+            id: *id,
+            config: s,
+            mode,
+        });
+    }
+    // Every advisor that will run, checked now rather than inside the jobs.
+    for p in &planned {
+        for arm in &c.arms {
+            let field = match arm {
+                ArmKind::Abba => "abba",
+                ArmKind::Standard => "fixed_limits",
+                ArmKind::R2r => "r2r",
+            };
+            advisor_spec(c, *arm, p.mode)
+                .validate()
+                .map_err(|e| TrialError::Config(format!("{field}: {e}")))?;
+        }
+    }
+    Ok(planned)
+}
+
+/// Serde adapters that leave out the knobs the trial sets itself: they are
+/// not written, and a configuration that sets one is refused with a message
+/// saying who sets it.
+mod trial_set {
+    use serde::de::{DeserializeOwned, Error as _};
+    use serde::ser::Error as _;
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+    use serde_json::{Map, Value};
+
+    fn ser<T: Serialize, S: Serializer>(
+        v: &T,
+        keys: &[(&str, &str)],
+        s: S,
+    ) -> Result<S::Ok, S::Error> {
+        let Value::Object(mut m) = serde_json::to_value(v).map_err(S::Error::custom)? else {
+            return Err(S::Error::custom("expected an object"));
+        };
+        for (k, _) in keys {
+            m.remove(*k);
+        }
+        m.serialize(s)
+    }
+
+    fn de<'de, T: DeserializeOwned, D: Deserializer<'de>>(
+        d: D,
+        section: &str,
+        keys: &[(&str, &str)],
+        placeholders: Value,
+    ) -> Result<T, D::Error> {
+        let mut m = Map::deserialize(d)?;
+        for (k, who) in keys {
+            if m.contains_key(*k) {
+                return Err(D::Error::custom(format!(
+                    "{section}.{k} is set by the trial ({who}); remove it from the configuration"
+                )));
             }
         }
-        if self.scenarios.is_empty() {
-            return bad("at least one scenario is needed".into());
-        }
-        if self.arms.is_empty() {
-            return bad("at least one arm is needed".into());
-        }
-        let mut seen = std::collections::BTreeSet::new();
-        for s in &self.scenarios {
-            if !seen.insert(*s) {
-                return bad(format!("scenario {s} is listed twice"));
+        if let Value::Object(p) = placeholders {
+            for (k, v) in p {
+                m.insert(k, v);
             }
         }
-        let mut seen = std::collections::BTreeSet::new();
-        for a in &self.arms {
-            if !seen.insert(*a) {
-                return bad(format!("arm {} is listed twice", a.name()));
-            }
+        serde_json::from_value(Value::Object(m))
+            .map_err(|e| D::Error::custom(format!("{section}: {e}")))
+    }
+
+    const ADVISOR_KEYS: [(&str, &str); 2] = [
+        (
+            "mode",
+            "CGM mode in scenarios that wear the CGM throughout, SMBG otherwise",
+        ),
+        ("init_days", "the top-level init_days"),
+    ];
+
+    pub mod abba {
+        use super::*;
+        use abba_advisor::AbbaConfig;
+
+        const KEYS: [(&str, &str); 3] = [
+            ADVISOR_KEYS[0],
+            ADVISOR_KEYS[1],
+            (
+                "exploration_seed",
+                "derived per patient from the trial seed",
+            ),
+        ];
+
+        pub fn serialize<S: Serializer>(v: &AbbaConfig, s: S) -> Result<S::Ok, S::Error> {
+            ser(v, &KEYS, s)
         }
-        for id in &self.scenarios {
-            let s = self.scenario(*id);
-            s.validate()
-                .map_err(|e| TrialError::Config(e.to_string()))?;
-            // SMBG mode needs finger sticks: its day closes at the bedtime reading.
-            if Self::mode_for(&s) == Mode::Smbg && s.smbg.is_none() {
-                return bad(format!(
-                    "scenario {}: the CGM stops after day {} but there are no SMBG readings, so the advisor would have no glucose and its day would never close",
-                    s.name,
-                    s.cgm.until_day.unwrap_or(0)
-                ));
-            }
+
+        pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<AbbaConfig, D::Error> {
+            de(
+                d,
+                "abba",
+                &KEYS,
+                serde_json::json!({"mode": "cgm", "init_days": 7, "exploration_seed": 0}),
+            )
         }
-        Ok(())
+    }
+
+    pub mod r2r {
+        use super::*;
+        use abba_advisor::R2rConfig;
+
+        const KEYS: [(&str, &str); 3] = [
+            ADVISOR_KEYS[0],
+            ADVISOR_KEYS[1],
+            (
+                "cgm_interval_min",
+                "the CGM's sample time, devices.cgm.sample_time_min",
+            ),
+        ];
+
+        pub fn serialize<S: Serializer>(v: &R2rConfig, s: S) -> Result<S::Ok, S::Error> {
+            ser(v, &KEYS, s)
+        }
+
+        pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<R2rConfig, D::Error> {
+            de(
+                d,
+                "r2r",
+                &KEYS,
+                serde_json::json!({"mode": "cgm", "init_days": 7, "cgm_interval_min": 5.0}),
+            )
+        }
     }
 }

@@ -44,7 +44,7 @@ impl Advisor for Scripted {
             EventKind::MealAnnounced { slot, .. } => {
                 let i = slot.main_index().unwrap();
                 let n = self.answered_ratios.len();
-                let ratio = if n % 2 == 0 { 6.0 } else { 19.0 };
+                let ratio = if n.is_multiple_of(2) { 6.0 } else { 19.0 };
                 self.settings.carb_ratio[i] = GramsPerUnit(ratio);
                 self.answered_ratios.push((*e, ratio));
                 Ok(Some(self.settings))

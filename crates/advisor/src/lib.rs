@@ -33,6 +33,12 @@
 //!   same minute replaces the previous one). `Bolus` is the insulin actually
 //!   delivered; two identical boluses in one minute are rejected as a
 //!   duplicate.
+//! - Pump records beyond a plain basal and bolus (`TempBasal`, `Suspend`,
+//!   `Resume`, `ExtendedBolus`; abba-core's `event` module says what each
+//!   delivers) are checked against [`EventLimits`] and counted as delivered
+//!   insulin in the transfer-entropy grid; `BasalRate` is the scheduled
+//!   rate. An event kind this advisor does not know is rejected
+//!   ([`AdvisorError::UnsupportedEvent`]), never silently ignored.
 //! - Events at one minute: readings, then `MealAnnounced`, then `Bolus`,
 //!   `BasalRate`, `DayClosed`. The carb-ratio update of meal i happens inside
 //!   `observe(MealAnnounced)`, so read [`Advisor::settings`] *after* it returns

@@ -1,12 +1,16 @@
 //! The `abba` command: simulate a patient, build a cohort, compute glucose
 //! metrics, run the paper's in-silico trial.
-use anyhow::Result;
 use clap::{Parser, Subcommand};
+use std::process::ExitCode;
 
 mod cohort;
+mod errors;
 mod metrics;
+mod output;
+mod progress;
 mod simulate;
 mod trial;
+mod trial_limits;
 
 /// abba: adaptive basal-bolus advisor and in-silico trial platform.
 #[derive(Parser)]
@@ -28,11 +32,18 @@ enum Command {
     Trial(trial::Args),
 }
 
-fn main() -> Result<()> {
-    match Cli::parse().command {
+fn main() -> ExitCode {
+    let result = match Cli::parse().command {
         Command::Simulate(a) => simulate::run(a),
         Command::Cohort(a) => cohort::run(a),
         Command::Metrics(a) => metrics::run(a),
         Command::Trial(a) => trial::run(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("{}", errors::render(&e));
+            ExitCode::FAILURE
+        }
     }
 }

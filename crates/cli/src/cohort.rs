@@ -50,9 +50,8 @@ pub fn run(args: Args) -> Result<()> {
     let population: Population = args.population.parse()?;
     let config = CohortConfig::new(population, args.size, args.seed);
     let progress = Progress::new("abba cohort", "patients", args.quiet);
-    let cohort = Cohort::generate_with_progress(&config, &mut |done, total| {
-        progress.update(done, total)
-    });
+    let cohort =
+        Cohort::generate_with_progress(&config, &mut |done, total| progress.update(done, total));
     progress.finish();
     let cohort =
         cohort.with_context(|| format!("building the {population} cohort (seed {})", args.seed))?;

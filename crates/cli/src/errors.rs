@@ -59,7 +59,9 @@ mod tests {
 
     #[test]
     fn a_context_keeps_its_cause() {
-        let e = Err::<(), _>(io()).context("writing the report").unwrap_err();
+        let e = Err::<(), _>(io())
+            .context("writing the report")
+            .unwrap_err();
         assert_eq!(
             render(&e),
             "Error: writing the report\n\nCaused by:\n    File exists"

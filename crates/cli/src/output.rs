@@ -70,8 +70,7 @@ pub fn write_atomically(
     {
         let mut w = BufWriter::new(&mut tmp);
         write(&mut w)?;
-        w.flush()
-            .with_context(|| format!("cannot write {shown}"))?;
+        w.flush().with_context(|| format!("cannot write {shown}"))?;
     }
     tmp.persist(path)
         .with_context(|| format!("cannot write {shown}"))?;

@@ -39,7 +39,12 @@ impl Progress {
             }
             Shown::Bar(bar)
         } else {
-            Shown::Lines(Mutex::new(Lines::new(what, unit, Instant::now(), LINE_EVERY)))
+            Shown::Lines(Mutex::new(Lines::new(
+                what,
+                unit,
+                Instant::now(),
+                LINE_EVERY,
+            )))
         };
         Self { shown }
     }

@@ -96,6 +96,20 @@ pub fn run(args: Args) -> Result<()> {
         write_row(w, &patient, args.states)?;
         for r in &day.minutes {
             patient.step(r.cho_g_per_min, r.insulin_u_per_min, args.sensitivity)?;
+            let g = patient.glucose_mg_dl();
+            if g < 0.0 {
+                bail!(
+                    "{}, minute {}: plasma glucose fell to {} mg/dL, below 0: the inputs overdose \
+                     this patient beyond the model's physical range, so no result is written",
+                    args.patient,
+                    patient.minute(),
+                    if g > -1e6 {
+                        format!("{g:.2}")
+                    } else {
+                        format!("{g:.3e}")
+                    }
+                );
+            }
             write_row(w, &patient, args.states)?;
         }
         Ok(())

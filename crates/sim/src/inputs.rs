@@ -99,7 +99,8 @@ impl InputDay {
     /// minute (from 0).
     pub fn validate(&self) -> Result<(), SimError> {
         for (m, r) in self.minutes.iter().enumerate() {
-            r.check().map_err(|reason| SimError::Config(format!("input minute {m}: {reason}")))?;
+            r.check()
+                .map_err(|reason| SimError::Config(format!("input minute {m}: {reason}")))?;
         }
         Ok(())
     }

@@ -5,7 +5,8 @@
 
 use abba_sim::cohort::derive::{steady_state_residual, PRIMARY};
 use abba_sim::cohort::{
-    check_patient, read_csv, MAX_COHORT_SIZE, therapy, CarbRatioSource, Cohort, CohortConfig, Origin, Population,
+    check_patient, read_csv, therapy, CarbRatioSource, Cohort, CohortConfig, Origin, Population,
+    MAX_COHORT_SIZE,
 };
 use abba_sim::patient::{Patient, PatientParams, QuestRow};
 use std::sync::OnceLock;

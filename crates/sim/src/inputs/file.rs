@@ -39,20 +39,36 @@ impl InputDay {
                 )
             })
         };
-        let cols = [col(INPUT_COLUMNS[0])?, col(INPUT_COLUMNS[1])?, col(INPUT_COLUMNS[2])?];
+        let cols = [
+            col(INPUT_COLUMNS[0])?,
+            col(INPUT_COLUMNS[1])?,
+            col(INPUT_COLUMNS[2])?,
+        ];
         let mut minutes = Vec::new();
         // A last row whose two input cells are both empty only carries the
         // final glucose; anywhere else an empty cell is an error.
         let mut final_row: Option<u64> = None;
+        // Line numbers from byte offsets. After a CRLF line end the csv
+        // crate puts a record's start on the LF of the line before (and
+        // counts its lines one too low), so line ends at the offset are
+        // skipped before counting.
+        let bytes = text.as_bytes();
+        let line_at = |byte: u64| {
+            let mut at = usize::try_from(byte).map_or(bytes.len(), |b| b.min(bytes.len()));
+            while at < bytes.len() && matches!(bytes[at], b'\r' | b'\n') {
+                at += 1;
+            }
+            1 + bytes[..at].iter().filter(|&&b| b == b'\n').count() as u64
+        };
         let mut record = csv::StringRecord::new();
         loop {
-            let line = rdr.position().line();
+            let line = line_at(rdr.position().byte());
             match rdr.read_record(&mut record) {
                 Ok(true) => {}
                 Ok(false) => break,
                 Err(e) => return Err(err(line, format!("malformed CSV row: {e}"))),
             }
-            let line = record.position().map_or(line, |p| p.line());
+            let line = record.position().map_or(line, |p| line_at(p.byte()));
             if let Some(at) = final_row {
                 return Err(err(
                     at,
@@ -166,9 +182,7 @@ mod tests {
     fn a_million_grams_in_one_minute_is_refused_with_the_limit_named() {
         let e = read("minute,cho_g_per_min,insulin_u_per_min\n0,1000000,0\n").unwrap_err();
         assert!(
-            e.contains("line 2")
-                && e.contains("cho_g_per_min")
-                && e.contains("limit of 5 g/min"),
+            e.contains("line 2") && e.contains("cho_g_per_min") && e.contains("limit of 5 g/min"),
             "{e}"
         );
     }
@@ -201,6 +215,9 @@ mod tests {
         assert!(day.validate().is_ok());
         day.minutes[2].cho_g_per_min = 6.0;
         let e = day.validate().unwrap_err().to_string();
-        assert!(e.contains("input minute 2") && e.contains("cho_g_per_min"), "{e}");
+        assert!(
+            e.contains("input minute 2") && e.contains("cho_g_per_min"),
+            "{e}"
+        );
     }
 }

@@ -310,3 +310,42 @@ fn an_error_cause_is_printed_once() {
     assert!(e.contains("cannot write"), "{e}");
     assert_eq!(e.matches("File exists").count(), 1, "{e}");
 }
+
+#[test]
+fn a_one_patient_trial_reports_no_wilcoxon_p_value() {
+    let d = dir("wilcoxon");
+    let out = d.join("report");
+    let o = abba()
+        .args([
+            "trial",
+            "--patients",
+            "1",
+            "--scenarios",
+            "S1",
+            "--arms",
+            "standard",
+            "--quiet",
+            "--out",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let tests = &summary["arms"]["S1/standard"]["wilcoxon"]["W1_vs_W13"];
+    let tir = &tests["tir_70_180"];
+    assert!(
+        tir["statistic"].is_number() && tir["p"].is_null(),
+        "{tests}"
+    );
+    let table = std::fs::read_to_string(out.join("table1.csv")).unwrap();
+    let header: Vec<&str> = table.lines().next().unwrap().split(',').collect();
+    let col = header
+        .iter()
+        .position(|h| *h == "wilcoxon_p_vs_w1")
+        .unwrap();
+    for line in table.lines().skip(1) {
+        assert_eq!(line.split(',').nth(col), Some(""), "{line}");
+    }
+}

@@ -17,7 +17,7 @@ pub struct Args {
     /// 100,000). With fewer than 2 public patients the SDs are undefined and
     /// reported as such (`null` in the JSON).
     #[arg(long, default_value_t = 100)]
-    pub size: u32,
+    pub size: i64,
     /// Cohort seed: the generated patients are a pure function of it.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -39,16 +39,19 @@ pub fn run(args: Args) -> Result<()> {
     if args.out.is_none() && !args.json {
         bail!("nothing to do: give --out FILE.csv and/or --json");
     }
-    if !(1..=MAX_COHORT_SIZE).contains(&args.size) {
+    let Some(size) = u32::try_from(args.size)
+        .ok()
+        .filter(|n| (1..=MAX_COHORT_SIZE).contains(n))
+    else {
         bail!(
             "--size must be between 1 and {MAX_COHORT_SIZE}, got {} (generating and checking a \
              patient takes a few milliseconds and about 2 kB: {MAX_COHORT_SIZE} already take \
              several minutes)",
             args.size
         );
-    }
+    };
     let population: Population = args.population.parse()?;
-    let config = CohortConfig::new(population, args.size, args.seed);
+    let config = CohortConfig::new(population, size, args.seed);
     let progress = Progress::new("abba cohort", "patients", args.quiet);
     let cohort =
         Cohort::generate_with_progress(&config, &mut |done, total| progress.update(done, total));

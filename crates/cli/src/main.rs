@@ -1,6 +1,6 @@
 //! The `abba` command: simulate a patient, build a cohort, compute glucose
 //! metrics, run the paper's in-silico trial.
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
 
 mod cohort;
@@ -32,8 +32,23 @@ enum Command {
     Trial(trial::Args),
 }
 
+/// The parsed command line. Every subcommand takes negative numbers as
+/// values (`--sensitivity -1`, `--days -5`), so that the command can refuse
+/// them with a reason instead of clap calling them an unexpected argument.
+fn parse() -> Cli {
+    let mut cmd = Cli::command();
+    let names: Vec<String> = cmd
+        .get_subcommands()
+        .map(|c| c.get_name().to_string())
+        .collect();
+    for name in names {
+        cmd = cmd.mut_subcommand(name, |c| c.allow_negative_numbers(true));
+    }
+    Cli::from_arg_matches(&cmd.get_matches()).unwrap_or_else(|e| e.exit())
+}
+
 fn main() -> ExitCode {
-    let result = match Cli::parse().command {
+    let result = match parse().command {
         Command::Simulate(a) => simulate::run(a),
         Command::Cohort(a) => cohort::run(a),
         Command::Metrics(a) => metrics::run(a),

@@ -46,7 +46,7 @@ pub struct Args {
     #[arg(long)]
     pub inputs_out: Option<PathBuf>,
     /// Constant insulin-sensitivity multiplier on Vmx and kp3 (> 0).
-    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 1.0)]
     pub sensitivity: f64,
 }
 

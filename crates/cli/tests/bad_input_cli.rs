@@ -349,3 +349,26 @@ fn a_one_patient_trial_reports_no_wilcoxon_p_value() {
         assert_eq!(line.split(',').nth(col), Some(""), "{line}");
     }
 }
+
+#[test]
+fn negative_counts_are_values_refused_with_the_flag_named() {
+    let o = abba()
+        .args(["cohort", "--size", "-3", "--json"])
+        .output()
+        .unwrap();
+    let e = stderr(&o);
+    assert!(!o.status.success());
+    assert!(!e.contains("unexpected argument"), "{e}");
+    assert!(
+        e.contains("--size must be between 1 and 100000, got -3"),
+        "{e}"
+    );
+    let o = abba()
+        .args(["trial", "--days", "-5", "--print-config"])
+        .output()
+        .unwrap();
+    let e = stderr(&o);
+    assert!(!o.status.success());
+    assert!(!e.contains("unexpected argument"), "{e}");
+    assert!(e.contains("'-5'") && e.contains("--days"), "{e}");
+}

@@ -6,13 +6,14 @@ use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 /// Refuses two of `paths` (each with the flag that named it) that are the
-/// same file once canonicalised (symbolic links, `./`, `..` resolved), so an
-/// output never overwrites an input or another output.
+/// same file once canonicalised (symbolic links, `./`, `..` resolved) or
+/// hard links to one file, so an output never overwrites an input or
+/// another output.
 pub fn distinct_paths(paths: &[(&str, &Path)]) -> Result<()> {
     let resolved: Vec<PathBuf> = paths.iter().map(|(_, p)| canonical(p)).collect();
     for (i, a) in resolved.iter().enumerate() {
         for (j, b) in resolved.iter().enumerate().skip(i + 1) {
-            if a == b {
+            if a == b || same_inode(a, b) {
                 bail!(
                     "{} {} and {} {} are the same file ({}); refusing to overwrite it",
                     paths[i].0,
@@ -25,6 +26,21 @@ pub fn distinct_paths(paths: &[(&str, &Path)]) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// Two existing paths to one file through hard links (Unix).
+#[cfg(unix)]
+fn same_inode(a: &Path, b: &Path) -> bool {
+    use std::os::unix::fs::MetadataExt;
+    match (std::fs::metadata(a), std::fs::metadata(b)) {
+        (Ok(x), Ok(y)) => (x.dev(), x.ino()) == (y.dev(), y.ino()),
+        _ => false,
+    }
+}
+
+#[cfg(not(unix))]
+fn same_inode(_: &Path, _: &Path) -> bool {
+    false
 }
 
 /// The canonical form of `path`; for a file that does not exist yet, its
@@ -75,4 +91,55 @@ pub fn write_atomically(
     tmp.persist(path)
         .with_context(|| format!("cannot write {shown}"))?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn links_and_spellings_of_one_file_are_the_same_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let input = dir.path().join("in.csv");
+        std::fs::write(&input, "x").unwrap();
+        std::fs::create_dir(dir.path().join("sub")).unwrap();
+        let same = [
+            dir.path().join("sub/../in.csv"),
+            dir.path().join("./in.csv"),
+        ];
+        #[cfg(unix)]
+        let linked = {
+            let hard = dir.path().join("hard.csv");
+            std::fs::hard_link(&input, &hard).unwrap();
+            let soft = dir.path().join("soft.csv");
+            std::os::unix::fs::symlink(&input, &soft).unwrap();
+            vec![hard, soft]
+        };
+        #[cfg(not(unix))]
+        let linked: Vec<PathBuf> = Vec::new();
+        for other in same.iter().chain(&linked) {
+            let e = distinct_paths(&[("--inputs", &input), ("--out", other)]).unwrap_err();
+            assert!(e.to_string().contains("same file"), "{e}");
+        }
+        let new = dir.path().join("new.csv");
+        distinct_paths(&[("--inputs", &input), ("--out", &new)]).unwrap();
+    }
+
+    #[test]
+    fn a_failed_write_leaves_neither_a_partial_nor_a_temporary_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("out.csv");
+        std::fs::write(&out, "old").unwrap();
+        let e = write_atomically(&out, |w| {
+            w.write_all(b"half a result")?;
+            anyhow::bail!("solver failed")
+        })
+        .unwrap_err();
+        assert_eq!(e.to_string(), "solver failed");
+        assert_eq!(std::fs::read_to_string(&out).unwrap(), "old");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+        write_atomically(&out, |w| Ok(w.write_all(b"new")?)).unwrap();
+        assert_eq!(std::fs::read_to_string(&out).unwrap(), "new");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
 }

@@ -58,6 +58,11 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("{}", errors::render(&e));
+            // With RUST_BACKTRACE=1 (for developers), where it came from.
+            let trace = e.backtrace();
+            if trace.status() == std::backtrace::BacktraceStatus::Captured {
+                eprintln!("\nStack backtrace:\n{trace}");
+            }
             ExitCode::FAILURE
         }
     }

@@ -9,9 +9,10 @@ use abba_io::clock::AdvisorClock;
 use abba_io::read::{read_all, Batch, ReadOptions};
 use abba_sim::scenario::ScenarioId;
 use abba_store::{NewPerson, Store};
-use abba_trial::closed_loop::{advisor_spec, run_patient_with, Trace};
+use abba_trial::closed_loop::{run_patient_with, Trace};
 use abba_trial::protocol::ArmKind;
 use abba_trial::runner::build_cohort;
+use abba_trial::protocol::RawTrialConfig;
 use abba_trial::TrialConfig;
 use jiff::tz::TimeZone;
 
@@ -31,28 +32,30 @@ pub struct Sim {
 /// cohort in `scenario` (S1: CGM mode, S2: SMBG mode), `days` days, TE
 /// reference not calibrated (both sides use the same configuration).
 pub fn simulate(scenario: ScenarioId, patient_no: u64, days: u32) -> Sim {
-    let config = TrialConfig {
+    let raw = RawTrialConfig {
         patients: patient_no as u32,
         days,
         calibrate_te_ref: false,
-        ..TrialConfig::default()
+        scenarios: vec![scenario],
+        ..RawTrialConfig::default()
     };
+    let config = TrialConfig::try_from(raw).unwrap();
     let cohort = build_cohort(&config).unwrap();
     let vp = &cohort.patients[patient_no as usize - 1];
-    let sc = config.scenario(scenario);
-    let mode = TrialConfig::mode_for(&sc);
+    let sc = config.planned_scenario(scenario).unwrap();
+    let mode = sc.mode;
     let mut trace = Trace {
         events: Some(Vec::new()),
         decisions: Some(Vec::new()),
         minutes: None,
         init: None,
     };
-    run_patient_with(&config, vp, patient_no, &sc, ArmKind::Abba, &mut trace).unwrap();
-    let AdvisorSpec::Abba(mut abba) = advisor_spec(&config, ArmKind::Abba, mode) else {
+    run_patient_with(&config, vp, patient_no, sc, ArmKind::Abba, &mut trace).unwrap();
+    let AdvisorSpec::Abba(mut abba) = config.advisor_spec(ArmKind::Abba, mode) else {
         panic!("not ABBA")
     };
-    abba.exploration_seed =
-        derive_seed(config.seed, patient_no, sc.random_key, Stream::Exploration);
+    abba.exploration_seed = derive_seed(config.seed, patient_no, sc.config.random_key, Stream::Exploration);
+    let sc = &sc.config;
     let name = format!("{}-{}", vp.params.name, sc.name);
     let mut person = NewPerson::new(&name, "UTC", mode, vp.therapy);
     person.settings.advisor = abba;

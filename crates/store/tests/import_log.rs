@@ -66,12 +66,22 @@ proptest! {
     ) {
         let all = events(2);
         let n = all.len();
-        let mut cuts: Vec<usize> = cuts.into_iter().map(|c| c % n).collect();
+        // Exports cover time ranges: a cut never splits one minute's events.
+        let at_minute_start = |mut c: usize| {
+            while c > 0 && c < n && all[c - 1].at == all[c].at {
+                c -= 1;
+            }
+            c
+        };
+        let mut cuts: Vec<usize> = cuts.into_iter().map(|c| at_minute_start(c % n)).collect();
         cuts.push(0);
         cuts.push(n);
         cuts.sort_unstable();
         cuts.dedup();
-        let mut slices: Vec<(usize, usize)> = cuts.windows(2).map(|w| (w[0].saturating_sub(overlap), (w[1] + overlap).min(n))).collect();
+        let mut slices: Vec<(usize, usize)> = cuts
+            .windows(2)
+            .map(|w| (at_minute_start(w[0].saturating_sub(overlap)), at_minute_start((w[1] + overlap).min(n))))
+            .collect();
         // A random order of the slices.
         let mut s = order_seed;
         for i in (1..slices.len()).rev() {

@@ -11,8 +11,8 @@ use abba_sim::scenario::ScenarioId;
 use abba_store::{NewPerson, Store};
 use abba_trial::closed_loop::{run_patient_with, Trace};
 use abba_trial::protocol::ArmKind;
-use abba_trial::runner::build_cohort;
 use abba_trial::protocol::RawTrialConfig;
+use abba_trial::runner::build_cohort;
 use abba_trial::TrialConfig;
 use jiff::tz::TimeZone;
 
@@ -54,7 +54,12 @@ pub fn simulate(scenario: ScenarioId, patient_no: u64, days: u32) -> Sim {
     let AdvisorSpec::Abba(mut abba) = config.advisor_spec(ArmKind::Abba, mode) else {
         panic!("not ABBA")
     };
-    abba.exploration_seed = derive_seed(config.seed, patient_no, sc.config.random_key, Stream::Exploration);
+    abba.exploration_seed = derive_seed(
+        config.seed,
+        patient_no,
+        sc.config.random_key,
+        Stream::Exploration,
+    );
     let sc = &sc.config;
     let name = format!("{}-{}", vp.params.name, sc.name);
     let mut person = NewPerson::new(&name, "UTC", mode, vp.therapy);

@@ -41,7 +41,13 @@ pub fn import(
         let kind = serde_json::to_string(&r.kind).map_err(|e| StoreError::corrupt("record", e))?;
         rows.push((source, id, r.at.as_millisecond(), kind, batch.origin(r)));
     }
-    let first_day = match (person.first_day, batch.records.first()) {
+    // Day 1: the local date of the first record that says something the
+    // advisor uses (not an alert or a note).
+    let first_useful = batch
+        .records
+        .iter()
+        .find(|r| !matches!(r.kind, abba_io::RecordKind::Ignored { .. }));
+    let first_day = match (person.first_day, first_useful) {
         (Some(d), _) => Some(d),
         (None, Some(r)) => Some(person.tz.to_datetime(r.at).date()),
         (None, None) => None,

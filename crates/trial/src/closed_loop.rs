@@ -82,7 +82,11 @@ pub fn run_patient_with(
         &scenario.config,
         config.seed,
         &config.devices,
-        TrialConfig::behaviour(scenario.mode),
+        {
+            let mut b = TrialConfig::behaviour(scenario.mode);
+            b.suggestions = config.suggestions;
+            b
+        },
     )
     .map_err(|source| TrialError::Sim {
         context: context.clone(),

@@ -26,13 +26,43 @@ pub enum DayClosing {
 }
 
 /// What the person does with settings the advisor suggests.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 #[non_exhaustive]
 pub enum SuggestionResponse {
     /// Takes every suggestion at once: the new basal rate goes to the pump
     /// the same minute, new carb ratios are used from the next bolus on.
+    #[default]
     AcceptAll,
+    /// Rejects about `percent` % of the suggested changes (the previous
+    /// value stays in force) and accepts the others; each answer goes to
+    /// the advisor as an event (`SuggestionRejected` / `SuggestionAccepted`).
+    RejectShare {
+        /// Share of changes rejected, 0-100.
+        percent: u32,
+    },
+    /// Puts a value of their own in force for every suggested change: the
+    /// suggestion times a factor drawn uniformly within ±`percent` %
+    /// (`SuggestionOverridden` events).
+    OverrideWithin {
+        /// Half-width of the factor, 0-50 %.
+        percent: u32,
+    },
+}
+
+impl SuggestionResponse {
+    /// Checks the percentages.
+    pub fn validate(self) -> Result<(), String> {
+        match self {
+            SuggestionResponse::RejectShare { percent } if percent > 100 => {
+                Err(format!("reject_share.percent must be 0-100, got {percent}"))
+            }
+            SuggestionResponse::OverrideWithin { percent } if percent > 50 => Err(format!(
+                "override_within.percent must be 0-50, got {percent}"
+            )),
+            _ => Ok(()),
+        }
+    }
 }
 
 /// The person's behaviour.

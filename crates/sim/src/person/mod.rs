@@ -38,7 +38,10 @@ use crate::devices::{CgmSensor, DeviceSet, Pump, SmbgMeter};
 use crate::patient::{EatingQueue, Patient};
 use crate::scenario::{DayPlan, ScenarioConfig, ScenarioGenerator, SmbgPurpose, DAY_MINUTES};
 use crate::SimError;
-use abba_core::{Event, EventKind, MgDl, TherapySettings, Timestamp, Units, UnitsPerHour};
+use abba_core::{
+    Event, EventKind, GramsPerUnit, MealSlot, MgDl, SettingValue, TherapySettings, Timestamp,
+    Units, UnitsPerHour,
+};
 use serde::Serialize;
 use std::collections::VecDeque;
 
@@ -347,6 +350,7 @@ impl VirtualPerson {
     pub fn suggest(&mut self, suggested: TherapySettings) -> Result<(), SimError> {
         match self.behaviour.suggestions {
             SuggestionResponse::AcceptAll => self.settings = suggested,
+            response => self.answer(response, suggested),
         }
         if self.settings.basal != self.requested_basal {
             self.requested_basal = self.settings.basal;
@@ -354,6 +358,55 @@ impl VirtualPerson {
             self.capped += u32::from(outcome.capped);
         }
         Ok(())
+    }
+
+    /// Answers each suggested change as `response` says, puts the result in
+    /// force and tells the advisor (the answer is the next event). The draws
+    /// are a hash of the person, the minute and the setting: deterministic.
+    fn answer(&mut self, response: SuggestionResponse, suggested: TherapySettings) {
+        let get = |s: &TherapySettings, k: usize| {
+            if k == 0 {
+                s.basal.0
+            } else {
+                s.carb_ratio[k - 1].0
+            }
+        };
+        for k in 0..4 {
+            let (before, after) = (get(&self.settings, k), get(&suggested, k));
+            if before == after {
+                continue;
+            }
+            let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+            let minute = self.now.0.to_le_bytes();
+            for &b in self.name.as_bytes().iter().chain(&minute).chain(&[k as u8]) {
+                h ^= u64::from(b);
+                h = h.wrapping_mul(0x0100_0000_01b3);
+            }
+            let u = (h >> 11) as f64 / (1u64 << 53) as f64;
+            let (value, kind): (f64, fn(SettingValue) -> EventKind) = match response {
+                SuggestionResponse::RejectShare { percent } if u < f64::from(percent) / 100.0 => {
+                    (before, EventKind::SuggestionRejected)
+                }
+                SuggestionResponse::OverrideWithin { percent } => (
+                    after * (1.0 + (2.0 * u - 1.0) * f64::from(percent) / 100.0),
+                    EventKind::SuggestionOverridden,
+                ),
+                _ => (after, EventKind::SuggestionAccepted),
+            };
+            let v = if k == 0 {
+                self.settings.basal = UnitsPerHour(value);
+                SettingValue::Basal {
+                    rate: UnitsPerHour(value),
+                }
+            } else {
+                self.settings.carb_ratio[k - 1] = GramsPerUnit(value);
+                SettingValue::CarbRatio {
+                    slot: MealSlot::MAIN[k - 1],
+                    ratio: GramsPerUnit(value),
+                }
+            };
+            self.outbox.push_back(Event::new(self.now, kind(v)));
+        }
     }
 
     /// Ends the minute: the pump delivers, the person eats, the patient

@@ -11,6 +11,9 @@ pub(super) fn check(c: &RawTrialConfig) -> Result<Vec<PlannedScenario>, TrialErr
     if c.patients == 0 {
         return bad("patients must be at least 1".into());
     }
+    if let Err(m) = c.suggestions.validate() {
+        return bad(format!("suggestions: {m}"));
+    }
     if c.days < 2 + c.init_days {
         return bad(format!(
             "days must be at least {} (warm-up day + {} initialisation days + 1), got {}",

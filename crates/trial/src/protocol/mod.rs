@@ -85,6 +85,11 @@ pub struct RawTrialConfig {
     /// scenario with its name (S1-S4), which must be one of `scenarios`;
     /// its `days` must equal the trial's.
     pub scenario_overrides: Vec<ScenarioConfig>,
+    /// What the simulated people do with the advisor's suggestions (the
+    /// paper: accept all; `reject_share` or `override_within` measure the
+    /// effect of people not following them).
+    #[serde(default)]
+    pub suggestions: abba_sim::person::SuggestionResponse,
 }
 
 impl Default for RawTrialConfig {
@@ -106,6 +111,7 @@ impl Default for RawTrialConfig {
             te_ref_bits_smbg: None,
             failure_glucose_mg_dl: 10.0,
             scenario_overrides: Vec::new(),
+            suggestions: abba_sim::person::SuggestionResponse::AcceptAll,
         }
     }
 }

@@ -18,7 +18,7 @@ pub struct Args {
 #[derive(clap::Subcommand, Debug)]
 enum Command {
     /// Create a person in a store file (the file is created if needed).
-    New(NewArgs),
+    New(Box<NewArgs>),
     /// List the persons of a store file.
     List {
         /// The store file.
@@ -159,7 +159,7 @@ fn new(a: NewArgs) -> Result<()> {
 /// Runs `abba person`.
 pub fn run(a: Args) -> Result<()> {
     match a.command {
-        Command::New(n) => new(n),
+        Command::New(n) => new(*n),
         Command::List { db } => {
             let store = Store::open(&db).with_context(|| format!("opening {}", db.display()))?;
             for n in store.persons()? {

@@ -2,6 +2,7 @@
 
 use abba_sim::cohort::Population;
 use abba_sim::scenario::ScenarioId;
+use abba_trial::protocol::RawTrialConfig;
 use abba_trial::runner::run_trial;
 use abba_trial::{ArmKind, TrialConfig};
 use anyhow::{bail, Context, Result};
@@ -66,10 +67,10 @@ fn config_from(args: &Args) -> Result<TrialConfig> {
         Some(path) => {
             let text = std::fs::read_to_string(path)
                 .with_context(|| format!("cannot read trial configuration {}", path.display()))?;
-            serde_json::from_str(&text)
+            RawTrialConfig::from_json(&text)
                 .with_context(|| format!("{}: not a valid trial configuration", path.display()))?
         }
-        None => TrialConfig::default(),
+        None => RawTrialConfig::default(),
     };
     if let Some(p) = &args.population {
         c.population = match p.as_str() {
@@ -112,9 +113,12 @@ fn config_from(args: &Args) -> Result<TrialConfig> {
     if args.no_te_calibration {
         c.calibrate_te_ref = false;
     }
-    c.validate()?;
-    crate::trial_limits::check(&c)?;
-    Ok(c)
+    let checked = match &args.config {
+        Some(path) => TrialConfig::try_from(c).with_context(|| format!("{}", path.display()))?,
+        None => TrialConfig::try_from(c)?,
+    };
+    crate::trial_limits::check(&checked)?;
+    Ok(checked)
 }
 
 /// Runs `abba trial`.
@@ -148,7 +152,8 @@ pub fn run(args: Args) -> Result<()> {
             "init_days": used.init_days,
             "scenarios": used.scenarios,
             "arms": used.arms,
-            "modes": used.scenarios.iter().map(|s| (s.name(), TrialConfig::mode_for(&used.scenario(*s)).name())).collect::<std::collections::BTreeMap<_, _>>(),
+            "modes": used.planned().iter().map(|s| (s.id.name(), s.mode.name())).collect::<std::collections::BTreeMap<_, _>>(),
+            "advisors_run": advisors_run(used),
             "evaluation": "plasma glucose G = Gp/Vg every 5 min; W1 = D2-D8, W13 = D84-D90, W14 = D92-D98; weekly Wk = D(7k-5)..D(7k+1)",
         },
         "te_calibration": {
@@ -248,6 +253,29 @@ fn write_traces(args: &Args, output: &abba_trial::runner::TrialOutput) -> Result
         }
     }
     Ok(())
+}
+
+/// What each arm ran in each mode, with the knobs the trial set (ABBA's
+/// exploration seed is derived per patient).
+fn advisors_run(used: &TrialConfig) -> serde_json::Value {
+    let mut out = serde_json::Map::new();
+    for p in used.planned() {
+        let mode = p.mode.name().to_string();
+        if out.contains_key(&mode) {
+            continue;
+        }
+        let arms: serde_json::Map<_, _> = used
+            .arms
+            .iter()
+            .map(|a| (a.name().to_string(), json!(used.advisor_spec(*a, p.mode))))
+            .collect();
+        out.insert(mode, serde_json::Value::Object(arms));
+    }
+    out.insert(
+        "exploration_seed".into(),
+        json!("derive_seed(seed, patient number, scenario random_key, exploration), per patient"),
+    );
+    serde_json::Value::Object(out)
 }
 
 fn rayon_threads() -> usize {

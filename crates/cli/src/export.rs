@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use abba_io::clock::AdvisorClock;
 use abba_sim::scenario::ScenarioId;
-use abba_trial::protocol::{ArmKind, TrialConfig};
+use abba_trial::protocol::{ArmKind, RawTrialConfig, TrialConfig};
 use std::io::Write;
 
 use anyhow::{anyhow, Context, Result};
@@ -50,11 +50,11 @@ pub fn run(args: Args) -> Result<()> {
     );
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("--out {}: cannot create the folder", args.out.display()))?;
-    let config = TrialConfig {
+    let config = TrialConfig::try_from(RawTrialConfig {
         days: args.days,
         patients: args.patients,
-        ..TrialConfig::default()
-    };
+        ..RawTrialConfig::default()
+    })?;
     let cohort = abba_trial::runner::build_cohort(&config)?;
     let (_, trace) =
         abba_trial::runner::trace_patient(&config, &cohort, &args.patient, ScenarioId::S1, arm)?;

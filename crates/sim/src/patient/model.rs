@@ -106,6 +106,14 @@ pub struct ModelConsts {
     pub ra_per_q_gut: f64,
     /// 1/Vi (kg/L).
     pub inv_vi: f64,
+    /// m2 + m4, the plasma insulin clearance (1/min).
+    pub m2_m4: f64,
+    /// m1 + m30, the liver insulin clearance (1/min).
+    pub m1_m30: f64,
+    /// ka1 + kd, the loss rate of Isc1 (1/min).
+    pub ka1_kd: f64,
+    /// (kmax − kmin)/2, the half-range of kempt (1/min).
+    pub half_k_range: f64,
 }
 
 impl ModelConsts {
@@ -144,12 +152,16 @@ impl ModelConsts {
             ksc: p.ksc,
             ra_per_q_gut: p.f * p.kabs / p.bw,
             inv_vi: 1.0 / p.vi,
+            m2_m4: p.m2 + p.m4,
+            m1_m30: p.m1 + p.m30,
+            ka1_kd: p.ka1 + p.kd,
+            half_k_range: (p.kmax - p.kmin) / 2.0,
         }
     }
 }
 
 /// What is held constant over one minute of integration.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct MinuteInput {
     /// Meal rate into the stomach, Dm = 1000·c (mg/min), c the eating rate in g/min.
     pub meal_mg_per_min: f64,
@@ -163,6 +175,14 @@ pub struct MinuteInput {
     pub alpha: f64,
     /// Slope β of the second tanh of kempt, 5/(2·Dbar·d) (1/mg); 0 if Dbar = 0.
     pub beta: f64,
+    /// Centre b·Dbar of the first tanh of kempt (mg).
+    pub b_dbar: f64,
+    /// Centre d·Dbar of the second tanh of kempt (mg).
+    pub d_dbar: f64,
+    /// s(t)·kp3, the insulin action on EGP this minute.
+    pub s_kp3: f64,
+    /// s(t)·Vmx, the insulin action on utilisation this minute.
+    pub s_vmx: f64,
 }
 
 impl MinuteInput {
@@ -189,6 +209,10 @@ impl MinuteInput {
             sensitivity,
             alpha,
             beta,
+            b_dbar: c.b * dbar_mg,
+            d_dbar: c.d * dbar_mg,
+            s_kp3: sensitivity * c.kp3,
+            s_vmx: sensitivity * c.vmx,
         }
     }
 }
@@ -205,13 +229,12 @@ pub fn tanh_fast(x: f64) -> f64 {
 
 /// The gastric emptying rate kempt(Qsto, Dbar) (DM07 eq. 7; simglucose's
 /// "kgut"). With Dbar = 0 it is kmax.
-#[inline]
+#[inline(always)]
 pub fn k_empt(c: &ModelConsts, u: &MinuteInput, q_sto: f64) -> f64 {
     if u.dbar_mg > 0.0 {
         c.kmin
-            + (c.kmax - c.kmin) / 2.0
-                * (tanh_fast(u.alpha * (q_sto - c.b * u.dbar_mg))
-                    - tanh_fast(u.beta * (q_sto - c.d * u.dbar_mg))
+            + c.half_k_range
+                * (tanh_fast(u.alpha * (q_sto - u.b_dbar)) - tanh_fast(u.beta * (q_sto - u.d_dbar))
                     + 2.0)
     } else {
         c.kmax
@@ -222,10 +245,9 @@ pub fn k_empt(c: &ModelConsts, u: &MinuteInput, q_sto: f64) -> f64 {
 ///
 /// Each line follows `spec/uva-padova-model.md` §1.3; the DM07 equation
 /// numbers are given where the model is the published one.
-#[inline]
+#[inline(always)]
 pub fn derivatives(c: &ModelConsts, u: &MinuteInput, x: &[f64; 13]) -> [f64; 13] {
     use ix::*;
-    let mut dx = [0.0; 13];
 
     // Gastrointestinal tract (DM07 eqs. 4-8). Grinding kgri = kmax.
     let q_sto = x[Q_STO1] + x[Q_STO2];
@@ -235,44 +257,54 @@ pub fn derivatives(c: &ModelConsts, u: &MinuteInput, x: &[f64; 13]) -> [f64; 13]
     } else {
         k_empt(c, u, q_sto)
     };
-    dx[Q_STO1] = -c.kmax * x[Q_STO1] + u.meal_mg_per_min;
-    dx[Q_STO2] = c.kmax * x[Q_STO1] - kempt * x[Q_STO2];
-    dx[Q_GUT] = kempt * x[Q_STO2] - c.kabs * x[Q_GUT];
+    let d_q_sto1 = -c.kmax * x[Q_STO1] + u.meal_mg_per_min;
+    let d_q_sto2 = c.kmax * x[Q_STO1] - kempt * x[Q_STO2];
+    let d_q_gut = kempt * x[Q_STO2] - c.kabs * x[Q_GUT];
     let ra = c.ra_per_q_gut * x[Q_GUT]; // rate of appearance f·kabs·Qgut/BW (mg/kg/min)
 
     // Glucose subsystem (DM07 eqs. 1, 10-15 without the portal term).
     // s(t) scales the insulin actions on EGP (kp3) and utilisation (Vmx).
-    let egp = c.kp1 - c.kp2 * x[GP] - u.sensitivity * c.kp3 * x[ID];
+    let egp = c.kp1 - c.kp2 * x[GP] - u.s_kp3 * x[ID];
     let uii = c.fsnc;
     let renal = if x[GP] > c.ke2 {
         c.ke1 * (x[GP] - c.ke2)
     } else {
         0.0
     };
-    dx[GP] = egp.max(0.0) + ra - uii - renal - c.k1 * x[GP] + c.k2 * x[GT];
-    let uid = (c.vm0 + u.sensitivity * c.vmx * x[X]) * x[GT] / (c.km0 + x[GT]);
-    dx[GT] = -uid + c.k1 * x[GP] - c.k2 * x[GT];
+    let d_gp = egp.max(0.0) + ra - uii - renal - c.k1 * x[GP] + c.k2 * x[GT];
+    let uid = (c.vm0 + u.s_vmx * x[X]) * x[GT] / (c.km0 + x[GT]);
+    let d_gt = -uid + c.k1 * x[GP] - c.k2 * x[GT];
 
     // Insulin subsystem (DM07 eqs. 2-3, 17-21; Kovatchev 2009 s.c. route).
-    dx[IP] = -(c.m2 + c.m4) * x[IP] + c.m1 * x[IL] + c.ka1 * x[ISC1] + c.ka2 * x[ISC2];
+    let d_ip = -c.m2_m4 * x[IP] + c.m1 * x[IL] + c.ka1 * x[ISC1] + c.ka2 * x[ISC2];
     let plasma_insulin = x[IP] * c.inv_vi; // I = Ip/Vi (pmol/L)
-    dx[X] = -c.p2u * x[X] + c.p2u * (plasma_insulin - c.ib);
-    dx[I1] = -c.ki * (x[I1] - plasma_insulin);
-    dx[ID] = -c.ki * (x[ID] - x[I1]);
-    dx[IL] = -(c.m1 + c.m30) * x[IL] + c.m2 * x[IP];
-    dx[ISC1] = u.insulin_pmol_per_kg_min - (c.ka1 + c.kd) * x[ISC1];
-    dx[ISC2] = c.kd * x[ISC1] - c.ka2 * x[ISC2];
+    let d_x = -c.p2u * x[X] + c.p2u * (plasma_insulin - c.ib);
+    let d_i1 = -c.ki * (x[I1] - plasma_insulin);
+    let d_id = -c.ki * (x[ID] - x[I1]);
+    let d_il = -c.m1_m30 * x[IL] + c.m2 * x[IP];
+    let d_isc1 = u.insulin_pmol_per_kg_min - c.ka1_kd * x[ISC1];
+    let d_isc2 = c.kd * x[ISC1] - c.ka2 * x[ISC2];
 
     // Subcutaneous glucose, as a mass (Kovatchev 2009).
-    dx[GS] = -c.ksc * x[GS] + c.ksc * x[GP];
+    let d_gs = -c.ksc * x[GS] + c.ksc * x[GP];
 
     // Sign guards: a negative mass may not keep falling (simglucose).
-    for k in [GP, GT, IP, IL, ISC1, ISC2, GS] {
-        if x[k] < 0.0 {
-            dx[k] = 0.0;
-        }
-    }
-    dx
+    let guard = |k: usize, d: f64| if x[k] < 0.0 { 0.0 } else { d };
+    [
+        d_q_sto1,
+        d_q_sto2,
+        d_q_gut,
+        guard(GP, d_gp),
+        guard(GT, d_gt),
+        guard(IP, d_ip),
+        d_x,
+        d_i1,
+        d_id,
+        guard(IL, d_il),
+        guard(ISC1, d_isc1),
+        guard(ISC2, d_isc2),
+        guard(GS, d_gs),
+    ]
 }
 
 #[cfg(test)]

@@ -56,16 +56,22 @@ impl Solver {
     /// Advances `x` by one minute under the constant input `u`.
     #[inline]
     pub fn advance_minute(&self, c: &ModelConsts, u: &MinuteInput, x: &mut [f64; 13]) {
-        let n = if self.busy_substeps != self.substeps && self.gut_is_busy(c, u, x) {
-            self.busy_substeps
-        } else {
-            self.substeps
-        }
-        .max(1);
+        let n = self.substeps_for(c, u, x);
         let h = 1.0 / n as f64;
         for _ in 0..n {
             rk4_step(c, u, x, h);
         }
+    }
+
+    /// The number of RK4 sub-steps for this minute.
+    #[inline]
+    pub(crate) fn substeps_for(&self, c: &ModelConsts, u: &MinuteInput, x: &[f64; 13]) -> u32 {
+        if self.busy_substeps != self.substeps && self.gut_is_busy(c, u, x) {
+            self.busy_substeps
+        } else {
+            self.substeps
+        }
+        .max(1)
     }
 }
 
@@ -98,7 +104,32 @@ impl Solver {
     }
 }
 
-#[inline]
+/// [`rk4_step`] for `W` independent patients at once, stage by stage, so
+/// that the processor overlaps their dependency chains (each patient's
+/// stages wait on the exp and divisions of the previous one). Every lane
+/// computes exactly what [`rk4_step`] computes.
+#[inline(always)]
+pub(crate) fn rk4_step_lanes<const W: usize>(
+    c: &[&ModelConsts; W],
+    u: &[&MinuteInput; W],
+    x: &mut [[f64; 13]; W],
+    h: f64,
+) {
+    let k1: [[f64; 13]; W] = std::array::from_fn(|l| derivatives(c[l], u[l], &x[l]));
+    let y: [[f64; 13]; W] = std::array::from_fn(|l| std::array::from_fn(|i| x[l][i] + 0.5 * h * k1[l][i]));
+    let k2: [[f64; 13]; W] = std::array::from_fn(|l| derivatives(c[l], u[l], &y[l]));
+    let y: [[f64; 13]; W] = std::array::from_fn(|l| std::array::from_fn(|i| x[l][i] + 0.5 * h * k2[l][i]));
+    let k3: [[f64; 13]; W] = std::array::from_fn(|l| derivatives(c[l], u[l], &y[l]));
+    let y: [[f64; 13]; W] = std::array::from_fn(|l| std::array::from_fn(|i| x[l][i] + h * k3[l][i]));
+    let k4: [[f64; 13]; W] = std::array::from_fn(|l| derivatives(c[l], u[l], &y[l]));
+    for l in 0..W {
+        for i in 0..13 {
+            x[l][i] += h / 6.0 * (k1[l][i] + 2.0 * k2[l][i] + 2.0 * k3[l][i] + k4[l][i]);
+        }
+    }
+}
+
+#[inline(always)]
 fn rk4_step(c: &ModelConsts, u: &MinuteInput, x: &mut [f64; 13], h: f64) {
     let k1 = derivatives(c, u, x);
     let mut y = [0.0; 13];

@@ -13,6 +13,7 @@
 
 pub mod batch;
 pub mod eating;
+pub mod lanes;
 pub mod model;
 pub mod params;
 pub mod solver;
@@ -131,7 +132,7 @@ impl Patient {
     /// Checks the minute's inputs, updates the eating-episode bookkeeping
     /// and returns what the solver holds constant over the minute.
     #[inline]
-    fn begin_minute(
+    pub(crate) fn begin_minute(
         &mut self,
         cho_g_per_min: f64,
         insulin_u_per_min: f64,
@@ -168,7 +169,7 @@ impl Patient {
 
     /// Counts the minute and checks that the state stayed finite.
     #[inline]
-    fn end_minute(&mut self) -> Result<(), SimError> {
+    pub(crate) fn end_minute(&mut self) -> Result<(), SimError> {
         self.minute += 1;
         if let Some(k) = self.x.iter().position(|v| !v.is_finite()) {
             return Err(SimError::NonFinite {

@@ -6,6 +6,7 @@
 //! cheapest one that stays an order of magnitude inside the 0.05 mg/dL
 //! agreement with simglucose's adaptive Dormand-Prince solver.
 
+use super::lanes::Real;
 use super::model::{derivatives, MinuteInput, ModelConsts};
 use serde::{Deserialize, Serialize};
 
@@ -104,48 +105,25 @@ impl Solver {
     }
 }
 
-/// [`rk4_step`] for `W` independent patients at once, stage by stage, so
-/// that the processor overlaps their dependency chains (each patient's
-/// stages wait on the exp and divisions of the previous one). Every lane
-/// computes exactly what [`rk4_step`] computes.
+/// One classic RK4 step of length `h` for one patient (`T = f64`) or
+/// several side by side (`T = Lanes`).
 #[inline(always)]
-pub(crate) fn rk4_step_lanes<const W: usize>(
-    c: &[&ModelConsts; W],
-    u: &[&MinuteInput; W],
-    x: &mut [[f64; 13]; W],
-    h: f64,
-) {
-    let k1: [[f64; 13]; W] = std::array::from_fn(|l| derivatives(c[l], u[l], &x[l]));
-    let y: [[f64; 13]; W] = std::array::from_fn(|l| std::array::from_fn(|i| x[l][i] + 0.5 * h * k1[l][i]));
-    let k2: [[f64; 13]; W] = std::array::from_fn(|l| derivatives(c[l], u[l], &y[l]));
-    let y: [[f64; 13]; W] = std::array::from_fn(|l| std::array::from_fn(|i| x[l][i] + 0.5 * h * k2[l][i]));
-    let k3: [[f64; 13]; W] = std::array::from_fn(|l| derivatives(c[l], u[l], &y[l]));
-    let y: [[f64; 13]; W] = std::array::from_fn(|l| std::array::from_fn(|i| x[l][i] + h * k3[l][i]));
-    let k4: [[f64; 13]; W] = std::array::from_fn(|l| derivatives(c[l], u[l], &y[l]));
-    for l in 0..W {
-        for i in 0..13 {
-            x[l][i] += h / 6.0 * (k1[l][i] + 2.0 * k2[l][i] + 2.0 * k3[l][i] + k4[l][i]);
-        }
-    }
-}
-
-#[inline(always)]
-fn rk4_step(c: &ModelConsts, u: &MinuteInput, x: &mut [f64; 13], h: f64) {
+pub(crate) fn rk4_step<T: Real>(c: &ModelConsts<T>, u: &MinuteInput<T>, x: &mut [T; 13], h: f64) {
     let k1 = derivatives(c, u, x);
-    let mut y = [0.0; 13];
+    let mut y = *x;
     for i in 0..13 {
-        y[i] = x[i] + 0.5 * h * k1[i];
+        y[i] = x[i] + k1[i] * (0.5 * h);
     }
     let k2 = derivatives(c, u, &y);
     for i in 0..13 {
-        y[i] = x[i] + 0.5 * h * k2[i];
+        y[i] = x[i] + k2[i] * (0.5 * h);
     }
     let k3 = derivatives(c, u, &y);
     for i in 0..13 {
-        y[i] = x[i] + h * k3[i];
+        y[i] = x[i] + k3[i] * h;
     }
     let k4 = derivatives(c, u, &y);
     for i in 0..13 {
-        x[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+        x[i] = x[i] + (k1[i] + k2[i] * 2.0 + k3[i] * 2.0 + k4[i]) * (h / 6.0);
     }
 }

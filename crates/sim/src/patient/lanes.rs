@@ -32,10 +32,10 @@ pub trait Real:
     fn unless_negative(self, mass: Self) -> Self;
     /// max(self, 0) as `f64::max`.
     fn max0(self) -> Self;
-    /// e^self. One patient: libm's `exp`; lanes: [`exp_small`] (within 2 ulp).
-    fn exp(self) -> Self;
-    /// `self` clamped to [lo, hi].
-    fn clamp(self, lo: f64, hi: f64) -> Self;
+    /// e^self for a tanh, where arguments beyond ±40 all saturate it. One
+    /// patient: libm's `exp` of `self`; lanes: [`exp_small`] (within 2
+    /// ulp) of `self` clamped to [−40, 40], which keeps it in range.
+    fn exp_for_tanh(self) -> Self;
 }
 
 impl Real for f64 {
@@ -72,12 +72,8 @@ impl Real for f64 {
         self.max(0.0)
     }
     #[inline(always)]
-    fn exp(self) -> Self {
+    fn exp_for_tanh(self) -> Self {
         f64::exp(self)
-    }
-    #[inline(always)]
-    fn clamp(self, lo: f64, hi: f64) -> Self {
-        f64::clamp(self, lo, hi)
     }
 }
 
@@ -172,12 +168,8 @@ impl<const W: usize> Real for Lanes<W> {
         self.map(|a| a.max(0.0))
     }
     #[inline(always)]
-    fn exp(self) -> Self {
-        self.map(exp_small)
-    }
-    #[inline(always)]
-    fn clamp(self, lo: f64, hi: f64) -> Self {
-        self.map(|a| a.clamp(lo, hi))
+    fn exp_for_tanh(self) -> Self {
+        self.map(|a| exp_small(a.clamp(-40.0, 40.0)))
     }
 }
 

@@ -184,6 +184,8 @@ impl<const W: usize> MinuteInput<Lanes<W>> {
                 sensitivity,
                 alpha,
                 beta,
+                two_alpha,
+                two_beta,
                 b_dbar,
                 d_dbar,
                 s_kp3,
@@ -253,6 +255,10 @@ pub struct MinuteInput<T = f64> {
     pub alpha: T,
     /// Slope β of the second tanh of kempt, 5/(2·Dbar·d) (1/mg); 0 if Dbar = 0.
     pub beta: T,
+    /// 2α (1/mg), so that the first tanh's doubled argument is one product.
+    pub two_alpha: T,
+    /// 2β (1/mg).
+    pub two_beta: T,
     /// Centre b·Dbar of the first tanh of kempt (mg).
     pub b_dbar: T,
     /// Centre d·Dbar of the second tanh of kempt (mg).
@@ -287,6 +293,8 @@ impl MinuteInput {
             sensitivity,
             alpha,
             beta,
+            two_alpha: 2.0 * alpha,
+            two_beta: 2.0 * beta,
             b_dbar: c.b * dbar_mg,
             d_dbar: c.d * dbar_mg,
             s_kp3: sensitivity * c.kp3,
@@ -299,11 +307,18 @@ impl MinuteInput {
 /// (which goes through `expm1` and dominated the profile of a trial). The
 /// absolute error is below 2e-16 for every x, and kempt only needs absolute
 /// accuracy: the two tanh terms are added to 2. For |x| >= 20 the formula
-/// gives exactly ±1 in floating point, so 2x is clamped to [−40, 40] (which
-/// keeps the lanes' exp in range and changes no result).
+/// gives exactly ±1 in floating point, so the lanes' exp may clamp 2x to
+/// [−40, 40] without changing a result.
 #[inline(always)]
 pub fn tanh_fast<T: Real>(x: T) -> T {
-    T::splat(1.0) - T::splat(2.0) / ((x * 2.0).clamp(-40.0, 40.0).exp() + 1.0)
+    tanh_of_double(x * 2.0)
+}
+
+/// tanh(y/2) from y = 2x (saves the doubling on the dependency chain of
+/// kempt; doubling is exact, so tanh_of_double(2x) == tanh_fast(x)).
+#[inline(always)]
+fn tanh_of_double<T: Real>(two_x: T) -> T {
+    T::splat(1.0) - T::splat(2.0) / (two_x.exp_for_tanh() + 1.0)
 }
 
 /// The gastric emptying rate kempt(Qsto, Dbar) (DM07 eq. 7; simglucose's
@@ -312,7 +327,8 @@ pub fn tanh_fast<T: Real>(x: T) -> T {
 pub fn k_empt<T: Real>(c: &ModelConsts<T>, u: &MinuteInput<T>, q_sto: T) -> T {
     let switching = c.kmin
         + c.half_k_range
-            * (tanh_fast(u.alpha * (q_sto - u.b_dbar)) - tanh_fast(u.beta * (q_sto - u.d_dbar))
+            * (tanh_of_double(u.two_alpha * (q_sto - u.b_dbar))
+                - tanh_of_double(u.two_beta * (q_sto - u.d_dbar))
                 + 2.0);
     u.dbar_mg.if_gt(T::splat(0.0), switching, c.kmax)
 }

@@ -8,45 +8,8 @@ use abba_sim::cohort::Population;
 use abba_sim::scenario::{ScenarioConfig, ScenarioId};
 use serde::{Deserialize, Serialize};
 
-/// The three arms of every scenario.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum ArmKind {
-    /// ABBA (CGM mode in S1, SMBG mode in S2-S4).
-    Abba,
-    /// Standard therapy for all 98 days.
-    Standard,
-    /// Run-to-run basal and carb-ratio adaptation.
-    R2r,
-}
-
-impl ArmKind {
-    /// All arms, in report order.
-    pub const ALL: [ArmKind; 3] = [ArmKind::Abba, ArmKind::Standard, ArmKind::R2r];
-
-    /// `abba`, `standard`, `r2r`.
-    pub fn name(self) -> &'static str {
-        match self {
-            ArmKind::Abba => "abba",
-            ArmKind::Standard => "standard",
-            ArmKind::R2r => "r2r",
-        }
-    }
-}
-
-impl std::str::FromStr for ArmKind {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "abba" => Ok(ArmKind::Abba),
-            "standard" => Ok(ArmKind::Standard),
-            "r2r" => Ok(ArmKind::R2r),
-            _ => Err(format!(
-                "unknown arm '{s}' (expected abba, standard or r2r)"
-            )),
-        }
-    }
-}
+/// The arms live in abba-report (results carry them); re-exported here.
+pub use abba_report::ArmKind;
 
 /// Device settings of the trial.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -118,13 +118,13 @@ pub fn run_trial(
     };
     let mut arms = Vec::new();
     let mut it = results.into_iter();
-    for s in &scenarios {
+    for (id, s) in config.scenarios.iter().zip(&scenarios) {
         for arm in &config.arms {
             let patients: Vec<_> = it.by_ref().take(cohort.patients.len()).collect();
             arms.push(ArmResult {
-                scenario: s.name.clone(),
-                advisor: arm.name().to_string(),
-                mode: TrialConfig::mode_for(s).name().to_string(),
+                scenario: *id,
+                advisor: *arm,
+                mode: TrialConfig::mode_for(s),
                 patients,
             });
         }

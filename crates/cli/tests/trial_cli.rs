@@ -94,6 +94,69 @@ fn traces_every_minute_and_decision() {
 }
 
 #[test]
+fn a_rerun_replaces_the_old_report_and_its_traces() {
+    let out = tmp("rerun");
+    small_trial(&out, "0", &["--arms", "standard", "--trace", "adult#002"]);
+    assert!(out.join("traces/adult-002-S1-standard.csv").is_file());
+    std::fs::write(out.join("notes.txt"), "mine").unwrap();
+    small_trial(&out, "0", &["--arms", "standard"]);
+    assert!(
+        !out.join("traces").exists(),
+        "traces of the first run are left in the new report"
+    );
+    assert!(out.join("summary.json").is_file());
+    assert_eq!(std::fs::read_to_string(out.join("notes.txt")).unwrap(), "mine");
+}
+
+/// `abba trial` with the paper's full protocol (100 patients, 98 days, 12
+/// arms: minutes of simulation) and `args`: it must fail at once, with a
+/// message containing every one of `needles`, and never "File exists"
+/// (what it said after a whole trial before the folder was checked first).
+fn fails_before_the_run(args: &[&str], out: &Path, needles: &[&str]) {
+    let result = abba()
+        .args(["trial", "--quiet"])
+        .args(args)
+        .arg("--out")
+        .arg(out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&result.stderr);
+    assert!(!result.status.success(), "{args:?} {}: should fail", out.display());
+    for needle in needles {
+        assert!(err.contains(needle), "{args:?}: expected {needle:?} in {err}");
+    }
+    assert!(!err.contains("File exists"), "{err}");
+}
+
+#[test]
+fn the_report_folder_and_traced_patients_are_checked_before_the_run() {
+    let file = tmp("afile");
+    std::fs::write(&file, "mine").unwrap();
+    fails_before_the_run(&[], &file, &["afile", "is not a folder"]);
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "mine");
+
+    let foreign = tmp("foreign");
+    std::fs::create_dir_all(&foreign).unwrap();
+    std::fs::write(foreign.join("thesis.tex"), "mine").unwrap();
+    fails_before_the_run(&[], &foreign, &["thesis.tex", "not an abba report"]);
+
+    #[cfg(target_os = "linux")]
+    fails_before_the_run(
+        &[],
+        Path::new("/proc/abba-trial-check"),
+        &["/proc/abba-trial-check", "cannot create it"],
+    );
+
+    let untouched = tmp("never-created");
+    fails_before_the_run(
+        &["--trace", "adult#001,adult#101"],
+        &untouched,
+        &["no patient 'adult#101'", "adult#001 .. adult#100"],
+    );
+    assert!(!untouched.exists(), "a failed check created the folder");
+}
+
+#[test]
 fn bad_options_are_clear_errors() {
     let cases: [(&[&str], &str); 4] = [
         (&["--scenarios", "S5"], "S5"),

@@ -70,11 +70,11 @@ impl ReportDir {
                     )));
                 }
             }
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            // Missing (or unreadable: then creating it says why).
+            Err(_) => {
                 std::fs::create_dir_all(path)
                     .map_err(|e| refuse(format!("cannot create it: {e}")))?;
             }
-            Err(e) => return Err(refuse(format!("cannot read it: {e}"))),
         }
         let probe = path.join(PROBE);
         std::fs::write(&probe, b"")

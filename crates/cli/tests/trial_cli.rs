@@ -105,7 +105,10 @@ fn a_rerun_replaces_the_old_report_and_its_traces() {
         "traces of the first run are left in the new report"
     );
     assert!(out.join("summary.json").is_file());
-    assert_eq!(std::fs::read_to_string(out.join("notes.txt")).unwrap(), "mine");
+    assert_eq!(
+        std::fs::read_to_string(out.join("notes.txt")).unwrap(),
+        "mine"
+    );
 }
 
 /// `abba trial` with the paper's full protocol (100 patients, 98 days, 12
@@ -121,9 +124,16 @@ fn fails_before_the_run(args: &[&str], out: &Path, needles: &[&str]) {
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&result.stderr);
-    assert!(!result.status.success(), "{args:?} {}: should fail", out.display());
+    assert!(
+        !result.status.success(),
+        "{args:?} {}: should fail",
+        out.display()
+    );
     for needle in needles {
-        assert!(err.contains(needle), "{args:?}: expected {needle:?} in {err}");
+        assert!(
+            err.contains(needle),
+            "{args:?}: expected {needle:?} in {err}"
+        );
     }
     assert!(!err.contains("File exists"), "{err}");
 }

@@ -26,7 +26,6 @@ pub(crate) fn plot_err<E: std::fmt::Display>(figure: &'static str) -> impl Fn(E)
     }
 }
 
-
 /// A round step (1, 2, 2.5 or 5 × 10^k) of at least `raw`.
 pub(crate) fn nice_step(raw: f64) -> f64 {
     if !(raw.is_finite() && raw > 0.0) {
@@ -376,7 +375,11 @@ pub(crate) fn frame<'a>(
     Ok((main, footer))
 }
 
-pub(crate) fn draw_message(area: &Area, message: &str, figure: &'static str) -> Result<(), ReportError> {
+pub(crate) fn draw_message(
+    area: &Area,
+    message: &str,
+    figure: &'static str,
+) -> Result<(), ReportError> {
     let (w, h) = area.dim_in_pixel();
     area.draw(&Text::new(
         message.to_string(),

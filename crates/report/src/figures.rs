@@ -194,21 +194,30 @@ pub fn fig5_lbgi_hbgi(arms: &[ArmResult]) -> Result<String, ReportError> {
             let panels = main.split_evenly((2, abba.len()));
             for (i, arm) in abba.iter().enumerate() {
                 let n = n_text(arm);
-                let rows: [(usize, Metric, f64, &[(f64, &str)], &Line); 2] = [
-                    (i, Metric::Lbgi, lbgi_max, &[(1.1, "1.1"), (2.5, "2.5")], &lbgi[i]),
-                    (abba.len() + i, Metric::Hbgi, hbgi_max, &[(5.0, "5")], &hbgi[i]),
+                let panel = |metric: Metric, y_max: f64, refs| Panel {
+                    caption: format!("{} · {} ({n})", arm.scenario, metric.label()),
+                    y_desc: metric.label(),
+                    y_range: (0.0, y_max),
+                    refs,
+                    spread: Spread::Shaded,
+                };
+                let rows: [(usize, Panel, &Line); 2] = [
+                    (
+                        i,
+                        panel(Metric::Lbgi, lbgi_max, &[(1.1, "1.1"), (2.5, "2.5")]),
+                        &lbgi[i],
+                    ),
+                    (
+                        abba.len() + i,
+                        panel(Metric::Hbgi, hbgi_max, &[(5.0, "5")]),
+                        &hbgi[i],
+                    ),
                 ];
-                for (panel, metric, y_max, refs, line) in rows {
+                for (at, panel, line) in rows {
                     draw_weekly_panel(
-                        &panels[panel],
+                        &panels[at],
                         &weeks,
-                        &Panel {
-                            caption: format!("{} · {} ({n})", arm.scenario, metric.label()),
-                            y_desc: metric.label(),
-                            y_range: (0.0, y_max),
-                            refs,
-                            spread: Spread::Shaded,
-                        },
+                        &panel,
                         std::slice::from_ref(line),
                         FIG,
                     )?;
@@ -339,7 +348,8 @@ fn draw_box(
             Rectangle::new([(xc - half, q1), (xc + half, q3)], stroke),
         ])
         .map_err(&pe)?;
-    let whisker = |y: f64| PathElement::new(vec![(xc - half / 2.0, y), (xc + half / 2.0, y)], stroke);
+    let whisker =
+        |y: f64| PathElement::new(vec![(xc - half / 2.0, y), (xc + half / 2.0, y)], stroke);
     chart
         .draw_series([
             PathElement::new(
@@ -409,7 +419,12 @@ fn draw_tdi_boxes(
             }
             y_max = y_max.max(values.iter().copied().fold(0.0, f64::max));
             y_min = y_min.min(values.iter().copied().fold(f64::INFINITY, f64::min));
-            boxes.push((j, week_x(w), scenario_color(arm.scenario), tukey_box(&values)));
+            boxes.push((
+                j,
+                week_x(w),
+                scenario_color(arm.scenario),
+                tukey_box(&values),
+            ));
         }
     }
     let y_range = if y_min.is_finite() {

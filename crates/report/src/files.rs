@@ -81,7 +81,10 @@ pub fn build_report(
 }
 
 /// Pretty JSON with a final newline.
-pub(crate) fn pretty_json(value: &serde_json::Value, what: &'static str) -> Result<Vec<u8>, ReportError> {
+pub(crate) fn pretty_json(
+    value: &serde_json::Value,
+    what: &'static str,
+) -> Result<Vec<u8>, ReportError> {
     let mut bytes =
         serde_json::to_vec_pretty(value).map_err(|source| ReportError::Json { what, source })?;
     bytes.push(b'\n');

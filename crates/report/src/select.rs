@@ -154,4 +154,3 @@ pub fn validate_arms(arms: &[ArmResult]) -> Result<(), ReportError> {
     }
     Ok(())
 }
-

@@ -124,9 +124,9 @@ fn parse_paper_table(text: &str) -> Result<Vec<PaperValue>, ReportError> {
             PaperScenarios::S1ToS3
         } else {
             let id = ScenarioId::ALL.into_iter().find(|id| id.name() == f[0]);
-            PaperScenarios::One(id.ok_or_else(|| {
-                err(n, format!("scenario {:?}, expected S1..S4 or S1-S3", f[0]))
-            })?)
+            PaperScenarios::One(
+                id.ok_or_else(|| err(n, format!("scenario {:?}, expected S1..S4 or S1-S3", f[0])))?,
+            )
         };
         let week = Week::TABLE
             .into_iter()
@@ -212,7 +212,12 @@ impl Anchor {
 
 /// The paper's textual LBGI/HBGI statement that applies to an arm's week and
 /// metric (see the module docs), if any.
-pub fn anchor(scenario: ScenarioId, advisor: ArmKind, week: Week, metric: Metric) -> Option<Anchor> {
+pub fn anchor(
+    scenario: ScenarioId,
+    advisor: ArmKind,
+    week: Week,
+    metric: Metric,
+) -> Option<Anchor> {
     let shared_w1 =
         week == Week::W1 && matches!(scenario, ScenarioId::S1 | ScenarioId::S2 | ScenarioId::S3);
     let abba = advisor == ArmKind::Abba;

@@ -124,7 +124,10 @@ mod tests {
         assert_eq!(lines.len(), 3);
         assert_eq!(lines[0], TRACE_HEADER);
         assert_eq!(lines[0].split(',').count(), lines[1].split(',').count());
-        assert_eq!(lines[1], "0,1,00:00,120.5,118,119,,0,0.015,1,0.9,10,11,12.5");
+        assert_eq!(
+            lines[1],
+            "0,1,00:00,120.5,118,119,,0,0.015,1,0.9,10,11,12.5"
+        );
         assert!(lines[2].starts_with("1515,2,01:15,"), "{}", lines[2]);
         assert_eq!(
             trace_stem("adult#003", ScenarioId::S3, ArmKind::Abba),

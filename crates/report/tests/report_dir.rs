@@ -8,7 +8,9 @@ use std::path::{Path, PathBuf};
 use abba_report::{ReportDir, ReportError, ReportFile, REPORT_FILES};
 
 fn fresh(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("report_dir").join(name);
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join("report_dir")
+        .join(name);
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(dir.parent().unwrap()).unwrap();
     dir
@@ -62,7 +64,10 @@ fn a_file_is_not_a_report_folder() {
 fn a_folder_that_cannot_be_created_is_refused() {
     // /proc takes no new folders, not even from root.
     let e = refused(Path::new("/proc/abba-report-check"));
-    assert!(e.contains("/proc/abba-report-check") && e.contains("cannot create it"), "{e}");
+    assert!(
+        e.contains("/proc/abba-report-check") && e.contains("cannot create it"),
+        "{e}"
+    );
 }
 
 #[cfg(unix)]
@@ -106,8 +111,12 @@ fn a_rerun_replaces_what_abba_wrote_and_nothing_else() {
     let dir = fresh("rerun");
     let first = ReportDir::prepare(&dir).unwrap();
     first.write_report(&report("one")).unwrap();
-    first.write_trace("adult-001-S1-abba", "csv\n", "{}\n").unwrap();
-    first.write_trace("adult-002-S1-abba", "csv\n", "{}\n").unwrap();
+    first
+        .write_trace("adult-001-S1-abba", "csv\n", "{}\n")
+        .unwrap();
+    first
+        .write_trace("adult-002-S1-abba", "csv\n", "{}\n")
+        .unwrap();
     std::fs::write(dir.join("my-notes.txt"), "keep").unwrap();
     std::fs::write(dir.join("traces/plot.png"), "keep").unwrap();
 
@@ -126,7 +135,10 @@ fn a_rerun_replaces_what_abba_wrote_and_nothing_else() {
         .collect();
     traces.sort();
     assert_eq!(traces, ["plot.png"]);
-    assert_eq!(std::fs::read_to_string(dir.join("my-notes.txt")).unwrap(), "keep");
+    assert_eq!(
+        std::fs::read_to_string(dir.join("my-notes.txt")).unwrap(),
+        "keep"
+    );
 
     // Without other files in it, traces/ itself goes.
     std::fs::remove_file(dir.join("traces/plot.png")).unwrap();
@@ -138,7 +150,10 @@ fn a_rerun_replaces_what_abba_wrote_and_nothing_else() {
 #[test]
 fn an_old_report_stays_until_the_new_one_is_written() {
     let dir = fresh("keep-until-written");
-    ReportDir::prepare(&dir).unwrap().write_report(&report("old")).unwrap();
+    ReportDir::prepare(&dir)
+        .unwrap()
+        .write_report(&report("old"))
+        .unwrap();
     // Checking the folder for a new run removes nothing.
     ReportDir::prepare(&dir).unwrap();
     let text = std::fs::read_to_string(dir.join("summary.json")).unwrap();

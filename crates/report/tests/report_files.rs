@@ -128,7 +128,11 @@ fn small_arm(scenario: &str, advisor: &str) -> ArmResult {
     ArmResult {
         scenario: scenario.parse().unwrap(),
         advisor: advisor.parse().unwrap(),
-        mode: if scenario == "S1" { Mode::Cgm } else { Mode::Smbg },
+        mode: if scenario == "S1" {
+            Mode::Cgm
+        } else {
+            Mode::Smbg
+        },
         patients,
     }
 }
@@ -216,7 +220,11 @@ fn summary_json_has_the_protocol_schema() {
         }
         assert_eq!(keys(&arm["wilcoxon"]), sorted(&["W1_vs_W13", "W1_vs_W14"]));
         for c in ["W1_vs_W13", "W1_vs_W14"] {
-            assert_eq!(keys(&arm["wilcoxon"][c]), sorted(&metric_keys()), "{key} {c}");
+            assert_eq!(
+                keys(&arm["wilcoxon"][c]),
+                sorted(&metric_keys()),
+                "{key} {c}"
+            );
             for k in metric_keys() {
                 assert_eq!(
                     keys(&arm["wilcoxon"][c][k]),
@@ -459,17 +467,23 @@ fn inconsistent_results_are_errors_that_say_where() {
 
     let mut arms = small_trial();
     arms.push(small_arm("S1", "abba"));
-    let e = build_report(&arms, &manifest(), None).unwrap_err().to_string();
+    let e = build_report(&arms, &manifest(), None)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("S1/abba appears more than once"), "{e}");
 
     let mut arms = small_trial();
     arms[1].patients[0].weeks[1].first_day = 10;
-    let e = build_report(&arms, &manifest(), None).unwrap_err().to_string();
+    let e = build_report(&arms, &manifest(), None)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("week W2: days D10-D15, expected D9-D15"), "{e}");
 
     let mut arms = small_trial();
     arms[2].patients[0].weeks[0].metrics.lbgi = f64::NAN;
-    let e = build_report(&arms, &manifest(), None).unwrap_err().to_string();
+    let e = build_report(&arms, &manifest(), None)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("S4/abba") && e.contains("lbgi"), "{e}");
 
     assert!(build_report(&[], &manifest(), None).is_err());
@@ -636,7 +650,10 @@ fn a_stopped_run_counts_only_in_the_weeks_before_the_stop() {
         .filter(|a| a.scenario == ScenarioId::S1)
         .collect();
     // adult#005 of S1/abba stops on D50 at 03:20: W1..W6 end before (W6 = D37-D43, W7 = D44-D50).
-    let abba = arms.iter_mut().find(|a| a.advisor == ArmKind::Abba).unwrap();
+    let abba = arms
+        .iter_mut()
+        .find(|a| a.advisor == ArmKind::Abba)
+        .unwrap();
     let p = &mut abba.patients[4];
     p.failure = Some(RunFailure {
         day: 50,
@@ -645,7 +662,11 @@ fn a_stopped_run_counts_only_in_the_weeks_before_the_stop() {
     });
     p.weeks.retain(|w| w.last_day < 50);
     assert_eq!(p.weeks.len(), 6);
-    let abba = arms.iter().find(|a| a.advisor == ArmKind::Abba).unwrap().clone();
+    let abba = arms
+        .iter()
+        .find(|a| a.advisor == ArmKind::Abba)
+        .unwrap()
+        .clone();
 
     let s = summary_json(&arms, &manifest()).unwrap();
     let notes = &s["notes"]["arms"]["S1/abba"];
@@ -708,7 +729,9 @@ fn a_stopped_run_counts_only_in_the_weeks_before_the_stop() {
         minute_of_day: 0,
         glucose_mg_dl: 9.0,
     });
-    let e = build_report(&bad, &manifest(), None).unwrap_err().to_string();
+    let e = build_report(&bad, &manifest(), None)
+        .unwrap_err()
+        .to_string();
     assert!(
         e.contains("adult#005: week W6 ends on D43 but the run stopped on D40"),
         "{e}"
@@ -724,7 +747,10 @@ fn arms_side_by_side_compare_the_same_patients() {
     let n = arms[0].patients.len();
     // The standard arm loses its first patient on D60: that patient leaves
     // the side-by-side block of every arm in W13 and W14.
-    let standard = arms.iter_mut().find(|a| a.advisor == ArmKind::Standard).unwrap();
+    let standard = arms
+        .iter_mut()
+        .find(|a| a.advisor == ArmKind::Standard)
+        .unwrap();
     let p = &mut standard.patients[0];
     p.failure = Some(RunFailure {
         day: 60,

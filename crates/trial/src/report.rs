@@ -9,8 +9,8 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use abba_report::trace::{decisions_jsonl, trace_csv, trace_stem, TraceMinute};
-use abba_report::{build_report, ReportDir};
 pub use abba_report::RunInfo;
+use abba_report::{build_report, ReportDir};
 use serde_json::{json, Value};
 
 use crate::closed_loop::MinuteRecord;
@@ -100,13 +100,8 @@ impl ReportPlan {
         for patient in &self.trace {
             for scenario in &output.config.scenarios {
                 for arm in &output.config.arms {
-                    let (_, trace) = trace_patient(
-                        &output.config,
-                        &output.cohort,
-                        patient,
-                        *scenario,
-                        *arm,
-                    )?;
+                    let (_, trace) =
+                        trace_patient(&output.config, &output.cohort, patient, *scenario, *arm)?;
                     let minutes = trace.minutes.unwrap_or_default();
                     let csv = trace_csv(minutes.iter().map(trace_minute));
                     let decisions = decisions_jsonl(&trace.decisions.unwrap_or_default())?;

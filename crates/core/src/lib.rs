@@ -15,6 +15,7 @@
 pub mod error;
 pub mod event;
 pub mod metrics;
+pub mod named;
 pub mod scenario;
 pub mod seed;
 pub mod therapy;
@@ -24,6 +25,7 @@ pub mod units;
 pub use error::CoreError;
 pub use event::{Event, EventKind};
 pub use metrics::Metric;
+pub use named::Named;
 pub use scenario::ScenarioId;
 pub use seed::{derive_seed, Stream};
 pub use therapy::{MealSlot, TherapySettings};

@@ -5,6 +5,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::CoreError;
+use crate::named;
 
 /// The paper's four scenarios (seed paper §III-A-4). Serialises as `"S1"`..`"S4"`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
@@ -49,25 +50,18 @@ impl ScenarioId {
     }
 }
 
-impl std::fmt::Display for ScenarioId {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
+crate::named!(
+    ScenarioId,
+    "scenario",
+    "one of S1, S2, S3, S4",
+    ScenarioId::name
+);
 
 impl std::str::FromStr for ScenarioId {
     type Err = CoreError;
     /// Case-insensitive, surrounding white space ignored (`s2` is `S2`).
     fn from_str(s: &str) -> Result<Self, CoreError> {
-        let wanted = s.trim().to_ascii_uppercase();
-        ScenarioId::ALL
-            .into_iter()
-            .find(|id| id.name() == wanted)
-            .ok_or_else(|| CoreError::UnknownName {
-                what: "scenario",
-                got: s.to_string(),
-                expected: "one of S1, S2, S3, S4",
-            })
+        named::parse(&s.trim().to_ascii_uppercase()).map_err(|_| named::unknown::<Self>(s))
     }
 }
 

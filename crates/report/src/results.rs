@@ -5,8 +5,9 @@
 
 use abba_advisor::Mode;
 use abba_core::metrics::GlucoseMetrics;
-use abba_core::{CoreError, Metric, ScenarioId};
-use serde::{Deserialize, Deserializer, Serialize, Serializer};
+use abba_core::named;
+use abba_core::{Metric, ScenarioId};
+use serde::{Deserialize, Serialize};
 
 /// The three arms of every scenario.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
@@ -34,19 +35,12 @@ impl ArmKind {
     }
 }
 
-impl std::fmt::Display for ArmKind {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
+abba_core::named!(ArmKind, "arm", "abba, standard or r2r", ArmKind::name);
 
 impl std::str::FromStr for ArmKind {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
-        ArmKind::ALL
-            .into_iter()
-            .find(|a| a.name() == s)
-            .ok_or_else(|| format!("unknown arm '{s}' (expected abba, standard or r2r)"))
+        named::parse(s).map_err(|e| e.to_string())
     }
 }
 
@@ -115,39 +109,13 @@ impl Week {
     }
 }
 
-impl std::fmt::Display for Week {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl std::str::FromStr for Week {
-    type Err = CoreError;
-    fn from_str(s: &str) -> Result<Self, CoreError> {
-        Week::ALL
-            .into_iter()
-            .find(|w| w.name() == s)
-            .ok_or_else(|| CoreError::UnknownName {
-                what: "evaluation week",
-                got: s.to_string(),
-                expected: "one of W1..W14",
-            })
-    }
-}
-
-impl Serialize for Week {
-    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        serializer.serialize_str(self.name())
-    }
-}
-
-impl<'de> Deserialize<'de> for Week {
-    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
-        String::deserialize(deserializer)?
-            .parse()
-            .map_err(serde::de::Error::custom)
-    }
-}
+abba_core::named!(
+    Week,
+    "evaluation week",
+    "one of W1..W14",
+    Week::name,
+    parse_and_serde
+);
 
 /// One evaluation window of one patient in one arm.
 #[derive(Debug, Clone, PartialEq, Serialize)]

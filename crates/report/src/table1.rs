@@ -242,15 +242,10 @@ pub fn anchor(
 }
 
 /// The metrics of our Table I: the five bands, then LBGI and HBGI.
-pub const TABLE1_METRICS: [Metric; 7] = [
-    Metric::Tir70To180,
-    Metric::Hypo50To70,
-    Metric::SevereHypoLt50,
-    Metric::Hyper180To300,
-    Metric::SevereHyperGt300,
-    Metric::Lbgi,
-    Metric::Hbgi,
-];
+pub const TABLE1_METRICS: [Metric; 7] = {
+    let b = Metric::SEED_BANDS;
+    [b[0], b[1], b[2], b[3], b[4], Metric::Lbgi, Metric::Hbgi]
+};
 
 /// One cell group of our Table I: an arm, week and metric.
 #[derive(Debug, Clone, PartialEq)]

@@ -79,11 +79,16 @@ fn summary_of(arm: &ArmResult, week: Week, key: Metric) -> Result<Option<Summary
     })
 }
 
-fn abba_arms(arms: &[ArmResult]) -> Vec<&ArmResult> {
-    ordered_arms(arms)
+/// The ABBA arms (report order) and the weeks any of them has, after
+/// checking the results.
+fn abba_arms(arms: &[ArmResult]) -> Result<(Vec<&ArmResult>, Vec<Week>), ReportError> {
+    validate_arms(arms)?;
+    let abba: Vec<&ArmResult> = ordered_arms(arms)
         .into_iter()
         .filter(|a| a.advisor == ArmKind::Abba)
-        .collect()
+        .collect();
+    let weeks = week_axis(&abba);
+    Ok((abba, weeks))
 }
 
 /// Mean ± SD line of `key` for one arm over `weeks`.
@@ -174,9 +179,7 @@ const NO_ABBA: &str = "No ABBA arm in this trial.";
 /// `fig5_lbgi_hbgi.svg`: weekly LBGI and HBGI of the `abba` arms (see the module docs).
 pub fn fig5_lbgi_hbgi(arms: &[ArmResult]) -> Result<String, ReportError> {
     const FIG: &str = "fig5_lbgi_hbgi.svg";
-    validate_arms(arms)?;
-    let abba = abba_arms(arms);
-    let weeks = week_axis(&abba);
+    let (abba, weeks) = abba_arms(arms)?;
     let title = "Fig. 5 - Weekly LBGI and HBGI, ABBA (mean ± SD over patients)";
     render_svg((1600, 860), title, 90, FIG, |main, footer| {
         if abba.is_empty() {
@@ -245,9 +248,7 @@ pub fn fig5_lbgi_hbgi(arms: &[ArmResult]) -> Result<String, ReportError> {
 /// `fig6_mage.svg`: weekly MAGE of the `abba` arms (see the module docs).
 pub fn fig6_mage(arms: &[ArmResult]) -> Result<String, ReportError> {
     const FIG: &str = "fig6_mage.svg";
-    validate_arms(arms)?;
-    let abba = abba_arms(arms);
-    let weeks = week_axis(&abba);
+    let (abba, weeks) = abba_arms(arms)?;
     let title = "Fig. 6 - Weekly MAGE, ABBA (mean ± SD over patients)";
     render_svg((1200, 760), title, 90, FIG, |main, footer| {
         let mut undefined = 0usize;
@@ -371,9 +372,7 @@ fn draw_box(
 /// `fig7_tdi.svg`: weekly TDI box plots of the `abba` arms (see the module docs).
 pub fn fig7_tdi(arms: &[ArmResult]) -> Result<String, ReportError> {
     const FIG: &str = "fig7_tdi.svg";
-    validate_arms(arms)?;
-    let abba = abba_arms(arms);
-    let weeks = week_axis(&abba);
+    let (abba, weeks) = abba_arms(arms)?;
     let title = "Fig. 7 - Weekly total daily insulin (TDI), ABBA";
     render_svg((1500, 760), title, 90, FIG, |main, footer| {
         if abba.is_empty() {

@@ -9,8 +9,8 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use abba_report::trace::{decisions_jsonl, trace_csv, trace_stem, TraceMinute};
-pub use abba_report::RunInfo;
 use abba_report::{build_report, ReportDir};
+pub use abba_report::{RunInfo, REPORT_FILES};
 use serde_json::{json, Value};
 
 use crate::closed_loop::MinuteRecord;

@@ -37,10 +37,10 @@ pub struct Args {
     pub days: Option<u32>,
     /// Scenarios, comma-separated (S1,S2,S3,S4).
     #[arg(long, value_delimiter = ',')]
-    pub scenarios: Option<Vec<String>>,
+    pub scenarios: Option<Vec<ScenarioId>>,
     /// Arms, comma-separated (abba,standard,r2r).
     #[arg(long, value_delimiter = ',')]
-    pub arms: Option<Vec<String>>,
+    pub arms: Option<Vec<ArmKind>>,
     /// Trial seed.
     #[arg(long)]
     pub seed: Option<u64>,
@@ -104,22 +104,10 @@ fn config_from(args: &Args) -> Result<TrialConfig> {
         c.days = d;
     }
     if let Some(s) = &args.scenarios {
-        c.scenarios = s
-            .iter()
-            .map(|x| {
-                x.parse::<ScenarioId>()
-                    .map_err(|e| anyhow::anyhow!("--scenarios: {e}"))
-            })
-            .collect::<Result<_>>()?;
+        c.scenarios.clone_from(s);
     }
     if let Some(a) = &args.arms {
-        c.arms = a
-            .iter()
-            .map(|x| {
-                x.parse::<ArmKind>()
-                    .map_err(|e| anyhow::anyhow!("--arms: {e}"))
-            })
-            .collect::<Result<_>>()?;
+        c.arms.clone_from(a);
     }
     if let Some(s) = args.seed {
         c.seed = s;

@@ -53,7 +53,7 @@ pub enum CoreError {
         /// The name received.
         got: String,
         /// The names that exist, in words.
-        expected: &'static str,
+        expected: String,
     },
 }
 

@@ -10,12 +10,15 @@ use crate::error::CoreError;
 pub trait Named: Copy + 'static {
     /// What kind of name it is (`metric`), for errors.
     const KIND: &'static str;
-    /// The names that exist, in words (`one of S1, S2, S3, S4`).
-    const EXPECTED: &'static str;
     /// Every value.
     fn values() -> &'static [Self];
     /// The value's name.
     fn name_of(self) -> &'static str;
+    /// The names that exist, in words (`one of S1, S2, S3, S4`).
+    fn expected() -> String {
+        let names: Vec<&str> = Self::values().iter().map(|v| v.name_of()).collect();
+        format!("one of {}", names.join(", "))
+    }
 }
 
 /// The value named exactly `s`, or an error naming what exists.
@@ -32,7 +35,7 @@ pub fn unknown<T: Named>(got: &str) -> CoreError {
     CoreError::UnknownName {
         what: T::KIND,
         got: got.to_string(),
-        expected: T::EXPECTED,
+        expected: T::expected(),
     }
 }
 
@@ -51,16 +54,15 @@ pub fn deserialize<'de, T: Named, D: Deserializer<'de>>(deserializer: D) -> Resu
 pub use serde as __serde;
 
 /// Implements [`Named`] and `Display` (the name) for a type with an
-/// associated `ALL` array, from its kind, the names in words, and the
-/// function giving a value's name. With
+/// associated `ALL` array, from its kind and the function giving a value's
+/// name. With
 /// `, parse_and_serde` it also implements `FromStr` (exact names,
 /// [`CoreError`] for others) and serde as the name.
 #[macro_export]
 macro_rules! named {
-    ($ty:ty, $kind:expr, $expected:expr, $name:expr) => {
+    ($ty:ty, $kind:expr, $name:expr) => {
         impl $crate::named::Named for $ty {
             const KIND: &'static str = $kind;
-            const EXPECTED: &'static str = $expected;
             fn values() -> &'static [Self] {
                 &<$ty>::ALL
             }
@@ -74,8 +76,8 @@ macro_rules! named {
             }
         }
     };
-    ($ty:ty, $kind:expr, $expected:expr, $name:expr, parse_and_serde) => {
-        $crate::named!($ty, $kind, $expected, $name);
+    ($ty:ty, $kind:expr, $name:expr, parse_and_serde) => {
+        $crate::named!($ty, $kind, $name);
         impl ::std::str::FromStr for $ty {
             type Err = $crate::CoreError;
             fn from_str(s: &str) -> Result<Self, $crate::CoreError> {

@@ -50,12 +50,7 @@ impl ScenarioId {
     }
 }
 
-crate::named!(
-    ScenarioId,
-    "scenario",
-    "one of S1, S2, S3, S4",
-    ScenarioId::name
-);
+crate::named!(ScenarioId, "scenario", ScenarioId::name);
 
 impl std::str::FromStr for ScenarioId {
     type Err = CoreError;

@@ -35,7 +35,7 @@ impl ArmKind {
     }
 }
 
-abba_core::named!(ArmKind, "arm", "abba, standard or r2r", ArmKind::name);
+abba_core::named!(ArmKind, "arm", ArmKind::name);
 
 impl std::str::FromStr for ArmKind {
     type Err = String;
@@ -109,13 +109,7 @@ impl Week {
     }
 }
 
-abba_core::named!(
-    Week,
-    "evaluation week",
-    "one of W1..W14",
-    Week::name,
-    parse_and_serde
-);
+abba_core::named!(Week, "evaluation week", Week::name, parse_and_serde);
 
 /// One evaluation window of one patient in one arm.
 #[derive(Debug, Clone, PartialEq, Serialize)]

@@ -249,15 +249,7 @@ impl Metric {
     }
 }
 
-crate::named!(
-    Metric,
-    "metric",
-    "one of tir_70_180, hypo_50_70, severe_hypo_lt50, hyper_180_300, severe_hyper_gt300, lbgi, \
-     hbgi, mage, tdi_u_per_day, mean_mg_dl, cv_pct, gmi_pct, below_54, below_70, above_180, \
-     above_250",
-    Metric::key,
-    parse_and_serde
-);
+crate::named!(Metric, "metric", Metric::key, parse_and_serde);
 
 #[cfg(test)]
 #[allow(clippy::unwrap_used)]

@@ -1,6 +1,8 @@
-//! The report's figures: what each one shows, computed from the results
-//! (lines of weekly means, box statistics, legends, notes), then drawn by
-//! [`crate::chart`] as SVG:
+//! The report's figures, data first: [`weekly_series`] (an arm's weekly
+//! summaries of a metric: the data of a line) and [`tdi_boxes`] (Tukey
+//! boxes of weekly TDI) are computed from the results and can be rendered
+//! by anything (the HTML report to come); the functions below draw them as
+//! SVG through [`crate::chart`]:
 //!
 //! - [`fig5_lbgi_hbgi`]: the paper's Fig. 5. Weekly LBGI (top row) and HBGI
 //!   (bottom row) of the `abba` arm, one column per scenario: mean over
@@ -26,6 +28,7 @@
 
 use abba_core::{Metric, ScenarioId};
 use plotters::prelude::*;
+use serde::Serialize;
 
 use crate::chart::{
     axis_of, draw_footer, draw_message, draw_weekly_panel, nice_range, plot_err, render_svg,
@@ -72,11 +75,59 @@ fn week_axis(arms: &[&ArmResult]) -> Vec<Week> {
         .collect()
 }
 
-fn summary_of(arm: &ArmResult, week: Week, key: Metric) -> Result<Option<Summary>, ReportError> {
-    summarize_present(&metric_column(arm, week, key)).map_err(|source| ReportError::Stats {
-        what: format!("arm {}, week {week}, metric {key}", arm.key()),
-        source,
+/// One arm's weekly summaries of one metric over its patients: the data of
+/// one line of a weekly figure (weeks where no patient has a value are
+/// left out).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct WeeklySeries {
+    /// The arm's scenario.
+    pub scenario: ScenarioId,
+    /// The arm.
+    pub advisor: ArmKind,
+    /// The metric.
+    pub metric: Metric,
+    /// Each week with a value, and the summary over patients.
+    pub points: Vec<(Week, Summary)>,
+}
+
+/// The [`WeeklySeries`] of `metric` for `arm` over `weeks`.
+pub fn weekly_series(
+    arm: &ArmResult,
+    weeks: &[Week],
+    metric: Metric,
+) -> Result<WeeklySeries, ReportError> {
+    let mut points = Vec::new();
+    for &week in weeks {
+        let summary = summarize_present(&metric_column(arm, week, metric)).map_err(|source| {
+            ReportError::Stats {
+                what: format!("arm {}, week {week}, metric {metric}", arm.key()),
+                source,
+            }
+        })?;
+        if let Some(summary) = summary {
+            points.push((week, summary));
+        }
+    }
+    Ok(WeeklySeries {
+        scenario: arm.scenario,
+        advisor: arm.advisor,
+        metric,
+        points,
     })
+}
+
+/// How a series is drawn: means only, or means with ± 1 SD.
+fn line_of(series: &WeeklySeries, color: RGBColor, with_sd: bool) -> Line {
+    let points = series
+        .points
+        .iter()
+        .map(|(w, s)| {
+            let sd = s.sd.unwrap_or(0.0);
+            let spread = with_sd.then_some((s.mean - sd, s.mean + sd));
+            (week_x(*w), s.mean, spread)
+        })
+        .collect();
+    Line { color, points }
 }
 
 /// The ABBA arms (report order) and the weeks any of them has, after
@@ -91,21 +142,13 @@ fn abba_arms(arms: &[ArmResult]) -> Result<(Vec<&ArmResult>, Vec<Week>), ReportE
     Ok((abba, weeks))
 }
 
-/// Mean ± SD line of `key` for one arm over `weeks`.
-fn mean_sd_line(
-    arm: &ArmResult,
-    weeks: &[Week],
-    key: Metric,
-    color: RGBColor,
-) -> Result<Line, ReportError> {
-    let mut points = Vec::new();
-    for &w in weeks {
-        if let Some(s) = summary_of(arm, w, key)? {
-            let sd = s.sd.unwrap_or(0.0);
-            points.push((week_x(w), s.mean, Some((s.mean - sd, s.mean + sd))));
-        }
-    }
-    Ok(Line { color, points })
+/// Mean ± SD line of `key` for one ABBA arm, in its scenario's colour.
+fn mean_sd_line(arm: &ArmResult, weeks: &[Week], key: Metric) -> Result<Line, ReportError> {
+    Ok(line_of(
+        &weekly_series(arm, weeks, key)?,
+        scenario_color(arm.scenario),
+        true,
+    ))
 }
 
 fn max_of(lines: &[Line]) -> f64 {
@@ -188,9 +231,8 @@ pub fn fig5_lbgi_hbgi(arms: &[ArmResult]) -> Result<String, ReportError> {
             let mut lbgi = Vec::new();
             let mut hbgi = Vec::new();
             for arm in &abba {
-                let c = scenario_color(arm.scenario);
-                lbgi.push(mean_sd_line(arm, &weeks, Metric::Lbgi, c)?);
-                hbgi.push(mean_sd_line(arm, &weeks, Metric::Hbgi, c)?);
+                lbgi.push(mean_sd_line(arm, &weeks, Metric::Lbgi)?);
+                hbgi.push(mean_sd_line(arm, &weeks, Metric::Hbgi)?);
             }
             let lbgi_max = nice_range(0.0, max_of(&lbgi).max(3.0)).1;
             let hbgi_max = nice_range(0.0, max_of(&hbgi).max(6.0)).1;
@@ -258,12 +300,7 @@ pub fn fig6_mage(arms: &[ArmResult]) -> Result<String, ReportError> {
         } else {
             let mut lines = Vec::new();
             for arm in &abba {
-                lines.push(mean_sd_line(
-                    arm,
-                    &weeks,
-                    Metric::Mage,
-                    scenario_color(arm.scenario),
-                )?);
+                lines.push(mean_sd_line(arm, &weeks, Metric::Mage)?);
                 for wk in arm.patients.iter().flat_map(|p| &p.weeks) {
                     total += 1;
                     undefined += usize::from(wk.metrics.mage.is_none());
@@ -297,22 +334,26 @@ pub fn fig6_mage(arms: &[ArmResult]) -> Result<String, ReportError> {
     })
 }
 
-/// A Tukey box: quartiles, whiskers and outliers of some values.
-#[derive(Debug, Clone, PartialEq)]
-struct TukeyBox {
-    q1: f64,
-    median: f64,
-    q3: f64,
+/// A Tukey box: quartiles, whiskers and outliers of some values (the data
+/// of one box of Fig. 7).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TukeyBox {
+    /// First quartile (type 7).
+    pub q1: f64,
+    /// Median.
+    pub median: f64,
+    /// Third quartile (type 7).
+    pub q3: f64,
     /// Lower whisker: the smallest value within 1.5 IQR below Q1.
-    low: f64,
+    pub low: f64,
     /// Upper whisker: the largest value within 1.5 IQR above Q3.
-    high: f64,
-    /// Values beyond the whiskers.
-    outliers: Vec<f64>,
+    pub high: f64,
+    /// Values beyond the whiskers, ascending.
+    pub outliers: Vec<f64>,
 }
 
 /// Tukey box of `values` (not empty).
-fn tukey_box(values: &[f64]) -> TukeyBox {
+pub fn tukey_box(values: &[f64]) -> TukeyBox {
     let mut v = values.to_vec();
     v.sort_by(f64::total_cmp);
     let q1 = quantile_sorted(&v, 0.25);
@@ -392,18 +433,24 @@ pub fn fig7_tdi(arms: &[ArmResult]) -> Result<String, ReportError> {
     })
 }
 
-/// The body of Fig. 7: one box per ABBA arm and week, dodged sideways.
-fn draw_tdi_boxes(
-    main: &Area,
-    abba: &[&ArmResult],
-    weeks: &[Week],
-    figure: &'static str,
-) -> Result<(), ReportError> {
+/// One box of Fig. 7: the weekly mean TDI of an arm's patients in one week.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct WeekBox {
+    /// The arm's scenario.
+    pub scenario: ScenarioId,
+    /// The week.
+    pub week: Week,
+    /// The box over the patients that have the week.
+    pub tukey: TukeyBox,
+}
+
+/// The boxes of Fig. 7, arm by arm, week by week (weeks without values left
+/// out). A TDI that is not finite is an error.
+pub fn tdi_boxes(abba: &[&ArmResult], weeks: &[Week]) -> Result<Vec<WeekBox>, ReportError> {
     let mut boxes = Vec::new();
-    let (mut y_min, mut y_max) = (f64::INFINITY, 0.0f64);
-    for (j, arm) in abba.iter().enumerate() {
-        for &w in weeks {
-            let values: Vec<f64> = metric_column(arm, w, Metric::TdiUPerDay)
+    for arm in abba {
+        for &week in weeks {
+            let values: Vec<f64> = metric_column(arm, week, Metric::TdiUPerDay)
                 .into_iter()
                 .flatten()
                 .collect();
@@ -412,19 +459,33 @@ fn draw_tdi_boxes(
             }
             if let Some(bad) = values.iter().find(|v| !v.is_finite()) {
                 return Err(ReportError::InconsistentResults(format!(
-                    "arm {}, week {w}: tdi_u_per_day is {bad}, expected a finite number",
+                    "arm {}, week {week}: tdi_u_per_day is {bad}, expected a finite number",
                     arm.key()
                 )));
             }
-            y_max = y_max.max(values.iter().copied().fold(0.0, f64::max));
-            y_min = y_min.min(values.iter().copied().fold(f64::INFINITY, f64::min));
-            boxes.push((
-                j,
-                week_x(w),
-                scenario_color(arm.scenario),
-                tukey_box(&values),
-            ));
+            boxes.push(WeekBox {
+                scenario: arm.scenario,
+                week,
+                tukey: tukey_box(&values),
+            });
         }
+    }
+    Ok(boxes)
+}
+
+/// The body of Fig. 7: one box per ABBA arm and week, dodged sideways.
+fn draw_tdi_boxes(
+    main: &Area,
+    abba: &[&ArmResult],
+    weeks: &[Week],
+    figure: &'static str,
+) -> Result<(), ReportError> {
+    let boxes = tdi_boxes(abba, weeks)?;
+    let (mut y_min, mut y_max) = (f64::INFINITY, 0.0f64);
+    for b in &boxes {
+        let t = &b.tukey;
+        y_min = y_min.min(t.outliers.first().map_or(t.low, |o| o.min(t.low)));
+        y_max = y_max.max(t.outliers.last().map_or(t.high, |o| o.max(t.high)));
     }
     let y_range = if y_min.is_finite() {
         nice_range(y_min.max(0.0), y_max)
@@ -444,9 +505,20 @@ fn draw_tdi_boxes(
     let k = abba.len() as f64;
     let slot = 0.8 / k;
     let half = (slot * 0.36).min(0.15);
-    for (j, x, color, b) in boxes {
-        let xc = x + (j as f64 - (k - 1.0) / 2.0) * slot;
-        draw_box(&mut chart, xc, half, color, &b, figure)?;
+    for b in &boxes {
+        let j = abba
+            .iter()
+            .position(|a| a.scenario == b.scenario)
+            .unwrap_or(0);
+        let xc = week_x(b.week) + (j as f64 - (k - 1.0) / 2.0) * slot;
+        draw_box(
+            &mut chart,
+            xc,
+            half,
+            scenario_color(b.scenario),
+            &b.tukey,
+            figure,
+        )?;
     }
     Ok(())
 }
@@ -478,16 +550,8 @@ pub fn fig_arms(arms: &[ArmResult]) -> Result<String, ReportError> {
             for s in &scenarios {
                 let mut lines = Vec::new();
                 for a in ordered.iter().filter(|a| a.scenario == *s) {
-                    let mut points = Vec::new();
-                    for &w in &weeks {
-                        if let Some(sum) = summary_of(a, w, *metric)? {
-                            points.push((week_x(w), sum.mean, None));
-                        }
-                    }
-                    lines.push(Line {
-                        color: arm_color(a.advisor),
-                        points,
-                    });
+                    let series = weekly_series(a, &weeks, *metric)?;
+                    lines.push(line_of(&series, arm_color(a.advisor), false));
                 }
                 per_scenario.push(lines);
             }

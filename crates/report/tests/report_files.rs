@@ -779,3 +779,29 @@ fn arms_side_by_side_compare_the_same_patients() {
         "expected mean {mean:.1} over the common patients, got '{first_cell}'"
     );
 }
+
+#[test]
+fn figure_data_comes_before_drawing() {
+    let arms = small_trial();
+    let abba = arms
+        .iter()
+        .find(|a| a.scenario == ScenarioId::S1 && a.advisor == ArmKind::Abba)
+        .unwrap();
+    let weeks = [Week::W1, Week::W13];
+    // TIR W1 = 80, 90, 100.
+    let tir = abba_report::figures::weekly_series(abba, &weeks, Metric::Tir70To180).unwrap();
+    assert_eq!(tir.points.len(), 2);
+    assert_eq!((tir.points[0].0, tir.points[0].1.mean), (Week::W1, 90.0));
+    let json = serde_json::to_value(&tir).unwrap();
+    assert_eq!(json["metric"], "tir_70_180");
+    assert_eq!(json["points"][1][0], "W13");
+    // TDI W13 = 38, 40, 42: one box a week.
+    let boxes = abba_report::figures::tdi_boxes(&[abba], &weeks).unwrap();
+    assert_eq!(boxes.len(), 2);
+    let b = &boxes[1].tukey;
+    assert_eq!(
+        (boxes[1].week, b.q1, b.median, b.q3),
+        (Week::W13, 39.0, 40.0, 41.0)
+    );
+    assert_eq!((b.low, b.high, b.outliers.len()), (38.0, 42.0, 0));
+}

@@ -227,3 +227,62 @@ fn the_snapshot_is_only_a_shortcut() {
         "{h:?}"
     );
 }
+
+#[test]
+fn first_week_countdown_and_a_day_with_too_little_data() {
+    use abba_core::EventKind;
+    use abba_store::advise::Phase;
+    let dir = TempDir::new("thin");
+    let mut store = dir.store();
+    store.create_person(&person("ana")).unwrap();
+    // A sensor gap: day index 9 has CGM only from 14:00 on (42 % coverage).
+    let all: Vec<_> = events(12)
+        .into_iter()
+        .filter(|e| {
+            !(matches!(e.kind, EventKind::Cgm(_))
+                && e.at.day_index() == 9
+                && e.at.minute_of_day() < 14 * 60)
+        })
+        .collect();
+    let upto = |day: i64| {
+        all.iter()
+            .filter(|e| e.at.day_index() < day)
+            .copied()
+            .collect::<Vec<_>>()
+    };
+    store
+        .import("ana", &read(&nightscout(&upto(3))).unwrap())
+        .unwrap();
+    match store.advise("ana").unwrap().phase {
+        Phase::FirstWeek {
+            days_done,
+            days_left,
+            ..
+        } => assert_eq!((days_done, days_left), (2, 5)),
+        other => panic!("{other:?}"),
+    }
+    let text = abba_store::render::advice_text(&store.advise("ana").unwrap());
+    assert!(
+        text.contains("First week: 2 day(s) collected, 5 to go"),
+        "{text}"
+    );
+    store
+        .import("ana", &read(&nightscout(&all)).unwrap())
+        .unwrap();
+    let h = store.history("ana").unwrap();
+    let gap = h
+        .iter()
+        .find(|v| v.setting == "basal" && v.day == 11)
+        .unwrap();
+    assert!(gap.no_update, "{gap:?}");
+    let why = gap.no_update_reason.as_deref().unwrap();
+    assert!(
+        why.contains("too little data") && why.contains("201"),
+        "{why}"
+    );
+    let full = h
+        .iter()
+        .find(|v| v.setting == "basal" && v.day == 10)
+        .unwrap();
+    assert!(!full.no_update, "{full:?}");
+}

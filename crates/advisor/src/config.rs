@@ -86,6 +86,23 @@ impl EventLimits {
     }
 }
 
+/// How eq10-11 average the excursions of a CGM window (spec §3, revision).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CgmExcursion {
+    /// Σ excursions / all readings of the window: the time-averaged
+    /// excursion, independent of the sampling rate (each of the four SMBG
+    /// readings stands for a quarter of the day, so this is the CGM estimate
+    /// of the same daily quantity). \[INFER; DEVIATION from the literal
+    /// reading] Default.
+    #[default]
+    TimeAveraged,
+    /// Σ excursions / out-of-range readings only: the literal eq10-11. With
+    /// 288 readings a day a 15-minute dip weighs as much as a whole day at
+    /// the same level.
+    OutOfRangeMean,
+}
+
 /// Feature thresholds and normalisation (spec §3).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -104,6 +121,10 @@ pub struct FeatureConfig {
     pub n1_below_mg_dl: f64,
     /// N2 counts readings above this (mg/dL). \[SEED eq27] 130.
     pub n2_above_mg_dl: f64,
+    /// The CGM-mode reading of eq10-11 (SMBG mode always uses the
+    /// out-of-range mean). \[DEVIATION] time-averaged.
+    #[serde(default)]
+    pub cgm_excursion: CgmExcursion,
 }
 
 impl Default for FeatureConfig {
@@ -116,6 +137,7 @@ impl Default for FeatureConfig {
             hyponumber_below_mg_dl: 70.0,
             n1_below_mg_dl: 80.0,
             n2_above_mg_dl: 130.0,
+            cgm_excursion: CgmExcursion::TimeAveraged,
         }
     }
 }
@@ -226,6 +248,26 @@ pub enum GradientAction {
     Effective,
 }
 
+/// Which policy update the actor takes (spec §6.4).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ActorRule {
+    /// The natural-gradient step Δθ = −β_k·d·(P_e − P_d)·F/(h·‖F‖²) (the
+    /// eq28 direction preconditioned by the inverse Fisher information of
+    /// the Gaussian policy, so it has no 1/σ blow-up), with a decaying
+    /// step β_k = `natural_beta`/(1 + k/κ)² that makes the actor slower than
+    /// the critic (a_k = a_0/(1 + k/κ)), and a projection that keeps θ in its
+    /// clinical sign pattern after every step: for the basal rate
+    /// θ_hyper ≥ 0 and θ_hypo ≤ 0, for a carb ratio θ_hyper ≤ 0 and
+    /// θ_hypo ≥ 0 (more hyperglycaemia never removes insulin, more
+    /// hypoglycaemia never adds it). \[DEVIATION] Default.
+    #[default]
+    ProjectedNatural,
+    /// The literal eq28 Δθ = −β·d·(P_e − P_d)/σ²·h·F with the clip of
+    /// `theta_step_clip` and no projection.
+    Eq28,
+}
+
 /// Actor, exploration and supervisor-weight knobs (spec §6.1, §6.4).
 ///
 /// Note on the defaults: the literal eq28 step is of order β·d·z/σ with
@@ -254,6 +296,20 @@ pub struct ActorConfig {
     pub theta_step_clip: f64,
     /// Which P_e enters eq28. \[GUESS] Sampled.
     pub gradient_action: GradientAction,
+    /// The policy update. \[DEVIATION] projected natural gradient.
+    #[serde(default)]
+    pub rule: ActorRule,
+    /// β_0 of the projected natural-gradient step (β_k = β_0/(1 + k/κ)²,
+    /// κ = `critic.kappa`, k = actor steps taken). \[GUESS, calibrated].
+    #[serde(default = "default_natural_beta")]
+    pub natural_beta: f64,
+}
+
+/// Default β_0 of the projected natural-gradient actor.
+pub const DEFAULT_NATURAL_BETA: f64 = 0.05;
+
+fn default_natural_beta() -> f64 {
+    DEFAULT_NATURAL_BETA
 }
 
 impl Default for ActorConfig {
@@ -265,6 +321,8 @@ impl Default for ActorConfig {
             sigma_min: 1e-4,
             theta_step_clip: 0.01,
             gradient_action: GradientAction::Sampled,
+            rule: ActorRule::ProjectedNatural,
+            natural_beta: DEFAULT_NATURAL_BETA,
         }
     }
 }
@@ -557,6 +615,28 @@ impl AbbaConfig {
         check_range("actor.beta", a.beta, 0.0, 100.0)?;
         check_range("actor.sigma_min", a.sigma_min, 1e-12, 1.0)?;
         check_range("actor.theta_step_clip", a.theta_step_clip, 0.0, 100.0)?;
+        check_range("actor.natural_beta", a.natural_beta, 0.0, 100.0)?;
+        if a.rule == ActorRule::ProjectedNatural {
+            let t = &self.te;
+            if t.theta0_br[0] < 0.0 || t.theta0_br[1] > 0.0 {
+                return Err(config_err(
+                    "te.theta0_br",
+                    format!(
+                        "must be (>= 0, <= 0) under the projected actor (more hyperglycaemia never removes basal insulin), got {:?}",
+                        t.theta0_br
+                    ),
+                ));
+            }
+            if t.theta0_cir[0] > 0.0 || t.theta0_cir[1] < 0.0 {
+                return Err(config_err(
+                    "te.theta0_cir",
+                    format!(
+                        "must be (<= 0, >= 0) under the projected actor (more hyperglycaemia never raises a carb ratio), got {:?}",
+                        t.theta0_cir
+                    ),
+                ));
+            }
+        }
         let s = &self.supervisor;
         check_range("supervisor.smbg_cir_gain", s.smbg_cir_gain, 0.0, 10.0)?;
         check_positive("supervisor.smbg_br_hypo_divisor", s.smbg_br_hypo_divisor)?;

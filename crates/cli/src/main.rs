@@ -3,6 +3,7 @@
 use anyhow::Result;
 use clap::{Parser, Subcommand};
 
+mod calibrate;
 mod cohort;
 mod metrics;
 mod simulate;
@@ -26,6 +27,8 @@ enum Command {
     Metrics(metrics::Args),
     /// Run the paper's 98-day in-silico trial and write the report.
     Trial(trial::Args),
+    /// Tune the guessed knobs on a training cohort; evaluate on a held-out one.
+    Calibrate(calibrate::Args),
 }
 
 fn main() -> Result<()> {
@@ -34,5 +37,6 @@ fn main() -> Result<()> {
         Command::Cohort(a) => cohort::run(a),
         Command::Metrics(a) => metrics::run(a),
         Command::Trial(a) => trial::run(a),
+        Command::Calibrate(a) => calibrate::run(a),
     }
 }

@@ -1,5 +1,6 @@
 //! The paper's in-silico trial: closed loop, runner, statistics and report.
 
+pub mod calibrate;
 pub mod closed_loop;
 pub mod error;
 pub mod protocol;

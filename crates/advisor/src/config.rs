@@ -125,6 +125,22 @@ pub struct FeatureConfig {
     /// out-of-range mean). \[DEVIATION] time-averaged.
     #[serde(default)]
     pub cgm_excursion: CgmExcursion,
+    /// G_min in CGM mode (F_hypo = raw/(G_L − G_min)); `None` uses
+    /// `g_min_mg_dl`. Time-averaging shrinks the brief hypoglycaemic
+    /// excursions far more than the long hyperglycaemic ones, so CGM mode
+    /// may need its own hypo normalisation. \[GUESS, calibrated]
+    #[serde(default)]
+    pub cgm_g_min_mg_dl: Option<f64>,
+}
+
+impl FeatureConfig {
+    /// G_min for an advisor in `mode`.
+    pub fn g_min_for(&self, mode: Mode) -> f64 {
+        match (mode, self.cgm_g_min_mg_dl) {
+            (Mode::Cgm, Some(g)) => g,
+            _ => self.g_min_mg_dl,
+        }
+    }
 }
 
 impl Default for FeatureConfig {
@@ -138,6 +154,7 @@ impl Default for FeatureConfig {
             n1_below_mg_dl: 80.0,
             n2_above_mg_dl: 130.0,
             cgm_excursion: CgmExcursion::TimeAveraged,
+            cgm_g_min_mg_dl: None,
         }
     }
 }
@@ -164,6 +181,9 @@ impl FeatureConfig {
             self.g_high_mg_dl + 1e-9,
             1e4,
         )?;
+        if let Some(g) = self.cgm_g_min_mg_dl {
+            check_range("features.cgm_g_min_mg_dl", g, 1e-9, self.g_low_mg_dl - 1e-9)?;
+        }
         check_positive(
             "features.hyponumber_below_mg_dl",
             self.hyponumber_below_mg_dl,

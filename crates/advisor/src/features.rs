@@ -101,7 +101,7 @@ impl Features {
             raw_hyper_mg_dl: raw_hyper,
             raw_hypo_mg_dl: raw_hypo,
             hyper: (raw_hyper / (cfg.g_max_mg_dl - cfg.g_high_mg_dl)).clamp(0.0, 1.0),
-            hypo: (raw_hypo / (cfg.g_low_mg_dl - cfg.g_min_mg_dl)).clamp(0.0, 1.0),
+            hypo: (raw_hypo / (cfg.g_low_mg_dl - cfg.g_min_for(mode))).clamp(0.0, 1.0),
         }
     }
 
@@ -208,6 +208,21 @@ mod tests {
         // SMBG mode ignores the knob: out-of-range mean (100 -> 0.4).
         let f = stats(&[250.0, 250.0, 120.0, 120.0]).features(&cfg, Mode::Smbg);
         close("SMBG hyper", 0.4, f.hyper);
+    }
+
+    #[test]
+    fn cgm_g_min_changes_the_hypo_normalisation_in_cgm_mode_only() {
+        let cfg = FeatureConfig {
+            cgm_g_min_mg_dl: Some(65.0),
+            ..FeatureConfig::default()
+        };
+        let s = stats(&[80.0, 120.0]);
+        // Time-averaged raw = 10/2 = 5 mg/dL; divided by 90 − 65 = 25.
+        close("CGM F_hypo", 0.2, s.features(&cfg, Mode::Cgm).hypo);
+        // SMBG: out-of-range mean 10, divided by 90 − 40 = 50.
+        close("SMBG F_hypo", 0.2, s.features(&cfg, Mode::Smbg).hypo);
+        let default = FeatureConfig::default();
+        close("CGM default", 0.1, s.features(&default, Mode::Cgm).hypo);
     }
 
     #[test]

@@ -8,7 +8,7 @@ use anyhow::{Context, Result};
 use std::path::PathBuf;
 
 /// Arguments of `abba calibrate`. With none, calibrates the default trial's
-/// knobs on 40 generated adults (cohort seed 101, trial seed 101) and
+/// knobs on 60 generated adults (cohort seed 101, trial seed 101) and
 /// evaluates on 100 held-out adults (cohort seed 202, trial seed 202).
 #[derive(clap::Args, Debug)]
 pub struct Args {

@@ -29,6 +29,8 @@ pub enum Knob {
     FeatureGMax,
     /// Hypo normalisation `features.g_min_mg_dl` (F_hypo = raw/(G_L − G_min)).
     FeatureGMin,
+    /// Hypo normalisation in CGM mode `features.cgm_g_min_mg_dl`.
+    FeatureGMinCgm,
     /// Actor step `actor.natural_beta` (β_0 of the projected natural-gradient actor).
     ActorStep,
     /// Run-to-run basal gain `r2r.basal_gain`.
@@ -45,6 +47,7 @@ impl Knob {
             Knob::Theta0Hypo => "abba.te.theta0_cir[1] = -abba.te.theta0_br[1]",
             Knob::FeatureGMax => "abba.features.g_max_mg_dl",
             Knob::FeatureGMin => "abba.features.g_min_mg_dl",
+            Knob::FeatureGMinCgm => "abba.features.cgm_g_min_mg_dl",
             Knob::ActorStep => "abba.actor.natural_beta",
             Knob::R2rBasalGain => "r2r.basal_gain",
             Knob::R2rCarbGain => "r2r.cir_gain",
@@ -66,6 +69,7 @@ impl Knob {
             Knob::Theta0Hypo => c.abba.te.theta0_cir[1],
             Knob::FeatureGMax => c.abba.features.g_max_mg_dl,
             Knob::FeatureGMin => c.abba.features.g_min_mg_dl,
+            Knob::FeatureGMinCgm => c.abba.features.g_min_for(abba_advisor::Mode::Cgm),
             Knob::ActorStep => c.abba.actor.natural_beta,
             Knob::R2rBasalGain => c.r2r.basal_gain,
             Knob::R2rCarbGain => c.r2r.cir_gain,
@@ -85,6 +89,7 @@ impl Knob {
             }
             Knob::FeatureGMax => c.abba.features.g_max_mg_dl = v,
             Knob::FeatureGMin => c.abba.features.g_min_mg_dl = v,
+            Knob::FeatureGMinCgm => c.abba.features.cgm_g_min_mg_dl = Some(v),
             Knob::ActorStep => c.abba.actor.natural_beta = v,
             Knob::R2rBasalGain => c.r2r.basal_gain = v,
             Knob::R2rCarbGain => c.r2r.cir_gain = v,
@@ -126,14 +131,17 @@ pub struct CohortSpec {
 /// For every scenario and week W13, W14 (means over the patients both arms
 /// still have in that week): (LBGI + HBGI) of the arm divided by that of
 /// standard therapy, plus `hypo_weight` per percentage point of time below
-/// 70 mg/dL above standard therapy's, plus `tir_weight` per point of time
+/// 70 mg/dL above standard therapy's less `hypo_margin` (a safety margin:
+/// the penalty starts `hypo_margin` points *below* standard's), plus `tir_weight` per point of time
 /// in range more than 1 point below standard therapy's, plus `stop_weight`
 /// per run stopped below the failure threshold beyond standard therapy's.
 /// Lower is better.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Objective {
-    /// Per % time below 70 mg/dL above standard's.
+    /// Per % time below 70 mg/dL above standard's less `hypo_margin`.
     pub hypo_weight: f64,
+    /// Safety margin (percentage points of time below 70 mg/dL).
+    pub hypo_margin: f64,
     /// Per TIR point more than 1 point below standard's.
     pub tir_weight: f64,
     /// Per stopped run beyond standard's.
@@ -164,7 +172,7 @@ impl Default for CalibrationConfig {
         Self {
             training: CohortSpec {
                 population: Population::Adults,
-                patients: 40,
+                patients: 60,
                 cohort_seed: 101,
                 seed: 101,
                 days: 98,
@@ -181,17 +189,19 @@ impl Default for CalibrationConfig {
                 generated_only: false,
             },
             grids: vec![
-                grid(Knob::Theta0Hyper, &[0.1, 0.2, 0.3, 0.4, 0.6, 0.8]),
-                grid(Knob::Theta0Hypo, &[0.05, 0.1, 0.2, 0.3, 0.4]),
+                grid(Knob::Theta0Hyper, &[0.1, 0.15, 0.2, 0.25, 0.3, 0.4]),
+                grid(Knob::FeatureGMinCgm, &[40.0, 50.0, 60.0, 65.0, 70.0, 75.0]),
+                grid(Knob::Theta0Hypo, &[0.1, 0.15, 0.2, 0.25, 0.3]),
                 grid(Knob::FeatureGMax, &[300.0, 400.0, 550.0]),
-                grid(Knob::FeatureGMin, &[20.0, 40.0, 60.0]),
+                grid(Knob::FeatureGMin, &[30.0, 40.0, 50.0]),
                 grid(Knob::ActorStep, &[0.0, 0.05, 0.2, 1.0]),
                 grid(Knob::R2rBasalGain, &[0.1, 0.2, 0.3, 0.5]),
                 grid(Knob::R2rCarbGain, &[0.05, 0.1, 0.2, 0.25]),
             ],
             passes: 2,
             objective: Objective {
-                hypo_weight: 2.0,
+                hypo_weight: 5.0,
+                hypo_margin: 0.25,
                 tir_weight: 0.2,
                 stop_weight: 1.0,
             },
@@ -253,6 +263,7 @@ impl CalibrationConfig {
         let o = &self.objective;
         for (name, w) in [
             ("hypo_weight", o.hypo_weight),
+            ("hypo_margin", o.hypo_margin),
             ("tir_weight", o.tir_weight),
             ("stop_weight", o.stop_weight),
         ] {
@@ -348,7 +359,7 @@ pub fn score(rows: &[Comparison], arm: &str, o: &Objective) -> Result<f64, Trial
         };
         let risk_std = (s.lbgi + s.hbgi).max(1e-9);
         total += (a.lbgi + a.hbgi) / risk_std
-            + o.hypo_weight * (a.below_70 - s.below_70).max(0.0)
+            + o.hypo_weight * (a.below_70 - s.below_70 + o.hypo_margin).max(0.0)
             + o.tir_weight * (s.tir - 1.0 - a.tir).max(0.0);
         if r.week == "W14" {
             total += o.stop_weight * a.stopped.saturating_sub(s.stopped) as f64;
@@ -459,7 +470,14 @@ pub fn calibrate(
                         log: &mut Vec<LogEntry>|
      -> Result<f64, TrialError> {
         let values = values_of(c, &config.grids);
-        let key = (arm, format!("{values:?}"));
+        // Only the knobs of the evaluated arm change its outcome.
+        let own: Vec<f64> = config
+            .grids
+            .iter()
+            .filter(|g| g.knob.arm() == arm)
+            .map(|g| g.knob.get(c))
+            .collect();
+        let key = (arm, format!("{own:?}"));
         if let Some(s) = seen.get(&key) {
             return Ok(*s);
         }
@@ -581,6 +599,7 @@ mod tests {
             (Knob::Theta0Hypo, 0.15),
             (Knob::FeatureGMax, 350.0),
             (Knob::FeatureGMin, 30.0),
+            (Knob::FeatureGMinCgm, 70.0),
             (Knob::ActorStep, 0.2),
             (Knob::R2rBasalGain, 0.3),
             (Knob::R2rCarbGain, 0.2),
@@ -591,6 +610,7 @@ mod tests {
         assert_eq!(c.abba.te.theta0_br, [0.3, -0.15]);
         assert_eq!(c.abba.te.theta0_cir, [-0.3, 0.15]);
         assert_eq!(c.abba.features.g_max_mg_dl, 350.0);
+        assert_eq!(c.abba.features.cgm_g_min_mg_dl, Some(70.0));
         assert_eq!(c.abba.actor.natural_beta, 0.2);
         assert_eq!((c.r2r.basal_gain, c.r2r.cir_gain), (0.3, 0.2));
         c.validate().unwrap();
@@ -628,9 +648,57 @@ mod tests {
     }
 
     #[test]
+    fn a_small_calibration_runs_end_to_end() {
+        let mut cal = CalibrationConfig::default();
+        cal.training.patients = 2;
+        cal.held_out.patients = 2;
+        cal.held_out.scenarios = vec![ScenarioId::S1, ScenarioId::S2];
+        cal.passes = 1;
+        cal.grids = vec![
+            KnobGrid {
+                knob: Knob::Theta0Hyper,
+                values: vec![0.1, 0.3],
+            },
+            KnobGrid {
+                knob: Knob::R2rBasalGain,
+                values: vec![0.2, 0.5],
+            },
+        ];
+        let base = TrialConfig::default();
+        let seen = std::cell::Cell::new(0);
+        let r = calibrate(&base, &cal, 1, &|_| seen.set(seen.get() + 1)).unwrap();
+        // Start of each arm, then every grid value that differs from the current one.
+        assert_eq!(r.log.len(), seen.get());
+        assert!(r.log.len() >= 4, "{} evaluations", r.log.len());
+        assert!(cal.grids[0].values.contains(&r.chosen[&Knob::Theta0Hyper]));
+        assert!(cal.grids[1].values.contains(&r.chosen[&Knob::R2rBasalGain]));
+        assert_eq!(
+            Knob::Theta0Hyper.get(&r.chosen_trial),
+            r.chosen[&Knob::Theta0Hyper]
+        );
+        // An accepted entry has the lowest score so far for its arm.
+        for (i, e) in r.log.iter().enumerate().filter(|(_, e)| e.accepted) {
+            let earlier = r.log[..i]
+                .iter()
+                .filter(|x| x.arm == e.arm)
+                .map(|x| x.score)
+                .fold(f64::INFINITY, f64::min);
+            assert!(e.score < earlier, "{e:?}");
+        }
+        // The held-out cohort ran every arm in W13 and W14 of both scenarios.
+        assert_eq!(r.held_out.len(), 4);
+        for c in &r.held_out {
+            assert_eq!(c.arms.len(), 3, "{c:?}");
+        }
+        let md = report_markdown(&r);
+        assert!(md.contains("not a medical device"));
+    }
+
+    #[test]
     fn score_rewards_lower_risk_and_penalises_hypo_and_tir_loss() {
         let o = Objective {
             hypo_weight: 2.0,
+            hypo_margin: 0.0,
             tir_weight: 0.2,
             stop_weight: 1.0,
         };
@@ -658,5 +726,12 @@ mod tests {
         let hypo = score(&[row(out(77.0, 2.0, 3.5))], "abba", &o).unwrap();
         assert!((hypo - (1.0 + 2.0 + 0.4)).abs() < 1e-12);
         assert!(score(&[row(out(80.0, 1.0, 3.5))], "r2r", &o).is_err());
+        // With a margin of 0.5 points, equal hypo time already costs 2*0.5.
+        let m = Objective {
+            hypo_margin: 0.5,
+            ..o.clone()
+        };
+        let same = score(&[row(out(80.0, 1.0, 3.5))], "abba", &m).unwrap();
+        assert!((same - 2.0).abs() < 1e-12);
     }
 }

@@ -131,6 +131,10 @@ pub struct FeatureConfig {
     /// may need its own hypo normalisation. \[GUESS, calibrated]
     #[serde(default)]
     pub cgm_g_min_mg_dl: Option<f64>,
+    /// G_max in CGM mode (F_hyper = raw/(G_max − G_H)); `None` uses
+    /// `g_max_mg_dl`. \[GUESS, calibrated]
+    #[serde(default)]
+    pub cgm_g_max_mg_dl: Option<f64>,
 }
 
 impl FeatureConfig {
@@ -139,6 +143,14 @@ impl FeatureConfig {
         match (mode, self.cgm_g_min_mg_dl) {
             (Mode::Cgm, Some(g)) => g,
             _ => self.g_min_mg_dl,
+        }
+    }
+
+    /// G_max for an advisor in `mode`.
+    pub fn g_max_for(&self, mode: Mode) -> f64 {
+        match (mode, self.cgm_g_max_mg_dl) {
+            (Mode::Cgm, Some(g)) => g,
+            _ => self.g_max_mg_dl,
         }
     }
 }
@@ -155,6 +167,7 @@ impl Default for FeatureConfig {
             n2_above_mg_dl: 130.0,
             cgm_excursion: CgmExcursion::TimeAveraged,
             cgm_g_min_mg_dl: None,
+            cgm_g_max_mg_dl: None,
         }
     }
 }
@@ -181,6 +194,9 @@ impl FeatureConfig {
             self.g_high_mg_dl + 1e-9,
             1e4,
         )?;
+        if let Some(g) = self.cgm_g_max_mg_dl {
+            check_range("features.cgm_g_max_mg_dl", g, self.g_high_mg_dl + 1e-9, 1e4)?;
+        }
         if let Some(g) = self.cgm_g_min_mg_dl {
             check_range("features.cgm_g_min_mg_dl", g, 1e-9, self.g_low_mg_dl - 1e-9)?;
         }

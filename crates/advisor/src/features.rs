@@ -100,7 +100,7 @@ impl Features {
         Self {
             raw_hyper_mg_dl: raw_hyper,
             raw_hypo_mg_dl: raw_hypo,
-            hyper: (raw_hyper / (cfg.g_max_mg_dl - cfg.g_high_mg_dl)).clamp(0.0, 1.0),
+            hyper: (raw_hyper / (cfg.g_max_for(mode) - cfg.g_high_mg_dl)).clamp(0.0, 1.0),
             hypo: (raw_hypo / (cfg.g_low_mg_dl - cfg.g_min_for(mode))).clamp(0.0, 1.0),
         }
     }
@@ -211,7 +211,7 @@ mod tests {
     }
 
     #[test]
-    fn cgm_g_min_changes_the_hypo_normalisation_in_cgm_mode_only() {
+    fn cgm_normalisation_knobs_change_cgm_mode_only() {
         let cfg = FeatureConfig {
             cgm_g_min_mg_dl: Some(65.0),
             ..FeatureConfig::default()
@@ -223,6 +223,14 @@ mod tests {
         close("SMBG F_hypo", 0.2, s.features(&cfg, Mode::Smbg).hypo);
         let default = FeatureConfig::default();
         close("CGM default", 0.1, s.features(&default, Mode::Cgm).hypo);
+        // cgm_g_max: 2 of 4 readings 100 above G_H -> 50 mg/dL; /(250 − 150).
+        let cfg = FeatureConfig {
+            cgm_g_max_mg_dl: Some(250.0),
+            ..FeatureConfig::default()
+        };
+        let s = stats(&[250.0, 250.0, 120.0, 120.0]);
+        close("CGM F_hyper", 0.5, s.features(&cfg, Mode::Cgm).hyper);
+        close("SMBG F_hyper", 0.4, s.features(&cfg, Mode::Smbg).hyper);
     }
 
     #[test]

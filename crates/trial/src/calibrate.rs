@@ -31,6 +31,8 @@ pub enum Knob {
     FeatureGMin,
     /// Hypo normalisation in CGM mode `features.cgm_g_min_mg_dl`.
     FeatureGMinCgm,
+    /// Hyper normalisation in CGM mode `features.cgm_g_max_mg_dl`.
+    FeatureGMaxCgm,
     /// Actor step `actor.natural_beta` (β_0 of the projected natural-gradient actor).
     ActorStep,
     /// Run-to-run basal gain `r2r.basal_gain`.
@@ -48,6 +50,7 @@ impl Knob {
             Knob::FeatureGMax => "abba.features.g_max_mg_dl",
             Knob::FeatureGMin => "abba.features.g_min_mg_dl",
             Knob::FeatureGMinCgm => "abba.features.cgm_g_min_mg_dl",
+            Knob::FeatureGMaxCgm => "abba.features.cgm_g_max_mg_dl",
             Knob::ActorStep => "abba.actor.natural_beta",
             Knob::R2rBasalGain => "r2r.basal_gain",
             Knob::R2rCarbGain => "r2r.cir_gain",
@@ -70,6 +73,7 @@ impl Knob {
             Knob::FeatureGMax => c.abba.features.g_max_mg_dl,
             Knob::FeatureGMin => c.abba.features.g_min_mg_dl,
             Knob::FeatureGMinCgm => c.abba.features.g_min_for(abba_advisor::Mode::Cgm),
+            Knob::FeatureGMaxCgm => c.abba.features.g_max_for(abba_advisor::Mode::Cgm),
             Knob::ActorStep => c.abba.actor.natural_beta,
             Knob::R2rBasalGain => c.r2r.basal_gain,
             Knob::R2rCarbGain => c.r2r.cir_gain,
@@ -90,6 +94,7 @@ impl Knob {
             Knob::FeatureGMax => c.abba.features.g_max_mg_dl = v,
             Knob::FeatureGMin => c.abba.features.g_min_mg_dl = v,
             Knob::FeatureGMinCgm => c.abba.features.cgm_g_min_mg_dl = Some(v),
+            Knob::FeatureGMaxCgm => c.abba.features.cgm_g_max_mg_dl = Some(v),
             Knob::ActorStep => c.abba.actor.natural_beta = v,
             Knob::R2rBasalGain => c.r2r.basal_gain = v,
             Knob::R2rCarbGain => c.r2r.cir_gain = v,
@@ -159,6 +164,10 @@ pub struct CalibrationConfig {
     pub grids: Vec<KnobGrid>,
     /// Passes of the coordinate search over all knobs.
     pub passes: u32,
+    /// A candidate replaces the current values only if it lowers the score
+    /// by more than this fraction (noise guard: 40-60 training patients
+    /// cannot resolve smaller differences).
+    pub min_improvement: f64,
     /// The objective.
     pub objective: Objective,
 }
@@ -190,18 +199,20 @@ impl Default for CalibrationConfig {
             },
             grids: vec![
                 grid(Knob::Theta0Hyper, &[0.1, 0.15, 0.2, 0.25, 0.3, 0.4]),
-                grid(Knob::FeatureGMinCgm, &[40.0, 50.0, 60.0, 65.0, 70.0, 75.0]),
                 grid(Knob::Theta0Hypo, &[0.1, 0.15, 0.2, 0.25, 0.3]),
                 grid(Knob::FeatureGMax, &[300.0, 400.0, 550.0]),
                 grid(Knob::FeatureGMin, &[30.0, 40.0, 50.0]),
+                grid(Knob::FeatureGMaxCgm, &[250.0, 300.0, 400.0, 550.0, 800.0]),
+                grid(Knob::FeatureGMinCgm, &[40.0, 50.0, 60.0, 65.0, 70.0, 75.0]),
                 grid(Knob::ActorStep, &[0.0, 0.05, 0.2, 1.0]),
                 grid(Knob::R2rBasalGain, &[0.1, 0.2, 0.3, 0.5]),
                 grid(Knob::R2rCarbGain, &[0.05, 0.1, 0.2, 0.25]),
             ],
             passes: 2,
+            min_improvement: 0.005,
             objective: Objective {
                 hypo_weight: 5.0,
-                hypo_margin: 0.25,
+                hypo_margin: 0.5,
                 tir_weight: 0.2,
                 stop_weight: 1.0,
             },
@@ -259,6 +270,12 @@ impl CalibrationConfig {
         }
         if self.passes == 0 {
             return bad("passes must be at least 1".into());
+        }
+        if !(0.0..1.0).contains(&self.min_improvement) {
+            return bad(format!(
+                "min_improvement must be in [0, 1), got {}",
+                self.min_improvement
+            ));
         }
         let o = &self.objective;
         for (name, w) in [
@@ -520,7 +537,7 @@ pub fn calibrate(
                 let before = log.len();
                 let s = evaluate(&candidate, arm, pass, Some(g.knob), &mut log)?;
                 let b = best.get(&arm).copied().unwrap_or(f64::INFINITY);
-                if s < b - 1e-9 {
+                if s < b * (1.0 - config.min_improvement) - 1e-9 {
                     best.insert(arm, s);
                     current = candidate;
                     changed = true;
@@ -600,6 +617,7 @@ mod tests {
             (Knob::FeatureGMax, 350.0),
             (Knob::FeatureGMin, 30.0),
             (Knob::FeatureGMinCgm, 70.0),
+            (Knob::FeatureGMaxCgm, 300.0),
             (Knob::ActorStep, 0.2),
             (Knob::R2rBasalGain, 0.3),
             (Knob::R2rCarbGain, 0.2),
@@ -611,6 +629,7 @@ mod tests {
         assert_eq!(c.abba.te.theta0_cir, [-0.3, 0.15]);
         assert_eq!(c.abba.features.g_max_mg_dl, 350.0);
         assert_eq!(c.abba.features.cgm_g_min_mg_dl, Some(70.0));
+        assert_eq!(c.abba.features.cgm_g_max_mg_dl, Some(300.0));
         assert_eq!(c.abba.actor.natural_beta, 0.2);
         assert_eq!((c.r2r.basal_gain, c.r2r.cir_gain), (0.3, 0.2));
         c.validate().unwrap();
@@ -676,14 +695,15 @@ mod tests {
             Knob::Theta0Hyper.get(&r.chosen_trial),
             r.chosen[&Knob::Theta0Hyper]
         );
-        // An accepted entry has the lowest score so far for its arm.
+        // An accepted entry beats the best so far of its arm (its start and
+        // earlier accepted entries) by the noise margin.
         for (i, e) in r.log.iter().enumerate().filter(|(_, e)| e.accepted) {
             let earlier = r.log[..i]
                 .iter()
-                .filter(|x| x.arm == e.arm)
+                .filter(|x| x.arm == e.arm && (x.accepted || x.pass == 0))
                 .map(|x| x.score)
                 .fold(f64::INFINITY, f64::min);
-            assert!(e.score < earlier, "{e:?}");
+            assert!(e.score < earlier * (1.0 - cal.min_improvement), "{e:?}");
         }
         // The held-out cohort ran every arm in W13 and W14 of both scenarios.
         assert_eq!(r.held_out.len(), 4);

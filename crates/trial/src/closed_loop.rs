@@ -26,7 +26,7 @@ use abba_sim::devices::cgm::{CgmConfig, CgmSensor};
 use abba_sim::devices::meter::{MeterConfig, SmbgMeter};
 use abba_sim::devices::pump::{Pump, PumpConfig};
 use abba_sim::patient::{EatingQueue, Patient};
-use abba_sim::scenario::{ScenarioConfig, ScenarioGenerator, SmbgPurpose};
+use abba_sim::scenario::{ScenarioConfig, ScenarioGenerator, SensitivityTarget, SmbgPurpose};
 
 /// Minutes between evaluation samples of plasma glucose.
 pub const EVAL_PERIOD_MIN: usize = 5;
@@ -308,9 +308,12 @@ pub fn run_patient_with(
                     carb_ratio_g_per_u: [cr[0].0, cr[1].0, cr[2].0],
                 });
             }
-            patient
-                .step(cho, insulin, s_per_minute[m as usize])
-                .map_err(sim)?;
+            let s = s_per_minute[m as usize];
+            let s_liver = match scenario.sensitivity.target {
+                SensitivityTarget::VmxAndKp3 => s,
+                SensitivityTarget::Vmx => 1.0,
+            };
+            patient.step_split(cho, insulin, s, s_liver).map_err(sim)?;
         }
         daily_insulin[day] = ctl.pump.totals().total().0 - insulin_at_midnight;
         // Keep the advisor's decision log bounded; keep the decisions only

@@ -8,6 +8,7 @@ pub mod report;
 pub mod results;
 pub mod runner;
 pub mod stats;
+pub mod w1_sensitivity;
 
 pub use error::TrialError;
 pub use protocol::{ArmKind, TrialConfig};

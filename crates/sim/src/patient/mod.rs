@@ -121,6 +121,18 @@ impl Patient {
         insulin_u_per_min: f64,
         sensitivity: f64,
     ) -> Result<(), SimError> {
+        self.step_split(cho_g_per_min, insulin_u_per_min, sensitivity, sensitivity)
+    }
+
+    /// As [`Patient::step`], with separate sensitivity multipliers on Vmx
+    /// (insulin-dependent utilisation) and on kp3 (the liver's insulin action).
+    pub fn step_split(
+        &mut self,
+        cho_g_per_min: f64,
+        insulin_u_per_min: f64,
+        sensitivity: f64,
+        egp_sensitivity: f64,
+    ) -> Result<(), SimError> {
         let ok = cho_g_per_min.is_finite()
             && cho_g_per_min >= 0.0
             && insulin_u_per_min.is_finite()
@@ -129,6 +141,9 @@ impl Patient {
             && sensitivity > 0.0;
         if !ok {
             return Err(self.bad_input(cho_g_per_min, insulin_u_per_min, sensitivity));
+        }
+        if !(egp_sensitivity.is_finite() && egp_sensitivity > 0.0) {
+            return Err(self.bad_input(cho_g_per_min, insulin_u_per_min, egp_sensitivity));
         }
         // Eating-episode bookkeeping (§1.4): an episode starts when eating
         // follows a minute without eating; the stomach content is read
@@ -141,13 +156,16 @@ impl Patient {
             self.last_food_taken_g += cho_g_per_min;
         }
         self.last_cho_g_per_min = cho_g_per_min;
-        let u = MinuteInput::new(
-            &self.consts,
-            cho_g_per_min,
-            insulin_u_per_min,
-            self.dbar_mg(),
-            sensitivity,
-        );
+        let u = MinuteInput {
+            egp_sensitivity,
+            ..MinuteInput::new(
+                &self.consts,
+                cho_g_per_min,
+                insulin_u_per_min,
+                self.dbar_mg(),
+                sensitivity,
+            )
+        };
         self.solver.advance_minute(&self.consts, &u, &mut self.x);
         self.minute += 1;
         if let Some(k) = self.x.iter().position(|v| !v.is_finite()) {

@@ -157,8 +157,11 @@ pub struct MinuteInput {
     pub insulin_pmol_per_kg_min: f64,
     /// Dbar of the gastric-emptying law (mg); 0 before the first meal.
     pub dbar_mg: f64,
-    /// Insulin-sensitivity multiplier s(t) on Vmx and kp3 (1 = nominal).
+    /// Insulin-sensitivity multiplier s(t) on Vmx (1 = nominal).
     pub sensitivity: f64,
+    /// Insulin-sensitivity multiplier on kp3, the liver's insulin action
+    /// (equal to `sensitivity` unless the scenario targets Vmx only).
+    pub egp_sensitivity: f64,
     /// Slope α of the first tanh of kempt, 5/(2·Dbar·(1−b)) (1/mg); 0 if Dbar = 0.
     pub alpha: f64,
     /// Slope β of the second tanh of kempt, 5/(2·Dbar·d) (1/mg); 0 if Dbar = 0.
@@ -187,6 +190,7 @@ impl MinuteInput {
             insulin_pmol_per_kg_min: insulin_u_per_min * PMOL_PER_UNIT / c.bw,
             dbar_mg,
             sensitivity,
+            egp_sensitivity: sensitivity,
             alpha,
             beta,
         }
@@ -242,7 +246,7 @@ pub fn derivatives(c: &ModelConsts, u: &MinuteInput, x: &[f64; 13]) -> [f64; 13]
 
     // Glucose subsystem (DM07 eqs. 1, 10-15 without the portal term).
     // s(t) scales the insulin actions on EGP (kp3) and utilisation (Vmx).
-    let egp = c.kp1 - c.kp2 * x[GP] - u.sensitivity * c.kp3 * x[ID];
+    let egp = c.kp1 - c.kp2 * x[GP] - u.egp_sensitivity * c.kp3 * x[ID];
     let uii = c.fsnc;
     let renal = if x[GP] > c.ke2 {
         c.ke1 * (x[GP] - c.ke2)

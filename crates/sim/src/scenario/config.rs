@@ -156,6 +156,18 @@ impl Default for SkipConfig {
     }
 }
 
+/// Which insulin actions of the model s(t) scales.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SensitivityTarget {
+    /// Utilisation (Vmx) and the liver's insulin action (kp3), as
+    /// spec/protocol.md §1 states. Default.
+    #[default]
+    VmxAndKp3,
+    /// Utilisation (Vmx) only: the liver's insulin action stays nominal.
+    Vmx,
+}
+
 /// The insulin-sensitivity profile s(t) (seed paper §III-A-1).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct SensitivityConfig {
@@ -174,6 +186,10 @@ pub struct SensitivityConfig {
     /// Last day (1-based) with daily variability and dawn phenomenon (90);
     /// from the next day on s(t) = 1.
     pub variable_until_day: u32,
+    /// Which insulin actions s(t) scales (the paper does not say; T1DMS's
+    /// choice is not documented in any source we found).
+    #[serde(default)]
+    pub target: SensitivityTarget,
 }
 
 impl Default for SensitivityConfig {
@@ -186,6 +202,7 @@ impl Default for SensitivityConfig {
             dawn_end_min: 8 * 60,
             dawn_ramp_min: 30,
             variable_until_day: 90,
+            target: SensitivityTarget::VmxAndKp3,
         }
     }
 }

@@ -195,6 +195,9 @@ pub fn run_patient_with(
     let mut min_glucose = f64::INFINITY;
     let mut events: Vec<Event> = Vec::with_capacity(8);
     let mut failure = None;
+    let mut rescue_carbs_g = 0.0;
+    let mut rescue_treatments = 0u32;
+    let mut last_treatment: Option<i64> = None;
 
     'days: for day in 0..days {
         let plan = generator.day(day as u32);
@@ -239,6 +242,23 @@ pub fn run_patient_with(
                     .map_err(|e| e.with(&context))?;
             }
             events.clear();
+
+            // Hypoglycaemia treatment (off in the paper's scenarios): the
+            // person eats rescue carbohydrate on a low reading they see.
+            if let Some(t) = &scenario.hypo_treatment {
+                let low = [cgm_reading, smbg_reading]
+                    .into_iter()
+                    .flatten()
+                    .any(|g| g < t.below_mg_dl);
+                let ready = last_treatment
+                    .is_none_or(|at| now.minutes() - at >= i64::from(t.recheck_min));
+                if low && ready {
+                    queue.add(t.carbs_g);
+                    rescue_carbs_g += t.carbs_g;
+                    rescue_treatments += 1;
+                    last_treatment = Some(now.minutes());
+                }
+            }
 
             // Meals: announce (the advisor may update this meal's carb
             // ratio), then bolus announced carbs / carb ratio.
@@ -368,6 +388,8 @@ pub fn run_patient_with(
         pump_capped: ctl.capped,
         min_glucose_mg_dl: min_glucose,
         failure,
+        rescue_carbs_g,
+        rescue_treatments,
     })
 }
 

@@ -16,6 +16,10 @@ pub enum ScenarioId {
     S3,
     /// S3 plus two skipped main meals in every 7-day block.
     S4,
+    /// Not in the paper: S1 in real life, where the person treats a low
+    /// CGM reading with rescue carbohydrate ([`HypoTreatment`]). Not in
+    /// [`ScenarioId::ALL`], so not in the default trial.
+    S5,
 }
 
 impl ScenarioId {
@@ -34,6 +38,7 @@ impl ScenarioId {
             ScenarioId::S2 => 2,
             ScenarioId::S3 => 3,
             ScenarioId::S4 => 4,
+            ScenarioId::S5 => 5,
         }
     }
 
@@ -44,6 +49,7 @@ impl ScenarioId {
             ScenarioId::S2 => "S2",
             ScenarioId::S3 => "S3",
             ScenarioId::S4 => "S4",
+            ScenarioId::S5 => "S5",
         }
     }
 }
@@ -62,8 +68,9 @@ impl std::str::FromStr for ScenarioId {
             "S2" => Ok(ScenarioId::S2),
             "S3" => Ok(ScenarioId::S3),
             "S4" => Ok(ScenarioId::S4),
+            "S5" => Ok(ScenarioId::S5),
             _ => Err(SimError::Config(format!(
-                "unknown scenario '{s}' (expected one of S1, S2, S3, S4)"
+                "unknown scenario '{s}' (expected one of S1, S2, S3, S4, S5)"
             ))),
         }
     }
@@ -207,6 +214,30 @@ impl Default for SensitivityConfig {
     }
 }
 
+/// Hypoglycaemia treatment: the person eats rescue carbohydrate when a
+/// reading they see (CGM, or meter) is below a threshold, and treats again
+/// when the next reading they see at least `recheck_min` later is still low.
+/// Rescue carbohydrate is not announced to the advisor (no bolus).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct HypoTreatment {
+    /// Treat below this reading (mg/dL). 70.
+    pub below_mg_dl: f64,
+    /// Carbohydrate per treatment (g). 15 (the "rule of 15").
+    pub carbs_g: f64,
+    /// Minutes before the person re-checks and may treat again. 15.
+    pub recheck_min: u32,
+}
+
+impl Default for HypoTreatment {
+    fn default() -> Self {
+        Self {
+            below_mg_dl: 70.0,
+            carbs_g: 15.0,
+            recheck_min: 15,
+        }
+    }
+}
+
 /// Finger-stick (SMBG) measurement schedule (S2-S4).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct SmbgConfig {
@@ -258,6 +289,10 @@ pub struct ScenarioConfig {
     pub smbg: Option<SmbgConfig>,
     /// CGM schedule.
     pub cgm: CgmConfig,
+    /// Hypoglycaemia treatment by the person (`None`, the paper's
+    /// protocol: no rescue carbohydrate; on in S5).
+    #[serde(default)]
+    pub hypo_treatment: Option<HypoTreatment>,
 }
 
 impl ScenarioConfig {
@@ -274,6 +309,7 @@ impl ScenarioConfig {
             ScenarioId::S2 => (None, Some(smbg(0)), Some(8)),
             ScenarioId::S3 => (None, Some(smbg(10)), Some(8)),
             ScenarioId::S4 => (Some(SkipConfig::default()), Some(smbg(10)), Some(8)),
+            ScenarioId::S5 => (None, None, None),
         };
         Self {
             name: id.name().to_string(),
@@ -287,6 +323,7 @@ impl ScenarioConfig {
                 period_min: 5,
                 until_day: cgm_until,
             },
+            hypo_treatment: (id == ScenarioId::S5).then(HypoTreatment::default),
         }
     }
 
@@ -298,6 +335,23 @@ impl ScenarioConfig {
                 self.name
             )))
         };
+        if let Some(t) = &self.hypo_treatment {
+            if !(t.below_mg_dl.is_finite() && t.below_mg_dl > 0.0 && t.below_mg_dl < 200.0) {
+                return bad(
+                    "hypo_treatment.below_mg_dl",
+                    format!("must be in (0, 200) mg/dL, got {}", t.below_mg_dl),
+                );
+            }
+            if !(t.carbs_g.is_finite() && t.carbs_g > 0.0 && t.carbs_g <= 100.0) {
+                return bad(
+                    "hypo_treatment.carbs_g",
+                    format!("must be in (0, 100] g, got {}", t.carbs_g),
+                );
+            }
+            if t.recheck_min == 0 {
+                return bad("hypo_treatment.recheck_min", "must be at least 1".into());
+            }
+        }
         let day = MINUTES_PER_DAY as u32;
         if self.days == 0 {
             return bad("days", "must be at least 1".into());

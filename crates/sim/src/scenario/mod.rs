@@ -22,8 +22,8 @@ mod generate;
 mod plan;
 
 pub use config::{
-    CgmConfig, MealConfig, MealTemplate, ScenarioConfig, ScenarioId, SensitivityConfig,
-    SensitivityTarget, SkipConfig,
+    CgmConfig, HypoTreatment, MealConfig, MealTemplate, ScenarioConfig, ScenarioId,
+    SensitivityConfig, SensitivityTarget, SkipConfig,
     SmbgConfig,
 };
 pub use generate::{ScenarioGenerator, StreamSeeds};

@@ -3,7 +3,9 @@
 //! Tags follow `shared/spec/abba-algorithm.md`: **\[SEED]** values are stated
 //! in the paper (kept as knobs for ablations); **\[GUESS]** values are the
 //! spec's choices where no source was readable and must be listed in any
-//! results write-up. Defaults are exactly the spec's.
+//! results write-up. Defaults are the spec's except the deviations listed
+//! in ARCHITECTURE.md "Knobs" (CGM excursion, actor rule, and the guessed
+//! scales chosen by `abba calibrate`).
 
 use crate::error::{check_positive, check_range, config_err, AdvisorError};
 use serde::{Deserialize, Serialize};
@@ -476,9 +478,11 @@ pub struct TeConfig {
     pub te_n_min: f64,
     /// Upper clamp of TE_n. \[GUESS] 4.
     pub te_n_max: f64,
-    /// θ0 for BR per unit TE_n: (hyper, hypo). \[GUESS] (+0.10, −0.20).
+    /// θ0 for BR per unit TE_n: (hyper, hypo). \[GUESS, calibrated]
+    /// (+0.15, −0.20) (spec: (+0.10, −0.20); `abba calibrate`, BENCHMARKS.md).
     pub theta0_br: [f64; 2],
-    /// θ0 for each CIR per unit TE_n: (hyper, hypo). \[GUESS] (−0.10, +0.20).
+    /// θ0 for each CIR per unit TE_n: (hyper, hypo). \[GUESS, calibrated]
+    /// (−0.15, +0.20) (spec: (−0.10, +0.20)).
     pub theta0_cir: [f64; 2],
 }
 
@@ -497,8 +501,8 @@ impl Default for TeConfig {
             mapping: TeMapping::Proportional,
             te_n_min: 0.25,
             te_n_max: 4.0,
-            theta0_br: [0.10, -0.20],
-            theta0_cir: [-0.10, 0.20],
+            theta0_br: [0.15, -0.20],
+            theta0_cir: [-0.15, 0.20],
         }
     }
 }

@@ -647,11 +647,7 @@ mod tests {
         let before = a.theta;
         a.actor_step_natural(&prev, -0.5, &cfg);
         let decay = (1.0 + 1.0 / 30.0) * (1.0f64 + 1.0 / 30.0);
-        close(
-            "decayed step",
-            0.008 * 0.2 / decay,
-            a.theta[0] - before[0],
-        );
+        close("decayed step", 0.008 * 0.2 / decay, a.theta[0] - before[0]);
         // F = 0: skipped, θ unchanged.
         let zero = LastDecision {
             f: [0.0, 0.0],
@@ -695,7 +691,11 @@ mod tests {
         let mut c = Agent::new(ParamKind::CarbRatio, CriticVariant::ValueTd, 5, 1);
         c.theta = [-0.1, 0.2];
         c.actor_step_natural(&prev, 5.0, &cfg);
-        assert!(in_sign_pattern(ParamKind::CarbRatio, c.theta), "{:?}", c.theta);
+        assert!(
+            in_sign_pattern(ParamKind::CarbRatio, c.theta),
+            "{:?}",
+            c.theta
+        );
         assert_eq!(c.theta[1], 0.0, "θ_hypo of a CIR projected to 0");
         // Eq28 has no projection: the same hostile step leaves the pattern.
         cfg.actor.rule = ActorRule::Eq28;

@@ -85,8 +85,7 @@ impl Features {
     /// [`CgmExcursion::TimeAveraged`] it is the sum of excursions divided by
     /// all readings of the window, which does not depend on the sampling rate.
     pub fn from_stats(s: &WindowStats, cfg: &FeatureConfig, mode: Mode) -> Self {
-        let time_averaged =
-            mode == Mode::Cgm && cfg.cgm_excursion == CgmExcursion::TimeAveraged;
+        let time_averaged = mode == Mode::Cgm && cfg.cgm_excursion == CgmExcursion::TimeAveraged;
         let mean = |sum: f64, n_out: u32| {
             let n = if time_averaged { s.n } else { n_out };
             if n_out > 0 && n > 0 {
@@ -172,7 +171,10 @@ mod tests {
         assert_eq!(f.vector(), [0.0, 0.0], "thresholds are strict");
         let s = stats(&[]);
         assert!(s.is_empty());
-        assert_eq!(s.features(&FeatureConfig::default(), Mode::Smbg).vector(), [0.0, 0.0]);
+        assert_eq!(
+            s.features(&FeatureConfig::default(), Mode::Smbg).vector(),
+            [0.0, 0.0]
+        );
     }
 
     /// A day of 5-minute CGM readings at 120 mg/dL except `dip` readings at `low`.

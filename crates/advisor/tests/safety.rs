@@ -130,7 +130,10 @@ fn settings_ok(old: &TherapySettings, new: &TherapySettings, max: f64) -> Result
 /// The four agents' parameters with their kinds.
 const AGENTS: [(Parameter, ParamKind); 4] = [
     (Parameter::Basal, ParamKind::Basal),
-    (Parameter::CarbRatio(MealSlot::Breakfast), ParamKind::CarbRatio),
+    (
+        Parameter::CarbRatio(MealSlot::Breakfast),
+        ParamKind::CarbRatio,
+    ),
     (Parameter::CarbRatio(MealSlot::Lunch), ParamKind::CarbRatio),
     (Parameter::CarbRatio(MealSlot::Dinner), ParamKind::CarbRatio),
 ];

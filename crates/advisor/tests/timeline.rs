@@ -432,7 +432,10 @@ fn projected_actor_keeps_theta_in_its_sign_pattern_where_eq28_leaves_it() {
     };
     let agents = [
         (Parameter::Basal, ParamKind::Basal),
-        (Parameter::CarbRatio(MealSlot::Breakfast), ParamKind::CarbRatio),
+        (
+            Parameter::CarbRatio(MealSlot::Breakfast),
+            ParamKind::CarbRatio,
+        ),
         (Parameter::CarbRatio(MealSlot::Lunch), ParamKind::CarbRatio),
         (Parameter::CarbRatio(MealSlot::Dinner), ParamKind::CarbRatio),
     ];

@@ -43,8 +43,7 @@ pub struct Args {
 fn read_json<T: serde::de::DeserializeOwned>(path: &PathBuf, what: &str) -> Result<T> {
     let text = std::fs::read_to_string(path)
         .with_context(|| format!("cannot read {what} {}", path.display()))?;
-    serde_json::from_str(&text)
-        .with_context(|| format!("{}: not a valid {what}", path.display()))
+    serde_json::from_str(&text).with_context(|| format!("{}: not a valid {what}", path.display()))
 }
 
 /// Runs `abba calibrate`.
@@ -91,7 +90,10 @@ pub fn run(args: Args) -> Result<()> {
         let path = args.out.join(name);
         std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))
     };
-    write("calibration.json", serde_json::to_string_pretty(&report)? + "\n")?;
+    write(
+        "calibration.json",
+        serde_json::to_string_pretty(&report)? + "\n",
+    )?;
     write(
         "chosen_config.json",
         serde_json::to_string_pretty(&report.chosen_trial)? + "\n",

@@ -208,8 +208,11 @@ pub fn run(args: Args) -> Result<()> {
     let first = used.scenarios[0];
     let w1 = abba_trial::w1_sensitivity::w1_sensitivity(used, first)?;
     let w1_path = args.out.join("w1_sensitivity.md");
-    std::fs::write(&w1_path, abba_trial::w1_sensitivity::w1_markdown(first, &w1))
-        .with_context(|| format!("cannot write {}", w1_path.display()))?;
+    std::fs::write(
+        &w1_path,
+        abba_trial::w1_sensitivity::w1_markdown(first, &w1),
+    )
+    .with_context(|| format!("cannot write {}", w1_path.display()))?;
     if !args.quiet {
         eprintln!(
             "abba trial: {} patient-runs in {:.1} s; report in {} ({} files)",

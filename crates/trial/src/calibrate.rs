@@ -251,7 +251,9 @@ impl CalibrationConfig {
         }
         for (name, s) in [("training", t), ("held_out", h)] {
             if s.patients == 0 || s.scenarios.is_empty() {
-                return bad(format!("{name}: needs at least one patient and one scenario"));
+                return bad(format!(
+                    "{name}: needs at least one patient and one scenario"
+                ));
             }
             if s.days < 98 {
                 return bad(format!(
@@ -567,9 +569,8 @@ pub fn calibrate(
 
 /// A Markdown summary of a calibration (chosen values, held-out comparison).
 pub fn report_markdown(r: &CalibrationReport) -> String {
-    let mut s = String::from(
-        "# abba calibrate\n\nabba is research software, not a medical device.\n\n",
-    );
+    let mut s =
+        String::from("# abba calibrate\n\nabba is research software, not a medical device.\n\n");
     let t = &r.config.training;
     let h = &r.config.held_out;
     s += &format!(

@@ -250,8 +250,8 @@ pub fn run_patient_with(
                     .into_iter()
                     .flatten()
                     .any(|g| g < t.below_mg_dl);
-                let ready = last_treatment
-                    .is_none_or(|at| now.minutes() - at >= i64::from(t.recheck_min));
+                let ready =
+                    last_treatment.is_none_or(|at| now.minutes() - at >= i64::from(t.recheck_min));
                 if low && ready {
                     queue.add(t.carbs_g);
                     rescue_carbs_g += t.carbs_g;

@@ -57,7 +57,10 @@ pub fn variants() -> Vec<(&'static str, fn(&mut ScenarioConfig))> {
 
 /// Runs the standard arm's W1 of `scenario` for every variant on the
 /// trial's cohort (only the first 9 days are simulated).
-pub fn w1_sensitivity(config: &TrialConfig, scenario: ScenarioId) -> Result<Vec<W1Row>, TrialError> {
+pub fn w1_sensitivity(
+    config: &TrialConfig,
+    scenario: ScenarioId,
+) -> Result<Vec<W1Row>, TrialError> {
     let cohort = build_cohort(config)?;
     let mut rows = Vec::new();
     for (label, change) in variants() {

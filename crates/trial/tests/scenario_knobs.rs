@@ -32,7 +32,12 @@ fn sensitivity_target_vmx_leaves_the_liver_at_nominal_sensitivity() {
     let g = |r: &abba_trial::results::PatientResult| r.week("W1").unwrap().metrics.mean_mg_dl;
     // With s(t) < 1 at dawn, kp3·s suppresses less glucose output: scaling
     // kp3 too makes the week more hyperglycaemic than scaling Vmx alone.
-    assert!(g(&both) > g(&vmx), "both {} vs Vmx only {}", g(&both), g(&vmx));
+    assert!(
+        g(&both) > g(&vmx),
+        "both {} vs Vmx only {}",
+        g(&both),
+        g(&vmx)
+    );
     // Without any variability the target does not matter.
     let mut flat = c.scenario(ScenarioId::S1);
     flat.sensitivity.dawn_factor = 1.0;

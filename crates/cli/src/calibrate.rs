@@ -3,7 +3,7 @@
 //! `abba_trial::calibrate`).
 
 use abba_trial::calibrate::{calibrate, report_markdown, CalibrationConfig, LogEntry};
-use abba_trial::TrialConfig;
+use abba_trial::protocol::RawTrialConfig;
 use anyhow::{Context, Result};
 use std::path::PathBuf;
 
@@ -48,9 +48,9 @@ fn read_json<T: serde::de::DeserializeOwned>(path: &PathBuf, what: &str) -> Resu
 
 /// Runs `abba calibrate`.
 pub fn run(args: Args) -> Result<()> {
-    let base: TrialConfig = match &args.config {
+    let base: RawTrialConfig = match &args.config {
         Some(p) => read_json(p, "trial configuration")?,
-        None => TrialConfig::default(),
+        None => RawTrialConfig::default(),
     };
     let mut spec: CalibrationConfig = match &args.spec {
         Some(p) => read_json(p, "calibration configuration")?,

@@ -2,12 +2,11 @@
 
 use abba_sim::cohort::Population;
 use abba_sim::scenario::ScenarioId;
-use abba_trial::runner::{run_trial, Progress};
+use abba_trial::protocol::RawTrialConfig;
+use abba_trial::runner::run_trial;
 use abba_trial::{ArmKind, TrialConfig};
 use anyhow::{bail, Context, Result};
-use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
-use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -63,30 +62,15 @@ pub struct Args {
     pub quiet: bool,
 }
 
-struct Bar(ProgressBar);
-
-impl Progress for Bar {
-    fn update(&self, done: usize, total: usize) {
-        self.0.set_length(total as u64);
-        self.0.set_position(done as u64);
-    }
-}
-
-struct NoBar;
-
-impl Progress for NoBar {
-    fn update(&self, _: usize, _: usize) {}
-}
-
 fn config_from(args: &Args) -> Result<TrialConfig> {
     let mut c = match &args.config {
         Some(path) => {
             let text = std::fs::read_to_string(path)
                 .with_context(|| format!("cannot read trial configuration {}", path.display()))?;
-            serde_json::from_str(&text)
+            RawTrialConfig::from_json(&text)
                 .with_context(|| format!("{}: not a valid trial configuration", path.display()))?
         }
-        None => TrialConfig::default(),
+        None => RawTrialConfig::default(),
     };
     if let Some(p) = &args.population {
         c.population = match p.as_str() {
@@ -129,8 +113,12 @@ fn config_from(args: &Args) -> Result<TrialConfig> {
     if args.no_te_calibration {
         c.calibrate_te_ref = false;
     }
-    c.validate()?;
-    Ok(c)
+    let checked = match &args.config {
+        Some(path) => TrialConfig::try_from(c).with_context(|| format!("{}", path.display()))?,
+        None => TrialConfig::try_from(c)?,
+    };
+    crate::trial_limits::check(&checked)?;
+    Ok(checked)
 }
 
 /// Runs `abba trial`.
@@ -141,20 +129,10 @@ pub fn run(args: Args) -> Result<()> {
         return Ok(());
     }
     let started = Instant::now();
-    let show_bar = !args.quiet && std::io::stderr().is_terminal();
-    let output = if show_bar {
-        let bar = ProgressBar::new(0).with_style(
-            ProgressStyle::with_template(
-                "{elapsed_precise} [{bar:40}] {pos}/{len} patient-runs (eta {eta})",
-            )?
-            .progress_chars("=> "),
-        );
-        let out = run_trial(&config, args.threads, &Bar(bar.clone()));
-        bar.finish_and_clear();
-        out?
-    } else {
-        run_trial(&config, args.threads, &NoBar)?
-    };
+    let progress = crate::progress::Progress::new("abba trial", "patient-runs", args.quiet);
+    let output = run_trial(&config, args.threads, &progress);
+    progress.finish();
+    let output = output?;
     let wall_s = started.elapsed().as_secs_f64();
     let used = &output.config;
     let mut manifest = json!({
@@ -174,7 +152,8 @@ pub fn run(args: Args) -> Result<()> {
             "init_days": used.init_days,
             "scenarios": used.scenarios,
             "arms": used.arms,
-            "modes": used.scenarios.iter().map(|s| (s.name(), TrialConfig::mode_for(&used.scenario(*s)).name())).collect::<std::collections::BTreeMap<_, _>>(),
+            "modes": used.planned().iter().map(|s| (s.id.name(), s.mode.name())).collect::<std::collections::BTreeMap<_, _>>(),
+            "advisors_run": advisors_run(used),
             "evaluation": "plasma glucose G = Gp/Vg every 5 min; W1 = D2-D8, W13 = D84-D90, W14 = D92-D98; weekly Wk = D(7k-5)..D(7k+1)",
         },
         "te_calibration": {
@@ -283,6 +262,29 @@ fn write_traces(args: &Args, output: &abba_trial::runner::TrialOutput) -> Result
         }
     }
     Ok(())
+}
+
+/// What each arm ran in each mode, with the knobs the trial set (ABBA's
+/// exploration seed is derived per patient).
+fn advisors_run(used: &TrialConfig) -> serde_json::Value {
+    let mut out = serde_json::Map::new();
+    for p in used.planned() {
+        let mode = p.mode.name().to_string();
+        if out.contains_key(&mode) {
+            continue;
+        }
+        let arms: serde_json::Map<_, _> = used
+            .arms
+            .iter()
+            .map(|a| (a.name().to_string(), json!(used.advisor_spec(*a, p.mode))))
+            .collect();
+        out.insert(mode, serde_json::Value::Object(arms));
+    }
+    out.insert(
+        "exploration_seed".into(),
+        json!("derive_seed(seed, patient number, scenario random_key, exploration), per patient"),
+    );
+    serde_json::Value::Object(out)
 }
 
 fn rayon_threads() -> usize {

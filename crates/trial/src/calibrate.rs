@@ -9,7 +9,7 @@
 //! [`Objective`]).
 
 use crate::error::TrialError;
-use crate::protocol::{ArmKind, TrialConfig};
+use crate::protocol::{ArmKind, RawTrialConfig, TrialConfig};
 use crate::results::ArmResult;
 use crate::runner::{build_cohort, run_trial_on, Silent};
 use abba_sim::cohort::{Cohort, Origin, Population};
@@ -66,7 +66,7 @@ impl Knob {
     }
 
     /// The knob's value in `c`.
-    pub fn get(self, c: &TrialConfig) -> f64 {
+    pub fn get(self, c: &RawTrialConfig) -> f64 {
         match self {
             Knob::Theta0Hyper => c.abba.te.theta0_br[0],
             Knob::Theta0Hypo => c.abba.te.theta0_cir[1],
@@ -81,7 +81,7 @@ impl Knob {
     }
 
     /// Sets the knob in `c`.
-    pub fn set(self, c: &mut TrialConfig, v: f64) {
+    pub fn set(self, c: &mut RawTrialConfig, v: f64) {
         match self {
             Knob::Theta0Hyper => {
                 c.abba.te.theta0_br[0] = v;
@@ -224,7 +224,7 @@ impl CalibrationConfig {
     /// Checks the configuration against the trial it calibrates (`base`):
     /// neither cohort may be the base trial's, and the training cohort may
     /// not hold its (public) patients.
-    pub fn validate(&self, base: &TrialConfig) -> Result<(), TrialError> {
+    pub fn validate(&self, base: &RawTrialConfig) -> Result<(), TrialError> {
         let bad = |m: String| Err(TrialError::Config(format!("calibration: {m}")));
         let t = &self.training;
         let h = &self.held_out;
@@ -420,18 +420,18 @@ pub struct CalibrationReport {
     /// The held-out cohort with the chosen values: every arm against standard therapy.
     pub held_out: Vec<Comparison>,
     /// The trial configuration with the chosen values (`abba trial --config`).
-    pub chosen_trial: TrialConfig,
+    pub chosen_trial: RawTrialConfig,
 }
 
 /// The cohort of a spec (generated patients only when asked).
 pub fn cohort_of(spec: &CohortSpec) -> Result<Cohort, TrialError> {
     let extra = if spec.generated_only { 10 } else { 0 };
-    let probe = TrialConfig {
+    let probe = TrialConfig::try_from(RawTrialConfig {
         population: spec.population,
         patients: spec.patients + extra,
         cohort_seed: spec.cohort_seed,
-        ..TrialConfig::default()
-    };
+        ..RawTrialConfig::default()
+    })?;
     let mut cohort = build_cohort(&probe)?;
     if spec.generated_only {
         cohort.patients.retain(|p| p.origin != Origin::Public);
@@ -440,8 +440,12 @@ pub fn cohort_of(spec: &CohortSpec) -> Result<Cohort, TrialError> {
     Ok(cohort)
 }
 
-fn trial_for(base: &TrialConfig, spec: &CohortSpec, arms: Vec<ArmKind>) -> TrialConfig {
-    TrialConfig {
+fn trial_for(
+    base: &RawTrialConfig,
+    spec: &CohortSpec,
+    arms: Vec<ArmKind>,
+) -> Result<TrialConfig, TrialError> {
+    TrialConfig::try_from(RawTrialConfig {
         seed: spec.seed,
         population: spec.population,
         patients: spec.patients,
@@ -450,26 +454,26 @@ fn trial_for(base: &TrialConfig, spec: &CohortSpec, arms: Vec<ArmKind>) -> Trial
         scenarios: spec.scenarios.clone(),
         arms,
         ..base.clone()
-    }
+    })
 }
 
-fn values_of(c: &TrialConfig, grids: &[KnobGrid]) -> BTreeMap<Knob, f64> {
+fn values_of(c: &RawTrialConfig, grids: &[KnobGrid]) -> BTreeMap<Knob, f64> {
     grids.iter().map(|g| (g.knob, g.knob.get(c))).collect()
 }
 
 /// Runs the calibration of `base` (its non-declared knobs stay as they
 /// are). `on_entry` sees every evaluation as it is logged.
 pub fn calibrate(
-    base: &TrialConfig,
+    base: &RawTrialConfig,
     config: &CalibrationConfig,
     threads: usize,
     on_entry: &dyn Fn(&LogEntry),
 ) -> Result<CalibrationReport, TrialError> {
     config.validate(base)?;
-    base.validate()?;
+    TrialConfig::try_from(base.clone())?;
     let training = cohort_of(&config.training)?;
-    let run = |c: &TrialConfig, arm: ArmKind| -> Result<Vec<ArmResult>, TrialError> {
-        let t = trial_for(c, &config.training, vec![arm]);
+    let run = |c: &RawTrialConfig, arm: ArmKind| -> Result<Vec<ArmResult>, TrialError> {
+        let t = trial_for(c, &config.training, vec![arm])?;
         Ok(run_trial_on(&t, training.clone(), threads, &Silent)?.arms)
     };
     let standard = run(base, ArmKind::Standard)?;
@@ -482,7 +486,7 @@ pub fn calibrate(
     arms.dedup();
     let mut best: BTreeMap<ArmKind, f64> = BTreeMap::new();
     let mut seen: BTreeMap<(ArmKind, String), f64> = BTreeMap::new();
-    let mut evaluate = |c: &TrialConfig,
+    let mut evaluate = |c: &RawTrialConfig,
                         arm: ArmKind,
                         pass: u32,
                         knob: Option<Knob>,
@@ -533,7 +537,7 @@ pub fn calibrate(
                 }
                 let mut candidate = current.clone();
                 g.knob.set(&mut candidate, v);
-                if candidate.validate().is_err() {
+                if TrialConfig::try_from(candidate.clone()).is_err() {
                     continue;
                 }
                 let before = log.len();
@@ -555,7 +559,7 @@ pub fn calibrate(
     }
     let chosen = values_of(&current, &config.grids);
     let held_cohort = cohort_of(&config.held_out)?;
-    let held_trial = trial_for(&current, &config.held_out, ArmKind::ALL.to_vec());
+    let held_trial = trial_for(&current, &config.held_out, ArmKind::ALL.to_vec())?;
     let held = run_trial_on(&held_trial, held_cohort, threads, &Silent)?;
     Ok(CalibrationReport {
         config: config.clone(),
@@ -611,7 +615,7 @@ mod tests {
 
     #[test]
     fn knobs_set_what_they_claim() {
-        let mut c = TrialConfig::default();
+        let mut c = RawTrialConfig::default();
         for (k, v) in [
             (Knob::Theta0Hyper, 0.3),
             (Knob::Theta0Hypo, 0.15),
@@ -633,12 +637,12 @@ mod tests {
         assert_eq!(c.abba.features.cgm_g_max_mg_dl, Some(300.0));
         assert_eq!(c.abba.actor.natural_beta, 0.2);
         assert_eq!((c.r2r.basal_gain, c.r2r.cir_gain), (0.3, 0.2));
-        c.validate().unwrap();
+        TrialConfig::try_from(c).unwrap();
     }
 
     #[test]
     fn training_never_uses_the_default_trials_patients_or_seeds() {
-        let base = TrialConfig::default();
+        let base = RawTrialConfig::default();
         let cal = CalibrationConfig::default();
         cal.validate(&base).unwrap();
         let mut same = cal.clone();
@@ -657,7 +661,7 @@ mod tests {
         let cohort = cohort_of(&spec).unwrap();
         assert_eq!(cohort.patients.len(), 3);
         assert!(cohort.patients.iter().all(|p| p.origin != Origin::Public));
-        let default = build_cohort(&base).unwrap();
+        let default = build_cohort(&TrialConfig::try_from(base).unwrap()).unwrap();
         for p in &cohort.patients {
             assert!(
                 default.patients.iter().all(|d| d.params != p.params),
@@ -684,7 +688,7 @@ mod tests {
                 values: vec![0.2, 0.5],
             },
         ];
-        let base = TrialConfig::default();
+        let base = RawTrialConfig::default();
         let seen = std::cell::Cell::new(0);
         let r = calibrate(&base, &cal, 1, &|_| seen.set(seen.get() + 1)).unwrap();
         // Start of each arm, then every grid value that differs from the current one.

@@ -6,7 +6,7 @@
 
 use crate::closed_loop::run_patient;
 use crate::error::TrialError;
-use crate::protocol::{ArmKind, TrialConfig};
+use crate::protocol::{ArmKind, PlannedScenario, TrialConfig};
 use crate::runner::build_cohort;
 use abba_sim::scenario::{ScenarioConfig, ScenarioId, SensitivityTarget};
 use rayon::prelude::*;
@@ -69,11 +69,16 @@ pub fn w1_sensitivity(
         s.days = 2 + config.init_days;
         s.validate()
             .map_err(|e| TrialError::Config(format!("W1 block, {label}: {e}")))?;
+        let planned = PlannedScenario {
+            id: scenario,
+            mode: TrialConfig::mode_for(&s),
+            config: s,
+        };
         let results: Vec<_> = cohort
             .patients
             .par_iter()
             .enumerate()
-            .map(|(i, vp)| run_patient(config, vp, i as u64 + 1, &s, ArmKind::Standard))
+            .map(|(i, vp)| run_patient(config, vp, i as u64 + 1, &planned, ArmKind::Standard))
             .collect::<Result<_, _>>()?;
         let w1: Vec<_> = results
             .iter()
@@ -132,10 +137,11 @@ mod tests {
 
     #[test]
     fn switching_off_variability_changes_w1_of_the_standard_arm() {
-        let config = TrialConfig {
+        let config = TrialConfig::try_from(crate::protocol::RawTrialConfig {
             patients: 3,
-            ..TrialConfig::default()
-        };
+            ..Default::default()
+        })
+        .unwrap();
         let rows = w1_sensitivity(&config, ScenarioId::S1).unwrap();
         assert_eq!(rows.len(), variants().len());
         assert!(rows.iter().all(|r| r.n == 3));

@@ -7,19 +7,26 @@
 use abba_sim::scenario::{HypoTreatment, ScenarioConfig, ScenarioId, SensitivityTarget};
 use abba_trial::closed_loop::run_patient;
 use abba_trial::runner::build_cohort;
+use abba_trial::protocol::{PlannedScenario, RawTrialConfig};
 use abba_trial::{ArmKind, TrialConfig};
 
 fn config() -> TrialConfig {
-    TrialConfig {
+    TrialConfig::try_from(RawTrialConfig {
         patients: 2,
         days: 9,
-        ..TrialConfig::default()
-    }
+        ..RawTrialConfig::default()
+    })
+    .unwrap()
 }
 
 fn w1(config: &TrialConfig, s: &ScenarioConfig) -> abba_trial::results::PatientResult {
     let cohort = build_cohort(config).unwrap();
-    run_patient(config, &cohort.patients[0], 1, s, ArmKind::Standard).unwrap()
+    let planned = PlannedScenario {
+        id: ScenarioId::S1,
+        mode: TrialConfig::mode_for(s),
+        config: s.clone(),
+    };
+    run_patient(config, &cohort.patients[0], 1, &planned, ArmKind::Standard).unwrap()
 }
 
 #[test]

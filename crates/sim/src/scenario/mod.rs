@@ -22,7 +22,7 @@ mod generate;
 mod plan;
 
 pub use config::{
-    CgmConfig, HypoTreatment, MealConfig, MealTemplate, ScenarioConfig, ScenarioId,
+    CgmWear, HypoTreatment, MealConfig, MealTemplate, ScenarioConfig, ScenarioId,
     SensitivityConfig, SensitivityTarget, SkipConfig, SmbgConfig,
 };
 pub use generate::{ScenarioGenerator, StreamSeeds};

@@ -180,7 +180,7 @@ mod tests {
     /// A day of 5-minute CGM readings at 120 mg/dL except `dip` readings at `low`.
     fn cgm_day(dip: usize, low: f64) -> WindowStats {
         let mut v = vec![120.0; 288 - dip];
-        v.extend(std::iter::repeat(low).take(dip));
+        v.extend(std::iter::repeat_n(low, dip));
         stats(&v)
     }
 

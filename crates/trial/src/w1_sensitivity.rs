@@ -31,8 +31,11 @@ pub struct W1Row {
     pub hbgi: f64,
 }
 
+/// How a variant changes the scenario.
+pub type Change = fn(&mut ScenarioConfig);
+
 /// The variants: (label, how the scenario is changed).
-pub fn variants() -> Vec<(&'static str, fn(&mut ScenarioConfig))> {
+pub fn variants() -> Vec<(&'static str, Change)> {
     vec![
         ("as configured", |_| {}),
         ("no dawn phenomenon", |s| s.sensitivity.dawn_factor = 1.0),
@@ -83,7 +86,7 @@ pub fn w1_sensitivity(
         let w1: Vec<_> = results
             .iter()
             .filter_map(|r| r.week("W1"))
-            .map(|w| w.metrics.clone())
+            .map(|w| w.metrics)
             .collect();
         let n = w1.len();
         let mean = |f: &dyn Fn(&abba_core::metrics::GlucoseMetrics) -> f64| {

@@ -6,8 +6,8 @@
 
 use abba_sim::scenario::{HypoTreatment, ScenarioConfig, ScenarioId, SensitivityTarget};
 use abba_trial::closed_loop::run_patient;
-use abba_trial::runner::build_cohort;
 use abba_trial::protocol::{PlannedScenario, RawTrialConfig};
+use abba_trial::runner::build_cohort;
 use abba_trial::{ArmKind, TrialConfig};
 
 fn config() -> TrialConfig {

@@ -199,10 +199,16 @@ fn hyperglycaemia_means_more_insulin_and_hypoglycaemia_less() {
     // The sign conventions of θ0 (§7.3) and of the supervisor (eq26/27/29)
     // through the whole timeline. The actor step is switched off (β = 0):
     // with the spec's β = 0.5 the clipped eq28 step dominates θ within days
-    // (see `literal_actor_step_is_clipped_at_almost_every_update`).
+    // (see `literal_actor_step_is_clipped_at_almost_every_update`); the
+    // default projected natural-gradient step is switched off too, and so
+    // is exploration: a single draw σz can outweigh P_d on the first move
+    // (with θ0 hyper 0.15 it did, at seed 11), and these are checks of the
+    // deterministic sign conventions, not of the noise around them.
     for mode in [Mode::Smbg, Mode::Cgm] {
         let mut cfg = AbbaConfig::new(mode, 11);
         cfg.actor.beta = 0.0;
+        cfg.actor.natural_beta = 0.0;
+        cfg.actor.c_sigma = 0.0;
         let (s, d) = final_settings_with(cfg.clone(), too_little, 30);
         assert!(
             s.basal.0 > 1.0,

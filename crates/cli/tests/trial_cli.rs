@@ -96,7 +96,7 @@ fn traces_every_minute_and_decision() {
 #[test]
 fn bad_options_are_clear_errors() {
     let cases: [(&[&str], &str); 4] = [
-        (&["--scenarios", "S5"], "S5"),
+        (&["--scenarios", "S6"], "S6"),
         (&["--arms", "magic"], "magic"),
         (&["--days", "5"], "days"),
         (

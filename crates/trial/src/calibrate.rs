@@ -324,12 +324,13 @@ pub struct Comparison {
 
 /// Compares arms in W13 and W14 over the patients all of them have.
 pub fn compare(arms: &[ArmResult]) -> Vec<Comparison> {
+    use crate::results::Week;
     let mut out = Vec::new();
-    let mut scenarios: Vec<&str> = arms.iter().map(|a| a.scenario.as_str()).collect();
+    let mut scenarios: Vec<_> = arms.iter().map(|a| a.scenario).collect();
     scenarios.dedup();
     for s in scenarios {
         let here: Vec<&ArmResult> = arms.iter().filter(|a| a.scenario == s).collect();
-        for week in ["W13", "W14"] {
+        for week in [Week::W13, Week::W14] {
             let n_patients = here.iter().map(|a| a.patients.len()).min().unwrap_or(0);
             let common: Vec<usize> = (0..n_patients)
                 .filter(|&i| here.iter().all(|a| a.patients[i].week(week).is_some()))
@@ -345,7 +346,7 @@ pub fn compare(arms: &[ArmResult]) -> Vec<Comparison> {
                     ws.iter().map(|w| f(&w.metrics)).sum::<f64>() / n
                 };
                 map.insert(
-                    a.advisor.clone(),
+                    a.advisor.name().to_string(),
                     Outcome {
                         tir: mean(&|m| m.tir_70_180),
                         below_70: mean(&|m| m.below_70),
@@ -357,7 +358,7 @@ pub fn compare(arms: &[ArmResult]) -> Vec<Comparison> {
                 );
             }
             out.push(Comparison {
-                scenario: s.to_string(),
+                scenario: s.name().to_string(),
                 week: week.to_string(),
                 arms: map,
             });
@@ -371,7 +372,7 @@ pub fn score(rows: &[Comparison], arm: &str, o: &Objective) -> Result<f64, Trial
     let mut total = 0.0;
     for r in rows {
         let (Some(a), Some(s)) = (r.arms.get(arm), r.arms.get("standard")) else {
-            return Err(TrialError::InconsistentResults(format!(
+            return Err(TrialError::Config(format!(
                 "calibration: {} {} lacks arm {arm} or standard",
                 r.scenario, r.week
             )));
@@ -506,7 +507,7 @@ pub fn calibrate(
         }
         let mut results = run(c, arm)?;
         results.extend(standard.iter().cloned());
-        results.sort_by(|a, b| a.scenario.cmp(&b.scenario));
+        results.sort_by_key(|a| a.scenario);
         let outcomes = compare(&results);
         let s = score(&outcomes, arm.name(), &config.objective)?;
         seen.insert(key, s);

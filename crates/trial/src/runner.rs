@@ -128,9 +128,9 @@ pub fn run_trial_on(
         for arm in &config.arms {
             let patients: Vec<_> = it.by_ref().take(cohort.patients.len()).collect();
             arms.push(ArmResult {
-                scenario: s.config.name.clone(),
-                advisor: arm.name().to_string(),
-                mode: s.mode.name().to_string(),
+                scenario: s.id,
+                advisor: *arm,
+                mode: s.mode,
                 patients,
             });
         }

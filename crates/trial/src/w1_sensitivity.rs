@@ -85,7 +85,7 @@ pub fn w1_sensitivity(
             .collect::<Result<_, _>>()?;
         let w1: Vec<_> = results
             .iter()
-            .filter_map(|r| r.week("W1"))
+            .filter_map(|r| r.week(crate::results::Week::W1))
             .map(|w| w.metrics)
             .collect();
         let n = w1.len();

@@ -106,6 +106,9 @@ mod tests {
         assert_eq!(" s3 ".parse::<ScenarioId>().unwrap(), ScenarioId::S3);
         assert_eq!("s5".parse::<ScenarioId>().unwrap(), ScenarioId::S5);
         let e = "S6".parse::<ScenarioId>().unwrap_err().to_string();
-        assert!(e.contains("'S6'") && e.contains("S1, S2, S3, S4, S5"), "{e}");
+        assert!(
+            e.contains("'S6'") && e.contains("S1, S2, S3, S4, S5"),
+            "{e}"
+        );
     }
 }

@@ -88,8 +88,6 @@ fn patient(name: &str, weeks: Vec<WeekResult>) -> PatientResult {
         failure: None,
         rescue_carbs_g: 0.0,
         rescue_treatments: 0,
-        rescue_carbs_g: 0.0,
-        rescue_treatments: 0,
     }
 }
 

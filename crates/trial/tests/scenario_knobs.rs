@@ -36,7 +36,12 @@ fn sensitivity_target_vmx_leaves_the_liver_at_nominal_sensitivity() {
     let both = w1(&c, &s);
     s.sensitivity.target = SensitivityTarget::Vmx;
     let vmx = w1(&c, &s);
-    let g = |r: &abba_trial::results::PatientResult| r.week(abba_trial::results::Week::W1).unwrap().metrics.mean_mg_dl;
+    let g = |r: &abba_trial::results::PatientResult| {
+        r.week(abba_trial::results::Week::W1)
+            .unwrap()
+            .metrics
+            .mean_mg_dl
+    };
     // With s(t) < 1 at dawn, kp3·s suppresses less glucose output: scaling
     // kp3 too makes the week more hyperglycaemic than scaling Vmx alone.
     assert!(
@@ -76,7 +81,12 @@ fn hypo_treatment_feeds_rescue_carbs_on_low_readings_only_when_on() {
     assert!(on.rescue_treatments > 0);
     assert_eq!(on.rescue_carbs_g, 15.0 * f64::from(on.rescue_treatments));
     assert!(on.rescue_treatments <= 9 * 96, "{}", on.rescue_treatments);
-    let mean = |r: &abba_trial::results::PatientResult| r.week(abba_trial::results::Week::W1).unwrap().metrics.mean_mg_dl;
+    let mean = |r: &abba_trial::results::PatientResult| {
+        r.week(abba_trial::results::Week::W1)
+            .unwrap()
+            .metrics
+            .mean_mg_dl
+    };
     assert!(mean(&on) > mean(&off));
     // Invalid settings are rejected with the field named.
     let mut bad = s1;

@@ -5,6 +5,7 @@ use std::process::ExitCode;
 
 mod advise;
 mod answer;
+mod calibrate;
 mod cohort;
 mod errors;
 mod events;
@@ -52,6 +53,8 @@ enum Command {
     Answer(answer::Args),
     /// Every suggestion, the answer and the value in force, by day.
     History(history::Args),
+    /// Tune the guessed knobs on a training cohort; evaluate on a held-out one.
+    Calibrate(calibrate::Args),
 }
 
 /// The parsed command line. Every subcommand takes negative numbers as
@@ -82,6 +85,7 @@ fn main() -> ExitCode {
         Command::Advise(a) => advise::run(a),
         Command::Answer(a) => answer::run(a),
         Command::History(a) => history::run(a),
+        Command::Calibrate(a) => calibrate::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

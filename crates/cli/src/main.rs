@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand};
 
 mod cohort;
 mod metrics;
+mod shard;
 mod simulate;
 mod trial;
 

@@ -14,7 +14,16 @@ use std::time::Instant;
 /// Arguments of `abba trial`. With none, runs the full paper protocol:
 /// 100 adults, 98 days, S1-S4, arms abba, standard and r2r, seed 1.
 #[derive(clap::Args, Debug)]
+#[command(args_conflicts_with_subcommands = true)]
 pub struct Args {
+    /// `abba trial merge`: merge shard files into the report.
+    #[command(subcommand)]
+    pub command: Option<crate::shard::TrialCommand>,
+    /// Run only shard I of N of the trial's (scenario, arm, patient) jobs
+    /// and write `shard-I-of-N.json` into --out; `abba trial merge` turns
+    /// the N files into the report a single run writes.
+    #[arg(long, value_name = "I/N")]
+    pub shard: Option<abba_trial::shard::ShardSpec>,
     /// Report directory (created if missing).
     #[arg(long, default_value = "abba-out")]
     pub out: PathBuf,
@@ -78,7 +87,7 @@ impl Progress for NoBar {
     fn update(&self, _: usize, _: usize) {}
 }
 
-fn config_from(args: &Args) -> Result<TrialConfig> {
+pub(crate) fn config_from(args: &Args) -> Result<TrialConfig> {
     let mut c = match &args.config {
         Some(path) => {
             let text = std::fs::read_to_string(path)
@@ -135,10 +144,16 @@ fn config_from(args: &Args) -> Result<TrialConfig> {
 
 /// Runs `abba trial`.
 pub fn run(args: Args) -> Result<()> {
+    if let Some(command) = args.command {
+        return crate::shard::run_command(command);
+    }
     let config = config_from(&args)?;
     if args.print_config {
         println!("{}", serde_json::to_string_pretty(&config)?);
         return Ok(());
+    }
+    if let Some(spec) = args.shard {
+        return crate::shard::run_shard(&args, &config, spec);
     }
     let started = Instant::now();
     let show_bar = !args.quiet && std::io::stderr().is_terminal();
@@ -157,35 +172,8 @@ pub fn run(args: Args) -> Result<()> {
     };
     let wall_s = started.elapsed().as_secs_f64();
     let used = &output.config;
-    let mut manifest = json!({
-        "tool": "abba",
-        "version": env!("CARGO_PKG_VERSION"),
-        "git_revision": env!("ABBA_GIT_REV"),
-        "seed": used.seed,
-        "cohort": {
-            "population": used.population,
-            "patients": output.cohort.patients.len(),
-            "seed": used.cohort_seed,
-            "rejected_candidates": output.cohort.rejections,
-        },
-        "protocol": {
-            "days": used.days,
-            "warm_up_days": 1,
-            "init_days": used.init_days,
-            "scenarios": used.scenarios,
-            "arms": used.arms,
-            "modes": used.scenarios.iter().map(|s| (s.name(), TrialConfig::mode_for(&used.scenario(*s)).name())).collect::<std::collections::BTreeMap<_, _>>(),
-            "evaluation": "plasma glucose G = Gp/Vg every 5 min; W1 = D2-D8, W13 = D84-D90, W14 = D92-D98; weekly Wk = D(7k-5)..D(7k+1)",
-        },
-        "te_calibration": {
-            "calibrated": used.calibrate_te_ref && used.arms.contains(&ArmKind::Abba),
-            "te_ref_bits_cgm": used.abba.te.te_ref_bits,
-            "te_ref_bits_smbg": used.te_ref_bits_smbg.unwrap_or(used.abba.te.te_ref_bits),
-            "how": "median over the cohort of ABBA's own first-week TE estimate in each mode (spec §7.3)",
-            "first_week_te_bits": output.first_week_te_bits,
-        },
-        "knobs": used,
-    });
+    let mut manifest =
+        abba_trial::manifest::manifest(&output, env!("CARGO_PKG_VERSION"), env!("ABBA_GIT_REV"));
     let summary_manifest = manifest.clone();
     manifest["run"] = json!({
         "wall_time_s": wall_s,

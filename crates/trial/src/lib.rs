@@ -2,10 +2,12 @@
 
 pub mod closed_loop;
 pub mod error;
+pub mod manifest;
 pub mod protocol;
 pub mod report;
 pub mod results;
 pub mod runner;
+pub mod shard;
 pub mod stats;
 
 pub use error::TrialError;

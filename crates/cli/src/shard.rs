@@ -1,0 +1,95 @@
+//! `abba trial --shard I/N` and `abba trial merge`: a trial split into
+//! shards for batch schedulers, merged into the report a single run writes.
+
+use abba_trial::runner::Silent;
+use abba_trial::shard::{self, ShardSpec};
+use abba_trial::TrialConfig;
+use anyhow::{Context, Result};
+use serde_json::json;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Subcommands of `abba trial`.
+#[derive(clap::Subcommand, Debug)]
+pub enum TrialCommand {
+    /// Merge the shard files of one trial (from `abba trial --shard I/N`)
+    /// into its report: the same files a single run writes.
+    Merge(MergeArgs),
+}
+
+/// Arguments of `abba trial merge`.
+#[derive(clap::Args, Debug)]
+pub struct MergeArgs {
+    /// Report directory (created if missing).
+    #[arg(long, default_value = "abba-out")]
+    pub out: PathBuf,
+    /// The shard files (all N of them, any order).
+    #[arg(required = true)]
+    pub shards: Vec<PathBuf>,
+    /// No closing message.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// Runs one shard and writes `shard-I-of-N.json` into `--out`.
+pub fn run_shard(args: &crate::trial::Args, config: &TrialConfig, spec: ShardSpec) -> Result<()> {
+    let started = Instant::now();
+    let file = shard::run_shard(config, spec, args.threads, &Silent)?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    let path = args
+        .out
+        .join(format!("shard-{}-of-{}.json", spec.index, spec.count));
+    shard::write_shard(&path, &file)?;
+    if !args.quiet {
+        eprintln!(
+            "abba trial: shard {spec}: {} of {} patient-runs in {:.1} s; wrote {}",
+            file.jobs.len(),
+            file.total_jobs,
+            started.elapsed().as_secs_f64(),
+            path.display()
+        );
+    }
+    Ok(())
+}
+
+/// Runs a subcommand of `abba trial`.
+pub fn run_command(command: TrialCommand) -> Result<()> {
+    match command {
+        TrialCommand::Merge(args) => merge(args),
+    }
+}
+
+fn merge(args: MergeArgs) -> Result<()> {
+    let started = Instant::now();
+    let shards = args
+        .shards
+        .iter()
+        .map(|p| shard::read_shard(p))
+        .collect::<Result<Vec<_>, _>>()?;
+    let output = shard::merge(&shards)?;
+    let summary_manifest =
+        abba_trial::manifest::manifest(&output, env!("CARGO_PKG_VERSION"), env!("ABBA_GIT_REV"));
+    let files = abba_trial::report::write_report(&args.out, &output.arms, &summary_manifest)?;
+    let mut manifest = summary_manifest;
+    manifest["run"] = json!({
+        "merged_shards": shards.len(),
+        "merge_wall_time_s": started.elapsed().as_secs_f64(),
+        "patient_runs": shards.first().map_or(0, |s| s.total_jobs),
+    });
+    let manifest_path = args.out.join("manifest.json");
+    std::fs::write(
+        &manifest_path,
+        serde_json::to_string_pretty(&manifest)? + "\n",
+    )
+    .with_context(|| format!("cannot write {}", manifest_path.display()))?;
+    if !args.quiet {
+        eprintln!(
+            "abba trial merge: {} shards; report in {} ({} files)",
+            shards.len(),
+            files.dir.display(),
+            files.files.len()
+        );
+    }
+    Ok(())
+}

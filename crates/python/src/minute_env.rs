@@ -44,6 +44,9 @@ pub struct StepOut {
     pub plasma_mg_dl: f64,
     /// Mean carbohydrate eaten (g/min).
     pub cho_g_per_min: f64,
+    /// Grams of the meals that started in the step divided by its length
+    /// (g/min): what simglucose reports as `meal`.
+    pub meal_g_per_min: f64,
     /// Mean insulin infused (U/min).
     pub insulin_u_per_min: f64,
     /// The episode ended (mean BG < 10 or > 600 mg/dL).
@@ -226,11 +229,12 @@ impl MinuteSim {
         let insulin =
             self.config.pump.deliver(basal_u_per_min) + self.config.pump.deliver(bolus_u_per_min);
         let n = self.sample_time_min();
-        let (mut cho, mut bg, mut cgm) = (0.0, 0.0, 0.0);
+        let (mut cho, mut bg, mut cgm, mut announced) = (0.0, 0.0, 0.0, 0.0);
         for _ in 0..n {
             let meal = self.meal_now();
             if meal > 0.0 {
                 self.queue.add(meal);
+                announced += meal;
             }
             let eaten = self.queue.eat_minute();
             self.patient.step(eaten, insulin, 1.0)?;
@@ -249,6 +253,7 @@ impl MinuteSim {
             bg_mg_dl: bg,
             plasma_mg_dl: self.patient.glucose_mg_dl(),
             cho_g_per_min: cho / k,
+            meal_g_per_min: announced / k,
             insulin_u_per_min: insulin,
             done: !(10.0..=600.0).contains(&bg),
         })

@@ -115,12 +115,14 @@ impl MinuteCore {
         self.sim.reset(seed).map_err(value_error)
     }
 
-    /// One step; returns (cgm, bg, plasma, cho_g_per_min, insulin_u_per_min, done).
+    /// One step; returns (cgm, bg, plasma, meal_g_per_min, cho_g_per_min,
+    /// insulin_u_per_min, done).
+    #[allow(clippy::type_complexity)]
     fn step(
         &mut self,
         basal_u_per_min: f64,
         bolus_u_per_min: f64,
-    ) -> PyResult<(f64, f64, f64, f64, f64, bool)> {
+    ) -> PyResult<(f64, f64, f64, f64, f64, f64, bool)> {
         let o = self
             .sim
             .step(basal_u_per_min, bolus_u_per_min)
@@ -129,6 +131,7 @@ impl MinuteCore {
             o.cgm_mg_dl,
             o.bg_mg_dl,
             o.plasma_mg_dl,
+            o.meal_g_per_min,
             o.cho_g_per_min,
             o.insulin_u_per_min,
             o.done,
@@ -234,15 +237,15 @@ impl MinuteBatch {
     }
 
     /// One step of every environment: basal and bolus rates (U/min), one
-    /// per environment. Returns arrays (cgm, bg, plasma, cho_g_per_min,
-    /// insulin_u_per_min, done as 0/1).
+    /// per environment. Returns arrays (cgm, bg, plasma, meal_g_per_min,
+    /// cho_g_per_min, insulin_u_per_min, done as 0/1).
     #[allow(clippy::type_complexity)]
     fn step<'py>(
         &mut self,
         py: Python<'py>,
         basal_u_per_min: PyReadonlyArray1<'py, f64>,
         bolus_u_per_min: PyReadonlyArray1<'py, f64>,
-    ) -> PyResult<(Arr<'py>, Arr<'py>, Arr<'py>, Arr<'py>, Arr<'py>, Arr<'py>)> {
+    ) -> PyResult<(Arr<'py>, Arr<'py>, Arr<'py>, Arr<'py>, Arr<'py>, Arr<'py>, Arr<'py>)> {
         let basal = basal_u_per_min.as_slice().map_err(value_error)?;
         let bolus = bolus_u_per_min.as_slice().map_err(value_error)?;
         let n = self.sims.len();
@@ -253,13 +256,14 @@ impl MinuteBatch {
                 bolus.len()
             )));
         }
-        let mut cols: [Vec<f64>; 6] = std::array::from_fn(|_| Vec::with_capacity(n));
+        let mut cols: [Vec<f64>; 7] = std::array::from_fn(|_| Vec::with_capacity(n));
         for (i, sim) in self.sims.iter_mut().enumerate() {
             let o: StepOut = sim.step(basal[i], bolus[i]).map_err(value_error)?;
             for (c, v) in cols.iter_mut().zip([
                 o.cgm_mg_dl,
                 o.bg_mg_dl,
                 o.plasma_mg_dl,
+                o.meal_g_per_min,
                 o.cho_g_per_min,
                 o.insulin_u_per_min,
                 f64::from(u8::from(o.done)),
@@ -267,9 +271,10 @@ impl MinuteBatch {
                 c.push(v);
             }
         }
-        let [a, b, c, d, e, f] = cols;
+        let [a, b, c, d, e, f, g] = cols;
         Ok((
             a.into_pyarray(py),
+            g.into_pyarray(py),
             b.into_pyarray(py),
             c.into_pyarray(py),
             d.into_pyarray(py),

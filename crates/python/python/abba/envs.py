@@ -107,7 +107,8 @@ class T1DSimEnv(gymnasium.Env):
     bolus U/min]).
 
     ``info`` has simglucose's keys (``bg`` = mean subcutaneous glucose over
-    the step, mg/dL; ``lbgi``, ``hbgi``, ``risk``, ``meal`` = mean g/min,
+    the step, mg/dL; ``lbgi``, ``hbgi``, ``risk``; ``meal`` = grams of the
+    meals that started in the step / its minutes, as simglucose;
     ``sample_time`` min, ``patient_name``) and ``plasma_mg_dl``,
     ``insulin_u_per_min``, ``minute``, ``minute_of_day``.
     """
@@ -198,7 +199,7 @@ class T1DSimEnv(gymnasium.Env):
         a = np.asarray(action, dtype=np.float64).reshape(-1)
         basal = float(a[0])
         bolus = float(a[1]) if self.bolus_action else 0.0
-        cgm, bg, plasma, cho, insulin, done = self.core.step(basal, bolus)
+        cgm, bg, plasma, meal, cho, insulin, done = self.core.step(basal, bolus)
         self._cgm_hist.append(cgm)
         if len(self._cgm_hist) > self._window:
             del self._cgm_hist[: len(self._cgm_hist) - self._window]
@@ -207,7 +208,8 @@ class T1DSimEnv(gymnasium.Env):
         info = {
             "sample_time": self.sample_time,
             "patient_name": self.core.patient_name,
-            "meal": cho,
+            "meal": meal,
+            "cho_g_per_min": cho,
             "bg": bg,
             "lbgi": lbgi,
             "hbgi": hbgi,
@@ -315,7 +317,7 @@ class T1DSimVectorEnv(gymnasium.vector.VectorEnv):
         a = np.asarray(actions, dtype=np.float64).reshape(self.num_envs, -1)
         basal = np.ascontiguousarray(a[:, 0])
         bolus = np.ascontiguousarray(a[:, 1]) if self.bolus_action else np.zeros(self.num_envs)
-        cgm, bg, plasma, cho, insulin, done = self.batch.step(basal, bolus)
+        cgm, bg, plasma, meal, cho, insulin, done = self.batch.step(basal, bolus)
         self._hist = np.roll(self._hist, -1, axis=1)
         self._hist[:, -1] = cgm
         self._count = np.minimum(self._count + 1, self._window)
@@ -340,7 +342,8 @@ class T1DSimVectorEnv(gymnasium.vector.VectorEnv):
         infos = {
             "bg": bg,
             "plasma_mg_dl": plasma,
-            "meal": cho,
+            "meal": meal,
+            "cho_g_per_min": cho,
             "insulin_u_per_min": insulin,
         }
         for k in list(infos):

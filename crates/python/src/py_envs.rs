@@ -274,12 +274,12 @@ impl MinuteBatch {
         let [a, b, c, d, e, f, g] = cols;
         Ok((
             a.into_pyarray(py),
-            g.into_pyarray(py),
             b.into_pyarray(py),
             c.into_pyarray(py),
             d.into_pyarray(py),
             e.into_pyarray(py),
             f.into_pyarray(py),
+            g.into_pyarray(py),
         ))
     }
 

@@ -168,6 +168,18 @@ impl MinuteCore {
         self.sim.patient().params().name.clone()
     }
 
+    /// Subcutaneous glucose now (mg/dL).
+    #[getter]
+    fn bg_mg_dl(&self) -> f64 {
+        self.sim.patient().subcutaneous_glucose_mg_dl()
+    }
+
+    /// Plasma glucose now (mg/dL).
+    #[getter]
+    fn plasma_mg_dl(&self) -> f64 {
+        self.sim.patient().glucose_mg_dl()
+    }
+
     /// The model state x1..x13 now.
     #[getter]
     fn state(&self) -> Vec<f64> {

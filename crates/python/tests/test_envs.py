@@ -179,3 +179,20 @@ def test_vector_daily_env_matches_single_daily_envs():
         d = e.core.day(float(actions[i, 0]), [float(x) for x in actions[i, 1:]])
         assert np.array_equal(np.asarray(d["smbg_mg_dl"], np.float32), out["smbg_mg_dl"][i])
         assert -(d["lbgi"] + d["hbgi"]) == r[i]
+
+
+def test_make_vec_builds_the_vector_forms():
+    # gymnasium 0.29 calls the vector entry point "custom" (1.x:
+    # "vector_entry_point"); options go through vector_kwargs.
+    mode = "custom" if gymnasium.__version__.startswith("0.") else "vector_entry_point"
+    v = gymnasium.make_vec("abba/T1DSim-v0", num_envs=4, vectorization_mode=mode,
+                           vector_kwargs={"patient_name": "adult#005"})
+    assert isinstance(v, T1DSimVectorEnv) and v.patient_names == ["adult#005"] * 4
+    assert v.max_episode_steps == 480
+    d = gymnasium.make_vec("abba/DailyAdvisor-v0", num_envs=2, vectorization_mode=mode,
+                           vector_kwargs={"days": 5})
+    assert isinstance(d, DailyAdvisorVectorEnv)
+    obs, _ = d.reset(seed=0)
+    for k in range(4):
+        obs, r, term, trunc, info = d.step(d.standard_actions)
+    assert trunc.all()

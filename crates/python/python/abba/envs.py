@@ -188,9 +188,19 @@ class T1DSimEnv(gymnasium.Env):
         self.core = self._core(name)
         cgm = self.core.reset(_seed(self.np_random))
         self._cgm_hist = [cgm]
+        bg = self.core.bg_mg_dl
+        lbgi, hbgi, risk = risk_index(bg)
         return np.array([cgm], dtype=np.float32), {
-            "patient_name": name,
             "sample_time": self.sample_time,
+            "patient_name": name,
+            "meal": 0.0,
+            "cho_g_per_min": 0.0,
+            "bg": bg,
+            "lbgi": lbgi,
+            "hbgi": hbgi,
+            "risk": risk,
+            "plasma_mg_dl": self.core.plasma_mg_dl,
+            "insulin_u_per_min": 0.0,
             "minute": 0,
             "minute_of_day": self.core.minute_of_day,
         }
@@ -482,7 +492,8 @@ class DailyAdvisorVectorEnv(gymnasium.vector.VectorEnv):
     call, in parallel on every core. ``patient`` is a name for all or one
     per environment (e.g. ``[f"adult#{i:03d}" for i in range(1, 101)]``).
     Observations are the dict of :class:`DailyAdvisorEnv` with a leading
-    batch dimension; actions an array (num_envs, 4)."""
+    batch dimension; actions an array (num_envs, 4). An episode is truncated
+    after ``days`` − 1 steps (or ``max_episode_steps``)."""
 
     metadata = {"autoreset_mode": "same-step"}
 
@@ -495,6 +506,7 @@ class DailyAdvisorVectorEnv(gymnasium.vector.VectorEnv):
         reward: Union[str, Callable[[dict], float]] = "neg_lbgi_hbgi",
         cohort_seed: int = 1,
         seed: Optional[int] = None,
+        max_episode_steps: Optional[int] = None,
     ):
         names = [patient] * num_envs if isinstance(patient, str) else list(patient)
         if len(names) != num_envs:
@@ -505,6 +517,8 @@ class DailyAdvisorVectorEnv(gymnasium.vector.VectorEnv):
         )
         self.num_envs = num_envs
         self.days = days
+        # Steps after the warm-up day: days - 1 at most.
+        self.max_steps = days - 1 if max_episode_steps is None else min(max_episode_steps, days - 1)
         self.reward = reward
         self.standard_actions = np.asarray(self.batch.standard_actions())
         single_obs = _daily_obs_space(self.batch.cgm_per_day)
@@ -556,7 +570,7 @@ class DailyAdvisorVectorEnv(gymnasium.vector.VectorEnv):
         self._day += 1
         rewards = self._rewards(out).astype(np.float64)
         terminated = np.asarray(out["failed"], dtype=bool)
-        truncated = (self._day >= self.days) & ~terminated
+        truncated = (self._day - 1 >= self.max_steps) & ~terminated
         obs = self._obs(out, a)
         infos = {k: out[k] for k in ("lbgi", "hbgi", "tir_70_180", "insulin_u")}
         for k in list(infos):

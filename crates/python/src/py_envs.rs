@@ -514,14 +514,16 @@ impl DailyBatch {
         out.set_item("cgm_mg_dl", stack(&|d| d.cgm_mg_dl.clone())?)?;
         out.set_item("smbg_mg_dl", stack(&|d| d.smbg_mg_dl.to_vec())?)?;
         out.set_item("announced_carbs_g", stack(&|d| d.announced_g.to_vec())?)?;
+        let metrics: Vec<Option<abba_core::metrics::GlucoseMetrics>> = py.allow_threads(|| {
+            use rayon::prelude::*;
+            days.par_iter()
+                .map(|d| abba_core::metrics::metrics_regular(&d.plasma_mg_dl).ok())
+                .collect()
+        });
         let metric = |key: &str| -> Vec<f64> {
-            days.iter()
-                .map(|d| {
-                    abba_core::metrics::metrics_regular(&d.plasma_mg_dl)
-                        .ok()
-                        .and_then(|m| m.get(key))
-                        .unwrap_or(f64::NAN)
-                })
+            metrics
+                .iter()
+                .map(|m| m.and_then(|m| m.get(key)).unwrap_or(f64::NAN))
                 .collect()
         };
         for key in ["lbgi", "hbgi", "tir_70_180", "below_70", "above_180", "mean_mg_dl"] {

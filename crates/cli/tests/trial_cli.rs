@@ -178,7 +178,10 @@ fn shards_and_merge_write_the_single_run_report() {
     ] {
         let a = std::fs::read(single.join(name)).unwrap();
         let b = std::fs::read(merged.join(name)).unwrap();
-        assert!(a == b, "{name} differs between the single run and the merge");
+        assert!(
+            a == b,
+            "{name} differs between the single run and the merge"
+        );
     }
     // manifest.json differs only in its `run` section (wall time, threads).
     let read = |d: &Path| -> serde_json::Value {

@@ -216,7 +216,11 @@ impl MinuteSim {
 
     /// One step: `basal_u_per_min` and `bolus_u_per_min` (each through the
     /// pump) held for `sample_time` minutes.
-    pub fn step(&mut self, basal_u_per_min: f64, bolus_u_per_min: f64) -> Result<StepOut, SimError> {
+    pub fn step(
+        &mut self,
+        basal_u_per_min: f64,
+        bolus_u_per_min: f64,
+    ) -> Result<StepOut, SimError> {
         if !(basal_u_per_min.is_finite() && bolus_u_per_min.is_finite()) {
             return Err(SimError::InvalidInput {
                 patient: self.config.params.name.clone(),

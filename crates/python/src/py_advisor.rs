@@ -4,7 +4,7 @@
 use crate::value_error;
 use abba_advisor::{Abba, AbbaConfig, Advisor, Mode};
 use abba_core::{
-    Event, EventKind, Grams, GramsPerUnit, MealSlot, MgDl, Timestamp, TherapySettings, Units,
+    Event, EventKind, Grams, GramsPerUnit, MealSlot, MgDl, TherapySettings, Timestamp, Units,
     UnitsPerHour,
 };
 use pyo3::prelude::*;

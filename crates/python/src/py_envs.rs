@@ -51,11 +51,17 @@ fn minute_config(
     let init_state = match init_state {
         None => None,
         Some(v) => Some(<[f64; 13]>::try_from(v.as_slice()).map_err(|_| {
-            value_error(format!("init_state: expected 13 values (x1..x13), got {}", v.len()))
+            value_error(format!(
+                "init_state: expected 13 values (x1..x13), got {}",
+                v.len()
+            ))
         })?),
     };
     if let Some(list) = &meals {
-        if let Some((m, g)) = list.iter().find(|(m, g)| *m < 0 || !(g.is_finite() && *g >= 0.0)) {
+        if let Some((m, g)) = list
+            .iter()
+            .find(|(m, g)| *m < 0 || !(g.is_finite() && *g >= 0.0))
+        {
             return Err(value_error(format!(
                 "meals: ({m} min, {g} g): expected minutes >= 0 and finite grams >= 0"
             )));
@@ -257,7 +263,15 @@ impl MinuteBatch {
         py: Python<'py>,
         basal_u_per_min: PyReadonlyArray1<'py, f64>,
         bolus_u_per_min: PyReadonlyArray1<'py, f64>,
-    ) -> PyResult<(Arr<'py>, Arr<'py>, Arr<'py>, Arr<'py>, Arr<'py>, Arr<'py>, Arr<'py>)> {
+    ) -> PyResult<(
+        Arr<'py>,
+        Arr<'py>,
+        Arr<'py>,
+        Arr<'py>,
+        Arr<'py>,
+        Arr<'py>,
+        Arr<'py>,
+    )> {
         let basal = basal_u_per_min.as_slice().map_err(value_error)?;
         let bolus = bolus_u_per_min.as_slice().map_err(value_error)?;
         let n = self.sims.len();
@@ -313,7 +327,13 @@ impl MinuteBatch {
     }
 }
 
-fn daily_sim(patient: &str, scenario: &str, days: u32, cohort_seed: u64, seed: u64) -> PyResult<DailySim> {
+fn daily_sim(
+    patient: &str,
+    scenario: &str,
+    days: u32,
+    cohort_seed: u64,
+    seed: u64,
+) -> PyResult<DailySim> {
     let id: ScenarioId = scenario.parse().map_err(value_error)?;
     let mut config = ScenarioConfig::paper(id);
     config.days = days;
@@ -332,7 +352,14 @@ fn day_dict<'py>(py: Python<'py>, d: DayOut) -> PyResult<Bound<'py, PyDict>> {
     out.set_item("insulin_u", d.insulin_u)?;
     out.set_item("failed", d.failed)?;
     out.set_item("pump_capped", d.pump_capped)?;
-    for key in ["lbgi", "hbgi", "tir_70_180", "below_70", "above_180", "mean_mg_dl"] {
+    for key in [
+        "lbgi",
+        "hbgi",
+        "tir_70_180",
+        "below_70",
+        "above_180",
+        "mean_mg_dl",
+    ] {
         out.set_item(key, metrics.and_then(|m| m.get(key)).unwrap_or(f64::NAN))?;
     }
     out.set_item("plasma_mg_dl", d.plasma_mg_dl.into_pyarray(py))?;
@@ -350,7 +377,13 @@ impl DailyCore {
     /// See `abba.envs.DailyAdvisorEnv`.
     #[new]
     #[pyo3(signature = (patient, scenario = "S1", days = 98, cohort_seed = 1, seed = 0))]
-    fn new(patient: &str, scenario: &str, days: u32, cohort_seed: u64, seed: u64) -> PyResult<Self> {
+    fn new(
+        patient: &str,
+        scenario: &str,
+        days: u32,
+        cohort_seed: u64,
+        seed: u64,
+    ) -> PyResult<Self> {
         Ok(Self {
             sim: daily_sim(patient, scenario, days, cohort_seed, seed)?,
         })
@@ -470,7 +503,12 @@ impl DailyBatch {
             .iter()
             .map(|s| {
                 let t = &s.virtual_patient().therapy;
-                vec![t.basal.0, t.carb_ratio[0].0, t.carb_ratio[1].0, t.carb_ratio[2].0]
+                vec![
+                    t.basal.0,
+                    t.carb_ratio[0].0,
+                    t.carb_ratio[1].0,
+                    t.carb_ratio[2].0,
+                ]
             })
             .collect();
         PyArray2::from_vec2(py, &rows).map_err(value_error)
@@ -526,21 +564,28 @@ impl DailyBatch {
                 .map(|m| m.and_then(|m| m.get(key)).unwrap_or(f64::NAN))
                 .collect()
         };
-        for key in ["lbgi", "hbgi", "tir_70_180", "below_70", "above_180", "mean_mg_dl"] {
+        for key in [
+            "lbgi",
+            "hbgi",
+            "tir_70_180",
+            "below_70",
+            "above_180",
+            "mean_mg_dl",
+        ] {
             out.set_item(key, metric(key).into_pyarray(py))?;
         }
         out.set_item(
             "insulin_u",
-            days.iter().map(|d| d.insulin_u).collect::<Vec<_>>().into_pyarray(py),
+            days.iter()
+                .map(|d| d.insulin_u)
+                .collect::<Vec<_>>()
+                .into_pyarray(py),
         )?;
         out.set_item(
             "failed",
             days.iter().map(|d| d.failed).collect::<Vec<bool>>(),
         )?;
-        out.set_item(
-            "day",
-            days.iter().map(|d| d.day).collect::<Vec<u32>>(),
-        )?;
+        out.set_item("day", days.iter().map(|d| d.day).collect::<Vec<u32>>())?;
         Ok(out)
     }
 

@@ -26,11 +26,10 @@ pub(crate) fn cohort_patient(name: &str, cohort_seed: u64) -> PyResult<(VirtualP
         ))
     })?;
     let population: Population = pop.parse().map_err(value_error)?;
-    let number: u32 = num
-        .parse()
-        .ok()
-        .filter(|n| *n >= 1)
-        .ok_or_else(|| value_error(format!("patient '{name}': '{num}' is not a number >= 1")))?;
+    let number: u32 =
+        num.parse().ok().filter(|n| *n >= 1).ok_or_else(|| {
+            value_error(format!("patient '{name}': '{num}' is not a number >= 1"))
+        })?;
     let cohort = Cohort::generate(&CohortConfig::new(population, number, cohort_seed))
         .map_err(value_error)?;
     let vp = cohort
@@ -85,7 +84,8 @@ fn patient_params(name: &str, cohort_seed: u64) -> PyResult<Vec<(String, f64)>> 
 #[pyfunction]
 fn cohort_json(population: &str, size: u32, seed: u64) -> PyResult<String> {
     let population: Population = population.parse().map_err(value_error)?;
-    let cohort = Cohort::generate(&CohortConfig::new(population, size, seed)).map_err(value_error)?;
+    let cohort =
+        Cohort::generate(&CohortConfig::new(population, size, seed)).map_err(value_error)?;
     serde_json::to_string(&cohort).map_err(value_error)
 }
 
@@ -151,14 +151,15 @@ fn run_scenario(
     scenario: &str,
     arm: &str,
 ) -> PyResult<Vec<(&'static str, PyObject)>> {
-    let config: abba_trial::TrialConfig =
-        serde_json::from_str(config_json).map_err(value_error)?;
+    let config: abba_trial::TrialConfig = serde_json::from_str(config_json).map_err(value_error)?;
     config.validate().map_err(value_error)?;
     let scenario: abba_sim::scenario::ScenarioId = scenario.parse().map_err(value_error)?;
     let arm: abba_trial::ArmKind = arm.parse().map_err(value_error)?;
     let cohort = abba_trial::runner::build_cohort(&config).map_err(value_error)?;
     let (_, trace) = py
-        .allow_threads(|| abba_trial::runner::trace_patient(&config, &cohort, patient, scenario, arm))
+        .allow_threads(|| {
+            abba_trial::runner::trace_patient(&config, &cohort, patient, scenario, arm)
+        })
         .map_err(value_error)?;
     let rows = trace.minutes.unwrap_or_default();
     let col = |f: &dyn Fn(&abba_trial::closed_loop::MinuteRecord) -> f64| -> PyObject {
@@ -179,8 +180,17 @@ fn run_scenario(
         ("insulin_u_per_min", col(&|r| r.insulin_u_per_min)),
         ("sensitivity", col(&|r| r.sensitivity)),
         ("basal_u_per_h", col(&|r| r.basal_u_per_h)),
-        ("carb_ratio_breakfast_g_per_u", col(&|r| r.carb_ratio_g_per_u[0])),
-        ("carb_ratio_lunch_g_per_u", col(&|r| r.carb_ratio_g_per_u[1])),
-        ("carb_ratio_dinner_g_per_u", col(&|r| r.carb_ratio_g_per_u[2])),
+        (
+            "carb_ratio_breakfast_g_per_u",
+            col(&|r| r.carb_ratio_g_per_u[0]),
+        ),
+        (
+            "carb_ratio_lunch_g_per_u",
+            col(&|r| r.carb_ratio_g_per_u[1]),
+        ),
+        (
+            "carb_ratio_dinner_g_per_u",
+            col(&|r| r.carb_ratio_g_per_u[2]),
+        ),
     ])
 }

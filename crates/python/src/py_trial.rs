@@ -16,16 +16,20 @@ pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 }
 
 fn config_of(json: &str) -> PyResult<TrialConfig> {
-    let c: TrialConfig = serde_json::from_str(json)
-        .map_err(|e| value_error(format!("trial configuration: {e}")))?;
+    let c: TrialConfig =
+        serde_json::from_str(json).map_err(|e| value_error(format!("trial configuration: {e}")))?;
     c.validate().map_err(value_error)?;
     Ok(c)
 }
 
 /// The report files of `output` as (name, bytes), written exactly as
 /// `abba trial` writes them (manifest.json without its `run` section).
-fn report<'py>(py: Python<'py>, output: &TrialOutput) -> PyResult<Vec<(String, Bound<'py, PyBytes>)>> {
-    let manifest = abba_trial::manifest::manifest(output, env!("CARGO_PKG_VERSION"), env!("ABBA_GIT_REV"));
+fn report<'py>(
+    py: Python<'py>,
+    output: &TrialOutput,
+) -> PyResult<Vec<(String, Bound<'py, PyBytes>)>> {
+    let manifest =
+        abba_trial::manifest::manifest(output, env!("CARGO_PKG_VERSION"), env!("ABBA_GIT_REV"));
     let files = abba_trial::report::build_report(&output.arms, &manifest).map_err(value_error)?;
     Ok(files
         .into_iter()

@@ -163,8 +163,7 @@ pub fn merge(shards: &[ShardFile]) -> Result<TrialOutput, TrialError> {
                 s.shard, first.shard
             ));
         }
-        if s.first_week_te_bits != first.first_week_te_bits || s.total_jobs != first.total_jobs
-        {
+        if s.first_week_te_bits != first.first_week_te_bits || s.total_jobs != first.total_jobs {
             return bad(format!(
                 "shard {} disagrees with shard {} on the TE calibration or the number of jobs",
                 s.shard, first.shard
@@ -308,9 +307,7 @@ impl From<&PatientResult> for StoredPatient {
             start_carb_ratio_g_per_u: p.start_carb_ratio_g_per_u,
             pump_capped: p.pump_capped,
             min_glucose_mg_dl: p.min_glucose_mg_dl,
-            failure: p
-                .failure
-                .map(|f| (f.day, f.minute_of_day, f.glucose_mg_dl)),
+            failure: p.failure.map(|f| (f.day, f.minute_of_day, f.glucose_mg_dl)),
         }
     }
 }
@@ -375,7 +372,10 @@ mod tests {
 
     #[test]
     fn shard_specs_parse_and_split_every_job_once() {
-        assert_eq!("2/8".parse::<ShardSpec>().unwrap(), ShardSpec::new(2, 8).unwrap());
+        assert_eq!(
+            "2/8".parse::<ShardSpec>().unwrap(),
+            ShardSpec::new(2, 8).unwrap()
+        );
         for bad in ["0/3", "4/3", "1/0", "3", "a/b", ""] {
             assert!(bad.parse::<ShardSpec>().is_err(), "{bad}");
         }

@@ -33,6 +33,11 @@ pub struct MergeArgs {
 
 /// Runs one shard and writes `shard-I-of-N.json` into `--out`.
 pub fn run_shard(args: &crate::trial::Args, config: &TrialConfig, spec: ShardSpec) -> Result<()> {
+    if !args.trace.is_empty() {
+        anyhow::bail!(
+            "--trace cannot be combined with --shard: trace the patient with a single run (runs are pure functions of the configuration)"
+        );
+    }
     let started = Instant::now();
     let file = shard::run_shard(config, spec, args.threads, &Silent)?;
     std::fs::create_dir_all(&args.out)

@@ -73,3 +73,14 @@ def test_shards_merge_and_refuse_incomplete_sets(single):
     assert abba.trial.merge(texts).files == single.files
     with pytest.raises(ValueError, match="shard 2/3 is missing"):
         abba.trial.merge(texts[:2])
+
+
+def test_config_changes_are_checked_knob_by_knob():
+    c = abba.trial.default_config()
+    merged = json.loads(abba.trial._config_json({"abba": {"te": {"te_ref_bits": 0.5}}}))
+    assert merged["abba"]["te"]["te_ref_bits"] == 0.5
+    assert merged["abba"]["actor"] == c["abba"]["actor"]
+    with pytest.raises(ValueError, match="unknown knob 'patinets'"):
+        abba.trial.run({"patinets": 5})
+    with pytest.raises(ValueError, match="days must be at least"):
+        abba.trial.run({"days": 3})

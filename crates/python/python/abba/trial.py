@@ -23,15 +23,27 @@ def default_config() -> dict:
     return json.loads(_abba.default_config_json())
 
 
+def _merge(base: dict, changes: dict, path: str = "") -> dict:
+    out = dict(base)
+    for key, value in changes.items():
+        if key not in base:
+            raise ValueError(f"trial configuration: unknown knob '{path}{key}'")
+        if isinstance(value, dict) and isinstance(base[key], dict):
+            out[key] = _merge(base[key], value, f"{path}{key}.")
+        else:
+            out[key] = value
+    return out
+
+
 def _config_json(config: Optional[Union[dict, str]]) -> str:
-    base = default_config()
+    """A whole configuration as JSON: the paper's defaults with ``config``'s
+    knobs changed (nested dicts change only the keys they name; an unknown
+    knob is an error), or ``config`` itself when it is a JSON text."""
     if config is None:
-        return json.dumps(base)
+        return json.dumps(default_config())
     if isinstance(config, str):
         return config
-    merged = dict(base)
-    merged.update(config)
-    return json.dumps(merged)
+    return json.dumps(_merge(default_config(), config))
 
 
 @dataclass
@@ -69,8 +81,9 @@ def run(
     threads: int = 0,
 ) -> TrialResult:
     """Runs a trial. ``config`` holds any knobs to change from the paper's
-    protocol (e.g. ``{"patients": 10, "days": 21, "scenarios": ["S1"]}``),
-    as a dict or a JSON text of a whole configuration. ``threads`` = 0 uses
+    protocol (e.g. ``{"patients": 10, "days": 21, "scenarios": ["S1"],
+    "abba": {"gamma": 0.5}}``; nested dicts change only the keys they name),
+    or is a JSON text of a whole configuration. ``threads`` = 0 uses
     every core. With ``out``, the report is also written there.
     Returns the summary (``summary.json``), the per-patient metrics
     (``patients.csv``) and every file."""

@@ -341,9 +341,30 @@ fn daily_sim(
     DailySim::new(vp, number, config, seed).map_err(value_error)
 }
 
+/// The seed paper's local cost of the day (eq13, c = a_hyper·F_hyper +
+/// a_hypo·F_hypo with ABBA's default feature borders and weights 1 and 10),
+/// from the day's device readings: the CGM's when it was worn, else the
+/// meter's.
+fn paper_cost(d: &DayOut) -> f64 {
+    let weights = abba_advisor::config::AbbaConfig::new(abba_advisor::Mode::Cgm, 0);
+    let cfg = weights.features;
+    let cgm: Vec<f64> = d.cgm_mg_dl.iter().copied().filter(|g| *g > 0.0).collect();
+    let readings: Vec<f64> = if cgm.is_empty() {
+        d.smbg_mg_dl.iter().copied().filter(|g| *g > 0.0).collect()
+    } else {
+        cgm
+    };
+    let mut stats = abba_advisor::features::WindowStats::default();
+    for g in readings {
+        stats.push(g, &cfg);
+    }
+    abba_advisor::features::local_cost(&stats.features(&cfg), weights.a_hyper, weights.a_hypo)
+}
+
 fn day_dict<'py>(py: Python<'py>, d: DayOut) -> PyResult<Bound<'py, PyDict>> {
     let out = PyDict::new(py);
     let metrics = abba_core::metrics::metrics_regular(&d.plasma_mg_dl).ok();
+    out.set_item("paper_cost", paper_cost(&d))?;
     out.set_item("day", d.day)?;
     out.set_item("cgm_mg_dl", d.cgm_mg_dl.into_pyarray(py))?;
     out.set_item("smbg_mg_dl", d.smbg_mg_dl.to_vec().into_pyarray(py))?;
@@ -574,6 +595,13 @@ impl DailyBatch {
         ] {
             out.set_item(key, metric(key).into_pyarray(py))?;
         }
+        out.set_item(
+            "paper_cost",
+            days.iter()
+                .map(paper_cost)
+                .collect::<Vec<_>>()
+                .into_pyarray(py),
+        )?;
         out.set_item(
             "insulin_u",
             days.iter()

@@ -115,6 +115,17 @@ def test_daily_env_days_actions_and_rewards():
         assert trunc == (d == 12)
     obs, reward, term, trunc, info = env.step(action)
     assert trunc
+    # The paper's cost: 0 when every reading is within 90-150 mg/dL, and
+    # hypoglycaemia weighs ten times hyperglycaemia.
+    cost_env = DailyAdvisorEnv(patient="adult#002", scenario="S1", days=5, reward="neg_paper_cost")
+    cost_env.reset(seed=1)
+    _, r, _, _, info = cost_env.step(cost_env.standard_action)
+    cgm = info["cgm_mg_dl"]
+    hyper = np.clip(cgm - 150, 0, None)
+    hypo = np.clip(90 - cgm, 0, None)
+    f_hyper = min(1.0, hyper[hyper > 0].mean() / 250 if (hyper > 0).any() else 0.0)
+    f_hypo = min(1.0, hypo[hypo > 0].mean() / 50 if (hypo > 0).any() else 0.0)
+    assert r == pytest.approx(-(f_hyper + 10 * f_hypo), rel=1e-9)
     # More insulin: lower mean glucose on the same day (same seed).
     means = []
     for scale in (1.0, 1.4):

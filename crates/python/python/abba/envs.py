@@ -389,10 +389,15 @@ def _tir(day: dict) -> float:
     return day["tir_70_180"] / 100.0
 
 
+def _neg_paper_cost(day: dict) -> float:
+    return -day["paper_cost"]
+
+
 #: Named rewards of the daily environment (each takes the day's record).
 REWARDS: dict[str, Callable[[dict], float]] = {
     "neg_lbgi_hbgi": _neg_lbgi_hbgi,
     "tir": _tir,
+    "neg_paper_cost": _neg_paper_cost,
 }
 
 #: Action bounds of the daily environment: basal U/h, carb ratios g/U.
@@ -436,8 +441,10 @@ class DailyAdvisorEnv(gymnasium.Env):
       where none), ``announced_carbs_g`` (breakfast, lunch, dinner; 0 if
       skipped), ``settings`` (the action in force that day).
     - reward: ``"neg_lbgi_hbgi"`` (default, −(LBGI + HBGI) of plasma glucose
-      every 5 min of the day), ``"tir"``, or any callable taking the day's
-      record (``info``: lbgi, hbgi, tir_70_180, below_70, above_180,
+      every 5 min of the day), ``"tir"``, ``"neg_paper_cost"`` (minus the
+      seed paper's eq13 cost a_hyper·F_hyper + a_hypo·F_hypo of the day's
+      device readings, ABBA's default borders 90/150 mg/dL and weights 1
+      and 10), or any callable taking the day's record (``info``: lbgi, hbgi, tir_70_180, below_70, above_180,
       mean_mg_dl, insulin_u, plasma_mg_dl, ...).
     - terminated when plasma glucose falls below 10 mg/dL (the trial's
       failure rule); truncated after ``days`` − 1 steps.
@@ -547,6 +554,8 @@ class DailyAdvisorVectorEnv(gymnasium.vector.VectorEnv):
             return -(out["lbgi"] + out["hbgi"])
         if self.reward == "tir":
             return out["tir_70_180"] / 100.0
+        if self.reward == "neg_paper_cost":
+            return -out["paper_cost"]
         days = [
             {k: (v[i] if hasattr(v, "__len__") else v) for k, v in out.items()}
             for i in range(self.num_envs)

@@ -1,13 +1,17 @@
 //! The `abba` command: simulate a patient, build a cohort, compute glucose
 //! metrics, run the paper's in-silico trial.
-use anyhow::Result;
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
+use std::process::ExitCode;
 
 mod cohort;
+mod errors;
 mod metrics;
+mod output;
+mod progress;
 mod shard;
 mod simulate;
 mod trial;
+mod trial_limits;
 
 /// abba: adaptive basal-bolus advisor and in-silico trial platform.
 #[derive(Parser)]
@@ -29,11 +33,38 @@ enum Command {
     Trial(trial::Args),
 }
 
-fn main() -> Result<()> {
-    match Cli::parse().command {
+/// The parsed command line. Every subcommand takes negative numbers as
+/// values (`--sensitivity -1`, `--days -5`), so that the command can refuse
+/// them with a reason instead of clap calling them an unexpected argument.
+fn parse() -> Cli {
+    let mut cmd = Cli::command();
+    let names: Vec<String> = cmd
+        .get_subcommands()
+        .map(|c| c.get_name().to_string())
+        .collect();
+    for name in names {
+        cmd = cmd.mut_subcommand(name, |c| c.allow_negative_numbers(true));
+    }
+    Cli::from_arg_matches(&cmd.get_matches()).unwrap_or_else(|e| e.exit())
+}
+
+fn main() -> ExitCode {
+    let result = match parse().command {
         Command::Simulate(a) => simulate::run(a),
         Command::Cohort(a) => cohort::run(a),
         Command::Metrics(a) => metrics::run(a),
         Command::Trial(a) => trial::run(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("{}", errors::render(&e));
+            // With RUST_BACKTRACE=1 (for developers), where it came from.
+            let trace = e.backtrace();
+            if trace.status() == std::backtrace::BacktraceStatus::Captured {
+                eprintln!("\nStack backtrace:\n{trace}");
+            }
+            ExitCode::FAILURE
+        }
     }
 }

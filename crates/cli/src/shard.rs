@@ -1,7 +1,6 @@
 //! `abba trial --shard I/N` and `abba trial merge`: a trial split into
 //! shards for batch schedulers, merged into the report a single run writes.
 
-use abba_trial::runner::Silent;
 use abba_trial::shard::{self, ShardSpec};
 use abba_trial::TrialConfig;
 use anyhow::{Context, Result};
@@ -39,7 +38,14 @@ pub fn run_shard(args: &crate::trial::Args, config: &TrialConfig, spec: ShardSpe
         );
     }
     let started = Instant::now();
-    let file = shard::run_shard(config, spec, args.threads, &Silent)?;
+    let progress = crate::progress::Progress::new(
+        &format!("abba trial --shard {spec}"),
+        "patient-runs",
+        args.quiet,
+    );
+    let file = shard::run_shard(config, spec, args.threads, &progress);
+    progress.finish();
+    let file = file?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
     let path = args

@@ -2,12 +2,10 @@
 
 use abba_sim::cohort::Population;
 use abba_sim::scenario::ScenarioId;
-use abba_trial::runner::{run_trial, Progress};
+use abba_trial::runner::run_trial;
 use abba_trial::{ArmKind, TrialConfig};
 use anyhow::{bail, Context, Result};
-use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
-use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -72,21 +70,6 @@ pub struct Args {
     pub quiet: bool,
 }
 
-struct Bar(ProgressBar);
-
-impl Progress for Bar {
-    fn update(&self, done: usize, total: usize) {
-        self.0.set_length(total as u64);
-        self.0.set_position(done as u64);
-    }
-}
-
-struct NoBar;
-
-impl Progress for NoBar {
-    fn update(&self, _: usize, _: usize) {}
-}
-
 pub(crate) fn config_from(args: &Args) -> Result<TrialConfig> {
     let mut c = match &args.config {
         Some(path) => {
@@ -139,6 +122,7 @@ pub(crate) fn config_from(args: &Args) -> Result<TrialConfig> {
         c.calibrate_te_ref = false;
     }
     c.validate()?;
+    crate::trial_limits::check(&c)?;
     Ok(c)
 }
 
@@ -156,20 +140,10 @@ pub fn run(args: Args) -> Result<()> {
         return crate::shard::run_shard(&args, &config, spec);
     }
     let started = Instant::now();
-    let show_bar = !args.quiet && std::io::stderr().is_terminal();
-    let output = if show_bar {
-        let bar = ProgressBar::new(0).with_style(
-            ProgressStyle::with_template(
-                "{elapsed_precise} [{bar:40}] {pos}/{len} patient-runs (eta {eta})",
-            )?
-            .progress_chars("=> "),
-        );
-        let out = run_trial(&config, args.threads, &Bar(bar.clone()));
-        bar.finish_and_clear();
-        out?
-    } else {
-        run_trial(&config, args.threads, &NoBar)?
-    };
+    let progress = crate::progress::Progress::new("abba trial", "patient-runs", args.quiet);
+    let output = run_trial(&config, args.threads, &progress);
+    progress.finish();
+    let output = output?;
     let wall_s = started.elapsed().as_secs_f64();
     let used = &output.config;
     let mut manifest =

@@ -1,4 +1,58 @@
 //! The paper's in-silico trial: closed loop, runner, statistics and report.
+//!
+//! abba-trial reproduces the evaluation of ABBA (Sun et al., IEEE JBHI 2019;
+//! `spec/protocol.md`): a cohort of virtual patients (abba-sim) lives 98
+//! days in each of four scenarios (meals with varying size, time and carb
+//! counting, a daily insulin sensitivity and a dawn effect; S1 with a CGM
+//! throughout, S2-S4 with finger-stick SMBG after the first week, S3-S4 with
+//! jittered measurement times, S4 with skipped meals), under each arm (ABBA,
+//! fixed standard therapy, run-to-run), and the report compares the
+//! evaluation weeks (W1, W13, W14) per arm: glucose metrics, summaries over
+//! patients, paired Wilcoxon tests, Table I beside the paper's values, and
+//! figures.
+//!
+//! ```
+//! use abba_sim::scenario::ScenarioId;
+//! use abba_trial::runner::{run_trial, Silent};
+//! use abba_trial::{ArmKind, TrialConfig};
+//!
+//! // A small trial: 2 patients, 9 days (the warm-up day, the standard
+//! // therapy week, one more day), scenario S1, the fixed-therapy arm.
+//! let config = TrialConfig {
+//!     patients: 2,
+//!     days: 9,
+//!     scenarios: vec![ScenarioId::S1],
+//!     arms: vec![ArmKind::Standard],
+//!     ..TrialConfig::default()
+//! };
+//! let out = run_trial(&config, 1, &Silent)?;
+//! assert_eq!(out.arms.len(), 1);
+//! assert_eq!(out.arms[0].patients.len(), 2);
+//! # Ok::<(), abba_trial::TrialError>(())
+//! ```
+//!
+//! # Modules
+//!
+//! - [`protocol`]: [`TrialConfig`], every knob of the trial, and its checks.
+//! - [`closed_loop`]: one patient in one scenario under one advisor, minute
+//!   by minute: devices to events, advisor decisions to the pump.
+//! - [`runner`]: the cohort, the TE calibration and every patient run,
+//!   in parallel (rayon), reporting progress through [`runner::Progress`]
+//!   (the library never prints).
+//! - [`results`]: per-patient weekly metrics and the evaluation windows.
+//! - [`stats`]: summaries over patients and the Wilcoxon signed-rank test
+//!   (no p-value below [`stats::MIN_PAIRS_FOR_P`] pairs).
+//! - [`report`]: the report files (summary.json, Table I, patients.csv,
+//!   figures).
+//!
+//! # Contract
+//!
+//! - Determinism: the same configuration and seeds give the same bytes in
+//!   every report file, serial or parallel.
+//! - A configuration is checked before any simulation starts; errors are a
+//!   [`TrialError`] naming the field, patient, scenario or arm.
+//! - A run whose plasma glucose falls below `failure_glucose_mg_dl` stops and
+//!   is reported as stopped, not dropped.
 
 pub mod closed_loop;
 pub mod error;

@@ -271,7 +271,7 @@ pub fn table1_rows(arms: &[ArmResult]) -> Result<Vec<Table1Row>, TrialError> {
                         ))
                     })?;
                 let p_vs_w1 = if week != "W1" && weeks.iter().any(|w| w == "W1") {
-                    wilcoxon_vs_w1(arm, week, metric)?.map(|w| w.p)
+                    wilcoxon_vs_w1(arm, week, metric)?.and_then(|w| w.p)
                 } else {
                     None
                 };

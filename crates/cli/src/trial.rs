@@ -2,6 +2,7 @@
 
 use abba_sim::cohort::Population;
 use abba_sim::scenario::ScenarioId;
+use abba_trial::protocol::RawTrialConfig;
 use abba_trial::runner::run_trial;
 use abba_trial::{ArmKind, TrialConfig};
 use anyhow::{bail, Context, Result};
@@ -75,10 +76,10 @@ pub(crate) fn config_from(args: &Args) -> Result<TrialConfig> {
         Some(path) => {
             let text = std::fs::read_to_string(path)
                 .with_context(|| format!("cannot read trial configuration {}", path.display()))?;
-            serde_json::from_str(&text)
+            RawTrialConfig::from_json(&text)
                 .with_context(|| format!("{}: not a valid trial configuration", path.display()))?
         }
-        None => TrialConfig::default(),
+        None => RawTrialConfig::default(),
     };
     if let Some(p) = &args.population {
         c.population = match p.as_str() {
@@ -121,9 +122,12 @@ pub(crate) fn config_from(args: &Args) -> Result<TrialConfig> {
     if args.no_te_calibration {
         c.calibrate_te_ref = false;
     }
-    c.validate()?;
-    crate::trial_limits::check(&c)?;
-    Ok(c)
+    let checked = match &args.config {
+        Some(path) => TrialConfig::try_from(c).with_context(|| format!("{}", path.display()))?,
+        None => TrialConfig::try_from(c)?,
+    };
+    crate::trial_limits::check(&checked)?;
+    Ok(checked)
 }
 
 /// Runs `abba trial`.

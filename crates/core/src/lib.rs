@@ -21,7 +21,7 @@ pub mod time;
 pub mod units;
 
 pub use error::CoreError;
-pub use event::{Event, EventKind};
+pub use event::{Event, EventKind, TempBasalRate};
 pub use seed::{derive_seed, Stream};
 pub use therapy::{MealSlot, TherapySettings};
 pub use time::{Timestamp, MINUTES_PER_DAY};

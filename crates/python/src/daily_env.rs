@@ -74,7 +74,7 @@ impl DailySim {
         seed: u64,
     ) -> Result<Self, SimError> {
         let generator = ScenarioGenerator::new(scenario.clone(), seed, patient_number)?;
-        let cgm_config = CgmConfig::protocol()?.with_sample_time(scenario.cgm.period_min)?;
+        let cgm_config = CgmConfig::protocol()?;
         let mut sim = Self {
             patient: Patient::new(vp.params.clone())?,
             queue: EatingQueue::new(),
@@ -98,7 +98,7 @@ impl DailySim {
 
     /// Readings per day of the CGM.
     pub fn cgm_per_day(&self) -> usize {
-        (1440 / self.scenario.cgm.period_min) as usize
+        (1440 / self.cgm.config().sample_time_min) as usize
     }
 
     /// 0-based index of the next day to simulate.
@@ -139,6 +139,7 @@ impl DailySim {
         let plan = self.generator.day(self.next_day);
         let basal = self.pump.set_basal(UnitsPerHour(basal_u_per_h))?;
         let sensitivity = plan.sensitivity.per_minute();
+        let period = self.cgm.config().sample_time_min;
         let mut out = DayOut {
             day: plan.day_number(),
             cgm_mg_dl: vec![0.0; self.cgm_per_day()],
@@ -156,11 +157,11 @@ impl DailySim {
             if m % 5 == 0 {
                 out.plasma_mg_dl.push(plasma);
             }
-            if plan.cgm_sample_at(m) {
+            if plan.cgm_sample_at(m, period) {
                 let r = self
                     .cgm
                     .read(MgDl(self.patient.subcutaneous_glucose_mg_dl()))?;
-                out.cgm_mg_dl[(m / self.scenario.cgm.period_min) as usize] = r.0;
+                out.cgm_mg_dl[(m / period) as usize] = r.0;
             }
             for r in plan.smbg.iter().filter(|r| r.at == at) {
                 let k = match r.purpose {

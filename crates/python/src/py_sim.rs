@@ -151,8 +151,7 @@ fn run_scenario(
     scenario: &str,
     arm: &str,
 ) -> PyResult<Vec<(&'static str, PyObject)>> {
-    let config: abba_trial::TrialConfig = serde_json::from_str(config_json).map_err(value_error)?;
-    config.validate().map_err(value_error)?;
+    let config = abba_trial::TrialConfig::from_json(config_json).map_err(value_error)?;
     let scenario: abba_sim::scenario::ScenarioId = scenario.parse().map_err(value_error)?;
     let arm: abba_trial::ArmKind = arm.parse().map_err(value_error)?;
     let cohort = abba_trial::runner::build_cohort(&config).map_err(value_error)?;

@@ -16,10 +16,7 @@ pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 }
 
 fn config_of(json: &str) -> PyResult<TrialConfig> {
-    let c: TrialConfig =
-        serde_json::from_str(json).map_err(|e| value_error(format!("trial configuration: {e}")))?;
-    c.validate().map_err(value_error)?;
-    Ok(c)
+    TrialConfig::from_json(json).map_err(|e| value_error(format!("trial configuration: {e}")))
 }
 
 /// The report files of `output` as (name, bytes), written exactly as
@@ -40,7 +37,8 @@ fn report<'py>(
 /// The paper's protocol as JSON (every knob at its default).
 #[pyfunction]
 fn default_config_json() -> PyResult<String> {
-    serde_json::to_string_pretty(&TrialConfig::default()).map_err(value_error)
+    serde_json::to_string_pretty(&abba_trial::protocol::RawTrialConfig::default())
+        .map_err(value_error)
 }
 
 /// Runs a whole trial; returns its report files.

@@ -47,6 +47,9 @@
 //!   pump with a real pump's increments and limits.
 //! - [`scenario`]: the trial's scenarios S1-S4 and the daily meal and
 //!   sensitivity plans they generate.
+//! - [`person`]: the simulated person ([`person::VirtualPerson`]) who lives a
+//!   scenario with their devices and talks to an advisor only through device
+//!   events out and suggested settings in.
 //!
 //! # Contract
 //!
@@ -64,6 +67,7 @@ pub mod devices;
 pub mod error;
 pub mod inputs;
 pub mod patient;
+pub mod person;
 pub mod scenario;
 
 pub use error::SimError;

@@ -14,17 +14,19 @@
 //! ```
 //! use abba_sim::scenario::ScenarioId;
 //! use abba_trial::runner::{run_trial, Silent};
+//! use abba_trial::protocol::RawTrialConfig;
 //! use abba_trial::{ArmKind, TrialConfig};
 //!
 //! // A small trial: 2 patients, 9 days (the warm-up day, the standard
-//! // therapy week, one more day), scenario S1, the fixed-therapy arm.
-//! let config = TrialConfig {
+//! // therapy week, one more day), scenario S1, the fixed-therapy arm,
+//! // checked in one step before anything runs.
+//! let config = TrialConfig::try_from(RawTrialConfig {
 //!     patients: 2,
 //!     days: 9,
 //!     scenarios: vec![ScenarioId::S1],
 //!     arms: vec![ArmKind::Standard],
-//!     ..TrialConfig::default()
-//! };
+//!     ..RawTrialConfig::default()
+//! })?;
 //! let out = run_trial(&config, 1, &Silent)?;
 //! assert_eq!(out.arms.len(), 1);
 //! assert_eq!(out.arms[0].patients.len(), 2);
@@ -33,9 +35,11 @@
 //!
 //! # Modules
 //!
-//! - [`protocol`]: [`TrialConfig`], every knob of the trial, and its checks.
+//! - [`protocol`]: [`protocol::RawTrialConfig`], every knob of the trial as
+//!   written, and [`TrialConfig`], the plan checked from it.
 //! - [`closed_loop`]: one patient in one scenario under one advisor, minute
-//!   by minute: devices to events, advisor decisions to the pump.
+//!   by minute: a simulated person (`abba_sim::person::VirtualPerson`) and
+//!   the advisor exchanging events and settings.
 //! - [`runner`]: the cohort, the TE calibration and every patient run,
 //!   in parallel (rayon), reporting progress through [`runner::Progress`]
 //!   (the library never prints).
@@ -49,8 +53,9 @@
 //!
 //! - Determinism: the same configuration and seeds give the same bytes in
 //!   every report file, serial or parallel.
-//! - A configuration is checked before any simulation starts; errors are a
-//!   [`TrialError`] naming the field, patient, scenario or arm.
+//! - A configuration is checked in one step before any simulation starts
+//!   (unknown fields refused at every level, every advisor validated);
+//!   errors are a [`TrialError`] naming the field, patient, scenario or arm.
 //! - A run whose plasma glucose falls below `failure_glucose_mg_dl` stops and
 //!   is reported as stopped, not dropped.
 

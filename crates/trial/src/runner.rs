@@ -4,8 +4,7 @@
 
 use crate::closed_loop::{run_patient, run_patient_with, Trace};
 use crate::error::TrialError;
-use crate::protocol::ArmKind;
-use crate::protocol::TrialConfig;
+use crate::protocol::{ArmKind, PlannedScenario, TrialConfig};
 use crate::results::ArmResult;
 use abba_advisor::abba::TeOutcome;
 use abba_advisor::Mode;
@@ -73,7 +72,7 @@ pub fn run_trial(
     })
 }
 
-/// A validated trial ready to run jobs: the cohort, the thread pool and the
+/// A trial ready to run jobs: the cohort, the thread pool and the
 /// configuration with the calibrated TE reference (the calibration uses the
 /// whole cohort, so every shard of a trial computes the same one).
 pub(crate) struct Prepared {
@@ -87,9 +86,8 @@ pub(crate) struct Prepared {
     pool: rayon::ThreadPool,
 }
 
-/// Validates `config`, builds the cohort and calibrates the TE reference.
+/// Builds the cohort and calibrates the TE reference.
 pub(crate) fn prepare(config: &TrialConfig, threads: usize) -> Result<Prepared, TrialError> {
-    config.validate()?;
     let cohort = build_cohort(config)?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
@@ -99,18 +97,19 @@ pub(crate) fn prepare(config: &TrialConfig, threads: usize) -> Result<Prepared, 
     let mut first_week_te_bits = std::collections::BTreeMap::new();
     if config.calibrate_te_ref && config.arms.contains(&ArmKind::Abba) {
         // The TE estimate does not depend on TE_ref, so one pass per mode.
-        let base = config.clone();
+        let mut raw = config.raw().clone();
         for mode in [Mode::Cgm, Mode::Smbg] {
-            let te = pool.install(|| calibrate_te(&base, &cohort, threads, mode))?;
+            let te = pool.install(|| calibrate_te(&config, &cohort, threads, mode))?;
             match (mode, positive_median(&te)) {
-                (Mode::Cgm, Some(m)) => config.abba.te.te_ref_bits = m,
-                (Mode::Smbg, Some(m)) => config.te_ref_bits_smbg = Some(m),
+                (Mode::Cgm, Some(m)) => raw.abba.te.te_ref_bits = m,
+                (Mode::Smbg, Some(m)) => raw.te_ref_bits_smbg = Some(m),
                 _ => {}
             }
             if !te.is_empty() {
                 first_week_te_bits.insert(mode.name().to_string(), te);
             }
         }
+        config = TrialConfig::try_from(raw)?;
     }
     Ok(Prepared {
         config,
@@ -122,10 +121,10 @@ pub(crate) fn prepare(config: &TrialConfig, threads: usize) -> Result<Prepared, 
 }
 
 /// Every job of a trial as (scenario index, arm index, patient index) into
-/// the configuration's lists and the cohort, in report order.
+/// the planned scenarios, the arms and the cohort, in report order.
 pub(crate) fn jobs(config: &TrialConfig, patients: usize) -> Vec<(usize, usize, usize)> {
     let mut jobs = Vec::new();
-    for si in 0..config.scenarios.len() {
+    for si in 0..config.planned().len() {
         for ai in 0..config.arms.len() {
             for pi in 0..patients {
                 jobs.push((si, ai, pi));
@@ -144,11 +143,7 @@ pub(crate) fn run_jobs(
 ) -> Result<Vec<crate::results::PatientResult>, TrialError> {
     let config = &prepared.config;
     let cohort = &prepared.cohort;
-    let scenarios: Vec<_> = config
-        .scenarios
-        .iter()
-        .map(|id| config.scenario(*id))
-        .collect();
+    let scenarios = config.planned();
     let total = jobs.len();
     let done = AtomicUsize::new(0);
     let job = |&(si, ai, pi): &(usize, usize, usize)| {
@@ -165,7 +160,9 @@ pub(crate) fn run_jobs(
     if prepared.threads == 1 {
         jobs.iter().map(job).collect()
     } else {
-        prepared.pool.install(|| jobs.par_iter().map(job).collect())
+        prepared
+            .pool
+            .install(|| jobs.par_iter().map(job).collect())
     }
 }
 
@@ -176,7 +173,7 @@ pub(crate) fn assemble(
     patients: usize,
     results: Vec<crate::results::PatientResult>,
 ) -> Result<Vec<ArmResult>, TrialError> {
-    let expected = config.scenarios.len() * config.arms.len() * patients;
+    let expected = config.planned().len() * config.arms.len() * patients;
     if results.len() != expected {
         return Err(TrialError::InconsistentResults(format!(
             "{} patient results for {expected} jobs",
@@ -185,14 +182,13 @@ pub(crate) fn assemble(
     }
     let mut arms = Vec::new();
     let mut it = results.into_iter();
-    for id in &config.scenarios {
-        let s = config.scenario(*id);
+    for s in config.planned() {
         for arm in &config.arms {
             let patients: Vec<_> = it.by_ref().take(patients).collect();
             arms.push(ArmResult {
-                scenario: s.name.clone(),
+                scenario: s.config.name.clone(),
                 advisor: arm.name().to_string(),
-                mode: TrialConfig::mode_for(&s).name().to_string(),
+                mode: s.mode.name().to_string(),
                 patients,
             });
         }
@@ -211,15 +207,11 @@ fn calibrate_te(
     threads: usize,
     mode: Mode,
 ) -> Result<Vec<f64>, TrialError> {
-    let Some(id) = config
-        .scenarios
-        .iter()
-        .find(|id| TrialConfig::mode_for(&config.scenario(**id)) == mode)
-    else {
+    let Some(first) = config.planned().iter().find(|p| p.mode == mode) else {
         return Ok(Vec::new());
     };
-    let mut scenario = config.scenario(*id);
-    scenario.days = config.init_days + 2;
+    let mut scenario: PlannedScenario = first.clone();
+    scenario.config.days = config.init_days + 2;
     let one = |(pi, vp): (usize, &abba_sim::cohort::VirtualPatient)| {
         let mut trace = Trace::default();
         run_patient_with(
@@ -253,12 +245,16 @@ fn calibrate_te(
     Ok(all.into_iter().flatten().collect())
 }
 
-/// The median of positive values, if any.
+/// The median of the values if there are any and it is positive (a trial
+/// without a scenario of a mode has no estimate for that mode).
 fn positive_median(values: &[f64]) -> Option<f64> {
+    if values.is_empty() {
+        return None;
+    }
     let mut sorted = values.to_vec();
     sorted.sort_by(f64::total_cmp);
     let median = crate::stats::quantile_sorted(&sorted, 0.5);
-    (!sorted.is_empty() && median > 0.0).then_some(median)
+    (median > 0.0).then_some(median)
 }
 
 /// Re-runs one patient of the trial's cohort in one scenario and arm with a
@@ -288,6 +284,11 @@ pub fn trace_patient(
                 .map_or("", |p| p.params.name.as_str()),
         )));
     };
+    let Some(planned) = config.planned_scenario(scenario) else {
+        return Err(TrialError::Config(format!(
+            "--trace: scenario {scenario} is not among the scenarios run"
+        )));
+    };
     let mut trace = Trace {
         events: Some(Vec::new()),
         decisions: Some(Vec::new()),
@@ -298,7 +299,7 @@ pub fn trace_patient(
         config,
         &cohort.patients[index],
         index as u64 + 1,
-        &config.scenario(scenario),
+        planned,
         arm,
         &mut trace,
     )?;

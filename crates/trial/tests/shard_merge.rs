@@ -6,16 +6,21 @@
 use abba_sim::scenario::ScenarioId;
 use abba_trial::runner::{run_trial, Silent, TrialOutput};
 use abba_trial::shard::{merge, read_shard, run_shard, write_shard, ShardFile, ShardSpec};
+use abba_trial::protocol::RawTrialConfig;
 use abba_trial::{ArmKind, TrialConfig};
 
-fn small() -> TrialConfig {
-    TrialConfig {
+fn small_raw() -> RawTrialConfig {
+    RawTrialConfig {
         patients: 5,
         days: 16,
         scenarios: vec![ScenarioId::S1, ScenarioId::S2],
         arms: vec![ArmKind::Abba, ArmKind::R2r],
-        ..TrialConfig::default()
+        ..RawTrialConfig::default()
     }
+}
+
+fn small() -> TrialConfig {
+    TrialConfig::try_from(small_raw()).unwrap()
 }
 
 fn report(output: &TrialOutput) -> Vec<(&'static str, Vec<u8>)> {
@@ -70,10 +75,11 @@ fn merge_refuses_missing_repeated_and_foreign_shards() {
     let e = merge(&twice).unwrap_err().to_string();
     assert!(e.contains("twice"), "{e}");
     let other = run_shard(
-        &TrialConfig {
+        &TrialConfig::try_from(RawTrialConfig {
             seed: 2,
-            ..config.clone()
-        },
+            ..small_raw()
+        })
+        .unwrap(),
         ShardSpec::new(1, 3).unwrap(),
         1,
         &Silent,

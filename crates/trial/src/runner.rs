@@ -160,9 +160,7 @@ pub(crate) fn run_jobs(
     if prepared.threads == 1 {
         jobs.iter().map(job).collect()
     } else {
-        prepared
-            .pool
-            .install(|| jobs.par_iter().map(job).collect())
+        prepared.pool.install(|| jobs.par_iter().map(job).collect())
     }
 }
 

@@ -4,9 +4,9 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use abba_sim::scenario::ScenarioId;
+use abba_trial::protocol::RawTrialConfig;
 use abba_trial::runner::{run_trial, Silent, TrialOutput};
 use abba_trial::shard::{merge, read_shard, run_shard, write_shard, ShardFile, ShardSpec};
-use abba_trial::protocol::RawTrialConfig;
 use abba_trial::{ArmKind, TrialConfig};
 
 fn small_raw() -> RawTrialConfig {

@@ -5,6 +5,9 @@ use std::process::ExitCode;
 
 mod cohort;
 mod errors;
+mod events;
+mod export;
+mod input;
 mod metrics;
 mod output;
 mod progress;
@@ -27,8 +30,12 @@ enum Command {
     Simulate(simulate::Args),
     /// Build a virtual cohort and write its parameters and standard therapy.
     Cohort(cohort::Args),
-    /// Compute glucose metrics for a CSV of readings.
+    /// Coverage and glucose metrics of CGM exports (Nightscout, Clarity, LibreView, Tidepool, CSV).
     Metrics(metrics::Args),
+    /// Device exports as normalised records and the advisor's events.
+    Events(events::Args),
+    /// A simulated patient's device data as Nightscout JSON.
+    Export(export::Args),
     /// Run the paper's 98-day in-silico trial and write the report.
     Trial(trial::Args),
 }
@@ -53,6 +60,8 @@ fn main() -> ExitCode {
         Command::Simulate(a) => simulate::run(a),
         Command::Cohort(a) => cohort::run(a),
         Command::Metrics(a) => metrics::run(a),
+        Command::Events(a) => events::run(a),
+        Command::Export(a) => export::run(a),
         Command::Trial(a) => trial::run(a),
     };
     match result {

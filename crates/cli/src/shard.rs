@@ -1,10 +1,10 @@
 //! `abba trial --shard I/N` and `abba trial merge`: a trial split into
 //! shards for batch schedulers, merged into the report a single run writes.
 
+use abba_trial::report::{patient_runs, ReportPlan, RunInfo, ToolInfo};
 use abba_trial::shard::{self, ShardSpec};
 use abba_trial::TrialConfig;
 use anyhow::{Context, Result};
-use serde_json::json;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -79,27 +79,24 @@ fn merge(args: MergeArgs) -> Result<()> {
         .map(|p| shard::read_shard(p))
         .collect::<Result<Vec<_>, _>>()?;
     let output = shard::merge(&shards)?;
-    let summary_manifest =
-        abba_trial::manifest::manifest(&output, env!("CARGO_PKG_VERSION"), env!("ABBA_GIT_REV"));
-    let files = abba_trial::report::write_report(&args.out, &output.arms, &summary_manifest)?;
-    let mut manifest = summary_manifest;
-    manifest["run"] = json!({
-        "merged_shards": shards.len(),
-        "merge_wall_time_s": started.elapsed().as_secs_f64(),
-        "patient_runs": shards.first().map_or(0, |s| s.total_jobs),
-    });
-    let manifest_path = args.out.join("manifest.json");
-    std::fs::write(
-        &manifest_path,
-        serde_json::to_string_pretty(&manifest)? + "\n",
-    )
-    .with_context(|| format!("cannot write {}", manifest_path.display()))?;
+    let plan = ReportPlan::check(&output.config, &args.out, &[])?;
+    let tool = ToolInfo {
+        version: env!("CARGO_PKG_VERSION"),
+        git_revision: env!("ABBA_GIT_REV"),
+    };
+    // `run` in manifest.json: the merge itself (the shards ran elsewhere).
+    let run = RunInfo {
+        wall_time_s: started.elapsed().as_secs_f64(),
+        threads: 1,
+        patient_runs: patient_runs(&output.config),
+    };
+    let written = plan.write(&output, &tool, &run)?;
     if !args.quiet {
         eprintln!(
             "abba trial merge: {} shards; report in {} ({} files)",
             shards.len(),
-            files.dir.display(),
-            files.files.len()
+            written.dir.display(),
+            written.files.len()
         );
     }
     Ok(())

@@ -3,10 +3,10 @@
 use abba_sim::cohort::Population;
 use abba_sim::scenario::ScenarioId;
 use abba_trial::protocol::RawTrialConfig;
+use abba_trial::report::{effective_threads, patient_runs, ReportPlan, RunInfo, ToolInfo};
 use abba_trial::runner::run_trial;
 use abba_trial::{ArmKind, TrialConfig};
 use anyhow::{bail, Context, Result};
-use serde_json::json;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -23,7 +23,8 @@ pub struct Args {
     /// the N files into the report a single run writes.
     #[arg(long, value_name = "I/N")]
     pub shard: Option<abba_trial::shard::ShardSpec>,
-    /// Report directory (created if missing).
+    /// Report folder: new, empty, or an earlier abba report (whose files
+    /// abba replaces; other files are left alone). Checked before the run.
     #[arg(long, default_value = "abba-out")]
     pub out: PathBuf,
     /// A JSON trial configuration (every knob; see --print-config). Flags
@@ -44,10 +45,10 @@ pub struct Args {
     pub days: Option<u32>,
     /// Scenarios, comma-separated (S1,S2,S3,S4).
     #[arg(long, value_delimiter = ',')]
-    pub scenarios: Option<Vec<String>>,
+    pub scenarios: Option<Vec<ScenarioId>>,
     /// Arms, comma-separated (abba,standard,r2r).
     #[arg(long, value_delimiter = ',')]
-    pub arms: Option<Vec<String>>,
+    pub arms: Option<Vec<ArmKind>>,
     /// Trial seed.
     #[arg(long)]
     pub seed: Option<u64>,
@@ -96,22 +97,10 @@ pub(crate) fn config_from(args: &Args) -> Result<TrialConfig> {
         c.days = d;
     }
     if let Some(s) = &args.scenarios {
-        c.scenarios = s
-            .iter()
-            .map(|x| {
-                x.parse::<ScenarioId>()
-                    .map_err(|e| anyhow::anyhow!("--scenarios: {e}"))
-            })
-            .collect::<Result<_>>()?;
+        c.scenarios.clone_from(s);
     }
     if let Some(a) = &args.arms {
-        c.arms = a
-            .iter()
-            .map(|x| {
-                x.parse::<ArmKind>()
-                    .map_err(|e| anyhow::anyhow!("--arms: {e}"))
-            })
-            .collect::<Result<_>>()?;
+        c.arms.clone_from(a);
     }
     if let Some(s) = args.seed {
         c.seed = s;
@@ -130,7 +119,8 @@ pub(crate) fn config_from(args: &Args) -> Result<TrialConfig> {
     Ok(checked)
 }
 
-/// Runs `abba trial`.
+/// Runs `abba trial`: checks the report folder and the traced patients,
+/// runs the trial, writes the report.
 pub fn run(args: Args) -> Result<()> {
     if let Some(command) = args.command {
         return crate::shard::run_command(command);
@@ -143,107 +133,36 @@ pub fn run(args: Args) -> Result<()> {
     if let Some(spec) = args.shard {
         return crate::shard::run_shard(&args, &config, spec);
     }
+    // Before the run: a bad folder or patient name must not cost a trial.
+    let plan = ReportPlan::check(&config, &args.out, &args.trace)?;
     let started = Instant::now();
     let progress = crate::progress::Progress::new("abba trial", "patient-runs", args.quiet);
     let output = run_trial(&config, args.threads, &progress);
     progress.finish();
     let output = output?;
-    let wall_s = started.elapsed().as_secs_f64();
-    let used = &output.config;
-    let mut manifest =
-        abba_trial::manifest::manifest(&output, env!("CARGO_PKG_VERSION"), env!("ABBA_GIT_REV"));
-    let summary_manifest = manifest.clone();
-    manifest["run"] = json!({
-        "wall_time_s": wall_s,
-        "threads": if args.threads == 0 { rayon_threads() } else { args.threads },
-        "patient_runs": used.patients as usize * used.scenarios.len() * used.arms.len(),
-    });
-    let files = abba_trial::report::write_report(&args.out, &output.arms, &summary_manifest)?;
-    // manifest.json also records how the run went (timing, threads);
-    // summary.json's copy leaves that out so it is identical across runs.
-    let manifest_path = args.out.join("manifest.json");
-    std::fs::write(
-        &manifest_path,
-        serde_json::to_string_pretty(&manifest)? + "\n",
-    )
-    .with_context(|| format!("cannot write {}", manifest_path.display()))?;
-    if !args.trace.is_empty() {
-        write_traces(&args, &output)?;
-    }
+    let run = RunInfo {
+        wall_time_s: started.elapsed().as_secs_f64(),
+        threads: effective_threads(args.threads),
+        patient_runs: patient_runs(&output.config),
+    };
+    let tool = ToolInfo {
+        version: env!("CARGO_PKG_VERSION"),
+        git_revision: env!("ABBA_GIT_REV"),
+    };
+    let written = plan.write(&output, &tool, &run)?;
     if !args.quiet {
         eprintln!(
-            "abba trial: {} patient-runs in {:.1} s; report in {} ({} files)",
-            used.patients as usize * used.scenarios.len() * used.arms.len(),
-            wall_s,
-            files.dir.display(),
-            files.files.len()
+            "abba trial: {} patient-runs in {:.1} s; report in {} ({} files{})",
+            run.patient_runs,
+            run.wall_time_s,
+            written.dir.display(),
+            written.files.len(),
+            if written.traces.is_empty() {
+                String::new()
+            } else {
+                format!(", {} trace files", written.traces.len())
+            }
         );
     }
     Ok(())
-}
-
-/// Writes the 1-minute traces and decision logs asked for with `--trace`.
-fn write_traces(args: &Args, output: &abba_trial::runner::TrialOutput) -> Result<()> {
-    use std::fmt::Write as _;
-    let dir = args.out.join("traces");
-    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    let opt = |v: Option<f64>| v.map(|x| x.to_string()).unwrap_or_default();
-    for patient in &args.trace {
-        for scenario in &output.config.scenarios {
-            for arm in &output.config.arms {
-                let (_, trace) = abba_trial::runner::trace_patient(
-                    &output.config,
-                    &output.cohort,
-                    patient,
-                    *scenario,
-                    *arm,
-                )?;
-                let stem = format!("{}-{}-{}", patient.replace('#', "-"), scenario, arm.name());
-                let mut csv = String::from(
-                    "minute,day,time,plasma_mg_dl,subcutaneous_mg_dl,cgm_mg_dl,smbg_mg_dl,cho_g_per_min,insulin_u_per_min,sensitivity,basal_u_per_h,cr_breakfast_g_per_u,cr_lunch_g_per_u,cr_dinner_g_per_u\n",
-                );
-                for r in trace.minutes.unwrap_or_default() {
-                    let t = abba_core::Timestamp(r.minute);
-                    let m = t.minute_of_day();
-                    writeln!(
-                        csv,
-                        "{},{},{:02}:{:02},{},{},{},{},{},{},{},{},{},{},{}",
-                        r.minute,
-                        t.day_number(),
-                        m / 60,
-                        m % 60,
-                        r.plasma_mg_dl,
-                        r.subcutaneous_mg_dl,
-                        opt(r.cgm_mg_dl),
-                        opt(r.smbg_mg_dl),
-                        r.cho_g_per_min,
-                        r.insulin_u_per_min,
-                        r.sensitivity,
-                        r.basal_u_per_h,
-                        r.carb_ratio_g_per_u[0],
-                        r.carb_ratio_g_per_u[1],
-                        r.carb_ratio_g_per_u[2]
-                    )?;
-                }
-                let path = dir.join(format!("{stem}.csv"));
-                std::fs::write(&path, csv)
-                    .with_context(|| format!("cannot write {}", path.display()))?;
-                let mut jsonl = String::new();
-                for d in trace.decisions.unwrap_or_default() {
-                    jsonl.push_str(&serde_json::to_string(&d)?);
-                    jsonl.push('\n');
-                }
-                let path = dir.join(format!("{stem}.decisions.jsonl"));
-                std::fs::write(&path, jsonl)
-                    .with_context(|| format!("cannot write {}", path.display()))?;
-            }
-        }
-    }
-    Ok(())
-}
-
-fn rayon_threads() -> usize {
-    std::thread::available_parallelism()
-        .map(|n| n.get())
-        .unwrap_or(1)
 }

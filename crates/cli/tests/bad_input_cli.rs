@@ -302,13 +302,15 @@ fn an_error_cause_is_printed_once() {
             "--quiet",
             "--out",
         ])
-        .arg(&file)
+        .arg(file.join("sub"))
         .output()
         .unwrap();
     let e = stderr(&o);
     assert!(!o.status.success());
-    assert!(e.contains("cannot write"), "{e}");
-    assert_eq!(e.matches("File exists").count(), 1, "{e}");
+    // No folder can be made below a file: the report folder is checked
+    // before the run, and the I/O error is its cause.
+    assert!(e.contains("cannot create it"), "{e}");
+    assert_eq!(e.matches("Not a directory").count(), 1, "{e}");
 }
 
 #[test]

@@ -6,6 +6,8 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use abba_trial::report::REPORT_FILES;
+
 fn abba() -> Command {
     Command::new(env!("CARGO_BIN_EXE_abba"))
 }
@@ -41,16 +43,8 @@ fn writes_the_report_and_reruns_byte_identical() {
     let (a, b) = (tmp("a"), tmp("b"));
     small_trial(&a, "1", &[]);
     small_trial(&b, "2", &[]);
-    for f in [
-        "summary.json",
-        "table1.md",
-        "table1.csv",
-        "patients.csv",
-        "fig5_lbgi_hbgi.svg",
-        "fig6_mage.svg",
-        "fig7_tdi.svg",
-        "fig_arms.svg",
-    ] {
+    // Every file but the manifest, which records the run's wall time.
+    for f in REPORT_FILES.into_iter().filter(|f| *f != "manifest.json") {
         let x = std::fs::read(a.join(f)).unwrap();
         let y = std::fs::read(b.join(f)).unwrap();
         assert!(!x.is_empty(), "{f} is empty");
@@ -91,6 +85,79 @@ fn traces_every_minute_and_decision() {
             assert!(d["old"].is_number() && d["new"].is_number() && d["detail"].is_object());
         }
     }
+}
+
+#[test]
+fn a_rerun_replaces_the_old_report_and_its_traces() {
+    let out = tmp("rerun");
+    small_trial(&out, "0", &["--arms", "standard", "--trace", "adult#002"]);
+    assert!(out.join("traces/adult-002-S1-standard.csv").is_file());
+    std::fs::write(out.join("notes.txt"), "mine").unwrap();
+    small_trial(&out, "0", &["--arms", "standard"]);
+    assert!(
+        !out.join("traces").exists(),
+        "traces of the first run are left in the new report"
+    );
+    assert!(out.join("summary.json").is_file());
+    assert_eq!(
+        std::fs::read_to_string(out.join("notes.txt")).unwrap(),
+        "mine"
+    );
+}
+
+/// `abba trial` with the paper's full protocol (100 patients, 98 days, 12
+/// arms: minutes of simulation) and `args`: it must fail at once, with a
+/// message containing every one of `needles`, and never "File exists"
+/// (what it said after a whole trial before the folder was checked first).
+fn fails_before_the_run(args: &[&str], out: &Path, needles: &[&str]) {
+    let result = abba()
+        .args(["trial", "--quiet"])
+        .args(args)
+        .arg("--out")
+        .arg(out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&result.stderr);
+    assert!(
+        !result.status.success(),
+        "{args:?} {}: should fail",
+        out.display()
+    );
+    for needle in needles {
+        assert!(
+            err.contains(needle),
+            "{args:?}: expected {needle:?} in {err}"
+        );
+    }
+    assert!(!err.contains("File exists"), "{err}");
+}
+
+#[test]
+fn the_report_folder_and_traced_patients_are_checked_before_the_run() {
+    let file = tmp("afile");
+    std::fs::write(&file, "mine").unwrap();
+    fails_before_the_run(&[], &file, &["afile", "is not a folder"]);
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "mine");
+
+    let foreign = tmp("foreign");
+    std::fs::create_dir_all(&foreign).unwrap();
+    std::fs::write(foreign.join("thesis.tex"), "mine").unwrap();
+    fails_before_the_run(&[], &foreign, &["thesis.tex", "not an abba report"]);
+
+    #[cfg(target_os = "linux")]
+    fails_before_the_run(
+        &[],
+        Path::new("/proc/abba-trial-check"),
+        &["/proc/abba-trial-check", "cannot create it"],
+    );
+
+    let untouched = tmp("never-created");
+    fails_before_the_run(
+        &["--trace", "adult#001,adult#101"],
+        &untouched,
+        &["no patient 'adult#101'", "adult#001 .. adult#100"],
+    );
+    assert!(!untouched.exists(), "a failed check created the folder");
 }
 
 #[test]

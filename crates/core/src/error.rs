@@ -45,6 +45,16 @@ pub enum CoreError {
         /// Its own time, in minutes.
         got: f64,
     },
+    /// A name (of a scenario, metric, ...) that is not one of the known ones.
+    #[error("unknown {what} '{got}' (expected {expected})")]
+    UnknownName {
+        /// What kind of name.
+        what: &'static str,
+        /// The name received.
+        got: String,
+        /// The names that exist, in words.
+        expected: String,
+    },
 }
 
 /// Checks that `value` is finite and strictly positive.

@@ -15,6 +15,8 @@
 pub mod error;
 pub mod event;
 pub mod metrics;
+pub mod named;
+pub mod scenario;
 pub mod seed;
 pub mod therapy;
 pub mod time;
@@ -22,6 +24,9 @@ pub mod units;
 
 pub use error::CoreError;
 pub use event::{Event, EventKind, TempBasalRate};
+pub use metrics::Metric;
+pub use named::Named;
+pub use scenario::ScenarioId;
 pub use seed::{derive_seed, Stream};
 pub use therapy::{MealSlot, TherapySettings};
 pub use time::{Timestamp, MINUTES_PER_DAY};

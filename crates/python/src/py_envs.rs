@@ -361,6 +361,14 @@ fn paper_cost(d: &DayOut) -> f64 {
     abba_advisor::features::local_cost(&stats.features(&cfg), weights.a_hyper, weights.a_hypo)
 }
 
+/// Metric `key` (e.g. `lbgi`) of `m`; NaN when undefined.
+fn metric_of(m: Option<&abba_core::metrics::GlucoseMetrics>, key: &str) -> f64 {
+    let metric = key.parse::<abba_core::Metric>().ok();
+    m.zip(metric)
+        .and_then(|(m, k)| m.get(k))
+        .unwrap_or(f64::NAN)
+}
+
 fn day_dict<'py>(py: Python<'py>, d: DayOut) -> PyResult<Bound<'py, PyDict>> {
     let out = PyDict::new(py);
     let metrics = abba_core::metrics::metrics_regular(&d.plasma_mg_dl).ok();
@@ -381,7 +389,7 @@ fn day_dict<'py>(py: Python<'py>, d: DayOut) -> PyResult<Bound<'py, PyDict>> {
         "above_180",
         "mean_mg_dl",
     ] {
-        out.set_item(key, metrics.and_then(|m| m.get(key)).unwrap_or(f64::NAN))?;
+        out.set_item(key, metric_of(metrics.as_ref(), key))?;
     }
     out.set_item("plasma_mg_dl", d.plasma_mg_dl.into_pyarray(py))?;
     Ok(out)
@@ -580,10 +588,7 @@ impl DailyBatch {
                 .collect()
         });
         let metric = |key: &str| -> Vec<f64> {
-            metrics
-                .iter()
-                .map(|m| m.and_then(|m| m.get(key)).unwrap_or(f64::NAN))
-                .collect()
+            metrics.iter().map(|m| metric_of(m.as_ref(), key)).collect()
         };
         for key in [
             "lbgi",

@@ -25,9 +25,12 @@ fn report<'py>(
     py: Python<'py>,
     output: &TrialOutput,
 ) -> PyResult<Vec<(String, Bound<'py, PyBytes>)>> {
-    let manifest =
-        abba_trial::manifest::manifest(output, env!("CARGO_PKG_VERSION"), env!("ABBA_GIT_REV"));
-    let files = abba_trial::report::build_report(&output.arms, &manifest).map_err(value_error)?;
+    let tool = abba_trial::report::ToolInfo {
+        version: env!("CARGO_PKG_VERSION"),
+        git_revision: env!("ABBA_GIT_REV"),
+    };
+    let manifest = abba_trial::report::trial_manifest(output, &tool);
+    let files = abba_report::build_report(&output.arms, &manifest, None).map_err(value_error)?;
     Ok(files
         .into_iter()
         .map(|f| (f.name.to_string(), PyBytes::new(py, &f.bytes)))

@@ -46,10 +46,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     for arm in &out.arms {
         let w = |name: &str, f: &dyn Fn(&abba_core::metrics::GlucoseMetrics) -> f64| {
+            let week: abba_trial::results::Week = name.parse().expect("a protocol week");
             let v: Vec<f64> = arm
                 .patients
                 .iter()
-                .filter_map(|p| p.week(name))
+                .filter_map(|p| p.week(week))
                 .map(|w| f(&w.metrics))
                 .collect();
             v.iter().sum::<f64>() / v.len().max(1) as f64

@@ -8,29 +8,12 @@ use thiserror::Error;
 /// What can go wrong while running the trial or writing its report.
 #[derive(Debug, Error)]
 pub enum TrialError {
-    /// A statistic or metric could not be computed (`what` says for which arm, week and metric).
-    #[error("{what}: {source}")]
-    Stats {
-        /// Where: arm, week, metric.
-        what: String,
-        /// The underlying error.
-        #[source]
-        source: CoreError,
-    },
-    /// The results handed to the report are inconsistent (e.g. patients of
-    /// one arm with different evaluation weeks, two arms with the same key).
-    #[error("inconsistent trial results: {0}")]
-    InconsistentResults(String),
-    /// The compiled-in table of the paper could not be read.
-    #[error("paper table {file}, line {line}: {reason}")]
-    PaperTable {
-        /// The table's file name.
-        file: &'static str,
-        /// Line number, from 1.
-        line: usize,
-        /// What was wrong, and what was expected.
-        reason: String,
-    },
+    /// The report could not be built or written, or its folder cannot be used.
+    #[error(transparent)]
+    Report(#[from] abba_report::ReportError),
+    /// Shards that do not make one trial, or results that do not fit it.
+    #[error("trial shards: {0}")]
+    Shard(String),
     /// A file or directory could not be written.
     #[error("cannot write {}: {source}", path.display())]
     Io {
@@ -39,31 +22,6 @@ pub enum TrialError {
         /// The underlying error.
         #[source]
         source: std::io::Error,
-    },
-    /// A JSON document could not be serialized.
-    #[error("cannot serialize {what} as JSON: {source}")]
-    Json {
-        /// Which document.
-        what: &'static str,
-        /// The underlying error.
-        #[source]
-        source: serde_json::Error,
-    },
-    /// A CSV table could not be written.
-    #[error("cannot write CSV {what}: {reason}")]
-    Csv {
-        /// Which table.
-        what: &'static str,
-        /// The underlying error, as text.
-        reason: String,
-    },
-    /// A figure could not be drawn.
-    #[error("cannot draw figure {figure}: {reason}")]
-    Plot {
-        /// The figure's file name.
-        figure: &'static str,
-        /// The plotting backend's error, as text.
-        reason: String,
     },
     /// The simulator failed (bad configuration, non-finite state, ...).
     #[error("{context}: {source}")]

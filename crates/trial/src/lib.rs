@@ -43,11 +43,14 @@
 //! - [`runner`]: the cohort, the TE calibration and every patient run,
 //!   in parallel (rayon), reporting progress through [`runner::Progress`]
 //!   (the library never prints).
-//! - [`results`]: per-patient weekly metrics and the evaluation windows.
+//! - [`results`]: per-patient weekly metrics and the evaluation windows
+//!   (abba-report's, re-exported).
 //! - [`stats`]: summaries over patients and the Wilcoxon signed-rank test
-//!   (no p-value below [`stats::MIN_PAIRS_FOR_P`] pairs).
-//! - [`report`]: the report files (summary.json, Table I, patients.csv,
-//!   figures).
+//!   (no p-value below [`stats::MIN_PAIRS_FOR_P`] pairs; abba-report's,
+//!   re-exported).
+//! - [`report`]: the report folder and traced patients checked before the
+//!   run, the manifest of what ran, and the report and traces written
+//!   through abba-report (which builds every file from the results alone).
 //!
 //! # Contract
 //!
@@ -61,13 +64,13 @@
 
 pub mod closed_loop;
 pub mod error;
-pub mod manifest;
 pub mod protocol;
 pub mod report;
-pub mod results;
 pub mod runner;
 pub mod shard;
-pub mod stats;
 
+/// The results model and statistics live in abba-report; re-exported at
+/// their old paths.
+pub use abba_report::{results, stats};
 pub use error::TrialError;
 pub use protocol::{ArmKind, TrialConfig};

@@ -173,7 +173,7 @@ pub(crate) fn assemble(
 ) -> Result<Vec<ArmResult>, TrialError> {
     let expected = config.planned().len() * config.arms.len() * patients;
     if results.len() != expected {
-        return Err(TrialError::InconsistentResults(format!(
+        return Err(TrialError::Shard(format!(
             "{} patient results for {expected} jobs",
             results.len()
         )));
@@ -184,9 +184,9 @@ pub(crate) fn assemble(
         for arm in &config.arms {
             let patients: Vec<_> = it.by_ref().take(patients).collect();
             arms.push(ArmResult {
-                scenario: s.config.name.clone(),
-                advisor: arm.name().to_string(),
-                mode: s.mode.name().to_string(),
+                scenario: s.id,
+                advisor: *arm,
+                mode: s.mode,
                 patients,
             });
         }

@@ -19,7 +19,7 @@
 
 use crate::error::TrialError;
 use crate::protocol::TrialConfig;
-use crate::results::{PatientResult, RunFailure, WeekResult};
+use crate::results::{PatientResult, RunFailure, Week, WeekResult};
 use crate::runner::{self, Progress, TrialOutput};
 use abba_core::metrics::GlucoseMetrics;
 use serde::{Deserialize, Serialize};
@@ -138,7 +138,7 @@ pub fn run_shard(
 /// single run. Errors name what does not fit: a different trial, a missing
 /// or repeated shard, a job not covered or covered twice.
 pub fn merge(shards: &[ShardFile]) -> Result<TrialOutput, TrialError> {
-    let bad = |m: String| Err(TrialError::InconsistentResults(m));
+    let bad = |m: String| Err(TrialError::Shard(m));
     let Some(first) = shards.first() else {
         return bad("no shards to merge".into());
     };
@@ -212,10 +212,8 @@ pub fn merge(shards: &[ShardFile]) -> Result<TrialOutput, TrialError> {
 
 /// Writes a shard file (compact JSON).
 pub fn write_shard(path: &std::path::Path, shard: &ShardFile) -> Result<(), TrialError> {
-    let bytes = serde_json::to_vec(shard).map_err(|source| TrialError::Json {
-        what: "shard file",
-        source,
-    })?;
+    let bytes = serde_json::to_vec(shard)
+        .map_err(|e| TrialError::Shard(format!("cannot encode shard {}: {e}", shard.shard)))?;
     std::fs::write(path, bytes).map_err(|source| TrialError::Io {
         path: path.to_path_buf(),
         source,
@@ -254,7 +252,7 @@ pub struct StoredPatient {
 /// JSON leaves out).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 struct StoredWeek {
-    week: String,
+    week: Week,
     first_day: u32,
     last_day: u32,
     /// tir, hypo, severe hypo, hyper, severe hyper, lbgi, hbgi, mean, cv,
@@ -275,7 +273,7 @@ impl From<&PatientResult> for StoredPatient {
                 .map(|w| {
                     let m = &w.metrics;
                     StoredWeek {
-                        week: w.week.clone(),
+                        week: w.week,
                         first_day: w.first_day,
                         last_day: w.last_day,
                         values: [
@@ -322,7 +320,7 @@ impl StoredPatient {
                 .map(|w| {
                     let v = &w.values;
                     WeekResult {
-                        week: w.week.clone(),
+                        week: w.week,
                         first_day: w.first_day,
                         last_day: w.last_day,
                         metrics: GlucoseMetrics {

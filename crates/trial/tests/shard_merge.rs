@@ -24,8 +24,12 @@ fn small() -> TrialConfig {
 }
 
 fn report(output: &TrialOutput) -> Vec<(&'static str, Vec<u8>)> {
-    let manifest = abba_trial::manifest::manifest(output, "test", "test");
-    abba_trial::report::build_report(&output.arms, &manifest)
+    let tool = abba_trial::report::ToolInfo {
+        version: "test",
+        git_revision: "test",
+    };
+    let manifest = abba_trial::report::trial_manifest(output, &tool);
+    abba_report::build_report(&output.arms, &manifest, None)
         .unwrap()
         .into_iter()
         .map(|f| (f.name, f.bytes))

@@ -45,7 +45,7 @@ fn arms_share_the_standard_therapy_week() {
     // D8, spec §2.4, so the last hour of W1 may differ.)
     let out = run_trial(&short(), 2, &Silent).unwrap();
     {
-        let s = "S1";
+        let s = ScenarioId::S1;
         let w1: Vec<String> = out
             .arms
             .iter()

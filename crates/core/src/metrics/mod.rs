@@ -32,15 +32,17 @@
 
 mod grid;
 pub mod mage;
+pub mod metric;
 
 use serde::Serialize;
 
 use crate::error::CoreError;
 pub use mage::{mage_regular, mage_timed, Mage, MageDirection, MageOptions, GRID_MINUTES};
+pub use metric::{Direction, Metric, MetricUnit};
 
 /// The metrics of one series of readings. The field names are the metric keys
-/// of the protocol (§8), and serialize as exactly those 15 keys (`sd_mg_dl`
-/// and `n_readings` are not serialized).
+/// of the protocol (§8, [`Metric::GLUCOSE`]), and serialize as exactly those
+/// 15 keys (`sd_mg_dl` and `n_readings` are not serialized).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct GlucoseMetrics {
     /// % of readings in the target band 70 ≤ g ≤ 180 mg/dL.
@@ -83,53 +85,34 @@ pub struct GlucoseMetrics {
 }
 
 impl GlucoseMetrics {
-    /// The 15 metric keys, in the protocol's order (§8, without `tdi_u_per_day`).
-    pub const KEYS: [&'static str; 15] = [
-        "tir_70_180",
-        "hypo_50_70",
-        "severe_hypo_lt50",
-        "hyper_180_300",
-        "severe_hyper_gt300",
-        "lbgi",
-        "hbgi",
-        "mage",
-        "mean_mg_dl",
-        "cv_pct",
-        "gmi_pct",
-        "below_54",
-        "below_70",
-        "above_180",
-        "above_250",
-    ];
-
-    /// Each key of [`Self::KEYS`] with its value (`None` only for an undefined MAGE).
-    pub fn entries(&self) -> [(&'static str, Option<f64>); 15] {
-        let v = [
-            Some(self.tir_70_180),
-            Some(self.hypo_50_70),
-            Some(self.severe_hypo_lt50),
-            Some(self.hyper_180_300),
-            Some(self.severe_hyper_gt300),
-            Some(self.lbgi),
-            Some(self.hbgi),
-            self.mage,
-            Some(self.mean_mg_dl),
-            Some(self.cv_pct),
-            Some(self.gmi_pct),
-            Some(self.below_54),
-            Some(self.below_70),
-            Some(self.above_180),
-            Some(self.above_250),
-        ];
-        std::array::from_fn(|i| (Self::KEYS[i], v[i]))
+    /// Each metric of [`Metric::GLUCOSE`] with its value (`None` only for an
+    /// undefined MAGE).
+    pub fn entries(&self) -> [(Metric, Option<f64>); 15] {
+        Metric::GLUCOSE.map(|m| (m, self.get(m)))
     }
 
-    /// The value of one metric by its key; `None` for an unknown key or an undefined MAGE.
-    pub fn get(&self, key: &str) -> Option<f64> {
-        self.entries()
-            .iter()
-            .find(|(k, _)| *k == key)
-            .and_then(|(_, v)| *v)
+    /// The value of one metric: `None` for an undefined MAGE, and for
+    /// [`Metric::TdiUPerDay`], which is not a metric of a glucose series
+    /// (the trial's week results carry it beside these).
+    pub fn get(&self, metric: Metric) -> Option<f64> {
+        match metric {
+            Metric::Tir70To180 => Some(self.tir_70_180),
+            Metric::Hypo50To70 => Some(self.hypo_50_70),
+            Metric::SevereHypoLt50 => Some(self.severe_hypo_lt50),
+            Metric::Hyper180To300 => Some(self.hyper_180_300),
+            Metric::SevereHyperGt300 => Some(self.severe_hyper_gt300),
+            Metric::Lbgi => Some(self.lbgi),
+            Metric::Hbgi => Some(self.hbgi),
+            Metric::Mage => self.mage,
+            Metric::TdiUPerDay => None,
+            Metric::MeanMgDl => Some(self.mean_mg_dl),
+            Metric::CvPct => Some(self.cv_pct),
+            Metric::GmiPct => Some(self.gmi_pct),
+            Metric::Below54 => Some(self.below_54),
+            Metric::Below70 => Some(self.below_70),
+            Metric::Above180 => Some(self.above_180),
+            Metric::Above250 => Some(self.above_250),
+        }
     }
 }
 
@@ -322,12 +305,16 @@ mod tests {
         let m = metrics_regular(&[100.0, 200.0, 150.0]).unwrap();
         let v = serde_json::to_value(m).unwrap();
         let keys: Vec<&str> = v.as_object().unwrap().keys().map(|k| k.as_str()).collect();
-        let mut want = GlucoseMetrics::KEYS.to_vec();
+        let mut want: Vec<&str> = Metric::GLUCOSE.iter().map(|m| m.key()).collect();
         want.sort_unstable();
         let mut got = keys.clone();
         got.sort_unstable();
         assert_eq!(got, want);
-        assert_eq!(m.get("mean_mg_dl"), Some(150.0));
-        assert_eq!(m.get("tdi_u_per_day"), None);
+        // Each field serializes under its metric's key with its value.
+        for (metric, value) in m.entries() {
+            assert_eq!(v[metric.key()].as_f64(), value, "{metric}");
+        }
+        assert_eq!(m.get(Metric::MeanMgDl), Some(150.0));
+        assert_eq!(m.get(Metric::TdiUPerDay), None);
     }
 }

@@ -5,69 +5,10 @@ use crate::SimError;
 use abba_core::{Grams, MealSlot, MINUTES_PER_DAY};
 use serde::{Deserialize, Serialize};
 
-/// The paper's four scenarios (seed paper §III-A-4).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
-pub enum ScenarioId {
-    /// CGM throughout, ABBA in CGM mode.
-    S1,
-    /// CGM for days 1-8, then four SMBG readings a day (ABBA in SMBG mode).
-    S2,
-    /// S2 plus ±10 min uncertainty on every SMBG measurement time.
-    S3,
-    /// S3 plus two skipped main meals in every 7-day block.
-    S4,
-}
-
-impl ScenarioId {
-    /// All four, in order.
-    pub const ALL: [ScenarioId; 4] = [
-        ScenarioId::S1,
-        ScenarioId::S2,
-        ScenarioId::S3,
-        ScenarioId::S4,
-    ];
-
-    /// 1..=4.
-    pub fn number(self) -> u64 {
-        match self {
-            ScenarioId::S1 => 1,
-            ScenarioId::S2 => 2,
-            ScenarioId::S3 => 3,
-            ScenarioId::S4 => 4,
-        }
-    }
-
-    /// "S1".."S4".
-    pub fn name(self) -> &'static str {
-        match self {
-            ScenarioId::S1 => "S1",
-            ScenarioId::S2 => "S2",
-            ScenarioId::S3 => "S3",
-            ScenarioId::S4 => "S4",
-        }
-    }
-}
-
-impl std::fmt::Display for ScenarioId {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl std::str::FromStr for ScenarioId {
-    type Err = SimError;
-    fn from_str(s: &str) -> Result<Self, SimError> {
-        match s.trim().to_ascii_uppercase().as_str() {
-            "S1" => Ok(ScenarioId::S1),
-            "S2" => Ok(ScenarioId::S2),
-            "S3" => Ok(ScenarioId::S3),
-            "S4" => Ok(ScenarioId::S4),
-            _ => Err(SimError::Config(format!(
-                "unknown scenario '{s}' (expected one of S1, S2, S3, S4)"
-            ))),
-        }
-    }
-}
+/// The paper's four scenario names live in abba-core (results and reports
+/// carry them without seeing the simulator); re-exported here, where the
+/// scenarios themselves are defined.
+pub use abba_core::ScenarioId;
 
 /// One meal of the daily plan, before the day's random draws.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

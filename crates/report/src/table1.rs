@@ -23,29 +23,50 @@
 
 use std::fmt::Write as _;
 
-use super::summary::wilcoxon_vs_w1;
-use super::{
-    arm_weeks, failure_time, metric_column, metric_label, ordered_arms, patients_with_week,
-    stopped_runs, validate_arms, SEED_BANDS,
+use abba_advisor::Mode;
+use abba_core::{Metric, ScenarioId};
+
+use crate::error::ReportError;
+use crate::results::{ArmKind, ArmResult, Week};
+use crate::select::{
+    arm_weeks, failure_time, metric_column, ordered_arms, patients_with_week, stopped_runs,
+    validate_arms,
 };
-use crate::error::TrialError;
-use crate::results::ArmResult;
 use crate::stats::{summarize_present, Summary};
+use crate::summary::wilcoxon_vs_w1;
 
 /// The paper's Table I as compiled in (CSV: scenario,week,metric,mean,sd).
-pub const PAPER_TABLE1_CSV: &str = include_str!("../../../../data/paper-table1.csv");
+pub const PAPER_TABLE1_CSV: &str = include_str!("../../../data/paper-table1.csv");
 
 const PAPER_FILE: &str = "data/paper-table1.csv";
+
+/// The scenario column of the paper's Table I.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PaperScenarios {
+    /// `S1-S3`: the W1 row printed once for S1, S2 and S3.
+    S1ToS3,
+    /// One scenario.
+    One(ScenarioId),
+}
+
+impl std::fmt::Display for PaperScenarios {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            PaperScenarios::S1ToS3 => f.write_str("S1-S3"),
+            PaperScenarios::One(id) => write!(f, "{id}"),
+        }
+    }
+}
 
 /// One mean ± SD of the paper's Table I.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PaperValue {
     /// The scenario column as printed: `S1`..`S4`, or `S1-S3` for the shared W1.
-    pub scenarios: String,
+    pub scenarios: PaperScenarios,
     /// `W1`, `W13` or `W14`.
-    pub week: String,
-    /// One of [`SEED_BANDS`].
-    pub metric: String,
+    pub week: Week,
+    /// One of [`Metric::SEED_BANDS`].
+    pub metric: Metric,
     /// Mean over patients (% of time).
     pub mean: f64,
     /// SD over patients (% of time).
@@ -54,23 +75,24 @@ pub struct PaperValue {
 
 impl PaperValue {
     /// Whether this entry applies to `scenario` (`S1-S3` covers S1, S2, S3).
-    pub fn covers(&self, scenario: &str) -> bool {
-        if self.scenarios == "S1-S3" {
-            matches!(scenario, "S1" | "S2" | "S3")
-        } else {
-            self.scenarios == scenario
+    pub fn covers(&self, scenario: ScenarioId) -> bool {
+        match self.scenarios {
+            PaperScenarios::S1ToS3 => {
+                matches!(scenario, ScenarioId::S1 | ScenarioId::S2 | ScenarioId::S3)
+            }
+            PaperScenarios::One(id) => id == scenario,
         }
     }
 }
 
 /// Parses the compiled-in paper table, checking every field; an error names
 /// the line and what was expected.
-pub fn paper_table1() -> Result<Vec<PaperValue>, TrialError> {
+pub fn paper_table1() -> Result<Vec<PaperValue>, ReportError> {
     parse_paper_table(PAPER_TABLE1_CSV)
 }
 
-fn parse_paper_table(text: &str) -> Result<Vec<PaperValue>, TrialError> {
-    let err = |line: usize, reason: String| TrialError::PaperTable {
+fn parse_paper_table(text: &str) -> Result<Vec<PaperValue>, ReportError> {
+    let err = |line: usize, reason: String| ReportError::PaperTable {
         file: PAPER_FILE,
         line,
         reason,
@@ -98,43 +120,46 @@ fn parse_paper_table(text: &str) -> Result<Vec<PaperValue>, TrialError> {
         if f.len() != 5 {
             return Err(err(n, format!("{} fields, expected 5", f.len())));
         }
-        if !matches!(f[0], "S1-S3" | "S1" | "S2" | "S3" | "S4") {
-            return Err(err(
-                n,
-                format!("scenario {:?}, expected S1..S4 or S1-S3", f[0]),
-            ));
-        }
-        if !matches!(f[1], "W1" | "W13" | "W14") {
-            return Err(err(n, format!("week {:?}, expected W1, W13 or W14", f[1])));
-        }
-        if !SEED_BANDS.contains(&f[2]) {
-            return Err(err(
-                n,
-                format!(
-                    "metric {:?}, expected one of {}",
-                    f[2],
-                    SEED_BANDS.join(", ")
-                ),
-            ));
-        }
-        let number = |s: &str, what: &str| -> Result<f64, TrialError> {
+        let scenarios = if f[0] == "S1-S3" {
+            PaperScenarios::S1ToS3
+        } else {
+            let id = ScenarioId::ALL.into_iter().find(|id| id.name() == f[0]);
+            PaperScenarios::One(
+                id.ok_or_else(|| err(n, format!("scenario {:?}, expected S1..S4 or S1-S3", f[0])))?,
+            )
+        };
+        let week = Week::TABLE
+            .into_iter()
+            .find(|w| w.name() == f[1])
+            .ok_or_else(|| err(n, format!("week {:?}, expected W1, W13 or W14", f[1])))?;
+        let metric = Metric::SEED_BANDS
+            .into_iter()
+            .find(|m| m.key() == f[2])
+            .ok_or_else(|| {
+                let keys: Vec<&str> = Metric::SEED_BANDS.map(Metric::key).to_vec();
+                err(
+                    n,
+                    format!("metric {:?}, expected one of {}", f[2], keys.join(", ")),
+                )
+            })?;
+        let number = |s: &str, what: &str| -> Result<f64, ReportError> {
             s.parse::<f64>()
                 .ok()
                 .filter(|v| v.is_finite() && *v >= 0.0)
                 .ok_or_else(|| err(n, format!("{what} {s:?}, expected a number >= 0")))
         };
         let value = PaperValue {
-            scenarios: f[0].to_string(),
-            week: f[1].to_string(),
-            metric: f[2].to_string(),
+            scenarios,
+            week,
+            metric,
             mean: number(f[3], "mean")?,
             sd: number(f[4], "sd")?,
         };
         if out.iter().any(|o| {
             o.week == value.week
                 && o.metric == value.metric
-                && ["S1", "S2", "S3", "S4"]
-                    .iter()
+                && ScenarioId::ALL
+                    .into_iter()
                     .any(|s| o.covers(s) && value.covers(s))
         }) {
             return Err(err(
@@ -152,14 +177,14 @@ fn parse_paper_table(text: &str) -> Result<Vec<PaperValue>, TrialError> {
 
 /// The paper's value for one scenario, week and band of an arm, if the
 /// paper reports it for that arm (W1: any arm of S1-S3; W13/W14: `abba`).
-pub fn paper_value<'a>(
-    paper: &'a [PaperValue],
-    scenario: &str,
-    advisor: &str,
-    week: &str,
-    metric: &str,
-) -> Option<&'a PaperValue> {
-    if week != "W1" && advisor != "abba" {
+pub fn paper_value(
+    paper: &[PaperValue],
+    scenario: ScenarioId,
+    advisor: ArmKind,
+    week: Week,
+    metric: Metric,
+) -> Option<&PaperValue> {
+    if week != Week::W1 && advisor != ArmKind::Abba {
         return None;
     }
     paper
@@ -187,20 +212,27 @@ impl Anchor {
 
 /// The paper's textual LBGI/HBGI statement that applies to an arm's week and
 /// metric (see the module docs), if any.
-pub fn anchor(scenario: &str, advisor: &str, week: &str, metric: &str) -> Option<Anchor> {
-    let shared_w1 = week == "W1" && matches!(scenario, "S1" | "S2" | "S3");
+pub fn anchor(
+    scenario: ScenarioId,
+    advisor: ArmKind,
+    week: Week,
+    metric: Metric,
+) -> Option<Anchor> {
+    let shared_w1 =
+        week == Week::W1 && matches!(scenario, ScenarioId::S1 | ScenarioId::S2 | ScenarioId::S3);
+    let abba = advisor == ArmKind::Abba;
     match metric {
-        "lbgi" if shared_w1 => Some(Anchor {
+        Metric::Lbgi if shared_w1 => Some(Anchor {
             low: Some(1.1),
             high: 2.5,
             text: "low range 1.1-2.5",
         }),
-        "lbgi" if week == "W13" && advisor == "abba" => Some(Anchor {
+        Metric::Lbgi if week == Week::W13 && abba => Some(Anchor {
             low: None,
             high: 1.1,
             text: "minimal range < 1.1",
         }),
-        "hbgi" if week == "W1" || advisor == "abba" => Some(Anchor {
+        Metric::Hbgi if week == Week::W1 || abba => Some(Anchor {
             low: None,
             high: 5.0,
             text: "minimal range < 5",
@@ -210,31 +242,26 @@ pub fn anchor(scenario: &str, advisor: &str, week: &str, metric: &str) -> Option
 }
 
 /// The metrics of our Table I: the five bands, then LBGI and HBGI.
-pub const TABLE1_METRICS: [&str; 7] = [
-    "tir_70_180",
-    "hypo_50_70",
-    "severe_hypo_lt50",
-    "hyper_180_300",
-    "severe_hyper_gt300",
-    "lbgi",
-    "hbgi",
-];
+pub const TABLE1_METRICS: [Metric; 7] = {
+    let b = Metric::SEED_BANDS;
+    [b[0], b[1], b[2], b[3], b[4], Metric::Lbgi, Metric::Hbgi]
+};
 
 /// One cell group of our Table I: an arm, week and metric.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Table1Row {
-    /// `S1`..`S4`.
-    pub scenario: String,
-    /// `abba`, `standard`, `r2r`.
-    pub advisor: String,
-    /// `cgm` or `smbg`.
-    pub mode: String,
+    /// The scenario.
+    pub scenario: ScenarioId,
+    /// The arm.
+    pub advisor: ArmKind,
+    /// The advisor's mode.
+    pub mode: Mode,
     /// Patients in the arm.
     pub n_patients: usize,
     /// `W1`, `W13` or `W14`.
-    pub week: String,
+    pub week: Week,
     /// One of [`TABLE1_METRICS`].
-    pub metric: String,
+    pub metric: Metric,
     /// Our summary over patients.
     pub ours: Summary,
     /// The paper's mean ± SD, where it reports this cell.
@@ -247,45 +274,45 @@ pub struct Table1Row {
 
 /// Every row of our Table I, arm by arm (report order), week by week (W1,
 /// W13, W14 as simulated), metric by metric ([`TABLE1_METRICS`]).
-pub fn table1_rows(arms: &[ArmResult]) -> Result<Vec<Table1Row>, TrialError> {
+pub fn table1_rows(arms: &[ArmResult]) -> Result<Vec<Table1Row>, ReportError> {
     validate_arms(arms)?;
     let paper = paper_table1()?;
     let mut rows = Vec::new();
     for arm in ordered_arms(arms) {
         let weeks = arm_weeks(arm);
-        for week in super::TABLE_WEEKS {
-            if !weeks.iter().any(|w| w == week) {
+        for week in Week::TABLE {
+            if !weeks.contains(&week) {
                 continue;
             }
             for metric in TABLE1_METRICS {
                 let values = metric_column(arm, week, metric);
                 let ours = summarize_present(&values)
-                    .map_err(|source| TrialError::Stats {
+                    .map_err(|source| ReportError::Stats {
                         what: format!("arm {}, week {week}, metric {metric}", arm.key()),
                         source,
                     })?
                     .ok_or_else(|| {
-                        TrialError::InconsistentResults(format!(
+                        ReportError::InconsistentResults(format!(
                             "arm {}, week {week}: no patient has a value of {metric}",
                             arm.key()
                         ))
                     })?;
-                let p_vs_w1 = if week != "W1" && weeks.iter().any(|w| w == "W1") {
+                let p_vs_w1 = if week != Week::W1 && weeks.contains(&Week::W1) {
                     wilcoxon_vs_w1(arm, week, metric)?.and_then(|w| w.p)
                 } else {
                     None
                 };
                 rows.push(Table1Row {
-                    scenario: arm.scenario.clone(),
-                    advisor: arm.advisor.clone(),
-                    mode: arm.mode.clone(),
+                    scenario: arm.scenario,
+                    advisor: arm.advisor,
+                    mode: arm.mode,
                     n_patients: arm.patients.len(),
-                    week: week.to_string(),
-                    metric: metric.to_string(),
+                    week,
+                    metric,
                     ours,
-                    paper: paper_value(&paper, &arm.scenario, &arm.advisor, week, metric).cloned(),
+                    paper: paper_value(&paper, arm.scenario, arm.advisor, week, metric).cloned(),
                     p_vs_w1,
-                    anchor: anchor(&arm.scenario, &arm.advisor, week, metric),
+                    anchor: anchor(arm.scenario, arm.advisor, week, metric),
                 });
             }
         }
@@ -295,10 +322,10 @@ pub fn table1_rows(arms: &[ArmResult]) -> Result<Vec<Table1Row>, TrialError> {
 
 /// `table1.csv`: one row per arm, week and metric (see [`Table1Row`]); full
 /// precision; empty cells where a value does not exist.
-pub fn table1_csv(arms: &[ArmResult]) -> Result<String, TrialError> {
+pub fn table1_csv(arms: &[ArmResult]) -> Result<String, ReportError> {
     let rows = table1_rows(arms)?;
     let mut w = csv::Writer::from_writer(Vec::new());
-    let csv_err = |e: csv::Error| TrialError::Csv {
+    let csv_err = |e: csv::Error| ReportError::Csv {
         what: "table1.csv",
         reason: e.to_string(),
     };
@@ -326,12 +353,12 @@ pub fn table1_csv(arms: &[ArmResult]) -> Result<String, TrialError> {
     let opt = |v: Option<f64>| v.map(|x| x.to_string()).unwrap_or_default();
     for r in &rows {
         w.write_record([
-            r.scenario.clone(),
-            r.advisor.clone(),
-            r.mode.clone(),
+            r.scenario.to_string(),
+            r.advisor.to_string(),
+            r.mode.name().to_string(),
             r.n_patients.to_string(),
-            r.week.clone(),
-            r.metric.clone(),
+            r.week.to_string(),
+            r.metric.to_string(),
             r.ours.n.to_string(),
             r.ours.mean.to_string(),
             opt(r.ours.sd),
@@ -340,7 +367,7 @@ pub fn table1_csv(arms: &[ArmResult]) -> Result<String, TrialError> {
             r.ours.q3.to_string(),
             r.paper
                 .as_ref()
-                .map(|p| p.scenarios.clone())
+                .map(|p| p.scenarios.to_string())
                 .unwrap_or_default(),
             opt(r.paper.as_ref().map(|p| p.mean)),
             opt(r.paper.as_ref().map(|p| p.sd)),
@@ -352,11 +379,11 @@ pub fn table1_csv(arms: &[ArmResult]) -> Result<String, TrialError> {
         ])
         .map_err(csv_err)?;
     }
-    let bytes = w.into_inner().map_err(|e| TrialError::Csv {
+    let bytes = w.into_inner().map_err(|e| ReportError::Csv {
         what: "table1.csv",
         reason: e.to_string(),
     })?;
-    String::from_utf8(bytes).map_err(|e| TrialError::Csv {
+    String::from_utf8(bytes).map_err(|e| ReportError::Csv {
         what: "table1.csv",
         reason: e.to_string(),
     })
@@ -379,23 +406,21 @@ pub fn format_p(p: f64) -> String {
     }
 }
 
-fn advisor_title(advisor: &str, mode: &str) -> String {
-    let mode = mode.to_uppercase();
+fn advisor_title(advisor: ArmKind, mode: Mode) -> String {
+    let mode = mode.name().to_uppercase();
     match advisor {
-        "abba" => format!("ABBA ({mode} mode)"),
-        "standard" => "standard therapy (settings never change)".to_string(),
-        "r2r" => format!("run-to-run baseline ({mode} mode)"),
-        other => format!("{other} ({mode} mode)"),
+        ArmKind::Abba => format!("ABBA ({mode} mode)"),
+        ArmKind::Standard => "standard therapy (settings never change)".to_string(),
+        ArmKind::R2r => format!("run-to-run baseline ({mode} mode)"),
     }
 }
 
-fn scenario_title(scenario: &str) -> &'static str {
+fn scenario_title(scenario: ScenarioId) -> &'static str {
     match scenario {
-        "S1" => "CGM throughout",
-        "S2" => "SMBG 4/day after the CGM week",
-        "S3" => "SMBG with ±10 min timing uncertainty",
-        "S4" => "as S3, plus 2 of 21 main meals skipped per week",
-        _ => "",
+        ScenarioId::S1 => "CGM throughout",
+        ScenarioId::S2 => "SMBG 4/day after the CGM week",
+        ScenarioId::S3 => "SMBG with ±10 min timing uncertainty",
+        ScenarioId::S4 => "as S3, plus 2 of 21 main meals skipped per week",
     }
 }
 
@@ -404,21 +429,21 @@ fn scenario_title(scenario: &str) -> &'static str {
 /// over the patients every arm still has in that week (a run that stopped
 /// early drops out of every arm here, so the columns compare the same
 /// people; the per-arm tables below keep each arm's own patients).
-fn arms_side_by_side(s: &mut String, arms: &[ArmResult], scenario: &str) {
+fn arms_side_by_side(s: &mut String, arms: &[ArmResult], scenario: ScenarioId) {
     let in_scenario: Vec<&ArmResult> = arms.iter().filter(|a| a.scenario == scenario).collect();
-    let weeks: Vec<&str> = ["W13", "W14"]
+    let weeks: Vec<Week> = [Week::W13, Week::W14]
         .into_iter()
         .filter(|w| {
             in_scenario
                 .iter()
-                .any(|a| a.patients.iter().any(|p| p.week(w).is_some()))
+                .any(|a| a.patients.iter().any(|p| p.week(*w).is_some()))
         })
         .collect();
     if in_scenario.len() < 2 || weeks.is_empty() {
         return;
     }
     // Patients (by cohort position) present in a week in every arm.
-    let common = |week: &str| -> Vec<usize> {
+    let common = |week: Week| -> Vec<usize> {
         let n = in_scenario
             .iter()
             .map(|a| a.patients.len())
@@ -434,7 +459,7 @@ fn arms_side_by_side(s: &mut String, arms: &[ArmResult], scenario: &str) {
     };
     let counts: Vec<String> = weeks
         .iter()
-        .map(|w| format!("{w}: n = {}", common(w).len()))
+        .map(|w| format!("{w}: n = {}", common(*w).len()))
         .collect();
     let _ = writeln!(
         s,
@@ -445,20 +470,20 @@ fn arms_side_by_side(s: &mut String, arms: &[ArmResult], scenario: &str) {
     let mut rule = String::from("|---|");
     for w in &weeks {
         for a in &in_scenario {
-            let _ = write!(header, " {w} {} |", short_advisor(&a.advisor));
+            let _ = write!(header, " {w} {} |", short_advisor(a.advisor));
             rule.push_str("---:|");
         }
     }
     let _ = writeln!(s, "{header}\n{rule}");
     for metric in TABLE1_METRICS {
-        let decimals = if SEED_BANDS.contains(&metric) { 1 } else { 2 };
-        let mut line = format!("| {} |", metric_label(metric));
-        for w in &weeks {
+        let decimals = if metric.is_seed_band() { 1 } else { 2 };
+        let mut line = format!("| {} |", metric.label());
+        for &w in &weeks {
             let patients = common(w);
             for a in &in_scenario {
                 let values: Vec<Option<f64>> = patients
                     .iter()
-                    .map(|&i| a.patients[i].week(w).and_then(|r| r.metrics.get(metric)))
+                    .map(|&i| a.patients[i].week(w).and_then(|r| r.value(metric)))
                     .collect();
                 let cell = match summarize_present(&values) {
                     Ok(Some(sum)) => pm(sum.mean, sum.sd, decimals),
@@ -472,12 +497,11 @@ fn arms_side_by_side(s: &mut String, arms: &[ArmResult], scenario: &str) {
     let _ = writeln!(s);
 }
 
-fn short_advisor(advisor: &str) -> String {
+fn short_advisor(advisor: ArmKind) -> &'static str {
     match advisor {
-        "abba" => "ABBA".to_string(),
-        "standard" => "standard".to_string(),
-        "r2r" => "run-to-run".to_string(),
-        other => other.to_string(),
+        ArmKind::Abba => "ABBA",
+        ArmKind::Standard => "standard",
+        ArmKind::R2r => "run-to-run",
     }
 }
 
@@ -485,7 +509,7 @@ fn short_advisor(advisor: &str) -> String {
 /// and HBGI in W1, W13 and W14 (ours and the paper's mean ± SD) with our
 /// Wilcoxon p-values against W1, then the paper's LBGI/HBGI statements
 /// checked against our means.
-pub fn table1_markdown(arms: &[ArmResult]) -> Result<String, TrialError> {
+pub fn table1_markdown(arms: &[ArmResult]) -> Result<String, ReportError> {
     let rows = table1_rows(arms)?;
     let mut s = String::new();
     let _ = writeln!(s, "# Table I: glucose outcomes, ours beside the paper's\n");
@@ -516,33 +540,34 @@ pub fn table1_markdown(arms: &[ArmResult]) -> Result<String, TrialError> {
          (normal approximation, tie correction, Pratt's zero correction).\n"
     );
     let mut i = 0;
-    let mut last_scenario = String::new();
+    let mut last_scenario = None;
     while i < rows.len() {
-        let (scenario, advisor) = (rows[i].scenario.clone(), rows[i].advisor.clone());
+        let (scenario, advisor) = (rows[i].scenario, rows[i].advisor);
         let end = rows[i..]
             .iter()
             .position(|r| r.scenario != scenario || r.advisor != advisor)
             .map_or(rows.len(), |k| i + k);
         let arm_rows = &rows[i..end];
         i = end;
-        if scenario != last_scenario {
-            let _ = writeln!(s, "## {scenario}: {}\n", scenario_title(&scenario));
-            arms_side_by_side(&mut s, arms, &scenario);
-            last_scenario = scenario.clone();
+        if last_scenario != Some(scenario) {
+            let _ = writeln!(s, "## {scenario}: {}\n", scenario_title(scenario));
+            arms_side_by_side(&mut s, arms, scenario);
+            last_scenario = Some(scenario);
         }
         let _ = writeln!(
             s,
             "### {scenario} · {} · n = {} patients\n",
-            advisor_title(&advisor, &arm_rows[0].mode),
+            advisor_title(advisor, arm_rows[0].mode),
             arm_rows[0].n_patients
         );
-        let weeks: Vec<&str> = super::TABLE_WEEKS
+        let weeks: Vec<Week> = Week::TABLE
             .into_iter()
             .filter(|w| arm_rows.iter().any(|r| r.week == *w))
             .collect();
-        let missing: Vec<&str> = super::TABLE_WEEKS
+        let missing: Vec<String> = Week::TABLE
             .into_iter()
             .filter(|w| !weeks.contains(w))
+            .map(|w| w.to_string())
             .collect();
         if !missing.is_empty() {
             let present = arms
@@ -554,7 +579,7 @@ pub fn table1_markdown(arms: &[ArmResult]) -> Result<String, TrialError> {
                 s,
                 "{}: not simulated in this run (weeks present: {}).\n",
                 missing.join(", "),
-                present.join(", ")
+                week_list(&present)
             );
         }
         let mut header = String::from("| Metric |");
@@ -562,7 +587,7 @@ pub fn table1_markdown(arms: &[ArmResult]) -> Result<String, TrialError> {
         for w in &weeks {
             let _ = write!(header, " {w} ours | {w} paper |");
             rule.push_str("---:|---:|");
-            if *w != "W1" {
+            if *w != Week::W1 {
                 let _ = write!(header, " p {w} vs W1 |");
                 rule.push_str("---:|");
             }
@@ -573,25 +598,25 @@ pub fn table1_markdown(arms: &[ArmResult]) -> Result<String, TrialError> {
             .find(|a| a.scenario == scenario && a.advisor == advisor);
         let mut n_line = String::from("| patients evaluated |");
         for w in &weeks {
-            let n = arm.map_or(0, |a| patients_with_week(a, w));
+            let n = arm.map_or(0, |a| patients_with_week(a, *w));
             let paper_n = if arm_rows.iter().any(|r| r.week == *w && r.paper.is_some()) {
                 "100"
             } else {
                 "—"
             };
             let _ = write!(n_line, " {n} | {paper_n} |");
-            if *w != "W1" {
+            if *w != Week::W1 {
                 n_line.push_str(" |");
             }
         }
         let _ = writeln!(s, "{n_line}");
         for metric in TABLE1_METRICS {
-            let mut line = format!("| {} |", metric_label(metric));
+            let mut line = format!("| {} |", metric.label());
             for w in &weeks {
                 let Some(r) = arm_rows.iter().find(|r| r.week == *w && r.metric == metric) else {
                     continue;
                 };
-                let decimals = if SEED_BANDS.contains(&metric) { 1 } else { 2 };
+                let decimals = if metric.is_seed_band() { 1 } else { 2 };
                 let paper = match (&r.paper, r.anchor) {
                     (Some(p), _) => format!("{:.1} ± {:.1}", p.mean, p.sd),
                     (None, Some(a)) => format!("text: {}", a.text),
@@ -602,7 +627,7 @@ pub fn table1_markdown(arms: &[ArmResult]) -> Result<String, TrialError> {
                     " {} | {paper} |",
                     pm(r.ours.mean, r.ours.sd, decimals)
                 );
-                if *w != "W1" {
+                if *w != Week::W1 {
                     let p = r.p_vs_w1.map_or("—".to_string(), format_p);
                     let _ = write!(line, " {p} |");
                 }
@@ -640,7 +665,7 @@ pub fn table1_markdown(arms: &[ArmResult]) -> Result<String, TrialError> {
                     let _ = writeln!(
                         s,
                         "- {} {}: paper \"{}\"; ours {:.2} — {}",
-                        r.metric.to_uppercase(),
+                        r.metric.key().to_uppercase(),
                         r.week,
                         a.text,
                         r.ours.mean,
@@ -666,11 +691,20 @@ pub fn table1_markdown(arms: &[ArmResult]) -> Result<String, TrialError> {
                 "{} · {}: none of W1, W13, W14 was simulated (weeks present: {}).\n",
                 arm.scenario,
                 arm.advisor,
-                arm_weeks(arm).join(", ")
+                week_list(&arm_weeks(arm))
             );
         }
     }
     Ok(s)
+}
+
+/// `W1, W2, W13` style list.
+fn week_list(weeks: &[Week]) -> String {
+    weeks
+        .iter()
+        .map(|w| w.name())
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 #[cfg(test)]
@@ -683,11 +717,17 @@ mod tests {
         let t = paper_table1().unwrap();
         // W1 (5 bands, shared) + W13 and W14 for four scenarios.
         assert_eq!(t.len(), 5 + 2 * 4 * 5);
-        let v = paper_value(&t, "S2", "abba", "W1", "tir_70_180").unwrap();
-        assert_eq!((v.scenarios.as_str(), v.mean, v.sd), ("S1-S3", 89.9, 8.7));
-        assert!(paper_value(&t, "S4", "abba", "W1", "tir_70_180").is_none());
-        assert!(paper_value(&t, "S1", "r2r", "W13", "tir_70_180").is_none());
-        let v = paper_value(&t, "S4", "abba", "W13", "hyper_180_300").unwrap();
+        use ArmKind::{Abba, R2r};
+        use ScenarioId::{S1, S2, S4};
+        let tir = Metric::Tir70To180;
+        let v = paper_value(&t, S2, Abba, Week::W1, tir).unwrap();
+        assert_eq!(
+            (v.scenarios.to_string().as_str(), v.mean, v.sd),
+            ("S1-S3", 89.9, 8.7)
+        );
+        assert!(paper_value(&t, S4, Abba, Week::W1, tir).is_none());
+        assert!(paper_value(&t, S1, R2r, Week::W13, tir).is_none());
+        let v = paper_value(&t, S4, Abba, Week::W13, Metric::Hyper180To300).unwrap();
         assert_eq!((v.mean, v.sd), (21.5, 15.0));
     }
 
@@ -712,14 +752,17 @@ mod tests {
 
     #[test]
     fn anchors_follow_the_papers_statements() {
-        let a = anchor("S1", "standard", "W1", "lbgi").unwrap();
+        use ArmKind::{Abba, R2r, Standard};
+        use Metric::{Hbgi, Lbgi};
+        use ScenarioId::{S1, S3, S4};
+        let a = anchor(S1, Standard, Week::W1, Lbgi).unwrap();
         assert!(a.holds(1.1) && a.holds(2.49) && !a.holds(1.0) && !a.holds(2.5));
-        assert!(anchor("S4", "abba", "W1", "lbgi").is_none());
-        assert!(anchor("S4", "abba", "W13", "lbgi").unwrap().holds(1.0));
-        assert!(anchor("S4", "r2r", "W13", "lbgi").is_none());
-        assert!(anchor("S3", "abba", "W14", "hbgi").is_some());
-        assert!(anchor("S3", "standard", "W14", "hbgi").is_none());
-        assert!(anchor("S3", "abba", "W14", "lbgi").is_none());
+        assert!(anchor(S4, Abba, Week::W1, Lbgi).is_none());
+        assert!(anchor(S4, Abba, Week::W13, Lbgi).unwrap().holds(1.0));
+        assert!(anchor(S4, R2r, Week::W13, Lbgi).is_none());
+        assert!(anchor(S3, Abba, Week::W14, Hbgi).is_some());
+        assert!(anchor(S3, Standard, Week::W14, Hbgi).is_none());
+        assert!(anchor(S3, Abba, Week::W14, Lbgi).is_none());
         assert_eq!(format_p(0.0004), "<0.001");
         assert_eq!(format_p(0.04088), "0.041");
     }

@@ -1,6 +1,6 @@
 //! `patients.csv`: one row per arm × patient × evaluation week (every week
 //! simulated, W1..W12, W13, W14), with the window's days, the 16 metric keys
-//! in the protocol's order ([`METRIC_KEYS`]; an undefined MAGE is an empty
+//! in the protocol's order ([`Metric::ALL`]; an undefined MAGE is an empty
 //! cell) and, repeated on each of the patient's rows, the patient's start and
 //! final therapy settings, pump caps, minimum glucose over the run and, for
 //! a run stopped early (plasma glucose below the failure threshold), where
@@ -10,9 +10,11 @@
 //! order, then week order. Numbers are written in full precision (shortest
 //! round-trip form).
 
-use super::{metric_value, ordered_arms, validate_arms, METRIC_KEYS};
-use crate::error::TrialError;
+use abba_core::Metric;
+
+use crate::error::ReportError;
 use crate::results::ArmResult;
+use crate::select::{ordered_arms, validate_arms};
 
 /// The header of `patients.csv`.
 pub fn patients_csv_header() -> Vec<&'static str> {
@@ -25,7 +27,7 @@ pub fn patients_csv_header() -> Vec<&'static str> {
         "first_day",
         "last_day",
     ];
-    h.extend(METRIC_KEYS);
+    h.extend(Metric::ALL.map(Metric::key));
     h.extend([
         "start_basal_u_per_h",
         "start_carb_ratio_g_per_u",
@@ -43,9 +45,9 @@ pub fn patients_csv_header() -> Vec<&'static str> {
 }
 
 /// The whole `patients.csv` text.
-pub fn patients_csv(arms: &[ArmResult]) -> Result<String, TrialError> {
+pub fn patients_csv(arms: &[ArmResult]) -> Result<String, ReportError> {
     validate_arms(arms)?;
-    let err = |reason: String| TrialError::Csv {
+    let err = |reason: String| ReportError::Csv {
         what: "patients.csv",
         reason,
     };
@@ -56,19 +58,17 @@ pub fn patients_csv(arms: &[ArmResult]) -> Result<String, TrialError> {
         for p in &arm.patients {
             for week in &p.weeks {
                 let mut rec: Vec<String> = vec![
-                    arm.scenario.clone(),
-                    arm.advisor.clone(),
-                    arm.mode.clone(),
+                    arm.scenario.to_string(),
+                    arm.advisor.to_string(),
+                    arm.mode.name().to_string(),
                     p.patient.clone(),
-                    week.week.clone(),
+                    week.week.to_string(),
                     week.first_day.to_string(),
                     week.last_day.to_string(),
                 ];
-                rec.extend(METRIC_KEYS.iter().map(|k| {
-                    metric_value(week, k)
-                        .map(|v| v.to_string())
-                        .unwrap_or_default()
-                }));
+                rec.extend(
+                    Metric::ALL.map(|m| week.value(m).map(|v| v.to_string()).unwrap_or_default()),
+                );
                 rec.extend([
                     p.start_basal_u_per_h.to_string(),
                     p.start_carb_ratio_g_per_u.to_string(),

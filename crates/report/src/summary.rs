@@ -11,7 +11,7 @@
 //! ```
 //!
 //! M = `{ "<metric>": {"mean", "sd", "median", "q1", "q3"} }` over the arm's
-//! patients for all 16 [`super::METRIC_KEYS`] (see
+//! patients for all 16 metrics of [`abba_core::Metric::ALL`] (see
 //! [`crate::stats::summarize`]: SD with n − 1, type-7 quartiles).
 //!
 //! Choices:
@@ -38,12 +38,13 @@
 
 use serde_json::{json, Map, Value};
 
-use super::{
+use abba_core::Metric;
+
+use crate::error::ReportError;
+use crate::results::{ArmResult, Week};
+use crate::select::{
     arm_weeks, metric_column, ordered_arms, patients_with_week, stopped_runs, validate_arms,
-    METRIC_KEYS, TABLE_WEEKS,
 };
-use crate::error::TrialError;
-use crate::results::ArmResult;
 use crate::stats::{
     summarize_present, wilcoxon_signed_rank_present, Wilcoxon, WilcoxonOptions, ZeroMethod,
 };
@@ -58,15 +59,15 @@ pub const REPORT_WILCOXON: WilcoxonOptions = WilcoxonOptions {
 };
 
 /// The comparisons of the `wilcoxon` object: (key, later week).
-pub const COMPARISONS: [(&str, &str); 2] = [("W1_vs_W13", "W13"), ("W1_vs_W14", "W14")];
+pub const COMPARISONS: [(&str, Week); 2] = [("W1_vs_W13", Week::W13), ("W1_vs_W14", Week::W14)];
 
 /// M for one week of one arm: every metric key with its summary over patients
 /// (or `null` when no patient has a defined value).
-pub fn week_summary(arm: &ArmResult, week: &str) -> Result<Map<String, Value>, TrialError> {
+pub fn week_summary(arm: &ArmResult, week: Week) -> Result<Map<String, Value>, ReportError> {
     let mut m = Map::new();
-    for key in METRIC_KEYS {
+    for key in Metric::ALL {
         let values = metric_column(arm, week, key);
-        let summary = summarize_present(&values).map_err(|source| TrialError::Stats {
+        let summary = summarize_present(&values).map_err(|source| ReportError::Stats {
             what: format!("arm {}, week {week}, metric {key}", arm.key()),
             source,
         })?;
@@ -79,10 +80,10 @@ pub fn week_summary(arm: &ArmResult, week: &str) -> Result<Map<String, Value>, T
 /// patient has both values defined.
 pub fn wilcoxon_vs_w1(
     arm: &ArmResult,
-    later: &str,
-    key: &str,
-) -> Result<Option<Wilcoxon>, TrialError> {
-    let first = metric_column(arm, "W1", key);
+    later: Week,
+    key: Metric,
+) -> Result<Option<Wilcoxon>, ReportError> {
+    let first = metric_column(arm, Week::W1, key);
     let second = metric_column(arm, later, key);
     if !first
         .iter()
@@ -93,7 +94,7 @@ pub fn wilcoxon_vs_w1(
     }
     wilcoxon_signed_rank_present(&first, &second, REPORT_WILCOXON)
         .map(Some)
-        .map_err(|source| TrialError::Stats {
+        .map_err(|source| ReportError::Stats {
             what: format!("arm {}, W1 vs {later}, metric {key}", arm.key()),
             source,
         })
@@ -101,16 +102,16 @@ pub fn wilcoxon_vs_w1(
 
 /// The whole `summary.json` document. The arms must be consistent
 /// ([`validate_arms`] is applied).
-pub fn summary_json(arms: &[ArmResult], manifest: &Value) -> Result<Value, TrialError> {
+pub fn summary_json(arms: &[ArmResult], manifest: &Value) -> Result<Value, ReportError> {
     validate_arms(arms)?;
     let mut arms_obj = Map::new();
     let mut notes_arms = Map::new();
     for arm in ordered_arms(arms) {
         let weeks_present = arm_weeks(arm);
-        let has = |w: &str| weeks_present.iter().any(|x| x == w);
+        let has = |w: Week| weeks_present.contains(&w);
 
         let mut weeks = Map::new();
-        for w in TABLE_WEEKS {
+        for w in Week::TABLE {
             let v = if has(w) {
                 Value::Object(week_summary(arm, w)?)
             } else {
@@ -122,10 +123,10 @@ pub fn summary_json(arms: &[ArmResult], manifest: &Value) -> Result<Value, Trial
         let mut weekly = Vec::with_capacity(weeks_present.len());
         let mut mage_undefined = Map::new();
         let mut n_per_week = Map::new();
-        for w in &weeks_present {
-            n_per_week.insert(w.clone(), json!(patients_with_week(arm, w)));
+        for &w in &weeks_present {
+            n_per_week.insert(w.to_string(), json!(patients_with_week(arm, w)));
             let mut m = week_summary(arm, w)?;
-            m.insert("week".to_string(), Value::String(w.clone()));
+            m.insert("week".to_string(), Value::String(w.to_string()));
             weekly.push(Value::Object(m));
             // Undefined among the patients that have the week.
             let undefined = arm
@@ -134,19 +135,19 @@ pub fn summary_json(arms: &[ArmResult], manifest: &Value) -> Result<Value, Trial
                 .filter_map(|p| p.week(w))
                 .filter(|wk| wk.metrics.mage.is_none())
                 .count();
-            mage_undefined.insert(w.clone(), json!(undefined));
+            mage_undefined.insert(w.to_string(), json!(undefined));
         }
 
         let mut wilcoxon = Map::new();
         let mut wilcoxon_notes = Map::new();
         for (name, later) in COMPARISONS {
-            if !(has("W1") && has(later)) {
+            if !(has(Week::W1) && has(later)) {
                 wilcoxon.insert(name.to_string(), Value::Null);
                 continue;
             }
             let mut tests = Map::new();
             let mut details = Map::new();
-            for key in METRIC_KEYS {
+            for key in Metric::ALL {
                 let test = wilcoxon_vs_w1(arm, later, key)?;
                 tests.insert(key.to_string(), json_of(&test, "a Wilcoxon test")?);
                 details.insert(
@@ -224,6 +225,6 @@ fn finite_or_null(x: f64) -> Value {
     }
 }
 
-fn json_of<T: serde::Serialize>(value: &T, what: &'static str) -> Result<Value, TrialError> {
-    serde_json::to_value(value).map_err(|source| TrialError::Json { what, source })
+fn json_of<T: serde::Serialize>(value: &T, what: &'static str) -> Result<Value, ReportError> {
+    serde_json::to_value(value).map_err(|source| ReportError::Json { what, source })
 }

@@ -5,13 +5,39 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+use std::path::{Path, PathBuf};
+
+use abba_advisor::Mode;
 use abba_core::metrics::GlucoseMetrics;
-use abba_trial::report::{
-    build_report, patients_csv::patients_csv, summary::summary_json, table1, write_report,
-    METRIC_KEYS, REPORT_FILES,
+use abba_core::{Metric, ScenarioId};
+use abba_report::results::{
+    evaluation_windows, ArmKind, ArmResult, PatientResult, RunFailure, Week, WeekResult,
 };
-use abba_trial::results::{evaluation_windows, ArmResult, PatientResult, RunFailure, WeekResult};
+use abba_report::{
+    build_report, patients_csv::patients_csv, summary::summary_json, table1, ReportDir,
+    REPORT_FILES,
+};
 use serde_json::{json, Value};
+
+/// The 16 metric keys in the protocol's order.
+fn metric_keys() -> Vec<&'static str> {
+    Metric::ALL.map(Metric::key).to_vec()
+}
+
+/// A folder of this test run under the target's temporary folder, removed
+/// first (a folder of an older build may hold an older report).
+fn fresh_dir(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+/// Builds the report and writes it into `dir` (checked first).
+fn write_report(dir: &Path, arms: &[ArmResult], manifest: &Value) -> Vec<PathBuf> {
+    let out = ReportDir::prepare(dir).unwrap();
+    let built = build_report(arms, manifest, None).unwrap();
+    out.write_report(&built).unwrap()
+}
 
 fn metrics(tir: f64, hypo: f64, lbgi: f64, mage: Option<f64>) -> GlucoseMetrics {
     GlucoseMetrics {
@@ -36,12 +62,12 @@ fn metrics(tir: f64, hypo: f64, lbgi: f64, mage: Option<f64>) -> GlucoseMetrics 
 }
 
 fn week(name: &str, m: GlucoseMetrics, tdi: f64) -> WeekResult {
-    let (_, first_day, last_day) = evaluation_windows()
+    let (week, first_day, last_day) = evaluation_windows()
         .into_iter()
-        .find(|(w, _, _)| w == name)
+        .find(|(w, _, _)| w.name() == name)
         .unwrap();
     WeekResult {
-        week: name.to_string(),
+        week,
         first_day,
         last_day,
         metrics: m,
@@ -100,9 +126,13 @@ fn small_arm(scenario: &str, advisor: &str) -> ArmResult {
         })
         .collect();
     ArmResult {
-        scenario: scenario.to_string(),
-        advisor: advisor.to_string(),
-        mode: if scenario == "S1" { "cgm" } else { "smbg" }.to_string(),
+        scenario: scenario.parse().unwrap(),
+        advisor: advisor.parse().unwrap(),
+        mode: if scenario == "S1" {
+            Mode::Cgm
+        } else {
+            Mode::Smbg
+        },
         patients,
     }
 }
@@ -117,7 +147,7 @@ fn small_trial() -> Vec<ArmResult> {
 }
 
 fn manifest() -> Value {
-    json!({"version": "test", "seed": 7, "knobs": {"days": 98}})
+    json!({"tool": "abba", "version": "test", "seed": 7, "knobs": {"days": 98}})
 }
 
 fn keys(v: &Value) -> Vec<String> {
@@ -143,8 +173,8 @@ fn close(what: &str, expected: f64, got: &Value) {
 }
 
 fn check_m(m: &Value, what: &str) {
-    assert_eq!(keys(m), sorted(&METRIC_KEYS), "{what}: metric keys");
-    for k in METRIC_KEYS {
+    assert_eq!(keys(m), sorted(&metric_keys()), "{what}: metric keys");
+    for k in metric_keys() {
         assert_eq!(
             keys(&m[k]),
             sorted(&["mean", "sd", "median", "q1", "q3"]),
@@ -190,8 +220,12 @@ fn summary_json_has_the_protocol_schema() {
         }
         assert_eq!(keys(&arm["wilcoxon"]), sorted(&["W1_vs_W13", "W1_vs_W14"]));
         for c in ["W1_vs_W13", "W1_vs_W14"] {
-            assert_eq!(keys(&arm["wilcoxon"][c]), sorted(&METRIC_KEYS), "{key} {c}");
-            for k in METRIC_KEYS {
+            assert_eq!(
+                keys(&arm["wilcoxon"][c]),
+                sorted(&metric_keys()),
+                "{key} {c}"
+            );
+            for k in metric_keys() {
                 assert_eq!(
                     keys(&arm["wilcoxon"][c][k]),
                     sorted(&["statistic", "p"]),
@@ -269,7 +303,7 @@ fn a_short_trial_reports_the_weeks_it_has() {
     assert_eq!(a["wilcoxon"]["W1_vs_W14"], Value::Null);
     let md = table1::table1_markdown(&arms).unwrap();
     assert!(md.contains("W1 ours") && !md.contains("W13 ours"), "{md}");
-    let files = build_report(&arms, &manifest()).unwrap();
+    let files = build_report(&arms, &manifest(), None).unwrap();
     for f in &files {
         assert!(!f.bytes.is_empty(), "{}", f.name);
     }
@@ -352,7 +386,7 @@ fn patients_csv_has_one_row_per_patient_arm_and_week() {
     .iter()
     .map(|s| s.to_string())
     .collect();
-    want.extend(METRIC_KEYS.iter().map(|s| s.to_string()));
+    want.extend(metric_keys().iter().map(|s| s.to_string()));
     want.extend(
         [
             "start_basal_u_per_h",
@@ -395,7 +429,7 @@ fn patients_csv_has_one_row_per_patient_arm_and_week() {
 
 #[test]
 fn figures_are_svg_with_their_titles() {
-    let files = build_report(&small_trial(), &manifest()).unwrap();
+    let files = build_report(&small_trial(), &manifest(), None).unwrap();
     let names: Vec<&str> = files.iter().map(|f| f.name).collect();
     assert_eq!(names, REPORT_FILES);
     for (name, title) in [
@@ -434,30 +468,36 @@ fn inconsistent_results_are_errors_that_say_where() {
 
     let mut arms = small_trial();
     arms.push(small_arm("S1", "abba"));
-    let e = build_report(&arms, &manifest()).unwrap_err().to_string();
+    let e = build_report(&arms, &manifest(), None)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("S1/abba appears more than once"), "{e}");
 
     let mut arms = small_trial();
     arms[1].patients[0].weeks[1].first_day = 10;
-    let e = build_report(&arms, &manifest()).unwrap_err().to_string();
+    let e = build_report(&arms, &manifest(), None)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("week W2: days D10-D15, expected D9-D15"), "{e}");
 
     let mut arms = small_trial();
     arms[2].patients[0].weeks[0].metrics.lbgi = f64::NAN;
-    let e = build_report(&arms, &manifest()).unwrap_err().to_string();
+    let e = build_report(&arms, &manifest(), None)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("S4/abba") && e.contains("lbgi"), "{e}");
 
-    assert!(build_report(&[], &manifest()).is_err());
+    assert!(build_report(&[], &manifest(), None).is_err());
 }
 
 #[test]
 fn write_report_is_byte_identical_across_runs() {
-    let base = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("report_files_determinism");
+    let base = fresh_dir("report_files_determinism");
     let arms = small_trial();
-    let a = write_report(&base.join("a"), &arms, &manifest()).unwrap();
-    let b = write_report(&base.join("b"), &arms, &manifest()).unwrap();
-    assert_eq!(a.files.len(), REPORT_FILES.len());
-    for (x, y) in a.files.iter().zip(&b.files) {
+    let a = write_report(&base.join("a"), &arms, &manifest());
+    let b = write_report(&base.join("b"), &arms, &manifest());
+    assert_eq!(a.len(), REPORT_FILES.len());
+    for (x, y) in a.iter().zip(&b) {
         assert_eq!(x.file_name(), y.file_name());
         let (bx, by) = (std::fs::read(x).unwrap(), std::fs::read(y).unwrap());
         assert!(!bx.is_empty(), "{}", x.display());
@@ -496,20 +536,20 @@ impl Mix {
 fn full_trial() -> Vec<ArmResult> {
     let mut rng = Mix(42);
     let mut arms = Vec::new();
-    for (si, scenario) in ["S1", "S2", "S3", "S4"].iter().enumerate() {
-        for advisor in ["abba", "standard", "r2r"] {
+    for (si, scenario) in ScenarioId::ALL.into_iter().enumerate() {
+        for advisor in ArmKind::ALL {
             let patients = (1..=20)
                 .map(|p| {
                     let base_hypo = 1.0 + 4.0 * rng.uniform();
                     let weeks = evaluation_windows()
                         .into_iter()
                         .map(|(w, _, _)| {
-                            let k: f64 = w[1..].parse().unwrap();
-                            let learn = if advisor == "standard" || k < 2.0 {
+                            let k = f64::from(w.number());
+                            let learn = if advisor == ArmKind::Standard || k < 2.0 {
                                 0.0
                             } else {
                                 (1.0 - (-(k - 1.0) / 2.0).exp())
-                                    * if advisor == "abba" { 0.8 } else { 0.5 }
+                                    * if advisor == ArmKind::Abba { 0.8 } else { 0.5 }
                             };
                             let hypo = base_hypo * (1.0 - learn) * (0.7 + 0.6 * rng.uniform());
                             let hyper =
@@ -521,16 +561,16 @@ fn full_trial() -> Vec<ArmResult> {
                             m.hbgi = 2.0 + 0.2 * hyper;
                             let tdi = 45.0 - 3.0 * learn - 4.0 * (si == 3) as u8 as f64
                                 + 10.0 * rng.uniform();
-                            week(&w, m, tdi)
+                            week(w.name(), m, tdi)
                         })
                         .collect();
                     patient(&format!("adult#{p:03}"), weeks)
                 })
                 .collect();
             arms.push(ArmResult {
-                scenario: scenario.to_string(),
-                advisor: advisor.to_string(),
-                mode: if si == 0 { "cgm" } else { "smbg" }.to_string(),
+                scenario,
+                advisor,
+                mode: if si == 0 { Mode::Cgm } else { Mode::Smbg },
                 patients,
             });
         }
@@ -541,9 +581,9 @@ fn full_trial() -> Vec<ArmResult> {
 #[test]
 fn a_full_size_synthetic_trial_reports_every_arm() {
     let arms = full_trial();
-    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("report_demo");
-    let files = write_report(&dir, &arms, &manifest()).unwrap();
-    println!("report written to {}", files.dir.display());
+    let dir = fresh_dir("report_demo");
+    write_report(&dir, &arms, &manifest());
+    println!("report written to {}", dir.display());
     let s = summary_json(&arms, &manifest()).unwrap();
     assert_eq!(s["arms"].as_object().unwrap().len(), 12);
     let text = std::fs::read_to_string(dir.join("patients.csv")).unwrap();
@@ -561,7 +601,7 @@ fn a_short_one_scenario_trial_still_draws_every_figure() {
     // S1 only, three arms, weeks W1..W3 (a 22-day run).
     let arms: Vec<ArmResult> = full_trial()
         .into_iter()
-        .filter(|a| a.scenario == "S1")
+        .filter(|a| a.scenario == ScenarioId::S1)
         .map(|mut a| {
             for p in &mut a.patients {
                 p.weeks.truncate(3);
@@ -569,8 +609,8 @@ fn a_short_one_scenario_trial_still_draws_every_figure() {
             a
         })
         .collect();
-    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("report_short");
-    write_report(&dir, &arms, &manifest()).unwrap();
+    let dir = fresh_dir("report_short");
+    write_report(&dir, &arms, &manifest());
     let s = summary_json(&arms, &manifest()).unwrap();
     assert_eq!(s["arms"]["S1/abba"]["weekly"].as_array().unwrap().len(), 3);
     let md = std::fs::read_to_string(dir.join("table1.md")).unwrap();
@@ -601,17 +641,20 @@ fn one_patient_has_no_sd() {
     // One pair: W+ or W- is the only rank; p from the normal approximation.
     let t = &s["arms"]["S3/abba"]["wilcoxon"]["W1_vs_W13"]["tir_70_180"];
     close("statistic", 0.0, &t["statistic"]);
-    build_report(&arms, &manifest()).unwrap();
+    build_report(&arms, &manifest(), None).unwrap();
 }
 
 #[test]
 fn a_stopped_run_counts_only_in_the_weeks_before_the_stop() {
     let mut arms: Vec<ArmResult> = full_trial()
         .into_iter()
-        .filter(|a| a.scenario == "S1")
+        .filter(|a| a.scenario == ScenarioId::S1)
         .collect();
     // adult#005 of S1/abba stops on D50 at 03:20: W1..W6 end before (W6 = D37-D43, W7 = D44-D50).
-    let abba = arms.iter_mut().find(|a| a.advisor == "abba").unwrap();
+    let abba = arms
+        .iter_mut()
+        .find(|a| a.advisor == ArmKind::Abba)
+        .unwrap();
     let p = &mut abba.patients[4];
     p.failure = Some(RunFailure {
         day: 50,
@@ -620,7 +663,11 @@ fn a_stopped_run_counts_only_in_the_weeks_before_the_stop() {
     });
     p.weeks.retain(|w| w.last_day < 50);
     assert_eq!(p.weeks.len(), 6);
-    let abba = arms.iter().find(|a| a.advisor == "abba").unwrap().clone();
+    let abba = arms
+        .iter()
+        .find(|a| a.advisor == ArmKind::Abba)
+        .unwrap()
+        .clone();
 
     let s = summary_json(&arms, &manifest()).unwrap();
     let notes = &s["notes"]["arms"]["S1/abba"];
@@ -634,7 +681,7 @@ fn a_stopped_run_counts_only_in_the_weeks_before_the_stop() {
     let others: Vec<f64> = abba
         .patients
         .iter()
-        .filter_map(|p| p.week("W13"))
+        .filter_map(|p| p.week(Week::W13))
         .map(|w| w.metrics.tir_70_180)
         .collect();
     assert_eq!(others.len(), 19);
@@ -668,7 +715,7 @@ fn a_stopped_run_counts_only_in_the_weeks_before_the_stop() {
         .unwrap();
     assert!(line.ends_with(",50,200,9.5"), "{line}");
 
-    let files = build_report(&arms, &manifest()).unwrap();
+    let files = build_report(&arms, &manifest(), None).unwrap();
     let svg = |name: &str| {
         String::from_utf8(files.iter().find(|f| f.name == name).unwrap().bytes.clone()).unwrap()
     };
@@ -683,7 +730,9 @@ fn a_stopped_run_counts_only_in_the_weeks_before_the_stop() {
         minute_of_day: 0,
         glucose_mg_dl: 9.0,
     });
-    let e = build_report(&bad, &manifest()).unwrap_err().to_string();
+    let e = build_report(&bad, &manifest(), None)
+        .unwrap_err()
+        .to_string();
     assert!(
         e.contains("adult#005: week W6 ends on D43 but the run stopped on D40"),
         "{e}"
@@ -694,12 +743,15 @@ fn a_stopped_run_counts_only_in_the_weeks_before_the_stop() {
 fn arms_side_by_side_compare_the_same_patients() {
     let mut arms: Vec<ArmResult> = full_trial()
         .into_iter()
-        .filter(|a| a.scenario == "S1")
+        .filter(|a| a.scenario == ScenarioId::S1)
         .collect();
     let n = arms[0].patients.len();
     // The standard arm loses its first patient on D60: that patient leaves
     // the side-by-side block of every arm in W13 and W14.
-    let standard = arms.iter_mut().find(|a| a.advisor == "standard").unwrap();
+    let standard = arms
+        .iter_mut()
+        .find(|a| a.advisor == ArmKind::Standard)
+        .unwrap();
     let p = &mut standard.patients[0];
     p.failure = Some(RunFailure {
         day: 60,
@@ -711,10 +763,10 @@ fn arms_side_by_side_compare_the_same_patients() {
     let expected_n = format!("W13: n = {}, W14: n = {}", n - 1, n - 1);
     assert!(md.contains(&expected_n), "expected '{expected_n}' in\n{md}");
     // The ABBA W13 TIR cell of the block is the mean over patients 2..n.
-    let abba = arms.iter().find(|a| a.advisor == "abba").unwrap();
+    let abba = arms.iter().find(|a| a.advisor == ArmKind::Abba).unwrap();
     let tir: Vec<f64> = abba.patients[1..]
         .iter()
-        .map(|p| p.week("W13").unwrap().metrics.tir_70_180)
+        .map(|p| p.week(Week::W13).unwrap().metrics.tir_70_180)
         .collect();
     let mean = tir.iter().sum::<f64>() / tir.len() as f64;
     let block = md.split("### ").next().unwrap();
@@ -727,4 +779,30 @@ fn arms_side_by_side_compare_the_same_patients() {
         first_cell.starts_with(&format!("{mean:.1} ±")),
         "expected mean {mean:.1} over the common patients, got '{first_cell}'"
     );
+}
+
+#[test]
+fn figure_data_comes_before_drawing() {
+    let arms = small_trial();
+    let abba = arms
+        .iter()
+        .find(|a| a.scenario == ScenarioId::S1 && a.advisor == ArmKind::Abba)
+        .unwrap();
+    let weeks = [Week::W1, Week::W13];
+    // TIR W1 = 80, 90, 100.
+    let tir = abba_report::figures::weekly_series(abba, &weeks, Metric::Tir70To180).unwrap();
+    assert_eq!(tir.points.len(), 2);
+    assert_eq!((tir.points[0].0, tir.points[0].1.mean), (Week::W1, 90.0));
+    let json = serde_json::to_value(&tir).unwrap();
+    assert_eq!(json["metric"], "tir_70_180");
+    assert_eq!(json["points"][1][0], "W13");
+    // TDI W13 = 38, 40, 42: one box a week.
+    let boxes = abba_report::figures::tdi_boxes(&[abba], &weeks).unwrap();
+    assert_eq!(boxes.len(), 2);
+    let b = &boxes[1].tukey;
+    assert_eq!(
+        (boxes[1].week, b.q1, b.median, b.q3),
+        (Week::W13, 39.0, 40.0, 41.0)
+    );
+    assert_eq!((b.low, b.high, b.outliers.len()), (38.0, 42.0, 0));
 }

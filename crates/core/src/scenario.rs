@@ -1,0 +1,81 @@
+//! The paper's four scenarios by name. The scenarios themselves (meals,
+//! devices, variability) are the simulator's; the name is shared vocabulary
+//! so that results and reports can carry it without seeing the simulator.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::CoreError;
+use crate::named;
+
+/// The paper's four scenarios (seed paper §III-A-4). Serialises as `"S1"`..`"S4"`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub enum ScenarioId {
+    /// CGM throughout, ABBA in CGM mode.
+    S1,
+    /// CGM for days 1-8, then four SMBG readings a day (ABBA in SMBG mode).
+    S2,
+    /// S2 plus ±10 min uncertainty on every SMBG measurement time.
+    S3,
+    /// S3 plus two skipped main meals in every 7-day block.
+    S4,
+}
+
+impl ScenarioId {
+    /// All four, in order.
+    pub const ALL: [ScenarioId; 4] = [
+        ScenarioId::S1,
+        ScenarioId::S2,
+        ScenarioId::S3,
+        ScenarioId::S4,
+    ];
+
+    /// 1..=4.
+    pub fn number(self) -> u64 {
+        match self {
+            ScenarioId::S1 => 1,
+            ScenarioId::S2 => 2,
+            ScenarioId::S3 => 3,
+            ScenarioId::S4 => 4,
+        }
+    }
+
+    /// "S1".."S4".
+    pub fn name(self) -> &'static str {
+        match self {
+            ScenarioId::S1 => "S1",
+            ScenarioId::S2 => "S2",
+            ScenarioId::S3 => "S3",
+            ScenarioId::S4 => "S4",
+        }
+    }
+}
+
+crate::named!(ScenarioId, "scenario", ScenarioId::name);
+
+impl std::str::FromStr for ScenarioId {
+    type Err = CoreError;
+    /// Case-insensitive, surrounding white space ignored (`s2` is `S2`).
+    fn from_str(s: &str) -> Result<Self, CoreError> {
+        named::parse(&s.trim().to_ascii_uppercase()).map_err(|_| named::unknown::<Self>(s))
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_round_trip_and_unknown_names_are_errors() {
+        for id in ScenarioId::ALL {
+            assert_eq!(id.name().parse::<ScenarioId>().unwrap(), id);
+            assert_eq!(
+                serde_json::to_string(&id).unwrap(),
+                format!("\"{}\"", id.name())
+            );
+        }
+        assert_eq!(" s3 ".parse::<ScenarioId>().unwrap(), ScenarioId::S3);
+        let e = "S5".parse::<ScenarioId>().unwrap_err().to_string();
+        assert!(e.contains("'S5'") && e.contains("S1, S2, S3, S4"), "{e}");
+    }
+}

@@ -3,6 +3,7 @@
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
 
+mod calibrate;
 mod cohort;
 mod errors;
 mod events;
@@ -38,6 +39,8 @@ enum Command {
     Export(export::Args),
     /// Run the paper's 98-day in-silico trial and write the report.
     Trial(trial::Args),
+    /// Tune the guessed knobs on a training cohort; evaluate on a held-out one.
+    Calibrate(calibrate::Args),
 }
 
 /// The parsed command line. Every subcommand takes negative numbers as
@@ -63,6 +66,7 @@ fn main() -> ExitCode {
         Command::Events(a) => events::run(a),
         Command::Export(a) => export::run(a),
         Command::Trial(a) => trial::run(a),
+        Command::Calibrate(a) => calibrate::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

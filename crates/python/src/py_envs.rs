@@ -349,16 +349,19 @@ fn paper_cost(d: &DayOut) -> f64 {
     let weights = abba_advisor::config::AbbaConfig::new(abba_advisor::Mode::Cgm, 0);
     let cfg = weights.features;
     let cgm: Vec<f64> = d.cgm_mg_dl.iter().copied().filter(|g| *g > 0.0).collect();
-    let readings: Vec<f64> = if cgm.is_empty() {
-        d.smbg_mg_dl.iter().copied().filter(|g| *g > 0.0).collect()
+    let (readings, mode): (Vec<f64>, abba_advisor::Mode) = if cgm.is_empty() {
+        (
+            d.smbg_mg_dl.iter().copied().filter(|g| *g > 0.0).collect(),
+            abba_advisor::Mode::Smbg,
+        )
     } else {
-        cgm
+        (cgm, abba_advisor::Mode::Cgm)
     };
     let mut stats = abba_advisor::features::WindowStats::default();
     for g in readings {
         stats.push(g, &cfg);
     }
-    abba_advisor::features::local_cost(&stats.features(&cfg), weights.a_hyper, weights.a_hypo)
+    abba_advisor::features::local_cost(&stats.features(&cfg, mode), weights.a_hyper, weights.a_hypo)
 }
 
 /// Metric `key` (e.g. `lbgi`) of `m`; NaN when undefined.

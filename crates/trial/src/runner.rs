@@ -60,7 +60,19 @@ pub fn run_trial(
     threads: usize,
     progress: &dyn Progress,
 ) -> Result<TrialOutput, TrialError> {
-    let prepared = prepare(config, threads)?;
+    let cohort = build_cohort(config)?;
+    run_trial_on(config, cohort, threads, progress)
+}
+
+/// Runs the trial on a given cohort (e.g. a cohort without its public
+/// patients, for calibration); `config`'s cohort fields are not used.
+pub fn run_trial_on(
+    config: &TrialConfig,
+    cohort: Cohort,
+    threads: usize,
+    progress: &dyn Progress,
+) -> Result<TrialOutput, TrialError> {
+    let prepared = prepare_on(config, cohort, threads)?;
     let jobs = jobs(&prepared.config, prepared.cohort.patients.len());
     let results = run_jobs(&prepared, &jobs, progress)?;
     let arms = assemble(&prepared.config, prepared.cohort.patients.len(), results)?;
@@ -88,7 +100,15 @@ pub(crate) struct Prepared {
 
 /// Builds the cohort and calibrates the TE reference.
 pub(crate) fn prepare(config: &TrialConfig, threads: usize) -> Result<Prepared, TrialError> {
-    let cohort = build_cohort(config)?;
+    prepare_on(config, build_cohort(config)?, threads)
+}
+
+/// Calibrates the TE reference on `cohort`.
+fn prepare_on(
+    config: &TrialConfig,
+    cohort: Cohort,
+    threads: usize,
+) -> Result<Prepared, TrialError> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()

@@ -246,6 +246,8 @@ pub struct StoredPatient {
     pump_capped: u32,
     min_glucose_mg_dl: f64,
     failure: Option<(u32, u32, f64)>,
+    rescue_carbs_g: f64,
+    rescue_treatments: u32,
 }
 
 /// A [`WeekResult`] with every metric field (including the ones the report
@@ -306,6 +308,8 @@ impl From<&PatientResult> for StoredPatient {
             pump_capped: p.pump_capped,
             min_glucose_mg_dl: p.min_glucose_mg_dl,
             failure: p.failure.map(|f| (f.day, f.minute_of_day, f.glucose_mg_dl)),
+            rescue_carbs_g: p.rescue_carbs_g,
+            rescue_treatments: p.rescue_treatments,
         }
     }
 }
@@ -359,6 +363,8 @@ impl StoredPatient {
                     minute_of_day,
                     glucose_mg_dl,
                 }),
+            rescue_carbs_g: self.rescue_carbs_g,
+            rescue_treatments: self.rescue_treatments,
         }
     }
 }

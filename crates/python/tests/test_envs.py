@@ -123,8 +123,10 @@ def test_daily_env_days_actions_and_rewards():
     cgm = info["cgm_mg_dl"]
     hyper = np.clip(cgm - 150, 0, None)
     hypo = np.clip(90 - cgm, 0, None)
-    f_hyper = min(1.0, hyper[hyper > 0].mean() / 250 if (hyper > 0).any() else 0.0)
-    f_hypo = min(1.0, hypo[hypo > 0].mean() / 50 if (hypo > 0).any() else 0.0)
+    # CGM mode's default features: the time-averaged excursion (sum over
+    # every reading / number of readings), normalised by 400-150 and 90-40.
+    f_hyper = min(1.0, hyper.sum() / len(cgm) / 250)
+    f_hypo = min(1.0, hypo.sum() / len(cgm) / 50)
     assert r == pytest.approx(-(f_hyper + 10 * f_hypo), rel=1e-9)
     # More insulin: lower mean glucose on the same day (same seed).
     means = []

@@ -17,6 +17,7 @@ mod metrics;
 mod output;
 mod person;
 mod progress;
+mod shard;
 mod simulate;
 mod trial;
 mod trial_limits;

@@ -13,7 +13,16 @@ use std::time::Instant;
 /// Arguments of `abba trial`. With none, runs the full paper protocol:
 /// 100 adults, 98 days, S1-S4, arms abba, standard and r2r, seed 1.
 #[derive(clap::Args, Debug)]
+#[command(args_conflicts_with_subcommands = true)]
 pub struct Args {
+    /// `abba trial merge`: merge shard files into the report.
+    #[command(subcommand)]
+    pub command: Option<crate::shard::TrialCommand>,
+    /// Run only shard I of N of the trial's (scenario, arm, patient) jobs
+    /// and write `shard-I-of-N.json` into --out; `abba trial merge` turns
+    /// the N files into the report a single run writes.
+    #[arg(long, value_name = "I/N")]
+    pub shard: Option<abba_trial::shard::ShardSpec>,
     /// Report folder: new, empty, or an earlier abba report (whose files
     /// abba replaces; other files are left alone). Checked before the run.
     #[arg(long, default_value = "abba-out")]
@@ -63,7 +72,7 @@ pub struct Args {
     pub quiet: bool,
 }
 
-fn config_from(args: &Args) -> Result<TrialConfig> {
+pub(crate) fn config_from(args: &Args) -> Result<TrialConfig> {
     let mut c = match &args.config {
         Some(path) => {
             let text = std::fs::read_to_string(path)
@@ -113,10 +122,16 @@ fn config_from(args: &Args) -> Result<TrialConfig> {
 /// Runs `abba trial`: checks the report folder and the traced patients,
 /// runs the trial, writes the report.
 pub fn run(args: Args) -> Result<()> {
+    if let Some(command) = args.command {
+        return crate::shard::run_command(command);
+    }
     let config = config_from(&args)?;
     if args.print_config {
         println!("{}", serde_json::to_string_pretty(&config)?);
         return Ok(());
+    }
+    if let Some(spec) = args.shard {
+        return crate::shard::run_shard(&args, &config, spec);
     }
     // Before the run: a bad folder or patient name must not cost a trial.
     let plan = ReportPlan::check(&config, &args.out, &args.trace)?;

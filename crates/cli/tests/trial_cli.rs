@@ -210,6 +210,67 @@ fn the_defaults_are_the_paper_protocol() {
 }
 
 #[test]
+fn shards_and_merge_write_the_single_run_report() {
+    let single = tmp("shard-single");
+    small_trial(&single, "0", &[]);
+    let parts = tmp("shard-parts");
+    for i in 1..=3 {
+        small_trial(&parts, "1", &["--shard", &format!("{i}/3")]);
+    }
+    let merged = tmp("shard-merged");
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&parts)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    files.sort();
+    assert_eq!(files.len(), 3);
+    let st = abba()
+        .args(["trial", "merge", "--quiet", "--out"])
+        .arg(&merged)
+        .args(&files)
+        .status()
+        .unwrap();
+    assert!(st.success());
+    for name in [
+        "summary.json",
+        "summary_notes.json",
+        "table1.md",
+        "table1.csv",
+        "patients.csv",
+        "fig5_lbgi_hbgi.svg",
+        "fig6_mage.svg",
+        "fig7_tdi.svg",
+        "fig_arms.svg",
+        "README.md",
+    ] {
+        let a = std::fs::read(single.join(name)).unwrap();
+        let b = std::fs::read(merged.join(name)).unwrap();
+        assert!(
+            a == b,
+            "{name} differs between the single run and the merge"
+        );
+    }
+    // manifest.json differs only in its `run` section (wall time, threads).
+    let read = |d: &Path| -> serde_json::Value {
+        let mut v: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(d.join("manifest.json")).unwrap()).unwrap();
+        v.as_object_mut().unwrap().remove("run");
+        v
+    };
+    assert_eq!(read(&single), read(&merged));
+    // Two of three shards are refused, naming the missing one.
+    let out = abba()
+        .args(["trial", "merge", "--quiet", "--out"])
+        .arg(tmp("shard-incomplete"))
+        .args(&files[..2])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("shard 3/3 is missing"), "{err}");
+}
+
+#[test]
 fn every_combination_of_scenarios_and_arms_runs() {
     // Issue 15 item 6: a set of scenarios all in one mode with the abba arm
     // used to panic on an empty list of first-week TE estimates.

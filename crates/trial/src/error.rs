@@ -11,6 +11,9 @@ pub enum TrialError {
     /// The report could not be built or written, or its folder cannot be used.
     #[error(transparent)]
     Report(#[from] abba_report::ReportError),
+    /// Shards that do not make one trial, or results that do not fit it.
+    #[error("trial shards: {0}")]
+    Shard(String),
     /// A file or directory could not be written.
     #[error("cannot write {}: {source}", path.display())]
     Io {

@@ -68,6 +68,7 @@ pub mod error;
 pub mod protocol;
 pub mod report;
 pub mod runner;
+pub mod shard;
 pub mod w1_sensitivity;
 
 /// The results model and statistics live in abba-report; re-exported at

@@ -72,6 +72,43 @@ pub fn run_trial_on(
     threads: usize,
     progress: &dyn Progress,
 ) -> Result<TrialOutput, TrialError> {
+    let prepared = prepare_on(config, cohort, threads)?;
+    let jobs = jobs(&prepared.config, prepared.cohort.patients.len());
+    let results = run_jobs(&prepared, &jobs, progress)?;
+    let arms = assemble(&prepared.config, prepared.cohort.patients.len(), results)?;
+    Ok(TrialOutput {
+        config: prepared.config,
+        first_week_te_bits: prepared.first_week_te_bits,
+        cohort: prepared.cohort,
+        arms,
+    })
+}
+
+/// A trial ready to run jobs: the cohort, the thread pool and the
+/// configuration with the calibrated TE reference (the calibration uses the
+/// whole cohort, so every shard of a trial computes the same one).
+pub(crate) struct Prepared {
+    /// The configuration actually run.
+    pub(crate) config: TrialConfig,
+    /// First-week TE per mode (see [`TrialOutput::first_week_te_bits`]).
+    pub(crate) first_week_te_bits: std::collections::BTreeMap<String, Vec<f64>>,
+    /// The cohort.
+    pub(crate) cohort: Cohort,
+    threads: usize,
+    pool: rayon::ThreadPool,
+}
+
+/// Builds the cohort and calibrates the TE reference.
+pub(crate) fn prepare(config: &TrialConfig, threads: usize) -> Result<Prepared, TrialError> {
+    prepare_on(config, build_cohort(config)?, threads)
+}
+
+/// Calibrates the TE reference on `cohort`.
+fn prepare_on(
+    config: &TrialConfig,
+    cohort: Cohort,
+    threads: usize,
+) -> Result<Prepared, TrialError> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -94,16 +131,39 @@ pub fn run_trial_on(
         }
         config = TrialConfig::try_from(raw)?;
     }
-    let config = &config;
-    let scenarios = config.planned();
+    Ok(Prepared {
+        config,
+        first_week_te_bits,
+        cohort,
+        threads,
+        pool,
+    })
+}
+
+/// Every job of a trial as (scenario index, arm index, patient index) into
+/// the planned scenarios, the arms and the cohort, in report order.
+pub(crate) fn jobs(config: &TrialConfig, patients: usize) -> Vec<(usize, usize, usize)> {
     let mut jobs = Vec::new();
-    for (si, _) in scenarios.iter().enumerate() {
-        for (ai, _) in config.arms.iter().enumerate() {
-            for pi in 0..cohort.patients.len() {
+    for si in 0..config.planned().len() {
+        for ai in 0..config.arms.len() {
+            for pi in 0..patients {
                 jobs.push((si, ai, pi));
             }
         }
     }
+    jobs
+}
+
+/// Runs `jobs` (in parallel unless the pool has one thread); the results
+/// come back in the order of `jobs`.
+pub(crate) fn run_jobs(
+    prepared: &Prepared,
+    jobs: &[(usize, usize, usize)],
+    progress: &dyn Progress,
+) -> Result<Vec<crate::results::PatientResult>, TrialError> {
+    let config = &prepared.config;
+    let cohort = &prepared.cohort;
+    let scenarios = config.planned();
     let total = jobs.len();
     let done = AtomicUsize::new(0);
     let job = |&(si, ai, pi): &(usize, usize, usize)| {
@@ -117,16 +177,32 @@ pub fn run_trial_on(
         progress.update(done.fetch_add(1, Ordering::Relaxed) + 1, total);
         r
     };
-    let results: Vec<_> = if threads == 1 {
-        jobs.iter().map(job).collect::<Result<_, _>>()?
+    if prepared.threads == 1 {
+        jobs.iter().map(job).collect()
     } else {
-        pool.install(|| jobs.par_iter().map(job).collect::<Result<_, _>>())?
-    };
+        prepared.pool.install(|| jobs.par_iter().map(job).collect())
+    }
+}
+
+/// Groups the results of every job (in [`jobs`] order) into one
+/// [`ArmResult`] per scenario × arm.
+pub(crate) fn assemble(
+    config: &TrialConfig,
+    patients: usize,
+    results: Vec<crate::results::PatientResult>,
+) -> Result<Vec<ArmResult>, TrialError> {
+    let expected = config.planned().len() * config.arms.len() * patients;
+    if results.len() != expected {
+        return Err(TrialError::Shard(format!(
+            "{} patient results for {expected} jobs",
+            results.len()
+        )));
+    }
     let mut arms = Vec::new();
     let mut it = results.into_iter();
-    for s in scenarios {
+    for s in config.planned() {
         for arm in &config.arms {
-            let patients: Vec<_> = it.by_ref().take(cohort.patients.len()).collect();
+            let patients: Vec<_> = it.by_ref().take(patients).collect();
             arms.push(ArmResult {
                 scenario: s.id,
                 advisor: *arm,
@@ -135,12 +211,7 @@ pub fn run_trial_on(
             });
         }
     }
-    Ok(TrialOutput {
-        config: config.clone(),
-        first_week_te_bits,
-        cohort,
-        arms,
-    })
+    Ok(arms)
 }
 
 /// Each patient's transfer entropy from insulin to glucose over the

@@ -1,0 +1,211 @@
+"""The gymnasium environments: registered on import, gymnasium's own
+checker passes, seeding on reset is honoured, the vector forms match the
+single environments' spaces and reset finished sub-environments."""
+
+import gymnasium
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import abba
+from abba.envs import (
+    DailyAdvisorEnv,
+    DailyAdvisorVectorEnv,
+    T1DSimEnv,
+    T1DSimVectorEnv,
+    risk_diff,
+)
+
+
+def test_registered_on_import():
+    ids = gymnasium.envs.registration.registry
+    assert "abba/T1DSim-v0" in ids and "abba/DailyAdvisor-v0" in ids
+    env = gymnasium.make("abba/T1DSim-v0", patient_name="adult#002")
+    assert isinstance(env.unwrapped, T1DSimEnv)
+    assert env.spec.max_episode_steps == 480
+
+
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda: T1DSimEnv(patient_name="adult#001"),
+        lambda: T1DSimEnv(patient_name=["child#002", "adolescent#004"], bolus_action=True),
+        lambda: gymnasium.make("abba/T1DSim-v0", patient_name="adult#003").unwrapped,
+        lambda: DailyAdvisorEnv(patient="adult#004", scenario="S1", days=12),
+        lambda: DailyAdvisorEnv(patient="adult#005", scenario="S4", days=12),
+        lambda: gymnasium.make("abba/DailyAdvisor-v0", patient="adult#001").unwrapped,
+    ],
+)
+def test_gymnasium_env_checker_passes(make):
+    check_env(make(), skip_render_check=True)
+
+
+def rollout(env, seed, steps, action):
+    obs, _ = env.reset(seed=seed)
+    out = [obs]
+    for _ in range(steps):
+        obs, r, term, trunc, info = env.step(action)
+        out.append(obs)
+        out.append(np.array([r]))
+    return np.concatenate([np.ravel(o) for o in out])
+
+
+def test_minute_env_reset_seed_is_honoured():
+    env = T1DSimEnv(patient_name="adult#001")
+    a = rollout(env, 5, 200, np.array([0.02], np.float32))
+    b = rollout(env, 5, 200, np.array([0.02], np.float32))
+    c = rollout(env, 6, 200, np.array([0.02], np.float32))
+    assert np.array_equal(a, b)
+    assert not np.array_equal(a, c)
+    # A fresh environment with the same reset seed gives the same episode.
+    d = rollout(T1DSimEnv(patient_name="adult#001"), 5, 200, np.array([0.02], np.float32))
+    assert np.array_equal(a, d)
+
+
+def test_minute_env_units_and_simglucose_semantics():
+    env = T1DSimEnv(patient_name="adult#001", meals=[(30, 50.0)], random_init_bg=False,
+                    start_minute_of_day=420)
+    obs, info = env.reset(seed=1)
+    assert env.sample_time == 3 and info["minute_of_day"] == 420
+    assert env.action_space.high[0] == 30.0  # U/min, simglucose's Insulet pump
+    meals, eaten = [], []
+    for _ in range(20):
+        obs, r, term, trunc, info = env.step(np.array([0.0], np.float32))
+        meals.append(info["meal"])
+        eaten.append(info["cho_g_per_min"] * 3)
+        assert info["insulin_u_per_min"] == 0.0
+    # The 50 g meal starts at minute 30 (step 10): simglucose's `meal` is
+    # the announced grams / 3 min in that step; it is eaten at 5 g/min.
+    assert meals[10] == pytest.approx(50.0 / 3) and sum(meals) == pytest.approx(50.0 / 3)
+    assert sum(eaten) == pytest.approx(50.0)
+    assert info["minute"] == 60 and info["minute_of_day"] == 480
+    # Custom rewards get the last hour of CGM readings (20 at 3 min).
+    seen = []
+    env = T1DSimEnv(patient_name="adult#001", reward_fun=lambda h: seen.append(len(h)) or 0.0)
+    env.reset(seed=2)
+    for _ in range(25):
+        env.step(np.array([0.01], np.float32))
+    assert seen[0] == 2 and seen[-1] == 20
+
+
+def test_minute_env_terminates_like_simglucose():
+    # No insulin and a big meal: glucose rises past 600 mg/dL eventually; a
+    # large insulin rate drives it below 10. Both end the episode.
+    env = T1DSimEnv(patient_name="child#001", random_init_bg=False)
+    env.reset(seed=0)
+    for k in range(2000):
+        obs, r, term, trunc, info = env.step(np.array([5.0], np.float32))
+        if term:
+            break
+    assert term and info["bg"] < 10
+
+
+def test_daily_env_days_actions_and_rewards():
+    env = DailyAdvisorEnv(patient="adult#002", scenario="S2", days=12)
+    obs, day1 = env.reset(seed=3)
+    assert day1["day"] == 1 and obs["cgm_mg_dl"].shape == (288,)
+    assert (obs["cgm_mg_dl"] > 0).all()  # CGM worn on D1-D8 in S2
+    action = env.standard_action
+    for d in range(2, 12):
+        obs, reward, term, trunc, info = env.step(action)
+        assert info["day"] == d and not term
+        assert reward == pytest.approx(-(info["lbgi"] + info["hbgi"]))
+        if d > 8:
+            assert (obs["cgm_mg_dl"] == 0).all() and (obs["smbg_mg_dl"] > 0).all()
+        assert trunc == (d == 12)
+    obs, reward, term, trunc, info = env.step(action)
+    assert trunc
+    # The paper's cost: 0 when every reading is within 90-150 mg/dL, and
+    # hypoglycaemia weighs ten times hyperglycaemia.
+    cost_env = DailyAdvisorEnv(patient="adult#002", scenario="S1", days=5, reward="neg_paper_cost")
+    cost_env.reset(seed=1)
+    _, r, _, _, info = cost_env.step(cost_env.standard_action)
+    cgm = info["cgm_mg_dl"]
+    hyper = np.clip(cgm - 150, 0, None)
+    hypo = np.clip(90 - cgm, 0, None)
+    # CGM mode's default features: the time-averaged excursion (sum over
+    # every reading / number of readings), normalised by 400-150 and 90-40.
+    f_hyper = min(1.0, hyper.sum() / len(cgm) / 250)
+    f_hypo = min(1.0, hypo.sum() / len(cgm) / 50)
+    assert r == pytest.approx(-(f_hyper + 10 * f_hypo), rel=1e-9)
+    # More insulin: lower mean glucose on the same day (same seed).
+    means = []
+    for scale in (1.0, 1.4):
+        env.reset(seed=9)
+        a = env.standard_action.copy()
+        a[0] *= scale
+        means.append(env.step(a)[4]["mean_mg_dl"])
+    assert means[1] < means[0]
+
+
+def test_vector_minute_env_steps_all_and_autoresets():
+    v = T1DSimVectorEnv(3, patient_name=["adult#001", "child#001", "adolescent#001"], seed=4,
+                        max_episode_steps=10)
+    assert v.single_observation_space == T1DSimEnv(patient_name="adult#001").observation_space
+    obs, _ = v.reset(seed=1)
+    assert obs.shape == (3, 1) and obs.dtype == np.float32
+    for k in range(10):
+        obs, r, term, trunc, info = v.step(np.full((3, 1), 0.01))
+        assert obs.shape == (3, 1) and r.shape == (3,)
+    assert trunc.all() and "final_observation" in info
+    # Same seed, same batch.
+    w = T1DSimVectorEnv(3, patient_name=["adult#001", "child#001", "adolescent#001"], seed=4)
+    a, _ = w.reset(seed=1)
+    b, _ = T1DSimVectorEnv(3, patient_name=["adult#001", "child#001", "adolescent#001"]).reset(seed=1)
+    assert np.array_equal(a, b)
+    # Default rewards are simglucose's risk_diff of each environment's CGM.
+    obs1, r1, *_ = w.step(np.full((3, 1), 0.01))
+    for i in range(3):
+        assert r1[i] == pytest.approx(risk_diff([a[i, 0], obs1[i, 0]]), rel=1e-5, abs=1e-6)
+
+
+def test_vector_minute_env_matches_single_env_glucose():
+    # With fixed meals and initial state, the batch and a single env see the
+    # same patient trajectory (BG does not depend on the noise seed).
+    kw = dict(meals=[(60, 40.0)], random_init_bg=False, start_minute_of_day=360)
+    v = T1DSimVectorEnv(2, patient_name="adult#007", seed=1, **kw)
+    v.reset(seed=1)
+    s = T1DSimEnv(patient_name="adult#007", **kw)
+    s.reset(seed=99)
+    for k in range(60):
+        _, _, _, _, vi = v.step(np.full((2, 1), 0.015))
+        _, _, _, _, si = s.step(np.array([0.015], np.float32))
+        assert vi["bg"][0] == si["bg"] == vi["bg"][1]
+
+
+def test_vector_daily_env_matches_single_daily_envs():
+    names = ["adult#001", "adult#002"]
+    v = DailyAdvisorVectorEnv(2, patient=names, scenario="S3", days=10, seed=5)
+    obs, _ = v.reset(seed=5)
+    assert obs["cgm_mg_dl"].shape == (2, 288)
+    actions = v.standard_actions * np.array([1.1, 1.0, 0.9, 1.0])
+    out, r, term, trunc, info = v.step(actions)
+    assert r.shape == (2,) and not term.any()
+    # Each sub-environment is the daily env of that patient with the seed
+    # the batch drew for it: the same actions give the same days.
+    seeds = np.random.default_rng(5)
+    for i, name in enumerate(names):
+        e = DailyAdvisorEnv(patient=name, scenario="S3", days=10)
+        e.core.reset(int(seeds.integers(0, 2**63 - 1)))
+        std = v.standard_actions[i]
+        e.core.day(float(std[0]), [float(x) for x in std[1:]])
+        d = e.core.day(float(actions[i, 0]), [float(x) for x in actions[i, 1:]])
+        assert np.array_equal(np.asarray(d["smbg_mg_dl"], np.float32), out["smbg_mg_dl"][i])
+        assert -(d["lbgi"] + d["hbgi"]) == r[i]
+
+
+def test_make_vec_builds_the_vector_forms():
+    # gymnasium 0.29 calls the vector entry point "custom" (1.x:
+    # "vector_entry_point"); options go through vector_kwargs.
+    mode = "custom" if gymnasium.__version__.startswith("0.") else "vector_entry_point"
+    v = gymnasium.make_vec("abba/T1DSim-v0", num_envs=4, vectorization_mode=mode,
+                           vector_kwargs={"patient_name": "adult#005"})
+    assert isinstance(v, T1DSimVectorEnv) and v.patient_names == ["adult#005"] * 4
+    assert v.max_episode_steps == 480
+    d = gymnasium.make_vec("abba/DailyAdvisor-v0", num_envs=2, vectorization_mode=mode,
+                           vector_kwargs={"days": 5})
+    assert isinstance(d, DailyAdvisorVectorEnv)
+    obs, _ = d.reset(seed=0)
+    for k in range(4):
+        obs, r, term, trunc, info = d.step(d.standard_actions)
+    assert trunc.all()

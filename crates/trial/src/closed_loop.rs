@@ -13,7 +13,7 @@
 
 use crate::error::TrialError;
 use crate::protocol::{ArmKind, TrialConfig};
-use crate::results::{evaluation_windows, PatientResult, RunFailure, WeekResult};
+use crate::results::{evaluation_windows, PatientResult, RunFailure, Week, WeekResult};
 use abba_advisor::any::{AdvisorSpec, AnyAdvisor};
 use abba_advisor::{Advisor, Mode};
 use abba_core::metrics::metrics_regular;
@@ -347,6 +347,11 @@ pub fn run_patient_with(
             last_day: last,
             metrics,
             tdi_u_per_day: tdi,
+            plasma_5min_mg_dl: if Week::TABLE.contains(&name) {
+                glucose[a..b].iter().map(|g| *g as f32).collect()
+            } else {
+                Vec::new()
+            },
         });
     }
     trace.init = ctl.advisor.init_report().cloned();

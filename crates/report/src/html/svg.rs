@@ -177,6 +177,19 @@ fn day_axes(fig: &mut Figure, plot: Plot, unit: GlucoseUnit, font: f64, every_h:
             );
         }
     }
+    target_lines(fig, plot);
+    fig.rect(
+        plot.left,
+        plot.top,
+        plot.width,
+        plot.height,
+        "none",
+        r##" stroke="#555555""##,
+    );
+}
+
+/// The target lines at 70 and 180 mg/dL.
+fn target_lines(fig: &mut Figure, plot: Plot) {
     for target in [70.0, 180.0] {
         let y = plot.y(target);
         fig.line(
@@ -188,14 +201,6 @@ fn day_axes(fig: &mut Figure, plot: Plot, unit: GlucoseUnit, font: f64, every_h:
             r#" stroke-width="1.5""#,
         );
     }
-    fig.rect(
-        plot.left,
-        plot.top,
-        plot.width,
-        plot.height,
-        "none",
-        r##" stroke="#555555""##,
-    );
 }
 
 /// The glucose profile (AGP style): 5-95 % and 25-75 % bands and the
@@ -257,6 +262,7 @@ pub fn profile_svg(id: &str, bins: &[ProfileBin], unit: GlucoseUnit, title: &str
             palette::BLUE
         );
     }
+    target_lines(&mut fig, plot);
     let cy = plot.top + plot.height / 2.0;
     let _ = write!(
         fig.out,
@@ -350,12 +356,12 @@ pub fn tir_bar_svg(id: &str, pct: [f64; 5], title: &str) -> String {
         fig.rect(bar_x, y, bar_w, bh, RANGE_COLOURS[i], r##" stroke="#FFFFFF""##);
         label_y.push(y + bh / 2.0);
     }
-    // Labels spread out so they never overlap (bottom to top, 40 px apart at least).
+    // Labels spread out so they never overlap (bottom to top, 32 px apart at least).
     let mut placed: Vec<f64> = Vec::new();
     for want in &label_y {
-        let mut ly = want.min(top + height - 6.0);
+        let mut ly = want.min(top + height - 10.0);
         if let Some(prev) = placed.last() {
-            ly = ly.min(prev - 40.0);
+            ly = ly.min(prev - 32.0);
         }
         placed.push(ly);
     }
@@ -370,7 +376,7 @@ pub fn tir_bar_svg(id: &str, pct: [f64; 5], title: &str) -> String {
             "start",
             &format!("{}: {:.1} %", RANGE_NAMES[i], pct[i]),
         );
-        fig.text(bar_x + bar_w + 18.0, ly + 8.0, 11.0, "start", GOALS[i]);
+        fig.text(bar_x + bar_w + 18.0, ly + 9.0, 11.0, "start", GOALS[i]);
     }
     fig.text(bar_x, 14.0, 12.0, "start", "% of readings (0-100 %)");
     fig.finish()

@@ -4,6 +4,8 @@
 
 #![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
 
+pub mod browser;
+
 use std::path::{Path, PathBuf};
 
 use abba_advisor::Mode;
@@ -143,27 +145,4 @@ pub fn check_structure(html: &str) {
     assert!(lower.contains("research software, not a medical device"));
 }
 
-/// Validates with HTML Tidy (the Debian `tidy` package) when it is there:
-/// no errors and no warnings. In CI (`CI=true`) tidy must be installed.
-pub fn validate_with_tidy(path: &Path) {
-    let found = std::process::Command::new("tidy").arg("-v").output().is_ok();
-    if !found {
-        assert!(
-            std::env::var("CI").as_deref() != Ok("true"),
-            "CI=true but the HTML validator `tidy` is not installed (.ci/run installs it)"
-        );
-        eprintln!("SKIPPED: HTML validation, `tidy` is not installed (apt-get install tidy)");
-        return;
-    }
-    let out = std::process::Command::new("tidy")
-        .args(["-errors", "-quiet", "--show-warnings", "yes", "--drop-empty-elements", "no"])
-        .arg(path)
-        .output()
-        .unwrap();
-    let report = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        report.trim().is_empty(),
-        "tidy finds problems in {}:\n{report}",
-        path.display()
-    );
-}
+pub use browser::validate_with_tidy;

@@ -19,7 +19,11 @@ fn person_reports_render_at_a4_width_without_errors() {
         ("person-smbg-mmol.html", Mode::Smbg, GlucoseUnit::MmolL),
     ] {
         let page = dir.join(name);
-        std::fs::write(&page, person_report_html(&synthetic_person(14, mode, unit)).unwrap()).unwrap();
+        std::fs::write(
+            &page,
+            person_report_html(&synthetic_person(14, mode, unit)).unwrap(),
+        )
+        .unwrap();
         if let Some(shot) = assert_renders_at_a4(&page) {
             eprintln!("screenshot: {}", shot.display());
         }

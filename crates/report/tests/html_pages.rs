@@ -47,7 +47,11 @@ fn person_percentiles_equal_an_independent_computation() {
                     bins_with_data += 1;
                     for (got, q) in p.iter().zip([0.05, 0.25, 0.5, 0.75, 0.95]) {
                         let want = quantile(&values, q);
-                        assert!((got - want).abs() < 1e-9, "{mode:?} bin {}: {got} vs {want}", bin.start_min);
+                        assert!(
+                            (got - want).abs() < 1e-9,
+                            "{mode:?} bin {}: {got} vs {want}",
+                            bin.start_min
+                        );
                     }
                 }
             }
@@ -57,7 +61,10 @@ fn person_percentiles_equal_an_independent_computation() {
         let html = person_report_html(&input).unwrap();
         let noon = summary.profile.iter().find(|b| b.start_min == 720).unwrap();
         if let Some(p) = noon.p {
-            assert!(html.contains(&format!("12:00: median {:.0}, 5th-95th {:.0}-{:.0}.", p[2], p[0], p[4])));
+            assert!(html.contains(&format!(
+                "12:00: median {:.0}, 5th-95th {:.0}-{:.0}.",
+                p[2], p[0], p[4]
+            )));
         }
     }
 }
@@ -80,11 +87,18 @@ fn every_day_has_its_panel_and_every_suggestion_its_answer() {
             .split("<tr>")
             .find(|r| r.contains(&s.reason))
             .unwrap_or_else(|| panic!("suggestion '{}' missing", s.reason));
-        assert!(row.contains(&format!("<td>{}</td>", s.answer)), "answer of '{}' missing", s.reason);
+        assert!(
+            row.contains(&format!("<td>{}</td>", s.answer)),
+            "answer of '{}' missing",
+            s.reason
+        );
         assert!(row.contains(&s.when) && row.contains(&s.to));
     }
     for answer in ["accepted", "rejected", "set to"] {
-        assert!(input.suggestions.iter().any(|s| s.answer.starts_with(answer)));
+        assert!(input
+            .suggestions
+            .iter()
+            .any(|s| s.answer.starts_with(answer)));
     }
     // The name is escaped, the period and CGM time are in the header.
     assert!(html.contains("Ada &lt;test&gt; &amp; co"));
@@ -94,7 +108,10 @@ fn every_day_has_its_panel_and_every_suggestion_its_answer() {
     let active = 100.0 * (14.0 * 288.0 - 24.0) / (14.0 * 288.0);
     assert!(html.contains(&format!("{active:.1} %")));
     // Per-meal outcomes: 3 meals a day, each with a 2 h and 4 h reading.
-    let meal_rows = html.split("<tr>").filter(|r| r.contains(">breakfast<") || r.contains(">lunch<") || r.contains(">dinner<")).count();
+    let meal_rows = html
+        .split("<tr>")
+        .filter(|r| r.contains(">breakfast<") || r.contains(">lunch<") || r.contains(">dinner<"))
+        .count();
     assert_eq!(meal_rows, 42);
     check_structure(&html);
 }
@@ -138,10 +155,16 @@ fn bad_input_is_refused_with_the_place() {
     let mut input = synthetic_person(3, Mode::Cgm, GlucoseUnit::MgDl);
     input.days[1].readings[5].mg_dl = f64::NAN;
     let err = person_report_html(&input).unwrap_err().to_string();
-    assert!(err.contains("days[1] (2026-11-03) readings[5].mg_dl"), "{err}");
+    assert!(
+        err.contains("days[1] (2026-11-03) readings[5].mg_dl"),
+        "{err}"
+    );
     let mut input = synthetic_person(3, Mode::Cgm, GlucoseUnit::MgDl);
     input.days[2].readings[0].minute_of_day = 1440;
-    assert!(person_report_html(&input).unwrap_err().to_string().contains("expected 0..1440"));
+    assert!(person_report_html(&input)
+        .unwrap_err()
+        .to_string()
+        .contains("expected 0..1440"));
     let mut input = synthetic_person(3, Mode::Cgm, GlucoseUnit::MgDl);
     input.days.clear();
     assert!(person_report_html(&input).is_err());
@@ -157,6 +180,10 @@ fn the_same_input_gives_the_same_bytes_and_the_page_validates() {
     std::fs::write(&path, &a).unwrap();
     validate_with_tidy(&path);
     let path = dir.join("person-smbg.html");
-    std::fs::write(&path, person_report_html(&synthetic_person(14, Mode::Smbg, GlucoseUnit::MmolL)).unwrap()).unwrap();
+    std::fs::write(
+        &path,
+        person_report_html(&synthetic_person(14, Mode::Smbg, GlucoseUnit::MmolL)).unwrap(),
+    )
+    .unwrap();
     validate_with_tidy(&path);
 }

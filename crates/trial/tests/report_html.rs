@@ -7,9 +7,9 @@
 #[path = "../../report/tests/common/browser.rs"]
 mod browser;
 
+use abba_report::build_report;
 use abba_report::html::trial_page::{cohort_profile, COHORT_BIN_MIN};
 use abba_report::results::Week;
-use abba_report::build_report;
 use abba_sim::scenario::ScenarioId;
 use abba_trial::runner::{run_trial, Silent};
 use abba_trial::{ArmKind, TrialConfig};
@@ -51,7 +51,10 @@ fn the_trial_page_shows_pooled_profiles_per_arm() {
                         .plasma_5min_mg_dl
                         .iter()
                         .enumerate()
-                        .filter(|(i, _)| (*i as u32 * 5) % 1440 / COHORT_BIN_MIN * COHORT_BIN_MIN == bin.start_min)
+                        .filter(|(i, _)| {
+                            (*i as u32 * 5) % 1440 / COHORT_BIN_MIN * COHORT_BIN_MIN
+                                == bin.start_min
+                        })
                         .map(|(_, g)| f64::from(*g))
                 })
                 .collect();
@@ -61,9 +64,17 @@ fn the_trial_page_shows_pooled_profiles_per_arm() {
                 assert!((got - quantile(&values, q)).abs() < 1e-9);
             }
         }
-        assert!(cohort_profile(arm, Week::W13).unwrap().is_none(), "9 days hold no W13");
+        assert!(
+            cohort_profile(arm, Week::W13).unwrap().is_none(),
+            "9 days hold no W13"
+        );
     }
-    let files = build_report(&out.arms, &serde_json::json!({"tool": "abba", "seed": 1}), None).unwrap();
+    let files = build_report(
+        &out.arms,
+        &serde_json::json!({"tool": "abba", "seed": 1}),
+        None,
+    )
+    .unwrap();
     let page = files.iter().find(|f| f.name == "report.html").unwrap();
     let html = String::from_utf8(page.bytes.clone()).unwrap();
     for arm in &out.arms {
@@ -73,9 +84,17 @@ fn the_trial_page_shows_pooled_profiles_per_arm() {
     assert!(html.contains("Table I: ours beside the paper"));
     assert!(html.contains("No run stopped"));
     assert!(!html.to_lowercase().contains("<script"));
-    assert_eq!(html.matches("<svg").count(), html.matches("role=\"img\"").count());
-    assert_eq!(html.matches("<svg").count(), html.matches("<svg").zip(html.matches("<title>")).count());
-    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("html").join("trial-small");
+    assert_eq!(
+        html.matches("<svg").count(),
+        html.matches("role=\"img\"").count()
+    );
+    assert_eq!(
+        html.matches("<svg").count(),
+        html.matches("<svg").zip(html.matches("<title>")).count()
+    );
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join("html")
+        .join("trial-small");
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("report.html");

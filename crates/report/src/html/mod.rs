@@ -96,5 +96,8 @@ pub(crate) fn render_page(
         env.add_template(n, source).map_err(err)?;
     }
     let ctx = minijinja::context! { css => CSS, disclaimer => DISCLAIMER, ..ctx };
-    env.get_template(name).map_err(err)?.render(ctx).map_err(err)
+    env.get_template(name)
+        .map_err(err)?
+        .render(ctx)
+        .map_err(err)
 }

@@ -282,7 +282,11 @@ pub fn person_report_html(input: &PersonReportInput) -> Result<String, ReportErr
         .iter()
         .enumerate()
         .map(|(i, d)| {
-            let r: Vec<(u32, f64)> = d.readings.iter().map(|r| (r.minute_of_day, r.mg_dl)).collect();
+            let r: Vec<(u32, f64)> = d
+                .readings
+                .iter()
+                .map(|r| (r.minute_of_day, r.mg_dl))
+                .collect();
             day_panel_svg(&format!("day{i}"), &d.date, &r, meter, unit)
         })
         .collect();

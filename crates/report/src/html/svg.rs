@@ -148,7 +148,14 @@ fn glucose_ticks(unit: GlucoseUnit, y_max: f64) -> Vec<f64> {
 
 /// Axes of a day: glucose from 0 with unit, time of day 00:00-24:00,
 /// target lines at 70 and 180 mg/dL.
-fn day_axes(fig: &mut Figure, plot: Plot, unit: GlucoseUnit, font: f64, every_h: u32, labels: bool) {
+fn day_axes(
+    fig: &mut Figure,
+    plot: Plot,
+    unit: GlucoseUnit,
+    font: f64,
+    every_h: u32,
+    labels: bool,
+) {
     fig.rect(
         plot.left,
         plot.y(180.0),
@@ -286,7 +293,14 @@ pub fn profile_svg(id: &str, bins: &[ProfileBin], unit: GlucoseUnit, title: &str
         ("target 70 and 180 mg/dL", palette::GREEN, true),
     ] {
         if is_line {
-            fig.line(x, ly - 4.0, x + 18.0, ly - 4.0, fill, r#" stroke-width="2.5""#);
+            fig.line(
+                x,
+                ly - 4.0,
+                x + 18.0,
+                ly - 4.0,
+                fill,
+                r#" stroke-width="2.5""#,
+            );
         } else {
             fig.rect(x, ly - 10.0, 18.0, 10.0, fill, "");
         }
@@ -336,7 +350,13 @@ fn profile_description(bins: &[ProfileBin], unit: GlucoseUnit) -> String {
 /// bottom, each labelled with its percentage and goal. `pct` are the
 /// percentages of [`RANGE_NAMES`], in that order.
 pub fn tir_bar_svg(id: &str, pct: [f64; 5], title: &str) -> String {
-    const GOALS: [&str; 5] = ["goal < 1 %", "goal < 4 %", "goal > 70 %", "goal < 25 %", "goal < 5 %"];
+    const GOALS: [&str; 5] = [
+        "goal < 1 %",
+        "goal < 4 %",
+        "goal > 70 %",
+        "goal < 25 %",
+        "goal < 5 %",
+    ];
     let (w, h) = (420.0, 260.0);
     let desc = RANGE_NAMES
         .iter()
@@ -353,7 +373,14 @@ pub fn tir_bar_svg(id: &str, pct: [f64; 5], title: &str) -> String {
     for (i, p) in pct.iter().enumerate() {
         let bh = height * p / total;
         y -= bh;
-        fig.rect(bar_x, y, bar_w, bh, RANGE_COLOURS[i], r##" stroke="#FFFFFF""##);
+        fig.rect(
+            bar_x,
+            y,
+            bar_w,
+            bh,
+            RANGE_COLOURS[i],
+            r##" stroke="#FFFFFF""##,
+        );
         label_y.push(y + bh / 2.0);
     }
     // Labels spread out so they never overlap (bottom to top, 32 px apart at least).
@@ -368,7 +395,14 @@ pub fn tir_bar_svg(id: &str, pct: [f64; 5], title: &str) -> String {
     let shift = (top + 14.0 - placed.last().copied().unwrap_or(top)).max(0.0);
     for (i, ly) in placed.iter().enumerate() {
         let ly = ly + shift;
-        fig.line(bar_x + bar_w, label_y[i], bar_x + bar_w + 14.0, ly - 4.0, "#777777", "");
+        fig.line(
+            bar_x + bar_w,
+            label_y[i],
+            bar_x + bar_w + 14.0,
+            ly - 4.0,
+            "#777777",
+            "",
+        );
         fig.text(
             bar_x + bar_w + 18.0,
             ly - 6.0,
@@ -470,7 +504,10 @@ pub fn accessible_svg(svg: &str, id: &str, title: &str, desc: &str) -> String {
         let j = head[i..].find('"')? + i;
         Some(head[i..j].to_string())
     };
-    let (w, h) = (attr("width").unwrap_or_default(), attr("height").unwrap_or_default());
+    let (w, h) = (
+        attr("width").unwrap_or_default(),
+        attr("height").unwrap_or_default(),
+    );
     format!(
         r#"<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 {w} {h}" role="img" class="{id}"><title>{}</title><desc>{}</desc>{}"#,
         esc(title),

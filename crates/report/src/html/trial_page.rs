@@ -119,10 +119,12 @@ struct ScenarioTable {
 }
 
 fn facts(manifest: &Value) -> Vec<Row> {
-    let get = |path: &str| manifest.pointer(path).map(|v| match v {
-        Value::String(s) => s.clone(),
-        other => other.to_string(),
-    });
+    let get = |path: &str| {
+        manifest.pointer(path).map(|v| match v {
+            Value::String(s) => s.clone(),
+            other => other.to_string(),
+        })
+    };
     [
         ("Version", "/version"),
         ("Git revision", "/git_revision"),
@@ -155,7 +157,10 @@ pub fn trial_report_html(
                 r.week.name(),
                 r.metric.label(),
                 &mean_sd(&r.ours, d),
-                &format!("{:.d$} [{:.d$}, {:.d$}]", r.ours.median, r.ours.q1, r.ours.q3),
+                &format!(
+                    "{:.d$} [{:.d$}, {:.d$}]",
+                    r.ours.median, r.ours.q1, r.ours.q3
+                ),
                 &r.paper
                     .as_ref()
                     .map_or_else(|| "—".into(), |p| format!("{:.d$} ± {:.d$}", p.mean, p.sd)),
@@ -166,7 +171,11 @@ pub fn trial_report_html(
                         format!(
                             "{} ({})",
                             a.text,
-                            if a.holds(r.ours.mean) { "holds" } else { "does not hold" }
+                            if a.holds(r.ours.mean) {
+                                "holds"
+                            } else {
+                                "does not hold"
+                            }
                         )
                     },
                 ),
@@ -218,11 +227,11 @@ pub fn trial_report_html(
         let mut headers = vec!["Metric".to_string(), "Week".to_string()];
         headers.extend(group.iter().map(|a| format!("{} (mean ± SD)", a.advisor)));
         let mut rows = Vec::new();
-        for metric in TABLE1_METRICS.into_iter().chain([
-            Metric::MeanMgDl,
-            Metric::CvPct,
-            Metric::TdiUPerDay,
-        ]) {
+        for metric in
+            TABLE1_METRICS
+                .into_iter()
+                .chain([Metric::MeanMgDl, Metric::CvPct, Metric::TdiUPerDay])
+        {
             for week in Week::TABLE {
                 let mut cells = vec![
                     format!("{} ({})", metric.label(), metric.unit().symbol()),
@@ -230,12 +239,13 @@ pub fn trial_report_html(
                 ];
                 let mut any = false;
                 for arm in &group {
-                    let s = summarize_present(&metric_column(arm, week, metric)).map_err(
-                        |source| ReportError::Stats {
-                            what: format!("arm {}, week {week}, metric {metric}", arm.key()),
-                            source,
-                        },
-                    )?;
+                    let s =
+                        summarize_present(&metric_column(arm, week, metric)).map_err(|source| {
+                            ReportError::Stats {
+                                what: format!("arm {}, week {week}, metric {metric}", arm.key()),
+                                source,
+                            }
+                        })?;
                     any |= s.is_some();
                     cells.push(s.map_or_else(|| "—".into(), |s| mean_sd(&s, decimals(metric))));
                 }
@@ -271,9 +281,19 @@ pub fn trial_report_html(
         for week in Week::TABLE {
             if let Some(c) = cohort_profile(arm, week)? {
                 let (a, b) = week.days();
-                let title = format!("{} {} (D{a}-D{b}), {} patients", arm.key(), week, c.n_patients);
+                let title = format!(
+                    "{} {} (D{a}-D{b}), {} patients",
+                    arm.key(),
+                    week,
+                    c.n_patients
+                );
                 weeks.push(Figure {
-                    svg: profile_svg(&format!("agp{i}{week}"), &c.profile, GlucoseUnit::MgDl, &title),
+                    svg: profile_svg(
+                        &format!("agp{i}{week}"),
+                        &c.profile,
+                        GlucoseUnit::MgDl,
+                        &title,
+                    ),
                     caption: format!(
                         "{week}: pooled percentiles of plasma glucose every 5 min over {} samples.",
                         c.n_samples
@@ -292,7 +312,11 @@ pub fn trial_report_html(
         if !weeks.is_empty() {
             agp.push(ArmAgp {
                 key: arm.key(),
-                heading: format!("{} ({} mode): cohort glucose profile", arm.key(), arm.mode.name()),
+                heading: format!(
+                    "{} ({} mode): cohort glucose profile",
+                    arm.key(),
+                    arm.mode.name()
+                ),
                 weeks,
             });
         }

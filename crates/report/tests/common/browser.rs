@@ -31,7 +31,11 @@ pub struct Rendered {
 /// outside CI.
 pub fn chromium() -> Option<PathBuf> {
     for name in ["chromium", "chromium-browser", "google-chrome"] {
-        if Command::new(name).arg("--version").output().is_ok_and(|o| o.status.success()) {
+        if Command::new(name)
+            .arg("--version")
+            .output()
+            .is_ok_and(|o| o.status.success())
+        {
             return Some(PathBuf::from(name));
         }
     }
@@ -90,8 +94,15 @@ pub fn open_at_a4(browser: &Path, page: &Path, screenshot: &Path) -> Rendered {
         .arg(url(page))
         .output()
         .unwrap();
-    assert!(shot.status.success(), "chromium --screenshot failed: {}", String::from_utf8_lossy(&shot.stderr));
-    assert!(screenshot.metadata().unwrap().len() > 1000, "empty screenshot");
+    assert!(
+        shot.status.success(),
+        "chromium --screenshot failed: {}",
+        String::from_utf8_lossy(&shot.stderr)
+    );
+    assert!(
+        screenshot.metadata().unwrap().len() > 1000,
+        "empty screenshot"
+    );
     let mut console = console_lines(&shot.stderr);
 
     let html = std::fs::read_to_string(page).unwrap();
@@ -106,12 +117,19 @@ pub fn open_at_a4(browser: &Path, page: &Path, screenshot: &Path) -> Rendered {
         .arg(url(&probe))
         .output()
         .unwrap();
-    assert!(dump.status.success(), "chromium --dump-dom failed: {}", String::from_utf8_lossy(&dump.stderr));
+    assert!(
+        dump.status.success(),
+        "chromium --dump-dom failed: {}",
+        String::from_utf8_lossy(&dump.stderr)
+    );
     console.extend(console_lines(&dump.stderr));
     let dom = String::from_utf8_lossy(&dump.stdout);
     let attr = |name: &str| -> u32 {
         let key = format!("{name}=\"");
-        let i = dom.find(&key).unwrap_or_else(|| panic!("{name} not in the dumped DOM")) + key.len();
+        let i = dom
+            .find(&key)
+            .unwrap_or_else(|| panic!("{name} not in the dumped DOM"))
+            + key.len();
         dom[i..dom[i..].find('"').unwrap() + i].parse().unwrap()
     };
     Rendered {
@@ -127,7 +145,12 @@ pub fn assert_renders_at_a4(page: &Path) -> Option<PathBuf> {
     let browser = chromium()?;
     let screenshot = page.with_extension("a4.png");
     let r = open_at_a4(&browser, page, &screenshot);
-    assert!(r.console.is_empty(), "console messages for {}:\n{}", page.display(), r.console.join("\n"));
+    assert!(
+        r.console.is_empty(),
+        "console messages for {}:\n{}",
+        page.display(),
+        r.console.join("\n")
+    );
     assert!(
         r.client_width > 0 && r.client_width <= A4_WIDTH_PX,
         "viewport {} px, expected at most {A4_WIDTH_PX}",
@@ -146,7 +169,10 @@ pub fn assert_renders_at_a4(page: &Path) -> Option<PathBuf> {
 /// Validates with HTML Tidy (the Debian `tidy` package) when it is there:
 /// no errors and no warnings. In CI (`CI=true`) tidy must be installed.
 pub fn validate_with_tidy(path: &Path) {
-    let found = std::process::Command::new("tidy").arg("-v").output().is_ok();
+    let found = std::process::Command::new("tidy")
+        .arg("-v")
+        .output()
+        .is_ok();
     if !found {
         assert!(
             std::env::var("CI").as_deref() != Ok("true"),
@@ -156,7 +182,14 @@ pub fn validate_with_tidy(path: &Path) {
         return;
     }
     let out = std::process::Command::new("tidy")
-        .args(["-errors", "-quiet", "--show-warnings", "yes", "--drop-empty-elements", "no"])
+        .args([
+            "-errors",
+            "-quiet",
+            "--show-warnings",
+            "yes",
+            "--drop-empty-elements",
+            "no",
+        ])
         .arg(path)
         .output()
         .unwrap();

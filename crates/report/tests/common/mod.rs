@@ -20,7 +20,9 @@ pub const START_UNIX_S: i64 = 1_793_577_600;
 
 /// Folder for this test's outputs under target/ (kept after the test, not in the repo).
 pub fn out_dir(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("html").join(name);
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join("html")
+        .join(name);
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
@@ -64,15 +66,19 @@ pub fn synthetic_person(days: usize, mode: Mode, unit: GlucoseUnit) -> PersonRep
                 mg_dl: glucose(d, m),
             })
             .collect();
-        let meals = [(MealSlot::Breakfast, 420), (MealSlot::Lunch, 750), (MealSlot::Dinner, 1140)]
-            .into_iter()
-            .map(|(slot, m)| MealTime {
-                at_unix_s: day_start + i64::from(m) * 60,
-                minute_of_day: m,
-                slot,
-                carbs_g: Some(40.0 + d as f64),
-            })
-            .collect();
+        let meals = [
+            (MealSlot::Breakfast, 420),
+            (MealSlot::Lunch, 750),
+            (MealSlot::Dinner, 1140),
+        ]
+        .into_iter()
+        .map(|(slot, m)| MealTime {
+            at_unix_s: day_start + i64::from(m) * 60,
+            minute_of_day: m,
+            slot,
+            carbs_g: Some(40.0 + d as f64),
+        })
+        .collect();
         out.push(PersonDay {
             date: format!("2026-11-{:02}", 2 + d),
             readings,
@@ -124,11 +130,18 @@ pub fn check_structure(html: &str) {
         let head = &part[..part.find('>').unwrap()];
         assert!(head.contains(r#"role="img""#), "svg {i} has no role=img");
         let after = &part[part.find('>').unwrap() + 1..];
-        assert!(after.starts_with("<title"), "svg {i} does not start with a <title>");
+        assert!(
+            after.starts_with("<title"),
+            "svg {i} does not start with a <title>"
+        );
         assert!(after.contains("<desc"), "svg {i} has no <desc>");
     }
     let tables = html.matches("<table").count();
-    assert_eq!(tables, html.matches("<thead>").count(), "a table without a header row");
+    assert_eq!(
+        tables,
+        html.matches("<thead>").count(),
+        "a table without a header row"
+    );
     for part in html.split("<table").skip(1) {
         let body = &part[..part.find("</table>").unwrap()];
         assert!(body.contains("<th"), "a table without <th>");
@@ -141,8 +154,12 @@ pub fn check_structure(html: &str) {
     let external = lower
         .replace("http://www.w3.org/2000/svg", "")
         .replace("http://www.w3.org/1999/xlink", "");
-    assert!(!external.contains("http://") && !external.contains("https://"), "external reference");
+    assert!(
+        !external.contains("http://") && !external.contains("https://"),
+        "external reference"
+    );
     assert!(lower.contains("research software, not a medical device"));
 }
 
+#[allow(unused_imports)]
 pub use browser::validate_with_tidy;

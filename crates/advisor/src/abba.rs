@@ -1,7 +1,9 @@
 //! The ABBA advisor: the daily timeline of spec §2 driven by device events.
 
 use crate::agent::{Agent, AgentCounters};
+use crate::bounds::ClinicianBounds;
 use crate::config::{AbbaConfig, Mode};
+use crate::data_rule::MinData;
 use crate::decision::{
     AbbaExplanation, Decision, DecisionDetail, DecisionLog, Parameter, SkipReason,
 };
@@ -14,7 +16,8 @@ use crate::te::{te_scale, theta0, transfer_entropy, TeCollector, TeEstimate};
 use crate::windows::{DayWindows, MealWindows};
 use crate::Advisor;
 use abba_core::{
-    Event, EventKind, GramsPerUnit, MealSlot, TherapySettings, Timestamp, UnitsPerHour,
+    Event, EventKind, GramsPerUnit, MealSlot, SettingValue, TherapySettings, Timestamp,
+    UnitsPerHour,
 };
 use serde::{Deserialize, Serialize};
 
@@ -65,6 +68,12 @@ pub struct Abba {
     meal_windows: MealWindows<WindowStats>,
     last_br_change: Option<(f64, f64)>,
     log: DecisionLog,
+    /// Clinician bounds, applied after the clamp (none by default).
+    #[serde(default)]
+    bounds: ClinicianBounds,
+    /// Minimum data per window (none by default).
+    #[serde(default)]
+    min_data: Option<MinData>,
 }
 
 fn agent_index(p: Parameter) -> usize {
@@ -103,7 +112,67 @@ impl Abba {
             day_windows: DayWindows::default(),
             meal_windows: MealWindows::default(),
             last_br_change: None,
+            bounds: ClinicianBounds::default(),
+            min_data: None,
         })
+    }
+
+    /// Sets the clinician bounds. The starting therapy must lie inside them.
+    pub fn with_bounds(mut self, bounds: ClinicianBounds) -> Result<Self, AdvisorError> {
+        bounds.validate()?;
+        let params = [
+            Parameter::Basal,
+            Parameter::CarbRatio(MealSlot::Breakfast),
+            Parameter::CarbRatio(MealSlot::Lunch),
+            Parameter::CarbRatio(MealSlot::Dinner),
+        ];
+        for p in params {
+            if let Some(r) = bounds.range(p) {
+                let v = self.value(p);
+                if !r.contains(v) {
+                    return Err(AdvisorError::Config {
+                        field: format!("clinician bounds ({p})"),
+                        problem: format!(
+                            "the value in force {v} {} lies outside {}-{}",
+                            p.unit(),
+                            r.min,
+                            r.max
+                        ),
+                    });
+                }
+            }
+        }
+        self.bounds = bounds;
+        Ok(self)
+    }
+
+    /// Asks each window for a minimum of readings; a window with fewer gets
+    /// no update ([`SkipReason::TooFewReadings`]).
+    pub fn with_min_data(mut self, rule: MinData) -> Self {
+        self.min_data = Some(rule);
+        self
+    }
+
+    /// The clinician bounds.
+    pub fn bounds(&self) -> &ClinicianBounds {
+        &self.bounds
+    }
+
+    /// Puts a person's answer in force: the next update of that setting
+    /// starts from `v` (AP_old of eq16 is what the pump used). A basal
+    /// answer also becomes BR_final for the carb ratios' switch rule.
+    fn put_in_force(&mut self, v: SettingValue) {
+        match v {
+            SettingValue::Basal { rate } => {
+                self.set_value(Parameter::Basal, rate.0);
+                if let Some((old, _)) = self.last_br_change {
+                    self.last_br_change = Some((old, rate.0));
+                }
+            }
+            SettingValue::CarbRatio { slot, ratio } => {
+                self.set_value(Parameter::CarbRatio(slot), ratio.0);
+            }
+        }
     }
 
     /// The configuration.
@@ -244,6 +313,17 @@ impl Abba {
             Ok(w) if w.2.is_empty() => return self.log.push(skipped(SkipReason::EmptyWindow)),
             Ok(w) => w,
         };
+        if let Some(rule) = self.min_data {
+            let day = p == Parameter::Basal;
+            let required = rule.required(self.config.mode, start, end, day);
+            if stats.n < required {
+                let reason = SkipReason::TooFewReadings {
+                    n: stats.n,
+                    required,
+                };
+                return self.log.push(skipped(reason));
+            }
+        }
         let cfg = &self.config;
         let kind = match p {
             Parameter::Basal => ParamKind::Basal,
@@ -262,7 +342,7 @@ impl Abba {
             cfg.update.max_relative_change,
         );
         let guard_hypo = cfg.update.hypo_guard && stats.hyponumber > 0;
-        let (learning, action, applied) =
+        let (learning, action, mut applied) =
             self.agents[agent_index(p)].decide(&f, cost, p_s, cfg, |p_e| {
                 let mut a = apply_action(kind, old, p_e, m, br_change, switch, max);
                 if guard_hypo && adds_insulin(kind, a.new / old - 1.0) {
@@ -271,6 +351,8 @@ impl Abba {
                 }
                 a
             });
+        let (held, bound) = self.bounds.hold(p, applied.new);
+        applied.new = held;
         self.set_value(p, applied.new);
         if kind == ParamKind::Basal {
             self.last_br_change = Some((old, applied.new));
@@ -291,6 +373,7 @@ impl Abba {
                 action,
                 br_change,
                 applied,
+                bound,
             })),
         });
     }
@@ -355,6 +438,12 @@ impl Abba {
                     .ok_or(SkipReason::NoPreviousDayWindow);
                 self.decide(e.at, Parameter::CarbRatio(MealSlot::MAIN[i]), window);
                 Some(self.settings)
+            }
+            EventKind::SuggestionAccepted(v)
+            | EventKind::SuggestionRejected(v)
+            | EventKind::SuggestionOverridden(v) => {
+                self.put_in_force(v);
+                None
             }
             EventKind::DayClosed => {
                 let day = closed_day(e.at);

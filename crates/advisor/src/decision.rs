@@ -50,6 +50,14 @@ pub enum SkipReason {
     NoFastingGlucose,
     /// Run-to-run: no post-meal glucose in the window.
     NoPostMealGlucose,
+    /// The window held fewer readings than the minimum set with
+    /// [`crate::Abba::with_min_data`] (a sensor gap, missing meter readings).
+    TooFewReadings {
+        /// Readings in the window.
+        n: u32,
+        /// Readings required.
+        required: u32,
+    },
 }
 
 /// Everything ABBA computed for one update.
@@ -75,6 +83,10 @@ pub struct AbbaExplanation {
     pub br_change: Option<(f64, f64)>,
     /// AP_new, AP_fusion, switch rule, clamp and the final value (eq16-21).
     pub applied: Applied,
+    /// The clinician bound that held the value, if one did (applied after
+    /// the clamp; `applied.new` is then the bound).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bound: Option<crate::bounds::BoundHeld>,
 }
 
 /// What a run-to-run update computed.
@@ -185,6 +197,13 @@ impl std::fmt::Display for Decision {
                 }
                 if x.applied.clamp_fired {
                     write!(f, ", 5 % clamp fired")?;
+                }
+                if let Some(b) = x.bound {
+                    write!(
+                        f,
+                        ", held at the clinician's {:?} bound {} (requested {:.4})",
+                        b.side, b.bound, b.requested
+                    )?;
                 }
                 if x.applied.hypo_guard_fired {
                     write!(f, ", hypo guard cancelled an insulin increase")?;

@@ -19,7 +19,7 @@
 
 use crate::config::EventLimits;
 use crate::error::AdvisorError;
-use abba_core::{Event, EventKind, MealSlot, Timestamp};
+use abba_core::{Event, EventKind, MealSlot, SettingValue, Timestamp};
 use serde::{Deserialize, Serialize};
 
 /// A serialisable copy of an accepted event's kind. (abba-core's `EventKind`
@@ -30,10 +30,15 @@ use serde::{Deserialize, Serialize};
 enum Seen {
     Cgm(f64),
     Smbg(f64),
-    Meal { carbs: f64, slot: MealSlot },
+    Meal {
+        carbs: f64,
+        slot: MealSlot,
+    },
     Bolus(f64),
     Basal(f64),
     DayClosed,
+    /// An answer: 0 accepted, 1 rejected, 2 overridden.
+    Answer(u8, SettingValue),
 }
 
 impl From<&EventKind> for Seen {
@@ -48,6 +53,9 @@ impl From<&EventKind> for Seen {
             EventKind::Bolus(u) => Seen::Bolus(u.0),
             EventKind::BasalRate(r) => Seen::Basal(r.0),
             EventKind::DayClosed => Seen::DayClosed,
+            EventKind::SuggestionAccepted(v) => Seen::Answer(0, v),
+            EventKind::SuggestionRejected(v) => Seen::Answer(1, v),
+            EventKind::SuggestionOverridden(v) => Seen::Answer(2, v),
         }
     }
 }
@@ -61,6 +69,9 @@ pub fn kind_name(kind: &EventKind) -> &'static str {
         EventKind::Bolus(_) => "bolus",
         EventKind::BasalRate(_) => "basal rate",
         EventKind::DayClosed => "day closed",
+        EventKind::SuggestionAccepted(_) => "suggestion accepted",
+        EventKind::SuggestionRejected(_) => "suggestion rejected",
+        EventKind::SuggestionOverridden(_) => "suggestion overridden",
     }
 }
 
@@ -186,6 +197,34 @@ impl EventGuard {
             EventKind::BasalRate(r) => {
                 check_value(e.at, "basal rate (U/h)", r.0, 0.0, limits.basal_max_u_per_h)?
             }
+            EventKind::SuggestionAccepted(v)
+            | EventKind::SuggestionRejected(v)
+            | EventKind::SuggestionOverridden(v) => match v {
+                SettingValue::Basal { rate } => check_value(
+                    e.at,
+                    "basal rate in force (U/h)",
+                    rate.0,
+                    f64::MIN_POSITIVE,
+                    limits.basal_max_u_per_h,
+                )?,
+                SettingValue::CarbRatio { slot, ratio } => {
+                    if slot.main_index().is_none() {
+                        return Err(AdvisorError::InvalidValue {
+                            at: e.at,
+                            what: "carb ratio in force (only main meals have one)",
+                            expected: "breakfast, lunch or dinner".into(),
+                            got: f64::NAN,
+                        });
+                    }
+                    check_value(
+                        e.at,
+                        "carb ratio in force (g/U)",
+                        ratio.0,
+                        f64::MIN_POSITIVE,
+                        limits.carbs_max_g,
+                    )?
+                }
+            },
             EventKind::DayClosed => {
                 let d = closed_day(e.at);
                 if let Some(last) = self.last_closed_day {

@@ -99,6 +99,9 @@ fn obviously_bad(
         EventKind::Bolus(u) => ok(u.0, 0.0, l.bolus_max_u),
         EventKind::BasalRate(r) => ok(r.0, 0.0, l.basal_max_u_per_h),
         EventKind::DayClosed => true,
+        EventKind::SuggestionAccepted(v)
+        | EventKind::SuggestionRejected(v)
+        | EventKind::SuggestionOverridden(v) => v.number().is_finite() && v.number() > 0.0,
     };
     (!good).then_some("value")
 }

@@ -6,9 +6,16 @@ use std::process::{Command, Output};
 
 const CORE_DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../core/tests/data");
 
+/// Runs abba; `metrics` on a plain CSV gets `--units mg/dL` unless the
+/// test gives units itself (plain CSV does not say its unit).
 fn abba(args: &[&str]) -> Output {
+    let mut args: Vec<&str> = args.to_vec();
+    if args[0] == "metrics" && !args.contains(&"--units") && !args.contains(&"--no-units") {
+        args.extend(["--units", "mg/dL"]);
+    }
+    args.retain(|a| *a != "--no-units");
     Command::new(env!("CARGO_BIN_EXE_abba"))
-        .args(args)
+        .args(&args)
         .env_remove("RUST_BACKTRACE")
         .env_remove("RUST_LIB_BACKTRACE")
         .output()
@@ -168,7 +175,10 @@ fn a_bad_time_or_a_non_positive_glucose_is_rejected() {
     std::fs::remove_file(&path).ok();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
-    assert!(err.contains("line 3") && err.contains("> 0"), "{err}");
+    assert!(
+        err.contains("line 3") && err.contains("plausible range 10..1000"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -214,23 +224,11 @@ fn a_missing_column_names_the_columns_found() {
 }
 
 #[test]
-fn readings_out_of_order_are_rejected_unless_sorted() {
+fn readings_in_any_order_are_sorted_and_a_second_value_at_the_same_time_is_an_error() {
+    // Exports come newest first (Nightscout) or interleaved: order is not an error.
     let csv = "time,glucose\n2024-01-01 00:10,120\n2024-01-01 00:00,100\n2024-01-01 00:05,110\n";
     let path = temp_csv("order", csv);
-    let out = abba(&["metrics", "--input", path.to_str().unwrap()]);
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        err.contains("line 3") && err.contains("line 2") && err.contains("--sort"),
-        "{err}"
-    );
-    let out = abba(&[
-        "metrics",
-        "--input",
-        path.to_str().unwrap(),
-        "--sort",
-        "--json",
-    ]);
+    let out = abba(&["metrics", "--input", path.to_str().unwrap(), "--json"]);
     std::fs::remove_file(&path).ok();
     assert_eq!(json_of(&out)["mean_mg_dl"].as_f64(), Some(110.0));
 
@@ -238,11 +236,91 @@ fn readings_out_of_order_are_rejected_unless_sorted() {
         "dup",
         "time,glucose\n2024-01-01 00:00,100\n2024-01-01T00:00:00,101\n",
     );
-    let out = abba(&["metrics", "--input", path.to_str().unwrap(), "--sort"]);
+    let out = abba(&["metrics", "--input", path.to_str().unwrap()]);
     std::fs::remove_file(&path).ok();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
-    assert!(err.contains("line 3") && err.contains("same time"), "{err}");
+    assert!(
+        err.contains("line 3") && err.contains("line 2") && err.contains("same time"),
+        "{err}"
+    );
+}
+
+#[test]
+fn plain_csv_needs_units() {
+    let path = temp_csv(
+        "nounits",
+        "time,glucose\n2024-01-01 00:00,100\n2024-01-01 00:05,110\n",
+    );
+    let out = abba(&["metrics", "--input", path.to_str().unwrap(), "--no-units"]);
+    std::fs::remove_file(&path).ok();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("does not say its unit") && err.contains("--units"),
+        "{err}"
+    );
+}
+
+#[test]
+fn implausible_values_are_refused_with_the_limit_named() {
+    // Issue 8 item 7: 1e308 and 0.0001 mg/dL were accepted without a word.
+    for v in ["1e308", "0.0001"] {
+        let path = temp_csv(
+            "implausible",
+            &format!("time,glucose\n2024-01-01 00:00,100\n2024-01-01 00:05,{v}\n"),
+        );
+        let out = abba(&["metrics", "--input", path.to_str().unwrap()]);
+        std::fs::remove_file(&path).ok();
+        assert!(!out.status.success(), "{v} accepted");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains("line 3") && err.contains("\"glucose\"") && err.contains("10..1000 mg/dL"),
+            "{err}"
+        );
+    }
+}
+
+#[test]
+fn a_one_year_gap_is_reported_and_warned_about() {
+    let mut csv = String::from("time,glucose\n");
+    for day in ["2023-01-01", "2024-01-01"] {
+        for i in 0..12 {
+            csv.push_str(&format!("{day} 00:{:02},{}\n", 5 * i, 100 + i));
+        }
+    }
+    let path = temp_csv("gap", &csv);
+    let out = abba(&["metrics", "--input", path.to_str().unwrap()]);
+    std::fs::remove_file(&path).ok();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        err.contains("warning: CGM coverage") && err.contains("70 %"),
+        "{err}"
+    );
+    // 365 days minus the 55 minutes of the first hour.
+    let gap = 365.0 * 1440.0 - 55.0;
+    assert!(
+        text.contains(&format!("longest gap {gap:.0} min")),
+        "{text}"
+    );
+}
+
+#[test]
+fn crlf_files_name_the_right_line() {
+    let path = temp_csv(
+        "crlf",
+        "time,glucose\r\n2024-01-01 00:00,100\r\n2024-01-01 00:05,110\r\n2024-01-01 00:10,x\r\n",
+    );
+    let out = abba(&["metrics", "--input", path.to_str().unwrap()]);
+    std::fs::remove_file(&path).ok();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("line 4,") && err.contains("\"x\""), "{err}");
 }
 
 #[test]

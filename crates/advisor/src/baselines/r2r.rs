@@ -378,6 +378,20 @@ impl RunToRun {
                 self.basal_update(e.at, acc);
                 Some(self.settings)
             }
+            // The person's answer: the next update starts from the value in force.
+            EventKind::SuggestionAccepted(v)
+            | EventKind::SuggestionRejected(v)
+            | EventKind::SuggestionOverridden(v) => {
+                match v {
+                    abba_core::SettingValue::Basal { rate } => self.settings.basal = rate,
+                    abba_core::SettingValue::CarbRatio { slot, ratio } => {
+                        if let Some(i) = slot.main_index() {
+                            self.settings.carb_ratio[i] = ratio;
+                        }
+                    }
+                }
+                None
+            }
             _ => None,
         }
     }

@@ -1,0 +1,148 @@
+//! Clinician bounds: the range a person's clinician allows for the basal
+//! rate and for each main meal's carb ratio. They are applied after the
+//! 5 %-a-day clamp, so no suggestion ever leaves them, and a suggestion held
+//! at a bound says so in its explanation ([`BoundHeld`]).
+
+use crate::decision::Parameter;
+use crate::error::AdvisorError;
+use serde::{Deserialize, Serialize};
+
+/// An inclusive range `[min, max]` (U/h or g/U).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Range {
+    /// Lowest value allowed.
+    pub min: f64,
+    /// Highest value allowed.
+    pub max: f64,
+}
+
+impl Range {
+    /// True when `v` lies in the range.
+    pub fn contains(&self, v: f64) -> bool {
+        v >= self.min && v <= self.max
+    }
+}
+
+/// The clinician's bounds; `None` means no bound for that setting.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct ClinicianBounds {
+    /// Bounds of the basal rate (U/h).
+    pub basal: Option<Range>,
+    /// Bounds of the carb ratios of breakfast, lunch and dinner (g/U).
+    pub carb_ratio: [Option<Range>; 3],
+}
+
+/// Which bound held a suggestion.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Side {
+    /// The lower bound.
+    Lower,
+    /// The upper bound.
+    Upper,
+}
+
+/// A suggestion held at a clinician bound: what the advisor wanted and
+/// where it was held.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct BoundHeld {
+    /// Which bound.
+    pub side: Side,
+    /// The bound's value (the suggestion).
+    pub bound: f64,
+    /// The value after the 5 % clamp, before the bound.
+    pub requested: f64,
+}
+
+impl ClinicianBounds {
+    /// The range of a parameter, if any.
+    pub fn range(&self, p: Parameter) -> Option<Range> {
+        match p {
+            Parameter::Basal => self.basal,
+            Parameter::CarbRatio(s) => s.main_index().and_then(|i| self.carb_ratio[i]),
+        }
+    }
+
+    /// Checks every range: finite, positive, `min <= max`.
+    pub fn validate(&self) -> Result<(), AdvisorError> {
+        let all = std::iter::once(("basal rate bounds", self.basal)).chain(
+            ["breakfast", "lunch", "dinner"]
+                .into_iter()
+                .zip(self.carb_ratio)
+                .map(|(n, r)| (n, r)),
+        );
+        for (what, r) in all {
+            if let Some(r) = r {
+                if !(r.min.is_finite() && r.max.is_finite() && r.min > 0.0 && r.min <= r.max) {
+                    return Err(AdvisorError::Config {
+                        field: format!("clinician bounds ({what})"),
+                        problem: format!(
+                            "expected 0 < min <= max, both finite; got {}-{}",
+                            r.min, r.max
+                        ),
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Holds `v` inside the parameter's range; says which bound held it.
+    pub fn hold(&self, p: Parameter, v: f64) -> (f64, Option<BoundHeld>) {
+        match self.range(p) {
+            Some(r) if v < r.min => (
+                r.min,
+                Some(BoundHeld {
+                    side: Side::Lower,
+                    bound: r.min,
+                    requested: v,
+                }),
+            ),
+            Some(r) if v > r.max => (
+                r.max,
+                Some(BoundHeld {
+                    side: Side::Upper,
+                    bound: r.max,
+                    requested: v,
+                }),
+            ),
+            _ => (v, None),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use abba_core::MealSlot;
+
+    #[test]
+    fn holds_at_the_bound_and_says_which() {
+        let b = ClinicianBounds {
+            basal: Some(Range { min: 0.5, max: 1.0 }),
+            carb_ratio: [
+                None,
+                Some(Range {
+                    min: 8.0,
+                    max: 12.0,
+                }),
+                None,
+            ],
+        };
+        assert_eq!(b.hold(Parameter::Basal, 0.8), (0.8, None));
+        let (v, h) = b.hold(Parameter::Basal, 1.04);
+        assert_eq!(v, 1.0);
+        assert_eq!(h.map(|h| h.side), Some(Side::Upper));
+        let (v, h) = b.hold(Parameter::CarbRatio(MealSlot::Lunch), 7.9);
+        assert_eq!((v, h.map(|h| h.side)), (8.0, Some(Side::Lower)));
+        assert_eq!(
+            b.hold(Parameter::CarbRatio(MealSlot::Dinner), 99.0),
+            (99.0, None)
+        );
+        let bad = ClinicianBounds {
+            basal: Some(Range { min: 2.0, max: 1.0 }),
+            ..ClinicianBounds::default()
+        };
+        assert!(bad.validate().is_err());
+    }
+}

@@ -1,0 +1,67 @@
+//! `abba export`: a simulated patient's device data (the event stream the
+//! trial fed the advisor) as Nightscout JSON, via abba-io's writer.
+use std::path::PathBuf;
+
+use abba_io::clock::AdvisorClock;
+use abba_sim::scenario::ScenarioId;
+use abba_trial::protocol::{ArmKind, TrialConfig};
+use anyhow::{anyhow, Result};
+
+use crate::input::date;
+
+/// Arguments of `abba export`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Patient name in the trial's cohort (for example adult#001).
+    #[arg(long, value_name = "PATIENT")]
+    patient: String,
+    /// Cohort size (the trial's --patients; the first 10 are the public patients).
+    #[arg(long, default_value_t = 10)]
+    patients: u32,
+    /// Days to simulate.
+    #[arg(long, default_value_t = 14)]
+    days: u32,
+    /// Arm whose advisor runs: abba, standard or r2r.
+    #[arg(long, default_value = "abba")]
+    arm: String,
+    /// The person's IANA time zone.
+    #[arg(long, value_name = "ZONE", default_value = "UTC")]
+    tz: String,
+    /// Calendar date of day 1 (YYYY-MM-DD).
+    #[arg(long, value_name = "DATE", default_value = "2026-01-05")]
+    start: String,
+    /// Folder for entries.json, treatments.json and profile.json.
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+}
+
+/// Runs `abba export` (scenario S1: CGM, days closing at midnight).
+pub fn run(args: Args) -> Result<()> {
+    let arm = ArmKind::ALL
+        .into_iter()
+        .find(|a| a.name() == args.arm)
+        .ok_or_else(|| anyhow!("--arm {}: expected abba, standard or r2r", args.arm))?;
+    let config = TrialConfig {
+        days: args.days,
+        patients: args.patients,
+        ..TrialConfig::default()
+    };
+    let cohort = abba_trial::runner::build_cohort(&config)?;
+    let (_, trace) =
+        abba_trial::runner::trace_patient(&config, &cohort, &args.patient, ScenarioId::S1, arm)?;
+    let therapy = cohort
+        .patients
+        .iter()
+        .find(|p| p.params.name == args.patient)
+        .map(|p| p.therapy)
+        .ok_or_else(|| anyhow!("no patient {} in the cohort", args.patient))?;
+    let clock = AdvisorClock::new(
+        abba_io::time::zone(&args.tz)?,
+        date("--start", &args.start)?,
+    );
+    let files =
+        abba_io::nightscout_out::write(trace.events.as_deref().unwrap_or(&[]), &therapy, &clock)?;
+    abba_io::nightscout_out::write_dir(&files, &args.out)?;
+    println!("wrote {}/{{entries,treatments,profile}}.json for {} (simulated; abba is research software, not a medical device)", args.out.display(), args.patient);
+    Ok(())
+}

@@ -1,0 +1,60 @@
+//! `abba import`: add device exports to a person's log (idempotent).
+use std::path::PathBuf;
+
+use abba_io::read::Format;
+use abba_store::{Store, NOTICE};
+use anyhow::{Context, Result};
+
+/// Arguments of `abba import`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// The store file.
+    #[arg(long, value_name = "FILE")]
+    pub db: PathBuf,
+    /// The person.
+    #[arg(long, value_name = "NAME")]
+    pub person: String,
+    /// Format of the files (nightscout, clarity, libreview, tidepool, csv) [default: detected].
+    #[arg(long)]
+    pub format: Option<String>,
+    /// Print the summary as JSON.
+    #[arg(long)]
+    pub json: bool,
+    /// Export files (a Nightscout export is entries.json, treatments.json, profile.json).
+    #[arg(required = true, value_name = "FILE")]
+    pub files: Vec<PathBuf>,
+}
+
+/// Runs `abba import`.
+pub fn run(a: Args) -> Result<()> {
+    let format = match &a.format {
+        Some(f) => Some(Format::parse(f).with_context(|| {
+            format!("--format \"{f}\": expected nightscout, clarity, libreview, tidepool or csv")
+        })?),
+        None => None,
+    };
+    let mut store = Store::open(&a.db).with_context(|| format!("opening {}", a.db.display()))?;
+    let s = store.import_files(&a.person, &a.files, format)?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&s)?);
+        return Ok(());
+    }
+    if s.added == 0 {
+        println!(
+            "Nothing new: all {} records of {} are already in {}'s log.",
+            s.read,
+            s.files.join(", "),
+            a.person
+        );
+    } else {
+        println!(
+            "Imported {} new records for {} ({} read, {} already known, {} exact duplicates between the files).",
+            s.added, a.person, s.read, s.known, s.duplicates_in_files
+        );
+    }
+    if let Some(d) = &s.first_day {
+        println!("Day 1 of the advisor: {d}.");
+    }
+    println!("{NOTICE}");
+    Ok(())
+}

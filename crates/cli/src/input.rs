@@ -1,0 +1,78 @@
+//! Options shared by `abba metrics` and `abba events`: which files, how to
+//! read them. Parsing only; reading is abba-io's.
+use std::path::PathBuf;
+
+use abba_io::time::DateOrder;
+use abba_io::{Format, GlucoseUnit, ReadOptions};
+use anyhow::{anyhow, bail, Result};
+
+/// How to read the input files.
+#[derive(clap::Args, Debug)]
+pub struct InputArgs {
+    /// Export files (Nightscout JSON, Dexcom Clarity CSV, LibreView CSV, Tidepool JSON, plain CSV).
+    #[arg(long, value_name = "FILE", num_args = 1.., required = true)]
+    pub input: Vec<PathBuf>,
+    /// Format of every input: nightscout, clarity, libreview, tidepool, csv [default: detected from content].
+    #[arg(long, value_name = "FORMAT")]
+    pub format: Option<String>,
+    /// The person's IANA time zone (how times without an offset are read, how days are grouped).
+    #[arg(long, value_name = "ZONE")]
+    pub tz: Option<String>,
+    /// Glucose unit of files that do not say (plain CSV): mg/dL or mmol/L.
+    #[arg(long, value_name = "UNIT")]
+    pub units: Option<String>,
+    /// Plain CSV: name of the time column.
+    #[arg(long, value_name = "NAME")]
+    pub time_column: Option<String>,
+    /// Plain CSV: name of the glucose column.
+    #[arg(long, value_name = "NAME")]
+    pub glucose_column: Option<String>,
+    /// Plain CSV: use only the rows whose `id` column equals ID.
+    #[arg(long, value_name = "ID")]
+    pub subject: Option<String>,
+    /// LibreView dates that do not tell (no day above 12, no AM/PM): day-first or month-first.
+    #[arg(long, value_name = "ORDER")]
+    pub date_order: Option<String>,
+}
+
+impl InputArgs {
+    /// The reader options these arguments ask for.
+    pub fn options(&self) -> Result<ReadOptions> {
+        Ok(ReadOptions {
+            format: match &self.format {
+                Some(f) => Some(Format::parse(f).ok_or_else(|| {
+                    anyhow!(
+                        "--format {f}: expected nightscout, clarity, libreview, tidepool or csv"
+                    )
+                })?),
+                None => None,
+            },
+            units: match &self.units {
+                Some(u) => Some(
+                    GlucoseUnit::parse(u)
+                        .ok_or_else(|| anyhow!("--units {u}: expected mg/dL or mmol/L"))?,
+                ),
+                None => None,
+            },
+            tz: match &self.tz {
+                Some(z) => Some(abba_io::time::zone(z)?),
+                None => None,
+            },
+            time_column: self.time_column.clone(),
+            glucose_column: self.glucose_column.clone(),
+            subject: self.subject.clone(),
+            date_order: match self.date_order.as_deref() {
+                None => None,
+                Some("day-first") => Some(DateOrder::DayFirst),
+                Some("month-first") => Some(DateOrder::MonthFirst),
+                Some(o) => bail!("--date-order {o}: expected day-first or month-first"),
+            },
+        })
+    }
+}
+
+/// Parses `YYYY-MM-DD`.
+pub fn date(flag: &str, text: &str) -> Result<jiff::civil::Date> {
+    text.parse()
+        .map_err(|e| anyhow!("{flag} {text}: expected a date like 2024-03-31 ({e})"))
+}

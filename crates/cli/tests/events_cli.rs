@@ -1,0 +1,191 @@
+//! `abba events`, `abba export` and `abba metrics` on device exports, run
+//! as a user would.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::process::{Command, Output};
+
+const IO_DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../io/tests/data");
+
+fn abba(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_abba"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn ok(out: &Output) -> String {
+    assert!(
+        out.status.success(),
+        "abba failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout.clone()).unwrap()
+}
+
+fn nightscout() -> Vec<String> {
+    ["entries", "treatments", "profile"]
+        .iter()
+        .map(|n| format!("{IO_DATA}/nightscout_{n}_synthetic.json"))
+        .collect()
+}
+
+#[test]
+fn events_prints_counts_ignored_kinds_and_the_meal_rule() {
+    let files = nightscout();
+    let mut args = vec!["events", "--tz", "Europe/Zurich", "--input"];
+    args.extend(files.iter().map(String::as_str));
+    let text = ok(&abba(&args));
+    for part in [
+        "research software",
+        "\"cgm\": 859",
+        "\"meal_announced\": 11",
+        "\"Sensor Start\": 1",
+        "meal rule: carbohydrate entries are breakfast 05:00-10:30",
+        "rejected: 0",
+    ] {
+        assert!(text.contains(part), "lacks {part}:\n{text}");
+    }
+    let mut listed = args.clone();
+    listed.push("--list");
+    let list = ok(&abba(&listed));
+    assert!(
+        list.contains("advisor events (day and local minute):")
+            && list.contains("D1 00:00 Cgm(MgDl("),
+        "{}",
+        &list[..list.len().min(3000)]
+    );
+    args.push("--json");
+    let v: serde_json::Value = serde_json::from_str(&ok(&abba(&args))).unwrap();
+    assert_eq!(v["mapping"]["counts"]["cgm"], 859);
+    assert_eq!(
+        v["records"].as_array().unwrap().len(),
+        859 + 3 + 11 + 11 + 3 + 1 + 2
+    );
+}
+
+#[test]
+fn events_needs_a_zone() {
+    let files = nightscout();
+    let out = abba(&["events", "--input", &files[0]]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--tz"));
+}
+
+#[test]
+fn metrics_reads_a_clarity_export_and_reports_coverage() {
+    let f = format!("{IO_DATA}/clarity_export_synthetic.csv");
+    let text = ok(&abba(&["metrics", "--input", &f, "--tz", "Europe/Zurich"]));
+    assert!(
+        text.contains("3922 readings") && text.contains("coverage") && text.contains("longest gap"),
+        "{text}"
+    );
+    assert!(
+        text.contains("5 readings were reported only as Low/High"),
+        "{text}"
+    );
+    // --from/--to keep the chosen local days only: 288 EGV rows are dated 1961-04-13.
+    let one = ok(&abba(&[
+        "metrics",
+        "--input",
+        &f,
+        "--tz",
+        "Europe/Zurich",
+        "--from",
+        "1961-04-13",
+        "--to",
+        "1961-04-13",
+    ]));
+    assert!(
+        one.contains("288 readings from 1961-04-13T00:01:50"),
+        "{one}"
+    );
+}
+
+#[test]
+fn export_writes_nightscout_that_events_reads_back() {
+    let dir = std::env::temp_dir().join(format!("abba_export_cli_{}", std::process::id()));
+    let d = dir.to_str().unwrap();
+    let text = ok(&abba(&[
+        "export",
+        "--patient",
+        "adult#002",
+        "--days",
+        "4",
+        "--tz",
+        "Europe/Zurich",
+        "--start",
+        "2026-02-02",
+        "--out",
+        d,
+    ]));
+    assert!(text.contains("research software"), "{text}");
+    let files: Vec<String> = ["entries", "treatments", "profile"]
+        .iter()
+        .map(|n| format!("{d}/{n}.json"))
+        .collect();
+    let mut args = vec![
+        "events",
+        "--tz",
+        "Europe/Zurich",
+        "--first-day",
+        "2026-02-02",
+        "--json",
+        "--input",
+    ];
+    args.extend(files.iter().map(String::as_str));
+    let v: serde_json::Value = serde_json::from_str(&ok(&abba(&args))).unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+    let counts = &v["mapping"]["counts"];
+    // D2..D4 at one CGM reading every 5 minutes.
+    assert_eq!(counts["cgm"], 3 * 288, "{counts}");
+    assert_eq!(counts["meal_announced"], 9, "{counts}");
+    assert_eq!(v["mapping"]["rejected"].as_array().unwrap().len(), 0);
+}
+
+#[test]
+fn metrics_reads_abbas_own_simulate_output() {
+    let dir = std::env::temp_dir().join(format!("abba_sim_out_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out_csv = dir.join("day.csv");
+    let f = out_csv.to_str().unwrap();
+    ok(&abba(&[
+        "simulate",
+        "--patient",
+        "adult#001",
+        "--day",
+        "standard",
+        "--out",
+        f,
+    ]));
+    // Plasma and subcutaneous glucose are both there: the user chooses.
+    let both = abba(&["metrics", "--input", f]);
+    assert!(!both.status.success());
+    assert!(String::from_utf8_lossy(&both.stderr).contains("--glucose-column"));
+    let v: serde_json::Value = serde_json::from_str(&ok(&abba(&[
+        "metrics",
+        "--input",
+        f,
+        "--glucose-column",
+        "gs_mg_dl",
+        "--json",
+    ])))
+    .unwrap();
+    // The mean of the gs_mg_dl column, computed here from the file.
+    let text = std::fs::read_to_string(&out_csv).unwrap();
+    let col = text
+        .lines()
+        .next()
+        .unwrap()
+        .split(',')
+        .position(|c| c == "gs_mg_dl")
+        .unwrap();
+    let gs: Vec<f64> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(col).unwrap().parse().unwrap())
+        .collect();
+    std::fs::remove_dir_all(&dir).ok();
+    let want = gs.iter().sum::<f64>() / gs.len() as f64;
+    let mean = v["mean_mg_dl"].as_f64().unwrap();
+    assert!((mean - want).abs() < 1e-6, "{mean} vs {want}");
+}

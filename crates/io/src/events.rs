@@ -1,0 +1,425 @@
+//! Records + a person's settings → the advisor's events. Every caller (the
+//! CLI, the person store, the service) goes through [`to_events`].
+//!
+//! The event kinds of abba-core carry no temporary basal, suspension or
+//! extended bolus yet, so the basal rate in force is followed instead: the
+//! scheduled rate (profile), overridden by a temporary basal for its
+//! duration (an absolute rate or a percentage of the schedule), by a
+//! suspension (rate 0 until resumed or its duration ends), plus the
+//! extended part of an extended bolus spread over its duration. A
+//! `BasalRate` event is emitted at every change of that rate (the first
+//! rate in force is the person's starting setting and emits nothing) and
+//! at every new profile.
+
+use std::collections::BTreeMap;
+
+use abba_core::{Event, EventKind, Grams, MealSlot, MgDl, Timestamp, Units, UnitsPerHour};
+use jiff::civil::Date;
+use jiff::tz::TimeZone;
+use serde::Serialize;
+
+use crate::clock::AdvisorClock;
+use crate::meals::MealWindows;
+use crate::read::Batch;
+use crate::record::{BasalSchedule, Censor, Record, RecordKind, TempRate};
+
+/// When the advisor's day closes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DayClose {
+    /// At every local midnight between the first and the last event (CGM
+    /// mode).
+    Midnight,
+    /// Never (the caller closes days itself).
+    Never,
+}
+
+/// What the mapping needs to know about the person.
+#[derive(Debug, Clone)]
+pub struct PersonSettings {
+    /// The person's zone.
+    pub tz: TimeZone,
+    /// Day 1; default: the local date of the earliest record.
+    pub first_day: Option<Date>,
+    /// Meal windows.
+    pub meals: MealWindows,
+    /// When days close.
+    pub day_close: DayClose,
+}
+
+impl PersonSettings {
+    /// Default windows, days closing at midnight.
+    pub fn new(tz: TimeZone) -> Self {
+        Self {
+            tz,
+            first_day: None,
+            meals: MealWindows::default(),
+            day_close: DayClose::Midnight,
+        }
+    }
+}
+
+/// A record that did not become an event, and why.
+#[derive(Debug, Clone, Serialize)]
+pub struct Rejected {
+    /// File and line or JSON item.
+    pub origin: String,
+    /// The record's kind.
+    pub kind: String,
+    /// Why.
+    pub reason: String,
+}
+
+/// The events and an account of every record.
+#[derive(Debug, Clone, Serialize)]
+pub struct EventStream {
+    /// Day 1 of the advisor's clock.
+    pub first_day: String,
+    /// The person's zone.
+    pub tz: String,
+    /// The events, in the advisor's order.
+    pub events: Vec<Event>,
+    /// Events per kind.
+    pub counts: BTreeMap<String, usize>,
+    /// Ignored records per source kind.
+    pub ignored: BTreeMap<String, usize>,
+    /// Records kept in the stream but with no advisor event (long-acting
+    /// insulin), per kind.
+    pub not_mapped: BTreeMap<String, usize>,
+    /// CGM/SMBG readings the device reported only as Low or High, passed on
+    /// at the device's limit.
+    pub censored: usize,
+    /// Records rejected, with reasons.
+    pub rejected: Vec<Rejected>,
+    /// The meal rule applied.
+    pub meal_rule: String,
+    /// Things the user should know (a profile naming another time zone).
+    pub notes: Vec<String>,
+}
+
+/// Name of an event kind.
+pub fn kind_name(k: &EventKind) -> &'static str {
+    match k {
+        EventKind::Cgm(_) => "cgm",
+        EventKind::Smbg(_) => "smbg",
+        EventKind::MealAnnounced { .. } => "meal_announced",
+        EventKind::Bolus(_) => "bolus",
+        EventKind::BasalRate(_) => "basal_rate",
+        EventKind::DayClosed => "day_closed",
+        #[allow(unreachable_patterns)]
+        _ => "other",
+    }
+}
+
+/// Order of kinds within one minute, as the closed loop feeds them:
+/// readings, the announcement, its bolus, the day's close, then the basal
+/// rate the advisor's answer set.
+fn rank(k: &EventKind) -> u8 {
+    match k {
+        EventKind::Cgm(_) => 0,
+        EventKind::Smbg(_) => 1,
+        EventKind::MealAnnounced { .. } => 2,
+        EventKind::Bolus(_) => 3,
+        EventKind::DayClosed => 4,
+        EventKind::BasalRate(_) => 5,
+        #[allow(unreachable_patterns)]
+        _ => 6,
+    }
+}
+
+/// The basal state followed through the records.
+#[derive(Default)]
+struct Basal {
+    schedule: Option<BasalSchedule>,
+    temp: Option<(TempRate, jiff::Timestamp)>,
+    suspended_until: Option<Option<jiff::Timestamp>>,
+    extended: Vec<(f64, jiff::Timestamp)>,
+    last: Option<f64>,
+}
+
+impl Basal {
+    fn rate(&self, minute_of_day: u32) -> f64 {
+        if self.suspended_until.is_some() {
+            return 0.0;
+        }
+        let scheduled = self
+            .schedule
+            .as_ref()
+            .map_or(0.0, |s| s.rate_at(minute_of_day).0);
+        let base = match self.temp {
+            Some((TempRate::Absolute(r), _)) => r.0,
+            Some((TempRate::Percent(p), _)) => scheduled * p / 100.0,
+            None => scheduled,
+        };
+        base + self.extended.iter().map(|e| e.0).sum::<f64>()
+    }
+    /// The next instant after `after` at which the rate may change.
+    fn next_change(&self, after: jiff::Timestamp, clock: &AdvisorClock) -> Option<jiff::Timestamp> {
+        let mut next: Option<jiff::Timestamp> = None;
+        let mut take = |t: jiff::Timestamp| {
+            if t > after && next.is_none_or(|n| t < n) {
+                next = Some(t);
+            }
+        };
+        if let Some((_, end)) = self.temp {
+            take(end);
+        }
+        if let Some(Some(end)) = self.suspended_until {
+            take(end);
+        }
+        for e in &self.extended {
+            take(e.1);
+        }
+        if let Some(s) = self.schedule.as_ref().filter(|s| s.segments.len() > 1) {
+            let now = clock.timestamp(after);
+            let m = now.minute_of_day() as u32;
+            let next_seg = s.segments.iter().map(|x| x.0).find(|&x| x > m);
+            let t = match next_seg {
+                Some(x) => Timestamp::from_day_and_minute(now.day_index(), i64::from(x)),
+                None => Timestamp::from_day_and_minute(now.day_index() + 1, 0),
+            };
+            if let Ok(i) = clock.instant(t) {
+                take(i);
+            }
+        }
+        next
+    }
+    /// Drops what ended at or before `t`.
+    fn expire(&mut self, t: jiff::Timestamp) {
+        if self.temp.is_some_and(|(_, end)| end <= t) {
+            self.temp = None;
+        }
+        if matches!(self.suspended_until, Some(Some(end)) if end <= t) {
+            self.suspended_until = None;
+        }
+        self.extended.retain(|e| e.1 > t);
+    }
+}
+
+fn plus_min(t: jiff::Timestamp, m: u32) -> jiff::Timestamp {
+    t.checked_add(jiff::SignedDuration::from_mins(i64::from(m)))
+        .unwrap_or(t)
+}
+
+/// Maps a merged batch to the advisor's events.
+pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, crate::IoError> {
+    person.meals.validate()?;
+    // Day 1 defaults to the local day of the first record that is data (a
+    // profile in force since long before does not make the first day).
+    let first_data = batch
+        .records
+        .iter()
+        .find(|r| {
+            !matches!(
+                r.kind,
+                RecordKind::Schedule { .. } | RecordKind::Ignored { .. }
+            )
+        })
+        .or(batch.records.first());
+    let first_day = match (person.first_day, first_data) {
+        (Some(d), _) => d,
+        (None, Some(r)) => person.tz.to_datetime(r.at).date(),
+        (None, None) => return Err(crate::IoError::Settings("no records to map".into())),
+    };
+    let clock = AdvisorClock::new(person.tz.clone(), first_day);
+    let mut out = EventStream {
+        first_day: first_day.to_string(),
+        tz: person.tz.iana_name().unwrap_or("?").to_string(),
+        events: Vec::with_capacity(batch.records.len()),
+        counts: BTreeMap::new(),
+        ignored: BTreeMap::new(),
+        not_mapped: BTreeMap::new(),
+        censored: 0,
+        rejected: Vec::new(),
+        meal_rule: person.meals.rule(),
+        notes: Vec::new(),
+    };
+    let mut basal = Basal::default();
+    let mut meals_taken: BTreeMap<(i64, MealSlot), ()> = BTreeMap::new();
+    let mut events: Vec<Event> = Vec::with_capacity(batch.records.len());
+    let emit_rate =
+        |basal: &mut Basal, at: jiff::Timestamp, force: bool, events: &mut Vec<Event>| {
+            let ts = clock.timestamp(at);
+            let rate = basal.rate(ts.minute_of_day() as u32);
+            // Basal state before day 1 is followed but emits nothing.
+            match basal.last {
+                _ if ts.day_index() < 0 => basal.last = Some(rate),
+                None => basal.last = Some(rate),
+                Some(last) if force || last != rate => {
+                    basal.last = Some(rate);
+                    events.push(Event::new(ts, EventKind::BasalRate(UnitsPerHour(rate))));
+                }
+                Some(_) => {}
+            }
+        };
+    let mut now = batch
+        .records
+        .first()
+        .map_or(jiff::Timestamp::UNIX_EPOCH, |r| r.at);
+    for r in &batch.records {
+        // Changes of the basal rate in force before this record.
+        while let Some(t) = basal.next_change(now, &clock).filter(|&t| t <= r.at) {
+            basal.expire(t);
+            emit_rate(&mut basal, t, false, &mut events);
+            now = t;
+        }
+        now = r.at;
+        basal.expire(r.at);
+        let ts = clock.timestamp(r.at);
+        let reject = |out: &mut EventStream, r: &Record, reason: String| {
+            out.rejected.push(Rejected {
+                origin: batch.origin(r),
+                kind: r.kind.name().into(),
+                reason,
+            })
+        };
+        let basal_state = matches!(
+            r.kind,
+            RecordKind::Schedule { .. }
+                | RecordKind::TempBasal { .. }
+                | RecordKind::Suspend { .. }
+                | RecordKind::Resume
+        );
+        if ts.day_index() < 0 && !basal_state {
+            reject(&mut out, r, format!("before the first day {first_day}"));
+            continue;
+        }
+        match &r.kind {
+            RecordKind::Cgm { glucose } | RecordKind::Smbg { glucose } => {
+                if glucose.censor != Censor::Exact {
+                    out.censored += 1;
+                }
+                let g = MgDl(glucose.mg_dl.0);
+                let kind = if matches!(r.kind, RecordKind::Cgm { .. }) {
+                    EventKind::Cgm(g)
+                } else {
+                    EventKind::Smbg(g)
+                };
+                events.push(Event::new(ts, kind));
+            }
+            RecordKind::Carbs { grams } => {
+                let mut slot = person
+                    .meals
+                    .window_of(ts.minute_of_day() as u32)
+                    .unwrap_or(MealSlot::Snack);
+                if slot != MealSlot::Snack
+                    && meals_taken.insert((ts.day_index(), slot), ()).is_some()
+                {
+                    slot = MealSlot::Snack;
+                }
+                events.push(Event::new(
+                    ts,
+                    EventKind::MealAnnounced {
+                        carbs: Grams(grams.0),
+                        slot,
+                    },
+                ));
+            }
+            RecordKind::Bolus { units } => {
+                events.push(Event::new(ts, EventKind::Bolus(Units(units.0))))
+            }
+            RecordKind::ExtendedBolus {
+                now: u_now,
+                extended,
+                duration_min,
+            } => {
+                if u_now.0 > 0.0 {
+                    events.push(Event::new(ts, EventKind::Bolus(*u_now)));
+                }
+                if *duration_min == 0 {
+                    events.push(Event::new(ts, EventKind::Bolus(*extended)));
+                } else if extended.0 > 0.0 {
+                    basal.extended.push((
+                        extended.0 * 60.0 / f64::from(*duration_min),
+                        plus_min(r.at, *duration_min),
+                    ));
+                    emit_rate(&mut basal, r.at, false, &mut events);
+                }
+            }
+            RecordKind::Schedule { profile } => {
+                if let Some(zone) = profile
+                    .timezone
+                    .as_deref()
+                    .filter(|z| Some(*z) != person.tz.iana_name())
+                {
+                    out.notes.push(format!(
+                        "{}: the profile names time zone {zone}, the person's is {}; times are read in the person's",
+                        batch.origin(r),
+                        person.tz.iana_name().unwrap_or("?")
+                    ));
+                }
+                basal.schedule = Some(profile.basal.clone());
+                emit_rate(&mut basal, r.at, true, &mut events);
+            }
+            RecordKind::TempBasal { rate, duration_min } => {
+                basal.temp = (*duration_min > 0).then(|| (*rate, plus_min(r.at, *duration_min)));
+                emit_rate(&mut basal, r.at, false, &mut events);
+            }
+            RecordKind::Suspend { duration_min } => {
+                basal.suspended_until = Some(duration_min.map(|d| plus_min(r.at, d)));
+                emit_rate(&mut basal, r.at, false, &mut events);
+            }
+            RecordKind::Resume => {
+                basal.suspended_until = None;
+                emit_rate(&mut basal, r.at, false, &mut events);
+            }
+            RecordKind::LongActing { .. } => {
+                *out.not_mapped
+                    .entry("long-acting insulin (the advisor follows a pump's basal rate)".into())
+                    .or_default() += 1;
+            }
+            RecordKind::Ignored { kind } => *out.ignored.entry(kind.clone()).or_default() += 1,
+        }
+    }
+    events.sort_by_key(|e| (e.at, rank(&e.kind)));
+    // Day closes at local midnights strictly after the first event and not
+    // after the last one.
+    if let (DayClose::Midnight, Some(first), Some(last)) = (
+        person.day_close,
+        events.first().map(|e| e.at),
+        events.last().map(|e| e.at),
+    ) {
+        let mut closes = Vec::new();
+        let mut day = first.day_index() + 1;
+        while Timestamp::from_day_and_minute(day, 0) <= last {
+            closes.push(Event::new(
+                Timestamp::from_day_and_minute(day, 0),
+                EventKind::DayClosed,
+            ));
+            day += 1;
+        }
+        events.extend(closes);
+        events.sort_by_key(|e| (e.at, rank(&e.kind)));
+    }
+    // One reading of a kind per minute, one basal rate per minute (the last).
+    let mut kept: Vec<Event> = Vec::with_capacity(events.len());
+    for e in events {
+        if let Some(prev) = kept.last_mut() {
+            if prev.at == e.at
+                && std::mem::discriminant(&prev.kind) == std::mem::discriminant(&e.kind)
+            {
+                match e.kind {
+                    EventKind::BasalRate(_) => {
+                        *prev = e;
+                        continue;
+                    }
+                    EventKind::Cgm(_) | EventKind::Smbg(_) | EventKind::DayClosed => {
+                        out.rejected.push(Rejected {
+                            origin: format!("advisor time {}", e.at),
+                            kind: kind_name(&e.kind).into(),
+                            reason: "a second reading of this kind in the same minute (the advisor takes one per minute); the first was kept".into(),
+                        });
+                        continue;
+                    }
+                    _ => {}
+                }
+            }
+        }
+        kept.push(e);
+    }
+    for e in &kept {
+        *out.counts.entry(kind_name(&e.kind).into()).or_default() += 1;
+    }
+    out.events = kept;
+    Ok(out)
+}

@@ -1,0 +1,177 @@
+//! Dexcom Clarity CSV: a header row (the `Index` cell often arrives with a
+//! byte-order mark and mangled quotes), preamble rows with no timestamp
+//! (FirstName, LastName, Device, Alert settings), then one row per event in
+//! device local time (`2019-08-15T00:03:27`, sometimes `2025-05-01 0:01:47`).
+//! EGV rows are CGM readings; "Low" and "High" are the sensor's reporting
+//! limits (40 and 400 mg/dL, 2.2 and 22.2 mmol/L) and stay censored.
+
+use abba_core::{Grams, Units};
+
+use super::table::{required_number, Table};
+use super::Ctx;
+use crate::error::{IoError, Location, Place};
+use crate::record::{Censor, Glucose, Record, RecordKind, Source, SourceId};
+use crate::time::{parse_wall, DateOrder, WallClock};
+use crate::units::{self, check_range, GlucoseUnit};
+
+/// Whether a header row (first line) is Clarity's.
+pub fn looks_like(header_line: &str) -> bool {
+    header_line.contains("Event Type") && header_line.contains("Glucose Value")
+}
+
+/// Reads a Clarity export.
+pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
+    let file = ctx.file;
+    let mut t = Table::open(file, bytes, 0)?;
+    let col = |t: &Table<'_>, prefix: &str| t.column(|h| h.starts_with(prefix));
+    let need = |t: &Table<'_>, prefix: &str| {
+        col(t, prefix).ok_or_else(|| {
+            IoError::format(
+                file,
+                format!(
+                    "a Clarity export needs a \"{prefix}...\" column; the columns found are {}",
+                    t.columns_found()
+                ),
+            )
+        })
+    };
+    let time_at = need(&t, "Timestamp")?;
+    let type_at = need(&t, "Event Type")?;
+    let subtype_at = col(&t, "Event Subtype");
+    let glucose_at = need(&t, "Glucose Value")?;
+    let insulin_at = col(&t, "Insulin Value");
+    let carbs_at = col(&t, "Carb Value");
+    let duration_at = col(&t, "Duration");
+    let glucose_name = t.header[glucose_at].clone();
+    let unit = crate::read::plain::unit_in_name(&glucose_name).ok_or_else(|| IoError::Units {
+        file: file.to_string(),
+        message: format!("column \"{glucose_name}\" names no unit (expected mg/dL or mmol/L)"),
+    })?;
+    if let Some(given) = ctx.opts.units.filter(|&g| g != unit) {
+        return Err(IoError::Units {
+            file: file.to_string(),
+            message: format!(
+                "the file says {} (column \"{glucose_name}\") but --units says {}",
+                unit.name(),
+                given.name()
+            ),
+        });
+    }
+    let (low, high) = match unit {
+        GlucoseUnit::MgDl => (40.0, 400.0),
+        GlucoseUnit::MmolL => (2.2, 22.2),
+    };
+    let tz = ctx.require_tz("Clarity writes device local times without an offset")?;
+    let mut wall = WallClock::new(tz);
+    let time_name = t.header[time_at].clone();
+    let delim = t.delimiter;
+    let mut out = Vec::with_capacity(t.lines_left());
+    // One location reused for every row (no allocation per row).
+    let mut at = Location::line(file, 0);
+    while let Some(line) = t.next_row()? {
+        at.place = Place::Line(line);
+        let time_text = t.cell(time_at);
+        let kind_text = t.cell(type_at);
+        if time_text.is_empty() {
+            continue; // preamble: patient, device and alert settings
+        }
+        let dt = parse_wall(time_text, DateOrder::YearFirst).ok_or_else(|| {
+            IoError::invalid(
+                at.clone(),
+                &time_name,
+                format!("expected a time like 2019-08-15T00:03:27, got \"{time_text}\""),
+            )
+        })?;
+        let instant = wall.resolve(dt, &at, &time_name)?;
+        let subtype = subtype_at.map_or("", |i| t.cell(i));
+        let glucose = |t: &Table<'_>| -> Result<Glucose, IoError> {
+            let text = t.cell(glucose_at);
+            let (value, censor) = match text.to_ascii_lowercase().as_str() {
+                "low" => (low, Censor::Below),
+                "high" => (high, Censor::Above),
+                _ => (
+                    required_number(
+                        file,
+                        line,
+                        &glucose_name,
+                        text,
+                        delim,
+                        "a glucose number, Low or High",
+                    )?,
+                    Censor::Exact,
+                ),
+            };
+            let mg = units::glucose_mg_dl(&at, &glucose_name, value, unit)?;
+            Ok(Glucose {
+                mg_dl: abba_core::MgDl(mg),
+                censor,
+            })
+        };
+        let number =
+            |t: &Table<'_>, i: Option<usize>, what: &str| -> Result<(String, f64), IoError> {
+                let i = i.ok_or_else(|| {
+                    IoError::format(file, format!("{kind_text} rows need a {what} column"))
+                })?;
+                let name = t.header[i].clone();
+                let v = required_number(file, line, &name, t.cell(i), delim, what)?;
+                Ok((name, v))
+            };
+        let kind = match kind_text {
+            "EGV" => RecordKind::Cgm {
+                glucose: glucose(&t)?,
+            },
+            "Insulin" => {
+                let (name, v) = number(&t, insulin_at, "insulin (U)")?;
+                let u = Units(check_range(
+                    &at,
+                    &name,
+                    v,
+                    0.0,
+                    units::BOLUS_MAX_U,
+                    "insulin (U)",
+                )?);
+                if subtype.eq_ignore_ascii_case("Long-Acting") {
+                    RecordKind::LongActing { units: u }
+                } else {
+                    RecordKind::Bolus { units: u }
+                }
+            }
+            "Carbs" => {
+                let (name, v) = number(&t, carbs_at, "carbohydrate (g)")?;
+                RecordKind::Carbs {
+                    grams: Grams(check_range(
+                        &at,
+                        &name,
+                        v,
+                        0.0,
+                        units::CARBS_MAX_G,
+                        "carbohydrate (g)",
+                    )?),
+                }
+            }
+            other => {
+                let _ = duration_at;
+                RecordKind::Ignored {
+                    kind: if subtype.is_empty() {
+                        other.to_string()
+                    } else {
+                        format!("{other} {subtype}")
+                    },
+                }
+            }
+        };
+        let id = t
+            .cell(0)
+            .parse::<u64>()
+            .map(SourceId::Index)
+            .unwrap_or_else(|_| SourceId::Hash(crate::record::content_hash(t.raw())));
+        out.push(Record {
+            at: instant,
+            kind,
+            source: Source::Clarity,
+            id,
+            origin: ctx.origin_line(line),
+        });
+    }
+    Ok(out)
+}

@@ -1,0 +1,109 @@
+//! Helpers for JSON exports: typed field access with JSON-path errors.
+
+use serde_json::{Map, Value};
+
+use crate::error::{IoError, Location};
+
+/// One item of a top-level JSON array, with its path for errors.
+pub struct Item<'a> {
+    /// The file.
+    pub file: &'a str,
+    /// Index in the array.
+    pub index: usize,
+    /// The object.
+    pub obj: &'a Map<String, Value>,
+}
+
+impl<'a> Item<'a> {
+    /// The location of `field` in this item.
+    pub fn at(&self, field: &str) -> Location {
+        Location::json(self.file, format!("$[{}].{field}", self.index))
+    }
+    /// An error about `field`.
+    pub fn err(&self, field: &str, message: impl Into<String>) -> IoError {
+        IoError::Invalid {
+            at: Location::json(self.file, format!("$[{}]", self.index)),
+            field: field.to_string(),
+            message: message.into(),
+        }
+    }
+    /// A field that is present and not null.
+    pub fn get(&self, field: &str) -> Option<&'a Value> {
+        self.obj.get(field).filter(|v| !v.is_null())
+    }
+    /// A string field, if present.
+    pub fn str(&self, field: &str) -> Result<Option<&'a str>, IoError> {
+        match self.get(field) {
+            None => Ok(None),
+            Some(Value::String(s)) => Ok(Some(s)),
+            Some(v) => Err(self.err(field, format!("expected a string, got {v}"))),
+        }
+    }
+    /// A number field (a numeric string is accepted, as some uploaders
+    /// write them), if present.
+    pub fn num(&self, field: &str) -> Result<Option<f64>, IoError> {
+        match self.get(field) {
+            None => Ok(None),
+            Some(Value::Number(n)) => n
+                .as_f64()
+                .filter(|v| v.is_finite())
+                .map(Some)
+                .ok_or_else(|| self.err(field, format!("expected a finite number, got {n}"))),
+            Some(Value::String(s)) if s.trim().parse::<f64>().is_ok_and(f64::is_finite) => {
+                Ok(s.trim().parse().ok())
+            }
+            Some(v) => Err(self.err(field, format!("expected a number, got {v}"))),
+        }
+    }
+    /// A required number field.
+    pub fn need_num(&self, field: &str, what: &str) -> Result<f64, IoError> {
+        self.num(field)?
+            .ok_or_else(|| self.err(field, format!("missing: expected {what}")))
+    }
+}
+
+/// Parses `bytes` as a JSON array of objects (a single object counts as an
+/// array of one).
+pub fn parse_array(file: &str, bytes: &[u8]) -> Result<Vec<Value>, IoError> {
+    let v: Value = serde_json::from_slice(bytes).map_err(|e| IoError::Invalid {
+        at: Location::line(file, e.line() as u64),
+        field: "json".into(),
+        message: format!("not valid JSON: {e}"),
+    })?;
+    match v {
+        Value::Array(items) => Ok(items),
+        Value::Object(_) => Ok(vec![v]),
+        other => Err(IoError::format(
+            file,
+            format!("expected a JSON array of records, got {}", kind(&other)),
+        )),
+    }
+}
+
+/// The JSON type name of a value.
+pub fn kind(v: &Value) -> &'static str {
+    match v {
+        Value::Null => "null",
+        Value::Bool(_) => "a boolean",
+        Value::Number(_) => "a number",
+        Value::String(_) => "a string",
+        Value::Array(_) => "an array",
+        Value::Object(_) => "an object",
+    }
+}
+
+/// Each item as an object, or an error naming its path.
+pub fn objects<'a>(file: &'a str, items: &'a [Value]) -> Result<Vec<Item<'a>>, IoError> {
+    items
+        .iter()
+        .enumerate()
+        .map(|(index, v)| match v {
+            Value::Object(obj) => Ok(Item { file, index, obj }),
+            other => Err(IoError::Invalid {
+                at: Location::json(file, format!("$[{index}]")),
+                field: "record".into(),
+                message: format!("expected an object, got {}", kind(other)),
+            }),
+        })
+        .collect()
+}

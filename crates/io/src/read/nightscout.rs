@@ -1,0 +1,444 @@
+//! Nightscout API JSON as downloaded (newest first): `entries.json` (`sgv`,
+//! `mbg`, `cal`), `treatments.json` (boluses, carbs, temporary basals,
+//! suspend/resume, everything else counted by `eventType`) and
+//! `profile.json` (basal schedule in U/h, `timezone`, `units`). Entries
+//! store glucose in mg/dL whatever the display unit; a treatment's
+//! `glucose` (BG Check) says its unit in `units`.
+
+use abba_core::{Grams, GramsPerUnit, MgDl, Units, UnitsPerHour};
+use serde_json::Value;
+
+use super::json::{objects, parse_array, Item};
+use super::Ctx;
+use crate::error::IoError;
+use crate::record::{
+    content_hash, BasalSchedule, Censor, Glucose, Profile, Record, RecordKind, Source, SourceId,
+    TempRate,
+};
+use crate::time::parse_instant;
+use crate::units::{self, check_range, GlucoseUnit};
+
+/// Reads a Nightscout JSON file (entries, treatments or profiles, told
+/// apart item by item).
+pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
+    let items = parse_array(ctx.file, bytes)?;
+    let mut out = Vec::with_capacity(items.len());
+    for item in objects(ctx.file, &items)? {
+        let at = instant(&item)?;
+        // `_id` is a string from the API, `{"$oid": ...}` from a MongoDB dump.
+        let id = match item.get("_id") {
+            Some(Value::String(id)) => SourceId::Id(id.as_str().into()),
+            Some(Value::Object(o)) => match o.get("$oid") {
+                Some(Value::String(id)) => SourceId::Id(id.as_str().into()),
+                _ => return Err(item.err("_id", "expected a string or {\"$oid\": string}")),
+            },
+            None => SourceId::Hash(content_hash([Value::Object(item.obj.clone())
+                .to_string()
+                .as_bytes()])),
+            Some(other) => return Err(item.err("_id", format!("expected a string, got {other}"))),
+        };
+        let kinds = if item.get("store").is_some() {
+            vec![profile(&item)?]
+        } else if let Some(event) = item.str("eventType")? {
+            treatment(ctx, &item, event)?
+        } else {
+            vec![entry(&item)?]
+        };
+        for (n, kind) in kinds.into_iter().enumerate() {
+            let id = match (&id, n) {
+                (id, 0) => id.clone(),
+                (SourceId::Id(s), n) => SourceId::Id(format!("{s}#{n}").into()),
+                (SourceId::Hash(h), n) => SourceId::Hash(h.wrapping_add(n as u64)),
+                (SourceId::Index(i), _) => SourceId::Index(*i),
+            };
+            out.push(Record {
+                at,
+                kind,
+                source: Source::Nightscout,
+                id,
+                origin: ctx.origin_item(item.index),
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// The item's instant: `date` / `mills` (ms since the epoch), else
+/// `dateString` / `created_at` / `startDate` / `timestamp` (ISO 8601).
+fn instant(item: &Item<'_>) -> Result<jiff::Timestamp, IoError> {
+    for field in ["date", "mills"] {
+        if let Some(Value::Number(_)) = item.get(field) {
+            let ms = item.need_num(field, "milliseconds since 1970")?;
+            return jiff::Timestamp::from_millisecond(ms as i64)
+                .map_err(|e| item.err(field, format!("{ms} is not a time: {e}")));
+        }
+    }
+    for field in [
+        "dateString",
+        "created_at",
+        "startDate",
+        "timestamp",
+        "sysTime",
+    ] {
+        if let Some(text) = item.get(field) {
+            if let Value::Number(n) = text {
+                let ms = n.as_f64().unwrap_or(f64::NAN);
+                return jiff::Timestamp::from_millisecond(ms as i64)
+                    .map_err(|e| item.err(field, format!("{ms} is not a time: {e}")));
+            }
+            let s = item.str(field)?.unwrap_or("");
+            return parse_instant(s).ok_or_else(|| {
+                item.err(
+                    field,
+                    format!("expected an ISO 8601 time with offset or Z, got \"{s}\""),
+                )
+            });
+        }
+    }
+    Err(item.err(
+        "date",
+        "missing: every record needs date, dateString, created_at or startDate",
+    ))
+}
+
+fn entry(item: &Item<'_>) -> Result<RecordKind, IoError> {
+    let kind = item
+        .str("type")?
+        .unwrap_or(if item.get("sgv").is_some() { "sgv" } else { "" });
+    let reading = |field: &str| -> Result<Glucose, IoError> {
+        let v = item.need_num(field, "glucose in mg/dL")?;
+        let mg = units::glucose_mg_dl(&item.at(field), field, v, GlucoseUnit::MgDl)
+            .map_err(|_| item.err(field, format!("glucose {v} mg/dL is outside the plausible range {}..{} mg/dL (Nightscout stores entries in mg/dL)", units::GLUCOSE_MIN_MG_DL, units::GLUCOSE_MAX_MG_DL)))?;
+        Ok(Glucose {
+            mg_dl: MgDl(mg),
+            censor: Censor::Exact,
+        })
+    };
+    Ok(match kind {
+        "sgv" => RecordKind::Cgm {
+            glucose: reading("sgv")?,
+        },
+        "mbg" => RecordKind::Smbg {
+            glucose: reading("mbg")?,
+        },
+        "cal" => RecordKind::Ignored {
+            kind: "calibration".into(),
+        },
+        "" => return Err(item.err(
+            "type",
+            "missing: an entry needs type (sgv, mbg, cal) or is it a treatment without eventType?",
+        )),
+        other => RecordKind::Ignored {
+            kind: format!("entry {other}"),
+        },
+    })
+}
+
+fn minutes(item: &Item<'_>, field: &str) -> Result<Option<u32>, IoError> {
+    match item.num(field)? {
+        None => Ok(None),
+        Some(d) => Ok(Some(
+            check_range(
+                &item.at(field),
+                field,
+                d,
+                0.0,
+                units::DURATION_MAX_MIN,
+                "duration (min)",
+            )?
+            .round() as u32,
+        )),
+    }
+}
+
+fn treatment(ctx: &Ctx<'_>, item: &Item<'_>, event: &str) -> Result<Vec<RecordKind>, IoError> {
+    let mut kinds = Vec::new();
+    let insulin = |kinds: &mut Vec<RecordKind>| -> Result<(), IoError> {
+        if let Some(u) = item.num("insulin")? {
+            kinds.push(RecordKind::Bolus {
+                units: Units(check_range(
+                    &item.at("insulin"),
+                    "insulin",
+                    u,
+                    0.0,
+                    units::BOLUS_MAX_U,
+                    "insulin (U)",
+                )?),
+            });
+        }
+        Ok(())
+    };
+    let carbs = |kinds: &mut Vec<RecordKind>| -> Result<(), IoError> {
+        if let Some(g) = item.num("carbs")? {
+            if g > 0.0 {
+                kinds.push(RecordKind::Carbs {
+                    grams: Grams(check_range(
+                        &item.at("carbs"),
+                        "carbs",
+                        g,
+                        0.0,
+                        units::CARBS_MAX_G,
+                        "carbohydrate (g)",
+                    )?),
+                });
+            }
+        }
+        Ok(())
+    };
+    match event {
+        "Meal Bolus" | "Snack Bolus" | "Bolus Wizard" | "Correction Bolus" | "SMB" | "Bolus"
+        | "Carb Correction" | "Carbs" => {
+            carbs(&mut kinds)?;
+            insulin(&mut kinds)?;
+        }
+        "Combo Bolus" => {
+            carbs(&mut kinds)?;
+            let now = item.num("insulin")?.unwrap_or(0.0);
+            let duration = minutes(item, "duration")?.unwrap_or(0);
+            // Careportal: `enteredinsulin` is the total, `insulin` the part
+            // given now, `relative` the extended part's rate (U/h).
+            let ext = match (item.num("enteredinsulin")?, item.num("relative")?) {
+                (Some(total), _) => (total - now).max(0.0),
+                (None, Some(rate)) => rate * f64::from(duration) / 60.0,
+                (None, None) => 0.0,
+            };
+            kinds.push(RecordKind::ExtendedBolus {
+                now: Units(check_range(
+                    &item.at("insulin"),
+                    "insulin",
+                    now,
+                    0.0,
+                    units::BOLUS_MAX_U,
+                    "insulin (U)",
+                )?),
+                extended: Units(check_range(
+                    &item.at("enteredinsulin"),
+                    "enteredinsulin",
+                    ext,
+                    0.0,
+                    units::BOLUS_MAX_U,
+                    "insulin (U)",
+                )?),
+                duration_min: duration,
+            });
+        }
+        "Temp Basal" => {
+            let duration = minutes(item, "duration")?.unwrap_or(0);
+            let rate = match (
+                item.num("absolute")?,
+                item.num("rate")?,
+                item.num("percent")?,
+            ) {
+                (Some(r), _, _) => TempRate::Absolute(UnitsPerHour(check_range(
+                    &item.at("absolute"),
+                    "absolute",
+                    r,
+                    0.0,
+                    units::BASAL_MAX_U_PER_H,
+                    "basal rate (U/h)",
+                )?)),
+                (None, Some(r), _) => TempRate::Absolute(UnitsPerHour(check_range(
+                    &item.at("rate"),
+                    "rate",
+                    r,
+                    0.0,
+                    units::BASAL_MAX_U_PER_H,
+                    "basal rate (U/h)",
+                )?)),
+                // Nightscout's percent is a change: -50 is half the scheduled rate.
+                (None, None, Some(p)) => TempRate::Percent(check_range(
+                    &item.at("percent"),
+                    "percent",
+                    100.0 + p,
+                    0.0,
+                    units::PERCENT_MAX,
+                    "percentage of the scheduled rate",
+                )?),
+                (None, None, None) => {
+                    return Err(item.err("absolute", "a Temp Basal needs absolute, rate or percent"))
+                }
+            };
+            kinds.push(RecordKind::TempBasal {
+                rate,
+                duration_min: duration,
+            });
+        }
+        "Suspend Pump" | "Pump Suspend" => kinds.push(RecordKind::Suspend {
+            duration_min: minutes(item, "duration")?,
+        }),
+        "Resume Pump" | "Pump Resume" => kinds.push(RecordKind::Resume),
+        "Profile Switch" => match item.str("profileJson")? {
+            Some(text) => {
+                let v: Value = serde_json::from_str(text)
+                    .map_err(|e| item.err("profileJson", format!("not valid JSON: {e}")))?;
+                let Value::Object(obj) = v else {
+                    return Err(item.err("profileJson", "expected an object"));
+                };
+                let inner = Item {
+                    file: item.file,
+                    index: item.index,
+                    obj: &obj,
+                };
+                kinds.push(schedule_of(&inner, "profileJson")?);
+            }
+            None => kinds.push(RecordKind::Ignored {
+                kind: "Profile Switch (profile not embedded)".into(),
+            }),
+        },
+        "BG Check" if item.get("glucose").is_some() => {
+            let v = item.need_num("glucose", "glucose")?;
+            let unit = match item.str("units")? {
+                Some(u) => GlucoseUnit::parse(u).ok_or_else(|| {
+                    item.err("units", format!("expected mg/dl or mmol, got \"{u}\""))
+                })?,
+                None => ctx.opts.units.ok_or_else(|| {
+                    item.err(
+                        "units",
+                        "missing: a BG Check's glucose needs units (or --units)",
+                    )
+                })?,
+            };
+            kinds.push(RecordKind::Smbg {
+                glucose: Glucose {
+                    mg_dl: MgDl(units::glucose_mg_dl(
+                        &item.at("glucose"),
+                        "glucose",
+                        v,
+                        unit,
+                    )?),
+                    censor: Censor::Exact,
+                },
+            });
+        }
+        other => kinds.push(RecordKind::Ignored {
+            kind: other.to_string(),
+        }),
+    }
+    if kinds.is_empty() {
+        kinds.push(RecordKind::Ignored {
+            kind: format!("{event} without insulin or carbs"),
+        });
+    }
+    Ok(kinds)
+}
+
+/// A profile document: the default profile's basal schedule.
+fn profile(item: &Item<'_>) -> Result<RecordKind, IoError> {
+    let store = match item.get("store") {
+        Some(Value::Object(s)) => s,
+        _ => return Err(item.err("store", "expected an object of named profiles")),
+    };
+    let name = item
+        .str("defaultProfile")?
+        .or_else(|| store.keys().next().map(String::as_str))
+        .unwrap_or("");
+    let Some(Value::Object(p)) = store.get(name) else {
+        return Err(item.err(
+            "defaultProfile",
+            format!("names \"{name}\", which the store does not hold"),
+        ));
+    };
+    let inner = Item {
+        file: item.file,
+        index: item.index,
+        obj: p,
+    };
+    schedule_of(&inner, &format!("store.{name}"))
+}
+
+/// A time-of-day array (`[{time | timeAsSeconds, value}]`) of a profile,
+/// values checked against `[min, max]`: starts at 00:00, strictly
+/// increasing.
+fn by_time_of_day(
+    p: &Item<'_>,
+    prefix: &str,
+    name: &str,
+    (min, max, what): (f64, f64, &str),
+) -> Result<Vec<(u32, f64)>, IoError> {
+    let field = format!("{prefix}.{name}");
+    let Some(Value::Array(rows)) = p.get(name) else {
+        return Err(p.err(&field, "missing: expected an array of {time, value}"));
+    };
+    let mut out: Vec<(u32, f64)> = Vec::new();
+    for (i, row) in rows.iter().enumerate() {
+        let f = format!("{field}[{i}]");
+        let Value::Object(obj) = row else {
+            return Err(p.err(&f, "expected {time, value}"));
+        };
+        let r = Item {
+            file: p.file,
+            index: p.index,
+            obj,
+        };
+        let minute = match (r.num("timeAsSeconds")?, r.str("time")?) {
+            (Some(s), _) => s / 60.0,
+            (None, Some(t)) => {
+                let (h, m) = t
+                    .split_once(':')
+                    .ok_or_else(|| p.err(&f, format!("time \"{t}\" is not HH:MM")))?;
+                let (h, m): (f64, f64) =
+                    (h.parse().unwrap_or(f64::NAN), m.parse().unwrap_or(f64::NAN));
+                h * 60.0 + m
+            }
+            (None, None) => return Err(p.err(&f, "missing time")),
+        };
+        let minute = check_range(
+            &p.at(&f),
+            &format!("{f}.time"),
+            minute,
+            0.0,
+            1439.0,
+            "minute of day",
+        )? as u32;
+        let value = r
+            .need_num("value", what)
+            .map_err(|_| p.err(&format!("{f}.value"), format!("missing: expected {what}")))?;
+        let value = check_range(&p.at(&f), &format!("{f}.value"), value, min, max, what)?;
+        if out.last().is_some_and(|&(prev, _)| minute <= prev) || (out.is_empty() && minute != 0) {
+            return Err(p.err(&f, "times must start at 00:00 and increase"));
+        }
+        out.push((minute, value));
+    }
+    if out.is_empty() {
+        return Err(p.err(&field, "the schedule is empty"));
+    }
+    Ok(out)
+}
+
+/// One profile object: its basal schedule, carb ratios (if any) and zone.
+fn schedule_of(p: &Item<'_>, prefix: &str) -> Result<RecordKind, IoError> {
+    let basal = by_time_of_day(
+        p,
+        prefix,
+        "basal",
+        (0.0, units::BASAL_MAX_U_PER_H, "a basal rate in U/h"),
+    )?;
+    let carb_ratio = match p.get("carbratio") {
+        None => Vec::new(),
+        Some(_) => by_time_of_day(
+            p,
+            prefix,
+            "carbratio",
+            (
+                units::CARB_RATIO_MIN_G_PER_U,
+                units::CARB_RATIO_MAX_G_PER_U,
+                "a carb ratio in g/U",
+            ),
+        )?,
+    };
+    Ok(RecordKind::Schedule {
+        profile: Box::new(Profile {
+            basal: BasalSchedule {
+                segments: basal
+                    .into_iter()
+                    .map(|(m, r)| (m, UnitsPerHour(r)))
+                    .collect(),
+            },
+            carb_ratio: carb_ratio
+                .into_iter()
+                .map(|(m, r)| (m, GramsPerUnit(r)))
+                .collect(),
+            timezone: p.str("timezone")?.map(str::to_string),
+        }),
+    })
+}

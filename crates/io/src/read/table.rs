@@ -1,0 +1,246 @@
+//! A CSV file as the exports write them: an optional byte-order mark,
+//! preamble lines before the header, `,` `;` or tab as delimiter, LF or
+//! CRLF line ends, decimal commas where the delimiter is `;`.
+
+use crate::error::{IoError, Location};
+
+/// A CSV table: its header cells and rows, each with its 1-based line.
+pub struct Table<'a> {
+    /// The file name (for errors).
+    pub file: &'a str,
+    /// Header cells, trimmed, quotes removed.
+    pub header: Vec<String>,
+    /// The header's line.
+    pub header_line: u64,
+    /// The delimiter.
+    pub delimiter: u8,
+    reader: csv::Reader<&'a [u8]>,
+    /// Lines before the CSV reader's input.
+    offset: u64,
+    /// The CSV reader's input (line numbers are counted here, not by the
+    /// CSV reader, so that CRLF and LF files count alike).
+    input: &'a [u8],
+    /// Bytes of `input` whose newlines are counted in `newlines`.
+    counted: usize,
+    newlines: u64,
+    record: csv::ByteRecord,
+}
+
+/// Strips a UTF-8 byte-order mark.
+pub fn strip_bom(bytes: &[u8]) -> &[u8] {
+    bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes)
+}
+
+/// The byte offset where line `n` (0-based) starts, if the input has it.
+fn line_start(bytes: &[u8], n: usize) -> Option<usize> {
+    let mut at = 0;
+    for _ in 0..n {
+        at += bytes[at..].iter().position(|&b| b == b'\n')? + 1;
+    }
+    Some(at)
+}
+
+/// The delimiter of a header line: the most frequent of `,` `;` tab.
+fn sniff(line: &[u8]) -> u8 {
+    let count = |d: u8| line.iter().filter(|&&b| b == d).count();
+    [b',', b';', b'\t']
+        .into_iter()
+        .max_by_key(|&d| count(d))
+        .unwrap_or(b',')
+}
+
+impl<'a> Table<'a> {
+    /// Opens `bytes` (BOM already stripped) with the header on 0-based line
+    /// `header_at`.
+    pub fn open(file: &'a str, bytes: &'a [u8], header_at: usize) -> Result<Self, IoError> {
+        let start = line_start(bytes, header_at).ok_or_else(|| {
+            IoError::format(file, format!("expected a header on line {}", header_at + 1))
+        })?;
+        let rest = &bytes[start..];
+        let first_line = rest.split(|&b| b == b'\n').next().unwrap_or(rest);
+        let delimiter = sniff(first_line);
+        let mut reader = csv::ReaderBuilder::new()
+            .has_headers(false)
+            .flexible(true)
+            .delimiter(delimiter)
+            .from_reader(rest);
+        let mut record = csv::ByteRecord::new();
+        let offset = header_at as u64;
+        let header_line = offset + 1;
+        let ok = reader.read_byte_record(&mut record).map_err(|e| {
+            IoError::format(file, format!("line {header_line}: unreadable header: {e}"))
+        })?;
+        if !ok {
+            return Err(IoError::format(file, "the file is empty (no header row)"));
+        }
+        let header = record
+            .iter()
+            .map(|c| {
+                String::from_utf8_lossy(c)
+                    .trim()
+                    .trim_matches('"')
+                    .trim()
+                    .to_string()
+            })
+            .collect();
+        Ok(Self {
+            file,
+            header,
+            header_line,
+            delimiter,
+            reader,
+            offset,
+            input: rest,
+            counted: 0,
+            newlines: 0,
+            record,
+        })
+    }
+
+    /// Lines after the header (an upper bound of the rows, to reserve
+    /// memory once).
+    pub fn lines_left(&self) -> usize {
+        self.input.iter().filter(|&&b| b == b'\n').count()
+    }
+
+    /// Index of the first header cell for which `pred` holds.
+    pub fn column(&self, pred: impl Fn(&str) -> bool) -> Option<usize> {
+        self.header.iter().position(|h| pred(h))
+    }
+
+    /// The header cells, quoted and joined (for errors).
+    pub fn columns_found(&self) -> String {
+        self.header
+            .iter()
+            .map(|h| format!("\"{h}\""))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
+    /// Reads the next row into the table's buffer; returns its 1-based
+    /// line, or `None` at the end. Blank lines are skipped.
+    pub fn next_row(&mut self) -> Result<Option<u64>, IoError> {
+        loop {
+            let ok = self
+                .reader
+                .read_byte_record(&mut self.record)
+                .map_err(|e| {
+                    let byte = e.position().map_or(self.counted, |p| p.byte() as usize);
+                    let line = self.line_at(byte);
+                    IoError::invalid(
+                        Location::line(self.file, line),
+                        "row",
+                        format!("unreadable CSV: {e}"),
+                    )
+                })?;
+            if !ok {
+                return Ok(None);
+            }
+            // The CSV reader's position can sit on the line end before the
+            // record (CRLF) or on skipped blank lines: start at the first
+            // byte that is not a line end.
+            let mut byte = self.record.position().map_or(0, |p| p.byte()) as usize;
+            while matches!(self.input.get(byte), Some(b'\r' | b'\n')) {
+                byte += 1;
+            }
+            let line = self.line_at(byte);
+            if self
+                .record
+                .iter()
+                .all(|c| c.iter().all(u8::is_ascii_whitespace))
+            {
+                continue;
+            }
+            return Ok(Some(line));
+        }
+    }
+
+    /// The 1-based file line of byte `byte` of the input (bytes only
+    /// move forward).
+    fn line_at(&mut self, byte: usize) -> u64 {
+        let end = byte.min(self.input.len()).max(self.counted);
+        self.newlines += self.input[self.counted..end]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count() as u64;
+        self.counted = end;
+        self.offset + self.newlines + 1
+    }
+
+    /// Cell `i` of the current row, trimmed (empty if the row is short or
+    /// the cell is not UTF-8).
+    pub fn cell(&self, i: usize) -> &str {
+        self.record
+            .get(i)
+            .and_then(|c| std::str::from_utf8(c).ok())
+            .unwrap_or("")
+            .trim()
+    }
+
+    /// The raw cells of the current row (for content hashes).
+    pub fn raw(&self) -> impl Iterator<Item = &[u8]> {
+        self.record.iter()
+    }
+}
+
+/// Parses a number as the file writes it: `.` decimals, or `,` decimals
+/// when the delimiter is `;`.
+pub fn number(text: &str, delimiter: u8) -> Option<f64> {
+    let t = text.trim();
+    if t.is_empty() {
+        return None;
+    }
+    let v: f64 = if delimiter == b';' && t.contains(',') && !t.contains('.') {
+        t.replacen(',', ".", 1).parse().ok()?
+    } else {
+        t.parse().ok()?
+    };
+    v.is_finite().then_some(v)
+}
+
+/// A required number in column `name` at `line`, or an error saying what
+/// was found.
+pub fn required_number(
+    file: &str,
+    line: u64,
+    name: &str,
+    text: &str,
+    delimiter: u8,
+    what: &str,
+) -> Result<f64, IoError> {
+    number(text, delimiter).ok_or_else(|| {
+        IoError::invalid(
+            Location::line(file, line),
+            name,
+            format!("expected {what}, got \"{text}\""),
+        )
+    })
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lines_count_alike_with_lf_and_crlf() {
+        for text in [
+            "a,b\n1,2\n\n3,4\n",
+            "a,b\r\n1,2\r\n\r\n3,4\r\n",
+            "pre\na,b\n1,2\n\n3,4",
+        ] {
+            let header_at = usize::from(text.starts_with("pre"));
+            let mut t = Table::open("f", text.as_bytes(), header_at).unwrap();
+            let mut lines = Vec::new();
+            while let Some(l) = t.next_row().unwrap() {
+                lines.push((l, t.cell(0).to_string()));
+            }
+            let h = header_at as u64;
+            assert_eq!(
+                lines,
+                vec![(h + 2, "1".to_string()), (h + 4, "3".to_string())],
+                "{text:?}"
+            );
+        }
+    }
+}

@@ -1,0 +1,284 @@
+//! Tidepool JSON (its data model): `cbg` and `smbg` (`value` with `units`,
+//! mmol/L converted with Tidepool's own 18.01559), `bolus` (`normal`,
+//! `extended` over `duration` ms), `basal` (`deliveryType` scheduled,
+//! automated, temp or suspend, `rate` U/h, `duration` ms), `food`
+//! (`nutrition.carbohydrate.net` g), `wizard` (`carbInput`; its bolus is a
+//! record of its own); every other type is counted by type.
+
+use abba_core::{Grams, MgDl, Units, UnitsPerHour};
+use serde_json::Value;
+
+use super::json::{objects, parse_array, Item};
+use super::Ctx;
+use crate::error::IoError;
+use crate::record::{
+    content_hash, BasalSchedule, Censor, Glucose, Profile, Record, RecordKind, Source, SourceId,
+    TempRate,
+};
+use crate::time::parse_instant;
+use crate::units::{
+    self, check_range, GLUCOSE_MAX_MG_DL, GLUCOSE_MIN_MG_DL, TIDEPOOL_MG_DL_PER_MMOL_L,
+};
+
+/// Tidepool's data types (for format detection).
+pub const TYPES: [&str; 12] = [
+    "cbg",
+    "smbg",
+    "bolus",
+    "basal",
+    "food",
+    "wizard",
+    "upload",
+    "pumpSettings",
+    "cgmSettings",
+    "deviceEvent",
+    "physicalActivity",
+    "bloodKetone",
+];
+
+/// Reads a Tidepool export.
+pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
+    let items = parse_array(ctx.file, bytes)?;
+    let mut out = Vec::with_capacity(items.len());
+    for item in objects(ctx.file, &items)? {
+        let ty = item
+            .str("type")?
+            .ok_or_else(|| item.err("type", "missing: every Tidepool datum has a type"))?;
+        let kind = datum(&item, ty)?;
+        let Some(time) = item.str("time")? else {
+            if matches!(kind, RecordKind::Ignored { .. }) {
+                continue; // settings and uploads without a time: not data
+            }
+            return Err(item.err("time", "missing: expected an ISO 8601 time"));
+        };
+        let at = parse_instant(time).ok_or_else(|| {
+            item.err(
+                "time",
+                format!("expected an ISO 8601 time with Z or offset, got \"{time}\""),
+            )
+        })?;
+        let id = match item.str("id")? {
+            Some(id) => SourceId::Id(id.into()),
+            None => SourceId::Hash(content_hash([Value::Object(item.obj.clone())
+                .to_string()
+                .as_bytes()])),
+        };
+        out.push(Record {
+            at,
+            kind,
+            source: Source::Tidepool,
+            id,
+            origin: ctx.origin_item(item.index),
+        });
+    }
+    Ok(out)
+}
+
+fn glucose(item: &Item<'_>) -> Result<Glucose, IoError> {
+    let v = item.need_num("value", "a glucose value")?;
+    let units_text = item
+        .str("units")?
+        .ok_or_else(|| item.err("units", "missing: expected mmol/L or mg/dL"))?;
+    let mg = match units::GlucoseUnit::parse(units_text) {
+        Some(units::GlucoseUnit::MmolL) => v * TIDEPOOL_MG_DL_PER_MMOL_L,
+        Some(units::GlucoseUnit::MgDl) => v,
+        None => {
+            return Err(item.err(
+                "units",
+                format!("expected mmol/L or mg/dL, got \"{units_text}\""),
+            ))
+        }
+    };
+    if !(GLUCOSE_MIN_MG_DL..=GLUCOSE_MAX_MG_DL).contains(&mg) {
+        return Err(item.err("value", format!("glucose {v} {units_text} is outside the plausible range {GLUCOSE_MIN_MG_DL}..{GLUCOSE_MAX_MG_DL} mg/dL")));
+    }
+    let censor = match item.get("annotations") {
+        Some(Value::Array(a))
+            if a.iter().any(|x| {
+                x.get("code")
+                    .and_then(Value::as_str)
+                    .is_some_and(|c| c.ends_with("out-of-range"))
+            }) =>
+        {
+            let threshold = a
+                .iter()
+                .find_map(|x| x.get("value").and_then(Value::as_str));
+            match threshold {
+                Some("low") => Censor::Below,
+                Some("high") => Censor::Above,
+                _ => Censor::Exact,
+            }
+        }
+        _ => Censor::Exact,
+    };
+    Ok(Glucose {
+        mg_dl: MgDl(mg),
+        censor,
+    })
+}
+
+fn ms_to_min(item: &Item<'_>, field: &str) -> Result<Option<u32>, IoError> {
+    match item.num(field)? {
+        None => Ok(None),
+        Some(ms) => Ok(Some(
+            (check_range(
+                &item.at(field),
+                field,
+                ms / 60_000.0,
+                0.0,
+                units::DURATION_MAX_MIN,
+                "duration (min)",
+            )?)
+            .round() as u32,
+        )),
+    }
+}
+
+fn datum(item: &Item<'_>, ty: &str) -> Result<RecordKind, IoError> {
+    let insulin = |field: &str| -> Result<Option<Units>, IoError> {
+        match item.num(field)? {
+            None => Ok(None),
+            Some(u) => Ok(Some(Units(check_range(
+                &item.at(field),
+                field,
+                u,
+                0.0,
+                units::BOLUS_MAX_U,
+                "insulin (U)",
+            )?))),
+        }
+    };
+    Ok(match ty {
+        "cbg" => RecordKind::Cgm {
+            glucose: glucose(item)?,
+        },
+        "smbg" => RecordKind::Smbg {
+            glucose: glucose(item)?,
+        },
+        "bolus" => {
+            let normal = insulin("normal")?;
+            match insulin("extended")? {
+                Some(ext) => RecordKind::ExtendedBolus {
+                    now: normal.unwrap_or(Units(0.0)),
+                    extended: ext,
+                    duration_min: ms_to_min(item, "duration")?.ok_or_else(|| {
+                        item.err(
+                            "duration",
+                            "missing: an extended bolus needs its duration (ms)",
+                        )
+                    })?,
+                },
+                None => RecordKind::Bolus {
+                    units: normal.ok_or_else(|| {
+                        item.err("normal", "missing: a bolus needs normal or extended (U)")
+                    })?,
+                },
+            }
+        }
+        "basal" => {
+            let delivery = item.str("deliveryType")?.unwrap_or("");
+            let duration = ms_to_min(item, "duration")?;
+            let rate = |item: &Item<'_>| -> Result<UnitsPerHour, IoError> {
+                let r = item.need_num("rate", "a basal rate in U/h")?;
+                Ok(UnitsPerHour(check_range(
+                    &item.at("rate"),
+                    "rate",
+                    r,
+                    0.0,
+                    units::BASAL_MAX_U_PER_H,
+                    "basal rate (U/h)",
+                )?))
+            };
+            match delivery {
+                "scheduled" | "automated" => RecordKind::Schedule {
+                    profile: Box::new(Profile::basal_only(BasalSchedule::flat(rate(item)?))),
+                },
+                "temp" => RecordKind::TempBasal {
+                    // Tidepool gives the rate, and for percentage temps the
+                    // fraction of the schedule (0.5 = half).
+                    rate: match (item.num("rate")?, item.num("percent")?) {
+                        (Some(_), _) => TempRate::Absolute(rate(item)?),
+                        (None, Some(p)) => TempRate::Percent(check_range(
+                            &item.at("percent"),
+                            "percent",
+                            100.0 * p,
+                            0.0,
+                            units::PERCENT_MAX,
+                            "percentage of the scheduled rate",
+                        )?),
+                        (None, None) => {
+                            return Err(
+                                item.err("rate", "missing: a temp basal needs rate or percent")
+                            )
+                        }
+                    },
+                    duration_min: duration.ok_or_else(|| {
+                        item.err("duration", "missing: a temp basal needs its duration (ms)")
+                    })?,
+                },
+                "suspend" => RecordKind::Suspend {
+                    duration_min: duration,
+                },
+                other => {
+                    return Err(item.err(
+                        "deliveryType",
+                        format!("expected scheduled, automated, temp or suspend, got \"{other}\""),
+                    ))
+                }
+            }
+        }
+        "food" => {
+            let net = item
+                .get("nutrition")
+                .and_then(|n| n.get("carbohydrate"))
+                .and_then(|c| c.get("net"));
+            match net.and_then(Value::as_f64) {
+                Some(g) => RecordKind::Carbs {
+                    grams: Grams(check_range(
+                        &item.at("nutrition.carbohydrate.net"),
+                        "nutrition.carbohydrate.net",
+                        g,
+                        0.0,
+                        units::CARBS_MAX_G,
+                        "carbohydrate (g)",
+                    )?),
+                },
+                None => RecordKind::Ignored {
+                    kind: "food without carbohydrate".into(),
+                },
+            }
+        }
+        "wizard" => match item.num("carbInput")? {
+            Some(g) if g > 0.0 => RecordKind::Carbs {
+                grams: Grams(check_range(
+                    &item.at("carbInput"),
+                    "carbInput",
+                    g,
+                    0.0,
+                    units::CARBS_MAX_G,
+                    "carbohydrate (g)",
+                )?),
+            },
+            _ => RecordKind::Ignored {
+                kind: "wizard without carbohydrate".into(),
+            },
+        },
+        "deviceEvent" => match item.str("subType")? {
+            Some("status") => match item.str("status")? {
+                Some("suspended") => RecordKind::Suspend {
+                    duration_min: ms_to_min(item, "duration")?,
+                },
+                Some("resumed") => RecordKind::Resume,
+                other => RecordKind::Ignored {
+                    kind: format!("deviceEvent status {}", other.unwrap_or("?")),
+                },
+            },
+            other => RecordKind::Ignored {
+                kind: format!("deviceEvent {}", other.unwrap_or("?")),
+            },
+        },
+        other => RecordKind::Ignored {
+            kind: other.to_string(),
+        },
+    })
+}

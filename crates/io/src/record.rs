@@ -1,0 +1,286 @@
+//! The normalised record stream: what every reader produces.
+
+use abba_core::{Grams, MgDl, Units, UnitsPerHour};
+use serde::{Deserialize, Serialize};
+
+/// Which kind of export a record came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Source {
+    /// Nightscout API JSON (entries, treatments, profile).
+    Nightscout,
+    /// Dexcom Clarity CSV export.
+    Clarity,
+    /// Abbott LibreView CSV export.
+    LibreView,
+    /// Tidepool JSON export.
+    Tidepool,
+    /// Plain CSV with named columns (abba's own outputs included).
+    PlainCsv,
+}
+
+impl Source {
+    /// Lower-case name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Source::Nightscout => "nightscout",
+            Source::Clarity => "clarity",
+            Source::LibreView => "libreview",
+            Source::Tidepool => "tidepool",
+            Source::PlainCsv => "csv",
+        }
+    }
+}
+
+/// A record's identity in its source.
+#[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SourceId {
+    /// The source's own id (Nightscout `_id`, Tidepool `id`).
+    Id(Box<str>),
+    /// The source's own row index (Clarity `Index`).
+    Index(u64),
+    /// A hash of the row's content, for sources with no id (FNV-1a 64 of
+    /// the row's cells).
+    Hash(u64),
+}
+
+/// Where the record was read: the file (an index into the batch's file
+/// list) and its line (text formats) or array index (JSON formats).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+pub struct Origin {
+    /// Index into [`crate::Batch::files`].
+    pub file: u16,
+    /// Line (CSV) or item index (JSON).
+    pub at: OriginAt,
+}
+
+/// Line or JSON item of an [`Origin`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum OriginAt {
+    /// 1-based line.
+    Line(u32),
+    /// 0-based index in the file's top-level JSON array.
+    Item(u32),
+}
+
+/// A glucose value as the device reported it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Glucose {
+    /// The value in mg/dL (for a censored reading: the device's limit).
+    pub mg_dl: MgDl,
+    /// Whether the device reported a value or only "beyond my limit".
+    pub censor: Censor,
+}
+
+/// Censoring of a glucose reading.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Censor {
+    /// A measured value.
+    Exact,
+    /// The device said "Low": the true value is below `mg_dl`.
+    Below,
+    /// The device said "High": the true value is above `mg_dl`.
+    Above,
+}
+
+impl Glucose {
+    /// A measured value.
+    pub fn exact(mg_dl: f64) -> Self {
+        Self {
+            mg_dl: MgDl(mg_dl),
+            censor: Censor::Exact,
+        }
+    }
+}
+
+/// A temporary basal's rate.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TempRate {
+    /// An absolute rate.
+    Absolute(UnitsPerHour),
+    /// A percentage of the scheduled rate (100 = unchanged).
+    Percent(f64),
+}
+
+/// A basal schedule: rates from given minutes of the local day.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BasalSchedule {
+    /// (minute of local day, rate) pairs, strictly increasing minutes, the
+    /// first at minute 0.
+    pub segments: Vec<(u32, UnitsPerHour)>,
+}
+
+impl BasalSchedule {
+    /// One rate all day.
+    pub fn flat(rate: UnitsPerHour) -> Self {
+        Self {
+            segments: vec![(0, rate)],
+        }
+    }
+    /// The rate in force at `minute_of_day`.
+    pub fn rate_at(&self, minute_of_day: u32) -> UnitsPerHour {
+        let mut rate = self.segments.first().map_or(UnitsPerHour(0.0), |s| s.1);
+        for &(from, r) in &self.segments {
+            if from <= minute_of_day {
+                rate = r;
+            }
+        }
+        rate
+    }
+}
+
+/// A therapy profile as a pump, Nightscout or a CSV gives it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Profile {
+    /// The basal schedule.
+    pub basal: BasalSchedule,
+    /// Carb ratios from minutes of the local day (empty when the source has none).
+    pub carb_ratio: Vec<(u32, abba_core::GramsPerUnit)>,
+    /// The time zone the profile names, if any.
+    pub timezone: Option<String>,
+}
+
+impl Profile {
+    /// A profile with only a basal schedule.
+    pub fn basal_only(basal: BasalSchedule) -> Self {
+        Self {
+            basal,
+            carb_ratio: Vec::new(),
+            timezone: None,
+        }
+    }
+}
+
+/// What a record says.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum RecordKind {
+    /// A CGM reading.
+    Cgm {
+        /// The reading.
+        glucose: Glucose,
+    },
+    /// A meter (finger-stick) reading.
+    Smbg {
+        /// The reading.
+        glucose: Glucose,
+    },
+    /// Carbohydrate eaten (or announced).
+    Carbs {
+        /// Grams.
+        grams: Grams,
+    },
+    /// A normal bolus, delivered at once.
+    Bolus {
+        /// Insulin.
+        units: Units,
+    },
+    /// An extended (square or dual-wave) bolus.
+    ExtendedBolus {
+        /// Part delivered at once.
+        now: Units,
+        /// Part spread over `duration_min`.
+        extended: Units,
+        /// Minutes over which the extended part runs.
+        duration_min: u32,
+    },
+    /// Long-acting (basal) insulin injected with a pen.
+    LongActing {
+        /// Insulin.
+        units: Units,
+    },
+    /// A therapy profile (basal schedule, carb ratios) in force from this
+    /// instant on.
+    Schedule {
+        /// The profile (boxed: records stay small).
+        profile: Box<Profile>,
+    },
+    /// A temporary basal rate for `duration_min` minutes.
+    TempBasal {
+        /// Rate or percentage.
+        rate: TempRate,
+        /// Minutes.
+        duration_min: u32,
+    },
+    /// Insulin delivery suspended (for `duration_min`, when the source says).
+    Suspend {
+        /// Minutes, if known.
+        duration_min: Option<u32>,
+    },
+    /// Insulin delivery resumed.
+    Resume,
+    /// Anything else, counted by kind (calibrations, alerts, sensor starts,
+    /// site changes, notes...).
+    Ignored {
+        /// The source's name for it.
+        kind: String,
+    },
+}
+
+impl RecordKind {
+    /// Short name of the kind (for counts).
+    pub fn name(&self) -> &'static str {
+        match self {
+            RecordKind::Cgm { .. } => "cgm",
+            RecordKind::Smbg { .. } => "smbg",
+            RecordKind::Carbs { .. } => "carbs",
+            RecordKind::Bolus { .. } => "bolus",
+            RecordKind::ExtendedBolus { .. } => "extended_bolus",
+            RecordKind::LongActing { .. } => "long_acting",
+            RecordKind::Schedule { .. } => "basal_schedule",
+            RecordKind::TempBasal { .. } => "temp_basal",
+            RecordKind::Suspend { .. } => "suspend",
+            RecordKind::Resume => "resume",
+            RecordKind::Ignored { .. } => "ignored",
+        }
+    }
+}
+
+/// One normalised record.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Record {
+    /// The instant (UTC).
+    #[serde(serialize_with = "crate::time::serialize_instant")]
+    pub at: jiff::Timestamp,
+    /// What it says.
+    pub kind: RecordKind,
+    /// Which export it came from.
+    pub source: Source,
+    /// Its identity there.
+    pub id: SourceId,
+    /// Where it was read.
+    pub origin: Origin,
+}
+
+/// FNV-1a 64-bit hash of some byte strings (with a separator), for sources
+/// whose rows carry no id.
+pub fn content_hash<'a>(parts: impl IntoIterator<Item = &'a [u8]>) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for part in parts {
+        for &b in part.iter().chain(std::iter::once(&0x1f)) {
+            h ^= u64::from(b);
+            h = h.wrapping_mul(0x0100_0000_01b3);
+        }
+    }
+    h
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_record_stays_small() {
+        // A 10-year CGM file is a million records (BENCHMARKS.md).
+        let size = std::mem::size_of::<Record>();
+        println!(
+            "Record: {size} bytes, RecordKind: {}",
+            std::mem::size_of::<RecordKind>()
+        );
+        assert!(size <= 96, "{size}");
+    }
+}

@@ -1,0 +1,157 @@
+//! Glucose units (never guessed) and the plausibility limits of every value.
+
+use abba_core::units::MG_DL_PER_MMOL_L;
+use serde::Serialize;
+
+use crate::error::{IoError, Location};
+
+/// Tidepool's own mg/dL per mmol/L (its data model stores mmol/L and
+/// converts with this factor).
+pub const TIDEPOOL_MG_DL_PER_MMOL_L: f64 = 18.01559;
+
+/// Glucose below this is not a reading (mg/dL); the advisor's limit too.
+pub const GLUCOSE_MIN_MG_DL: f64 = 10.0;
+/// Glucose above this is not a reading (mg/dL); the advisor's limit too.
+pub const GLUCOSE_MAX_MG_DL: f64 = 1000.0;
+/// Largest plausible single bolus (U).
+pub const BOLUS_MAX_U: f64 = 50.0;
+/// Largest plausible carbohydrate entry (g).
+pub const CARBS_MAX_G: f64 = 500.0;
+/// Largest plausible basal rate (U/h).
+pub const BASAL_MAX_U_PER_H: f64 = 50.0;
+/// Longest plausible temporary basal, extended bolus or suspension (min).
+pub const DURATION_MAX_MIN: f64 = 1440.0;
+/// Smallest plausible carb ratio (g/U).
+pub const CARB_RATIO_MIN_G_PER_U: f64 = 1.0;
+/// Largest plausible carb ratio (g/U).
+pub const CARB_RATIO_MAX_G_PER_U: f64 = 150.0;
+/// Largest plausible temporary-basal percentage.
+pub const PERCENT_MAX: f64 = 1000.0;
+
+/// A glucose unit, as a file declares it or `--units` gives it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum GlucoseUnit {
+    /// Milligrams per decilitre.
+    #[serde(rename = "mg/dL")]
+    MgDl,
+    /// Millimoles per litre.
+    #[serde(rename = "mmol/L")]
+    MmolL,
+}
+
+impl GlucoseUnit {
+    /// Reads a unit name as files write it (`mg/dL`, `mg/dl`, `mgdl`,
+    /// `mmol/L`, `mmol/l`, `mmol`).
+    pub fn parse(text: &str) -> Option<Self> {
+        let t: String = text
+            .trim()
+            .chars()
+            .filter(|c| !c.is_whitespace())
+            .collect::<String>()
+            .to_ascii_lowercase();
+        match t.as_str() {
+            "mg/dl" | "mgdl" | "mg" => Some(Self::MgDl),
+            "mmol/l" | "mmoll" | "mmol" => Some(Self::MmolL),
+            _ => None,
+        }
+    }
+    /// Printed name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::MgDl => "mg/dL",
+            Self::MmolL => "mmol/L",
+        }
+    }
+    /// `value` in this unit as mg/dL (abba's factor 18.0156).
+    pub fn to_mg_dl(self, value: f64) -> f64 {
+        match self {
+            Self::MgDl => value,
+            Self::MmolL => value * MG_DL_PER_MMOL_L,
+        }
+    }
+}
+
+/// Checks a finite number against `[min, max]`, naming the field.
+pub fn check_range(
+    at: &Location,
+    field: &str,
+    value: f64,
+    min: f64,
+    max: f64,
+    what: &str,
+) -> Result<f64, IoError> {
+    if !value.is_finite() || value < min || value > max {
+        return Err(IoError::invalid(
+            at.clone(),
+            field,
+            format!("{what} {value} is outside the plausible range {min}..{max}"),
+        ));
+    }
+    Ok(value)
+}
+
+/// Checks a glucose value given in `unit` and returns it in mg/dL. A value
+/// outside the limits says which unit it would fit.
+pub fn glucose_mg_dl(
+    at: &Location,
+    field: &str,
+    value: f64,
+    unit: GlucoseUnit,
+) -> Result<f64, IoError> {
+    let mg = unit.to_mg_dl(value);
+    if mg.is_finite() && (GLUCOSE_MIN_MG_DL..=GLUCOSE_MAX_MG_DL).contains(&mg) {
+        return Ok(mg);
+    }
+    let hint = match unit {
+        GlucoseUnit::MgDl if (0.5..GLUCOSE_MIN_MG_DL).contains(&value) => {
+            "; it looks like mmol/L (check --units or the file's unit)"
+        }
+        GlucoseUnit::MmolL
+            if (GLUCOSE_MIN_MG_DL..=GLUCOSE_MAX_MG_DL).contains(&value) && value > 35.0 =>
+        {
+            "; it looks like mg/dL (check --units or the file's unit)"
+        }
+        _ => "",
+    };
+    Err(IoError::invalid(
+        at.clone(),
+        field,
+        format!(
+            "glucose {value} {} is outside the plausible range {GLUCOSE_MIN_MG_DL}..{GLUCOSE_MAX_MG_DL} mg/dL{hint}",
+            unit.name()
+        ),
+    ))
+}
+
+/// The whole-file check for data whose unit came from `--units`: a median
+/// below 25 read as mg/dL, or above 35 read as mmol/L, is an error that
+/// says which unit the data looks like. `values` are the raw numbers as
+/// written.
+pub fn check_median(file: &str, values: &[f64], unit: GlucoseUnit) -> Result<(), IoError> {
+    if values.is_empty() {
+        return Ok(());
+    }
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    let median = v[v.len() / 2];
+    let wrong = match unit {
+        GlucoseUnit::MgDl => median < 25.0,
+        GlucoseUnit::MmolL => median > 35.0,
+    };
+    if wrong {
+        let looks = match unit {
+            GlucoseUnit::MgDl => GlucoseUnit::MmolL,
+            GlucoseUnit::MmolL => GlucoseUnit::MgDl,
+        };
+        return Err(IoError::Units {
+            file: file.to_string(),
+            message: format!(
+                "the glucose values were read as {} but their median is {median}, which looks \
+                 like {}; check --units",
+                unit.name(),
+                looks.name()
+            ),
+        });
+    }
+    Ok(())
+}

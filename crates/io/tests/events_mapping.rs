@@ -1,0 +1,140 @@
+//! Records → advisor events: meal slots by windows, basal rate in force
+//! through profiles, temporary basals, suspend/resume; day closes.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod common;
+use abba_core::{EventKind, MealSlot, Timestamp};
+use abba_io::events::{to_events, PersonSettings};
+use common::{fixture, opts, read};
+
+fn nightscout_stream() -> abba_io::events::EventStream {
+    let b = read(
+        &[
+            ("entries.json", fixture("nightscout_entries_synthetic.json")),
+            (
+                "treatments.json",
+                fixture("nightscout_treatments_synthetic.json"),
+            ),
+            ("profile.json", fixture("nightscout_profile_synthetic.json")),
+        ],
+        &opts("Europe/Zurich"),
+    )
+    .unwrap();
+    to_events(
+        &b,
+        &PersonSettings::new(abba_io::time::zone("Europe/Zurich").unwrap()),
+    )
+    .unwrap()
+}
+
+#[test]
+fn nightscout_fixtures_map_to_the_expected_events() {
+    let s = nightscout_stream();
+    // Day 1 is the first day of data (the profile started on 1 January).
+    assert_eq!(s.first_day, "2026-01-12");
+    assert!(s.rejected.is_empty(), "{:?}", s.rejected);
+    assert_eq!(s.counts["cgm"], 859);
+    assert_eq!(s.counts["smbg"], 3);
+    assert_eq!(s.counts["meal_announced"], 11);
+    assert_eq!(s.counts["bolus"], 11);
+    assert_eq!(s.counts["day_closed"], 2);
+    // Per day: the temp basal (0.4 U/h at 02:30 for 60 min, back to 0.8)
+    // and the profile's 04:00 (0.95) and 09:00 (0.8) segments.
+    assert_eq!(s.counts["basal_rate"], 12);
+    let basal: Vec<(i64, f64)> = s
+        .events
+        .iter()
+        .filter_map(|e| match e.kind {
+            EventKind::BasalRate(r) if e.at.day_index() == 0 => Some((e.at.minute_of_day(), r.0)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(basal, vec![(150, 0.4), (210, 0.8), (240, 0.95), (540, 0.8)]);
+    assert_eq!(s.ignored.get("Sensor Start"), Some(&1));
+    assert_eq!(s.ignored.get("Site Change"), Some(&1));
+    let slots: Vec<(i64, MealSlot)> = s
+        .events
+        .iter()
+        .filter_map(|e| match e.kind {
+            EventKind::MealAnnounced { slot, .. } => Some((e.at.day_index(), slot)),
+            _ => None,
+        })
+        .collect();
+    use MealSlot::*;
+    assert_eq!(
+        slots,
+        vec![
+            (0, Breakfast),
+            (0, Lunch),
+            (0, Dinner),
+            (0, Snack),
+            (1, Breakfast),
+            (1, Lunch),
+            (1, Dinner),
+            (1, Snack),
+            (2, Breakfast),
+            (2, Dinner),
+            (2, Snack),
+        ]
+    );
+    // The advisor's order: time, then reading < announcement < bolus < close < basal.
+    assert!(s.events.windows(2).all(|w| w[0].at <= w[1].at));
+    assert!(s.meal_rule.contains("05:00-10:30"));
+}
+
+#[test]
+fn percent_temp_basal_suspend_resume_and_a_second_breakfast() {
+    let t = r#"[
+ {"_id":"p","startDate":"2024-03-04T00:00:00Z","defaultProfile":"D","store":{"D":{"basal":[{"time":"00:00","value":1.0}]}}},
+ {"_id":"a","eventType":"Temp Basal","created_at":"2024-03-04T03:00:00Z","percent":-30,"duration":30},
+ {"_id":"b","eventType":"Suspend Pump","created_at":"2024-03-04T05:00:00Z"},
+ {"_id":"c","eventType":"Resume Pump","created_at":"2024-03-04T05:20:00Z"},
+ {"_id":"d","eventType":"Meal Bolus","created_at":"2024-03-04T07:00:00Z","carbs":50,"insulin":5},
+ {"_id":"e","eventType":"Meal Bolus","created_at":"2024-03-04T09:00:00Z","carbs":30,"insulin":3},
+ {"_id":"f","eventType":"Temp Basal","created_at":"2024-03-04T10:00:00Z","absolute":2.0,"duration":120},
+ {"_id":"g","eventType":"Temp Basal","created_at":"2024-03-04T11:00:00Z","duration":0,"absolute":0},
+ {"_id":"h","type":"sgv","sgv":120,"date":1709557200000}
+]"#;
+    let b = read(&[("t.json", t.into())], &opts("UTC")).unwrap();
+    let s = to_events(
+        &b,
+        &PersonSettings::new(abba_io::time::zone("UTC").unwrap()),
+    )
+    .unwrap();
+    let basal: Vec<(i64, f64)> = s
+        .events
+        .iter()
+        .filter_map(|e| match e.kind {
+            EventKind::BasalRate(r) => Some((e.at.minutes(), (r.0 * 1000.0).round() / 1000.0)),
+            _ => None,
+        })
+        .collect();
+    // 70 % of 1.0 at 03:00 until 03:30; 0 while suspended 05:00-05:20;
+    // 2.0 at 10:00, cancelled (duration 0) at 11:00.
+    assert_eq!(
+        basal,
+        vec![
+            (180, 0.7),
+            (210, 1.0),
+            (300, 0.0),
+            (320, 1.0),
+            (600, 2.0),
+            (660, 1.0)
+        ]
+    );
+    let meals: Vec<_> = s
+        .events
+        .iter()
+        .filter_map(|e| match e.kind {
+            EventKind::MealAnnounced { slot, carbs } => Some((e.at, slot, carbs.0)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(
+        meals,
+        vec![
+            (Timestamp(420), MealSlot::Breakfast, 50.0),
+            (Timestamp(540), MealSlot::Snack, 30.0)
+        ]
+    );
+}

@@ -1,0 +1,70 @@
+//! The one error type of abba-store.
+
+use thiserror::Error;
+
+/// Everything that can go wrong in the person store.
+#[derive(Debug, Error)]
+pub enum StoreError {
+    /// SQLite said no.
+    #[error("database: {0}")]
+    Sql(#[from] rusqlite::Error),
+    /// The database file was written by a newer abba.
+    #[error(
+        "the database has schema version {found}; this abba knows up to {known} (use a newer abba)"
+    )]
+    NewerSchema {
+        /// Version in the file.
+        found: i64,
+        /// Newest version this build knows.
+        known: i64,
+    },
+    /// No such person.
+    #[error("no person named \"{0}\" in this database (create one with `abba person new`)")]
+    NoPerson(String),
+    /// The name is taken.
+    #[error("a person named \"{0}\" already exists in this database")]
+    PersonExists(String),
+    /// A setting or an argument is not acceptable; names the field.
+    #[error("{field}: {problem}")]
+    Invalid {
+        /// The field or flag.
+        field: String,
+        /// What is wrong and what was expected.
+        problem: String,
+    },
+    /// Reading or mapping device data failed (names file, line or path, field).
+    #[error(transparent)]
+    Io(#[from] abba_io::IoError),
+    /// The advisor refused its configuration or state.
+    #[error("advisor: {0}")]
+    Advisor(#[from] abba_advisor::AdvisorError),
+    /// A stored value could not be read back.
+    #[error("stored {what} is unreadable: {detail}")]
+    Corrupt {
+        /// What was being read.
+        what: String,
+        /// The parser's message.
+        detail: String,
+    },
+    /// An answer that cannot be recorded (nothing open, unknown setting...).
+    #[error("{0}")]
+    Answer(String),
+}
+
+impl StoreError {
+    /// An [`StoreError::Invalid`].
+    pub fn invalid(field: impl Into<String>, problem: impl Into<String>) -> Self {
+        StoreError::Invalid {
+            field: field.into(),
+            problem: problem.into(),
+        }
+    }
+
+    /// A [`StoreError::Corrupt`] from a serde error.
+    pub fn corrupt(what: &str, e: impl std::fmt::Display) -> Self {
+        StoreError::Corrupt {
+            what: what.into(),
+            detail: e.to_string(),
+        }
+    }
+}

@@ -1,0 +1,37 @@
+//! abba-store: a person's durable store on SQLite, and the advisor as a
+//! function of that store.
+//!
+//! One file holds many persons. Per person: the settings (zone, mode, meal
+//! windows, starting therapy, clinician bounds, the advisor's
+//! configuration), the append-only log of device records (each with its
+//! source and its identity there), the imports, every suggestion with its
+//! full explanation, the person's answers, and an advisor snapshot. The
+//! advisor's state is a cache: it is rebuilt from the records and answers
+//! whenever the snapshot does not match them (decisions are a pure
+//! function of events, starting therapy and configuration).
+//!
+//! Each import and each answer is one transaction; the file is in WAL mode.
+//! abba-store depends on abba-core, abba-advisor and abba-io, never on the
+//! simulator. abba is research software, not a medical device.
+
+#![cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used))]
+
+pub mod advise;
+pub mod answer;
+pub mod error;
+pub mod history;
+pub mod import;
+pub mod log;
+pub mod person;
+pub mod render;
+pub mod replay;
+pub mod schema;
+pub mod store;
+pub mod words;
+
+pub use advise::{Advice, NOTICE};
+pub use answer::{AnswerKind, Answers};
+pub use error::StoreError;
+pub use import::ImportSummary;
+pub use person::{NewPerson, Person};
+pub use store::{AnswerRequest, Store};

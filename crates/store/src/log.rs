@@ -1,0 +1,157 @@
+//! The person's log: device records (append-only, each with its source and
+//! its identity there) and the advisor's events derived from them.
+//!
+//! Events are a pure function of the records and the person's settings
+//! (abba-io's [`abba_io::events::to_events`] plus, in SMBG mode, the day
+//! closes below), so importing the same data twice, or overlapping exports,
+//! cannot change them: a record already known (same source, same id) is not
+//! added again.
+
+use crate::error::StoreError;
+use crate::person::Person;
+use abba_advisor::Mode;
+use abba_core::{Event, EventKind, Timestamp};
+use abba_io::events::{to_events, EventStream};
+use abba_io::read::{merge, Format};
+use abba_io::record::{Origin, OriginAt};
+use abba_io::{Record, RecordKind, Source, SourceId};
+use rusqlite::{params, Connection};
+
+fn parse_source(s: &str) -> Result<Source, StoreError> {
+    Ok(match s {
+        "nightscout" => Source::Nightscout,
+        "clarity" => Source::Clarity,
+        "libre_view" => Source::LibreView,
+        "tidepool" => Source::Tidepool,
+        "plain_csv" => Source::PlainCsv,
+        other => {
+            return serde_json::from_value(serde_json::Value::String(other.into()))
+                .map_err(|e| StoreError::corrupt("record source", e))
+        }
+    })
+}
+
+/// A record's key columns: (source, source id) as stored.
+pub fn key(r: &Record) -> Result<(String, String), StoreError> {
+    let source = match serde_json::to_value(r.source) {
+        Ok(serde_json::Value::String(s)) => s,
+        _ => return Err(StoreError::corrupt("record source", "not a string")),
+    };
+    let id = serde_json::to_string(&r.id).map_err(|e| StoreError::corrupt("record id", e))?;
+    Ok((source, id))
+}
+
+/// Every record of a person, in a fixed order (instant, source, id): the
+/// same set of records always gives the same list, whatever the order in
+/// which they were imported.
+pub fn records(conn: &Connection, person: i64) -> Result<Vec<Record>, StoreError> {
+    // A scan of the primary key (no per-row index look-ups), sorted here.
+    let mut st =
+        conn.prepare("SELECT source, source_id, at_ms, kind FROM record WHERE person_id = ?1")?;
+    let rows = st.query_map(params![person], |r| {
+        Ok((
+            r.get::<_, String>(0)?,
+            r.get::<_, String>(1)?,
+            r.get::<_, i64>(2)?,
+            r.get::<_, String>(3)?,
+        ))
+    })?;
+    let mut raw = rows.collect::<Result<Vec<_>, _>>()?;
+    raw.sort_by(|a, b| (a.2, &a.0, &a.1).cmp(&(b.2, &b.0, &b.1)));
+    let mut out = Vec::with_capacity(raw.len());
+    for (source, id, at_ms, kind) in raw {
+        let source = parse_source(&source)?;
+        let id: SourceId =
+            serde_json::from_str(&id).map_err(|e| StoreError::corrupt("record id", e))?;
+        let kind: RecordKind =
+            serde_json::from_str(&kind).map_err(|e| StoreError::corrupt("record", e))?;
+        let at = jiff::Timestamp::from_millisecond(at_ms)
+            .map_err(|e| StoreError::corrupt("record instant", e))?;
+        out.push(Record {
+            at,
+            kind,
+            source,
+            id,
+            origin: Origin {
+                file: 0,
+                at: OriginAt::Item(u32::try_from(out.len()).unwrap_or(u32::MAX)),
+            },
+        });
+    }
+    Ok(out)
+}
+
+/// The advisor's events for `records` (see the module documentation).
+pub fn events(person: &Person, records: Vec<Record>) -> Result<EventStream, StoreError> {
+    if records.is_empty() {
+        return Ok(EventStream {
+            first_day: person.first_day.map(|d| d.to_string()).unwrap_or_default(),
+            tz: person.tz.iana_name().unwrap_or("?").to_string(),
+            events: Vec::new(),
+            counts: Default::default(),
+            ignored: Default::default(),
+            not_mapped: Default::default(),
+            censored: 0,
+            rejected: Vec::new(),
+            meal_rule: person.settings.meal_windows.rule(),
+            notes: Vec::new(),
+        });
+    }
+    let batch = merge(vec!["store".into()], vec![Format::Nightscout], records);
+    let mut stream = to_events(&batch, &person.mapping())?;
+    if person.mode() == Mode::Smbg {
+        let minute = i64::from(person.settings.bedtime_min);
+        stream.events = with_smbg_day_closes(std::mem::take(&mut stream.events), minute);
+        let closes = stream
+            .events
+            .iter()
+            .filter(|e| e.kind == EventKind::DayClosed)
+            .count();
+        if closes > 0 {
+            stream.counts.insert("day_closed".into(), closes);
+        }
+    }
+    Ok(stream)
+}
+
+/// SMBG mode: a day closes right after its first meter reading at or after
+/// `bedtime_min` (the bedtime reading, as in the trial); a day without one
+/// closes at the next midnight once the log holds a later day.
+pub fn with_smbg_day_closes(events: Vec<Event>, bedtime_min: i64) -> Vec<Event> {
+    let (Some(first), Some(last)) = (events.first().map(|e| e.at), events.last().map(|e| e.at))
+    else {
+        return events;
+    };
+    let mut closes: Vec<Timestamp> = Vec::new();
+    for day in first.day_index()..=last.day_index() {
+        let bedtime = events.iter().find(|e| {
+            matches!(e.kind, EventKind::Smbg(_))
+                && e.at.day_index() == day
+                && e.at.minute_of_day() >= bedtime_min
+        });
+        match bedtime {
+            Some(e) => closes.push(e.at),
+            None if day < last.day_index() => {
+                closes.push(Timestamp::from_day_and_minute(day + 1, 0))
+            }
+            None => {}
+        }
+    }
+    let mut out = Vec::with_capacity(events.len() + closes.len());
+    let mut next = closes.into_iter().peekable();
+    for e in events {
+        // The close goes after the minute's readings, meals and boluses,
+        // before a basal rate set at that minute.
+        while let Some(&c) = next.peek() {
+            if c < e.at || (c == e.at && matches!(e.kind, EventKind::BasalRate(_))) {
+                out.push(Event::new(c, EventKind::DayClosed));
+                next.next();
+            } else {
+                break;
+            }
+        }
+        out.push(e);
+    }
+    out.extend(next.map(|c| Event::new(c, EventKind::DayClosed)));
+    out
+}

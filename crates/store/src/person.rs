@@ -1,0 +1,211 @@
+//! Persons: name, zone, mode, meal windows, starting therapy, clinician
+//! bounds and the advisor's configuration.
+
+use crate::error::StoreError;
+use abba_advisor::{Abba, AbbaConfig, ClinicianBounds, MinData, Mode};
+use abba_core::TherapySettings;
+use abba_io::events::{DayClose, PersonSettings};
+use abba_io::meals::MealWindows;
+use jiff::civil::Date;
+use jiff::tz::TimeZone;
+use rusqlite::{params, Connection, OptionalExtension};
+use serde::{Deserialize, Serialize};
+
+/// Everything stored about a person besides the name, zone, mode and day 1.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PersonSettingsDoc {
+    /// The therapy in force when the person started (the clinic's).
+    pub start: TherapySettings,
+    /// Meal windows (carbohydrate entries become meals by local time).
+    pub meal_windows: MealWindows,
+    /// Clinician bounds of the basal rate and the carb ratios.
+    pub bounds: ClinicianBounds,
+    /// SMBG mode: the day closes at the first meter reading at or after this
+    /// local minute of the day (the bedtime reading).
+    pub bedtime_min: u32,
+    /// Minimum data per window for an update.
+    pub min_data: MinData,
+    /// The advisor's configuration (mode and exploration seed included).
+    pub advisor: AbbaConfig,
+}
+
+/// A new person.
+#[derive(Debug, Clone)]
+pub struct NewPerson {
+    /// Unique name in the file.
+    pub name: String,
+    /// IANA zone name (`Europe/Zurich`).
+    pub tz: String,
+    /// Day 1 of the advisor's clock; `None`: the local date of the first
+    /// record imported.
+    pub first_day: Option<Date>,
+    /// The rest.
+    pub settings: PersonSettingsDoc,
+}
+
+impl NewPerson {
+    /// A person with default meal windows, no bounds, bedtime 22:00, the
+    /// default data rule and ABBA's default configuration for `mode` with an
+    /// exploration seed derived from the name.
+    pub fn new(name: &str, tz: &str, mode: Mode, start: TherapySettings) -> Self {
+        let seed = abba_io::record::content_hash([name.as_bytes()]);
+        Self {
+            name: name.to_string(),
+            tz: tz.to_string(),
+            first_day: None,
+            settings: PersonSettingsDoc {
+                start,
+                meal_windows: MealWindows::default(),
+                bounds: ClinicianBounds::default(),
+                bedtime_min: 22 * 60,
+                min_data: MinData::default(),
+                advisor: AbbaConfig::new(mode, seed),
+            },
+        }
+    }
+}
+
+/// A stored person.
+#[derive(Debug, Clone)]
+pub struct Person {
+    /// Row id.
+    pub id: i64,
+    /// Name.
+    pub name: String,
+    /// Zone.
+    pub tz: TimeZone,
+    /// Day 1, once known.
+    pub first_day: Option<Date>,
+    /// The rest.
+    pub settings: PersonSettingsDoc,
+}
+
+fn mode_name(m: Mode) -> &'static str {
+    match m {
+        Mode::Cgm => "cgm",
+        Mode::Smbg => "smbg",
+    }
+}
+
+impl Person {
+    /// The advisor's mode.
+    pub fn mode(&self) -> Mode {
+        self.settings.advisor.mode
+    }
+
+    /// A fresh advisor for this person (the state before any event).
+    pub fn advisor(&self) -> Result<Abba, StoreError> {
+        Ok(
+            Abba::new(self.settings.advisor.clone(), self.settings.start)?
+                .with_bounds(self.settings.bounds)?
+                .with_min_data(self.settings.min_data),
+        )
+    }
+
+    /// What the record → event mapping needs.
+    pub fn mapping(&self) -> PersonSettings {
+        let mut s = PersonSettings::new(self.tz.clone());
+        s.first_day = self.first_day;
+        s.meals = self.settings.meal_windows;
+        s.day_close = match self.mode() {
+            Mode::Cgm => DayClose::Midnight,
+            Mode::Smbg => DayClose::Never,
+        };
+        s
+    }
+}
+
+/// Checks and stores a new person; returns its id.
+pub fn create(conn: &Connection, p: &NewPerson) -> Result<i64, StoreError> {
+    if p.name.trim().is_empty() || p.name.len() > 200 {
+        return Err(StoreError::invalid(
+            "--name",
+            "expected 1 to 200 characters",
+        ));
+    }
+    TimeZone::get(&p.tz).map_err(|e| {
+        StoreError::invalid(
+            "--tz",
+            format!("\"{}\" is not a known IANA zone ({e})", p.tz),
+        )
+    })?;
+    let s = &p.settings;
+    s.meal_windows.validate()?;
+    if s.bedtime_min >= 1440 {
+        return Err(StoreError::invalid(
+            "bedtime",
+            "expected a minute of the day, 0-1439",
+        ));
+    }
+    s.start
+        .validate()
+        .map_err(|e| StoreError::invalid("starting therapy", e.to_string()))?;
+    // Builds the advisor once: checks the configuration and that the
+    // starting therapy lies inside the bounds.
+    Abba::new(s.advisor.clone(), s.start)?.with_bounds(s.bounds)?;
+    let exists: Option<i64> = conn
+        .query_row("SELECT id FROM person WHERE name = ?1", [&p.name], |r| {
+            r.get(0)
+        })
+        .optional()?;
+    if exists.is_some() {
+        return Err(StoreError::PersonExists(p.name.clone()));
+    }
+    let doc = serde_json::to_string(s).map_err(|e| StoreError::corrupt("person settings", e))?;
+    conn.execute(
+        "INSERT INTO person (name, tz, mode, first_day, settings, created_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6)",
+        params![
+            p.name,
+            p.tz,
+            mode_name(s.advisor.mode),
+            p.first_day.map(|d| d.to_string()),
+            doc,
+            jiff::Timestamp::now().to_string()
+        ],
+    )?;
+    Ok(conn.last_insert_rowid())
+}
+
+/// Looks a person up by name.
+pub fn load(conn: &Connection, name: &str) -> Result<Person, StoreError> {
+    let row: Option<(i64, String, Option<String>, String)> = conn
+        .query_row(
+            "SELECT id, tz, first_day, settings FROM person WHERE name = ?1",
+            [name],
+            |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?)),
+        )
+        .optional()?;
+    let (id, tz, first_day, doc) = row.ok_or_else(|| StoreError::NoPerson(name.to_string()))?;
+    let tz = TimeZone::get(&tz).map_err(|e| StoreError::corrupt("person zone", e))?;
+    let first_day = first_day
+        .map(|d| d.parse::<Date>())
+        .transpose()
+        .map_err(|e| StoreError::corrupt("person first day", e))?;
+    let settings =
+        serde_json::from_str(&doc).map_err(|e| StoreError::corrupt("person settings", e))?;
+    Ok(Person {
+        id,
+        name: name.to_string(),
+        tz,
+        first_day,
+        settings,
+    })
+}
+
+/// Sets day 1 (done once, at the first import).
+pub fn set_first_day(conn: &Connection, id: i64, day: Date) -> Result<(), StoreError> {
+    conn.execute(
+        "UPDATE person SET first_day = ?1 WHERE id = ?2 AND first_day IS NULL",
+        params![day.to_string(), id],
+    )?;
+    Ok(())
+}
+
+/// Names of every person in the file.
+pub fn names(conn: &Connection) -> Result<Vec<String>, StoreError> {
+    let mut st = conn.prepare("SELECT name FROM person ORDER BY name")?;
+    let v = st
+        .query_map([], |r| r.get(0))?
+        .collect::<Result<Vec<String>, _>>()?;
+    Ok(v)
+}

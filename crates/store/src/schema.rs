@@ -1,0 +1,113 @@
+//! Opening a store: WAL mode and versioned migrations.
+//!
+//! Migrations are our own small versioned list: migration `i` (1-based) is
+//! applied in one transaction together with `PRAGMA user_version = i`, so a
+//! file is always at exactly one version. (A dependency such as
+//! rusqlite_migration would pin us to its rusqlite version for what is a
+//! dozen lines here.)
+
+use crate::error::StoreError;
+use rusqlite::Connection;
+use std::path::Path;
+
+/// The migrations, oldest first. Never edit one that shipped; append.
+const MIGRATIONS: &[&str] = &[
+    // 1: persons, imports, the record log, suggestions, answers, snapshots.
+    "CREATE TABLE person (
+        id INTEGER PRIMARY KEY,
+        name TEXT NOT NULL UNIQUE,
+        tz TEXT NOT NULL,
+        mode TEXT NOT NULL CHECK (mode IN ('cgm', 'smbg')),
+        first_day TEXT,
+        settings TEXT NOT NULL,
+        created_at TEXT NOT NULL
+    );
+    CREATE TABLE import (
+        id INTEGER PRIMARY KEY,
+        person_id INTEGER NOT NULL REFERENCES person(id),
+        imported_at TEXT NOT NULL,
+        files TEXT NOT NULL,
+        formats TEXT NOT NULL,
+        records_read INTEGER NOT NULL,
+        records_added INTEGER NOT NULL,
+        records_known INTEGER NOT NULL
+    );
+    CREATE TABLE record (
+        person_id INTEGER NOT NULL REFERENCES person(id),
+        source TEXT NOT NULL,
+        source_id TEXT NOT NULL,
+        at_ms INTEGER NOT NULL,
+        kind TEXT NOT NULL,
+        origin TEXT NOT NULL,
+        import_id INTEGER NOT NULL REFERENCES import(id),
+        PRIMARY KEY (person_id, source, source_id)
+    ) WITHOUT ROWID;
+    CREATE INDEX record_by_time ON record (person_id, at_ms);
+    CREATE INDEX record_by_import ON record (import_id);
+    CREATE TABLE suggestion (
+        person_id INTEGER NOT NULL REFERENCES person(id),
+        at_min INTEGER NOT NULL,
+        parameter TEXT NOT NULL,
+        old REAL NOT NULL,
+        new REAL NOT NULL,
+        skipped INTEGER NOT NULL,
+        decision TEXT NOT NULL,
+        PRIMARY KEY (person_id, at_min, parameter)
+    ) WITHOUT ROWID;
+    CREATE TABLE answer (
+        id INTEGER PRIMARY KEY,
+        person_id INTEGER NOT NULL REFERENCES person(id),
+        at_min INTEGER NOT NULL,
+        parameter TEXT NOT NULL,
+        answer TEXT NOT NULL CHECK (answer IN ('accepted', 'rejected', 'overridden')),
+        suggested REAL NOT NULL,
+        previous REAL NOT NULL,
+        in_force REAL NOT NULL,
+        answered_at TEXT NOT NULL,
+        UNIQUE (person_id, at_min, parameter)
+    );
+    CREATE TABLE snapshot (
+        person_id INTEGER PRIMARY KEY REFERENCES person(id),
+        events INTEGER NOT NULL,
+        events_hash TEXT NOT NULL,
+        answers TEXT NOT NULL,
+        unused INTEGER NOT NULL,
+        state TEXT NOT NULL
+    );",
+];
+
+/// The newest schema version this build knows.
+pub fn current_version() -> i64 {
+    MIGRATIONS.len() as i64
+}
+
+/// Opens (creating if needed) a store file: WAL journal, foreign keys on,
+/// migrations applied.
+pub fn open(path: &Path) -> Result<Connection, StoreError> {
+    let mut conn = Connection::open(path)?;
+    conn.busy_timeout(std::time::Duration::from_secs(10))?;
+    conn.pragma_update(None, "journal_mode", "WAL")?;
+    conn.pragma_update(None, "synchronous", "NORMAL")?;
+    conn.pragma_update(None, "foreign_keys", "ON")?;
+    // 64 MiB of page cache: a person's whole log is read at every advice.
+    conn.pragma_update(None, "cache_size", -65536)?;
+    migrate(&mut conn)?;
+    Ok(conn)
+}
+
+fn migrate(conn: &mut Connection) -> Result<(), StoreError> {
+    let found: i64 = conn.pragma_query_value(None, "user_version", |r| r.get(0))?;
+    if found > current_version() {
+        return Err(StoreError::NewerSchema {
+            found,
+            known: current_version(),
+        });
+    }
+    for (i, sql) in MIGRATIONS.iter().enumerate().skip(found as usize) {
+        let tx = conn.transaction()?;
+        tx.execute_batch(sql)?;
+        tx.pragma_update(None, "user_version", (i + 1) as i64)?;
+        tx.commit()?;
+    }
+    Ok(())
+}

@@ -13,6 +13,8 @@ mod import;
 mod input;
 mod metrics;
 mod person;
+mod person_report;
+mod report;
 mod simulate;
 mod trial;
 
@@ -48,6 +50,8 @@ enum Command {
     Answer(answer::Args),
     /// Every suggestion, the answer and the value in force, by day.
     History(history::Args),
+    /// A person's AGP-style report as one HTML page (research software, not a medical device).
+    Report(report::Args),
 }
 
 fn main() -> Result<()> {
@@ -63,5 +67,6 @@ fn main() -> Result<()> {
         Command::Advise(a) => advise::run(a),
         Command::Answer(a) => answer::run(a),
         Command::History(a) => history::run(a),
+        Command::Report(a) => report::run(a),
     }
 }

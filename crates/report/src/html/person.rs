@@ -66,8 +66,10 @@ pub struct PersonDay {
 /// One glucose reading.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Reading {
-    /// The instant (seconds since 1970-01-01 UTC).
-    pub at_unix_s: i64,
+    /// The instant in seconds on any clock that only moves forward (Unix
+    /// time, or the advisor's clock: minutes since 00:00 of day 1 × 60);
+    /// used for the order of readings and the times after a meal.
+    pub at_s: i64,
     /// Local time of day, minutes after midnight (0..1440).
     pub minute_of_day: u32,
     /// Glucose, mg/dL.
@@ -86,8 +88,8 @@ pub struct SettingsInForce {
 /// A meal.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct MealTime {
-    /// The instant (seconds since 1970-01-01 UTC).
-    pub at_unix_s: i64,
+    /// The instant, on the same clock as [`Reading::at_s`].
+    pub at_s: i64,
     /// Local time of day, minutes after midnight.
     pub minute_of_day: u32,
     /// Which meal.
@@ -160,13 +162,13 @@ pub fn check_input(input: &PersonReportInput) -> Result<(), ReportError> {
                     day.date, r.mg_dl
                 )));
             }
-            if last_instant.is_some_and(|l| r.at_unix_s <= l) {
+            if last_instant.is_some_and(|l| r.at_s <= l) {
                 return Err(bad(format!(
-                    "days[{d}] ({}) readings[{i}].at_unix_s {} is not after the previous reading",
-                    day.date, r.at_unix_s
+                    "days[{d}] ({}) readings[{i}].at_s {} is not after the previous reading",
+                    day.date, r.at_s
                 )));
             }
-            last_instant = Some(r.at_unix_s);
+            last_instant = Some(r.at_s);
         }
     }
     Ok(())
@@ -177,7 +179,7 @@ pub fn person_summary(input: &PersonReportInput) -> Result<PersonSummary, Report
     check_input(input)?;
     let all: Vec<&Reading> = input.days.iter().flat_map(|d| &d.readings).collect();
     let metrics = if all.len() >= 2 {
-        let times: Vec<f64> = all.iter().map(|r| r.at_unix_s as f64 / 60.0).collect();
+        let times: Vec<f64> = all.iter().map(|r| r.at_s as f64 / 60.0).collect();
         let values: Vec<f64> = all.iter().map(|r| r.mg_dl).collect();
         Some(
             metrics_timed(&times, &values).map_err(|source| ReportError::Stats {
@@ -191,7 +193,7 @@ pub fn person_summary(input: &PersonReportInput) -> Result<PersonSummary, Report
     let cgm_active_pct = (input.mode == Mode::Cgm).then(|| {
         let slots: std::collections::BTreeSet<i64> = all
             .iter()
-            .map(|r| r.at_unix_s.div_euclid(i64::from(CGM_PERIOD_MIN) * 60))
+            .map(|r| r.at_s.div_euclid(i64::from(CGM_PERIOD_MIN) * 60))
             .collect();
         let expected = input.days.len() as f64 * f64::from(DAY_MIN / CGM_PERIOD_MIN);
         (100.0 * slots.len() as f64 / expected).min(100.0)
@@ -220,8 +222,8 @@ pub fn person_summary(input: &PersonReportInput) -> Result<PersonSummary, Report
 fn reading_near(readings: &[&Reading], target: i64, tolerance_min: i64) -> Option<f64> {
     readings
         .iter()
-        .filter(|r| (r.at_unix_s - target).abs() <= tolerance_min * 60)
-        .min_by_key(|r| (r.at_unix_s - target).abs())
+        .filter(|r| (r.at_s - target).abs() <= tolerance_min * 60)
+        .min_by_key(|r| (r.at_s - target).abs())
         .map(|r| r.mg_dl)
 }
 
@@ -318,7 +320,7 @@ pub fn person_report_html(input: &PersonReportInput) -> Result<String, ReportErr
     for d in &input.days {
         for m in d.meals.iter().filter(|m| m.slot != MealSlot::Snack) {
             let at = |h: i64| {
-                reading_near(&all, m.at_unix_s + h * 3600, tolerance)
+                reading_near(&all, m.at_s + h * 3600, tolerance)
                     .map_or_else(|| "no reading".to_string(), |g| unit.with_unit(g))
             };
             meals.push(Row::of([
@@ -326,7 +328,7 @@ pub fn person_report_html(input: &PersonReportInput) -> Result<String, ReportErr
                 slot_name(m.slot),
                 &format!("{:02}:{:02}", m.minute_of_day / 60, m.minute_of_day % 60),
                 &opt(m.carbs_g, 0, "g"),
-                &reading_near(&all, m.at_unix_s, tolerance)
+                &reading_near(&all, m.at_s, tolerance)
                     .map_or_else(|| "no reading".to_string(), |g| unit.with_unit(g)),
                 &at(2),
                 &at(4),
@@ -350,6 +352,23 @@ pub fn person_report_html(input: &PersonReportInput) -> Result<String, ReportErr
             ])
         })
         .collect();
+    let profile_rows: Vec<Row> = summary
+        .profile
+        .iter()
+        .filter_map(|b| {
+            b.p.map(|p| {
+                Row::of([
+                    &format!("{:02}:{:02}", b.start_min / 60, b.start_min % 60),
+                    &b.n.to_string(),
+                    &unit.value(p[0]),
+                    &unit.value(p[1]),
+                    &unit.value(p[2]),
+                    &unit.value(p[3]),
+                    &unit.value(p[4]),
+                ])
+            })
+        })
+        .collect();
     let readings_per_day: Vec<Row> = input
         .days
         .iter()
@@ -369,6 +388,7 @@ pub fn person_report_html(input: &PersonReportInput) -> Result<String, ReportErr
         stats => stats,
         tir_svg => tir_svg,
         profile_svg => profile,
+        profile_rows => profile_rows,
         panels => panels,
         readings_per_day => readings_per_day,
         settings => settings,

@@ -61,7 +61,7 @@ pub fn synthetic_person(days: usize, mode: Mode, unit: GlucoseUnit) -> PersonRep
         let readings = minutes
             .iter()
             .map(|&m| Reading {
-                at_unix_s: day_start + i64::from(m) * 60,
+                at_s: day_start + i64::from(m) * 60,
                 minute_of_day: m,
                 mg_dl: glucose(d, m),
             })
@@ -73,7 +73,7 @@ pub fn synthetic_person(days: usize, mode: Mode, unit: GlucoseUnit) -> PersonRep
         ]
         .into_iter()
         .map(|(slot, m)| MealTime {
-            at_unix_s: day_start + i64::from(m) * 60,
+            at_s: day_start + i64::from(m) * 60,
             minute_of_day: m,
             slot,
             carbs_g: Some(40.0 + d as f64),

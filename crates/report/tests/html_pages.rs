@@ -187,3 +187,21 @@ fn the_same_input_gives_the_same_bytes_and_the_page_validates() {
     .unwrap();
     validate_with_tidy(&path);
 }
+
+#[test]
+fn every_range_label_of_the_bar_stays_inside_the_figure() {
+    // Crowded at the top (tiny high ranges) and at the bottom (tiny low ones).
+    for pct in [[0.0, 0.0, 99.0, 0.5, 0.5], [0.5, 0.5, 99.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0, 100.0]] {
+        let svg = abba_report::html::svg::tir_bar_svg("t", pct, "t");
+        let ys: Vec<f64> = svg
+            .split("<text ")
+            .skip(1)
+            .map(|t| {
+                let i = t.find("y=\"").unwrap() + 3;
+                t[i..i + t[i..].find('"').unwrap()].parse().unwrap()
+            })
+            .collect();
+        assert_eq!(ys.len(), 11, "{pct:?}");
+        assert!(ys.iter().all(|y| *y > 0.0 && *y < 258.0), "{pct:?}: {ys:?}");
+    }
+}

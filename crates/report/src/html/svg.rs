@@ -392,9 +392,14 @@ pub fn tir_bar_svg(id: &str, pct: [f64; 5], title: &str) -> String {
         }
         placed.push(ly);
     }
-    let shift = (top + 14.0 - placed.last().copied().unwrap_or(top)).max(0.0);
-    for (i, ly) in placed.iter().enumerate() {
-        let ly = ly + shift;
+    // Then top to bottom: nothing above the frame (5 labels × 32 px fit in
+    // the bar's height, so the lowest stays inside).
+    let mut floor = top + 14.0 - 32.0;
+    for ly in placed.iter_mut().rev() {
+        *ly = ly.max(floor + 32.0);
+        floor = *ly;
+    }
+    for (i, ly) in placed.iter().copied().enumerate() {
         fig.line(
             bar_x + bar_w,
             label_y[i],

@@ -163,6 +163,30 @@ fn smbg_person_report_in_mmol_l() {
 }
 
 #[test]
+fn pdf_is_printed_by_chromium_when_asked() {
+    if browser::chromium().is_none() {
+        return;
+    }
+    let sim = simulate(ScenarioId::S1, 1, 10);
+    let dir = TempDir::new("report-pdf");
+    let mut store = sim.store(&dir.0);
+    store.import(&sim.person.name, &sim.export(0, sim.last_day())).unwrap();
+    drop(store);
+    let page = dir.0.join("page.html");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_abba"))
+        .args(["report", "--db"])
+        .arg(dir.0.join("abba.db"))
+        .args(["--person", &sim.person.name, "--pdf", "--out"])
+        .arg(&page)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let pdf = std::fs::read(dir.0.join("page.pdf")).unwrap();
+    assert!(pdf.starts_with(b"%PDF-"), "not a PDF");
+    assert!(pdf.len() > 10_000);
+}
+
+#[test]
 fn unknown_person_and_bad_unit_are_refused() {
     let dir = TempDir::new("report-bad");
     let sim = simulate(ScenarioId::S1, 1, 3);

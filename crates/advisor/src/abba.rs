@@ -14,7 +14,7 @@ use crate::guard::{closed_day, EventGuard};
 use crate::supervisor::{adds_insulin, supervisory, ParamKind};
 use crate::te::{te_scale, theta0, transfer_entropy, TeCollector, TeEstimate};
 use crate::windows::{DayWindows, MealWindows};
-use crate::Advisor;
+use crate::{Advisor, ArmKind};
 use abba_core::{
     Event, EventKind, GramsPerUnit, MealSlot, SettingValue, TherapySettings, Timestamp,
     UnitsPerHour,
@@ -215,20 +215,26 @@ impl Abba {
         self.log.dropped()
     }
 
-    /// The whole state as JSON.
+    /// The whole state as JSON, in the versioned envelope of [`crate::state`].
     pub fn save_json(&self) -> Result<String, AdvisorError> {
-        serde_json::to_string(self).map_err(|e| AdvisorError::State(e.to_string()))
+        crate::state::save(ArmKind::Abba, self)
     }
 
     /// Restores a state saved with [`Abba::save_json`], re-validating it.
     pub fn load_json(json: &str) -> Result<Self, AdvisorError> {
-        let a: Self = serde_json::from_str(json).map_err(|e| AdvisorError::State(e.to_string()))?;
-        a.config.validate()?;
-        for (what, s) in [("start", &a.start), ("current", &a.settings)] {
+        let a: Self = crate::state::load(ArmKind::Abba, json)?;
+        a.check_state()?;
+        Ok(a)
+    }
+
+    /// Re-validates a deserialised state.
+    pub(crate) fn check_state(&self) -> Result<(), AdvisorError> {
+        self.config.validate()?;
+        for (what, s) in [("start", &self.start), ("current", &self.settings)] {
             s.validate()
                 .map_err(|e| AdvisorError::State(format!("{what} settings: {e}")))?;
         }
-        for ag in &a.agents {
+        for ag in &self.agents {
             if !ag.theta.iter().all(|t| t.is_finite()) {
                 return Err(AdvisorError::State(format!(
                     "non-finite policy θ {:?}",
@@ -236,7 +242,7 @@ impl Abba {
                 )));
             }
         }
-        Ok(a)
+        Ok(())
     }
 
     fn value(&self, p: Parameter) -> f64 {
@@ -415,18 +421,21 @@ impl Abba {
                 }
                 None
             }
-            EventKind::Bolus(u) => {
+            EventKind::MealAnnounced { .. } | EventKind::DayClosed => self.timeline(e),
+            // Insulin delivery (bolus, basal, temporary basal, suspension,
+            // extended bolus): only the TE grid of the first week uses it.
+            _ => {
                 if let Some(te) = &mut self.te {
-                    te.bolus(e.at, u.0);
+                    te.event(e);
                 }
                 None
             }
-            EventKind::BasalRate(r) => {
-                if let Some(te) = &mut self.te {
-                    te.basal(e.at, r.0);
-                }
-                None
-            }
+        }
+    }
+
+    /// The decision points: main-meal announcements and day closings.
+    fn timeline(&mut self, e: &Event) -> Option<TherapySettings> {
+        match e.kind {
             EventKind::MealAnnounced { slot, .. } => {
                 let i = slot.main_index()?;
                 let prev = self.meal_windows.announce(i, e.at);
@@ -460,6 +469,7 @@ impl Abba {
                 self.decide(e.at, Parameter::Basal, window);
                 Some(self.settings)
             }
+            _ => None,
         }
     }
 }
@@ -484,10 +494,11 @@ impl Advisor for Abba {
         self.log.take()
     }
 
-    fn name(&self) -> &'static str {
-        match self.config.mode {
-            Mode::Smbg => "abba-smbg",
-            Mode::Cgm => "abba-cgm",
-        }
+    fn arm(&self) -> ArmKind {
+        ArmKind::Abba
+    }
+
+    fn mode(&self) -> Option<Mode> {
+        Some(self.config.mode)
     }
 }

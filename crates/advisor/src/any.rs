@@ -6,7 +6,7 @@ use crate::baselines::r2r::{R2rConfig, RunToRun};
 use crate::config::{AbbaConfig, EventLimits};
 use crate::decision::Decision;
 use crate::error::AdvisorError;
-use crate::Advisor;
+use crate::{Advisor, ArmKind, Mode};
 use abba_core::{Event, TherapySettings};
 use serde::{Deserialize, Serialize};
 
@@ -28,6 +28,25 @@ pub enum AdvisorSpec {
 }
 
 impl AdvisorSpec {
+    /// The arm this spec builds.
+    pub fn arm(&self) -> ArmKind {
+        match self {
+            AdvisorSpec::Abba(_) => ArmKind::Abba,
+            AdvisorSpec::Fixed { .. } => ArmKind::Standard,
+            AdvisorSpec::RunToRun(_) => ArmKind::R2r,
+        }
+    }
+
+    /// Checks the configuration inside (what [`AdvisorSpec::build`] would
+    /// refuse), without a starting therapy.
+    pub fn validate(&self) -> Result<(), AdvisorError> {
+        match self {
+            AdvisorSpec::Abba(c) => c.validate(),
+            AdvisorSpec::Fixed { limits } => limits.validate(),
+            AdvisorSpec::RunToRun(c) => c.validate(),
+        }
+    }
+
     /// Builds the advisor for one patient from its starting therapy and its
     /// exploration seed (`derive_seed(trial, patient, scenario, Stream::Exploration)`).
     pub fn build(
@@ -77,6 +96,26 @@ impl AnyAdvisor {
         self.as_abba().and_then(Abba::init_report)
     }
 
+    /// The whole state as JSON, in the versioned envelope of
+    /// [`crate::state`] (the same form as the inner advisor's own
+    /// `save_json`).
+    pub fn save_json(&self) -> Result<String, AdvisorError> {
+        match self {
+            AnyAdvisor::Abba(a) => a.save_json(),
+            AnyAdvisor::Fixed(a) => a.save_json(),
+            AnyAdvisor::RunToRun(a) => a.save_json(),
+        }
+    }
+
+    /// Restores any advisor's saved state (the envelope says which).
+    pub fn load_json(json: &str) -> Result<Self, AdvisorError> {
+        Ok(match crate::state::saved_arm(json)? {
+            ArmKind::Abba => AnyAdvisor::Abba(Box::new(Abba::load_json(json)?)),
+            ArmKind::Standard => AnyAdvisor::Fixed(FixedTherapy::load_json(json)?),
+            ArmKind::R2r => AnyAdvisor::RunToRun(RunToRun::load_json(json)?),
+        })
+    }
+
     fn inner(&self) -> &dyn Advisor {
         match self {
             AnyAdvisor::Abba(a) => a.as_ref(),
@@ -111,7 +150,11 @@ impl Advisor for AnyAdvisor {
         self.inner_mut().take_decisions()
     }
 
-    fn name(&self) -> &'static str {
-        self.inner().name()
+    fn arm(&self) -> ArmKind {
+        self.inner().arm()
+    }
+
+    fn mode(&self) -> Option<Mode> {
+        self.inner().mode()
     }
 }

@@ -44,6 +44,14 @@ pub struct EventLimits {
     pub basal_max_u_per_h: f64,
     /// Largest accepted timestamp (minutes since 00:00 of day 1). Default 100 years.
     pub max_timestamp_min: i64,
+    /// Largest temporary basal given as a percentage of the scheduled rate.
+    /// Default 250 (pumps offer up to 200-250 %).
+    pub temp_basal_max_percent: f64,
+    /// Longest temporary basal (min). Default 4320 (72 h, the longest pumps offer).
+    pub temp_basal_max_min: u32,
+    /// Longest extended bolus (min). Default 720 (12 h). Its total is
+    /// limited by `bolus_max_u`, like a bolus.
+    pub extended_bolus_max_min: u32,
 }
 
 impl Default for EventLimits {
@@ -55,6 +63,9 @@ impl Default for EventLimits {
             bolus_max_u: 50.0,
             basal_max_u_per_h: 50.0,
             max_timestamp_min: 100 * 365 * 1440,
+            temp_basal_max_percent: 250.0,
+            temp_basal_max_min: 72 * 60,
+            extended_bolus_max_min: 12 * 60,
         }
     }
 }
@@ -72,6 +83,15 @@ impl EventLimits {
         check_positive("limits.carbs_max_g", self.carbs_max_g)?;
         check_positive("limits.bolus_max_u", self.bolus_max_u)?;
         check_positive("limits.basal_max_u_per_h", self.basal_max_u_per_h)?;
+        check_positive("limits.temp_basal_max_percent", self.temp_basal_max_percent)?;
+        for (field, v) in [
+            ("limits.temp_basal_max_min", self.temp_basal_max_min),
+            ("limits.extended_bolus_max_min", self.extended_bolus_max_min),
+        ] {
+            if v == 0 {
+                return Err(config_err(field, "must be at least 1 minute, got 0"));
+            }
+        }
         if self.max_timestamp_min <= 0 || self.max_timestamp_min > i64::MAX / 4 {
             return Err(config_err(
                 "limits.max_timestamp_min",

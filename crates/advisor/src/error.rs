@@ -58,6 +58,16 @@ pub enum AdvisorError {
         /// What it duplicates.
         detail: String,
     },
+    /// The event is of a kind this advisor does not know how to use (a kind
+    /// added to abba-core after this advisor was written); it is rejected
+    /// rather than silently ignored.
+    #[error("event at {at} ({kind}): this advisor does not support this kind of event")]
+    UnsupportedEvent {
+        /// Timestamp of the rejected event.
+        at: Timestamp,
+        /// Kind of the rejected event.
+        kind: &'static str,
+    },
     /// Saved advisor state could not be read or is inconsistent.
     #[error("invalid saved advisor state: {0}")]
     State(String),

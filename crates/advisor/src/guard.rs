@@ -6,7 +6,10 @@
 //!   than an event already accepted (events at the same minute are fine);
 //! - a value is not finite or outside the plausibility limits
 //!   ([`EventLimits`]): glucose readings, announced carbohydrate (≥ 0), bolus
-//!   (≥ 0), basal rate (≥ 0; 0 is a suspension);
+//!   (≥ 0), basal rate (≥ 0), temporary basal (rate, percentage, duration),
+//!   extended bolus (total, immediate part ≤ total, duration);
+//! - it is of a kind this advisor does not know (a kind added to abba-core
+//!   later);
 //! - it duplicates an event at the same minute: an identical event, or a
 //!   second reading of the same kind (a device gives one reading per minute;
 //!   two different basal rates in one minute are fine, the last one holds);
@@ -19,7 +22,7 @@
 
 use crate::config::EventLimits;
 use crate::error::AdvisorError;
-use abba_core::{Event, EventKind, MealSlot, SettingValue, Timestamp};
+use abba_core::{Event, EventKind, MealSlot, SettingValue, TempBasalRate, Timestamp};
 use serde::{Deserialize, Serialize};
 
 /// A serialisable copy of an accepted event's kind. (abba-core's `EventKind`
@@ -39,6 +42,12 @@ enum Seen {
     DayClosed,
     /// An answer: 0 accepted, 1 rejected, 2 overridden.
     Answer(u8, SettingValue),
+    TempBasalU(f64, u32),
+    TempBasalPercent(f64, u32),
+    Suspend,
+    Resume,
+    Extended(f64, f64, u32),
+    Other,
 }
 
 impl From<&EventKind> for Seen {
@@ -56,23 +65,25 @@ impl From<&EventKind> for Seen {
             EventKind::SuggestionAccepted(v) => Seen::Answer(0, v),
             EventKind::SuggestionRejected(v) => Seen::Answer(1, v),
             EventKind::SuggestionOverridden(v) => Seen::Answer(2, v),
+            EventKind::TempBasal { rate, duration_min } => match rate {
+                TempBasalRate::UnitsPerHour(r) => Seen::TempBasalU(r.0, duration_min),
+                TempBasalRate::Percent(p) => Seen::TempBasalPercent(p, duration_min),
+            },
+            EventKind::Suspend => Seen::Suspend,
+            EventKind::Resume => Seen::Resume,
+            EventKind::ExtendedBolus {
+                total,
+                immediate,
+                duration_min,
+            } => Seen::Extended(total.0, immediate.0, duration_min),
+            _ => Seen::Other,
         }
     }
 }
 
 /// Name of an event kind for messages.
 pub fn kind_name(kind: &EventKind) -> &'static str {
-    match kind {
-        EventKind::Cgm(_) => "CGM reading",
-        EventKind::Smbg(_) => "SMBG reading",
-        EventKind::MealAnnounced { .. } => "meal announcement",
-        EventKind::Bolus(_) => "bolus",
-        EventKind::BasalRate(_) => "basal rate",
-        EventKind::DayClosed => "day closed",
-        EventKind::SuggestionAccepted(_) => "suggestion accepted",
-        EventKind::SuggestionRejected(_) => "suggestion rejected",
-        EventKind::SuggestionOverridden(_) => "suggestion overridden",
-    }
+    kind.name()
 }
 
 /// The calendar day (0-based index) that a `DayClosed` at `at` closes.
@@ -91,6 +102,25 @@ pub struct EventGuard {
     last_main_meal: Option<(i64, usize)>,
     /// Day of the first accepted event (for `DayClosed`, the day it closes).
     first_day: Option<i64>,
+}
+
+fn check_duration(
+    at: Timestamp,
+    what: &'static str,
+    v: u32,
+    lo: u32,
+    hi: u32,
+) -> Result<(), AdvisorError> {
+    if (lo..=hi).contains(&v) {
+        Ok(())
+    } else {
+        Err(AdvisorError::InvalidValue {
+            at,
+            what,
+            expected: format!("a whole number of minutes in [{lo}, {hi}]"),
+            got: f64::from(v),
+        })
+    }
 }
 
 fn check_value(
@@ -225,6 +255,59 @@ impl EventGuard {
                     )?
                 }
             },
+            EventKind::TempBasal { rate, duration_min } => {
+                match rate {
+                    TempBasalRate::UnitsPerHour(r) => check_value(
+                        e.at,
+                        "temporary basal rate (U/h)",
+                        r.0,
+                        0.0,
+                        limits.basal_max_u_per_h,
+                    )?,
+                    TempBasalRate::Percent(p) => check_value(
+                        e.at,
+                        "temporary basal (% of the scheduled rate)",
+                        p,
+                        0.0,
+                        limits.temp_basal_max_percent,
+                    )?,
+                }
+                check_duration(
+                    e.at,
+                    "temporary basal duration (min)",
+                    duration_min,
+                    0,
+                    limits.temp_basal_max_min,
+                )?
+            }
+            EventKind::ExtendedBolus {
+                total,
+                immediate,
+                duration_min,
+            } => {
+                check_value(
+                    e.at,
+                    "extended bolus total (U)",
+                    total.0,
+                    0.0,
+                    limits.bolus_max_u,
+                )?;
+                check_value(
+                    e.at,
+                    "extended bolus immediate part (U, at most the total)",
+                    immediate.0,
+                    0.0,
+                    total.0,
+                )?;
+                check_duration(
+                    e.at,
+                    "extended bolus duration (min)",
+                    duration_min,
+                    1,
+                    limits.extended_bolus_max_min,
+                )?
+            }
+            EventKind::Suspend | EventKind::Resume => {}
             EventKind::DayClosed => {
                 let d = closed_day(e.at);
                 if let Some(last) = self.last_closed_day {
@@ -241,6 +324,7 @@ impl EventGuard {
                     }
                 }
             }
+            _ => return Err(AdvisorError::UnsupportedEvent { at: e.at, kind }),
         }
         Ok(())
     }
@@ -316,5 +400,35 @@ mod tests {
         let e = feed(&mut g, ev(2880, EventKind::DayClosed)).unwrap_err();
         assert!(e.to_string().contains("already closed"), "{e}");
         feed(&mut g, ev(2881, EventKind::DayClosed)).unwrap();
+    }
+
+    #[test]
+    fn pump_kinds_are_checked_against_their_limits() {
+        let mut g = EventGuard::default();
+        let temp = |rate, duration_min| EventKind::TempBasal { rate, duration_min };
+        let pct = TempBasalRate::Percent;
+        feed(&mut g, ev(10, temp(pct(80.0), 120))).unwrap();
+        let e = feed(&mut g, ev(11, temp(pct(300.0), 60))).unwrap_err();
+        assert!(e.to_string().contains("% of the scheduled rate"), "{e}");
+        let e = feed(&mut g, ev(11, temp(pct(50.0), 5000))).unwrap_err();
+        assert!(e.to_string().contains("temporary basal duration"), "{e}");
+        let abs = |r| TempBasalRate::UnitsPerHour(abba_core::UnitsPerHour(r));
+        assert!(feed(&mut g, ev(11, temp(abs(-0.1), 60))).is_err());
+        feed(&mut g, ev(11, temp(abs(0.0), 0))).unwrap(); // cancel
+        feed(&mut g, ev(12, EventKind::Suspend)).unwrap();
+        let e = feed(&mut g, ev(12, EventKind::Suspend)).unwrap_err();
+        assert!(matches!(e, AdvisorError::Duplicate { .. }), "{e}");
+        feed(&mut g, ev(40, EventKind::Resume)).unwrap();
+        let ext = |total, immediate, duration_min| EventKind::ExtendedBolus {
+            total: Units(total),
+            immediate: Units(immediate),
+            duration_min,
+        };
+        feed(&mut g, ev(50, ext(4.0, 1.0, 120))).unwrap();
+        let e = feed(&mut g, ev(51, ext(4.0, 5.0, 120))).unwrap_err();
+        assert!(e.to_string().contains("at most the total"), "{e}");
+        assert!(feed(&mut g, ev(51, ext(4.0, 0.0, 0))).is_err());
+        assert!(feed(&mut g, ev(51, ext(80.0, 0.0, 60))).is_err());
+        assert!(feed(&mut g, ev(51, ext(4.0, 0.0, 800))).is_err());
     }
 }

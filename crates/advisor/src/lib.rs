@@ -33,6 +33,12 @@
 //!   same minute replaces the previous one). `Bolus` is the insulin actually
 //!   delivered; two identical boluses in one minute are rejected as a
 //!   duplicate.
+//! - Pump records beyond a plain basal and bolus (`TempBasal`, `Suspend`,
+//!   `Resume`, `ExtendedBolus`; abba-core's `event` module says what each
+//!   delivers) are checked against [`EventLimits`] and counted as delivered
+//!   insulin in the transfer-entropy grid; `BasalRate` is the scheduled
+//!   rate. An event kind this advisor does not know is rejected
+//!   ([`AdvisorError::UnsupportedEvent`]), never silently ignored.
 //! - Events at one minute: readings, then `MealAnnounced`, then `Bolus`,
 //!   `BasalRate`, `DayClosed`. The carb-ratio update of meal i happens inside
 //!   `observe(MealAnnounced)`, so read [`Advisor::settings`] *after* it returns
@@ -66,8 +72,10 @@
 //!   bounded by `decision_log_capacity`.
 //! - Determinism: decisions are a pure function of the events, the start
 //!   therapy and the configuration (including `exploration_seed`). The state
-//!   serialises with serde ([`Abba::save_json`] / [`Abba::load_json`]); a
-//!   resumed advisor makes the same decisions.
+//!   serialises with serde inside a versioned envelope ([`state`]:
+//!   `save_json` / `load_json` on [`Abba`], [`FixedTherapy`], [`RunToRun`]
+//!   and [`AnyAdvisor`]); a resumed advisor makes the same decisions, and a
+//!   state of another format version is refused with a clear error.
 //! - The TE reference `te.te_ref_bits` defaults to
 //!   [`config::DEFAULT_TE_REF_BITS`] (uncalibrated); compute a cohort's
 //!   first-week TE with [`te::first_week_te`] and set its median.
@@ -82,6 +90,7 @@
 pub mod abba;
 pub mod agent;
 pub mod any;
+pub mod arm;
 pub mod baselines;
 pub mod bounds;
 pub mod config;
@@ -92,12 +101,14 @@ pub mod features;
 pub mod fusion;
 pub mod guard;
 mod rng;
+pub mod state;
 pub mod supervisor;
 pub mod te;
 pub mod windows;
 
 pub use abba::{Abba, InitReport, TeOutcome};
 pub use any::{AdvisorSpec, AnyAdvisor};
+pub use arm::ArmKind;
 pub use baselines::fixed::FixedTherapy;
 pub use baselines::r2r::{R2rConfig, RunToRun};
 pub use bounds::{BoundHeld, ClinicianBounds};
@@ -105,6 +116,7 @@ pub use config::{AbbaConfig, CriticVariant, EventLimits, Mode};
 pub use data_rule::MinData;
 pub use decision::{Decision, DecisionDetail, Parameter, SkipReason};
 pub use error::AdvisorError;
+pub use state::STATE_FORMAT_VERSION;
 
 use abba_core::{Event, TherapySettings};
 
@@ -120,6 +132,14 @@ pub trait Advisor {
     fn decisions(&self) -> &[Decision];
     /// Removes and returns the retained decisions.
     fn take_decisions(&mut self) -> Vec<Decision>;
-    /// Short name of the arm ("abba-smbg", "abba-cgm", "standard", "r2r").
-    fn name(&self) -> &'static str;
+    /// Which advisor this is (the trial arm it runs).
+    fn arm(&self) -> ArmKind;
+    /// The measurements it adapts from (`None` for an advisor that does not
+    /// adapt, the standard therapy).
+    fn mode(&self) -> Option<Mode>;
+    /// The arm's name (`abba`, `standard`, `r2r`), as in every report; the
+    /// mode is separate ([`Advisor::mode`]).
+    fn name(&self) -> &'static str {
+        self.arm().name()
+    }
 }

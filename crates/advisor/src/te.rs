@@ -15,7 +15,7 @@
 
 use crate::config::{TeConfig, TeMapping};
 use crate::error::AdvisorError;
-use abba_core::{Event, EventKind, Timestamp, UnitsPerHour, MINUTES_PER_DAY};
+use abba_core::{Event, EventKind, TempBasalRate, Timestamp, UnitsPerHour, MINUTES_PER_DAY};
 use serde::{Deserialize, Serialize};
 
 /// The result of one TE estimate.
@@ -36,6 +36,11 @@ pub struct TeEstimate {
 }
 
 /// Collects CGM and delivered insulin on a regular grid over the first week.
+///
+/// Insulin is counted as the pump delivers it (abba-core's event module
+/// documents the semantics): the scheduled basal rate, replaced by a
+/// temporary basal for its duration, nothing while suspended, boluses at
+/// once and extended boluses spread over their duration.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TeCollector {
     start_min: i64,
@@ -43,8 +48,16 @@ pub struct TeCollector {
     glucose_sum: Vec<f64>,
     glucose_n: Vec<u32>,
     insulin_u: Vec<f64>,
+    /// The scheduled basal rate (U/h).
     basal_u_per_h: f64,
+    /// Insulin has been counted up to this minute.
     basal_since_min: i64,
+    /// The temporary basal and the minute it ends (exclusive).
+    temp_basal: Option<(TempBasalRate, i64)>,
+    /// Delivery is suspended.
+    suspended: bool,
+    /// The extended part of a bolus still running: (U/min, end minute, exclusive).
+    extended: Option<(f64, i64)>,
 }
 
 impl TeCollector {
@@ -62,6 +75,9 @@ impl TeCollector {
             insulin_u: vec![0.0; n],
             basal_u_per_h: basal.0,
             basal_since_min: start_min,
+            temp_basal: None,
+            suspended: false,
+            extended: None,
         }
     }
 
@@ -75,6 +91,46 @@ impl TeCollector {
             None
         } else {
             Some(((m - self.start_min) / self.bin_minutes) as usize)
+        }
+    }
+
+    /// Feeds one device event (readings other than CGM, meals and day
+    /// closings are ignored).
+    pub fn event(&mut self, e: &Event) {
+        match e.kind {
+            EventKind::Cgm(g) => self.cgm(e.at, g.0),
+            EventKind::Bolus(u) => self.bolus(e.at, u.0),
+            EventKind::BasalRate(r) => self.basal(e.at, r.0),
+            EventKind::TempBasal { rate, duration_min } => {
+                self.integrate_basal_to(e.at.minutes());
+                self.temp_basal =
+                    (duration_min > 0).then(|| (rate, e.at.minutes() + i64::from(duration_min)));
+            }
+            EventKind::Suspend => {
+                self.integrate_basal_to(e.at.minutes());
+                self.suspended = true;
+                self.extended = None;
+            }
+            EventKind::Resume => {
+                self.integrate_basal_to(e.at.minutes());
+                self.suspended = false;
+            }
+            EventKind::ExtendedBolus {
+                total,
+                immediate,
+                duration_min,
+            } => {
+                self.integrate_basal_to(e.at.minutes());
+                self.bolus(e.at, immediate.0);
+                let rest = total.0 - immediate.0;
+                self.extended = (duration_min > 0 && rest > 0.0).then(|| {
+                    (
+                        rest / f64::from(duration_min),
+                        e.at.minutes() + i64::from(duration_min),
+                    )
+                });
+            }
+            _ => {}
         }
     }
 
@@ -93,22 +149,48 @@ impl TeCollector {
         }
     }
 
-    /// A new basal rate in force from `at`.
+    /// A new scheduled basal rate in force from `at`.
     pub fn basal(&mut self, at: Timestamp, rate_u_per_h: f64) {
         self.integrate_basal_to(at.minutes());
         self.basal_u_per_h = rate_u_per_h;
     }
 
+    /// The basal rate (U/h) delivered at minute `t` and the minute it may
+    /// change next (a temporary basal ending).
+    fn basal_at(&self, t: i64) -> (f64, i64) {
+        if self.suspended {
+            return (0.0, i64::MAX);
+        }
+        match self.temp_basal {
+            Some((rate, end)) if t < end => {
+                (rate.delivered(UnitsPerHour(self.basal_u_per_h)).0, end)
+            }
+            _ => (self.basal_u_per_h, i64::MAX),
+        }
+    }
+
+    /// Counts the insulin delivered from the last counted minute to `to_min`.
     fn integrate_basal_to(&mut self, to_min: i64) {
         let from = self.basal_since_min.max(self.start_min);
         let to = to_min.min(self.end_min());
-        let rate_per_min = self.basal_u_per_h / 60.0;
         let mut t = from;
         while t < to {
             let b = ((t - self.start_min) / self.bin_minutes) as usize;
             let bin_end = self.start_min + (b as i64 + 1) * self.bin_minutes;
-            let seg_end = bin_end.min(to);
+            let (rate, basal_change) = self.basal_at(t);
+            let extended = match self.extended {
+                Some((per_min, end)) if t < end && !self.suspended => Some((per_min, end)),
+                _ => None,
+            };
+            let seg_end = bin_end
+                .min(to)
+                .min(basal_change)
+                .min(extended.map_or(i64::MAX, |e| e.1));
+            let rate_per_min = rate / 60.0;
             self.insulin_u[b] += rate_per_min * (seg_end - t) as f64;
+            if let Some((per_min, _)) = extended {
+                self.insulin_u[b] += per_min * (seg_end - t) as f64;
+            }
             t = seg_end;
         }
         self.basal_since_min = self.basal_since_min.max(to_min);
@@ -360,12 +442,7 @@ pub fn first_week_te(
             });
         }
         last = e.at;
-        match e.kind {
-            EventKind::Cgm(g) => c.cgm(e.at, g.0),
-            EventKind::Bolus(u) => c.bolus(e.at, u.0),
-            EventKind::BasalRate(r) => c.basal(e.at, r.0),
-            _ => {}
-        }
+        c.event(e);
     }
     let end = Timestamp::from_day_and_minute(start_day + i64::from(init_days), 0);
     let (g, i) = c.finish(end);
@@ -434,6 +511,7 @@ pub fn theta0(te_n: f64, cfg: &TeConfig) -> ([f64; 2], [f64; 2]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use abba_core::Units;
 
     #[test]
     fn kernel_peaks_near_75_min_and_sums_to_one() {
@@ -511,6 +589,87 @@ mod tests {
                 ins[b]
             );
         }
+    }
+
+    #[test]
+    fn temp_basal_suspend_and_extended_bolus_count_what_is_delivered() {
+        let t = |m| Timestamp::from_day_and_minute(1, m);
+        let mut c = TeCollector::new(1, 1, 5, UnitsPerHour(1.2));
+        // 00:10-00:20 temp basal 0.6 U/h for 10 min, then 1.2 U/h again.
+        c.event(&Event::new(
+            t(10),
+            EventKind::TempBasal {
+                rate: TempBasalRate::UnitsPerHour(UnitsPerHour(0.6)),
+                duration_min: 10,
+            },
+        ));
+        // 00:30 a 50 % temp basal for 60 min; at 00:40 the schedule moves to
+        // 2.4 U/h, so the temp delivers 1.2 U/h from then on.
+        c.event(&Event::new(
+            t(30),
+            EventKind::TempBasal {
+                rate: TempBasalRate::Percent(50.0),
+                duration_min: 60,
+            },
+        ));
+        c.event(&Event::new(t(40), EventKind::BasalRate(UnitsPerHour(2.4))));
+        // 00:50 cancel the temp basal (duration 0): 2.4 U/h again.
+        c.event(&Event::new(
+            t(50),
+            EventKind::TempBasal {
+                rate: TempBasalRate::Percent(0.0),
+                duration_min: 0,
+            },
+        ));
+        // 01:00 extended bolus 3 U with 1 U now and 2 U over 20 min;
+        // suspended at 01:10 (cancels the rest), resumed at 01:30.
+        c.event(&Event::new(
+            t(60),
+            EventKind::ExtendedBolus {
+                total: Units(3.0),
+                immediate: Units(1.0),
+                duration_min: 20,
+            },
+        ));
+        c.event(&Event::new(t(70), EventKind::Suspend));
+        c.event(&Event::new(t(90), EventKind::Resume));
+        let (_, ins) = c.finish(Timestamp::from_day_and_minute(2, 0));
+        let per5 = |u_per_h: f64| u_per_h / 60.0 * 5.0;
+        let expected = [
+            (0, per5(1.2)),
+            (1, per5(1.2)),
+            (2, per5(0.6)),
+            (3, per5(0.6)),
+            (4, per5(1.2)),
+            (5, per5(1.2)),
+            (6, per5(0.6)),
+            (7, per5(0.6)),
+            (8, per5(1.2)),
+            (9, per5(1.2)),
+            (10, per5(2.4)),
+            (11, per5(2.4)),
+            (12, per5(2.4) + 1.0 + 0.5),
+            (13, per5(2.4) + 0.5),
+            (14, 0.0),
+            (17, 0.0),
+            (18, per5(2.4)),
+            (287, per5(2.4)),
+        ];
+        for (b, exp) in expected {
+            assert!(
+                (ins[b] - exp).abs() < 1e-12,
+                "bin {b}: expected {exp}, got {}",
+                ins[b]
+            );
+        }
+        let total: f64 = ins.iter().sum();
+        // Segment by segment (U/h × min / 60), plus 1 U immediate and the
+        // 1 U of the extended part delivered before the suspension.
+        let exp_total = (1.2 * 10.0 + 0.6 * 10.0 + 1.2 * 10.0 + 0.6 * 10.0 + 1.2 * 10.0) / 60.0
+            + 2.4 * 20.0 / 60.0
+            + 2.4 * (1440.0 - 90.0) / 60.0
+            + 2.0;
+        assert!((total - exp_total).abs() < 1e-9, "{total} vs {exp_total}");
     }
 
     #[test]

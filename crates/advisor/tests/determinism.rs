@@ -6,6 +6,7 @@ mod common;
 
 use abba_advisor::{
     Abba, AbbaConfig, Advisor, AdvisorSpec, AnyAdvisor, CriticVariant, Decision, Mode, R2rConfig,
+    STATE_FORMAT_VERSION,
 };
 use abba_core::{Event, TherapySettings};
 use common::{start, Toy};
@@ -157,8 +158,16 @@ fn any_advisor_round_trips_for_every_arm() {
         let mut first = spec.build(start(), 9).unwrap();
         let cut = events.len() / 2;
         let mut outs = replay(&mut first, &events[..cut]);
-        let json = serde_json::to_string(&first).unwrap();
-        let mut resumed: AnyAdvisor = serde_json::from_str(&json).unwrap();
+        let json = first.save_json().unwrap();
+        assert!(
+            json.starts_with(&format!(
+                r#"{{"format":"abba-advisor-state","version":{STATE_FORMAT_VERSION},"advisor":"{}""#,
+                first.name()
+            )),
+            "{}",
+            &json[..80]
+        );
+        let mut resumed = AnyAdvisor::load_json(&json).unwrap();
         outs.extend(replay(&mut resumed, &events[cut..]));
         assert_eq!(outs, outs_whole, "{}", whole.name());
         assert_eq!(
@@ -180,4 +189,39 @@ fn corrupt_state_is_rejected() {
     let e = Abba::load_json(&bad).unwrap_err().to_string();
     assert!(e.contains("critic.gamma"), "{e}");
     assert!(Abba::load_json("{}").is_err());
+}
+
+#[test]
+fn states_of_another_version_or_advisor_are_refused_clearly() {
+    let a = Abba::new(AbbaConfig::new(Mode::Cgm, 1), start()).unwrap();
+    let json = a.save_json().unwrap();
+    let v = format!("\"version\":{STATE_FORMAT_VERSION}");
+    assert!(json.contains(&v));
+    let future = json.replacen(&v, "\"version\":999", 1);
+    let e = Abba::load_json(&future).unwrap_err().to_string();
+    assert!(e.contains("format version 999"), "{e}");
+    assert!(
+        e.contains(&format!("only version {STATE_FORMAT_VERSION}")),
+        "{e}"
+    );
+    assert!(AnyAdvisor::load_json(&future).is_err());
+    // A bare state without the envelope (as written before versioning).
+    let bare = serde_json::to_string(&a).unwrap();
+    let e = Abba::load_json(&bare).unwrap_err().to_string();
+    assert!(e.contains("no field `format`"), "{e}");
+    // The state of one advisor is not loaded as another.
+    let fixed = AdvisorSpec::Fixed {
+        limits: Default::default(),
+    }
+    .build(start(), 0)
+    .unwrap();
+    let e = Abba::load_json(&fixed.save_json().unwrap())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("state of a standard advisor"), "{e}");
+    // AnyAdvisor reads what the concrete type wrote.
+    let any = AnyAdvisor::load_json(&json).unwrap();
+    assert_eq!(any.as_abba(), Some(&a));
+    assert_eq!(any.name(), "abba");
+    assert_eq!(any.mode(), Some(Mode::Cgm));
 }

@@ -11,8 +11,8 @@ use abba_advisor::{
     Parameter, R2rConfig,
 };
 use abba_core::{
-    Event, EventKind, Grams, GramsPerUnit, MealSlot, MgDl, TherapySettings, Timestamp, Units,
-    UnitsPerHour,
+    Event, EventKind, Grams, GramsPerUnit, MealSlot, MgDl, TempBasalRate, TherapySettings,
+    Timestamp, Units, UnitsPerHour,
 };
 use proptest::prelude::*;
 
@@ -26,6 +26,10 @@ enum Op {
     Meal(usize, f64),
     Bolus(f64),
     Basal(f64),
+    TempBasal(f64, bool, u32),
+    Suspend,
+    Resume,
+    Extended(f64, f64, u32),
     Close,
     Repeat,
 }
@@ -57,6 +61,10 @@ fn op() -> impl Strategy<Value = Op> {
         6 => (0usize..4, value(0.0, 120.0)).prop_map(|(s, c)| Op::Meal(s, c)),
         4 => value(0.0, 15.0).prop_map(Op::Bolus),
         2 => value(0.0, 3.0).prop_map(Op::Basal),
+        2 => (value(0.0, 300.0), any::<bool>(), prop_oneof![0u32..600, Just(5000u32)]).prop_map(|(r, pct, d)| Op::TempBasal(r, pct, d)),
+        1 => Just(Op::Suspend),
+        1 => Just(Op::Resume),
+        2 => (value(0.0, 15.0), value(0.0, 15.0), prop_oneof![0u32..480, Just(1000u32)]).prop_map(|(t, i, d)| Op::Extended(t, i, d)),
         5 => Just(Op::Close),
         2 => Just(Op::Repeat),
     ]
@@ -98,10 +106,27 @@ fn obviously_bad(
         EventKind::MealAnnounced { carbs, .. } => ok(carbs.0, 0.0, l.carbs_max_g),
         EventKind::Bolus(u) => ok(u.0, 0.0, l.bolus_max_u),
         EventKind::BasalRate(r) => ok(r.0, 0.0, l.basal_max_u_per_h),
-        EventKind::DayClosed => true,
+        EventKind::DayClosed | EventKind::Suspend | EventKind::Resume => true,
+        EventKind::TempBasal { rate, duration_min } => {
+            let rate_ok = match rate {
+                TempBasalRate::UnitsPerHour(r) => ok(r.0, 0.0, l.basal_max_u_per_h),
+                TempBasalRate::Percent(p) => ok(p, 0.0, l.temp_basal_max_percent),
+            };
+            rate_ok && duration_min <= l.temp_basal_max_min
+        }
+        EventKind::ExtendedBolus {
+            total,
+            immediate,
+            duration_min,
+        } => {
+            ok(total.0, 0.0, l.bolus_max_u)
+                && ok(immediate.0, 0.0, total.0)
+                && (1..=l.extended_bolus_max_min).contains(&duration_min)
+        }
         EventKind::SuggestionAccepted(v)
         | EventKind::SuggestionRejected(v)
         | EventKind::SuggestionOverridden(v) => v.number().is_finite() && v.number() > 0.0,
+        _ => false,
     };
     (!good).then_some("value")
 }
@@ -162,6 +187,13 @@ proptest! {
                 Op::Meal(s, c) => EventKind::MealAnnounced { carbs: Grams(c), slot: [MealSlot::Breakfast, MealSlot::Lunch, MealSlot::Dinner, MealSlot::Snack][s] },
                 Op::Bolus(u) => EventKind::Bolus(Units(u)),
                 Op::Basal(r) => EventKind::BasalRate(UnitsPerHour(r)),
+                Op::TempBasal(r, pct, d) => EventKind::TempBasal {
+                    rate: if pct { TempBasalRate::Percent(r) } else { TempBasalRate::UnitsPerHour(UnitsPerHour(r / 100.0)) },
+                    duration_min: d,
+                },
+                Op::Suspend => EventKind::Suspend,
+                Op::Resume => EventKind::Resume,
+                Op::Extended(t, i, d) => EventKind::ExtendedBolus { total: Units(t), immediate: Units(i), duration_min: d },
                 Op::Close => EventKind::DayClosed,
                 Op::Repeat => match last_event { Some(e) => e.kind, None => continue },
             };

@@ -41,11 +41,11 @@ pub fn run(args: Args) -> Result<()> {
         .into_iter()
         .find(|a| a.name() == args.arm)
         .ok_or_else(|| anyhow!("--arm {}: expected abba, standard or r2r", args.arm))?;
-    let config = TrialConfig {
+    let config = TrialConfig::try_from(abba_trial::protocol::RawTrialConfig {
         days: args.days,
         patients: args.patients,
-        ..TrialConfig::default()
-    };
+        ..abba_trial::protocol::RawTrialConfig::default()
+    })?;
     let cohort = abba_trial::runner::build_cohort(&config)?;
     let (_, trace) =
         abba_trial::runner::trace_patient(&config, &cohort, &args.patient, ScenarioId::S1, arm)?;

@@ -1,22 +1,26 @@
 //! The `abba` command: simulate a patient, build a cohort, compute glucose
 //! metrics, run the paper's in-silico trial.
-use anyhow::Result;
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
+use std::process::ExitCode;
 
 mod advise;
 mod answer;
 mod cohort;
+mod errors;
 mod events;
 mod export;
 mod history;
 mod import;
 mod input;
 mod metrics;
+mod output;
 mod person;
 mod person_report;
+mod progress;
 mod report;
 mod simulate;
 mod trial;
+mod trial_limits;
 
 /// abba: adaptive basal-bolus advisor and in-silico trial platform.
 #[derive(Parser)]
@@ -54,8 +58,23 @@ enum Command {
     Report(report::Args),
 }
 
-fn main() -> Result<()> {
-    match Cli::parse().command {
+/// The parsed command line. Every subcommand takes negative numbers as
+/// values (`--sensitivity -1`, `--days -5`), so that the command can refuse
+/// them with a reason instead of clap calling them an unexpected argument.
+fn parse() -> Cli {
+    let mut cmd = Cli::command();
+    let names: Vec<String> = cmd
+        .get_subcommands()
+        .map(|c| c.get_name().to_string())
+        .collect();
+    for name in names {
+        cmd = cmd.mut_subcommand(name, |c| c.allow_negative_numbers(true));
+    }
+    Cli::from_arg_matches(&cmd.get_matches()).unwrap_or_else(|e| e.exit())
+}
+
+fn main() -> ExitCode {
+    let result = match parse().command {
         Command::Simulate(a) => simulate::run(a),
         Command::Cohort(a) => cohort::run(a),
         Command::Metrics(a) => metrics::run(a),
@@ -68,5 +87,17 @@ fn main() -> Result<()> {
         Command::Answer(a) => answer::run(a),
         Command::History(a) => history::run(a),
         Command::Report(a) => report::run(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("{}", errors::render(&e));
+            // With RUST_BACKTRACE=1 (for developers), where it came from.
+            let trace = e.backtrace();
+            if trace.status() == std::backtrace::BacktraceStatus::Captured {
+                eprintln!("\nStack backtrace:\n{trace}");
+            }
+            ExitCode::FAILURE
+        }
     }
 }

@@ -2,12 +2,11 @@
 
 use abba_sim::cohort::Population;
 use abba_sim::scenario::ScenarioId;
+use abba_trial::protocol::RawTrialConfig;
 use abba_trial::report::{effective_threads, patient_runs, ReportPlan, RunInfo, ToolInfo};
-use abba_trial::runner::{run_trial, Progress};
+use abba_trial::runner::run_trial;
 use abba_trial::{ArmKind, TrialConfig};
 use anyhow::{bail, Context, Result};
-use indicatif::{ProgressBar, ProgressStyle};
-use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -64,30 +63,15 @@ pub struct Args {
     pub quiet: bool,
 }
 
-struct Bar(ProgressBar);
-
-impl Progress for Bar {
-    fn update(&self, done: usize, total: usize) {
-        self.0.set_length(total as u64);
-        self.0.set_position(done as u64);
-    }
-}
-
-struct NoBar;
-
-impl Progress for NoBar {
-    fn update(&self, _: usize, _: usize) {}
-}
-
 fn config_from(args: &Args) -> Result<TrialConfig> {
     let mut c = match &args.config {
         Some(path) => {
             let text = std::fs::read_to_string(path)
                 .with_context(|| format!("cannot read trial configuration {}", path.display()))?;
-            serde_json::from_str(&text)
+            RawTrialConfig::from_json(&text)
                 .with_context(|| format!("{}: not a valid trial configuration", path.display()))?
         }
-        None => TrialConfig::default(),
+        None => RawTrialConfig::default(),
     };
     if let Some(p) = &args.population {
         c.population = match p.as_str() {
@@ -118,8 +102,12 @@ fn config_from(args: &Args) -> Result<TrialConfig> {
     if args.no_te_calibration {
         c.calibrate_te_ref = false;
     }
-    c.validate()?;
-    Ok(c)
+    let checked = match &args.config {
+        Some(path) => TrialConfig::try_from(c).with_context(|| format!("{}", path.display()))?,
+        None => TrialConfig::try_from(c)?,
+    };
+    crate::trial_limits::check(&checked)?;
+    Ok(checked)
 }
 
 /// Runs `abba trial`: checks the report folder and the traced patients,
@@ -133,20 +121,10 @@ pub fn run(args: Args) -> Result<()> {
     // Before the run: a bad folder or patient name must not cost a trial.
     let plan = ReportPlan::check(&config, &args.out, &args.trace)?;
     let started = Instant::now();
-    let show_bar = !args.quiet && std::io::stderr().is_terminal();
-    let output = if show_bar {
-        let bar = ProgressBar::new(0).with_style(
-            ProgressStyle::with_template(
-                "{elapsed_precise} [{bar:40}] {pos}/{len} patient-runs (eta {eta})",
-            )?
-            .progress_chars("=> "),
-        );
-        let out = run_trial(&config, args.threads, &Bar(bar.clone()));
-        bar.finish_and_clear();
-        out?
-    } else {
-        run_trial(&config, args.threads, &NoBar)?
-    };
+    let progress = crate::progress::Progress::new("abba trial", "patient-runs", args.quiet);
+    let output = run_trial(&config, args.threads, &progress);
+    progress.finish();
+    let output = output?;
     let run = RunInfo {
         wall_time_s: started.elapsed().as_secs_f64(),
         threads: effective_threads(args.threads),

@@ -11,11 +11,12 @@ use abba_trial::protocol::{ArmKind, TrialConfig};
 use abba_trial::runner::{build_cohort, trace_patient};
 
 fn round_trip(patient: &str, arm: ArmKind, tz: &str, start: jiff::civil::Date) {
-    let config = TrialConfig {
+    let config = TrialConfig::try_from(abba_trial::protocol::RawTrialConfig {
         patients: 10,
         days: 21,
-        ..TrialConfig::default()
-    };
+        ..abba_trial::protocol::RawTrialConfig::default()
+    })
+    .unwrap();
     let cohort = build_cohort(&config).unwrap();
     let (_, trace) = trace_patient(&config, &cohort, patient, ScenarioId::S1, arm).unwrap();
     let fed = trace.events.unwrap();

@@ -208,3 +208,79 @@ fn the_defaults_are_the_paper_protocol() {
     assert!(again.status.success());
     assert_eq!(again.stdout, out.stdout);
 }
+
+#[test]
+fn every_combination_of_scenarios_and_arms_runs() {
+    // Issue 15 item 6: a set of scenarios all in one mode with the abba arm
+    // used to panic on an empty list of first-week TE estimates.
+    let scenarios = ["S1", "S2", "S3", "S4"];
+    let arms = ["abba", "standard", "r2r"];
+    for s_mask in 1u32..16 {
+        let s: Vec<&str> = (0..4)
+            .filter(|i| s_mask & (1 << i) != 0)
+            .map(|i| scenarios[i])
+            .collect();
+        for a_mask in 1u32..8 {
+            let a: Vec<&str> = (0..3)
+                .filter(|i| a_mask & (1 << i) != 0)
+                .map(|i| arms[i])
+                .collect();
+            let out = tmp(&format!("combo-{s_mask}-{a_mask}"));
+            let run = abba()
+                .args(["trial", "--patients", "1", "--days", "10", "--quiet"])
+                .args(["--scenarios", &s.join(","), "--arms", &a.join(",")])
+                .arg("--out")
+                .arg(&out)
+                .output()
+                .unwrap();
+            assert!(
+                run.status.success(),
+                "--scenarios {} --arms {}: {}",
+                s.join(","),
+                a.join(","),
+                String::from_utf8_lossy(&run.stderr)
+            );
+            let summary: serde_json::Value =
+                serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+            let arms_in_summary = summary["arms"]
+                .as_object()
+                .map(|m| m.len())
+                .or_else(|| summary["arms"].as_array().map(|v| v.len()));
+            assert_eq!(
+                arms_in_summary,
+                Some(s.len() * a.len()),
+                "--scenarios {} --arms {}",
+                s.join(","),
+                a.join(",")
+            );
+        }
+    }
+}
+
+#[test]
+fn a_bad_configuration_fails_before_the_run_naming_file_and_field_once() {
+    let mut c: serde_json::Value = serde_json::from_slice(
+        &abba()
+            .args(["trial", "--print-config"])
+            .output()
+            .unwrap()
+            .stdout,
+    )
+    .unwrap();
+    c["abba"]["critic"]["gamma"] = serde_json::json!(5);
+    let path = tmp("gamma5.json");
+    std::fs::write(&path, c.to_string()).unwrap();
+    let out = tmp("gamma5-out");
+    let run = abba()
+        .args(["trial", "--quiet", "--config"])
+        .arg(&path)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(!run.status.success());
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(err.contains("gamma5.json"), "{err}");
+    assert_eq!(err.matches("critic.gamma").count(), 1, "{err}");
+    assert!(!out.exists(), "nothing should be written");
+}

@@ -23,7 +23,7 @@ pub mod time;
 pub mod units;
 
 pub use error::CoreError;
-pub use event::{Event, EventKind, SettingValue};
+pub use event::{Event, EventKind, SettingValue, TempBasalRate};
 pub use metrics::Metric;
 pub use named::Named;
 pub use scenario::ScenarioId;

@@ -40,6 +40,18 @@ pub enum ReportError {
         /// What is wrong with it, and what to do.
         reason: String,
     },
+    /// The report folder cannot be created, listed or written into
+    /// (checked before a run).
+    #[error("report folder {}: cannot {action} it: {source}", path.display())]
+    OutDirIo {
+        /// The folder given.
+        path: PathBuf,
+        /// What failed (`create`, `list the contents of`, `write into`).
+        action: &'static str,
+        /// The underlying error.
+        #[source]
+        source: std::io::Error,
+    },
     /// A file or directory could not be written or removed.
     #[error("cannot {action} {}: {source}", path.display())]
     Io {

@@ -43,6 +43,13 @@ impl ReportDir {
             path: path.to_path_buf(),
             reason,
         };
+        let failed = |action: &'static str| {
+            move |source| ReportError::OutDirIo {
+                path: path.to_path_buf(),
+                action,
+                source,
+            }
+        };
         match std::fs::metadata(path) {
             Ok(meta) if !meta.is_dir() => {
                 return Err(refuse(
@@ -51,12 +58,10 @@ impl ReportDir {
                 ))
             }
             Ok(_) => {
-                let entries = std::fs::read_dir(path)
-                    .map_err(|e| refuse(format!("cannot list its contents: {e}")))?;
+                let entries = std::fs::read_dir(path).map_err(failed("list the contents of"))?;
                 let mut others = Vec::new();
                 for entry in entries {
-                    let entry =
-                        entry.map_err(|e| refuse(format!("cannot list its contents: {e}")))?;
+                    let entry = entry.map_err(failed("list the contents of"))?;
                     others.push(entry.file_name().to_string_lossy().into_owned());
                 }
                 if !others.is_empty() && !is_abba_report(path) {
@@ -72,14 +77,13 @@ impl ReportDir {
             }
             // Missing (or unreadable: then creating it says why).
             Err(_) => {
-                std::fs::create_dir_all(path)
-                    .map_err(|e| refuse(format!("cannot create it: {e}")))?;
+                std::fs::create_dir_all(path).map_err(failed("create"))?;
             }
         }
         let probe = path.join(PROBE);
         std::fs::write(&probe, b"")
             .and_then(|()| std::fs::remove_file(&probe))
-            .map_err(|e| refuse(format!("cannot write into it: {e}")))?;
+            .map_err(failed("write into"))?;
         Ok(ReportDir {
             path: path.to_path_buf(),
         })

@@ -5,44 +5,11 @@
 
 use abba_advisor::Mode;
 use abba_core::metrics::GlucoseMetrics;
-use abba_core::named;
 use abba_core::{Metric, ScenarioId};
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
-/// The three arms of every scenario.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum ArmKind {
-    /// ABBA (CGM mode in S1, SMBG mode in S2-S4).
-    Abba,
-    /// Standard therapy for all 98 days.
-    Standard,
-    /// Run-to-run basal and carb-ratio adaptation.
-    R2r,
-}
-
-impl ArmKind {
-    /// All arms, in report order.
-    pub const ALL: [ArmKind; 3] = [ArmKind::Abba, ArmKind::Standard, ArmKind::R2r];
-
-    /// `abba`, `standard`, `r2r`.
-    pub fn name(self) -> &'static str {
-        match self {
-            ArmKind::Abba => "abba",
-            ArmKind::Standard => "standard",
-            ArmKind::R2r => "r2r",
-        }
-    }
-}
-
-abba_core::named!(ArmKind, "arm", ArmKind::name);
-
-impl std::str::FromStr for ArmKind {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        named::parse(s).map_err(|e| e.to_string())
-    }
-}
+/// The arms (which advisor a result is of) are abba-advisor's; re-exported.
+pub use abba_advisor::ArmKind;
 
 /// An evaluation window of the protocol: `W1`..`W12` (Wk = D(7k−5)..D(7k+1)),
 /// then the paper's `W13` (D84-D90) and `W14` (D92-D98). Ordered as the
@@ -260,9 +227,5 @@ mod tests {
             r#"{"scenario":"S2","advisor":"r2r","mode":"smbg","patients":[]}"#
         );
         assert_eq!(arm.key(), "S2/r2r");
-        for a in ArmKind::ALL {
-            assert_eq!(a.name().parse::<ArmKind>().unwrap(), a);
-        }
-        assert!("magic".parse::<ArmKind>().unwrap_err().contains("magic"));
     }
 }

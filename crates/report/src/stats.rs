@@ -20,6 +20,12 @@
 //!   adjustment of mean and variance) and the continuity correction are
 //!   available through [`WilcoxonOptions`]. When every difference is zero the
 //!   result is statistic 0, p = 1 (no evidence of a change), not NaN.
+//! - No p-value below [`MIN_PAIRS_FOR_P`] ranked pairs (`p` is `None`, JSON
+//!   `null`; the statistic is still given): the normal approximation is
+//!   poor for so few pairs (SciPy warns below 10), and with 5 or fewer the
+//!   exact test cannot reach p < 0.05 at all (its smallest two-sided p is
+//!   2/2ⁿ), so a number there would mislead. Ranked pairs are the non-zero
+//!   differences under Wilcoxon's rule and every pair under Pratt's.
 //!
 //! Φ comes from `libm::erfc` (a port of musl's erfc, accurate to about 1 ulp;
 //! libm is already in the dependency tree, so no heavier statistics crate is
@@ -131,13 +137,19 @@ pub struct WilcoxonOptions {
     pub continuity_correction: bool,
 }
 
+/// The fewest ranked pairs for which a p-value is given (see the module
+/// docs for why).
+pub const MIN_PAIRS_FOR_P: usize = 10;
+
 /// Result of the paired signed-rank test (serializes as `{"statistic", "p"}`).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Wilcoxon {
     /// min(W+, W−).
     pub statistic: f64,
-    /// Two-sided p-value, normal approximation.
-    pub p: f64,
+    /// Two-sided p-value, normal approximation; `None` (JSON `null`) with
+    /// fewer than [`MIN_PAIRS_FOR_P`] ranked pairs, where it is not
+    /// meaningful.
+    pub p: Option<f64>,
     /// Standardised W+ (positive when `second` tends to exceed `first`); 0 when all d are zero.
     #[serde(skip)]
     pub z: f64,
@@ -213,10 +225,15 @@ pub fn wilcoxon_signed_rank(
     let d: Vec<f64> = first.iter().zip(second).map(|(a, b)| b - a).collect();
     let n_zero = d.iter().filter(|&&x| x == 0.0).count();
     let n_nonzero = d.len() - n_zero;
+    let ranked_pairs = match options.zero_method {
+        ZeroMethod::Wilcox => n_nonzero,
+        ZeroMethod::Pratt => d.len(),
+    };
+    let enough = ranked_pairs >= MIN_PAIRS_FOR_P;
     if n_nonzero == 0 {
         return Ok(Wilcoxon {
             statistic: 0.0,
-            p: 1.0,
+            p: enough.then_some(1.0),
             z: 0.0,
             w_plus: 0.0,
             w_minus: 0.0,
@@ -270,7 +287,7 @@ pub fn wilcoxon_signed_rank(
     };
     Ok(Wilcoxon {
         statistic: w_plus.min(w_minus),
-        p,
+        p: enough.then_some(p),
         z,
         w_plus,
         w_minus,
@@ -364,11 +381,11 @@ mod tests {
         println!("{w:?}");
         assert_eq!((w.w_plus, w.w_minus, w.statistic), (96.0, 24.0, 24.0));
         close("z", 36.0 / 310f64.sqrt(), w.z, 1e-12);
-        close("p", 0.04088813291185591, w.p, 1e-12);
+        close("p", 0.04088813291185591, w.p.unwrap(), 1e-12);
         // Swapping the samples flips the sign of z, not p.
         let back = wilcoxon_signed_rank(&d, &zeros, WilcoxonOptions::default()).unwrap();
         close("z swapped", -w.z, back.z, 1e-15);
-        close("p swapped", w.p, back.p, 1e-15);
+        close("p swapped", w.p.unwrap(), back.p.unwrap(), 1e-15);
     }
 
     #[test]
@@ -380,12 +397,12 @@ mod tests {
 
         // Wilcox: zeros dropped, n = 8; ranks 1, 2.5, 2.5, 4, 6, 6, 6, 8;
         // W+ = 24, W− = 12; mean 18; σ² = 8·9·17/24 − (6 + 24)/48 = 50.375;
-        // z = 6/√50.375 = 0.84536394; p = erfc(z/√2) = 0.39790767 (Python math.erfc).
+        // z = 6/√50.375 = 0.84536394. Only 8 ranked pairs: no p-value.
         let w = wilcoxon_signed_rank(&first, &second, WilcoxonOptions::default()).unwrap();
         assert_eq!((w.n_nonzero, w.n_zero), (8, 2));
         assert_eq!((w.w_plus, w.w_minus, w.statistic), (24.0, 12.0, 12.0));
         close("z", 6.0 / 50.375f64.sqrt(), w.z, 1e-12);
-        close("p", 0.3979076689546349, w.p, 1e-12);
+        assert_eq!(w.p, None);
 
         // Pratt: zeros get ranks 1.5, 1.5, the rest 3, 4.5, 4.5, 6, 8, 8, 8, 10;
         // W+ = 36, W− = 16; mean 10·11/4 − 2·3/4 = 26;
@@ -398,32 +415,51 @@ mod tests {
         let w = wilcoxon_signed_rank(&first, &second, pratt).unwrap();
         assert_eq!((w.w_plus, w.w_minus, w.statistic), (36.0, 16.0, 16.0));
         close("z pratt", 10.0 / 94.375f64.sqrt(), w.z, 1e-12);
-        close("p pratt", 0.3033058289841122, w.p, 1e-12);
+        close("p pratt", 0.3033058289841122, w.p.unwrap(), 1e-12);
 
-        // Continuity correction (R's default): z = (6 − 0.5)/√50.375,
-        // p = 0.4383887362031066 (Python math.erfc).
+        // Continuity correction (R's default): z = (6 − 0.5)/√50.375 (8
+        // ranked pairs again: no p-value).
         let corrected = WilcoxonOptions {
             zero_method: ZeroMethod::Wilcox,
             continuity_correction: true,
         };
         let w = wilcoxon_signed_rank(&first, &second, corrected).unwrap();
         close("z corrected", 5.5 / 50.375f64.sqrt(), w.z, 1e-12);
-        close("p corrected", 0.4383887362031066, w.p, 1e-12);
+        assert_eq!(w.p, None);
     }
 
     #[test]
     fn all_zero_differences_give_p_one() {
-        let x = [3.0, 0.0, 7.5];
+        let x: Vec<f64> = (0..12).map(|k| f64::from(k) * 0.5).collect();
+        // Wilcoxon's rule drops every pair: none is left to rank.
         let w = wilcoxon_signed_rank(&x, &x, WilcoxonOptions::default()).unwrap();
-        assert_eq!((w.statistic, w.p, w.n_zero, w.n_nonzero), (0.0, 1.0, 3, 0));
+        assert_eq!(
+            (w.statistic, w.p, w.n_zero, w.n_nonzero),
+            (0.0, None, 12, 0)
+        );
         let pratt = WilcoxonOptions {
             zero_method: ZeroMethod::Pratt,
             ..WilcoxonOptions::default()
         };
         let w = wilcoxon_signed_rank(&x, &x, pratt).unwrap();
-        assert_eq!((w.statistic, w.p), (0.0, 1.0));
+        assert_eq!((w.statistic, w.p), (0.0, Some(1.0)));
         let json = serde_json::to_value(w).unwrap();
         assert_eq!(json, serde_json::json!({"statistic": 0.0, "p": 1.0}));
+    }
+
+    #[test]
+    fn no_p_value_below_the_minimum_number_of_pairs() {
+        // One patient: a statistic, but no p-value.
+        let w = wilcoxon_signed_rank(&[100.0], &[80.0], WilcoxonOptions::default()).unwrap();
+        assert_eq!((w.statistic, w.p), (0.0, None));
+        let json = serde_json::to_value(w).unwrap();
+        assert_eq!(json, serde_json::json!({"statistic": 0.0, "p": null}));
+        for n in [2, MIN_PAIRS_FOR_P - 1, MIN_PAIRS_FOR_P] {
+            let a = vec![0.0; n];
+            let b: Vec<f64> = (1..=n).map(|k| k as f64).collect();
+            let w = wilcoxon_signed_rank(&a, &b, WilcoxonOptions::default()).unwrap();
+            assert_eq!(w.p.is_some(), n >= MIN_PAIRS_FOR_P, "n = {n}");
+        }
     }
 
     #[test]
@@ -444,7 +480,7 @@ mod tests {
         second.extend([Some(5.0), None]);
         let w = wilcoxon_signed_rank_present(&first, &second, WilcoxonOptions::default()).unwrap();
         assert_eq!((w.statistic, w.n_nonzero, w.n_incomplete), (24.0, 15, 2));
-        close("p", 0.04088813291185591, w.p, 1e-12);
+        close("p", 0.04088813291185591, w.p.unwrap(), 1e-12);
         assert!(
             wilcoxon_signed_rank_present(&[None], &[Some(1.0)], WilcoxonOptions::default())
                 .is_err()
@@ -460,7 +496,7 @@ mod tests {
         let w = wilcoxon_signed_rank(&a, &b, WilcoxonOptions::default()).unwrap();
         assert_eq!((w.statistic, w.w_plus), (0.0, 55.0));
         close("z", 27.5 / 96.25f64.sqrt(), w.z, 1e-12);
-        close("p", 0.00506203212626787, w.p, 1e-12);
+        close("p", 0.00506203212626787, w.p.unwrap(), 1e-12);
         assert!(wilcoxon_signed_rank(&a, &b[..9], WilcoxonOptions::default()).is_err());
         assert!(wilcoxon_signed_rank(&[], &[], WilcoxonOptions::default()).is_err());
         assert!(

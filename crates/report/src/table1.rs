@@ -298,7 +298,7 @@ pub fn table1_rows(arms: &[ArmResult]) -> Result<Vec<Table1Row>, ReportError> {
                         ))
                     })?;
                 let p_vs_w1 = if week != Week::W1 && weeks.contains(&Week::W1) {
-                    wilcoxon_vs_w1(arm, week, metric)?.map(|w| w.p)
+                    wilcoxon_vs_w1(arm, week, metric)?.and_then(|w| w.p)
                 } else {
                     None
                 };

@@ -18,7 +18,7 @@ fn fresh(name: &str) -> PathBuf {
 
 fn refused(path: &Path) -> String {
     match ReportDir::prepare(path) {
-        Err(e @ ReportError::OutDir { .. }) => e.to_string(),
+        Err(e @ (ReportError::OutDir { .. } | ReportError::OutDirIo { .. })) => e.to_string(),
         other => panic!("{}: expected a refusal, got {other:?}", path.display()),
     }
 }

@@ -36,6 +36,17 @@ pub enum SimError {
         /// What was wrong.
         reason: String,
     },
+    /// A file of per-minute inputs could not be read or holds an invalid
+    /// or implausible value.
+    #[error("{file}, line {line}: {reason}")]
+    InputFile {
+        /// The file as named by the caller.
+        file: String,
+        /// 1-based line number (the header is line 1).
+        line: u64,
+        /// What was wrong, naming the column and what was expected.
+        reason: String,
+    },
     /// A model input was invalid (negative, NaN, ...).
     #[error("patient {patient}, minute {minute}: invalid input: {reason}")]
     InvalidInput {

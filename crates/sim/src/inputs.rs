@@ -4,10 +4,32 @@
 //! used by the README example, the benchmark and the accuracy checks. Each
 //! builder turns a meal plan into 5 g/min eating through the same
 //! [`EatingQueue`] the closed loop uses.
+//!
+//! An input day read from a file ([`InputDay::from_csv`]) is checked row by
+//! row before anything is simulated: every rate must be a finite number
+//! `>= 0` and within the physical limits [`MAX_CHO_G_PER_MIN`] and
+//! [`MAX_INSULIN_U_PER_MIN`].
 
-use crate::patient::{EatingQueue, Patient, PatientParams};
+mod file;
+
+pub use file::INPUT_COLUMNS;
+
+use crate::patient::{EatingQueue, Patient, PatientParams, EAT_RATE_G_PER_MIN};
 use crate::SimError;
 use abba_core::MINUTES_PER_DAY;
+
+/// The most carbohydrate an input minute may carry (g/min): the model's
+/// eating rate. simglucose (and [`EatingQueue`]) eat an announced meal at
+/// 5 g/min, so the model never sees a faster rate; a meal is given as
+/// several minutes of at most 5 g/min (50 g is ten such minutes).
+pub const MAX_CHO_G_PER_MIN: f64 = EAT_RATE_G_PER_MIN;
+
+/// The most insulin an input minute may carry (U/min): the protocol pump's
+/// largest bolus, 30 U ([`crate::devices::PumpConfig`]'s default
+/// `max_bolus_u`), given within one minute as the reference days give a
+/// bolus, plus one minute of its largest basal rate, 30 U/h. More than this
+/// in one minute is not a dose a pump or a pen delivers.
+pub const MAX_INSULIN_U_PER_MIN: f64 = 30.0 + 30.0 / 60.0;
 
 /// Constant rates over one minute.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -36,7 +58,53 @@ pub struct PlannedMeal {
     pub bolus_u: f64,
 }
 
+impl MinuteRates {
+    /// Checks both rates: finite, `>= 0` and within [`MAX_CHO_G_PER_MIN`]
+    /// and [`MAX_INSULIN_U_PER_MIN`]. The error names the column
+    /// (`cho_g_per_min` or `insulin_u_per_min`), the value and the limit.
+    pub fn check(&self) -> Result<(), String> {
+        check_rate(
+            "cho_g_per_min",
+            self.cho_g_per_min,
+            MAX_CHO_G_PER_MIN,
+            "g/min",
+            "the model eats at most 5 g/min (simglucose's eating rate); spread a meal over several minutes",
+        )?;
+        check_rate(
+            "insulin_u_per_min",
+            self.insulin_u_per_min,
+            MAX_INSULIN_U_PER_MIN,
+            "U/min",
+            "the pump's largest bolus (30 U) plus a minute of its largest basal rate (30 U/h)",
+        )
+    }
+}
+
+fn check_rate(column: &str, v: f64, max: f64, unit: &str, why: &str) -> Result<(), String> {
+    if !(v.is_finite() && v >= 0.0) {
+        return Err(format!(
+            "column '{column}': expected a finite rate >= 0 {unit}, got {v}"
+        ));
+    }
+    if v > max {
+        return Err(format!(
+            "column '{column}': {v} {unit} is above the limit of {max} {unit} ({why})"
+        ));
+    }
+    Ok(())
+}
+
 impl InputDay {
+    /// Checks every minute with [`MinuteRates::check`]; the error names the
+    /// minute (from 0).
+    pub fn validate(&self) -> Result<(), SimError> {
+        for (m, r) in self.minutes.iter().enumerate() {
+            r.check()
+                .map_err(|reason| SimError::Config(format!("input minute {m}: {reason}")))?;
+        }
+        Ok(())
+    }
+
     /// Builds `n_minutes` of inputs: basal `basal_u_per_min` except where
     /// `suspended(minute)` is true, plus the meals (eaten at 5 g/min) and
     /// their boluses (in the meal's first minute, as the reference day).

@@ -6,6 +6,7 @@
 use abba_sim::cohort::derive::{steady_state_residual, PRIMARY};
 use abba_sim::cohort::{
     check_patient, read_csv, therapy, CarbRatioSource, Cohort, CohortConfig, Origin, Population,
+    MAX_COHORT_SIZE,
 };
 use abba_sim::patient::{Patient, PatientParams, QuestRow};
 use std::sync::OnceLock;
@@ -303,7 +304,7 @@ fn titration_vs_quest_is_reported() {
         let t = &s.titration_vs_quest;
         assert_eq!(t.patients.len(), 10);
         println!(
-            "{}: titrated/Quest geometric mean {:.2}, SD log {:.2}, r(log) {:.2}, within ±20 %: {}/10",
+            "{}: titrated/Quest geometric mean {:.2}, SD log {:?}, r(log) {:?}, within ±20 %: {}/10",
             c.config.population, t.geometric_mean_ratio, t.sd_log_ratio, t.correlation_log, t.within_20_percent
         );
         for r in &t.patients {
@@ -313,12 +314,46 @@ fn titration_vs_quest_is_reported() {
             );
         }
         assert!(
-            t.correlation_log > 0.5,
+            t.correlation_log.unwrap() > 0.5,
             "titration should rank patients like Quest"
         );
         assert_eq!(s.size, 100);
         assert_eq!(s.public + s.generated, 100);
         let gb = s.parameters.iter().find(|p| p.name == "Gb").unwrap();
-        assert!(gb.min >= 120.0 && gb.max <= 170.0 && gb.sd > 0.0);
+        assert!(gb.min >= 120.0 && gb.max <= 170.0 && gb.sd.unwrap() > 0.0);
     }
+}
+
+#[test]
+fn a_one_patient_cohort_has_no_standard_deviation() {
+    let c = Cohort::generate(&CohortConfig::new(Population::Adults, 1, 1)).unwrap();
+    let s = c.summary().unwrap();
+    assert_eq!(s.titration_vs_quest.sd_log_ratio, None);
+    assert_eq!(s.titration_vs_quest.correlation_log, None);
+    assert!(s.parameters.iter().all(|p| p.sd.is_none()));
+    let two = Cohort::generate(&CohortConfig::new(Population::Adults, 2, 1)).unwrap();
+    let t = two.summary().unwrap().titration_vs_quest;
+    assert!(t.sd_log_ratio.is_some_and(f64::is_finite));
+}
+
+#[test]
+fn an_impossible_cohort_size_is_refused_before_any_work() {
+    let e = Cohort::generate(&CohortConfig::new(Population::Adults, 100_000_000, 1))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("100000000") && e.contains(&format!("limit of {MAX_COHORT_SIZE}")),
+        "{e}"
+    );
+}
+
+#[test]
+fn progress_is_reported_for_every_patient() {
+    let mut seen = Vec::new();
+    Cohort::generate_with_progress(
+        &CohortConfig::new(Population::Children, 12, 3),
+        &mut |done, total| seen.push((done, total)),
+    )
+    .unwrap();
+    assert_eq!(seen, (1..=12).map(|d| (d, 12)).collect::<Vec<_>>());
 }

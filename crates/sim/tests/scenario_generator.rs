@@ -326,15 +326,13 @@ fn cgm_is_worn_days_1_to_8_everywhere_and_throughout_in_s1() {
         let gen = ScenarioGenerator::paper(id, TRIAL_SEED, 3).unwrap();
         for d in gen.all_days() {
             let expect = id == ScenarioId::S1 || d.day_number() <= 8;
-            assert_eq!(
-                d.cgm_period_min.is_some(),
-                expect,
-                "{id} day {}",
-                d.day_number()
-            );
+            assert_eq!(d.cgm_worn, expect, "{id} day {}", d.day_number());
             if expect {
-                assert_eq!(d.cgm_period_min, Some(5));
-                assert!(d.cgm_sample_at(0) && d.cgm_sample_at(1435) && !d.cgm_sample_at(7));
+                assert!(
+                    d.cgm_sample_at(0, 5) && d.cgm_sample_at(1435, 5) && !d.cgm_sample_at(7, 5)
+                );
+            } else {
+                assert!(!d.cgm_sample_at(0, 5));
             }
         }
     }
@@ -473,7 +471,7 @@ fn invalid_configurations_are_rejected_naming_the_field() {
         &|c| c.smbg.as_mut().unwrap().bedtime_min = 1435,
         "smbg.bedtime_min",
     );
-    check(&|c| c.cgm.period_min = 7, "cgm.period_min");
+    check(&|c| c.cgm.until_day = Some(0), "cgm.until_day");
     assert!("s3".parse::<ScenarioId>().unwrap() == ScenarioId::S3);
     assert!("S5".parse::<ScenarioId>().is_err());
 }

@@ -3,6 +3,7 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+use abba_trial::protocol::RawTrialConfig;
 use abba_trial::runner::{build_cohort, run_trial, Silent};
 use abba_trial::TrialConfig;
 use std::time::Instant;
@@ -23,12 +24,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         })
         .transpose()?
         .unwrap_or_else(|| abba_trial::ArmKind::ALL.to_vec());
-    let config = TrialConfig {
+    let config = TrialConfig::try_from(RawTrialConfig {
         patients: arg(1, 100) as u32,
         days: arg(2, 98) as u32,
         arms,
-        ..TrialConfig::default()
-    };
+        ..RawTrialConfig::default()
+    })?;
     let threads = arg(3, 0) as usize;
     let t = Instant::now();
     let cohort = build_cohort(&config)?;

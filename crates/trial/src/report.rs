@@ -154,9 +154,9 @@ pub fn effective_threads(threads: usize) -> usize {
 pub fn trial_manifest(output: &TrialOutput, tool: &ToolInfo) -> Value {
     let used = &output.config;
     let modes: BTreeMap<&str, &str> = used
-        .scenarios
+        .planned()
         .iter()
-        .map(|s| (s.name(), TrialConfig::mode_for(&used.scenario(*s)).name()))
+        .map(|s| (s.id.name(), s.mode.name()))
         .collect();
     json!({
         "tool": "abba",
@@ -176,6 +176,7 @@ pub fn trial_manifest(output: &TrialOutput, tool: &ToolInfo) -> Value {
             "scenarios": used.scenarios,
             "arms": used.arms,
             "modes": modes,
+            "advisors_run": advisors_run(used),
             "evaluation": "plasma glucose G = Gp/Vg every 5 min; W1 = D2-D8, W13 = D84-D90, W14 = D92-D98; weekly Wk = D(7k-5)..D(7k+1)",
         },
         "te_calibration": {
@@ -187,4 +188,27 @@ pub fn trial_manifest(output: &TrialOutput, tool: &ToolInfo) -> Value {
         },
         "knobs": used,
     })
+}
+
+/// What each arm ran in each mode, with the knobs the trial set (ABBA's
+/// exploration seed is derived per patient).
+fn advisors_run(used: &TrialConfig) -> Value {
+    let mut out = serde_json::Map::new();
+    for p in used.planned() {
+        let mode = p.mode.name().to_string();
+        if out.contains_key(&mode) {
+            continue;
+        }
+        let arms: serde_json::Map<_, _> = used
+            .arms
+            .iter()
+            .map(|a| (a.name().to_string(), json!(used.advisor_spec(*a, p.mode))))
+            .collect();
+        out.insert(mode, Value::Object(arms));
+    }
+    out.insert(
+        "exploration_seed".into(),
+        json!("derive_seed(seed, patient number, scenario random_key, exploration), per patient"),
+    );
+    Value::Object(out)
 }

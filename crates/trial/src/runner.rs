@@ -4,8 +4,7 @@
 
 use crate::closed_loop::{run_patient, run_patient_with, Trace};
 use crate::error::TrialError;
-use crate::protocol::ArmKind;
-use crate::protocol::TrialConfig;
+use crate::protocol::{ArmKind, PlannedScenario, TrialConfig};
 use crate::results::ArmResult;
 use abba_advisor::abba::TeOutcome;
 use abba_advisor::Mode;
@@ -61,7 +60,6 @@ pub fn run_trial(
     threads: usize,
     progress: &dyn Progress,
 ) -> Result<TrialOutput, TrialError> {
-    config.validate()?;
     let cohort = build_cohort(config)?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
@@ -71,25 +69,22 @@ pub fn run_trial(
     let mut first_week_te_bits = std::collections::BTreeMap::new();
     if config.calibrate_te_ref && config.arms.contains(&ArmKind::Abba) {
         // The TE estimate does not depend on TE_ref, so one pass per mode.
-        let base = config.clone();
+        let mut raw = config.raw().clone();
         for mode in [Mode::Cgm, Mode::Smbg] {
-            let te = pool.install(|| calibrate_te(&base, &cohort, threads, mode))?;
+            let te = pool.install(|| calibrate_te(&config, &cohort, threads, mode))?;
             match (mode, positive_median(&te)) {
-                (Mode::Cgm, Some(m)) => config.abba.te.te_ref_bits = m,
-                (Mode::Smbg, Some(m)) => config.te_ref_bits_smbg = Some(m),
+                (Mode::Cgm, Some(m)) => raw.abba.te.te_ref_bits = m,
+                (Mode::Smbg, Some(m)) => raw.te_ref_bits_smbg = Some(m),
                 _ => {}
             }
             if !te.is_empty() {
                 first_week_te_bits.insert(mode.name().to_string(), te);
             }
         }
+        config = TrialConfig::try_from(raw)?;
     }
     let config = &config;
-    let scenarios: Vec<_> = config
-        .scenarios
-        .iter()
-        .map(|id| config.scenario(*id))
-        .collect();
+    let scenarios = config.planned();
     let mut jobs = Vec::new();
     for (si, _) in scenarios.iter().enumerate() {
         for (ai, _) in config.arms.iter().enumerate() {
@@ -118,13 +113,13 @@ pub fn run_trial(
     };
     let mut arms = Vec::new();
     let mut it = results.into_iter();
-    for (id, s) in config.scenarios.iter().zip(&scenarios) {
+    for s in scenarios {
         for arm in &config.arms {
             let patients: Vec<_> = it.by_ref().take(cohort.patients.len()).collect();
             arms.push(ArmResult {
-                scenario: *id,
+                scenario: s.id,
                 advisor: *arm,
-                mode: TrialConfig::mode_for(s),
+                mode: s.mode,
                 patients,
             });
         }
@@ -148,15 +143,11 @@ fn calibrate_te(
     threads: usize,
     mode: Mode,
 ) -> Result<Vec<f64>, TrialError> {
-    let Some(id) = config
-        .scenarios
-        .iter()
-        .find(|id| TrialConfig::mode_for(&config.scenario(**id)) == mode)
-    else {
+    let Some(first) = config.planned().iter().find(|p| p.mode == mode) else {
         return Ok(Vec::new());
     };
-    let mut scenario = config.scenario(*id);
-    scenario.days = config.init_days + 2;
+    let mut scenario: PlannedScenario = first.clone();
+    scenario.config.days = config.init_days + 2;
     let one = |(pi, vp): (usize, &abba_sim::cohort::VirtualPatient)| {
         let mut trace = Trace::default();
         run_patient_with(
@@ -190,12 +181,16 @@ fn calibrate_te(
     Ok(all.into_iter().flatten().collect())
 }
 
-/// The median of positive values, if any.
+/// The median of the values if there are any and it is positive (a trial
+/// without a scenario of a mode has no estimate for that mode).
 fn positive_median(values: &[f64]) -> Option<f64> {
+    if values.is_empty() {
+        return None;
+    }
     let mut sorted = values.to_vec();
     sorted.sort_by(f64::total_cmp);
     let median = crate::stats::quantile_sorted(&sorted, 0.5);
-    (!sorted.is_empty() && median > 0.0).then_some(median)
+    (median > 0.0).then_some(median)
 }
 
 /// Re-runs one patient of the trial's cohort in one scenario and arm with a
@@ -225,6 +220,11 @@ pub fn trace_patient(
                 .map_or("", |p| p.params.name.as_str()),
         )));
     };
+    let Some(planned) = config.planned_scenario(scenario) else {
+        return Err(TrialError::Config(format!(
+            "--trace: scenario {scenario} is not among the scenarios run"
+        )));
+    };
     let mut trace = Trace {
         events: Some(Vec::new()),
         decisions: Some(Vec::new()),
@@ -235,7 +235,7 @@ pub fn trace_patient(
         config,
         &cohort.patients[index],
         index as u64 + 1,
-        &config.scenario(scenario),
+        planned,
         arm,
         &mut trace,
     )?;

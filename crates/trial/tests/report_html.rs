@@ -25,13 +25,14 @@ fn quantile(values: &[f64], p: f64) -> f64 {
 
 #[test]
 fn the_trial_page_shows_pooled_profiles_per_arm() {
-    let config = TrialConfig {
+    let config = TrialConfig::try_from(abba_trial::protocol::RawTrialConfig {
         patients: 3,
         days: 9,
         scenarios: vec![ScenarioId::S1],
         arms: vec![ArmKind::Standard, ArmKind::R2r],
-        ..TrialConfig::default()
-    };
+        ..abba_trial::protocol::RawTrialConfig::default()
+    })
+    .unwrap();
     let out = run_trial(&config, 2, &Silent).unwrap();
     for arm in &out.arms {
         for p in &arm.patients {

@@ -4,16 +4,18 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use abba_sim::scenario::ScenarioId;
+use abba_trial::protocol::RawTrialConfig;
 use abba_trial::runner::{run_trial, Silent};
 use abba_trial::TrialConfig;
 
 fn short() -> TrialConfig {
-    TrialConfig {
+    TrialConfig::try_from(RawTrialConfig {
         patients: 8,
         days: 21,
         scenarios: vec![ScenarioId::S1, ScenarioId::S4],
-        ..TrialConfig::default()
-    }
+        ..RawTrialConfig::default()
+    })
+    .unwrap()
 }
 
 #[test]

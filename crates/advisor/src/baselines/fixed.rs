@@ -4,7 +4,7 @@ use crate::config::EventLimits;
 use crate::decision::Decision;
 use crate::error::AdvisorError;
 use crate::guard::EventGuard;
-use crate::Advisor;
+use crate::{Advisor, ArmKind, Mode};
 use abba_core::{Event, TherapySettings};
 use serde::{Deserialize, Serialize};
 
@@ -33,6 +33,26 @@ impl FixedTherapy {
             guard: EventGuard::default(),
         })
     }
+
+    /// The whole state as JSON, in the versioned envelope of [`crate::state`].
+    pub fn save_json(&self) -> Result<String, AdvisorError> {
+        crate::state::save(ArmKind::Standard, self)
+    }
+
+    /// Restores a state saved with [`FixedTherapy::save_json`], re-validating it.
+    pub fn load_json(json: &str) -> Result<Self, AdvisorError> {
+        let a: Self = crate::state::load(ArmKind::Standard, json)?;
+        a.check_state()?;
+        Ok(a)
+    }
+
+    /// Re-validates a deserialised state.
+    pub(crate) fn check_state(&self) -> Result<(), AdvisorError> {
+        self.limits.validate()?;
+        self.settings
+            .validate()
+            .map_err(|e| AdvisorError::State(format!("settings: {e}")))
+    }
 }
 
 impl Advisor for FixedTherapy {
@@ -54,7 +74,11 @@ impl Advisor for FixedTherapy {
         Vec::new()
     }
 
-    fn name(&self) -> &'static str {
-        "standard"
+    fn arm(&self) -> ArmKind {
+        ArmKind::Standard
+    }
+
+    fn mode(&self) -> Option<Mode> {
+        None
     }
 }

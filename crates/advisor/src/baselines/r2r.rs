@@ -14,7 +14,7 @@ use crate::decision::{
 use crate::error::{check_positive, check_range, config_err, AdvisorError};
 use crate::guard::{closed_day, EventGuard};
 use crate::windows::{DayWindows, MealWindows};
-use crate::Advisor;
+use crate::{Advisor, ArmKind};
 use abba_core::{
     Event, EventKind, GramsPerUnit, MealSlot, TherapySettings, Timestamp, UnitsPerHour,
 };
@@ -213,6 +213,26 @@ impl RunToRun {
     /// The configuration.
     pub fn config(&self) -> &R2rConfig {
         &self.config
+    }
+
+    /// The whole state as JSON, in the versioned envelope of [`crate::state`].
+    pub fn save_json(&self) -> Result<String, AdvisorError> {
+        crate::state::save(ArmKind::R2r, self)
+    }
+
+    /// Restores a state saved with [`RunToRun::save_json`], re-validating it.
+    pub fn load_json(json: &str) -> Result<Self, AdvisorError> {
+        let a: Self = crate::state::load(ArmKind::R2r, json)?;
+        a.check_state()?;
+        Ok(a)
+    }
+
+    /// Re-validates a deserialised state.
+    pub(crate) fn check_state(&self) -> Result<(), AdvisorError> {
+        self.config.validate()?;
+        self.settings
+            .validate()
+            .map_err(|e| AdvisorError::State(format!("settings: {e}")))
     }
 
     fn reading(&mut self, at: Timestamp, g: f64) {
@@ -433,8 +453,12 @@ impl Advisor for RunToRun {
         self.log.take()
     }
 
-    fn name(&self) -> &'static str {
-        "r2r"
+    fn arm(&self) -> ArmKind {
+        ArmKind::R2r
+    }
+
+    fn mode(&self) -> Option<Mode> {
+        Some(self.config.mode)
     }
 }
 

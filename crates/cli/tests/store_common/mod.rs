@@ -9,7 +9,7 @@ use abba_io::clock::AdvisorClock;
 use abba_io::read::{read_all, Batch, ReadOptions};
 use abba_sim::scenario::ScenarioId;
 use abba_store::{NewPerson, Store};
-use abba_trial::closed_loop::{advisor_spec, run_patient_with, Trace};
+use abba_trial::closed_loop::{run_patient_with, Trace};
 use abba_trial::protocol::ArmKind;
 use abba_trial::runner::build_cohort;
 use abba_trial::TrialConfig;
@@ -31,24 +31,26 @@ pub struct Sim {
 /// cohort in `scenario` (S1: CGM mode, S2: SMBG mode), `days` days, TE
 /// reference not calibrated (both sides use the same configuration).
 pub fn simulate(scenario: ScenarioId, patient_no: u64, days: u32) -> Sim {
-    let config = TrialConfig {
+    let config = TrialConfig::try_from(abba_trial::protocol::RawTrialConfig {
         patients: patient_no as u32,
         days,
         calibrate_te_ref: false,
-        ..TrialConfig::default()
-    };
+        ..abba_trial::protocol::RawTrialConfig::default()
+    })
+    .unwrap();
     let cohort = build_cohort(&config).unwrap();
     let vp = &cohort.patients[patient_no as usize - 1];
-    let sc = config.scenario(scenario);
-    let mode = TrialConfig::mode_for(&sc);
+    let planned = config.planned_scenario(scenario).unwrap().clone();
+    let sc = planned.config.clone();
+    let mode = planned.mode;
     let mut trace = Trace {
         events: Some(Vec::new()),
         decisions: Some(Vec::new()),
         minutes: None,
         init: None,
     };
-    run_patient_with(&config, vp, patient_no, &sc, ArmKind::Abba, &mut trace).unwrap();
-    let AdvisorSpec::Abba(mut abba) = advisor_spec(&config, ArmKind::Abba, mode) else {
+    run_patient_with(&config, vp, patient_no, &planned, ArmKind::Abba, &mut trace).unwrap();
+    let AdvisorSpec::Abba(mut abba) = config.advisor_spec(ArmKind::Abba, mode) else {
         panic!("not ABBA")
     };
     abba.exploration_seed =

@@ -44,6 +44,13 @@ use rand_distr::{Distribution, Normal};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
+/// The largest cohort [`Cohort::generate`] builds. Generating and checking
+/// one patient takes a few milliseconds (about 3-5 ms on the reference
+/// 2-core machine, see BENCHMARKS.md) and holding it about 2 kB, so 100,000
+/// patients take several minutes and about 0.2 GB; a size far beyond would
+/// run for hours or exhaust memory, and is refused up front.
+pub const MAX_COHORT_SIZE: u32 = 100_000;
+
 /// The three public groups.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -424,6 +431,15 @@ impl Cohort {
     /// inconsistent with the group), if a patient needs more than
     /// `max_candidates_per_patient` candidates, or on invalid configuration.
     pub fn generate(config: &CohortConfig) -> Result<Cohort, SimError> {
+        Self::generate_with_progress(config, &mut |_, _| {})
+    }
+
+    /// Like [`Cohort::generate`], calling `progress(done, total)` after each
+    /// patient (the library never prints; the caller shows progress).
+    pub fn generate_with_progress(
+        config: &CohortConfig,
+        progress: &mut dyn FnMut(usize, usize),
+    ) -> Result<Cohort, SimError> {
         let cfg_err = |m: String| Err(SimError::Config(m));
         if !(config.mix_noise_sd.is_finite() && config.mix_noise_sd >= 0.0) {
             return cfg_err(format!(
@@ -440,6 +456,15 @@ impl Cohort {
         if config.size == 0 {
             return cfg_err("cohort size must be at least 1".into());
         }
+        if config.size > MAX_COHORT_SIZE {
+            return cfg_err(format!(
+                "cohort size {} is above the limit of {MAX_COHORT_SIZE} patients: each generated \
+                 patient takes a few milliseconds to draw and check and about 2 kB to hold, so \
+                 {MAX_COHORT_SIZE} patients already take several minutes on one core",
+                config.size
+            ));
+        }
+        let total = config.size as usize;
         let prefix = format!("{}#", config.population.prefix());
         let public: Vec<PatientParams> = PatientParams::all_public()?
             .into_iter()
@@ -473,11 +498,13 @@ impl Cohort {
                 origin: Origin::Public,
                 checks,
             });
+            progress(patients.len(), total);
         }
         let mut rejections = Rejections::default();
         for n in (public.len() as u32 + 1)..=config.size {
             let vp = generate_patient(config, &public, n, &mut rejections)?;
             patients.push(vp);
+            progress(patients.len(), total);
         }
         Ok(Cohort {
             config: config.clone(),

@@ -13,8 +13,9 @@ pub struct ParamStats {
     pub name: String,
     /// Mean.
     pub mean: f64,
-    /// Sample standard deviation (0 for one patient).
-    pub sd: f64,
+    /// Sample standard deviation (n − 1); `None` (JSON `null`) for a
+    /// one-patient cohort, where it is undefined.
+    pub sd: Option<f64>,
     /// Minimum.
     pub min: f64,
     /// Maximum.
@@ -25,11 +26,8 @@ impl ParamStats {
     fn of(name: &str, v: &[f64]) -> Self {
         let n = v.len() as f64;
         let mean = v.iter().sum::<f64>() / n;
-        let sd = if v.len() > 1 {
-            (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
-        } else {
-            0.0
-        };
+        let sd = (v.len() >= 2)
+            .then(|| (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt());
         Self {
             name: name.to_string(),
             mean,
@@ -63,10 +61,12 @@ pub struct TitrationSummary {
     pub patients: Vec<TitrationComparison>,
     /// Geometric mean of titrated/Quest.
     pub geometric_mean_ratio: f64,
-    /// SD of log(titrated/Quest).
-    pub sd_log_ratio: f64,
-    /// Pearson correlation of log titrated with log Quest.
-    pub correlation_log: f64,
+    /// Sample SD of log(titrated/Quest); `None` (JSON `null`) with fewer
+    /// than 2 public patients, where it is undefined.
+    pub sd_log_ratio: Option<f64>,
+    /// Pearson correlation of log titrated with log Quest; `None` with
+    /// fewer than 2 public patients or when either side does not vary.
+    pub correlation_log: Option<f64>,
     /// Patients whose titrated ratio is within ±20 % of Quest's.
     pub within_20_percent: usize,
     /// Patients whose ratio the hypoglycaemia floor (not the return to
@@ -150,19 +150,21 @@ impl Cohort {
         let n = rows.len() as f64;
         let lr: Vec<f64> = rows.iter().map(|r| r.ratio.ln()).collect();
         let m = lr.iter().sum::<f64>() / n;
-        let sd = (lr.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+        let sd = (rows.len() >= 2)
+            .then(|| (lr.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt());
         let lq: Vec<f64> = rows.iter().map(|r| r.quest_g_per_u.ln()).collect();
         let lt: Vec<f64> = rows.iter().map(|r| r.titrated_exact_g_per_u.ln()).collect();
         let (mq, mt) = (lq.iter().sum::<f64>() / n, lt.iter().sum::<f64>() / n);
         let cov: f64 = lq.iter().zip(&lt).map(|(a, b)| (a - mq) * (b - mt)).sum();
         let vq: f64 = lq.iter().map(|a| (a - mq).powi(2)).sum();
         let vt: f64 = lt.iter().map(|b| (b - mt).powi(2)).sum();
+        let rows_n = rows.len();
         let titration_vs_quest = TitrationSummary {
             within_20_percent: rows.iter().filter(|r| (r.ratio - 1.0).abs() <= 0.2).count(),
             patients: rows,
             geometric_mean_ratio: m.exp(),
             sd_log_ratio: sd,
-            correlation_log: cov / (vq * vt).sqrt(),
+            correlation_log: (rows_n >= 2 && vq > 0.0 && vt > 0.0).then(|| cov / (vq * vt).sqrt()),
             nadir_limited,
         };
         let public = ps

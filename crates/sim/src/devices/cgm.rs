@@ -70,6 +70,7 @@ pub const PROTOCOL_SAMPLE_TIME_MIN: u32 = 5;
 /// The Johnson SU transform η = ξ + λ·sinh((e − γ)/δ) that turns the
 /// latent normal process into the sensor error in mg/dL.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct JohnsonSu {
     /// γ, shape (dimensionless); γ < 0 makes the error right-skewed.
     pub gamma: f64,
@@ -91,6 +92,7 @@ impl JohnsonSu {
 
 /// Everything that defines a CGM sensor model.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct CgmConfig {
     /// Model name (a row of `sensor_params.csv`, or a user's label).
     pub name: String,
@@ -104,6 +106,27 @@ pub struct CgmConfig {
     pub min_mg_dl: f64,
     /// Highest reading the sensor reports, mg/dL.
     pub max_mg_dl: f64,
+}
+
+impl Default for CgmConfig {
+    /// The protocol's CGM, [`CgmConfig::protocol`] (the GuardianRT row of
+    /// `sensor_params.csv` at 5 minutes), written out so that it cannot
+    /// fail; a test checks that it equals the table's row.
+    fn default() -> Self {
+        Self {
+            name: "GuardianRT".to_owned(),
+            pacf: 0.7,
+            johnson: JohnsonSu {
+                gamma: -0.5444,
+                lambda_mg_dl: 15.9574,
+                delta: 1.6898,
+                xi_mg_dl: -5.47,
+            },
+            sample_time_min: PROTOCOL_SAMPLE_TIME_MIN,
+            min_mg_dl: 39.0,
+            max_mg_dl: 600.0,
+        }
+    }
 }
 
 impl CgmConfig {
@@ -362,6 +385,12 @@ impl CgmSensor {
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn default_is_the_protocol_row() {
+        assert_eq!(CgmConfig::default(), CgmConfig::protocol().unwrap());
+        CgmConfig::default().validate().unwrap();
+    }
 
     #[test]
     fn table_rows_load() {

@@ -25,6 +25,7 @@ use serde::{Deserialize, Serialize};
 
 /// The meter's error model and range.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct MeterConfig {
     /// Error SD below the threshold, mg/dL (default 7.5).
     pub sd_below_threshold_mg_dl: f64,

@@ -22,3 +22,29 @@ mod table;
 pub use cgm::{CgmConfig, CgmSensor};
 pub use meter::{MeterConfig, SmbgMeter};
 pub use pump::{BasalOutcome, BolusOutcome, DeliveryTotals, Pump, PumpConfig};
+
+use crate::SimError;
+use serde::{Deserialize, Serialize};
+
+/// The devices a simulated person carries, each in the simulator's own
+/// configuration type. The CGM's `sample_time_min` is the one place the CGM
+/// period is set.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DeviceSet {
+    /// The CGM sensor (noise model, sample time, range).
+    pub cgm: CgmConfig,
+    /// The finger-stick meter.
+    pub meter: MeterConfig,
+    /// The insulin pump.
+    pub pump: PumpConfig,
+}
+
+impl DeviceSet {
+    /// Checks every device; the error names the device and the field.
+    pub fn validate(&self) -> Result<(), SimError> {
+        self.cgm.validate()?;
+        self.meter.validate()?;
+        self.pump.validate()
+    }
+}

@@ -64,6 +64,7 @@ const SNAP: f64 = 1e-9;
 
 /// The pump's increments, limits and delivery speed.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct PumpConfig {
     /// A label for messages.
     pub name: String,

@@ -294,12 +294,7 @@ impl PatientParams {
             .find(|p| p.name == name)
             .ok_or_else(|| SimError::UnknownPatient {
                 name: name.to_string(),
-                known: format!(
-                    "{} .. {} ({} patients)",
-                    names[0],
-                    names[names.len() - 1],
-                    names.len()
-                ),
+                known: name_ranges(&names),
             })
     }
 
@@ -433,6 +428,24 @@ impl QuestRow {
                 known: "the 30 public patients".into(),
             })
     }
+}
+
+/// The names as ranges per group, in table order:
+/// `adolescent#001..#010, adult#001..#010, child#001..#010`.
+fn name_ranges(names: &[String]) -> String {
+    let mut groups: Vec<(&str, &str, &str)> = Vec::new();
+    for name in names {
+        let (group, number) = name.split_once('#').unwrap_or((name.as_str(), ""));
+        match groups.last_mut() {
+            Some((g, _, last)) if *g == group => *last = number,
+            _ => groups.push((group, number, number)),
+        }
+    }
+    groups
+        .iter()
+        .map(|(g, first, last)| format!("{g}#{first}..#{last}"))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 #[cfg(test)]

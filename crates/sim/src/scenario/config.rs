@@ -12,6 +12,7 @@ pub use abba_core::ScenarioId;
 
 /// One meal of the daily plan, before the day's random draws.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct MealTemplate {
     /// Which meal.
     pub slot: MealSlot,
@@ -30,6 +31,7 @@ pub struct MealTemplate {
 
 /// The meal plan and the carb-counting error.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct MealConfig {
     /// The meals of every day, in time order (no two with the same slot).
     pub meals: Vec<MealTemplate>,
@@ -74,6 +76,7 @@ impl Default for MealConfig {
 
 /// Randomly skipped main meals (S4).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct SkipConfig {
     /// Main meals skipped in every block (2 in the paper).
     pub per_block: u32,
@@ -99,6 +102,7 @@ impl Default for SkipConfig {
 
 /// The insulin-sensitivity profile s(t) (seed paper §III-A-1).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct SensitivityConfig {
     /// Lower bound of the daily factor, drawn each midnight (0.75).
     pub daily_factor_min: f64,
@@ -133,6 +137,7 @@ impl Default for SensitivityConfig {
 
 /// Finger-stick (SMBG) measurement schedule (S2-S4).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct SmbgConfig {
     /// Minutes before each main meal's actual time (20); the reading is taken
     /// even when the meal is then skipped.
@@ -147,11 +152,12 @@ pub struct SmbgConfig {
     pub from_day: u32,
 }
 
-/// CGM schedule.
+/// When the CGM is worn. How often it reads is the sensor's own property
+/// (`devices::cgm::CgmConfig::sample_time_min`), the one place the CGM
+/// period is set.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct CgmConfig {
-    /// Sample period in minutes (5).
-    pub period_min: u32,
+#[serde(deny_unknown_fields)]
+pub struct CgmWear {
     /// Last day (1-based) the CGM is worn; `None` means every day (S1). 8 in
     /// S2-S4: the sensor provides the data for the advisor's initialisation.
     pub until_day: Option<u32>,
@@ -159,6 +165,7 @@ pub struct CgmConfig {
 
 /// A complete scenario: the daily life of every patient in one arm of the trial.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct ScenarioConfig {
     /// Name shown in reports ("S1".."S4" for the paper's).
     pub name: String,
@@ -180,8 +187,8 @@ pub struct ScenarioConfig {
     pub sensitivity: SensitivityConfig,
     /// SMBG schedule (`None`: no finger sticks, S1).
     pub smbg: Option<SmbgConfig>,
-    /// CGM schedule.
-    pub cgm: CgmConfig,
+    /// When the CGM is worn.
+    pub cgm: CgmWear,
 }
 
 impl ScenarioConfig {
@@ -207,8 +214,7 @@ impl ScenarioConfig {
             skip,
             sensitivity: SensitivityConfig::default(),
             smbg,
-            cgm: CgmConfig {
-                period_min: 5,
+            cgm: CgmWear {
                 until_day: cgm_until,
             },
         }
@@ -370,10 +376,10 @@ impl ScenarioConfig {
                 );
             }
         }
-        if self.cgm.period_min == 0 || !day.is_multiple_of(self.cgm.period_min) {
+        if let Some(0) = self.cgm.until_day {
             return bad(
-                "cgm.period_min",
-                format!("must divide {day} minutes, got {}", self.cgm.period_min),
+                "cgm.until_day",
+                "days are counted from 1 (null: worn every day)".into(),
             );
         }
         Ok(())

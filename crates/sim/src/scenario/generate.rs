@@ -202,17 +202,14 @@ impl ScenarioGenerator {
             smbg.sort_by_key(|r| r.at);
         }
 
-        let cgm_period_min = match cfg.cgm.until_day {
-            Some(last) if day_number > last => None,
-            _ => Some(cfg.cgm.period_min),
-        };
+        let cgm_worn = cfg.cgm.until_day.is_none_or(|last| day_number <= last);
 
         DayPlan {
             day_index,
             meals,
             sensitivity,
             smbg,
-            cgm_period_min,
+            cgm_worn,
         }
     }
 

@@ -22,7 +22,7 @@ mod generate;
 mod plan;
 
 pub use config::{
-    CgmConfig, MealConfig, MealTemplate, ScenarioConfig, ScenarioId, SensitivityConfig, SkipConfig,
+    CgmWear, MealConfig, MealTemplate, ScenarioConfig, ScenarioId, SensitivityConfig, SkipConfig,
     SmbgConfig,
 };
 pub use generate::{ScenarioGenerator, StreamSeeds};

@@ -140,9 +140,8 @@ pub struct DayPlan {
     pub sensitivity: SensitivityDay,
     /// Finger-stick readings in time order (empty when there are none).
     pub smbg: Vec<SmbgReading>,
-    /// CGM sample period when the CGM is worn this day (`None` otherwise);
-    /// samples are at every multiple of the period from 00:00.
-    pub cgm_period_min: Option<u32>,
+    /// Whether the CGM is worn this day.
+    pub cgm_worn: bool,
 }
 
 impl DayPlan {
@@ -161,9 +160,9 @@ impl DayPlan {
         self.meals.iter().find(|m| m.slot == slot)
     }
 
-    /// Whether a CGM sample is taken at `minute_of_day`.
-    pub fn cgm_sample_at(&self, minute_of_day: u32) -> bool {
-        self.cgm_period_min
-            .is_some_and(|p| minute_of_day.is_multiple_of(p))
+    /// Whether a CGM worn this day with sample period `period_min` reads at
+    /// `minute_of_day` (every multiple of the period from 00:00).
+    pub fn cgm_sample_at(&self, minute_of_day: u32, period_min: u32) -> bool {
+        self.cgm_worn && period_min > 0 && minute_of_day.is_multiple_of(period_min)
     }
 }

@@ -68,8 +68,7 @@ impl ClinicianBounds {
         let all = std::iter::once(("basal rate bounds", self.basal)).chain(
             ["breakfast", "lunch", "dinner"]
                 .into_iter()
-                .zip(self.carb_ratio)
-                .map(|(n, r)| (n, r)),
+                .zip(self.carb_ratio),
         );
         for (what, r) in all {
             if let Some(r) = r {

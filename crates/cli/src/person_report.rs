@@ -104,7 +104,12 @@ pub fn person_input(
             _ => {}
         }
     }
-    add_basal(&mut out, rate_since, (last_index + 1) * MINUTES_PER_DAY, rate);
+    add_basal(
+        &mut out,
+        rate_since,
+        (last_index + 1) * MINUTES_PER_DAY,
+        rate,
+    );
 
     // Settings in force by day: the start, then each answered suggestion's
     // value from the day it is for.
@@ -122,7 +127,7 @@ pub fn person_input(
                 "dinner" => settings.carb_ratio[2].0 = value,
                 _ => {}
             }
-            if v.day - 1 >= first_index {
+            if v.day > first_index {
                 suggestions.push(line(v));
             }
         }

@@ -60,7 +60,12 @@ pub fn run(a: Args) -> Result<()> {
 fn print_pdf(page: &Path, pdf: &Path) -> Result<()> {
     let browser = ["chromium", "chromium-browser", "google-chrome"]
         .into_iter()
-        .find(|b| Command::new(b).arg("--version").output().is_ok_and(|o| o.status.success()))
+        .find(|b| {
+            Command::new(b)
+                .arg("--version")
+                .output()
+                .is_ok_and(|o| o.status.success())
+        })
         .context("--pdf needs Chromium (apt-get install chromium); the HTML page was written")?;
     let profile = std::env::temp_dir().join(format!("abba-pdf-{}", std::process::id()));
     let page = std::fs::canonicalize(page)?;
@@ -86,7 +91,10 @@ fn print_pdf(page: &Path, pdf: &Path) -> Result<()> {
         bail!(
             "chromium could not print {} to PDF: {}",
             page.display(),
-            String::from_utf8_lossy(&status.stderr).lines().last().unwrap_or("")
+            String::from_utf8_lossy(&status.stderr)
+                .lines()
+                .last()
+                .unwrap_or("")
         );
     }
     Ok(())

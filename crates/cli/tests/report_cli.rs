@@ -6,9 +6,9 @@
 //! renders at A4 width in Chromium. CGM in mg/dL, SMBG in mmol/L.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod store_common;
 #[path = "../../report/tests/common/browser.rs"]
 mod browser;
+mod store_common;
 
 use abba_core::{units::MG_DL_PER_MMOL_L, EventKind};
 use abba_sim::scenario::ScenarioId;
@@ -33,7 +33,9 @@ fn check(scenario: ScenarioId, unit: &str, tag: &str) {
     let first = sim.events[0].at.day_index();
     let mut turn = 0;
     for day in first..=sim.last_day() {
-        store.import(&name, &sim.export((day - 1).max(first), day)).unwrap();
+        store
+            .import(&name, &sim.export((day - 1).max(first), day))
+            .unwrap();
         let advice = store.advise(&name).unwrap();
         let open: Vec<(String, f64)> = advice
             .settings
@@ -49,7 +51,9 @@ fn check(scenario: ScenarioId, unit: &str, tag: &str) {
             0 => AnswerRequest::Accept,
             1 => AnswerRequest::Reject,
             _ => AnswerRequest::Set(
-                open.iter().map(|(s, old)| (parse_param(s).unwrap(), old * 1.01)).collect(),
+                open.iter()
+                    .map(|(s, old)| (parse_param(s).unwrap(), old * 1.01))
+                    .collect(),
             ),
         };
         store.answer(&name, &req).unwrap();
@@ -58,7 +62,9 @@ fn check(scenario: ScenarioId, unit: &str, tag: &str) {
     let history = store.history(&name).unwrap();
     drop(store);
 
-    let out_dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("html").join(tag);
+    let out_dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join("html")
+        .join(tag);
     let _ = std::fs::remove_dir_all(&out_dir);
     std::fs::create_dir_all(&out_dir).unwrap();
     let page = out_dir.join("report.html");
@@ -69,7 +75,11 @@ fn check(scenario: ScenarioId, unit: &str, tag: &str) {
         .arg(&page)
         .output()
         .unwrap();
-    assert!(status.status.success(), "{}", String::from_utf8_lossy(&status.stderr));
+    assert!(
+        status.status.success(),
+        "{}",
+        String::from_utf8_lossy(&status.stderr)
+    );
     let html = std::fs::read_to_string(&page).unwrap();
     eprintln!("{tag}: {} bytes", html.len());
 
@@ -78,8 +88,14 @@ fn check(scenario: ScenarioId, unit: &str, tag: &str) {
     let period = last - 13..=last;
     let first_day = sim.person.first_day.unwrap();
     for i in period.clone() {
-        let date = first_day.checked_add(jiff::Span::new().days(i)).unwrap().to_string();
-        assert!(html.contains(&format!("<title>{date}</title>")), "{tag}: no panel for {date}");
+        let date = first_day
+            .checked_add(jiff::Span::new().days(i))
+            .unwrap()
+            .to_string();
+        assert!(
+            html.contains(&format!("<title>{date}</title>")),
+            "{tag}: no panel for {date}"
+        );
     }
     assert_eq!(html.matches(r#"viewBox="0 0 200 130""#).count(), 14);
 
@@ -93,14 +109,19 @@ fn check(scenario: ScenarioId, unit: &str, tag: &str) {
     for v in &shown {
         let row = html
             .split("<tr>")
-            .find(|r| r.contains(&v.decided_at) && r.contains(&format!("{:.3} {}", v.suggested, v.unit)))
+            .find(|r| {
+                r.contains(&v.decided_at) && r.contains(&format!("{:.3} {}", v.suggested, v.unit))
+            })
             .unwrap_or_else(|| panic!("{tag}: suggestion of {} missing", v.decided_at));
         let want = match v.status.as_str() {
             "overridden" => format!("set to {:.3}", v.in_force),
             "open" => "not answered yet".to_string(),
             s => s.to_string(),
         };
-        assert!(row.contains(&want), "{tag}: answer '{want}' missing in {row}");
+        assert!(
+            row.contains(&want),
+            "{tag}: answer '{want}' missing in {row}"
+        );
         answers.insert(v.status.clone());
     }
     assert!(answers.len() >= 2, "{tag}: answers {answers:?}");
@@ -170,7 +191,9 @@ fn pdf_is_printed_by_chromium_when_asked() {
     let sim = simulate(ScenarioId::S1, 1, 10);
     let dir = TempDir::new("report-pdf");
     let mut store = sim.store(&dir.0);
-    store.import(&sim.person.name, &sim.export(0, sim.last_day())).unwrap();
+    store
+        .import(&sim.person.name, &sim.export(0, sim.last_day()))
+        .unwrap();
     drop(store);
     let page = dir.0.join("page.html");
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_abba"))
@@ -180,7 +203,11 @@ fn pdf_is_printed_by_chromium_when_asked() {
         .arg(&page)
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let pdf = std::fs::read(dir.0.join("page.pdf")).unwrap();
     assert!(pdf.starts_with(b"%PDF-"), "not a PDF");
     assert!(pdf.len() > 10_000);
@@ -201,9 +228,20 @@ fn unknown_person_and_bad_unit_are_refused() {
     };
     let out = run(&["--person", "nobody", "--out", "/dev/null"]);
     assert!(!out.status.success());
-    let out = run(&["--person", &sim.person.name, "--units", "mmol", "--out", "/dev/null"]);
+    let out = run(&[
+        "--person",
+        &sim.person.name,
+        "--units",
+        "mmol",
+        "--out",
+        "/dev/null",
+    ]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("mg/dL or mmol/L"));
     let out = run(&["--person", &sim.person.name, "--out", "/dev/null"]);
-    assert!(String::from_utf8_lossy(&out.stderr).contains("no data yet"), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("no data yet"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }

@@ -191,7 +191,11 @@ fn the_same_input_gives_the_same_bytes_and_the_page_validates() {
 #[test]
 fn every_range_label_of_the_bar_stays_inside_the_figure() {
     // Crowded at the top (tiny high ranges) and at the bottom (tiny low ones).
-    for pct in [[0.0, 0.0, 99.0, 0.5, 0.5], [0.5, 0.5, 99.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0, 100.0]] {
+    for pct in [
+        [0.0, 0.0, 99.0, 0.5, 0.5],
+        [0.5, 0.5, 99.0, 0.0, 0.0],
+        [0.0, 0.0, 0.0, 0.0, 100.0],
+    ] {
         let svg = abba_report::html::svg::tir_bar_svg("t", pct, "t");
         let ys: Vec<f64> = svg
             .split("<text ")

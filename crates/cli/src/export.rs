@@ -4,8 +4,10 @@ use std::path::PathBuf;
 
 use abba_io::clock::AdvisorClock;
 use abba_sim::scenario::ScenarioId;
-use abba_trial::protocol::{ArmKind, TrialConfig};
-use anyhow::{anyhow, Result};
+use abba_trial::protocol::{ArmKind, RawTrialConfig, TrialConfig};
+use std::io::Write;
+
+use anyhow::{anyhow, Context, Result};
 
 use crate::input::date;
 
@@ -41,10 +43,17 @@ pub fn run(args: Args) -> Result<()> {
         .into_iter()
         .find(|a| a.name() == args.arm)
         .ok_or_else(|| anyhow!("--arm {}: expected abba, standard or r2r", args.arm))?;
-    let config = TrialConfig::try_from(abba_trial::protocol::RawTrialConfig {
+    // Zone, start and folder are checked before the simulation runs.
+    let clock = AdvisorClock::new(
+        abba_io::time::zone(&args.tz)?,
+        date("--start", &args.start)?,
+    );
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("--out {}: cannot create the folder", args.out.display()))?;
+    let config = TrialConfig::try_from(RawTrialConfig {
         days: args.days,
         patients: args.patients,
-        ..abba_trial::protocol::RawTrialConfig::default()
+        ..RawTrialConfig::default()
     })?;
     let cohort = abba_trial::runner::build_cohort(&config)?;
     let (_, trace) =
@@ -55,13 +64,23 @@ pub fn run(args: Args) -> Result<()> {
         .find(|p| p.params.name == args.patient)
         .map(|p| p.therapy)
         .ok_or_else(|| anyhow!("no patient {} in the cohort", args.patient))?;
-    let clock = AdvisorClock::new(
-        abba_io::time::zone(&args.tz)?,
-        date("--start", &args.start)?,
-    );
     let files =
         abba_io::nightscout_out::write(trace.events.as_deref().unwrap_or(&[]), &therapy, &clock)?;
-    abba_io::nightscout_out::write_dir(&files, &args.out)?;
-    println!("wrote {}/{{entries,treatments,profile}}.json for {} (simulated; abba is research software, not a medical device)", args.out.display(), args.patient);
+    for (name, text) in [
+        ("entries.json", &files.entries),
+        ("treatments.json", &files.treatments),
+        ("profile.json", &files.profile),
+    ] {
+        let path = args.out.join(name);
+        crate::output::write_atomically(&path, |w| {
+            w.write_all(text.as_bytes())
+                .with_context(|| format!("cannot write {}", path.display()))
+        })?;
+    }
+    println!(
+        "wrote {}/{{entries,treatments,profile}}.json for {} (simulated; abba is research software, not a medical device)",
+        args.out.display(),
+        args.patient
+    );
     Ok(())
 }

@@ -110,7 +110,7 @@ fn export_writes_nightscout_that_events_reads_back() {
         "--patient",
         "adult#002",
         "--days",
-        "4",
+        "9",
         "--tz",
         "Europe/Zurich",
         "--start",
@@ -136,9 +136,9 @@ fn export_writes_nightscout_that_events_reads_back() {
     let v: serde_json::Value = serde_json::from_str(&ok(&abba(&args))).unwrap();
     std::fs::remove_dir_all(&dir).ok();
     let counts = &v["mapping"]["counts"];
-    // D2..D4 at one CGM reading every 5 minutes.
-    assert_eq!(counts["cgm"], 3 * 288, "{counts}");
-    assert_eq!(counts["meal_announced"], 9, "{counts}");
+    // D2..D9 (the trial's shortest plan) at one CGM reading every 5 minutes.
+    assert_eq!(counts["cgm"], 8 * 288, "{counts}");
+    assert_eq!(counts["meal_announced"], 8 * 3, "{counts}");
     assert_eq!(v["mapping"]["rejected"].as_array().unwrap().len(), 0);
 }
 

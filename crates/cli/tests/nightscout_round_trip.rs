@@ -7,14 +7,14 @@ use abba_io::clock::AdvisorClock;
 use abba_io::events::{to_events, PersonSettings};
 use abba_io::nightscout_out;
 use abba_sim::scenario::ScenarioId;
-use abba_trial::protocol::{ArmKind, TrialConfig};
+use abba_trial::protocol::{ArmKind, RawTrialConfig, TrialConfig};
 use abba_trial::runner::{build_cohort, trace_patient};
 
 fn round_trip(patient: &str, arm: ArmKind, tz: &str, start: jiff::civil::Date) {
-    let config = TrialConfig::try_from(abba_trial::protocol::RawTrialConfig {
+    let config = TrialConfig::try_from(RawTrialConfig {
         patients: 10,
         days: 21,
-        ..abba_trial::protocol::RawTrialConfig::default()
+        ..RawTrialConfig::default()
     })
     .unwrap();
     let cohort = build_cohort(&config).unwrap();

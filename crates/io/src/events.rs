@@ -1,19 +1,20 @@
 //! Records + a person's settings → the advisor's events. Every caller (the
 //! CLI, the person store, the service) goes through [`to_events`].
 //!
-//! The event kinds of abba-core carry no temporary basal, suspension or
-//! extended bolus yet, so the basal rate in force is followed instead: the
-//! scheduled rate (profile), overridden by a temporary basal for its
-//! duration (an absolute rate or a percentage of the schedule), by a
-//! suspension (rate 0 until resumed or its duration ends), plus the
-//! extended part of an extended bolus spread over its duration. A
-//! `BasalRate` event is emitted at every change of that rate (the first
-//! rate in force is the person's starting setting and emits nothing) and
-//! at every new profile.
+//! Pump records map to the pump kinds of abba-core: a temporary basal to
+//! `TempBasal` (absolute or percent, with its duration; 0 cancels), a
+//! suspension to `Suspend` (and `Resume` when it ends, by a resume record
+//! or its duration), an extended bolus to `ExtendedBolus` (total and
+//! immediate part). The scheduled rate is followed through profiles and
+//! their time-of-day segments: `BasalRate` is emitted at every new profile
+//! and at every change of the scheduled rate (the first rate in force is
+//! the person's starting setting and emits nothing).
 
 use std::collections::BTreeMap;
 
-use abba_core::{Event, EventKind, Grams, MealSlot, MgDl, Timestamp, Units, UnitsPerHour};
+use abba_core::{
+    Event, EventKind, Grams, MealSlot, MgDl, TempBasalRate, Timestamp, Units, UnitsPerHour,
+};
 use jiff::civil::Date;
 use jiff::tz::TimeZone;
 use serde::Serialize;
@@ -22,6 +23,9 @@ use crate::clock::AdvisorClock;
 use crate::meals::MealWindows;
 use crate::read::Batch;
 use crate::record::{BasalSchedule, Censor, Record, RecordKind, TempRate};
+
+/// Longest extended bolus the advisor accepts (its `EventLimits` default).
+pub const EXTENDED_BOLUS_MAX_MIN: u32 = 12 * 60;
 
 /// When the advisor's day closes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -106,24 +110,30 @@ pub fn kind_name(k: &EventKind) -> &'static str {
         EventKind::Bolus(_) => "bolus",
         EventKind::BasalRate(_) => "basal_rate",
         EventKind::DayClosed => "day_closed",
-        #[allow(unreachable_patterns)]
+        EventKind::TempBasal { .. } => "temp_basal",
+        EventKind::Suspend => "suspend",
+        EventKind::Resume => "resume",
+        EventKind::ExtendedBolus { .. } => "extended_bolus",
         _ => "other",
     }
 }
 
 /// Order of kinds within one minute, as the closed loop feeds them:
-/// readings, the announcement, its bolus, the day's close, then the basal
-/// rate the advisor's answer set.
+/// readings, the announcement, its bolus, other pump records, the day's
+/// close, then the basal rate the advisor's answer set.
 fn rank(k: &EventKind) -> u8 {
     match k {
         EventKind::Cgm(_) => 0,
         EventKind::Smbg(_) => 1,
         EventKind::MealAnnounced { .. } => 2,
         EventKind::Bolus(_) => 3,
-        EventKind::DayClosed => 4,
-        EventKind::BasalRate(_) => 5,
-        #[allow(unreachable_patterns)]
-        _ => 6,
+        EventKind::ExtendedBolus { .. } => 4,
+        EventKind::Suspend => 5,
+        EventKind::Resume => 6,
+        EventKind::TempBasal { .. } => 7,
+        EventKind::DayClosed => 8,
+        EventKind::BasalRate(_) => 9,
+        _ => 10,
     }
 }
 
@@ -131,27 +141,18 @@ fn rank(k: &EventKind) -> u8 {
 #[derive(Default)]
 struct Basal {
     schedule: Option<BasalSchedule>,
-    temp: Option<(TempRate, jiff::Timestamp)>,
+    /// A suspension in progress, and when it ends by itself (if it does).
     suspended_until: Option<Option<jiff::Timestamp>>,
-    extended: Vec<(f64, jiff::Timestamp)>,
+    /// The last scheduled rate emitted (or in force before day 1).
     last: Option<f64>,
 }
 
 impl Basal {
+    /// The scheduled rate at a minute of the local day.
     fn rate(&self, minute_of_day: u32) -> f64 {
-        if self.suspended_until.is_some() {
-            return 0.0;
-        }
-        let scheduled = self
-            .schedule
+        self.schedule
             .as_ref()
-            .map_or(0.0, |s| s.rate_at(minute_of_day).0);
-        let base = match self.temp {
-            Some((TempRate::Absolute(r), _)) => r.0,
-            Some((TempRate::Percent(p), _)) => scheduled * p / 100.0,
-            None => scheduled,
-        };
-        base + self.extended.iter().map(|e| e.0).sum::<f64>()
+            .map_or(0.0, |s| s.rate_at(minute_of_day).0)
     }
     /// The next instant after `after` at which the rate may change.
     fn next_change(&self, after: jiff::Timestamp, clock: &AdvisorClock) -> Option<jiff::Timestamp> {
@@ -161,14 +162,8 @@ impl Basal {
                 next = Some(t);
             }
         };
-        if let Some((_, end)) = self.temp {
-            take(end);
-        }
         if let Some(Some(end)) = self.suspended_until {
             take(end);
-        }
-        for e in &self.extended {
-            take(e.1);
         }
         if let Some(s) = self.schedule.as_ref().filter(|s| s.segments.len() > 1) {
             let now = clock.timestamp(after);
@@ -184,15 +179,13 @@ impl Basal {
         }
         next
     }
-    /// Drops what ended at or before `t`.
-    fn expire(&mut self, t: jiff::Timestamp) {
-        if self.temp.is_some_and(|(_, end)| end <= t) {
-            self.temp = None;
-        }
-        if matches!(self.suspended_until, Some(Some(end)) if end <= t) {
+    /// Ends a suspension whose duration is over at `t`; true if one ended.
+    fn expire(&mut self, t: jiff::Timestamp) -> bool {
+        let ended = matches!(self.suspended_until, Some(Some(end)) if end <= t);
+        if ended {
             self.suspended_until = None;
         }
-        self.extended.retain(|e| e.1 > t);
+        ended
     }
 }
 
@@ -259,12 +252,13 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
     for r in &batch.records {
         // Changes of the basal rate in force before this record.
         while let Some(t) = basal.next_change(now, &clock).filter(|&t| t <= r.at) {
-            basal.expire(t);
+            if basal.expire(t) && clock.timestamp(t).day_index() >= 0 {
+                events.push(Event::new(clock.timestamp(t), EventKind::Resume));
+            }
             emit_rate(&mut basal, t, false, &mut events);
             now = t;
         }
         now = r.at;
-        basal.expire(r.at);
         let ts = clock.timestamp(r.at);
         let reject = |out: &mut EventStream, r: &Record, reason: String| {
             out.rejected.push(Rejected {
@@ -273,14 +267,9 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
                 reason,
             })
         };
-        let basal_state = matches!(
-            r.kind,
-            RecordKind::Schedule { .. }
-                | RecordKind::TempBasal { .. }
-                | RecordKind::Suspend { .. }
-                | RecordKind::Resume
-        );
-        if ts.day_index() < 0 && !basal_state {
+        // A profile before day 1 sets the scheduled rate; nothing else
+        // before day 1 reaches the advisor.
+        if ts.day_index() < 0 && !matches!(r.kind, RecordKind::Schedule { .. }) {
             reject(&mut out, r, format!("before the first day {first_day}"));
             continue;
         }
@@ -323,17 +312,24 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
                 extended,
                 duration_min,
             } => {
-                if u_now.0 > 0.0 {
-                    events.push(Event::new(ts, EventKind::Bolus(*u_now)));
-                }
-                if *duration_min == 0 {
-                    events.push(Event::new(ts, EventKind::Bolus(*extended)));
-                } else if extended.0 > 0.0 {
-                    basal.extended.push((
-                        extended.0 * 60.0 / f64::from(*duration_min),
-                        plus_min(r.at, *duration_min),
+                let total = Units(u_now.0 + extended.0);
+                if *duration_min == 0 || extended.0 == 0.0 {
+                    events.push(Event::new(ts, EventKind::Bolus(total)));
+                } else if *duration_min > EXTENDED_BOLUS_MAX_MIN {
+                    reject(
+                        &mut out,
+                        r,
+                        format!("an extended bolus over {duration_min} min is longer than the advisor accepts ({EXTENDED_BOLUS_MAX_MIN} min)"),
+                    );
+                } else {
+                    events.push(Event::new(
+                        ts,
+                        EventKind::ExtendedBolus {
+                            total,
+                            immediate: *u_now,
+                            duration_min: *duration_min,
+                        },
                     ));
-                    emit_rate(&mut basal, r.at, false, &mut events);
                 }
             }
             RecordKind::Schedule { profile } => {
@@ -352,16 +348,30 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
                 emit_rate(&mut basal, r.at, true, &mut events);
             }
             RecordKind::TempBasal { rate, duration_min } => {
-                basal.temp = (*duration_min > 0).then(|| (*rate, plus_min(r.at, *duration_min)));
-                emit_rate(&mut basal, r.at, false, &mut events);
+                let rate = match *rate {
+                    TempRate::Absolute(r) => TempBasalRate::UnitsPerHour(r),
+                    TempRate::Percent(p) => TempBasalRate::Percent(p),
+                };
+                events.push(Event::new(
+                    ts,
+                    EventKind::TempBasal {
+                        rate,
+                        duration_min: *duration_min,
+                    },
+                ));
             }
             RecordKind::Suspend { duration_min } => {
+                if basal.suspended_until.is_none() {
+                    events.push(Event::new(ts, EventKind::Suspend));
+                }
                 basal.suspended_until = Some(duration_min.map(|d| plus_min(r.at, d)));
-                emit_rate(&mut basal, r.at, false, &mut events);
             }
             RecordKind::Resume => {
-                basal.suspended_until = None;
-                emit_rate(&mut basal, r.at, false, &mut events);
+                if basal.suspended_until.take().is_some() {
+                    events.push(Event::new(ts, EventKind::Resume));
+                } else {
+                    reject(&mut out, r, "a resume with no suspension before it".into());
+                }
             }
             RecordKind::LongActing { .. } => {
                 *out.not_mapped
@@ -399,7 +409,7 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
                 && std::mem::discriminant(&prev.kind) == std::mem::discriminant(&e.kind)
             {
                 match e.kind {
-                    EventKind::BasalRate(_) => {
+                    EventKind::BasalRate(_) | EventKind::TempBasal { .. } => {
                         *prev = e;
                         continue;
                     }

@@ -5,7 +5,7 @@
 //! not written: the reader derives it at local midnights).
 
 use abba_core::Event;
-use abba_core::{EventKind, TherapySettings, Timestamp};
+use abba_core::{EventKind, TempBasalRate, TherapySettings, Timestamp};
 use serde_json::{json, Value};
 
 use crate::clock::AdvisorClock;
@@ -123,6 +123,47 @@ pub fn write(
                 "enteredBy": "abba-sim",
             })),
             EventKind::BasalRate(r) => profiles.push(profile_doc(clock, at, r.0, start)),
+            EventKind::TempBasal { rate, duration_min } => {
+                let mut v = json!({
+                    "_id": id(&[b"temp", &ms.to_le_bytes()]),
+                    "eventType": "Temp Basal",
+                    "created_at": iso,
+                    "duration": duration_min,
+                    "enteredBy": "abba-sim",
+                });
+                match rate {
+                    TempBasalRate::UnitsPerHour(r) => v["absolute"] = json!(r.0),
+                    // Nightscout's percent is a change: -30 is 70 % of the schedule.
+                    TempBasalRate::Percent(p) => v["percent"] = json!(p - 100.0),
+                }
+                treatments.push(v);
+            }
+            EventKind::Suspend | EventKind::Resume => {
+                let (kind, tag): (&str, &[u8]) = if e.kind == EventKind::Suspend {
+                    ("Suspend Pump", b"suspend")
+                } else {
+                    ("Resume Pump", b"resume")
+                };
+                treatments.push(json!({
+                    "_id": id(&[tag, &ms.to_le_bytes()]),
+                    "eventType": kind,
+                    "created_at": iso,
+                    "enteredBy": "abba-sim",
+                }));
+            }
+            EventKind::ExtendedBolus {
+                total,
+                immediate,
+                duration_min,
+            } => treatments.push(json!({
+                "_id": id(&[b"combo", &ms.to_le_bytes(), &total.0.to_le_bytes()]),
+                "eventType": "Combo Bolus",
+                "created_at": iso,
+                "insulin": immediate.0,
+                "enteredinsulin": total.0,
+                "duration": duration_min,
+                "enteredBy": "abba-sim",
+            })),
             _ => {} // DayClosed: derived by the reader
         }
         i += 1;

@@ -26,7 +26,7 @@ pub const CARB_RATIO_MIN_G_PER_U: f64 = 1.0;
 /// Largest plausible carb ratio (g/U).
 pub const CARB_RATIO_MAX_G_PER_U: f64 = 150.0;
 /// Largest plausible temporary-basal percentage.
-pub const PERCENT_MAX: f64 = 1000.0;
+pub const PERCENT_MAX: f64 = 250.0;
 
 /// A glucose unit, as a file declares it or `--units` gives it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]

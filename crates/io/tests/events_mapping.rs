@@ -38,9 +38,23 @@ fn nightscout_fixtures_map_to_the_expected_events() {
     assert_eq!(s.counts["meal_announced"], 11);
     assert_eq!(s.counts["bolus"], 11);
     assert_eq!(s.counts["day_closed"], 2);
-    // Per day: the temp basal (0.4 U/h at 02:30 for 60 min, back to 0.8)
-    // and the profile's 04:00 (0.95) and 09:00 (0.8) segments.
-    assert_eq!(s.counts["basal_rate"], 12);
+    // Per day: the profile's 04:00 (0.95) and 09:00 (0.8) segments; the
+    // temporary basal (0.4 U/h at 02:30 for 60 min) is a pump event of its own.
+    assert_eq!(s.counts["basal_rate"], 6);
+    assert_eq!(s.counts["temp_basal"], 3);
+    let temp = s
+        .events
+        .iter()
+        .find(|e| matches!(e.kind, EventKind::TempBasal { .. }))
+        .unwrap();
+    assert_eq!(temp.at, Timestamp(150));
+    assert_eq!(
+        temp.kind,
+        EventKind::TempBasal {
+            rate: abba_core::TempBasalRate::UnitsPerHour(abba_core::UnitsPerHour(0.4)),
+            duration_min: 60
+        }
+    );
     let basal: Vec<(i64, f64)> = s
         .events
         .iter()
@@ -49,7 +63,7 @@ fn nightscout_fixtures_map_to_the_expected_events() {
             _ => None,
         })
         .collect();
-    assert_eq!(basal, vec![(150, 0.4), (210, 0.8), (240, 0.95), (540, 0.8)]);
+    assert_eq!(basal, vec![(240, 0.95), (540, 0.8)]);
     assert_eq!(s.ignored.get("Sensor Start"), Some(&1));
     assert_eq!(s.ignored.get("Site Change"), Some(&1));
     let slots: Vec<(i64, MealSlot)> = s
@@ -101,25 +115,36 @@ fn percent_temp_basal_suspend_resume_and_a_second_breakfast() {
         &PersonSettings::new(abba_io::time::zone("UTC").unwrap()),
     )
     .unwrap();
-    let basal: Vec<(i64, f64)> = s
+    use abba_core::{TempBasalRate, UnitsPerHour};
+    let pump: Vec<(i64, EventKind)> = s
         .events
         .iter()
-        .filter_map(|e| match e.kind {
-            EventKind::BasalRate(r) => Some((e.at.minutes(), (r.0 * 1000.0).round() / 1000.0)),
-            _ => None,
+        .filter(|e| {
+            matches!(
+                e.kind,
+                EventKind::BasalRate(_)
+                    | EventKind::TempBasal { .. }
+                    | EventKind::Suspend
+                    | EventKind::Resume
+            )
         })
+        .map(|e| (e.at.minutes(), e.kind))
         .collect();
-    // 70 % of 1.0 at 03:00 until 03:30; 0 while suspended 05:00-05:20;
-    // 2.0 at 10:00, cancelled (duration 0) at 11:00.
+    // Nightscout's percent -30 is 70 % of the schedule for 30 min; the
+    // suspension 05:00-05:20; 2.0 U/h at 10:00 for 120 min, cancelled
+    // (duration 0) at 11:00. The profile's flat rate emits nothing.
+    let temp = |rate, duration_min| EventKind::TempBasal { rate, duration_min };
     assert_eq!(
-        basal,
+        pump,
         vec![
-            (180, 0.7),
-            (210, 1.0),
-            (300, 0.0),
-            (320, 1.0),
-            (600, 2.0),
-            (660, 1.0)
+            (180, temp(TempBasalRate::Percent(70.0), 30)),
+            (300, EventKind::Suspend),
+            (320, EventKind::Resume),
+            (
+                600,
+                temp(TempBasalRate::UnitsPerHour(UnitsPerHour(2.0)), 120)
+            ),
+            (660, temp(TempBasalRate::UnitsPerHour(UnitsPerHour(0.0)), 0)),
         ]
     );
     let meals: Vec<_> = s

@@ -11,12 +11,15 @@
 //! assert!((p.glucose_mg_dl() - 138.56).abs() < 1e-6);
 //! ```
 
+pub mod batch;
 pub mod eating;
+pub mod lanes;
 pub mod model;
 pub mod params;
 pub mod solver;
 pub mod state;
 
+pub use batch::PatientBatch;
 pub use eating::{EatingQueue, EAT_RATE_G_PER_MIN};
 pub use model::{derivatives, MinuteInput, ModelConsts};
 pub use params::{PatientParams, QuestRow, N_STATES};
@@ -121,6 +124,20 @@ impl Patient {
         insulin_u_per_min: f64,
         sensitivity: f64,
     ) -> Result<(), SimError> {
+        let u = self.begin_minute(cho_g_per_min, insulin_u_per_min, sensitivity)?;
+        self.solver.advance_minute(&self.consts, &u, &mut self.x);
+        self.end_minute()
+    }
+
+    /// Checks the minute's inputs, updates the eating-episode bookkeeping
+    /// and returns what the solver holds constant over the minute.
+    #[inline]
+    pub(crate) fn begin_minute(
+        &mut self,
+        cho_g_per_min: f64,
+        insulin_u_per_min: f64,
+        sensitivity: f64,
+    ) -> Result<MinuteInput, SimError> {
         let ok = cho_g_per_min.is_finite()
             && cho_g_per_min >= 0.0
             && insulin_u_per_min.is_finite()
@@ -141,14 +158,18 @@ impl Patient {
             self.last_food_taken_g += cho_g_per_min;
         }
         self.last_cho_g_per_min = cho_g_per_min;
-        let u = MinuteInput::new(
+        Ok(MinuteInput::new(
             &self.consts,
             cho_g_per_min,
             insulin_u_per_min,
             self.dbar_mg(),
             sensitivity,
-        );
-        self.solver.advance_minute(&self.consts, &u, &mut self.x);
+        ))
+    }
+
+    /// Counts the minute and checks that the state stayed finite.
+    #[inline]
+    pub(crate) fn end_minute(&mut self) -> Result<(), SimError> {
         self.minute += 1;
         if let Some(k) = self.x.iter().position(|v| !v.is_finite()) {
             return Err(SimError::NonFinite {

@@ -4,6 +4,7 @@
 //! References: Dalla Man, Rizza & Cobelli, IEEE TBME 54(10), 2007 (meal
 //! model, "DM07"); Kovatchev et al., JDST 3(1), 2009 (the T1D simulator).
 
+use super::lanes::{Lanes, Real};
 use super::params::PatientParams;
 use abba_core::units::MG_PER_G;
 use abba_core::PMOL_PER_UNIT;
@@ -39,73 +40,159 @@ pub mod ix {
 }
 
 /// The parameters the right-hand side reads, copied out of
-/// [`PatientParams`] into a compact struct for the hot loop.
+/// [`PatientParams`] into a compact struct for the hot loop; `T` is `f64`
+/// for one patient or [`Lanes`] for several side by side.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ModelConsts {
+pub struct ModelConsts<T = f64> {
     /// Body weight (kg).
-    pub bw: f64,
+    pub bw: T,
     /// kabs (1/min).
-    pub kabs: f64,
+    pub kabs: T,
     /// kmax (1/min).
-    pub kmax: f64,
+    pub kmax: T,
     /// kmin (1/min).
-    pub kmin: f64,
+    pub kmin: T,
     /// b.
-    pub b: f64,
+    pub b: T,
     /// d.
-    pub d: f64,
+    pub d: T,
     /// f.
-    pub f: f64,
+    pub f: T,
     /// kp1 (mg/kg/min).
-    pub kp1: f64,
+    pub kp1: T,
     /// kp2 (1/min).
-    pub kp2: f64,
+    pub kp2: T,
     /// kp3 (mg/kg/min per pmol/L).
-    pub kp3: f64,
+    pub kp3: T,
     /// Fsnc (mg/kg/min).
-    pub fsnc: f64,
+    pub fsnc: T,
     /// ke1 (1/min).
-    pub ke1: f64,
+    pub ke1: T,
     /// ke2 (mg/kg).
-    pub ke2: f64,
+    pub ke2: T,
     /// k1 (1/min).
-    pub k1: f64,
+    pub k1: T,
     /// k2 (1/min).
-    pub k2: f64,
+    pub k2: T,
     /// Vm0 (mg/kg/min).
-    pub vm0: f64,
+    pub vm0: T,
     /// Vmx (mg/kg/min per pmol/L).
-    pub vmx: f64,
+    pub vmx: T,
     /// Km0 (mg/kg).
-    pub km0: f64,
+    pub km0: T,
     /// m1 (1/min).
-    pub m1: f64,
+    pub m1: T,
     /// m2 (1/min).
-    pub m2: f64,
+    pub m2: T,
     /// m4 (1/min).
-    pub m4: f64,
+    pub m4: T,
     /// m30 (1/min).
-    pub m30: f64,
+    pub m30: T,
     /// ka1 (1/min).
-    pub ka1: f64,
+    pub ka1: T,
     /// ka2 (1/min).
-    pub ka2: f64,
+    pub ka2: T,
     /// kd (1/min).
-    pub kd: f64,
+    pub kd: T,
     /// Vi (L/kg).
-    pub vi: f64,
+    pub vi: T,
     /// Ib (pmol/L).
-    pub ib: f64,
+    pub ib: T,
     /// p2u (1/min).
-    pub p2u: f64,
+    pub p2u: T,
     /// ki (1/min).
-    pub ki: f64,
+    pub ki: T,
     /// ksc (1/min).
-    pub ksc: f64,
+    pub ksc: T,
     /// f·kabs/BW, the factor from Qgut to Ra (1/(kg·min)).
-    pub ra_per_q_gut: f64,
+    pub ra_per_q_gut: T,
     /// 1/Vi (kg/L).
-    pub inv_vi: f64,
+    pub inv_vi: T,
+    /// m2 + m4, the plasma insulin clearance (1/min).
+    pub m2_m4: T,
+    /// m1 + m30, the liver insulin clearance (1/min).
+    pub m1_m30: T,
+    /// ka1 + kd, the loss rate of Isc1 (1/min).
+    pub ka1_kd: T,
+    /// (kmax − kmin)/2, the half-range of kempt (1/min).
+    pub half_k_range: T,
+}
+
+/// One field of `W` patients' structs as lanes.
+macro_rules! gather {
+    ($from:expr, $ty:ident { $($f:ident),* $(,)? }) => {
+        $ty { $($f: Lanes(std::array::from_fn(|l| $from[l].$f)),)* }
+    };
+}
+
+impl<const W: usize> ModelConsts<Lanes<W>> {
+    /// The constants of `W` patients side by side.
+    pub fn gather(c: [&ModelConsts; W]) -> Self {
+        gather!(
+            c,
+            ModelConsts {
+                bw,
+                kabs,
+                kmax,
+                kmin,
+                b,
+                d,
+                f,
+                kp1,
+                kp2,
+                kp3,
+                fsnc,
+                ke1,
+                ke2,
+                k1,
+                k2,
+                vm0,
+                vmx,
+                km0,
+                m1,
+                m2,
+                m4,
+                m30,
+                ka1,
+                ka2,
+                kd,
+                vi,
+                ib,
+                p2u,
+                ki,
+                ksc,
+                ra_per_q_gut,
+                inv_vi,
+                m2_m4,
+                m1_m30,
+                ka1_kd,
+                half_k_range
+            }
+        )
+    }
+}
+
+impl<const W: usize> MinuteInput<Lanes<W>> {
+    /// The minute inputs of `W` patients side by side.
+    pub fn gather(u: [&MinuteInput; W]) -> Self {
+        gather!(
+            u,
+            MinuteInput {
+                meal_mg_per_min,
+                insulin_pmol_per_kg_min,
+                dbar_mg,
+                sensitivity,
+                alpha,
+                beta,
+                two_alpha,
+                two_beta,
+                b_dbar,
+                d_dbar,
+                s_kp3,
+                s_vmx
+            }
+        )
+    }
 }
 
 impl ModelConsts {
@@ -144,25 +231,42 @@ impl ModelConsts {
             ksc: p.ksc,
             ra_per_q_gut: p.f * p.kabs / p.bw,
             inv_vi: 1.0 / p.vi,
+            m2_m4: p.m2 + p.m4,
+            m1_m30: p.m1 + p.m30,
+            ka1_kd: p.ka1 + p.kd,
+            half_k_range: (p.kmax - p.kmin) / 2.0,
         }
     }
 }
 
-/// What is held constant over one minute of integration.
+/// What is held constant over one minute of integration (`T` as in
+/// [`ModelConsts`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct MinuteInput {
+pub struct MinuteInput<T = f64> {
     /// Meal rate into the stomach, Dm = 1000·c (mg/min), c the eating rate in g/min.
-    pub meal_mg_per_min: f64,
+    pub meal_mg_per_min: T,
     /// Subcutaneous insulin input IIR = u·6000/BW (pmol/kg/min), u in U/min.
-    pub insulin_pmol_per_kg_min: f64,
+    pub insulin_pmol_per_kg_min: T,
     /// Dbar of the gastric-emptying law (mg); 0 before the first meal.
-    pub dbar_mg: f64,
+    pub dbar_mg: T,
     /// Insulin-sensitivity multiplier s(t) on Vmx and kp3 (1 = nominal).
-    pub sensitivity: f64,
+    pub sensitivity: T,
     /// Slope α of the first tanh of kempt, 5/(2·Dbar·(1−b)) (1/mg); 0 if Dbar = 0.
-    pub alpha: f64,
+    pub alpha: T,
     /// Slope β of the second tanh of kempt, 5/(2·Dbar·d) (1/mg); 0 if Dbar = 0.
-    pub beta: f64,
+    pub beta: T,
+    /// 2α (1/mg), so that the first tanh's doubled argument is one product.
+    pub two_alpha: T,
+    /// 2β (1/mg).
+    pub two_beta: T,
+    /// Centre b·Dbar of the first tanh of kempt (mg).
+    pub b_dbar: T,
+    /// Centre d·Dbar of the second tanh of kempt (mg).
+    pub d_dbar: T,
+    /// s(t)·kp3, the insulin action on EGP this minute.
+    pub s_kp3: T,
+    /// s(t)·Vmx, the insulin action on utilisation this minute.
+    pub s_vmx: T,
 }
 
 impl MinuteInput {
@@ -189,6 +293,12 @@ impl MinuteInput {
             sensitivity,
             alpha,
             beta,
+            two_alpha: 2.0 * alpha,
+            two_beta: 2.0 * beta,
+            b_dbar: c.b * dbar_mg,
+            d_dbar: c.d * dbar_mg,
+            s_kp3: sensitivity * c.kp3,
+            s_vmx: sensitivity * c.vmx,
         }
     }
 }
@@ -196,88 +306,114 @@ impl MinuteInput {
 /// tanh(x) as 1 − 2/(e^{2x} + 1): one `exp` instead of libm's `tanh`
 /// (which goes through `expm1` and dominated the profile of a trial). The
 /// absolute error is below 2e-16 for every x, and kempt only needs absolute
-/// accuracy: the two tanh terms are added to 2. Saturates cleanly: e^{2x}
-/// overflowing to infinity gives 1, underflowing to 0 gives −1.
-#[inline]
-pub fn tanh_fast(x: f64) -> f64 {
-    1.0 - 2.0 / ((2.0 * x).exp() + 1.0)
+/// accuracy: the two tanh terms are added to 2. For |x| >= 20 the formula
+/// gives exactly ±1 in floating point, so the lanes' exp may clamp 2x to
+/// [−40, 40] without changing a result.
+#[inline(always)]
+pub fn tanh_fast<T: Real>(x: T) -> T {
+    tanh_of_double(x * 2.0)
+}
+
+/// tanh(y/2) from y = 2x (saves the doubling on the dependency chain of
+/// kempt; doubling is exact, so tanh_of_double(2x) == tanh_fast(x)).
+#[inline(always)]
+fn tanh_of_double<T: Real>(two_x: T) -> T {
+    T::splat(1.0) - T::splat(2.0) / (two_x.exp_for_tanh() + 1.0)
 }
 
 /// The gastric emptying rate kempt(Qsto, Dbar) (DM07 eq. 7; simglucose's
 /// "kgut"). With Dbar = 0 it is kmax.
-#[inline]
-pub fn k_empt(c: &ModelConsts, u: &MinuteInput, q_sto: f64) -> f64 {
-    if u.dbar_mg > 0.0 {
-        c.kmin
-            + (c.kmax - c.kmin) / 2.0
-                * (tanh_fast(u.alpha * (q_sto - c.b * u.dbar_mg))
-                    - tanh_fast(u.beta * (q_sto - c.d * u.dbar_mg))
-                    + 2.0)
-    } else {
-        c.kmax
-    }
+#[inline(always)]
+pub fn k_empt<T: Real>(c: &ModelConsts<T>, u: &MinuteInput<T>, q_sto: T) -> T {
+    let switching = c.kmin
+        + c.half_k_range
+            * (tanh_of_double(u.two_alpha * (q_sto - u.b_dbar))
+                - tanh_of_double(u.two_beta * (q_sto - u.d_dbar))
+                + 2.0);
+    u.dbar_mg.if_gt(T::splat(0.0), switching, c.kmax)
 }
 
-/// dx/dt at state `x` under the minute's constant input `u`.
+/// dx/dt at state `x` under the minute's constant input `u`, for one
+/// patient (`T = f64`) or several side by side (`T = Lanes`).
 ///
 /// Each line follows `spec/uva-padova-model.md` §1.3; the DM07 equation
 /// numbers are given where the model is the published one.
-#[inline]
-pub fn derivatives(c: &ModelConsts, u: &MinuteInput, x: &[f64; 13]) -> [f64; 13] {
+#[inline(always)]
+pub fn derivatives<T: Real>(c: &ModelConsts<T>, u: &MinuteInput<T>, x: &[T; 13]) -> [T; 13] {
     use ix::*;
-    let mut dx = [0.0; 13];
 
     // Gastrointestinal tract (DM07 eqs. 4-8). Grinding kgri = kmax.
     let q_sto = x[Q_STO1] + x[Q_STO2];
-    // kempt only multiplies Qsto2; skip the two tanh when it is exactly zero.
-    let kempt = if x[Q_STO2] == 0.0 {
-        c.kmax
-    } else {
-        k_empt(c, u, q_sto)
-    };
-    dx[Q_STO1] = -c.kmax * x[Q_STO1] + u.meal_mg_per_min;
-    dx[Q_STO2] = c.kmax * x[Q_STO1] - kempt * x[Q_STO2];
-    dx[Q_GUT] = kempt * x[Q_STO2] - c.kabs * x[Q_GUT];
+    // With an empty second compartment kempt is taken as kmax (it
+    // multiplies Qsto2 only).
+    let kempt = x[Q_STO2].if_zero(c.kmax, || k_empt(c, u, q_sto));
+    let d_q_sto1 = -c.kmax * x[Q_STO1] + u.meal_mg_per_min;
+    let d_q_sto2 = c.kmax * x[Q_STO1] - kempt * x[Q_STO2];
+    let d_q_gut = kempt * x[Q_STO2] - c.kabs * x[Q_GUT];
     let ra = c.ra_per_q_gut * x[Q_GUT]; // rate of appearance f·kabs·Qgut/BW (mg/kg/min)
 
     // Glucose subsystem (DM07 eqs. 1, 10-15 without the portal term).
     // s(t) scales the insulin actions on EGP (kp3) and utilisation (Vmx).
-    let egp = c.kp1 - c.kp2 * x[GP] - u.sensitivity * c.kp3 * x[ID];
+    let egp = c.kp1 - c.kp2 * x[GP] - u.s_kp3 * x[ID];
     let uii = c.fsnc;
-    let renal = if x[GP] > c.ke2 {
-        c.ke1 * (x[GP] - c.ke2)
-    } else {
-        0.0
-    };
-    dx[GP] = egp.max(0.0) + ra - uii - renal - c.k1 * x[GP] + c.k2 * x[GT];
-    let uid = (c.vm0 + u.sensitivity * c.vmx * x[X]) * x[GT] / (c.km0 + x[GT]);
-    dx[GT] = -uid + c.k1 * x[GP] - c.k2 * x[GT];
+    let renal = x[GP].if_gt(c.ke2, c.ke1 * (x[GP] - c.ke2), T::splat(0.0));
+    let d_gp = egp.max0() + ra - uii - renal - c.k1 * x[GP] + c.k2 * x[GT];
+    let uid = (c.vm0 + u.s_vmx * x[X]) * x[GT] / (c.km0 + x[GT]);
+    let d_gt = -uid + c.k1 * x[GP] - c.k2 * x[GT];
 
     // Insulin subsystem (DM07 eqs. 2-3, 17-21; Kovatchev 2009 s.c. route).
-    dx[IP] = -(c.m2 + c.m4) * x[IP] + c.m1 * x[IL] + c.ka1 * x[ISC1] + c.ka2 * x[ISC2];
+    let d_ip = -c.m2_m4 * x[IP] + c.m1 * x[IL] + c.ka1 * x[ISC1] + c.ka2 * x[ISC2];
     let plasma_insulin = x[IP] * c.inv_vi; // I = Ip/Vi (pmol/L)
-    dx[X] = -c.p2u * x[X] + c.p2u * (plasma_insulin - c.ib);
-    dx[I1] = -c.ki * (x[I1] - plasma_insulin);
-    dx[ID] = -c.ki * (x[ID] - x[I1]);
-    dx[IL] = -(c.m1 + c.m30) * x[IL] + c.m2 * x[IP];
-    dx[ISC1] = u.insulin_pmol_per_kg_min - (c.ka1 + c.kd) * x[ISC1];
-    dx[ISC2] = c.kd * x[ISC1] - c.ka2 * x[ISC2];
+    let d_x = -c.p2u * x[X] + c.p2u * (plasma_insulin - c.ib);
+    let d_i1 = -c.ki * (x[I1] - plasma_insulin);
+    let d_id = -c.ki * (x[ID] - x[I1]);
+    let d_il = -c.m1_m30 * x[IL] + c.m2 * x[IP];
+    let d_isc1 = u.insulin_pmol_per_kg_min - c.ka1_kd * x[ISC1];
+    let d_isc2 = c.kd * x[ISC1] - c.ka2 * x[ISC2];
 
     // Subcutaneous glucose, as a mass (Kovatchev 2009).
-    dx[GS] = -c.ksc * x[GS] + c.ksc * x[GP];
+    let d_gs = -c.ksc * x[GS] + c.ksc * x[GP];
 
     // Sign guards: a negative mass may not keep falling (simglucose).
-    for k in [GP, GT, IP, IL, ISC1, ISC2, GS] {
-        if x[k] < 0.0 {
-            dx[k] = 0.0;
-        }
-    }
-    dx
+    [
+        d_q_sto1,
+        d_q_sto2,
+        d_q_gut,
+        d_gp.unless_negative(x[GP]),
+        d_gt.unless_negative(x[GT]),
+        d_ip.unless_negative(x[IP]),
+        d_x,
+        d_i1,
+        d_id,
+        d_il.unless_negative(x[IL]),
+        d_isc1.unless_negative(x[ISC1]),
+        d_isc2.unless_negative(x[ISC2]),
+        d_gs.unless_negative(x[GS]),
+    ]
 }
 
 #[cfg(test)]
 mod tests {
     use super::tanh_fast;
+    use crate::patient::lanes::Lanes;
+
+    /// The lanes' tanh uses the vectorisable exp (within 2 ulp): one unit
+    /// in the last place of 2 (2^-51) at worst, from the division.
+    #[test]
+    fn lanes_tanh_matches_libm_to_one_ulp_of_two() {
+        let mut worst: f64 = 0.0;
+        for k in -400_000..=400_000 {
+            let x = k as f64 * 1e-4;
+            worst = worst.max((tanh_fast(Lanes([x])).0[0] - x.tanh()).abs());
+        }
+        for x in [-1e6, -800.0, -355.0, 355.0, 800.0, 1e6, f64::MAX, f64::MIN] {
+            worst = worst.max((tanh_fast(Lanes([x])).0[0] - x.tanh()).abs());
+        }
+        assert!(
+            worst <= 2f64.powi(-51),
+            "largest |tanh - libm tanh| = {worst:e}"
+        );
+    }
 
     #[test]
     fn fast_tanh_matches_libm_to_machine_precision() {

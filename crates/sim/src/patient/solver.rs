@@ -6,6 +6,7 @@
 //! cheapest one that stays an order of magnitude inside the 0.05 mg/dL
 //! agreement with simglucose's adaptive Dormand-Prince solver.
 
+use super::lanes::Real;
 use super::model::{derivatives, MinuteInput, ModelConsts};
 use serde::{Deserialize, Serialize};
 
@@ -56,16 +57,22 @@ impl Solver {
     /// Advances `x` by one minute under the constant input `u`.
     #[inline]
     pub fn advance_minute(&self, c: &ModelConsts, u: &MinuteInput, x: &mut [f64; 13]) {
-        let n = if self.busy_substeps != self.substeps && self.gut_is_busy(c, u, x) {
-            self.busy_substeps
-        } else {
-            self.substeps
-        }
-        .max(1);
+        let n = self.substeps_for(c, u, x);
         let h = 1.0 / n as f64;
         for _ in 0..n {
             rk4_step(c, u, x, h);
         }
+    }
+
+    /// The number of RK4 sub-steps for this minute.
+    #[inline]
+    pub(crate) fn substeps_for(&self, c: &ModelConsts, u: &MinuteInput, x: &[f64; 13]) -> u32 {
+        if self.busy_substeps != self.substeps && self.gut_is_busy(c, u, x) {
+            self.busy_substeps
+        } else {
+            self.substeps
+        }
+        .max(1)
     }
 }
 
@@ -98,23 +105,25 @@ impl Solver {
     }
 }
 
-#[inline]
-fn rk4_step(c: &ModelConsts, u: &MinuteInput, x: &mut [f64; 13], h: f64) {
+/// One classic RK4 step of length `h` for one patient (`T = f64`) or
+/// several side by side (`T = Lanes`).
+#[inline(always)]
+pub(crate) fn rk4_step<T: Real>(c: &ModelConsts<T>, u: &MinuteInput<T>, x: &mut [T; 13], h: f64) {
     let k1 = derivatives(c, u, x);
-    let mut y = [0.0; 13];
+    let mut y = *x;
     for i in 0..13 {
-        y[i] = x[i] + 0.5 * h * k1[i];
+        y[i] = x[i] + k1[i] * (0.5 * h);
     }
     let k2 = derivatives(c, u, &y);
     for i in 0..13 {
-        y[i] = x[i] + 0.5 * h * k2[i];
+        y[i] = x[i] + k2[i] * (0.5 * h);
     }
     let k3 = derivatives(c, u, &y);
     for i in 0..13 {
-        y[i] = x[i] + h * k3[i];
+        y[i] = x[i] + k3[i] * h;
     }
     let k4 = derivatives(c, u, &y);
     for i in 0..13 {
-        x[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+        x[i] = x[i] + (k1[i] + k2[i] * 2.0 + k3[i] * 2.0 + k4[i]) * (h / 6.0);
     }
 }

@@ -1,0 +1,93 @@
+//! Property: whatever valid device data comes in (readings at any second,
+//! meals, boluses, temporary basals, suspensions, profiles with several
+//! segments, in any of three zones and across DST weeks), the mapped event
+//! stream is accepted by the advisor's own event guard, event by event.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod common;
+use abba_advisor::{Advisor, EventLimits, FixedTherapy};
+use abba_core::{GramsPerUnit, TherapySettings, UnitsPerHour};
+use abba_io::events::{to_events, PersonSettings};
+use common::read;
+use proptest::prelude::*;
+use serde_json::json;
+
+/// Start instants: ordinary weeks and weeks holding a DST transition.
+const STARTS: [&str; 4] = [
+    "2024-01-08T00:00:00Z",
+    "2024-03-28T00:00:00Z",
+    "2024-10-24T00:00:00Z",
+    "2024-11-01T00:00:00Z",
+];
+const ZONES: [&str; 3] = ["UTC", "Europe/Zurich", "America/New_York"];
+
+#[derive(Debug, Clone)]
+enum Item {
+    Sgv(u32, u32),
+    Mbg(u32, u32),
+    Meal(u32, u32, u32),
+    Bolus(u32, u32),
+    Temp(u32, u32, u32),
+    Suspend(u32, u32),
+    Resume(u32),
+}
+
+fn item() -> impl Strategy<Value = Item> {
+    let at = 0u32..7 * 86_400; // seconds within a week
+    prop_oneof![
+        8 => (at.clone(), 40u32..400).prop_map(|(t, g)| Item::Sgv(t, g)),
+        1 => (at.clone(), 40u32..400).prop_map(|(t, g)| Item::Mbg(t, g)),
+        2 => (at.clone(), 1u32..150, 0u32..150).prop_map(|(t, c, u)| Item::Meal(t, c, u)),
+        1 => (at.clone(), 1u32..100).prop_map(|(t, u)| Item::Bolus(t, u)),
+        1 => (at.clone(), 0u32..300, 0u32..240).prop_map(|(t, r, d)| Item::Temp(t, r, d)),
+        1 => (at.clone(), 1u32..120).prop_map(|(t, d)| Item::Suspend(t, d)),
+        1 => at.prop_map(Item::Resume),
+    ]
+}
+
+fn nightscout(start: jiff::Timestamp, items: &[Item], segments: &[(u32, u32)]) -> Vec<u8> {
+    let iso = |s: u32| (start + jiff::SignedDuration::from_secs(i64::from(s))).to_string();
+    let mut v = vec![json!({
+        "_id": "profile", "startDate": iso(0), "defaultProfile": "D",
+        "store": {"D": {"basal": segments.iter().map(|&(m, r)| json!({"timeAsSeconds": m * 60, "value": f64::from(r) / 100.0})).collect::<Vec<_>>()}}
+    })];
+    for (i, it) in items.iter().enumerate() {
+        let id = format!("x{i}");
+        v.push(match *it {
+            Item::Sgv(t, g) => json!({"_id": id, "type": "sgv", "sgv": g, "dateString": iso(t)}),
+            Item::Mbg(t, g) => json!({"_id": id, "type": "mbg", "mbg": g, "dateString": iso(t)}),
+            Item::Meal(t, c, u) => json!({"_id": id, "eventType": "Meal Bolus", "created_at": iso(t), "carbs": c, "insulin": f64::from(u) / 10.0}),
+            Item::Bolus(t, u) => json!({"_id": id, "eventType": "Correction Bolus", "created_at": iso(t), "insulin": f64::from(u) / 10.0}),
+            Item::Temp(t, r, d) => json!({"_id": id, "eventType": "Temp Basal", "created_at": iso(t), "absolute": f64::from(r) / 100.0, "duration": d}),
+            Item::Suspend(t, d) => json!({"_id": id, "eventType": "Suspend Pump", "created_at": iso(t), "duration": d}),
+            Item::Resume(t) => json!({"_id": id, "eventType": "Resume Pump", "created_at": iso(t)}),
+        });
+    }
+    serde_json::to_vec(&v).unwrap()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+
+    #[test]
+    fn mapped_events_pass_the_advisors_guard(
+        start in 0usize..4,
+        zone in 0usize..3,
+        items in prop::collection::vec(item(), 1..300),
+        cuts in prop::collection::btree_set(1u32..1440, 0..3),
+        rates in prop::collection::vec(10u32..300, 4),
+    ) {
+        let start: jiff::Timestamp = STARTS[start].parse().unwrap();
+        let segments: Vec<(u32, u32)> = std::iter::once(0).chain(cuts).zip(rates).collect();
+        let bytes = nightscout(start, &items, &segments);
+        let batch = read(&[("ns.json", bytes)], &abba_io::ReadOptions::default()).unwrap();
+        let tz = abba_io::time::zone(ZONES[zone]).unwrap();
+        let stream = to_events(&batch, &PersonSettings::new(tz)).unwrap();
+        let settings = TherapySettings::new(UnitsPerHour(1.0), GramsPerUnit(10.0)).unwrap();
+        let mut guard = FixedTherapy::new(settings, EventLimits::default()).unwrap();
+        for (i, e) in stream.events.iter().enumerate() {
+            let accepted = guard.observe(e);
+            prop_assert!(accepted.is_ok(), "event {} {:?}: {:?}", i, e, accepted.err().map(|x| x.to_string()));
+        }
+    }
+}

@@ -422,6 +422,12 @@ impl Abba {
                 None
             }
             EventKind::MealAnnounced { .. } | EventKind::DayClosed => self.timeline(e),
+            EventKind::SuggestionAccepted(v)
+            | EventKind::SuggestionRejected(v)
+            | EventKind::SuggestionOverridden(v) => {
+                self.put_in_force(v);
+                None
+            }
             // Insulin delivery (bolus, basal, temporary basal, suspension,
             // extended bolus): only the TE grid of the first week uses it.
             _ => {
@@ -447,12 +453,6 @@ impl Abba {
                     .ok_or(SkipReason::NoPreviousDayWindow);
                 self.decide(e.at, Parameter::CarbRatio(MealSlot::MAIN[i]), window);
                 Some(self.settings)
-            }
-            EventKind::SuggestionAccepted(v)
-            | EventKind::SuggestionRejected(v)
-            | EventKind::SuggestionOverridden(v) => {
-                self.put_in_force(v);
-                None
             }
             EventKind::DayClosed => {
                 let day = closed_day(e.at);

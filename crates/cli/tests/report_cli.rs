@@ -143,11 +143,12 @@ fn check(scenario: ScenarioId, unit: &str, tag: &str) {
             format!("{mg:.0}")
         }
     };
+    let width = if scenario == ScenarioId::S1 { 15 } else { 60 };
     let mut bins = 0;
-    for start in (0..1440).step_by(15) {
+    for start in (0..1440).step_by(width as usize) {
         let values: Vec<f64> = readings
             .iter()
-            .filter(|(m, _)| m / 15 * 15 == start)
+            .filter(|(m, _)| m / width * width == start)
             .map(|r| r.1)
             .collect();
         if values.is_empty() {
@@ -216,7 +217,7 @@ fn pdf_is_printed_by_chromium_when_asked() {
 #[test]
 fn unknown_person_and_bad_unit_are_refused() {
     let dir = TempDir::new("report-bad");
-    let sim = simulate(ScenarioId::S1, 1, 3);
+    let sim = simulate(ScenarioId::S1, 1, 9);
     drop(sim.store(&dir.0));
     let run = |args: &[&str]| {
         std::process::Command::new(env!("CARGO_BIN_EXE_abba"))

@@ -8,7 +8,7 @@
 mod common;
 
 use abba_advisor::Mode;
-use abba_report::html::person::{person_report_html, person_summary, PROFILE_BIN_MIN};
+use abba_report::html::person::{person_report_html, person_summary, profile_bin_min};
 use abba_report::html::units::GlucoseUnit;
 use common::{check_structure, out_dir, synthetic_person, validate_with_tidy};
 
@@ -30,14 +30,15 @@ fn person_percentiles_equal_an_independent_computation() {
     for mode in [Mode::Cgm, Mode::Smbg] {
         let input = synthetic_person(14, mode, GlucoseUnit::MgDl);
         let summary = person_summary(&input).unwrap();
-        assert_eq!(summary.profile.len(), (1440 / PROFILE_BIN_MIN) as usize);
+        let bin_min = profile_bin_min(mode);
+        assert_eq!(summary.profile.len(), (1440 / bin_min) as usize);
         let mut bins_with_data = 0;
         for bin in &summary.profile {
             let values: Vec<f64> = input
                 .days
                 .iter()
                 .flat_map(|d| &d.readings)
-                .filter(|r| r.minute_of_day / PROFILE_BIN_MIN * PROFILE_BIN_MIN == bin.start_min)
+                .filter(|r| r.minute_of_day / bin_min * bin_min == bin.start_min)
                 .map(|r| r.mg_dl)
                 .collect();
             assert_eq!(bin.n, values.len());
@@ -137,6 +138,9 @@ fn mmol_per_litre_is_printed_when_chosen() {
     let mean = s.metrics.unwrap().mean_mg_dl / abba_core::units::MG_DL_PER_MMOL_L;
     assert!(html.contains(&format!("{mean:.1} mmol/L")));
     assert!(html.contains("Glucose (mmol/L)"));
+    assert!(html.contains("Target (3.9-10.0 mmol/L): "));
+    assert!(html.contains("target 3.9 and 10.0 mmol/L"));
+    assert!(!html.contains("Target (70-180 mg/dL)"));
 }
 
 #[test]
@@ -196,7 +200,7 @@ fn every_range_label_of_the_bar_stays_inside_the_figure() {
         [0.5, 0.5, 99.0, 0.0, 0.0],
         [0.0, 0.0, 0.0, 0.0, 100.0],
     ] {
-        let svg = abba_report::html::svg::tir_bar_svg("t", pct, "t");
+        let svg = abba_report::html::svg::tir_bar_svg("t", pct, "t", GlucoseUnit::MgDl);
         let ys: Vec<f64> = svg
             .split("<text ")
             .skip(1)

@@ -18,8 +18,19 @@ use crate::html::svg::{day_panel_svg, profile_svg, tir_bar_svg};
 use crate::html::units::GlucoseUnit;
 use crate::html::{render_page, Row, DISCLAIMER};
 
-/// Width of the profile's time-of-day bins (minutes).
+/// Width of the profile's time-of-day bins for CGM readings (minutes).
 pub const PROFILE_BIN_MIN: u32 = 15;
+/// Width of the profile's bins for meter readings (minutes): a few finger
+/// sticks a day need wider bins to pool days.
+pub const SMBG_PROFILE_BIN_MIN: u32 = 60;
+
+/// The profile's bin width for a mode.
+pub fn profile_bin_min(mode: Mode) -> u32 {
+    match mode {
+        Mode::Cgm => PROFILE_BIN_MIN,
+        Mode::Smbg => SMBG_PROFILE_BIN_MIN,
+    }
+}
 /// CGM sampling period assumed for "% time CGM active" (minutes).
 pub const CGM_PERIOD_MIN: u32 = 5;
 /// How far from 2 h / 4 h after a meal a reading may be to count as that
@@ -212,7 +223,7 @@ pub fn person_summary(input: &PersonReportInput) -> Result<PersonSummary, Report
         cgm_active_pct,
         profile: time_of_day_profile(
             all.iter().map(|r| (r.minute_of_day, r.mg_dl)),
-            PROFILE_BIN_MIN,
+            profile_bin_min(input.mode),
         ),
         ranges_pct,
     })
@@ -268,7 +279,7 @@ pub fn person_report_html(input: &PersonReportInput) -> Result<String, ReportErr
     };
     let tir_svg = summary
         .ranges_pct
-        .map(|p| tir_bar_svg("tir", p, "Time in ranges (% of readings)"))
+        .map(|p| tir_bar_svg("tir", p, "Time in ranges (% of readings)", unit))
         .unwrap_or_default();
     let profile = profile_svg(
         "agp",
@@ -389,6 +400,8 @@ pub fn person_report_html(input: &PersonReportInput) -> Result<String, ReportErr
         tir_svg => tir_svg,
         profile_svg => profile,
         profile_rows => profile_rows,
+        bin_min => profile_bin_min(input.mode),
+        target_range => format!("{}-{} {}", unit.value(70.0), unit.value(180.0), unit.label()),
         panels => panels,
         readings_per_day => readings_per_day,
         settings => settings,

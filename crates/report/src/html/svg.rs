@@ -32,14 +32,21 @@ pub mod palette {
     pub const BLACK: &str = "#000000";
 }
 
-/// The consensus ranges in mg/dL, lowest first: their upper bounds.
-pub const RANGE_NAMES: [&str; 5] = [
-    "Very low (< 54 mg/dL)",
-    "Low (54-69 mg/dL)",
-    "Target (70-180 mg/dL)",
-    "High (181-250 mg/dL)",
-    "Very high (> 250 mg/dL)",
-];
+/// The consensus ranges' names in the reader's unit, lowest first.
+pub fn range_names(unit: GlucoseUnit) -> [String; 5] {
+    let bounds = match unit {
+        GlucoseUnit::MgDl => ["54", "54-69", "70-180", "181-250", "250"],
+        GlucoseUnit::MmolL => ["3.0", "3.0-3.8", "3.9-10.0", "10.1-13.9", "13.9"],
+    };
+    let u = unit.label();
+    [
+        format!("Very low (< {} {u})", bounds[0]),
+        format!("Low ({} {u})", bounds[1]),
+        format!("Target ({} {u})", bounds[2]),
+        format!("High ({} {u})", bounds[3]),
+        format!("Very high (> {} {u})", bounds[4]),
+    ]
+}
 
 /// The colour of each consensus range, lowest first.
 pub const RANGE_COLOURS: [&str; 5] = [
@@ -255,6 +262,37 @@ pub fn profile_svg(id: &str, bins: &[ProfileBin], unit: GlucoseUnit, title: &str
             );
         }
     }
+    // A bin with no neighbour (sparse meter readings): its 5-95 range as a
+    // whisker, 25-75 as a box and the median as a tick.
+    for run in runs(bins).into_iter().filter(|r| r.len() == 1) {
+        if let Some(p) = run[0].p {
+            let x = plot.x(mid(&run[0], bin_w));
+            fig.line(
+                x,
+                plot.y(p[0]),
+                x,
+                plot.y(p[4]),
+                "#6FA8D6",
+                r#" stroke-width="2""#,
+            );
+            fig.rect(
+                x - 6.0,
+                plot.y(p[3]),
+                12.0,
+                plot.y(p[1]) - plot.y(p[3]),
+                "#6FA8D6",
+                "",
+            );
+            fig.line(
+                x - 8.0,
+                plot.y(p[2]),
+                x + 8.0,
+                plot.y(p[2]),
+                palette::BLUE,
+                r#" stroke-width="2.5""#,
+            );
+        }
+    }
     for run in runs(bins) {
         let pts: Vec<String> = run
             .iter()
@@ -286,11 +324,17 @@ pub fn profile_svg(id: &str, bins: &[ProfileBin], unit: GlucoseUnit, title: &str
     // Legend.
     let ly = h - 10.0;
     let mut x = plot.left;
+    let target = format!(
+        "target {} and {} {}",
+        unit.value(70.0),
+        unit.value(180.0),
+        unit.label()
+    );
     for (label, fill, is_line) in [
         ("median (50th percentile)", palette::BLUE, true),
         ("25th-75th percentile", "#6FA8D6", false),
         ("5th-95th percentile", "#BFD9EC", false),
-        ("target 70 and 180 mg/dL", palette::GREEN, true),
+        (target.as_str(), palette::GREEN, true),
     ] {
         if is_line {
             fig.line(
@@ -322,7 +366,10 @@ fn runs(bins: &[ProfileBin]) -> Vec<&[ProfileBin]> {
 /// six times of day.
 fn profile_description(bins: &[ProfileBin], unit: GlucoseUnit) -> String {
     let mut s = format!(
-        "Glucose percentiles by time of day in {}; target range 70-180 mg/dL.",
+        "Glucose percentiles by time of day in {}; target range {}-{} {}.",
+        unit.label(),
+        unit.value(70.0),
+        unit.value(180.0),
         unit.label()
     );
     for hour in [0u32, 4, 8, 12, 16, 20] {
@@ -348,8 +395,9 @@ fn profile_description(bins: &[ProfileBin], unit: GlucoseUnit) -> String {
 
 /// Time in ranges as one stacked bar, the consensus ranges lowest at the
 /// bottom, each labelled with its percentage and goal. `pct` are the
-/// percentages of [`RANGE_NAMES`], in that order.
-pub fn tir_bar_svg(id: &str, pct: [f64; 5], title: &str) -> String {
+/// percentages of [`range_names`], in that order.
+pub fn tir_bar_svg(id: &str, pct: [f64; 5], title: &str, unit: GlucoseUnit) -> String {
+    let names = range_names(unit);
     const GOALS: [&str; 5] = [
         "goal < 1 %",
         "goal < 4 %",
@@ -358,7 +406,7 @@ pub fn tir_bar_svg(id: &str, pct: [f64; 5], title: &str) -> String {
         "goal < 5 %",
     ];
     let (w, h) = (420.0, 260.0);
-    let desc = RANGE_NAMES
+    let desc = names
         .iter()
         .zip(pct)
         .zip(GOALS)
@@ -413,7 +461,7 @@ pub fn tir_bar_svg(id: &str, pct: [f64; 5], title: &str) -> String {
             ly - 6.0,
             12.0,
             "start",
-            &format!("{}: {:.1} %", RANGE_NAMES[i], pct[i]),
+            &format!("{}: {:.1} %", names[i], pct[i]),
         );
         fig.text(bar_x + bar_w + 18.0, ly + 9.0, 11.0, "start", GOALS[i]);
     }

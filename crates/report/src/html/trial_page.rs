@@ -304,6 +304,7 @@ pub fn trial_report_html(
                         &format!("tir{i}{week}"),
                         c.ranges_pct,
                         &format!("{} {week}: time in ranges", arm.key()),
+                        GlucoseUnit::MgDl,
                     ),
                     caption: format!("{week}: % of pooled samples in the consensus ranges."),
                 });

@@ -335,7 +335,7 @@ impl Abba {
             Parameter::Basal => ParamKind::Basal,
             Parameter::CarbRatio(_) => ParamKind::CarbRatio,
         };
-        let f = stats.features(&cfg.features);
+        let f = stats.features(&cfg.features, cfg.mode);
         let cost = local_cost(&f, cfg.a_hyper, cfg.a_hypo);
         let (p_s, rule) = supervisory(cfg.mode, kind, &f, &stats, &cfg.supervisor);
         let br_change = match kind {

@@ -8,7 +8,9 @@
 //! an average-cost Q-critic on φ = (ψ; g) with compatible features
 //! ψ = (P_e − P_d)/σ²·h·F.
 
-use crate::config::{AbbaConfig, CostTiming, CriticBasis, CriticVariant, GradientAction};
+use crate::config::{
+    AbbaConfig, ActorRule, CostTiming, CriticBasis, CriticVariant, GradientAction,
+};
 use crate::features::Features;
 use crate::fusion::Applied;
 use crate::rng::ExplorationRng;
@@ -43,11 +45,11 @@ pub enum ActorStep {
     },
     /// Skipped: the TD error was not finite (never expected with bounded features).
     SkippedNonFinite,
-    /// Applied Δθ (after clipping).
+    /// Applied Δθ (after clipping and, under the projected actor, projection).
     Applied {
-        /// Δθ (hyper, hypo), after clipping.
+        /// Δθ (hyper, hypo), after clipping and projection.
         delta: [f64; 2],
-        /// Whether the |Δθ_j| ≤ clip safeguard fired.
+        /// Whether the |Δθ_j| ≤ clip safeguard or the sign projection fired.
         clipped: bool,
     },
 }
@@ -128,6 +130,21 @@ pub(crate) struct Agent {
 
 fn dot<const N: usize>(a: &[f64; N], b: &[f64; N]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// The clinical sign pattern of θ = (θ_hyper, θ_hypo) for a parameter kind:
+/// for the basal rate (+, −), for a carb ratio (−, +). A projection onto it
+/// sets a component of the wrong sign to 0.
+pub(crate) fn project_sign_pattern(kind: ParamKind, theta: [f64; 2]) -> [f64; 2] {
+    match kind {
+        ParamKind::Basal => [theta[0].max(0.0), theta[1].min(0.0)],
+        ParamKind::CarbRatio => [theta[0].min(0.0), theta[1].max(0.0)],
+    }
+}
+
+/// True when θ is in the clinical sign pattern of `kind` (zeros allowed).
+pub fn in_sign_pattern(kind: ParamKind, theta: [f64; 2]) -> bool {
+    project_sign_pattern(kind, theta) == theta
 }
 
 fn clip_step(delta: [f64; 2], clip: f64) -> ([f64; 2], bool) {
@@ -246,7 +263,10 @@ impl Agent {
                             z[j] = cfg.critic.lambda * z[j] + g[j]; // eq7
                         }
                         steps += 1;
-                        actor = self.actor_step_eq28(&prev, d, cfg);
+                        actor = match cfg.actor.rule {
+                            ActorRule::Eq28 => self.actor_step_eq28(&prev, d, cfg),
+                            ActorRule::ProjectedNatural => self.actor_step_natural(&prev, d, cfg),
+                        };
                     } else {
                         actor = ActorStep::SkippedNonFinite;
                         self.counters.actor_skips += 1;
@@ -373,12 +393,43 @@ impl Agent {
         self.apply_theta_step(raw, cfg)
     }
 
+    /// The projected natural-gradient step (the default `actor.rule`) for the
+    /// stored decision `prev` with TD error `d`.
+    fn actor_step_natural(&mut self, prev: &LastDecision, d: f64, cfg: &AbbaConfig) -> ActorStep {
+        let norm_sq = prev.f[0] * prev.f[0] + prev.f[1] * prev.f[1];
+        // F = 0 (or no exploration at all): the step is 0/0; nothing to learn.
+        if norm_sq < 1e-12 || prev.sigma <= 0.0 || cfg.actor.h <= 0.0 {
+            self.counters.actor_skips += 1;
+            return ActorStep::SkippedSmallSigma { sigma: prev.sigma };
+        }
+        let k = f64::from(self.counters.actor_steps);
+        let decay = 1.0 + k / cfg.critic.kappa;
+        let beta = cfg.actor.natural_beta / (decay * decay);
+        let scale = -beta * d * (prev.p_e - prev.p_d) / (cfg.actor.h * norm_sq);
+        self.apply_theta_step([scale * prev.f[0], scale * prev.f[1]], cfg)
+    }
+
     fn apply_theta_step(&mut self, raw: [f64; 2], cfg: &AbbaConfig) -> ActorStep {
         if !(raw[0].is_finite() && raw[1].is_finite()) {
             self.counters.actor_skips += 1;
             return ActorStep::SkippedNonFinite;
         }
-        let (delta, clipped) = clip_step(raw, cfg.actor.theta_step_clip);
+        let (mut delta, mut clipped) = clip_step(raw, cfg.actor.theta_step_clip);
+        if cfg.actor.rule == ActorRule::ProjectedNatural {
+            let before = self.theta;
+            let moved = [before[0] + delta[0], before[1] + delta[1]];
+            let projected = project_sign_pattern(self.kind, moved);
+            if projected != moved {
+                clipped = true;
+            }
+            delta = [projected[0] - before[0], projected[1] - before[1]];
+            self.theta = projected;
+            self.counters.actor_steps += 1;
+            if clipped {
+                self.counters.actor_clips += 1;
+            }
+            return ActorStep::Applied { delta, clipped };
+        }
         self.theta[0] += delta[0];
         self.theta[1] += delta[1];
         self.counters.actor_steps += 1;
@@ -474,7 +525,8 @@ mod tests {
 
     #[test]
     fn eq5_to_eq7_and_eq28_hand_computed() {
-        let cfg = AbbaConfig::new(Mode::Cgm, 11);
+        let mut cfg = AbbaConfig::new(Mode::Cgm, 11);
+        cfg.actor.rule = ActorRule::Eq28;
         let mut a = Agent::new(ParamKind::Basal, CriticVariant::ValueTd, 11, 0);
         a.theta = [0.1, -0.2];
         // Decision 0 at F0 = (0.4, 0): z0 = g0 = (1, 0.4, 0); w0 = 0.
@@ -522,6 +574,7 @@ mod tests {
         // up must move θ against that push; a negative one along it. The
         // spec-literal clip of 0.5 keeps the raw eq28 step visible.
         let mut cfg = AbbaConfig::new(Mode::Cgm, 5);
+        cfg.actor.rule = ActorRule::Eq28;
         cfg.actor.theta_step_clip = 0.5;
         let prev = LastDecision {
             f: [0.2, 0.0],
@@ -563,6 +616,93 @@ mod tests {
         );
         assert_eq!(a.counters.actor_clips, 1);
         assert_eq!(a.counters.actor_skips, 1);
+    }
+
+    #[test]
+    fn natural_step_hand_computed_and_decaying() {
+        let mut cfg = AbbaConfig::new(Mode::Cgm, 5);
+        cfg.actor.natural_beta = 0.2;
+        cfg.actor.theta_step_clip = 1.0;
+        let prev = LastDecision {
+            f: [0.2, 0.1],
+            g: [1.0, 0.2, 0.1],
+            phi: [0.0; 5],
+            cost: 1.2,
+            p_e: 0.003,
+            p_d: 0.001,
+            sigma: 0.0025,
+        };
+        let mut a = Agent::new(ParamKind::Basal, CriticVariant::ValueTd, 5, 0);
+        a.theta = [0.1, -0.2];
+        // Δθ = −β·d·(P_e − P_d)·F/(h‖F‖²) = −0.2·(−0.5)·0.002/(0.5·0.05)·F = 0.008·F
+        match a.actor_step_natural(&prev, -0.5, &cfg) {
+            ActorStep::Applied { delta, clipped } => {
+                close("Δθ_hyper", 0.008 * 0.2, delta[0]);
+                close("Δθ_hypo", 0.008 * 0.1, delta[1]);
+                assert!(!clipped);
+            }
+            other => panic!("{other:?}"),
+        }
+        // Second step: β_1 = 0.2/(1 + 1/30)², slower than the critic's a_k.
+        let before = a.theta;
+        a.actor_step_natural(&prev, -0.5, &cfg);
+        let decay = (1.0 + 1.0 / 30.0) * (1.0f64 + 1.0 / 30.0);
+        close("decayed step", 0.008 * 0.2 / decay, a.theta[0] - before[0]);
+        // F = 0: skipped, θ unchanged.
+        let zero = LastDecision {
+            f: [0.0, 0.0],
+            sigma: 0.0,
+            ..prev
+        };
+        let t = a.theta;
+        assert!(matches!(
+            a.actor_step_natural(&zero, 1.0, &cfg),
+            ActorStep::SkippedSmallSigma { .. }
+        ));
+        assert_eq!(a.theta, t);
+    }
+
+    #[test]
+    fn projection_keeps_the_clinical_sign_pattern() {
+        let mut cfg = AbbaConfig::new(Mode::Cgm, 5);
+        cfg.actor.natural_beta = 50.0;
+        cfg.actor.theta_step_clip = 100.0;
+        let prev = LastDecision {
+            f: [0.3, 0.3],
+            g: [1.0, 0.3, 0.3],
+            phi: [0.0; 5],
+            cost: 3.3,
+            p_e: 0.01,
+            p_d: 0.0,
+            sigma: 0.009,
+        };
+        // A large positive d after an upward push drives θ down along F:
+        // θ_hyper of the basal agent would turn negative; projected to 0.
+        let mut a = Agent::new(ParamKind::Basal, CriticVariant::ValueTd, 5, 0);
+        a.theta = [0.1, -0.2];
+        match a.actor_step_natural(&prev, 5.0, &cfg) {
+            ActorStep::Applied { clipped, .. } => assert!(clipped),
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(a.theta[0], 0.0);
+        assert!(a.theta[1] < -0.2);
+        assert!(in_sign_pattern(ParamKind::Basal, a.theta));
+        // The same push on a carb-ratio agent with the opposite d.
+        let mut c = Agent::new(ParamKind::CarbRatio, CriticVariant::ValueTd, 5, 1);
+        c.theta = [-0.1, 0.2];
+        c.actor_step_natural(&prev, 5.0, &cfg);
+        assert!(
+            in_sign_pattern(ParamKind::CarbRatio, c.theta),
+            "{:?}",
+            c.theta
+        );
+        assert_eq!(c.theta[1], 0.0, "θ_hypo of a CIR projected to 0");
+        // Eq28 has no projection: the same hostile step leaves the pattern.
+        cfg.actor.rule = ActorRule::Eq28;
+        let mut e = Agent::new(ParamKind::Basal, CriticVariant::ValueTd, 5, 0);
+        e.theta = [0.1, -0.2];
+        e.actor_step_eq28(&prev, 5.0, &cfg);
+        assert!(!in_sign_pattern(ParamKind::Basal, e.theta), "{:?}", e.theta);
     }
 
     #[test]

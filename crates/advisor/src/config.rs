@@ -3,7 +3,9 @@
 //! Tags follow `shared/spec/abba-algorithm.md`: **\[SEED]** values are stated
 //! in the paper (kept as knobs for ablations); **\[GUESS]** values are the
 //! spec's choices where no source was readable and must be listed in any
-//! results write-up. Defaults are exactly the spec's.
+//! results write-up. Defaults are the spec's except the deviations listed
+//! in ARCHITECTURE.md "Knobs" (CGM excursion, actor rule, and the guessed
+//! scales chosen by `abba calibrate`).
 
 use crate::error::{check_positive, check_range, config_err, AdvisorError};
 use serde::{Deserialize, Serialize};
@@ -106,6 +108,23 @@ impl EventLimits {
     }
 }
 
+/// How eq10-11 average the excursions of a CGM window (spec §3, revision).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CgmExcursion {
+    /// Σ excursions / all readings of the window: the time-averaged
+    /// excursion, independent of the sampling rate (each of the four SMBG
+    /// readings stands for a quarter of the day, so this is the CGM estimate
+    /// of the same daily quantity). \[INFER; DEVIATION from the literal
+    /// reading] Default.
+    #[default]
+    TimeAveraged,
+    /// Σ excursions / out-of-range readings only: the literal eq10-11. With
+    /// 288 readings a day a 15-minute dip weighs as much as a whole day at
+    /// the same level.
+    OutOfRangeMean,
+}
+
 /// Feature thresholds and normalisation (spec §3).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -124,6 +143,38 @@ pub struct FeatureConfig {
     pub n1_below_mg_dl: f64,
     /// N2 counts readings above this (mg/dL). \[SEED eq27] 130.
     pub n2_above_mg_dl: f64,
+    /// The CGM-mode reading of eq10-11 (SMBG mode always uses the
+    /// out-of-range mean). \[DEVIATION] time-averaged.
+    #[serde(default)]
+    pub cgm_excursion: CgmExcursion,
+    /// G_min in CGM mode (F_hypo = raw/(G_L − G_min)); `None` uses
+    /// `g_min_mg_dl`. Time-averaging shrinks the brief hypoglycaemic
+    /// excursions far more than the long hyperglycaemic ones, so CGM mode
+    /// may need its own hypo normalisation. \[GUESS, calibrated]
+    #[serde(default)]
+    pub cgm_g_min_mg_dl: Option<f64>,
+    /// G_max in CGM mode (F_hyper = raw/(G_max − G_H)); `None` uses
+    /// `g_max_mg_dl`. \[GUESS, calibrated]
+    #[serde(default)]
+    pub cgm_g_max_mg_dl: Option<f64>,
+}
+
+impl FeatureConfig {
+    /// G_min for an advisor in `mode`.
+    pub fn g_min_for(&self, mode: Mode) -> f64 {
+        match (mode, self.cgm_g_min_mg_dl) {
+            (Mode::Cgm, Some(g)) => g,
+            _ => self.g_min_mg_dl,
+        }
+    }
+
+    /// G_max for an advisor in `mode`.
+    pub fn g_max_for(&self, mode: Mode) -> f64 {
+        match (mode, self.cgm_g_max_mg_dl) {
+            (Mode::Cgm, Some(g)) => g,
+            _ => self.g_max_mg_dl,
+        }
+    }
 }
 
 impl Default for FeatureConfig {
@@ -136,6 +187,9 @@ impl Default for FeatureConfig {
             hyponumber_below_mg_dl: 70.0,
             n1_below_mg_dl: 80.0,
             n2_above_mg_dl: 130.0,
+            cgm_excursion: CgmExcursion::TimeAveraged,
+            cgm_g_min_mg_dl: None,
+            cgm_g_max_mg_dl: None,
         }
     }
 }
@@ -162,6 +216,12 @@ impl FeatureConfig {
             self.g_high_mg_dl + 1e-9,
             1e4,
         )?;
+        if let Some(g) = self.cgm_g_max_mg_dl {
+            check_range("features.cgm_g_max_mg_dl", g, self.g_high_mg_dl + 1e-9, 1e4)?;
+        }
+        if let Some(g) = self.cgm_g_min_mg_dl {
+            check_range("features.cgm_g_min_mg_dl", g, 1e-9, self.g_low_mg_dl - 1e-9)?;
+        }
         check_positive(
             "features.hyponumber_below_mg_dl",
             self.hyponumber_below_mg_dl,
@@ -246,6 +306,26 @@ pub enum GradientAction {
     Effective,
 }
 
+/// Which policy update the actor takes (spec §6.4).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ActorRule {
+    /// The natural-gradient step Δθ = −β_k·d·(P_e − P_d)·F/(h·‖F‖²) (the
+    /// eq28 direction preconditioned by the inverse Fisher information of
+    /// the Gaussian policy, so it has no 1/σ blow-up), with a decaying
+    /// step β_k = `natural_beta`/(1 + k/κ)² that makes the actor slower than
+    /// the critic (a_k = a_0/(1 + k/κ)), and a projection that keeps θ in its
+    /// clinical sign pattern after every step: for the basal rate
+    /// θ_hyper ≥ 0 and θ_hypo ≤ 0, for a carb ratio θ_hyper ≤ 0 and
+    /// θ_hypo ≥ 0 (more hyperglycaemia never removes insulin, more
+    /// hypoglycaemia never adds it). \[DEVIATION] Default.
+    #[default]
+    ProjectedNatural,
+    /// The literal eq28 Δθ = −β·d·(P_e − P_d)/σ²·h·F with the clip of
+    /// `theta_step_clip` and no projection.
+    Eq28,
+}
+
 /// Actor, exploration and supervisor-weight knobs (spec §6.1, §6.4).
 ///
 /// Note on the defaults: the literal eq28 step is of order β·d·z/σ with
@@ -274,6 +354,20 @@ pub struct ActorConfig {
     pub theta_step_clip: f64,
     /// Which P_e enters eq28. \[GUESS] Sampled.
     pub gradient_action: GradientAction,
+    /// The policy update. \[DEVIATION] projected natural gradient.
+    #[serde(default)]
+    pub rule: ActorRule,
+    /// β_0 of the projected natural-gradient step (β_k = β_0/(1 + k/κ)²,
+    /// κ = `critic.kappa`, k = actor steps taken). \[GUESS, calibrated].
+    #[serde(default = "default_natural_beta")]
+    pub natural_beta: f64,
+}
+
+/// Default β_0 of the projected natural-gradient actor.
+pub const DEFAULT_NATURAL_BETA: f64 = 0.05;
+
+fn default_natural_beta() -> f64 {
+    DEFAULT_NATURAL_BETA
 }
 
 impl Default for ActorConfig {
@@ -285,6 +379,8 @@ impl Default for ActorConfig {
             sigma_min: 1e-4,
             theta_step_clip: 0.01,
             gradient_action: GradientAction::Sampled,
+            rule: ActorRule::ProjectedNatural,
+            natural_beta: DEFAULT_NATURAL_BETA,
         }
     }
 }
@@ -402,9 +498,11 @@ pub struct TeConfig {
     pub te_n_min: f64,
     /// Upper clamp of TE_n. \[GUESS] 4.
     pub te_n_max: f64,
-    /// θ0 for BR per unit TE_n: (hyper, hypo). \[GUESS] (+0.10, −0.20).
+    /// θ0 for BR per unit TE_n: (hyper, hypo). \[GUESS, calibrated]
+    /// (+0.15, −0.20) (spec: (+0.10, −0.20); `abba calibrate`, BENCHMARKS.md).
     pub theta0_br: [f64; 2],
-    /// θ0 for each CIR per unit TE_n: (hyper, hypo). \[GUESS] (−0.10, +0.20).
+    /// θ0 for each CIR per unit TE_n: (hyper, hypo). \[GUESS, calibrated]
+    /// (−0.15, +0.20) (spec: (−0.10, +0.20)).
     pub theta0_cir: [f64; 2],
 }
 
@@ -423,8 +521,8 @@ impl Default for TeConfig {
             mapping: TeMapping::Proportional,
             te_n_min: 0.25,
             te_n_max: 4.0,
-            theta0_br: [0.10, -0.20],
-            theta0_cir: [-0.10, 0.20],
+            theta0_br: [0.15, -0.20],
+            theta0_cir: [-0.15, 0.20],
         }
     }
 }
@@ -577,6 +675,28 @@ impl AbbaConfig {
         check_range("actor.beta", a.beta, 0.0, 100.0)?;
         check_range("actor.sigma_min", a.sigma_min, 1e-12, 1.0)?;
         check_range("actor.theta_step_clip", a.theta_step_clip, 0.0, 100.0)?;
+        check_range("actor.natural_beta", a.natural_beta, 0.0, 100.0)?;
+        if a.rule == ActorRule::ProjectedNatural {
+            let t = &self.te;
+            if t.theta0_br[0] < 0.0 || t.theta0_br[1] > 0.0 {
+                return Err(config_err(
+                    "te.theta0_br",
+                    format!(
+                        "must be (>= 0, <= 0) under the projected actor (more hyperglycaemia never removes basal insulin), got {:?}",
+                        t.theta0_br
+                    ),
+                ));
+            }
+            if t.theta0_cir[0] > 0.0 || t.theta0_cir[1] < 0.0 {
+                return Err(config_err(
+                    "te.theta0_cir",
+                    format!(
+                        "must be (<= 0, >= 0) under the projected actor (more hyperglycaemia never raises a carb ratio), got {:?}",
+                        t.theta0_cir
+                    ),
+                ));
+            }
+        }
         let s = &self.supervisor;
         check_range("supervisor.smbg_cir_gain", s.smbg_cir_gain, 0.0, 10.0)?;
         check_positive("supervisor.smbg_br_hypo_divisor", s.smbg_br_hypo_divisor)?;

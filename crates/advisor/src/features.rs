@@ -3,7 +3,7 @@
 //! A window's readings are folded into [`WindowStats`] as they arrive, so no
 //! reading is stored: the features only need counts and sums of excursions.
 
-use crate::config::FeatureConfig;
+use crate::config::{CgmExcursion, FeatureConfig, Mode};
 use serde::{Deserialize, Serialize};
 
 /// Running statistics of the readings of one window.
@@ -55,18 +55,22 @@ impl WindowStats {
         self.n == 0
     }
 
-    /// The features of this window.
-    pub fn features(&self, cfg: &FeatureConfig) -> Features {
-        Features::from_stats(self, cfg)
+    /// The features of this window for an advisor in `mode` (the CGM
+    /// reading of eq10-11 is `cfg.cgm_excursion`).
+    pub fn features(&self, cfg: &FeatureConfig, mode: Mode) -> Features {
+        Features::from_stats(self, cfg, mode)
     }
 }
 
 /// The feature vector F = (F_hyper, F_hypo) with its raw (mg/dL) parts.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct Features {
-    /// Mean excursion above G_H of the readings above G_H (mg/dL), eq10; 0 if none.
+    /// Excursion above G_H (mg/dL), eq10: the mean over the readings above
+    /// G_H (SMBG mode, and CGM mode with `out_of_range_mean`), or the sum of
+    /// excursions over all readings of the window (CGM mode with
+    /// `time_averaged`); 0 if none.
     pub raw_hyper_mg_dl: f64,
-    /// Mean excursion below G_L of the readings below G_L (mg/dL), eq11; 0 if none.
+    /// Excursion below G_L (mg/dL), eq11, averaged like `raw_hyper_mg_dl`.
     pub raw_hypo_mg_dl: f64,
     /// Normalised F_hyper = clamp(raw / (G_max − G_H), 0, 1).
     pub hyper: f64,
@@ -75,25 +79,28 @@ pub struct Features {
 }
 
 impl Features {
-    /// Eq10-12 with the spec's normalisation (§3).
-    pub fn from_stats(s: &WindowStats, cfg: &FeatureConfig) -> Self {
-        // eq10: mean over the out-of-range samples only.
-        let raw_hyper = if s.n_hyper > 0 {
-            s.sum_hyper_mg_dl / f64::from(s.n_hyper)
-        } else {
-            0.0
+    /// Eq10-12 with the spec's normalisation (§3). In SMBG mode (and in CGM
+    /// mode with [`CgmExcursion::OutOfRangeMean`]) each raw feature is the
+    /// mean excursion of the out-of-range readings only; in CGM mode with
+    /// [`CgmExcursion::TimeAveraged`] it is the sum of excursions divided by
+    /// all readings of the window, which does not depend on the sampling rate.
+    pub fn from_stats(s: &WindowStats, cfg: &FeatureConfig, mode: Mode) -> Self {
+        let time_averaged = mode == Mode::Cgm && cfg.cgm_excursion == CgmExcursion::TimeAveraged;
+        let mean = |sum: f64, n_out: u32| {
+            let n = if time_averaged { s.n } else { n_out };
+            if n_out > 0 && n > 0 {
+                sum / f64::from(n)
+            } else {
+                0.0
+            }
         };
-        // eq11
-        let raw_hypo = if s.n_hypo > 0 {
-            s.sum_hypo_mg_dl / f64::from(s.n_hypo)
-        } else {
-            0.0
-        };
+        let raw_hyper = mean(s.sum_hyper_mg_dl, s.n_hyper); // eq10
+        let raw_hypo = mean(s.sum_hypo_mg_dl, s.n_hypo); // eq11
         Self {
             raw_hyper_mg_dl: raw_hyper,
             raw_hypo_mg_dl: raw_hypo,
-            hyper: (raw_hyper / (cfg.g_max_mg_dl - cfg.g_high_mg_dl)).clamp(0.0, 1.0),
-            hypo: (raw_hypo / (cfg.g_low_mg_dl - cfg.g_min_mg_dl)).clamp(0.0, 1.0),
+            hyper: (raw_hyper / (cfg.g_max_for(mode) - cfg.g_high_mg_dl)).clamp(0.0, 1.0),
+            hypo: (raw_hypo / (cfg.g_low_mg_dl - cfg.g_min_for(mode))).clamp(0.0, 1.0),
         }
     }
 
@@ -138,7 +145,7 @@ mod tests {
         // 200 and 250 are above 150 (excursions 50, 100 -> mean 75);
         // 60 is below 90 (excursion 30); 120 is in range and does not dilute.
         let s = stats(&[200.0, 120.0, 250.0, 60.0]);
-        let f = s.features(&FeatureConfig::default());
+        let f = s.features(&FeatureConfig::default(), Mode::Smbg);
         close("raw hyper (eq10)", 75.0, f.raw_hyper_mg_dl);
         close("raw hypo (eq11)", 30.0, f.raw_hypo_mg_dl);
         assert_eq!((s.n, s.n_hyper, s.n_hypo), (4, 2, 1));
@@ -148,23 +155,84 @@ mod tests {
 
     #[test]
     fn eq12_normalisation_divides_by_250_and_50_and_clamps() {
-        let f = stats(&[200.0, 250.0, 60.0]).features(&FeatureConfig::default());
+        let f = stats(&[200.0, 250.0, 60.0]).features(&FeatureConfig::default(), Mode::Smbg);
         close("F_hyper = 75/250", 0.3, f.hyper);
         close("F_hypo = 30/50", 0.6, f.hypo);
         assert_eq!(f.vector(), [f.hyper, f.hypo]);
         // 600 mg/dL: excursion 450 > 250 -> clamped to 1; 20 mg/dL: 70 > 50 -> 1.
-        let f = stats(&[600.0, 20.0]).features(&FeatureConfig::default());
+        let f = stats(&[600.0, 20.0]).features(&FeatureConfig::default(), Mode::Smbg);
         close("F_hyper clamped", 1.0, f.hyper);
         close("F_hypo clamped", 1.0, f.hypo);
     }
 
     #[test]
     fn in_range_or_empty_windows_give_zero_features() {
-        let f = stats(&[90.0, 150.0, 120.0]).features(&FeatureConfig::default());
+        let f = stats(&[90.0, 150.0, 120.0]).features(&FeatureConfig::default(), Mode::Smbg);
         assert_eq!(f.vector(), [0.0, 0.0], "thresholds are strict");
         let s = stats(&[]);
         assert!(s.is_empty());
-        assert_eq!(s.features(&FeatureConfig::default()).vector(), [0.0, 0.0]);
+        assert_eq!(
+            s.features(&FeatureConfig::default(), Mode::Smbg).vector(),
+            [0.0, 0.0]
+        );
+    }
+
+    /// A day of 5-minute CGM readings at 120 mg/dL except `dip` readings at `low`.
+    fn cgm_day(dip: usize, low: f64) -> WindowStats {
+        let mut v = vec![120.0; 288 - dip];
+        v.extend(std::iter::repeat_n(low, dip));
+        stats(&v)
+    }
+
+    #[test]
+    fn out_of_range_mean_weighs_a_15_minute_dip_like_a_whole_day() {
+        let cfg = FeatureConfig {
+            cgm_excursion: CgmExcursion::OutOfRangeMean,
+            ..FeatureConfig::default()
+        };
+        let dip = cgm_day(3, 80.0).features(&cfg, Mode::Cgm);
+        let all_day = stats(&[80.0; 288]).features(&cfg, Mode::Cgm);
+        close("F_hypo: 15 min at 80 = a day at 80", all_day.hypo, dip.hypo);
+        close("F_hypo = 10/50", 0.2, dip.hypo);
+    }
+
+    #[test]
+    fn time_averaged_weighs_a_15_minute_dip_by_its_duration() {
+        let cfg = FeatureConfig::default();
+        assert_eq!(cfg.cgm_excursion, CgmExcursion::TimeAveraged);
+        let dip = cgm_day(3, 80.0).features(&cfg, Mode::Cgm);
+        let all_day = stats(&[80.0; 288]).features(&cfg, Mode::Cgm);
+        close("F_hypo of a day at 80", 0.2, all_day.hypo);
+        close("15 min of 24 h = 1/96", all_day.hypo / 96.0, dip.hypo);
+        // Hyper side: 2 of 4 readings 100 above G_H -> 200/4 = 50 -> 0.2.
+        let f = stats(&[250.0, 250.0, 120.0, 120.0]).features(&cfg, Mode::Cgm);
+        close("time-averaged hyper", 0.2, f.hyper);
+        // SMBG mode ignores the knob: out-of-range mean (100 -> 0.4).
+        let f = stats(&[250.0, 250.0, 120.0, 120.0]).features(&cfg, Mode::Smbg);
+        close("SMBG hyper", 0.4, f.hyper);
+    }
+
+    #[test]
+    fn cgm_normalisation_knobs_change_cgm_mode_only() {
+        let cfg = FeatureConfig {
+            cgm_g_min_mg_dl: Some(65.0),
+            ..FeatureConfig::default()
+        };
+        let s = stats(&[80.0, 120.0]);
+        // Time-averaged raw = 10/2 = 5 mg/dL; divided by 90 − 65 = 25.
+        close("CGM F_hypo", 0.2, s.features(&cfg, Mode::Cgm).hypo);
+        // SMBG: out-of-range mean 10, divided by 90 − 40 = 50.
+        close("SMBG F_hypo", 0.2, s.features(&cfg, Mode::Smbg).hypo);
+        let default = FeatureConfig::default();
+        close("CGM default", 0.1, s.features(&default, Mode::Cgm).hypo);
+        // cgm_g_max: 2 of 4 readings 100 above G_H -> 50 mg/dL; /(250 − 150).
+        let cfg = FeatureConfig {
+            cgm_g_max_mg_dl: Some(250.0),
+            ..FeatureConfig::default()
+        };
+        let s = stats(&[250.0, 250.0, 120.0, 120.0]);
+        close("CGM F_hyper", 0.5, s.features(&cfg, Mode::Cgm).hyper);
+        close("SMBG F_hyper", 0.4, s.features(&cfg, Mode::Smbg).hyper);
     }
 
     #[test]

@@ -126,7 +126,7 @@ mod tests {
         for &v in values {
             s.push(v, &cfg);
         }
-        (s.features(&cfg), s)
+        (s.features(&cfg, Mode::Smbg), s)
     }
 
     fn check(name: &str, expected: f64, got: f64) {

@@ -694,8 +694,8 @@ mod tests {
         check("clamped low", 0.25, te_scale(0.0, &cfg));
         check("clamped high", 4.0, te_scale(1.0, &cfg));
         let (br, cir) = theta0(2.0, &cfg);
-        assert_eq!(br, [0.2, -0.4]);
-        assert_eq!(cir, [-0.2, 0.4]);
+        assert_eq!(br, [2.0 * cfg.theta0_br[0], 2.0 * cfg.theta0_br[1]]);
+        assert_eq!(cir, [2.0 * cfg.theta0_cir[0], 2.0 * cfg.theta0_cir[1]]);
         let inv = TeConfig {
             mapping: TeMapping::Inverse,
             ..TeConfig::default()

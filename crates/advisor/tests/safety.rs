@@ -2,9 +2,12 @@
 //! bad events are rejected with an error and change nothing; no setting moves
 //! more than 5 % in one update; settings stay finite and positive; the
 //! supervisory action never adds insulin when its window holds a reading
-//! below 70 mg/dL.
+//! below 70 mg/dL; under the default (projected) actor, every agent's θ
+//! stays in its clinical sign pattern.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+use abba_advisor::agent::in_sign_pattern;
+use abba_advisor::config::ActorRule;
 use abba_advisor::supervisor::{adds_insulin, ParamKind};
 use abba_advisor::{
     Abba, AbbaConfig, Advisor, AdvisorSpec, CriticVariant, DecisionDetail, EventLimits, Mode,
@@ -152,6 +155,17 @@ fn settings_ok(old: &TherapySettings, new: &TherapySettings, max: f64) -> Result
     Ok(())
 }
 
+/// The four agents' parameters with their kinds.
+const AGENTS: [(Parameter, ParamKind); 4] = [
+    (Parameter::Basal, ParamKind::Basal),
+    (
+        Parameter::CarbRatio(MealSlot::Breakfast),
+        ParamKind::CarbRatio,
+    ),
+    (Parameter::CarbRatio(MealSlot::Lunch), ParamKind::CarbRatio),
+    (Parameter::CarbRatio(MealSlot::Dinner), ParamKind::CarbRatio),
+];
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 96, ..ProptestConfig::default() })]
 
@@ -161,10 +175,19 @@ proptest! {
         smbg in any::<bool>(),
         variant_b in any::<bool>(),
         seed in any::<u64>(),
+        greedy_actor in any::<bool>(),
     ) {
         let mode = if smbg { Mode::Smbg } else { Mode::Cgm };
         let variant = if variant_b { CriticVariant::KondaTsitsiklis } else { CriticVariant::ValueTd };
-        let cfg = config(mode, variant, seed);
+        let mut cfg = config(mode, variant, seed);
+        if greedy_actor {
+            // The default actor with a huge step and no clip: only the
+            // projection keeps θ in its sign pattern.
+            cfg.actor.natural_beta = 100.0;
+            cfg.actor.theta_step_clip = 100.0;
+            cfg.actor.beta = 100.0;
+        }
+        prop_assert_eq!(cfg.actor.rule, ActorRule::ProjectedNatural);
         let mut abba = Abba::new(cfg.clone(), start()).unwrap();
         let mut r2r_cfg = R2rConfig::new(mode);
         r2r_cfg.init_days = 1;
@@ -238,6 +261,12 @@ proptest! {
                     }
                     prop_assert!((d.new / d.old - 1.0).abs() <= 0.05 + 1e-12, "{}", d);
                 }
+            }
+            for (p, kind) in AGENTS {
+                let theta = abba.theta(p);
+                prop_assert!(theta.iter().all(|t| t.is_finite()), "θ not finite: {:?}", theta);
+                prop_assert!(in_sign_pattern(kind, theta),
+                    "θ of {:?} left its sign pattern: {:?}", p, theta);
             }
         }
         // The generator must actually exercise the advisor: a case whose

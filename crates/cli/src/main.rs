@@ -5,6 +5,7 @@ use std::process::ExitCode;
 
 mod advise;
 mod answer;
+mod calibrate;
 mod cohort;
 mod errors;
 mod events;
@@ -56,6 +57,8 @@ enum Command {
     History(history::Args),
     /// A person's AGP-style report as one HTML page (research software, not a medical device).
     Report(report::Args),
+    /// Tune the guessed knobs on a training cohort; evaluate on a held-out one.
+    Calibrate(calibrate::Args),
 }
 
 /// The parsed command line. Every subcommand takes negative numbers as
@@ -87,6 +90,7 @@ fn main() -> ExitCode {
         Command::Answer(a) => answer::run(a),
         Command::History(a) => history::run(a),
         Command::Report(a) => report::run(a),
+        Command::Calibrate(a) => calibrate::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -135,6 +135,15 @@ pub fn run(args: Args) -> Result<()> {
         git_revision: env!("ABBA_GIT_REV"),
     };
     let written = plan.write(&output, &tool, &run)?;
+    // W1 sensitivity block: the standard arm's W1 with each variability source off.
+    let first = output.config.scenarios[0];
+    let w1 = abba_trial::w1_sensitivity::w1_sensitivity(&output.config, first)?;
+    let w1_path = args.out.join("w1_sensitivity.md");
+    std::fs::write(
+        &w1_path,
+        abba_trial::w1_sensitivity::w1_markdown(first, &w1),
+    )
+    .with_context(|| format!("cannot write {}", w1_path.display()))?;
     if !args.quiet {
         eprintln!(
             "abba trial: {} patient-runs in {:.1} s; report in {} ({} files{})",

@@ -18,6 +18,10 @@ pub enum ScenarioId {
     S3,
     /// S3 plus two skipped main meals in every 7-day block.
     S4,
+    /// Not in the paper: S1 in real life, where the person treats a low
+    /// reading with rescue carbohydrate (the simulator's `HypoTreatment`).
+    /// Not in [`ScenarioId::ALL`], so not in the default trial.
+    S5,
 }
 
 impl ScenarioId {
@@ -29,28 +33,53 @@ impl ScenarioId {
         ScenarioId::S4,
     ];
 
-    /// 1..=4.
+    /// Every scenario that has a name: the paper's four and S5.
+    pub const KNOWN: [ScenarioId; 5] = [
+        ScenarioId::S1,
+        ScenarioId::S2,
+        ScenarioId::S3,
+        ScenarioId::S4,
+        ScenarioId::S5,
+    ];
+
+    /// 1..=5.
     pub fn number(self) -> u64 {
         match self {
             ScenarioId::S1 => 1,
             ScenarioId::S2 => 2,
             ScenarioId::S3 => 3,
             ScenarioId::S4 => 4,
+            ScenarioId::S5 => 5,
         }
     }
 
-    /// "S1".."S4".
+    /// "S1".."S5".
     pub fn name(self) -> &'static str {
         match self {
             ScenarioId::S1 => "S1",
             ScenarioId::S2 => "S2",
             ScenarioId::S3 => "S3",
             ScenarioId::S4 => "S4",
+            ScenarioId::S5 => "S5",
         }
     }
 }
 
-crate::named!(ScenarioId, "scenario", ScenarioId::name);
+impl crate::named::Named for ScenarioId {
+    const KIND: &'static str = "scenario";
+    fn values() -> &'static [Self] {
+        &ScenarioId::KNOWN
+    }
+    fn name_of(self) -> &'static str {
+        self.name()
+    }
+}
+
+impl std::fmt::Display for ScenarioId {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
 
 impl std::str::FromStr for ScenarioId {
     type Err = CoreError;
@@ -75,7 +104,11 @@ mod tests {
             );
         }
         assert_eq!(" s3 ".parse::<ScenarioId>().unwrap(), ScenarioId::S3);
-        let e = "S5".parse::<ScenarioId>().unwrap_err().to_string();
-        assert!(e.contains("'S5'") && e.contains("S1, S2, S3, S4"), "{e}");
+        assert_eq!("s5".parse::<ScenarioId>().unwrap(), ScenarioId::S5);
+        let e = "S6".parse::<ScenarioId>().unwrap_err().to_string();
+        assert!(
+            e.contains("'S6'") && e.contains("S1, S2, S3, S4, S5"),
+            "{e}"
+        );
     }
 }

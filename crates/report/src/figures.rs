@@ -46,6 +46,7 @@ fn scenario_color(scenario: ScenarioId) -> RGBColor {
         ScenarioId::S2 => RGBColor(230, 159, 0),
         ScenarioId::S3 => RGBColor(0, 158, 115),
         ScenarioId::S4 => RGBColor(204, 121, 167),
+        ScenarioId::S5 => RGBColor(86, 180, 233),
     }
 }
 

@@ -132,6 +132,11 @@ pub struct PatientResult {
     /// run stopped there, and only the evaluation windows that ended before
     /// it are in `weeks`.
     pub failure: Option<RunFailure>,
+    /// Rescue carbohydrate eaten over the run (g; 0 unless the scenario
+    /// has hypoglycaemia treatment).
+    pub rescue_carbs_g: f64,
+    /// Number of hypoglycaemia treatments over the run.
+    pub rescue_treatments: u32,
 }
 
 /// Where a run stopped because plasma glucose fell below the failure

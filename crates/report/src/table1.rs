@@ -421,6 +421,7 @@ fn scenario_title(scenario: ScenarioId) -> &'static str {
         ScenarioId::S2 => "SMBG 4/day after the CGM week",
         ScenarioId::S3 => "SMBG with ±10 min timing uncertainty",
         ScenarioId::S4 => "as S3, plus 2 of 21 main meals skipped per week",
+        ScenarioId::S5 => "not in the paper: S1 with hypoglycaemia treatment (15 g below 70 mg/dL)",
     }
 }
 
@@ -635,6 +636,15 @@ pub fn table1_markdown(arms: &[ArmResult]) -> Result<String, ReportError> {
             let _ = writeln!(s, "{line}");
         }
         if let Some(arm) = arm {
+            let treatments: u32 = arm.patients.iter().map(|p| p.rescue_treatments).sum();
+            if treatments > 0 {
+                let grams: f64 = arm.patients.iter().map(|p| p.rescue_carbs_g).sum();
+                let _ = writeln!(
+                    s,
+                    "\nRescue carbohydrate (hypoglycaemia treatment by the person): {treatments} treatments, {grams:.0} g in all, {:.1} g per patient over the run.",
+                    grams / arm.patients.len().max(1) as f64
+                );
+            }
             let stops = stopped_runs(arm);
             if !stops.is_empty() {
                 let _ = writeln!(

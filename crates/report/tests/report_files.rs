@@ -87,6 +87,8 @@ fn patient(name: &str, weeks: Vec<WeekResult>) -> PatientResult {
         pump_capped: 0,
         min_glucose_mg_dl: 61.5,
         failure: None,
+        rescue_carbs_g: 0.0,
+        rescue_treatments: 0,
     }
 }
 

@@ -126,6 +126,8 @@ pub fn run_patient_with(
         pump_capped: person.pump_capped(),
         min_glucose_mg_dl: run.min_glucose_mg_dl,
         failure: run.failure,
+        rescue_carbs_g: person.rescue().0,
+        rescue_treatments: person.rescue().1,
     })
 }
 

@@ -62,11 +62,13 @@
 //! - A run whose plasma glucose falls below `failure_glucose_mg_dl` stops and
 //!   is reported as stopped, not dropped.
 
+pub mod calibrate;
 pub mod closed_loop;
 pub mod error;
 pub mod protocol;
 pub mod report;
 pub mod runner;
+pub mod w1_sensitivity;
 
 /// The results model and statistics live in abba-report; re-exported at
 /// their old paths.

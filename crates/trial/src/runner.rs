@@ -61,6 +61,17 @@ pub fn run_trial(
     progress: &dyn Progress,
 ) -> Result<TrialOutput, TrialError> {
     let cohort = build_cohort(config)?;
+    run_trial_on(config, cohort, threads, progress)
+}
+
+/// Runs the trial on a given cohort (e.g. a cohort without its public
+/// patients, for calibration); `config`'s cohort fields are not used.
+pub fn run_trial_on(
+    config: &TrialConfig,
+    cohort: Cohort,
+    threads: usize,
+    progress: &dyn Progress,
+) -> Result<TrialOutput, TrialError> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()

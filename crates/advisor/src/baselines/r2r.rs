@@ -28,11 +28,11 @@ pub struct R2rConfig {
     pub mode: Mode,
     /// Days under the starting therapy before adapting (as ABBA). 7.
     pub init_days: u32,
-    /// Basal gain K_B. \[GUESS; tuned] 0.2: the spec's law with K_B and K_C
-    /// tuned once on held-out patients over the spec's grid {0.1, 0.2, 0.3,
-    /// 0.5} (spec §10.2; `benches/r2r_gains.py`: the first 20 adults of
-    /// cohort seed 2 in S1 and S2, fewest runs stopped below 10 mg/dL, then
-    /// lowest LBGI + HBGI in W13-W14). The spec's starting value was 0.3.
+    /// Basal gain K_B. \[GUESS; calibrated] 0.1: chosen by `abba calibrate`
+    /// (coordinate search over {0.1, 0.2, 0.3, 0.5} on 60 generated adults of
+    /// cohort seed 101, S1 and S2; BENCHMARKS.md "ABBA: CGM features, actor,
+    /// calibration"). Earlier tuned to 0.2 by `benches/r2r_gains.py`; the
+    /// spec's starting value was 0.3.
     pub basal_gain: f64,
     /// Basal reference G_ref (mg/dL). \[GUESS] 110.
     pub basal_ref_mg_dl: f64,
@@ -47,8 +47,9 @@ pub struct R2rConfig {
     /// SMBG mode: the fasting reading is the last SMBG in this window before the day's first
     /// main-meal announcement. \[GUESS] 240-600 (04:00-10:00).
     pub smbg_fasting_window_min: [i64; 2],
-    /// Carb-ratio gain K_C (on I:C = 1/CIR). \[GUESS; tuned] 0.1 (see
-    /// `basal_gain`; the spec's starting value was 0.25).
+    /// Carb-ratio gain K_C (on I:C = 1/CIR). \[GUESS; calibrated] 0.05 (see
+    /// `basal_gain`; grid {0.05, 0.1, 0.2, 0.25}; the spec's starting value
+    /// was 0.25).
     pub cir_gain: f64,
     /// Post-meal reference G_ref (mg/dL). \[GUESS] 120.
     pub cir_ref_mg_dl: f64,
@@ -76,14 +77,14 @@ impl R2rConfig {
         Self {
             mode,
             init_days: 7,
-            basal_gain: 0.2,
+            basal_gain: 0.1,
             basal_ref_mg_dl: 110.0,
             basal_cap: 0.10,
             basal_hypo_factor: 0.9,
             night_window_min: [0, 420],
             cgm_fasting_window_min: [180, 390],
             smbg_fasting_window_min: [240, 600],
-            cir_gain: 0.1,
+            cir_gain: 0.05,
             cir_ref_mg_dl: 120.0,
             cir_cap: 0.10,
             cir_hypo_factor: 1.1,

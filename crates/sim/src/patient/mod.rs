@@ -129,6 +129,25 @@ impl Patient {
         self.end_minute()
     }
 
+    /// As [`Patient::step`], with separate sensitivity multipliers on Vmx
+    /// (insulin-dependent utilisation, `sensitivity`) and on kp3 (the
+    /// liver's insulin action, `egp_sensitivity`).
+    pub fn step_split(
+        &mut self,
+        cho_g_per_min: f64,
+        insulin_u_per_min: f64,
+        sensitivity: f64,
+        egp_sensitivity: f64,
+    ) -> Result<(), SimError> {
+        if !(egp_sensitivity.is_finite() && egp_sensitivity > 0.0) {
+            return Err(self.bad_input(cho_g_per_min, insulin_u_per_min, egp_sensitivity));
+        }
+        let mut u = self.begin_minute(cho_g_per_min, insulin_u_per_min, sensitivity)?;
+        u.s_kp3 = egp_sensitivity * self.consts.kp3;
+        self.solver.advance_minute(&self.consts, &u, &mut self.x);
+        self.end_minute()
+    }
+
     /// Checks the minute's inputs, updates the eating-episode bookkeeping
     /// and returns what the solver holds constant over the minute.
     #[inline]

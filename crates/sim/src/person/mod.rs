@@ -36,7 +36,9 @@ pub use behaviour::{Behaviour, DayClosing, SuggestionResponse};
 use crate::cohort::VirtualPatient;
 use crate::devices::{CgmSensor, DeviceSet, Pump, SmbgMeter};
 use crate::patient::{EatingQueue, Patient};
-use crate::scenario::{DayPlan, ScenarioConfig, ScenarioGenerator, SmbgPurpose, DAY_MINUTES};
+use crate::scenario::{
+    DayPlan, ScenarioConfig, ScenarioGenerator, SensitivityTarget, SmbgPurpose, DAY_MINUTES,
+};
 use crate::SimError;
 use abba_core::{Event, EventKind, MgDl, TherapySettings, Timestamp, Units, UnitsPerHour};
 use serde::Serialize;
@@ -106,6 +108,12 @@ pub struct VirtualPerson {
     outbox: VecDeque<Event>,
     bedtime_reading: bool,
     record: MinuteRecord,
+    /// Rescue carbohydrate eaten so far (g; scenario `hypo_treatment`).
+    rescue_carbs_g: f64,
+    /// Hypoglycaemia treatments so far.
+    rescue_treatments: u32,
+    /// Minute of the last treatment.
+    last_treatment: Option<i64>,
 }
 
 impl VirtualPerson {
@@ -152,7 +160,16 @@ impl VirtualPerson {
             outbox: VecDeque::with_capacity(8),
             bedtime_reading: false,
             record: empty_record(),
+            rescue_carbs_g: 0.0,
+            rescue_treatments: 0,
+            last_treatment: None,
         })
+    }
+
+    /// Rescue carbohydrate eaten so far (g) and the number of treatments
+    /// (0 unless the scenario has `hypo_treatment`).
+    pub fn rescue(&self) -> (f64, u32) {
+        (self.rescue_carbs_g, self.rescue_treatments)
     }
 
     /// The patient's name.
@@ -337,8 +354,30 @@ impl VirtualPerson {
     }
 
     /// The hook for behaviour that reacts to this minute's readings
-    /// (`self.record.cgm_mg_dl`, `self.record.smbg_mg_dl`): none yet.
-    fn react_to_readings(&mut self) {}
+    /// (`self.record.cgm_mg_dl`, `self.record.smbg_mg_dl`): the scenario's
+    /// hypoglycaemia treatment, if any. A reading the person sees below the
+    /// threshold makes them eat the rescue carbohydrate (not announced, no
+    /// bolus) unless they treated less than `recheck_min` minutes ago; the
+    /// next reading after that is the re-check.
+    fn react_to_readings(&mut self) {
+        let Some(t) = self.generator.config().hypo_treatment else {
+            return;
+        };
+        let low = [self.record.cgm_mg_dl, self.record.smbg_mg_dl]
+            .into_iter()
+            .flatten()
+            .any(|g| g < t.below_mg_dl);
+        let now = self.now.minutes();
+        let ready = self
+            .last_treatment
+            .is_none_or(|at| now - at >= i64::from(t.recheck_min));
+        if low && ready {
+            self.queue.add(t.carbs_g);
+            self.rescue_carbs_g += t.carbs_g;
+            self.rescue_treatments += 1;
+            self.last_treatment = Some(now);
+        }
+    }
 
     /// Settings suggested by the advisor. The person answers them as their
     /// [`Behaviour::suggestions`] says: today they take them at once (a new
@@ -374,7 +413,12 @@ impl VirtualPerson {
         let cr = self.settings.carb_ratio;
         r.carb_ratio_g_per_u = [cr[0].0, cr[1].0, cr[2].0];
         let record = *r;
-        self.patient.step(cho, insulin, record.sensitivity)?;
+        let liver = match self.generator.config().sensitivity.target {
+            SensitivityTarget::VmxAndKp3 => record.sensitivity,
+            SensitivityTarget::Vmx => 1.0,
+        };
+        self.patient
+            .step_split(cho, insulin, record.sensitivity, liver)?;
         self.now = self.now.plus(1);
         self.phase = Phase::Idle;
         Ok(record)

@@ -100,6 +100,18 @@ impl Default for SkipConfig {
     }
 }
 
+/// Which insulin actions of the model s(t) scales.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SensitivityTarget {
+    /// Utilisation (Vmx) and the liver's insulin action (kp3), as
+    /// spec/protocol.md §1 states. Default.
+    #[default]
+    VmxAndKp3,
+    /// Utilisation (Vmx) only: the liver's insulin action stays nominal.
+    Vmx,
+}
+
 /// The insulin-sensitivity profile s(t) (seed paper §III-A-1).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -119,6 +131,10 @@ pub struct SensitivityConfig {
     /// Last day (1-based) with daily variability and dawn phenomenon (90);
     /// from the next day on s(t) = 1.
     pub variable_until_day: u32,
+    /// Which insulin actions s(t) scales (the paper does not say; T1DMS's
+    /// choice is not documented in any source we found).
+    #[serde(default)]
+    pub target: SensitivityTarget,
 }
 
 impl Default for SensitivityConfig {
@@ -131,6 +147,31 @@ impl Default for SensitivityConfig {
             dawn_end_min: 8 * 60,
             dawn_ramp_min: 30,
             variable_until_day: 90,
+            target: SensitivityTarget::VmxAndKp3,
+        }
+    }
+}
+
+/// Hypoglycaemia treatment: the person eats rescue carbohydrate when a
+/// reading they see (CGM, or meter) is below a threshold, and treats again
+/// when the next reading they see at least `recheck_min` later is still low.
+/// Rescue carbohydrate is not announced to the advisor (no bolus).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct HypoTreatment {
+    /// Treat below this reading (mg/dL). 70.
+    pub below_mg_dl: f64,
+    /// Carbohydrate per treatment (g). 15 (the "rule of 15").
+    pub carbs_g: f64,
+    /// Minutes before the person re-checks and may treat again. 15.
+    pub recheck_min: u32,
+}
+
+impl Default for HypoTreatment {
+    fn default() -> Self {
+        Self {
+            below_mg_dl: 70.0,
+            carbs_g: 15.0,
+            recheck_min: 15,
         }
     }
 }
@@ -189,6 +230,10 @@ pub struct ScenarioConfig {
     pub smbg: Option<SmbgConfig>,
     /// When the CGM is worn.
     pub cgm: CgmWear,
+    /// Hypoglycaemia treatment by the person (`None`, the paper's
+    /// protocol: no rescue carbohydrate; on in S5).
+    #[serde(default)]
+    pub hypo_treatment: Option<HypoTreatment>,
 }
 
 impl ScenarioConfig {
@@ -205,6 +250,7 @@ impl ScenarioConfig {
             ScenarioId::S2 => (None, Some(smbg(0)), Some(8)),
             ScenarioId::S3 => (None, Some(smbg(10)), Some(8)),
             ScenarioId::S4 => (Some(SkipConfig::default()), Some(smbg(10)), Some(8)),
+            ScenarioId::S5 => (None, None, None),
         };
         Self {
             name: id.name().to_string(),
@@ -217,6 +263,7 @@ impl ScenarioConfig {
             cgm: CgmWear {
                 until_day: cgm_until,
             },
+            hypo_treatment: (id == ScenarioId::S5).then(HypoTreatment::default),
         }
     }
 
@@ -228,6 +275,23 @@ impl ScenarioConfig {
                 self.name
             )))
         };
+        if let Some(t) = &self.hypo_treatment {
+            if !(t.below_mg_dl.is_finite() && t.below_mg_dl > 0.0 && t.below_mg_dl < 200.0) {
+                return bad(
+                    "hypo_treatment.below_mg_dl",
+                    format!("must be in (0, 200) mg/dL, got {}", t.below_mg_dl),
+                );
+            }
+            if !(t.carbs_g.is_finite() && t.carbs_g > 0.0 && t.carbs_g <= 100.0) {
+                return bad(
+                    "hypo_treatment.carbs_g",
+                    format!("must be in (0, 100] g, got {}", t.carbs_g),
+                );
+            }
+            if t.recheck_min == 0 {
+                return bad("hypo_treatment.recheck_min", "must be at least 1".into());
+            }
+        }
         let day = MINUTES_PER_DAY as u32;
         if self.days == 0 {
             return bad("days", "must be at least 1".into());

@@ -22,8 +22,8 @@ mod generate;
 mod plan;
 
 pub use config::{
-    CgmWear, MealConfig, MealTemplate, ScenarioConfig, ScenarioId, SensitivityConfig, SkipConfig,
-    SmbgConfig,
+    CgmWear, HypoTreatment, MealConfig, MealTemplate, ScenarioConfig, ScenarioId,
+    SensitivityConfig, SensitivityTarget, SkipConfig, SmbgConfig,
 };
 pub use generate::{ScenarioGenerator, StreamSeeds};
 pub use plan::{Dawn, DayPlan, PlannedMeal, SensitivityDay, SmbgPurpose, SmbgReading, DAY_MINUTES};

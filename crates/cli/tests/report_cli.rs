@@ -246,3 +246,38 @@ fn unknown_person_and_bad_unit_are_refused() {
         String::from_utf8_lossy(&out.stderr)
     );
 }
+
+#[test]
+fn the_trial_page_carries_the_w1_sensitivity_block() {
+    let dir = TempDir::new("report-w1");
+    let out = dir.0.join("trial");
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_abba"))
+        .args([
+            "trial",
+            "--patients",
+            "2",
+            "--days",
+            "9",
+            "--scenarios",
+            "S1",
+            "--quiet",
+            "--out",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(html.contains("<h2>W1 sensitivity (S1, standard therapy, D2-D8)</h2>"));
+    for (label, _) in abba_trial::w1_sensitivity::variants() {
+        assert!(
+            html.contains(&format!("<th scope=\"row\">{label}</th>")),
+            "variant {label} missing"
+        );
+    }
+    browser::validate_with_tidy(&out.join("report.html"));
+}

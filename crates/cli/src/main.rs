@@ -16,7 +16,9 @@ mod input;
 mod metrics;
 mod output;
 mod person;
+mod person_report;
 mod progress;
+mod report;
 mod shard;
 mod simulate;
 mod trial;
@@ -54,6 +56,8 @@ enum Command {
     Answer(answer::Args),
     /// Every suggestion, the answer and the value in force, by day.
     History(history::Args),
+    /// A person's AGP-style report as one HTML page (research software, not a medical device).
+    Report(report::Args),
     /// Tune the guessed knobs on a training cohort; evaluate on a held-out one.
     Calibrate(calibrate::Args),
 }
@@ -86,6 +90,7 @@ fn main() -> ExitCode {
         Command::Advise(a) => advise::run(a),
         Command::Answer(a) => answer::run(a),
         Command::History(a) => history::run(a),
+        Command::Report(a) => report::run(a),
         Command::Calibrate(a) => calibrate::run(a),
     };
     match result {

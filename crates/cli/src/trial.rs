@@ -159,6 +159,15 @@ pub fn run(args: Args) -> Result<()> {
         abba_trial::w1_sensitivity::w1_markdown(first, &w1),
     )
     .with_context(|| format!("cannot write {}", w1_path.display()))?;
+    // report.html again, now with the W1 block (computed after the report).
+    let html = abba_report::html::trial_page::trial_report_html(
+        &output.arms,
+        &abba_trial::report::trial_manifest(&output, &tool),
+        &[abba_trial::w1_sensitivity::w1_html_section(first, &w1)],
+    )?;
+    let html_path = args.out.join("report.html");
+    std::fs::write(&html_path, html)
+        .with_context(|| format!("cannot write {}", html_path.display()))?;
     if !args.quiet {
         eprintln!(
             "abba trial: {} patient-runs in {:.1} s; report in {} ({} files{})",

@@ -100,6 +100,27 @@ pub enum EventKind {
     SuggestionOverridden(SettingValue),
 }
 
+impl EventKind {
+    /// A short name for messages ("CGM reading", "temporary basal", ...).
+    pub fn name(&self) -> &'static str {
+        match self {
+            EventKind::Cgm(_) => "CGM reading",
+            EventKind::Smbg(_) => "SMBG reading",
+            EventKind::MealAnnounced { .. } => "meal announcement",
+            EventKind::Bolus(_) => "bolus",
+            EventKind::BasalRate(_) => "basal rate",
+            EventKind::DayClosed => "day closed",
+            EventKind::TempBasal { .. } => "temporary basal",
+            EventKind::Suspend => "suspend",
+            EventKind::Resume => "resume",
+            EventKind::ExtendedBolus { .. } => "extended bolus",
+            EventKind::SuggestionAccepted(_) => "suggestion accepted",
+            EventKind::SuggestionRejected(_) => "suggestion rejected",
+            EventKind::SuggestionOverridden(_) => "suggestion overridden",
+        }
+    }
+}
+
 /// One therapy setting with the value a person put in force (the payload of
 /// the answer events: the advisor's next update starts from it).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -278,5 +299,27 @@ mod tests {
         assert_eq!(abs.delivered(UnitsPerHour(1.0)), UnitsPerHour(0.3));
         let rel = TempBasalRate::Percent(50.0);
         assert_eq!(rel.delivered(UnitsPerHour(1.2)), UnitsPerHour(0.6));
+    }
+
+    #[test]
+    fn answer_kinds_round_trip_through_json() {
+        let events = [
+            Event::new(
+                Timestamp(1380),
+                EventKind::SuggestionAccepted(SettingValue::Basal {
+                    rate: UnitsPerHour(1.2),
+                }),
+            ),
+            Event::new(
+                Timestamp(1381),
+                EventKind::SuggestionOverridden(SettingValue::CarbRatio {
+                    slot: MealSlot::Lunch,
+                    ratio: GramsPerUnit(11.5),
+                }),
+            ),
+        ];
+        let json = serde_json::to_string(&events).unwrap();
+        let back: Vec<Event> = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, events);
     }
 }

@@ -88,6 +88,17 @@ pub enum ReportError {
         /// The plotting backend's error, as text.
         reason: String,
     },
+    /// An HTML page could not be rendered from its template.
+    #[error("cannot render the HTML {page}: {reason}")]
+    Template {
+        /// Which page (`trial report`, `person report`).
+        page: &'static str,
+        /// The template engine's error, as text.
+        reason: String,
+    },
+    /// The input of the person report is not usable.
+    #[error("person report input: {0}")]
+    PersonInput(String),
 }
 
 impl ReportError {

@@ -163,18 +163,6 @@ fn max_of(lines: &[Line]) -> f64 {
         .fold(0.0, f64::max)
 }
 
-fn min_of(lines: &[Line]) -> f64 {
-    lines
-        .iter()
-        .flat_map(|l| {
-            l.points
-                .iter()
-                .map(|(_, m, s)| s.map_or(*m, |(lo, _)| lo.min(*m)))
-        })
-        .fold(f64::INFINITY, f64::min)
-        .max(0.0)
-}
-
 /// `n = 20` or, with stopped runs, `n = 20, 3 stopped`.
 fn n_text(arm: &ArmResult) -> String {
     let stopped = stopped_runs(arm).len();
@@ -307,7 +295,8 @@ pub fn fig6_mage(arms: &[ArmResult]) -> Result<String, ReportError> {
                     undefined += usize::from(wk.metrics.mage.is_none());
                 }
             }
-            let y_range = nice_range(min_of(&lines), max_of(&lines));
+            // From 0 mg/dL, as a reader expects.
+            let y_range = nice_range(0.0, max_of(&lines));
             draw_weekly_panel(
                 main,
                 &weeks,
@@ -488,8 +477,9 @@ fn draw_tdi_boxes(
         y_min = y_min.min(t.outliers.first().map_or(t.low, |o| o.min(t.low)));
         y_max = y_max.max(t.outliers.last().map_or(t.high, |o| o.max(t.high)));
     }
+    // From 0 U/day, as a reader expects.
     let y_range = if y_min.is_finite() {
-        nice_range(y_min.max(0.0), y_max)
+        nice_range(0.0, y_max)
     } else {
         (0.0, 1.0)
     };
@@ -535,17 +525,17 @@ pub fn fig_arms(arms: &[ArmResult]) -> Result<String, ReportError> {
     advisors.sort();
     advisors.dedup();
     let weeks = week_axis(&ordered);
-    // (metric, y floor, least y top)
-    let rows: [(Metric, f64, f64); 4] = [
-        (Metric::Tir70To180, 0.0, 100.0),
-        (Metric::Below70, 0.0, 2.0),
-        (Metric::Above180, 0.0, 10.0),
-        (Metric::TdiUPerDay, 0.0, 10.0),
+    // (metric, least y top); every y axis starts at 0
+    let rows: [(Metric, f64); 4] = [
+        (Metric::Tir70To180, 100.0),
+        (Metric::Below70, 2.0),
+        (Metric::Above180, 10.0),
+        (Metric::TdiUPerDay, 10.0),
     ];
     let title = "ABBA vs baselines - weekly time in ranges and insulin (mean over patients)";
     render_svg((1600, 1400), title, 80, FIG, |main, footer| {
         let panels = main.split_evenly((rows.len(), scenarios.len()));
-        for (r, (metric, lo_floor, hi_floor)) in rows.iter().enumerate() {
+        for (r, (metric, hi_floor)) in rows.iter().enumerate() {
             let label = metric.short_label();
             let mut per_scenario = Vec::new();
             for s in &scenarios {
@@ -561,22 +551,13 @@ pub fn fig_arms(arms: &[ArmResult]) -> Result<String, ReportError> {
                 .flatten()
                 .flat_map(|l| l.points.iter().map(|p| p.1))
                 .collect();
-            // TIR: zoomed on the data, up to 100 %; TDI: zoomed on the
-            // data; the others from 0 up to at least `hi_floor`.
-            let lo = all.iter().copied().fold(f64::INFINITY, f64::min);
+            // Every axis from 0, as a reader expects (TIR 0-100 %); the
+            // others up to at least `hi_floor`.
             let hi = all.iter().copied().fold(0.0, f64::max);
             let y_range = if *metric == Metric::Tir70To180 {
-                let lo = if lo.is_finite() {
-                    lo.min(90.0)
-                } else {
-                    *lo_floor
-                };
-                (nice_range(lo, 100.0).0.max(0.0), 100.0)
-            } else if *metric == Metric::TdiUPerDay && lo.is_finite() {
-                let (a, b) = nice_range(lo, hi);
-                (a.max(0.0), b)
+                (0.0, 100.0)
             } else {
-                nice_range(*lo_floor, hi.max(*hi_floor))
+                nice_range(0.0, hi.max(*hi_floor))
             };
             for (c, s) in scenarios.iter().enumerate() {
                 draw_weekly_panel(

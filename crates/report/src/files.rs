@@ -18,7 +18,7 @@ pub struct ReportFile {
 }
 
 /// File names of the report, in the order [`build_report`] produces them.
-pub const REPORT_FILES: [&str; 11] = [
+pub const REPORT_FILES: [&str; 12] = [
     "summary.json",
     "summary_notes.json",
     "table1.md",
@@ -30,6 +30,7 @@ pub const REPORT_FILES: [&str; 11] = [
     "fig_arms.svg",
     "manifest.json",
     "README.md",
+    "report.html",
 ];
 
 /// Builds every file of the report in memory (names as in [`REPORT_FILES`]).
@@ -49,7 +50,7 @@ pub fn build_report(
         .as_object_mut()
         .and_then(|o| o.remove("notes"))
         .unwrap_or(serde_json::Value::Null);
-    let files: [(&'static str, Vec<u8>); 11] = [
+    let files: [(&'static str, Vec<u8>); 12] = [
         ("summary.json", pretty_json(&summary, "summary.json")?),
         (
             "summary_notes.json",
@@ -73,6 +74,10 @@ pub fn build_report(
             pretty_json(&with_run(manifest, run), "manifest.json")?,
         ),
         ("README.md", readme().into_bytes()),
+        (
+            "report.html",
+            crate::html::trial_page::trial_report_html(arms, manifest, &[])?.into_bytes(),
+        ),
     ];
     Ok(files
         .into_iter()
@@ -103,6 +108,7 @@ fn readme() -> String {
          - `fig6_mage.svg`: weekly MAGE, ABBA arms (paper Fig. 6).\n\
          - `fig7_tdi.svg`: weekly total daily insulin, ABBA arms, box plots (paper Fig. 7).\n\
          - `fig_arms.svg`: ABBA against the standard-therapy and run-to-run baselines.\n\
+         - `report.html`: all of the above as one page (opens in any browser, prints on A4/Letter), with the cohort's glucose profile per arm at W1, W13 and W14.\n\
          - `manifest.json`: version, revision, seed, cohort, protocol, every knob, wall time.\n\n",
     );
     s.push_str(

@@ -9,6 +9,7 @@
 //! | `table1.md`, `table1.csv` | [`table1::table1_markdown`], [`table1::table1_csv`] (rows: [`table1::table1_rows`]) |
 //! | `patients.csv` | [`patients_csv::patients_csv`] |
 //! | `fig5_lbgi_hbgi.svg`, `fig6_mage.svg`, `fig7_tdi.svg`, `fig_arms.svg` | [`figures`] (data), drawn by [`chart`] |
+//! | `report.html` | [`html::trial_page::trial_report_html`] (the person report: [`html::person`]) |
 //! | `manifest.json` | the manifest passed in, with the run's facts ([`manifest`]) |
 //! | `traces/*.csv`, `traces/*.decisions.jsonl` | [`trace`] |
 //!
@@ -30,6 +31,7 @@ pub mod chart;
 pub mod error;
 pub mod figures;
 pub mod files;
+pub mod html;
 pub mod manifest;
 pub mod out_dir;
 pub mod patients_csv;

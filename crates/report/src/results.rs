@@ -91,6 +91,11 @@ pub struct WeekResult {
     pub metrics: GlucoseMetrics,
     /// Mean total insulin delivered per day over the window (U/day).
     pub tdi_u_per_day: f64,
+    /// Plasma glucose every 5 min from 00:00 of the first day (mg/dL), kept
+    /// for the Table I weeks (W1, W13, W14) only, for the cohort glucose
+    /// profiles of `report.html`; empty otherwise. Not serialized.
+    #[serde(skip)]
+    pub plasma_5min_mg_dl: Vec<f32>,
 }
 
 impl WeekResult {

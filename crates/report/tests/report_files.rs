@@ -72,6 +72,7 @@ fn week(name: &str, m: GlucoseMetrics, tdi: f64) -> WeekResult {
         last_day,
         metrics: m,
         tdi_u_per_day: tdi,
+        plasma_5min_mg_dl: Vec::new(),
     }
 }
 

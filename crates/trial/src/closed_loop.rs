@@ -12,7 +12,7 @@
 
 use crate::error::TrialError;
 use crate::protocol::{ArmKind, PlannedScenario, TrialConfig};
-use crate::results::{evaluation_windows, PatientResult, RunFailure, WeekResult};
+use crate::results::{evaluation_windows, PatientResult, RunFailure, Week, WeekResult};
 use abba_advisor::Advisor;
 use abba_core::metrics::metrics_regular;
 use abba_core::{derive_seed, Event, Stream, MINUTES_PER_DAY};
@@ -233,6 +233,11 @@ fn weeks(run: &LoopRun, context: &str) -> Result<Vec<WeekResult>, TrialError> {
             last_day: last,
             metrics,
             tdi_u_per_day: tdi,
+            plasma_5min_mg_dl: if Week::TABLE.contains(&name) {
+                run.glucose_mg_dl[a..b].iter().map(|g| *g as f32).collect()
+            } else {
+                Vec::new()
+            },
         });
     }
     Ok(weeks)

@@ -1,0 +1,172 @@
+//! The person store → the person report's input (`abba_report::html::person`):
+//! the last `days` days with data, read from the store's device events
+//! (on the advisor's clock: day 1 = the person's first day, local time) and
+//! its suggestion history.
+
+use abba_core::{EventKind, MINUTES_PER_DAY};
+use abba_report::html::person::{
+    MealTime, PersonDay, PersonReportInput, Reading, SettingsInForce, SuggestionLine,
+};
+use abba_report::html::units::GlucoseUnit;
+use abba_store::Store;
+use anyhow::{bail, Context, Result};
+
+/// Reads person `name` from `store`: the `days` days ending at the last day
+/// with data.
+pub fn person_input(
+    store: &mut Store,
+    name: &str,
+    days: u32,
+    unit: GlucoseUnit,
+) -> Result<PersonReportInput> {
+    if days == 0 {
+        bail!("--days must be at least 1");
+    }
+    let person = store.person(name)?;
+    let mode = person.mode();
+    let events = store.events(name)?;
+    let history = store.history(name)?;
+    let (Some(first_day), Some(last)) = (person.first_day, events.last()) else {
+        bail!("person '{name}' has no data yet: import a device export with `abba import`");
+    };
+    let last_index = last.at.day_index();
+    let first_index = (last_index - i64::from(days) + 1).max(events[0].at.day_index());
+    let n = (last_index - first_index + 1) as usize;
+    let date = |i: i64| -> Result<String> {
+        Ok(first_day
+            .checked_add(jiff::Span::new().days(i))
+            .with_context(|| format!("day {} of person '{name}' is not a date", i + 1))?
+            .to_string())
+    };
+    let mut out = Vec::with_capacity(n);
+    for k in 0..n as i64 {
+        out.push(PersonDay {
+            date: date(first_index + k)?,
+            readings: Vec::new(),
+            settings: None,
+            basal_u: Some(0.0),
+            bolus_u: Some(0.0),
+            carbs_g: Some(0.0),
+            meals: Vec::new(),
+        });
+    }
+    // Basal delivered: the rate in force, minute by minute (the starting
+    // basal until the first rate event).
+    let mut rate = person.settings.start.basal.0;
+    let mut rate_since = first_index * MINUTES_PER_DAY;
+    let add_basal = |out: &mut Vec<PersonDay>, from: i64, to: i64, rate: f64| {
+        let mut t = from.max(first_index * MINUTES_PER_DAY);
+        while t < to {
+            let day = t.div_euclid(MINUTES_PER_DAY);
+            let end = to.min((day + 1) * MINUTES_PER_DAY);
+            if let Some(d) = out.get_mut((day - first_index) as usize) {
+                *d.basal_u.get_or_insert(0.0) += rate * (end - t) as f64 / 60.0;
+            }
+            t = end;
+        }
+    };
+    for e in &events {
+        let t = e.at.minutes();
+        let Some(k) = usize::try_from(e.at.day_index() - first_index).ok() else {
+            if let EventKind::BasalRate(r) = e.kind {
+                rate = r.0;
+            }
+            continue;
+        };
+        let day = &mut out[k];
+        let minute_of_day = e.at.minute_of_day() as u32;
+        match e.kind {
+            EventKind::Cgm(g) if mode == abba_advisor::Mode::Cgm => day.readings.push(Reading {
+                at_s: t * 60,
+                minute_of_day,
+                mg_dl: g.0,
+            }),
+            EventKind::Smbg(g) if mode == abba_advisor::Mode::Smbg => day.readings.push(Reading {
+                at_s: t * 60,
+                minute_of_day,
+                mg_dl: g.0,
+            }),
+            EventKind::MealAnnounced { carbs, slot } => {
+                *day.carbs_g.get_or_insert(0.0) += carbs.0;
+                day.meals.push(MealTime {
+                    at_s: t * 60,
+                    minute_of_day,
+                    slot,
+                    carbs_g: Some(carbs.0),
+                });
+            }
+            EventKind::Bolus(u) => *day.bolus_u.get_or_insert(0.0) += u.0,
+            EventKind::BasalRate(r) => {
+                add_basal(&mut out, rate_since, t, rate);
+                rate = r.0;
+                rate_since = t;
+            }
+            _ => {}
+        }
+    }
+    add_basal(
+        &mut out,
+        rate_since,
+        (last_index + 1) * MINUTES_PER_DAY,
+        rate,
+    );
+
+    // Settings in force by day: the start, then each answered suggestion's
+    // value from the day it is for.
+    let mut settings = person.settings.start;
+    let mut views = history.iter().filter(|v| !v.no_update).peekable();
+    let mut suggestions = Vec::new();
+    for k in 0..n as i64 {
+        let day_number = first_index + k + 1;
+        while let Some(v) = views.next_if(|v| v.day <= day_number) {
+            let value = v.in_force;
+            match v.setting {
+                "basal" => settings.basal.0 = value,
+                "breakfast" => settings.carb_ratio[0].0 = value,
+                "lunch" => settings.carb_ratio[1].0 = value,
+                "dinner" => settings.carb_ratio[2].0 = value,
+                _ => {}
+            }
+            if v.day > first_index {
+                suggestions.push(line(v));
+            }
+        }
+        out[k as usize].settings = Some(SettingsInForce {
+            basal_u_per_h: settings.basal.0,
+            carb_ratio_g_per_u: settings.carb_ratio.map(|c| c.0),
+        });
+    }
+    Ok(PersonReportInput {
+        person: name.to_string(),
+        mode,
+        unit,
+        days: out,
+        suggestions,
+    })
+}
+
+/// A suggestion in words.
+fn line(v: &abba_store::advise::SuggestionView) -> SuggestionLine {
+    let setting = match v.setting {
+        "basal" => "basal rate".to_string(),
+        meal => format!("carb ratio ({meal})"),
+    };
+    let answer = match v.status.as_str() {
+        "open" => "not answered yet".to_string(),
+        "overridden" => format!("set to {:.3} {}", v.in_force, v.unit),
+        "superseded" => "not answered before the next suggestion (taken as followed)".to_string(),
+        other => other.to_string(),
+    };
+    let mut reason = v.reasons.join(" ");
+    if reason.is_empty() {
+        reason.clone_from(&v.data);
+    }
+    SuggestionLine {
+        when: v.decided_at.clone(),
+        setting,
+        from: format!("{:.3} {}", v.previous, v.unit),
+        to: format!("{:.3} {} ({:+.1} %)", v.suggested, v.unit, v.change_percent),
+        reason,
+        answer,
+    }
+}

@@ -1,0 +1,101 @@
+//! `abba report`: a person's AGP-style report as one self-contained HTML
+//! page (and, with `--pdf`, a PDF printed by headless Chromium).
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use abba_report::html::person::person_report_html;
+use abba_report::html::units::GlucoseUnit;
+use abba_store::Store;
+use anyhow::{bail, Context, Result};
+
+/// Arguments of `abba report`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// The store file.
+    #[arg(long, value_name = "FILE")]
+    pub db: PathBuf,
+    /// The person.
+    #[arg(long, value_name = "NAME")]
+    pub person: String,
+    /// Days in the report, ending at the last day with data.
+    #[arg(long, default_value_t = 14, value_name = "N")]
+    pub days: u32,
+    /// Glucose unit of the page: mg/dL or mmol/L.
+    #[arg(long, default_value = "mg/dL", value_name = "UNIT")]
+    pub units: GlucoseUnit,
+    /// The HTML file to write.
+    #[arg(long, value_name = "FILE")]
+    pub out: PathBuf,
+    /// Also print the page to PDF (same name, .pdf) with headless Chromium.
+    #[arg(long)]
+    pub pdf: bool,
+}
+
+/// Runs `abba report`.
+pub fn run(a: Args) -> Result<()> {
+    if !a.db.is_file() {
+        bail!("--db {}: no such store file", a.db.display());
+    }
+    let mut store = Store::open(&a.db).with_context(|| format!("opening {}", a.db.display()))?;
+    let input = crate::person_report::person_input(&mut store, &a.person, a.days, a.units)?;
+    let html = person_report_html(&input)?;
+    std::fs::write(&a.out, &html).with_context(|| format!("cannot write {}", a.out.display()))?;
+    eprintln!(
+        "abba report: {} ({} days, {} suggestions) written to {} ({} bytes)",
+        a.person,
+        input.days.len(),
+        input.suggestions.len(),
+        a.out.display(),
+        html.len()
+    );
+    if a.pdf {
+        let pdf = a.out.with_extension("pdf");
+        print_pdf(&a.out, &pdf)?;
+        eprintln!("abba report: PDF written to {}", pdf.display());
+    }
+    Ok(())
+}
+
+/// Prints `page` to `pdf` with Debian's chromium (headless, no network).
+fn print_pdf(page: &Path, pdf: &Path) -> Result<()> {
+    let browser = ["chromium", "chromium-browser", "google-chrome"]
+        .into_iter()
+        .find(|b| {
+            Command::new(b)
+                .arg("--version")
+                .output()
+                .is_ok_and(|o| o.status.success())
+        })
+        .context("--pdf needs Chromium (apt-get install chromium); the HTML page was written")?;
+    let profile = std::env::temp_dir().join(format!("abba-pdf-{}", std::process::id()));
+    let page = std::fs::canonicalize(page)?;
+    let status = Command::new(browser)
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-quic",
+            "--no-first-run",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--no-pdf-header-footer",
+        ])
+        .arg(format!("--user-data-dir={}", profile.display()))
+        .arg(format!("--print-to-pdf={}", pdf.display()))
+        .arg(format!("file://{}", page.display()))
+        .output()
+        .context("running chromium")?;
+    let _ = std::fs::remove_dir_all(&profile);
+    if !status.status.success() || !pdf.is_file() {
+        bail!(
+            "chromium could not print {} to PDF: {}",
+            page.display(),
+            String::from_utf8_lossy(&status.stderr)
+                .lines()
+                .last()
+                .unwrap_or("")
+        );
+    }
+    Ok(())
+}

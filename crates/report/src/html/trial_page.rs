@@ -1,0 +1,337 @@
+//! The trial report as one page (`report.html`): the run's facts, Table I
+//! beside the paper's, the figures, the arms side by side, the stopped
+//! runs, any extra section the trial adds (the W1 sensitivity block), and
+//! an AGP-style page per arm: the cohort's pooled glucose percentiles by
+//! time of day at W1, W13 and W14.
+
+use abba_core::metrics::metrics_regular;
+use abba_core::Metric;
+use serde::Serialize;
+use serde_json::Value;
+
+use crate::error::ReportError;
+use crate::figures;
+use crate::html::profile::{time_of_day_profile, ProfileBin};
+use crate::html::svg::{accessible_svg, profile_svg, tir_bar_svg};
+use crate::html::units::GlucoseUnit;
+use crate::html::{render_page, HtmlSection, Row};
+use crate::results::{ArmResult, Week};
+use crate::select::{failure_time, metric_column, ordered_arms, stopped_runs, validate_arms};
+use crate::stats::summarize_present;
+use crate::table1::{format_p, table1_rows, TABLE1_METRICS};
+
+/// Minutes between the plasma glucose samples kept in [`crate::WeekResult`].
+pub const SAMPLE_MIN: u32 = 5;
+/// Width of the cohort profile's time-of-day bins (minutes).
+pub const COHORT_BIN_MIN: u32 = 15;
+
+/// The cohort profile of one arm in one week.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CohortWeekProfile {
+    /// The week.
+    pub week: Week,
+    /// Patients whose samples are pooled.
+    pub n_patients: usize,
+    /// All samples pooled (mg/dL).
+    pub n_samples: usize,
+    /// The percentiles by time of day.
+    pub profile: Vec<ProfileBin>,
+    /// The five consensus ranges of the pooled samples (%), lowest first.
+    pub ranges_pct: [f64; 5],
+}
+
+/// The pooled profile of `arm` in `week`, from the 5-min plasma glucose the
+/// results keep for the Table I weeks (`None` if no patient has them).
+pub fn cohort_profile(
+    arm: &ArmResult,
+    week: Week,
+) -> Result<Option<CohortWeekProfile>, ReportError> {
+    let series: Vec<&[f32]> = arm
+        .patients
+        .iter()
+        .filter_map(|p| p.week(week))
+        .map(|w| w.plasma_5min_mg_dl.as_slice())
+        .filter(|s| !s.is_empty())
+        .collect();
+    if series.is_empty() {
+        return Ok(None);
+    }
+    let pooled: Vec<(u32, f64)> = series
+        .iter()
+        .flat_map(|s| {
+            s.iter()
+                .enumerate()
+                .map(|(i, g)| ((i as u32 * SAMPLE_MIN) % 1440, f64::from(*g)))
+        })
+        .collect();
+    let values: Vec<f64> = pooled.iter().map(|p| p.1).collect();
+    let m = metrics_regular(&values).map_err(|source| ReportError::Stats {
+        what: format!("arm {}, week {week}: pooled glucose", arm.key()),
+        source,
+    })?;
+    Ok(Some(CohortWeekProfile {
+        week,
+        n_patients: series.len(),
+        n_samples: values.len(),
+        profile: time_of_day_profile(pooled, COHORT_BIN_MIN),
+        ranges_pct: [
+            m.below_54,
+            m.below_70 - m.below_54,
+            m.tir_70_180,
+            m.above_180 - m.above_250,
+            m.above_250,
+        ],
+    }))
+}
+
+fn mean_sd(s: &crate::stats::Summary, decimals: usize) -> String {
+    match s.sd {
+        Some(sd) => format!("{:.decimals$} ± {:.decimals$}", s.mean, sd),
+        None => format!("{:.decimals$}", s.mean),
+    }
+}
+
+fn decimals(metric: Metric) -> usize {
+    match metric {
+        Metric::Lbgi | Metric::Hbgi => 2,
+        _ => 1,
+    }
+}
+
+#[derive(Serialize)]
+struct Figure {
+    svg: String,
+    caption: String,
+}
+
+#[derive(Serialize)]
+struct ArmAgp {
+    key: String,
+    heading: String,
+    weeks: Vec<Figure>,
+}
+
+#[derive(Serialize)]
+struct ScenarioTable {
+    scenario: String,
+    headers: Vec<String>,
+    rows: Vec<Row>,
+}
+
+fn facts(manifest: &Value) -> Vec<Row> {
+    let get = |path: &str| {
+        manifest.pointer(path).map(|v| match v {
+            Value::String(s) => s.clone(),
+            other => other.to_string(),
+        })
+    };
+    [
+        ("Version", "/version"),
+        ("Git revision", "/git_revision"),
+        ("Seed", "/seed"),
+        ("Patients", "/cohort/patients"),
+        ("Population", "/cohort/population"),
+        ("Days", "/protocol/days"),
+        ("Scenarios", "/protocol/scenarios"),
+        ("Arms", "/protocol/arms"),
+    ]
+    .into_iter()
+    .filter_map(|(k, p)| get(p).map(|v| Row::of([k, &v])))
+    .collect()
+}
+
+/// The trial report page. `manifest` is the run's manifest (what ran);
+/// `extra` sections are placed after the stopped runs.
+pub fn trial_report_html(
+    arms: &[ArmResult],
+    manifest: &Value,
+    extra: &[HtmlSection],
+) -> Result<String, ReportError> {
+    validate_arms(arms)?;
+    let table1: Vec<Row> = table1_rows(arms)?
+        .iter()
+        .map(|r| {
+            let d = decimals(r.metric);
+            Row::of([
+                &format!("{}/{} ({})", r.scenario, r.advisor, r.mode.name()),
+                r.week.name(),
+                r.metric.label(),
+                &mean_sd(&r.ours, d),
+                &format!(
+                    "{:.d$} [{:.d$}, {:.d$}]",
+                    r.ours.median, r.ours.q1, r.ours.q3
+                ),
+                &r.paper
+                    .as_ref()
+                    .map_or_else(|| "—".into(), |p| format!("{:.d$} ± {:.d$}", p.mean, p.sd)),
+                &r.p_vs_w1.map_or_else(|| "—".into(), format_p),
+                &r.anchor.map_or_else(
+                    || "—".into(),
+                    |a| {
+                        format!(
+                            "{} ({})",
+                            a.text,
+                            if a.holds(r.ours.mean) {
+                                "holds"
+                            } else {
+                                "does not hold"
+                            }
+                        )
+                    },
+                ),
+            ])
+        })
+        .collect();
+
+    let figs = [
+        (
+            "fig5",
+            figures::fig5_lbgi_hbgi(arms)?,
+            "Figure 5: weekly LBGI and HBGI, ABBA arms",
+            "Weekly low and high blood glucose indices of the ABBA arms, mean over patients, by scenario (paper Fig. 5).",
+        ),
+        (
+            "fig6",
+            figures::fig6_mage(arms)?,
+            "Figure 6: weekly MAGE, ABBA arms",
+            "Weekly mean amplitude of glycaemic excursions (mg/dL) of the ABBA arms, mean over patients (paper Fig. 6).",
+        ),
+        (
+            "fig7",
+            figures::fig7_tdi(arms)?,
+            "Figure 7: weekly total daily insulin, ABBA arms",
+            "Box plots over patients of the weekly mean total daily insulin (U/day) of the ABBA arms (paper Fig. 7).",
+        ),
+        (
+            "figarms",
+            figures::fig_arms(arms)?,
+            "ABBA against the baselines",
+            "Weekly time in 70-180 mg/dL and insulin, mean over patients, for ABBA, standard therapy and run-to-run in each scenario.",
+        ),
+    ];
+    let figures: Vec<Figure> = figs
+        .into_iter()
+        .map(|(id, svg, title, desc)| Figure {
+            svg: accessible_svg(&svg, id, title, desc),
+            caption: desc.to_string(),
+        })
+        .collect();
+
+    let ordered = ordered_arms(arms);
+    let mut scenarios: Vec<ScenarioTable> = Vec::new();
+    for scenario in abba_core::ScenarioId::ALL {
+        let group: Vec<&&ArmResult> = ordered.iter().filter(|a| a.scenario == scenario).collect();
+        if group.is_empty() {
+            continue;
+        }
+        let mut headers = vec!["Metric".to_string(), "Week".to_string()];
+        headers.extend(group.iter().map(|a| format!("{} (mean ± SD)", a.advisor)));
+        let mut rows = Vec::new();
+        for metric in
+            TABLE1_METRICS
+                .into_iter()
+                .chain([Metric::MeanMgDl, Metric::CvPct, Metric::TdiUPerDay])
+        {
+            for week in Week::TABLE {
+                let mut cells = vec![
+                    format!("{} ({})", metric.label(), metric.unit().symbol()),
+                    week.name().to_string(),
+                ];
+                let mut any = false;
+                for arm in &group {
+                    let s =
+                        summarize_present(&metric_column(arm, week, metric)).map_err(|source| {
+                            ReportError::Stats {
+                                what: format!("arm {}, week {week}, metric {metric}", arm.key()),
+                                source,
+                            }
+                        })?;
+                    any |= s.is_some();
+                    cells.push(s.map_or_else(|| "—".into(), |s| mean_sd(&s, decimals(metric))));
+                }
+                if any {
+                    rows.push(Row { cells });
+                }
+            }
+        }
+        scenarios.push(ScenarioTable {
+            scenario: scenario.to_string(),
+            headers,
+            rows,
+        });
+    }
+
+    let stopped: Vec<Row> = ordered
+        .iter()
+        .flat_map(|arm| {
+            stopped_runs(arm).into_iter().map(move |(patient, f)| {
+                Row::of([
+                    &arm.key(),
+                    patient,
+                    &failure_time(&f),
+                    &format!("{:.1} mg/dL", f.glucose_mg_dl),
+                ])
+            })
+        })
+        .collect();
+
+    let mut agp = Vec::new();
+    for (i, arm) in ordered.iter().enumerate() {
+        let mut weeks = Vec::new();
+        for week in Week::TABLE {
+            if let Some(c) = cohort_profile(arm, week)? {
+                let (a, b) = week.days();
+                let title = format!(
+                    "{} {} (D{a}-D{b}), {} patients",
+                    arm.key(),
+                    week,
+                    c.n_patients
+                );
+                weeks.push(Figure {
+                    svg: profile_svg(
+                        &format!("agp{i}{week}"),
+                        &c.profile,
+                        GlucoseUnit::MgDl,
+                        &title,
+                    ),
+                    caption: format!(
+                        "{week}: pooled percentiles of plasma glucose every 5 min over {} samples.",
+                        c.n_samples
+                    ),
+                });
+                weeks.push(Figure {
+                    svg: tir_bar_svg(
+                        &format!("tir{i}{week}"),
+                        c.ranges_pct,
+                        &format!("{} {week}: time in ranges", arm.key()),
+                        GlucoseUnit::MgDl,
+                    ),
+                    caption: format!("{week}: % of pooled samples in the consensus ranges."),
+                });
+            }
+        }
+        if !weeks.is_empty() {
+            agp.push(ArmAgp {
+                key: arm.key(),
+                heading: format!(
+                    "{} ({} mode): cohort glucose profile",
+                    arm.key(),
+                    arm.mode.name()
+                ),
+                weeks,
+            });
+        }
+    }
+
+    let ctx = minijinja::context! {
+        title => "abba in-silico trial report",
+        facts => facts(manifest),
+        table1 => table1,
+        figures => figures,
+        scenarios => scenarios,
+        stopped => stopped,
+        extra => extra,
+        agp => agp,
+    };
+    render_page("trial.html", "trial report", ctx)
+}

@@ -150,27 +150,6 @@ impl SettingValue {
     }
 }
 
-impl EventKind {
-    /// A short name for messages ("CGM reading", "temporary basal", ...).
-    pub fn name(&self) -> &'static str {
-        match self {
-            EventKind::Cgm(_) => "CGM reading",
-            EventKind::Smbg(_) => "SMBG reading",
-            EventKind::MealAnnounced { .. } => "meal announcement",
-            EventKind::Bolus(_) => "bolus",
-            EventKind::BasalRate(_) => "basal rate",
-            EventKind::DayClosed => "day closed",
-            EventKind::TempBasal { .. } => "temporary basal",
-            EventKind::Suspend => "suspend",
-            EventKind::Resume => "resume",
-            EventKind::ExtendedBolus { .. } => "extended bolus",
-            EventKind::SuggestionAccepted(_) => "suggestion accepted",
-            EventKind::SuggestionRejected(_) => "suggestion rejected",
-            EventKind::SuggestionOverridden(_) => "suggestion overridden",
-        }
-    }
-}
-
 /// An event with its time.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Event {

@@ -263,6 +263,10 @@ struct StoredWeek {
     mage: Option<f64>,
     n_readings: usize,
     tdi_u_per_day: f64,
+    /// 5-minute plasma glucose of W1, W13 and W14 (for the cohort profiles
+    /// of `report.html`; empty for other weeks).
+    #[serde(default)]
+    plasma_5min_mg_dl: Vec<f32>,
 }
 
 impl From<&PatientResult> for StoredPatient {
@@ -298,6 +302,7 @@ impl From<&PatientResult> for StoredPatient {
                         mage: m.mage,
                         n_readings: m.n_readings,
                         tdi_u_per_day: w.tdi_u_per_day,
+                        plasma_5min_mg_dl: w.plasma_5min_mg_dl.clone(),
                     }
                 })
                 .collect(),
@@ -347,6 +352,7 @@ impl StoredPatient {
                             n_readings: w.n_readings,
                         },
                         tdi_u_per_day: w.tdi_u_per_day,
+                        plasma_5min_mg_dl: w.plasma_5min_mg_dl.clone(),
                     }
                 })
                 .collect(),

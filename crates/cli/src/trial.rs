@@ -150,24 +150,13 @@ pub fn run(args: Args) -> Result<()> {
         git_revision: env!("ABBA_GIT_REV"),
     };
     let written = plan.write(&output, &tool, &run)?;
-    // W1 sensitivity block: the standard arm's W1 with each variability source off.
-    let first = output.config.scenarios[0];
-    let w1 = abba_trial::w1_sensitivity::w1_sensitivity(&output.config, first)?;
-    let w1_path = args.out.join("w1_sensitivity.md");
-    std::fs::write(
-        &w1_path,
-        abba_trial::w1_sensitivity::w1_markdown(first, &w1),
-    )
-    .with_context(|| format!("cannot write {}", w1_path.display()))?;
-    // report.html again, now with the W1 block (computed after the report).
-    let html = abba_report::html::trial_page::trial_report_html(
-        &output.arms,
-        &abba_trial::report::trial_manifest(&output, &tool),
-        &[abba_trial::w1_sensitivity::w1_html_section(first, &w1)],
-    )?;
-    let html_path = args.out.join("report.html");
-    std::fs::write(&html_path, html)
-        .with_context(|| format!("cannot write {}", html_path.display()))?;
+    // The W1 sensitivity block (the standard arm's W1 with each variability
+    // source off): w1_sensitivity.md, and report.html again with the block.
+    for file in abba_trial::w1_sensitivity::w1_report_files(&output, &tool)? {
+        let path = args.out.join(file.name);
+        std::fs::write(&path, &file.bytes)
+            .with_context(|| format!("cannot write {}", path.display()))?;
+    }
     if !args.quiet {
         eprintln!(
             "abba trial: {} patient-runs in {:.1} s; report in {} ({} files{})",

@@ -30,7 +30,13 @@ fn report<'py>(
         git_revision: env!("ABBA_GIT_REV"),
     };
     let manifest = abba_trial::report::trial_manifest(output, &tool);
-    let files = abba_report::build_report(&output.arms, &manifest, None).map_err(value_error)?;
+    let mut files =
+        abba_report::build_report(&output.arms, &manifest, None).map_err(value_error)?;
+    // The W1 block as `abba trial` writes it (w1_sensitivity.md, report.html with the block).
+    for extra in abba_trial::w1_sensitivity::w1_report_files(output, &tool).map_err(value_error)? {
+        files.retain(|f| f.name != extra.name);
+        files.push(extra);
+    }
     Ok(files
         .into_iter()
         .map(|f| (f.name.to_string(), PyBytes::new(py, &f.bytes)))

@@ -187,9 +187,9 @@ pub fn simulate<A: Advisor>(
                     person.suggest(settings).map_err(sim)?;
                 }
             }
-            let record = person.finish_minute().map_err(sim)?;
+            person.end_minute().map_err(sim)?;
             if let Some(t) = trace.minutes.as_mut() {
-                t.push(record);
+                t.push(*person.last_record());
             }
         }
         run.daily_insulin_u[day] = person.insulin_delivered().0 - insulin_at_midnight;

@@ -320,6 +320,10 @@ pub struct Pump {
     steps: Steps,
     now: Timestamp,
     basal_steps: u64,
+    /// `basal_steps` as U/h and as U/min, computed once per change of the
+    /// rate (the same divisions `insulin_for_minute` would do each minute).
+    basal_u_per_h: f64,
+    basal_u_per_min: f64,
     pending_bolus_steps: u64,
     delivered_bolus_steps: u64,
     /// Sum over elapsed minutes of the basal rate in steps (U/h steps × min).
@@ -336,6 +340,8 @@ impl Pump {
             steps,
             now: start,
             basal_steps: 0,
+            basal_u_per_h: 0.0,
+            basal_u_per_min: 0.0,
             pending_bolus_steps: 0,
             delivered_bolus_steps: 0,
             delivered_basal_step_minutes: 0,
@@ -375,6 +381,9 @@ impl Pump {
             Rounding::NearestTiesEven,
         );
         self.basal_steps = n;
+        self.basal_u_per_h = n as f64 / self.steps.basal_per_u_per_h as f64;
+        self.basal_u_per_min =
+            n as f64 / (self.steps.basal_per_u_per_h as f64 * MINUTES_PER_HOUR);
         let set = self.basal_rate();
         self.events
             .push(Event::new(self.now, EventKind::BasalRate(set)));
@@ -421,13 +430,16 @@ impl Pump {
         self.delivered_bolus_steps += bolus_steps;
         self.delivered_basal_step_minutes += self.basal_steps;
         self.now = self.now.plus(1);
-        self.basal_steps as f64 / (self.steps.basal_per_u_per_h as f64 * MINUTES_PER_HOUR)
-            + bolus_steps as f64 / self.steps.bolus_per_u as f64
+        if bolus_steps == 0 {
+            // basal + 0/n: adding +0.0 to a rate >= 0 changes no bit.
+            return self.basal_u_per_min;
+        }
+        self.basal_u_per_min + bolus_steps as f64 / self.steps.bolus_per_u as f64
     }
 
     /// The basal rate in force.
     pub fn basal_rate(&self) -> UnitsPerHour {
-        UnitsPerHour(self.basal_steps as f64 / self.steps.basal_per_u_per_h as f64)
+        UnitsPerHour(self.basal_u_per_h)
     }
 
     /// Bolus insulin programmed but not yet delivered.

@@ -106,11 +106,12 @@ fn step_group(
     let quiet_n = solver.substeps.max(1);
     let busy_n = solver.busy_substeps.max(1);
     for (l, p) in group.iter_mut().enumerate() {
-        u[l] = p.begin_minute(
+        p.begin_minute(
             rates[l].cho_g_per_min,
             rates[l].insulin_u_per_min,
             sensitivity[l],
         )?;
+        u[l] = *p.minute_input();
         busy[l] = solver.substeps_for(&p.consts, &u[l], &p.x) == busy_n && busy_n != quiet_n;
     }
     let ul = MinuteInput::gather(std::array::from_fn(|l| &u[l]));

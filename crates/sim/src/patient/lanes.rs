@@ -28,6 +28,11 @@ pub trait Real:
     /// `a` where `self == 0`, else `b()` (per lane). One patient
     /// evaluates `b` only when it is chosen; lanes evaluate it once for all.
     fn if_zero(self, a: Self, b: impl FnOnce() -> Self) -> Self;
+    /// `a` where `self == 0`, else `b` (per lane), both already computed.
+    fn select_zero(self, a: Self, b: Self) -> Self;
+    /// True when [`Real::if_zero`] evaluates its alternative for every
+    /// value anyway (lanes): callers then compute it inline.
+    const EAGER: bool;
     /// 0 where `mass < 0`, else `self` (the model's sign guards).
     fn unless_negative(self, mass: Self) -> Self;
     /// max(self, 0) as `f64::max`.
@@ -39,6 +44,15 @@ pub trait Real:
 }
 
 impl Real for f64 {
+    const EAGER: bool = false;
+    #[inline(always)]
+    fn select_zero(self, a: Self, b: Self) -> Self {
+        if self == 0.0 {
+            a
+        } else {
+            b
+        }
+    }
     #[inline(always)]
     fn splat(v: f64) -> Self {
         v
@@ -141,6 +155,12 @@ impl<const W: usize> Neg for Lanes<W> {
 }
 
 impl<const W: usize> Real for Lanes<W> {
+    const EAGER: bool = true;
+    #[inline(always)]
+    fn select_zero(self, a: Self, b: Self) -> Self {
+        let mask = self.0.map(|x| x == 0.0);
+        Self::select(mask, a, b)
+    }
     #[inline(always)]
     fn splat(v: f64) -> Self {
         Self([v; W])

@@ -180,6 +180,7 @@ impl<const W: usize> MinuteInput<Lanes<W>> {
             MinuteInput {
                 meal_mg_per_min,
                 insulin_pmol_per_kg_min,
+                insulin_u_per_min,
                 dbar_mg,
                 sensitivity,
                 alpha,
@@ -247,6 +248,8 @@ pub struct MinuteInput<T = f64> {
     pub meal_mg_per_min: T,
     /// Subcutaneous insulin input IIR = u·6000/BW (pmol/kg/min), u in U/min.
     pub insulin_pmol_per_kg_min: T,
+    /// The insulin rate u (U/min) that IIR was computed from.
+    pub insulin_u_per_min: T,
     /// Dbar of the gastric-emptying law (mg); 0 before the first meal.
     pub dbar_mg: T,
     /// Insulin-sensitivity multiplier s(t) on Vmx and kp3 (1 = nominal).
@@ -270,6 +273,42 @@ pub struct MinuteInput<T = f64> {
 }
 
 impl MinuteInput {
+    /// The input of the next minute from this one's, recomputing only what
+    /// changed: the kempt slopes when Dbar moved, the insulin input when
+    /// the rate moved (most minutes neither does). Equal, bit for bit, to
+    /// [`MinuteInput::new`] with the same arguments when `self` was made by
+    /// it (or by this function) with the same `c`.
+    #[inline]
+    pub fn next(
+        &self,
+        c: &ModelConsts,
+        cho_g_per_min: f64,
+        insulin_u_per_min: f64,
+        dbar_mg: f64,
+        sensitivity: f64,
+    ) -> Self {
+        let mut u = *self;
+        if dbar_mg.to_bits() != self.dbar_mg.to_bits() {
+            let fresh = Self::new(c, 0.0, 0.0, dbar_mg, 1.0);
+            u.dbar_mg = dbar_mg;
+            u.alpha = fresh.alpha;
+            u.beta = fresh.beta;
+            u.two_alpha = fresh.two_alpha;
+            u.two_beta = fresh.two_beta;
+            u.b_dbar = fresh.b_dbar;
+            u.d_dbar = fresh.d_dbar;
+        }
+        if insulin_u_per_min.to_bits() != self.insulin_u_per_min.to_bits() {
+            u.insulin_u_per_min = insulin_u_per_min;
+            u.insulin_pmol_per_kg_min = insulin_u_per_min * PMOL_PER_UNIT / c.bw;
+        }
+        u.meal_mg_per_min = MG_PER_G * cho_g_per_min;
+        u.sensitivity = sensitivity;
+        u.s_kp3 = sensitivity * c.kp3;
+        u.s_vmx = sensitivity * c.vmx;
+        u
+    }
+
     /// Converts the per-minute rates of the public interface (g/min, U/min).
     pub fn new(
         c: &ModelConsts,
@@ -289,6 +328,7 @@ impl MinuteInput {
         Self {
             meal_mg_per_min: MG_PER_G * cho_g_per_min,
             insulin_pmol_per_kg_min: insulin_u_per_min * PMOL_PER_UNIT / c.bw,
+            insulin_u_per_min,
             dbar_mg,
             sensitivity,
             alpha,
@@ -346,7 +386,11 @@ pub fn derivatives<T: Real>(c: &ModelConsts<T>, u: &MinuteInput<T>, x: &[T; 13])
     let q_sto = x[Q_STO1] + x[Q_STO2];
     // With an empty second compartment kempt is taken as kmax (it
     // multiplies Qsto2 only).
-    let kempt = x[Q_STO2].if_zero(c.kmax, || k_empt(c, u, q_sto));
+    let kempt = if T::EAGER {
+        x[Q_STO2].select_zero(c.kmax, k_empt(c, u, q_sto))
+    } else {
+        x[Q_STO2].if_zero(c.kmax, || k_empt(c, u, q_sto))
+    };
     let d_q_sto1 = -c.kmax * x[Q_STO1] + u.meal_mg_per_min;
     let d_q_sto2 = c.kmax * x[Q_STO1] - kempt * x[Q_STO2];
     let d_q_gut = kempt * x[Q_STO2] - c.kabs * x[Q_GUT];

@@ -107,6 +107,12 @@ pub struct VirtualPerson {
     /// Pump requests capped at the pump's maximum.
     capped: u32,
     now: Timestamp,
+    /// `now` as minute of the day and day index, and whether the app is in
+    /// use on that day, kept as `now` advances (read several times a
+    /// minute; cheaper than dividing each time).
+    minute_of_day: u32,
+    day_index: i64,
+    app_today: bool,
     phase: Phase,
     outbox: VecDeque<Event>,
     bedtime_reading: bool,
@@ -144,6 +150,7 @@ impl VirtualPerson {
         let start = vp.therapy;
         let capped = u32::from(pump.set_basal(start.basal)?.capped);
         pump.drain_events().for_each(drop);
+        let app_today = behaviour.app_from_day <= 1;
         Ok(Self {
             name: vp.params.name.clone(),
             patient: Patient::new(vp.params.clone())?,
@@ -159,6 +166,9 @@ impl VirtualPerson {
             requested_basal: start.basal,
             capped,
             now: Timestamp(0),
+            minute_of_day: 0,
+            day_index: 0,
+            app_today,
             phase: Phase::Idle,
             outbox: VecDeque::with_capacity(8),
             bedtime_reading: false,
@@ -212,6 +222,9 @@ impl VirtualPerson {
 
     /// The app is in use at `at`.
     fn app_on(&self, at: Timestamp) -> bool {
+        if at == self.now {
+            return self.app_today;
+        }
         at.day_index() + 1 >= i64::from(self.behaviour.app_from_day)
     }
 
@@ -223,9 +236,9 @@ impl VirtualPerson {
                 self.name, self.now
             )));
         }
-        let m = self.now.minute_of_day() as usize;
+        let m = self.minute_of_day as usize;
         if m == 0 || self.plan.is_none() {
-            let day = u32::try_from(self.now.day_index()).map_err(|_| {
+            let day = u32::try_from(self.day_index).map_err(|_| {
                 SimError::Config(format!("{}: minute {} is before D1", self.name, self.now))
             })?;
             let plan = self.generator.day(day);
@@ -250,20 +263,22 @@ impl VirtualPerson {
             if let Some(e) = self.outbox.pop_front() {
                 return Ok(Some(e));
             }
-            let share = self.app_on(self.now);
-            for e in self.pump.drain_events() {
-                if share {
-                    self.outbox.push_back(e);
+            if !self.pump.events().is_empty() {
+                let share = self.app_today;
+                for e in self.pump.drain_events() {
+                    if share {
+                        self.outbox.push_back(e);
+                    }
                 }
-            }
-            if !self.outbox.is_empty() {
-                continue;
+                if !self.outbox.is_empty() {
+                    continue;
+                }
             }
             let Some(plan) = self.plan.as_ref() else {
                 return Ok(None);
             };
             let now = self.now;
-            let m = now.minute_of_day() as u32;
+            let m = self.minute_of_day;
             match self.phase {
                 Phase::Idle | Phase::Done => return Ok(None),
                 Phase::Readings => {
@@ -341,11 +356,11 @@ impl VirtualPerson {
     /// Whether the app closes a day at this minute.
     fn day_closes(&self) -> bool {
         let first = i64::from(self.behaviour.app_from_day) - 1;
-        let day = self.now.day_index();
+        let day = self.day_index;
         match self.behaviour.day_closing {
             DayClosing::AfterBedtimeReading => self.bedtime_reading && day >= first,
             // Midnight closes the day before, which must be an app day.
-            DayClosing::AtMidnight => self.now.minute_of_day() == 0 && day > first,
+            DayClosing::AtMidnight => self.minute_of_day == 0 && day > first,
         }
     }
 
@@ -451,6 +466,14 @@ impl VirtualPerson {
     /// Ends the minute: the pump delivers, the person eats, the patient
     /// model advances one minute. Returns what happened in the minute.
     pub fn finish_minute(&mut self) -> Result<MinuteRecord, SimError> {
+        self.end_minute()?;
+        Ok(self.record)
+    }
+
+    /// As [`finish_minute`](Self::finish_minute) without copying the
+    /// minute's record out ([`last_record`](Self::last_record) has it): the
+    /// closed loop's form, where the copy showed in the profile.
+    pub fn end_minute(&mut self) -> Result<(), SimError> {
         if self.phase != Phase::Done {
             return Err(SimError::Config(format!(
                 "{}: finish_minute at {} before every event of the minute was taken",
@@ -465,16 +488,28 @@ impl VirtualPerson {
         r.basal_u_per_h = self.pump.basal_rate().0;
         let cr = self.settings.carb_ratio;
         r.carb_ratio_g_per_u = [cr[0].0, cr[1].0, cr[2].0];
-        let record = *r;
+        let sensitivity = r.sensitivity;
         let liver = match self.generator.config().sensitivity.target {
-            SensitivityTarget::VmxAndKp3 => record.sensitivity,
+            SensitivityTarget::VmxAndKp3 => sensitivity,
             SensitivityTarget::Vmx => 1.0,
         };
-        self.patient
-            .step_split(cho, insulin, record.sensitivity, liver)?;
+        self.patient.step_split(cho, insulin, sensitivity, liver)?;
         self.now = self.now.plus(1);
+        self.minute_of_day += 1;
+        if self.minute_of_day == DAY_MINUTES as u32 {
+            self.minute_of_day = 0;
+            self.day_index += 1;
+            self.app_today = self.day_index + 1 >= i64::from(self.behaviour.app_from_day);
+        }
         self.phase = Phase::Idle;
-        Ok(record)
+        Ok(())
+    }
+
+    /// The record of the minute: complete after
+    /// [`end_minute`](Self::end_minute) (what happened in the minute just
+    /// finished), partly filled between `begin_minute` and `end_minute`.
+    pub fn last_record(&self) -> &MinuteRecord {
+        &self.record
     }
 }
 

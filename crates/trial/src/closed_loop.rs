@@ -13,10 +13,12 @@
 use crate::error::TrialError;
 use crate::protocol::{ArmKind, PlannedScenario, TrialConfig};
 use crate::results::{evaluation_windows, PatientResult, RunFailure, Week, WeekResult};
+use abba_advisor::any::AnyAdvisor;
 use abba_advisor::Advisor;
 use abba_core::metrics::metrics_regular;
 use abba_core::{derive_seed, Event, Stream, MINUTES_PER_DAY};
 use abba_sim::cohort::VirtualPatient;
+use abba_sim::patient::GutTape;
 use abba_sim::person::VirtualPerson;
 
 pub use abba_sim::person::MinuteRecord;
@@ -75,8 +77,56 @@ pub fn run_patient_with(
     arm: ArmKind,
     trace: &mut Trace,
 ) -> Result<PatientResult, TrialError> {
+    let (mut person, mut advisor, context) = start(config, vp, patient_no, scenario, arm)?;
+    let run = simulate(
+        &mut person,
+        &mut advisor,
+        scenario.config.days,
+        config.failure_glucose_mg_dl,
+        trace,
+        &context,
+    )?;
+    trace.init = advisor.init_report().cloned();
+    result(vp, &person, &advisor, &run, &context)
+}
+
+/// Runs one patient through one scenario in several arms (the results in
+/// the order of `arms`), the arms in lock-step minute by minute so that
+/// they share the patient model's gut work while they eat the same
+/// ([`GutTape`]): the results are those of [`run_patient`] for each arm,
+/// bit for bit (test `arms_in_lockstep_match_one_by_one`).
+pub fn run_patient_arms(
+    config: &TrialConfig,
+    vp: &VirtualPatient,
+    patient_no: u64,
+    scenario: &PlannedScenario,
+    arms: &[ArmKind],
+) -> Result<Vec<PatientResult>, TrialError> {
+    let mut runs = arms
+        .iter()
+        .map(|&arm| start(config, vp, patient_no, scenario, arm))
+        .collect::<Result<Vec<_>, _>>()?;
+    let loops = simulate_lockstep(
+        &mut runs,
+        scenario.config.days,
+        config.failure_glucose_mg_dl,
+    )?;
+    runs.iter()
+        .zip(&loops)
+        .map(|((person, advisor, context), run)| result(vp, person, advisor, run, context))
+        .collect()
+}
+
+/// The person and advisor of one run, and the run's name for messages.
+fn start(
+    config: &TrialConfig,
+    vp: &VirtualPatient,
+    patient_no: u64,
+    scenario: &PlannedScenario,
+    arm: ArmKind,
+) -> Result<(VirtualPerson, AnyAdvisor, String), TrialError> {
     let context = format!("{} {}/{}", vp.params.name, scenario.config.name, arm);
-    let mut person = VirtualPerson::new(
+    let person = VirtualPerson::new(
         vp,
         patient_no,
         &scenario.config,
@@ -98,27 +148,29 @@ pub fn run_patient_with(
         scenario.config.random_key,
         Stream::Exploration,
     );
-    let mut advisor = config
+    let advisor = config
         .advisor_spec(arm, scenario.mode)
         .build(vp.therapy, exploration)
         .map_err(|source| TrialError::Advisor {
             context: context.clone(),
             source,
         })?;
-    let run = simulate(
-        &mut person,
-        &mut advisor,
-        scenario.config.days,
-        config.failure_glucose_mg_dl,
-        trace,
-        &context,
-    )?;
-    trace.init = advisor.init_report().cloned();
+    Ok((person, advisor, context))
+}
+
+/// The result of a finished run.
+fn result(
+    vp: &VirtualPatient,
+    person: &VirtualPerson,
+    advisor: &AnyAdvisor,
+    run: &LoopRun,
+    context: &str,
+) -> Result<PatientResult, TrialError> {
     let fin = advisor.settings();
     let start = vp.therapy;
     Ok(PatientResult {
         patient: vp.params.name.clone(),
-        weeks: weeks(&run, &context)?,
+        weeks: weeks(run, context)?,
         final_basal_u_per_h: fin.basal.0,
         final_carb_ratio_g_per_u: [
             fin.carb_ratio[0].0,
@@ -201,6 +253,79 @@ pub fn simulate<A: Advisor>(
         }
     }
     Ok(run)
+}
+
+/// [`simulate`] for several runs at once (no trace), advanced minute by
+/// minute in lock-step: each run exactly as `simulate` would run it alone,
+/// with the patient models sharing one [`GutTape`]. A run that fails stops;
+/// the others go on.
+fn simulate_lockstep<A: Advisor>(
+    runs: &mut [(VirtualPerson, A, String)],
+    days: u32,
+    failure_below: f64,
+) -> Result<Vec<LoopRun>, TrialError> {
+    let days = days as usize;
+    let mut out: Vec<LoopRun> = runs
+        .iter()
+        .map(|_| LoopRun {
+            glucose_mg_dl: vec![0.0; days * SAMPLES_PER_DAY],
+            daily_insulin_u: vec![0.0; days],
+            min_glucose_mg_dl: f64::INFINITY,
+            failure: None,
+        })
+        .collect();
+    let mut tape = GutTape::new();
+    let mut midnight = vec![0.0; runs.len()];
+    for day in 0..days {
+        for ((person, _, _), at) in runs.iter().zip(midnight.iter_mut()) {
+            *at = person.insulin_delivered().0;
+        }
+        for m in 0..MINUTES_PER_DAY as usize {
+            for ((person, advisor, context), run) in runs.iter_mut().zip(out.iter_mut()) {
+                if run.failure.is_some() {
+                    continue;
+                }
+                let sim = |source| TrialError::Sim {
+                    context: context.clone(),
+                    source,
+                };
+                let plasma = person.plasma_glucose_mg_dl();
+                if m.is_multiple_of(EVAL_PERIOD_MIN) {
+                    run.glucose_mg_dl[day * SAMPLES_PER_DAY + m / EVAL_PERIOD_MIN] = plasma;
+                }
+                run.min_glucose_mg_dl = run.min_glucose_mg_dl.min(plasma);
+                if plasma < failure_below {
+                    run.failure = Some(RunFailure {
+                        day: day as u32 + 1,
+                        minute_of_day: m as u32,
+                        glucose_mg_dl: plasma,
+                    });
+                    continue;
+                }
+                person.begin_minute().map_err(sim)?;
+                while let Some(event) = person.next_event().map_err(sim)? {
+                    let answer = advisor
+                        .observe(&event)
+                        .map_err(|source| TrialError::Advisor {
+                            context: context.clone(),
+                            source,
+                        })?;
+                    if let Some(settings) = answer {
+                        person.suggest(settings).map_err(sim)?;
+                    }
+                }
+                person.end_minute_shared(&mut tape).map_err(sim)?;
+            }
+        }
+        for (((person, advisor, _), run), at) in runs.iter_mut().zip(out.iter_mut()).zip(&midnight)
+        {
+            if run.failure.is_none() {
+                run.daily_insulin_u[day] = person.insulin_delivered().0 - at;
+                advisor.take_decisions();
+            }
+        }
+    }
+    Ok(out)
 }
 
 /// The evaluation weeks that fit in the whole days simulated (a failed run

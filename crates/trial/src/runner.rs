@@ -2,7 +2,7 @@
 //! job; rayon runs them and the results come back in job order, so serial
 //! and parallel runs give identical bytes.
 
-use crate::closed_loop::{run_patient, run_patient_with, Trace};
+use crate::closed_loop::{run_patient_arms, run_patient_with, Trace};
 use crate::error::TrialError;
 use crate::protocol::{ArmKind, PlannedScenario, TrialConfig};
 use crate::results::ArmResult;
@@ -166,22 +166,56 @@ pub(crate) fn run_jobs(
     let scenarios = config.planned();
     let total = jobs.len();
     let done = AtomicUsize::new(0);
-    let job = |&(si, ai, pi): &(usize, usize, usize)| {
-        let r = run_patient(
+    // The jobs of one patient in one scenario run together, their arms in
+    // lock-step (`run_patient_arms`: the same results as one by one, bit
+    // for bit, sharing the patient model's gut work).
+    let groups = lockstep_groups(jobs);
+    let group = |g: &Vec<usize>| {
+        let (si, _, pi) = jobs[g[0]];
+        let arms: Vec<ArmKind> = g.iter().map(|&j| config.arms[jobs[j].1]).collect();
+        let r = run_patient_arms(
             config,
             &cohort.patients[pi],
             pi as u64 + 1,
             &scenarios[si],
-            config.arms[ai],
+            &arms,
         );
-        progress.update(done.fetch_add(1, Ordering::Relaxed) + 1, total);
+        progress.update(done.fetch_add(g.len(), Ordering::Relaxed) + g.len(), total);
         r
     };
-    if prepared.threads == 1 {
-        jobs.iter().map(job).collect()
+    let per_group: Vec<Vec<crate::results::PatientResult>> = if prepared.threads == 1 {
+        groups.iter().map(group).collect::<Result<_, _>>()?
     } else {
-        prepared.pool.install(|| jobs.par_iter().map(job).collect())
+        prepared
+            .pool
+            .install(|| groups.par_iter().map(group).collect::<Result<_, _>>())?
+    };
+    let mut results: Vec<Option<crate::results::PatientResult>> = vec![None; jobs.len()];
+    for (g, rs) in groups.iter().zip(per_group) {
+        for (&j, r) in g.iter().zip(rs) {
+            results[j] = Some(r);
+        }
     }
+    results
+        .into_iter()
+        .map(|r| r.ok_or_else(|| TrialError::Config("a trial job produced no result".into())))
+        .collect()
+}
+
+/// The indices of `jobs` grouped by (scenario, patient), each group in job
+/// order, the groups in the order of their first job.
+fn lockstep_groups(jobs: &[(usize, usize, usize)]) -> Vec<Vec<usize>> {
+    let mut index: std::collections::HashMap<(usize, usize), usize> =
+        std::collections::HashMap::new();
+    let mut groups: Vec<Vec<usize>> = Vec::new();
+    for (j, &(si, _, pi)) in jobs.iter().enumerate() {
+        let g = *index.entry((si, pi)).or_insert_with(|| {
+            groups.push(Vec::new());
+            groups.len() - 1
+        });
+        groups[g].push(j);
+    }
+    groups
 }
 
 /// Groups the results of every job (in [`jobs`] order) into one

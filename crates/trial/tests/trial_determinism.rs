@@ -62,3 +62,68 @@ fn arms_share_the_standard_therapy_week() {
         );
     }
 }
+
+/// The runner steps the arms of one patient and scenario in lock-step,
+/// sharing the patient model's gut work (`GutTape`): each arm's result must
+/// be the one it gets alone, bit for bit, also when the arms stop eating
+/// the same (rescue carbohydrate on low readings) and when one run fails
+/// and the others go on.
+#[test]
+fn arms_in_lockstep_match_one_by_one() {
+    use abba_sim::scenario::HypoTreatment;
+    use abba_trial::closed_loop::{run_patient, run_patient_arms};
+    use abba_trial::protocol::PlannedScenario;
+    use abba_trial::runner::build_cohort;
+    use abba_trial::ArmKind;
+    let arms = [ArmKind::Abba, ArmKind::Standard, ArmKind::R2r];
+    for failure_below in [10.0, 85.0] {
+        let config = TrialConfig::try_from(RawTrialConfig {
+            patients: 3,
+            days: 21,
+            failure_glucose_mg_dl: failure_below,
+            ..RawTrialConfig::default()
+        })
+        .unwrap();
+        let cohort = build_cohort(&config).unwrap();
+        let mut rescue = config.scenario(ScenarioId::S1);
+        rescue.hypo_treatment = Some(HypoTreatment {
+            below_mg_dl: 140.0,
+            ..HypoTreatment::default()
+        });
+        let scenarios = [
+            config.planned_scenario(ScenarioId::S1).unwrap().clone(),
+            config.planned_scenario(ScenarioId::S4).unwrap().clone(),
+            PlannedScenario {
+                id: ScenarioId::S1,
+                mode: TrialConfig::mode_for(&rescue),
+                config: rescue,
+            },
+        ];
+        let (mut failed, mut differ) = (0, 0);
+        for planned in &scenarios {
+            for (i, vp) in cohort.patients.iter().enumerate() {
+                let no = i as u64 + 1;
+                let together = run_patient_arms(&config, vp, no, planned, &arms).unwrap();
+                assert_eq!(together.len(), arms.len());
+                for (arm, t) in arms.iter().zip(&together) {
+                    let alone = run_patient(&config, vp, no, planned, *arm).unwrap();
+                    assert_eq!(
+                        serde_json::to_string(t).unwrap(),
+                        serde_json::to_string(&alone).unwrap(),
+                        "{} {:?} {arm}: lock-step and alone differ",
+                        vp.params.name,
+                        planned.id
+                    );
+                    failed += usize::from(alone.failure.is_some());
+                }
+                differ += usize::from(together[0].rescue_carbs_g != together[1].rescue_carbs_g);
+            }
+        }
+        // The cases the test is for did happen.
+        assert!(differ > 0, "no arms ate differently");
+        eprintln!("failure below {failure_below}: {failed} runs failed, {differ} differ");
+        if failure_below > 10.0 {
+            assert!(failed > 0 && failed < 27, "{failed} of 27 runs failed");
+        }
+    }
+}

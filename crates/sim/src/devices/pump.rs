@@ -382,8 +382,7 @@ impl Pump {
         );
         self.basal_steps = n;
         self.basal_u_per_h = n as f64 / self.steps.basal_per_u_per_h as f64;
-        self.basal_u_per_min =
-            n as f64 / (self.steps.basal_per_u_per_h as f64 * MINUTES_PER_HOUR);
+        self.basal_u_per_min = n as f64 / (self.steps.basal_per_u_per_h as f64 * MINUTES_PER_HOUR);
         let set = self.basal_rate();
         self.events
             .push(Event::new(self.now, EventKind::BasalRate(set)));

@@ -23,7 +23,7 @@ pub use batch::PatientBatch;
 pub use eating::{EatingQueue, EAT_RATE_G_PER_MIN};
 pub use model::{derivatives, MinuteInput, ModelConsts};
 pub use params::{PatientParams, QuestRow, N_STATES};
-pub use solver::Solver;
+pub use solver::{GutTape, Solver};
 pub use state::PatientState;
 
 use crate::error::SimError;
@@ -152,6 +152,27 @@ impl Patient {
         self.last_input.s_kp3 = egp_sensitivity * self.consts.kp3;
         self.solver
             .advance_minute(&self.consts, &self.last_input, &mut self.x);
+        self.end_minute()
+    }
+
+    /// [`Patient::step_split`] sharing the gut's work with other runs of
+    /// this patient through `tape` ([`GutTape`]): the same result, bit for
+    /// bit.
+    pub fn step_split_shared(
+        &mut self,
+        cho_g_per_min: f64,
+        insulin_u_per_min: f64,
+        sensitivity: f64,
+        egp_sensitivity: f64,
+        tape: &mut GutTape,
+    ) -> Result<(), SimError> {
+        if !(egp_sensitivity.is_finite() && egp_sensitivity > 0.0) {
+            return Err(self.bad_input(cho_g_per_min, insulin_u_per_min, egp_sensitivity));
+        }
+        self.begin_minute(cho_g_per_min, insulin_u_per_min, sensitivity)?;
+        self.last_input.s_kp3 = egp_sensitivity * self.consts.kp3;
+        self.solver
+            .advance_minute_shared(&self.consts, &self.last_input, &mut self.x, tape);
         self.end_minute()
     }
 

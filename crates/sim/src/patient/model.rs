@@ -380,17 +380,34 @@ pub fn k_empt<T: Real>(c: &ModelConsts<T>, u: &MinuteInput<T>, q_sto: T) -> T {
 /// numbers are given where the model is the published one.
 #[inline(always)]
 pub fn derivatives<T: Real>(c: &ModelConsts<T>, u: &MinuteInput<T>, x: &[T; 13]) -> [T; 13] {
-    use ix::*;
+    derivatives_given_kempt(c, u, x, kempt_at(c, u, x))
+}
 
-    // Gastrointestinal tract (DM07 eqs. 4-8). Grinding kgri = kmax.
+/// The gastric emptying rate at state `x`: [`k_empt`] of Qsto1 + Qsto2,
+/// or kmax when the second compartment is empty (kempt multiplies Qsto2
+/// only). It depends on Qsto1, Qsto2 and the minute's Dbar alone.
+#[inline(always)]
+pub fn kempt_at<T: Real>(c: &ModelConsts<T>, u: &MinuteInput<T>, x: &[T; 13]) -> T {
+    use ix::*;
     let q_sto = x[Q_STO1] + x[Q_STO2];
-    // With an empty second compartment kempt is taken as kmax (it
-    // multiplies Qsto2 only).
-    let kempt = if T::EAGER {
+    if T::EAGER {
         x[Q_STO2].select_zero(c.kmax, k_empt(c, u, q_sto))
     } else {
         x[Q_STO2].if_zero(c.kmax, || k_empt(c, u, q_sto))
-    };
+    }
+}
+
+/// [`derivatives`] with kempt given (as [`kempt_at`] computes it for `x`).
+#[inline(always)]
+pub fn derivatives_given_kempt<T: Real>(
+    c: &ModelConsts<T>,
+    u: &MinuteInput<T>,
+    x: &[T; 13],
+    kempt: T,
+) -> [T; 13] {
+    use ix::*;
+
+    // Gastrointestinal tract (DM07 eqs. 4-8). Grinding kgri = kmax.
     let d_q_sto1 = -c.kmax * x[Q_STO1] + u.meal_mg_per_min;
     let d_q_sto2 = c.kmax * x[Q_STO1] - kempt * x[Q_STO2];
     let d_q_gut = kempt * x[Q_STO2] - c.kabs * x[Q_GUT];

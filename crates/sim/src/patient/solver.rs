@@ -7,7 +7,7 @@
 //! agreement with simglucose's adaptive Dormand-Prince solver.
 
 use super::lanes::Real;
-use super::model::{derivatives, MinuteInput, ModelConsts};
+use super::model::{derivatives_given_kempt, kempt_at, MinuteInput, ModelConsts};
 use serde::{Deserialize, Serialize};
 
 /// How one minute is integrated.
@@ -76,6 +76,110 @@ impl Solver {
     }
 }
 
+/// The gut's part of one integrated minute, to be shared by runs whose gut
+/// is in the same state.
+///
+/// The stomach (Qsto1, Qsto2) is a closed subsystem: its derivatives, the
+/// gastric emptying rate kempt at each RK4 stage and the busy-gut sub-step
+/// count depend only on Qsto1, Qsto2, the minute's meal input and Dbar, the
+/// patient's gut parameters and the solver. Runs of one patient that eat
+/// the same (the trial's three arms of a scenario, until a rescue snack
+/// tells them apart) therefore compute the same kempt values, bit for bit;
+/// kempt (two exp and two divisions per evaluation) is most of the cost of
+/// a step. [`Solver::advance_minute_shared`] records them for the first run
+/// of a minute and replays them for the others when the key matches.
+#[derive(Debug, Clone, Default)]
+pub struct GutTape {
+    key: Option<GutKey>,
+    /// Sub-steps of the recorded minute.
+    substeps: u32,
+    /// kempt at every RK4 stage of the recorded minute, in order.
+    kempt: Vec<f64>,
+    /// Minutes replayed (for benchmarks and tests).
+    replays: u64,
+}
+
+/// Everything kempt and the sub-step count depend on, as bits.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct GutKey {
+    bits: [u64; 10],
+    solver: Solver,
+}
+
+impl GutKey {
+    fn of(solver: Solver, c: &ModelConsts, u: &MinuteInput, x: &[f64; 13]) -> Self {
+        Self {
+            bits: [
+                x[0],
+                x[1],
+                u.meal_mg_per_min,
+                u.dbar_mg,
+                c.kmax,
+                c.kmin,
+                c.b,
+                c.d,
+                u.alpha,
+                u.beta,
+            ]
+            .map(f64::to_bits),
+            solver,
+        }
+    }
+}
+
+impl GutTape {
+    /// An empty tape.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Minutes whose kempt values were replayed instead of computed.
+    pub fn replays(&self) -> u64 {
+        self.replays
+    }
+}
+
+impl Solver {
+    /// [`Solver::advance_minute`], sharing the gut's work through `tape`
+    /// (see [`GutTape`]): bit-identical to `advance_minute`.
+    pub fn advance_minute_shared(
+        &self,
+        c: &ModelConsts,
+        u: &MinuteInput,
+        x: &mut [f64; 13],
+        tape: &mut GutTape,
+    ) {
+        let key = GutKey::of(*self, c, u, x);
+        if tape.key == Some(key) {
+            let n = tape.substeps;
+            let h = 1.0 / n as f64;
+            let mut stage = 0;
+            let kempt = &tape.kempt;
+            for _ in 0..n {
+                rk4_step_with(c, u, x, h, |_| {
+                    let k = kempt[stage];
+                    stage += 1;
+                    k
+                });
+            }
+            tape.replays += 1;
+            return;
+        }
+        let n = self.substeps_for(c, u, x);
+        let h = 1.0 / n as f64;
+        tape.kempt.clear();
+        for _ in 0..n {
+            rk4_step_with(c, u, x, h, |y| {
+                let k = kempt_at(c, u, y);
+                tape.kempt.push(k);
+                k
+            });
+        }
+        tape.substeps = n;
+        tape.key = Some(key);
+    }
+}
+
 impl Default for Solver {
     fn default() -> Self {
         Self::DEFAULT
@@ -109,20 +213,33 @@ impl Solver {
 /// several side by side (`T = Lanes`).
 #[inline(always)]
 pub(crate) fn rk4_step<T: Real>(c: &ModelConsts<T>, u: &MinuteInput<T>, x: &mut [T; 13], h: f64) {
-    let k1 = derivatives(c, u, x);
+    rk4_step_with(c, u, x, h, |y| kempt_at(c, u, y));
+}
+
+/// [`rk4_step`] taking each stage's kempt from `kempt` (called once per
+/// stage, in order, with the stage's state).
+#[inline(always)]
+fn rk4_step_with<T: Real>(
+    c: &ModelConsts<T>,
+    u: &MinuteInput<T>,
+    x: &mut [T; 13],
+    h: f64,
+    mut kempt: impl FnMut(&[T; 13]) -> T,
+) {
+    let k1 = derivatives_given_kempt(c, u, x, kempt(x));
     let mut y = *x;
     for i in 0..13 {
         y[i] = x[i] + k1[i] * (0.5 * h);
     }
-    let k2 = derivatives(c, u, &y);
+    let k2 = derivatives_given_kempt(c, u, &y, kempt(&y));
     for i in 0..13 {
         y[i] = x[i] + k2[i] * (0.5 * h);
     }
-    let k3 = derivatives(c, u, &y);
+    let k3 = derivatives_given_kempt(c, u, &y, kempt(&y));
     for i in 0..13 {
         y[i] = x[i] + k3[i] * h;
     }
-    let k4 = derivatives(c, u, &y);
+    let k4 = derivatives_given_kempt(c, u, &y, kempt(&y));
     for i in 0..13 {
         x[i] = x[i] + (k1[i] + k2[i] * 2.0 + k3[i] * 2.0 + k4[i]) * (h / 6.0);
     }

@@ -35,7 +35,7 @@ pub use behaviour::{Behaviour, DayClosing, SuggestionResponse};
 
 use crate::cohort::VirtualPatient;
 use crate::devices::{CgmSensor, DeviceSet, Pump, SmbgMeter};
-use crate::patient::{EatingQueue, Patient};
+use crate::patient::{EatingQueue, GutTape, Patient};
 use crate::scenario::{
     DayPlan, ScenarioConfig, ScenarioGenerator, SensitivityTarget, SmbgPurpose, DAY_MINUTES,
 };
@@ -474,6 +474,17 @@ impl VirtualPerson {
     /// minute's record out ([`last_record`](Self::last_record) has it): the
     /// closed loop's form, where the copy showed in the profile.
     pub fn end_minute(&mut self) -> Result<(), SimError> {
+        self.end_minute_with(None)
+    }
+
+    /// As [`end_minute`](Self::end_minute), sharing the patient model's gut
+    /// work with other people who are the same patient eating the same
+    /// ([`GutTape`]; the trial's arms of one scenario): bit-identical.
+    pub fn end_minute_shared(&mut self, tape: &mut GutTape) -> Result<(), SimError> {
+        self.end_minute_with(Some(tape))
+    }
+
+    fn end_minute_with(&mut self, tape: Option<&mut GutTape>) -> Result<(), SimError> {
         if self.phase != Phase::Done {
             return Err(SimError::Config(format!(
                 "{}: finish_minute at {} before every event of the minute was taken",
@@ -493,7 +504,12 @@ impl VirtualPerson {
             SensitivityTarget::VmxAndKp3 => sensitivity,
             SensitivityTarget::Vmx => 1.0,
         };
-        self.patient.step_split(cho, insulin, sensitivity, liver)?;
+        match tape {
+            Some(t) => self
+                .patient
+                .step_split_shared(cho, insulin, sensitivity, liver, t)?,
+            None => self.patient.step_split(cho, insulin, sensitivity, liver)?,
+        }
         self.now = self.now.plus(1);
         self.minute_of_day += 1;
         if self.minute_of_day == DAY_MINUTES as u32 {

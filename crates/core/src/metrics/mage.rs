@@ -272,6 +272,38 @@ fn moving_average(gl: &[f64], w: usize, i: usize) -> f64 {
     }
 }
 
+/// [`moving_average`] at every point of `gl`, the same values bit for bit.
+/// Without missing points each window is summed in the same order with
+/// four windows in flight at once: the sums are independent chains of
+/// additions, and one at a time left the processor waiting on each add (the
+/// moving averages were most of MAGE's cost, and MAGE ~5 % of a trial).
+fn moving_averages(gl: &[f64], w: usize) -> Vec<f64> {
+    let n = gl.len();
+    if w == 0 || n < w || gl.iter().any(|g| g.is_nan()) {
+        return (0..n).map(|i| moving_average(gl, w, i)).collect();
+    }
+    let start = |i: usize| i.max(w - 1) + 1 - w;
+    let mut out = vec![0.0; n];
+    let mut i = 0;
+    while i + 4 <= n {
+        let s = [start(i), start(i + 1), start(i + 2), start(i + 3)];
+        let mut sum = [0.0; 4];
+        for k in 0..w {
+            for j in 0..4 {
+                sum[j] += gl[s[j] + k];
+            }
+        }
+        for j in 0..4 {
+            out[i + j] = sum[j] / w as f64;
+        }
+        i += 4;
+    }
+    for (k, v) in out.iter_mut().enumerate().skip(i) {
+        *v = moving_average(gl, w, k);
+    }
+    out
+}
+
 /// Kind of turning point searched for after a crossing.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Turn {
@@ -286,7 +318,11 @@ fn segment_mage(gl: &[f64], o: &MageOptions) -> Option<SegmentMage> {
     if n < 7 || n < o.long_ma {
         return None;
     }
-    let delta = |i: usize| moving_average(gl, o.short_ma, i) - moving_average(gl, o.long_ma, i);
+    let (short, long) = (
+        moving_averages(gl, o.short_ma),
+        moving_averages(gl, o.long_ma),
+    );
+    let delta = |i: usize| short[i] - long[i];
 
     // Step 4: crossings (position, kind of turning point after it, Δ there).
     let d0 = delta(0);
@@ -509,6 +545,27 @@ mod tests {
         let a = [100.0, 150.0, 140.0, 230.0, 100.0];
         assert_eq!(rises(&a, 50.0), (130.0, 1, 3));
         assert_eq!(falls(&a, 50.0), (-130.0, 1, 3));
+    }
+
+    #[test]
+    fn moving_averages_equal_one_at_a_time_bit_for_bit() {
+        // Irregular values (sums that round), with and without a gap.
+        let mut gl: Vec<f64> = (0..203)
+            .map(|i| 100.0 + 37.3 * (i as f64 * 0.37).sin() + 1e-7 * i as f64)
+            .collect();
+        for _ in 0..2 {
+            for w in [1, 5, 32, 203] {
+                let all = moving_averages(&gl, w);
+                for (i, v) in all.iter().enumerate() {
+                    assert_eq!(
+                        v.to_bits(),
+                        moving_average(&gl, w, i).to_bits(),
+                        "w {w} i {i}"
+                    );
+                }
+            }
+            gl[50] = f64::NAN;
+        }
     }
 
     #[test]

@@ -227,10 +227,9 @@ impl Patient {
     #[inline]
     pub(crate) fn end_minute(&mut self) -> Result<(), SimError> {
         self.minute += 1;
-        // v·0 is 0 for a finite v and NaN otherwise: one branch-free sum
-        // tells whether any state left the finite numbers.
-        let any_bad = self.x.iter().fold(0.0, |acc, v| acc + v * 0.0);
-        if any_bad == 0.0 {
+        // One branch-free test of all states first (the search below
+        // branched on each of the 13 every minute).
+        if !self.x.iter().fold(false, |bad, v| bad | !v.is_finite()) {
             return Ok(());
         }
         if let Some(k) = self.x.iter().position(|v| !v.is_finite()) {

@@ -55,7 +55,9 @@ impl Knob {
         match self {
             Knob::Theta0Hyper => "abba.te.theta0_br[0] = -abba.te.theta0_cir[0]",
             Knob::Theta0Hypo => "abba.te.theta0_cir[1] = -abba.te.theta0_br[1]",
-            Knob::SmbgExcursion => "abba.features.smbg_excursion (0 = out_of_range_mean, 1 = time_averaged)",
+            Knob::SmbgExcursion => {
+                "abba.features.smbg_excursion (0 = out_of_range_mean, 1 = time_averaged)"
+            }
             Knob::FeatureGMax => "abba.features.g_max_mg_dl (SMBG mode)",
             Knob::FeatureGMin => "abba.features.g_min_mg_dl (SMBG mode)",
             Knob::FeatureGMinCgm => "abba.features.cgm_g_min_mg_dl",

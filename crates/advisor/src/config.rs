@@ -4,8 +4,8 @@
 //! in the paper (kept as knobs for ablations); **\[GUESS]** values are the
 //! spec's choices where no source was readable and must be listed in any
 //! results write-up. Defaults are the spec's except the deviations listed
-//! in ARCHITECTURE.md "Knobs" (CGM excursion, actor rule, and the guessed
-//! scales chosen by `abba calibrate`).
+//! in ARCHITECTURE.md "Knobs" (CGM- and SMBG-mode excursion, actor rule, and the
+//! guessed scales chosen by `abba calibrate`).
 
 use crate::error::{check_positive, check_range, config_err, AdvisorError};
 use serde::{Deserialize, Serialize};

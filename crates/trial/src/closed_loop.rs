@@ -102,15 +102,26 @@ pub fn run_patient_arms(
     scenario: &PlannedScenario,
     arms: &[ArmKind],
 ) -> Result<Vec<PatientResult>, TrialError> {
-    let mut runs = arms
+    let runs: Vec<_> = arms.iter().map(|&arm| (scenario, arm)).collect();
+    run_patient_group(config, vp, patient_no, &runs)
+}
+
+/// [`run_patient_arms`] for any (scenario, arm) runs of one patient, all in
+/// lock-step: the trial's scenarios share their days (one scenario key),
+/// so their runs eat the same too and share the gut's work as well. Runs of
+/// scenarios with fewer days stop at their last day.
+pub fn run_patient_group(
+    config: &TrialConfig,
+    vp: &VirtualPatient,
+    patient_no: u64,
+    runs: &[(&PlannedScenario, ArmKind)],
+) -> Result<Vec<PatientResult>, TrialError> {
+    let days: Vec<u32> = runs.iter().map(|(s, _)| s.config.days).collect();
+    let mut runs = runs
         .iter()
-        .map(|&arm| start(config, vp, patient_no, scenario, arm))
+        .map(|&(scenario, arm)| start(config, vp, patient_no, scenario, arm))
         .collect::<Result<Vec<_>, _>>()?;
-    let loops = simulate_lockstep(
-        &mut runs,
-        scenario.config.days,
-        config.failure_glucose_mg_dl,
-    )?;
+    let loops = simulate_lockstep(&mut runs, &days, config.failure_glucose_mg_dl)?;
     runs.iter()
         .zip(&loops)
         .map(|((person, advisor, context), run)| result(vp, person, advisor, run, context))
@@ -261,28 +272,28 @@ pub fn simulate<A: Advisor>(
 /// the others go on.
 fn simulate_lockstep<A: Advisor>(
     runs: &mut [(VirtualPerson, A, String)],
-    days: u32,
+    days: &[u32],
     failure_below: f64,
 ) -> Result<Vec<LoopRun>, TrialError> {
-    let days = days as usize;
-    let mut out: Vec<LoopRun> = runs
+    let mut out: Vec<LoopRun> = days
         .iter()
-        .map(|_| LoopRun {
-            glucose_mg_dl: vec![0.0; days * SAMPLES_PER_DAY],
-            daily_insulin_u: vec![0.0; days],
+        .map(|&d| LoopRun {
+            glucose_mg_dl: vec![0.0; d as usize * SAMPLES_PER_DAY],
+            daily_insulin_u: vec![0.0; d as usize],
             min_glucose_mg_dl: f64::INFINITY,
             failure: None,
         })
         .collect();
     let mut tape = GutTape::new();
     let mut midnight = vec![0.0; runs.len()];
-    for day in 0..days {
+    let most = days.iter().copied().max().unwrap_or(0) as usize;
+    for day in 0..most {
         for ((person, _, _), at) in runs.iter().zip(midnight.iter_mut()) {
             *at = person.insulin_delivered().0;
         }
         for m in 0..MINUTES_PER_DAY as usize {
             for ((person, advisor, context), run) in runs.iter_mut().zip(out.iter_mut()) {
-                if run.failure.is_some() {
+                if run.failure.is_some() || day >= run.daily_insulin_u.len() {
                     continue;
                 }
                 let sim = |source| TrialError::Sim {
@@ -319,7 +330,7 @@ fn simulate_lockstep<A: Advisor>(
         }
         for (((person, advisor, _), run), at) in runs.iter_mut().zip(out.iter_mut()).zip(&midnight)
         {
-            if run.failure.is_none() {
+            if run.failure.is_none() && day < run.daily_insulin_u.len() {
                 run.daily_insulin_u[day] = person.insulin_delivered().0 - at;
                 advisor.take_decisions();
             }

@@ -2,7 +2,7 @@
 //! job; rayon runs them and the results come back in job order, so serial
 //! and parallel runs give identical bytes.
 
-use crate::closed_loop::{run_patient_arms, run_patient_with, Trace};
+use crate::closed_loop::{run_patient_group, run_patient_with, Trace};
 use crate::error::TrialError;
 use crate::protocol::{ArmKind, PlannedScenario, TrialConfig};
 use crate::results::ArmResult;
@@ -166,20 +166,17 @@ pub(crate) fn run_jobs(
     let scenarios = config.planned();
     let total = jobs.len();
     let done = AtomicUsize::new(0);
-    // The jobs of one patient in one scenario run together, their arms in
-    // lock-step (`run_patient_arms`: the same results as one by one, bit
-    // for bit, sharing the patient model's gut work).
+    // The jobs of one patient run together, in lock-step
+    // (`run_patient_group`: the same results as one by one, bit for bit,
+    // sharing the patient model's gut work).
     let groups = lockstep_groups(jobs);
     let group = |g: &Vec<usize>| {
-        let (si, _, pi) = jobs[g[0]];
-        let arms: Vec<ArmKind> = g.iter().map(|&j| config.arms[jobs[j].1]).collect();
-        let r = run_patient_arms(
-            config,
-            &cohort.patients[pi],
-            pi as u64 + 1,
-            &scenarios[si],
-            &arms,
-        );
+        let pi = jobs[g[0]].2;
+        let runs: Vec<_> = g
+            .iter()
+            .map(|&j| (&scenarios[jobs[j].0], config.arms[jobs[j].1]))
+            .collect();
+        let r = run_patient_group(config, &cohort.patients[pi], pi as u64 + 1, &runs);
         progress.update(done.fetch_add(g.len(), Ordering::Relaxed) + g.len(), total);
         r
     };
@@ -202,14 +199,13 @@ pub(crate) fn run_jobs(
         .collect()
 }
 
-/// The indices of `jobs` grouped by (scenario, patient), each group in job
-/// order, the groups in the order of their first job.
+/// The indices of `jobs` grouped by patient, each group in job order, the
+/// groups in the order of their first job.
 fn lockstep_groups(jobs: &[(usize, usize, usize)]) -> Vec<Vec<usize>> {
-    let mut index: std::collections::HashMap<(usize, usize), usize> =
-        std::collections::HashMap::new();
+    let mut index: std::collections::HashMap<usize, usize> = std::collections::HashMap::new();
     let mut groups: Vec<Vec<usize>> = Vec::new();
-    for (j, &(si, _, pi)) in jobs.iter().enumerate() {
-        let g = *index.entry((si, pi)).or_insert_with(|| {
+    for (j, &(_, _, pi)) in jobs.iter().enumerate() {
+        let g = *index.entry(pi).or_insert_with(|| {
             groups.push(Vec::new());
             groups.len() - 1
         });

@@ -63,7 +63,8 @@ fn arms_share_the_standard_therapy_week() {
     }
 }
 
-/// The runner steps the arms of one patient and scenario in lock-step,
+/// The runner steps the runs of one patient (every scenario and arm) in
+/// lock-step,
 /// sharing the patient model's gut work (`GutTape`): each arm's result must
 /// be the one it gets alone, bit for bit, also when the arms stop eating
 /// the same (rescue carbohydrate on low readings) and when one run fails
@@ -71,7 +72,7 @@ fn arms_share_the_standard_therapy_week() {
 #[test]
 fn arms_in_lockstep_match_one_by_one() {
     use abba_sim::scenario::HypoTreatment;
-    use abba_trial::closed_loop::{run_patient, run_patient_arms};
+    use abba_trial::closed_loop::{run_patient, run_patient_arms, run_patient_group};
     use abba_trial::protocol::PlannedScenario;
     use abba_trial::runner::build_cohort;
     use abba_trial::ArmKind;
@@ -117,6 +118,27 @@ fn arms_in_lockstep_match_one_by_one() {
                     failed += usize::from(alone.failure.is_some());
                 }
                 differ += usize::from(together[0].rescue_carbs_g != together[1].rescue_carbs_g);
+            }
+        }
+        // All scenarios and arms of a patient in one group (as the runner
+        // does): the scenarios share their days, and the rescue scenario
+        // does not eat as they do.
+        for (i, vp) in cohort.patients.iter().enumerate() {
+            let no = i as u64 + 1;
+            let runs: Vec<_> = scenarios
+                .iter()
+                .flat_map(|s| arms.iter().map(move |a| (s, *a)))
+                .collect();
+            let together = run_patient_group(&config, vp, no, &runs).unwrap();
+            for ((planned, arm), t) in runs.iter().zip(&together) {
+                let alone = run_patient(&config, vp, no, planned, *arm).unwrap();
+                assert_eq!(
+                    serde_json::to_string(t).unwrap(),
+                    serde_json::to_string(&alone).unwrap(),
+                    "{} {:?} {arm}: group and alone differ",
+                    vp.params.name,
+                    planned.id
+                );
             }
         }
         // The cases the test is for did happen.

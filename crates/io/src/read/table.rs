@@ -183,17 +183,27 @@ impl<'a> Table<'a> {
     }
 }
 
-/// Parses a number as the file writes it: `.` decimals, or `,` decimals
-/// when the delimiter is `;`.
+/// Parses a number as the file writes it: `.` decimals, or one `,` as the
+/// decimal mark (locales such as German, French, Dutch; in a `,`-delimited
+/// file such a cell arrives quoted, `"5,6"`). In a `,`-delimited file a
+/// comma followed by exactly three digits (`1,500`) could be a thousands
+/// separator and is refused, not guessed.
 pub fn number(text: &str, delimiter: u8) -> Option<f64> {
     let t = text.trim();
     if t.is_empty() {
         return None;
     }
-    let v: f64 = if delimiter == b';' && t.contains(',') && !t.contains('.') {
-        t.replacen(',', ".", 1).parse().ok()?
-    } else {
-        t.parse().ok()?
+    let v: f64 = match t.split_once(',') {
+        Some((whole, frac)) if !t.contains('.') && !frac.contains(',') => {
+            if delimiter == b',' && frac.len() == 3 {
+                return None;
+            }
+            if whole.is_empty() || frac.is_empty() {
+                return None;
+            }
+            format!("{whole}.{frac}").parse().ok()?
+        }
+        _ => t.parse().ok()?,
     };
     v.is_finite().then_some(v)
 }
@@ -221,6 +231,19 @@ pub fn required_number(
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn decimal_commas_are_read_and_thousands_are_refused() {
+        assert_eq!(number("5,6", b','), Some(5.6));
+        assert_eq!(number("5,6", b';'), Some(5.6));
+        assert_eq!(number("12,25", b'\t'), Some(12.25));
+        assert_eq!(number("7.4", b','), Some(7.4));
+        // Thousands separator or decimal comma: not told, refused.
+        assert_eq!(number("1,500", b','), None);
+        for bad in ["1,2,3", "1.2,3", ",5", "5,", "x"] {
+            assert_eq!(number(bad, b','), None, "{bad}");
+        }
+    }
 
     #[test]
     fn lines_count_alike_with_lf_and_crlf() {

@@ -174,3 +174,112 @@ fn libreview_rows_that_would_lose_data_are_refused_naming_line_and_field() {
         "{err}"
     );
 }
+
+#[test]
+fn nightscout_sgv_error_codes_are_counted_not_read_as_glucose() {
+    // Dexcom error states arrive as sgv 1..12; 10 and 12 would otherwise
+    // pass as (absurdly low) glucose.
+    let entries = r#"[
+ {"_id":"a","type":"sgv","sgv":120,"date":1709557200000},
+ {"_id":"b","type":"sgv","sgv":10,"date":1709557500000},
+ {"_id":"c","type":"sgv","sgv":12,"date":1709557800000},
+ {"_id":"d","type":"sgv","sgv":1,"date":1709558100000},
+ {"_id":"e","type":"sgv","sgv":39,"date":1709558400000}
+]"#;
+    let b = read(&[("e.json", entries.into())], &opts("UTC")).unwrap();
+    assert_eq!(b.count("cgm"), 2);
+    let kinds: Vec<String> = b
+        .records
+        .iter()
+        .filter_map(|r| match &r.kind {
+            RecordKind::Ignored { kind } => Some(kind.clone()),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(
+        kinds,
+        [
+            "sgv sensor error code 10",
+            "sgv sensor error code 12",
+            "sgv sensor error code 1"
+        ]
+    );
+    // A negative or fractional sgv is not an error code: refused.
+    let bad = r#"[{"_id":"a","type":"sgv","sgv":-5,"date":1709557200000}]"#;
+    let err = read(&[("n.json", bad.into())], &opts("UTC")).unwrap_err();
+    assert!(err.to_string().contains("$[0], field \"sgv\""), "{err}");
+}
+
+#[test]
+fn nightscout_date_in_seconds_is_refused() {
+    let entries = r#"[{"_id":"a","type":"sgv","sgv":120,"date":1709557200}]"#;
+    let err = read(&[("s.json", entries.into())], &opts("UTC"))
+        .unwrap_err()
+        .to_string();
+    assert!(err.starts_with("s.json: $[0], field \"date\""), "{err}");
+    assert!(err.contains("looks like seconds"), "{err}");
+}
+
+#[test]
+fn nightscout_profile_switch_percentage_temporary_and_timeshift() {
+    let profile = r#"{\"basal\":[{\"time\":\"00:00\",\"value\":1.0},{\"time\":\"12:00\",\"value\":0.5}],\"carbratio\":[{\"time\":\"00:00\",\"value\":10}]}"#;
+    let treatments = format!(
+        r#"[
+ {{"_id":"p1","eventType":"Profile Switch","created_at":"2024-03-04T00:00:00Z","profile":"A","percentage":80,"timeshift":0,"duration":0,"profileJson":"{profile}"}},
+ {{"_id":"p2","eventType":"Profile Switch","created_at":"2024-03-05T00:00:00Z","profile":"A","percentage":150,"duration":120,"profileJson":"{profile}"}},
+ {{"_id":"p3","eventType":"Profile Switch","created_at":"2024-03-06T00:00:00Z","profile":"A","timeshift":2,"profileJson":"{profile}"}}
+]"#
+    );
+    let b = read(&[("t.json", treatments.into())], &opts("UTC")).unwrap();
+    let schedules: Vec<_> = b
+        .records
+        .iter()
+        .filter_map(|r| match &r.kind {
+            RecordKind::Schedule { profile } => Some(profile.clone()),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(schedules.len(), 1);
+    let rates: Vec<f64> = schedules[0].basal.segments.iter().map(|s| s.1 .0).collect();
+    assert_eq!(rates, vec![0.8, 0.4]);
+    assert_eq!(schedules[0].carb_ratio[0].1 .0, 12.5);
+    let ignored: Vec<&str> = b
+        .records
+        .iter()
+        .filter_map(|r| match &r.kind {
+            RecordKind::Ignored { kind } => Some(kind.as_str()),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(
+        ignored,
+        [
+            "Profile Switch, temporary (duration > 0)",
+            "Profile Switch with a timeshift"
+        ]
+    );
+}
+
+#[test]
+fn tidepool_pen_insulin_and_food_totals() {
+    let data = r#"[
+ {"id":"i1","type":"insulin","time":"2024-03-04T08:00:00Z","dose":{"units":"Units","total":4.5},"formulation":{"simple":{"actingType":"rapid"}}},
+ {"id":"i2","type":"insulin","time":"2024-03-04T22:00:00Z","dose":{"units":"Units","total":18},"formulation":{"simple":{"actingType":"long"}}},
+ {"id":"i3","type":"insulin","time":"2024-03-04T23:00:00Z","dose":{"units":"Units","total":2}},
+ {"id":"f1","type":"food","time":"2024-03-04T08:00:00Z","nutrition":{"carbohydrate":{"total":52,"units":"grams"}}},
+ {"id":"c1","type":"cbg","time":"2024-03-04T08:10:00.000Z","units":"mmol/L","value":7.3}
+]"#;
+    let b = read(&[("tp.json", data.into())], &Default::default()).unwrap();
+    assert_eq!(b.formats, vec![Format::Tidepool]);
+    assert_eq!(b.count("bolus"), 1);
+    assert_eq!(b.count("long_acting"), 1);
+    assert_eq!(b.count("carbs"), 1);
+    assert!(b.records.iter().any(
+        |r| matches!(&r.kind, RecordKind::Ignored { kind } if kind == "insulin without an acting type")
+    ));
+    let bad = r#"[{"id":"i1","type":"insulin","time":"2024-03-04T08:00:00Z","dose":{"units":"Units"}}]"#;
+    let err = read(&[("tp.json", bad.into())], &Default::default())
+        .unwrap_err()
+        .to_string();
+    assert!(err.starts_with("tp.json: $[0], field \"dose.total\""), "{err}");
+}

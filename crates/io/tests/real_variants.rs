@@ -14,7 +14,9 @@ const DE_HEADER: &str = "Gerät,Seriennummer,Gerätezeitstempel,Aufzeichnungstyp
 /// A German account's export in mmol/L: the metadata line, the German
 /// header, decimal commas in quoted cells, day-first dates with dots.
 fn libreview_german_mmol() -> Vec<u8> {
-    let mut s = String::from("\u{feff}Glukose-Werte,Erstellt am,24.02.2021 12:12 UTC,Erstellt von,Test\r\n");
+    let mut s = String::from(
+        "\u{feff}Glukose-Werte,Erstellt am,24.02.2021 12:12 UTC,Erstellt von,Test\r\n",
+    );
     s.push_str(DE_HEADER);
     s.push_str("\r\n");
     let row = |time: &str, ty: u8, cells: &[(usize, &str)]| {
@@ -43,7 +45,11 @@ fn libreview_german_mmol() -> Vec<u8> {
 
 #[test]
 fn libreview_in_german_with_mmol_and_decimal_commas() {
-    let b = read(&[("de.csv", libreview_german_mmol())], &opts("Europe/Berlin")).unwrap();
+    let b = read(
+        &[("de.csv", libreview_german_mmol())],
+        &opts("Europe/Berlin"),
+    )
+    .unwrap();
     assert_eq!(b.formats, vec![Format::LibreView]);
     assert_eq!(b.count("cgm"), 2);
     assert_eq!(b.count("smbg"), 1);
@@ -163,7 +169,10 @@ fn libreview_rows_that_would_lose_data_are_refused_naming_line_and_field() {
     let err = read(&[("w.csv", word.into())], &opts("Europe/Madrid"))
         .unwrap_err()
         .to_string();
-    assert!(err.starts_with("w.csv: line 4, field \"Record Type\""), "{err}");
+    assert!(
+        err.starts_with("w.csv: line 4, field \"Record Type\""),
+        "{err}"
+    );
     // 1,500 in a comma file: thousands separator or decimal comma.
     let ambiguous = format!("{head}FreeStyle Libre,S,13-05-2020 08:05,0,\"1,500\",\n");
     let err = read(&[("a.csv", ambiguous.into())], &opts("Europe/Madrid"))
@@ -277,9 +286,59 @@ fn tidepool_pen_insulin_and_food_totals() {
     assert!(b.records.iter().any(
         |r| matches!(&r.kind, RecordKind::Ignored { kind } if kind == "insulin without an acting type")
     ));
-    let bad = r#"[{"id":"i1","type":"insulin","time":"2024-03-04T08:00:00Z","dose":{"units":"Units"}}]"#;
+    let bad =
+        r#"[{"id":"i1","type":"insulin","time":"2024-03-04T08:00:00Z","dose":{"units":"Units"}}]"#;
     let err = read(&[("tp.json", bad.into())], &Default::default())
         .unwrap_err()
         .to_string();
-    assert!(err.starts_with("tp.json: $[0], field \"dose.total\""), "{err}");
+    assert!(
+        err.starts_with("tp.json: $[0], field \"dose.total\""),
+        "{err}"
+    );
+}
+
+#[test]
+fn clarity_mmol_calibrations_censored_values_and_rows_without_time() {
+    let head = "Index,Timestamp (YYYY-MM-DDThh:mm:ss),Event Type,Event Subtype,Patient Info,Device Info,Source Device ID,Glucose Value (mmol/L),Insulin Value (u),Carb Value (grams),Duration (hh:mm:ss),Glucose Rate of Change (mmol/L/min),Transmitter Time (Long Integer),Transmitter ID\n\
+                1,,FirstName,,Ana,,,,,,,,,\n\
+                2,,Device,,,Dexcom G7,,,,,,,,\n";
+    let rows = "3,2024-03-04T08:00:00,EGV,,,,G7,\"5,6\",,,,,1,X\n\
+                4,2024-03-04T08:05:00,EGV,,,,G7,Low,,,,,2,X\n\
+                5,2024-03-04T08:10:00,EGV,,,,G7,High,,,,,3,X\n\
+                6,2024-03-04T08:11:00,Calibration,,,,G7,6.1,,,,,4,X\n\
+                7,2024-03-04T09:00:00,Exercise,Medium,,,G7,,,,0:30:00,,5,X\n";
+    let b = read(
+        &[("c.csv", format!("{head}{rows}").into())],
+        &opts("Europe/Zurich"),
+    )
+    .unwrap();
+    assert_eq!(b.formats, vec![Format::Clarity]);
+    let mmol = abba_core::units::MG_DL_PER_MMOL_L;
+    let cgm: Vec<(f64, abba_io::record::Censor)> = b
+        .records
+        .iter()
+        .filter_map(|r| match r.kind {
+            RecordKind::Cgm { glucose } => Some((glucose.mg_dl.0, glucose.censor)),
+            _ => None,
+        })
+        .collect();
+    use abba_io::record::Censor;
+    assert_eq!(cgm.len(), 3);
+    assert!((cgm[0].0 - 5.6 * mmol).abs() < 1e-9 && cgm[0].1 == Censor::Exact);
+    assert!((cgm[1].0 - 2.2 * mmol).abs() < 1e-9 && cgm[1].1 == Censor::Below);
+    assert!((cgm[2].0 - 22.2 * mmol).abs() < 1e-9 && cgm[2].1 == Censor::Above);
+    assert_eq!(b.count("smbg"), 1);
+    assert!(b
+        .records
+        .iter()
+        .any(|r| matches!(&r.kind, RecordKind::Ignored { kind } if kind == "Exercise Medium")));
+    // An EGV row that lost its time is not skipped as preamble.
+    let lost = format!("{head}8,,EGV,,,,G7,7.0,,,,,6,X\n");
+    let err = read(&[("c.csv", lost.into())], &opts("Europe/Zurich"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.starts_with("c.csv: line 4, field \"Timestamp (YYYY-MM-DDThh:mm:ss)\""),
+        "{err}"
+    );
 }

@@ -204,7 +204,11 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
         if matches!(rtype.as_str(), "4" | "5") {
             // A number in a column abba cannot name would be insulin or
             // food lost without a word: refuse instead.
-            if let Some(&i) = cols.unknown.iter().find(|&&i| number(t.cell(i), delim).is_some()) {
+            if let Some(&i) = cols
+                .unknown
+                .iter()
+                .find(|&&i| number(t.cell(i), delim).is_some())
+            {
                 return Err(IoError::invalid(
                     at.clone(),
                     &t.header[i],
@@ -227,9 +231,9 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
             }),
             "2" => kinds.push(RecordKind::Smbg {
                 glucose: glucose(&t, strip_at)?.ok_or_else(|| {
-                    missing(strip_at.map_or("strip glucose (no such column)", |i| {
-                        t.header[i].as_str()
-                    }))
+                    missing(
+                        strip_at.map_or("strip glucose (no such column)", |i| t.header[i].as_str()),
+                    )
                 })?,
             }),
             "3" => kinds.push(RecordKind::Ignored {
@@ -336,8 +340,11 @@ struct Columns {
 impl Columns {
     fn of(t: &Table<'_>, ctx: &Ctx<'_>) -> Result<Self, IoError> {
         let file = ctx.file;
-        let roles: Vec<(Role, Option<GlucoseUnit>)> =
-            t.header.iter().map(|h| libreview_columns::role(h)).collect();
+        let roles: Vec<(Role, Option<GlucoseUnit>)> = t
+            .header
+            .iter()
+            .map(|h| libreview_columns::role(h))
+            .collect();
         let first = |r: Role| roles.iter().position(|&(x, _)| x == r);
         let need = |r: Role, what: &str| {
             first(r).ok_or_else(|| {

@@ -119,9 +119,13 @@ const MS_SINCE_1973: f64 = 1e11;
 pub const SGV_ERROR_BELOW: f64 = 39.0;
 
 fn entry(item: &Item<'_>) -> Result<RecordKind, IoError> {
-    let kind = item
-        .str("type")?
-        .unwrap_or(if item.get("sgv").is_some() { "sgv" } else { "" });
+    let kind = item.str("type")?.unwrap_or(if item.get("sgv").is_some() {
+        "sgv"
+    } else if item.get("mbg").is_some() {
+        "mbg"
+    } else {
+        ""
+    });
     let reading = |field: &str| -> Result<Glucose, IoError> {
         let v = item.need_num(field, "glucose in mg/dL")?;
         let mg = units::glucose_mg_dl(&item.at(field), field, v, GlucoseUnit::MgDl)
@@ -142,10 +146,10 @@ fn entry(item: &Item<'_>) -> Result<RecordKind, IoError> {
                 .is_some_and(|v| (0.0..SGV_ERROR_BELOW).contains(&v) && v.fract() == 0.0) =>
         {
             RecordKind::Ignored {
-            kind: format!(
-                "sgv sensor error code {}",
-                item.num("sgv")?.unwrap_or(f64::NAN)
-            ),
+                kind: format!(
+                    "sgv sensor error code {}",
+                    item.num("sgv")?.unwrap_or(f64::NAN)
+                ),
             }
         }
         "sgv" => RecordKind::Cgm {

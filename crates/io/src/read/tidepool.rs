@@ -232,9 +232,7 @@ fn datum(item: &Item<'_>, ty: &str) -> Result<RecordKind, IoError> {
         }
         "insulin" => insulin_event(item)?,
         "food" => {
-            let carb = item
-                .get("nutrition")
-                .and_then(|n| n.get("carbohydrate"));
+            let carb = item.get("nutrition").and_then(|n| n.get("carbohydrate"));
             if let Some(u) = carb.and_then(|c| c.get("units")).and_then(Value::as_str) {
                 if !u.eq_ignore_ascii_case("grams") {
                     return Err(item.err(

@@ -4,7 +4,12 @@
 //! 1 scan glucose, 2 strip (meter) glucose, 3 ketone, 4 insulin, 5 food,
 //! 6 notes and time changes. Device times carry no offset and come in the
 //! account's locale: `12-04-1961 22:30` (day first), `05-01-2024 12:03 AM`
-//! (month first with AM/PM), `2024/05/01 00:03` (year first).
+//! (month first with AM/PM), `2024/05/01 00:03` (year first), `24.02.2021
+//! 07:00` (day first with dots); the order is taken from the file's own
+//! evidence or `--date-order`, never guessed. The header is written in the
+//! account's language and found among the first lines
+//! ([`libreview_columns`]); numbers may use a decimal comma (`"5,6"`).
+//! Scan (type 1), ketone (3) and note (6) rows are counted, not read.
 
 use abba_core::{Grams, MgDl, Units};
 

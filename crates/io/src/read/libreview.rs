@@ -75,45 +75,21 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     let first = bytes.split(|&b| b == b'\n').next().unwrap_or(b"");
     let header_at = usize::from(!String::from_utf8_lossy(first).contains("Record Type"));
     let mut t = Table::open(file, bytes, header_at)?;
-    let col = |t: &Table<'_>, prefix: &str| t.column(|h| h.starts_with(prefix));
-    let need = |t: &Table<'_>, prefix: &str| {
-        col(t, prefix).ok_or_else(|| {
-            IoError::format(
-                file,
-                format!(
-                    "a LibreView export needs a \"{prefix}\" column; the columns found are {}",
-                    t.columns_found()
-                ),
-            )
-        })
-    };
-    let time_at = need(&t, "Device Timestamp")?;
-    let type_at = need(&t, "Record Type")?;
-    let historic_at = need(&t, "Historic Glucose")?;
-    let scan_at = col(&t, "Scan Glucose");
-    let strip_at = col(&t, "Strip Glucose");
-    let rapid_at = col(&t, "Rapid-Acting Insulin (units)");
-    let long_at = col(&t, "Long-Acting Insulin Value (units)")
-        .or_else(|| col(&t, "Long-Acting Insulin (units)"));
-    let meal_at = col(&t, "Meal Insulin (units)");
-    let corr_at = col(&t, "Correction Insulin (units)");
-    let carbs_at = col(&t, "Carbohydrates (grams)");
-    let servings_at = col(&t, "Carbohydrates (servings)");
+    let time_at = t.need_column_starting("LibreView", "Device Timestamp")?;
+    let type_at = t.need_column_starting("LibreView", "Record Type")?;
+    let historic_at = t.need_column_starting("LibreView", "Historic Glucose")?;
+    let scan_at = t.column_starting("Scan Glucose");
+    let strip_at = t.column_starting("Strip Glucose");
+    let rapid_at = t.column_starting("Rapid-Acting Insulin (units)");
+    let long_at = t
+        .column_starting("Long-Acting Insulin Value (units)")
+        .or_else(|| t.column_starting("Long-Acting Insulin (units)"));
+    let meal_at = t.column_starting("Meal Insulin (units)");
+    let corr_at = t.column_starting("Correction Insulin (units)");
+    let carbs_at = t.column_starting("Carbohydrates (grams)");
+    let servings_at = t.column_starting("Carbohydrates (servings)");
+    let unit = t.unit_of_column(historic_at, ctx.opts.units)?;
     let historic_name = t.header[historic_at].clone();
-    let unit = crate::read::plain::unit_in_name(&historic_name).ok_or_else(|| IoError::Units {
-        file: file.to_string(),
-        message: format!("column \"{historic_name}\" names no unit (expected mg/dL or mmol/L)"),
-    })?;
-    if let Some(given) = ctx.opts.units.filter(|&g| g != unit) {
-        return Err(IoError::Units {
-            file: file.to_string(),
-            message: format!(
-                "the file says {} (column \"{historic_name}\") but --units says {}",
-                unit.name(),
-                given.name()
-            ),
-        });
-    }
     let tz = ctx.require_tz("LibreView writes device times without an offset")?;
     let mut wall = WallClock::new(tz);
     let time_name = t.header[time_at].clone();

@@ -31,40 +31,15 @@ pub fn looks_like(header_line: &str) -> bool {
 pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     let file = ctx.file;
     let mut t = Table::open(file, bytes, 0)?;
-    let col = |t: &Table<'_>, prefix: &str| t.column(|h| h.starts_with(prefix));
-    let need = |t: &Table<'_>, prefix: &str| {
-        col(t, prefix).ok_or_else(|| {
-            IoError::format(
-                file,
-                format!(
-                    "a Clarity export needs a \"{prefix}...\" column; the columns found are {}",
-                    t.columns_found()
-                ),
-            )
-        })
-    };
-    let time_at = need(&t, "Timestamp")?;
-    let type_at = need(&t, "Event Type")?;
-    let subtype_at = col(&t, "Event Subtype");
-    let glucose_at = need(&t, "Glucose Value")?;
-    let insulin_at = col(&t, "Insulin Value");
-    let carbs_at = col(&t, "Carb Value");
-    let duration_at = col(&t, "Duration");
+    let time_at = t.need_column_starting("Clarity", "Timestamp")?;
+    let type_at = t.need_column_starting("Clarity", "Event Type")?;
+    let subtype_at = t.column_starting("Event Subtype");
+    let glucose_at = t.need_column_starting("Clarity", "Glucose Value")?;
+    let insulin_at = t.column_starting("Insulin Value");
+    let carbs_at = t.column_starting("Carb Value");
+    let duration_at = t.column_starting("Duration");
+    let unit = t.unit_of_column(glucose_at, ctx.opts.units)?;
     let glucose_name = t.header[glucose_at].clone();
-    let unit = crate::read::plain::unit_in_name(&glucose_name).ok_or_else(|| IoError::Units {
-        file: file.to_string(),
-        message: format!("column \"{glucose_name}\" names no unit (expected mg/dL or mmol/L)"),
-    })?;
-    if let Some(given) = ctx.opts.units.filter(|&g| g != unit) {
-        return Err(IoError::Units {
-            file: file.to_string(),
-            message: format!(
-                "the file says {} (column \"{glucose_name}\") but --units says {}",
-                unit.name(),
-                given.name()
-            ),
-        });
-    }
     let (low, high) = match unit {
         GlucoseUnit::MgDl => (40.0, 400.0),
         GlucoseUnit::MmolL => (2.2, 22.2),

@@ -395,18 +395,7 @@ impl Columns {
                 ),
             ));
         }
-        let unit = roles[historic].1.unwrap_or(GlucoseUnit::MgDl);
-        if let Some(given) = ctx.opts.units.filter(|&g| g != unit) {
-            return Err(IoError::Units {
-                file: file.to_string(),
-                message: format!(
-                    "the file says {} (column \"{}\") but --units says {}",
-                    unit.name(),
-                    t.header[historic],
-                    given.name()
-                ),
-            });
-        }
+        t.unit_of_column(historic, ctx.opts.units)?;
         Ok(Self {
             time: need(Role::Time, "device time")?,
             record_type: need(Role::RecordType, "record type")?,

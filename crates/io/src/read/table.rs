@@ -1,8 +1,9 @@
 //! A CSV file as the exports write them: an optional byte-order mark,
 //! preamble lines before the header, `,` `;` or tab as delimiter, LF or
-//! CRLF line ends, decimal commas where the delimiter is `;`.
+//! CRLF line ends, decimal commas (see [`number`]).
 
 use crate::error::{IoError, Location};
+use crate::units::GlucoseUnit;
 
 /// A CSV table: its header cells and rows, each with its 1-based line.
 pub struct Table<'a> {
@@ -106,6 +107,51 @@ impl<'a> Table<'a> {
     /// Index of the first header cell for which `pred` holds.
     pub fn column(&self, pred: impl Fn(&str) -> bool) -> Option<usize> {
         self.header.iter().position(|h| pred(h))
+    }
+
+    /// Index of the first header cell that starts with `prefix`.
+    pub fn column_starting(&self, prefix: &str) -> Option<usize> {
+        self.column(|h| h.starts_with(prefix))
+    }
+
+    /// Index of the first header cell that starts with `prefix`, or an
+    /// error saying that an `export` file needs it and which columns it has.
+    pub fn need_column_starting(&self, export: &str, prefix: &str) -> Result<usize, IoError> {
+        self.column_starting(prefix).ok_or_else(|| {
+            IoError::format(
+                self.file,
+                format!(
+                    "a {export} export needs a \"{prefix}...\" column; the columns found are {}",
+                    self.columns_found()
+                ),
+            )
+        })
+    }
+
+    /// The glucose unit named in the header of column `at` (`mg/dL` or
+    /// `mmol/L`); an error if it names none or if `given` (the caller's
+    /// `--units`) says otherwise.
+    pub fn unit_of_column(
+        &self,
+        at: usize,
+        given: Option<GlucoseUnit>,
+    ) -> Result<GlucoseUnit, IoError> {
+        let name = &self.header[at];
+        let unit = super::plain::unit_in_name(name).ok_or_else(|| IoError::Units {
+            file: self.file.to_string(),
+            message: format!("column \"{name}\" names no unit (expected mg/dL or mmol/L)"),
+        })?;
+        if let Some(given) = given.filter(|&g| g != unit) {
+            return Err(IoError::Units {
+                file: self.file.to_string(),
+                message: format!(
+                    "the file says {} (column \"{name}\") but --units says {}",
+                    unit.name(),
+                    given.name()
+                ),
+            });
+        }
+        Ok(unit)
     }
 
     /// The header cells, quoted and joined (for errors).

@@ -332,6 +332,15 @@ fn clarity_mmol_calibrations_censored_values_and_rows_without_time() {
         .records
         .iter()
         .any(|r| matches!(&r.kind, RecordKind::Ignored { kind } if kind == "Exercise Medium")));
+    // Insulin without its subtype: rapid or long-acting is not guessed.
+    let insulin = format!("{head}8,2024-03-04T08:00:00,Insulin,,,,G7,,4,,,,6,X\n");
+    let err = read(&[("c.csv", insulin.into())], &opts("Europe/Zurich"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.starts_with("c.csv: line 4, field \"Event Subtype\""),
+        "{err}"
+    );
     // An EGV row that lost its time is not skipped as preamble.
     let lost = format!("{head}8,,EGV,,,,G7,7.0,,,,,6,X\n");
     let err = read(&[("c.csv", lost.into())], &opts("Europe/Zurich"))

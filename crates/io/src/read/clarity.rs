@@ -5,7 +5,8 @@
 //! EGV rows are CGM readings; "Low" and "High" are the sensor's reporting
 //! limits (40 and 400 mg/dL, 2.2 and 22.2 mmol/L) and stay censored
 //! (never dropped, never read as exact). Calibration rows are meter
-//! readings; Insulin (Fast-Acting, Long-Acting) and Carbs rows are read;
+//! readings; Insulin (Fast-Acting, Long-Acting; any other subtype is an
+//! error) and Carbs rows are read;
 //! every other event type (Exercise, Health, Alert, Device, ...) is counted.
 //! A data row without its time is an error.
 
@@ -124,10 +125,20 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
                     units::BOLUS_MAX_U,
                     "insulin (U)",
                 )?);
-                if subtype.eq_ignore_ascii_case("Long-Acting") {
-                    RecordKind::LongActing { units: u }
-                } else {
-                    RecordKind::Bolus { units: u }
+                match subtype.to_ascii_lowercase().as_str() {
+                    "long-acting" => RecordKind::LongActing { units: u },
+                    "fast-acting" | "rapid-acting" => RecordKind::Bolus { units: u },
+                    other => {
+                        return Err(IoError::invalid(
+                            at.clone(),
+                            &subtype_at
+                                .map_or("Event Subtype".to_string(), |i| t.header[i].clone()),
+                            format!(
+                                "an Insulin row needs its subtype Fast-Acting or Long-Acting \
+                                 (abba does not guess which), got \"{other}\""
+                            ),
+                        ))
+                    }
                 }
             }
             "Carbs" => {

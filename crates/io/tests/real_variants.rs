@@ -84,6 +84,13 @@ fn libreview_in_german_with_mmol_and_decimal_commas() {
     assert_eq!(boluses, vec![4.5, 4.5]);
     // Day-first with dots: 24.02.2021 07:00 in Berlin (UTC+1).
     assert_eq!(b.records[0].at.to_string(), "2021-02-24T06:00:00Z");
+    // The same file saved as UTF-16 (as some Windows programs do) reads
+    // the same.
+    let text = String::from_utf8(libreview_german_mmol()).unwrap();
+    let utf16: Vec<u8> = text.encode_utf16().flat_map(u16::to_le_bytes).collect();
+    assert_eq!(&utf16[..2], &[0xFF, 0xFE]);
+    let b16 = read(&[("de.csv", utf16)], &opts("Europe/Berlin")).unwrap();
+    assert_eq!(b16.records, b.records);
 }
 
 #[test]

@@ -150,6 +150,8 @@ pub fn read_bytes(
     bytes: &[u8],
     opts: &ReadOptions,
 ) -> Result<(Format, Vec<Record>), IoError> {
+    let decoded = table::utf16_to_utf8(file, bytes)?;
+    let bytes = decoded.as_deref().unwrap_or(bytes);
     let format = match opts.format {
         Some(f) => f,
         None => detect(file, bytes)?,

@@ -32,6 +32,34 @@ pub fn strip_bom(bytes: &[u8]) -> &[u8] {
     bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes)
 }
 
+/// A UTF-16 file (byte-order mark `FF FE` or `FE FF`, as some Windows
+/// programs save CSV) as UTF-8 bytes; `None` for any other file. Text that
+/// is not valid UTF-16 is an error.
+pub fn utf16_to_utf8(file: &str, bytes: &[u8]) -> Result<Option<Vec<u8>>, IoError> {
+    let little = match bytes {
+        [0xFF, 0xFE, ..] => true,
+        [0xFE, 0xFF, ..] => false,
+        _ => return Ok(None),
+    };
+    if !bytes.len().is_multiple_of(2) {
+        return Err(IoError::format(
+            file,
+            "the file starts with a UTF-16 byte-order mark but has an odd number of bytes",
+        ));
+    }
+    let units: Vec<u16> = bytes[2..]
+        .chunks(2)
+        .map(|c| match (c, little) {
+            ([a, b], true) => u16::from_le_bytes([*a, *b]),
+            ([a, b], false) => u16::from_be_bytes([*a, *b]),
+            _ => 0xFFFF, // not reached: the length is even
+        })
+        .collect();
+    String::from_utf16(&units)
+        .map(|s| Some(s.into_bytes()))
+        .map_err(|e| IoError::format(file, format!("the file says UTF-16 but is not: {e}")))
+}
+
 /// The byte offset where line `n` (0-based) starts, if the input has it.
 fn line_start(bytes: &[u8], n: usize) -> Option<usize> {
     let mut at = 0;
@@ -277,6 +305,23 @@ pub fn required_number(
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn utf16_files_are_read_as_utf8() {
+        let text = "Gerät,Zeit\r\n1,2\r\n";
+        let mut le = vec![0xFF, 0xFE];
+        le.extend(text.encode_utf16().flat_map(u16::to_le_bytes));
+        let mut be = vec![0xFE, 0xFF];
+        be.extend(text.encode_utf16().flat_map(u16::to_be_bytes));
+        for bytes in [le, be] {
+            assert_eq!(
+                utf16_to_utf8("f", &bytes).unwrap(),
+                Some(text.as_bytes().to_vec())
+            );
+        }
+        assert_eq!(utf16_to_utf8("f", text.as_bytes()).unwrap(), None);
+        assert!(utf16_to_utf8("f", &[0xFF, 0xFE, 0x41]).is_err());
+    }
 
     #[test]
     fn decimal_commas_are_read_and_thousands_are_refused() {

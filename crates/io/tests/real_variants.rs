@@ -200,10 +200,12 @@ fn nightscout_sgv_error_codes_are_counted_not_read_as_glucose() {
  {"_id":"b","type":"sgv","sgv":10,"date":1709557500000},
  {"_id":"c","type":"sgv","sgv":12,"date":1709557800000},
  {"_id":"d","type":"sgv","sgv":1,"date":1709558100000},
- {"_id":"e","type":"sgv","sgv":39,"date":1709558400000}
+ {"_id":"e","type":"sgv","sgv":39,"date":1709558400000},
+ {"_id":"f","type":"sgv","sgv":41,"date":1709558700000},
+ {"_id":"g","type":"sgv","sgv":45,"date":1709559000000}
 ]"#;
     let b = read(&[("e.json", entries.into())], &opts("UTC")).unwrap();
-    assert_eq!(b.count("cgm"), 2);
+    assert_eq!(b.count("cgm"), 4);
     let kinds: Vec<String> = b
         .records
         .iter()
@@ -220,6 +222,15 @@ fn nightscout_sgv_error_codes_are_counted_not_read_as_glucose() {
             "sgv sensor error code 1"
         ]
     );
+    // Mostly "error codes": glucose in mmol/L, refused as a unit error.
+    let mmol = r#"[
+ {"_id":"a","type":"sgv","sgv":6,"date":1709557200000},
+ {"_id":"b","type":"sgv","sgv":7,"date":1709557500000},
+ {"_id":"c","type":"sgv","sgv":120,"date":1709557800000}
+]"#;
+    let err = read(&[("m.json", mmol.into())], &opts("UTC")).unwrap_err();
+    assert!(matches!(err, abba_io::IoError::Units { .. }), "{err}");
+    assert!(err.to_string().contains("2 of 3 sgv values"), "{err}");
     // A negative or fractional sgv is not an error code: refused.
     let bad = r#"[{"_id":"a","type":"sgv","sgv":-5,"date":1709557200000}]"#;
     let err = read(&[("n.json", bad.into())], &opts("UTC")).unwrap_err();

@@ -60,7 +60,36 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
             });
         }
     }
+    check_error_codes(ctx.file, &out)?;
     Ok(out)
+}
+
+/// Error codes are rare: a file where most `sgv` values are below 39 is
+/// more likely glucose in mmol/L (which Nightscout entries must not hold)
+/// than a sensor failing all the time, and is refused.
+fn check_error_codes(file: &str, records: &[Record]) -> Result<(), IoError> {
+    let codes = records
+        .iter()
+        .filter(|r| {
+            matches!(&r.kind, RecordKind::Ignored { kind } if kind.starts_with("sgv sensor error code"))
+        })
+        .count();
+    let readings = records
+        .iter()
+        .filter(|r| matches!(r.kind, RecordKind::Cgm { .. }))
+        .count();
+    if codes > 0 && codes >= readings {
+        return Err(IoError::Units {
+            file: file.to_string(),
+            message: format!(
+                "{codes} of {} sgv values are below {SGV_ERROR_BELOW}, which Nightscout uses for \
+                 sensor error codes; so many look like glucose in mmol/L, but Nightscout entries \
+                 hold mg/dL (check the uploader's settings)",
+                codes + readings
+            ),
+        });
+    }
+    Ok(())
 }
 
 /// The item's instant: `date` / `mills` (ms since the epoch), else

@@ -3,7 +3,12 @@
 //! (FirstName, LastName, Device, Alert settings), then one row per event in
 //! device local time (`2019-08-15T00:03:27`, sometimes `2025-05-01 0:01:47`).
 //! EGV rows are CGM readings; "Low" and "High" are the sensor's reporting
-//! limits (40 and 400 mg/dL, 2.2 and 22.2 mmol/L) and stay censored.
+//! limits (40 and 400 mg/dL, 2.2 and 22.2 mmol/L) and stay censored
+//! (never dropped, never read as exact). Calibration rows are meter
+//! readings; Insulin (Fast-Acting, Long-Acting; any other subtype is an
+//! error) and Carbs rows are read;
+//! every other event type (Exercise, Health, Alert, Device, ...) is counted.
+//! A data row without its time is an error.
 
 use abba_core::{Grams, Units};
 
@@ -13,6 +18,10 @@ use crate::error::{IoError, Location, Place};
 use crate::record::{Censor, Glucose, Record, RecordKind, Source, SourceId};
 use crate::time::{parse_wall, DateOrder, WallClock};
 use crate::units::{self, check_range, GlucoseUnit};
+
+/// Event types that are data and need a time (the preamble's FirstName,
+/// LastName, Device and Alert rows have none).
+const DATA_EVENTS: [&str; 4] = ["EGV", "Calibration", "Insulin", "Carbs"];
 
 /// Whether a header row (first line) is Clarity's.
 pub fn looks_like(header_line: &str) -> bool {
@@ -48,6 +57,13 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
         let time_text = t.cell(time_at);
         let kind_text = t.cell(type_at);
         if time_text.is_empty() {
+            if DATA_EVENTS.contains(&kind_text) {
+                return Err(IoError::invalid(
+                    at.clone(),
+                    &t.header[time_at],
+                    format!("a {kind_text} row needs its time; the cell is empty"),
+                ));
+            }
             continue; // preamble: patient, device and alert settings
         }
         let dt = parse_wall(time_text, DateOrder::YearFirst).ok_or_else(|| {
@@ -95,6 +111,10 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
             "EGV" => RecordKind::Cgm {
                 glucose: glucose(&t)?,
             },
+            // A meter reading entered to calibrate the sensor.
+            "Calibration" => RecordKind::Smbg {
+                glucose: glucose(&t)?,
+            },
             "Insulin" => {
                 let (name, v) = number(&t, insulin_at, "insulin (U)")?;
                 let u = Units(check_range(
@@ -105,10 +125,20 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
                     units::BOLUS_MAX_U,
                     "insulin (U)",
                 )?);
-                if subtype.eq_ignore_ascii_case("Long-Acting") {
-                    RecordKind::LongActing { units: u }
-                } else {
-                    RecordKind::Bolus { units: u }
+                match subtype.to_ascii_lowercase().as_str() {
+                    "long-acting" => RecordKind::LongActing { units: u },
+                    "fast-acting" | "rapid-acting" => RecordKind::Bolus { units: u },
+                    other => {
+                        return Err(IoError::invalid(
+                            at.clone(),
+                            &subtype_at
+                                .map_or("Event Subtype".to_string(), |i| t.header[i].clone()),
+                            format!(
+                                "an Insulin row needs its subtype Fast-Acting or Long-Acting \
+                                 (abba does not guess which), got \"{other}\""
+                            ),
+                        ))
+                    }
                 }
             }
             "Carbs" => {

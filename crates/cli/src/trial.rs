@@ -150,13 +150,6 @@ pub fn run(args: Args) -> Result<()> {
         git_revision: env!("ABBA_GIT_REV"),
     };
     let written = plan.write(&output, &tool, &run)?;
-    // The W1 sensitivity block (the standard arm's W1 with each variability
-    // source off): w1_sensitivity.md, and report.html again with the block.
-    for file in abba_trial::w1_sensitivity::w1_report_files(&output, &tool)? {
-        let path = args.out.join(file.name);
-        std::fs::write(&path, &file.bytes)
-            .with_context(|| format!("cannot write {}", path.display()))?;
-    }
     if !args.quiet {
         eprintln!(
             "abba trial: {} patient-runs in {:.1} s; report in {} ({} files{})",

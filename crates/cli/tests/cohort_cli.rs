@@ -1,30 +1,16 @@
 //! `abba cohort` run as a user would: the built binary writing real files.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+mod cli_common;
+
 use std::path::PathBuf;
-use std::process::{Command, Output};
+
+use cli_common::{abba, ok};
 
 const PUBLIC_TABLE: &str = include_str!("../../../data/uva-padova/vpatient_params.csv");
 
-fn abba(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_abba"))
-        .args(args)
-        .env_remove("RUST_BACKTRACE")
-        .env_remove("RUST_LIB_BACKTRACE")
-        .output()
-        .expect("run abba")
-}
-
 fn temp_path(name: &str) -> PathBuf {
     std::env::temp_dir().join(format!("abba_cohort_cli_{}_{name}", std::process::id()))
-}
-
-fn ok(out: &Output) {
-    assert!(
-        out.status.success(),
-        "abba failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
 }
 
 #[test]

@@ -2,25 +2,11 @@
 //! as a user would.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use std::process::{Command, Output};
+mod cli_common;
+
+use cli_common::{abba, ok};
 
 const IO_DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../io/tests/data");
-
-fn abba(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_abba"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-fn ok(out: &Output) -> String {
-    assert!(
-        out.status.success(),
-        "abba failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout.clone()).unwrap()
-}
 
 fn nightscout() -> Vec<String> {
     ["entries", "treatments", "profile"]

@@ -3,27 +3,17 @@
 //! the file and field, and crash safety (SIGKILL during `abba import`).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+mod cli_common;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
+
+use cli_common::abba;
 use std::time::{Duration, Instant};
 
-fn abba(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_abba"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
+/// The output of `abba args`, which must succeed.
 fn ok(args: &[&str]) -> String {
-    let out = abba(args);
-    let text = String::from_utf8_lossy(&out.stdout).to_string();
-    assert!(
-        out.status.success(),
-        "abba {args:?} failed: {}{}",
-        text,
-        String::from_utf8_lossy(&out.stderr)
-    );
-    text
+    cli_common::ok(&abba(args))
 }
 
 fn tmp(tag: &str) -> PathBuf {

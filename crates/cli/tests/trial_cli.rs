@@ -231,18 +231,8 @@ fn shards_and_merge_write_the_single_run_report() {
         .status()
         .unwrap();
     assert!(st.success());
-    for name in [
-        "summary.json",
-        "summary_notes.json",
-        "table1.md",
-        "table1.csv",
-        "patients.csv",
-        "fig5_lbgi_hbgi.svg",
-        "fig6_mage.svg",
-        "fig7_tdi.svg",
-        "fig_arms.svg",
-        "README.md",
-    ] {
+    // Every file, the W1 block and report.html among them, but the manifest.
+    for name in REPORT_FILES.into_iter().filter(|f| *f != "manifest.json") {
         let a = std::fs::read(single.join(name)).unwrap();
         let b = std::fs::read(merged.join(name)).unwrap();
         assert!(

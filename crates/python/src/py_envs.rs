@@ -201,6 +201,18 @@ pub struct MinuteBatch {
 
 type Arr<'py> = Bound<'py, PyArray1<f64>>;
 
+/// A batch needs one seed per patient, and at least one patient.
+fn check_batch(patients: &[String], seeds: &[u64]) -> PyResult<()> {
+    if patients.len() != seeds.len() || patients.is_empty() {
+        return Err(value_error(format!(
+            "{} patients and {} seeds: expected the same number, at least 1",
+            patients.len(),
+            seeds.len()
+        )));
+    }
+    Ok(())
+}
+
 #[pymethods]
 impl MinuteBatch {
     /// `patients[i]` is environment i's patient; seeds[i] its first seed.
@@ -217,13 +229,7 @@ impl MinuteBatch {
         start_minute_of_day: Option<u32>,
         cohort_seed: u64,
     ) -> PyResult<Self> {
-        if patients.len() != seeds.len() || patients.is_empty() {
-            return Err(value_error(format!(
-                "{} patients and {} seeds: expected the same number, at least 1",
-                patients.len(),
-                seeds.len()
-            )));
-        }
+        check_batch(&patients, &seeds)?;
         let sims = patients
             .iter()
             .zip(&seeds)
@@ -484,13 +490,7 @@ impl DailyBatch {
         days: u32,
         cohort_seed: u64,
     ) -> PyResult<Self> {
-        if patients.len() != seeds.len() || patients.is_empty() {
-            return Err(value_error(format!(
-                "{} patients and {} seeds: expected the same number, at least 1",
-                patients.len(),
-                seeds.len()
-            )));
-        }
+        check_batch(&patients, &seeds)?;
         let sims = patients
             .iter()
             .zip(&seeds)

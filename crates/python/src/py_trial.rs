@@ -29,14 +29,8 @@ fn report<'py>(
         version: env!("CARGO_PKG_VERSION"),
         git_revision: env!("ABBA_GIT_REV"),
     };
-    let manifest = abba_trial::report::trial_manifest(output, &tool);
-    let mut files =
-        abba_report::build_report(&output.arms, &manifest, None).map_err(value_error)?;
-    // The W1 block as `abba trial` writes it (w1_sensitivity.md, report.html with the block).
-    for extra in abba_trial::w1_sensitivity::w1_report_files(output, &tool).map_err(value_error)? {
-        files.retain(|f| f.name != extra.name);
-        files.push(extra);
-    }
+    // Every file as `abba trial` writes it, the W1 block among them.
+    let files = abba_trial::report::trial_report_files(output, &tool, None).map_err(value_error)?;
     Ok(files
         .into_iter()
         .map(|f| (f.name.to_string(), PyBytes::new(py, &f.bytes)))

@@ -3,6 +3,7 @@
 //! writes them.
 
 use crate::error::ReportError;
+use crate::html::HtmlSection;
 use crate::manifest::{with_run, RunInfo};
 use crate::results::ArmResult;
 use crate::select::validate_arms;
@@ -17,8 +18,14 @@ pub struct ReportFile {
     pub bytes: Vec<u8>,
 }
 
-/// File names of the report, in the order [`build_report`] produces them.
-pub const REPORT_FILES: [&str; 12] = [
+/// The file of the W1 sensitivity block (see [`W1Block`]).
+pub const W1_FILE: &str = "w1_sensitivity.md";
+
+/// File names of the report, in the order [`build_report_with`] produces
+/// them: every file abba writes into a report folder (and replaces or
+/// removes there on a rerun, see [`crate::ReportDir`]). `w1_sensitivity.md`
+/// is written only when the trial computed the W1 block.
+pub const REPORT_FILES: [&str; 13] = [
     "summary.json",
     "summary_notes.json",
     "table1.md",
@@ -28,19 +35,51 @@ pub const REPORT_FILES: [&str; 12] = [
     "fig6_mage.svg",
     "fig7_tdi.svg",
     "fig_arms.svg",
+    W1_FILE,
     "manifest.json",
     "README.md",
     "report.html",
 ];
 
-/// Builds every file of the report in memory (names as in [`REPORT_FILES`]).
-/// `manifest` (what ran) is copied into `summary.json`; `manifest.json`
-/// also records `run` (how the run went: wall time, threads), when given,
-/// so that `summary.json` is identical across reruns.
+/// The W1 sensitivity block (the standard arm's first week re-run with each
+/// source of variability switched off), computed by the trial, which can
+/// re-run the simulator: its Markdown file and its section of `report.html`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct W1Block {
+    /// The content of `w1_sensitivity.md`.
+    pub markdown: String,
+    /// The same table as a section of `report.html`.
+    pub section: HtmlSection,
+}
+
+/// What a report has beyond its arms' results.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ReportExtras {
+    /// The W1 sensitivity block, when the trial computed it.
+    pub w1: Option<W1Block>,
+}
+
+/// Builds every file of the report in memory without extras (see
+/// [`build_report_with`]).
 pub fn build_report(
     arms: &[ArmResult],
     manifest: &serde_json::Value,
     run: Option<&RunInfo>,
+) -> Result<Vec<ReportFile>, ReportError> {
+    build_report_with(arms, manifest, run, &ReportExtras::default())
+}
+
+/// Builds every file of the report in memory, in the order of
+/// [`REPORT_FILES`] (`w1_sensitivity.md` only with a W1 block in `extras`).
+/// `manifest` (what ran) is copied into `summary.json`; `manifest.json`
+/// also records `run` (how the run went: wall time, threads), when given,
+/// so that `summary.json` is identical across reruns, and `files`, the
+/// names of the report's files.
+pub fn build_report_with(
+    arms: &[ArmResult],
+    manifest: &serde_json::Value,
+    run: Option<&RunInfo>,
+    extras: &ReportExtras,
 ) -> Result<Vec<ReportFile>, ReportError> {
     validate_arms(arms)?;
     let mut summary = summary::summary_json(arms, manifest)?;
@@ -50,38 +89,59 @@ pub fn build_report(
         .as_object_mut()
         .and_then(|o| o.remove("notes"))
         .unwrap_or(serde_json::Value::Null);
-    let files: [(&'static str, Vec<u8>); 12] = [
-        ("summary.json", pretty_json(&summary, "summary.json")?),
+    let w1 = extras.w1.as_ref();
+    let names: Vec<&'static str> = REPORT_FILES
+        .into_iter()
+        .filter(|&name| name != W1_FILE || w1.is_some())
+        .collect();
+    let sections: Vec<HtmlSection> = w1.map(|b| b.section.clone()).into_iter().collect();
+    let mut manifest_json = with_run(manifest, run);
+    if let Some(obj) = manifest_json.as_object_mut() {
+        obj.insert("files".to_string(), serde_json::json!(names));
+    }
+    // In the order of REPORT_FILES (a test holds them equal); `None`: not
+    // part of this report.
+    let files: [(&'static str, Option<Vec<u8>>); 13] = [
+        ("summary.json", Some(pretty_json(&summary, "summary.json")?)),
         (
             "summary_notes.json",
-            pretty_json(&notes, "summary_notes.json")?,
+            Some(pretty_json(&notes, "summary_notes.json")?),
         ),
-        ("table1.md", table1::table1_markdown(arms)?.into_bytes()),
-        ("table1.csv", table1::table1_csv(arms)?.into_bytes()),
+        (
+            "table1.md",
+            Some(table1::table1_markdown(arms)?.into_bytes()),
+        ),
+        ("table1.csv", Some(table1::table1_csv(arms)?.into_bytes())),
         (
             "patients.csv",
-            patients_csv::patients_csv(arms)?.into_bytes(),
+            Some(patients_csv::patients_csv(arms)?.into_bytes()),
         ),
         (
             "fig5_lbgi_hbgi.svg",
-            figures::fig5_lbgi_hbgi(arms)?.into_bytes(),
+            Some(figures::fig5_lbgi_hbgi(arms)?.into_bytes()),
         ),
-        ("fig6_mage.svg", figures::fig6_mage(arms)?.into_bytes()),
-        ("fig7_tdi.svg", figures::fig7_tdi(arms)?.into_bytes()),
-        ("fig_arms.svg", figures::fig_arms(arms)?.into_bytes()),
+        (
+            "fig6_mage.svg",
+            Some(figures::fig6_mage(arms)?.into_bytes()),
+        ),
+        ("fig7_tdi.svg", Some(figures::fig7_tdi(arms)?.into_bytes())),
+        ("fig_arms.svg", Some(figures::fig_arms(arms)?.into_bytes())),
+        (W1_FILE, w1.map(|b| b.markdown.clone().into_bytes())),
         (
             "manifest.json",
-            pretty_json(&with_run(manifest, run), "manifest.json")?,
+            Some(pretty_json(&manifest_json, "manifest.json")?),
         ),
-        ("README.md", readme().into_bytes()),
+        ("README.md", Some(readme(w1.is_some()).into_bytes())),
         (
             "report.html",
-            crate::html::trial_page::trial_report_html(arms, manifest, &[])?.into_bytes(),
+            Some(
+                crate::html::trial_page::trial_report_html(arms, manifest, &sections)?.into_bytes(),
+            ),
         ),
     ];
     Ok(files
         .into_iter()
-        .map(|(name, bytes)| ReportFile { name, bytes })
+        .filter_map(|(name, bytes)| bytes.map(|bytes| ReportFile { name, bytes }))
         .collect())
 }
 
@@ -97,7 +157,7 @@ pub(crate) fn pretty_json(
 }
 
 /// A short guide to the files of the report.
-fn readme() -> String {
+fn readme(with_w1: bool) -> String {
     let mut s = String::from("# Trial report\n\n");
     s.push_str(
         "Files (protocol section 8):\n\n\
@@ -109,8 +169,14 @@ fn readme() -> String {
          - `fig7_tdi.svg`: weekly total daily insulin, ABBA arms, box plots (paper Fig. 7).\n\
          - `fig_arms.svg`: ABBA against the standard-therapy and run-to-run baselines.\n\
          - `report.html`: all of the above as one page (opens in any browser, prints on A4/Letter), with the cohort's glucose profile per arm at W1, W13 and W14.\n\
-         - `manifest.json`: version, revision, seed, cohort, protocol, every knob, wall time.\n\n",
+         - `manifest.json`: version, revision, seed, cohort, protocol, every knob, wall time, the report's files.\n",
     );
+    if with_w1 {
+        s.push_str(
+            "- `w1_sensitivity.md`: the standard-therapy week W1 re-run with each source of variability switched off, and with s(t) on Vmx only (also a section of `report.html`).\n",
+        );
+    }
+    s.push('\n');
     s.push_str(
         "Evaluation weeks: W1 = D2-D8 (standard therapy), Wk = D(7k-5)-D(7k+1) for k = 1..12, \
          W13 = D84-D90 (with insulin-sensitivity variability), W14 = D92-D98 (without); D91 is not evaluated. \

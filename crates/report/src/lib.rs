@@ -43,7 +43,9 @@ pub mod table1;
 pub mod trace;
 
 pub use error::ReportError;
-pub use files::{build_report, ReportFile, REPORT_FILES};
+pub use files::{
+    build_report, build_report_with, ReportExtras, ReportFile, W1Block, REPORT_FILES, W1_FILE,
+};
 pub use manifest::RunInfo;
 pub use out_dir::ReportDir;
 pub use results::{ArmKind, ArmResult, PatientResult, RunFailure, Week, WeekResult};

@@ -10,12 +10,13 @@ use std::path::{Path, PathBuf};
 use abba_advisor::Mode;
 use abba_core::metrics::GlucoseMetrics;
 use abba_core::{Metric, ScenarioId};
+use abba_report::html::{HtmlSection, Row};
 use abba_report::results::{
     evaluation_windows, ArmKind, ArmResult, PatientResult, RunFailure, Week, WeekResult,
 };
 use abba_report::{
-    build_report, patients_csv::patients_csv, summary::summary_json, table1, ReportDir,
-    REPORT_FILES,
+    build_report, build_report_with, patients_csv::patients_csv, summary::summary_json, table1,
+    ReportDir, ReportExtras, W1Block, REPORT_FILES, W1_FILE,
 };
 use serde_json::{json, Value};
 
@@ -30,6 +31,24 @@ fn fresh_dir(name: &str) -> PathBuf {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
     let _ = std::fs::remove_dir_all(&dir);
     dir
+}
+
+/// The report's files when no W1 block was computed.
+fn report_files_without_w1() -> Vec<&'static str> {
+    REPORT_FILES.into_iter().filter(|f| *f != W1_FILE).collect()
+}
+
+/// A W1 block with recognisable content.
+fn w1_block(tag: &str) -> W1Block {
+    W1Block {
+        markdown: format!("## W1 sensitivity {tag}\n"),
+        section: HtmlSection {
+            title: format!("W1 sensitivity {tag}"),
+            note: "each row re-runs W1".to_string(),
+            headers: vec!["Variant".to_string(), "n".to_string()],
+            rows: vec![Row::of(["as configured", "3"])],
+        },
+    }
 }
 
 /// Builds the report and writes it into `dir` (checked first).
@@ -434,7 +453,7 @@ fn patients_csv_has_one_row_per_patient_arm_and_week() {
 fn figures_are_svg_with_their_titles() {
     let files = build_report(&small_trial(), &manifest(), None).unwrap();
     let names: Vec<&str> = files.iter().map(|f| f.name).collect();
-    assert_eq!(names, REPORT_FILES);
+    assert_eq!(names, report_files_without_w1());
     for (name, title) in [
         ("fig5_lbgi_hbgi.svg", "Fig. 5 - Weekly LBGI and HBGI"),
         ("fig6_mage.svg", "Fig. 6 - Weekly MAGE"),
@@ -499,7 +518,7 @@ fn write_report_is_byte_identical_across_runs() {
     let arms = small_trial();
     let a = write_report(&base.join("a"), &arms, &manifest());
     let b = write_report(&base.join("b"), &arms, &manifest());
-    assert_eq!(a.len(), REPORT_FILES.len());
+    assert_eq!(a.len(), REPORT_FILES.len() - 1, "all but {W1_FILE}");
     for (x, y) in a.iter().zip(&b) {
         assert_eq!(x.file_name(), y.file_name());
         let (bx, by) = (std::fs::read(x).unwrap(), std::fs::read(y).unwrap());
@@ -508,7 +527,9 @@ fn write_report_is_byte_identical_across_runs() {
     }
     let m: Value =
         serde_json::from_slice(&std::fs::read(base.join("a/manifest.json")).unwrap()).unwrap();
-    assert_eq!(m, manifest());
+    let mut listed = manifest();
+    listed["files"] = json!(report_files_without_w1());
+    assert_eq!(m, listed);
     // summary.json holds exactly the protocol's keys; the notes have their own file.
     let s: Value =
         serde_json::from_slice(&std::fs::read(base.join("a/summary.json")).unwrap()).unwrap();
@@ -808,4 +829,67 @@ fn figure_data_comes_before_drawing() {
         (Week::W13, 39.0, 40.0, 41.0)
     );
     assert_eq!((b.low, b.high, b.outliers.len()), (38.0, 42.0, 0));
+}
+
+#[test]
+fn the_w1_block_is_a_report_file_listed_in_the_manifest() {
+    let arms = small_trial();
+    let extras = ReportExtras {
+        w1: Some(w1_block("tag-one")),
+    };
+    let files = build_report_with(&arms, &manifest(), None, &extras).unwrap();
+    let names: Vec<&str> = files.iter().map(|f| f.name).collect();
+    assert_eq!(names, REPORT_FILES);
+    let file = |name: &str| {
+        let f = files.iter().find(|f| f.name == name).unwrap();
+        String::from_utf8(f.bytes.clone()).unwrap()
+    };
+    assert_eq!(file(W1_FILE), "## W1 sensitivity tag-one\n");
+    assert!(file("report.html").contains("W1 sensitivity tag-one"));
+    assert!(file("README.md").contains("`w1_sensitivity.md`"));
+    let m: Value = serde_json::from_str(&file("manifest.json")).unwrap();
+    assert_eq!(m["files"], json!(REPORT_FILES));
+    // summary.json keeps the manifest as given (identical across reruns).
+    let s: Value = serde_json::from_str(&file("summary.json")).unwrap();
+    assert_eq!(s["manifest"], manifest());
+    // Without the block: neither the file nor its mention.
+    let plain = build_report(&arms, &manifest(), None).unwrap();
+    let readme = plain.iter().find(|f| f.name == "README.md").unwrap();
+    assert!(!String::from_utf8_lossy(&readme.bytes).contains(W1_FILE));
+    let html = plain.iter().find(|f| f.name == "report.html").unwrap();
+    assert!(!String::from_utf8_lossy(&html.bytes).contains("W1 sensitivity tag-one"));
+}
+
+#[test]
+fn a_rerun_replaces_or_removes_w1_sensitivity_md() {
+    let dir = fresh_dir("report_files_w1_rerun");
+    let arms = small_trial();
+    let write = |tag: Option<&str>| {
+        let extras = ReportExtras {
+            w1: tag.map(w1_block),
+        };
+        let built = build_report_with(&arms, &manifest(), None, &extras).unwrap();
+        ReportDir::prepare(&dir)
+            .unwrap()
+            .write_report(&built)
+            .unwrap()
+    };
+    let read_w1 = || std::fs::read_to_string(dir.join(W1_FILE)).unwrap();
+    let listed = || -> Value {
+        let m: Value =
+            serde_json::from_slice(&std::fs::read(dir.join("manifest.json")).unwrap()).unwrap();
+        m["files"].clone()
+    };
+    let written = write(Some("first"));
+    assert!(written.contains(&dir.join(W1_FILE)));
+    assert!(read_w1().contains("first"));
+    // A rerun into the same folder replaces it ...
+    write(Some("second"));
+    assert!(read_w1().contains("second"));
+    assert_eq!(listed(), json!(REPORT_FILES));
+    // ... and one without the block removes it, like any stale abba file.
+    let written = write(None);
+    assert!(!dir.join(W1_FILE).exists());
+    assert!(!written.contains(&dir.join(W1_FILE)));
+    assert_eq!(listed(), json!(report_files_without_w1()));
 }

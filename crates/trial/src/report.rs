@@ -9,7 +9,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use abba_report::trace::{decisions_jsonl, trace_csv, trace_stem, TraceMinute};
-use abba_report::{build_report, ReportDir};
+use abba_report::{build_report_with, ReportDir, ReportExtras, ReportFile};
 pub use abba_report::{RunInfo, REPORT_FILES};
 use serde_json::{json, Value};
 
@@ -39,7 +39,8 @@ pub struct ReportPlan {
 pub struct WrittenReport {
     /// The report folder.
     pub dir: PathBuf,
-    /// The report's files, in the order of [`abba_report::REPORT_FILES`].
+    /// The report's files, in the order of [`abba_report::REPORT_FILES`]
+    /// (`w1_sensitivity.md` among them).
     pub files: Vec<PathBuf>,
     /// The trace files (CSV and decisions of every traced run).
     pub traces: Vec<PathBuf>,
@@ -93,8 +94,7 @@ impl ReportPlan {
         tool: &ToolInfo,
         run: &RunInfo,
     ) -> Result<WrittenReport, TrialError> {
-        let manifest = trial_manifest(output, tool);
-        let built = build_report(&output.arms, &manifest, Some(run))?;
+        let built = trial_report_files(output, tool, Some(run))?;
         let files = self.dir.write_report(&built)?;
         let mut traces = Vec::new();
         for patient in &self.trace {
@@ -116,6 +116,22 @@ impl ReportPlan {
             traces,
         })
     }
+}
+
+/// Every file of the report of `output` in memory, as [`ReportPlan::write`]
+/// writes them: abba-report's files with the W1 sensitivity block (which
+/// re-runs the standard arm's first week, see [`crate::w1_sensitivity`]).
+/// `run` goes into `manifest.json` when given.
+pub fn trial_report_files(
+    output: &TrialOutput,
+    tool: &ToolInfo,
+    run: Option<&RunInfo>,
+) -> Result<Vec<ReportFile>, TrialError> {
+    let manifest = trial_manifest(output, tool);
+    let extras = ReportExtras {
+        w1: crate::w1_sensitivity::w1_block(output)?,
+    };
+    Ok(build_report_with(&output.arms, &manifest, run, &extras)?)
 }
 
 /// One minute of the closed loop as the report's trace row.

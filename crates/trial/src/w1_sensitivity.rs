@@ -123,33 +123,20 @@ pub fn w1_markdown(scenario: ScenarioId, rows: &[W1Row]) -> String {
     s
 }
 
-/// The report files the W1 block adds or changes, for every caller that
-/// writes a trial report (the CLI, the Python package): `w1_sensitivity.md`
-/// and `report.html` rendered again with the block as an extra section
-/// (the block is computed after the arms, from the trial's own cohort).
-pub fn w1_report_files(
+/// The W1 block of a trial's report (`w1_sensitivity.md` and its section
+/// of `report.html`), on the first scenario of the trial and its own
+/// cohort; `None` when the trial has no scenario.
+pub fn w1_block(
     output: &crate::runner::TrialOutput,
-    tool: &crate::report::ToolInfo,
-) -> Result<Vec<abba_report::ReportFile>, TrialError> {
+) -> Result<Option<abba_report::W1Block>, TrialError> {
     let Some(&first) = output.config.scenarios.first() else {
-        return Ok(Vec::new());
+        return Ok(None);
     };
     let rows = w1_sensitivity(&output.config, first)?;
-    let html = abba_report::html::trial_page::trial_report_html(
-        &output.arms,
-        &crate::report::trial_manifest(output, tool),
-        &[w1_html_section(first, &rows)],
-    )?;
-    Ok(vec![
-        abba_report::ReportFile {
-            name: "w1_sensitivity.md",
-            bytes: w1_markdown(first, &rows).into_bytes(),
-        },
-        abba_report::ReportFile {
-            name: "report.html",
-            bytes: html.into_bytes(),
-        },
-    ])
+    Ok(Some(abba_report::W1Block {
+        markdown: w1_markdown(first, &rows),
+        section: w1_html_section(first, &rows),
+    }))
 }
 
 /// The block as a section of `report.html`.

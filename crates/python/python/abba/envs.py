@@ -61,6 +61,20 @@ def risk_diff(bg_last_hour: Sequence[float]) -> float:
     return risk_index(bg_last_hour[-2])[2] - risk_index(bg_last_hour[-1])[2]
 
 
+def _reset_rng(env: gymnasium.Env, seed: Optional[int]) -> None:
+    """Seeds ``env.np_random`` as gymnasium does; on the first reset without a
+    seed, the constructor's seed (``env._ctor_rng``) decides."""
+    gymnasium.Env.reset(env, seed=seed)
+    if seed is None and not hasattr(env, "_seeded"):
+        env.np_random = env._ctor_rng
+    env._seeded = True
+
+
+def _vector_rng(seed: Union[int, Sequence[int]]) -> np.random.Generator:
+    """The generator of a vector environment's ``reset(seed=...)``."""
+    return np.random.default_rng(seed if isinstance(seed, int) else list(seed))
+
+
 def _seed(rng: np.random.Generator) -> int:
     return int(rng.integers(0, 2**63 - 1))
 
@@ -168,6 +182,24 @@ class T1DSimEnv(gymnasium.Env):
         self._window = max(1, int(60 / self.sample_time))
         self._cgm_hist: list[float] = []
 
+    def _info(self, name, meal, cho, bg, plasma, insulin, minute) -> dict:
+        """The ``info`` of a reset or a step (see the class docs)."""
+        lbgi, hbgi, risk = risk_index(bg) if bg > 0 else (float("inf"), 0.0, float("inf"))
+        return {
+            "sample_time": self.sample_time,
+            "patient_name": name,
+            "meal": meal,
+            "cho_g_per_min": cho,
+            "bg": bg,
+            "lbgi": lbgi,
+            "hbgi": hbgi,
+            "risk": risk,
+            "plasma_mg_dl": plasma,
+            "insulin_u_per_min": insulin,
+            "minute": minute,
+            "minute_of_day": self.core.minute_of_day,
+        }
+
     def _core(self, name: str):
         if name not in self._cores:
             self._cores[name] = _abba.MinuteCore(name, seed=0, **self._kwargs)
@@ -179,31 +211,13 @@ class T1DSimEnv(gymnasium.Env):
         return self.core.max_basal_u_per_min
 
     def reset(self, *, seed: Optional[int] = None, options: Optional[dict] = None):
-        super().reset(seed=seed)
-        if seed is None and not hasattr(self, "_seeded"):
-            # First reset without a seed: the constructor's seed decides.
-            self.np_random = self._ctor_rng
-        self._seeded = True
+        _reset_rng(self, seed)
         name = self.patient_names[int(self.np_random.integers(len(self.patient_names)))]
         self.core = self._core(name)
         cgm = self.core.reset(_seed(self.np_random))
         self._cgm_hist = [cgm]
-        bg = self.core.bg_mg_dl
-        lbgi, hbgi, risk = risk_index(bg)
-        return np.array([cgm], dtype=np.float32), {
-            "sample_time": self.sample_time,
-            "patient_name": name,
-            "meal": 0.0,
-            "cho_g_per_min": 0.0,
-            "bg": bg,
-            "lbgi": lbgi,
-            "hbgi": hbgi,
-            "risk": risk,
-            "plasma_mg_dl": self.core.plasma_mg_dl,
-            "insulin_u_per_min": 0.0,
-            "minute": 0,
-            "minute_of_day": self.core.minute_of_day,
-        }
+        info = self._info(name, 0.0, 0.0, self.core.bg_mg_dl, self.core.plasma_mg_dl, 0.0, 0)
+        return np.array([cgm], dtype=np.float32), info
 
     def step(self, action):
         a = np.asarray(action, dtype=np.float64).reshape(-1)
@@ -214,21 +228,7 @@ class T1DSimEnv(gymnasium.Env):
         if len(self._cgm_hist) > self._window:
             del self._cgm_hist[: len(self._cgm_hist) - self._window]
         reward = float(self.reward_fun(list(self._cgm_hist)))
-        lbgi, hbgi, risk = risk_index(bg) if bg > 0 else (float("inf"), 0.0, float("inf"))
-        info = {
-            "sample_time": self.sample_time,
-            "patient_name": self.core.patient_name,
-            "meal": meal,
-            "cho_g_per_min": cho,
-            "bg": bg,
-            "lbgi": lbgi,
-            "hbgi": hbgi,
-            "risk": risk,
-            "plasma_mg_dl": plasma,
-            "insulin_u_per_min": insulin,
-            "minute": self.core.minute,
-            "minute_of_day": self.core.minute_of_day,
-        }
+        info = self._info(self.core.patient_name, meal, cho, bg, plasma, insulin, self.core.minute)
         return np.array([cgm], dtype=np.float32), reward, bool(done), False, info
 
 
@@ -319,7 +319,7 @@ class T1DSimVectorEnv(gymnasium.vector.VectorEnv):
 
     def reset(self, *, seed: Optional[Union[int, Sequence[int]]] = None, options=None):
         if seed is not None:
-            self._rng = np.random.default_rng(seed if isinstance(seed, int) else list(seed))
+            self._rng = _vector_rng(seed)
         obs = np.array([self._reset_one(i) for i in range(self.num_envs)], dtype=np.float32)
         return obs.reshape(self.num_envs, 1), {}
 
@@ -476,10 +476,7 @@ class DailyAdvisorEnv(gymnasium.Env):
         self._ctor_rng = np.random.default_rng(seed)
 
     def reset(self, *, seed: Optional[int] = None, options: Optional[dict] = None):
-        super().reset(seed=seed)
-        if seed is None and not hasattr(self, "_seeded"):
-            self.np_random = self._ctor_rng
-        self._seeded = True
+        _reset_rng(self, seed)
         self.core.reset(_seed(self.np_random) % (2**63))
         a = self.standard_action.astype(np.float64)
         day = self.core.day(float(a[0]), [float(x) for x in a[1:]])
@@ -564,7 +561,7 @@ class DailyAdvisorVectorEnv(gymnasium.vector.VectorEnv):
 
     def reset(self, *, seed=None, options=None):
         if seed is not None:
-            self._rng = np.random.default_rng(seed if isinstance(seed, int) else list(seed))
+            self._rng = _vector_rng(seed)
         for i in range(self.num_envs):
             self.batch.reset_one(i, _seed(self._rng))
         self._day[:] = 0

@@ -1,0 +1,1 @@
+//! abba-service (being built).

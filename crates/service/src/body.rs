@@ -22,7 +22,7 @@ pub fn parse<T: DeserializeOwned>(headers: &HeaderMap, body: RawBody) -> Result<
                 format!("the body is larger than {} bytes", abba_api::MAX_BODY_BYTES),
             )
         } else {
-            ApiError::bad_json("", format!("the body could not be read: {e}"))
+            ApiError::bad_json(".", format!("the body could not be read: {e}"))
         }
     })?;
     let json = headers
@@ -39,11 +39,10 @@ pub fn parse<T: DeserializeOwned>(headers: &HeaderMap, body: RawBody) -> Result<
     }
     let mut de = serde_json::Deserializer::from_slice(&bytes);
     let value: T = serde_path_to_error::deserialize(&mut de).map_err(|e| {
-        let path = e.path().to_string();
-        let path = if path == "." { String::new() } else { path };
-        ApiError::bad_json(path, e.into_inner().to_string())
+        // The root is ".".
+        ApiError::bad_json(e.path().to_string(), e.into_inner().to_string())
     })?;
     de.end()
-        .map_err(|e| ApiError::bad_json("", format!("after the JSON value: {e}")))?;
+        .map_err(|e| ApiError::bad_json(".", format!("after the JSON value: {e}")))?;
     Ok(value)
 }

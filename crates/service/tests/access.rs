@@ -112,8 +112,10 @@ async fn every_endpoint_by_every_caller() {
                 "openapi" => ("/v1/openapi.json".into(), None),
                 "create person" => (
                     "/v1/persons".into(),
-                    Some(json!({"name": format!("p{names}"), "tz": "UTC", "mode": "smbg",
-                        "start": {"basal_units_per_hour": 0.8, "carb_ratio_g_per_unit": [9.0, 9.0, 9.0]}})),
+                    Some(
+                        json!({"name": format!("p{names}"), "tz": "UTC", "mode": "smbg",
+                        "start": {"basal_units_per_hour": 0.8, "carb_ratio_g_per_unit": [9.0, 9.0, 9.0]}}),
+                    ),
                 ),
                 "bounds" => (
                     format!("/v1/persons/{alice}/bounds"),
@@ -146,19 +148,26 @@ async fn every_endpoint_by_every_caller() {
             let bytes = body.map(|b| serde_json::to_vec(&b).unwrap());
             let r = svc.raw(method.clone(), &uri, auth, bytes).await;
             let want = expected(kind, who, ok);
-            rows.push(format!("{name:>13} {who:?}: {} (want {want})", r.status.as_u16()));
-            assert_eq!(
-                r.status.as_u16(),
-                want,
-                "{name} by {who:?}: {}",
-                r.text
-            );
+            rows.push(format!(
+                "{name:>13} {who:?}: {} (want {want})",
+                r.status.as_u16()
+            ));
+            assert_eq!(r.status.as_u16(), want, "{name} by {who:?}: {}", r.text);
             if r.status.as_u16() >= 400 {
                 // Every error has the error body.
-                assert_eq!(r.json["status"].as_u64(), Some(u64::from(want)), "{}", r.text);
+                assert_eq!(
+                    r.json["status"].as_u64(),
+                    Some(u64::from(want)),
+                    "{}",
+                    r.text
+                );
                 if name != "answers" || !matches!(who, Who::Own | Who::Admin) {
                     for s in secrets {
-                        assert!(!r.text.contains(s), "{name} by {who:?} leaks {s}: {}", r.text);
+                        assert!(
+                            !r.text.contains(s),
+                            "{name} by {who:?} leaks {s}: {}",
+                            r.text
+                        );
                     }
                 }
             }
@@ -188,7 +197,11 @@ async fn a_revoked_admin_token_stops_working_and_ids_that_are_not_numbers_are_40
     let svc = Svc::new();
     let alice = svc.person("alice").await;
     let (_, alice_token) = svc.token(alice).await;
-    for uri in ["/v1/persons/abc/advice", "/v1/persons/-1/advice", "/v1/persons/99999/advice"] {
+    for uri in [
+        "/v1/persons/abc/advice",
+        "/v1/persons/-1/advice",
+        "/v1/persons/99999/advice",
+    ] {
         let r = svc.call(Method::GET, uri, Some(&svc.admin), None).await;
         assert_eq!(r.status, StatusCode::NOT_FOUND, "{uri}: {}", r.text);
         let r = svc.call(Method::GET, uri, Some(&alice_token), None).await;
@@ -207,10 +220,14 @@ async fn a_revoked_admin_token_stops_working_and_ids_that_are_not_numbers_are_40
     assert_eq!(r.status, StatusCode::UNAUTHORIZED, "{}", r.text);
     assert_eq!(r.json["code"], "unauthorized");
     // Unknown paths and methods get the error body too.
-    let r = svc.call(Method::GET, "/v2/nothing", Some(&alice_token), None).await;
+    let r = svc
+        .call(Method::GET, "/v2/nothing", Some(&alice_token), None)
+        .await;
     assert_eq!(r.status, StatusCode::NOT_FOUND);
     assert_eq!(r.json["code"], "not_found");
-    let r = svc.call(Method::DELETE, "/v1/persons", Some(&alice_token), None).await;
+    let r = svc
+        .call(Method::DELETE, "/v1/persons", Some(&alice_token), None)
+        .await;
     assert_eq!(r.status, StatusCode::METHOD_NOT_ALLOWED);
     assert_eq!(r.json["code"], "method_not_allowed");
 }

@@ -70,15 +70,40 @@ async fn repeats_conflicts_and_gaps() {
     assert_eq!(r.status, StatusCode::CONFLICT, "{}", r.text);
     assert_eq!(r.json["code"], "conflict");
     assert_eq!(r.json["path"], "events[1].seq");
-    let r = post(&svc, id, &t, vec![cgm(5, 20, 140.0), ev(2, 6, json!({"type": "cgm", "mg_dl": 110.0}))]).await;
-    assert_eq!(r.status, StatusCode::CONFLICT, "another instant is another payload: {}", r.text);
+    let r = post(
+        &svc,
+        id,
+        &t,
+        vec![
+            cgm(5, 20, 140.0),
+            ev(2, 6, json!({"type": "cgm", "mg_dl": 110.0})),
+        ],
+    )
+    .await;
+    assert_eq!(
+        r.status,
+        StatusCode::CONFLICT,
+        "another instant is another payload: {}",
+        r.text
+    );
     assert_eq!(events_in_store(&svc, "ann"), 4);
     // A seq twice in one batch: 422.
     let r = post(&svc, id, &t, vec![cgm(6, 25, 140.0), cgm(6, 25, 140.0)]).await;
     assert_eq!(r.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", r.text);
     assert_eq!(r.json["path"], "events[1].seq");
     // Gaps: 10-12 and 20, sent out of order.
-    let r = post(&svc, id, &t, vec![cgm(20, 100, 100.0), cgm(12, 60, 100.0), cgm(10, 50, 100.0), cgm(11, 55, 100.0)]).await;
+    let r = post(
+        &svc,
+        id,
+        &t,
+        vec![
+            cgm(20, 100, 100.0),
+            cgm(12, 60, 100.0),
+            cgm(10, 50, 100.0),
+            cgm(11, 55, 100.0),
+        ],
+    )
+    .await;
     assert_eq!(r.status, StatusCode::OK, "{}", r.text);
     assert_eq!(r.json["acked"], json!([10, 11, 12, 20]));
     let h = held(&svc, id, &t, "?from=0").await;
@@ -89,20 +114,44 @@ async fn repeats_conflicts_and_gaps() {
     assert_eq!(h["last_seq"], 20);
     assert_eq!(h["truncated"], false);
     let h = held(&svc, id, &t, "?from=11").await;
-    assert_eq!(h["held"], json!([{"first": 11, "last": 12}, {"first": 20, "last": 20}]));
+    assert_eq!(
+        h["held"],
+        json!([{"first": 11, "last": 12}, {"first": 20, "last": 20}])
+    );
     assert_eq!(held(&svc, id, &t, "?from=21").await["held"], json!([]));
     assert_eq!(held(&svc, id, &t, "").await["from"], 0);
     // The missing ones are re-sent; the app's view is then complete.
-    let r = post(&svc, id, &t, (5..10).map(|s| cgm(s, 20 + 5 * (s as i64 - 5), 100.0)).collect()).await;
+    let r = post(
+        &svc,
+        id,
+        &t,
+        (5..10)
+            .map(|s| cgm(s, 20 + 5 * (s as i64 - 5), 100.0))
+            .collect(),
+    )
+    .await;
     assert_eq!(r.status, StatusCode::OK, "{}", r.text);
     assert_eq!(r.json["stored"], 5);
     let h = held(&svc, id, &t, "?from=0").await;
-    assert_eq!(h["held"], json!([{"first": 1, "last": 12}, {"first": 20, "last": 20}]));
+    assert_eq!(
+        h["held"],
+        json!([{"first": 1, "last": 12}, {"first": 20, "last": 20}])
+    );
     assert_eq!(events_in_store(&svc, "ann"), 13);
     // Bad queries name the parameter.
-    for (q, path) in [("?from=abc", "from"), ("?from=-1", "from"), ("?since=3", "since"), ("?from=1&from=2", "from")] {
+    for (q, path) in [
+        ("?from=abc", "from"),
+        ("?from=-1", "from"),
+        ("?since=3", "since"),
+        ("?from=1&from=2", "from"),
+    ] {
         let r = svc
-            .call(Method::GET, &format!("/v1/persons/{id}/sync{q}"), Some(&t), None)
+            .call(
+                Method::GET,
+                &format!("/v1/persons/{id}/sync{q}"),
+                Some(&t),
+                None,
+            )
             .await;
         assert_eq!(r.status, StatusCode::BAD_REQUEST, "{q}: {}", r.text);
         assert_eq!(r.json["path"], path, "{q}");
@@ -114,7 +163,9 @@ async fn an_acknowledged_batch_is_in_the_store_after_reopening() {
     let svc = Svc::new();
     let id = svc.person("ann").await;
     let (_, t) = svc.token(id).await;
-    let batch: Vec<Value> = (0..50).map(|i| cgm(i, 5 * i as i64, 100.0 + i as f64)).collect();
+    let batch: Vec<Value> = (0..50)
+        .map(|i| cgm(i, 5 * i as i64, 100.0 + i as f64))
+        .collect();
     let r = post(&svc, id, &t, batch.clone()).await;
     assert_eq!(r.status, StatusCode::OK, "{}", r.text);
     let db = svc.db.clone();

@@ -153,7 +153,8 @@ async fn every_response_conforms() {
     macro_rules! check {
         ($m:expr, $tpl:expr, $uri:expr, $tok:expr, $body:expr) => {{
             let method: Method = $m;
-            let r = svc.call(method.clone(), &$uri, $tok, $body).await;
+            let uri = String::from($uri);
+            let r = svc.call(method.clone(), &uri, $tok, $body).await;
             let m = method.as_str().to_ascii_lowercase();
             conforms(&doc, &m, $tpl, r.status, &r.json, &r.text);
             seen.push((m, $tpl.to_string(), r.status.as_u16()));
@@ -163,18 +164,18 @@ async fn every_response_conforms() {
     let person = json!({"name": "ann", "tz": "UTC", "mode": "cgm", "first_day": "2026-01-01",
         "start": {"basal_units_per_hour": 1.0, "carb_ratio_g_per_unit": [10.0, 12.0, 11.0]},
         "min_data": {"cgm_coverage": 0.0, "cgm_period_min": 5, "smbg_per_day": 0, "smbg_per_meal": 0}});
-    check!(Method::GET, "/healthz", "/healthz".to_string(), None, None);
+    check!(Method::GET, "/healthz", "/healthz", None, None);
     check!(
         Method::GET,
         "/v1/openapi.json",
-        "/v1/openapi.json".to_string(),
+        "/v1/openapi.json",
         None,
         None
     );
     let r = check!(
         Method::POST,
         "/v1/persons",
-        "/v1/persons".to_string(),
+        "/v1/persons",
         Some(&a),
         Some(&person)
     );
@@ -182,14 +183,14 @@ async fn every_response_conforms() {
     check!(
         Method::POST,
         "/v1/persons",
-        "/v1/persons".to_string(),
+        "/v1/persons",
         Some(&a),
         Some(&person)
     ); // 409
     check!(
         Method::POST,
         "/v1/persons",
-        "/v1/persons".to_string(),
+        "/v1/persons",
         Some(&a),
         Some(&json!({"name": 3}))
     ); // 400
@@ -199,7 +200,7 @@ async fn every_response_conforms() {
     check!(
         Method::POST,
         "/v1/persons",
-        "/v1/persons".to_string(),
+        "/v1/persons",
         Some(&a),
         Some(&bad)
     ); // 422
@@ -215,14 +216,14 @@ async fn every_response_conforms() {
     check!(
         Method::POST,
         "/v1/persons",
-        "/v1/persons".to_string(),
+        "/v1/persons",
         Some(&t),
         Some(&person)
     ); // 403
     check!(
         Method::POST,
         "/v1/persons/{id}/tokens",
-        "/v1/persons/77/tokens".to_string(),
+        "/v1/persons/77/tokens",
         Some(&a),
         None
     ); // 404
@@ -342,7 +343,7 @@ async fn every_response_conforms() {
     check!(
         Method::GET,
         "/v1/persons/{id}/sync",
-        "/v1/persons/99/sync".to_string(),
+        "/v1/persons/99/sync",
         Some(&t),
         None
     ); // 404
@@ -421,7 +422,7 @@ async fn every_response_conforms() {
     check!(
         Method::DELETE,
         "/v1/tokens/{token_id}",
-        "/v1/tokens/4242".to_string(),
+        "/v1/tokens/4242",
         Some(&a),
         None
     ); // 404

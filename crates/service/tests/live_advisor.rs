@@ -447,3 +447,116 @@ async fn an_answer_given_with_the_cli_while_the_service_runs_is_seen() {
         .await;
     assert_eq!(r.status, StatusCode::CONFLICT, "{}", r.text);
 }
+
+#[tokio::test]
+async fn answers_right_after_the_acknowledgement_match_a_person_answering_in_process() {
+    let svc = Svc::new();
+    let id = svc.person_with(person_body("di")).await;
+    let (_, t) = svc.token(id).await;
+    let events = stream();
+    // In process: the person overrides every basal update at once with 99 %
+    // of it and rejects every carb-ratio one (the trial's answer events).
+    let store = abba_store::Store::open(&svc.db).unwrap();
+    let mut advisor = store.person_by_id(id as i64).unwrap().advisor().unwrap();
+    drop(store);
+    let mut reference: Vec<Decision> = Vec::new();
+    for (_, e, _) in &events {
+        advisor.observe(e).unwrap();
+        let ds = advisor.take_decisions();
+        for d in &ds {
+            if d.new == d.old || matches!(d.detail, abba_advisor::DecisionDetail::Skipped { .. }) {
+                continue;
+            }
+            let kind = match d.parameter {
+                Parameter::Basal => {
+                    EventKind::SuggestionOverridden(abba_core::SettingValue::Basal {
+                        rate: abba_core::UnitsPerHour(d.new * 0.99),
+                    })
+                }
+                Parameter::CarbRatio(slot) => {
+                    EventKind::SuggestionRejected(abba_core::SettingValue::CarbRatio {
+                        slot,
+                        ratio: abba_core::GramsPerUnit(d.old),
+                    })
+                }
+            };
+            advisor.observe(&Event::new(d.at, kind)).unwrap();
+        }
+        reference.extend(ds);
+    }
+    // Over HTTP: the same answers right after each acknowledgement.
+    let mut got: Vec<Value> = Vec::new();
+    let mut buf: Vec<Value> = Vec::new();
+    for (i, (_, e, w)) in events.iter().enumerate() {
+        buf.push(w.clone());
+        let answerable = matches!(
+            e.kind,
+            EventKind::DayClosed | EventKind::MealAnnounced { .. }
+        );
+        if !(answerable || i + 1 == events.len()) {
+            continue;
+        }
+        let r = svc
+            .call(
+                Method::POST,
+                &format!("/v1/persons/{id}/events"),
+                Some(&t),
+                Some(&json!({ "events": std::mem::take(&mut buf) })),
+            )
+            .await;
+        assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+        let answers = r.json["answers"].as_array().unwrap().clone();
+        let items: Vec<Value> = answers
+            .iter()
+            .filter(|a| !a["no_update"].as_bool().unwrap() && a["value"] != a["previous"])
+            .map(|a| {
+                if a["parameter"] == "basal" {
+                    json!({"suggestion_id": a["id"], "answer": "override", "value": a["value"].as_f64().unwrap() * 0.99})
+                } else {
+                    json!({"suggestion_id": a["id"], "answer": "reject"})
+                }
+            })
+            .collect();
+        if !items.is_empty() {
+            let r = svc
+                .call(
+                    Method::POST,
+                    &format!("/v1/persons/{id}/answers"),
+                    Some(&t),
+                    Some(&json!({ "answers": items })),
+                )
+                .await;
+            assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+            assert_eq!(r.json["changed"], json!([]));
+        }
+        got.extend(answers);
+    }
+    assert!(
+        reference
+            .iter()
+            .filter(|d| d.parameter == Parameter::Basal && d.new != d.old)
+            .count()
+            >= 3
+    );
+    assert_eq!(got.len(), reference.len());
+    for (g, d) in got.iter().zip(&reference) {
+        assert_eq!(g["value"].as_f64().unwrap(), d.new, "{g}");
+        assert_eq!(g["previous"].as_f64().unwrap(), d.old, "{g}");
+    }
+    // The CLI's replay of the file agrees (answers placed after their
+    // decisions), and so does a service started afresh.
+    let mut cli = abba_store::Store::open(&svc.db).unwrap();
+    let replayed: Vec<(i64, f64)> = cli
+        .decisions("di")
+        .unwrap()
+        .iter()
+        .map(|d| (d.at.0, d.new))
+        .collect();
+    let mut want: Vec<(i64, f64)> = reference.iter().map(|d| (d.at.0, d.new)).collect();
+    want.sort_by_key(|x| x.0);
+    let mut replayed_sorted = replayed.clone();
+    replayed_sorted.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    want.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    assert_eq!(replayed_sorted, want);
+    assert_eq!(cli.rebuild("di").unwrap(), advisor);
+}

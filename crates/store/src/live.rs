@@ -45,6 +45,9 @@ pub struct Live {
     pub refused: usize,
     /// (minute, seq) of the last app event fed.
     last: Option<(i64, u64)>,
+    /// The decisions the last event fed produced (answers to them can go
+    /// to the advisor at once: a replay would feed them right there).
+    last_produced: Vec<(i64, Parameter)>,
 }
 
 /// A decision made while feeding a batch, with the app event that made it.
@@ -130,6 +133,7 @@ fn from_state(person: Person, s: State, last: Option<(i64, u64)>) -> Live {
         answers: s.answers,
         refused: s.refused,
         last,
+        last_produced: Vec::new(),
     }
 }
 
@@ -187,9 +191,11 @@ fn feed(conn: &Connection, live: &mut Live, new: &[AppEvent]) -> Result<Vec<Prod
             .or_default() += 1;
         live.records += 1;
         live.last = Some(e.key());
+        live.last_produced.clear();
         let decisions = live.advisor.take_decisions();
         store_decisions(conn, live.person.id, &decisions)?;
         for d in decisions {
+            live.last_produced.push((d.at.0, d.parameter));
             produced.push(Produced {
                 decision: d.clone(),
                 seq: Some(e.seq),
@@ -350,6 +356,34 @@ impl Store {
             });
         }
         let id = live.person.id;
+        // Answers to what the last event fed decided: a replay would feed
+        // them right after it, so the live advisor takes them now (in the
+        // order of its decisions) and nothing later changes.
+        let at_once = out
+            .iter()
+            .all(|a| live.last_produced.contains(&(a.at_min, a.parameter)));
+        if at_once {
+            let tx = self.conn.transaction()?;
+            answer::insert(&tx, id, &out)?;
+            let mut ordered: Vec<&Answer> = out.iter().collect();
+            ordered.sort_by_key(|a| {
+                live.last_produced
+                    .iter()
+                    .position(|k| *k == (a.at_min, a.parameter))
+            });
+            for a in ordered {
+                let at = abba_core::Timestamp(a.at_min);
+                live.advisor
+                    .observe(&abba_core::Event::new(at, a.event_kind()))?;
+                live.answers
+                    .insert((a.at_min, param_key(a.parameter)), a.clone());
+            }
+            let more = live.advisor.take_decisions();
+            store_decisions(&tx, id, &more)?;
+            live.decisions.extend(more);
+            tx.commit()?;
+            return Ok((out, Vec::new()));
+        }
         let p = person::load_by_id(&self.conn, id)?;
         let tx = self.conn.transaction()?;
         answer::insert(&tx, id, &out)?;

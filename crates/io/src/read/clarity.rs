@@ -3,7 +3,12 @@
 //! (FirstName, LastName, Device, Alert settings), then one row per event in
 //! device local time (`2019-08-15T00:03:27`, sometimes `2025-05-01 0:01:47`).
 //! EGV rows are CGM readings; "Low" and "High" are the sensor's reporting
-//! limits (40 and 400 mg/dL, 2.2 and 22.2 mmol/L) and stay censored.
+//! limits (40 and 400 mg/dL, 2.2 and 22.2 mmol/L) and stay censored
+//! (never dropped, never read as exact). Calibration rows are meter
+//! readings; Insulin (Fast-Acting, Long-Acting; any other subtype is an
+//! error) and Carbs rows are read;
+//! every other event type (Exercise, Health, Alert, Device, ...) is counted.
+//! A data row without its time is an error.
 
 use abba_core::{Grams, Units};
 
@@ -14,6 +19,10 @@ use crate::record::{Censor, Glucose, Record, RecordKind, Source, SourceId};
 use crate::time::{parse_wall, DateOrder, WallClock};
 use crate::units::{self, check_range, GlucoseUnit};
 
+/// Event types that are data and need a time (the preamble's FirstName,
+/// LastName, Device and Alert rows have none).
+const DATA_EVENTS: [&str; 4] = ["EGV", "Calibration", "Insulin", "Carbs"];
+
 /// Whether a header row (first line) is Clarity's.
 pub fn looks_like(header_line: &str) -> bool {
     header_line.contains("Event Type") && header_line.contains("Glucose Value")
@@ -23,40 +32,15 @@ pub fn looks_like(header_line: &str) -> bool {
 pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     let file = ctx.file;
     let mut t = Table::open(file, bytes, 0)?;
-    let col = |t: &Table<'_>, prefix: &str| t.column(|h| h.starts_with(prefix));
-    let need = |t: &Table<'_>, prefix: &str| {
-        col(t, prefix).ok_or_else(|| {
-            IoError::format(
-                file,
-                format!(
-                    "a Clarity export needs a \"{prefix}...\" column; the columns found are {}",
-                    t.columns_found()
-                ),
-            )
-        })
-    };
-    let time_at = need(&t, "Timestamp")?;
-    let type_at = need(&t, "Event Type")?;
-    let subtype_at = col(&t, "Event Subtype");
-    let glucose_at = need(&t, "Glucose Value")?;
-    let insulin_at = col(&t, "Insulin Value");
-    let carbs_at = col(&t, "Carb Value");
-    let duration_at = col(&t, "Duration");
+    let time_at = t.need_column_starting("Clarity", "Timestamp")?;
+    let type_at = t.need_column_starting("Clarity", "Event Type")?;
+    let subtype_at = t.column_starting("Event Subtype");
+    let glucose_at = t.need_column_starting("Clarity", "Glucose Value")?;
+    let insulin_at = t.column_starting("Insulin Value");
+    let carbs_at = t.column_starting("Carb Value");
+    let duration_at = t.column_starting("Duration");
+    let unit = t.unit_of_column(glucose_at, ctx.opts.units)?;
     let glucose_name = t.header[glucose_at].clone();
-    let unit = crate::read::plain::unit_in_name(&glucose_name).ok_or_else(|| IoError::Units {
-        file: file.to_string(),
-        message: format!("column \"{glucose_name}\" names no unit (expected mg/dL or mmol/L)"),
-    })?;
-    if let Some(given) = ctx.opts.units.filter(|&g| g != unit) {
-        return Err(IoError::Units {
-            file: file.to_string(),
-            message: format!(
-                "the file says {} (column \"{glucose_name}\") but --units says {}",
-                unit.name(),
-                given.name()
-            ),
-        });
-    }
     let (low, high) = match unit {
         GlucoseUnit::MgDl => (40.0, 400.0),
         GlucoseUnit::MmolL => (2.2, 22.2),
@@ -73,6 +57,13 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
         let time_text = t.cell(time_at);
         let kind_text = t.cell(type_at);
         if time_text.is_empty() {
+            if DATA_EVENTS.contains(&kind_text) {
+                return Err(IoError::invalid(
+                    at.clone(),
+                    &t.header[time_at],
+                    format!("a {kind_text} row needs its time; the cell is empty"),
+                ));
+            }
             continue; // preamble: patient, device and alert settings
         }
         let dt = parse_wall(time_text, DateOrder::YearFirst).ok_or_else(|| {
@@ -120,6 +111,10 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
             "EGV" => RecordKind::Cgm {
                 glucose: glucose(&t)?,
             },
+            // A meter reading entered to calibrate the sensor.
+            "Calibration" => RecordKind::Smbg {
+                glucose: glucose(&t)?,
+            },
             "Insulin" => {
                 let (name, v) = number(&t, insulin_at, "insulin (U)")?;
                 let u = Units(check_range(
@@ -130,10 +125,20 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
                     units::BOLUS_MAX_U,
                     "insulin (U)",
                 )?);
-                if subtype.eq_ignore_ascii_case("Long-Acting") {
-                    RecordKind::LongActing { units: u }
-                } else {
-                    RecordKind::Bolus { units: u }
+                match subtype.to_ascii_lowercase().as_str() {
+                    "long-acting" => RecordKind::LongActing { units: u },
+                    "fast-acting" | "rapid-acting" => RecordKind::Bolus { units: u },
+                    other => {
+                        return Err(IoError::invalid(
+                            at.clone(),
+                            &subtype_at
+                                .map_or("Event Subtype".to_string(), |i| t.header[i].clone()),
+                            format!(
+                                "an Insulin row needs its subtype Fast-Acting or Long-Acting \
+                                 (abba does not guess which), got \"{other}\""
+                            ),
+                        ))
+                    }
                 }
             }
             "Carbs" => {

@@ -4,21 +4,65 @@
 //! 1 scan glucose, 2 strip (meter) glucose, 3 ketone, 4 insulin, 5 food,
 //! 6 notes and time changes. Device times carry no offset and come in the
 //! account's locale: `12-04-1961 22:30` (day first), `05-01-2024 12:03 AM`
-//! (month first with AM/PM), `2024/05/01 00:03` (year first).
+//! (month first with AM/PM), `2024/05/01 00:03` (year first), `24.02.2021
+//! 07:00` (day first with dots); the order is taken from the file's own
+//! evidence or `--date-order`, never guessed. The header is written in the
+//! account's language and found among the first lines
+//! ([`libreview_columns`]); numbers may use a decimal comma (`"5,6"`).
+//! Scan (type 1), ketone (3) and note (6) rows are counted, not read.
 
 use abba_core::{Grams, MgDl, Units};
 
+use super::libreview_columns::{self, Role};
 use super::table::{number, Table};
 use super::Ctx;
 use crate::error::{IoError, Location, Place};
 use crate::record::{content_hash, Glucose, Record, RecordKind, Source, SourceId};
 use crate::time::{parse_wall, DateOrder, WallClock};
-use crate::units::{self, check_range};
+use crate::units::{self, check_range, GlucoseUnit};
 
-/// Whether the first two lines are LibreView's.
-pub fn looks_like(first: &str, second: &str) -> bool {
-    second.contains("Device Timestamp") && second.contains("Record Type")
-        || first.contains("Device Timestamp") && first.contains("Record Type")
+/// Whether one of the first lines is a LibreView header (in any language
+/// abba knows, see [`libreview_columns`]).
+pub fn looks_like(head: &str) -> bool {
+    head.lines()
+        .take(HEADER_SEARCH_LINES)
+        .any(|l| libreview_columns::is_header(&libreview_columns::cells(l)))
+}
+
+/// How many lines may come before the header (metadata: "Glucose Data,
+/// Generated on, ...", a patient line).
+const HEADER_SEARCH_LINES: usize = 10;
+
+/// The 0-based line of the header, or an error showing the first line.
+fn header_line(file: &str, bytes: &[u8]) -> Result<usize, IoError> {
+    let mut first = None;
+    for (i, line) in bytes
+        .split(|&b| b == b'\n')
+        .take(HEADER_SEARCH_LINES)
+        .enumerate()
+    {
+        let text = String::from_utf8_lossy(line);
+        let cells = libreview_columns::cells(text.trim_end_matches('\r'));
+        if libreview_columns::is_header(&cells) {
+            return Ok(i);
+        }
+        if first.is_none() && cells.len() > 3 {
+            first = Some((i, text.trim().to_string()));
+        }
+    }
+    Err(IoError::format(
+        file,
+        format!(
+            "no LibreView header in the first {HEADER_SEARCH_LINES} lines: expected a row with \
+             the device time, the record type and a glucose column naming its unit (mg/dL or \
+             mmol/L), in English, German, French, Spanish, Italian or Dutch{}",
+            first.map_or(String::new(), |(i, t)| format!(
+                "; line {} is \"{}\"",
+                i + 1,
+                t.chars().take(200).collect::<String>()
+            ))
+        ),
+    ))
 }
 
 /// What one time cell says about the date order, if anything: year
@@ -72,48 +116,14 @@ fn date_order(
 /// Reads a LibreView export.
 pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     let file = ctx.file;
-    let first = bytes.split(|&b| b == b'\n').next().unwrap_or(b"");
-    let header_at = usize::from(!String::from_utf8_lossy(first).contains("Record Type"));
+    let header_at = header_line(file, bytes)?;
     let mut t = Table::open(file, bytes, header_at)?;
-    let col = |t: &Table<'_>, prefix: &str| t.column(|h| h.starts_with(prefix));
-    let need = |t: &Table<'_>, prefix: &str| {
-        col(t, prefix).ok_or_else(|| {
-            IoError::format(
-                file,
-                format!(
-                    "a LibreView export needs a \"{prefix}\" column; the columns found are {}",
-                    t.columns_found()
-                ),
-            )
-        })
-    };
-    let time_at = need(&t, "Device Timestamp")?;
-    let type_at = need(&t, "Record Type")?;
-    let historic_at = need(&t, "Historic Glucose")?;
-    let scan_at = col(&t, "Scan Glucose");
-    let strip_at = col(&t, "Strip Glucose");
-    let rapid_at = col(&t, "Rapid-Acting Insulin (units)");
-    let long_at = col(&t, "Long-Acting Insulin Value (units)")
-        .or_else(|| col(&t, "Long-Acting Insulin (units)"));
-    let meal_at = col(&t, "Meal Insulin (units)");
-    let corr_at = col(&t, "Correction Insulin (units)");
-    let carbs_at = col(&t, "Carbohydrates (grams)");
-    let servings_at = col(&t, "Carbohydrates (servings)");
+    let cols = Columns::of(&t, ctx)?;
+    let (time_at, type_at, historic_at) = (cols.time, cols.record_type, cols.historic);
+    let (strip_at, rapid_at, long_at) = (cols.strip, cols.rapid, cols.long);
+    let (meal_at, corr_at, carbs_at, servings_at) =
+        (cols.meal, cols.correction, cols.carbs, cols.servings);
     let historic_name = t.header[historic_at].clone();
-    let unit = crate::read::plain::unit_in_name(&historic_name).ok_or_else(|| IoError::Units {
-        file: file.to_string(),
-        message: format!("column \"{historic_name}\" names no unit (expected mg/dL or mmol/L)"),
-    })?;
-    if let Some(given) = ctx.opts.units.filter(|&g| g != unit) {
-        return Err(IoError::Units {
-            file: file.to_string(),
-            message: format!(
-                "the file says {} (column \"{historic_name}\") but --units says {}",
-                unit.name(),
-                given.name()
-            ),
-        });
-    }
     let tz = ctx.require_tz("LibreView writes device times without an offset")?;
     let mut wall = WallClock::new(tz);
     let time_name = t.header[time_at].clone();
@@ -172,10 +182,11 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
             Ok(Some((name, v)))
         };
         let glucose = |t: &Table<'_>, i: Option<usize>| -> Result<Option<Glucose>, IoError> {
-            match value(t, i)? {
+            let Some(i) = i else { return Ok(None) };
+            match value(t, Some(i))? {
                 None => Ok(None),
                 Some((name, v)) => Ok(Some(Glucose {
-                    mg_dl: MgDl(units::glucose_mg_dl(&at, &name, v, unit)?),
+                    mg_dl: MgDl(units::glucose_mg_dl(&at, &name, v, cols.unit(i))?),
                     censor: crate::record::Censor::Exact,
                 })),
             }
@@ -188,16 +199,47 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
             )
         };
         let rtype = t.cell(type_at).to_string();
+        if rtype.is_empty() || !rtype.bytes().all(|b| b.is_ascii_digit()) {
+            return Err(IoError::invalid(
+                at.clone(),
+                &t.header[type_at],
+                format!("expected a record type number (0 historic, 1 scan, 2 strip, 3 ketone, 4 insulin, 5 food, 6 note), got \"{rtype}\""),
+            ));
+        }
+        if matches!(rtype.as_str(), "4" | "5") {
+            // A number in a column abba cannot name would be insulin or
+            // food lost without a word: refuse instead.
+            if let Some(&i) = cols
+                .unknown
+                .iter()
+                .find(|&&i| number(t.cell(i), delim).is_some())
+            {
+                return Err(IoError::invalid(
+                    at.clone(),
+                    &t.header[i],
+                    format!(
+                        "this insulin or food row has the number \"{}\" in a column abba does \
+                         not recognise; expected rapid-acting, long-acting, meal or correction \
+                         insulin (units) or carbohydrates (grams or servings)",
+                        t.cell(i)
+                    ),
+                ));
+            }
+        }
         let mut kinds = Vec::new();
-        match rtype.as_str() {
-            "0" => kinds.push(RecordKind::Cgm {
+        match rtype.trim_start_matches('0') {
+            "" => kinds.push(RecordKind::Cgm {
                 glucose: glucose(&t, Some(historic_at))?.ok_or_else(|| missing(&historic_name))?,
             }),
             "1" => kinds.push(RecordKind::Ignored {
                 kind: "scan glucose".into(),
             }),
             "2" => kinds.push(RecordKind::Smbg {
-                glucose: glucose(&t, strip_at)?.ok_or_else(|| missing("Strip Glucose"))?,
+                glucose: glucose(&t, strip_at)?.ok_or_else(|| {
+                    missing(
+                        strip_at.map_or("strip glucose (no such column)", |i| t.header[i].as_str()),
+                    )
+                })?,
             }),
             "3" => kinds.push(RecordKind::Ignored {
                 kind: "ketone".into(),
@@ -268,7 +310,6 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
                 kind: format!("record type {other}"),
             }),
         }
-        let _ = scan_at;
         let hash = content_hash(t.raw());
         for (n, kind) in kinds.into_iter().enumerate() {
             out.push(Record {
@@ -281,4 +322,102 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
         }
     }
     Ok(out)
+}
+
+/// The columns of a LibreView header, by role.
+struct Columns {
+    time: usize,
+    record_type: usize,
+    historic: usize,
+    strip: Option<usize>,
+    rapid: Option<usize>,
+    long: Option<usize>,
+    meal: Option<usize>,
+    correction: Option<usize>,
+    carbs: Option<usize>,
+    servings: Option<usize>,
+    /// Columns not recognised (checked on insulin and food rows).
+    unknown: Vec<usize>,
+    /// Each column's glucose unit, if it names one.
+    units: Vec<Option<GlucoseUnit>>,
+}
+
+impl Columns {
+    fn of(t: &Table<'_>, ctx: &Ctx<'_>) -> Result<Self, IoError> {
+        let file = ctx.file;
+        let roles: Vec<(Role, Option<GlucoseUnit>)> = t
+            .header
+            .iter()
+            .map(|h| libreview_columns::role(h))
+            .collect();
+        let first = |r: Role| roles.iter().position(|&(x, _)| x == r);
+        let need = |r: Role, what: &str| {
+            first(r).ok_or_else(|| {
+                IoError::format(
+                    file,
+                    format!(
+                        "a LibreView export needs a {what} column; the columns found are {}",
+                        t.columns_found()
+                    ),
+                )
+            })
+        };
+        let mut unknown = Vec::new();
+        for (i, &(role, unit)) in roles.iter().enumerate() {
+            if role != Role::Unknown {
+                continue;
+            }
+            if unit.is_some() {
+                return Err(IoError::format(
+                    file,
+                    format!(
+                        "column \"{}\" names a glucose unit but abba cannot tell whether it holds \
+                         historic, scan or strip glucose; the columns found are {}",
+                        t.header[i],
+                        t.columns_found()
+                    ),
+                ));
+            }
+            unknown.push(i);
+        }
+        let historic = need(Role::Historic, "historic glucose (with mg/dL or mmol/L)")?;
+        if let Some(j) = roles
+            .iter()
+            .enumerate()
+            .skip(historic + 1)
+            .find_map(|(j, &(r, _))| (r == Role::Historic).then_some(j))
+        {
+            return Err(IoError::format(
+                file,
+                format!(
+                    "two historic glucose columns, \"{}\" and \"{}\"; expected one",
+                    t.header[historic], t.header[j]
+                ),
+            ));
+        }
+        t.unit_of_column(historic, ctx.opts.units)?;
+        Ok(Self {
+            time: need(Role::Time, "device time")?,
+            record_type: need(Role::RecordType, "record type")?,
+            historic,
+            strip: first(Role::Strip),
+            rapid: first(Role::Rapid),
+            long: first(Role::Long),
+            meal: first(Role::Meal),
+            correction: first(Role::Correction),
+            carbs: first(Role::CarbsGrams),
+            servings: first(Role::CarbsServings),
+            unknown,
+            units: roles.iter().map(|&(_, u)| u).collect(),
+        })
+    }
+
+    /// The glucose unit of column `i` (every glucose column names one).
+    fn unit(&self, i: usize) -> GlucoseUnit {
+        self.units
+            .get(i)
+            .copied()
+            .flatten()
+            .unwrap_or(GlucoseUnit::MgDl)
+    }
 }

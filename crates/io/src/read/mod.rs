@@ -4,6 +4,7 @@
 pub mod clarity;
 pub mod json;
 pub mod libreview;
+pub mod libreview_columns;
 pub mod nightscout;
 pub mod plain;
 pub mod table;
@@ -129,12 +130,11 @@ pub fn detect(file: &str, bytes: &[u8]) -> Result<Format, IoError> {
             Format::Nightscout
         });
     }
-    let mut lines = head.lines();
-    let (first, second) = (lines.next().unwrap_or(""), lines.next().unwrap_or(""));
+    let first = head.lines().next().unwrap_or("");
     if clarity::looks_like(first) {
         return Ok(Format::Clarity);
     }
-    if libreview::looks_like(first, second) {
+    if libreview::looks_like(&head) {
         return Ok(Format::LibreView);
     }
     if first.contains(',') || first.contains(';') || first.contains('\t') {
@@ -150,6 +150,8 @@ pub fn read_bytes(
     bytes: &[u8],
     opts: &ReadOptions,
 ) -> Result<(Format, Vec<Record>), IoError> {
+    let decoded = table::utf16_to_utf8(file, bytes)?;
+    let bytes = decoded.as_deref().unwrap_or(bytes);
     let format = match opts.format {
         Some(f) => f,
         None => detect(file, bytes)?,

@@ -60,7 +60,36 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
             });
         }
     }
+    check_error_codes(ctx.file, &out)?;
     Ok(out)
+}
+
+/// Error codes are rare: a file where most `sgv` values are below 39 is
+/// more likely glucose in mmol/L (which Nightscout entries must not hold)
+/// than a sensor failing all the time, and is refused.
+fn check_error_codes(file: &str, records: &[Record]) -> Result<(), IoError> {
+    let codes = records
+        .iter()
+        .filter(|r| {
+            matches!(&r.kind, RecordKind::Ignored { kind } if kind.starts_with("sgv sensor error code"))
+        })
+        .count();
+    let readings = records
+        .iter()
+        .filter(|r| matches!(r.kind, RecordKind::Cgm { .. }))
+        .count();
+    if codes > 0 && codes >= readings {
+        return Err(IoError::Units {
+            file: file.to_string(),
+            message: format!(
+                "{codes} of {} sgv values are below {SGV_ERROR_BELOW}, which Nightscout uses for \
+                 sensor error codes; so many look like glucose in mmol/L, but Nightscout entries \
+                 hold mg/dL (check the uploader's settings)",
+                codes + readings
+            ),
+        });
+    }
+    Ok(())
 }
 
 /// The item's instant: `date` / `mills` (ms since the epoch), else
@@ -69,6 +98,15 @@ fn instant(item: &Item<'_>) -> Result<jiff::Timestamp, IoError> {
     for field in ["date", "mills"] {
         if let Some(Value::Number(_)) = item.get(field) {
             let ms = item.need_num(field, "milliseconds since 1970")?;
+            if ms.abs() < MS_SINCE_1973 {
+                return Err(item.err(
+                    field,
+                    format!(
+                        "{ms} is before 1973 as milliseconds since 1970; it looks like seconds \
+                         (Nightscout's {field} is in milliseconds)"
+                    ),
+                ));
+            }
             return jiff::Timestamp::from_millisecond(ms as i64)
                 .map_err(|e| item.err(field, format!("{ms} is not a time: {e}")));
         }
@@ -101,10 +139,22 @@ fn instant(item: &Item<'_>) -> Result<jiff::Timestamp, IoError> {
     ))
 }
 
+/// 10^11 ms is March 1973, decades before Nightscout: a smaller `date` is
+/// seconds, not milliseconds.
+const MS_SINCE_1973: f64 = 1e11;
+
+/// Nightscout's `sgv` values below this are CGM error codes, not glucose
+/// (Nightscout's own error-code display treats them so).
+pub const SGV_ERROR_BELOW: f64 = 39.0;
+
 fn entry(item: &Item<'_>) -> Result<RecordKind, IoError> {
-    let kind = item
-        .str("type")?
-        .unwrap_or(if item.get("sgv").is_some() { "sgv" } else { "" });
+    let kind = item.str("type")?.unwrap_or(if item.get("sgv").is_some() {
+        "sgv"
+    } else if item.get("mbg").is_some() {
+        "mbg"
+    } else {
+        ""
+    });
     let reading = |field: &str| -> Result<Glucose, IoError> {
         let v = item.need_num(field, "glucose in mg/dL")?;
         let mg = units::glucose_mg_dl(&item.at(field), field, v, GlucoseUnit::MgDl)
@@ -115,6 +165,22 @@ fn entry(item: &Item<'_>) -> Result<RecordKind, IoError> {
         })
     };
     Ok(match kind {
+        // Dexcom receivers and uploaders write their error states as sgv
+        // values below 39 (1 sensor not active, 5 not calibrated, 9
+        // absolute deviation, 10 power deviation, 12 bad RF, ...): not
+        // glucose, counted by code.
+        "sgv"
+            if item
+                .num("sgv")?
+                .is_some_and(|v| (0.0..SGV_ERROR_BELOW).contains(&v) && v.fract() == 0.0) =>
+        {
+            RecordKind::Ignored {
+                kind: format!(
+                    "sgv sensor error code {}",
+                    item.num("sgv")?.unwrap_or(f64::NAN)
+                ),
+            }
+        }
         "sgv" => RecordKind::Cgm {
             glucose: reading("sgv")?,
         },
@@ -279,7 +345,29 @@ fn treatment(ctx: &Ctx<'_>, item: &Item<'_>, event: &str) -> Result<Vec<RecordKi
                     index: item.index,
                     obj: &obj,
                 };
-                kinds.push(schedule_of(&inner, "profileJson")?);
+                let duration = minutes(item, "duration")?.unwrap_or(0);
+                let shift = item.num("timeshift")?.unwrap_or(0.0);
+                let percent = check_range(
+                    &item.at("percentage"),
+                    "percentage",
+                    item.num("percentage")?.unwrap_or(100.0),
+                    1.0,
+                    units::PERCENT_MAX,
+                    "profile percentage",
+                )?;
+                if duration > 0 {
+                    // A temporary switch returns to the previous profile:
+                    // counted, the schedule in force stays.
+                    kinds.push(RecordKind::Ignored {
+                        kind: "Profile Switch, temporary (duration > 0)".into(),
+                    });
+                } else if shift != 0.0 {
+                    kinds.push(RecordKind::Ignored {
+                        kind: "Profile Switch with a timeshift".into(),
+                    });
+                } else {
+                    kinds.push(scaled(schedule_of(&inner, "profileJson")?, percent));
+                }
             }
             None => kinds.push(RecordKind::Ignored {
                 kind: "Profile Switch (profile not embedded)".into(),
@@ -320,6 +408,24 @@ fn treatment(ctx: &Ctx<'_>, item: &Item<'_>, event: &str) -> Result<Vec<RecordKi
         });
     }
     Ok(kinds)
+}
+
+/// A profile at `percent` % (AndroidAPS's Profile Switch percentage:
+/// basal rates times it, carb ratios divided by it).
+fn scaled(kind: RecordKind, percent: f64) -> RecordKind {
+    match kind {
+        RecordKind::Schedule { mut profile } if percent != 100.0 => {
+            let f = percent / 100.0;
+            for seg in &mut profile.basal.segments {
+                seg.1 = UnitsPerHour(seg.1 .0 * f);
+            }
+            for cr in &mut profile.carb_ratio {
+                cr.1 = GramsPerUnit(cr.1 .0 / f);
+            }
+            RecordKind::Schedule { profile }
+        }
+        other => other,
+    }
 }
 
 /// A profile document: the default profile's basal schedule.

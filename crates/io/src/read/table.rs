@@ -1,8 +1,9 @@
 //! A CSV file as the exports write them: an optional byte-order mark,
 //! preamble lines before the header, `,` `;` or tab as delimiter, LF or
-//! CRLF line ends, decimal commas where the delimiter is `;`.
+//! CRLF line ends, decimal commas (see [`number`]).
 
 use crate::error::{IoError, Location};
+use crate::units::GlucoseUnit;
 
 /// A CSV table: its header cells and rows, each with its 1-based line.
 pub struct Table<'a> {
@@ -29,6 +30,34 @@ pub struct Table<'a> {
 /// Strips a UTF-8 byte-order mark.
 pub fn strip_bom(bytes: &[u8]) -> &[u8] {
     bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes)
+}
+
+/// A UTF-16 file (byte-order mark `FF FE` or `FE FF`, as some Windows
+/// programs save CSV) as UTF-8 bytes; `None` for any other file. Text that
+/// is not valid UTF-16 is an error.
+pub fn utf16_to_utf8(file: &str, bytes: &[u8]) -> Result<Option<Vec<u8>>, IoError> {
+    let little = match bytes {
+        [0xFF, 0xFE, ..] => true,
+        [0xFE, 0xFF, ..] => false,
+        _ => return Ok(None),
+    };
+    if !bytes.len().is_multiple_of(2) {
+        return Err(IoError::format(
+            file,
+            "the file starts with a UTF-16 byte-order mark but has an odd number of bytes",
+        ));
+    }
+    let units: Vec<u16> = bytes[2..]
+        .chunks(2)
+        .map(|c| match (c, little) {
+            ([a, b], true) => u16::from_le_bytes([*a, *b]),
+            ([a, b], false) => u16::from_be_bytes([*a, *b]),
+            _ => 0xFFFF, // not reached: the length is even
+        })
+        .collect();
+    String::from_utf16(&units)
+        .map(|s| Some(s.into_bytes()))
+        .map_err(|e| IoError::format(file, format!("the file says UTF-16 but is not: {e}")))
 }
 
 /// The byte offset where line `n` (0-based) starts, if the input has it.
@@ -108,6 +137,51 @@ impl<'a> Table<'a> {
         self.header.iter().position(|h| pred(h))
     }
 
+    /// Index of the first header cell that starts with `prefix`.
+    pub fn column_starting(&self, prefix: &str) -> Option<usize> {
+        self.column(|h| h.starts_with(prefix))
+    }
+
+    /// Index of the first header cell that starts with `prefix`, or an
+    /// error saying that an `export` file needs it and which columns it has.
+    pub fn need_column_starting(&self, export: &str, prefix: &str) -> Result<usize, IoError> {
+        self.column_starting(prefix).ok_or_else(|| {
+            IoError::format(
+                self.file,
+                format!(
+                    "a {export} export needs a \"{prefix}...\" column; the columns found are {}",
+                    self.columns_found()
+                ),
+            )
+        })
+    }
+
+    /// The glucose unit named in the header of column `at` (`mg/dL` or
+    /// `mmol/L`); an error if it names none or if `given` (the caller's
+    /// `--units`) says otherwise.
+    pub fn unit_of_column(
+        &self,
+        at: usize,
+        given: Option<GlucoseUnit>,
+    ) -> Result<GlucoseUnit, IoError> {
+        let name = &self.header[at];
+        let unit = super::plain::unit_in_name(name).ok_or_else(|| IoError::Units {
+            file: self.file.to_string(),
+            message: format!("column \"{name}\" names no unit (expected mg/dL or mmol/L)"),
+        })?;
+        if let Some(given) = given.filter(|&g| g != unit) {
+            return Err(IoError::Units {
+                file: self.file.to_string(),
+                message: format!(
+                    "the file says {} (column \"{name}\") but --units says {}",
+                    unit.name(),
+                    given.name()
+                ),
+            });
+        }
+        Ok(unit)
+    }
+
     /// The header cells, quoted and joined (for errors).
     pub fn columns_found(&self) -> String {
         self.header
@@ -183,17 +257,27 @@ impl<'a> Table<'a> {
     }
 }
 
-/// Parses a number as the file writes it: `.` decimals, or `,` decimals
-/// when the delimiter is `;`.
+/// Parses a number as the file writes it: `.` decimals, or one `,` as the
+/// decimal mark (locales such as German, French, Dutch; in a `,`-delimited
+/// file such a cell arrives quoted, `"5,6"`). In a `,`-delimited file a
+/// comma followed by exactly three digits (`1,500`) could be a thousands
+/// separator and is refused, not guessed.
 pub fn number(text: &str, delimiter: u8) -> Option<f64> {
     let t = text.trim();
     if t.is_empty() {
         return None;
     }
-    let v: f64 = if delimiter == b';' && t.contains(',') && !t.contains('.') {
-        t.replacen(',', ".", 1).parse().ok()?
-    } else {
-        t.parse().ok()?
+    let v: f64 = match t.split_once(',') {
+        Some((whole, frac)) if !t.contains('.') && !frac.contains(',') => {
+            if delimiter == b',' && frac.len() == 3 {
+                return None;
+            }
+            if whole.is_empty() || frac.is_empty() {
+                return None;
+            }
+            format!("{whole}.{frac}").parse().ok()?
+        }
+        _ => t.parse().ok()?,
     };
     v.is_finite().then_some(v)
 }
@@ -221,6 +305,36 @@ pub fn required_number(
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn utf16_files_are_read_as_utf8() {
+        let text = "Gerät,Zeit\r\n1,2\r\n";
+        let mut le = vec![0xFF, 0xFE];
+        le.extend(text.encode_utf16().flat_map(u16::to_le_bytes));
+        let mut be = vec![0xFE, 0xFF];
+        be.extend(text.encode_utf16().flat_map(u16::to_be_bytes));
+        for bytes in [le, be] {
+            assert_eq!(
+                utf16_to_utf8("f", &bytes).unwrap(),
+                Some(text.as_bytes().to_vec())
+            );
+        }
+        assert_eq!(utf16_to_utf8("f", text.as_bytes()).unwrap(), None);
+        assert!(utf16_to_utf8("f", &[0xFF, 0xFE, 0x41]).is_err());
+    }
+
+    #[test]
+    fn decimal_commas_are_read_and_thousands_are_refused() {
+        assert_eq!(number("5,6", b','), Some(5.6));
+        assert_eq!(number("5,6", b';'), Some(5.6));
+        assert_eq!(number("12,25", b'\t'), Some(12.25));
+        assert_eq!(number("7.4", b','), Some(7.4));
+        // Thousands separator or decimal comma: not told, refused.
+        assert_eq!(number("1,500", b','), None);
+        for bad in ["1,2,3", "1.2,3", ",5", "5,", "x"] {
+            assert_eq!(number(bad, b','), None, "{bad}");
+        }
+    }
 
     #[test]
     fn lines_count_alike_with_lf_and_crlf() {

@@ -3,7 +3,9 @@
 //! `extended` over `duration` ms), `basal` (`deliveryType` scheduled,
 //! automated, temp or suspend, `rate` U/h, `duration` ms), `food`
 //! (`nutrition.carbohydrate.net` g), `wizard` (`carbInput`; its bolus is a
-//! record of its own); every other type is counted by type.
+//! record of its own), `insulin` (pen doses: `dose.total`, rapid/short or
+//! intermediate/long by `formulation.simple.actingType`); every other type
+//! is counted by type.
 
 use abba_core::{Grams, MgDl, Units, UnitsPerHour};
 use serde_json::Value;
@@ -21,7 +23,8 @@ use crate::units::{
 };
 
 /// Tidepool's data types (for format detection).
-pub const TYPES: [&str; 12] = [
+pub const TYPES: [&str; 13] = [
+    "insulin",
     "cbg",
     "smbg",
     "bolus",
@@ -227,16 +230,34 @@ fn datum(item: &Item<'_>, ty: &str) -> Result<RecordKind, IoError> {
                 }
             }
         }
+        "insulin" => insulin_event(item)?,
         "food" => {
-            let net = item
-                .get("nutrition")
-                .and_then(|n| n.get("carbohydrate"))
-                .and_then(|c| c.get("net"));
-            match net.and_then(Value::as_f64) {
+            let carb = item.get("nutrition").and_then(|n| n.get("carbohydrate"));
+            if let Some(u) = carb.and_then(|c| c.get("units")).and_then(Value::as_str) {
+                if !u.eq_ignore_ascii_case("grams") {
+                    return Err(item.err(
+                        "nutrition.carbohydrate.units",
+                        format!("expected grams, got \"{u}\""),
+                    ));
+                }
+            }
+            // `net` (carbohydrate less fibre) when given, else `total`.
+            let (field, g) = match (
+                carb.and_then(|c| c.get("net")),
+                carb.and_then(|c| c.get("total")),
+            ) {
+                (Some(v), _) => ("nutrition.carbohydrate.net", v),
+                (None, Some(v)) => ("nutrition.carbohydrate.total", v),
+                (None, None) => ("", &Value::Null),
+            };
+            match g.as_f64() {
+                None if !g.is_null() => {
+                    return Err(item.err(field, format!("expected grams as a number, got {g}")))
+                }
                 Some(g) => RecordKind::Carbs {
                     grams: Grams(check_range(
-                        &item.at("nutrition.carbohydrate.net"),
-                        "nutrition.carbohydrate.net",
+                        &item.at(field),
+                        field,
                         g,
                         0.0,
                         units::CARBS_MAX_G,
@@ -279,6 +300,51 @@ fn datum(item: &Item<'_>, ty: &str) -> Result<RecordKind, IoError> {
         },
         other => RecordKind::Ignored {
             kind: other.to_string(),
+        },
+    })
+}
+
+/// An `insulin` datum (a pen or syringe dose logged on a meter, receiver
+/// or app): `dose.total` in `Units`; `formulation.simple.actingType`
+/// rapid or short is a bolus, intermediate or long is long-acting; with no
+/// acting type it is counted, not guessed.
+fn insulin_event(item: &Item<'_>) -> Result<RecordKind, IoError> {
+    let dose = item.get("dose");
+    if let Some(u) = dose.and_then(|d| d.get("units")) {
+        if u.as_str() != Some("Units") {
+            return Err(item.err("dose.units", format!("expected \"Units\", got {u}")));
+        }
+    }
+    let total = match dose.and_then(|d| d.get("total")) {
+        Some(v) => v
+            .as_f64()
+            .ok_or_else(|| item.err("dose.total", format!("expected a number, got {v}")))?,
+        None => return Err(item.err("dose.total", "missing: an insulin datum needs its dose (U)")),
+    };
+    let units = Units(check_range(
+        &item.at("dose.total"),
+        "dose.total",
+        total,
+        0.0,
+        units::BOLUS_MAX_U,
+        "insulin (U)",
+    )?);
+    let acting = item
+        .get("formulation")
+        .and_then(|f| f.get("simple"))
+        .and_then(|s| s.get("actingType"))
+        .and_then(Value::as_str);
+    Ok(match acting {
+        Some("rapid" | "short") => RecordKind::Bolus { units },
+        Some("intermediate" | "long") => RecordKind::LongActing { units },
+        Some(other) => {
+            return Err(item.err(
+                "formulation.simple.actingType",
+                format!("expected rapid, short, intermediate or long, got \"{other}\""),
+            ))
+        }
+        None => RecordKind::Ignored {
+            kind: "insulin without an acting type".into(),
         },
     })
 }

@@ -1,0 +1,259 @@
+//! LibreView's columns in the account's language. LibreView writes its
+//! header in the language of the account (English `Device Timestamp`,
+//! German `Gerätezeitstempel`, Spanish `Sello de tiempo del dispositivo`,
+//! Dutch `Tijdstempel apparaat`, French `Horodatage de l'appareil`, ...);
+//! the record types stay numbers and the glucose columns always name their
+//! unit (`mg/dL`, `mmol/L`). A column is recognised by word stems of those
+//! languages; a glucose column whose role cannot be told, or a header
+//! without time, record type and historic glucose, is an error listing the
+//! columns found (never a guess by position).
+
+use crate::units::GlucoseUnit;
+
+/// What a column holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Role {
+    /// The device's wall time.
+    Time,
+    /// The record type (0..6).
+    RecordType,
+    /// Historic (automatic) sensor glucose.
+    Historic,
+    /// Scan (on-demand) sensor glucose.
+    Scan,
+    /// Meter strip glucose.
+    Strip,
+    /// Blood ketone (mmol/L, not glucose).
+    Ketone,
+    /// Rapid-acting insulin (U).
+    Rapid,
+    /// Long-acting insulin (U).
+    Long,
+    /// Meal insulin (U).
+    Meal,
+    /// Correction insulin (U).
+    Correction,
+    /// Carbohydrates in grams.
+    CarbsGrams,
+    /// Carbohydrates in servings.
+    CarbsServings,
+    /// Known and not needed: device, serial number, notes, the
+    /// "non-numeric" flag columns, the user's change of a suggested dose.
+    Other,
+    /// Not recognised.
+    Unknown,
+}
+
+fn has(name: &str, stems: &[&str]) -> bool {
+    stems.iter().any(|s| name.contains(s))
+}
+
+const TIME: [&str; 16] = [
+    "timestamp",
+    "zeitstempel",
+    "horodatage",
+    "sello de tiempo",
+    "marca de tiempo",
+    "hora del dispositivo",
+    "fecha y hora",
+    "tijdstempel",
+    "data e ora",
+    "data/ora",
+    "ora dispositivo",
+    "carimbo de data",
+    "data/hora",
+    "tidsstämpel",
+    "tidsstempel",
+    "aikaleima",
+];
+const RECORD_TYPE: [&str; 3] = ["typ", "tipo", "type"];
+const HISTORIC: [&str; 3] = ["histor", "verlauf", "storico"];
+const SCAN: [&str; 5] = [
+    "scan",
+    "escane",
+    "numérisation",
+    "numerisation",
+    "digitaliz",
+];
+const STRIP: [&str; 7] = [
+    "strip",
+    "streifen",
+    "tira",
+    "bandelette",
+    "striscia",
+    "teststrook",
+    "sangu",
+];
+const KETONE: [&str; 4] = ["keton", "céton", "ceton", "cheton"];
+const NON_NUMERIC: [&str; 2] = ["numeri", "numéri"];
+const USER_CHANGE: [&str; 6] = [
+    "user change",
+    "änderung",
+    "wijzig",
+    "cambio",
+    "modifi",
+    "alteração",
+];
+const RAPID: [&str; 6] = ["rapid", "rápid", "schnell", "snelwerk", "snel", "kurz"];
+const LONG: [&str; 7] = [
+    "long", "depot", "langwerk", "lenta", "lento", "prolong", "basal",
+];
+const MEAL: [&str; 6] = ["meal", "mahlzeit", "maaltijd", "comida", "repas", "pasto"];
+const CORRECTION: [&str; 3] = ["correc", "korrektur", "correz"];
+const CARBS: [&str; 5] = ["carb", "kohlenhydrat", "koolhydrat", "glucide", "hidrato"];
+const GRAMS: [&str; 1] = ["gram"];
+const SERVINGS: [&str; 6] = [
+    "serving", "portion", "portie", "racion", "ración", "porzion",
+];
+const OTHER: [&str; 12] = [
+    "device",
+    "gerät",
+    "dispositivo",
+    "appareil",
+    "apparaat",
+    "serial",
+    "serie",
+    "série",
+    "note",
+    "notiz",
+    "notit",
+    "nota",
+];
+
+/// The role of a header cell, with the glucose unit it names (if any).
+pub fn role(header: &str) -> (Role, Option<GlucoseUnit>) {
+    let name = header.to_lowercase();
+    let unit = crate::read::plain::unit_in_name(header);
+    if has(&name, &KETONE) {
+        return (Role::Ketone, None);
+    }
+    if let Some(u) = unit {
+        let role = if has(&name, &SCAN) {
+            Role::Scan
+        } else if has(&name, &STRIP) {
+            Role::Strip
+        } else if has(&name, &HISTORIC) {
+            Role::Historic
+        } else {
+            Role::Unknown
+        };
+        return (role, Some(u));
+    }
+    // Older desktop exports name the time column with one word.
+    let role = if has(&name, &TIME)
+        || ["time", "zeit", "heure", "hora", "ora", "tijd"].contains(&name.trim())
+    {
+        Role::Time
+    } else if has(&name, &NON_NUMERIC) || has(&name, &USER_CHANGE) {
+        Role::Other
+    } else if has(&name, &CARBS) {
+        if has(&name, &GRAMS) {
+            Role::CarbsGrams
+        } else if has(&name, &SERVINGS) {
+            Role::CarbsServings
+        } else {
+            Role::Unknown
+        }
+    } else if has(&name, &MEAL) {
+        Role::Meal
+    } else if has(&name, &CORRECTION) {
+        Role::Correction
+    } else if has(&name, &RAPID) {
+        Role::Rapid
+    } else if has(&name, &LONG) {
+        Role::Long
+    } else if has(&name, &RECORD_TYPE) {
+        Role::RecordType
+    } else if has(&name, &OTHER) {
+        Role::Other
+    } else {
+        Role::Unknown
+    };
+    (role, None)
+}
+
+/// Whether a header row (its cells) is LibreView's: a time column, a
+/// record-type column and a glucose column with a unit.
+pub fn is_header(cells: &[String]) -> bool {
+    let roles: Vec<Role> = cells.iter().map(|c| role(c).0).collect();
+    roles.contains(&Role::Time)
+        && roles.contains(&Role::RecordType)
+        && roles
+            .iter()
+            .any(|r| matches!(r, Role::Historic | Role::Scan | Role::Strip))
+}
+
+/// Splits a raw line into header cells (quotes and spaces trimmed) with
+/// the delimiter that occurs most.
+pub fn cells(line: &str) -> Vec<String> {
+    let count = |d: char| line.matches(d).count();
+    let delimiter = [',', ';', '\t']
+        .into_iter()
+        .max_by_key(|&d| count(d))
+        .unwrap_or(',');
+    line.split(delimiter)
+        .map(|c| c.trim().trim_matches('"').trim().to_string())
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_language_names_the_same_roles() {
+        let headers = [
+            // English
+            "Device,Serial Number,Device Timestamp,Record Type,Historic Glucose mg/dL,Scan Glucose mg/dL,Non-numeric Rapid-Acting Insulin,Rapid-Acting Insulin (units),Non-numeric Food,Carbohydrates (grams),Carbohydrates (servings),Non-numeric Long-Acting Insulin,Long-Acting Insulin Value (units),Notes,Strip Glucose mg/dL,Ketone mmol/L,Meal Insulin (units),Correction Insulin (units),User Change Insulin (units)",
+            // German
+            "Gerät,Seriennummer,Gerätezeitstempel,Aufzeichnungstyp,Glukosewert-Verlauf mg/dL,Glukose-Scan mg/dL,Nicht numerisches schnellwirkendes Insulin,Schnellwirkendes Insulin (Einheiten),Nicht numerische Nahrungsdaten,Kohlenhydrate (Gramm),Kohlenhydrate (Portionen),Nicht numerisches Depotinsulin,Depotinsulin (Einheiten),Notizen,Glukose-Teststreifen mg/dL,Keton mmol/L,Mahlzeiteninsulin (Einheiten),Korrekturinsulin (Einheiten),Insulin-Änderung durch Anwender (Einheiten)",
+            // Dutch
+            "Apparaat,Serienummer,Tijdstempel apparaat,Gegevenstype,Historische glucose mmol/l,Scan Glucose mmol/l,Niet-numerieke snelwerkende insuline,Snelwerkende insuline (eenheden),Niet-numeriek voedsel,Koolhydraten (gram),Koolhydraten (porties),Niet-numerieke langwerkende insuline,Langwerkende insuline (eenheden),Notities,Strip Glucose mmol/l,Keton mmol/l,Maaltijdinsuline (eenheden),Correctie insuline (eenheden),Wijzigen insuline gebruiker (eenheden)",
+        ];
+        let want = [
+            Role::Other,
+            Role::Other,
+            Role::Time,
+            Role::RecordType,
+            Role::Historic,
+            Role::Scan,
+            Role::Other,
+            Role::Rapid,
+            Role::Other,
+            Role::CarbsGrams,
+            Role::CarbsServings,
+            Role::Other,
+            Role::Long,
+            Role::Other,
+            Role::Strip,
+            Role::Ketone,
+            Role::Meal,
+            Role::Correction,
+            Role::Other,
+        ];
+        for h in headers {
+            let got: Vec<Role> = cells(h).iter().map(|c| role(c).0).collect();
+            assert_eq!(got, want, "{h}");
+            assert!(is_header(&cells(h)));
+        }
+        // Spanish (the columns its exports are known to carry).
+        let es = cells("Dispositivo,Número de serie,Sello de tiempo del dispositivo,Tipo de registro,Historial de glucosa mg/dL,Escaneo de glucosa mg/dL,Insulina de acción rápida no numérica,Notas");
+        let got: Vec<Role> = es.iter().map(|c| role(c).0).collect();
+        assert_eq!(
+            got,
+            [
+                Role::Other,
+                Role::Other,
+                Role::Time,
+                Role::RecordType,
+                Role::Historic,
+                Role::Scan,
+                Role::Other,
+                Role::Other
+            ]
+        );
+        assert!(!is_header(&cells(
+            "Glucose Data,Generated on,12-04-1961 09:40 UTC,Generated by,Gagarin"
+        )));
+    }
+}

@@ -1,0 +1,371 @@
+//! Variants of the real exports that the shared samples do not show:
+//! LibreView in other languages, Nightscout sensor error codes, Tidepool
+//! pen insulin. Each is read correctly or refused with a message naming
+//! the file, line or JSON path and field.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod common;
+use abba_io::record::RecordKind;
+use abba_io::Format;
+use common::{opts, read};
+
+const DE_HEADER: &str = "Gerät,Seriennummer,Gerätezeitstempel,Aufzeichnungstyp,Glukosewert-Verlauf mmol/L,Glukose-Scan mmol/L,Nicht numerisches schnellwirkendes Insulin,Schnellwirkendes Insulin (Einheiten),Nicht numerische Nahrungsdaten,Kohlenhydrate (Gramm),Kohlenhydrate (Portionen),Nicht numerisches Depotinsulin,Depotinsulin (Einheiten),Notizen,Glukose-Teststreifen mmol/L,Keton mmol/L,Mahlzeiteninsulin (Einheiten),Korrekturinsulin (Einheiten),Insulin-Änderung durch Anwender (Einheiten)";
+
+/// A German account's export in mmol/L: the metadata line, the German
+/// header, decimal commas in quoted cells, day-first dates with dots.
+fn libreview_german_mmol() -> Vec<u8> {
+    let mut s = String::from(
+        "\u{feff}Glukose-Werte,Erstellt am,24.02.2021 12:12 UTC,Erstellt von,Test\r\n",
+    );
+    s.push_str(DE_HEADER);
+    s.push_str("\r\n");
+    let row = |time: &str, ty: u8, cells: &[(usize, &str)]| {
+        let mut c = vec![String::new(); 19];
+        c[0] = "FreeStyle Libre 2".into();
+        c[1] = "ABC".into();
+        c[2] = time.into();
+        c[3] = ty.to_string();
+        for &(i, v) in cells {
+            c[i] = v.into();
+        }
+        c.join(",") + "\r\n"
+    };
+    s.push_str(&row("24.02.2021 07:00", 0, &[(4, "\"5,6\"")]));
+    s.push_str(&row("24.02.2021 07:15", 0, &[(4, "\"6,1\"")]));
+    s.push_str(&row("24.02.2021 07:20", 1, &[(5, "\"6,4\"")]));
+    s.push_str(&row("24.02.2021 07:25", 2, &[(14, "\"6,3\"")]));
+    s.push_str(&row("24.02.2021 07:30", 3, &[(15, "\"0,2\"")]));
+    s.push_str(&row("24.02.2021 07:31", 5, &[(9, "48")]));
+    s.push_str(&row("24.02.2021 07:32", 4, &[(7, "\"4,5\"")]));
+    s.push_str(&row("24.02.2021 22:00", 4, &[(12, "14")]));
+    s.push_str(&row("24.02.2021 12:00", 4, &[(16, "3"), (17, "\"1,5\"")]));
+    s.push_str(&row("24.02.2021 13:00", 6, &[(13, "Sport")]));
+    s.into_bytes()
+}
+
+#[test]
+fn libreview_in_german_with_mmol_and_decimal_commas() {
+    let b = read(
+        &[("de.csv", libreview_german_mmol())],
+        &opts("Europe/Berlin"),
+    )
+    .unwrap();
+    assert_eq!(b.formats, vec![Format::LibreView]);
+    assert_eq!(b.count("cgm"), 2);
+    assert_eq!(b.count("smbg"), 1);
+    assert_eq!(b.count("carbs"), 1);
+    assert_eq!(b.count("bolus"), 2);
+    assert_eq!(b.count("long_acting"), 1);
+    let mmol = abba_core::units::MG_DL_PER_MMOL_L;
+    let cgm: Vec<f64> = b
+        .records
+        .iter()
+        .filter_map(|r| match r.kind {
+            RecordKind::Cgm { glucose } => Some(glucose.mg_dl.0),
+            _ => None,
+        })
+        .collect();
+    assert!((cgm[0] - 5.6 * mmol).abs() < 1e-9, "{cgm:?}");
+    assert!((cgm[1] - 6.1 * mmol).abs() < 1e-9, "{cgm:?}");
+    let smbg = b.records.iter().find_map(|r| match r.kind {
+        RecordKind::Smbg { glucose } => Some(glucose.mg_dl.0),
+        _ => None,
+    });
+    assert!((smbg.unwrap() - 6.3 * mmol).abs() < 1e-9);
+    let boluses: Vec<f64> = b
+        .records
+        .iter()
+        .filter_map(|r| match r.kind {
+            RecordKind::Bolus { units } => Some(units.0),
+            _ => None,
+        })
+        .collect();
+    // 4,5 U rapid-acting at 07:32; meal 3 + correction 1,5 U at 12:00.
+    assert_eq!(boluses, vec![4.5, 4.5]);
+    // Day-first with dots: 24.02.2021 07:00 in Berlin (UTC+1).
+    assert_eq!(b.records[0].at.to_string(), "2021-02-24T06:00:00Z");
+    // The same file saved as UTF-16 (as some Windows programs do) reads
+    // the same.
+    let text = String::from_utf8(libreview_german_mmol()).unwrap();
+    let utf16: Vec<u8> = text.encode_utf16().flat_map(u16::to_le_bytes).collect();
+    assert_eq!(&utf16[..2], &[0xFF, 0xFE]);
+    let b16 = read(&[("de.csv", utf16)], &opts("Europe/Berlin")).unwrap();
+    assert_eq!(b16.records, b.records);
+}
+
+#[test]
+fn libreview_in_spanish_dutch_and_french_after_metadata_lines() {
+    let es = "Informe del paciente X,Generado el,05-11-2020 00:45 UTC,Generado por,Y\nX,\n\
+              Dispositivo,Número de serie,Sello de tiempo del dispositivo,Tipo de registro,Historial de glucosa mg/dL,Escaneo de glucosa mg/dL,Insulina de acción rápida no numérica,Notas\n\
+              FreeStyle LibreLink,,13-05-2020 08:00,0,104,,,\n\
+              FreeStyle LibreLink,,13-05-2020 08:15,0,110,,,\n";
+    let nl = "Glucosegegevens,Gegenereerd op,13-05-2020 09:00 UTC,Gegenereerd door,Z\n\
+              Apparaat,Serienummer,Tijdstempel apparaat,Gegevenstype,Historische glucose mmol/l,Scan Glucose mmol/l,Niet-numerieke snelwerkende insuline,Snelwerkende insuline (eenheden),Niet-numeriek voedsel,Koolhydraten (gram),Koolhydraten (porties),Niet-numerieke langwerkende insuline,Langwerkende insuline (eenheden),Notities,Strip Glucose mmol/l,Keton mmol/l,Maaltijdinsuline (eenheden),Correctie insuline (eenheden),Wijzigen insuline gebruiker (eenheden)\n\
+              FreeStyle Libre,S,13-05-2020 08:00,0,\"5,8\",,,,,,,,,,,,,,\n\
+              FreeStyle Libre,S,13-05-2020 08:05,5,,,,,,40,,,,,,,,,\n";
+    let fr = "Données de glucose,Généré le,05-13-2020 09:00 UTC,Généré par,W\n\
+              Appareil,Numéro de série,Horodatage de l'appareil,Type d'enregistrement,Historique de la glycémie mg/dL,Glycémie de la numérisation mg/dL,Insuline à action rapide non numérique,Insuline à action rapide (unités),Glucides (grammes)\n\
+              FreeStyle Libre,S,05/13/2020 08:00,0,99,,,,\n\
+              FreeStyle Libre,S,05/13/2020 08:05,4,,,,\"2,5\",\n";
+    let b = read(
+        &[
+            ("es.csv", es.into()),
+            ("nl.csv", nl.into()),
+            ("fr.csv", fr.into()),
+        ],
+        &opts("Europe/Madrid"),
+    )
+    .unwrap();
+    assert_eq!(b.formats, vec![Format::LibreView; 3]);
+    assert_eq!(b.count("cgm"), 4);
+    assert_eq!(b.count("carbs"), 1);
+    assert_eq!(b.count("bolus"), 1);
+    // Every file's first reading is 13 May 2020 08:00 in Madrid (UTC+2).
+    for (file, line) in [(0u16, 4u32), (1, 3), (2, 3)] {
+        let r = b
+            .records
+            .iter()
+            .find(|r| r.origin.file == file && r.origin.at == abba_io::record::OriginAt::Line(line))
+            .unwrap();
+        assert_eq!(r.at.to_string(), "2020-05-13T06:00:00Z", "file {file}");
+    }
+}
+
+#[test]
+fn libreview_headers_abba_cannot_read_are_refused_with_the_columns_found() {
+    // A language abba does not know: no column is recognised.
+    let pl = "Urządzenie,Numer seryjny,Sygnatura czasowa urządzenia,Rodzaj rekordu,Historia glikemii mg/dL\n\
+              FreeStyle Libre,S,13-05-2020 08:00,0,99\n";
+    let err = read(
+        &[("pl.csv", pl.into())],
+        &abba_io::ReadOptions {
+            format: Some(Format::LibreView),
+            ..opts("Europe/Warsaw")
+        },
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(err.starts_with("pl.csv: no LibreView header"), "{err}");
+    assert!(err.contains("Historia glikemii mg/dL"), "{err}");
+    // A glucose column whose role cannot be told is not guessed.
+    let odd = "Device,Serial Number,Device Timestamp,Record Type,Historic Glucose mg/dL,Sensor Glucose mg/dL\n\
+               FreeStyle Libre,S,13-05-2020 08:00,0,99,\n";
+    let err = read(&[("odd.csv", odd.into())], &opts("Europe/Madrid"))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("\"Sensor Glucose mg/dL\""), "{err}");
+    assert!(err.contains("historic, scan or strip"), "{err}");
+}
+
+#[test]
+fn libreview_rows_that_would_lose_data_are_refused_naming_line_and_field() {
+    let head = "Glucose Data,Generated on,13-05-2020 09:00 UTC,Generated by,T\n\
+                Device,Serial Number,Device Timestamp,Record Type,Historic Glucose mg/dL,Fiasp (units)\n\
+                FreeStyle Libre,S,13-05-2020 08:00,0,99,\n";
+    // Insulin in a column abba does not recognise.
+    let unknown = format!("{head}FreeStyle Libre,S,13-05-2020 08:05,4,,6\n");
+    let err = read(&[("u.csv", unknown.into())], &opts("Europe/Madrid"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.starts_with("u.csv: line 4, field \"Fiasp (units)\""),
+        "{err}"
+    );
+    // A record type written as a word.
+    let word = format!("{head}FreeStyle Libre,S,13-05-2020 08:05,Historic,98,\n");
+    let err = read(&[("w.csv", word.into())], &opts("Europe/Madrid"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.starts_with("w.csv: line 4, field \"Record Type\""),
+        "{err}"
+    );
+    // 1,500 in a comma file: thousands separator or decimal comma.
+    let ambiguous = format!("{head}FreeStyle Libre,S,13-05-2020 08:05,0,\"1,500\",\n");
+    let err = read(&[("a.csv", ambiguous.into())], &opts("Europe/Madrid"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.starts_with("a.csv: line 4, field \"Historic Glucose mg/dL\""),
+        "{err}"
+    );
+}
+
+#[test]
+fn nightscout_sgv_error_codes_are_counted_not_read_as_glucose() {
+    // Dexcom error states arrive as sgv 1..12; 10 and 12 would otherwise
+    // pass as (absurdly low) glucose.
+    let entries = r#"[
+ {"_id":"a","type":"sgv","sgv":120,"date":1709557200000},
+ {"_id":"b","type":"sgv","sgv":10,"date":1709557500000},
+ {"_id":"c","type":"sgv","sgv":12,"date":1709557800000},
+ {"_id":"d","type":"sgv","sgv":1,"date":1709558100000},
+ {"_id":"e","type":"sgv","sgv":39,"date":1709558400000},
+ {"_id":"f","type":"sgv","sgv":41,"date":1709558700000},
+ {"_id":"g","type":"sgv","sgv":45,"date":1709559000000}
+]"#;
+    let b = read(&[("e.json", entries.into())], &opts("UTC")).unwrap();
+    assert_eq!(b.count("cgm"), 4);
+    let kinds: Vec<String> = b
+        .records
+        .iter()
+        .filter_map(|r| match &r.kind {
+            RecordKind::Ignored { kind } => Some(kind.clone()),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(
+        kinds,
+        [
+            "sgv sensor error code 10",
+            "sgv sensor error code 12",
+            "sgv sensor error code 1"
+        ]
+    );
+    // Mostly "error codes": glucose in mmol/L, refused as a unit error.
+    let mmol = r#"[
+ {"_id":"a","type":"sgv","sgv":6,"date":1709557200000},
+ {"_id":"b","type":"sgv","sgv":7,"date":1709557500000},
+ {"_id":"c","type":"sgv","sgv":120,"date":1709557800000}
+]"#;
+    let err = read(&[("m.json", mmol.into())], &opts("UTC")).unwrap_err();
+    assert!(matches!(err, abba_io::IoError::Units { .. }), "{err}");
+    assert!(err.to_string().contains("2 of 3 sgv values"), "{err}");
+    // A negative or fractional sgv is not an error code: refused.
+    let bad = r#"[{"_id":"a","type":"sgv","sgv":-5,"date":1709557200000}]"#;
+    let err = read(&[("n.json", bad.into())], &opts("UTC")).unwrap_err();
+    assert!(err.to_string().contains("$[0], field \"sgv\""), "{err}");
+}
+
+#[test]
+fn nightscout_date_in_seconds_is_refused() {
+    let entries = r#"[{"_id":"a","type":"sgv","sgv":120,"date":1709557200}]"#;
+    let err = read(&[("s.json", entries.into())], &opts("UTC"))
+        .unwrap_err()
+        .to_string();
+    assert!(err.starts_with("s.json: $[0], field \"date\""), "{err}");
+    assert!(err.contains("looks like seconds"), "{err}");
+}
+
+#[test]
+fn nightscout_profile_switch_percentage_temporary_and_timeshift() {
+    let profile = r#"{\"basal\":[{\"time\":\"00:00\",\"value\":1.0},{\"time\":\"12:00\",\"value\":0.5}],\"carbratio\":[{\"time\":\"00:00\",\"value\":10}]}"#;
+    let treatments = format!(
+        r#"[
+ {{"_id":"p1","eventType":"Profile Switch","created_at":"2024-03-04T00:00:00Z","profile":"A","percentage":80,"timeshift":0,"duration":0,"profileJson":"{profile}"}},
+ {{"_id":"p2","eventType":"Profile Switch","created_at":"2024-03-05T00:00:00Z","profile":"A","percentage":150,"duration":120,"profileJson":"{profile}"}},
+ {{"_id":"p3","eventType":"Profile Switch","created_at":"2024-03-06T00:00:00Z","profile":"A","timeshift":2,"profileJson":"{profile}"}}
+]"#
+    );
+    let b = read(&[("t.json", treatments.into())], &opts("UTC")).unwrap();
+    let schedules: Vec<_> = b
+        .records
+        .iter()
+        .filter_map(|r| match &r.kind {
+            RecordKind::Schedule { profile } => Some(profile.clone()),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(schedules.len(), 1);
+    let rates: Vec<f64> = schedules[0].basal.segments.iter().map(|s| s.1 .0).collect();
+    assert_eq!(rates, vec![0.8, 0.4]);
+    assert_eq!(schedules[0].carb_ratio[0].1 .0, 12.5);
+    let ignored: Vec<&str> = b
+        .records
+        .iter()
+        .filter_map(|r| match &r.kind {
+            RecordKind::Ignored { kind } => Some(kind.as_str()),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(
+        ignored,
+        [
+            "Profile Switch, temporary (duration > 0)",
+            "Profile Switch with a timeshift"
+        ]
+    );
+}
+
+#[test]
+fn tidepool_pen_insulin_and_food_totals() {
+    let data = r#"[
+ {"id":"i1","type":"insulin","time":"2024-03-04T08:00:00Z","dose":{"units":"Units","total":4.5},"formulation":{"simple":{"actingType":"rapid"}}},
+ {"id":"i2","type":"insulin","time":"2024-03-04T22:00:00Z","dose":{"units":"Units","total":18},"formulation":{"simple":{"actingType":"long"}}},
+ {"id":"i3","type":"insulin","time":"2024-03-04T23:00:00Z","dose":{"units":"Units","total":2}},
+ {"id":"f1","type":"food","time":"2024-03-04T08:00:00Z","nutrition":{"carbohydrate":{"total":52,"units":"grams"}}},
+ {"id":"c1","type":"cbg","time":"2024-03-04T08:10:00.000Z","units":"mmol/L","value":7.3}
+]"#;
+    let b = read(&[("tp.json", data.into())], &Default::default()).unwrap();
+    assert_eq!(b.formats, vec![Format::Tidepool]);
+    assert_eq!(b.count("bolus"), 1);
+    assert_eq!(b.count("long_acting"), 1);
+    assert_eq!(b.count("carbs"), 1);
+    assert!(b.records.iter().any(
+        |r| matches!(&r.kind, RecordKind::Ignored { kind } if kind == "insulin without an acting type")
+    ));
+    let bad =
+        r#"[{"id":"i1","type":"insulin","time":"2024-03-04T08:00:00Z","dose":{"units":"Units"}}]"#;
+    let err = read(&[("tp.json", bad.into())], &Default::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.starts_with("tp.json: $[0], field \"dose.total\""),
+        "{err}"
+    );
+}
+
+#[test]
+fn clarity_mmol_calibrations_censored_values_and_rows_without_time() {
+    let head = "Index,Timestamp (YYYY-MM-DDThh:mm:ss),Event Type,Event Subtype,Patient Info,Device Info,Source Device ID,Glucose Value (mmol/L),Insulin Value (u),Carb Value (grams),Duration (hh:mm:ss),Glucose Rate of Change (mmol/L/min),Transmitter Time (Long Integer),Transmitter ID\n\
+                1,,FirstName,,Ana,,,,,,,,,\n\
+                2,,Device,,,Dexcom G7,,,,,,,,\n";
+    let rows = "3,2024-03-04T08:00:00,EGV,,,,G7,\"5,6\",,,,,1,X\n\
+                4,2024-03-04T08:05:00,EGV,,,,G7,Low,,,,,2,X\n\
+                5,2024-03-04T08:10:00,EGV,,,,G7,High,,,,,3,X\n\
+                6,2024-03-04T08:11:00,Calibration,,,,G7,6.1,,,,,4,X\n\
+                7,2024-03-04T09:00:00,Exercise,Medium,,,G7,,,,0:30:00,,5,X\n";
+    let b = read(
+        &[("c.csv", format!("{head}{rows}").into())],
+        &opts("Europe/Zurich"),
+    )
+    .unwrap();
+    assert_eq!(b.formats, vec![Format::Clarity]);
+    let mmol = abba_core::units::MG_DL_PER_MMOL_L;
+    let cgm: Vec<(f64, abba_io::record::Censor)> = b
+        .records
+        .iter()
+        .filter_map(|r| match r.kind {
+            RecordKind::Cgm { glucose } => Some((glucose.mg_dl.0, glucose.censor)),
+            _ => None,
+        })
+        .collect();
+    use abba_io::record::Censor;
+    assert_eq!(cgm.len(), 3);
+    assert!((cgm[0].0 - 5.6 * mmol).abs() < 1e-9 && cgm[0].1 == Censor::Exact);
+    assert!((cgm[1].0 - 2.2 * mmol).abs() < 1e-9 && cgm[1].1 == Censor::Below);
+    assert!((cgm[2].0 - 22.2 * mmol).abs() < 1e-9 && cgm[2].1 == Censor::Above);
+    assert_eq!(b.count("smbg"), 1);
+    assert!(b
+        .records
+        .iter()
+        .any(|r| matches!(&r.kind, RecordKind::Ignored { kind } if kind == "Exercise Medium")));
+    // Insulin without its subtype: rapid or long-acting is not guessed.
+    let insulin = format!("{head}8,2024-03-04T08:00:00,Insulin,,,,G7,,4,,,,6,X\n");
+    let err = read(&[("c.csv", insulin.into())], &opts("Europe/Zurich"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.starts_with("c.csv: line 4, field \"Event Subtype\""),
+        "{err}"
+    );
+    // An EGV row that lost its time is not skipped as preamble.
+    let lost = format!("{head}8,,EGV,,,,G7,7.0,,,,,6,X\n");
+    let err = read(&[("c.csv", lost.into())], &opts("Europe/Zurich"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.starts_with("c.csv: line 4, field \"Timestamp (YYYY-MM-DDThh:mm:ss)\""),
+        "{err}"
+    );
+}

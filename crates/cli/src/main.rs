@@ -19,6 +19,7 @@ mod person;
 mod person_report;
 mod progress;
 mod report;
+mod serve;
 mod shard;
 mod simulate;
 mod trial;
@@ -60,6 +61,10 @@ enum Command {
     Report(report::Args),
     /// Tune the guessed knobs on a training cohort; evaluate on a held-out one.
     Calibrate(calibrate::Args),
+    /// Serve a store over HTTP/JSON for pump and phone apps (research software, not a medical device).
+    Serve(serve::ServeArgs),
+    /// Print a new bearer token for the service once: --admin or --person NAME.
+    Token(serve::TokenArgs),
 }
 
 /// The parsed command line. Every subcommand takes negative numbers as
@@ -92,6 +97,8 @@ fn main() -> ExitCode {
         Command::History(a) => history::run(a),
         Command::Report(a) => report::run(a),
         Command::Calibrate(a) => calibrate::run(a),
+        Command::Serve(a) => serve::serve(a),
+        Command::Token(a) => serve::token(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

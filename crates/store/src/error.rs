@@ -49,6 +49,26 @@ pub enum StoreError {
     /// An answer that cannot be recorded (nothing open, unknown setting...).
     #[error("{0}")]
     Answer(String),
+    /// An app sequence number already held with another payload.
+    #[error("events[{index}].seq: sequence number {seq} is already held with another payload")]
+    SeqConflict {
+        /// Index of the event in its batch.
+        index: usize,
+        /// The number.
+        seq: u64,
+    },
+    /// A person fed by imports got app events, or the other way round.
+    #[error("{0}")]
+    Feed(String),
+    /// No person with this id.
+    #[error("no person with id {0}")]
+    NoPersonId(i64),
+    /// No such suggestion (names the field).
+    #[error("{0}: no such suggestion")]
+    NoSuggestion(String),
+    /// No such token.
+    #[error("no token with id {0}")]
+    NoToken(i64),
 }
 
 impl StoreError {

@@ -53,6 +53,12 @@ pub fn import(
         (None, None) => None,
     };
     let tx = conn.transaction()?;
+    if crate::app::count(&tx, person.id)? > 0 {
+        return Err(StoreError::Feed(format!(
+            "{} is fed by the app through the service; imports and app events do not mix",
+            person.name
+        )));
+    }
     let now = jiff::Timestamp::now().to_string();
     let files = serde_json::to_string(&batch.files).map_err(|e| StoreError::corrupt("files", e))?;
     let formats =

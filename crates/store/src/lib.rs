@@ -18,20 +18,24 @@
 
 pub mod advise;
 pub mod answer;
+pub mod app;
 pub mod error;
 pub mod history;
 pub mod import;
+pub mod live;
 pub mod log;
 pub mod person;
 pub mod render;
 pub mod replay;
 pub mod schema;
 pub mod store;
+pub mod token;
 pub mod words;
 
 pub use advise::{Advice, NOTICE};
 pub use answer::{AnswerKind, Answers};
 pub use error::StoreError;
 pub use import::ImportSummary;
+pub use live::{Live, Posted, Produced, SuggestionAnswer};
 pub use person::{NewPerson, Person};
 pub use store::{AnswerRequest, Store};

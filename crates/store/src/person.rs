@@ -176,6 +176,48 @@ pub fn load(conn: &Connection, name: &str) -> Result<Person, StoreError> {
         )
         .optional()?;
     let (id, tz, first_day, doc) = row.ok_or_else(|| StoreError::NoPerson(name.to_string()))?;
+    parse(id, name.to_string(), tz, first_day, doc)
+}
+
+/// Looks a person up by row id.
+pub fn load_by_id(conn: &Connection, id: i64) -> Result<Person, StoreError> {
+    let row: Option<(String, String, Option<String>, String)> = conn
+        .query_row(
+            "SELECT name, tz, first_day, settings FROM person WHERE id = ?1",
+            [id],
+            |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?)),
+        )
+        .optional()?;
+    let (name, tz, first_day, doc) = row.ok_or(StoreError::NoPersonId(id))?;
+    parse(id, name, tz, first_day, doc)
+}
+
+/// Replaces a person's clinician bounds (the starting therapy must lie
+/// inside them).
+pub fn set_bounds(
+    conn: &Connection,
+    id: i64,
+    bounds: abba_advisor::ClinicianBounds,
+) -> Result<Person, StoreError> {
+    let mut p = load_by_id(conn, id)?;
+    p.settings.bounds = bounds;
+    Abba::new(p.settings.advisor.clone(), p.settings.start)?.with_bounds(bounds)?;
+    let doc = serde_json::to_string(&p.settings)
+        .map_err(|e| StoreError::corrupt("person settings", e))?;
+    conn.execute(
+        "UPDATE person SET settings = ?1 WHERE id = ?2",
+        params![doc, id],
+    )?;
+    Ok(p)
+}
+
+fn parse(
+    id: i64,
+    name: String,
+    tz: String,
+    first_day: Option<String>,
+    doc: String,
+) -> Result<Person, StoreError> {
     let tz = TimeZone::get(&tz).map_err(|e| StoreError::corrupt("person zone", e))?;
     let first_day = first_day
         .map(|d| d.parse::<Date>())
@@ -185,7 +227,7 @@ pub fn load(conn: &Connection, name: &str) -> Result<Person, StoreError> {
         serde_json::from_str(&doc).map_err(|e| StoreError::corrupt("person settings", e))?;
     Ok(Person {
         id,
-        name: name.to_string(),
+        name,
         tz,
         first_day,
         settings,

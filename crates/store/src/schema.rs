@@ -74,6 +74,31 @@ const MIGRATIONS: &[&str] = &[
         unused INTEGER NOT NULL,
         state TEXT NOT NULL
     );",
+    // 2: the service: bearer tokens (SHA-256 only) and the app's events
+    // with their sequence numbers.
+    "CREATE TABLE token (
+        id INTEGER PRIMARY KEY,
+        hash_prefix INTEGER NOT NULL,
+        hash BLOB NOT NULL UNIQUE,
+        role TEXT NOT NULL CHECK (role IN ('admin', 'person')),
+        person_id INTEGER REFERENCES person(id),
+        created_at TEXT NOT NULL,
+        revoked_at TEXT,
+        CHECK ((role = 'admin') = (person_id IS NULL))
+    );
+    CREATE INDEX token_by_prefix ON token (hash_prefix);
+    CREATE TABLE app_event (
+        person_id INTEGER NOT NULL REFERENCES person(id),
+        seq INTEGER NOT NULL,
+        at_ms INTEGER NOT NULL,
+        at_min INTEGER NOT NULL,
+        tag TEXT NOT NULL,
+        kind TEXT NOT NULL,
+        hash BLOB NOT NULL,
+        received_at TEXT NOT NULL,
+        PRIMARY KEY (person_id, seq)
+    ) WITHOUT ROWID;
+    CREATE INDEX app_event_by_time ON app_event (person_id, at_min, seq);",
 ];
 
 /// The newest schema version this build knows.
@@ -84,10 +109,30 @@ pub fn current_version() -> i64 {
 /// Opens (creating if needed) a store file: WAL journal, foreign keys on,
 /// migrations applied.
 pub fn open(path: &Path) -> Result<Connection, StoreError> {
+    open_with(path, Sync::Normal)
+}
+
+/// How hard a commit waits for the disk.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Sync {
+    /// `synchronous=NORMAL`: in WAL mode a crash of the process loses
+    /// nothing committed, a power loss may lose the last commits (the CLI).
+    Normal,
+    /// `synchronous=FULL`: every commit is on disk before it returns (the
+    /// service, which acknowledges events only after COMMIT).
+    Full,
+}
+
+/// Like [`open`], with the given synchronous level.
+pub fn open_with(path: &Path, sync: Sync) -> Result<Connection, StoreError> {
     let mut conn = Connection::open(path)?;
     conn.busy_timeout(std::time::Duration::from_secs(10))?;
     conn.pragma_update(None, "journal_mode", "WAL")?;
-    conn.pragma_update(None, "synchronous", "NORMAL")?;
+    let level = match sync {
+        Sync::Normal => "NORMAL",
+        Sync::Full => "FULL",
+    };
+    conn.pragma_update(None, "synchronous", level)?;
     conn.pragma_update(None, "foreign_keys", "ON")?;
     // 64 MiB of page cache: a person's whole log is read at every advice.
     conn.pragma_update(None, "cache_size", -65536)?;

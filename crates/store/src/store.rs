@@ -15,7 +15,7 @@ use abba_io::Record;
 use rusqlite::{params, Connection, OptionalExtension};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-use std::rc::Rc;
+use std::sync::Arc;
 
 /// What the person answers.
 #[derive(Debug, Clone, PartialEq)]
@@ -30,26 +30,27 @@ pub enum AnswerRequest {
 
 /// A person store (one SQLite file).
 pub struct Store {
-    conn: Connection,
-    /// Events per person, keyed by (record count, last import id): the log
-    /// only grows, so an unchanged key means unchanged records.
-    cache: HashMap<i64, Cached>,
+    pub(crate) conn: Connection,
+    /// Events per person, keyed by (record count, last import id, app
+    /// events): the logs only grow, so an unchanged key means unchanged
+    /// records.
+    pub(crate) cache: HashMap<i64, Cached>,
 }
 
-struct Cached {
-    key: (i64, i64),
+pub(crate) struct Cached {
+    key: (i64, i64, i64),
     records: usize,
-    stream: Rc<EventStream>,
+    stream: Arc<EventStream>,
 }
 
 /// Everything one refresh knows.
-struct State {
-    stream: Rc<EventStream>,
-    records: usize,
-    advisor: Abba,
-    decisions: Vec<Decision>,
-    answers: Answers,
-    refused: usize,
+pub(crate) struct State {
+    pub(crate) stream: Arc<EventStream>,
+    pub(crate) records: usize,
+    pub(crate) advisor: Abba,
+    pub(crate) decisions: Vec<Decision>,
+    pub(crate) answers: Answers,
+    pub(crate) refused: usize,
 }
 
 fn load_snapshot(conn: &Connection, person: i64) -> Result<Option<Snapshot>, StoreError> {
@@ -98,29 +99,36 @@ fn decisions(conn: &Connection, person: i64) -> Result<Vec<Decision>, StoreError
 
 /// Replays the log (from the snapshot when usable), stores new decisions
 /// and the new snapshot. Call inside a transaction.
-fn refresh(
+pub(crate) fn refresh(
     conn: &Connection,
     cache: &mut HashMap<i64, Cached>,
     person: &Person,
     use_snapshot: bool,
 ) -> Result<State, StoreError> {
-    let key: (i64, i64) = conn.query_row(
+    let (n, last): (i64, i64) = conn.query_row(
         "SELECT count(*), coalesce(max(import_id), 0) FROM record WHERE person_id = ?1",
         params![person.id],
         |r| Ok((r.get(0)?, r.get(1)?)),
     )?;
+    let key = (n, last, crate::app::count(conn, person.id)?);
     let (records, stream) = match cache.get(&person.id) {
-        Some(c) if c.key == key => (c.records, Rc::clone(&c.stream)),
+        Some(c) if c.key == key => (c.records, Arc::clone(&c.stream)),
         _ => {
-            let recs = log::records(conn, person.id)?;
-            let records = recs.len();
-            let stream = Rc::new(log::events(person, recs)?);
+            let (records, stream) = if key.2 > 0 {
+                // An app-fed person: the events as the app posted them.
+                let app = crate::app::load(conn, person.id)?;
+                (app.len(), crate::app::stream(person, &app))
+            } else {
+                let recs = log::records(conn, person.id)?;
+                (recs.len(), log::events(person, recs)?)
+            };
+            let stream = Arc::new(stream);
             cache.insert(
                 person.id,
                 Cached {
                     key,
                     records,
-                    stream: Rc::clone(&stream),
+                    stream: Arc::clone(&stream),
                 },
             );
             (records, stream)
@@ -133,6 +141,13 @@ fn refresh(
         None
     };
     let r = replay::replay(person, &stream.events, &answers, snap.as_ref())?;
+    // Events refused in the whole log: those before the snapshot it started
+    // from, and those of this replay. (The new snapshot's count stops at
+    // its own checkpoint.)
+    let refused = match (&snap, r.rebuilt) {
+        (Some(s), false) => s.unused + r.refused.len(),
+        _ => r.refused.len(),
+    };
     if r.rebuilt {
         conn.execute(
             "DELETE FROM suggestion WHERE person_id = ?1",
@@ -173,7 +188,7 @@ fn refresh(
         advisor: r.advisor,
         decisions: all,
         answers,
-        refused: s.unused,
+        refused,
     })
 }
 
@@ -241,6 +256,10 @@ impl Store {
     /// The person's device events (from the records).
     pub fn events(&self, name: &str) -> Result<Vec<Event>, StoreError> {
         let p = self.person(name)?;
+        if crate::app::count(&self.conn, p.id)? > 0 {
+            let app = crate::app::load(&self.conn, p.id)?;
+            return Ok(app.iter().map(|e| e.event).collect());
+        }
         Ok(log::events(&p, log::records(&self.conn, p.id)?)?.events)
     }
 
@@ -359,7 +378,7 @@ impl Store {
 
 /// A value the person puts in force must be a positive finite number
 /// within the clinician's bounds and the advisor's plausibility limits.
-fn check_value(p: &Person, param: Parameter, v: f64) -> Result<(), StoreError> {
+pub(crate) fn check_value(p: &Person, param: Parameter, v: f64) -> Result<(), StoreError> {
     let field = format!("--set {}", param_key(param));
     let limit = match param {
         Parameter::Basal => p.settings.advisor.limits.basal_max_u_per_h,

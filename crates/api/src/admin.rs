@@ -1,0 +1,147 @@
+//! Admin (clinic) bodies: persons, bounds, tokens.
+
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
+
+/// The advisor's measurement mode.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Mode {
+    /// Adapts from CGM readings; days close at local midnight.
+    Cgm,
+    /// Adapts from meter readings; days close after the bedtime reading.
+    Smbg,
+}
+
+/// The therapy in force when the person starts.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct TherapyBody {
+    /// Flat basal rate (U/h).
+    pub basal_units_per_hour: f64,
+    /// Carb ratios of breakfast, lunch and dinner (g/U).
+    pub carb_ratio_g_per_unit: [f64; 3],
+}
+
+/// A closed range.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Range {
+    /// Lowest value allowed.
+    pub min: f64,
+    /// Highest value allowed.
+    pub max: f64,
+}
+
+/// Clinician bounds; an absent setting has no bound.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Bounds {
+    /// Basal rate (U/h).
+    #[serde(default)]
+    pub basal: Option<Range>,
+    /// Breakfast carb ratio (g/U).
+    #[serde(default)]
+    pub breakfast: Option<Range>,
+    /// Lunch carb ratio (g/U).
+    #[serde(default)]
+    pub lunch: Option<Range>,
+    /// Dinner carb ratio (g/U).
+    #[serde(default)]
+    pub dinner: Option<Range>,
+}
+
+/// Minimum data per window for an update (all zero: no minimum, as in the
+/// in-silico trial).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct MinDataBody {
+    /// CGM mode: share of the window's expected readings needed, 0-1.
+    pub cgm_coverage: f64,
+    /// CGM mode: minutes between the sensor's readings.
+    pub cgm_period_min: u32,
+    /// SMBG mode: meter readings a day needs for a basal update.
+    pub smbg_per_day: u32,
+    /// SMBG mode: meter readings a meal window needs.
+    pub smbg_per_meal: u32,
+}
+
+/// `POST /v1/persons` (admin).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct NewPersonBody {
+    /// Unique name in the store (1-200 characters).
+    pub name: String,
+    /// IANA zone (`Europe/Zurich`): days and meal times are local.
+    pub tz: String,
+    /// Measurement mode.
+    pub mode: Mode,
+    /// Day 1 of the advisor's clock (`YYYY-MM-DD`, local); default: the
+    /// local date of the first event posted.
+    #[serde(default)]
+    pub first_day: Option<String>,
+    /// Starting therapy.
+    pub start: TherapyBody,
+    /// Clinician bounds (default: none).
+    #[serde(default)]
+    pub bounds: Option<Bounds>,
+    /// Minimum data per window (default: 70 % CGM coverage, 3 meter
+    /// readings a day, 1 per meal window).
+    #[serde(default)]
+    pub min_data: Option<MinDataBody>,
+    /// The advisor's full configuration as abba's `AbbaConfig` JSON (its
+    /// mode must equal `mode`); default: ABBA's defaults for the mode with
+    /// an exploration seed derived from the name.
+    #[serde(default)]
+    #[schema(value_type = Option<Object>)]
+    pub advisor: Option<serde_json::Value>,
+}
+
+/// The created person.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PersonCreated {
+    /// The person's id (used in every `/v1/persons/{id}/...` path).
+    pub id: u64,
+    /// Name.
+    pub name: String,
+    /// Mode.
+    pub mode: Mode,
+    /// Zone.
+    pub tz: String,
+    /// Day 1, when given.
+    pub first_day: Option<String>,
+}
+
+/// `PUT /v1/persons/{id}/bounds` (admin): the new bounds replace the old.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct BoundsBody {
+    /// The bounds.
+    pub bounds: Bounds,
+}
+
+/// A token, shown once: only its SHA-256 hash is stored.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct TokenIssued {
+    /// The token's id (to revoke it).
+    pub token_id: u64,
+    /// The bearer token (`abba_` + 64 hex digits: 256 random bits from the
+    /// operating system's CSPRNG). Shown once.
+    pub token: String,
+    /// `admin` or `person`.
+    pub role: String,
+    /// The person it is for (person tokens).
+    pub person_id: Option<u64>,
+}
+
+/// `DELETE /v1/tokens/{token_id}` (admin).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct TokenRevoked {
+    /// The token revoked.
+    pub token_id: u64,
+    /// Always true (revoking twice is fine).
+    pub revoked: bool,
+}

@@ -1,0 +1,212 @@
+//! Suggestions, advice, history and health as the service shows them.
+
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use utoipa::ToSchema;
+
+/// A therapy setting the advisor adapts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Setting {
+    /// The flat basal rate (U/h).
+    Basal,
+    /// The breakfast carb ratio (g/U).
+    Breakfast,
+    /// The lunch carb ratio (g/U).
+    Lunch,
+    /// The dinner carb ratio (g/U).
+    Dinner,
+}
+
+impl Setting {
+    /// The four settings, in the order of their index in a suggestion id.
+    pub const ALL: [Setting; 4] = [
+        Setting::Basal,
+        Setting::Breakfast,
+        Setting::Lunch,
+        Setting::Dinner,
+    ];
+
+    /// Index in a suggestion id (basal 0, breakfast 1, lunch 2, dinner 3).
+    pub fn index(self) -> u64 {
+        match self {
+            Setting::Basal => 0,
+            Setting::Breakfast => 1,
+            Setting::Lunch => 2,
+            Setting::Dinner => 3,
+        }
+    }
+
+    /// Unit of the setting's values.
+    pub fn unit(self) -> &'static str {
+        match self {
+            Setting::Basal => "U/h",
+            _ => "g/U",
+        }
+    }
+
+    /// The suggestion id of a decision at advisor minute `minute` (minutes
+    /// since 00:00 of day 1) about this setting: `minute * 4 + index`. Ids
+    /// are stable (they survive rebuilds) and grow with time.
+    pub fn suggestion_id(self, minute: u64) -> u64 {
+        minute * 4 + self.index()
+    }
+
+    /// The (minute, setting) of a suggestion id.
+    pub fn from_suggestion_id(id: u64) -> (u64, Setting) {
+        (id / 4, Setting::ALL[(id % 4) as usize])
+    }
+}
+
+/// One suggestion (a decision of the advisor) as the app sees it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Suggestion {
+    /// Stable id: advisor minute × 4 + setting index (see [`Setting`]).
+    pub id: u64,
+    /// The `seq` of the posted event that produced it (a `meal` or a
+    /// `day_closed`); absent when the app's event is not known (a rebuild
+    /// after late events or a changed answer).
+    pub seq: Option<u64>,
+    /// The setting.
+    pub parameter: Setting,
+    /// The value to use (the suggestion; equal to `previous` when there was
+    /// no update).
+    pub value: f64,
+    /// The value before.
+    pub previous: f64,
+    /// `U/h` or `g/U`.
+    pub unit: String,
+    /// True when the advisor made no update (then `reason` says why).
+    pub no_update: bool,
+    /// Why, in plain words (the reasons joined).
+    pub reason: String,
+    /// The reasons one by one.
+    pub reasons: Vec<String>,
+    /// The data it rests on, in plain words.
+    pub data: String,
+    /// When it was decided: RFC 3339 instant.
+    #[schema(format = DateTime)]
+    pub decided_at: String,
+    /// Day of the advisor's clock it is for (1 = day 1).
+    pub day: i64,
+    /// `open`, `accepted`, `rejected`, `overridden`, `superseded` (not
+    /// answered before the next one; taken as followed) or `no_update`.
+    pub status: String,
+    /// The value in force after the answer (the suggestion while open).
+    pub in_force: f64,
+}
+
+/// `GET /v1/persons/{id}/suggestions?after=ID`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct SuggestionList {
+    /// The notice.
+    pub notice: String,
+    /// Suggestions with an id greater than `after`, oldest first.
+    pub suggestions: Vec<Suggestion>,
+}
+
+/// `GET /v1/persons/{id}/history`: every suggestion with its answer.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct HistoryResponse {
+    /// The notice.
+    pub notice: String,
+    /// The person.
+    pub person_id: u64,
+    /// Every suggestion, oldest first.
+    pub suggestions: Vec<Suggestion>,
+}
+
+/// Where the person stands.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(tag = "phase", rename_all = "snake_case", deny_unknown_fields)]
+pub enum PhaseView {
+    /// No data yet.
+    NoData,
+    /// The first week: the starting therapy is kept while data is collected.
+    FirstWeek {
+        /// Days closed so far.
+        days_done: u32,
+        /// Days still to go.
+        days_left: u32,
+        /// What is missing or thin, in plain words.
+        missing: Vec<String>,
+    },
+    /// The advisor adapts every day.
+    Adapting,
+}
+
+/// One setting today.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct SettingAdvice {
+    /// The setting.
+    pub setting: Setting,
+    /// Unit.
+    pub unit: String,
+    /// Value in force now (before the open suggestion, if there is one).
+    pub in_force: f64,
+    /// What to use today: the open suggestion if there is one, else the
+    /// value in force.
+    pub use_today: f64,
+    /// The latest suggestion, if any.
+    pub latest: Option<Suggestion>,
+}
+
+/// What the advice rests on.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct DataSummary {
+    /// Records (imported and posted) in the log.
+    pub records: u64,
+    /// Advisor events by kind.
+    pub events: BTreeMap<String, u64>,
+    /// First and last event, local time.
+    pub span: Option<Vec<String>>,
+    /// Records that did not become events.
+    pub records_not_used: u64,
+    /// The first reasons records were not used.
+    pub not_used_examples: Vec<String>,
+    /// Events the advisor refused.
+    pub events_refused: u64,
+}
+
+/// `GET /v1/persons/{id}/advice`: what `abba advise` shows, as JSON.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct AdviceResponse {
+    /// The notice.
+    pub notice: String,
+    /// The person.
+    pub person_id: u64,
+    /// The person's name.
+    pub person: String,
+    /// `cgm` or `smbg`.
+    pub mode: String,
+    /// IANA zone.
+    pub tz: String,
+    /// Day 1 (local date), once known.
+    pub first_day: Option<String>,
+    /// Phase.
+    pub phase: PhaseView,
+    /// Each setting.
+    pub settings: Vec<SettingAdvice>,
+    /// The data.
+    pub data: DataSummary,
+}
+
+/// `GET /healthz` (no token).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Health {
+    /// `ok`.
+    pub status: String,
+    /// `abba`.
+    pub service: String,
+    /// The service's version.
+    pub version: String,
+    /// The notice.
+    pub notice: String,
+}

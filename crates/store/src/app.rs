@@ -1,0 +1,290 @@
+//! The app's events: what a pump or phone app posted through the service,
+//! each under the app's own sequence number.
+//!
+//! The table `app_event` is the durable log of an app-fed person: (person,
+//! seq) is the key, and the SHA-256 of the payload (computed by the
+//! service) tells a repeat (same payload: acknowledged again, nothing
+//! stored) from a conflict (another payload: refused). The advisor sees
+//! the events in order of (advisor minute, seq). A person is fed by imports
+//! or by the app, not both.
+
+use crate::error::StoreError;
+use crate::person::Person;
+use abba_core::{Event, EventKind, Timestamp};
+use abba_io::clock::AdvisorClock;
+use abba_io::events::{kind_name, EventStream};
+use rusqlite::{params, Connection, OptionalExtension};
+use std::collections::BTreeMap;
+
+/// One event as the app posted it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NewAppEvent {
+    /// The app's sequence number.
+    pub seq: u64,
+    /// The instant.
+    pub at: jiff::Timestamp,
+    /// What happened (an answer event is refused).
+    pub kind: EventKind,
+    /// SHA-256 of the payload (instant and content).
+    pub hash: [u8; 32],
+}
+
+/// One stored app event on the advisor's clock.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AppEvent {
+    /// The app's sequence number.
+    pub seq: u64,
+    /// The event.
+    pub event: Event,
+}
+
+impl AppEvent {
+    /// The order the advisor sees: (minute, seq).
+    pub fn key(&self) -> (i64, u64) {
+        (self.event.at.0, self.seq)
+    }
+}
+
+/// What a batch did.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Inserted {
+    /// Events stored now, in the advisor's order.
+    pub new: Vec<AppEvent>,
+    /// Sequence numbers already held with the same payload.
+    pub repeated: Vec<u64>,
+}
+
+fn seq_sql(seq: u64) -> Result<i64, StoreError> {
+    i64::try_from(seq).map_err(|_| StoreError::invalid("seq", "expected at most 2^63 - 1"))
+}
+
+/// Number of app events of a person.
+pub fn count(conn: &Connection, person: i64) -> Result<i64, StoreError> {
+    Ok(conn.query_row(
+        "SELECT count(*) FROM app_event WHERE person_id = ?1",
+        params![person],
+        |r| r.get(0),
+    )?)
+}
+
+fn record_count(conn: &Connection, person: i64) -> Result<i64, StoreError> {
+    Ok(conn.query_row(
+        "SELECT count(*) FROM record WHERE person_id = ?1",
+        params![person],
+        |r| r.get(0),
+    )?)
+}
+
+/// Checks and stores a batch (call inside a transaction): every event is
+/// mapped onto the advisor's clock (day 1 is set from the batch's earliest
+/// event when the person has none), held numbers are compared by payload.
+/// On an error nothing of the batch may be committed.
+pub fn insert(
+    conn: &Connection,
+    person: &mut Person,
+    batch: &[NewAppEvent],
+) -> Result<Inserted, StoreError> {
+    if record_count(conn, person.id)? > 0 {
+        return Err(StoreError::Feed(format!(
+            "person {} is fed by imported records; app events and imports do not mix",
+            person.id
+        )));
+    }
+    if person.first_day.is_none() {
+        if let Some(first) = batch.iter().map(|e| e.at).min() {
+            let day = person.tz.to_datetime(first).date();
+            crate::person::set_first_day(conn, person.id, day)?;
+            person.first_day = Some(day);
+        }
+    }
+    let Some(first_day) = person.first_day else {
+        return Ok(Inserted::default());
+    };
+    let clock = AdvisorClock::new(person.tz.clone(), first_day);
+    let limit = person.settings.advisor.limits.max_timestamp_min;
+    let now = jiff::Timestamp::now().to_string();
+    let mut out = Inserted::default();
+    let mut get =
+        conn.prepare_cached("SELECT hash FROM app_event WHERE person_id = ?1 AND seq = ?2")?;
+    let mut put = conn.prepare_cached(
+        "INSERT INTO app_event (person_id, seq, at_ms, at_min, tag, kind, hash, received_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)",
+    )?;
+    for (i, e) in batch.iter().enumerate() {
+        let seq = seq_sql(e.seq)?;
+        let held: Option<Vec<u8>> = get
+            .query_row(params![person.id, seq], |r| r.get(0))
+            .optional()?;
+        match held {
+            Some(h) if h == e.hash => {
+                out.repeated.push(e.seq);
+                continue;
+            }
+            Some(_) => {
+                return Err(StoreError::SeqConflict {
+                    index: i,
+                    seq: e.seq,
+                })
+            }
+            None => {}
+        }
+        let at = clock.timestamp(e.at);
+        if at.0 < 0 {
+            return Err(StoreError::invalid(
+                format!("events[{i}].at"),
+                format!(
+                    "{} is before the person's day 1 ({first_day}, {})",
+                    e.at,
+                    person.tz.iana_name().unwrap_or("?")
+                ),
+            ));
+        }
+        if at.0 > limit {
+            return Err(StoreError::invalid(
+                format!("events[{i}].at"),
+                format!("{} is more than {limit} minutes after day 1", e.at),
+            ));
+        }
+        if matches!(
+            e.kind,
+            EventKind::SuggestionAccepted(_)
+                | EventKind::SuggestionRejected(_)
+                | EventKind::SuggestionOverridden(_)
+        ) {
+            return Err(StoreError::invalid(
+                format!("events[{i}].event"),
+                "answers go to the answers endpoint, not in the event log",
+            ));
+        }
+        let kind =
+            serde_json::to_string(&e.kind).map_err(|err| StoreError::corrupt("event", err))?;
+        put.execute(params![
+            person.id,
+            seq,
+            e.at.as_millisecond(),
+            at.0,
+            kind_name(&e.kind),
+            kind,
+            &e.hash[..],
+            now
+        ])?;
+        out.new.push(AppEvent {
+            seq: e.seq,
+            event: Event::new(at, e.kind),
+        });
+    }
+    out.new.sort_by_key(AppEvent::key);
+    out.repeated.sort_unstable();
+    Ok(out)
+}
+
+/// Every app event of a person, in the advisor's order.
+pub fn load(conn: &Connection, person: i64) -> Result<Vec<AppEvent>, StoreError> {
+    let mut st = conn.prepare(
+        "SELECT seq, at_min, kind FROM app_event WHERE person_id = ?1 ORDER BY at_min, seq",
+    )?;
+    let rows = st.query_map(params![person], |r| {
+        Ok((
+            r.get::<_, i64>(0)?,
+            r.get::<_, i64>(1)?,
+            r.get::<_, String>(2)?,
+        ))
+    })?;
+    let mut out = Vec::new();
+    for row in rows {
+        let (seq, at, kind) = row?;
+        let kind: EventKind =
+            serde_json::from_str(&kind).map_err(|e| StoreError::corrupt("app event", e))?;
+        out.push(AppEvent {
+            seq: seq as u64,
+            event: Event::new(Timestamp(at), kind),
+        });
+    }
+    Ok(out)
+}
+
+/// The event stream of an app-fed person (the events as posted).
+pub fn stream(person: &Person, events: &[AppEvent]) -> EventStream {
+    let mut counts: BTreeMap<String, usize> = BTreeMap::new();
+    for e in events {
+        *counts.entry(kind_name(&e.event.kind).into()).or_default() += 1;
+    }
+    EventStream {
+        first_day: person.first_day.map(|d| d.to_string()).unwrap_or_default(),
+        tz: person.tz.iana_name().unwrap_or("?").to_string(),
+        events: events.iter().map(|e| e.event).collect(),
+        counts,
+        ignored: BTreeMap::new(),
+        not_mapped: BTreeMap::new(),
+        censored: 0,
+        rejected: Vec::new(),
+        meal_rule: "meal slots as the app posted them".into(),
+        notes: Vec::new(),
+    }
+}
+
+/// Held sequence numbers ≥ `from` as maximal ranges (at most `max`), and
+/// whether more follow.
+pub fn held_ranges(
+    conn: &Connection,
+    person: i64,
+    from: u64,
+    max: usize,
+) -> Result<(Vec<(u64, u64)>, bool), StoreError> {
+    let from = i64::try_from(from).unwrap_or(i64::MAX);
+    let mut st = conn.prepare_cached(
+        "SELECT seq FROM app_event WHERE person_id = ?1 AND seq >= ?2 ORDER BY seq",
+    )?;
+    let rows = st.query_map(params![person, from], |r| r.get::<_, i64>(0))?;
+    let mut out: Vec<(u64, u64)> = Vec::new();
+    for row in rows {
+        let s = row? as u64;
+        if let Some(last) = out.last_mut().filter(|l| l.1 + 1 == s) {
+            last.1 = s;
+        } else if out.len() == max {
+            return Ok((out, true));
+        } else {
+            out.push((s, s));
+        }
+    }
+    Ok((out, false))
+}
+
+/// The highest sequence number held.
+pub fn last_seq(conn: &Connection, person: i64) -> Result<Option<u64>, StoreError> {
+    let v: Option<i64> = conn.query_row(
+        "SELECT max(seq) FROM app_event WHERE person_id = ?1",
+        params![person],
+        |r| r.get(0),
+    )?;
+    Ok(v.map(|s| s as u64))
+}
+
+/// The seq of the app event at advisor minute `at` that makes a decision
+/// point of this kind: a `DayClosed` (basal) or the main meal of `slot`.
+pub fn producer(
+    conn: &Connection,
+    person: i64,
+    at: i64,
+    slot: Option<abba_core::MealSlot>,
+) -> Result<Option<u64>, StoreError> {
+    let mut st = conn.prepare_cached(
+        "SELECT seq, kind FROM app_event WHERE person_id = ?1 AND at_min = ?2 AND tag IN ('day_closed', 'meal_announced') ORDER BY seq",
+    )?;
+    let rows = st.query_map(params![person, at], |r| {
+        Ok((r.get::<_, i64>(0)?, r.get::<_, String>(1)?))
+    })?;
+    for row in rows {
+        let (seq, kind) = row?;
+        let kind: EventKind =
+            serde_json::from_str(&kind).map_err(|e| StoreError::corrupt("app event", e))?;
+        let hit = match (kind, slot) {
+            (EventKind::DayClosed, None) => true,
+            (EventKind::MealAnnounced { slot: s, .. }, Some(want)) => s == want,
+            _ => false,
+        };
+        if hit {
+            return Ok(Some(seq as u64));
+        }
+    }
+    Ok(None)
+}

@@ -1,0 +1,468 @@
+//! The service's side of the store: a person's advisor kept live in memory
+//! and advanced by each committed batch of app events, answers to single
+//! suggestions, clinician bounds by person id, tokens.
+//!
+//! A [`Live`] is what a replay of the log gives (events, advisor,
+//! decisions, answers); feeding it the new events of a batch in the
+//! advisor's order gives the same state a replay of the longer log would,
+//! because decisions are a pure function of the events and answers. A
+//! batch holding an event earlier than the last one fed, an answer or new
+//! bounds rebuild it from the store (snapshot + replay) instead. Every
+//! decision is stored in the suggestion table as it is made, in the
+//! batch's transaction, so `abba advise` on the same file sees it.
+
+use crate::advise;
+use crate::answer::{self, param_key, Answer, AnswerKind, Answers};
+use crate::app::{self, AppEvent, NewAppEvent};
+use crate::error::StoreError;
+use crate::person::{self, Person};
+use crate::replay::events_hash;
+use crate::store::{refresh, State, Store};
+use crate::token::{self, Role, StoredToken};
+use abba_advisor::{Abba, Advisor, ClinicianBounds, Decision, DecisionDetail, Parameter};
+use abba_core::EventKind;
+use abba_io::events::{kind_name, EventStream};
+use rusqlite::{params, Connection, OptionalExtension};
+use std::path::Path;
+use std::sync::Arc;
+
+/// A person's advisor and log as the service keeps them in memory.
+#[derive(Debug, Clone)]
+pub struct Live {
+    /// The person.
+    pub person: Person,
+    /// The events fed so far (the whole log, in the advisor's order).
+    pub stream: EventStream,
+    /// Records (app events or imported records) in the log.
+    pub records: usize,
+    /// The advisor after every event.
+    pub advisor: Abba,
+    /// Every decision, oldest first.
+    pub decisions: Vec<Decision>,
+    /// Every answer.
+    pub answers: Answers,
+    /// Events the advisor refused.
+    pub refused: usize,
+    /// (minute, seq) of the last app event fed.
+    last: Option<(i64, u64)>,
+    /// The decisions the last event fed produced (answers to them can go
+    /// to the advisor at once: a replay would feed them right there).
+    last_produced: Vec<(i64, Parameter)>,
+}
+
+/// A decision made while feeding a batch, with the app event that made it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Produced {
+    /// The decision.
+    pub decision: Decision,
+    /// The seq of the event that produced it (`None` after a rebuild when
+    /// the event is not known).
+    pub seq: Option<u64>,
+}
+
+/// What a posted batch did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Posted {
+    /// Events stored now, in the advisor's order.
+    pub stored: Vec<AppEvent>,
+    /// Sequence numbers already held with the same payload.
+    pub repeated: Vec<u64>,
+    /// Decisions the new events produced, in the advisor's order.
+    pub produced: Vec<Produced>,
+    /// True when the batch held an event earlier than the last one fed and
+    /// the advisor was rebuilt from the store.
+    pub rebuilt: bool,
+}
+
+/// One answer to one suggestion.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SuggestionAnswer {
+    /// The decision's advisor minute.
+    pub at_min: i64,
+    /// Its setting.
+    pub parameter: Parameter,
+    /// What the person did.
+    pub kind: AnswerKind,
+    /// The value put in force (overrides only).
+    pub value: Option<f64>,
+}
+
+fn last_key(conn: &Connection, person: i64) -> Result<Option<(i64, u64)>, StoreError> {
+    Ok(conn
+        .query_row(
+            "SELECT at_min, seq FROM app_event WHERE person_id = ?1 ORDER BY at_min DESC, seq DESC LIMIT 1",
+            params![person],
+            |r| Ok((r.get::<_, i64>(0)?, r.get::<_, i64>(1)? as u64)),
+        )
+        .optional()?)
+}
+
+/// Stores decisions in the suggestion table (a cache of the log's
+/// decisions; inside the caller's transaction).
+pub(crate) fn store_decisions(
+    conn: &Connection,
+    person: i64,
+    decisions: &[Decision],
+) -> Result<(), StoreError> {
+    let mut st = conn.prepare_cached(
+        "INSERT OR REPLACE INTO suggestion (person_id, at_min, parameter, old, new, skipped, decision) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)",
+    )?;
+    for d in decisions {
+        let json = serde_json::to_string(d).map_err(|e| StoreError::corrupt("suggestion", e))?;
+        let skipped = matches!(d.detail, DecisionDetail::Skipped { .. });
+        st.execute(params![
+            person,
+            d.at.0,
+            param_key(d.parameter),
+            d.old,
+            d.new,
+            skipped,
+            json
+        ])?;
+    }
+    Ok(())
+}
+
+fn from_state(person: Person, s: State, last: Option<(i64, u64)>) -> Live {
+    Live {
+        person,
+        stream: Arc::try_unwrap(s.stream).unwrap_or_else(|a| (*a).clone()),
+        records: s.records,
+        advisor: s.advisor,
+        decisions: s.decisions,
+        answers: s.answers,
+        refused: s.refused,
+        last,
+        last_produced: Vec::new(),
+    }
+}
+
+/// Saves the live advisor as the store's snapshot (a shortcut for the next
+/// rebuild; checked against the log when used).
+fn save_snapshot(conn: &Connection, live: &Live) -> Result<(), StoreError> {
+    let events = &live.stream.events;
+    let last = events.last().map_or(i64::MIN, |e| e.at.0);
+    let mut answers: Vec<(i64, String)> = live
+        .answers
+        .keys()
+        .filter(|(at, _)| *at <= last)
+        .map(|(at, p)| (*at, (*p).to_string()))
+        .collect();
+    answers.sort();
+    let answers =
+        serde_json::to_string(&answers).map_err(|e| StoreError::corrupt("snapshot", e))?;
+    conn.execute(
+        "INSERT OR REPLACE INTO snapshot (person_id, events, events_hash, answers, unused, state) VALUES (?1, ?2, ?3, ?4, ?5, ?6)",
+        params![
+            live.person.id,
+            events.len() as i64,
+            events_hash(events),
+            answers,
+            live.refused as i64,
+            live.advisor.save_json()?
+        ],
+    )?;
+    Ok(())
+}
+
+/// Feeds `new` (sorted, all after `live.last`) to the live advisor and
+/// stores the decisions; saves a snapshot at the start of each minute that
+/// closes a day.
+fn feed(conn: &Connection, live: &mut Live, new: &[AppEvent]) -> Result<Vec<Produced>, StoreError> {
+    let mut produced = Vec::new();
+    for (i, e) in new.iter().enumerate() {
+        let prev = live.stream.events.last().map(|p| p.at);
+        let minute_start = prev != Some(e.event.at);
+        let closes_day = new[i..]
+            .iter()
+            .take_while(|x| x.event.at == e.event.at)
+            .any(|x| x.event.kind == EventKind::DayClosed);
+        if minute_start && closes_day && !live.stream.events.is_empty() {
+            save_snapshot(conn, live)?;
+        }
+        if live.advisor.observe(&e.event).is_err() {
+            live.refused += 1;
+        }
+        live.stream.events.push(e.event);
+        *live
+            .stream
+            .counts
+            .entry(kind_name(&e.event.kind).into())
+            .or_default() += 1;
+        live.records += 1;
+        live.last = Some(e.key());
+        live.last_produced.clear();
+        let decisions = live.advisor.take_decisions();
+        store_decisions(conn, live.person.id, &decisions)?;
+        for d in decisions {
+            live.last_produced.push((d.at.0, d.parameter));
+            produced.push(Produced {
+                decision: d.clone(),
+                seq: Some(e.seq),
+            });
+            live.decisions.push(d);
+        }
+    }
+    Ok(produced)
+}
+
+fn same(a: &Decision, b: &Decision) -> bool {
+    a.at == b.at && a.parameter == b.parameter
+}
+
+impl Store {
+    /// Opens a store for the service: like [`Store::open`] with
+    /// `synchronous=FULL`, so a commit is on disk before it returns.
+    pub fn open_durable(path: &Path) -> Result<Self, StoreError> {
+        Ok(Self {
+            conn: crate::schema::open_with(path, crate::schema::Sync::Full)?,
+            cache: Default::default(),
+        })
+    }
+
+    /// A person by row id.
+    pub fn person_by_id(&self, id: i64) -> Result<Person, StoreError> {
+        person::load_by_id(&self.conn, id)
+    }
+
+    /// The person's live state, rebuilt from the store (snapshot + replay).
+    pub fn live(&mut self, id: i64) -> Result<Live, StoreError> {
+        let p = person::load_by_id(&self.conn, id)?;
+        let tx = self.conn.transaction()?;
+        let s = refresh(&tx, &mut self.cache, &p, true)?;
+        let last = last_key(&tx, id)?;
+        tx.commit()?;
+        Ok(from_state(p, s, last))
+    }
+
+    /// Stores a batch of app events in one transaction and advances `live`
+    /// (which must be this person's current state). The batch is committed
+    /// before this returns `Ok`. On an error nothing of the batch is stored
+    /// and the caller must drop `live` (it may be partly advanced).
+    pub fn post_events(
+        &mut self,
+        live: &mut Live,
+        batch: &[NewAppEvent],
+    ) -> Result<Posted, StoreError> {
+        let tx = self.conn.transaction()?;
+        let mut person = live.person.clone();
+        let ins = app::insert(&tx, &mut person, batch)?;
+        let in_order = match (ins.new.first(), live.last) {
+            (Some(first), Some(last)) => first.key() > last,
+            _ => true,
+        };
+        live.person = person;
+        if in_order {
+            let produced = feed(&tx, live, &ins.new)?;
+            tx.commit()?;
+            return Ok(Posted {
+                stored: ins.new,
+                repeated: ins.repeated,
+                produced,
+                rebuilt: false,
+            });
+        }
+        tx.commit()?;
+        let before = std::mem::take(&mut live.decisions);
+        *live = self.live(live.person.id)?;
+        let mut produced = Vec::new();
+        for d in &live.decisions {
+            if before.iter().any(|b| same(b, d) && b.new == d.new) {
+                continue;
+            }
+            let slot = match d.parameter {
+                Parameter::Basal => None,
+                Parameter::CarbRatio(s) => Some(s),
+            };
+            let seq = app::producer(&self.conn, live.person.id, d.at.0, slot)?;
+            produced.push(Produced {
+                decision: d.clone(),
+                seq,
+            });
+        }
+        Ok(Posted {
+            stored: ins.new,
+            repeated: ins.repeated,
+            produced,
+            rebuilt: true,
+        })
+    }
+
+    /// Records answers to single open suggestions (one transaction) and
+    /// rebuilds `live`. Returns the answers stored and the later decisions
+    /// whose value changed.
+    pub fn answer_suggestions(
+        &mut self,
+        live: &mut Live,
+        items: &[SuggestionAnswer],
+    ) -> Result<(Vec<Answer>, Vec<Decision>), StoreError> {
+        let views = advise::views(&live.person, &live.decisions, &live.answers);
+        let now = jiff::Timestamp::now().to_string();
+        let mut out = Vec::new();
+        for (i, item) in items.iter().enumerate() {
+            let field = format!("answers[{i}].suggestion_id");
+            let Some(k) = live
+                .decisions
+                .iter()
+                .position(|d| d.at.0 == item.at_min && d.parameter == item.parameter)
+            else {
+                return Err(StoreError::NoSuggestion(field));
+            };
+            let (d, v) = (&live.decisions[k], &views[k]);
+            if v.status != "open" {
+                return Err(StoreError::Answer(format!(
+                    "{field}: the suggestion is {} (only the latest suggestion of a setting, with an update and not yet answered, can be answered)",
+                    v.status
+                )));
+            }
+            if out
+                .iter()
+                .any(|a: &Answer| a.at_min == item.at_min && a.parameter == item.parameter)
+            {
+                return Err(StoreError::invalid(
+                    field,
+                    "the suggestion is answered twice",
+                ));
+            }
+            let in_force = match (item.kind, item.value) {
+                (AnswerKind::Accepted, None) => d.new,
+                (AnswerKind::Rejected, None) => d.old,
+                (AnswerKind::Overridden, Some(x)) => {
+                    crate::store::check_value(&live.person, item.parameter, x)
+                        .map_err(|e| relabel(e, &format!("answers[{i}].value")))?;
+                    x
+                }
+                (AnswerKind::Overridden, None) => {
+                    return Err(StoreError::invalid(
+                        format!("answers[{i}].value"),
+                        "an override needs the value put in force",
+                    ))
+                }
+                (_, Some(_)) => {
+                    return Err(StoreError::invalid(
+                        format!("answers[{i}].value"),
+                        "a value goes only with an override",
+                    ))
+                }
+            };
+            out.push(Answer {
+                at_min: item.at_min,
+                parameter: item.parameter,
+                kind: item.kind,
+                suggested: d.new,
+                previous: d.old,
+                in_force,
+                answered_at: now.clone(),
+            });
+        }
+        let id = live.person.id;
+        // Answers to what the last event fed decided: a replay would feed
+        // them right after it, so the live advisor takes them now (in the
+        // order of its decisions) and nothing later changes.
+        let at_once = out
+            .iter()
+            .all(|a| live.last_produced.contains(&(a.at_min, a.parameter)));
+        if at_once {
+            let tx = self.conn.transaction()?;
+            answer::insert(&tx, id, &out)?;
+            let mut ordered: Vec<&Answer> = out.iter().collect();
+            ordered.sort_by_key(|a| {
+                live.last_produced
+                    .iter()
+                    .position(|k| *k == (a.at_min, a.parameter))
+            });
+            for a in ordered {
+                let at = abba_core::Timestamp(a.at_min);
+                live.advisor
+                    .observe(&abba_core::Event::new(at, a.event_kind()))?;
+                live.answers
+                    .insert((a.at_min, param_key(a.parameter)), a.clone());
+            }
+            let more = live.advisor.take_decisions();
+            store_decisions(&tx, id, &more)?;
+            live.decisions.extend(more);
+            tx.commit()?;
+            return Ok((out, Vec::new()));
+        }
+        let p = person::load_by_id(&self.conn, id)?;
+        let tx = self.conn.transaction()?;
+        answer::insert(&tx, id, &out)?;
+        let s = refresh(&tx, &mut self.cache, &p, true)?;
+        let last = last_key(&tx, id)?;
+        tx.commit()?;
+        let before = std::mem::take(&mut live.decisions);
+        *live = from_state(p, s, last);
+        let changed = live
+            .decisions
+            .iter()
+            .filter(|d| before.iter().any(|b| same(b, d) && b.new != d.new))
+            .cloned()
+            .collect();
+        Ok((out, changed))
+    }
+
+    /// Replaces a person's clinician bounds and rebuilds the advisor from
+    /// scratch (the stored snapshot carries the old bounds).
+    pub fn set_bounds_by_id(
+        &mut self,
+        id: i64,
+        bounds: ClinicianBounds,
+    ) -> Result<Live, StoreError> {
+        let tx = self.conn.transaction()?;
+        let p = person::set_bounds(&tx, id, bounds)?;
+        let s = refresh(&tx, &mut self.cache, &p, false)?;
+        let last = last_key(&tx, id)?;
+        tx.commit()?;
+        Ok(from_state(p, s, last))
+    }
+
+    /// Stores a new token's hash (one transaction); returns its id.
+    pub fn insert_token(&mut self, hash: &[u8; 32], role: Role) -> Result<i64, StoreError> {
+        let tx = self.conn.transaction()?;
+        let id = token::insert(&tx, hash, role)?;
+        tx.commit()?;
+        Ok(id)
+    }
+
+    /// Tokens whose hash starts like `hash` (compare the whole hash in
+    /// constant time).
+    pub fn token_candidates(&self, hash: &[u8; 32]) -> Result<Vec<StoredToken>, StoreError> {
+        token::candidates(&self.conn, hash)
+    }
+
+    /// Revokes a token.
+    pub fn revoke_token(&mut self, id: i64) -> Result<(), StoreError> {
+        token::revoke(&self.conn, id)
+    }
+
+    /// Held app sequence numbers ≥ `from` as ranges, and whether more follow.
+    pub fn held_ranges(
+        &self,
+        person: i64,
+        from: u64,
+        max: usize,
+    ) -> Result<(Vec<(u64, u64)>, bool), StoreError> {
+        app::held_ranges(&self.conn, person, from, max)
+    }
+
+    /// The highest app sequence number held.
+    pub fn last_seq(&self, person: i64) -> Result<Option<u64>, StoreError> {
+        app::last_seq(&self.conn, person)
+    }
+
+    /// The seq of the app event that made the decision `d`, if known.
+    pub fn producer(&self, person: i64, d: &Decision) -> Result<Option<u64>, StoreError> {
+        let slot = match d.parameter {
+            Parameter::Basal => None,
+            Parameter::CarbRatio(s) => Some(s),
+        };
+        app::producer(&self.conn, person, d.at.0, slot)
+    }
+}
+
+fn relabel(e: StoreError, field: &str) -> StoreError {
+    match e {
+        StoreError::Invalid { problem, .. } => StoreError::invalid(field, problem),
+        other => other,
+    }
+}

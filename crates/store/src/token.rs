@@ -1,0 +1,113 @@
+//! Bearer tokens of the service, stored only as SHA-256 hashes.
+//!
+//! The store never sees a token itself: the service hashes it and asks for
+//! the rows whose hash starts with the same 8 bytes (an index look-up that
+//! tells nothing useful about a token), then compares the whole hash in
+//! constant time.
+
+use crate::error::StoreError;
+use rusqlite::{params, Connection, OptionalExtension};
+
+/// Who a token speaks for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Role {
+    /// The clinic: creates persons, sets bounds, issues and revokes tokens,
+    /// and may act for any person.
+    Admin,
+    /// One person (by row id).
+    Person(i64),
+}
+
+/// A stored token.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct StoredToken {
+    /// Row id.
+    pub id: i64,
+    /// SHA-256 of the token.
+    pub hash: [u8; 32],
+    /// Its role.
+    pub role: Role,
+    /// True once revoked.
+    pub revoked: bool,
+}
+
+/// The index key of a hash: its first 8 bytes.
+pub fn prefix(hash: &[u8; 32]) -> i64 {
+    let mut b = [0u8; 8];
+    b.copy_from_slice(&hash[..8]);
+    i64::from_le_bytes(b)
+}
+
+/// Stores a new token's hash; returns its id.
+pub fn insert(conn: &Connection, hash: &[u8; 32], role: Role) -> Result<i64, StoreError> {
+    let (name, person) = match role {
+        Role::Admin => ("admin", None),
+        Role::Person(id) => ("person", Some(id)),
+    };
+    if let Some(id) = person {
+        crate::person::load_by_id(conn, id)?;
+    }
+    conn.execute(
+        "INSERT INTO token (hash_prefix, hash, role, person_id, created_at) VALUES (?1, ?2, ?3, ?4, ?5)",
+        params![
+            prefix(hash),
+            &hash[..],
+            name,
+            person,
+            jiff::Timestamp::now().to_string()
+        ],
+    )?;
+    Ok(conn.last_insert_rowid())
+}
+
+/// The tokens whose hash has the same first 8 bytes as `hash`.
+pub fn candidates(conn: &Connection, hash: &[u8; 32]) -> Result<Vec<StoredToken>, StoreError> {
+    let mut st = conn.prepare_cached(
+        "SELECT id, hash, role, person_id, revoked_at IS NOT NULL FROM token WHERE hash_prefix = ?1",
+    )?;
+    let rows = st.query_map(params![prefix(hash)], |r| {
+        Ok((
+            r.get::<_, i64>(0)?,
+            r.get::<_, Vec<u8>>(1)?,
+            r.get::<_, String>(2)?,
+            r.get::<_, Option<i64>>(3)?,
+            r.get::<_, bool>(4)?,
+        ))
+    })?;
+    let mut out = Vec::new();
+    for row in rows {
+        let (id, h, role, person, revoked) = row?;
+        let hash: [u8; 32] = h
+            .try_into()
+            .map_err(|_| StoreError::corrupt("token hash", "not 32 bytes"))?;
+        let role = match (role.as_str(), person) {
+            ("admin", None) => Role::Admin,
+            ("person", Some(p)) => Role::Person(p),
+            _ => return Err(StoreError::corrupt("token role", role)),
+        };
+        out.push(StoredToken {
+            id,
+            hash,
+            role,
+            revoked,
+        });
+    }
+    Ok(out)
+}
+
+/// Revokes a token (revoking twice is fine).
+pub fn revoke(conn: &Connection, id: i64) -> Result<(), StoreError> {
+    let found: Option<i64> = conn
+        .query_row("SELECT id FROM token WHERE id = ?1", params![id], |r| {
+            r.get(0)
+        })
+        .optional()?;
+    if found.is_none() {
+        return Err(StoreError::NoToken(id));
+    }
+    conn.execute(
+        "UPDATE token SET revoked_at = ?1 WHERE id = ?2 AND revoked_at IS NULL",
+        params![jiff::Timestamp::now().to_string(), id],
+    )?;
+    Ok(())
+}

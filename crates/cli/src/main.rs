@@ -4,6 +4,7 @@ use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
 
 mod advise;
+mod app;
 mod answer;
 mod calibrate;
 mod cohort;
@@ -60,6 +61,8 @@ enum Command {
     Report(report::Args),
     /// Tune the guessed knobs on a training cohort; evaluate on a held-out one.
     Calibrate(calibrate::Args),
+    /// A simulated trial patient through a running `abba serve`, as a pump app would talk to it.
+    App(app::Args),
 }
 
 /// The parsed command line. Every subcommand takes negative numbers as
@@ -92,6 +95,7 @@ fn main() -> ExitCode {
         Command::History(a) => history::run(a),
         Command::Report(a) => report::run(a),
         Command::Calibrate(a) => calibrate::run(a),
+        Command::App(a) => app::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

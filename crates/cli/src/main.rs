@@ -20,6 +20,7 @@ mod person;
 mod person_report;
 mod progress;
 mod report;
+mod serve;
 mod shard;
 mod simulate;
 mod trial;
@@ -61,6 +62,10 @@ enum Command {
     Report(report::Args),
     /// Tune the guessed knobs on a training cohort; evaluate on a held-out one.
     Calibrate(calibrate::Args),
+    /// Serve a store over HTTP/JSON for pump and phone apps (research software, not a medical device).
+    Serve(serve::ServeArgs),
+    /// Print a new bearer token for the service once: --admin or --person NAME.
+    Token(serve::TokenArgs),
     /// A simulated trial patient through a running `abba serve`, as a pump app would talk to it.
     App(app::Args),
 }
@@ -95,6 +100,8 @@ fn main() -> ExitCode {
         Command::History(a) => history::run(a),
         Command::Report(a) => report::run(a),
         Command::Calibrate(a) => calibrate::run(a),
+        Command::Serve(a) => serve::serve(a),
+        Command::Token(a) => serve::token(a),
         Command::App(a) => app::run(a),
     };
     match result {

@@ -104,9 +104,8 @@ pub fn insert(
     let limit = person.settings.advisor.limits.max_timestamp_min;
     let now = jiff::Timestamp::now().to_string();
     let mut out = Inserted::default();
-    let mut get = conn.prepare_cached(
-        "SELECT hash FROM app_event WHERE person_id = ?1 AND seq = ?2",
-    )?;
+    let mut get =
+        conn.prepare_cached("SELECT hash FROM app_event WHERE person_id = ?1 AND seq = ?2")?;
     let mut put = conn.prepare_cached(
         "INSERT INTO app_event (person_id, seq, at_ms, at_min, tag, kind, hash, received_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)",
     )?;
@@ -120,7 +119,12 @@ pub fn insert(
                 out.repeated.push(e.seq);
                 continue;
             }
-            Some(_) => return Err(StoreError::SeqConflict { index: i, seq: e.seq }),
+            Some(_) => {
+                return Err(StoreError::SeqConflict {
+                    index: i,
+                    seq: e.seq,
+                })
+            }
             None => {}
         }
         let at = clock.timestamp(e.at);

@@ -313,7 +313,10 @@ impl Store {
                 .iter()
                 .any(|a: &Answer| a.at_min == item.at_min && a.parameter == item.parameter)
             {
-                return Err(StoreError::invalid(field, "the suggestion is answered twice"));
+                return Err(StoreError::invalid(
+                    field,
+                    "the suggestion is answered twice",
+                ));
             }
             let in_force = match (item.kind, item.value) {
                 (AnswerKind::Accepted, None) => d.new,

@@ -202,8 +202,8 @@ pub fn set_bounds(
     let mut p = load_by_id(conn, id)?;
     p.settings.bounds = bounds;
     Abba::new(p.settings.advisor.clone(), p.settings.start)?.with_bounds(bounds)?;
-    let doc =
-        serde_json::to_string(&p.settings).map_err(|e| StoreError::corrupt("person settings", e))?;
+    let doc = serde_json::to_string(&p.settings)
+        .map_err(|e| StoreError::corrupt("person settings", e))?;
     conn.execute(
         "UPDATE person SET settings = ?1 WHERE id = ?2",
         params![doc, id],

@@ -1,0 +1,366 @@
+//! Between the wire (abba-api) and the store: device events checked and
+//! hashed, decisions shown as suggestions, the advice, new persons.
+
+use crate::error::ApiError;
+use abba_advisor::guard::EventGuard;
+use abba_advisor::{
+    AbbaConfig, ClinicianBounds, Decision, EventLimits, MinData, Mode as AdvisorMode, Parameter,
+};
+use abba_api::{
+    AdviceResponse, Bounds, DataSummary, DeviceEvent, EventBody, EventsBody, MealSlot as WireSlot,
+    Mode, NewPersonBody, PhaseView, Range, Setting, SettingAdvice, Suggestion, TempRate,
+};
+use abba_core::{
+    Event, EventKind, Grams, GramsPerUnit, MealSlot, MgDl, TempBasalRate, TherapySettings,
+    Timestamp, Units, UnitsPerHour,
+};
+use abba_store::advise::{self, Advice, Phase, SuggestionView};
+use abba_store::app::NewAppEvent;
+
+use abba_store::{Live, NewPerson};
+use sha2::{Digest, Sha256};
+use std::collections::{BTreeMap, HashSet};
+
+fn slot(s: WireSlot) -> MealSlot {
+    match s {
+        WireSlot::Breakfast => MealSlot::Breakfast,
+        WireSlot::Lunch => MealSlot::Lunch,
+        WireSlot::Dinner => MealSlot::Dinner,
+        WireSlot::Snack => MealSlot::Snack,
+    }
+}
+
+/// The advisor's event kind of a wire event.
+pub fn event_kind(e: &EventBody) -> EventKind {
+    match *e {
+        EventBody::Cgm { mg_dl } => EventKind::Cgm(MgDl(mg_dl)),
+        EventBody::Smbg { mg_dl } => EventKind::Smbg(MgDl(mg_dl)),
+        EventBody::Meal { carbs_g, slot: s } => EventKind::MealAnnounced {
+            carbs: Grams(carbs_g),
+            slot: slot(s),
+        },
+        EventBody::Bolus { units } => EventKind::Bolus(Units(units)),
+        EventBody::ExtendedBolus {
+            total_units,
+            immediate_units,
+            duration_min,
+        } => EventKind::ExtendedBolus {
+            total: Units(total_units),
+            immediate: Units(immediate_units),
+            duration_min,
+        },
+        EventBody::BasalRate { units_per_hour } => {
+            EventKind::BasalRate(UnitsPerHour(units_per_hour))
+        }
+        EventBody::TempBasal { rate, duration_min } => EventKind::TempBasal {
+            rate: match rate {
+                TempRate::UnitsPerHour(r) => TempBasalRate::UnitsPerHour(UnitsPerHour(r)),
+                TempRate::Percent(p) => TempBasalRate::Percent(p),
+            },
+            duration_min,
+        },
+        EventBody::Suspend => EventKind::Suspend,
+        EventBody::Resume => EventKind::Resume,
+        EventBody::DayClosed => EventKind::DayClosed,
+    }
+}
+
+/// SHA-256 of an event's payload: its instant (normalised to UTC) and its
+/// content (serialised from the parsed value, so spacing, field order and
+/// `50` versus `50.0` do not matter).
+pub fn payload_hash(at: jiff::Timestamp, e: &DeviceEvent) -> Result<[u8; 32], ApiError> {
+    let body = serde_json::to_vec(&e.event).map_err(ApiError::internal)?;
+    let mut h = Sha256::new();
+    h.update(at.to_string().as_bytes());
+    h.update([0x1f]);
+    h.update(&body);
+    Ok(h.finalize().into())
+}
+
+/// Checks a batch against the person's limits (the advisor's own) and
+/// makes the store's events; 422 names the event and the field.
+pub fn check_events(body: &EventsBody, limits: &EventLimits) -> Result<Vec<NewAppEvent>, ApiError> {
+    let n = body.events.len();
+    if n == 0 || n > abba_api::MAX_EVENTS_PER_BATCH {
+        return Err(ApiError::invalid(
+            "events",
+            format!(
+                "expected 1 to {} events, got {n}",
+                abba_api::MAX_EVENTS_PER_BATCH
+            ),
+        ));
+    }
+    let mut seen = HashSet::with_capacity(n);
+    let guard = EventGuard::default();
+    let mut out = Vec::with_capacity(n);
+    for (i, e) in body.events.iter().enumerate() {
+        if e.seq > abba_api::MAX_SEQ {
+            return Err(ApiError::invalid(
+                format!("events[{i}].seq"),
+                format!(
+                    "expected 0 to {} (2^53 - 1), got {}",
+                    abba_api::MAX_SEQ,
+                    e.seq
+                ),
+            ));
+        }
+        if !seen.insert(e.seq) {
+            return Err(ApiError::invalid(
+                format!("events[{i}].seq"),
+                format!("sequence number {} appears twice in the batch", e.seq),
+            ));
+        }
+        let at: jiff::Timestamp = e.at.parse().map_err(|err| {
+            ApiError::invalid(
+                format!("events[{i}].at"),
+                format!(
+                    "expected an RFC 3339 instant with an offset (2026-03-02T07:30:00+01:00), got {:?}: {err}",
+                    e.at
+                ),
+            )
+        })?;
+        let kind = event_kind(&e.event);
+        guard
+            .check(&Event::new(Timestamp(0), kind), limits)
+            .map_err(|err| ApiError::invalid(format!("events[{i}].event"), err.to_string()))?;
+        out.push(NewAppEvent {
+            seq: e.seq,
+            at,
+            kind,
+            hash: payload_hash(at, e)?,
+        });
+    }
+    Ok(out)
+}
+
+/// The wire name of a parameter.
+pub fn setting(p: Parameter) -> Setting {
+    match p {
+        Parameter::Basal => Setting::Basal,
+        Parameter::CarbRatio(MealSlot::Breakfast) => Setting::Breakfast,
+        Parameter::CarbRatio(MealSlot::Lunch) => Setting::Lunch,
+        // The advisor decides only for main meals.
+        Parameter::CarbRatio(_) => Setting::Dinner,
+    }
+}
+
+/// The parameter of a wire setting.
+pub fn parameter(s: Setting) -> Parameter {
+    match s {
+        Setting::Basal => Parameter::Basal,
+        Setting::Breakfast => Parameter::CarbRatio(MealSlot::Breakfast),
+        Setting::Lunch => Parameter::CarbRatio(MealSlot::Lunch),
+        Setting::Dinner => Parameter::CarbRatio(MealSlot::Dinner),
+    }
+}
+
+/// A suggestion's id.
+pub fn suggestion_id(d: &Decision) -> u64 {
+    setting(d.parameter).suggestion_id(d.at.0.max(0) as u64)
+}
+
+fn suggestion(live: &Live, d: &Decision, v: &SuggestionView, seq: Option<u64>) -> Suggestion {
+    let instant = advise::clock(&live.person)
+        .and_then(|c| c.instant(d.at).ok())
+        .map_or_else(|| d.at.to_string(), |i| i.to_string());
+    let reason = match &v.no_update_reason {
+        Some(r) => r.clone(),
+        None => v.reasons.join(" "),
+    };
+    Suggestion {
+        id: suggestion_id(d),
+        seq,
+        parameter: setting(d.parameter),
+        value: d.new,
+        previous: d.old,
+        unit: v.unit.to_string(),
+        no_update: v.no_update,
+        reason,
+        reasons: v.reasons.clone(),
+        data: v.data.clone(),
+        decided_at: instant,
+        day: v.day,
+        status: v.status.clone(),
+        in_force: v.in_force,
+    }
+}
+
+/// The person's decisions for which `keep` holds, as suggestions, oldest
+/// first; `seq_of` finds the app event that made each.
+pub fn suggestions(
+    live: &Live,
+    keep: impl Fn(&Decision) -> bool,
+    mut seq_of: impl FnMut(&Decision) -> Option<u64>,
+) -> Vec<Suggestion> {
+    let views = advise::views(&live.person, &live.decisions, &live.answers);
+    live.decisions
+        .iter()
+        .zip(&views)
+        .filter(|(d, _)| keep(d))
+        .map(|(d, v)| suggestion(live, d, v, seq_of(d)))
+        .collect()
+}
+
+/// The advice as JSON.
+pub fn advice(
+    live: &Live,
+    a: Advice,
+    mut seq_of: impl FnMut(&Decision) -> Option<u64>,
+) -> AdviceResponse {
+    let views = advise::views(&live.person, &live.decisions, &live.answers);
+    let settings = a
+        .settings
+        .iter()
+        .map(|s| {
+            // The latest decision of the setting (what `latest` shows).
+            let latest = live
+                .decisions
+                .iter()
+                .zip(&views)
+                .rev()
+                .find(|(d, _)| advise_key(d) == s.setting)
+                .map(|(d, v)| suggestion(live, d, v, seq_of(d)));
+            SettingAdvice {
+                setting: Setting::ALL
+                    .into_iter()
+                    .find(|x| setting_key(*x) == s.setting)
+                    .unwrap_or(Setting::Basal),
+                unit: s.unit.to_string(),
+                in_force: s.in_force,
+                use_today: s.use_today,
+                latest,
+            }
+        })
+        .collect();
+    let phase = match a.phase {
+        Phase::NoData => PhaseView::NoData,
+        Phase::FirstWeek {
+            days_done,
+            days_left,
+            missing,
+        } => PhaseView::FirstWeek {
+            days_done,
+            days_left,
+            missing,
+        },
+        Phase::Adapting => PhaseView::Adapting,
+    };
+    AdviceResponse {
+        notice: a.notice.to_string(),
+        person_id: live.person.id as u64,
+        person: a.person,
+        mode: a.mode.to_string(),
+        tz: a.tz,
+        first_day: a.first_day,
+        phase,
+        settings,
+        data: DataSummary {
+            records: a.data.records as u64,
+            events: a
+                .data
+                .events
+                .into_iter()
+                .map(|(k, v)| (k, v as u64))
+                .collect::<BTreeMap<_, _>>(),
+            span: a.data.span.map(|(x, y)| vec![x, y]),
+            records_not_used: a.data.records_not_used as u64,
+            not_used_examples: a.data.not_used_examples,
+            events_refused: a.data.events_refused as u64,
+        },
+    }
+}
+
+fn advise_key(d: &Decision) -> &'static str {
+    abba_store::answer::param_key(d.parameter)
+}
+
+fn setting_key(s: Setting) -> &'static str {
+    abba_store::answer::param_key(parameter(s))
+}
+
+fn range(r: Option<Range>, path: &str) -> Result<Option<abba_advisor::bounds::Range>, ApiError> {
+    let Some(r) = r else { return Ok(None) };
+    if !(r.min.is_finite() && r.max.is_finite() && r.min > 0.0 && r.min <= r.max) {
+        return Err(ApiError::invalid(
+            path,
+            format!(
+                "expected 0 < min <= max (finite), got min {} max {}",
+                r.min, r.max
+            ),
+        ));
+    }
+    Ok(Some(abba_advisor::bounds::Range {
+        min: r.min,
+        max: r.max,
+    }))
+}
+
+/// Clinician bounds from the wire (`path` prefixes the field names).
+pub fn bounds(b: &Bounds, path: &str) -> Result<ClinicianBounds, ApiError> {
+    Ok(ClinicianBounds {
+        basal: range(b.basal, &format!("{path}.basal"))?,
+        carb_ratio: [
+            range(b.breakfast, &format!("{path}.breakfast"))?,
+            range(b.lunch, &format!("{path}.lunch"))?,
+            range(b.dinner, &format!("{path}.dinner"))?,
+        ],
+    })
+}
+
+/// A new person from the wire.
+pub fn new_person(b: &NewPersonBody) -> Result<NewPerson, ApiError> {
+    let mode = match b.mode {
+        Mode::Cgm => AdvisorMode::Cgm,
+        Mode::Smbg => AdvisorMode::Smbg,
+    };
+    let start = TherapySettings {
+        basal: UnitsPerHour(b.start.basal_units_per_hour),
+        carb_ratio: b.start.carb_ratio_g_per_unit.map(GramsPerUnit),
+    };
+    start
+        .validate()
+        .map_err(|e| ApiError::invalid("start", e.to_string()))?;
+    let mut p = NewPerson::new(&b.name, &b.tz, mode, start);
+    if let Some(day) = &b.first_day {
+        let d: jiff::civil::Date = day.parse().map_err(|e| {
+            ApiError::invalid(
+                "first_day",
+                format!("expected a date YYYY-MM-DD, got {day:?}: {e}"),
+            )
+        })?;
+        p.first_day = Some(d);
+    }
+    if let Some(bd) = &b.bounds {
+        p.settings.bounds = bounds(bd, "bounds")?;
+    }
+    if let Some(m) = b.min_data {
+        if !(0.0..=1.0).contains(&m.cgm_coverage) || m.cgm_period_min == 0 {
+            return Err(ApiError::invalid(
+                "min_data",
+                "expected cgm_coverage in [0, 1] and cgm_period_min >= 1",
+            ));
+        }
+        p.settings.min_data = MinData {
+            cgm_coverage: m.cgm_coverage,
+            cgm_period_min: m.cgm_period_min,
+            smbg_per_day: m.smbg_per_day,
+            smbg_per_meal: m.smbg_per_meal,
+        };
+    }
+    if let Some(cfg) = &b.advisor {
+        let c: AbbaConfig = serde_path_to_error::deserialize(cfg).map_err(|e| {
+            ApiError::invalid(
+                format!("advisor.{}", e.path()),
+                format!("not an abba advisor configuration: {}", e.inner()),
+            )
+        })?;
+        if c.mode != mode {
+            return Err(ApiError::invalid(
+                "advisor.mode",
+                "the advisor's mode must equal the person's mode",
+            ));
+        }
+        p.settings.advisor = c;
+    }
+    Ok(p)
+}

@@ -1,0 +1,155 @@
+//! Admin (clinic) endpoints: persons, bounds, tokens.
+
+use crate::auth::{self, Need};
+use crate::body::{self, RawBody};
+use crate::convert;
+use crate::error::ApiError;
+use crate::routes::person_id;
+use crate::state::AppState;
+use abba_api::{BoundsBody, ErrorBody, NewPersonBody, PersonCreated, TokenIssued, TokenRevoked};
+use abba_store::token::Role;
+use abba_store::StoreError;
+use axum::extract::{Path, State};
+use axum::http::{HeaderMap, StatusCode};
+use axum::Json;
+
+/// Creates a person.
+#[utoipa::path(post, path = "/v1/persons", tag = "admin", security(("bearer" = [])),
+    request_body = NewPersonBody,
+    responses(
+        (status = 201, description = "Created", body = PersonCreated),
+        (status = 400, description = "Not the JSON expected", body = ErrorBody),
+        (status = 401, description = "No valid token", body = ErrorBody),
+        (status = 403, description = "Not an admin token", body = ErrorBody),
+        (status = 409, description = "The name is taken", body = ErrorBody),
+        (status = 413, description = "Body too large", body = ErrorBody),
+        (status = 422, description = "A value refused", body = ErrorBody)))]
+pub async fn create_person(
+    State(s): State<AppState>,
+    headers: HeaderMap,
+    body: RawBody,
+) -> Result<(StatusCode, Json<PersonCreated>), ApiError> {
+    s.authorize(&headers, Need::Admin).await?;
+    let b: NewPersonBody = body::parse(&headers, body)?;
+    let np = convert::new_person(&b)?;
+    let p = s
+        .core(move |core| {
+            core.store.create_person(&np).map_err(|e| match e {
+                // The store names the CLI's flags.
+                StoreError::Invalid { field, problem } => {
+                    ApiError::invalid(field.trim_start_matches('-').to_string(), problem)
+                }
+                StoreError::Advisor(a) => ApiError::invalid("start", a.to_string()),
+                other => other.into(),
+            })
+        })
+        .await?;
+    Ok((
+        StatusCode::CREATED,
+        Json(PersonCreated {
+            id: p.id as u64,
+            name: p.name,
+            mode: b.mode,
+            tz: b.tz,
+            first_day: p.first_day.map(|d| d.to_string()),
+        }),
+    ))
+}
+
+/// Replaces a person's clinician bounds.
+#[utoipa::path(put, path = "/v1/persons/{id}/bounds", tag = "admin", security(("bearer" = [])),
+    params(("id" = u64, Path, description = "The person's id")),
+    request_body = BoundsBody,
+    responses(
+        (status = 200, description = "The bounds now in force", body = BoundsBody),
+        (status = 400, description = "Not the JSON expected", body = ErrorBody),
+        (status = 401, description = "No valid token", body = ErrorBody),
+        (status = 403, description = "Not an admin token", body = ErrorBody),
+        (status = 404, description = "No such person", body = ErrorBody),
+        (status = 413, description = "Body too large", body = ErrorBody),
+        (status = 422, description = "Bounds refused (the starting therapy must lie inside)", body = ErrorBody)))]
+pub async fn set_bounds(
+    State(s): State<AppState>,
+    Path(id): Path<String>,
+    headers: HeaderMap,
+    body: RawBody,
+) -> Result<Json<BoundsBody>, ApiError> {
+    let id = person_id(&id);
+    s.authorize(&headers, Need::Admin).await?;
+    let b: BoundsBody = body::parse(&headers, body)?;
+    let bounds = convert::bounds(&b.bounds, "bounds")?;
+    s.core(move |core| {
+        let live = core
+            .store
+            .set_bounds_by_id(id, bounds)
+            .map_err(|e| match e {
+                StoreError::Advisor(a) => ApiError::invalid("bounds", a.to_string()),
+                other => other.into(),
+            })?;
+        core.set_live(id, live);
+        Ok(())
+    })
+    .await?;
+    Ok(Json(b))
+}
+
+/// Issues a person's token (shown once).
+#[utoipa::path(post, path = "/v1/persons/{id}/tokens", tag = "admin", security(("bearer" = [])),
+    params(("id" = u64, Path, description = "The person's id")),
+    responses(
+        (status = 201, description = "The token, shown once", body = TokenIssued),
+        (status = 401, description = "No valid token", body = ErrorBody),
+        (status = 403, description = "Not an admin token", body = ErrorBody),
+        (status = 404, description = "No such person", body = ErrorBody)))]
+pub async fn issue_token(
+    State(s): State<AppState>,
+    Path(id): Path<String>,
+    headers: HeaderMap,
+) -> Result<(StatusCode, Json<TokenIssued>), ApiError> {
+    let id = person_id(&id);
+    s.authorize(&headers, Need::Admin).await?;
+    let (token_id, token) = s
+        .core(move |core| {
+            core.store.person_by_id(id)?;
+            auth::issue(&mut core.store, Role::Person(id)).map_err(|e| match e {
+                crate::error::ServiceError::Store(s) => s.into(),
+                other => ApiError::internal(other),
+            })
+        })
+        .await?;
+    Ok((
+        StatusCode::CREATED,
+        Json(TokenIssued {
+            token_id: token_id as u64,
+            token,
+            role: "person".into(),
+            person_id: Some(id as u64),
+        }),
+    ))
+}
+
+/// Revokes a token.
+#[utoipa::path(delete, path = "/v1/tokens/{token_id}", tag = "admin", security(("bearer" = [])),
+    params(("token_id" = u64, Path, description = "The token's id")),
+    responses(
+        (status = 200, description = "Revoked", body = TokenRevoked),
+        (status = 401, description = "No valid token", body = ErrorBody),
+        (status = 403, description = "Not an admin token", body = ErrorBody),
+        (status = 404, description = "No such token", body = ErrorBody)))]
+pub async fn revoke_token(
+    State(s): State<AppState>,
+    Path(token_id): Path<String>,
+    headers: HeaderMap,
+) -> Result<Json<TokenRevoked>, ApiError> {
+    s.authorize(&headers, Need::Admin).await?;
+    let id = token_id
+        .parse::<i64>()
+        .ok()
+        .filter(|&v| v > 0)
+        .ok_or_else(|| ApiError::not_found(format!("no token with id {token_id:?}")))?;
+    s.core(move |core| Ok(core.store.revoke_token(id)?)).await?;
+    Ok(Json(TokenRevoked {
+        token_id: id as u64,
+        revoked: true,
+    }))
+}

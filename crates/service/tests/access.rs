@@ -1,0 +1,233 @@
+//! Access control: every endpoint × {no token, malformed token, revoked
+//! token, another person's token, the person's token, admin token} against
+//! the expected status table; no forbidden response carries the person's
+//! data.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod common;
+
+use axum::http::{Method, StatusCode};
+use common::{cgm, Svc};
+use serde_json::{json, Value};
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Who {
+    None,
+    Malformed,
+    Revoked,
+    Other,
+    Own,
+    Admin,
+}
+
+const WHO: [Who; 6] = [
+    Who::None,
+    Who::Malformed,
+    Who::Revoked,
+    Who::Other,
+    Who::Own,
+    Who::Admin,
+];
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Kind {
+    Open,
+    AnyToken,
+    Admin,
+    Person,
+}
+
+/// The expected status of an endpoint of `kind` for a caller, when the
+/// request itself is right (`ok`).
+fn expected(kind: Kind, who: Who, ok: u16) -> u16 {
+    match (kind, who) {
+        (Kind::Open, _) => ok,
+        (_, Who::None | Who::Malformed | Who::Revoked) => 401,
+        (Kind::AnyToken, _) => ok,
+        (Kind::Admin, Who::Other | Who::Own) => 403,
+        (Kind::Admin, Who::Admin) => ok,
+        (Kind::Person, Who::Other) => 404,
+        (Kind::Person, Who::Own | Who::Admin) => ok,
+    }
+}
+
+#[tokio::test]
+async fn every_endpoint_by_every_caller() {
+    let svc = Svc::new();
+    // Alice is the person whose data is guarded; Bob is the other person.
+    let alice = svc.person("alice-private-name").await;
+    let bob = svc.person("bob").await;
+    let (_, alice_token) = svc.token(alice).await;
+    let (_, bob_token) = svc.token(bob).await;
+    let (revoked_id, revoked) = svc.token(alice).await;
+    let r = svc
+        .call(
+            Method::DELETE,
+            &format!("/v1/tokens/{revoked_id}"),
+            Some(&svc.admin),
+            None,
+        )
+        .await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+    // Alice's data: a distinctive reading under a distinctive seq.
+    let r = svc
+        .call(
+            Method::POST,
+            &format!("/v1/persons/{alice}/events"),
+            Some(&alice_token),
+            Some(&json!({"events": [cgm(424_242, 60, 187.25)]})),
+        )
+        .await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+    let secrets = ["alice-private-name", "187.25", "424242"];
+
+    let mut seq = 1_000u64;
+    let mut names = 0u32;
+    let mut rows = Vec::new();
+    let endpoints: [(&str, Method, Kind, u16); 12] = [
+        ("healthz", Method::GET, Kind::Open, 200),
+        ("openapi", Method::GET, Kind::AnyToken, 200),
+        ("create person", Method::POST, Kind::Admin, 201),
+        ("bounds", Method::PUT, Kind::Admin, 200),
+        ("issue token", Method::POST, Kind::Admin, 201),
+        ("revoke token", Method::DELETE, Kind::Admin, 200),
+        ("events", Method::POST, Kind::Person, 200),
+        // No suggestion exists yet: the right caller gets "no such
+        // suggestion" (404 with the field named), see below.
+        ("answers", Method::POST, Kind::Person, 404),
+        ("sync", Method::GET, Kind::Person, 200),
+        ("suggestions", Method::GET, Kind::Person, 200),
+        ("advice", Method::GET, Kind::Person, 200),
+        ("history", Method::GET, Kind::Person, 200),
+    ];
+    for (name, method, kind, ok) in endpoints {
+        for who in WHO {
+            seq += 1;
+            names += 1;
+            // A fresh token to revoke for each call of the revoke endpoint.
+            let (victim, _) = svc.token(bob).await;
+            let (uri, body): (String, Option<Value>) = match name {
+                "healthz" => ("/healthz".into(), None),
+                "openapi" => ("/v1/openapi.json".into(), None),
+                "create person" => (
+                    "/v1/persons".into(),
+                    Some(
+                        json!({"name": format!("p{names}"), "tz": "UTC", "mode": "smbg",
+                        "start": {"basal_units_per_hour": 0.8, "carb_ratio_g_per_unit": [9.0, 9.0, 9.0]}}),
+                    ),
+                ),
+                "bounds" => (
+                    format!("/v1/persons/{alice}/bounds"),
+                    Some(json!({"bounds": {"basal": {"min": 0.5, "max": 2.0}}})),
+                ),
+                "issue token" => (format!("/v1/persons/{alice}/tokens"), None),
+                "revoke token" => (format!("/v1/tokens/{victim}"), None),
+                "events" => (
+                    format!("/v1/persons/{alice}/events"),
+                    Some(json!({"events": [cgm(seq, 60 + seq as i64, 120.0)]})),
+                ),
+                "answers" => (
+                    format!("/v1/persons/{alice}/answers"),
+                    Some(json!({"answers": [{"suggestion_id": 8, "answer": "accept"}]})),
+                ),
+                "sync" => (format!("/v1/persons/{alice}/sync?from=0"), None),
+                "suggestions" => (format!("/v1/persons/{alice}/suggestions?after=0"), None),
+                "advice" => (format!("/v1/persons/{alice}/advice"), None),
+                "history" => (format!("/v1/persons/{alice}/history"), None),
+                _ => unreachable!(),
+            };
+            let auth = match who {
+                Who::None => None,
+                Who::Malformed => Some("Bearer not-a-token".to_string()),
+                Who::Revoked => Some(format!("Bearer {revoked}")),
+                Who::Other => Some(format!("Bearer {bob_token}")),
+                Who::Own => Some(format!("Bearer {alice_token}")),
+                Who::Admin => Some(format!("Bearer {}", svc.admin)),
+            };
+            let bytes = body.map(|b| serde_json::to_vec(&b).unwrap());
+            let r = svc.raw(method.clone(), &uri, auth, bytes).await;
+            let want = expected(kind, who, ok);
+            rows.push(format!(
+                "{name:>13} {who:?}: {} (want {want})",
+                r.status.as_u16()
+            ));
+            assert_eq!(r.status.as_u16(), want, "{name} by {who:?}: {}", r.text);
+            if r.status.as_u16() >= 400 {
+                // Every error has the error body.
+                assert_eq!(
+                    r.json["status"].as_u64(),
+                    Some(u64::from(want)),
+                    "{}",
+                    r.text
+                );
+                if name != "answers" || !matches!(who, Who::Own | Who::Admin) {
+                    for s in secrets {
+                        assert!(
+                            !r.text.contains(s),
+                            "{name} by {who:?} leaks {s}: {}",
+                            r.text
+                        );
+                    }
+                }
+            }
+            if name == "answers" && matches!(who, Who::Own | Who::Admin) {
+                assert_eq!(r.json["path"], "answers[0].suggestion_id", "{}", r.text);
+            }
+            if want == 401 {
+                assert!(r.json["message"].is_string());
+            }
+        }
+    }
+    println!("{}", rows.join("\n"));
+    // The person's token sees the person's own data.
+    let r = svc
+        .call(
+            Method::GET,
+            &format!("/v1/persons/{alice}/advice"),
+            Some(&alice_token),
+            None,
+        )
+        .await;
+    assert!(r.text.contains("alice-private-name"));
+}
+
+#[tokio::test]
+async fn a_revoked_admin_token_stops_working_and_ids_that_are_not_numbers_are_404() {
+    let svc = Svc::new();
+    let alice = svc.person("alice").await;
+    let (_, alice_token) = svc.token(alice).await;
+    for uri in [
+        "/v1/persons/abc/advice",
+        "/v1/persons/-1/advice",
+        "/v1/persons/99999/advice",
+    ] {
+        let r = svc.call(Method::GET, uri, Some(&svc.admin), None).await;
+        assert_eq!(r.status, StatusCode::NOT_FOUND, "{uri}: {}", r.text);
+        let r = svc.call(Method::GET, uri, Some(&alice_token), None).await;
+        assert_eq!(r.status, StatusCode::NOT_FOUND, "{uri}: {}", r.text);
+        let r = svc.call(Method::GET, uri, None, None).await;
+        assert_eq!(r.status, StatusCode::UNAUTHORIZED, "{uri}: {}", r.text);
+    }
+    // The admin revokes its own token (id 1: the first one issued).
+    let r = svc
+        .call(Method::DELETE, "/v1/tokens/1", Some(&svc.admin), None)
+        .await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+    let r = svc
+        .call(Method::GET, "/v1/openapi.json", Some(&svc.admin), None)
+        .await;
+    assert_eq!(r.status, StatusCode::UNAUTHORIZED, "{}", r.text);
+    assert_eq!(r.json["code"], "unauthorized");
+    // Unknown paths and methods get the error body too.
+    let r = svc
+        .call(Method::GET, "/v2/nothing", Some(&alice_token), None)
+        .await;
+    assert_eq!(r.status, StatusCode::NOT_FOUND);
+    assert_eq!(r.json["code"], "not_found");
+    let r = svc
+        .call(Method::DELETE, "/v1/persons", Some(&alice_token), None)
+        .await;
+    assert_eq!(r.status, StatusCode::METHOD_NOT_ALLOWED);
+    assert_eq!(r.json["code"], "method_not_allowed");
+}

@@ -1,0 +1,138 @@
+//! Shared by the service's tests: a store in a temporary folder, the
+//! router called in-process, an admin token, persons with their tokens.
+
+#![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
+
+use abba_service::{auth, AppState};
+use abba_store::token::Role;
+use axum::body::Body;
+use axum::http::{Method, Request, StatusCode};
+use axum::Router;
+use http_body_util::BodyExt;
+use serde_json::{json, Value};
+use std::path::PathBuf;
+use tower::ServiceExt;
+
+/// A service over a fresh store.
+pub struct Svc {
+    pub dir: tempfile::TempDir,
+    pub db: PathBuf,
+    pub router: Router,
+    pub admin: String,
+}
+
+/// A response.
+#[derive(Debug)]
+pub struct Resp {
+    pub status: StatusCode,
+    pub text: String,
+    pub json: Value,
+}
+
+impl Svc {
+    pub fn new() -> Self {
+        let dir = tempfile::tempdir().unwrap();
+        let db = dir.path().join("store.db");
+        let mut store = abba_service::open_store(&db).unwrap();
+        let (_, admin) = auth::issue(&mut store, Role::Admin).unwrap();
+        let router = abba_service::router(AppState::new(store));
+        Self {
+            dir,
+            db,
+            router,
+            admin,
+        }
+    }
+
+    /// Sends a request; `token` None sends no Authorization header.
+    pub async fn call(
+        &self,
+        method: Method,
+        uri: &str,
+        token: Option<&str>,
+        body: Option<&Value>,
+    ) -> Resp {
+        let bytes = body.map(|b| serde_json::to_vec(b).unwrap());
+        self.raw(method, uri, token.map(|t| format!("Bearer {t}")), bytes)
+            .await
+    }
+
+    /// Sends raw bytes with a raw Authorization header value.
+    pub async fn raw(
+        &self,
+        method: Method,
+        uri: &str,
+        authorization: Option<String>,
+        body: Option<Vec<u8>>,
+    ) -> Resp {
+        let mut req = Request::builder().method(method).uri(uri);
+        if let Some(a) = authorization {
+            req = req.header("authorization", a);
+        }
+        let req = match body {
+            Some(b) => req
+                .header("content-type", "application/json")
+                .body(Body::from(b))
+                .unwrap(),
+            None => req.body(Body::empty()).unwrap(),
+        };
+        let res = self.router.clone().oneshot(req).await.unwrap();
+        let status = res.status();
+        let bytes = res.into_body().collect().await.unwrap().to_bytes();
+        let text = String::from_utf8_lossy(&bytes).to_string();
+        let json = serde_json::from_slice(&bytes).unwrap_or(Value::Null);
+        Resp { status, text, json }
+    }
+
+    /// Creates a person (CGM, UTC, day 1 = 2026-01-01); returns the id.
+    pub async fn person(&self, name: &str) -> u64 {
+        self.person_with(json!({
+            "name": name, "tz": "UTC", "mode": "cgm", "first_day": "2026-01-01",
+            "start": {"basal_units_per_hour": 1.0, "carb_ratio_g_per_unit": [10.0, 12.0, 11.0]}
+        }))
+        .await
+    }
+
+    /// Creates a person from a body; returns the id.
+    pub async fn person_with(&self, body: Value) -> u64 {
+        let r = self
+            .call(Method::POST, "/v1/persons", Some(&self.admin), Some(&body))
+            .await;
+        assert_eq!(r.status, StatusCode::CREATED, "{}", r.text);
+        r.json["id"].as_u64().unwrap()
+    }
+
+    /// Issues a person's token: (token id, token).
+    pub async fn token(&self, person: u64) -> (u64, String) {
+        let r = self
+            .call(
+                Method::POST,
+                &format!("/v1/persons/{person}/tokens"),
+                Some(&self.admin),
+                None,
+            )
+            .await;
+        assert_eq!(r.status, StatusCode::CREATED, "{}", r.text);
+        (
+            r.json["token_id"].as_u64().unwrap(),
+            r.json["token"].as_str().unwrap().to_string(),
+        )
+    }
+}
+
+/// The RFC 3339 instant of advisor minute `m` for a person in UTC with day 1
+/// = 2026-01-01.
+pub fn at(m: i64) -> String {
+    let t = jiff::Timestamp::from_second(1_767_225_600 + 60 * m).unwrap();
+    t.to_string()
+}
+
+/// A wire event.
+pub fn ev(seq: u64, minute: i64, event: Value) -> Value {
+    json!({"seq": seq, "at": at(minute), "event": event})
+}
+
+/// A CGM reading.
+pub fn cgm(seq: u64, minute: i64, mg_dl: f64) -> Value {
+    ev(seq, minute, json!({"type": "cgm", "mg_dl": mg_dl}))
+}

@@ -1,0 +1,408 @@
+//! The live advisor: events posted over HTTP in batches (flushed at each
+//! event that can produce an answer) give exactly the decisions of one
+//! advisor fed the same events in process; each answer is tagged with the
+//! seq of the event that produced it; the CLI's store view agrees; a late
+//! event and an answer rebuild the advisor to what a replay gives.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod common;
+
+use abba_advisor::{Advisor, Decision, Parameter};
+use abba_core::{Event, EventKind, Grams, MealSlot, MgDl, Timestamp, Units};
+use axum::http::{Method, StatusCode};
+use common::{ev, Svc};
+use serde_json::{json, Value};
+
+const DAYS: i64 = 12;
+
+/// A deterministic app stream: CGM every 5 min with meal excursions, three
+/// meals with their boluses, the day closed at 00:00 after that minute's
+/// reading (from day 2). (seq, event, wire event).
+fn stream() -> Vec<(u64, Event, Value)> {
+    let mut out = Vec::new();
+    let mut seq = 100u64;
+    let meals = [
+        (7 * 60 + 30, MealSlot::Breakfast, 50.0),
+        (12 * 60 + 30, MealSlot::Lunch, 70.0),
+        (19 * 60, MealSlot::Dinner, 80.0),
+    ];
+    let mut push = |e: Event, w: Value, out: &mut Vec<(u64, Event, Value)>| {
+        seq += 3; // gaps in the app's numbering are fine
+        out.push((seq, e, ev(seq, e.at.0, w)));
+    };
+    for day in 0..DAYS {
+        for m in (0..1440).step_by(5) {
+            let t = day * 1440 + m;
+            let mut g = 110.0 + 15.0 * ((t as f64) / 300.0).sin();
+            for (k, &(at, _, carbs)) in meals.iter().enumerate() {
+                let since = (m - at) as f64;
+                if since >= 0.0 {
+                    // Each day's excursions differ a little.
+                    let size = carbs * (1.0 + 0.1 * (((day * 3 + k as i64) % 5) as f64 - 2.0));
+                    g += size * (since / 60.0) * (-since / 60.0).exp() * 5.0;
+                }
+            }
+            push(
+                Event::new(Timestamp(t), EventKind::Cgm(MgDl(g))),
+                json!({"type": "cgm", "mg_dl": g}),
+                &mut out,
+            );
+            if m == 0 && day > 0 {
+                push(
+                    Event::new(Timestamp(t), EventKind::DayClosed),
+                    json!({"type": "day_closed"}),
+                    &mut out,
+                );
+            }
+            for &(at, slot, carbs) in &meals {
+                if m == at {
+                    push(
+                        Event::new(
+                            Timestamp(t),
+                            EventKind::MealAnnounced {
+                                carbs: Grams(carbs),
+                                slot,
+                            },
+                        ),
+                        json!({"type": "meal", "carbs_g": carbs, "slot": slot.name()}),
+                        &mut out,
+                    );
+                    let units = carbs / 10.0;
+                    push(
+                        Event::new(Timestamp(t), EventKind::Bolus(Units(units))),
+                        json!({"type": "bolus", "units": units}),
+                        &mut out,
+                    );
+                }
+            }
+        }
+    }
+    out
+}
+
+fn person_body(name: &str) -> Value {
+    json!({
+        "name": name, "tz": "UTC", "mode": "cgm", "first_day": "2026-01-01",
+        "start": {"basal_units_per_hour": 1.0, "carb_ratio_g_per_unit": [10.0, 12.0, 11.0]},
+        "min_data": {"cgm_coverage": 0.0, "cgm_period_min": 5, "smbg_per_day": 0, "smbg_per_meal": 0}
+    })
+}
+
+/// The in-process loop: one advisor, every event, decisions with the seq
+/// of the event that made them.
+fn in_process(svc: &Svc, id: u64, events: &[(u64, Event, Value)]) -> Vec<(Decision, u64)> {
+    let store = abba_store::Store::open(&svc.db).unwrap();
+    let mut advisor = store.person_by_id(id as i64).unwrap().advisor().unwrap();
+    let mut out = Vec::new();
+    for (seq, e, _) in events {
+        advisor.observe(e).unwrap();
+        for d in advisor.take_decisions() {
+            out.push((d, *seq));
+        }
+    }
+    out
+}
+
+fn slot_name(p: Parameter) -> &'static str {
+    abba_store::answer::param_key(p)
+}
+
+/// Posts like an app: flushes after each meal and day close.
+async fn post_like_an_app(
+    svc: &Svc,
+    id: u64,
+    token: &str,
+    events: &[(u64, Event, Value)],
+) -> Vec<Value> {
+    let mut answers = Vec::new();
+    let mut buf: Vec<Value> = Vec::new();
+    for (i, (_, e, w)) in events.iter().enumerate() {
+        buf.push(w.clone());
+        let answerable = matches!(
+            e.kind,
+            EventKind::DayClosed | EventKind::MealAnnounced { .. }
+        );
+        if answerable || i + 1 == events.len() {
+            let r = svc
+                .call(
+                    Method::POST,
+                    &format!("/v1/persons/{id}/events"),
+                    Some(token),
+                    Some(&json!({ "events": std::mem::take(&mut buf) })),
+                )
+                .await;
+            assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+            answers.extend(r.json["answers"].as_array().unwrap().iter().cloned());
+        }
+    }
+    answers
+}
+
+fn check_same(answers: &[Value], reference: &[(Decision, u64)]) {
+    assert_eq!(answers.len(), reference.len());
+    for (a, (d, seq)) in answers.iter().zip(reference) {
+        let id = a["id"].as_u64().unwrap();
+        assert_eq!(id / 4, d.at.0 as u64, "{a}");
+        assert_eq!(a["parameter"], slot_name(d.parameter), "{a}");
+        assert_eq!(a["value"].as_f64().unwrap(), d.new, "{a}");
+        assert_eq!(a["previous"].as_f64().unwrap(), d.old, "{a}");
+        assert_eq!(a["seq"].as_u64(), Some(*seq), "{a}");
+        assert!(!a["reason"].as_str().unwrap().is_empty());
+    }
+}
+
+#[tokio::test]
+async fn batched_posts_give_the_in_process_decisions() {
+    let svc = Svc::new();
+    let id = svc.person_with(person_body("ann")).await;
+    let (_, t) = svc.token(id).await;
+    let events = stream();
+    let reference = in_process(&svc, id, &events);
+    // The stream is long enough for decisions about every setting, and
+    // updates (ABBA's switch rule holds the carb ratios of this stream).
+    for p in ["basal", "breakfast", "lunch", "dinner"] {
+        assert!(
+            reference.iter().any(|(d, _)| slot_name(d.parameter) == p),
+            "no decision about {p} in the reference run"
+        );
+    }
+    assert!(reference.iter().filter(|(d, _)| d.new != d.old).count() >= 4);
+    let answers = post_like_an_app(&svc, id, &t, &events).await;
+    check_same(&answers, &reference);
+
+    // The CLI's view of the same file: the same decisions.
+    let mut store = abba_store::Store::open(&svc.db).unwrap();
+    let cli: Vec<(i64, Parameter, f64)> = store
+        .decisions("ann")
+        .unwrap()
+        .iter()
+        .map(|d| (d.at.0, d.parameter, d.new))
+        .collect();
+    let mut want: Vec<(i64, Parameter, f64)> = reference
+        .iter()
+        .map(|(d, _)| (d.at.0, d.parameter, d.new))
+        .collect();
+    want.sort_by_key(|x| x.0);
+    assert_eq!(cli, want);
+    let cli_advice = store.advise("ann").unwrap();
+    let r = svc
+        .call(
+            Method::GET,
+            &format!("/v1/persons/{id}/advice"),
+            Some(&t),
+            None,
+        )
+        .await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+    for (s, w) in cli_advice
+        .settings
+        .iter()
+        .zip(r.json["settings"].as_array().unwrap())
+    {
+        assert_eq!(w["setting"], s.setting);
+        assert_eq!(w["use_today"].as_f64().unwrap(), s.use_today);
+        assert_eq!(w["in_force"].as_f64().unwrap(), s.in_force);
+    }
+    assert!(r.json["notice"]
+        .as_str()
+        .unwrap()
+        .contains("not a medical device"));
+
+    // Suggestions the app has not seen: after the id of the tenth answer.
+    let after = answers[9]["id"].as_u64().unwrap();
+    let r = svc
+        .call(
+            Method::GET,
+            &format!("/v1/persons/{id}/suggestions?after={after}"),
+            Some(&t),
+            None,
+        )
+        .await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+    let listed = r.json["suggestions"].as_array().unwrap();
+    assert_eq!(listed.len(), answers.len() - 10);
+    for (l, a) in listed.iter().zip(&answers[10..]) {
+        assert_eq!(l["id"], a["id"]);
+        assert_eq!(l["seq"], a["seq"]);
+        assert_eq!(l["value"], a["value"]);
+    }
+    let r = svc
+        .call(
+            Method::GET,
+            &format!("/v1/persons/{id}/history"),
+            Some(&t),
+            None,
+        )
+        .await;
+    assert_eq!(
+        r.json["suggestions"].as_array().unwrap().len(),
+        answers.len()
+    );
+
+    // A service restarted on the file rebuilds the same advisor and goes on
+    // with the same decisions as one that never stopped.
+    let more: Vec<(u64, Event, Value)> = {
+        let last = events.last().unwrap();
+        let t0 = last.1.at.0 + 5;
+        (0..3)
+            .map(|k| {
+                let at = Timestamp(t0 + 1440 * k - (t0 % 1440) + 1440);
+                let s = last.0 + 1 + k as u64;
+                (
+                    s,
+                    Event::new(at, EventKind::DayClosed),
+                    ev(s, at.0, json!({"type": "day_closed"})),
+                )
+            })
+            .collect()
+    };
+    let mut all = events.clone();
+    all.extend(more.iter().cloned());
+    let reference_all = in_process(&svc, id, &all);
+    let svc2 = Svc {
+        router: abba_service::router(abba_service::AppState::new(
+            abba_service::open_store(&svc.db).unwrap(),
+        )),
+        dir: svc.dir,
+        db: svc.db,
+        admin: svc.admin,
+    };
+    let answers_more = post_like_an_app(&svc2, id, &t, &more).await;
+    check_same(&answers_more, &reference_all[reference.len()..]);
+}
+
+#[tokio::test]
+async fn one_big_batch_a_late_event_and_an_answer_agree_with_a_replay() {
+    let svc = Svc::new();
+    let id = svc.person_with(person_body("bo")).await;
+    let (_, t) = svc.token(id).await;
+    let events = stream();
+    let reference = in_process(&svc, id, &events);
+    // Everything but one reading of day 10, in batches of 2000.
+    let hole = events
+        .iter()
+        .position(|(_, e, _)| e.at.0 == 9 * 1440 + 600)
+        .unwrap();
+    let mut sent: Vec<Value> = events.iter().map(|x| x.2.clone()).collect();
+    let late = sent.remove(hole);
+    let mut got = Vec::new();
+    for chunk in sent.chunks(2000) {
+        let r = svc
+            .call(
+                Method::POST,
+                &format!("/v1/persons/{id}/events"),
+                Some(&t),
+                Some(&json!({ "events": chunk })),
+            )
+            .await;
+        assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+        got.extend(r.json["answers"].as_array().unwrap().iter().cloned());
+    }
+    // The late reading: the advisor is rebuilt; the decisions after it are
+    // now exactly the reference's (those it changed come back in answers).
+    let r = svc
+        .call(
+            Method::POST,
+            &format!("/v1/persons/{id}/events"),
+            Some(&t),
+            Some(&json!({ "events": [late] })),
+        )
+        .await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+    let r = svc
+        .call(
+            Method::GET,
+            &format!("/v1/persons/{id}/history"),
+            Some(&t),
+            None,
+        )
+        .await;
+    let all = r.json["suggestions"].as_array().unwrap().clone();
+    check_same(&all, &reference);
+
+    // Override the latest basal suggestion: stored as the store's answer,
+    // the CLI sees it, and the advisor goes on from the value put in force.
+    let latest = all
+        .iter()
+        .rev()
+        .find(|s| s["parameter"] == "basal" && !s["no_update"].as_bool().unwrap())
+        .unwrap()
+        .clone();
+    assert_eq!(latest["status"], "open");
+    let value = latest["value"].as_f64().unwrap() * 0.97;
+    let r = svc
+        .call(
+            Method::POST,
+            &format!("/v1/persons/{id}/answers"),
+            Some(&t),
+            Some(&json!({"answers": [{"suggestion_id": latest["id"], "answer": "override", "value": value}]})),
+        )
+        .await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+    assert_eq!(r.json["answered"][0]["in_force"].as_f64().unwrap(), value);
+    // Answering it again: it is no longer open.
+    let r = svc
+        .call(
+            Method::POST,
+            &format!("/v1/persons/{id}/answers"),
+            Some(&t),
+            Some(&json!({"answers": [{"suggestion_id": latest["id"], "answer": "accept"}]})),
+        )
+        .await;
+    assert_eq!(r.status, StatusCode::CONFLICT, "{}", r.text);
+    let mut store = abba_store::Store::open(&svc.db).unwrap();
+    let h = store.history("bo").unwrap();
+    let row = h
+        .iter()
+        .find(|v| {
+            v.setting == "basal"
+                && v.suggested == latest["value"].as_f64().unwrap()
+                && v.status != "superseded"
+        })
+        .unwrap();
+    assert_eq!(row.status, "overridden");
+    assert_eq!(row.in_force, value);
+
+    // A next day close: the in-process advisor told the same override.
+    let close_at = (DAYS) * 1440 + 5;
+    let mut advisor = store.person_by_id(id as i64).unwrap().advisor().unwrap();
+    let latest_at = latest["id"].as_u64().unwrap() / 4;
+    for (_, e, _) in &events {
+        advisor.observe(e).unwrap();
+        for d in advisor.take_decisions() {
+            if d.at.0 as u64 == latest_at && d.parameter == Parameter::Basal {
+                advisor
+                    .observe(&Event::new(
+                        d.at,
+                        EventKind::SuggestionOverridden(abba_core::SettingValue::Basal {
+                            rate: abba_core::UnitsPerHour(value),
+                        }),
+                    ))
+                    .unwrap();
+            }
+        }
+    }
+    let close = Event::new(Timestamp(close_at), EventKind::DayClosed);
+    advisor.observe(&close).unwrap();
+    let want: Vec<Decision> = advisor.take_decisions();
+    let r = svc
+        .call(
+            Method::POST,
+            &format!("/v1/persons/{id}/events"),
+            Some(&t),
+            Some(&json!({"events": [ev(999_999, close_at, json!({"type": "day_closed"}))]})),
+        )
+        .await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+    let got = r.json["answers"].as_array().unwrap();
+    assert_eq!(got.len(), want.len());
+    for (g, d) in got.iter().zip(&want) {
+        assert_eq!(g["value"].as_f64().unwrap(), d.new);
+        assert_eq!(g["previous"].as_f64().unwrap(), d.old);
+        assert_eq!(g["seq"], 999_999);
+    }
+    assert!(want
+        .iter()
+        .any(|d| d.parameter == Parameter::Basal && d.old == value));
+}

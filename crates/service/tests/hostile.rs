@@ -39,10 +39,22 @@ fn world() -> World {
 fn targets(w: &World) -> Vec<(Method, String, String)> {
     let p = w.person;
     vec![
-        (Method::POST, format!("/v1/persons/{p}/events"), w.token.clone()),
-        (Method::POST, format!("/v1/persons/{p}/answers"), w.token.clone()),
+        (
+            Method::POST,
+            format!("/v1/persons/{p}/events"),
+            w.token.clone(),
+        ),
+        (
+            Method::POST,
+            format!("/v1/persons/{p}/answers"),
+            w.token.clone(),
+        ),
         (Method::POST, "/v1/persons".into(), w.svc.admin.clone()),
-        (Method::PUT, format!("/v1/persons/{p}/bounds"), w.svc.admin.clone()),
+        (
+            Method::PUT,
+            format!("/v1/persons/{p}/bounds"),
+            w.svc.admin.clone(),
+        ),
     ]
 }
 
@@ -53,15 +65,28 @@ fn check(status: StatusCode, text: &str, body: &Value) {
         "{status} for a client's body: {text}"
     );
     if status.is_client_error() {
-        assert_eq!(body["status"].as_u64(), Some(u64::from(status.as_u16())), "{text}");
-        assert!(body["message"].as_str().is_some_and(|m| !m.is_empty()), "{text}");
+        assert_eq!(
+            body["status"].as_u64(),
+            Some(u64::from(status.as_u16())),
+            "{text}"
+        );
+        assert!(
+            body["message"].as_str().is_some_and(|m| !m.is_empty()),
+            "{text}"
+        );
         if status == StatusCode::BAD_REQUEST || status == StatusCode::UNPROCESSABLE_ENTITY {
             assert!(body["path"].is_string(), "no path: {text}");
         }
     }
 }
 
-fn send(w: &World, method: &Method, uri: &str, token: &str, bytes: Vec<u8>) -> (StatusCode, String, Value) {
+fn send(
+    w: &World,
+    method: &Method,
+    uri: &str,
+    token: &str,
+    bytes: Vec<u8>,
+) -> (StatusCode, String, Value) {
     let r = w.rt.block_on(w.svc.raw(
         method.clone(),
         uri,
@@ -135,7 +160,9 @@ fn hostile_event() -> impl Strategy<Value = Value> {
         Just(json!("120")),
         Just(json!(null)),
         Just(json!(u64::MAX)),
-        any::<f64>().prop_filter("finite", |v| v.is_finite()).prop_map(|v| json!(v)),
+        any::<f64>()
+            .prop_filter("finite", |v| v.is_finite())
+            .prop_map(|v| json!(v)),
     ];
     let seq = prop_oneof![
         Just(json!(-1)),
@@ -230,7 +257,13 @@ fn deep_nesting_oversized_bodies_and_big_numbers() {
             check(s, &text, &json);
         }
         // Numbers beyond f64 and u64.
-        let (s, text, json) = send(w, &m, &uri, &token, b"{\"events\":[{\"seq\":1e400}]}".to_vec());
+        let (s, text, json) = send(
+            w,
+            &m,
+            &uri,
+            &token,
+            b"{\"events\":[{\"seq\":1e400}]}".to_vec(),
+        );
         check(s, &text, &json);
         assert_eq!(s, StatusCode::BAD_REQUEST, "{text}");
         // Trailing garbage after a valid value.
@@ -257,21 +290,63 @@ fn each_refused_value_names_its_field() {
     let w = world_once();
     let uri = format!("/v1/persons/{}/events", w.person);
     let cases = [
-        (json!({"events": [{"seq": 1, "at": "2026-01-01T00:00:00", "event": {"type": "cgm", "mg_dl": 100}}]}), 422, "events[0].at"),
-        (json!({"events": [{"seq": 1, "at": "2026-01-01T00:00:00Z", "event": {"type": "cgm", "mg_dl": 5}}]}), 422, "events[0].event"),
-        (json!({"events": [{"seq": 1, "at": "2026-01-01T00:00:00Z", "event": {"type": "bolus", "units": -1}}]}), 422, "events[0].event"),
-        (json!({"events": [{"seq": 1, "at": "2026-01-01T00:00:00Z", "event": {"type": "meal", "carbs_g": 9000, "slot": "lunch"}}]}), 422, "events[0].event"),
-        (json!({"events": [{"seq": 1, "at": "2026-01-01T00:00:00Z", "event": {"type": "meal", "carbs_g": 90, "slot": "brunch"}}]}), 400, "events[0].event"),
-        (json!({"events": [{"seq": 1, "at": "2026-01-01T00:00:00Z", "event": {"type": "cgm", "mg_dl": "NaN"}}]}), 400, "events[0].event"),
-        (json!({"events": [{"seq": 9_007_199_254_740_992u64, "at": "2026-01-01T00:00:00Z", "event": {"type": "cgm", "mg_dl": 100}}]}), 422, "events[0].seq"),
-        (json!({"events": [{"seq": 1, "at": "2025-12-31T23:00:00Z", "event": {"type": "cgm", "mg_dl": 100}}]}), 422, "events[0].at"),
+        (
+            json!({"events": [{"seq": 1, "at": "2026-01-01T00:00:00", "event": {"type": "cgm", "mg_dl": 100}}]}),
+            422,
+            "events[0].at",
+        ),
+        (
+            json!({"events": [{"seq": 1, "at": "2026-01-01T00:00:00Z", "event": {"type": "cgm", "mg_dl": 5}}]}),
+            422,
+            "events[0].event",
+        ),
+        (
+            json!({"events": [{"seq": 1, "at": "2026-01-01T00:00:00Z", "event": {"type": "bolus", "units": -1}}]}),
+            422,
+            "events[0].event",
+        ),
+        (
+            json!({"events": [{"seq": 1, "at": "2026-01-01T00:00:00Z", "event": {"type": "meal", "carbs_g": 9000, "slot": "lunch"}}]}),
+            422,
+            "events[0].event",
+        ),
+        (
+            json!({"events": [{"seq": 1, "at": "2026-01-01T00:00:00Z", "event": {"type": "meal", "carbs_g": 90, "slot": "brunch"}}]}),
+            400,
+            "events[0].event",
+        ),
+        (
+            json!({"events": [{"seq": 1, "at": "2026-01-01T00:00:00Z", "event": {"type": "cgm", "mg_dl": "NaN"}}]}),
+            400,
+            "events[0].event",
+        ),
+        (
+            json!({"events": [{"seq": 9_007_199_254_740_992u64, "at": "2026-01-01T00:00:00Z", "event": {"type": "cgm", "mg_dl": 100}}]}),
+            422,
+            "events[0].seq",
+        ),
+        (
+            json!({"events": [{"seq": 1, "at": "2025-12-31T23:00:00Z", "event": {"type": "cgm", "mg_dl": 100}}]}),
+            422,
+            "events[0].at",
+        ),
         (json!({"events": []}), 422, "events"),
-        (json!({"events": [{"seq": 1, "at": "2026-01-01T00:00:00Z", "event": {"type": "cgm", "mg_dl": 100}, "extra": 1}]}), 400, "events[0].extra"),
+        (
+            json!({"events": [{"seq": 1, "at": "2026-01-01T00:00:00Z", "event": {"type": "cgm", "mg_dl": 100}, "extra": 1}]}),
+            400,
+            "events[0].extra",
+        ),
     ];
     // (Inside an event the path stops at `event`, a tagged union read
     // whole; the message names the field: "unknown variant `brunch`".)
     for (body, status, path) in cases {
-        let (s, text, json) = send(w, &Method::POST, &uri, &w.token, serde_json::to_vec(&body).unwrap());
+        let (s, text, json) = send(
+            w,
+            &Method::POST,
+            &uri,
+            &w.token,
+            serde_json::to_vec(&body).unwrap(),
+        );
         assert_eq!(s.as_u16(), status, "{body}: {text}");
         assert_eq!(json["path"], path, "{body}: {text}");
     }

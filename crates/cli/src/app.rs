@@ -118,6 +118,11 @@ pub fn run(a: Args) -> Result<()> {
         run.suggestions.iter().filter(|s| !s.no_update).count(),
         run.answers_posted
     );
+    println!(
+        "waiting for the service: {:.1} s for event acknowledgements, {:.1} s for answer acknowledgements",
+        run.events_wait.as_secs_f64(),
+        run.answers_wait.as_secs_f64()
+    );
     if let Some(f) = run.failure {
         println!(
             "stopped on day {} at minute {}: plasma glucose {:.1} mg/dL",

@@ -73,6 +73,10 @@ pub struct RemoteRun {
     pub failure: Option<RunFailure>,
     /// The settings the person follows at the end.
     pub final_settings: TherapySettings,
+    /// Time spent waiting for event acknowledgements (flushes).
+    pub events_wait: std::time::Duration,
+    /// Time spent waiting for answer acknowledgements.
+    pub answers_wait: std::time::Duration,
 }
 
 fn remote_err(context: &str) -> impl Fn(ClientError) -> TrialError + '_ {
@@ -314,6 +318,8 @@ pub fn run_remote(
         outbox: OutboxStats::default(),
         failure: None,
         final_settings: *person.settings(),
+        events_wait: std::time::Duration::ZERO,
+        answers_wait: std::time::Duration::ZERO,
     };
     let mut latest: Vec<Suggestion> = Vec::new();
     let mut answers: Vec<AnswerItem> = Vec::new();
@@ -339,7 +345,9 @@ pub fn run_remote(
                     continue;
                 }
                 run.flushes += 1;
+                let t = std::time::Instant::now();
                 let flushed = outbox.flush(&app.client, &app.retry).map_err(&err)?;
+                run.events_wait += t.elapsed();
                 if flushed.answers.is_empty() {
                     continue;
                 }
@@ -364,8 +372,10 @@ pub fn run_remote(
                     answers: chunk.to_vec(),
                 };
                 run.answers_posted += body.answers.len() as u64;
+                let t = std::time::Instant::now();
                 let posted =
                     post_answers(&app.client, app.person, &body, &app.retry).map_err(&err)?;
+                run.answers_wait += t.elapsed();
                 if posted == abba_client::AnswersPosted::AlreadyStored {
                     run.answers_recovered += body.answers.len() as u64;
                 }

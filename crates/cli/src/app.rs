@@ -77,9 +77,10 @@ pub fn run(a: Args) -> Result<()> {
     let health = admin
         .health()
         .with_context(|| format!("is `abba serve` running at {}?", a.url))?;
-    let name = a.name.clone().unwrap_or_else(|| {
-        format!("{} {} {}", a.patient, a.scenario, jiff::Timestamp::now())
-    });
+    let name = a
+        .name
+        .clone()
+        .unwrap_or_else(|| format!("{} {} {}", a.patient, a.scenario, jiff::Timestamp::now()));
     let body = remote::person_body(&config, &vp, patient_no, &scenario, a.first_day, &name)?;
     let created = admin.create_person(&body).context("creating the person")?;
     let token = admin

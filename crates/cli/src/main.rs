@@ -4,8 +4,8 @@ use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
 
 mod advise;
-mod app;
 mod answer;
+mod app;
 mod calibrate;
 mod cohort;
 mod errors;

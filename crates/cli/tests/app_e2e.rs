@@ -56,7 +56,10 @@ fn end_to_end(scenario: ScenarioId, patient_no: u64) {
     let reference =
         run_patient_with(&config, vp, patient_no, &planned, ArmKind::Abba, &mut trace).unwrap();
     let decisions = trace.decisions.unwrap();
-    assert!(reference.failure.is_none(), "{scenario:?}: the run is whole");
+    assert!(
+        reference.failure.is_none(),
+        "{scenario:?}: the run is whole"
+    );
     assert!(
         decisions.len() > 300,
         "{scenario:?}: {} decisions",
@@ -104,7 +107,10 @@ fn end_to_end(scenario: ScenarioId, patient_no: u64) {
             "{scenario:?}: suggestion {k} (in process: {d})"
         );
         assert_eq!(s.parameter, setting, "{scenario:?}: suggestion {k}");
-        assert!(s.seq.is_some(), "{scenario:?}: suggestion {k} names its event");
+        assert!(
+            s.seq.is_some(),
+            "{scenario:?}: suggestion {k} names its event"
+        );
     }
     // The person followed them: the same settings at the end.
     let fin = run.final_settings;
@@ -127,7 +133,10 @@ fn end_to_end(scenario: ScenarioId, patient_no: u64) {
         (0, o.pushed - 1),
         "{scenario:?}"
     );
-    assert_eq!(sync.last_suggestion_id, run.suggestions.last().map(|s| s.id));
+    assert_eq!(
+        sync.last_suggestion_id,
+        run.suggestions.last().map(|s| s.id)
+    );
 
     // The service's own views agree: every update accepted, the advisor
     // adapting, every event a record.

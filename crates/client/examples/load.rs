@@ -53,11 +53,19 @@ fn parse() -> Result<Opts, String> {
         .strip_prefix("http://")
         .and_then(|r| r.split(['/']).next())
         .unwrap_or("");
-    let loopback = host.starts_with("127.") || host.starts_with("localhost") || host.starts_with("[::1]");
+    let loopback =
+        host.starts_with("127.") || host.starts_with("localhost") || host.starts_with("[::1]");
     if !loopback {
-        return Err(format!("--url {}: only loopback addresses (127.0.0.0/8, localhost, [::1])", o.url));
+        return Err(format!(
+            "--url {}: only loopback addresses (127.0.0.0/8, localhost, [::1])",
+            o.url
+        ));
     }
-    if o.token.is_empty() || o.clients == 0 || o.batch == 0 || !(o.seconds > 0.0 && o.seconds <= 600.0) {
+    if o.token.is_empty()
+        || o.clients == 0
+        || o.batch == 0
+        || !(o.seconds > 0.0 && o.seconds <= 600.0)
+    {
         return Err("need --token ADMIN, --clients ≥ 1, --batch ≥ 1, 0 < --seconds ≤ 600".into());
     }
     Ok(o)
@@ -72,9 +80,19 @@ fn step(i: u64) -> Vec<(u64, EventBody)> {
     if of_day == 0 && minute > 0 {
         out.push((minute, EventBody::DayClosed));
     }
-    for (at, slot) in [(420, MealSlot::Breakfast), (720, MealSlot::Lunch), (1140, MealSlot::Dinner)] {
+    for (at, slot) in [
+        (420, MealSlot::Breakfast),
+        (720, MealSlot::Lunch),
+        (1140, MealSlot::Dinner),
+    ] {
         if of_day == at {
-            out.push((minute, EventBody::Meal { carbs_g: 50.0, slot }));
+            out.push((
+                minute,
+                EventBody::Meal {
+                    carbs_g: 50.0,
+                    slot,
+                },
+            ));
             out.push((minute, EventBody::Bolus { units: 5.0 }));
         }
     }
@@ -96,7 +114,11 @@ fn instant(minute: u64) -> String {
     let d = doy - (153 * mp + 2) / 5 + 1;
     let m = if mp < 10 { mp + 3 } else { mp - 9 };
     let y = yoe + era * 400 + i64::from(m <= 2);
-    format!("{y:04}-{m:02}-{d:02}T{:02}:{:02}:00Z", rem / 3600, rem % 3600 / 60)
+    format!(
+        "{y:04}-{m:02}-{d:02}T{:02}:{:02}:00Z",
+        rem / 3600,
+        rem % 3600 / 60
+    )
 }
 
 struct Result1 {
@@ -105,10 +127,19 @@ struct Result1 {
     failures: u64,
 }
 
-fn client_loop(client: Client, person: u64, batch: usize, until: Instant) -> Result<Result1, String> {
+fn client_loop(
+    client: Client,
+    person: u64,
+    batch: usize,
+    until: Instant,
+) -> Result<Result1, String> {
     let mut outbox = Outbox::new(person);
     let retry = Retry::default();
-    let mut r = Result1 { latencies_us: Vec::new(), events: 0, failures: 0 };
+    let mut r = Result1 {
+        latencies_us: Vec::new(),
+        events: 0,
+        failures: 0,
+    };
     let mut i = 0;
     while Instant::now() < until {
         let mut n = 0;
@@ -136,7 +167,9 @@ fn pct(sorted: &[u64], p: f64) -> f64 {
 fn main() -> Result<(), String> {
     let o = parse()?;
     let admin = Client::new(&o.url, Some(&o.token)).map_err(|e| e.to_string())?;
-    admin.health().map_err(|e| format!("is abba serve running at {}? {e}", o.url))?;
+    admin
+        .health()
+        .map_err(|e| format!("is abba serve running at {}? {e}", o.url))?;
     let tag = std::process::id();
     let mut persons = Vec::new();
     for c in 0..o.clients {
@@ -146,7 +179,10 @@ fn main() -> Result<(), String> {
                 tz: "UTC".into(),
                 mode: Mode::Cgm,
                 first_day: Some("2026-03-02".into()),
-                start: TherapyBody { basal_units_per_hour: 1.0, carb_ratio_g_per_unit: [10.0; 3] },
+                start: TherapyBody {
+                    basal_units_per_hour: 1.0,
+                    carb_ratio_g_per_unit: [10.0; 3],
+                },
                 bounds: None,
                 min_data: None,
                 advisor: None,
@@ -170,7 +206,9 @@ fn main() -> Result<(), String> {
     let mut lat = Vec::new();
     let (mut events, mut failures) = (0, 0);
     for h in handles {
-        let r = h.join().map_err(|_| "a client thread panicked".to_string())??;
+        let r = h
+            .join()
+            .map_err(|_| "a client thread panicked".to_string())??;
         lat.extend(r.latencies_us);
         events += r.events;
         failures += r.failures;

@@ -28,13 +28,13 @@ use crate::protocol::{ArmKind, PlannedScenario, TrialConfig};
 use crate::results::RunFailure;
 use abba_advisor::any::AdvisorSpec;
 use abba_api::{
-    AnswerBody, AnswerItem, AnswerKind, EventBody, MinDataBody, NewPersonBody, Setting,
-    Suggestion, TempRate, TherapyBody,
+    AnswerBody, AnswerItem, AnswerKind, EventBody, MinDataBody, NewPersonBody, Setting, Suggestion,
+    TempRate, TherapyBody,
 };
 use abba_client::{post_answers, Client, ClientError, Outbox, OutboxStats, Retry};
 use abba_core::{
-    derive_seed, Event, EventKind, GramsPerUnit, MealSlot, SettingValue, Stream,
-    TempBasalRate, TherapySettings, UnitsPerHour, MINUTES_PER_DAY,
+    derive_seed, Event, EventKind, GramsPerUnit, MealSlot, SettingValue, Stream, TempBasalRate,
+    TherapySettings, UnitsPerHour, MINUTES_PER_DAY,
 };
 use abba_sim::cohort::VirtualPatient;
 use abba_sim::person::{SuggestionResponse, VirtualPerson};

@@ -13,6 +13,7 @@ mod service_common;
 
 use abba_api::{PhaseView, Setting};
 use abba_client::{Client, Retry};
+use abba_sim::person::SuggestionResponse;
 use abba_sim::scenario::ScenarioId;
 use abba_trial::closed_loop::{run_patient_with, Trace};
 use abba_trial::protocol::{ArmKind, RawTrialConfig};
@@ -33,14 +34,14 @@ fn setting_of(p: abba_advisor::Parameter) -> Setting {
     }
 }
 
-fn end_to_end(scenario: ScenarioId, patient_no: u64) {
-    let days = 98;
+fn end_to_end(scenario: ScenarioId, patient_no: u64, days: u32, response: SuggestionResponse) {
     let config = TrialConfig::try_from(RawTrialConfig {
         patients: patient_no as u32,
         days,
         calibrate_te_ref: false,
         scenarios: vec![scenario],
         arms: vec![ArmKind::Abba],
+        suggestions: response,
         ..RawTrialConfig::default()
     })
     .unwrap();
@@ -61,13 +62,13 @@ fn end_to_end(scenario: ScenarioId, patient_no: u64) {
         "{scenario:?}: the run is whole"
     );
     assert!(
-        decisions.len() > 300,
+        decisions.len() as u32 > 3 * (days - 9),
         "{scenario:?}: {} decisions",
         decisions.len()
     );
 
     // Through the service, over HTTP.
-    let dir = TempDir::new(&format!("app-e2e-{}", scenario.name()));
+    let dir = TempDir::new(&format!("app-e2e-{}-{days}", scenario.name()));
     let db = dir.0.join("abba.db");
     let token = admin_token(&db);
     let server = Server::start(&db);
@@ -138,25 +139,35 @@ fn end_to_end(scenario: ScenarioId, patient_no: u64) {
         run.suggestions.last().map(|s| s.id)
     );
 
-    // The service's own views agree: every update accepted, the advisor
-    // adapting, every event a record.
+    // The service's own views agree: every update answered as the person
+    // did, the advisor adapting, every event a record.
     let history = app.client.history(created.id).unwrap();
     assert_eq!(history.suggestions.len(), decisions.len(), "{scenario:?}");
-    let updates = history.suggestions.iter().filter(|s| !s.no_update).count();
-    assert!(updates > 300, "{scenario:?}: {updates} updates");
+    // The changes (an update whose value differs from the one in force)
+    // are what the person answers.
+    let changes: Vec<_> = history
+        .suggestions
+        .iter()
+        .filter(|s| !s.no_update && s.value != s.previous)
+        .collect();
     assert!(
-        history
-            .suggestions
-            .iter()
-            .all(|s| s.no_update || s.status == "accepted"),
-        "{scenario:?}: statuses {:?}",
-        history
-            .suggestions
-            .iter()
-            .map(|s| s.status.as_str())
-            .collect::<std::collections::BTreeSet<_>>()
+        changes.len() as u32 > days / 2,
+        "{scenario:?}: {} changes",
+        changes.len()
     );
-    assert_eq!(run.answers_posted as usize, updates, "{scenario:?}");
+    let statuses: std::collections::BTreeSet<&str> =
+        changes.iter().map(|s| s.status.as_str()).collect();
+    let expected: &[&str] = match response {
+        SuggestionResponse::AcceptAll => &["accepted"],
+        SuggestionResponse::RejectShare { .. } => &["accepted", "rejected"],
+        _ => &["overridden"],
+    };
+    assert_eq!(
+        statuses,
+        expected.iter().copied().collect(),
+        "{scenario:?}: statuses"
+    );
+    assert_eq!(run.answers_posted as usize, changes.len(), "{scenario:?}");
     let advice = app.client.advice(created.id).unwrap();
     assert_eq!(advice.phase, PhaseView::Adapting, "{scenario:?}");
     assert_eq!(advice.data.records, o.pushed, "{scenario:?}");
@@ -170,10 +181,35 @@ fn end_to_end(scenario: ScenarioId, patient_no: u64) {
 
 #[test]
 fn cgm_mode_through_the_service_equals_the_in_process_trial() {
-    end_to_end(ScenarioId::S1, 3);
+    end_to_end(ScenarioId::S1, 3, 98, SuggestionResponse::AcceptAll);
 }
 
 #[test]
 fn smbg_mode_through_the_service_equals_the_in_process_trial() {
-    end_to_end(ScenarioId::S2, 3);
+    end_to_end(ScenarioId::S2, 3, 98, SuggestionResponse::AcceptAll);
+}
+
+/// A person who rejects about a third of the changes: the app posts the
+/// rejections, and the service's next decisions start from the kept value
+/// as the in-process advisor's do.
+#[test]
+fn a_person_who_rejects_some_changes_gets_the_same_decisions() {
+    end_to_end(
+        ScenarioId::S1,
+        4,
+        30,
+        SuggestionResponse::RejectShare { percent: 30 },
+    );
+}
+
+/// A person who puts their own value in force (within ±4 % of each
+/// suggestion): the app posts the overrides with the values.
+#[test]
+fn a_person_who_overrides_gets_the_same_decisions() {
+    end_to_end(
+        ScenarioId::S2,
+        4,
+        30,
+        SuggestionResponse::OverrideWithin { percent: 4 },
+    );
 }

@@ -160,7 +160,7 @@ fn lost_acknowledgements_change_nothing() {
         run.answers_recovered > 0,
         "no answer was recognised as stored"
     );
-    // Every event once, every update answered once (accepted).
+    // Every event once, every change answered once (accepted).
     assert_eq!(o.acked + o.held_on_sync, o.pushed);
     let direct = admin.with_token(&issued.token);
     let sync = direct.sync(created.id, 0).unwrap();
@@ -168,8 +168,12 @@ fn lost_acknowledgements_change_nothing() {
     assert_eq!((sync.held[0].first, sync.held[0].last), (0, o.pushed - 1));
     let history = direct.history(created.id).unwrap();
     assert_eq!(history.suggestions.len(), decisions.len());
-    assert!(history
+    let changes: Vec<_> = history
         .suggestions
         .iter()
-        .all(|s| s.no_update || s.status == "accepted"));
+        .filter(|s| !s.no_update && s.value != s.previous)
+        .collect();
+    assert!(!changes.is_empty());
+    assert!(changes.iter().all(|s| s.status == "accepted"));
+    assert_eq!(run.answers_posted as usize, changes.len());
 }

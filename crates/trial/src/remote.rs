@@ -355,14 +355,20 @@ pub fn run_remote(
                 apply(&mut settings, &flushed.answers);
                 person.suggest(settings).map_err(sim)?;
                 if accept_all {
-                    // The paper's person takes every change; the app says so.
-                    answers.extend(flushed.answers.iter().filter(|s| !s.no_update).map(|s| {
-                        AnswerItem {
-                            suggestion_id: s.id,
-                            answer: AnswerKind::Accept,
-                            value: None,
-                        }
-                    }));
+                    // The paper's person takes every change; the app says so
+                    // (as a person who answers says nothing of a suggestion
+                    // that changes nothing).
+                    answers.extend(
+                        flushed
+                            .answers
+                            .iter()
+                            .filter(|s| s.value != s.previous)
+                            .map(|s| AnswerItem {
+                                suggestion_id: s.id,
+                                answer: AnswerKind::Accept,
+                                value: None,
+                            }),
+                    );
                 }
                 latest.clone_from(&flushed.answers);
                 run.suggestions.extend(flushed.answers);

@@ -109,14 +109,17 @@ pub fn run(a: Args) -> Result<()> {
     let secs = started.elapsed().as_secs_f64();
     let o = run.outbox;
     println!(
-        "{} days in {secs:.1} s: {} events in {} posts ({} failed, {} syncs), {} suggestions ({} with an update), {} answers posted",
+        "{} days in {secs:.1} s: {} events in {} posts ({} failed, {} syncs), {} suggestions ({} changing a setting), {} answers posted",
         a.days,
         o.acked + o.held_on_sync,
         o.posts,
         o.failures,
         o.syncs,
         run.suggestions.len(),
-        run.suggestions.iter().filter(|s| !s.no_update).count(),
+        run.suggestions
+            .iter()
+            .filter(|s| s.value != s.previous)
+            .count(),
         run.answers_posted
     );
     println!(

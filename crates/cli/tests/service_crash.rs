@@ -236,6 +236,10 @@ fn sigkill_under_load_loses_no_acknowledged_event_and_stores_none_twice() {
         assert_eq!((sync.held[0].first, sync.held[0].last), (0, n - 1));
         assert!(!sync.truncated);
         assert_eq!(client.advice(log.person).unwrap().data.records, n);
+        // An app starting again goes on after the highest number held.
+        let resumed = Outbox::resume(&client, log.person, &Retry::never()).unwrap();
+        assert_eq!(resumed.next_seq(), n);
+        assert_eq!(resumed.last_suggestion_id(), sync.last_suggestion_id);
         // Re-posting held events stores nothing and is acknowledged.
         let tail = n.saturating_sub(300);
         let again = EventsBody {

@@ -14,6 +14,9 @@ pub struct Core {
     /// The store (opened with `synchronous=FULL`).
     pub store: Store,
     live: HashMap<i64, Live>,
+    /// SQLite's `data_version` when last looked at: it changes when
+    /// another connection (the CLI, another process) commits.
+    data_version: Option<i64>,
 }
 
 impl Core {
@@ -22,7 +25,23 @@ impl Core {
         Self {
             store,
             live: HashMap::new(),
+            data_version: None,
         }
+    }
+
+    /// Drops every live advisor when another connection wrote to the file
+    /// since the last look (`abba answer` or `abba import` while the
+    /// service runs): they are rebuilt from the store on next use.
+    pub fn notice_other_writers(&mut self) -> Result<(), StoreError> {
+        let v: i64 = self
+            .store
+            .connection()
+            .pragma_query_value(None, "data_version", |r| r.get(0))?;
+        if self.data_version.is_some_and(|old| old != v) {
+            self.live.clear();
+        }
+        self.data_version = Some(v);
+        Ok(())
     }
 
     /// The person's live state, built from the store on first use.
@@ -102,6 +121,7 @@ impl AppState {
                     c
                 }
             };
+            guard.notice_other_writers()?;
             f(&mut guard)
         })
         .await

@@ -201,6 +201,7 @@ async fn a_revoked_admin_token_stops_working_and_ids_that_are_not_numbers_are_40
         "/v1/persons/abc/advice",
         "/v1/persons/-1/advice",
         "/v1/persons/99999/advice",
+        "/v1/persons/%FF%FE/advice",
     ] {
         let r = svc.call(Method::GET, uri, Some(&svc.admin), None).await;
         assert_eq!(r.status, StatusCode::NOT_FOUND, "{uri}: {}", r.text);

@@ -406,3 +406,44 @@ async fn one_big_batch_a_late_event_and_an_answer_agree_with_a_replay() {
         .iter()
         .any(|d| d.parameter == Parameter::Basal && d.old == value));
 }
+
+#[tokio::test]
+async fn an_answer_given_with_the_cli_while_the_service_runs_is_seen() {
+    let svc = Svc::new();
+    let id = svc.person_with(person_body("cy")).await;
+    let (_, t) = svc.token(id).await;
+    post_like_an_app(&svc, id, &t, &stream()).await;
+    let uri = format!("/v1/persons/{id}/history");
+    let before = svc.call(Method::GET, &uri, Some(&t), None).await.json;
+    let open: Vec<Value> = before["suggestions"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|s| s["status"] == "open")
+        .cloned()
+        .collect();
+    assert!(!open.is_empty());
+    // `abba answer --accept` on the same file, another connection.
+    let mut cli = abba_store::Store::open(&svc.db).unwrap();
+    cli.answer("cy", &abba_store::AnswerRequest::Accept)
+        .unwrap();
+    let after = svc.call(Method::GET, &uri, Some(&t), None).await.json;
+    for o in &open {
+        let s = after["suggestions"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|s| s["id"] == o["id"])
+            .unwrap();
+        assert_eq!(s["status"], "accepted", "{s}");
+    }
+    let r = svc
+        .call(
+            Method::POST,
+            &format!("/v1/persons/{id}/answers"),
+            Some(&t),
+            Some(&json!({"answers": [{"suggestion_id": open[0]["id"], "answer": "reject"}]})),
+        )
+        .await;
+    assert_eq!(r.status, StatusCode::CONFLICT, "{}", r.text);
+}

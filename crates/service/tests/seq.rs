@@ -203,3 +203,35 @@ async fn an_acknowledged_batch_is_in_the_store_after_reopening() {
         .unwrap();
     assert_eq!(synchronous, 2, "the service commits with synchronous=FULL");
 }
+
+#[tokio::test]
+async fn an_event_the_advisor_refuses_is_stored_and_counted() {
+    let svc = Svc::new();
+    let id = svc.person("ann").await;
+    let (_, t) = svc.token(id).await;
+    // Two CGM readings in one minute: both stored (distinct seqs), the
+    // advisor takes the first only.
+    let r = post(
+        &svc,
+        id,
+        &t,
+        vec![cgm(1, 0, 100.0), cgm(2, 0, 101.0), cgm(3, 5, 102.0)],
+    )
+    .await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+    assert_eq!(r.json["stored"], 3);
+    let r = svc
+        .call(
+            Method::GET,
+            &format!("/v1/persons/{id}/advice"),
+            Some(&t),
+            None,
+        )
+        .await;
+    assert_eq!(r.json["data"]["events_refused"], 1, "{}", r.text);
+    assert_eq!(r.json["data"]["records"], 3, "{}", r.text);
+    let mut cli = abba_store::Store::open(&svc.db).unwrap();
+    let a = cli.advise("ann").unwrap();
+    assert_eq!(a.data.events_refused, 1);
+    assert_eq!(a.data.records, 3);
+}

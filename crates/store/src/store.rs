@@ -141,6 +141,13 @@ pub(crate) fn refresh(
         None
     };
     let r = replay::replay(person, &stream.events, &answers, snap.as_ref())?;
+    // Events refused in the whole log: those before the snapshot it started
+    // from, and those of this replay. (The new snapshot's count stops at
+    // its own checkpoint.)
+    let refused = match (&snap, r.rebuilt) {
+        (Some(s), false) => s.unused + r.refused.len(),
+        _ => r.refused.len(),
+    };
     if r.rebuilt {
         conn.execute(
             "DELETE FROM suggestion WHERE person_id = ?1",
@@ -181,7 +188,7 @@ pub(crate) fn refresh(
         advisor: r.advisor,
         decisions: all,
         answers,
-        refused: s.unused,
+        refused,
     })
 }
 

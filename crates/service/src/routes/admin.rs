@@ -4,12 +4,12 @@ use crate::auth::{self, Need};
 use crate::body::{self, RawBody};
 use crate::convert;
 use crate::error::ApiError;
-use crate::routes::person_id;
+use crate::routes::{path_text, person_id, PathId};
 use crate::state::AppState;
 use abba_api::{BoundsBody, ErrorBody, NewPersonBody, PersonCreated, TokenIssued, TokenRevoked};
 use abba_store::token::Role;
 use abba_store::StoreError;
-use axum::extract::{Path, State};
+use axum::extract::State;
 use axum::http::{HeaderMap, StatusCode};
 use axum::Json;
 
@@ -70,11 +70,11 @@ pub async fn create_person(
         (status = 422, description = "Bounds refused (the starting therapy must lie inside)", body = ErrorBody)))]
 pub async fn set_bounds(
     State(s): State<AppState>,
-    Path(id): Path<String>,
+    id: PathId,
     headers: HeaderMap,
     body: RawBody,
 ) -> Result<Json<BoundsBody>, ApiError> {
-    let id = person_id(&id);
+    let id = person_id(id);
     s.authorize(&headers, Need::Admin).await?;
     let b: BoundsBody = body::parse(&headers, body)?;
     let bounds = convert::bounds(&b.bounds, "bounds")?;
@@ -103,10 +103,10 @@ pub async fn set_bounds(
         (status = 404, description = "No such person", body = ErrorBody)))]
 pub async fn issue_token(
     State(s): State<AppState>,
-    Path(id): Path<String>,
+    id: PathId,
     headers: HeaderMap,
 ) -> Result<(StatusCode, Json<TokenIssued>), ApiError> {
-    let id = person_id(&id);
+    let id = person_id(id);
     s.authorize(&headers, Need::Admin).await?;
     let (token_id, token) = s
         .core(move |core| {
@@ -138,10 +138,11 @@ pub async fn issue_token(
         (status = 404, description = "No such token", body = ErrorBody)))]
 pub async fn revoke_token(
     State(s): State<AppState>,
-    Path(token_id): Path<String>,
+    token_id: PathId,
     headers: HeaderMap,
 ) -> Result<Json<TokenRevoked>, ApiError> {
     s.authorize(&headers, Need::Admin).await?;
+    let token_id = path_text(token_id);
     let id = token_id
         .parse::<i64>()
         .ok()

@@ -5,13 +5,28 @@ pub mod meta;
 pub mod person;
 
 use crate::error::ApiError;
+use axum::extract::rejection::PathRejection;
+use axum::extract::Path;
 use axum::http::StatusCode;
+
+/// An id segment of the path, as text (a segment that is not UTF-8 is
+/// kept as the error, never answered by axum's own plain-text rejection).
+pub type PathId = Result<Path<String>, PathRejection>;
+
+/// The text of a path segment ("" when it could not be decoded).
+pub fn path_text(p: PathId) -> String {
+    p.map(|Path(s)| s).unwrap_or_default()
+}
 
 /// A person id from the path; anything else is an id no person has (so the
 /// answer is the same 404 as for a person that does not exist, after the
 /// token was checked).
-pub fn person_id(raw: &str) -> i64 {
-    raw.parse::<i64>().ok().filter(|&v| v > 0).unwrap_or(-1)
+pub fn person_id(raw: PathId) -> i64 {
+    path_text(raw)
+        .parse::<i64>()
+        .ok()
+        .filter(|&v| v > 0)
+        .unwrap_or(-1)
 }
 
 /// The query's `key=value` pairs; a key not in `known` or given twice, or

@@ -5,7 +5,7 @@ use crate::auth::Need;
 use crate::body::{self, RawBody};
 use crate::convert;
 use crate::error::ApiError;
-use crate::routes::{person_id, query_u64};
+use crate::routes::{person_id, query_u64, PathId};
 use crate::state::AppState;
 use abba_api::{
     AdviceResponse, AnswerBody, AnswerKind as WireAnswer, Answered, AnswersAck, ErrorBody,
@@ -13,7 +13,7 @@ use abba_api::{
 };
 use abba_store::answer::AnswerKind;
 use abba_store::SuggestionAnswer;
-use axum::extract::{Path, RawQuery, State};
+use axum::extract::{RawQuery, State};
 use axum::http::HeaderMap;
 use axum::Json;
 use std::collections::HashMap;
@@ -33,11 +33,11 @@ use std::collections::HashMap;
         (status = 422, description = "A value refused (nothing stored)", body = ErrorBody)))]
 pub async fn post_events(
     State(s): State<AppState>,
-    Path(id): Path<String>,
+    id: PathId,
     headers: HeaderMap,
     body: RawBody,
 ) -> Result<Json<EventsAck>, ApiError> {
-    let id = person_id(&id);
+    let id = person_id(id);
     s.authorize(&headers, Need::Person(id)).await?;
     let b: EventsBody = body::parse(&headers, body)?;
     let mut acked: Vec<u64> = b.events.iter().map(|e| e.seq).collect();
@@ -99,11 +99,11 @@ pub async fn post_events(
         (status = 422, description = "A value refused", body = ErrorBody)))]
 pub async fn post_answers(
     State(s): State<AppState>,
-    Path(id): Path<String>,
+    id: PathId,
     headers: HeaderMap,
     body: RawBody,
 ) -> Result<Json<AnswersAck>, ApiError> {
-    let id = person_id(&id);
+    let id = person_id(id);
     s.authorize(&headers, Need::Person(id)).await?;
     let b: AnswerBody = body::parse(&headers, body)?;
     if b.answers.is_empty() || b.answers.len() > 4 {
@@ -166,11 +166,11 @@ pub async fn post_answers(
         (status = 404, description = "No such person for this token", body = ErrorBody)))]
 pub async fn sync(
     State(s): State<AppState>,
-    Path(id): Path<String>,
+    id: PathId,
     RawQuery(q): RawQuery,
     headers: HeaderMap,
 ) -> Result<Json<SyncResponse>, ApiError> {
-    let id = person_id(&id);
+    let id = person_id(id);
     s.authorize(&headers, Need::Person(id)).await?;
     let from = query_u64(q.as_deref(), &["from"])?
         .first()
@@ -205,11 +205,11 @@ pub async fn sync(
         (status = 404, description = "No such person for this token", body = ErrorBody)))]
 pub async fn suggestions(
     State(s): State<AppState>,
-    Path(id): Path<String>,
+    id: PathId,
     RawQuery(q): RawQuery,
     headers: HeaderMap,
 ) -> Result<Json<SuggestionList>, ApiError> {
-    let id = person_id(&id);
+    let id = person_id(id);
     s.authorize(&headers, Need::Person(id)).await?;
     let after = query_u64(q.as_deref(), &["after"])?.first().map(|x| x.1);
     s.core(move |core| {
@@ -238,10 +238,10 @@ pub async fn suggestions(
         (status = 404, description = "No such person for this token", body = ErrorBody)))]
 pub async fn advice(
     State(s): State<AppState>,
-    Path(id): Path<String>,
+    id: PathId,
     headers: HeaderMap,
 ) -> Result<Json<AdviceResponse>, ApiError> {
-    let id = person_id(&id);
+    let id = person_id(id);
     s.authorize(&headers, Need::Person(id)).await?;
     s.core(move |core| {
         Ok(core.with_live(id, |store, live| {
@@ -272,10 +272,10 @@ pub async fn advice(
         (status = 404, description = "No such person for this token", body = ErrorBody)))]
 pub async fn history(
     State(s): State<AppState>,
-    Path(id): Path<String>,
+    id: PathId,
     headers: HeaderMap,
 ) -> Result<Json<HistoryResponse>, ApiError> {
-    let id = person_id(&id);
+    let id = person_id(id);
     s.authorize(&headers, Need::Person(id)).await?;
     s.core(move |core| {
         Ok(core.with_live(id, |store, live| {

@@ -4,8 +4,8 @@
 //! in the paper (kept as knobs for ablations); **\[GUESS]** values are the
 //! spec's choices where no source was readable and must be listed in any
 //! results write-up. Defaults are the spec's except the deviations listed
-//! in ARCHITECTURE.md "Knobs" (CGM excursion, actor rule, and the guessed
-//! scales chosen by `abba calibrate`).
+//! in ARCHITECTURE.md "Knobs" (CGM- and SMBG-mode excursion, actor rule, and the
+//! guessed scales chosen by `abba calibrate`).
 
 use crate::error::{check_positive, check_range, config_err, AdvisorError};
 use serde::{Deserialize, Serialize};
@@ -108,22 +108,27 @@ impl EventLimits {
     }
 }
 
-/// How eq10-11 average the excursions of a CGM window (spec §3, revision).
+/// How eq10-11 average the excursions of a window (spec §3, revision);
+/// chosen per mode by `features.cgm_excursion` and `features.smbg_excursion`.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
-pub enum CgmExcursion {
+pub enum Excursion {
     /// Σ excursions / all readings of the window: the time-averaged
     /// excursion, independent of the sampling rate (each of the four SMBG
-    /// readings stands for a quarter of the day, so this is the CGM estimate
-    /// of the same daily quantity). \[INFER; DEVIATION from the literal
-    /// reading] Default.
+    /// readings stands for a quarter of the day, so CGM and SMBG estimate
+    /// the same daily quantity). \[INFER; DEVIATION from the literal
+    /// reading] Default in CGM mode.
     #[default]
     TimeAveraged,
     /// Σ excursions / out-of-range readings only: the literal eq10-11. With
     /// 288 readings a day a 15-minute dip weighs as much as a whole day at
-    /// the same level.
+    /// the same level; with four readings one low reading weighs as much as
+    /// three high ones together.
     OutOfRangeMean,
 }
+
+/// The former name of [`Excursion`] (CGM mode was the first to get the knob).
+pub type CgmExcursion = Excursion;
 
 /// Feature thresholds and normalisation (spec §3).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -133,7 +138,10 @@ pub struct FeatureConfig {
     pub g_low_mg_dl: f64,
     /// G_H, upper border of the tight range (mg/dL). \[SEED eq10] 150.
     pub g_high_mg_dl: f64,
-    /// G_max: F_hyper = raw / (G_max − G_H). \[GUESS §3] 400 (CGM reporting ceiling).
+    /// G_max in SMBG mode (and in CGM mode unless `cgm_g_max_mg_dl` is
+    /// set): F_hyper = raw / (G_max − G_H). \[GUESS §3: 400, the CGM
+    /// reporting ceiling; calibrated] 250 (`abba calibrate` on adults,
+    /// BENCHMARKS.md "ABBA in SMBG mode beyond adults").
     pub g_max_mg_dl: f64,
     /// G_min: F_hypo = raw / (G_L − G_min). \[GUESS §3] 40 (CGM reporting floor).
     pub g_min_mg_dl: f64,
@@ -143,10 +151,16 @@ pub struct FeatureConfig {
     pub n1_below_mg_dl: f64,
     /// N2 counts readings above this (mg/dL). \[SEED eq27] 130.
     pub n2_above_mg_dl: f64,
-    /// The CGM-mode reading of eq10-11 (SMBG mode always uses the
-    /// out-of-range mean). \[DEVIATION] time-averaged.
+    /// The CGM-mode reading of eq10-11. \[DEVIATION] time-averaged.
     #[serde(default)]
-    pub cgm_excursion: CgmExcursion,
+    pub cgm_excursion: Excursion,
+    /// The SMBG-mode reading of eq10-11. \[DEVIATION, calibrated]
+    /// time-averaged: each of the four readings stands for a quarter of the
+    /// day, so one reading below G_L no longer weighs as much as three
+    /// readings above G_H together (the literal out-of-range mean drove
+    /// SMBG-mode basal cuts that harmed adolescents and children).
+    #[serde(default = "default_smbg_excursion")]
+    pub smbg_excursion: Excursion,
     /// G_min in CGM mode (F_hypo = raw/(G_L − G_min)); `None` uses
     /// `g_min_mg_dl`. Time-averaging shrinks the brief hypoglycaemic
     /// excursions far more than the long hyperglycaemic ones, so CGM mode
@@ -154,12 +168,41 @@ pub struct FeatureConfig {
     #[serde(default)]
     pub cgm_g_min_mg_dl: Option<f64>,
     /// G_max in CGM mode (F_hyper = raw/(G_max − G_H)); `None` uses
-    /// `g_max_mg_dl`. \[GUESS, calibrated]
+    /// `g_max_mg_dl`. \[GUESS §3, calibrated] 400.
     #[serde(default)]
     pub cgm_g_max_mg_dl: Option<f64>,
 }
 
 impl FeatureConfig {
+    /// The spec's literal feature settings (§3): the out-of-range mean in
+    /// both modes and G_max = 400, G_min = 40 in both modes. The defaults
+    /// differ (time-averaged excursions, SMBG-mode G_max 250; see
+    /// ARCHITECTURE.md "Knobs").
+    pub fn spec() -> Self {
+        Self {
+            g_max_mg_dl: 400.0,
+            cgm_excursion: Excursion::OutOfRangeMean,
+            smbg_excursion: Excursion::OutOfRangeMean,
+            cgm_g_min_mg_dl: None,
+            cgm_g_max_mg_dl: None,
+            ..Self::default()
+        }
+    }
+}
+
+fn default_smbg_excursion() -> Excursion {
+    Excursion::TimeAveraged
+}
+
+impl FeatureConfig {
+    /// The reading of eq10-11 for an advisor in `mode`.
+    pub fn excursion_for(&self, mode: Mode) -> Excursion {
+        match mode {
+            Mode::Cgm => self.cgm_excursion,
+            Mode::Smbg => self.smbg_excursion,
+        }
+    }
+
     /// G_min for an advisor in `mode`.
     pub fn g_min_for(&self, mode: Mode) -> f64 {
         match (mode, self.cgm_g_min_mg_dl) {
@@ -182,14 +225,15 @@ impl Default for FeatureConfig {
         Self {
             g_low_mg_dl: 90.0,
             g_high_mg_dl: 150.0,
-            g_max_mg_dl: 400.0,
+            g_max_mg_dl: 250.0,
             g_min_mg_dl: 40.0,
             hyponumber_below_mg_dl: 70.0,
             n1_below_mg_dl: 80.0,
             n2_above_mg_dl: 130.0,
-            cgm_excursion: CgmExcursion::TimeAveraged,
+            cgm_excursion: Excursion::TimeAveraged,
+            smbg_excursion: default_smbg_excursion(),
             cgm_g_min_mg_dl: None,
-            cgm_g_max_mg_dl: None,
+            cgm_g_max_mg_dl: Some(400.0),
         }
     }
 }

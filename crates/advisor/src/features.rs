@@ -3,7 +3,7 @@
 //! A window's readings are folded into [`WindowStats`] as they arrive, so no
 //! reading is stored: the features only need counts and sums of excursions.
 
-use crate::config::{CgmExcursion, FeatureConfig, Mode};
+use crate::config::{Excursion, FeatureConfig, Mode};
 use serde::{Deserialize, Serialize};
 
 /// Running statistics of the readings of one window.
@@ -55,8 +55,8 @@ impl WindowStats {
         self.n == 0
     }
 
-    /// The features of this window for an advisor in `mode` (the CGM
-    /// reading of eq10-11 is `cfg.cgm_excursion`).
+    /// The features of this window for an advisor in `mode` (the reading of
+    /// eq10-11 is `cfg.cgm_excursion` or `cfg.smbg_excursion`).
     pub fn features(&self, cfg: &FeatureConfig, mode: Mode) -> Features {
         Features::from_stats(self, cfg, mode)
     }
@@ -66,9 +66,8 @@ impl WindowStats {
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct Features {
     /// Excursion above G_H (mg/dL), eq10: the mean over the readings above
-    /// G_H (SMBG mode, and CGM mode with `out_of_range_mean`), or the sum of
-    /// excursions over all readings of the window (CGM mode with
-    /// `time_averaged`); 0 if none.
+    /// G_H (`out_of_range_mean`), or the sum of excursions divided by all
+    /// readings of the window (`time_averaged`); 0 if none.
     pub raw_hyper_mg_dl: f64,
     /// Excursion below G_L (mg/dL), eq11, averaged like `raw_hyper_mg_dl`.
     pub raw_hypo_mg_dl: f64,
@@ -79,13 +78,14 @@ pub struct Features {
 }
 
 impl Features {
-    /// Eq10-12 with the spec's normalisation (§3). In SMBG mode (and in CGM
-    /// mode with [`CgmExcursion::OutOfRangeMean`]) each raw feature is the
-    /// mean excursion of the out-of-range readings only; in CGM mode with
-    /// [`CgmExcursion::TimeAveraged`] it is the sum of excursions divided by
-    /// all readings of the window, which does not depend on the sampling rate.
+    /// Eq10-12 with the spec's normalisation (§3). With
+    /// [`Excursion::OutOfRangeMean`] (the mode's reading, see
+    /// [`FeatureConfig::excursion_for`]) each raw feature is the mean
+    /// excursion of the out-of-range readings only; with
+    /// [`Excursion::TimeAveraged`] it is the sum of excursions divided by all
+    /// readings of the window, which does not depend on the sampling rate.
     pub fn from_stats(s: &WindowStats, cfg: &FeatureConfig, mode: Mode) -> Self {
-        let time_averaged = mode == Mode::Cgm && cfg.cgm_excursion == CgmExcursion::TimeAveraged;
+        let time_averaged = cfg.excursion_for(mode) == Excursion::TimeAveraged;
         let mean = |sum: f64, n_out: u32| {
             let n = if time_averaged { s.n } else { n_out };
             if n_out > 0 && n > 0 {
@@ -125,7 +125,7 @@ mod tests {
     use super::*;
 
     fn stats(values: &[f64]) -> WindowStats {
-        let cfg = FeatureConfig::default();
+        let cfg = FeatureConfig::spec();
         let mut s = WindowStats::default();
         for &v in values {
             s.push(v, &cfg);
@@ -145,7 +145,7 @@ mod tests {
         // 200 and 250 are above 150 (excursions 50, 100 -> mean 75);
         // 60 is below 90 (excursion 30); 120 is in range and does not dilute.
         let s = stats(&[200.0, 120.0, 250.0, 60.0]);
-        let f = s.features(&FeatureConfig::default(), Mode::Smbg);
+        let f = s.features(&FeatureConfig::spec(), Mode::Smbg);
         close("raw hyper (eq10)", 75.0, f.raw_hyper_mg_dl);
         close("raw hypo (eq11)", 30.0, f.raw_hypo_mg_dl);
         assert_eq!((s.n, s.n_hyper, s.n_hypo), (4, 2, 1));
@@ -155,24 +155,24 @@ mod tests {
 
     #[test]
     fn eq12_normalisation_divides_by_250_and_50_and_clamps() {
-        let f = stats(&[200.0, 250.0, 60.0]).features(&FeatureConfig::default(), Mode::Smbg);
+        let f = stats(&[200.0, 250.0, 60.0]).features(&FeatureConfig::spec(), Mode::Smbg);
         close("F_hyper = 75/250", 0.3, f.hyper);
         close("F_hypo = 30/50", 0.6, f.hypo);
         assert_eq!(f.vector(), [f.hyper, f.hypo]);
         // 600 mg/dL: excursion 450 > 250 -> clamped to 1; 20 mg/dL: 70 > 50 -> 1.
-        let f = stats(&[600.0, 20.0]).features(&FeatureConfig::default(), Mode::Smbg);
+        let f = stats(&[600.0, 20.0]).features(&FeatureConfig::spec(), Mode::Smbg);
         close("F_hyper clamped", 1.0, f.hyper);
         close("F_hypo clamped", 1.0, f.hypo);
     }
 
     #[test]
     fn in_range_or_empty_windows_give_zero_features() {
-        let f = stats(&[90.0, 150.0, 120.0]).features(&FeatureConfig::default(), Mode::Smbg);
+        let f = stats(&[90.0, 150.0, 120.0]).features(&FeatureConfig::spec(), Mode::Smbg);
         assert_eq!(f.vector(), [0.0, 0.0], "thresholds are strict");
         let s = stats(&[]);
         assert!(s.is_empty());
         assert_eq!(
-            s.features(&FeatureConfig::default(), Mode::Smbg).vector(),
+            s.features(&FeatureConfig::spec(), Mode::Smbg).vector(),
             [0.0, 0.0]
         );
     }
@@ -186,10 +186,7 @@ mod tests {
 
     #[test]
     fn out_of_range_mean_weighs_a_15_minute_dip_like_a_whole_day() {
-        let cfg = FeatureConfig {
-            cgm_excursion: CgmExcursion::OutOfRangeMean,
-            ..FeatureConfig::default()
-        };
+        let cfg = FeatureConfig::spec();
         let dip = cgm_day(3, 80.0).features(&cfg, Mode::Cgm);
         let all_day = stats(&[80.0; 288]).features(&cfg, Mode::Cgm);
         close("F_hypo: 15 min at 80 = a day at 80", all_day.hypo, dip.hypo);
@@ -199,7 +196,7 @@ mod tests {
     #[test]
     fn time_averaged_weighs_a_15_minute_dip_by_its_duration() {
         let cfg = FeatureConfig::default();
-        assert_eq!(cfg.cgm_excursion, CgmExcursion::TimeAveraged);
+        assert_eq!(cfg.cgm_excursion, Excursion::TimeAveraged);
         let dip = cgm_day(3, 80.0).features(&cfg, Mode::Cgm);
         let all_day = stats(&[80.0; 288]).features(&cfg, Mode::Cgm);
         close("F_hypo of a day at 80", 0.2, all_day.hypo);
@@ -207,16 +204,54 @@ mod tests {
         // Hyper side: 2 of 4 readings 100 above G_H -> 200/4 = 50 -> 0.2.
         let f = stats(&[250.0, 250.0, 120.0, 120.0]).features(&cfg, Mode::Cgm);
         close("time-averaged hyper", 0.2, f.hyper);
-        // SMBG mode ignores the knob: out-of-range mean (100 -> 0.4).
+        // SMBG mode has its own knob: out-of-range mean (100 -> 0.4).
+        let cfg = FeatureConfig {
+            cgm_excursion: Excursion::TimeAveraged,
+            ..FeatureConfig::spec()
+        };
         let f = stats(&[250.0, 250.0, 120.0, 120.0]).features(&cfg, Mode::Smbg);
         close("SMBG hyper", 0.4, f.hyper);
     }
 
     #[test]
+    fn smbg_excursion_knob_weighs_each_reading_as_a_quarter_of_the_day() {
+        // One reading at 70 and three at 250: out-of-range means give the
+        // low reading the whole day (20/50 = 0.4) and the three high ones
+        // their mean (100/250 = 0.4); time-averaged, each reading counts for
+        // a quarter: F_hypo = 20/4/50 = 0.1, F_hyper = 300/4/250 = 0.3.
+        let day = stats(&[70.0, 250.0, 250.0, 250.0]);
+        let literal = FeatureConfig::spec();
+        let f = day.features(&literal, Mode::Smbg);
+        close("literal F_hypo", 0.4, f.hypo);
+        close("literal F_hyper", 0.4, f.hyper);
+        let averaged = FeatureConfig {
+            smbg_excursion: Excursion::TimeAveraged,
+            ..literal.clone()
+        };
+        let f = day.features(&averaged, Mode::Smbg);
+        close("time-averaged F_hypo", 0.1, f.hypo);
+        close("time-averaged F_hyper", 0.3, f.hyper);
+        // The SMBG knob leaves CGM mode alone, and the CGM knob SMBG mode.
+        assert_eq!(
+            day.features(&literal, Mode::Cgm),
+            day.features(&averaged, Mode::Cgm)
+        );
+        let cgm_literal = FeatureConfig {
+            cgm_excursion: Excursion::OutOfRangeMean,
+            ..averaged.clone()
+        };
+        assert_eq!(
+            day.features(&cgm_literal, Mode::Smbg),
+            day.features(&averaged, Mode::Smbg)
+        );
+    }
+
+    #[test]
     fn cgm_normalisation_knobs_change_cgm_mode_only() {
         let cfg = FeatureConfig {
+            cgm_excursion: Excursion::TimeAveraged,
             cgm_g_min_mg_dl: Some(65.0),
-            ..FeatureConfig::default()
+            ..FeatureConfig::spec()
         };
         let s = stats(&[80.0, 120.0]);
         // Time-averaged raw = 10/2 = 5 mg/dL; divided by 90 − 65 = 25.
@@ -227,12 +262,17 @@ mod tests {
         close("CGM default", 0.1, s.features(&default, Mode::Cgm).hypo);
         // cgm_g_max: 2 of 4 readings 100 above G_H -> 50 mg/dL; /(250 − 150).
         let cfg = FeatureConfig {
+            cgm_excursion: Excursion::TimeAveraged,
             cgm_g_max_mg_dl: Some(250.0),
-            ..FeatureConfig::default()
+            ..FeatureConfig::spec()
         };
         let s = stats(&[250.0, 250.0, 120.0, 120.0]);
         close("CGM F_hyper", 0.5, s.features(&cfg, Mode::Cgm).hyper);
         close("SMBG F_hyper", 0.4, s.features(&cfg, Mode::Smbg).hyper);
+        // The defaults: time-averaged in both modes (50 mg/dL), divided by
+        // 250 − 150 in SMBG mode and by 400 − 150 in CGM mode.
+        close("default SMBG", 0.5, s.features(&default, Mode::Smbg).hyper);
+        close("default CGM", 0.2, s.features(&default, Mode::Cgm).hyper);
     }
 
     #[test]

@@ -121,7 +121,7 @@ mod tests {
     use crate::config::FeatureConfig;
 
     fn window(values: &[f64]) -> (Features, WindowStats) {
-        let cfg = FeatureConfig::default();
+        let cfg = FeatureConfig::spec();
         let mut s = WindowStats::default();
         for &v in values {
             s.push(v, &cfg);

@@ -12,6 +12,8 @@ use crate::error::TrialError;
 use crate::protocol::{ArmKind, RawTrialConfig, TrialConfig};
 use crate::results::ArmResult;
 use crate::runner::{build_cohort, run_trial_on, Silent};
+use abba_advisor::config::Excursion;
+use abba_advisor::Mode;
 use abba_sim::cohort::{Cohort, Origin, Population};
 use abba_sim::scenario::ScenarioId;
 use serde::{Deserialize, Serialize};
@@ -25,9 +27,15 @@ pub enum Knob {
     Theta0Hyper,
     /// |θ0_hypo| per unit TE_n: `te.theta0_br[1] = −v`, `te.theta0_cir[1] = v`.
     Theta0Hypo,
-    /// Hyper normalisation `features.g_max_mg_dl` (F_hyper = raw/(G_max − G_H)).
+    /// The SMBG-mode reading of eq10-11 `features.smbg_excursion`:
+    /// 0 = out-of-range mean (literal), 1 = time-averaged.
+    SmbgExcursion,
+    /// Hyper normalisation in SMBG mode `features.g_max_mg_dl` (F_hyper =
+    /// raw/(G_max − G_H)); setting it pins CGM mode's G_max to its current
+    /// value, so this knob moves SMBG mode only.
     FeatureGMax,
-    /// Hypo normalisation `features.g_min_mg_dl` (F_hypo = raw/(G_L − G_min)).
+    /// Hypo normalisation in SMBG mode `features.g_min_mg_dl` (F_hypo =
+    /// raw/(G_L − G_min)); pins CGM mode's G_min like `FeatureGMax`.
     FeatureGMin,
     /// Hypo normalisation in CGM mode `features.cgm_g_min_mg_dl`.
     FeatureGMinCgm,
@@ -47,8 +55,11 @@ impl Knob {
         match self {
             Knob::Theta0Hyper => "abba.te.theta0_br[0] = -abba.te.theta0_cir[0]",
             Knob::Theta0Hypo => "abba.te.theta0_cir[1] = -abba.te.theta0_br[1]",
-            Knob::FeatureGMax => "abba.features.g_max_mg_dl",
-            Knob::FeatureGMin => "abba.features.g_min_mg_dl",
+            Knob::SmbgExcursion => {
+                "abba.features.smbg_excursion (0 = out_of_range_mean, 1 = time_averaged)"
+            }
+            Knob::FeatureGMax => "abba.features.g_max_mg_dl (SMBG mode)",
+            Knob::FeatureGMin => "abba.features.g_min_mg_dl (SMBG mode)",
             Knob::FeatureGMinCgm => "abba.features.cgm_g_min_mg_dl",
             Knob::FeatureGMaxCgm => "abba.features.cgm_g_max_mg_dl",
             Knob::ActorStep => "abba.actor.natural_beta",
@@ -70,10 +81,14 @@ impl Knob {
         match self {
             Knob::Theta0Hyper => c.abba.te.theta0_br[0],
             Knob::Theta0Hypo => c.abba.te.theta0_cir[1],
-            Knob::FeatureGMax => c.abba.features.g_max_mg_dl,
-            Knob::FeatureGMin => c.abba.features.g_min_mg_dl,
-            Knob::FeatureGMinCgm => c.abba.features.g_min_for(abba_advisor::Mode::Cgm),
-            Knob::FeatureGMaxCgm => c.abba.features.g_max_for(abba_advisor::Mode::Cgm),
+            Knob::SmbgExcursion => match c.abba.features.smbg_excursion {
+                Excursion::OutOfRangeMean => 0.0,
+                Excursion::TimeAveraged => 1.0,
+            },
+            Knob::FeatureGMax => c.abba.features.g_max_for(Mode::Smbg),
+            Knob::FeatureGMin => c.abba.features.g_min_for(Mode::Smbg),
+            Knob::FeatureGMinCgm => c.abba.features.g_min_for(Mode::Cgm),
+            Knob::FeatureGMaxCgm => c.abba.features.g_max_for(Mode::Cgm),
             Knob::ActorStep => c.abba.actor.natural_beta,
             Knob::R2rBasalGain => c.r2r.basal_gain,
             Knob::R2rCarbGain => c.r2r.cir_gain,
@@ -91,8 +106,23 @@ impl Knob {
                 c.abba.te.theta0_br[1] = -v;
                 c.abba.te.theta0_cir[1] = v;
             }
-            Knob::FeatureGMax => c.abba.features.g_max_mg_dl = v,
-            Knob::FeatureGMin => c.abba.features.g_min_mg_dl = v,
+            Knob::SmbgExcursion => {
+                c.abba.features.smbg_excursion = if v >= 0.5 {
+                    Excursion::TimeAveraged
+                } else {
+                    Excursion::OutOfRangeMean
+                }
+            }
+            Knob::FeatureGMax => {
+                let f = &mut c.abba.features;
+                f.cgm_g_max_mg_dl = Some(f.g_max_for(Mode::Cgm));
+                f.g_max_mg_dl = v;
+            }
+            Knob::FeatureGMin => {
+                let f = &mut c.abba.features;
+                f.cgm_g_min_mg_dl = Some(f.g_min_for(Mode::Cgm));
+                f.g_min_mg_dl = v;
+            }
             Knob::FeatureGMinCgm => c.abba.features.cgm_g_min_mg_dl = Some(v),
             Knob::FeatureGMaxCgm => c.abba.features.cgm_g_max_mg_dl = Some(v),
             Knob::ActorStep => c.abba.actor.natural_beta = v,
@@ -200,7 +230,8 @@ impl Default for CalibrationConfig {
             grids: vec![
                 grid(Knob::Theta0Hyper, &[0.1, 0.15, 0.2, 0.25, 0.3, 0.4]),
                 grid(Knob::Theta0Hypo, &[0.1, 0.15, 0.2, 0.25, 0.3]),
-                grid(Knob::FeatureGMax, &[300.0, 400.0, 550.0]),
+                grid(Knob::SmbgExcursion, &[0.0, 1.0]),
+                grid(Knob::FeatureGMax, &[200.0, 250.0, 300.0, 400.0, 550.0]),
                 grid(Knob::FeatureGMin, &[30.0, 40.0, 50.0]),
                 grid(Knob::FeatureGMaxCgm, &[250.0, 300.0, 400.0, 550.0, 800.0]),
                 grid(Knob::FeatureGMinCgm, &[40.0, 50.0, 60.0, 65.0, 70.0, 75.0]),
@@ -617,6 +648,33 @@ mod tests {
     #[test]
     fn knobs_set_what_they_claim() {
         let mut c = RawTrialConfig::default();
+        // The SMBG normalisation knobs move SMBG mode only: CGM mode keeps
+        // the value it had (the shared default) when they are set.
+        let cgm = (
+            c.abba.features.g_max_for(Mode::Cgm),
+            c.abba.features.g_min_for(Mode::Cgm),
+        );
+        Knob::FeatureGMax.set(&mut c, 250.0);
+        Knob::FeatureGMin.set(&mut c, 50.0);
+        assert_eq!(
+            (
+                c.abba.features.g_max_for(Mode::Smbg),
+                c.abba.features.g_min_for(Mode::Smbg)
+            ),
+            (250.0, 50.0)
+        );
+        assert_eq!(
+            (
+                c.abba.features.g_max_for(Mode::Cgm),
+                c.abba.features.g_min_for(Mode::Cgm)
+            ),
+            cgm
+        );
+        for v in [0.0, 1.0] {
+            Knob::SmbgExcursion.set(&mut c, v);
+            assert_eq!(Knob::SmbgExcursion.get(&c), v);
+        }
+        assert_eq!(c.abba.features.smbg_excursion, Excursion::TimeAveraged);
         for (k, v) in [
             (Knob::Theta0Hyper, 0.3),
             (Knob::Theta0Hypo, 0.15),

@@ -5,6 +5,7 @@ use std::process::ExitCode;
 
 mod advise;
 mod answer;
+mod app;
 mod calibrate;
 mod cohort;
 mod errors;
@@ -65,6 +66,8 @@ enum Command {
     Serve(serve::ServeArgs),
     /// Print a new bearer token for the service once: --admin or --person NAME.
     Token(serve::TokenArgs),
+    /// A simulated trial patient through a running `abba serve`, as a pump app would talk to it.
+    App(app::Args),
 }
 
 /// The parsed command line. Every subcommand takes negative numbers as
@@ -99,6 +102,7 @@ fn main() -> ExitCode {
         Command::Calibrate(a) => calibrate::run(a),
         Command::Serve(a) => serve::serve(a),
         Command::Token(a) => serve::token(a),
+        Command::App(a) => app::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -17,7 +17,7 @@ use abba_core::{
 use abba_store::advise::{self, Advice, Phase, SuggestionView};
 use abba_store::app::NewAppEvent;
 
-use abba_store::{Live, NewPerson};
+use abba_store::{Live, NewPerson, StoreError};
 use sha2::{Digest, Sha256};
 use std::collections::{BTreeMap, HashSet};
 
@@ -185,19 +185,23 @@ fn suggestion(live: &Live, d: &Decision, v: &SuggestionView, seq: Option<u64>) -
     }
 }
 
+/// Finds the app event (its seq) that made a decision; a store error is
+/// passed on, never taken for "no producer".
+pub type SeqOf<'a> = dyn FnMut(&Decision) -> Result<Option<u64>, StoreError> + 'a;
+
 /// The person's decisions for which `keep` holds, as suggestions, oldest
 /// first; `seq_of` finds the app event that made each.
 pub fn suggestions(
     live: &Live,
     keep: impl Fn(&Decision) -> bool,
-    mut seq_of: impl FnMut(&Decision) -> Option<u64>,
-) -> Vec<Suggestion> {
+    seq_of: &mut SeqOf<'_>,
+) -> Result<Vec<Suggestion>, StoreError> {
     let views = advise::views(&live.person, &live.decisions, &live.answers);
     live.decisions
         .iter()
         .zip(&views)
         .filter(|(d, _)| keep(d))
-        .map(|(d, v)| suggestion(live, d, v, seq_of(d)))
+        .map(|(d, v)| Ok(suggestion(live, d, v, seq_of(d)?)))
         .collect()
 }
 
@@ -205,22 +209,25 @@ pub fn suggestions(
 pub fn advice(
     live: &Live,
     a: Advice,
-    mut seq_of: impl FnMut(&Decision) -> Option<u64>,
-) -> AdviceResponse {
+    seq_of: &mut SeqOf<'_>,
+) -> Result<AdviceResponse, StoreError> {
     let views = advise::views(&live.person, &live.decisions, &live.answers);
     let settings = a
         .settings
         .iter()
         .map(|s| {
             // The latest decision of the setting (what `latest` shows).
-            let latest = live
+            let latest = match live
                 .decisions
                 .iter()
                 .zip(&views)
                 .rev()
                 .find(|(d, _)| advise_key(d) == s.setting)
-                .map(|(d, v)| suggestion(live, d, v, seq_of(d)));
-            SettingAdvice {
+            {
+                Some((d, v)) => Some(suggestion(live, d, v, seq_of(d)?)),
+                None => None,
+            };
+            Ok(SettingAdvice {
                 setting: Setting::ALL
                     .into_iter()
                     .find(|x| setting_key(*x) == s.setting)
@@ -229,9 +236,9 @@ pub fn advice(
                 in_force: s.in_force,
                 use_today: s.use_today,
                 latest,
-            }
+            })
         })
-        .collect();
+        .collect::<Result<Vec<_>, StoreError>>()?;
     let phase = match a.phase {
         Phase::NoData => PhaseView::NoData,
         Phase::FirstWeek {
@@ -245,7 +252,7 @@ pub fn advice(
         },
         Phase::Adapting => PhaseView::Adapting,
     };
-    AdviceResponse {
+    Ok(AdviceResponse {
         notice: a.notice.to_string(),
         person_id: live.person.id as u64,
         person: a.person,
@@ -267,7 +274,7 @@ pub fn advice(
             not_used_examples: a.data.not_used_examples,
             events_refused: a.data.events_refused as u64,
         },
-    }
+    })
 }
 
 fn advise_key(d: &Decision) -> &'static str {

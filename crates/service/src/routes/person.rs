@@ -65,11 +65,9 @@ pub async fn post_events(
             let answers = if seqs.is_empty() {
                 Vec::new()
             } else {
-                convert::suggestions(
-                    live,
-                    |d| seqs.contains_key(&key(d)),
-                    |d| seqs.get(&key(d)).copied().flatten(),
-                )
+                convert::suggestions(live, |d| seqs.contains_key(&key(d)), &mut |d| {
+                    Ok(seqs.get(&key(d)).copied().flatten())
+                })?
             };
             Ok(EventsAck {
                 acked,
@@ -143,11 +141,10 @@ pub async fn post_answers(
                 })
                 .collect();
             let keys: Vec<_> = changed.iter().map(|d| (d.at, d.parameter)).collect();
-            let changed = convert::suggestions(
-                live,
-                |d| keys.contains(&(d.at, d.parameter)),
-                |d| store.producer(id, d).ok().flatten(),
-            );
+            let changed =
+                convert::suggestions(live, |d| keys.contains(&(d.at, d.parameter)), &mut |d| {
+                    store.producer(id, d)
+                })?;
             Ok(AnswersAck { answered, changed })
         })?)
     })
@@ -217,8 +214,8 @@ pub async fn suggestions(
             let list = convert::suggestions(
                 live,
                 |d| after.is_none_or(|a| convert::suggestion_id(d) > a),
-                |d| store.producer(id, d).ok().flatten(),
-            );
+                &mut |d| store.producer(id, d),
+            )?;
             Ok(SuggestionList {
                 notice: abba_api::NOTICE.into(),
                 suggestions: list,
@@ -254,9 +251,7 @@ pub async fn advice(
                 &live.answers,
                 live.refused,
             );
-            Ok(convert::advice(live, a, |d| {
-                store.producer(id, d).ok().flatten()
-            }))
+            convert::advice(live, a, &mut |d| store.producer(id, d))
         })?)
     })
     .await
@@ -282,11 +277,7 @@ pub async fn history(
             Ok(HistoryResponse {
                 notice: abba_api::NOTICE.into(),
                 person_id: id as u64,
-                suggestions: convert::suggestions(
-                    live,
-                    |_| true,
-                    |d| store.producer(id, d).ok().flatten(),
-                ),
+                suggestions: convert::suggestions(live, |_| true, &mut |d| store.producer(id, d))?,
             })
         })?)
     })

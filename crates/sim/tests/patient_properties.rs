@@ -189,3 +189,37 @@ fn gut_tape_sharing_is_bit_identical_to_stepping_alone() {
         assert!(tape.replays() >= 2 * 1440, "{}: {}", p.name, tape.replays());
     }
 }
+
+/// Two runs whose stomachs are equal (both empty before the first meal) but
+/// whose Qgut is not: the tape replays the gut's whole minute (Qgut at each
+/// stage and at the end), so its key must hold Qgut too, or the second run
+/// would take the first's. Each run stays bit-identical to stepping alone.
+#[test]
+fn gut_tape_tells_runs_with_different_qgut_apart() {
+    use abba_sim::patient::GutTape;
+    let p = PatientParams::public("adult#001").unwrap();
+    let mut other = p.clone();
+    other.x0[2] = 5000.0;
+    let day = InputDay::standard(&p, 10.0);
+    let mut alone = [
+        Patient::new(p.clone()).unwrap(),
+        Patient::new(other).unwrap(),
+    ];
+    let mut shared = alone.clone();
+    let mut tape = GutTape::new();
+    for (m, r) in day.minutes.iter().enumerate() {
+        for k in 0..2 {
+            alone[k]
+                .step_split(r.cho_g_per_min, r.insulin_u_per_min, 1.0, 1.0)
+                .unwrap();
+            shared[k]
+                .step_split_shared(r.cho_g_per_min, r.insulin_u_per_min, 1.0, 1.0, &mut tape)
+                .unwrap();
+            assert_eq!(
+                alone[k].state_array().map(f64::to_bits),
+                shared[k].state_array().map(f64::to_bits),
+                "run {k} minute {m}"
+            );
+        }
+    }
+}

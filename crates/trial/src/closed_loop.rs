@@ -116,16 +116,57 @@ pub fn run_patient_group(
     patient_no: u64,
     runs: &[(&PlannedScenario, ArmKind)],
 ) -> Result<Vec<PatientResult>, TrialError> {
-    let days: Vec<u32> = runs.iter().map(|(s, _)| s.config.days).collect();
-    let mut runs = runs
+    // A run whose result cannot differ from an earlier run's (its twin,
+    // see `same_outcome`) is not simulated: it takes that run's result.
+    let twin: Vec<Option<usize>> = (0..runs.len())
+        .map(|i| (0..i).find(|&j| same_outcome(runs[j], runs[i])))
+        .collect();
+    let simulated: Vec<usize> = (0..runs.len()).filter(|&i| twin[i].is_none()).collect();
+    let days: Vec<u32> = simulated.iter().map(|&i| runs[i].0.config.days).collect();
+    let mut started = simulated
         .iter()
-        .map(|&(scenario, arm)| start(config, vp, patient_no, scenario, arm))
+        .map(|&i| start(config, vp, patient_no, runs[i].0, runs[i].1))
         .collect::<Result<Vec<_>, _>>()?;
-    let loops = simulate_lockstep(&mut runs, &days, config.failure_glucose_mg_dl)?;
-    runs.iter()
-        .zip(&loops)
-        .map(|((person, advisor, context), run)| result(vp, person, advisor, run, context))
+    let loops = simulate_lockstep(&mut started, &days, config.failure_glucose_mg_dl)?;
+    let mut results: Vec<Option<PatientResult>> = vec![None; runs.len()];
+    for ((&i, (person, advisor, context)), run) in simulated.iter().zip(&started).zip(&loops) {
+        results[i] = Some(result(vp, person, advisor, run, context)?);
+    }
+    for i in 0..runs.len() {
+        if let Some(j) = twin[i] {
+            results[i] = results[j].clone();
+        }
+    }
+    results
+        .into_iter()
+        .map(|r| r.ok_or_else(|| TrialError::Config("a run of the group has no result".into())))
         .collect()
+}
+
+/// Whether runs `a` and `b` of one patient must give the same result, so
+/// that one of them need not be simulated: both in the standard-therapy
+/// arm (fixed settings: its advisor answers nothing, whatever it is shown)
+/// in scenarios that differ at most in the person's devices (the SMBG
+/// schedule and the CGM's wearing days), with no hypoglycaemia treatment
+/// (which would make the person eat on a reading). Then the person eats,
+/// boluses and lives the same days minute by minute: the meal and
+/// sensitivity plans come from their own random streams, which the device
+/// settings do not touch (`ScenarioGenerator`), and the devices only
+/// produce readings, which nothing in the run acts on. The paper's S1, S2
+/// and S3 are such scenarios. Test: `arms_in_lockstep_match_one_by_one`.
+pub fn same_outcome(a: (&PlannedScenario, ArmKind), b: (&PlannedScenario, ArmKind)) -> bool {
+    let physiology = |s: &PlannedScenario| {
+        let mut c = s.config.clone();
+        c.name.clear();
+        c.smbg = None;
+        c.cgm = abba_sim::scenario::CgmWear { until_day: None };
+        c
+    };
+    a.1 == ArmKind::Standard
+        && b.1 == ArmKind::Standard
+        && a.0.config.hypo_treatment.is_none()
+        && b.0.config.hypo_treatment.is_none()
+        && physiology(a.0) == physiology(b.0)
 }
 
 /// The person and advisor of one run, and the run's name for messages.

@@ -4,7 +4,7 @@
 //! insulin sensitivity, carb-counting error, both sensitivity sources), and
 //! with s(t) scaling Vmx only instead of Vmx and kp3.
 
-use crate::closed_loop::run_patient;
+use crate::closed_loop::run_patient_group;
 use crate::error::TrialError;
 use crate::protocol::{ArmKind, PlannedScenario, TrialConfig};
 use crate::runner::build_cohort;
@@ -65,27 +65,35 @@ pub fn w1_sensitivity(
     scenario: ScenarioId,
 ) -> Result<Vec<W1Row>, TrialError> {
     let cohort = build_cohort(config)?;
-    let mut rows = Vec::new();
+    let mut planned = Vec::new();
     for (label, change) in variants() {
         let mut s = config.scenario(scenario);
         change(&mut s);
         s.days = 2 + config.init_days;
         s.validate()
             .map_err(|e| TrialError::Config(format!("W1 block, {label}: {e}")))?;
-        let planned = PlannedScenario {
+        planned.push(PlannedScenario {
             id: scenario,
             mode: TrialConfig::mode_for(&s),
             config: s,
-        };
-        let results: Vec<_> = cohort
-            .patients
-            .par_iter()
-            .enumerate()
-            .map(|(i, vp)| run_patient(config, vp, i as u64 + 1, &planned, ArmKind::Standard))
-            .collect::<Result<_, _>>()?;
-        let w1: Vec<_> = results
+        });
+    }
+    // Each patient's variants run together in lock-step: they eat the same
+    // (the variants change insulin sensitivity and carb counting, not the
+    // meals), so they share the patient model's gut work
+    // (`run_patient_group`; the results are those of one run at a time).
+    let runs: Vec<_> = planned.iter().map(|p| (p, ArmKind::Standard)).collect();
+    let per_patient: Vec<Vec<_>> = cohort
+        .patients
+        .par_iter()
+        .enumerate()
+        .map(|(i, vp)| run_patient_group(config, vp, i as u64 + 1, &runs))
+        .collect::<Result<_, _>>()?;
+    let mut rows = Vec::new();
+    for (v, (label, _)) in variants().into_iter().enumerate() {
+        let w1: Vec<_> = per_patient
             .iter()
-            .filter_map(|r| r.week(crate::results::Week::W1))
+            .filter_map(|r| r[v].week(crate::results::Week::W1))
             .map(|w| w.metrics)
             .collect();
         let n = w1.len();

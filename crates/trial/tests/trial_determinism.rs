@@ -149,3 +149,60 @@ fn arms_in_lockstep_match_one_by_one() {
         }
     }
 }
+
+/// The standard arm's runs in S1, S2 and S3 (which differ only in the
+/// person's devices) are twins: a group simulates one and copies its
+/// result to the others. Each copy equals the run simulated on its own,
+/// and the twin rule refuses what would break it: another arm, a
+/// hypoglycaemia treatment (the person then eats on a reading), a
+/// different meal plan (S4's skipped meals) or a different sensitivity.
+#[test]
+fn standard_arm_twins_equal_their_own_runs() {
+    use abba_sim::scenario::HypoTreatment;
+    use abba_trial::closed_loop::{run_patient, run_patient_group, same_outcome};
+    use abba_trial::protocol::PlannedScenario;
+    use abba_trial::runner::build_cohort;
+    use abba_trial::ArmKind;
+    let config = TrialConfig::try_from(RawTrialConfig {
+        patients: 2,
+        days: 14,
+        ..RawTrialConfig::default()
+    })
+    .unwrap();
+    let cohort = build_cohort(&config).unwrap();
+    let planned = |id| config.planned_scenario(id).unwrap().clone();
+    let (s1, s2, s3, s4) = (
+        planned(ScenarioId::S1),
+        planned(ScenarioId::S2),
+        planned(ScenarioId::S3),
+        planned(ScenarioId::S4),
+    );
+    let mut rescue = s2.clone();
+    rescue.config.hypo_treatment = Some(HypoTreatment::default());
+    let mut sensitive = s2.clone();
+    sensitive.config.sensitivity.dawn_factor = 1.0;
+    let std = ArmKind::Standard;
+    assert!(same_outcome((&s1, std), (&s2, std)));
+    assert!(same_outcome((&s1, std), (&s3, std)));
+    assert!(!same_outcome((&s1, std), (&s4, std)));
+    assert!(!same_outcome((&s1, ArmKind::Abba), (&s2, ArmKind::Abba)));
+    assert!(!same_outcome((&s1, ArmKind::R2r), (&s2, ArmKind::R2r)));
+    assert!(!same_outcome((&s1, std), (&rescue, std)));
+    assert!(!same_outcome((&s1, std), (&sensitive, std)));
+    let scenarios: Vec<PlannedScenario> = vec![s1, s2, s3, s4, rescue, sensitive];
+    for (i, vp) in cohort.patients.iter().enumerate() {
+        let no = i as u64 + 1;
+        let runs: Vec<_> = scenarios.iter().map(|s| (s, std)).collect();
+        let together = run_patient_group(&config, vp, no, &runs).unwrap();
+        for ((planned, arm), t) in runs.iter().zip(&together) {
+            let alone = run_patient(&config, vp, no, planned, *arm).unwrap();
+            assert_eq!(
+                serde_json::to_string(t).unwrap(),
+                serde_json::to_string(&alone).unwrap(),
+                "{} {:?}: the group's result and the run's own differ",
+                vp.params.name,
+                planned.id
+            );
+        }
+    }
+}

@@ -406,12 +406,43 @@ pub fn derivatives_given_kempt<T: Real>(
     kempt: T,
 ) -> [T; 13] {
     use ix::*;
+    let [d_q_sto1, d_q_sto2, d_q_gut] = gut_derivatives(c, u, x, kempt);
+    let body = body_derivatives(c, u, x, x[Q_GUT]);
+    [
+        d_q_sto1, d_q_sto2, d_q_gut, body[0], body[1], body[2], body[3], body[4], body[5], body[6],
+        body[7], body[8], body[9],
+    ]
+}
 
-    // Gastrointestinal tract (DM07 eqs. 4-8). Grinding kgri = kmax.
+/// The gastrointestinal tract (DM07 eqs. 4-8; grinding kgri = kmax):
+/// d(Qsto1, Qsto2, Qgut)/dt. It reads no other state: the gut is a closed
+/// subsystem.
+#[inline(always)]
+pub fn gut_derivatives<T: Real>(
+    c: &ModelConsts<T>,
+    u: &MinuteInput<T>,
+    x: &[T; 13],
+    kempt: T,
+) -> [T; 3] {
+    use ix::*;
     let d_q_sto1 = -c.kmax * x[Q_STO1] + u.meal_mg_per_min;
     let d_q_sto2 = c.kmax * x[Q_STO1] - kempt * x[Q_STO2];
     let d_q_gut = kempt * x[Q_STO2] - c.kabs * x[Q_GUT];
-    let ra = c.ra_per_q_gut * x[Q_GUT]; // rate of appearance f·kabs·Qgut/BW (mg/kg/min)
+    [d_q_sto1, d_q_sto2, d_q_gut]
+}
+
+/// The rest of the body, driven by the gut through Qgut = `q_gut`: the
+/// derivatives of the states after the gut (Gp, Gt, Ip, X, I1, Id, Il,
+/// Isc1, Isc2, Gs: `x[3..13]`). It reads no gut state but `q_gut`.
+#[inline(always)]
+pub fn body_derivatives<T: Real>(
+    c: &ModelConsts<T>,
+    u: &MinuteInput<T>,
+    x: &[T; 13],
+    q_gut: T,
+) -> [T; 10] {
+    use ix::*;
+    let ra = c.ra_per_q_gut * q_gut; // rate of appearance f·kabs·Qgut/BW (mg/kg/min)
 
     // Glucose subsystem (DM07 eqs. 1, 10-15 without the portal term).
     // s(t) scales the insulin actions on EGP (kp3) and utilisation (Vmx).
@@ -437,9 +468,6 @@ pub fn derivatives_given_kempt<T: Real>(
 
     // Sign guards: a negative mass may not keep falling (simglucose).
     [
-        d_q_sto1,
-        d_q_sto2,
-        d_q_gut,
         d_gp.unless_negative(x[GP]),
         d_gt.unless_negative(x[GT]),
         d_ip.unless_negative(x[IP]),

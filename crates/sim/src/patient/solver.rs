@@ -7,7 +7,7 @@
 //! agreement with simglucose's adaptive Dormand-Prince solver.
 
 use super::lanes::Real;
-use super::model::{derivatives_given_kempt, kempt_at, MinuteInput, ModelConsts};
+use super::model::{body_derivatives, derivatives_given_kempt, kempt_at, MinuteInput, ModelConsts};
 use serde::{Deserialize, Serialize};
 
 /// How one minute is integrated.
@@ -79,15 +79,18 @@ impl Solver {
 /// The gut's part of one integrated minute, to be shared by runs whose gut
 /// is in the same state.
 ///
-/// The stomach (Qsto1, Qsto2) is a closed subsystem: its derivatives, the
+/// The gut (Qsto1, Qsto2, Qgut) is a closed subsystem: its derivatives, the
 /// gastric emptying rate kempt at each RK4 stage and the busy-gut sub-step
-/// count depend only on Qsto1, Qsto2, the minute's meal input and Dbar, the
-/// patient's gut parameters and the solver. Runs of one patient that eat
-/// the same (the trial's three arms of a scenario, until a rescue snack
-/// tells them apart) therefore compute the same kempt values, bit for bit;
-/// kempt (two exp and two divisions per evaluation) is most of the cost of
-/// a step. [`Solver::advance_minute_shared`] records them for the first run
-/// of a minute and replays them for the others when the key matches.
+/// count depend only on the gut's three states, the minute's meal input and
+/// Dbar, the patient's gut parameters and the solver. Runs of one patient
+/// that eat the same (the trial's arms and scenarios, until a rescue snack
+/// or a skipped meal tells them apart) therefore compute the same gut
+/// minute, bit for bit; kempt (two exp and two divisions per evaluation) is
+/// most of the cost of a step. [`Solver::advance_minute_shared`] records
+/// the first run's minute (kempt and Qgut at every stage, the gut's state
+/// at the end) and replays it for the others when the key matches: they
+/// integrate only the states after the gut, reading Qgut from the tape
+/// (`model::body_derivatives`), with the same operations as the full step.
 #[derive(Debug, Clone, Default)]
 pub struct GutTape {
     key: Option<GutKey>,
@@ -95,15 +98,20 @@ pub struct GutTape {
     substeps: u32,
     /// kempt at every RK4 stage of the recorded minute, in order.
     kempt: Vec<f64>,
+    /// Qgut at every RK4 stage of the recorded minute, in order.
+    q_gut: Vec<f64>,
+    /// Qsto1, Qsto2 and Qgut at the end of the recorded minute.
+    end: [f64; 3],
     /// Minutes replayed (for benchmarks and tests).
     replays: u64,
 }
 
-/// Everything kempt and the sub-step count depend on, as bits (the slopes
-/// α and β of kempt are functions of Dbar, b and d).
+/// Everything the gut's minute depends on, as bits (the slopes α and β of
+/// kempt are functions of Dbar, b and d; Qgut and kabs enter Qgut's own
+/// equation). Test: `gut_tape_tells_runs_with_different_qgut_apart`.
 #[derive(Debug, Clone, Copy)]
 struct GutKey {
-    bits: [u64; 8],
+    bits: [u64; 10],
     solver: Solver,
 }
 
@@ -114,12 +122,14 @@ impl GutKey {
             bits: [
                 x[0],
                 x[1],
+                x[2],
                 u.meal_mg_per_min,
                 u.dbar_mg,
                 c.kmax,
                 c.kmin,
                 c.b,
                 c.d,
+                c.kabs,
             ]
             .map(f64::to_bits),
             solver,
@@ -131,7 +141,7 @@ impl GutKey {
     #[inline]
     fn matches(&self, other: &GutKey) -> bool {
         let mut diff = 0;
-        for i in 0..8 {
+        for i in 0..10 {
             diff |= self.bits[i] ^ other.bits[i];
         }
         diff == 0 && self.solver == other.solver
@@ -162,31 +172,34 @@ impl Solver {
     ) {
         let key = GutKey::of(*self, c, u, x);
         if tape.key.is_some_and(|k| k.matches(&key)) {
+            // The gut's minute is the recorded one, bit for bit: only the
+            // rest of the body is integrated, reading Qgut at each stage
+            // from the tape.
             let n = tape.substeps;
             let h = 1.0 / n as f64;
-            let mut stage = 0;
-            let kempt = &tape.kempt;
-            for _ in 0..n {
-                rk4_step_with(c, u, x, h, |_| {
-                    let k = kempt[stage];
-                    stage += 1;
-                    k
-                });
+            for q in tape.q_gut.chunks_exact(4).take(n as usize) {
+                rk4_body_step(c, u, x, h, [q[0], q[1], q[2], q[3]]);
             }
+            x[0] = tape.end[0];
+            x[1] = tape.end[1];
+            x[2] = tape.end[2];
             tape.replays += 1;
             return;
         }
         let n = self.substeps_for(c, u, x);
         let h = 1.0 / n as f64;
         tape.kempt.clear();
+        tape.q_gut.clear();
         for _ in 0..n {
             rk4_step_with(c, u, x, h, |y| {
                 let k = kempt_at(c, u, y);
                 tape.kempt.push(k);
+                tape.q_gut.push(y[2]);
                 k
             });
         }
         tape.substeps = n;
+        tape.end = [x[0], x[1], x[2]];
         tape.key = Some(key);
     }
 }
@@ -253,5 +266,29 @@ fn rk4_step_with<T: Real>(
     let k4 = derivatives_given_kempt(c, u, &y, kempt(&y));
     for i in 0..13 {
         x[i] = x[i] + (k1[i] + k2[i] * 2.0 + k3[i] * 2.0 + k4[i]) * (h / 6.0);
+    }
+}
+
+/// The part of [`rk4_step`] after the gut (states 3..13), with Qgut at
+/// each of the four stages given: the same operations on those states as
+/// the full step, so the same bits.
+#[inline(always)]
+fn rk4_body_step(c: &ModelConsts, u: &MinuteInput, x: &mut [f64; 13], h: f64, q_gut: [f64; 4]) {
+    let k1 = body_derivatives(c, u, x, q_gut[0]);
+    let mut y = *x;
+    for i in 0..10 {
+        y[i + 3] = x[i + 3] + k1[i] * (0.5 * h);
+    }
+    let k2 = body_derivatives(c, u, &y, q_gut[1]);
+    for i in 0..10 {
+        y[i + 3] = x[i + 3] + k2[i] * (0.5 * h);
+    }
+    let k3 = body_derivatives(c, u, &y, q_gut[2]);
+    for i in 0..10 {
+        y[i + 3] = x[i + 3] + k3[i] * h;
+    }
+    let k4 = body_derivatives(c, u, &y, q_gut[3]);
+    for i in 0..10 {
+        x[i + 3] = x[i + 3] + (k1[i] + k2[i] * 2.0 + k3[i] * 2.0 + k4[i]) * (h / 6.0);
     }
 }

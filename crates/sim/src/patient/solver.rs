@@ -289,6 +289,6 @@ fn rk4_body_step(c: &ModelConsts, u: &MinuteInput, x: &mut [f64; 13], h: f64, q_
     }
     let k4 = body_derivatives(c, u, &y, q_gut[3]);
     for i in 0..10 {
-        x[i + 3] = x[i + 3] + (k1[i] + k2[i] * 2.0 + k3[i] * 2.0 + k4[i]) * (h / 6.0);
+        x[i + 3] += (k1[i] + k2[i] * 2.0 + k3[i] * 2.0 + k4[i]) * (h / 6.0);
     }
 }

@@ -165,6 +165,36 @@ fn kovatchev_f(g_mg_dl: f64) -> f64 {
     1.509 * (g_mg_dl.ln().powf(1.084) - 5.381)
 }
 
+/// Percent of readings below 54, below 70, in 70-180, above 180 and above
+/// 250 mg/dL, as [`GlucoseMetrics`] computes them (`below_54`, `below_70`,
+/// `tir_70_180`, `above_180`, `above_250`, the same bits), without the
+/// risk indices, SD and MAGE: for pooled profiles of many readings where
+/// only the ranges are drawn. Errors: no reading, or one not finite and > 0.
+pub fn range_percentages(glucose_mg_dl: &[f64]) -> Result<[f64; 5], CoreError> {
+    if glucose_mg_dl.is_empty() {
+        return Err(CoreError::Metric {
+            metric: "time in ranges",
+            reason: "no readings".into(),
+        });
+    }
+    validate_glucose(glucose_mg_dl)?;
+    let mut count = [0usize; 5];
+    for &g in glucose_mg_dl {
+        let bands = [
+            g < 54.0,
+            g < 70.0,
+            (70.0..=180.0).contains(&g),
+            g > 180.0,
+            g > 250.0,
+        ];
+        for (c, hit) in count.iter_mut().zip(bands) {
+            *c += usize::from(hit);
+        }
+    }
+    let nf = glucose_mg_dl.len() as f64;
+    Ok(count.map(|c| 100.0 * c as f64 / nf))
+}
+
 /// Everything but MAGE (left `None`), in one pass for the sums and one for the SD.
 fn basic_metrics(glucose_mg_dl: &[f64]) -> Result<GlucoseMetrics, CoreError> {
     let n = glucose_mg_dl.len();
@@ -231,6 +261,20 @@ fn basic_metrics(glucose_mg_dl: &[f64]) -> Result<GlucoseMetrics, CoreError> {
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn range_percentages_are_the_metrics_own() {
+        let g: Vec<f64> = (0..2000)
+            .map(|i| 40.0 + (i as f64 * 7.31) % 320.0)
+            .chain([54.0, 70.0, 180.0, 250.0])
+            .collect();
+        let m = basic_metrics(&g).unwrap();
+        let r = range_percentages(&g).unwrap();
+        let expected = [m.below_54, m.below_70, m.tir_70_180, m.above_180, m.above_250];
+        assert_eq!(r.map(f64::to_bits), expected.map(f64::to_bits));
+        assert!(range_percentages(&[]).is_err());
+        assert!(range_percentages(&[100.0, f64::NAN]).is_err());
+    }
 
     #[test]
     fn bands_follow_iglu_boundaries() {

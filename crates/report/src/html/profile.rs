@@ -41,7 +41,8 @@ pub fn time_of_day_profile(
     bins.into_iter()
         .enumerate()
         .map(|(i, mut values)| {
-            values.sort_by(f64::total_cmp);
+            // Unstable is enough: under total_cmp only equal bits tie.
+            values.sort_unstable_by(f64::total_cmp);
             let p = (!values.is_empty()).then(|| PERCENTILES.map(|q| quantile_sorted(&values, q)));
             ProfileBin {
                 start_min: i as u32 * bin_min,

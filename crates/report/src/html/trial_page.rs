@@ -4,7 +4,7 @@
 //! an AGP-style page per arm: the cohort's pooled glucose percentiles by
 //! time of day at W1, W13 and W14.
 
-use abba_core::metrics::metrics_regular;
+use abba_core::metrics::range_percentages;
 use abba_core::Metric;
 use serde::Serialize;
 use serde_json::Value;
@@ -65,21 +65,23 @@ pub fn cohort_profile(
         })
         .collect();
     let values: Vec<f64> = pooled.iter().map(|p| p.1).collect();
-    let m = metrics_regular(&values).map_err(|source| ReportError::Stats {
-        what: format!("arm {}, week {week}: pooled glucose", arm.key()),
-        source,
-    })?;
+    // Only the ranges are drawn: no risk indices or MAGE over the pool.
+    let [below_54, below_70, tir, above_180, above_250] =
+        range_percentages(&values).map_err(|source| ReportError::Stats {
+            what: format!("arm {}, week {week}: pooled glucose", arm.key()),
+            source,
+        })?;
     Ok(Some(CohortWeekProfile {
         week,
         n_patients: series.len(),
         n_samples: values.len(),
         profile: time_of_day_profile(pooled, COHORT_BIN_MIN),
         ranges_pct: [
-            m.below_54,
-            m.below_70 - m.below_54,
-            m.tir_70_180,
-            m.above_180 - m.above_250,
-            m.above_250,
+            below_54,
+            below_70 - below_54,
+            tir,
+            above_180 - above_250,
+            above_250,
         ],
     }))
 }

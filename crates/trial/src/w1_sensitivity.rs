@@ -7,7 +7,7 @@
 use crate::closed_loop::run_patient_group;
 use crate::error::TrialError;
 use crate::protocol::{ArmKind, PlannedScenario, TrialConfig};
-use crate::runner::build_cohort;
+use abba_sim::cohort::Cohort;
 use abba_sim::scenario::{ScenarioConfig, ScenarioId, SensitivityTarget};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -59,12 +59,12 @@ pub fn variants() -> Vec<(&'static str, Change)> {
 }
 
 /// Runs the standard arm's W1 of `scenario` for every variant on the
-/// trial's cohort (only the first 9 days are simulated).
+/// trial's `cohort` (only the first 9 days are simulated).
 pub fn w1_sensitivity(
     config: &TrialConfig,
+    cohort: &Cohort,
     scenario: ScenarioId,
 ) -> Result<Vec<W1Row>, TrialError> {
-    let cohort = build_cohort(config)?;
     let mut planned = Vec::new();
     for (label, change) in variants() {
         let mut s = config.scenario(scenario);
@@ -140,7 +140,7 @@ pub fn w1_block(
     let Some(&first) = output.config.scenarios.first() else {
         return Ok(None);
     };
-    let rows = w1_sensitivity(&output.config, first)?;
+    let rows = w1_sensitivity(&output.config, &output.cohort, first)?;
     Ok(Some(abba_report::W1Block {
         markdown: w1_markdown(first, &rows),
         section: w1_html_section(first, &rows),
@@ -198,7 +198,8 @@ mod tests {
             ..Default::default()
         })
         .unwrap();
-        let rows = w1_sensitivity(&config, ScenarioId::S1).unwrap();
+        let cohort = crate::runner::build_cohort(&config).unwrap();
+        let rows = w1_sensitivity(&config, &cohort, ScenarioId::S1).unwrap();
         assert_eq!(rows.len(), variants().len());
         assert!(rows.iter().all(|r| r.n == 3));
         // Each change alters the simulated week of the same patients.

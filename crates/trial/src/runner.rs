@@ -60,7 +60,12 @@ pub fn run_trial(
     threads: usize,
     progress: &dyn Progress,
 ) -> Result<TrialOutput, TrialError> {
-    let cohort = build_cohort(config)?;
+    // The cohort is drawn in parallel on as many threads as the trial runs.
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| TrialError::Config(format!("cannot start {threads} threads: {e}")))?;
+    let cohort = pool.install(|| build_cohort(config))?;
     run_trial_on(config, cohort, threads, progress)
 }
 

@@ -41,6 +41,7 @@ use abba_core::{derive_seed, GramsPerUnit, Stream, TherapySettings, UnitsPerHour
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -500,10 +501,28 @@ impl Cohort {
             });
             progress(patients.len(), total);
         }
+        // Each generated patient has its own random stream (its number), so
+        // they are drawn in parallel, a chunk at a time (progress after
+        // each chunk), and gathered in order: the same cohort, and the
+        // same first error, as one at a time.
         let mut rejections = Rejections::default();
-        for n in (public.len() as u32 + 1)..=config.size {
-            let vp = generate_patient(config, &public, n, &mut rejections)?;
-            patients.push(vp);
+        let numbers: Vec<u32> = ((public.len() as u32 + 1)..=config.size).collect();
+        for chunk in numbers.chunks(GENERATION_CHUNK) {
+            let drawn: Vec<Result<(VirtualPatient, Rejections), SimError>> = chunk
+                .par_iter()
+                .map(|&n| {
+                    let mut r = Rejections::default();
+                    generate_patient(config, &public, n, &mut r).map(|vp| (vp, r))
+                })
+                .collect();
+            for d in drawn {
+                let (vp, r) = d?;
+                rejections.total += r.total;
+                for (reason, count) in r.by_reason {
+                    *rejections.by_reason.entry(reason).or_insert(0) += count;
+                }
+                patients.push(vp);
+            }
             progress(patients.len(), total);
         }
         Ok(Cohort {
@@ -513,6 +532,9 @@ impl Cohort {
         })
     }
 }
+
+/// Generated patients drawn in parallel between two progress reports.
+const GENERATION_CHUNK: usize = 64;
 
 /// Draws candidates for patient number `n` until one passes the checks.
 fn generate_patient(

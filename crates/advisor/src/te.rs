@@ -258,17 +258,18 @@ fn quantile_bins(x: &[f64], bins: usize) -> Vec<u8> {
         .collect()
 }
 
-/// TE_u for one lag on binned signals; returns (bits, triples used).
-fn te_at_lag(g: &[u8], i: &[u8], lag: usize, bins: usize, counts: &mut [u32]) -> (f64, usize) {
+/// TE_u for one lag on binned signals (`ab[t]`: the cell of glucose at
+/// t + 1 and t, see `max_over_lags`); returns (bits, triples used).
+fn te_at_lag(ab: &[u16], i: &[u8], lag: usize, bins: usize, counts: &mut [u32]) -> (f64, usize) {
     counts.iter_mut().for_each(|c| *c = 0);
     let b = bins;
     let mut n = 0usize;
-    for t in lag..g.len().saturating_sub(1) {
-        let (a, bb, c) = (g[t + 1], g[t], i[t - lag]);
-        if a == MISSING || bb == MISSING || c == MISSING {
+    for t in lag..ab.len() {
+        let (x, c) = (ab[t], i[t - lag]);
+        if x == u16::MAX || c == MISSING {
             continue;
         }
-        counts[(a as usize * b + bb as usize) * b + c as usize] += 1;
+        counts[x as usize * b + c as usize] += 1;
         n += 1;
     }
     if n == 0 {
@@ -308,8 +309,21 @@ fn te_at_lag(g: &[u8], i: &[u8], lag: usize, bins: usize, counts: &mut [u32]) ->
 fn max_over_lags(g: &[u8], i: &[u8], cfg: &TeConfig, counts: &mut [u32]) -> (f64, usize, usize) {
     let mut best = (f64::NEG_INFINITY, 0usize);
     let mut pairs0 = 0;
+    // The (next glucose, glucose) cell of every t, computed once for all
+    // lags (`u16::MAX` where either is missing).
+    let b = cfg.bins;
+    let ab: Vec<u16> = (0..g.len().saturating_sub(1))
+        .map(|t| {
+            let (a, bb) = (g[t + 1], g[t]);
+            if a == MISSING || bb == MISSING {
+                u16::MAX
+            } else {
+                (a as usize * b + bb as usize) as u16
+            }
+        })
+        .collect();
     for lag in 0..=cfg.max_lag_steps {
-        let (te, n) = te_at_lag(g, i, lag, cfg.bins, counts);
+        let (te, n) = te_at_lag(&ab, i, lag, b, counts);
         if lag == 0 {
             pairs0 = n;
         }

@@ -7,6 +7,7 @@
 use crate::closed_loop::run_patient_group;
 use crate::error::TrialError;
 use crate::protocol::{ArmKind, PlannedScenario, TrialConfig};
+use crate::results::PatientResult;
 use abba_sim::cohort::Cohort;
 use abba_sim::scenario::{ScenarioConfig, ScenarioId, SensitivityTarget};
 use rayon::prelude::*;
@@ -65,6 +66,21 @@ pub fn w1_sensitivity(
     cohort: &Cohort,
     scenario: ScenarioId,
 ) -> Result<Vec<W1Row>, TrialError> {
+    w1_sensitivity_with(config, cohort, scenario, None)
+}
+
+/// [`w1_sensitivity`], taking the first variant ("as configured") from
+/// `configured`, the trial's own standard-arm results in `scenario` (one
+/// per patient of `cohort`, in order), when given: a run's first nine days
+/// do not depend on how many days follow (the day plans are drawn day by
+/// day, the loop never looks ahead), so its W1 is that variant's.
+pub fn w1_sensitivity_with(
+    config: &TrialConfig,
+    cohort: &Cohort,
+    scenario: ScenarioId,
+    configured: Option<&[PatientResult]>,
+) -> Result<Vec<W1Row>, TrialError> {
+    let configured = configured.filter(|c| c.len() == cohort.patients.len());
     let mut planned = Vec::new();
     for (label, change) in variants() {
         let mut s = config.scenario(scenario);
@@ -82,13 +98,24 @@ pub fn w1_sensitivity(
     // (the variants change insulin sensitivity and carb counting, not the
     // meals), so they share the patient model's gut work
     // (`run_patient_group`; the results are those of one run at a time).
-    let runs: Vec<_> = planned.iter().map(|p| (p, ArmKind::Standard)).collect();
+    let skip = usize::from(configured.is_some());
+    let runs: Vec<_> = planned
+        .iter()
+        .skip(skip)
+        .map(|p| (p, ArmKind::Standard))
+        .collect();
     let per_patient: Vec<Vec<_>> = cohort
         .patients
         .par_iter()
         .enumerate()
-        .map(|(i, vp)| run_patient_group(config, vp, i as u64 + 1, &runs))
-        .collect::<Result<_, _>>()?;
+        .map(|(i, vp)| {
+            let mut r = run_patient_group(config, vp, i as u64 + 1, &runs)?;
+            if let Some(c) = configured {
+                r.insert(0, c[i].clone());
+            }
+            Ok(r)
+        })
+        .collect::<Result<_, TrialError>>()?;
     let mut rows = Vec::new();
     for (v, (label, _)) in variants().into_iter().enumerate() {
         let w1: Vec<_> = per_patient
@@ -140,7 +167,12 @@ pub fn w1_block(
     let Some(&first) = output.config.scenarios.first() else {
         return Ok(None);
     };
-    let rows = w1_sensitivity(&output.config, &output.cohort, first)?;
+    let configured = output
+        .arms
+        .iter()
+        .find(|a| a.scenario == first && a.advisor == ArmKind::Standard)
+        .map(|a| a.patients.as_slice());
+    let rows = w1_sensitivity_with(&output.config, &output.cohort, first, configured)?;
     Ok(Some(abba_report::W1Block {
         markdown: w1_markdown(first, &rows),
         section: w1_html_section(first, &rows),
@@ -211,5 +243,24 @@ mod tests {
             );
         }
         assert!(w1_markdown(ScenarioId::S1, &rows).contains("s(t) on Vmx only"));
+    }
+
+    /// The trial's own standard-arm runs stand in for the first variant:
+    /// the block of a trial equals the one simulated from scratch.
+    #[test]
+    fn the_trials_standard_arm_is_the_configured_variant() {
+        let config = TrialConfig::try_from(crate::protocol::RawTrialConfig {
+            patients: 3,
+            days: 12,
+            scenarios: vec![ScenarioId::S1],
+            arms: vec![ArmKind::Standard],
+            ..Default::default()
+        })
+        .unwrap();
+        let output = crate::runner::run_trial(&config, 1, &crate::runner::Silent).unwrap();
+        let scratch = w1_sensitivity(&config, &output.cohort, ScenarioId::S1).unwrap();
+        let block = w1_block(&output).unwrap().unwrap();
+        assert_eq!(block.markdown, w1_markdown(ScenarioId::S1, &scratch));
+        assert!(scratch.iter().all(|r| r.n == 3));
     }
 }

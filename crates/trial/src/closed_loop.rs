@@ -116,6 +116,21 @@ pub fn run_patient_group(
     patient_no: u64,
     runs: &[(&PlannedScenario, ArmKind)],
 ) -> Result<Vec<PatientResult>, TrialError> {
+    Ok(run_patient_group_with_init(config, vp, patient_no, runs)?
+        .into_iter()
+        .map(|(r, _)| r)
+        .collect())
+}
+
+/// [`run_patient_group`], with each run's ABBA initialisation report (as
+/// [`Trace::init`] has it; `None` for other arms, for a run that did not
+/// get past its initialisation, and for a twin).
+pub fn run_patient_group_with_init(
+    config: &TrialConfig,
+    vp: &VirtualPatient,
+    patient_no: u64,
+    runs: &[(&PlannedScenario, ArmKind)],
+) -> Result<Vec<(PatientResult, Option<abba_advisor::abba::InitReport>)>, TrialError> {
     // A run whose result cannot differ from an earlier run's (its twin,
     // see `same_outcome`) is not simulated: it takes that run's result.
     let twin: Vec<Option<usize>> = (0..runs.len())
@@ -128,13 +143,14 @@ pub fn run_patient_group(
         .map(|&i| start(config, vp, patient_no, runs[i].0, runs[i].1))
         .collect::<Result<Vec<_>, _>>()?;
     let loops = simulate_lockstep(&mut started, &days, config.failure_glucose_mg_dl)?;
-    let mut results: Vec<Option<PatientResult>> = vec![None; runs.len()];
+    let mut results: Vec<Option<(PatientResult, Option<_>)>> = vec![None; runs.len()];
     for ((&i, (person, advisor, context)), run) in simulated.iter().zip(&started).zip(&loops) {
-        results[i] = Some(result(vp, person, advisor, run, context)?);
+        let r = result(vp, person, advisor, run, context)?;
+        results[i] = Some((r, advisor.init_report().cloned()));
     }
     for i in 0..runs.len() {
         if let Some(j) = twin[i] {
-            results[i] = results[j].clone();
+            results[i] = results[j].as_ref().map(|(r, _)| (r.clone(), None));
         }
     }
     results

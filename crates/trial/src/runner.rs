@@ -2,7 +2,7 @@
 //! job; rayon runs them and the results come back in job order, so serial
 //! and parallel runs give identical bytes.
 
-use crate::closed_loop::{run_patient_group, run_patient_with, Trace};
+use crate::closed_loop::{run_patient_group, run_patient_group_with_init, run_patient_with, Trace};
 use crate::error::TrialError;
 use crate::protocol::{ArmKind, PlannedScenario, TrialConfig};
 use crate::results::ArmResult;
@@ -121,10 +121,16 @@ fn prepare_on(
     let mut config = config.clone();
     let mut first_week_te_bits = std::collections::BTreeMap::new();
     if config.calibrate_te_ref && config.arms.contains(&ArmKind::Abba) {
-        // The TE estimate does not depend on TE_ref, so one pass per mode.
+        // The TE estimate does not depend on TE_ref, so one pass for both
+        // modes.
         let mut raw = config.raw().clone();
+        let by_mode = pool.install(|| calibrate_te(&config, &cohort, threads))?;
         for mode in [Mode::Cgm, Mode::Smbg] {
-            let te = pool.install(|| calibrate_te(&config, &cohort, threads, mode))?;
+            let te = by_mode
+                .iter()
+                .find(|(m, _)| *m == mode)
+                .map(|(_, te)| te.clone())
+                .unwrap_or_default();
             match (mode, positive_median(&te)) {
                 (Mode::Cgm, Some(m)) => raw.abba.te.te_ref_bits = m,
                 (Mode::Smbg, Some(m)) => raw.te_ref_bits_smbg = Some(m),
@@ -251,36 +257,37 @@ pub(crate) fn assemble(
 
 /// Each patient's transfer entropy from insulin to glucose over the
 /// standard-therapy week, as ABBA itself estimates it at the end of its
-/// initialisation week in `mode` (in cohort order; patients whose estimate
-/// failed are left out). Runs the first configured scenario of that mode
-/// just past the initialisation.
+/// initialisation week, per advisor mode (in cohort order; patients whose
+/// estimate failed are left out). Runs the first configured scenario of
+/// each mode just past the initialisation; a patient's runs of both modes
+/// go together in lock-step (`run_patient_group_with_init`: the same
+/// results as one at a time, sharing the gut's work: the scenarios share
+/// their days).
 fn calibrate_te(
     config: &TrialConfig,
     cohort: &Cohort,
     threads: usize,
-    mode: Mode,
-) -> Result<Vec<f64>, TrialError> {
-    let Some(first) = config.planned().iter().find(|p| p.mode == mode) else {
-        return Ok(Vec::new());
-    };
-    let mut scenario: PlannedScenario = first.clone();
-    scenario.config.days = config.init_days + 2;
-    let one = |(pi, vp): (usize, &abba_sim::cohort::VirtualPatient)| {
-        let mut trace = Trace::default();
-        run_patient_with(
-            config,
-            vp,
-            pi as u64 + 1,
-            &scenario,
-            ArmKind::Abba,
-            &mut trace,
-        )?;
-        Ok(match trace.init.map(|r| r.te) {
-            Some(TeOutcome::Estimated(e)) => Some(e.te_bits),
-            _ => None,
+) -> Result<Vec<(Mode, Vec<f64>)>, TrialError> {
+    let planned: Vec<PlannedScenario> = [Mode::Cgm, Mode::Smbg]
+        .into_iter()
+        .filter_map(|mode| config.planned().iter().find(|p| p.mode == mode).cloned())
+        .map(|mut s| {
+            s.config.days = config.init_days + 2;
+            s
         })
+        .collect();
+    let runs: Vec<_> = planned.iter().map(|s| (s, ArmKind::Abba)).collect();
+    let one = |(pi, vp): (usize, &abba_sim::cohort::VirtualPatient)| {
+        let results = run_patient_group_with_init(config, vp, pi as u64 + 1, &runs)?;
+        Ok(results
+            .into_iter()
+            .map(|(_, init)| match init.map(|r| r.te) {
+                Some(TeOutcome::Estimated(e)) => Some(e.te_bits),
+                _ => None,
+            })
+            .collect::<Vec<_>>())
     };
-    let all: Vec<Option<f64>> = if threads == 1 {
+    let all: Vec<Vec<Option<f64>>> = if threads == 1 {
         cohort
             .patients
             .iter()
@@ -295,7 +302,11 @@ fn calibrate_te(
             .map(one)
             .collect::<Result<_, TrialError>>()?
     };
-    Ok(all.into_iter().flatten().collect())
+    Ok(planned
+        .iter()
+        .enumerate()
+        .map(|(k, s)| (s.mode, all.iter().filter_map(|p| p[k]).collect()))
+        .collect())
 }
 
 /// The median of the values if there are any and it is positive (a trial

@@ -401,13 +401,36 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
         events.extend(closes);
         events.sort_by_key(|e| (e.at, rank(&e.kind)));
     }
-    // One reading of a kind per minute, one basal rate per minute (the last).
+    // One reading of a kind per minute, one basal rate per minute (the
+    // last); boluses of one minute, and snacks of one minute, become one
+    // event with their sum (the advisor takes two equal events in a minute
+    // for a repeat; two records of the device are two doses).
     let mut kept: Vec<Event> = Vec::with_capacity(events.len());
     for e in events {
         if let Some(prev) = kept.last_mut() {
             if prev.at == e.at
                 && std::mem::discriminant(&prev.kind) == std::mem::discriminant(&e.kind)
             {
+                match (&mut prev.kind, e.kind) {
+                    (EventKind::Bolus(a), EventKind::Bolus(b)) => {
+                        a.0 += b.0;
+                        continue;
+                    }
+                    (
+                        EventKind::MealAnnounced {
+                            carbs: a,
+                            slot: MealSlot::Snack,
+                        },
+                        EventKind::MealAnnounced {
+                            carbs: b,
+                            slot: MealSlot::Snack,
+                        },
+                    ) => {
+                        a.0 += b.0;
+                        continue;
+                    }
+                    _ => {}
+                }
                 match e.kind {
                     EventKind::BasalRate(_) | EventKind::TempBasal { .. } => {
                         *prev = e;

@@ -91,3 +91,48 @@ proptest! {
         }
     }
 }
+
+/// Two bolus records in one minute are two doses: one event with their sum
+/// (two equal events in a minute would be taken by the advisor for a
+/// repeat, and rejected); so are two snacks. Found by the property above.
+#[test]
+fn doses_of_one_minute_become_one_event_with_their_sum() {
+    let start: jiff::Timestamp = STARTS[0].parse().unwrap();
+    let t = 22 * 3600 + 30 * 60;
+    let items = [
+        Item::Bolus(t, 67),
+        Item::Bolus(t + 20, 67),
+        Item::Meal(t + 3 * 3600, 12, 0),
+        Item::Meal(t + 3 * 3600 + 30, 12, 0),
+    ];
+    let bytes = nightscout(start, &items, &[(0, 100)]);
+    let batch = read(&[("ns.json", bytes)], &abba_io::ReadOptions::default()).unwrap();
+    let tz = abba_io::time::zone("UTC").unwrap();
+    let stream = to_events(&batch, &PersonSettings::new(tz)).unwrap();
+    let boluses: Vec<f64> = stream
+        .events
+        .iter()
+        .filter_map(|e| match e.kind {
+            abba_core::EventKind::Bolus(u) => Some(u.0),
+            _ => None,
+        })
+        .collect();
+    // The correction boluses, then the meals' (0 U) boluses, each once.
+    assert_eq!(boluses.len(), 2, "{:?}", stream.events);
+    assert!((boluses[0] - 13.4).abs() < 1e-9);
+    assert_eq!(boluses[1], 0.0);
+    let snacks: Vec<f64> = stream
+        .events
+        .iter()
+        .filter_map(|e| match e.kind {
+            abba_core::EventKind::MealAnnounced { carbs, .. } => Some(carbs.0),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(snacks, vec![24.0], "{:?}", stream.events);
+    let settings = TherapySettings::new(UnitsPerHour(1.0), GramsPerUnit(10.0)).unwrap();
+    let mut guard = FixedTherapy::new(settings, EventLimits::default()).unwrap();
+    for e in &stream.events {
+        guard.observe(e).unwrap();
+    }
+}

@@ -270,7 +270,13 @@ mod tests {
             .collect();
         let m = basic_metrics(&g).unwrap();
         let r = range_percentages(&g).unwrap();
-        let expected = [m.below_54, m.below_70, m.tir_70_180, m.above_180, m.above_250];
+        let expected = [
+            m.below_54,
+            m.below_70,
+            m.tir_70_180,
+            m.above_180,
+            m.above_250,
+        ];
         assert_eq!(r.map(f64::to_bits), expected.map(f64::to_bits));
         assert!(range_percentages(&[]).is_err());
         assert!(range_percentages(&[100.0, f64::NAN]).is_err());

@@ -502,8 +502,8 @@ impl Cohort {
             progress(patients.len(), total);
         }
         // Each generated patient has its own random stream (its number), so
-        // they are drawn in parallel, a chunk at a time (progress after
-        // each chunk), and gathered in order: the same cohort, and the
+        // they are drawn in parallel, a chunk at a time (progress for each
+        // patient as its chunk is gathered), and gathered in order: the same cohort, and the
         // same first error, as one at a time.
         let mut rejections = Rejections::default();
         let numbers: Vec<u32> = ((public.len() as u32 + 1)..=config.size).collect();
@@ -522,8 +522,8 @@ impl Cohort {
                     *rejections.by_reason.entry(reason).or_insert(0) += count;
                 }
                 patients.push(vp);
+                progress(patients.len(), total);
             }
-            progress(patients.len(), total);
         }
         Ok(Cohort {
             config: config.clone(),

@@ -168,8 +168,10 @@ pub fn run_patient_group_with_init(
 /// boluses and lives the same days minute by minute: the meal and
 /// sensitivity plans come from their own random streams, which the device
 /// settings do not touch (`ScenarioGenerator`), and the devices only
-/// produce readings, which nothing in the run acts on. The paper's S1, S2
-/// and S3 are such scenarios. Test: `arms_in_lockstep_match_one_by_one`.
+/// produce readings, which nothing in the run acts on (the fixed arm's
+/// event guard would refuse only an implausible reading, which the
+/// simulated devices do not produce). The paper's S1, S2 and S3 are such
+/// scenarios. Test: `standard_arm_twins_equal_their_own_runs`.
 pub fn same_outcome(a: (&PlannedScenario, ArmKind), b: (&PlannedScenario, ArmKind)) -> bool {
     let physiology = |s: &PlannedScenario| {
         let mut c = s.config.clone();

@@ -72,7 +72,7 @@ fn arms_share_the_standard_therapy_week() {
 #[test]
 fn arms_in_lockstep_match_one_by_one() {
     use abba_sim::scenario::HypoTreatment;
-    use abba_trial::closed_loop::{run_patient, run_patient_arms, run_patient_group};
+    use abba_trial::closed_loop::{run_patient, run_patient_arms};
     use abba_trial::protocol::PlannedScenario;
     use abba_trial::runner::build_cohort;
     use abba_trial::ArmKind;
@@ -129,17 +129,7 @@ fn arms_in_lockstep_match_one_by_one() {
                 .iter()
                 .flat_map(|s| arms.iter().map(move |a| (s, *a)))
                 .collect();
-            let together = run_patient_group(&config, vp, no, &runs).unwrap();
-            for ((planned, arm), t) in runs.iter().zip(&together) {
-                let alone = run_patient(&config, vp, no, planned, *arm).unwrap();
-                assert_eq!(
-                    serde_json::to_string(t).unwrap(),
-                    serde_json::to_string(&alone).unwrap(),
-                    "{} {:?} {arm}: group and alone differ",
-                    vp.params.name,
-                    planned.id
-                );
-            }
+            group_equals_alone(&config, vp, no, &runs);
         }
         // The cases the test is for did happen.
         assert!(differ > 0, "no arms ate differently");
@@ -159,7 +149,7 @@ fn arms_in_lockstep_match_one_by_one() {
 #[test]
 fn standard_arm_twins_equal_their_own_runs() {
     use abba_sim::scenario::HypoTreatment;
-    use abba_trial::closed_loop::{run_patient, run_patient_group, same_outcome};
+    use abba_trial::closed_loop::same_outcome;
     use abba_trial::protocol::PlannedScenario;
     use abba_trial::runner::build_cohort;
     use abba_trial::ArmKind;
@@ -193,16 +183,28 @@ fn standard_arm_twins_equal_their_own_runs() {
     for (i, vp) in cohort.patients.iter().enumerate() {
         let no = i as u64 + 1;
         let runs: Vec<_> = scenarios.iter().map(|s| (s, std)).collect();
-        let together = run_patient_group(&config, vp, no, &runs).unwrap();
-        for ((planned, arm), t) in runs.iter().zip(&together) {
-            let alone = run_patient(&config, vp, no, planned, *arm).unwrap();
-            assert_eq!(
-                serde_json::to_string(t).unwrap(),
-                serde_json::to_string(&alone).unwrap(),
-                "{} {:?}: the group's result and the run's own differ",
-                vp.params.name,
-                planned.id
-            );
-        }
+        group_equals_alone(&config, vp, no, &runs);
+    }
+}
+
+/// Runs `runs` of patient `vp` as one lock-step group and asserts that
+/// each result equals the run done on its own, byte for byte.
+fn group_equals_alone(
+    config: &TrialConfig,
+    vp: &abba_sim::cohort::VirtualPatient,
+    no: u64,
+    runs: &[(&abba_trial::protocol::PlannedScenario, abba_trial::ArmKind)],
+) {
+    use abba_trial::closed_loop::{run_patient, run_patient_group};
+    let together = run_patient_group(config, vp, no, runs).unwrap();
+    for ((planned, arm), t) in runs.iter().zip(&together) {
+        let alone = run_patient(config, vp, no, planned, *arm).unwrap();
+        assert_eq!(
+            serde_json::to_string(t).unwrap(),
+            serde_json::to_string(&alone).unwrap(),
+            "{} {:?} {arm}: the group's result and the run's own differ",
+            vp.params.name,
+            planned.id
+        );
     }
 }

@@ -87,8 +87,8 @@ impl Solver {
 /// or a skipped meal tells them apart) therefore compute the same gut
 /// minute, bit for bit; kempt (two exp and two divisions per evaluation) is
 /// most of the cost of a step. [`Solver::advance_minute_shared`] records
-/// the first run's minute (kempt and Qgut at every stage, the gut's state
-/// at the end) and replays it for the others when the key matches: they
+/// the first run's minute (Qgut at every stage, the gut's state at the
+/// end) and replays it for the others when the key matches: they
 /// integrate only the states after the gut, reading Qgut from the tape
 /// (`model::body_derivatives`), with the same operations as the full step.
 #[derive(Debug, Clone, Default)]
@@ -96,8 +96,6 @@ pub struct GutTape {
     key: Option<GutKey>,
     /// Sub-steps of the recorded minute.
     substeps: u32,
-    /// kempt at every RK4 stage of the recorded minute, in order.
-    kempt: Vec<f64>,
     /// Qgut at every RK4 stage of the recorded minute, in order.
     q_gut: Vec<f64>,
     /// Qsto1, Qsto2 and Qgut at the end of the recorded minute.
@@ -154,7 +152,7 @@ impl GutTape {
         Self::default()
     }
 
-    /// Minutes whose kempt values were replayed instead of computed.
+    /// Minutes whose gut was replayed instead of computed.
     pub fn replays(&self) -> u64 {
         self.replays
     }
@@ -188,14 +186,11 @@ impl Solver {
         }
         let n = self.substeps_for(c, u, x);
         let h = 1.0 / n as f64;
-        tape.kempt.clear();
         tape.q_gut.clear();
         for _ in 0..n {
             rk4_step_with(c, u, x, h, |y| {
-                let k = kempt_at(c, u, y);
-                tape.kempt.push(k);
                 tape.q_gut.push(y[2]);
-                k
+                kempt_at(c, u, y)
             });
         }
         tape.substeps = n;

@@ -338,7 +338,8 @@ fn each_refused_value_names_its_field() {
         ),
     ];
     // (Inside an event the path stops at `event`, a tagged union read
-    // whole; the message names the field: "unknown variant `brunch`".)
+    // whole; the message names the field: "slot: unknown variant
+    // `brunch`", see `a_wrong_type_inside_an_event_names_the_field`.)
     for (body, status, path) in cases {
         let (s, text, json) = send(
             w,
@@ -349,5 +350,41 @@ fn each_refused_value_names_its_field() {
         );
         assert_eq!(s.as_u16(), status, "{body}: {text}");
         assert_eq!(json["path"], path, "{body}: {text}");
+    }
+}
+
+#[test]
+fn a_wrong_type_inside_an_event_names_the_field() {
+    let w = world_once();
+    let uri = format!("/v1/persons/{}/events", w.person);
+    let cases = [
+        (json!({"type": "cgm", "mg_dl": "x"}), "mg_dl: invalid type"),
+        (
+            json!({"type": "meal", "carbs_g": 90, "slot": "brunch"}),
+            "slot: unknown variant `brunch`",
+        ),
+        (
+            json!({"type": "temp_basal", "rate": {"percent": true}, "duration_min": 30}),
+            "rate.percent: invalid type",
+        ),
+        (
+            json!({"type": "extended_bolus", "total_units": 4, "immediate_units": 1, "duration_min": -5}),
+            "duration_min: invalid value",
+        ),
+        (json!({"type": "coffee"}), "type: unknown kind `coffee`"),
+    ];
+    for (event, message) in cases {
+        let body = json!({"events": [{"seq": 1, "at": "2026-01-01T00:00:00Z", "event": event}]});
+        let (s, text, json) = send(
+            w,
+            &Method::POST,
+            &uri,
+            &w.token,
+            serde_json::to_vec(&body).unwrap(),
+        );
+        assert_eq!(s.as_u16(), 400, "{body}: {text}");
+        assert_eq!(json["path"], "events[0].event", "{body}: {text}");
+        let got = json["message"].as_str().unwrap_or_default();
+        assert!(got.contains(message), "{body}: {text}");
     }
 }

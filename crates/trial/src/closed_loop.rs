@@ -56,6 +56,28 @@ pub struct LoopRun {
     pub failure: Option<RunFailure>,
 }
 
+impl LoopRun {
+    /// Scores the start of minute `m` of day `day` (0-based) at plasma
+    /// glucose `plasma`: the 5-min sample, the minimum, and the failure
+    /// when it is below `failure_below` (then returns true: the run stops).
+    #[inline]
+    fn sample(&mut self, day: usize, m: usize, plasma: f64, failure_below: f64) -> bool {
+        if m.is_multiple_of(EVAL_PERIOD_MIN) {
+            self.glucose_mg_dl[day * SAMPLES_PER_DAY + m / EVAL_PERIOD_MIN] = plasma;
+        }
+        self.min_glucose_mg_dl = self.min_glucose_mg_dl.min(plasma);
+        if plasma < failure_below {
+            self.failure = Some(RunFailure {
+                day: day as u32 + 1,
+                minute_of_day: m as u32,
+                glucose_mg_dl: plasma,
+            });
+            return true;
+        }
+        false
+    }
+}
+
 /// Runs one patient (number `patient_no` in its cohort, 1-based) through
 /// one scenario in one arm.
 pub fn run_patient(
@@ -281,17 +303,7 @@ pub fn simulate<A: Advisor>(
     'days: for day in 0..days {
         let insulin_at_midnight = person.insulin_delivered().0;
         for m in 0..MINUTES_PER_DAY as usize {
-            let plasma = person.plasma_glucose_mg_dl();
-            if m.is_multiple_of(EVAL_PERIOD_MIN) {
-                run.glucose_mg_dl[day * SAMPLES_PER_DAY + m / EVAL_PERIOD_MIN] = plasma;
-            }
-            run.min_glucose_mg_dl = run.min_glucose_mg_dl.min(plasma);
-            if plasma < failure_below {
-                run.failure = Some(RunFailure {
-                    day: day as u32 + 1,
-                    minute_of_day: m as u32,
-                    glucose_mg_dl: plasma,
-                });
+            if run.sample(day, m, person.plasma_glucose_mg_dl(), failure_below) {
                 break 'days;
             }
             person.begin_minute().map_err(sim)?;
@@ -359,17 +371,7 @@ fn simulate_lockstep<A: Advisor>(
                     context: context.clone(),
                     source,
                 };
-                let plasma = person.plasma_glucose_mg_dl();
-                if m.is_multiple_of(EVAL_PERIOD_MIN) {
-                    run.glucose_mg_dl[day * SAMPLES_PER_DAY + m / EVAL_PERIOD_MIN] = plasma;
-                }
-                run.min_glucose_mg_dl = run.min_glucose_mg_dl.min(plasma);
-                if plasma < failure_below {
-                    run.failure = Some(RunFailure {
-                        day: day as u32 + 1,
-                        minute_of_day: m as u32,
-                        glucose_mg_dl: plasma,
-                    });
+                if run.sample(day, m, person.plasma_glucose_mg_dl(), failure_below) {
                     continue;
                 }
                 person.begin_minute().map_err(sim)?;

@@ -52,7 +52,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             rates.fill(*r);
             b.step(&rates, &s)?;
         }
-        g = b.patients().iter().map(|p| p.glucose_mg_dl()).sum();
+        g = (0..b.len()).map(|i| b.glucose_mg_dl(i)).sum();
     } else {
         for _ in 0..n {
             let mut p = start.clone();

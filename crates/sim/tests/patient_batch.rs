@@ -42,10 +42,9 @@ fn batch_matches_one_by_one() {
         for (k, p) in singles.iter_mut().enumerate() {
             p.step(rates[k].cho_g_per_min, rates[k].insulin_u_per_min, s[k])
                 .unwrap();
-            let b = &batch.patients()[k];
-            assert_eq!(b.minute(), p.minute());
-            worst_g = worst_g.max((b.glucose_mg_dl() - p.glucose_mg_dl()).abs());
-            for (x, y) in b.state_array().iter().zip(p.state_array()) {
+            assert_eq!(batch.minute(k), p.minute());
+            worst_g = worst_g.max((batch.glucose_mg_dl(k) - p.glucose_mg_dl()).abs());
+            for (x, y) in batch.state_array(k).iter().zip(p.state_array()) {
                 worst_rel = worst_rel.max((x - y).abs() / y.abs().max(1.0));
             }
         }

@@ -4,32 +4,90 @@
 //! A single patient's RK4 step is a chain of dependent operations (each
 //! stage waits on the exp and divisions of the previous one), so one
 //! patient at a time leaves most of the processor idle. [`PatientBatch`]
-//! integrates [`LANES`] patients at once with the same equations
-//! (`model::derivatives` over [`Lanes`]): one vector instruction does the
-//! work of several patients, and their chains overlap.
+//! keeps [`LANES`] patients side by side for good: their states, the
+//! minute's inputs, the eating-episode bookkeeping that defines Dbar and
+//! the busy-gut test are all [`Lanes`] values, and the model's equations
+//! (`model::derivatives` over [`Lanes`]) do the work of [`LANES`] patients
+//! per instruction. Nothing is copied between a patient's own layout and
+//! the lanes' from one minute to the next (an earlier version did, and
+//! gained nothing over stepping the patients one by one).
 //!
-//! Each lane takes the sub-steps its own patient would take
-//! ([`super::Solver`]'s busy-gut rule), so a batch differs from
-//! [`Patient::step`] only in the exp of kempt's two tanh
-//! ([`super::lanes::exp_small`], within 2 ulp of libm's): the glucose of a
-//! batch stays within 1e-9 mg/dL of one-by-one stepping (test
-//! `batch_matches_one_by_one`; measured 3e-13 mg/dL).
+//! Busy minutes ([`super::Solver`]'s busy-gut rule: eating, or kempt in its
+//! steep switch) take four RK4 sub-steps instead of one. Sub-stepping a
+//! whole group because one lane is busy would double the batch's cost (with
+//! 16 lanes some lane is busy in most minutes around meals), so each
+//! minute every group takes its quiet step, and the busy lanes of all
+//! groups are then gathered, from their state before the minute, into
+//! full groups that take the busy sub-steps (a last few alone).
+//!
+//! The code is compiled for several instruction sets and the best one the
+//! processor has is chosen at run time (`pulp`): AVX-512 or AVX2 where
+//! present, the x86-64 baseline otherwise.
+//!
+//! Every lane does what [`Patient::step`] does, operation for operation,
+//! except the exp of kempt's two tanh ([`super::lanes::exp_small`], within
+//! 2 ulp of libm's): the glucose of a batch stays within 1e-9 mg/dL of
+//! one-by-one stepping (test `batch_matches_one_by_one`, which prints the
+//! largest difference, 3e-13 mg/dL). Within the batch the results are
+//! exact to the bit whatever the instruction set and whichever patients
+//! share the batch (tests `every_instruction_set_gives_the_same_bits`,
+//! `a_patient_is_the_same_in_any_company`).
 
-use super::lanes::Lanes;
-use super::solver::rk4_step;
-use super::{MinuteInput, ModelConsts, Patient};
+use super::lanes::{Lanes, Real};
+use super::model::{derivatives, ix, MinuteInput, ModelConsts};
+use super::{Patient, PatientState};
 use crate::inputs::MinuteRates;
 use crate::SimError;
+use abba_core::units::MG_PER_G;
+use abba_core::PMOL_PER_UNIT;
 
-/// Patients integrated together.
-pub const LANES: usize = 8;
+/// Patients integrated together (one group of lanes). 16 measured best
+/// (per patient-day on the bench's 64 adults, AVX-512: 8 lanes +40 %, 32
+/// lanes +47 %): enough independent chains to hide the latency of exp and
+/// division, few enough values for the registers and first-level cache.
+pub const LANES: usize = 16;
+
+/// A last chunk of at most this many busy lanes is sub-stepped lane by lane
+/// (each as a group of one) rather than gathered into a group: one lane's
+/// RK4 step costs about a quarter of a group's (0.19 against 0.7 µs,
+/// measured). 2 and 4 tie on the bench's 64 adults, 8 is 9 % slower.
+const FEW_BUSY: usize = 4;
+
+type L = Lanes<LANES>;
+type Mask = [bool; LANES];
 
 /// Independent patients stepped together (see the module docs).
 #[derive(Debug, Clone)]
 pub struct PatientBatch {
+    /// The patients as given (parameters and names; their states are the
+    /// lanes' from the first step on, see [`PatientBatch::patient`]).
     patients: Vec<Patient>,
-    /// The constants of each full group of [`LANES`] patients, side by side.
-    consts: Vec<ModelConsts<Lanes<LANES>>>,
+    /// Groups of [`LANES`] patients; the last group is padded with copies
+    /// of its last patient, whose results are never read.
+    groups: Vec<Group>,
+    /// The minute's busy lanes (kept to reuse its allocation).
+    busy: Vec<BusyLane>,
+    /// Where busy lanes from several groups are integrated together (one
+    /// group, none for an empty batch).
+    scratch: Vec<Group>,
+    isa: Isa,
+}
+
+/// [`LANES`] patients side by side: what a [`Patient`] holds, as lanes.
+#[derive(Debug, Clone)]
+struct Group {
+    consts: ModelConsts<L>,
+    x: [L; 13],
+    /// The input of the last integrated minute.
+    u: MinuteInput<L>,
+    /// Eating rate of the previous minute (g/min).
+    last_cho: L,
+    /// Stomach content when the current/last eating episode began (mg).
+    last_q_sto: L,
+    /// Grams eaten so far in the current/last episode.
+    food_taken: L,
+    /// Minutes simulated so far, per lane.
+    minute: [i64; LANES],
 }
 
 impl PatientBatch {
@@ -42,16 +100,19 @@ impl PatientBatch {
                 ));
             }
         }
-        let consts = patients
-            .chunks_exact(LANES)
-            .map(|g| ModelConsts::gather(std::array::from_fn(|l| &g[l].consts)))
+        let groups: Vec<Group> = patients
+            .chunks(LANES)
+            .map(|g| Group::gather(std::array::from_fn(|l| &g[l.min(g.len() - 1)])))
             .collect();
-        Ok(Self { patients, consts })
-    }
-
-    /// The patients, in the order given.
-    pub fn patients(&self) -> &[Patient] {
-        &self.patients
+        // (A batch without patients has no busy lanes and no scratch.)
+        let scratch = groups.first().cloned().into_iter().collect();
+        Ok(Self {
+            patients,
+            groups,
+            busy: Vec::new(),
+            scratch,
+            isa: Isa::Detected,
+        })
     }
 
     /// Number of patients.
@@ -64,78 +125,541 @@ impl PatientBatch {
         self.patients.is_empty()
     }
 
+    /// Patient `i` as it stands now, as a [`Patient`] that can go on
+    /// alone (its state, minute and eating bookkeeping taken from the
+    /// lanes).
+    pub fn patient(&self, i: usize) -> Patient {
+        let (g, l) = (&self.groups[i / LANES], i % LANES);
+        let mut p = self.patients[i].clone();
+        p.x = g.state_array(l);
+        p.minute = g.minute[l];
+        p.last_cho_g_per_min = g.last_cho.0[l];
+        p.last_q_sto_mg = g.last_q_sto.0[l];
+        p.last_food_taken_g = g.food_taken.0[l];
+        p.last_input = g.u.lane(l);
+        p
+    }
+
+    /// The states x1..x13 of patient `i`.
+    pub fn state_array(&self, i: usize) -> [f64; 13] {
+        self.groups[i / LANES].state_array(i % LANES)
+    }
+
+    /// Minutes simulated so far by patient `i`.
+    pub fn minute(&self, i: usize) -> i64 {
+        self.groups[i / LANES].minute[i % LANES]
+    }
+
+    /// Plasma glucose of patient `i` (mg/dL), as [`Patient::glucose_mg_dl`].
+    pub fn glucose_mg_dl(&self, i: usize) -> f64 {
+        self.groups[i / LANES].x[ix::GP].0[i % LANES] / self.patients[i].params.vg
+    }
+
+    /// Subcutaneous glucose of patient `i` (mg/dL), as
+    /// [`Patient::subcutaneous_glucose_mg_dl`].
+    pub fn subcutaneous_glucose_mg_dl(&self, i: usize) -> f64 {
+        self.groups[i / LANES].x[ix::GS].0[i % LANES] / self.patients[i].params.vg
+    }
+
     /// Advances every patient one minute: patient `i` with `rates[i]` and
     /// insulin sensitivity `sensitivity[i]`, as [`Patient::step`] would.
+    /// Every input is checked before any patient moves.
     pub fn step(&mut self, rates: &[MinuteRates], sensitivity: &[f64]) -> Result<(), SimError> {
-        if rates.len() != self.patients.len() || sensitivity.len() != self.patients.len() {
+        let n = self.patients.len();
+        if rates.len() != n || sensitivity.len() != n {
             return Err(SimError::Config(format!(
-                "a batch of {} patients needs as many inputs, got {} rates and {} sensitivities",
-                self.patients.len(),
+                "a batch of {n} patients needs as many inputs, got {} rates and {} sensitivities",
                 rates.len(),
                 sensitivity.len()
             )));
         }
-        let mut groups = self.patients.chunks_exact_mut(LANES);
-        for ((g, c), (r, s)) in (&mut groups).zip(&self.consts).zip(
-            rates
-                .chunks_exact(LANES)
-                .zip(sensitivity.chunks_exact(LANES)),
-        ) {
-            step_group(g, c, r, s)?;
+        let solver = self.patients.first().map(|p| p.solver).unwrap_or_default();
+        let groups = &mut self.groups;
+        let busy = &mut self.busy;
+        let scratch = &mut self.scratch;
+        let patients = &self.patients;
+        let op = StepGroups {
+            groups,
+            scratch,
+            busy,
+            patients,
+            solver: &solver,
+            rates,
+            sensitivity,
+        };
+        // The same code compiled for the vector extensions this processor
+        // has (AVX-512 or AVX2 on most x86-64 of the last decade), chosen
+        // at run time by `pulp`; the shipped binary still runs on any
+        // x86-64. Rust never fuses a multiply and an add on its own, so
+        // every variant gives the same bits (test
+        // `every_instruction_set_gives_the_same_bits`).
+        match self.isa {
+            Isa::Detected => pulp::Arch::new().dispatch(op),
+            #[cfg(test)]
+            Isa::Baseline => pulp::Simd::vectorize(pulp::Scalar::new(), op),
+            #[cfg(all(test, target_arch = "x86_64"))]
+            Isa::Avx2 => match pulp::x86::V3::try_new() {
+                Some(simd) => pulp::Simd::vectorize(simd, op),
+                None => Err(SimError::Config("no AVX2 here".into())),
+            },
+            #[cfg(all(test, target_arch = "x86_64"))]
+            Isa::Avx512 => match pulp::x86::V4::try_new() {
+                Some(simd) => pulp::Simd::vectorize(simd, op),
+                None => Err(SimError::Config("no AVX-512 here".into())),
+            },
         }
-        let done = self.consts.len() * LANES;
-        for (k, p) in groups.into_remainder().iter_mut().enumerate() {
-            let r = rates[done + k];
-            p.step(r.cho_g_per_min, r.insulin_u_per_min, sensitivity[done + k])?;
-        }
-        Ok(())
     }
 }
 
-/// One minute of a group of [`LANES`] patients: the lanes whose gut is
-/// quiet this minute together, then (if any) the busy ones together.
-fn step_group(
-    group: &mut [Patient],
-    consts: &ModelConsts<Lanes<LANES>>,
+/// Which instruction set a batch is compiled for: the best this processor
+/// has, or (tests) a chosen one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Isa {
+    Detected,
+    #[cfg(test)]
+    Baseline,
+    #[cfg(all(test, target_arch = "x86_64"))]
+    Avx2,
+    #[cfg(all(test, target_arch = "x86_64"))]
+    Avx512,
+}
+
+/// The arguments of [`step_groups`], for `pulp`'s dispatch (a closure
+/// would be compiled apart, for the baseline instruction set only).
+struct StepGroups<'a> {
+    groups: &'a mut [Group],
+    scratch: &'a mut [Group],
+    busy: &'a mut Vec<BusyLane>,
+    patients: &'a [Patient],
+    solver: &'a super::Solver,
+    rates: &'a [MinuteRates],
+    sensitivity: &'a [f64],
+}
+
+impl pulp::WithSimd for StepGroups<'_> {
+    type Output = Result<(), SimError>;
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) -> Self::Output {
+        step_groups(
+            self.groups,
+            self.scratch,
+            self.busy,
+            self.patients,
+            self.solver,
+            self.rates,
+            self.sensitivity,
+        )
+    }
+}
+
+/// [`PatientBatch::step`] after its checks, for every group.
+#[inline(always)]
+fn step_groups(
+    groups: &mut [Group],
+    scratch: &mut [Group],
+    busy: &mut Vec<BusyLane>,
+    patients: &[Patient],
+    solver: &super::Solver,
     rates: &[MinuteRates],
     sensitivity: &[f64],
 ) -> Result<(), SimError> {
-    let mut u = [MinuteInput::new(&group[0].consts, 0.0, 0.0, 0.0, 1.0); LANES];
-    let mut busy = [false; LANES];
-    let solver = group[0].solver;
-    let quiet_n = solver.substeps.max(1);
-    let busy_n = solver.busy_substeps.max(1);
-    for (l, p) in group.iter_mut().enumerate() {
-        p.begin_minute(
-            rates[l].cho_g_per_min,
-            rates[l].insulin_u_per_min,
-            sensitivity[l],
-        )?;
-        u[l] = *p.minute_input();
-        busy[l] = solver.substeps_for(&p.consts, &u[l], &p.x) == busy_n && busy_n != quiet_n;
+    let n = patients.len();
+    let all_ok = rates.iter().zip(sensitivity).fold(true, |ok, (r, s)| {
+        ok & super::input_is_valid(r.cho_g_per_min, r.insulin_u_per_min, *s)
+    });
+    if !all_ok {
+        for (i, (r, s)) in rates.iter().zip(sensitivity).enumerate() {
+            let name = &patients[i].params.name;
+            let (cho, ins) = (r.cho_g_per_min, r.insulin_u_per_min);
+            super::check_input(name, groups[i / LANES].minute[i % LANES], cho, ins, *s)?;
+        }
     }
-    let ul = MinuteInput::gather(std::array::from_fn(|l| &u[l]));
-    let x0: [Lanes<LANES>; 13] =
-        std::array::from_fn(|i| Lanes(std::array::from_fn(|l| group[l].x[i])));
-    // One pass per sub-step count in use: every lane is integrated, and a
-    // lane keeps the result of the pass that matches its own count.
-    for (n, wanted) in [(quiet_n, false), (busy_n, true)] {
-        if !busy.contains(&wanted) {
-            continue;
+    busy.clear();
+    for (k, g) in groups.iter_mut().enumerate() {
+        let at = |l: usize| (k * LANES + l).min(n - 1);
+        let cho = lanes_of(|l| rates[at(l)].cho_g_per_min);
+        let ins = lanes_of(|l| rates[at(l)].insulin_u_per_min);
+        let s = lanes_of(|l| sensitivity[at(l)]);
+        g.step_quiet(solver, cho, ins, s, k * LANES, n, busy);
+    }
+    let busy_n = solver.busy_substeps.max(1);
+    for chunk in busy.chunks(LANES) {
+        if chunk.len() <= FEW_BUSY {
+            for b in chunk {
+                substep_alone(&mut groups[b.group], b, busy_n);
+            }
+        } else {
+            substep_together(groups, &mut scratch[0], chunk, busy_n);
         }
-        let mut x = x0;
-        let h = 1.0 / f64::from(n);
-        for _ in 0..n {
-            rk4_step(consts, &ul, &mut x, h);
-        }
-        for (l, p) in group.iter_mut().enumerate() {
-            if busy[l] == wanted {
-                p.x = std::array::from_fn(|i| x[i].0[l]);
+    }
+    for (k, g) in groups.iter().enumerate() {
+        if let Some((l, state)) = g.first_non_finite() {
+            let i = k * LANES + l;
+            if i < n {
+                return Err(SimError::NonFinite {
+                    patient: patients[i].params.name.clone(),
+                    minute: g.minute[l],
+                    state: PatientState::NAMES[state].to_string(),
+                });
             }
         }
     }
-    for p in group.iter_mut() {
-        p.end_minute()?;
-    }
     Ok(())
+}
+
+/// A lane whose gut is busy this minute, and its state before the minute.
+#[derive(Debug, Clone)]
+struct BusyLane {
+    group: usize,
+    lane: usize,
+    start: [f64; 13],
+}
+
+/// The busy sub-steps of one lane alone, as a group of one lane (the same
+/// operations as in a full group, so the same bits).
+#[inline(always)]
+fn substep_alone(g: &mut Group, b: &BusyLane, busy_n: u32) {
+    let c = ModelConsts::regather([(&g.consts, b.lane)]);
+    let u = MinuteInput::regather([(&g.u, b.lane)]);
+    let mut x: [Lanes<1>; 13] = b.start.map(|v| Lanes([v]));
+    let h = Lanes([1.0 / f64::from(busy_n)]);
+    for _ in 0..busy_n {
+        rk4_step(&c, &u, &mut x, h);
+    }
+    for (to, from) in g.x.iter_mut().zip(x) {
+        to.0[b.lane] = from.0[0];
+    }
+}
+
+/// The busy sub-steps of up to [`LANES`] busy lanes, gathered from their
+/// groups into one (padded with copies of the first).
+#[inline(always)]
+fn substep_together(groups: &mut [Group], scratch: &mut Group, chunk: &[BusyLane], busy_n: u32) {
+    // The gathered lanes live in `scratch`, in memory like a group's own
+    // (as local variables the compiler kept them in registers and spilled
+    // them, which made a step twice as slow as a group's).
+    let pick = |j: usize| &chunk[j.min(chunk.len() - 1)];
+    scratch.consts = ModelConsts::regather(std::array::from_fn(|j| {
+        (&groups[pick(j).group].consts, pick(j).lane)
+    }));
+    scratch.u = MinuteInput::regather(std::array::from_fn(|j| {
+        (&groups[pick(j).group].u, pick(j).lane)
+    }));
+    for (i, v) in scratch.x.iter_mut().enumerate() {
+        *v = lanes_of(|j| pick(j).start[i]);
+    }
+    let h = L::splat(1.0 / f64::from(busy_n));
+    for _ in 0..busy_n {
+        rk4_step(&scratch.consts, &scratch.u, &mut scratch.x, h);
+    }
+    for (j, b) in chunk.iter().enumerate() {
+        for (i, v) in scratch.x.iter().enumerate() {
+            groups[b.group].x[i].0[b.lane] = v.0[j];
+        }
+    }
+}
+
+impl Group {
+    fn gather(p: [&Patient; LANES]) -> Self {
+        let lanes = |f: &dyn Fn(&Patient) -> f64| Lanes(std::array::from_fn(|l| f(p[l])));
+        Self {
+            consts: ModelConsts::gather(std::array::from_fn(|l| &p[l].consts)),
+            x: std::array::from_fn(|i| lanes(&|q| q.x[i])),
+            u: MinuteInput::gather(std::array::from_fn(|l| &p[l].last_input)),
+            last_cho: lanes(&|q| q.last_cho_g_per_min),
+            last_q_sto: lanes(&|q| q.last_q_sto_mg),
+            food_taken: lanes(&|q| q.last_food_taken_g),
+            minute: std::array::from_fn(|l| p[l].minute),
+        }
+    }
+
+    #[inline(always)]
+    fn state_array(&self, l: usize) -> [f64; 13] {
+        std::array::from_fn(|i| self.x[i].0[l])
+    }
+
+    /// The first lane (and its first state) that is not finite.
+    #[inline(always)]
+    fn first_non_finite(&self) -> Option<(usize, usize)> {
+        // A value is not finite when its exponent bits are all ones: one
+        // branch-free pass over every state first.
+        const EXP: u64 = 0x7ff0_0000_0000_0000;
+        let mut bad = [0u64; LANES];
+        for v in &self.x {
+            for (b, x) in bad.iter_mut().zip(v.0) {
+                *b |= u64::from(x.to_bits() & EXP == EXP);
+            }
+        }
+        if bad.iter().fold(0, |a, b| a | b) == 0 {
+            return None;
+        }
+        self.first_non_finite_slow()
+    }
+
+    #[cold]
+    fn first_non_finite_slow(&self) -> Option<(usize, usize)> {
+        (0..LANES).find_map(|l| {
+            let i = self.x.iter().position(|v| !v.0[l].is_finite())?;
+            Some((l, i))
+        })
+    }
+
+    /// One minute of every lane: [`Patient::begin_minute`]'s bookkeeping,
+    /// the solver's sub-step choice and the quiet sub-steps, lane by lane
+    /// the same operations as one patient's (inputs already checked).
+    /// Returns which lanes are busy, and the state before the minute.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn step_quiet(
+        &mut self,
+        solver: &super::Solver,
+        cho: L,
+        ins: L,
+        s: L,
+        first: usize,
+        n: usize,
+        busy_lanes: &mut Vec<BusyLane>,
+    ) {
+        let c = &self.consts;
+        // Eating-episode bookkeeping (§1.4, as `Patient::begin_minute`).
+        let eating = cho.0.map(|v| v > 0.0);
+        let starts = mask_and(eating, self.last_cho.0.map(|v| v <= 0.0));
+        let q_sto = self.x[ix::Q_STO1] + self.x[ix::Q_STO2];
+        self.last_q_sto = select(starts, q_sto, self.last_q_sto);
+        self.food_taken = select(starts, L::splat(0.0), self.food_taken);
+        self.food_taken = select(eating, self.food_taken + cho, self.food_taken);
+        self.last_cho = cho;
+        let dbar = self.last_q_sto + self.food_taken * MG_PER_G;
+
+        // The minute's input (as `MinuteInput::next`: the kempt slopes
+        // only when Dbar moved, the insulin input only when the rate did).
+        let u = &mut self.u;
+        if bits_differ(dbar, u.dbar_mg) {
+            let positive = dbar.0.map(|v| v > 0.0);
+            let two_dbar = dbar * 2.0;
+            let alpha = L::splat(5.0) / (two_dbar * (L::splat(1.0) - c.b));
+            let beta = L::splat(5.0) / (two_dbar * c.d);
+            u.alpha = select(positive, alpha, L::splat(0.0));
+            u.beta = select(positive, beta, L::splat(0.0));
+            u.two_alpha = u.alpha * 2.0;
+            u.two_beta = u.beta * 2.0;
+            u.b_dbar = c.b * dbar;
+            u.d_dbar = c.d * dbar;
+            u.dbar_mg = dbar;
+        }
+        if bits_differ(ins, u.insulin_u_per_min) {
+            u.insulin_u_per_min = ins;
+            u.insulin_pmol_per_kg_min = ins * PMOL_PER_UNIT / c.bw;
+        }
+        u.meal_mg_per_min = cho * MG_PER_G;
+        u.sensitivity = s;
+        u.s_kp3 = s * c.kp3;
+        u.s_vmx = s * c.vmx;
+
+        // Sub-steps per lane (as `Solver::substeps_for`): every lane takes
+        // the quiet sub-steps here; the caller integrates the busy lanes
+        // again from `start`, with the busy sub-steps.
+        let quiet_n = solver.substeps.max(1);
+        let busy = if solver.busy_substeps.max(1) != quiet_n {
+            self.gut_is_busy(solver)
+        } else {
+            [false; LANES]
+        };
+        for l in (0..LANES).filter(|&l| busy[l] && first + l < n) {
+            busy_lanes.push(BusyLane {
+                group: first / LANES,
+                lane: l,
+                start: self.state_array(l),
+            });
+        }
+        let h = L::splat(1.0 / f64::from(quiet_n));
+        for _ in 0..quiet_n {
+            rk4_step(&self.consts, &self.u, &mut self.x, h);
+        }
+        for m in &mut self.minute {
+            *m += 1;
+        }
+    }
+
+    /// [`super::Solver::gut_is_busy`] for every lane.
+    #[inline(always)]
+    fn gut_is_busy(&self, solver: &super::Solver) -> Mask {
+        let (c, u, x) = (&self.consts, &self.u, &self.x);
+        let q_sto = x[ix::Q_STO1] + x[ix::Q_STO2];
+        let q_rate = c.kmax * abs(x[ix::Q_STO2]) + c.kmax * abs(x[ix::Q_STO1]);
+        let first = near(solver, u.alpha, u.b_dbar, q_sto, q_rate);
+        let second = near(solver, u.beta, u.d_dbar, q_sto, q_rate);
+        mask_of(|l| {
+            (u.meal_mg_per_min.0[l] > 0.0)
+                | ((u.dbar_mg.0[l] > 0.0) & (x[ix::Q_STO2].0[l] != 0.0) & (first[l] | second[l]))
+        })
+    }
+}
+
+/// Per lane: is a tanh argument of kempt (slope·(Qsto − centre)) near 0
+/// and moving fast (as in [`super::Solver`]'s busy-gut test)?
+#[inline(always)]
+fn near(solver: &super::Solver, slope: L, centre: L, q_sto: L, q_rate: L) -> Mask {
+    let moves = slope * q_rate;
+    let dist = abs(slope * (q_sto - centre));
+    let reach = moves + solver.tanh_window;
+    mask_of(|l| (moves.0[l] > solver.tanh_rate) & (dist.0[l] < reach.0[l]))
+}
+
+/// One classic RK4 step of lane-wise length `h`: the operations of
+/// `solver::rk4_step` for one patient, lane by lane.
+#[inline(always)]
+fn rk4_step<T: Real>(c: &ModelConsts<T>, u: &MinuteInput<T>, x: &mut [T; 13], h: T) {
+    let half = h * 0.5;
+    let sixth = h / T::splat(6.0);
+    let k1 = derivatives(c, u, x);
+    let mut y = *x;
+    for i in 0..13 {
+        y[i] = x[i] + k1[i] * half;
+    }
+    let k2 = derivatives(c, u, &y);
+    for i in 0..13 {
+        y[i] = x[i] + k2[i] * half;
+    }
+    let k3 = derivatives(c, u, &y);
+    for i in 0..13 {
+        y[i] = x[i] + k3[i] * h;
+    }
+    let k4 = derivatives(c, u, &y);
+    for i in 0..13 {
+        x[i] = x[i] + (k1[i] + k2[i] * 2.0 + k3[i] * 2.0 + k4[i]) * sixth;
+    }
+}
+
+/// Lanes from a function of the lane index (a plain loop: the closures
+/// of `std::array::from_fn` were not always inlined, and a call leaves the
+/// run-time-selected instruction set).
+#[inline(always)]
+fn lanes_of<const W: usize>(f: impl Fn(usize) -> f64) -> Lanes<W> {
+    let mut v = [0.0; W];
+    for (l, x) in v.iter_mut().enumerate() {
+        *x = f(l);
+    }
+    Lanes(v)
+}
+
+/// A mask from a function of the lane index (as [`lanes_of`]).
+#[inline(always)]
+fn mask_of(f: impl Fn(usize) -> bool) -> Mask {
+    let mut m = [false; LANES];
+    for (l, x) in m.iter_mut().enumerate() {
+        *x = f(l);
+    }
+    m
+}
+
+#[inline(always)]
+fn select(mask: Mask, a: L, b: L) -> L {
+    lanes_of(|l| if mask[l] { a.0[l] } else { b.0[l] })
+}
+
+#[inline(always)]
+fn mask_and(a: Mask, b: Mask) -> Mask {
+    mask_of(|l| a[l] & b[l])
+}
+
+#[inline(always)]
+fn abs(v: L) -> L {
+    Lanes(v.0.map(f64::abs))
+}
+
+#[inline(always)]
+fn bits_differ(a: L, b: L) -> bool {
+    a.0.iter().zip(b.0).any(|(x, y)| x.to_bits() != y.to_bits())
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+    use crate::inputs::{hard_days, InputDay};
+    use crate::patient::{PatientParams, QuestRow};
+
+    /// Every public patient on one hard day (their meals at different
+    /// times and sizes, so groups have quiet and busy lanes), with a
+    /// sensitivity varying by patient.
+    fn cohort_day() -> (Vec<Patient>, Vec<InputDay>) {
+        let mut patients = Vec::new();
+        let mut days = Vec::new();
+        for (k, p) in PatientParams::all_public().unwrap().into_iter().enumerate() {
+            let cr = QuestRow::for_patient(&p.name).unwrap().cr;
+            let name = hard_days::NAMES[k % hard_days::NAMES.len()];
+            days.push(hard_days::build(name, &p, cr).unwrap());
+            patients.push(Patient::new(p).unwrap());
+        }
+        (patients, days)
+    }
+
+    /// Insulin sensitivity of the k-th patient of [`cohort_day`].
+    fn sensitivity(k: usize) -> f64 {
+        0.8 + 0.05 * (k % 9) as f64
+    }
+
+    fn run(mut batch: PatientBatch, days: &[InputDay], s: &[f64]) -> Vec<[f64; 13]> {
+        let n = batch.len();
+        let minutes = days.iter().map(|d| d.minutes.len()).min().unwrap();
+        let mut out = Vec::new();
+        for m in 0..minutes {
+            let rates: Vec<MinuteRates> = days.iter().map(|d| d.minutes[m]).collect();
+            batch.step(&rates, s).unwrap();
+            out.extend((0..n).map(|i| batch.state_array(i)));
+        }
+        out
+    }
+
+    fn bits(states: &[[f64; 13]]) -> Vec<u64> {
+        states.iter().flatten().map(|v| v.to_bits()).collect()
+    }
+
+    #[test]
+    fn every_instruction_set_gives_the_same_bits() {
+        let (patients, days) = cohort_day();
+        let s: Vec<f64> = (0..patients.len()).map(sensitivity).collect();
+        let detected = bits(&run(
+            PatientBatch::new(patients.clone()).unwrap(),
+            &days,
+            &s,
+        ));
+        let mut isas = vec![Isa::Baseline];
+        #[cfg(target_arch = "x86_64")]
+        {
+            if pulp::x86::V3::try_new().is_some() {
+                isas.push(Isa::Avx2);
+            }
+            if pulp::x86::V4::try_new().is_some() {
+                isas.push(Isa::Avx512);
+            }
+        }
+        for isa in isas {
+            let mut batch = PatientBatch::new(patients.clone()).unwrap();
+            batch.isa = isa;
+            assert!(bits(&run(batch, &days, &s)) == detected, "{isa:?} differs");
+        }
+    }
+
+    /// A patient's trajectory does not depend on which patients share its
+    /// batch, nor on its place there: whether its busy minutes are
+    /// sub-stepped alone or gathered with others, the operations are the
+    /// same.
+    #[test]
+    fn a_patient_is_the_same_in_any_company() {
+        let (patients, days) = cohort_day();
+        let n = patients.len();
+        let s: Vec<f64> = (0..n).map(sensitivity).collect();
+        let together = run(PatientBatch::new(patients.clone()).unwrap(), &days, &s);
+        for k in [0, 7, n - 1] {
+            let alone = run(
+                PatientBatch::new(vec![patients[k].clone()]).unwrap(),
+                &days[k..=k],
+                &s[k..=k],
+            );
+            let mine: Vec<[f64; 13]> = together.iter().skip(k).step_by(n).copied().collect();
+            assert!(bits(&alone) == bits(&mine), "patient {k} differs alone");
+        }
+    }
 }

@@ -187,15 +187,13 @@ impl Patient {
         insulin_u_per_min: f64,
         sensitivity: f64,
     ) -> Result<(), SimError> {
-        let ok = cho_g_per_min.is_finite()
-            && cho_g_per_min >= 0.0
-            && insulin_u_per_min.is_finite()
-            && insulin_u_per_min >= 0.0
-            && sensitivity.is_finite()
-            && sensitivity > 0.0;
-        if !ok {
-            return Err(self.bad_input(cho_g_per_min, insulin_u_per_min, sensitivity));
-        }
+        check_input(
+            &self.params.name,
+            self.minute,
+            cho_g_per_min,
+            insulin_u_per_min,
+            sensitivity,
+        )?;
         // Eating-episode bookkeeping (§1.4): an episode starts when eating
         // follows a minute without eating; the stomach content is read
         // before this minute is integrated, and this minute's grams count.
@@ -215,12 +213,6 @@ impl Patient {
             sensitivity,
         );
         Ok(())
-    }
-
-    /// What the solver holds constant over the current (or last) minute.
-    #[inline]
-    pub(crate) fn minute_input(&self) -> &MinuteInput {
-        &self.last_input
     }
 
     /// Counts the minute and checks that the state stayed finite.
@@ -243,17 +235,45 @@ impl Patient {
     }
 
     fn bad_input(&self, cho: f64, ins: f64, s: f64) -> SimError {
-        let reason = if !(cho.is_finite() && cho >= 0.0) {
-            format!("carbohydrate rate must be a finite number >= 0 g/min, got {cho}")
-        } else if !(ins.is_finite() && ins >= 0.0) {
-            format!("insulin rate must be a finite number >= 0 U/min, got {ins}")
-        } else {
-            format!("insulin sensitivity must be a finite number > 0, got {s}")
-        };
-        SimError::InvalidInput {
-            patient: self.params.name.clone(),
-            minute: self.minute,
-            reason,
-        }
+        bad_input(&self.params.name, self.minute, cho, ins, s)
+    }
+}
+
+/// Checks one minute's inputs of a patient (`name`, at `minute`): rates
+/// finite and >= 0, sensitivity finite and > 0.
+#[inline]
+pub(crate) fn check_input(
+    name: &str,
+    minute: i64,
+    cho: f64,
+    ins: f64,
+    s: f64,
+) -> Result<(), SimError> {
+    if input_is_valid(cho, ins, s) {
+        Ok(())
+    } else {
+        Err(bad_input(name, minute, cho, ins, s))
+    }
+}
+
+/// True when one minute's inputs are valid (see [`check_input`]).
+#[inline(always)]
+pub(crate) fn input_is_valid(cho: f64, ins: f64, s: f64) -> bool {
+    cho.is_finite() && cho >= 0.0 && ins.is_finite() && ins >= 0.0 && s.is_finite() && s > 0.0
+}
+
+#[cold]
+fn bad_input(name: &str, minute: i64, cho: f64, ins: f64, s: f64) -> SimError {
+    let reason = if !(cho.is_finite() && cho >= 0.0) {
+        format!("carbohydrate rate must be a finite number >= 0 g/min, got {cho}")
+    } else if !(ins.is_finite() && ins >= 0.0) {
+        format!("insulin rate must be a finite number >= 0 U/min, got {ins}")
+    } else {
+        format!("insulin sensitivity must be a finite number > 0, got {s}")
+    };
+    SimError::InvalidInput {
+        patient: name.to_string(),
+        minute,
+        reason,
     }
 }

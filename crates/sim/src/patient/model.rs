@@ -125,11 +125,32 @@ macro_rules! gather {
     };
 }
 
-impl<const W: usize> ModelConsts<Lanes<W>> {
-    /// The constants of `W` patients side by side.
-    pub fn gather(c: [&ModelConsts; W]) -> Self {
-        gather!(
-            c,
+/// Lane `l` of every field of a struct of lanes.
+macro_rules! pick {
+    (($from:expr, $l:expr), $ty:ident { $($f:ident),* $(,)? }) => {
+        $ty { $($f: $from.$f.0[$l],)* }
+    };
+}
+
+/// Lane `lanes[j].1` of struct `lanes[j].0` into lane `j`, every field.
+macro_rules! regather {
+    ($lanes:expr, $ty:ident { $($f:ident),* $(,)? }) => {
+        $ty { $($f: {
+            let mut v = [0.0; W];
+            for (j, x) in v.iter_mut().enumerate() {
+                *x = $lanes[j].0.$f.0[$lanes[j].1];
+            }
+            Lanes(v)
+        },)* }
+    };
+}
+
+/// Calls `$mac!($arg, Struct { every field })` for the two structs that
+/// exist as lanes, so that their field lists are written once.
+macro_rules! with_fields {
+    ($mac:ident, $arg:tt, ModelConsts) => {
+        $mac!(
+            $arg,
             ModelConsts {
                 bw,
                 kabs,
@@ -169,14 +190,10 @@ impl<const W: usize> ModelConsts<Lanes<W>> {
                 half_k_range
             }
         )
-    }
-}
-
-impl<const W: usize> MinuteInput<Lanes<W>> {
-    /// The minute inputs of `W` patients side by side.
-    pub fn gather(u: [&MinuteInput; W]) -> Self {
-        gather!(
-            u,
+    };
+    ($mac:ident, $arg:tt, MinuteInput) => {
+        $mac!(
+            $arg,
             MinuteInput {
                 meal_mg_per_min,
                 insulin_pmol_per_kg_min,
@@ -193,6 +210,42 @@ impl<const W: usize> MinuteInput<Lanes<W>> {
                 s_vmx
             }
         )
+    };
+}
+
+impl<const W: usize> ModelConsts<Lanes<W>> {
+    /// Lane `j` of the result is lane `from[j].1` of `from[j].0`.
+    #[inline(always)]
+    pub fn regather<const V: usize>(from: [(&ModelConsts<Lanes<V>>, usize); W]) -> Self {
+        with_fields!(regather, from, ModelConsts)
+    }
+
+    /// The constants of lane `l`.
+    pub fn lane(&self, l: usize) -> ModelConsts {
+        with_fields!(pick, (self, l), ModelConsts)
+    }
+
+    /// The constants of `W` patients side by side.
+    pub fn gather(c: [&ModelConsts; W]) -> Self {
+        with_fields!(gather, c, ModelConsts)
+    }
+}
+
+impl<const W: usize> MinuteInput<Lanes<W>> {
+    /// Lane `j` of the result is lane `from[j].1` of `from[j].0`.
+    #[inline(always)]
+    pub fn regather<const V: usize>(from: [(&MinuteInput<Lanes<V>>, usize); W]) -> Self {
+        with_fields!(regather, from, MinuteInput)
+    }
+
+    /// The minute input of lane `l`.
+    pub fn lane(&self, l: usize) -> MinuteInput {
+        with_fields!(pick, (self, l), MinuteInput)
+    }
+
+    /// The minute inputs of `W` patients side by side.
+    pub fn gather(u: [&MinuteInput; W]) -> Self {
+        with_fields!(gather, u, MinuteInput)
     }
 }
 

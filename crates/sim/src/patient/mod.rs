@@ -11,7 +11,6 @@
 //! assert!((p.glucose_mg_dl() - 138.56).abs() < 1e-6);
 //! ```
 
-pub mod batch;
 pub mod eating;
 pub mod lanes;
 pub mod model;
@@ -19,7 +18,6 @@ pub mod params;
 pub mod solver;
 pub mod state;
 
-pub use batch::PatientBatch;
 pub use eating::{EatingQueue, EAT_RATE_G_PER_MIN};
 pub use model::{derivatives, MinuteInput, ModelConsts};
 pub use params::{PatientParams, QuestRow, N_STATES};
@@ -28,6 +26,25 @@ pub use state::PatientState;
 
 use crate::error::SimError;
 use abba_core::units::MG_PER_G;
+
+/// Where a patient stands between two minutes, beyond its parameters:
+/// what a stepper outside this crate (`abba-batch`) reads to take a
+/// patient over and writes back to hand it out.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MinuteState {
+    /// The states x1..x13.
+    pub x: [f64; 13],
+    /// Minutes simulated so far.
+    pub minute: i64,
+    /// Eating rate of the previous minute (g/min).
+    pub last_cho_g_per_min: f64,
+    /// Stomach content when the current/last eating episode began (mg).
+    pub last_q_sto_mg: f64,
+    /// Grams eaten so far in the current/last episode.
+    pub last_food_taken_g: f64,
+    /// The input of the last integrated minute.
+    pub last_input: MinuteInput,
+}
 
 /// One virtual patient: parameters, state and the eating-episode
 /// bookkeeping that defines Dbar.
@@ -85,6 +102,47 @@ impl Patient {
     /// The patient's parameters.
     pub fn params(&self) -> &PatientParams {
         &self.params
+    }
+
+    /// The model's constants, derived from the parameters.
+    pub fn consts(&self) -> &ModelConsts {
+        &self.consts
+    }
+
+    /// The solver.
+    pub fn solver(&self) -> Solver {
+        self.solver
+    }
+
+    /// Where the patient stands between two minutes.
+    pub fn minute_state(&self) -> MinuteState {
+        MinuteState {
+            x: self.x,
+            minute: self.minute,
+            last_cho_g_per_min: self.last_cho_g_per_min,
+            last_q_sto_mg: self.last_q_sto_mg,
+            last_food_taken_g: self.last_food_taken_g,
+            last_input: self.last_input,
+        }
+    }
+
+    /// The patient continued from `state` (as another stepper left it);
+    /// refused when a state is not finite.
+    pub fn with_minute_state(mut self, state: MinuteState) -> Result<Self, SimError> {
+        if let Some(k) = state.x.iter().position(|v| !v.is_finite()) {
+            return Err(SimError::NonFinite {
+                patient: self.params.name.clone(),
+                minute: state.minute,
+                state: PatientState::NAMES[k].to_string(),
+            });
+        }
+        self.x = state.x;
+        self.minute = state.minute;
+        self.last_cho_g_per_min = state.last_cho_g_per_min;
+        self.last_q_sto_mg = state.last_q_sto_mg;
+        self.last_food_taken_g = state.last_food_taken_g;
+        self.last_input = state.last_input;
+        Ok(self)
     }
 
     /// Minutes simulated so far.
@@ -242,13 +300,7 @@ impl Patient {
 /// Checks one minute's inputs of a patient (`name`, at `minute`): rates
 /// finite and >= 0, sensitivity finite and > 0.
 #[inline]
-pub(crate) fn check_input(
-    name: &str,
-    minute: i64,
-    cho: f64,
-    ins: f64,
-    s: f64,
-) -> Result<(), SimError> {
+pub fn check_input(name: &str, minute: i64, cho: f64, ins: f64, s: f64) -> Result<(), SimError> {
     if input_is_valid(cho, ins, s) {
         Ok(())
     } else {
@@ -258,7 +310,7 @@ pub(crate) fn check_input(
 
 /// True when one minute's inputs are valid (see [`check_input`]).
 #[inline(always)]
-pub(crate) fn input_is_valid(cho: f64, ins: f64, s: f64) -> bool {
+pub fn input_is_valid(cho: f64, ins: f64, s: f64) -> bool {
     cho.is_finite() && cho >= 0.0 && ins.is_finite() && ins >= 0.0 && s.is_finite() && s > 0.0
 }
 

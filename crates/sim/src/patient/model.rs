@@ -220,11 +220,6 @@ impl<const W: usize> ModelConsts<Lanes<W>> {
         with_fields!(regather, from, ModelConsts)
     }
 
-    /// The constants of lane `l`.
-    pub fn lane(&self, l: usize) -> ModelConsts {
-        with_fields!(pick, (self, l), ModelConsts)
-    }
-
     /// The constants of `W` patients side by side.
     pub fn gather(c: [&ModelConsts; W]) -> Self {
         with_fields!(gather, c, ModelConsts)

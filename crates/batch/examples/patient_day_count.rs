@@ -9,8 +9,9 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+use abba_batch::PatientBatch;
 use abba_sim::inputs::InputDay;
-use abba_sim::patient::{GutTape, Patient, PatientBatch, PatientParams};
+use abba_sim::patient::{GutTape, Patient, PatientParams};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let n: usize = std::env::args().nth(1).map_or(Ok(100), |s| s.parse())?;

@@ -12,7 +12,7 @@
 //! the lanes' from one minute to the next (an earlier version did, and
 //! gained nothing over stepping the patients one by one).
 //!
-//! Busy minutes ([`super::Solver`]'s busy-gut rule: eating, or kempt in its
+//! Busy minutes ([`Solver`]'s busy-gut rule: eating, or kempt in its
 //! steep switch) take four RK4 sub-steps instead of one. Sub-stepping a
 //! whole group because one lane is busy would double the batch's cost (with
 //! 16 lanes some lane is busy in most minutes around meals), so each
@@ -25,7 +25,7 @@
 //! present, the x86-64 baseline otherwise.
 //!
 //! Every lane does what [`Patient::step`] does, operation for operation,
-//! except the exp of kempt's two tanh ([`super::lanes::exp_small`], within
+//! except the exp of kempt's two tanh ([`abba_sim::patient::lanes::exp_small`], within
 //! 2 ulp of libm's): the glucose of a batch stays within 1e-9 mg/dL of
 //! one-by-one stepping (test `batch_matches_one_by_one`, which prints the
 //! largest difference, 3e-13 mg/dL). Within the batch the results are
@@ -33,13 +33,16 @@
 //! share the batch (tests `every_instruction_set_gives_the_same_bits`,
 //! `a_patient_is_the_same_in_any_company`).
 
-use super::lanes::{Lanes, Real};
-use super::model::{derivatives, ix, MinuteInput, ModelConsts};
-use super::{Patient, PatientState};
-use crate::inputs::MinuteRates;
-use crate::SimError;
 use abba_core::units::MG_PER_G;
 use abba_core::PMOL_PER_UNIT;
+use abba_sim::inputs::MinuteRates;
+use abba_sim::patient::lanes::{Lanes, Real};
+use abba_sim::patient::model::{derivatives, ix};
+use abba_sim::patient::{
+    check_input, input_is_valid, MinuteInput, MinuteState, ModelConsts, Patient, PatientState,
+    Solver,
+};
+use abba_sim::SimError;
 
 /// Patients integrated together (one group of lanes). 16 measured best
 /// (per patient-day on the bench's 64 adults, AVX-512: 8 lanes +40 %, 32
@@ -94,7 +97,7 @@ impl PatientBatch {
     /// A batch of patients; they must share one solver.
     pub fn new(patients: Vec<Patient>) -> Result<Self, SimError> {
         if let Some(first) = patients.first() {
-            if patients.iter().any(|p| p.solver != first.solver) {
+            if patients.iter().any(|p| p.solver() != first.solver()) {
                 return Err(SimError::Config(
                     "the patients of a batch must share one solver".into(),
                 ));
@@ -128,16 +131,16 @@ impl PatientBatch {
     /// Patient `i` as it stands now, as a [`Patient`] that can go on
     /// alone (its state, minute and eating bookkeeping taken from the
     /// lanes).
-    pub fn patient(&self, i: usize) -> Patient {
+    pub fn patient(&self, i: usize) -> Result<Patient, SimError> {
         let (g, l) = (&self.groups[i / LANES], i % LANES);
-        let mut p = self.patients[i].clone();
-        p.x = g.state_array(l);
-        p.minute = g.minute[l];
-        p.last_cho_g_per_min = g.last_cho.0[l];
-        p.last_q_sto_mg = g.last_q_sto.0[l];
-        p.last_food_taken_g = g.food_taken.0[l];
-        p.last_input = g.u.lane(l);
-        p
+        self.patients[i].clone().with_minute_state(MinuteState {
+            x: g.state_array(l),
+            minute: g.minute[l],
+            last_cho_g_per_min: g.last_cho.0[l],
+            last_q_sto_mg: g.last_q_sto.0[l],
+            last_food_taken_g: g.food_taken.0[l],
+            last_input: g.u.lane(l),
+        })
     }
 
     /// The states x1..x13 of patient `i`.
@@ -152,13 +155,13 @@ impl PatientBatch {
 
     /// Plasma glucose of patient `i` (mg/dL), as [`Patient::glucose_mg_dl`].
     pub fn glucose_mg_dl(&self, i: usize) -> f64 {
-        self.groups[i / LANES].x[ix::GP].0[i % LANES] / self.patients[i].params.vg
+        self.groups[i / LANES].x[ix::GP].0[i % LANES] / self.patients[i].params().vg
     }
 
     /// Subcutaneous glucose of patient `i` (mg/dL), as
     /// [`Patient::subcutaneous_glucose_mg_dl`].
     pub fn subcutaneous_glucose_mg_dl(&self, i: usize) -> f64 {
-        self.groups[i / LANES].x[ix::GS].0[i % LANES] / self.patients[i].params.vg
+        self.groups[i / LANES].x[ix::GS].0[i % LANES] / self.patients[i].params().vg
     }
 
     /// Advances every patient one minute: patient `i` with `rates[i]` and
@@ -173,7 +176,11 @@ impl PatientBatch {
                 sensitivity.len()
             )));
         }
-        let solver = self.patients.first().map(|p| p.solver).unwrap_or_default();
+        let solver = self
+            .patients
+            .first()
+            .map(Patient::solver)
+            .unwrap_or_default();
         let groups = &mut self.groups;
         let busy = &mut self.busy;
         let scratch = &mut self.scratch;
@@ -231,7 +238,7 @@ struct StepGroups<'a> {
     scratch: &'a mut [Group],
     busy: &'a mut Vec<BusyLane>,
     patients: &'a [Patient],
-    solver: &'a super::Solver,
+    solver: &'a Solver,
     rates: &'a [MinuteRates],
     sensitivity: &'a [f64],
 }
@@ -259,19 +266,19 @@ fn step_groups(
     scratch: &mut [Group],
     busy: &mut Vec<BusyLane>,
     patients: &[Patient],
-    solver: &super::Solver,
+    solver: &Solver,
     rates: &[MinuteRates],
     sensitivity: &[f64],
 ) -> Result<(), SimError> {
     let n = patients.len();
     let all_ok = rates.iter().zip(sensitivity).fold(true, |ok, (r, s)| {
-        ok & super::input_is_valid(r.cho_g_per_min, r.insulin_u_per_min, *s)
+        ok & input_is_valid(r.cho_g_per_min, r.insulin_u_per_min, *s)
     });
     if !all_ok {
         for (i, (r, s)) in rates.iter().zip(sensitivity).enumerate() {
-            let name = &patients[i].params.name;
+            let name = &patients[i].params().name;
             let (cho, ins) = (r.cho_g_per_min, r.insulin_u_per_min);
-            super::check_input(name, groups[i / LANES].minute[i % LANES], cho, ins, *s)?;
+            check_input(name, groups[i / LANES].minute[i % LANES], cho, ins, *s)?;
         }
     }
     busy.clear();
@@ -297,7 +304,7 @@ fn step_groups(
             let i = k * LANES + l;
             if i < n {
                 return Err(SimError::NonFinite {
-                    patient: patients[i].params.name.clone(),
+                    patient: patients[i].params().name.clone(),
                     minute: g.minute[l],
                     state: PatientState::NAMES[state].to_string(),
                 });
@@ -316,8 +323,10 @@ struct BusyLane {
 }
 
 /// The busy sub-steps of one lane alone, as a group of one lane (the same
-/// operations as in a full group, so the same bits).
-#[inline(always)]
+/// operations as in a full group, so the same bits). Not inlined: one lane
+/// gains nothing from vector instructions, and each inlined copy costs
+/// compile time (the crate's build: 99 s → 80 s).
+#[inline(never)]
 fn substep_alone(g: &mut Group, b: &BusyLane, busy_n: u32) {
     let c = ModelConsts::regather([(&g.consts, b.lane)]);
     let u = MinuteInput::regather([(&g.u, b.lane)]);
@@ -361,15 +370,16 @@ fn substep_together(groups: &mut [Group], scratch: &mut Group, chunk: &[BusyLane
 
 impl Group {
     fn gather(p: [&Patient; LANES]) -> Self {
-        let lanes = |f: &dyn Fn(&Patient) -> f64| Lanes(std::array::from_fn(|l| f(p[l])));
+        let m: [MinuteState; LANES] = std::array::from_fn(|l| p[l].minute_state());
+        let lanes = |f: &dyn Fn(&MinuteState) -> f64| Lanes(std::array::from_fn(|l| f(&m[l])));
         Self {
-            consts: ModelConsts::gather(std::array::from_fn(|l| &p[l].consts)),
+            consts: ModelConsts::gather(std::array::from_fn(|l| p[l].consts())),
             x: std::array::from_fn(|i| lanes(&|q| q.x[i])),
-            u: MinuteInput::gather(std::array::from_fn(|l| &p[l].last_input)),
+            u: MinuteInput::gather(std::array::from_fn(|l| &m[l].last_input)),
             last_cho: lanes(&|q| q.last_cho_g_per_min),
             last_q_sto: lanes(&|q| q.last_q_sto_mg),
             food_taken: lanes(&|q| q.last_food_taken_g),
-            minute: std::array::from_fn(|l| p[l].minute),
+            minute: std::array::from_fn(|l| m[l].minute),
         }
     }
 
@@ -412,7 +422,7 @@ impl Group {
     #[allow(clippy::too_many_arguments)]
     fn step_quiet(
         &mut self,
-        solver: &super::Solver,
+        solver: &Solver,
         cho: L,
         ins: L,
         s: L,
@@ -481,9 +491,9 @@ impl Group {
         }
     }
 
-    /// [`super::Solver::gut_is_busy`] for every lane.
+    /// [`Solver::gut_is_busy`] for every lane.
     #[inline(always)]
-    fn gut_is_busy(&self, solver: &super::Solver) -> Mask {
+    fn gut_is_busy(&self, solver: &Solver) -> Mask {
         let (c, u, x) = (&self.consts, &self.u, &self.x);
         let q_sto = x[ix::Q_STO1] + x[ix::Q_STO2];
         let q_rate = c.kmax * abs(x[ix::Q_STO2]) + c.kmax * abs(x[ix::Q_STO1]);
@@ -497,9 +507,9 @@ impl Group {
 }
 
 /// Per lane: is a tanh argument of kempt (slope·(Qsto − centre)) near 0
-/// and moving fast (as in [`super::Solver`]'s busy-gut test)?
+/// and moving fast (as in [`Solver`]'s busy-gut test)?
 #[inline(always)]
-fn near(solver: &super::Solver, slope: L, centre: L, q_sto: L, q_rate: L) -> Mask {
+fn near(solver: &Solver, slope: L, centre: L, q_sto: L, q_rate: L) -> Mask {
     let moves = slope * q_rate;
     let dist = abs(slope * (q_sto - centre));
     let reach = moves + solver.tanh_window;
@@ -577,8 +587,8 @@ fn bits_differ(a: L, b: L) -> bool {
 mod tests {
     #![allow(clippy::unwrap_used)]
     use super::*;
-    use crate::inputs::{hard_days, InputDay};
-    use crate::patient::{PatientParams, QuestRow};
+    use abba_sim::inputs::{hard_days, InputDay};
+    use abba_sim::patient::{PatientParams, QuestRow};
 
     /// Every public patient on one hard day (their meals at different
     /// times and sizes, so groups have quiet and busy lanes), with a
@@ -639,6 +649,42 @@ mod tests {
             let mut batch = PatientBatch::new(patients.clone()).unwrap();
             batch.isa = isa;
             assert!(bits(&run(batch, &days, &s)) == detected, "{isa:?} differs");
+        }
+    }
+
+    /// `patient(i)` hands out patient i as it stands (minute, state,
+    /// eating bookkeeping), and it goes on alone as it would have in the
+    /// batch (within the exp's 2 ulp).
+    #[test]
+    fn a_patient_taken_out_goes_on_alone() {
+        let (patients, days) = cohort_day();
+        let n = patients.len();
+        let s: Vec<f64> = (0..n).map(sensitivity).collect();
+        let mut batch = PatientBatch::new(patients).unwrap();
+        // Stop in the middle of a meal for some patients.
+        let stop = 8 * 60 + 5;
+        for m in 0..stop {
+            let rates: Vec<MinuteRates> = days.iter().map(|d| d.minutes[m]).collect();
+            batch.step(&rates, &s).unwrap();
+        }
+        let mut alone: Vec<Patient> = (0..n).map(|i| batch.patient(i).unwrap()).collect();
+        for (i, p) in alone.iter().enumerate() {
+            assert_eq!(p.minute(), stop as i64);
+            assert_eq!(p.state_array(), &batch.state_array(i));
+            assert_eq!(
+                p.dbar_mg().to_bits(),
+                batch.groups[i / LANES].u.dbar_mg.0[i % LANES].to_bits()
+            );
+        }
+        for m in stop..stop + 120 {
+            let rates: Vec<MinuteRates> = days.iter().map(|d| d.minutes[m]).collect();
+            batch.step(&rates, &s).unwrap();
+            for (i, p) in alone.iter_mut().enumerate() {
+                p.step(rates[i].cho_g_per_min, rates[i].insulin_u_per_min, s[i])
+                    .unwrap();
+                let diff = (p.glucose_mg_dl() - batch.glucose_mg_dl(i)).abs();
+                assert!(diff < 1e-9, "patient {i} minute {m}: {diff:e} mg/dL");
+            }
         }
     }
 

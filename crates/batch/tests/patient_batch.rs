@@ -2,8 +2,9 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+use abba_batch::PatientBatch;
 use abba_sim::inputs::{hard_days, InputDay, MinuteRates};
-use abba_sim::patient::{Patient, PatientBatch, PatientParams, QuestRow, Solver};
+use abba_sim::patient::{Patient, PatientParams, QuestRow, Solver};
 
 /// Every public patient on every built-in hard day (150 patient-days, an
 /// odd number, so a partial group of lanes is exercised too), with

@@ -53,16 +53,8 @@ pub struct Patient {
     params: PatientParams,
     consts: ModelConsts,
     solver: Solver,
-    x: [f64; 13],
-    minute: i64,
-    /// Eating rate of the previous minute (g/min).
-    last_cho_g_per_min: f64,
-    /// Stomach content when the current/last eating episode began (mg).
-    last_q_sto_mg: f64,
-    /// Grams eaten so far in the current/last episode.
-    last_food_taken_g: f64,
-    /// The input of the last integrated minute (most of it carries over).
-    last_input: MinuteInput,
+    /// State, minute count, eating bookkeeping and last input.
+    now: MinuteState,
 }
 
 impl Patient {
@@ -87,15 +79,17 @@ impl Patient {
         }
         let consts = ModelConsts::from_params(&params);
         Ok(Self {
-            last_input: MinuteInput::new(&consts, 0.0, 0.0, 0.0, 1.0),
+            now: MinuteState {
+                x: params.x0,
+                minute: 0,
+                last_cho_g_per_min: 0.0,
+                last_q_sto_mg: 0.0,
+                last_food_taken_g: 0.0,
+                last_input: MinuteInput::new(&consts, 0.0, 0.0, 0.0, 1.0),
+            },
             consts,
-            x: params.x0,
             params,
             solver,
-            minute: 0,
-            last_cho_g_per_min: 0.0,
-            last_q_sto_mg: 0.0,
-            last_food_taken_g: 0.0,
         })
     }
 
@@ -116,14 +110,7 @@ impl Patient {
 
     /// Where the patient stands between two minutes.
     pub fn minute_state(&self) -> MinuteState {
-        MinuteState {
-            x: self.x,
-            minute: self.minute,
-            last_cho_g_per_min: self.last_cho_g_per_min,
-            last_q_sto_mg: self.last_q_sto_mg,
-            last_food_taken_g: self.last_food_taken_g,
-            last_input: self.last_input,
-        }
+        self.now
     }
 
     /// The patient continued from `state` (as another stepper left it);
@@ -136,44 +123,39 @@ impl Patient {
                 state: PatientState::NAMES[k].to_string(),
             });
         }
-        self.x = state.x;
-        self.minute = state.minute;
-        self.last_cho_g_per_min = state.last_cho_g_per_min;
-        self.last_q_sto_mg = state.last_q_sto_mg;
-        self.last_food_taken_g = state.last_food_taken_g;
-        self.last_input = state.last_input;
+        self.now = state;
         Ok(self)
     }
 
     /// Minutes simulated so far.
     pub fn minute(&self) -> i64 {
-        self.minute
+        self.now.minute
     }
 
     /// The current state.
     pub fn state(&self) -> PatientState {
-        PatientState::from_array(&self.x)
+        PatientState::from_array(&self.now.x)
     }
 
     /// The current state as the solver's array (x1..x13).
     pub fn state_array(&self) -> &[f64; 13] {
-        &self.x
+        &self.now.x
     }
 
     /// True plasma glucose G = Gp/Vg (mg/dL).
     pub fn glucose_mg_dl(&self) -> f64 {
-        self.x[model::ix::GP] / self.params.vg
+        self.now.x[model::ix::GP] / self.params.vg
     }
 
     /// Subcutaneous glucose Gs/Vg (mg/dL): what a CGM reads.
     pub fn subcutaneous_glucose_mg_dl(&self) -> f64 {
-        self.x[model::ix::GS] / self.params.vg
+        self.now.x[model::ix::GS] / self.params.vg
     }
 
     /// Dbar (mg) of the gastric-emptying law as it stands now (the value
     /// used for the last integrated minute).
     pub fn dbar_mg(&self) -> f64 {
-        self.last_q_sto_mg + MG_PER_G * self.last_food_taken_g
+        self.now.last_q_sto_mg + MG_PER_G * self.now.last_food_taken_g
     }
 
     /// Advances one minute with carbohydrate eaten at `cho_g_per_min`
@@ -188,7 +170,7 @@ impl Patient {
     ) -> Result<(), SimError> {
         self.begin_minute(cho_g_per_min, insulin_u_per_min, sensitivity)?;
         self.solver
-            .advance_minute(&self.consts, &self.last_input, &mut self.x);
+            .advance_minute(&self.consts, &self.now.last_input, &mut self.now.x);
         self.end_minute()
     }
 
@@ -207,9 +189,9 @@ impl Patient {
         }
         self.begin_minute(cho_g_per_min, insulin_u_per_min, sensitivity)?;
         // (The next minute's input recomputes s·kp3 from its own sensitivity.)
-        self.last_input.s_kp3 = egp_sensitivity * self.consts.kp3;
+        self.now.last_input.s_kp3 = egp_sensitivity * self.consts.kp3;
         self.solver
-            .advance_minute(&self.consts, &self.last_input, &mut self.x);
+            .advance_minute(&self.consts, &self.now.last_input, &mut self.now.x);
         self.end_minute()
     }
 
@@ -228,9 +210,13 @@ impl Patient {
             return Err(self.bad_input(cho_g_per_min, insulin_u_per_min, egp_sensitivity));
         }
         self.begin_minute(cho_g_per_min, insulin_u_per_min, sensitivity)?;
-        self.last_input.s_kp3 = egp_sensitivity * self.consts.kp3;
-        self.solver
-            .advance_minute_shared(&self.consts, &self.last_input, &mut self.x, tape);
+        self.now.last_input.s_kp3 = egp_sensitivity * self.consts.kp3;
+        self.solver.advance_minute_shared(
+            &self.consts,
+            &self.now.last_input,
+            &mut self.now.x,
+            tape,
+        );
         self.end_minute()
     }
 
@@ -247,7 +233,7 @@ impl Patient {
     ) -> Result<(), SimError> {
         check_input(
             &self.params.name,
-            self.minute,
+            self.now.minute,
             cho_g_per_min,
             insulin_u_per_min,
             sensitivity,
@@ -256,14 +242,15 @@ impl Patient {
         // follows a minute without eating; the stomach content is read
         // before this minute is integrated, and this minute's grams count.
         if cho_g_per_min > 0.0 {
-            if self.last_cho_g_per_min <= 0.0 {
-                self.last_q_sto_mg = self.x[model::ix::Q_STO1] + self.x[model::ix::Q_STO2];
-                self.last_food_taken_g = 0.0;
+            if self.now.last_cho_g_per_min <= 0.0 {
+                self.now.last_q_sto_mg =
+                    self.now.x[model::ix::Q_STO1] + self.now.x[model::ix::Q_STO2];
+                self.now.last_food_taken_g = 0.0;
             }
-            self.last_food_taken_g += cho_g_per_min;
+            self.now.last_food_taken_g += cho_g_per_min;
         }
-        self.last_cho_g_per_min = cho_g_per_min;
-        self.last_input = self.last_input.next(
+        self.now.last_cho_g_per_min = cho_g_per_min;
+        self.now.last_input = self.now.last_input.next(
             &self.consts,
             cho_g_per_min,
             insulin_u_per_min,
@@ -276,16 +263,16 @@ impl Patient {
     /// Counts the minute and checks that the state stayed finite.
     #[inline]
     pub(crate) fn end_minute(&mut self) -> Result<(), SimError> {
-        self.minute += 1;
+        self.now.minute += 1;
         // One branch-free test of all states first (the search below
         // branched on each of the 13 every minute).
-        if !self.x.iter().fold(false, |bad, v| bad | !v.is_finite()) {
+        if !self.now.x.iter().fold(false, |bad, v| bad | !v.is_finite()) {
             return Ok(());
         }
-        if let Some(k) = self.x.iter().position(|v| !v.is_finite()) {
+        if let Some(k) = self.now.x.iter().position(|v| !v.is_finite()) {
             return Err(SimError::NonFinite {
                 patient: self.params.name.clone(),
-                minute: self.minute,
+                minute: self.now.minute,
                 state: PatientState::NAMES[k].to_string(),
             });
         }
@@ -293,7 +280,7 @@ impl Patient {
     }
 
     fn bad_input(&self, cho: f64, ins: f64, s: f64) -> SimError {
-        bad_input(&self.params.name, self.minute, cho, ins, s)
+        bad_input(&self.params.name, self.now.minute, cho, ins, s)
     }
 }
 

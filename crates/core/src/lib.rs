@@ -14,6 +14,7 @@
 
 pub mod error;
 pub mod event;
+pub mod limits;
 pub mod metrics;
 pub mod named;
 pub mod scenario;

@@ -2,7 +2,7 @@
 //! system talks to, over one person store (many persons).
 //!
 //! The protocol (`/v1`, wire types in abba-api) is described in
-//! ARCHITECTURE.md ("The service"): the app posts device events with its
+//! crates/service/README.md: the app posts device events with its
 //! own sequence numbers; each batch is stored in one transaction and
 //! acknowledged only after COMMIT, with every suggestion its events
 //! produced; a repeated number with the same payload is acknowledged again

@@ -1,5 +1,12 @@
-//! The `abba` command: simulate a patient, build a cohort, compute glucose
-//! metrics, run the paper's in-silico trial.
+//! The `abba` command. It only parses, calls the libraries and prints.
+//!
+//! - the trial platform: `simulate`, `cohort`, `trial` (with `--shard` and
+//!   `trial merge`), `calibrate`;
+//! - a person's data: `metrics`, `events`, `export` (a simulated patient as
+//!   Nightscout JSON);
+//! - a person's advisor: `person`, `import`, `advise`, `answer`, `history`,
+//!   `report`;
+//! - the service: `serve`, `token`, `app` (a simulated patient through it).
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
 

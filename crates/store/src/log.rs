@@ -24,6 +24,7 @@ fn parse_source(s: &str) -> Result<Source, StoreError> {
         "libre_view" => Source::LibreView,
         "tidepool" => Source::Tidepool,
         "plain_csv" => Source::PlainCsv,
+        "care_link" => Source::CareLink,
         other => {
             return serde_json::from_value(serde_json::Value::String(other.into()))
                 .map_err(|e| StoreError::corrupt("record source", e))

@@ -231,7 +231,17 @@ pub struct Batch {
 /// Health carry the same bolus or reading with clocks seconds apart).
 pub const CROSS_UPLOAD_WINDOW_S: i64 = 60;
 
-/// Records refused because they are dated after the time of import.
+/// The latest instant a record read at `now` may carry:
+/// [`abba_core::limits::FUTURE_SKEW_MINUTES`] after it.
+pub fn future_limit(now: jiff::Timestamp) -> jiff::Timestamp {
+    now.checked_add(jiff::SignedDuration::from_mins(
+        abba_core::limits::FUTURE_SKEW_MINUTES,
+    ))
+    .unwrap_or(now)
+}
+
+/// Records refused (dated after the time of import) or not used (before
+/// the person's day 1): how many, and the first.
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct Refused {
     /// How many.
@@ -258,11 +268,7 @@ impl Batch {
     /// [`abba_core::limits::FUTURE_SKEW_MINUTES`] after `now` (the time of
     /// import): they cannot be true yet. Returns their count and the first.
     pub fn refuse_future(&mut self, now: jiff::Timestamp) -> Refused {
-        let limit = now
-            .checked_add(jiff::SignedDuration::from_mins(
-                abba_core::limits::FUTURE_SKEW_MINUTES,
-            ))
-            .unwrap_or(now);
+        let limit = future_limit(now);
         let mut refused = Refused::default();
         let keep = self.records.partition_point(|r| r.at <= limit);
         let first = self.records[keep..].iter().min_by_key(|r| r.origin);

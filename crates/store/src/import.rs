@@ -173,12 +173,14 @@ pub fn import(
                     ])?;
                     updated += 1;
                 }
-                Some((a, k)) => return Err(StoreError::corrupt(
-                    "record id",
-                    format!(
+                Some((a, k)) => {
+                    return Err(StoreError::corrupt(
+                        "record id",
+                        format!(
                         "{origin}: its content key {id} is held by another record ({a} ms, {k})"
                     ),
-                )),
+                    ))
+                }
                 None => {
                     let by_content = match window {
                         Some(w) => same

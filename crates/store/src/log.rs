@@ -99,12 +99,14 @@ pub fn rekey(conn: &Connection) -> Result<(), StoreError> {
                     params![person, source_text, old],
                 )?;
             }
-            Some(_) => return Err(StoreError::corrupt(
-                "record id",
-                format!(
+            Some(_) => {
+                return Err(StoreError::corrupt(
+                    "record id",
+                    format!(
                     "re-keying {old} of person {person}: its new key {new} holds another record"
                 ),
-            )),
+                ))
+            }
         }
     }
     Ok(())

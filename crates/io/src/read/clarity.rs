@@ -357,7 +357,7 @@ fn drop_conflicting_stretches(ctx: &Ctx<'_>, out: &mut Vec<Record>) {
             return; // newest first: not the order this check reads
         }
     }
-    let mut newest: Option<jiff::Timestamp> = None;
+    let mut newest: Option<usize> = None;
     let mut drop = vec![false; out.len()];
     let mut stretch: Option<(usize, usize, usize)> = None; // first, last, count
     let report = |s: (usize, usize, usize), out: &[Record]| {
@@ -380,7 +380,12 @@ fn drop_conflicting_stretches(ctx: &Ctx<'_>, out: &mut Vec<Record>) {
             continue;
         }
         let at = out[i].at;
-        if newest.is_some_and(|n| at.checked_add(slack).is_ok_and(|a| a < n)) {
+        // Before the newest time read, or at it with another value.
+        let conflict = newest.is_some_and(|n: usize| {
+            at.checked_add(slack).is_ok_and(|a| a < out[n].at)
+                || (at <= out[n].at && out[n].kind != out[i].kind)
+        });
+        if conflict {
             drop[i] = true;
             stretch = Some(match stretch {
                 Some((f, _, c)) => (f, i, c + 1),
@@ -391,7 +396,9 @@ fn drop_conflicting_stretches(ctx: &Ctx<'_>, out: &mut Vec<Record>) {
         if let Some(s) = stretch.take() {
             report(s, out);
         }
-        newest = Some(newest.map_or(at, |n| n.max(at)));
+        if newest.is_none_or(|n| at > out[n].at) {
+            newest = Some(i);
+        }
     }
     if let Some(s) = stretch.take() {
         report(s, out);

@@ -42,9 +42,12 @@ pub const REKEY_MIGRATION: &str =
 
 /// The Rust half of a migration, found by its SQL (so that renumbering the
 /// list moves it along).
-pub fn migration_code(sql: &str) -> Option<fn(&Connection) -> Result<(), StoreError>> {
-    (sql == REKEY_MIGRATION).then_some(rekey as fn(&Connection) -> Result<(), StoreError>)
+pub fn migration_code(sql: &str) -> Option<MigrationCode> {
+    (sql == REKEY_MIGRATION).then_some(rekey as MigrationCode)
 }
+
+/// Rust code run inside a migration's transaction.
+pub type MigrationCode = fn(&Connection) -> Result<(), StoreError>;
 
 /// Re-keys every record whose id is a row index (`{"index": N}`) to its
 /// content identity, inside the migration's transaction. A record whose

@@ -23,8 +23,7 @@ fn clarity(from: i64, to: i64, transmitter: bool) -> Vec<u8> {
         "{HEADER}\r\n1,,FirstName,,Test,,,,,,,,,\r\n2,,Device,,,Dexcom G6 Mobile App,android G6,,,,,,,\r\n"
     );
     let start = jiff::civil::date(2026, 5, 4).at(0, 0, 0, 0);
-    let mut index = 3;
-    for m in (from..to).step_by(5) {
+    for (index, m) in (3..).zip((from..to).step_by(5)) {
         let t = start + jiff::SignedDuration::from_mins(m);
         let g = 120 + (m / 5 * 7) % 90;
         let tx = if transmitter {
@@ -36,7 +35,6 @@ fn clarity(from: i64, to: i64, transmitter: bool) -> Vec<u8> {
             "{index},{},EGV,,,,android G6,{g},,,,,{tx}\r\n",
             t.strftime("%Y-%m-%dT%H:%M:%S")
         ));
-        index += 1;
     }
     s.into_bytes()
 }

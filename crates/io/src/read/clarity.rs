@@ -352,7 +352,7 @@ fn drop_conflicting_stretches(ctx: &Ctx<'_>, out: &mut Vec<Record>) {
     let mut cgm = out
         .iter()
         .filter(|r| matches!(r.kind, RecordKind::Cgm { .. }));
-    if let (Some(first), Some(last)) = (cgm.next(), cgm.last()) {
+    if let (Some(first), Some(last)) = (cgm.next(), cgm.next_back()) {
         if first.at > last.at {
             return; // newest first: not the order this check reads
         }

@@ -14,7 +14,7 @@ pub struct Args {
     /// The person.
     #[arg(long, value_name = "NAME")]
     pub person: String,
-    /// Format of the files (nightscout, clarity, libreview, tidepool, csv) [default: detected].
+    /// Format of the files (nightscout, clarity, libreview, tidepool, carelink, csv) [default: detected].
     #[arg(long)]
     pub format: Option<String>,
     /// Print the summary as JSON.
@@ -29,7 +29,7 @@ pub struct Args {
 pub fn run(a: Args) -> Result<()> {
     let format = match &a.format {
         Some(f) => Some(Format::parse(f).with_context(|| {
-            format!("--format \"{f}\": expected nightscout, clarity, libreview, tidepool or csv")
+            format!("--format \"{f}\": expected nightscout, clarity, libreview, tidepool, carelink or csv")
         })?),
         None => None,
     };
@@ -39,18 +39,41 @@ pub fn run(a: Args) -> Result<()> {
         println!("{}", serde_json::to_string_pretty(&s)?);
         return Ok(());
     }
-    if s.added == 0 {
+    if s.added == 0 && s.updated == 0 {
         println!(
             "Nothing new: all {} records of {} are already in {}'s log.",
-            s.read,
+            s.known,
             s.files.join(", "),
             a.person
         );
     } else {
         println!(
-            "Imported {} new records for {} ({} read, {} already known, {} exact duplicates between the files).",
-            s.added, a.person, s.read, s.known, s.duplicates_in_files
+            "Imported {} new records for {} ({} read, {} already known, {} newer versions of known records).",
+            s.added, a.person, s.read, s.known, s.updated
         );
+    }
+    println!(
+        "Duplicates within and between the files: {} exact repeats, {} older versions of a repeated id, {} carried by two Tidepool uploads.",
+        s.duplicates_in_files, s.older_versions_in_files, s.cross_upload_duplicates
+    );
+    for (what, r) in [
+        ("dated after the time of import (refused)", &s.future),
+        ("before day 1, not used", &s.before_day_1),
+    ] {
+        if r.count > 0 {
+            println!(
+                "{} records {what}; the first: {} ({}).",
+                r.count,
+                r.first.as_deref().unwrap_or("?"),
+                r.first_at.as_deref().unwrap_or("?")
+            );
+        }
+    }
+    for f in &s.empty_files {
+        println!("No readings in {f}.");
+    }
+    for n in &s.notes {
+        println!("Note: {n}");
     }
     if let Some(d) = &s.first_day {
         println!("Day 1 of the advisor: {d}.");

@@ -93,7 +93,15 @@ fn parse() -> Cli {
 }
 
 fn main() -> ExitCode {
-    let result = match parse().command {
+    let command = parse().command;
+    // A command that prints ends quietly when its reader goes away
+    // (`abba events ... | head`): the default SIGPIPE action, as other
+    // Unix tools. Not for the commands that talk over sockets, where a
+    // peer that closes must not end the process.
+    if !matches!(command, Command::Serve(_) | Command::App(_)) {
+        sigpipe::reset();
+    }
+    let result = match command {
         Command::Simulate(a) => simulate::run(a),
         Command::Cohort(a) => cohort::run(a),
         Command::Metrics(a) => metrics::run(a),

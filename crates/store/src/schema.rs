@@ -99,7 +99,18 @@ const MIGRATIONS: &[&str] = &[
         PRIMARY KEY (person_id, seq)
     ) WITHOUT ROWID;
     CREATE INDEX app_event_by_time ON app_event (person_id, at_min, seq);",
+    // 3: record identity that survives re-exports (issue 21).
+    crate::log::REKEY_MIGRATION,
 ];
+
+/// The version a migration brings a file to (its 1-based place in the
+/// list), found by its SQL.
+pub fn migration_number(sql: &str) -> Option<i64> {
+    MIGRATIONS
+        .iter()
+        .position(|m| *m == sql)
+        .map(|i| i as i64 + 1)
+}
 
 /// The newest schema version this build knows.
 pub fn current_version() -> i64 {
@@ -151,6 +162,9 @@ fn migrate(conn: &mut Connection) -> Result<(), StoreError> {
     for (i, sql) in MIGRATIONS.iter().enumerate().skip(found as usize) {
         let tx = conn.transaction()?;
         tx.execute_batch(sql)?;
+        if let Some(code) = crate::log::migration_code(sql) {
+            code(&tx)?;
+        }
         tx.pragma_update(None, "user_version", (i + 1) as i64)?;
         tx.commit()?;
     }

@@ -226,8 +226,18 @@ impl Store {
 
     /// Imports a batch already read (one transaction).
     pub fn import(&mut self, name: &str, batch: &Batch) -> Result<ImportSummary, StoreError> {
+        self.import_at(name, batch, jiff::Timestamp::now())
+    }
+
+    /// Imports a batch read at `now` (records dated after it are refused).
+    pub fn import_at(
+        &mut self,
+        name: &str,
+        batch: &Batch,
+        now: jiff::Timestamp,
+    ) -> Result<ImportSummary, StoreError> {
         let p = self.person(name)?;
-        import::import(&mut self.conn, &p, batch)
+        import::import(&mut self.conn, &p, batch, now)
     }
 
     /// Reads `files` (wall times in the person's zone) and imports them.
@@ -245,7 +255,7 @@ impl Store {
             ..ReadOptions::default()
         };
         let batch = read_files(files, &opts)?;
-        import::import(&mut self.conn, &p, &batch)
+        import::import(&mut self.conn, &p, &batch, jiff::Timestamp::now())
     }
 
     /// The person's records, in the log's order.

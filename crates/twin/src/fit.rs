@@ -10,9 +10,8 @@
 //! reading would make the prior and the bands meaninglessly tight).
 //!
 //! **Optimiser.** argmin's Nelder-Mead from [`STARTS`] starting points (the
-//! prior mean and three spread along the sensitivity, basal-need,
-//! absorption and basal-glucose axes), the best kept, then refined after
-//! the meal search.
+//! prior mean and three spread along the sensitivity, basal-need and
+//! dawn axes), the best kept, then refined after the meal search.
 //!
 //! **Unlogged meals.** After the first fit, every stretch of the fitted days
 //! where the observed glucose rises at least [`RISE_MG_DL`] within an hour
@@ -105,8 +104,8 @@ impl Problem<'_> {
     /// Predicted glucose per minute at z (with `insulin` in place of the
     /// recorded insulin when given).
     pub fn predict(&self, z: &[f64], insulin: Option<&[f64]>) -> Result<Vec<f64>, TwinError> {
-        let (p, factors) = self.prior.params(z)?;
-        let meals = eaten_meals(self.tape, factors, &self.found);
+        let (p, extras) = self.prior.params(z)?;
+        let meals = eaten_meals(self.tape, extras.carb_factors, &self.found);
         self.sims.set(self.sims.get() + 1);
         sim::run(
             &p,
@@ -115,6 +114,7 @@ impl Problem<'_> {
                 insulin_u_per_min: insulin.unwrap_or(&self.insulin),
                 meals: &meals,
                 start_glucose_mg_dl: start_glucose(self.tape, p.gb),
+                dawn_factor: extras.dawn_factor,
             },
         )
     }
@@ -198,14 +198,14 @@ impl CostFunction for ProblemRef<'_, '_> {
 }
 
 /// The multi-start's starting points: the prior mean, then one SD along
-/// the sensitivity with half an SD of basal need, the opposite, and one SD
-/// of faster absorption with one SD lower basal glucose.
+/// the sensitivity with half an SD of basal need, the opposite, and a
+/// strong dawn effect (factor about 0.55).
 pub fn starts() -> Vec<Vec<f64>> {
     let axes: [&[(usize, f64)]; STARTS] = [
         &[],
         &[(0, 1.0), (1, 0.5)],
         &[(0, -1.0), (1, -0.5)],
-        &[(3, 1.0), (2, -1.0)],
+        &[(7, -1.5)],
     ];
     axes.iter()
         .map(|moves| {
@@ -233,7 +233,7 @@ impl Default for FitOptions {
     fn default() -> Self {
         Self {
             fit_days: 12,
-            iters_per_start: 500,
+            iters_per_start: 250,
             find_meals: true,
         }
     }
@@ -434,13 +434,14 @@ pub fn find_meals(
     const EVERY: usize = 15;
     const AFTER_MIN: i64 = 240;
     let tape = problem.tape;
-    let (p, factors) = problem.prior.params(z)?;
-    let meals = eaten_meals(tape, factors, &[]);
+    let (p, extras) = problem.prior.params(z)?;
+    let meals = eaten_meals(tape, extras.carb_factors, &[]);
     let inputs = RunInputs {
         start_minute: tape.start_minute,
         insulin_u_per_min: &problem.insulin,
         meals: &meals,
         start_glucose_mg_dl: start_glucose(tape, p.gb),
+        dawn_factor: extras.dawn_factor,
     };
     let n = problem.insulin.len();
     let mut at = sim::start(&p, &inputs)?;

@@ -12,8 +12,8 @@
 //!    suspensions and extended boluses included: for closed-loop data the
 //!    loop's delivery), carbohydrate entries, readings.
 //! 2. [`prior`]: the typical patient of the person's population (the centre
-//!    of the cohort generator's distribution) and the seven identified
-//!    parameters with their priors, and why those seven.
+//!    of the cohort generator's distribution) and the eight identified
+//!    parameters with their priors, and why those eight.
 //! 3. [`fit`]: maximum a posteriori by argmin's Nelder-Mead from four
 //!    starts; unlogged meals found and estimated, days it cannot explain
 //!    marked and left out; a Laplace approximation for bands.

@@ -8,7 +8,7 @@
 //! cohort generator's distribution (a log-space mix of two public patients
 //! plus N(0, 0.1²) noise).
 //!
-//! Seven parameters are identified, as log multipliers with a normal prior:
+//! Eight parameters are identified, as log multipliers with a normal prior:
 //!
 //! | name | multiplies | prior | why identifiable from CGM, insulin, carbs |
 //! |---|---|---|---|
@@ -17,6 +17,7 @@
 //! | `basal_glucose` | Gb | SD of ln Gb ⊕ 0.1 | the level glucose settles to overnight |
 //! | `absorption` | kabs | SD of ln kabs ⊕ 0.1 | the time to the meal peak |
 //! | `carb_factor_{breakfast,lunch,dinner}` | the logged grams of that meal | 1, SD 0.3 | the size of each meal's rise against its bolus |
+//! | `dawn_factor` | insulin sensitivity from 04:00 to 08:00 (30-minute ramps) | 1, SD 0.4 | the early-morning rise under a steady basal |
 //!
 //! Not identified (population values): body weight (insulin and
 //! carbohydrate act per kg; its effect is absorbed by the sensitivity, the
@@ -24,8 +25,9 @@
 //! b, d), the bioavailability f (confounded with the carb factors, which
 //! carry it), the insulin kinetics (ka1, ka2, kd, m1..m4: one subcutaneous
 //! insulin signal cannot separate them from the sensitivity), renal
-//! excretion and the sensor delay ksc. A dawn effect is not modelled: the
-//! simulated persons have none, and on real data it stays in the residual.
+//! excretion and the sensor delay ksc. Day-to-day changes of sensitivity
+//! (illness, exercise, the simulated persons' daily factor of 0.75-1.25)
+//! are not modelled: they stay in the residual and in the bands.
 
 use crate::error::TwinError;
 use abba_sim::cohort::{derive, Population};
@@ -33,7 +35,7 @@ use abba_sim::patient::PatientParams;
 use serde::{Deserialize, Serialize};
 
 /// The identified parameters, in the order of the parameter vector.
-pub const NAMES: [&str; 7] = [
+pub const NAMES: [&str; 8] = [
     "insulin_sensitivity",
     "basal_need",
     "basal_glucose",
@@ -41,6 +43,7 @@ pub const NAMES: [&str; 7] = [
     "carb_factor_breakfast",
     "carb_factor_lunch",
     "carb_factor_dinner",
+    "dawn_factor",
 ];
 
 /// Number of identified parameters.
@@ -50,8 +53,19 @@ pub const N_PARAMS: usize = NAMES.len();
 const BASAL_NEED_SD: f64 = 0.25;
 /// Prior SD of a log carb factor.
 const CARB_FACTOR_SD: f64 = 0.3;
+/// Prior SD of the log dawn factor.
+const DAWN_SD: f64 = 0.4;
 /// The cohort generator's log-space noise.
 const MIX_NOISE_SD: f64 = 0.1;
+
+/// The identified factors that act outside the model's parameters.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Extras {
+    /// Factor on the logged grams of breakfast, lunch and dinner.
+    pub carb_factors: [f64; 3],
+    /// Insulin sensitivity from 04:00 to 08:00 ([`crate::sim::dawn`]).
+    pub dawn_factor: f64,
+}
 
 /// The prior: the typical patient of a population and, per identified
 /// parameter, the mean and SD of its log multiplier.
@@ -121,6 +135,7 @@ impl Prior {
             CARB_FACTOR_SD,
             CARB_FACTOR_SD,
             CARB_FACTOR_SD,
+            DAWN_SD,
         ];
         if !(scheduled_basal_u_per_h.is_finite() && scheduled_basal_u_per_h > 0.0) {
             return Err(TwinError::Data(format!(
@@ -144,9 +159,10 @@ impl Prior {
         std::array::from_fn(|k| self.mean[k] + self.sd[k] * z[k])
     }
 
-    /// The model parameters at z, with a derived steady state; the carb
-    /// factors are returned beside them (they act on the logged grams).
-    pub fn params(&self, z: &[f64]) -> Result<(PatientParams, [f64; 3]), TwinError> {
+    /// The model parameters at z, with a derived steady state, and the
+    /// factors that act outside them (on the logged grams, on the
+    /// sensitivity at dawn).
+    pub fn params(&self, z: &[f64]) -> Result<(PatientParams, Extras), TwinError> {
         let m = self.log_multipliers(z).map(f64::exp);
         let mut p = self.base.clone();
         p.vmx *= m[0];
@@ -156,7 +172,13 @@ impl Prior {
         p.kabs *= m[3];
         derive::derive_steady_state(&mut p)?;
         p.validate()?;
-        Ok((p, [m[4], m[5], m[6]]))
+        Ok((
+            p,
+            Extras {
+                carb_factors: [m[4], m[5], m[6]],
+                dawn_factor: m[7],
+            },
+        ))
     }
 
     /// The identified values in natural units at z: the multipliers, and
@@ -183,7 +205,8 @@ mod tests {
             assert!(r.iter().all(|v| v.abs() < 1e-9), "{pop}: {r:?}");
             let (p, f) = prior.params(&[0.0; N_PARAMS]).unwrap();
             assert!((p.basal_u_per_min() * 60.0 - 0.8).abs() < 1e-9, "{pop}");
-            assert_eq!(f, [1.0; 3]);
+            assert_eq!(f.carb_factors, [1.0; 3]);
+            assert_eq!(f.dawn_factor, 1.0);
             assert!(prior.sd.iter().all(|s| *s > 0.05 && *s < 1.5), "{:?}", prior.sd);
         }
         let e = Prior::new(Population::Adults, 0.0).unwrap_err().to_string();

@@ -20,6 +20,28 @@ pub struct RunInputs<'a> {
     pub meals: &'a [Meal],
     /// Glucose at the start (mg/dL).
     pub start_glucose_mg_dl: f64,
+    /// Insulin sensitivity at dawn ([`dawn`]).
+    pub dawn_factor: f64,
+}
+
+/// Insulin sensitivity at local `minute` with dawn factor `factor`: 1, then
+/// a 30-minute ramp from 04:00 down to `factor`, held, and a 30-minute ramp
+/// back to 1 ending at 08:00 (the dawn window of the trial's scenarios).
+pub fn dawn(minute: i64, factor: f64) -> f64 {
+    const START: i64 = 4 * 60;
+    const END: i64 = 8 * 60;
+    const RAMP: i64 = 30;
+    let m = minute.rem_euclid(abba_core::MINUTES_PER_DAY);
+    let w = if m < START || m >= END {
+        0.0
+    } else if m < START + RAMP {
+        (m - START) as f64 / RAMP as f64
+    } else if m >= END - RAMP {
+        (END - m) as f64 / RAMP as f64
+    } else {
+        1.0
+    };
+    1.0 + w * (factor - 1.0)
 }
 
 /// The initial state: the steady state of `p` at the insulin rate
@@ -98,8 +120,11 @@ pub fn advance(
             at.queue.add(m.grams);
         }
         out.push(at.patient.subcutaneous_glucose_mg_dl());
-        at.patient
-            .step(at.queue.eat_minute(), inputs.insulin_u_per_min[at.k], 1.0)?;
+        at.patient.step(
+            at.queue.eat_minute(),
+            inputs.insulin_u_per_min[at.k],
+            dawn(minute, inputs.dawn_factor),
+        )?;
         at.k += 1;
     }
     Ok(())

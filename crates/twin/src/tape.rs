@@ -108,9 +108,15 @@ pub struct Tape {
 
 impl Tape {
     /// The last `days` local days of `events` that hold readings (the last
-    /// day is the day of the last reading). Events before the window set
-    /// the basal program in force at its start.
-    pub fn from_events(events: &[Event], days: usize) -> Result<Tape, TwinError> {
+    /// day is the day of the last reading). `basal_u_per_h` is the
+    /// scheduled basal in force before the log's first `BasalRate` (the
+    /// person's therapy: a log whose profile began before day 1 has none);
+    /// events before the window set the basal program in force at its start.
+    pub fn from_events(
+        events: &[Event],
+        days: usize,
+        basal_u_per_h: f64,
+    ) -> Result<Tape, TwinError> {
         if days == 0 {
             return Err(TwinError::Setting("--days must be at least 1".into()));
         }
@@ -137,8 +143,13 @@ impl Tape {
         let mut boluses: Vec<Bolus> = Vec::new();
         let mut meals = Vec::new();
         let mut readings = Vec::new();
+        if !(basal_u_per_h.is_finite() && basal_u_per_h >= 0.0) {
+            return Err(TwinError::Setting(format!(
+                "the basal rate in force must be a finite number >= 0 U/h, got {basal_u_per_h}"
+            )));
+        }
         let mut state = BasalMinute {
-            scheduled_u_per_h: 0.0,
+            scheduled_u_per_h: basal_u_per_h,
             temp: None,
             suspended: false,
         };
@@ -396,7 +407,7 @@ mod tests {
             ev(425, EventKind::Bolus(Units(5.0))),
             ev(1439, EventKind::Cgm(MgDl(110.0))),
         ];
-        let t = Tape::from_events(&events, 1).unwrap();
+        let t = Tape::from_events(&events, 1, 0.0).unwrap();
         let u = t.recorded_insulin();
         assert_eq!(u.len(), 1440);
         assert!((u[10] - 0.02).abs() < 1e-12);
@@ -422,12 +433,16 @@ mod tests {
         for d in 0..5 {
             events.push(ev(d * 1440 + 600, EventKind::Cgm(MgDl(100.0))));
         }
-        let t = Tape::from_events(&events, 2).unwrap();
+        let t = Tape::from_events(&events, 2, 0.0).unwrap();
         assert_eq!(t.start_minute, 3 * 1440);
         assert_eq!(t.days, 2);
         assert!((t.recorded_insulin()[0] - 0.01).abs() < 1e-12);
         assert_eq!(t.readings.len(), 2);
-        let none = Tape::from_events(&[ev(0, EventKind::Bolus(Units(1.0)))], 2).unwrap_err();
+        // Without a BasalRate record, the basal in force is the one given.
+        let cgm_only: Vec<Event> = events[1..].to_vec();
+        let t = Tape::from_events(&cgm_only, 2, 0.9).unwrap();
+        assert!((t.recorded_insulin()[0] - 0.015).abs() < 1e-12);
+        let none = Tape::from_events(&[ev(0, EventKind::Bolus(Units(1.0)))], 2, 1.0).unwrap_err();
         assert!(none.to_string().contains("no CGM or meter readings"), "{none}");
     }
 }

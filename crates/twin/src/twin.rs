@@ -40,6 +40,8 @@ pub struct DataRange {
     pub readings: usize,
     /// Hash of the log's events (a refit is due when it changes).
     pub events_hash: String,
+    /// The scheduled basal in force before the log's first basal record (U/h).
+    pub basal_in_force_u_per_h: f64,
 }
 
 /// One identified parameter.
@@ -127,11 +129,15 @@ pub struct TwinOptions {
     pub population: Population,
     /// Nelder-Mead iterations per start.
     pub iters_per_start: u64,
+    /// The scheduled basal in force before the log's first basal record
+    /// (U/h; the person's therapy in force).
+    pub basal_in_force_u_per_h: f64,
 }
 
 impl Default for TwinOptions {
     fn default() -> Self {
         Self {
+            basal_in_force_u_per_h: 0.0,
             days: 14,
             held_out_days: 2,
             population: Population::Adults,
@@ -176,8 +182,8 @@ fn predict(
     z: &[f64],
     insulin: &[f64],
 ) -> Result<Vec<f64>, TwinError> {
-    let (p, factors) = prior.params(z)?;
-    let meals = fit::eaten_meals(tape, factors, found);
+    let (p, extras) = prior.params(z)?;
+    let meals = fit::eaten_meals(tape, extras.carb_factors, found);
     sim::run(
         &p,
         &RunInputs {
@@ -185,6 +191,7 @@ fn predict(
             insulin_u_per_min: insulin,
             meals: &meals,
             start_glucose_mg_dl: fit::start_glucose(tape, p.gb),
+            dawn_factor: extras.dawn_factor,
         },
     )
 }
@@ -198,7 +205,7 @@ impl Twin {
                 options.days, options.held_out_days
             )));
         }
-        let tape = Tape::from_events(events, options.days)?;
+        let tape = Tape::from_events(events, options.days, options.basal_in_force_u_per_h)?;
         if tape.days <= options.held_out_days {
             return Err(TwinError::Data(format!(
                 "the log holds {} days with readings; a twin needs more than the {} held-out days",
@@ -252,6 +259,7 @@ impl Twin {
                 reading_kind: tape.reading_kind,
                 readings: tape.readings.len(),
                 events_hash: hash,
+                basal_in_force_u_per_h: options.basal_in_force_u_per_h,
             },
             estimates,
             z: outcome.z,
@@ -290,7 +298,7 @@ impl Twin {
                 self.revision, self.person
             )));
         }
-        Tape::from_events(events, self.data.days)
+        Tape::from_events(events, self.data.days, self.data.basal_in_force_u_per_h)
     }
 
     /// Re-simulates the last `days` days of the window under `what_if`
@@ -301,7 +309,28 @@ impl Twin {
         what_if: &WhatIf,
         days: usize,
     ) -> Result<Replay, TwinError> {
-        if self.grade == Grade::NotUsable {
+        self.replay_inner(events, what_if, days, true)
+    }
+
+    /// [`Twin::replay`] whatever the grade: for validating twins against a
+    /// simulated truth only, never for a person's advice.
+    pub fn replay_for_validation(
+        &self,
+        events: &[Event],
+        what_if: &WhatIf,
+        days: usize,
+    ) -> Result<Replay, TwinError> {
+        self.replay_inner(events, what_if, days, false)
+    }
+
+    fn replay_inner(
+        &self,
+        events: &[Event],
+        what_if: &WhatIf,
+        days: usize,
+        graded: bool,
+    ) -> Result<Replay, TwinError> {
+        if graded && self.grade == Grade::NotUsable {
             return Err(TwinError::Data(format!(
                 "twin revision {} of {} is not usable ({}); it is not used for replays",
                 self.revision, self.person, self.grade_reason

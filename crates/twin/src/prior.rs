@@ -13,11 +13,20 @@
 //! | name | multiplies | prior | why identifiable from CGM, insulin, carbs |
 //! |---|---|---|---|
 //! | `insulin_sensitivity` | Vmx and kp3 | SD of ln Vmx over the public group ⊕ 0.1 | the fall after each bolus |
-//! | `basal_need` | Ib (so the basal rate u2ss that holds Gb) | centred on the person's scheduled basal, SD 0.25 | the night-time drift under the delivered basal |
+//! | `basal_need` | Ib (so the basal rate u2ss that holds Gb) | centred on the person's scheduled basal, SD 0.15 (see below) | the night-time drift under the delivered basal |
 //! | `basal_glucose` | Gb | SD of ln Gb ⊕ 0.1 | the level glucose settles to overnight |
 //! | `absorption` | kabs | SD of ln kabs ⊕ 0.1 | the time to the meal peak |
 //! | `carb_factor_{breakfast,lunch,dinner}` | the logged grams of that meal | 1, SD 0.3 | the size of each meal's rise against its bolus |
 //! | `dawn_factor` | insulin sensitivity from 04:00 to 08:00 (30-minute ramps) | 1, SD 0.4 | the early-morning rise under a steady basal |
+//!
+//! The basal need is the parameter the data inform least: with the basal
+//! held flat, a higher need and a lower basal glucose give similar nights,
+//! and only a change of basal tells them apart. So its prior is the
+//! scheduled basal (titrated to hold fasting glucose) with 15 % spread.
+//! Even so, on simulated persons whose schedule is their exact need the
+//! fit settles 15-35 % above it (the daily sensitivity factors and the
+//! dawn effect read as a higher need): the main error of basal what-ifs
+//! (BENCHMARKS.md, "The twin").
 //!
 //! Not identified (population values): body weight (insulin and
 //! carbohydrate act per kg; its effect is absorbed by the sensitivity, the
@@ -50,7 +59,7 @@ pub const NAMES: [&str; 8] = [
 pub const N_PARAMS: usize = NAMES.len();
 
 /// Prior SD of the log basal need around the person's scheduled basal.
-const BASAL_NEED_SD: f64 = 0.25;
+const BASAL_NEED_SD: f64 = 0.15;
 /// Prior SD of a log carb factor.
 const CARB_FACTOR_SD: f64 = 0.3;
 /// Prior SD of the log dawn factor.

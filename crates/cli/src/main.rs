@@ -32,6 +32,7 @@ mod shard;
 mod simulate;
 mod trial;
 mod trial_limits;
+mod twin;
 
 /// abba: adaptive basal-bolus advisor and in-silico trial platform.
 #[derive(Parser)]
@@ -75,6 +76,8 @@ enum Command {
     Token(serve::TokenArgs),
     /// A simulated trial patient through a running `abba serve`, as a pump app would talk to it.
     App(app::Args),
+    /// A person's twin: fit it from their records, check it, replay what-ifs (research software, not a medical device).
+    Twin(twin::Args),
 }
 
 /// The parsed command line. Every subcommand takes negative numbers as
@@ -118,6 +121,7 @@ fn main() -> ExitCode {
         Command::Serve(a) => serve::serve(a),
         Command::Token(a) => serve::token(a),
         Command::App(a) => app::run(a),
+        Command::Twin(a) => twin::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use abba_sim::cohort::Population;
 use abba_store::Store;
-use abba_twin::{BasalChange, Banded, Ranges, Twin, TwinOptions, WhatIf, NOTICE};
+use abba_twin::{Banded, BasalChange, Ranges, Twin, TwinOptions, WhatIf, NOTICE};
 use anyhow::{anyhow, Context, Result};
 
 /// Arguments of `abba twin`.
@@ -186,7 +186,13 @@ fn fit_text(t: &Twin) -> String {
         t.found_meals.len(),
         t.found_meals
             .iter()
-            .map(|m| format!(" day {} {:02}:{:02} {:.0} g;", m.minute / 1440 + 1, m.minute % 1440 / 60, m.minute % 60, m.grams))
+            .map(|m| format!(
+                " day {} {:02}:{:02} {:.0} g;",
+                m.minute / 1440 + 1,
+                m.minute % 1440 / 60,
+                m.minute % 60,
+                m.grams
+            ))
             .collect::<String>()
     );
     s += &format!(
@@ -221,7 +227,9 @@ fn replay(a: ReplayArgs) -> Result<()> {
                 .split(',')
                 .map(|p| {
                     p.trim().parse::<f64>().map_err(|_| {
-                        anyhow!("--carb-ratio {text}: '{p}' is not a number (expected B,L,D in g/U)")
+                        anyhow!(
+                            "--carb-ratio {text}: '{p}' is not a number (expected B,L,D in g/U)"
+                        )
                     })
                 })
                 .collect::<Result<_>>()?;
@@ -277,14 +285,19 @@ fn replay(a: ReplayArgs) -> Result<()> {
         println!(
             "{:<16} {:>10} {:>26} {:>26} {:>26}",
             name,
-            r.observed.as_ref().map_or("-".into(), |o| format!("{:.1}", f(o))),
+            r.observed
+                .as_ref()
+                .map_or("-".into(), |o| format!("{:.1}", f(o))),
             band(&r.twin_recorded, f),
             band(&r.twin_what_if, f),
             band(&r.change, f)
         );
     }
     if r.failed_draws > 0 {
-        println!("({} draws had no steady state and were left out)", r.failed_draws);
+        println!(
+            "({} draws had no steady state and were left out)",
+            r.failed_draws
+        );
     }
     Ok(())
 }

@@ -76,9 +76,15 @@ fn main() {
     );
     println!(
         "grades: good {}, fair {}, not usable {}",
-        all.iter().filter(|o| o.grade == abba_twin::Grade::Good).count(),
-        all.iter().filter(|o| o.grade == abba_twin::Grade::Fair).count(),
-        all.iter().filter(|o| o.grade == abba_twin::Grade::NotUsable).count()
+        all.iter()
+            .filter(|o| o.grade == abba_twin::Grade::Good)
+            .count(),
+        all.iter()
+            .filter(|o| o.grade == abba_twin::Grade::Fair)
+            .count(),
+        all.iter()
+            .filter(|o| o.grade == abba_twin::Grade::NotUsable)
+            .count()
     );
     println!(
         "fit seconds: median {:.1}, max {:.1}; simulations per fit {:.0}",

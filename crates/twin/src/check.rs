@@ -184,8 +184,20 @@ pub fn held_out(
     let obs: Vec<f64> = rs.iter().map(|r| r.1).collect();
     let at = |p: &[f64]| -> Vec<f64> { rs.iter().map(|&(k, _)| p[k]).collect() };
     let p = at(pred);
-    let rmse = (p.iter().zip(&obs).map(|(a, b)| (a - b).powi(2)).sum::<f64>() / n).sqrt();
-    let mard = p.iter().zip(&obs).map(|(a, b)| (a - b).abs() / b).sum::<f64>() * 100.0 / n;
+    let rmse = (p
+        .iter()
+        .zip(&obs)
+        .map(|(a, b)| (a - b).powi(2))
+        .sum::<f64>()
+        / n)
+        .sqrt();
+    let mard = p
+        .iter()
+        .zip(&obs)
+        .map(|(a, b)| (a - b).abs() / b)
+        .sum::<f64>()
+        * 100.0
+        / n;
     let mean = obs.iter().sum::<f64>() / n;
     let base = (obs.iter().map(|b| (b - mean).powi(2)).sum::<f64>() / n).sqrt();
     let draws: Vec<Ranges> = draws
@@ -218,7 +230,10 @@ pub fn grade(tape: &Tape, check: Option<&HeldOut>) -> (Grade, String) {
         );
     }
     let Some(h) = check else {
-        return (Grade::NotUsable, "the held-out days could not be checked".into());
+        return (
+            Grade::NotUsable,
+            "the held-out days could not be checked".into(),
+        );
     };
     let per_day = match tape.reading_kind {
         ReadingKind::Cgm => 144.0,

@@ -44,7 +44,11 @@ pub fn load(store: &Path, person: &str) -> Result<Option<Twin>, TwinError> {
     };
     let twin: Twin = serde_json::from_str(&text).map_err(|e| TwinError::File {
         path: p.display().to_string(),
-        reason: format!("not a twin file: {e} (line {}, column {})", e.line(), e.column()),
+        reason: format!(
+            "not a twin file: {e} (line {}, column {})",
+            e.line(),
+            e.column()
+        ),
     })?;
     if twin.format != FORMAT {
         return Err(TwinError::File {
@@ -73,7 +77,8 @@ pub fn save(store: &Path, twin: &Twin) -> Result<PathBuf, TwinError> {
     tmp.write_all(text.as_bytes())
         .and_then(|()| tmp.write_all(b"\n"))
         .map_err(|e| err(format!("cannot write: {e}")))?;
-    tmp.persist(&p).map_err(|e| err(format!("cannot write: {e}")))?;
+    tmp.persist(&p)
+        .map_err(|e| err(format!("cannot write: {e}")))?;
     Ok(p)
 }
 
@@ -84,6 +89,9 @@ mod tests {
     #[test]
     fn a_person_name_becomes_a_safe_file_name() {
         let p = path(Path::new("/x/abba.db"), "Anna/../ü 1");
-        assert_eq!(p, PathBuf::from("/x/abba.db.twins/Anna%2F..%2F%C3%BC%201.json"));
+        assert_eq!(
+            p,
+            PathBuf::from("/x/abba.db.twins/Anna%2F..%2F%C3%BC%201.json")
+        );
     }
 }

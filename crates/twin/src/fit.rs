@@ -123,7 +123,13 @@ impl Problem<'_> {
     pub fn ssr(&self, pred: &[f64]) -> (f64, usize) {
         let mut s = 0.0;
         let mut n = 0;
-        for (&(m, g), _) in self.tape.readings.iter().zip(&self.counted).filter(|(_, c)| **c) {
+        for (&(m, g), _) in self
+            .tape
+            .readings
+            .iter()
+            .zip(&self.counted)
+            .filter(|(_, c)| **c)
+        {
             let k = (m - self.tape.start_minute) as usize;
             s += (pred[k] - g).powi(2);
             n += 1;
@@ -284,9 +290,7 @@ fn counted(tape: &Tape, fit_days: usize, excluded: &[i64]) -> Vec<bool> {
     tape.readings
         .iter()
         .map(|&(m, _)| {
-            m >= tape.start_minute + BURN_IN_MIN
-                && m < end
-                && !excluded.contains(&Tape::day_of(m))
+            m >= tape.start_minute + BURN_IN_MIN && m < end && !excluded.contains(&Tape::day_of(m))
         })
         .collect()
 }
@@ -447,7 +451,14 @@ pub fn find_meals(
     let mut at = sim::start(&p, &inputs)?;
     let mut pred = Vec::with_capacity(n);
     let mut cps = Vec::new();
-    sim::advance(&mut at, &inputs, None, n, &mut pred, Some((&mut cps, EVERY)))?;
+    sim::advance(
+        &mut at,
+        &inputs,
+        None,
+        n,
+        &mut pred,
+        Some((&mut cps, EVERY)),
+    )?;
     problem.sims.set(problem.sims.get() + 1);
     let end = tape.start_minute + fit_days as i64 * MINUTES_PER_DAY;
     let rs: Vec<(i64, f64)> = tape
@@ -472,7 +483,10 @@ pub fn find_meals(
         }
         let rise = gj - g;
         let against = (gj - pred[idx(tj)]) - (g - pred[idx(t)]);
-        let logged = tape.meals.iter().any(|m| (t - 90..=t + 60).contains(&m.minute));
+        let logged = tape
+            .meals
+            .iter()
+            .any(|m| (t - 90..=t + 60).contains(&m.minute));
         if rise < RISE_MG_DL || against < RISE_MG_DL || logged {
             continue;
         }
@@ -541,7 +555,12 @@ pub fn unexplained_days(
     let tape = problem.tape;
     let pred = problem.predict(z, None)?;
     let mut by_day: Vec<(i64, f64, usize)> = Vec::new();
-    for (&(m, g), _) in tape.readings.iter().zip(&problem.counted).filter(|(_, c)| **c) {
+    for (&(m, g), _) in tape
+        .readings
+        .iter()
+        .zip(&problem.counted)
+        .filter(|(_, c)| **c)
+    {
         let d = Tape::day_of(m);
         let r2 = (pred[(m - tape.start_minute) as usize] - g).powi(2);
         match by_day.last_mut() {

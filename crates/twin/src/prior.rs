@@ -118,9 +118,8 @@ impl Prior {
             public
                 .iter()
                 .map(|p| {
-                    p.scalar(col).ok_or_else(|| {
-                        TwinError::Data(format!("{col} is not a patient parameter"))
-                    })
+                    p.scalar(col)
+                        .ok_or_else(|| TwinError::Data(format!("{col} is not a patient parameter")))
                 })
                 .collect()
         };
@@ -216,7 +215,11 @@ mod tests {
             assert!((p.basal_u_per_min() * 60.0 - 0.8).abs() < 1e-9, "{pop}");
             assert_eq!(f.carb_factors, [1.0; 3]);
             assert_eq!(f.dawn_factor, 1.0);
-            assert!(prior.sd.iter().all(|s| *s > 0.05 && *s < 1.5), "{:?}", prior.sd);
+            assert!(
+                prior.sd.iter().all(|s| *s > 0.05 && *s < 1.5),
+                "{:?}",
+                prior.sd
+            );
         }
         let e = Prior::new(Population::Adults, 0.0).unwrap_err().to_string();
         assert!(e.contains("scheduled basal"), "{e}");

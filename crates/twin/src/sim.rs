@@ -103,7 +103,11 @@ pub fn advance(
 ) -> Result<(), TwinError> {
     let to = to.min(inputs.insulin_u_per_min.len());
     let first = inputs.start_minute + at.k as i64;
-    let mut meals = inputs.meals.iter().skip_while(|m| m.minute < first).peekable();
+    let mut meals = inputs
+        .meals
+        .iter()
+        .skip_while(|m| m.minute < first)
+        .peekable();
     while at.k < to {
         let minute = inputs.start_minute + at.k as i64;
         if let Some((cps, every)) = checkpoints.as_mut() {

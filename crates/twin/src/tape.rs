@@ -132,8 +132,8 @@ impl Tape {
             ));
         };
         let last_day = last.at.day_index();
-        let first_day = (last_day + 1 - days as i64)
-            .max(events.first().map_or(last_day, |e| e.at.day_index()));
+        let first_day =
+            (last_day + 1 - days as i64).max(events.first().map_or(last_day, |e| e.at.day_index()));
         let start = first_day * MINUTES_PER_DAY;
         let n_days = (last_day - first_day + 1) as usize;
         let n = n_days * MINUTES_PER_DAY as usize;
@@ -411,7 +411,10 @@ mod tests {
         let u = t.recorded_insulin();
         assert_eq!(u.len(), 1440);
         assert!((u[10] - 0.02).abs() < 1e-12);
-        assert!((u[70] - 0.01).abs() < 1e-12, "half rate during the temp basal");
+        assert!(
+            (u[70] - 0.01).abs() < 1e-12,
+            "half rate during the temp basal"
+        );
         assert!((u[95] - 0.02).abs() < 1e-12, "temp basal ended");
         // 1 U at once, 0.1 U/min for 10 minutes, then the suspension ends it.
         assert!((u[120] - (1.0 + 0.1 + 0.02)).abs() < 1e-12);
@@ -443,6 +446,9 @@ mod tests {
         let t = Tape::from_events(&cgm_only, 2, 0.9).unwrap();
         assert!((t.recorded_insulin()[0] - 0.015).abs() < 1e-12);
         let none = Tape::from_events(&[ev(0, EventKind::Bolus(Units(1.0)))], 2, 1.0).unwrap_err();
-        assert!(none.to_string().contains("no CGM or meter readings"), "{none}");
+        assert!(
+            none.to_string().contains("no CGM or meter readings"),
+            "{none}"
+        );
     }
 }

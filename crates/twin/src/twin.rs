@@ -18,7 +18,8 @@ use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
 /// Said by every human-facing output of a twin.
-pub const NOTICE: &str = "abba is research software, not a medical device: a twin's predictions are not medical advice";
+pub const NOTICE: &str =
+    "abba is research software, not a medical device: a twin's predictions are not medical advice";
 
 /// Version of the stored form.
 pub const FORMAT: u32 = 1;
@@ -167,7 +168,9 @@ fn draws(z: &[f64], cov: &[Vec<f64>], hash: &str, n: usize) -> Vec<Vec<f64>> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     (0..n)
         .map(|_| {
-            let e: Vec<f64> = (0..z.len()).map(|_| StandardNormal.sample(&mut rng)).collect();
+            let e: Vec<f64> = (0..z.len())
+                .map(|_| StandardNormal.sample(&mut rng))
+                .collect();
             linalg::correlated(z, &l, &e)
         })
         .collect()
@@ -226,14 +229,16 @@ impl Twin {
         let hash = events_hash(events);
         let insulin = tape.recorded_insulin();
         let pred = predict(&prior, &tape, &outcome.found, &outcome.z, &insulin)?;
-        let sample_preds: Vec<Vec<f64>> = draws(&outcome.z, &outcome.covariance, &hash, fit::BAND_SAMPLES)
-            .iter()
-            .filter_map(|z| predict(&prior, &tape, &outcome.found, z, &insulin).ok())
-            .collect();
-        let (held_out, held_out_error) = match check::held_out(&tape, fit_days, &pred, &sample_preds) {
-            Ok(h) => (Some(h), None),
-            Err(e) => (None, Some(e.to_string())),
-        };
+        let sample_preds: Vec<Vec<f64>> =
+            draws(&outcome.z, &outcome.covariance, &hash, fit::BAND_SAMPLES)
+                .iter()
+                .filter_map(|z| predict(&prior, &tape, &outcome.found, z, &insulin).ok())
+                .collect();
+        let (held_out, held_out_error) =
+            match check::held_out(&tape, fit_days, &pred, &sample_preds) {
+                Ok(h) => (Some(h), None),
+                Err(e) => (None, Some(e.to_string())),
+            };
         let (grade, grade_reason) = check::grade(&tape, held_out.as_ref());
         let at_prior = prior.values(&prior_zero());
         let fitted = prior.values(&outcome.z);
@@ -363,7 +368,12 @@ impl Twin {
         let mut new_d = Vec::new();
         let mut delta_d = Vec::new();
         let mut failed = 0;
-        for z in draws(&self.z, &self.covariance, &self.data.events_hash, fit::BAND_SAMPLES) {
+        for z in draws(
+            &self.z,
+            &self.covariance,
+            &self.data.events_hash,
+            fit::BAND_SAMPLES,
+        ) {
             match run(&z) {
                 Ok((a, b)) => {
                     delta_d.push(b.minus(&a));

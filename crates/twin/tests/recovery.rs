@@ -17,10 +17,8 @@ fn twins_of_simulated_persons_predict_held_out_days_and_what_ifs() {
         (Population::Adolescents, 12),
         (Population::Children, 12),
     ];
-    let outcomes: Vec<common::Outcome> = members
-        .iter()
-        .map(|&(p, n)| common::member(p, n))
-        .collect();
+    let outcomes: Vec<common::Outcome> =
+        members.iter().map(|&(p, n)| common::member(p, n)).collect();
     for o in &outcomes {
         eprintln!("{o:?}");
     }

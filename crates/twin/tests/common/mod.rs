@@ -222,16 +222,17 @@ pub fn member(population: Population, no: u32) -> Outcome {
             twin.estimate("basal_need").unwrap().value,
             vp.params.basal_u_per_min() * 60.0,
         ),
-        basal_glucose: (
-            twin.estimate("basal_glucose").unwrap().value,
-            vp.params.gb,
-        ),
+        basal_glucose: (twin.estimate("basal_glucose").unwrap().value, vp.params.gb),
         what_if,
         simulations: twin.fit.simulations,
         fit_seconds,
         found_meals: twin.found_meals.len(),
         fit_rmse: twin.fit.rmse_mg_dl,
         oracle_rmse,
-        estimates: twin.estimates.iter().map(|e| (e.name.clone(), e.value)).collect(),
+        estimates: twin
+            .estimates
+            .iter()
+            .map(|e| (e.name.clone(), e.value))
+            .collect(),
     }
 }

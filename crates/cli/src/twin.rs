@@ -7,6 +7,9 @@ use abba_store::Store;
 use abba_twin::{Banded, BasalChange, Ranges, Twin, TwinOptions, WhatIf, NOTICE};
 use anyhow::{anyhow, Context, Result};
 
+/// A line of the what-if table: its name and the figure it reads.
+type Row = (&'static str, fn(&Ranges) -> f64);
+
 /// Arguments of `abba twin`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -275,7 +278,7 @@ fn replay(a: ReplayArgs) -> Result<()> {
         "{:<16} {:>10} {:>26} {:>26} {:>26}",
         "", "recorded", "twin, recorded settings", "twin, what-if", "change"
     );
-    let rows: [(&str, fn(&Ranges) -> f64); 4] = [
+    let rows: [Row; 4] = [
         ("time 70-180 %", |r| r.tir_pct),
         ("time < 70 %", |r| r.below_70_pct),
         ("LBGI", |r| r.lbgi),

@@ -32,6 +32,8 @@
 //! covariance (a diagonal ridge is added until it is positive definite, and
 //! said so). Bands come from [`BAND_SAMPLES`] draws from it, seeded by the
 //! data's hash, so a twin's bands are the same bytes every time.
+// Matrix code indexes rows and columns by number, as the formulas do.
+#![allow(clippy::needless_range_loop)]
 
 use crate::error::TwinError;
 use crate::prior::{Prior, N_PARAMS};

@@ -1,5 +1,7 @@
 //! The small dense linear algebra of the Laplace approximation (7 × 7):
 //! Cholesky factor, inverse, and a correlated normal draw.
+// Matrix code indexes rows and columns by number, as the formulas do.
+#![allow(clippy::needless_range_loop)]
 
 /// The lower Cholesky factor L of a symmetric matrix (A = L·Lᵀ), or `None`
 /// when A is not positive definite.

@@ -32,7 +32,7 @@ pub fn dawn(minute: i64, factor: f64) -> f64 {
     const END: i64 = 8 * 60;
     const RAMP: i64 = 30;
     let m = minute.rem_euclid(abba_core::MINUTES_PER_DAY);
-    let w = if m < START || m >= END {
+    let w = if !(START..END).contains(&m) {
         0.0
     } else if m < START + RAMP {
         (m - START) as f64 / RAMP as f64
@@ -111,7 +111,7 @@ pub fn advance(
     while at.k < to {
         let minute = inputs.start_minute + at.k as i64;
         if let Some((cps, every)) = checkpoints.as_mut() {
-            if at.k % *every == 0 {
+            if at.k.is_multiple_of(*every) {
                 cps.push(at.clone());
             }
         }

@@ -23,6 +23,7 @@ mod report;
 mod serve;
 mod shard;
 mod simulate;
+mod store_cmd;
 mod trial;
 mod trial_limits;
 
@@ -68,6 +69,8 @@ enum Command {
     Token(serve::TokenArgs),
     /// A simulated trial patient through a running `abba serve`, as a pump app would talk to it.
     App(app::Args),
+    /// Check a store (`check`) and remove events dated in the future (`remove-future`).
+    Store(store_cmd::Args),
 }
 
 /// The parsed command line. Every subcommand takes negative numbers as
@@ -103,6 +106,7 @@ fn main() -> ExitCode {
         Command::Serve(a) => serve::serve(a),
         Command::Token(a) => serve::token(a),
         Command::App(a) => app::run(a),
+        Command::Store(a) => store_cmd::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -89,7 +89,16 @@ fn parse() -> Cli {
 }
 
 fn main() -> ExitCode {
-    let result = match parse().command {
+    let command = parse().command;
+    // The store file, to say who holds it when it stays busy.
+    let db = match &command {
+        Command::Import(a) => Some(a.db.clone()),
+        Command::Answer(a) => Some(a.db.clone()),
+        Command::Advise(a) => Some(a.db.clone()),
+        Command::History(a) => Some(a.db.clone()),
+        _ => None,
+    };
+    let result = match command {
         Command::Simulate(a) => simulate::run(a),
         Command::Cohort(a) => cohort::run(a),
         Command::Metrics(a) => metrics::run(a),
@@ -111,7 +120,10 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("{}", errors::render(&e));
+            match errors::busy(&e, db.as_deref()) {
+                Some(b) => eprintln!("{b}\n\n{}", errors::render(&e)),
+                None => eprintln!("{}", errors::render(&e)),
+            }
             // With RUST_BACKTRACE=1 (for developers), where it came from.
             let trace = e.backtrace();
             if trace.status() == std::backtrace::BacktraceStatus::Captured {

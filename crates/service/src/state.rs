@@ -96,6 +96,9 @@ impl AppState {
         let live = moka::sync::Cache::builder()
             .max_capacity(settings.cache_persons)
             .time_to_idle(settings.cache_idle)
+            // LRU: the person who just wrote is kept (moka's default
+            // TinyLFU may refuse a newcomer).
+            .eviction_policy(moka::policy::EvictionPolicy::lru())
             .build();
         Ok(Self {
             inner: Arc::new(Inner {

@@ -39,7 +39,7 @@ pub enum ClientError {
         /// The raw body (shortened) when it was not an error body.
         text: String,
         /// The `Retry-After` seconds of a 429 or 503, when sent.
-        retry_after: Option<u64>,
+        retry_after: Option<u32>,
     },
     /// The service answered 2xx with a body that is not what `/v1` says.
     #[error("{method} {url}: unexpected response body: {message}")]
@@ -84,7 +84,7 @@ impl ClientError {
             ClientError::Status {
                 retry_after: Some(s),
                 ..
-            } => Some(std::time::Duration::from_secs(*s)),
+            } => Some(std::time::Duration::from_secs(u64::from(*s))),
             _ => None,
         }
     }

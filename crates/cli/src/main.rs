@@ -30,6 +30,7 @@ mod report;
 mod serve;
 mod shard;
 mod simulate;
+mod store_cmd;
 mod trial;
 mod trial_limits;
 mod twin;
@@ -78,6 +79,8 @@ enum Command {
     App(app::Args),
     /// A person's twin: fit it from their records, check it, replay what-ifs (research software, not a medical device).
     Twin(twin::Args),
+    /// Check a store (`check`) and remove events dated in the future (`remove-future`).
+    Store(store_cmd::Args),
 }
 
 /// The parsed command line. Every subcommand takes negative numbers as
@@ -104,6 +107,14 @@ fn main() -> ExitCode {
     if !matches!(command, Command::Serve(_) | Command::App(_)) {
         sigpipe::reset();
     }
+    // The store file, to say who holds it when it stays busy.
+    let db = match &command {
+        Command::Import(a) => Some(a.db.clone()),
+        Command::Answer(a) => Some(a.db.clone()),
+        Command::Advise(a) => Some(a.db.clone()),
+        Command::History(a) => Some(a.db.clone()),
+        _ => None,
+    };
     let result = match command {
         Command::Simulate(a) => simulate::run(a),
         Command::Cohort(a) => cohort::run(a),
@@ -122,11 +133,15 @@ fn main() -> ExitCode {
         Command::Token(a) => serve::token(a),
         Command::App(a) => app::run(a),
         Command::Twin(a) => twin::run(a),
+        Command::Store(a) => store_cmd::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("{}", errors::render(&e));
+            match errors::busy(&e, db.as_deref()) {
+                Some(b) => eprintln!("{b}\n\n{}", errors::render(&e)),
+                None => eprintln!("{}", errors::render(&e)),
+            }
             // With RUST_BACKTRACE=1 (for developers), where it came from.
             let trace = e.backtrace();
             if trace.status() == std::backtrace::BacktraceStatus::Captured {

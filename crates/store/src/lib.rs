@@ -19,6 +19,8 @@
 pub mod advise;
 pub mod answer;
 pub mod app;
+pub mod busy;
+pub mod check;
 pub mod error;
 pub mod history;
 pub mod import;

@@ -101,6 +101,51 @@ const MIGRATIONS: &[&str] = &[
     CREATE INDEX app_event_by_time ON app_event (person_id, at_min, seq);",
     // 3: record identity that survives re-exports (issue 21).
     crate::log::REKEY_MIGRATION,
+    // 4: a revision per person, bumped by triggers on everything a live
+    // advisor is built from (app events, records, answers, the person's
+    // settings), whoever writes: the service sees a write by the CLI or
+    // another process for that person only (SQLite's data_version is per
+    // connection and says nothing about whom a write concerned).
+    "CREATE TABLE person_rev (
+        person_id INTEGER PRIMARY KEY REFERENCES person(id),
+        rev INTEGER NOT NULL
+    );
+    CREATE TRIGGER rev_app_event_ins AFTER INSERT ON app_event BEGIN
+        INSERT INTO person_rev VALUES (NEW.person_id, 1)
+        ON CONFLICT (person_id) DO UPDATE SET rev = rev + 1;
+    END;
+    CREATE TRIGGER rev_app_event_del AFTER DELETE ON app_event BEGIN
+        INSERT INTO person_rev VALUES (OLD.person_id, 1)
+        ON CONFLICT (person_id) DO UPDATE SET rev = rev + 1;
+    END;
+    CREATE TRIGGER rev_record_ins AFTER INSERT ON record BEGIN
+        INSERT INTO person_rev VALUES (NEW.person_id, 1)
+        ON CONFLICT (person_id) DO UPDATE SET rev = rev + 1;
+    END;
+    CREATE TRIGGER rev_record_upd AFTER UPDATE ON record BEGIN
+        INSERT INTO person_rev VALUES (NEW.person_id, 1)
+        ON CONFLICT (person_id) DO UPDATE SET rev = rev + 1;
+    END;
+    CREATE TRIGGER rev_record_del AFTER DELETE ON record BEGIN
+        INSERT INTO person_rev VALUES (OLD.person_id, 1)
+        ON CONFLICT (person_id) DO UPDATE SET rev = rev + 1;
+    END;
+    CREATE TRIGGER rev_answer_ins AFTER INSERT ON answer BEGIN
+        INSERT INTO person_rev VALUES (NEW.person_id, 1)
+        ON CONFLICT (person_id) DO UPDATE SET rev = rev + 1;
+    END;
+    CREATE TRIGGER rev_answer_del AFTER DELETE ON answer BEGIN
+        INSERT INTO person_rev VALUES (OLD.person_id, 1)
+        ON CONFLICT (person_id) DO UPDATE SET rev = rev + 1;
+    END;
+    CREATE TRIGGER rev_answer_upd AFTER UPDATE ON answer BEGIN
+        INSERT INTO person_rev VALUES (NEW.person_id, 1)
+        ON CONFLICT (person_id) DO UPDATE SET rev = rev + 1;
+    END;
+    CREATE TRIGGER rev_person_upd AFTER UPDATE ON person BEGIN
+        INSERT INTO person_rev VALUES (NEW.id, 1)
+        ON CONFLICT (person_id) DO UPDATE SET rev = rev + 1;
+    END;",
 ];
 
 /// The version a migration brings a file to (its 1-based place in the
@@ -136,8 +181,28 @@ pub enum Sync {
 
 /// Like [`open`], with the given synchronous level.
 pub fn open_with(path: &Path, sync: Sync) -> Result<Connection, StoreError> {
+    open_opts(path, sync, DEFAULT_BUSY)
+}
+
+/// How long a connection waits for another writer before SQLite answers
+/// "busy" (the CLI's default; the service sets its own).
+pub const DEFAULT_BUSY: std::time::Duration = std::time::Duration::from_secs(10);
+
+/// Like [`open_with`], waiting at most `busy` for another writer.
+///
+/// Every transaction of the connection begins IMMEDIATE: it takes the
+/// write lock at BEGIN (waiting up to `busy`), so a transaction that
+/// reads and then writes is never refused half-way ("database is
+/// locked" when a deferred read transaction is upgraded while another
+/// connection writes, which no busy timeout can wait out).
+pub fn open_opts(
+    path: &Path,
+    sync: Sync,
+    busy: std::time::Duration,
+) -> Result<Connection, StoreError> {
     let mut conn = Connection::open(path)?;
-    conn.busy_timeout(std::time::Duration::from_secs(10))?;
+    conn.busy_timeout(busy)?;
+    conn.set_transaction_behavior(rusqlite::TransactionBehavior::Immediate);
     conn.pragma_update(None, "journal_mode", "WAL")?;
     let level = match sync {
         Sync::Normal => "NORMAL",

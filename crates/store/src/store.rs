@@ -37,6 +37,9 @@ pub struct Store {
     pub(crate) cache: HashMap<i64, Cached>,
 }
 
+/// The most event streams one connection keeps.
+const MAX_CACHED_STREAMS: usize = 8;
+
 pub(crate) struct Cached {
     key: (i64, i64, i64),
     records: usize,
@@ -105,6 +108,18 @@ pub(crate) fn refresh(
     person: &Person,
     use_snapshot: bool,
 ) -> Result<State, StoreError> {
+    refresh_with(conn, cache, person, use_snapshot, true)
+}
+
+/// [`refresh`]; with `write` false nothing is stored (a read transaction:
+/// the decisions are the stored ones with the replay's merged in).
+pub(crate) fn refresh_with(
+    conn: &Connection,
+    cache: &mut HashMap<i64, Cached>,
+    person: &Person,
+    use_snapshot: bool,
+    write: bool,
+) -> Result<State, StoreError> {
     let (n, last): (i64, i64) = conn.query_row(
         "SELECT count(*), coalesce(max(import_id), 0) FROM record WHERE person_id = ?1",
         params![person.id],
@@ -123,6 +138,11 @@ pub(crate) fn refresh(
                 (recs.len(), log::events(person, recs)?)
             };
             let stream = Arc::new(stream);
+            // Bounded: a connection serving many persons keeps only the
+            // streams of a few (each is a person's whole log).
+            if cache.len() >= MAX_CACHED_STREAMS {
+                cache.clear();
+            }
             cache.insert(
                 person.id,
                 Cached {
@@ -148,6 +168,31 @@ pub(crate) fn refresh(
         (Some(s), false) => s.unused + r.refused.len(),
         _ => r.refused.len(),
     };
+    if !write {
+        let mut all = if r.rebuilt {
+            Vec::new()
+        } else {
+            decisions(conn, person.id)?
+        };
+        for d in &r.decisions {
+            match all
+                .iter_mut()
+                .find(|x| x.at == d.at && x.parameter == d.parameter)
+            {
+                Some(x) => *x = d.clone(),
+                None => all.push(d.clone()),
+            }
+        }
+        all.sort_by_key(|d| (d.at, param_key(d.parameter)));
+        return Ok(State {
+            stream,
+            records,
+            advisor: r.advisor,
+            decisions: all,
+            answers,
+            refused,
+        });
+    }
     if r.rebuilt {
         conn.execute(
             "DELETE FROM suggestion WHERE person_id = ?1",

@@ -14,6 +14,7 @@
 //! research software, not a medical device.
 
 pub mod clock;
+pub mod automation;
 pub mod coverage;
 pub mod error;
 pub mod events;
@@ -21,6 +22,8 @@ pub mod meals;
 pub mod nightscout_out;
 pub mod read;
 pub mod record;
+pub mod rescue;
+pub mod therapy;
 pub mod time;
 pub mod units;
 

@@ -41,12 +41,10 @@ pub fn import(
         let kind = serde_json::to_string(&r.kind).map_err(|e| StoreError::corrupt("record", e))?;
         rows.push((source, id, r.at.as_millisecond(), kind, batch.origin(r)));
     }
-    // Day 1: the local date of the first record that says something the
-    // advisor uses (not an alert or a note).
-    let first_useful = batch
-        .records
-        .iter()
-        .find(|r| !matches!(r.kind, abba_io::RecordKind::Ignored { .. }));
+    // Day 1: the local date of the first glucose reading (a profile or a
+    // pump record months before the first reading does not start it); an
+    // import without glucose leaves day 1 open.
+    let first_useful = abba_io::events::first_glucose(&batch.records);
     let first_day = match (person.first_day, first_useful) {
         (Some(d), _) => Some(d),
         (None, Some(r)) => Some(person.tz.to_datetime(r.at).date()),

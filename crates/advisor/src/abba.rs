@@ -5,7 +5,7 @@ use crate::bounds::ClinicianBounds;
 use crate::config::{AbbaConfig, Mode};
 use crate::data_rule::MinData;
 use crate::decision::{
-    AbbaExplanation, Rounded, Decision, DecisionDetail, DecisionLog, Parameter, SkipReason,
+    AbbaExplanation, Decision, DecisionDetail, DecisionLog, Parameter, Rounded, SkipReason,
 };
 use crate::error::AdvisorError;
 use crate::features::{local_cost, WindowStats};
@@ -481,7 +481,9 @@ impl Abba {
             });
         let (held, bound) = self.bounds.hold(p, applied.new);
         applied.new = held;
-        let rounded = self.steps.map(|steps| self.round(p, old, applied.new, max, steps));
+        let rounded = self
+            .steps
+            .map(|steps| self.round(p, old, applied.new, max, steps));
         if let Some(r) = &rounded {
             applied.new = r.new;
             if let Some(s) = &r.segments {
@@ -521,7 +523,10 @@ impl Abba {
             Parameter::Basal => steps.basal_u_per_h,
             Parameter::CarbRatio(_) => steps.carb_ratio_g_per_u,
         };
-        let schedule = self.basal_schedule.as_ref().filter(|_| p == Parameter::Basal);
+        let schedule = self
+            .basal_schedule
+            .as_ref()
+            .filter(|_| p == Parameter::Basal);
         let (new, segments) = match schedule {
             Some(s) if s.len() > 1 => {
                 let n = scale_schedule(s, requested, step, max, allowed);

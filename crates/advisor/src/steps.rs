@@ -135,7 +135,11 @@ pub fn validate_segments(segments: &[(u32, f64)]) -> Result<(), AdvisorError> {
     };
     match segments.first() {
         Some((0, _)) => {}
-        Some((m, _)) => return Err(bad(format!("the first segment starts at minute {m}, not 00:00"))),
+        Some((m, _)) => {
+            return Err(bad(format!(
+                "the first segment starts at minute {m}, not 00:00"
+            )))
+        }
         None => return Err(bad("no segment".into())),
     }
     for w in segments.windows(2) {
@@ -170,7 +174,12 @@ pub fn scale_schedule(
     let f = requested_mean / m;
     let new: Segments = old
         .iter()
-        .map(|&(from, r)| (from, round_change(r, r * f, step, max_relative_change, None)))
+        .map(|&(from, r)| {
+            (
+                from,
+                round_change(r, r * f, step, max_relative_change, None),
+            )
+        })
         .collect();
     let nm = mean_rate(&new);
     match allowed_mean {

@@ -23,6 +23,7 @@ mod report;
 mod serve;
 mod shard;
 mod simulate;
+mod therapy;
 mod trial;
 mod trial_limits;
 
@@ -68,6 +69,8 @@ enum Command {
     Token(serve::TokenArgs),
     /// A simulated trial patient through a running `abba serve`, as a pump app would talk to it.
     App(app::Args),
+    /// Record the clinician's change of settings (`therapy set`), at any time.
+    Therapy(therapy::Args),
 }
 
 /// The parsed command line. Every subcommand takes negative numbers as
@@ -103,6 +106,7 @@ fn main() -> ExitCode {
         Command::Serve(a) => serve::serve(a),
         Command::Token(a) => serve::token(a),
         Command::App(a) => app::run(a),
+        Command::Therapy(a) => therapy::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -160,7 +160,13 @@ impl Evidence {
                     *e.systems.entry(format!("devicestatus.{key}")).or_default() += 1;
                 }
             }
-            for key in ["enteredBy", "device", "uploader", "deviceModel", "deviceManufacturers"] {
+            for key in [
+                "enteredBy",
+                "device",
+                "uploader",
+                "deviceModel",
+                "deviceManufacturers",
+            ] {
                 let text = match item.get(key) {
                     Some(Value::String(t)) => t.to_ascii_lowercase(),
                     Some(Value::Array(a)) => a

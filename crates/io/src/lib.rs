@@ -13,8 +13,8 @@
 //! abba-io depends on abba-core only, never on the simulator. abba is
 //! research software, not a medical device.
 
-pub mod clock;
 pub mod automation;
+pub mod clock;
 pub mod coverage;
 pub mod error;
 pub mod events;

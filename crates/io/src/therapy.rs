@@ -65,16 +65,29 @@ impl PumpTherapy {
         at: jiff::Timestamp,
     ) -> Result<Self, IoError> {
         let loc = Location::file(&origin);
-        let basal: Vec<(u32, f64)> = profile.basal.segments.iter().map(|s| (s.0, s.1 .0)).collect();
+        let basal: Vec<(u32, f64)> = profile
+            .basal
+            .segments
+            .iter()
+            .map(|s| (s.0, s.1 .0))
+            .collect();
         let cr: Vec<(u32, f64)> = profile.carb_ratio.iter().map(|s| (s.0, s.1 .0)).collect();
         for &(m, r) in &basal {
             BASAL_U_PER_H.check(r).map_err(|e| {
-                IoError::invalid(loc.clone(), &format!("basal from {}", hhmm(m)), e.to_string())
+                IoError::invalid(
+                    loc.clone(),
+                    &format!("basal from {}", hhmm(m)),
+                    e.to_string(),
+                )
             })?;
         }
         for &(m, r) in &cr {
             CARB_RATIO_G_PER_U.check(r).map_err(|e| {
-                IoError::invalid(loc.clone(), &format!("carb ratio from {}", hhmm(m)), e.to_string())
+                IoError::invalid(
+                    loc.clone(),
+                    &format!("carb ratio from {}", hhmm(m)),
+                    e.to_string(),
+                )
             })?;
         }
         if basal.is_empty() || cr.is_empty() {
@@ -161,7 +174,12 @@ pub fn settings_profiles(batch: &Batch, meals: &MealWindows) -> Result<Vec<PumpT
     for r in &batch.records {
         if let RecordKind::Schedule { profile } = &r.kind {
             if !profile.carb_ratio.is_empty() {
-                out.push(PumpTherapy::from_profile(profile, meals, batch.origin(r), r.at)?);
+                out.push(PumpTherapy::from_profile(
+                    profile,
+                    meals,
+                    batch.origin(r),
+                    r.at,
+                )?);
             }
         }
     }
@@ -177,7 +195,11 @@ pub fn tidepool_pump_settings(
     meals: &MealWindows,
 ) -> Result<Vec<PumpTherapy>, IoError> {
     let v: Value = serde_json::from_slice(bytes).map_err(|e| {
-        IoError::invalid(Location::line(file, e.line() as u64), "json", format!("not valid JSON: {e}"))
+        IoError::invalid(
+            Location::line(file, e.line() as u64),
+            "json",
+            format!("not valid JSON: {e}"),
+        )
     })?;
     let items = match v {
         Value::Array(a) => a,
@@ -189,13 +211,18 @@ pub fn tidepool_pump_settings(
             continue;
         }
         let path = format!("$[{i}]");
-        let err = |field: &str, msg: String| IoError::invalid(Location::json(file, &path), field, msg);
+        let err =
+            |field: &str, msg: String| IoError::invalid(Location::json(file, &path), field, msg);
         let time = item
             .get("time")
             .and_then(Value::as_str)
             .ok_or_else(|| err("time", "missing: expected an ISO 8601 time".into()))?;
-        let at = crate::time::parse_instant(time)
-            .ok_or_else(|| err("time", format!("expected an ISO 8601 time with Z or offset, got \"{time}\"")))?;
+        let at = crate::time::parse_instant(time).ok_or_else(|| {
+            err(
+                "time",
+                format!("expected an ISO 8601 time with Z or offset, got \"{time}\""),
+            )
+        })?;
         let active = item.get("activeSchedule").and_then(Value::as_str);
         let pick = |field: &str| -> Option<&Value> {
             let v = item.get(field)?;
@@ -213,11 +240,20 @@ pub fn tidepool_pump_settings(
             let mut s: Vec<(u32, f64)> = Vec::new();
             for (j, row) in rows.iter().enumerate() {
                 let f = format!("{field}[{j}]");
-                let start = row.get("start").and_then(Value::as_f64).ok_or_else(|| err(&f, "missing start (ms from midnight)".into()))?;
-                let x = row.get(value).and_then(Value::as_f64).ok_or_else(|| err(&f, format!("missing {value}")))?;
+                let start = row
+                    .get("start")
+                    .and_then(Value::as_f64)
+                    .ok_or_else(|| err(&f, "missing start (ms from midnight)".into()))?;
+                let x = row
+                    .get(value)
+                    .and_then(Value::as_f64)
+                    .ok_or_else(|| err(&f, format!("missing {value}")))?;
                 let m = start / 60_000.0;
                 if !(0.0..1440.0).contains(&m) || m.fract() != 0.0 {
-                    return Err(err(&f, format!("start {start} ms is not a whole minute of the day")));
+                    return Err(err(
+                        &f,
+                        format!("start {start} ms is not a whole minute of the day"),
+                    ));
                 }
                 let m = m as u32;
                 if s.last().is_some_and(|l| m <= l.0) || (s.is_empty() && m != 0) {
@@ -231,16 +267,28 @@ pub fn tidepool_pump_settings(
             Ok(s)
         };
         let basal = segments("basalSchedules", "rate")?;
-        let cr_field = if item.get("carbRatios").is_some() { "carbRatios" } else { "carbRatio" };
+        let cr_field = if item.get("carbRatios").is_some() {
+            "carbRatios"
+        } else {
+            "carbRatio"
+        };
         let cr = segments(cr_field, "amount")?;
         let profile = Profile {
             basal: crate::record::BasalSchedule {
-                segments: basal.into_iter().map(|(m, r)| (m, UnitsPerHour(r))).collect(),
+                segments: basal
+                    .into_iter()
+                    .map(|(m, r)| (m, UnitsPerHour(r)))
+                    .collect(),
             },
             carb_ratio: cr.into_iter().map(|(m, r)| (m, GramsPerUnit(r))).collect(),
             timezone: None,
         };
-        out.push(PumpTherapy::from_profile(&profile, meals, format!("{file}: {path}"), at)?);
+        out.push(PumpTherapy::from_profile(
+            &profile,
+            meals,
+            format!("{file}: {path}"),
+            at,
+        )?);
     }
     Ok(out)
 }

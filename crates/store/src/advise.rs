@@ -2,12 +2,12 @@
 //! with its reasons and the data it rests on, the first-week countdown.
 
 use crate::answer::{param_key, Answers};
-use crate::in_force::Extras;
+use crate::in_force::{Extras, TherapyChange};
 use crate::person::Person;
-use abba_io::automation::Delivery;
 use crate::words;
 use abba_advisor::{Abba, Advisor, Decision, DecisionDetail, Parameter};
 use abba_core::{Event, EventKind, MealSlot, Timestamp};
+use abba_io::automation::Delivery;
 use abba_io::clock::AdvisorClock;
 use abba_io::events::EventStream;
 use serde::Serialize;
@@ -216,17 +216,28 @@ pub fn hhmm(m: u32) -> String {
 
 /// Every decision as the person sees it, oldest first.
 pub fn views(person: &Person, decisions: &[Decision], answers: &Answers) -> Vec<SuggestionView> {
-    views_with(person, decisions, answers, false)
+    views_with(person, decisions, answers, None)
 }
 
-/// Like [`views`]; `hold_basal`: basal updates are not offered (a loop or
-/// injections), their status is `not_offered`.
+/// The value a change of therapy puts in force for `p`, if it sets it.
+fn change_value(c: &TherapyChange, p: Parameter) -> Option<f64> {
+    match p {
+        Parameter::Basal => c.basal.as_deref().map(abba_advisor::steps::mean_rate),
+        Parameter::CarbRatio(s) => c.carb_ratio.and_then(|cr| s.main_index().map(|i| cr[i])),
+    }
+}
+
+/// Like [`views`], with what the replay derived from imported records:
+/// basal updates not offered (a loop or injections: `not_offered`), a
+/// suggestion replaced by a later change of therapy (`replaced`).
 pub fn views_with(
     person: &Person,
     decisions: &[Decision],
     answers: &Answers,
-    hold_basal: bool,
+    extras: Option<&Extras>,
 ) -> Vec<SuggestionView> {
+    let hold_basal = extras.is_some_and(|x| x.hold_basal);
+    let changes: &[TherapyChange] = extras.map_or(&[], |x| &x.changes);
     let c = clock(person);
     let cfg = &person.settings.advisor;
     let mut latest: BTreeMap<&'static str, usize> = BTreeMap::new();
@@ -249,9 +260,16 @@ pub fn views_with(
                 DecisionDetail::Abba(x) => x.rounded.as_ref(),
                 _ => None,
             };
+            let replaced = changes
+                .iter()
+                .filter(|c| c.at > d.at)
+                .find_map(|c| change_value(c, d.parameter));
             let (status, in_force) = match (answer, &skipped) {
                 (Some(a), _) => (a.kind.name().to_string(), a.in_force),
                 (None, Some(_)) => ("no_update".to_string(), d.new),
+                (None, None) if replaced.is_some() && latest.get(key) == Some(&i) => {
+                    ("replaced".to_string(), replaced.unwrap_or(d.old))
+                }
                 (None, None) if hold_basal && d.parameter == Parameter::Basal => {
                     ("not_offered".to_string(), d.old)
                 }
@@ -280,13 +298,13 @@ pub fn views_with(
                 change_percent: 100.0 * (d.new / d.old - 1.0),
                 no_update: skipped.is_some(),
                 no_update_reason: skipped,
-                reasons: words::reasons(d, cfg),
+                reasons: words::reasons_in(d, cfg, person.settings.units),
                 data,
                 status,
                 in_force,
-                schedule: rounded.and_then(|r| r.segments.as_ref()).map(|seg| {
-                    seg.iter().map(|&(m, r)| (hhmm(m), r)).collect()
-                }),
+                schedule: rounded
+                    .and_then(|r| r.segments.as_ref())
+                    .map(|seg| seg.iter().map(|&(m, r)| (hhmm(m), r)).collect()),
             }
         })
         .collect()
@@ -380,7 +398,8 @@ fn therapy_view(person: &Person, advisor: &Abba, extras: Option<&Extras>) -> The
             .map(|c| {
                 let mut what = Vec::new();
                 if let Some(b) = &c.basal {
-                    let segs: Vec<String> = b.iter().map(|&(m, r)| format!("{} {r}", hhmm(m))).collect();
+                    let segs: Vec<String> =
+                        b.iter().map(|&(m, r)| format!("{} {r}", hhmm(m))).collect();
                     what.push(format!("basal {} U/h", segs.join(", ")));
                 }
                 if let Some([b, l, d]) = c.carb_ratio {
@@ -401,7 +420,11 @@ fn therapy_view(person: &Person, advisor: &Abba, extras: Option<&Extras>) -> The
     }
 }
 
-fn first_week_view(person: &Person, extras: Option<&Extras>, initialised: bool) -> Option<FirstWeekView> {
+fn first_week_view(
+    person: &Person,
+    extras: Option<&Extras>,
+    initialised: bool,
+) -> Option<FirstWeekView> {
     let x = extras?;
     if initialised {
         return None;
@@ -423,9 +446,25 @@ fn first_week_view(person: &Person, extras: Option<&Extras>, initialised: bool) 
     })
 }
 
-/// Builds the advice from the replayed advisor, every decision and the answers.
-#[allow(clippy::too_many_arguments)]
+/// Builds the advice from the replayed advisor, every decision and the
+/// answers (an app-fed person: nothing derived from imported records).
 pub fn advice(
+    person: &Person,
+    stream: &EventStream,
+    records: usize,
+    advisor: &Abba,
+    decisions: &[Decision],
+    answers: &Answers,
+    refused: usize,
+) -> Advice {
+    advice_with(
+        person, stream, records, advisor, decisions, answers, refused, None,
+    )
+}
+
+/// Like [`advice`], with what the replay derived from imported records.
+#[allow(clippy::too_many_arguments)]
+pub fn advice_with(
     person: &Person,
     stream: &EventStream,
     records: usize,
@@ -436,8 +475,7 @@ pub fn advice(
     extras: Option<&Extras>,
 ) -> Advice {
     let c = clock(person);
-    let hold = extras.is_some_and(|x| x.hold_basal);
-    let all = views_with(person, decisions, answers, hold);
+    let all = views_with(person, decisions, answers, extras);
     let settings = PARAMETERS
         .iter()
         .map(|&p| {
@@ -461,10 +499,7 @@ pub fn advice(
         Phase::Adapting
     } else {
         match (first_week(person, &stream.events), extras) {
-            (
-                Phase::FirstWeek { mut missing, .. },
-                Some(x),
-            ) => {
+            (Phase::FirstWeek { mut missing, .. }, Some(x)) => {
                 let init = person.settings.advisor.init_days;
                 let done = (x.first_week.qualifying.len() as u32).min(init);
                 missing.insert(0, format!(

@@ -98,12 +98,9 @@ impl Extras {
             .iter()
             .filter(|c| last.is_some_and(|l| c.at <= l))
             .collect();
-        let json = serde_json::to_vec(&(upto, self.hold_basal, self.first_week.end))
-            .unwrap_or_default();
-        format!(
-            "{:016x}",
-            abba_io::record::content_hash([json.as_slice()])
-        )
+        let json =
+            serde_json::to_vec(&(upto, self.hold_basal, self.first_week.end)).unwrap_or_default();
+        format!("{:016x}", abba_io::record::content_hash([json.as_slice()]))
     }
 }
 
@@ -159,9 +156,9 @@ pub fn first_week(mode: Mode, init_days: u32, events: &[Event]) -> FirstWeek {
                 "{cgm} CGM readings of the {CGM_PER_DAY} expected ({:.0} %; 70 % needed)",
                 100.0 * cgm as f64 / CGM_PER_DAY as f64
             )),
-            Mode::Smbg if smbg < SMBG_PER_DAY => why.push(format!(
-                "{smbg} meter readings ({SMBG_PER_DAY} needed)"
-            )),
+            Mode::Smbg if smbg < SMBG_PER_DAY => {
+                why.push(format!("{smbg} meter readings ({SMBG_PER_DAY} needed)"))
+            }
             _ => {}
         }
         if pump == 0 {
@@ -170,7 +167,10 @@ pub fn first_week(mode: Mode, init_days: u32, events: &[Event]) -> FirstWeek {
         if day > closed_until {
             // Today: not over yet.
             if !why.is_empty() {
-                w.missing.push((day, format!("so far {} (the day is not over)", why.join(", "))));
+                w.missing.push((
+                    day,
+                    format!("so far {} (the day is not over)", why.join(", ")),
+                ));
             }
             continue;
         }
@@ -188,9 +188,8 @@ pub fn first_week(mode: Mode, init_days: u32, events: &[Event]) -> FirstWeek {
 
 /// The clinician's recorded changes of a person.
 pub fn clinician_changes(conn: &Connection, person: i64) -> Result<Vec<TherapyChange>, StoreError> {
-    let mut st = conn.prepare(
-        "SELECT change FROM therapy_change WHERE person_id = ?1 ORDER BY at_ms, id",
-    )?;
+    let mut st =
+        conn.prepare("SELECT change FROM therapy_change WHERE person_id = ?1 ORDER BY at_ms, id")?;
     let rows = st.query_map(params![person], |r| r.get::<_, String>(0))?;
     let mut out = Vec::new();
     for r in rows {
@@ -206,7 +205,8 @@ pub fn insert_change(
     at: jiff::Timestamp,
     change: &TherapyChange,
 ) -> Result<(), StoreError> {
-    let json = serde_json::to_string(change).map_err(|e| StoreError::corrupt("therapy change", e))?;
+    let json =
+        serde_json::to_string(change).map_err(|e| StoreError::corrupt("therapy change", e))?;
     conn.execute(
         "INSERT INTO therapy_change (person_id, at_ms, change, recorded_at) VALUES (?1, ?2, ?3, ?4)",
         params![person, at.as_millisecond(), json, jiff::Timestamp::now().to_string()],
@@ -224,7 +224,10 @@ pub fn check_change(
     if let Some(b) = basal {
         for &(m, r) in b {
             BASAL_U_PER_H.check(r).map_err(|e| {
-                StoreError::invalid(format!("--basal (from {:02}:{:02})", m / 60, m % 60), e.to_string())
+                StoreError::invalid(
+                    format!("--basal (from {:02}:{:02})", m / 60, m % 60),
+                    e.to_string(),
+                )
             })?;
         }
         abba_advisor::steps::validate_segments(b)?;
@@ -239,13 +242,16 @@ pub fn check_change(
     if let Some(cr) = carb_ratio {
         for (i, v) in cr.into_iter().enumerate() {
             let slot = ["breakfast", "lunch", "dinner"][i];
-            CARB_RATIO_G_PER_U
-                .check(v)
-                .map_err(|e| StoreError::invalid(format!("--carb-ratio ({slot})"), e.to_string()))?;
+            CARB_RATIO_G_PER_U.check(v).map_err(|e| {
+                StoreError::invalid(format!("--carb-ratio ({slot})"), e.to_string())
+            })?;
             if let Some(r) = person.settings.bounds.carb_ratio[i].filter(|r| !r.contains(v)) {
                 return Err(StoreError::invalid(
                     format!("--carb-ratio ({slot})"),
-                    format!("{v} g/U is outside the clinician's bounds {}-{} g/U", r.min, r.max),
+                    format!(
+                        "{v} g/U is outside the clinician's bounds {}-{} g/U",
+                        r.min, r.max
+                    ),
                 ));
             }
         }
@@ -270,11 +276,17 @@ pub fn not_future(at: jiff::Timestamp, field: &str) -> Result<(), StoreError> {
 /// The settings profiles of the log that become therapy in force (when the
 /// person's therapy follows the pump's profile): each one that differs from
 /// the one before it.
-pub fn profile_changes(person: &Person, records: &[Record]) -> Result<Vec<TherapyChange>, StoreError> {
+pub fn profile_changes(
+    person: &Person,
+    records: &[Record],
+) -> Result<Vec<TherapyChange>, StoreError> {
     if person.settings.therapy_source != TherapySource::Profile {
         return Ok(Vec::new());
     }
-    let Some(clock) = person.first_day.map(|d| AdvisorClock::new(person.tz.clone(), d)) else {
+    let Some(clock) = person
+        .first_day
+        .map(|d| AdvisorClock::new(person.tz.clone(), d))
+    else {
         return Ok(Vec::new());
     };
     let meals = &person.settings.meal_windows;
@@ -294,7 +306,8 @@ pub fn profile_changes(person: &Person, records: &[Record]) -> Result<Vec<Therap
         if profile.carb_ratio.is_empty() {
             continue;
         }
-        let t = PumpTherapy::from_profile(profile, meals, format!("{:?} {:?}", r.source, r.id), r.at)?;
+        let t =
+            PumpTherapy::from_profile(profile, meals, format!("{:?} {:?}", r.source, r.id), r.at)?;
         if t.same_settings(&prev.0, prev.1) {
             continue;
         }
@@ -358,7 +371,11 @@ pub struct RecordFacts {
 }
 
 /// The facts of an import-fed person's records and events.
-pub fn record_facts(person: &Person, records: &[Record], events: &[Event]) -> Result<RecordFacts, StoreError> {
+pub fn record_facts(
+    person: &Person,
+    records: &[Record],
+    events: &[Event],
+) -> Result<RecordFacts, StoreError> {
     Ok(RecordFacts {
         profile_changes: profile_changes(person, records)?,
         evidence: Evidence::from_records(records, &person.tz),
@@ -368,7 +385,11 @@ pub fn record_facts(person: &Person, records: &[Record], events: &[Event]) -> Re
 
 /// Everything [`Extras`] holds for an import-fed person: the records'
 /// facts with the clinician's changes and the files' evidence.
-pub fn extras(conn: &Connection, person: &Person, facts: &RecordFacts) -> Result<Extras, StoreError> {
+pub fn extras(
+    conn: &Connection,
+    person: &Person,
+    facts: &RecordFacts,
+) -> Result<Extras, StoreError> {
     let mut changes = facts.profile_changes.clone();
     changes.extend(clinician_changes(conn, person.id)?);
     changes.sort_by_key(|c| c.at);

@@ -42,6 +42,21 @@ pub struct PersonSettingsDoc {
     /// loop or injections (`--allow-closed-loop`).
     #[serde(default)]
     pub allow_closed_loop: bool,
+    /// The glucose unit of every text for this person.
+    #[serde(default)]
+    pub units: GlucoseUnits,
+}
+
+/// The glucose unit a person reads.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum GlucoseUnits {
+    /// mg/dL.
+    #[default]
+    #[serde(rename = "mg/dL")]
+    MgDl,
+    /// mmol/L.
+    #[serde(rename = "mmol/L")]
+    MmolL,
 }
 
 /// Where a person's therapy in force comes from.
@@ -65,8 +80,12 @@ impl TherapySource {
     pub fn words(self) -> &'static str {
         match self {
             TherapySource::Given => "given when the person was created",
-            TherapySource::Profile => "the pump's profile (profile switches in force from their time)",
-            TherapySource::Kept => "the store's values, kept over the pump's profile (import --keep-therapy)",
+            TherapySource::Profile => {
+                "the pump's profile (profile switches in force from their time)"
+            }
+            TherapySource::Kept => {
+                "the store's values, kept over the pump's profile (import --keep-therapy)"
+            }
         }
     }
 }
@@ -106,6 +125,7 @@ impl NewPerson {
                 pump_steps: None,
                 therapy_source: TherapySource::Given,
                 allow_closed_loop: false,
+                units: GlucoseUnits::MgDl,
             },
         }
     }
@@ -237,14 +257,20 @@ pub fn check_start(s: &PersonSettingsDoc) -> Result<(), StoreError> {
     if let Some(sch) = &s.basal_schedule {
         for &(m, r) in sch {
             BASAL_U_PER_H.check(r).map_err(|e| {
-                StoreError::invalid(format!("basal schedule (from {:02}:{:02})", m / 60, m % 60), e.to_string())
+                StoreError::invalid(
+                    format!("basal schedule (from {:02}:{:02})", m / 60, m % 60),
+                    e.to_string(),
+                )
             })?;
         }
         let mean = abba_advisor::steps::mean_rate(sch);
         if (mean - s.start.basal.0).abs() > 1e-9 {
             return Err(StoreError::invalid(
                 "basal schedule",
-                format!("its mean {mean} U/h differs from the starting basal {} U/h", s.start.basal.0),
+                format!(
+                    "its mean {mean} U/h differs from the starting basal {} U/h",
+                    s.start.basal.0
+                ),
             ));
         }
     }
@@ -262,7 +288,11 @@ pub fn check_start(s: &PersonSettingsDoc) -> Result<(), StoreError> {
 }
 
 /// Replaces a person's settings document (checked as at creation).
-pub fn update_settings(conn: &Connection, id: i64, s: &PersonSettingsDoc) -> Result<(), StoreError> {
+pub fn update_settings(
+    conn: &Connection,
+    id: i64,
+    s: &PersonSettingsDoc,
+) -> Result<(), StoreError> {
     check_start(s)?;
     let doc = serde_json::to_string(s).map_err(|e| StoreError::corrupt("person settings", e))?;
     conn.execute(

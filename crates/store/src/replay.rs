@@ -7,8 +7,8 @@
 
 use crate::answer::{param_key, Answers};
 use crate::error::StoreError;
-use crate::person::Person;
 use crate::in_force::{Extras, TherapyChange};
+use crate::person::Person;
 use abba_advisor::{Abba, Advisor, Decision, DecisionDetail, Parameter};
 use abba_core::{Event, EventKind, GramsPerUnit, SettingValue, UnitsPerHour};
 use serde::{Deserialize, Serialize};
@@ -102,7 +102,10 @@ fn prefix_hash(events: &[Event], n: usize, extras: Option<&Extras>) -> String {
     let h = events_hash(&events[..n]);
     match extras {
         None => h,
-        Some(x) => format!("{h}/{}", x.hash_until(n.checked_sub(1).map(|i| events[i].at))),
+        Some(x) => format!(
+            "{h}/{}",
+            x.hash_until(n.checked_sub(1).map(|i| events[i].at))
+        ),
     }
 }
 

@@ -154,7 +154,13 @@ pub(crate) fn refresh(
     } else {
         None
     };
-    let r = replay::replay(person, &stream.events, &answers, snap.as_ref(), extras.as_ref())?;
+    let r = replay::replay(
+        person,
+        &stream.events,
+        &answers,
+        snap.as_ref(),
+        extras.as_ref(),
+    )?;
     // Events refused in the whole log: those before the snapshot it started
     // from, and those of this replay. (The new snapshot's count stops at
     // its own checkpoint.)
@@ -341,7 +347,11 @@ impl Store {
         let clock = abba_io::clock::AdvisorClock::new(p.tz.clone(), first);
         let ts = clock.timestamp(at);
         let change = in_force::TherapyChange {
-            at: if ts.day_index() < 0 { abba_core::Timestamp(0) } else { ts },
+            at: if ts.day_index() < 0 {
+                abba_core::Timestamp(0)
+            } else {
+                ts
+            },
             instant: at.to_string(),
             basal,
             carb_ratio,
@@ -396,7 +406,7 @@ impl Store {
     /// Today's advice.
     pub fn advise(&mut self, name: &str) -> Result<Advice, StoreError> {
         let (p, s) = self.state(name, true)?;
-        Ok(advise::advice(
+        Ok(advise::advice_with(
             &p,
             &s.stream,
             s.records,
@@ -411,8 +421,12 @@ impl Store {
     /// Every decision with the answer and the value in force, oldest first.
     pub fn history(&mut self, name: &str) -> Result<Vec<SuggestionView>, StoreError> {
         let (p, s) = self.state(name, true)?;
-        let hold = s.extras.as_ref().is_some_and(|x| x.hold_basal);
-        Ok(advise::views_with(&p, &s.decisions, &s.answers, hold))
+        Ok(advise::views_with(
+            &p,
+            &s.decisions,
+            &s.answers,
+            s.extras.as_ref(),
+        ))
     }
 
     /// Records the person's answer to the open suggestions (one transaction).
@@ -420,8 +434,7 @@ impl Store {
         let p = self.person(name)?;
         let tx = self.conn.transaction()?;
         let s = refresh(&tx, &mut self.cache, &p, true)?;
-        let hold = s.extras.as_ref().is_some_and(|x| x.hold_basal);
-        let views = advise::views_with(&p, &s.decisions, &s.answers, hold);
+        let views = advise::views_with(&p, &s.decisions, &s.answers, s.extras.as_ref());
         let open: Vec<&SuggestionView> = views.iter().filter(|v| v.status == "open").collect();
         if open.is_empty() {
             return Err(StoreError::Answer(
@@ -516,7 +529,9 @@ fn profile_check(
     let mut profiles = abba_io::therapy::settings_profiles(batch, meals)?;
     for ((name, bytes), format) in contents.iter().zip(&batch.formats) {
         if *format == Format::Tidepool {
-            profiles.extend(abba_io::therapy::tidepool_pump_settings(name, bytes, meals)?);
+            profiles.extend(abba_io::therapy::tidepool_pump_settings(
+                name, bytes, meals,
+            )?);
         }
     }
     profiles.sort_by_key(|t| t.at);
@@ -552,7 +567,10 @@ fn profile_check(
             let held = if store_basal.len() == 1 {
                 format!("basal {} U/h", store_basal[0].1)
             } else {
-                format!("basal schedule with mean {:.3} U/h", p.settings.start.basal.0)
+                format!(
+                    "basal schedule with mean {:.3} U/h",
+                    p.settings.start.basal.0
+                )
             };
             Err(StoreError::Invalid {
                 field: at_start.origin.clone(),

@@ -214,7 +214,9 @@ mod tests {
     #[test]
     fn a_change_below_one_step_is_no_change() {
         assert_eq!(round_change(0.9, 0.898, 0.05, 0.05, None), 0.9);
-        assert_eq!(round_change(0.9, 0.93, 0.05, 0.05, None), 0.95 - 0.0);
+        // 0.95 would leave the 5 % clamp (0.945): the clamp wins, no change.
+        assert_eq!(round_change(0.9, 0.93, 0.05, 0.05, None), 0.9);
+        assert_eq!(round_change(1.0, 1.04, 0.05, 0.05, None), 1.05);
         assert_eq!(round_change(10.0, 9.966, 0.1, 0.05, None), 10.0);
         assert_eq!(round_change(10.0, 9.94, 0.1, 0.05, None), 9.9);
         // Off the step, the nearest multiple on the asked side.

@@ -2,7 +2,7 @@
 use std::path::PathBuf;
 
 use abba_io::read::Format;
-use abba_store::{Store, NOTICE};
+use abba_store::{ProfileResolution, Store, NOTICE};
 use anyhow::{Context, Result};
 
 /// Arguments of `abba import`.
@@ -20,6 +20,14 @@ pub struct Args {
     /// Print the summary as JSON.
     #[arg(long)]
     pub json: bool,
+    /// When the export's pump profile differs from the therapy the store
+    /// holds: put the profile in force (what the pump runs).
+    #[arg(long, conflicts_with = "keep_therapy")]
+    pub adopt_profile: bool,
+    /// When the export's pump profile differs from the therapy the store
+    /// holds: keep the store's values (profiles are then not read as therapy).
+    #[arg(long)]
+    pub keep_therapy: bool,
     /// Export files (a Nightscout export is entries.json, treatments.json, profile.json).
     #[arg(required = true, value_name = "FILE")]
     pub files: Vec<PathBuf>,
@@ -34,7 +42,12 @@ pub fn run(a: Args) -> Result<()> {
         None => None,
     };
     let mut store = Store::open(&a.db).with_context(|| format!("opening {}", a.db.display()))?;
-    let s = store.import_files(&a.person, &a.files, format)?;
+    let resolve = match (a.adopt_profile, a.keep_therapy) {
+        (true, _) => ProfileResolution::Adopt,
+        (_, true) => ProfileResolution::Keep,
+        _ => ProfileResolution::Stop,
+    };
+    let s = store.import_files_with(&a.person, &a.files, format, resolve)?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&s)?);
         return Ok(());

@@ -31,6 +31,7 @@ mod serve;
 mod shard;
 mod simulate;
 mod store_cmd;
+mod therapy;
 mod trial;
 mod trial_limits;
 mod twin;
@@ -81,6 +82,8 @@ enum Command {
     Twin(twin::Args),
     /// Check a store (`check`) and remove events dated in the future (`remove-future`).
     Store(store_cmd::Args),
+    /// Record the clinician's change of settings (`therapy set`), at any time.
+    Therapy(therapy::Args),
 }
 
 /// The parsed command line. Every subcommand takes negative numbers as
@@ -134,6 +137,7 @@ fn main() -> ExitCode {
         Command::App(a) => app::run(a),
         Command::Twin(a) => twin::run(a),
         Command::Store(a) => store_cmd::run(a),
+        Command::Therapy(a) => therapy::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

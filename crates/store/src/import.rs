@@ -81,16 +81,14 @@ pub fn import(
             r.first_at = Some(rec.at.to_string());
         }
     };
-    let is_data = |r: &abba_io::Record| {
-        !matches!(
-            r.kind,
-            RecordKind::Ignored { .. } | RecordKind::Schedule { .. }
-        )
-    };
-    // Day 1: the local date of the first record that says something the
-    // advisor uses (not an alert or a note, not a profile in force since
-    // long before).
-    let first_useful = batch.records.iter().find(|r| r.at <= limit && is_data(r));
+    // Day 1: the local date of the first glucose reading not in the future
+    // (a profile or a pump record months before the first reading does not
+    // start it); an import without glucose leaves day 1 open.
+    let first_useful = batch
+        .records
+        .iter()
+        .filter(|r| r.at <= limit && matches!(r.kind, RecordKind::Cgm { .. } | RecordKind::Smbg { .. }))
+        .min_by_key(|r| r.at);
     let first_day = match (person.first_day, first_useful) {
         (Some(d), _) => Some(d),
         (None, Some(r)) => Some(person.tz.to_datetime(r.at).date()),

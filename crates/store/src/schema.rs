@@ -146,6 +146,24 @@ const MIGRATIONS: &[&str] = &[
         INSERT INTO person_rev VALUES (NEW.id, 1)
         ON CONFLICT (person_id) DO UPDATE SET rev = rev + 1;
     END;",
+    // 5 (issue 22): the clinician's changes of therapy (`abba therapy
+    // set`), in force from their time; what an import's files said about
+    // automated delivery (SMB marks, loop uploaders), one row per content.
+    "CREATE TABLE therapy_change (
+        id INTEGER PRIMARY KEY,
+        person_id INTEGER NOT NULL REFERENCES person(id),
+        at_ms INTEGER NOT NULL,
+        change TEXT NOT NULL,
+        recorded_at TEXT NOT NULL
+    );
+    CREATE INDEX therapy_change_by_time ON therapy_change (person_id, at_ms);
+    CREATE TABLE file_evidence (
+        person_id INTEGER NOT NULL REFERENCES person(id),
+        file_hash TEXT NOT NULL,
+        file TEXT NOT NULL,
+        evidence TEXT NOT NULL,
+        PRIMARY KEY (person_id, file_hash)
+    ) WITHOUT ROWID;",
 ];
 
 /// The version a migration brings a file to (its 1-based place in the

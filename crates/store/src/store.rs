@@ -135,8 +135,12 @@ pub(crate) fn refresh_with(
     let (records, stream, facts) = match cache.get(&person.id) {
         Some(c) if c.key == key => (c.records, Arc::clone(&c.stream), c.facts.clone()),
         _ => {
-            let (records, stream, facts) = if key.2 > 0 {
+            let (records, stream, facts) = if key.2 > 0 || key.0 == 0 {
                 // An app-fed person: the events as the app posted them.
+                // (A person with no data yet has no record facts either:
+                // a first week "never ended" would keep the live advisor
+                // that the app's first events advance from ever
+                // initialising.)
                 let app = crate::app::load(conn, person.id)?;
                 (app.len(), crate::app::stream(person, &app), None)
             } else {

@@ -10,59 +10,11 @@ mod common;
 
 use abba_service::{AppState, ServeSettings, StoreSettings};
 use axum::http::{Method, StatusCode};
-use common::{at, cgm, Svc};
+use common::{at, cgm, Server, Svc};
 use serde_json::json;
 use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpStream};
 use std::time::{Duration, Instant};
-
-/// A service on a loopback port, in its own runtime thread; stopped on drop.
-struct Server {
-    addr: SocketAddr,
-    stop: Option<tokio::sync::oneshot::Sender<()>>,
-    thread: Option<std::thread::JoinHandle<()>>,
-}
-
-impl Server {
-    fn start(db: &std::path::Path, set: ServeSettings) -> Self {
-        let state = AppState::open(db, set.store.clone()).unwrap();
-        let std_listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
-        std_listener.set_nonblocking(true).unwrap();
-        let addr = std_listener.local_addr().unwrap();
-        let (tx, rx) = tokio::sync::oneshot::channel::<()>();
-        let thread = std::thread::spawn(move || {
-            let rt = tokio::runtime::Builder::new_multi_thread()
-                .worker_threads(2)
-                .enable_all()
-                .build()
-                .unwrap();
-            rt.block_on(async move {
-                let listener = tokio::net::TcpListener::from_std(std_listener).unwrap();
-                let router = abba_service::router_with(state, &set);
-                abba_service::server::run_until(listener, router, &set, async {
-                    let _ = rx.await;
-                })
-                .await;
-            });
-        });
-        Self {
-            addr,
-            stop: Some(tx),
-            thread: Some(thread),
-        }
-    }
-}
-
-impl Drop for Server {
-    fn drop(&mut self) {
-        if let Some(s) = self.stop.take() {
-            let _ = s.send(());
-        }
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
-    }
-}
 
 /// Sends raw bytes, reads the whole answer (the service closes after it).
 fn raw(addr: SocketAddr, request: &str) -> String {

@@ -3,13 +3,14 @@
 
 #![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
 
-use abba_service::{auth, AppState};
+use abba_service::{auth, AppState, ServeSettings};
 use abba_store::token::Role;
 use axum::body::Body;
 use axum::http::{Method, Request, StatusCode};
 use axum::Router;
 use http_body_util::BodyExt;
 use serde_json::{json, Value};
+use std::net::SocketAddr;
 use std::path::PathBuf;
 use tower::ServiceExt;
 
@@ -136,4 +137,58 @@ pub fn ev(seq: u64, minute: i64, event: Value) -> Value {
 /// A CGM reading.
 pub fn cgm(seq: u64, minute: i64, mg_dl: f64) -> Value {
     ev(seq, minute, json!({"type": "cgm", "mg_dl": mg_dl}))
+}
+
+/// A service on a loopback port, in its own runtime thread; stopped on drop.
+pub struct Server {
+    pub addr: SocketAddr,
+    stop: Option<tokio::sync::oneshot::Sender<()>>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Server {
+    /// The base URL.
+    pub fn url(&self) -> String {
+        format!("http://{}", self.addr)
+    }
+
+    /// Serves `db` with `set` on a free loopback port.
+    pub fn start(db: &std::path::Path, set: ServeSettings) -> Self {
+        let state = AppState::open(db, set.store.clone()).unwrap();
+        let std_listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+        std_listener.set_nonblocking(true).unwrap();
+        let addr = std_listener.local_addr().unwrap();
+        let (tx, rx) = tokio::sync::oneshot::channel::<()>();
+        let thread = std::thread::spawn(move || {
+            let rt = tokio::runtime::Builder::new_multi_thread()
+                .worker_threads(2)
+                .enable_all()
+                .build()
+                .unwrap();
+            rt.block_on(async move {
+                let listener = tokio::net::TcpListener::from_std(std_listener).unwrap();
+                let router = abba_service::router_with(state, &set);
+                abba_service::server::run_until(listener, router, &set, async {
+                    let _ = rx.await;
+                })
+                .await;
+            });
+        });
+        Self {
+            addr,
+            stop: Some(tx),
+            thread: Some(thread),
+        }
+    }
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        if let Some(s) = self.stop.take() {
+            let _ = s.send(());
+        }
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
 }

@@ -46,7 +46,8 @@ pub fn parse<T: DeserializeOwned>(headers: &HeaderMap, body: RawBody) -> Result<
     let mut de = serde_json::Deserializer::from_slice(&bytes);
     let value: T = serde_path_to_error::deserialize(&mut de).map_err(|e| {
         // The root is ".".
-        ApiError::bad_json(e.path().to_string(), e.into_inner().to_string())
+        let (path, message) = locate(&bytes, e.path().to_string(), e.into_inner().to_string());
+        ApiError::bad_json(path, message)
     })?;
     de.end()
         .map_err(|e| ApiError::bad_json(".", format!("after the JSON value: {e}")))?;
@@ -54,6 +55,43 @@ pub fn parse<T: DeserializeOwned>(headers: &HeaderMap, body: RawBody) -> Result<
 }
 
 /// True when reading the body stopped at the body timeout.
+/// Inside a device event the deserializer's path stops at
+/// `events[i].event` (a tagged union read whole) and the message starts
+/// with the field's own path: the path is completed with it, and the
+/// message says which event (its seq and time as sent) when the batch
+/// gives them.
+fn locate(bytes: &[u8], path: String, message: String) -> (String, String) {
+    let Some(index) = path
+        .strip_prefix("events[")
+        .and_then(|r| r.split_once(']'))
+        .and_then(|(i, _)| i.parse::<usize>().ok())
+    else {
+        return (path, message);
+    };
+    let mut path = path;
+    if path.ends_with(".event") {
+        if let Some((field, _)) = message.split_once(": ") {
+            let plain = !field.is_empty()
+                && field
+                    .chars()
+                    .all(|c| c.is_ascii_alphanumeric() || "_.[]".contains(c));
+            if plain {
+                path = format!("{path}.{field}");
+            }
+        }
+    }
+    let which = serde_json::from_slice::<serde_json::Value>(bytes)
+        .ok()
+        .and_then(|v| {
+            let e = v.get("events")?.get(index)?;
+            let seq = e.get("seq")?.as_u64()?;
+            let at: String = e.get("at")?.as_str()?.chars().take(64).collect();
+            Some(format!(" (event seq {seq} at {at})"))
+        })
+        .unwrap_or_default();
+    (path, format!("{message}{which}"))
+}
+
 fn is_timeout(e: &BytesRejection) -> bool {
     let mut cur: Option<&(dyn std::error::Error + 'static)> = Some(e);
     while let Some(err) = cur {

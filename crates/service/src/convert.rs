@@ -9,7 +9,9 @@ use abba_advisor::{
 use abba_api::{
     AdviceResponse, Bounds, DataSummary, DeviceEvent, EventBody, EventsBody, MealSlot as WireSlot,
     Mode, NewPersonBody, PhaseView, Range, Setting, SettingAdvice, Suggestion, TempRate,
+    TherapyBody,
 };
+use abba_core::limits::{Limit, BASAL_U_PER_H, CARB_RATIO_G_PER_U};
 use abba_core::{
     Event, EventKind, Grams, GramsPerUnit, MealSlot, MgDl, TempBasalRate, TherapySettings,
     Timestamp, Units, UnitsPerHour,
@@ -145,7 +147,7 @@ pub fn check_events(
         let kind = event_kind(&e.event);
         guard
             .check(&Event::new(Timestamp(0), kind), limits)
-            .map_err(|err| ApiError::invalid(format!("events[{i}].event"), err.to_string()))?;
+            .map_err(|err| refused(i, e, err))?;
         out.push(NewAppEvent {
             seq: e.seq,
             at,
@@ -154,6 +156,52 @@ pub fn check_events(
         });
     }
     Ok(out)
+}
+
+/// The field of a wire event that a refused value came from (the
+/// advisor's check names the quantity, the event's kind the field).
+fn field_of(e: &EventBody, what: &str) -> &'static str {
+    match e {
+        EventBody::Cgm { .. } | EventBody::Smbg { .. } => "mg_dl",
+        EventBody::Meal { .. } => "carbs_g",
+        EventBody::Bolus { .. } => "units",
+        EventBody::BasalRate { .. } => "units_per_hour",
+        EventBody::TempBasal { rate, .. } => match rate {
+            _ if what.contains("duration") => "duration_min",
+            TempRate::UnitsPerHour(_) => "rate.units_per_hour",
+            TempRate::Percent(_) => "rate.percent",
+        },
+        EventBody::ExtendedBolus { .. } if what.contains("duration") => "duration_min",
+        EventBody::ExtendedBolus { .. } if what.contains("immediate") => "immediate_units",
+        EventBody::ExtendedBolus { .. } => "total_units",
+        EventBody::Suspend | EventBody::Resume | EventBody::DayClosed => "type",
+    }
+}
+
+/// 422 for an event the advisor's checks refuse: the path down to the
+/// field, the message with the event's seq, kind and its real time (the
+/// check itself runs on a placeholder minute, never shown).
+fn refused(i: usize, e: &DeviceEvent, err: abba_advisor::AdvisorError) -> ApiError {
+    let kind = abba_io::events::kind_name(&event_kind(&e.event));
+    let what = format!("event seq {} ({kind}) at {}", e.seq, e.at);
+    match err {
+        abba_advisor::AdvisorError::InvalidValue {
+            what: quantity,
+            expected,
+            got,
+            ..
+        } => ApiError::invalid(
+            format!("events[{i}].event.{}", field_of(&e.event, quantity)),
+            format!("{what}: {quantity} must be {expected}, got {got}"),
+        ),
+        other => {
+            // Not reachable from the wire's kinds today; said without the
+            // placeholder time all the same.
+            let text = other.to_string();
+            let text = text.split_once(": ").map_or(text.as_str(), |x| x.1);
+            ApiError::invalid(format!("events[{i}].event"), format!("{what}: {text}"))
+        }
+    }
 }
 
 /// The wire name of a parameter.
@@ -356,15 +404,24 @@ fn setting_key(s: Setting) -> &'static str {
     abba_store::answer::param_key(parameter(s))
 }
 
-fn range(r: Option<Range>, path: &str) -> Result<Option<abba_advisor::bounds::Range>, ApiError> {
+/// A clinician's range checked against the plausibility limit of its
+/// quantity ([`abba_core::limits`], the CLI's too); 422 names the end.
+fn range(
+    r: Option<Range>,
+    limit: &Limit,
+    path: &str,
+) -> Result<Option<abba_advisor::bounds::Range>, ApiError> {
     let Some(r) = r else { return Ok(None) };
-    if !(r.min.is_finite() && r.max.is_finite() && r.min > 0.0 && r.min <= r.max) {
+    limit
+        .check(r.min)
+        .map_err(|e| ApiError::invalid(format!("{path}.min"), e.to_string()))?;
+    limit
+        .check(r.max)
+        .map_err(|e| ApiError::invalid(format!("{path}.max"), e.to_string()))?;
+    if r.min > r.max {
         return Err(ApiError::invalid(
             path,
-            format!(
-                "expected 0 < min <= max (finite), got min {} max {}",
-                r.min, r.max
-            ),
+            format!("expected min <= max, got min {} max {}", r.min, r.max),
         ));
     }
     Ok(Some(abba_advisor::bounds::Range {
@@ -376,12 +433,33 @@ fn range(r: Option<Range>, path: &str) -> Result<Option<abba_advisor::bounds::Ra
 /// Clinician bounds from the wire (`path` prefixes the field names).
 pub fn bounds(b: &Bounds, path: &str) -> Result<ClinicianBounds, ApiError> {
     Ok(ClinicianBounds {
-        basal: range(b.basal, &format!("{path}.basal"))?,
+        basal: range(b.basal, &BASAL_U_PER_H, &format!("{path}.basal"))?,
         carb_ratio: [
-            range(b.breakfast, &format!("{path}.breakfast"))?,
-            range(b.lunch, &format!("{path}.lunch"))?,
-            range(b.dinner, &format!("{path}.dinner"))?,
+            range(
+                b.breakfast,
+                &CARB_RATIO_G_PER_U,
+                &format!("{path}.breakfast"),
+            )?,
+            range(b.lunch, &CARB_RATIO_G_PER_U, &format!("{path}.lunch"))?,
+            range(b.dinner, &CARB_RATIO_G_PER_U, &format!("{path}.dinner"))?,
         ],
+    })
+}
+
+/// The starting therapy from the wire, each value checked against the
+/// plausibility limits ([`abba_core::limits`]); 422 names the field.
+pub fn start(t: &TherapyBody) -> Result<TherapySettings, ApiError> {
+    BASAL_U_PER_H
+        .check(t.basal_units_per_hour)
+        .map_err(|e| ApiError::invalid("start.basal_units_per_hour", e.to_string()))?;
+    for (i, &cr) in t.carb_ratio_g_per_unit.iter().enumerate() {
+        CARB_RATIO_G_PER_U.check(cr).map_err(|e| {
+            ApiError::invalid(format!("start.carb_ratio_g_per_unit[{i}]"), e.to_string())
+        })?;
+    }
+    Ok(TherapySettings {
+        basal: UnitsPerHour(t.basal_units_per_hour),
+        carb_ratio: t.carb_ratio_g_per_unit.map(GramsPerUnit),
     })
 }
 
@@ -391,14 +469,12 @@ pub fn new_person(b: &NewPersonBody) -> Result<NewPerson, ApiError> {
         Mode::Cgm => AdvisorMode::Cgm,
         Mode::Smbg => AdvisorMode::Smbg,
     };
-    let start = TherapySettings {
-        basal: UnitsPerHour(b.start.basal_units_per_hour),
-        carb_ratio: b.start.carb_ratio_g_per_unit.map(GramsPerUnit),
-    };
-    start
-        .validate()
-        .map_err(|e| ApiError::invalid("start", e.to_string()))?;
-    let mut p = NewPerson::new(&b.name, &b.tz, mode, start);
+    let name = abba_store::person::check_name(&b.name).map_err(|e| match e {
+        StoreError::Invalid { problem, .. } => ApiError::invalid("name", problem),
+        other => other.into(),
+    })?;
+    let start = start(&b.start)?;
+    let mut p = NewPerson::new(name, &b.tz, mode, start);
     if let Some(day) = &b.first_day {
         let d: jiff::civil::Date = day.parse().map_err(|e| {
             ApiError::invalid(
@@ -412,10 +488,16 @@ pub fn new_person(b: &NewPersonBody) -> Result<NewPerson, ApiError> {
         p.settings.bounds = bounds(bd, "bounds")?;
     }
     if let Some(m) = b.min_data {
-        if !(0.0..=1.0).contains(&m.cgm_coverage) || m.cgm_period_min == 0 {
+        if !(0.0..=1.0).contains(&m.cgm_coverage) {
             return Err(ApiError::invalid(
-                "min_data",
-                "expected cgm_coverage in [0, 1] and cgm_period_min >= 1",
+                "min_data.cgm_coverage",
+                format!("expected a share from 0 to 1, got {}", m.cgm_coverage),
+            ));
+        }
+        if m.cgm_period_min == 0 {
+            return Err(ApiError::invalid(
+                "min_data.cgm_period_min",
+                "expected at least 1 minute between the sensor's readings, got 0",
             ));
         }
         p.settings.min_data = MinData {

@@ -298,27 +298,27 @@ fn each_refused_value_names_its_field() {
         (
             json!({"events": [{"seq": 1, "at": "2026-01-01T00:00:00Z", "event": {"type": "cgm", "mg_dl": 5}}]}),
             422,
-            "events[0].event",
+            "events[0].event.mg_dl",
         ),
         (
             json!({"events": [{"seq": 1, "at": "2026-01-01T00:00:00Z", "event": {"type": "bolus", "units": -1}}]}),
             422,
-            "events[0].event",
+            "events[0].event.units",
         ),
         (
             json!({"events": [{"seq": 1, "at": "2026-01-01T00:00:00Z", "event": {"type": "meal", "carbs_g": 9000, "slot": "lunch"}}]}),
             422,
-            "events[0].event",
+            "events[0].event.carbs_g",
         ),
         (
             json!({"events": [{"seq": 1, "at": "2026-01-01T00:00:00Z", "event": {"type": "meal", "carbs_g": 90, "slot": "brunch"}}]}),
             400,
-            "events[0].event",
+            "events[0].event.slot",
         ),
         (
             json!({"events": [{"seq": 1, "at": "2026-01-01T00:00:00Z", "event": {"type": "cgm", "mg_dl": "NaN"}}]}),
             400,
-            "events[0].event",
+            "events[0].event.mg_dl",
         ),
         (
             json!({"events": [{"seq": 9_007_199_254_740_992u64, "at": "2026-01-01T00:00:00Z", "event": {"type": "cgm", "mg_dl": 100}}]}),
@@ -337,9 +337,9 @@ fn each_refused_value_names_its_field() {
             "events[0].extra",
         ),
     ];
-    // (Inside an event the path stops at `event`, a tagged union read
-    // whole; the message names the field: "slot: unknown variant
-    // `brunch`", see `a_wrong_type_inside_an_event_names_the_field`.)
+    // (Inside an event the path goes down to the field: the advisor's
+    // check names the quantity, the wire reader the field, see
+    // `a_wrong_type_inside_an_event_names_the_field`.)
     for (body, status, path) in cases {
         let (s, text, json) = send(
             w,
@@ -350,6 +350,15 @@ fn each_refused_value_names_its_field() {
         );
         assert_eq!(s.as_u16(), status, "{body}: {text}");
         assert_eq!(json["path"], path, "{body}: {text}");
+        // The event's real time, never the check's placeholder minute.
+        let message = json["message"].as_str().unwrap_or_default();
+        assert!(!message.contains("D1 00:00"), "{body}: {text}");
+        if status == 422 && path.starts_with("events[0].event.") {
+            assert!(
+                message.contains("event seq 1 (") && message.contains("at 2026-01-01T00:00:00Z"),
+                "{body}: {text}"
+            );
+        }
     }
 }
 
@@ -358,22 +367,33 @@ fn a_wrong_type_inside_an_event_names_the_field() {
     let w = world_once();
     let uri = format!("/v1/persons/{}/events", w.person);
     let cases = [
-        (json!({"type": "cgm", "mg_dl": "x"}), "mg_dl: invalid type"),
+        (
+            json!({"type": "cgm", "mg_dl": "x"}),
+            "mg_dl",
+            "mg_dl: invalid type",
+        ),
         (
             json!({"type": "meal", "carbs_g": 90, "slot": "brunch"}),
+            "slot",
             "slot: unknown variant `brunch`",
         ),
         (
             json!({"type": "temp_basal", "rate": {"percent": true}, "duration_min": 30}),
+            "rate.percent",
             "rate.percent: invalid type",
         ),
         (
             json!({"type": "extended_bolus", "total_units": 4, "immediate_units": 1, "duration_min": -5}),
+            "duration_min",
             "duration_min: invalid value",
         ),
-        (json!({"type": "coffee"}), "type: unknown kind `coffee`"),
+        (
+            json!({"type": "coffee"}),
+            "type",
+            "type: unknown kind `coffee`",
+        ),
     ];
-    for (event, message) in cases {
+    for (event, field, message) in cases {
         let body = json!({"events": [{"seq": 1, "at": "2026-01-01T00:00:00Z", "event": event}]});
         let (s, text, json) = send(
             w,
@@ -383,8 +403,17 @@ fn a_wrong_type_inside_an_event_names_the_field() {
             serde_json::to_vec(&body).unwrap(),
         );
         assert_eq!(s.as_u16(), 400, "{body}: {text}");
-        assert_eq!(json["path"], "events[0].event", "{body}: {text}");
+        assert_eq!(
+            json["path"],
+            format!("events[0].event.{field}"),
+            "{body}: {text}"
+        );
         let got = json["message"].as_str().unwrap_or_default();
         assert!(got.contains(message), "{body}: {text}");
+        // Which event: its seq and its time as sent.
+        assert!(
+            got.contains("(event seq 1 at 2026-01-01T00:00:00Z)"),
+            "{body}: {text}"
+        );
     }
 }

@@ -22,7 +22,9 @@ pub enum StoreError {
     #[error("no person named \"{0}\" in this database (create one with `abba person new`)")]
     NoPerson(String),
     /// The name is taken.
-    #[error("a person named \"{0}\" already exists in this database")]
+    #[error(
+        "a person named \"{0}\" already exists in this database (names are compared ignoring case)"
+    )]
     PersonExists(String),
     /// A setting or an argument is not acceptable; names the field.
     #[error("{field}: {problem}")]

@@ -109,6 +109,8 @@ impl NewPerson {
     /// default data rule and ABBA's default configuration for `mode` with an
     /// exploration seed derived from the name.
     pub fn new(name: &str, tz: &str, mode: Mode, start: TherapySettings) -> Self {
+        // The name as it will be stored (see [`check_name`]).
+        let name = name.trim();
         let seed = abba_io::record::content_hash([name.as_bytes()]);
         Self {
             name: name.to_string(),
@@ -186,14 +188,64 @@ impl Person {
     }
 }
 
-/// Checks and stores a new person; returns its id.
-pub fn create(conn: &Connection, p: &NewPerson) -> Result<i64, StoreError> {
-    if p.name.trim().is_empty() || p.name.len() > 200 {
+/// Longest person name, in characters.
+pub const MAX_NAME_CHARS: usize = 200;
+
+/// Characters a name may not hold besides control characters: the ones
+/// that reorder or hide text on a screen (bidirectional overrides and
+/// isolates, zero-width characters, the byte-order mark).
+fn hidden(c: char) -> bool {
+    matches!(c, '\u{200B}'..='\u{200F}' | '\u{202A}'..='\u{202E}' | '\u{2060}'..='\u{2069}' | '\u{FEFF}')
+}
+
+/// A person's name as stored: trimmed, 1 to [`MAX_NAME_CHARS`] characters,
+/// no control character (newlines, tabs, ESC and with it every terminal
+/// escape sequence, DEL, C1 controls) and none of the characters that
+/// reorder or hide text. The error names the field and the character.
+pub fn check_name(name: &str) -> Result<&str, StoreError> {
+    let t = name.trim();
+    let n = t.chars().count();
+    if n == 0 || n > MAX_NAME_CHARS {
         return Err(StoreError::invalid(
             "--name",
-            "expected 1 to 200 characters",
+            format!("expected 1 to {MAX_NAME_CHARS} characters (spaces at either end do not count), got {n}"),
         ));
     }
+    if let Some((i, c)) = t
+        .chars()
+        .enumerate()
+        .find(|(_, c)| c.is_control() || hidden(*c))
+    {
+        return Err(StoreError::invalid(
+            "--name",
+            format!(
+                "character {} is {}: a name may not hold control characters (newlines, tabs, escape sequences) or characters that reorder or hide text",
+                i + 1,
+                c.escape_unicode()
+            ),
+        ));
+    }
+    Ok(t)
+}
+
+/// The name another person already has, compared case-insensitively
+/// (Unicode lower case: "Ana", "ANA" and "ana" are one name).
+pub fn name_taken(conn: &Connection, name: &str) -> Result<Option<String>, StoreError> {
+    let key = name.to_lowercase();
+    let mut st = conn.prepare("SELECT name FROM person")?;
+    let rows = st.query_map([], |r| r.get::<_, String>(0))?;
+    for r in rows {
+        let other = r?;
+        if other.to_lowercase() == key {
+            return Ok(Some(other));
+        }
+    }
+    Ok(None)
+}
+
+/// Checks and stores a new person; returns its id.
+pub fn create(conn: &Connection, p: &NewPerson) -> Result<i64, StoreError> {
+    let name = check_name(&p.name)?;
     TimeZone::get(&p.tz).map_err(|e| {
         StoreError::invalid(
             "--tz",
@@ -218,19 +270,14 @@ pub fn create(conn: &Connection, p: &NewPerson) -> Result<i64, StoreError> {
     if let Some(sch) = &s.basal_schedule {
         a.with_basal_schedule(sch.clone())?;
     }
-    let exists: Option<i64> = conn
-        .query_row("SELECT id FROM person WHERE name = ?1", [&p.name], |r| {
-            r.get(0)
-        })
-        .optional()?;
-    if exists.is_some() {
-        return Err(StoreError::PersonExists(p.name.clone()));
+    if let Some(other) = name_taken(conn, name)? {
+        return Err(StoreError::PersonExists(other));
     }
     let doc = serde_json::to_string(s).map_err(|e| StoreError::corrupt("person settings", e))?;
     conn.execute(
         "INSERT INTO person (name, tz, mode, first_day, settings, created_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6)",
         params![
-            p.name,
+            name,
             p.tz,
             mode_name(s.advisor.mode),
             p.first_day.map(|d| d.to_string()),

@@ -280,9 +280,9 @@ impl Store {
     /// Creates a person.
     pub fn create_person(&mut self, p: &NewPerson) -> Result<Person, StoreError> {
         let tx = self.conn.transaction()?;
-        person::create(&tx, p)?;
+        let id = person::create(&tx, p)?;
         tx.commit()?;
-        self.person(&p.name)
+        person::load_by_id(&self.conn, id)
     }
 
     /// A person by name.

@@ -1,0 +1,193 @@
+//! What `POST /v1/persons` and `PUT .../bounds` accept: names without
+//! control characters, escape sequences or hidden characters, trimmed and
+//! unique ignoring case; the starting therapy and the bounds within the
+//! plausibility limits of `abba_core::limits` (the CLI's), each refusal
+//! naming the field and the range.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod common;
+
+use axum::http::{Method, StatusCode};
+use common::Svc;
+use serde_json::{json, Value};
+
+fn body(name: &str) -> Value {
+    json!({
+        "name": name, "tz": "UTC", "mode": "cgm",
+        "start": {"basal_units_per_hour": 1.0, "carb_ratio_g_per_unit": [10.0, 12.0, 11.0]}
+    })
+}
+
+async fn create(svc: &Svc, b: &Value) -> common::Resp {
+    svc.call(Method::POST, "/v1/persons", Some(&svc.admin), Some(b))
+        .await
+}
+
+#[tokio::test]
+async fn names_with_control_or_hidden_characters_are_refused() {
+    let svc = Svc::new();
+    for bad in [
+        "ana\nbob",
+        "ana\rbob",
+        "tab\there",
+        "\u{1b}[31mred\u{1b}[0m",
+        "\u{1b}]0;title\u{7}",
+        "del\u{7f}",
+        "c1\u{9b}31m",
+        "nul\u{0}",
+        "rtl\u{202e}gnp.exe",
+        "zero\u{200b}width",
+    ] {
+        let r = create(&svc, &body(bad)).await;
+        assert_eq!(
+            r.status,
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "{bad:?}: {}",
+            r.text
+        );
+        assert_eq!(r.json["path"], "name", "{bad:?}: {}", r.text);
+        let m = r.json["message"].as_str().unwrap();
+        assert!(
+            m.contains("character") && m.contains("\\u{"),
+            "{bad:?}: {m}"
+        );
+        // The answer never carries the raw character back.
+        assert!(
+            !r.text.contains('\u{1b}') && !r.text.contains('\n'),
+            "{}",
+            r.text
+        );
+    }
+    for empty in ["", "   ", "\u{3000}"] {
+        let r = create(&svc, &body(empty)).await;
+        assert_eq!(
+            r.status,
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "{empty:?}: {}",
+            r.text
+        );
+        assert_eq!(r.json["path"], "name");
+    }
+    let long = "x".repeat(201);
+    let r = create(&svc, &body(&long)).await;
+    assert_eq!(r.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", r.text);
+    // 200 characters of more than one byte each are fine.
+    let r = create(&svc, &body(&"é".repeat(200))).await;
+    assert_eq!(r.status, StatusCode::CREATED, "{}", r.text);
+}
+
+#[tokio::test]
+async fn names_are_trimmed_and_unique_ignoring_case() {
+    let svc = Svc::new();
+    let r = create(&svc, &body("  Ana María \t")).await;
+    assert_eq!(r.status, StatusCode::CREATED, "{}", r.text);
+    assert_eq!(r.json["name"], "Ana María");
+    for same in ["ana maría", "ANA MARÍA", " Ana María"] {
+        let r = create(&svc, &body(same)).await;
+        assert_eq!(r.status, StatusCode::CONFLICT, "{same:?}: {}", r.text);
+        assert_eq!(r.json["path"], "name");
+        let m = r.json["message"].as_str().unwrap();
+        assert!(
+            m.contains("\"Ana María\"") && m.contains("ignoring case"),
+            "{m}"
+        );
+    }
+    // The stored name is the trimmed one (the CLI finds it by it).
+    let store = abba_store::Store::open(&svc.db).unwrap();
+    assert_eq!(store.persons().unwrap(), vec!["Ana María".to_string()]);
+    let r = create(&svc, &body("Ana Maria")).await;
+    assert_eq!(r.status, StatusCode::CREATED, "another name: {}", r.text);
+}
+
+#[tokio::test]
+async fn the_starting_therapy_and_bounds_are_checked_against_the_limits() {
+    let svc = Svc::new();
+    let cases = [
+        (
+            json!({"basal_units_per_hour": 1e300, "carb_ratio_g_per_unit": [10.0, 12.0, 11.0]}),
+            "start.basal_units_per_hour",
+            "35",
+        ),
+        (
+            json!({"basal_units_per_hour": 0.001, "carb_ratio_g_per_unit": [10.0, 12.0, 11.0]}),
+            "start.basal_units_per_hour",
+            "0.025",
+        ),
+        (
+            json!({"basal_units_per_hour": 1.0, "carb_ratio_g_per_unit": [10.0, 1e300, 11.0]}),
+            "start.carb_ratio_g_per_unit[1]",
+            "150",
+        ),
+        (
+            json!({"basal_units_per_hour": 1.0, "carb_ratio_g_per_unit": [10.0, 12.0, 0.5]}),
+            "start.carb_ratio_g_per_unit[2]",
+            "between 1 and 150",
+        ),
+    ];
+    for (start, path, range) in cases {
+        let mut b = body("p");
+        b["start"] = start.clone();
+        let r = create(&svc, &b).await;
+        assert_eq!(
+            r.status,
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "{start}: {}",
+            r.text
+        );
+        assert_eq!(r.json["path"], path, "{start}: {}", r.text);
+        let m = r.json["message"].as_str().unwrap();
+        assert!(m.contains(range), "{start}: {m}");
+    }
+    let bounds = [
+        (
+            json!({"basal": {"min": 0.5, "max": 1e300}}),
+            "bounds.basal.max",
+        ),
+        (
+            json!({"basal": {"min": 0.0, "max": 2.0}}),
+            "bounds.basal.min",
+        ),
+        (
+            json!({"lunch": {"min": 8.0, "max": 400.0}}),
+            "bounds.lunch.max",
+        ),
+        (
+            json!({"dinner": {"min": 14.0, "max": 8.0}}),
+            "bounds.dinner",
+        ),
+    ];
+    for (bd, path) in &bounds {
+        let mut b = body("p");
+        b["bounds"] = bd.clone();
+        let r = create(&svc, &b).await;
+        assert_eq!(
+            r.status,
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "{bd}: {}",
+            r.text
+        );
+        assert_eq!(r.json["path"], *path, "{bd}: {}", r.text);
+    }
+    // Nothing was created; the same checks hold for PUT .../bounds.
+    let store = abba_store::Store::open(&svc.db).unwrap();
+    assert!(store.persons().unwrap().is_empty());
+    let id = svc.person("alice").await;
+    for (bd, path) in &bounds {
+        let r = svc
+            .call(
+                Method::PUT,
+                &format!("/v1/persons/{id}/bounds"),
+                Some(&svc.admin),
+                Some(&json!({"bounds": bd})),
+            )
+            .await;
+        assert_eq!(
+            r.status,
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "{bd}: {}",
+            r.text
+        );
+        assert_eq!(r.json["path"], *path, "{bd}: {}", r.text);
+    }
+}

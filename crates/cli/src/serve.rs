@@ -45,6 +45,10 @@ pub struct ServeArgs {
     /// Live advisors kept in memory at most.
     #[arg(long, value_name = "N", default_value_t = 1000)]
     pub cache_persons: u64,
+    /// Events the live advisors in memory may hold together (a person's
+    /// advisor holds the person's whole log; about 80 bytes an event).
+    #[arg(long, value_name = "N", default_value_t = 2_000_000)]
+    pub cache_events: u64,
     /// Seconds a live advisor stays in memory unused.
     #[arg(long, value_name = "S", default_value_t = 1800.0)]
     pub cache_idle: f64,
@@ -83,6 +87,7 @@ impl ServeArgs {
                 connections: count("connections", self.connections)?,
                 busy_timeout: seconds("busy-timeout", self.busy_timeout)?,
                 cache_persons: count("cache-persons", self.cache_persons)?,
+                cache_events: count("cache-events", self.cache_events)?,
                 cache_idle: seconds("cache-idle", self.cache_idle)?,
                 auth_failures: count("auth-failures", self.auth_failures)?,
                 ..d

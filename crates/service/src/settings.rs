@@ -57,6 +57,13 @@ pub struct StoreSettings {
     pub retry_after: u64,
     /// Live advisors kept at most (least recently used dropped first).
     pub cache_persons: u64,
+    /// Events the live advisors may hold together: a live advisor holds
+    /// its person's whole log (about 80 bytes an event, BENCHMARKS.md), so
+    /// a count of persons alone bounds nothing. Each person weighs its
+    /// events, at least `cache_events / cache_persons`; a person with more
+    /// events than this is not kept (rebuilt from the store's snapshot on
+    /// each use).
+    pub cache_events: u64,
     /// A live advisor unused this long is dropped.
     pub cache_idle: Duration,
     /// Failed authentications one client address may make per window
@@ -73,6 +80,7 @@ impl Default for StoreSettings {
             busy_timeout: Duration::from_secs(5),
             retry_after: 1,
             cache_persons: 1000,
+            cache_events: 2_000_000,
             cache_idle: Duration::from_secs(30 * 60),
             auth_failures: 30,
             auth_window: Duration::from_secs(60),

@@ -93,8 +93,15 @@ impl AppState {
                 busy: settings.busy_timeout,
             })
             .map_err(|e| ServiceError::Pool(e.to_string()))?;
+        // Weighed by events, each person at least `floor`: both the
+        // persons' count and their events together stay bounded.
+        let floor = (settings.cache_events / settings.cache_persons.max(1)).max(1);
         let live = moka::sync::Cache::builder()
-            .max_capacity(settings.cache_persons)
+            .max_capacity(settings.cache_events)
+            .weigher(move |_: &i64, slot: &Slot| {
+                let events = lock(slot).as_ref().map_or(0, |l| l.stream.events.len());
+                u32::try_from((events as u64).max(floor)).unwrap_or(u32::MAX)
+            })
             .time_to_idle(settings.cache_idle)
             // LRU: the person who just wrote is kept (moka's default
             // TinyLFU may refuse a newcomer).
@@ -128,8 +135,24 @@ impl AppState {
         self.inner.live.entry_count()
     }
 
+    /// Events the cached live advisors hold together (after the pending
+    /// evictions ran).
+    pub fn cached_events(&self) -> u64 {
+        self.inner.live.run_pending_tasks();
+        self.inner
+            .live
+            .iter()
+            .map(|(_, slot)| {
+                lock(&slot)
+                    .as_ref()
+                    .map_or(0, |l| l.stream.events.len() as u64)
+            })
+            .sum()
+    }
+
     /// True when the person's live advisor is in the cache.
     pub fn is_cached(&self, id: i64) -> bool {
+        self.inner.live.run_pending_tasks();
         self.inner.live.contains_key(&id)
     }
 

@@ -383,3 +383,75 @@ async fn the_live_advisor_cache_stays_bounded_and_reads_never_fill_it() {
     assert!(most <= cap, "{most} cached, cap {cap}");
     assert!(state.is_cached(persons as i64), "the latest one is kept");
 }
+
+#[tokio::test]
+async fn the_cache_is_bounded_by_the_events_its_advisors_hold() {
+    let svc = Svc::new();
+    let budget = 3_000;
+    let state = AppState::open(
+        &svc.db,
+        StoreSettings {
+            cache_persons: 1000,
+            cache_events: budget,
+            ..StoreSettings::default()
+        },
+    )
+    .unwrap();
+    let router = abba_service::router(state.clone());
+    use tower::ServiceExt;
+    let post = |id: u64, events: Vec<serde_json::Value>| {
+        let req = axum::http::Request::builder()
+            .method(Method::POST)
+            .uri(format!("/v1/persons/{id}/events"))
+            .header("authorization", format!("Bearer {}", svc.admin))
+            .header("content-type", "application/json")
+            .body(axum::body::Body::from(
+                serde_json::to_vec(&json!({ "events": events })).unwrap(),
+            ))
+            .unwrap();
+        router.clone().oneshot(req)
+    };
+    let mut ids = Vec::new();
+    for k in 0..40 {
+        let id = svc.person(&format!("p{k}")).await;
+        // 400 CGM readings each: at most 7 such persons fit in the budget.
+        let events: Vec<_> = (0..400).map(|i| cgm(i, 5 * i as i64, 120.0)).collect();
+        assert_eq!(post(id, events).await.unwrap().status(), StatusCode::OK);
+        ids.push(id);
+        assert!(
+            state.cached_events() <= budget,
+            "{} events cached, budget {budget}",
+            state.cached_events()
+        );
+    }
+    let (n, events) = (state.cached_persons(), state.cached_events());
+    println!("40 persons of 400 events posted: {n} live advisors holding {events} events cached (budget {budget})");
+    assert!((1..=7).contains(&n), "{n} cached");
+    assert!(
+        state.is_cached(*ids.last().unwrap() as i64),
+        "the latest one is kept"
+    );
+    // A person with more events than the whole budget is not kept, and
+    // still answers (rebuilt from the store on each use).
+    let big = svc.person("big").await;
+    for chunk in 0..2 {
+        let events: Vec<_> = (0..2000)
+            .map(|i| {
+                let seq = chunk * 2000 + i;
+                cgm(seq, 5 * seq as i64, 120.0)
+            })
+            .collect();
+        assert_eq!(post(big, events).await.unwrap().status(), StatusCode::OK);
+    }
+    assert!(!state.is_cached(big as i64));
+    assert!(state.cached_events() <= budget);
+    let r = svc
+        .call(
+            Method::GET,
+            &format!("/v1/persons/{big}/sync"),
+            Some(&svc.admin),
+            None,
+        )
+        .await;
+    assert_eq!(r.json["last_seq"], 3999, "{}", r.text);
+}

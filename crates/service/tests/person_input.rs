@@ -98,6 +98,15 @@ async fn names_are_trimmed_and_unique_ignoring_case() {
     assert_eq!(store.persons().unwrap(), vec!["Ana María".to_string()]);
     let r = create(&svc, &body("Ana Maria")).await;
     assert_eq!(r.status, StatusCode::CREATED, "another name: {}", r.text);
+    // Folding that crosses into ASCII: the Kelvin sign is a K.
+    let r = create(&svc, &body("kim")).await;
+    assert_eq!(r.status, StatusCode::CREATED, "{}", r.text);
+    let r = create(&svc, &body("\u{212a}IM")).await;
+    assert_eq!(r.status, StatusCode::CONFLICT, "{}", r.text);
+    let r = create(&svc, &body("\u{212a}elvin")).await;
+    assert_eq!(r.status, StatusCode::CREATED, "{}", r.text);
+    let r = create(&svc, &body("KELVIN")).await;
+    assert_eq!(r.status, StatusCode::CONFLICT, "{}", r.text);
 }
 
 #[tokio::test]

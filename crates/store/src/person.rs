@@ -228,19 +228,32 @@ pub fn check_name(name: &str) -> Result<&str, StoreError> {
     Ok(t)
 }
 
+/// The store migration that lets [`name_taken`] find its candidates by
+/// index: SQLite's `lower()` folds ASCII only, so names of ASCII
+/// characters are found by their folded form, and the others (which may
+/// fold to ASCII: the Kelvin sign is a K) are the rows of a partial index.
+pub const NAME_INDEX_MIGRATION: &str = "CREATE INDEX person_by_folded_name ON person (lower(name));
+    CREATE INDEX person_not_ascii ON person (name) WHERE name GLOB '*[^ -~]*';";
+
 /// The name another person already has, compared case-insensitively
 /// (Unicode lower case: "Ana", "ANA" and "ana" are one name).
 pub fn name_taken(conn: &Connection, name: &str) -> Result<Option<String>, StoreError> {
     let key = name.to_lowercase();
-    let mut st = conn.prepare("SELECT name FROM person")?;
-    let rows = st.query_map([], |r| r.get::<_, String>(0))?;
-    for r in rows {
-        let other = r?;
-        if other.to_lowercase() == key {
-            return Ok(Some(other));
-        }
+    let mut candidates: Vec<String> = Vec::new();
+    // The ASCII names that fold to the same (by index: for them SQLite's
+    // lower() is Unicode's); then the names with any other character (the
+    // partial index), compared here.
+    let mut st = conn.prepare_cached("SELECT name FROM person WHERE lower(name) = ?1")?;
+    for r in st.query_map([&key], |r| r.get::<_, String>(0))? {
+        candidates.push(r?);
     }
-    Ok(None)
+    let mut st = conn.prepare_cached("SELECT name FROM person WHERE name GLOB '*[^ -~]*'")?;
+    for r in st.query_map([], |r| r.get::<_, String>(0))? {
+        candidates.push(r?);
+    }
+    Ok(candidates
+        .into_iter()
+        .find(|other| other.to_lowercase() == key))
 }
 
 /// Checks and stores a new person; returns its id.

@@ -164,6 +164,8 @@ const MIGRATIONS: &[&str] = &[
         evidence TEXT NOT NULL,
         PRIMARY KEY (person_id, file_hash)
     ) WITHOUT ROWID;",
+    // 6 (issue 23): names compared ignoring case without a scan.
+    crate::person::NAME_INDEX_MIGRATION,
 ];
 
 /// The version a migration brings a file to (its 1-based place in the

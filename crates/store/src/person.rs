@@ -232,7 +232,8 @@ pub fn check_name(name: &str) -> Result<&str, StoreError> {
 /// index: SQLite's `lower()` folds ASCII only, so names of ASCII
 /// characters are found by their folded form, and the others (which may
 /// fold to ASCII: the Kelvin sign is a K) are the rows of a partial index.
-pub const NAME_INDEX_MIGRATION: &str = "CREATE INDEX IF NOT EXISTS person_by_folded_name ON person (lower(name));
+pub const NAME_INDEX_MIGRATION: &str =
+    "CREATE INDEX IF NOT EXISTS person_by_folded_name ON person (lower(name));
     CREATE INDEX IF NOT EXISTS person_not_ascii ON person (name) WHERE name GLOB '*[^ -~]*';";
 
 /// The name another person already has, compared case-insensitively

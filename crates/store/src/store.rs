@@ -147,7 +147,11 @@ pub(crate) fn refresh_with(
                 // records nor app events yet is not (an app may feed them:
                 // its live advisor must start as the app's would).
                 let facts = if n > 0 {
-                    Some(Arc::new(in_force::record_facts(person, &recs, &stream.events)?))
+                    Some(Arc::new(in_force::record_facts(
+                        person,
+                        &recs,
+                        &stream.events,
+                    )?))
                 } else {
                     None
                 };

@@ -13,19 +13,27 @@ pub enum ArmKind {
     Standard,
     /// Run-to-run basal and carb-ratio adaptation.
     R2r,
+    /// OpenAPS oref0's autotune, nightly.
+    Autotune,
 }
 
 impl ArmKind {
     /// All arms, in report order.
-    pub const ALL: [ArmKind; 3] = [ArmKind::Abba, ArmKind::Standard, ArmKind::R2r];
+    pub const ALL: [ArmKind; 4] = [
+        ArmKind::Abba,
+        ArmKind::Standard,
+        ArmKind::R2r,
+        ArmKind::Autotune,
+    ];
 
-    /// `abba`, `standard`, `r2r`: the name used everywhere (reports, CLI,
+    /// `abba`, `standard`, `r2r`, `autotune`: the name used everywhere (reports, CLI,
     /// [`Advisor::name`](crate::Advisor::name)).
     pub fn name(self) -> &'static str {
         match self {
             ArmKind::Abba => "abba",
             ArmKind::Standard => "standard",
             ArmKind::R2r => "r2r",
+            ArmKind::Autotune => "autotune",
         }
     }
 }
@@ -42,7 +50,7 @@ impl std::str::FromStr for ArmKind {
         ArmKind::ALL
             .into_iter()
             .find(|a| a.name() == s)
-            .ok_or_else(|| format!("unknown arm '{s}' (expected abba, standard or r2r)"))
+            .ok_or_else(|| format!("unknown arm '{s}' (expected abba, standard, r2r or autotune)"))
     }
 }
 

@@ -1,0 +1,61 @@
+//! The rounding oref0 does, computed the way JavaScript computes it, so that
+//! our categorisation sees the very numbers oref0's does.
+
+/// `Math.round(x)`: the nearest integer, halves toward +∞.
+pub fn round(x: f64) -> f64 {
+    let r = x.floor();
+    if x - r >= 0.5 {
+        r + 1.0
+    } else {
+        r
+    }
+}
+
+/// `Math.round(x * 10^digits) / 10^digits`, as oref0 writes it.
+pub fn round_to(x: f64, digits: i32) -> f64 {
+    let f = 10f64.powi(digits);
+    round(x * f) / f
+}
+
+/// `parseFloat(x.toFixed(2))`: the exact decimal value rounded to two
+/// digits, halves away from zero (ECMA-262 Number.prototype.toFixed).
+pub fn fixed2(x: f64) -> f64 {
+    if !x.is_finite() {
+        return x;
+    }
+    // A double is a tie at the third decimal only if it is an odd multiple
+    // of 1/8 (k/8 = n/100 + 5/1000 needs 25 | 2n + 1); those Rust's
+    // formatter would round to even.
+    let eighths = x.abs() * 8.0;
+    if eighths == eighths.floor() && (eighths as i64) % 2 == 1 {
+        let up = ((x.abs() * 100.0).floor() + 1.0) / 100.0;
+        return up.copysign(x);
+    }
+    format!("{x:.2}").parse().unwrap_or(x)
+}
+
+/// `parseInt(x)` of a number: its integer part.
+pub fn int(x: f64) -> f64 {
+    x.trunc()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rounding_is_javascripts() {
+        assert_eq!(round(2.5), 3.0);
+        assert_eq!(round(-2.5), -2.0);
+        assert_eq!(round(0.499_999_999_999_999_94), 0.0);
+        // 2.675 * 100 is 267.49999999999997 in doubles, as in JavaScript.
+        assert_eq!(round_to(2.675, 2), 2.67);
+        // toFixed rounds the exact binary value: 1.005 is 1.00499999...
+        assert_eq!(fixed2(1.005), 1.0);
+        assert_eq!(fixed2(0.125), 0.13);
+        assert_eq!(fixed2(-0.125), -0.13);
+        assert_eq!(fixed2(2.375), 2.38);
+        assert_eq!(fixed2(-4.0), -4.0);
+        assert_eq!(int(51.9), 51.0);
+    }
+}

@@ -326,3 +326,96 @@ pub fn categorize(day: &DayData, profile: &Profile, clock: &dyn LocalClock) -> P
     out.uam = uam_d;
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::baselines::autotune::UtcClock;
+
+    const H: i64 = 3_600_000;
+
+    fn profile() -> Profile {
+        Profile::flat(1.0, 50.0, 10.0, 5.0).unwrap()
+    }
+
+    /// 5-min readings over 24 h from `f(hours since start)`.
+    fn day(f: impl Fn(f64) -> f64, insulin: Vec<Insulin>, carbs: Vec<Carbs>) -> DayData {
+        DayData {
+            glucose: (0..288)
+                .map(|k| Reading {
+                    at_ms: 10 * H + k * 300_000,
+                    mg_dl: f(k as f64 / 12.0),
+                })
+                .collect(),
+            insulin,
+            carbs,
+        }
+    }
+
+    fn kinds(p: &Prepped) -> (usize, usize, usize, usize) {
+        (p.basal.len(), p.isf.len(), p.csf.len(), p.uam.len())
+    }
+
+    #[test]
+    fn flat_glucose_without_boluses_is_basal() {
+        let p = categorize(&day(|_| 110.0, vec![], vec![]), &profile(), &UtcClock);
+        // 288 readings: the newest and the four oldest are never categorised.
+        assert_eq!(kinds(&p), (283, 0, 0, 0));
+        assert!(p.basal.iter().all(|d| d.deviation == 0.0 && d.bgi == 0.0));
+    }
+
+    #[test]
+    fn a_fall_after_a_correction_bolus_is_isf() {
+        // 2 U at hour 2; glucose falls 50 mg/dL per U as the curve says
+        // (roughly), then stays flat.
+        let bolus = Insulin::Bolus { at_ms: 12 * H, units: 2.0 };
+        let m = profile().insulin();
+        let f = |h: f64| {
+            let t = (h - 2.0) * 60.0;
+            if t <= 0.0 { 200.0 } else { 200.0 - 100.0 * (1.0 - m.at(1.0, t.round()).1) }
+        };
+        let p = categorize(&day(f, vec![bolus], vec![]), &profile(), &UtcClock);
+        let (_, isf, csf, uam) = kinds(&p);
+        assert!(isf >= 20, "ISF data: {isf}");
+        assert_eq!((csf, uam), (0, 0));
+        // Each ISF datum is one where insulin dominates: BGI well below zero.
+        assert!(p.isf.iter().all(|d| d.bgi < -0.25 * 50.0 / 12.0));
+    }
+
+    #[test]
+    fn a_meal_is_carb_absorption_from_start_to_end() {
+        let carbs = Carbs { at_ms: 14 * H, grams: 40.0 };
+        let bolus = Insulin::Bolus { at_ms: 14 * H, units: 4.0 };
+        let f = |h: f64| {
+            let t = h - 4.0;
+            if (0.0..3.0).contains(&t) { 110.0 + 60.0 * (t * std::f64::consts::PI / 3.0).sin() } else { 110.0 }
+        };
+        let p = categorize(&day(f, vec![bolus], vec![carbs]), &profile(), &UtcClock);
+        assert!(p.csf.len() > 12, "carb absorption: {}", p.csf.len());
+        assert_eq!(p.csf[0].meal_absorption, Some(Absorption::Start));
+        assert_eq!(p.csf[0].meal_carbs, 40.0);
+        assert_eq!(p.csf.last().unwrap().meal_absorption, Some(Absorption::End));
+        assert!(p.csf.iter().all(|d| d.at_ms > 14 * H));
+        assert_eq!(p.cr.len(), 1);
+        assert_eq!(p.cr[0].carbs, 40.0);
+        // The bolus came with the carbs, before the first reading after
+        // them: it is in the period's starting IOB, not in its insulin.
+        assert_eq!(p.cr[0].insulin, 0.0);
+        assert!(p.cr[0].initial_iob > 3.5, "{}", p.cr[0].initial_iob);
+    }
+
+    #[test]
+    fn an_unannounced_rise_is_uam() {
+        let f = |h: f64| {
+            let t = h - 6.0;
+            if (0.0..1.0).contains(&t) { 110.0 + 80.0 * t } else if t >= 1.0 { 190.0 } else { 110.0 }
+        };
+        let p = categorize(&day(f, vec![], vec![]), &profile(), &UtcClock);
+        // Rising 6.7 mg/dL per 5 min without carbs: deviation > 6.
+        assert!(p.uam.len() >= 8, "UAM: {}", p.uam.len());
+        assert!(p.uam.iter().all(|d| d.deviation > 0.0 || d.category == Category::Uam));
+        // Fewer than 1 h of carb absorption and twice as many basal as UAM
+        // data: the UAM data stay out of the basal data.
+        assert_eq!(p.basal.len() + p.uam.len(), 283);
+    }
+}

@@ -412,6 +412,7 @@ fn advisor_title(advisor: ArmKind, mode: Mode) -> String {
         ArmKind::Abba => format!("ABBA ({mode} mode)"),
         ArmKind::Standard => "standard therapy (settings never change)".to_string(),
         ArmKind::R2r => format!("run-to-run baseline ({mode} mode)"),
+        ArmKind::Autotune => "autotune (oref0), nightly over the previous day's CGM".to_string(),
     }
 }
 
@@ -503,6 +504,7 @@ fn short_advisor(advisor: ArmKind) -> &'static str {
         ArmKind::Abba => "ABBA",
         ArmKind::Standard => "standard",
         ArmKind::R2r => "run-to-run",
+        ArmKind::Autotune => "autotune",
     }
 }
 

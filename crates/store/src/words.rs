@@ -49,6 +49,7 @@ pub fn reasons(d: &Decision, cfg: &AbbaConfig) -> Vec<String> {
             return vec![format!("No update: {}.", skip_reason(*reason, d.parameter))]
         }
         DecisionDetail::RunToRun(_) => return vec!["A run-to-run update.".into()],
+        DecisionDetail::Autotune(_) => return vec!["A nightly autotune (oref0) update.".into()],
     };
     let f = &cfg.features;
     let w = &x.window;

@@ -18,7 +18,7 @@
 use crate::error::TrialError;
 use abba_advisor::any::AdvisorSpec;
 use abba_advisor::baselines::r2r::R2rConfig;
-use abba_advisor::{AbbaConfig, EventLimits, Mode};
+use abba_advisor::{AbbaConfig, AutotuneConfig, EventLimits, Mode};
 use abba_sim::cohort::Population;
 use abba_sim::devices::DeviceSet;
 use abba_sim::person::{Behaviour, DayClosing};
@@ -62,6 +62,9 @@ pub struct RawTrialConfig {
     /// which the trial sets).
     #[serde(with = "trial_set::r2r")]
     pub r2r: R2rConfig,
+    /// Autotune arm knobs (its `mode` is set by the trial per scenario).
+    #[serde(default = "default_autotune")]
+    pub autotune: AutotuneConfig,
     /// Plausibility limits of the fixed-therapy arm's event checks.
     pub fixed_limits: EventLimits,
     /// Devices, in the simulator's own types.
@@ -92,6 +95,10 @@ pub struct RawTrialConfig {
     pub suggestions: abba_sim::person::SuggestionResponse,
 }
 
+fn default_autotune() -> AutotuneConfig {
+    AutotuneConfig::new(Mode::Cgm)
+}
+
 impl Default for RawTrialConfig {
     fn default() -> Self {
         Self {
@@ -105,6 +112,7 @@ impl Default for RawTrialConfig {
             arms: ArmKind::ALL.to_vec(),
             abba: AbbaConfig::new(Mode::Cgm, 0),
             r2r: R2rConfig::new(Mode::Cgm),
+            autotune: default_autotune(),
             fixed_limits: EventLimits::default(),
             devices: DeviceSet::default(),
             calibrate_te_ref: true,
@@ -259,6 +267,11 @@ fn advisor_spec(raw: &RawTrialConfig, arm: ArmKind, mode: Mode) -> AdvisorSpec {
             c.init_days = raw.init_days;
             c.cgm_interval_min = f64::from(raw.devices.cgm.sample_time_min);
             AdvisorSpec::RunToRun(c)
+        }
+        ArmKind::Autotune => {
+            let mut c = raw.autotune.clone();
+            c.mode = mode;
+            AdvisorSpec::Autotune(c)
         }
     }
 }

@@ -86,7 +86,8 @@ fn num(v: &Value) -> f64 {
 
 fn check_day(day: u32) {
     let data = day_data(&format!("entries.day{day}.json"));
-    let previous = Profile::from_json(&read(&format!("profile.day{day}.json")).to_string()).unwrap();
+    let previous =
+        Profile::from_json(&read(&format!("profile.day{day}.json")).to_string()).unwrap();
     let pump = Profile::from_json(&read("pumpprofile.json").to_string()).unwrap();
     let (prepped, tuned, json) = autotune_day(&data, &previous, &pump, &Cet).unwrap();
 
@@ -99,7 +100,11 @@ fn check_day(day: u32) {
         let theirs = expected[name].as_array().unwrap();
         assert_eq!(ours.len(), theirs.len(), "day {day} {name}: count");
         for (o, t) in ours.iter().zip(theirs) {
-            assert_eq!(o.at_ms, t["date"].as_i64().unwrap(), "day {day} {name}: order");
+            assert_eq!(
+                o.at_ms,
+                t["date"].as_i64().unwrap(),
+                "day {day} {name}: order"
+            );
             for (what, a, b) in [
                 ("avgDelta", o.avg_delta, num(&t["avgDelta"])),
                 ("BGI", o.bgi, num(&t["BGI"])),
@@ -127,11 +132,20 @@ fn check_day(day: u32) {
     assert_eq!(tuned.basal.len(), 24);
     for (o, t) in tuned.basal.iter().zip(basal) {
         let (a, b) = (o.rate, num(&t["rate"]));
-        assert!((a - b).abs() <= 0.005, "day {day} hour {}: {a} vs oref0 {b}", o.minutes / 60);
+        assert!(
+            (a - b).abs() <= 0.005,
+            "day {day} hour {}: {a} vs oref0 {b}",
+            o.minutes / 60
+        );
         assert_eq!(o.untuned, t["untuned"].as_u64().map(|u| u as u32));
     }
     let rel = |a: f64, b: f64| (a / b - 1.0).abs();
-    assert!(rel(tuned.isf, num(&out["sens"])) <= 0.005, "ISF {} vs {}", tuned.isf, out["sens"]);
+    assert!(
+        rel(tuned.isf, num(&out["sens"])) <= 0.005,
+        "ISF {} vs {}",
+        tuned.isf,
+        out["sens"]
+    );
     assert!(
         rel(tuned.carb_ratio, num(&out["carb_ratio"])) <= 0.005,
         "CR {} vs {}",
@@ -140,11 +154,24 @@ fn check_day(day: u32) {
     );
     assert!(rel(tuned.csf, num(&out["csf"])) <= 0.005);
     // The same numbers exactly, and the same profile document.
-    for key in ["sens", "carb_ratio", "csf", "dia", "insulinPeakTime", "autosens_max"] {
+    for key in [
+        "sens",
+        "carb_ratio",
+        "csf",
+        "dia",
+        "insulinPeakTime",
+        "autosens_max",
+    ] {
         assert_eq!(json[key], out[key], "day {day}: {key}");
     }
-    assert_eq!(json["isfProfile"], out["isfProfile"], "day {day}: isfProfile");
-    assert_eq!(json["basalprofile"], out["basalprofile"], "day {day}: basalprofile");
+    assert_eq!(
+        json["isfProfile"], out["isfProfile"],
+        "day {day}: isfProfile"
+    );
+    assert_eq!(
+        json["basalprofile"], out["basalprofile"],
+        "day {day}: basalprofile"
+    );
 }
 
 #[test]

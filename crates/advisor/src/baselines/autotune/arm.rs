@@ -83,12 +83,18 @@ impl AutotuneConfig {
         if self.min_readings > 288 {
             return Err(config_err(
                 "min_readings",
-                format!("must be at most 288 (a day of 5-min readings), got {}", self.min_readings),
+                format!(
+                    "must be at most 288 (a day of 5-min readings), got {}",
+                    self.min_readings
+                ),
             ));
         }
         self.limits.validate()?;
         if self.decision_log_capacity == 0 {
-            return Err(config_err("decision_log_capacity", "must be at least 1, got 0"));
+            return Err(config_err(
+                "decision_log_capacity",
+                "must be at least 1, got 0",
+            ));
         }
         Ok(())
     }
@@ -216,7 +222,10 @@ impl Autotune {
             .glucose
             .iter()
             .filter(|g| g.0 >= start && g.0 < end)
-            .map(|&(m, g)| Reading { at_ms: ms(m), mg_dl: g })
+            .map(|&(m, g)| Reading {
+                at_ms: ms(m),
+                mg_dl: g,
+            })
             .collect();
         let isf = match self.isf {
             Some(i) => i,
@@ -254,12 +263,18 @@ impl Autotune {
             insulin: self
                 .boluses
                 .iter()
-                .map(|&(m, u)| Insulin::Bolus { at_ms: ms(m), units: u })
+                .map(|&(m, u)| Insulin::Bolus {
+                    at_ms: ms(m),
+                    units: u,
+                })
                 .collect(),
             carbs: self
                 .carbs
                 .iter()
-                .map(|&(m, g)| Carbs { at_ms: ms(m), grams: g })
+                .map(|&(m, g)| Carbs {
+                    at_ms: ms(m),
+                    grams: g,
+                })
                 .collect(),
         };
         let (prepped, tuned, _) = autotune_day(&day, &previous, &pump, &UtcClock)

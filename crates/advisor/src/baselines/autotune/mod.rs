@@ -189,12 +189,12 @@ pub fn autotune_day(
     if for_prep.carb_ratio.is_none_or(|cr| cr < 2.0) {
         match pump.carb_ratio {
             Some(cr) if cr >= 2.0 => for_prep.carb_ratio = Some(cr),
-            _ => {
-                return Err(AutotuneError::Profile {
-                    path: "carb_ratio".into(),
-                    problem: "neither the profile nor the pump profile has a carb ratio of at least 2 g/U".into(),
-                })
-            }
+            _ => return Err(AutotuneError::Profile {
+                path: "carb_ratio".into(),
+                problem:
+                    "neither the profile nor the pump profile has a carb ratio of at least 2 g/U"
+                        .into(),
+            }),
         }
     }
     let prepped = categorize(day, &for_prep, clock);
@@ -217,7 +217,10 @@ pub fn recommendations_table(t: &Tuned) -> String {
         "{:<15}| {:<12.3}| {:<12.3}|\n",
         "Carb Ratio[g/U]", t.pump_carb_ratio, t.carb_ratio
     ));
-    s.push_str(&format!("{:<15}| {:<12}| {:<12}|\n", "Basals [U/hr]", "-", ""));
+    s.push_str(&format!(
+        "{:<15}| {:<12}| {:<12}|\n",
+        "Basals [U/hr]", "-", ""
+    ));
     for (h, e) in t.basal.iter().enumerate() {
         s.push_str(&format!(
             "  {:<13}| {:<12.3}| {:<12.3}| {}\n",

@@ -128,7 +128,12 @@ pub fn categorize(day: &DayData, profile: &Profile, clock: &dyn LocalClock) -> P
     let model = profile.insulin();
     let carb_ratio = profile.carb_ratio.unwrap_or(f64::NAN);
     // Meals newest first; those before the oldest reading dropped (but the newest is always kept).
-    let mut meals: Vec<Carbs> = day.carbs.iter().filter(|c| c.grams > 0.0).copied().collect();
+    let mut meals: Vec<Carbs> = day
+        .carbs
+        .iter()
+        .filter(|c| c.grams > 0.0)
+        .copied()
+        .collect();
     meals.sort_by(|a, b| b.at_ms.cmp(&a.at_ms));
     let oldest = b[b.len() - 1].0;
     let mut i = meals.len();
@@ -203,7 +208,8 @@ pub fn categorize(day: &DayData, profile: &Profile, clock: &dyn LocalClock) -> P
             } else {
                 let elapsed = js::round((t - cr_t0) as f64 / 60_000.0);
                 if elapsed < 60.0 || (i == 1 && meal_cob > 0.0) {
-                    out.notes.push(format!("ignoring {elapsed} min carb-ratio period"));
+                    out.notes
+                        .push(format!("ignoring {elapsed} min carb-ratio period"));
                 } else {
                     cr_periods.push((cr_iob0, cr_bg0, cr_t0, iob, bg, t, cr_carbs));
                 }
@@ -368,11 +374,18 @@ mod tests {
     fn a_fall_after_a_correction_bolus_is_isf() {
         // 2 U at hour 2; glucose falls 50 mg/dL per U as the curve says
         // (roughly), then stays flat.
-        let bolus = Insulin::Bolus { at_ms: 12 * H, units: 2.0 };
+        let bolus = Insulin::Bolus {
+            at_ms: 12 * H,
+            units: 2.0,
+        };
         let m = profile().insulin();
         let f = |h: f64| {
             let t = (h - 2.0) * 60.0;
-            if t <= 0.0 { 200.0 } else { 200.0 - 100.0 * (1.0 - m.at(1.0, t.round()).1) }
+            if t <= 0.0 {
+                200.0
+            } else {
+                200.0 - 100.0 * (1.0 - m.at(1.0, t.round()).1)
+            }
         };
         let p = categorize(&day(f, vec![bolus], vec![]), &profile(), &UtcClock);
         let (_, isf, csf, uam) = kinds(&p);
@@ -384,11 +397,21 @@ mod tests {
 
     #[test]
     fn a_meal_is_carb_absorption_from_start_to_end() {
-        let carbs = Carbs { at_ms: 14 * H, grams: 40.0 };
-        let bolus = Insulin::Bolus { at_ms: 14 * H, units: 4.0 };
+        let carbs = Carbs {
+            at_ms: 14 * H,
+            grams: 40.0,
+        };
+        let bolus = Insulin::Bolus {
+            at_ms: 14 * H,
+            units: 4.0,
+        };
         let f = |h: f64| {
             let t = h - 4.0;
-            if (0.0..3.0).contains(&t) { 110.0 + 60.0 * (t * std::f64::consts::PI / 3.0).sin() } else { 110.0 }
+            if (0.0..3.0).contains(&t) {
+                110.0 + 60.0 * (t * std::f64::consts::PI / 3.0).sin()
+            } else {
+                110.0
+            }
         };
         let p = categorize(&day(f, vec![bolus], vec![carbs]), &profile(), &UtcClock);
         assert!(p.csf.len() > 12, "carb absorption: {}", p.csf.len());
@@ -408,12 +431,21 @@ mod tests {
     fn an_unannounced_rise_is_uam() {
         let f = |h: f64| {
             let t = h - 6.0;
-            if (0.0..1.0).contains(&t) { 110.0 + 80.0 * t } else if t >= 1.0 { 190.0 } else { 110.0 }
+            if (0.0..1.0).contains(&t) {
+                110.0 + 80.0 * t
+            } else if t >= 1.0 {
+                190.0
+            } else {
+                110.0
+            }
         };
         let p = categorize(&day(f, vec![], vec![]), &profile(), &UtcClock);
         // Rising 6.7 mg/dL per 5 min without carbs: deviation > 6.
         assert!(p.uam.len() >= 8, "UAM: {}", p.uam.len());
-        assert!(p.uam.iter().all(|d| d.deviation > 0.0 || d.category == Category::Uam));
+        assert!(p
+            .uam
+            .iter()
+            .all(|d| d.deviation > 0.0 || d.category == Category::Uam));
         // Fewer than 1 h of carb absorption and twice as many basal as UAM
         // data: the UAM data stay out of the basal data.
         assert_eq!(p.basal.len() + p.uam.len(), 283);

@@ -102,7 +102,10 @@ impl Profile {
     /// Parses an already-read document.
     pub fn from_map(raw: Map<String, Value>) -> Result<Self, AutotuneError> {
         let Some(Value::Array(basal)) = raw.get("basalprofile") else {
-            return Err(err("basalprofile", "missing: expected an array of {minutes, rate}"));
+            return Err(err(
+                "basalprofile",
+                "missing: expected an array of {minutes, rate}",
+            ));
         };
         let mut entries = Vec::with_capacity(basal.len());
         for (n, b) in basal.iter().enumerate() {
@@ -126,16 +129,25 @@ impl Profile {
             return Err(err("basalprofile", "no entry starts at minutes 0"));
         }
         let Some(Value::Object(isf)) = raw.get("isfProfile") else {
-            return Err(err("isfProfile", "missing: expected {sensitivities: [...]}"));
+            return Err(err(
+                "isfProfile",
+                "missing: expected {sensitivities: [...]}",
+            ));
         };
         let Some(Value::Array(sens)) = isf.get("sensitivities") else {
-            return Err(err("isfProfile.sensitivities", "missing: expected an array"));
+            return Err(err(
+                "isfProfile.sensitivities",
+                "missing: expected an array",
+            ));
         };
         let mut isf_entries = Vec::with_capacity(sens.len());
         for (n, s) in sens.iter().enumerate() {
             let p = format!("isfProfile.sensitivities[{n}].");
             let Value::Object(s) = s else {
-                return Err(err(format!("isfProfile.sensitivities[{n}]"), "expected an object"));
+                return Err(err(
+                    format!("isfProfile.sensitivities[{n}]"),
+                    "expected an object",
+                ));
             };
             let offset = minutes(format!("{p}offset"), num(s, &p, "offset")?)?;
             let v = num(s, &p, "sensitivity")?

@@ -58,7 +58,12 @@ fn sorted(mut v: Vec<f64>) -> Vec<f64> {
 /// One autotune step from `previous` (the profile tuned so far, with the
 /// pump's `dia`, `curve` and peak already applied) and the day's `prepped`
 /// data, capped relative to `pump`.
-pub fn tune(prepped: &Prepped, previous: &Profile, pump: &Profile, clock: &dyn LocalClock) -> Tuned {
+pub fn tune(
+    prepped: &Prepped,
+    previous: &Profile,
+    pump: &Profile,
+    clock: &dyn LocalClock,
+) -> Tuned {
     let mut notes = Vec::new();
     let pump_isf = pump.first_isf();
     let pump_cr = pump.carb_ratio.unwrap_or(f64::NAN);
@@ -189,11 +194,18 @@ pub fn tune(prepped: &Prepped, previous: &Profile, pump: &Profile, clock: &dyn L
     }
 
     // Carb ratio: 20 % toward the day's, within the caps (and 3-150 g/U).
-    let full_cr = if total_cr == 0.0 { carb_ratio } else { total_cr };
+    let full_cr = if total_cr == 0.0 {
+        carb_ratio
+    } else {
+        total_cr
+    };
     let max_cr = (pump_cr * max_f).min(150.0);
     let min_cr = (pump_cr * min_f).max(3.0);
     let full_cr = full_cr.clamp_like(min_cr, max_cr);
-    let new_cr = js::round_to((0.8 * carb_ratio + 0.2 * full_cr).clamp_like(min_cr, max_cr), 3);
+    let new_cr = js::round_to(
+        (0.8 * carb_ratio + 0.2 * full_cr).clamp_like(min_cr, max_cr),
+        3,
+    );
     let carb_ratio = if new_cr != 0.0 && new_cr.is_finite() {
         new_cr
     } else {
@@ -303,9 +315,7 @@ impl Tuned {
             .collect();
         doc.insert("basalprofile".into(), Value::Array(basal));
         let mut isf = doc.get("isfProfile").cloned().unwrap_or_else(|| json!({}));
-        if let Some(Value::Object(first)) = isf
-            .get_mut("sensitivities")
-            .and_then(|s| s.get_mut(0))
+        if let Some(Value::Object(first)) = isf.get_mut("sensitivities").and_then(|s| s.get_mut(0))
         {
             first.insert("sensitivity".into(), js_num(self.isf));
         }

@@ -5,12 +5,16 @@ use crate::bounds::ClinicianBounds;
 use crate::config::{AbbaConfig, Mode};
 use crate::data_rule::MinData;
 use crate::decision::{
-    AbbaExplanation, Decision, DecisionDetail, DecisionLog, Parameter, SkipReason,
+    AbbaExplanation, Decision, DecisionDetail, DecisionLog, Parameter, Rounded, SkipReason,
 };
 use crate::error::AdvisorError;
 use crate::features::{local_cost, WindowStats};
 use crate::fusion::apply_action;
 use crate::guard::{closed_day, EventGuard};
+use crate::steps::{
+    mean_rate, rescale_schedule, round_change, scale_schedule, validate_segments, PumpSteps,
+    Segments,
+};
 use crate::supervisor::{adds_insulin, supervisory, ParamKind};
 use crate::te::{te_scale, theta0, transfer_entropy, TeCollector, TeEstimate};
 use crate::windows::{DayWindows, MealWindows};
@@ -74,6 +78,23 @@ pub struct Abba {
     /// Minimum data per window (none by default).
     #[serde(default)]
     min_data: Option<MinData>,
+    /// The pump's steps: suggestions are rounded to them (none by default:
+    /// the paper's continuous values, as in the trial).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    steps: Option<PumpSteps>,
+    /// The basal schedule in force (its mean is `settings.basal`); none: a
+    /// flat rate.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    basal_schedule: Option<Segments>,
+    /// The schedule before the last basal update (restored when the person
+    /// keeps the previous value).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    prev_basal_schedule: Option<Segments>,
+    /// The day index whose close ends the first week, when the caller
+    /// counts qualifying days ([`Abba::with_first_week_end`]); none: the
+    /// close of day `init_days` (the paper's week).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    first_week_end: Option<i64>,
 }
 
 fn agent_index(p: Parameter) -> usize {
@@ -114,6 +135,10 @@ impl Abba {
             last_br_change: None,
             bounds: ClinicianBounds::default(),
             min_data: None,
+            steps: None,
+            basal_schedule: None,
+            prev_basal_schedule: None,
+            first_week_end: None,
         })
     }
 
@@ -158,21 +183,118 @@ impl Abba {
         &self.bounds
     }
 
+    /// Rounds every suggestion to the pump's steps ([`crate::steps`]).
+    pub fn with_pump_steps(mut self, steps: PumpSteps) -> Result<Self, AdvisorError> {
+        steps.validate()?;
+        self.steps = Some(steps);
+        Ok(self)
+    }
+
+    /// Runs a basal schedule instead of a flat rate: the basal value the
+    /// advisor adapts is the schedule's mean rate, and each update scales
+    /// every segment by one factor.
+    pub fn with_basal_schedule(mut self, segments: Segments) -> Result<Self, AdvisorError> {
+        validate_segments(&segments)?;
+        self.settings.basal = UnitsPerHour(mean_rate(&segments));
+        self.basal_schedule = Some(segments);
+        Ok(self)
+    }
+
+    /// Ends the first week at the close of day index `day` (the caller's
+    /// 7th day with enough data; `i64::MAX` while there are fewer): the TE
+    /// grid covers the `init_days` days up to it.
+    pub fn with_first_week_end(mut self, day: i64) -> Self {
+        self.first_week_end = Some(day);
+        self
+    }
+
+    /// The day whose close ends the first week, when set by the caller.
+    pub fn first_week_end(&self) -> Option<i64> {
+        self.first_week_end
+    }
+
+    /// The pump's steps, if suggestions are rounded to them.
+    pub fn pump_steps(&self) -> Option<PumpSteps> {
+        self.steps
+    }
+
+    /// The basal schedule in force, if the person runs one.
+    pub fn basal_schedule(&self) -> Option<&Segments> {
+        self.basal_schedule.as_ref()
+    }
+
+    /// A change of therapy made outside the advisor (a profile switch on
+    /// the pump, the clinician's new settings): in force from now on, the
+    /// next update starts from it.
+    pub fn set_therapy(
+        &mut self,
+        basal_schedule: Option<Segments>,
+        settings: TherapySettings,
+    ) -> Result<(), AdvisorError> {
+        settings.validate().map_err(|e| AdvisorError::Config {
+            field: "therapy in force".into(),
+            problem: e.to_string(),
+        })?;
+        let basal = match &basal_schedule {
+            Some(s) => {
+                validate_segments(s)?;
+                mean_rate(s)
+            }
+            None => settings.basal.0,
+        };
+        self.basal_schedule = basal_schedule;
+        self.prev_basal_schedule = None;
+        self.put_in_force(SettingValue::Basal {
+            rate: UnitsPerHour(basal),
+        });
+        for (i, slot) in MealSlot::MAIN.into_iter().enumerate() {
+            self.put_in_force(SettingValue::CarbRatio {
+                slot,
+                ratio: settings.carb_ratio[i],
+            });
+        }
+        Ok(())
+    }
+
     /// Puts a person's answer in force: the next update of that setting
     /// starts from `v` (AP_old of eq16 is what the pump used). A basal
     /// answer also becomes BR_final for the carb ratios' switch rule.
     fn put_in_force(&mut self, v: SettingValue) {
         match v {
             SettingValue::Basal { rate } => {
-                self.set_value(Parameter::Basal, rate.0);
+                let rate = self.schedule_in_force(rate.0);
+                self.set_value(Parameter::Basal, rate);
                 if let Some((old, _)) = self.last_br_change {
-                    self.last_br_change = Some((old, rate.0));
+                    self.last_br_change = Some((old, rate));
                 }
             }
             SettingValue::CarbRatio { slot, ratio } => {
                 self.set_value(Parameter::CarbRatio(slot), ratio.0);
             }
         }
+    }
+
+    /// With a schedule: the schedule whose mean is `rate` (the previous one
+    /// when the person kept it, the current one scaled when they put their
+    /// own value in force), and its mean.
+    fn schedule_in_force(&mut self, rate: f64) -> f64 {
+        let Some(current) = &self.basal_schedule else {
+            return rate;
+        };
+        if (mean_rate(current) - rate).abs() < 1e-9 {
+            return rate;
+        }
+        let kept = self
+            .prev_basal_schedule
+            .as_ref()
+            .filter(|p| (mean_rate(p) - rate).abs() < 1e-9)
+            .cloned();
+        let new = kept.unwrap_or_else(|| {
+            rescale_schedule(current, rate, self.steps.map(|s| s.basal_u_per_h))
+        });
+        let m = mean_rate(&new);
+        self.basal_schedule = Some(new);
+        m
     }
 
     /// The configuration.
@@ -359,6 +481,15 @@ impl Abba {
             });
         let (held, bound) = self.bounds.hold(p, applied.new);
         applied.new = held;
+        let rounded = self
+            .steps
+            .map(|steps| self.round(p, old, applied.new, max, steps));
+        if let Some(r) = &rounded {
+            applied.new = r.new;
+            if let Some(s) = &r.segments {
+                self.prev_basal_schedule = self.basal_schedule.replace(s.clone());
+            }
+        }
         self.set_value(p, applied.new);
         if kind == ParamKind::Basal {
             self.last_br_change = Some((old, applied.new));
@@ -380,8 +511,39 @@ impl Abba {
                 br_change,
                 applied,
                 bound,
+                rounded,
             })),
         });
+    }
+
+    /// Rounds an update to the pump's step within the clamp and the bounds.
+    fn round(&self, p: Parameter, old: f64, requested: f64, max: f64, steps: PumpSteps) -> Rounded {
+        let allowed = self.bounds.range(p).map(|r| (r.min, r.max));
+        let step = match p {
+            Parameter::Basal => steps.basal_u_per_h,
+            Parameter::CarbRatio(_) => steps.carb_ratio_g_per_u,
+        };
+        let schedule = self
+            .basal_schedule
+            .as_ref()
+            .filter(|_| p == Parameter::Basal);
+        let (new, segments) = match schedule {
+            Some(s) if s.len() > 1 => {
+                let n = scale_schedule(s, requested, step, max, allowed);
+                (mean_rate(&n), Some(n))
+            }
+            Some(_) => {
+                let v = round_change(old, requested, step, max, allowed);
+                (v, Some(vec![(0, v)]))
+            }
+            None => (round_change(old, requested, step, max, allowed), None),
+        };
+        Rounded {
+            requested,
+            step,
+            new,
+            segments,
+        }
     }
 
     fn reading(&mut self, at: Timestamp, g_mg_dl: f64) {
@@ -393,7 +555,7 @@ impl Abba {
     }
 
     fn process(&mut self, e: &Event) -> Option<TherapySettings> {
-        if self.guard.first_day().is_none() {
+        if self.guard.first_day().is_none() && self.first_week_end.is_none() {
             let first_day = match e.kind {
                 EventKind::DayClosed => closed_day(e.at),
                 _ => e.at.day_index(),
@@ -404,6 +566,18 @@ impl Abba {
                 self.config.te.bin_minutes,
                 self.start.basal,
             ));
+        }
+        if let (Some(end), None, false) = (self.first_week_end, &self.te, self.initialised) {
+            // The TE grid covers the init_days days that end the first week.
+            let te_start = end.saturating_sub(i64::from(self.config.init_days) - 1);
+            if e.at.day_index() >= te_start {
+                self.te = Some(TeCollector::new(
+                    te_start,
+                    self.config.init_days,
+                    self.config.te.bin_minutes,
+                    self.settings.basal,
+                ));
+            }
         }
         match e.kind {
             EventKind::Cgm(g) => {
@@ -459,7 +633,10 @@ impl Abba {
                 let stats = self.day_windows.close(day);
                 if !self.initialised {
                     let first = self.guard.first_day().unwrap_or(day);
-                    if day < first + i64::from(self.config.init_days) - 1 {
+                    let end = self
+                        .first_week_end
+                        .unwrap_or(first + i64::from(self.config.init_days) - 1);
+                    if day < end {
                         return None;
                     }
                     self.initialise(e.at);

@@ -4,7 +4,7 @@
 //! in the paper (kept as knobs for ablations); **\[GUESS]** values are the
 //! spec's choices where no source was readable and must be listed in any
 //! results write-up. Defaults are the spec's except the deviations listed
-//! in ARCHITECTURE.md "Knobs" (CGM- and SMBG-mode excursion, actor rule, and the
+//! in crates/trial/README.md "Knobs" (CGM- and SMBG-mode excursion, actor rule, and the
 //! guessed scales chosen by `abba calibrate`).
 
 use crate::error::{check_positive, check_range, config_err, AdvisorError};
@@ -141,7 +141,7 @@ pub struct FeatureConfig {
     /// G_max in SMBG mode (and in CGM mode unless `cgm_g_max_mg_dl` is
     /// set): F_hyper = raw / (G_max − G_H). \[GUESS §3: 400, the CGM
     /// reporting ceiling; calibrated] 250 (`abba calibrate` on adults,
-    /// BENCHMARKS.md "ABBA in SMBG mode beyond adults").
+    /// BENCHMARKS.md "ABBA's defaults").
     pub g_max_mg_dl: f64,
     /// G_min: F_hypo = raw / (G_L − G_min). \[GUESS §3] 40 (CGM reporting floor).
     pub g_min_mg_dl: f64,
@@ -177,7 +177,7 @@ impl FeatureConfig {
     /// The spec's literal feature settings (§3): the out-of-range mean in
     /// both modes and G_max = 400, G_min = 40 in both modes. The defaults
     /// differ (time-averaged excursions, SMBG-mode G_max 250; see
-    /// ARCHITECTURE.md "Knobs").
+    /// crates/trial/README.md "Knobs").
     pub fn spec() -> Self {
         Self {
             g_max_mg_dl: 400.0,
@@ -380,7 +380,7 @@ pub enum ActorRule {
 /// θ leaves its sign pattern within days and the learned action adds
 /// insulin on hypoglycaemic days; in our trial that stopped 17 of 30 S1
 /// runs below 10 mg/dL. The clip therefore defaults to 0.01 (a deviation
-/// from spec §6.4, measured in BENCHMARKS.md "ABBA actor clip"): after 90
+/// from spec §6.4, measured in BENCHMARKS.md "ABBA's defaults"): after 90
 /// updates the walk has moved θ by about 0.1, the size of θ0 itself.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

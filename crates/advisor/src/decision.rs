@@ -87,6 +87,24 @@ pub struct AbbaExplanation {
     /// the clamp; `applied.new` is then the bound).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub bound: Option<crate::bounds::BoundHeld>,
+    /// The rounding to the pump's step, when the person's pump has one
+    /// (`applied.new` is then the rounded value).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rounded: Option<Rounded>,
+}
+
+/// A suggestion rounded to the pump's step ([`crate::steps`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Rounded {
+    /// The value after the clamp and the bounds, before rounding.
+    pub requested: f64,
+    /// The pump's step.
+    pub step: f64,
+    /// The rounded value (the value in force when a change is below one step).
+    pub new: f64,
+    /// A basal schedule: every segment scaled and rounded (its mean is `new`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub segments: Option<Vec<(u32, f64)>>,
 }
 
 /// What a run-to-run update computed.

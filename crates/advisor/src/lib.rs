@@ -102,6 +102,7 @@ pub mod fusion;
 pub mod guard;
 mod rng;
 pub mod state;
+pub mod steps;
 pub mod supervisor;
 pub mod te;
 pub mod windows;
@@ -118,6 +119,7 @@ pub use data_rule::MinData;
 pub use decision::{Decision, DecisionDetail, Parameter, SkipReason};
 pub use error::AdvisorError;
 pub use state::STATE_FORMAT_VERSION;
+pub use steps::PumpSteps;
 
 use abba_core::{Event, TherapySettings};
 

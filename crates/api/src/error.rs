@@ -30,6 +30,16 @@ pub enum ErrorCode {
     Invalid,
     /// 500: a fault of the service (never caused by a request's content).
     Internal,
+    /// 408: the request (its head or body) came too slowly.
+    Timeout,
+    /// 429: too many failed authentications from this client; wait for
+    /// `Retry-After` seconds.
+    TooManyRequests,
+    /// 503: the store stayed busy (another writer held it) or the service
+    /// is at its limit of requests in flight; retry after `Retry-After`.
+    Busy,
+    /// 503: the store cannot be written or reached.
+    Unavailable,
 }
 
 /// The error body.

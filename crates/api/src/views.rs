@@ -103,8 +103,12 @@ pub struct Suggestion {
 pub struct SuggestionList {
     /// The notice.
     pub notice: String,
-    /// Suggestions with an id greater than `after`, oldest first.
+    /// Suggestions with an id greater than `after`, oldest first (at most
+    /// `limit`).
     pub suggestions: Vec<Suggestion>,
+    /// When more follow: the `after` of the next page.
+    #[serde(default)]
+    pub next_after: Option<u64>,
 }
 
 /// `GET /v1/persons/{id}/history`: every suggestion with its answer.
@@ -115,8 +119,11 @@ pub struct HistoryResponse {
     pub notice: String,
     /// The person.
     pub person_id: u64,
-    /// Every suggestion, oldest first.
+    /// The suggestions of this page with their answers, oldest first.
     pub suggestions: Vec<Suggestion>,
+    /// When more follow: the `after` of the next page.
+    #[serde(default)]
+    pub next_after: Option<u64>,
 }
 
 /// Where the person stands.

@@ -33,6 +33,28 @@ pub fn render(e: &anyhow::Error) -> String {
     out
 }
 
+/// When the failure was a store that stayed busy past the wait (another
+/// process writing), the sentence that says so and who holds it.
+pub fn busy(e: &anyhow::Error, db: Option<&std::path::Path>) -> Option<String> {
+    let busy = e
+        .chain()
+        .filter_map(|c| c.downcast_ref::<abba_store::StoreError>())
+        .any(abba_store::StoreError::is_busy);
+    if !busy {
+        return None;
+    }
+    let holders = db.map(abba_store::busy::lock_holders).unwrap_or_default();
+    let who = if holders.is_empty() {
+        "another process".to_string()
+    } else {
+        holders.join(", ")
+    };
+    Some(format!(
+        "Error: the store is busy (held by {who}): waited {} s for its write lock; nothing was changed, try again",
+        abba_store::schema::DEFAULT_BUSY.as_secs()
+    ))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -38,7 +38,11 @@ pub fn run(args: Args) -> Result<()> {
         .tz
         .clone()
         .context("--tz ZONE is required: the advisor's days are the person's local days")?;
-    let batch = abba_io::read_files(&args.input.input, &opts)?;
+    let mut batch = abba_io::read_files(&args.input.input, &opts)?;
+    if batch.records.is_empty() {
+        anyhow::bail!("no readings in {}", batch.files.join(", "));
+    }
+    let future = batch.refuse_future(jiff::Timestamp::now());
     let mut person = PersonSettings::new(tz);
     person.first_day = args
         .first_day
@@ -57,6 +61,10 @@ pub fn run(args: Args) -> Result<()> {
             "records": batch.records,
             "files": batch.files,
             "duplicates": batch.duplicates,
+            "older_versions": batch.older_versions,
+            "cross_upload": batch.cross_upload,
+            "future": future,
+            "notes": batch.notes,
             "mapping": stream,
         });
         println!("{}", serde_json::to_string(&out)?);
@@ -77,6 +85,23 @@ pub fn run(args: Args) -> Result<()> {
     }
     println!("  records by kind: {kinds:?}");
     println!("  duplicates removed: {:?}", batch.duplicates);
+    println!(
+        "  older versions of a repeated id removed: {}; carried by two Tidepool uploads: {:?}",
+        batch.older_versions, batch.cross_upload
+    );
+    if future.count > 0 {
+        println!(
+            "  dated after now, refused: {} (the first: {})",
+            future.count,
+            future.first.as_deref().unwrap_or("?")
+        );
+    }
+    for f in batch.empty_files() {
+        println!("  no readings in {f}");
+    }
+    for n in &batch.notes {
+        println!("  note: {n}");
+    }
     println!("  ignored by kind: {:?}", stream.ignored);
     println!("  kept but not mapped: {:?}", stream.not_mapped);
     println!(

@@ -2,7 +2,7 @@
 use std::path::PathBuf;
 
 use abba_io::read::Format;
-use abba_store::{Store, NOTICE};
+use abba_store::{ProfileResolution, Store, NOTICE};
 use anyhow::{Context, Result};
 
 /// Arguments of `abba import`.
@@ -14,12 +14,20 @@ pub struct Args {
     /// The person.
     #[arg(long, value_name = "NAME")]
     pub person: String,
-    /// Format of the files (nightscout, clarity, libreview, tidepool, csv) [default: detected].
+    /// Format of the files (nightscout, clarity, libreview, tidepool, carelink, csv) [default: detected].
     #[arg(long)]
     pub format: Option<String>,
     /// Print the summary as JSON.
     #[arg(long)]
     pub json: bool,
+    /// When the export's pump profile differs from the therapy the store
+    /// holds: put the profile in force (what the pump runs).
+    #[arg(long, conflicts_with = "keep_therapy")]
+    pub adopt_profile: bool,
+    /// When the export's pump profile differs from the therapy the store
+    /// holds: keep the store's values (profiles are then not read as therapy).
+    #[arg(long)]
+    pub keep_therapy: bool,
     /// Export files (a Nightscout export is entries.json, treatments.json, profile.json).
     #[arg(required = true, value_name = "FILE")]
     pub files: Vec<PathBuf>,
@@ -29,28 +37,56 @@ pub struct Args {
 pub fn run(a: Args) -> Result<()> {
     let format = match &a.format {
         Some(f) => Some(Format::parse(f).with_context(|| {
-            format!("--format \"{f}\": expected nightscout, clarity, libreview, tidepool or csv")
+            format!("--format \"{f}\": expected nightscout, clarity, libreview, tidepool, carelink or csv")
         })?),
         None => None,
     };
     let mut store = Store::open(&a.db).with_context(|| format!("opening {}", a.db.display()))?;
-    let s = store.import_files(&a.person, &a.files, format)?;
+    let resolve = match (a.adopt_profile, a.keep_therapy) {
+        (true, _) => ProfileResolution::Adopt,
+        (_, true) => ProfileResolution::Keep,
+        _ => ProfileResolution::Stop,
+    };
+    let s = store.import_files_with(&a.person, &a.files, format, resolve)?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&s)?);
         return Ok(());
     }
-    if s.added == 0 {
+    if s.added == 0 && s.updated == 0 {
         println!(
             "Nothing new: all {} records of {} are already in {}'s log.",
-            s.read,
+            s.known,
             s.files.join(", "),
             a.person
         );
     } else {
         println!(
-            "Imported {} new records for {} ({} read, {} already known, {} exact duplicates between the files).",
-            s.added, a.person, s.read, s.known, s.duplicates_in_files
+            "Imported {} new records for {} ({} read, {} already known, {} newer versions of known records).",
+            s.added, a.person, s.read, s.known, s.updated
         );
+    }
+    println!(
+        "Duplicates within and between the files: {} exact repeats, {} older versions of a repeated id, {} carried by two Tidepool uploads.",
+        s.duplicates_in_files, s.older_versions_in_files, s.cross_upload_duplicates
+    );
+    for (what, r) in [
+        ("dated after the time of import (refused)", &s.future),
+        ("before day 1, not used", &s.before_day_1),
+    ] {
+        if r.count > 0 {
+            println!(
+                "{} records {what}; the first: {} ({}).",
+                r.count,
+                r.first.as_deref().unwrap_or("?"),
+                r.first_at.as_deref().unwrap_or("?")
+            );
+        }
+    }
+    for f in &s.empty_files {
+        println!("No readings in {f}.");
+    }
+    for n in &s.notes {
+        println!("Note: {n}");
     }
     if let Some(d) = &s.first_day {
         println!("Day 1 of the advisor: {d}.");

@@ -9,10 +9,10 @@ use anyhow::{anyhow, bail, Result};
 /// How to read the input files.
 #[derive(clap::Args, Debug)]
 pub struct InputArgs {
-    /// Export files (Nightscout JSON, Dexcom Clarity CSV, LibreView CSV, Tidepool JSON, plain CSV).
+    /// Export files (Nightscout JSON, Dexcom Clarity CSV, LibreView CSV, Tidepool JSON, Medtronic CareLink CSV, plain CSV).
     #[arg(long, value_name = "FILE", num_args = 1.., required = true)]
     pub input: Vec<PathBuf>,
-    /// Format of every input: nightscout, clarity, libreview, tidepool, csv [default: detected from content].
+    /// Format of every input: nightscout, clarity, libreview, tidepool, carelink, csv [default: detected from content].
     #[arg(long, value_name = "FORMAT")]
     pub format: Option<String>,
     /// The person's IANA time zone (how times without an offset are read, how days are grouped).
@@ -30,7 +30,7 @@ pub struct InputArgs {
     /// Plain CSV: use only the rows whose `id` column equals ID.
     #[arg(long, value_name = "ID")]
     pub subject: Option<String>,
-    /// LibreView dates that do not tell (no day above 12, no AM/PM): day-first or month-first.
+    /// Dates that do not tell their order (LibreView, CareLink, plain CSV: no day above 12, no AM/PM): day-first or month-first.
     #[arg(long, value_name = "ORDER")]
     pub date_order: Option<String>,
 }
@@ -42,7 +42,7 @@ impl InputArgs {
             format: match &self.format {
                 Some(f) => Some(Format::parse(f).ok_or_else(|| {
                     anyhow!(
-                        "--format {f}: expected nightscout, clarity, libreview, tidepool or csv"
+                        "--format {f}: expected nightscout, clarity, libreview, tidepool, carelink or csv"
                     )
                 })?),
                 None => None,

@@ -1,5 +1,12 @@
-//! The `abba` command: simulate a patient, build a cohort, compute glucose
-//! metrics, run the paper's in-silico trial.
+//! The `abba` command. It only parses, calls the libraries and prints.
+//!
+//! - the trial platform: `simulate`, `cohort`, `trial` (with `--shard` and
+//!   `trial merge`), `calibrate`;
+//! - a person's data: `metrics`, `events`, `export` (a simulated patient as
+//!   Nightscout JSON);
+//! - a person's advisor: `person`, `import`, `advise`, `answer`, `history`,
+//!   `report`;
+//! - the service: `serve`, `token`, `app` (a simulated patient through it).
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
 
@@ -23,8 +30,11 @@ mod report;
 mod serve;
 mod shard;
 mod simulate;
+mod store_cmd;
+mod therapy;
 mod trial;
 mod trial_limits;
+mod twin;
 
 /// abba: adaptive basal-bolus advisor and in-silico trial platform.
 #[derive(Parser)]
@@ -68,6 +78,12 @@ enum Command {
     Token(serve::TokenArgs),
     /// A simulated trial patient through a running `abba serve`, as a pump app would talk to it.
     App(app::Args),
+    /// A person's twin: fit it from their records, check it, replay what-ifs (research software, not a medical device).
+    Twin(twin::Args),
+    /// Check a store (`check`) and remove events dated in the future (`remove-future`).
+    Store(store_cmd::Args),
+    /// Record the clinician's change of settings (`therapy set`), at any time.
+    Therapy(therapy::Args),
 }
 
 /// The parsed command line. Every subcommand takes negative numbers as
@@ -86,7 +102,23 @@ fn parse() -> Cli {
 }
 
 fn main() -> ExitCode {
-    let result = match parse().command {
+    let command = parse().command;
+    // A command that prints ends quietly when its reader goes away
+    // (`abba events ... | head`): the default SIGPIPE action, as other
+    // Unix tools. Not for the commands that talk over sockets, where a
+    // peer that closes must not end the process.
+    if !matches!(command, Command::Serve(_) | Command::App(_)) {
+        sigpipe::reset();
+    }
+    // The store file, to say who holds it when it stays busy.
+    let db = match &command {
+        Command::Import(a) => Some(a.db.clone()),
+        Command::Answer(a) => Some(a.db.clone()),
+        Command::Advise(a) => Some(a.db.clone()),
+        Command::History(a) => Some(a.db.clone()),
+        _ => None,
+    };
+    let result = match command {
         Command::Simulate(a) => simulate::run(a),
         Command::Cohort(a) => cohort::run(a),
         Command::Metrics(a) => metrics::run(a),
@@ -103,11 +135,17 @@ fn main() -> ExitCode {
         Command::Serve(a) => serve::serve(a),
         Command::Token(a) => serve::token(a),
         Command::App(a) => app::run(a),
+        Command::Twin(a) => twin::run(a),
+        Command::Store(a) => store_cmd::run(a),
+        Command::Therapy(a) => therapy::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("{}", errors::render(&e));
+            match errors::busy(&e, db.as_deref()) {
+                Some(b) => eprintln!("{b}\n\n{}", errors::render(&e)),
+                None => eprintln!("{}", errors::render(&e)),
+            }
             // With RUST_BACKTRACE=1 (for developers), where it came from.
             let trace = e.backtrace();
             if trace.status() == std::backtrace::BacktraceStatus::Captured {

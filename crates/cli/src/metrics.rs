@@ -26,7 +26,24 @@ pub struct Args {
 /// Runs `abba metrics`.
 pub fn run(args: Args) -> Result<()> {
     let opts = args.input.options()?;
-    let batch = abba_io::read_files(&args.input.input, &opts)?;
+    let mut batch = abba_io::read_files(&args.input.input, &opts)?;
+    if batch.records.is_empty() {
+        bail!("no readings in {}", batch.files.join(", "));
+    }
+    let future = batch.refuse_future(jiff::Timestamp::now());
+    if future.count > 0 {
+        eprintln!(
+            "warning: {} records dated after now were refused; the first: {}",
+            future.count,
+            future.first.as_deref().unwrap_or("?")
+        );
+    }
+    for f in batch.empty_files() {
+        eprintln!("warning: no readings in {f}");
+    }
+    for n in &batch.notes {
+        eprintln!("note: {n}");
+    }
     let tz = opts.tz.clone().unwrap_or(jiff::tz::TimeZone::UTC);
     let from = args
         .from

@@ -2,9 +2,10 @@
 use std::path::PathBuf;
 
 use abba_advisor::bounds::Range;
-use abba_advisor::Mode;
+use abba_advisor::{Mode, PumpSteps};
 use abba_core::{GramsPerUnit, TherapySettings, UnitsPerHour};
 use abba_io::meals::MealWindows;
+use abba_store::person::{GlucoseUnits, TherapySource};
 use abba_store::{NewPerson, Store, NOTICE};
 use anyhow::{bail, Context, Result};
 
@@ -50,12 +51,30 @@ struct NewArgs {
     /// Which readings the advisor learns from.
     #[arg(long, value_enum)]
     mode: ModeArg,
-    /// Current flat basal rate (U/h).
-    #[arg(long, value_name = "U_PER_H")]
-    basal: f64,
-    /// Current carb ratios of breakfast, lunch, dinner (g/U): B,L,D.
-    #[arg(long, value_name = "B,L,D")]
-    carb_ratio: String,
+    /// The therapy in force from the pump's export: a Nightscout profile
+    /// store (profile.json) or Profile Switch, or Tidepool pumpSettings (the
+    /// latest settings profile of the files: basal schedule, carb ratios).
+    #[arg(long, value_name = "FILE", num_args = 1.., conflicts_with_all = ["basal", "carb_ratio"])]
+    therapy_from: Vec<PathBuf>,
+    /// Current flat basal rate (U/h), when not --therapy-from.
+    #[arg(long, value_name = "U_PER_H", required_unless_present = "therapy_from")]
+    basal: Option<f64>,
+    /// Current carb ratios of breakfast, lunch, dinner (g/U): B,L,D, when not --therapy-from.
+    #[arg(long, value_name = "B,L,D", required_unless_present = "therapy_from")]
+    carb_ratio: Option<String>,
+    /// The pump's basal step (U/h): suggestions are rounded to it.
+    #[arg(long, value_name = "U_PER_H", default_value_t = 0.05)]
+    basal_step: f64,
+    /// The pump's carb-ratio step (g/U): 0.1 or 1.
+    #[arg(long, value_name = "G_PER_U", default_value_t = 0.1)]
+    carb_ratio_step: f64,
+    /// Research only: suggest basal rates even when the data show a closed
+    /// loop or injections (ABBA was validated for open-loop pump therapy).
+    #[arg(long)]
+    allow_closed_loop: bool,
+    /// The glucose unit of the person's texts: mg/dL or mmol/L.
+    #[arg(long, value_name = "UNIT", default_value = "mg/dL")]
+    units: String,
     /// Meal windows, local time: HH:MM-HH:MM,HH:MM-HH:MM,HH:MM-HH:MM
     /// [default: 05:00-10:30,10:30-15:30,15:30-22:00].
     #[arg(long, value_name = "B,L,D")]
@@ -89,44 +108,77 @@ fn range(flag: &str, text: &str) -> Result<Range> {
     Ok(Range { min, max })
 }
 
-fn new(a: NewArgs) -> Result<()> {
-    let cr: Vec<f64> = a
-        .carb_ratio
+/// Parses `B,L,D` carb ratios.
+pub fn carb_ratios(flag: &str, text: &str) -> Result<[f64; 3]> {
+    let cr: Vec<f64> = text
         .split(',')
         .map(|x| x.trim().parse::<f64>())
         .collect::<Result<_, _>>()
-        .with_context(|| {
-            format!(
-                "--carb-ratio \"{}\": expected three numbers B,L,D",
-                a.carb_ratio
-            )
-        })?;
+        .with_context(|| format!("{flag} \"{text}\": expected three numbers B,L,D"))?;
     let [b, l, d] = cr[..] else {
         bail!(
-            "--carb-ratio \"{}\": expected three numbers B,L,D, got {}",
-            a.carb_ratio,
+            "{flag} \"{text}\": expected three numbers B,L,D, got {}",
             cr.len()
         );
     };
-    let mut start = TherapySettings::new(UnitsPerHour(a.basal), GramsPerUnit(b))
-        .with_context(|| format!("--basal {} / --carb-ratio", a.basal))?;
-    start.carb_ratio = [GramsPerUnit(b), GramsPerUnit(l), GramsPerUnit(d)];
+    Ok([b, l, d])
+}
+
+fn new(a: NewArgs) -> Result<()> {
     let mode = match a.mode {
         ModeArg::Cgm => Mode::Cgm,
         ModeArg::Smbg => Mode::Smbg,
     };
-    let mut p = NewPerson::new(&a.name, &a.tz, mode, start);
+    let mut meal_windows = MealWindows::default();
     if let Some(w) = &a.meal_windows {
         let parts: Vec<&str> = w.split(',').collect();
         let [b, l, d] = parts[..] else {
             bail!("--meal-windows \"{w}\": expected three windows HH:MM-HH:MM separated by commas");
         };
-        p.settings.meal_windows = MealWindows {
+        meal_windows = MealWindows {
             breakfast: MealWindows::parse_window(b)?,
             lunch: MealWindows::parse_window(l)?,
             dinner: MealWindows::parse_window(d)?,
         };
     }
+    let (start, schedule, from) = match (&a.basal, &a.carb_ratio) {
+        (Some(basal), Some(cr)) => {
+            let [b, l, d] = carb_ratios("--carb-ratio", cr)?;
+            let start = TherapySettings {
+                basal: UnitsPerHour(*basal),
+                carb_ratio: [GramsPerUnit(b), GramsPerUnit(l), GramsPerUnit(d)],
+            };
+            (start, None, None)
+        }
+        _ => {
+            let tz = jiff::tz::TimeZone::get(&a.tz)
+                .with_context(|| format!("--tz \"{}\": not a known IANA zone", a.tz))?;
+            let opts = abba_io::ReadOptions {
+                tz: Some(tz),
+                ..abba_io::ReadOptions::default()
+            };
+            let t = abba_io::therapy::therapy_from_files(&a.therapy_from, &opts, &meal_windows)
+                .context("--therapy-from")?;
+            let schedule = (t.basal.len() > 1).then(|| t.basal.clone());
+            (t.settings(), schedule, Some(t))
+        }
+    };
+    let mut p = NewPerson::new(&a.name, &a.tz, mode, start);
+    p.settings.meal_windows = meal_windows;
+    p.settings.basal_schedule = schedule;
+    if from.is_some() {
+        p.settings.therapy_source = TherapySource::Profile;
+    }
+    p.settings.pump_steps = Some(PumpSteps {
+        basal_u_per_h: a.basal_step,
+        carb_ratio_g_per_u: a.carb_ratio_step,
+    });
+    p.settings.allow_closed_loop = a.allow_closed_loop;
+    p.settings.units = match abba_io::GlucoseUnit::parse(&a.units) {
+        Some(abba_io::GlucoseUnit::MgDl) => GlucoseUnits::MgDl,
+        Some(abba_io::GlucoseUnit::MmolL) => GlucoseUnits::MmolL,
+        None => bail!("--units \"{}\": expected mg/dL or mmol/L", a.units),
+    };
     if let Some(r) = &a.basal_range {
         p.settings.bounds.basal = Some(range("--basal-range", r)?);
     }
@@ -143,8 +195,18 @@ fn new(a: NewArgs) -> Result<()> {
     p.settings.bedtime_min = bed.0;
     let mut store = Store::open(&a.db).with_context(|| format!("opening {}", a.db.display()))?;
     let person = store.create_person(&p)?;
+    let [b, l, d] = start.carb_ratio.map(|c| c.0);
+    let therapy = match &from {
+        Some(t) => format!(
+            "{} (from {}, in force since {})",
+            t.describe(),
+            t.origin,
+            t.at
+        ),
+        None => format!("basal {} U/h, carb ratios {b}/{l}/{d} g/U", start.basal.0),
+    };
     println!(
-        "Created {} in {} ({} mode, zone {}): basal {} U/h, carb ratios {b}/{l}/{d} g/U.",
+        "Created {} in {} ({} mode, zone {}): {therapy}; pump steps {} U/h and {} g/U.",
         person.name,
         a.db.display(),
         match mode {
@@ -152,8 +214,12 @@ fn new(a: NewArgs) -> Result<()> {
             Mode::Smbg => "SMBG",
         },
         a.tz,
-        a.basal
+        a.basal_step,
+        a.carb_ratio_step
     );
+    if a.allow_closed_loop {
+        println!("--allow-closed-loop: basal rates will be suggested even if the data show a closed loop or injections (research only; ABBA was validated for open-loop pump therapy).");
+    }
     println!("{NOTICE}");
     Ok(())
 }

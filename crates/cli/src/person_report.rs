@@ -44,33 +44,86 @@ pub fn person_input(
             date: date(first_index + k)?,
             readings: Vec::new(),
             settings: None,
-            basal_u: Some(0.0),
-            bolus_u: Some(0.0),
+            basal_u: None,
+            bolus_u: None,
             carbs_g: Some(0.0),
             meals: Vec::new(),
+            rescue_g: None,
         });
     }
-    // Basal delivered: the rate in force, minute by minute (the starting
-    // basal until the first rate event).
-    let mut rate = person.settings.start.basal.0;
-    let mut rate_since = first_index * MINUTES_PER_DAY;
-    let add_basal = |out: &mut Vec<PersonDay>, from: i64, to: i64, rate: f64| {
+    // Insulin delivered, from the pump's records: the scheduled rate (as
+    // the profile's segments give it) unless a temporary basal or a
+    // suspension says otherwise, boluses and extended boluses. A day with
+    // no pump record (bolus, temporary basal, suspension) gets no total:
+    // a schedule is not a delivery.
+    let mut pump_day = vec![false; n];
+    let mut sched = person.settings.start.basal.0;
+    let mut temp: Option<(abba_core::TempBasalRate, i64)> = None;
+    let mut suspended = false;
+    let mut since = first_index * MINUTES_PER_DAY;
+    let rate_at =
+        |sched: f64, temp: &Option<(abba_core::TempBasalRate, i64)>, suspended: bool, t: i64| {
+            if suspended {
+                return 0.0;
+            }
+            match temp {
+                Some((abba_core::TempBasalRate::UnitsPerHour(r), end)) if t < *end => r.0,
+                Some((abba_core::TempBasalRate::Percent(p), end)) if t < *end => sched * p / 100.0,
+                _ => sched,
+            }
+        };
+    let add_basal = |out: &mut Vec<PersonDay>,
+                     from: i64,
+                     to: i64,
+                     sched: f64,
+                     temp: &Option<(abba_core::TempBasalRate, i64)>,
+                     suspended: bool| {
         let mut t = from.max(first_index * MINUTES_PER_DAY);
         while t < to {
             let day = t.div_euclid(MINUTES_PER_DAY);
-            let end = to.min((day + 1) * MINUTES_PER_DAY);
+            // Pieces end at midnight and where a temporary basal ends.
+            let mut end = to.min((day + 1) * MINUTES_PER_DAY);
+            if let Some((_, e)) = temp {
+                if *e > t && *e < end {
+                    end = *e;
+                }
+            }
             if let Some(d) = out.get_mut((day - first_index) as usize) {
-                *d.basal_u.get_or_insert(0.0) += rate * (end - t) as f64 / 60.0;
+                *d.basal_u.get_or_insert(0.0) +=
+                    rate_at(sched, temp, suspended, t) * (end - t) as f64 / 60.0;
             }
             t = end;
         }
     };
     for e in &events {
         let t = e.at.minutes();
-        let Some(k) = usize::try_from(e.at.day_index() - first_index).ok() else {
-            if let EventKind::BasalRate(r) = e.kind {
-                rate = r.0;
+        let k = usize::try_from(e.at.day_index() - first_index).ok();
+        match e.kind {
+            EventKind::BasalRate(_)
+            | EventKind::TempBasal { .. }
+            | EventKind::Suspend
+            | EventKind::Resume => {
+                if k.is_some() {
+                    add_basal(&mut out, since, t, sched, &temp, suspended);
+                }
+                since = t;
+                match e.kind {
+                    EventKind::BasalRate(r) => sched = r.0,
+                    EventKind::TempBasal { rate, duration_min } => {
+                        temp = (duration_min > 0).then_some((rate, t + i64::from(duration_min)))
+                    }
+                    EventKind::Suspend => suspended = true,
+                    EventKind::Resume => suspended = false,
+                    _ => {}
+                }
+                if let (Some(k), false) = (k, matches!(e.kind, EventKind::BasalRate(_))) {
+                    pump_day[k] = true;
+                }
+                continue;
             }
+            _ => {}
+        }
+        let Some(k) = k else {
             continue;
         };
         let day = &mut out[k];
@@ -95,21 +148,56 @@ pub fn person_input(
                     carbs_g: Some(carbs.0),
                 });
             }
-            EventKind::Bolus(u) => *day.bolus_u.get_or_insert(0.0) += u.0,
-            EventKind::BasalRate(r) => {
-                add_basal(&mut out, rate_since, t, rate);
-                rate = r.0;
-                rate_since = t;
+            EventKind::Bolus(u) => {
+                *day.bolus_u.get_or_insert(0.0) += u.0;
+                pump_day[k] = true;
+            }
+            EventKind::ExtendedBolus { total, .. } => {
+                *day.bolus_u.get_or_insert(0.0) += total.0;
+                pump_day[k] = true;
             }
             _ => {}
         }
     }
     add_basal(
         &mut out,
-        rate_since,
+        since,
         (last_index + 1) * MINUTES_PER_DAY,
-        rate,
+        sched,
+        &temp,
+        suspended,
     );
+    for (d, pump) in out.iter_mut().zip(&pump_day) {
+        if !pump {
+            d.basal_u = None;
+            d.bolus_u = None;
+        }
+    }
+    // Hypoglycaemia treatments, from the records (they are not meals).
+    let records = store.records(name)?;
+    let rescue = abba_io::rescue::Rescue::new(&records);
+    let clock = abba_io::clock::AdvisorClock::new(person.tz.clone(), first_day);
+    for r in &records {
+        if let abba_io::RecordKind::Carbs { grams } = r.kind {
+            if rescue.is_rescue(r.at) {
+                let k = clock.timestamp(r.at).day_index() - first_index;
+                if let Some(d) = usize::try_from(k).ok().and_then(|k| out.get_mut(k)) {
+                    *d.rescue_g.get_or_insert(0.0) += grams.0;
+                }
+            }
+        }
+    }
+    let advice = store.advise(name)?;
+    let mut notes = Vec::new();
+    if let Some(note) = &advice.delivery.note {
+        notes.push(note.clone());
+        if !advice.delivery.evidence.is_empty() {
+            notes.push(format!(
+                "Evidence: {}.",
+                advice.delivery.evidence.join("; ")
+            ));
+        }
+    }
 
     // Settings in force by day: the start, then each answered suggestion's
     // value from the day it is for.
@@ -142,6 +230,7 @@ pub fn person_input(
         unit,
         days: out,
         suggestions,
+        notes,
     })
 }
 

@@ -2,23 +2,108 @@
 //! a new admin (or person) token, printed once.
 use std::io::Write;
 use std::path::PathBuf;
+use std::time::Duration;
+
+use abba_service::{ServeSettings, StoreSettings};
 
 use anyhow::{bail, Context, Result};
 
 /// Arguments of `abba serve`.
 #[derive(clap::Args, Debug)]
 pub struct ServeArgs {
-    /// The store file (created if missing).
+    /// The store file (created if missing; a read-only one is refused).
     #[arg(long, value_name = "FILE")]
     pub db: PathBuf,
     /// Address to listen on (port 0: any free port, printed).
     #[arg(long, value_name = "ADDR", default_value = "127.0.0.1:8080")]
     pub listen: String,
+    /// Close a connection that has not sent a whole request head this many
+    /// seconds after it opened or after its last answer (keep-alive idle).
+    #[arg(long, value_name = "S", default_value_t = 10.0)]
+    pub header_timeout: f64,
+    /// 408 when a request body pauses longer than this many seconds.
+    #[arg(long, value_name = "S", default_value_t = 10.0)]
+    pub body_timeout: f64,
+    /// 408 when a request is not answered this many seconds after its head.
+    #[arg(long, value_name = "S", default_value_t = 60.0)]
+    pub request_timeout: f64,
+    /// Connections held at once (more are closed at once).
+    #[arg(long, value_name = "N", default_value_t = 8192)]
+    pub max_connections: usize,
+    /// Requests in flight at once (more get 503 with Retry-After).
+    #[arg(long, value_name = "N", default_value_t = 256)]
+    pub max_in_flight: usize,
+    /// Seconds requests in flight get to finish after SIGTERM or Ctrl-C.
+    #[arg(long, value_name = "S", default_value_t = 10.0)]
+    pub shutdown_grace: f64,
+    /// SQLite connections in the pool.
+    #[arg(long, value_name = "N", default_value_t = 8)]
+    pub connections: u32,
+    /// Seconds a write waits for another writer before the request gets 503.
+    #[arg(long, value_name = "S", default_value_t = 5.0)]
+    pub busy_timeout: f64,
+    /// Live advisors kept in memory at most.
+    #[arg(long, value_name = "N", default_value_t = 1000)]
+    pub cache_persons: u64,
+    /// Seconds a live advisor stays in memory unused.
+    #[arg(long, value_name = "S", default_value_t = 1800.0)]
+    pub cache_idle: f64,
+    /// Failed authentications a client address may make per minute before
+    /// it gets 429 for the rest of the minute.
+    #[arg(long, value_name = "N", default_value_t = 30)]
+    pub auth_failures: u32,
 }
 
-/// Runs `abba serve` until SIGTERM or Ctrl-C.
+fn seconds(flag: &str, v: f64) -> Result<Duration> {
+    if !(v.is_finite() && v > 0.0 && v <= 86_400.0) {
+        bail!("--{flag}: expected seconds in (0, 86400], got {v}");
+    }
+    Ok(Duration::from_secs_f64(v))
+}
+
+fn count<T: PartialOrd + Default + std::fmt::Display + Copy>(flag: &str, v: T) -> Result<T> {
+    if v <= T::default() {
+        bail!("--{flag}: expected at least 1, got {v}");
+    }
+    Ok(v)
+}
+
+impl ServeArgs {
+    /// The service's settings, each checked.
+    pub fn settings(&self) -> Result<ServeSettings> {
+        let d = StoreSettings::default();
+        Ok(ServeSettings {
+            header_timeout: seconds("header-timeout", self.header_timeout)?,
+            body_timeout: seconds("body-timeout", self.body_timeout)?,
+            request_timeout: seconds("request-timeout", self.request_timeout)?,
+            max_connections: count("max-connections", self.max_connections)?,
+            max_in_flight: count("max-in-flight", self.max_in_flight)?,
+            shutdown_grace: seconds("shutdown-grace", self.shutdown_grace)?,
+            store: StoreSettings {
+                connections: count("connections", self.connections)?,
+                busy_timeout: seconds("busy-timeout", self.busy_timeout)?,
+                cache_persons: count("cache-persons", self.cache_persons)?,
+                cache_idle: seconds("cache-idle", self.cache_idle)?,
+                auth_failures: count("auth-failures", self.auth_failures)?,
+                ..d
+            },
+        })
+    }
+}
+
+/// Runs `abba serve` until SIGTERM or Ctrl-C. Logs (tracing) go to
+/// stderr; `RUST_LOG` chooses what (default: info).
 pub fn serve(a: ServeArgs) -> Result<()> {
-    abba_service::serve(&a.db, &a.listen, |addr| {
+    let settings = a.settings()?;
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+    // A second call (tests in one process) keeps the first subscriber.
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .with_ansi(false)
+        .try_init();
+    abba_service::serve(&a.db, &a.listen, &settings, |addr| {
         println!(
             "abba serve: listening on http://{addr} (store {})",
             a.db.display()

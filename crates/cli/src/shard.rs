@@ -30,29 +30,34 @@ pub struct MergeArgs {
     pub quiet: bool,
 }
 
+/// Where and how `abba trial --shard` runs (the trial's own flags).
+pub struct ShardRun<'a> {
+    /// The folder the shard file goes to (`--out`).
+    pub out: &'a std::path::Path,
+    /// Worker threads (`--threads`).
+    pub threads: usize,
+    /// No progress and no closing message (`--quiet`).
+    pub quiet: bool,
+}
+
 /// Runs one shard and writes `shard-I-of-N.json` into `--out`.
-pub fn run_shard(args: &crate::trial::Args, config: &TrialConfig, spec: ShardSpec) -> Result<()> {
-    if !args.trace.is_empty() {
-        anyhow::bail!(
-            "--trace cannot be combined with --shard: trace the patient with a single run (runs are pure functions of the configuration)"
-        );
-    }
+pub fn run_shard(run: ShardRun<'_>, config: &TrialConfig, spec: ShardSpec) -> Result<()> {
     let started = Instant::now();
     let progress = crate::progress::Progress::new(
         &format!("abba trial --shard {spec}"),
         "patient-runs",
-        args.quiet,
+        run.quiet,
     );
-    let file = shard::run_shard(config, spec, args.threads, &progress);
+    let file = shard::run_shard(config, spec, run.threads, &progress);
     progress.finish();
     let file = file?;
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("cannot create {}", args.out.display()))?;
-    let path = args
+    std::fs::create_dir_all(run.out)
+        .with_context(|| format!("cannot create {}", run.out.display()))?;
+    let path = run
         .out
         .join(format!("shard-{}-of-{}.json", spec.index, spec.count));
     shard::write_shard(&path, &file)?;
-    if !args.quiet {
+    if !run.quiet {
         eprintln!(
             "abba trial: shard {spec}: {} of {} patient-runs in {:.1} s; wrote {}",
             file.jobs.len(),

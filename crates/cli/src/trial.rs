@@ -131,7 +131,17 @@ pub fn run(args: Args) -> Result<()> {
         return Ok(());
     }
     if let Some(spec) = args.shard {
-        return crate::shard::run_shard(&args, &config, spec);
+        if !args.trace.is_empty() {
+            bail!(
+                "--trace cannot be combined with --shard: trace the patient with a single run (runs are pure functions of the configuration)"
+            );
+        }
+        let run = crate::shard::ShardRun {
+            out: &args.out,
+            threads: args.threads,
+            quiet: args.quiet,
+        };
+        return crate::shard::run_shard(run, &config, spec);
     }
     // Before the run: a bad folder or patient name must not cost a trial.
     let plan = ReportPlan::check(&config, &args.out, &args.trace)?;

@@ -71,11 +71,25 @@ fn a_first_run() {
         "0.8-1.2",
         "--carb-ratio-range",
         "8-14",
+        "--basal-step",
+        "0.01",
     ]);
     assert!(text.contains(NOTICE) && text.contains(CLINICIAN), "{text}");
     let mut import: Vec<&str> = vec!["import"];
     import.extend(base);
     import.extend(files.iter().map(String::as_str));
+    // The export's pump profile (1.35 U/h, 8 g/U) differs from the values
+    // given: the import stops with both, and nothing is imported.
+    let out = abba(&import);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success()
+            && err.contains("1.35")
+            && err.contains("basal 1 U/h")
+            && err.contains("--adopt-profile"),
+        "{err}"
+    );
+    import.push("--keep-therapy");
     let text = ok(&import);
     assert!(
         text.contains("new records") && text.contains(NOTICE),
@@ -129,6 +143,82 @@ fn a_first_run() {
     assert!(rows
         .iter()
         .any(|r| r["status"] == "overridden" && r["in_force"] == 0.95));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// README.md's first run, command by command: the therapy in force is
+/// the exported pump profile's, suggestions are on the pump's steps, the
+/// clinician's change is in force at once.
+#[test]
+fn the_readmes_first_run_puts_the_pumps_profile_in_force() {
+    let dir = tmp("readme");
+    let db = dir.join("ana.db");
+    let db = db.to_str().unwrap();
+    let files = export(&dir, "ns", 12);
+    let profile = files[2].as_str();
+    let base = ["--db", db, "--person", "ana"];
+    ok(&[
+        "person",
+        "new",
+        "--db",
+        db,
+        "--name",
+        "ana",
+        "--tz",
+        "Europe/Zurich",
+        "--mode",
+        "cgm",
+        "--therapy-from",
+        profile,
+        "--basal-range",
+        "1.0-1.7",
+        "--carb-ratio-range",
+        "6-12",
+    ]);
+    let mut import: Vec<&str> = vec!["import"];
+    import.extend(base);
+    import.extend(files.iter().map(String::as_str));
+    ok(&import);
+    let json = ok(&[&["advise"][..], &base, &["--json"]].concat());
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    // What the exported profile says (adult#002's standard therapy).
+    let p: serde_json::Value = serde_json::from_slice(&std::fs::read(profile).unwrap()).unwrap();
+    let store = &p[0]["store"]["abba"];
+    let basal = store["basal"][0]["value"].as_f64().unwrap();
+    let cr = store["carbratio"][0]["value"].as_f64().unwrap();
+    let s = &v["settings"];
+    let first = |i: usize| -> f64 {
+        // The value in force before the first suggestion of the log.
+        s[i]["latest"]["previous"]
+            .as_f64()
+            .unwrap_or(s[i]["in_force"].as_f64().unwrap())
+    };
+    let history = ok(&[&["history"][..], &base, &["--json"]].concat());
+    let rows: Vec<serde_json::Value> = serde_json::from_str(&history).unwrap();
+    let start = |k: &str| {
+        rows.iter().find(|r| r["setting"] == k).unwrap()["previous"]
+            .as_f64()
+            .unwrap()
+    };
+    assert_eq!(start("basal"), basal, "{json}");
+    assert_eq!(start("breakfast"), cr, "{json}");
+    assert!((first(0) - basal).abs() <= basal * 0.05 + 1e-9);
+    for r in &rows {
+        let step = if r["setting"] == "basal" { 0.05 } else { 0.1 };
+        let x = r["suggested"].as_f64().unwrap();
+        assert!(((x / step).round() * step - x).abs() < 1e-9, "{r}");
+    }
+    let text = ok(&[
+        &["therapy", "set"][..],
+        &base,
+        &["--basal", "1.3", "--carb-ratio", "8,8.5,8"],
+    ]
+    .concat());
+    assert!(text.contains(NOTICE), "{text}");
+    let json = ok(&[&["advise"][..], &base, &["--json"]].concat());
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(v["settings"][0]["in_force"], 1.3, "{json}");
+    assert_eq!(v["settings"][2]["in_force"], 8.5, "{json}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -128,16 +128,32 @@ impl Client {
         self.get(&format!("/v1/persons/{person}/sync?from={from}"))
     }
 
-    /// `GET /v1/persons/{id}/suggestions[?after=ID]`.
+    /// `GET /v1/persons/{id}/suggestions[?after=ID]`, every page.
     pub fn suggestions(
         &self,
         person: u64,
         after: Option<u64>,
     ) -> Result<SuggestionList, ClientError> {
-        match after {
-            Some(a) => self.get(&format!("/v1/persons/{person}/suggestions?after={a}")),
-            None => self.get(&format!("/v1/persons/{person}/suggestions")),
+        let mut all = self.suggestions_page(person, after, None)?;
+        while let Some(next) = all.next_after {
+            let more = self.suggestions_page(person, Some(next), None)?;
+            all.suggestions.extend(more.suggestions);
+            all.next_after = more.next_after;
         }
+        Ok(all)
+    }
+
+    /// One page: `GET /v1/persons/{id}/suggestions?after=ID&limit=N`.
+    pub fn suggestions_page(
+        &self,
+        person: u64,
+        after: Option<u64>,
+        limit: Option<u64>,
+    ) -> Result<SuggestionList, ClientError> {
+        self.get(&format!(
+            "/v1/persons/{person}/suggestions{}",
+            page_query(after, limit)
+        ))
     }
 
     /// `GET /v1/persons/{id}/advice`.
@@ -145,9 +161,28 @@ impl Client {
         self.get(&format!("/v1/persons/{person}/advice"))
     }
 
-    /// `GET /v1/persons/{id}/history`.
+    /// `GET /v1/persons/{id}/history`, every page.
     pub fn history(&self, person: u64) -> Result<HistoryResponse, ClientError> {
-        self.get(&format!("/v1/persons/{person}/history"))
+        let mut all = self.history_page(person, None, None)?;
+        while let Some(next) = all.next_after {
+            let more = self.history_page(person, Some(next), None)?;
+            all.suggestions.extend(more.suggestions);
+            all.next_after = more.next_after;
+        }
+        Ok(all)
+    }
+
+    /// One page: `GET /v1/persons/{id}/history?after=ID&limit=N`.
+    pub fn history_page(
+        &self,
+        person: u64,
+        after: Option<u64>,
+        limit: Option<u64>,
+    ) -> Result<HistoryResponse, ClientError> {
+        self.get(&format!(
+            "/v1/persons/{person}/history{}",
+            page_query(after, limit)
+        ))
     }
 
     fn url(&self, path: &str) -> String {
@@ -202,6 +237,11 @@ impl Client {
             message: e.to_string(),
         })?;
         let status = resp.status().as_u16();
+        let retry_after = resp
+            .headers()
+            .get("retry-after")
+            .and_then(|v| v.to_str().ok())
+            .and_then(|v| v.trim().parse::<u32>().ok());
         let body = resp
             .body_mut()
             .with_config()
@@ -220,6 +260,7 @@ impl Client {
                 status,
                 body: serde_json::from_slice::<ErrorBody>(&body).ok(),
                 text,
+                retry_after,
             });
         }
         let de = &mut serde_json::Deserializer::from_slice(&body);
@@ -228,5 +269,21 @@ impl Client {
             url,
             message: format!("at {}: {}", e.path(), e.inner()),
         })
+    }
+}
+
+/// `?after=..&limit=..` (empty when neither).
+fn page_query(after: Option<u64>, limit: Option<u64>) -> String {
+    let mut parts = Vec::new();
+    if let Some(a) = after {
+        parts.push(format!("after={a}"));
+    }
+    if let Some(l) = limit {
+        parts.push(format!("limit={l}"));
+    }
+    if parts.is_empty() {
+        String::new()
+    } else {
+        format!("?{}", parts.join("&"))
     }
 }

@@ -38,6 +38,8 @@ pub enum ClientError {
         body: Option<ErrorBody>,
         /// The raw body (shortened) when it was not an error body.
         text: String,
+        /// The `Retry-After` seconds of a 429 or 503, when sent.
+        retry_after: Option<u32>,
     },
     /// The service answered 2xx with a body that is not what `/v1` says.
     #[error("{method} {url}: unexpected response body: {message}")]
@@ -76,12 +78,24 @@ fn describe(body: Option<&ErrorBody>, text: &str) -> String {
 }
 
 impl ClientError {
+    /// The service's `Retry-After` (seconds), when it sent one.
+    pub fn retry_after(&self) -> Option<std::time::Duration> {
+        match self {
+            ClientError::Status {
+                retry_after: Some(s),
+                ..
+            } => Some(std::time::Duration::from_secs(u64::from(*s))),
+            _ => None,
+        }
+    }
+
     /// True when trying again later may succeed: no answer, or the service
-    /// said it is unavailable (503). A 4xx never is, nor a 500.
+    /// said it is busy (503) or asked to slow down (429, after failed
+    /// authentications). Another 4xx never is, nor a 500.
     pub fn is_transient(&self) -> bool {
         match self {
             ClientError::Unreachable { .. } => true,
-            ClientError::Status { status, .. } => *status == 503,
+            ClientError::Status { status, .. } => *status == 503 || *status == 429,
             _ => false,
         }
     }

@@ -15,6 +15,10 @@
 //! (`abba_trial::remote`); the crash and load tests use them directly.
 //! abba is research software, not a medical device.
 
+// ClientError::Status carries the service's whole error body and its
+// Retry-After; boxing it would only move the allocation.
+#![allow(clippy::result_large_err)]
+
 pub mod client;
 pub mod error;
 pub mod outbox;

@@ -2,7 +2,7 @@
 //! buffer of events not yet acknowledged, flushes that survive a service
 //! that goes away, and history sync after a reconnect.
 //!
-//! The rule an app follows (ARCHITECTURE.md, "The service"):
+//! The rule an app follows (crates/service/README.md):
 //!
 //! - every event gets the next number of the app's own counter and stays
 //!   in the outbox until the service acknowledged it;

@@ -89,7 +89,15 @@ impl Backoff {
                 last: Box::new(e),
             });
         }
-        std::thread::sleep(self.wait);
+        // The service's Retry-After is a floor (it knows when it is busy),
+        // never past the point of giving up.
+        let wait = match e.retry_after() {
+            Some(ra) => ra
+                .max(self.wait)
+                .min(self.retry.give_up_after.saturating_sub(waited)),
+            None => self.wait,
+        };
+        std::thread::sleep(wait);
         self.wait = (self.wait * 2).min(self.retry.max_wait);
         Ok(())
     }

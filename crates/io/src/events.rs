@@ -194,19 +194,29 @@ fn plus_min(t: jiff::Timestamp, m: u32) -> jiff::Timestamp {
         .unwrap_or(t)
 }
 
+/// The first glucose reading (CGM or meter) of `records` in time order:
+/// day 1 is its local day.
+pub fn first_glucose(records: &[Record]) -> Option<&Record> {
+    records
+        .iter()
+        .filter(|r| matches!(r.kind, RecordKind::Cgm { .. } | RecordKind::Smbg { .. }))
+        .min_by_key(|r| r.at)
+}
+
 /// Maps a merged batch to the advisor's events.
 pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, crate::IoError> {
     person.meals.validate()?;
-    // Day 1 defaults to the local day of the first record that is data (a
-    // profile in force since long before does not make the first day).
-    let first_data = batch
-        .records
-        .iter()
-        .find(|r| {
-            !matches!(
-                r.kind,
-                RecordKind::Schedule { .. } | RecordKind::Ignored { .. }
-            )
+    // Day 1 defaults to the local day of the first glucose reading (a
+    // profile or a pump record long before the first reading does not make
+    // the first day), else of the first record that is data.
+    let first_data = first_glucose(&batch.records)
+        .or_else(|| {
+            batch.records.iter().find(|r| {
+                !matches!(
+                    r.kind,
+                    RecordKind::Schedule { .. } | RecordKind::Ignored { .. }
+                )
+            })
         })
         .or(batch.records.first());
     let first_day = match (person.first_day, first_data) {
@@ -228,6 +238,8 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
         notes: Vec::new(),
     };
     let mut basal = Basal::default();
+    let rescue = crate::rescue::Rescue::new(&batch.records);
+    let (mut rescue_n, mut rescue_g) = (0usize, 0.0f64);
     let mut meals_taken: BTreeMap<(i64, MealSlot), ()> = BTreeMap::new();
     let mut events: Vec<Event> = Vec::with_capacity(batch.records.len());
     let emit_rate =
@@ -285,6 +297,11 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
                     EventKind::Smbg(g)
                 };
                 events.push(Event::new(ts, kind));
+            }
+            RecordKind::Carbs { grams } if rescue.is_rescue(r.at) => {
+                // A hypoglycaemia treatment: counted, never a meal.
+                rescue_n += 1;
+                rescue_g += grams.0;
             }
             RecordKind::Carbs { grams } => {
                 let mut slot = person
@@ -452,6 +469,13 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
     }
     for e in &kept {
         *out.counts.entry(kind_name(&e.kind).into()).or_default() += 1;
+    }
+    if rescue_n > 0 {
+        out.counts.insert(crate::rescue::COUNT_KEY.into(), rescue_n);
+        out.notes.push(format!(
+            "{rescue_n} carbohydrate entries ({rescue_g:.0} g in all) were hypoglycaemia treatments ({}): counted, not meals, never used to learn a carb ratio",
+            crate::rescue::RULE
+        ));
     }
     out.events = kept;
     Ok(out)

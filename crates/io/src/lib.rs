@@ -13,6 +13,7 @@
 //! abba-io depends on abba-core only, never on the simulator. abba is
 //! research software, not a medical device.
 
+pub mod automation;
 pub mod clock;
 pub mod coverage;
 pub mod error;
@@ -21,6 +22,8 @@ pub mod meals;
 pub mod nightscout_out;
 pub mod read;
 pub mod record;
+pub mod rescue;
+pub mod therapy;
 pub mod time;
 pub mod units;
 

@@ -17,6 +17,8 @@ pub enum Source {
     Tidepool,
     /// Plain CSV with named columns (abba's own outputs included).
     PlainCsv,
+    /// Medtronic CareLink CSV export.
+    CareLink,
 }
 
 impl Source {
@@ -28,21 +30,46 @@ impl Source {
             Source::LibreView => "libreview",
             Source::Tidepool => "tidepool",
             Source::PlainCsv => "csv",
+            Source::CareLink => "carelink",
         }
     }
 }
 
-/// A record's identity in its source.
+/// A record's identity: what it is, never where it sat in a file.
+///
+/// Row numbers and indices (Clarity's `Index`, CareLink's decimal `Index`)
+/// restart at 1 in every export and are never identity. A record carries
+/// the device's own identifier where the format has one (Nightscout `_id`,
+/// Tidepool `id`, Clarity transmitter id and transmitter time); any other
+/// record is identified by its content ([`content_id`]: source, instant,
+/// kind and values), so that two overlapping exports of one person import
+/// to exactly their union.
 #[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum SourceId {
-    /// The source's own id (Nightscout `_id`, Tidepool `id`).
+    /// The device's or service's own id (Nightscout `_id`, Tidepool `id`,
+    /// Clarity `transmitter id:transmitter time:event type`).
     Id(Box<str>),
-    /// The source's own row index (Clarity `Index`).
-    Index(u64),
-    /// A hash of the row's content, for sources with no id (FNV-1a 64 of
-    /// the row's cells).
+    /// The record's content (FNV-1a 64 of source, instant and kind, see
+    /// [`content_id`]), for records with no id of their own.
     Hash(u64),
+}
+
+/// The instant of a record in force "since always" (a Nightscout profile
+/// dated at the epoch, Nightscout's default record): the epoch itself.
+pub const SINCE_ALWAYS: jiff::Timestamp = jiff::Timestamp::UNIX_EPOCH;
+
+/// The content identity of a record with no id of its own: FNV-1a 64 of
+/// its source, its instant (ms) and its kind with every value (as JSON).
+/// The same reading in two exports has the same content identity whatever
+/// row it sat on.
+pub fn content_id(source: Source, at: jiff::Timestamp, kind: &RecordKind) -> SourceId {
+    let kind = serde_json::to_string(kind).unwrap_or_default();
+    SourceId::Hash(content_hash([
+        source.name().as_bytes(),
+        at.as_millisecond().to_string().as_bytes(),
+        kind.as_bytes(),
+    ]))
 }
 
 /// Where the record was read: the file (an index into the batch's file
@@ -254,6 +281,34 @@ pub struct Record {
     pub id: SourceId,
     /// Where it was read.
     pub origin: Origin,
+}
+
+/// The identity of a CSV row's record with no id of its own: its content
+/// ([`content_id`]) and, for an ignored row (a note, an alert), also the
+/// row's cells other than its row number (`skip`), so that two notes of
+/// one minute stay two while a row repeated in a re-export is one.
+pub fn row_id<'a>(
+    source: Source,
+    at: jiff::Timestamp,
+    kind: &RecordKind,
+    cells: impl Iterator<Item = &'a [u8]>,
+    skip: Option<usize>,
+) -> SourceId {
+    let SourceId::Hash(h) = content_id(source, at, kind) else {
+        return content_id(source, at, kind);
+    };
+    if !matches!(kind, RecordKind::Ignored { .. }) {
+        return SourceId::Hash(h);
+    }
+    let h = h.to_string();
+    SourceId::Hash(content_hash(
+        std::iter::once(h.as_bytes()).chain(
+            cells
+                .enumerate()
+                .filter(|(i, _)| Some(*i) != skip)
+                .map(|(_, c)| c),
+        ),
+    ))
 }
 
 /// FNV-1a 64-bit hash of some byte strings (with a separator), for sources

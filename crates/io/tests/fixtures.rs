@@ -38,8 +38,11 @@ fn clarity_fixture_loads_with_its_counts_and_censored_values() {
         }
     }
     assert!(b.records.iter().all(|r| r.source == Source::Clarity));
-    // The BOM and mangled quotes of the Index header do not hide the ids.
-    assert!(matches!(b.records[0].id, abba_io::SourceId::Index(11)));
+    // Identity is the transmitter's own clock, never the row's Index.
+    assert_eq!(
+        b.records[0].id,
+        abba_io::SourceId::Id("HBRPOI:4240874:EGV".into())
+    );
 }
 
 #[test]

@@ -8,13 +8,14 @@ use abba_io::{read_all, Format, IoError, ReadOptions};
 use common::{fixture, opts};
 use proptest::prelude::*;
 
-const FORMATS: [Option<Format>; 6] = [
+const FORMATS: [Option<Format>; 7] = [
     None,
     Some(Format::Nightscout),
     Some(Format::Clarity),
     Some(Format::LibreView),
     Some(Format::Tidepool),
     Some(Format::Csv),
+    Some(Format::CareLink),
 ];
 
 fn check(name: &str, bytes: Vec<u8>, format: Option<Format>) -> Result<(), TestCaseError> {
@@ -113,7 +114,7 @@ proptest! {
     #![proptest_config(ProptestConfig { cases: 512, ..ProptestConfig::default() })]
 
     #[test]
-    fn arbitrary_bytes_never_panic(bytes in prop::collection::vec(any::<u8>(), 0..2048), f in 0usize..6) {
+    fn arbitrary_bytes_never_panic(bytes in prop::collection::vec(any::<u8>(), 0..2048), f in 0usize..7) {
         check("arbitrary.bin", bytes, FORMATS[f])?;
     }
 
@@ -123,6 +124,8 @@ proptest! {
             "time,glucose_mg_dl,carbs,bolus,basal",
             "Index,Timestamp (YYYY-MM-DDThh:mm:ss),Event Type,Event Subtype,Patient Info,Device Info,Source Device ID,Glucose Value (mg/dL),Insulin Value (u),Carb Value (grams)",
             "Glucose Data,Generated on\nDevice,Serial Number,Device Timestamp,Record Type,Historic Glucose mg/dL,Scan Glucose mg/dL,Rapid-Acting Insulin (units),Carbohydrates (grams)",
+            "-------;MiniMed 780G MMT-1886;Pump;NG0000000X;-------\nIndex;Date;Time;BG Reading (mg/dL);Basal Rate (U/h);Temp Basal Amount;Temp Basal Type;Temp Basal Duration (h:mm:ss);Bolus Type;Bolus Volume Delivered (U);Bolus Duration (h:mm:ss);BWZ Carb Input (grams);Sensor Glucose (mg/dL);Event Marker;Suspend",
+            "id,date,time,glucose,type",
         ]),
         rows in prop::collection::vec("[0-9a-zA-Z:,;. \\-\"+TZé€]{0,60}", 0..40),
     ) {
@@ -136,7 +139,7 @@ proptest! {
 
     #[test]
     fn mutated_real_exports_never_panic(
-        which in 0usize..5,
+        which in 0usize..6,
         mutations in prop::collection::vec(mutation(), 1..6),
     ) {
         let names = [
@@ -145,6 +148,7 @@ proptest! {
             "nightscout_entries_synthetic.json",
             "nightscout_treatments_synthetic.json",
             "nightscout_profile_synthetic.json",
+            "carelink_780g_synthetic.csv",
         ];
         let bytes = apply(fixture(names[which]), &mutations);
         check(names[which], bytes, None)?;
@@ -158,6 +162,7 @@ fn an_unchanged_fixture_reads_without_error() {
         "clarity_export_synthetic.csv",
         "libreview_libre3_synthetic.csv",
         "nightscout_entries_synthetic.json",
+        "carelink_780g_synthetic.csv",
     ] {
         let o = ReadOptions {
             tz: opts("Europe/Zurich").tz,
@@ -167,5 +172,20 @@ fn an_unchanged_fixture_reads_without_error() {
             read_all(&[(name.to_string(), fixture(name))], &o).is_ok(),
             "{name}"
         );
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+
+    /// The CareLink reader on its own fixture, mutated (sections, decimal
+    /// commas, CRLF, newest-first rows), detected and forced.
+    #[test]
+    fn mutated_carelink_exports_never_panic(
+        mutations in prop::collection::vec(mutation(), 1..8),
+        forced in any::<bool>(),
+    ) {
+        let bytes = apply(fixture("carelink_780g_synthetic.csv"), &mutations);
+        check("carelink.csv", bytes, forced.then_some(Format::CareLink))?;
     }
 }

@@ -88,10 +88,11 @@ pub fn authorize(store: &Store, header: Option<&str>, need: Need) -> Result<Call
             found = Some(t);
         }
     }
-    let t = found.ok_or_else(|| ApiError::unauthorized("unknown token"))?;
-    if t.revoked {
-        return Err(ApiError::unauthorized("this token was revoked"));
-    }
+    // One answer for a token never issued and one revoked: the caller
+    // learns nothing about which tokens exist.
+    let t = found
+        .filter(|t| !t.revoked)
+        .ok_or_else(|| ApiError::unauthorized("unknown or revoked token"))?;
     let caller = match t.role {
         Role::Admin => Caller::Admin,
         Role::Person(p) => Caller::Person(p),

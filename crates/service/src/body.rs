@@ -1,13 +1,16 @@
 //! Request bodies: read whole (up to [`abba_api::MAX_BODY_BYTES`], else
-//! 413), checked to be JSON, parsed with the JSON path of the first problem
-//! (400 naming it and what was expected).
+//! 413; a body that does not arrive in time: 408), checked to be JSON
+//! without a key twice in any object, parsed with the JSON path of the
+//! first problem (400 naming it and what was expected).
 
 use crate::error::ApiError;
 use abba_api::ErrorCode;
 use axum::body::Bytes;
 use axum::extract::rejection::BytesRejection;
 use axum::http::{header, HeaderMap, StatusCode};
-use serde::de::DeserializeOwned;
+use serde::de::{self, DeserializeOwned, Deserializer, MapAccess, SeqAccess, Visitor};
+use std::collections::HashSet;
+use std::fmt;
 
 /// The bytes of a body, or the error for a body that could not be read.
 pub type RawBody = Result<Bytes, BytesRejection>;
@@ -21,8 +24,10 @@ pub fn parse<T: DeserializeOwned>(headers: &HeaderMap, body: RawBody) -> Result<
                 ErrorCode::TooLarge,
                 format!("the body is larger than {} bytes", abba_api::MAX_BODY_BYTES),
             )
+        } else if is_timeout(&e) {
+            ApiError::timeout("the request body")
         } else {
-            ApiError::bad_json(".", format!("the body could not be read: {e}"))
+            ApiError::bad_json(".", "the body could not be read whole")
         }
     })?;
     let json = headers
@@ -37,6 +42,7 @@ pub fn parse<T: DeserializeOwned>(headers: &HeaderMap, body: RawBody) -> Result<
             "expected Content-Type: application/json",
         ));
     }
+    no_duplicate_keys(&bytes)?;
     let mut de = serde_json::Deserializer::from_slice(&bytes);
     let value: T = serde_path_to_error::deserialize(&mut de).map_err(|e| {
         // The root is ".".
@@ -45,4 +51,96 @@ pub fn parse<T: DeserializeOwned>(headers: &HeaderMap, body: RawBody) -> Result<
     de.end()
         .map_err(|e| ApiError::bad_json(".", format!("after the JSON value: {e}")))?;
     Ok(value)
+}
+
+/// True when reading the body stopped at the body timeout.
+fn is_timeout(e: &BytesRejection) -> bool {
+    let mut cur: Option<&(dyn std::error::Error + 'static)> = Some(e);
+    while let Some(err) = cur {
+        if err.is::<tower_http::timeout::TimeoutError>() {
+            return true;
+        }
+        cur = err.source();
+    }
+    false
+}
+
+/// Refuses a JSON text with a key twice in one object, at any depth (serde
+/// would keep the last silently): 400 naming the object's path and the key.
+/// Other syntax errors are left to the typed parse, which names them.
+pub fn no_duplicate_keys(bytes: &[u8]) -> Result<(), ApiError> {
+    let mut de = serde_json::Deserializer::from_slice(bytes);
+    match serde_path_to_error::deserialize::<_, Unique>(&mut de) {
+        Ok(_) => Ok(()),
+        Err(e) => {
+            let msg = e.inner().to_string();
+            if msg.starts_with(DUPLICATE) {
+                let path = e.path().to_string();
+                let msg = msg.split(" at line ").next().unwrap_or(&msg).to_string();
+                Err(ApiError::bad_json(
+                    path,
+                    format!("{msg} (each key at most once per object)"),
+                ))
+            } else {
+                Ok(())
+            }
+        }
+    }
+}
+
+const DUPLICATE: &str = "duplicate key";
+
+/// Any JSON value, checked for repeated keys.
+struct Unique;
+
+impl<'de> de::Deserialize<'de> for Unique {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        d.deserialize_any(UniqueVisitor)
+    }
+}
+
+struct UniqueVisitor;
+
+impl<'de> Visitor<'de> for UniqueVisitor {
+    type Value = Unique;
+
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str("a JSON value")
+    }
+
+    fn visit_bool<E>(self, _: bool) -> Result<Unique, E> {
+        Ok(Unique)
+    }
+    fn visit_i64<E>(self, _: i64) -> Result<Unique, E> {
+        Ok(Unique)
+    }
+    fn visit_u64<E>(self, _: u64) -> Result<Unique, E> {
+        Ok(Unique)
+    }
+    fn visit_f64<E>(self, _: f64) -> Result<Unique, E> {
+        Ok(Unique)
+    }
+    fn visit_str<E>(self, _: &str) -> Result<Unique, E> {
+        Ok(Unique)
+    }
+    fn visit_unit<E>(self) -> Result<Unique, E> {
+        Ok(Unique)
+    }
+
+    fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Unique, A::Error> {
+        while seq.next_element::<Unique>()?.is_some() {}
+        Ok(Unique)
+    }
+
+    fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Unique, A::Error> {
+        let mut seen: HashSet<String> = HashSet::new();
+        while let Some(k) = map.next_key::<String>()? {
+            if seen.contains(&k) {
+                return Err(de::Error::custom(format!("{DUPLICATE} {k:?}")));
+            }
+            map.next_value::<Unique>()?;
+            seen.insert(k);
+        }
+        Ok(Unique)
+    }
 }

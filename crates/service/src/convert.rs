@@ -79,7 +79,19 @@ pub fn payload_hash(at: jiff::Timestamp, e: &DeviceEvent) -> Result<[u8; 32], Ap
 
 /// Checks a batch against the person's limits (the advisor's own) and
 /// makes the store's events; 422 names the event and the field.
-pub fn check_events(body: &EventsBody, limits: &EventLimits) -> Result<Vec<NewAppEvent>, ApiError> {
+///
+/// An event more than [`abba_core::limits::FUTURE_SKEW_MINUTES`] after
+/// `now` (the server's clock) is refused: a device clock gone wrong would
+/// otherwise become the person's latest decision for good.
+pub fn check_events(
+    body: &EventsBody,
+    limits: &EventLimits,
+    now: jiff::Timestamp,
+) -> Result<Vec<NewAppEvent>, ApiError> {
+    let skew = abba_core::limits::FUTURE_SKEW_MINUTES;
+    let latest = now
+        .checked_add(jiff::SignedDuration::from_mins(skew))
+        .map_err(ApiError::internal)?;
     let n = body.events.len();
     if n == 0 || n > abba_api::MAX_EVENTS_PER_BATCH {
         return Err(ApiError::invalid(
@@ -119,6 +131,17 @@ pub fn check_events(body: &EventsBody, limits: &EventLimits) -> Result<Vec<NewAp
                 ),
             )
         })?;
+        if at > latest {
+            return Err(ApiError::invalid(
+                format!("events[{i}].at"),
+                format!(
+                    "event seq {} ({}) is dated {at}, more than {skew} minutes after the server's clock ({}); check the device's clock",
+                    e.seq,
+                    abba_io::events::kind_name(&event_kind(&e.event)),
+                    now.round(jiff::Unit::Second).unwrap_or(now)
+                ),
+            ));
+        }
         let kind = event_kind(&e.event);
         guard
             .check(&Event::new(Timestamp(0), kind), limits)
@@ -203,6 +226,54 @@ pub fn suggestions(
         .filter(|(d, _)| keep(d))
         .map(|(d, v)| Ok(suggestion(live, d, v, seq_of(d)?)))
         .collect()
+}
+
+/// One page of the person's suggestions with an id greater than `after`
+/// (all without), at most `limit`, in id order; and the `after` of the
+/// next page when more follow. Only the page is put in words.
+pub fn page(
+    live: &Live,
+    after: Option<u64>,
+    limit: usize,
+    seq_of: &mut SeqOf<'_>,
+) -> Result<(Vec<Suggestion>, Option<u64>), StoreError> {
+    let mut picked: Vec<(u64, usize)> = live
+        .decisions
+        .iter()
+        .enumerate()
+        .map(|(i, d)| (suggestion_id(d), i))
+        .filter(|(id, _)| after.is_none_or(|a| *id > a))
+        .collect();
+    picked.sort_unstable();
+    let more = picked.len() > limit;
+    picked.truncate(limit);
+    let next = if more {
+        picked.last().map(|x| x.0)
+    } else {
+        None
+    };
+    // The latest decision of each setting is the only one that can be
+    // open: known from the whole list, not the page.
+    let mut latest: BTreeMap<&'static str, usize> = BTreeMap::new();
+    for (i, d) in live.decisions.iter().enumerate() {
+        latest.insert(abba_store::answer::param_key(d.parameter), i);
+    }
+    let decisions: Vec<Decision> = picked
+        .iter()
+        .map(|&(_, i)| live.decisions[i].clone())
+        .collect();
+    let mut views = advise::views(&live.person, &decisions, &live.answers);
+    for (v, &(_, i)) in views.iter_mut().zip(&picked) {
+        if v.status == "open" && latest.get(v.setting) != Some(&i) {
+            v.status = "superseded".into();
+        }
+    }
+    let list = decisions
+        .iter()
+        .zip(&views)
+        .map(|(d, v)| Ok(suggestion(live, d, v, seq_of(d)?)))
+        .collect::<Result<Vec<_>, StoreError>>()?;
+    Ok((list, next))
 }
 
 /// The advice as JSON.

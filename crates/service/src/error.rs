@@ -20,6 +20,8 @@ pub struct ApiError {
     pub message: String,
     /// JSON path or query parameter, when known.
     pub path: Option<String>,
+    /// Seconds for a `Retry-After` header (429, 503).
+    pub retry_after: Option<u64>,
 }
 
 impl ApiError {
@@ -30,6 +32,7 @@ impl ApiError {
             code,
             message: message.into(),
             path: None,
+            retry_after: None,
         }
     }
 
@@ -88,9 +91,37 @@ impl ApiError {
         Self::new(StatusCode::CONFLICT, ErrorCode::Conflict, message)
     }
 
+    /// 503: the store stayed busy or the service is at its limit; retry
+    /// after `retry_after` seconds.
+    pub fn busy(message: impl Into<String>, retry_after: u64) -> Self {
+        let mut e = Self::new(StatusCode::SERVICE_UNAVAILABLE, ErrorCode::Busy, message);
+        e.retry_after = Some(retry_after);
+        e
+    }
+
+    /// 429: too many failed authentications; retry after `retry_after` s.
+    pub fn too_many(retry_after: u64) -> Self {
+        let mut e = Self::new(
+            StatusCode::TOO_MANY_REQUESTS,
+            ErrorCode::TooManyRequests,
+            format!("too many failed authentications from this client; retry in {retry_after} s"),
+        );
+        e.retry_after = Some(retry_after);
+        e
+    }
+
+    /// 408: the request came too slowly.
+    pub fn timeout(what: &str) -> Self {
+        Self::new(
+            StatusCode::REQUEST_TIMEOUT,
+            ErrorCode::Timeout,
+            format!("{what} did not arrive in time"),
+        )
+    }
+
     /// 500 (a fault of the service, logged).
     pub fn internal(message: impl std::fmt::Display) -> Self {
-        eprintln!("abba serve: internal error: {message}");
+        tracing::error!(error = %message, "internal error");
         Self::new(
             StatusCode::INTERNAL_SERVER_ERROR,
             ErrorCode::Internal,
@@ -125,6 +156,22 @@ impl From<StoreError> for ApiError {
                 ApiError::not_found("no such suggestion for this person").at(field)
             }
             StoreError::NoToken(_) => ApiError::not_found(e.to_string()),
+            StoreError::LastAdmin(_) => ApiError::conflict(e.to_string()),
+            ref busy if busy.is_busy() => {
+                tracing::warn!(error = %busy, "the store stayed busy");
+                ApiError::busy(
+                    "the store is busy (another writer holds it); retry after Retry-After seconds",
+                    1,
+                )
+            }
+            ref ro if ro.is_read_only() => {
+                tracing::error!(error = %ro, "the store cannot be written");
+                ApiError::new(
+                    StatusCode::SERVICE_UNAVAILABLE,
+                    ErrorCode::Unavailable,
+                    "the store cannot be written (read-only)",
+                )
+            }
             StoreError::Advisor(a) => ApiError::invalid("advisor", a.to_string()),
             other => ApiError::internal(other),
         }
@@ -137,6 +184,10 @@ impl IntoResponse for ApiError {
         if self.status == StatusCode::UNAUTHORIZED {
             r.headers_mut()
                 .insert(header::WWW_AUTHENTICATE, HeaderValue::from_static("Bearer"));
+        }
+        if let Some(s) = self.retry_after {
+            r.headers_mut()
+                .insert(header::RETRY_AFTER, HeaderValue::from(s));
         }
         r
     }
@@ -156,6 +207,12 @@ pub enum ServiceError {
         /// The cause.
         source: std::io::Error,
     },
+    /// The store file cannot be written.
+    #[error("{}: the store cannot be written (read-only file, folder or medium); the service needs to write every event it acknowledges", .0.display())]
+    ReadOnly(std::path::PathBuf),
+    /// The connection pool could not be built.
+    #[error("opening the store's connections: {0}")]
+    Pool(String),
     /// Token generation.
     #[error("the operating system's random generator failed: {0}")]
     Random(String),

@@ -1,31 +1,46 @@
-//! The OpenAPI document, generated from the handlers' annotations and the
-//! wire types' schemas (never written by hand).
+//! Every endpoint, registered once for both the router and the OpenAPI
+//! document (utoipa-axum's router: the two lists cannot drift); the
+//! document is generated from the handlers' annotations and the wire
+//! types' schemas (never written by hand).
 
 use crate::routes::{admin, meta, person};
+use crate::state::AppState;
+use std::sync::OnceLock;
 use utoipa::openapi::security::{HttpAuthScheme, HttpBuilder, SecurityScheme};
 use utoipa::{Modify, OpenApi};
+use utoipa_axum::router::OpenApiRouter;
+use utoipa_axum::routes;
 
-/// The document.
+/// The endpoints.
+pub fn api() -> OpenApiRouter<AppState> {
+    OpenApiRouter::with_openapi(ApiDoc::openapi())
+        .routes(routes!(meta::healthz))
+        .routes(routes!(meta::openapi))
+        .routes(routes!(admin::create_person))
+        .routes(routes!(admin::set_bounds))
+        .routes(routes!(admin::issue_token))
+        .routes(routes!(admin::revoke_token))
+        .routes(routes!(person::post_events))
+        .routes(routes!(person::post_answers))
+        .routes(routes!(person::sync))
+        .routes(routes!(person::suggestions))
+        .routes(routes!(person::advice))
+        .routes(routes!(person::history))
+}
+
+/// The document (built once).
+pub fn document() -> &'static utoipa::openapi::OpenApi {
+    static DOC: OnceLock<utoipa::openapi::OpenApi> = OnceLock::new();
+    DOC.get_or_init(|| api().split_for_parts().1)
+}
+
+/// The document's frame: title, schemas no handler names, security, tags.
 #[derive(OpenApi)]
 #[openapi(
     info(
         title = "abba service",
         description = "The abba advisor service for pump and phone apps: device events with the app's sequence numbers, acknowledged after commit and answered with the advisor's suggestions; answers; history sync. abba is research software, not a medical device.",
         license(name = "MIT")
-    ),
-    paths(
-        meta::healthz,
-        meta::openapi,
-        admin::create_person,
-        admin::set_bounds,
-        admin::issue_token,
-        admin::revoke_token,
-        person::post_events,
-        person::post_answers,
-        person::sync,
-        person::suggestions,
-        person::advice,
-        person::history,
     ),
     components(schemas(abba_api::ErrorCode, abba_api::Mode)),
     modifiers(&Bearer),

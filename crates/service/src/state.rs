@@ -1,130 +1,305 @@
-//! The service's state: the store (one SQLite connection: SQLite has one
-//! writer at a time anyway) and each person's live advisor, behind one
-//! mutex. Every request's store work runs on tokio's blocking pool.
+//! The service's state: a pool of SQLite connections (WAL: readers run
+//! side by side, SQLite itself serialises writers), a lock per person (a
+//! person's requests run one after another, different persons' never wait
+//! for each other here) and the bounded cache of live advisors. Every
+//! request's store work runs on tokio's blocking pool.
 
 use crate::auth::{self, Caller, Need};
-use crate::error::ApiError;
+use crate::error::{ApiError, ServiceError};
+use crate::settings::StoreSettings;
 use abba_store::{Live, Store, StoreError};
-use axum::http::{header, HeaderMap};
 use std::collections::HashMap;
-use std::sync::{Arc, Mutex};
+use std::net::IpAddr;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
+use std::time::{Duration, Instant};
 
-/// The store and the live advisors.
-pub struct Core {
-    /// The store (opened with `synchronous=FULL`).
-    pub store: Store,
-    live: HashMap<i64, Live>,
-    /// SQLite's `data_version` when last looked at: it changes when
-    /// another connection (the CLI, another process) commits.
-    data_version: Option<i64>,
+/// Opens pooled connections: each one a [`Store`] in WAL mode with
+/// `synchronous=FULL`, IMMEDIATE transactions and the service's busy
+/// timeout.
+#[derive(Debug)]
+pub struct StoreManager {
+    db: PathBuf,
+    busy: Duration,
 }
 
-impl Core {
-    /// Wraps an open store.
-    pub fn new(store: Store) -> Self {
-        Self {
-            store,
-            live: HashMap::new(),
-            data_version: None,
-        }
+impl r2d2::ManageConnection for StoreManager {
+    type Connection = Store;
+    type Error = StoreError;
+
+    fn connect(&self) -> Result<Store, StoreError> {
+        Store::open_service(&self.db, self.busy)
     }
 
-    /// Drops every live advisor when another connection wrote to the file
-    /// since the last look (`abba answer` or `abba import` while the
-    /// service runs): they are rebuilt from the store on next use.
-    pub fn notice_other_writers(&mut self) -> Result<(), StoreError> {
-        let v: i64 = self
-            .store
-            .connection()
-            .pragma_query_value(None, "data_version", |r| r.get(0))?;
-        if self.data_version.is_some_and(|old| old != v) {
-            self.live.clear();
-        }
-        self.data_version = Some(v);
+    fn is_valid(&self, conn: &mut Store) -> Result<(), StoreError> {
+        conn.connection().execute_batch("SELECT 1")?;
         Ok(())
     }
 
-    /// The person's live state, built from the store on first use.
-    pub fn live(&mut self, id: i64) -> Result<&mut Live, StoreError> {
-        if !self.live.contains_key(&id) {
-            let l = self.store.live(id)?;
-            self.live.insert(id, l);
-        }
-        self.live
-            .get_mut(&id)
-            .ok_or_else(|| StoreError::corrupt("live state", "missing after insert"))
+    fn has_broken(&self, _conn: &mut Store) -> bool {
+        false
     }
+}
 
-    /// Runs `f` with the person's live state and the store; on an error the
-    /// live state is dropped (the next request rebuilds it from the store).
-    pub fn with_live<T>(
-        &mut self,
-        id: i64,
-        f: impl FnOnce(&mut Store, &mut Live) -> Result<T, StoreError>,
-    ) -> Result<T, StoreError> {
-        let mut live = match self.live.remove(&id) {
-            Some(l) => l,
-            None => self.store.live(id)?,
-        };
-        let out = f(&mut self.store, &mut live);
-        if out.is_ok() {
-            self.live.insert(id, live);
-        }
-        out
-    }
+/// A pooled connection.
+pub type Conn = r2d2::PooledConnection<StoreManager>;
 
-    /// Replaces a person's live state.
-    pub fn set_live(&mut self, id: i64, live: Live) {
-        self.live.insert(id, live);
-    }
+/// A person's slot in the cache (taken out while a request uses it).
+type Slot = Arc<Mutex<Option<Live>>>;
+
+/// Failed authentications of one client in the current window.
+#[derive(Debug, Clone, Copy)]
+struct Failures {
+    since: Instant,
+    count: u32,
+}
+
+struct Inner {
+    db: PathBuf,
+    pool: r2d2::Pool<StoreManager>,
+    locks: Mutex<HashMap<i64, Arc<Mutex<()>>>>,
+    live: moka::sync::Cache<i64, Slot>,
+    failures: Mutex<HashMap<IpAddr, Failures>>,
+    settings: StoreSettings,
 }
 
 /// Shared by every handler.
 #[derive(Clone)]
 pub struct AppState {
-    core: Arc<Mutex<Core>>,
+    inner: Arc<Inner>,
+}
+
+/// A poisoned lock guards nothing a panic could have left half-done (the
+/// store's transactions roll back; a live advisor is taken out of the
+/// cache while used, so a panic drops it): carry on.
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(PoisonError::into_inner)
 }
 
 impl AppState {
-    /// The state over an open store.
-    pub fn new(store: Store) -> Self {
-        Self {
-            core: Arc::new(Mutex::new(Core::new(store))),
-        }
+    /// The state over the store file `db` (created if missing); refuses a
+    /// store that cannot be written.
+    pub fn open(db: &Path, settings: StoreSettings) -> Result<Self, ServiceError> {
+        // The first connection migrates the file; then the pool opens the rest.
+        let first = Store::open_service(db, settings.busy_timeout)?;
+        check_writable(&first, db)?;
+        drop(first);
+        let pool = r2d2::Pool::builder()
+            .max_size(settings.connections)
+            .min_idle(Some(1))
+            .connection_timeout(settings.busy_timeout)
+            .build(StoreManager {
+                db: db.to_path_buf(),
+                busy: settings.busy_timeout,
+            })
+            .map_err(|e| ServiceError::Pool(e.to_string()))?;
+        let live = moka::sync::Cache::builder()
+            .max_capacity(settings.cache_persons)
+            .time_to_idle(settings.cache_idle)
+            // LRU: the person who just wrote is kept (moka's default
+            // TinyLFU may refuse a newcomer).
+            .eviction_policy(moka::policy::EvictionPolicy::lru())
+            .build();
+        Ok(Self {
+            inner: Arc::new(Inner {
+                db: db.to_path_buf(),
+                pool,
+                locks: Mutex::new(HashMap::new()),
+                live,
+                failures: Mutex::new(HashMap::new()),
+                settings,
+            }),
+        })
     }
 
-    /// Checks the request's token against what the endpoint needs.
-    pub async fn authorize(&self, headers: &HeaderMap, need: Need) -> Result<Caller, ApiError> {
-        let auth = headers
-            .get(header::AUTHORIZATION)
-            .map(|v| v.to_str().map(str::to_string).unwrap_or_default());
-        self.core(move |core| auth::authorize(&core.store, auth.as_deref(), need))
-            .await
+    /// The store file.
+    pub fn db(&self) -> &Path {
+        &self.inner.db
     }
 
-    /// Runs `f` on the blocking pool with the core locked.
-    pub async fn core<T: Send + 'static>(
+    /// The settings.
+    pub fn settings(&self) -> &StoreSettings {
+        &self.inner.settings
+    }
+
+    /// Live advisors in the cache now (after its pending evictions ran).
+    pub fn cached_persons(&self) -> u64 {
+        self.inner.live.run_pending_tasks();
+        self.inner.live.entry_count()
+    }
+
+    /// True when the person's live advisor is in the cache.
+    pub fn is_cached(&self, id: i64) -> bool {
+        self.inner.live.contains_key(&id)
+    }
+
+    /// Runs `f` on the blocking pool with a pooled connection.
+    pub async fn store<T: Send + 'static>(
         &self,
-        f: impl FnOnce(&mut Core) -> Result<T, ApiError> + Send + 'static,
+        f: impl FnOnce(&mut Store) -> Result<T, ApiError> + Send + 'static,
     ) -> Result<T, ApiError> {
-        let core = Arc::clone(&self.core);
+        let s = self.clone();
         tokio::task::spawn_blocking(move || {
-            // A panic while the lock was held leaves the store consistent
-            // (transactions roll back) but perhaps not a live advisor: drop
-            // them all (they are rebuilt from the store) and carry on.
-            let mut guard = match core.lock() {
-                Ok(c) => c,
-                Err(poisoned) => {
-                    let mut c = poisoned.into_inner();
-                    c.live.clear();
-                    core.clear_poison();
-                    c
-                }
-            };
-            guard.notice_other_writers()?;
-            f(&mut guard)
+            let mut conn = s.conn()?;
+            f(&mut conn)
         })
         .await
         .map_err(ApiError::internal)?
     }
+
+    /// Runs `f` on the blocking pool with the person's lock held, a pooled
+    /// connection and the person's live state: the cached one when it is
+    /// still the store's (same revision), else rebuilt. With `keep` the
+    /// state goes (back) into the cache afterwards; without, a state that
+    /// was not cached is built in a read transaction and dropped (read-only
+    /// requests never fill the cache). On an error the state is dropped
+    /// (the next request rebuilds it from the store).
+    pub async fn person<T: Send + 'static>(
+        &self,
+        id: i64,
+        keep: bool,
+        f: impl FnOnce(&mut Store, &mut Live) -> Result<T, ApiError> + Send + 'static,
+    ) -> Result<T, ApiError> {
+        let s = self.clone();
+        tokio::task::spawn_blocking(move || {
+            let person_lock = s.person_lock(id);
+            let _held = lock(&person_lock);
+            let mut conn = s.conn()?;
+            let cached = s.inner.live.remove(&id).and_then(|slot| lock(&slot).take());
+            let was_cached = cached.is_some();
+            let mut live = match cached {
+                Some(l) if l.rev == conn.person_rev(id)? => l,
+                _ if keep => conn.live(id)?,
+                _ => conn.live_read(id)?,
+            };
+            let out = f(&mut conn, &mut live);
+            if out.is_ok() && (keep || was_cached) {
+                s.inner.live.insert(id, Arc::new(Mutex::new(Some(live))));
+            }
+            out
+        })
+        .await
+        .map_err(ApiError::internal)?
+    }
+
+    /// Drops a person's live state (rebuilt on next use).
+    pub fn forget(&self, id: i64) {
+        self.inner.live.invalidate(&id);
+    }
+
+    fn conn(&self) -> Result<Conn, ApiError> {
+        self.inner.pool.get().map_err(|e| {
+            tracing::warn!(error = %e, "no store connection free");
+            ApiError::busy(
+                "the store is busy: no connection came free in time",
+                self.inner.settings.retry_after,
+            )
+        })
+    }
+
+    fn person_lock(&self, id: i64) -> Arc<Mutex<()>> {
+        let mut locks = lock(&self.inner.locks);
+        if locks.len() > 4 * self.inner.settings.cache_persons as usize + 1024 {
+            // Locks nobody holds or waits for are only kept for reuse.
+            locks.retain(|_, l| Arc::strong_count(l) > 1);
+        }
+        Arc::clone(locks.entry(id).or_default())
+    }
+
+    /// Checks the request's `Authorization` header value against what the
+    /// endpoint needs. A client (by address) that failed more than the
+    /// settings allow in the current window is answered 429 without a
+    /// look at its token.
+    pub async fn authorize(
+        &self,
+        header: Option<String>,
+        peer: Option<IpAddr>,
+        need: Need,
+    ) -> Result<Caller, ApiError> {
+        if let Some(ip) = peer {
+            self.check_failures(ip)?;
+        }
+        let out = self
+            .store(move |store| auth::authorize(store, header.as_deref(), need))
+            .await;
+        if let (Some(ip), Err(e)) = (peer, &out) {
+            if e.status == axum::http::StatusCode::UNAUTHORIZED {
+                self.note_failure(ip);
+            }
+        }
+        out
+    }
+
+    fn check_failures(&self, ip: IpAddr) -> Result<(), ApiError> {
+        let set = &self.inner.settings;
+        let failures = lock(&self.inner.failures);
+        if let Some(f) = failures.get(&ip) {
+            let elapsed = f.since.elapsed();
+            if elapsed < set.auth_window && f.count >= set.auth_failures {
+                let wait = (set.auth_window - elapsed).as_secs().max(1);
+                return Err(ApiError::too_many(wait));
+            }
+        }
+        Ok(())
+    }
+
+    fn note_failure(&self, ip: IpAddr) {
+        let window = self.inner.settings.auth_window;
+        let mut failures = lock(&self.inner.failures);
+        if failures.len() > 100_000 {
+            failures.retain(|_, f| f.since.elapsed() < window);
+        }
+        let f = failures.entry(ip).or_insert(Failures {
+            since: Instant::now(),
+            count: 0,
+        });
+        if f.since.elapsed() >= window {
+            *f = Failures {
+                since: Instant::now(),
+                count: 0,
+            };
+        }
+        f.count += 1;
+        if f.count == self.inner.settings.auth_failures {
+            tracing::warn!(client = %ip, "too many failed authentications: slowed down");
+        }
+    }
+
+    /// Whether the store answers and can be written (for `/healthz`):
+    /// `Err` says why not.
+    pub async fn store_health(&self) -> Result<(), String> {
+        let db = self.inner.db.clone();
+        let s = self.clone();
+        tokio::task::spawn_blocking(move || {
+            let conn = s.conn().map_err(|e| e.message)?;
+            conn.connection()
+                .query_row("SELECT count(*) FROM person", [], |r| r.get::<_, i64>(0))
+                .map_err(|e| format!("the store does not answer: {e}"))?;
+            check_writable(&conn, &db).map_err(|e| e.to_string())
+        })
+        .await
+        .map_err(|e| e.to_string())?
+    }
+}
+
+/// A store the service could not write would take events it cannot keep:
+/// refuse it (the file or its folder read-only, a read-only medium).
+fn check_writable(store: &Store, db: &Path) -> Result<(), ServiceError> {
+    let read_only = store
+        .connection()
+        .is_readonly(rusqlite::MAIN_DB)
+        .map_err(StoreError::from)?;
+    let meta = std::fs::metadata(db).map_err(|source| ServiceError::Io {
+        context: format!("reading {}", db.display()),
+        source,
+    })?;
+    let dir_ro = db
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .and_then(|p| std::fs::metadata(p).ok())
+        .is_some_and(|m| m.permissions().readonly());
+    if read_only || meta.permissions().readonly() || dir_ro {
+        return Err(ServiceError::ReadOnly(db.to_path_buf()));
+    }
+    Ok(())
 }

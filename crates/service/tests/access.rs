@@ -210,11 +210,35 @@ async fn a_revoked_admin_token_stops_working_and_ids_that_are_not_numbers_are_40
         let r = svc.call(Method::GET, uri, None, None).await;
         assert_eq!(r.status, StatusCode::UNAUTHORIZED, "{uri}: {}", r.text);
     }
-    // The admin revokes its own token (id 1: the first one issued).
+    // The last admin token cannot be revoked (nobody could administer the
+    // store any more): 409, and it still works.
+    let r = svc
+        .call(Method::DELETE, "/v1/tokens/1", Some(&svc.admin), None)
+        .await;
+    assert_eq!(r.status, StatusCode::CONFLICT, "{}", r.text);
+    assert!(
+        r.json["message"]
+            .as_str()
+            .unwrap()
+            .contains("last admin token"),
+        "{}",
+        r.text
+    );
+    // With a second admin token, the admin revokes its own (id 1).
+    let (second_id, second) = abba_service::new_admin_token(&svc.db).unwrap();
     let r = svc
         .call(Method::DELETE, "/v1/tokens/1", Some(&svc.admin), None)
         .await;
     assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+    let r = svc
+        .call(
+            Method::DELETE,
+            &format!("/v1/tokens/{second_id}"),
+            Some(&second),
+            None,
+        )
+        .await;
+    assert_eq!(r.status, StatusCode::CONFLICT, "{}", r.text);
     let r = svc
         .call(Method::GET, "/v1/openapi.json", Some(&svc.admin), None)
         .await;

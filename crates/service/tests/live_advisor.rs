@@ -261,9 +261,9 @@ async fn batched_posts_give_the_in_process_decisions() {
     all.extend(more.iter().cloned());
     let reference_all = in_process(&svc, id, &all);
     let svc2 = Svc {
-        router: abba_service::router(abba_service::AppState::new(
-            abba_service::open_store(&svc.db).unwrap(),
-        )),
+        router: abba_service::router(
+            abba_service::AppState::open(&svc.db, Default::default()).unwrap(),
+        ),
         dir: svc.dir,
         db: svc.db,
         admin: svc.admin,

@@ -186,9 +186,9 @@ async fn an_acknowledged_batch_is_in_the_store_after_reopening() {
     let svc2 = Svc {
         dir,
         db: db.clone(),
-        router: abba_service::router(abba_service::AppState::new(
-            abba_service::open_store(&db).unwrap(),
-        )),
+        router: abba_service::router(
+            abba_service::AppState::open(&db, Default::default()).unwrap(),
+        ),
         admin,
     };
     let h = held(&svc2, id, &t, "?from=0").await;

@@ -2,10 +2,12 @@
 //! with its reasons and the data it rests on, the first-week countdown.
 
 use crate::answer::{param_key, Answers};
+use crate::in_force::{Extras, TherapyChange};
 use crate::person::Person;
 use crate::words;
 use abba_advisor::{Abba, Advisor, Decision, DecisionDetail, Parameter};
 use abba_core::{Event, EventKind, MealSlot, Timestamp};
+use abba_io::automation::Delivery;
 use abba_io::clock::AdvisorClock;
 use abba_io::events::EventStream;
 use serde::Serialize;
@@ -52,6 +54,10 @@ pub struct SuggestionView {
     pub status: String,
     /// The value in force after the answer (or the suggestion if open).
     pub in_force: f64,
+    /// A basal schedule: the suggested schedule, every segment on the
+    /// pump's step (local start time, U/h).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub schedule: Option<Vec<(String, f64)>>,
 }
 
 /// One setting today.
@@ -124,6 +130,53 @@ pub struct Advice {
     pub settings: Vec<SettingAdvice>,
     /// The data.
     pub data: DataSummary,
+    /// The therapy in force: where it comes from, the schedule, the pump's steps, changes.
+    pub therapy: TherapyView,
+    /// How insulin is delivered, as the data show it.
+    pub delivery: DeliveryView,
+    /// Import-fed persons in the first week: the days that qualify and those that do not.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub first_week: Option<FirstWeekView>,
+    /// Things to know about the data (hypoglycaemia treatments, zones).
+    pub notes: Vec<String>,
+}
+
+/// The therapy in force.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TherapyView {
+    /// Where it comes from, in words.
+    pub source: &'static str,
+    /// The basal schedule in force (local start, U/h), when there is one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub basal_schedule: Option<Vec<(String, f64)>>,
+    /// The pump's steps (none: continuous values).
+    pub pump_steps: Option<abba_advisor::PumpSteps>,
+    /// Changes of therapy in the data and by the clinician, in words.
+    pub changes: Vec<String>,
+}
+
+/// Delivery as the data show it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DeliveryView {
+    /// `open_loop`, `closed_loop` or `injections`.
+    pub kind: Delivery,
+    /// In words.
+    pub words: &'static str,
+    /// The evidence (counts).
+    pub evidence: Vec<String>,
+    /// True when basal rates are suggested.
+    pub basal_suggestions: bool,
+    /// What the person should know about it.
+    pub note: Option<String>,
+}
+
+/// The first week counted from the data.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FirstWeekView {
+    /// Local dates of the qualifying days.
+    pub qualifying: Vec<String>,
+    /// Local dates that do not qualify, with why.
+    pub missing: Vec<String>,
 }
 
 /// A clock for local times, once day 1 is known.
@@ -156,8 +209,35 @@ pub fn day_for(d: &Decision) -> i64 {
     }
 }
 
+/// `HH:MM` of a minute of the day.
+pub fn hhmm(m: u32) -> String {
+    format!("{:02}:{:02}", m / 60, m % 60)
+}
+
 /// Every decision as the person sees it, oldest first.
 pub fn views(person: &Person, decisions: &[Decision], answers: &Answers) -> Vec<SuggestionView> {
+    views_with(person, decisions, answers, None)
+}
+
+/// The value a change of therapy puts in force for `p`, if it sets it.
+fn change_value(c: &TherapyChange, p: Parameter) -> Option<f64> {
+    match p {
+        Parameter::Basal => c.basal.as_deref().map(abba_advisor::steps::mean_rate),
+        Parameter::CarbRatio(s) => c.carb_ratio.and_then(|cr| s.main_index().map(|i| cr[i])),
+    }
+}
+
+/// Like [`views`], with what the replay derived from imported records:
+/// basal updates not offered (a loop or injections: `not_offered`), a
+/// suggestion replaced by a later change of therapy (`replaced`).
+pub fn views_with(
+    person: &Person,
+    decisions: &[Decision],
+    answers: &Answers,
+    extras: Option<&Extras>,
+) -> Vec<SuggestionView> {
+    let hold_basal = extras.is_some_and(|x| x.hold_basal);
+    let changes: &[TherapyChange] = extras.map_or(&[], |x| &x.changes);
     let c = clock(person);
     let cfg = &person.settings.advisor;
     let mut latest: BTreeMap<&'static str, usize> = BTreeMap::new();
@@ -176,9 +256,26 @@ pub fn views(person: &Person, decisions: &[Decision], answers: &Answers) -> Vec<
                 _ => None,
             };
             let answer = answers.get(&(d.at.0, key));
+            let rounded = match &d.detail {
+                DecisionDetail::Abba(x) => x.rounded.as_ref(),
+                _ => None,
+            };
+            let replaced = changes
+                .iter()
+                .filter(|c| c.at > d.at)
+                .find_map(|c| change_value(c, d.parameter));
             let (status, in_force) = match (answer, &skipped) {
                 (Some(a), _) => (a.kind.name().to_string(), a.in_force),
                 (None, Some(_)) => ("no_update".to_string(), d.new),
+                (None, None) if replaced.is_some() && latest.get(key) == Some(&i) => {
+                    ("replaced".to_string(), replaced.unwrap_or(d.old))
+                }
+                (None, None) if hold_basal && d.parameter == Parameter::Basal => {
+                    ("not_offered".to_string(), d.old)
+                }
+                (None, None) if rounded.is_some() && d.new == d.old => {
+                    ("no_change".to_string(), d.old)
+                }
                 (None, None) if latest.get(key) == Some(&i) => ("open".to_string(), d.new),
                 (None, None) => ("superseded".to_string(), d.new),
             };
@@ -201,10 +298,13 @@ pub fn views(person: &Person, decisions: &[Decision], answers: &Answers) -> Vec<
                 change_percent: 100.0 * (d.new / d.old - 1.0),
                 no_update: skipped.is_some(),
                 no_update_reason: skipped,
-                reasons: words::reasons(d, cfg),
+                reasons: words::reasons_in(d, cfg, person.settings.units),
                 data,
                 status,
                 in_force,
+                schedule: rounded
+                    .and_then(|r| r.segments.as_ref())
+                    .map(|seg| seg.iter().map(|&(m, r)| (hhmm(m), r)).collect()),
             }
         })
         .collect()
@@ -260,7 +360,94 @@ fn first_week(person: &Person, events: &[Event]) -> Phase {
     }
 }
 
-/// Builds the advice from the replayed advisor, every decision and the answers.
+fn delivery_view(person: &Person, extras: Option<&Extras>) -> DeliveryView {
+    let Some(x) = extras else {
+        return DeliveryView {
+            kind: Delivery::OpenLoop,
+            words: "as the app reports it",
+            evidence: Vec::new(),
+            basal_suggestions: true,
+            note: None,
+        };
+    };
+    let kind = x.delivery();
+    let note = match (kind, person.settings.allow_closed_loop) {
+        (Delivery::OpenLoop, _) => None,
+        (_, false) => Some(format!(
+            "The data show {}. ABBA was designed and validated for open-loop pump therapy: abba suggests no basal rate (what the loop or the injections delivered is not a schedule to adapt). Carb ratios are still suggested. For research only, a person created with --allow-closed-loop gets basal suggestions.",
+            kind.name()
+        )),
+        (_, true) => Some(format!(
+            "The data show {}, and this person was created with --allow-closed-loop (research only): basal suggestions are made although ABBA was not validated for it.",
+            kind.name()
+        )),
+    };
+    DeliveryView {
+        kind,
+        words: kind.name(),
+        evidence: x.evidence.words(),
+        basal_suggestions: !x.hold_basal,
+        note,
+    }
+}
+
+fn therapy_view(person: &Person, advisor: &Abba, extras: Option<&Extras>) -> TherapyView {
+    let changes = extras.map_or_else(Vec::new, |x| {
+        x.changes
+            .iter()
+            .map(|c| {
+                let mut what = Vec::new();
+                if let Some(b) = &c.basal {
+                    let segs: Vec<String> =
+                        b.iter().map(|&(m, r)| format!("{} {r}", hhmm(m))).collect();
+                    what.push(format!("basal {} U/h", segs.join(", ")));
+                }
+                if let Some([b, l, d]) = c.carb_ratio {
+                    what.push(format!("carb ratios {b}/{l}/{d} g/U"));
+                }
+                format!("from {} ({}): {}", c.instant, c.origin, what.join(", "))
+            })
+            .collect()
+    });
+    TherapyView {
+        source: person.settings.therapy_source.words(),
+        basal_schedule: advisor
+            .basal_schedule()
+            .filter(|s| s.len() > 1)
+            .map(|s| s.iter().map(|&(m, r)| (hhmm(m), r)).collect()),
+        pump_steps: advisor.pump_steps(),
+        changes,
+    }
+}
+
+fn first_week_view(
+    person: &Person,
+    extras: Option<&Extras>,
+    initialised: bool,
+) -> Option<FirstWeekView> {
+    let x = extras?;
+    if initialised {
+        return None;
+    }
+    let c = clock(person)?;
+    let date = |d: i64| {
+        c.first_day()
+            .checked_add(jiff::Span::new().days(d))
+            .map_or_else(|_| format!("day {}", d + 1), |x| x.to_string())
+    };
+    Some(FirstWeekView {
+        qualifying: x.first_week.qualifying.iter().map(|&d| date(d)).collect(),
+        missing: x
+            .first_week
+            .missing
+            .iter()
+            .map(|(d, why)| format!("{}: {why}", date(*d)))
+            .collect(),
+    })
+}
+
+/// Builds the advice from the replayed advisor, every decision and the
+/// answers (an app-fed person: nothing derived from imported records).
 pub fn advice(
     person: &Person,
     stream: &EventStream,
@@ -270,8 +457,25 @@ pub fn advice(
     answers: &Answers,
     refused: usize,
 ) -> Advice {
+    advice_with(
+        person, stream, records, advisor, decisions, answers, refused, None,
+    )
+}
+
+/// Like [`advice`], with what the replay derived from imported records.
+#[allow(clippy::too_many_arguments)]
+pub fn advice_with(
+    person: &Person,
+    stream: &EventStream,
+    records: usize,
+    advisor: &Abba,
+    decisions: &[Decision],
+    answers: &Answers,
+    refused: usize,
+    extras: Option<&Extras>,
+) -> Advice {
     let c = clock(person);
-    let all = views(person, decisions, answers);
+    let all = views_with(person, decisions, answers, extras);
     let settings = PARAMETERS
         .iter()
         .map(|&p| {
@@ -294,7 +498,21 @@ pub fn advice(
     let phase = if advisor.is_initialised() {
         Phase::Adapting
     } else {
-        first_week(person, &stream.events)
+        match (first_week(person, &stream.events), extras) {
+            (Phase::FirstWeek { mut missing, .. }, Some(x)) => {
+                let init = person.settings.advisor.init_days;
+                let done = (x.first_week.qualifying.len() as u32).min(init);
+                missing.insert(0, format!(
+                    "the first week needs {init} days each with at least 70 % of the expected CGM readings (SMBG mode: 3 meter readings) and pump records"
+                ));
+                Phase::FirstWeek {
+                    days_done: done,
+                    days_left: init - done,
+                    missing,
+                }
+            }
+            (p, _) => p,
+        }
     };
     let span = match (stream.events.first(), stream.events.last()) {
         (Some(a), Some(b)) => Some((local(c.as_ref(), a.at), local(c.as_ref(), b.at))),
@@ -324,5 +542,9 @@ pub fn advice(
                 .collect(),
             events_refused: refused,
         },
+        therapy: therapy_view(person, advisor, extras),
+        delivery: delivery_view(person, extras),
+        first_week: first_week_view(person, extras, advisor.is_initialised()),
+        notes: stream.notes.clone(),
     }
 }

@@ -69,6 +69,9 @@ pub enum StoreError {
     /// No such token.
     #[error("no token with id {0}")]
     NoToken(i64),
+    /// The last admin token that is not revoked.
+    #[error("token {0} is the last admin token: issue another admin token (`abba token --admin`) before revoking it")]
+    LastAdmin(i64),
 }
 
 impl StoreError {
@@ -78,6 +81,26 @@ impl StoreError {
             field: field.into(),
             problem: problem.into(),
         }
+    }
+
+    /// True when SQLite stayed busy (another connection held the write
+    /// lock longer than the busy timeout).
+    pub fn is_busy(&self) -> bool {
+        matches!(
+            self,
+            StoreError::Sql(rusqlite::Error::SqliteFailure(e, _))
+                if matches!(e.code, rusqlite::ErrorCode::DatabaseBusy | rusqlite::ErrorCode::DatabaseLocked)
+        )
+    }
+
+    /// True when the store file cannot be written (read-only file or
+    /// folder, read-only medium).
+    pub fn is_read_only(&self) -> bool {
+        matches!(
+            self,
+            StoreError::Sql(rusqlite::Error::SqliteFailure(e, _))
+                if e.code == rusqlite::ErrorCode::ReadOnly
+        )
     }
 
     /// A [`StoreError::Corrupt`] from a serde error.

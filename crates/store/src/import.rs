@@ -1,11 +1,20 @@
-//! Importing device exports: one transaction per import; a record already
-//! in the log (same source, same id) is counted, never added twice.
+//! Importing device exports: one transaction per import. A record is known
+//! when the log holds its identity (same source, same id) or the same
+//! record by content (same source, instant, kind and values; for Tidepool
+//! within [`CROSS_UPLOAD_WINDOW_S`], as two uploads carry one datum seconds
+//! apart): counted, never added twice. A known id with other content is a
+//! newer version of that record (a Nightscout document rewritten): it
+//! replaces the stored one, counted. Records dated after the time of
+//! import (beyond the clock skew) are refused, and records before the
+//! person's day 1 are not used; both are counted with the first one's
+//! place, never stored.
 
 use crate::error::StoreError;
 use crate::log::key;
 use crate::person::{self, Person};
-use abba_io::read::Batch;
-use rusqlite::{params, Connection};
+use abba_io::read::{Batch, Refused, CROSS_UPLOAD_WINDOW_S};
+use abba_io::{RecordKind, Source, SourceId};
+use rusqlite::{params, Connection, OptionalExtension};
 use serde::Serialize;
 
 /// What one import did.
@@ -21,37 +30,103 @@ pub struct ImportSummary {
     pub added: usize,
     /// Records the log already held.
     pub known: usize,
-    /// Exact duplicates between the files themselves, by kind.
+    /// Stored records replaced by a newer version (same id, other content).
+    pub updated: usize,
+    /// Exact duplicates within and between the files themselves.
     pub duplicates_in_files: usize,
+    /// Older versions of a record whose id came again in the files.
+    pub older_versions_in_files: usize,
+    /// Tidepool data carried by two uploads, kept once.
+    pub cross_upload_duplicates: usize,
+    /// Records dated after the time of import: refused.
+    pub future: Refused,
+    /// Records before the person's day 1: not used, not stored.
+    pub before_day_1: Refused,
+    /// Files from which no record was read.
+    pub empty_files: Vec<String>,
+    /// What the readers reported (stretches placed by a transmitter's
+    /// clock, repeats kept once).
+    pub notes: Vec<String>,
     /// Day 1 of the person's clock (set by the first import).
     pub first_day: Option<String>,
 }
 
-/// Adds `batch` to `person`'s log in one transaction. Everything is read
-/// and checked before the transaction starts; the transaction either
-/// commits every new record and the import row, or nothing.
+/// Adds `batch` to `person`'s log in one transaction, `now` being the
+/// time of import. Everything is read and checked before the transaction
+/// starts; the transaction either commits every new record and the import
+/// row, or nothing. A batch with no record at all is an error naming the
+/// files ("no readings in FILE").
 pub fn import(
     conn: &mut Connection,
     person: &Person,
     batch: &Batch,
+    now: jiff::Timestamp,
 ) -> Result<ImportSummary, StoreError> {
-    let mut rows = Vec::with_capacity(batch.records.len());
-    for r in &batch.records {
-        let (source, id) = key(r)?;
-        let kind = serde_json::to_string(&r.kind).map_err(|e| StoreError::corrupt("record", e))?;
-        rows.push((source, id, r.at.as_millisecond(), kind, batch.origin(r)));
+    let empty_files: Vec<String> = batch.empty_files().into_iter().map(String::from).collect();
+    if batch.records.is_empty() {
+        let files = if empty_files.is_empty() {
+            batch.files.join(", ")
+        } else {
+            empty_files.join(", ")
+        };
+        return Err(StoreError::Feed(format!("no readings in {files}")));
     }
-    // Day 1: the local date of the first record that says something the
-    // advisor uses (not an alert or a note).
+    let limit = abba_io::read::future_limit(now);
+    let mut future = Refused::default();
+    let mut before_day_1 = Refused::default();
+    let note = |r: &mut Refused, rec: &abba_io::Record| {
+        r.count += 1;
+        if r.first.is_none() {
+            r.first = Some(batch.origin(rec));
+            r.first_at = Some(rec.at.to_string());
+        }
+    };
+    // Day 1: the local date of the first glucose reading not in the future
+    // (a profile or a pump record months before the first reading does not
+    // start it); an import without glucose leaves day 1 open.
     let first_useful = batch
         .records
         .iter()
-        .find(|r| !matches!(r.kind, abba_io::RecordKind::Ignored { .. }));
+        .filter(|r| r.at <= limit && matches!(r.kind, RecordKind::Cgm { .. } | RecordKind::Smbg { .. }))
+        .min_by_key(|r| r.at);
     let first_day = match (person.first_day, first_useful) {
         (Some(d), _) => Some(d),
         (None, Some(r)) => Some(person.tz.to_datetime(r.at).date()),
         (None, None) => None,
     };
+    let mut rows = Vec::with_capacity(batch.records.len());
+    for r in &batch.records {
+        if r.at > limit {
+            note(&mut future, r);
+            continue;
+        }
+        // A profile before day 1 is in force on day 1: kept.
+        if let Some(d) = first_day {
+            if person.tz.to_datetime(r.at).date() < d
+                && !matches!(r.kind, RecordKind::Schedule { .. })
+            {
+                note(&mut before_day_1, r);
+                continue;
+            }
+        }
+        let (source, id) = key(r)?;
+        let kind = serde_json::to_string(&r.kind).map_err(|e| StoreError::corrupt("record", e))?;
+        let window = match (r.source, &r.kind) {
+            (_, RecordKind::Ignored { .. }) => None,
+            (Source::Tidepool, _) => Some(CROSS_UPLOAD_WINDOW_S * 1000),
+            _ => Some(0),
+        };
+        let is_id = matches!(r.id, SourceId::Id(_));
+        rows.push((
+            source,
+            id,
+            r.at.as_millisecond(),
+            kind,
+            batch.origin(r),
+            window,
+            is_id,
+        ));
+    }
     let tx = conn.transaction()?;
     if crate::app::count(&tx, person.id)? > 0 {
         return Err(StoreError::Feed(format!(
@@ -59,28 +134,75 @@ pub fn import(
             person.name
         )));
     }
-    let now = jiff::Timestamp::now().to_string();
+    let stamp = now.to_string();
     let files = serde_json::to_string(&batch.files).map_err(|e| StoreError::corrupt("files", e))?;
     let formats =
         serde_json::to_string(&batch.formats).map_err(|e| StoreError::corrupt("formats", e))?;
     tx.execute(
         "INSERT INTO import (person_id, imported_at, files, formats, records_read, records_added, records_known) VALUES (?1, ?2, ?3, ?4, ?5, 0, 0)",
-        params![person.id, now, files, formats, rows.len() as i64],
+        params![person.id, stamp, files, formats, rows.len() as i64],
     )?;
     let import_id = tx.last_insert_rowid();
-    let mut added = 0usize;
+    let (mut added, mut known, mut updated) = (0usize, 0usize, 0usize);
     {
-        let mut st = tx.prepare(
-            "INSERT OR IGNORE INTO record (person_id, source, source_id, at_ms, kind, origin, import_id) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)",
+        let mut same = tx.prepare(
+            "SELECT 1 FROM record WHERE person_id = ?1 AND at_ms BETWEEN ?2 AND ?3 AND source = ?4 AND kind = ?5 LIMIT 1",
         )?;
-        for (source, id, at_ms, kind, origin) in &rows {
-            added += st.execute(params![
-                person.id, source, id, at_ms, kind, origin, import_id
-            ])?;
+        let mut held = tx.prepare(
+            "SELECT at_ms, kind FROM record WHERE person_id = ?1 AND source = ?2 AND source_id = ?3",
+        )?;
+        let mut insert = tx.prepare(
+            "INSERT INTO record (person_id, source, source_id, at_ms, kind, origin, import_id) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)",
+        )?;
+        let mut replace = tx.prepare(
+            "UPDATE record SET at_ms = ?4, kind = ?5, origin = ?6, import_id = ?7 WHERE person_id = ?1 AND source = ?2 AND source_id = ?3",
+        )?;
+        for (source, id, at_ms, kind, origin, window, is_id) in &rows {
+            let stored: Option<(i64, String)> = held
+                .query_row(params![person.id, source, id], |r| {
+                    Ok((r.get(0)?, r.get(1)?))
+                })
+                .optional()?;
+            match stored {
+                Some((a, k)) if a == *at_ms && &k == kind => known += 1,
+                Some(_) if *is_id => {
+                    replace.execute(params![
+                        person.id, source, id, at_ms, kind, origin, import_id
+                    ])?;
+                    updated += 1;
+                }
+                Some((a, k)) => {
+                    return Err(StoreError::corrupt(
+                        "record id",
+                        format!(
+                        "{origin}: its content key {id} is held by another record ({a} ms, {k})"
+                    ),
+                    ))
+                }
+                None => {
+                    let by_content = match window {
+                        Some(w) => same
+                            .query_row(
+                                params![person.id, at_ms - w, at_ms + w, source, kind],
+                                |_| Ok(()),
+                            )
+                            .optional()?
+                            .is_some(),
+                        None => false,
+                    };
+                    if by_content {
+                        known += 1;
+                    } else {
+                        insert.execute(params![
+                            person.id, source, id, at_ms, kind, origin, import_id
+                        ])?;
+                        added += 1;
+                    }
+                }
+            }
         }
     }
-    let known = rows.len() - added;
-    let import_id = if added == 0 {
+    let import_id = if added == 0 && updated == 0 {
         // Nothing new: leave no trace beyond saying so.
         tx.execute("DELETE FROM import WHERE id = ?1", params![import_id])?;
         None
@@ -101,7 +223,14 @@ pub fn import(
         read: rows.len(),
         added,
         known,
+        updated,
         duplicates_in_files: batch.duplicates.values().sum(),
+        older_versions_in_files: batch.older_versions,
+        cross_upload_duplicates: batch.cross_upload.values().sum(),
+        future,
+        before_day_1,
+        empty_files,
+        notes: batch.notes.clone(),
         first_day: first_day.map(|d| d.to_string()),
     })
 }

@@ -19,9 +19,12 @@
 pub mod advise;
 pub mod answer;
 pub mod app;
+pub mod busy;
+pub mod check;
 pub mod error;
 pub mod history;
 pub mod import;
+pub mod in_force;
 pub mod live;
 pub mod log;
 pub mod person;
@@ -38,4 +41,4 @@ pub use error::StoreError;
 pub use import::ImportSummary;
 pub use live::{Live, Posted, Produced, SuggestionAnswer};
 pub use person::{NewPerson, Person};
-pub use store::{AnswerRequest, Store};
+pub use store::{AnswerRequest, ProfileResolution, Store};

@@ -43,6 +43,9 @@ pub struct Live {
     pub answers: Answers,
     /// Events the advisor refused.
     pub refused: usize,
+    /// The person's revision in the store this state reflects (see
+    /// [`Store::person_rev`]): another revision means someone else wrote.
+    pub rev: i64,
     /// (minute, seq) of the last app event fed.
     last: Option<(i64, u64)>,
     /// The decisions the last event fed produced (answers to them can go
@@ -123,8 +126,22 @@ pub(crate) fn store_decisions(
     Ok(())
 }
 
-fn from_state(person: Person, s: State, last: Option<(i64, u64)>) -> Live {
+/// The person's revision: bumped by the store's triggers on every write
+/// to what a live advisor is built from (0 before any).
+pub(crate) fn rev(conn: &Connection, person: i64) -> Result<i64, StoreError> {
+    Ok(conn
+        .query_row(
+            "SELECT rev FROM person_rev WHERE person_id = ?1",
+            params![person],
+            |r| r.get(0),
+        )
+        .optional()?
+        .unwrap_or(0))
+}
+
+fn from_state(person: Person, s: State, last: Option<(i64, u64)>, rev: i64) -> Live {
     Live {
+        rev,
         person,
         stream: Arc::try_unwrap(s.stream).unwrap_or_else(|a| (*a).clone()),
         records: s.records,
@@ -220,6 +237,15 @@ impl Store {
         })
     }
 
+    /// Like [`Store::open_durable`], waiting at most `busy` for another
+    /// writer before SQLite answers busy (the service's setting).
+    pub fn open_service(path: &Path, busy: std::time::Duration) -> Result<Self, StoreError> {
+        Ok(Self {
+            conn: crate::schema::open_opts(path, crate::schema::Sync::Full, busy)?,
+            cache: Default::default(),
+        })
+    }
+
     /// A person by row id.
     pub fn person_by_id(&self, id: i64) -> Result<Person, StoreError> {
         person::load_by_id(&self.conn, id)
@@ -231,8 +257,29 @@ impl Store {
         let tx = self.conn.transaction()?;
         let s = refresh(&tx, &mut self.cache, &p, true)?;
         let last = last_key(&tx, id)?;
+        let r = rev(&tx, id)?;
         tx.commit()?;
-        Ok(from_state(p, s, last))
+        Ok(from_state(p, s, last, r))
+    }
+
+    /// The person's live state built in a read transaction that writes
+    /// nothing (for read-only requests: no write lock taken, nothing
+    /// cached by the caller).
+    pub fn live_read(&mut self, id: i64) -> Result<Live, StoreError> {
+        let p = person::load_by_id(&self.conn, id)?;
+        let tx = self
+            .conn
+            .transaction_with_behavior(rusqlite::TransactionBehavior::Deferred)?;
+        let s = crate::store::refresh_with(&tx, &mut self.cache, &p, true, false)?;
+        let last = last_key(&tx, id)?;
+        let r = rev(&tx, id)?;
+        tx.commit()?;
+        Ok(from_state(p, s, last, r))
+    }
+
+    /// The person's revision now (compare with [`Live::rev`]).
+    pub fn person_rev(&self, id: i64) -> Result<i64, StoreError> {
+        rev(&self.conn, id)
     }
 
     /// Stores a batch of app events in one transaction and advances `live`
@@ -244,7 +291,22 @@ impl Store {
         live: &mut Live,
         batch: &[NewAppEvent],
     ) -> Result<Posted, StoreError> {
-        let tx = self.conn.transaction()?;
+        let id = live.person.id;
+        let mut tx = self.conn.transaction()?;
+        // Someone else wrote for this person since `live` was built (the
+        // CLI, another process): rebuild it first, holding the write lock
+        // so nothing else comes in between.
+        if rev(&tx, id)? != live.rev {
+            drop(tx);
+            *live = self.live(id)?;
+            tx = self.conn.transaction()?;
+            if rev(&tx, id)? != live.rev {
+                return Err(StoreError::corrupt(
+                    "person revision",
+                    "changed while the write lock was held",
+                ));
+            }
+        }
         let mut person = live.person.clone();
         let ins = app::insert(&tx, &mut person, batch)?;
         let in_order = match (ins.new.first(), live.last) {
@@ -254,6 +316,7 @@ impl Store {
         live.person = person;
         if in_order {
             let produced = feed(&tx, live, &ins.new)?;
+            live.rev = rev(&tx, id)?;
             tx.commit()?;
             return Ok(Posted {
                 stored: ins.new,
@@ -381,6 +444,7 @@ impl Store {
             let more = live.advisor.take_decisions();
             store_decisions(&tx, id, &more)?;
             live.decisions.extend(more);
+            live.rev = rev(&tx, id)?;
             tx.commit()?;
             return Ok((out, Vec::new()));
         }
@@ -389,9 +453,10 @@ impl Store {
         answer::insert(&tx, id, &out)?;
         let s = refresh(&tx, &mut self.cache, &p, true)?;
         let last = last_key(&tx, id)?;
+        let r = rev(&tx, id)?;
         tx.commit()?;
         let before = std::mem::take(&mut live.decisions);
-        *live = from_state(p, s, last);
+        *live = from_state(p, s, last, r);
         let changed = live
             .decisions
             .iter()
@@ -412,8 +477,9 @@ impl Store {
         let p = person::set_bounds(&tx, id, bounds)?;
         let s = refresh(&tx, &mut self.cache, &p, false)?;
         let last = last_key(&tx, id)?;
+        let r = rev(&tx, id)?;
         tx.commit()?;
-        Ok(from_state(p, s, last))
+        Ok(from_state(p, s, last, r))
     }
 
     /// Stores a new token's hash (one transaction); returns its id.
@@ -430,9 +496,24 @@ impl Store {
         token::candidates(&self.conn, hash)
     }
 
-    /// Revokes a token.
+    /// Revokes a token (one transaction); the last admin token that is
+    /// not revoked cannot be (nobody could administer the store any more).
     pub fn revoke_token(&mut self, id: i64) -> Result<(), StoreError> {
-        token::revoke(&self.conn, id)
+        let tx = self.conn.transaction()?;
+        token::revoke(&tx, id)?;
+        tx.commit()?;
+        Ok(())
+    }
+
+    /// The id of the latest suggestion (by advisor minute, then setting
+    /// basal, breakfast, lunch, dinner): `minute × 4 + setting`.
+    pub fn latest_suggestion_id(&self, person: i64) -> Result<Option<u64>, StoreError> {
+        let v: Option<i64> = self.conn.query_row(
+            "SELECT max(at_min * 4 + CASE parameter WHEN 'basal' THEN 0 WHEN 'breakfast' THEN 1 WHEN 'lunch' THEN 2 ELSE 3 END) FROM suggestion WHERE person_id = ?1",
+            params![person],
+            |r| r.get(0),
+        )?;
+        Ok(v.map(|x| x.max(0) as u64))
     }
 
     /// Held app sequence numbers ≥ `from` as ranges, and whether more follow.

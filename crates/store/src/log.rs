@@ -24,11 +24,95 @@ fn parse_source(s: &str) -> Result<Source, StoreError> {
         "libre_view" => Source::LibreView,
         "tidepool" => Source::Tidepool,
         "plain_csv" => Source::PlainCsv,
+        "care_link" => Source::CareLink,
         other => {
             return serde_json::from_value(serde_json::Value::String(other.into()))
                 .map_err(|e| StoreError::corrupt("record source", e))
         }
     })
+}
+
+/// The schema migration that re-keys records from the old identity (a
+/// Clarity row's `Index`, which restarts at 1 in every export) to the
+/// record's content ([`abba_io::record::content_id`]); its SQL is a comment,
+/// its work [`rekey`]. Append-only in `schema::MIGRATIONS`.
+pub const REKEY_MIGRATION: &str =
+    "-- record identity: Clarity rows re-keyed from their Index to their content (log::rekey)
+    SELECT 1;";
+
+/// The Rust half of a migration, found by its SQL (so that renumbering the
+/// list moves it along).
+pub fn migration_code(sql: &str) -> Option<MigrationCode> {
+    (sql == REKEY_MIGRATION).then_some(rekey as MigrationCode)
+}
+
+/// Rust code run inside a migration's transaction.
+pub type MigrationCode = fn(&Connection) -> Result<(), StoreError>;
+
+/// Re-keys every record whose id is a row index (`{"index": N}`) to its
+/// content identity, inside the migration's transaction. A record whose
+/// new key is already held by one with the same instant and kind is the
+/// same record exported twice (the second import of an overlapping export
+/// under other row numbers) and is removed; a different record under that
+/// key would be lost, so the migration fails instead.
+pub fn rekey(conn: &Connection) -> Result<(), StoreError> {
+    let mut st = conn.prepare(
+        "SELECT person_id, source, source_id, at_ms, kind FROM record WHERE source_id LIKE '{\"index\":%'",
+    )?;
+    let rows = st
+        .query_map([], |r| {
+            Ok((
+                r.get::<_, i64>(0)?,
+                r.get::<_, String>(1)?,
+                r.get::<_, String>(2)?,
+                r.get::<_, i64>(3)?,
+                r.get::<_, String>(4)?,
+            ))
+        })?
+        .collect::<Result<Vec<_>, _>>()?;
+    for (person, source_text, old, at_ms, kind_text) in rows {
+        let source = parse_source(&source_text)?;
+        let kind: RecordKind =
+            serde_json::from_str(&kind_text).map_err(|e| StoreError::corrupt("record", e))?;
+        let at = jiff::Timestamp::from_millisecond(at_ms)
+            .map_err(|e| StoreError::corrupt("record instant", e))?;
+        let new = serde_json::to_string(&abba_io::record::content_id(source, at, &kind))
+            .map_err(|e| StoreError::corrupt("record id", e))?;
+        let held: Option<(i64, String)> = conn
+            .query_row(
+                "SELECT at_ms, kind FROM record WHERE person_id = ?1 AND source = ?2 AND source_id = ?3",
+                params![person, source_text, new],
+                |r| Ok((r.get(0)?, r.get(1)?)),
+            )
+            .map(Some)
+            .or_else(|e| match e {
+                rusqlite::Error::QueryReturnedNoRows => Ok(None),
+                e => Err(e),
+            })?;
+        match held {
+            None => {
+                conn.execute(
+                    "UPDATE record SET source_id = ?1 WHERE person_id = ?2 AND source = ?3 AND source_id = ?4",
+                    params![new, person, source_text, old],
+                )?;
+            }
+            Some((a, k)) if a == at_ms && k == kind_text => {
+                conn.execute(
+                    "DELETE FROM record WHERE person_id = ?1 AND source = ?2 AND source_id = ?3",
+                    params![person, source_text, old],
+                )?;
+            }
+            Some(_) => {
+                return Err(StoreError::corrupt(
+                    "record id",
+                    format!(
+                    "re-keying {old} of person {person}: its new key {new} holds another record"
+                ),
+                ))
+            }
+        }
+    }
+    Ok(())
 }
 
 /// A record's key columns: (source, source id) as stored.

@@ -2,7 +2,7 @@
 //! bounds and the advisor's configuration.
 
 use crate::error::StoreError;
-use abba_advisor::{Abba, AbbaConfig, ClinicianBounds, MinData, Mode};
+use abba_advisor::{Abba, AbbaConfig, ClinicianBounds, MinData, Mode, PumpSteps};
 use abba_core::TherapySettings;
 use abba_io::events::{DayClose, PersonSettings};
 use abba_io::meals::MealWindows;
@@ -27,6 +27,67 @@ pub struct PersonSettingsDoc {
     pub min_data: MinData,
     /// The advisor's configuration (mode and exploration seed included).
     pub advisor: AbbaConfig,
+    /// The starting basal schedule (its mean is `start.basal`); none: the
+    /// flat rate `start.basal`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub basal_schedule: Option<Vec<(u32, f64)>>,
+    /// The pump's steps (suggestions are rounded to them); none: continuous
+    /// values as in the paper and the trial.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pump_steps: Option<PumpSteps>,
+    /// Where the therapy in force comes from.
+    #[serde(default)]
+    pub therapy_source: TherapySource,
+    /// Research only: suggest basal rates even when the data show a closed
+    /// loop or injections (`--allow-closed-loop`).
+    #[serde(default)]
+    pub allow_closed_loop: bool,
+    /// The glucose unit of every text for this person.
+    #[serde(default)]
+    pub units: GlucoseUnits,
+}
+
+/// The glucose unit a person reads.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum GlucoseUnits {
+    /// mg/dL.
+    #[default]
+    #[serde(rename = "mg/dL")]
+    MgDl,
+    /// mmol/L.
+    #[serde(rename = "mmol/L")]
+    MmolL,
+}
+
+/// Where a person's therapy in force comes from.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TherapySource {
+    /// Not decided yet: given by hand; an import whose pump profile differs
+    /// stops until the person adopts the profile or keeps these values.
+    #[default]
+    Given,
+    /// The pump's profile: profiles and switches in the data are in force
+    /// from their time.
+    Profile,
+    /// The store's values were kept over a differing profile
+    /// (`--keep-therapy`): profiles in the data are not read as therapy.
+    Kept,
+}
+
+impl TherapySource {
+    /// In words.
+    pub fn words(self) -> &'static str {
+        match self {
+            TherapySource::Given => "given when the person was created",
+            TherapySource::Profile => {
+                "the pump's profile (profile switches in force from their time)"
+            }
+            TherapySource::Kept => {
+                "the store's values, kept over the pump's profile (import --keep-therapy)"
+            }
+        }
+    }
 }
 
 /// A new person.
@@ -60,6 +121,11 @@ impl NewPerson {
                 bedtime_min: 22 * 60,
                 min_data: MinData::default(),
                 advisor: AbbaConfig::new(mode, seed),
+                basal_schedule: None,
+                pump_steps: None,
+                therapy_source: TherapySource::Given,
+                allow_closed_loop: false,
+                units: GlucoseUnits::MgDl,
             },
         }
     }
@@ -95,11 +161,16 @@ impl Person {
 
     /// A fresh advisor for this person (the state before any event).
     pub fn advisor(&self) -> Result<Abba, StoreError> {
-        Ok(
-            Abba::new(self.settings.advisor.clone(), self.settings.start)?
-                .with_bounds(self.settings.bounds)?
-                .with_min_data(self.settings.min_data),
-        )
+        let mut a = Abba::new(self.settings.advisor.clone(), self.settings.start)?
+            .with_bounds(self.settings.bounds)?
+            .with_min_data(self.settings.min_data);
+        if let Some(steps) = self.settings.pump_steps {
+            a = a.with_pump_steps(steps)?;
+        }
+        if let Some(s) = &self.settings.basal_schedule {
+            a = a.with_basal_schedule(s.clone())?;
+        }
+        Ok(a)
     }
 
     /// What the record → event mapping needs.
@@ -137,12 +208,16 @@ pub fn create(conn: &Connection, p: &NewPerson) -> Result<i64, StoreError> {
             "expected a minute of the day, 0-1439",
         ));
     }
-    s.start
-        .validate()
-        .map_err(|e| StoreError::invalid("starting therapy", e.to_string()))?;
-    // Builds the advisor once: checks the configuration and that the
-    // starting therapy lies inside the bounds.
-    Abba::new(s.advisor.clone(), s.start)?.with_bounds(s.bounds)?;
+    check_start(s)?;
+    // Builds the advisor once: checks the configuration, the steps, the
+    // schedule and that the starting therapy lies inside the bounds.
+    let mut a = Abba::new(s.advisor.clone(), s.start)?.with_bounds(s.bounds)?;
+    if let Some(steps) = s.pump_steps {
+        a = a.with_pump_steps(steps)?;
+    }
+    if let Some(sch) = &s.basal_schedule {
+        a.with_basal_schedule(sch.clone())?;
+    }
     let exists: Option<i64> = conn
         .query_row("SELECT id FROM person WHERE name = ?1", [&p.name], |r| {
             r.get(0)
@@ -164,6 +239,67 @@ pub fn create(conn: &Connection, p: &NewPerson) -> Result<i64, StoreError> {
         ],
     )?;
     Ok(conn.last_insert_rowid())
+}
+
+/// Checks the starting therapy and the clinician's bounds against the
+/// plausibility limits of [`abba_core::limits`] (the limit is named).
+pub fn check_start(s: &PersonSettingsDoc) -> Result<(), StoreError> {
+    use abba_core::limits::{BASAL_U_PER_H, CARB_RATIO_G_PER_U};
+    BASAL_U_PER_H
+        .check(s.start.basal.0)
+        .map_err(|e| StoreError::invalid("--basal", e.to_string()))?;
+    for (i, cr) in s.start.carb_ratio.iter().enumerate() {
+        let slot = ["breakfast", "lunch", "dinner"][i];
+        CARB_RATIO_G_PER_U
+            .check(cr.0)
+            .map_err(|e| StoreError::invalid(format!("--carb-ratio ({slot})"), e.to_string()))?;
+    }
+    if let Some(sch) = &s.basal_schedule {
+        for &(m, r) in sch {
+            BASAL_U_PER_H.check(r).map_err(|e| {
+                StoreError::invalid(
+                    format!("basal schedule (from {:02}:{:02})", m / 60, m % 60),
+                    e.to_string(),
+                )
+            })?;
+        }
+        let mean = abba_advisor::steps::mean_rate(sch);
+        if (mean - s.start.basal.0).abs() > 1e-9 {
+            return Err(StoreError::invalid(
+                "basal schedule",
+                format!(
+                    "its mean {mean} U/h differs from the starting basal {} U/h",
+                    s.start.basal.0
+                ),
+            ));
+        }
+    }
+    if let Some(r) = s.bounds.basal {
+        BASAL_U_PER_H
+            .check_range(r.min, r.max)
+            .map_err(|e| StoreError::invalid("--basal-range", e.to_string()))?;
+    }
+    for r in s.bounds.carb_ratio.iter().flatten() {
+        CARB_RATIO_G_PER_U
+            .check_range(r.min, r.max)
+            .map_err(|e| StoreError::invalid("--carb-ratio-range", e.to_string()))?;
+    }
+    Ok(())
+}
+
+/// Replaces a person's settings document (checked as at creation).
+pub fn update_settings(
+    conn: &Connection,
+    id: i64,
+    s: &PersonSettingsDoc,
+) -> Result<(), StoreError> {
+    check_start(s)?;
+    let doc = serde_json::to_string(s).map_err(|e| StoreError::corrupt("person settings", e))?;
+    conn.execute(
+        "UPDATE person SET settings = ?1 WHERE id = ?2",
+        params![doc, id],
+    )?;
+    Ok(())
 }
 
 /// Looks a person up by name.

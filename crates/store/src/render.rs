@@ -30,6 +30,19 @@ fn setting(s: &mut String, a: &SettingAdvice) {
             v.decided_at,
             v.no_update_reason.as_deref().unwrap_or("")
         );
+    } else if v.status == "no_change" {
+        let _ = writeln!(
+            s,
+            "  D{} ({}): no change: the advisor's change is smaller than one step of your pump; nothing to answer",
+            v.day, v.decided_at
+        );
+    } else if v.status == "not_offered" {
+        let _ = writeln!(
+            s,
+            "  D{} ({}): no basal suggestion (see the delivery note above); the rate stays {:.3} {}",
+            v.day, v.decided_at, v.previous, v.unit
+        );
+        return;
     } else {
         let what = if v.status == "open" {
             "suggested, waiting for your answer"
@@ -41,6 +54,10 @@ fn setting(s: &mut String, a: &SettingAdvice) {
             "  D{} ({}): {:.3} -> {:.3} {} ({:+.1} %), {what}",
             v.day, v.decided_at, v.previous, v.suggested, v.unit, v.change_percent
         );
+        if let Some(sch) = &v.schedule {
+            let segs: Vec<String> = sch.iter().map(|(t, r)| format!("{t} {r}")).collect();
+            let _ = writeln!(s, "    schedule: {} {}", segs.join(", "), v.unit);
+        }
         for r in &v.reasons {
             let _ = writeln!(s, "    - {r}");
         }
@@ -91,6 +108,44 @@ pub fn advice_text(a: &Advice) -> String {
             );
         }
     }
+    if let Some(w) = &a.first_week {
+        let _ = writeln!(
+            s,
+            "  qualifying days: {}",
+            if w.qualifying.is_empty() {
+                "none yet".into()
+            } else {
+                w.qualifying.join(", ")
+            }
+        );
+        for m in &w.missing {
+            let _ = writeln!(s, "  not qualifying: {m}");
+        }
+    }
+    let d = &a.delivery;
+    let _ = writeln!(s, "\nDelivery: {}.", d.words);
+    if !d.evidence.is_empty() {
+        let _ = writeln!(s, "  evidence: {}", d.evidence.join("; "));
+    }
+    if let Some(n) = &d.note {
+        let _ = writeln!(s, "  {n}");
+    }
+    let t = &a.therapy;
+    let _ = writeln!(s, "Therapy in force: {}.", t.source);
+    if let Some(sch) = &t.basal_schedule {
+        let segs: Vec<String> = sch.iter().map(|(t, r)| format!("{t} {r}")).collect();
+        let _ = writeln!(s, "  basal schedule: {} U/h (the basal rate below is its mean; each update scales every segment)", segs.join(", "));
+    }
+    if let Some(p) = &t.pump_steps {
+        let _ = writeln!(
+            s,
+            "  pump steps: {} U/h, {} g/U (suggestions are rounded to them)",
+            p.basal_u_per_h, p.carb_ratio_g_per_u
+        );
+    }
+    for c in t.changes.iter().rev().take(5).rev() {
+        let _ = writeln!(s, "  change {c}");
+    }
     let _ = writeln!(s);
     for x in &a.settings {
         setting(&mut s, x);
@@ -111,6 +166,9 @@ pub fn advice_text(a: &Advice) -> String {
         for e in &d.not_used_examples {
             let _ = writeln!(s, "    {e}");
         }
+    }
+    for n in &a.notes {
+        let _ = writeln!(s, "  note: {n}");
     }
     if d.events_refused > 0 {
         let _ = writeln!(s, "  {} event(s) refused by the advisor", d.events_refused);

@@ -7,9 +7,10 @@
 
 use crate::answer::{param_key, Answers};
 use crate::error::StoreError;
+use crate::in_force::{Extras, TherapyChange};
 use crate::person::Person;
-use abba_advisor::{Abba, Advisor, Decision, DecisionDetail};
-use abba_core::{Event, EventKind};
+use abba_advisor::{Abba, Advisor, Decision, DecisionDetail, Parameter};
+use abba_core::{Event, EventKind, GramsPerUnit, SettingValue, UnitsPerHour};
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, VecDeque};
 
@@ -95,11 +96,24 @@ pub fn events_hash(events: &[Event]) -> String {
     format!("{h:016x}")
 }
 
-fn usable(snap: &Snapshot, events: &[Event], answers: &Answers) -> bool {
+/// The hash a snapshot of the first `n` events carries: the events', and
+/// (for an import-fed person) what else the replay applied up to them.
+fn prefix_hash(events: &[Event], n: usize, extras: Option<&Extras>) -> String {
+    let h = events_hash(&events[..n]);
+    match extras {
+        None => h,
+        Some(x) => format!(
+            "{h}/{}",
+            x.hash_until(n.checked_sub(1).map(|i| events[i].at))
+        ),
+    }
+}
+
+fn usable(snap: &Snapshot, events: &[Event], answers: &Answers, extras: Option<&Extras>) -> bool {
     if snap.events == 0 || snap.events > events.len() {
         return false;
     }
-    if events_hash(&events[..snap.events]) != snap.events_hash {
+    if prefix_hash(events, snap.events, extras) != snap.events_hash {
         return false;
     }
     let last = events[snap.events - 1].at.0;
@@ -113,23 +127,58 @@ fn usable(snap: &Snapshot, events: &[Event], answers: &Answers) -> bool {
     before == saved
 }
 
+/// Puts a change of therapy in force (values it leaves out stay).
+fn apply_change(advisor: &mut Abba, c: &TherapyChange) -> Result<(), StoreError> {
+    let mut settings = *advisor.settings();
+    if let Some(cr) = c.carb_ratio {
+        settings.carb_ratio = cr.map(GramsPerUnit);
+    }
+    let schedule = match &c.basal {
+        Some(b) if b.len() > 1 || advisor.basal_schedule().is_some() => Some(b.clone()),
+        Some(b) => {
+            settings.basal = UnitsPerHour(b[0].1);
+            None
+        }
+        None => advisor.basal_schedule().cloned(),
+    };
+    advisor.set_therapy(schedule, settings)?;
+    Ok(())
+}
+
 /// Replays `events` with `answers` for `person`, from `snapshot` when it
-/// is usable.
+/// is usable. `extras` (import-fed persons): therapy changes put in force
+/// at their time, the first week's end, basal updates held.
 pub fn replay(
     person: &Person,
     events: &[Event],
     answers: &Answers,
     snapshot: Option<&Snapshot>,
+    extras: Option<&Extras>,
 ) -> Result<Replay, StoreError> {
+    let fresh = || -> Result<Abba, StoreError> {
+        let a = person.advisor()?;
+        Ok(match extras {
+            Some(x) => a.with_first_week_end(x.first_week.end),
+            None => a,
+        })
+    };
     let (mut advisor, start, mut applied, mut unused, rebuilt) = match snapshot {
-        Some(s) if usable(s, events, answers) => (
+        Some(s) if usable(s, events, answers, extras) => (
             Abba::load_json(&s.state)?,
             s.events,
             s.answers.clone(),
             s.unused,
             false,
         ),
-        _ => (person.advisor()?, 0, Vec::new(), 0, true),
+        _ => (fresh()?, 0, Vec::new(), 0, true),
+    };
+    let no_changes = Vec::new();
+    let changes = extras.map_or(&no_changes, |x| &x.changes);
+    let hold_basal = extras.is_some_and(|x| x.hold_basal);
+    // Changes before the snapshot's last event are in its state.
+    let mut next_change = match start {
+        0 => 0,
+        n => changes.partition_point(|c| c.at <= events[n - 1].at),
     };
     let mut decisions = Vec::new();
     let mut refused = Vec::new();
@@ -150,6 +199,10 @@ pub fn replay(
                 unused,
             });
         }
+        while let Some(c) = changes.get(next_change).filter(|c| c.at <= e.at) {
+            apply_change(&mut advisor, c)?;
+            next_change += 1;
+        }
         if let Err(err) = advisor.observe(e) {
             unused += 1;
             refused.push((*e, err.to_string()));
@@ -161,6 +214,12 @@ pub fn replay(
                 let answer = Event::new(d.at, a.event_kind());
                 advisor.observe(&answer)?;
                 applied.push((key.0, key.1.to_string()));
+            } else if hold_basal && d.parameter == Parameter::Basal && d.new != d.old {
+                // Not offered (a loop or injections): the basal stays.
+                let keep = SettingValue::Basal {
+                    rate: UnitsPerHour(d.old),
+                };
+                advisor.observe(&Event::new(d.at, EventKind::SuggestionRejected(keep)))?;
             }
             decisions.push(d);
         }
@@ -172,6 +231,8 @@ pub fn replay(
     let earliest_open = latest
         .values()
         .filter(|d| !matches!(d.detail, DecisionDetail::Skipped { .. }))
+        .filter(|d| d.new != d.old)
+        .filter(|d| !(hold_basal && d.parameter == Parameter::Basal))
         .filter(|d| !answers.contains_key(&(d.at.0, param_key(d.parameter))))
         .map(|d| d.at)
         .min();
@@ -182,7 +243,7 @@ pub fn replay(
             applied.sort();
             Snapshot {
                 events: c.index,
-                events_hash: events_hash(&events[..c.index]),
+                events_hash: prefix_hash(events, c.index, extras),
                 answers: applied,
                 unused: c.unused,
                 state: c.advisor.save_json()?,
@@ -192,13 +253,17 @@ pub fn replay(
             applied.sort();
             Snapshot {
                 events: events.len(),
-                events_hash: events_hash(events),
+                events_hash: prefix_hash(events, events.len(), extras),
                 answers: applied,
                 unused,
                 state: advisor.save_json()?,
             }
         }
     };
+    // Changes after the last event are in force now (not in the snapshot).
+    for c in &changes[next_change.min(changes.len())..] {
+        apply_change(&mut advisor, c)?;
+    }
     Ok(Replay {
         advisor,
         decisions,

@@ -99,7 +99,81 @@ const MIGRATIONS: &[&str] = &[
         PRIMARY KEY (person_id, seq)
     ) WITHOUT ROWID;
     CREATE INDEX app_event_by_time ON app_event (person_id, at_min, seq);",
+    // 3: record identity that survives re-exports (issue 21).
+    crate::log::REKEY_MIGRATION,
+    // 4: a revision per person, bumped by triggers on everything a live
+    // advisor is built from (app events, records, answers, the person's
+    // settings), whoever writes: the service sees a write by the CLI or
+    // another process for that person only (SQLite's data_version is per
+    // connection and says nothing about whom a write concerned).
+    "CREATE TABLE person_rev (
+        person_id INTEGER PRIMARY KEY REFERENCES person(id),
+        rev INTEGER NOT NULL
+    );
+    CREATE TRIGGER rev_app_event_ins AFTER INSERT ON app_event BEGIN
+        INSERT INTO person_rev VALUES (NEW.person_id, 1)
+        ON CONFLICT (person_id) DO UPDATE SET rev = rev + 1;
+    END;
+    CREATE TRIGGER rev_app_event_del AFTER DELETE ON app_event BEGIN
+        INSERT INTO person_rev VALUES (OLD.person_id, 1)
+        ON CONFLICT (person_id) DO UPDATE SET rev = rev + 1;
+    END;
+    CREATE TRIGGER rev_record_ins AFTER INSERT ON record BEGIN
+        INSERT INTO person_rev VALUES (NEW.person_id, 1)
+        ON CONFLICT (person_id) DO UPDATE SET rev = rev + 1;
+    END;
+    CREATE TRIGGER rev_record_upd AFTER UPDATE ON record BEGIN
+        INSERT INTO person_rev VALUES (NEW.person_id, 1)
+        ON CONFLICT (person_id) DO UPDATE SET rev = rev + 1;
+    END;
+    CREATE TRIGGER rev_record_del AFTER DELETE ON record BEGIN
+        INSERT INTO person_rev VALUES (OLD.person_id, 1)
+        ON CONFLICT (person_id) DO UPDATE SET rev = rev + 1;
+    END;
+    CREATE TRIGGER rev_answer_ins AFTER INSERT ON answer BEGIN
+        INSERT INTO person_rev VALUES (NEW.person_id, 1)
+        ON CONFLICT (person_id) DO UPDATE SET rev = rev + 1;
+    END;
+    CREATE TRIGGER rev_answer_del AFTER DELETE ON answer BEGIN
+        INSERT INTO person_rev VALUES (OLD.person_id, 1)
+        ON CONFLICT (person_id) DO UPDATE SET rev = rev + 1;
+    END;
+    CREATE TRIGGER rev_answer_upd AFTER UPDATE ON answer BEGIN
+        INSERT INTO person_rev VALUES (NEW.person_id, 1)
+        ON CONFLICT (person_id) DO UPDATE SET rev = rev + 1;
+    END;
+    CREATE TRIGGER rev_person_upd AFTER UPDATE ON person BEGIN
+        INSERT INTO person_rev VALUES (NEW.id, 1)
+        ON CONFLICT (person_id) DO UPDATE SET rev = rev + 1;
+    END;",
+    // 5 (issue 22): the clinician's changes of therapy (`abba therapy
+    // set`), in force from their time; what an import's files said about
+    // automated delivery (SMB marks, loop uploaders), one row per content.
+    "CREATE TABLE therapy_change (
+        id INTEGER PRIMARY KEY,
+        person_id INTEGER NOT NULL REFERENCES person(id),
+        at_ms INTEGER NOT NULL,
+        change TEXT NOT NULL,
+        recorded_at TEXT NOT NULL
+    );
+    CREATE INDEX therapy_change_by_time ON therapy_change (person_id, at_ms);
+    CREATE TABLE file_evidence (
+        person_id INTEGER NOT NULL REFERENCES person(id),
+        file_hash TEXT NOT NULL,
+        file TEXT NOT NULL,
+        evidence TEXT NOT NULL,
+        PRIMARY KEY (person_id, file_hash)
+    ) WITHOUT ROWID;",
 ];
+
+/// The version a migration brings a file to (its 1-based place in the
+/// list), found by its SQL.
+pub fn migration_number(sql: &str) -> Option<i64> {
+    MIGRATIONS
+        .iter()
+        .position(|m| *m == sql)
+        .map(|i| i as i64 + 1)
+}
 
 /// The newest schema version this build knows.
 pub fn current_version() -> i64 {
@@ -125,8 +199,28 @@ pub enum Sync {
 
 /// Like [`open`], with the given synchronous level.
 pub fn open_with(path: &Path, sync: Sync) -> Result<Connection, StoreError> {
+    open_opts(path, sync, DEFAULT_BUSY)
+}
+
+/// How long a connection waits for another writer before SQLite answers
+/// "busy" (the CLI's default; the service sets its own).
+pub const DEFAULT_BUSY: std::time::Duration = std::time::Duration::from_secs(10);
+
+/// Like [`open_with`], waiting at most `busy` for another writer.
+///
+/// Every transaction of the connection begins IMMEDIATE: it takes the
+/// write lock at BEGIN (waiting up to `busy`), so a transaction that
+/// reads and then writes is never refused half-way ("database is
+/// locked" when a deferred read transaction is upgraded while another
+/// connection writes, which no busy timeout can wait out).
+pub fn open_opts(
+    path: &Path,
+    sync: Sync,
+    busy: std::time::Duration,
+) -> Result<Connection, StoreError> {
     let mut conn = Connection::open(path)?;
-    conn.busy_timeout(std::time::Duration::from_secs(10))?;
+    conn.busy_timeout(busy)?;
+    conn.set_transaction_behavior(rusqlite::TransactionBehavior::Immediate);
     conn.pragma_update(None, "journal_mode", "WAL")?;
     let level = match sync {
         Sync::Normal => "NORMAL",
@@ -151,6 +245,9 @@ fn migrate(conn: &mut Connection) -> Result<(), StoreError> {
     for (i, sql) in MIGRATIONS.iter().enumerate().skip(found as usize) {
         let tx = conn.transaction()?;
         tx.execute_batch(sql)?;
+        if let Some(code) = crate::log::migration_code(sql) {
+            code(&tx)?;
+        }
         tx.pragma_update(None, "user_version", (i + 1) as i64)?;
         tx.commit()?;
     }

@@ -4,6 +4,7 @@ use crate::advise::{self, Advice, SuggestionView};
 use crate::answer::{self, param_key, Answer, AnswerKind, Answers};
 use crate::error::StoreError;
 use crate::import::{self, ImportSummary};
+use crate::in_force::{self, Extras, RecordFacts};
 use crate::log;
 use crate::person::{self, NewPerson, Person};
 use crate::replay::{self, Snapshot};
@@ -37,10 +38,16 @@ pub struct Store {
     pub(crate) cache: HashMap<i64, Cached>,
 }
 
+/// The most event streams one connection keeps.
+const MAX_CACHED_STREAMS: usize = 8;
+
 pub(crate) struct Cached {
     key: (i64, i64, i64),
     records: usize,
     stream: Arc<EventStream>,
+    /// Import-fed persons: what the records say (profiles, delivery, the
+    /// first week); none for app-fed persons.
+    facts: Option<Arc<RecordFacts>>,
 }
 
 /// Everything one refresh knows.
@@ -51,6 +58,8 @@ pub(crate) struct State {
     pub(crate) decisions: Vec<Decision>,
     pub(crate) answers: Answers,
     pub(crate) refused: usize,
+    /// Import-fed persons: changes in force, the first week, delivery.
+    pub(crate) extras: Option<Extras>,
 }
 
 fn load_snapshot(conn: &Connection, person: i64) -> Result<Option<Snapshot>, StoreError> {
@@ -105,34 +114,59 @@ pub(crate) fn refresh(
     person: &Person,
     use_snapshot: bool,
 ) -> Result<State, StoreError> {
+    refresh_with(conn, cache, person, use_snapshot, true)
+}
+
+/// [`refresh`]; with `write` false nothing is stored (a read transaction:
+/// the decisions are the stored ones with the replay's merged in).
+pub(crate) fn refresh_with(
+    conn: &Connection,
+    cache: &mut HashMap<i64, Cached>,
+    person: &Person,
+    use_snapshot: bool,
+    write: bool,
+) -> Result<State, StoreError> {
     let (n, last): (i64, i64) = conn.query_row(
         "SELECT count(*), coalesce(max(import_id), 0) FROM record WHERE person_id = ?1",
         params![person.id],
         |r| Ok((r.get(0)?, r.get(1)?)),
     )?;
     let key = (n, last, crate::app::count(conn, person.id)?);
-    let (records, stream) = match cache.get(&person.id) {
-        Some(c) if c.key == key => (c.records, Arc::clone(&c.stream)),
+    let (records, stream, facts) = match cache.get(&person.id) {
+        Some(c) if c.key == key => (c.records, Arc::clone(&c.stream), c.facts.clone()),
         _ => {
-            let (records, stream) = if key.2 > 0 {
+            let (records, stream, facts) = if key.2 > 0 {
                 // An app-fed person: the events as the app posted them.
                 let app = crate::app::load(conn, person.id)?;
-                (app.len(), crate::app::stream(person, &app))
+                (app.len(), crate::app::stream(person, &app), None)
             } else {
                 let recs = log::records(conn, person.id)?;
-                (recs.len(), log::events(person, recs)?)
+                let n = recs.len();
+                let stream = log::events(person, recs.clone())?;
+                let facts = in_force::record_facts(person, &recs, &stream.events)?;
+                (n, stream, Some(Arc::new(facts)))
             };
             let stream = Arc::new(stream);
+            // Bounded: a connection serving many persons keeps only the
+            // streams of a few (each is a person's whole log).
+            if cache.len() >= MAX_CACHED_STREAMS {
+                cache.clear();
+            }
             cache.insert(
                 person.id,
                 Cached {
                     key,
                     records,
                     stream: Arc::clone(&stream),
+                    facts: facts.clone(),
                 },
             );
-            (records, stream)
+            (records, stream, facts)
         }
+    };
+    let extras = match &facts {
+        Some(f) => Some(in_force::extras(conn, person, f)?),
+        None => None,
     };
     let answers = answer::load(conn, person.id)?;
     let snap = if use_snapshot {
@@ -140,7 +174,13 @@ pub(crate) fn refresh(
     } else {
         None
     };
-    let r = replay::replay(person, &stream.events, &answers, snap.as_ref())?;
+    let r = replay::replay(
+        person,
+        &stream.events,
+        &answers,
+        snap.as_ref(),
+        extras.as_ref(),
+    )?;
     // Events refused in the whole log: those before the snapshot it started
     // from, and those of this replay. (The new snapshot's count stops at
     // its own checkpoint.)
@@ -148,6 +188,32 @@ pub(crate) fn refresh(
         (Some(s), false) => s.unused + r.refused.len(),
         _ => r.refused.len(),
     };
+    if !write {
+        let mut all = if r.rebuilt {
+            Vec::new()
+        } else {
+            decisions(conn, person.id)?
+        };
+        for d in &r.decisions {
+            match all
+                .iter_mut()
+                .find(|x| x.at == d.at && x.parameter == d.parameter)
+            {
+                Some(x) => *x = d.clone(),
+                None => all.push(d.clone()),
+            }
+        }
+        all.sort_by_key(|d| (d.at, param_key(d.parameter)));
+        return Ok(State {
+            stream,
+            records,
+            advisor: r.advisor,
+            decisions: all,
+            answers,
+            refused,
+            extras,
+        });
+    }
     if r.rebuilt {
         conn.execute(
             "DELETE FROM suggestion WHERE person_id = ?1",
@@ -189,6 +255,7 @@ pub(crate) fn refresh(
         decisions: all,
         answers,
         refused,
+        extras,
     })
 }
 
@@ -226,17 +293,42 @@ impl Store {
 
     /// Imports a batch already read (one transaction).
     pub fn import(&mut self, name: &str, batch: &Batch) -> Result<ImportSummary, StoreError> {
+        self.import_at(name, batch, jiff::Timestamp::now())
+    }
+
+    /// Imports a batch read at `now` (records dated after it are refused).
+    pub fn import_at(
+        &mut self,
+        name: &str,
+        batch: &Batch,
+        now: jiff::Timestamp,
+    ) -> Result<ImportSummary, StoreError> {
         let p = self.person(name)?;
-        import::import(&mut self.conn, &p, batch)
+        import::import(&mut self.conn, &p, batch, now)
     }
 
     /// Reads `files` (wall times in the person's zone) and imports them.
-    /// Every file is read and checked before anything is written.
+    /// Every file is read and checked before anything is written. A pump
+    /// profile that differs from the therapy the store holds stops the
+    /// import (see [`Store::import_files_with`]).
     pub fn import_files(
         &mut self,
         name: &str,
         files: &[PathBuf],
         format: Option<Format>,
+    ) -> Result<ImportSummary, StoreError> {
+        self.import_files_with(name, files, format, ProfileResolution::Stop)
+    }
+
+    /// Like [`Store::import_files`], saying what to do when the export's
+    /// pump profile differs from the therapy the store holds: stop (with
+    /// both values), adopt the profile, or keep the store's values.
+    pub fn import_files_with(
+        &mut self,
+        name: &str,
+        files: &[PathBuf],
+        format: Option<Format>,
+        resolve: ProfileResolution,
     ) -> Result<ImportSummary, StoreError> {
         let p = self.person(name)?;
         let opts = ReadOptions {
@@ -245,7 +337,88 @@ impl Store {
             ..ReadOptions::default()
         };
         let batch = read_files(files, &opts)?;
-        import::import(&mut self.conn, &p, &batch)
+        let mut contents = Vec::with_capacity(files.len());
+        for f in files {
+            let name = f.display().to_string();
+            let bytes = std::fs::read(f).map_err(|source| abba_io::IoError::Open {
+                file: name.clone(),
+                source,
+            })?;
+            contents.push((name, bytes));
+        }
+        let new_settings = profile_check(&self.conn, &p, &batch, &contents, resolve)?;
+        if let Some(doc) = &new_settings {
+            // Checked in full before anything is written.
+            let mut q = p.clone();
+            q.settings = doc.clone();
+            q.advisor()?;
+            person::check_start(doc)?;
+        }
+        let summary = import::import(&mut self.conn, &p, &batch, jiff::Timestamp::now())?;
+        let tx = self.conn.transaction()?;
+        if let Some(doc) = &new_settings {
+            person::update_settings(&tx, p.id, doc)?;
+        }
+        for (name, bytes) in &contents {
+            in_force::store_file_evidence(&tx, p.id, name, bytes)?;
+        }
+        tx.commit()?;
+        self.cache.remove(&p.id);
+        Ok(summary)
+    }
+
+    /// Records a change of therapy by the clinician, in force from `at`
+    /// (default: now) whether or not a suggestion is open; the advisor's
+    /// next update starts from it. `basal`: a schedule (one segment: a flat
+    /// rate); values not given stay.
+    pub fn set_therapy(
+        &mut self,
+        name: &str,
+        basal: Option<Vec<(u32, f64)>>,
+        carb_ratio: Option<[f64; 3]>,
+        at: Option<jiff::Timestamp>,
+    ) -> Result<in_force::TherapyChange, StoreError> {
+        let p = self.person(name)?;
+        if basal.is_none() && carb_ratio.is_none() {
+            return Err(StoreError::invalid(
+                "abba therapy set",
+                "give --basal and/or --carb-ratio",
+            ));
+        }
+        in_force::check_change(&p, basal.as_deref(), carb_ratio)?;
+        let at = at.unwrap_or_else(jiff::Timestamp::now);
+        in_force::not_future(at, "--at")?;
+        if crate::app::count(&self.conn, p.id)? > 0 {
+            return Err(StoreError::Feed(format!(
+                "{} is fed by the app through the service; record the change there",
+                p.name
+            )));
+        }
+        let Some(first) = p.first_day else {
+            return Err(StoreError::invalid(
+                "abba therapy set",
+                format!("{} has no data yet: day 1 is not known (import first, or create the person with these values)", p.name),
+            ));
+        };
+        let clock = abba_io::clock::AdvisorClock::new(p.tz.clone(), first);
+        let ts = clock.timestamp(at);
+        let change = in_force::TherapyChange {
+            at: if ts.day_index() < 0 {
+                abba_core::Timestamp(0)
+            } else {
+                ts
+            },
+            instant: at.to_string(),
+            basal,
+            carb_ratio,
+            source: in_force::ChangeSource::Clinician,
+            origin: "the clinician (abba therapy set)".into(),
+        };
+        let tx = self.conn.transaction()?;
+        in_force::insert_change(&tx, p.id, at, &change)?;
+        refresh(&tx, &mut self.cache, &p, true)?;
+        tx.commit()?;
+        Ok(change)
     }
 
     /// The person's records, in the log's order.
@@ -289,7 +462,7 @@ impl Store {
     /// Today's advice.
     pub fn advise(&mut self, name: &str) -> Result<Advice, StoreError> {
         let (p, s) = self.state(name, true)?;
-        Ok(advise::advice(
+        Ok(advise::advice_with(
             &p,
             &s.stream,
             s.records,
@@ -297,13 +470,19 @@ impl Store {
             &s.decisions,
             &s.answers,
             s.refused,
+            s.extras.as_ref(),
         ))
     }
 
     /// Every decision with the answer and the value in force, oldest first.
     pub fn history(&mut self, name: &str) -> Result<Vec<SuggestionView>, StoreError> {
         let (p, s) = self.state(name, true)?;
-        Ok(advise::views(&p, &s.decisions, &s.answers))
+        Ok(advise::views_with(
+            &p,
+            &s.decisions,
+            &s.answers,
+            s.extras.as_ref(),
+        ))
     }
 
     /// Records the person's answer to the open suggestions (one transaction).
@@ -311,7 +490,7 @@ impl Store {
         let p = self.person(name)?;
         let tx = self.conn.transaction()?;
         let s = refresh(&tx, &mut self.cache, &p, true)?;
-        let views = advise::views(&p, &s.decisions, &s.answers);
+        let views = advise::views_with(&p, &s.decisions, &s.answers, s.extras.as_ref());
         let open: Vec<&SuggestionView> = views.iter().filter(|v| v.status == "open").collect();
         if open.is_empty() {
             return Err(StoreError::Answer(
@@ -376,23 +555,112 @@ impl Store {
     }
 }
 
-/// A value the person puts in force must be a positive finite number
-/// within the clinician's bounds and the advisor's plausibility limits.
+/// What an import does when the export's pump profile differs from the
+/// therapy the store holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ProfileResolution {
+    /// Stop with both values and how to resolve it.
+    Stop,
+    /// Put the profile in force (`--adopt-profile`).
+    Adopt,
+    /// Keep the store's values (`--keep-therapy`).
+    Keep,
+}
+
+/// The settings profile in force at the person's first glucose reading (or
+/// the earliest one) against the store's therapy. Returns the person's new
+/// settings when they change.
+fn profile_check(
+    conn: &Connection,
+    p: &Person,
+    batch: &Batch,
+    contents: &[(String, Vec<u8>)],
+    resolve: ProfileResolution,
+) -> Result<Option<person::PersonSettingsDoc>, StoreError> {
+    use person::TherapySource;
+    if p.settings.therapy_source != TherapySource::Given {
+        return Ok(None);
+    }
+    let meals = &p.settings.meal_windows;
+    let mut profiles = abba_io::therapy::settings_profiles(batch, meals)?;
+    for ((name, bytes), format) in contents.iter().zip(&batch.formats) {
+        if *format == Format::Tidepool {
+            profiles.extend(abba_io::therapy::tidepool_pump_settings(
+                name, bytes, meals,
+            )?);
+        }
+    }
+    profiles.sort_by_key(|t| t.at);
+    if profiles.is_empty() {
+        return Ok(None);
+    }
+    // The first reading: of the log if it has one, else of this batch.
+    let logged: Option<i64> = conn.query_row(
+        "SELECT min(at_ms) FROM record WHERE person_id = ?1 AND (kind LIKE '{\"type\":\"cgm\"%' OR kind LIKE '{\"type\":\"smbg\"%')",
+        params![p.id],
+        |r| r.get(0),
+    )?;
+    let first = logged
+        .and_then(|ms| jiff::Timestamp::from_millisecond(ms).ok())
+        .or_else(|| abba_io::events::first_glucose(&batch.records).map(|r| r.at));
+    let at_start = first
+        .and_then(|f| profiles.iter().rev().find(|t| t.at <= f))
+        .unwrap_or(&profiles[0]);
+    let store_basal = p
+        .settings
+        .basal_schedule
+        .clone()
+        .unwrap_or_else(|| vec![(0, p.settings.start.basal.0)]);
+    let store_cr = p.settings.start.carb_ratio.map(|c| c.0);
+    let mut doc = p.settings.clone();
+    if at_start.same_settings(&store_basal, store_cr) {
+        doc.therapy_source = TherapySource::Profile;
+        return Ok(Some(doc));
+    }
+    match resolve {
+        ProfileResolution::Stop => {
+            let [b, l, d] = store_cr;
+            let held = if store_basal.len() == 1 {
+                format!("basal {} U/h", store_basal[0].1)
+            } else {
+                format!(
+                    "basal schedule with mean {:.3} U/h",
+                    p.settings.start.basal.0
+                )
+            };
+            Err(StoreError::Invalid {
+                field: at_start.origin.clone(),
+                problem: format!(
+                    "the pump's profile ({}) differs from the therapy the store holds for {} ({held}, carb ratios {b}/{l}/{d} g/U). Nothing was imported. Import again with --adopt-profile to put the pump's profile in force (what the pump runs), or with --keep-therapy to keep the store's values (profiles in the data are then not read as therapy).",
+                    at_start.describe(),
+                    p.name
+                ),
+            })
+        }
+        ProfileResolution::Adopt => {
+            doc.start = at_start.settings();
+            doc.basal_schedule = (at_start.basal.len() > 1).then(|| at_start.basal.clone());
+            doc.therapy_source = TherapySource::Profile;
+            Ok(Some(doc))
+        }
+        ProfileResolution::Keep => {
+            doc.therapy_source = TherapySource::Kept;
+            Ok(Some(doc))
+        }
+    }
+}
+
+/// A value the person puts in force must lie within the plausibility
+/// limits of [`abba_core::limits`] and the clinician's bounds.
 pub(crate) fn check_value(p: &Person, param: Parameter, v: f64) -> Result<(), StoreError> {
     let field = format!("--set {}", param_key(param));
     let limit = match param {
-        Parameter::Basal => p.settings.advisor.limits.basal_max_u_per_h,
-        Parameter::CarbRatio(_) => p.settings.advisor.limits.carbs_max_g,
+        Parameter::Basal => abba_core::limits::BASAL_U_PER_H,
+        Parameter::CarbRatio(_) => abba_core::limits::CARB_RATIO_G_PER_U,
     };
-    if !(v.is_finite() && v > 0.0 && v <= limit) {
-        return Err(StoreError::invalid(
-            field,
-            format!(
-                "expected a number in (0, {limit}] {}, got {v}",
-                param.unit()
-            ),
-        ));
-    }
+    limit
+        .check(v)
+        .map_err(|e| StoreError::invalid(field.clone(), e.to_string()))?;
     if let Some(r) = p.settings.bounds.range(param) {
         if !r.contains(v) {
             return Err(StoreError::invalid(

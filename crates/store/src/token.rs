@@ -97,13 +97,25 @@ pub fn candidates(conn: &Connection, hash: &[u8; 32]) -> Result<Vec<StoredToken>
 
 /// Revokes a token (revoking twice is fine).
 pub fn revoke(conn: &Connection, id: i64) -> Result<(), StoreError> {
-    let found: Option<i64> = conn
-        .query_row("SELECT id FROM token WHERE id = ?1", params![id], |r| {
-            r.get(0)
-        })
+    let found: Option<(String, bool)> = conn
+        .query_row(
+            "SELECT role, revoked_at IS NOT NULL FROM token WHERE id = ?1",
+            params![id],
+            |r| Ok((r.get(0)?, r.get(1)?)),
+        )
         .optional()?;
-    if found.is_none() {
+    let Some((role, revoked)) = found else {
         return Err(StoreError::NoToken(id));
+    };
+    if role == "admin" && !revoked {
+        let others: i64 = conn.query_row(
+            "SELECT count(*) FROM token WHERE role = 'admin' AND revoked_at IS NULL AND id != ?1",
+            params![id],
+            |r| r.get(0),
+        )?;
+        if others == 0 {
+            return Err(StoreError::LastAdmin(id));
+        }
     }
     conn.execute(
         "UPDATE token SET revoked_at = ?1 WHERE id = ?2 AND revoked_at IS NULL",

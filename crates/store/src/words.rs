@@ -1,9 +1,11 @@
 //! Plain words for the advisor's explanations.
 
+use crate::person::GlucoseUnits;
 use abba_advisor::bounds::Side;
 use abba_advisor::decision::AbbaExplanation;
 use abba_advisor::supervisor::SupervisoryRule;
 use abba_advisor::{AbbaConfig, Decision, DecisionDetail, Parameter, SkipReason};
+use abba_core::units::MG_DL_PER_MMOL_L;
 
 /// Why a decision point gave no update, in plain words.
 pub fn skip_reason(r: SkipReason, p: Parameter) -> String {
@@ -22,27 +24,48 @@ pub fn skip_reason(r: SkipReason, p: Parameter) -> String {
     }
 }
 
-fn rule(r: SupervisoryRule) -> &'static str {
+fn rule(r: SupervisoryRule, unit: GlucoseUnits) -> String {
+    if r == SupervisoryRule::SmbgBrHyponumber {
+        let low = glucose(70.0, unit);
+        return format!("a reading below {low} that day: the safety rule lowers the basal rate");
+    }
     match r {
         SupervisoryRule::SmbgCirInRange => "no reading outside the target range after this meal, so no safety correction",
         SupervisoryRule::SmbgCirHypo => "a low reading after this meal: the safety rule raises the carb ratio (less insulin)",
         SupervisoryRule::SmbgCirHyper => "only high readings after this meal: the safety rule lowers the carb ratio (more insulin)",
-        SupervisoryRule::SmbgBrHyponumber => "a reading below 70 mg/dL that day: the safety rule lowers the basal rate",
         SupervisoryRule::SmbgBrMostlyHigh => "mostly high readings that day: the safety rule raises the basal rate",
         SupervisoryRule::SmbgBrMostlyLow => "mostly low readings that day: the safety rule lowers the basal rate",
         SupervisoryRule::SmbgBrOther => "no clear pattern that day, so no safety correction",
         SupervisoryRule::CgmNoHypo => "no low glucose, so no safety correction",
         SupervisoryRule::CgmHypoOnly => "low glucose only: the safety rule moves toward less insulin",
         SupervisoryRule::CgmMixed => "both low and high glucose: a smaller safety move toward less insulin",
+        SupervisoryRule::SmbgBrHyponumber => "",
     }
+    .to_string()
 }
 
 fn pct(x: f64) -> String {
     format!("{:+.1} %", 100.0 * x)
 }
 
-/// The reasons of one update, in plain words, one sentence each.
+/// A glucose value in the person's unit.
+fn glucose(mg_dl: f64, unit: GlucoseUnits) -> String {
+    match unit {
+        GlucoseUnits::MgDl => format!("{mg_dl:.0} mg/dL"),
+        GlucoseUnits::MmolL => format!("{:.1} mmol/L", mg_dl / MG_DL_PER_MMOL_L),
+    }
+}
+
+/// The reasons of one update, in plain words, one sentence each (mg/dL).
 pub fn reasons(d: &Decision, cfg: &AbbaConfig) -> Vec<String> {
+    reasons_in(d, cfg, GlucoseUnits::MgDl)
+}
+
+/// The reasons of one update in the person's unit. Every number
+/// reconciles with the change shown: the step the agents asked for, the
+/// part of it the update applies (the average with the value in force),
+/// then each rule that changed it, and the change in all.
+pub fn reasons_in(d: &Decision, cfg: &AbbaConfig, unit: GlucoseUnits) -> Vec<String> {
     let x: &AbbaExplanation = match &d.detail {
         DecisionDetail::Abba(x) => x,
         DecisionDetail::Skipped { reason } => {
@@ -53,31 +76,53 @@ pub fn reasons(d: &Decision, cfg: &AbbaConfig) -> Vec<String> {
     };
     let f = &cfg.features;
     let w = &x.window;
+    let u = d.parameter.unit();
     let mut out = vec![format!(
-        "{} of {} readings were above {:.0} mg/dL and {} below {:.0} mg/dL (high score {:.2}, low score {:.2}).",
-        w.n_hyper, w.n, f.g_high_mg_dl, w.n_hypo, f.g_low_mg_dl, x.features.hyper, x.features.hypo
+        "{} of the {} readings of the window (see data) were above {} and {} below {} (high score {:.2}, low score {:.2}).",
+        w.n_hyper,
+        w.n,
+        glucose(f.g_high_mg_dl, unit),
+        w.n_hypo,
+        glucose(f.g_low_mg_dl, unit),
+        x.features.hyper,
+        x.features.hypo
     )];
-    out.push(format!("Safety rules: {}.", rule(x.supervisory_rule)));
+    out.push(format!("Safety rules: {}.", rule(x.supervisory_rule, unit)));
+    let a = &x.applied;
+    let applied_rel = if a.old != 0.0 {
+        a.ap_fusion / a.old - 1.0
+    } else {
+        0.0
+    };
     out.push(format!(
-        "The learned policy proposed {}, the safety rule {}, exploration {}: {} in all.",
+        "The learned policy proposed {}, the safety rule {} (together {}), exploration {}: a step of {}. The update moves {:.0} % of the way (the average with the value in force): {} ({:.3} -> {:.3} {u}).",
         pct(x.action.p_a),
         pct(x.action.p_s),
+        pct(x.action.p_d),
         pct(x.action.exploration),
-        pct(x.action.p_e)
+        pct(x.action.p_e),
+        100.0 * (1.0 - cfg.update.fusion_m),
+        pct(applied_rel),
+        a.old,
+        a.ap_fusion,
     ));
-    if x.applied.switch_fired {
-        out.push("The carb ratio was kept because the basal rate moved the other way (bolus and basal insulin must not both move the same way).".into());
+    if a.switch_fired {
+        let moved = x
+            .br_change
+            .map(|(o, n)| format!(" ({o:.3} -> {n:.3} U/h, {})", pct(n / o - 1.0)))
+            .unwrap_or_default();
+        out.push(format!("The carb ratio was kept because the basal rate last moved the other way{moved} (bolus and basal insulin must not both move the same way)."));
     }
-    if x.applied.clamp_fired {
+    if a.clamp_fired {
         out.push(format!(
             "The change was limited to {:.0} % a day.",
             100.0 * cfg.update.max_relative_change
         ));
     }
-    if x.applied.hypo_guard_fired {
+    if a.hypo_guard_fired {
         out.push("An increase of insulin was cancelled because of a low reading.".into());
     }
-    if x.applied.non_finite {
+    if a.non_finite {
         out.push("The computation gave no usable number; the value stays.".into());
     }
     if let Some(b) = x.bound {
@@ -86,11 +131,34 @@ pub fn reasons(d: &Decision, cfg: &AbbaConfig) -> Vec<String> {
             Side::Upper => "upper",
         };
         out.push(format!(
-            "Held at your clinician's {side} bound {} {} (the advisor asked for {:.3}).",
-            b.bound,
-            d.parameter.unit(),
-            b.requested
+            "Held at your clinician's {side} bound {} {u} (the advisor asked for {:.3}).",
+            b.bound, b.requested
         ));
     }
+    if let Some(r) = &x.rounded {
+        if (r.new - r.requested).abs() > 1e-12 {
+            out.push(if (r.new - d.old).abs() < 1e-12 {
+                format!(
+                    "{:.3} {u} is less than one step of your pump ({} {u}) from the value in force: no change.",
+                    r.requested, r.step
+                )
+            } else {
+                format!(
+                    "Rounded to your pump's step of {} {u}: {:.3} -> {} {u}.",
+                    r.step, r.requested, r.new
+                )
+            });
+        }
+    }
+    out.push(format!(
+        "In all: {:.3} -> {:.3} {u} ({}).",
+        d.old,
+        d.new,
+        pct(if d.old != 0.0 {
+            d.new / d.old - 1.0
+        } else {
+            0.0
+        })
+    ));
     out
 }

@@ -30,7 +30,7 @@ pub struct R2rConfig {
     pub init_days: u32,
     /// Basal gain K_B. \[GUESS; calibrated] 0.1: chosen by `abba calibrate`
     /// (coordinate search over {0.1, 0.2, 0.3, 0.5} on 60 generated adults of
-    /// cohort seed 101, S1 and S2; BENCHMARKS.md "ABBA: CGM features, actor,
+    /// cohort seed 101, S1 and S2; BENCHMARKS.md "ABBA's defaults:
     /// calibration"). Earlier tuned to 0.2 by `benches/r2r_gains.py`; the
     /// spec's starting value was 0.3.
     pub basal_gain: f64,

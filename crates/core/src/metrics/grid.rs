@@ -5,7 +5,9 @@
 use crate::error::CoreError;
 use crate::time::MINUTES_PER_DAY;
 
-use super::mage::GRID_MINUTES;
+/// Spacing of iglu's interpolation grid, in minutes (5 min, its `dt0`
+/// default for CGM data).
+pub const GRID_MINUTES: f64 = 5.0;
 
 /// Glucose on iglu's grid: the points midnight + 5k min (k ≥ 1, counted from
 /// midnight of the first reading's day) that lie between the first and the

@@ -47,11 +47,8 @@
 
 use crate::error::CoreError;
 
-use super::grid::{grid_segments, iglu_grid};
+use super::grid::{grid_segments, iglu_grid, GRID_MINUTES};
 use super::validate_glucose;
-
-/// Spacing of iglu's interpolation grid, minutes.
-pub const GRID_MINUTES: f64 = 5.0;
 
 /// Which MAGE to report (iglu's `direction`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -37,7 +37,8 @@ pub mod metric;
 use serde::Serialize;
 
 use crate::error::CoreError;
-pub use mage::{mage_regular, mage_timed, Mage, MageDirection, MageOptions, GRID_MINUTES};
+pub use grid::GRID_MINUTES;
+pub use mage::{mage_regular, mage_timed, Mage, MageDirection, MageOptions};
 pub use metric::{Direction, Metric, MetricUnit};
 
 /// The metrics of one series of readings. The field names are the metric keys

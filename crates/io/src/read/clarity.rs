@@ -9,36 +9,97 @@
 //! error) and Carbs rows are read;
 //! every other event type (Exercise, Health, Alert, Device, ...) is counted.
 //! A data row without its time is an error.
+//!
+//! Identity: an EGV or Calibration row with its transmitter id and
+//! transmitter time is `transmitter id:transmitter time:event type` (the
+//! transmitter's own clock, the same in every export); any other row is
+//! identified by its content. The `Index` column restarts at 1 in every
+//! export and is never identity.
+//!
+//! A phone clock that moved (set by hand, a trip) shows as a jump of the
+//! difference between the written time and the transmitter time within one
+//! transmitter: the readings of the smaller stretches are placed by the
+//! transmitter's clock relative to the largest stretch, and each stretch
+//! is reported. Without transmitter times, readings written at times the
+//! series already covered (the clock went back) are a conflicting stretch:
+//! reported with its lines, span and count, not read; the rest is read.
+//!
+//! Headers in another language (German, French, Spanish, Italian, Dutch)
+//! are recognised by the export's structure: the time in column 2 with
+//! its `hh:mm:ss` pattern, the glucose column naming its unit in column 8,
+//! transmitter time and id last.
 
 use abba_core::{Grams, Units};
 
 use super::table::{required_number, Table};
 use super::Ctx;
 use crate::error::{IoError, Location, Place};
-use crate::record::{Censor, Glucose, Record, RecordKind, Source, SourceId};
+use crate::record::{row_id, Censor, Glucose, Record, RecordKind, Source, SourceId};
 use crate::time::{parse_wall, DateOrder, WallClock};
 use crate::units::{self, check_range, GlucoseUnit};
 
 /// Event types that are data and need a time (the preamble's FirstName,
-/// LastName, Device and Alert rows have none).
+/// LastName, Device and Alert rows have none), in English and as localised
+/// exports write them.
 const DATA_EVENTS: [&str; 4] = ["EGV", "Calibration", "Insulin", "Carbs"];
 
-/// Whether a header row (first line) is Clarity's.
+/// Localised event type names, mapped to Clarity's English ones.
+const EVENT_NAMES: [(&str, &str); 12] = [
+    ("Kalibrierung", "Calibration"),
+    ("Kohlenhydrate", "Carbs"),
+    ("Étalonnage", "Calibration"),
+    ("Glucides", "Carbs"),
+    ("Calibración", "Calibration"),
+    ("Carbohidratos", "Carbs"),
+    ("Calibrazione", "Calibration"),
+    ("Carboidrati", "Carbs"),
+    ("Kalibratie", "Calibration"),
+    ("Koolhydraten", "Carbs"),
+    ("Insuline", "Insulin"),
+    ("Insulina", "Insulin"),
+];
+
+/// Whether a header row (first line) is Clarity's: English names, or the
+/// structure of a localised export (see the module documentation).
 pub fn looks_like(header_line: &str) -> bool {
-    header_line.contains("Event Type") && header_line.contains("Glucose Value")
+    (header_line.contains("Event Type") && header_line.contains("Glucose Value"))
+        || localised(&super::libreview_columns::cells(header_line))
+}
+
+/// A localised Clarity header: at least 13 columns, the time pattern in
+/// column 2 and a glucose unit in column 8.
+fn localised(cells: &[String]) -> bool {
+    cells.len() >= 13
+        && cells[1].to_ascii_lowercase().contains("hh:mm:ss")
+        && super::plain::unit_in_name(&cells[7]).is_some()
+}
+
+/// Column `prefix` by its English name, or at `position` in a localised
+/// export.
+fn column(t: &Table<'_>, prefix: &str, position: usize, localised: bool) -> Option<usize> {
+    t.column_starting(prefix)
+        .or_else(|| (localised && position < t.header.len()).then_some(position))
 }
 
 /// Reads a Clarity export.
 pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     let file = ctx.file;
     let mut t = Table::open(file, bytes, 0)?;
-    let time_at = t.need_column_starting("Clarity", "Timestamp")?;
-    let type_at = t.need_column_starting("Clarity", "Event Type")?;
-    let subtype_at = t.column_starting("Event Subtype");
-    let glucose_at = t.need_column_starting("Clarity", "Glucose Value")?;
-    let insulin_at = t.column_starting("Insulin Value");
-    let carbs_at = t.column_starting("Carb Value");
-    let duration_at = t.column_starting("Duration");
+    let loc = t.column_starting("Event Type").is_none() && localised(&t.header);
+    let need = |prefix: &str, position: usize| -> Result<usize, IoError> {
+        match column(&t, prefix, position, loc) {
+            Some(i) => Ok(i),
+            None => t.need_column_starting("Clarity", prefix),
+        }
+    };
+    let time_at = need("Timestamp", 1)?;
+    let type_at = need("Event Type", 2)?;
+    let glucose_at = need("Glucose Value", 7)?;
+    let subtype_at = column(&t, "Event Subtype", 3, loc);
+    let insulin_at = column(&t, "Insulin Value", 8, loc);
+    let carbs_at = column(&t, "Carb Value", 9, loc);
+    let tx_time_at = column(&t, "Transmitter Time", 12, loc);
+    let tx_id_at = column(&t, "Transmitter ID", 13, loc);
     let unit = t.unit_of_column(glucose_at, ctx.opts.units)?;
     let glucose_name = t.header[glucose_at].clone();
     let (low, high) = match unit {
@@ -50,12 +111,17 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     let time_name = t.header[time_at].clone();
     let delim = t.delimiter;
     let mut out = Vec::with_capacity(t.lines_left());
+    let mut egv_clock: Vec<TxReading> = Vec::new();
     // One location reused for every row (no allocation per row).
     let mut at = Location::line(file, 0);
     while let Some(line) = t.next_row()? {
         at.place = Place::Line(line);
         let time_text = t.cell(time_at);
         let kind_text = t.cell(type_at);
+        let kind_text = EVENT_NAMES
+            .iter()
+            .find(|(local, _)| local.eq_ignore_ascii_case(kind_text))
+            .map_or(kind_text, |&(_, english)| english);
         if time_text.is_empty() {
             if DATA_EVENTS.contains(&kind_text) {
                 return Err(IoError::invalid(
@@ -154,22 +220,39 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
                     )?),
                 }
             }
-            other => {
-                let _ = duration_at;
-                RecordKind::Ignored {
-                    kind: if subtype.is_empty() {
-                        other.to_string()
-                    } else {
-                        format!("{other} {subtype}")
-                    },
+            other => RecordKind::Ignored {
+                kind: if subtype.is_empty() {
+                    other.to_string()
+                } else {
+                    format!("{other} {subtype}")
+                },
+            },
+        };
+        let tx = match (tx_id_at, tx_time_at) {
+            (Some(i), Some(j))
+                if matches!(kind, RecordKind::Cgm { .. } | RecordKind::Smbg { .. }) =>
+            {
+                let (id, time) = (t.cell(i), t.cell(j));
+                match time.parse::<i64>() {
+                    Ok(s) if !id.is_empty() => Some((id.to_string(), s)),
+                    _ => None,
                 }
             }
+            _ => None,
         };
-        let id = t
-            .cell(0)
-            .parse::<u64>()
-            .map(SourceId::Index)
-            .unwrap_or_else(|_| SourceId::Hash(crate::record::content_hash(t.raw())));
+        let id = match &tx {
+            Some((tx_id, tx_time)) => SourceId::Id(format!("{tx_id}:{tx_time}:{kind_text}").into()),
+            None => row_id(Source::Clarity, instant, &kind, t.raw(), Some(0)),
+        };
+        if let (Some((tx_id, tx_time)), RecordKind::Cgm { .. }) = (&tx, &kind) {
+            egv_clock.push(TxReading {
+                at: out.len(),
+                offset: instant.as_second() - *tx_time,
+                tx_id: tx_id.clone(),
+                tx_time: *tx_time,
+                line,
+            });
+        }
         out.push(Record {
             at: instant,
             kind,
@@ -178,5 +261,151 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
             origin: ctx.origin_line(line),
         });
     }
+    if egv_clock.is_empty() {
+        drop_conflicting_stretches(ctx, &mut out);
+    } else {
+        place_by_transmitter(ctx, &mut out, &egv_clock);
+    }
     Ok(out)
+}
+
+/// An EGV row's transmitter clock: its index in the records, the
+/// transmitter, its time (s) and the row's line.
+struct TxReading {
+    at: usize,
+    offset: i64,
+    tx_id: String,
+    tx_time: i64,
+    line: u64,
+}
+
+/// How far (s) the difference between written time and transmitter time
+/// may move between two readings before it is a clock change (transmitter
+/// clocks drift by seconds a day; a phone clock change is minutes or
+/// hours).
+const CLOCK_JUMP_S: i64 = 120;
+
+/// Places EGV readings by their transmitter's clock where the phone's
+/// clock moved (see the module documentation).
+fn place_by_transmitter(ctx: &Ctx<'_>, out: &mut [Record], readings: &[TxReading]) {
+    let mut by_tx: std::collections::BTreeMap<&str, Vec<&TxReading>> = Default::default();
+    for r in readings {
+        by_tx.entry(r.tx_id.as_str()).or_default().push(r);
+    }
+    for (tx_id, mut rs) in by_tx {
+        rs.sort_by_key(|r| r.tx_time);
+        let offset = |r: &TxReading| r.offset;
+        // Stretches of readings whose offset moves by less than a jump.
+        let mut stretches: Vec<Vec<&TxReading>> = Vec::new();
+        for r in rs {
+            match stretches.last_mut() {
+                Some(s)
+                    if s.last()
+                        .is_some_and(|p| (offset(p) - offset(r)).abs() <= CLOCK_JUMP_S) =>
+                {
+                    s.push(r)
+                }
+                _ => stretches.push(vec![r]),
+            }
+        }
+        let Some(main) = stretches
+            .iter()
+            .enumerate()
+            .max_by_key(|(_, s)| s.len())
+            .map(|(i, _)| i)
+        else {
+            continue;
+        };
+        let mut main_offsets: Vec<i64> = stretches[main].iter().map(|r| offset(r)).collect();
+        main_offsets.sort_unstable();
+        let reference = main_offsets[main_offsets.len() / 2];
+        for (i, s) in stretches.iter().enumerate() {
+            let off = offset(s[0]);
+            if i == main || (off - reference).abs() <= CLOCK_JUMP_S {
+                continue;
+            }
+            let (first, last) = (
+                s.iter().map(|r| r.line).min().unwrap_or(0),
+                s.iter().map(|r| r.line).max().unwrap_or(0),
+            );
+            let written = (out[s[0].at].at, out[s[s.len() - 1].at].at);
+            for r in s {
+                if let Ok(t) = jiff::Timestamp::from_second(reference + r.tx_time) {
+                    out[r.at].at = t;
+                }
+            }
+            let shift = jiff::SignedDuration::from_secs(off - reference);
+            ctx.note(format!(
+                "lines {first}-{last}: {} readings of transmitter {tx_id} written {} to {} were                  placed by the transmitter's clock (the phone's clock differed by {shift:#})",
+                s.len(),
+                written.0,
+                written.1
+            ));
+        }
+    }
+}
+
+/// Without transmitter times: EGV readings written at times the series
+/// already covered (the clock went back) cannot be placed; each such
+/// stretch is reported and left out, the rest is kept.
+fn drop_conflicting_stretches(ctx: &Ctx<'_>, out: &mut Vec<Record>) {
+    let mut cgm = out
+        .iter()
+        .filter(|r| matches!(r.kind, RecordKind::Cgm { .. }));
+    if let (Some(first), Some(last)) = (cgm.next(), cgm.next_back()) {
+        if first.at > last.at {
+            return; // newest first: not the order this check reads
+        }
+    }
+    let mut newest: Option<usize> = None;
+    let mut drop = vec![false; out.len()];
+    let mut stretch: Option<(usize, usize, usize)> = None; // first, last, count
+    let report = |s: (usize, usize, usize), out: &[Record]| {
+        let line = |i: usize| match out[i].origin.at {
+            crate::record::OriginAt::Line(l) => l,
+            crate::record::OriginAt::Item(i) => i,
+        };
+        ctx.note(format!(
+            "lines {}-{}: {} readings written {} to {} fall on times the series already              covered (the clock went back?) and carry no transmitter time: not read",
+            line(s.0),
+            line(s.1),
+            s.2,
+            out[s.0].at,
+            out[s.1].at
+        ));
+    };
+    let slack = jiff::SignedDuration::from_secs(CLOCK_JUMP_S);
+    for i in 0..out.len() {
+        if !matches!(out[i].kind, RecordKind::Cgm { .. }) {
+            continue;
+        }
+        let at = out[i].at;
+        // Before the newest time read, or at it with another value.
+        let conflict = newest.is_some_and(|n: usize| {
+            at.checked_add(slack).is_ok_and(|a| a < out[n].at)
+                || (at <= out[n].at && out[n].kind != out[i].kind)
+        });
+        if conflict {
+            drop[i] = true;
+            stretch = Some(match stretch {
+                Some((f, _, c)) => (f, i, c + 1),
+                None => (i, i, 1),
+            });
+            continue;
+        }
+        if let Some(s) = stretch.take() {
+            report(s, out);
+        }
+        if newest.is_none_or(|n| at > out[n].at) {
+            newest = Some(i);
+        }
+    }
+    if let Some(s) = stretch.take() {
+        report(s, out);
+    }
+    let mut i = 0;
+    out.retain(|_| {
+        i += 1;
+        !drop[i - 1]
+    });
 }

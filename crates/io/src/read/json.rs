@@ -52,6 +52,21 @@ impl<'a> Item<'a> {
             Some(Value::String(s)) if s.trim().parse::<f64>().is_ok_and(f64::is_finite) => {
                 Ok(s.trim().parse().ok())
             }
+            // MongoDB extended JSON (canonical mode): {"$numberInt": "120"}.
+            Some(Value::Object(o))
+                if o.len() == 1
+                    && ["$numberInt", "$numberLong", "$numberDouble"]
+                        .iter()
+                        .any(|k| o.contains_key(*k)) =>
+            {
+                o.values()
+                    .next()
+                    .and_then(Value::as_str)
+                    .and_then(|s| s.trim().parse::<f64>().ok())
+                    .filter(|v| v.is_finite())
+                    .map(Some)
+                    .ok_or_else(|| self.err(field, "expected a finite number in extended JSON"))
+            }
             Some(v) => Err(self.err(field, format!("expected a number, got {v}"))),
         }
     }
@@ -65,6 +80,22 @@ impl<'a> Item<'a> {
 /// Parses `bytes` as a JSON array of objects (a single object counts as an
 /// array of one).
 pub fn parse_array(file: &str, bytes: &[u8]) -> Result<Vec<Value>, IoError> {
+    // mongoexport writes one document a line (no array): read them in order.
+    let mut stream = serde_json::Deserializer::from_slice(bytes).into_iter::<Value>();
+    if let (Some(Ok(Value::Object(first))), Some(second)) = (stream.next(), stream.next()) {
+        let mut items = vec![Value::Object(first)];
+        let mut next = Some(second);
+        while let Some(v) = next {
+            let v = v.map_err(|e| IoError::Invalid {
+                at: Location::line(file, e.line() as u64),
+                field: "json".into(),
+                message: format!("not valid JSON (one document a line): {e}"),
+            })?;
+            items.push(v);
+            next = stream.next();
+        }
+        return Ok(items);
+    }
     let v: Value = serde_json::from_slice(bytes).map_err(|e| IoError::Invalid {
         at: Location::line(file, e.line() as u64),
         field: "json".into(),

@@ -17,7 +17,7 @@ use super::libreview_columns::{self, Role};
 use super::table::{number, Table};
 use super::Ctx;
 use crate::error::{IoError, Location, Place};
-use crate::record::{content_hash, Glucose, Record, RecordKind, Source, SourceId};
+use crate::record::{row_id, Glucose, Record, RecordKind, Source};
 use crate::time::{parse_wall, DateOrder, WallClock};
 use crate::units::{self, check_range, GlucoseUnit};
 
@@ -68,7 +68,7 @@ fn header_line(file: &str, bytes: &[u8]) -> Result<usize, IoError> {
 /// What one time cell says about the date order, if anything: year
 /// first, AM/PM (month first, as US accounts write), a first field above 12
 /// (day first) or a second field above 12 (month first).
-fn order_evidence(cell: &str) -> Option<DateOrder> {
+pub(crate) fn order_evidence(cell: &str) -> Option<DateOrder> {
     let s = cell.trim().trim_matches('"');
     if s.get(4..5)
         .is_some_and(|c| c == "-" || c == "/" || c == ".")
@@ -310,13 +310,12 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
                 kind: format!("record type {other}"),
             }),
         }
-        let hash = content_hash(t.raw());
-        for (n, kind) in kinds.into_iter().enumerate() {
+        for kind in kinds {
             out.push(Record {
                 at: instant,
+                id: row_id(Source::LibreView, instant, &kind, t.raw(), None),
                 kind,
                 source: Source::LibreView,
-                id: SourceId::Hash(hash.wrapping_add(n as u64)),
                 origin: ctx.origin_line(line),
             });
         }

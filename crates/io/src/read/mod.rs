@@ -1,6 +1,7 @@
 //! Reading exports: format detection, the per-format readers, and merging
 //! files into one sorted stream with duplicates removed and counted.
 
+pub mod carelink;
 pub mod clarity;
 pub mod json;
 pub mod libreview;
@@ -16,7 +17,7 @@ use jiff::tz::TimeZone;
 use serde::Serialize;
 
 use crate::error::IoError;
-use crate::record::{Origin, OriginAt, Record, RecordKind};
+use crate::record::{Origin, OriginAt, Record, RecordKind, Source, SourceId};
 use crate::units::GlucoseUnit;
 
 /// The export formats abba reads.
@@ -33,6 +34,8 @@ pub enum Format {
     Tidepool,
     /// Plain CSV with named columns.
     Csv,
+    /// Medtronic CareLink CSV.
+    CareLink,
 }
 
 impl Format {
@@ -45,6 +48,7 @@ impl Format {
             "libreview" | "libre" => Some(Self::LibreView),
             "tidepool" => Some(Self::Tidepool),
             "csv" => Some(Self::Csv),
+            "carelink" | "medtronic" => Some(Self::CareLink),
             _ => None,
         }
     }
@@ -79,9 +83,18 @@ pub struct Ctx<'a> {
     pub index: u16,
     /// The options.
     pub opts: &'a ReadOptions,
+    /// What the reader reports about the file without refusing it (a
+    /// stretch placed by the transmitter's clock, repeats kept once).
+    pub notes: std::cell::RefCell<Vec<String>>,
 }
 
 impl Ctx<'_> {
+    /// Reports something about the file (see [`Ctx::notes`]).
+    pub fn note(&self, text: impl Into<String>) {
+        self.notes
+            .borrow_mut()
+            .push(format!("{}: {}", self.file, text.into()));
+    }
     /// The origin of a CSV line.
     pub fn origin_line(&self, line: u64) -> Origin {
         Origin {
@@ -131,6 +144,9 @@ pub fn detect(file: &str, bytes: &[u8]) -> Result<Format, IoError> {
         });
     }
     let first = head.lines().next().unwrap_or("");
+    if carelink::looks_like(&head) {
+        return Ok(Format::CareLink);
+    }
     if clarity::looks_like(first) {
         return Ok(Format::Clarity);
     }
@@ -150,6 +166,16 @@ pub fn read_bytes(
     bytes: &[u8],
     opts: &ReadOptions,
 ) -> Result<(Format, Vec<Record>), IoError> {
+    read_bytes_noted(file, index, bytes, opts).map(|(f, r, _)| (f, r))
+}
+
+/// Like [`read_bytes`], with the reader's notes on the file.
+pub fn read_bytes_noted(
+    file: &str,
+    index: u16,
+    bytes: &[u8],
+    opts: &ReadOptions,
+) -> Result<(Format, Vec<Record>, Vec<String>), IoError> {
     let decoded = table::utf16_to_utf8(file, bytes)?;
     let bytes = decoded.as_deref().unwrap_or(bytes);
     let format = match opts.format {
@@ -157,15 +183,21 @@ pub fn read_bytes(
         None => detect(file, bytes)?,
     };
     let bytes = table::strip_bom(bytes);
-    let ctx = Ctx { file, index, opts };
+    let ctx = Ctx {
+        file,
+        index,
+        opts,
+        notes: Default::default(),
+    };
     let records = match format {
         Format::Nightscout => nightscout::read(&ctx, bytes)?,
         Format::Clarity => clarity::read(&ctx, bytes)?,
         Format::LibreView => libreview::read(&ctx, bytes)?,
         Format::Tidepool => tidepool::read(&ctx, bytes)?,
         Format::Csv => plain::read(&ctx, bytes)?,
+        Format::CareLink => carelink::read(&ctx, bytes)?,
     };
-    Ok((format, records))
+    Ok((format, records, ctx.notes.into_inner()))
 }
 
 /// Records of several files, merged.
@@ -178,8 +210,46 @@ pub struct Batch {
     /// Records in time order (stable: equal instants keep file order).
     pub records: Vec<Record>,
     /// Records removed as duplicates (same instant, same kind and values,
-    /// as when two exports overlap), by kind.
+    /// as when two exports overlap or a row is repeated), by kind.
     pub duplicates: BTreeMap<String, usize>,
+    /// Older versions of a record whose id came again with other content
+    /// (Nightscout documents AndroidAPS rewrites): the latest version is
+    /// kept, these are removed.
+    pub older_versions: usize,
+    /// Tidepool readings and doses carried twice by two uploads (a pump and
+    /// Apple Health) seconds apart: one is kept (see [`CROSS_UPLOAD_WINDOW_S`]).
+    pub cross_upload: BTreeMap<String, usize>,
+    /// Records read from each file (before merging), in file order.
+    pub per_file: Vec<usize>,
+    /// What the readers reported without refusing (stretches placed by a
+    /// transmitter's clock, repeats kept once), each starting with its file.
+    pub notes: Vec<String>,
+}
+
+/// How far apart (seconds) two Tidepool data of the same kind and value
+/// may be and still be one datum uploaded twice (a pump upload and Apple
+/// Health carry the same bolus or reading with clocks seconds apart).
+pub const CROSS_UPLOAD_WINDOW_S: i64 = 60;
+
+/// The latest instant a record read at `now` may carry:
+/// [`abba_core::limits::FUTURE_SKEW_MINUTES`] after it.
+pub fn future_limit(now: jiff::Timestamp) -> jiff::Timestamp {
+    now.checked_add(jiff::SignedDuration::from_mins(
+        abba_core::limits::FUTURE_SKEW_MINUTES,
+    ))
+    .unwrap_or(now)
+}
+
+/// Records refused (dated after the time of import) or not used (before
+/// the person's day 1): how many, and the first.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct Refused {
+    /// How many.
+    pub count: usize,
+    /// Where the first (earliest in file order) was read.
+    pub first: Option<String>,
+    /// The first one's instant.
+    pub first_at: Option<String>,
 }
 
 impl Batch {
@@ -193,6 +263,31 @@ impl Batch {
             OriginAt::Line(n) => format!("{file}: line {n}"),
             OriginAt::Item(i) => format!("{file}: $[{i}]"),
         }
+    }
+    /// Removes the records dated more than
+    /// [`abba_core::limits::FUTURE_SKEW_MINUTES`] after `now` (the time of
+    /// import): they cannot be true yet. Returns their count and the first.
+    pub fn refuse_future(&mut self, now: jiff::Timestamp) -> Refused {
+        let limit = future_limit(now);
+        let mut refused = Refused::default();
+        let keep = self.records.partition_point(|r| r.at <= limit);
+        let first = self.records[keep..].iter().min_by_key(|r| r.origin);
+        if let Some(r) = first {
+            refused.first = Some(self.origin(r));
+            refused.first_at = Some(r.at.to_string());
+        }
+        refused.count = self.records.len() - keep;
+        self.records.truncate(keep);
+        refused
+    }
+    /// The files from which no record was read.
+    pub fn empty_files(&self) -> Vec<&str> {
+        self.files
+            .iter()
+            .zip(&self.per_file)
+            .filter(|(_, &n)| n == 0)
+            .map(|(f, _)| f.as_str())
+            .collect()
     }
     /// Records of a kind name (see [`crate::RecordKind::name`]).
     pub fn count(&self, kind: &str) -> usize {
@@ -213,20 +308,27 @@ pub fn read_all(inputs: &[(String, Vec<u8>)], opts: &ReadOptions) -> Result<Batc
     }
     let mut records = Vec::new();
     let mut formats = Vec::new();
+    let mut per_file = Vec::new();
+    let mut notes = Vec::new();
     for (i, (name, bytes)) in inputs.iter().enumerate() {
-        let (format, mut r) = read_bytes(name, i as u16, bytes, opts)?;
+        let (format, mut r, mut n) = read_bytes_noted(name, i as u16, bytes, opts)?;
         formats.push(format);
+        per_file.push(r.len());
+        notes.append(&mut n);
         if records.is_empty() {
             records = r; // one file: no copy
         } else {
             records.append(&mut r);
         }
     }
-    Ok(merge(
+    let mut batch = merge(
         inputs.iter().map(|(n, _)| n.clone()).collect(),
         formats,
         records,
-    ))
+    );
+    batch.per_file = per_file;
+    batch.notes = notes;
+    Ok(batch)
 }
 
 /// Reads files from disk and merges them.
@@ -245,13 +347,18 @@ pub fn read_files(paths: &[std::path::PathBuf], opts: &ReadOptions) -> Result<Ba
 
 /// Sorts records by instant and removes exact duplicates (same instant,
 /// same kind and values; for ignored records also the same identity),
-/// counting them. Works in place: a 10-year CGM file is about a million
-/// records.
+/// counting them; of records sharing an id ([`SourceId::Id`]) keeps the
+/// last read (the latest version); of Tidepool data carried by two uploads
+/// within [`CROSS_UPLOAD_WINDOW_S`] keeps the first. Works in place: a
+/// 10-year CGM file is about a million records.
 pub fn merge(files: Vec<String>, formats: Vec<Format>, mut records: Vec<Record>) -> Batch {
+    let older_versions = drop_older_versions(&mut records);
     if !records.is_sorted_by(|a, b| a.at <= b.at) {
         records.sort_by_key(|r| r.at);
     }
     let mut duplicates: BTreeMap<String, usize> = BTreeMap::new();
+    let mut cross_upload: BTreeMap<String, usize> = BTreeMap::new();
+    let window = jiff::SignedDuration::from_secs(CROSS_UPLOAD_WINDOW_S);
     let mut write = 0;
     let mut group_start = 0;
     for read in 0..records.len() {
@@ -266,6 +373,17 @@ pub fn merge(files: Vec<String>, formats: Vec<Format>, mut records: Vec<Record>)
             *duplicates.entry(r.kind.name().to_string()).or_default() += 1;
             continue;
         }
+        if r.source == Source::Tidepool && !matches!(r.kind, RecordKind::Ignored { .. }) {
+            let twice = records[..write]
+                .iter()
+                .rev()
+                .take_while(|k| r.at.duration_since(k.at) <= window)
+                .any(|k| k.source == Source::Tidepool && k.kind == r.kind && k.id != r.id);
+            if twice {
+                *cross_upload.entry(r.kind.name().to_string()).or_default() += 1;
+                continue;
+            }
+        }
         records.swap(write, read);
         write += 1;
     }
@@ -275,5 +393,43 @@ pub fn merge(files: Vec<String>, formats: Vec<Format>, mut records: Vec<Record>)
         formats,
         records,
         duplicates,
+        older_versions,
+        cross_upload,
+        per_file: Vec::new(),
+        notes: Vec::new(),
     }
+}
+
+/// Removes every record whose id ([`SourceId::Id`], same source) comes
+/// again later in read order (file, then line or item) with other content,
+/// keeping the last; returns how many were removed. Repeats with the same
+/// content are left for the duplicate count.
+fn drop_older_versions(records: &mut Vec<Record>) -> usize {
+    let mut last: std::collections::HashMap<(Source, &str), usize> =
+        std::collections::HashMap::new();
+    for (i, r) in records.iter().enumerate() {
+        if let SourceId::Id(id) = &r.id {
+            let e = last.entry((r.source, id)).or_insert(i);
+            if r.origin >= records[*e].origin {
+                *e = i;
+            }
+        }
+    }
+    let drop: Vec<bool> = records
+        .iter()
+        .map(|r| match &r.id {
+            SourceId::Id(id) => last.get(&(r.source, &**id)).is_some_and(|&w| {
+                let w = &records[w];
+                w.at != r.at || w.kind != r.kind
+            }),
+            SourceId::Hash(_) => false,
+        })
+        .collect();
+    let before = records.len();
+    let mut i = 0;
+    records.retain(|_| {
+        i += 1;
+        !drop[i - 1]
+    });
+    before - records.len()
 }

@@ -12,7 +12,7 @@ use super::json::{objects, parse_array, Item};
 use super::Ctx;
 use crate::error::IoError;
 use crate::record::{
-    content_hash, BasalSchedule, Censor, Glucose, Profile, Record, RecordKind, Source, SourceId,
+    content_id, BasalSchedule, Censor, Glucose, Profile, Record, RecordKind, Source, SourceId,
     TempRate,
 };
 use crate::time::parse_instant;
@@ -23,6 +23,7 @@ use crate::units::{self, check_range, GlucoseUnit};
 pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     let items = parse_array(ctx.file, bytes)?;
     let mut out = Vec::with_capacity(items.len());
+    let mut versions: Vec<Option<f64>> = Vec::with_capacity(items.len());
     for item in objects(ctx.file, &items)? {
         let at = instant(&item)?;
         // `_id` is a string from the API, `{"$oid": ...}` from a MongoDB dump.
@@ -32,11 +33,11 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
                 Some(Value::String(id)) => SourceId::Id(id.as_str().into()),
                 _ => return Err(item.err("_id", "expected a string or {\"$oid\": string}")),
             },
-            None => SourceId::Hash(content_hash([Value::Object(item.obj.clone())
-                .to_string()
-                .as_bytes()])),
+            // No id (the first record of some dumps): its content is its identity.
+            None => SourceId::Hash(0),
             Some(other) => return Err(item.err("_id", format!("expected a string, got {other}"))),
         };
+        let version = modified(&item)?;
         let kinds = if item.get("store").is_some() {
             vec![profile(&item)?]
         } else if let Some(event) = item.str("eventType")? {
@@ -46,11 +47,11 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
         };
         for (n, kind) in kinds.into_iter().enumerate() {
             let id = match (&id, n) {
-                (id, 0) => id.clone(),
+                (SourceId::Id(s), 0) => SourceId::Id(s.clone()),
                 (SourceId::Id(s), n) => SourceId::Id(format!("{s}#{n}").into()),
-                (SourceId::Hash(h), n) => SourceId::Hash(h.wrapping_add(n as u64)),
-                (SourceId::Index(i), _) => SourceId::Index(*i),
+                (SourceId::Hash(_), _) => content_id(Source::Nightscout, at, &kind),
             };
+            versions.push(version);
             out.push(Record {
                 at,
                 kind,
@@ -61,7 +62,63 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
         }
     }
     check_error_codes(ctx.file, &out)?;
+    latest_versions(ctx, &mut out, &versions);
     Ok(out)
+}
+
+/// A document's version stamp: `srvModified` (Nightscout API v3, ms) or
+/// `modifiedAt`, if given.
+fn modified(item: &Item<'_>) -> Result<Option<f64>, IoError> {
+    match item.num("srvModified")? {
+        Some(v) => Ok(Some(v)),
+        None => Ok(item
+            .str("modifiedAt")?
+            .and_then(parse_instant)
+            .map(|t| t.as_millisecond() as f64)),
+    }
+}
+
+/// Of the records repeating an `_id` (AndroidAPS rewrites a temporary
+/// basal it cut short, with another duration or time), keeps the latest
+/// version: the greatest `srvModified`, else the last in the file; the
+/// others are counted in a note.
+fn latest_versions(ctx: &Ctx<'_>, out: &mut Vec<Record>, versions: &[Option<f64>]) {
+    let mut best: std::collections::HashMap<&str, usize> = std::collections::HashMap::new();
+    for (i, r) in out.iter().enumerate() {
+        let SourceId::Id(id) = &r.id else { continue };
+        let e = best.entry(id).or_insert(i);
+        let newer = match (versions[*e], versions[i]) {
+            (Some(a), Some(b)) => b >= a,
+            (Some(_), None) => false,
+            _ => true,
+        };
+        if newer {
+            *e = i;
+        }
+    }
+    let drop: Vec<bool> = out
+        .iter()
+        .map(|r| match &r.id {
+            SourceId::Id(id) => best.get(&**id).is_some_and(|&w| {
+                let w = &out[w];
+                w.at != r.at || w.kind != r.kind
+            }),
+            SourceId::Hash(_) => false,
+        })
+        .collect();
+    let before = out.len();
+    let mut i = 0;
+    out.retain(|_| {
+        i += 1;
+        !drop[i - 1]
+    });
+    if out.len() < before {
+        ctx.note(format!(
+            "{} records repeat an _id of another record of the file: the latest version \
+             (srvModified, else the last in the file) is kept",
+            before - out.len()
+        ));
+    }
 }
 
 /// Error codes are rare: a file where most `sgv` values are below 39 is
@@ -95,6 +152,58 @@ fn check_error_codes(file: &str, records: &[Record]) -> Result<(), IoError> {
 /// The item's instant: `date` / `mills` (ms since the epoch), else
 /// `dateString` / `created_at` / `startDate` / `timestamp` (ISO 8601).
 fn instant(item: &Item<'_>) -> Result<jiff::Timestamp, IoError> {
+    // A profile (or Profile Switch) dated at the epoch is Nightscout's
+    // default record: in force since always.
+    let profile = item.get("store").is_some()
+        || item.str("eventType").ok().flatten() == Some("Profile Switch");
+    if profile {
+        let epoch_ms = ["mills", "date"]
+            .iter()
+            .any(|f| item.num(f).ok().flatten() == Some(0.0));
+        let epoch_text = ["startDate", "created_at", "dateString"].iter().any(|f| {
+            item.str(f)
+                .ok()
+                .flatten()
+                .and_then(parse_instant)
+                .is_some_and(|t| t == jiff::Timestamp::UNIX_EPOCH)
+        });
+        if epoch_ms || epoch_text {
+            return Ok(crate::record::SINCE_ALWAYS);
+        }
+    }
+    for field in ["date", "mills", "created_at", "dateString"] {
+        // MongoDB extended JSON: {"$date": "2024-05-01T10:00:00Z"},
+        // {"$date": 1714557600000} or {"$date": {"$numberLong": "..."}}.
+        if let Some(Value::Object(o)) = item.get(field) {
+            let Some(d) = o.get("$date") else {
+                return Err(item.err(field, "expected a time, got an object without $date"));
+            };
+            let ms = match d {
+                Value::String(s) => match parse_instant(s) {
+                    Some(t) => return Ok(t),
+                    None => s.parse::<f64>().ok(),
+                },
+                Value::Number(n) => n.as_f64(),
+                Value::Object(l) => l
+                    .get("$numberLong")
+                    .and_then(Value::as_str)
+                    .and_then(|s| s.parse::<f64>().ok()),
+                _ => None,
+            };
+            return match ms {
+                Some(ms) if ms.abs() >= MS_SINCE_1973 => {
+                    jiff::Timestamp::from_millisecond(ms as i64)
+                        .map_err(|e| item.err(field, format!("{ms} is not a time: {e}")))
+                }
+                _ => Err(item.err(
+                    field,
+                    format!(
+                        "expected {{\"$date\": ISO 8601 time or milliseconds since 1970}}, got {d}"
+                    ),
+                )),
+            };
+        }
+    }
     for field in ["date", "mills"] {
         if let Some(Value::Number(_)) = item.get(field) {
             let ms = item.need_num(field, "milliseconds since 1970")?;

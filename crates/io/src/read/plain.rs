@@ -9,9 +9,7 @@ use abba_core::{Grams, Units, UnitsPerHour};
 use super::table::{required_number, Table};
 use super::Ctx;
 use crate::error::{IoError, Location, Place};
-use crate::record::{
-    content_hash, BasalSchedule, Glucose, Profile, Record, RecordKind, Source, SourceId,
-};
+use crate::record::{content_id, BasalSchedule, Glucose, Profile, Record, RecordKind, Source};
 use crate::time::{has_offset, parse_instant, parse_wall, DateOrder, WallClock};
 use crate::units::{self, check_range, GlucoseUnit};
 
@@ -47,6 +45,61 @@ pub fn unit_in_name(name: &str) -> Option<GlucoseUnit> {
     }
 }
 
+/// The date order of the time column (or of `date` beside `time`): year
+/// first, or what the dates show (a day above 12), or `--date-order`;
+/// dates that contradict one another are an error naming both lines.
+fn date_order(
+    ctx: &Ctx<'_>,
+    bytes: &[u8],
+    (date_at, clock_at): (usize, Option<usize>),
+) -> Result<DateOrder, IoError> {
+    let mut t = Table::open(ctx.file, bytes, 0)?;
+    let mut seen: Option<(DateOrder, u64)> = None;
+    let mut undecided = false;
+    while let Some(line) = t.next_row()? {
+        let date = t.cell(date_at);
+        if date.is_empty() || has_offset(date) {
+            continue;
+        }
+        let text = match clock_at {
+            Some(c) => format!("{date} {}", t.cell(c)),
+            None => date.to_string(),
+        };
+        match super::libreview::order_evidence(&text) {
+            None => undecided = true,
+            Some(o) => match seen {
+                None => seen = Some((o, line)),
+                Some((first, first_line)) if first != o => {
+                    return Err(IoError::invalid(
+                        Location::line(ctx.file, line),
+                        &t.header[date_at],
+                        format!(
+                            "date \"{date}\" is {o:?} but line {first_line} is {first:?}: the \
+                             file mixes date orders"
+                        ),
+                    ))
+                }
+                Some(_) => {}
+            },
+        }
+    }
+    match (seen, ctx.opts.date_order) {
+        (Some((DateOrder::YearFirst, _)), _) => Ok(DateOrder::YearFirst),
+        (Some((o, _)), Some(given)) if given != o => Err(IoError::format(
+            ctx.file,
+            format!("the dates are {o:?} but --date-order says {given:?}"),
+        )),
+        (Some((o, _)), _) => Ok(o),
+        (None, Some(given)) => Ok(given),
+        (None, None) if undecided => Err(IoError::format(
+            ctx.file,
+            "every date could be day-first or month-first (no day above 12); give --date-order \
+             day-first or month-first",
+        )),
+        (None, None) => Ok(DateOrder::YearFirst),
+    }
+}
+
 fn find(table: &Table<'_>, wanted: &str) -> Option<usize> {
     table.column(|h| h.eq_ignore_ascii_case(wanted))
 }
@@ -76,8 +129,30 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
             )
         })?,
     };
-    let time_name = t.header[time_at].clone();
-    let minute_clock = time_name.eq_ignore_ascii_case("minute");
+    // A research dataset's separate `date` and `time` columns: read as one.
+    let split = match (
+        ctx.opts.time_column.is_none(),
+        find(&t, "date"),
+        find(&t, "time"),
+    ) {
+        (true, Some(d), Some(c)) => Some((d, c)),
+        _ => None,
+    };
+    let time_name = match split {
+        Some((d, c)) => format!("{} + {}", t.header[d], t.header[c]),
+        None => t.header[time_at].clone(),
+    };
+    let minute_clock = split.is_none() && time_name.eq_ignore_ascii_case("minute");
+    let order = if minute_clock {
+        DateOrder::YearFirst
+    } else {
+        date_order(
+            ctx,
+            bytes,
+            split.map_or((time_at, None), |(d, c)| (d, Some(c))),
+        )?
+    };
+    let type_at = find(&t, "type");
     let glucose_at =
         match &ctx.opts.glucose_column {
             Some(name) => Some(find(&t, name).ok_or_else(|| {
@@ -191,7 +266,14 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
                 },
             }
         }
-        let text = t.cell(time_at);
+        let joined;
+        let text = match split {
+            Some((d, c)) => {
+                joined = format!("{} {}", t.cell(d), t.cell(c));
+                joined.as_str()
+            }
+            None => t.cell(time_at),
+        };
         let instant = if minute_clock {
             let m = required_number(file, line, &time_name, text, delim, "a whole minute")?;
             if m.fract() != 0.0 || m.abs() > 1e9 {
@@ -230,7 +312,7 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
             let parsed = if offset {
                 parse_instant(text)
             } else {
-                match parse_wall(text, DateOrder::YearFirst) {
+                match parse_wall(text, order) {
                     Some(dt) => Some(wall.resolve(dt, &at, &time_name)?),
                     None => None,
                 }
@@ -240,18 +322,22 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
                     at.clone(),
                     &time_name,
                     format!(
-                        "expected a time like 2015-06-06 16:50:27 or 2015-06-06T16:50:27Z, got \"{text}\""
+                        "expected a time like 2015-06-06 16:50:27 or 2015-06-06T16:50:27Z{}, got \"{text}\"",
+                        match order {
+                            DateOrder::YearFirst => "",
+                            DateOrder::DayFirst => " (day first, as the file's dates show)",
+                            DateOrder::MonthFirst => " (month first, as the file's dates show)",
+                        }
                     ),
                 )
             })?
         };
-        let hash = content_hash(t.raw());
-        let mut push = |kind: RecordKind, n: u64| {
+        let mut push = |kind: RecordKind, _n: u64| {
             out.push(Record {
                 at: instant,
+                id: content_id(Source::PlainCsv, instant, &kind),
                 kind,
                 source: Source::PlainCsv,
-                id: SourceId::Hash(hash.wrapping_add(n)),
                 origin: ctx.origin_line(line),
             })
         };
@@ -264,12 +350,21 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
                     required_number(file, line, &glucose_name, text, delim, "a glucose number")?;
                 let mg = units::glucose_mg_dl(&at, &glucose_name, v, unit)?;
                 raw_glucose.push(v);
-                push(
-                    RecordKind::Cgm {
-                        glucose: Glucose::exact(mg),
+                let glucose = Glucose::exact(mg);
+                let kind = match type_at.map(|i| t.cell(i).to_ascii_lowercase()) {
+                    None => RecordKind::Cgm { glucose },
+                    Some(ty) => match ty.as_str() {
+                        "" | "cgm" | "sensor" | "cbg" | "historic" | "egv" => {
+                            RecordKind::Cgm { glucose }
+                        }
+                        "manual" | "meter" | "smbg" | "bg" | "fingerstick" | "finger stick"
+                        | "capillary" => RecordKind::Smbg { glucose },
+                        other => RecordKind::Ignored {
+                            kind: format!("glucose of type \"{other}\" (not cgm or manual)"),
+                        },
                     },
-                    0,
-                );
+                };
+                push(kind, 0);
             }
         }
         for (col, n) in [(carbs_at, 1), (bolus_at, 2), (basal_at, 3)] {

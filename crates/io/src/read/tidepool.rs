@@ -14,7 +14,7 @@ use super::json::{objects, parse_array, Item};
 use super::Ctx;
 use crate::error::IoError;
 use crate::record::{
-    content_hash, BasalSchedule, Censor, Glucose, Profile, Record, RecordKind, Source, SourceId,
+    content_id, BasalSchedule, Censor, Glucose, Profile, Record, RecordKind, Source, SourceId,
     TempRate,
 };
 use crate::time::parse_instant;
@@ -62,9 +62,7 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
         })?;
         let id = match item.str("id")? {
             Some(id) => SourceId::Id(id.into()),
-            None => SourceId::Hash(content_hash([Value::Object(item.obj.clone())
-                .to_string()
-                .as_bytes()])),
+            None => content_id(Source::Tidepool, at, &kind),
         };
         out.push(Record {
             at,

@@ -53,6 +53,33 @@ pub struct PersonReportInput {
     pub days: Vec<PersonDay>,
     /// Every suggestion of the period, in order.
     pub suggestions: Vec<SuggestionLine>,
+    /// What the reader must know about the data (how insulin was delivered,
+    /// a closed loop and its evidence), shown at the top.
+    #[serde(default)]
+    pub notes: Vec<String>,
+}
+
+/// Fewer days than this make an AGP unreliable (the international
+/// consensus on time in range, Battelino et al. 2019: 14 days).
+pub const AGP_MIN_DAYS: usize = 14;
+/// Less CGM wear than this (% of the period) makes an AGP unreliable (same consensus).
+pub const AGP_MIN_WEAR_PCT: f64 = 70.0;
+
+/// Warnings about the period: too few days, too little CGM wear.
+pub fn data_warnings(input: &PersonReportInput, cgm_active_pct: Option<f64>) -> Vec<String> {
+    let mut out = Vec::new();
+    let n = input.days.len();
+    if n < AGP_MIN_DAYS {
+        out.push(format!(
+            "This period has {n} days: an AGP needs at least {AGP_MIN_DAYS} days (international consensus on time in range); the statistics and the profile below may not represent this person."
+        ));
+    }
+    if let Some(p) = cgm_active_pct.filter(|p| *p < AGP_MIN_WEAR_PCT) {
+        out.push(format!(
+            "The CGM was active {p:.0} % of the period: an AGP needs at least {AGP_MIN_WEAR_PCT:.0} % (international consensus on time in range); the statistics and the profile below may not represent this person."
+        ));
+    }
+    out
 }
 
 /// One local calendar day.
@@ -72,6 +99,9 @@ pub struct PersonDay {
     pub carbs_g: Option<f64>,
     /// Main meals (and snacks) of the day.
     pub meals: Vec<MealTime>,
+    /// Carbohydrate taken to treat low glucose (g; not meals), if known.
+    #[serde(default)]
+    pub rescue_g: Option<f64>,
 }
 
 /// One glucose reading.
@@ -360,6 +390,7 @@ pub fn person_report_html(input: &PersonReportInput) -> Result<String, ReportErr
                 &opt(d.bolus_u, 1, "U"),
                 &opt(total, 1, "U"),
                 &opt(d.carbs_g, 0, "g"),
+                &opt(d.rescue_g, 0, "g"),
             ])
         })
         .collect();
@@ -409,6 +440,8 @@ pub fn person_report_html(input: &PersonReportInput) -> Result<String, ReportErr
         meals => meals,
         outcome_tolerance => tolerance,
         insulin => insulin,
+        warnings => data_warnings(input, summary.cgm_active_pct),
+        notes => &input.notes,
     };
     render_page("person.html", "person report", ctx)
 }

@@ -182,11 +182,14 @@ fn day_axes(
         let x = plot.x(f64::from(h * 60));
         fig.line(x, plot.top, x, plot.top + plot.height, "#EEEEEE", "");
         if labels {
+            // The last tick ends at the plot's edge (centred, it would be
+            // clipped by the figure's border).
+            let anchor = if h == 24 { "end" } else { "middle" };
             fig.text(
                 x,
                 plot.top + plot.height + font * 1.2,
                 font,
-                "middle",
+                anchor,
                 &format!("{h:02}:00"),
             );
         }

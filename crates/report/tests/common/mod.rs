@@ -90,6 +90,7 @@ pub fn synthetic_person(days: usize, mode: Mode, unit: GlucoseUnit) -> PersonRep
             bolus_u: Some(12.0 + d as f64 * 0.1),
             carbs_g: Some(3.0 * (40.0 + d as f64)),
             meals,
+            rescue_g: None,
         });
         if d % 4 == 3 {
             let new = basal * 1.05;
@@ -117,6 +118,7 @@ pub fn synthetic_person(days: usize, mode: Mode, unit: GlucoseUnit) -> PersonRep
         unit,
         days: out,
         suggestions,
+        notes: Vec::new(),
     }
 }
 

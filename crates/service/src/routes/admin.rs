@@ -1,10 +1,10 @@
 //! Admin (clinic) endpoints: persons, bounds, tokens.
 
-use crate::auth::{self, Need};
+use crate::auth;
 use crate::body::{self, RawBody};
 use crate::convert;
 use crate::error::ApiError;
-use crate::routes::{path_text, person_id, PathId};
+use crate::extract::{parse_id, Admin, AdminPath};
 use crate::state::AppState;
 use abba_api::{BoundsBody, ErrorBody, NewPersonBody, PersonCreated, TokenIssued, TokenRevoked};
 use abba_store::token::Role;
@@ -26,15 +26,15 @@ use axum::Json;
         (status = 422, description = "A value refused", body = ErrorBody)))]
 pub async fn create_person(
     State(s): State<AppState>,
+    _admin: Admin,
     headers: HeaderMap,
     body: RawBody,
 ) -> Result<(StatusCode, Json<PersonCreated>), ApiError> {
-    s.authorize(&headers, Need::Admin).await?;
     let b: NewPersonBody = body::parse(&headers, body)?;
     let np = convert::new_person(&b)?;
     let p = s
-        .core(move |core| {
-            core.store.create_person(&np).map_err(|e| match e {
+        .store(move |store| {
+            store.create_person(&np).map_err(|e| match e {
                 // The store names the CLI's flags.
                 StoreError::Invalid { field, problem } => {
                     ApiError::invalid(field.trim_start_matches('-').to_string(), problem)
@@ -70,23 +70,18 @@ pub async fn create_person(
         (status = 422, description = "Bounds refused (the starting therapy must lie inside)", body = ErrorBody)))]
 pub async fn set_bounds(
     State(s): State<AppState>,
-    id: PathId,
+    AdminPath(id): AdminPath,
     headers: HeaderMap,
     body: RawBody,
 ) -> Result<Json<BoundsBody>, ApiError> {
-    let id = person_id(id);
-    s.authorize(&headers, Need::Admin).await?;
+    let id = parse_id(&id);
     let b: BoundsBody = body::parse(&headers, body)?;
     let bounds = convert::bounds(&b.bounds, "bounds")?;
-    s.core(move |core| {
-        let live = core
-            .store
-            .set_bounds_by_id(id, bounds)
-            .map_err(|e| match e {
-                StoreError::Advisor(a) => ApiError::invalid("bounds", a.to_string()),
-                other => other.into(),
-            })?;
-        core.set_live(id, live);
+    s.person(id, true, move |store, live| {
+        *live = store.set_bounds_by_id(id, bounds).map_err(|e| match e {
+            StoreError::Advisor(a) => ApiError::invalid("bounds", a.to_string()),
+            other => other.into(),
+        })?;
         Ok(())
     })
     .await?;
@@ -103,15 +98,13 @@ pub async fn set_bounds(
         (status = 404, description = "No such person", body = ErrorBody)))]
 pub async fn issue_token(
     State(s): State<AppState>,
-    id: PathId,
-    headers: HeaderMap,
+    AdminPath(id): AdminPath,
 ) -> Result<(StatusCode, Json<TokenIssued>), ApiError> {
-    let id = person_id(id);
-    s.authorize(&headers, Need::Admin).await?;
+    let id = parse_id(&id);
     let (token_id, token) = s
-        .core(move |core| {
-            core.store.person_by_id(id)?;
-            auth::issue(&mut core.store, Role::Person(id)).map_err(|e| match e {
+        .store(move |store| {
+            store.person_by_id(id)?;
+            auth::issue(store, Role::Person(id)).map_err(|e| match e {
                 crate::error::ServiceError::Store(s) => s.into(),
                 other => ApiError::internal(other),
             })
@@ -135,20 +128,18 @@ pub async fn issue_token(
         (status = 200, description = "Revoked", body = TokenRevoked),
         (status = 401, description = "No valid token", body = ErrorBody),
         (status = 403, description = "Not an admin token", body = ErrorBody),
-        (status = 404, description = "No such token", body = ErrorBody)))]
+        (status = 404, description = "No such token", body = ErrorBody),
+        (status = 409, description = "The last admin token (issue another first)", body = ErrorBody)))]
 pub async fn revoke_token(
     State(s): State<AppState>,
-    token_id: PathId,
-    headers: HeaderMap,
+    AdminPath(token_id): AdminPath,
 ) -> Result<Json<TokenRevoked>, ApiError> {
-    s.authorize(&headers, Need::Admin).await?;
-    let token_id = path_text(token_id);
     let id = token_id
         .parse::<i64>()
         .ok()
         .filter(|&v| v > 0)
         .ok_or_else(|| ApiError::not_found(format!("no token with id {token_id:?}")))?;
-    s.core(move |core| Ok(core.store.revoke_token(id)?)).await?;
+    s.store(move |store| Ok(store.revoke_token(id)?)).await?;
     Ok(Json(TokenRevoked {
         token_id: id as u64,
         revoked: true,

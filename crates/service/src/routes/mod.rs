@@ -5,28 +5,31 @@ pub mod meta;
 pub mod person;
 
 use crate::error::ApiError;
-use axum::extract::rejection::PathRejection;
-use axum::extract::Path;
 use axum::http::StatusCode;
 
-/// An id segment of the path, as text (a segment that is not UTF-8 is
-/// kept as the error, never answered by axum's own plain-text rejection).
-pub type PathId = Result<Path<String>, PathRejection>;
+/// The default page of `?limit=` (history, suggestions).
+pub const PAGE_DEFAULT: usize = 200;
+/// The largest page `?limit=` may ask for.
+pub const PAGE_MAX: usize = 1000;
 
-/// The text of a path segment ("" when it could not be decoded).
-pub fn path_text(p: PathId) -> String {
-    p.map(|Path(s)| s).unwrap_or_default()
-}
-
-/// A person id from the path; anything else is an id no person has (so the
-/// answer is the same 404 as for a person that does not exist, after the
-/// token was checked).
-pub fn person_id(raw: PathId) -> i64 {
-    path_text(raw)
-        .parse::<i64>()
-        .ok()
-        .filter(|&v| v > 0)
-        .unwrap_or(-1)
+/// `?after=` and `?limit=` of a paginated list: `limit` 1 to
+/// [`PAGE_MAX`] (default [`PAGE_DEFAULT`]).
+pub fn page(raw: Option<&str>) -> Result<(Option<u64>, usize), ApiError> {
+    let q = query_u64(raw, &["after", "limit"])?;
+    let after = q.iter().find(|x| x.0 == "after").map(|x| x.1);
+    let limit = match q.iter().find(|x| x.0 == "limit") {
+        None => PAGE_DEFAULT,
+        Some((_, n)) if (1..=PAGE_MAX as u64).contains(n) => *n as usize,
+        Some((_, n)) => {
+            return Err(ApiError::new(
+                StatusCode::BAD_REQUEST,
+                abba_api::ErrorCode::BadQuery,
+                format!("expected 1 to {PAGE_MAX}, got {n}"),
+            )
+            .at("limit"))
+        }
+    };
+    Ok((after, limit))
 }
 
 /// The query's `key=value` pairs; a key not in `known` or given twice, or

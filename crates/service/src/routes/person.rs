@@ -1,11 +1,11 @@
 //! A person's endpoints: events, answers, sync, suggestions, advice,
 //! history. The person's own token or an admin token.
 
-use crate::auth::Need;
 use crate::body::{self, RawBody};
 use crate::convert;
 use crate::error::ApiError;
-use crate::routes::{person_id, query_u64, PathId};
+use crate::extract::PersonId;
+use crate::routes::{page, query_u64};
 use crate::state::AppState;
 use abba_api::{
     AdviceResponse, AnswerBody, AnswerKind as WireAnswer, Answered, AnswersAck, ErrorBody,
@@ -33,19 +33,17 @@ use std::collections::HashMap;
         (status = 422, description = "A value refused (nothing stored)", body = ErrorBody)))]
 pub async fn post_events(
     State(s): State<AppState>,
-    id: PathId,
+    PersonId(id): PersonId,
     headers: HeaderMap,
     body: RawBody,
 ) -> Result<Json<EventsAck>, ApiError> {
-    let id = person_id(id);
-    s.authorize(&headers, Need::Person(id)).await?;
     let b: EventsBody = body::parse(&headers, body)?;
     let mut acked: Vec<u64> = b.events.iter().map(|e| e.seq).collect();
     acked.sort_unstable();
-    s.core(move |core| {
-        let limits = core.live(id)?.person.settings.advisor.limits.clone();
-        let batch = convert::check_events(&b, &limits)?;
-        let ack = core.with_live(id, |store, live| {
+    s.person(id, true, move |store, live| {
+        let limits = live.person.settings.advisor.limits.clone();
+        let batch = convert::check_events(&b, &limits, jiff::Timestamp::now())?;
+        let ack = {
             let posted = store.post_events(live, &batch)?;
             let seqs: HashMap<(i64, &'static str), Option<u64>> = posted
                 .produced
@@ -69,13 +67,13 @@ pub async fn post_events(
                     Ok(seqs.get(&key(d)).copied().flatten())
                 })?
             };
-            Ok(EventsAck {
+            EventsAck {
                 acked,
                 stored: posted.stored.len() as u64,
                 repeated: posted.repeated,
                 answers,
-            })
-        })?;
+            }
+        };
         Ok(ack)
     })
     .await
@@ -97,12 +95,10 @@ pub async fn post_events(
         (status = 422, description = "A value refused", body = ErrorBody)))]
 pub async fn post_answers(
     State(s): State<AppState>,
-    id: PathId,
+    PersonId(id): PersonId,
     headers: HeaderMap,
     body: RawBody,
 ) -> Result<Json<AnswersAck>, ApiError> {
-    let id = person_id(id);
-    s.authorize(&headers, Need::Person(id)).await?;
     let b: AnswerBody = body::parse(&headers, body)?;
     if b.answers.is_empty() || b.answers.len() > 4 {
         return Err(ApiError::invalid(
@@ -127,26 +123,24 @@ pub async fn post_answers(
             }
         })
         .collect();
-    s.core(move |core| {
-        Ok(core.with_live(id, |store, live| {
-            let (stored, changed) = store.answer_suggestions(live, &items)?;
-            let answered = stored
-                .iter()
-                .zip(&b.answers)
-                .map(|(a, w)| Answered {
-                    suggestion_id: w.suggestion_id,
-                    parameter: convert::setting(a.parameter),
-                    answer: w.answer,
-                    in_force: a.in_force,
-                })
-                .collect();
-            let keys: Vec<_> = changed.iter().map(|d| (d.at, d.parameter)).collect();
-            let changed =
-                convert::suggestions(live, |d| keys.contains(&(d.at, d.parameter)), &mut |d| {
-                    store.producer(id, d)
-                })?;
-            Ok(AnswersAck { answered, changed })
-        })?)
+    s.person(id, true, move |store, live| {
+        let (stored, changed) = store.answer_suggestions(live, &items)?;
+        let answered = stored
+            .iter()
+            .zip(&b.answers)
+            .map(|(a, w)| Answered {
+                suggestion_id: w.suggestion_id,
+                parameter: convert::setting(a.parameter),
+                answer: w.answer,
+                in_force: a.in_force,
+            })
+            .collect();
+        let keys: Vec<_> = changed.iter().map(|d| (d.at, d.parameter)).collect();
+        let changed =
+            convert::suggestions(live, |d| keys.contains(&(d.at, d.parameter)), &mut |d| {
+                store.producer(id, d)
+            })?;
+        Ok(AnswersAck { answered, changed })
     })
     .await
     .map(Json)
@@ -163,19 +157,17 @@ pub async fn post_answers(
         (status = 404, description = "No such person for this token", body = ErrorBody)))]
 pub async fn sync(
     State(s): State<AppState>,
-    id: PathId,
+    PersonId(id): PersonId,
     RawQuery(q): RawQuery,
-    headers: HeaderMap,
 ) -> Result<Json<SyncResponse>, ApiError> {
-    let id = person_id(id);
-    s.authorize(&headers, Need::Person(id)).await?;
     let from = query_u64(q.as_deref(), &["from"])?
         .first()
         .map_or(0, |x| x.1);
-    s.core(move |core| {
-        let (held, truncated) = core.store.held_ranges(id, from, SyncResponse::MAX_RANGES)?;
-        let last_seq = core.store.last_seq(id)?;
-        let last_suggestion_id = core.live(id)?.decisions.last().map(convert::suggestion_id);
+    // The store's tables answer: no live advisor needed, none made.
+    s.store(move |store| {
+        let (held, truncated) = store.held_ranges(id, from, SyncResponse::MAX_RANGES)?;
+        let last_seq = store.last_seq(id)?;
+        let last_suggestion_id = store.latest_suggestion_id(id)?;
         Ok(SyncResponse {
             from,
             held: held
@@ -194,7 +186,8 @@ pub async fn sync(
 /// Suggestions the app has not seen.
 #[utoipa::path(get, path = "/v1/persons/{id}/suggestions", tag = "person", security(("bearer" = [])),
     params(("id" = u64, Path, description = "The person's id"),
-        ("after" = Option<u64>, Query, description = "Only suggestions with a greater id (default: all)")),
+        ("after" = Option<u64>, Query, description = "Only suggestions with a greater id (default: from the first)"),
+        ("limit" = Option<u64>, Query, description = "At most this many (1 to 1000, default 200); `next_after` says where the next page starts")),
     responses(
         (status = 200, description = "Suggestions, oldest first", body = SuggestionList),
         (status = 400, description = "Bad query", body = ErrorBody),
@@ -202,25 +195,17 @@ pub async fn sync(
         (status = 404, description = "No such person for this token", body = ErrorBody)))]
 pub async fn suggestions(
     State(s): State<AppState>,
-    id: PathId,
+    PersonId(id): PersonId,
     RawQuery(q): RawQuery,
-    headers: HeaderMap,
 ) -> Result<Json<SuggestionList>, ApiError> {
-    let id = person_id(id);
-    s.authorize(&headers, Need::Person(id)).await?;
-    let after = query_u64(q.as_deref(), &["after"])?.first().map(|x| x.1);
-    s.core(move |core| {
-        Ok(core.with_live(id, |store, live| {
-            let list = convert::suggestions(
-                live,
-                |d| after.is_none_or(|a| convert::suggestion_id(d) > a),
-                &mut |d| store.producer(id, d),
-            )?;
-            Ok(SuggestionList {
-                notice: abba_api::NOTICE.into(),
-                suggestions: list,
-            })
-        })?)
+    let (after, limit) = page(q.as_deref())?;
+    s.person(id, false, move |store, live| {
+        let (list, next_after) = convert::page(live, after, limit, &mut |d| store.producer(id, d))?;
+        Ok(SuggestionList {
+            notice: abba_api::NOTICE.into(),
+            suggestions: list,
+            next_after,
+        })
     })
     .await
     .map(Json)
@@ -235,24 +220,19 @@ pub async fn suggestions(
         (status = 404, description = "No such person for this token", body = ErrorBody)))]
 pub async fn advice(
     State(s): State<AppState>,
-    id: PathId,
-    headers: HeaderMap,
+    PersonId(id): PersonId,
 ) -> Result<Json<AdviceResponse>, ApiError> {
-    let id = person_id(id);
-    s.authorize(&headers, Need::Person(id)).await?;
-    s.core(move |core| {
-        Ok(core.with_live(id, |store, live| {
-            let a = abba_store::advise::advice(
-                &live.person,
-                &live.stream,
-                live.records,
-                &live.advisor,
-                &live.decisions,
-                &live.answers,
-                live.refused,
-            );
-            convert::advice(live, a, &mut |d| store.producer(id, d))
-        })?)
+    s.person(id, false, move |store, live| {
+        let a = abba_store::advise::advice(
+            &live.person,
+            &live.stream,
+            live.records,
+            &live.advisor,
+            &live.decisions,
+            &live.answers,
+            live.refused,
+        );
+        Ok(convert::advice(live, a, &mut |d| store.producer(id, d))?)
     })
     .await
     .map(Json)
@@ -260,26 +240,29 @@ pub async fn advice(
 
 /// Every suggestion with its answer.
 #[utoipa::path(get, path = "/v1/persons/{id}/history", tag = "person", security(("bearer" = [])),
-    params(("id" = u64, Path, description = "The person's id")),
+    params(("id" = u64, Path, description = "The person's id"),
+        ("after" = Option<u64>, Query, description = "Only suggestions with a greater id (default: from the first)"),
+        ("limit" = Option<u64>, Query, description = "At most this many (1 to 1000, default 200); `next_after` says where the next page starts")),
     responses(
         (status = 200, description = "The history", body = HistoryResponse),
+        (status = 400, description = "Bad query", body = ErrorBody),
         (status = 401, description = "No valid token", body = ErrorBody),
         (status = 404, description = "No such person for this token", body = ErrorBody)))]
 pub async fn history(
     State(s): State<AppState>,
-    id: PathId,
-    headers: HeaderMap,
+    PersonId(id): PersonId,
+    RawQuery(q): RawQuery,
 ) -> Result<Json<HistoryResponse>, ApiError> {
-    let id = person_id(id);
-    s.authorize(&headers, Need::Person(id)).await?;
-    s.core(move |core| {
-        Ok(core.with_live(id, |store, live| {
-            Ok(HistoryResponse {
-                notice: abba_api::NOTICE.into(),
-                person_id: id as u64,
-                suggestions: convert::suggestions(live, |_| true, &mut |d| store.producer(id, d))?,
-            })
-        })?)
+    let (after, limit) = page(q.as_deref())?;
+    s.person(id, false, move |store, live| {
+        let (suggestions, next_after) =
+            convert::page(live, after, limit, &mut |d| store.producer(id, d))?;
+        Ok(HistoryResponse {
+            notice: abba_api::NOTICE.into(),
+            person_id: id as u64,
+            suggestions,
+            next_after,
+        })
     })
     .await
     .map(Json)

@@ -35,7 +35,8 @@ impl Svc {
         let db = dir.path().join("store.db");
         let mut store = abba_service::open_store(&db).unwrap();
         let (_, admin) = auth::issue(&mut store, Role::Admin).unwrap();
-        let router = abba_service::router(AppState::new(store));
+        drop(store);
+        let router = abba_service::router(AppState::open(&db, Default::default()).unwrap());
         Self {
             dir,
             db,

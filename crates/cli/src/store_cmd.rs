@@ -1,0 +1,103 @@
+//! `abba store check` (what in a store cannot be right) and `abba store
+//! remove-future` (the documented repair of events dated in the future).
+use std::path::PathBuf;
+
+use abba_store::check::{CheckReport, FutureEvent};
+use abba_store::Store;
+use anyhow::{bail, Context, Result};
+
+/// Arguments of `abba store`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    #[command(subcommand)]
+    pub what: What,
+}
+
+/// What to do with the store.
+#[derive(clap::Subcommand, Debug)]
+pub enum What {
+    /// Check the file (SQLite's integrity check) and list events dated more
+    /// than 10 minutes after this computer's clock; exit 1 when anything is
+    /// wrong.
+    Check {
+        /// The store file.
+        #[arg(long, value_name = "FILE")]
+        db: PathBuf,
+    },
+    /// Delete every event dated more than 10 minutes after this computer's
+    /// clock (with the answers to suggestions after it; stored suggestions
+    /// are rebuilt). Prints what it deleted. Stop `abba serve` first or not:
+    /// it notices the change.
+    RemoveFuture {
+        /// The store file.
+        #[arg(long, value_name = "FILE")]
+        db: PathBuf,
+        /// Really delete (without it: only list what would go).
+        #[arg(long)]
+        yes: bool,
+    },
+}
+
+fn line(f: &FutureEvent) -> String {
+    format!(
+        "  {} (id {}): {} {} {} at {}",
+        f.person, f.person_id, f.origin, f.id, f.kind, f.at
+    )
+}
+
+fn print_report(r: &CheckReport) {
+    println!("store check at {} (clock of this computer)", r.now);
+    if r.integrity == ["ok"] {
+        println!("integrity: ok");
+    } else {
+        println!("integrity: NOT ok");
+        for l in &r.integrity {
+            println!("  {l}");
+        }
+    }
+    if r.future.is_empty() {
+        println!("events in the future: none");
+    } else {
+        println!(
+            "events in the future: {} (more than {} minutes after the clock; remove with `abba store remove-future --db FILE --yes`)",
+            r.future.len(),
+            abba_core::limits::FUTURE_SKEW_MINUTES
+        );
+        for f in &r.future {
+            println!("{}", line(f));
+        }
+    }
+}
+
+/// Runs `abba store`.
+pub fn run(a: Args) -> Result<()> {
+    let now = jiff::Timestamp::now();
+    match a.what {
+        What::Check { db } => {
+            let store = Store::open(&db).with_context(|| format!("opening {}", db.display()))?;
+            let r = store.check(now)?;
+            print_report(&r);
+            if !r.ok() {
+                bail!("{}: the check found problems (listed above)", db.display());
+            }
+        }
+        What::RemoveFuture { db, yes } => {
+            let mut store =
+                Store::open(&db).with_context(|| format!("opening {}", db.display()))?;
+            if !yes {
+                let r = store.check(now)?;
+                print_report(&r);
+                if !r.future.is_empty() {
+                    println!("nothing deleted: add --yes to delete these events");
+                }
+                return Ok(());
+            }
+            let gone = store.remove_future(now)?;
+            println!("deleted {} events dated in the future:", gone.len());
+            for f in &gone {
+                println!("{}", line(f));
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,229 @@
+//! ARCHITECTURE.md is checked against the workspace as cargo sees it
+//! (`cargo metadata --no-deps`), so the map cannot drift from the territory:
+//!
+//! - the crate-graph block lists exactly each crate's direct normal and build
+//!   dependencies on other workspace crates;
+//! - every rule of the crates table's "never depends on" column holds over
+//!   the transitive graph (a crate's own dev-dependencies count, unless the
+//!   rule says "but for tests");
+//! - every workspace crate has a row in the table.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use serde_json::Value;
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::PathBuf;
+use std::process::Command;
+
+/// Direct workspace dependencies of one crate, by kind.
+#[derive(Default, Debug)]
+struct Deps {
+    normal: BTreeSet<String>,
+    dev: BTreeSet<String>,
+}
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn workspace() -> BTreeMap<String, Deps> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let out = Command::new(cargo)
+        .args([
+            "metadata",
+            "--format-version",
+            "1",
+            "--no-deps",
+            "--offline",
+        ])
+        .current_dir(root())
+        .output()
+        .expect("cargo metadata runs");
+    assert!(
+        out.status.success(),
+        "cargo metadata failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let meta: Value = serde_json::from_slice(&out.stdout).expect("cargo metadata prints JSON");
+    let packages = meta["packages"].as_array().expect("packages");
+    let names: BTreeSet<String> = packages
+        .iter()
+        .map(|p| p["name"].as_str().expect("name").to_string())
+        .collect();
+    let mut graph = BTreeMap::new();
+    for p in packages {
+        let mut deps = Deps::default();
+        for d in p["dependencies"].as_array().expect("dependencies") {
+            let name = d["name"].as_str().expect("dependency name").to_string();
+            if !names.contains(&name) {
+                continue;
+            }
+            match d["kind"].as_str() {
+                None | Some("build") => deps.normal.insert(name),
+                Some("dev") => deps.dev.insert(name),
+                Some(other) => panic!("unknown dependency kind {other}"),
+            };
+        }
+        graph.insert(p["name"].as_str().expect("name").to_string(), deps);
+    }
+    graph
+}
+
+fn architecture() -> String {
+    std::fs::read_to_string(root().join("ARCHITECTURE.md")).expect("ARCHITECTURE.md is readable")
+}
+
+/// The crate-graph block: `crate -> dep dep ...` per line.
+fn documented_graph(doc: &str) -> BTreeMap<String, BTreeSet<String>> {
+    let begin = doc
+        .find("<!-- crate-graph:begin -->")
+        .expect("ARCHITECTURE.md has a crate-graph:begin marker");
+    let end = doc
+        .find("<!-- crate-graph:end -->")
+        .expect("ARCHITECTURE.md has a crate-graph:end marker");
+    let mut graph = BTreeMap::new();
+    for line in doc[begin..end].lines() {
+        if !line.starts_with("abba") {
+            continue;
+        }
+        let Some((name, deps)) = line.split_once("->") else {
+            panic!("ARCHITECTURE.md's crate graph line '{line}' has no '->'");
+        };
+        let deps = deps.split_whitespace().map(str::to_string).collect();
+        assert!(
+            graph.insert(name.trim().to_string(), deps).is_none(),
+            "ARCHITECTURE.md lists {} twice",
+            name.trim()
+        );
+    }
+    graph
+}
+
+/// Rows of the crates table: crate name and its "never depends on" cell.
+fn never_rules(doc: &str) -> BTreeMap<String, String> {
+    let mut rules = BTreeMap::new();
+    for line in doc.lines() {
+        let cells: Vec<&str> = line.split('|').map(str::trim).collect();
+        // | `abba-x` (`crates/x`) | owns | never |
+        if cells.len() < 5 || !cells[1].starts_with("`abba") {
+            continue;
+        }
+        let name = cells[1].trim_start_matches('`');
+        let name = &name[..name.find('`').expect("closing backtick")];
+        rules.insert(name.to_string(), cells[3].to_string());
+    }
+    rules
+}
+
+fn reachable(graph: &BTreeMap<String, Deps>, from: &str, with_dev: bool) -> BTreeSet<String> {
+    let start = &graph[from];
+    let mut todo: Vec<String> = start.normal.iter().cloned().collect();
+    if with_dev {
+        todo.extend(start.dev.iter().cloned());
+    }
+    let mut seen = BTreeSet::new();
+    while let Some(n) = todo.pop() {
+        if seen.insert(n.clone()) {
+            todo.extend(graph[&n].normal.iter().cloned());
+        }
+    }
+    seen
+}
+
+#[test]
+fn the_documented_crate_graph_is_cargos() {
+    let graph = workspace();
+    let doc = documented_graph(&architecture());
+    let actual: BTreeMap<String, BTreeSet<String>> = graph
+        .iter()
+        .map(|(k, v)| (k.clone(), v.normal.clone()))
+        .collect();
+    for (name, deps) in &actual {
+        match doc.get(name) {
+            None => panic!("ARCHITECTURE.md's crate graph lacks {name} (cargo: {deps:?})"),
+            Some(d) => assert_eq!(
+                d, deps,
+                "ARCHITECTURE.md's crate graph for {name} differs from cargo metadata"
+            ),
+        }
+    }
+    for name in doc.keys() {
+        assert!(
+            actual.contains_key(name),
+            "ARCHITECTURE.md's crate graph lists {name}, which is not a workspace crate"
+        );
+    }
+}
+
+#[test]
+fn every_never_depends_on_rule_holds() {
+    let graph = workspace();
+    let rules = never_rules(&architecture());
+    for name in graph.keys() {
+        assert!(
+            rules.contains_key(name),
+            "ARCHITECTURE.md's crates table has no row for {name}"
+        );
+    }
+    let all: BTreeSet<String> = graph.keys().cloned().collect();
+    let mut checked = 0;
+    for (name, rule) in &rules {
+        assert!(
+            graph.contains_key(name),
+            "the crates table names {name}, not a crate"
+        );
+        for item in rule.split(',').map(str::trim) {
+            let (item, with_dev) = match item.strip_suffix("(but for tests)") {
+                Some(i) => (i.trim(), false),
+                None => (item.trim_end_matches("(not even for tests)").trim(), true),
+            };
+            let reach = reachable(&graph, name, with_dev);
+            let forbidden: BTreeSet<String> = if item == "—" {
+                BTreeSet::new()
+            } else if item == "any other abba crate" || item == "every other abba crate" {
+                all.iter().filter(|n| *n != name).cloned().collect()
+            } else if let Some(allowed) = item.strip_prefix("everything but ") {
+                let allowed: BTreeSet<String> = allowed
+                    .split(" and ")
+                    .map(|a| format!("abba-{}", a.trim()))
+                    .collect();
+                all.iter()
+                    .filter(|n| *n != name && !allowed.contains(*n))
+                    .cloned()
+                    .collect()
+            } else {
+                let dep = format!("abba-{item}");
+                assert!(
+                    all.contains(&dep),
+                    "rule '{item}' of {name} names no crate (expected a crate's short name)"
+                );
+                [dep].into()
+            };
+            for f in &forbidden {
+                assert!(
+                    !reach.contains(f),
+                    "{name} depends on {f}, which ARCHITECTURE.md says it never does"
+                );
+                checked += 1;
+            }
+        }
+    }
+    assert!(
+        checked > 20,
+        "only {checked} rules checked: the table was not parsed"
+    );
+    // Invariant 1 by name, whatever the table says.
+    for name in [
+        "abba-advisor",
+        "abba-report",
+        "abba-io",
+        "abba-store",
+        "abba-api",
+        "abba-service",
+        "abba-client",
+    ] {
+        assert!(
+            !reachable(&graph, name, true).contains("abba-sim"),
+            "{name} depends on abba-sim"
+        );
+    }
+}

@@ -1,0 +1,284 @@
+//! Which therapy the data show: open-loop pump therapy (what ABBA was
+//! designed and validated for), automated insulin delivery (a closed loop)
+//! or multiple daily injections, with the evidence counted.
+//!
+//! A loop is recognised by any of: short temporary basals (≤ 30 min)
+//! started in most hours of the pump's days, super micro boluses (SMB,
+//! `isSMB`, Loop's automatic boluses), Tidepool `automated` basal, or an
+//! uploader or device named as a loop system (iAPS, Trio, Loop, AndroidAPS,
+//! OpenAPS, FreeAPS, Control-IQ, CamAPS, 780G / SmartGuard auto mode).
+//! Injections: long-acting insulin and no pump basal record.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+
+use crate::record::{Record, RecordKind};
+
+/// Names of loop systems as uploaders and devices spell them (lower case).
+pub const LOOP_NAMES: [&str; 13] = [
+    "iaps",
+    "trio",
+    "loop",
+    "androidaps",
+    "openaps",
+    "freeaps",
+    "aaps",
+    "control-iq",
+    "controliq",
+    "camaps",
+    "780g",
+    "smartguard",
+    "omnipod 5",
+];
+
+/// A temporary basal this short or shorter is a loop's adjustment.
+pub const SHORT_TEMP_BASAL_MIN: u32 = 30;
+
+/// Share of the pump's hours with a short temporary basal that marks a loop.
+pub const LOOP_HOUR_SHARE: f64 = 0.5;
+
+/// Counts that tell the therapy apart.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Evidence {
+    /// Temporary basals.
+    pub temp_basals: usize,
+    /// Of them, ≤ 30 min.
+    pub short_temp_basals: usize,
+    /// Of them, at 0 U/h (or 0 %).
+    pub zero_temp_basals: usize,
+    /// Hours with a short temporary basal starting in them.
+    pub hours_with_short_temp: usize,
+    /// Hours of the local days that have pump records.
+    pub pump_hours: usize,
+    /// Super micro boluses and automatic boluses.
+    pub smb: usize,
+    /// Tidepool basal records with `deliveryType: automated`.
+    pub automated_basal: usize,
+    /// Loop systems named by uploaders and devices, with counts.
+    pub systems: BTreeMap<String, usize>,
+    /// Long-acting insulin records.
+    pub long_acting: usize,
+    /// Pump basal records (profiles, temporary basals, suspensions).
+    pub pump_basal: usize,
+}
+
+/// What the data show.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Delivery {
+    /// Open-loop pump therapy (or nothing says otherwise).
+    OpenLoop,
+    /// Automated insulin delivery.
+    ClosedLoop,
+    /// Multiple daily injections.
+    Injections,
+}
+
+impl Delivery {
+    /// In words.
+    pub fn name(self) -> &'static str {
+        match self {
+            Delivery::OpenLoop => "open-loop pump therapy",
+            Delivery::ClosedLoop => "automated insulin delivery (a closed loop)",
+            Delivery::Injections => "multiple daily injections",
+        }
+    }
+}
+
+impl Evidence {
+    /// Counts from normalised records (zone `tz` for the hours).
+    pub fn from_records(records: &[Record], tz: &jiff::tz::TimeZone) -> Self {
+        let mut e = Evidence::default();
+        let mut short_hours = BTreeSet::new();
+        let mut pump_days = BTreeSet::new();
+        for r in records {
+            let local = tz.to_datetime(r.at);
+            match &r.kind {
+                RecordKind::TempBasal { rate, duration_min } => {
+                    e.temp_basals += 1;
+                    e.pump_basal += 1;
+                    if *duration_min <= SHORT_TEMP_BASAL_MIN {
+                        e.short_temp_basals += 1;
+                        short_hours.insert((local.date(), local.hour()));
+                    }
+                    let zero = match rate {
+                        crate::record::TempRate::Absolute(u) => u.0 == 0.0,
+                        crate::record::TempRate::Percent(p) => *p == 0.0,
+                    };
+                    if zero {
+                        e.zero_temp_basals += 1;
+                    }
+                    pump_days.insert(local.date());
+                }
+                RecordKind::Schedule { .. } | RecordKind::Suspend { .. } | RecordKind::Resume => {
+                    e.pump_basal += 1;
+                    pump_days.insert(local.date());
+                }
+                RecordKind::Bolus { .. } | RecordKind::ExtendedBolus { .. } => {
+                    pump_days.insert(local.date());
+                }
+                RecordKind::LongActing { .. } => e.long_acting += 1,
+                _ => {}
+            }
+        }
+        e.hours_with_short_temp = short_hours.len();
+        e.pump_hours = pump_days.len() * 24;
+        e
+    }
+
+    /// Counts from an export file as it is (what normalised records do not
+    /// keep: SMB marks, uploader and device names, Tidepool's delivery
+    /// type). A file that is not JSON adds nothing.
+    pub fn from_file(bytes: &[u8]) -> Self {
+        let mut e = Evidence::default();
+        let Ok(v) = serde_json::from_slice::<Value>(bytes) else {
+            return e;
+        };
+        let items = match v {
+            Value::Array(a) => a,
+            other => vec![other],
+        };
+        for item in &items {
+            let s = |k: &str| item.get(k).and_then(Value::as_str).unwrap_or("");
+            if s("eventType") == "SMB"
+                || item.get("isSMB").and_then(Value::as_bool) == Some(true)
+                || (item.get("automatic").and_then(Value::as_bool) == Some(true)
+                    && item.get("insulin").is_some())
+                || (s("type") == "bolus" && s("subType") == "automated")
+            {
+                e.smb += 1;
+            }
+            if s("type") == "basal" && s("deliveryType") == "automated" {
+                e.automated_basal += 1;
+            }
+            // Nightscout device status of a loop: `loop` (Loop) or `openaps`
+            // (OpenAPS, AndroidAPS, iAPS, Trio).
+            for key in ["loop", "openaps"] {
+                if item.get(key).is_some_and(Value::is_object) {
+                    *e.systems.entry(format!("devicestatus.{key}")).or_default() += 1;
+                }
+            }
+            for key in [
+                "enteredBy",
+                "device",
+                "uploader",
+                "deviceModel",
+                "deviceManufacturers",
+            ] {
+                let text = match item.get(key) {
+                    Some(Value::String(t)) => t.to_ascii_lowercase(),
+                    Some(Value::Array(a)) => a
+                        .iter()
+                        .filter_map(Value::as_str)
+                        .collect::<Vec<_>>()
+                        .join(" ")
+                        .to_ascii_lowercase(),
+                    _ => continue,
+                };
+                if let Some(name) = LOOP_NAMES.iter().find(|n| names(&text, n)) {
+                    *e.systems.entry((*name).to_string()).or_default() += 1;
+                }
+            }
+        }
+        e
+    }
+
+    /// Adds another file's counts (records' counts are taken whole).
+    pub fn add_file(&mut self, other: &Evidence) {
+        self.smb += other.smb;
+        self.automated_basal += other.automated_basal;
+        for (k, v) in &other.systems {
+            *self.systems.entry(k.clone()).or_default() += v;
+        }
+    }
+
+    /// Share of the pump's hours with a short temporary basal.
+    pub fn short_temp_share(&self) -> f64 {
+        if self.pump_hours == 0 {
+            0.0
+        } else {
+            self.hours_with_short_temp as f64 / self.pump_hours as f64
+        }
+    }
+
+    /// What the counts show.
+    pub fn delivery(&self) -> Delivery {
+        if self.short_temp_share() >= LOOP_HOUR_SHARE
+            || self.smb > 0
+            || self.automated_basal > 0
+            || !self.systems.is_empty()
+        {
+            Delivery::ClosedLoop
+        } else if self.long_acting > 0 && self.pump_basal == 0 {
+            Delivery::Injections
+        } else {
+            Delivery::OpenLoop
+        }
+    }
+
+    /// The evidence in words (only what is there).
+    pub fn words(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        if self.temp_basals > 0 {
+            out.push(format!(
+                "{} temporary basals ({} of {} min or less, {} at 0 U/h) starting in {} of {} pump hours ({:.0} %)",
+                self.temp_basals,
+                self.short_temp_basals,
+                SHORT_TEMP_BASAL_MIN,
+                self.zero_temp_basals,
+                self.hours_with_short_temp,
+                self.pump_hours,
+                100.0 * self.short_temp_share()
+            ));
+        }
+        if self.smb > 0 {
+            out.push(format!("{} super micro / automatic boluses", self.smb));
+        }
+        if self.automated_basal > 0 {
+            out.push(format!("{} automated basal records", self.automated_basal));
+        }
+        for (k, v) in &self.systems {
+            out.push(format!("{v} records from or naming {k}"));
+        }
+        if self.long_acting > 0 {
+            out.push(format!(
+                "{} long-acting insulin records, {} pump basal records",
+                self.long_acting, self.pump_basal
+            ));
+        }
+        out
+    }
+}
+
+/// True when `text` names `name` as a word (so "loop" is not found in
+/// "sloop" or "loopback").
+fn names(text: &str, name: &str) -> bool {
+    text.match_indices(name).any(|(i, _)| {
+        let before = text[..i].chars().next_back();
+        let after = text[i + name.len()..].chars().next();
+        !before.is_some_and(char::is_alphanumeric) && !after.is_some_and(char::is_alphanumeric)
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn loop_names_are_found_as_words() {
+        assert!(names("loop://iphone", "loop"));
+        assert!(names("openaps://samsung sm-g970f", "openaps"));
+        assert!(!names("sloophole", "loop"));
+        let e = Evidence::from_file(
+            br#"[{"eventType":"SMB","insulin":0.2,"enteredBy":"iAPS"},{"eventType":"Temp Basal","enteredBy":"Trio"}]"#,
+        );
+        assert_eq!(e.smb, 1);
+        assert_eq!(e.systems.get("iaps"), Some(&1));
+        assert_eq!(e.systems.get("trio"), Some(&1));
+        assert_eq!(e.delivery(), Delivery::ClosedLoop);
+        let none = Evidence::from_file(br#"[{"eventType":"Meal Bolus","enteredBy":"xdrip"}]"#);
+        assert_eq!(none.delivery(), Delivery::OpenLoop);
+    }
+}

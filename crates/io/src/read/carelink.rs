@@ -1,0 +1,582 @@
+//! Medtronic CareLink CSV (MiniMed pumps, Guardian sensors), as CareLink
+//! exports it: `;`-separated with decimal commas, CRLF, a preamble (name,
+//! patient id, date range, device and serial number), then sections, each
+//! opened by a divider `-------;<device>;Pump|Sensor;<serial>;<title>` and
+//! its own `Index;Date;Time;...` header, rows newest first. `Index` is a
+//! row number with decimals (`0,00000`) and never identity: records are
+//! identified by their content.
+//!
+//! Read from the pump section: `BG Reading` (meter), `Basal Rate (U/h)`
+//! (the scheduled rate from then on), temporary basals (`Temp Basal
+//! Amount`, `Temp Basal Type` absolute or percent, `Temp Basal Duration`),
+//! boluses by `Bolus Type` (Normal, Square, Dual normal and square parts)
+//! with `Bolus Volume Delivered (U)`, `BWZ Carb Input (grams)`, suspend and
+//! resume (`Suspend`), and event markers written as text (`Meal:
+//! 60,00grams` is carbohydrate; `Insulin: 27,00` is counted, its acting
+//! type unknown). From the sensor section: `Sensor Glucose` (CGM). Alarms,
+//! primes, rewinds, SmartGuard's auto-basal micro-boluses, the
+//! "Aggregated Auto Insulin Data" daily totals (not doses) and every other
+//! row are counted as ignored. Glucose units come from the headers.
+
+use abba_core::{Grams, MgDl, Units, UnitsPerHour};
+
+use super::table::{number, Table};
+use super::Ctx;
+use crate::error::{IoError, Location, Place};
+use crate::record::{
+    content_hash, content_id, BasalSchedule, Censor, Glucose, Profile, Record, RecordKind, Source,
+    SourceId, TempRate,
+};
+use crate::time::{parse_wall, DateOrder, WallClock};
+use crate::units::{self, check_range};
+
+/// Whether the start of a file is a CareLink export: an `Index;Date;Time`
+/// header after a section divider or the CareLink preamble.
+pub fn looks_like(head: &str) -> bool {
+    let header = head
+        .lines()
+        .any(|l| l.trim_start_matches('"').starts_with("Index;Date;Time"));
+    header && (head.contains("-------;") || head.starts_with("Last Name;First Name"))
+}
+
+/// A section of the export.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Section {
+    Pump,
+    Sensor,
+    /// Daily totals ("Aggregated Auto Insulin Data"), not doses.
+    Totals,
+    /// A section abba does not know: its rows are counted.
+    Other,
+}
+
+fn section_of(divider: &str) -> Section {
+    let cells: Vec<&str> = divider
+        .split(';')
+        .map(|c| c.trim().trim_matches('"'))
+        .collect();
+    if cells.iter().any(|c| c.contains("Aggregated")) {
+        return Section::Totals;
+    }
+    match cells.get(2).copied() {
+        Some("Pump") => Section::Pump,
+        Some("Sensor") => Section::Sensor,
+        _ => Section::Other,
+    }
+}
+
+/// One section's header line (0-based) and the end of its rows (byte).
+struct Span {
+    section: Section,
+    header_at: usize,
+    end: usize,
+}
+
+fn spans(bytes: &[u8]) -> Vec<Span> {
+    let mut out: Vec<Span> = Vec::new();
+    let mut section = Section::Other;
+    let mut start = 0usize;
+    for (i, line) in bytes.split(|&b| b == b'\n').enumerate() {
+        let text = String::from_utf8_lossy(line);
+        let text = text.trim_start_matches('"');
+        if text.starts_with("-------") {
+            if let Some(last) = out.last_mut() {
+                last.end = last.end.min(start);
+            }
+            section = section_of(text);
+        } else if text.starts_with("Index;Date;Time") {
+            if let Some(last) = out.last_mut() {
+                last.end = last.end.min(start);
+            }
+            out.push(Span {
+                section,
+                header_at: i,
+                end: bytes.len(),
+            });
+        }
+        start += line.len() + 1;
+    }
+    out
+}
+
+/// A row's cells by name (absent columns read as empty).
+struct Cols {
+    date: usize,
+    time: usize,
+    bg: Option<usize>,
+    basal: Option<usize>,
+    temp_amount: Option<usize>,
+    temp_type: Option<usize>,
+    temp_duration: Option<usize>,
+    bolus_type: Option<usize>,
+    bolus_delivered: Option<usize>,
+    bolus_duration: Option<usize>,
+    bolus_source: Option<usize>,
+    carbs: Option<usize>,
+    sensor: Option<usize>,
+    marker: Option<usize>,
+    alarm: Option<usize>,
+    suspend: Option<usize>,
+    rewind: Option<usize>,
+    prime: Option<usize>,
+    time_change: Option<usize>,
+}
+
+impl Cols {
+    fn of(t: &Table<'_>) -> Result<Self, IoError> {
+        let col = |p: &str| t.column_starting(p);
+        Ok(Self {
+            date: t.need_column_starting("CareLink", "Date")?,
+            time: t.need_column_starting("CareLink", "Time")?,
+            bg: col("BG Reading"),
+            basal: col("Basal Rate"),
+            temp_amount: col("Temp Basal Amount"),
+            temp_type: col("Temp Basal Type"),
+            temp_duration: col("Temp Basal Duration"),
+            bolus_type: col("Bolus Type"),
+            bolus_delivered: col("Bolus Volume Delivered"),
+            bolus_duration: col("Programmed Bolus Duration").or_else(|| col("Bolus Duration")),
+            bolus_source: col("Bolus Source"),
+            carbs: col("BWZ Carb Input"),
+            sensor: col("Sensor Glucose"),
+            marker: col("Event Marker"),
+            alarm: col("Alarm").or_else(|| col("Alert")),
+            suspend: col("Suspend"),
+            rewind: col("Rewind"),
+            prime: col("Prime Type"),
+            time_change: col("New Device Time"),
+        })
+    }
+}
+
+/// A row read but not yet placed in time (rows come newest first; the
+/// autumn fold is resolved oldest first).
+struct Row {
+    line: u64,
+    wall: jiff::civil::DateTime,
+    kinds: Vec<RecordKind>,
+    /// The row's cells but its `Index` (an ignored row's identity).
+    cells: u64,
+}
+
+/// Reads a CareLink export.
+pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
+    let file = ctx.file;
+    let spans = spans(bytes);
+    if spans.is_empty() {
+        return Err(IoError::format(
+            file,
+            "a CareLink export needs a section header \"Index;Date;Time;...\"; none found",
+        ));
+    }
+    let tz = ctx.require_tz("CareLink writes pump times without an offset")?;
+    let mut out = Vec::new();
+    for span in &spans {
+        let mut t = Table::open(file, &bytes[..span.end], span.header_at)?;
+        let cols = Cols::of(&t)?;
+        let order = date_order(
+            file,
+            &mut Table::open(file, &bytes[..span.end], span.header_at)?,
+            cols.date,
+            ctx.opts.date_order,
+        )?;
+        let mut rows: Vec<Row> = Vec::new();
+        let mut at = Location::line(file, 0);
+        while let Some(line) = t.next_row()? {
+            at.place = Place::Line(line);
+            let (date, time) = (t.cell(cols.date), t.cell(cols.time));
+            if date.is_empty() && time.is_empty() {
+                continue; // a blank row inside a section
+            }
+            let wall = wall_time(date, time, order).ok_or_else(|| {
+                IoError::invalid(
+                    at.clone(),
+                    &t.header[cols.date],
+                    format!(
+                        "expected a date and time like 2025/10/30 17:36:29, got \"{date}\" \"{time}\""
+                    ),
+                )
+            })?;
+            let kinds = match span.section {
+                Section::Totals => vec![RecordKind::Ignored {
+                    kind: "daily auto insulin total (not a dose)".into(),
+                }],
+                Section::Other => vec![RecordKind::Ignored {
+                    kind: "row of an unknown CareLink section".into(),
+                }],
+                Section::Pump | Section::Sensor => row_kinds(&t, &cols, &at)?,
+            };
+            let cells = content_hash(t.raw().skip(1));
+            rows.push(Row {
+                line,
+                wall,
+                kinds,
+                cells,
+            });
+        }
+        // Oldest first, so that a wall time in the autumn fold is placed
+        // by the device's order.
+        let mut clock = WallClock::new(tz.clone());
+        let time_name = t.header[cols.time].clone();
+        for row in rows.into_iter().rev() {
+            at.place = Place::Line(row.line);
+            let instant = clock.resolve(row.wall, &at, &time_name)?;
+            for kind in row.kinds {
+                out.push(Record {
+                    at: instant,
+                    id: match content_id(Source::CareLink, instant, &kind) {
+                        SourceId::Hash(h) if matches!(kind, RecordKind::Ignored { .. }) => {
+                            SourceId::Hash(content_hash([
+                                h.to_string().as_bytes(),
+                                row.cells.to_string().as_bytes(),
+                            ]))
+                        }
+                        id => id,
+                    },
+                    kind,
+                    source: Source::CareLink,
+                    origin: ctx.origin_line(row.line),
+                });
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// The date order of a section: year first (`2025/10/30`, CareLink's
+/// current form), or what the dates show, or `--date-order`; never guessed.
+fn date_order(
+    file: &str,
+    t: &mut Table<'_>,
+    date: usize,
+    given: Option<DateOrder>,
+) -> Result<DateOrder, IoError> {
+    while t.next_row()?.is_some() {
+        let cell = t.cell(date);
+        if cell.is_empty() {
+            continue;
+        }
+        if let Some(o) = super::libreview::order_evidence(&format!("{cell} 00:00")) {
+            return Ok(o);
+        }
+    }
+    match given {
+        Some(o) => Ok(o),
+        None => Err(IoError::format(
+            file,
+            "every date could be day-first or month-first (no day above 12); give --date-order \
+             day-first or month-first",
+        )),
+    }
+}
+
+/// A date and a time cell as one wall time; a two-digit year (older
+/// CareLink exports) is 20YY.
+fn wall_time(date: &str, time: &str, order: DateOrder) -> Option<jiff::civil::DateTime> {
+    let parts: Vec<&str> = date.split(['/', '.', '-']).collect();
+    let date = match (order, parts.as_slice()) {
+        (DateOrder::DayFirst | DateOrder::MonthFirst, [a, b, y]) if y.len() == 2 => {
+            format!("{a}/{b}/20{y}")
+        }
+        _ => date.to_string(),
+    };
+    parse_wall(&format!("{date} {time}"), order)
+}
+
+/// `h:mm:ss` as whole minutes.
+fn hms_minutes(text: &str) -> Option<f64> {
+    let mut p = text.split(':');
+    let (h, m, s) = (p.next()?, p.next()?, p.next().unwrap_or("0"));
+    if p.next().is_some() {
+        return None;
+    }
+    let n = |x: &str| x.trim().parse::<u32>().ok().map(f64::from);
+    Some(n(h)? * 60.0 + n(m)? + n(s)? / 60.0)
+}
+
+/// What one pump or sensor row says (at least one record: a row abba does
+/// not read is counted).
+fn row_kinds(t: &Table<'_>, c: &Cols, at: &Location) -> Result<Vec<RecordKind>, IoError> {
+    let delim = t.delimiter;
+    let cell = |i: Option<usize>| i.map_or("", |i| t.cell(i));
+    let name = |i: Option<usize>| i.map_or(String::new(), |i| t.header[i].clone());
+    let num = |i: Option<usize>, what: &str| -> Result<Option<f64>, IoError> {
+        let text = cell(i);
+        if text.is_empty() {
+            return Ok(None);
+        }
+        number(text, delim).map(Some).ok_or_else(|| {
+            IoError::invalid(
+                at.clone(),
+                &name(i),
+                format!("expected {what}, got \"{text}\""),
+            )
+        })
+    };
+    let glucose = |i: Option<usize>| -> Result<Option<Glucose>, IoError> {
+        let Some(v) = num(i, "a glucose number")? else {
+            return Ok(None);
+        };
+        let n = name(i);
+        let unit = super::plain::unit_in_name(&n).ok_or_else(|| IoError::Units {
+            file: at.file.clone(),
+            message: format!("column \"{n}\" names no unit (expected mg/dL or mmol/L)"),
+        })?;
+        let mg = units::glucose_mg_dl(at, &n, v, unit)?;
+        Ok(Some(Glucose {
+            mg_dl: MgDl(mg),
+            censor: Censor::Exact,
+        }))
+    };
+    let insulin = |v: f64, i: Option<usize>| {
+        check_range(at, &name(i), v, 0.0, units::BOLUS_MAX_U, "insulin (U)").map(Units)
+    };
+    let minutes = |i: Option<usize>| -> Result<Option<u32>, IoError> {
+        let text = cell(i);
+        if text.is_empty() {
+            return Ok(None);
+        }
+        let m = hms_minutes(text).ok_or_else(|| {
+            IoError::invalid(
+                at.clone(),
+                &name(i),
+                format!("expected h:mm:ss, got \"{text}\""),
+            )
+        })?;
+        Ok(Some(
+            check_range(
+                at,
+                &name(i),
+                m,
+                0.0,
+                units::DURATION_MAX_MIN,
+                "duration (min)",
+            )?
+            .round() as u32,
+        ))
+    };
+    let mut kinds = Vec::new();
+    if let Some(g) = glucose(c.sensor)? {
+        kinds.push(RecordKind::Cgm { glucose: g });
+    }
+    if let Some(g) = glucose(c.bg)? {
+        kinds.push(RecordKind::Smbg { glucose: g });
+    }
+    if let Some(r) = num(c.basal, "a basal rate (U/h)")? {
+        let r = check_range(
+            at,
+            &name(c.basal),
+            r,
+            0.0,
+            units::BASAL_MAX_U_PER_H,
+            "basal rate (U/h)",
+        )?;
+        kinds.push(RecordKind::Schedule {
+            profile: Box::new(Profile::basal_only(BasalSchedule::flat(UnitsPerHour(r)))),
+        });
+    }
+    if let Some(v) = num(c.temp_amount, "a temporary basal amount")? {
+        let duration = minutes(c.temp_duration)?.ok_or_else(|| {
+            IoError::invalid(
+                at.clone(),
+                &name(c.temp_duration),
+                "missing: a temporary basal needs its duration (h:mm:ss)",
+            )
+        })?;
+        let rate = match cell(c.temp_type).to_ascii_lowercase().as_str() {
+            "absolute" => TempRate::Absolute(UnitsPerHour(check_range(
+                at,
+                &name(c.temp_amount),
+                v,
+                0.0,
+                units::BASAL_MAX_U_PER_H,
+                "basal rate (U/h)",
+            )?)),
+            "percent" => TempRate::Percent(check_range(
+                at,
+                &name(c.temp_amount),
+                v,
+                0.0,
+                units::PERCENT_MAX,
+                "percentage of the scheduled rate",
+            )?),
+            other => {
+                return Err(IoError::invalid(
+                    at.clone(),
+                    &name(c.temp_type),
+                    format!("expected Absolute or Percent, got \"{other}\""),
+                ))
+            }
+        };
+        kinds.push(RecordKind::TempBasal {
+            rate,
+            duration_min: duration,
+        });
+    }
+    let bolus_type = cell(c.bolus_type);
+    if !bolus_type.is_empty() {
+        let source = cell(c.bolus_source);
+        match num(c.bolus_delivered, "insulin delivered (U)")? {
+            None => kinds.push(RecordKind::Ignored {
+                kind: format!("bolus {bolus_type} without a delivered volume"),
+            }),
+            Some(_) if source.contains("AUTO_BASAL") => kinds.push(RecordKind::Ignored {
+                kind: "SmartGuard auto basal micro-bolus".into(),
+            }),
+            Some(u) => {
+                let units = insulin(u, c.bolus_delivered)?;
+                let lower = bolus_type.to_ascii_lowercase();
+                if lower.contains("square") {
+                    kinds.push(RecordKind::ExtendedBolus {
+                        now: Units(0.0),
+                        extended: units,
+                        duration_min: minutes(c.bolus_duration)?.ok_or_else(|| {
+                            IoError::invalid(
+                                at.clone(),
+                                &name(c.bolus_duration),
+                                "missing: a square bolus needs its duration (h:mm:ss)",
+                            )
+                        })?,
+                    });
+                } else if lower == "normal" || lower.contains("normal") {
+                    kinds.push(RecordKind::Bolus { units });
+                } else {
+                    return Err(IoError::invalid(
+                        at.clone(),
+                        &name(c.bolus_type),
+                        format!("expected Normal, Square or Dual (normal part / square part), got \"{bolus_type}\""),
+                    ));
+                }
+            }
+        }
+    }
+    if let Some(g) = num(c.carbs, "carbohydrate")? {
+        let n = name(c.carbs);
+        if n.to_ascii_lowercase().contains("exchange") {
+            kinds.push(RecordKind::Ignored {
+                kind: "BWZ carb input in exchanges (grams per exchange unknown)".into(),
+            });
+        } else if g > 0.0 {
+            kinds.push(RecordKind::Carbs {
+                grams: Grams(check_range(
+                    at,
+                    &n,
+                    g,
+                    0.0,
+                    units::CARBS_MAX_G,
+                    "carbohydrate (g)",
+                )?),
+            });
+        }
+    }
+    let marker = cell(c.marker);
+    if !marker.is_empty() {
+        kinds.push(event_marker(marker, delim, at, &name(c.marker))?);
+    }
+    match cell(c.suspend) {
+        "" => {}
+        "NORMAL_PUMPING" => kinds.push(RecordKind::Resume),
+        s if s.contains("SUSPEND") || s.contains("LOW") => {
+            kinds.push(RecordKind::Suspend { duration_min: None })
+        }
+        other => kinds.push(RecordKind::Ignored {
+            kind: format!("suspend state {other}"),
+        }),
+    }
+    for (col, what) in [
+        (c.alarm, "alarm"),
+        (c.rewind, "rewind"),
+        (c.prime, "prime"),
+        (c.time_change, "pump time change"),
+    ] {
+        if !cell(col).is_empty() {
+            kinds.push(RecordKind::Ignored { kind: what.into() });
+        }
+    }
+    if kinds.is_empty() {
+        kinds.push(RecordKind::Ignored {
+            kind: "other pump or sensor event".into(),
+        });
+    }
+    Ok(kinds)
+}
+
+/// An event marker's text: `Meal: 60,00grams` is carbohydrate; `Insulin:
+/// 27,00` an injection whose acting type CareLink does not say (counted);
+/// any other marker is counted by its name.
+fn event_marker(text: &str, delim: u8, at: &Location, field: &str) -> Result<RecordKind, IoError> {
+    let (label, value) = text.split_once(':').unwrap_or((text, ""));
+    let label = label.trim();
+    let value = value.trim();
+    Ok(match label.to_ascii_lowercase().as_str() {
+        "meal" => {
+            let grams = value.trim_end_matches("grams").trim();
+            let g = number(grams, delim).ok_or_else(|| {
+                IoError::invalid(
+                    at.clone(),
+                    field,
+                    format!("expected \"Meal: <grams>grams\", got \"{text}\""),
+                )
+            })?;
+            RecordKind::Carbs {
+                grams: Grams(check_range(
+                    at,
+                    field,
+                    g,
+                    0.0,
+                    units::CARBS_MAX_G,
+                    "carbohydrate (g)",
+                )?),
+            }
+        }
+        "insulin" => {
+            number(value, delim).ok_or_else(|| {
+                IoError::invalid(
+                    at.clone(),
+                    field,
+                    format!("expected \"Insulin: <units>\", got \"{text}\""),
+                )
+            })?;
+            RecordKind::Ignored {
+                kind: "event marker insulin (acting type not given)".into(),
+            }
+        }
+        _ => RecordKind::Ignored {
+            kind: format!("event marker {label}"),
+        },
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn durations_and_dates_read_as_carelink_writes_them() {
+        assert_eq!(hms_minutes("0:30:00"), Some(30.0));
+        assert_eq!(hms_minutes("2:00:00"), Some(120.0));
+        assert_eq!(hms_minutes("x"), None);
+        let w = wall_time("30.10.16", "17:36:29", DateOrder::DayFirst);
+        assert_eq!(w.map(|d| d.to_string()), Some("2016-10-30T17:36:29".into()));
+        let w = wall_time("2025/10/30", "00:05:00", DateOrder::YearFirst);
+        assert_eq!(w.map(|d| d.to_string()), Some("2025-10-30T00:05:00".into()));
+    }
+
+    #[test]
+    fn sections_are_told_by_their_divider() {
+        assert_eq!(
+            section_of("-------;MiniMed 780G MMT-1886;Pump;NG4114235H;-------"),
+            Section::Pump
+        );
+        assert_eq!(
+            section_of("-------;MiniMed 780G MMT-1886;Sensor;NG4114235H;-------"),
+            Section::Sensor
+        );
+        assert_eq!(
+            section_of(
+                "-------;MiniMed 780G MMT-1886;Pump;NG4114235H;Aggregated Auto Insulin Data"
+            ),
+            Section::Totals
+        );
+    }
+}

@@ -1,0 +1,368 @@
+//! The quirks of real exports (issue 21), each on a file written in the
+//! format's real layout: a CareLink export with both sections, decimal
+//! commas and a repeated row; a Nightscout profile at the epoch; a Clarity
+//! phone clock change (with and without transmitter times); Nightscout
+//! `_id` repeats; Tidepool cross-upload duplicates; MongoDB extended JSON;
+//! a German Clarity header; a header-only export; a split date/time CSV in
+//! mmol/L; future records refused.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod common;
+use abba_io::record::{Censor, RecordKind, TempRate, SINCE_ALWAYS};
+use abba_io::{Format, GlucoseUnit, ReadOptions};
+use common::{fixture, opts, read};
+
+fn kinds(b: &abba_io::Batch, name: &str) -> usize {
+    b.count(name)
+}
+
+fn ignored(b: &abba_io::Batch, what: &str) -> usize {
+    b.records
+        .iter()
+        .filter(|r| matches!(&r.kind, RecordKind::Ignored { kind } if kind == what))
+        .count()
+}
+
+#[test]
+fn a_carelink_export_reads_both_sections_with_decimal_commas() {
+    let b = read(
+        &[("carelink.csv", fixture("carelink_780g_synthetic.csv"))],
+        &opts("Europe/Amsterdam"),
+    )
+    .unwrap();
+    assert_eq!(b.formats, vec![Format::CareLink]);
+    // Two days of sensor glucose every 5 min, one row exported twice.
+    assert_eq!(kinds(&b, "cgm"), 576);
+    assert_eq!(b.duplicates.get("cgm"), Some(&1));
+    // The repeated normal bolus row is one bolus too.
+    assert_eq!(b.duplicates.get("bolus"), Some(&1));
+    assert_eq!(kinds(&b, "smbg"), 1);
+    let bolus: Vec<f64> = b
+        .records
+        .iter()
+        .filter_map(|r| match r.kind {
+            RecordKind::Bolus { units } => Some(units.0),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(bolus, vec![4.5, 3.0], "decimal commas, dual normal part");
+    let ext: Vec<(f64, u32)> = b
+        .records
+        .iter()
+        .filter_map(|r| match r.kind {
+            RecordKind::ExtendedBolus {
+                extended,
+                duration_min,
+                ..
+            } => Some((extended.0, duration_min)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(
+        ext,
+        vec![(1.5, 30), (2.0, 120)],
+        "square and dual square part"
+    );
+    let carbs: Vec<f64> = b
+        .records
+        .iter()
+        .filter_map(|r| match r.kind {
+            RecordKind::Carbs { grams } => Some(grams.0),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(
+        carbs,
+        vec![54.0, 60.0, 60.0],
+        "BWZ carb input and a Meal marker"
+    );
+    let temps: Vec<TempRate> = b
+        .records
+        .iter()
+        .filter_map(|r| match r.kind {
+            RecordKind::TempBasal { rate, .. } => Some(rate),
+            _ => None,
+        })
+        .collect();
+    assert!(matches!(temps[0], TempRate::Absolute(r) if r.0 == 0.4));
+    assert!(matches!(temps[1], TempRate::Percent(p) if p == 50.0));
+    assert_eq!(kinds(&b, "basal_schedule"), 2);
+    assert_eq!((kinds(&b, "suspend"), kinds(&b, "resume")), (1, 1));
+    assert_eq!(ignored(&b, "daily auto insulin total (not a dose)"), 2);
+    assert_eq!(ignored(&b, "SmartGuard auto basal micro-bolus"), 1);
+    assert_eq!(
+        ignored(&b, "event marker insulin (acting type not given)"),
+        1
+    );
+    assert_eq!(ignored(&b, "alarm"), 1);
+    // Newest first in the file, oldest first here; wall times in the zone.
+    assert_eq!(b.records[0].at.to_string(), "2025-11-02T23:00:00Z");
+    // Every row is accounted for: the file's data rows = records + duplicates.
+    let rows = 20 + 2 + 577;
+    let merged: usize = b.duplicates.values().sum();
+    let per_row_extra = 0; // no row here carries two records
+    assert_eq!(b.records.len() + merged, rows + per_row_extra);
+}
+
+#[test]
+fn carelink_rows_without_their_duration_are_errors_naming_line_and_field() {
+    let text = String::from_utf8(fixture("carelink_780g_synthetic.csv")).unwrap();
+    let bad = text.replace(";1:00:00;", ";;");
+    let e = read(&[("c.csv", bad.into_bytes())], &opts("Europe/Amsterdam"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("c.csv: line 13, field \"Temp Basal Duration (h:mm:ss)\""),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_nightscout_profile_at_the_epoch_is_in_force_since_always() {
+    let profile = br#"[
+      {"_id":"p2","defaultProfile":"Default","startDate":"2024-03-01T00:00:00.000Z","mills":1709251200000,
+       "store":{"Default":{"basal":[{"time":"00:00","value":0.9}],"timezone":"Europe/Zurich"}}},
+      {"_id":"p1","defaultProfile":"Default","startDate":"1970-01-01T00:00:00.000Z","mills":0,
+       "store":{"Default":{"basal":[{"time":"00:00","value":0.8}],"timezone":"Europe/Zurich"}}}
+    ]"#;
+    let b = read(
+        &[("profile.json", profile.to_vec())],
+        &ReadOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(b.records.len(), 2);
+    assert_eq!(b.records[0].at, SINCE_ALWAYS);
+    assert_eq!(b.records[1].at.to_string(), "2024-03-01T00:00:00Z");
+    // A `mills` of 0 anywhere else is still "seconds", refused.
+    let entry = br#"[{"_id":"e","type":"sgv","sgv":120,"date":0}]"#;
+    let e = read(&[("e.json", entry.to_vec())], &ReadOptions::default()).unwrap_err();
+    assert!(e.to_string().contains("looks like seconds"), "{e}");
+}
+
+/// A Clarity export around a phone clock change: from `change` on the
+/// written times are an hour early, the transmitter's clock goes on.
+fn clarity_clock_change(transmitter: bool) -> Vec<u8> {
+    let mut s = String::from("Index,Timestamp (YYYY-MM-DDThh:mm:ss),Event Type,Event Subtype,Patient Info,Device Info,Source Device ID,Glucose Value (mg/dL),Insulin Value (u),Carb Value (grams),Duration (hh:mm:ss),Glucose Rate of Change (mg/dL/min),Transmitter Time (Long Integer),Transmitter ID\r\n");
+    let start = jiff::civil::date(2024, 6, 10).at(8, 0, 0, 0);
+    for i in 0..120i64 {
+        let true_t = start + jiff::SignedDuration::from_mins(5 * i);
+        let written = if i >= 80 {
+            true_t - jiff::SignedDuration::from_hours(1)
+        } else {
+            true_t
+        };
+        let tx = if transmitter {
+            format!("{},8XYZAB", 1_000_000 + 300 * i)
+        } else {
+            ",".into()
+        };
+        s.push_str(&format!(
+            "{},{},EGV,,,,android G6,{},,,,,{tx}\r\n",
+            i + 1,
+            written.strftime("%Y-%m-%dT%H:%M:%S"),
+            100 + i % 50
+        ));
+    }
+    s.into_bytes()
+}
+
+#[test]
+fn a_clarity_phone_clock_change_is_placed_by_the_transmitter_clock() {
+    let b = read(
+        &[("c.csv", clarity_clock_change(true))],
+        &opts("Europe/Zurich"),
+    )
+    .unwrap();
+    assert_eq!(kinds(&b, "cgm"), 120);
+    // Placed at their true instants: strictly 5 minutes apart.
+    assert!(b
+        .records
+        .windows(2)
+        .all(|w| w[1].at.duration_since(w[0].at).as_secs() == 300));
+    assert_eq!(b.notes.len(), 1, "{:?}", b.notes);
+    assert!(
+        b.notes[0].contains("lines 82-121: 40 readings"),
+        "{}",
+        b.notes[0]
+    );
+}
+
+#[test]
+fn without_transmitter_times_the_conflicting_stretch_is_reported_and_the_rest_kept() {
+    let b = read(
+        &[("c.csv", clarity_clock_change(false))],
+        &opts("Europe/Zurich"),
+    )
+    .unwrap();
+    // The first 12 readings after the change fall on times already
+    // covered; the 28 after them are new times and kept.
+    assert_eq!(kinds(&b, "cgm"), 120 - 12);
+    assert_eq!(b.notes.len(), 1);
+    assert!(
+        b.notes[0].contains("lines 82-93: 12 readings"),
+        "{}",
+        b.notes[0]
+    );
+}
+
+#[test]
+fn nightscout_id_repeats_keep_the_latest_version() {
+    let t = br#"[
+      {"_id":"t1","eventType":"Temp Basal","created_at":"2024-06-10T10:00:00Z","absolute":0.5,"duration":60,"srvModified":1718013600000},
+      {"_id":"t1","eventType":"Temp Basal","created_at":"2024-06-10T10:00:00Z","absolute":0.5,"duration":35,"srvModified":1718015700000},
+      {"_id":"t2","eventType":"Temp Basal","created_at":"2024-06-10T11:00:00Z","absolute":0.7,"duration":30},
+      {"_id":"t2","eventType":"Temp Basal","created_at":"2024-06-10T11:05:00Z","absolute":0.7,"duration":25}
+    ]"#;
+    let b = read(&[("t.json", t.to_vec())], &ReadOptions::default()).unwrap();
+    let d: Vec<u32> = b
+        .records
+        .iter()
+        .filter_map(|r| match r.kind {
+            RecordKind::TempBasal { duration_min, .. } => Some(duration_min),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(d, vec![35, 25]);
+    assert!(
+        b.notes[0].contains("2 records repeat an _id"),
+        "{:?}",
+        b.notes
+    );
+}
+
+#[test]
+fn tidepool_data_of_two_uploads_seconds_apart_are_one_record() {
+    let t = br#"[
+      {"id":"a1","type":"bolus","subType":"normal","normal":2.5,"time":"2024-06-10T12:00:00.000Z","uploadId":"pump"},
+      {"id":"h1","type":"bolus","subType":"normal","normal":2.5,"time":"2024-06-10T12:00:07.000Z","uploadId":"healthkit"},
+      {"id":"a2","type":"cbg","value":6.5,"units":"mmol/L","time":"2024-06-10T12:05:00.000Z","uploadId":"pump"},
+      {"id":"h2","type":"cbg","value":6.5,"units":"mmol/L","time":"2024-06-10T12:05:03.000Z","uploadId":"healthkit"},
+      {"id":"a3","type":"cbg","value":6.5,"units":"mmol/L","time":"2024-06-10T12:10:00.000Z","uploadId":"pump"}
+    ]"#;
+    let b = read(&[("tp.json", t.to_vec())], &ReadOptions::default()).unwrap();
+    assert_eq!((kinds(&b, "bolus"), kinds(&b, "cgm")), (1, 2));
+    assert_eq!(b.cross_upload.values().sum::<usize>(), 2);
+}
+
+#[test]
+fn mongodb_extended_json_one_document_a_line_unsorted_reads() {
+    let dump = concat!(
+        r#"{"type":"sgv","sgv":{"$numberInt":"131"},"date":{"$date":"2024-06-10T12:10:00.000Z"}}"#,
+        "\n",
+        r#"{"_id":{"$oid":"65f0c0ffee0000000000002"},"type":"sgv","sgv":120,"date":{"$date":{"$numberLong":"1718020800000"}}}"#,
+        "\n",
+        r#"{"_id":{"$oid":"65f0c0ffee0000000000003"},"type":"sgv","sgv":125,"date":{"$date":1718021100000}}"#,
+        "\n"
+    );
+    let b = read(
+        &[("xdrip.json", dump.as_bytes().to_vec())],
+        &ReadOptions::default(),
+    )
+    .unwrap();
+    let v: Vec<(String, f64)> = b
+        .records
+        .iter()
+        .map(|r| match r.kind {
+            RecordKind::Cgm { glucose } => (r.at.to_string(), glucose.mg_dl.0),
+            _ => unreachable!(),
+        })
+        .collect();
+    assert_eq!(
+        v,
+        vec![
+            ("2024-06-10T12:00:00Z".into(), 120.0),
+            ("2024-06-10T12:05:00Z".into(), 125.0),
+            ("2024-06-10T12:10:00Z".into(), 131.0)
+        ]
+    );
+}
+
+#[test]
+fn a_clarity_export_with_german_headers_is_recognised_by_its_structure() {
+    let text = "Index,Zeitstempel (JJJJ-MM-TTThh:mm:ss),Ereignistyp,Ereignis-Subtyp,Patienteninfo,Geräteinfo,Quellgeräte-ID,Glukosewert (mg/dl),Insulinwert (IE),Kohlenhydratwert (Gramm),Dauer (hh:mm:ss),Glukose-Änderungsrate (mg/dl/min),Transmitterzeit (lange Ganzzahl),Transmitter-ID\n\
+        1,,Vorname,,Test,,,,,,,,,\n\
+        2,2024-06-10T08:00:00,EGV,,,,android G6,110,,,,,1000000,8XYZAB\n\
+        3,2024-06-10T08:05:00,EGV,,,,android G6,Niedrig,,,,,1000300,8XYZAB\n\
+        4,2024-06-10T08:07:00,Kohlenhydrate,,,,android G6,,,30,,,,\n";
+    // "Niedrig" is not a number: the error names line and field.
+    let e = read(
+        &[("de.csv", text.as_bytes().to_vec())],
+        &opts("Europe/Berlin"),
+    )
+    .unwrap_err();
+    assert!(
+        e.to_string()
+            .starts_with("de.csv: line 4, field \"Glukosewert (mg/dl)\""),
+        "{e}"
+    );
+    let ok = text.replace("Niedrig", "Low");
+    let b = read(&[("de.csv", ok.into_bytes())], &opts("Europe/Berlin")).unwrap();
+    assert_eq!(b.formats, vec![Format::Clarity]);
+    assert_eq!((kinds(&b, "cgm"), kinds(&b, "carbs")), (2, 1));
+    assert!(
+        matches!(b.records[1].kind, RecordKind::Cgm { glucose } if glucose.censor == Censor::Below)
+    );
+}
+
+#[test]
+fn a_header_only_export_has_no_readings() {
+    let text = "Index,Timestamp (YYYY-MM-DDThh:mm:ss),Event Type,Event Subtype,Patient Info,Device Info,Source Device ID,Glucose Value (mg/dL),Insulin Value (u),Carb Value (grams),Duration (hh:mm:ss),Glucose Rate of Change (mg/dL/min),Transmitter Time (Long Integer),Transmitter ID\n";
+    let b = read(
+        &[("h.csv", text.as_bytes().to_vec())],
+        &opts("Europe/Zurich"),
+    )
+    .unwrap();
+    assert!(b.records.is_empty());
+    assert_eq!(b.empty_files(), vec!["h.csv"]);
+}
+
+#[test]
+fn a_split_date_and_time_csv_in_mmol_reads_with_its_date_order_checked() {
+    let text = "id,date,time,glucose,type\n\
+        7,13/06/2024,08:00:00,6.1,cgm\n\
+        7,13/06/2024,08:05:00,6.4,cgm\n\
+        7,13/06/2024,08:07:00,7.0,manual\n\
+        7,14/06/2024,00:00,5.5,cgm\n";
+    let mut o = opts("Europe/London");
+    o.units = Some(GlucoseUnit::MmolL);
+    let b = read(&[("r.csv", text.as_bytes().to_vec())], &o).unwrap();
+    assert_eq!((kinds(&b, "cgm"), kinds(&b, "smbg")), (3, 1));
+    assert_eq!(b.records[0].at.to_string(), "2024-06-13T07:00:00Z");
+    let RecordKind::Cgm { glucose } = b.records[0].kind else {
+        panic!()
+    };
+    assert!((glucose.mg_dl.0 - 6.1 * 18.0156).abs() < 0.01);
+    // Dates that could be either order need --date-order.
+    let ambiguous = text.replace("13/06", "03/06").replace("14/06", "04/06");
+    let e = read(&[("r.csv", ambiguous.clone().into_bytes())], &o).unwrap_err();
+    assert!(e.to_string().contains("--date-order"), "{e}");
+    o.date_order = Some(abba_io::time::DateOrder::MonthFirst);
+    let b = read(&[("r.csv", ambiguous.into_bytes())], &o).unwrap();
+    assert_eq!(b.records[0].at.to_string(), "2024-03-06T08:00:00Z");
+    // Contradicting dates are an error naming both lines.
+    let mixed = text.replace("14/06/2024", "06/14/2024");
+    let e = read(&[("r.csv", mixed.into_bytes())], &opts("Europe/London")).unwrap_err();
+    assert!(
+        e.to_string().contains("line 5") && e.to_string().contains("line 2"),
+        "{e}"
+    );
+}
+
+#[test]
+fn records_dated_after_the_time_of_import_are_refused_with_count_and_first_line() {
+    let text = "time,glucose_mg_dl\n\
+        2024-06-10T12:00:00Z,120\n\
+        2024-06-10T12:09:00Z,121\n\
+        2024-06-10T12:15:00Z,122\n\
+        2024-06-10T12:11:00Z,123\n";
+    let mut b = read(
+        &[("f.csv", text.as_bytes().to_vec())],
+        &ReadOptions::default(),
+    )
+    .unwrap();
+    let now: jiff::Timestamp = "2024-06-10T12:00:00Z".parse().unwrap();
+    let refused = b.refuse_future(now);
+    assert_eq!(refused.count, 2);
+    assert_eq!(refused.first.as_deref(), Some("f.csv: line 4"));
+    assert_eq!(b.records.len(), 2);
+}

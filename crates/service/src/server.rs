@@ -1,0 +1,220 @@
+//! The HTTP server: the router with its layers, and the connection loop
+//! (hyper's HTTP/1 server, its header-read timeout, a bound on
+//! connections, graceful shutdown with a deadline).
+
+use crate::error::{ApiError, ServiceError};
+use crate::settings::ServeSettings;
+use crate::state::AppState;
+use axum::error_handling::HandleErrorLayer;
+use axum::extract::{ConnectInfo, DefaultBodyLimit};
+use axum::http::{header, HeaderValue, StatusCode};
+use axum::response::{IntoResponse, Response};
+use axum::{BoxError, Extension, Router};
+use hyper_util::rt::{TokioIo, TokioTimer};
+use hyper_util::service::TowerToHyperService;
+use std::net::SocketAddr;
+use std::path::Path;
+use std::sync::Arc;
+use tower::{Layer, ServiceBuilder};
+use tower_http::request_id::{MakeRequestUuid, PropagateRequestIdLayer, SetRequestIdLayer};
+use tower_http::set_header::SetResponseHeaderLayer;
+use tower_http::timeout::{RequestBodyTimeoutLayer, TimeoutLayer};
+use tower_http::trace::TraceLayer;
+
+/// The router over a state, with the default settings.
+pub fn router(state: AppState) -> Router {
+    router_with(state, &ServeSettings::default())
+}
+
+/// Answers a request refused by a limit (in flight: 503; timeout: 408).
+async fn refused(e: BoxError) -> Response {
+    if e.is::<tower::load_shed::error::Overloaded>() {
+        tracing::warn!("at the limit of requests in flight: 503");
+        ApiError::busy("the service is at its limit of requests in flight", 1).into_response()
+    } else {
+        ApiError::internal(e).into_response()
+    }
+}
+
+/// tower-http's timeout answers 408 with an empty body: give it ours.
+async fn timeout_body(r: Response) -> Response {
+    if r.status() == StatusCode::REQUEST_TIMEOUT && !r.headers().contains_key(header::CONTENT_TYPE)
+    {
+        return ApiError::timeout("the whole request").into_response();
+    }
+    r
+}
+
+/// The router over a state: every endpoint (registered once, see
+/// [`crate::openapi::api`]) behind the layers: request id and trace,
+/// the in-flight limit, timeouts, body limit, the headers of every answer.
+pub fn router_with(state: AppState, set: &ServeSettings) -> Router {
+    use crate::routes;
+    let (api, _) = crate::openapi::api().split_for_parts();
+    let headers = ServiceBuilder::new()
+        .layer(SetResponseHeaderLayer::overriding(
+            header::CACHE_CONTROL,
+            HeaderValue::from_static("no-store"),
+        ))
+        .layer(SetResponseHeaderLayer::overriding(
+            header::X_CONTENT_TYPE_OPTIONS,
+            HeaderValue::from_static("nosniff"),
+        ))
+        .layer(SetResponseHeaderLayer::overriding(
+            header::CONTENT_SECURITY_POLICY,
+            HeaderValue::from_static("default-src 'none'; frame-ancestors 'none'"),
+        ))
+        .layer(SetResponseHeaderLayer::overriding(
+            header::REFERRER_POLICY,
+            HeaderValue::from_static("no-referrer"),
+        ));
+    api.fallback(routes::not_found)
+        .method_not_allowed_fallback(routes::method_not_allowed)
+        .layer(DefaultBodyLimit::max(abba_api::MAX_BODY_BYTES))
+        .layer(RequestBodyTimeoutLayer::new(set.body_timeout))
+        .layer(axum::middleware::map_response(timeout_body))
+        .layer(TimeoutLayer::with_status_code(
+            StatusCode::REQUEST_TIMEOUT,
+            set.request_timeout,
+        ))
+        .layer(
+            ServiceBuilder::new()
+                .layer(HandleErrorLayer::new(refused))
+                .load_shed()
+                .concurrency_limit(set.max_in_flight),
+        )
+        .layer(headers)
+        .layer(PropagateRequestIdLayer::x_request_id())
+        .layer(TraceLayer::new_for_http())
+        .layer(SetRequestIdLayer::x_request_id(MakeRequestUuid))
+        .with_state(state)
+}
+
+/// Serves `db` on `listen` until SIGTERM or Ctrl-C; `ready` is told the
+/// address bound (useful with port 0). Refuses a store it cannot write.
+pub fn serve(
+    db: &Path,
+    listen: &str,
+    set: &ServeSettings,
+    ready: impl FnOnce(SocketAddr),
+) -> Result<(), ServiceError> {
+    // Connections are file descriptors: allow as many as the hard limit.
+    match rlimit::increase_nofile_limit(u64::MAX) {
+        Ok(n) => tracing::info!(nofile = n, "open file limit"),
+        Err(e) => tracing::warn!(error = %e, "cannot raise the open file limit"),
+    }
+    let state = AppState::open(db, set.store.clone())?;
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .map_err(|source| ServiceError::Io {
+            context: "starting the runtime".into(),
+            source,
+        })?;
+    rt.block_on(async move {
+        let listener = tokio::net::TcpListener::bind(listen)
+            .await
+            .map_err(|source| ServiceError::Io {
+                context: format!("binding {listen}"),
+                source,
+            })?;
+        let addr = listener.local_addr().map_err(|source| ServiceError::Io {
+            context: "reading the bound address".into(),
+            source,
+        })?;
+        ready(addr);
+        run(listener, router_with(state, set), set).await;
+        Ok(())
+    })
+}
+
+/// Accepts connections until a shutdown signal, then gives those open
+/// `shutdown_grace` to finish their requests.
+pub async fn run(listener: tokio::net::TcpListener, router: Router, set: &ServeSettings) {
+    run_until(listener, router, set, shutdown_signal()).await
+}
+
+/// Like [`run`], stopping when `stop` resolves.
+pub async fn run_until(
+    listener: tokio::net::TcpListener,
+    router: Router,
+    set: &ServeSettings,
+    stop: impl std::future::Future<Output = ()>,
+) {
+    let slots = Arc::new(tokio::sync::Semaphore::new(set.max_connections));
+    let graceful = hyper_util::server::graceful::GracefulShutdown::new();
+    let mut http = hyper::server::conn::http1::Builder::new();
+    http.timer(TokioTimer::new())
+        .header_read_timeout(set.header_timeout)
+        .keep_alive(true);
+    let mut full_logged = false;
+    tokio::pin!(stop);
+    loop {
+        let (stream, peer) = tokio::select! {
+            accepted = listener.accept() => match accepted {
+                Ok(x) => x,
+                Err(e) => {
+                    // Out of file descriptors and the like: pause, go on.
+                    tracing::warn!(error = %e, "accept failed");
+                    tokio::time::sleep(std::time::Duration::from_millis(20)).await;
+                    continue;
+                }
+            },
+            _ = &mut stop => break,
+        };
+        let Ok(slot) = Arc::clone(&slots).try_acquire_owned() else {
+            if !full_logged {
+                tracing::warn!(
+                    max = set.max_connections,
+                    "at the connection limit: new connections are closed"
+                );
+                full_logged = true;
+            }
+            drop(stream);
+            continue;
+        };
+        full_logged = false;
+        let svc = Extension(ConnectInfo(peer)).layer(router.clone());
+        let conn = http.serve_connection(TokioIo::new(stream), TowerToHyperService::new(svc));
+        let conn = graceful.watch(conn);
+        tokio::spawn(async move {
+            if let Err(e) = conn.await {
+                tracing::debug!(client = %peer, error = %e, "connection ended");
+            }
+            drop(slot);
+        });
+    }
+    drop(listener);
+    tracing::info!("stopping: waiting for requests in flight");
+    tokio::select! {
+        _ = graceful.shutdown() => tracing::info!("every connection closed"),
+        _ = tokio::time::sleep(set.shutdown_grace) => {
+            tracing::warn!(grace_s = set.shutdown_grace.as_secs_f64(), "grace period over: stopping with connections open");
+        }
+    }
+}
+
+/// Resolves on Ctrl-C or SIGTERM.
+async fn shutdown_signal() {
+    let ctrl_c = async {
+        // If the handler cannot be installed, wait for SIGTERM only.
+        if tokio::signal::ctrl_c().await.is_err() {
+            std::future::pending::<()>().await;
+        }
+    };
+    #[cfg(unix)]
+    let term = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut s) => {
+                s.recv().await;
+            }
+            Err(_) => std::future::pending::<()>().await,
+        }
+    };
+    #[cfg(not(unix))]
+    let term = std::future::pending::<()>();
+    tokio::select! {
+        _ = ctrl_c => {},
+        _ = term => {},
+    }
+}

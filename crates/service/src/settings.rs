@@ -1,0 +1,81 @@
+//! The service's limits, each a named setting of `abba serve` with the
+//! default given here.
+
+use std::time::Duration;
+
+/// How the service holds connections and requests.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ServeSettings {
+    /// A connection that has not sent a whole request head this long after
+    /// it opened, or after its last response (keep-alive idle), is closed.
+    /// hyper times both from the moment it waits for a head, so one
+    /// setting covers the header-read and the idle keep-alive timeout.
+    pub header_timeout: Duration,
+    /// A request body that has not arrived whole this long after its head
+    /// gets 408.
+    pub body_timeout: Duration,
+    /// A request not answered this long after its head gets 408 (a handler
+    /// that runs away; the heaviest page is far below).
+    pub request_timeout: Duration,
+    /// Connections held at once; one more is accepted and closed at once
+    /// (so the listen queue never fills and `/healthz` keeps answering
+    /// once timeouts free slots).
+    pub max_connections: usize,
+    /// Requests in flight at once; more get 503 with `Retry-After`.
+    pub max_in_flight: usize,
+    /// On SIGTERM or Ctrl-C, requests in flight get this long to finish;
+    /// then the service stops anyway.
+    pub shutdown_grace: Duration,
+    /// The store's side.
+    pub store: StoreSettings,
+}
+
+impl Default for ServeSettings {
+    fn default() -> Self {
+        Self {
+            header_timeout: Duration::from_secs(10),
+            body_timeout: Duration::from_secs(10),
+            request_timeout: Duration::from_secs(60),
+            max_connections: 8192,
+            max_in_flight: 256,
+            shutdown_grace: Duration::from_secs(10),
+            store: StoreSettings::default(),
+        }
+    }
+}
+
+/// How the service uses the store and memory.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StoreSettings {
+    /// SQLite connections in the pool.
+    pub connections: u32,
+    /// How long a write waits for another writer (the CLI, another
+    /// process) before the request gets 503; also the longest wait for a
+    /// pooled connection.
+    pub busy_timeout: Duration,
+    /// The `Retry-After` (seconds) of a 503.
+    pub retry_after: u64,
+    /// Live advisors kept at most (least recently used dropped first).
+    pub cache_persons: u64,
+    /// A live advisor unused this long is dropped.
+    pub cache_idle: Duration,
+    /// Failed authentications one client address may make per window
+    /// before it gets 429 for the rest of the window.
+    pub auth_failures: u32,
+    /// The window of `auth_failures`.
+    pub auth_window: Duration,
+}
+
+impl Default for StoreSettings {
+    fn default() -> Self {
+        Self {
+            connections: 8,
+            busy_timeout: Duration::from_secs(5),
+            retry_after: 1,
+            cache_persons: 1000,
+            cache_idle: Duration::from_secs(30 * 60),
+            auth_failures: 30,
+            auth_window: Duration::from_secs(60),
+        }
+    }
+}

@@ -1,0 +1,433 @@
+//! The service's limits over real sockets: idle and slowloris connections
+//! are closed by the header-read timeout while a fresh client's `/healthz`
+//! answers; a slow body gets 408; a store held by another writer gives 503
+//! with Retry-After; events dated in the future are refused and an old one
+//! is removed by `remove_future`; the live-advisor cache stays bounded.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod common;
+
+use abba_service::{AppState, ServeSettings, StoreSettings};
+use axum::http::{Method, StatusCode};
+use common::{at, cgm, Svc};
+use serde_json::json;
+use std::io::{Read, Write};
+use std::net::{SocketAddr, TcpStream};
+use std::time::{Duration, Instant};
+
+/// A service on a loopback port, in its own runtime thread; stopped on drop.
+struct Server {
+    addr: SocketAddr,
+    stop: Option<tokio::sync::oneshot::Sender<()>>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Server {
+    fn start(db: &std::path::Path, set: ServeSettings) -> Self {
+        let state = AppState::open(db, set.store.clone()).unwrap();
+        let std_listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+        std_listener.set_nonblocking(true).unwrap();
+        let addr = std_listener.local_addr().unwrap();
+        let (tx, rx) = tokio::sync::oneshot::channel::<()>();
+        let thread = std::thread::spawn(move || {
+            let rt = tokio::runtime::Builder::new_multi_thread()
+                .worker_threads(2)
+                .enable_all()
+                .build()
+                .unwrap();
+            rt.block_on(async move {
+                let listener = tokio::net::TcpListener::from_std(std_listener).unwrap();
+                let router = abba_service::router_with(state, &set);
+                abba_service::server::run_until(listener, router, &set, async {
+                    let _ = rx.await;
+                })
+                .await;
+            });
+        });
+        Self {
+            addr,
+            stop: Some(tx),
+            thread: Some(thread),
+        }
+    }
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        if let Some(s) = self.stop.take() {
+            let _ = s.send(());
+        }
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+/// Sends raw bytes, reads the whole answer (the service closes after it).
+fn raw(addr: SocketAddr, request: &str) -> String {
+    let mut s = TcpStream::connect(addr).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(20))).unwrap();
+    s.write_all(request.as_bytes()).unwrap();
+    let mut out = Vec::new();
+    let _ = s.read_to_end(&mut out);
+    String::from_utf8_lossy(&out).to_string()
+}
+
+/// True once the peer closed the connection (read gives 0 bytes or an
+/// error other than a timeout).
+fn closed(s: &TcpStream) -> bool {
+    s.set_nonblocking(true).unwrap();
+    let mut b = [0u8; 512];
+    loop {
+        match (&*s).read(&mut b) {
+            Ok(0) => return true,
+            Ok(_) => continue,
+            Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => return false,
+            Err(_) => return true,
+        }
+    }
+}
+
+#[test]
+fn idle_and_slowloris_connections_are_closed_while_healthz_answers() {
+    // Both ends of 5,500 connections live in this process.
+    let _ = rlimit::increase_nofile_limit(u64::MAX);
+    let (soft, _) = rlimit::getrlimit(rlimit::Resource::NOFILE).unwrap();
+    assert!(
+        soft >= 12_000,
+        "this test needs 12,000 file descriptors, the limit is {soft}"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("store.db");
+    let header_timeout = Duration::from_secs(3);
+    let server = Server::start(
+        &db,
+        ServeSettings {
+            header_timeout,
+            ..ServeSettings::default()
+        },
+    );
+    let t0 = Instant::now();
+    let idle: Vec<TcpStream> = (0..5000)
+        .map(|_| TcpStream::connect(server.addr).unwrap())
+        .collect();
+    let mut slow: Vec<TcpStream> = (0..500)
+        .map(|_| {
+            let mut s = TcpStream::connect(server.addr).unwrap();
+            s.write_all(b"GET /healthz HTTP/1.1\r\nHost: x\r\n")
+                .unwrap();
+            s
+        })
+        .collect();
+    let opened = t0.elapsed();
+    // A header byte from each slow client every 500 ms, for longer than
+    // the timeout; a fresh client's /healthz meanwhile.
+    let mut worst = Duration::ZERO;
+    let until = Instant::now() + header_timeout + Duration::from_secs(2);
+    while Instant::now() < until {
+        for s in &mut slow {
+            let _ = s.write_all(b"X");
+        }
+        let t = Instant::now();
+        let answer = raw(
+            server.addr,
+            "GET /healthz HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n",
+        );
+        let took = t.elapsed();
+        worst = worst.max(took);
+        assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
+        assert!(took < Duration::from_secs(1), "/healthz took {took:?}");
+        std::thread::sleep(Duration::from_millis(500));
+    }
+    println!(
+        "5000 idle + 500 slowloris connections opened in {opened:?}; slowest fresh /healthz {worst:?}"
+    );
+    // Past the header timeout (counted from each connection's opening),
+    // every one is closed by the service.
+    std::thread::sleep(Duration::from_secs(1));
+    let idle_closed = idle.iter().filter(|s| closed(s)).count();
+    let slow_closed = slow.iter().filter(|s| closed(s)).count();
+    assert_eq!(idle_closed, 5000, "idle connections closed");
+    assert_eq!(slow_closed, 500, "slowloris connections closed");
+}
+
+#[test]
+fn a_body_that_stalls_gets_408_and_the_body_is_never_read_before_the_token() {
+    let svc = Svc::new();
+    let server = Server::start(
+        &svc.db,
+        ServeSettings {
+            body_timeout: Duration::from_millis(500),
+            ..ServeSettings::default()
+        },
+    );
+    let mut s = TcpStream::connect(server.addr).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+    let head = format!(
+        "POST /v1/persons HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer {}\r\nContent-Type: application/json\r\nContent-Length: 100\r\n\r\n{{\"name\":",
+        svc.admin
+    );
+    let t = Instant::now();
+    s.write_all(head.as_bytes()).unwrap();
+    let mut out = Vec::new();
+    let _ = s.read_to_end(&mut out);
+    let text = String::from_utf8_lossy(&out);
+    assert!(text.starts_with("HTTP/1.1 408"), "{text}");
+    assert!(text.contains("\"code\":\"timeout\""), "{text}");
+    assert!(t.elapsed() < Duration::from_secs(5));
+    // Without a valid token the same stalled body is not waited for: 401 at once.
+    let mut s = TcpStream::connect(server.addr).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+    let t = Instant::now();
+    s.write_all(
+        b"POST /v1/persons HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\nContent-Length: 100\r\n\r\n{",
+    )
+    .unwrap();
+    let mut b = [0u8; 12];
+    s.read_exact(&mut b).unwrap();
+    assert_eq!(&b, b"HTTP/1.1 401");
+    assert!(
+        t.elapsed() < Duration::from_millis(400),
+        "{:?}",
+        t.elapsed()
+    );
+}
+
+#[tokio::test]
+async fn health_data_answers_carry_no_store_nosniff_and_a_csp() {
+    let svc = Svc::new();
+    let id = svc.person("alice").await;
+    let req = axum::http::Request::builder()
+        .uri(format!("/v1/persons/{id}/history"))
+        .header("authorization", format!("Bearer {}", svc.admin))
+        .body(axum::body::Body::empty())
+        .unwrap();
+    use tower::ServiceExt;
+    let res = svc.router.clone().oneshot(req).await.unwrap();
+    assert_eq!(res.status(), StatusCode::OK);
+    let h = res.headers();
+    assert_eq!(h["cache-control"], "no-store");
+    assert_eq!(h["x-content-type-options"], "nosniff");
+    assert!(h["content-security-policy"]
+        .to_str()
+        .unwrap()
+        .contains("default-src 'none'"));
+    assert!(h.contains_key("x-request-id"));
+}
+
+#[tokio::test]
+async fn a_store_held_by_another_writer_gives_503_with_retry_after() {
+    let svc = Svc::new();
+    let id = svc.person("alice").await;
+    let state = AppState::open(
+        &svc.db,
+        StoreSettings {
+            busy_timeout: Duration::from_millis(300),
+            ..StoreSettings::default()
+        },
+    )
+    .unwrap();
+    let router = abba_service::router(state);
+    // Another connection takes the write lock and keeps it.
+    let other = rusqlite::Connection::open(&svc.db).unwrap();
+    other.execute_batch("BEGIN IMMEDIATE").unwrap();
+    let body = json!({"events": [cgm(0, 10, 120.0)]});
+    let req = axum::http::Request::builder()
+        .method(Method::POST)
+        .uri(format!("/v1/persons/{id}/events"))
+        .header("authorization", format!("Bearer {}", svc.admin))
+        .header("content-type", "application/json")
+        .body(axum::body::Body::from(serde_json::to_vec(&body).unwrap()))
+        .unwrap();
+    use http_body_util::BodyExt;
+    use tower::ServiceExt;
+    let res = router.clone().oneshot(req).await.unwrap();
+    assert_eq!(res.status(), StatusCode::SERVICE_UNAVAILABLE);
+    assert_eq!(res.headers()["retry-after"], "1");
+    let bytes = res.into_body().collect().await.unwrap().to_bytes();
+    let v: serde_json::Value = serde_json::from_slice(&bytes).unwrap();
+    assert_eq!(v["code"], "busy", "{v}");
+    // Reads still answer (WAL: readers do not wait for the writer).
+    let req = axum::http::Request::builder()
+        .uri(format!("/v1/persons/{id}/sync"))
+        .header("authorization", format!("Bearer {}", svc.admin))
+        .body(axum::body::Body::empty())
+        .unwrap();
+    assert_eq!(
+        router.clone().oneshot(req).await.unwrap().status(),
+        StatusCode::OK
+    );
+    // Once released, the same batch is stored.
+    other.execute_batch("ROLLBACK").unwrap();
+    let req = axum::http::Request::builder()
+        .method(Method::POST)
+        .uri(format!("/v1/persons/{id}/events"))
+        .header("authorization", format!("Bearer {}", svc.admin))
+        .header("content-type", "application/json")
+        .body(axum::body::Body::from(serde_json::to_vec(&body).unwrap()))
+        .unwrap();
+    assert_eq!(router.oneshot(req).await.unwrap().status(), StatusCode::OK);
+}
+
+#[test]
+fn the_service_refuses_a_read_only_store() {
+    use std::os::unix::fs::PermissionsExt;
+    let svc = Svc::new();
+    let db = svc.db.clone();
+    let mut p = std::fs::metadata(&db).unwrap().permissions();
+    p.set_mode(0o444);
+    std::fs::set_permissions(&db, p).unwrap();
+    let e = match AppState::open(&db, StoreSettings::default()) {
+        Ok(_) => panic!("a read-only store was accepted"),
+        Err(e) => e.to_string(),
+    };
+    assert!(e.contains("cannot be written"), "{e}");
+}
+
+#[tokio::test]
+async fn an_event_dated_in_the_future_is_refused_and_an_old_one_removed() {
+    let svc = Svc::new();
+    let id = svc.person("alice").await;
+    let now = jiff::Timestamp::now();
+    let future = now + jiff::SignedDuration::from_mins(abba_core::limits::FUTURE_SKEW_MINUTES + 5);
+    let r = svc
+        .call(
+            Method::POST,
+            &format!("/v1/persons/{id}/events"),
+            Some(&svc.admin),
+            Some(&json!({"events": [
+                cgm(0, 10, 120.0),
+                {"seq": 1, "at": future.to_string(), "event": {"type": "day_closed"}}
+            ]})),
+        )
+        .await;
+    assert_eq!(r.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", r.text);
+    assert_eq!(r.json["path"], "events[1].at");
+    let msg = r.json["message"].as_str().unwrap();
+    assert!(msg.contains("seq 1") && msg.contains("day_closed"), "{msg}");
+    assert!(msg.contains("server's clock"), "{msg}");
+    // Nothing of the batch was stored.
+    let r = svc
+        .call(
+            Method::GET,
+            &format!("/v1/persons/{id}/sync"),
+            Some(&svc.admin),
+            None,
+        )
+        .await;
+    assert_eq!(r.json["last_seq"], serde_json::Value::Null, "{}", r.text);
+    // An older abba stored one: the check lists it, remove_future deletes
+    // exactly it, and the service sees the change.
+    let r = svc
+        .call(
+            Method::POST,
+            &format!("/v1/persons/{id}/events"),
+            Some(&svc.admin),
+            Some(&json!({"events": [cgm(0, 10, 120.0), cgm(1, 15, 121.0)]})),
+        )
+        .await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+    let mut store = abba_store::Store::open(&svc.db).unwrap();
+    store
+        .connection()
+        .execute(
+            "INSERT INTO app_event (person_id, seq, at_ms, at_min, tag, kind, hash, received_at) VALUES (?1, 7, ?2, 9999999, 'day_closed', '\"DayClosed\"', x'00', 'old')",
+            rusqlite::params![id as i64, future.as_millisecond()],
+        )
+        .unwrap();
+    let report = store.check(now).unwrap();
+    assert_eq!(report.future.len(), 1, "{report:?}");
+    assert_eq!(report.future[0].id, "seq 7");
+    assert!(!report.ok());
+    let gone = store.remove_future(now).unwrap();
+    assert_eq!(gone, report.future);
+    assert!(store.check(now).unwrap().ok());
+    let r = svc
+        .call(
+            Method::GET,
+            &format!("/v1/persons/{id}/sync"),
+            Some(&svc.admin),
+            None,
+        )
+        .await;
+    assert_eq!(
+        r.json["held"],
+        json!([{"first": 0, "last": 1}]),
+        "{}",
+        r.text
+    );
+    let _ = at(0);
+}
+
+#[tokio::test]
+async fn the_live_advisor_cache_stays_bounded_and_reads_never_fill_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("store.db");
+    let persons = 10_000;
+    let cap = 64;
+    {
+        let mut store = abba_store::Store::open(&db).unwrap();
+        let start = abba_core::TherapySettings {
+            basal: abba_core::UnitsPerHour(1.0),
+            carb_ratio: [abba_core::GramsPerUnit(10.0); 3],
+        };
+        for i in 0..persons {
+            let mut p =
+                abba_store::NewPerson::new(&format!("p{i}"), "UTC", abba_advisor::Mode::Cgm, start);
+            p.first_day = Some(jiff::civil::date(2026, 1, 1));
+            store.create_person(&p).unwrap();
+        }
+    }
+    let (_, admin) = abba_service::new_admin_token(&db).unwrap();
+    let state = AppState::open(
+        &db,
+        StoreSettings {
+            cache_persons: cap,
+            ..StoreSettings::default()
+        },
+    )
+    .unwrap();
+    let router = abba_service::router(state.clone());
+    use tower::ServiceExt;
+    let call = |method: Method, uri: String, body: Option<serde_json::Value>| {
+        let mut req = axum::http::Request::builder()
+            .method(method)
+            .uri(uri)
+            .header("authorization", format!("Bearer {admin}"));
+        let body = match body {
+            Some(b) => {
+                req = req.header("content-type", "application/json");
+                axum::body::Body::from(serde_json::to_vec(&b).unwrap())
+            }
+            None => axum::body::Body::empty(),
+        };
+        router.clone().oneshot(req.body(body).unwrap())
+    };
+    // Reads create nothing.
+    for id in 1..=100 {
+        let r = call(Method::GET, format!("/v1/persons/{id}/advice"), None)
+            .await
+            .unwrap();
+        assert_eq!(r.status(), StatusCode::OK);
+    }
+    assert_eq!(state.cached_persons(), 0);
+    let mut most = 0;
+    for id in 1..=persons {
+        let r = call(
+            Method::POST,
+            format!("/v1/persons/{id}/events"),
+            Some(json!({"events": [cgm(0, 10, 120.0)]})),
+        )
+        .await
+        .unwrap();
+        assert_eq!(r.status(), StatusCode::OK);
+        if id % 500 == 0 {
+            most = most.max(state.cached_persons());
+        }
+    }
+    most = most.max(state.cached_persons());
+    println!("{persons} persons posted, at most {most} live advisors cached (cap {cap})");
+    assert!(most <= cap, "{most} cached, cap {cap}");
+    assert!(state.is_cached(persons as i64), "the latest one is kept");
+}

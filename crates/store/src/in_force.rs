@@ -1,0 +1,406 @@
+//! What is in force besides the advisor's own suggestions, and what the
+//! data say about the person's therapy (all derived from the log, so a
+//! replay gives the same every time):
+//!
+//! - **therapy changes**: the pump's settings profiles (when the person's
+//!   therapy follows the profile) and the clinician's changes recorded with
+//!   `abba therapy set`, each in force from its time;
+//! - **the first week**: day 1 is the first local day with glucose; the
+//!   first week ends with the 7th day that has at least 70 % of the
+//!   expected CGM readings (SMBG mode: 3 meter readings) and pump data;
+//! - **delivery**: open loop, closed loop or injections, with the evidence
+//!   ([`abba_io::automation`]); with a loop or injections no basal rate is
+//!   suggested unless the person allows it for research
+//!   (`--allow-closed-loop`).
+
+use crate::error::StoreError;
+use crate::person::{Person, TherapySource};
+use abba_advisor::Mode;
+use abba_core::limits::{BASAL_U_PER_H, CARB_RATIO_G_PER_U, FUTURE_SKEW_MINUTES};
+use abba_core::{Event, EventKind, Timestamp};
+use abba_io::automation::{Delivery, Evidence};
+use abba_io::clock::AdvisorClock;
+use abba_io::therapy::PumpTherapy;
+use abba_io::Record;
+use rusqlite::{params, Connection};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// Share of the expected CGM readings a qualifying day needs.
+pub const CGM_DAY_SHARE: f64 = 0.7;
+/// CGM readings expected in a day (one every 5 minutes).
+pub const CGM_PER_DAY: usize = 288;
+/// Meter readings a qualifying SMBG day needs (70 % of the four a day).
+pub const SMBG_PER_DAY: usize = 3;
+
+/// Who made a change of therapy.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ChangeSource {
+    /// A settings profile of the pump's export (a profile or a switch).
+    Profile,
+    /// The clinician (`abba therapy set`).
+    Clinician,
+}
+
+/// A change of therapy in force from `at`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TherapyChange {
+    /// From when (advisor time; before day 1: minute 0).
+    pub at: Timestamp,
+    /// The instant (UTC, RFC 3339).
+    pub instant: String,
+    /// The basal schedule (one segment: a flat rate); none: unchanged.
+    pub basal: Option<Vec<(u32, f64)>>,
+    /// Carb ratios of breakfast, lunch, dinner; none: unchanged.
+    pub carb_ratio: Option<[f64; 3]>,
+    /// Who.
+    pub source: ChangeSource,
+    /// Where it was read, or who recorded it.
+    pub origin: String,
+}
+
+/// The first week counted from the data.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct FirstWeek {
+    /// Qualifying days (day indices from day 1 = 0), oldest first.
+    pub qualifying: Vec<i64>,
+    /// Days that did not qualify, with why.
+    pub missing: Vec<(i64, String)>,
+    /// The day whose close ends the first week (`i64::MAX`: not yet).
+    pub end: i64,
+}
+
+/// Everything derived from the log for one replay.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Extras {
+    /// Therapy changes, oldest first.
+    pub changes: Vec<TherapyChange>,
+    /// The first week.
+    pub first_week: FirstWeek,
+    /// The delivery evidence.
+    pub evidence: Evidence,
+    /// True when basal updates are not offered (loop or injections, not allowed).
+    pub hold_basal: bool,
+}
+
+impl Extras {
+    /// What the data show.
+    pub fn delivery(&self) -> Delivery {
+        self.evidence.delivery()
+    }
+
+    /// A hash of what a snapshot ending at `last` depends on besides its
+    /// events: the changes up to `last`, the basal hold, the first week's end.
+    pub fn hash_until(&self, last: Option<Timestamp>) -> String {
+        let upto: Vec<&TherapyChange> = self
+            .changes
+            .iter()
+            .filter(|c| last.is_some_and(|l| c.at <= l))
+            .collect();
+        let json =
+            serde_json::to_vec(&(upto, self.hold_basal, self.first_week.end)).unwrap_or_default();
+        format!("{:016x}", abba_io::record::content_hash([json.as_slice()]))
+    }
+}
+
+fn pump_event(k: &EventKind) -> bool {
+    matches!(
+        k,
+        EventKind::Bolus(_)
+            | EventKind::BasalRate(_)
+            | EventKind::TempBasal { .. }
+            | EventKind::Suspend
+            | EventKind::Resume
+            | EventKind::ExtendedBolus { .. }
+    )
+}
+
+/// Counts the qualifying days of `events` (see the module documentation).
+pub fn first_week(mode: Mode, init_days: u32, events: &[Event]) -> FirstWeek {
+    let mut per_day: BTreeMap<i64, (usize, usize, usize)> = BTreeMap::new();
+    for e in events {
+        let d = per_day.entry(e.at.day_index()).or_default();
+        match e.kind {
+            EventKind::Cgm(_) => d.0 += 1,
+            EventKind::Smbg(_) => d.1 += 1,
+            ref k if pump_event(k) => d.2 += 1,
+            _ => {}
+        }
+    }
+    let (Some(&first), Some(&last)) = (per_day.keys().next(), per_day.keys().next_back()) else {
+        return FirstWeek {
+            end: i64::MAX,
+            ..FirstWeek::default()
+        };
+    };
+    // The last day is still open unless a later event closed it.
+    let closed_until = events
+        .iter()
+        .rev()
+        .find(|e| e.kind == EventKind::DayClosed)
+        .map_or(first - 1, |e| abba_advisor::guard::closed_day(e.at));
+    let mut w = FirstWeek {
+        end: i64::MAX,
+        ..FirstWeek::default()
+    };
+    let need_cgm = (CGM_DAY_SHARE * CGM_PER_DAY as f64).ceil() as usize;
+    for day in first..=last.max(closed_until) {
+        if w.qualifying.len() as u32 >= init_days {
+            break;
+        }
+        let (cgm, smbg, pump) = per_day.get(&day).copied().unwrap_or_default();
+        let mut why = Vec::new();
+        match mode {
+            Mode::Cgm if cgm < need_cgm => why.push(format!(
+                "{cgm} CGM readings of the {CGM_PER_DAY} expected ({:.0} %; 70 % needed)",
+                100.0 * cgm as f64 / CGM_PER_DAY as f64
+            )),
+            Mode::Smbg if smbg < SMBG_PER_DAY => {
+                why.push(format!("{smbg} meter readings ({SMBG_PER_DAY} needed)"))
+            }
+            _ => {}
+        }
+        if pump == 0 {
+            why.push("no pump records".into());
+        }
+        if day > closed_until {
+            // Today: not over yet.
+            if !why.is_empty() {
+                w.missing.push((
+                    day,
+                    format!("so far {} (the day is not over)", why.join(", ")),
+                ));
+            }
+            continue;
+        }
+        if why.is_empty() {
+            w.qualifying.push(day);
+            if w.qualifying.len() as u32 == init_days {
+                w.end = day;
+            }
+        } else {
+            w.missing.push((day, why.join(", ")));
+        }
+    }
+    w
+}
+
+/// The clinician's recorded changes of a person.
+pub fn clinician_changes(conn: &Connection, person: i64) -> Result<Vec<TherapyChange>, StoreError> {
+    let mut st =
+        conn.prepare("SELECT change FROM therapy_change WHERE person_id = ?1 ORDER BY at_ms, id")?;
+    let rows = st.query_map(params![person], |r| r.get::<_, String>(0))?;
+    let mut out = Vec::new();
+    for r in rows {
+        out.push(serde_json::from_str(&r?).map_err(|e| StoreError::corrupt("therapy change", e))?);
+    }
+    Ok(out)
+}
+
+/// Records a clinician's change (inside the caller's transaction).
+pub fn insert_change(
+    conn: &Connection,
+    person: i64,
+    at: jiff::Timestamp,
+    change: &TherapyChange,
+) -> Result<(), StoreError> {
+    let json =
+        serde_json::to_string(change).map_err(|e| StoreError::corrupt("therapy change", e))?;
+    conn.execute(
+        "INSERT INTO therapy_change (person_id, at_ms, change, recorded_at) VALUES (?1, ?2, ?3, ?4)",
+        params![person, at.as_millisecond(), json, jiff::Timestamp::now().to_string()],
+    )?;
+    Ok(())
+}
+
+/// Checks a new therapy value against the plausibility limits and the
+/// clinician's bounds, naming the field.
+pub fn check_change(
+    person: &Person,
+    basal: Option<&[(u32, f64)]>,
+    carb_ratio: Option<[f64; 3]>,
+) -> Result<(), StoreError> {
+    if let Some(b) = basal {
+        for &(m, r) in b {
+            BASAL_U_PER_H.check(r).map_err(|e| {
+                StoreError::invalid(
+                    format!("--basal (from {:02}:{:02})", m / 60, m % 60),
+                    e.to_string(),
+                )
+            })?;
+        }
+        abba_advisor::steps::validate_segments(b)?;
+        let mean = abba_advisor::steps::mean_rate(b);
+        if let Some(r) = person.settings.bounds.basal.filter(|r| !r.contains(mean)) {
+            return Err(StoreError::invalid(
+                "--basal",
+                format!("{mean:.3} U/h is outside the clinician's bounds {}-{} U/h (change the bounds first)", r.min, r.max),
+            ));
+        }
+    }
+    if let Some(cr) = carb_ratio {
+        for (i, v) in cr.into_iter().enumerate() {
+            let slot = ["breakfast", "lunch", "dinner"][i];
+            CARB_RATIO_G_PER_U.check(v).map_err(|e| {
+                StoreError::invalid(format!("--carb-ratio ({slot})"), e.to_string())
+            })?;
+            if let Some(r) = person.settings.bounds.carb_ratio[i].filter(|r| !r.contains(v)) {
+                return Err(StoreError::invalid(
+                    format!("--carb-ratio ({slot})"),
+                    format!(
+                        "{v} g/U is outside the clinician's bounds {}-{} g/U",
+                        r.min, r.max
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Refuses an instant later than now plus the clock skew.
+pub fn not_future(at: jiff::Timestamp, field: &str) -> Result<(), StoreError> {
+    let limit = jiff::Timestamp::now()
+        .checked_add(jiff::SignedDuration::from_mins(FUTURE_SKEW_MINUTES))
+        .unwrap_or(jiff::Timestamp::MAX);
+    if at > limit {
+        return Err(StoreError::invalid(
+            field,
+            format!("{at} is in the future (more than {FUTURE_SKEW_MINUTES} min after now); a change is recorded when it is made"),
+        ));
+    }
+    Ok(())
+}
+
+/// The settings profiles of the log that become therapy in force (when the
+/// person's therapy follows the pump's profile): each one that differs from
+/// the one before it.
+pub fn profile_changes(
+    person: &Person,
+    records: &[Record],
+) -> Result<Vec<TherapyChange>, StoreError> {
+    if person.settings.therapy_source != TherapySource::Profile {
+        return Ok(Vec::new());
+    }
+    let Some(clock) = person
+        .first_day
+        .map(|d| AdvisorClock::new(person.tz.clone(), d))
+    else {
+        return Ok(Vec::new());
+    };
+    let meals = &person.settings.meal_windows;
+    let mut out: Vec<TherapyChange> = Vec::new();
+    let mut prev: (Vec<(u32, f64)>, [f64; 3]) = (
+        person
+            .settings
+            .basal_schedule
+            .clone()
+            .unwrap_or_else(|| vec![(0, person.settings.start.basal.0)]),
+        person.settings.start.carb_ratio.map(|c| c.0),
+    );
+    for r in records {
+        let abba_io::RecordKind::Schedule { profile } = &r.kind else {
+            continue;
+        };
+        if profile.carb_ratio.is_empty() {
+            continue;
+        }
+        let t =
+            PumpTherapy::from_profile(profile, meals, format!("{:?} {:?}", r.source, r.id), r.at)?;
+        if t.same_settings(&prev.0, prev.1) {
+            continue;
+        }
+        let ts = clock.timestamp(r.at);
+        let at = if ts.day_index() < 0 { Timestamp(0) } else { ts };
+        prev = (t.basal.clone(), t.carb_ratio);
+        out.push(TherapyChange {
+            at,
+            instant: r.at.to_string(),
+            basal: Some(t.basal),
+            carb_ratio: Some(t.carb_ratio),
+            source: ChangeSource::Profile,
+            origin: format!("the pump's profile of {}", r.at),
+        });
+    }
+    Ok(out)
+}
+
+/// File evidence of loops stored at import.
+pub fn file_evidence(conn: &Connection, person: i64) -> Result<Evidence, StoreError> {
+    let mut st = conn.prepare("SELECT evidence FROM file_evidence WHERE person_id = ?1")?;
+    let rows = st.query_map(params![person], |r| r.get::<_, String>(0))?;
+    let mut e = Evidence::default();
+    for r in rows {
+        let x: Evidence =
+            serde_json::from_str(&r?).map_err(|e| StoreError::corrupt("file evidence", e))?;
+        e.add_file(&x);
+    }
+    Ok(e)
+}
+
+/// Stores what an import's files say about loops (one row per file content).
+pub fn store_file_evidence(
+    conn: &Connection,
+    person: i64,
+    file: &str,
+    bytes: &[u8],
+) -> Result<(), StoreError> {
+    let e = Evidence::from_file(bytes);
+    if e.smb == 0 && e.automated_basal == 0 && e.systems.is_empty() {
+        return Ok(());
+    }
+    let hash = format!("{:016x}", abba_io::record::content_hash([bytes]));
+    let json = serde_json::to_string(&e).map_err(|e| StoreError::corrupt("file evidence", e))?;
+    conn.execute(
+        "INSERT OR REPLACE INTO file_evidence (person_id, file_hash, file, evidence) VALUES (?1, ?2, ?3, ?4)",
+        params![person, hash, file, json],
+    )?;
+    Ok(())
+}
+
+/// What the records alone say (cached with the events).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RecordFacts {
+    /// Profile changes in force.
+    pub profile_changes: Vec<TherapyChange>,
+    /// Delivery evidence from the records.
+    pub evidence: Evidence,
+    /// The first week.
+    pub first_week: FirstWeek,
+}
+
+/// The facts of an import-fed person's records and events.
+pub fn record_facts(
+    person: &Person,
+    records: &[Record],
+    events: &[Event],
+) -> Result<RecordFacts, StoreError> {
+    Ok(RecordFacts {
+        profile_changes: profile_changes(person, records)?,
+        evidence: Evidence::from_records(records, &person.tz),
+        first_week: first_week(person.mode(), person.settings.advisor.init_days, events),
+    })
+}
+
+/// Everything [`Extras`] holds for an import-fed person: the records'
+/// facts with the clinician's changes and the files' evidence.
+pub fn extras(
+    conn: &Connection,
+    person: &Person,
+    facts: &RecordFacts,
+) -> Result<Extras, StoreError> {
+    let mut changes = facts.profile_changes.clone();
+    changes.extend(clinician_changes(conn, person.id)?);
+    changes.sort_by_key(|c| c.at);
+    let mut evidence = facts.evidence.clone();
+    evidence.add_file(&file_evidence(conn, person.id)?);
+    let hold_basal =
+        evidence.delivery() != Delivery::OpenLoop && !person.settings.allow_closed_loop;
+    Ok(Extras {
+        changes,
+        first_week: facts.first_week.clone(),
+        evidence,
+        hold_basal,
+    })
+}

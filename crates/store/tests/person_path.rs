@@ -1,0 +1,460 @@
+//! The person path end to end on exports in Nightscout's real layout
+//! (entries with `sgv`/`date`/`dateString`, treatments with `eventType`,
+//! `created_at`, `enteredBy`, a profile store with time-of-day arrays):
+//! therapy from the pump's profile with a 5-segment schedule, a closed
+//! loop, a profile long before the first reading, a sensor gap in the first
+//! week, a hypoglycaemia treatment, a mismatching profile, the clinician's
+//! change at any time.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod common;
+
+use abba_advisor::steps::on_step;
+use abba_advisor::{Mode, PumpSteps};
+use abba_io::therapy::therapy_from_files;
+use abba_io::ReadOptions;
+use abba_store::person::TherapySource;
+use abba_store::{NewPerson, ProfileResolution, Store};
+use common::TempDir;
+use jiff::tz::TimeZone;
+use serde_json::{json, Value};
+use std::path::PathBuf;
+
+const TZ: &str = "Europe/Zurich";
+/// 00:00 of day 1 (2026-05-04) in Zurich (UTC+2), in ms.
+const DAY1_MS: i64 = 1_777_845_600_000;
+
+fn iso(ms: i64) -> String {
+    jiff::Timestamp::from_millisecond(ms).unwrap().to_string()
+}
+
+/// What to put in the export.
+#[derive(Clone)]
+struct Plan {
+    days: i64,
+    /// Days (indices) without CGM readings.
+    gap: Vec<i64>,
+    /// Glucose around which the day moves (mg/dL).
+    level: f64,
+    /// A closed loop: 5-minute temporary basals and SMBs, entered by iAPS.
+    looped: bool,
+    /// A low at 10:30 treated with 16 g of "Carb Correction", no bolus.
+    rescue: bool,
+    /// The profile's start relative to day 1 (days).
+    profile_from_day: i64,
+    basal: Vec<(&'static str, f64)>,
+    carb_ratio: Vec<(&'static str, f64)>,
+}
+
+impl Default for Plan {
+    fn default() -> Self {
+        Plan {
+            days: 10,
+            gap: Vec::new(),
+            level: 150.0,
+            looped: false,
+            rescue: false,
+            profile_from_day: -1,
+            basal: vec![("00:00", 1.0)],
+            carb_ratio: vec![("00:00", 10.0)],
+        }
+    }
+}
+
+fn seconds(t: &str) -> i64 {
+    let (h, m) = t.split_once(':').unwrap();
+    h.parse::<i64>().unwrap() * 3600 + m.parse::<i64>().unwrap() * 60
+}
+
+/// Writes entries.json, treatments.json, profile.json into `dir`.
+fn export(dir: &std::path::Path, plan: &Plan) -> Vec<PathBuf> {
+    let mut entries = Vec::new();
+    let mut treatments = Vec::new();
+    let mut n = 0u64;
+    let mut id = || {
+        n += 1;
+        format!("{n:024x}")
+    };
+    for day in 0..plan.days {
+        let base = DAY1_MS + day * 86_400_000;
+        for k in 0..288i64 {
+            if plan.gap.contains(&day) {
+                break;
+            }
+            let ms = base + k * 300_000;
+            let m = (k * 5) as f64;
+            let mut g = plan.level + 40.0 * (m / 240.0 + day as f64).sin();
+            if plan.rescue && (620..=635).contains(&(k * 5)) {
+                g = 62.0;
+            }
+            entries.push(
+                json!({"_id": id(), "type": "sgv", "sgv": g.round(), "date": ms,
+                "dateString": iso(ms), "direction": "Flat", "device": "xDrip-DexcomG6"}),
+            );
+        }
+        for (minute, carbs) in [
+            (7 * 60 + 2, 45.0),
+            (12 * 60 + 17, 60.0),
+            (18 * 60 + 32, 70.0),
+        ] {
+            let ms = base + minute * 60_000;
+            treatments.push(
+                json!({"_id": id(), "eventType": "Meal Bolus", "carbs": carbs,
+                "insulin": carbs / 10.0, "created_at": iso(ms), "enteredBy": "pump"}),
+            );
+        }
+        if plan.rescue {
+            let ms = base + (10 * 60 + 32) * 60_000;
+            treatments.push(
+                json!({"_id": id(), "eventType": "Carb Correction", "carbs": 16,
+                "created_at": iso(ms), "enteredBy": "pump"}),
+            );
+        }
+        if plan.looped {
+            for k in 0..288i64 {
+                let ms = base + k * 300_000 + 60_000;
+                let rate = if k % 3 == 0 { 0.0 } else { 1.2 };
+                treatments.push(
+                    json!({"_id": id(), "eventType": "Temp Basal", "duration": 30,
+                    "absolute": rate, "rate": rate, "created_at": iso(ms), "enteredBy": "iAPS",
+                    "temp": "absolute"}),
+                );
+                if k % 24 == 0 {
+                    treatments.push(json!({"_id": id(), "eventType": "SMB", "insulin": 0.3,
+                        "isSMB": true, "created_at": iso(ms + 30_000), "enteredBy": "iAPS"}));
+                }
+            }
+        }
+    }
+    let arr = |v: &[(&str, f64)]| -> Value {
+        v.iter()
+            .map(|(t, x)| json!({"time": t, "timeAsSeconds": seconds(t), "value": x}))
+            .collect()
+    };
+    let start = DAY1_MS + plan.profile_from_day * 86_400_000;
+    let profile = json!([{"_id": id(), "defaultProfile": "Default", "startDate": iso(start),
+        "mills": start, "units": "mg/dl", "store": {"Default": {
+            "basal": arr(&plan.basal), "carbratio": arr(&plan.carb_ratio),
+            "sens": arr(&[("00:00", 50.0)]), "target_low": arr(&[("00:00", 100.0)]),
+            "target_high": arr(&[("00:00", 120.0)]), "timezone": TZ, "units": "mg/dl",
+            "dia": 5}}}]);
+    let mut paths = Vec::new();
+    for (name, v) in [
+        ("entries.json", Value::Array(entries)),
+        ("treatments.json", Value::Array(treatments)),
+        ("profile.json", profile),
+    ] {
+        let p = dir.join(name);
+        std::fs::write(&p, serde_json::to_vec_pretty(&v).unwrap()).unwrap();
+        paths.push(p);
+    }
+    paths
+}
+
+/// A person created from the export's profile (`person new --therapy-from`).
+fn person_from(files: &[PathBuf], name: &str) -> NewPerson {
+    let opts = ReadOptions {
+        tz: Some(TimeZone::get(TZ).unwrap()),
+        ..ReadOptions::default()
+    };
+    let meals = abba_io::meals::MealWindows::default();
+    let t = therapy_from_files(files, &opts, &meals).unwrap();
+    let mut p = NewPerson::new(name, TZ, Mode::Cgm, t.settings());
+    p.settings.basal_schedule = (t.basal.len() > 1).then(|| t.basal.clone());
+    p.settings.therapy_source = TherapySource::Profile;
+    p.settings.pump_steps = Some(PumpSteps::default());
+    p
+}
+
+fn setup(tag: &str, plan: &Plan) -> (TempDir, Store, Vec<PathBuf>) {
+    let dir = TempDir::new(tag);
+    let files = export(&dir.0, plan);
+    let mut store = dir.store();
+    store.create_person(&person_from(&files, "ana")).unwrap();
+    store.import_files("ana", &files, None).unwrap();
+    (dir, store, files)
+}
+
+#[test]
+fn a_five_segment_schedule_is_scaled_by_one_factor_on_the_pumps_step() {
+    let plan = Plan {
+        level: 230.0,
+        basal: vec![
+            ("00:00", 0.8),
+            ("03:00", 1.1),
+            ("07:00", 1.4),
+            ("12:00", 1.0),
+            ("20:00", 0.9),
+        ],
+        carb_ratio: vec![("00:00", 9.0), ("11:00", 12.0), ("16:00", 10.0)],
+        days: 14,
+        ..Plan::default()
+    };
+    let (_d, mut store, _) = setup("schedule", &plan);
+    let a = store.advise("ana").unwrap();
+    // In force: the profile's schedule and the carb ratio of each meal window.
+    let sched = a
+        .therapy
+        .basal_schedule
+        .clone()
+        .expect("a schedule in force");
+    assert_eq!(sched.len(), 5);
+    let cr: Vec<f64> = a.settings[1..].iter().map(|s| s.in_force).collect();
+    let history = store.history("ana").unwrap();
+    let first_cr: Vec<f64> = ["breakfast", "lunch", "dinner"]
+        .iter()
+        .map(|k| history.iter().find(|v| v.setting == *k).unwrap().previous)
+        .collect();
+    assert_eq!(first_cr, vec![9.0, 12.0, 10.0], "{cr:?}");
+    let basal: Vec<_> = history
+        .iter()
+        .filter(|v| v.setting == "basal" && !v.no_update)
+        .collect();
+    assert!(!basal.is_empty());
+    let mut changed = 0;
+    let mut prev: Vec<f64> = plan.basal.iter().map(|b| b.1).collect();
+    for v in &basal {
+        let s = v
+            .schedule
+            .as_ref()
+            .expect("every basal suggestion is a schedule");
+        let new: Vec<f64> = s.iter().map(|x| x.1).collect();
+        for (o, n) in prev.iter().zip(&new) {
+            assert!(on_step(*n, 0.05), "{n} is not on the 0.05 U/h step");
+            assert!(*n >= o * 0.95 - 1e-9 && *n <= o * 1.05 + 1e-9, "{o} -> {n}");
+            // One factor: every segment moves the same way.
+            assert!((n - o) * (v.suggested - v.previous) >= 0.0, "{o} -> {n}");
+        }
+        if new != prev {
+            changed += 1;
+        }
+        prev = new;
+    }
+    assert!(changed > 0, "no basal suggestion moved the schedule");
+    for v in history
+        .iter()
+        .filter(|v| v.setting != "basal" && !v.no_update)
+    {
+        assert!(on_step(v.suggested, 0.1), "{} g/U", v.suggested);
+        assert!(v.status != "open" || v.suggested != v.previous);
+    }
+}
+
+#[test]
+fn a_closed_loop_gets_no_basal_suggestion_and_is_named_with_its_evidence() {
+    let plan = Plan {
+        looped: true,
+        days: 10,
+        ..Plan::default()
+    };
+    let (_d, mut store, _) = setup("loop", &plan);
+    let a = store.advise("ana").unwrap();
+    assert_eq!(a.delivery.kind, abba_io::automation::Delivery::ClosedLoop);
+    assert!(!a.delivery.basal_suggestions);
+    let ev = a.delivery.evidence.join("; ");
+    assert!(ev.contains("SMB") || ev.contains("micro"), "{ev}");
+    assert!(
+        ev.contains("iaps") && ev.contains("temporary basals"),
+        "{ev}"
+    );
+    let text = abba_store::render::advice_text(&a);
+    assert!(
+        text.contains("closed loop") && text.contains("no basal rate"),
+        "{text}"
+    );
+    let basal = &a.settings[0];
+    assert_ne!(
+        basal.latest.as_ref().map(|v| v.status.as_str()),
+        Some("open")
+    );
+    assert_eq!(basal.in_force, 1.0);
+    assert!(store
+        .history("ana")
+        .unwrap()
+        .iter()
+        .filter(|v| v.setting == "basal")
+        .all(|v| v.status != "open" && v.in_force == 1.0));
+}
+
+#[test]
+fn day_one_is_the_first_reading_not_a_profile_eighty_days_before() {
+    let plan = Plan {
+        profile_from_day: -80,
+        days: 3,
+        ..Plan::default()
+    };
+    let (_d, store, _) = setup("day1", &plan);
+    assert_eq!(
+        store.person("ana").unwrap().first_day.unwrap().to_string(),
+        "2026-05-04"
+    );
+}
+
+#[test]
+fn a_two_day_sensor_gap_extends_the_first_week_until_seven_days_qualify() {
+    let plan = Plan {
+        gap: vec![2, 3],
+        days: 8,
+        ..Plan::default()
+    };
+    let (d, mut store, _) = setup("gap", &plan);
+    let a = store.advise("ana").unwrap();
+    match a.phase {
+        abba_store::advise::Phase::FirstWeek {
+            days_done,
+            days_left,
+            ..
+        } => {
+            // Days 0, 1, 4, 5, 6 closed and qualifying; day 7 is not over.
+            assert_eq!((days_done, days_left), (5, 2));
+        }
+        p => panic!("{p:?}"),
+    }
+    let w = a.first_week.clone().unwrap();
+    assert!(
+        w.missing.iter().any(|m| m.starts_with("2026-05-06")),
+        "{w:?}"
+    );
+    assert!(
+        w.missing.iter().any(|m| m.starts_with("2026-05-07")),
+        "{w:?}"
+    );
+    assert!(a.settings.iter().all(|s| s.latest.is_none()));
+    // Two more days: the 7th qualifying day is day index 8, the first
+    // basal update is made at its close.
+    let more = export(&d.0, &Plan { days: 10, ..plan });
+    store.import_files("ana", &more, None).unwrap();
+    let h = store.history("ana").unwrap();
+    let first = h.iter().find(|v| v.setting == "basal").unwrap();
+    assert_eq!(first.day, 10, "{first:?}");
+}
+
+#[test]
+fn a_hypoglycaemia_treatment_does_not_move_a_carb_ratio() {
+    let with = Plan {
+        rescue: true,
+        days: 10,
+        ..Plan::default()
+    };
+    let (_a, mut s1, _) = setup("rescue", &with);
+    let a = s1.advise("ana").unwrap();
+    assert_eq!(a.data.events.get("rescue_carbs"), Some(&10));
+    assert!(
+        a.notes.iter().any(|n| n.contains("hypoglycaemia")),
+        "{:?}",
+        a.notes
+    );
+    // The same data with the lows and without the treatments: the same lunch decisions.
+    let events: Vec<_> = s1.events("ana").unwrap();
+    let lunches = |s: &mut Store| -> Vec<(i64, f64)> {
+        s.history("ana")
+            .unwrap()
+            .iter()
+            .filter(|v| v.setting == "lunch")
+            .map(|v| (v.day, v.suggested))
+            .collect()
+    };
+    let l1 = lunches(&mut s1);
+    assert!(!l1.is_empty());
+    assert!(!events.iter().any(|e| matches!(e.kind,
+        abba_core::EventKind::MealAnnounced { carbs, .. } if carbs.0 == 16.0)));
+    let dir = TempDir::new("rescue-none");
+    let files = export(&dir.0, &with);
+    // Drop the treatments from the file: what remains is the lows.
+    let t: Vec<Value> = serde_json::from_slice::<Vec<Value>>(&std::fs::read(&files[1]).unwrap())
+        .unwrap()
+        .into_iter()
+        .filter(|x| x["eventType"] != "Carb Correction")
+        .collect();
+    std::fs::write(&files[1], serde_json::to_vec(&t).unwrap()).unwrap();
+    let mut s2 = dir.store();
+    s2.create_person(&person_from(&files, "ana")).unwrap();
+    s2.import_files("ana", &files, None).unwrap();
+    assert_eq!(lunches(&mut s2), l1);
+}
+
+#[test]
+fn an_import_whose_profile_differs_stops_with_both_values() {
+    let dir = TempDir::new("mismatch");
+    let files = export(
+        &dir.0,
+        &Plan {
+            basal: vec![("00:00", 1.35)],
+            carb_ratio: vec![("00:00", 8.0)],
+            ..Plan::default()
+        },
+    );
+    let mut store = dir.store();
+    let mut p = common::person("ana");
+    p.first_day = None;
+    store.create_person(&p).unwrap();
+    let e = store
+        .import_files("ana", &files, None)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("1.35")
+            && e.contains("0.9")
+            && e.contains("--adopt-profile")
+            && e.contains("--keep-therapy"),
+        "{e}"
+    );
+    assert!(store.records("ana").unwrap().is_empty(), "nothing imported");
+    store
+        .import_files_with("ana", &files, None, ProfileResolution::Adopt)
+        .unwrap();
+    let a = store.advise("ana").unwrap();
+    assert_eq!(store.person("ana").unwrap().settings.start.basal.0, 1.35);
+    assert!(a.settings[1..]
+        .iter()
+        .all(|s| s.latest.as_ref().map_or(s.in_force, |v| v.previous) == 8.0 || s.in_force == 8.0));
+}
+
+#[test]
+fn the_clinicians_change_is_in_force_at_any_time() {
+    let (_d, mut store, _) = setup(
+        "therapy-set",
+        &Plan {
+            days: 9,
+            ..Plan::default()
+        },
+    );
+    let at: jiff::Timestamp = iso(DAY1_MS + 8 * 86_400_000 + 9 * 3_600_000)
+        .parse()
+        .unwrap();
+    store
+        .set_therapy(
+            "ana",
+            Some(vec![(0, 1.2)]),
+            Some([9.0, 11.0, 10.5]),
+            Some(at),
+        )
+        .unwrap();
+    let a = store.advise("ana").unwrap();
+    let basal = &a.settings[0];
+    assert_eq!(basal.in_force, 1.2, "{basal:?}");
+    let lunch = &a.settings[2];
+    // The lunch update of that day started from the clinician's value.
+    assert_eq!(lunch.latest.as_ref().unwrap().previous, 11.0, "{lunch:?}");
+    // Refused: a value outside the limits, a time in the future.
+    assert!(store
+        .set_therapy("ana", Some(vec![(0, 90.0)]), None, None)
+        .is_err());
+    let later = jiff::Timestamp::now() + jiff::SignedDuration::from_hours(2);
+    assert!(store
+        .set_therapy("ana", None, Some([9.0; 3]), Some(later))
+        .is_err());
+}
+
+#[test]
+fn implausible_starting_therapy_is_refused_with_the_limit_named() {
+    let dir = TempDir::new("limits");
+    let mut store = dir.store();
+    for (basal, cr) in [(90.0, 10.0), (0.0001, 10.0), (1.0, 300.0)] {
+        let mut p = common::person("x");
+        p.settings.start.basal = abba_core::UnitsPerHour(basal);
+        p.settings.start.carb_ratio[2] = abba_core::GramsPerUnit(cr);
+        let e = store.create_person(&p).unwrap_err().to_string();
+        assert!(e.contains("between"), "{e}");
+    }
+}

@@ -1,0 +1,244 @@
+//! Identity that survives re-exports: Clarity numbers its rows from 1 in
+//! every export, so two overlapping exports must import to exactly their
+//! union; a row repeated inside one export is one record, counted; a store
+//! keyed by the old identity (the row's `Index`) is re-keyed by a
+//! migration without losing a record; data from the future and before day
+//! 1 is refused or not used, with the count and the first line.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod common;
+
+use abba_io::read::{read_all, Batch, ReadOptions};
+use abba_store::Store;
+use common::{person, TempDir};
+use jiff::tz::TimeZone;
+
+const HEADER: &str = "Index,Timestamp (YYYY-MM-DDThh:mm:ss),Event Type,Event Subtype,Patient Info,Device Info,Source Device ID,Glucose Value (mg/dL),Insulin Value (u),Carb Value (grams),Duration (hh:mm:ss),Glucose Rate of Change (mg/dL/min),Transmitter Time (Long Integer),Transmitter ID";
+
+/// A Clarity export of the EGVs from minute `from` to `to` (exclusive)
+/// after 2026-05-04 00:00 Zurich, rows numbered from 1 as Clarity does,
+/// with or without the transmitter's clock.
+fn clarity(from: i64, to: i64, transmitter: bool) -> Vec<u8> {
+    let mut s = format!(
+        "{HEADER}\r\n1,,FirstName,,Test,,,,,,,,,\r\n2,,Device,,,Dexcom G6 Mobile App,android G6,,,,,,,\r\n"
+    );
+    let start = jiff::civil::date(2026, 5, 4).at(0, 0, 0, 0);
+    for (index, m) in (3..).zip((from..to).step_by(5)) {
+        let t = start + jiff::SignedDuration::from_mins(m);
+        let g = 120 + (m / 5 * 7) % 90;
+        let tx = if transmitter {
+            format!("{},8ABCDE", 4_000_000 + m * 60)
+        } else {
+            ",".to_string()
+        };
+        s.push_str(&format!(
+            "{index},{},EGV,,,,android G6,{g},,,,,{tx}\r\n",
+            t.strftime("%Y-%m-%dT%H:%M:%S")
+        ));
+    }
+    s.into_bytes()
+}
+
+fn read(files: &[(&str, Vec<u8>)]) -> Batch {
+    let opts = ReadOptions {
+        tz: Some(TimeZone::get("Europe/Zurich").unwrap()),
+        ..ReadOptions::default()
+    };
+    let inputs: Vec<(String, Vec<u8>)> = files
+        .iter()
+        .map(|(n, b)| (n.to_string(), b.clone()))
+        .collect();
+    read_all(&inputs, &opts).unwrap()
+}
+
+/// The time of import in these tests (the data are from May 2026).
+fn now() -> jiff::Timestamp {
+    "2026-06-01T00:00:00Z".parse().unwrap()
+}
+
+fn contents(store: &Store, name: &str) -> Vec<(jiff::Timestamp, String)> {
+    let mut v: Vec<_> = store
+        .records(name)
+        .unwrap()
+        .into_iter()
+        .map(|r| (r.at, serde_json::to_string(&r.kind).unwrap()))
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn two_overlapping_clarity_exports_each_numbered_from_1_import_to_the_union() {
+    for transmitter in [true, false] {
+        let dir = TempDir::new("union");
+        let mut store = dir.store();
+        store.create_person(&person("ana")).unwrap();
+        // 400 readings, then 400 of which the first 200 are the same ones.
+        let a = store
+            .import_at(
+                "ana",
+                &read(&[("a.csv", clarity(0, 2000, transmitter))]),
+                now(),
+            )
+            .unwrap();
+        assert_eq!(a.added, 400, "{a:?}");
+        let b = store
+            .import_at(
+                "ana",
+                &read(&[("b.csv", clarity(1000, 3000, transmitter))]),
+                now(),
+            )
+            .unwrap();
+        assert_eq!(
+            (b.added, b.known),
+            (200, 200),
+            "transmitter {transmitter}: {b:?}"
+        );
+        // Exactly the union: what one export of the whole span gives.
+        let dir2 = TempDir::new("whole");
+        let mut whole = dir2.store();
+        whole.create_person(&person("ana")).unwrap();
+        whole
+            .import_at(
+                "ana",
+                &read(&[("all.csv", clarity(0, 3000, transmitter))]),
+                now(),
+            )
+            .unwrap();
+        assert_eq!(contents(&store, "ana"), contents(&whole, "ana"));
+        assert_eq!(contents(&store, "ana").len(), 600);
+    }
+}
+
+#[test]
+fn a_row_repeated_inside_one_export_is_one_record_and_counted() {
+    let mut bytes = clarity(0, 100, false);
+    // The last row again under the next Index (as a real export did), and
+    // another reading under a repeated Index.
+    let text = String::from_utf8(bytes.clone()).unwrap();
+    let last = text.lines().last().unwrap().to_string();
+    let (_, rest) = last.split_once(',').unwrap();
+    bytes.extend(format!("23,{rest}\r\n").bytes());
+    bytes.extend(b"23,2026-05-04T01:42:00,EGV,,,,android G6,150,,,,,,\r\n");
+    let batch = read(&[("r.csv", bytes)]);
+    assert_eq!(batch.duplicates.get("cgm"), Some(&1));
+    let dir = TempDir::new("repeat");
+    let mut store = dir.store();
+    store.create_person(&person("ana")).unwrap();
+    let s = store.import_at("ana", &batch, now()).unwrap();
+    assert_eq!((s.added, s.duplicates_in_files), (21, 1), "{s:?}");
+}
+
+#[test]
+fn the_migration_rekeys_index_identities_without_losing_a_record() {
+    let dir = TempDir::new("rekey");
+    let path = dir.0.join("abba.db");
+    {
+        let mut store = Store::open(&path).unwrap();
+        store.create_person(&person("ana")).unwrap();
+        store
+            .import_at("ana", &read(&[("a.csv", clarity(0, 2000, false))]), now())
+            .unwrap();
+        // What the previous schema stored: each Clarity row keyed by its
+        // Index, and a second import of the same readings under other
+        // Index values (a re-export) kept as if new.
+        let conn = store.connection();
+        conn.execute_batch(
+            "CREATE TEMP TABLE old AS SELECT * FROM record;
+             DELETE FROM record;
+             INSERT INTO record SELECT person_id, source, '{\"index\":' || (row_number() OVER (ORDER BY at_ms) + 2) || '}', at_ms, kind, origin, import_id FROM old;
+             INSERT INTO record SELECT person_id, source, '{\"index\":' || (row_number() OVER (ORDER BY at_ms) + 1000) || '}', at_ms, kind, origin, import_id FROM old WHERE at_ms < (SELECT min(at_ms) + 3600000 FROM old);
+             DROP TABLE old;",
+        )
+        .unwrap();
+        // The later migrations' objects go too: the file is as the
+        // previous schema left it (the person revision of migration 4).
+        let later: Vec<String> = conn
+            .prepare("SELECT 'DROP TRIGGER ' || name FROM sqlite_master WHERE type = 'trigger' AND name LIKE 'rev\\_%' ESCAPE '\\'")
+            .unwrap()
+            .query_map([], |r| r.get(0))
+            .unwrap()
+            .collect::<Result<_, _>>()
+            .unwrap();
+        for drop in later {
+            conn.execute_batch(&drop).unwrap();
+        }
+        conn.execute_batch("DROP TABLE IF EXISTS person_rev")
+            .unwrap();
+        let before =
+            abba_store::schema::migration_number(abba_store::log::REKEY_MIGRATION).unwrap() - 1;
+        conn.pragma_update(None, "user_version", before).unwrap();
+    }
+    let count = |store: &Store, sql: &str| -> i64 {
+        store.connection().query_row(sql, [], |r| r.get(0)).unwrap()
+    };
+    let mut store = Store::open(&path).unwrap();
+    assert_eq!(
+        count(&store, "SELECT count(*) FROM record"),
+        400,
+        "the 12 re-exported rows are one record each"
+    );
+    assert_eq!(
+        count(
+            &store,
+            "SELECT count(*) FROM record WHERE source_id LIKE '{\"index\"%'"
+        ),
+        0
+    );
+    let dir2 = TempDir::new("rekey-fresh");
+    let mut fresh = dir2.store();
+    fresh.create_person(&person("ana")).unwrap();
+    fresh
+        .import_at("ana", &read(&[("a.csv", clarity(0, 2000, false))]), now())
+        .unwrap();
+    assert_eq!(contents(&store, "ana"), contents(&fresh, "ana"));
+    // Re-importing adds nothing; with transmitter times (other ids) neither.
+    for transmitter in [false, true] {
+        let again = store
+            .import_at(
+                "ana",
+                &read(&[("a.csv", clarity(0, 2000, transmitter))]),
+                now(),
+            )
+            .unwrap();
+        assert_eq!((again.added, again.known), (0, 400), "{again:?}");
+    }
+}
+
+#[test]
+fn future_rows_are_refused_and_rows_before_day_1_not_used() {
+    let dir = TempDir::new("future");
+    let mut store = dir.store();
+    store.create_person(&person("ana")).unwrap(); // day 1 = 2026-05-04
+                                                  // 2026-05-03 20:00 .. 2026-05-05 04:00 Zurich, imported at 2026-05-04
+                                                  // 12:00 UTC: the evening before day 1 is not used, the future refused.
+    let bytes = clarity(-240, 1680, false);
+    let at: jiff::Timestamp = "2026-05-04T12:00:00Z".parse().unwrap();
+    let s = store
+        .import_at("ana", &read(&[("f.csv", bytes)]), at)
+        .unwrap();
+    // Zurich is UTC+2: 12:00 UTC is 14:00 local, +10 min skew: 14:10.
+    assert_eq!(s.before_day_1.count, 48, "{s:?}");
+    assert_eq!(s.before_day_1.first.as_deref(), Some("f.csv: line 4"));
+    assert_eq!(s.added, 14 * 12 + 3, "00:00 to 14:10 inclusive");
+    assert_eq!(s.future.count, 384 - 48 - s.added);
+    assert!(s
+        .future
+        .first
+        .as_deref()
+        .unwrap()
+        .starts_with("f.csv: line "));
+    let total = s.added + s.future.count + s.before_day_1.count;
+    assert_eq!(total, 384, "every reading accounted for");
+}
+
+#[test]
+fn a_header_only_export_says_no_readings() {
+    let dir = TempDir::new("empty");
+    let mut store = dir.store();
+    store.create_person(&person("ana")).unwrap();
+    let e = store
+        .import_at("ana", &read(&[("empty.csv", clarity(0, 0, false))]), now())
+        .unwrap_err();
+    assert_eq!(e.to_string(), "no readings in empty.csv");
+}

@@ -26,6 +26,11 @@ impl ArmKind {
         ArmKind::Autotune,
     ];
 
+    /// The arms a trial runs unless told otherwise (the paper's three);
+    /// autotune is opt-in (`--arms abba,standard,r2r,autotune`), so that the
+    /// default trial's files stay what they were.
+    pub const DEFAULT: [ArmKind; 3] = [ArmKind::Abba, ArmKind::Standard, ArmKind::R2r];
+
     /// `abba`, `standard`, `r2r`, `autotune`: the name used everywhere (reports, CLI,
     /// [`Advisor::name`](crate::Advisor::name)).
     pub fn name(self) -> &'static str {

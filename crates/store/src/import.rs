@@ -87,7 +87,9 @@ pub fn import(
     let first_useful = batch
         .records
         .iter()
-        .filter(|r| r.at <= limit && matches!(r.kind, RecordKind::Cgm { .. } | RecordKind::Smbg { .. }))
+        .filter(|r| {
+            r.at <= limit && matches!(r.kind, RecordKind::Cgm { .. } | RecordKind::Smbg { .. })
+        })
         .min_by_key(|r| r.at);
     let first_day = match (person.first_day, first_useful) {
         (Some(d), _) => Some(d),

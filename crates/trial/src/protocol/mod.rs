@@ -63,8 +63,12 @@ pub struct RawTrialConfig {
     #[serde(with = "trial_set::r2r")]
     pub r2r: R2rConfig,
     /// Autotune arm knobs (its `mode` is set by the trial per scenario).
-    #[serde(default = "default_autotune")]
-    pub autotune: AutotuneConfig,
+    /// The one optional field: absent, oref0's defaults; the checked plan
+    /// fills them in when the autotune arm runs, and leaves the field out
+    /// otherwise, so that a trial without the arm writes the same files as
+    /// before the arm existed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub autotune: Option<AutotuneConfig>,
     /// Plausibility limits of the fixed-therapy arm's event checks.
     pub fixed_limits: EventLimits,
     /// Devices, in the simulator's own types.
@@ -109,10 +113,10 @@ impl Default for RawTrialConfig {
             days: 98,
             init_days: 7,
             scenarios: ScenarioId::ALL.to_vec(),
-            arms: ArmKind::ALL.to_vec(),
+            arms: ArmKind::DEFAULT.to_vec(),
             abba: AbbaConfig::new(Mode::Cgm, 0),
             r2r: R2rConfig::new(Mode::Cgm),
-            autotune: default_autotune(),
+            autotune: None,
             fixed_limits: EventLimits::default(),
             devices: DeviceSet::default(),
             calibrate_te_ref: true,
@@ -160,7 +164,10 @@ impl std::ops::Deref for TrialConfig {
 
 impl TryFrom<RawTrialConfig> for TrialConfig {
     type Error = TrialError;
-    fn try_from(raw: RawTrialConfig) -> Result<Self, TrialError> {
+    fn try_from(mut raw: RawTrialConfig) -> Result<Self, TrialError> {
+        if raw.arms.contains(&ArmKind::Autotune) && raw.autotune.is_none() {
+            raw.autotune = Some(default_autotune());
+        }
         let planned = check(&raw)?;
         Ok(Self { raw, planned })
     }
@@ -269,7 +276,7 @@ fn advisor_spec(raw: &RawTrialConfig, arm: ArmKind, mode: Mode) -> AdvisorSpec {
             AdvisorSpec::RunToRun(c)
         }
         ArmKind::Autotune => {
-            let mut c = raw.autotune.clone();
+            let mut c = raw.autotune.clone().unwrap_or_else(default_autotune);
             c.mode = mode;
             AdvisorSpec::Autotune(c)
         }

@@ -203,27 +203,57 @@ pub fn autotune_day(
     Ok((prepped, tuned, json))
 }
 
+/// The glucose unit the ISF is shown in (autotune itself works in mg/dL).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum IsfUnit {
+    /// mg/dL per unit.
+    #[default]
+    MgDl,
+    /// mmol/L per unit (mg/dL / [`abba_core::units::MG_DL_PER_MMOL_L`]).
+    MmolL,
+}
+
+impl IsfUnit {
+    /// An ISF in mg/dL/U in this unit.
+    pub fn of(self, mg_dl_per_u: f64) -> f64 {
+        match self {
+            IsfUnit::MgDl => mg_dl_per_u,
+            IsfUnit::MmolL => mg_dl_per_u / abba_core::units::MG_DL_PER_MMOL_L,
+        }
+    }
+
+    /// `mg/dL/U` or `mmol/L/U`.
+    pub fn label(self) -> &'static str {
+        match self {
+            IsfUnit::MgDl => "mg/dL/U",
+            IsfUnit::MmolL => "mmol/L/U",
+        }
+    }
+}
+
 /// The table people know from oref0-autotune-recommends-report (hourly
-/// rows; `Days Missing` is the `untuned` count).
-pub fn recommendations_table(t: &Tuned) -> String {
+/// rows; `Days Missing` is the `untuned` count), the ISF in `unit`.
+pub fn recommendations_table(t: &Tuned, unit: IsfUnit) -> String {
     let mut s = String::new();
-    s.push_str("Parameter      | Pump        | Autotune    | Days Missing\n");
-    s.push_str("---------------------------------------------------------\n");
+    s.push_str("Parameter         | Pump        | Autotune    | Days Missing\n");
+    s.push_str("------------------------------------------------------------\n");
     s.push_str(&format!(
-        "{:<15}| {:<12.3}| {:<12.3}|\n",
-        "ISF [mg/dL/U]", t.pump_isf, t.isf
+        "{:<18}| {:<12.3}| {:<12.3}|\n",
+        format!("ISF [{}]", unit.label()),
+        unit.of(t.pump_isf),
+        unit.of(t.isf)
     ));
     s.push_str(&format!(
-        "{:<15}| {:<12.3}| {:<12.3}|\n",
-        "Carb Ratio[g/U]", t.pump_carb_ratio, t.carb_ratio
+        "{:<18}| {:<12.3}| {:<12.3}|\n",
+        "Carb Ratio [g/U]", t.pump_carb_ratio, t.carb_ratio
     ));
     s.push_str(&format!(
-        "{:<15}| {:<12}| {:<12}|\n",
-        "Basals [U/hr]", "-", ""
+        "{:<18}| {:<12}| {:<12}|\n",
+        "Basals [U/h]", "", ""
     ));
     for (h, e) in t.basal.iter().enumerate() {
         s.push_str(&format!(
-            "  {:<13}| {:<12.3}| {:<12.3}| {}\n",
+            "  {:<16}| {:<12.3}| {:<12.3}| {}\n",
             format!("{h:02}:00"),
             t.pump_basal[h],
             e.rate,

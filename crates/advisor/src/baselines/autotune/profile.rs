@@ -215,8 +215,29 @@ impl Profile {
     /// A profile of one flat basal rate, one ISF and one carb ratio (the
     /// trial's therapy), exponential rapid-acting curve.
     pub fn flat(basal: f64, isf: f64, carb_ratio: f64, dia_h: f64) -> Result<Self, AutotuneError> {
+        Self::from_schedule(&[(0, basal)], isf, carb_ratio, dia_h)
+    }
+
+    /// A profile of a basal schedule (`(minute of the local day, U/h)`, the
+    /// first at minute 0), one ISF (mg/dL/U) and one carb ratio (g/U), the
+    /// exponential rapid-acting curve with oref0's defaults for the rest
+    /// (peak 75 min unused, `min_5m_carbimpact` 8, autosens 0.7-1.2).
+    pub fn from_schedule(
+        basal: &[(u32, f64)],
+        isf: f64,
+        carb_ratio: f64,
+        dia_h: f64,
+    ) -> Result<Self, AutotuneError> {
+        let entries: Vec<Value> = basal
+            .iter()
+            .enumerate()
+            .map(|(i, &(m, rate))| {
+                json!({"i": i, "start": format!("{:02}:{:02}:00", m / 60, m % 60),
+                       "minutes": m, "rate": rate})
+            })
+            .collect();
         let doc = json!({
-            "basalprofile": [{"i": 0, "start": "00:00:00", "minutes": 0, "rate": basal}],
+            "basalprofile": entries,
             "isfProfile": {"units": "mg/dL", "sensitivities": [
                 {"i": 0, "start": "00:00:00", "offset": 0, "x": 0, "endOffset": 1440, "sensitivity": isf}]},
             "carb_ratio": carb_ratio,

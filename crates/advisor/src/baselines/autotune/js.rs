@@ -31,6 +31,15 @@ pub fn fixed2(x: f64) -> f64 {
         let up = ((x.abs() * 100.0).floor() + 1.0) / 100.0;
         return up.copysign(x);
     }
+    // Far from a tie, the rounded product decides (x · 100 is within a few
+    // ulps of the exact value, far below the 1e-6 margin for |x| < 1e6);
+    // n / 100 is then the double nearest the decimal, as parseFloat gives.
+    let y = x.abs() * 100.0;
+    let frac = y - y.floor();
+    if y < 1e8 && (frac - 0.5).abs() > 1e-6 {
+        let n = if frac > 0.5 { y.floor() + 1.0 } else { y.floor() };
+        return (n / 100.0).copysign(x);
+    }
     format!("{x:.2}").parse().unwrap_or(x)
 }
 
@@ -58,5 +67,22 @@ mod tests {
         assert_eq!(fixed2(2.375), 2.38);
         assert_eq!(fixed2(-4.0), -4.0);
         assert_eq!(int(51.9), 51.0);
+    }
+
+    /// The fast path gives what the exact decimal formatting gives.
+    #[test]
+    fn fixed2_fast_path_is_the_formatters() {
+        let mut x = -40.0_f64;
+        while x < 40.0 {
+            for v in [x, x + 1e-9, x - 1e-9, x / 3.0] {
+                let slow: f64 = if (v.abs() * 8.0).fract() == 0.0 && ((v.abs() * 8.0) as i64) % 2 == 1 {
+                    fixed2(v)
+                } else {
+                    format!("{v:.2}").parse().unwrap()
+                };
+                assert_eq!(fixed2(v).to_bits(), slow.to_bits(), "{v}");
+            }
+            x += 0.000_731;
+        }
     }
 }

@@ -62,12 +62,17 @@ pub struct RawTrialConfig {
     /// which the trial sets).
     #[serde(with = "trial_set::r2r")]
     pub r2r: R2rConfig,
-    /// Autotune arm knobs (its `mode` is set by the trial per scenario).
+    /// Autotune arm knobs (without `mode` and `init_days`, which the trial
+    /// sets).
     /// The one optional field: absent, oref0's defaults; the checked plan
     /// fills them in when the autotune arm runs, and leaves the field out
     /// otherwise, so that a trial without the arm writes the same files as
     /// before the arm existed.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        with = "trial_set::autotune"
+    )]
     pub autotune: Option<AutotuneConfig>,
     /// Plausibility limits of the fixed-therapy arm's event checks.
     pub fixed_limits: EventLimits,
@@ -278,6 +283,7 @@ fn advisor_spec(raw: &RawTrialConfig, arm: ArmKind, mode: Mode) -> AdvisorSpec {
         ArmKind::Autotune => {
             let mut c = raw.autotune.clone().unwrap_or_else(default_autotune);
             c.mode = mode;
+            c.init_days = raw.init_days;
             AdvisorSpec::Autotune(c)
         }
     }

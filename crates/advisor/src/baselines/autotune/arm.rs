@@ -19,10 +19,13 @@
 //!   insulin and carbs of the 42 hours before it (oref0's day runs 04:00 to
 //!   04:00; the trial closes days at midnight). Delivered basal is the rate
 //!   in force, so no temporary basals (the profile's rate is delivered).
-//! - Tuning starts with the first closed day (autotune needs no
-//!   initialisation week); a day with fewer than `min_readings` CGM
-//!   readings is not tuned (in SMBG scenarios the CGM stops after the
-//!   first week, and the settings then stay).
+//! - On the same days as the other arms: the standard therapy for the
+//!   first `init_days` closed days; at the close of the last of them
+//!   autotune runs over each of those days in turn (as `oref0-autotune
+//!   --start-days-ago=7` does), and from then on nightly over the day just
+//!   closed. A day with fewer than `min_readings` CGM readings is not tuned
+//!   (in SMBG scenarios the CGM stops after the first week, so the
+//!   first-week result stays).
 
 use super::{autotune_day, Carbs, DayData, Insulin, Profile, Reading, UtcClock};
 use crate::config::{EventLimits, Mode};
@@ -42,6 +45,8 @@ use serde::{Deserialize, Serialize};
 pub struct AutotuneConfig {
     /// Which measurements the scenario has (only the day-closing rule depends on it).
     pub mode: Mode,
+    /// Closed days of standard therapy before the first run (the trial's 7).
+    pub init_days: u32,
     /// The 1800 rule's constant (mg/dL): ISF = it / total daily insulin. 1800.
     pub isf_rule_mg_dl: f64,
     /// Duration of insulin action (h) of the rapid-acting curve. 5 (oref0's
@@ -64,6 +69,7 @@ impl AutotuneConfig {
     pub fn new(mode: Mode) -> Self {
         Self {
             mode,
+            init_days: 7,
             isf_rule_mg_dl: 1800.0,
             dia_h: 5.0,
             autosens_max: 1.2,
@@ -76,6 +82,12 @@ impl AutotuneConfig {
 
     /// Checks every field.
     pub fn validate(&self) -> Result<(), AdvisorError> {
+        if !(1..=60).contains(&self.init_days) {
+            return Err(config_err(
+                "init_days",
+                format!("must be in 1..=60, got {}", self.init_days),
+            ));
+        }
         check_positive("isf_rule_mg_dl", self.isf_rule_mg_dl)?;
         check_range("dia_h", self.dia_h, 3.0, 12.0)?;
         check_range("autosens_max", self.autosens_max, 1.0, 3.0)?;
@@ -138,6 +150,11 @@ pub struct Autotune {
     glucose: Vec<(i64, f64)>,
     boluses: Vec<(i64, f64)>,
     carbs: Vec<(i64, f64)>,
+    /// Minutes of the days closed so far while initialising (emptied by
+    /// the first run).
+    closes: Vec<i64>,
+    /// True once the first run has been made.
+    initialised: bool,
     log: DecisionLog,
 }
 
@@ -167,6 +184,8 @@ impl Autotune {
             glucose: Vec::new(),
             boluses: Vec::new(),
             carbs: Vec::new(),
+            closes: Vec::new(),
+            initialised: false,
         })
     }
 
@@ -214,8 +233,9 @@ impl Autotune {
         });
     }
 
-    fn night(&mut self, at: Timestamp) -> Result<(), AdvisorError> {
-        let end = at.minutes();
+    /// The run over the day closed at minute `end`, with the data known
+    /// then; its decisions are logged at `at` (now).
+    fn night(&mut self, end: i64, at: Timestamp) -> Result<(), AdvisorError> {
         let start = end - 1440;
         let ms = |m: i64| m * 60_000;
         let glucose: Vec<Reading> = self
@@ -263,6 +283,7 @@ impl Autotune {
             insulin: self
                 .boluses
                 .iter()
+                .filter(|b| b.0 <= end)
                 .map(|&(m, u)| Insulin::Bolus {
                     at_ms: ms(m),
                     units: u,
@@ -271,6 +292,7 @@ impl Autotune {
             carbs: self
                 .carbs
                 .iter()
+                .filter(|c| c.0 <= end)
                 .map(|&(m, g)| Carbs {
                     at_ms: ms(m),
                     grams: g,
@@ -325,7 +347,19 @@ impl Autotune {
             EventKind::Bolus(u) => self.boluses.push((m, u.0)),
             EventKind::MealAnnounced { carbs, .. } => self.carbs.push((m, carbs.0)),
             EventKind::DayClosed => {
-                self.night(e.at)?;
+                if self.initialised {
+                    self.night(m, e.at)?;
+                } else {
+                    self.closes.push(m);
+                    if self.closes.len() < self.config.init_days as usize {
+                        return Ok(None);
+                    }
+                    // The first week, day by day, each night in force for the next.
+                    for c in std::mem::take(&mut self.closes) {
+                        self.night(c, e.at)?;
+                    }
+                    self.initialised = true;
+                }
                 let keep = m - KEEP_MIN;
                 self.glucose.retain(|g| g.0 >= keep);
                 self.boluses.retain(|b| b.0 >= keep);
@@ -385,5 +419,134 @@ impl Advisor for Autotune {
 
     fn mode(&self) -> Option<Mode> {
         Some(self.config.mode)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use abba_core::{Grams, MgDl, Units};
+
+    fn standard() -> TherapySettings {
+        TherapySettings {
+            basal: UnitsPerHour(1.0),
+            carb_ratio: [GramsPerUnit(10.0), GramsPerUnit(12.0), GramsPerUnit(8.0)],
+        }
+    }
+
+    /// Day `d` (0-based from D2) of CGM every 5 min, three meals of 60 g
+    /// with 5 U each, glucose rising after each and back by 4 h; closed at
+    /// midnight.
+    fn day(d: i64, cgm: bool) -> Vec<Event> {
+        let mut out = Vec::new();
+        let base = (d + 1) * 1440;
+        let meals = [
+            (7 * 60, MealSlot::Breakfast),
+            (12 * 60, MealSlot::Lunch),
+            (19 * 60, MealSlot::Dinner),
+        ];
+        for m in (0..1440).step_by(5) {
+            let t = base + m;
+            for &(at, slot) in &meals {
+                if m == at {
+                    out.push(Event::new(
+                        Timestamp(t),
+                        EventKind::MealAnnounced {
+                            carbs: Grams(60.0),
+                            slot,
+                        },
+                    ));
+                    out.push(Event::new(Timestamp(t), EventKind::Bolus(Units(5.0))));
+                }
+            }
+            if cgm {
+                let after = meals
+                    .iter()
+                    .map(|&(at, _)| m - at)
+                    .filter(|x| (0..240).contains(x))
+                    .map(|x| 80.0 * (std::f64::consts::PI * x as f64 / 240.0).sin())
+                    .sum::<f64>();
+                out.push(Event::new(
+                    Timestamp(t),
+                    EventKind::Cgm(MgDl(110.0 + after)),
+                ));
+            }
+        }
+        out.push(Event::new(Timestamp(base + 1440), EventKind::DayClosed));
+        out
+    }
+
+    fn run(a: &mut Autotune, events: &[Event]) -> Vec<Option<TherapySettings>> {
+        events.iter().map(|e| a.observe(e).unwrap()).collect()
+    }
+
+    #[test]
+    fn the_first_week_is_standard_therapy_then_each_of_its_days_is_tuned() {
+        let mut a = Autotune::new(AutotuneConfig::new(Mode::Cgm), standard()).unwrap();
+        for d in 0..6 {
+            let outs = run(&mut a, &day(d, true));
+            assert!(
+                outs.iter().all(Option::is_none),
+                "day {d} changed something"
+            );
+            assert_eq!(*a.settings(), standard());
+            assert!(a.decisions().is_empty());
+        }
+        let outs = run(&mut a, &day(6, true));
+        let close = day(6, true).last().unwrap().at;
+        assert_eq!(outs.last().unwrap().as_ref(), Some(a.settings()));
+        // Seven nights of four decisions each, all decided at the 7th close.
+        let ds = a.take_decisions();
+        assert_eq!(ds.len(), 7 * 4);
+        assert!(ds.iter().all(|d| d.at == close));
+        // Each night starts from the previous night's values.
+        let basal: Vec<&Decision> = ds
+            .iter()
+            .filter(|d| d.parameter == Parameter::Basal)
+            .collect();
+        for w in basal.windows(2) {
+            assert_eq!(w[1].old, w[0].new);
+        }
+        // 5 U for 60 g with glucose back where it started 4 h later imply
+        // 12 g/U: the one ratio (10, the standard's mean) moves toward it and
+        // not past it, the three kept in the standard's proportions.
+        let s = *a.settings();
+        let one = s.carb_ratio[0].0; // breakfast: the standard 10 × tuned / 10
+        assert!(one > 10.0 && one <= 12.0, "{s:?}");
+        assert!((s.carb_ratio[1].0 / s.carb_ratio[0].0 - 1.2).abs() < 1e-9);
+        assert!((s.carb_ratio[2].0 / s.carb_ratio[0].0 - 0.8).abs() < 1e-9);
+        assert!(s.carb_ratio[0].0 >= 10.0 * 0.7 - 1e-9);
+        assert!(s.basal.0 <= 1.2 + 1e-9 && s.basal.0 >= 0.7 - 1e-9);
+        // Then nightly: one night, four decisions.
+        run(&mut a, &day(7, true));
+        assert_eq!(a.take_decisions().len(), 4);
+    }
+
+    #[test]
+    fn a_day_without_cgm_is_not_tuned() {
+        let mut cfg = AutotuneConfig::new(Mode::Smbg);
+        cfg.init_days = 1;
+        let mut a = Autotune::new(cfg, standard()).unwrap();
+        run(&mut a, &day(0, false));
+        let ds = a.take_decisions();
+        assert_eq!(ds.len(), 1);
+        assert!(matches!(
+            ds[0].detail,
+            DecisionDetail::Skipped {
+                reason: SkipReason::TooFewReadings {
+                    n: 0,
+                    required: 144
+                }
+            }
+        ));
+        assert_eq!(*a.settings(), standard());
+    }
+
+    #[test]
+    fn init_days_is_checked() {
+        let mut cfg = AutotuneConfig::new(Mode::Cgm);
+        cfg.init_days = 0;
+        let e = Autotune::new(cfg, standard()).unwrap_err().to_string();
+        assert!(e.contains("init_days"), "{e}");
     }
 }

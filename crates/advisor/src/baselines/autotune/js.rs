@@ -37,7 +37,11 @@ pub fn fixed2(x: f64) -> f64 {
     let y = x.abs() * 100.0;
     let frac = y - y.floor();
     if y < 1e8 && (frac - 0.5).abs() > 1e-6 {
-        let n = if frac > 0.5 { y.floor() + 1.0 } else { y.floor() };
+        let n = if frac > 0.5 {
+            y.floor() + 1.0
+        } else {
+            y.floor()
+        };
         return (n / 100.0).copysign(x);
     }
     format!("{x:.2}").parse().unwrap_or(x)
@@ -75,11 +79,12 @@ mod tests {
         let mut x = -40.0_f64;
         while x < 40.0 {
             for v in [x, x + 1e-9, x - 1e-9, x / 3.0] {
-                let slow: f64 = if (v.abs() * 8.0).fract() == 0.0 && ((v.abs() * 8.0) as i64) % 2 == 1 {
-                    fixed2(v)
-                } else {
-                    format!("{v:.2}").parse().unwrap()
-                };
+                let slow: f64 =
+                    if (v.abs() * 8.0).fract() == 0.0 && ((v.abs() * 8.0) as i64) % 2 == 1 {
+                        fixed2(v)
+                    } else {
+                        format!("{v:.2}").parse().unwrap()
+                    };
                 assert_eq!(fixed2(v).to_bits(), slow.to_bits(), "{v}");
             }
             x += 0.000_731;

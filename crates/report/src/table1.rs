@@ -278,9 +278,10 @@ pub fn table1_rows(arms: &[ArmResult]) -> Result<Vec<Table1Row>, ReportError> {
     validate_arms(arms)?;
     let paper = paper_table1()?;
     let mut rows = Vec::new();
+    let shown = crate::select::table_weeks(arms);
     for arm in ordered_arms(arms) {
         let weeks = arm_weeks(arm);
-        for week in Week::TABLE {
+        for &week in &shown {
             if !weeks.contains(&week) {
                 continue;
             }

@@ -27,7 +27,7 @@ fn ms(text: &str) -> i64 {
     // "2026-01-10T05:55:00.000Z" (all fixture times are UTC, whole seconds)
     let d: Vec<i64> = text
         .trim_end_matches('Z')
-        .split(|c| c == '-' || c == 'T' || c == ':' || c == '.')
+        .split(['-', 'T', ':', '.'])
         .map(|p| p.parse().unwrap())
         .collect();
     let (y, m, day) = (d[0], d[1], d[2]);

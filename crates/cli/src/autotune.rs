@@ -410,16 +410,21 @@ fn isf_unit(u: GlucoseUnits) -> IsfUnit {
     }
 }
 
+/// What to tune from: the records, where each was read, the zone, the
+/// profile and the unit the ISF is shown in.
+type Source = (
+    Vec<Record>,
+    Box<dyn Fn(&Record) -> String>,
+    TimeZone,
+    Profile,
+    IsfUnit,
+);
+
 /// Runs `abba autotune`.
 pub fn run(args: Args) -> Result<()> {
     let mut said = Vec::new();
-    let (records, origin, tz, profile, unit): (
-        Vec<Record>,
-        Box<dyn Fn(&Record) -> String>,
-        _,
-        _,
-        _,
-    ) = match (&args.entries, &args.db, &args.person) {
+    let (records, origin, tz, profile, unit): Source = match (&args.entries, &args.db, &args.person)
+    {
         (Some(entries), _, _) => {
             let (Some(treatments), Some(profile), Some(tz)) =
                 (&args.treatments, &args.profile, &args.tz)

@@ -120,9 +120,12 @@ mod tests {
     /// Values printed by oref0 0.7.1's own lib/iob/calculate.js
     /// (`node -e` with the call of iob/total.js; see
     /// tests/data/autotune_oref0/README.md) for 1 U.
+    /// curve, dia, custom peak, minutes ago, activity, iob
+    type Case = (Curve, f64, Option<f64>, f64, f64, f64);
+
     #[test]
     fn curves_match_oref0() {
-        let cases: &[(Curve, f64, Option<f64>, f64, f64, f64)] = &[
+        let cases: &[Case] = &[
             // curve, dia, custom peak, minutes ago, activity, iob
             (Curve::Bilinear, 3.0, None, 0.0, 0.0, 1.0),
             (

@@ -145,7 +145,10 @@ pub fn doses(
         let size = if net < 0.0 { -0.05 } else { 0.05 };
         let amount = js::round(net * p.duration_min * 10.0 / 6.0) / 100.0;
         let count = js::round(amount / size);
-        if !(count >= 1.0) {
+        if !matches!(
+            count.partial_cmp(&1.0),
+            Some(std::cmp::Ordering::Greater | std::cmp::Ordering::Equal)
+        ) {
             continue;
         }
         let spacing = p.duration_min / count;

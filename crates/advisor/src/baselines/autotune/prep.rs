@@ -97,7 +97,7 @@ const SIX_HOURS_MS: i64 = 6 * 3_600_000;
 /// a bucket's first reading averaged into it.
 fn buckets(glucose: &[Reading]) -> Vec<(i64, f64)> {
     let mut g: Vec<&Reading> = glucose.iter().filter(|r| r.mg_dl >= 39.0).collect();
-    g.sort_by(|a, b| b.at_ms.cmp(&a.at_ms));
+    g.sort_by_key(|x| std::cmp::Reverse(x.at_ms));
     let mut out: Vec<(i64, f64)> = Vec::with_capacity(g.len());
     let mut k = 0;
     for (i, r) in g.iter().enumerate() {
@@ -134,7 +134,7 @@ pub fn categorize(day: &DayData, profile: &Profile, clock: &dyn LocalClock) -> P
         .filter(|c| c.grams > 0.0)
         .copied()
         .collect();
-    meals.sort_by(|a, b| b.at_ms.cmp(&a.at_ms));
+    meals.sort_by_key(|x| std::cmp::Reverse(x.at_ms));
     let oldest = b[b.len() - 1].0;
     let mut i = meals.len();
     while i > 1 {
@@ -144,7 +144,7 @@ pub fn categorize(day: &DayData, profile: &Profile, clock: &dyn LocalClock) -> P
         }
     }
     let mut history: Vec<&Insulin> = day.insulin.iter().collect();
-    history.sort_by(|a, b| b.at_ms().cmp(&a.at_ms()));
+    history.sort_by_key(|x| std::cmp::Reverse(x.at_ms()));
 
     let mut data: Vec<Datum> = Vec::new();
     let mut calculating_cr = false;
@@ -203,7 +203,7 @@ pub fn categorize(day: &DayData, profile: &Profile, clock: &dyn LocalClock) -> P
                 cr_bg0 = bg;
                 cr_t0 = t;
             }
-            if (meal_cob > 0.0 && i > 1) || (iob > current_basal / 2.0 && i > 1) {
+            if i > 1 && (meal_cob > 0.0 || iob > current_basal / 2.0) {
                 calculating_cr = true;
             } else {
                 let elapsed = js::round((t - cr_t0) as f64 / 60_000.0);
@@ -229,7 +229,8 @@ pub fn categorize(day: &DayData, profile: &Profile, clock: &dyn LocalClock) -> P
             meal_carbs: 0.0,
         };
         if meal_cob > 0.0 || absorbing || meal_carbs > 0.0 {
-            absorbing = !(iob < current_basal / 2.0) && deviation > 0.0;
+            absorbing = iob.partial_cmp(&(current_basal / 2.0)) != Some(std::cmp::Ordering::Less)
+                && deviation > 0.0;
             if !absorbing && meal_cob == 0.0 {
                 meal_carbs = 0.0;
             }

@@ -95,6 +95,20 @@ pub struct Abba {
     /// close of day `init_days` (the paper's week).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     first_week_end: Option<i64>,
+    /// With pump steps: per setting (basal, breakfast, lunch, dinner), the
+    /// relative change the advisor asked for and the pump's step did not
+    /// yet deliver. Sub-step changes add up in it until they make a step
+    /// (ABBA's daily steps are often under 1 %: rounded one by one they
+    /// would never move a pump), as a continuous pump would have summed
+    /// them; the part that would add insulin is dropped after a window with
+    /// a low, and all of it when the value in force changes outside the
+    /// advisor (an own value, a kept one, a new therapy).
+    #[serde(default, skip_serializing_if = "no_carry")]
+    carry: [f64; 4],
+}
+
+fn no_carry(c: &[f64; 4]) -> bool {
+    c.iter().all(|x| *x == 0.0)
 }
 
 fn agent_index(p: Parameter) -> usize {
@@ -139,6 +153,7 @@ impl Abba {
             basal_schedule: None,
             prev_basal_schedule: None,
             first_week_end: None,
+            carry: [0.0; 4],
         })
     }
 
@@ -260,6 +275,13 @@ impl Abba {
     /// starts from `v` (AP_old of eq16 is what the pump used). A basal
     /// answer also becomes BR_final for the carb ratios' switch rule.
     fn put_in_force(&mut self, v: SettingValue) {
+        let (p, value) = match v {
+            SettingValue::Basal { rate } => (Parameter::Basal, rate.0),
+            SettingValue::CarbRatio { slot, ratio } => (Parameter::CarbRatio(slot), ratio.0),
+        };
+        if (self.value(p) - value).abs() > 1e-9 {
+            self.carry[agent_index(p)] = 0.0;
+        }
         match v {
             SettingValue::Basal { rate } => {
                 let rate = self.schedule_in_force(rate.0);
@@ -481,9 +503,25 @@ impl Abba {
             });
         let (held, bound) = self.bounds.hold(p, applied.new);
         applied.new = held;
-        let rounded = self
-            .steps
-            .map(|steps| self.round(p, old, applied.new, max, steps));
+        let rounded = match self.steps {
+            Some(steps) => {
+                let i = agent_index(p);
+                let asked = applied.new / old - 1.0;
+                let mut carried = self.carry[i];
+                // After a low, nothing carried may add insulin.
+                if (applied.hypo_guard_fired || stats.hyponumber > 0) && adds_insulin(kind, carried)
+                {
+                    carried = 0.0;
+                }
+                let mut r = self.round(p, old, old * (1.0 + asked + carried), max, steps);
+                r.carried = carried;
+                // What is still owed, at most one step.
+                let step = r.step / old;
+                self.carry[i] = (asked + carried - (r.new / old - 1.0)).clamp(-step, step);
+                Some(r)
+            }
+            None => None,
+        };
         if let Some(r) = &rounded {
             applied.new = r.new;
             if let Some(s) = &r.segments {
@@ -543,6 +581,7 @@ impl Abba {
             step,
             new,
             segments,
+            carried: 0.0,
         }
     }
 

@@ -105,6 +105,10 @@ pub struct Rounded {
     /// A basal schedule: every segment scaled and rounded (its mean is `new`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub segments: Option<Vec<(u32, f64)>>,
+    /// The relative change carried from earlier updates that were below one
+    /// step, included in `requested` (0: none).
+    #[serde(default)]
+    pub carried: f64,
 }
 
 /// What a run-to-run update computed.

@@ -143,8 +143,19 @@ pub(crate) fn refresh_with(
                 let recs = log::records(conn, person.id)?;
                 let n = recs.len();
                 let stream = log::events(person, recs.clone())?;
-                let facts = in_force::record_facts(person, &recs, &stream.events)?;
-                (n, stream, Some(Arc::new(facts)))
+                // Import-fed: what the records say. A person with neither
+                // records nor app events yet is not (an app may feed them:
+                // its live advisor must start as the app's would).
+                let facts = if n > 0 {
+                    Some(Arc::new(in_force::record_facts(
+                        person,
+                        &recs,
+                        &stream.events,
+                    )?))
+                } else {
+                    None
+                };
+                (n, stream, facts)
             };
             let stream = Arc::new(stream);
             // Bounded: a connection serving many persons keeps only the

@@ -136,6 +136,13 @@ pub fn reasons_in(d: &Decision, cfg: &AbbaConfig, unit: GlucoseUnits) -> Vec<Str
         ));
     }
     if let Some(r) = &x.rounded {
+        if r.carried != 0.0 {
+            out.push(format!(
+                "With {} carried from earlier changes smaller than one step of your pump, the advisor asks for {:.3} {u}.",
+                pct(r.carried),
+                r.requested
+            ));
+        }
         if (r.new - r.requested).abs() > 1e-12 {
             out.push(if (r.new - d.old).abs() < 1e-12 {
                 format!(

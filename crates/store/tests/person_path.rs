@@ -178,7 +178,7 @@ fn setup(tag: &str, plan: &Plan) -> (TempDir, Store, Vec<PathBuf>) {
 #[test]
 fn a_five_segment_schedule_is_scaled_by_one_factor_on_the_pumps_step() {
     let plan = Plan {
-        level: 230.0,
+        level: 80.0,
         basal: vec![
             ("00:00", 0.8),
             ("03:00", 1.1),

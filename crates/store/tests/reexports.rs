@@ -152,7 +152,8 @@ fn the_migration_rekeys_index_identities_without_losing_a_record() {
         )
         .unwrap();
         // The later migrations' objects go too: the file is as the
-        // previous schema left it (the person revision of migration 4).
+        // previous schema left it (the person revision of migration 4, the
+        // therapy changes and file evidence of migration 5).
         let later: Vec<String> = conn
             .prepare("SELECT 'DROP TRIGGER ' || name FROM sqlite_master WHERE type = 'trigger' AND name LIKE 'rev\\_%' ESCAPE '\\'")
             .unwrap()
@@ -163,8 +164,10 @@ fn the_migration_rekeys_index_identities_without_losing_a_record() {
         for drop in later {
             conn.execute_batch(&drop).unwrap();
         }
-        conn.execute_batch("DROP TABLE IF EXISTS person_rev")
-            .unwrap();
+        conn.execute_batch(
+            "DROP TABLE IF EXISTS person_rev; DROP TABLE IF EXISTS therapy_change; DROP TABLE IF EXISTS file_evidence;",
+        )
+        .unwrap();
         let before =
             abba_store::schema::migration_number(abba_store::log::REKEY_MIGRATION).unwrap() - 1;
         conn.pragma_update(None, "user_version", before).unwrap();

@@ -1,6 +1,7 @@
 //! Building any arm of a trial from a serialisable description.
 
 use crate::abba::Abba;
+use crate::baselines::autotune::{Autotune, AutotuneConfig};
 use crate::baselines::fixed::FixedTherapy;
 use crate::baselines::r2r::{R2rConfig, RunToRun};
 use crate::config::{AbbaConfig, EventLimits};
@@ -25,6 +26,8 @@ pub enum AdvisorSpec {
     },
     /// Run-to-run.
     RunToRun(R2rConfig),
+    /// oref0's autotune, nightly.
+    Autotune(AutotuneConfig),
 }
 
 impl AdvisorSpec {
@@ -34,6 +37,7 @@ impl AdvisorSpec {
             AdvisorSpec::Abba(_) => ArmKind::Abba,
             AdvisorSpec::Fixed { .. } => ArmKind::Standard,
             AdvisorSpec::RunToRun(_) => ArmKind::R2r,
+            AdvisorSpec::Autotune(_) => ArmKind::Autotune,
         }
     }
 
@@ -44,6 +48,7 @@ impl AdvisorSpec {
             AdvisorSpec::Abba(c) => c.validate(),
             AdvisorSpec::Fixed { limits } => limits.validate(),
             AdvisorSpec::RunToRun(c) => c.validate(),
+            AdvisorSpec::Autotune(c) => c.validate(),
         }
     }
 
@@ -64,6 +69,9 @@ impl AdvisorSpec {
                 AnyAdvisor::Fixed(FixedTherapy::new(start, limits.clone())?)
             }
             AdvisorSpec::RunToRun(c) => AnyAdvisor::RunToRun(RunToRun::new(c.clone(), start)?),
+            AdvisorSpec::Autotune(c) => {
+                AnyAdvisor::Autotune(Box::new(Autotune::new(c.clone(), start)?))
+            }
         })
     }
 }
@@ -80,6 +88,8 @@ pub enum AnyAdvisor {
     Fixed(FixedTherapy),
     /// Run-to-run.
     RunToRun(RunToRun),
+    /// oref0's autotune.
+    Autotune(Box<Autotune>),
 }
 
 impl AnyAdvisor {
@@ -104,6 +114,7 @@ impl AnyAdvisor {
             AnyAdvisor::Abba(a) => a.save_json(),
             AnyAdvisor::Fixed(a) => a.save_json(),
             AnyAdvisor::RunToRun(a) => a.save_json(),
+            AnyAdvisor::Autotune(a) => a.save_json(),
         }
     }
 
@@ -113,6 +124,7 @@ impl AnyAdvisor {
             ArmKind::Abba => AnyAdvisor::Abba(Box::new(Abba::load_json(json)?)),
             ArmKind::Standard => AnyAdvisor::Fixed(FixedTherapy::load_json(json)?),
             ArmKind::R2r => AnyAdvisor::RunToRun(RunToRun::load_json(json)?),
+            ArmKind::Autotune => AnyAdvisor::Autotune(Box::new(Autotune::load_json(json)?)),
         })
     }
 
@@ -121,6 +133,7 @@ impl AnyAdvisor {
             AnyAdvisor::Abba(a) => a.as_ref(),
             AnyAdvisor::Fixed(a) => a,
             AnyAdvisor::RunToRun(a) => a,
+            AnyAdvisor::Autotune(a) => a.as_ref(),
         }
     }
 
@@ -129,6 +142,7 @@ impl AnyAdvisor {
             AnyAdvisor::Abba(a) => a.as_mut(),
             AnyAdvisor::Fixed(a) => a,
             AnyAdvisor::RunToRun(a) => a,
+            AnyAdvisor::Autotune(a) => a.as_mut(),
         }
     }
 }

@@ -13,19 +13,32 @@ pub enum ArmKind {
     Standard,
     /// Run-to-run basal and carb-ratio adaptation.
     R2r,
+    /// OpenAPS oref0's autotune, nightly.
+    Autotune,
 }
 
 impl ArmKind {
     /// All arms, in report order.
-    pub const ALL: [ArmKind; 3] = [ArmKind::Abba, ArmKind::Standard, ArmKind::R2r];
+    pub const ALL: [ArmKind; 4] = [
+        ArmKind::Abba,
+        ArmKind::Standard,
+        ArmKind::R2r,
+        ArmKind::Autotune,
+    ];
 
-    /// `abba`, `standard`, `r2r`: the name used everywhere (reports, CLI,
+    /// The arms a trial runs unless told otherwise (the paper's three);
+    /// autotune is opt-in (`--arms abba,standard,r2r,autotune`), so that the
+    /// default trial's files stay what they were.
+    pub const DEFAULT: [ArmKind; 3] = [ArmKind::Abba, ArmKind::Standard, ArmKind::R2r];
+
+    /// `abba`, `standard`, `r2r`, `autotune`: the name used everywhere (reports, CLI,
     /// [`Advisor::name`](crate::Advisor::name)).
     pub fn name(self) -> &'static str {
         match self {
             ArmKind::Abba => "abba",
             ArmKind::Standard => "standard",
             ArmKind::R2r => "r2r",
+            ArmKind::Autotune => "autotune",
         }
     }
 }
@@ -42,7 +55,7 @@ impl std::str::FromStr for ArmKind {
         ArmKind::ALL
             .into_iter()
             .find(|a| a.name() == s)
-            .ok_or_else(|| format!("unknown arm '{s}' (expected abba, standard or r2r)"))
+            .ok_or_else(|| format!("unknown arm '{s}' (expected abba, standard, r2r or autotune)"))
     }
 }
 

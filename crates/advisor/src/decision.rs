@@ -135,6 +135,8 @@ pub enum DecisionDetail {
     Abba(Box<AbbaExplanation>),
     /// A run-to-run update.
     RunToRun(R2rExplanation),
+    /// A nightly autotune run.
+    Autotune(Box<crate::baselines::autotune::arm::AutotuneExplanation>),
     /// A decision point without an update.
     Skipped {
         /// Why.
@@ -171,6 +173,12 @@ impl std::fmt::Display for Decision {
         )?;
         match &self.detail {
             DecisionDetail::Skipped { reason } => write!(f, "; skipped: {reason:?}"),
+            DecisionDetail::Autotune(x) => write!(
+                f,
+                "; autotune: {} basal, {} ISF, {} carb-absorption, {} UAM data, {} carb-ratio \
+                 periods; ISF {:.1} mg/dL/U, carb ratio {:.2} g/U",
+                x.basal_data, x.isf_data, x.csf_data, x.uam_data, x.cr_periods, x.isf, x.carb_ratio
+            ),
             DecisionDetail::RunToRun(r) => write!(
                 f,
                 "; run-to-run: y = {} mg/dL vs {:.0}, requested {:+.2} %{}{}",

@@ -110,6 +110,7 @@ pub mod windows;
 pub use abba::{Abba, InitReport, TeOutcome};
 pub use any::{AdvisorSpec, AnyAdvisor};
 pub use arm::ArmKind;
+pub use baselines::autotune::{Autotune, AutotuneConfig};
 pub use baselines::fixed::FixedTherapy;
 pub use baselines::r2r::{R2rConfig, RunToRun};
 pub use bounds::{BoundHeld, ClinicianBounds};

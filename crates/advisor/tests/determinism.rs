@@ -148,6 +148,7 @@ fn any_advisor_round_trips_for_every_arm() {
         AdvisorSpec::Fixed {
             limits: Default::default(),
         },
+        AdvisorSpec::Autotune(abba_advisor::AutotuneConfig::new(Mode::Smbg)),
     ];
     for spec in specs {
         // The spec itself is serialisable (the trial's manifest can hold it).

@@ -13,6 +13,7 @@ use std::process::ExitCode;
 mod advise;
 mod answer;
 mod app;
+mod autotune;
 mod calibrate;
 mod cohort;
 mod errors;
@@ -84,6 +85,8 @@ enum Command {
     Store(store_cmd::Args),
     /// Record the clinician's change of settings (`therapy set`), at any time.
     Therapy(therapy::Args),
+    /// oref0's autotune over Nightscout entries and treatments (research software, not a medical device).
+    Autotune(autotune::Args),
 }
 
 /// The parsed command line. Every subcommand takes negative numbers as
@@ -138,6 +141,7 @@ fn main() -> ExitCode {
         Command::Twin(a) => twin::run(a),
         Command::Store(a) => store_cmd::run(a),
         Command::Therapy(a) => therapy::run(a),
+        Command::Autotune(a) => autotune::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -56,6 +56,8 @@ fn arm_color(advisor: ArmKind) -> RGBColor {
         ArmKind::Abba => RGBColor(0, 114, 178),
         ArmKind::Standard => RGBColor(90, 90, 90),
         ArmKind::R2r => RGBColor(213, 94, 0),
+        // Okabe-Ito bluish green.
+        ArmKind::Autotune => RGBColor(0, 158, 115),
     }
 }
 
@@ -65,6 +67,7 @@ fn arm_label(advisor: ArmKind) -> &'static str {
         ArmKind::Abba => "ABBA",
         ArmKind::Standard => "standard therapy",
         ArmKind::R2r => "run-to-run",
+        ArmKind::Autotune => "autotune (oref0)",
     }
 }
 

@@ -20,6 +20,27 @@ pub fn arm_weeks(arm: &ArmResult) -> Vec<Week> {
         .collect()
 }
 
+/// The weeks the report's tables show: W1, W13 and W14 when the run has
+/// them; a shorter run shows W1 and its last two weeks (a 30-day run: W1,
+/// W3, W4), so that no table is all W1 rows, which are standard therapy in
+/// every arm.
+pub fn table_weeks(arms: &[ArmResult]) -> Vec<Week> {
+    let mut present: Vec<Week> = Week::ALL
+        .into_iter()
+        .filter(|w| arms.iter().any(|a| arm_weeks(a).contains(w)))
+        .collect();
+    if present.contains(&Week::W13) || present.contains(&Week::W14) {
+        return Week::TABLE
+            .into_iter()
+            .filter(|w| present.contains(w))
+            .collect();
+    }
+    let later: Vec<Week> = present.split_off(present.len().min(1));
+    let tail = &later[later.len().saturating_sub(2)..];
+    present.extend_from_slice(tail);
+    present
+}
+
 /// How many patients of `arm` have week `week`.
 pub fn patients_with_week(arm: &ArmResult, week: Week) -> usize {
     arm.patients

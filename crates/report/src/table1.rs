@@ -278,9 +278,10 @@ pub fn table1_rows(arms: &[ArmResult]) -> Result<Vec<Table1Row>, ReportError> {
     validate_arms(arms)?;
     let paper = paper_table1()?;
     let mut rows = Vec::new();
+    let shown = crate::select::table_weeks(arms);
     for arm in ordered_arms(arms) {
         let weeks = arm_weeks(arm);
-        for week in Week::TABLE {
+        for &week in &shown {
             if !weeks.contains(&week) {
                 continue;
             }
@@ -412,6 +413,7 @@ fn advisor_title(advisor: ArmKind, mode: Mode) -> String {
         ArmKind::Abba => format!("ABBA ({mode} mode)"),
         ArmKind::Standard => "standard therapy (settings never change)".to_string(),
         ArmKind::R2r => format!("run-to-run baseline ({mode} mode)"),
+        ArmKind::Autotune => "autotune (oref0), nightly over the previous day's CGM".to_string(),
     }
 }
 
@@ -503,6 +505,7 @@ fn short_advisor(advisor: ArmKind) -> &'static str {
         ArmKind::Abba => "ABBA",
         ArmKind::Standard => "standard",
         ArmKind::R2r => "run-to-run",
+        ArmKind::Autotune => "autotune",
     }
 }
 

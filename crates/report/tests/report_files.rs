@@ -561,7 +561,7 @@ fn full_trial() -> Vec<ArmResult> {
     let mut rng = Mix(42);
     let mut arms = Vec::new();
     for (si, scenario) in ScenarioId::ALL.into_iter().enumerate() {
-        for advisor in ArmKind::ALL {
+        for advisor in ArmKind::DEFAULT {
             let patients = (1..=20)
                 .map(|p| {
                     let base_hypo = 1.0 + 4.0 * rng.uniform();
@@ -892,4 +892,57 @@ fn a_rerun_replaces_or_removes_w1_sensitivity_md() {
     assert!(!dir.join(W1_FILE).exists());
     assert!(!written.contains(&dir.join(W1_FILE)));
     assert_eq!(listed(), json!(report_files_without_w1()));
+}
+
+/// report.html opens with the arms side by side, ABBA's paired difference
+/// against each other arm with its p, then Table I; a short run shows the
+/// weeks it has (here W1, W2), not rows of W1 alone.
+#[test]
+fn report_html_opens_with_the_arms_and_shows_a_short_runs_weeks() {
+    let mut arms = vec![
+        small_arm("S1", "abba"),
+        small_arm("S1", "standard"),
+        small_arm("S1", "autotune"),
+    ];
+    // Standard therapy 1 point lower in time in range every patient.
+    for p in &mut arms[1].patients {
+        for w in &mut p.weeks {
+            w.metrics.tir_70_180 -= 1.0;
+        }
+    }
+    let files = build_report(&arms, &manifest(), None).unwrap();
+    let html = String::from_utf8(
+        files
+            .iter()
+            .find(|f| f.name == "report.html")
+            .unwrap()
+            .bytes
+            .clone(),
+    )
+    .unwrap();
+    let at = |s: &str| html.find(s).unwrap_or_else(|| panic!("no {s}"));
+    assert!(at("id=\"h-arms\"") < at("id=\"h-table1\""));
+    assert!(html.contains("abba − standard (p)") && html.contains("abba − autotune (p)"));
+    // The paired difference abba − standard is +1.0 in every pair; three
+    // pairs are too few for a p.
+    assert!(html.contains(">+1.0 (p —)<"), "no +1.0 difference");
+    assert!(html.contains(">+0.0 (p —)<"), "abba − autotune is zero");
+    for p in &mut arms.iter_mut().flat_map(|a| a.patients.iter_mut()) {
+        p.weeks.truncate(2); // a short run: W1, W2
+    }
+    let files = build_report(&arms, &manifest(), None).unwrap();
+    let html = String::from_utf8(
+        files
+            .iter()
+            .find(|f| f.name == "report.html")
+            .unwrap()
+            .bytes
+            .clone(),
+    )
+    .unwrap();
+    assert!(
+        html.contains("<td>W2</td>"),
+        "the short run's W2 is not shown"
+    );
+    assert!(!html.contains("<td>W13</td>"));
 }

@@ -72,6 +72,7 @@ pub fn reasons_in(d: &Decision, cfg: &AbbaConfig, unit: GlucoseUnits) -> Vec<Str
             return vec![format!("No update: {}.", skip_reason(*reason, d.parameter))]
         }
         DecisionDetail::RunToRun(_) => return vec!["A run-to-run update.".into()],
+        DecisionDetail::Autotune(_) => return vec!["A nightly autotune (oref0) update.".into()],
     };
     let f = &cfg.features;
     let w = &x.window;

@@ -23,7 +23,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 .collect::<Result<Vec<_>, _>>()
         })
         .transpose()?
-        .unwrap_or_else(|| abba_trial::ArmKind::ALL.to_vec());
+        .unwrap_or_else(|| abba_trial::ArmKind::DEFAULT.to_vec());
     let config = TrialConfig::try_from(RawTrialConfig {
         patients: arg(1, 100) as u32,
         days: arg(2, 98) as u32,

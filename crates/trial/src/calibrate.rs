@@ -775,7 +775,7 @@ mod tests {
         // The held-out cohort ran every arm in W13 and W14 of both scenarios.
         assert_eq!(r.held_out.len(), 4);
         for c in &r.held_out {
-            assert_eq!(c.arms.len(), 3, "{c:?}");
+            assert_eq!(c.arms.len(), ArmKind::ALL.len(), "{c:?}");
         }
         let md = report_markdown(&r);
         assert!(md.contains("not a medical device"));

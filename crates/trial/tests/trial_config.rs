@@ -193,3 +193,56 @@ fn the_plan_resolves_every_scenario_with_its_mode() {
     );
     assert!(c.planned().iter().all(|p| p.config.days == c.days));
 }
+
+/// The autotune arm is opt-in: the default plan has no autotune section
+/// (so a default trial's files are what they were before the arm); with the
+/// arm the checked plan fills in oref0's defaults without the knobs the
+/// trial sets, and setting one of those is refused naming who sets it.
+#[test]
+fn the_autotune_arm_is_opt_in_and_its_section_leaves_out_what_the_trial_sets() {
+    let paper = TrialConfig::paper().unwrap();
+    assert_eq!(paper.arms, ArmKind::DEFAULT.to_vec());
+    let v = serde_json::to_value(&paper).unwrap();
+    assert!(v.get("autotune").is_none(), "{v}");
+    let with = edited(|v| v["arms"] = json!(["abba", "standard", "r2r", "autotune"])).unwrap();
+    let v = serde_json::to_value(&with).unwrap();
+    let section = v["autotune"].as_object().unwrap();
+    assert!(section.contains_key("autosens_max") && section.contains_key("dia_h"));
+    assert!(!section.contains_key("mode") && !section.contains_key("init_days"));
+    // Every arm runs with the trial's mode and first week.
+    let planned = &with.planned()[0];
+    let AdvisorSpec::Autotune(c) = with.advisor_spec(ArmKind::Autotune, planned.mode) else {
+        panic!("not autotune")
+    };
+    assert_eq!((c.mode, c.init_days), (planned.mode, with.init_days));
+    // It reads back as written.
+    let back = TrialConfig::from_json(&v.to_string()).unwrap();
+    assert_eq!(back, with);
+    refused(
+        |v| {
+            v["arms"] = json!(["autotune"]);
+            v["autotune"] = json!({"init_days": 3});
+        },
+        &["autotune.init_days", "set by the trial"],
+    );
+    // Every knob of the section is required and checked.
+    let full = Value::Object(section.clone());
+    let mut partial = full.clone();
+    partial.as_object_mut().unwrap().remove("dia_h");
+    refused(
+        |v| {
+            v["arms"] = json!(["autotune"]);
+            v["autotune"] = partial;
+        },
+        &["autotune", "missing field `dia_h`"],
+    );
+    let mut wide = full;
+    wide["autosens_max"] = json!(9.0);
+    refused(
+        |v| {
+            v["arms"] = json!(["autotune"]);
+            v["autotune"] = wide;
+        },
+        &["autotune", "autosens_max"],
+    );
+}

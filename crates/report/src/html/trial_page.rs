@@ -17,9 +17,13 @@ use crate::html::svg::{accessible_svg, profile_svg, tir_bar_svg};
 use crate::html::units::GlucoseUnit;
 use crate::html::{render_page, HtmlSection, Row};
 use crate::results::{ArmResult, Week};
-use crate::select::{failure_time, metric_column, ordered_arms, stopped_runs, validate_arms};
-use crate::stats::summarize_present;
+use crate::select::{
+    failure_time, metric_column, ordered_arms, stopped_runs, table_weeks, validate_arms,
+};
+use crate::stats::{summarize_present, wilcoxon_signed_rank_present};
+use crate::summary::REPORT_WILCOXON;
 use crate::table1::{format_p, table1_rows, TABLE1_METRICS};
+use abba_advisor::ArmKind;
 
 /// Minutes between the plasma glucose samples kept in [`crate::WeekResult`].
 pub const SAMPLE_MIN: u32 = 5;
@@ -143,6 +147,44 @@ fn facts(manifest: &Value) -> Vec<Row> {
     .collect()
 }
 
+/// `abba − other` of `metric` in `week`: the mean of the paired
+/// differences over the patients both arms have, and the two-sided
+/// Wilcoxon signed-rank p of those pairs ("—" without pairs).
+fn paired_difference(
+    abba: &ArmResult,
+    other: &ArmResult,
+    week: Week,
+    metric: Metric,
+) -> Result<String, ReportError> {
+    let a = metric_column(abba, week, metric);
+    let b = metric_column(other, week, metric);
+    let pairs: Vec<f64> = a
+        .iter()
+        .zip(&b)
+        .filter_map(|(x, y)| Some((*x)? - (*y)?))
+        .collect();
+    if pairs.is_empty() || a.len() != b.len() {
+        return Ok("—".into());
+    }
+    let mean = pairs.iter().sum::<f64>() / pairs.len() as f64;
+    let test = wilcoxon_signed_rank_present(&b, &a, REPORT_WILCOXON).map_err(|source| {
+        ReportError::Stats {
+            what: format!(
+                "{} against {}, week {week}, metric {metric}",
+                abba.key(),
+                other.key()
+            ),
+            source,
+        }
+    })?;
+    let d = decimals(metric);
+    Ok(format!(
+        "{mean:+.d$} ({})",
+        test.p
+            .map_or_else(|| "p —".into(), |p| format!("p {}", format_p(p)))
+    ))
+}
+
 /// The trial report page. `manifest` is the run's manifest (what ran);
 /// `extra` sections are placed after the stopped runs.
 pub fn trial_report_html(
@@ -209,7 +251,7 @@ pub fn trial_report_html(
             "figarms",
             figures::fig_arms(arms)?,
             "ABBA against the baselines",
-            "Weekly time in 70-180 mg/dL and insulin, mean over patients, for ABBA, standard therapy and run-to-run in each scenario.",
+            "Weekly time in 70-180 mg/dL and insulin, mean over patients, for every arm in each scenario.",
         ),
     ];
     let figures: Vec<Figure> = figs
@@ -221,6 +263,7 @@ pub fn trial_report_html(
         .collect();
 
     let ordered = ordered_arms(arms);
+    let shown = table_weeks(arms);
     let mut scenarios: Vec<ScenarioTable> = Vec::new();
     for scenario in abba_core::ScenarioId::ALL {
         let group: Vec<&&ArmResult> = ordered.iter().filter(|a| a.scenario == scenario).collect();
@@ -229,13 +272,23 @@ pub fn trial_report_html(
         }
         let mut headers = vec!["Metric".to_string(), "Week".to_string()];
         headers.extend(group.iter().map(|a| format!("{} (mean ± SD)", a.advisor)));
+        // ABBA against each other arm: the mean paired difference over the
+        // patients both have, and its Wilcoxon signed-rank p.
+        let abba = group.iter().find(|a| a.advisor == ArmKind::Abba);
+        let others: Vec<&&&ArmResult> = group
+            .iter()
+            .filter(|a| a.advisor != ArmKind::Abba)
+            .collect();
+        if abba.is_some() {
+            headers.extend(others.iter().map(|a| format!("abba − {} (p)", a.advisor)));
+        }
         let mut rows = Vec::new();
         for metric in
             TABLE1_METRICS
                 .into_iter()
                 .chain([Metric::MeanMgDl, Metric::CvPct, Metric::TdiUPerDay])
         {
-            for week in Week::TABLE {
+            for &week in &shown {
                 let mut cells = vec![
                     format!("{} ({})", metric.label(), metric.unit().symbol()),
                     week.name().to_string(),
@@ -251,6 +304,11 @@ pub fn trial_report_html(
                         })?;
                     any |= s.is_some();
                     cells.push(s.map_or_else(|| "—".into(), |s| mean_sd(&s, decimals(metric))));
+                }
+                if let Some(a) = abba {
+                    for o in &others {
+                        cells.push(paired_difference(a, o, week, metric)?);
+                    }
                 }
                 if any {
                     rows.push(Row { cells });
@@ -283,16 +341,16 @@ pub fn trial_report_html(
     let profiles: Vec<Vec<Option<CohortWeekProfile>>> = ordered
         .par_iter()
         .map(|arm| {
-            Week::TABLE
-                .into_iter()
-                .map(|week| cohort_profile(arm, week))
+            shown
+                .iter()
+                .map(|&week| cohort_profile(arm, week))
                 .collect::<Result<_, _>>()
         })
         .collect::<Result<_, ReportError>>()?;
     let mut agp = Vec::new();
     for (i, (arm, arm_profiles)) in ordered.iter().zip(profiles).enumerate() {
         let mut weeks = Vec::new();
-        for (week, c) in Week::TABLE.into_iter().zip(arm_profiles) {
+        for (&week, c) in shown.iter().zip(arm_profiles) {
             if let Some(c) = c {
                 let (a, b) = week.days();
                 let title = format!(

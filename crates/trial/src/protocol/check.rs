@@ -118,6 +118,7 @@ pub(super) fn check(c: &RawTrialConfig) -> Result<Vec<PlannedScenario>, TrialErr
                 ArmKind::Abba => "abba",
                 ArmKind::Standard => "fixed_limits",
                 ArmKind::R2r => "r2r",
+                ArmKind::Autotune => "autotune",
             };
             advisor_spec(c, *arm, p.mode)
                 .validate()

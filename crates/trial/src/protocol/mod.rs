@@ -18,7 +18,7 @@
 use crate::error::TrialError;
 use abba_advisor::any::AdvisorSpec;
 use abba_advisor::baselines::r2r::R2rConfig;
-use abba_advisor::{AbbaConfig, EventLimits, Mode};
+use abba_advisor::{AbbaConfig, AutotuneConfig, EventLimits, Mode};
 use abba_sim::cohort::Population;
 use abba_sim::devices::DeviceSet;
 use abba_sim::person::{Behaviour, DayClosing};
@@ -62,6 +62,18 @@ pub struct RawTrialConfig {
     /// which the trial sets).
     #[serde(with = "trial_set::r2r")]
     pub r2r: R2rConfig,
+    /// Autotune arm knobs (without `mode` and `init_days`, which the trial
+    /// sets).
+    /// The one optional field: absent, oref0's defaults; the checked plan
+    /// fills them in when the autotune arm runs, and leaves the field out
+    /// otherwise, so that a trial without the arm writes the same files as
+    /// before the arm existed.
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        with = "trial_set::autotune"
+    )]
+    pub autotune: Option<AutotuneConfig>,
     /// Plausibility limits of the fixed-therapy arm's event checks.
     pub fixed_limits: EventLimits,
     /// Devices, in the simulator's own types.
@@ -92,6 +104,10 @@ pub struct RawTrialConfig {
     pub suggestions: abba_sim::person::SuggestionResponse,
 }
 
+fn default_autotune() -> AutotuneConfig {
+    AutotuneConfig::new(Mode::Cgm)
+}
+
 impl Default for RawTrialConfig {
     fn default() -> Self {
         Self {
@@ -102,9 +118,10 @@ impl Default for RawTrialConfig {
             days: 98,
             init_days: 7,
             scenarios: ScenarioId::ALL.to_vec(),
-            arms: ArmKind::ALL.to_vec(),
+            arms: ArmKind::DEFAULT.to_vec(),
             abba: AbbaConfig::new(Mode::Cgm, 0),
             r2r: R2rConfig::new(Mode::Cgm),
+            autotune: None,
             fixed_limits: EventLimits::default(),
             devices: DeviceSet::default(),
             calibrate_te_ref: true,
@@ -152,7 +169,10 @@ impl std::ops::Deref for TrialConfig {
 
 impl TryFrom<RawTrialConfig> for TrialConfig {
     type Error = TrialError;
-    fn try_from(raw: RawTrialConfig) -> Result<Self, TrialError> {
+    fn try_from(mut raw: RawTrialConfig) -> Result<Self, TrialError> {
+        if raw.arms.contains(&ArmKind::Autotune) && raw.autotune.is_none() {
+            raw.autotune = Some(default_autotune());
+        }
         let planned = check(&raw)?;
         Ok(Self { raw, planned })
     }
@@ -259,6 +279,12 @@ fn advisor_spec(raw: &RawTrialConfig, arm: ArmKind, mode: Mode) -> AdvisorSpec {
             c.init_days = raw.init_days;
             c.cgm_interval_min = f64::from(raw.devices.cgm.sample_time_min);
             AdvisorSpec::RunToRun(c)
+        }
+        ArmKind::Autotune => {
+            let mut c = raw.autotune.clone().unwrap_or_else(default_autotune);
+            c.mode = mode;
+            c.init_days = raw.init_days;
+            AdvisorSpec::Autotune(c)
         }
     }
 }

@@ -101,3 +101,31 @@ pub mod r2r {
         )
     }
 }
+
+/// The autotune arm's knobs (an optional section: absent when the arm
+/// does not run).
+pub mod autotune {
+    use super::*;
+    use abba_advisor::AutotuneConfig;
+
+    const KEYS: [(&str, &str); 2] = ADVISOR_KEYS;
+
+    pub fn serialize<S: Serializer>(v: &Option<AutotuneConfig>, s: S) -> Result<S::Ok, S::Error> {
+        match v {
+            Some(v) => ser(v, &KEYS, s),
+            None => s.serialize_none(),
+        }
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(
+        d: D,
+    ) -> Result<Option<AutotuneConfig>, D::Error> {
+        de(
+            d,
+            "autotune",
+            &KEYS,
+            serde_json::json!({"mode": "cgm", "init_days": 7}),
+        )
+        .map(Some)
+    }
+}

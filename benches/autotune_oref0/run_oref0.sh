@@ -1,0 +1,26 @@
+#!/bin/sh
+# Regenerates crates/advisor/tests/data/autotune_oref0/ (see README.md there).
+# Needs node (20 used) and network access to the npm registry once.
+set -eu
+here=$(cd "$(dirname "$0")" && pwd)
+repo=$(cd "$here/../.." && pwd)
+data="$repo/crates/advisor/tests/data/autotune_oref0"
+work=${WORK:-$(mktemp -d)}
+mkdir -p "$data"
+(cd "$work" && [ -d node_modules/oref0 ] || npm install --no-save oref0@0.7.1 >/dev/null)
+bin="$work/node_modules/oref0/bin"
+rm -rf "$work/export"
+(cd "$repo" && cargo run -q --release -p abba -- export --patient adult#001 --days 9 \
+    --arm standard --tz Europe/Zurich --out "$work/export")
+python3 "$here/make_fixture.py" "$work/export" "$data"
+export TZ=Europe/Zurich
+cp "$data/pumpprofile.json" "$work/profile.json"
+for day in 1 2; do
+  node "$bin/oref0-autotune-prep.js" "$data/treatments.json" "$work/profile.json" \
+      "$data/entries.day$day.json" "$data/pumpprofile.json" > "$data/prepped.day$day.json" 2>/dev/null
+  cp "$work/profile.json" "$data/profile.day$day.json"
+  node "$bin/oref0-autotune-core.js" "$data/prepped.day$day.json" "$work/profile.json" \
+      "$data/pumpprofile.json" > "$data/autotune.day$day.json" 2>/dev/null
+  cp "$data/autotune.day$day.json" "$work/profile.json"
+done
+echo "wrote $data"

@@ -1,0 +1,264 @@
+//! Autotune: our implementation of OpenAPS oref0's autotune (oref0 0.7.1,
+//! MIT licence, <https://github.com/openaps/oref0>: lib/autotune-prep
+//! (categorize.js, dosed.js), lib/autotune/index.js, lib/iob (history.js,
+//! total.js, calculate.js), lib/profile (basal.js, isf.js),
+//! lib/percentile.js and bin/oref0-autotune-prep.js / -core.js), written
+//! from the published algorithm (the code was read to learn its rules; none
+//! is copied). It is the community's baseline: every night it reads a day of
+//! CGM and pump data, sorts each 5-minute glucose deviation into carb
+//! absorption, ISF, basal or unannounced meal, and moves the hourly basals,
+//! the ISF and the carb ratio 20 % toward what the day implies, capped at
+//! `autosens_min`..`autosens_max` times the pump profile's values.
+//!
+//! - [`curve`]: the bilinear and exponential insulin curves (`curve`,
+//!   `insulinPeakTime`, `useCustomPeakTime`, `dia`).
+//! - [`iob`]: boluses and temporary basals as insulin on board and activity.
+//! - [`prep`]: the categorisation (oref0's autotune-prep).
+//! - [`tune`]: the nightly step (oref0's autotune-core).
+//! - [`profile`]: oref0's profile JSON.
+//! - [`arm`]: the trial arm ([`Autotune`]), nightly over the previous day.
+//!
+//! A day is what `oref0-autotune.sh` downloads for it: glucose from 04:00
+//! local time to 04:00 the next day, insulin and carbs from 18 h before to
+//! 42 h after midnight (IOB needs the hours before). Times are ms since the
+//! epoch; the local hour comes from a [`LocalClock`] (oref0 uses the
+//! process's time zone).
+//!
+//! # Choices (where oref0's data handling had to be mapped or we differ)
+//!
+//! 1. Records come from abba's readers (`abba-io`), not from oref0's
+//!    field tests: every treatment with insulin counts as a bolus, whatever
+//!    its `eventType` (oref0 counts `Meal Bolus`, `Correction Bolus`,
+//!    `Snack Bolus` and `Bolus Wizard`; its xDrip and HAPP branches are
+//!    covered by the same rule). Carbs are any record with carbs > 0, as
+//!    oref0's meal history takes them.
+//! 2. A temporary basal's rate is `absolute`, else `rate` (oref0: `absolute`
+//!    for AndroidAPS uploads, `rate` otherwise, Loop's delivered `amount`
+//!    when present; abba's reader does not read `amount`). A percentage temp
+//!    is turned into a rate with the profile's scheduled rate at its start
+//!    (oref0 gives it no rate, so no insulin). Durations are whole minutes
+//!    (abba's reader rounds them; oref0 keeps fractions).
+//! 3. Pump suspends and resumes from Nightscout are not used, as in oref0
+//!    (which reads suspends only from a Medtronic pump history); the caller
+//!    counts them. Extended boluses: the immediate part is a bolus, the
+//!    extended part 0.05 U pieces spread over its duration (oref0 ignores
+//!    Nightscout's `Combo Bolus`).
+//! 4. oref0's duplicate check of meal entries compares a `timestamp` field
+//!    Nightscout treatments do not carry, so it never fires on Nightscout
+//!    data; we do not dedupe (abba's readers report duplicate records).
+//! 5. Rounding is JavaScript's: `Math.round` (halves up), `toFixed(2)`
+//!    (exact decimal, halves away from zero), `parseInt` (truncation); see
+//!    [`js`].
+//! 6. oref0's splitTimespan drops, within one splitting pass, the later
+//!    pieces of a temp that need no further split once an earlier piece was
+//!    split (a temp of more than 30 min crossing a basal break point loses
+//!    its tail). We reproduce it, because the outputs must match oref0's on
+//!    real days; the loss is a few hundredths of a unit a day.
+//! 7. `--tune-insulin-curve` (DIA and peak search) is not implemented: oref0's
+//!    default is off; `dia` and the peak come back unchanged.
+//! 8. A profile's unknown `curve` is refused (oref0 warns and uses
+//!    rapid-acting); missing `min_5m_carbimpact`, `autosens_max` and
+//!    `autosens_min` take oref0's defaults 8, 1.2 and 0.7; basal rates,
+//!    ISF and carb ratio must lie in [`abba_core::limits`].
+//! 9. The ISF and carb-ratio schedules: like oref0, only the first ISF and
+//!    the one `carb_ratio` are tuned.
+
+pub mod arm;
+pub mod curve;
+pub mod iob;
+pub mod js;
+pub mod prep;
+pub mod profile;
+pub mod tune;
+
+pub use arm::{Autotune, AutotuneConfig};
+pub use prep::{categorize, Category, Prepped};
+pub use profile::Profile;
+pub use tune::{tune, Tuned};
+
+/// The minute of the local day (0-1439) of an instant, as JavaScript's
+/// `getHours() * 60 + getMinutes()` in the process's zone.
+pub trait LocalClock {
+    /// Minute of the local day of `at_ms` (ms since the epoch).
+    fn minute_of_day(&self, at_ms: i64) -> u32;
+}
+
+/// Local time = UTC (the trial's clock).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct UtcClock;
+
+impl LocalClock for UtcClock {
+    fn minute_of_day(&self, at_ms: i64) -> u32 {
+        (at_ms.div_euclid(60_000).rem_euclid(1440)) as u32
+    }
+}
+
+/// A CGM reading.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Reading {
+    /// When (ms since the epoch).
+    pub at_ms: i64,
+    /// Glucose (mg/dL).
+    pub mg_dl: f64,
+}
+
+/// Carbohydrate entered.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Carbs {
+    /// When (ms since the epoch).
+    pub at_ms: i64,
+    /// Grams.
+    pub grams: f64,
+}
+
+/// Insulin delivery records.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Insulin {
+    /// A bolus.
+    Bolus {
+        /// When (ms since the epoch).
+        at_ms: i64,
+        /// Units.
+        units: f64,
+    },
+    /// A temporary basal rate.
+    Temp {
+        /// Start (ms since the epoch).
+        at_ms: i64,
+        /// Rate (U/h).
+        rate: f64,
+        /// Minutes.
+        duration_min: f64,
+    },
+}
+
+impl Insulin {
+    /// When the record starts.
+    pub fn at_ms(&self) -> i64 {
+        match *self {
+            Insulin::Bolus { at_ms, .. } | Insulin::Temp { at_ms, .. } => at_ms,
+        }
+    }
+}
+
+/// One day's data (see the module doc for the windows).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct DayData {
+    /// CGM readings of the day (04:00 to 04:00 local).
+    pub glucose: Vec<Reading>,
+    /// Insulin records (from 18 h before the day).
+    pub insulin: Vec<Insulin>,
+    /// Carb entries.
+    pub carbs: Vec<Carbs>,
+}
+
+/// What can go wrong.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum AutotuneError {
+    /// A profile field is missing or out of range.
+    #[error("{path}: {problem}")]
+    Profile {
+        /// JSON path of the field.
+        path: String,
+        /// What is wrong and what was expected.
+        problem: String,
+    },
+}
+
+/// One whole autotune run over a day, as `oref0-autotune-prep` then
+/// `oref0-autotune-core` run it: `previous` is the profile tuned so far
+/// (the pump profile on the first day), `pump` the pump's own.
+pub fn autotune_day(
+    day: &DayData,
+    previous: &Profile,
+    pump: &Profile,
+    clock: &dyn LocalClock,
+) -> Result<(Prepped, Tuned, serde_json::Value), AutotuneError> {
+    // Both bins take the pump's curve, and its DIA and peak unless the pump
+    // profile uses a custom peak.
+    let mut p = previous.clone();
+    p.curve = pump.curve;
+    if !pump.use_custom_peak {
+        p.dia_h = pump.dia_h;
+        p.insulin_peak_min = pump.insulin_peak_min;
+    }
+    if let Some(c) = pump.raw.get("curve") {
+        p.raw.insert("curve".into(), c.clone());
+    }
+    let mut for_prep = p.clone();
+    if for_prep.carb_ratio.is_none_or(|cr| cr < 2.0) {
+        match pump.carb_ratio {
+            Some(cr) if cr >= 2.0 => for_prep.carb_ratio = Some(cr),
+            _ => return Err(AutotuneError::Profile {
+                path: "carb_ratio".into(),
+                problem:
+                    "neither the profile nor the pump profile has a carb ratio of at least 2 g/U"
+                        .into(),
+            }),
+        }
+    }
+    let prepped = categorize(day, &for_prep, clock);
+    let tuned = tune(&prepped, &p, pump, clock);
+    let json = tuned.to_json(&p);
+    Ok((prepped, tuned, json))
+}
+
+/// The glucose unit the ISF is shown in (autotune itself works in mg/dL).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum IsfUnit {
+    /// mg/dL per unit.
+    #[default]
+    MgDl,
+    /// mmol/L per unit (mg/dL / [`abba_core::units::MG_DL_PER_MMOL_L`]).
+    MmolL,
+}
+
+impl IsfUnit {
+    /// An ISF in mg/dL/U in this unit.
+    pub fn of(self, mg_dl_per_u: f64) -> f64 {
+        match self {
+            IsfUnit::MgDl => mg_dl_per_u,
+            IsfUnit::MmolL => mg_dl_per_u / abba_core::units::MG_DL_PER_MMOL_L,
+        }
+    }
+
+    /// `mg/dL/U` or `mmol/L/U`.
+    pub fn label(self) -> &'static str {
+        match self {
+            IsfUnit::MgDl => "mg/dL/U",
+            IsfUnit::MmolL => "mmol/L/U",
+        }
+    }
+}
+
+/// The table people know from oref0-autotune-recommends-report (hourly
+/// rows; `Days Missing` is the `untuned` count), the ISF in `unit`.
+pub fn recommendations_table(t: &Tuned, unit: IsfUnit) -> String {
+    let mut s = String::new();
+    s.push_str("Parameter         | Pump        | Autotune    | Days Missing\n");
+    s.push_str("------------------------------------------------------------\n");
+    s.push_str(&format!(
+        "{:<18}| {:<12.3}| {:<12.3}|\n",
+        format!("ISF [{}]", unit.label()),
+        unit.of(t.pump_isf),
+        unit.of(t.isf)
+    ));
+    s.push_str(&format!(
+        "{:<18}| {:<12.3}| {:<12.3}|\n",
+        "Carb Ratio [g/U]", t.pump_carb_ratio, t.carb_ratio
+    ));
+    s.push_str(&format!(
+        "{:<18}| {:<12}| {:<12}|\n",
+        "Basals [U/h]", "", ""
+    ));
+    for (h, e) in t.basal.iter().enumerate() {
+        s.push_str(&format!(
+            "  {:<16}| {:<12.3}| {:<12.3}| {}\n",
+            format!("{h:02}:00"),
+            t.pump_basal[h],
+            e.rate,
+            e.untuned.unwrap_or(0)
+        ));
+    }
+    s
+}

@@ -1,0 +1,524 @@
+//! `abba autotune`: oref0's autotune (abba-advisor's implementation) over
+//! Nightscout entries and treatments, or over a person's records in a
+//! store, day by day as `oref0-autotune.sh` runs it; prints the tuned
+//! profile in oref0's JSON shape and the recommendations table. Parsing and
+//! printing only: reading is abba-io's and abba-store's, tuning
+//! abba-advisor's.
+use std::path::{Path, PathBuf};
+
+use abba_advisor::baselines::autotune::{
+    autotune_day, recommendations_table, Carbs, DayData, Insulin, IsfUnit, LocalClock, Profile,
+    Reading, Tuned,
+};
+use abba_io::record::{RecordKind, TempRate};
+use abba_io::{Format, ReadOptions, Record};
+use abba_store::person::GlucoseUnits;
+use abba_store::Store;
+use anyhow::{bail, Context, Result};
+use jiff::civil::Date;
+use jiff::tz::TimeZone;
+
+use crate::input::date;
+
+const NOTICE: &str =
+    "abba is research software, not a medical device: discuss any change with your clinician";
+
+/// Arguments of `abba autotune`.
+#[derive(clap::Args, Debug)]
+#[command(group(clap::ArgGroup::new("source").required(true).args(["entries", "db"])))]
+pub struct Args {
+    /// Nightscout entries (entries.json or entries/sgv.json).
+    #[arg(long, value_name = "FILE", requires_all = ["treatments", "profile", "tz"])]
+    entries: Option<PathBuf>,
+    /// Nightscout treatments (boluses, carbs, temporary basals).
+    #[arg(long, value_name = "FILE", requires = "entries")]
+    treatments: Option<PathBuf>,
+    /// The profile to tune, in oref0's JSON shape (basalprofile, isfProfile,
+    /// carb_ratio, dia, curve, ...). With --db: instead of the person's
+    /// therapy in force.
+    #[arg(long, value_name = "FILE")]
+    profile: Option<PathBuf>,
+    /// The pump's own profile (the caps' reference) [default: --profile].
+    #[arg(long, value_name = "FILE")]
+    pump_profile: Option<PathBuf>,
+    /// The person's IANA time zone (autotune's days and hours are local).
+    #[arg(long, value_name = "ZONE", conflicts_with = "db")]
+    tz: Option<String>,
+    /// A store file: tune from the records of --person.
+    #[arg(long, value_name = "FILE", requires = "person")]
+    db: Option<PathBuf>,
+    /// The person (with --db).
+    #[arg(long, value_name = "NAME", requires = "db")]
+    person: Option<String>,
+    /// With --db and no --profile: the person's insulin sensitivity factor,
+    /// in the person's glucose unit per unit (mg/dL/U or mmol/L/U; the
+    /// store does not keep one).
+    #[arg(long, value_name = "ISF", allow_negative_numbers = true)]
+    isf: Option<f64>,
+    /// With --db and no --profile: duration of insulin action (h) of the
+    /// exponential rapid-acting curve.
+    #[arg(long, value_name = "HOURS", default_value_t = 5.0)]
+    dia: f64,
+    /// Tune the last N complete days (04:00 to 04:00 local) of the data.
+    #[arg(long, value_name = "N", conflicts_with = "start")]
+    days: Option<u32>,
+    /// First day to tune (YYYY-MM-DD) [default: the first complete day of the data].
+    #[arg(long, value_name = "DATE")]
+    start: Option<String>,
+    /// Last day to tune [default: the last complete day of the data].
+    #[arg(long, value_name = "DATE")]
+    end: Option<String>,
+    /// Print JSON: the tuned profile, the days and what each run noted.
+    #[arg(long)]
+    json: bool,
+}
+
+struct Zone(TimeZone);
+
+impl LocalClock for Zone {
+    fn minute_of_day(&self, at_ms: i64) -> u32 {
+        match jiff::Timestamp::from_millisecond(at_ms) {
+            Ok(t) => {
+                let z = t.to_zoned(self.0.clone());
+                u32::from(z.hour().unsigned_abs()) * 60 + u32::from(z.minute().unsigned_abs())
+            }
+            Err(_) => 0,
+        }
+    }
+}
+
+/// Local midnight of `day` plus `hours` (durations, as oref0's windows).
+fn midnight_plus(tz: &TimeZone, day: Date, hours: i64) -> Result<i64> {
+    let midnight = day.to_zoned(tz.clone())?;
+    Ok(midnight.timestamp().as_millisecond() + hours * 3_600_000)
+}
+
+/// 04:00 local time of `day` (the start of autotune's day).
+fn four_am(tz: &TimeZone, day: Date) -> Result<i64> {
+    Ok(day
+        .at(4, 0, 0, 0)
+        .to_zoned(tz.clone())?
+        .timestamp()
+        .as_millisecond())
+}
+
+fn read_profile(path: &Path) -> Result<Profile> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("{}: cannot read", path.display()))?;
+    Profile::from_json(&text).with_context(|| format!("{}", path.display()))
+}
+
+/// The records as autotune's inputs.
+struct Inputs {
+    glucose: Vec<Reading>,
+    insulin: Vec<Insulin>,
+    carbs: Vec<Carbs>,
+    /// Records autotune does not read, by kind.
+    unused: std::collections::BTreeMap<String, usize>,
+}
+
+fn inputs(
+    records: &[Record],
+    origin: &dyn Fn(&Record) -> String,
+    profile: &Profile,
+    clock: &Zone,
+) -> Result<Inputs> {
+    let now =
+        jiff::Timestamp::now().as_millisecond() + abba_core::limits::FUTURE_SKEW_MINUTES * 60_000;
+    let mut x = Inputs {
+        glucose: Vec::new(),
+        insulin: Vec::new(),
+        carbs: Vec::new(),
+        unused: Default::default(),
+    };
+    for r in records {
+        let at = r.at.as_millisecond();
+        if at > now {
+            bail!(
+                "{}: dated {} (in the future); refusing data from the future (`abba store remove-future` removes such records from a store)",
+                origin(r),
+                r.at
+            );
+        }
+        match &r.kind {
+            RecordKind::Cgm { glucose: g } => x.glucose.push(Reading {
+                at_ms: at,
+                mg_dl: g.mg_dl.0,
+            }),
+            RecordKind::Bolus { units } => x.insulin.push(Insulin::Bolus {
+                at_ms: at,
+                units: units.0,
+            }),
+            RecordKind::Carbs { grams } => x.carbs.push(Carbs {
+                at_ms: at,
+                grams: grams.0,
+            }),
+            RecordKind::TempBasal { rate, duration_min } => {
+                let rate = match rate {
+                    TempRate::Absolute(r) => r.0,
+                    TempRate::Percent(p) => p / 100.0 * profile.basal_at(clock.minute_of_day(at)),
+                };
+                x.insulin.push(Insulin::Temp {
+                    at_ms: at,
+                    rate,
+                    duration_min: f64::from(*duration_min),
+                });
+            }
+            RecordKind::ExtendedBolus {
+                now,
+                extended,
+                duration_min,
+            } => {
+                x.insulin.push(Insulin::Bolus {
+                    at_ms: at,
+                    units: now.0,
+                });
+                let pieces = (extended.0 / 0.05).round() as i64;
+                for j in 0..pieces {
+                    let t = at + j * i64::from(*duration_min) * 60_000 / pieces.max(1);
+                    x.insulin.push(Insulin::Bolus {
+                        at_ms: t,
+                        units: 0.05,
+                    });
+                }
+            }
+            other => *x.unused.entry(other.name().to_string()).or_default() += 1,
+        }
+    }
+    Ok(x)
+}
+
+/// What reading the files removed or noted, one line each (nothing
+/// dropped unsaid); records dated in the future are refused here.
+fn reading_report(batch: &mut abba_io::Batch) -> Vec<String> {
+    let mut out = Vec::new();
+    let future = batch.refuse_future(jiff::Timestamp::now());
+    if future.count > 0 {
+        out.push(format!(
+            "refused {} record(s) dated in the future; the first: {}",
+            future.count,
+            future.first.as_deref().unwrap_or("?")
+        ));
+    }
+    if !batch.duplicates.is_empty() {
+        let kinds: Vec<String> = batch
+            .duplicates
+            .iter()
+            .map(|(k, n)| format!("{k} {n}"))
+            .collect();
+        out.push(format!("duplicates read once: {}", kinds.join(", ")));
+    }
+    if batch.older_versions > 0 {
+        out.push(format!(
+            "older versions of a record replaced by the latest: {}",
+            batch.older_versions
+        ));
+    }
+    out.extend(batch.notes.iter().cloned());
+    out
+}
+
+/// Which days: `--start`/`--end`, `--days N` (the last N complete days), or
+/// every complete day (04:00 to 04:00 local within the readings).
+fn days(args: &Args, tz: &TimeZone, glucose: &[Reading]) -> Result<(Date, Date)> {
+    let (Some(first), Some(last)) = (
+        glucose.iter().map(|g| g.at_ms).min(),
+        glucose.iter().map(|g| g.at_ms).max(),
+    ) else {
+        bail!("no CGM readings (sgv entries): autotune needs CGM data");
+    };
+    let day_of = |ms: i64| -> Result<Date> {
+        Ok(jiff::Timestamp::from_millisecond(ms)?
+            .to_zoned(tz.clone())
+            .date())
+    };
+    // The last day whose next 04:00 has been reached by the readings.
+    let mut last_complete = day_of(last)?;
+    while four_am(tz, last_complete.tomorrow()?)? > last {
+        last_complete = last_complete.yesterday()?;
+    }
+    let end = match &args.end {
+        Some(d) => date("--end", d)?,
+        None => last_complete,
+    };
+    let start = match (&args.start, args.days) {
+        (Some(d), _) => date("--start", d)?,
+        (None, Some(0)) => bail!("--days: expected at least 1, got 0"),
+        (None, Some(n)) => end.checked_sub(jiff::Span::new().days(i64::from(n) - 1))?,
+        // The first day whose 04:00 has a reading at or after it.
+        (None, None) => {
+            let d = day_of(first)?;
+            if four_am(tz, d)? >= first {
+                d
+            } else {
+                d.tomorrow()?
+            }
+        }
+    };
+    if end < start {
+        bail!(
+            "no complete day (04:00 to 04:00 local) between {start} and {end}: the readings run from {} to {}",
+            jiff::Timestamp::from_millisecond(first)?,
+            jiff::Timestamp::from_millisecond(last)?
+        );
+    }
+    if four_am(tz, end.tomorrow()?)? > last {
+        bail!(
+            "{end}: the day (to 04:00 of the next) is not complete in the readings, which end at {}",
+            jiff::Timestamp::from_millisecond(last)?
+        );
+    }
+    Ok((start, end))
+}
+
+/// What `abba autotune` found.
+struct Outcome {
+    days: Vec<String>,
+    runs: Vec<serde_json::Value>,
+    tuned: Tuned,
+    profile: serde_json::Value,
+}
+
+fn run_days(
+    x: &Inputs,
+    tz: &TimeZone,
+    (start, end): (Date, Date),
+    mut profile: Profile,
+    pump: &Profile,
+) -> Result<Outcome> {
+    let clock = Zone(tz.clone());
+    let mut days = Vec::new();
+    let mut runs = Vec::new();
+    let mut last = None;
+    let mut d = start;
+    while d <= end {
+        let (g0, g1) = (four_am(tz, d)?, four_am(tz, d.tomorrow()?)?);
+        let (t0, t1) = (midnight_plus(tz, d, -18)?, midnight_plus(tz, d, 42)?);
+        let day = DayData {
+            glucose: x
+                .glucose
+                .iter()
+                .copied()
+                .filter(|g| g.at_ms >= g0 && g.at_ms <= g1)
+                .collect(),
+            insulin: x
+                .insulin
+                .iter()
+                .copied()
+                .filter(|i| i.at_ms() >= t0 && i.at_ms() <= t1)
+                .collect(),
+            carbs: x
+                .carbs
+                .iter()
+                .copied()
+                .filter(|c| c.at_ms >= t0 && c.at_ms <= t1)
+                .collect(),
+        };
+        let n = day.glucose.len();
+        let (prepped, tuned, json) = autotune_day(&day, &profile, pump, &clock)
+            .with_context(|| format!("autotune of {d}"))?;
+        runs.push(serde_json::json!({
+            "day": d.to_string(),
+            "readings": n,
+            "basal_data": prepped.basal.len(),
+            "isf_data": prepped.isf.len(),
+            "carb_absorption_data": prepped.csf.len(),
+            "uam_data": prepped.uam.len(),
+            "carb_ratio_periods": prepped.cr.len(),
+            "notes": prepped.notes.iter().chain(&tuned.notes).collect::<Vec<_>>(),
+        }));
+        let serde_json::Value::Object(map) = json.clone() else {
+            bail!("autotune of {d}: the tuned profile is not an object");
+        };
+        profile = Profile::from_map(map).with_context(|| format!("tuned profile of {d}"))?;
+        days.push(d.to_string());
+        last = Some((tuned, json));
+        d = d.tomorrow()?;
+    }
+    let Some((tuned, profile)) = last else {
+        bail!("no day to tune");
+    };
+    Ok(Outcome {
+        days,
+        runs,
+        tuned,
+        profile,
+    })
+}
+
+/// The profile of a person's therapy in force: the basal schedule (scaled
+/// to the basal in force) or flat rate, the mean of the three carb ratios
+/// in force (autotune tunes one), `isf` in the person's unit, `dia_h`.
+fn person_profile(
+    store: &mut Store,
+    name: &str,
+    units: GlucoseUnits,
+    isf: f64,
+    dia_h: f64,
+) -> Result<(Profile, Vec<String>)> {
+    let advice = store.advise(name)?;
+    let advisor = store.advisor(name)?;
+    let in_force = |key: &str| -> Result<f64> {
+        advice
+            .settings
+            .iter()
+            .find(|s| s.setting == key)
+            .map(|s| s.in_force)
+            .with_context(|| format!("person {name}: no {key} in force"))
+    };
+    let basal = in_force("basal")?;
+    let ratios = [
+        in_force("breakfast")?,
+        in_force("lunch")?,
+        in_force("dinner")?,
+    ];
+    let schedule: Vec<(u32, f64)> = match advisor.basal_schedule() {
+        Some(s) if s.len() > 1 => {
+            let mean = abba_advisor::steps::mean_rate(s);
+            if (basal / mean - 1.0).abs() < 1e-9 {
+                s.clone()
+            } else {
+                s.iter().map(|&(m, r)| (m, r * basal / mean)).collect()
+            }
+        }
+        _ => vec![(0, basal)],
+    };
+    let isf_mg_dl = match units {
+        GlucoseUnits::MgDl => isf,
+        GlucoseUnits::MmolL => isf * abba_core::units::MG_DL_PER_MMOL_L,
+    };
+    let cr = ratios.iter().sum::<f64>() / 3.0;
+    let profile = Profile::from_schedule(&schedule, isf_mg_dl, cr, dia_h)
+        .with_context(|| format!("the therapy in force of {name} as an oref0 profile"))?;
+    let said = vec![
+        format!(
+            "profile: the therapy in force of {name} ({} basal segment(s), mean {basal:.3} U/h; carb ratio {cr:.2} g/U, the mean of {:.2}/{:.2}/{:.2}), ISF {isf} {} (--isf), DIA {dia_h} h rapid-acting exponential curve (--dia); the same as pump profile unless --pump-profile",
+            schedule.len(),
+            ratios[0],
+            ratios[1],
+            ratios[2],
+            isf_unit(units).label(),
+        ),
+    ];
+    Ok((profile, said))
+}
+
+fn isf_unit(u: GlucoseUnits) -> IsfUnit {
+    match u {
+        GlucoseUnits::MgDl => IsfUnit::MgDl,
+        GlucoseUnits::MmolL => IsfUnit::MmolL,
+    }
+}
+
+/// What to tune from: the records, where each was read, the zone, the
+/// profile and the unit the ISF is shown in.
+type Source = (
+    Vec<Record>,
+    Box<dyn Fn(&Record) -> String>,
+    TimeZone,
+    Profile,
+    IsfUnit,
+);
+
+/// Runs `abba autotune`.
+pub fn run(args: Args) -> Result<()> {
+    let mut said = Vec::new();
+    let (records, origin, tz, profile, unit): Source = match (&args.entries, &args.db, &args.person)
+    {
+        (Some(entries), _, _) => {
+            let (Some(treatments), Some(profile), Some(tz)) =
+                (&args.treatments, &args.profile, &args.tz)
+            else {
+                bail!("--entries needs --treatments, --profile and --tz");
+            };
+            let tz = abba_io::time::zone(tz)?;
+            let opts = ReadOptions {
+                format: Some(Format::Nightscout),
+                tz: Some(tz.clone()),
+                ..ReadOptions::default()
+            };
+            let mut batch = abba_io::read_files(&[entries.clone(), treatments.clone()], &opts)?;
+            said.extend(reading_report(&mut batch));
+            let records = batch.records.clone();
+            let origin = Box::new(move |r: &Record| batch.origin(r));
+            (records, origin, tz, read_profile(profile)?, IsfUnit::MgDl)
+        }
+        (None, Some(db), Some(name)) => {
+            let mut store = Store::open(db).with_context(|| format!("opening {}", db.display()))?;
+            let person = store.person(name)?;
+            let unit = isf_unit(person.settings.units);
+            let profile = match (&args.profile, args.isf) {
+                    (Some(p), None) => read_profile(p)?,
+                    (Some(_), Some(_)) => {
+                        bail!("--isf and --profile: give one (the profile has its own ISF)")
+                    }
+                    (None, Some(isf)) => {
+                        let (p, s) =
+                            person_profile(&mut store, name, person.settings.units, isf, args.dia)?;
+                        said.extend(s);
+                        p
+                    }
+                    (None, None) => bail!(
+                        "--isf: the person's insulin sensitivity factor ({}) is needed, since the store keeps none (or give --profile)",
+                        unit.label()
+                    ),
+                };
+            let records = store.records(name)?;
+            let who = name.clone();
+            let db = db.display().to_string();
+            let origin = Box::new(move |r: &Record| {
+                format!(
+                    "{db}: person {who}: a {} record ({}) at {}",
+                    r.kind.name(),
+                    r.source.name(),
+                    r.at
+                )
+            });
+            (records, origin, person.tz.clone(), profile, unit)
+        }
+        _ => bail!("give --entries, --treatments, --profile and --tz, or --db and --person"),
+    };
+    let pump = match &args.pump_profile {
+        Some(p) => read_profile(p)?,
+        None => profile.clone(),
+    };
+    let x = inputs(&records, &*origin, &profile, &Zone(tz.clone()))?;
+    let range = days(&args, &tz, &x.glucose)?;
+    let out = run_days(&x, &tz, range, profile, &pump)?;
+    if args.json {
+        let doc = serde_json::json!({
+            "notice": NOTICE,
+            "days": out.days,
+            "notes": said,
+            "unused_records": x.unused,
+            "isf": {"unit": unit.label(), "pump": unit.of(out.tuned.pump_isf), "tuned": unit.of(out.tuned.isf)},
+            "runs": out.runs,
+            "profile": out.profile,
+        });
+        println!("{}", serde_json::to_string_pretty(&doc)?);
+        return Ok(());
+    }
+    println!(
+        "Autotune (oref0 0.7.1's algorithm) over {} day(s): {} to {}",
+        out.days.len(),
+        range.0,
+        range.1
+    );
+    println!("{NOTICE}.");
+    for s in &said {
+        println!("{s}");
+    }
+    if !x.unused.is_empty() {
+        let kinds: Vec<String> = x.unused.iter().map(|(k, n)| format!("{k} {n}")).collect();
+        println!(
+            "Records autotune does not read (as oref0): {}",
+            kinds.join(", ")
+        );
+    }
+    println!();
+    print!("{}", recommendations_table(&out.tuned, unit));
+    println!();
+    println!("The tuned profile (oref0's JSON, ISF in mg/dL/U):");
+    println!("{}", serde_json::to_string_pretty(&out.profile)?);
+    Ok(())
+}

@@ -1,0 +1,244 @@
+//! `abba autotune` on oref0's own fixture days (abba-advisor's
+//! tests/data/autotune_oref0, README.md there): from Nightscout files and
+//! from a person's store, the tuned profile equals oref0 0.7.1's day-2
+//! output (every hourly basal within 0.005 U/h, ISF and carb ratio within
+//! 0.5 %), in the person's unit, with the notice; bad requests are refused
+//! with what is missing.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod cli_common;
+
+use cli_common::{abba, ok};
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+
+const DATA: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../advisor/tests/data/autotune_oref0"
+);
+
+fn tmp(tag: &str) -> PathBuf {
+    let p = std::env::temp_dir().join(format!("abba-autotune-cli-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&p);
+    std::fs::create_dir_all(&p).unwrap();
+    p
+}
+
+fn data(name: &str) -> String {
+    format!("{DATA}/{name}")
+}
+
+fn read(path: &str) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+/// Both fixture days' entries in one file, as a Nightscout download of the
+/// two days would be.
+fn entries(dir: &Path) -> String {
+    let mut all = Vec::new();
+    for d in ["entries.day1.json", "entries.day2.json"] {
+        all.extend(read(&data(d)).as_array().unwrap().iter().cloned());
+    }
+    let path = dir.join("entries.json");
+    std::fs::write(&path, serde_json::to_string(&all).unwrap()).unwrap();
+    path.to_str().unwrap().to_string()
+}
+
+/// Every hourly basal within 0.005 U/h, ISF and carb ratio within 0.5 % of
+/// oref0's day-2 profile.
+fn assert_oref0_day2(profile: &Value, isf_scale: f64) {
+    let want = read(&data("autotune.day2.json"));
+    let got_b = profile["basalprofile"].as_array().unwrap();
+    let want_b = want["basalprofile"].as_array().unwrap();
+    assert_eq!(got_b.len(), 24);
+    assert_eq!(got_b.len(), want_b.len());
+    for (g, w) in got_b.iter().zip(want_b) {
+        assert_eq!(g["minutes"], w["minutes"]);
+        let (g, w) = (g["rate"].as_f64().unwrap(), w["rate"].as_f64().unwrap());
+        assert!((g - w).abs() <= 0.005, "basal {g} against oref0's {w}");
+    }
+    let isf = |p: &Value| {
+        p["isfProfile"]["sensitivities"][0]["sensitivity"]
+            .as_f64()
+            .unwrap()
+    };
+    let (g, w) = (isf(profile) * isf_scale, isf(&want));
+    assert!((g / w - 1.0).abs() <= 0.005, "ISF {g} against oref0's {w}");
+    let (g, w) = (
+        profile["carb_ratio"].as_f64().unwrap(),
+        want["carb_ratio"].as_f64().unwrap(),
+    );
+    assert!(
+        (g / w - 1.0).abs() <= 0.005,
+        "carb ratio {g} against oref0's {w}"
+    );
+}
+
+#[test]
+fn nightscout_files_give_oref0s_profile() {
+    let dir = tmp("files");
+    let e = entries(&dir);
+    let base = [
+        "autotune",
+        "--entries",
+        &e,
+        "--treatments",
+        &data("treatments.json"),
+        "--profile",
+        &data("profile.day1.json"),
+        "--pump-profile",
+        &data("pumpprofile.json"),
+        "--tz",
+        "Europe/Zurich",
+    ];
+    let json: Value = serde_json::from_str(&ok(&abba(&[&base[..], &["--json"]].concat()))).unwrap();
+    assert_eq!(
+        json["days"],
+        serde_json::json!(["2026-01-10", "2026-01-11"])
+    );
+    assert!(json["notice"]
+        .as_str()
+        .unwrap()
+        .contains("not a medical device"));
+    assert_oref0_day2(&json["profile"], 1.0);
+    // The table people know, with the notice.
+    let text = ok(&abba(&base));
+    assert!(text.contains("research software, not a medical device"));
+    assert!(text.contains("ISF [mg/dL/U]"));
+    assert!(text.contains("\"basalprofile\""));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A store whose person follows the fixture's pump profile (a Nightscout
+/// profile store with the same schedule and carb ratio) and holds both
+/// days' entries and the treatments.
+fn store(dir: &Path, units: &str) -> String {
+    let db = dir.join("p.db");
+    let db = db.to_str().unwrap().to_string();
+    ok(&abba(&[
+        "person",
+        "new",
+        "--db",
+        &db,
+        "--name",
+        "ana",
+        "--tz",
+        "Europe/Zurich",
+        "--mode",
+        "cgm",
+        "--units",
+        units,
+        "--therapy-from",
+        &data("ns_profile.json"),
+    ]));
+    ok(&abba(&[
+        "import",
+        "--db",
+        &db,
+        "--person",
+        "ana",
+        &data("entries.day1.json"),
+        &data("entries.day2.json"),
+        &data("treatments.json"),
+    ]));
+    db
+}
+
+#[test]
+fn a_persons_store_gives_oref0s_profile_in_their_unit() {
+    let dir = tmp("store");
+    let db = store(&dir, "mg/dL");
+    let base = ["autotune", "--db", &db, "--person", "ana"];
+    let json: Value = serde_json::from_str(&ok(&abba(
+        &[&base[..], &["--isf", "45", "--json"]].concat(),
+    )))
+    .unwrap();
+    assert_eq!(
+        json["days"],
+        serde_json::json!(["2026-01-10", "2026-01-11"])
+    );
+    assert_eq!(json["isf"]["unit"], "mg/dL/U");
+    assert_oref0_day2(&json["profile"], 1.0);
+    // --days 1: only the last complete day, from the therapy in force.
+    let one: Value = serde_json::from_str(&ok(&abba(
+        &[&base[..], &["--isf", "45", "--days", "1", "--json"]].concat(),
+    )))
+    .unwrap();
+    assert_eq!(one["days"], serde_json::json!(["2026-01-11"]));
+    // No ISF in the store: refused, saying what to give.
+    let out = abba(&base);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--isf") && err.contains("mg/dL/U"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_mmol_persons_isf_is_read_and_shown_in_mmol() {
+    let dir = tmp("mmol");
+    let db = store(&dir, "mmol/L");
+    let isf = format!("{}", 45.0 / 18.0156);
+    let base = ["autotune", "--db", &db, "--person", "ana", "--isf", &isf];
+    let json: Value = serde_json::from_str(&ok(&abba(&[&base[..], &["--json"]].concat()))).unwrap();
+    assert_eq!(json["isf"]["unit"], "mmol/L/U");
+    // oref0's profile stays in mg/dL; the figures shown are the person's.
+    assert_oref0_day2(&json["profile"], 1.0);
+    let tuned = json["isf"]["tuned"].as_f64().unwrap();
+    let mg = json["profile"]["isfProfile"]["sensitivities"][0]["sensitivity"]
+        .as_f64()
+        .unwrap();
+    assert!((tuned * 18.0156 / mg - 1.0).abs() < 1e-9);
+    let text = ok(&abba(&base));
+    assert!(text.contains("ISF [mmol/L/U]"), "{text}");
+    assert!(text.contains("research software, not a medical device"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_requests_name_what_is_wrong() {
+    let dir = tmp("bad");
+    let e = entries(&dir);
+    // A profile with a basal outside abba_core's limits: its JSON path.
+    let mut p = read(&data("profile.day1.json"));
+    p["basalprofile"][2]["rate"] = serde_json::json!(80.0);
+    let bad = dir.join("bad.json");
+    std::fs::write(&bad, p.to_string()).unwrap();
+    let out = abba(&[
+        "autotune",
+        "--entries",
+        &e,
+        "--treatments",
+        &data("treatments.json"),
+        "--profile",
+        bad.to_str().unwrap(),
+        "--tz",
+        "Europe/Zurich",
+    ]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("bad.json") && err.contains("basalprofile[2].rate"),
+        "{err}"
+    );
+    // A last day that the readings do not cover to its end.
+    let out = abba(&[
+        "autotune",
+        "--entries",
+        &e,
+        "--treatments",
+        &data("treatments.json"),
+        "--profile",
+        &data("profile.day1.json"),
+        "--tz",
+        "Europe/Zurich",
+        "--end",
+        "2026-01-12",
+    ]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("2026-01-12") && err.contains("not complete"),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

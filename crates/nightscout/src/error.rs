@@ -91,6 +91,9 @@ pub enum NsError {
     /// The person has no link.
     #[error("{0} has no Nightscout link (make one with `abba link nightscout --person {0} --url ... --token ...`)")]
     NoLink(String),
+    /// The sync's records came in, writing back failed.
+    #[error("the sync's records are in the store; writing back failed: {0}")]
+    WriteBack(Box<NsError>),
     /// The store said no.
     #[error(transparent)]
     Store(#[from] abba_store::StoreError),

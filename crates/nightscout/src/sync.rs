@@ -76,6 +76,8 @@ pub struct CollectionReport {
     pub documents: usize,
     /// Pages asked for.
     pub pages: usize,
+    /// abba's own Notes (write-back), left out.
+    pub own: usize,
 }
 
 /// What a check of a site found.
@@ -176,12 +178,17 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
     for c in [Collection::Entries, Collection::Treatments] {
         let mark = marks.get(c.name()).copied();
         let since = mark.map(|m| m.saturating_sub(opts.overlap_ms));
-        let pages = fetch::fetch_since(&client, c, since, opts.page)?;
+        let mut pages = fetch::fetch_since(&client, c, since, opts.page)?;
+        // abba's own Notes (write-back) are not the person's data.
+        let before = pages.docs.len();
+        pages.docs.retain(|d| !crate::write_back::is_ours(d));
+        let own = before - pages.docs.len();
         reports.push(CollectionReport {
             name: c.name(),
             received: pages.received,
             documents: pages.docs.len(),
             pages: pages.pages,
+            own,
         });
         // The mark: the newest document that is not in the future (those
         // are refused by the import and fetched again until their time).
@@ -222,6 +229,7 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
         received: profiles.len(),
         documents: profiles.len(),
         pages: 1,
+        own: 0,
     });
     if !profiles.is_empty() {
         let docs: Vec<&Value> = profiles.iter().collect();
@@ -255,7 +263,10 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
     fetched.deleted.dedup();
     let import = store.import_synced(&link.person, &fetched, opts.resolve, now)?;
     let write_back = if link.write_back {
-        Some(crate::write_back::write_back(store, &client, &link.person)?)
+        Some(
+            crate::write_back::write_back(store, &client, &link.person)
+                .map_err(|e| NsError::WriteBack(Box::new(e)))?,
+        )
     } else {
         None
     };

@@ -32,6 +32,12 @@ pub struct WriteReport {
     pub profile_skipped: Option<String>,
 }
 
+/// Whether a treatment is one abba wrote (a Note entered by abba).
+pub fn is_ours(doc: &Value) -> bool {
+    doc.get("enteredBy").and_then(Value::as_str) == Some(ENTERED_BY)
+        && doc.get("eventType").and_then(Value::as_str) == Some("Note")
+}
+
 fn protocol(client: &Client, call: &str, problem: impl Into<String>) -> NsError {
     NsError::Protocol {
         site: client.site().to_string(),

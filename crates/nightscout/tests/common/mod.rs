@@ -19,7 +19,8 @@ const DAY_MS: i64 = 86_400_000;
 
 fn fixture(name: &str) -> Vec<Value> {
     let p = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data")
+        // From this crate or from the CLI's tests, which share this file.
+        .join("../nightscout/tests/data")
         .join(name);
     serde_json::from_slice(&std::fs::read(p).unwrap()).unwrap()
 }

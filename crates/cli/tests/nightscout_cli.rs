@@ -208,3 +208,81 @@ fn sync_killed_20_times_then_completed_gives_the_same_store() {
     assert_eq!(state(&db), (want, want_marks));
     assert!(whole < Duration::from_secs(60), "a sync took {whole:?}");
 }
+
+#[test]
+fn serve_syncs_every_linked_person_in_the_background() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = data(1);
+    let files = export(dir.path(), &d);
+    let srv = server(&d, 1000);
+    let (db, s) = store_with_person(dir.path(), "serve.db", &files);
+    drop(s);
+    assert!(link_cli(&db, &srv.url).status.success());
+    let too_often = abba()
+        .args(["serve", "--db"])
+        .arg(&db)
+        .args(["--listen", "127.0.0.1:0", "--sync-every", "10s"])
+        .output()
+        .unwrap();
+    assert!(!too_often.status.success());
+    assert!(String::from_utf8_lossy(&too_often.stderr).contains("at least 1m"));
+    let token = abba()
+        .args(["token", "--db"])
+        .arg(&db)
+        .args(["--person", "ana"])
+        .output()
+        .unwrap();
+    let token = String::from_utf8_lossy(&token.stdout).trim().to_string();
+    let mut child = abba()
+        .args(["serve", "--db"])
+        .arg(&db)
+        .args(["--listen", "127.0.0.1:0", "--sync-every", "5m"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    std::io::BufRead::read_line(
+        &mut std::io::BufReader::new(child.stdout.take().unwrap()),
+        &mut line,
+    )
+    .unwrap();
+    let addr = line
+        .split("http://")
+        .nth(1)
+        .unwrap()
+        .split_whitespace()
+        .next()
+        .unwrap()
+        .to_string();
+    let t0 = Instant::now();
+    let synced = loop {
+        let store = abba_store::Store::open(&db).unwrap();
+        let l = store.link("ana").unwrap().unwrap();
+        if l.last_sync_at.is_some() || t0.elapsed() > Duration::from_secs(60) {
+            break l;
+        }
+        drop(store);
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    assert!(synced.last_success_at.is_some(), "{synced:?}");
+    let store = abba_store::Store::open(&db).unwrap();
+    assert!(!store.records("ana").unwrap().is_empty());
+    // The service shows the last sync on the person's advice.
+    let mut conn = std::net::TcpStream::connect(&addr).unwrap();
+    write!(
+        conn,
+        "GET /v1/persons/1/advice HTTP/1.1\r\nHost: {addr}\r\nAuthorization: Bearer {token}\r\nConnection: close\r\n\r\n"
+    )
+    .unwrap();
+    let mut answer = String::new();
+    std::io::Read::read_to_string(&mut conn, &mut answer).unwrap();
+    let _ = child.kill();
+    let _ = child.wait();
+    let body = answer.split("\r\n\r\n").nth(1).unwrap_or("");
+    assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
+    let v: serde_json::Value = serde_json::from_str(body).unwrap();
+    assert_eq!(v["nightscout"]["url"], srv.url.as_str(), "{v}");
+    assert!(v["nightscout"]["last_success_at"].is_string(), "{v}");
+    assert!(v["nightscout"].get("credential").is_none());
+}

@@ -232,8 +232,7 @@ impl Client {
                         }
                     }
                 }
-                Err(e) if attempt < self.opts.attempts => {
-                    let _ = e;
+                Err(_) if attempt < self.opts.attempts => {
                     std::thread::sleep(backoff);
                     backoff = backoff.saturating_mul(2);
                 }
@@ -277,36 +276,23 @@ impl Client {
                 None => pairs.push(("token", t.clone())),
             },
         }
-        let send = |rb: ureq::RequestBuilder<ureq::typestate::WithBody>| {
-            let rb = self.auth(rb, bearer.as_deref());
-            let rb = pairs.iter().fold(rb, |rb, (k, v)| rb.query(*k, v));
-            match body {
-                Some(b) => rb
-                    .header("Content-Type", "application/json")
-                    .send(b.to_string()),
-                None => rb.send_empty(),
-            }
-        };
+        let bearer = bearer.as_deref();
         let sent = match method {
-            Method::Get => {
-                let rb = self.agent.get(&url).header("Accept", "application/json");
-                let rb = match (&self.credential, bearer.as_deref()) {
-                    (_, Some(j)) => rb.header("Authorization", format!("Bearer {j}")),
-                    (Credential::ApiSecretSha1(h), None) => rb.header("api-secret", h),
-                    _ => rb,
+            Method::Get => self.authed(self.agent.get(&url), bearer, &pairs).call(),
+            Method::Delete => self.authed(self.agent.delete(&url), bearer, &pairs).call(),
+            Method::Post | Method::Put => {
+                let rb = if method == Method::Post {
+                    self.agent.post(&url)
+                } else {
+                    self.agent.put(&url)
                 };
-                pairs.iter().fold(rb, |rb, (k, v)| rb.query(*k, v)).call()
-            }
-            Method::Post => send(self.agent.post(&url)),
-            Method::Put => send(self.agent.put(&url)),
-            Method::Delete => {
-                let rb = self.agent.delete(&url).header("Accept", "application/json");
-                let rb = match (&self.credential, bearer.as_deref()) {
-                    (_, Some(j)) => rb.header("Authorization", format!("Bearer {j}")),
-                    (Credential::ApiSecretSha1(h), None) => rb.header("api-secret", h),
-                    _ => rb,
-                };
-                pairs.iter().fold(rb, |rb, (k, v)| rb.query(*k, v)).call()
+                let rb = self.authed(rb, bearer, &pairs);
+                match body {
+                    Some(b) => rb
+                        .header("Content-Type", "application/json")
+                        .send(b.to_string()),
+                    None => rb.send_empty(),
+                }
             }
         };
         let mut resp = match sent {
@@ -400,17 +386,21 @@ impl Client {
         }
     }
 
-    fn auth(
+    /// `rb` with the credential (a JWT, the API secret's hash, or the
+    /// token in the query when the site gives no JWT) and the query.
+    fn authed<B>(
         &self,
-        rb: ureq::RequestBuilder<ureq::typestate::WithBody>,
+        rb: ureq::RequestBuilder<B>,
         bearer: Option<&str>,
-    ) -> ureq::RequestBuilder<ureq::typestate::WithBody> {
+        pairs: &[(&str, String)],
+    ) -> ureq::RequestBuilder<B> {
         let rb = rb.header("Accept", "application/json");
-        match (&self.credential, bearer) {
+        let rb = match (&self.credential, bearer) {
             (_, Some(j)) => rb.header("Authorization", format!("Bearer {j}")),
             (Credential::ApiSecretSha1(h), None) => rb.header("api-secret", h),
             _ => rb,
-        }
+        };
+        pairs.iter().fold(rb, |rb, (k, v)| rb.query(*k, v))
     }
 }
 

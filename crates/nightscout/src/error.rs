@@ -22,7 +22,7 @@ pub enum NsError {
         problem: String,
     },
     /// The site refused the credential (HTTP 401).
-    #[error("{site}: the site refused the credential (401 Unauthorized) for {call}: check the {what} (`abba link nightscout` again with the right one)")]
+    #[error("{site}: the site refused the credential (401 Unauthorized) for {call}: check the {what} (`abba link nightscout` again with the right one); a token's roles must allow the call (readable to read; careportal and admin to write back)")]
     Unauthorized {
         /// The site.
         site: String,

@@ -113,7 +113,11 @@ pub fn check_link(client: &Client) -> Result<Check, NsError> {
             .unwrap_or("?")
             .to_string()
     };
-    let newest = client.get(Collection::Entries.path(), &[("count", "1".into())])?;
+    // With a bound on `date`: without one Nightscout looks at 4 days only.
+    let newest = client.get(
+        Collection::Entries.path(),
+        &[("find[date][$gte]", "0".into()), ("count", "1".into())],
+    )?;
     let newest_entry = match &newest {
         Value::Array(a) => a
             .first()
@@ -177,7 +181,9 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
     let mut reports = Vec::new();
     for c in [Collection::Entries, Collection::Treatments] {
         let mark = marks.get(c.name()).copied();
-        let since = mark.map(|m| m.saturating_sub(opts.overlap_ms));
+        // Always a lower bound: without one, Nightscout answers only the
+        // last 4 days (`deltaAgo` in `lib/server/query.js`).
+        let since = Some(mark.map_or(0, |m| m.saturating_sub(opts.overlap_ms)));
         let mut pages = fetch::fetch_since(&client, c, since, opts.page)?;
         // abba's own Notes (write-back) are not the person's data.
         let before = pages.docs.len();

@@ -242,3 +242,30 @@ fn a_document_deleted_through_api_v3_leaves_the_store() {
         0
     );
 }
+
+/// Timings for BENCHMARKS.md (not a test of speed):
+/// `cargo test --release -p abba-nightscout --test sync -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn measure_a_first_and_a_second_sync() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = data(10); // 30 days
+    let files = export(dir.path(), &d);
+    let srv = server(&d, 1000);
+    let mut store = linked(dir.path(), &srv, &files, secret());
+    let t = std::time::Instant::now();
+    let r = sync(&mut store, "ana", &sync_opts()).unwrap();
+    let first = t.elapsed();
+    let t = std::time::Instant::now();
+    sync(&mut store, "ana", &sync_opts()).unwrap();
+    let second = t.elapsed();
+    let t = std::time::Instant::now();
+    store.advise("ana").unwrap();
+    let advise = t.elapsed();
+    println!(
+        "30 days ({} entries, {} treatments, {} pages): first sync {first:?}, second {second:?}, advice after {advise:?}",
+        d.entries.len(),
+        d.treatments.len(),
+        r.collections.iter().map(|c| c.pages).sum::<usize>()
+    );
+}

@@ -388,6 +388,15 @@ async fn v1_list(
                     .collect()
             })
             .unwrap_or_default();
+        // Nightscout's `enforceDateFilter`: a v1 query of entries or
+        // treatments without a bound on its date field gets the last 4 days.
+        let bounded = q
+            .iter()
+            .any(|(k, _)| k.starts_with(&format!("find[{sort}]")));
+        if col != "profile" && !bounded {
+            let from = jiff::Timestamp::now().as_millisecond() - 4 * 86_400_000;
+            docs.retain(|(t, _)| *t >= from);
+        }
         for (k, v) in &q {
             let Some(rest) = k.strip_prefix("find[") else {
                 continue;

@@ -240,7 +240,8 @@ fn write_profile(
     let ours = Value::Object(ours);
     let written = store.written(person)?;
     let held = written.iter().find(|w| w.what == "profile");
-    if held.is_some_and(|w| w.remote_id == id && w.content == ours.to_string())
+    let ours_text = ours.to_string();
+    if held.is_some_and(|w| w.remote_id == id && w.content == ours_text)
         && stores.get(PROFILE_NAME) == Some(&ours)
     {
         return Ok(Ok(false));

@@ -407,7 +407,7 @@ async fn v1_list(
             let op = op.trim_end_matches(']');
             docs.retain(|(_, d)| keep(d, field, op, v));
         }
-        docs.sort_by(|a, b| b.0.cmp(&a.0));
+        docs.sort_by_key(|d| std::cmp::Reverse(d.0));
         let count = q
             .iter()
             .find(|(k, _)| k == "count")

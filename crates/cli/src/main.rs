@@ -6,7 +6,8 @@
 //!   Nightscout JSON);
 //! - a person's advisor: `person`, `import`, `advise`, `answer`, `history`,
 //!   `report`;
-//! - the service: `serve`, `token`, `app` (a simulated patient through it).
+//! - the service: `serve`, `token`, `app` (a simulated patient through it);
+//! - a person's Nightscout: `link`, `sync`.
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
 
@@ -21,6 +22,7 @@ mod export;
 mod history;
 mod import;
 mod input;
+mod link;
 mod metrics;
 mod output;
 mod person;
@@ -84,6 +86,10 @@ enum Command {
     Store(store_cmd::Args),
     /// Record the clinician's change of settings (`therapy set`), at any time.
     Therapy(therapy::Args),
+    /// Link a person to their Nightscout site (`link nightscout`), list (`--list`) or remove links.
+    Link(link::Args),
+    /// Pull what is new from each linked Nightscout site into the store, then the day's advice.
+    Sync(link::SyncArgs),
 }
 
 /// The parsed command line. Every subcommand takes negative numbers as
@@ -116,6 +122,7 @@ fn main() -> ExitCode {
         Command::Answer(a) => Some(a.db.clone()),
         Command::Advise(a) => Some(a.db.clone()),
         Command::History(a) => Some(a.db.clone()),
+        Command::Sync(a) => Some(a.db.clone()),
         _ => None,
     };
     let result = match command {
@@ -138,6 +145,8 @@ fn main() -> ExitCode {
         Command::Twin(a) => twin::run(a),
         Command::Store(a) => store_cmd::run(a),
         Command::Therapy(a) => therapy::run(a),
+        Command::Link(a) => link::run(a),
+        Command::Sync(a) => link::sync(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

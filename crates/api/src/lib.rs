@@ -29,8 +29,8 @@ pub use error::{ErrorBody, ErrorCode};
 pub use events::{DeviceEvent, EventBody, EventsAck, EventsBody, MealSlot, TempRate};
 pub use sync::{SeqRange, SyncResponse};
 pub use views::{
-    AdviceResponse, DataSummary, Health, HistoryResponse, PhaseView, Setting, SettingAdvice,
-    Suggestion, SuggestionList,
+    AdviceResponse, DataSummary, Health, HistoryResponse, NightscoutLink, PhaseView, Setting,
+    SettingAdvice, Suggestion, SuggestionList,
 };
 
 /// The notice every human-facing text carries.

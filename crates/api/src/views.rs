@@ -202,6 +202,25 @@ pub struct AdviceResponse {
     pub settings: Vec<SettingAdvice>,
     /// The data.
     pub data: DataSummary,
+    /// The person's Nightscout link, if any: the last sync's time and error.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nightscout: Option<NightscoutLink>,
+}
+
+/// A person's Nightscout link as the service shows it (never the credential).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct NightscoutLink {
+    /// The site.
+    pub url: String,
+    /// The last sync's end (UTC), whatever its outcome.
+    pub last_sync_at: Option<String>,
+    /// The last successful sync's end (UTC).
+    pub last_success_at: Option<String>,
+    /// The last sync's error, if it failed.
+    pub last_error: Option<String>,
+    /// Failed syncs in a row.
+    pub failures: u32,
 }
 
 /// `GET /healthz` (no token).

@@ -52,17 +52,24 @@ pub fn run(a: Args) -> Result<()> {
         println!("{}", serde_json::to_string_pretty(&s)?);
         return Ok(());
     }
+    print_summary(&s, &a.person);
+    println!("{NOTICE}");
+    Ok(())
+}
+
+/// Prints what an import did (also after `abba sync`).
+pub fn print_summary(s: &abba_store::ImportSummary, person: &str) {
     if s.added == 0 && s.updated == 0 {
         println!(
             "Nothing new: all {} records of {} are already in {}'s log.",
             s.known,
             s.files.join(", "),
-            a.person
+            person
         );
     } else {
         println!(
             "Imported {} new records for {} ({} read, {} already known, {} newer versions of known records).",
-            s.added, a.person, s.read, s.known, s.updated
+            s.added, person, s.read, s.known, s.updated
         );
     }
     println!(
@@ -91,6 +98,4 @@ pub fn run(a: Args) -> Result<()> {
     if let Some(d) = &s.first_day {
         println!("Day 1 of the advisor: {d}.");
     }
-    println!("{NOTICE}");
-    Ok(())
 }

@@ -6,7 +6,8 @@
 //!   Nightscout JSON);
 //! - a person's advisor: `person`, `import`, `advise`, `answer`, `history`,
 //!   `report`;
-//! - the service: `serve`, `token`, `app` (a simulated patient through it).
+//! - the service: `serve`, `token`, `app` (a simulated patient through it);
+//! - a person's Nightscout: `link`, `sync`.
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
 
@@ -22,6 +23,7 @@ mod export;
 mod history;
 mod import;
 mod input;
+mod link;
 mod metrics;
 mod output;
 mod person;
@@ -87,6 +89,10 @@ enum Command {
     Therapy(therapy::Args),
     /// oref0's autotune over Nightscout entries and treatments (research software, not a medical device).
     Autotune(autotune::Args),
+    /// Link a person to their Nightscout site (`link nightscout`), list (`--list`) or remove links.
+    Link(link::Args),
+    /// Pull what is new from each linked Nightscout site into the store, then the day's advice.
+    Sync(link::SyncArgs),
 }
 
 /// The parsed command line. Every subcommand takes negative numbers as
@@ -119,6 +125,7 @@ fn main() -> ExitCode {
         Command::Answer(a) => Some(a.db.clone()),
         Command::Advise(a) => Some(a.db.clone()),
         Command::History(a) => Some(a.db.clone()),
+        Command::Sync(a) => Some(a.db.clone()),
         _ => None,
     };
     let result = match command {
@@ -142,6 +149,8 @@ fn main() -> ExitCode {
         Command::Store(a) => store_cmd::run(a),
         Command::Therapy(a) => therapy::run(a),
         Command::Autotune(a) => autotune::run(a),
+        Command::Link(a) => link::run(a),
+        Command::Sync(a) => link::sync(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

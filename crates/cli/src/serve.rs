@@ -56,6 +56,23 @@ pub struct ServeArgs {
     /// it gets 429 for the rest of the minute.
     #[arg(long, value_name = "N", default_value_t = 30)]
     pub auth_failures: u32,
+    /// Sync every linked Nightscout site this often in the background (`5m`, `300s`, `1h`); failures back off.
+    #[arg(long, value_name = "DURATION")]
+    pub sync_every: Option<String>,
+    /// Background syncs at once.
+    #[arg(long, value_name = "N", default_value_t = 2)]
+    pub sync_concurrency: usize,
+}
+
+/// `--sync-every`: a duration of at least a minute.
+fn sync_every(v: &str) -> Result<Duration> {
+    let d: jiff::SignedDuration = v.parse().with_context(|| {
+        format!("--sync-every \"{v}\": expected a duration such as 5m, 300s or 1h")
+    })?;
+    if d < jiff::SignedDuration::from_mins(1) {
+        bail!("--sync-every {v}: at least 1m (Nightscout sites are shared; a CGM reads every 5 minutes)");
+    }
+    Duration::try_from(d).with_context(|| format!("--sync-every {v}"))
 }
 
 fn seconds(flag: &str, v: f64) -> Result<Duration> {
@@ -100,6 +117,19 @@ impl ServeArgs {
 /// stderr; `RUST_LOG` chooses what (default: info).
 pub fn serve(a: ServeArgs) -> Result<()> {
     let settings = a.settings()?;
+    let background = match &a.sync_every {
+        Some(v) => Some(abba_nightscout::background::Background {
+            every: sync_every(v)?,
+            concurrency: count("sync-concurrency", a.sync_concurrency)?,
+            sync: abba_nightscout::SyncOptions::default(),
+        }),
+        None => None,
+    };
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let syncing = background.map(|bg| {
+        let (db, stop) = (a.db.clone(), std::sync::Arc::clone(&stop));
+        std::thread::spawn(move || abba_nightscout::background::run(&db, &bg, &stop))
+    });
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
     // A second call (tests in one process) keeps the first subscriber.
@@ -108,7 +138,7 @@ pub fn serve(a: ServeArgs) -> Result<()> {
         .with_writer(std::io::stderr)
         .with_ansi(false)
         .try_init();
-    abba_service::serve(&a.db, &a.listen, &settings, |addr| {
+    let served = abba_service::serve(&a.db, &a.listen, &settings, |addr| {
         println!(
             "abba serve: listening on http://{addr} (store {})",
             a.db.display()
@@ -117,7 +147,12 @@ pub fn serve(a: ServeArgs) -> Result<()> {
         // Whoever started us may wait for this line.
         let _ = std::io::stdout().flush();
     })
-    .with_context(|| format!("serving {}", a.db.display()))?;
+    .with_context(|| format!("serving {}", a.db.display()));
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    if let Some(t) = syncing {
+        let _ = t.join();
+    }
+    served?;
     println!("abba serve: stopped");
     Ok(())
 }

@@ -372,6 +372,7 @@ pub fn advice(
         Phase::Adapting => PhaseView::Adapting,
     };
     Ok(AdviceResponse {
+        nightscout: None,
         notice: a.notice.to_string(),
         person_id: live.person.id as u64,
         person: a.person,

@@ -62,6 +62,20 @@ pub fn import(
     batch: &Batch,
     now: jiff::Timestamp,
 ) -> Result<ImportSummary, StoreError> {
+    import_with(conn, person, batch, now, &mut |_| Ok(()))
+}
+
+/// [`import`], running `also` inside the import's transaction just before
+/// it commits (whatever must be written together with the records: the
+/// settings a profile brings, a link's high-water marks). `also` runs even
+/// when nothing is new.
+pub fn import_with(
+    conn: &mut Connection,
+    person: &Person,
+    batch: &Batch,
+    now: jiff::Timestamp,
+    also: &mut dyn FnMut(&rusqlite::Transaction<'_>) -> Result<(), StoreError>,
+) -> Result<ImportSummary, StoreError> {
     let empty_files: Vec<String> = batch.empty_files().into_iter().map(String::from).collect();
     if batch.records.is_empty() {
         let files = if empty_files.is_empty() {
@@ -218,6 +232,7 @@ pub fn import(
         }
         Some(import_id)
     };
+    also(&tx)?;
     tx.commit()?;
     Ok(ImportSummary {
         import_id,

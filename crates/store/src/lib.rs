@@ -25,6 +25,7 @@ pub mod error;
 pub mod history;
 pub mod import;
 pub mod in_force;
+pub mod link;
 pub mod live;
 pub mod log;
 pub mod person;

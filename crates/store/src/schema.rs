@@ -166,6 +166,12 @@ const MIGRATIONS: &[&str] = &[
     ) WITHOUT ROWID;",
     // 6 (issue 23): names compared ignoring case without a scan.
     crate::person::NAME_INDEX_MIGRATION,
+    // 7 (issue 25): a person's link to their Nightscout: the URL, the
+    // credential (an API secret only as its SHA-1 hex, an access token as
+    // given), write-back, the last sync; per collection the high-water
+    // mark (advanced only in the import's transaction); what abba wrote
+    // there (one Note per suggestion, the `abba` profile).
+    crate::link::MIGRATION,
 ];
 
 /// The version a migration brings a file to (its 1-based place in the
@@ -220,6 +226,7 @@ pub fn open_opts(
     sync: Sync,
     busy: std::time::Duration,
 ) -> Result<Connection, StoreError> {
+    create_owner_only(path)?;
     let mut conn = Connection::open(path)?;
     conn.busy_timeout(busy)?;
     conn.set_transaction_behavior(rusqlite::TransactionBehavior::Immediate);
@@ -234,6 +241,23 @@ pub fn open_opts(
     conn.pragma_update(None, "cache_size", -65536)?;
     migrate(&mut conn)?;
     Ok(conn)
+}
+
+/// Creates a missing store file readable and writable by its owner only
+/// (0600 on Unix; SQLite gives its `-wal` and `-shm` files the same
+/// mode): it may hold a Nightscout access token. An existing file is left
+/// as it is.
+fn create_owner_only(path: &Path) -> Result<(), StoreError> {
+    let mut o = std::fs::OpenOptions::new();
+    o.write(true).create_new(true);
+    #[cfg(unix)]
+    std::os::unix::fs::OpenOptionsExt::mode(&mut o, 0o600);
+    match o.open(path) {
+        Ok(_) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => Ok(()),
+        // Let SQLite say what is wrong (a missing folder, no permission).
+        Err(_) => Ok(()),
+    }
 }
 
 fn migrate(conn: &mut Connection) -> Result<(), StoreError> {

@@ -11,7 +11,7 @@ use crate::replay::{self, Snapshot};
 use abba_advisor::{Abba, Decision, DecisionDetail, Parameter};
 use abba_core::Event;
 use abba_io::events::EventStream;
-use abba_io::read::{read_files, Batch, Format, ReadOptions};
+use abba_io::read::{read_all, Batch, Format, ReadOptions};
 use abba_io::Record;
 use rusqlite::{params, Connection, OptionalExtension};
 use std::collections::HashMap;
@@ -338,13 +338,6 @@ impl Store {
         format: Option<Format>,
         resolve: ProfileResolution,
     ) -> Result<ImportSummary, StoreError> {
-        let p = self.person(name)?;
-        let opts = ReadOptions {
-            format,
-            tz: Some(p.tz.clone()),
-            ..ReadOptions::default()
-        };
-        let batch = read_files(files, &opts)?;
         let mut contents = Vec::with_capacity(files.len());
         for f in files {
             let name = f.display().to_string();
@@ -354,7 +347,41 @@ impl Store {
             })?;
             contents.push((name, bytes));
         }
-        let new_settings = profile_check(&self.conn, &p, &batch, &contents, resolve)?;
+        self.import_contents_with(
+            name,
+            &contents,
+            format,
+            resolve,
+            jiff::Timestamp::now(),
+            true,
+            &mut |_| Ok(()),
+        )
+    }
+
+    /// Reads files already in memory (name, bytes; wall times in the
+    /// person's zone) and imports them read at `now`, in one transaction
+    /// with what the pump profile changes in the person's settings (see
+    /// [`Store::import_files_with`]), each file's loop evidence when
+    /// `file_evidence`, and `also` (which runs just before the commit).
+    #[allow(clippy::too_many_arguments)]
+    pub fn import_contents_with(
+        &mut self,
+        name: &str,
+        contents: &[(String, Vec<u8>)],
+        format: Option<Format>,
+        resolve: ProfileResolution,
+        now: jiff::Timestamp,
+        file_evidence: bool,
+        also: &mut dyn FnMut(&rusqlite::Transaction<'_>) -> Result<(), StoreError>,
+    ) -> Result<ImportSummary, StoreError> {
+        let p = self.person(name)?;
+        let opts = ReadOptions {
+            format,
+            tz: Some(p.tz.clone()),
+            ..ReadOptions::default()
+        };
+        let batch = read_all(contents, &opts)?;
+        let new_settings = profile_check(&self.conn, &p, &batch, contents, resolve)?;
         if let Some(doc) = &new_settings {
             // Checked in full before anything is written.
             let mut q = p.clone();
@@ -362,15 +389,17 @@ impl Store {
             q.advisor()?;
             person::check_start(doc)?;
         }
-        let summary = import::import(&mut self.conn, &p, &batch, jiff::Timestamp::now())?;
-        let tx = self.conn.transaction()?;
-        if let Some(doc) = &new_settings {
-            person::update_settings(&tx, p.id, doc)?;
-        }
-        for (name, bytes) in &contents {
-            in_force::store_file_evidence(&tx, p.id, name, bytes)?;
-        }
-        tx.commit()?;
+        let summary = import::import_with(&mut self.conn, &p, &batch, now, &mut |tx| {
+            if let Some(doc) = &new_settings {
+                person::update_settings(tx, p.id, doc)?;
+            }
+            if file_evidence {
+                for (name, bytes) in contents {
+                    in_force::store_file_evidence(tx, p.id, name, bytes)?;
+                }
+            }
+            also(tx)
+        })?;
         self.cache.remove(&p.id);
         Ok(summary)
     }

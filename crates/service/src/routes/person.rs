@@ -232,7 +232,18 @@ pub async fn advice(
             &live.answers,
             live.refused,
         );
-        Ok(convert::advice(live, a, &mut |d| store.producer(id, d))?)
+        let mut r = convert::advice(live, a, &mut |d| store.producer(id, d))?;
+        // The Nightscout link's last sync (issue 25).
+        r.nightscout = store
+            .link(&live.person.name)?
+            .map(|l| abba_api::NightscoutLink {
+                url: l.url,
+                last_sync_at: l.last_sync_at,
+                last_success_at: l.last_success_at,
+                last_error: l.last_error,
+                failures: l.failures,
+            });
+        Ok(r)
     })
     .await
     .map(Json)

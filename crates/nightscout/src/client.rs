@@ -1,0 +1,437 @@
+//! HTTP to one Nightscout site with ureq (rustls): timeouts on every call,
+//! no redirects (the credential goes to the linked host only), 429 waited
+//! out by its Retry-After and 5xx or a cut connection retried with
+//! backoff, the access token exchanged for a JWT
+//! (`/api/v2/authorization/request/<token>`) and renewed once on a 401.
+
+use crate::error::NsError;
+use crate::site::SiteUrl;
+use abba_store::link::Credential;
+use serde_json::Value;
+use std::sync::Mutex;
+use std::time::Duration;
+
+/// Timeouts and retries.
+#[derive(Debug, Clone)]
+pub struct ClientOptions {
+    /// Connecting.
+    pub connect_timeout: Duration,
+    /// One whole call (request and body).
+    pub call_timeout: Duration,
+    /// Attempts per call (429, 5xx, a cut connection, a timeout).
+    pub attempts: u32,
+    /// The first backoff (doubled after each failure).
+    pub backoff: Duration,
+    /// The longest Retry-After abba waits; a longer one ends the sync.
+    pub max_retry_after: Duration,
+    /// The largest body read (bytes).
+    pub max_body: u64,
+}
+
+impl Default for ClientOptions {
+    fn default() -> Self {
+        Self {
+            connect_timeout: Duration::from_secs(10),
+            call_timeout: Duration::from_secs(60),
+            attempts: 5,
+            backoff: Duration::from_millis(500),
+            max_retry_after: Duration::from_secs(120),
+            max_body: 256 << 20,
+        }
+    }
+}
+
+/// A client of one site.
+pub struct Client {
+    agent: ureq::Agent,
+    site: SiteUrl,
+    credential: Credential,
+    opts: ClientOptions,
+    /// The JWT for an access token (`None`: not asked yet); `Some(None)`:
+    /// the site has no `/api/v2/authorization` (the token goes as `?token=`).
+    jwt: Mutex<Option<Option<String>>>,
+}
+
+/// An HTTP method abba uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Method {
+    /// GET.
+    Get,
+    /// POST.
+    Post,
+    /// PUT.
+    Put,
+    /// DELETE.
+    Delete,
+}
+
+impl Method {
+    fn name(self) -> &'static str {
+        match self {
+            Method::Get => "GET",
+            Method::Post => "POST",
+            Method::Put => "PUT",
+            Method::Delete => "DELETE",
+        }
+    }
+}
+
+enum Outcome {
+    Done(Value),
+    Retry(String, Option<Duration>),
+    Renew,
+}
+
+impl Client {
+    /// A client of `site` with `credential`.
+    pub fn new(site: SiteUrl, credential: Credential, opts: ClientOptions) -> Self {
+        let agent: ureq::Agent = ureq::Agent::config_builder()
+            .http_status_as_error(false)
+            .max_redirects(0)
+            .timeout_connect(Some(opts.connect_timeout))
+            .timeout_global(Some(opts.call_timeout))
+            .user_agent(concat!("abba/", env!("CARGO_PKG_VERSION")))
+            .build()
+            .into();
+        Self {
+            agent,
+            site,
+            credential,
+            opts,
+            jwt: Mutex::new(None),
+        }
+    }
+
+    /// The site.
+    pub fn site(&self) -> &SiteUrl {
+        &self.site
+    }
+
+    /// Whether an access token is used (API v3 takes nothing else).
+    pub fn has_token(&self) -> bool {
+        matches!(self.credential, Credential::Token(_))
+    }
+
+    /// GET `path` with `query`, as JSON.
+    pub fn get(&self, path: &str, query: &[(&str, String)]) -> Result<Value, NsError> {
+        self.call(Method::Get, path, query, None)
+    }
+
+    /// A call with retries; the answer's JSON (`null` for an empty body).
+    pub fn call(
+        &self,
+        method: Method,
+        path: &str,
+        query: &[(&str, String)],
+        body: Option<&Value>,
+    ) -> Result<Value, NsError> {
+        let call = describe(method, path, query);
+        let mut backoff = self.opts.backoff;
+        let mut renewed = false;
+        let mut last = String::new();
+        let mut attempt = 0;
+        while attempt < self.opts.attempts {
+            attempt += 1;
+            match self.once(method, path, query, body, &call)? {
+                Outcome::Done(v) => return Ok(v),
+                Outcome::Renew if !renewed => {
+                    renewed = true;
+                    attempt -= 1;
+                    self.set_jwt(None);
+                }
+                Outcome::Renew => {
+                    return Err(self.unauthorized(&call));
+                }
+                Outcome::Retry(why, wait) => {
+                    last = why;
+                    if attempt < self.opts.attempts {
+                        std::thread::sleep(wait.unwrap_or(backoff));
+                        backoff = backoff.saturating_mul(2);
+                    }
+                }
+            }
+        }
+        Err(NsError::GaveUp {
+            site: self.site.to_string(),
+            call,
+            attempts: self.opts.attempts,
+            last,
+        })
+    }
+
+    fn unauthorized(&self, call: &str) -> NsError {
+        NsError::Unauthorized {
+            site: self.site.to_string(),
+            call: call.to_string(),
+            what: match self.credential {
+                Credential::ApiSecretSha1(_) => "API secret",
+                Credential::Token(_) => "access token",
+            },
+        }
+    }
+
+    fn set_jwt(&self, v: Option<Option<String>>) {
+        if let Ok(mut g) = self.jwt.lock() {
+            *g = v;
+        }
+    }
+
+    /// The JWT for the token (asked once, renewed after a 401).
+    fn jwt(&self, token: &str) -> Result<Option<String>, NsError> {
+        if let Ok(g) = self.jwt.lock() {
+            if let Some(j) = g.as_ref() {
+                return Ok(j.clone());
+            }
+        }
+        let path = "/api/v2/authorization/request/";
+        let call = format!("GET {path}<token>");
+        let url = self.site.join(&format!("{path}{}", encode_segment(token)));
+        let mut attempt = 0;
+        let mut backoff = self.opts.backoff;
+        let got = loop {
+            attempt += 1;
+            let r = self
+                .agent
+                .get(&url)
+                .header("Accept", "application/json")
+                .call();
+            match r {
+                Ok(mut resp) => {
+                    let status = resp.status().as_u16();
+                    match status {
+                        200 => {
+                            let text = resp
+                                .body_mut()
+                                .with_config()
+                                .limit(1 << 20)
+                                .read_to_string()
+                                .map_err(|e| {
+                                    self.protocol(&call, format!("reading the body: {e}"))
+                                })?;
+                            let v: Value = serde_json::from_str(&text)
+                                .map_err(|e| self.protocol(&call, format!("expected JSON: {e}")))?;
+                            let jwt = v.get("token").and_then(Value::as_str).ok_or_else(|| {
+                                self.protocol(&call, "expected {\"token\": JWT}".into())
+                            })?;
+                            break Some(jwt.to_string());
+                        }
+                        401 => return Err(self.unauthorized(&call)),
+                        // A site without API v2 authorization: `?token=`.
+                        404 => break None,
+                        s if (s == 429 || s >= 500) && attempt < self.opts.attempts => {
+                            std::thread::sleep(retry_after(&resp).unwrap_or(backoff));
+                            backoff = backoff.saturating_mul(2);
+                        }
+                        s => {
+                            return Err(NsError::Status {
+                                site: self.site.to_string(),
+                                call,
+                                status: s,
+                                body: String::new(),
+                            })
+                        }
+                    }
+                }
+                Err(_) if attempt < self.opts.attempts => {
+                    std::thread::sleep(backoff);
+                    backoff = backoff.saturating_mul(2);
+                }
+                Err(e) => {
+                    return Err(NsError::GaveUp {
+                        site: self.site.to_string(),
+                        call,
+                        attempts: attempt,
+                        last: e.to_string(),
+                    })
+                }
+            }
+        };
+        self.set_jwt(Some(got.clone()));
+        Ok(got)
+    }
+
+    fn protocol(&self, call: &str, problem: String) -> NsError {
+        NsError::Protocol {
+            site: self.site.to_string(),
+            call: call.to_string(),
+            problem,
+        }
+    }
+
+    fn once(
+        &self,
+        method: Method,
+        path: &str,
+        query: &[(&str, String)],
+        body: Option<&Value>,
+        call: &str,
+    ) -> Result<Outcome, NsError> {
+        let url = self.site.join(path);
+        let mut pairs: Vec<(&str, String)> = query.to_vec();
+        let mut bearer = None;
+        match &self.credential {
+            Credential::ApiSecretSha1(_) => {}
+            Credential::Token(t) => match self.jwt(t)? {
+                Some(j) => bearer = Some(j),
+                None => pairs.push(("token", t.clone())),
+            },
+        }
+        let bearer = bearer.as_deref();
+        let sent = match method {
+            Method::Get => self.authed(self.agent.get(&url), bearer, &pairs).call(),
+            Method::Delete => self.authed(self.agent.delete(&url), bearer, &pairs).call(),
+            Method::Post | Method::Put => {
+                let rb = if method == Method::Post {
+                    self.agent.post(&url)
+                } else {
+                    self.agent.put(&url)
+                };
+                let rb = self.authed(rb, bearer, &pairs);
+                match body {
+                    Some(b) => rb
+                        .header("Content-Type", "application/json")
+                        .send(b.to_string()),
+                    None => rb.send_empty(),
+                }
+            }
+        };
+        let mut resp = match sent {
+            Ok(r) => r,
+            // Connection refused or cut, a timeout: retried.
+            Err(e) => return Ok(Outcome::Retry(e.to_string(), None)),
+        };
+        let status = resp.status().as_u16();
+        match status {
+            200..=299 => {
+                let text = match resp
+                    .body_mut()
+                    .with_config()
+                    .limit(self.opts.max_body)
+                    .read_to_string()
+                {
+                    Ok(t) => t,
+                    // Cut mid-body (or timed out): retried.
+                    Err(e) => return Ok(Outcome::Retry(format!("reading the body: {e}"), None)),
+                };
+                if text.trim().is_empty() {
+                    return Ok(Outcome::Done(Value::Null));
+                }
+                match serde_json::from_str(&text) {
+                    Ok(v) => Ok(Outcome::Done(v)),
+                    // A body cut short by a proxy reads as bad JSON: retried,
+                    // then reported.
+                    Err(e) => Ok(Outcome::Retry(
+                        format!("the body is not JSON ({e})"),
+                        None,
+                    )),
+                }
+            }
+            300..=399 => {
+                let to = resp
+                    .headers()
+                    .get("location")
+                    .and_then(|v| v.to_str().ok())
+                    .unwrap_or("?")
+                    .to_string();
+                Err(NsError::Redirect {
+                    site: self.site.to_string(),
+                    call: call.to_string(),
+                    status,
+                    to,
+                })
+            }
+            401 if bearer.is_some() => Ok(Outcome::Renew),
+            401 => Err(self.unauthorized(call)),
+            403 => Err(NsError::Forbidden {
+                site: self.site.to_string(),
+                call: call.to_string(),
+                need: match method {
+                    Method::Get => "reading needs a token with the role readable (or an API secret)".into(),
+                    _ => "writing back needs a token with the role careportal (treatments) and admin or api:profile:update (the profile)".into(),
+                },
+            }),
+            429 => {
+                let wait = retry_after(&resp);
+                if let Some(w) = wait {
+                    if w > self.opts.max_retry_after {
+                        return Err(NsError::GaveUp {
+                            site: self.site.to_string(),
+                            call: call.to_string(),
+                            attempts: 1,
+                            last: format!(
+                                "429 Too Many Requests with Retry-After {} s, longer than abba waits ({} s): sync again later",
+                                w.as_secs(),
+                                self.opts.max_retry_after.as_secs()
+                            ),
+                        });
+                    }
+                }
+                Ok(Outcome::Retry("429 Too Many Requests".into(), wait))
+            }
+            500..=599 => Ok(Outcome::Retry(format!("HTTP {status}"), None)),
+            _ => {
+                let text = resp
+                    .body_mut()
+                    .with_config()
+                    .limit(4096)
+                    .read_to_string()
+                    .unwrap_or_default();
+                Err(NsError::Status {
+                    site: self.site.to_string(),
+                    call: call.to_string(),
+                    status,
+                    body: text.chars().take(300).collect(),
+                })
+            }
+        }
+    }
+
+    /// `rb` with the credential (a JWT, the API secret's hash, or the
+    /// token in the query when the site gives no JWT) and the query.
+    fn authed<B>(
+        &self,
+        rb: ureq::RequestBuilder<B>,
+        bearer: Option<&str>,
+        pairs: &[(&str, String)],
+    ) -> ureq::RequestBuilder<B> {
+        let rb = rb.header("Accept", "application/json");
+        let rb = match (&self.credential, bearer) {
+            (_, Some(j)) => rb.header("Authorization", format!("Bearer {j}")),
+            (Credential::ApiSecretSha1(h), None) => rb.header("api-secret", h),
+            _ => rb,
+        };
+        pairs.iter().fold(rb, |rb, (k, v)| rb.query(*k, v))
+    }
+}
+
+/// Retry-After in seconds (an HTTP date is not waited for: the backoff).
+fn retry_after(resp: &ureq::http::Response<ureq::Body>) -> Option<Duration> {
+    resp.headers()
+        .get("retry-after")
+        .and_then(|v| v.to_str().ok())
+        .and_then(|s| s.trim().parse::<u64>().ok())
+        .map(Duration::from_secs)
+}
+
+/// `METHOD path?query` for messages (never the token).
+fn describe(method: Method, path: &str, query: &[(&str, String)]) -> String {
+    if query.is_empty() {
+        format!("{} {path}", method.name())
+    } else {
+        let q: Vec<String> = query.iter().map(|(k, v)| format!("{k}={v}")).collect();
+        format!("{} {path}?{}", method.name(), q.join("&"))
+    }
+}
+
+/// A path segment, percent-encoded.
+fn encode_segment(s: &str) -> String {
+    let mut out = String::new();
+    for b in s.bytes() {
+        if b.is_ascii_alphanumeric() || b"-._~".contains(&b) {
+            out.push(b as char);
+        } else {
+            out.push_str(&format!("%{b:02X}"));
+        }
+    }
+    out
+}

@@ -1,0 +1,100 @@
+//! The one error type of abba-nightscout. No message carries a credential.
+
+use thiserror::Error;
+
+/// Everything that can go wrong talking to a Nightscout site.
+#[derive(Debug, Error)]
+pub enum NsError {
+    /// The URL given is not one abba links to.
+    #[error("--url \"{url}\": {problem}")]
+    Url {
+        /// The URL as given.
+        url: String,
+        /// What is wrong and what was expected.
+        problem: String,
+    },
+    /// A credential that cannot be right.
+    #[error("{flag}: {problem}")]
+    Credential {
+        /// The flag.
+        flag: &'static str,
+        /// What is wrong.
+        problem: String,
+    },
+    /// The site refused the credential (HTTP 401).
+    #[error("{site}: the site refused the credential (401 Unauthorized) for {call}: check the {what} (`abba link nightscout` again with the right one); a token's roles must allow the call (readable to read; careportal and admin to write back)")]
+    Unauthorized {
+        /// The site.
+        site: String,
+        /// The call (method and path).
+        call: String,
+        /// `API secret` or `access token`.
+        what: &'static str,
+    },
+    /// The credential's roles do not allow the call (HTTP 403).
+    #[error("{site}: the credential is not allowed {call} (403 Forbidden): {need}")]
+    Forbidden {
+        /// The site.
+        site: String,
+        /// The call.
+        call: String,
+        /// Which role it needs.
+        need: String,
+    },
+    /// The site answered with a redirect, which abba does not follow with
+    /// the credential.
+    #[error("{site}: {call} is redirected to {to} (HTTP {status}); abba does not follow redirects with the credential: link that URL instead if it is the same site")]
+    Redirect {
+        /// The site.
+        site: String,
+        /// The call.
+        call: String,
+        /// The status.
+        status: u16,
+        /// Where to.
+        to: String,
+    },
+    /// An HTTP status abba does not retry.
+    #[error("{site}: {call} answered HTTP {status}: {body}")]
+    Status {
+        /// The site.
+        site: String,
+        /// The call.
+        call: String,
+        /// The status.
+        status: u16,
+        /// The start of the body.
+        body: String,
+    },
+    /// The site stayed unreachable, overloaded or failing after the retries.
+    #[error("{site}: {call} failed {attempts} times, the last: {last}")]
+    GaveUp {
+        /// The site.
+        site: String,
+        /// The call.
+        call: String,
+        /// Attempts made.
+        attempts: u32,
+        /// The last failure.
+        last: String,
+    },
+    /// The body is not what Nightscout's API promises.
+    #[error("{site}: {call}: {problem}")]
+    Protocol {
+        /// The site.
+        site: String,
+        /// The call.
+        call: String,
+        /// What was expected.
+        problem: String,
+    },
+    /// The person has no link.
+    #[error("{0} has no Nightscout link (make one with `abba link nightscout --person {0} --url ... --token ...`)")]
+    NoLink(String),
+    /// The sync's records came in, writing back failed.
+    #[error("the sync's records are in the store; writing back failed: {0}")]
+    WriteBack(Box<NsError>),
+    /// The store said no.
+    #[error(transparent)]
+    Store(#[from] abba_store::StoreError),
+}

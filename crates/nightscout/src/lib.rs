@@ -1,0 +1,29 @@
+//! abba-nightscout: a person's live link to their Nightscout site.
+//!
+//! - [`site`]: the URL (https, plain http only to this machine) and the
+//!   credential (an API secret kept only as its SHA-1 hex).
+//! - [`client`]: HTTP with ureq and rustls, timeouts on every call, no
+//!   redirects, retries of 429 and 5xx.
+//! - [`fetch`]: API v1 paging by time (newest first, `count`, duplicates
+//!   across pages), profiles, API v3 `history` for deletions.
+//! - [`sync`]: what is new into the person's store, by the same import as
+//!   files, the marks advancing in the import's transaction.
+//! - [`write_back`]: opt-in; one Note per suggestion and an `abba` profile
+//!   beside the person's own, never the default and never a Profile Switch.
+//!
+//! abba is research software, not a medical device.
+
+#![cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used))]
+
+pub mod background;
+pub mod client;
+pub mod error;
+pub mod fetch;
+pub mod site;
+pub mod sync;
+pub mod write_back;
+
+pub use client::{Client, ClientOptions};
+pub use error::NsError;
+pub use site::SiteUrl;
+pub use sync::{check_link, link, sync, SyncOptions, SyncReport};

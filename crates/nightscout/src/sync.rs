@@ -1,0 +1,295 @@
+//! The link and the sync: check a site (its status and a read), store the
+//! link, and pull what is new into the person's store by the same import
+//! as files.
+//!
+//! A sync fetches every collection completely before it writes, then
+//! imports all of it in one transaction that also removes the records of
+//! deleted documents and advances the marks: killed, cut off or refused at
+//! any point before the commit, the store is as before and the next sync
+//! fetches the same again; after the commit, it is complete. Each v1
+//! collection is fetched again from [`SyncOptions::overlap`] before its
+//! mark, so a document rewritten within that window (AndroidAPS rewrites
+//! a temporary basal it cut short) is seen in its newer version.
+
+use crate::client::{Client, ClientOptions};
+use crate::error::NsError;
+use crate::fetch::{self, Collection};
+use crate::site::SiteUrl;
+use abba_store::link::{Credential, Fetched, Link, SyncImport};
+use abba_store::{ProfileResolution, Store};
+use serde::Serialize;
+use serde_json::Value;
+
+/// How to sync.
+#[derive(Debug, Clone)]
+pub struct SyncOptions {
+    /// Documents asked per page (Nightscout's API v3 maximum is 1,000; v1
+    /// servers may cap lower).
+    pub page: usize,
+    /// How far before a mark each collection is fetched again (ms).
+    pub overlap_ms: i64,
+    /// When the export's profile differs from the store's therapy.
+    pub resolve: ProfileResolution,
+    /// The time of import (`None`: now).
+    pub now: Option<jiff::Timestamp>,
+    /// The HTTP client's timeouts and retries.
+    pub client: ClientOptions,
+}
+
+impl Default for SyncOptions {
+    fn default() -> Self {
+        Self {
+            page: 1000,
+            overlap_ms: 24 * 3_600_000,
+            resolve: ProfileResolution::Stop,
+            now: None,
+            client: ClientOptions::default(),
+        }
+    }
+}
+
+/// What a sync did.
+#[derive(Debug, Clone, Serialize)]
+pub struct SyncReport {
+    /// The person.
+    pub person: String,
+    /// The site.
+    pub site: String,
+    /// Per collection: (name, documents received with repeats, kept once, pages).
+    pub collections: Vec<CollectionReport>,
+    /// Whether API v3 was used for deletions.
+    pub v3: bool,
+    /// The import.
+    pub import: SyncImport,
+    /// What the write-back did (when the link has it).
+    pub write_back: Option<crate::write_back::WriteReport>,
+}
+
+/// One collection of a sync.
+#[derive(Debug, Clone, Serialize)]
+pub struct CollectionReport {
+    /// `entries`, `treatments`, `profile`.
+    pub name: &'static str,
+    /// Documents received (repeats across pages included).
+    pub received: usize,
+    /// Distinct documents.
+    pub documents: usize,
+    /// Pages asked for.
+    pub pages: usize,
+    /// abba's own Notes (write-back), left out.
+    pub own: usize,
+}
+
+/// What a check of a site found.
+#[derive(Debug, Clone, Serialize)]
+pub struct Check {
+    /// The site's name (`status.name`) and version, as it says.
+    pub name: String,
+    /// Its version.
+    pub version: String,
+    /// Whether it offers API v3.
+    pub v3: bool,
+    /// The newest entry's time, if any (the read).
+    pub newest_entry: Option<String>,
+}
+
+/// A client of the person's link.
+pub fn client_of(link: &Link, opts: &ClientOptions) -> Result<Client, NsError> {
+    Ok(Client::new(
+        SiteUrl::parse(&link.url)?,
+        link.credential.clone(),
+        opts.clone(),
+    ))
+}
+
+/// Checks a site with a credential: `/api/v1/status.json` and a read of
+/// the newest entry (which a wrong credential does not pass).
+pub fn check_link(client: &Client) -> Result<Check, NsError> {
+    let status = client.get("/api/v1/status.json", &[])?;
+    let s = |k: &str| {
+        status
+            .get(k)
+            .and_then(Value::as_str)
+            .unwrap_or("?")
+            .to_string()
+    };
+    // With a bound on `date`: without one Nightscout looks at 4 days only.
+    let newest = client.get(
+        Collection::Entries.path(),
+        &[("find[date][$gte]", "0".into()), ("count", "1".into())],
+    )?;
+    let newest_entry = match &newest {
+        Value::Array(a) => a
+            .first()
+            .and_then(|d| Collection::Entries.time_of(d))
+            .map(fetch::iso_ms),
+        _ => {
+            return Err(NsError::Protocol {
+                site: client.site().to_string(),
+                call: format!("GET {}", Collection::Entries.path()),
+                problem: "expected a JSON array of entries".into(),
+            })
+        }
+    };
+    Ok(Check {
+        name: s("name"),
+        version: s("version"),
+        v3: client.has_token() && fetch::has_v3(client),
+        newest_entry,
+    })
+}
+
+/// Checks the site and stores the link for `person`.
+pub fn link(
+    store: &mut Store,
+    person: &str,
+    url: &str,
+    credential: Credential,
+    write_back: bool,
+    opts: &ClientOptions,
+) -> Result<(Link, Check), NsError> {
+    // The person first: no call to the site for a name that is wrong.
+    store.person(person)?;
+    let site = SiteUrl::parse(url)?;
+    let client = Client::new(site.clone(), credential.clone(), opts.clone());
+    let check = check_link(&client)?;
+    let link = store.set_link(person, site.as_str(), &credential, write_back)?;
+    Ok((link, check))
+}
+
+/// Syncs `person`: fetches what is new, imports it, records the outcome
+/// on the link, then writes back when the link says so.
+pub fn sync(store: &mut Store, person: &str, opts: &SyncOptions) -> Result<SyncReport, NsError> {
+    let link = store
+        .link(person)?
+        .ok_or_else(|| NsError::NoLink(person.to_string()))?;
+    let r = sync_link(store, &link, opts);
+    let end = jiff::Timestamp::now();
+    match &r {
+        Ok(_) => store.record_sync(person, end, None)?,
+        Err(e) => store.record_sync(person, end, Some(&e.to_string()))?,
+    }
+    r
+}
+
+fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncReport, NsError> {
+    let client = client_of(link, &opts.client)?;
+    let now = opts.now.unwrap_or_else(jiff::Timestamp::now);
+    let marks = store.link_marks(&link.person)?;
+    let future = abba_io::read::future_limit(now).as_millisecond();
+    let mut fetched = Fetched::default();
+    let mut reports = Vec::new();
+    for c in [Collection::Entries, Collection::Treatments] {
+        let mark = marks.get(c.name()).copied();
+        // Always a lower bound: without one, Nightscout answers only the
+        // last 4 days (`deltaAgo` in `lib/server/query.js`).
+        let since = Some(mark.map_or(0, |m| m.saturating_sub(opts.overlap_ms)));
+        let mut pages = fetch::fetch_since(&client, c, since, opts.page)?;
+        // abba's own Notes (write-back) are not the person's data.
+        let before = pages.docs.len();
+        pages.docs.retain(|d| !crate::write_back::is_ours(d));
+        let own = before - pages.docs.len();
+        reports.push(CollectionReport {
+            name: c.name(),
+            received: pages.received,
+            documents: pages.docs.len(),
+            pages: pages.pages,
+            own,
+        });
+        // The mark: the newest document that is not in the future (those
+        // are refused by the import and fetched again until their time).
+        let newest = pages
+            .docs
+            .iter()
+            .filter_map(|d| c.time_of(d))
+            .filter(|&t| t <= future)
+            .max();
+        if let Some(n) = newest {
+            fetched
+                .marks
+                .insert(c.name().to_string(), n.max(mark.unwrap_or(i64::MIN)));
+        }
+        let fresh: Vec<&Value> = pages
+            .docs
+            .iter()
+            .filter(|d| match (mark, c.time_of(d)) {
+                (Some(m), Some(t)) => t > m && t <= future,
+                (None, Some(t)) => t <= future,
+                (_, None) => false,
+            })
+            .collect();
+        fetched
+            .fresh
+            .push((c.name().to_string(), json_bytes(&fresh)?));
+        fetched.deleted.extend(pages.deleted);
+        if !pages.docs.is_empty() {
+            let docs: Vec<&Value> = pages.docs.iter().collect();
+            fetched
+                .contents
+                .push((client.site().join(c.path()), json_bytes(&docs)?));
+        }
+    }
+    let profiles = fetch::profiles(&client, opts.page)?;
+    reports.push(CollectionReport {
+        name: "profile",
+        received: profiles.len(),
+        documents: profiles.len(),
+        pages: 1,
+        own: 0,
+    });
+    if !profiles.is_empty() {
+        let docs: Vec<&Value> = profiles.iter().collect();
+        fetched.contents.push((
+            client.site().join("/api/v1/profile.json"),
+            json_bytes(&docs)?,
+        ));
+    }
+    // API v3: what was deleted since the last sync (a first sync starts
+    // from the site's lastModified: what it fetched is what is valid).
+    let v3 = client.has_token() && fetch::has_v3(&client);
+    if v3 {
+        let last = fetch::v3_last_modified(&client)?;
+        for col in ["entries", "treatments", "profile"] {
+            let key = format!("v3:{col}");
+            match marks.get(&key) {
+                Some(&m) => {
+                    let (deleted, mark) = fetch::v3_deleted(&client, col, m, opts.page)?;
+                    fetched.deleted.extend(deleted);
+                    fetched.marks.insert(key, mark);
+                }
+                None => {
+                    fetched
+                        .marks
+                        .insert(key, last.get(col).copied().unwrap_or(0));
+                }
+            }
+        }
+    }
+    fetched.deleted.sort();
+    fetched.deleted.dedup();
+    let import = store.import_synced(&link.person, &fetched, opts.resolve, now)?;
+    let write_back = if link.write_back {
+        Some(
+            crate::write_back::write_back(store, &client, &link.person)
+                .map_err(|e| NsError::WriteBack(Box::new(e)))?,
+        )
+    } else {
+        None
+    };
+    Ok(SyncReport {
+        person: link.person.clone(),
+        site: link.url.clone(),
+        collections: reports,
+        v3,
+        import,
+        write_back,
+    })
+}
+
+fn json_bytes(docs: &[&Value]) -> Result<Vec<u8>, NsError> {
+    serde_json::to_vec(docs).map_err(|e| NsError::Protocol {
+        site: String::new(),
+        call: String::new(),
+        problem: e.to_string(),
+    })
+}

@@ -1,0 +1,305 @@
+//! Writing back (opt-in per link): each suggestion as one treatment of
+//! type Note (`enteredBy: abba`, the suggestion and its reasons in the
+//! person's unit), updated when it is answered; the settings to use today
+//! as a separate profile named `abba` in the profile store, beside the
+//! person's own: never the default profile and never a Profile Switch (a
+//! profile in Nightscout does not change the pump; the person decides).
+//! What abba wrote is remembered in the store so it is written once and
+//! can be removed with the link.
+
+use crate::client::{Client, Method};
+use crate::error::NsError;
+use abba_store::link::Written;
+use abba_store::{Store, NOTICE};
+use serde::Serialize;
+use serde_json::{json, Map, Value};
+
+/// The name of abba's profile in the site's profile store.
+pub const PROFILE_NAME: &str = "abba";
+/// `enteredBy` of what abba writes.
+pub const ENTERED_BY: &str = "abba";
+
+/// What one write-back did.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct WriteReport {
+    /// Notes created.
+    pub notes_created: usize,
+    /// Notes updated (the suggestion was answered).
+    pub notes_updated: usize,
+    /// Whether the `abba` profile was written (created or changed).
+    pub profile_written: bool,
+    /// Why the profile was not written, if it was not.
+    pub profile_skipped: Option<String>,
+}
+
+/// Whether a treatment is one abba wrote (a Note entered by abba).
+pub fn is_ours(doc: &Value) -> bool {
+    doc.get("enteredBy").and_then(Value::as_str) == Some(ENTERED_BY)
+        && doc.get("eventType").and_then(Value::as_str) == Some("Note")
+}
+
+fn protocol(client: &Client, call: &str, problem: impl Into<String>) -> NsError {
+    NsError::Protocol {
+        site: client.site().to_string(),
+        call: call.to_string(),
+        problem: problem.into(),
+    }
+}
+
+/// The note for a suggestion (without `_id` and `created_at`).
+fn note_text(v: &abba_store::advise::SuggestionView) -> String {
+    let mut s = format!(
+        "abba suggests {} {} {} (was {}, {:+.1} %), day {}, decided {}; status: {}.",
+        v.setting, v.suggested, v.unit, v.previous, v.change_percent, v.day, v.decided_at, v.status
+    );
+    if !v.reasons.is_empty() {
+        s.push_str(" Why: ");
+        s.push_str(&v.reasons.join(" "));
+    }
+    if let Some(sched) = &v.schedule {
+        let parts: Vec<String> = sched.iter().map(|(t, r)| format!("{t} {r}")).collect();
+        s.push_str(&format!(" Schedule (U/h): {}.", parts.join(", ")));
+    }
+    s.push(' ');
+    s.push_str(NOTICE);
+    s
+}
+
+/// Writes what is new or changed since the last write-back.
+pub fn write_back(
+    store: &mut Store,
+    client: &Client,
+    person: &str,
+) -> Result<WriteReport, NsError> {
+    let mut report = WriteReport::default();
+    let views = store.history(person)?;
+    let written = store.written(person)?;
+    let now = crate::fetch::iso_ms(jiff::Timestamp::now().as_millisecond());
+    for v in views.iter().filter(|v| !v.no_update) {
+        let key = format!("{}|{}", v.decided_at, v.setting);
+        let notes = note_text(v);
+        let held = written.iter().find(|w| w.what == "note" && w.key == key);
+        match held {
+            Some(w) => {
+                let old: Value = serde_json::from_str(&w.content).unwrap_or(Value::Null);
+                if old.get("notes").and_then(Value::as_str) == Some(notes.as_str()) {
+                    continue;
+                }
+                let mut doc = old.as_object().cloned().unwrap_or_default();
+                doc.insert("notes".into(), Value::String(notes));
+                doc.insert("_id".into(), Value::String(w.remote_id.clone()));
+                let doc = Value::Object(doc);
+                client.call(Method::Put, "/api/v1/treatments", &[], Some(&doc))?;
+                store.set_written(
+                    person,
+                    &Written {
+                        content: doc.to_string(),
+                        ..w.clone()
+                    },
+                )?;
+                report.notes_updated += 1;
+            }
+            None => {
+                let doc = json!({
+                    "eventType": "Note",
+                    "enteredBy": ENTERED_BY,
+                    "created_at": now,
+                    "notes": notes,
+                });
+                let call = "POST /api/v1/treatments";
+                let r =
+                    client.call(Method::Post, "/api/v1/treatments", &[], Some(&json!([doc])))?;
+                let id = created_id(&r).ok_or_else(|| {
+                    protocol(client, call, "expected the created treatment with its _id")
+                })?;
+                let mut stored = doc.as_object().cloned().unwrap_or_default();
+                stored.insert("_id".into(), Value::String(id.clone()));
+                store.set_written(
+                    person,
+                    &Written {
+                        what: "note".into(),
+                        key,
+                        remote_id: id,
+                        content: Value::Object(stored).to_string(),
+                    },
+                )?;
+                report.notes_created += 1;
+            }
+        }
+    }
+    match write_profile(store, client, person)? {
+        Ok(written) => report.profile_written = written,
+        Err(why) => report.profile_skipped = Some(why),
+    }
+    Ok(report)
+}
+
+fn created_id(v: &Value) -> Option<String> {
+    let doc = match v {
+        Value::Array(a) => a.first()?,
+        other => other,
+    };
+    doc.get("_id").and_then(Value::as_str).map(String::from)
+}
+
+fn hhmm(min: u32) -> (String, u32) {
+    (format!("{:02}:{:02}", min / 60, min % 60), min * 60)
+}
+
+fn schedule(rows: &[(u32, f64)]) -> Value {
+    Value::Array(
+        rows.iter()
+            .map(|&(m, v)| {
+                let (t, s) = hhmm(m);
+                json!({"time": t, "timeAsSeconds": s, "value": v})
+            })
+            .collect(),
+    )
+}
+
+fn minutes_of(t: &str) -> Option<u32> {
+    let (h, m) = t.split_once(':')?;
+    Some(h.parse::<u32>().ok()? * 60 + m.parse::<u32>().ok()?)
+}
+
+/// The `abba` profile: the person's default profile with the basal and
+/// carb ratios to use today. `Ok(Err(why))` when it cannot be written.
+fn write_profile(
+    store: &mut Store,
+    client: &Client,
+    person: &str,
+) -> Result<Result<bool, String>, NsError> {
+    let advice = store.advise(person)?;
+    let p = store.person(person)?;
+    let get = |name: &str| advice.settings.iter().find(|s| s.setting == name);
+    let Some(basal) = get("basal") else {
+        return Ok(Err("no basal in the advice yet".into()));
+    };
+    let basal_rows: Vec<(u32, f64)> = match basal.latest.as_ref().and_then(|l| l.schedule.clone()) {
+        Some(s) => s
+            .iter()
+            .filter_map(|(t, v)| minutes_of(t).map(|m| (m, *v)))
+            .collect(),
+        None => match &advice.therapy.basal_schedule {
+            Some(s) if basal.latest.is_none() => s
+                .iter()
+                .filter_map(|(t, v)| minutes_of(t).map(|m| (m, *v)))
+                .collect(),
+            _ => vec![(0, basal.use_today)],
+        },
+    };
+    let w = &p.settings.meal_windows;
+    let mut cr_rows = Vec::new();
+    for (name, start) in [
+        ("breakfast", 0),
+        ("lunch", w.lunch.0),
+        ("dinner", w.dinner.0),
+    ] {
+        match get(name) {
+            Some(s) => cr_rows.push((start, s.use_today)),
+            None => return Ok(Err(format!("no {name} carb ratio in the advice yet"))),
+        }
+    }
+    let path = "/api/v1/profile.json";
+    let docs = client.get(path, &[("count", "1".into())])?;
+    let Some(doc) = docs.as_array().and_then(|a| a.first()).cloned() else {
+        return Ok(Err("the site holds no profile to add abba's beside".into()));
+    };
+    let Some(default) = doc
+        .get("defaultProfile")
+        .and_then(Value::as_str)
+        .map(String::from)
+    else {
+        return Ok(Err("the newest profile document names no defaultProfile; abba does not add a profile that could be taken for the default".into()));
+    };
+    if default == PROFILE_NAME {
+        return Ok(Err(
+            "the person's default profile is named abba; abba does not write over it".into(),
+        ));
+    }
+    let Some(id) = doc.get("_id").and_then(Value::as_str).map(String::from) else {
+        return Ok(Err("the newest profile document has no _id".into()));
+    };
+    let stores = doc
+        .get("store")
+        .and_then(Value::as_object)
+        .cloned()
+        .unwrap_or_default();
+    let Some(base) = stores.get(&default).and_then(Value::as_object).cloned() else {
+        return Ok(Err(format!(
+            "the store does not hold the default profile {default}"
+        )));
+    };
+    let mut ours: Map<String, Value> = base;
+    ours.insert("basal".into(), schedule(&basal_rows));
+    ours.insert("carbratio".into(), schedule(&cr_rows));
+    ours.insert(
+        "notes".into(),
+        Value::String(format!("Written by abba from today's advice; not in force until the person chooses it. {NOTICE}")),
+    );
+    let ours = Value::Object(ours);
+    let written = store.written(person)?;
+    let held = written.iter().find(|w| w.what == "profile");
+    let ours_text = ours.to_string();
+    if held.is_some_and(|w| w.remote_id == id && w.content == ours_text)
+        && stores.get(PROFILE_NAME) == Some(&ours)
+    {
+        return Ok(Ok(false));
+    }
+    let mut new_doc = doc.as_object().cloned().unwrap_or_default();
+    let mut new_store = stores;
+    new_store.insert(PROFILE_NAME.into(), ours.clone());
+    new_doc.insert("store".into(), Value::Object(new_store));
+    client.call(
+        Method::Put,
+        "/api/v1/profile",
+        &[],
+        Some(&Value::Object(new_doc)),
+    )?;
+    store.set_written(
+        person,
+        &Written {
+            what: "profile".into(),
+            key: PROFILE_NAME.into(),
+            remote_id: id,
+            content: ours.to_string(),
+        },
+    )?;
+    Ok(Ok(true))
+}
+
+/// Removes from the site what abba wrote (its Notes, its profile) and
+/// forgets it; returns how many documents were changed.
+pub fn delete_written(store: &mut Store, client: &Client, person: &str) -> Result<usize, NsError> {
+    let mut n = 0;
+    for w in store.written(person)? {
+        match w.what.as_str() {
+            "note" => {
+                let path = format!("/api/v1/treatments/{}", w.remote_id);
+                match client.call(Method::Delete, &path, &[], None) {
+                    Ok(_) | Err(NsError::Status { status: 404, .. }) => {}
+                    Err(e) => return Err(e),
+                }
+            }
+            _ => {
+                let docs = client.get("/api/v1/profile.json", &[("count", "1000".into())])?;
+                let doc = docs
+                    .as_array()
+                    .and_then(|a| {
+                        a.iter()
+                            .find(|d| d.get("_id").and_then(Value::as_str) == Some(&w.remote_id))
+                    })
+                    .cloned();
+                if let Some(Value::Object(mut d)) = doc {
+                    if let Some(Value::Object(s)) = d.get_mut("store") {
+                        s.remove(PROFILE_NAME);
+                    }
+                    client.call(Method::Put, "/api/v1/profile", &[], Some(&Value::Object(d)))?;
+                }
+            }
+        }
+        store.forget_written(person, &w.what, &w.key)?;
+        n += 1;
+    }
+    Ok(n)
+}

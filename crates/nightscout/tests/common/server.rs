@@ -1,0 +1,741 @@
+//! A Nightscout-compatible server for the tests, on 127.0.0.1, built from
+//! Nightscout's documented API (our own code; `lib/server/swagger.yaml`,
+//! `lib/api3/doc/*.md`, wiki "API-v1-Security" of nightscout/cgm-remote-monitor):
+//!
+//! - v1 `entries`, `treatments` (`find[field][$gte|$gt|$lte|$lt]`, `count`
+//!   with a default of 10 and a server-side maximum, newest first),
+//!   `profile` (newest `startDate` first), `status`; POST/PUT/DELETE of
+//!   treatments and PUT of profiles;
+//! - authentication: `api-secret` = SHA-1 hex of API_SECRET (admin),
+//!   access tokens (`?token=`) of subjects with roles (readable,
+//!   careportal, admin, denied), `/api/v2/authorization/request/<token>`
+//!   giving a JWT (`Authorization: Bearer`);
+//! - v3 `version`, `lastModified`, `{collection}/history/{ms}` (JWT only,
+//!   `limit` at most 1,000, ascending `srvModified`, deleted documents with
+//!   `isValid: false`);
+//! - injected faults: a status (401, 500, 429 with Retry-After), a
+//!   connection cut mid-page, a slow answer.
+#![allow(dead_code)]
+
+use axum::body::{Body, Bytes};
+use axum::extract::{Path, Query, State};
+use axum::http::{HeaderMap, Method, StatusCode, Uri};
+use axum::response::{IntoResponse, Response};
+use axum::routing::get;
+use axum::Router;
+use serde_json::{json, Value};
+use sha1::{Digest, Sha1};
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+/// What the server holds and how it behaves.
+pub struct Site {
+    /// API_SECRET.
+    pub api_secret: String,
+    /// Access token -> roles.
+    pub tokens: HashMap<String, Vec<&'static str>>,
+    /// The most documents a v1 page holds, whatever `count` asks.
+    pub max_count: usize,
+    /// Documents by collection (`entries`, `treatments`, `profile`).
+    pub docs: HashMap<&'static str, Vec<Doc>>,
+    /// Faults still to inject, first match first.
+    pub faults: Vec<Fault>,
+    /// Every request: method, path and query, auth used.
+    pub log: Vec<String>,
+    /// JWTs given: jwt -> (token, uses left).
+    pub jwts: HashMap<String, (String, Option<usize>)>,
+    /// A JWT expires after this many uses (`None`: never).
+    pub jwt_uses: Option<usize>,
+    /// Whether API v3 is offered.
+    pub v3: bool,
+    /// A delay before every v1 page.
+    pub page_delay: Duration,
+    next_id: u64,
+    clock: i64,
+}
+
+/// One stored document.
+#[derive(Clone, Debug)]
+pub struct Doc {
+    /// As served by v1.
+    pub doc: Value,
+    /// Server modification time (ms).
+    pub srv_modified: i64,
+    /// False once deleted through v3 (soft).
+    pub valid: bool,
+}
+
+/// A fault for the next request whose path contains `path`.
+#[derive(Clone, Debug)]
+pub struct Fault {
+    /// Part of the path.
+    pub path: String,
+    /// What happens.
+    pub kind: FaultKind,
+    /// How many times.
+    pub times: usize,
+}
+
+/// What a fault does.
+#[derive(Clone, Debug)]
+pub enum FaultKind {
+    /// Answer this status.
+    Status(u16),
+    /// 429 with Retry-After (s).
+    TooMany(u64),
+    /// Send half of the body, then cut the connection.
+    Cut,
+    /// Wait this long before answering.
+    Slow(Duration),
+}
+
+/// The SHA-1 hex Nightscout compares the `api-secret` header with.
+pub fn sha1_hex(s: &str) -> String {
+    Sha1::digest(s.as_bytes())
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
+}
+
+impl Site {
+    /// A site with `API_SECRET` and tokens `reader-...` (readable),
+    /// `care-...` (careportal + readable), `admin-...` (admin), `denied-...`.
+    pub fn new(api_secret: &str) -> Self {
+        let mut tokens = HashMap::new();
+        tokens.insert("reader-0123456789abcdef".to_string(), vec!["readable"]);
+        tokens.insert(
+            "care-0123456789abcdef".to_string(),
+            vec!["readable", "careportal"],
+        );
+        tokens.insert("admin-0123456789abcdef".to_string(), vec!["admin"]);
+        tokens.insert("denied-0123456789abcdef".to_string(), vec!["denied"]);
+        Self {
+            api_secret: api_secret.to_string(),
+            tokens,
+            max_count: 1000,
+            docs: HashMap::new(),
+            faults: Vec::new(),
+            log: Vec::new(),
+            jwts: HashMap::new(),
+            jwt_uses: None,
+            v3: true,
+            page_delay: Duration::ZERO,
+            next_id: 1,
+            clock: 1_700_000_000_000,
+        }
+    }
+
+    /// The next server modification time (strictly increasing).
+    fn tick(&mut self) -> i64 {
+        self.clock += 1;
+        self.clock
+    }
+
+    /// Adds documents to a collection.
+    pub fn add(&mut self, col: &'static str, docs: Vec<Value>) {
+        for d in docs {
+            let m = self.tick();
+            self.docs.entry(col).or_default().push(Doc {
+                doc: d,
+                srv_modified: m,
+                valid: true,
+            });
+        }
+    }
+
+    /// Deletes a document softly (as API v3 does): v1 serves it with
+    /// `isValid: false`, v3 history reports it.
+    pub fn soft_delete(&mut self, col: &'static str, id: &str) {
+        let m = self.tick();
+        for d in self.docs.entry(col).or_default() {
+            if d.doc.get("_id").and_then(Value::as_str) == Some(id) {
+                d.valid = false;
+                d.srv_modified = m;
+            }
+        }
+    }
+
+    /// The valid documents of a collection.
+    pub fn valid(&self, col: &str) -> Vec<Value> {
+        self.docs
+            .get(col)
+            .map(|v| {
+                v.iter()
+                    .filter(|d| d.valid)
+                    .map(|d| d.doc.clone())
+                    .collect()
+            })
+            .unwrap_or_default()
+    }
+
+    fn new_id(&mut self) -> String {
+        self.next_id += 1;
+        format!("ab{:022x}", self.next_id)
+    }
+}
+
+/// Who is asking.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Who {
+    Nobody,
+    Roles(Read, Write),
+}
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Read(bool);
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Write {
+    treatments: bool,
+    profile: bool,
+}
+
+fn roles(rs: &[&str]) -> Who {
+    let admin = rs.contains(&"admin");
+    let read = admin || rs.contains(&"readable") || rs.contains(&"careportal");
+    Who::Roles(
+        Read(read),
+        Write {
+            treatments: admin || rs.contains(&"careportal"),
+            profile: admin,
+        },
+    )
+}
+
+type Shared = Arc<Mutex<Site>>;
+
+fn who(site: &mut Site, headers: &HeaderMap, query: &[(String, String)], v3: bool) -> Who {
+    if let Some(b) = headers
+        .get("authorization")
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.strip_prefix("Bearer "))
+    {
+        let Some((token, uses)) = site.jwts.get_mut(b) else {
+            return Who::Nobody;
+        };
+        if let Some(u) = uses {
+            if *u == 0 {
+                return Who::Nobody;
+            }
+            *u -= 1;
+        }
+        let token = token.clone();
+        return site.tokens.get(&token).map_or(Who::Nobody, |r| roles(r));
+    }
+    if v3 {
+        // API v3 takes JWTs only.
+        return Who::Nobody;
+    }
+    if let Some(h) = headers.get("api-secret").and_then(|v| v.to_str().ok()) {
+        return if h.eq_ignore_ascii_case(&sha1_hex(&site.api_secret)) {
+            roles(&["admin"])
+        } else {
+            Who::Nobody
+        };
+    }
+    if let Some((_, t)) = query.iter().find(|(k, _)| k == "token") {
+        return site.tokens.get(t).map_or(Who::Nobody, |r| roles(r));
+    }
+    Who::Nobody
+}
+
+fn unauthorized() -> Response {
+    (
+        StatusCode::UNAUTHORIZED,
+        axum::Json(
+            json!({"status": 401, "message": "Unauthorized", "description": "Invalid/Missing"}),
+        ),
+    )
+        .into_response()
+}
+
+/// The fault for this request, if any (taken from the list).
+fn fault(site: &mut Site, path: &str) -> Option<FaultKind> {
+    let i = site
+        .faults
+        .iter()
+        .position(|f| path.contains(&f.path) && f.times > 0)?;
+    site.faults[i].times -= 1;
+    let k = site.faults[i].kind.clone();
+    if site.faults[i].times == 0 {
+        site.faults.remove(i);
+    }
+    Some(k)
+}
+
+/// Answers `body` as JSON, or as the fault says.
+async fn answer(kind: Option<FaultKind>, status: StatusCode, body: Value) -> Response {
+    match kind {
+        Some(FaultKind::Status(s)) => {
+            let s = StatusCode::from_u16(s).unwrap_or(StatusCode::INTERNAL_SERVER_ERROR);
+            (
+                s,
+                axum::Json(json!({"status": s.as_u16(), "message": "injected"})),
+            )
+                .into_response()
+        }
+        Some(FaultKind::TooMany(secs)) => (
+            StatusCode::TOO_MANY_REQUESTS,
+            [("retry-after", secs.to_string())],
+            "Too Many Requests",
+        )
+            .into_response(),
+        Some(FaultKind::Cut) => {
+            let text = body.to_string().into_bytes();
+            let half = Bytes::from(text[..text.len() / 2].to_vec());
+            let parts: Vec<Result<Bytes, std::io::Error>> = vec![
+                Ok(half),
+                Err(std::io::Error::new(
+                    std::io::ErrorKind::ConnectionReset,
+                    "injected cut",
+                )),
+            ];
+            Response::builder()
+                .status(status)
+                .header("content-type", "application/json")
+                .body(Body::from_stream(futures_util::stream::iter(parts)))
+                .unwrap_or_default()
+        }
+        Some(FaultKind::Slow(d)) => {
+            tokio::time::sleep(d).await;
+            (status, axum::Json(body)).into_response()
+        }
+        None => (status, axum::Json(body)).into_response(),
+    }
+}
+
+fn ms_of(v: &Value, field: &str) -> Option<i64> {
+    match v.get(field)? {
+        Value::Number(n) => n.as_f64().map(|f| f as i64),
+        Value::String(s) => s
+            .parse::<jiff::Timestamp>()
+            .ok()
+            .map(|t| t.as_millisecond()),
+        _ => None,
+    }
+}
+
+/// Compares a document's field with a filter value as MongoDB would for
+/// Nightscout's stored types: numbers as numbers, strings as strings.
+fn keep(doc: &Value, field: &str, op: &str, value: &str) -> bool {
+    let Some(x) = doc.get(field) else {
+        return false;
+    };
+    let ord = match x {
+        Value::Number(n) => match (n.as_f64(), value.parse::<f64>()) {
+            (Some(a), Ok(b)) => a.partial_cmp(&b),
+            _ => None,
+        },
+        Value::String(s) => Some(s.as_str().cmp(value)),
+        _ => None,
+    };
+    let Some(o) = ord else { return false };
+    use std::cmp::Ordering::*;
+    match op {
+        "$gte" => o != Less,
+        "$gt" => o == Greater,
+        "$lte" => o != Greater,
+        "$lt" => o == Less,
+        _ => true,
+    }
+}
+
+async fn v1_list(
+    State(s): State<Shared>,
+    method: Method,
+    uri: Uri,
+    headers: HeaderMap,
+    Query(q): Query<Vec<(String, String)>>,
+) -> Response {
+    let path = uri.path().to_string();
+    let col: &'static str = if path.contains("entries") {
+        "entries"
+    } else if path.contains("treatments") {
+        "treatments"
+    } else {
+        "profile"
+    };
+    let (kind, body, delay) = {
+        let mut site = s.lock().unwrap();
+        site.log.push(format!(
+            "{method} {}{}",
+            path,
+            uri.query().map(|q| format!("?{q}")).unwrap_or_default()
+        ));
+        match who(&mut site, &headers, &q, false) {
+            Who::Roles(Read(true), _) => {}
+            _ => return unauthorized(),
+        }
+        let kind = fault(&mut site, &path);
+        let sort = if col == "profile" {
+            "startDate"
+        } else if col == "entries" {
+            "date"
+        } else {
+            "created_at"
+        };
+        let mut docs: Vec<(i64, Value)> = site
+            .docs
+            .get(col)
+            .map(|v| {
+                v.iter()
+                    .map(|d| {
+                        let mut doc = d.doc.clone();
+                        if !d.valid {
+                            doc["isValid"] = Value::Bool(false);
+                        }
+                        (ms_of(&doc, sort).unwrap_or(0), doc)
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
+        // Nightscout's `enforceDateFilter`: a v1 query of entries or
+        // treatments without a bound on its date field gets the last 4 days.
+        let bounded = q
+            .iter()
+            .any(|(k, _)| k.starts_with(&format!("find[{sort}]")));
+        if col != "profile" && !bounded {
+            let from = jiff::Timestamp::now().as_millisecond() - 4 * 86_400_000;
+            docs.retain(|(t, _)| *t >= from);
+        }
+        for (k, v) in &q {
+            let Some(rest) = k.strip_prefix("find[") else {
+                continue;
+            };
+            let Some((field, op)) = rest.split_once("][") else {
+                continue;
+            };
+            let op = op.trim_end_matches(']');
+            docs.retain(|(_, d)| keep(d, field, op, v));
+        }
+        docs.sort_by_key(|d| std::cmp::Reverse(d.0));
+        let count = q
+            .iter()
+            .find(|(k, _)| k == "count")
+            .and_then(|(_, v)| v.parse::<usize>().ok())
+            .unwrap_or(10)
+            .min(site.max_count);
+        let page: Vec<Value> = docs.into_iter().take(count).map(|(_, d)| d).collect();
+        (kind, Value::Array(page), site.page_delay)
+    };
+    if !delay.is_zero() {
+        tokio::time::sleep(delay).await;
+    }
+    answer(kind, StatusCode::OK, body).await
+}
+
+async fn status(
+    State(s): State<Shared>,
+    headers: HeaderMap,
+    uri: Uri,
+    Query(q): Query<Vec<(String, String)>>,
+) -> Response {
+    let kind = {
+        let mut site = s.lock().unwrap();
+        site.log.push(format!("GET {}", uri.path()));
+        if !matches!(
+            who(&mut site, &headers, &q, false),
+            Who::Roles(Read(true), _)
+        ) {
+            return unauthorized();
+        }
+        fault(&mut site, uri.path())
+    };
+    answer(
+        kind,
+        StatusCode::OK,
+        json!({"status": "ok", "name": "nightscout", "version": "15.0.3-test", "apiEnabled": true}),
+    )
+    .await
+}
+
+async fn write_treatments(
+    State(s): State<Shared>,
+    method: Method,
+    uri: Uri,
+    headers: HeaderMap,
+    Query(q): Query<Vec<(String, String)>>,
+    axum::Json(body): axum::Json<Value>,
+) -> Response {
+    let mut site = s.lock().unwrap();
+    site.log.push(format!("{method} {}", uri.path()));
+    match who(&mut site, &headers, &q, false) {
+        Who::Roles(
+            _,
+            Write {
+                treatments: true, ..
+            },
+        ) => {}
+        _ => return unauthorized(),
+    }
+    if method == Method::POST {
+        let items = match body {
+            Value::Array(a) => a,
+            other => vec![other],
+        };
+        let mut created = Vec::new();
+        for mut d in items {
+            let id = site.new_id();
+            d["_id"] = Value::String(id);
+            created.push(d.clone());
+            site.add("treatments", vec![d]);
+        }
+        return (StatusCode::OK, axum::Json(Value::Array(created))).into_response();
+    }
+    // PUT: replace by _id.
+    let Some(id) = body.get("_id").and_then(Value::as_str).map(String::from) else {
+        return (StatusCode::BAD_REQUEST, "missing _id").into_response();
+    };
+    let m = site.tick();
+    let docs = site.docs.entry("treatments").or_default();
+    match docs
+        .iter_mut()
+        .find(|d| d.doc.get("_id").and_then(Value::as_str) == Some(&id))
+    {
+        Some(d) => {
+            d.doc = body.clone();
+            d.srv_modified = m;
+            (StatusCode::OK, axum::Json(body)).into_response()
+        }
+        None => (StatusCode::NOT_FOUND, "no such treatment").into_response(),
+    }
+}
+
+async fn delete_treatment(
+    State(s): State<Shared>,
+    headers: HeaderMap,
+    Path(id): Path<String>,
+    Query(q): Query<Vec<(String, String)>>,
+) -> Response {
+    let mut site = s.lock().unwrap();
+    site.log.push(format!("DELETE /api/v1/treatments/{id}"));
+    match who(&mut site, &headers, &q, false) {
+        Who::Roles(
+            _,
+            Write {
+                treatments: true, ..
+            },
+        ) => {}
+        _ => return unauthorized(),
+    }
+    let docs = site.docs.entry("treatments").or_default();
+    docs.retain(|d| d.doc.get("_id").and_then(Value::as_str) != Some(&id));
+    (StatusCode::OK, axum::Json(json!({}))).into_response()
+}
+
+async fn put_profile(
+    State(s): State<Shared>,
+    headers: HeaderMap,
+    Query(q): Query<Vec<(String, String)>>,
+    axum::Json(body): axum::Json<Value>,
+) -> Response {
+    let mut site = s.lock().unwrap();
+    site.log.push("PUT /api/v1/profile".into());
+    match who(&mut site, &headers, &q, false) {
+        Who::Roles(_, Write { profile: true, .. }) => {}
+        _ => return unauthorized(),
+    }
+    let Some(id) = body.get("_id").and_then(Value::as_str).map(String::from) else {
+        return (StatusCode::BAD_REQUEST, "missing _id").into_response();
+    };
+    let m = site.tick();
+    let docs = site.docs.entry("profile").or_default();
+    match docs
+        .iter_mut()
+        .find(|d| d.doc.get("_id").and_then(Value::as_str) == Some(&id))
+    {
+        Some(d) => {
+            d.doc = body.clone();
+            d.srv_modified = m;
+            (StatusCode::OK, axum::Json(body)).into_response()
+        }
+        None => (StatusCode::NOT_FOUND, "no such profile").into_response(),
+    }
+}
+
+async fn authorization_request(State(s): State<Shared>, Path(token): Path<String>) -> Response {
+    let mut site = s.lock().unwrap();
+    site.log
+        .push("GET /api/v2/authorization/request/<token>".into());
+    if !site.tokens.contains_key(&token) {
+        return unauthorized();
+    }
+    let n = site.jwts.len();
+    let jwt = format!("eyJhbGciOiJIUzI1NiJ9.eyJ0ZXN0Ijo{n}fQ.sig{n}");
+    let uses = site.jwt_uses;
+    site.jwts.insert(jwt.clone(), (token.clone(), uses));
+    (
+        StatusCode::OK,
+        axum::Json(json!({"token": jwt, "sub": token, "iat": 1, "exp": 2})),
+    )
+        .into_response()
+}
+
+async fn v3_version(State(s): State<Shared>) -> Response {
+    let site = s.lock().unwrap();
+    if !site.v3 {
+        return (StatusCode::NOT_FOUND, "Cannot GET /api/v3/version").into_response();
+    }
+    axum::Json(
+        json!({"status": 200, "result": {"version": "15.0.3-test", "apiVersion": "3.0.4-alpha"}}),
+    )
+    .into_response()
+}
+
+async fn v3_last_modified(State(s): State<Shared>, headers: HeaderMap) -> Response {
+    let mut site = s.lock().unwrap();
+    if !site.v3 {
+        return StatusCode::NOT_FOUND.into_response();
+    }
+    if who(&mut site, &headers, &[], true) == Who::Nobody {
+        return unauthorized();
+    }
+    let mut cols = serde_json::Map::new();
+    for (k, v) in &site.docs {
+        if let Some(m) = v.iter().map(|d| d.srv_modified).max() {
+            cols.insert((*k).to_string(), json!(m));
+        }
+    }
+    axum::Json(json!({"status": 200, "result": {"srvDate": site.clock, "collections": cols}}))
+        .into_response()
+}
+
+async fn v3_history(
+    State(s): State<Shared>,
+    headers: HeaderMap,
+    Path((col, since)): Path<(String, i64)>,
+    Query(q): Query<Vec<(String, String)>>,
+) -> Response {
+    let mut site = s.lock().unwrap();
+    site.log.push(format!("GET /api/v3/{col}/history/{since}"));
+    if !site.v3 {
+        return StatusCode::NOT_FOUND.into_response();
+    }
+    if who(&mut site, &headers, &[], true) == Who::Nobody {
+        return unauthorized();
+    }
+    let limit = match q.iter().find(|(k, _)| k == "limit") {
+        None => 1000,
+        Some((_, v)) => match v.parse::<usize>() {
+            Ok(l) if (1..=1000).contains(&l) => l,
+            _ => {
+                return (
+                    StatusCode::BAD_REQUEST,
+                    axum::Json(
+                        json!({"status": 400, "message": "Parameter limit out of tolerance"}),
+                    ),
+                )
+                    .into_response()
+            }
+        },
+    };
+    let mut docs: Vec<&Doc> = site
+        .docs
+        .get(col.as_str())
+        .map(|v| v.iter().filter(|d| d.srv_modified > since).collect())
+        .unwrap_or_default();
+    docs.sort_by_key(|d| d.srv_modified);
+    let result: Vec<Value> = docs
+        .into_iter()
+        .take(limit)
+        .map(|d| {
+            let mut doc = d.doc.clone();
+            if let Some(o) = doc.as_object_mut() {
+                if let Some(id) = o.remove("_id") {
+                    o.insert("identifier".into(), id);
+                }
+                o.insert("srvModified".into(), json!(d.srv_modified));
+                if !d.valid {
+                    o.insert("isValid".into(), Value::Bool(false));
+                }
+            }
+            doc
+        })
+        .collect();
+    axum::Json(json!({"status": 200, "result": result})).into_response()
+}
+
+/// A running server: its base URL and its state.
+pub struct Server {
+    /// `http://127.0.0.1:PORT`.
+    pub url: String,
+    /// The site.
+    pub site: Shared,
+    stop: Option<tokio::sync::oneshot::Sender<()>>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Server {
+    /// Starts `site` on a free port of 127.0.0.1.
+    pub fn start(site: Site) -> Server {
+        let shared: Shared = Arc::new(Mutex::new(site));
+        let app = Router::new()
+            .route("/api/v1/status.json", get(status))
+            .route("/api/v1/status", get(status))
+            .route("/api/v1/entries.json", get(v1_list))
+            .route("/api/v1/entries", get(v1_list))
+            .route(
+                "/api/v1/treatments.json",
+                get(v1_list).post(write_treatments).put(write_treatments),
+            )
+            .route(
+                "/api/v1/treatments",
+                get(v1_list).post(write_treatments).put(write_treatments),
+            )
+            .route(
+                "/api/v1/treatments/{id}",
+                axum::routing::delete(delete_treatment),
+            )
+            .route("/api/v1/profile.json", get(v1_list).put(put_profile))
+            .route("/api/v1/profile", get(v1_list).put(put_profile))
+            .route(
+                "/api/v2/authorization/request/{token}",
+                get(authorization_request),
+            )
+            .route("/api/v3/version", get(v3_version))
+            .route("/api/v3/lastModified", get(v3_last_modified))
+            .route("/api/v3/{col}/history/{since}", get(v3_history))
+            .with_state(Arc::clone(&shared));
+        let (tx, rx) = tokio::sync::oneshot::channel::<()>();
+        let (addr_tx, addr_rx) = std::sync::mpsc::channel();
+        let thread = std::thread::spawn(move || {
+            let rt = tokio::runtime::Builder::new_multi_thread()
+                .worker_threads(2)
+                .enable_all()
+                .build()
+                .unwrap();
+            rt.block_on(async move {
+                let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+                addr_tx.send(listener.local_addr().unwrap()).unwrap();
+                axum::serve(listener, app)
+                    .with_graceful_shutdown(async {
+                        let _ = rx.await;
+                    })
+                    .await
+                    .unwrap();
+            });
+        });
+        let addr = addr_rx.recv().unwrap();
+        Server {
+            url: format!("http://{addr}"),
+            site: shared,
+            stop: Some(tx),
+            thread: Some(thread),
+        }
+    }
+
+    /// Runs `f` on the site's state.
+    pub fn with<R>(&self, f: impl FnOnce(&mut Site) -> R) -> R {
+        f(&mut self.site.lock().unwrap())
+    }
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        if let Some(tx) = self.stop.take() {
+            let _ = tx.send(());
+        }
+        // Not joined: a client's pooled keep-alive connection would hold
+        // the graceful shutdown; the thread ends with the test process.
+        drop(self.thread.take());
+    }
+}

@@ -1,0 +1,271 @@
+//! The sync against a Nightscout-compatible server on 127.0.0.1: one sync
+//! equals a file import of the same documents; a second sync adds
+//! nothing; new documents come in; the paging survives a server-side
+//! maximum page size, 429 with Retry-After, 500, a connection cut
+//! mid-page and a slow server; a wrong credential is a clear 401; API v3
+//! deletions remove their records.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod common;
+
+use abba_nightscout::site::credential;
+use abba_nightscout::{link, sync, NsError};
+use abba_store::link::Credential;
+use common::server::{Fault, FaultKind};
+use common::*;
+use std::time::Duration;
+
+fn linked(
+    dir: &std::path::Path,
+    srv: &common::server::Server,
+    files: &[std::path::PathBuf],
+    cred: Credential,
+) -> abba_store::Store {
+    let (_, mut store) = store_with_person(dir, "sync.db", files);
+    link(&mut store, "ana", &srv.url, cred, false, &fast_client()).unwrap();
+    store
+}
+
+fn secret() -> Credential {
+    credential(None, Some(SECRET)).unwrap()
+}
+
+#[test]
+fn one_sync_equals_a_file_import_and_a_second_adds_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = data(2);
+    let files = export(dir.path(), &d);
+    // The server caps pages at 100 documents whatever the client asks:
+    // the entries take many pages, each repeating the boundary document.
+    let srv = server(&d, 100);
+    let mut synced = linked(dir.path(), &srv, &files, secret());
+    let r = sync(&mut synced, "ana", &sync_opts()).unwrap();
+    let entries = &r.collections[0];
+    assert_eq!(entries.documents, d.entries.len());
+    assert!(entries.pages > d.entries.len() / 100, "{entries:?}");
+    assert!(
+        entries.received > entries.documents,
+        "pages overlap at their boundary"
+    );
+    let s = r.import.import.as_ref().unwrap();
+    assert!(s.added > 0);
+
+    let (_, mut imported) = store_with_person(dir.path(), "files.db", &files);
+    let f = imported.import_files("ana", &files, None).unwrap();
+    assert_same_records(&synced, &imported);
+    assert_eq!(s.added, f.added);
+    assert_eq!(advice(&mut synced), advice(&mut imported));
+
+    // Again: nothing new.
+    let again = sync(&mut synced, "ana", &sync_opts()).unwrap();
+    let a = again.import.import.unwrap();
+    assert_eq!((a.added, a.updated), (0, 0), "{a:?}");
+    assert_same_records(&synced, &imported);
+    let l = synced.link("ana").unwrap().unwrap();
+    assert!(l.last_success_at.is_some() && l.last_error.is_none());
+}
+
+#[test]
+fn new_documents_come_in_and_the_overlap_is_not_counted_twice() {
+    let dir = tempfile::tempdir().unwrap();
+    let all = data(2);
+    // The server first holds the older block only.
+    let n_old = all.entries.len() / 2;
+    let first = Data {
+        entries: all.entries[n_old..].to_vec(),
+        treatments: all.treatments[all.treatments.len() / 2..].to_vec(),
+        profile: all.profile.clone(),
+    };
+    let files = export(dir.path(), &all);
+    let srv = server(&first, 1000);
+    let mut store = linked(dir.path(), &srv, &files, secret());
+    let one = sync(&mut store, "ana", &sync_opts()).unwrap();
+    let added_first = one.import.import.unwrap().added;
+    srv.with(|s| {
+        s.add("entries", all.entries[..n_old].to_vec());
+        s.add(
+            "treatments",
+            all.treatments[..all.treatments.len() / 2].to_vec(),
+        );
+    });
+    let two = sync(&mut store, "ana", &sync_opts()).unwrap();
+    // Only what is at or after the mark minus the overlap was asked for.
+    assert!(two.collections[0].documents < all.entries.len());
+    let (_, mut imported) = store_with_person(dir.path(), "files.db", &files);
+    let f = imported.import_files("ana", &files, None).unwrap();
+    assert_eq!(added_first + two.import.import.unwrap().added, f.added);
+    assert_same_records(&store, &imported);
+}
+
+#[test]
+fn faults_are_retried_and_a_failed_sync_leaves_the_store_as_it_was() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = data(1);
+    let files = export(dir.path(), &d);
+    let srv = server(&d, 200);
+    let mut store = linked(dir.path(), &srv, &files, secret());
+    let fault = |path: &str, kind: FaultKind, times: usize| Fault {
+        path: path.into(),
+        kind,
+        times,
+    };
+    srv.with(|s| {
+        s.faults = vec![
+            fault("entries", FaultKind::TooMany(1), 1),
+            fault("entries", FaultKind::Status(500), 1),
+            fault("entries", FaultKind::Cut, 1),
+            fault("treatments", FaultKind::Slow(Duration::from_secs(7)), 1),
+            fault("treatments", FaultKind::Status(503), 1),
+        ];
+        s.log.clear();
+    });
+    let t0 = std::time::Instant::now();
+    let r = sync(&mut store, "ana", &sync_opts()).unwrap();
+    // The 429's Retry-After of 1 s was waited for.
+    assert!(t0.elapsed() >= Duration::from_secs(1));
+    assert!(srv.with(|s| s.faults.is_empty()), "every fault was met");
+    let (_, mut imported) = store_with_person(dir.path(), "files.db", &files);
+    imported.import_files("ana", &files, None).unwrap();
+    assert_same_records(&store, &imported);
+    assert!(r.import.import.unwrap().added > 0);
+
+    // A server failing for longer than the retries: the sync fails, the
+    // store and its marks are unchanged, the link says why; the next sync
+    // completes.
+    let dir2 = tempfile::tempdir().unwrap();
+    let mut fresh = linked(dir2.path(), &srv, &files, secret());
+    srv.with(|s| s.faults = vec![fault("treatments", FaultKind::Status(500), 4)]);
+    let e = sync(&mut fresh, "ana", &sync_opts()).unwrap_err();
+    assert!(matches!(e, NsError::GaveUp { .. }), "{e}");
+    assert!(e.to_string().contains("HTTP 500"), "{e}");
+    assert!(fresh.records("ana").unwrap().is_empty());
+    assert!(fresh.link_marks("ana").unwrap().is_empty());
+    let l = fresh.link("ana").unwrap().unwrap();
+    assert_eq!(l.failures, 1);
+    assert!(l.last_error.unwrap().contains("HTTP 500"));
+    sync(&mut fresh, "ana", &sync_opts()).unwrap();
+    assert_same_records(&fresh, &imported);
+    assert_eq!(fresh.link("ana").unwrap().unwrap().failures, 0);
+}
+
+#[test]
+fn credentials_are_checked_and_never_in_messages() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = data(1);
+    let files = export(dir.path(), &d);
+    let srv = server(&d, 1000);
+    let (_, mut store) = store_with_person(dir.path(), "auth.db", &files);
+    let wrong = credential(None, Some("not-the-secret-at-all")).unwrap();
+    let e = link(
+        &mut store,
+        "ana",
+        &srv.url,
+        wrong.clone(),
+        false,
+        &fast_client(),
+    )
+    .unwrap_err();
+    let text = e.to_string();
+    assert!(matches!(e, NsError::Unauthorized { .. }), "{text}");
+    assert!(
+        text.contains("401") && text.contains("API secret"),
+        "{text}"
+    );
+    assert!(!text.contains(wrong.secret()), "{text}");
+    assert!(
+        store.link("ana").unwrap().is_none(),
+        "a refused link is not stored"
+    );
+    // The API secret goes as its SHA-1 in a header, never in the URL.
+    assert!(srv.with(|s| s.log.iter().all(|l| !l.contains(&sha1_of(SECRET)))));
+
+    // A denied token is refused; a readable one works through a JWT,
+    // renewed when it expires.
+    let denied = credential(Some("denied-0123456789abcdef"), None).unwrap();
+    let e = link(&mut store, "ana", &srv.url, denied, false, &fast_client()).unwrap_err();
+    assert!(matches!(e, NsError::Unauthorized { .. }), "{e}");
+    assert!(!e.to_string().contains("denied-0123456789abcdef"));
+    srv.with(|s| s.jwt_uses = Some(2));
+    let reader = credential(Some("reader-0123456789abcdef"), None).unwrap();
+    link(&mut store, "ana", &srv.url, reader, false, &fast_client()).unwrap();
+    let r = sync(&mut store, "ana", &sync_opts()).unwrap();
+    assert!(r.v3);
+    assert!(srv.with(|s| s.jwts.len()) >= 2, "the JWT was renewed");
+    assert!(srv.with(|s| s.log.iter().all(|l| !l.contains("reader-0123456789abcdef"))));
+
+    // Plain http to another host is refused before any call.
+    let e = link(
+        &mut store,
+        "ana",
+        "http://example.org",
+        secret(),
+        false,
+        &fast_client(),
+    )
+    .unwrap_err();
+    assert!(matches!(e, NsError::Url { .. }), "{e}");
+}
+
+fn sha1_of(s: &str) -> String {
+    common::server::sha1_hex(s)
+}
+
+#[test]
+fn a_document_deleted_through_api_v3_leaves_the_store() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = data(1);
+    let files = export(dir.path(), &d);
+    let srv = server(&d, 1000);
+    let token = credential(Some("reader-0123456789abcdef"), None).unwrap();
+    let mut store = linked(dir.path(), &srv, &files, token);
+    sync(&mut store, "ana", &sync_opts()).unwrap();
+    let before = store.records("ana").unwrap().len();
+    let meal = d
+        .treatments
+        .iter()
+        .find(|t| t["eventType"] == "Meal Bolus")
+        .unwrap();
+    let id = meal["_id"].as_str().unwrap().to_string();
+    srv.with(|s| s.soft_delete("treatments", &id));
+    let r = sync(&mut store, "ana", &sync_opts()).unwrap();
+    // A meal bolus is two records (carbs, insulin): both go.
+    assert_eq!(r.import.deleted, 2, "{r:?}");
+    let after = store.records("ana").unwrap();
+    assert_eq!(after.len(), before - 2);
+    assert!(after.iter().all(|r| !format!("{:?}", r.id).contains(&id)));
+    // And a third sync deletes nothing more.
+    assert_eq!(
+        sync(&mut store, "ana", &sync_opts())
+            .unwrap()
+            .import
+            .deleted,
+        0
+    );
+}
+
+/// Timings for BENCHMARKS.md (not a test of speed):
+/// `cargo test --release -p abba-nightscout --test sync -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn measure_a_first_and_a_second_sync() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = data(10); // 30 days
+    let files = export(dir.path(), &d);
+    let srv = server(&d, 1000);
+    let mut store = linked(dir.path(), &srv, &files, secret());
+    let t = std::time::Instant::now();
+    let r = sync(&mut store, "ana", &sync_opts()).unwrap();
+    let first = t.elapsed();
+    let t = std::time::Instant::now();
+    sync(&mut store, "ana", &sync_opts()).unwrap();
+    let second = t.elapsed();
+    let t = std::time::Instant::now();
+    store.advise("ana").unwrap();
+    let advise = t.elapsed();
+    println!(
+        "30 days ({} entries, {} treatments, {} pages): first sync {first:?}, second {second:?}, advice after {advise:?}",
+        d.entries.len(),
+        d.treatments.len(),
+        r.collections.iter().map(|c| c.pages).sum::<usize>()
+    );
+}

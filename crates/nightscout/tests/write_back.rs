@@ -1,0 +1,147 @@
+//! Write-back against the test server: exactly one Note per suggestion
+//! (enteredBy abba), updated when answered and not written twice; the
+//! `abba` profile beside the default one, which stays untouched, and no
+//! Profile Switch; abba's own Notes are not read back as the person's
+//! data; removing what abba wrote leaves the site as it was.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod common;
+
+use abba_nightscout::site::credential;
+use abba_nightscout::{link, sync, write_back};
+use abba_store::AnswerRequest;
+use common::*;
+use serde_json::Value;
+
+fn abba_notes(srv: &common::server::Server) -> Vec<Value> {
+    srv.with(|s| s.valid("treatments"))
+        .into_iter()
+        .filter(|t| t["enteredBy"] == "abba")
+        .collect()
+}
+
+#[test]
+fn one_note_per_suggestion_and_a_profile_beside_the_default() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = data(5);
+    let files = export(dir.path(), &d);
+    let srv = server(&d, 1000);
+    let profile_before = srv.with(|s| s.valid("profile"));
+    let treatments_before = srv.with(|s| s.valid("treatments")).len();
+    let (_, mut store) = store_with_person(dir.path(), "wb.db", &files);
+    let token = credential(Some("admin-0123456789abcdef"), None).unwrap();
+    link(&mut store, "ana", &srv.url, token, true, &fast_client()).unwrap();
+    let r = sync(&mut store, "ana", &sync_opts()).unwrap();
+    let w = r.write_back.unwrap();
+    let suggestions: Vec<_> = store
+        .history("ana")
+        .unwrap()
+        .into_iter()
+        .filter(|v| !v.no_update)
+        .collect();
+    assert!(
+        !suggestions.is_empty(),
+        "15 days give the advisor decisions"
+    );
+    assert_eq!(w.notes_created, suggestions.len());
+    let notes = abba_notes(&srv);
+    assert_eq!(notes.len(), suggestions.len());
+    for n in &notes {
+        assert_eq!(n["eventType"], "Note");
+        let text = n["notes"].as_str().unwrap();
+        assert!(
+            text.contains("abba suggests") && text.contains("not a medical device"),
+            "{text}"
+        );
+    }
+    // The abba profile sits beside the default, which is unchanged.
+    assert!(w.profile_written, "{w:?}");
+    let after = srv.with(|s| s.valid("profile"));
+    assert_eq!(after.len(), profile_before.len());
+    let newest = after
+        .iter()
+        .find(|p| p["_id"] == profile_before[0]["_id"])
+        .unwrap();
+    assert_eq!(
+        newest["defaultProfile"],
+        profile_before[0]["defaultProfile"]
+    );
+    let default = newest["defaultProfile"].as_str().unwrap();
+    assert_eq!(
+        newest["store"][default],
+        profile_before[0]["store"][default]
+    );
+    let ours = &newest["store"]["abba"];
+    assert!(
+        ours["basal"].is_array() && ours["carbratio"].is_array(),
+        "{ours}"
+    );
+    assert!(srv
+        .with(|s| s.valid("treatments"))
+        .iter()
+        .all(|t| t["eventType"] != "Profile Switch"));
+
+    // Again: nothing written twice, nothing read back.
+    let again = sync(&mut store, "ana", &sync_opts()).unwrap();
+    let wa = again.write_back.unwrap();
+    assert_eq!(
+        (wa.notes_created, wa.notes_updated, wa.profile_written),
+        (0, 0, false)
+    );
+    let ia = again.import.import.unwrap();
+    assert_eq!(
+        (ia.added, ia.updated),
+        (0, 0),
+        "abba's own Notes are not the person's data"
+    );
+    assert_eq!(abba_notes(&srv).len(), suggestions.len());
+
+    // Answered: the open suggestions' Notes are updated, no new one.
+    let open = store
+        .history("ana")
+        .unwrap()
+        .iter()
+        .filter(|v| v.status == "open")
+        .count();
+    assert!(open > 0);
+    store.answer("ana", &AnswerRequest::Accept).unwrap();
+    let answered = sync(&mut store, "ana", &sync_opts())
+        .unwrap()
+        .write_back
+        .unwrap();
+    assert_eq!(answered.notes_created, 0);
+    assert_eq!(answered.notes_updated, open);
+    assert!(abba_notes(&srv)
+        .iter()
+        .any(|n| n["notes"].as_str().unwrap().contains("status: accepted")));
+
+    // Removing what abba wrote leaves the site as before.
+    let client =
+        abba_nightscout::sync::client_of(&store.link("ana").unwrap().unwrap(), &fast_client())
+            .unwrap();
+    let n = write_back::delete_written(&mut store, &client, "ana").unwrap();
+    assert_eq!(n, suggestions.len() + 1);
+    assert!(abba_notes(&srv).is_empty());
+    assert_eq!(srv.with(|s| s.valid("treatments")).len(), treatments_before);
+    assert_eq!(srv.with(|s| s.valid("profile")), profile_before);
+}
+
+#[test]
+fn a_reader_token_cannot_write_back_and_says_why() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = data(5);
+    let files = export(dir.path(), &d);
+    let srv = server(&d, 1000);
+    let (_, mut store) = store_with_person(dir.path(), "ro.db", &files);
+    let token = credential(Some("reader-0123456789abcdef"), None).unwrap();
+    link(&mut store, "ana", &srv.url, token, true, &fast_client()).unwrap();
+    let e = sync(&mut store, "ana", &sync_opts()).unwrap_err();
+    let text = e.to_string();
+    assert!(
+        text.contains("401") && text.contains("POST /api/v1/treatments"),
+        "{text}"
+    );
+    // The records of the sync are in: the write-back comes after the import.
+    assert!(!store.records("ana").unwrap().is_empty());
+    assert!(abba_notes(&srv).is_empty());
+}

@@ -1,0 +1,479 @@
+//! A person's link to their Nightscout site: the URL and credential, the
+//! last sync, per collection the high-water mark, and what abba wrote
+//! there. The HTTP side lives in abba-nightscout; here is only what must
+//! be durable, and the import of what a sync fetched, whose marks advance
+//! in the same transaction as its records (a sync killed at any point
+//! leaves the store as before it, or as after it).
+
+use crate::error::StoreError;
+use crate::import::ImportSummary;
+use crate::person::{self, Person};
+use crate::store::{ProfileResolution, Store};
+use abba_io::automation::Evidence;
+use abba_io::SourceId;
+use rusqlite::{params, Connection, OptionalExtension, Transaction};
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// Schema migration of the link tables (appended to `schema::MIGRATIONS`).
+pub const MIGRATION: &str = "CREATE TABLE nightscout_link (
+        person_id INTEGER PRIMARY KEY REFERENCES person(id),
+        url TEXT NOT NULL,
+        credential_kind TEXT NOT NULL CHECK (credential_kind IN ('api_secret_sha1', 'token')),
+        credential TEXT NOT NULL,
+        write_back INTEGER NOT NULL,
+        created_at TEXT NOT NULL,
+        last_sync_at TEXT,
+        last_success_at TEXT,
+        last_error TEXT,
+        failures INTEGER NOT NULL DEFAULT 0
+    );
+    CREATE TABLE nightscout_mark (
+        person_id INTEGER NOT NULL REFERENCES person(id),
+        collection TEXT NOT NULL,
+        mark_ms INTEGER NOT NULL,
+        PRIMARY KEY (person_id, collection)
+    ) WITHOUT ROWID;
+    CREATE TABLE nightscout_written (
+        person_id INTEGER NOT NULL REFERENCES person(id),
+        what TEXT NOT NULL CHECK (what IN ('note', 'profile')),
+        key TEXT NOT NULL,
+        remote_id TEXT NOT NULL,
+        content TEXT NOT NULL,
+        written_at TEXT NOT NULL,
+        PRIMARY KEY (person_id, what, key)
+    ) WITHOUT ROWID;";
+
+/// How abba authenticates to the site.
+#[derive(Clone, PartialEq, Eq)]
+pub enum Credential {
+    /// The SHA-1 hex of the site's API_SECRET (what Nightscout's
+    /// `api-secret` header carries); the secret itself is never stored.
+    ApiSecretSha1(String),
+    /// An access token of a subject (`name-0123456789abcdef`), as given: a
+    /// bearer credential, which is why the store file is owner-only.
+    Token(String),
+}
+
+impl Credential {
+    /// The kind's name as stored and shown (`api_secret_sha1`, `token`).
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Credential::ApiSecretSha1(_) => "api_secret_sha1",
+            Credential::Token(_) => "token",
+        }
+    }
+    /// The value (for the HTTP client only: never print it).
+    pub fn secret(&self) -> &str {
+        match self {
+            Credential::ApiSecretSha1(s) | Credential::Token(s) => s,
+        }
+    }
+}
+
+impl std::fmt::Debug for Credential {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Credential({}, redacted)", self.kind())
+    }
+}
+
+/// A stored link.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Link {
+    /// The person's name.
+    pub person: String,
+    /// The site's base URL (`https://example.herokuapp.com`).
+    pub url: String,
+    /// The credential.
+    pub credential: Credential,
+    /// Whether abba writes its suggestions back.
+    pub write_back: bool,
+    /// When the link was made (UTC).
+    pub created_at: String,
+    /// The last sync's end (UTC), whatever its outcome.
+    pub last_sync_at: Option<String>,
+    /// The last successful sync's end (UTC).
+    pub last_success_at: Option<String>,
+    /// The last sync's error, if it failed.
+    pub last_error: Option<String>,
+    /// Failed syncs in a row (the background sync backs off by them).
+    pub failures: u32,
+}
+
+/// A link as shown (no credential).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LinkView {
+    /// The person's name.
+    pub person: String,
+    /// The site's base URL.
+    pub url: String,
+    /// `api_secret_sha1` or `token`.
+    pub credential_kind: &'static str,
+    /// Whether abba writes its suggestions back.
+    pub write_back: bool,
+    /// The last sync's end (UTC).
+    pub last_sync_at: Option<String>,
+    /// The last successful sync's end (UTC).
+    pub last_success_at: Option<String>,
+    /// The last sync's error.
+    pub last_error: Option<String>,
+    /// Failed syncs in a row.
+    pub failures: u32,
+}
+
+impl Link {
+    /// What may be shown of the link.
+    pub fn view(&self) -> LinkView {
+        LinkView {
+            person: self.person.clone(),
+            url: self.url.clone(),
+            credential_kind: self.credential.kind(),
+            write_back: self.write_back,
+            last_sync_at: self.last_sync_at.clone(),
+            last_success_at: self.last_success_at.clone(),
+            last_error: self.last_error.clone(),
+            failures: self.failures,
+        }
+    }
+}
+
+/// Something abba wrote to the site (a Note treatment, the `abba` profile).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Written {
+    /// `note` or `profile`.
+    pub what: String,
+    /// The suggestion's key (`at_min:parameter`) or `abba`.
+    pub key: String,
+    /// The document's `_id` on the site.
+    pub remote_id: String,
+    /// What was written (JSON), to tell whether it must be updated.
+    pub content: String,
+}
+
+/// What a sync fetched, ready for the import: the collections as JSON
+/// arrays (named for messages), the ids the site reports deleted, the new
+/// marks, and per collection the documents new since the previous mark
+/// (for the loop evidence, counted once however often a page is fetched).
+#[derive(Debug, Clone, Default)]
+pub struct Fetched {
+    /// (name, JSON array) per collection, read as files of that name.
+    pub contents: Vec<(String, Vec<u8>)>,
+    /// `_id`s of documents the site reports deleted (API v3 `isValid: false`).
+    pub deleted: Vec<String>,
+    /// The high-water marks after this sync, by collection.
+    pub marks: BTreeMap<String, i64>,
+    /// (collection, JSON array of its documents new since the last mark).
+    pub fresh: Vec<(String, Vec<u8>)>,
+}
+
+/// What the import of a sync did.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SyncImport {
+    /// The import (`None` when nothing was read).
+    pub import: Option<ImportSummary>,
+    /// Records removed because the site deleted their document.
+    pub deleted: usize,
+}
+
+fn person_id(conn: &Connection, name: &str) -> Result<Person, StoreError> {
+    person::load(conn, name)
+}
+
+fn row_to_link(r: &rusqlite::Row<'_>) -> rusqlite::Result<Link> {
+    let kind: String = r.get(2)?;
+    let secret: String = r.get(3)?;
+    Ok(Link {
+        person: r.get(0)?,
+        url: r.get(1)?,
+        credential: if kind == "token" {
+            Credential::Token(secret)
+        } else {
+            Credential::ApiSecretSha1(secret)
+        },
+        write_back: r.get(4)?,
+        created_at: r.get(5)?,
+        last_sync_at: r.get(6)?,
+        last_success_at: r.get(7)?,
+        last_error: r.get(8)?,
+        failures: r.get::<_, i64>(9)?.clamp(0, i64::from(u32::MAX)) as u32,
+    })
+}
+
+const SELECT: &str = "SELECT p.name, l.url, l.credential_kind, l.credential, l.write_back, l.created_at, l.last_sync_at, l.last_success_at, l.last_error, l.failures FROM nightscout_link l JOIN person p ON p.id = l.person_id";
+
+/// Adds `n` to the loop evidence kept for a synced collection (one row per
+/// collection, so documents fetched again are not counted twice).
+fn add_evidence(
+    tx: &Transaction<'_>,
+    person: i64,
+    collection: &str,
+    bytes: &[u8],
+) -> Result<(), StoreError> {
+    let e = Evidence::from_file(bytes);
+    if e.smb == 0 && e.automated_basal == 0 && e.systems.is_empty() {
+        return Ok(());
+    }
+    let key = format!("nightscout-sync:{collection}");
+    let held: Option<String> = tx
+        .query_row(
+            "SELECT evidence FROM file_evidence WHERE person_id = ?1 AND file_hash = ?2",
+            params![person, key],
+            |r| r.get(0),
+        )
+        .optional()?;
+    let mut sum = match held {
+        Some(j) => serde_json::from_str::<Evidence>(&j)
+            .map_err(|e| StoreError::corrupt("file evidence", e))?,
+        None => Evidence::default(),
+    };
+    sum.add_file(&e);
+    let json = serde_json::to_string(&sum).map_err(|e| StoreError::corrupt("file evidence", e))?;
+    tx.execute(
+        "INSERT OR REPLACE INTO file_evidence (person_id, file_hash, file, evidence) VALUES (?1, ?2, ?3, ?4)",
+        params![person, key, collection, json],
+    )?;
+    Ok(())
+}
+
+/// Removes the records of the documents `ids` (and the further records
+/// one document gave, `ID#n`); returns how many.
+fn delete_records(tx: &Transaction<'_>, person: i64, ids: &[String]) -> Result<usize, StoreError> {
+    let mut n = 0;
+    let mut exact = tx.prepare(
+        "DELETE FROM record WHERE person_id = ?1 AND source = 'nightscout' AND source_id = ?2",
+    )?;
+    let mut parts = tx.prepare(
+        "DELETE FROM record WHERE person_id = ?1 AND source = 'nightscout' AND substr(source_id, 1, ?3) = ?2",
+    )?;
+    for id in ids {
+        let key = serde_json::to_string(&SourceId::Id(id.as_str().into()))
+            .map_err(|e| StoreError::corrupt("record id", e))?;
+        n += exact.execute(params![person, key])?;
+        // `{"id":"ID#` : the further records of the same document.
+        let prefix = format!("{}#", key.trim_end_matches("\"}"));
+        n += parts.execute(params![person, prefix, prefix.chars().count() as i64])?;
+    }
+    Ok(n)
+}
+
+fn write_marks(
+    tx: &Transaction<'_>,
+    person: i64,
+    marks: &BTreeMap<String, i64>,
+) -> Result<(), StoreError> {
+    for (c, m) in marks {
+        tx.execute(
+            "INSERT INTO nightscout_mark (person_id, collection, mark_ms) VALUES (?1, ?2, ?3)
+             ON CONFLICT (person_id, collection) DO UPDATE SET mark_ms = max(mark_ms, excluded.mark_ms)",
+            params![person, c, m],
+        )?;
+    }
+    Ok(())
+}
+
+impl Store {
+    /// Links `name` to a Nightscout site (replacing a link it had; a link
+    /// to another URL starts again from no marks).
+    pub fn set_link(
+        &mut self,
+        name: &str,
+        url: &str,
+        credential: &Credential,
+        write_back: bool,
+    ) -> Result<Link, StoreError> {
+        let p = person_id(&self.conn, name)?;
+        let tx = self.conn.transaction()?;
+        let old: Option<String> = tx
+            .query_row(
+                "SELECT url FROM nightscout_link WHERE person_id = ?1",
+                params![p.id],
+                |r| r.get(0),
+            )
+            .optional()?;
+        if old.as_deref().is_some_and(|u| u != url) {
+            tx.execute(
+                "DELETE FROM nightscout_mark WHERE person_id = ?1",
+                params![p.id],
+            )?;
+            tx.execute(
+                "DELETE FROM nightscout_written WHERE person_id = ?1",
+                params![p.id],
+            )?;
+        }
+        tx.execute(
+            "INSERT INTO nightscout_link (person_id, url, credential_kind, credential, write_back, created_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6)
+             ON CONFLICT (person_id) DO UPDATE SET url = excluded.url, credential_kind = excluded.credential_kind, credential = excluded.credential, write_back = excluded.write_back",
+            params![p.id, url, credential.kind(), credential.secret(), write_back, jiff::Timestamp::now().to_string()],
+        )?;
+        tx.commit()?;
+        self.link(name)?
+            .ok_or_else(|| StoreError::corrupt("link", "not stored"))
+    }
+
+    /// The person's link, if any.
+    pub fn link(&self, name: &str) -> Result<Option<Link>, StoreError> {
+        let p = person_id(&self.conn, name)?;
+        Ok(self
+            .conn
+            .query_row(
+                &format!("{SELECT} WHERE l.person_id = ?1"),
+                params![p.id],
+                row_to_link,
+            )
+            .optional()?)
+    }
+
+    /// Every link, by person name.
+    pub fn links(&self) -> Result<Vec<Link>, StoreError> {
+        let mut st = self.conn.prepare(&format!("{SELECT} ORDER BY p.name"))?;
+        let v = st.query_map([], row_to_link)?.collect::<Result<_, _>>()?;
+        Ok(v)
+    }
+
+    /// Removes the person's link, its marks and the list of what abba
+    /// wrote (the records stay). False when there was no link.
+    pub fn remove_link(&mut self, name: &str) -> Result<bool, StoreError> {
+        let p = person_id(&self.conn, name)?;
+        let tx = self.conn.transaction()?;
+        for t in ["nightscout_mark", "nightscout_written"] {
+            tx.execute(
+                &format!("DELETE FROM {t} WHERE person_id = ?1"),
+                params![p.id],
+            )?;
+        }
+        let n = tx.execute(
+            "DELETE FROM nightscout_link WHERE person_id = ?1",
+            params![p.id],
+        )?;
+        tx.commit()?;
+        Ok(n > 0)
+    }
+
+    /// The person's high-water marks (ms), by collection.
+    pub fn link_marks(&self, name: &str) -> Result<BTreeMap<String, i64>, StoreError> {
+        let p = person_id(&self.conn, name)?;
+        let mut st = self
+            .conn
+            .prepare("SELECT collection, mark_ms FROM nightscout_mark WHERE person_id = ?1")?;
+        let v = st
+            .query_map(params![p.id], |r| Ok((r.get(0)?, r.get(1)?)))?
+            .collect::<Result<_, _>>()?;
+        Ok(v)
+    }
+
+    /// Records a sync's outcome at `at`: `None` a success (the failures
+    /// count restarts), `Some(error)` a failure.
+    pub fn record_sync(
+        &mut self,
+        name: &str,
+        at: jiff::Timestamp,
+        error: Option<&str>,
+    ) -> Result<(), StoreError> {
+        let p = person_id(&self.conn, name)?;
+        let at = at.to_string();
+        match error {
+            None => self.conn.execute(
+                "UPDATE nightscout_link SET last_sync_at = ?2, last_success_at = ?2, last_error = NULL, failures = 0 WHERE person_id = ?1",
+                params![p.id, at],
+            )?,
+            Some(e) => self.conn.execute(
+                "UPDATE nightscout_link SET last_sync_at = ?2, last_error = ?3, failures = failures + 1 WHERE person_id = ?1",
+                params![p.id, at, e],
+            )?,
+        };
+        Ok(())
+    }
+
+    /// Imports what a sync fetched, read at `now`, exactly as files of the
+    /// same content are imported (the same reader, identities and checks;
+    /// see [`Store::import_contents`]), and in the same transaction
+    /// removes the records of deleted documents and advances the marks.
+    pub fn import_synced(
+        &mut self,
+        name: &str,
+        fetched: &Fetched,
+        resolve: ProfileResolution,
+        now: jiff::Timestamp,
+    ) -> Result<SyncImport, StoreError> {
+        let p = person_id(&self.conn, name)?;
+        let mut deleted = 0;
+        let mut also = |tx: &Transaction<'_>| -> Result<(), StoreError> {
+            deleted = delete_records(tx, p.id, &fetched.deleted)?;
+            for (c, bytes) in &fetched.fresh {
+                add_evidence(tx, p.id, c, bytes)?;
+            }
+            write_marks(tx, p.id, &fetched.marks)
+        };
+        let has_records = {
+            let opts = abba_io::ReadOptions {
+                tz: Some(p.tz.clone()),
+                ..abba_io::ReadOptions::default()
+            };
+            !abba_io::read::read_all(&fetched.contents, &opts)?
+                .records
+                .is_empty()
+        };
+        if !has_records {
+            let tx = self.conn.transaction()?;
+            also(&tx)?;
+            tx.commit()?;
+            self.cache.remove(&p.id);
+            return Ok(SyncImport {
+                import: None,
+                deleted,
+            });
+        }
+        let s = self.import_contents_with(
+            name,
+            &fetched.contents,
+            Some(abba_io::read::Format::Nightscout),
+            resolve,
+            now,
+            false,
+            &mut also,
+        )?;
+        Ok(SyncImport {
+            import: Some(s),
+            deleted,
+        })
+    }
+
+    /// What abba wrote to the person's site.
+    pub fn written(&self, name: &str) -> Result<Vec<Written>, StoreError> {
+        let p = person_id(&self.conn, name)?;
+        let mut st = self.conn.prepare(
+            "SELECT what, key, remote_id, content FROM nightscout_written WHERE person_id = ?1 ORDER BY what, key",
+        )?;
+        let v = st
+            .query_map(params![p.id], |r| {
+                Ok(Written {
+                    what: r.get(0)?,
+                    key: r.get(1)?,
+                    remote_id: r.get(2)?,
+                    content: r.get(3)?,
+                })
+            })?
+            .collect::<Result<_, _>>()?;
+        Ok(v)
+    }
+
+    /// Records (or replaces) something abba wrote to the site.
+    pub fn set_written(&mut self, name: &str, w: &Written) -> Result<(), StoreError> {
+        let p = person_id(&self.conn, name)?;
+        self.conn.execute(
+            "INSERT OR REPLACE INTO nightscout_written (person_id, what, key, remote_id, content, written_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6)",
+            params![p.id, w.what, w.key, w.remote_id, w.content, jiff::Timestamp::now().to_string()],
+        )?;
+        Ok(())
+    }
+
+    /// Forgets something abba wrote (after removing it from the site).
+    pub fn forget_written(&mut self, name: &str, what: &str, key: &str) -> Result<(), StoreError> {
+        let p = person_id(&self.conn, name)?;
+        self.conn.execute(
+            "DELETE FROM nightscout_written WHERE person_id = ?1 AND what = ?2 AND key = ?3",
+            params![p.id, what, key],
+        )?;
+        Ok(())
+    }
+}

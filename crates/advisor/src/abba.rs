@@ -5,12 +5,13 @@ use crate::bounds::ClinicianBounds;
 use crate::config::{AbbaConfig, Mode};
 use crate::data_rule::MinData;
 use crate::decision::{
-    AbbaExplanation, Decision, DecisionDetail, DecisionLog, Parameter, Rounded, SkipReason,
+    AbbaExplanation, Decision, DecisionDetail, DecisionLog, Rounded, SkipReason,
 };
 use crate::error::AdvisorError;
 use crate::features::{local_cost, WindowStats};
 use crate::fusion::apply_action;
 use crate::guard::{closed_day, EventGuard};
+use crate::parameter::Parameter;
 use crate::steps::{
     mean_rate, rescale_schedule, round_change, scale_schedule, validate_segments, PumpSteps,
     Segments,

@@ -3,8 +3,8 @@
 //! 5 %-a-day clamp, so no suggestion ever leaves them, and a suggestion held
 //! at a bound says so in its explanation ([`BoundHeld`]).
 
-use crate::decision::Parameter;
 use crate::error::AdvisorError;
+use crate::parameter::Parameter;
 use serde::{Deserialize, Serialize};
 
 /// An inclusive range `[min, max]` (U/h or g/U).

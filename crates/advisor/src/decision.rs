@@ -3,38 +3,10 @@
 use crate::agent::{Action, ActorStep, Learning};
 use crate::features::{Features, WindowStats};
 use crate::fusion::Applied;
+use crate::parameter::Parameter;
 use crate::supervisor::SupervisoryRule;
-use abba_core::{MealSlot, Timestamp};
+use abba_core::Timestamp;
 use serde::{Deserialize, Serialize};
-
-/// Which setting a decision is about.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case", tag = "kind", content = "slot")]
-pub enum Parameter {
-    /// The flat basal rate (U/h).
-    Basal,
-    /// The carb ratio of a main meal (g/U).
-    CarbRatio(MealSlot),
-}
-
-impl std::fmt::Display for Parameter {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Parameter::Basal => write!(f, "basal rate"),
-            Parameter::CarbRatio(s) => write!(f, "{} carb ratio", s.name()),
-        }
-    }
-}
-
-impl Parameter {
-    /// Unit of the parameter's values.
-    pub fn unit(self) -> &'static str {
-        match self {
-            Parameter::Basal => "U/h",
-            Parameter::CarbRatio(_) => "g/U",
-        }
-    }
-}
 
 /// Why a decision point left the setting unchanged without computing an action.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

@@ -100,6 +100,7 @@ pub mod error;
 pub mod features;
 pub mod fusion;
 pub mod guard;
+pub mod parameter;
 mod rng;
 pub mod state;
 pub mod steps;
@@ -116,8 +117,9 @@ pub use baselines::r2r::{R2rConfig, RunToRun};
 pub use bounds::{BoundHeld, ClinicianBounds};
 pub use config::{AbbaConfig, CriticVariant, EventLimits, Mode};
 pub use data_rule::MinData;
-pub use decision::{Decision, DecisionDetail, Parameter, SkipReason};
+pub use decision::{Decision, DecisionDetail, SkipReason};
 pub use error::AdvisorError;
+pub use parameter::Parameter;
 pub use state::STATE_FORMAT_VERSION;
 pub use steps::PumpSteps;
 

@@ -8,11 +8,10 @@
 //! with the same initialisation week as ABBA.
 
 use crate::config::{EventLimits, Mode};
-use crate::decision::{
-    Decision, DecisionDetail, DecisionLog, Parameter, R2rExplanation, SkipReason,
-};
+use crate::decision::{Decision, DecisionDetail, DecisionLog, R2rExplanation, SkipReason};
 use crate::error::{check_positive, check_range, config_err, AdvisorError};
 use crate::guard::{closed_day, EventGuard};
+use crate::parameter::Parameter;
 use crate::windows::{DayWindows, MealWindows};
 use crate::{Advisor, ArmKind};
 use abba_core::{

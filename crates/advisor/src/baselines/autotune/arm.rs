@@ -29,9 +29,10 @@
 
 use super::{autotune_day, Carbs, DayData, Insulin, Profile, Reading, UtcClock};
 use crate::config::{EventLimits, Mode};
-use crate::decision::{Decision, DecisionDetail, DecisionLog, Parameter, SkipReason};
+use crate::decision::{Decision, DecisionDetail, DecisionLog, SkipReason};
 use crate::error::{check_positive, check_range, config_err, AdvisorError};
 use crate::guard::EventGuard;
+use crate::parameter::Parameter;
 use crate::{Advisor, ArmKind};
 use abba_core::limits::ISF_MG_DL_PER_U;
 use abba_core::{

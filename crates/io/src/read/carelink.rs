@@ -318,7 +318,7 @@ fn row_kinds(t: &Table<'_>, c: &Cols, at: &Location) -> Result<Vec<RecordKind>, 
             return Ok(None);
         };
         let n = name(i);
-        let unit = super::plain::unit_in_name(&n).ok_or_else(|| IoError::Units {
+        let unit = super::table::unit_in_name(&n).ok_or_else(|| IoError::Units {
             file: at.file.clone(),
             message: format!("column \"{n}\" names no unit (expected mg/dL or mmol/L)"),
         })?;

@@ -71,7 +71,7 @@ pub fn looks_like(header_line: &str) -> bool {
 fn localised(cells: &[String]) -> bool {
     cells.len() >= 13
         && cells[1].to_ascii_lowercase().contains("hh:mm:ss")
-        && super::plain::unit_in_name(&cells[7]).is_some()
+        && super::table::unit_in_name(&cells[7]).is_some()
 }
 
 /// Column `prefix` by its English name, or at `position` in a localised

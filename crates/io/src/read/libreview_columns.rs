@@ -123,7 +123,7 @@ const OTHER: [&str; 12] = [
 /// The role of a header cell, with the glucose unit it names (if any).
 pub fn role(header: &str) -> (Role, Option<GlucoseUnit>) {
     let name = header.to_lowercase();
-    let unit = crate::read::plain::unit_in_name(header);
+    let unit = crate::read::table::unit_in_name(header);
     if has(&name, &KETONE) {
         return (Role::Ketone, None);
     }

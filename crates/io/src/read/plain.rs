@@ -6,12 +6,12 @@
 
 use abba_core::{Grams, Units, UnitsPerHour};
 
-use super::table::{required_number, Table};
+use super::table::{required_number, unit_in_name, Table};
 use super::Ctx;
 use crate::error::{IoError, Location, Place};
 use crate::record::{content_id, BasalSchedule, Glucose, Profile, Record, RecordKind, Source};
 use crate::time::{has_offset, parse_instant, parse_wall, DateOrder, WallClock};
-use crate::units::{self, check_range, GlucoseUnit};
+use crate::units::{self, check_range};
 
 const TIME_NAMES: [&str; 6] = [
     "time",
@@ -30,20 +30,6 @@ const GLUCOSE_NAMES: [&str; 7] = [
     "glucose_mg_dl",
     "glucose_mmol_l",
 ];
-
-/// The unit a column name declares, if any.
-pub fn unit_in_name(name: &str) -> Option<GlucoseUnit> {
-    let n = name
-        .to_ascii_lowercase()
-        .replace([' ', '(', ')', '[', ']'], "");
-    if n.contains("mg/dl") || n.ends_with("mg_dl") || n.ends_with("mgdl") {
-        Some(GlucoseUnit::MgDl)
-    } else if n.contains("mmol/l") || n.ends_with("mmol_l") || n.ends_with("mmol") {
-        Some(GlucoseUnit::MmolL)
-    } else {
-        None
-    }
-}
 
 /// The date order of the time column (or of `date` beside `time`): year
 /// first, or what the dates show (a day above 12), or `--date-order`;

@@ -165,7 +165,7 @@ impl<'a> Table<'a> {
         given: Option<GlucoseUnit>,
     ) -> Result<GlucoseUnit, IoError> {
         let name = &self.header[at];
-        let unit = super::plain::unit_in_name(name).ok_or_else(|| IoError::Units {
+        let unit = unit_in_name(name).ok_or_else(|| IoError::Units {
             file: self.file.to_string(),
             message: format!("column \"{name}\" names no unit (expected mg/dL or mmol/L)"),
         })?;
@@ -299,6 +299,20 @@ pub fn required_number(
             format!("expected {what}, got \"{text}\""),
         )
     })
+}
+
+/// The unit a column name declares, if any.
+pub fn unit_in_name(name: &str) -> Option<GlucoseUnit> {
+    let n = name
+        .to_ascii_lowercase()
+        .replace([' ', '(', ')', '[', ']'], "");
+    if n.contains("mg/dl") || n.ends_with("mg_dl") || n.ends_with("mgdl") {
+        Some(GlucoseUnit::MgDl)
+    } else if n.contains("mmol/l") || n.ends_with("mmol_l") || n.ends_with("mmol") {
+        Some(GlucoseUnit::MmolL)
+    } else {
+        None
+    }
 }
 
 #[cfg(test)]

@@ -110,8 +110,9 @@ impl Collection {
                                     forms.push(iso_seconds(t));
                                 }
                                 forms.sort();
-                                let (lo, hi) = (forms[0].clone(), forms[forms.len() - 1].clone());
-                                Some((Key::Text(lo), Key::Text(hi)))
+                                let hi = forms.pop().map(Key::Text)?;
+                                let lo = forms.into_iter().next().map(Key::Text)?;
+                                Some((lo, hi))
                             }
                             _ => Some((Key::Text(s.to_string()), Key::Text(s.to_string()))),
                         }

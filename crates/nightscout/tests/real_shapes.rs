@@ -105,10 +105,10 @@ fn site_of(d: &Data, max_count: usize) -> Site {
 #[test]
 fn treatments_in_every_stored_form_and_entries_of_every_type_sync_as_files_import() {
     let dir = tempfile::tempdir().unwrap();
-    let d = real_shapes(4);
+    let d = real_shapes(3);
     let files = export(dir.path(), &d);
     // Small pages: their boundaries fall between documents of every form.
-    let srv = Server::start(site_of(&d, 9));
+    let srv = Server::start(site_of(&d, 12));
     let (_, mut synced) = store_with_person(dir.path(), "sync.db", &files);
     link(
         &mut synced,

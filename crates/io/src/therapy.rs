@@ -297,7 +297,10 @@ pub fn carelink_settings(
     meals: &MealWindows,
 ) -> Result<Result<CareLinkTherapy, String>, IoError> {
     let tz = opts.tz.clone().ok_or_else(|| {
-        IoError::format(file, "CareLink writes pump times without an offset: give the person's zone with --tz")
+        IoError::format(
+            file,
+            "CareLink writes pump times without an offset: give the person's zone with --tz",
+        )
     })?;
     let rows = crate::read::carelink_settings_rows(file, bytes, opts)?;
     let (Some(end), Some(_)) = (rows.end, rows.basal.first()) else {
@@ -306,14 +309,20 @@ pub fn carelink_settings(
         )));
     };
     let local = |t: jiff::Timestamp| tz.to_datetime(t);
-    let day = local(end).date().yesterday().map_err(|e| IoError::format(file, e.to_string()))?;
+    let day = local(end)
+        .date()
+        .yesterday()
+        .map_err(|e| IoError::format(file, e.to_string()))?;
     let midnight = |d: jiff::civil::Date| {
         d.to_zoned(tz.clone())
             .map(|z| z.timestamp())
             .map_err(|e| IoError::format(file, e.to_string()))
     };
     let start = midnight(day)?;
-    let stop = midnight(day.tomorrow().map_err(|e| IoError::format(file, e.to_string()))?)?;
+    let stop = midnight(
+        day.tomorrow()
+            .map_err(|e| IoError::format(file, e.to_string()))?,
+    )?;
     let Some(&(_, first_rate, first_line)) = rows.basal.iter().rev().find(|b| b.0 <= start) else {
         return Ok(Err(format!(
             "{file}: the export covers no full day with the scheduled basal rate known at its midnight (the last full day is {day}; its first \"Basal Rate (U/h)\" row is after 00:00): export a longer period"
@@ -321,7 +330,11 @@ pub fn carelink_settings(
     };
     let check = |r: f64, line: u64| {
         BASAL_U_PER_H.check(r).map_err(|e| {
-            IoError::invalid(Location::line(file, line), "Basal Rate (U/h)", e.to_string())
+            IoError::invalid(
+                Location::line(file, line),
+                "Basal Rate (U/h)",
+                e.to_string(),
+            )
         })
     };
     check(first_rate, first_line)?;
@@ -349,7 +362,8 @@ pub fn carelink_settings(
             .rev()
             .find(|c| {
                 let t = local(c.0);
-                let m = u32::try_from(i32::from(t.hour()) * 60 + i32::from(t.minute())).unwrap_or(0);
+                let m =
+                    u32::try_from(i32::from(t.hour()) * 60 + i32::from(t.minute())).unwrap_or(0);
                 (from..to).contains(&m)
             })
             .map(|c| c.1);
@@ -566,11 +580,7 @@ pub fn therapy_from_files_with(
     if let Some(cr) = carb_ratio {
         for (i, v) in cr.iter().enumerate() {
             CARB_RATIO_G_PER_U.check(*v).map_err(|e| {
-                IoError::invalid(
-                    Location::file("--carb-ratio"),
-                    SLOTS[i],
-                    e.to_string(),
-                )
+                IoError::invalid(Location::file("--carb-ratio"), SLOTS[i], e.to_string())
             })?;
         }
         latest.carb_ratio = cr;

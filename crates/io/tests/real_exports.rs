@@ -412,7 +412,13 @@ fn carelink_therapy_is_the_last_full_days_basal_rows_and_the_latest_wizard_ratio
     assert_eq!(t.day.to_string(), "2025-03-15");
     assert_eq!(
         t.basal,
-        vec![(0, 0.8), (240, 1.05), (540, 0.85), (1020, 0.95), (1320, 0.75)]
+        vec![
+            (0, 0.8),
+            (240, 1.05),
+            (540, 0.85),
+            (1020, 0.95),
+            (1320, 0.75)
+        ]
     );
     assert_eq!(t.at.to_string(), "2025-03-15T05:00:00Z");
     // Breakfast and lunch: the 16th's wizards (the correction with ratio 0
@@ -423,7 +429,8 @@ fn carelink_therapy_is_the_last_full_days_basal_rows_and_the_latest_wizard_ratio
     assert_eq!(p.carb_ratio, [9.0, 11.5, 13.5]);
     // The same through `person new --therapy-from`'s reader.
     let path = std::path::PathBuf::from(format!("{}/carelink_630g_us_synthetic.csv", common::DATA));
-    let f = abba_io::therapy::therapy_from_files(&[path], &opts("America/Chicago"), &meals).unwrap();
+    let f =
+        abba_io::therapy::therapy_from_files(&[path], &opts("America/Chicago"), &meals).unwrap();
     assert_eq!(f.basal, t.basal);
     assert_eq!(f.carb_ratio, [9.0, 11.5, 13.5]);
 }
@@ -445,7 +452,10 @@ fn a_decimal_comma_mmol_carelink_export_names_the_meal_without_a_wizard_event() 
     assert!(cgm.iter().all(|&g| (70.0..200.0).contains(&g)), "{cgm:?}");
     let t = carelink_therapy("eu.csv", &bytes, "Europe/Zurich").unwrap();
     assert_eq!(t.day.to_string(), "2025-11-05");
-    assert_eq!(t.basal, vec![(0, 0.7), (360, 0.95), (720, 0.8), (1260, 0.65)]);
+    assert_eq!(
+        t.basal,
+        vec![(0, 0.7), (360, 0.95), (720, 0.8), (1260, 0.65)]
+    );
     assert_eq!(t.carb_ratio, [Some(8.5), Some(10.0), None]);
     let meals = abba_io::meals::MealWindows::default();
     let e = t.complete(&meals, None).unwrap_err().to_string();
@@ -477,7 +487,10 @@ fn a_carelink_export_without_a_full_day_or_with_exchanges_says_what_it_lacks() {
         })
         .collect();
     let why = carelink_therapy("short.csv", short.as_bytes(), "America/Chicago").unwrap_err();
-    assert!(why.contains("2025-03-15") && why.contains("longer period"), "{why}");
+    assert!(
+        why.contains("2025-03-15") && why.contains("longer period"),
+        "{why}"
+    );
     // A wizard counting in exchanges: its ratios are not read as g/U.
     let ex = text.replace("BWZ Carb Ratio (g/U)", "BWZ Carb Ratio (Exchanges)");
     let t = carelink_therapy("ex.csv", ex.as_bytes(), "America/Chicago").unwrap();
@@ -488,17 +501,29 @@ fn a_carelink_export_without_a_full_day_or_with_exchanges_says_what_it_lacks() {
     // An implausible wizard ratio is an error naming the line and column.
     let bad = text.replacen(",11.5,50,65,", ",0.2,50,65,", 1);
     let meals = abba_io::meals::MealWindows::default();
-    let e = abba_io::therapy::carelink_settings("bad.csv", bad.as_bytes(), &opts("America/Chicago"), &meals)
-        .unwrap_err()
-        .to_string();
-    assert!(e.contains("bad.csv") && e.contains("BWZ Carb Ratio (g/U)"), "{e}");
+    let e = abba_io::therapy::carelink_settings(
+        "bad.csv",
+        bad.as_bytes(),
+        &opts("America/Chicago"),
+        &meals,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("bad.csv") && e.contains("BWZ Carb Ratio (g/U)"),
+        "{e}"
+    );
 }
 
 #[test]
 fn tidepool_pump_settings_follow_the_active_schedule_and_refuse_exchanges() {
     let meals = abba_io::meals::MealWindows::default();
     let read = |v: serde_json::Value| {
-        abba_io::therapy::tidepool_pump_settings("tp.json", &serde_json::to_vec(&v).unwrap(), &meals)
+        abba_io::therapy::tidepool_pump_settings(
+            "tp.json",
+            &serde_json::to_vec(&v).unwrap(),
+            &meals,
+        )
     };
     // Tandem-style: every setting named like the basal schedules.
     let named = serde_json::json!([{"type": "pumpSettings", "time": "2026-05-10T08:00:00Z",

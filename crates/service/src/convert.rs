@@ -310,7 +310,12 @@ pub fn page(
         .iter()
         .map(|&(_, i)| live.decisions[i].clone())
         .collect();
-    let mut views = advise::views_with(&live.person, &decisions, &live.answers, live.extras.as_ref());
+    let mut views = advise::views_with(
+        &live.person,
+        &decisions,
+        &live.answers,
+        live.extras.as_ref(),
+    );
     for (v, &(_, i)) in views.iter_mut().zip(&picked) {
         if v.status == "open" && latest.get(v.setting) != Some(&i) {
             v.status = "superseded".into();
@@ -575,10 +580,7 @@ pub fn therapy_change(b: &TherapyChangeBody) -> Result<TherapyChangeIn, ApiError
                     ));
                 }
                 BASAL_U_PER_H.check(seg.units_per_hour).map_err(|e| {
-                    ApiError::invalid(
-                        format!("basal_schedule[{i}].units_per_hour"),
-                        e.to_string(),
-                    )
+                    ApiError::invalid(format!("basal_schedule[{i}].units_per_hour"), e.to_string())
                 })?;
                 out.push((seg.start_minute, seg.units_per_hour));
             }

@@ -124,7 +124,9 @@ async fn every_endpoint_by_every_caller() {
                 ),
                 "therapy" => (
                     format!("/v1/persons/{alice}/therapy"),
-                    Some(json!({"carb_ratios": {"breakfast": 10.0, "lunch": 11.0, "dinner": 12.0}})),
+                    Some(
+                        json!({"carb_ratios": {"breakfast": 10.0, "lunch": 11.0, "dinner": 12.0}}),
+                    ),
                 ),
                 "issue token" => (format!("/v1/persons/{alice}/tokens"), None),
                 "revoke token" => (format!("/v1/tokens/{victim}"), None),

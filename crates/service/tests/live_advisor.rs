@@ -628,12 +628,20 @@ async fn a_clinicians_change_by_the_api_and_the_cli_reaches_an_app_fed_person() 
     assert_eq!(r.status, StatusCode::OK, "{}", r.text);
     assert_eq!(r.json["basal_in_force"].as_f64(), Some(1.1), "{}", r.text);
     assert_eq!(r.json["carb_ratios_in_force"]["lunch"].as_f64(), Some(13.0));
-    assert!(r.json["notice"].as_str().unwrap().contains("not a medical device"));
+    assert!(r.json["notice"]
+        .as_str()
+        .unwrap()
+        .contains("not a medical device"));
     // The rest of the stream: the lunch update of day 9 starts from 13.
     post_like_an_app(&svc, id, &t, &events[cut..]).await;
     let mut changes = vec![(at1, Some(1.1), [9.0, 13.0, 10.5])];
     let r = svc
-        .call(Method::GET, &format!("/v1/persons/{id}/history"), Some(&t), None)
+        .call(
+            Method::GET,
+            &format!("/v1/persons/{id}/history"),
+            Some(&t),
+            None,
+        )
         .await;
     let all = r.json["suggestions"].as_array().unwrap().clone();
     check_same(&all, &in_process_with(&svc, id, &events, &changes));
@@ -657,7 +665,12 @@ async fn a_clinicians_change_by_the_api_and_the_cli_reaches_an_app_fed_person() 
         .unwrap();
     changes.push((at2, None, [9.5, 12.5, 10.0]));
     let r = svc
-        .call(Method::GET, &format!("/v1/persons/{id}/history"), Some(&t), None)
+        .call(
+            Method::GET,
+            &format!("/v1/persons/{id}/history"),
+            Some(&t),
+            None,
+        )
         .await;
     let all = r.json["suggestions"].as_array().unwrap().clone();
     check_same(&all, &in_process_with(&svc, id, &events, &changes));
@@ -670,7 +683,10 @@ async fn a_clinicians_change_by_the_api_and_the_cli_reaches_an_app_fed_person() 
     // Refused with the field named: a value out of the limits, a schedule
     // not starting at 0, both basal forms, a time in the future.
     for (bad, field) in [
-        (json!({"basal_units_per_hour": 90.0}), "basal_units_per_hour"),
+        (
+            json!({"basal_units_per_hour": 90.0}),
+            "basal_units_per_hour",
+        ),
         (
             json!({"basal_schedule": [{"start_minute": 60, "units_per_hour": 1.0}]}),
             "basal_schedule[0].start_minute",
@@ -696,7 +712,12 @@ async fn a_clinicians_change_by_the_api_and_the_cli_reaches_an_app_fed_person() 
                 Some(&bad),
             )
             .await;
-        assert_eq!(r.status, StatusCode::UNPROCESSABLE_ENTITY, "{bad}: {}", r.text);
+        assert_eq!(
+            r.status,
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "{bad}: {}",
+            r.text
+        );
         assert_eq!(r.json["path"], field, "{}", r.text);
     }
 }

@@ -15,8 +15,8 @@ use crate::advise;
 use crate::answer::{self, param_key, Answer, AnswerKind, Answers};
 use crate::app::{self, AppEvent, NewAppEvent};
 use crate::error::StoreError;
-use crate::person::{self, Person};
 use crate::in_force::{Extras, TherapyChange};
+use crate::person::{self, Person};
 use crate::replay::prefix_hash;
 use crate::store::{refresh, State, Store};
 use crate::token::{self, Role, StoredToken};
@@ -346,9 +346,10 @@ impl Store {
         let ins = app::insert(&tx, &mut person, batch)?;
         // A clinician's change already put in force after the last event
         // fed: an event before it must see the old therapy (a rebuild).
-        let pending = live.extras.as_ref().and_then(|x| {
-            x.applied_after(live.stream.events.last().map(|e| e.at))
-        });
+        let pending = live
+            .extras
+            .as_ref()
+            .and_then(|x| x.applied_after(live.stream.events.last().map(|e| e.at)));
         let in_order = match (ins.new.first(), live.last) {
             (Some(first), Some(last)) => {
                 first.key() > last && pending.is_none_or(|p| first.event.at >= p)

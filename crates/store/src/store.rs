@@ -427,7 +427,6 @@ impl Store {
         Ok(change)
     }
 
-
     /// The person's records, in the log's order.
     pub fn records(&self, name: &str) -> Result<Vec<Record>, StoreError> {
         log::records(&self.conn, self.person(name)?.id)
@@ -603,7 +602,6 @@ pub(crate) fn make_change(
     };
     Ok((at, change))
 }
-
 
 /// What an import does when the export's pump profile differs from the
 /// therapy the store holds.

@@ -256,7 +256,11 @@ fn a_clinicians_change_reaches_an_app_fed_persons_advisor_at_its_time() {
     assert_eq!(lunch.2, 12.5, "{lunch:?}");
     let advice = store.advise("ana").unwrap();
     assert!(
-        advice.therapy.changes.iter().any(|c| c.contains("9.5/12.5/10")),
+        advice
+            .therapy
+            .changes
+            .iter()
+            .any(|c| c.contains("9.5/12.5/10")),
         "{:?}",
         advice.therapy.changes
     );

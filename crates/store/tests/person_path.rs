@@ -479,7 +479,9 @@ fn a_carelink_export_gives_the_therapy_and_an_import_that_differs_stops() {
     p.settings.therapy_source = TherapySource::Profile;
     let mut store = dir.store();
     store.create_person(&p).unwrap();
-    store.import_files("cy", std::slice::from_ref(&us), None).unwrap();
+    store
+        .import_files("cy", std::slice::from_ref(&us), None)
+        .unwrap();
     let a = store.advise("cy").unwrap();
     let sched = a.therapy.basal_schedule.expect("the schedule in force");
     let rates: Vec<f64> = sched.iter().map(|s| s.1).collect();
@@ -496,16 +498,27 @@ fn a_carelink_export_gives_the_therapy_and_an_import_that_differs_stops() {
         .unwrap_err()
         .to_string();
     assert!(
-        e.contains("1.05") && e.contains("9/11.5/13.5") && e.contains("0.9") && e.contains("--adopt-profile"),
+        e.contains("1.05")
+            && e.contains("9/11.5/13.5")
+            && e.contains("0.9")
+            && e.contains("--adopt-profile"),
         "{e}"
     );
     assert!(store.records("dee").unwrap().is_empty());
     store
-        .import_files_with("dee", std::slice::from_ref(&us), None, ProfileResolution::Adopt)
+        .import_files_with(
+            "dee",
+            std::slice::from_ref(&us),
+            None,
+            ProfileResolution::Adopt,
+        )
         .unwrap();
     let dee = store.person("dee").unwrap();
     assert_eq!(dee.settings.basal_schedule, Some(t.basal.clone()));
-    assert_eq!(dee.settings.start.carb_ratio.map(|c| c.0), [9.0, 11.5, 13.5]);
+    assert_eq!(
+        dee.settings.start.carb_ratio.map(|c| c.0),
+        [9.0, 11.5, 13.5]
+    );
 
     // The decimal-comma export has no dinner wizard event: the store's
     // dinner ratio stands, and an import whose other values agree goes on.
@@ -533,7 +546,9 @@ fn a_carelink_export_gives_the_therapy_and_an_import_that_differs_stops() {
         r.settings.basal_schedule.as_deref().unwrap(),
     ));
     store.create_person(&r).unwrap();
-    store.import_files("eve", std::slice::from_ref(&eu), None).unwrap();
+    store
+        .import_files("eve", std::slice::from_ref(&eu), None)
+        .unwrap();
     assert_eq!(
         store.person("eve").unwrap().settings.therapy_source,
         TherapySource::Profile
@@ -612,7 +627,11 @@ fn tidepool_export(dir: &std::path::Path, days: i64) -> PathBuf {
                 json!({"deliveryType": "suspend", "duration": 1_800_000}),
             ));
         }
-        for (minute, carbs, ratio) in [(7 * 60 + 2, 45.0, 10.0), (12 * 60 + 17, 60.0, 12.0), (18 * 60 + 32, 70.0, 11.0)] {
+        for (minute, carbs, ratio) in [
+            (7 * 60 + 2, 45.0, 10.0),
+            (12 * 60 + 17, 60.0, 12.0),
+            (18 * 60 + 32, 70.0, 11.0),
+        ] {
             let ms = day_ms + minute * 60_000;
             let bolus_id = id();
             let units = ((carbs / ratio) * 20.0_f64).round() / 20.0;
@@ -637,7 +656,9 @@ fn tidepool_export(dir: &std::path::Path, days: i64) -> PathBuf {
             "client": {"name": "org.tidepool.uploader", "version": "2.60.0"}, "timeProcessing": "utc-bootstrapping"}),
     ));
     let segs = |v: &[(i64, f64)], key: &str| -> Value {
-        v.iter().map(|&(m, x)| json!({"start": m * 60_000, key: x})).collect()
+        v.iter()
+            .map(|&(m, x)| json!({"start": m * 60_000, key: x}))
+            .collect()
     };
     items.push(with(
         base(end, "pumpSettings", id()),
@@ -667,8 +688,17 @@ fn an_open_loop_tidepool_export_gives_the_pumps_therapy_a_first_week_and_suggest
         "2026-05-04"
     );
     let a = store.advise("ana").unwrap();
-    assert_eq!(a.delivery.kind, abba_io::automation::Delivery::OpenLoop, "{:?}", a.delivery);
-    assert!(a.first_week.is_none(), "the first week completed: {:?}", a.first_week);
+    assert_eq!(
+        a.delivery.kind,
+        abba_io::automation::Delivery::OpenLoop,
+        "{:?}",
+        a.delivery
+    );
+    assert!(
+        a.first_week.is_none(),
+        "the first week completed: {:?}",
+        a.first_week
+    );
     let history = store.history("ana").unwrap();
     // The therapy is the pump's: the active schedule and the ratio in force
     // for the longest part of each meal window.
@@ -679,9 +709,15 @@ fn an_open_loop_tidepool_export_gives_the_pumps_therapy_a_first_week_and_suggest
     assert_eq!(first_cr, vec![10.0, 12.0, 11.0]);
     let first_basal = history.iter().find(|v| v.setting == "basal").unwrap();
     let mean = (0.75 * 240.0 + 0.95 * 360.0 + 0.85 * 540.0 + 0.8 * 300.0) / 1440.0;
-    assert!((first_basal.previous - mean).abs() < 1e-9, "{first_basal:?}");
+    assert!(
+        (first_basal.previous - mean).abs() < 1e-9,
+        "{first_basal:?}"
+    );
     let updates: Vec<_> = history.iter().filter(|v| !v.no_update).collect();
-    assert!(updates.iter().any(|v| v.setting == "basal"), "no basal update");
+    assert!(
+        updates.iter().any(|v| v.setting == "basal"),
+        "no basal update"
+    );
     for v in updates {
         if v.setting == "basal" {
             for (_, r) in v.schedule.as_ref().expect("a schedule") {

@@ -43,7 +43,8 @@ fn is_header(line: &str) -> bool {
 /// (or `,`) header after a section divider or the CareLink preamble.
 pub fn looks_like(head: &str) -> bool {
     let header = head.lines().any(is_header);
-    let preamble = head.starts_with("Last Name;First Name") || head.starts_with("Last Name,First Name");
+    let preamble =
+        head.starts_with("Last Name;First Name") || head.starts_with("Last Name,First Name");
     header && (head.contains("-------;") || head.contains("-------,") || preamble)
 }
 

@@ -10,6 +10,7 @@ use abba_api::{
     BasalSegment, BoundsBody, CarbRatios, ErrorBody, NewPersonBody, PersonCreated,
     TherapyChangeBody, TherapyChanged, TokenIssued, TokenRevoked,
 };
+use abba_advisor::Advisor;
 use abba_store::token::Role;
 use abba_store::StoreError;
 use axum::extract::State;

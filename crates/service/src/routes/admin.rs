@@ -6,11 +6,11 @@ use crate::convert;
 use crate::error::ApiError;
 use crate::extract::{parse_id, Admin, AdminPath};
 use crate::state::AppState;
+use abba_advisor::Advisor;
 use abba_api::{
     BasalSegment, BoundsBody, CarbRatios, ErrorBody, NewPersonBody, PersonCreated,
     TherapyChangeBody, TherapyChanged, TokenIssued, TokenRevoked,
 };
-use abba_advisor::Advisor;
 use abba_store::token::Role;
 use abba_store::StoreError;
 use axum::extract::State;

@@ -121,6 +121,70 @@ pub struct BoundsBody {
     pub bounds: Bounds,
 }
 
+/// One segment of a basal schedule.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct BasalSegment {
+    /// Minute of the local day the segment starts (0-1439; the first is 0).
+    pub start_minute: u32,
+    /// Basal rate (U/h).
+    pub units_per_hour: f64,
+}
+
+/// Carb ratios of the three meals (g/U).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CarbRatios {
+    /// Breakfast (g/U).
+    pub breakfast: f64,
+    /// Lunch (g/U).
+    pub lunch: f64,
+    /// Dinner (g/U).
+    pub dinner: f64,
+}
+
+/// `POST /v1/persons/{id}/therapy` (admin): the clinician's change of
+/// settings, in force from `at` whether or not a suggestion is open; what
+/// it leaves out stays. At most one of `basal_units_per_hour` and
+/// `basal_schedule`; at least one basal or `carb_ratios`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct TherapyChangeBody {
+    /// A flat basal rate (U/h).
+    #[serde(default)]
+    pub basal_units_per_hour: Option<f64>,
+    /// A basal schedule (segments in order, the first from minute 0).
+    #[serde(default)]
+    pub basal_schedule: Option<Vec<BasalSegment>>,
+    /// The carb ratios of the three meals.
+    #[serde(default)]
+    pub carb_ratios: Option<CarbRatios>,
+    /// In force from (RFC 3339 with an offset; default: now; never in the
+    /// future).
+    #[serde(default)]
+    pub at: Option<String>,
+}
+
+/// The change recorded, and what is in force after it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct TherapyChanged {
+    /// The person's id.
+    pub person_id: u64,
+    /// In force from (RFC 3339, UTC).
+    pub at: String,
+    /// The basal schedule the change put in force (none: unchanged).
+    pub basal_schedule: Option<Vec<BasalSegment>>,
+    /// The carb ratios it put in force (none: unchanged).
+    pub carb_ratios: Option<CarbRatios>,
+    /// The advisor's basal rate in force now (U/h; a schedule's mean).
+    pub basal_in_force: f64,
+    /// The advisor's carb ratios in force now.
+    pub carb_ratios_in_force: CarbRatios,
+    /// abba is research software, not a medical device.
+    pub notice: String,
+}
+
 /// A token, shown once: only its SHA-256 hash is stored.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]

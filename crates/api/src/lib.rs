@@ -21,8 +21,8 @@ pub mod sync;
 pub mod views;
 
 pub use admin::{
-    Bounds, BoundsBody, MinDataBody, Mode, NewPersonBody, PersonCreated, Range, TherapyBody,
-    TokenIssued, TokenRevoked,
+    BasalSegment, Bounds, BoundsBody, CarbRatios, MinDataBody, Mode, NewPersonBody, PersonCreated,
+    Range, TherapyBody, TherapyChangeBody, TherapyChanged, TokenIssued, TokenRevoked,
 };
 pub use answers::{AnswerBody, AnswerItem, AnswerKind, Answered, AnswersAck};
 pub use error::{ErrorBody, ErrorCode};

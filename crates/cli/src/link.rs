@@ -274,6 +274,15 @@ pub fn sync(a: SyncArgs) -> Result<()> {
                         r.import.deleted
                     );
                 }
+                if !r.gone.is_empty() {
+                    let shown: Vec<&str> = r.gone.iter().take(5).map(String::as_str).collect();
+                    println!(
+                        "{} documents abba holds are no longer on the site ({}{}): deleted through API v1, which leaves no trace of why; their records are kept.",
+                        r.gone.len(),
+                        shown.join(", "),
+                        if r.gone.len() > shown.len() { ", ..." } else { "" }
+                    );
+                }
                 if let Some(w) = &r.write_back {
                     println!(
                         "Written back: {} new Notes, {} updated{}.",

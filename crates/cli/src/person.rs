@@ -52,14 +52,17 @@ struct NewArgs {
     #[arg(long, value_enum)]
     mode: ModeArg,
     /// The therapy in force from the pump's export: a Nightscout profile
-    /// store (profile.json) or Profile Switch, or Tidepool pumpSettings (the
-    /// latest settings profile of the files: basal schedule, carb ratios).
-    #[arg(long, value_name = "FILE", num_args = 1.., conflicts_with_all = ["basal", "carb_ratio"])]
+    /// store (profile.json) or Profile Switch, Tidepool pumpSettings, or a
+    /// CareLink CSV (its last full day's basal rates, the bolus wizard's
+    /// carb ratios): the latest settings of the files.
+    #[arg(long, value_name = "FILE", num_args = 1.., conflicts_with_all = ["basal"])]
     therapy_from: Vec<PathBuf>,
     /// Current flat basal rate (U/h), when not --therapy-from.
     #[arg(long, value_name = "U_PER_H", required_unless_present = "therapy_from")]
     basal: Option<f64>,
-    /// Current carb ratios of breakfast, lunch, dinner (g/U): B,L,D, when not --therapy-from.
+    /// Current carb ratios of breakfast, lunch, dinner (g/U): B,L,D; with
+    /// --therapy-from they replace the export's carb ratios (for a CareLink
+    /// export without a wizard event in some meal window).
     #[arg(long, value_name = "B,L,D", required_unless_present = "therapy_from")]
     carb_ratio: Option<String>,
     /// The pump's basal step (U/h): suggestions are rounded to it.
@@ -142,7 +145,7 @@ fn new(a: NewArgs) -> Result<()> {
         };
     }
     let (start, schedule, from) = match (&a.basal, &a.carb_ratio) {
-        (Some(basal), Some(cr)) => {
+        (Some(basal), Some(cr)) if a.therapy_from.is_empty() => {
             let [b, l, d] = carb_ratios("--carb-ratio", cr)?;
             let start = TherapySettings {
                 basal: UnitsPerHour(*basal),
@@ -157,8 +160,18 @@ fn new(a: NewArgs) -> Result<()> {
                 tz: Some(tz),
                 ..abba_io::ReadOptions::default()
             };
-            let t = abba_io::therapy::therapy_from_files(&a.therapy_from, &opts, &meal_windows)
-                .context("--therapy-from")?;
+            let given = a
+                .carb_ratio
+                .as_deref()
+                .map(|c| carb_ratios("--carb-ratio", c))
+                .transpose()?;
+            let t = abba_io::therapy::therapy_from_files_with(
+                &a.therapy_from,
+                &opts,
+                &meal_windows,
+                given,
+            )
+            .context("--therapy-from")?;
             let schedule = (t.basal.len() > 1).then(|| t.basal.clone());
             (t.settings(), schedule, Some(t))
         }

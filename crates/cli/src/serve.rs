@@ -113,8 +113,43 @@ impl ServeArgs {
     }
 }
 
-/// Runs `abba serve` until SIGTERM or Ctrl-C. Logs (tracing) go to
-/// stderr; `RUST_LOG` chooses what (default: info).
+/// The target of what `abba serve` says on stdout (its address, the
+/// notice, its stop); every other event goes to stderr.
+const OUT: &str = "abba::serve";
+
+/// Logs through `tracing`: [`OUT`]'s lines to stdout as plain lines,
+/// everything else to stderr (`RUST_LOG` chooses what, default info).
+/// Neither writer's failure (a closed pipe) is an error: the service
+/// never stops because nobody reads its output.
+fn init_logging() {
+    use tracing_subscriber::filter::filter_fn;
+    use tracing_subscriber::prelude::*;
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+    let out = tracing_subscriber::fmt::layer()
+        .with_writer(std::io::stdout)
+        .without_time()
+        .with_level(false)
+        .with_target(false)
+        .with_ansi(false)
+        .log_internal_errors(false)
+        .with_filter(filter_fn(|m| m.target() == OUT));
+    let err = tracing_subscriber::fmt::layer()
+        .with_writer(std::io::stderr)
+        .with_ansi(false)
+        .log_internal_errors(false)
+        .with_filter(filter)
+        .with_filter(filter_fn(|m| m.target() != OUT));
+    // A second call (tests in one process) keeps the first subscriber.
+    let _ = tracing_subscriber::registry()
+        .with(out)
+        .with(err)
+        .try_init();
+}
+
+/// Runs `abba serve` until SIGTERM or Ctrl-C. Its address and stop are
+/// said on stdout, logs (tracing) go to stderr; the background syncs
+/// start once it listens.
 pub fn serve(a: ServeArgs) -> Result<()> {
     let settings = a.settings()?;
     let background = match &a.sync_every {
@@ -125,35 +160,33 @@ pub fn serve(a: ServeArgs) -> Result<()> {
         }),
         None => None,
     };
+    init_logging();
     let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
-    let syncing = background.map(|bg| {
-        let (db, stop) = (a.db.clone(), std::sync::Arc::clone(&stop));
-        std::thread::spawn(move || abba_nightscout::background::run(&db, &bg, &stop))
-    });
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
-    // A second call (tests in one process) keeps the first subscriber.
-    let _ = tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_writer(std::io::stderr)
-        .with_ansi(false)
-        .try_init();
+    let syncing = std::sync::Mutex::new(None);
     let served = abba_service::serve(&a.db, &a.listen, &settings, |addr| {
-        println!(
+        tracing::info!(
+            target: OUT,
             "abba serve: listening on http://{addr} (store {})",
             a.db.display()
         );
-        println!("{}", abba_api::NOTICE);
-        // Whoever started us may wait for this line.
+        tracing::info!(target: OUT, "{}", abba_api::NOTICE);
+        // Whoever started us may wait for that line.
         let _ = std::io::stdout().flush();
+        if let Some(bg) = background {
+            let (db, stop) = (a.db.clone(), std::sync::Arc::clone(&stop));
+            let t = std::thread::spawn(move || abba_nightscout::background::run(&db, &bg, &stop));
+            if let Ok(mut g) = syncing.lock() {
+                *g = Some(t);
+            }
+        }
     })
     .with_context(|| format!("serving {}", a.db.display()));
     stop.store(true, std::sync::atomic::Ordering::Relaxed);
-    if let Some(t) = syncing {
+    if let Some(t) = syncing.lock().ok().and_then(|mut g| g.take()) {
         let _ = t.join();
     }
     served?;
-    println!("abba serve: stopped");
+    tracing::info!(target: OUT, "abba serve: stopped");
     Ok(())
 }
 

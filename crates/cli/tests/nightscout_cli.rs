@@ -233,39 +233,64 @@ fn serve_syncs_every_linked_person_in_the_background() {
         .output()
         .unwrap();
     let token = String::from_utf8_lossy(&token.stdout).trim().to_string();
+    // The service's log in a file, to say why if the sync does not come.
+    let log = dir.path().join("serve.stderr");
     let mut child = abba()
         .args(["serve", "--db"])
         .arg(&db)
         .args(["--listen", "127.0.0.1:0", "--sync-every", "5m"])
         .stdout(Stdio::piped())
-        .stderr(Stdio::null())
+        .stderr(std::fs::File::create(&log).unwrap())
         .spawn()
         .unwrap();
     let mut line = String::new();
     let mut out = std::io::BufReader::new(child.stdout.take().unwrap());
     std::io::BufRead::read_line(&mut out, &mut line).unwrap();
-    // Keep reading what the service prints (a closed pipe would fail its
-    // next line).
+    // What it prints next is read too (the service does not need it: see
+    // serve_output.rs).
     std::thread::spawn(move || std::io::copy(&mut out, &mut std::io::sink()));
     let addr = line
         .split("http://")
         .nth(1)
-        .unwrap()
+        .unwrap_or_else(|| panic!("{line:?}: {}", std::fs::read_to_string(&log).unwrap()))
         .split_whitespace()
         .next()
         .unwrap()
         .to_string();
+    // The link as the background sync records it, read on a read-only
+    // connection (which takes no lock a writer waits for).
+    let read_link = || -> Option<(Option<String>, Option<String>, Option<String>)> {
+        let conn =
+            rusqlite::Connection::open_with_flags(&db, rusqlite::OpenFlags::SQLITE_OPEN_READ_ONLY)
+                .ok()?;
+        conn.query_row(
+            "SELECT last_sync_at, last_success_at, last_error FROM nightscout_link",
+            [],
+            |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)),
+        )
+        .ok()
+    };
+    // A wait for an event, not a timing: generous, so that a loaded
+    // machine does not fail it.
     let t0 = Instant::now();
     let synced = loop {
-        let store = abba_store::Store::open(&db).unwrap();
-        let l = store.link("ana").unwrap().unwrap();
-        if l.last_sync_at.is_some() || t0.elapsed() > Duration::from_secs(60) {
-            break l;
+        match read_link() {
+            Some(l) if l.0.is_some() => break l,
+            _ if t0.elapsed() > Duration::from_secs(300) => {
+                panic!(
+                    "no background sync in {:?}; the service said: {}",
+                    t0.elapsed(),
+                    std::fs::read_to_string(&log).unwrap()
+                )
+            }
+            _ => std::thread::sleep(Duration::from_millis(100)),
         }
-        drop(store);
-        std::thread::sleep(Duration::from_millis(100));
     };
-    assert!(synced.last_success_at.is_some(), "{synced:?}");
+    assert!(
+        synced.1.is_some(),
+        "{synced:?}; the service said: {}",
+        std::fs::read_to_string(&log).unwrap()
+    );
     let store = abba_store::Store::open(&db).unwrap();
     assert!(!store.records("ana").unwrap().is_empty());
     // The service shows the last sync on the person's advice.

@@ -1,8 +1,21 @@
 //! The therapy a pump runs, from its export: the basal schedule and the carb
 //! ratios of a settings profile (a Nightscout profile store or Profile
-//! Switch, Tidepool `pumpSettings`), each value checked against
-//! [`abba_core::limits`], the carb-ratio schedule mapped to the three meal
-//! slots by the value in force for the longest part of each meal window.
+//! Switch, Tidepool `pumpSettings`, CareLink's basal-rate and bolus-wizard
+//! rows), each value checked against [`abba_core::limits`], the carb-ratio
+//! schedule mapped to the three meal slots by the value in force for the
+//! longest part of each meal window.
+//!
+//! A CareLink export has no settings profile; its rows say what the pump
+//! ran ([`carelink_settings`]): the **basal schedule** is the one of the
+//! last full local day before the export's last row (the rate in force at
+//! its midnight, from the latest `Basal Rate (U/h)` row at or before it,
+//! then each row of that day that changes the rate starts a segment at its
+//! minute); the **carb ratio** of each meal slot is the `BWZ Carb Ratio
+//! (g/U)` of the latest bolus-wizard event whose local time lies in that
+//! meal window (any day of the export). Refused: an export without
+//! `Basal Rate` rows or that does not cover a full day with the rate known
+//! at its midnight; a slot without a wizard event (name the carb ratios
+//! with `--carb-ratio` then); a wizard ratio not in g/U (exchanges).
 //!
 //! A schedule record without carb ratios (Tidepool's delivered scheduled
 //! basal) says what was delivered, not what the settings are: it is not a
@@ -167,6 +180,209 @@ impl PumpTherapy {
     }
 }
 
+/// What a CareLink export says about the pump's therapy (see the module
+/// documentation); a slot without a wizard event has no carb ratio.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CareLinkTherapy {
+    /// The basal schedule of `day`: (minute of the local day, U/h).
+    pub basal: Vec<(u32, f64)>,
+    /// The latest wizard carb ratio of breakfast, lunch and dinner.
+    pub carb_ratio: [Option<f64>; 3],
+    /// The last full day, whose schedule it is.
+    pub day: jiff::civil::Date,
+    /// Where it was read.
+    pub origin: String,
+    /// In force from (the day's local midnight, UTC).
+    #[serde(serialize_with = "crate::time::serialize_instant")]
+    pub at: jiff::Timestamp,
+}
+
+const SLOTS: [&str; 3] = ["breakfast", "lunch", "dinner"];
+
+impl CareLinkTherapy {
+    /// As a pump's settings: the carb ratios `given` (all three, in place
+    /// of the export's), else the export's, every slot needed (an error
+    /// names the slot without a wizard event and its window).
+    pub fn complete(
+        &self,
+        meals: &MealWindows,
+        given: Option<[f64; 3]>,
+    ) -> Result<PumpTherapy, IoError> {
+        let windows = [meals.breakfast, meals.lunch, meals.dinner];
+        let mut carb_ratio = [0.0; 3];
+        for i in 0..3 {
+            carb_ratio[i] = match (given, self.carb_ratio[i]) {
+                (Some(g), _) => g[i],
+                (None, Some(v)) => v,
+                (None, None) => {
+                    return Err(IoError::invalid(
+                        Location::file(&self.origin),
+                        &format!("{} carb ratio", SLOTS[i]),
+                        format!(
+                            "no bolus wizard event with a carb ratio in the {} window ({}-{}): the export does not say the pump's {} carb ratio; give the carb ratios with --carb-ratio B,L,D",
+                            SLOTS[i],
+                            hhmm(windows[i].0),
+                            hhmm(windows[i].1),
+                            SLOTS[i]
+                        ),
+                    ))
+                }
+            };
+        }
+        let origin = match given {
+            Some(_) => format!("{} (carb ratios as given)", self.origin),
+            None => self.origin.clone(),
+        };
+        self.build(meals, carb_ratio, origin)
+    }
+
+    /// As a pump's settings, a slot without a wizard event taking its
+    /// value from `held` (the therapy the store holds: the export says
+    /// nothing about it, so nothing differs there); the origin names them.
+    pub fn or_held(&self, meals: &MealWindows, held: [f64; 3]) -> Result<PumpTherapy, IoError> {
+        let mut carb_ratio = held;
+        let mut kept = Vec::new();
+        for i in 0..3 {
+            match self.carb_ratio[i] {
+                Some(v) => carb_ratio[i] = v,
+                None => kept.push(SLOTS[i]),
+            }
+        }
+        let origin = if kept.is_empty() {
+            self.origin.clone()
+        } else {
+            format!(
+                "{} (no wizard event for {}: the store's value)",
+                self.origin,
+                kept.join(", ")
+            )
+        };
+        self.build(meals, carb_ratio, origin)
+    }
+
+    fn build(
+        &self,
+        meals: &MealWindows,
+        carb_ratio: [f64; 3],
+        origin: String,
+    ) -> Result<PumpTherapy, IoError> {
+        for (i, v) in carb_ratio.iter().enumerate() {
+            CARB_RATIO_G_PER_U.check(*v).map_err(|e| {
+                IoError::invalid(
+                    Location::file(&self.origin),
+                    &format!("{} carb ratio", SLOTS[i]),
+                    e.to_string(),
+                )
+            })?;
+        }
+        let mut carb_ratio_schedule = vec![(0, carb_ratio[0])];
+        carb_ratio_schedule.push((meals.lunch.0, carb_ratio[1]));
+        carb_ratio_schedule.push((meals.dinner.0, carb_ratio[2]));
+        Ok(PumpTherapy {
+            basal: self.basal.clone(),
+            carb_ratio_schedule,
+            carb_ratio,
+            origin,
+            at: self.at,
+        })
+    }
+}
+
+/// What one CareLink file says about the pump's therapy: the settings, or
+/// why it says none (no `Basal Rate` rows, no full day).
+pub fn carelink_settings(
+    file: &str,
+    bytes: &[u8],
+    opts: &ReadOptions,
+    meals: &MealWindows,
+) -> Result<Result<CareLinkTherapy, String>, IoError> {
+    let tz = opts.tz.clone().ok_or_else(|| {
+        IoError::format(
+            file,
+            "CareLink writes pump times without an offset: give the person's zone with --tz",
+        )
+    })?;
+    let rows = crate::read::carelink_settings_rows(file, bytes, opts)?;
+    let (Some(end), Some(_)) = (rows.end, rows.basal.first()) else {
+        return Ok(Err(format!(
+            "{file}: no \"Basal Rate (U/h)\" rows (the pump's scheduled basal rate is not in the export)"
+        )));
+    };
+    let local = |t: jiff::Timestamp| tz.to_datetime(t);
+    let day = local(end)
+        .date()
+        .yesterday()
+        .map_err(|e| IoError::format(file, e.to_string()))?;
+    let midnight = |d: jiff::civil::Date| {
+        d.to_zoned(tz.clone())
+            .map(|z| z.timestamp())
+            .map_err(|e| IoError::format(file, e.to_string()))
+    };
+    let start = midnight(day)?;
+    let stop = midnight(
+        day.tomorrow()
+            .map_err(|e| IoError::format(file, e.to_string()))?,
+    )?;
+    let Some(&(_, first_rate, first_line)) = rows.basal.iter().rev().find(|b| b.0 <= start) else {
+        return Ok(Err(format!(
+            "{file}: the export covers no full day with the scheduled basal rate known at its midnight (the last full day is {day}; its first \"Basal Rate (U/h)\" row is after 00:00): export a longer period"
+        )));
+    };
+    let check = |r: f64, line: u64| {
+        BASAL_U_PER_H.check(r).map_err(|e| {
+            IoError::invalid(
+                Location::line(file, line),
+                "Basal Rate (U/h)",
+                e.to_string(),
+            )
+        })
+    };
+    check(first_rate, first_line)?;
+    let mut basal: Vec<(u32, f64)> = vec![(0, first_rate)];
+    for &(at, rate, line) in rows.basal.iter().filter(|b| b.0 > start && b.0 < stop) {
+        check(rate, line)?;
+        let t = local(at);
+        let minute = u32::try_from(i32::from(t.hour()) * 60 + i32::from(t.minute())).unwrap_or(0);
+        let last = basal.last().copied().unwrap_or((0, rate));
+        if minute == last.0 {
+            if let Some(l) = basal.last_mut() {
+                l.1 = rate;
+            }
+        } else if rate != last.1 {
+            basal.push((minute, rate));
+        }
+    }
+    basal.dedup_by(|b, a| a.1 == b.1);
+    let windows = [meals.breakfast, meals.lunch, meals.dinner];
+    let mut carb_ratio = [None; 3];
+    for (i, (from, to)) in windows.into_iter().enumerate() {
+        carb_ratio[i] = rows
+            .carb_ratio
+            .iter()
+            .rev()
+            .find(|c| {
+                let t = local(c.0);
+                let m =
+                    u32::try_from(i32::from(t.hour()) * 60 + i32::from(t.minute())).unwrap_or(0);
+                (from..to).contains(&m)
+            })
+            .map(|c| c.1);
+    }
+    let origin = match &rows.ratio_not_grams {
+        None => format!("{file}: the Basal Rate rows of {day} and the bolus wizard's carb ratios"),
+        Some(col) => format!(
+            "{file}: the Basal Rate rows of {day} (the wizard's \"{col}\" is not in g/U: not read)"
+        ),
+    };
+    Ok(Ok(CareLinkTherapy {
+        basal,
+        carb_ratio,
+        day,
+        origin,
+        at: start,
+    }))
+}
+
 /// Every settings profile of a batch (schedule records that carry carb
 /// ratios), oldest first.
 pub fn settings_profiles(batch: &Batch, meals: &MealWindows) -> Result<Vec<PumpTherapy>, IoError> {
@@ -186,9 +402,15 @@ pub fn settings_profiles(batch: &Batch, meals: &MealWindows) -> Result<Vec<PumpT
     Ok(out)
 }
 
-/// Tidepool `pumpSettings` of one file: the active basal schedule and the
-/// carb ratios (`carbRatio` or `carbRatios` of the active schedule), `start`
-/// in ms from midnight.
+/// Tidepool `pumpSettings` of one file, as Tidepool's data model has them:
+/// the `activeSchedule` of the named `basalSchedules` (the only one when
+/// there is one), the carb ratios of `carbRatio` (one schedule, most
+/// pumps) or of `carbRatios` (named like the basal schedules: Tandem,
+/// Omnipod 5), `start` in ms from midnight, `units.carb` grams (exchanges
+/// are refused). BG targets and sensitivities (mmol/L in Tidepool) are not
+/// read. `time` is when the pump was read (for Medtronic: when the
+/// settings took effect), so a record at the upload says what the pump
+/// ran then.
 pub fn tidepool_pump_settings(
     file: &str,
     bytes: &[u8],
@@ -223,6 +445,17 @@ pub fn tidepool_pump_settings(
                 format!("expected an ISO 8601 time with Z or offset, got \"{time}\""),
             )
         })?;
+        // Carb ratios in g/U: a pump counting exchanges is not read.
+        let carb_unit = item
+            .get("units")
+            .and_then(|u| u.get("carb").or_else(|| u.get("carbs")))
+            .and_then(Value::as_str);
+        if let Some(u) = carb_unit.filter(|u| !u.eq_ignore_ascii_case("grams")) {
+            return Err(err(
+                "units.carb",
+                format!("expected grams (carb ratios in g/U), got \"{u}\""),
+            ));
+        }
         let active = item.get("activeSchedule").and_then(Value::as_str);
         let pick = |field: &str| -> Option<&Value> {
             let v = item.get(field)?;
@@ -294,32 +527,65 @@ pub fn tidepool_pump_settings(
 }
 
 /// The settings profile in force at the end of `paths` (the latest one):
-/// Nightscout profiles and Profile Switches, Tidepool `pumpSettings`.
+/// Nightscout profiles and Profile Switches, Tidepool `pumpSettings`,
+/// CareLink's rows (see the module documentation).
 pub fn therapy_from_files(
     paths: &[PathBuf],
     opts: &ReadOptions,
     meals: &MealWindows,
 ) -> Result<PumpTherapy, IoError> {
+    therapy_from_files_with(paths, opts, meals, None)
+}
+
+/// Like [`therapy_from_files`]; `carb_ratio` (breakfast, lunch, dinner)
+/// replaces the carb ratios of the profile (needed for a CareLink export
+/// whose wizard events leave a meal slot without one).
+pub fn therapy_from_files_with(
+    paths: &[PathBuf],
+    opts: &ReadOptions,
+    meals: &MealWindows,
+    carb_ratio: Option<[f64; 3]>,
+) -> Result<PumpTherapy, IoError> {
     let batch = read_files(paths, opts)?;
     let mut all = settings_profiles(&batch, meals)?;
+    let mut why_not = Vec::new();
     for (path, format) in paths.iter().zip(&batch.formats) {
+        if !matches!(format, Format::Tidepool | Format::CareLink) {
+            continue;
+        }
+        let name = path.display().to_string();
+        let bytes = std::fs::read(path).map_err(|source| IoError::Open {
+            file: name.clone(),
+            source,
+        })?;
         if *format == Format::Tidepool {
-            let name = path.display().to_string();
-            let bytes = std::fs::read(path).map_err(|source| IoError::Open {
-                file: name.clone(),
-                source,
-            })?;
             all.extend(tidepool_pump_settings(&name, &bytes, meals)?);
+        } else {
+            match carelink_settings(&name, &bytes, opts, meals)? {
+                Ok(c) => all.push(c.complete(meals, carb_ratio)?),
+                Err(why) => why_not.push(why),
+            }
         }
     }
     all.sort_by_key(|t| t.at);
-    all.pop().ok_or_else(|| {
+    let mut latest = all.pop().ok_or_else(|| {
         let names: Vec<String> = paths.iter().map(|p| p.display().to_string()).collect();
-        IoError::format(
-            &names.join(", "),
-            "no settings profile with a basal schedule and carb ratios (expected a Nightscout profile store or Profile Switch, or Tidepool pumpSettings)",
-        )
-    })
+        let mut msg = "no settings profile with a basal schedule and carb ratios (expected a Nightscout profile store or Profile Switch, Tidepool pumpSettings, or a CareLink export with Basal Rate and bolus wizard rows)".to_string();
+        for w in &why_not {
+            msg.push_str("; ");
+            msg.push_str(w);
+        }
+        IoError::format(&names.join(", "), msg)
+    })?;
+    if let Some(cr) = carb_ratio {
+        for (i, v) in cr.iter().enumerate() {
+            CARB_RATIO_G_PER_U.check(*v).map_err(|e| {
+                IoError::invalid(Location::file("--carb-ratio"), SLOTS[i], e.to_string())
+            })?;
+        }
+        latest.carb_ratio = cr;
+    }
+    Ok(latest)
 }
 
 #[cfg(test)]

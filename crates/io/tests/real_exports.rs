@@ -366,3 +366,190 @@ fn records_dated_after_the_time_of_import_are_refused_with_count_and_first_line(
     assert_eq!(refused.first.as_deref(), Some("f.csv: line 4"));
     assert_eq!(b.records.len(), 2);
 }
+
+fn carelink_therapy(
+    name: &str,
+    bytes: &[u8],
+    tz: &str,
+) -> Result<abba_io::therapy::CareLinkTherapy, String> {
+    let meals = abba_io::meals::MealWindows::default();
+    abba_io::therapy::carelink_settings(name, bytes, &opts(tz), &meals).unwrap()
+}
+
+#[test]
+fn a_us_carelink_export_reads_with_commas_points_and_month_first_dates() {
+    let b = read(
+        &[("us.csv", fixture("carelink_630g_us_synthetic.csv"))],
+        &opts("America/Chicago"),
+    )
+    .unwrap();
+    assert_eq!(b.formats, vec![Format::CareLink]);
+    // 3.5 days of sensor glucose every 5 minutes.
+    assert_eq!(kinds(&b, "cgm"), 3 * 288 + 144);
+    // Eleven wizard boluses with carbohydrate and one correction.
+    assert_eq!(kinds(&b, "carbs"), 11);
+    assert_eq!(kinds(&b, "bolus"), 12);
+    // The first reading is 2025-03-13 00:00 in Chicago (UTC-5 after the
+    // spring change of 9 March): month-first dates, two-digit years.
+    let first = b
+        .records
+        .iter()
+        .find(|r| matches!(r.kind, RecordKind::Cgm { .. }))
+        .unwrap();
+    assert_eq!(first.at.to_string(), "2025-03-13T05:00:00Z");
+}
+
+#[test]
+fn carelink_therapy_is_the_last_full_days_basal_rows_and_the_latest_wizard_ratio_per_meal() {
+    let t = carelink_therapy(
+        "us.csv",
+        &fixture("carelink_630g_us_synthetic.csv"),
+        "America/Chicago",
+    )
+    .unwrap();
+    // The export ends on 2025-03-16 at noon: the last full day is the
+    // 15th, whose 04:00 rate (1.05) differs from the days before (1.0).
+    assert_eq!(t.day.to_string(), "2025-03-15");
+    assert_eq!(
+        t.basal,
+        vec![
+            (0, 0.8),
+            (240, 1.05),
+            (540, 0.85),
+            (1020, 0.95),
+            (1320, 0.75)
+        ]
+    );
+    assert_eq!(t.at.to_string(), "2025-03-15T05:00:00Z");
+    // Breakfast and lunch: the 16th's wizards (the correction with ratio 0
+    // at 11:55 is not a ratio); dinner: the 15th's.
+    assert_eq!(t.carb_ratio, [Some(9.0), Some(11.5), Some(13.5)]);
+    let meals = abba_io::meals::MealWindows::default();
+    let p = t.complete(&meals, None).unwrap();
+    assert_eq!(p.carb_ratio, [9.0, 11.5, 13.5]);
+    // The same through `person new --therapy-from`'s reader.
+    let path = std::path::PathBuf::from(format!("{}/carelink_630g_us_synthetic.csv", common::DATA));
+    let f =
+        abba_io::therapy::therapy_from_files(&[path], &opts("America/Chicago"), &meals).unwrap();
+    assert_eq!(f.basal, t.basal);
+    assert_eq!(f.carb_ratio, [9.0, 11.5, 13.5]);
+}
+
+#[test]
+fn a_decimal_comma_mmol_carelink_export_names_the_meal_without_a_wizard_event() {
+    let bytes = fixture("carelink_780g_mmol_synthetic.csv");
+    let b = read(&[("eu.csv", bytes.clone())], &opts("Europe/Zurich")).unwrap();
+    // mmol/L from the headers, converted: the readings lie around 130 mg/dL.
+    let cgm: Vec<f64> = b
+        .records
+        .iter()
+        .filter_map(|r| match r.kind {
+            RecordKind::Cgm { glucose } => Some(glucose.mg_dl.0),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(cgm.len(), 3 * 288 + 9 * 12);
+    assert!(cgm.iter().all(|&g| (70.0..200.0).contains(&g)), "{cgm:?}");
+    let t = carelink_therapy("eu.csv", &bytes, "Europe/Zurich").unwrap();
+    assert_eq!(t.day.to_string(), "2025-11-05");
+    assert_eq!(
+        t.basal,
+        vec![(0, 0.7), (360, 0.95), (720, 0.8), (1260, 0.65)]
+    );
+    assert_eq!(t.carb_ratio, [Some(8.5), Some(10.0), None]);
+    let meals = abba_io::meals::MealWindows::default();
+    let e = t.complete(&meals, None).unwrap_err().to_string();
+    assert!(
+        e.contains("dinner") && e.contains("15:30-22:00") && e.contains("--carb-ratio"),
+        "{e}"
+    );
+    // Given carb ratios replace the export's.
+    let p = t.complete(&meals, Some([8.0, 10.0, 12.0])).unwrap();
+    assert_eq!(p.carb_ratio, [8.0, 10.0, 12.0]);
+    assert_eq!(p.basal, t.basal);
+}
+
+#[test]
+fn a_carelink_export_without_a_full_day_or_with_exchanges_says_what_it_lacks() {
+    let text = String::from_utf8(fixture("carelink_630g_us_synthetic.csv")).unwrap();
+    // Only the last (partial) day and the day before from 06:00: the rate in
+    // force at the last full day's midnight is not known.
+    let short: String = text
+        .split_inclusive('\n')
+        .filter(|l| {
+            let cells: Vec<&str> = l.split(',').collect();
+            match cells.get(1) {
+                Some(d) if d.len() == 8 && d.contains('/') => {
+                    *d == "03/16/25" || (*d == "03/15/25" && cells[2] >= "06:00:00")
+                }
+                _ => true,
+            }
+        })
+        .collect();
+    let why = carelink_therapy("short.csv", short.as_bytes(), "America/Chicago").unwrap_err();
+    assert!(
+        why.contains("2025-03-15") && why.contains("longer period"),
+        "{why}"
+    );
+    // A wizard counting in exchanges: its ratios are not read as g/U.
+    let ex = text.replace("BWZ Carb Ratio (g/U)", "BWZ Carb Ratio (Exchanges)");
+    let t = carelink_therapy("ex.csv", ex.as_bytes(), "America/Chicago").unwrap();
+    assert_eq!(t.carb_ratio, [None; 3]);
+    let meals = abba_io::meals::MealWindows::default();
+    let e = t.complete(&meals, None).unwrap_err().to_string();
+    assert!(e.contains("not in g/U") && e.contains("breakfast"), "{e}");
+    // An implausible wizard ratio is an error naming the line and column.
+    let bad = text.replacen(",11.5,50,65,", ",0.2,50,65,", 1);
+    let meals = abba_io::meals::MealWindows::default();
+    let e = abba_io::therapy::carelink_settings(
+        "bad.csv",
+        bad.as_bytes(),
+        &opts("America/Chicago"),
+        &meals,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("bad.csv") && e.contains("BWZ Carb Ratio (g/U)"),
+        "{e}"
+    );
+}
+
+#[test]
+fn tidepool_pump_settings_follow_the_active_schedule_and_refuse_exchanges() {
+    let meals = abba_io::meals::MealWindows::default();
+    let read = |v: serde_json::Value| {
+        abba_io::therapy::tidepool_pump_settings(
+            "tp.json",
+            &serde_json::to_vec(&v).unwrap(),
+            &meals,
+        )
+    };
+    // Tandem-style: every setting named like the basal schedules.
+    let named = serde_json::json!([{"type": "pumpSettings", "time": "2026-05-10T08:00:00Z",
+        "activeSchedule": "Weekend",
+        "basalSchedules": {"Work": [{"start": 0, "rate": 1.0}],
+            "Weekend": [{"start": 0, "rate": 0.8}, {"start": 21_600_000, "rate": 0.9}]},
+        "carbRatios": {"Work": [{"start": 0, "amount": 10}], "Weekend": [{"start": 0, "amount": 14}]},
+        "bgTargets": {"Work": [{"start": 0, "target": 5.5}], "Weekend": [{"start": 0, "target": 6.0}]},
+        "insulinSensitivities": {"Work": [{"start": 0, "amount": 2.5}], "Weekend": [{"start": 0, "amount": 3.0}]},
+        "units": {"carb": "grams", "bg": "mmol/L"}}]);
+    let t = read(named.clone()).unwrap();
+    assert_eq!(t.len(), 1);
+    assert_eq!(t[0].basal, vec![(0, 0.8), (360, 0.9)]);
+    assert_eq!(t[0].carb_ratio, [14.0; 3]);
+    // Another active schedule, another therapy.
+    let mut work = named.clone();
+    work[0]["activeSchedule"] = "Work".into();
+    assert_eq!(read(work).unwrap()[0].basal, vec![(0, 1.0)]);
+    // Two schedules and none active: which one the pump runs is not known.
+    let mut none = named.clone();
+    none[0].as_object_mut().unwrap().remove("activeSchedule");
+    let e = read(none).unwrap_err().to_string();
+    assert!(e.contains("basalSchedules") && e.contains("$[0]"), "{e}");
+    // Carb ratios in exchanges are refused, the field named.
+    let mut ex = named;
+    ex[0]["units"]["carb"] = "exchanges".into();
+    let e = read(ex).unwrap_err().to_string();
+    assert!(e.contains("units.carb") && e.contains("exchanges"), "{e}");
+}

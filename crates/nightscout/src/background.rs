@@ -3,13 +3,18 @@
 //! each on its own store connection. A link that failed waits longer
 //! before its next try: the interval doubled per failure in a row, at most
 //! [`MAX_BACKOFF`]. Outcomes are recorded on the link (last sync, error,
-//! failures), which the API and `abba link --list` show; nothing is printed.
+//! failures), which the API and `abba link --list` show, and logged
+//! through `tracing`. A failure that could not be recorded on the link (the
+//! store could not be opened or written) is kept in memory and backs off
+//! the same way, until an attempt's outcome is recorded.
 
-use crate::sync::{sync, SyncOptions};
+use crate::sync::{sync_and_record, SyncOptions};
 use abba_store::link::Link;
 use abba_store::Store;
+use std::collections::HashMap;
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Mutex;
 use std::time::Duration;
 
 /// The longest wait after failures.
@@ -46,13 +51,93 @@ pub fn due(link: &Link, every: Duration, now: jiff::Timestamp) -> bool {
     now.duration_since(last) >= wait
 }
 
+/// The failures of persons a round could not record on their link (the
+/// store could not be opened or written): kept here, so that they back
+/// off all the same, and recorded when the store can be written again.
+#[derive(Debug, Default)]
+pub struct Unrecorded {
+    by_person: Mutex<HashMap<String, Attempt>>,
+}
+
+#[derive(Debug, Clone)]
+struct Attempt {
+    at: jiff::Timestamp,
+    error: String,
+    failures: u32,
+}
+
+impl Unrecorded {
+    fn get(&self, person: &str) -> Option<Attempt> {
+        self.by_person.lock().ok()?.get(person).cloned()
+    }
+    fn set(&self, person: &str, at: jiff::Timestamp, error: String) {
+        if let Ok(mut m) = self.by_person.lock() {
+            let failures = m.get(person).map_or(0, |a| a.failures) + 1;
+            m.insert(
+                person.to_string(),
+                Attempt {
+                    at,
+                    error,
+                    failures,
+                },
+            );
+        }
+    }
+    fn clear(&self, person: &str) {
+        if let Ok(mut m) = self.by_person.lock() {
+            m.remove(person);
+        }
+    }
+}
+
+/// `link` with the attempts kept in memory that are newer than its own.
+fn with_unrecorded(mut link: Link, mem: &Unrecorded) -> Link {
+    if let Some(a) = mem.get(&link.person) {
+        let newer = link
+            .last_sync_at
+            .as_deref()
+            .and_then(|t| t.parse::<jiff::Timestamp>().ok())
+            .is_none_or(|t| a.at > t);
+        if newer {
+            link.last_sync_at = Some(a.at.to_string());
+            link.last_error = Some(a.error);
+            link.failures = link.failures.saturating_add(a.failures);
+        }
+    }
+    link
+}
+
+/// Records a failure that happened before the sync could record it
+/// itself (the person's store connection could not be opened): on the
+/// link when the store can be written, else in `mem`.
+fn record_failure(db: &Path, person: &str, error: String, mem: &Unrecorded) {
+    let at = jiff::Timestamp::now();
+    tracing::warn!(person, error = %error, "background Nightscout sync failed");
+    let recorded = Store::open(db).and_then(|mut s| s.record_sync(person, at, Some(&error)));
+    match recorded {
+        Ok(()) => mem.clear(person),
+        Err(e) => {
+            tracing::warn!(person, error = %e, "the failure could not be recorded on the link; kept in memory");
+            mem.set(person, at, error);
+        }
+    }
+}
+
 /// One round: syncs the links of `db` that are due; returns how many were
-/// synced (successfully or not).
-pub fn round(db: &Path, bg: &Background) -> Result<usize, abba_store::StoreError> {
+/// synced (successfully or not). A person whose sync could not even
+/// start (the store could not be opened for it) has the failure recorded
+/// on the link, or kept in `mem` when the store cannot be written, and
+/// backs off like any failed sync.
+pub fn round(
+    db: &Path,
+    bg: &Background,
+    mem: &Unrecorded,
+) -> Result<usize, abba_store::StoreError> {
     let now = jiff::Timestamp::now();
     let due: Vec<String> = Store::open(db)?
         .links()?
         .into_iter()
+        .map(|l| with_unrecorded(l, mem))
         .filter(|l| due(l, bg.every, now))
         .map(|l| l.person)
         .collect();
@@ -61,9 +146,45 @@ pub fn round(db: &Path, bg: &Background) -> Result<usize, abba_store::StoreError
         std::thread::scope(|s| {
             for person in chunk {
                 s.spawn(move || {
-                    // The outcome is recorded on the link by `sync`.
-                    if let Ok(mut store) = Store::open(db) {
-                        let _ = sync(&mut store, person, &bg.sync);
+                    let mut store = match Store::open(db) {
+                        Ok(s) => s,
+                        Err(e) => {
+                            record_failure(
+                                db,
+                                person,
+                                format!("the store could not be opened for the sync: {e}"),
+                                mem,
+                            );
+                            return;
+                        }
+                    };
+                    // The outcome is recorded on the link; when it cannot
+                    // be, it is kept in memory.
+                    let a = sync_and_record(&mut store, person, &bg.sync);
+                    if let Ok(r) = &a.result {
+                        if !r.gone.is_empty() {
+                            tracing::warn!(person, documents = r.gone.len(), ids = ?r.gone, "documents no longer on the Nightscout site (deleted through API v1): their records are kept");
+                        }
+                    }
+                    match (a.result, a.recorded) {
+                        (Ok(_), Ok(())) => mem.clear(person),
+                        (Err(e), Ok(())) => {
+                            mem.clear(person);
+                            tracing::warn!(person, error = %e, "background Nightscout sync failed");
+                        }
+                        (Ok(_), Err(e)) => {
+                            // The import is in; only its record is not: once
+                            // more on a fresh connection, else the next round
+                            // syncs again (and finds nothing new).
+                            mem.clear(person);
+                            let again = Store::open(db).and_then(|mut s| {
+                                s.record_sync(person, jiff::Timestamp::now(), None)
+                            });
+                            if let Err(e2) = again {
+                                tracing::warn!(person, error = %e, again = %e2, "a background Nightscout sync succeeded but could not be recorded on the link");
+                            }
+                        }
+                        (Err(e), Err(_)) => record_failure(db, person, e.to_string(), mem),
                     }
                 });
             }
@@ -72,14 +193,19 @@ pub fn round(db: &Path, bg: &Background) -> Result<usize, abba_store::StoreError
     Ok(n)
 }
 
-/// Runs rounds until `stop` is set (checked every 200 ms).
+/// Runs rounds until `stop` is set (checked every 200 ms). A round that
+/// cannot read the links (the store cannot be opened) is logged and
+/// tried again at the next round.
 pub fn run(db: &Path, bg: &Background, stop: &AtomicBool) {
     let tick = Duration::from_millis(200);
     let round_every = bg.every.min(Duration::from_secs(30));
+    let mem = Unrecorded::default();
     let mut since = round_every;
     while !stop.load(Ordering::Relaxed) {
         if since >= round_every {
-            let _ = round(db, bg);
+            if let Err(e) = round(db, bg, &mem) {
+                tracing::warn!(error = %e, "a background Nightscout round could not read the links");
+            }
             since = Duration::ZERO;
         }
         std::thread::sleep(tick);
@@ -117,5 +243,32 @@ mod tests {
         assert!(due(&link(Some("2026-01-01T00:54:00Z"), 0), every, now));
         assert!(!due(&link(Some("2026-01-01T00:54:00Z"), 1), every, now));
         assert!(due(&link(Some("2026-01-01T00:50:00Z"), 1), every, now));
+    }
+
+    #[test]
+    fn failures_kept_in_memory_back_off_a_link_never_synced() {
+        let every = Duration::from_secs(300);
+        let mem = Unrecorded::default();
+        let at: jiff::Timestamp = "2026-01-01T00:58:00Z".parse().unwrap();
+        mem.set("ana", at, "the store could not be opened".into());
+        mem.set("ana", at, "the store could not be opened".into());
+        let l = with_unrecorded(link(None, 0), &mem);
+        assert_eq!(l.failures, 2);
+        assert_eq!(l.last_sync_at.as_deref(), Some("2026-01-01T00:58:00Z"));
+        assert!(l
+            .last_error
+            .as_deref()
+            .unwrap()
+            .contains("could not be opened"));
+        // 2 failures: 4 x 5 min after the attempt.
+        let soon: jiff::Timestamp = "2026-01-01T01:10:00Z".parse().unwrap();
+        let later: jiff::Timestamp = "2026-01-01T01:18:00Z".parse().unwrap();
+        assert!(!due(&l, every, soon));
+        assert!(due(&l, every, later));
+        // An attempt recorded on the link after it wins.
+        let newer = with_unrecorded(link(Some("2026-01-01T00:59:00Z"), 0), &mem);
+        assert_eq!(newer.failures, 0);
+        mem.clear("ana");
+        assert_eq!(with_unrecorded(link(None, 0), &mem).failures, 0);
     }
 }

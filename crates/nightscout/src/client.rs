@@ -112,6 +112,13 @@ impl Client {
         matches!(self.credential, Credential::Token(_))
     }
 
+    /// Whether calls carry a JWT (API v3 takes nothing else): an access
+    /// token exchanged at `/api/v2/authorization/request/<token>`. Known
+    /// after the first call.
+    pub fn has_jwt(&self) -> bool {
+        self.jwt.lock().is_ok_and(|g| matches!(*g, Some(Some(_))))
+    }
+
     /// GET `path` with `query`, as JSON.
     pub fn get(&self, path: &str, query: &[(&str, String)]) -> Result<Value, NsError> {
         self.call(Method::Get, path, query, None)

@@ -17,11 +17,20 @@ use std::collections::HashMap;
 /// A v1 collection read by time.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Collection {
-    /// `/api/v1/entries.json` by `date` (ms): sgv, mbg, cal.
+    /// `/api/v1/entries.json` by `date` (ms, a number): sgv, mbg, cal.
     Entries,
-    /// `/api/v1/treatments.json` by `created_at` (ISO 8601): boluses,
+    /// `/api/v1/treatments.json` by `created_at` (a string): boluses,
     /// carbs, temporary basals, Profile Switches, notes...
     Treatments,
+}
+
+/// Where a page ends, in the terms the server compares: `date` as a
+/// number; `created_at` as a string (MongoDB compares the stored string
+/// with the bound, which Nightscout rewrites to `toISOString()`'s form).
+#[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord)]
+enum Key {
+    Ms(i64),
+    Text(String),
 }
 
 impl Collection {
@@ -45,38 +54,157 @@ impl Collection {
             Collection::Treatments => "created_at",
         }
     }
-    /// The filter value of `ms` in this collection's field.
-    fn bound(self, ms: i64) -> String {
+    /// The lower bound for documents at or after `ms`.
+    fn lower(self, ms: i64) -> Key {
         match self {
-            Collection::Entries => ms.to_string(),
-            Collection::Treatments => iso_ms(ms),
+            Collection::Entries => Key::Ms(ms),
+            Collection::Treatments => Key::Text(iso_ms(ms)),
         }
     }
-    /// A document's time (ms) by this collection's field (and the
-    /// fall-backs the reader uses), if it has one.
+    /// A document's time (ms) by this collection's field and the
+    /// fall-backs the reader uses, if it has one.
     pub fn time_of(self, doc: &Value) -> Option<i64> {
         let num = |k: &str| doc.get(k).and_then(Value::as_f64).map(|v| v as i64);
         let text = |k: &str| {
             doc.get(k)
                 .and_then(Value::as_str)
-                .and_then(|s| s.parse::<jiff::Timestamp>().ok())
+                .and_then(abba_io::time::parse_instant)
                 .map(|t| t.as_millisecond())
         };
         match self {
-            Collection::Entries => num("date").or_else(|| text("dateString")),
+            Collection::Entries => num("date")
+                .or_else(|| text("dateString"))
+                .or_else(|| text("sysTime")),
             Collection::Treatments => text("created_at")
                 .or_else(|| num("date"))
-                .or_else(|| num("mills")),
+                .or_else(|| num("mills"))
+                .or_else(|| text("timestamp")),
+        }
+    }
+    /// The keys the server may have compared for `doc` (the least and the
+    /// greatest): for a treatment its `created_at` as served, and when
+    /// that carries an offset without `utcOffset` beside it (a site with
+    /// `DE_NORMALIZE_DATES`, which rewrites the stored UTC string on the
+    /// way out), also the UTC form it is stored in. A document without
+    /// the field is keyed by its time in the server's form.
+    fn keys_of(self, doc: &Value) -> Option<(Key, Key)> {
+        match self {
+            Collection::Entries => {
+                let t = self.time_of(doc)?;
+                Some((Key::Ms(t), Key::Ms(t)))
+            }
+            Collection::Treatments => {
+                let t = self.time_of(doc);
+                let utc = t.map(iso_ms);
+                match doc.get("created_at").and_then(Value::as_str) {
+                    Some(s) => {
+                        let offset =
+                            !s.trim_end().ends_with(['Z', 'z']) && abba_io::time::has_offset(s);
+                        let stored_utc = offset && doc.get("utcOffset").is_none();
+                        match (utc, t) {
+                            (Some(u), Some(t)) if stored_utc => {
+                                // Stored in UTC: `toISOString()`'s form, or
+                                // without milliseconds when they are 0.
+                                let mut forms = vec![s.to_string(), u];
+                                if t.rem_euclid(1000) == 0 {
+                                    forms.push(iso_seconds(t));
+                                }
+                                forms.sort();
+                                let hi = forms.pop().map(Key::Text)?;
+                                let lo = forms.into_iter().next().map(Key::Text)?;
+                                Some((lo, hi))
+                            }
+                            _ => Some((Key::Text(s.to_string()), Key::Text(s.to_string()))),
+                        }
+                    }
+                    None => utc.map(|u| (Key::Text(u.clone()), Key::Text(u))),
+                }
+            }
         }
     }
 }
 
-/// `2026-01-14T21:54:00.000Z`: Nightscout's `created_at` form.
+impl Key {
+    /// The filter value.
+    fn query(&self) -> String {
+        match self {
+            Key::Ms(ms) => ms.to_string(),
+            Key::Text(s) => s.clone(),
+        }
+    }
+    /// The least bound in the server's form at or above this key (so
+    /// `$lte` of it keeps every document keyed at or below this one).
+    fn at_or_above(&self) -> Option<Key> {
+        match self {
+            Key::Ms(ms) => Some(Key::Ms(*ms)),
+            Key::Text(s) => canonical_at_or_above(s).map(Key::Text),
+        }
+    }
+    /// The greatest bound in the server's form below this key.
+    fn below(&self) -> Option<Key> {
+        match self {
+            Key::Ms(ms) => Some(Key::Ms(ms - 1)),
+            Key::Text(s) => canonical_below(s).map(Key::Text),
+        }
+    }
+}
+
+/// `2026-01-14T21:54:00.000Z`: Nightscout's `created_at` form
+/// (JavaScript's `toISOString()`, which its query code rewrites every
+/// date bound to).
 pub fn iso_ms(ms: i64) -> String {
     match jiff::Timestamp::from_millisecond(ms) {
         Ok(t) => t.strftime("%Y-%m-%dT%H:%M:%S%.3fZ").to_string(),
         Err(_) => ms.to_string(),
     }
+}
+
+/// `2026-01-14T21:54:00Z`: the UTC form without milliseconds.
+fn iso_seconds(ms: i64) -> String {
+    match jiff::Timestamp::from_millisecond(ms) {
+        Ok(t) => t.strftime("%Y-%m-%dT%H:%M:%SZ").to_string(),
+        Err(_) => ms.to_string(),
+    }
+}
+
+/// The times whose [`iso_ms`] form is 24 characters and ordered as the
+/// times are (years 1000 to 9999).
+const ISO_FIRST_MS: i64 = -30_610_224_000_000;
+const ISO_LAST_MS: i64 = 253_402_300_799_999;
+
+/// The least time whose [`iso_ms`] string is at or above `s` (compared
+/// as strings, as MongoDB compares them).
+fn canonical_at_or_above(s: &str) -> Option<String> {
+    let (mut lo, mut hi) = (ISO_FIRST_MS, ISO_LAST_MS);
+    if iso_ms(hi).as_str() < s {
+        return None;
+    }
+    while lo < hi {
+        let mid = lo + (hi - lo) / 2;
+        if iso_ms(mid).as_str() >= s {
+            hi = mid;
+        } else {
+            lo = mid + 1;
+        }
+    }
+    Some(iso_ms(lo))
+}
+
+/// The greatest time whose [`iso_ms`] string is below `s`.
+fn canonical_below(s: &str) -> Option<String> {
+    let (mut lo, mut hi) = (ISO_FIRST_MS, ISO_LAST_MS);
+    if iso_ms(lo).as_str() >= s {
+        return None;
+    }
+    while lo < hi {
+        let mid = lo + (hi - lo + 1) / 2;
+        if iso_ms(mid).as_str() < s {
+            lo = mid;
+        } else {
+            hi = mid - 1;
+        }
+    }
+    Some(iso_ms(lo))
 }
 
 /// What one collection's fetch brought.
@@ -96,15 +224,18 @@ pub struct Pages {
 /// server that ignores the time filter).
 pub const MAX_PAGES: usize = 100_000;
 
-fn doc_key(doc: &Value) -> String {
+/// A document's `_id` as the reader keys its records (a string from the
+/// API, `{"$oid": ...}` from a dump).
+pub fn doc_id(doc: &Value) -> Option<String> {
     match doc.get("_id") {
-        Some(Value::String(s)) => s.clone(),
-        Some(Value::Object(o)) => o
-            .get("$oid")
-            .and_then(Value::as_str)
-            .map_or_else(|| doc.to_string(), String::from),
-        _ => doc.to_string(),
+        Some(Value::String(s)) => Some(s.clone()),
+        Some(Value::Object(o)) => o.get("$oid").and_then(Value::as_str).map(String::from),
+        _ => None,
     }
+}
+
+fn doc_key(doc: &Value) -> String {
+    doc_id(doc).unwrap_or_else(|| doc.to_string())
 }
 
 fn as_array(client: &Client, call: &str, v: Value) -> Result<Vec<Value>, NsError> {
@@ -132,8 +263,20 @@ fn kind_of(v: &Value) -> &'static str {
     }
 }
 
+/// How far a served `created_at` may read from the time it stands for
+/// (an offset of up to 14 hours written in the string).
+const OFFSET_SLACK_MS: i64 = 14 * 3_600_000 + 1000;
+
 /// Every document of `c` at or after `since` (ms; `None`: all), `page`
 /// documents asked per page.
+///
+/// The pages follow the server's own order and comparison: entries by
+/// their `date` (a number), treatments by their `created_at` as a string
+/// (Nightscout sorts and filters the stored string, which real sites
+/// hold in several forms: with or without milliseconds, `Z` or an
+/// offset); each next page's `$lte` is the least bound in the server's
+/// form at or above the last page's least key, so no document between
+/// two pages is skipped whatever its form.
 pub fn fetch_since(
     client: &Client,
     c: Collection,
@@ -143,28 +286,30 @@ pub fn fetch_since(
     let field = c.field();
     let gte = format!("find[{field}][$gte]");
     let lte = format!("find[{field}][$lte]");
+    let lower = since.map(|s| c.lower(s));
     let mut out = Pages::default();
     let mut index: HashMap<String, usize> = HashMap::new();
-    let mut upper: Option<i64> = None;
+    let mut upper: Option<Key> = None;
+    let call = format!("GET {}", c.path());
+    let protocol = |problem: String| NsError::Protocol {
+        site: client.site().to_string(),
+        call: call.clone(),
+        problem,
+    };
     loop {
         if out.pages >= MAX_PAGES {
-            return Err(NsError::Protocol {
-                site: client.site().to_string(),
-                call: format!("GET {}", c.path()),
-                problem: format!(
-                    "more than {MAX_PAGES} pages: the server seems to ignore find[{field}]"
-                ),
-            });
+            return Err(protocol(format!(
+                "more than {MAX_PAGES} pages: the server seems to ignore find[{field}]"
+            )));
         }
         let mut q: Vec<(&str, String)> = Vec::new();
-        if let Some(s) = since {
-            q.push((&gte, c.bound(s)));
+        if let Some(l) = &lower {
+            q.push((&gte, l.query()));
         }
-        if let Some(u) = upper {
-            q.push((&lte, c.bound(u)));
+        if let Some(u) = &upper {
+            q.push((&lte, u.query()));
         }
         q.push(("count", page.to_string()));
-        let call = format!("GET {}", c.path());
         let docs = as_array(client, &call, client.get(c.path(), &q)?)?;
         out.pages += 1;
         if docs.is_empty() {
@@ -172,20 +317,27 @@ pub fn fetch_since(
         }
         out.received += docs.len();
         let mut fresh = 0;
-        let mut oldest: Option<i64> = None;
+        let mut least: Option<(Key, Key)> = None;
         for d in docs {
-            let t = c.time_of(&d);
-            if let (Some(t), Some(u)) = (t, upper) {
-                if t > u {
-                    return Err(NsError::Protocol {
-                        site: client.site().to_string(),
-                        call,
-                        problem: format!("asked for documents at or before {}, got one at {}: the server ignores find[{field}][$lte]", c.bound(u), c.bound(t)),
-                    });
+            if let (Some(t), Some(u)) = (c.time_of(&d), &upper) {
+                let beyond = match u {
+                    Key::Ms(u) => t > *u,
+                    Key::Text(u) => abba_io::time::parse_instant(u)
+                        .is_some_and(|u| t > u.as_millisecond() + OFFSET_SLACK_MS),
+                };
+                if beyond {
+                    return Err(protocol(format!(
+                        "asked for documents at or before {}, got one at {}: the server ignores find[{field}][$lte]",
+                        u.query(),
+                        iso_ms(t)
+                    )));
                 }
             }
-            if let Some(t) = t {
-                oldest = Some(oldest.map_or(t, |o: i64| o.min(t)));
+            if let Some((lo, hi)) = c.keys_of(&d) {
+                least = Some(match least {
+                    None => (lo, hi),
+                    Some((l, h)) => (l.min(lo), h.min(hi)),
+                });
             }
             let key = doc_key(&d);
             if d.get("isValid") == Some(&Value::Bool(false)) {
@@ -206,14 +358,23 @@ pub fn fetch_since(
                 }
             }
         }
-        let Some(oldest) = oldest else {
+        let Some((least_lo, least_hi)) = least else {
             // No document carries a time: nothing to page by.
             break;
         };
-        upper = Some(if fresh == 0 { oldest - 1 } else { oldest });
-        if since.is_some_and(|s| upper.is_some_and(|u| u < s)) {
+        // Something new: the next page starts at the least key again (the
+        // documents sharing it come once more, kept once); nothing new:
+        // below it.
+        let next = if fresh > 0 {
+            least_hi.at_or_above()
+        } else {
+            least_lo.below()
+        };
+        let Some(next) = next else { break };
+        if lower.as_ref().is_some_and(|l| next < *l) {
             break;
         }
+        upper = Some(next);
     }
     out.docs.retain(|d| !d.is_null());
     out.docs
@@ -256,7 +417,8 @@ pub fn v3_last_modified(client: &Client) -> Result<HashMap<String, i64>, NsError
 
 /// API v3 `history` of `collection` after `since` (ms of `srvModified`):
 /// the identifiers of documents deleted (`isValid: false`) and the newest
-/// `srvModified` seen.
+/// `srvModified` seen. `limit` is halved while the site refuses it (400:
+/// a site's `API3_MAX_LIMIT` below Nightscout's default 1,000).
 pub fn v3_deleted(
     client: &Client,
     collection: &str,
@@ -264,11 +426,21 @@ pub fn v3_deleted(
     limit: usize,
 ) -> Result<(Vec<String>, i64), NsError> {
     let mut mark = since;
+    let mut limit = limit.max(1);
     let mut deleted = Vec::new();
     let path_of = |m: i64| format!("/api/v3/{collection}/history/{m}");
-    for _ in 0..MAX_PAGES {
+    let mut pages = 0;
+    while pages < MAX_PAGES {
         let path = path_of(mark);
-        let v = client.get(&path, &[("limit", limit.to_string())])?;
+        let v = match client.get(&path, &[("limit", limit.to_string())]) {
+            Ok(v) => v,
+            Err(NsError::Status { status: 400, .. }) if limit > 1 => {
+                limit /= 2;
+                continue;
+            }
+            Err(e) => return Err(e),
+        };
+        pages += 1;
         let result = match v {
             Value::Object(mut o) => o.remove("result").unwrap_or(Value::Null),
             other => other,
@@ -300,4 +472,123 @@ pub fn v3_deleted(
         }
     }
     Ok((deleted, mark))
+}
+
+/// Whether `s` is a MongoDB ObjectId in hex (what `_id` holds on a site).
+pub fn is_object_id(s: &str) -> bool {
+    s.len() == 24 && s.bytes().all(|b| b.is_ascii_hexdigit())
+}
+
+/// The `_id`s (the identity the import keys records by) of the document
+/// API v3 calls `identifier`. API v3 serves no `_id`: a document created
+/// through v1 has its `_id` as identifier, one created through v3
+/// (AndroidAPS) or moved there from a UUID `_id` (Loop) an `identifier`
+/// field of its own, which v1 serves beside the `_id` and can be asked for
+/// (`find[identifier]`; a deleted document stays there with `isValid:
+/// false`). The identifier itself is included: an older site may hold it
+/// as the `_id`.
+pub fn ids_of_identifier(
+    client: &Client,
+    c: Collection,
+    identifier: &str,
+) -> Result<Vec<String>, NsError> {
+    let mut ids = vec![identifier.to_string()];
+    if is_object_id(identifier) {
+        return Ok(ids);
+    }
+    let q = [
+        ("find[identifier]", identifier.to_string()),
+        // Without a bound on the date field Nightscout looks at 4 days only.
+        (
+            match c {
+                Collection::Entries => "find[date][$gte]",
+                Collection::Treatments => "find[created_at][$gte]",
+            },
+            c.lower(0).query(),
+        ),
+        ("count", "10".to_string()),
+    ];
+    let docs = as_array(
+        client,
+        &format!("GET {}", c.path()),
+        client.get(c.path(), &q)?,
+    )?;
+    for d in &docs {
+        if d.get("identifier").and_then(Value::as_str) == Some(identifier) {
+            if let Some(id) = doc_id(d) {
+                if !ids.contains(&id) {
+                    ids.push(id);
+                }
+            }
+        }
+    }
+    Ok(ids)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    #[test]
+    fn bounds_in_the_servers_form_bracket_every_stored_form() {
+        // Stored forms of 21:54:00 UTC and their place among the bounds
+        // Nightscout compares them with (`toISOString()` strings).
+        for (stored, above) in [
+            ("2026-01-14T21:54:00.000Z", "2026-01-14T21:54:00.000Z"),
+            ("2026-01-14T21:54:00Z", "2026-01-14T21:54:01.000Z"),
+            ("2026-01-14T21:54:00.5Z", "2026-01-14T21:54:00.600Z"),
+            ("2026-01-14T21:54:00.1234Z", "2026-01-14T21:54:00.123Z"),
+            ("2026-01-14T22:54:00+01:00", "2026-01-14T22:54:00.000Z"),
+            ("2026-01-14T16:54:00.000-05:00", "2026-01-14T16:54:00.000Z"),
+        ] {
+            let a = canonical_at_or_above(stored).unwrap();
+            assert_eq!(a, above, "{stored}");
+            assert!(a.as_str() >= stored);
+            let b = canonical_below(stored).unwrap();
+            assert!(b.as_str() < stored, "{stored}: {b}");
+            // Nothing in the server's form lies between.
+            let next = iso_ms(abba_io::time::parse_instant(&b).unwrap().as_millisecond() + 1);
+            assert!(next.as_str() >= stored, "{stored}: {b} then {next}");
+        }
+    }
+
+    #[test]
+    fn treatments_are_keyed_as_the_server_compares_them() {
+        let t = Collection::Treatments;
+        let k = |d: Value| t.keys_of(&d).unwrap();
+        let text = |s: &str| Key::Text(s.to_string());
+        // As served: the stored string.
+        let s = "2026-01-14T22:54:00+01:00";
+        assert_eq!(
+            k(json!({"created_at": s, "utcOffset": 60})),
+            (text(s), text(s))
+        );
+        // An offset without utcOffset may be DE_NORMALIZE_DATES's rewrite of
+        // the stored UTC string: both.
+        let (lo, hi) = k(json!({"created_at": "2026-01-14T22:54:00.000+01:00"}));
+        assert_eq!(lo, text("2026-01-14T21:54:00.000Z"));
+        assert_eq!(hi, text("2026-01-14T22:54:00.000+01:00"));
+        let (lo, hi) = k(json!({"created_at": "2026-01-14T21:54:00.000+00:00"}));
+        assert_eq!(lo, text("2026-01-14T21:54:00.000+00:00"));
+        assert_eq!(hi, text("2026-01-14T21:54:00Z"));
+        // No created_at: the time of `date`, `mills` or `timestamp`.
+        for d in [
+            json!({"date": 1_768_427_640_000_i64}),
+            json!({"mills": 1_768_427_640_000_i64}),
+            json!({"timestamp": "2026-01-14T21:54:00Z"}),
+        ] {
+            assert_eq!(t.time_of(&d), Some(1_768_427_640_000), "{d}");
+            assert_eq!(k(d).0, text("2026-01-14T21:54:00.000Z"));
+        }
+        assert!(t.keys_of(&json!({"eventType": "Note"})).is_none());
+        // Entries by `date`, else `dateString` / `sysTime`.
+        let e = Collection::Entries;
+        assert_eq!(
+            e.time_of(&json!({"sysTime": "2026-01-14T22:54:00.000+0100"})),
+            Some(1_768_427_640_000)
+        );
+        assert!(is_object_id("602d22d89e9fc2456f934373"));
+        assert!(!is_object_id("7d6bcbb3-9c4d-4e5e-8d7e-1c1f0f1a2b3c"));
+    }
 }

@@ -63,6 +63,10 @@ pub struct SyncReport {
     pub import: SyncImport,
     /// What the write-back did (when the link has it).
     pub write_back: Option<crate::write_back::WriteReport>,
+    /// `_id`s of documents whose records the store holds but which the
+    /// site no longer serves in the window read again (deleted through
+    /// API v1, which leaves no trace): their records are kept, and said.
+    pub gone: Vec<String>,
 }
 
 /// One collection of a sync.
@@ -134,7 +138,9 @@ pub fn check_link(client: &Client) -> Result<Check, NsError> {
     Ok(Check {
         name: s("name"),
         version: s("version"),
-        v3: client.has_token() && fetch::has_v3(client),
+        // API v3 takes a JWT only (a site without API v2 authorization
+        // gets the token in the query, which v3 refuses).
+        v3: client.has_jwt() && fetch::has_v3(client),
         newest_entry,
     })
 }
@@ -157,19 +163,46 @@ pub fn link(
     Ok((link, check))
 }
 
+/// A sync's result, and whether its outcome could be recorded on the link.
+#[derive(Debug)]
+pub struct Attempt {
+    /// What the sync did, or why it failed.
+    pub result: Result<SyncReport, NsError>,
+    /// Whether the outcome is on the link (`abba link --list`, the API).
+    pub recorded: Result<(), abba_store::StoreError>,
+}
+
+/// Syncs `person` and records the outcome on the link (the end time, the
+/// error, the failures in a row), saying whether that record was written.
+pub fn sync_and_record(store: &mut Store, person: &str, opts: &SyncOptions) -> Attempt {
+    let result = match store.link(person) {
+        Ok(Some(link)) => sync_link(store, &link, opts),
+        Ok(None) => {
+            return Attempt {
+                result: Err(NsError::NoLink(person.to_string())),
+                recorded: Ok(()),
+            }
+        }
+        Err(e) => Err(e.into()),
+    };
+    let end = jiff::Timestamp::now();
+    let recorded = match &result {
+        Ok(_) => store.record_sync(person, end, None),
+        Err(e) => store.record_sync(person, end, Some(&e.to_string())),
+    };
+    Attempt { result, recorded }
+}
+
 /// Syncs `person`: fetches what is new, imports it, records the outcome
 /// on the link, then writes back when the link says so.
 pub fn sync(store: &mut Store, person: &str, opts: &SyncOptions) -> Result<SyncReport, NsError> {
-    let link = store
-        .link(person)?
-        .ok_or_else(|| NsError::NoLink(person.to_string()))?;
-    let r = sync_link(store, &link, opts);
-    let end = jiff::Timestamp::now();
-    match &r {
-        Ok(_) => store.record_sync(person, end, None)?,
-        Err(e) => store.record_sync(person, end, Some(&e.to_string()))?,
+    let a = sync_and_record(store, person, opts);
+    match (a.result, a.recorded) {
+        // The sync's own failure says more than a failure to record it.
+        (Err(e), _) => Err(e),
+        (Ok(_), Err(e)) => Err(e.into()),
+        (Ok(r), Ok(())) => Ok(r),
     }
-    r
 }
 
 fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncReport, NsError> {
@@ -179,12 +212,14 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
     let future = abba_io::read::future_limit(now).as_millisecond();
     let mut fetched = Fetched::default();
     let mut reports = Vec::new();
+    let mut gone = Vec::new();
     for c in [Collection::Entries, Collection::Treatments] {
         let mark = marks.get(c.name()).copied();
         // Always a lower bound: without one, Nightscout answers only the
         // last 4 days (`deltaAgo` in `lib/server/query.js`).
         let since = Some(mark.map_or(0, |m| m.saturating_sub(opts.overlap_ms)));
         let mut pages = fetch::fetch_since(&client, c, since, opts.page)?;
+        gone.extend(gone_from(store, &link.person, &client, c, since, &pages)?);
         // abba's own Notes (write-back) are not the person's data.
         let before = pages.docs.len();
         pages.docs.retain(|d| !crate::write_back::is_ours(d));
@@ -246,7 +281,7 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
     }
     // API v3: what was deleted since the last sync (a first sync starts
     // from the site's lastModified: what it fetched is what is valid).
-    let v3 = client.has_token() && fetch::has_v3(&client);
+    let v3 = client.has_jwt() && fetch::has_v3(&client);
     if v3 {
         let last = fetch::v3_last_modified(&client)?;
         for col in ["entries", "treatments", "profile"] {
@@ -254,7 +289,22 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
             match marks.get(&key) {
                 Some(&m) => {
                     let (deleted, mark) = fetch::v3_deleted(&client, col, m, opts.page)?;
-                    fetched.deleted.extend(deleted);
+                    let c = match col {
+                        "entries" => Some(Collection::Entries),
+                        "treatments" => Some(Collection::Treatments),
+                        _ => None,
+                    };
+                    for identifier in deleted {
+                        match c {
+                            // v3 keys by `identifier`, the import by `_id`.
+                            Some(c) => fetched.deleted.extend(fetch::ids_of_identifier(
+                                &client,
+                                c,
+                                &identifier,
+                            )?),
+                            None => fetched.deleted.push(identifier),
+                        }
+                    }
                     fetched.marks.insert(key, mark);
                 }
                 None => {
@@ -267,6 +317,7 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
     }
     fetched.deleted.sort();
     fetched.deleted.dedup();
+    gone.retain(|id| fetched.deleted.binary_search(id).is_err());
     let import = store.import_synced(&link.person, &fetched, opts.resolve, now)?;
     let write_back = if link.write_back {
         Some(
@@ -283,7 +334,40 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
         v3,
         import,
         write_back,
+        gone,
     })
+}
+
+/// The documents of `c` whose records the store holds from this site in
+/// the window just read again (from `since`) but which the site no
+/// longer serves: deleted through API v1, which removes a document and
+/// leaves nothing to sync. Treatments are compared from 14 hours into the
+/// window: a `created_at` written with an offset is compared by its
+/// string and may fall outside the window's bound near its start.
+fn gone_from(
+    store: &Store,
+    person: &str,
+    client: &Client,
+    c: Collection,
+    since: Option<i64>,
+    pages: &fetch::Pages,
+) -> Result<Vec<String>, NsError> {
+    let from = match (c, since) {
+        (_, None) => i64::MIN,
+        (Collection::Entries, Some(s)) => s,
+        (Collection::Treatments, Some(s)) => s.saturating_add(14 * 3_600_000 + 1000),
+    };
+    let served: std::collections::HashSet<String> = pages
+        .docs
+        .iter()
+        .filter_map(fetch::doc_id)
+        .chain(pages.deleted.iter().cloned())
+        .collect();
+    Ok(store
+        .synced_documents(person, &client.site().join(c.path()), from)?
+        .into_iter()
+        .filter(|id| !served.contains(id))
+        .collect())
 }
 
 fn json_bytes(docs: &[&Value]) -> Result<Vec<u8>, NsError> {

@@ -9,7 +9,7 @@ use abba_advisor::{
 use abba_api::{
     AdviceResponse, Bounds, DataSummary, DeviceEvent, EventBody, EventsBody, MealSlot as WireSlot,
     Mode, NewPersonBody, PhaseView, Range, Setting, SettingAdvice, Suggestion, TempRate,
-    TherapyBody,
+    TherapyBody, TherapyChangeBody,
 };
 use abba_core::limits::{Limit, BASAL_U_PER_H, CARB_RATIO_G_PER_U};
 use abba_core::{
@@ -267,7 +267,7 @@ pub fn suggestions(
     keep: impl Fn(&Decision) -> bool,
     seq_of: &mut SeqOf<'_>,
 ) -> Result<Vec<Suggestion>, StoreError> {
-    let views = advise::views(&live.person, &live.decisions, &live.answers);
+    let views = live.views();
     live.decisions
         .iter()
         .zip(&views)
@@ -310,7 +310,12 @@ pub fn page(
         .iter()
         .map(|&(_, i)| live.decisions[i].clone())
         .collect();
-    let mut views = advise::views(&live.person, &decisions, &live.answers);
+    let mut views = advise::views_with(
+        &live.person,
+        &decisions,
+        &live.answers,
+        live.extras.as_ref(),
+    );
     for (v, &(_, i)) in views.iter_mut().zip(&picked) {
         if v.status == "open" && latest.get(v.setting) != Some(&i) {
             v.status = "superseded".into();
@@ -330,7 +335,7 @@ pub fn advice(
     a: Advice,
     seq_of: &mut SeqOf<'_>,
 ) -> Result<AdviceResponse, StoreError> {
-    let views = advise::views(&live.person, &live.decisions, &live.answers);
+    let views = live.views();
     let settings = a
         .settings
         .iter()
@@ -524,4 +529,134 @@ pub fn new_person(b: &NewPersonBody) -> Result<NewPerson, ApiError> {
         p.settings.advisor = c;
     }
     Ok(p)
+}
+
+/// A clinician's change from the wire, checked field by field with
+/// [`abba_core::limits`] like the create-person body (422 naming the
+/// field): the basal schedule, the carb ratios, the instant (not in the
+/// future).
+pub type TherapyChangeIn = (
+    Option<Vec<(u32, f64)>>,
+    Option<[f64; 3]>,
+    Option<jiff::Timestamp>,
+);
+
+/// See [`TherapyChangeIn`].
+pub fn therapy_change(b: &TherapyChangeBody) -> Result<TherapyChangeIn, ApiError> {
+    let basal = match (&b.basal_units_per_hour, &b.basal_schedule) {
+        (Some(_), Some(_)) => {
+            return Err(ApiError::invalid(
+                "basal_schedule",
+                "give basal_units_per_hour or basal_schedule, not both",
+            ))
+        }
+        (Some(r), None) => {
+            BASAL_U_PER_H
+                .check(*r)
+                .map_err(|e| ApiError::invalid("basal_units_per_hour", e.to_string()))?;
+            Some(vec![(0, *r)])
+        }
+        (None, Some(segs)) => {
+            if segs.is_empty() {
+                return Err(ApiError::invalid(
+                    "basal_schedule",
+                    "expected at least one segment (the first from start_minute 0)",
+                ));
+            }
+            let mut out: Vec<(u32, f64)> = Vec::with_capacity(segs.len());
+            for (i, seg) in segs.iter().enumerate() {
+                let first = out.is_empty();
+                let after = out.last().map(|l| l.0);
+                if (first && seg.start_minute != 0)
+                    || seg.start_minute >= 1440
+                    || after.is_some_and(|a| seg.start_minute <= a)
+                {
+                    return Err(ApiError::invalid(
+                        format!("basal_schedule[{i}].start_minute"),
+                        format!(
+                            "expected minutes of the day from 0 to 1439, the first 0 and each after the one before, got {}",
+                            seg.start_minute
+                        ),
+                    ));
+                }
+                BASAL_U_PER_H.check(seg.units_per_hour).map_err(|e| {
+                    ApiError::invalid(format!("basal_schedule[{i}].units_per_hour"), e.to_string())
+                })?;
+                out.push((seg.start_minute, seg.units_per_hour));
+            }
+            Some(out)
+        }
+        (None, None) => None,
+    };
+    let carb_ratio = match &b.carb_ratios {
+        Some(c) => {
+            let values = [c.breakfast, c.lunch, c.dinner];
+            for (v, name) in values.iter().zip(["breakfast", "lunch", "dinner"]) {
+                CARB_RATIO_G_PER_U
+                    .check(*v)
+                    .map_err(|e| ApiError::invalid(format!("carb_ratios.{name}"), e.to_string()))?;
+            }
+            Some(values)
+        }
+        None => None,
+    };
+    if basal.is_none() && carb_ratio.is_none() {
+        return Err(ApiError::invalid(
+            "basal_units_per_hour",
+            "give basal_units_per_hour, basal_schedule and/or carb_ratios",
+        ));
+    }
+    let at = match &b.at {
+        None => None,
+        Some(t) => {
+            let at: jiff::Timestamp = t.parse().map_err(|err| {
+                ApiError::invalid(
+                    "at",
+                    format!(
+                        "expected an RFC 3339 instant with an offset (2026-03-02T07:30:00+01:00), got {t:?}: {err}"
+                    ),
+                )
+            })?;
+            let latest = jiff::Timestamp::now()
+                .checked_add(jiff::SignedDuration::from_mins(
+                    abba_core::limits::FUTURE_SKEW_MINUTES,
+                ))
+                .unwrap_or(jiff::Timestamp::MAX);
+            if at > latest {
+                return Err(ApiError::invalid(
+                    "at",
+                    format!(
+                        "{at} is in the future (more than {} min after the server's clock): a change is recorded when it is made",
+                        abba_core::limits::FUTURE_SKEW_MINUTES
+                    ),
+                ));
+            }
+            Some(at)
+        }
+    };
+    Ok((basal, carb_ratio, at))
+}
+
+/// A store error about a clinician's change, with the wire's field names
+/// (the store names the CLI's flags).
+pub fn therapy_change_error(e: StoreError) -> ApiError {
+    match e {
+        StoreError::Invalid { field, problem } => {
+            let f = if field.starts_with("--carb-ratio") {
+                ["breakfast", "lunch", "dinner"]
+                    .into_iter()
+                    .find(|s| field.contains(s))
+                    .map_or_else(|| "carb_ratios".to_string(), |s| format!("carb_ratios.{s}"))
+            } else if field.starts_with("--basal") {
+                "basal_schedule".to_string()
+            } else if field == "--at" {
+                "at".to_string()
+            } else {
+                String::new()
+            };
+            ApiError::invalid(f, problem)
+        }
+        StoreError::Advisor(a) => ApiError::invalid("basal_schedule", a.to_string()),
+        other => other.into(),
+    }
 }

@@ -18,6 +18,7 @@ pub fn api() -> OpenApiRouter<AppState> {
         .routes(routes!(meta::openapi))
         .routes(routes!(admin::create_person))
         .routes(routes!(admin::set_bounds))
+        .routes(routes!(admin::set_therapy))
         .routes(routes!(admin::issue_token))
         .routes(routes!(admin::revoke_token))
         .routes(routes!(person::post_events))
@@ -46,7 +47,7 @@ pub fn document() -> &'static utoipa::openapi::OpenApi {
     modifiers(&Bearer),
     tags(
         (name = "meta", description = "Health and this document"),
-        (name = "admin", description = "The clinic: persons, bounds, tokens"),
+        (name = "admin", description = "The clinic: persons, bounds, therapy changes, tokens"),
         (name = "person", description = "A person's app: events, answers, sync, advice")
     )
 )]

@@ -85,11 +85,12 @@ async fn every_endpoint_by_every_caller() {
     let mut seq = 1_000u64;
     let mut names = 0u32;
     let mut rows = Vec::new();
-    let endpoints: [(&str, Method, Kind, u16); 12] = [
+    let endpoints: [(&str, Method, Kind, u16); 13] = [
         ("healthz", Method::GET, Kind::Open, 200),
         ("openapi", Method::GET, Kind::AnyToken, 200),
         ("create person", Method::POST, Kind::Admin, 201),
         ("bounds", Method::PUT, Kind::Admin, 200),
+        ("therapy", Method::POST, Kind::Admin, 200),
         ("issue token", Method::POST, Kind::Admin, 201),
         ("revoke token", Method::DELETE, Kind::Admin, 200),
         ("events", Method::POST, Kind::Person, 200),
@@ -120,6 +121,12 @@ async fn every_endpoint_by_every_caller() {
                 "bounds" => (
                     format!("/v1/persons/{alice}/bounds"),
                     Some(json!({"bounds": {"basal": {"min": 0.5, "max": 2.0}}})),
+                ),
+                "therapy" => (
+                    format!("/v1/persons/{alice}/therapy"),
+                    Some(
+                        json!({"carb_ratios": {"breakfast": 10.0, "lunch": 11.0, "dinner": 12.0}}),
+                    ),
                 ),
                 "issue token" => (format!("/v1/persons/{alice}/tokens"), None),
                 "revoke token" => (format!("/v1/tokens/{victim}"), None),

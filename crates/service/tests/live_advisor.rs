@@ -560,3 +560,164 @@ async fn answers_right_after_the_acknowledgement_match_a_person_answering_in_pro
     assert_eq!(replayed_sorted, want);
     assert_eq!(cli.rebuild("di").unwrap(), advisor);
 }
+
+/// The in-process loop with changes of therapy (advisor minute, basal,
+/// carb ratios) put in force before the first event at or after them.
+fn in_process_with(
+    svc: &Svc,
+    id: u64,
+    events: &[(u64, Event, Value)],
+    changes: &[(i64, Option<f64>, [f64; 3])],
+) -> Vec<(Decision, u64)> {
+    let store = abba_store::Store::open(&svc.db).unwrap();
+    let mut advisor = store.person_by_id(id as i64).unwrap().advisor().unwrap();
+    let mut next = 0;
+    let mut out = Vec::new();
+    for (seq, e, _) in events {
+        while let Some(c) = changes.get(next).filter(|c| c.0 <= e.at.0) {
+            let mut s = *advisor.settings();
+            if let Some(b) = c.1 {
+                s.basal = abba_core::UnitsPerHour(b);
+            }
+            s.carb_ratio = c.2.map(abba_core::GramsPerUnit);
+            advisor.set_therapy(None, s).unwrap();
+            next += 1;
+        }
+        advisor.observe(e).unwrap();
+        for d in advisor.take_decisions() {
+            out.push((d, *seq));
+        }
+    }
+    out
+}
+
+#[tokio::test]
+async fn a_clinicians_change_by_the_api_and_the_cli_reaches_an_app_fed_person() {
+    let svc = Svc::new();
+    let id = svc.person_with(person_body("cat")).await;
+    let (_, t) = svc.token(id).await;
+    let events = stream();
+    // The app has posted up to day 9, 05:00.
+    let cut = events
+        .iter()
+        .position(|(_, e, _)| e.at.0 >= 8 * 1440 + 300)
+        .unwrap();
+    post_like_an_app(&svc, id, &t, &events[..cut]).await;
+    // The clinic records new settings from day 9, 06:00 (admin only).
+    let at1 = 8 * 1440 + 360;
+    let body = json!({"basal_units_per_hour": 1.1,
+        "carb_ratios": {"breakfast": 9.0, "lunch": 13.0, "dinner": 10.5},
+        "at": common::at(at1)});
+    let r = svc
+        .call(
+            Method::POST,
+            &format!("/v1/persons/{id}/therapy"),
+            Some(&t),
+            Some(&body),
+        )
+        .await;
+    assert_eq!(r.status, StatusCode::FORBIDDEN, "{}", r.text);
+    let r = svc
+        .call(
+            Method::POST,
+            &format!("/v1/persons/{id}/therapy"),
+            Some(&svc.admin),
+            Some(&body),
+        )
+        .await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+    assert_eq!(r.json["basal_in_force"].as_f64(), Some(1.1), "{}", r.text);
+    assert_eq!(r.json["carb_ratios_in_force"]["lunch"].as_f64(), Some(13.0));
+    assert!(r.json["notice"]
+        .as_str()
+        .unwrap()
+        .contains("not a medical device"));
+    // The rest of the stream: the lunch update of day 9 starts from 13.
+    post_like_an_app(&svc, id, &t, &events[cut..]).await;
+    let mut changes = vec![(at1, Some(1.1), [9.0, 13.0, 10.5])];
+    let r = svc
+        .call(
+            Method::GET,
+            &format!("/v1/persons/{id}/history"),
+            Some(&t),
+            None,
+        )
+        .await;
+    let all = r.json["suggestions"].as_array().unwrap().clone();
+    check_same(&all, &in_process_with(&svc, id, &events, &changes));
+    let lunch9 = all
+        .iter()
+        .find(|s| s["parameter"] == "lunch" && s["id"].as_u64().unwrap() / 4 > at1 as u64)
+        .expect("a lunch decision after the change");
+    assert_eq!(lunch9["previous"].as_f64(), Some(13.0), "{lunch9}");
+
+    // `abba therapy set` on the same file while the service runs, earlier
+    // than the last event: the service rebuilds and its history follows.
+    let at2 = 10 * 1440 + 600;
+    let mut store = abba_store::Store::open(&svc.db).unwrap();
+    store
+        .set_therapy(
+            "cat",
+            None,
+            Some([9.5, 12.5, 10.0]),
+            Some(common::at(at2).parse().unwrap()),
+        )
+        .unwrap();
+    changes.push((at2, None, [9.5, 12.5, 10.0]));
+    let r = svc
+        .call(
+            Method::GET,
+            &format!("/v1/persons/{id}/history"),
+            Some(&t),
+            None,
+        )
+        .await;
+    let all = r.json["suggestions"].as_array().unwrap().clone();
+    check_same(&all, &in_process_with(&svc, id, &events, &changes));
+    let lunch = all
+        .iter()
+        .find(|s| s["parameter"] == "lunch" && s["id"].as_u64().unwrap() / 4 > at2 as u64)
+        .expect("a lunch decision after the second change");
+    assert_eq!(lunch["previous"].as_f64(), Some(12.5), "{lunch}");
+
+    // Refused with the field named: a value out of the limits, a schedule
+    // not starting at 0, both basal forms, a time in the future.
+    for (bad, field) in [
+        (
+            json!({"basal_units_per_hour": 90.0}),
+            "basal_units_per_hour",
+        ),
+        (
+            json!({"basal_schedule": [{"start_minute": 60, "units_per_hour": 1.0}]}),
+            "basal_schedule[0].start_minute",
+        ),
+        (
+            json!({"basal_units_per_hour": 1.0, "basal_schedule": [{"start_minute": 0, "units_per_hour": 1.0}]}),
+            "basal_schedule",
+        ),
+        (
+            json!({"carb_ratios": {"breakfast": 9.0, "lunch": 300.0, "dinner": 10.0}}),
+            "carb_ratios.lunch",
+        ),
+        (
+            json!({"carb_ratios": {"breakfast": 9.0, "lunch": 12.0, "dinner": 10.0}, "at": "2999-01-01T00:00:00Z"}),
+            "at",
+        ),
+    ] {
+        let r = svc
+            .call(
+                Method::POST,
+                &format!("/v1/persons/{id}/therapy"),
+                Some(&svc.admin),
+                Some(&bad),
+            )
+            .await;
+        assert_eq!(
+            r.status,
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "{bad}: {}",
+            r.text
+        );
+        assert_eq!(r.json["path"], field, "{}", r.text);
+    }
+}

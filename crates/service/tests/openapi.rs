@@ -12,11 +12,12 @@ use axum::http::{Method, StatusCode};
 use common::{cgm, ev, Svc};
 use serde_json::{json, Value};
 
-const ENDPOINTS: [(&str, &str); 12] = [
+const ENDPOINTS: [(&str, &str); 13] = [
     ("get", "/healthz"),
     ("get", "/v1/openapi.json"),
     ("post", "/v1/persons"),
     ("put", "/v1/persons/{id}/bounds"),
+    ("post", "/v1/persons/{id}/therapy"),
     ("post", "/v1/persons/{id}/tokens"),
     ("delete", "/v1/tokens/{token_id}"),
     ("post", "/v1/persons/{id}/events"),
@@ -404,6 +405,38 @@ async fn every_response_conforms() {
         answers.clone(),
         Some(&t),
         Some(&json!({"answers": [{"suggestion_id": 3, "answer": "reject"}]}))
+    ); // 404
+    let therapy = format!("/v1/persons/{id}/therapy");
+    let change = json!({"basal_schedule": [{"start_minute": 0, "units_per_hour": 0.9},
+        {"start_minute": 360, "units_per_hour": 1.1}],
+        "carb_ratios": {"breakfast": 10.0, "lunch": 12.0, "dinner": 11.0}});
+    check!(
+        Method::POST,
+        "/v1/persons/{id}/therapy",
+        therapy.clone(),
+        Some(&a),
+        Some(&change)
+    );
+    check!(
+        Method::POST,
+        "/v1/persons/{id}/therapy",
+        therapy.clone(),
+        Some(&t),
+        Some(&change)
+    ); // 403
+    check!(
+        Method::POST,
+        "/v1/persons/{id}/therapy",
+        therapy.clone(),
+        Some(&a),
+        Some(&json!({"carb_ratios": {"breakfast": 10.0, "lunch": 40.0, "dinner": 11.0}}))
+    ); // 422: outside the lunch bounds
+    check!(
+        Method::POST,
+        "/v1/persons/{id}/therapy",
+        "/v1/persons/99/therapy",
+        Some(&a),
+        Some(&change)
     ); // 404
     check!(
         Method::DELETE,

@@ -361,7 +361,7 @@ fn first_week(person: &Person, events: &[Event]) -> Phase {
 }
 
 fn delivery_view(person: &Person, extras: Option<&Extras>) -> DeliveryView {
-    let Some(x) = extras else {
+    let Some(x) = extras.filter(|x| !x.fed_by_app) else {
         return DeliveryView {
             kind: Delivery::OpenLoop,
             words: "as the app reports it",
@@ -425,7 +425,7 @@ fn first_week_view(
     extras: Option<&Extras>,
     initialised: bool,
 ) -> Option<FirstWeekView> {
-    let x = extras?;
+    let x = extras.filter(|x| !x.fed_by_app)?;
     if initialised {
         return None;
     }
@@ -498,7 +498,10 @@ pub fn advice_with(
     let phase = if advisor.is_initialised() {
         Phase::Adapting
     } else {
-        match (first_week(person, &stream.events), extras) {
+        match (
+            first_week(person, &stream.events),
+            extras.filter(|x| !x.fed_by_app),
+        ) {
             (Phase::FirstWeek { mut missing, .. }, Some(x)) => {
                 let init = person.settings.advisor.init_days;
                 let done = (x.first_week.qualifying.len() as u32).min(init);

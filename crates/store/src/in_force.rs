@@ -76,6 +76,10 @@ pub struct FirstWeek {
 pub struct Extras {
     /// Therapy changes, oldest first.
     pub changes: Vec<TherapyChange>,
+    /// An app-fed person (see [`app_extras`]): only the clinician's
+    /// changes apply; the first week, the delivery and the basal hold are
+    /// the app's (as without extras).
+    pub fed_by_app: bool,
     /// The first week.
     pub first_week: FirstWeek,
     /// The delivery evidence.
@@ -198,7 +202,9 @@ pub fn clinician_changes(conn: &Connection, person: i64) -> Result<Vec<TherapyCh
     Ok(out)
 }
 
-/// Records a clinician's change (inside the caller's transaction).
+/// Records a clinician's change (inside the caller's transaction) and
+/// bumps the person's revision, so a live advisor kept elsewhere (the
+/// service) is rebuilt with it.
 pub fn insert_change(
     conn: &Connection,
     person: i64,
@@ -211,7 +217,44 @@ pub fn insert_change(
         "INSERT INTO therapy_change (person_id, at_ms, change, recorded_at) VALUES (?1, ?2, ?3, ?4)",
         params![person, at.as_millisecond(), json, jiff::Timestamp::now().to_string()],
     )?;
+    conn.execute(
+        "INSERT INTO person_rev VALUES (?1, 1) ON CONFLICT (person_id) DO UPDATE SET rev = rev + 1",
+        params![person],
+    )?;
     Ok(())
+}
+
+/// What applies to an app-fed person's replay: the clinician's changes,
+/// each in force from its time (none recorded: no extras, the replay is
+/// the events as posted).
+pub fn app_extras(conn: &Connection, person: &Person) -> Result<Option<Extras>, StoreError> {
+    let changes = clinician_changes(conn, person.id)?;
+    if changes.is_empty() {
+        return Ok(None);
+    }
+    Ok(Some(Extras {
+        changes,
+        fed_by_app: true,
+        first_week: FirstWeek {
+            end: i64::MAX,
+            ..FirstWeek::default()
+        },
+        evidence: Evidence::default(),
+        hold_basal: false,
+    }))
+}
+
+impl Extras {
+    /// The latest change put in force after `last` (the last event fed):
+    /// a replay puts it in force at the end, so an event earlier than it
+    /// needs a rebuild (the replay would place the change after that event).
+    pub fn applied_after(&self, last: Option<Timestamp>) -> Option<Timestamp> {
+        self.changes
+            .iter()
+            .map(|c| c.at)
+            .filter(|&at| last.is_none_or(|l| at > l))
+            .max()
+    }
 }
 
 /// Checks a new therapy value against the plausibility limits and the
@@ -399,6 +442,7 @@ pub fn extras(
         evidence.delivery() != Delivery::OpenLoop && !person.settings.allow_closed_loop;
     Ok(Extras {
         changes,
+        fed_by_app: false,
         first_week: facts.first_week.clone(),
         evidence,
         hold_basal,

@@ -438,6 +438,47 @@ impl Store {
         })
     }
 
+    /// The documents whose records a sync brought from `origin` (a site's
+    /// collection URL, as the records' origin names it) at or after
+    /// `from_ms`: each document's `_id` once (one document may have given
+    /// several records, `ID#n`). A sync compares them with what the site
+    /// still serves over the same window, to see documents deleted
+    /// through API v1, which leaves no trace.
+    pub fn synced_documents(
+        &self,
+        name: &str,
+        origin: &str,
+        from_ms: i64,
+    ) -> Result<Vec<String>, StoreError> {
+        let p = person_id(&self.conn, name)?;
+        let prefix = format!("{origin}: ");
+        let mut st = self.conn.prepare(
+            "SELECT source_id FROM record WHERE person_id = ?1 AND source = 'nightscout' AND at_ms >= ?2 AND substr(origin, 1, ?4) = ?3",
+        )?;
+        let rows = st
+            .query_map(
+                params![p.id, from_ms, prefix, prefix.chars().count() as i64],
+                |r| r.get::<_, String>(0),
+            )?
+            .collect::<Result<Vec<_>, _>>()?;
+        let mut out: Vec<String> = Vec::new();
+        for raw in rows {
+            let id: SourceId =
+                serde_json::from_str(&raw).map_err(|e| StoreError::corrupt("record id", e))?;
+            let SourceId::Id(id) = id else { continue };
+            let id: &str = &id;
+            // `ID#n`: the n-th further record of document ID.
+            let base = match id.rsplit_once('#') {
+                Some((b, n)) if !n.is_empty() && n.bytes().all(|c| c.is_ascii_digit()) => b,
+                _ => id,
+            };
+            out.push(base.to_string());
+        }
+        out.sort();
+        out.dedup();
+        Ok(out)
+    }
+
     /// What abba wrote to the person's site.
     pub fn written(&self, name: &str) -> Result<Vec<Written>, StoreError> {
         let p = person_id(&self.conn, name)?;

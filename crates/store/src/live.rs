@@ -15,8 +15,9 @@ use crate::advise;
 use crate::answer::{self, param_key, Answer, AnswerKind, Answers};
 use crate::app::{self, AppEvent, NewAppEvent};
 use crate::error::StoreError;
+use crate::in_force::{Extras, TherapyChange};
 use crate::person::{self, Person};
-use crate::replay::events_hash;
+use crate::replay::prefix_hash;
 use crate::store::{refresh, State, Store};
 use crate::token::{self, Role, StoredToken};
 use abba_advisor::{Abba, Advisor, ClinicianBounds, Decision, DecisionDetail, Parameter};
@@ -43,6 +44,9 @@ pub struct Live {
     pub answers: Answers,
     /// Events the advisor refused.
     pub refused: usize,
+    /// What the replay applied besides the events (therapy changes; for an
+    /// import-fed person also the first week and the delivery).
+    pub extras: Option<Extras>,
     /// The person's revision in the store this state reflects (see
     /// [`Store::person_rev`]): another revision means someone else wrote.
     pub rev: i64,
@@ -149,13 +153,17 @@ fn from_state(person: Person, s: State, last: Option<(i64, u64)>, rev: i64) -> L
         decisions: s.decisions,
         answers: s.answers,
         refused: s.refused,
+        extras: s.extras,
         last,
         last_produced: Vec::new(),
     }
 }
 
 /// Saves the live advisor as the store's snapshot (a shortcut for the next
-/// rebuild; checked against the log when used).
+/// rebuild; checked against the log when used). A change put in force
+/// after the last event (see [`Extras::applied_after`]) is in the state
+/// but not in the hash: a replay from it puts the change in force again
+/// before the next event, which changes nothing (the same values).
 fn save_snapshot(conn: &Connection, live: &Live) -> Result<(), StoreError> {
     let events = &live.stream.events;
     let last = events.last().map_or(i64::MIN, |e| e.at.0);
@@ -173,7 +181,7 @@ fn save_snapshot(conn: &Connection, live: &Live) -> Result<(), StoreError> {
         params![
             live.person.id,
             events.len() as i64,
-            events_hash(events),
+            prefix_hash(events, events.len(), live.extras.as_ref()),
             answers,
             live.refused as i64,
             live.advisor.save_json()?
@@ -221,6 +229,33 @@ fn feed(conn: &Connection, live: &mut Live, new: &[AppEvent]) -> Result<Vec<Prod
         }
     }
     Ok(produced)
+}
+
+impl Live {
+    /// Every decision with its answer and the value in force (as
+    /// [`advise::views_with`] with what the replay applied).
+    pub fn views(&self) -> Vec<advise::SuggestionView> {
+        advise::views_with(
+            &self.person,
+            &self.decisions,
+            &self.answers,
+            self.extras.as_ref(),
+        )
+    }
+
+    /// Today's advice (as `abba advise` on the same store).
+    pub fn advice(&self) -> advise::Advice {
+        advise::advice_with(
+            &self.person,
+            &self.stream,
+            self.records,
+            &self.advisor,
+            &self.decisions,
+            &self.answers,
+            self.refused,
+            self.extras.as_ref(),
+        )
+    }
 }
 
 fn same(a: &Decision, b: &Decision) -> bool {
@@ -309,8 +344,17 @@ impl Store {
         }
         let mut person = live.person.clone();
         let ins = app::insert(&tx, &mut person, batch)?;
+        // A clinician's change already put in force after the last event
+        // fed: an event before it must see the old therapy (a rebuild).
+        let pending = live
+            .extras
+            .as_ref()
+            .and_then(|x| x.applied_after(live.stream.events.last().map(|e| e.at)));
         let in_order = match (ins.new.first(), live.last) {
-            (Some(first), Some(last)) => first.key() > last,
+            (Some(first), Some(last)) => {
+                first.key() > last && pending.is_none_or(|p| first.event.at >= p)
+            }
+            (Some(first), None) => pending.is_none_or(|p| first.event.at >= p),
             _ => true,
         };
         live.person = person;
@@ -359,7 +403,7 @@ impl Store {
         live: &mut Live,
         items: &[SuggestionAnswer],
     ) -> Result<(Vec<Answer>, Vec<Decision>), StoreError> {
-        let views = advise::views(&live.person, &live.decisions, &live.answers);
+        let views = live.views();
         let now = jiff::Timestamp::now().to_string();
         let mut out = Vec::new();
         for (i, item) in items.iter().enumerate() {
@@ -464,6 +508,27 @@ impl Store {
             .cloned()
             .collect();
         Ok((out, changed))
+    }
+
+    /// Records a clinician's change of therapy for the person (as
+    /// [`Store::set_therapy`], `by` naming who) and rebuilds `live` with it.
+    pub fn set_therapy_by_id(
+        &mut self,
+        id: i64,
+        basal: Option<Vec<(u32, f64)>>,
+        carb_ratio: Option<[f64; 3]>,
+        at: Option<jiff::Timestamp>,
+        by: &str,
+    ) -> Result<(TherapyChange, Live), StoreError> {
+        let p = person::load_by_id(&self.conn, id)?;
+        let (at, change) = crate::store::make_change(&p, basal, carb_ratio, at, by)?;
+        let tx = self.conn.transaction()?;
+        crate::in_force::insert_change(&tx, id, at, &change)?;
+        let s = refresh(&tx, &mut self.cache, &p, true)?;
+        let last = last_key(&tx, id)?;
+        let r = rev(&tx, id)?;
+        tx.commit()?;
+        Ok((change, from_state(p, s, last, r)))
     }
 
     /// Replaces a person's clinician bounds and rebuilds the advisor from

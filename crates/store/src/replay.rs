@@ -98,7 +98,7 @@ pub fn events_hash(events: &[Event]) -> String {
 
 /// The hash a snapshot of the first `n` events carries: the events', and
 /// (for an import-fed person) what else the replay applied up to them.
-fn prefix_hash(events: &[Event], n: usize, extras: Option<&Extras>) -> String {
+pub(crate) fn prefix_hash(events: &[Event], n: usize, extras: Option<&Extras>) -> String {
     let h = events_hash(&events[..n]);
     match extras {
         None => h,
@@ -146,8 +146,9 @@ fn apply_change(advisor: &mut Abba, c: &TherapyChange) -> Result<(), StoreError>
 }
 
 /// Replays `events` with `answers` for `person`, from `snapshot` when it
-/// is usable. `extras` (import-fed persons): therapy changes put in force
-/// at their time, the first week's end, basal updates held.
+/// is usable. `extras`: therapy changes put in force at their time (an
+/// app-fed person: the clinician's); import-fed persons also the first
+/// week's end and basal updates held.
 pub fn replay(
     person: &Person,
     events: &[Event],
@@ -158,8 +159,8 @@ pub fn replay(
     let fresh = || -> Result<Abba, StoreError> {
         let a = person.advisor()?;
         Ok(match extras {
-            Some(x) => a.with_first_week_end(x.first_week.end),
-            None => a,
+            Some(x) if !x.fed_by_app => a.with_first_week_end(x.first_week.end),
+            _ => a,
         })
     };
     let (mut advisor, start, mut applied, mut unused, rebuilt) = match snapshot {

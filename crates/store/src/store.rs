@@ -58,7 +58,8 @@ pub(crate) struct State {
     pub(crate) decisions: Vec<Decision>,
     pub(crate) answers: Answers,
     pub(crate) refused: usize,
-    /// Import-fed persons: changes in force, the first week, delivery.
+    /// Changes in force (import-fed persons also the first week and the
+    /// delivery); app-fed persons: the clinician's changes, if any.
     pub(crate) extras: Option<Extras>,
 }
 
@@ -174,7 +175,7 @@ pub(crate) fn refresh_with(
     };
     let extras = match &facts {
         Some(f) => Some(in_force::extras(conn, person, f)?),
-        None => None,
+        None => in_force::app_extras(conn, person)?,
     };
     let answers = answer::load(conn, person.id)?;
     let snap = if use_snapshot {
@@ -405,9 +406,11 @@ impl Store {
     }
 
     /// Records a change of therapy by the clinician, in force from `at`
-    /// (default: now) whether or not a suggestion is open; the advisor's
-    /// next update starts from it. `basal`: a schedule (one segment: a flat
-    /// rate); values not given stay.
+    /// (default: now) whether or not a suggestion is open, for a person fed
+    /// by imports or by the app alike; the advisor's next update starts
+    /// from it (a change before the last event rebuilds the advisor from
+    /// there). `basal`: a schedule (one segment: a flat rate); values not
+    /// given stay.
     pub fn set_therapy(
         &mut self,
         name: &str,
@@ -416,41 +419,7 @@ impl Store {
         at: Option<jiff::Timestamp>,
     ) -> Result<in_force::TherapyChange, StoreError> {
         let p = self.person(name)?;
-        if basal.is_none() && carb_ratio.is_none() {
-            return Err(StoreError::invalid(
-                "abba therapy set",
-                "give --basal and/or --carb-ratio",
-            ));
-        }
-        in_force::check_change(&p, basal.as_deref(), carb_ratio)?;
-        let at = at.unwrap_or_else(jiff::Timestamp::now);
-        in_force::not_future(at, "--at")?;
-        if crate::app::count(&self.conn, p.id)? > 0 {
-            return Err(StoreError::Feed(format!(
-                "{} is fed by the app through the service; record the change there",
-                p.name
-            )));
-        }
-        let Some(first) = p.first_day else {
-            return Err(StoreError::invalid(
-                "abba therapy set",
-                format!("{} has no data yet: day 1 is not known (import first, or create the person with these values)", p.name),
-            ));
-        };
-        let clock = abba_io::clock::AdvisorClock::new(p.tz.clone(), first);
-        let ts = clock.timestamp(at);
-        let change = in_force::TherapyChange {
-            at: if ts.day_index() < 0 {
-                abba_core::Timestamp(0)
-            } else {
-                ts
-            },
-            instant: at.to_string(),
-            basal,
-            carb_ratio,
-            source: in_force::ChangeSource::Clinician,
-            origin: "the clinician (abba therapy set)".into(),
-        };
+        let (at, change) = make_change(&p, basal, carb_ratio, at, "abba therapy set")?;
         let tx = self.conn.transaction()?;
         in_force::insert_change(&tx, p.id, at, &change)?;
         refresh(&tx, &mut self.cache, &p, true)?;
@@ -592,6 +561,48 @@ impl Store {
     }
 }
 
+/// A clinician's change checked (the plausibility limits, the bounds, not
+/// in the future, day 1 known) and placed on the advisor's clock; `by`
+/// names who recorded it.
+pub(crate) fn make_change(
+    p: &Person,
+    basal: Option<Vec<(u32, f64)>>,
+    carb_ratio: Option<[f64; 3]>,
+    at: Option<jiff::Timestamp>,
+    by: &str,
+) -> Result<(jiff::Timestamp, in_force::TherapyChange), StoreError> {
+    if basal.is_none() && carb_ratio.is_none() {
+        return Err(StoreError::invalid(
+            "abba therapy set",
+            "give --basal and/or --carb-ratio",
+        ));
+    }
+    in_force::check_change(p, basal.as_deref(), carb_ratio)?;
+    let at = at.unwrap_or_else(jiff::Timestamp::now);
+    in_force::not_future(at, "--at")?;
+    let Some(first) = p.first_day else {
+        return Err(StoreError::invalid(
+            "abba therapy set",
+            format!("{} has no data yet: day 1 is not known (import first, or create the person with these values)", p.name),
+        ));
+    };
+    let clock = abba_io::clock::AdvisorClock::new(p.tz.clone(), first);
+    let ts = clock.timestamp(at);
+    let change = in_force::TherapyChange {
+        at: if ts.day_index() < 0 {
+            abba_core::Timestamp(0)
+        } else {
+            ts
+        },
+        instant: at.to_string(),
+        basal,
+        carb_ratio,
+        source: in_force::ChangeSource::Clinician,
+        origin: format!("the clinician ({by})"),
+    };
+    Ok((at, change))
+}
+
 /// What an import does when the export's pump profile differs from the
 /// therapy the store holds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -620,11 +631,24 @@ fn profile_check(
     }
     let meals = &p.settings.meal_windows;
     let mut profiles = abba_io::therapy::settings_profiles(batch, meals)?;
+    let store_cr = p.settings.start.carb_ratio.map(|c| c.0);
+    let opts = ReadOptions {
+        tz: Some(p.tz.clone()),
+        ..ReadOptions::default()
+    };
     for ((name, bytes), format) in contents.iter().zip(&batch.formats) {
-        if *format == Format::Tidepool {
-            profiles.extend(abba_io::therapy::tidepool_pump_settings(
+        match format {
+            Format::Tidepool => profiles.extend(abba_io::therapy::tidepool_pump_settings(
                 name, bytes, meals,
-            )?);
+            )?),
+            // A CareLink export without Basal Rate rows or a full day says
+            // nothing about the settings: nothing to compare.
+            Format::CareLink => {
+                if let Ok(c) = abba_io::therapy::carelink_settings(name, bytes, &opts, meals)? {
+                    profiles.push(c.or_held(meals, store_cr)?);
+                }
+            }
+            _ => {}
         }
     }
     profiles.sort_by_key(|t| t.at);
@@ -648,7 +672,6 @@ fn profile_check(
         .basal_schedule
         .clone()
         .unwrap_or_else(|| vec![(0, p.settings.start.basal.0)]);
-    let store_cr = p.settings.start.carb_ratio.map(|c| c.0);
     let mut doc = p.settings.clone();
     if at_start.same_settings(&store_basal, store_cr) {
         doc.therapy_source = TherapySource::Profile;

@@ -141,3 +141,130 @@ fn tokens_are_found_by_hash_and_revoked() {
         Err(StoreError::NoPersonId(999))
     ));
 }
+
+/// The decisions of one advisor fed `evs` in process, with each change of
+/// therapy (minute, basal, carb ratios) put in force before the first event
+/// at or after its minute.
+fn in_process(
+    p: &abba_store::Person,
+    evs: &[abba_core::Event],
+    changes: &[(abba_core::Timestamp, Option<f64>, [f64; 3])],
+) -> Vec<(i64, abba_advisor::Parameter, f64, f64)> {
+    use abba_advisor::Advisor;
+    let mut a = p.advisor().unwrap();
+    let mut next = 0;
+    let mut out = Vec::new();
+    for e in evs {
+        while let Some(c) = changes.get(next).filter(|c| c.0 <= e.at) {
+            let mut s = *a.settings();
+            if let Some(b) = c.1 {
+                s.basal = abba_core::UnitsPerHour(b);
+            }
+            s.carb_ratio = c.2.map(abba_core::GramsPerUnit);
+            a.set_therapy(None, s).unwrap();
+            next += 1;
+        }
+        a.observe(e).unwrap();
+        out.extend(
+            a.take_decisions()
+                .into_iter()
+                .map(|d| (d.at.0, d.parameter, d.old, d.new)),
+        );
+    }
+    out.sort_by_key(|d| (d.0, abba_store::answer::param_key(d.1)));
+    out
+}
+
+#[test]
+fn a_clinicians_change_reaches_an_app_fed_persons_advisor_at_its_time() {
+    use abba_core::{Event, Timestamp};
+    let dir = TempDir::new("app-therapy");
+    let mut store = dir.store();
+    let p = store.create_person(&person("ana")).unwrap();
+    let mut evs = events(10);
+    for d in 1..10 {
+        evs.push(Event::new(
+            Timestamp::from_day_and_minute(d, 0),
+            EventKind::DayClosed,
+        ));
+    }
+    evs.sort_by_key(|e| e.at);
+    let batch = app_batch(1, &evs);
+    let cut = evs
+        .iter()
+        .position(|e| e.at >= Timestamp::from_day_and_minute(8, 300))
+        .unwrap();
+    let mut live = store.live(p.id).unwrap();
+    store.post_events(&mut live, &batch[..cut]).unwrap();
+    // `abba therapy set` while the service holds its live advisor: in force
+    // from day 9, 06:00, after the last event the app has posted.
+    let at1 = Timestamp::from_day_and_minute(8, 360);
+    let c = store
+        .set_therapy(
+            "ana",
+            Some(vec![(0, 1.1)]),
+            Some([9.0, 13.0, 10.5]),
+            Some(clock().instant(at1).unwrap()),
+        )
+        .unwrap();
+    assert_eq!(c.at, at1);
+    // The service notices the write; the next batch starts before the
+    // change, so the advisor is rebuilt with the change at its time.
+    let posted = store.post_events(&mut live, &batch[cut..]).unwrap();
+    assert!(posted.rebuilt);
+    let changes = vec![(at1, Some(1.1), [9.0, 13.0, 10.5])];
+    let got: Vec<(i64, abba_advisor::Parameter, f64, f64)> = store
+        .decisions("ana")
+        .unwrap()
+        .iter()
+        .map(|d| (d.at.0, d.parameter, d.old, d.new))
+        .collect();
+    let want = in_process(&p, &evs, &changes);
+    assert_eq!(got, want);
+    // Day 9's lunch update starts from the clinician's value.
+    let lunch = got
+        .iter()
+        .find(|d| d.0 == Timestamp::from_day_and_minute(8, 737).0)
+        .expect("a lunch decision on day 9");
+    assert_eq!(lunch.2, 13.0, "{lunch:?}");
+    assert_eq!(live.advisor, store.rebuild("ana").unwrap());
+    // A change earlier than the last event (day 9, 20:00) rebuilds: the
+    // live state, the store's decisions and the advice all show it.
+    let at2 = Timestamp::from_day_and_minute(8, 1200);
+    let (_, live2) = store
+        .set_therapy_by_id(
+            p.id,
+            None,
+            Some([9.5, 12.5, 10.0]),
+            Some(clock().instant(at2).unwrap()),
+            "a test",
+        )
+        .unwrap();
+    let mut changes = changes;
+    changes.push((at2, None, [9.5, 12.5, 10.0]));
+    let want = in_process(&p, &evs, &changes);
+    let got: Vec<(i64, abba_advisor::Parameter, f64, f64)> = live2
+        .decisions
+        .iter()
+        .map(|d| (d.at.0, d.parameter, d.old, d.new))
+        .collect();
+    assert_eq!(got, want);
+    let lunch = got
+        .iter()
+        .find(|d| d.0 == Timestamp::from_day_and_minute(9, 737).0)
+        .expect("a lunch decision on day 10");
+    assert_eq!(lunch.2, 12.5, "{lunch:?}");
+    let advice = store.advise("ana").unwrap();
+    assert!(
+        advice
+            .therapy
+            .changes
+            .iter()
+            .any(|c| c.contains("9.5/12.5/10")),
+        "{:?}",
+        advice.therapy.changes
+    );
+    // The app's view stays the app's: no first week or delivery from records.
+    assert!(advice.first_week.is_none());
+    assert_eq!(live2.advisor, store.rebuild("ana").unwrap());
+}

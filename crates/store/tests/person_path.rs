@@ -458,3 +458,273 @@ fn implausible_starting_therapy_is_refused_with_the_limit_named() {
         assert!(e.contains("between"), "{e}");
     }
 }
+
+const IO_DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../io/tests/data");
+
+#[test]
+fn a_carelink_export_gives_the_therapy_and_an_import_that_differs_stops() {
+    let dir = TempDir::new("carelink");
+    let us = PathBuf::from(format!("{IO_DATA}/carelink_630g_us_synthetic.csv"));
+    let chicago = "America/Chicago";
+    let opts = ReadOptions {
+        tz: Some(TimeZone::get(chicago).unwrap()),
+        ..ReadOptions::default()
+    };
+    let meals = abba_io::meals::MealWindows::default();
+    // `person new --therapy-from` on the export: the last full day's
+    // schedule and the wizard's ratios, then the import agrees with it.
+    let t = therapy_from_files(std::slice::from_ref(&us), &opts, &meals).unwrap();
+    let mut p = NewPerson::new("cy", chicago, Mode::Cgm, t.settings());
+    p.settings.basal_schedule = Some(t.basal.clone());
+    p.settings.therapy_source = TherapySource::Profile;
+    let mut store = dir.store();
+    store.create_person(&p).unwrap();
+    store
+        .import_files("cy", std::slice::from_ref(&us), None)
+        .unwrap();
+    let a = store.advise("cy").unwrap();
+    let sched = a.therapy.basal_schedule.expect("the schedule in force");
+    let rates: Vec<f64> = sched.iter().map(|s| s.1).collect();
+    assert_eq!(rates, vec![0.8, 1.05, 0.85, 0.95, 0.75]);
+    let cr: Vec<f64> = a.settings[1..].iter().map(|s| s.in_force).collect();
+    assert_eq!(cr, vec![9.0, 11.5, 13.5]);
+
+    // A person whose store holds other values: the import stops with both.
+    let mut q = NewPerson::new("dee", chicago, Mode::Cgm, common::start());
+    q.settings.pump_steps = Some(PumpSteps::default());
+    store.create_person(&q).unwrap();
+    let e = store
+        .import_files("dee", std::slice::from_ref(&us), None)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("1.05")
+            && e.contains("9/11.5/13.5")
+            && e.contains("0.9")
+            && e.contains("--adopt-profile"),
+        "{e}"
+    );
+    assert!(store.records("dee").unwrap().is_empty());
+    store
+        .import_files_with(
+            "dee",
+            std::slice::from_ref(&us),
+            None,
+            ProfileResolution::Adopt,
+        )
+        .unwrap();
+    let dee = store.person("dee").unwrap();
+    assert_eq!(dee.settings.basal_schedule, Some(t.basal.clone()));
+    assert_eq!(
+        dee.settings.start.carb_ratio.map(|c| c.0),
+        [9.0, 11.5, 13.5]
+    );
+
+    // The decimal-comma export has no dinner wizard event: the store's
+    // dinner ratio stands, and an import whose other values agree goes on.
+    let eu = PathBuf::from(format!("{IO_DATA}/carelink_780g_mmol_synthetic.csv"));
+    let zurich = TimeZone::get(TZ).unwrap();
+    let eu_opts = ReadOptions {
+        tz: Some(zurich),
+        ..ReadOptions::default()
+    };
+    let e = therapy_from_files(std::slice::from_ref(&eu), &eu_opts, &meals)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("dinner") && e.contains("--carb-ratio"), "{e}");
+    let mut r = NewPerson::new(
+        "eve",
+        TZ,
+        Mode::Cgm,
+        abba_core::TherapySettings {
+            basal: abba_core::UnitsPerHour(0.7),
+            carb_ratio: [8.5, 10.0, 12.0].map(abba_core::GramsPerUnit),
+        },
+    );
+    r.settings.basal_schedule = Some(vec![(0, 0.7), (360, 0.95), (720, 0.8), (1260, 0.65)]);
+    r.settings.start.basal = abba_core::UnitsPerHour(abba_advisor::steps::mean_rate(
+        r.settings.basal_schedule.as_deref().unwrap(),
+    ));
+    store.create_person(&r).unwrap();
+    store
+        .import_files("eve", std::slice::from_ref(&eu), None)
+        .unwrap();
+    assert_eq!(
+        store.person("eve").unwrap().settings.therapy_source,
+        TherapySource::Profile
+    );
+}
+
+/// Writes an open-loop pump user's Tidepool export in the layout of
+/// Tidepool's data model (the newer export's one JSON array of mixed
+/// types; `time` in UTC with the pump's `deviceTime` and `timezoneOffset`
+/// in minutes; glucose in mmol/L as Tidepool stores it): `pumpSettings`
+/// read at the upload (named `basalSchedules` with `activeSchedule`, one
+/// `carbRatio` array, `bgTarget` and `insulinSensitivity` in mmol/L,
+/// `units`), `cbg` every 5 minutes for `days` days, `wizard` with its
+/// `bolus` (normal; dinner dual/square with `extended` and `duration`),
+/// `basal` scheduled segments with `scheduleName`, a percent temp and a
+/// suspend, an `upload`, and a `deviceEvent` 20 days before the first
+/// reading.
+fn tidepool_export(dir: &std::path::Path, days: i64) -> PathBuf {
+    let mut items: Vec<Value> = Vec::new();
+    let mut n = 0u64;
+    let mut id = || {
+        n += 1;
+        format!("{n:032x}")
+    };
+    let offset_min = 120; // Zurich in summer
+    let device_time = |ms: i64| {
+        let t = jiff::Timestamp::from_millisecond(ms + offset_min * 60_000).unwrap();
+        t.strftime("%Y-%m-%dT%H:%M:%S").to_string()
+    };
+    let base = |ms: i64, ty: &str, id: String| {
+        json!({"id": id, "type": ty, "time": iso(ms), "deviceTime": device_time(ms),
+            "timezoneOffset": offset_min, "uploadId": "upid_00000000abcd",
+            "deviceId": "InsOmn-130-00000000", "conversionOffset": 0, "clockDriftOffset": 0})
+    };
+    let with = |mut v: Value, extra: Value| {
+        if let (Value::Object(a), Value::Object(b)) = (&mut v, extra) {
+            a.extend(b);
+        }
+        v
+    };
+    let schedule = [(0, 0.75), (240, 0.95), (600, 0.85), (1140, 0.8)];
+    items.push(with(
+        base(DAY1_MS - 20 * 86_400_000, "deviceEvent", id()),
+        json!({"subType": "reservoirChange"}),
+    ));
+    for day in 0..days {
+        let day_ms = DAY1_MS + day * 86_400_000;
+        for k in 0..288i64 {
+            let ms = day_ms + k * 300_000;
+            let mg = 165.0 + 35.0 * ((k * 5) as f64 / 240.0 + day as f64).sin();
+            items.push(with(
+                base(ms, "cbg", id()),
+                json!({"units": "mmol/L", "value": (mg / 18.01559 * 10.0).round() / 10.0}),
+            ));
+        }
+        for (i, &(start, rate)) in schedule.iter().enumerate() {
+            let end = schedule.get(i + 1).map_or(1440, |s| s.0);
+            let ms = day_ms + start * 60_000;
+            items.push(with(
+                base(ms, "basal", id()),
+                json!({"deliveryType": "scheduled", "rate": rate, "scheduleName": "Standard",
+                    "duration": (end - start) * 60_000}),
+            ));
+        }
+        if day == 3 {
+            items.push(with(
+                base(day_ms + 14 * 3_600_000, "basal", id()),
+                json!({"deliveryType": "temp", "percent": 0.5, "rate": 0.425,
+                    "duration": 3_600_000, "suppressed": {"type": "basal",
+                    "deliveryType": "scheduled", "rate": 0.85, "scheduleName": "Standard"}}),
+            ));
+        }
+        if day == 5 {
+            items.push(with(
+                base(day_ms + 21 * 3_600_000, "basal", id()),
+                json!({"deliveryType": "suspend", "duration": 1_800_000}),
+            ));
+        }
+        for (minute, carbs, ratio) in [
+            (7 * 60 + 2, 45.0, 10.0),
+            (12 * 60 + 17, 60.0, 12.0),
+            (18 * 60 + 32, 70.0, 11.0),
+        ] {
+            let ms = day_ms + minute * 60_000;
+            let bolus_id = id();
+            let units = ((carbs / ratio) * 20.0_f64).round() / 20.0;
+            let bolus = if minute > 18 * 60 {
+                json!({"subType": "dual/square", "normal": units * 0.6, "extended": units * 0.4,
+                    "duration": 7_200_000})
+            } else {
+                json!({"subType": "normal", "normal": units})
+            };
+            items.push(with(base(ms, "bolus", bolus_id.clone()), bolus));
+            items.push(with(
+                base(ms, "wizard", id()),
+                json!({"carbInput": carbs, "insulinCarbRatio": ratio, "units": "mmol/L",
+                    "bolus": bolus_id, "recommended": {"carb": units, "correction": 0.0, "net": units}}),
+            ));
+        }
+    }
+    let end = DAY1_MS + days * 86_400_000 - 60_000;
+    items.push(with(
+        base(end, "upload", id()),
+        json!({"deviceManufacturers": ["Insulet"], "deviceModel": "Dash", "deviceTags": ["insulin-pump"],
+            "client": {"name": "org.tidepool.uploader", "version": "2.60.0"}, "timeProcessing": "utc-bootstrapping"}),
+    ));
+    let segs = |v: &[(i64, f64)], key: &str| -> Value {
+        v.iter()
+            .map(|&(m, x)| json!({"start": m * 60_000, key: x}))
+            .collect()
+    };
+    items.push(with(
+        base(end, "pumpSettings", id()),
+        json!({"activeSchedule": "Standard",
+            "basalSchedules": {"Standard": segs(&schedule, "rate"), "Weekend": segs(&[(0, 0.7)], "rate")},
+            "carbRatio": segs(&[(0, 10.0), (660, 12.0), (960, 11.0)], "amount"),
+            "bgTarget": [{"start": 0, "target": 5.6, "high": 6.1}],
+            "insulinSensitivity": segs(&[(0, 2.8)], "amount"),
+            "units": {"carb": "grams", "bg": "mmol/L"}}),
+    ));
+    let p = dir.join("tidepool.json");
+    std::fs::write(&p, serde_json::to_vec(&Value::Array(items)).unwrap()).unwrap();
+    p
+}
+
+#[test]
+fn an_open_loop_tidepool_export_gives_the_pumps_therapy_a_first_week_and_suggestions_on_step() {
+    let dir = TempDir::new("tidepool");
+    let file = tidepool_export(&dir.0, 15);
+    let files = vec![file];
+    let mut store = dir.store();
+    store.create_person(&person_from(&files, "ana")).unwrap();
+    store.import_files("ana", &files, None).unwrap();
+    // Day 1 is the first CGM day, not the device event 20 days before.
+    assert_eq!(
+        store.person("ana").unwrap().first_day.unwrap().to_string(),
+        "2026-05-04"
+    );
+    let a = store.advise("ana").unwrap();
+    assert_eq!(
+        a.delivery.kind,
+        abba_io::automation::Delivery::OpenLoop,
+        "{:?}",
+        a.delivery
+    );
+    assert!(
+        a.first_week.is_none(),
+        "the first week completed: {:?}",
+        a.first_week
+    );
+    let history = store.history("ana").unwrap();
+    // The therapy is the pump's: the active schedule and the ratio in force
+    // for the longest part of each meal window.
+    let first_cr: Vec<f64> = ["breakfast", "lunch", "dinner"]
+        .iter()
+        .map(|k| history.iter().find(|v| v.setting == *k).unwrap().previous)
+        .collect();
+    assert_eq!(first_cr, vec![10.0, 12.0, 11.0]);
+    let first_basal = history.iter().find(|v| v.setting == "basal").unwrap();
+    let mean = (0.75 * 240.0 + 0.95 * 360.0 + 0.85 * 540.0 + 0.8 * 300.0) / 1440.0;
+    assert!(
+        (first_basal.previous - mean).abs() < 1e-9,
+        "{first_basal:?}"
+    );
+    let updates: Vec<_> = history.iter().filter(|v| !v.no_update).collect();
+    assert!(
+        updates.iter().any(|v| v.setting == "basal"),
+        "no basal update"
+    );
+    for v in updates {
+        if v.setting == "basal" {
+            for (_, r) in v.schedule.as_ref().expect("a schedule") {
+                assert!(on_step(*r, 0.05), "{r} U/h is not on the pump's step");
+            }
+        } else {
+            assert!(on_step(v.suggested, 0.1), "{} g/U", v.suggested);
+        }
+    }
+}

@@ -1,8 +1,10 @@
 //! Medtronic CareLink CSV (MiniMed pumps, Guardian sensors), as CareLink
-//! exports it: `;`-separated with decimal commas, CRLF, a preamble (name,
-//! patient id, date range, device and serial number), then sections, each
-//! opened by a divider `-------;<device>;Pump|Sensor;<serial>;<title>` and
-//! its own `Index;Date;Time;...` header, rows newest first. `Index` is a
+//! exports it: `;`-separated with decimal commas (or, in the US English
+//! export, `,`-separated with decimal points and `MM/DD/YY` dates), CRLF,
+//! a preamble (name, patient id, date range, device and serial number),
+//! then sections, each opened by a divider
+//! `-------;<device>;Pump|Sensor;<serial>;<title>` and its own
+//! `Index;Date;Time;...` header, rows newest first. `Index` is a
 //! row number with decimals (`0,00000`) and never identity: records are
 //! identified by their content.
 //!
@@ -30,13 +32,20 @@ use crate::record::{
 use crate::time::{parse_wall, DateOrder, WallClock};
 use crate::units::{self, check_range};
 
+/// True for a section header line (`Index;Date;Time...` or
+/// `Index,Date,Time...`).
+fn is_header(line: &str) -> bool {
+    let l = line.trim_start_matches('"');
+    l.starts_with("Index;Date;Time") || l.starts_with("Index,Date,Time")
+}
+
 /// Whether the start of a file is a CareLink export: an `Index;Date;Time`
-/// header after a section divider or the CareLink preamble.
+/// (or `,`) header after a section divider or the CareLink preamble.
 pub fn looks_like(head: &str) -> bool {
-    let header = head
-        .lines()
-        .any(|l| l.trim_start_matches('"').starts_with("Index;Date;Time"));
-    header && (head.contains("-------;") || head.starts_with("Last Name;First Name"))
+    let header = head.lines().any(is_header);
+    let preamble =
+        head.starts_with("Last Name;First Name") || head.starts_with("Last Name,First Name");
+    header && (head.contains("-------;") || head.contains("-------,") || preamble)
 }
 
 /// A section of the export.
@@ -52,7 +61,7 @@ enum Section {
 
 fn section_of(divider: &str) -> Section {
     let cells: Vec<&str> = divider
-        .split(';')
+        .split([';', ','])
         .map(|c| c.trim().trim_matches('"'))
         .collect();
     if cells.iter().any(|c| c.contains("Aggregated")) {
@@ -84,7 +93,7 @@ fn spans(bytes: &[u8]) -> Vec<Span> {
                 last.end = last.end.min(start);
             }
             section = section_of(text);
-        } else if text.starts_with("Index;Date;Time") {
+        } else if is_header(text) {
             if let Some(last) = out.last_mut() {
                 last.end = last.end.min(start);
             }
@@ -113,6 +122,7 @@ struct Cols {
     bolus_duration: Option<usize>,
     bolus_source: Option<usize>,
     carbs: Option<usize>,
+    carb_ratio: Option<usize>,
     sensor: Option<usize>,
     marker: Option<usize>,
     alarm: Option<usize>,
@@ -138,6 +148,7 @@ impl Cols {
             bolus_duration: col("Programmed Bolus Duration").or_else(|| col("Bolus Duration")),
             bolus_source: col("Bolus Source"),
             carbs: col("BWZ Carb Input"),
+            carb_ratio: col("BWZ Carb Ratio"),
             sensor: col("Sensor Glucose"),
             marker: col("Event Marker"),
             alarm: col("Alarm").or_else(|| col("Alert")),
@@ -157,11 +168,39 @@ struct Row {
     kinds: Vec<RecordKind>,
     /// The row's cells but its `Index` (an ignored row's identity).
     cells: u64,
+    /// The bolus wizard's carb ratio (g/U) on a wizard row of the pump.
+    carb_ratio: Option<f64>,
+}
+
+/// What a CareLink export says about the pump's settings: the rows that
+/// set the scheduled basal rate and the bolus wizard's carb ratios, each
+/// with its instant and line, oldest first.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SettingsRows {
+    /// `Basal Rate (U/h)` rows: the scheduled rate from then on.
+    pub basal: Vec<(jiff::Timestamp, f64, u64)>,
+    /// Wizard rows' `BWZ Carb Ratio (g/U)` (0, a correction without
+    /// carbohydrate, is left out).
+    pub carb_ratio: Vec<(jiff::Timestamp, f64, u64)>,
+    /// The latest instant of any pump or sensor row.
+    pub end: Option<jiff::Timestamp>,
+    /// A wizard carb-ratio column not in g/U (its name): not read.
+    pub ratio_not_grams: Option<String>,
 }
 
 /// Reads a CareLink export.
 pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
+    read_with_settings(ctx, bytes).map(|(r, _)| r)
+}
+
+/// Reads a CareLink export: its records and what its rows say about the
+/// pump's settings.
+pub fn read_with_settings(
+    ctx: &Ctx<'_>,
+    bytes: &[u8],
+) -> Result<(Vec<Record>, SettingsRows), IoError> {
     let file = ctx.file;
+    let mut settings = SettingsRows::default();
     let spans = spans(bytes);
     if spans.is_empty() {
         return Err(IoError::format(
@@ -174,6 +213,9 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     for span in &spans {
         let mut t = Table::open(file, &bytes[..span.end], span.header_at)?;
         let cols = Cols::of(&t)?;
+        if let Some(i) = cols.carb_ratio.filter(|&i| !grams_per_unit(&t.header[i])) {
+            settings.ratio_not_grams = Some(t.header[i].clone());
+        }
         let order = date_order(
             file,
             &mut Table::open(file, &bytes[..span.end], span.header_at)?,
@@ -206,12 +248,17 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
                 }],
                 Section::Pump | Section::Sensor => row_kinds(&t, &cols, &at)?,
             };
+            let carb_ratio = match span.section {
+                Section::Pump => wizard_carb_ratio(&t, &cols, &at)?,
+                _ => None,
+            };
             let cells = content_hash(t.raw().skip(1));
             rows.push(Row {
                 line,
                 wall,
                 kinds,
                 cells,
+                carb_ratio,
             });
         }
         // Oldest first, so that a wall time in the autumn fold is placed
@@ -221,7 +268,18 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
         for row in rows.into_iter().rev() {
             at.place = Place::Line(row.line);
             let instant = clock.resolve(row.wall, &at, &time_name)?;
+            if matches!(span.section, Section::Pump | Section::Sensor) {
+                settings.end = settings.end.max(Some(instant));
+            }
+            if let Some(r) = row.carb_ratio {
+                settings.carb_ratio.push((instant, r, row.line));
+            }
             for kind in row.kinds {
+                if let RecordKind::Schedule { profile } = &kind {
+                    if let Some(s) = profile.basal.segments.first() {
+                        settings.basal.push((instant, s.1 .0, row.line));
+                    }
+                }
                 out.push(Record {
                     at: instant,
                     id: match content_id(Source::CareLink, instant, &kind) {
@@ -240,7 +298,43 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
             }
         }
     }
-    Ok(out)
+    settings.basal.sort_by_key(|b| b.0);
+    settings.carb_ratio.sort_by_key(|c| c.0);
+    Ok((out, settings))
+}
+
+/// True when a wizard carb-ratio column is in g/U (older pumps can count
+/// in exchanges: their ratios are not read).
+fn grams_per_unit(name: &str) -> bool {
+    name.replace(' ', "").to_ascii_lowercase().contains("(g/u)")
+}
+
+/// The bolus wizard's carb ratio of a pump row: `BWZ Carb Ratio (g/U)`
+/// (0 on a correction without carbohydrate: none), checked against the
+/// plausibility limits.
+fn wizard_carb_ratio(t: &Table<'_>, c: &Cols, at: &Location) -> Result<Option<f64>, IoError> {
+    let Some(i) = c.carb_ratio.filter(|&i| grams_per_unit(&t.header[i])) else {
+        return Ok(None);
+    };
+    let text = t.cell(i);
+    if text.is_empty() {
+        return Ok(None);
+    }
+    let name = &t.header[i];
+    let v = number(text, t.delimiter).ok_or_else(|| {
+        IoError::invalid(
+            at.clone(),
+            name,
+            format!("expected a carb ratio (g/U), got \"{text}\""),
+        )
+    })?;
+    if v == 0.0 {
+        return Ok(None);
+    }
+    abba_core::limits::CARB_RATIO_G_PER_U
+        .check(v)
+        .map_err(|e| IoError::invalid(at.clone(), name, e.to_string()))?;
+    Ok(Some(v))
 }
 
 /// The date order of a section: year first (`2025/10/30`, CareLink's

@@ -200,6 +200,24 @@ pub fn read_bytes_noted(
     Ok((format, records, ctx.notes.into_inner()))
 }
 
+/// The rows of one CareLink file that say what the pump's settings are
+/// (decoded as [`read_bytes`] decodes; `opts.tz` is needed).
+pub fn carelink_settings_rows(
+    file: &str,
+    bytes: &[u8],
+    opts: &ReadOptions,
+) -> Result<carelink::SettingsRows, IoError> {
+    let decoded = table::utf16_to_utf8(file, bytes)?;
+    let bytes = table::strip_bom(decoded.as_deref().unwrap_or(bytes));
+    let ctx = Ctx {
+        file,
+        index: 0,
+        opts,
+        notes: Default::default(),
+    };
+    carelink::read_with_settings(&ctx, bytes).map(|(_, s)| s)
+}
+
 /// Records of several files, merged.
 #[derive(Debug, Clone, Serialize)]
 pub struct Batch {

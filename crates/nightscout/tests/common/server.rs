@@ -15,6 +15,16 @@
 //!   `isValid: false`);
 //! - injected faults: a status (401, 500, 429 with Retry-After), a
 //!   connection cut mid-page, a slow answer.
+//!
+//! Filters and sorts act on the stored values as MongoDB's do on a real
+//! site (`lib/server/query.js`, `lib/server/treatments.js`,
+//! `lib/server/entries.js` of cgm-remote-monitor): `date` as a number,
+//! `created_at` as the stored string (with its bound rewritten to
+//! `toISOString()` form, as `enforceDateFilter` does), a document without
+//! the field matching no bound. Options for a site's other behaviours: a
+//! readable default role (`AUTH_DEFAULT_ROLES=readable`, Nightscout's
+//! default), no `/api/v2/authorization` (an older site: `?token=`),
+//! `DE_NORMALIZE_DATES`, a lower `API3_MAX_LIMIT`, a path prefix.
 #![allow(dead_code)]
 
 use axum::body::{Body, Bytes};
@@ -51,6 +61,16 @@ pub struct Site {
     pub v3: bool,
     /// A delay before every v1 page.
     pub page_delay: Duration,
+    /// Reading needs no credential (Nightscout's default role `readable`);
+    /// a wrong credential is refused all the same.
+    pub default_readable: bool,
+    /// `/api/v2/authorization/request/<token>` is offered.
+    pub v2_auth: bool,
+    /// `DE_NORMALIZE_DATES`: v1 serves `created_at` / `dateString` in the
+    /// document's `utcOffset` (and drops `utcOffset`).
+    pub denormalize: bool,
+    /// API v3's largest `limit` (`API3_MAX_LIMIT`).
+    pub v3_max_limit: usize,
     next_id: u64,
     clock: i64,
 }
@@ -121,6 +141,10 @@ impl Site {
             jwt_uses: None,
             v3: true,
             page_delay: Duration::ZERO,
+            default_readable: false,
+            v2_auth: true,
+            denormalize: false,
+            v3_max_limit: 1000,
             next_id: 1,
             clock: 1_700_000_000_000,
         }
@@ -144,16 +168,28 @@ impl Site {
         }
     }
 
-    /// Deletes a document softly (as API v3 does): v1 serves it with
-    /// `isValid: false`, v3 history reports it.
+    /// Deletes a document softly (as API v3 does; by its `_id` or its
+    /// `identifier`): v1 serves it with `isValid: false`, v3 history
+    /// reports it.
     pub fn soft_delete(&mut self, col: &'static str, id: &str) {
         let m = self.tick();
         for d in self.docs.entry(col).or_default() {
-            if d.doc.get("_id").and_then(Value::as_str) == Some(id) {
+            if d.doc.get("_id").and_then(Value::as_str) == Some(id)
+                || d.doc.get("identifier").and_then(Value::as_str) == Some(id)
+            {
                 d.valid = false;
                 d.srv_modified = m;
             }
         }
+    }
+
+    /// Deletes a document as API v1 does (`DELETE /api/v1/treatments/<id>`,
+    /// a MongoDB `deleteMany`): gone, with no trace in v1 or v3.
+    pub fn hard_delete(&mut self, col: &'static str, id: &str) {
+        self.docs
+            .entry(col)
+            .or_default()
+            .retain(|d| d.doc.get("_id").and_then(Value::as_str) != Some(id));
     }
 
     /// The valid documents of a collection.
@@ -204,6 +240,13 @@ fn roles(rs: &[&str]) -> Who {
 type Shared = Arc<Mutex<Site>>;
 
 fn who(site: &mut Site, headers: &HeaderMap, query: &[(String, String)], v3: bool) -> Who {
+    let attempted = headers.contains_key("authorization")
+        || headers.contains_key("api-secret")
+        || query.iter().any(|(k, _)| k == "token" || k == "secret");
+    if !attempted && !v3 && site.default_readable {
+        // `authorization.resolve`: no credential, the default roles.
+        return roles(&["readable"]);
+    }
     if let Some(b) = headers
         .get("authorization")
         .and_then(|v| v.to_str().ok())
@@ -314,29 +357,91 @@ fn ms_of(v: &Value, field: &str) -> Option<i64> {
     }
 }
 
-/// Compares a document's field with a filter value as MongoDB would for
-/// Nightscout's stored types: numbers as numbers, strings as strings.
-fn keep(doc: &Value, field: &str, op: &str, value: &str) -> bool {
+/// `2026-01-14T21:54:00.000Z` (JavaScript's `toISOString()`).
+pub fn iso(ms: i64) -> String {
+    jiff::Timestamp::from_millisecond(ms)
+        .unwrap()
+        .strftime("%Y-%m-%dT%H:%M:%S%.3fZ")
+        .to_string()
+}
+
+/// A filter value as Nightscout types it: `date` (entries) a number
+/// (`parseInt`); a date field's non-numeric value parsed and rewritten to
+/// `toISOString()` form (`enforceDateFilter`); the rest as given.
+fn typed_bound(col: &str, field: &str, value: &str) -> Result<Value, String> {
+    if col == "entries" && field == "date" {
+        return value
+            .parse::<f64>()
+            .map(|v| json!(v.trunc()))
+            .map_err(|_| format!("date {value}"));
+    }
+    let date_field = (col == "treatments" && field == "created_at")
+        || (col == "entries" && field == "dateString");
+    if date_field && value.parse::<f64>().is_err() {
+        let t = value
+            .replace(' ', "+")
+            .parse::<jiff::Timestamp>()
+            .map_err(|_| format!("Cannot parse {value} as a valid ISO-8601 date"))?;
+        return Ok(Value::String(iso(t.as_millisecond())));
+    }
+    Ok(Value::String(value.to_string()))
+}
+
+/// MongoDB's order of two stored values of one field: numbers by value,
+/// strings by their bytes, numbers before strings; `None` for others.
+fn mongo_cmp(a: &Value, b: &Value) -> Option<std::cmp::Ordering> {
+    match (a, b) {
+        (Value::Number(x), Value::Number(y)) => x.as_f64()?.partial_cmp(&y.as_f64()?),
+        (Value::String(x), Value::String(y)) => Some(x.as_bytes().cmp(y.as_bytes())),
+        _ => None,
+    }
+}
+
+/// Whether `doc`'s `field` passes `op value` as MongoDB compares them (a
+/// document without the field, or of another type, passes no bound).
+fn keep(doc: &Value, field: &str, op: &str, value: &Value) -> bool {
     let Some(x) = doc.get(field) else {
         return false;
     };
-    let ord = match x {
-        Value::Number(n) => match (n.as_f64(), value.parse::<f64>()) {
-            (Some(a), Ok(b)) => a.partial_cmp(&b),
-            _ => None,
-        },
-        Value::String(s) => Some(s.as_str().cmp(value)),
-        _ => None,
+    let Some(o) = mongo_cmp(x, value) else {
+        return false;
     };
-    let Some(o) = ord else { return false };
     use std::cmp::Ordering::*;
     match op {
         "$gte" => o != Less,
         "$gt" => o == Greater,
         "$lte" => o != Greater,
         "$lt" => o == Less,
+        "$eq" => o == Equal,
         _ => true,
     }
+}
+
+/// `DE_NORMALIZE_DATES`: the stored UTC time written in the document's
+/// `utcOffset`, as `moment(...).utcOffset(o).toISOString(true)` does.
+fn denormalized(mut doc: Value, field: &str) -> Value {
+    let (Some(t), Some(off)) = (
+        doc.get(field)
+            .and_then(Value::as_str)
+            .and_then(|s| s.parse::<jiff::Timestamp>().ok()),
+        doc.get("utcOffset").and_then(Value::as_i64),
+    ) else {
+        return doc;
+    };
+    let offset = jiff::tz::Offset::from_seconds((off * 60) as i32).unwrap();
+    let local = t.to_zoned(jiff::tz::TimeZone::fixed(offset));
+    let sign = if off < 0 { '-' } else { '+' };
+    let text = format!(
+        "{}{sign}{:02}:{:02}",
+        local.strftime("%Y-%m-%dT%H:%M:%S%.3f"),
+        off.abs() / 60,
+        off.abs() % 60
+    );
+    doc[field] = Value::String(text);
+    if let Some(o) = doc.as_object_mut() {
+        o.remove("utcOffset");
+    }
+    doc
 }
 
 async fn v1_list(
@@ -373,7 +478,7 @@ async fn v1_list(
         } else {
             "created_at"
         };
-        let mut docs: Vec<(i64, Value)> = site
+        let mut docs: Vec<Value> = site
             .docs
             .get(col)
             .map(|v| {
@@ -383,38 +488,72 @@ async fn v1_list(
                         if !d.valid {
                             doc["isValid"] = Value::Bool(false);
                         }
-                        (ms_of(&doc, sort).unwrap_or(0), doc)
+                        doc
                     })
                     .collect()
             })
             .unwrap_or_default();
         // Nightscout's `enforceDateFilter`: a v1 query of entries or
-        // treatments without a bound on its date field gets the last 4 days.
-        let bounded = q
-            .iter()
-            .any(|(k, _)| k.starts_with(&format!("find[{sort}]")));
+        // treatments without a bound on its date field (and no `_id`) gets
+        // the last 4 days.
+        let bounded = q.iter().any(|(k, _)| {
+            k.starts_with(&format!("find[{sort}]"))
+                || k.starts_with("find[_id]")
+                || (col == "entries" && k.starts_with("find[dateString]"))
+        });
         if col != "profile" && !bounded {
             let from = jiff::Timestamp::now().as_millisecond() - 4 * 86_400_000;
-            docs.retain(|(t, _)| *t >= from);
+            let bound = if col == "entries" {
+                json!(from)
+            } else {
+                Value::String(iso(from))
+            };
+            docs.retain(|d| keep(d, sort, "$gte", &bound));
         }
         for (k, v) in &q {
             let Some(rest) = k.strip_prefix("find[") else {
                 continue;
             };
-            let Some((field, op)) = rest.split_once("][") else {
-                continue;
+            let (field, op) = match rest.split_once("][") {
+                Some((f, op)) => (f, op.trim_end_matches(']')),
+                None => (rest.trim_end_matches(']'), "$eq"),
             };
-            let op = op.trim_end_matches(']');
-            docs.retain(|(_, d)| keep(d, field, op, v));
+            let value = match typed_bound(col, field, v) {
+                Ok(v) => v,
+                Err(e) => {
+                    return (
+                        StatusCode::INTERNAL_SERVER_ERROR,
+                        axum::Json(json!({"status": 500, "message": e})),
+                    )
+                        .into_response()
+                }
+            };
+            docs.retain(|d| keep(d, field, op, &value));
         }
-        docs.sort_by_key(|d| std::cmp::Reverse(d.0));
+        // MongoDB's sort on the stored field, newest first; documents
+        // without it last.
+        docs.sort_by(|a, b| match (a.get(sort), b.get(sort)) {
+            (Some(x), Some(y)) => mongo_cmp(y, x).unwrap_or(std::cmp::Ordering::Equal),
+            (Some(_), None) => std::cmp::Ordering::Less,
+            (None, Some(_)) => std::cmp::Ordering::Greater,
+            (None, None) => std::cmp::Ordering::Equal,
+        });
         let count = q
             .iter()
             .find(|(k, _)| k == "count")
             .and_then(|(_, v)| v.parse::<usize>().ok())
             .unwrap_or(10)
             .min(site.max_count);
-        let page: Vec<Value> = docs.into_iter().take(count).map(|(_, d)| d).collect();
+        let denorm = site.denormalize;
+        let page: Vec<Value> = docs
+            .into_iter()
+            .take(count)
+            .map(|d| match (denorm, col) {
+                (true, "treatments") => denormalized(d, "created_at"),
+                (true, "entries") => denormalized(d, "dateString"),
+                _ => d,
+            })
+            .collect();
         (kind, Value::Array(page), site.page_delay)
     };
     if !delay.is_zero() {
@@ -556,6 +695,9 @@ async fn authorization_request(State(s): State<Shared>, Path(token): Path<String
     let mut site = s.lock().unwrap();
     site.log
         .push("GET /api/v2/authorization/request/<token>".into());
+    if !site.v2_auth {
+        return (StatusCode::NOT_FOUND, "Cannot GET").into_response();
+    }
     if !site.tokens.contains_key(&token) {
         return unauthorized();
     }
@@ -614,9 +756,9 @@ async fn v3_history(
         return unauthorized();
     }
     let limit = match q.iter().find(|(k, _)| k == "limit") {
-        None => 1000,
+        None => site.v3_max_limit,
         Some((_, v)) => match v.parse::<usize>() {
-            Ok(l) if (1..=1000).contains(&l) => l,
+            Ok(l) if (1..=site.v3_max_limit).contains(&l) => l,
             _ => {
                 return (
                     StatusCode::BAD_REQUEST,
@@ -640,8 +782,10 @@ async fn v3_history(
         .map(|d| {
             let mut doc = d.doc.clone();
             if let Some(o) = doc.as_object_mut() {
+                // `normalizeDoc`: the document's own identifier, else its
+                // `_id`; no `_id`.
                 if let Some(id) = o.remove("_id") {
-                    o.insert("identifier".into(), id);
+                    o.entry("identifier").or_insert(id);
                 }
                 o.insert("srvModified".into(), json!(d.srv_modified));
                 if !d.valid {
@@ -667,8 +811,14 @@ pub struct Server {
 impl Server {
     /// Starts `site` on a free port of 127.0.0.1.
     pub fn start(site: Site) -> Server {
+        Self::start_at(site, "")
+    }
+
+    /// Starts `site` under a path prefix (`/ns`: a site at
+    /// `https://host/ns/`, behind a reverse proxy).
+    pub fn start_at(site: Site, prefix: &str) -> Server {
         let shared: Shared = Arc::new(Mutex::new(site));
-        let app = Router::new()
+        let api = Router::new()
             .route("/api/v1/status.json", get(status))
             .route("/api/v1/status", get(status))
             .route("/api/v1/entries.json", get(v1_list))
@@ -695,6 +845,12 @@ impl Server {
             .route("/api/v3/lastModified", get(v3_last_modified))
             .route("/api/v3/{col}/history/{since}", get(v3_history))
             .with_state(Arc::clone(&shared));
+        let app = if prefix.is_empty() {
+            api
+        } else {
+            Router::new().nest(prefix, api)
+        };
+        let prefix = prefix.to_string();
         let (tx, rx) = tokio::sync::oneshot::channel::<()>();
         let (addr_tx, addr_rx) = std::sync::mpsc::channel();
         let thread = std::thread::spawn(move || {
@@ -716,7 +872,7 @@ impl Server {
         });
         let addr = addr_rx.recv().unwrap();
         Server {
-            url: format!("http://{addr}"),
+            url: format!("http://{addr}{prefix}"),
             site: shared,
             stop: Some(tx),
             thread: Some(thread),

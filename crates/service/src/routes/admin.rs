@@ -6,7 +6,11 @@ use crate::convert;
 use crate::error::ApiError;
 use crate::extract::{parse_id, Admin, AdminPath};
 use crate::state::AppState;
-use abba_api::{BoundsBody, ErrorBody, NewPersonBody, PersonCreated, TokenIssued, TokenRevoked};
+use abba_advisor::Advisor;
+use abba_api::{
+    BasalSegment, BoundsBody, CarbRatios, ErrorBody, NewPersonBody, PersonCreated,
+    TherapyChangeBody, TherapyChanged, TokenIssued, TokenRevoked,
+};
 use abba_store::token::Role;
 use abba_store::StoreError;
 use axum::extract::State;
@@ -86,6 +90,62 @@ pub async fn set_bounds(
     })
     .await?;
     Ok(Json(b))
+}
+
+/// Records the clinician's change of therapy (in force from `at`, default
+/// now, whether or not a suggestion is open; for a person fed by the app
+/// or by imports); the live advisor is rebuilt with it.
+#[utoipa::path(post, path = "/v1/persons/{id}/therapy", tag = "admin", security(("bearer" = [])),
+    params(("id" = u64, Path, description = "The person's id")),
+    request_body = TherapyChangeBody,
+    responses(
+        (status = 200, description = "Recorded; what is in force now", body = TherapyChanged),
+        (status = 400, description = "Not the JSON expected", body = ErrorBody),
+        (status = 401, description = "No valid token", body = ErrorBody),
+        (status = 403, description = "Not an admin token", body = ErrorBody),
+        (status = 404, description = "No such person", body = ErrorBody),
+        (status = 413, description = "Body too large", body = ErrorBody),
+        (status = 422, description = "A value refused (limits, the clinician's bounds, a time in the future, day 1 not known)", body = ErrorBody)))]
+pub async fn set_therapy(
+    State(s): State<AppState>,
+    AdminPath(id): AdminPath,
+    headers: HeaderMap,
+    body: RawBody,
+) -> Result<Json<TherapyChanged>, ApiError> {
+    let id = parse_id(&id);
+    let b: TherapyChangeBody = body::parse(&headers, body)?;
+    let (basal, carb_ratio, at) = convert::therapy_change(&b)?;
+    let out = s
+        .person(id, true, move |store, live| {
+            let (c, rebuilt) = store
+                .set_therapy_by_id(id, basal, carb_ratio, at, "POST /v1/persons/{id}/therapy")
+                .map_err(convert::therapy_change_error)?;
+            *live = rebuilt;
+            let settings = live.advisor.settings();
+            let ratios = |cr: [f64; 3]| CarbRatios {
+                breakfast: cr[0],
+                lunch: cr[1],
+                dinner: cr[2],
+            };
+            Ok(TherapyChanged {
+                person_id: id as u64,
+                at: c.instant.clone(),
+                basal_schedule: c.basal.as_ref().map(|b| {
+                    b.iter()
+                        .map(|&(m, r)| BasalSegment {
+                            start_minute: m,
+                            units_per_hour: r,
+                        })
+                        .collect()
+                }),
+                carb_ratios: c.carb_ratio.map(ratios),
+                basal_in_force: settings.basal.0,
+                carb_ratios_in_force: ratios(settings.carb_ratio.map(|g| g.0)),
+                notice: abba_api::NOTICE.into(),
+            })
+        })
+        .await?;
+    Ok(Json(out))
 }
 
 /// Issues a person's token (shown once).

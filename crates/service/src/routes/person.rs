@@ -223,15 +223,7 @@ pub async fn advice(
     PersonId(id): PersonId,
 ) -> Result<Json<AdviceResponse>, ApiError> {
     s.person(id, false, move |store, live| {
-        let a = abba_store::advise::advice(
-            &live.person,
-            &live.stream,
-            live.records,
-            &live.advisor,
-            &live.decisions,
-            &live.answers,
-            live.refused,
-        );
+        let a = live.advice();
         let mut r = convert::advice(live, a, &mut |d| store.producer(id, d))?;
         // The Nightscout link's last sync (issue 25).
         r.nightscout = store

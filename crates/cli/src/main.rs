@@ -27,7 +27,6 @@ mod link;
 mod metrics;
 mod output;
 mod person;
-mod person_report;
 mod progress;
 mod report;
 mod serve;

@@ -37,7 +37,7 @@ pub fn run(a: Args) -> Result<()> {
         bail!("--db {}: no such store file", a.db.display());
     }
     let mut store = Store::open(&a.db).with_context(|| format!("opening {}", a.db.display()))?;
-    let input = crate::person_report::person_input(&mut store, &a.person, a.days, a.units)?;
+    let input = abba_store::report::person_input(&mut store, &a.person, a.days, a.units)?;
     let html = person_report_html(&input)?;
     std::fs::write(&a.out, &html).with_context(|| format!("cannot write {}", a.out.display()))?;
     eprintln!(

@@ -202,10 +202,31 @@ pub struct TokenArgs {
     /// A token for this person only.
     #[arg(long, value_name = "NAME", conflicts_with = "admin")]
     pub person: Option<String>,
+    /// Instead of a token, a one-time sign-in link for the web pages
+    /// (15 minutes, works once): `<base-url>/signin/<secret>`.
+    #[arg(long)]
+    pub signin: bool,
+    /// Where the service is reached (`https://abba.example.org`); without
+    /// it the link is the path `/signin/<secret>`.
+    #[arg(long, value_name = "URL", requires = "signin")]
+    pub base_url: Option<String>,
 }
 
 /// Runs `abba token`: prints the token once (only its hash is stored).
 pub fn token(a: TokenArgs) -> Result<()> {
+    if a.signin {
+        let secret = match (&a.person, a.admin) {
+            (Some(name), false) => abba_service::new_signin_link(&a.db, Some(name))?,
+            (None, true) => abba_service::new_signin_link(&a.db, None)?,
+            _ => bail!("say whose sign-in link: --admin or --person NAME"),
+        };
+        let base = a.base_url.as_deref().unwrap_or("").trim_end_matches('/');
+        println!("{base}/signin/{secret}");
+        eprintln!(
+            "a one-time sign-in link: it works once, for 15 minutes, and is shown only now (the store keeps its SHA-256). abba is research software, not a medical device."
+        );
+        return Ok(());
+    }
     let (id, token) = match (&a.person, a.admin) {
         (Some(name), false) => abba_service::new_person_token(&a.db, name)?,
         (None, true) => abba_service::new_admin_token(&a.db)?,

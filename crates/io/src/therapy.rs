@@ -30,7 +30,7 @@ use serde_json::Value;
 
 use crate::error::{IoError, Location};
 use crate::meals::MealWindows;
-use crate::read::{read_files, Batch, Format, ReadOptions};
+use crate::read::{Batch, Format, ReadOptions};
 use crate::record::{Profile, RecordKind};
 
 /// A pump's settings in force from an instant.
@@ -546,22 +546,34 @@ pub fn therapy_from_files_with(
     meals: &MealWindows,
     carb_ratio: Option<[f64; 3]>,
 ) -> Result<PumpTherapy, IoError> {
-    let batch = read_files(paths, opts)?;
-    let mut all = settings_profiles(&batch, meals)?;
-    let mut why_not = Vec::new();
-    for (path, format) in paths.iter().zip(&batch.formats) {
-        if !matches!(format, Format::Tidepool | Format::CareLink) {
-            continue;
-        }
+    let mut inputs = Vec::with_capacity(paths.len());
+    for path in paths {
         let name = path.display().to_string();
         let bytes = std::fs::read(path).map_err(|source| IoError::Open {
             file: name.clone(),
             source,
         })?;
+        inputs.push((name, bytes));
+    }
+    therapy_from_contents(&inputs, opts, meals, carb_ratio)
+}
+
+/// Like [`therapy_from_files_with`], of files already in memory (name,
+/// bytes): an upload on the clinic's page.
+pub fn therapy_from_contents(
+    inputs: &[(String, Vec<u8>)],
+    opts: &ReadOptions,
+    meals: &MealWindows,
+    carb_ratio: Option<[f64; 3]>,
+) -> Result<PumpTherapy, IoError> {
+    let batch = crate::read::read_all(inputs, opts)?;
+    let mut all = settings_profiles(&batch, meals)?;
+    let mut why_not = Vec::new();
+    for ((name, bytes), format) in inputs.iter().zip(&batch.formats) {
         if *format == Format::Tidepool {
-            all.extend(tidepool_pump_settings(&name, &bytes, meals)?);
-        } else {
-            match carelink_settings(&name, &bytes, opts, meals)? {
+            all.extend(tidepool_pump_settings(name, bytes, meals)?);
+        } else if *format == Format::CareLink {
+            match carelink_settings(name, bytes, opts, meals)? {
                 Ok(c) => all.push(c.complete(meals, carb_ratio)?),
                 Err(why) => why_not.push(why),
             }
@@ -569,7 +581,7 @@ pub fn therapy_from_files_with(
     }
     all.sort_by_key(|t| t.at);
     let mut latest = all.pop().ok_or_else(|| {
-        let names: Vec<String> = paths.iter().map(|p| p.display().to_string()).collect();
+        let names: Vec<&str> = inputs.iter().map(|(n, _)| n.as_str()).collect();
         let mut msg = "no settings profile with a basal schedule and carb ratios (expected a Nightscout profile store or Profile Switch, Tidepool pumpSettings, or a CareLink export with Basal Rate and bolus wizard rows)".to_string();
         for w in &why_not {
             msg.push_str("; ");

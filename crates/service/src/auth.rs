@@ -54,6 +54,20 @@ pub fn issue(store: &mut Store, role: Role) -> Result<(i64, String), ServiceErro
     Ok((id, token))
 }
 
+/// Makes a one-time sign-in link for `role`: returns its secret (64 hex
+/// digits, the last part of `/signin/<secret>`); the store keeps its
+/// SHA-256 for 15 minutes, and it works once.
+pub fn issue_signin(store: &mut Store, role: Role) -> Result<String, ServiceError> {
+    let token = new_token()?;
+    let secret = token.trim_start_matches(PREFIX).to_string();
+    store.insert_signin_link(
+        &hash(&secret),
+        role,
+        jiff::Timestamp::now().as_millisecond(),
+    )?;
+    Ok(secret)
+}
+
 /// The token of an `Authorization` header value, if it has the right form.
 fn parse(header: &str) -> Option<&str> {
     let (scheme, token) = header.split_once(' ')?;

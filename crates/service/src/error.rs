@@ -152,6 +152,7 @@ impl From<StoreError> for ApiError {
             StoreError::Answer(m) => ApiError::conflict(m),
             StoreError::Feed(m) => ApiError::conflict(m),
             StoreError::NoPerson(_) | StoreError::NoPersonId(_) => ApiError::no_person(),
+            StoreError::NoData(_) => ApiError::conflict(e.to_string()),
             StoreError::NoSuggestion(field) => {
                 ApiError::not_found("no such suggestion for this person").at(field)
             }

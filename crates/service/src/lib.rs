@@ -25,6 +25,7 @@ pub mod routes;
 pub mod server;
 pub mod settings;
 pub mod state;
+pub mod web;
 
 pub use error::{ApiError, ServiceError};
 pub use server::{router, router_with, serve};
@@ -44,6 +45,17 @@ pub fn open_store(db: &Path) -> Result<Store, ServiceError> {
 pub fn new_admin_token(db: &Path) -> Result<(i64, String), ServiceError> {
     let mut store = open_store(db)?;
     auth::issue(&mut store, abba_store::token::Role::Admin)
+}
+
+/// Makes a one-time sign-in link's secret for a person (by name) or, with
+/// `None`, the admin; stores only its hash (15 minutes, single use).
+pub fn new_signin_link(db: &Path, person: Option<&str>) -> Result<String, ServiceError> {
+    let mut store = open_store(db)?;
+    let role = match person {
+        Some(name) => abba_store::token::Role::Person(store.person(name)?.id),
+        None => abba_store::token::Role::Admin,
+    };
+    auth::issue_signin(&mut store, role)
 }
 
 /// Issues a person's token by name (for the CLI).

@@ -60,15 +60,17 @@ pub fn router_with(state: AppState, set: &ServeSettings) -> Router {
             header::X_CONTENT_TYPE_OPTIONS,
             HeaderValue::from_static("nosniff"),
         ))
-        .layer(SetResponseHeaderLayer::overriding(
+        // The pages set their own CSP and referrer policy (crate::web).
+        .layer(SetResponseHeaderLayer::if_not_present(
             header::CONTENT_SECURITY_POLICY,
             HeaderValue::from_static("default-src 'none'; frame-ancestors 'none'"),
         ))
-        .layer(SetResponseHeaderLayer::overriding(
+        .layer(SetResponseHeaderLayer::if_not_present(
             header::REFERRER_POLICY,
             HeaderValue::from_static("no-referrer"),
         ));
-    api.fallback(routes::not_found)
+    api.merge(crate::web::routes())
+        .fallback(routes::not_found)
         .method_not_allowed_fallback(routes::method_not_allowed)
         .layer(DefaultBodyLimit::max(abba_api::MAX_BODY_BYTES))
         .layer(RequestBodyTimeoutLayer::new(set.body_timeout))

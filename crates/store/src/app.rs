@@ -202,6 +202,26 @@ pub fn load(conn: &Connection, person: i64) -> Result<Vec<AppEvent>, StoreError>
     Ok(out)
 }
 
+/// The app event held under `seq`, if any.
+pub fn one(conn: &Connection, person: i64, seq: u64) -> Result<Option<AppEvent>, StoreError> {
+    let row: Option<(i64, String)> = conn
+        .query_row(
+            "SELECT at_min, kind FROM app_event WHERE person_id = ?1 AND seq = ?2",
+            params![person, seq_sql(seq)?],
+            |r| Ok((r.get(0)?, r.get(1)?)),
+        )
+        .optional()?;
+    row.map(|(at, kind)| {
+        let kind: EventKind =
+            serde_json::from_str(&kind).map_err(|e| StoreError::corrupt("app event", e))?;
+        Ok(AppEvent {
+            seq,
+            event: Event::new(Timestamp(at), kind),
+        })
+    })
+    .transpose()
+}
+
 /// The event stream of an app-fed person (the events as posted).
 pub fn stream(person: &Person, events: &[AppEvent]) -> EventStream {
     let mut counts: BTreeMap<String, usize> = BTreeMap::new();

@@ -21,6 +21,9 @@ pub enum StoreError {
     /// No such person.
     #[error("no person named \"{0}\" in this database (create one with `abba person new`)")]
     NoPerson(String),
+    /// The person has no data yet (nothing to report on).
+    #[error("person \"{0}\" has no data yet: import a device export with `abba import`, link Nightscout or enter readings in the app")]
+    NoData(String),
     /// The name is taken.
     #[error(
         "a person named \"{0}\" already exists in this database (names are compared ignoring case)"

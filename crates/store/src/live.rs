@@ -326,6 +326,27 @@ impl Store {
         live: &mut Live,
         batch: &[NewAppEvent],
     ) -> Result<Posted, StoreError> {
+        self.post(live, batch, false)
+    }
+
+    /// Like [`Store::post_events`] for events entered on the web pages,
+    /// which have no app counter: the batch's `seq`s are replaced by the
+    /// person's next free numbers (one above the highest held), read in
+    /// the insert's own transaction, so two entries never share a number.
+    pub fn post_events_next_seq(
+        &mut self,
+        live: &mut Live,
+        batch: &[NewAppEvent],
+    ) -> Result<Posted, StoreError> {
+        self.post(live, batch, true)
+    }
+
+    fn post(
+        &mut self,
+        live: &mut Live,
+        batch: &[NewAppEvent],
+        next_seq: bool,
+    ) -> Result<Posted, StoreError> {
         let id = live.person.id;
         let mut tx = self.conn.transaction()?;
         // Someone else wrote for this person since `live` was built (the
@@ -342,6 +363,18 @@ impl Store {
                 ));
             }
         }
+        let numbered: Vec<NewAppEvent>;
+        let batch = if next_seq {
+            let base = app::last_seq(&tx, id)?.map_or(0, |s| s + 1);
+            numbered = batch
+                .iter()
+                .zip(base..)
+                .map(|(e, seq)| NewAppEvent { seq, ..e.clone() })
+                .collect();
+            &numbered[..]
+        } else {
+            batch
+        };
         let mut person = live.person.clone();
         let ins = app::insert(&tx, &mut person, batch)?;
         // A clinician's change already put in force after the last event
@@ -545,6 +578,31 @@ impl Store {
         let r = rev(&tx, id)?;
         tx.commit()?;
         Ok(from_state(p, s, last, r))
+    }
+
+    /// Replaces a person's pump steps (checked: steps pumps use) and
+    /// rebuilds the advisor from scratch, as [`Store::set_bounds_by_id`].
+    pub fn set_pump_steps_by_id(
+        &mut self,
+        id: i64,
+        steps: abba_advisor::PumpSteps,
+    ) -> Result<Live, StoreError> {
+        let tx = self.conn.transaction()?;
+        let mut p = person::load_by_id(&tx, id)?;
+        p.settings.pump_steps = Some(steps);
+        // The whole advisor as it will be built, checked before the write.
+        p.advisor()?;
+        person::update_settings(&tx, id, &p.settings)?;
+        let s = refresh(&tx, &mut self.cache, &p, false)?;
+        let last = last_key(&tx, id)?;
+        let r = rev(&tx, id)?;
+        tx.commit()?;
+        Ok(from_state(p, s, last, r))
+    }
+
+    /// The tokens of a role (a person's, or the admin's), newest first.
+    pub fn tokens_of(&self, role: Role) -> Result<Vec<token::TokenRow>, StoreError> {
+        token::list(&self.conn, role)
     }
 
     /// Stores a new token's hash (one transaction); returns its id.

@@ -172,6 +172,9 @@ const MIGRATIONS: &[&str] = &[
     // mark (advanced only in the import's transaction); what abba wrote
     // there (one Note per suggestion, the `abba` profile).
     crate::link::MIGRATION,
+    // 8 (issue 24): the web pages' one-time sign-in links and sessions,
+    // both kept only as SHA-256 of their secrets.
+    crate::session::MIGRATION,
 ];
 
 /// The version a migration brings a file to (its 1-based place in the

@@ -38,6 +38,12 @@ pub fn prefix(hash: &[u8; 32]) -> i64 {
     i64::from_le_bytes(b)
 }
 
+/// Compares a stored hash with a presented one without an early exit
+/// (the time taken says nothing about where they differ).
+pub fn same_hash(stored: &[u8], presented: &[u8; 32]) -> bool {
+    bool::from(subtle::ConstantTimeEq::ct_eq(stored, &presented[..]))
+}
+
 /// Stores a new token's hash; returns its id.
 pub fn insert(conn: &Connection, hash: &[u8; 32], role: Role) -> Result<i64, StoreError> {
     let (name, person) = match role {
@@ -93,6 +99,36 @@ pub fn candidates(conn: &Connection, hash: &[u8; 32]) -> Result<Vec<StoredToken>
         });
     }
     Ok(out)
+}
+
+/// A token as the clinic's page lists it (never its hash).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TokenRow {
+    /// Row id.
+    pub id: i64,
+    /// Issued at (RFC 3339).
+    pub created_at: String,
+    /// Revoked at, if revoked.
+    pub revoked_at: Option<String>,
+}
+
+/// The tokens of a role, newest first.
+pub fn list(conn: &Connection, role: Role) -> Result<Vec<TokenRow>, StoreError> {
+    let (name, person) = match role {
+        Role::Admin => ("admin", None),
+        Role::Person(id) => ("person", Some(id)),
+    };
+    let mut st = conn.prepare_cached(
+        "SELECT id, created_at, revoked_at FROM token WHERE role = ?1 AND person_id IS ?2 ORDER BY id DESC",
+    )?;
+    let rows = st.query_map(params![name, person], |r| {
+        Ok(TokenRow {
+            id: r.get(0)?,
+            created_at: r.get(1)?,
+            revoked_at: r.get(2)?,
+        })
+    })?;
+    Ok(rows.collect::<Result<_, _>>()?)
 }
 
 /// Revokes a token (revoking twice is fine).

@@ -12,7 +12,7 @@ use abba_api::{
     TherapyChangeBody, TherapyChanged, TokenIssued, TokenRevoked,
 };
 use abba_store::token::Role;
-use abba_store::StoreError;
+use abba_store::{Live, Store, StoreError};
 use axum::extract::State;
 use axum::http::{HeaderMap, StatusCode};
 use axum::Json;
@@ -80,13 +80,9 @@ pub async fn set_bounds(
 ) -> Result<Json<BoundsBody>, ApiError> {
     let id = parse_id(&id);
     let b: BoundsBody = body::parse(&headers, body)?;
-    let bounds = convert::bounds(&b.bounds, "bounds")?;
+    let wire = b.clone();
     s.person(id, true, move |store, live| {
-        *live = store.set_bounds_by_id(id, bounds).map_err(|e| match e {
-            StoreError::Advisor(a) => ApiError::invalid("bounds", a.to_string()),
-            other => other.into(),
-        })?;
-        Ok(())
+        put_bounds(store, live, id, &wire)
     })
     .await?;
     Ok(Json(b))
@@ -146,6 +142,22 @@ pub async fn set_therapy(
         })
         .await?;
     Ok(Json(out))
+}
+
+/// The one path of clinician bounds into the store (the endpoint and the
+/// clinic's page): checked, stored, the live advisor rebuilt.
+pub fn put_bounds(
+    store: &mut Store,
+    live: &mut Live,
+    id: i64,
+    b: &BoundsBody,
+) -> Result<(), ApiError> {
+    let bounds = convert::bounds(&b.bounds, "bounds")?;
+    *live = store.set_bounds_by_id(id, bounds).map_err(|e| match e {
+        StoreError::Advisor(a) => ApiError::invalid("bounds", a.to_string()),
+        other => other.into(),
+    })?;
+    Ok(())
 }
 
 /// Issues a person's token (shown once).

@@ -12,7 +12,7 @@ use abba_api::{
     EventsAck, EventsBody, HistoryResponse, SeqRange, Setting, SuggestionList, SyncResponse,
 };
 use abba_store::answer::AnswerKind;
-use abba_store::SuggestionAnswer;
+use abba_store::{Live, Store, SuggestionAnswer};
 use axum::extract::{RawQuery, State};
 use axum::http::HeaderMap;
 use axum::Json;
@@ -38,46 +38,71 @@ pub async fn post_events(
     body: RawBody,
 ) -> Result<Json<EventsAck>, ApiError> {
     let b: EventsBody = body::parse(&headers, body)?;
-    let mut acked: Vec<u64> = b.events.iter().map(|e| e.seq).collect();
-    acked.sort_unstable();
     s.person(id, true, move |store, live| {
-        let limits = live.person.settings.advisor.limits.clone();
-        let batch = convert::check_events(&b, &limits, jiff::Timestamp::now())?;
-        let ack = {
-            let posted = store.post_events(live, &batch)?;
-            let seqs: HashMap<(i64, &'static str), Option<u64>> = posted
-                .produced
-                .iter()
-                .map(|p| {
-                    (
-                        (
-                            p.decision.at.0,
-                            abba_store::answer::param_key(p.decision.parameter),
-                        ),
-                        p.seq,
-                    )
-                })
-                .collect();
-            let key =
-                |d: &abba_advisor::Decision| (d.at.0, abba_store::answer::param_key(d.parameter));
-            let answers = if seqs.is_empty() {
-                Vec::new()
-            } else {
-                convert::suggestions(live, |d| seqs.contains_key(&key(d)), &mut |d| {
-                    Ok(seqs.get(&key(d)).copied().flatten())
-                })?
-            };
-            EventsAck {
-                acked,
-                stored: posted.stored.len() as u64,
-                repeated: posted.repeated,
-                answers,
-            }
-        };
-        Ok(ack)
+        post_batch(store, live, &b, Numbering::App)
     })
     .await
     .map(Json)
+}
+
+/// Who numbers a batch's events.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Numbering {
+    /// The app's own `seq`s (the `/v1` endpoint).
+    App,
+    /// The person's next free numbers, assigned in the insert's
+    /// transaction (the web pages' Log: the `seq`s given are placeholders).
+    Next,
+}
+
+/// The one path of device events into the store, for the `/v1` endpoint
+/// and the pages: checks the batch, stores it in one transaction,
+/// advances the live advisor and answers with every suggestion its
+/// events produced.
+pub fn post_batch(
+    store: &mut Store,
+    live: &mut Live,
+    b: &EventsBody,
+    numbering: Numbering,
+) -> Result<EventsAck, ApiError> {
+    let limits = live.person.settings.advisor.limits.clone();
+    let batch = convert::check_events(b, &limits, jiff::Timestamp::now())?;
+    let posted = match numbering {
+        Numbering::App => store.post_events(live, &batch)?,
+        Numbering::Next => store.post_events_next_seq(live, &batch)?,
+    };
+    let mut acked: Vec<u64> = match numbering {
+        Numbering::App => b.events.iter().map(|e| e.seq).collect(),
+        Numbering::Next => posted.stored.iter().map(|e| e.seq).collect(),
+    };
+    acked.sort_unstable();
+    let seqs: HashMap<(i64, &'static str), Option<u64>> = posted
+        .produced
+        .iter()
+        .map(|p| {
+            (
+                (
+                    p.decision.at.0,
+                    abba_store::answer::param_key(p.decision.parameter),
+                ),
+                p.seq,
+            )
+        })
+        .collect();
+    let key = |d: &abba_advisor::Decision| (d.at.0, abba_store::answer::param_key(d.parameter));
+    let answers = if seqs.is_empty() {
+        Vec::new()
+    } else {
+        convert::suggestions(live, |d| seqs.contains_key(&key(d)), &mut |d| {
+            Ok(seqs.get(&key(d)).copied().flatten())
+        })?
+    };
+    Ok(EventsAck {
+        acked,
+        stored: posted.stored.len() as u64,
+        repeated: posted.repeated,
+        answers,
+    })
 }
 
 /// Answers suggestions.
@@ -100,12 +125,25 @@ pub async fn post_answers(
     body: RawBody,
 ) -> Result<Json<AnswersAck>, ApiError> {
     let b: AnswerBody = body::parse(&headers, body)?;
+    s.person(id, true, move |store, live| answer_batch(store, live, &b))
+        .await
+        .map(Json)
+}
+
+/// The one path of answers into the store, for the `/v1` endpoint and the
+/// pages (one transaction; the live advisor follows).
+pub fn answer_batch(
+    store: &mut Store,
+    live: &mut Live,
+    b: &AnswerBody,
+) -> Result<AnswersAck, ApiError> {
     if b.answers.is_empty() || b.answers.len() > 4 {
         return Err(ApiError::invalid(
             "answers",
             format!("expected 1 to 4 answers, got {}", b.answers.len()),
         ));
     }
+    let id = live.person.id;
     let items: Vec<SuggestionAnswer> = b
         .answers
         .iter()
@@ -123,27 +161,22 @@ pub async fn post_answers(
             }
         })
         .collect();
-    s.person(id, true, move |store, live| {
-        let (stored, changed) = store.answer_suggestions(live, &items)?;
-        let answered = stored
-            .iter()
-            .zip(&b.answers)
-            .map(|(a, w)| Answered {
-                suggestion_id: w.suggestion_id,
-                parameter: convert::setting(a.parameter),
-                answer: w.answer,
-                in_force: a.in_force,
-            })
-            .collect();
-        let keys: Vec<_> = changed.iter().map(|d| (d.at, d.parameter)).collect();
-        let changed =
-            convert::suggestions(live, |d| keys.contains(&(d.at, d.parameter)), &mut |d| {
-                store.producer(id, d)
-            })?;
-        Ok(AnswersAck { answered, changed })
-    })
-    .await
-    .map(Json)
+    let (stored, changed) = store.answer_suggestions(live, &items)?;
+    let answered = stored
+        .iter()
+        .zip(&b.answers)
+        .map(|(a, w)| Answered {
+            suggestion_id: w.suggestion_id,
+            parameter: convert::setting(a.parameter),
+            answer: w.answer,
+            in_force: a.in_force,
+        })
+        .collect();
+    let keys: Vec<_> = changed.iter().map(|d| (d.at, d.parameter)).collect();
+    let changed = convert::suggestions(live, |d| keys.contains(&(d.at, d.parameter)), &mut |d| {
+        store.producer(id, d)
+    })?;
+    Ok(AnswersAck { answered, changed })
 }
 
 /// Which sequence numbers the service holds.

@@ -1,15 +1,15 @@
-//! The person store → the person report's input (`abba_report::html::person`):
+//! The person report's input (`abba_report::html::person`), assembled from
+//! the store (for `abba report --person` and the app's `/report`):
 //! the last `days` days with data, read from the store's device events
 //! (on the advisor's clock: day 1 = the person's first day, local time) and
 //! its suggestion history.
 
+use crate::{Store, StoreError};
 use abba_core::{EventKind, MINUTES_PER_DAY};
 use abba_report::html::person::{
     MealTime, PersonDay, PersonReportInput, Reading, SettingsInForce, SuggestionLine,
 };
 use abba_report::html::units::GlucoseUnit;
-use abba_store::Store;
-use anyhow::{bail, Context, Result};
 
 /// Reads person `name` from `store`: the `days` days ending at the last day
 /// with data.
@@ -18,25 +18,31 @@ pub fn person_input(
     name: &str,
     days: u32,
     unit: GlucoseUnit,
-) -> Result<PersonReportInput> {
+) -> Result<PersonReportInput, StoreError> {
     if days == 0 {
-        bail!("--days must be at least 1");
+        return Err(StoreError::Invalid {
+            field: "--days".into(),
+            problem: "must be at least 1".into(),
+        });
     }
     let person = store.person(name)?;
     let mode = person.mode();
     let events = store.events(name)?;
     let history = store.history(name)?;
     let (Some(first_day), Some(last)) = (person.first_day, events.last()) else {
-        bail!("person '{name}' has no data yet: import a device export with `abba import`");
+        return Err(StoreError::NoData(name.to_string()));
     };
     let last_index = last.at.day_index();
     let first_index = (last_index - i64::from(days) + 1).max(events[0].at.day_index());
     let n = (last_index - first_index + 1) as usize;
-    let date = |i: i64| -> Result<String> {
-        Ok(first_day
+    let date = |i: i64| -> Result<String, StoreError> {
+        first_day
             .checked_add(jiff::Span::new().days(i))
-            .with_context(|| format!("day {} of person '{name}' is not a date", i + 1))?
-            .to_string())
+            .map(|d| d.to_string())
+            .map_err(|e| StoreError::Corrupt {
+                what: format!("day {} of person '{name}'", i + 1),
+                detail: e.to_string(),
+            })
     };
     let mut out = Vec::with_capacity(n);
     for k in 0..n as i64 {
@@ -235,7 +241,7 @@ pub fn person_input(
 }
 
 /// A suggestion in words.
-fn line(v: &abba_store::advise::SuggestionView) -> SuggestionLine {
+fn line(v: &crate::advise::SuggestionView) -> SuggestionLine {
     let setting = match v.setting {
         "basal" => "basal rate".to_string(),
         meal => format!("carb ratio ({meal})"),

@@ -1,0 +1,598 @@
+//! The app and the clinic's page in real headless Chromium (issue 24):
+//! the real `abba serve` binary, Debian's chromedriver and chromium driven
+//! with fantoccini, every action a click on a real form.
+//!
+//! A clinician signs in with a one-time link (`abba token --admin
+//! --signin`), creates a person from an uploaded export's pump profile,
+//! sets the bounds and issues an API token and a sign-in link; a pump app
+//! posts eight past days through `/v1` with that token. The person, in a
+//! fresh session, opens the link, sees today's suggestion, logs a reading
+//! and a meal, accepts the meal's carb ratio, enters an own basal value
+//! outside the clinician's bounds (refused beside the field, nothing
+//! stored) and inside them (accepted). `abba history --json` then holds
+//! exactly those two answers. Every page is checked at 390×844 and
+//! 1280×800: screenshot, axe-core, console, horizontal scroll
+//! (`web_common`).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod service_common;
+mod web_common;
+
+use abba_api::{DeviceEvent, EventsBody, Setting, Suggestion};
+use abba_client::Client;
+use abba_core::{Event, EventKind, Timestamp};
+use abba_io::clock::AdvisorClock;
+use abba_io::events::{to_events, PersonSettings};
+use abba_io::ReadOptions;
+use service_common::{abba_bin, Server, TempDir};
+use std::path::Path;
+use std::process::Command;
+use web_common::{tools, Browser, Driver};
+
+/// Runs `abba ARGS`: its standard output (a failure shows its errors).
+fn abba(args: &[&str]) -> String {
+    let out = Command::new(abba_bin())
+        .args(args)
+        .env_remove("RUST_BACKTRACE")
+        .output()
+        .expect("abba runs");
+    assert!(
+        out.status.success(),
+        "abba {}: {}{}",
+        args.join(" "),
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
+}
+
+/// The one-time sign-in link `abba token ... --signin` prints first.
+fn signin_link(db: &Path, who: &[&str], base: &str) -> String {
+    let mut args = vec!["token", "--db", db.to_str().unwrap()];
+    args.extend_from_slice(who);
+    args.extend_from_slice(&["--signin", "--base-url", base]);
+    let out = abba(&args);
+    let link = out.lines().next().unwrap_or_default().trim().to_string();
+    assert!(
+        link.starts_with(&format!("{base}/signin/")) && link.len() > base.len() + 20,
+        "abba token --signin printed {out:?}"
+    );
+    link
+}
+
+/// `x` rounded to `step` (the pump's).
+fn on_step(x: f64, step: f64) -> f64 {
+    ((x / step).round() * step * 1e6).round() / 1e6
+}
+
+/// The ways a page may write `x` (the app's formatting is its own).
+fn written(x: f64) -> Vec<String> {
+    let mut v = vec![format!("{x}"), format!("{x:.2}"), format!("{x:.1}")];
+    if x.fract() == 0.0 {
+        v.push(format!("{x:.0}"));
+    }
+    v
+}
+
+fn shows(text: &str, x: f64) -> bool {
+    written(x).iter().any(|w| text.contains(w.as_str()))
+}
+
+/// The pump app's events for the export's eight days (abba-io reads the
+/// export as an import would), with the day closing at today's midnight
+/// that a CGM app posts with its first event of the day.
+fn app_events(export: &Path, first_day: jiff::civil::Date) -> Vec<Vec<DeviceEvent>> {
+    let tz = jiff::tz::TimeZone::UTC;
+    let opts = ReadOptions {
+        tz: Some(tz.clone()),
+        ..ReadOptions::default()
+    };
+    let batch = abba_io::read_files(
+        &[export.join("entries.json"), export.join("treatments.json")],
+        &opts,
+    )
+    .unwrap();
+    let mut person = PersonSettings::new(tz.clone());
+    person.first_day = Some(first_day);
+    let mut events = to_events(&batch, &person).unwrap().events;
+    let last_day = events.last().unwrap().at.day_index();
+    assert_eq!(last_day, 7, "the export covers days 1-8");
+    events.push(Event::new(
+        Timestamp::from_day_and_minute(last_day + 1, 0),
+        EventKind::DayClosed,
+    ));
+    let clock = AdvisorClock::new(tz, first_day);
+    // One post per day, each ending with its day's closing.
+    let mut days = vec![Vec::new()];
+    for (seq, e) in events.iter().enumerate() {
+        let Some(body) = abba_trial::remote::wire_event(&e.kind).unwrap() else {
+            continue;
+        };
+        days.last_mut().unwrap().push(DeviceEvent {
+            seq: seq as u64,
+            at: clock.instant(e.at).unwrap().to_string(),
+            event: body,
+        });
+        if e.kind == EventKind::DayClosed {
+            days.push(Vec::new());
+        }
+    }
+    days.retain(|d| !d.is_empty());
+    days
+}
+
+/// The profile's basal rate and carb ratios (the export writes one flat
+/// rate and three ratios).
+fn profile_therapy(export: &Path) -> (f64, Vec<f64>) {
+    let text = std::fs::read_to_string(export.join("profile.json")).unwrap();
+    let doc: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let store = &doc[0]["store"]["abba"];
+    let basal = store["basal"][0]["value"].as_f64().unwrap();
+    let ratios = store["carbratio"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["value"].as_f64().unwrap())
+        .collect();
+    (basal, ratios)
+}
+
+fn setting_name(s: Setting) -> &'static str {
+    match s {
+        Setting::Basal => "basal",
+        Setting::Breakfast => "breakfast",
+        Setting::Lunch => "lunch",
+        Setting::Dinner => "dinner",
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_clinic_and_a_person_in_headless_chromium() {
+    let Some(tools) = tools() else {
+        return;
+    };
+    let dir = TempDir::new("web-browser");
+    let db = dir.0.join("clinic.db");
+    let db_s = db.to_str().unwrap().to_string();
+    // The store and a first admin token, then the service.
+    abba(&["token", "--db", &db_s, "--admin"]);
+    let server = Server::start(&db);
+    let base = server.url();
+    let driver = Driver::start(&tools, &dir.0);
+    let mut b = Browser::open(&tools, &driver, &dir.0, &base).await;
+
+    // An export of eight past days (the standard arm: the pump's settings
+    // never change), its profile uploaded to create the person.
+    let today = jiff::Timestamp::now()
+        .to_zoned(jiff::tz::TimeZone::UTC)
+        .date();
+    let first_day = today.checked_sub(jiff::Span::new().days(8)).unwrap();
+    let export = dir.0.join("export");
+    abba(&[
+        "export",
+        "--patient",
+        "adult#002",
+        "--days",
+        "8",
+        "--arm",
+        "standard",
+        "--tz",
+        "UTC",
+        "--start",
+        &first_day.to_string(),
+        "--out",
+        export.to_str().unwrap(),
+    ]);
+    let (basal0, ratios0) = profile_therapy(&export);
+
+    // ---- the clinician signs in with a one-time link -------------------
+    let admin_link = signin_link(&db, &["--admin"], &base);
+    b.goto(&admin_link).await;
+    b.find("form#signin-form input[type=hidden][name=link]")
+        .await;
+    b.check_page("signin", 200, true).await;
+    b.click_and_wait("form#signin-form button#signin").await;
+    assert_eq!(
+        b.path().await,
+        "/clinic",
+        "the admin lands on the clinic page"
+    );
+
+    // ---- creates a person from the export's pump profile ---------------
+    let name = "ana-web";
+    b.fill("form#new-person input[name=name]", name).await;
+    b.fill("form#new-person input[name=tz]", "UTC").await;
+    b.select("form#new-person select[name=unit]", "mg/dL").await;
+    b.select("form#new-person select[name=mode]", "cgm").await;
+    b.attach(
+        "form#new-person input[type=file][name=profile]",
+        &export.join("profile.json"),
+    )
+    .await;
+    b.fill(
+        "form#new-person input[name=first_day]",
+        &first_day.to_string(),
+    )
+    .await;
+    b.submit("form#new-person").await;
+    let person_path = b.path().await;
+    let id: u64 = person_path
+        .strip_prefix("/clinic/persons/")
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("after creating a person: {person_path}"));
+
+    // The clinician's bounds, around the pump's settings.
+    let basal_min = on_step(basal0 * 0.75, 0.05);
+    let basal_max = on_step(basal0 * 1.25, 0.05);
+    let cr_min = (ratios0.iter().copied().fold(f64::MAX, f64::min) * 0.7).floor();
+    let cr_max = (ratios0.iter().copied().fold(0.0, f64::max) * 1.3).ceil();
+    for (field, v) in [
+        ("basal_min", basal_min),
+        ("basal_max", basal_max),
+        ("cr_min", cr_min),
+        ("cr_max", cr_max),
+    ] {
+        b.fill(&format!("form#bounds input[name={field}]"), &v.to_string())
+            .await;
+    }
+    b.submit("form#bounds").await;
+    assert_eq!(b.path().await, person_path, "bounds: back to the person");
+
+    // The pump app's token, shown once.
+    b.submit("form#issue-token").await;
+    let shown = b.text("#new-token").await;
+    let token = shown
+        .split_whitespace()
+        .find(|w| w.starts_with("abba_"))
+        .unwrap_or_else(|| panic!("#new-token shows {shown:?}"))
+        .to_string();
+
+    // ---- eight past days through /v1, as a pump app posts them ---------
+    let app = Client::new(&base, Some(&token)).unwrap();
+    let mut last: Vec<Suggestion> = Vec::new();
+    let mut last_seq = 0;
+    for day in app_events(&export, first_day) {
+        last_seq = last_seq.max(day.iter().map(|e| e.seq).max().unwrap_or(0));
+        let ack = app.post_events(id, &EventsBody { events: day }).unwrap();
+        last = ack.answers;
+    }
+    let today_basal = last
+        .iter()
+        .find(|s| s.parameter == Setting::Basal)
+        .cloned()
+        .unwrap_or_else(|| panic!("today's closing brought no basal decision: {last:?}"));
+    assert!(
+        !today_basal.no_update && today_basal.value != today_basal.previous,
+        "the test needs a basal change today: {today_basal:?}"
+    );
+    let own_basal = on_step(basal0 * 0.85, 0.05);
+    assert!(own_basal > basal_min && own_basal != today_basal.value);
+
+    b.goto(&person_path).await;
+    assert!(
+        b.text("main").await.contains(name),
+        "the person page names the person"
+    );
+    b.check_page("clinic-person", 200, true).await;
+    b.goto("/clinic").await;
+    let row = format!("#persons tr[data-person='{name}']");
+    b.find(&row).await;
+    b.check_page("clinic", 200, true).await;
+
+    // ---- a second person, by hand: a name that must stay inert ---------
+    let nasty = "<script>alert(1)</script>\"' {{ 7*7 }}";
+    b.fill("form#new-person input[name=name]", nasty).await;
+    b.fill("form#new-person input[name=tz]", "Mars/Olympus_Mons")
+        .await;
+    b.fill("form#new-person input[name=basal]", "0.9").await;
+    b.fill("form#new-person input[name=carb_ratios]", "10,12,11")
+        .await;
+    b.submit("form#new-person").await;
+    // Refused beside the zone's field, the other fields kept.
+    assert_eq!(
+        b.attr("input[name=tz]", "aria-invalid").await.as_deref(),
+        Some("true")
+    );
+    assert_eq!(
+        b.attr("input[name=tz]", "aria-describedby")
+            .await
+            .as_deref(),
+        Some("tz-error")
+    );
+    assert!(!b.text("p.field-error#tz-error").await.is_empty());
+    b.check_page("clinic-new-person-error", 422, true).await;
+    b.fill("form#new-person input[name=name]", nasty).await;
+    b.fill("form#new-person input[name=tz]", "Europe/Zurich")
+        .await;
+    b.fill("form#new-person input[name=basal]", "0.9").await;
+    b.fill("form#new-person input[name=carb_ratios]", "10,12,11")
+        .await;
+    b.submit("form#new-person").await;
+    assert!(b.path().await.starts_with("/clinic/persons/"));
+    assert!(
+        b.text("main").await.contains(nasty),
+        "the name shown as text"
+    );
+    b.goto("/clinic").await;
+    let mut names = Vec::new();
+    for tr in b.find_all("#persons tr[data-person]").await {
+        names.push(tr.attr("data-person").await.unwrap().unwrap_or_default());
+    }
+    names.sort();
+    let mut expected = vec![name.to_string(), nasty.to_string()];
+    expected.sort();
+    assert_eq!(names, expected, "one row per person, names kept whole");
+    let list = b.text("#persons").await;
+    assert!(list.contains(nasty), "the name shown as text: {list}");
+    assert!(
+        b.client.get_alert_text().await.is_err(),
+        "a script in a name ran"
+    );
+
+    // ---- the person's report, then a sign-in link for the person --------
+    b.goto(&person_path).await;
+    b.click_and_wait("a#person-report").await;
+    assert_eq!(b.path().await, format!("{person_path}/report"));
+    b.check_page("clinic-report", 200, false).await;
+    b.goto(&person_path).await;
+    b.submit("form#issue-signin").await;
+    let person_link = b.text("#signin-url").await;
+    assert!(
+        person_link.starts_with(&format!("{base}/signin/")),
+        "#signin-url shows {person_link:?}"
+    );
+    let qr = b.find("svg[role=img]").await;
+    assert!(
+        qr.attr("aria-label")
+            .await
+            .unwrap()
+            .is_some_and(|l| !l.is_empty()),
+        "the QR code has a name"
+    );
+    b.check_page("signin-link", 200, true).await;
+
+    // The clinician signs out; the person opens the link in a fresh session.
+    b.submit("form#signout").await;
+    b.client.delete_all_cookies().await.unwrap();
+    b.goto("/clinic").await;
+    assert!(!b.exists("form#new-person").await, "signed out");
+    // A used link signs nobody in.
+    b.goto(&admin_link).await;
+    if b.exists("button#signin").await {
+        b.click_and_wait("button#signin").await;
+    }
+    assert!(
+        !b.exists("form#new-person").await,
+        "a used link was refused"
+    );
+    let _ = b.console().await; // the refusals' own status lines
+    b.client.delete_all_cookies().await.unwrap();
+
+    // ---- the person: Today --------------------------------------------
+    b.goto(&person_link).await;
+    b.click_and_wait("form#signin-form button#signin").await;
+    assert_eq!(b.path().await, "/", "the person lands on Today");
+    for s in ["basal", "breakfast", "lunch", "dinner"] {
+        b.find(&format!("section#setting-{s}")).await;
+    }
+    assert!(!b.exists("#first-week").await, "past the first week");
+    let basal_form = "section#setting-basal form.answer";
+    let sid = b
+        .attr(&format!("{basal_form} input[name=suggestion_id]"), "value")
+        .await
+        .unwrap_or_default();
+    assert_eq!(sid, today_basal.id.to_string(), "today's basal suggestion");
+    let section = b.text("section#setting-basal").await;
+    assert!(
+        shows(&section, today_basal.value) && shows(&section, today_basal.previous),
+        "Today shows the suggestion and the value in force: {section}"
+    );
+    b.check_page("today", 200, true).await;
+
+    // ---- Log: a meter reading, then a meal ------------------------------
+    let held = |c: &Client| c.sync(id, 0).unwrap().last_seq;
+    assert_eq!(held(&app), Some(last_seq));
+    b.goto("/log").await;
+    b.check_page("log", 200, true).await;
+    b.fill("form#log-reading input[name=glucose]", "142").await;
+    b.submit("form#log-reading").await;
+    assert_eq!(
+        held(&app),
+        Some(last_seq + 1),
+        "the reading is the next event"
+    );
+    let slot = b
+        .find("form#log-meal select[name=slot]")
+        .await
+        .prop("value")
+        .await
+        .unwrap()
+        .unwrap_or_default();
+    let slot = if slot == "snack" {
+        "dinner".to_string()
+    } else {
+        slot
+    };
+    b.fill("form#log-meal input[name=carbs]", "60").await;
+    b.select("form#log-meal select[name=slot]", &slot).await;
+    b.submit("form#log-meal").await;
+    assert_eq!(b.path().await, "/log");
+    assert_eq!(held(&app), Some(last_seq + 2), "the meal is the next event");
+    let meal = app
+        .advice(id)
+        .unwrap()
+        .settings
+        .into_iter()
+        .find(|s| setting_name(s.setting) == slot)
+        .and_then(|s| s.latest)
+        .unwrap_or_else(|| panic!("no {slot} decision after the meal"));
+    assert_eq!(
+        meal.status, "open",
+        "the meal's ratio is to answer: {meal:?}"
+    );
+    let advice = b.text("#meal-advice").await;
+    let bolus = on_step(60.0 / meal.value, 0.05);
+    assert!(
+        shows(&advice, meal.value) && shows(&advice, bolus),
+        "#meal-advice shows the ratio {} and the bolus {bolus}: {advice}",
+        meal.value
+    );
+    b.check_page("log-meal-advice", 200, true).await;
+    b.click_and_wait("#meal-advice form.answer button[name=action][value=accept]")
+        .await;
+    assert!(!b.text("#status").await.is_empty());
+    assert_eq!(b.attr("#status", "role").await.as_deref(), Some("status"));
+
+    // ---- an own basal value: outside the bounds, then inside ------------
+    b.goto("/").await;
+    let outside = basal_max + 0.5;
+    b.fill(
+        &format!("{basal_form} input[name=value]"),
+        &outside.to_string(),
+    )
+    .await;
+    b.click_and_wait(&format!("{basal_form} button[name=action][value=override]"))
+        .await;
+    let err_id = format!("value-error-{sid}");
+    assert!(
+        !b.text(&format!("p.field-error#{err_id}")).await.is_empty(),
+        "the refusal is beside the field"
+    );
+    let input = format!("{basal_form} input[name=value]");
+    assert_eq!(
+        b.attr(&input, "aria-invalid").await.as_deref(),
+        Some("true")
+    );
+    assert_eq!(
+        b.attr(&input, "aria-describedby").await.as_deref(),
+        Some(err_id.as_str())
+    );
+    b.check_page("today-refused", 422, true).await;
+    let basal_now = app
+        .advice(id)
+        .unwrap()
+        .settings
+        .into_iter()
+        .find(|s| s.setting == Setting::Basal)
+        .and_then(|s| s.latest)
+        .unwrap();
+    assert_eq!(basal_now.status, "open", "the refused value stored nothing");
+    b.fill(&input, &own_basal.to_string()).await;
+    b.click_and_wait(&format!("{basal_form} button[name=action][value=override]"))
+        .await;
+    assert!(
+        !b.exists("p.field-error").await,
+        "the own value is accepted"
+    );
+    assert!(!b.text("#status").await.is_empty());
+
+    // ---- Glucose, History, the report ------------------------------------
+    for (range, page) in [("24h", "glucose-24h"), ("14d", "glucose-14d")] {
+        b.goto(&format!("/glucose?range={range}")).await;
+        let chart = b.find("svg#glucose-chart[role=img]").await;
+        assert!(chart.attr("aria-label").await.unwrap().is_some());
+        assert!(b.exists("table").await, "a table beside the chart");
+        b.check_page(page, 200, true).await;
+    }
+    b.goto("/history").await;
+    assert!(b.find_all("table#history tbody tr").await.len() >= 2);
+    assert!(b
+        .attr("a#report", "href")
+        .await
+        .is_some_and(|h| h.ends_with("/report")));
+    b.check_page("history", 200, true).await;
+    b.click_and_wait("a#report").await;
+    b.check_page("report", 200, false).await;
+
+    // ---- the store holds exactly those answers ---------------------------
+    let history: serde_json::Value = serde_json::from_str(&abba(&[
+        "history", "--db", &db_s, "--person", name, "--json",
+    ]))
+    .unwrap();
+    let answered: Vec<&serde_json::Value> = history
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|r| {
+            matches!(
+                r["status"].as_str(),
+                Some("accepted" | "rejected" | "overridden")
+            )
+        })
+        .collect();
+    assert_eq!(answered.len(), 2, "two answers: {answered:?}");
+    let cr = answered
+        .iter()
+        .find(|r| r["setting"] == slot.as_str())
+        .unwrap_or_else(|| panic!("no {slot} answer: {answered:?}"));
+    assert_eq!(cr["status"], "accepted");
+    assert_eq!(cr["in_force"].as_f64(), Some(meal.value));
+    let basal = answered
+        .iter()
+        .find(|r| r["setting"] == "basal")
+        .unwrap_or_else(|| panic!("no basal answer: {answered:?}"));
+    assert_eq!(basal["status"], "overridden");
+    assert_eq!(basal["in_force"].as_f64(), Some(own_basal));
+
+    eprintln!(
+        "checked {} pages at 390x844 and 1280x800; screenshots in {}",
+        b.checked.len(),
+        b.screens().display()
+    );
+    let problems = std::mem::take(&mut b.problems);
+    b.close().await;
+    drop(driver);
+    drop(server);
+    assert!(
+        problems.is_empty(),
+        "{} problem(s) on the pages:\n  {}",
+        problems.len(),
+        problems.join("\n  ")
+    );
+}
+
+/// The harness alone: the service's health document in the browser, the
+/// viewport made exact, the console read, axe-core loaded and run.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_harness_drives_headless_chromium() {
+    let Some(tools) = tools() else {
+        return;
+    };
+    let dir = TempDir::new("web-harness");
+    let db = dir.0.join("clinic.db");
+    abba(&["token", "--db", db.to_str().unwrap(), "--admin"]);
+    let server = Server::start(&db);
+    let driver = Driver::start(&tools, &dir.0);
+    let b = Browser::open(&tools, &driver, &dir.0, &server.url()).await;
+    b.goto("/healthz").await;
+    assert!(
+        b.body_text().await.contains("not a medical device"),
+        "{}",
+        b.body_text().await
+    );
+    for (w, h) in web_common::VIEWPORTS {
+        b.set_viewport(w, h).await;
+        let v = b
+            .client
+            .execute("return [innerWidth, innerHeight];", vec![])
+            .await
+            .unwrap();
+        assert_eq!(
+            (v[0].as_u64(), v[1].as_u64()),
+            (Some(w.into()), Some(h.into()))
+        );
+    }
+    // A console error is seen at its level; axe runs and answers.
+    b.client
+        .execute("console.error('abba harness check');", vec![])
+        .await
+        .unwrap();
+    let log = b.console().await;
+    assert!(
+        log.iter()
+            .any(|(level, m)| level == "SEVERE" && m.contains("abba harness check")),
+        "{log:?}"
+    );
+    let _ = b.axe().await;
+    b.close().await;
+}

@@ -1,0 +1,1165 @@
+//! The clinic's pages (an admin session): the persons with their data,
+//! creating a person (from an uploaded export's pump profile, as `person
+//! new --therapy-from`, or from values), and a person's page: bounds, the
+//! pump's steps, an import, a change of therapy, sign-in links (with a QR
+//! code), tokens and sessions. Every write goes through the store's one
+//! function for it (the same as `/v1` and the CLI).
+
+use super::form::{self, Form};
+use super::page::{forbidden_csrf, not_found, render, see_other, PageError, PageResult};
+use super::session::{self, Ctx};
+use super::today::with_unit;
+use crate::auth;
+use crate::body::RawBody;
+use crate::error::ApiError;
+use crate::state::AppState;
+use abba_advisor::bounds::Range;
+use abba_advisor::{Mode, Parameter, PumpSteps};
+use abba_core::{GramsPerUnit, TherapySettings, UnitsPerHour};
+use abba_store::advise::{self, PARAMETERS};
+use abba_store::person::{GlucoseUnits, TherapySource};
+use abba_store::token::Role;
+use abba_store::{NewPerson, ProfileResolution, Store};
+use abba_web::pages::{Choice, Layout};
+use abba_web::texts::{fill, EN};
+use axum::extract::{Multipart, Path, RawQuery, State};
+use axum::http::StatusCode;
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// The largest upload (an export to import or a profile), in bytes.
+pub const MAX_UPLOAD_BYTES: usize = 32 * 1024 * 1024;
+
+/// One person on the clinic's list.
+#[derive(Debug, Clone, Serialize)]
+pub struct Row {
+    id: i64,
+    name: String,
+    last_data: String,
+    tir: String,
+    below_70: String,
+    waiting: usize,
+    flags: Vec<&'static str>,
+    nightscout: Option<String>,
+}
+
+/// The new-person form: what was typed and the errors beside each field.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct NewPersonForm {
+    values: BTreeMap<String, String>,
+    errors: BTreeMap<String, String>,
+    units: Vec<Choice>,
+    modes: Vec<Choice>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+struct ClinicModel {
+    rows: Vec<Row>,
+    form: NewPersonForm,
+}
+
+fn choices(values: &[(&'static str, &'static str)], selected: &str) -> Vec<Choice> {
+    values
+        .iter()
+        .map(|&(value, label)| Choice {
+            value,
+            label,
+            selected: value == selected,
+        })
+        .collect()
+}
+
+impl NewPersonForm {
+    fn new(values: BTreeMap<String, String>, errors: BTreeMap<String, String>) -> Self {
+        let unit = values
+            .get("unit")
+            .cloned()
+            .unwrap_or_else(|| "mg/dL".into());
+        let mode = values.get("mode").cloned().unwrap_or_else(|| "smbg".into());
+        Self {
+            units: choices(&[("mg/dL", "mg/dL"), ("mmol/L", "mmol/L")], &unit),
+            modes: choices(&[("smbg", "SMBG (meter)"), ("cgm", "CGM")], &mode),
+            values,
+            errors,
+        }
+    }
+}
+
+/// A local time from an advisor minute of a person (their zone).
+fn row(store: &mut Store, id: i64, now_ms: i64) -> Result<Row, ApiError> {
+    let live = store.live_read(id)?;
+    let p = &live.person;
+    let clock = advise::clock(p);
+    let last = live.stream.events.last();
+    let last_data = last
+        .map(|e| advise::local(clock.as_ref(), e.at))
+        .unwrap_or_else(|| "no data yet".into());
+    let end = last.map_or(0, |e| e.at.0);
+    let glucose: Vec<f64> = live
+        .stream
+        .events
+        .iter()
+        .filter(|e| e.at.0 > end - 14 * 1440)
+        .filter_map(|e| match e.kind {
+            abba_core::EventKind::Cgm(g) | abba_core::EventKind::Smbg(g) => Some(g.0),
+            _ => None,
+        })
+        .collect();
+    let (tir, below) = match abba_core::metrics::range_percentages(&glucose) {
+        Ok(r) => (format!("{:.0} %", r[2]), format!("{:.1} %", r[1])),
+        Err(_) => ("—".into(), "—".into()),
+    };
+    let views = advise::views(p, &live.decisions, &live.answers);
+    let waiting = views.iter().filter(|v| v.status == "open").count();
+    let a = advise::advice(
+        p,
+        &live.stream,
+        live.records,
+        &live.advisor,
+        &live.decisions,
+        &live.answers,
+        live.refused,
+    );
+    let mut flags = Vec::new();
+    if !a.delivery.basal_suggestions {
+        flags.push("closed loop or injections");
+    }
+    if !matches!(a.phase, advise::Phase::Adapting) {
+        flags.push("insufficient data (first week)");
+    }
+    let nightscout = store
+        .link(&p.name)?
+        .map(|l| match (&l.last_error, &l.last_sync_at) {
+            (Some(e), _) => format!("linked; last sync failed: {e}"),
+            (None, Some(t)) => format!("linked; last sync {t}"),
+            (None, None) => "linked; not synced yet".into(),
+        });
+    let _ = now_ms;
+    Ok(Row {
+        id,
+        name: p.name.clone(),
+        last_data,
+        tir,
+        below_70: below,
+        waiting,
+        flags,
+        nightscout,
+    })
+}
+
+fn rows(store: &mut Store) -> Result<Vec<Row>, ApiError> {
+    let now = session::now_ms();
+    let mut out = Vec::new();
+    for name in store.persons()? {
+        let id = store.person(&name)?.id;
+        out.push(row(store, id, now)?);
+    }
+    Ok(out)
+}
+
+async fn clinic_page(
+    s: &AppState,
+    csrf: &str,
+    status: StatusCode,
+    form: NewPersonForm,
+    message: Option<String>,
+) -> PageResult {
+    let rows = s.store(rows).await?;
+    let layout = Layout::clinic(EN.clinic_title, csrf, "/clinic").with_status(message);
+    render(status, "clinic.html", &layout, &ClinicModel { rows, form })
+}
+
+/// `GET /clinic`.
+pub async fn list(State(s): State<AppState>, ctx: Ctx) -> PageResult {
+    let w = session::admin_page(&s, &ctx).await?;
+    clinic_page(
+        &s,
+        &w.csrf,
+        StatusCode::OK,
+        NewPersonForm::new(BTreeMap::new(), BTreeMap::new()),
+        None,
+    )
+    .await
+}
+
+/// A multipart form read whole: text fields and files (name, bytes).
+#[derive(Debug, Default)]
+struct Upload {
+    text: Form,
+    files: Vec<(String, String, Vec<u8>)>,
+}
+
+async fn read_multipart(mut m: Multipart) -> Result<Upload, ApiError> {
+    let mut pairs = Vec::new();
+    let mut files = Vec::new();
+    let bad = |e: axum::extract::multipart::MultipartError| {
+        ApiError::new(
+            e.status(),
+            abba_api::ErrorCode::BadJson,
+            format!("the form could not be read: {e}"),
+        )
+    };
+    while let Some(field) = m.next_field().await.map_err(bad)? {
+        let name = field.name().unwrap_or("").to_string();
+        match field.file_name().map(str::to_string) {
+            Some(file) => {
+                let bytes = field.bytes().await.map_err(bad)?;
+                // A file input left empty sends a part without a name or bytes.
+                if !(file.is_empty() && bytes.is_empty()) {
+                    files.push((name, file, bytes.to_vec()));
+                }
+            }
+            None => {
+                let v = field.text().await.map_err(bad)?;
+                pairs.push((name, v));
+            }
+        }
+    }
+    Ok(Upload {
+        text: Form::from_pairs(pairs),
+        files,
+    })
+}
+
+/// Checks an upload's CSRF token (the session was checked before the body
+/// was read).
+fn upload_csrf(w: &abba_store::session::WebSession, up: &Upload) -> Result<(), PageError> {
+    use subtle::ConstantTimeEq;
+    let sent = up.text.get("csrf").unwrap_or("");
+    if bool::from(sent.as_bytes().ct_eq(w.csrf.as_bytes())) {
+        Ok(())
+    } else {
+        Err(forbidden_csrf())
+    }
+}
+
+/// A POST of the clinic before its body is read: same origin, an admin
+/// session (a form's token is checked once the body is read).
+async fn admin_post_head(
+    s: &AppState,
+    ctx: &Ctx,
+) -> Result<abba_store::session::WebSession, PageError> {
+    if !ctx.same_origin() {
+        return Err(forbidden_csrf());
+    }
+    let w = session::current(s, ctx).await?.ok_or_else(forbidden_csrf)?;
+    match w.role {
+        Role::Admin => Ok(w),
+        Role::Person(_) => Err(super::page::forbidden_role()),
+    }
+}
+
+fn carb_ratios(text: &str) -> Result<[f64; 3], String> {
+    let parts: Vec<Option<f64>> = text.split(',').map(form::number).collect();
+    match parts[..] {
+        [Some(b), Some(l), Some(d)] => Ok([b, l, d]),
+        _ => Err(format!(
+            "expected three carb ratios (g/U) for breakfast, lunch and dinner, separated by commas: 10,12,11; got {text:?}"
+        )),
+    }
+}
+
+/// The new person from the form, or the errors beside each field.
+fn new_person(up: &Upload) -> Result<NewPerson, BTreeMap<String, String>> {
+    let f = &up.text;
+    let mut errors = BTreeMap::new();
+    let name = f.text("name").to_string();
+    if name.is_empty() {
+        errors.insert("name".into(), EN.missing_field.to_string());
+    }
+    let tz = f.text("tz").to_string();
+    let zone = match jiff::tz::TimeZone::get(&tz) {
+        Ok(z) => Some(z),
+        Err(_) => {
+            errors.insert(
+                "tz".into(),
+                format!("expected an IANA time zone such as Europe/Zurich, got {tz:?}"),
+            );
+            None
+        }
+    };
+    let units = match f.text("unit") {
+        "mg/dL" => GlucoseUnits::MgDl,
+        "mmol/L" => GlucoseUnits::MmolL,
+        other => {
+            errors.insert(
+                "unit".into(),
+                format!("expected mg/dL or mmol/L, got {other:?}"),
+            );
+            GlucoseUnits::MgDl
+        }
+    };
+    let mode = match f.text("mode") {
+        "cgm" => Mode::Cgm,
+        "smbg" => Mode::Smbg,
+        other => {
+            errors.insert(
+                "mode".into(),
+                format!("expected cgm or smbg, got {other:?}"),
+            );
+            Mode::Smbg
+        }
+    };
+    let first_day = match f.text("first_day") {
+        "" => None,
+        d => match d.parse::<jiff::civil::Date>() {
+            Ok(d) => Some(d),
+            Err(_) => {
+                errors.insert(
+                    "first_day".into(),
+                    format!("expected a date YYYY-MM-DD, got {d:?}"),
+                );
+                None
+            }
+        },
+    };
+    let profiles: Vec<(String, Vec<u8>)> = up
+        .files
+        .iter()
+        .filter(|(field, _, _)| field == "profile")
+        .map(|(_, file, bytes)| (file.clone(), bytes.clone()))
+        .collect();
+    let (basal, cr) = (f.text("basal"), f.text("carb_ratios"));
+    let meal_windows = abba_io::meals::MealWindows::default();
+    let mut start = None;
+    let mut schedule = None;
+    let mut from_profile = false;
+    match (profiles.is_empty(), basal.is_empty()) {
+        (false, false) => {
+            errors.insert(
+                "basal".into(),
+                "give a profile file or a basal rate, not both (carb ratios may replace the profile's)".into(),
+            );
+        }
+        (false, true) => {
+            let replace = if cr.is_empty() {
+                Ok(None)
+            } else {
+                carb_ratios(cr).map(Some)
+            };
+            let replace = match replace {
+                Ok(r) => r,
+                Err(e) => {
+                    errors.insert("carb_ratios".into(), e);
+                    None
+                }
+            };
+            if let (Some(tz), false) = (zone.clone(), errors.contains_key("carb_ratios")) {
+                let opts = abba_io::ReadOptions {
+                    tz: Some(tz),
+                    ..abba_io::ReadOptions::default()
+                };
+                match abba_io::therapy::therapy_from_contents(
+                    &profiles,
+                    &opts,
+                    &meal_windows,
+                    replace,
+                ) {
+                    Ok(t) => {
+                        schedule = (t.basal.len() > 1).then(|| t.basal.clone());
+                        start = Some(t.settings());
+                        from_profile = true;
+                    }
+                    Err(e) => {
+                        errors.insert("profile".into(), e.to_string());
+                    }
+                }
+            }
+        }
+        (true, _) => {
+            let b = form::number(basal);
+            if b.is_none() {
+                errors.insert(
+                    "basal".into(),
+                    fill(EN.expected_number, &[("example", "0.85")])
+                        + " (U/h), or upload a profile",
+                );
+            }
+            let c = carb_ratios(cr);
+            if let Err(e) = &c {
+                errors.insert("carb_ratios".into(), e.clone());
+            }
+            if let (Some(b), Ok([x, y, z])) = (b, c) {
+                start = Some(TherapySettings {
+                    basal: UnitsPerHour(b),
+                    carb_ratio: [GramsPerUnit(x), GramsPerUnit(y), GramsPerUnit(z)],
+                });
+            }
+        }
+    }
+    if !errors.is_empty() {
+        return Err(errors);
+    }
+    let Some(start) = start else {
+        return Err(errors);
+    };
+    let mut p = NewPerson::new(&name, &tz, mode, start);
+    p.first_day = first_day;
+    p.settings.meal_windows = meal_windows;
+    p.settings.basal_schedule = schedule;
+    if from_profile {
+        p.settings.therapy_source = TherapySource::Profile;
+    }
+    p.settings.pump_steps = Some(PumpSteps::default());
+    p.settings.units = units;
+    Ok(p)
+}
+
+/// The form field a store error names (`--basal` → `basal`, ...).
+fn field_of(e: &abba_store::StoreError) -> &'static str {
+    let text = e.to_string();
+    if matches!(e, abba_store::StoreError::PersonExists(_)) || text.contains("name") {
+        "name"
+    } else if text.contains("carb") {
+        "carb_ratios"
+    } else if text.contains("basal") {
+        "basal"
+    } else if text.contains("zone") || text.contains("tz") {
+        "tz"
+    } else {
+        "name"
+    }
+}
+
+/// `POST /clinic/persons` (multipart): creates a person; 303 to their page,
+/// or the form again (422) with each error beside its field.
+pub async fn create(State(s): State<AppState>, ctx: Ctx, m: Multipart) -> PageResult {
+    let w = admin_post_head(&s, &ctx).await?;
+    let up = read_multipart(m).await?;
+    upload_csrf(&w, &up)?;
+    up.text.only(&[
+        "csrf",
+        "name",
+        "tz",
+        "unit",
+        "mode",
+        "basal",
+        "carb_ratios",
+        "first_day",
+        "profile",
+    ])?;
+    let values: BTreeMap<String, String> = [
+        "name",
+        "tz",
+        "unit",
+        "mode",
+        "basal",
+        "carb_ratios",
+        "first_day",
+    ]
+    .iter()
+    .map(|k| (k.to_string(), up.text.text(k).to_string()))
+    .collect();
+    let np = match new_person(&up) {
+        Ok(p) => p,
+        Err(errors) => {
+            return clinic_page(
+                &s,
+                &w.csrf,
+                StatusCode::UNPROCESSABLE_ENTITY,
+                NewPersonForm::new(values, errors),
+                None,
+            )
+            .await
+        }
+    };
+    let out = s
+        .store(move |store| {
+            Ok(store.create_person(&np).map_err(|e| {
+                let f = field_of(&e);
+                (f, e.to_string())
+            }))
+        })
+        .await?;
+    match out {
+        Ok(p) => Ok(see_other(&format!("/clinic/persons/{}", p.id))),
+        Err((field, msg)) => {
+            let errors = BTreeMap::from([(field.to_string(), msg)]);
+            clinic_page(
+                &s,
+                &w.csrf,
+                StatusCode::UNPROCESSABLE_ENTITY,
+                NewPersonForm::new(values, errors),
+                None,
+            )
+            .await
+        }
+    }
+}
+
+/// A token or a session of the person's page.
+#[derive(Debug, Clone, Serialize)]
+struct Item {
+    id: i64,
+    text: String,
+}
+
+/// A person's page for the clinic.
+#[derive(Debug, Clone, Serialize, Default)]
+struct PersonModel {
+    id: i64,
+    name: String,
+    mode: String,
+    tz: String,
+    unit: String,
+    settings: Vec<(String, String)>,
+    schedule: Vec<(String, String)>,
+    bounds: BTreeMap<&'static str, String>,
+    steps: BTreeMap<&'static str, String>,
+    waiting: Vec<(String, String)>,
+    tokens: Vec<Item>,
+    sessions: Vec<Item>,
+    nightscout: Option<String>,
+    /// After `form#issue-signin`: the link and its QR code (SVG).
+    signin_url: Option<String>,
+    signin_qr: Option<String>,
+    /// After `form#issue-token`: the token, shown once.
+    new_token: Option<String>,
+    /// Errors beside the fields of every form.
+    errors: BTreeMap<String, String>,
+    /// What was typed into a refused form.
+    values: BTreeMap<String, String>,
+}
+
+fn ms_text(ms: i64) -> String {
+    jiff::Timestamp::from_millisecond(ms)
+        .map(|t| t.round(jiff::Unit::Minute).unwrap_or(t).to_string())
+        .unwrap_or_default()
+}
+
+fn range_text(r: Option<Range>) -> (String, String) {
+    r.map_or((String::new(), String::new()), |r| {
+        (format!("{}", r.min), format!("{}", r.max))
+    })
+}
+
+fn person_model(store: &mut Store, id: i64) -> Result<PersonModel, ApiError> {
+    let live = store.live_read(id)?;
+    let p = &live.person;
+    let a = advise::advice(
+        p,
+        &live.stream,
+        live.records,
+        &live.advisor,
+        &live.decisions,
+        &live.answers,
+        live.refused,
+    );
+    let settings = PARAMETERS
+        .iter()
+        .zip(&a.settings)
+        .map(|(&q, sa)| {
+            (
+                super::today::title(q).to_string(),
+                with_unit(q, sa.in_force),
+            )
+        })
+        .collect();
+    let schedule = a
+        .therapy
+        .basal_schedule
+        .clone()
+        .unwrap_or_default()
+        .into_iter()
+        .map(|(t, r)| (t, with_unit(Parameter::Basal, r)))
+        .collect();
+    let views = advise::views(p, &live.decisions, &live.answers);
+    let waiting = live
+        .decisions
+        .iter()
+        .zip(&views)
+        .filter(|(_, v)| v.status == "open")
+        .map(|(d, v)| {
+            (
+                super::today::title(d.parameter).to_string(),
+                format!(
+                    "{} → {} ({})",
+                    with_unit(d.parameter, v.previous),
+                    with_unit(d.parameter, v.suggested),
+                    v.decided_at
+                ),
+            )
+        })
+        .collect();
+    let b = p.settings.bounds;
+    let (basal_min, basal_max) = range_text(b.basal);
+    let (cr_min, cr_max) = range_text(b.carb_ratio[0]);
+    let steps = p.settings.pump_steps.unwrap_or_default();
+    let now = session::now_ms();
+    let tokens = store
+        .tokens_of(Role::Person(id))?
+        .into_iter()
+        .filter(|t| t.revoked_at.is_none())
+        .map(|t| Item {
+            id: t.id,
+            text: format!("token {} issued {}", t.id, t.created_at),
+        })
+        .collect();
+    let sessions = store
+        .web_sessions(Role::Person(id), now)?
+        .into_iter()
+        .map(|x| Item {
+            id: x.id,
+            text: format!(
+                "signed in {}, last used {}, ends {}",
+                ms_text(x.created_ms),
+                ms_text(x.seen_ms),
+                ms_text(x.ends_ms)
+            ),
+        })
+        .collect();
+    let nightscout = store.link(&p.name)?.map(|l| {
+        format!(
+            "{}: last sync {}{}",
+            l.url,
+            l.last_sync_at.as_deref().unwrap_or("never"),
+            l.last_error
+                .map(|e| format!(", failed: {e}"))
+                .unwrap_or_default()
+        )
+    });
+    Ok(PersonModel {
+        id,
+        name: p.name.clone(),
+        mode: a.mode.to_string(),
+        tz: a.tz.clone(),
+        unit: match p.settings.units {
+            GlucoseUnits::MgDl => "mg/dL".into(),
+            GlucoseUnits::MmolL => "mmol/L".into(),
+        },
+        settings,
+        schedule,
+        bounds: BTreeMap::from([
+            ("basal_min", basal_min),
+            ("basal_max", basal_max),
+            ("cr_min", cr_min),
+            ("cr_max", cr_max),
+        ]),
+        steps: BTreeMap::from([
+            ("basal_step", format!("{}", steps.basal_u_per_h)),
+            ("cr_step", format!("{}", steps.carb_ratio_g_per_u)),
+        ]),
+        waiting,
+        tokens,
+        sessions,
+        nightscout,
+        ..PersonModel::default()
+    })
+}
+
+fn person_id(text: &str) -> Result<i64, PageError> {
+    let id = crate::extract::parse_id(text);
+    if id < 0 {
+        Err(not_found())
+    } else {
+        Ok(id)
+    }
+}
+
+async fn show_person(
+    s: &AppState,
+    csrf: &str,
+    id: i64,
+    status: StatusCode,
+    message: Option<String>,
+    edit: impl FnOnce(&mut PersonModel) + Send + 'static,
+) -> PageResult {
+    let model = s
+        .store(move |store| {
+            let mut m = person_model(store, id)?;
+            edit(&mut m);
+            Ok(m)
+        })
+        .await
+        .map_err(|e| {
+            if e.status == StatusCode::NOT_FOUND {
+                not_found()
+            } else {
+                PageError::from(e)
+            }
+        })?;
+    let title = format!("{} · {}", model.name, EN.clinic_title);
+    let layout = Layout::clinic(&title, csrf, "").with_status(message);
+    render(status, "clinic_person.html", &layout, &model)
+}
+
+fn done_text(q: Option<&str>) -> Option<String> {
+    let what = q?.strip_prefix("done=")?;
+    Some(
+        match what {
+            "bounds" => "Saved: the bounds.",
+            "steps" => "Saved: the pump's steps.",
+            "therapy" => "Saved: the change of therapy.",
+            "import" => "Imported.",
+            "token-revoked" => "Revoked: the token.",
+            "session-revoked" => "Revoked: the session.",
+            _ => return None,
+        }
+        .to_string(),
+    )
+}
+
+/// `GET /clinic/persons/{id}`.
+pub async fn person(
+    State(s): State<AppState>,
+    ctx: Ctx,
+    Path(id): Path<String>,
+    RawQuery(q): RawQuery,
+) -> PageResult {
+    let w = session::admin_page(&s, &ctx).await?;
+    let id = person_id(&id)?;
+    show_person(
+        &s,
+        &w.csrf,
+        id,
+        StatusCode::OK,
+        done_text(q.as_deref()),
+        |_| {},
+    )
+    .await
+}
+
+/// A form of the person's page: origin, admin session, CSRF token, fields.
+async fn person_form(
+    s: &AppState,
+    ctx: &Ctx,
+    body: RawBody,
+    known: &[&str],
+) -> Result<(abba_store::session::WebSession, Form), PageError> {
+    if !ctx.same_origin() {
+        return Err(forbidden_csrf());
+    }
+    let form = Form::parse(&ctx.headers, body)?;
+    let w = session::post_session(s, ctx, &form).await?;
+    if w.role != Role::Admin {
+        return Err(super::page::forbidden_role());
+    }
+    form.only(known)?;
+    Ok((w, form))
+}
+
+/// A refused form: the person's page again (422) with the error beside
+/// `field` and what was typed.
+async fn refused(
+    s: &AppState,
+    csrf: &str,
+    id: i64,
+    form: &Form,
+    fields: &[&'static str],
+    field: &str,
+    message: String,
+) -> PageResult {
+    let values: BTreeMap<String, String> = fields
+        .iter()
+        .map(|k| (k.to_string(), form.text(k).to_string()))
+        .collect();
+    let field = field.to_string();
+    show_person(
+        s,
+        csrf,
+        id,
+        StatusCode::UNPROCESSABLE_ENTITY,
+        None,
+        move |m| {
+            m.values = values;
+            m.errors.insert(field, message);
+        },
+    )
+    .await
+}
+
+fn optional_number(
+    form: &Form,
+    field: &'static str,
+) -> Result<Option<f64>, (&'static str, String)> {
+    match form.text(field) {
+        "" => Ok(None),
+        t => form::number(t)
+            .map(Some)
+            .ok_or_else(|| (field, fill(EN.expected_number, &[("example", "0.5")]))),
+    }
+}
+
+fn range_of(
+    form: &Form,
+    lo: &'static str,
+    hi: &'static str,
+) -> Result<Option<Range>, (&'static str, String)> {
+    match (optional_number(form, lo)?, optional_number(form, hi)?) {
+        (None, None) => Ok(None),
+        (Some(min), Some(max)) => Ok(Some(Range { min, max })),
+        (None, Some(_)) => Err((lo, "give both ends of the range, or neither".into())),
+        (Some(_), None) => Err((hi, "give both ends of the range, or neither".into())),
+    }
+}
+
+const BOUNDS: [&str; 4] = ["basal_min", "basal_max", "cr_min", "cr_max"];
+
+/// `POST /clinic/persons/{id}/bounds`: the clinician bounds (the carb
+/// ratio range holds for the three meals), through the store's one path.
+pub async fn bounds(
+    State(s): State<AppState>,
+    ctx: Ctx,
+    Path(id): Path<String>,
+    body: RawBody,
+) -> PageResult {
+    let id = person_id(&id)?;
+    let (w, form) = person_form(
+        &s,
+        &ctx,
+        body,
+        &["csrf", "basal_min", "basal_max", "cr_min", "cr_max"],
+    )
+    .await?;
+    let parsed = range_of(&form, "basal_min", "basal_max")
+        .and_then(|b| Ok((b, range_of(&form, "cr_min", "cr_max")?)));
+    let (basal, cr) = match parsed {
+        Ok(x) => x,
+        Err((field, msg)) => return refused(&s, &w.csrf, id, &form, &BOUNDS, field, msg).await,
+    };
+    let wire = abba_api::BoundsBody {
+        bounds: abba_api::Bounds {
+            basal: basal.map(|r| abba_api::Range {
+                min: r.min,
+                max: r.max,
+            }),
+            breakfast: cr.map(|r| abba_api::Range {
+                min: r.min,
+                max: r.max,
+            }),
+            lunch: cr.map(|r| abba_api::Range {
+                min: r.min,
+                max: r.max,
+            }),
+            dinner: cr.map(|r| abba_api::Range {
+                min: r.min,
+                max: r.max,
+            }),
+        },
+    };
+    let out = s
+        .person(id, true, move |store, live| {
+            Ok(crate::routes::admin::put_bounds(store, live, id, &wire))
+        })
+        .await?;
+    match out {
+        Ok(()) => Ok(see_other(&format!("/clinic/persons/{id}?done=bounds"))),
+        Err(e) => {
+            let field = if e.path.as_deref().is_some_and(|p| p.contains("basal")) {
+                "basal_min"
+            } else {
+                "cr_min"
+            };
+            refused(&s, &w.csrf, id, &form, &BOUNDS, field, e.message).await
+        }
+    }
+}
+
+/// `POST /clinic/persons/{id}/steps`: the pump's basal and carb-ratio steps.
+pub async fn steps(
+    State(s): State<AppState>,
+    ctx: Ctx,
+    Path(id): Path<String>,
+    body: RawBody,
+) -> PageResult {
+    let id = person_id(&id)?;
+    let fields = ["basal_step", "cr_step"];
+    let (w, form) = person_form(&s, &ctx, body, &["csrf", "basal_step", "cr_step"]).await?;
+    let (b, c) = (
+        form::number(form.text("basal_step")),
+        form::number(form.text("cr_step")),
+    );
+    let (Some(b), Some(c)) = (b, c) else {
+        let field = if b.is_none() { "basal_step" } else { "cr_step" };
+        return refused(
+            &s,
+            &w.csrf,
+            id,
+            &form,
+            &fields,
+            field,
+            fill(EN.expected_number, &[("example", "0.05")]),
+        )
+        .await;
+    };
+    let steps = PumpSteps {
+        basal_u_per_h: b,
+        carb_ratio_g_per_u: c,
+    };
+    let out = s
+        .person(id, true, move |store, live| {
+            match store.set_pump_steps_by_id(id, steps) {
+                Ok(l) => {
+                    *live = l;
+                    Ok(Ok(()))
+                }
+                Err(e @ abba_store::StoreError::Advisor(_)) => Ok(Err(e.to_string())),
+                Err(e) => Err(e.into()),
+            }
+        })
+        .await?;
+    match out {
+        Ok(()) => Ok(see_other(&format!("/clinic/persons/{id}?done=steps"))),
+        Err(msg) => {
+            let field = if msg.contains("carb") {
+                "cr_step"
+            } else {
+                "basal_step"
+            };
+            refused(&s, &w.csrf, id, &form, &fields, field, msg).await
+        }
+    }
+}
+
+/// `POST /clinic/persons/{id}/therapy`: the clinician's change of settings
+/// (`Store::set_therapy`, as `abba therapy set`; what it refuses is shown).
+pub async fn therapy(
+    State(s): State<AppState>,
+    ctx: Ctx,
+    Path(id): Path<String>,
+    body: RawBody,
+) -> PageResult {
+    let id = person_id(&id)?;
+    let fields = ["basal", "carb_ratios"];
+    let (w, form) = person_form(&s, &ctx, body, &["csrf", "basal", "carb_ratios"]).await?;
+    let basal = match form.text("basal") {
+        "" => None,
+        t => match form::number(t) {
+            Some(v) => Some(vec![(0, v)]),
+            None => {
+                return refused(
+                    &s,
+                    &w.csrf,
+                    id,
+                    &form,
+                    &fields,
+                    "basal",
+                    fill(EN.expected_number, &[("example", "0.85")]),
+                )
+                .await
+            }
+        },
+    };
+    let cr = match form.text("carb_ratios") {
+        "" => None,
+        t => match carb_ratios(t) {
+            Ok(c) => Some(c),
+            Err(e) => return refused(&s, &w.csrf, id, &form, &fields, "carb_ratios", e).await,
+        },
+    };
+    if basal.is_none() && cr.is_none() {
+        return refused(
+            &s,
+            &w.csrf,
+            id,
+            &form,
+            &fields,
+            "basal",
+            "give the basal rate, the carb ratios or both".into(),
+        )
+        .await;
+    }
+    let out = s
+        .store(move |store| {
+            let name = store.person_by_id(id)?.name;
+            Ok(store
+                .set_therapy(&name, basal, cr, None)
+                .map(|_| ())
+                .map_err(|e| e.to_string()))
+        })
+        .await?;
+    s.forget(id);
+    match out {
+        Ok(()) => Ok(see_other(&format!("/clinic/persons/{id}?done=therapy"))),
+        Err(msg) => {
+            let field = if msg.contains("carb") {
+                "carb_ratios"
+            } else {
+                "basal"
+            };
+            refused(&s, &w.csrf, id, &form, &fields, field, msg).await
+        }
+    }
+}
+
+/// `POST /clinic/persons/{id}/import` (multipart, `files`): the same import
+/// as `abba import` (idempotent, whole or nothing).
+pub async fn import(
+    State(s): State<AppState>,
+    ctx: Ctx,
+    Path(id): Path<String>,
+    m: Multipart,
+) -> PageResult {
+    let id = person_id(&id)?;
+    let w = admin_post_head(&s, &ctx).await?;
+    let up = read_multipart(m).await?;
+    upload_csrf(&w, &up)?;
+    up.text.only(&["csrf", "files"])?;
+    let contents: Vec<(String, Vec<u8>)> = up
+        .files
+        .into_iter()
+        .filter(|(f, _, _)| f == "files")
+        .map(|(_, name, bytes)| (name, bytes))
+        .collect();
+    if contents.is_empty() {
+        let msg = "choose one or more export files".to_string();
+        return show_person(
+            &s,
+            &w.csrf,
+            id,
+            StatusCode::UNPROCESSABLE_ENTITY,
+            None,
+            move |m| {
+                m.errors.insert("files".into(), msg);
+            },
+        )
+        .await;
+    }
+    let out = s
+        .store(move |store| {
+            let name = store.person_by_id(id)?.name;
+            Ok(store
+                .import_contents_with(
+                    &name,
+                    &contents,
+                    None,
+                    ProfileResolution::Stop,
+                    jiff::Timestamp::now(),
+                    true,
+                    &mut |_| Ok(()),
+                )
+                .map_err(|e| e.to_string()))
+        })
+        .await?;
+    s.forget(id);
+    match out {
+        Ok(summary) => Ok(see_other(&format!(
+            "/clinic/persons/{id}?done=import&added={}",
+            summary.added
+        ))),
+        Err(msg) => {
+            show_person(
+                &s,
+                &w.csrf,
+                id,
+                StatusCode::UNPROCESSABLE_ENTITY,
+                None,
+                move |m| {
+                    m.errors.insert("files".into(), msg);
+                },
+            )
+            .await
+        }
+    }
+}
+
+/// The URL this request reached abba at (for a sign-in link).
+fn base_url(ctx: &Ctx) -> String {
+    let host = ctx
+        .headers
+        .get(axum::http::header::HOST)
+        .and_then(|v| v.to_str().ok())
+        .unwrap_or("localhost");
+    format!("{}://{host}", if ctx.https { "https" } else { "http" })
+}
+
+/// `POST /clinic/persons/{id}/signin`: a one-time sign-in link, shown on
+/// the page itself (200, not a redirect: the secret is never put in a URL
+/// or kept) with its QR code.
+pub async fn issue_signin(
+    State(s): State<AppState>,
+    ctx: Ctx,
+    Path(id): Path<String>,
+    body: RawBody,
+) -> PageResult {
+    let id = person_id(&id)?;
+    let (w, _) = person_form(&s, &ctx, body, &["csrf"]).await?;
+    let secret = s
+        .store(move |store| {
+            store.person_by_id(id)?;
+            auth::issue_signin(store, Role::Person(id)).map_err(ApiError::internal)
+        })
+        .await?;
+    let url = format!("{}/signin/{secret}", base_url(&ctx));
+    let qr = abba_web::qr::svg(&url, "QR code of the sign-in link").map_err(ApiError::internal)?;
+    show_person(&s, &w.csrf, id, StatusCode::OK, None, move |m| {
+        m.signin_url = Some(url);
+        m.signin_qr = Some(qr);
+    })
+    .await
+}
+
+/// `POST /clinic/persons/{id}/tokens`: a person's API token, shown once.
+pub async fn issue_token(
+    State(s): State<AppState>,
+    ctx: Ctx,
+    Path(id): Path<String>,
+    body: RawBody,
+) -> PageResult {
+    let id = person_id(&id)?;
+    let (w, _) = person_form(&s, &ctx, body, &["csrf"]).await?;
+    let (_, token) = s
+        .store(move |store| {
+            store.person_by_id(id)?;
+            auth::issue(store, Role::Person(id)).map_err(ApiError::internal)
+        })
+        .await?;
+    show_person(&s, &w.csrf, id, StatusCode::OK, None, move |m| {
+        m.new_token = Some(token)
+    })
+    .await
+}
+
+/// `POST /clinic/persons/{id}/tokens/{token}/revoke`.
+pub async fn revoke_token(
+    State(s): State<AppState>,
+    ctx: Ctx,
+    Path((id, tid)): Path<(String, String)>,
+    body: RawBody,
+) -> PageResult {
+    let id = person_id(&id)?;
+    let tid = person_id(&tid)?;
+    person_form(&s, &ctx, body, &["csrf"]).await?;
+    s.store(move |store| {
+        // Only a token of this person, from this person's page.
+        if !store
+            .tokens_of(Role::Person(id))?
+            .iter()
+            .any(|t| t.id == tid)
+        {
+            return Err(ApiError::not_found("no such token of this person"));
+        }
+        Ok(store.revoke_token(tid)?)
+    })
+    .await?;
+    Ok(see_other(&format!(
+        "/clinic/persons/{id}?done=token-revoked"
+    )))
+}
+
+/// `POST /clinic/persons/{id}/sessions/{session}/revoke`.
+pub async fn revoke_session(
+    State(s): State<AppState>,
+    ctx: Ctx,
+    Path((id, sid)): Path<(String, String)>,
+    body: RawBody,
+) -> PageResult {
+    let id = person_id(&id)?;
+    let sid = person_id(&sid)?;
+    person_form(&s, &ctx, body, &["csrf"]).await?;
+    s.store(move |store| {
+        let now = session::now_ms();
+        if !store
+            .web_sessions(Role::Person(id), now)?
+            .iter()
+            .any(|x| x.id == sid)
+        {
+            return Err(ApiError::not_found("no such session of this person"));
+        }
+        Ok(store.revoke_web_session(sid, now)?)
+    })
+    .await?;
+    Ok(see_other(&format!(
+        "/clinic/persons/{id}?done=session-revoked"
+    )))
+}

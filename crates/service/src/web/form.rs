@@ -1,0 +1,109 @@
+//! Form bodies (`application/x-www-form-urlencoded`, parsed by the
+//! `form_urlencoded` crate): a field given twice or one the form does not
+//! have is refused, never picked or dropped.
+
+use crate::body::RawBody;
+use crate::error::ApiError;
+use axum::http::{header, HeaderMap, StatusCode};
+
+/// A parsed form.
+#[derive(Debug, Clone, Default)]
+pub struct Form {
+    fields: Vec<(String, String)>,
+}
+
+impl Form {
+    /// Parses a form body (its fields are checked by [`Form::only`] once
+    /// the CSRF token was).
+    pub fn parse(headers: &HeaderMap, body: RawBody) -> Result<Self, ApiError> {
+        let bytes = body.map_err(|e| {
+            ApiError::new(
+                e.status(),
+                abba_api::ErrorCode::BadJson,
+                "the form could not be read whole",
+            )
+        })?;
+        let urlencoded = headers
+            .get(header::CONTENT_TYPE)
+            .and_then(|v| v.to_str().ok())
+            .map(|v| v.split(';').next().unwrap_or("").trim())
+            .is_some_and(|m| m.eq_ignore_ascii_case("application/x-www-form-urlencoded"));
+        if !urlencoded {
+            return Err(ApiError::new(
+                StatusCode::UNSUPPORTED_MEDIA_TYPE,
+                abba_api::ErrorCode::UnsupportedMediaType,
+                "expected a form (application/x-www-form-urlencoded)",
+            ));
+        }
+        Ok(Self {
+            fields: form_urlencoded::parse(&bytes)
+                .map(|(k, v)| (k.into_owned(), v.into_owned()))
+                .collect(),
+        })
+    }
+
+    /// Refuses a field the form does not have or one given twice (422
+    /// naming it).
+    pub fn only(&self, known: &[&str]) -> Result<(), ApiError> {
+        for (i, (k, _)) in self.fields.iter().enumerate() {
+            if !known.contains(&k.as_str()) {
+                return Err(ApiError::invalid(
+                    k.clone(),
+                    format!(
+                        "this form has no field {k:?}; expected {}",
+                        known.join(", ")
+                    ),
+                ));
+            }
+            if self.fields[..i].iter().any(|(f, _)| f == k) {
+                return Err(ApiError::invalid(k.clone(), "given twice"));
+            }
+        }
+        Ok(())
+    }
+
+    /// A form of fields already read (a multipart form's text fields).
+    pub fn from_pairs(fields: Vec<(String, String)>) -> Self {
+        Self { fields }
+    }
+
+    /// A field's value.
+    pub fn get(&self, name: &str) -> Option<&str> {
+        self.fields
+            .iter()
+            .find(|(k, _)| k == name)
+            .map(|(_, v)| v.as_str())
+    }
+
+    /// A field's value with surrounding blanks removed ("" when absent).
+    pub fn text(&self, name: &str) -> &str {
+        self.get(name).unwrap_or("").trim()
+    }
+}
+
+/// A decimal number as people type it: `5.4` or `5,4` (one decimal comma
+/// is read as the point); anything else is `None`.
+pub fn number(text: &str) -> Option<f64> {
+    let t = text.trim();
+    let t = if t.matches(',').count() == 1 && !t.contains('.') {
+        t.replace(',', ".")
+    } else {
+        t.to_string()
+    };
+    t.parse::<f64>().ok().filter(|x| x.is_finite())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbers_with_a_decimal_comma_or_point() {
+        assert_eq!(number(" 5,4 "), Some(5.4));
+        assert_eq!(number("5.4"), Some(5.4));
+        assert_eq!(number("1,000.5"), None);
+        assert_eq!(number("NaN"), None);
+        assert_eq!(number("inf"), None);
+        assert_eq!(number(""), None);
+    }
+}

@@ -1,0 +1,241 @@
+//! Glucose: the last 24 hours or 14 days of readings as a chart with the
+//! target range, in the person's unit and zone, and their summary (time
+//! in ranges, mean).
+//!
+//! The window ends now; when the person has no reading in it (an export
+//! imported days ago), it ends at their last reading instead and the
+//! chart's name says so.
+
+use super::page::{render, PageResult};
+use super::session::{self, Ctx};
+use crate::state::AppState;
+use abba_core::units::MG_DL_PER_MMOL_L;
+use abba_core::{EventKind, Timestamp};
+use abba_store::advise;
+use abba_store::person::GlucoseUnits;
+use abba_store::Live;
+use abba_web::chart::{self, Point};
+use abba_web::pages::{Glucose, Layout, LinkChoice, SummaryItem};
+use abba_web::texts::{fill, EN};
+use axum::extract::{RawQuery, State};
+use axum::http::StatusCode;
+
+/// The two windows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Range {
+    /// The last 24 hours.
+    Day,
+    /// The last 14 days.
+    TwoWeeks,
+}
+
+impl Range {
+    fn from_query(q: Option<&str>) -> Self {
+        match q {
+            Some(q) if q.split('&').any(|p| p == "range=14d") => Range::TwoWeeks,
+            _ => Range::Day,
+        }
+    }
+    fn minutes(self) -> i64 {
+        match self {
+            Range::Day => 1440,
+            Range::TwoWeeks => 14 * 1440,
+        }
+    }
+    fn label(self) -> &'static str {
+        match self {
+            Range::Day => EN.range_24h,
+            Range::TwoWeeks => EN.range_14d,
+        }
+    }
+}
+
+/// The person's unit: its name, the factor from mg/dL, the target range,
+/// the least top of the axis and its tick step.
+struct Unit {
+    name: &'static str,
+    per_mg_dl: f64,
+    target: (f64, f64),
+    floor: f64,
+    step: f64,
+    decimals: usize,
+}
+
+fn unit_of(u: GlucoseUnits) -> Unit {
+    match u {
+        GlucoseUnits::MgDl => Unit {
+            name: "mg/dL",
+            per_mg_dl: 1.0,
+            target: (70.0, 180.0),
+            floor: 300.0,
+            step: 50.0,
+            decimals: 0,
+        },
+        GlucoseUnits::MmolL => Unit {
+            name: "mmol/L",
+            per_mg_dl: 1.0 / MG_DL_PER_MMOL_L,
+            target: (3.9, 10.0),
+            floor: 16.0,
+            step: 2.0,
+            decimals: 1,
+        },
+    }
+}
+
+impl Unit {
+    fn text(&self, v: f64) -> String {
+        format!("{v:.*}", self.decimals)
+    }
+}
+
+/// The page's model: the readings of `range` up to `now` (advisor time).
+pub fn model(live: &Live, range: Range, now: Option<Timestamp>) -> Glucose {
+    let unit = unit_of(live.person.settings.units);
+    let clock = advise::clock(&live.person);
+    let readings: Vec<(i64, f64, bool)> = live
+        .stream
+        .events
+        .iter()
+        .filter_map(|e| match e.kind {
+            EventKind::Cgm(g) => Some((e.at.0, g.0, true)),
+            EventKind::Smbg(g) => Some((e.at.0, g.0, false)),
+            _ => None,
+        })
+        .collect();
+    let span = range.minutes();
+    let mut end = now.map_or(i64::MIN, |t| t.0);
+    let last = readings.last().map(|r| r.0);
+    let up_to_last = match last {
+        Some(l) if l <= end - span || end == i64::MIN => {
+            end = l;
+            true
+        }
+        _ => false,
+    };
+    let start = end - span;
+    let shown: Vec<&(i64, f64, bool)> = readings
+        .iter()
+        .filter(|r| r.0 > start && r.0 <= end)
+        .collect();
+    let ranges = [
+        ("/glucose?range=24h", Range::Day),
+        ("/glucose?range=14d", Range::TwoWeeks),
+    ]
+    .iter()
+    .map(|&(href, r)| LinkChoice {
+        href,
+        label: r.label(),
+        current: r == range,
+    })
+    .collect();
+    let local = |t: i64| advise::local(clock.as_ref(), Timestamp(t));
+    let mut chart_title = fill(
+        EN.chart_title,
+        &[
+            ("range", &range.label().to_lowercase()),
+            ("unit", unit.name),
+            ("low", &unit.text(unit.target.0)),
+            ("high", &unit.text(unit.target.1)),
+        ],
+    );
+    if up_to_last {
+        chart_title.push_str(&format!(" (up to the last reading, {})", local(end)));
+    }
+    if shown.is_empty() {
+        return Glucose {
+            ranges,
+            chart_title,
+            chart: None,
+            summary: Vec::new(),
+            summary_note: None,
+        };
+    }
+    let points: Vec<Point> = shown
+        .iter()
+        .map(|&&(at, mg, cgm)| Point {
+            at,
+            value: mg * unit.per_mg_dl,
+            cgm,
+        })
+        .collect();
+    // Ticks on local wall times: every 3 hours over a day, every 2 days'
+    // midnight over two weeks.
+    let every = match range {
+        Range::Day => 180,
+        Range::TwoWeeks => 2 * 1440,
+    };
+    let first_tick = start.div_euclid(every) * every + every;
+    let x_ticks: Vec<(i64, String)> = (0..)
+        .map(|k| first_tick + k * every)
+        .take_while(|&t| t <= end)
+        .map(|t| {
+            let l = local(t);
+            let label = match range {
+                Range::Day => l.get(11..16).unwrap_or(&l).to_string(),
+                Range::TwoWeeks => l.get(5..10).unwrap_or(&l).to_string(),
+            };
+            (t, label)
+        })
+        .collect();
+    let c = chart::place(
+        &points,
+        (start, end),
+        unit.target,
+        unit.floor,
+        unit.step,
+        &x_ticks,
+    );
+    let mg: Vec<f64> = shown.iter().map(|r| r.1).collect();
+    let cgm = shown.iter().filter(|r| r.2).count();
+    let kind = match (cgm, mg.len() - cgm) {
+        (_, 0) => EN.kind_cgm,
+        (0, _) => EN.kind_smbg,
+        _ => EN.kind_both,
+    };
+    let mut summary = vec![SummaryItem {
+        label: fill(EN.summary_readings, &[("kind", kind)]),
+        value: mg.len().to_string(),
+    }];
+    if let Ok(r) = abba_core::metrics::range_percentages(&mg) {
+        let (low, high) = (unit.text(unit.target.0), unit.text(unit.target.1));
+        let unit_fill = |t: &str| fill(t, &[("low", &low), ("high", &high), ("unit", unit.name)]);
+        summary.push(SummaryItem {
+            label: unit_fill(EN.summary_tir),
+            value: format!("{:.0} %", r[2]),
+        });
+        summary.push(SummaryItem {
+            label: unit_fill(EN.summary_below),
+            value: format!("{:.1} %", r[1]),
+        });
+        summary.push(SummaryItem {
+            label: unit_fill(EN.summary_above),
+            value: format!("{:.0} %", r[3]),
+        });
+        let mean = mg.iter().sum::<f64>() / mg.len() as f64;
+        summary.push(SummaryItem {
+            label: EN.summary_mean.to_string(),
+            value: format!("{} {}", unit.text(mean * unit.per_mg_dl), unit.name),
+        });
+    }
+    Glucose {
+        ranges,
+        chart_title,
+        chart: Some(c),
+        summary,
+        summary_note: (cgm < mg.len()).then(|| EN.summary_share.to_string()),
+    }
+}
+
+/// `GET /glucose?range=24h|14d`.
+pub async fn page(State(s): State<AppState>, ctx: Ctx, RawQuery(q): RawQuery) -> PageResult {
+    let (id, w) = session::person_page(&s, &ctx).await?;
+    let range = Range::from_query(q.as_deref());
+    let (g, name) = s
+        .person(id, false, move |_, live| {
+            let now = advise::clock(&live.person).map(|c| c.timestamp(jiff::Timestamp::now()));
+            Ok((model(live, range, now), live.person.name.clone()))
+        })
+        .await?;
+    let layout = Layout::person(EN.glucose_title, &w.csrf, "/glucose").signed_in_as(&name);
+    render(StatusCode::OK, "glucose.html", &layout, &g)
+}

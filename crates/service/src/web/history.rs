@@ -1,0 +1,192 @@
+//! History: every suggestion, the answer and the value in force, by day
+//! (newest first), and the person's report one tap away (`/report`, the
+//! AGP-style report of `abba report --person`, printable).
+//!
+//! The clinic opens the same report at `/clinic/persons/{id}/report`.
+
+use super::page::{html, message, render, PageError, PageResult};
+use super::session::{self, Ctx};
+use crate::error::ApiError;
+use crate::state::AppState;
+use abba_report::html::person::person_report_html;
+use abba_report::html::units::GlucoseUnit;
+use abba_store::advise::{self, SuggestionView};
+use abba_store::person::GlucoseUnits;
+use abba_store::Live;
+use abba_web::pages::{History, HistoryRow, Layout};
+use abba_web::texts::EN;
+use axum::extract::{Path, State};
+use axum::http::{header, HeaderValue, StatusCode};
+use axum::response::Response;
+use sha2::{Digest, Sha256};
+
+/// Days of the report (as `abba report`'s default).
+pub const REPORT_DAYS: u32 = 14;
+
+fn setting_name(key: &str) -> &'static str {
+    match key {
+        "basal" => EN.setting_basal,
+        "breakfast" => EN.setting_breakfast,
+        "lunch" => EN.setting_lunch,
+        _ => EN.setting_dinner,
+    }
+}
+
+fn value(v: f64, unit: &str) -> String {
+    if unit == "U/h" {
+        format!("{v:.2} {unit}")
+    } else {
+        format!("{v:.1} {unit}")
+    }
+}
+
+fn answer(v: &SuggestionView) -> &'static str {
+    match v.status.as_str() {
+        "open" => EN.status_open,
+        "accepted" => EN.status_accepted_word,
+        "rejected" => EN.status_rejected_word,
+        "overridden" => EN.status_overridden_word,
+        "superseded" => EN.status_superseded_word,
+        _ => EN.status_no_update_word,
+    }
+}
+
+/// The History's model: every decision, newest first.
+pub fn model(live: &Live) -> History {
+    let views = advise::views(&live.person, &live.decisions, &live.answers);
+    let first_day = live.person.first_day;
+    let rows = views
+        .iter()
+        .rev()
+        .map(|v| {
+            let day = first_day
+                .and_then(|d| d.checked_add(jiff::Span::new().days(v.day - 1)).ok())
+                .map_or_else(|| format!("day {}", v.day), |d| d.to_string());
+            let reason = if v.reasons.is_empty() {
+                v.no_update_reason.clone().unwrap_or_default()
+            } else {
+                v.reasons.join(" ")
+            };
+            HistoryRow {
+                day,
+                setting: setting_name(v.setting).to_string(),
+                decided: v.decided_at.clone(),
+                from: value(v.previous, v.unit),
+                suggested: if v.no_update {
+                    EN.status_no_update_word.to_string()
+                } else {
+                    format!(
+                        "{} ({:+.1} %)",
+                        value(v.suggested, v.unit),
+                        v.change_percent
+                    )
+                },
+                answer: answer(v).to_string(),
+                in_force: value(v.in_force, v.unit),
+                reason,
+            }
+        })
+        .collect();
+    History { rows }
+}
+
+/// `GET /history`.
+pub async fn page(State(s): State<AppState>, ctx: Ctx) -> PageResult {
+    let (id, w) = session::person_page(&s, &ctx).await?;
+    let (h, name) = s
+        .person(id, false, |_, live| {
+            Ok((model(live), live.person.name.clone()))
+        })
+        .await?;
+    let layout = Layout::person(EN.history_title, &w.csrf, "/history").signed_in_as(&name);
+    render(StatusCode::OK, "history.html", &layout, &h)
+}
+
+/// The report of person `id` as a page: the report's own HTML (one
+/// self-contained document with its inline stylesheet), served with a CSP
+/// that allows exactly that stylesheet (by its hash) and nothing else.
+async fn report(s: &AppState, id: i64, csrf: Option<String>) -> PageResult {
+    let out = s
+        .person(id, false, |store, live| {
+            let name = live.person.name.clone();
+            let unit = match live.person.settings.units {
+                GlucoseUnits::MgDl => GlucoseUnit::MgDl,
+                GlucoseUnits::MmolL => GlucoseUnit::MmolL,
+            };
+            match abba_store::report::person_input(store, &name, REPORT_DAYS, unit) {
+                Ok(input) => person_report_html(&input)
+                    .map(Some)
+                    .map_err(ApiError::internal),
+                Err(abba_store::StoreError::NoData(_)) => Ok(None),
+                Err(e) => Err(e.into()),
+            }
+        })
+        .await?;
+    let Some(doc) = out else {
+        return Ok(message(
+            StatusCode::OK,
+            EN.history_title,
+            EN.report_no_data,
+            csrf,
+        ));
+    };
+    let mut r = html(StatusCode::OK, doc.clone());
+    let csp = report_csp(&doc);
+    let v = HeaderValue::from_str(&csp).map_err(|e| PageError::from(ApiError::internal(e)))?;
+    r.headers_mut().insert(header::CONTENT_SECURITY_POLICY, v);
+    Ok(r)
+}
+
+/// The report's CSP: its inline `<style>` by hash, images only inline.
+pub fn report_csp(doc: &str) -> String {
+    use base64::Engine as _;
+    let mut styles = String::new();
+    let mut rest = doc;
+    while let Some(i) = rest.find("<style>") {
+        let body = &rest[i + "<style>".len()..];
+        let Some(j) = body.find("</style>") else {
+            break;
+        };
+        let digest = Sha256::digest(body[..j].as_bytes());
+        styles.push_str(&format!(
+            " 'sha256-{}'",
+            base64::engine::general_purpose::STANDARD.encode(digest)
+        ));
+        rest = &body[j..];
+    }
+    format!("default-src 'none'; style-src{styles}; img-src data:; form-action 'none'; frame-ancestors 'none'; base-uri 'none'")
+}
+
+/// `GET /report`: the person's own report.
+pub async fn person_report(State(s): State<AppState>, ctx: Ctx) -> Result<Response, PageError> {
+    let (id, w) = session::person_page(&s, &ctx).await?;
+    report(&s, id, Some(w.csrf)).await
+}
+
+/// `GET /clinic/persons/{id}/report`: a person's report for the clinic.
+pub async fn clinic_report(
+    State(s): State<AppState>,
+    ctx: Ctx,
+    Path(id): Path<String>,
+) -> Result<Response, PageError> {
+    let w = session::admin_page(&s, &ctx).await?;
+    let Ok(id) = id.parse::<i64>() else {
+        return Err(super::page::not_found());
+    };
+    report(&s, id, Some(w.csrf)).await
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_reports_csp_allows_its_own_stylesheet_by_hash_and_nothing_else() {
+        let doc = "<html><head><style>\nbody { color: red; }\n</style></head></html>";
+        // sha256 of "\nbody { color: red; }\n" in base64 (Python's hashlib).
+        assert_eq!(
+            report_csp(doc),
+            "default-src 'none'; style-src 'sha256-6BtAJHRccEFconKgYZxx3ALoONCc3uWtAQ7oTAu9LLs='; img-src data:; form-action 'none'; frame-ancestors 'none'; base-uri 'none'"
+        );
+    }
+}

@@ -1,0 +1,387 @@
+//! The Log: a meter reading (a bedtime one closes the day) and a meal
+//! with its carbohydrate, for persons without a connected app. Each goes
+//! through [`post_batch`], the path of `POST /v1/persons/{id}/events`,
+//! numbered with the person's next free seqs in the insert's transaction.
+//! A person fed by imports gets no form (the store refuses mixing).
+
+use super::form::{self, Form};
+use super::page::{render, see_other, PageResult};
+use super::session::{self, Ctx};
+use super::today::{card, with_unit};
+use crate::body::RawBody;
+use crate::error::ApiError;
+use crate::routes::person::{post_batch, Numbering};
+use crate::state::AppState;
+use abba_advisor::Parameter;
+use abba_api::{DeviceEvent, EventBody, EventsBody, MealSlot as WireSlot};
+use abba_core::{EventKind, MealSlot};
+use abba_store::advise::{self, PARAMETERS};
+use abba_store::person::GlucoseUnits;
+use abba_store::{Live, Store};
+use abba_web::pages::{Choice, Layout, Log, MealAdvice};
+use abba_web::texts::{fill, EN};
+use axum::extract::{RawQuery, State};
+use axum::http::StatusCode;
+
+/// The bolus step of the pump (U): abba's pump steps have none for
+/// boluses, so the common 0.05 U.
+pub const BOLUS_STEP: f64 = 0.05;
+
+const SLOTS: [(&str, MealSlot); 4] = [
+    ("breakfast", MealSlot::Breakfast),
+    ("lunch", MealSlot::Lunch),
+    ("dinner", MealSlot::Dinner),
+    ("snack", MealSlot::Snack),
+];
+
+fn slot_label(s: MealSlot) -> &'static str {
+    match s {
+        MealSlot::Breakfast => EN.slot_breakfast,
+        MealSlot::Lunch => EN.slot_lunch,
+        MealSlot::Dinner => EN.slot_dinner,
+        _ => EN.slot_snack,
+    }
+}
+
+/// The meal of the local time now by the person's meal windows (a snack
+/// outside them).
+fn default_slot(live: &Live) -> MealSlot {
+    let local = live.person.tz.to_datetime(jiff::Timestamp::now());
+    let m = u32::from(local.hour() as u8) * 60 + u32::from(local.minute() as u8);
+    let w = live.person.settings.meal_windows;
+    let inside = |(a, b): (u32, u32)| a <= m && m < b;
+    if inside(w.breakfast) {
+        MealSlot::Breakfast
+    } else if inside(w.lunch) {
+        MealSlot::Lunch
+    } else if inside(w.dinner) {
+        MealSlot::Dinner
+    } else {
+        MealSlot::Snack
+    }
+}
+
+fn fed_by_imports(store: &Store, id: i64) -> Result<bool, ApiError> {
+    Ok(!abba_store::import::imports(store.connection(), id)?.is_empty())
+}
+
+/// What the page shows after a POST (from the query).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum After {
+    Nothing,
+    Reading,
+    DayClosed,
+    Meal(u64),
+    Snack,
+}
+
+fn after(q: Option<&str>) -> After {
+    let Some(q) = q else { return After::Nothing };
+    match q.split_once('=') {
+        Some(("saved", "reading")) => After::Reading,
+        Some(("saved", "snack")) => After::Snack,
+        Some(("closed", "1")) => After::DayClosed,
+        Some(("meal", n)) => n.parse().map_or(After::Nothing, After::Meal),
+        _ => After::Nothing,
+    }
+}
+
+/// Rounds to the pump's bolus step.
+pub fn round_bolus(units: f64) -> f64 {
+    (units / BOLUS_STEP).round() * BOLUS_STEP
+}
+
+/// The log's model; `typed` and errors after a refused entry.
+fn model(store: &Store, live: &Live, show: After, typed: Typed) -> Result<Log, ApiError> {
+    let id = live.person.id;
+    let (glucose_label, glucose_step) = match live.person.settings.units {
+        GlucoseUnits::MgDl => (fill(EN.glucose_label, &[("unit", "mg/dL")]), "1"),
+        GlucoseUnits::MmolL => (fill(EN.glucose_label, &[("unit", "mmol/L")]), "0.1"),
+    };
+    let import_fed = fed_by_imports(store, id)?.then(|| EN.log_import_fed.to_string());
+    let slot = typed.slot.unwrap_or_else(|| default_slot(live));
+    let a = advise::advice(
+        &live.person,
+        &live.stream,
+        live.records,
+        &live.advisor,
+        &live.decisions,
+        &live.answers,
+        live.refused,
+    );
+    let setting = |p: Parameter| {
+        PARAMETERS
+            .iter()
+            .position(|&q| q == p)
+            .map(|i| (a.settings[i].use_today, a.settings[i].in_force))
+    };
+    let mut meal_advice = None;
+    let mut tomorrow_basal = None;
+    let mut status = None;
+    match show {
+        After::Meal(seq) => {
+            if let Some(EventKind::MealAnnounced { carbs, slot }) =
+                abba_store::app::one(store.connection(), id, seq)?.map(|e| e.event.kind)
+            {
+                let p = Parameter::CarbRatio(slot);
+                if let Some((ratio, in_force)) = setting(p) {
+                    let bolus = round_bolus(carbs.0 / ratio);
+                    let c = card(live, p, None, in_force);
+                    meal_advice = Some(MealAdvice {
+                        ratio: fill(EN.meal_ratio, &[("ratio", &with_unit(p, ratio))]),
+                        bolus: fill(
+                            EN.meal_bolus,
+                            &[
+                                ("carbs", &format!("{:.0}", carbs.0)),
+                                ("ratio", &with_unit(p, ratio)),
+                                ("bolus", &format!("{bolus:.2}")),
+                                ("step", &format!("{BOLUS_STEP}")),
+                            ],
+                        ),
+                        suggestion: c.suggestion.filter(|s| s.open),
+                    });
+                    status = Some(EN.status_meal.to_string());
+                }
+            }
+        }
+        After::DayClosed => {
+            if let Some((basal, _)) = setting(Parameter::Basal) {
+                tomorrow_basal = Some(fill(
+                    EN.tomorrow_basal,
+                    &[("value", &with_unit(Parameter::Basal, basal))],
+                ));
+            }
+            status = Some(EN.status_day_closed.to_string());
+        }
+        After::Reading => status = Some(EN.status_reading.to_string()),
+        After::Snack => status = Some(EN.status_snack.to_string()),
+        After::Nothing => {}
+    }
+    Ok(Log {
+        import_fed,
+        glucose_label,
+        glucose_step,
+        slots: SLOTS
+            .iter()
+            .map(|&(value, s)| Choice {
+                value,
+                label: slot_label(s),
+                selected: s == slot,
+            })
+            .collect(),
+        glucose: typed.glucose,
+        carbs: typed.carbs,
+        glucose_error: typed.glucose_error,
+        carbs_error: typed.carbs_error,
+        meal_advice,
+        tomorrow_basal,
+        status,
+        name: live.person.name.clone(),
+    })
+}
+
+/// What was typed into a refused form, and the errors.
+#[derive(Debug, Clone, Default)]
+struct Typed {
+    glucose: String,
+    carbs: String,
+    slot: Option<MealSlot>,
+    glucose_error: Option<String>,
+    carbs_error: Option<String>,
+}
+
+/// `GET /log`.
+pub async fn page(State(s): State<AppState>, ctx: Ctx, RawQuery(q): RawQuery) -> PageResult {
+    let (id, w) = session::person_page(&s, &ctx).await?;
+    let show = after(q.as_deref());
+    let log = s
+        .person(id, false, move |store, live| {
+            model(store, live, show, Typed::default())
+        })
+        .await?;
+    show_log(StatusCode::OK, &w.csrf, log)
+}
+
+fn show_log(status: StatusCode, csrf: &str, mut log: Log) -> PageResult {
+    let layout = Layout::person(EN.log_title, csrf, "/log")
+        .signed_in_as(&log.name)
+        .with_status(log.status.take());
+    render(status, "log.html", &layout, &log)
+}
+
+/// The message of a refused value without the event's placeholder seq
+/// (`mg_dl must be ...`).
+fn value_message(e: &ApiError) -> String {
+    let m = e.message.as_str();
+    match m.find(" must be ") {
+        Some(i) => {
+            let start = m[..i].rfind(": ").map_or(0, |j| j + 2);
+            m[start..].to_string()
+        }
+        None => m.to_string(),
+    }
+}
+
+/// Posts `events` (placeholder seqs) through the one event path; a value
+/// refused by its checks comes back as the field's error.
+async fn enter(
+    s: &AppState,
+    id: i64,
+    events: Vec<EventBody>,
+    typed: Typed,
+    field: &'static str,
+) -> Result<Result<Vec<u64>, Log>, ApiError> {
+    let now = jiff::Timestamp::now().to_string();
+    let b = EventsBody {
+        events: events
+            .into_iter()
+            .zip(0..)
+            .map(|(event, seq)| DeviceEvent {
+                seq,
+                at: now.clone(),
+                event,
+            })
+            .collect(),
+    };
+    s.person(id, true, move |store, live| {
+        match post_batch(store, live, &b, Numbering::Next) {
+            Ok(ack) => Ok(Ok(ack.acked)),
+            Err(e)
+                if e.status == StatusCode::UNPROCESSABLE_ENTITY
+                    || e.status == StatusCode::CONFLICT =>
+            {
+                let mut t = typed;
+                let msg = value_message(&e);
+                if field == "glucose" {
+                    t.glucose_error = Some(msg);
+                } else {
+                    t.carbs_error = Some(msg);
+                }
+                Ok(Err(model(store, live, After::Nothing, t)?))
+            }
+            Err(e) => Err(e),
+        }
+    })
+    .await
+}
+
+/// `POST /log/reading`: a meter reading in the person's unit; with
+/// `bedtime` the day is closed right after it.
+pub async fn reading(State(s): State<AppState>, ctx: Ctx, body: RawBody) -> PageResult {
+    if !ctx.same_origin() {
+        return Err(super::page::forbidden_csrf());
+    }
+    let form = Form::parse(&ctx.headers, body)?;
+    let (id, w) = session::person_post(&s, &ctx, &form).await?;
+    form.only(&["csrf", "glucose", "bedtime"])?;
+    let typed = Typed {
+        glucose: form.text("glucose").to_string(),
+        ..Typed::default()
+    };
+    let bedtime = match form.get("bedtime") {
+        None => false,
+        Some("on") => true,
+        Some(other) => {
+            return Err(ApiError::invalid("bedtime", format!("expected on, got {other:?}")).into())
+        }
+    };
+    let units = s
+        .person(id, false, |_, live| Ok(live.person.settings.units))
+        .await?;
+    let value = match form::number(&typed.glucose) {
+        Some(v) => v,
+        None => {
+            let example = if units == GlucoseUnits::MmolL {
+                "5.8"
+            } else {
+                "105"
+            };
+            let mut t = typed;
+            t.glucose_error = Some(if t.glucose.is_empty() {
+                EN.missing_field.to_string()
+            } else {
+                fill(EN.expected_number, &[("example", example)])
+            });
+            let log = s
+                .person(id, false, move |store, live| {
+                    model(store, live, After::Nothing, t)
+                })
+                .await?;
+            return show_log(StatusCode::UNPROCESSABLE_ENTITY, &w.csrf, log);
+        }
+    };
+    let mg_dl = match units {
+        GlucoseUnits::MgDl => value,
+        GlucoseUnits::MmolL => value * abba_core::units::MG_DL_PER_MMOL_L,
+    };
+    let mut events = vec![EventBody::Smbg { mg_dl }];
+    if bedtime {
+        events.push(EventBody::DayClosed);
+    }
+    match enter(&s, id, events, typed, "glucose").await? {
+        Ok(_) if bedtime => Ok(see_other("/log?closed=1")),
+        Ok(_) => Ok(see_other("/log?saved=reading")),
+        Err(log) => show_log(StatusCode::UNPROCESSABLE_ENTITY, &w.csrf, log),
+    }
+}
+
+/// `POST /log/meal`: a meal with its carbohydrate; a main meal is answered
+/// with the carb ratio to use and the bolus it implies.
+pub async fn meal(State(s): State<AppState>, ctx: Ctx, body: RawBody) -> PageResult {
+    if !ctx.same_origin() {
+        return Err(super::page::forbidden_csrf());
+    }
+    let form = Form::parse(&ctx.headers, body)?;
+    let (id, w) = session::person_post(&s, &ctx, &form).await?;
+    form.only(&["csrf", "carbs", "slot"])?;
+    let slot = SLOTS
+        .iter()
+        .find(|(k, _)| *k == form.text("slot"))
+        .map(|x| x.1)
+        .ok_or_else(|| {
+            ApiError::invalid(
+                "slot",
+                format!(
+                    "expected breakfast, lunch, dinner or snack, got {:?}",
+                    form.text("slot")
+                ),
+            )
+        })?;
+    let typed = Typed {
+        carbs: form.text("carbs").to_string(),
+        slot: Some(slot),
+        ..Typed::default()
+    };
+    let Some(carbs_g) = form::number(&typed.carbs) else {
+        let mut t = typed;
+        t.carbs_error = Some(if t.carbs.is_empty() {
+            EN.missing_field.to_string()
+        } else {
+            fill(EN.expected_number, &[("example", "45")])
+        });
+        let log = s
+            .person(id, false, move |store, live| {
+                model(store, live, After::Nothing, t)
+            })
+            .await?;
+        return show_log(StatusCode::UNPROCESSABLE_ENTITY, &w.csrf, log);
+    };
+    let wire = match slot {
+        MealSlot::Breakfast => WireSlot::Breakfast,
+        MealSlot::Lunch => WireSlot::Lunch,
+        MealSlot::Dinner => WireSlot::Dinner,
+        _ => WireSlot::Snack,
+    };
+    let events = vec![EventBody::Meal {
+        carbs_g,
+        slot: wire,
+    }];
+    match enter(&s, id, events, typed, "carbs").await? {
+        Ok(seqs) if slot.main_index().is_some() => match seqs.first() {
+            Some(seq) => Ok(see_other(&format!("/log?meal={seq}"))),
+            None => Ok(see_other("/log")),
+        },
+        Ok(_) => Ok(see_other("/log?saved=snack")),
+        Err(log) => show_log(StatusCode::UNPROCESSABLE_ENTITY, &w.csrf, log),
+    }
+}

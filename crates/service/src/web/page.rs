@@ -1,0 +1,139 @@
+//! Page responses: HTML with its status, redirects, refusals as pages.
+
+use crate::error::ApiError;
+use abba_web::pages::{Layout, Message};
+use abba_web::texts::EN;
+use axum::http::{header, HeaderValue, StatusCode};
+use axum::response::{IntoResponse, Response};
+use serde::Serialize;
+
+/// The pages' `Referrer-Policy`. Not `no-referrer`: under it a browser
+/// sends `Origin: null` with every form POST (the Fetch standard,
+/// "append a request `Origin` header"), and the Origin check could not
+/// tell abba's own forms from anyone's. `same-origin` sends the referrer
+/// to abba only, never to another site, so a sign-in link's secret never
+/// leaves it either (the pages link nowhere else).
+pub const REFERRER_POLICY: &str = "same-origin";
+
+/// A page that could not be shown as asked: already a response.
+#[derive(Debug)]
+pub struct PageError(pub Response);
+
+impl IntoResponse for PageError {
+    fn into_response(self) -> Response {
+        self.0
+    }
+}
+
+impl From<ApiError> for PageError {
+    fn from(e: ApiError) -> Self {
+        PageError(error_page(&e))
+    }
+}
+
+/// What a page handler answers.
+pub type PageResult = Result<Response, PageError>;
+
+/// HTML with a status.
+pub fn html(status: StatusCode, body: String) -> Response {
+    let mut r = (status, body).into_response();
+    r.headers_mut().insert(
+        header::CONTENT_TYPE,
+        HeaderValue::from_static("text/html; charset=utf-8"),
+    );
+    r
+}
+
+/// Renders a page.
+pub fn render(
+    status: StatusCode,
+    page: &'static str,
+    layout: &Layout,
+    model: &impl Serialize,
+) -> PageResult {
+    abba_web::render(page, layout, model)
+        .map(|body| html(status, body))
+        .map_err(|e| PageError::from(ApiError::internal(e)))
+}
+
+/// A page that says `text` (a refusal, an explanation).
+pub fn message(status: StatusCode, title: &str, text: &str, csrf: Option<String>) -> Response {
+    let model = Message {
+        text: text.to_string(),
+        link: None,
+    };
+    match abba_web::render("message.html", &Layout::new(title, csrf), &model) {
+        Ok(body) => html(status, body),
+        Err(e) => ApiError::internal(e).into_response(),
+    }
+}
+
+/// 303 to `to` (after a POST: post/redirect/get).
+pub fn see_other(to: &str) -> Response {
+    let mut r = StatusCode::SEE_OTHER.into_response();
+    if let Ok(v) = HeaderValue::from_str(to) {
+        r.headers_mut().insert(header::LOCATION, v);
+    }
+    r
+}
+
+/// 403 for a form without a valid CSRF token or from another origin.
+pub fn forbidden_csrf() -> PageError {
+    PageError(message(
+        StatusCode::FORBIDDEN,
+        EN.forbidden_title,
+        EN.forbidden_csrf,
+        None,
+    ))
+}
+
+/// 403 for a page of the other role.
+pub fn forbidden_role() -> PageError {
+    PageError(message(
+        StatusCode::FORBIDDEN,
+        EN.forbidden_title,
+        EN.forbidden_role,
+        None,
+    ))
+}
+
+/// 404 as a page.
+pub fn not_found() -> PageError {
+    PageError(message(
+        StatusCode::NOT_FOUND,
+        EN.not_found_title,
+        EN.not_found,
+        None,
+    ))
+}
+
+/// An error of the store or the service as a page (503 keeps its
+/// `Retry-After`).
+pub fn error_page(e: &ApiError) -> Response {
+    let text = match e.status {
+        StatusCode::SERVICE_UNAVAILABLE => EN.busy.to_string(),
+        StatusCode::INTERNAL_SERVER_ERROR => e.message.clone(),
+        _ => e.message.clone(),
+    };
+    let title = match e.status {
+        StatusCode::NOT_FOUND => EN.not_found_title,
+        StatusCode::FORBIDDEN => EN.forbidden_title,
+        _ => EN.error_title,
+    };
+    let mut r = message(e.status, title, &text, None);
+    if let Some(s) = e.retry_after {
+        r.headers_mut()
+            .insert(header::RETRY_AFTER, HeaderValue::from(s));
+    }
+    r
+}
+
+/// The stylesheet.
+pub async fn style() -> Response {
+    let mut r = abba_web::STYLE.into_response();
+    r.headers_mut().insert(
+        header::CONTENT_TYPE,
+        HeaderValue::from_static("text/css; charset=utf-8"),
+    );
+    r
+}

@@ -1,0 +1,199 @@
+//! Web sessions: the `abba_session` cookie, who it speaks for, the CSRF
+//! token and the Origin check of every POST.
+//!
+//! - The cookie holds 256 random bits (64 hex digits); the store keeps
+//!   only their SHA-256 (abba-store's `session` module), with the
+//!   session's CSRF token and its expiry (30 days idle, 90 days at most).
+//! - `HttpOnly; SameSite=Strict; Path=/`, and `Secure` when the request
+//!   came over TLS: abba serves plain HTTP itself, so that is when a
+//!   reverse proxy on the same machine (a loopback peer) says
+//!   `X-Forwarded-Proto: https`. Nothing else is trusted to say so.
+//! - Every POST: the `Origin` (or, without one, the `Referer`) must name
+//!   this host (the request's `Host`), then the form's `csrf` must equal
+//!   the session's token (compared in constant time). Otherwise 403 and
+//!   nothing changes.
+
+use super::form::Form;
+use super::page::{forbidden_csrf, forbidden_role, see_other, PageError};
+use crate::auth;
+use crate::error::ApiError;
+use crate::state::AppState;
+use abba_store::session::WebSession;
+use abba_store::token::Role;
+use axum::extract::{ConnectInfo, FromRequestParts};
+use axum::http::request::Parts;
+use axum::http::{header, HeaderMap, HeaderValue};
+use std::net::SocketAddr;
+use subtle::ConstantTimeEq;
+
+/// The session cookie's name.
+pub const COOKIE: &str = "abba_session";
+/// The sign-in form's double-submit cookie.
+pub const SIGNIN_COOKIE: &str = "abba_signin";
+
+/// The request's head as the pages need it.
+#[derive(Debug, Clone)]
+pub struct Ctx {
+    /// The headers.
+    pub headers: HeaderMap,
+    /// True when the request came over TLS (a trusted proxy said so).
+    pub https: bool,
+}
+
+impl<S: Send + Sync> FromRequestParts<S> for Ctx {
+    type Rejection = std::convert::Infallible;
+
+    async fn from_request_parts(parts: &mut Parts, _: &S) -> Result<Self, Self::Rejection> {
+        let loopback = parts
+            .extensions
+            .get::<ConnectInfo<SocketAddr>>()
+            .is_some_and(|c| c.0.ip().is_loopback());
+        let forwarded = parts
+            .headers
+            .get("x-forwarded-proto")
+            .and_then(|v| v.to_str().ok())
+            .is_some_and(|v| v.trim().eq_ignore_ascii_case("https"));
+        let tls = parts.uri.scheme_str() == Some("https");
+        Ok(Ctx {
+            headers: parts.headers.clone(),
+            https: tls || (loopback && forwarded),
+        })
+    }
+}
+
+impl Ctx {
+    /// A cookie's value.
+    pub fn cookie(&self, name: &str) -> Option<String> {
+        for v in self.headers.get_all(header::COOKIE) {
+            let Ok(v) = v.to_str() else { continue };
+            for pair in v.split(';') {
+                if let Some((k, val)) = pair.trim().split_once('=') {
+                    if k == name {
+                        return Some(val.to_string());
+                    }
+                }
+            }
+        }
+        None
+    }
+
+    /// A `Set-Cookie` value for `name` (`max_age` seconds; 0 removes it).
+    pub fn set_cookie(&self, name: &str, value: &str, path: &str, max_age: i64) -> HeaderValue {
+        let secure = if self.https { "; Secure" } else { "" };
+        let s = format!(
+            "{name}={value}; HttpOnly; SameSite=Strict; Path={path}; Max-Age={max_age}{secure}"
+        );
+        HeaderValue::from_str(&s).unwrap_or_else(|_| HeaderValue::from_static(""))
+    }
+
+    /// True when the request's `Origin` (or, without one, its `Referer`)
+    /// is this host. Browsers send `Origin` with every form POST.
+    pub fn same_origin(&self) -> bool {
+        let Some(host) = self.headers.get(header::HOST).and_then(|v| v.to_str().ok()) else {
+            return false;
+        };
+        let authority_of = |url: &str| -> Option<String> {
+            let rest = url
+                .strip_prefix("https://")
+                .or_else(|| url.strip_prefix("http://"))?;
+            Some(rest.split('/').next().unwrap_or("").to_ascii_lowercase())
+        };
+        let host = host.to_ascii_lowercase();
+        if let Some(o) = self.headers.get(header::ORIGIN) {
+            return o
+                .to_str()
+                .ok()
+                .and_then(authority_of)
+                .is_some_and(|a| a == host);
+        }
+        if let Some(r) = self.headers.get(header::REFERER) {
+            return r
+                .to_str()
+                .ok()
+                .and_then(authority_of)
+                .is_some_and(|a| a == host);
+        }
+        false
+    }
+}
+
+/// 64 lower-case hex digits from the OS CSPRNG (a link's, a session's or
+/// a CSRF token's secret).
+pub fn secret() -> Result<String, ApiError> {
+    let t = auth::new_token().map_err(ApiError::internal)?;
+    Ok(t.trim_start_matches(auth::PREFIX).to_string())
+}
+
+/// True for 64 lower-case hex digits.
+pub fn is_secret(s: &str) -> bool {
+    s.len() == 64
+        && s.bytes()
+            .all(|b| b.is_ascii_digit() || (b'a'..=b'f').contains(&b))
+}
+
+/// Milliseconds since the Unix epoch, now.
+pub fn now_ms() -> i64 {
+    jiff::Timestamp::now().as_millisecond()
+}
+
+/// The request's live session, if any.
+pub async fn current(s: &AppState, ctx: &Ctx) -> Result<Option<WebSession>, PageError> {
+    let Some(value) = ctx.cookie(COOKIE).filter(|v| is_secret(v)) else {
+        return Ok(None);
+    };
+    let h = auth::hash(&value);
+    Ok(s.store(move |store| Ok(store.web_session(&h, now_ms())?))
+        .await?)
+}
+
+/// A person's page: their id and session; without a session 303 to the
+/// sign-in page, an admin session goes to the clinic.
+pub async fn person_page(s: &AppState, ctx: &Ctx) -> Result<(i64, WebSession), PageError> {
+    match current(s, ctx).await? {
+        None => Err(PageError(see_other("/signin"))),
+        Some(w) => match w.role {
+            Role::Person(id) => Ok((id, w)),
+            Role::Admin => Err(PageError(see_other("/clinic"))),
+        },
+    }
+}
+
+/// A clinic page: the admin session; without a session 303 to the sign-in
+/// page, a person's session 403.
+pub async fn admin_page(s: &AppState, ctx: &Ctx) -> Result<WebSession, PageError> {
+    match current(s, ctx).await? {
+        None => Err(PageError(see_other("/signin"))),
+        Some(w) => match w.role {
+            Role::Admin => Ok(w),
+            Role::Person(_) => Err(forbidden_role()),
+        },
+    }
+}
+
+/// Checks a POST: same origin, a live session, its CSRF token. 403 for
+/// each failure (nothing is read or changed before).
+pub async fn post_session(s: &AppState, ctx: &Ctx, form: &Form) -> Result<WebSession, PageError> {
+    if !ctx.same_origin() {
+        return Err(forbidden_csrf());
+    }
+    let w = current(s, ctx).await?.ok_or_else(forbidden_csrf)?;
+    let sent = form.get("csrf").unwrap_or("");
+    if !bool::from(sent.as_bytes().ct_eq(w.csrf.as_bytes())) {
+        return Err(forbidden_csrf());
+    }
+    Ok(w)
+}
+
+/// A person's POST: [`post_session`], then a person's session (403 for
+/// the admin's).
+pub async fn person_post(
+    s: &AppState,
+    ctx: &Ctx,
+    form: &Form,
+) -> Result<(i64, WebSession), PageError> {
+    let w = post_session(s, ctx, form).await?;
+    match w.role {
+        Role::Person(id) => Ok((id, w)),
+        Role::Admin => Err(forbidden_role()),
+    }
+}

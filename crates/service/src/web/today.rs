@@ -1,0 +1,309 @@
+//! Today: each setting with the value in force, today's suggestion and
+//! its reason, and the answers (accept, keep the previous value, my own
+//! value) through the same path as `POST /v1/persons/{id}/answers`.
+
+use super::form::{self, Form};
+use super::page::{render, see_other, PageResult};
+use super::session::{self, Ctx};
+use crate::body::RawBody;
+use crate::error::ApiError;
+use crate::routes::person::answer_batch;
+use crate::state::AppState;
+use abba_advisor::Parameter;
+use abba_api::{AnswerBody, AnswerItem, AnswerKind};
+use abba_store::advise::{self, Phase, SuggestionView, PARAMETERS};
+use abba_store::answer::param_key;
+use abba_store::Live;
+use abba_web::pages::{Layout, SettingCard, SuggestionCard, Today};
+use abba_web::texts::{fill, EN};
+use axum::extract::{RawQuery, State};
+use axum::http::StatusCode;
+
+/// A value with its unit as the pages show it.
+pub fn with_unit(p: Parameter, v: f64) -> String {
+    match p {
+        Parameter::Basal => format!("{v:.2} U/h"),
+        Parameter::CarbRatio(_) => format!("{v:.1} g/U"),
+    }
+}
+
+/// The setting's name.
+pub fn title(p: Parameter) -> &'static str {
+    match param_key(p) {
+        "basal" => EN.setting_basal,
+        "breakfast" => EN.setting_breakfast,
+        "lunch" => EN.setting_lunch,
+        _ => EN.setting_dinner,
+    }
+}
+
+/// A refused own value, shown beside its input.
+#[derive(Debug, Clone)]
+pub struct ValueError {
+    /// The suggestion.
+    pub sid: u64,
+    /// What was typed.
+    pub typed: String,
+    /// What was wrong.
+    pub message: String,
+}
+
+/// The card of one setting: the value in force and its latest decision.
+/// `fallback`: the value in force when the setting has no decision yet.
+pub fn card(live: &Live, p: Parameter, err: Option<&ValueError>, fallback: f64) -> SettingCard {
+    let views = advise::views(&live.person, &live.decisions, &live.answers);
+    let latest = live
+        .decisions
+        .iter()
+        .zip(&views)
+        .rev()
+        .find(|(d, _)| d.parameter == p);
+    let in_force_now = |v: &SuggestionView| {
+        if v.status == "open" {
+            v.previous
+        } else {
+            v.in_force
+        }
+    };
+    let Some((d, v)) = latest else {
+        return SettingCard {
+            key: param_key(p),
+            title: title(p),
+            in_force: with_unit(p, fallback),
+            suggestion: None,
+            note: Some(EN.no_decision.to_string()),
+        };
+    };
+    let reason = if v.reasons.is_empty() {
+        v.no_update_reason.clone().unwrap_or_default()
+    } else {
+        v.reasons.join(" ")
+    };
+    if v.no_update {
+        return SettingCard {
+            key: param_key(p),
+            title: title(p),
+            in_force: with_unit(p, in_force_now(v)),
+            suggestion: None,
+            note: Some(format!("{} {reason}", EN.no_change).trim().to_string()),
+        };
+    }
+    let setting = crate::convert::setting(p);
+    let sid = setting.suggestion_id(d.at.0.max(0) as u64);
+    let answered = match v.status.as_str() {
+        "accepted" => Some(EN.answered_accepted),
+        "rejected" => Some(EN.answered_rejected),
+        "overridden" => Some(EN.answered_overridden),
+        _ => None,
+    }
+    .map(|t| fill(t, &[("value", &with_unit(p, v.in_force))]));
+    let err = err.filter(|e| e.sid == sid);
+    SettingCard {
+        key: param_key(p),
+        title: title(p),
+        in_force: with_unit(p, in_force_now(v)),
+        suggestion: Some(SuggestionCard {
+            sid,
+            value: with_unit(p, v.suggested),
+            change: format!("{:+.1} %", v.change_percent),
+            reason,
+            open: v.status == "open",
+            answered,
+            value_error: err.map(|e| e.message.clone()),
+            own_value: err.map(|e| e.typed.clone()).unwrap_or_default(),
+            unit: p.unit().to_string(),
+        }),
+        note: None,
+    }
+}
+
+/// Today's model.
+pub fn model(live: &Live, err: Option<&ValueError>) -> Today {
+    let a = advise::advice(
+        &live.person,
+        &live.stream,
+        live.records,
+        &live.advisor,
+        &live.decisions,
+        &live.answers,
+        live.refused,
+    );
+    let total = live.person.settings.advisor.init_days;
+    let first_week = match a.phase {
+        Phase::NoData => Some((0, total)),
+        Phase::FirstWeek {
+            days_done,
+            days_left,
+            ..
+        } => Some((days_done, days_left)),
+        Phase::Adapting => None,
+    }
+    .map(|(done, left)| {
+        fill(
+            EN.first_week,
+            &[
+                ("done", &done.to_string()),
+                ("left", &left.to_string()),
+                ("total", &(done + left).to_string()),
+            ],
+        )
+    });
+    let not_designed_for = if a.delivery.basal_suggestions {
+        None
+    } else {
+        Some(
+            a.delivery
+                .note
+                .clone()
+                .unwrap_or_else(|| a.delivery.words.to_string()),
+        )
+    };
+    Today {
+        first_week,
+        not_designed_for,
+        settings: PARAMETERS
+            .iter()
+            .zip(&a.settings)
+            .map(|(&p, sa)| card(live, p, err, sa.in_force))
+            .collect(),
+    }
+}
+
+fn status_text(q: Option<&str>) -> Option<String> {
+    match q? {
+        "answered=accept" => Some(EN.status_accepted.into()),
+        "answered=reject" => Some(EN.status_rejected.into()),
+        "answered=override" => Some(EN.status_overridden.into()),
+        _ => None,
+    }
+}
+
+/// `GET /`: Today.
+pub async fn page(State(s): State<AppState>, ctx: Ctx, RawQuery(q): RawQuery) -> PageResult {
+    let (id, w) = session::person_page(&s, &ctx).await?;
+    let (today, name) = s
+        .person(id, false, |_, live| {
+            Ok((model(live, None), live.person.name.clone()))
+        })
+        .await?;
+    let layout = Layout::person(EN.today_title, &w.csrf, "/")
+        .signed_in_as(&name)
+        .with_status(status_text(q.as_deref()));
+    render(StatusCode::OK, "today.html", &layout, &today)
+}
+
+/// What the answer form asks for, or the error beside the own value.
+fn answer_item(form: &Form) -> Result<AnswerItem, (u64, String)> {
+    let sid = form
+        .text("suggestion_id")
+        .parse::<u64>()
+        .map_err(|_| (0, "suggestion_id: expected a suggestion's id".to_string()))?;
+    let typed = form.text("value");
+    let (answer, value) = match form.text("action") {
+        "accept" | "reject" if !typed.is_empty() => {
+            return Err((
+                sid,
+                format!(
+                    "You typed your own value: press “{}” to put it in force, or clear the field.",
+                    EN.override_button
+                ),
+            ))
+        }
+        "accept" => (AnswerKind::Accept, None),
+        "reject" => (AnswerKind::Reject, None),
+        "override" if typed.is_empty() => return Err((sid, EN.missing_field.to_string())),
+        "override" => match form::number(typed) {
+            Some(v) => (AnswerKind::Override, Some(v)),
+            None => return Err((sid, fill(EN.expected_number, &[("example", "0.85")]))),
+        },
+        other => {
+            return Err((
+                sid,
+                format!("action: expected accept, reject or override, got {other:?}"),
+            ))
+        }
+    };
+    Ok(AnswerItem {
+        suggestion_id: sid,
+        answer,
+        value,
+    })
+}
+
+/// The page's answer to a refused answer: Today again (422, or the
+/// store's status) with the error beside the own value.
+fn refused_answer(live: &Live, sid: u64, typed: &str, message: String) -> Today {
+    model(
+        live,
+        Some(&ValueError {
+            sid,
+            typed: typed.to_string(),
+            message,
+        }),
+    )
+}
+
+/// `POST /answer`: one answer, then 303 back to Today with a status
+/// message; a refused own value: Today again (422) with the error beside
+/// the field.
+pub async fn answer(State(s): State<AppState>, ctx: Ctx, body: RawBody) -> PageResult {
+    if !ctx.same_origin() {
+        return Err(super::page::forbidden_csrf());
+    }
+    let form = Form::parse(&ctx.headers, body)?;
+    let (id, w) = session::person_post(&s, &ctx, &form).await?;
+    form.only(&["csrf", "suggestion_id", "action", "value"])?;
+    let typed = form.text("value").to_string();
+    let item = answer_item(&form);
+    let action = form.text("action").to_string();
+    let out = s
+        .person(id, true, move |store, live| match item {
+            Err((sid, message)) => Ok(Err((
+                StatusCode::UNPROCESSABLE_ENTITY,
+                live.person.name.clone(),
+                refused_answer(live, sid, &typed, message),
+            ))),
+            Ok(item) => {
+                let sid = item.suggestion_id;
+                let b = AnswerBody {
+                    answers: vec![item],
+                };
+                let name = live.person.name.clone();
+                match answer_batch(store, live, &b) {
+                    Ok(_) => Ok(Ok(())),
+                    Err(e)
+                        if e.status == StatusCode::UNPROCESSABLE_ENTITY
+                            || e.status == StatusCode::CONFLICT
+                            || e.status == StatusCode::NOT_FOUND =>
+                    {
+                        let st = e.status;
+                        Ok(Err((
+                            st,
+                            name,
+                            refused_answer(live, sid, &typed, plain(&e)),
+                        )))
+                    }
+                    Err(e) => Err(e),
+                }
+            }
+        })
+        .await?;
+    match out {
+        Ok(()) => Ok(see_other(&format!("/?answered={action}"))),
+        Err((status, name, today)) => render(
+            status,
+            "today.html",
+            &Layout::person(EN.today_title, &w.csrf, "/").signed_in_as(&name),
+            &today,
+        ),
+    }
+}
+
+/// An error's message without the API's JSON path (`answers[0].value: `).
+pub fn plain(e: &ApiError) -> String {
+    let m = e.message.as_str();
+    match m.split_once(": ") {
+        Some((head, rest)) if head.starts_with("answers[") => rest.to_string(),
+        _ => m.to_string(),
+    }
+}

@@ -1,0 +1,777 @@
+//! The web pages by plain HTTP (no browser): sign-in links, sessions,
+//! CSRF and Origin checks, the headers of every page, the access matrix,
+//! inert names, and a person's whole flow through Today and the Log into
+//! the store.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod common;
+
+use abba_service::auth;
+use abba_store::token::Role;
+use axum::body::Body;
+use axum::http::{header, Method, Request, StatusCode};
+use common::{ev, Svc};
+use http_body_util::BodyExt;
+use serde_json::{json, Value};
+use std::collections::BTreeMap;
+use tower::ServiceExt;
+
+const HOST: &str = "abba.test";
+const ORIGIN: &str = "http://abba.test";
+const HOSTILE: &str = "<script>alert(1)</script>\"' {{ 7*7 }}";
+/// [`HOSTILE`] as the pages show it (minijinja escapes `/` too).
+const INERT: &str = "&lt;script&gt;alert(1)&lt;&#x2f;script&gt;&quot;&#x27; {{ 7*7 }}";
+const CSP: &str = "default-src 'none'; style-src 'self'; img-src 'self' data:; form-action 'self'; frame-ancestors 'none'; base-uri 'none'";
+
+/// A page's answer.
+#[derive(Debug)]
+struct Page {
+    status: StatusCode,
+    headers: axum::http::HeaderMap,
+    html: String,
+}
+
+impl Page {
+    fn location(&self) -> &str {
+        self.headers
+            .get(header::LOCATION)
+            .map(|v| v.to_str().unwrap())
+            .unwrap_or("")
+    }
+
+    /// The value of the first `name="NAME" value="..."` hidden input.
+    fn hidden(&self, name: &str) -> String {
+        let pat = format!("name=\"{name}\" value=\"");
+        let i = self
+            .html
+            .find(&pat)
+            .unwrap_or_else(|| panic!("no {name} in {}", self.html))
+            + pat.len();
+        let j = self.html[i..].find('"').unwrap();
+        self.html[i..i + j].to_string()
+    }
+
+    /// The HTML of the element starting at `start` up to its `</tag>`.
+    fn section(&self, start: &str, tag: &str) -> &str {
+        let i = self
+            .html
+            .find(start)
+            .unwrap_or_else(|| panic!("no {start} in {}", self.html));
+        let end = format!("</{tag}>");
+        let j = self.html[i..].find(&end).unwrap();
+        &self.html[i..i + j]
+    }
+}
+
+/// A browser without JavaScript: a cookie jar, same-origin forms.
+struct Browser<'a> {
+    svc: &'a Svc,
+    cookies: BTreeMap<String, String>,
+    origin: Option<&'static str>,
+}
+
+impl<'a> Browser<'a> {
+    fn new(svc: &'a Svc) -> Self {
+        Self {
+            svc,
+            cookies: BTreeMap::new(),
+            origin: Some(ORIGIN),
+        }
+    }
+
+    async fn send(&mut self, method: Method, path: &str, form: Option<&[(&str, &str)]>) -> Page {
+        let mut req = Request::builder()
+            .method(method.clone())
+            .uri(path)
+            .header(header::HOST, HOST);
+        if !self.cookies.is_empty() {
+            let c: Vec<String> = self
+                .cookies
+                .iter()
+                .map(|(k, v)| format!("{k}={v}"))
+                .collect();
+            req = req.header(header::COOKIE, c.join("; "));
+        }
+        if method == Method::POST {
+            if let Some(o) = self.origin {
+                req = req.header(header::ORIGIN, o);
+            }
+        }
+        let req = match form {
+            Some(fields) => {
+                let mut s = form_urlencoded::Serializer::new(String::new());
+                for (k, v) in fields {
+                    s.append_pair(k, v);
+                }
+                req.header(header::CONTENT_TYPE, "application/x-www-form-urlencoded")
+                    .body(Body::from(s.finish()))
+                    .unwrap()
+            }
+            None => req.body(Body::empty()).unwrap(),
+        };
+        let res = self.svc.router.clone().oneshot(req).await.unwrap();
+        let status = res.status();
+        let headers = res.headers().clone();
+        for v in headers.get_all(header::SET_COOKIE) {
+            let v = v.to_str().unwrap();
+            let (pair, attrs) = v.split_once(';').unwrap_or((v, ""));
+            let (k, val) = pair.split_once('=').unwrap();
+            if attrs.contains("Max-Age=0") {
+                self.cookies.remove(k);
+            } else {
+                self.cookies.insert(k.to_string(), val.to_string());
+            }
+        }
+        let bytes = res.into_body().collect().await.unwrap().to_bytes();
+        Page {
+            status,
+            headers,
+            html: String::from_utf8_lossy(&bytes).to_string(),
+        }
+    }
+
+    async fn get(&mut self, path: &str) -> Page {
+        self.send(Method::GET, path, None).await
+    }
+
+    async fn post(&mut self, path: &str, form: &[(&str, &str)]) -> Page {
+        self.send(Method::POST, path, Some(form)).await
+    }
+
+    /// Opens a sign-in link and presses the button.
+    async fn sign_in(&mut self, secret: &str) -> Page {
+        let p = self.get(&format!("/signin/{secret}")).await;
+        assert_eq!(p.status, StatusCode::OK, "{}", p.html);
+        let csrf = p.hidden("csrf");
+        self.post("/signin", &[("csrf", &csrf), ("link", secret)])
+            .await
+    }
+}
+
+fn link(svc: &Svc, role: Role) -> String {
+    let mut store = abba_service::open_store(&svc.db).unwrap();
+    auth::issue_signin(&mut store, role).unwrap()
+}
+
+/// A person's signed-in browser and their session's CSRF token.
+async fn signed_in<'a>(svc: &'a Svc, role: Role) -> (Browser<'a>, String) {
+    let mut b = Browser::new(svc);
+    let p = b.sign_in(&link(svc, role)).await;
+    assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
+    let home = b.get(p.location()).await;
+    let csrf = if home.status == StatusCode::OK {
+        home.hidden("csrf")
+    } else {
+        String::new()
+    };
+    (b, csrf)
+}
+
+fn app_events(svc: &Svc, person: u64) -> i64 {
+    let store = abba_service::open_store(&svc.db).unwrap();
+    abba_store::app::count(store.connection(), person as i64).unwrap()
+}
+
+#[tokio::test]
+async fn a_sign_in_link_works_once_and_gives_a_strict_http_only_cookie() {
+    let svc = Svc::new();
+    let id = svc.person("ana").await;
+    let secret = link(&svc, Role::Person(id as i64));
+    let mut b = Browser::new(&svc);
+    // Link previews fetch the page: a GET never uses the link.
+    for _ in 0..2 {
+        let p = b.get(&format!("/signin/{secret}")).await;
+        assert_eq!(p.status, StatusCode::OK);
+        assert!(p.html.contains("id=\"signin-form\""));
+        assert!(p.html.contains("id=\"signin\""));
+    }
+    let csrf = b.get(&format!("/signin/{secret}")).await.hidden("csrf");
+    // Without the double-submit cookie's value: refused, the link unused.
+    let p = b.post("/signin", &[("csrf", "0"), ("link", &secret)]).await;
+    assert_eq!(p.status, StatusCode::FORBIDDEN);
+    let p = b
+        .post("/signin", &[("csrf", &csrf), ("link", &secret)])
+        .await;
+    assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
+    assert_eq!(p.location(), "/");
+    let cookie = p
+        .headers
+        .get_all(header::SET_COOKIE)
+        .iter()
+        .map(|v| v.to_str().unwrap().to_string())
+        .find(|v| v.starts_with("abba_session="))
+        .unwrap();
+    for attr in ["HttpOnly", "SameSite=Strict", "Path=/;"] {
+        assert!(cookie.contains(attr), "{cookie}");
+    }
+    assert!(
+        !cookie.contains("Secure"),
+        "plain HTTP from a client: {cookie}"
+    );
+    let today = b.get("/").await;
+    assert_eq!(today.status, StatusCode::OK, "{}", today.html);
+    assert!(today.html.contains("id=\"setting-basal\""));
+    // Used: refused on its page and on a POST from another browser.
+    let mut other = Browser::new(&svc);
+    let p = other.get(&format!("/signin/{secret}")).await;
+    assert_eq!(p.status, StatusCode::FORBIDDEN);
+    assert!(p.html.contains("used already"), "{}", p.html);
+    other.cookies.insert("abba_signin".into(), "1".repeat(64));
+    let p = other
+        .post("/signin", &[("csrf", &"1".repeat(64)), ("link", &secret)])
+        .await;
+    assert_eq!(p.status, StatusCode::FORBIDDEN);
+    assert!(!other.cookies.contains_key("abba_session"));
+    // An unknown link.
+    let p = other.get(&format!("/signin/{}", "a".repeat(64))).await;
+    assert_eq!(p.status, StatusCode::FORBIDDEN);
+    // Secure behind a proxy on the same machine only: the in-process
+    // router has no peer address, so X-Forwarded-Proto is not trusted.
+    let secret = link(&svc, Role::Admin);
+    let req = Request::builder()
+        .uri(format!("/signin/{secret}"))
+        .header(header::HOST, HOST)
+        .header("x-forwarded-proto", "https")
+        .body(Body::empty())
+        .unwrap();
+    let res = svc.router.clone().oneshot(req).await.unwrap();
+    let c = res
+        .headers()
+        .get(header::SET_COOKIE)
+        .unwrap()
+        .to_str()
+        .unwrap();
+    assert!(!c.contains("Secure"), "{c}");
+}
+
+#[tokio::test]
+async fn an_expired_link_is_refused() {
+    let svc = Svc::new();
+    let id = svc.person("ana").await;
+    let secret = "b".repeat(64);
+    {
+        let mut store = abba_service::open_store(&svc.db).unwrap();
+        let then =
+            jiff::Timestamp::now().as_millisecond() - abba_store::session::LINK_LIFE_MS - 1000;
+        store
+            .insert_signin_link(&auth::hash(&secret), Role::Person(id as i64), then)
+            .unwrap();
+    }
+    let mut b = Browser::new(&svc);
+    let p = b.get(&format!("/signin/{secret}")).await;
+    assert_eq!(p.status, StatusCode::FORBIDDEN);
+    assert!(p.html.contains("older than 15 minutes"), "{}", p.html);
+    b.cookies.insert("abba_signin".into(), "c".repeat(64));
+    let p = b
+        .post("/signin", &[("csrf", &"c".repeat(64)), ("link", &secret)])
+        .await;
+    assert_eq!(p.status, StatusCode::FORBIDDEN);
+    assert!(!b.cookies.contains_key("abba_session"));
+}
+
+#[tokio::test]
+async fn every_page_has_the_csp_and_the_other_headers() {
+    let svc = Svc::new();
+    let id = svc.person("ana").await;
+    let (mut b, _) = signed_in(&svc, Role::Person(id as i64)).await;
+    let secret = link(&svc, Role::Admin);
+    for path in [
+        "/".to_string(),
+        "/log".into(),
+        "/glucose".into(),
+        "/glucose?range=14d".into(),
+        "/history".into(),
+        "/signin".into(),
+        format!("/signin/{secret}"),
+        format!("/signin/{}", "0".repeat(64)),
+        "/static/abba.css".into(),
+    ] {
+        let p = b.get(&path).await;
+        let h = |n: &str| {
+            p.headers
+                .get(n)
+                .map(|v| v.to_str().unwrap().to_string())
+                .unwrap_or_default()
+        };
+        assert_eq!(h("content-security-policy"), CSP, "{path}");
+        assert_eq!(h("cache-control"), "no-store", "{path}");
+        assert_eq!(h("x-content-type-options"), "nosniff", "{path}");
+        assert_eq!(h("x-frame-options"), "DENY", "{path}");
+        assert_eq!(h("referrer-policy"), "same-origin", "{path}");
+        if path != "/static/abba.css" {
+            assert!(h("content-type").starts_with("text/html"), "{path}");
+            for part in [
+                "<main id=\"main\"",
+                "class=\"skip\" href=\"#main\"",
+                "<nav",
+                "id=\"notice\"",
+                "abba is research software, not a medical device",
+                "lang=\"en\"",
+            ] {
+                assert!(p.html.contains(part), "{path} lacks {part}");
+            }
+        }
+    }
+    // No script anywhere.
+    assert!(!b.get("/").await.html.contains("<script"));
+}
+
+#[tokio::test]
+async fn the_access_matrix_of_the_pages() {
+    let svc = Svc::new();
+    let a = svc.person("ana").await;
+    let _b = svc.person("ben").await;
+    let mut nobody = Browser::new(&svc);
+    let (mut ana, ana_csrf) = signed_in(&svc, Role::Person(a as i64)).await;
+    let (mut admin, admin_csrf) = signed_in(&svc, Role::Admin).await;
+    for path in ["/", "/log"] {
+        let p = nobody.get(path).await;
+        assert_eq!(
+            (p.status, p.location()),
+            (StatusCode::SEE_OTHER, "/signin"),
+            "{path}"
+        );
+        assert_eq!(ana.get(path).await.status, StatusCode::OK, "{path}");
+        let p = admin.get(path).await;
+        assert_eq!(
+            (p.status, p.location()),
+            (StatusCode::SEE_OTHER, "/clinic"),
+            "{path}"
+        );
+    }
+    let posts: [(&str, Vec<(&str, &str)>); 4] = [
+        (
+            "/answer",
+            vec![("suggestion_id", "4"), ("action", "accept")],
+        ),
+        ("/log/reading", vec![("glucose", "120")]),
+        ("/log/meal", vec![("carbs", "40"), ("slot", "lunch")]),
+        ("/signout", vec![]),
+    ];
+    for (path, fields) in &posts {
+        let p = nobody.post(path, fields).await;
+        assert_eq!(p.status, StatusCode::FORBIDDEN, "{path} without a session");
+        let mut f = fields.clone();
+        f.push(("csrf", &admin_csrf));
+        if *path != "/signout" {
+            let p = admin.post(path, &f).await;
+            assert_eq!(p.status, StatusCode::FORBIDDEN, "{path} by the admin");
+        }
+    }
+    assert_eq!(app_events(&svc, a), 0);
+    // The cookie is never accepted on /v1.
+    let cookie = ana
+        .cookies
+        .iter()
+        .map(|(k, v)| format!("{k}={v}"))
+        .collect::<Vec<_>>()
+        .join("; ");
+    let req = Request::builder()
+        .uri(format!("/v1/persons/{a}/advice"))
+        .header(header::COOKIE, cookie)
+        .body(Body::empty())
+        .unwrap();
+    let res = svc.router.clone().oneshot(req).await.unwrap();
+    assert_eq!(res.status(), StatusCode::UNAUTHORIZED);
+    // Signing out ends the session in the store.
+    let p = ana.post("/signout", &[("csrf", &ana_csrf)]).await;
+    assert_eq!(
+        (p.status, p.location()),
+        (StatusCode::SEE_OTHER, "/signin?out=1")
+    );
+    let p = ana.get("/").await;
+    assert_eq!(p.status, StatusCode::SEE_OTHER);
+}
+
+#[tokio::test]
+async fn a_post_without_the_csrf_token_or_from_another_origin_changes_nothing() {
+    let svc = Svc::new();
+    let a = svc.person("ana").await;
+    let (mut b, csrf) = signed_in(&svc, Role::Person(a as i64)).await;
+    let forms: [(&str, Vec<(&str, &str)>); 3] = [
+        ("/log/reading", vec![("glucose", "120")]),
+        ("/log/meal", vec![("carbs", "40"), ("slot", "lunch")]),
+        ("/signout", vec![]),
+    ];
+    for (path, fields) in &forms {
+        // No token, a wrong token.
+        let p = b.post(path, fields).await;
+        assert_eq!(p.status, StatusCode::FORBIDDEN, "{path} without csrf");
+        let mut f = fields.clone();
+        f.push(("csrf", "0123"));
+        assert_eq!(
+            b.post(path, &f).await.status,
+            StatusCode::FORBIDDEN,
+            "{path}"
+        );
+        // The right token from another origin, or with no origin at all.
+        let mut f = fields.clone();
+        f.push(("csrf", &csrf));
+        b.origin = Some("http://evil.test");
+        assert_eq!(
+            b.post(path, &f).await.status,
+            StatusCode::FORBIDDEN,
+            "{path}"
+        );
+        b.origin = None;
+        assert_eq!(
+            b.post(path, &f).await.status,
+            StatusCode::FORBIDDEN,
+            "{path}"
+        );
+        b.origin = Some(ORIGIN);
+    }
+    assert_eq!(app_events(&svc, a), 0);
+    assert_eq!(b.get("/").await.status, StatusCode::OK, "still signed in");
+    let p = b
+        .post("/log/reading", &[("glucose", "120"), ("csrf", &csrf)])
+        .await;
+    assert_eq!(
+        (p.status, p.location()),
+        (StatusCode::SEE_OTHER, "/log?saved=reading")
+    );
+    assert_eq!(app_events(&svc, a), 1);
+}
+
+#[tokio::test]
+async fn a_hostile_name_is_inert_on_every_page_that_shows_it() {
+    let svc = Svc::new();
+    let id = svc
+        .person_with(json!({
+            "name": HOSTILE, "tz": "UTC", "mode": "smbg", "first_day": "2026-01-01",
+            "start": {"basal_units_per_hour": 1.0, "carb_ratio_g_per_unit": [10.0, 12.0, 11.0]}
+        }))
+        .await;
+    // (No check for "49": the pages' random CSRF tokens may hold it; the
+    // escaped name with its literal `{{ 7*7 }}` is the check.)
+    let (mut b, _) = signed_in(&svc, Role::Person(id as i64)).await;
+    for path in ["/", "/log", "/glucose", "/history"] {
+        let p = b.get(path).await;
+        assert_eq!(p.status, StatusCode::OK, "{path}");
+        assert!(!p.html.contains("<script"), "{path}: {}", p.html);
+        assert!(p.html.contains(INERT), "{path}: {}", p.html);
+    }
+    let (mut admin, _) = signed_in(&svc, Role::Admin).await;
+    for path in ["/clinic".to_string(), format!("/clinic/persons/{id}")] {
+        let p = admin.get(&path).await;
+        assert_eq!(p.status, StatusCode::OK, "{path}");
+        assert!(!p.html.contains("<script"), "{path}: {}", p.html);
+        assert!(p.html.contains(INERT), "{path}: {}", p.html);
+    }
+}
+
+/// A CGM person in UTC whose day 1 was `days` days before today, with the
+/// first week of data posted by their app through /v1 (no data rule).
+async fn person_past_first_week(svc: &Svc, name: &str, days: i64) -> (u64, String) {
+    let today = jiff::Timestamp::now()
+        .to_zoned(jiff::tz::TimeZone::UTC)
+        .date();
+    let first = today.checked_sub(jiff::Span::new().days(days)).unwrap();
+    let id = svc
+        .person_with(json!({
+            "name": name, "tz": "UTC", "mode": "cgm", "first_day": first.to_string(),
+            "start": {"basal_units_per_hour": 1.0, "carb_ratio_g_per_unit": [10.0, 12.0, 11.0]},
+            "min_data": {"cgm_coverage": 0.0, "cgm_period_min": 5, "smbg_per_day": 0, "smbg_per_meal": 0}
+        }))
+        .await;
+    let (_, token) = svc.token(id).await;
+    let day0 = first.to_zoned(jiff::tz::TimeZone::UTC).unwrap().timestamp();
+    let at = |m: i64| (day0 + jiff::SignedDuration::from_mins(m)).to_string();
+    let mut events: Vec<Value> = Vec::new();
+    let mut seq = 0u64;
+    let mut push = |t: i64, e: Value, events: &mut Vec<Value>| {
+        seq += 1;
+        events.push(json!({"seq": seq, "at": at(t), "event": e}));
+    };
+    let meals = [
+        (7 * 60 + 30, "breakfast", 50.0),
+        (12 * 60 + 30, "lunch", 70.0),
+        (19 * 60, "dinner", 80.0),
+    ];
+    for day in 0..days {
+        for m in (0..1440).step_by(5) {
+            let t = day * 1440 + m;
+            let mut g = 130.0 + 25.0 * ((t as f64) / 300.0).sin();
+            for &(mt, _, carbs) in &meals {
+                let since = (m - mt) as f64;
+                if since >= 0.0 {
+                    g += carbs * (since / 60.0) * (-since / 60.0).exp() * 6.0;
+                }
+            }
+            push(t, json!({"type": "cgm", "mg_dl": g}), &mut events);
+            if m == 0 && day > 0 {
+                push(t, json!({"type": "day_closed"}), &mut events);
+            }
+            for &(mt, slot, carbs) in &meals {
+                if m == mt {
+                    push(
+                        t,
+                        json!({"type": "meal", "carbs_g": carbs, "slot": slot}),
+                        &mut events,
+                    );
+                    push(
+                        t,
+                        json!({"type": "bolus", "units": carbs / 10.0}),
+                        &mut events,
+                    );
+                }
+            }
+        }
+    }
+    // The day of today's first minute closed, as the app does at midnight.
+    push(days * 1440, json!({"type": "day_closed"}), &mut events);
+    let _ = ev;
+    for chunk in events.chunks(4000) {
+        let r = svc
+            .call(
+                Method::POST,
+                &format!("/v1/persons/{id}/events"),
+                Some(&token),
+                Some(&json!({"events": chunk})),
+            )
+            .await;
+        assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+    }
+    (id, token)
+}
+
+/// The `suggestion_id` of the open answer form in a section.
+fn open_sid(section: &str) -> Option<String> {
+    let pat = "name=\"suggestion_id\" value=\"";
+    let i = section.find(pat)? + pat.len();
+    let j = section[i..].find('"')?;
+    Some(section[i..i + j].to_string())
+}
+
+#[tokio::test]
+async fn a_person_logs_a_reading_and_a_meal_and_answers_on_the_pages() {
+    let svc = Svc::new();
+    let (id, token) = person_past_first_week(&svc, "ana", 9).await;
+    let r = svc
+        .call(
+            Method::PUT,
+            &format!("/v1/persons/{id}/bounds"),
+            Some(&svc.admin),
+            Some(&json!({"bounds": {"basal": {"min": 0.5, "max": 2.0}}})),
+        )
+        .await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+    let (mut b, csrf) = signed_in(&svc, Role::Person(id as i64)).await;
+    let before = app_events(&svc, id);
+    let today = b.get("/").await;
+    assert!(!today.html.contains("id=\"first-week\""), "{}", today.html);
+    let basal_sid = open_sid(today.section("<section id=\"setting-basal\"", "section"))
+        .expect("an open basal suggestion after the day closed");
+    // A meter reading, then a main meal: its carb ratio and bolus.
+    let p = b
+        .post("/log/reading", &[("csrf", &csrf), ("glucose", "142")])
+        .await;
+    assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
+    let p = b
+        .post(
+            "/log/meal",
+            &[("csrf", &csrf), ("carbs", "60"), ("slot", "lunch")],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
+    assert!(p.location().starts_with("/log?meal="), "{}", p.location());
+    let log = b.get(p.location()).await;
+    let advice = log
+        .section("<section id=\"meal-advice\"", "section")
+        .to_string();
+    assert!(advice.contains("60 g at"), "{advice}");
+    let meal_sid = open_sid(&advice).expect("the lunch suggestion to answer");
+    // The events went through the one event path with the next seqs.
+    assert_eq!(app_events(&svc, id), before + 2);
+    let sync = svc
+        .call(
+            Method::GET,
+            &format!("/v1/persons/{id}/sync"),
+            Some(&token),
+            None,
+        )
+        .await;
+    assert_eq!(sync.json["last_seq"].as_u64().unwrap() as i64, before + 2);
+    // Accept the carb ratio.
+    let p = b
+        .post(
+            "/answer",
+            &[
+                ("csrf", &csrf),
+                ("suggestion_id", &meal_sid),
+                ("action", "accept"),
+            ],
+        )
+        .await;
+    assert_eq!(
+        (p.status, p.location()),
+        (StatusCode::SEE_OTHER, "/?answered=accept"),
+        "{}",
+        p.html
+    );
+    let today = b.get(p.location()).await;
+    assert!(today
+        .section("<div id=\"status\"", "div")
+        .contains("accepted"));
+    // An own basal value outside the bounds: refused beside the field.
+    let p = b
+        .post(
+            "/answer",
+            &[
+                ("csrf", &csrf),
+                ("suggestion_id", &basal_sid),
+                ("action", "override"),
+                ("value", "3.5"),
+            ],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+    let err_id = format!("value-error-{basal_sid}");
+    assert!(
+        p.html
+            .contains(&format!("<p class=\"field-error\" id=\"{err_id}\">")),
+        "{}",
+        p.html
+    );
+    assert!(p.html.contains(&format!("aria-describedby=\"{err_id}\"")));
+    assert!(p.html.contains("value=\"3.5\""), "the typed value is kept");
+    // Inside: accepted.
+    let p = b
+        .post(
+            "/answer",
+            &[
+                ("csrf", &csrf),
+                ("suggestion_id", &basal_sid),
+                ("action", "override"),
+                ("value", "1.1"),
+            ],
+        )
+        .await;
+    assert_eq!(
+        (p.status, p.location()),
+        (StatusCode::SEE_OTHER, "/?answered=override"),
+        "{}",
+        p.html
+    );
+    // The store's history holds exactly those two answers.
+    let h = svc
+        .call(
+            Method::GET,
+            &format!("/v1/persons/{id}/history?limit=1000"),
+            Some(&token),
+            None,
+        )
+        .await;
+    let answered: Vec<(u64, String)> = h.json["suggestions"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|s| ["accepted", "rejected", "overridden"].contains(&s["status"].as_str().unwrap()))
+        .map(|s| {
+            (
+                s["id"].as_u64().unwrap(),
+                s["status"].as_str().unwrap().to_string(),
+            )
+        })
+        .collect();
+    assert_eq!(
+        answered,
+        vec![
+            (basal_sid.parse().unwrap(), "overridden".to_string()),
+            (meal_sid.parse().unwrap(), "accepted".to_string()),
+        ],
+        "{}",
+        h.text
+    );
+}
+
+#[tokio::test]
+async fn glucose_history_and_the_report_show_the_persons_own_data() {
+    let svc = Svc::new();
+    let (id, _) = person_past_first_week(&svc, "bea", 8).await;
+    let (mut b, _) = signed_in(&svc, Role::Person(id as i64)).await;
+    // Readings every 5 minutes up to today's midnight: the last 24 hours
+    // hold a day of them, drawn as one line (no gap) in mg/dL.
+    for path in ["/glucose", "/glucose?range=24h", "/glucose?range=14d"] {
+        let p = b.get(path).await;
+        assert_eq!(p.status, StatusCode::OK, "{path}");
+        assert!(
+            p.html.contains("<svg id=\"glucose-chart\" role=\"img\""),
+            "{path}: {}",
+            p.html
+        );
+        assert_eq!(p.html.matches("<path class=\"cgm\"").count(), 1, "{path}");
+        assert!(
+            p.html.contains("mg&#x2f;dL") || p.html.contains("mg/dL"),
+            "{path}"
+        );
+        assert!(p.html.contains("id=\"glucose-summary\""), "{path}");
+        assert!(p.html.contains("<rect class=\"band\""), "{path}");
+    }
+    let day = b.get("/glucose").await.html;
+    let two_weeks = b.get("/glucose?range=14d").await.html;
+    assert!(day.contains("aria-current=\"page\">Last 24 hours"));
+    assert!(two_weeks.contains("aria-current=\"page\">Last 14 days"));
+    // A day of readings against eight days.
+    let points = |h: &str| h.matches(" L").count();
+    assert!(
+        points(&two_weeks) > 6 * points(&day),
+        "{} {}",
+        points(&two_weeks),
+        points(&day)
+    );
+
+    let h = b.get("/history").await;
+    assert_eq!(h.status, StatusCode::OK);
+    assert!(h.html.contains("<table id=\"history\">"), "{}", h.html);
+    assert!(h.html.contains("<a id=\"report\" href=\"/report\">"));
+    let views = {
+        let mut store = abba_service::open_store(&svc.db).unwrap();
+        store.history("bea").unwrap()
+    };
+    assert!(!views.is_empty());
+    assert_eq!(
+        h.html.matches("<tr><th scope=\"row\">").count(),
+        views.len()
+    );
+
+    let r = b.get("/report").await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.html);
+    let csp = r.headers["content-security-policy"]
+        .to_str()
+        .unwrap()
+        .to_string();
+    assert!(
+        csp.starts_with("default-src 'none'; style-src 'sha256-"),
+        "{csp}"
+    );
+    assert!(!csp.contains("unsafe"), "{csp}");
+    assert!(r.html.contains("research software"), "{}", r.html);
+    assert!(r.html.contains("bea"));
+    // The clinic opens the same report; a person cannot reach the clinic's.
+    assert_eq!(
+        b.get(&format!("/clinic/persons/{id}/report")).await.status,
+        StatusCode::FORBIDDEN
+    );
+    let (mut admin, _) = signed_in(&svc, Role::Admin).await;
+    let c = admin.get(&format!("/clinic/persons/{id}/report")).await;
+    assert_eq!(c.status, StatusCode::OK);
+    assert_eq!(c.html, r.html);
+}
+
+#[tokio::test]
+async fn a_person_without_data_sees_an_empty_chart_and_no_report_yet() {
+    let svc = Svc::new();
+    let id = svc.person("cid").await;
+    let (mut b, _) = signed_in(&svc, Role::Person(id as i64)).await;
+    let g = b.get("/glucose").await;
+    assert_eq!(g.status, StatusCode::OK);
+    assert!(g.html.contains("id=\"glucose-empty\""), "{}", g.html);
+    assert!(!g.html.contains("<svg"));
+    let h = b.get("/history").await;
+    assert!(h.html.contains("id=\"history-empty\""), "{}", h.html);
+    let r = b.get("/report").await;
+    assert_eq!(r.status, StatusCode::OK);
+    assert!(r.html.contains("nothing to report yet"), "{}", r.html);
+}

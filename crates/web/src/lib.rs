@@ -1,0 +1,126 @@
+//! abba-web: the HTML of abba's pages, the person's app and the clinic's
+//! page (issue 24), with no HTTP in it: abba-service owns the routes,
+//! sessions and the store; this crate turns page models into HTML.
+//!
+//! - Templates are minijinja files embedded with `include_str!`; every
+//!   template name ends in `.html`, so every value is HTML-escaped unless
+//!   a template says otherwise (only the QR code's SVG, made by [`qr`]
+//!   with its one text escaped there): a person named
+//!   `<script>alert(1)</script>` is shown as those characters. Values are
+//!   data, never templates: `{{ 7*7 }}` in a name stays text.
+//! - Every English text is in [`texts`], so a translation is one more
+//!   table.
+//! - [`qr`] draws a QR code (encoded by the `qrcode` crate) and [`chart`]
+//!   the glucose chart as inline SVG: the pages fetch nothing from
+//!   elsewhere, and the stylesheet [`STYLE`] is served by abba itself.
+//!
+//! abba is research software, not a medical device.
+
+#![cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used))]
+
+pub mod chart;
+pub mod pages;
+pub mod qr;
+pub mod texts;
+
+use serde::Serialize;
+use std::sync::OnceLock;
+
+/// The stylesheet, served at [`STYLE_PATH`].
+pub const STYLE: &str = include_str!("../static/abba.css");
+/// Where the pages link the stylesheet.
+pub const STYLE_PATH: &str = "/static/abba.css";
+
+/// The Content-Security-Policy of every page: nothing but abba's own
+/// stylesheet and inline (`data:`) images; no script at all.
+pub const CSP: &str = "default-src 'none'; style-src 'self'; img-src 'self' data:; form-action 'self'; frame-ancestors 'none'; base-uri 'none'";
+
+/// A template could not be rendered (a fault of abba, not of the input).
+#[derive(Debug, thiserror::Error)]
+#[error("rendering the page {page}: {source}")]
+pub struct RenderError {
+    /// The template.
+    pub page: &'static str,
+    /// What minijinja said.
+    pub source: minijinja::Error,
+}
+
+const TEMPLATES: &[(&str, &str)] = &[
+    ("base.html", include_str!("../templates/base.html")),
+    ("macros.html", include_str!("../templates/macros.html")),
+    ("message.html", include_str!("../templates/message.html")),
+    ("signin.html", include_str!("../templates/signin.html")),
+    ("today.html", include_str!("../templates/today.html")),
+    ("log.html", include_str!("../templates/log.html")),
+    ("clinic.html", include_str!("../templates/clinic.html")),
+    (
+        "clinic_person.html",
+        include_str!("../templates/clinic_person.html"),
+    ),
+    ("glucose.html", include_str!("../templates/glucose.html")),
+    ("history.html", include_str!("../templates/history.html")),
+];
+
+fn env() -> &'static minijinja::Environment<'static> {
+    static ENV: OnceLock<minijinja::Environment<'static>> = OnceLock::new();
+    ENV.get_or_init(|| {
+        let mut env = minijinja::Environment::new();
+        // Escape by the name's ending (.html: HTML), the default, named
+        // here so that nobody turns it off by accident.
+        env.set_auto_escape_callback(minijinja::default_auto_escape_callback);
+        for (name, src) in TEMPLATES {
+            // The templates are ours and compiled in; a broken one fails
+            // the tests, which render every page.
+            if let Err(e) = env.add_template(name, src) {
+                panic!("template {name}: {e}");
+            }
+        }
+        env
+    })
+}
+
+/// Renders the page `page` (a template name) with the layout and its model.
+pub fn render(
+    page: &'static str,
+    layout: &pages::Layout,
+    model: &impl Serialize,
+) -> Result<String, RenderError> {
+    let tmpl = env()
+        .get_template(page)
+        .map_err(|source| RenderError { page, source })?;
+    tmpl.render(minijinja::context! {
+        t => texts::EN,
+        layout => layout,
+        page => model,
+    })
+    .map_err(|source| RenderError { page, source })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_hostile_name_is_text_on_a_page() {
+        let name = "<script>alert(1)</script>\"' {{ 7*7 }}";
+        let layout = pages::Layout::new(name, None);
+        let html = render(
+            "message.html",
+            &layout,
+            &pages::Message {
+                text: name.into(),
+                link: None,
+            },
+        )
+        .unwrap();
+        assert!(!html.contains("<script>"), "{html}");
+        // minijinja escapes `/` too.
+        assert!(
+            html.contains("&lt;script&gt;alert(1)&lt;&#x2f;script&gt;&quot;&#x27; {{ 7*7 }}"),
+            "{html}"
+        );
+        assert!(html.contains("{{ 7*7 }}"));
+        assert!(!html.contains("49"));
+        assert!(html.contains(texts::EN.notice));
+    }
+}

@@ -1,0 +1,390 @@
+//! Every English text of the pages, in one place: a translation is one
+//! more [`Texts`] value. Texts with `{name}` placeholders are filled by
+//! [`fill`] (values given by people are escaped by the templates, never
+//! put into a template's source).
+
+use serde::Serialize;
+
+/// The texts of the pages.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct Texts {
+    /// The `lang` of every page.
+    pub lang: &'static str,
+    /// The research-software notice, on every page.
+    pub notice: &'static str,
+    /// The skip link.
+    pub skip: &'static str,
+    /// The navigation's name.
+    pub nav_label: &'static str,
+    /// Sign out.
+    pub sign_out: &'static str,
+    /// Who is signed in ({name}).
+    pub signed_in_as: &'static str,
+    /// Navigation: Today.
+    pub nav_today: &'static str,
+    /// Navigation: Log.
+    pub nav_log: &'static str,
+    /// Navigation: Glucose.
+    pub nav_glucose: &'static str,
+    /// Navigation: History.
+    pub nav_history: &'static str,
+    /// Navigation: the clinic.
+    pub nav_clinic: &'static str,
+    /// Title of the sign-in page.
+    pub signin_title: &'static str,
+    /// What the sign-in button does.
+    pub signin_intro: &'static str,
+    /// The sign-in button.
+    pub signin_button: &'static str,
+    /// Title of the page for a refused sign-in link.
+    pub signin_refused_title: &'static str,
+    /// An unknown link.
+    pub signin_unknown: &'static str,
+    /// A used link.
+    pub signin_used: &'static str,
+    /// An expired link.
+    pub signin_expired: &'static str,
+    /// What to do after a refused link.
+    pub signin_again: &'static str,
+    /// `/signin` without a link.
+    pub signin_needed: &'static str,
+    /// Signed out.
+    pub signed_out: &'static str,
+    /// Title of a refused request.
+    pub forbidden_title: &'static str,
+    /// A form without a valid CSRF token or from another origin.
+    pub forbidden_csrf: &'static str,
+    /// A page for the other role.
+    pub forbidden_role: &'static str,
+    /// Title of a page that does not exist.
+    pub not_found_title: &'static str,
+    /// A page that does not exist.
+    pub not_found: &'static str,
+    /// Title of a fault of abba.
+    pub error_title: &'static str,
+    /// The store is busy.
+    pub busy: &'static str,
+    /// Title of Today.
+    pub today_title: &'static str,
+    /// Basal rate.
+    pub setting_basal: &'static str,
+    /// Breakfast carb ratio.
+    pub setting_breakfast: &'static str,
+    /// Lunch carb ratio.
+    pub setting_lunch: &'static str,
+    /// Dinner carb ratio.
+    pub setting_dinner: &'static str,
+    /// "In force:".
+    pub in_force: &'static str,
+    /// "Suggested today:".
+    pub suggested: &'static str,
+    /// "Why:".
+    pub why: &'static str,
+    /// No change today.
+    pub no_change: &'static str,
+    /// No decision yet.
+    pub no_decision: &'static str,
+    /// The first week ({done}, {left}, {total}).
+    pub first_week: &'static str,
+    /// Accept.
+    pub accept: &'static str,
+    /// Reject.
+    pub reject: &'static str,
+    /// The own value's label.
+    pub own_value: &'static str,
+    /// Use my own value.
+    pub override_button: &'static str,
+    /// The answer buttons' group.
+    pub answer_legend: &'static str,
+    /// Answered: accepted ({value}).
+    pub answered_accepted: &'static str,
+    /// Answered: rejected ({value}).
+    pub answered_rejected: &'static str,
+    /// Answered: own value ({value}).
+    pub answered_overridden: &'static str,
+    /// Status: accepted.
+    pub status_accepted: &'static str,
+    /// Status: rejected.
+    pub status_rejected: &'static str,
+    /// Status: own value.
+    pub status_overridden: &'static str,
+    /// Title of the log.
+    pub log_title: &'static str,
+    /// The reading form's heading.
+    pub log_reading: &'static str,
+    /// Glucose ({unit}).
+    pub glucose_label: &'static str,
+    /// The bedtime checkbox.
+    pub bedtime_label: &'static str,
+    /// Save the reading.
+    pub save_reading: &'static str,
+    /// The meal form's heading.
+    pub log_meal: &'static str,
+    /// Carbohydrate (g).
+    pub carbs_label: &'static str,
+    /// Which meal.
+    pub slot_label: &'static str,
+    /// Breakfast.
+    pub slot_breakfast: &'static str,
+    /// Lunch.
+    pub slot_lunch: &'static str,
+    /// Dinner.
+    pub slot_dinner: &'static str,
+    /// Snack.
+    pub slot_snack: &'static str,
+    /// Announce the meal.
+    pub save_meal: &'static str,
+    /// An import-fed person's log.
+    pub log_import_fed: &'static str,
+    /// Heading of the meal advice.
+    pub meal_advice_title: &'static str,
+    /// The ratio to use ({ratio}).
+    pub meal_ratio: &'static str,
+    /// The bolus it implies ({carbs}, {ratio}, {bolus}, {step}).
+    pub meal_bolus: &'static str,
+    /// Tomorrow's basal ({value}).
+    pub tomorrow_basal: &'static str,
+    /// A reading was saved.
+    pub status_reading: &'static str,
+    /// A bedtime reading closed the day.
+    pub status_day_closed: &'static str,
+    /// A meal was saved.
+    pub status_meal: &'static str,
+    /// A snack was saved (no carb ratio is suggested for snacks).
+    pub status_snack: &'static str,
+    /// A number was expected.
+    pub expected_number: &'static str,
+    /// A field is missing.
+    pub missing_field: &'static str,
+    /// Title of the clinic's page.
+    pub clinic_title: &'static str,
+    /// Title of the Glucose page.
+    pub glucose_title: &'static str,
+    /// The last 24 hours.
+    pub range_24h: &'static str,
+    /// The last 14 days.
+    pub range_14d: &'static str,
+    /// The range choice's name.
+    pub range_label: &'static str,
+    /// The chart's accessible name ({range}, {unit}).
+    pub chart_title: &'static str,
+    /// No readings in the range.
+    pub chart_empty: &'static str,
+    /// Readings ({kind}).
+    pub summary_readings: &'static str,
+    /// CGM readings.
+    pub kind_cgm: &'static str,
+    /// Finger sticks.
+    pub kind_smbg: &'static str,
+    /// Both kinds.
+    pub kind_both: &'static str,
+    /// Time in range ({low}-{high} {unit}).
+    pub summary_tir: &'static str,
+    /// Time below 70 mg/dL ({low} {unit}).
+    pub summary_below: &'static str,
+    /// Time above 180 mg/dL ({high} {unit}).
+    pub summary_above: &'static str,
+    /// Mean glucose.
+    pub summary_mean: &'static str,
+    /// A share of readings, not of time, for finger sticks.
+    pub summary_share: &'static str,
+    /// Legend: CGM line.
+    pub chart_legend_cgm: &'static str,
+    /// Legend: finger sticks.
+    pub chart_legend_smbg: &'static str,
+    /// Legend: the target band.
+    pub chart_legend_band: &'static str,
+    /// Title of the History page.
+    pub history_title: &'static str,
+    /// The table's caption.
+    pub history_caption: &'static str,
+    /// Column: the day.
+    pub history_day: &'static str,
+    /// Column: the setting.
+    pub history_setting: &'static str,
+    /// Column: when.
+    pub history_decided: &'static str,
+    /// Column: the value before.
+    pub history_from: &'static str,
+    /// Column: suggested.
+    pub history_suggested: &'static str,
+    /// Column: the answer.
+    pub history_answer: &'static str,
+    /// Column: in force after.
+    pub history_in_force: &'static str,
+    /// No suggestion yet.
+    pub history_empty: &'static str,
+    /// The link to the report.
+    pub history_report: &'static str,
+    /// Not answered yet.
+    pub status_open: &'static str,
+    /// Accepted.
+    pub status_accepted_word: &'static str,
+    /// Kept the previous value.
+    pub status_rejected_word: &'static str,
+    /// Own value.
+    pub status_overridden_word: &'static str,
+    /// Not answered before the next suggestion.
+    pub status_superseded_word: &'static str,
+    /// No change.
+    pub status_no_update_word: &'static str,
+    /// The report without data.
+    pub report_no_data: &'static str,
+}
+
+/// English.
+pub const EN: Texts = Texts {
+    lang: "en",
+    notice: "abba is research software, not a medical device. Nothing it shows is medical advice: discuss every suggestion with your clinician before you act on it.",
+    skip: "Skip to the content",
+    nav_label: "Main",
+    sign_out: "Sign out",
+    signed_in_as: "Signed in as {name}",
+    nav_today: "Today",
+    nav_log: "Log",
+    nav_glucose: "Glucose",
+    nav_history: "History",
+    nav_clinic: "Persons",
+    signin_title: "Sign in",
+    signin_intro: "This link signs you in to abba on this device. It works once and for 15 minutes after your clinic made it.",
+    signin_button: "Sign in",
+    signin_refused_title: "This sign-in link does not work",
+    signin_unknown: "abba does not know this link.",
+    signin_used: "This link was used already: a sign-in link works once.",
+    signin_expired: "This link is older than 15 minutes: a sign-in link works for 15 minutes.",
+    signin_again: "Ask your clinic for a new sign-in link.",
+    signin_needed: "Open the sign-in link (or scan the QR code) your clinic gave you to sign in on this device.",
+    signed_out: "You are signed out on this device.",
+    forbidden_title: "Not allowed",
+    forbidden_csrf: "This form was not sent from abba's own page, or the page was too old. Go back, reload the page and send the form again.",
+    forbidden_role: "You are signed in with an account that cannot open this page.",
+    not_found_title: "Not found",
+    not_found: "There is no such page.",
+    error_title: "Something went wrong",
+    busy: "abba is busy. Nothing was saved; try again in a moment.",
+    today_title: "Today",
+    setting_basal: "Basal rate",
+    setting_breakfast: "Breakfast carb ratio",
+    setting_lunch: "Lunch carb ratio",
+    setting_dinner: "Dinner carb ratio",
+    in_force: "In force",
+    suggested: "Suggested",
+    why: "Why",
+    no_change: "No change today.",
+    no_decision: "No suggestion yet.",
+    first_week: "abba is observing your first week: day {done} of {total}, {left} to go. Your settings stay as they are until then.",
+    accept: "Accept",
+    reject: "Keep the previous value",
+    own_value: "My own value",
+    override_button: "Use my own value",
+    answer_legend: "Your answer",
+    answered_accepted: "You accepted it: {value} is in force.",
+    answered_rejected: "You kept the previous value: {value} is in force.",
+    answered_overridden: "You chose your own value: {value} is in force.",
+    status_accepted: "Saved: you accepted the suggestion.",
+    status_rejected: "Saved: you kept the previous value.",
+    status_overridden: "Saved: your own value is in force.",
+    log_title: "Log",
+    log_reading: "A meter reading",
+    glucose_label: "Glucose ({unit})",
+    bedtime_label: "This is my bedtime reading (it closes the day)",
+    save_reading: "Save the reading",
+    log_meal: "A meal",
+    carbs_label: "Carbohydrate (g)",
+    slot_label: "Which meal",
+    slot_breakfast: "Breakfast",
+    slot_lunch: "Lunch",
+    slot_dinner: "Dinner",
+    slot_snack: "Snack",
+    save_meal: "Announce the meal",
+    log_import_fed: "Your data come from your devices' exports (files or Nightscout), so there is nothing to enter here: abba reads what your devices recorded.",
+    meal_advice_title: "For this meal",
+    meal_ratio: "Carb ratio to use: {ratio}.",
+    meal_bolus: "{carbs} g at {ratio} is {bolus} U (rounded to the pump's step of {step} U).",
+    tomorrow_basal: "Tomorrow's basal rate: {value}.",
+    status_reading: "Saved: your reading.",
+    status_day_closed: "Saved: your bedtime reading closed the day.",
+    status_meal: "Saved: your meal.",
+    status_snack: "Saved: your snack (abba suggests carb ratios for the three main meals only).",
+    expected_number: "Enter a number, for example {example}.",
+    missing_field: "This field is needed.",
+    clinic_title: "Persons",
+    glucose_title: "Glucose",
+    range_24h: "Last 24 hours",
+    range_14d: "Last 14 days",
+    range_label: "Range",
+    chart_title: "Glucose over the {range}, in {unit}, with the target range {low}-{high} {unit} shaded",
+    chart_empty: "No glucose readings in this range yet.",
+    summary_readings: "Readings ({kind})",
+    kind_cgm: "CGM",
+    kind_smbg: "finger sticks",
+    kind_both: "CGM and finger sticks",
+    summary_tir: "In range {low}-{high} {unit}",
+    summary_below: "Below {low} {unit}",
+    summary_above: "Above {high} {unit}",
+    summary_mean: "Mean glucose",
+    summary_share: "Shares are of readings: with finger sticks they are not of time.",
+    chart_legend_cgm: "CGM readings (line; broken where the sensor was off)",
+    chart_legend_smbg: "Finger sticks (dots)",
+    chart_legend_band: "Target range",
+    history_title: "History",
+    history_caption: "Every suggestion, your answer and the value in force, newest day first",
+    history_day: "Day",
+    history_setting: "Setting",
+    history_decided: "Decided",
+    history_from: "Before",
+    history_suggested: "Suggested",
+    history_answer: "Your answer",
+    history_in_force: "In force after",
+    history_empty: "No suggestion yet: abba makes its first after the first week of data.",
+    history_report: "Open the report for your clinician (printable)",
+    status_open: "not answered yet",
+    status_accepted_word: "accepted",
+    status_rejected_word: "kept the previous value",
+    status_overridden_word: "own value",
+    status_superseded_word: "not answered before the next one (taken as followed)",
+    status_no_update_word: "no change",
+    report_no_data: "There is nothing to report yet: the report needs at least one day of data.",
+};
+
+/// Fills the `{name}` placeholders of `text`.
+pub fn fill(text: &str, values: &[(&str, &str)]) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut rest = text;
+    while let Some(i) = rest.find('{') {
+        out.push_str(&rest[..i]);
+        let after = &rest[i + 1..];
+        let hit = after.find('}').and_then(|j| {
+            let key = &after[..j];
+            values.iter().find(|(k, _)| *k == key).map(|(_, v)| (j, *v))
+        });
+        match hit {
+            Some((j, v)) => {
+                out.push_str(v);
+                rest = &after[j + 1..];
+            }
+            None => {
+                out.push('{');
+                rest = after;
+            }
+        }
+    }
+    out.push_str(rest);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn placeholders_are_filled_and_the_notice_says_research_software() {
+        assert_eq!(fill("a {x} b {y}", &[("x", "1"), ("y", "2")]), "a 1 b 2");
+        // A value is never filled itself.
+        assert_eq!(fill("{x}", &[("x", "{y}"), ("y", "no")]), "{y}");
+        assert_eq!(fill("{{ 7*7 }}", &[]), "{{ 7*7 }}");
+        assert!(EN
+            .notice
+            .starts_with("abba is research software, not a medical device"));
+    }
+}

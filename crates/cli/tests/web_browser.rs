@@ -97,6 +97,15 @@ fn app_events(export: &Path, first_day: jiff::civil::Date) -> Vec<Vec<DeviceEven
     let mut events = to_events(&batch, &person).unwrap().events;
     let last_day = events.last().unwrap().at.day_index();
     assert_eq!(last_day, 7, "the export covers days 1-8");
+    // The simulated pump's standard therapy keeps glucose in range, so
+    // ABBA would change nothing on day 9. This person's last day ran
+    // high instead (every CGM reading of day 8 120 mg/dL higher): today's
+    // basal rate goes up, a suggestion to answer.
+    for e in events.iter_mut() {
+        if let (EventKind::Cgm(g), true) = (&mut e.kind, e.at.day_index() == last_day) {
+            g.0 = (g.0 + 120.0).min(400.0);
+        }
+    }
     events.push(Event::new(
         Timestamp::from_day_and_minute(last_day + 1, 0),
         EventKind::DayClosed,
@@ -167,19 +176,22 @@ async fn a_clinic_and_a_person_in_headless_chromium() {
         .to_zoned(jiff::tz::TimeZone::UTC)
         .date();
     let first_day = today.checked_sub(jiff::Span::new().days(8)).unwrap();
+    // The export's first (warm-up) day is not written: 9 days from the day
+    // before `first_day` give the eight days from `first_day` on.
+    let start = today.checked_sub(jiff::Span::new().days(9)).unwrap();
     let export = dir.0.join("export");
     abba(&[
         "export",
         "--patient",
-        "adult#002",
+        "adult#007",
         "--days",
-        "8",
+        "9",
         "--arm",
         "standard",
         "--tz",
         "UTC",
         "--start",
-        &first_day.to_string(),
+        &start.to_string(),
         "--out",
         export.to_str().unwrap(),
     ]);
@@ -236,7 +248,16 @@ async fn a_clinic_and_a_person_in_headless_chromium() {
             .await;
     }
     b.submit("form#bounds").await;
-    assert_eq!(b.path().await, person_path, "bounds: back to the person");
+    assert_eq!(
+        b.path().await,
+        format!("{person_path}?done=bounds"),
+        "bounds: back to the person"
+    );
+    assert!(b.text("#status").await.contains("Saved"), "bounds saved");
+    // The pump's finer basal step (a first update is a small one).
+    b.fill("form#steps input[name=basal_step]", "0.01").await;
+    b.submit("form#steps").await;
+    assert_eq!(b.path().await, format!("{person_path}?done=steps"));
 
     // The pump app's token, shown once.
     b.submit("form#issue-token").await;
@@ -389,62 +410,9 @@ async fn a_clinic_and_a_person_in_headless_chromium() {
     );
     b.check_page("today", 200, true).await;
 
-    // ---- Log: a meter reading, then a meal ------------------------------
-    let held = |c: &Client| c.sync(id, 0).unwrap().last_seq;
-    assert_eq!(held(&app), Some(last_seq));
-    b.goto("/log").await;
-    b.check_page("log", 200, true).await;
-    b.fill("form#log-reading input[name=glucose]", "142").await;
-    b.submit("form#log-reading").await;
-    assert_eq!(
-        held(&app),
-        Some(last_seq + 1),
-        "the reading is the next event"
-    );
-    let slot = b
-        .find("form#log-meal select[name=slot]")
-        .await
-        .prop("value")
-        .await
-        .unwrap()
-        .unwrap_or_default();
-    let slot = if slot == "snack" {
-        "dinner".to_string()
-    } else {
-        slot
-    };
-    b.fill("form#log-meal input[name=carbs]", "60").await;
-    b.select("form#log-meal select[name=slot]", &slot).await;
-    b.submit("form#log-meal").await;
-    assert_eq!(b.path().await, "/log");
-    assert_eq!(held(&app), Some(last_seq + 2), "the meal is the next event");
-    let meal = app
-        .advice(id)
-        .unwrap()
-        .settings
-        .into_iter()
-        .find(|s| setting_name(s.setting) == slot)
-        .and_then(|s| s.latest)
-        .unwrap_or_else(|| panic!("no {slot} decision after the meal"));
-    assert_eq!(
-        meal.status, "open",
-        "the meal's ratio is to answer: {meal:?}"
-    );
-    let advice = b.text("#meal-advice").await;
-    let bolus = on_step(60.0 / meal.value, 0.05);
-    assert!(
-        shows(&advice, meal.value) && shows(&advice, bolus),
-        "#meal-advice shows the ratio {} and the bolus {bolus}: {advice}",
-        meal.value
-    );
-    b.check_page("log-meal-advice", 200, true).await;
-    b.click_and_wait("#meal-advice form.answer button[name=action][value=accept]")
-        .await;
-    assert!(!b.text("#status").await.is_empty());
-    assert_eq!(b.attr("#status", "role").await.as_deref(), Some("status"));
-
     // ---- an own basal value: outside the bounds, then inside ------------
-    b.goto("/").await;
+    // (First: the own lower rate lets the meal's ratio move toward more
+    // insulin; ABBA never moves both the same way on one day.)
     let outside = basal_max + 0.5;
     b.fill(
         &format!("{basal_form} input[name=value]"),
@@ -485,6 +453,61 @@ async fn a_clinic_and_a_person_in_headless_chromium() {
         "the own value is accepted"
     );
     assert!(!b.text("#status").await.is_empty());
+
+    // ---- Log: a meter reading, then a meal ------------------------------
+    let held = |c: &Client| c.sync(id, 0).unwrap().last_seq;
+    assert_eq!(held(&app), Some(last_seq));
+    b.goto("/log").await;
+    b.check_page("log", 200, true).await;
+    b.fill("form#log-reading input[name=glucose]", "142").await;
+    b.submit("form#log-reading").await;
+    assert_eq!(
+        held(&app),
+        Some(last_seq + 1),
+        "the reading is the next event"
+    );
+    let slot = b
+        .find("form#log-meal select[name=slot]")
+        .await
+        .prop("value")
+        .await
+        .unwrap()
+        .unwrap_or_default();
+    let slot = if slot == "snack" {
+        "dinner".to_string()
+    } else {
+        slot
+    };
+    b.fill("form#log-meal input[name=carbs]", "60").await;
+    b.select("form#log-meal select[name=slot]", &slot).await;
+    b.submit("form#log-meal").await;
+    let after_meal = b.path().await;
+    assert!(after_meal.starts_with("/log?meal="), "{after_meal}");
+    assert_eq!(held(&app), Some(last_seq + 2), "the meal is the next event");
+    let meal = app
+        .advice(id)
+        .unwrap()
+        .settings
+        .into_iter()
+        .find(|s| setting_name(s.setting) == slot)
+        .and_then(|s| s.latest)
+        .unwrap_or_else(|| panic!("no {slot} decision after the meal"));
+    assert_eq!(
+        meal.status, "open",
+        "the meal's ratio is to answer: {meal:?}"
+    );
+    let advice = b.text("#meal-advice").await;
+    let bolus = on_step(60.0 / meal.value, 0.05);
+    assert!(
+        shows(&advice, meal.value) && shows(&advice, bolus),
+        "#meal-advice shows the ratio {} and the bolus {bolus}: {advice}",
+        meal.value
+    );
+    b.check_page("log-meal-advice", 200, true).await;
+    b.click_and_wait("#meal-advice form.answer button[name=action][value=accept]")
+        .await;
+    assert!(!b.text("#status").await.is_empty());
+    assert_eq!(b.attr("#status", "role").await.as_deref(), Some("status"));
 
     // ---- Glucose, History, the report ------------------------------------
     for (range, page) in [("24h", "glucose-24h"), ("14d", "glucose-14d")] {

@@ -256,6 +256,30 @@ pub struct Glucose {
     pub summary: Vec<SummaryItem>,
     /// A note under the summary (finger sticks: shares of readings).
     pub summary_note: Option<String>,
+    /// The chart's readings as a table (by hour over a day, by day over
+    /// two weeks), oldest first.
+    pub table: Vec<GlucoseRow>,
+    /// The table's caption.
+    pub table_caption: String,
+    /// The table's first column's name (hour or day).
+    pub table_period: &'static str,
+}
+
+/// One row of the Glucose page's table.
+#[derive(Debug, Clone, Serialize)]
+pub struct GlucoseRow {
+    /// The hour or the day.
+    pub period: String,
+    /// How many readings.
+    pub readings: usize,
+    /// Their mean, in the person's unit.
+    pub mean: String,
+    /// The lowest.
+    pub lowest: String,
+    /// The highest.
+    pub highest: String,
+    /// The share in the target range.
+    pub in_range: String,
 }
 
 /// One row of the History table.

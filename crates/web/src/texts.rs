@@ -158,6 +158,22 @@ pub struct Texts {
     pub missing_field: &'static str,
     /// Title of the clinic's page.
     pub clinic_title: &'static str,
+    /// Column: readings.
+    pub table_readings: &'static str,
+    /// Column: mean.
+    pub table_mean: &'static str,
+    /// Column: lowest.
+    pub table_lowest: &'static str,
+    /// Column: highest.
+    pub table_highest: &'static str,
+    /// Column: in range.
+    pub table_in_range: &'static str,
+    /// Column: the hour.
+    pub table_hour: &'static str,
+    /// Column: the day.
+    pub table_day: &'static str,
+    /// The table's caption ({unit}).
+    pub table_caption: &'static str,
     /// Title of the Glucose page.
     pub glucose_title: &'static str,
     /// The last 24 hours.
@@ -309,6 +325,14 @@ pub const EN: Texts = Texts {
     expected_number: "Enter a number, for example {example}.",
     missing_field: "This field is needed.",
     clinic_title: "Persons",
+    table_readings: "Readings",
+    table_mean: "Mean",
+    table_lowest: "Lowest",
+    table_highest: "Highest",
+    table_in_range: "In range",
+    table_hour: "Hour",
+    table_day: "Day",
+    table_caption: "The readings of the chart, in {unit}",
     glucose_title: "Glucose",
     range_24h: "Last 24 hours",
     range_14d: "Last 14 days",

@@ -15,7 +15,7 @@ use abba_store::advise;
 use abba_store::person::GlucoseUnits;
 use abba_store::Live;
 use abba_web::chart::{self, Point};
-use abba_web::pages::{Glucose, Layout, LinkChoice, SummaryItem};
+use abba_web::pages::{Glucose, GlucoseRow, Layout, LinkChoice, SummaryItem};
 use abba_web::texts::{fill, EN};
 use axum::extract::{RawQuery, State};
 use axum::http::StatusCode;
@@ -148,6 +148,9 @@ pub fn model(live: &Live, range: Range, now: Option<Timestamp>) -> Glucose {
             chart: None,
             summary: Vec::new(),
             summary_note: None,
+            table: Vec::new(),
+            table_caption: String::new(),
+            table_period: EN.table_hour,
         };
     }
     let points: Vec<Point> = shown
@@ -217,13 +220,67 @@ pub fn model(live: &Live, range: Range, now: Option<Timestamp>) -> Glucose {
             value: format!("{} {}", unit.text(mean * unit.per_mg_dl), unit.name),
         });
     }
+    let (table_period, bucket) = match range {
+        Range::Day => (EN.table_hour, 60),
+        Range::TwoWeeks => (EN.table_day, 1440),
+    };
+    let table = table(&shown, bucket, &unit, |t| {
+        let l = local(t);
+        match range {
+            // The hour's local start, "HH:00".
+            Range::Day => format!(
+                "{}–{}",
+                l.get(11..16).unwrap_or(&l),
+                local(t + 60).get(11..16).unwrap_or("")
+            ),
+            Range::TwoWeeks => l.get(..10).unwrap_or(&l).to_string(),
+        }
+    });
     Glucose {
         ranges,
         chart_title,
         chart: Some(c),
         summary,
         summary_note: (cgm < mg.len()).then(|| EN.summary_share.to_string()),
+        table,
+        table_caption: fill(EN.table_caption, &[("unit", unit.name)]),
+        table_period,
     }
+}
+
+/// The readings by `bucket` minutes (local wall time), oldest first.
+fn table(
+    shown: &[&(i64, f64, bool)],
+    bucket: i64,
+    unit: &Unit,
+    label: impl Fn(i64) -> String,
+) -> Vec<GlucoseRow> {
+    let mut rows = Vec::new();
+    let mut i = 0;
+    while i < shown.len() {
+        let key = shown[i].0.div_euclid(bucket);
+        let mut j = i;
+        while j < shown.len() && shown[j].0.div_euclid(bucket) == key {
+            j += 1;
+        }
+        let mg: Vec<f64> = shown[i..j].iter().map(|r| r.1).collect();
+        let mean = mg.iter().sum::<f64>() / mg.len() as f64;
+        let lo = mg.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = mg.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let tir =
+            mg.iter().filter(|g| (70.0..=180.0).contains(*g)).count() as f64 / mg.len() as f64;
+        let v = |x: f64| unit.text(x * unit.per_mg_dl);
+        rows.push(GlucoseRow {
+            period: label(key * bucket),
+            readings: mg.len(),
+            mean: v(mean),
+            lowest: v(lo),
+            highest: v(hi),
+            in_range: format!("{:.0} %", tir * 100.0),
+        });
+        i = j;
+    }
+    rows
 }
 
 /// `GET /glucose?range=24h|14d`.

@@ -325,7 +325,7 @@ async fn the_access_matrix_of_the_pages() {
     let mut nobody = Browser::new(&svc);
     let (mut ana, ana_csrf) = signed_in(&svc, Role::Person(a as i64)).await;
     let (mut admin, admin_csrf) = signed_in(&svc, Role::Admin).await;
-    for path in ["/", "/log"] {
+    for path in ["/", "/log", "/glucose", "/history", "/report"] {
         let p = nobody.get(path).await;
         assert_eq!(
             (p.status, p.location()),
@@ -360,6 +360,76 @@ async fn the_access_matrix_of_the_pages() {
         }
     }
     assert_eq!(app_events(&svc, a), 0);
+    // The clinic's pages: the admin only; a person's session is refused
+    // (their own record included), nobody is sent to sign in.
+    let b = _b;
+    let clinic_gets = [
+        "/clinic".to_string(),
+        format!("/clinic/persons/{a}"),
+        format!("/clinic/persons/{b}"),
+        format!("/clinic/persons/{a}/report"),
+    ];
+    for path in &clinic_gets {
+        assert_eq!(ana.get(path).await.status, StatusCode::FORBIDDEN, "{path}");
+        let p = nobody.get(path).await;
+        assert_eq!(
+            (p.status, p.location()),
+            (StatusCode::SEE_OTHER, "/signin"),
+            "{path}"
+        );
+    }
+    assert_eq!(admin.get("/clinic").await.status, StatusCode::OK);
+    assert_eq!(
+        admin.get(&format!("/clinic/persons/{b}")).await.status,
+        StatusCode::OK
+    );
+    let clinic_posts: [(String, Vec<(&str, &str)>); 5] = [
+        (
+            format!("/clinic/persons/{a}/bounds"),
+            vec![("basal_min", "0.1"), ("basal_max", "3")],
+        ),
+        (
+            format!("/clinic/persons/{a}/steps"),
+            vec![("basal_step", "0.01")],
+        ),
+        (
+            format!("/clinic/persons/{a}/therapy"),
+            vec![("basal", "1.1")],
+        ),
+        (format!("/clinic/persons/{a}/signin"), vec![]),
+        (format!("/clinic/persons/{a}/tokens"), vec![]),
+    ];
+    for (path, fields) in &clinic_posts {
+        let mut f = fields.clone();
+        f.push(("csrf", &ana_csrf));
+        assert_eq!(
+            ana.post(path, &f).await.status,
+            StatusCode::FORBIDDEN,
+            "{path} by a person"
+        );
+        assert_eq!(
+            nobody.post(path, fields).await.status,
+            StatusCode::FORBIDDEN,
+            "{path} by nobody"
+        );
+    }
+    {
+        let mut store = abba_service::open_store(&svc.db).unwrap();
+        let before = store.person("ben").unwrap();
+        let live = store.live(a as i64).unwrap();
+        use abba_advisor::Advisor as _;
+        assert_eq!(live.advisor.settings().basal.0, 1.0, "no change of therapy");
+        assert_eq!(
+            format!("{:?}", live.person.settings.bounds),
+            format!("{:?}", before.settings.bounds),
+            "no bounds"
+        );
+        assert_eq!(
+            store.tokens_of(Role::Person(a as i64)).unwrap().len(),
+            0,
+            "no token"
+        );
+    }
     // The cookie is never accepted on /v1.
     let cookie = ana
         .cookies

@@ -168,7 +168,7 @@ impl Store {
         hash: &[u8; 32],
         now_ms: i64,
     ) -> Result<Option<WebSession>, StoreError> {
-        let row: Option<(i64, Vec<u8>, String, Option<i64>, String, i64, i64)> = self
+        let row: Option<SessionTuple> = self
             .conn
             .query_row(
                 "SELECT id, hash, role, person_id, csrf, seen_ms, expires_ms FROM web_session WHERE hash = ?1 AND revoked_ms IS NULL",
@@ -250,12 +250,17 @@ impl Store {
     }
 }
 
+/// A `web_session` row: id, hash, role, person, CSRF token, seen, expires.
+type SessionTuple = (i64, Vec<u8>, String, Option<i64>, String, i64, i64);
+/// A `signin_link` row: hash, role, person, expires, used.
+type LinkRow = (Vec<u8>, String, Option<i64>, i64, Option<i64>);
+
 fn link_state(
     conn: &rusqlite::Connection,
     hash: &[u8; 32],
     now_ms: i64,
 ) -> Result<Result<Role, LinkRefused>, StoreError> {
-    let row: Option<(Vec<u8>, String, Option<i64>, i64, Option<i64>)> = conn
+    let row: Option<LinkRow> = conn
         .query_row(
             "SELECT hash, role, person_id, expires_ms, used_ms FROM signin_link WHERE hash = ?1",
             params![&hash[..]],

@@ -80,7 +80,7 @@ pub async fn set_bounds(
 ) -> Result<Json<BoundsBody>, ApiError> {
     let id = parse_id(&id);
     let b: BoundsBody = body::parse(&headers, body)?;
-    let wire = b.clone();
+    let wire = b;
     s.person(id, true, move |store, live| {
         put_bounds(store, live, id, &wire)
     })

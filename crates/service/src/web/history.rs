@@ -147,7 +147,7 @@ pub fn report_csp(doc: &str) -> String {
         let Some(j) = body.find("</style>") else {
             break;
         };
-        let digest = Sha256::digest(body[..j].as_bytes());
+        let digest = Sha256::digest(&body.as_bytes()[..j]);
         styles.push_str(&format!(
             " 'sha256-{}'",
             base64::engine::general_purpose::STANDARD.encode(digest)

@@ -17,17 +17,24 @@ pub const REFERRER_POLICY: &str = "same-origin";
 
 /// A page that could not be shown as asked: already a response.
 #[derive(Debug)]
-pub struct PageError(pub Response);
+pub struct PageError(pub Box<Response>);
+
+impl PageError {
+    /// A response as a page error.
+    pub fn of(r: Response) -> Self {
+        PageError(Box::new(r))
+    }
+}
 
 impl IntoResponse for PageError {
     fn into_response(self) -> Response {
-        self.0
+        *self.0
     }
 }
 
 impl From<ApiError> for PageError {
     fn from(e: ApiError) -> Self {
-        PageError(error_page(&e))
+        PageError::of(error_page(&e))
     }
 }
 
@@ -79,7 +86,7 @@ pub fn see_other(to: &str) -> Response {
 
 /// 403 for a form without a valid CSRF token or from another origin.
 pub fn forbidden_csrf() -> PageError {
-    PageError(message(
+    PageError::of(message(
         StatusCode::FORBIDDEN,
         EN.forbidden_title,
         EN.forbidden_csrf,
@@ -89,7 +96,7 @@ pub fn forbidden_csrf() -> PageError {
 
 /// 403 for a page of the other role.
 pub fn forbidden_role() -> PageError {
-    PageError(message(
+    PageError::of(message(
         StatusCode::FORBIDDEN,
         EN.forbidden_title,
         EN.forbidden_role,
@@ -99,7 +106,7 @@ pub fn forbidden_role() -> PageError {
 
 /// 404 as a page.
 pub fn not_found() -> PageError {
-    PageError(message(
+    PageError::of(message(
         StatusCode::NOT_FOUND,
         EN.not_found_title,
         EN.not_found,

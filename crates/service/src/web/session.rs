@@ -150,10 +150,10 @@ pub async fn current(s: &AppState, ctx: &Ctx) -> Result<Option<WebSession>, Page
 /// sign-in page, an admin session goes to the clinic.
 pub async fn person_page(s: &AppState, ctx: &Ctx) -> Result<(i64, WebSession), PageError> {
     match current(s, ctx).await? {
-        None => Err(PageError(see_other("/signin"))),
+        None => Err(PageError::of(see_other("/signin"))),
         Some(w) => match w.role {
             Role::Person(id) => Ok((id, w)),
-            Role::Admin => Err(PageError(see_other("/clinic"))),
+            Role::Admin => Err(PageError::of(see_other("/clinic"))),
         },
     }
 }
@@ -162,7 +162,7 @@ pub async fn person_page(s: &AppState, ctx: &Ctx) -> Result<(i64, WebSession), P
 /// page, a person's session 403.
 pub async fn admin_page(s: &AppState, ctx: &Ctx) -> Result<WebSession, PageError> {
     match current(s, ctx).await? {
-        None => Err(PageError(see_other("/signin"))),
+        None => Err(PageError::of(see_other("/signin"))),
         Some(w) => match w.role {
             Role::Admin => Ok(w),
             Role::Person(_) => Err(forbidden_role()),

@@ -28,6 +28,9 @@ use std::sync::OnceLock;
 
 /// The stylesheet, served at [`STYLE_PATH`].
 pub const STYLE: &str = include_str!("../static/abba.css");
+/// The icon, served at `/favicon.ico` (a browser asks for it on its own,
+/// also for the report, a self-contained document that links nothing).
+pub const ICON_SVG: &str = "<svg xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"0 0 16 16\"><circle cx=\"8\" cy=\"8\" r=\"7\" fill=\"#0b4f8a\"/></svg>";
 /// Where the pages link the stylesheet.
 pub const STYLE_PATH: &str = "/static/abba.css";
 

@@ -38,6 +38,7 @@ pub fn routes() -> Router<AppState> {
     );
     Router::new()
         .route(abba_web::STYLE_PATH, get(page::style))
+        .route("/favicon.ico", get(page::icon))
         .route("/signin", get(signin::help).post(signin::post))
         .route("/signin/{secret}", get(signin::page))
         .route("/signout", post(signin::signout))

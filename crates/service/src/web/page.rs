@@ -144,3 +144,13 @@ pub async fn style() -> Response {
     );
     r
 }
+
+/// The icon (`/favicon.ico`, an SVG).
+pub async fn icon() -> Response {
+    let mut r = abba_web::ICON_SVG.into_response();
+    r.headers_mut().insert(
+        header::CONTENT_TYPE,
+        HeaderValue::from_static("image/svg+xml"),
+    );
+    r
+}

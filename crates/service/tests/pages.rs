@@ -845,3 +845,67 @@ async fn a_person_without_data_sees_an_empty_chart_and_no_report_yet() {
     assert_eq!(r.status, StatusCode::OK);
     assert!(r.html.contains("nothing to report yet"), "{}", r.html);
 }
+
+#[tokio::test]
+async fn the_clinic_shows_each_persons_nightscout_link_and_its_last_sync_never_its_credential() {
+    let svc = Svc::new();
+    let a = svc.person("ana").await;
+    let _ = svc.person("ben").await;
+    let secret = "ana-0123456789abcdef";
+    {
+        let mut store = abba_service::open_store(&svc.db).unwrap();
+        store
+            .set_link(
+                "ana",
+                "https://ana.example.org",
+                &abba_store::link::Credential::Token(secret.into()),
+                false,
+            )
+            .unwrap();
+        let at: jiff::Timestamp = "2026-12-01T08:00:00Z".parse().unwrap();
+        store
+            .record_sync("ana", at, Some("401 Unauthorized: the token was refused"))
+            .unwrap();
+    }
+    let (mut admin, _) = signed_in(&svc, Role::Admin).await;
+    let list = admin.get("/clinic").await;
+    assert_eq!(list.status, StatusCode::OK);
+    let row = |name: &str| {
+        let start = list
+            .html
+            .find(&format!("<tr data-person=\"{name}\""))
+            .unwrap();
+        let rest = &list.html[start..];
+        rest[..rest.find("</tr>").unwrap()].to_string()
+    };
+    let ana = row("ana");
+    assert!(ana.contains("last sync failed: 401 Unauthorized"), "{ana}");
+    assert!(!row("ben").contains("linked"), "ben has no link");
+    let page = admin.get(&format!("/clinic/persons/{a}")).await;
+    let ns = page.html.split("<p id=\"nightscout\">").nth(1).unwrap();
+    let ns = &ns[..ns.find("</p>").unwrap()];
+    assert!(
+        ns.contains("https:&#x2f;&#x2f;ana.example.org") || ns.contains("https://ana.example.org"),
+        "{ns}"
+    );
+    assert!(
+        ns.contains("2026-12-01T08:00:00Z") && ns.contains("failed: 401"),
+        "{ns}"
+    );
+    for html in [&list.html, &page.html] {
+        assert!(!html.contains(secret), "the credential is never shown");
+    }
+    // After a successful sync the error is gone.
+    {
+        let mut store = abba_service::open_store(&svc.db).unwrap();
+        let at: jiff::Timestamp = "2026-12-01T08:05:00Z".parse().unwrap();
+        store.record_sync("ana", at, None).unwrap();
+    }
+    let list = admin.get("/clinic").await;
+    assert!(
+        list.html.contains("linked; last sync 2026-12-01T08:05:00Z"),
+        "{}",
+        list.html
+    );
+    assert!(!list.html.contains("failed"));
+}

@@ -29,6 +29,7 @@ mod output;
 mod person;
 mod person_report;
 mod progress;
+mod remote;
 mod report;
 mod serve;
 mod shard;

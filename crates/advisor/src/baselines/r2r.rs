@@ -13,7 +13,7 @@ use crate::error::{check_positive, check_range, config_err, AdvisorError};
 use crate::guard::{closed_day, EventGuard};
 use crate::parameter::Parameter;
 use crate::windows::{DayWindows, MealWindows};
-use crate::{Advisor, ArmKind};
+use crate::ArmKind;
 use abba_core::{
     Event, EventKind, GramsPerUnit, MealSlot, TherapySettings, Timestamp, UnitsPerHour,
 };
@@ -365,6 +365,12 @@ impl RunToRun {
         self.record(at, p, old, new, DecisionDetail::RunToRun(expl));
     }
 
+    /// One checked event ([`crate::adapting`]); run-to-run's handling
+    /// cannot fail.
+    fn step(&mut self, e: &Event) -> Result<Option<TherapySettings>, AdvisorError> {
+        Ok(self.process(e))
+    }
+
     fn process(&mut self, e: &Event) -> Option<TherapySettings> {
         match e.kind {
             EventKind::Cgm(g) if self.config.mode == Mode::Cgm => {
@@ -402,14 +408,7 @@ impl RunToRun {
             EventKind::SuggestionAccepted(v)
             | EventKind::SuggestionRejected(v)
             | EventKind::SuggestionOverridden(v) => {
-                match v {
-                    abba_core::SettingValue::Basal { rate } => self.settings.basal = rate,
-                    abba_core::SettingValue::CarbRatio { slot, ratio } => {
-                        if let Some(i) = slot.main_index() {
-                            self.settings.carb_ratio[i] = ratio;
-                        }
-                    }
-                }
+                v.put_in_force(&mut self.settings);
                 None
             }
             _ => None,
@@ -433,38 +432,12 @@ fn integral_step(gain: f64, y: f64, reference: f64, cap: f64) -> (f64, R2rExplan
     (rel, expl)
 }
 
-impl Advisor for RunToRun {
-    fn observe(&mut self, event: &Event) -> Result<Option<TherapySettings>, AdvisorError> {
-        self.guard.check(event, &self.config.limits)?;
-        let out = self.process(event);
-        self.guard.commit(event);
-        Ok(out)
-    }
-
-    fn settings(&self) -> &TherapySettings {
-        &self.settings
-    }
-
-    fn decisions(&self) -> &[Decision] {
-        self.log.as_slice()
-    }
-
-    fn take_decisions(&mut self) -> Vec<Decision> {
-        self.log.take()
-    }
-
-    fn arm(&self) -> ArmKind {
-        ArmKind::R2r
-    }
-
-    fn mode(&self) -> Option<Mode> {
-        Some(self.config.mode)
-    }
-}
+crate::adapting::advisor!(RunToRun, ArmKind::R2r);
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::Advisor;
     use abba_core::{Grams, MgDl};
 
     fn start() -> TherapySettings {

@@ -7,7 +7,7 @@
 //! in crates/trial/README.md "Knobs" (CGM- and SMBG-mode excursion, actor rule, and the
 //! guessed scales chosen by `abba calibrate`).
 
-use crate::error::{check_positive, check_range, config_err, AdvisorError};
+use crate::error::{check_count, check_positive, check_range, config_err, AdvisorError};
 use serde::{Deserialize, Serialize};
 
 /// Which measurements drive the advisor.
@@ -94,16 +94,12 @@ impl EventLimits {
                 return Err(config_err(field, "must be at least 1 minute, got 0"));
             }
         }
-        if self.max_timestamp_min <= 0 || self.max_timestamp_min > i64::MAX / 4 {
-            return Err(config_err(
-                "limits.max_timestamp_min",
-                format!(
-                    "must be in 1..={}, got {}",
-                    i64::MAX / 4,
-                    self.max_timestamp_min
-                ),
-            ));
-        }
+        check_count(
+            "limits.max_timestamp_min",
+            self.max_timestamp_min,
+            1,
+            i64::MAX / 4,
+        )?;
         Ok(())
     }
 }
@@ -574,12 +570,7 @@ impl Default for TeConfig {
 impl TeConfig {
     /// Checks every TE knob.
     pub fn validate(&self) -> Result<(), AdvisorError> {
-        if !(1..=60).contains(&self.bin_minutes) {
-            return Err(config_err(
-                "te.bin_minutes",
-                format!("must be in 1..=60, got {}", self.bin_minutes),
-            ));
-        }
+        check_count("te.bin_minutes", self.bin_minutes, 1, 60)?;
         check_positive("te.kernel_peak_min", self.kernel_peak_min)?;
         // The exponential activity model needs t_peak < t_duration / 2.
         check_range(
@@ -588,12 +579,7 @@ impl TeConfig {
             2.0 * self.kernel_peak_min + 1e-6,
             24.0 * 60.0,
         )?;
-        if !(2..=16).contains(&self.bins) {
-            return Err(config_err(
-                "te.bins",
-                format!("must be in 2..=16, got {}", self.bins),
-            ));
-        }
+        check_count("te.bins", self.bins, 2, 16)?;
         if self.max_lag_steps > 288 {
             return Err(config_err(
                 "te.max_lag_steps",
@@ -699,12 +685,7 @@ impl AbbaConfig {
 
     /// Checks every field; the error names the field and the value.
     pub fn validate(&self) -> Result<(), AdvisorError> {
-        if !(1..=60).contains(&self.init_days) {
-            return Err(config_err(
-                "init_days",
-                format!("must be in 1..=60, got {}", self.init_days),
-            ));
-        }
+        check_count("init_days", self.init_days, 1, 60)?;
         check_range("a_hyper", self.a_hyper, 0.0, 1e3)?;
         check_range("a_hypo", self.a_hypo, 0.0, 1e3)?;
         self.features.validate()?;

@@ -9,7 +9,7 @@
 
 use crate::config::{EventLimits, Mode};
 use crate::decision::{Decision, DecisionDetail, DecisionLog, R2rExplanation, SkipReason};
-use crate::error::{check_positive, check_range, config_err, AdvisorError};
+use crate::error::{check_count, check_positive, check_range, config_err, AdvisorError};
 use crate::guard::{closed_day, EventGuard};
 use crate::parameter::Parameter;
 use crate::windows::{DayWindows, MealWindows};
@@ -106,12 +106,7 @@ impl R2rConfig {
 
     /// Checks every field.
     pub fn validate(&self) -> Result<(), AdvisorError> {
-        if !(1..=60).contains(&self.init_days) {
-            return Err(config_err(
-                "init_days",
-                format!("must be in 1..=60, got {}", self.init_days),
-            ));
-        }
+        check_count("init_days", self.init_days, 1, 60)?;
         check_range("basal_gain", self.basal_gain, 0.0, 10.0)?;
         check_positive("basal_ref_mg_dl", self.basal_ref_mg_dl)?;
         check_range("basal_cap", self.basal_cap, 0.0, 0.5)?;

@@ -30,7 +30,7 @@
 use super::{autotune_day, Carbs, DayData, Insulin, Profile, Reading, UtcClock};
 use crate::config::{EventLimits, Mode};
 use crate::decision::{Decision, DecisionDetail, DecisionLog, SkipReason};
-use crate::error::{check_positive, check_range, config_err, AdvisorError};
+use crate::error::{check_count, check_positive, check_range, config_err, AdvisorError};
 use crate::guard::EventGuard;
 use crate::parameter::Parameter;
 use crate::ArmKind;
@@ -83,12 +83,7 @@ impl AutotuneConfig {
 
     /// Checks every field.
     pub fn validate(&self) -> Result<(), AdvisorError> {
-        if !(1..=60).contains(&self.init_days) {
-            return Err(config_err(
-                "init_days",
-                format!("must be in 1..=60, got {}", self.init_days),
-            ));
-        }
+        check_count("init_days", self.init_days, 1, 60)?;
         check_positive("isf_rule_mg_dl", self.isf_rule_mg_dl)?;
         check_range("dia_h", self.dia_h, 3.0, 12.0)?;
         check_range("autosens_max", self.autosens_max, 1.0, 3.0)?;

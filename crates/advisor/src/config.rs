@@ -72,6 +72,32 @@ impl Default for EventLimits {
     }
 }
 
+/// Parses a JSON configuration and validates it (each arm's `from_json`).
+pub(crate) fn parse_checked<T: serde::de::DeserializeOwned>(
+    json: &str,
+    validate: fn(&T) -> Result<(), AdvisorError>,
+) -> Result<T, AdvisorError> {
+    let c: T = serde_json::from_str(json).map_err(|e| config_err("(json)", e.to_string()))?;
+    validate(&c)?;
+    Ok(c)
+}
+
+/// What every adapting arm's configuration check ends with: its event
+/// limits, and a decision log that holds at least one decision.
+pub(crate) fn check_limits_and_log(
+    limits: &EventLimits,
+    decision_log_capacity: usize,
+) -> Result<(), AdvisorError> {
+    limits.validate()?;
+    if decision_log_capacity == 0 {
+        return Err(config_err(
+            "decision_log_capacity",
+            "must be at least 1, got 0",
+        ));
+    }
+    Ok(())
+}
+
 impl EventLimits {
     /// Checks the limits themselves.
     pub fn validate(&self) -> Result<(), AdvisorError> {
@@ -677,10 +703,7 @@ impl AbbaConfig {
 
     /// Parses a JSON configuration and validates it.
     pub fn from_json(json: &str) -> Result<Self, AdvisorError> {
-        let c: Self =
-            serde_json::from_str(json).map_err(|e| config_err("(json)", e.to_string()))?;
-        c.validate()?;
-        Ok(c)
+        parse_checked(json, Self::validate)
     }
 
     /// Checks every field; the error names the field and the value.
@@ -742,14 +765,7 @@ impl AbbaConfig {
             0.5,
         )?;
         self.te.validate()?;
-        self.limits.validate()?;
-        if self.decision_log_capacity == 0 {
-            return Err(config_err(
-                "decision_log_capacity",
-                "must be at least 1, got 0",
-            ));
-        }
-        Ok(())
+        check_limits_and_log(&self.limits, self.decision_log_capacity)
     }
 }
 
@@ -764,6 +780,31 @@ mod tests {
         let s = serde_json::to_string(&c).unwrap();
         let back: AbbaConfig = serde_json::from_str(&s).unwrap();
         assert_eq!(back, c);
+    }
+
+    #[test]
+    fn every_adapting_arm_checks_its_log_and_json_the_same_way() {
+        let want = config_err("decision_log_capacity", "must be at least 1, got 0");
+        let mut abba = AbbaConfig::new(Mode::Cgm, 1);
+        abba.decision_log_capacity = 0;
+        assert_eq!(abba.validate(), Err(want.clone()));
+        let mut r2r = crate::R2rConfig::new(Mode::Cgm);
+        r2r.decision_log_capacity = 0;
+        assert_eq!(r2r.validate(), Err(want.clone()));
+        let mut autotune = crate::AutotuneConfig::new(Mode::Cgm);
+        autotune.decision_log_capacity = 0;
+        assert_eq!(autotune.validate(), Err(want));
+        // from_json: parsed, then validated; a parse error names "(json)".
+        let json = serde_json::to_string(&r2r).unwrap();
+        assert!(crate::R2rConfig::from_json(&json).is_err());
+        r2r.decision_log_capacity = 1;
+        let json = serde_json::to_string(&r2r).unwrap();
+        assert_eq!(crate::R2rConfig::from_json(&json), Ok(r2r));
+        let e = AbbaConfig::from_json("{").unwrap_err();
+        assert!(
+            matches!(e, AdvisorError::Config { ref field, .. } if field == "(json)"),
+            "{e}"
+        );
     }
 
     #[test]

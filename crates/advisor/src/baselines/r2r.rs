@@ -7,7 +7,7 @@
 //! override, once per day per parameter, at the same decision points and
 //! with the same initialisation week as ABBA.
 
-use crate::config::{EventLimits, Mode};
+use crate::config::{check_limits_and_log, parse_checked, EventLimits, Mode};
 use crate::decision::{Decision, DecisionDetail, DecisionLog, R2rExplanation, SkipReason};
 use crate::error::{check_count, check_positive, check_range, config_err, AdvisorError};
 use crate::guard::{closed_day, EventGuard};
@@ -98,10 +98,7 @@ impl R2rConfig {
 
     /// Parses a JSON configuration and validates it.
     pub fn from_json(json: &str) -> Result<Self, AdvisorError> {
-        let c: Self =
-            serde_json::from_str(json).map_err(|e| config_err("(json)", e.to_string()))?;
-        c.validate()?;
-        Ok(c)
+        parse_checked(json, Self::validate)
     }
 
     /// Checks every field.
@@ -139,14 +136,7 @@ impl R2rConfig {
                 ));
             }
         }
-        self.limits.validate()?;
-        if self.decision_log_capacity == 0 {
-            return Err(config_err(
-                "decision_log_capacity",
-                "must be at least 1, got 0",
-            ));
-        }
-        Ok(())
+        check_limits_and_log(&self.limits, self.decision_log_capacity)
     }
 }
 

@@ -28,7 +28,7 @@
 //!   first-week result stays).
 
 use super::{autotune_day, Carbs, DayData, Insulin, Profile, Reading, UtcClock};
-use crate::config::{EventLimits, Mode};
+use crate::config::{check_limits_and_log, EventLimits, Mode};
 use crate::decision::{Decision, DecisionDetail, DecisionLog, SkipReason};
 use crate::error::{check_count, check_positive, check_range, config_err, AdvisorError};
 use crate::guard::EventGuard;
@@ -97,14 +97,7 @@ impl AutotuneConfig {
                 ),
             ));
         }
-        self.limits.validate()?;
-        if self.decision_log_capacity == 0 {
-            return Err(config_err(
-                "decision_log_capacity",
-                "must be at least 1, got 0",
-            ));
-        }
-        Ok(())
+        check_limits_and_log(&self.limits, self.decision_log_capacity)
     }
 }
 

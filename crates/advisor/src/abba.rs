@@ -19,7 +19,7 @@ use crate::steps::{
 use crate::supervisor::{adds_insulin, supervisory, ParamKind};
 use crate::te::{te_scale, theta0, transfer_entropy, TeCollector, TeEstimate};
 use crate::windows::{DayWindows, MealWindows};
-use crate::{Advisor, ArmKind};
+use crate::ArmKind;
 use abba_core::{
     Event, EventKind, GramsPerUnit, MealSlot, SettingValue, TherapySettings, Timestamp,
     UnitsPerHour,
@@ -653,6 +653,11 @@ impl Abba {
         }
     }
 
+    /// One checked event ([`crate::adapting`]); ABBA's handling cannot fail.
+    fn step(&mut self, e: &Event) -> Result<Option<TherapySettings>, AdvisorError> {
+        Ok(self.process(e))
+    }
+
     /// The decision points: main-meal announcements and day closings.
     fn timeline(&mut self, e: &Event) -> Option<TherapySettings> {
         match e.kind {
@@ -691,31 +696,4 @@ impl Abba {
     }
 }
 
-impl Advisor for Abba {
-    fn observe(&mut self, event: &Event) -> Result<Option<TherapySettings>, AdvisorError> {
-        self.guard.check(event, &self.config.limits)?;
-        let out = self.process(event);
-        self.guard.commit(event);
-        Ok(out)
-    }
-
-    fn settings(&self) -> &TherapySettings {
-        &self.settings
-    }
-
-    fn decisions(&self) -> &[Decision] {
-        self.log.as_slice()
-    }
-
-    fn take_decisions(&mut self) -> Vec<Decision> {
-        self.log.take()
-    }
-
-    fn arm(&self) -> ArmKind {
-        ArmKind::Abba
-    }
-
-    fn mode(&self) -> Option<Mode> {
-        Some(self.config.mode)
-    }
-}
+crate::adapting::advisor!(Abba, ArmKind::Abba);

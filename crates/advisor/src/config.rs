@@ -7,7 +7,7 @@
 //! in crates/trial/README.md "Knobs" (CGM- and SMBG-mode excursion, actor rule, and the
 //! guessed scales chosen by `abba calibrate`).
 
-use crate::error::{check_positive, check_range, config_err, AdvisorError};
+use crate::error::{check_count, check_positive, check_range, config_err, AdvisorError};
 use serde::{Deserialize, Serialize};
 
 /// Which measurements drive the advisor.
@@ -72,6 +72,32 @@ impl Default for EventLimits {
     }
 }
 
+/// Parses a JSON configuration and validates it (each arm's `from_json`).
+pub(crate) fn parse_checked<T: serde::de::DeserializeOwned>(
+    json: &str,
+    validate: fn(&T) -> Result<(), AdvisorError>,
+) -> Result<T, AdvisorError> {
+    let c: T = serde_json::from_str(json).map_err(|e| config_err("(json)", e.to_string()))?;
+    validate(&c)?;
+    Ok(c)
+}
+
+/// What every adapting arm's configuration check ends with: its event
+/// limits, and a decision log that holds at least one decision.
+pub(crate) fn check_limits_and_log(
+    limits: &EventLimits,
+    decision_log_capacity: usize,
+) -> Result<(), AdvisorError> {
+    limits.validate()?;
+    if decision_log_capacity == 0 {
+        return Err(config_err(
+            "decision_log_capacity",
+            "must be at least 1, got 0",
+        ));
+    }
+    Ok(())
+}
+
 impl EventLimits {
     /// Checks the limits themselves.
     pub fn validate(&self) -> Result<(), AdvisorError> {
@@ -94,16 +120,12 @@ impl EventLimits {
                 return Err(config_err(field, "must be at least 1 minute, got 0"));
             }
         }
-        if self.max_timestamp_min <= 0 || self.max_timestamp_min > i64::MAX / 4 {
-            return Err(config_err(
-                "limits.max_timestamp_min",
-                format!(
-                    "must be in 1..={}, got {}",
-                    i64::MAX / 4,
-                    self.max_timestamp_min
-                ),
-            ));
-        }
+        check_count(
+            "limits.max_timestamp_min",
+            self.max_timestamp_min,
+            1,
+            i64::MAX / 4,
+        )?;
         Ok(())
     }
 }
@@ -574,12 +596,7 @@ impl Default for TeConfig {
 impl TeConfig {
     /// Checks every TE knob.
     pub fn validate(&self) -> Result<(), AdvisorError> {
-        if !(1..=60).contains(&self.bin_minutes) {
-            return Err(config_err(
-                "te.bin_minutes",
-                format!("must be in 1..=60, got {}", self.bin_minutes),
-            ));
-        }
+        check_count("te.bin_minutes", self.bin_minutes, 1, 60)?;
         check_positive("te.kernel_peak_min", self.kernel_peak_min)?;
         // The exponential activity model needs t_peak < t_duration / 2.
         check_range(
@@ -588,12 +605,7 @@ impl TeConfig {
             2.0 * self.kernel_peak_min + 1e-6,
             24.0 * 60.0,
         )?;
-        if !(2..=16).contains(&self.bins) {
-            return Err(config_err(
-                "te.bins",
-                format!("must be in 2..=16, got {}", self.bins),
-            ));
-        }
+        check_count("te.bins", self.bins, 2, 16)?;
         if self.max_lag_steps > 288 {
             return Err(config_err(
                 "te.max_lag_steps",
@@ -691,20 +703,12 @@ impl AbbaConfig {
 
     /// Parses a JSON configuration and validates it.
     pub fn from_json(json: &str) -> Result<Self, AdvisorError> {
-        let c: Self =
-            serde_json::from_str(json).map_err(|e| config_err("(json)", e.to_string()))?;
-        c.validate()?;
-        Ok(c)
+        parse_checked(json, Self::validate)
     }
 
     /// Checks every field; the error names the field and the value.
     pub fn validate(&self) -> Result<(), AdvisorError> {
-        if !(1..=60).contains(&self.init_days) {
-            return Err(config_err(
-                "init_days",
-                format!("must be in 1..=60, got {}", self.init_days),
-            ));
-        }
+        check_count("init_days", self.init_days, 1, 60)?;
         check_range("a_hyper", self.a_hyper, 0.0, 1e3)?;
         check_range("a_hypo", self.a_hypo, 0.0, 1e3)?;
         self.features.validate()?;
@@ -761,14 +765,7 @@ impl AbbaConfig {
             0.5,
         )?;
         self.te.validate()?;
-        self.limits.validate()?;
-        if self.decision_log_capacity == 0 {
-            return Err(config_err(
-                "decision_log_capacity",
-                "must be at least 1, got 0",
-            ));
-        }
-        Ok(())
+        check_limits_and_log(&self.limits, self.decision_log_capacity)
     }
 }
 
@@ -783,6 +780,31 @@ mod tests {
         let s = serde_json::to_string(&c).unwrap();
         let back: AbbaConfig = serde_json::from_str(&s).unwrap();
         assert_eq!(back, c);
+    }
+
+    #[test]
+    fn every_adapting_arm_checks_its_log_and_json_the_same_way() {
+        let want = config_err("decision_log_capacity", "must be at least 1, got 0");
+        let mut abba = AbbaConfig::new(Mode::Cgm, 1);
+        abba.decision_log_capacity = 0;
+        assert_eq!(abba.validate(), Err(want.clone()));
+        let mut r2r = crate::R2rConfig::new(Mode::Cgm);
+        r2r.decision_log_capacity = 0;
+        assert_eq!(r2r.validate(), Err(want.clone()));
+        let mut autotune = crate::AutotuneConfig::new(Mode::Cgm);
+        autotune.decision_log_capacity = 0;
+        assert_eq!(autotune.validate(), Err(want));
+        // from_json: parsed, then validated; a parse error names "(json)".
+        let json = serde_json::to_string(&r2r).unwrap();
+        assert!(crate::R2rConfig::from_json(&json).is_err());
+        r2r.decision_log_capacity = 1;
+        let json = serde_json::to_string(&r2r).unwrap();
+        assert_eq!(crate::R2rConfig::from_json(&json), Ok(r2r));
+        let e = AbbaConfig::from_json("{").unwrap_err();
+        assert!(
+            matches!(e, AdvisorError::Config { ref field, .. } if field == "(json)"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -91,12 +91,27 @@ pub(crate) fn config_err(field: &str, problem: impl Into<String>) -> AdvisorErro
 
 /// Checks `lo <= value <= hi` (and finiteness) for a configuration field.
 pub(crate) fn check_range(field: &str, value: f64, lo: f64, hi: f64) -> Result<(), AdvisorError> {
-    if value.is_finite() && value >= lo && value <= hi {
+    if abba_core::limits::within(value, lo, hi) {
         Ok(())
     } else {
         Err(config_err(
             field,
             format!("must be a finite number in [{lo}, {hi}], got {value}"),
+        ))
+    }
+}
+
+/// Checks `lo <= value <= hi` for a whole-number configuration field.
+pub(crate) fn check_count<T>(field: &str, value: T, lo: T, hi: T) -> Result<(), AdvisorError>
+where
+    T: PartialOrd + std::fmt::Display,
+{
+    if value >= lo && value <= hi {
+        Ok(())
+    } else {
+        Err(config_err(
+            field,
+            format!("must be in {lo}..={hi}, got {value}"),
         ))
     }
 }
@@ -110,5 +125,27 @@ pub(crate) fn check_positive(field: &str, value: f64) -> Result<(), AdvisorError
             field,
             format!("must be a finite number > 0, got {value}"),
         ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn range_checks_name_the_field_and_the_range() {
+        assert!(check_range("gain", 0.5, 0.0, 1.0).is_ok());
+        for bad in [-0.1, 1.1, f64::NAN, f64::INFINITY] {
+            let e = check_range("gain", bad, 0.0, 1.0).unwrap_err().to_string();
+            assert!(e.contains("gain") && e.contains("[0, 1]"), "{e}");
+        }
+        assert!(check_count("init_days", 60_u32, 1, 60).is_ok());
+        let e = check_count("init_days", 0_u32, 1, 60).unwrap_err();
+        assert_eq!(
+            e,
+            config_err("init_days", "must be in 1..=60, got 0"),
+            "the message of the four checks it replaces"
+        );
+        assert!(check_count("limits.max_timestamp_min", 0_i64, 1, i64::MAX / 4).is_err());
     }
 }

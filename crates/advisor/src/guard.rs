@@ -130,7 +130,7 @@ fn check_value(
     lo: f64,
     hi: f64,
 ) -> Result<(), AdvisorError> {
-    if v.is_finite() && v >= lo && v <= hi {
+    if abba_core::limits::within(v, lo, hi) {
         Ok(())
     } else {
         Err(AdvisorError::InvalidValue {

@@ -88,6 +88,7 @@
 #![cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used))]
 
 pub mod abba;
+mod adapting;
 pub mod agent;
 pub mod any;
 pub mod arm;

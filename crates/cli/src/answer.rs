@@ -1,20 +1,15 @@
 //! `abba answer`: what the person put in force for the open suggestions.
-use std::path::PathBuf;
 
 use abba_store::answer::parse_param;
-use abba_store::{AnswerRequest, Store, NOTICE};
+use abba_store::{AnswerRequest, NOTICE};
 use anyhow::{bail, Context, Result};
 
 /// Arguments of `abba answer`.
 #[derive(clap::Args, Debug)]
 #[command(group(clap::ArgGroup::new("what").required(true).args(["accept", "reject", "set"])))]
 pub struct Args {
-    /// The store file.
-    #[arg(long, value_name = "FILE")]
-    pub db: PathBuf,
-    /// The person.
-    #[arg(long, value_name = "NAME")]
-    pub person: String,
+    #[command(flatten)]
+    pub who: crate::store_args::PersonArgs,
     /// Accept every open suggestion.
     #[arg(long)]
     pub accept: bool,
@@ -57,8 +52,8 @@ pub fn run(a: Args) -> Result<()> {
         (None, true, _) => AnswerRequest::Accept,
         _ => AnswerRequest::Reject,
     };
-    let mut store = Store::open(&a.db).with_context(|| format!("opening {}", a.db.display()))?;
-    let answers = store.answer(&a.person, &req)?;
+    let mut store = a.who.open()?;
+    let answers = store.answer(&a.who.person, &req)?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&answers)?);
         return Ok(());

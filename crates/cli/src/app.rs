@@ -1,10 +1,10 @@
 //! `abba app`: one simulated trial patient through a running `abba serve`,
-//! over HTTP, the way a pump app talks to the service (abba_trial::remote).
+//! over HTTP, the way a pump app talks to the service ([`crate::remote`]).
 
+use crate::remote::{self, RemoteApp};
 use abba_client::{Client, Retry};
 use abba_sim::scenario::ScenarioId;
 use abba_trial::protocol::RawTrialConfig;
-use abba_trial::remote::{self, RemoteApp};
 use abba_trial::TrialConfig;
 use anyhow::{bail, Context, Result};
 use std::path::PathBuf;

@@ -444,7 +444,7 @@ pub fn run(args: Args) -> Result<()> {
             (records, origin, tz, read_profile(profile)?, IsfUnit::MgDl)
         }
         (None, Some(db), Some(name)) => {
-            let mut store = Store::open(db).with_context(|| format!("opening {}", db.display()))?;
+            let mut store = crate::store_args::open(db)?;
             let person = store.person(name)?;
             let unit = isf_unit(person.settings.units);
             let profile = match (&args.profile, args.isf) {

@@ -2,18 +2,14 @@
 use std::path::PathBuf;
 
 use abba_io::read::Format;
-use abba_store::{ProfileResolution, Store, NOTICE};
+use abba_store::{ProfileResolution, NOTICE};
 use anyhow::{Context, Result};
 
 /// Arguments of `abba import`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// The store file.
-    #[arg(long, value_name = "FILE")]
-    pub db: PathBuf,
-    /// The person.
-    #[arg(long, value_name = "NAME")]
-    pub person: String,
+    #[command(flatten)]
+    pub who: crate::store_args::PersonArgs,
     /// Format of the files (nightscout, clarity, libreview, tidepool, carelink, csv) [default: detected].
     #[arg(long)]
     pub format: Option<String>,
@@ -41,18 +37,18 @@ pub fn run(a: Args) -> Result<()> {
         })?),
         None => None,
     };
-    let mut store = Store::open(&a.db).with_context(|| format!("opening {}", a.db.display()))?;
+    let mut store = a.who.open()?;
     let resolve = match (a.adopt_profile, a.keep_therapy) {
         (true, _) => ProfileResolution::Adopt,
         (_, true) => ProfileResolution::Keep,
         _ => ProfileResolution::Stop,
     };
-    let s = store.import_files_with(&a.person, &a.files, format, resolve)?;
+    let s = store.import_files_with(&a.who.person, &a.files, format, resolve)?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&s)?);
         return Ok(());
     }
-    print_summary(&s, &a.person);
+    print_summary(&s, &a.who.person);
     println!("{NOTICE}");
     Ok(())
 }

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use abba_nightscout::{site, sync::Check, write_back, ClientOptions, SyncOptions};
 use abba_store::render::advice_text;
-use abba_store::{ProfileResolution, Store, NOTICE};
+use abba_store::{ProfileResolution, NOTICE};
 use anyhow::{bail, Context, Result};
 
 /// Arguments of `abba link`.
@@ -39,12 +39,8 @@ pub enum Cmd {
 /// Arguments of `abba link nightscout`.
 #[derive(clap::Args, Debug)]
 pub struct NightscoutArgs {
-    /// The store file.
-    #[arg(long, value_name = "FILE")]
-    pub db: PathBuf,
-    /// The person.
-    #[arg(long, value_name = "NAME")]
-    pub person: String,
+    #[command(flatten)]
+    pub who: crate::store_args::PersonArgs,
     /// The site (https://...; plain http only to this machine).
     #[arg(long, value_name = "URL")]
     pub url: String,
@@ -67,12 +63,8 @@ pub struct NightscoutArgs {
 /// Arguments of `abba link remove`.
 #[derive(clap::Args, Debug)]
 pub struct RemoveArgs {
-    /// The store file.
-    #[arg(long, value_name = "FILE")]
-    pub db: PathBuf,
-    /// The person.
-    #[arg(long, value_name = "NAME")]
-    pub person: String,
+    #[command(flatten)]
+    pub who: crate::store_args::PersonArgs,
     /// Also remove from the site what abba wrote there (its Notes, its profile).
     #[arg(long)]
     pub delete_written: bool,
@@ -110,10 +102,6 @@ fn from_stdin(v: &str, what: &str) -> Result<String> {
     Ok(line.trim_end_matches(['\r', '\n']).to_string())
 }
 
-fn open(db: &std::path::Path) -> Result<Store> {
-    Store::open(db).with_context(|| format!("opening {}", db.display()))
-}
-
 /// Runs `abba link`.
 pub fn run(a: Args) -> Result<()> {
     match (a.command, a.list) {
@@ -141,10 +129,10 @@ fn nightscout(n: NightscoutArgs) -> Result<()> {
         .map(|s| from_stdin(s, "API secret"))
         .transpose()?;
     let credential = site::credential(token.as_deref(), secret.as_deref())?;
-    let mut store = open(&n.db)?;
+    let mut store = n.who.open()?;
     let (link, check) = abba_nightscout::link(
         &mut store,
-        &n.person,
+        &n.who.person,
         &n.url,
         credential,
         n.write_back,
@@ -174,7 +162,7 @@ fn nightscout(n: NightscoutArgs) -> Result<()> {
     match newest_entry {
         Some(t) => println!(
             "The newest entry there: {t}. Run `abba sync --db {} --person {}`.",
-            n.db.display(),
+            n.who.db.display(),
             link.person
         ),
         None => println!("The site holds no entries yet."),
@@ -184,7 +172,7 @@ fn nightscout(n: NightscoutArgs) -> Result<()> {
 }
 
 fn list(db: &std::path::Path, json: bool) -> Result<()> {
-    let store = open(db)?;
+    let store = crate::store_args::open(db)?;
     let views: Vec<_> = store.links()?.iter().map(|l| l.view()).collect();
     if json {
         println!("{}", serde_json::to_string_pretty(&views)?);
@@ -212,26 +200,26 @@ fn list(db: &std::path::Path, json: bool) -> Result<()> {
 }
 
 fn remove(r: RemoveArgs) -> Result<()> {
-    let mut store = open(&r.db)?;
-    let Some(link) = store.link(&r.person)? else {
-        bail!("{} has no Nightscout link", r.person);
+    let mut store = r.who.open()?;
+    let Some(link) = store.link(&r.who.person)? else {
+        bail!("{} has no Nightscout link", r.who.person);
     };
     if r.delete_written {
         let client = abba_nightscout::sync::client_of(&link, &ClientOptions::default())?;
-        let n = write_back::delete_written(&mut store, &client, &r.person)?;
+        let n = write_back::delete_written(&mut store, &client, &r.who.person)?;
         println!("Removed {n} documents abba wrote to {}.", link.url);
     }
-    store.remove_link(&r.person)?;
+    store.remove_link(&r.who.person)?;
     println!(
         "Removed the link of {} to {}; the records stay.",
-        r.person, link.url
+        r.who.person, link.url
     );
     Ok(())
 }
 
 /// Runs `abba sync`.
 pub fn sync(a: SyncArgs) -> Result<()> {
-    let mut store = open(&a.db)?;
+    let mut store = crate::store_args::open(&a.db)?;
     let persons = match &a.person {
         Some(p) => vec![p.clone()],
         None => store.links()?.into_iter().map(|l| l.person).collect(),

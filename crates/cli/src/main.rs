@@ -28,10 +28,12 @@ mod metrics;
 mod output;
 mod person;
 mod progress;
+mod remote;
 mod report;
 mod serve;
 mod shard;
 mod simulate;
+mod store_args;
 mod store_cmd;
 mod therapy;
 mod trial;
@@ -120,10 +122,10 @@ fn main() -> ExitCode {
     }
     // The store file, to say who holds it when it stays busy.
     let db = match &command {
-        Command::Import(a) => Some(a.db.clone()),
-        Command::Answer(a) => Some(a.db.clone()),
-        Command::Advise(a) => Some(a.db.clone()),
-        Command::History(a) => Some(a.db.clone()),
+        Command::Import(a) => Some(a.who.db.clone()),
+        Command::Answer(a) => Some(a.who.db.clone()),
+        Command::Advise(a) => Some(a.who.db.clone()),
+        Command::History(a) => Some(a.who.db.clone()),
         Command::Sync(a) => Some(a.db.clone()),
         _ => None,
     };

@@ -6,7 +6,7 @@ use abba_advisor::{Mode, PumpSteps};
 use abba_core::{GramsPerUnit, TherapySettings, UnitsPerHour};
 use abba_io::meals::MealWindows;
 use abba_store::person::{GlucoseUnits, TherapySource};
-use abba_store::{NewPerson, Store, NOTICE};
+use abba_store::{NewPerson, NOTICE};
 use anyhow::{bail, Context, Result};
 
 /// Arguments of `abba person`.
@@ -206,7 +206,7 @@ fn new(a: NewArgs) -> Result<()> {
     }
     let bed = MealWindows::parse_window(&format!("{}-24:00", a.bedtime)).context("--bedtime")?;
     p.settings.bedtime_min = bed.0;
-    let mut store = Store::open(&a.db).with_context(|| format!("opening {}", a.db.display()))?;
+    let mut store = crate::store_args::open(&a.db)?;
     let person = store.create_person(&p)?;
     let [b, l, d] = start.carb_ratio.map(|c| c.0);
     let therapy = match &from {
@@ -242,7 +242,7 @@ pub fn run(a: Args) -> Result<()> {
     match a.command {
         Command::New(n) => new(*n),
         Command::List { db } => {
-            let store = Store::open(&db).with_context(|| format!("opening {}", db.display()))?;
+            let store = crate::store_args::open(&db)?;
             for n in store.persons()? {
                 println!("{n}");
             }

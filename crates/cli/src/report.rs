@@ -5,18 +5,13 @@ use std::process::Command;
 
 use abba_report::html::person::person_report_html;
 use abba_report::html::units::GlucoseUnit;
-use abba_store::Store;
 use anyhow::{bail, Context, Result};
 
 /// Arguments of `abba report`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// The store file.
-    #[arg(long, value_name = "FILE")]
-    pub db: PathBuf,
-    /// The person.
-    #[arg(long, value_name = "NAME")]
-    pub person: String,
+    #[command(flatten)]
+    pub who: crate::store_args::PersonArgs,
     /// Days in the report, ending at the last day with data.
     #[arg(long, default_value_t = 14, value_name = "N")]
     pub days: u32,
@@ -33,16 +28,16 @@ pub struct Args {
 
 /// Runs `abba report`.
 pub fn run(a: Args) -> Result<()> {
-    if !a.db.is_file() {
-        bail!("--db {}: no such store file", a.db.display());
+    if !a.who.db.is_file() {
+        bail!("--db {}: no such store file", a.who.db.display());
     }
-    let mut store = Store::open(&a.db).with_context(|| format!("opening {}", a.db.display()))?;
-    let input = abba_store::report::person_input(&mut store, &a.person, a.days, a.units)?;
+    let mut store = a.who.open()?;
+    let input = abba_store::report::person_input(&mut store, &a.who.person, a.days, a.units)?;
     let html = person_report_html(&input)?;
     std::fs::write(&a.out, &html).with_context(|| format!("cannot write {}", a.out.display()))?;
     eprintln!(
         "abba report: {} ({} days, {} suggestions) written to {} ({} bytes)",
-        a.person,
+        a.who.person,
         input.days.len(),
         input.suggestions.len(),
         a.out.display(),

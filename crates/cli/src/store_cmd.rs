@@ -3,8 +3,7 @@
 use std::path::PathBuf;
 
 use abba_store::check::{CheckReport, FutureEvent};
-use abba_store::Store;
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 
 /// Arguments of `abba store`.
 #[derive(clap::Args, Debug)]
@@ -74,7 +73,7 @@ pub fn run(a: Args) -> Result<()> {
     let now = jiff::Timestamp::now();
     match a.what {
         What::Check { db } => {
-            let store = Store::open(&db).with_context(|| format!("opening {}", db.display()))?;
+            let store = crate::store_args::open(&db)?;
             let r = store.check(now)?;
             print_report(&r);
             if !r.ok() {
@@ -82,8 +81,7 @@ pub fn run(a: Args) -> Result<()> {
             }
         }
         What::RemoveFuture { db, yes } => {
-            let mut store =
-                Store::open(&db).with_context(|| format!("opening {}", db.display()))?;
+            let mut store = crate::store_args::open(&db)?;
             if !yes {
                 let r = store.check(now)?;
                 print_report(&r);

@@ -1,8 +1,7 @@
 //! `abba therapy set`: the clinician's change of settings, recorded in the
 //! log whether or not a suggestion is open; the advisor starts from it.
-use std::path::PathBuf;
 
-use abba_store::{Store, NOTICE};
+use abba_store::NOTICE;
 use anyhow::{bail, Context, Result};
 
 /// Arguments of `abba therapy`.
@@ -20,12 +19,8 @@ enum Command {
 
 #[derive(clap::Args, Debug)]
 struct SetArgs {
-    /// The store file.
-    #[arg(long, value_name = "FILE")]
-    db: PathBuf,
-    /// The person.
-    #[arg(long, value_name = "NAME")]
-    person: String,
+    #[command(flatten)]
+    who: crate::store_args::PersonArgs,
     /// The basal rate (U/h), or a schedule HH:MM=U_PER_H,... starting at 00:00.
     #[arg(long, value_name = "U_PER_H|SCHEDULE")]
     basal: Option<String>,
@@ -71,8 +66,8 @@ fn basal(text: &str) -> Result<Vec<(u32, f64)>> {
 }
 
 fn set(a: SetArgs) -> Result<()> {
-    let mut store = Store::open(&a.db).with_context(|| format!("opening {}", a.db.display()))?;
-    let p = store.person(&a.person)?;
+    let mut store = a.who.open()?;
+    let p = store.person(&a.who.person)?;
     let at = match &a.at {
         None => None,
         Some(t) => Some(match t.parse::<jiff::Timestamp>() {
@@ -96,7 +91,7 @@ fn set(a: SetArgs) -> Result<()> {
         .as_deref()
         .map(|c| crate::person::carb_ratios("--carb-ratio", c))
         .transpose()?;
-    let c = store.set_therapy(&a.person, basal, cr, at)?;
+    let c = store.set_therapy(&a.who.person, basal, cr, at)?;
     let mut what = Vec::new();
     if let Some(b) = &c.basal {
         let s: Vec<String> = b
@@ -110,7 +105,7 @@ fn set(a: SetArgs) -> Result<()> {
     }
     println!(
         "Recorded for {}: {}, in force from {} (the advisor's next update starts from it).",
-        a.person,
+        a.who.person,
         what.join(", "),
         c.instant
     );

@@ -3,9 +3,8 @@
 use std::path::PathBuf;
 
 use abba_sim::cohort::Population;
-use abba_store::Store;
 use abba_twin::{Banded, BasalChange, Ranges, Twin, TwinOptions, WhatIf, NOTICE};
-use anyhow::{anyhow, Context, Result};
+use anyhow::{anyhow, Result};
 
 /// A line of the what-if table: its name and the figure it reads.
 type Row = (&'static str, fn(&Ranges) -> f64);
@@ -87,7 +86,7 @@ pub fn run(a: Args) -> Result<()> {
 }
 
 fn events(who: &Who) -> Result<(Vec<abba_core::Event>, f64)> {
-    let store = Store::open(&who.db).with_context(|| format!("opening {}", who.db.display()))?;
+    let store = crate::store_args::open(&who.db)?;
     let person = store.person(&who.person)?;
     Ok((store.events(&who.person)?, person.settings.start.basal.0))
 }

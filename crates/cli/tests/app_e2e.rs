@@ -1,6 +1,6 @@
 //! End to end over HTTP: the real `abba serve` binary, a person created
 //! with the admin token as the in-process trial configures its advisor,
-//! and the reference client (abba_trial::remote, abba-client) playing the
+//! and the reference client (the CLI's `remote`, abba-client) playing the
 //! pump app for one simulated patient for 98 days, flushing its events at
 //! each meal announcement and day closing, putting the answers in force and
 //! accepting them. The service must make exactly the decisions the
@@ -11,27 +11,25 @@
 
 mod service_common;
 
+/// The CLI's reference app (`abba app`), compiled as this test's own module.
+#[path = "../src/remote.rs"]
+#[allow(dead_code)]
+mod remote;
+
 use abba_api::{PhaseView, Setting};
 use abba_client::{Client, Retry};
 use abba_sim::person::SuggestionResponse;
 use abba_sim::scenario::ScenarioId;
 use abba_trial::closed_loop::{run_patient_with, Trace};
 use abba_trial::protocol::{ArmKind, RawTrialConfig};
-use abba_trial::remote::{self, RemoteApp};
 use abba_trial::runner::build_cohort;
 use abba_trial::TrialConfig;
+use remote::RemoteApp;
 use service_common::{admin_token, Server, TempDir};
 use std::time::Instant;
 
 fn setting_of(p: abba_advisor::Parameter) -> Setting {
-    use abba_core::MealSlot;
-    match p {
-        abba_advisor::Parameter::Basal => Setting::Basal,
-        abba_advisor::Parameter::CarbRatio(MealSlot::Breakfast) => Setting::Breakfast,
-        abba_advisor::Parameter::CarbRatio(MealSlot::Lunch) => Setting::Lunch,
-        abba_advisor::Parameter::CarbRatio(MealSlot::Dinner) => Setting::Dinner,
-        other => panic!("no setting for {other:?}"),
-    }
+    remote::setting(p).unwrap_or_else(|| panic!("no setting for {p:?}"))
 }
 
 fn end_to_end(scenario: ScenarioId, patient_no: u64, days: u32, response: SuggestionResponse) {

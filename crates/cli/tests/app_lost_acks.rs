@@ -11,12 +11,17 @@
 
 mod service_common;
 
+/// The CLI's reference app (`abba app`), compiled as this test's own module.
+#[path = "../src/remote.rs"]
+#[allow(dead_code)]
+mod remote;
+
 use abba_client::{Client, Retry};
 use abba_sim::scenario::ScenarioId;
 use abba_trial::protocol::{ArmKind, RawTrialConfig};
-use abba_trial::remote::{self, RemoteApp};
 use abba_trial::runner::build_cohort;
 use abba_trial::TrialConfig;
+use remote::RemoteApp;
 use service_common::{admin_token, Server, TempDir};
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::{TcpListener, TcpStream};

@@ -26,10 +26,15 @@
 
 mod service_common;
 
+/// The CLI's reference app (`abba app`), compiled as this test's own module.
+#[path = "../src/remote.rs"]
+#[allow(dead_code)]
+mod remote;
+
 use abba_api::{EventsBody, Mode, NewPersonBody, TherapyBody};
 use abba_client::{Client, Outbox, Retry};
 use abba_core::{EventKind, Grams, MealSlot, MgDl, Units};
-use abba_trial::remote::wire_event;
+use remote::wire_event;
 use service_common::{admin_token, Server, TempDir};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;

@@ -15,6 +15,11 @@
 //! (`web_common`).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+// The CLI's simulated pump app (`abba app`): its mapping of an event to
+// the wire.
+#[path = "../src/remote.rs"]
+#[allow(dead_code)]
+mod remote;
 mod service_common;
 mod web_common;
 
@@ -114,7 +119,7 @@ fn app_events(export: &Path, first_day: jiff::civil::Date) -> Vec<Vec<DeviceEven
     // One post per day, each ending with its day's closing.
     let mut days = vec![Vec::new()];
     for (seq, e) in events.iter().enumerate() {
-        let Some(body) = abba_trial::remote::wire_event(&e.kind).unwrap() else {
+        let Some(body) = remote::wire_event(&e.kind).unwrap() else {
             continue;
         };
         days.last_mut().unwrap().push(DeviceEvent {

@@ -11,8 +11,8 @@
 //!   (`GET .../sync`) and a re-send of only what the service does not hold
 //!   ([`Retry`] says how long to keep trying).
 //!
-//! abba-trial drives a simulated patient through a live service with these
-//! (`abba_trial::remote`); the crash and load tests use them directly.
+//! `abba app` drives a simulated patient through a live service with these
+//! (the CLI's `remote` module); the crash and load tests use them directly.
 //! abba is research software, not a medical device.
 
 // ClientError::Status carries the service's whole error body and its

@@ -21,7 +21,7 @@
 //!   minutes from this minute. A new extended bolus replaces the rest of a
 //!   running one.
 
-use crate::therapy::MealSlot;
+use crate::therapy::{MealSlot, TherapySettings};
 use crate::time::Timestamp;
 use crate::units::{Grams, GramsPerUnit, MgDl, Units, UnitsPerHour};
 use serde::{Deserialize, Serialize};
@@ -148,6 +148,19 @@ impl SettingValue {
             SettingValue::CarbRatio { ratio, .. } => ratio.0,
         }
     }
+
+    /// Puts the value in force in `settings` (a snack's ratio changes
+    /// nothing: the settings have none).
+    pub fn put_in_force(self, settings: &mut TherapySettings) {
+        match self {
+            SettingValue::Basal { rate } => settings.basal = rate,
+            SettingValue::CarbRatio { slot, ratio } => {
+                if let Some(i) = slot.main_index() {
+                    settings.carb_ratio[i] = ratio;
+                }
+            }
+        }
+    }
 }
 
 /// An event with its time.
@@ -169,6 +182,38 @@ impl Event {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_setting_value_puts_its_own_setting_in_force_and_a_snack_none() {
+        let start = TherapySettings {
+            basal: UnitsPerHour(1.0),
+            carb_ratio: [GramsPerUnit(10.0), GramsPerUnit(11.0), GramsPerUnit(12.0)],
+        };
+        let mut s = start;
+        SettingValue::Basal {
+            rate: UnitsPerHour(0.8),
+        }
+        .put_in_force(&mut s);
+        assert_eq!(s.basal, UnitsPerHour(0.8));
+        assert_eq!(s.carb_ratio, start.carb_ratio);
+        for (i, slot) in MealSlot::MAIN.into_iter().enumerate() {
+            let mut s = start;
+            SettingValue::CarbRatio {
+                slot,
+                ratio: GramsPerUnit(20.0),
+            }
+            .put_in_force(&mut s);
+            assert_eq!(s.carb_ratio[i], GramsPerUnit(20.0));
+            assert_eq!(s.basal, start.basal);
+        }
+        let mut s = start;
+        SettingValue::CarbRatio {
+            slot: MealSlot::Snack,
+            ratio: GramsPerUnit(20.0),
+        }
+        .put_in_force(&mut s);
+        assert_eq!(s, start);
+    }
 
     fn old_kinds() -> Vec<Event> {
         vec![

@@ -49,6 +49,15 @@ pub const ISF_MG_DL_PER_U: Limit = Limit {
     expected: "between 10 and 500 mg/dL/U (LoopKit's guardrails)",
 };
 
+/// The range test of every crate's checks: `value` is a finite number in
+/// `[lo, hi]`, both ends included (NaN and the infinities never are). The
+/// checks built on it (here [`Limit::check`]; a configuration field, an
+/// event's value, a file's field elsewhere) each say the failure in their
+/// own error.
+pub fn within(value: f64, lo: f64, hi: f64) -> bool {
+    value.is_finite() && value >= lo && value <= hi
+}
+
 /// How far after the receiving clock (the server's, or the importing
 /// machine's) a record may be dated and still be accepted: device clocks
 /// drift by minutes. Anything later cannot be true yet and is refused.
@@ -57,7 +66,7 @@ pub const FUTURE_SKEW_MINUTES: i64 = 10;
 impl Limit {
     /// Checks `value` against the limit: finite and within `[min, max]`.
     pub fn check(&self, value: f64) -> Result<f64, CoreError> {
-        if value.is_finite() && value >= self.min && value <= self.max {
+        if within(value, self.min, self.max) {
             Ok(value)
         } else {
             Err(CoreError::OutOfRange {
@@ -99,6 +108,19 @@ pub fn check_therapy(settings: &TherapySettings) -> Result<(), CoreError> {
 mod tests {
     use super::*;
     use crate::{GramsPerUnit, UnitsPerHour};
+
+    #[test]
+    fn within_is_finite_and_both_ends_included() {
+        assert!(within(1.0, 1.0, 2.0));
+        assert!(within(2.0, 1.0, 2.0));
+        assert!(within(1.5, 1.0, 2.0));
+        for out in [0.999, 2.001, f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            assert!(!within(out, 1.0, 2.0), "{out}");
+        }
+        // Not even an infinite range holds an infinity.
+        assert!(!within(f64::INFINITY, 0.0, f64::INFINITY));
+        assert!(within(f64::MAX, 0.0, f64::INFINITY));
+    }
 
     #[test]
     fn values_outside_the_limits_are_refused_with_the_limit_named() {

@@ -80,7 +80,7 @@ pub fn check_range(
     max: f64,
     what: &str,
 ) -> Result<f64, IoError> {
-    if !value.is_finite() || value < min || value > max {
+    if !abba_core::limits::within(value, min, max) {
         return Err(IoError::invalid(
             at.clone(),
             field,
@@ -99,7 +99,7 @@ pub fn glucose_mg_dl(
     unit: GlucoseUnit,
 ) -> Result<f64, IoError> {
     let mg = unit.to_mg_dl(value);
-    if mg.is_finite() && (GLUCOSE_MIN_MG_DL..=GLUCOSE_MAX_MG_DL).contains(&mg) {
+    if abba_core::limits::within(mg, GLUCOSE_MIN_MG_DL, GLUCOSE_MAX_MG_DL) {
         return Ok(mg);
     }
     let hint = match unit {

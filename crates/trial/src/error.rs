@@ -50,15 +50,6 @@ pub enum TrialError {
         #[source]
         source: CoreError,
     },
-    /// The service refused or did not answer (a run through a live service).
-    #[error("{context}: {source}")]
-    Remote {
-        /// Which patient and scenario, and the service.
-        context: String,
-        /// The client's error.
-        #[source]
-        source: Box<abba_client::ClientError>,
-    },
     /// The trial configuration is invalid.
     #[error("invalid trial configuration: {0}")]
     Config(String),

@@ -48,8 +48,6 @@
 //! - [`stats`]: summaries over patients and the Wilcoxon signed-rank test
 //!   (no p-value below [`stats::MIN_PAIRS_FOR_P`] pairs; abba-report's,
 //!   re-exported).
-//! - [`remote`]: one patient through a live abba service over HTTP (the
-//!   reference client playing the pump app; abba-client).
 //! - [`report`]: the report folder and traced patients checked before the
 //!   run, the manifest of what ran, and the report and traces written
 //!   through abba-report (which builds every file from the results alone).
@@ -68,7 +66,6 @@ pub mod calibrate;
 pub mod closed_loop;
 pub mod error;
 pub mod protocol;
-pub mod remote;
 pub mod report;
 pub mod runner;
 pub mod shard;

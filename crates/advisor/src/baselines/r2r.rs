@@ -7,13 +7,13 @@
 //! override, once per day per parameter, at the same decision points and
 //! with the same initialisation week as ABBA.
 
-use crate::config::{EventLimits, Mode};
+use crate::config::{check_limits_and_log, parse_checked, EventLimits, Mode};
 use crate::decision::{Decision, DecisionDetail, DecisionLog, R2rExplanation, SkipReason};
-use crate::error::{check_positive, check_range, config_err, AdvisorError};
+use crate::error::{check_count, check_positive, check_range, config_err, AdvisorError};
 use crate::guard::{closed_day, EventGuard};
 use crate::parameter::Parameter;
 use crate::windows::{DayWindows, MealWindows};
-use crate::{Advisor, ArmKind};
+use crate::ArmKind;
 use abba_core::{
     Event, EventKind, GramsPerUnit, MealSlot, TherapySettings, Timestamp, UnitsPerHour,
 };
@@ -98,20 +98,12 @@ impl R2rConfig {
 
     /// Parses a JSON configuration and validates it.
     pub fn from_json(json: &str) -> Result<Self, AdvisorError> {
-        let c: Self =
-            serde_json::from_str(json).map_err(|e| config_err("(json)", e.to_string()))?;
-        c.validate()?;
-        Ok(c)
+        parse_checked(json, Self::validate)
     }
 
     /// Checks every field.
     pub fn validate(&self) -> Result<(), AdvisorError> {
-        if !(1..=60).contains(&self.init_days) {
-            return Err(config_err(
-                "init_days",
-                format!("must be in 1..=60, got {}", self.init_days),
-            ));
-        }
+        check_count("init_days", self.init_days, 1, 60)?;
         check_range("basal_gain", self.basal_gain, 0.0, 10.0)?;
         check_positive("basal_ref_mg_dl", self.basal_ref_mg_dl)?;
         check_range("basal_cap", self.basal_cap, 0.0, 0.5)?;
@@ -144,14 +136,7 @@ impl R2rConfig {
                 ));
             }
         }
-        self.limits.validate()?;
-        if self.decision_log_capacity == 0 {
-            return Err(config_err(
-                "decision_log_capacity",
-                "must be at least 1, got 0",
-            ));
-        }
-        Ok(())
+        check_limits_and_log(&self.limits, self.decision_log_capacity)
     }
 }
 
@@ -365,6 +350,12 @@ impl RunToRun {
         self.record(at, p, old, new, DecisionDetail::RunToRun(expl));
     }
 
+    /// One checked event ([`crate::adapting`]); run-to-run's handling
+    /// cannot fail.
+    fn step(&mut self, e: &Event) -> Result<Option<TherapySettings>, AdvisorError> {
+        Ok(self.process(e))
+    }
+
     fn process(&mut self, e: &Event) -> Option<TherapySettings> {
         match e.kind {
             EventKind::Cgm(g) if self.config.mode == Mode::Cgm => {
@@ -402,14 +393,7 @@ impl RunToRun {
             EventKind::SuggestionAccepted(v)
             | EventKind::SuggestionRejected(v)
             | EventKind::SuggestionOverridden(v) => {
-                match v {
-                    abba_core::SettingValue::Basal { rate } => self.settings.basal = rate,
-                    abba_core::SettingValue::CarbRatio { slot, ratio } => {
-                        if let Some(i) = slot.main_index() {
-                            self.settings.carb_ratio[i] = ratio;
-                        }
-                    }
-                }
+                v.put_in_force(&mut self.settings);
                 None
             }
             _ => None,
@@ -433,38 +417,12 @@ fn integral_step(gain: f64, y: f64, reference: f64, cap: f64) -> (f64, R2rExplan
     (rel, expl)
 }
 
-impl Advisor for RunToRun {
-    fn observe(&mut self, event: &Event) -> Result<Option<TherapySettings>, AdvisorError> {
-        self.guard.check(event, &self.config.limits)?;
-        let out = self.process(event);
-        self.guard.commit(event);
-        Ok(out)
-    }
-
-    fn settings(&self) -> &TherapySettings {
-        &self.settings
-    }
-
-    fn decisions(&self) -> &[Decision] {
-        self.log.as_slice()
-    }
-
-    fn take_decisions(&mut self) -> Vec<Decision> {
-        self.log.take()
-    }
-
-    fn arm(&self) -> ArmKind {
-        ArmKind::R2r
-    }
-
-    fn mode(&self) -> Option<Mode> {
-        Some(self.config.mode)
-    }
-}
+crate::adapting::advisor!(RunToRun, ArmKind::R2r);
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::Advisor;
     use abba_core::{Grams, MgDl};
 
     fn start() -> TherapySettings {

@@ -325,7 +325,7 @@ fn invalid_parameter(e: SimError) -> CheckFailure {
 }
 
 fn in_range(v: f64, r: [f64; 2]) -> bool {
-    v >= r[0] && v <= r[1]
+    abba_core::limits::within(v, r[0], r[1])
 }
 
 /// Runs the plausibility checks on derived parameters with the given carb

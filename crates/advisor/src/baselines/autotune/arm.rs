@@ -28,12 +28,12 @@
 //!   first-week result stays).
 
 use super::{autotune_day, Carbs, DayData, Insulin, Profile, Reading, UtcClock};
-use crate::config::{EventLimits, Mode};
+use crate::config::{check_limits_and_log, EventLimits, Mode};
 use crate::decision::{Decision, DecisionDetail, DecisionLog, SkipReason};
-use crate::error::{check_positive, check_range, config_err, AdvisorError};
+use crate::error::{check_count, check_positive, check_range, config_err, AdvisorError};
 use crate::guard::EventGuard;
 use crate::parameter::Parameter;
-use crate::{Advisor, ArmKind};
+use crate::ArmKind;
 use abba_core::limits::ISF_MG_DL_PER_U;
 use abba_core::{
     Event, EventKind, GramsPerUnit, MealSlot, TherapySettings, Timestamp, UnitsPerHour,
@@ -83,12 +83,7 @@ impl AutotuneConfig {
 
     /// Checks every field.
     pub fn validate(&self) -> Result<(), AdvisorError> {
-        if !(1..=60).contains(&self.init_days) {
-            return Err(config_err(
-                "init_days",
-                format!("must be in 1..=60, got {}", self.init_days),
-            ));
-        }
+        check_count("init_days", self.init_days, 1, 60)?;
         check_positive("isf_rule_mg_dl", self.isf_rule_mg_dl)?;
         check_range("dia_h", self.dia_h, 3.0, 12.0)?;
         check_range("autosens_max", self.autosens_max, 1.0, 3.0)?;
@@ -102,14 +97,7 @@ impl AutotuneConfig {
                 ),
             ));
         }
-        self.limits.validate()?;
-        if self.decision_log_capacity == 0 {
-            return Err(config_err(
-                "decision_log_capacity",
-                "must be at least 1, got 0",
-            ));
-        }
-        Ok(())
+        check_limits_and_log(&self.limits, self.decision_log_capacity)
     }
 }
 
@@ -341,6 +329,17 @@ impl Autotune {
         Ok(())
     }
 
+    /// One checked event ([`crate::adapting`]): only a night can fail (an
+    /// internal error), and it is then undone whole.
+    fn step(&mut self, e: &Event) -> Result<Option<TherapySettings>, AdvisorError> {
+        let before = matches!(e.kind, EventKind::DayClosed).then(|| self.clone());
+        let out = self.process(e);
+        if let (Err(_), Some(b)) = (&out, before) {
+            *self = b;
+        }
+        out
+    }
+
     fn process(&mut self, e: &Event) -> Result<Option<TherapySettings>, AdvisorError> {
         let m = e.at.minutes();
         match e.kind {
@@ -369,63 +368,19 @@ impl Autotune {
             }
             EventKind::SuggestionAccepted(v)
             | EventKind::SuggestionRejected(v)
-            | EventKind::SuggestionOverridden(v) => match v {
-                abba_core::SettingValue::Basal { rate } => self.settings.basal = rate,
-                abba_core::SettingValue::CarbRatio { slot, ratio } => {
-                    if let Some(i) = slot.main_index() {
-                        self.settings.carb_ratio[i] = ratio;
-                    }
-                }
-            },
+            | EventKind::SuggestionOverridden(v) => v.put_in_force(&mut self.settings),
             _ => {}
         }
         Ok(None)
     }
 }
 
-impl Advisor for Autotune {
-    fn observe(&mut self, event: &Event) -> Result<Option<TherapySettings>, AdvisorError> {
-        self.guard.check(event, &self.config.limits)?;
-        // Only a night can fail (an internal error); it is undone whole.
-        let before = matches!(event.kind, EventKind::DayClosed).then(|| self.clone());
-        match self.process(event) {
-            Ok(out) => {
-                self.guard.commit(event);
-                Ok(out)
-            }
-            Err(e) => {
-                if let Some(b) = before {
-                    *self = b;
-                }
-                Err(e)
-            }
-        }
-    }
-
-    fn settings(&self) -> &TherapySettings {
-        &self.settings
-    }
-
-    fn decisions(&self) -> &[Decision] {
-        self.log.as_slice()
-    }
-
-    fn take_decisions(&mut self) -> Vec<Decision> {
-        self.log.take()
-    }
-
-    fn arm(&self) -> ArmKind {
-        ArmKind::Autotune
-    }
-
-    fn mode(&self) -> Option<Mode> {
-        Some(self.config.mode)
-    }
-}
+crate::adapting::advisor!(Autotune, ArmKind::Autotune);
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::Advisor;
     use abba_core::{Grams, MgDl, Units};
 
     fn standard() -> TherapySettings {

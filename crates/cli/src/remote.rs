@@ -1,7 +1,7 @@
 //! One simulated patient through a live abba service, over HTTP: the
 //! reference client playing the pump app (issue 11).
 //!
-//! The in-process loop ([`crate::closed_loop`]) hands each event of the
+//! The in-process loop (`abba_trial::closed_loop`) hands each event of the
 //! [`VirtualPerson`] to the advisor and each answer back to the person.
 //! Here the advisor is the service's: the app gives each event the next
 //! number of its own counter and keeps it in an [`Outbox`]; at each event
@@ -22,11 +22,14 @@
 //! ABBA arm makes for the same patient and seed (the end-to-end test in
 //! `crates/cli/tests/app_e2e.rs` checks it for 98 days in CGM and SMBG
 //! mode).
+//!
+//! It lives in the CLI (`abba app`), not in abba-trial, so that the trial
+//! and the Python wheel built on it know no HTTP. The integration tests
+//! that drive a service compile this file as their own module (`#[path]`),
+//! so it names nothing of the CLI.
 
-use crate::error::TrialError;
-use crate::protocol::{ArmKind, PlannedScenario, TrialConfig};
-use crate::results::RunFailure;
 use abba_advisor::any::AdvisorSpec;
+use abba_advisor::Parameter;
 use abba_api::{
     AnswerBody, AnswerItem, AnswerKind, EventBody, MinDataBody, NewPersonBody, Setting, Suggestion,
     TempRate, TherapyBody,
@@ -38,6 +41,31 @@ use abba_core::{
 };
 use abba_sim::cohort::VirtualPatient;
 use abba_sim::person::{SuggestionResponse, VirtualPerson};
+use abba_trial::protocol::{ArmKind, PlannedScenario, TrialConfig};
+use abba_trial::results::RunFailure;
+use abba_trial::TrialError;
+
+/// What can go wrong in a run through the service.
+#[derive(Debug, thiserror::Error)]
+pub enum RemoteError {
+    /// The trial's configuration, simulator or advisor failed.
+    #[error(transparent)]
+    Trial(#[from] TrialError),
+    /// The service refused or did not answer.
+    #[error("{context}: {source}")]
+    Service {
+        /// Which patient and scenario, and the service.
+        context: String,
+        /// The client's error.
+        #[source]
+        source: Box<ClientError>,
+    },
+    /// The person answered a setting the service has no name for (a snack
+    /// carb ratio: the service suggests only the basal and the three main
+    /// meals' ratios).
+    #[error("the service has no setting for {0}")]
+    NoSetting(String),
+}
 
 /// Where and as whom the app talks to the service.
 #[derive(Debug, Clone)]
@@ -79,8 +107,8 @@ pub struct RemoteRun {
     pub answers_wait: std::time::Duration,
 }
 
-fn remote_err(context: &str) -> impl Fn(ClientError) -> TrialError + '_ {
-    move |source| TrialError::Remote {
+fn remote_err(context: &str) -> impl Fn(ClientError) -> RemoteError + '_ {
+    move |source| RemoteError::Service {
         context: context.to_string(),
         source: Box::new(source),
     }
@@ -249,36 +277,36 @@ pub fn apply(settings: &mut TherapySettings, answers: &[Suggestion]) {
     }
 }
 
-fn setting_of(v: &SettingValue) -> Setting {
-    match v {
-        SettingValue::Basal { .. } => Setting::Basal,
-        SettingValue::CarbRatio { slot, .. } => match slot {
-            MealSlot::Breakfast => Setting::Breakfast,
-            MealSlot::Lunch => Setting::Lunch,
-            // The person only answers main-meal ratios.
-            MealSlot::Dinner | MealSlot::Snack => Setting::Dinner,
-        },
-    }
+/// The setting an answer event is about, as the service names it.
+fn setting_of(v: &SettingValue) -> Result<Setting, RemoteError> {
+    let p = match *v {
+        SettingValue::Basal { .. } => Parameter::Basal,
+        SettingValue::CarbRatio { slot, .. } => Parameter::CarbRatio(slot),
+    };
+    setting(p).ok_or_else(|| RemoteError::NoSetting(format!("an answer to the {p}")))
 }
 
 /// The answer the person's answer event says, to the latest suggestion of
-/// its setting among `latest`.
-fn answer_item(e: &Event, latest: &[Suggestion]) -> Option<AnswerItem> {
+/// its setting among `latest` (`None` for another event, or when no
+/// suggestion of that setting was received); an answer to a setting the
+/// service has no name for is an error, never sent as another setting's.
+fn answer_item(e: &Event, latest: &[Suggestion]) -> Result<Option<AnswerItem>, RemoteError> {
     let (v, answer, value) = match e.kind {
         EventKind::SuggestionAccepted(v) => (v, AnswerKind::Accept, None),
         EventKind::SuggestionRejected(v) => (v, AnswerKind::Reject, None),
         EventKind::SuggestionOverridden(v) => (v, AnswerKind::Override, Some(v.number())),
-        _ => return None,
+        _ => return Ok(None),
     };
-    let s = latest
+    let setting = setting_of(&v)?;
+    Ok(latest
         .iter()
         .rev()
-        .find(|s| s.parameter == setting_of(&v))?;
-    Some(AnswerItem {
-        suggestion_id: s.id,
-        answer,
-        value,
-    })
+        .find(|s| s.parameter == setting)
+        .map(|s| AnswerItem {
+            suggestion_id: s.id,
+            answer,
+            value,
+        }))
 }
 
 /// Runs `days` days of patient `vp` (number `patient_no`) in `scenario`
@@ -290,7 +318,7 @@ pub fn run_remote(
     patient_no: u64,
     scenario: &PlannedScenario,
     app: &RemoteApp,
-) -> Result<RemoteRun, TrialError> {
+) -> Result<RemoteRun, RemoteError> {
     let context = format!(
         "{} {} via {}",
         vp.params.name,
@@ -337,7 +365,7 @@ pub fn run_remote(
             person.begin_minute().map_err(sim)?;
             while let Some(event) = person.next_event().map_err(sim)? {
                 let Some(body) = wire_event(&event.kind)? else {
-                    answers.extend(answer_item(&event, &latest));
+                    answers.extend(answer_item(&event, &latest)?);
                     continue;
                 };
                 outbox.push(instant(day1, event.at.0)?, body);
@@ -403,7 +431,7 @@ pub fn cohort_patient(
     config: &TrialConfig,
     name: &str,
 ) -> Result<(VirtualPatient, u64), TrialError> {
-    let cohort = crate::runner::build_cohort(config)?;
+    let cohort = abba_trial::runner::build_cohort(config)?;
     let names = || {
         cohort
             .patients
@@ -434,11 +462,11 @@ pub fn in_process_decisions(
     patient_no: u64,
     scenario: &PlannedScenario,
 ) -> Result<Vec<abba_advisor::Decision>, TrialError> {
-    let mut trace = crate::closed_loop::Trace {
+    let mut trace = abba_trial::closed_loop::Trace {
         decisions: Some(Vec::new()),
         ..Default::default()
     };
-    crate::closed_loop::run_patient_with(
+    abba_trial::closed_loop::run_patient_with(
         config,
         vp,
         patient_no,
@@ -449,13 +477,16 @@ pub fn in_process_decisions(
     Ok(trace.decisions.unwrap_or_default())
 }
 
-/// The service's setting for an advisor parameter.
-pub fn setting(p: abba_advisor::Parameter) -> Setting {
+/// The service's setting for an advisor parameter; `None` for a snack's
+/// carb ratio, which the service neither suggests nor takes answers for
+/// (it is never answered as another meal's).
+pub fn setting(p: Parameter) -> Option<Setting> {
     match p {
-        abba_advisor::Parameter::Basal => Setting::Basal,
-        abba_advisor::Parameter::CarbRatio(MealSlot::Breakfast) => Setting::Breakfast,
-        abba_advisor::Parameter::CarbRatio(MealSlot::Lunch) => Setting::Lunch,
-        abba_advisor::Parameter::CarbRatio(_) => Setting::Dinner,
+        Parameter::Basal => Some(Setting::Basal),
+        Parameter::CarbRatio(MealSlot::Breakfast) => Some(Setting::Breakfast),
+        Parameter::CarbRatio(MealSlot::Lunch) => Some(Setting::Lunch),
+        Parameter::CarbRatio(MealSlot::Dinner) => Some(Setting::Dinner),
+        Parameter::CarbRatio(MealSlot::Snack) => None,
     }
 }
 
@@ -468,7 +499,13 @@ pub fn compare(
 ) -> Result<usize, String> {
     for (k, (d, s)) in decisions.iter().zip(suggestions).enumerate() {
         let (minute, param) = Setting::from_suggestion_id(s.id);
-        let want = (d.at.0, setting(d.parameter), d.old, d.new);
+        let Some(wanted) = setting(d.parameter) else {
+            return Err(format!(
+                "decision {k} in process is about the {}, which the service has no setting for",
+                d.parameter
+            ));
+        };
+        let want = (d.at.0, wanted, d.old, d.new);
         let got = (minute as i64, param, s.previous, s.value);
         if want != got {
             return Err(format!(
@@ -485,4 +522,93 @@ pub fn compare(
         ));
     }
     Ok(decisions.len())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use abba_advisor::{Decision, DecisionDetail, SkipReason};
+    use abba_core::Timestamp;
+
+    fn suggestion(minute: u64, parameter: Setting) -> Suggestion {
+        Suggestion {
+            id: parameter.suggestion_id(minute),
+            seq: None,
+            parameter,
+            value: 10.0,
+            previous: 10.0,
+            unit: "g/U".into(),
+            no_update: true,
+            reason: String::new(),
+            reasons: Vec::new(),
+            data: String::new(),
+            decided_at: String::new(),
+            day: 1,
+            status: "open".into(),
+            in_force: 10.0,
+        }
+    }
+
+    fn accepted(slot: MealSlot) -> Event {
+        Event::new(
+            Timestamp(600),
+            EventKind::SuggestionAccepted(SettingValue::CarbRatio {
+                slot,
+                ratio: GramsPerUnit(10.0),
+            }),
+        )
+    }
+
+    #[test]
+    fn each_main_setting_has_its_own_name_and_a_snack_none() {
+        assert_eq!(setting(Parameter::Basal), Some(Setting::Basal));
+        for (slot, s) in
+            MealSlot::MAIN
+                .into_iter()
+                .zip([Setting::Breakfast, Setting::Lunch, Setting::Dinner])
+        {
+            assert_eq!(setting(Parameter::CarbRatio(slot)), Some(s));
+        }
+        assert_eq!(setting(Parameter::CarbRatio(MealSlot::Snack)), None);
+    }
+
+    #[test]
+    fn a_dinner_answer_answers_the_latest_dinner_suggestion() {
+        let latest = [
+            suggestion(500, Setting::Dinner),
+            suggestion(540, Setting::Lunch),
+            suggestion(560, Setting::Dinner),
+        ];
+        let item = answer_item(&accepted(MealSlot::Dinner), &latest)
+            .unwrap()
+            .unwrap();
+        assert_eq!(item.suggestion_id, Setting::Dinner.suggestion_id(560));
+        assert_eq!(item.answer, AnswerKind::Accept);
+    }
+
+    #[test]
+    fn a_snack_answer_is_an_error_not_a_dinner_answer() {
+        let latest = [suggestion(560, Setting::Dinner)];
+        let err = answer_item(&accepted(MealSlot::Snack), &latest).unwrap_err();
+        assert!(matches!(err, RemoteError::NoSetting(_)), "{err:?}");
+        assert_eq!(
+            err.to_string(),
+            "the service has no setting for an answer to the snack carb ratio"
+        );
+    }
+
+    #[test]
+    fn a_snack_decision_is_never_compared_as_dinner() {
+        let decision = Decision {
+            at: Timestamp(560),
+            parameter: Parameter::CarbRatio(MealSlot::Snack),
+            old: 10.0,
+            new: 10.0,
+            detail: DecisionDetail::Skipped {
+                reason: SkipReason::NoPreviousDayWindow,
+            },
+        };
+        let err = compare(&[decision], &[suggestion(560, Setting::Dinner)]).unwrap_err();
+        assert!(err.contains("snack carb ratio"), "{err}");
+    }
 }

@@ -15,7 +15,7 @@ use utoipa_axum::routes;
 pub fn api() -> OpenApiRouter<AppState> {
     OpenApiRouter::with_openapi(ApiDoc::openapi())
         .routes(routes!(meta::healthz))
-        .routes(routes!(meta::openapi))
+        .routes(routes!(openapi))
         .routes(routes!(admin::create_person))
         .routes(routes!(admin::set_bounds))
         .routes(routes!(admin::set_therapy))
@@ -27,6 +27,17 @@ pub fn api() -> OpenApiRouter<AppState> {
         .routes(routes!(person::suggestions))
         .routes(routes!(person::advice))
         .routes(routes!(person::history))
+}
+
+/// The OpenAPI document, generated from the handlers.
+#[utoipa::path(get, path = "/v1/openapi.json", tag = "meta", security(("bearer" = [])),
+    responses(
+        (status = 200, description = "The OpenAPI 3.1 document of this service", body = Object),
+        (status = 401, description = "No valid token", body = abba_api::ErrorBody)))]
+pub async fn openapi(
+    _caller: crate::extract::AnyCaller,
+) -> Result<axum::Json<utoipa::openapi::OpenApi>, crate::error::ApiError> {
+    Ok(axum::Json(document().clone()))
 }
 
 /// The document (built once).

@@ -32,8 +32,7 @@ impl r2d2::ManageConnection for StoreManager {
     }
 
     fn is_valid(&self, conn: &mut Store) -> Result<(), StoreError> {
-        conn.connection().execute_batch("SELECT 1")?;
-        Ok(())
+        conn.ping()
     }
 
     fn has_broken(&self, _conn: &mut Store) -> bool {
@@ -295,8 +294,7 @@ impl AppState {
         let s = self.clone();
         tokio::task::spawn_blocking(move || {
             let conn = s.conn().map_err(|e| e.message)?;
-            conn.connection()
-                .query_row("SELECT count(*) FROM person", [], |r| r.get::<_, i64>(0))
+            conn.ping()
                 .map_err(|e| format!("the store does not answer: {e}"))?;
             check_writable(&conn, &db).map_err(|e| e.to_string())
         })
@@ -308,10 +306,7 @@ impl AppState {
 /// A store the service could not write would take events it cannot keep:
 /// refuse it (the file or its folder read-only, a read-only medium).
 fn check_writable(store: &Store, db: &Path) -> Result<(), ServiceError> {
-    let read_only = store
-        .connection()
-        .is_readonly(rusqlite::MAIN_DB)
-        .map_err(StoreError::from)?;
+    let read_only = store.is_read_only()?;
     let meta = std::fs::metadata(db).map_err(|source| ServiceError::Io {
         context: format!("reading {}", db.display()),
         source,

@@ -170,7 +170,7 @@ async fn signed_in<'a>(svc: &'a Svc, role: Role) -> (Browser<'a>, String) {
 
 fn app_events(svc: &Svc, person: u64) -> i64 {
     let store = abba_service::open_store(&svc.db).unwrap();
-    abba_store::app::count(store.connection(), person as i64).unwrap()
+    store.app_event_count(person as i64).unwrap()
 }
 
 #[tokio::test]

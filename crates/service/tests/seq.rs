@@ -196,10 +196,9 @@ async fn an_acknowledged_batch_is_in_the_store_after_reopening() {
     let r = post(&svc2, id, &t, batch).await;
     assert_eq!(r.json["stored"], 0);
     assert_eq!(r.json["repeated"].as_array().unwrap().len(), 50);
-    let synchronous: i64 = abba_service::open_store(&db)
+    let synchronous = abba_service::open_store(&db)
         .unwrap()
-        .connection()
-        .pragma_query_value(None, "synchronous", |r| r.get(0))
+        .synchronous()
         .unwrap();
     assert_eq!(synchronous, 2, "the service commits with synchronous=FULL");
 }

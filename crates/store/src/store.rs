@@ -277,9 +277,40 @@ impl Store {
         })
     }
 
-    /// The SQLite connection (for checks and tests).
-    pub fn connection(&self) -> &Connection {
-        &self.conn
+    /// Checks that the store answers a query (a pooled connection's and
+    /// `/healthz`'s check).
+    pub fn ping(&self) -> Result<(), StoreError> {
+        self.conn
+            .query_row("SELECT count(*) FROM person", [], |r| r.get::<_, i64>(0))?;
+        Ok(())
+    }
+
+    /// True when SQLite opened the store read-only (the file, its folder
+    /// or the medium).
+    pub fn is_read_only(&self) -> Result<bool, StoreError> {
+        Ok(self.conn.is_readonly(rusqlite::MAIN_DB)?)
+    }
+
+    /// SQLite's `synchronous` level in force (1 NORMAL, 2 FULL).
+    pub fn synchronous(&self) -> Result<i64, StoreError> {
+        Ok(self
+            .conn
+            .pragma_query_value(None, "synchronous", |r| r.get(0))?)
+    }
+
+    /// The imports of person `id`, oldest first.
+    pub fn imports_of(&self, id: i64) -> Result<Vec<crate::import::ImportRow>, StoreError> {
+        crate::import::imports(&self.conn, id)
+    }
+
+    /// Person `id`'s app event `seq`, if stored.
+    pub fn app_event(&self, id: i64, seq: u64) -> Result<Option<crate::app::AppEvent>, StoreError> {
+        crate::app::one(&self.conn, id, seq)
+    }
+
+    /// How many app events person `id` has.
+    pub fn app_event_count(&self, id: i64) -> Result<i64, StoreError> {
+        crate::app::count(&self.conn, id)
     }
 
     /// Creates a person.

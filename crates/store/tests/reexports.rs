@@ -142,7 +142,8 @@ fn the_migration_rekeys_index_identities_without_losing_a_record() {
         // What the previous schema stored: each Clarity row keyed by its
         // Index, and a second import of the same readings under other
         // Index values (a re-export) kept as if new.
-        let conn = store.connection();
+        drop(store);
+        let conn = rusqlite::Connection::open(&path).unwrap();
         conn.execute_batch(
             "CREATE TEMP TABLE old AS SELECT * FROM record;
              DELETE FROM record;
@@ -173,8 +174,11 @@ fn the_migration_rekeys_index_identities_without_losing_a_record() {
             abba_store::schema::migration_number(abba_store::log::REKEY_MIGRATION).unwrap() - 1;
         conn.pragma_update(None, "user_version", before).unwrap();
     }
-    let count = |store: &Store, sql: &str| -> i64 {
-        store.connection().query_row(sql, [], |r| r.get(0)).unwrap()
+    let count = |_: &Store, sql: &str| -> i64 {
+        rusqlite::Connection::open(&path)
+            .unwrap()
+            .query_row(sql, [], |r| r.get(0))
+            .unwrap()
     };
     let mut store = Store::open(&path).unwrap();
     assert_eq!(

@@ -1,9 +1,8 @@
-//! Health and the OpenAPI document.
+//! Health (the OpenAPI document's endpoint lives with the document, in
+//! `crate::openapi`).
 
-use crate::error::ApiError;
-use crate::extract::AnyCaller;
 use crate::state::AppState;
-use abba_api::{ErrorBody, Health};
+use abba_api::Health;
 use axum::extract::State;
 use axum::http::StatusCode;
 use axum::Json;
@@ -28,13 +27,4 @@ pub async fn healthz(State(s): State<AppState>) -> (StatusCode, Json<Health>) {
             notice: abba_api::NOTICE.into(),
         }),
     )
-}
-
-/// The OpenAPI document, generated from the handlers.
-#[utoipa::path(get, path = "/v1/openapi.json", tag = "meta", security(("bearer" = [])),
-    responses(
-        (status = 200, description = "The OpenAPI 3.1 document of this service", body = Object),
-        (status = 401, description = "No valid token", body = ErrorBody)))]
-pub async fn openapi(_caller: AnyCaller) -> Result<Json<utoipa::openapi::OpenApi>, ApiError> {
-    Ok(Json(crate::openapi::document().clone()))
 }

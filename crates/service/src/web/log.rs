@@ -62,7 +62,7 @@ fn default_slot(live: &Live) -> MealSlot {
 }
 
 fn fed_by_imports(store: &Store, id: i64) -> Result<bool, ApiError> {
-    Ok(!abba_store::import::imports(store.connection(), id)?.is_empty())
+    Ok(!store.imports_of(id)?.is_empty())
 }
 
 /// What the page shows after a POST (from the query).
@@ -121,7 +121,7 @@ fn model(store: &Store, live: &Live, show: After, typed: Typed) -> Result<Log, A
     match show {
         After::Meal(seq) => {
             if let Some(EventKind::MealAnnounced { carbs, slot }) =
-                abba_store::app::one(store.connection(), id, seq)?.map(|e| e.event.kind)
+                store.app_event(id, seq)?.map(|e| e.event.kind)
             {
                 let p = Parameter::CarbRatio(slot);
                 if let Some((ratio, in_force)) = setting(p) {

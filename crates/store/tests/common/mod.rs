@@ -109,6 +109,16 @@ impl TempDir {
     pub fn store(&self) -> Store {
         Store::open(&self.0.join("abba.db")).unwrap()
     }
+
+    /// The rows of `table`, read by SQLite itself (the store keeps its
+    /// connection to itself).
+    #[allow(dead_code)]
+    pub fn rows(&self, table: &str) -> i64 {
+        rusqlite::Connection::open(self.0.join("abba.db"))
+            .unwrap()
+            .query_row(&format!("SELECT count(*) FROM {table}"), [], |r| r.get(0))
+            .unwrap()
+    }
 }
 
 impl Drop for TempDir {

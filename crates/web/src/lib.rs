@@ -93,6 +93,7 @@ pub fn render(
         .map_err(|source| RenderError { page, source })?;
     tmpl.render(minijinja::context! {
         t => texts::EN,
+        c => texts::CLINIC_EN,
         layout => layout,
         page => model,
     })
@@ -102,6 +103,46 @@ pub fn render(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// What a template shows besides its markup and expressions.
+    fn literal_text(src: &str) -> String {
+        let mut out = String::new();
+        let mut rest = src;
+        while !rest.is_empty() {
+            let next = ["{{", "{%", "{#", "<"]
+                .iter()
+                .filter_map(|o| rest.find(o).map(|i| (i, *o)))
+                .min();
+            let Some((i, open)) = next else {
+                out.push_str(rest);
+                break;
+            };
+            out.push_str(&rest[..i]);
+            let close = match open {
+                "{{" => "}}",
+                "{%" => "%}",
+                "{#" => "#}",
+                _ => ">",
+            };
+            rest = &rest[i + open.len()..];
+            rest = rest.find(close).map_or("", |j| &rest[j + close.len()..]);
+        }
+        out
+    }
+
+    #[test]
+    fn every_text_of_every_page_comes_from_the_texts() {
+        for (name, src) in TEMPLATES {
+            let left: String = literal_text(src)
+                .split_whitespace()
+                // (attribute fragments a macro writes inside a tag)
+                .filter(|w| !w.contains('='))
+                .filter(|w| w.chars().any(char::is_alphabetic))
+                .collect::<Vec<_>>()
+                .join(" ");
+            assert!(left.is_empty(), "{name} writes its own words: {left:?}");
+        }
+    }
 
     #[test]
     fn a_hostile_name_is_text_on_a_page() {

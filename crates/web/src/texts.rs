@@ -10,6 +10,8 @@ use serde::Serialize;
 pub struct Texts {
     /// The `lang` of every page.
     pub lang: &'static str,
+    /// The product's name (every page's title ends with it).
+    pub product: &'static str,
     /// The research-software notice, on every page.
     pub notice: &'static str,
     /// The skip link.
@@ -251,6 +253,7 @@ pub struct Texts {
 /// English.
 pub const EN: Texts = Texts {
     lang: "en",
+    product: "abba",
     notice: "abba is research software, not a medical device. Nothing it shows is medical advice: discuss every suggestion with your clinician before you act on it.",
     skip: "Skip to the content",
     nav_label: "Main",
@@ -369,6 +372,216 @@ pub const EN: Texts = Texts {
     status_superseded_word: "not answered before the next one (taken as followed)",
     status_no_update_word: "no change",
     report_no_data: "There is nothing to report yet: the report needs at least one day of data.",
+};
+
+/// The texts of the clinic's pages (`c` in their templates).
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct ClinicTexts {
+    /// No data.
+    pub no_data: &'static str,
+    /// Flag: closed loop.
+    pub flag_loop: &'static str,
+    /// Flag: first week.
+    pub flag_first_week: &'static str,
+    /// A link whose last sync failed ({error}).
+    pub link_failed: &'static str,
+    /// A link synced at {at}.
+    pub link_synced: &'static str,
+    /// A link not synced yet.
+    pub link_new: &'static str,
+    /// Status: bounds saved.
+    pub saved_bounds: &'static str,
+    /// Status: steps saved.
+    pub saved_steps: &'static str,
+    /// Status: therapy saved.
+    pub saved_therapy: &'static str,
+    /// Status: imported.
+    pub imported: &'static str,
+    /// Status: token revoked.
+    pub token_revoked: &'static str,
+    /// Status: session revoked.
+    pub session_revoked: &'static str,
+    /// The person's mode, zone and unit ({mode}, {tz}, {unit}).
+    pub person_summary: &'static str,
+    /// The link to the person's report.
+    pub person_report: &'static str,
+    /// Before the link's state.
+    pub nightscout: &'static str,
+    /// The sign-in link's heading.
+    pub signin_link_title: &'static str,
+    /// The new token's heading.
+    pub new_token_title: &'static str,
+    /// Heading: settings in force.
+    pub in_force_title: &'static str,
+    /// Column: setting.
+    pub col_setting: &'static str,
+    /// Column: value.
+    pub col_value: &'static str,
+    /// A schedule segment's row (then its start).
+    pub basal_from: &'static str,
+    /// Heading: suggestions waiting.
+    pub waiting_title: &'static str,
+    /// Nothing waiting.
+    pub none: &'static str,
+    /// Heading: bounds.
+    pub bounds_title: &'static str,
+    /// Button: bounds.
+    pub save_bounds: &'static str,
+    /// Heading: steps.
+    pub steps_title: &'static str,
+    /// Button: steps.
+    pub save_steps: &'static str,
+    /// Heading: therapy change.
+    pub therapy_title: &'static str,
+    /// Label: new carb ratios.
+    pub new_carb_ratios: &'static str,
+    /// Button: therapy change.
+    pub record_change: &'static str,
+    /// Heading: import.
+    pub import_title: &'static str,
+    /// Label: export files.
+    pub import_files: &'static str,
+    /// Button: import.
+    pub import_button: &'static str,
+    /// Heading: access.
+    pub access_title: &'static str,
+    /// Button: sign-in link.
+    pub make_signin: &'static str,
+    /// Button: API token.
+    pub issue_token: &'static str,
+    /// Heading: sessions.
+    pub sessions_title: &'static str,
+    /// Button: revoke a session (then its id).
+    pub revoke_session: &'static str,
+    /// No session.
+    pub no_session: &'static str,
+    /// Heading: tokens.
+    pub tokens_title: &'static str,
+    /// Button: revoke a token (then its id).
+    pub revoke_token: &'static str,
+    /// No token.
+    pub no_token: &'static str,
+    /// Label: lowest basal.
+    pub basal_min: &'static str,
+    /// Label: highest basal.
+    pub basal_max: &'static str,
+    /// Label: lowest carb ratio.
+    pub cr_min: &'static str,
+    /// Label: highest carb ratio.
+    pub cr_max: &'static str,
+    /// Label: basal step.
+    pub basal_step: &'static str,
+    /// Label: carb-ratio step.
+    pub cr_step: &'static str,
+    /// Label: new basal.
+    pub new_basal: &'static str,
+    /// The list's caption.
+    pub persons_caption: &'static str,
+    /// Column: name.
+    pub col_name: &'static str,
+    /// Column: last data.
+    pub col_last: &'static str,
+    /// Column: TIR.
+    pub col_tir: &'static str,
+    /// Column: below 70.
+    pub col_below: &'static str,
+    /// Column: flags.
+    pub col_flags: &'static str,
+    /// Column: Nightscout.
+    pub col_nightscout: &'static str,
+    /// An empty list.
+    pub no_persons: &'static str,
+    /// Heading: a new person.
+    pub new_person_title: &'static str,
+    /// Label: unit.
+    pub unit_label: &'static str,
+    /// Label: mode.
+    pub mode_label: &'static str,
+    /// Label: profile file.
+    pub profile_label: &'static str,
+    /// Before the by-hand fields.
+    pub or_by_hand: &'static str,
+    /// Label: basal.
+    pub basal_label: &'static str,
+    /// Label: carb ratios.
+    pub carb_ratios_label: &'static str,
+    /// Label: day 1.
+    pub first_day_label: &'static str,
+    /// Button: create.
+    pub create_person: &'static str,
+    /// Label: zone.
+    pub tz_label: &'static str,
+}
+
+/// The clinic's pages in English.
+pub const CLINIC_EN: ClinicTexts = ClinicTexts {
+    no_data: "no data yet",
+    flag_loop: "closed loop or injections",
+    flag_first_week: "insufficient data (first week)",
+    link_failed: "linked; last sync failed: {error}",
+    link_synced: "linked; last sync {at}",
+    link_new: "linked; not synced yet",
+    saved_bounds: "Saved: the bounds.",
+    saved_steps: "Saved: the pump's steps.",
+    saved_therapy: "Saved: the change of therapy.",
+    imported: "Imported.",
+    token_revoked: "Revoked: the token.",
+    session_revoked: "Revoked: the session.",
+    person_summary: "{mode} mode, zone {tz}, glucose in {unit}.",
+    person_report: "The person's report",
+    nightscout: "Nightscout:",
+    signin_link_title: "Sign-in link (works once, for 15 minutes)",
+    new_token_title: "The new API token (shown only now)",
+    in_force_title: "Settings in force",
+    col_setting: "Setting",
+    col_value: "Value",
+    basal_from: "Basal from",
+    waiting_title: "Suggestions waiting",
+    none: "None.",
+    bounds_title: "Clinician bounds",
+    save_bounds: "Save the bounds",
+    steps_title: "The pump's steps",
+    save_steps: "Save the steps",
+    therapy_title: "A change of therapy",
+    new_carb_ratios: "New carb ratios of breakfast, lunch, dinner (g/U, e.g. 10,12,11)",
+    record_change: "Record the change",
+    import_title: "Import an export",
+    import_files: "Export files (Nightscout, Clarity, LibreView, Tidepool, CareLink, CSV)",
+    import_button: "Import",
+    access_title: "Sign-in and tokens",
+    make_signin: "Make a sign-in link",
+    issue_token: "Issue an API token",
+    sessions_title: "Sessions",
+    revoke_session: "Revoke session",
+    no_session: "No session.",
+    tokens_title: "API tokens",
+    revoke_token: "Revoke token",
+    no_token: "No token.",
+    basal_min: "Lowest basal rate (U/h)",
+    basal_max: "Highest basal rate (U/h)",
+    cr_min: "Lowest carb ratio (g/U)",
+    cr_max: "Highest carb ratio (g/U)",
+    basal_step: "Basal step (U/h: 0.05, 0.025 or 0.01)",
+    cr_step: "Carb-ratio step (g/U: 0.1 or 1)",
+    new_basal: "New basal rate (U/h)",
+    persons_caption: "Persons in this store",
+    col_name: "Name",
+    col_last: "Last data",
+    col_tir: "Time in range (14 days)",
+    col_below: "Below 70 mg/dL",
+    col_flags: "Flags",
+    col_nightscout: "Nightscout",
+    no_persons: "No persons yet.",
+    new_person_title: "A new person",
+    unit_label: "Glucose unit",
+    mode_label: "Mode",
+    profile_label: "The pump's profile: a Nightscout profile, Tidepool or CareLink export",
+    or_by_hand: "Or, instead of a profile:",
+    basal_label: "Basal rate (U/h)",
+    carb_ratios_label: "Carb ratios of breakfast, lunch, dinner (g/U, e.g. 10,12,11; with a profile, they replace its ratios)",
+    first_day_label: "Day 1 (optional, YYYY-MM-DD)",
+    create_person: "Create the person",
+    tz_label: "Time zone (IANA, e.g. Europe/Zurich)",
 };
 
 /// Fills the `{name}` placeholders of `text`.

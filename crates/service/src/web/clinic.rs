@@ -21,7 +21,7 @@ use abba_store::person::{GlucoseUnits, TherapySource};
 use abba_store::token::Role;
 use abba_store::{NewPerson, ProfileResolution, Store};
 use abba_web::pages::{Choice, Layout};
-use abba_web::texts::{fill, EN};
+use abba_web::texts::{fill, CLINIC_EN as C, EN};
 use axum::extract::{Multipart, Path, RawQuery, State};
 use axum::http::StatusCode;
 use serde::Serialize;
@@ -93,7 +93,7 @@ fn row(store: &mut Store, id: i64, now_ms: i64) -> Result<Row, ApiError> {
     let last = live.stream.events.last();
     let last_data = last
         .map(|e| advise::local(clock.as_ref(), e.at))
-        .unwrap_or_else(|| "no data yet".into());
+        .unwrap_or_else(|| C.no_data.into());
     let end = last.map_or(0, |e| e.at.0);
     let glucose: Vec<f64> = live
         .stream
@@ -122,17 +122,17 @@ fn row(store: &mut Store, id: i64, now_ms: i64) -> Result<Row, ApiError> {
     );
     let mut flags = Vec::new();
     if !a.delivery.basal_suggestions {
-        flags.push("closed loop or injections");
+        flags.push(C.flag_loop);
     }
     if !matches!(a.phase, advise::Phase::Adapting) {
-        flags.push("insufficient data (first week)");
+        flags.push(C.flag_first_week);
     }
     let nightscout = store
         .link(&p.name)?
         .map(|l| match (&l.last_error, &l.last_sync_at) {
-            (Some(e), _) => format!("linked; last sync failed: {e}"),
-            (None, Some(t)) => format!("linked; last sync {t}"),
-            (None, None) => "linked; not synced yet".into(),
+            (Some(e), _) => fill(C.link_failed, &[("error", e)]),
+            (None, Some(t)) => fill(C.link_synced, &[("at", t)]),
+            (None, None) => C.link_new.into(),
         });
     let _ = now_ms;
     Ok(Row {
@@ -502,6 +502,7 @@ struct PersonModel {
     mode: String,
     tz: String,
     unit: String,
+    summary: String,
     settings: Vec<(String, String)>,
     schedule: Vec<(String, String)>,
     bounds: BTreeMap<&'static str, String>,
@@ -618,15 +619,25 @@ fn person_model(store: &mut Store, id: i64) -> Result<PersonModel, ApiError> {
                 .unwrap_or_default()
         )
     });
+    let unit = match p.settings.units {
+        GlucoseUnits::MgDl => "mg/dL",
+        GlucoseUnits::MmolL => "mmol/L",
+    };
+    let summary = fill(
+        abba_web::texts::CLINIC_EN.person_summary,
+        &[
+            ("mode", &a.mode.to_string().to_uppercase()),
+            ("tz", &a.tz),
+            ("unit", unit),
+        ],
+    );
     Ok(PersonModel {
         id,
         name: p.name.clone(),
         mode: a.mode.to_string(),
         tz: a.tz.clone(),
-        unit: match p.settings.units {
-            GlucoseUnits::MgDl => "mg/dL".into(),
-            GlucoseUnits::MmolL => "mmol/L".into(),
-        },
+        unit: unit.into(),
+        summary,
         settings,
         schedule,
         bounds: BTreeMap::from([
@@ -687,12 +698,12 @@ fn done_text(q: Option<&str>) -> Option<String> {
     let what = q?.strip_prefix("done=")?;
     Some(
         match what {
-            "bounds" => "Saved: the bounds.",
-            "steps" => "Saved: the pump's steps.",
-            "therapy" => "Saved: the change of therapy.",
-            "import" => "Imported.",
-            "token-revoked" => "Revoked: the token.",
-            "session-revoked" => "Revoked: the session.",
+            "bounds" => C.saved_bounds,
+            "steps" => C.saved_steps,
+            "therapy" => C.saved_therapy,
+            "import" => C.imported,
+            "token-revoked" => C.token_revoked,
+            "session-revoked" => C.session_revoked,
             _ => return None,
         }
         .to_string(),

@@ -1,6 +1,6 @@
 //! `abba advise`: what is in force and what to use today, with reasons.
 
-use abba_store::render::advice_text;
+use crate::advice_text::advice_text;
 use anyhow::Result;
 
 /// Arguments of `abba advise`.

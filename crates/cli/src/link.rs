@@ -5,8 +5,8 @@
 use std::io::BufRead;
 use std::path::PathBuf;
 
+use crate::advice_text::advice_text;
 use abba_nightscout::{site, sync::Check, write_back, ClientOptions, SyncOptions};
-use abba_store::render::advice_text;
 use abba_store::{ProfileResolution, NOTICE};
 use anyhow::{bail, Context, Result};
 

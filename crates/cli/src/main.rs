@@ -11,6 +11,7 @@
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
 
+mod advice_text;
 mod advise;
 mod answer;
 mod app;

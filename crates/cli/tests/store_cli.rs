@@ -484,3 +484,61 @@ fn sigkill_during_import_leaves_whole_imports_only() {
     assert_eq!(check(&db, &allowed), n_big);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn advise_counts_down_the_first_week_in_words() {
+    let dir = tmp("first-week");
+    let files = export(&dir, "x", 9);
+    // Keep the export's first three days (Nightscout's `date` in ms): two
+    // whole local days in Zurich.
+    let first: Vec<serde_json::Value> =
+        serde_json::from_str(&std::fs::read_to_string(&files[0]).unwrap()).unwrap();
+    let start = first
+        .iter()
+        .map(|e| e["date"].as_i64().unwrap())
+        .min()
+        .unwrap();
+    let cut = start + 3 * 86_400_000 - 1;
+    for f in &files[..2] {
+        let docs: Vec<serde_json::Value> =
+            serde_json::from_str(&std::fs::read_to_string(f).unwrap()).unwrap();
+        let kept: Vec<&serde_json::Value> = docs
+            .iter()
+            .filter(|d| {
+                d["date"]
+                    .as_i64()
+                    .or_else(|| {
+                        d["created_at"]
+                            .as_str()
+                            .and_then(|t| t.parse::<jiff::Timestamp>().ok())
+                            .map(|t| t.as_millisecond())
+                    })
+                    .is_none_or(|ms| ms <= cut)
+            })
+            .collect();
+        std::fs::write(f, serde_json::to_string(&kept).unwrap()).unwrap();
+    }
+    let db = dir.join("p.db");
+    let db = db.to_str().unwrap();
+    ok(&[
+        "person",
+        "new",
+        "--db",
+        db,
+        "--name",
+        "fw",
+        "--tz",
+        "Europe/Zurich",
+        "--mode",
+        "cgm",
+        "--therapy-from",
+        &files[2],
+    ]);
+    ok(&["import", "--db", db, "--person", "fw", &files[0], &files[1]]);
+    let text = ok(&["advise", "--db", db, "--person", "fw"]);
+    assert!(
+        text.contains("First week: 2 day(s) collected, 5 to go"),
+        "{text}"
+    );
+    assert!(text.contains(NOTICE), "{text}");
+}

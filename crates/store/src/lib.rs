@@ -29,7 +29,6 @@ pub mod link;
 pub mod live;
 pub mod log;
 pub mod person;
-pub mod render;
 pub mod replay;
 pub mod report;
 pub mod schema;

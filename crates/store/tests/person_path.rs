@@ -257,10 +257,10 @@ fn a_closed_loop_gets_no_basal_suggestion_and_is_named_with_its_evidence() {
         ev.contains("iaps") && ev.contains("temporary basals"),
         "{ev}"
     );
-    let text = abba_store::render::advice_text(&a);
+    let note = a.delivery.note.clone().unwrap_or_default();
     assert!(
-        text.contains("closed loop") && text.contains("no basal rate"),
-        "{text}"
+        note.contains("closed loop") && note.contains("no basal rate"),
+        "{note}"
     );
     let basal = &a.settings[0];
     assert_ne!(

@@ -1,6 +1,6 @@
 //! Today's advice as text for people.
 
-use crate::advise::{Advice, Phase, SettingAdvice};
+use abba_store::advise::{Advice, Phase, SettingAdvice};
 use std::fmt::Write as _;
 
 fn name(setting: &str) -> String {

@@ -414,6 +414,22 @@ async fn a_clinic_and_a_person_in_headless_chromium() {
         "Today shows the suggestion and the value in force: {section}"
     );
     b.check_page("today", 200, true).await;
+    // The first reason in view, the rest of the explanation one tap away.
+    let summary = b
+        .find("section#setting-basal details.details summary")
+        .await;
+    assert!(
+        !b.text("section#setting-basal details.details li")
+            .await
+            .is_empty()
+            || {
+                summary.click().await.unwrap();
+                !b.text("section#setting-basal details.details li")
+                    .await
+                    .is_empty()
+            },
+        "the explanation's details open"
+    );
 
     // ---- an own basal value: outside the bounds, then inside ------------
     // (First: the own lower rate lets the meal's ratio move toward more

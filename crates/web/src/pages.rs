@@ -132,8 +132,12 @@ pub struct SuggestionCard {
     pub value: String,
     /// Its change, in words (`+4.0 %`).
     pub change: String,
-    /// The reason in plain words.
+    /// The reason in plain words (the advisor's first sentence: what the
+    /// data showed).
     pub reason: String,
+    /// The rest of the explanation (safety rules, the clamp, the pump's
+    /// step), shown on request.
+    pub details: Vec<String>,
     /// True when it can be answered.
     pub open: bool,
     /// What was answered, in words (answered suggestions).

@@ -82,6 +82,8 @@ pub struct Texts {
     pub suggested: &'static str,
     /// "Why:".
     pub why: &'static str,
+    /// The summary of the explanation's details.
+    pub how_details: &'static str,
     /// No change today.
     pub no_change: &'static str,
     /// No decision yet.
@@ -289,6 +291,7 @@ pub const EN: Texts = Texts {
     in_force: "In force",
     suggested: "Suggested",
     why: "Why",
+    how_details: "How abba got there",
     no_change: "No change today.",
     no_decision: "No suggestion yet.",
     first_week: "abba is observing your first week: day {done} of {total}, {left} to go. Your settings stay as they are until then.",

@@ -22,7 +22,7 @@ use serde::Serialize;
 use crate::clock::AdvisorClock;
 use crate::meals::MealWindows;
 use crate::read::Batch;
-use crate::record::{BasalSchedule, Censor, Record, RecordKind, TempRate};
+use crate::record::{BasalSchedule, Censor, OriginAt, Record, RecordKind, TempRate};
 
 /// Longest extended bolus the advisor accepts (its `EventLimits` default).
 pub const EXTENDED_BOLUS_MAX_MIN: u32 = 12 * 60;
@@ -203,22 +203,65 @@ pub fn first_glucose(records: &[Record]) -> Option<&Record> {
         .min_by_key(|r| r.at)
 }
 
-/// Maps a merged batch to the advisor's events.
-pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, crate::IoError> {
+/// How messages name the record they are about.
+#[derive(Debug, Clone, Copy)]
+pub enum Origins<'a> {
+    /// Records read from these files (a record's `origin.file` indexes
+    /// them): `file: line N` or `file: $[i]`.
+    Files(&'a [String]),
+    /// Records with no file (the person store's log): named by their
+    /// source and instant, `nightscout record of 2026-03-01T07:00:00Z`.
+    Stored,
+}
+
+impl Origins<'_> {
+    /// Where `r` came from, for messages.
+    pub fn of(self, r: &Record) -> String {
+        match self {
+            Origins::Files(files) => {
+                let file = files
+                    .get(usize::from(r.origin.file))
+                    .map_or("?", String::as_str);
+                match r.origin.at {
+                    OriginAt::Line(n) => format!("{file}: line {n}"),
+                    OriginAt::Item(i) => format!("{file}: $[{i}]"),
+                }
+            }
+            Origins::Stored => format!("{} record of {}", r.source.name(), r.at),
+        }
+    }
+}
+
+impl Batch {
+    /// The batch's records as the advisor's events ([`to_events`] with the
+    /// batch's file names).
+    pub fn to_events(&self, person: &PersonSettings) -> Result<EventStream, crate::IoError> {
+        to_events(&self.records, Origins::Files(&self.files), person)
+    }
+}
+
+/// Maps records (in time order, duplicates removed: see
+/// [`crate::read::merge_records`]) to the advisor's events; `origins` names
+/// a record in messages.
+pub fn to_events(
+    records: &[Record],
+    origins: Origins<'_>,
+    person: &PersonSettings,
+) -> Result<EventStream, crate::IoError> {
     person.meals.validate()?;
     // Day 1 defaults to the local day of the first glucose reading (a
     // profile or a pump record long before the first reading does not make
     // the first day), else of the first record that is data.
-    let first_data = first_glucose(&batch.records)
+    let first_data = first_glucose(records)
         .or_else(|| {
-            batch.records.iter().find(|r| {
+            records.iter().find(|r| {
                 !matches!(
                     r.kind,
                     RecordKind::Schedule { .. } | RecordKind::Ignored { .. }
                 )
             })
         })
-        .or(batch.records.first());
+        .or(records.first());
     let first_day = match (person.first_day, first_data) {
         (Some(d), _) => d,
         (None, Some(r)) => person.tz.to_datetime(r.at).date(),
@@ -228,7 +271,7 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
     let mut out = EventStream {
         first_day: first_day.to_string(),
         tz: person.tz.iana_name().unwrap_or("?").to_string(),
-        events: Vec::with_capacity(batch.records.len()),
+        events: Vec::with_capacity(records.len()),
         counts: BTreeMap::new(),
         ignored: BTreeMap::new(),
         not_mapped: BTreeMap::new(),
@@ -238,10 +281,10 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
         notes: Vec::new(),
     };
     let mut basal = Basal::default();
-    let rescue = crate::rescue::Rescue::new(&batch.records);
+    let rescue = crate::rescue::Rescue::new(records);
     let (mut rescue_n, mut rescue_g) = (0usize, 0.0f64);
     let mut meals_taken: BTreeMap<(i64, MealSlot), ()> = BTreeMap::new();
-    let mut events: Vec<Event> = Vec::with_capacity(batch.records.len());
+    let mut events: Vec<Event> = Vec::with_capacity(records.len());
     let emit_rate =
         |basal: &mut Basal, at: jiff::Timestamp, force: bool, events: &mut Vec<Event>| {
             let ts = clock.timestamp(at);
@@ -257,11 +300,10 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
                 Some(_) => {}
             }
         };
-    let mut now = batch
-        .records
+    let mut now = records
         .first()
         .map_or(jiff::Timestamp::UNIX_EPOCH, |r| r.at);
-    for r in &batch.records {
+    for r in records {
         // Changes of the basal rate in force before this record.
         while let Some(t) = basal.next_change(now, &clock).filter(|&t| t <= r.at) {
             if basal.expire(t) && clock.timestamp(t).day_index() >= 0 {
@@ -274,7 +316,7 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
         let ts = clock.timestamp(r.at);
         let reject = |out: &mut EventStream, r: &Record, reason: String| {
             out.rejected.push(Rejected {
-                origin: batch.origin(r),
+                origin: origins.of(r),
                 kind: r.kind.name().into(),
                 reason,
             })
@@ -357,7 +399,7 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
                 {
                     out.notes.push(format!(
                         "{}: the profile names time zone {zone}, the person's is {}; times are read in the person's",
-                        batch.origin(r),
+                        origins.of(r),
                         person.tz.iana_name().unwrap_or("?")
                     ));
                 }
@@ -479,4 +521,34 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
     }
     out.events = kept;
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::record::{Origin, Source, SourceId};
+
+    #[test]
+    fn origins_name_a_file_line_or_item_and_a_stored_record_by_source_and_instant() {
+        let mut r = Record {
+            at: "2026-03-01T07:00:00Z".parse().unwrap(),
+            kind: RecordKind::Resume,
+            source: Source::Nightscout,
+            id: SourceId::Hash(1),
+            origin: Origin {
+                file: 1,
+                at: OriginAt::Item(3),
+            },
+        };
+        let files = ["a.csv".to_string(), "t.json".to_string()];
+        assert_eq!(Origins::Files(&files).of(&r), "t.json: $[3]");
+        r.origin.at = OriginAt::Line(7);
+        assert_eq!(Origins::Files(&files).of(&r), "t.json: line 7");
+        r.origin.file = 2;
+        assert_eq!(Origins::Files(&files).of(&r), "?: line 7");
+        assert_eq!(
+            Origins::Stored.of(&r),
+            "nightscout record of 2026-03-01T07:00:00Z"
+        );
+    }
 }

@@ -1,6 +1,6 @@
 //! `abba events`: the normalised records of exports and the advisor events
 //! they map to (abba-io's `to_events`), with counts and every rejection.
-use abba_io::events::{to_events, PersonSettings};
+use abba_io::events::PersonSettings;
 use abba_io::meals::MealWindows;
 use anyhow::{Context, Result};
 
@@ -54,7 +54,7 @@ pub fn run(args: Args) -> Result<()> {
         lunch: MealWindows::parse_window(&args.lunch)?,
         dinner: MealWindows::parse_window(&args.dinner)?,
     };
-    let stream = to_events(&batch, &person)?;
+    let stream = batch.to_events(&person)?;
     if args.json {
         let out = serde_json::json!({
             "note": "abba is research software, not a medical device",

@@ -4,7 +4,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use abba_io::clock::AdvisorClock;
-use abba_io::events::{to_events, PersonSettings};
+use abba_io::events::PersonSettings;
 use abba_io::nightscout_out;
 use abba_sim::scenario::ScenarioId;
 use abba_trial::protocol::{ArmKind, RawTrialConfig, TrialConfig};
@@ -37,7 +37,7 @@ fn round_trip(patient: &str, arm: ArmKind, tz: &str, start: jiff::civil::Date) {
     let batch = abba_io::read_all(&inputs, &abba_io::ReadOptions::default()).unwrap();
     let mut person = PersonSettings::new(zone);
     person.first_day = Some(start);
-    let stream = to_events(&batch, &person).unwrap();
+    let stream = batch.to_events(&person).unwrap();
     assert!(stream.rejected.is_empty(), "{:?}", stream.rejected);
     // The stream has every kind, including basal changes after ABBA's first week.
     for kind in ["cgm", "meal_announced", "bolus", "basal_rate", "day_closed"] {

@@ -27,7 +27,7 @@ use abba_api::{DeviceEvent, EventsBody, Setting, Suggestion};
 use abba_client::Client;
 use abba_core::{Event, EventKind, Timestamp};
 use abba_io::clock::AdvisorClock;
-use abba_io::events::{to_events, PersonSettings};
+use abba_io::events::PersonSettings;
 use abba_io::ReadOptions;
 use service_common::{abba_bin, Server, TempDir};
 use std::path::Path;
@@ -99,7 +99,7 @@ fn app_events(export: &Path, first_day: jiff::civil::Date) -> Vec<Vec<DeviceEven
     .unwrap();
     let mut person = PersonSettings::new(tz.clone());
     person.first_day = Some(first_day);
-    let mut events = to_events(&batch, &person).unwrap().events;
+    let mut events = batch.to_events(&person).unwrap().events;
     let last_day = events.last().unwrap().at.day_index();
     assert_eq!(last_day, 7, "the export covers days 1-8");
     // The simulated pump's standard therapy keeps glucose in range, so

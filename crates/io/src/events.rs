@@ -22,7 +22,7 @@ use serde::Serialize;
 use crate::clock::AdvisorClock;
 use crate::meals::MealWindows;
 use crate::read::Batch;
-use crate::record::{BasalSchedule, Censor, Record, RecordKind, TempRate};
+use crate::record::{BasalSchedule, Censor, OriginAt, Record, RecordKind, TempRate};
 
 /// Longest extended bolus the advisor accepts (its `EventLimits` default).
 pub const EXTENDED_BOLUS_MAX_MIN: u32 = 12 * 60;
@@ -203,32 +203,58 @@ pub fn first_glucose(records: &[Record]) -> Option<&Record> {
         .min_by_key(|r| r.at)
 }
 
-/// Maps a merged batch to the advisor's events.
-pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, crate::IoError> {
+/// How messages name the record they are about.
+#[derive(Debug, Clone, Copy)]
+pub enum Origins<'a> {
+    /// Records read from these files (a record's `origin.file` indexes
+    /// them): `file: line N` or `file: $[i]`.
+    Files(&'a [String]),
+    /// Records with no file (the person store's log): named by their
+    /// source and instant, `nightscout record of 2026-03-01T07:00:00Z`.
+    Stored,
+}
+
+impl Origins<'_> {
+    /// Where `r` came from, for messages.
+    pub fn of(self, r: &Record) -> String {
+        match self {
+            Origins::Files(files) => {
+                let file = files
+                    .get(usize::from(r.origin.file))
+                    .map_or("?", String::as_str);
+                match r.origin.at {
+                    OriginAt::Line(n) => format!("{file}: line {n}"),
+                    OriginAt::Item(i) => format!("{file}: $[{i}]"),
+                }
+            }
+            Origins::Stored => format!("{} record of {}", r.source.name(), r.at),
+        }
+    }
+}
+
+impl Batch {
+    /// The batch's records as the advisor's events ([`to_events`] with the
+    /// batch's file names).
+    pub fn to_events(&self, person: &PersonSettings) -> Result<EventStream, crate::IoError> {
+        to_events(&self.records, Origins::Files(&self.files), person)
+    }
+}
+
+/// Maps records (in time order, duplicates removed: see
+/// [`crate::read::merge_records`]) to the advisor's events; `origins` names
+/// a record in messages.
+pub fn to_events(
+    records: &[Record],
+    origins: Origins<'_>,
+    person: &PersonSettings,
+) -> Result<EventStream, crate::IoError> {
     person.meals.validate()?;
-    // Day 1 defaults to the local day of the first glucose reading (a
-    // profile or a pump record long before the first reading does not make
-    // the first day), else of the first record that is data.
-    let first_data = first_glucose(&batch.records)
-        .or_else(|| {
-            batch.records.iter().find(|r| {
-                !matches!(
-                    r.kind,
-                    RecordKind::Schedule { .. } | RecordKind::Ignored { .. }
-                )
-            })
-        })
-        .or(batch.records.first());
-    let first_day = match (person.first_day, first_data) {
-        (Some(d), _) => d,
-        (None, Some(r)) => person.tz.to_datetime(r.at).date(),
-        (None, None) => return Err(crate::IoError::Settings("no records to map".into())),
-    };
+    let first_day = day_one(records, person)?;
     let clock = AdvisorClock::new(person.tz.clone(), first_day);
     let mut out = EventStream {
         first_day: first_day.to_string(),
         tz: person.tz.iana_name().unwrap_or("?").to_string(),
-        events: Vec::with_capacity(batch.records.len()),
+        events: Vec::with_capacity(records.len()),
         counts: BTreeMap::new(),
         ignored: BTreeMap::new(),
         not_mapped: BTreeMap::new(),
@@ -237,44 +263,118 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
         meal_rule: person.meals.rule(),
         notes: Vec::new(),
     };
+    let (mut events, rescued) = map_records(records, origins, person, &clock, &mut out);
+    events.sort_by_key(|e| (e.at, rank(&e.kind)));
+    if person.day_close == DayClose::Midnight {
+        close_at_midnights(&mut events);
+    }
+    let kept = one_per_minute(events, &mut out.rejected);
+    for e in &kept {
+        *out.counts.entry(kind_name(&e.kind).into()).or_default() += 1;
+    }
+    rescued.note(&mut out);
+    out.events = kept;
+    Ok(out)
+}
+
+/// Day 1: the person's, else the local day of the first glucose reading
+/// (a profile or a pump record long before the first reading does not
+/// make the first day), else of the first record that is data.
+fn day_one(records: &[Record], person: &PersonSettings) -> Result<Date, crate::IoError> {
+    let first_data = first_glucose(records)
+        .or_else(|| {
+            records.iter().find(|r| {
+                !matches!(
+                    r.kind,
+                    RecordKind::Schedule { .. } | RecordKind::Ignored { .. }
+                )
+            })
+        })
+        .or(records.first());
+    match (person.first_day, first_data) {
+        (Some(d), _) => Ok(d),
+        (None, Some(r)) => Ok(person.tz.to_datetime(r.at).date()),
+        (None, None) => Err(crate::IoError::Settings("no records to map".into())),
+    }
+}
+
+/// Carbohydrate entries that were hypoglycaemia treatments.
+#[derive(Default)]
+struct Rescued {
+    n: usize,
+    grams: f64,
+}
+
+impl Rescued {
+    /// Their count and a note, if there were any.
+    fn note(&self, out: &mut EventStream) {
+        if self.n > 0 {
+            out.counts.insert(crate::rescue::COUNT_KEY.into(), self.n);
+            out.notes.push(format!(
+                "{} carbohydrate entries ({:.0} g in all) were hypoglycaemia treatments ({}): counted, not meals, never used to learn a carb ratio",
+                self.n,
+                self.grams,
+                crate::rescue::RULE
+            ));
+        }
+    }
+}
+
+/// Emits the scheduled rate in force at `at` if it changed (or always,
+/// with `force`); basal state before day 1 is followed but emits nothing.
+fn emit_rate(
+    basal: &mut Basal,
+    clock: &AdvisorClock,
+    at: jiff::Timestamp,
+    force: bool,
+    events: &mut Vec<Event>,
+) {
+    let ts = clock.timestamp(at);
+    let rate = basal.rate(ts.minute_of_day() as u32);
+    match basal.last {
+        _ if ts.day_index() < 0 => basal.last = Some(rate),
+        None => basal.last = Some(rate),
+        Some(last) if force || last != rate => {
+            basal.last = Some(rate);
+            events.push(Event::new(ts, EventKind::BasalRate(UnitsPerHour(rate))));
+        }
+        Some(_) => {}
+    }
+}
+
+/// The per-record mapping: each record's events (unsorted), the basal
+/// rate's changes between records, and into `out` every record rejected,
+/// ignored, not mapped or censored and the profiles' zone notes.
+fn map_records(
+    records: &[Record],
+    origins: Origins<'_>,
+    person: &PersonSettings,
+    clock: &AdvisorClock,
+    out: &mut EventStream,
+) -> (Vec<Event>, Rescued) {
+    let first_day = clock.first_day();
     let mut basal = Basal::default();
-    let rescue = crate::rescue::Rescue::new(&batch.records);
-    let (mut rescue_n, mut rescue_g) = (0usize, 0.0f64);
+    let rescue = crate::rescue::Rescue::new(records);
+    let mut rescued = Rescued::default();
     let mut meals_taken: BTreeMap<(i64, MealSlot), ()> = BTreeMap::new();
-    let mut events: Vec<Event> = Vec::with_capacity(batch.records.len());
-    let emit_rate =
-        |basal: &mut Basal, at: jiff::Timestamp, force: bool, events: &mut Vec<Event>| {
-            let ts = clock.timestamp(at);
-            let rate = basal.rate(ts.minute_of_day() as u32);
-            // Basal state before day 1 is followed but emits nothing.
-            match basal.last {
-                _ if ts.day_index() < 0 => basal.last = Some(rate),
-                None => basal.last = Some(rate),
-                Some(last) if force || last != rate => {
-                    basal.last = Some(rate);
-                    events.push(Event::new(ts, EventKind::BasalRate(UnitsPerHour(rate))));
-                }
-                Some(_) => {}
-            }
-        };
-    let mut now = batch
-        .records
+    let mut events: Vec<Event> = Vec::with_capacity(records.len());
+    let mut now = records
         .first()
         .map_or(jiff::Timestamp::UNIX_EPOCH, |r| r.at);
-    for r in &batch.records {
+    for r in records {
         // Changes of the basal rate in force before this record.
-        while let Some(t) = basal.next_change(now, &clock).filter(|&t| t <= r.at) {
+        while let Some(t) = basal.next_change(now, clock).filter(|&t| t <= r.at) {
             if basal.expire(t) && clock.timestamp(t).day_index() >= 0 {
                 events.push(Event::new(clock.timestamp(t), EventKind::Resume));
             }
-            emit_rate(&mut basal, t, false, &mut events);
+            emit_rate(&mut basal, clock, t, false, &mut events);
             now = t;
         }
         now = r.at;
         let ts = clock.timestamp(r.at);
         let reject = |out: &mut EventStream, r: &Record, reason: String| {
             out.rejected.push(Rejected {
-                origin: batch.origin(r),
+                origin: origins.of(r),
                 kind: r.kind.name().into(),
                 reason,
             })
@@ -282,7 +382,7 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
         // A profile before day 1 sets the scheduled rate; nothing else
         // before day 1 reaches the advisor.
         if ts.day_index() < 0 && !matches!(r.kind, RecordKind::Schedule { .. }) {
-            reject(&mut out, r, format!("before the first day {first_day}"));
+            reject(out, r, format!("before the first day {first_day}"));
             continue;
         }
         match &r.kind {
@@ -300,8 +400,8 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
             }
             RecordKind::Carbs { grams } if rescue.is_rescue(r.at) => {
                 // A hypoglycaemia treatment: counted, never a meal.
-                rescue_n += 1;
-                rescue_g += grams.0;
+                rescued.n += 1;
+                rescued.grams += grams.0;
             }
             RecordKind::Carbs { grams } => {
                 let mut slot = person
@@ -334,7 +434,7 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
                     events.push(Event::new(ts, EventKind::Bolus(total)));
                 } else if *duration_min > EXTENDED_BOLUS_MAX_MIN {
                     reject(
-                        &mut out,
+                        out,
                         r,
                         format!("an extended bolus over {duration_min} min is longer than the advisor accepts ({EXTENDED_BOLUS_MAX_MIN} min)"),
                     );
@@ -357,12 +457,12 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
                 {
                     out.notes.push(format!(
                         "{}: the profile names time zone {zone}, the person's is {}; times are read in the person's",
-                        batch.origin(r),
+                        origins.of(r),
                         person.tz.iana_name().unwrap_or("?")
                     ));
                 }
                 basal.schedule = Some(profile.basal.clone());
-                emit_rate(&mut basal, r.at, true, &mut events);
+                emit_rate(&mut basal, clock, r.at, true, &mut events);
             }
             RecordKind::TempBasal { rate, duration_min } => {
                 let rate = match *rate {
@@ -387,7 +487,7 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
                 if basal.suspended_until.take().is_some() {
                     events.push(Event::new(ts, EventKind::Resume));
                 } else {
-                    reject(&mut out, r, "a resume with no suspension before it".into());
+                    reject(out, r, "a resume with no suspension before it".into());
                 }
             }
             RecordKind::LongActing { .. } => {
@@ -398,30 +498,35 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
             RecordKind::Ignored { kind } => *out.ignored.entry(kind.clone()).or_default() += 1,
         }
     }
-    events.sort_by_key(|e| (e.at, rank(&e.kind)));
-    // Day closes at local midnights strictly after the first event and not
-    // after the last one.
-    if let (DayClose::Midnight, Some(first), Some(last)) = (
-        person.day_close,
-        events.first().map(|e| e.at),
-        events.last().map(|e| e.at),
-    ) {
-        let mut closes = Vec::new();
-        let mut day = first.day_index() + 1;
-        while Timestamp::from_day_and_minute(day, 0) <= last {
-            closes.push(Event::new(
-                Timestamp::from_day_and_minute(day, 0),
-                EventKind::DayClosed,
-            ));
-            day += 1;
-        }
-        events.extend(closes);
-        events.sort_by_key(|e| (e.at, rank(&e.kind)));
+    (events, rescued)
+}
+
+/// Day closes at local midnights strictly after the first event and not
+/// after the last one; `events` sorted, and sorted again after.
+fn close_at_midnights(events: &mut Vec<Event>) {
+    let (Some(first), Some(last)) = (events.first().map(|e| e.at), events.last().map(|e| e.at))
+    else {
+        return;
+    };
+    let mut closes = Vec::new();
+    let mut day = first.day_index() + 1;
+    while Timestamp::from_day_and_minute(day, 0) <= last {
+        closes.push(Event::new(
+            Timestamp::from_day_and_minute(day, 0),
+            EventKind::DayClosed,
+        ));
+        day += 1;
     }
-    // One reading of a kind per minute, one basal rate per minute (the
-    // last); boluses of one minute, and snacks of one minute, become one
-    // event with their sum (the advisor takes two equal events in a minute
-    // for a repeat; two records of the device are two doses).
+    events.extend(closes);
+    events.sort_by_key(|e| (e.at, rank(&e.kind)));
+}
+
+/// One reading of a kind per minute, one basal rate per minute (the
+/// last); boluses of one minute, and snacks of one minute, become one
+/// event with their sum (the advisor takes two equal events in a minute
+/// for a repeat; two records of the device are two doses). A second
+/// reading (or day close) of a minute is rejected.
+fn one_per_minute(events: Vec<Event>, rejected: &mut Vec<Rejected>) -> Vec<Event> {
     let mut kept: Vec<Event> = Vec::with_capacity(events.len());
     for e in events {
         if let Some(prev) = kept.last_mut() {
@@ -454,7 +559,7 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
                         continue;
                     }
                     EventKind::Cgm(_) | EventKind::Smbg(_) | EventKind::DayClosed => {
-                        out.rejected.push(Rejected {
+                        rejected.push(Rejected {
                             origin: format!("advisor time {}", e.at),
                             kind: kind_name(&e.kind).into(),
                             reason: "a second reading of this kind in the same minute (the advisor takes one per minute); the first was kept".into(),
@@ -467,16 +572,35 @@ pub fn to_events(batch: &Batch, person: &PersonSettings) -> Result<EventStream, 
         }
         kept.push(e);
     }
-    for e in &kept {
-        *out.counts.entry(kind_name(&e.kind).into()).or_default() += 1;
+    kept
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::record::{Origin, Source, SourceId};
+
+    #[test]
+    fn origins_name_a_file_line_or_item_and_a_stored_record_by_source_and_instant() {
+        let mut r = Record {
+            at: "2026-03-01T07:00:00Z".parse().unwrap(),
+            kind: RecordKind::Resume,
+            source: Source::Nightscout,
+            id: SourceId::Hash(1),
+            origin: Origin {
+                file: 1,
+                at: OriginAt::Item(3),
+            },
+        };
+        let files = ["a.csv".to_string(), "t.json".to_string()];
+        assert_eq!(Origins::Files(&files).of(&r), "t.json: $[3]");
+        r.origin.at = OriginAt::Line(7);
+        assert_eq!(Origins::Files(&files).of(&r), "t.json: line 7");
+        r.origin.file = 2;
+        assert_eq!(Origins::Files(&files).of(&r), "?: line 7");
+        assert_eq!(
+            Origins::Stored.of(&r),
+            "nightscout record of 2026-03-01T07:00:00Z"
+        );
     }
-    if rescue_n > 0 {
-        out.counts.insert(crate::rescue::COUNT_KEY.into(), rescue_n);
-        out.notes.push(format!(
-            "{rescue_n} carbohydrate entries ({rescue_g:.0} g in all) were hypoglycaemia treatments ({}): counted, not meals, never used to learn a carb ratio",
-            crate::rescue::RULE
-        ));
-    }
-    out.events = kept;
-    Ok(out)
 }

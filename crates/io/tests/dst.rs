@@ -7,7 +7,7 @@
 mod common;
 use std::collections::BTreeMap;
 
-use abba_io::events::{to_events, PersonSettings};
+use abba_io::events::PersonSettings;
 use abba_io::record::RecordKind;
 use common::{opts, read};
 use jiff::civil::{date, Date};
@@ -92,7 +92,7 @@ fn check(tz: &str, transition: Date, hours_that_day: i64) {
             }
         }
         // The advisor's clock: strictly increasing, nothing rejected.
-        let stream = to_events(&b, &PersonSettings::new(zone.clone())).unwrap();
+        let stream = b.to_events(&PersonSettings::new(zone.clone())).unwrap();
         assert!(
             stream.rejected.is_empty(),
             "{tz} {name}: {:?}",

@@ -4,7 +4,7 @@
 
 mod common;
 use abba_core::{EventKind, MealSlot, Timestamp};
-use abba_io::events::{to_events, PersonSettings};
+use abba_io::events::PersonSettings;
 use common::{fixture, opts, read};
 
 fn nightscout_stream() -> abba_io::events::EventStream {
@@ -20,10 +20,9 @@ fn nightscout_stream() -> abba_io::events::EventStream {
         &opts("Europe/Zurich"),
     )
     .unwrap();
-    to_events(
-        &b,
-        &PersonSettings::new(abba_io::time::zone("Europe/Zurich").unwrap()),
-    )
+    b.to_events(&PersonSettings::new(
+        abba_io::time::zone("Europe/Zurich").unwrap(),
+    ))
     .unwrap()
 }
 
@@ -110,11 +109,9 @@ fn percent_temp_basal_suspend_resume_and_a_second_breakfast() {
  {"_id":"h","type":"sgv","sgv":120,"date":1709557200000}
 ]"#;
     let b = read(&[("t.json", t.into())], &opts("UTC")).unwrap();
-    let s = to_events(
-        &b,
-        &PersonSettings::new(abba_io::time::zone("UTC").unwrap()),
-    )
-    .unwrap();
+    let s = b
+        .to_events(&PersonSettings::new(abba_io::time::zone("UTC").unwrap()))
+        .unwrap();
     use abba_core::{TempBasalRate, UnitsPerHour};
     let pump: Vec<(i64, EventKind)> = s
         .events

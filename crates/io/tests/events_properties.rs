@@ -7,7 +7,7 @@
 mod common;
 use abba_advisor::{Advisor, EventLimits, FixedTherapy};
 use abba_core::{GramsPerUnit, TherapySettings, UnitsPerHour};
-use abba_io::events::{to_events, PersonSettings};
+use abba_io::events::PersonSettings;
 use common::read;
 use proptest::prelude::*;
 use serde_json::json;
@@ -82,7 +82,7 @@ proptest! {
         let bytes = nightscout(start, &items, &segments);
         let batch = read(&[("ns.json", bytes)], &abba_io::ReadOptions::default()).unwrap();
         let tz = abba_io::time::zone(ZONES[zone]).unwrap();
-        let stream = to_events(&batch, &PersonSettings::new(tz)).unwrap();
+        let stream = batch.to_events(&PersonSettings::new(tz)).unwrap();
         let settings = TherapySettings::new(UnitsPerHour(1.0), GramsPerUnit(10.0)).unwrap();
         let mut guard = FixedTherapy::new(settings, EventLimits::default()).unwrap();
         for (i, e) in stream.events.iter().enumerate() {
@@ -108,7 +108,7 @@ fn doses_of_one_minute_become_one_event_with_their_sum() {
     let bytes = nightscout(start, &items, &[(0, 100)]);
     let batch = read(&[("ns.json", bytes)], &abba_io::ReadOptions::default()).unwrap();
     let tz = abba_io::time::zone("UTC").unwrap();
-    let stream = to_events(&batch, &PersonSettings::new(tz)).unwrap();
+    let stream = batch.to_events(&PersonSettings::new(tz)).unwrap();
     let boluses: Vec<f64> = stream
         .events
         .iter()

@@ -11,8 +11,8 @@ use crate::error::StoreError;
 use crate::person::Person;
 use abba_advisor::Mode;
 use abba_core::{Event, EventKind, Timestamp};
-use abba_io::events::{to_events, EventStream};
-use abba_io::read::{merge, Format};
+use abba_io::events::{to_events, EventStream, Origins};
+use abba_io::read::merge_records;
 use abba_io::record::{Origin, OriginAt};
 use abba_io::{Record, RecordKind, Source, SourceId};
 use rusqlite::{params, Connection};
@@ -166,7 +166,7 @@ pub fn records(conn: &Connection, person: i64) -> Result<Vec<Record>, StoreError
 }
 
 /// The advisor's events for `records` (see the module documentation).
-pub fn events(person: &Person, records: Vec<Record>) -> Result<EventStream, StoreError> {
+pub fn events(person: &Person, mut records: Vec<Record>) -> Result<EventStream, StoreError> {
     if records.is_empty() {
         return Ok(EventStream {
             first_day: person.first_day.map(|d| d.to_string()).unwrap_or_default(),
@@ -181,8 +181,9 @@ pub fn events(person: &Person, records: Vec<Record>) -> Result<EventStream, Stor
             notes: Vec::new(),
         });
     }
-    let batch = merge(vec!["store".into()], vec![Format::Nightscout], records);
-    let mut stream = to_events(&batch, &person.mapping())?;
+    // Two sources carrying one reading or dose count once, as in an import.
+    merge_records(&mut records);
+    let mut stream = to_events(&records, Origins::Stored, &person.mapping())?;
     if person.mode() == Mode::Smbg {
         let minute = i64::from(person.settings.bedtime_min);
         stream.events = with_smbg_day_closes(std::mem::take(&mut stream.events), minute);

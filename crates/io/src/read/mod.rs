@@ -273,14 +273,7 @@ pub struct Refused {
 impl Batch {
     /// Where a record was read, for messages (`file: line N` or `file: $[i]`).
     pub fn origin(&self, r: &Record) -> String {
-        let file = self
-            .files
-            .get(usize::from(r.origin.file))
-            .map_or("?", String::as_str);
-        match r.origin.at {
-            OriginAt::Line(n) => format!("{file}: line {n}"),
-            OriginAt::Item(i) => format!("{file}: $[{i}]"),
-        }
+        crate::events::Origins::Files(&self.files).of(r)
     }
     /// Removes the records dated more than
     /// [`abba_core::limits::FUTURE_SKEW_MINUTES`] after `now` (the time of
@@ -370,7 +363,36 @@ pub fn read_files(paths: &[std::path::PathBuf], opts: &ReadOptions) -> Result<Ba
 /// within [`CROSS_UPLOAD_WINDOW_S`] keeps the first. Works in place: a
 /// 10-year CGM file is about a million records.
 pub fn merge(files: Vec<String>, formats: Vec<Format>, mut records: Vec<Record>) -> Batch {
-    let older_versions = drop_older_versions(&mut records);
+    let removed = merge_records(&mut records);
+    Batch {
+        files,
+        formats,
+        records,
+        duplicates: removed.duplicates,
+        older_versions: removed.older_versions,
+        cross_upload: removed.cross_upload,
+        per_file: Vec::new(),
+        notes: Vec::new(),
+    }
+}
+
+/// What [`merge_records`] removed.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct Removed {
+    /// Exact duplicates, by kind (see [`Batch::duplicates`]).
+    pub duplicates: BTreeMap<String, usize>,
+    /// Older versions of a record (see [`Batch::older_versions`]).
+    pub older_versions: usize,
+    /// Tidepool data carried by two uploads, by kind (see
+    /// [`Batch::cross_upload`]).
+    pub cross_upload: BTreeMap<String, usize>,
+}
+
+/// [`merge`]'s work on records alone (no files): sorts them by instant and
+/// removes duplicates, older versions and Tidepool data uploaded twice, in
+/// place; returns what it removed.
+pub fn merge_records(records: &mut Vec<Record>) -> Removed {
+    let older_versions = drop_older_versions(records);
     if !records.is_sorted_by(|a, b| a.at <= b.at) {
         records.sort_by_key(|r| r.at);
     }
@@ -406,15 +428,10 @@ pub fn merge(files: Vec<String>, formats: Vec<Format>, mut records: Vec<Record>)
         write += 1;
     }
     records.truncate(write);
-    Batch {
-        files,
-        formats,
-        records,
+    Removed {
         duplicates,
         older_versions,
         cross_upload,
-        per_file: Vec::new(),
-        notes: Vec::new(),
     }
 }
 

@@ -909,3 +909,46 @@ async fn the_clinic_shows_each_persons_nightscout_link_and_its_last_sync_never_i
     );
     assert!(!list.html.contains("failed"));
 }
+
+#[tokio::test]
+async fn the_clinics_change_of_therapy_goes_in_force_and_a_refused_value_stays_beside_its_field() {
+    let svc = Svc::new();
+    let a = svc.person("ana").await;
+    let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
+    let path = format!("/clinic/persons/{a}/therapy");
+    let basal_in_force = |svc: &Svc| {
+        let mut store = abba_service::open_store(&svc.db).unwrap();
+        use abba_advisor::Advisor as _;
+        store.live(a as i64).unwrap().advisor.settings().basal.0
+    };
+    // Refused: out of the plausibility limits, beside the basal field.
+    let p = admin.post(&path, &[("csrf", &csrf), ("basal", "99")]).await;
+    assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+    assert!(p.html.contains("id=\"basal-error\""), "{}", p.html);
+    assert!(p.html.contains("value=\"99\""), "the typed value is kept");
+    // Refused: two ratios where three are needed, beside the ratios.
+    let p = admin
+        .post(&path, &[("csrf", &csrf), ("carb_ratios", "10,12")])
+        .await;
+    assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+    assert!(p.html.contains("id=\"carb_ratios-error\""), "{}", p.html);
+    assert_eq!(basal_in_force(&svc), 1.0, "nothing refused is in force");
+    // Accepted: in force at once, for the live advisor too.
+    let p = admin
+        .post(&path, &[("csrf", &csrf), ("basal", "1.2")])
+        .await;
+    assert_eq!(
+        (p.status, p.location()),
+        (
+            StatusCode::SEE_OTHER,
+            format!("/clinic/persons/{a}?done=therapy").as_str()
+        )
+    );
+    assert_eq!(basal_in_force(&svc), 1.2);
+    let page = admin.get(p.location()).await;
+    assert!(
+        page.html.contains("Saved: the change of therapy."),
+        "{}",
+        page.html
+    );
+}

@@ -970,26 +970,32 @@ pub async fn therapy(
         )
         .await;
     }
+    // The store's one path (as `POST /v1/persons/{id}/therapy`): a value
+    // it refuses is shown beside its field; a busy or broken store is the
+    // service's error (503 / 500), never a field's.
     let out = s
-        .store(move |store| {
-            let name = store.person_by_id(id)?.name;
-            Ok(store
-                .set_therapy(&name, basal, cr, None)
-                .map(|_| ())
-                .map_err(|e| e.to_string()))
+        .person(id, true, move |store, live| {
+            match store.set_therapy_by_id(id, basal, cr, None, "the clinic's page") {
+                Ok((_, rebuilt)) => {
+                    *live = rebuilt;
+                    Ok(Ok(()))
+                }
+                Err(abba_store::StoreError::Invalid { field, problem }) => {
+                    let f = if field.starts_with("--carb-ratio") {
+                        "carb_ratios"
+                    } else {
+                        "basal"
+                    };
+                    Ok(Err((f, problem)))
+                }
+                Err(e @ abba_store::StoreError::Advisor(_)) => Ok(Err(("basal", e.to_string()))),
+                Err(e) => Err(e.into()),
+            }
         })
         .await?;
-    s.forget(id);
     match out {
         Ok(()) => Ok(see_other(&format!("/clinic/persons/{id}?done=therapy"))),
-        Err(msg) => {
-            let field = if msg.contains("carb") {
-                "carb_ratios"
-            } else {
-                "basal"
-            };
-            refused(&s, &w.csrf, id, &form, &fields, field, msg).await
-        }
+        Err((field, msg)) => refused(&s, &w.csrf, id, &form, &fields, field, msg).await,
     }
 }
 

@@ -952,3 +952,62 @@ async fn the_clinics_change_of_therapy_goes_in_force_and_a_refused_value_stays_b
         page.html
     );
 }
+
+#[tokio::test]
+async fn today_for_a_person_fed_by_imports_says_what_abba_advise_says() {
+    let svc = Svc::new();
+    // Day 1 is the first imported reading's day (no first_day given).
+    let id = svc
+        .person_with(json!({
+            "name": "imp", "tz": "UTC", "mode": "cgm",
+            "start": {"basal_units_per_hour": 1.0, "carb_ratio_g_per_unit": [10.0, 12.0, 11.0]}
+        }))
+        .await;
+    // Two whole days of CGM every 5 minutes, as Nightscout exports them.
+    let day0: jiff::Timestamp = "2026-11-02T00:00:00Z".parse().unwrap();
+    let entries: Vec<Value> = (0..2 * 288)
+        .map(|k| {
+            let t = day0 + jiff::SignedDuration::from_mins(5 * k);
+            json!({"_id": format!("e{k}"), "type": "sgv", "sgv": 120 + (k % 30),
+                   "date": t.as_millisecond(), "dateString": t.to_string(), "direction": "Flat"})
+        })
+        .collect();
+    let file = svc.dir.path().join("entries.json");
+    std::fs::write(&file, serde_json::to_string(&entries).unwrap()).unwrap();
+    let advice = {
+        let mut store = abba_service::open_store(&svc.db).unwrap();
+        store.import_files("imp", &[file], None).unwrap();
+        store.advise("imp").unwrap()
+    };
+    let abba_store::advise::Phase::FirstWeek {
+        days_done,
+        days_left,
+        ..
+    } = advice.phase
+    else {
+        panic!("{:?}", advice.phase)
+    };
+    let (mut b, _) = signed_in(&svc, Role::Person(id as i64)).await;
+    let p = b.get("/").await;
+    assert_eq!(p.status, StatusCode::OK);
+    let fw = p
+        .html
+        .split("<p id=\"first-week\" class=\"callout\">")
+        .nth(1)
+        .unwrap_or_else(|| panic!("{}", p.html));
+    let fw = &fw[..fw.find("</p>").unwrap()];
+    let want = abba_web::texts::fill(
+        abba_web::texts::EN.first_week,
+        &[
+            ("done", &days_done.to_string()),
+            ("left", &days_left.to_string()),
+            ("total", &(days_done + days_left).to_string()),
+        ],
+    );
+    assert_eq!(
+        fw, want,
+        "Today against abba advise ({days_done} done, {days_left} left)"
+    );
+    // The Log knows this person is fed by imports: nothing to enter there.
+    assert!(b.get("/log").await.html.contains("id=\"import-fed\""));
+}

@@ -109,17 +109,9 @@ fn row(store: &mut Store, id: i64, now_ms: i64) -> Result<Row, ApiError> {
         Ok(r) => (format!("{:.0} %", r[2]), format!("{:.1} %", r[1])),
         Err(_) => ("—".into(), "—".into()),
     };
-    let views = advise::views(p, &live.decisions, &live.answers);
+    let views = live.views();
     let waiting = views.iter().filter(|v| v.status == "open").count();
-    let a = advise::advice(
-        p,
-        &live.stream,
-        live.records,
-        &live.advisor,
-        &live.decisions,
-        &live.answers,
-        live.refused,
-    );
+    let a = live.advice();
     let mut flags = Vec::new();
     if !a.delivery.basal_suggestions {
         flags.push(C.flag_loop);
@@ -537,15 +529,7 @@ fn range_text(r: Option<Range>) -> (String, String) {
 fn person_model(store: &mut Store, id: i64) -> Result<PersonModel, ApiError> {
     let live = store.live_read(id)?;
     let p = &live.person;
-    let a = advise::advice(
-        p,
-        &live.stream,
-        live.records,
-        &live.advisor,
-        &live.decisions,
-        &live.answers,
-        live.refused,
-    );
+    let a = live.advice();
     let settings = PARAMETERS
         .iter()
         .zip(&a.settings)
@@ -564,7 +548,7 @@ fn person_model(store: &mut Store, id: i64) -> Result<PersonModel, ApiError> {
         .into_iter()
         .map(|(t, r)| (t, with_unit(Parameter::Basal, r)))
         .collect();
-    let views = advise::views(p, &live.decisions, &live.answers);
+    let views = live.views();
     let waiting = live
         .decisions
         .iter()

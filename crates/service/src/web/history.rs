@@ -10,7 +10,7 @@ use crate::error::ApiError;
 use crate::state::AppState;
 use abba_report::html::person::person_report_html;
 use abba_report::html::units::GlucoseUnit;
-use abba_store::advise::{self, SuggestionView};
+use abba_store::advise::SuggestionView;
 use abba_store::person::GlucoseUnits;
 use abba_store::Live;
 use abba_web::pages::{History, HistoryRow, Layout};
@@ -53,7 +53,7 @@ fn answer(v: &SuggestionView) -> &'static str {
 
 /// The History's model: every decision, newest first.
 pub fn model(live: &Live) -> History {
-    let views = advise::views(&live.person, &live.decisions, &live.answers);
+    let views = live.views();
     let first_day = live.person.first_day;
     let rows = views
         .iter()

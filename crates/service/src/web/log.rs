@@ -15,7 +15,7 @@ use crate::state::AppState;
 use abba_advisor::Parameter;
 use abba_api::{DeviceEvent, EventBody, EventsBody, MealSlot as WireSlot};
 use abba_core::{EventKind, MealSlot};
-use abba_store::advise::{self, PARAMETERS};
+use abba_store::advise::PARAMETERS;
 use abba_store::person::GlucoseUnits;
 use abba_store::{Live, Store};
 use abba_web::pages::{Choice, Layout, Log, MealAdvice};
@@ -100,15 +100,7 @@ fn model(store: &Store, live: &Live, show: After, typed: Typed) -> Result<Log, A
     };
     let import_fed = fed_by_imports(store, id)?.then(|| EN.log_import_fed.to_string());
     let slot = typed.slot.unwrap_or_else(|| default_slot(live));
-    let a = advise::advice(
-        &live.person,
-        &live.stream,
-        live.records,
-        &live.advisor,
-        &live.decisions,
-        &live.answers,
-        live.refused,
-    );
+    let a = live.advice();
     let setting = |p: Parameter| {
         PARAMETERS
             .iter()

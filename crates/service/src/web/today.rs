@@ -11,7 +11,7 @@ use crate::routes::person::answer_batch;
 use crate::state::AppState;
 use abba_advisor::Parameter;
 use abba_api::{AnswerBody, AnswerItem, AnswerKind};
-use abba_store::advise::{self, Phase, SuggestionView, PARAMETERS};
+use abba_store::advise::{Phase, SuggestionView, PARAMETERS};
 use abba_store::answer::param_key;
 use abba_store::Live;
 use abba_web::pages::{Layout, SettingCard, SuggestionCard, Today};
@@ -51,7 +51,7 @@ pub struct ValueError {
 /// The card of one setting: the value in force and its latest decision.
 /// `fallback`: the value in force when the setting has no decision yet.
 pub fn card(live: &Live, p: Parameter, err: Option<&ValueError>, fallback: f64) -> SettingCard {
-    let views = advise::views(&live.person, &live.decisions, &live.answers);
+    let views = live.views();
     let latest = live
         .decisions
         .iter()
@@ -120,15 +120,7 @@ pub fn card(live: &Live, p: Parameter, err: Option<&ValueError>, fallback: f64) 
 
 /// Today's model.
 pub fn model(live: &Live, err: Option<&ValueError>) -> Today {
-    let a = advise::advice(
-        &live.person,
-        &live.stream,
-        live.records,
-        &live.advisor,
-        &live.decisions,
-        &live.answers,
-        live.refused,
-    );
+    let a = live.advice();
     let total = live.person.settings.advisor.init_days;
     let first_week = match a.phase {
         Phase::NoData => Some((0, total)),

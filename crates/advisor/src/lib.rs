@@ -108,6 +108,7 @@ pub mod steps;
 pub mod supervisor;
 pub mod te;
 pub mod windows;
+pub mod words;
 
 pub use abba::{Abba, InitReport, TeOutcome};
 pub use any::{AdvisorSpec, AnyAdvisor};

@@ -10,9 +10,9 @@ use abba_advisor::baselines::autotune::{
     autotune_day, recommendations_table, Carbs, DayData, Insulin, IsfUnit, LocalClock, Profile,
     Reading, Tuned,
 };
+use abba_core::units::GlucoseUnit;
 use abba_io::record::{RecordKind, TempRate};
 use abba_io::{Format, ReadOptions, Record};
-use abba_store::person::GlucoseUnits;
 use abba_store::Store;
 use anyhow::{bail, Context, Result};
 use jiff::civil::Date;
@@ -352,7 +352,7 @@ fn run_days(
 fn person_profile(
     store: &mut Store,
     name: &str,
-    units: GlucoseUnits,
+    units: GlucoseUnit,
     isf: f64,
     dia_h: f64,
 ) -> Result<(Profile, Vec<String>)> {
@@ -383,10 +383,7 @@ fn person_profile(
         }
         _ => vec![(0, basal)],
     };
-    let isf_mg_dl = match units {
-        GlucoseUnits::MgDl => isf,
-        GlucoseUnits::MmolL => isf * abba_core::units::MG_DL_PER_MMOL_L,
-    };
+    let isf_mg_dl = units.to_mg_dl(isf);
     let cr = ratios.iter().sum::<f64>() / 3.0;
     let profile = Profile::from_schedule(&schedule, isf_mg_dl, cr, dia_h)
         .with_context(|| format!("the therapy in force of {name} as an oref0 profile"))?;
@@ -403,10 +400,10 @@ fn person_profile(
     Ok((profile, said))
 }
 
-fn isf_unit(u: GlucoseUnits) -> IsfUnit {
+fn isf_unit(u: GlucoseUnit) -> IsfUnit {
     match u {
-        GlucoseUnits::MgDl => IsfUnit::MgDl,
-        GlucoseUnits::MmolL => IsfUnit::MmolL,
+        GlucoseUnit::MgDl => IsfUnit::MgDl,
+        GlucoseUnit::MmolL => IsfUnit::MmolL,
     }
 }
 

@@ -3,9 +3,10 @@ use std::path::PathBuf;
 
 use abba_advisor::bounds::Range;
 use abba_advisor::{Mode, PumpSteps};
+use abba_core::units::GlucoseUnit;
 use abba_core::{GramsPerUnit, TherapySettings, UnitsPerHour};
 use abba_io::meals::MealWindows;
-use abba_store::person::{GlucoseUnits, TherapySource};
+use abba_store::person::TherapySource;
 use abba_store::{NewPerson, NOTICE};
 use anyhow::{bail, Context, Result};
 
@@ -187,9 +188,8 @@ fn new(a: NewArgs) -> Result<()> {
         carb_ratio_g_per_u: a.carb_ratio_step,
     });
     p.settings.allow_closed_loop = a.allow_closed_loop;
-    p.settings.units = match abba_io::GlucoseUnit::parse(&a.units) {
-        Some(abba_io::GlucoseUnit::MgDl) => GlucoseUnits::MgDl,
-        Some(abba_io::GlucoseUnit::MmolL) => GlucoseUnits::MmolL,
+    p.settings.units = match GlucoseUnit::parse(&a.units) {
+        Some(u) => u,
         None => bail!("--units \"{}\": expected mg/dL or mmol/L", a.units),
     };
     if let Some(r) = &a.basal_range {

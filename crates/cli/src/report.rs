@@ -3,8 +3,8 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use abba_core::units::GlucoseUnit;
 use abba_report::html::person::person_report_html;
-use abba_report::html::units::GlucoseUnit;
 use anyhow::{bail, Context, Result};
 
 /// Arguments of `abba report`.

@@ -1,8 +1,5 @@
 //! Glucose units (never guessed) and the plausibility limits of every value.
 
-use abba_core::units::MG_DL_PER_MMOL_L;
-use serde::Serialize;
-
 use crate::error::{IoError, Location};
 
 /// Tidepool's own mg/dL per mmol/L (its data model stores mmol/L and
@@ -28,48 +25,7 @@ pub const CARB_RATIO_MAX_G_PER_U: f64 = 150.0;
 /// Largest plausible temporary-basal percentage.
 pub const PERCENT_MAX: f64 = 250.0;
 
-/// A glucose unit, as a file declares it or `--units` gives it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-pub enum GlucoseUnit {
-    /// Milligrams per decilitre.
-    #[serde(rename = "mg/dL")]
-    MgDl,
-    /// Millimoles per litre.
-    #[serde(rename = "mmol/L")]
-    MmolL,
-}
-
-impl GlucoseUnit {
-    /// Reads a unit name as files write it (`mg/dL`, `mg/dl`, `mgdl`,
-    /// `mmol/L`, `mmol/l`, `mmol`).
-    pub fn parse(text: &str) -> Option<Self> {
-        let t: String = text
-            .trim()
-            .chars()
-            .filter(|c| !c.is_whitespace())
-            .collect::<String>()
-            .to_ascii_lowercase();
-        match t.as_str() {
-            "mg/dl" | "mgdl" | "mg" => Some(Self::MgDl),
-            "mmol/l" | "mmoll" | "mmol" => Some(Self::MmolL),
-            _ => None,
-        }
-    }
-    /// Printed name.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::MgDl => "mg/dL",
-            Self::MmolL => "mmol/L",
-        }
-    }
-    /// `value` in this unit as mg/dL (abba's factor 18.0156).
-    pub fn to_mg_dl(self, value: f64) -> f64 {
-        match self {
-            Self::MgDl => value,
-            Self::MmolL => value * MG_DL_PER_MMOL_L,
-        }
-    }
-}
+pub use abba_core::units::GlucoseUnit;
 
 /// Checks a finite number against `[min, max]`, naming the field.
 pub fn check_range(
@@ -118,7 +74,7 @@ pub fn glucose_mg_dl(
         field,
         format!(
             "glucose {value} {} is outside the plausible range {GLUCOSE_MIN_MG_DL}..{GLUCOSE_MAX_MG_DL} mg/dL{hint}",
-            unit.name()
+            unit.label()
         ),
     ))
 }
@@ -148,8 +104,8 @@ pub fn check_median(file: &str, values: &[f64], unit: GlucoseUnit) -> Result<(),
             message: format!(
                 "the glucose values were read as {} but their median is {median}, which looks \
                  like {}; check --units",
-                unit.name(),
-                looks.name()
+                unit.label(),
+                looks.label()
             ),
         });
     }

@@ -6,8 +6,8 @@
 mod common;
 
 use abba_advisor::Mode;
+use abba_core::units::GlucoseUnit;
 use abba_report::html::person::person_report_html;
-use abba_report::html::units::GlucoseUnit;
 use common::browser::assert_renders_at_a4;
 use common::{out_dir, synthetic_person};
 

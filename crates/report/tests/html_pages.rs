@@ -8,8 +8,8 @@
 mod common;
 
 use abba_advisor::Mode;
+use abba_core::units::GlucoseUnit;
 use abba_report::html::person::{person_report_html, person_summary, profile_bin_min};
-use abba_report::html::units::GlucoseUnit;
 use common::{check_structure, out_dir, synthetic_person, validate_with_tidy};
 
 /// Type-7 quantile written again here, from its definition.

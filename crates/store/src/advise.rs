@@ -4,7 +4,7 @@
 use crate::answer::{param_key, Answers};
 use crate::in_force::{Extras, TherapyChange};
 use crate::person::Person;
-use crate::words;
+use abba_advisor::words;
 use abba_advisor::{Abba, Advisor, Decision, DecisionDetail, Parameter};
 use abba_core::{Event, EventKind, MealSlot, Timestamp};
 use abba_io::automation::Delivery;

@@ -35,7 +35,6 @@ pub mod schema;
 pub mod session;
 pub mod store;
 pub mod token;
-pub mod words;
 
 pub use advise::{Advice, NOTICE};
 pub use answer::{AnswerKind, Answers};

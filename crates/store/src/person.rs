@@ -3,6 +3,7 @@
 
 use crate::error::StoreError;
 use abba_advisor::{Abba, AbbaConfig, ClinicianBounds, MinData, Mode, PumpSteps};
+use abba_core::units::GlucoseUnit;
 use abba_core::TherapySettings;
 use abba_io::events::{DayClose, PersonSettings};
 use abba_io::meals::MealWindows;
@@ -44,19 +45,7 @@ pub struct PersonSettingsDoc {
     pub allow_closed_loop: bool,
     /// The glucose unit of every text for this person.
     #[serde(default)]
-    pub units: GlucoseUnits,
-}
-
-/// The glucose unit a person reads.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub enum GlucoseUnits {
-    /// mg/dL.
-    #[default]
-    #[serde(rename = "mg/dL")]
-    MgDl,
-    /// mmol/L.
-    #[serde(rename = "mmol/L")]
-    MmolL,
+    pub units: GlucoseUnit,
 }
 
 /// Where a person's therapy in force comes from.
@@ -127,7 +116,7 @@ impl NewPerson {
                 pump_steps: None,
                 therapy_source: TherapySource::Given,
                 allow_closed_loop: false,
-                units: GlucoseUnits::MgDl,
+                units: GlucoseUnit::MgDl,
             },
         }
     }

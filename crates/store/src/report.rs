@@ -5,11 +5,11 @@
 //! its suggestion history.
 
 use crate::{Store, StoreError};
+use abba_core::units::GlucoseUnit;
 use abba_core::{EventKind, MINUTES_PER_DAY};
 use abba_report::html::person::{
     MealTime, PersonDay, PersonReportInput, Reading, SettingsInForce, SuggestionLine,
 };
-use abba_report::html::units::GlucoseUnit;
 
 /// Reads person `name` from `store`: the `days` days ending at the last day
 /// with data.

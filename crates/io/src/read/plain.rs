@@ -190,8 +190,8 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
                 file: file.to_string(),
                 message: format!(
                     "column \"{glucose_name}\" says {} but --units says {}",
-                    named.name(),
-                    given.name()
+                    named.label(),
+                    given.label()
                 ),
             })
         }

@@ -174,8 +174,8 @@ impl<'a> Table<'a> {
                 file: self.file.to_string(),
                 message: format!(
                     "the file says {} (column \"{name}\") but --units says {}",
-                    unit.name(),
-                    given.name()
+                    unit.label(),
+                    given.label()
                 ),
             });
         }

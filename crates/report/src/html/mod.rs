@@ -14,7 +14,6 @@ pub mod person;
 pub mod profile;
 pub mod svg;
 pub mod trial_page;
-pub mod units;
 
 use minijinja::Environment;
 use serde::Serialize;

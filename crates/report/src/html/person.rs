@@ -15,8 +15,8 @@ use serde::{Deserialize, Serialize};
 use crate::error::ReportError;
 use crate::html::profile::{time_of_day_profile, ProfileBin, DAY_MIN};
 use crate::html::svg::{day_panel_svg, profile_svg, tir_bar_svg};
-use crate::html::units::GlucoseUnit;
 use crate::html::{render_page, Row, DISCLAIMER};
+use abba_core::units::GlucoseUnit;
 
 /// Width of the profile's time-of-day bins for CGM readings (minutes).
 pub const PROFILE_BIN_MIN: u32 = 15;

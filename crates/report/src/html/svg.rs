@@ -10,7 +10,7 @@
 use std::fmt::Write as _;
 
 use crate::html::profile::{ProfileBin, DAY_MIN};
-use crate::html::units::GlucoseUnit;
+use abba_core::units::GlucoseUnit;
 
 /// Okabe-Ito colours.
 pub mod palette {

@@ -14,7 +14,6 @@ use crate::error::ReportError;
 use crate::figures;
 use crate::html::profile::{time_of_day_profile, ProfileBin};
 use crate::html::svg::{accessible_svg, profile_svg, tir_bar_svg};
-use crate::html::units::GlucoseUnit;
 use crate::html::{render_page, HtmlSection, Row};
 use crate::results::{ArmResult, Week};
 use crate::select::{
@@ -24,6 +23,7 @@ use crate::stats::{summarize_present, wilcoxon_signed_rank_present};
 use crate::summary::REPORT_WILCOXON;
 use crate::table1::{format_p, table1_rows, TABLE1_METRICS};
 use abba_advisor::ArmKind;
+use abba_core::units::GlucoseUnit;
 
 /// Minutes between the plasma glucose samples kept in [`crate::WeekResult`].
 pub const SAMPLE_MIN: u32 = 5;

@@ -9,11 +9,11 @@ pub mod browser;
 use std::path::{Path, PathBuf};
 
 use abba_advisor::Mode;
+use abba_core::units::GlucoseUnit;
 use abba_core::MealSlot;
 use abba_report::html::person::{
     MealTime, PersonDay, PersonReportInput, Reading, SettingsInForce, SuggestionLine,
 };
-use abba_report::html::units::GlucoseUnit;
 
 /// 2026-11-02 00:00 UTC (the person's local time is UTC here).
 pub const START_UNIX_S: i64 = 1_793_577_600;

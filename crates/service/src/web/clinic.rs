@@ -15,9 +15,10 @@ use crate::error::ApiError;
 use crate::state::AppState;
 use abba_advisor::bounds::Range;
 use abba_advisor::{Mode, Parameter, PumpSteps};
+use abba_core::units::GlucoseUnit;
 use abba_core::{GramsPerUnit, TherapySettings, UnitsPerHour};
 use abba_store::advise::{self, PARAMETERS};
-use abba_store::person::{GlucoseUnits, TherapySource};
+use abba_store::person::TherapySource;
 use abba_store::token::Role;
 use abba_store::{NewPerson, ProfileResolution, Store};
 use abba_web::pages::{Choice, Layout};
@@ -271,14 +272,14 @@ fn new_person(up: &Upload) -> Result<NewPerson, BTreeMap<String, String>> {
         }
     };
     let units = match f.text("unit") {
-        "mg/dL" => GlucoseUnits::MgDl,
-        "mmol/L" => GlucoseUnits::MmolL,
+        "mg/dL" => GlucoseUnit::MgDl,
+        "mmol/L" => GlucoseUnit::MmolL,
         other => {
             errors.insert(
                 "unit".into(),
                 format!("expected mg/dL or mmol/L, got {other:?}"),
             );
-            GlucoseUnits::MgDl
+            GlucoseUnit::MgDl
         }
     };
     let mode = match f.text("mode") {
@@ -603,10 +604,7 @@ fn person_model(store: &mut Store, id: i64) -> Result<PersonModel, ApiError> {
                 .unwrap_or_default()
         )
     });
-    let unit = match p.settings.units {
-        GlucoseUnits::MgDl => "mg/dL",
-        GlucoseUnits::MmolL => "mmol/L",
-    };
+    let unit = p.settings.units.label();
     let summary = fill(
         abba_web::texts::CLINIC_EN.person_summary,
         &[

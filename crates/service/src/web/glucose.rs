@@ -9,10 +9,10 @@
 use super::page::{render, PageResult};
 use super::session::{self, Ctx};
 use crate::state::AppState;
+use abba_core::units::GlucoseUnit;
 use abba_core::units::MG_DL_PER_MMOL_L;
 use abba_core::{EventKind, Timestamp};
 use abba_store::advise;
-use abba_store::person::GlucoseUnits;
 use abba_store::Live;
 use abba_web::chart::{self, Point};
 use abba_web::pages::{Glucose, GlucoseRow, Layout, LinkChoice, SummaryItem};
@@ -61,9 +61,9 @@ struct Unit {
     decimals: usize,
 }
 
-fn unit_of(u: GlucoseUnits) -> Unit {
+fn unit_of(u: GlucoseUnit) -> Unit {
     match u {
-        GlucoseUnits::MgDl => Unit {
+        GlucoseUnit::MgDl => Unit {
             name: "mg/dL",
             per_mg_dl: 1.0,
             target: (70.0, 180.0),
@@ -71,7 +71,7 @@ fn unit_of(u: GlucoseUnits) -> Unit {
             step: 50.0,
             decimals: 0,
         },
-        GlucoseUnits::MmolL => Unit {
+        GlucoseUnit::MmolL => Unit {
             name: "mmol/L",
             per_mg_dl: 1.0 / MG_DL_PER_MMOL_L,
             target: (3.9, 10.0),

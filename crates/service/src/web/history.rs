@@ -9,9 +9,7 @@ use super::session::{self, Ctx};
 use crate::error::ApiError;
 use crate::state::AppState;
 use abba_report::html::person::person_report_html;
-use abba_report::html::units::GlucoseUnit;
 use abba_store::advise::SuggestionView;
-use abba_store::person::GlucoseUnits;
 use abba_store::Live;
 use abba_web::pages::{History, HistoryRow, Layout};
 use abba_web::texts::EN;
@@ -109,10 +107,7 @@ async fn report(s: &AppState, id: i64, csrf: Option<String>) -> PageResult {
     let out = s
         .person(id, false, |store, live| {
             let name = live.person.name.clone();
-            let unit = match live.person.settings.units {
-                GlucoseUnits::MgDl => GlucoseUnit::MgDl,
-                GlucoseUnits::MmolL => GlucoseUnit::MmolL,
-            };
+            let unit = live.person.settings.units;
             match abba_store::report::person_input(store, &name, REPORT_DAYS, unit) {
                 Ok(input) => person_report_html(&input)
                     .map(Some)

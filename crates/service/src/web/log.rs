@@ -14,9 +14,9 @@ use crate::routes::person::{post_batch, Numbering};
 use crate::state::AppState;
 use abba_advisor::Parameter;
 use abba_api::{DeviceEvent, EventBody, EventsBody, MealSlot as WireSlot};
+use abba_core::units::GlucoseUnit;
 use abba_core::{EventKind, MealSlot};
 use abba_store::advise::PARAMETERS;
-use abba_store::person::GlucoseUnits;
 use abba_store::{Live, Store};
 use abba_web::pages::{Choice, Layout, Log, MealAdvice};
 use abba_web::texts::{fill, EN};
@@ -95,8 +95,8 @@ pub fn round_bolus(units: f64) -> f64 {
 fn model(store: &Store, live: &Live, show: After, typed: Typed) -> Result<Log, ApiError> {
     let id = live.person.id;
     let (glucose_label, glucose_step) = match live.person.settings.units {
-        GlucoseUnits::MgDl => (fill(EN.glucose_label, &[("unit", "mg/dL")]), "1"),
-        GlucoseUnits::MmolL => (fill(EN.glucose_label, &[("unit", "mmol/L")]), "0.1"),
+        GlucoseUnit::MgDl => (fill(EN.glucose_label, &[("unit", "mg/dL")]), "1"),
+        GlucoseUnit::MmolL => (fill(EN.glucose_label, &[("unit", "mmol/L")]), "0.1"),
     };
     let import_fed = fed_by_imports(store, id)?.then(|| EN.log_import_fed.to_string());
     let slot = typed.slot.unwrap_or_else(|| default_slot(live));
@@ -283,7 +283,7 @@ pub async fn reading(State(s): State<AppState>, ctx: Ctx, body: RawBody) -> Page
     let value = match form::number(&typed.glucose) {
         Some(v) => v,
         None => {
-            let example = if units == GlucoseUnits::MmolL {
+            let example = if units == GlucoseUnit::MmolL {
                 "5.8"
             } else {
                 "105"
@@ -302,10 +302,7 @@ pub async fn reading(State(s): State<AppState>, ctx: Ctx, body: RawBody) -> Page
             return show_log(StatusCode::UNPROCESSABLE_ENTITY, &w.csrf, log);
         }
     };
-    let mg_dl = match units {
-        GlucoseUnits::MgDl => value,
-        GlucoseUnits::MmolL => value * abba_core::units::MG_DL_PER_MMOL_L,
-    };
+    let mg_dl = units.to_mg_dl(value);
     let mut events = vec![EventBody::Smbg { mg_dl }];
     if bedtime {
         events.push(EventBody::DayClosed);

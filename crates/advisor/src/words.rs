@@ -1,11 +1,14 @@
-//! Plain words for the advisor's explanations.
+//! The advisor's decisions in plain words for the person: why a decision
+//! point gave no update, and the reasons of one update, every number
+//! reconciling with the change shown, glucose in the person's unit. The
+//! one home of these sentences: the store's advice view carries them to
+//! the CLI, the service's API and the app alike.
 
-use crate::person::GlucoseUnits;
-use abba_advisor::bounds::Side;
-use abba_advisor::decision::AbbaExplanation;
-use abba_advisor::supervisor::SupervisoryRule;
-use abba_advisor::{AbbaConfig, Decision, DecisionDetail, Parameter, SkipReason};
-use abba_core::units::MG_DL_PER_MMOL_L;
+use crate::bounds::Side;
+use crate::decision::AbbaExplanation;
+use crate::supervisor::SupervisoryRule;
+use crate::{AbbaConfig, Decision, DecisionDetail, Parameter, SkipReason};
+use abba_core::units::GlucoseUnit;
 
 /// Why a decision point gave no update, in plain words.
 pub fn skip_reason(r: SkipReason, p: Parameter) -> String {
@@ -24,7 +27,7 @@ pub fn skip_reason(r: SkipReason, p: Parameter) -> String {
     }
 }
 
-fn rule(r: SupervisoryRule, unit: GlucoseUnits) -> String {
+fn rule(r: SupervisoryRule, unit: GlucoseUnit) -> String {
     if r == SupervisoryRule::SmbgBrHyponumber {
         let low = glucose(70.0, unit);
         return format!("a reading below {low} that day: the safety rule lowers the basal rate");
@@ -49,23 +52,20 @@ fn pct(x: f64) -> String {
 }
 
 /// A glucose value in the person's unit.
-fn glucose(mg_dl: f64, unit: GlucoseUnits) -> String {
-    match unit {
-        GlucoseUnits::MgDl => format!("{mg_dl:.0} mg/dL"),
-        GlucoseUnits::MmolL => format!("{:.1} mmol/L", mg_dl / MG_DL_PER_MMOL_L),
-    }
+fn glucose(mg_dl: f64, unit: GlucoseUnit) -> String {
+    unit.with_unit(mg_dl)
 }
 
 /// The reasons of one update, in plain words, one sentence each (mg/dL).
 pub fn reasons(d: &Decision, cfg: &AbbaConfig) -> Vec<String> {
-    reasons_in(d, cfg, GlucoseUnits::MgDl)
+    reasons_in(d, cfg, GlucoseUnit::MgDl)
 }
 
 /// The reasons of one update in the person's unit. Every number
 /// reconciles with the change shown: the step the agents asked for, the
 /// part of it the update applies (the average with the value in force),
 /// then each rule that changed it, and the change in all.
-pub fn reasons_in(d: &Decision, cfg: &AbbaConfig, unit: GlucoseUnits) -> Vec<String> {
+pub fn reasons_in(d: &Decision, cfg: &AbbaConfig, unit: GlucoseUnit) -> Vec<String> {
     let x: &AbbaExplanation = match &d.detail {
         DecisionDetail::Abba(x) => x,
         DecisionDetail::Skipped { reason } => {

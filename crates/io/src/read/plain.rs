@@ -11,7 +11,7 @@ use super::Ctx;
 use crate::error::{IoError, Location, Place};
 use crate::record::{content_id, BasalSchedule, Glucose, Profile, Record, RecordKind, Source};
 use crate::time::{has_offset, parse_instant, parse_wall, DateOrder, WallClock};
-use crate::units::{self, check_range};
+use crate::units::{self, check_range, GlucoseUnit};
 
 const TIME_NAMES: [&str; 6] = [
     "time",
@@ -90,104 +90,223 @@ fn find(table: &Table<'_>, wanted: &str) -> Option<usize> {
     table.column(|h| h.eq_ignore_ascii_case(wanted))
 }
 
-/// Reads a plain CSV.
+/// The columns of a plain CSV and how its times and glucose are read.
+struct Columns {
+    time_at: usize,
+    /// A research dataset's separate `date` and `time` columns.
+    split: Option<(usize, usize)>,
+    time_name: String,
+    /// abba's own `minute` column: minutes since 00:00 of day 1.
+    minute_clock: bool,
+    order: DateOrder,
+    type_at: Option<usize>,
+    glucose_at: Option<usize>,
+    glucose_name: String,
+    /// The glucose unit, and whether the file's column name says it.
+    unit: Option<GlucoseUnit>,
+    declared_in_file: bool,
+    carbs_at: Option<usize>,
+    bolus_at: Option<usize>,
+    basal_at: Option<usize>,
+    id_at: Option<usize>,
+}
+
+/// Reads a plain CSV: its columns, then each row's time, glucose and
+/// amounts.
 pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     let file = ctx.file;
     let mut t = Table::open(file, bytes, 0)?;
-    let time_at = match &ctx.opts.time_column {
-        Some(name) => find(&t, name).ok_or_else(|| {
-            IoError::format(
+    let c = Columns::find(ctx, &t, bytes)?;
+    let tz = ctx.opts.tz.clone().unwrap_or(jiff::tz::TimeZone::UTC);
+    let mut rows = Rows {
+        wall: WallClock::new(tz.clone()),
+        tz,
+        with_offset: None,
+        first_id: None,
+        subject_seen: false,
+    };
+    let mut raw_glucose = Vec::new();
+    let mut out = Vec::with_capacity(t.lines_left());
+    // One location reused for every row (no allocation per row).
+    let mut at = Location::line(file, 0);
+    while let Some(line) = t.next_row()? {
+        at.place = Place::Line(line);
+        if !rows.is_wanted_subject(ctx, &t, &c, &at, line)? {
+            continue;
+        }
+        let instant = rows.instant(&t, &c, &at, line)?;
+        let mut push = |kind: RecordKind| {
+            out.push(Record {
+                at: instant,
+                id: content_id(Source::PlainCsv, instant, &kind),
+                kind,
+                source: Source::PlainCsv,
+                origin: ctx.origin_line(line),
+            })
+        };
+        if let Some((kind, raw)) = glucose_record(&t, &c, &at, line)? {
+            raw_glucose.push(raw);
+            push(kind);
+        }
+        for kind in amount_records(&t, &c, &at, line)? {
+            push(kind);
+        }
+    }
+    if let (Some(wanted), false) = (&ctx.opts.subject, rows.subject_seen) {
+        return Err(IoError::format(
+            file,
+            format!("no rows with id \"{wanted}\""),
+        ));
+    }
+    if let (Some(unit), false) = (c.unit, c.declared_in_file) {
+        units::check_median(file, &raw_glucose, unit)?;
+    }
+    Ok(out)
+}
+
+impl Columns {
+    /// Finds every column (named by the options or by the usual names),
+    /// the date order and the glucose unit; refuses a file whose columns
+    /// cannot be read, naming the columns found.
+    fn find(ctx: &Ctx<'_>, t: &Table<'_>, bytes: &[u8]) -> Result<Columns, IoError> {
+        let file = ctx.file;
+        let time_at = time_column(ctx, t)?;
+        let split = match (
+            ctx.opts.time_column.is_none(),
+            find(t, "date"),
+            find(t, "time"),
+        ) {
+            (true, Some(d), Some(c)) => Some((d, c)),
+            _ => None,
+        };
+        let time_name = match split {
+            Some((d, c)) => format!("{} + {}", t.header[d], t.header[c]),
+            None => t.header[time_at].clone(),
+        };
+        let minute_clock = split.is_none() && time_name.eq_ignore_ascii_case("minute");
+        let order = if minute_clock {
+            DateOrder::YearFirst
+        } else {
+            date_order(
+                ctx,
+                bytes,
+                split.map_or((time_at, None), |(d, c)| (d, Some(c))),
+            )?
+        };
+        let glucose_at = glucose_column(ctx, t)?;
+        let carbs_at = find(t, "carbs").or_else(|| find(t, "carbs_g"));
+        let bolus_at = find(t, "bolus").or_else(|| find(t, "bolus_u"));
+        let basal_at = find(t, "basal").or_else(|| find(t, "basal_u_per_h"));
+        if glucose_at.is_none() && carbs_at.is_none() && bolus_at.is_none() && basal_at.is_none() {
+            return Err(IoError::format(
                 file,
+                format!(
+                    "no glucose column \"glucose\" (or \"gl\", \"sgv\", \"cgm\"), nor carbs, bolus or \
+                     basal; the columns found are {} (choose one with --glucose-column)",
+                    t.columns_found()
+                ),
+            ));
+        }
+        let glucose_name = glucose_at.map(|i| t.header[i].clone()).unwrap_or_default();
+        let named = glucose_at.and_then(|i| unit_in_name(&t.header[i]));
+        let unit = glucose_unit(ctx, &glucose_name, glucose_at.is_some(), named)?;
+        let id_at = find(t, "id");
+        if ctx.opts.subject.is_some() && id_at.is_none() {
+            return Err(IoError::format(
+                file,
+                format!(
+                    "--subject needs an \"id\" column; the columns found are {}",
+                    t.columns_found()
+                ),
+            ));
+        }
+        Ok(Columns {
+            time_at,
+            split,
+            time_name,
+            minute_clock,
+            order,
+            type_at: find(t, "type"),
+            glucose_at,
+            glucose_name,
+            unit,
+            declared_in_file: named.is_some(),
+            carbs_at,
+            bolus_at,
+            basal_at,
+            id_at,
+        })
+    }
+}
+
+/// The time column: `--time-column`, else the first of the usual names.
+fn time_column(ctx: &Ctx<'_>, t: &Table<'_>) -> Result<usize, IoError> {
+    match &ctx.opts.time_column {
+        Some(name) => find(t, name).ok_or_else(|| {
+            IoError::format(
+                ctx.file,
                 format!(
                     "no time column \"{name}\"; the columns found are {}",
                     t.columns_found()
                 ),
             )
-        })?,
-        None => TIME_NAMES.iter().find_map(|n| find(&t, n)).ok_or_else(|| {
+        }),
+        None => TIME_NAMES.iter().find_map(|n| find(t, n)).ok_or_else(|| {
             IoError::format(
-                file,
+                ctx.file,
                 format!(
                     "no time column \"time\" (or timestamp, datetime, date, minute); the columns \
                      found are {} (choose one with --time-column)",
                     t.columns_found()
                 ),
             )
-        })?,
-    };
-    // A research dataset's separate `date` and `time` columns: read as one.
-    let split = match (
-        ctx.opts.time_column.is_none(),
-        find(&t, "date"),
-        find(&t, "time"),
-    ) {
-        (true, Some(d), Some(c)) => Some((d, c)),
-        _ => None,
-    };
-    let time_name = match split {
-        Some((d, c)) => format!("{} + {}", t.header[d], t.header[c]),
-        None => t.header[time_at].clone(),
-    };
-    let minute_clock = split.is_none() && time_name.eq_ignore_ascii_case("minute");
-    let order = if minute_clock {
-        DateOrder::YearFirst
-    } else {
-        date_order(
-            ctx,
-            bytes,
-            split.map_or((time_at, None), |(d, c)| (d, Some(c))),
-        )?
-    };
-    let type_at = find(&t, "type");
-    let glucose_at =
-        match &ctx.opts.glucose_column {
-            Some(name) => Some(find(&t, name).ok_or_else(|| {
-                IoError::format(
-                    file,
-                    format!(
-                        "no glucose column \"{name}\"; the columns found are {}",
-                        t.columns_found()
-                    ),
-                )
-            })?),
-            None => {
-                let hits: Vec<usize> = GLUCOSE_NAMES.iter().filter_map(|n| find(&t, n)).collect();
-                let sim: Vec<usize> = ["bg_mg_dl", "gs_mg_dl"]
-                    .iter()
-                    .filter_map(|n| find(&t, n))
-                    .collect();
-                match (hits.first(), sim.len()) {
-                    (Some(&i), _) => Some(i),
-                    (None, 0) => None,
-                    (None, _) => return Err(IoError::format(
-                        file,
-                        "abba simulate output has plasma (bg_mg_dl) and subcutaneous (gs_mg_dl) \
-                         glucose; choose one with --glucose-column",
-                    )),
-                }
-            }
-        };
-    let carbs_at = find(&t, "carbs").or_else(|| find(&t, "carbs_g"));
-    let bolus_at = find(&t, "bolus").or_else(|| find(&t, "bolus_u"));
-    let basal_at = find(&t, "basal").or_else(|| find(&t, "basal_u_per_h"));
-    if glucose_at.is_none() && carbs_at.is_none() && bolus_at.is_none() && basal_at.is_none() {
-        return Err(IoError::format(
-            file,
-            format!(
-                "no glucose column \"glucose\" (or \"gl\", \"sgv\", \"cgm\"), nor carbs, bolus or \
-                 basal; the columns found are {} (choose one with --glucose-column)",
-                t.columns_found()
-            ),
-        ));
+        }),
     }
-    let glucose_name = glucose_at.map(|i| t.header[i].clone()).unwrap_or_default();
-    let unit = match (
-        glucose_at.and_then(|i| unit_in_name(&t.header[i])),
-        ctx.opts.units,
-    ) {
+}
+
+/// The glucose column: `--glucose-column`, else the first of the usual
+/// names; abba's own simulate output (plasma and subcutaneous glucose)
+/// must say which.
+fn glucose_column(ctx: &Ctx<'_>, t: &Table<'_>) -> Result<Option<usize>, IoError> {
+    if let Some(name) = &ctx.opts.glucose_column {
+        return find(t, name).map(Some).ok_or_else(|| {
+            IoError::format(
+                ctx.file,
+                format!(
+                    "no glucose column \"{name}\"; the columns found are {}",
+                    t.columns_found()
+                ),
+            )
+        });
+    }
+    let hits: Vec<usize> = GLUCOSE_NAMES.iter().filter_map(|n| find(t, n)).collect();
+    let sim = ["bg_mg_dl", "gs_mg_dl"]
+        .iter()
+        .filter_map(|n| find(t, n))
+        .count();
+    match (hits.first(), sim) {
+        (Some(&i), _) => Ok(Some(i)),
+        (None, 0) => Ok(None),
+        (None, _) => Err(IoError::format(
+            ctx.file,
+            "abba simulate output has plasma (bg_mg_dl) and subcutaneous (gs_mg_dl) \
+             glucose; choose one with --glucose-column",
+        )),
+    }
+}
+
+/// The glucose unit: the column name's, or `--units`; never guessed, and
+/// the two must agree.
+fn glucose_unit(
+    ctx: &Ctx<'_>,
+    glucose_name: &str,
+    has_glucose: bool,
+    named: Option<GlucoseUnit>,
+) -> Result<Option<GlucoseUnit>, IoError> {
+    let unit = match (named, ctx.opts.units) {
         (Some(named), Some(given)) if named != given => {
             return Err(IoError::Units {
-                file: file.to_string(),
+                file: ctx.file.to_string(),
                 message: format!(
                     "column \"{glucose_name}\" says {} but --units says {}",
                     named.label(),
@@ -198,214 +317,249 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
         (Some(named), _) => Some(named),
         (None, given) => given,
     };
-    let declared_in_file = glucose_at
-        .and_then(|i| unit_in_name(&t.header[i]))
-        .is_some();
-    if glucose_at.is_some() && unit.is_none() {
+    if has_glucose && unit.is_none() {
         return Err(IoError::Units {
-            file: file.to_string(),
+            file: ctx.file.to_string(),
             message: format!(
                 "column \"{glucose_name}\" does not say its unit; give --units mg/dL or --units mmol/L"
             ),
         });
     }
-    let id_at = find(&t, "id");
-    if ctx.opts.subject.is_some() && id_at.is_none() {
-        return Err(IoError::format(
-            file,
-            format!(
-                "--subject needs an \"id\" column; the columns found are {}",
-                t.columns_found()
-            ),
-        ));
-    }
-    let tz = ctx.opts.tz.clone().unwrap_or(jiff::tz::TimeZone::UTC);
-    let mut wall = WallClock::new(tz.clone());
-    let mut with_offset: Option<(bool, u64)> = None;
-    let mut first_id: Option<(String, u64)> = None;
-    let mut subject_seen = false;
-    let mut raw_glucose = Vec::new();
-    let mut out = Vec::with_capacity(t.lines_left());
-    let delim = t.delimiter;
-    // One location reused for every row (no allocation per row).
-    let mut at = Location::line(file, 0);
-    while let Some(line) = t.next_row()? {
-        at.place = Place::Line(line);
-        if let Some(i) = id_at {
-            let id = t.cell(i);
-            match &ctx.opts.subject {
-                Some(wanted) if id != wanted => continue,
-                Some(_) => subject_seen = true,
-                None => match &first_id {
-                    None => first_id = Some((id.to_string(), line)),
-                    Some((first, first_line)) if first != id => {
-                        return Err(IoError::invalid(
-                            at,
-                            "id",
-                            format!(
-                            "subject \"{id}\" differs from \"{first}\" on line {first_line}; the \
-                                 file holds several subjects, choose one with --subject"
-                        ),
-                        ))
-                    }
-                    Some(_) => {}
-                },
-            }
-        }
-        let joined;
-        let text = match split {
-            Some((d, c)) => {
-                joined = format!("{} {}", t.cell(d), t.cell(c));
-                joined.as_str()
-            }
-            None => t.cell(time_at),
-        };
-        let instant = if minute_clock {
-            let m = required_number(file, line, &time_name, text, delim, "a whole minute")?;
-            if m.fract() != 0.0 || m.abs() > 1e9 {
-                return Err(IoError::invalid(
-                    at,
-                    &time_name,
-                    format!("expected a whole minute, got \"{text}\""),
-                ));
-            }
-            // Minutes since 00:00 of day 1, placed at 1970-01-01 00:00 in
-            // the given zone (UTC without --tz): only differences matter.
-            jiff::civil::date(1970, 1, 1)
-                .at(0, 0, 0, 0)
-                .to_zoned(tz.clone())
-                .and_then(|z| z.checked_add(jiff::SignedDuration::from_mins(m as i64)))
-                .map(|z| z.timestamp())
-                .map_err(|e| IoError::invalid(at.clone(), &time_name, e.to_string()))?
-        } else {
-            let offset = has_offset(text);
-            match with_offset {
-                None => with_offset = Some((offset, line)),
-                Some((first, first_line)) if first != offset => {
+    Ok(unit)
+}
+
+/// What the rows carry from one to the next: the wall clock (daylight-
+/// saving folds), whether times have offsets, the subject.
+struct Rows {
+    tz: jiff::tz::TimeZone,
+    wall: WallClock,
+    with_offset: Option<(bool, u64)>,
+    first_id: Option<(String, u64)>,
+    subject_seen: bool,
+}
+
+impl Rows {
+    /// Whether this row belongs to the subject read: `--subject`'s, or the
+    /// file's only one (a second subject is an error).
+    fn is_wanted_subject(
+        &mut self,
+        ctx: &Ctx<'_>,
+        t: &Table<'_>,
+        c: &Columns,
+        at: &Location,
+        line: u64,
+    ) -> Result<bool, IoError> {
+        let Some(i) = c.id_at else { return Ok(true) };
+        let id = t.cell(i);
+        match &ctx.opts.subject {
+            Some(wanted) if id != wanted => return Ok(false),
+            Some(_) => self.subject_seen = true,
+            None => match &self.first_id {
+                None => self.first_id = Some((id.to_string(), line)),
+                Some((first, first_line)) if first != id => {
                     return Err(IoError::invalid(
-                        at,
-                        &time_name,
+                        at.clone(),
+                        "id",
                         format!(
-                            "time \"{text}\" {} a UTC offset but the time on line {first_line} {}; \
-                             a file must not mix the two",
-                            if offset { "has" } else { "has no" },
-                            if first { "has one" } else { "has none" }
+                            "subject \"{id}\" differs from \"{first}\" on line {first_line}; the \
+                             file holds several subjects, choose one with --subject"
                         ),
                     ))
                 }
                 Some(_) => {}
+            },
+        }
+        Ok(true)
+    }
+
+    /// The row's instant: a whole minute of abba's own clock, a time with
+    /// a UTC offset, or a wall-clock time in `--tz` (a file must not mix
+    /// the last two).
+    fn instant(
+        &mut self,
+        t: &Table<'_>,
+        c: &Columns,
+        at: &Location,
+        line: u64,
+    ) -> Result<jiff::Timestamp, IoError> {
+        let joined;
+        let text = match c.split {
+            Some((d, k)) => {
+                joined = format!("{} {}", t.cell(d), t.cell(k));
+                joined.as_str()
             }
-            let parsed = if offset {
-                parse_instant(text)
-            } else {
-                match parse_wall(text, order) {
-                    Some(dt) => Some(wall.resolve(dt, &at, &time_name)?),
-                    None => None,
-                }
-            };
-            parsed.ok_or_else(|| {
-                IoError::invalid(
+            None => t.cell(c.time_at),
+        };
+        if c.minute_clock {
+            return self.minute(t, c, at, line, text);
+        }
+        let offset = has_offset(text);
+        match self.with_offset {
+            None => self.with_offset = Some((offset, line)),
+            Some((first, first_line)) if first != offset => {
+                return Err(IoError::invalid(
                     at.clone(),
-                    &time_name,
+                    &c.time_name,
                     format!(
-                        "expected a time like 2015-06-06 16:50:27 or 2015-06-06T16:50:27Z{}, got \"{text}\"",
-                        match order {
-                            DateOrder::YearFirst => "",
-                            DateOrder::DayFirst => " (day first, as the file's dates show)",
-                            DateOrder::MonthFirst => " (month first, as the file's dates show)",
-                        }
+                        "time \"{text}\" {} a UTC offset but the time on line {first_line} {}; \
+                         a file must not mix the two",
+                        if offset { "has" } else { "has no" },
+                        if first { "has one" } else { "has none" }
                     ),
-                )
-            })?
-        };
-        let mut push = |kind: RecordKind, _n: u64| {
-            out.push(Record {
-                at: instant,
-                id: content_id(Source::PlainCsv, instant, &kind),
-                kind,
-                source: Source::PlainCsv,
-                origin: ctx.origin_line(line),
-            })
-        };
-        if let (Some(i), Some(unit)) = (glucose_at, unit) {
-            let text = t.cell(i);
-            if !(text.is_empty()
-                && (carbs_at.is_some() || bolus_at.is_some() || basal_at.is_some()))
-            {
-                let v =
-                    required_number(file, line, &glucose_name, text, delim, "a glucose number")?;
-                let mg = units::glucose_mg_dl(&at, &glucose_name, v, unit)?;
-                raw_glucose.push(v);
-                let glucose = Glucose::exact(mg);
-                let kind = match type_at.map(|i| t.cell(i).to_ascii_lowercase()) {
-                    None => RecordKind::Cgm { glucose },
-                    Some(ty) => match ty.as_str() {
-                        "" | "cgm" | "sensor" | "cbg" | "historic" | "egv" => {
-                            RecordKind::Cgm { glucose }
-                        }
-                        "manual" | "meter" | "smbg" | "bg" | "fingerstick" | "finger stick"
-                        | "capillary" => RecordKind::Smbg { glucose },
-                        other => RecordKind::Ignored {
-                            kind: format!("glucose of type \"{other}\" (not cgm or manual)"),
-                        },
-                    },
-                };
-                push(kind, 0);
+                ))
             }
+            Some(_) => {}
         }
-        for (col, n) in [(carbs_at, 1), (bolus_at, 2), (basal_at, 3)] {
-            let Some(i) = col else { continue };
-            let text = t.cell(i);
-            if text.is_empty() {
-                continue;
+        let parsed = if offset {
+            parse_instant(text)
+        } else {
+            match parse_wall(text, c.order) {
+                Some(dt) => Some(self.wall.resolve(dt, at, &c.time_name)?),
+                None => None,
             }
-            let name = t.header[i].clone();
-            let v = required_number(file, line, &name, text, delim, "a number")?;
-            let kind = match n {
-                1 => RecordKind::Carbs {
-                    grams: Grams(check_range(
-                        &at,
-                        &name,
+        };
+        parsed.ok_or_else(|| {
+            IoError::invalid(
+                at.clone(),
+                &c.time_name,
+                format!(
+                    "expected a time like 2015-06-06 16:50:27 or 2015-06-06T16:50:27Z{}, got \"{text}\"",
+                    match c.order {
+                        DateOrder::YearFirst => "",
+                        DateOrder::DayFirst => " (day first, as the file's dates show)",
+                        DateOrder::MonthFirst => " (month first, as the file's dates show)",
+                    }
+                ),
+            )
+        })
+    }
+
+    /// Minutes since 00:00 of day 1, placed at 1970-01-01 00:00 in the
+    /// given zone (UTC without --tz): only differences matter.
+    fn minute(
+        &self,
+        t: &Table<'_>,
+        c: &Columns,
+        at: &Location,
+        line: u64,
+        text: &str,
+    ) -> Result<jiff::Timestamp, IoError> {
+        let m = required_number(
+            at.file.as_str(),
+            line,
+            &c.time_name,
+            text,
+            t.delimiter,
+            "a whole minute",
+        )?;
+        if m.fract() != 0.0 || m.abs() > 1e9 {
+            return Err(IoError::invalid(
+                at.clone(),
+                &c.time_name,
+                format!("expected a whole minute, got \"{text}\""),
+            ));
+        }
+        jiff::civil::date(1970, 1, 1)
+            .at(0, 0, 0, 0)
+            .to_zoned(self.tz.clone())
+            .and_then(|z| z.checked_add(jiff::SignedDuration::from_mins(m as i64)))
+            .map(|z| z.timestamp())
+            .map_err(|e| IoError::invalid(at.clone(), &c.time_name, e.to_string()))
+    }
+}
+
+/// The row's glucose reading (and its number as written), if it has one:
+/// CGM, or a meter reading by the `type` column; an empty glucose cell
+/// is allowed on a row that carries an amount.
+fn glucose_record(
+    t: &Table<'_>,
+    c: &Columns,
+    at: &Location,
+    line: u64,
+) -> Result<Option<(RecordKind, f64)>, IoError> {
+    let (Some(i), Some(unit)) = (c.glucose_at, c.unit) else {
+        return Ok(None);
+    };
+    let text = t.cell(i);
+    if text.is_empty() && (c.carbs_at.is_some() || c.bolus_at.is_some() || c.basal_at.is_some()) {
+        return Ok(None);
+    }
+    let v = required_number(
+        at.file.as_str(),
+        line,
+        &c.glucose_name,
+        text,
+        t.delimiter,
+        "a glucose number",
+    )?;
+    let mg = units::glucose_mg_dl(at, &c.glucose_name, v, unit)?;
+    let glucose = Glucose::exact(mg);
+    let kind = match c.type_at.map(|i| t.cell(i).to_ascii_lowercase()) {
+        None => RecordKind::Cgm { glucose },
+        Some(ty) => match ty.as_str() {
+            "" | "cgm" | "sensor" | "cbg" | "historic" | "egv" => RecordKind::Cgm { glucose },
+            "manual" | "meter" | "smbg" | "bg" | "fingerstick" | "finger stick" | "capillary" => {
+                RecordKind::Smbg { glucose }
+            }
+            other => RecordKind::Ignored {
+                kind: format!("glucose of type \"{other}\" (not cgm or manual)"),
+            },
+        },
+    };
+    Ok(Some((kind, v)))
+}
+
+/// The row's carbohydrate, bolus and basal rate, each checked against its
+/// plausible range.
+fn amount_records(
+    t: &Table<'_>,
+    c: &Columns,
+    at: &Location,
+    line: u64,
+) -> Result<Vec<RecordKind>, IoError> {
+    let mut out = Vec::new();
+    for (col, what) in [(c.carbs_at, 1), (c.bolus_at, 2), (c.basal_at, 3)] {
+        let Some(i) = col else { continue };
+        let text = t.cell(i);
+        if text.is_empty() {
+            continue;
+        }
+        let name = &t.header[i];
+        let v = required_number(at.file.as_str(), line, name, text, t.delimiter, "a number")?;
+        out.push(match what {
+            1 => RecordKind::Carbs {
+                grams: Grams(check_range(
+                    at,
+                    name,
+                    v,
+                    0.0,
+                    units::CARBS_MAX_G,
+                    "carbohydrate (g)",
+                )?),
+            },
+            2 => RecordKind::Bolus {
+                units: Units(check_range(
+                    at,
+                    name,
+                    v,
+                    0.0,
+                    units::BOLUS_MAX_U,
+                    "bolus (U)",
+                )?),
+            },
+            _ => RecordKind::Schedule {
+                profile: Box::new(Profile::basal_only(BasalSchedule::flat(UnitsPerHour(
+                    check_range(
+                        at,
+                        name,
                         v,
                         0.0,
-                        units::CARBS_MAX_G,
-                        "carbohydrate (g)",
-                    )?),
-                },
-                2 => RecordKind::Bolus {
-                    units: Units(check_range(
-                        &at,
-                        &name,
-                        v,
-                        0.0,
-                        units::BOLUS_MAX_U,
-                        "bolus (U)",
-                    )?),
-                },
-                _ => RecordKind::Schedule {
-                    profile: Box::new(Profile::basal_only(BasalSchedule::flat(UnitsPerHour(
-                        check_range(
-                            &at,
-                            &name,
-                            v,
-                            0.0,
-                            units::BASAL_MAX_U_PER_H,
-                            "basal rate (U/h)",
-                        )?,
-                    )))),
-                },
-            };
-            push(kind, n);
-        }
-    }
-    if let (Some(wanted), false) = (&ctx.opts.subject, subject_seen) {
-        return Err(IoError::format(
-            file,
-            format!("no rows with id \"{wanted}\""),
-        ));
-    }
-    if let (Some(unit), false) = (unit, declared_in_file) {
-        units::check_median(file, &raw_glucose, unit)?;
+                        units::BASAL_MAX_U_PER_H,
+                        "basal rate (U/h)",
+                    )?,
+                )))),
+            },
+        });
     }
     Ok(out)
 }

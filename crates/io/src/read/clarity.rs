@@ -81,52 +81,71 @@ fn column(t: &Table<'_>, prefix: &str, position: usize, localised: bool) -> Opti
         .or_else(|| (localised && position < t.header.len()).then_some(position))
 }
 
-/// Reads a Clarity export.
+/// The columns of a Clarity export (English names, or positions in a
+/// localised one) and how its glucose is read.
+struct Columns {
+    time_at: usize,
+    time_name: String,
+    type_at: usize,
+    glucose_at: usize,
+    glucose_name: String,
+    unit: GlucoseUnit,
+    subtype_at: Option<usize>,
+    insulin_at: Option<usize>,
+    carbs_at: Option<usize>,
+    tx_time_at: Option<usize>,
+    tx_id_at: Option<usize>,
+}
+
+impl Columns {
+    fn find(ctx: &Ctx<'_>, t: &Table<'_>) -> Result<Columns, IoError> {
+        let loc = t.column_starting("Event Type").is_none() && localised(&t.header);
+        let need = |prefix: &str, position: usize| -> Result<usize, IoError> {
+            match column(t, prefix, position, loc) {
+                Some(i) => Ok(i),
+                None => t.need_column_starting("Clarity", prefix),
+            }
+        };
+        let time_at = need("Timestamp", 1)?;
+        let type_at = need("Event Type", 2)?;
+        let glucose_at = need("Glucose Value", 7)?;
+        Ok(Columns {
+            time_at,
+            time_name: t.header[time_at].clone(),
+            type_at,
+            glucose_at,
+            glucose_name: t.header[glucose_at].clone(),
+            unit: t.unit_of_column(glucose_at, ctx.opts.units)?,
+            subtype_at: column(t, "Event Subtype", 3, loc),
+            insulin_at: column(t, "Insulin Value", 8, loc),
+            carbs_at: column(t, "Carb Value", 9, loc),
+            tx_time_at: column(t, "Transmitter Time", 12, loc),
+            tx_id_at: column(t, "Transmitter ID", 13, loc),
+        })
+    }
+}
+
+/// Reads a Clarity export: each data row's time and record, its
+/// transmitter clock, then the clock's stretches placed or reported.
 pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     let file = ctx.file;
     let mut t = Table::open(file, bytes, 0)?;
-    let loc = t.column_starting("Event Type").is_none() && localised(&t.header);
-    let need = |prefix: &str, position: usize| -> Result<usize, IoError> {
-        match column(&t, prefix, position, loc) {
-            Some(i) => Ok(i),
-            None => t.need_column_starting("Clarity", prefix),
-        }
-    };
-    let time_at = need("Timestamp", 1)?;
-    let type_at = need("Event Type", 2)?;
-    let glucose_at = need("Glucose Value", 7)?;
-    let subtype_at = column(&t, "Event Subtype", 3, loc);
-    let insulin_at = column(&t, "Insulin Value", 8, loc);
-    let carbs_at = column(&t, "Carb Value", 9, loc);
-    let tx_time_at = column(&t, "Transmitter Time", 12, loc);
-    let tx_id_at = column(&t, "Transmitter ID", 13, loc);
-    let unit = t.unit_of_column(glucose_at, ctx.opts.units)?;
-    let glucose_name = t.header[glucose_at].clone();
-    let (low, high) = match unit {
-        GlucoseUnit::MgDl => (40.0, 400.0),
-        GlucoseUnit::MmolL => (2.2, 22.2),
-    };
+    let c = Columns::find(ctx, &t)?;
     let tz = ctx.require_tz("Clarity writes device local times without an offset")?;
     let mut wall = WallClock::new(tz);
-    let time_name = t.header[time_at].clone();
-    let delim = t.delimiter;
     let mut out = Vec::with_capacity(t.lines_left());
     let mut egv_clock: Vec<TxReading> = Vec::new();
     // One location reused for every row (no allocation per row).
     let mut at = Location::line(file, 0);
     while let Some(line) = t.next_row()? {
         at.place = Place::Line(line);
-        let time_text = t.cell(time_at);
-        let kind_text = t.cell(type_at);
-        let kind_text = EVENT_NAMES
-            .iter()
-            .find(|(local, _)| local.eq_ignore_ascii_case(kind_text))
-            .map_or(kind_text, |&(_, english)| english);
+        let kind_text = english_event(t.cell(c.type_at));
+        let time_text = t.cell(c.time_at);
         if time_text.is_empty() {
             if DATA_EVENTS.contains(&kind_text) {
                 return Err(IoError::invalid(
                     at.clone(),
-                    &t.header[time_at],
+                    &c.time_name,
                     format!("a {kind_text} row needs its time; the cell is empty"),
                 ));
             }
@@ -135,111 +154,13 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
         let dt = parse_wall(time_text, DateOrder::YearFirst).ok_or_else(|| {
             IoError::invalid(
                 at.clone(),
-                &time_name,
+                &c.time_name,
                 format!("expected a time like 2019-08-15T00:03:27, got \"{time_text}\""),
             )
         })?;
-        let instant = wall.resolve(dt, &at, &time_name)?;
-        let subtype = subtype_at.map_or("", |i| t.cell(i));
-        let glucose = |t: &Table<'_>| -> Result<Glucose, IoError> {
-            let text = t.cell(glucose_at);
-            let (value, censor) = match text.to_ascii_lowercase().as_str() {
-                "low" => (low, Censor::Below),
-                "high" => (high, Censor::Above),
-                _ => (
-                    required_number(
-                        file,
-                        line,
-                        &glucose_name,
-                        text,
-                        delim,
-                        "a glucose number, Low or High",
-                    )?,
-                    Censor::Exact,
-                ),
-            };
-            let mg = units::glucose_mg_dl(&at, &glucose_name, value, unit)?;
-            Ok(Glucose {
-                mg_dl: abba_core::MgDl(mg),
-                censor,
-            })
-        };
-        let number =
-            |t: &Table<'_>, i: Option<usize>, what: &str| -> Result<(String, f64), IoError> {
-                let i = i.ok_or_else(|| {
-                    IoError::format(file, format!("{kind_text} rows need a {what} column"))
-                })?;
-                let name = t.header[i].clone();
-                let v = required_number(file, line, &name, t.cell(i), delim, what)?;
-                Ok((name, v))
-            };
-        let kind = match kind_text {
-            "EGV" => RecordKind::Cgm {
-                glucose: glucose(&t)?,
-            },
-            // A meter reading entered to calibrate the sensor.
-            "Calibration" => RecordKind::Smbg {
-                glucose: glucose(&t)?,
-            },
-            "Insulin" => {
-                let (name, v) = number(&t, insulin_at, "insulin (U)")?;
-                let u = Units(check_range(
-                    &at,
-                    &name,
-                    v,
-                    0.0,
-                    units::BOLUS_MAX_U,
-                    "insulin (U)",
-                )?);
-                match subtype.to_ascii_lowercase().as_str() {
-                    "long-acting" => RecordKind::LongActing { units: u },
-                    "fast-acting" | "rapid-acting" => RecordKind::Bolus { units: u },
-                    other => {
-                        return Err(IoError::invalid(
-                            at.clone(),
-                            &subtype_at
-                                .map_or("Event Subtype".to_string(), |i| t.header[i].clone()),
-                            format!(
-                                "an Insulin row needs its subtype Fast-Acting or Long-Acting \
-                                 (abba does not guess which), got \"{other}\""
-                            ),
-                        ))
-                    }
-                }
-            }
-            "Carbs" => {
-                let (name, v) = number(&t, carbs_at, "carbohydrate (g)")?;
-                RecordKind::Carbs {
-                    grams: Grams(check_range(
-                        &at,
-                        &name,
-                        v,
-                        0.0,
-                        units::CARBS_MAX_G,
-                        "carbohydrate (g)",
-                    )?),
-                }
-            }
-            other => RecordKind::Ignored {
-                kind: if subtype.is_empty() {
-                    other.to_string()
-                } else {
-                    format!("{other} {subtype}")
-                },
-            },
-        };
-        let tx = match (tx_id_at, tx_time_at) {
-            (Some(i), Some(j))
-                if matches!(kind, RecordKind::Cgm { .. } | RecordKind::Smbg { .. }) =>
-            {
-                let (id, time) = (t.cell(i), t.cell(j));
-                match time.parse::<i64>() {
-                    Ok(s) if !id.is_empty() => Some((id.to_string(), s)),
-                    _ => None,
-                }
-            }
-            _ => None,
-        };
+        let instant = wall.resolve(dt, &at, &c.time_name)?;
+        let kind = row_kind(&t, &c, &at, line, kind_text)?;
+        let tx = transmitter_clock(&t, &c, &kind);
         let id = match &tx {
             Some((tx_id, tx_time)) => SourceId::Id(format!("{tx_id}:{tx_time}:{kind_text}").into()),
             None => row_id(Source::Clarity, instant, &kind, t.raw(), Some(0)),
@@ -267,6 +188,134 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
         place_by_transmitter(ctx, &mut out, &egv_clock);
     }
     Ok(out)
+}
+
+/// An event type in Clarity's English (a localised name mapped).
+fn english_event(kind_text: &str) -> &str {
+    EVENT_NAMES
+        .iter()
+        .find(|(local, _)| local.eq_ignore_ascii_case(kind_text))
+        .map_or(kind_text, |&(_, english)| english)
+}
+
+/// What a data row records: a CGM reading (EGV), a meter reading
+/// (Calibration), insulin by its subtype, carbohydrate, or an event type
+/// counted as ignored.
+fn row_kind(
+    t: &Table<'_>,
+    c: &Columns,
+    at: &Location,
+    line: u64,
+    kind_text: &str,
+) -> Result<RecordKind, IoError> {
+    let subtype = c.subtype_at.map_or("", |i| t.cell(i));
+    let number = |i: Option<usize>, what: &str| -> Result<(String, f64), IoError> {
+        let i = i.ok_or_else(|| {
+            IoError::format(&at.file, format!("{kind_text} rows need a {what} column"))
+        })?;
+        let name = t.header[i].clone();
+        let v = required_number(&at.file, line, &name, t.cell(i), t.delimiter, what)?;
+        Ok((name, v))
+    };
+    Ok(match kind_text {
+        "EGV" => RecordKind::Cgm {
+            glucose: glucose(t, c, at, line)?,
+        },
+        // A meter reading entered to calibrate the sensor.
+        "Calibration" => RecordKind::Smbg {
+            glucose: glucose(t, c, at, line)?,
+        },
+        "Insulin" => {
+            let (name, v) = number(c.insulin_at, "insulin (U)")?;
+            let u = Units(check_range(
+                at,
+                &name,
+                v,
+                0.0,
+                units::BOLUS_MAX_U,
+                "insulin (U)",
+            )?);
+            match subtype.to_ascii_lowercase().as_str() {
+                "long-acting" => RecordKind::LongActing { units: u },
+                "fast-acting" | "rapid-acting" => RecordKind::Bolus { units: u },
+                other => {
+                    return Err(IoError::invalid(
+                        at.clone(),
+                        &c.subtype_at
+                            .map_or("Event Subtype".to_string(), |i| t.header[i].clone()),
+                        format!(
+                            "an Insulin row needs its subtype Fast-Acting or Long-Acting \
+                             (abba does not guess which), got \"{other}\""
+                        ),
+                    ))
+                }
+            }
+        }
+        "Carbs" => {
+            let (name, v) = number(c.carbs_at, "carbohydrate (g)")?;
+            RecordKind::Carbs {
+                grams: Grams(check_range(
+                    at,
+                    &name,
+                    v,
+                    0.0,
+                    units::CARBS_MAX_G,
+                    "carbohydrate (g)",
+                )?),
+            }
+        }
+        other => RecordKind::Ignored {
+            kind: if subtype.is_empty() {
+                other.to_string()
+            } else {
+                format!("{other} {subtype}")
+            },
+        },
+    })
+}
+
+/// A glucose cell: a number, or Low / High at the sensor's reporting
+/// limits (40 and 400 mg/dL, 2.2 and 22.2 mmol/L), kept censored.
+fn glucose(t: &Table<'_>, c: &Columns, at: &Location, line: u64) -> Result<Glucose, IoError> {
+    let (low, high) = match c.unit {
+        GlucoseUnit::MgDl => (40.0, 400.0),
+        GlucoseUnit::MmolL => (2.2, 22.2),
+    };
+    let text = t.cell(c.glucose_at);
+    let (value, censor) = match text.to_ascii_lowercase().as_str() {
+        "low" => (low, Censor::Below),
+        "high" => (high, Censor::Above),
+        _ => (
+            required_number(
+                &at.file,
+                line,
+                &c.glucose_name,
+                text,
+                t.delimiter,
+                "a glucose number, Low or High",
+            )?,
+            Censor::Exact,
+        ),
+    };
+    let mg = units::glucose_mg_dl(at, &c.glucose_name, value, c.unit)?;
+    Ok(Glucose {
+        mg_dl: abba_core::MgDl(mg),
+        censor,
+    })
+}
+
+/// A reading's transmitter id and transmitter time (s), when the row has
+/// both.
+fn transmitter_clock(t: &Table<'_>, c: &Columns, kind: &RecordKind) -> Option<(String, i64)> {
+    let (i, j) = (c.tx_id_at?, c.tx_time_at?);
+    if !matches!(kind, RecordKind::Cgm { .. } | RecordKind::Smbg { .. }) {
+        return None;
+    }
+    let (id, time) = (t.cell(i), t.cell(j));
+    match time.parse::<i64>() {
+        Ok(s) if !id.is_empty() => Some((id.to_string(), s)),
+        _ => None,
+    }
 }
 
 /// An EGV row's transmitter clock: its index in the records, the

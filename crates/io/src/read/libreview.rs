@@ -113,21 +113,16 @@ fn date_order(
     })
 }
 
-/// Reads a LibreView export.
+/// Reads a LibreView export: the header line and columns, the date
+/// order, then each row's time and records.
 pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     let file = ctx.file;
     let header_at = header_line(file, bytes)?;
     let mut t = Table::open(file, bytes, header_at)?;
     let cols = Columns::of(&t, ctx)?;
-    let (time_at, type_at, historic_at) = (cols.time, cols.record_type, cols.historic);
-    let (strip_at, rapid_at, long_at) = (cols.strip, cols.rapid, cols.long);
-    let (meal_at, corr_at, carbs_at, servings_at) =
-        (cols.meal, cols.correction, cols.carbs, cols.servings);
-    let historic_name = t.header[historic_at].clone();
     let tz = ctx.require_tz("LibreView writes device times without an offset")?;
     let mut wall = WallClock::new(tz);
-    let time_name = t.header[time_at].clone();
-    let delim = t.delimiter;
+    let time_name = t.header[cols.time].clone();
     let rows_start = bytes
         .iter()
         .enumerate()
@@ -137,8 +132,8 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     let order = date_order(
         file,
         &bytes[rows_start..],
-        delim,
-        time_at,
+        t.delimiter,
+        cols.time,
         ctx.opts.date_order,
     )?;
     let mut out = Vec::with_capacity(t.lines_left());
@@ -146,7 +141,7 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     let mut at = Location::line(file, 0);
     while let Some(line) = t.next_row()? {
         at.place = Place::Line(line);
-        let text = t.cell(time_at);
+        let text = t.cell(cols.time);
         let dt = parse_wall(text, order).ok_or_else(|| {
             IoError::invalid(
                 at.clone(),
@@ -165,152 +160,12 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
             )
         })?;
         let instant = wall.resolve(dt, &at, &time_name)?;
-        let value = |t: &Table<'_>, i: Option<usize>| -> Result<Option<(String, f64)>, IoError> {
-            let Some(i) = i else { return Ok(None) };
-            let text = t.cell(i);
-            if text.is_empty() {
-                return Ok(None);
-            }
-            let name = t.header[i].clone();
-            let v = number(text, delim).ok_or_else(|| {
-                IoError::invalid(
-                    at.clone(),
-                    &name,
-                    format!("expected a number, got \"{text}\""),
-                )
-            })?;
-            Ok(Some((name, v)))
+        let row = Row {
+            t: &t,
+            cols: &cols,
+            at: &at,
         };
-        let glucose = |t: &Table<'_>, i: Option<usize>| -> Result<Option<Glucose>, IoError> {
-            let Some(i) = i else { return Ok(None) };
-            match value(t, Some(i))? {
-                None => Ok(None),
-                Some((name, v)) => Ok(Some(Glucose {
-                    mg_dl: MgDl(units::glucose_mg_dl(&at, &name, v, cols.unit(i))?),
-                    censor: crate::record::Censor::Exact,
-                })),
-            }
-        };
-        let missing = |what: &str| {
-            IoError::invalid(
-                at.clone(),
-                what,
-                "the record type needs this value; the cell is empty",
-            )
-        };
-        let rtype = t.cell(type_at).to_string();
-        if rtype.is_empty() || !rtype.bytes().all(|b| b.is_ascii_digit()) {
-            return Err(IoError::invalid(
-                at.clone(),
-                &t.header[type_at],
-                format!("expected a record type number (0 historic, 1 scan, 2 strip, 3 ketone, 4 insulin, 5 food, 6 note), got \"{rtype}\""),
-            ));
-        }
-        if matches!(rtype.as_str(), "4" | "5") {
-            // A number in a column abba cannot name would be insulin or
-            // food lost without a word: refuse instead.
-            if let Some(&i) = cols
-                .unknown
-                .iter()
-                .find(|&&i| number(t.cell(i), delim).is_some())
-            {
-                return Err(IoError::invalid(
-                    at.clone(),
-                    &t.header[i],
-                    format!(
-                        "this insulin or food row has the number \"{}\" in a column abba does \
-                         not recognise; expected rapid-acting, long-acting, meal or correction \
-                         insulin (units) or carbohydrates (grams or servings)",
-                        t.cell(i)
-                    ),
-                ));
-            }
-        }
-        let mut kinds = Vec::new();
-        match rtype.trim_start_matches('0') {
-            "" => kinds.push(RecordKind::Cgm {
-                glucose: glucose(&t, Some(historic_at))?.ok_or_else(|| missing(&historic_name))?,
-            }),
-            "1" => kinds.push(RecordKind::Ignored {
-                kind: "scan glucose".into(),
-            }),
-            "2" => kinds.push(RecordKind::Smbg {
-                glucose: glucose(&t, strip_at)?.ok_or_else(|| {
-                    missing(
-                        strip_at.map_or("strip glucose (no such column)", |i| t.header[i].as_str()),
-                    )
-                })?,
-            }),
-            "3" => kinds.push(RecordKind::Ignored {
-                kind: "ketone".into(),
-            }),
-            "4" => {
-                let bolus = match value(&t, rapid_at)? {
-                    Some(v) => Some(v),
-                    None => match (value(&t, meal_at)?, value(&t, corr_at)?) {
-                        (None, None) => None,
-                        (a, b) => Some((
-                            "Meal + Correction Insulin (units)".to_string(),
-                            a.map_or(0.0, |a| a.1) + b.map_or(0.0, |b| b.1),
-                        )),
-                    },
-                };
-                if let Some((name, u)) = bolus {
-                    kinds.push(RecordKind::Bolus {
-                        units: Units(check_range(
-                            &at,
-                            &name,
-                            u,
-                            0.0,
-                            units::BOLUS_MAX_U,
-                            "insulin (U)",
-                        )?),
-                    });
-                }
-                if let Some((name, u)) = value(&t, long_at)? {
-                    kinds.push(RecordKind::LongActing {
-                        units: Units(check_range(
-                            &at,
-                            &name,
-                            u,
-                            0.0,
-                            units::BOLUS_MAX_U,
-                            "insulin (U)",
-                        )?),
-                    });
-                }
-                if kinds.is_empty() {
-                    kinds.push(RecordKind::Ignored {
-                        kind: "insulin without a number".into(),
-                    });
-                }
-            }
-            "5" => match value(&t, carbs_at)? {
-                Some((name, g)) => kinds.push(RecordKind::Carbs {
-                    grams: Grams(check_range(
-                        &at,
-                        &name,
-                        g,
-                        0.0,
-                        units::CARBS_MAX_G,
-                        "carbohydrate (g)",
-                    )?),
-                }),
-                None if value(&t, servings_at)?.is_some() => kinds.push(RecordKind::Ignored {
-                    kind: "food in servings (grams per serving unknown)".into(),
-                }),
-                None => kinds.push(RecordKind::Ignored {
-                    kind: "food without carbohydrate".into(),
-                }),
-            },
-            "6" => kinds.push(RecordKind::Ignored {
-                kind: "note or time change".into(),
-            }),
-            other => kinds.push(RecordKind::Ignored {
-                kind: format!("record type {other}"),
-            }),
-        }
-        for kind in kinds {
+        for kind in row.kinds()? {
             out.push(Record {
                 at: instant,
                 id: row_id(Source::LibreView, instant, &kind, t.raw(), None),
@@ -321,6 +176,174 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
         }
     }
     Ok(out)
+}
+
+/// One data row with its columns and place, read by record type.
+struct Row<'r, 't> {
+    t: &'r Table<'t>,
+    cols: &'r Columns,
+    at: &'r Location,
+}
+
+impl Row<'_, '_> {
+    /// A number cell (`None` when the column is absent or the cell empty),
+    /// with its column's name.
+    fn value(&self, i: Option<usize>) -> Result<Option<(String, f64)>, IoError> {
+        let Some(i) = i else { return Ok(None) };
+        let text = self.t.cell(i);
+        if text.is_empty() {
+            return Ok(None);
+        }
+        let name = self.t.header[i].clone();
+        let v = number(text, self.t.delimiter).ok_or_else(|| {
+            IoError::invalid(
+                self.at.clone(),
+                &name,
+                format!("expected a number, got \"{text}\""),
+            )
+        })?;
+        Ok(Some((name, v)))
+    }
+
+    /// A glucose cell in its column's unit, which the record type needs.
+    fn glucose(&self, i: Option<usize>, what: &str) -> Result<Glucose, IoError> {
+        let found = match i {
+            None => None,
+            Some(i) => match self.value(Some(i))? {
+                None => None,
+                Some((name, v)) => Some(Glucose {
+                    mg_dl: MgDl(units::glucose_mg_dl(self.at, &name, v, self.cols.unit(i))?),
+                    censor: crate::record::Censor::Exact,
+                }),
+            },
+        };
+        found.ok_or_else(|| {
+            IoError::invalid(
+                self.at.clone(),
+                what,
+                "the record type needs this value; the cell is empty",
+            )
+        })
+    }
+
+    /// The row's records by its record type (0 historic, 1 scan, 2 strip,
+    /// 3 ketone, 4 insulin, 5 food, 6 note).
+    fn kinds(&self) -> Result<Vec<RecordKind>, IoError> {
+        let (t, cols) = (self.t, self.cols);
+        let rtype = t.cell(cols.record_type).to_string();
+        if rtype.is_empty() || !rtype.bytes().all(|b| b.is_ascii_digit()) {
+            return Err(IoError::invalid(
+                self.at.clone(),
+                &t.header[cols.record_type],
+                format!("expected a record type number (0 historic, 1 scan, 2 strip, 3 ketone, 4 insulin, 5 food, 6 note), got \"{rtype}\""),
+            ));
+        }
+        if matches!(rtype.as_str(), "4" | "5") {
+            self.refuse_unknown_numbers()?;
+        }
+        let ignored = |kind: &str| vec![RecordKind::Ignored { kind: kind.into() }];
+        Ok(match rtype.trim_start_matches('0') {
+            "" => vec![RecordKind::Cgm {
+                glucose: self.glucose(Some(cols.historic), &t.header[cols.historic])?,
+            }],
+            "1" => ignored("scan glucose"),
+            "2" => vec![RecordKind::Smbg {
+                glucose: self.glucose(
+                    cols.strip,
+                    cols.strip
+                        .map_or("strip glucose (no such column)", |i| t.header[i].as_str()),
+                )?,
+            }],
+            "3" => ignored("ketone"),
+            "4" => self.insulin()?,
+            "5" => self.food()?,
+            "6" => ignored("note or time change"),
+            other => ignored(&format!("record type {other}")),
+        })
+    }
+
+    /// A number in a column abba cannot name would be insulin or food
+    /// lost without a word: refuse instead.
+    fn refuse_unknown_numbers(&self) -> Result<(), IoError> {
+        let t = self.t;
+        match self
+            .cols
+            .unknown
+            .iter()
+            .find(|&&i| number(t.cell(i), t.delimiter).is_some())
+        {
+            Some(&i) => Err(IoError::invalid(
+                self.at.clone(),
+                &t.header[i],
+                format!(
+                    "this insulin or food row has the number \"{}\" in a column abba does \
+                     not recognise; expected rapid-acting, long-acting, meal or correction \
+                     insulin (units) or carbohydrates (grams or servings)",
+                    t.cell(i)
+                ),
+            )),
+            None => Ok(()),
+        }
+    }
+
+    /// An insulin row: rapid-acting (or meal + correction) as a bolus,
+    /// long-acting as an injection.
+    fn insulin(&self) -> Result<Vec<RecordKind>, IoError> {
+        let cols = self.cols;
+        let mut kinds = Vec::new();
+        let bolus = match self.value(cols.rapid)? {
+            Some(v) => Some(v),
+            None => match (self.value(cols.meal)?, self.value(cols.correction)?) {
+                (None, None) => None,
+                (a, b) => Some((
+                    "Meal + Correction Insulin (units)".to_string(),
+                    a.map_or(0.0, |a| a.1) + b.map_or(0.0, |b| b.1),
+                )),
+            },
+        };
+        let dose = |name: &str, u: f64| {
+            check_range(self.at, name, u, 0.0, units::BOLUS_MAX_U, "insulin (U)").map(Units)
+        };
+        if let Some((name, u)) = bolus {
+            kinds.push(RecordKind::Bolus {
+                units: dose(&name, u)?,
+            });
+        }
+        if let Some((name, u)) = self.value(cols.long)? {
+            kinds.push(RecordKind::LongActing {
+                units: dose(&name, u)?,
+            });
+        }
+        if kinds.is_empty() {
+            kinds.push(RecordKind::Ignored {
+                kind: "insulin without a number".into(),
+            });
+        }
+        Ok(kinds)
+    }
+
+    /// A food row: carbohydrate in grams; servings (grams per serving
+    /// unknown) and food without carbohydrate are counted as ignored.
+    fn food(&self) -> Result<Vec<RecordKind>, IoError> {
+        Ok(vec![match self.value(self.cols.carbs)? {
+            Some((name, g)) => RecordKind::Carbs {
+                grams: Grams(check_range(
+                    self.at,
+                    &name,
+                    g,
+                    0.0,
+                    units::CARBS_MAX_G,
+                    "carbohydrate (g)",
+                )?),
+            },
+            None if self.value(self.cols.servings)?.is_some() => RecordKind::Ignored {
+                kind: "food in servings (grams per serving unknown)".into(),
+            },
+            None => RecordKind::Ignored {
+                kind: "food without carbohydrate".into(),
+            },
+        }])
+    }
 }
 
 /// The columns of a LibreView header, by role.

@@ -328,185 +328,23 @@ fn minutes(item: &Item<'_>, field: &str) -> Result<Option<u32>, IoError> {
 
 fn treatment(ctx: &Ctx<'_>, item: &Item<'_>, event: &str) -> Result<Vec<RecordKind>, IoError> {
     let mut kinds = Vec::new();
-    let insulin = |kinds: &mut Vec<RecordKind>| -> Result<(), IoError> {
-        if let Some(u) = item.num("insulin")? {
-            kinds.push(RecordKind::Bolus {
-                units: Units(check_range(
-                    &item.at("insulin"),
-                    "insulin",
-                    u,
-                    0.0,
-                    units::BOLUS_MAX_U,
-                    "insulin (U)",
-                )?),
-            });
-        }
-        Ok(())
-    };
-    let carbs = |kinds: &mut Vec<RecordKind>| -> Result<(), IoError> {
-        if let Some(g) = item.num("carbs")? {
-            if g > 0.0 {
-                kinds.push(RecordKind::Carbs {
-                    grams: Grams(check_range(
-                        &item.at("carbs"),
-                        "carbs",
-                        g,
-                        0.0,
-                        units::CARBS_MAX_G,
-                        "carbohydrate (g)",
-                    )?),
-                });
-            }
-        }
-        Ok(())
-    };
     match event {
         "Meal Bolus" | "Snack Bolus" | "Bolus Wizard" | "Correction Bolus" | "SMB" | "Bolus"
         | "Carb Correction" | "Carbs" => {
-            carbs(&mut kinds)?;
-            insulin(&mut kinds)?;
+            kinds.extend(carbs(item)?);
+            kinds.extend(insulin(item)?);
         }
         "Combo Bolus" => {
-            carbs(&mut kinds)?;
-            let now = item.num("insulin")?.unwrap_or(0.0);
-            let duration = minutes(item, "duration")?.unwrap_or(0);
-            // Careportal: `enteredinsulin` is the total, `insulin` the part
-            // given now, `relative` the extended part's rate (U/h).
-            let ext = match (item.num("enteredinsulin")?, item.num("relative")?) {
-                (Some(total), _) => (total - now).max(0.0),
-                (None, Some(rate)) => rate * f64::from(duration) / 60.0,
-                (None, None) => 0.0,
-            };
-            kinds.push(RecordKind::ExtendedBolus {
-                now: Units(check_range(
-                    &item.at("insulin"),
-                    "insulin",
-                    now,
-                    0.0,
-                    units::BOLUS_MAX_U,
-                    "insulin (U)",
-                )?),
-                extended: Units(check_range(
-                    &item.at("enteredinsulin"),
-                    "enteredinsulin",
-                    ext,
-                    0.0,
-                    units::BOLUS_MAX_U,
-                    "insulin (U)",
-                )?),
-                duration_min: duration,
-            });
+            kinds.extend(carbs(item)?);
+            kinds.push(combo_bolus(item)?);
         }
-        "Temp Basal" => {
-            let duration = minutes(item, "duration")?.unwrap_or(0);
-            let rate = match (
-                item.num("absolute")?,
-                item.num("rate")?,
-                item.num("percent")?,
-            ) {
-                (Some(r), _, _) => TempRate::Absolute(UnitsPerHour(check_range(
-                    &item.at("absolute"),
-                    "absolute",
-                    r,
-                    0.0,
-                    units::BASAL_MAX_U_PER_H,
-                    "basal rate (U/h)",
-                )?)),
-                (None, Some(r), _) => TempRate::Absolute(UnitsPerHour(check_range(
-                    &item.at("rate"),
-                    "rate",
-                    r,
-                    0.0,
-                    units::BASAL_MAX_U_PER_H,
-                    "basal rate (U/h)",
-                )?)),
-                // Nightscout's percent is a change: -50 is half the scheduled rate.
-                (None, None, Some(p)) => TempRate::Percent(check_range(
-                    &item.at("percent"),
-                    "percent",
-                    100.0 + p,
-                    0.0,
-                    units::PERCENT_MAX,
-                    "percentage of the scheduled rate",
-                )?),
-                (None, None, None) => {
-                    return Err(item.err("absolute", "a Temp Basal needs absolute, rate or percent"))
-                }
-            };
-            kinds.push(RecordKind::TempBasal {
-                rate,
-                duration_min: duration,
-            });
-        }
+        "Temp Basal" => kinds.push(temp_basal(item)?),
         "Suspend Pump" | "Pump Suspend" => kinds.push(RecordKind::Suspend {
             duration_min: minutes(item, "duration")?,
         }),
         "Resume Pump" | "Pump Resume" => kinds.push(RecordKind::Resume),
-        "Profile Switch" => match item.str("profileJson")? {
-            Some(text) => {
-                let v: Value = serde_json::from_str(text)
-                    .map_err(|e| item.err("profileJson", format!("not valid JSON: {e}")))?;
-                let Value::Object(obj) = v else {
-                    return Err(item.err("profileJson", "expected an object"));
-                };
-                let inner = Item {
-                    file: item.file,
-                    index: item.index,
-                    obj: &obj,
-                };
-                let duration = minutes(item, "duration")?.unwrap_or(0);
-                let shift = item.num("timeshift")?.unwrap_or(0.0);
-                let percent = check_range(
-                    &item.at("percentage"),
-                    "percentage",
-                    item.num("percentage")?.unwrap_or(100.0),
-                    1.0,
-                    units::PERCENT_MAX,
-                    "profile percentage",
-                )?;
-                if duration > 0 {
-                    // A temporary switch returns to the previous profile:
-                    // counted, the schedule in force stays.
-                    kinds.push(RecordKind::Ignored {
-                        kind: "Profile Switch, temporary (duration > 0)".into(),
-                    });
-                } else if shift != 0.0 {
-                    kinds.push(RecordKind::Ignored {
-                        kind: "Profile Switch with a timeshift".into(),
-                    });
-                } else {
-                    kinds.push(scaled(schedule_of(&inner, "profileJson")?, percent));
-                }
-            }
-            None => kinds.push(RecordKind::Ignored {
-                kind: "Profile Switch (profile not embedded)".into(),
-            }),
-        },
-        "BG Check" if item.get("glucose").is_some() => {
-            let v = item.need_num("glucose", "glucose")?;
-            let unit = match item.str("units")? {
-                Some(u) => GlucoseUnit::parse(u).ok_or_else(|| {
-                    item.err("units", format!("expected mg/dl or mmol, got \"{u}\""))
-                })?,
-                None => ctx.opts.units.ok_or_else(|| {
-                    item.err(
-                        "units",
-                        "missing: a BG Check's glucose needs units (or --units)",
-                    )
-                })?,
-            };
-            kinds.push(RecordKind::Smbg {
-                glucose: Glucose {
-                    mg_dl: MgDl(units::glucose_mg_dl(
-                        &item.at("glucose"),
-                        "glucose",
-                        v,
-                        unit,
-                    )?),
-                    censor: Censor::Exact,
-                },
-            });
-        }
+        "Profile Switch" => kinds.push(profile_switch(item)?),
+        "BG Check" if item.get("glucose").is_some() => kinds.push(bg_check(ctx, item)?),
         other => kinds.push(RecordKind::Ignored {
             kind: other.to_string(),
         }),
@@ -517,6 +355,173 @@ fn treatment(ctx: &Ctx<'_>, item: &Item<'_>, event: &str) -> Result<Vec<RecordKi
         });
     }
     Ok(kinds)
+}
+
+/// `field`'s value `v` checked against `0..=max`, naming the field.
+fn in_range(item: &Item<'_>, field: &str, v: f64, max: f64, what: &str) -> Result<f64, IoError> {
+    check_range(&item.at(field), field, v, 0.0, max, what)
+}
+
+/// A treatment's `insulin` as a bolus, if it has one.
+fn insulin(item: &Item<'_>) -> Result<Option<RecordKind>, IoError> {
+    Ok(match item.num("insulin")? {
+        Some(u) => Some(RecordKind::Bolus {
+            units: Units(in_range(
+                item,
+                "insulin",
+                u,
+                units::BOLUS_MAX_U,
+                "insulin (U)",
+            )?),
+        }),
+        None => None,
+    })
+}
+
+/// A treatment's `carbs`, if above zero.
+fn carbs(item: &Item<'_>) -> Result<Option<RecordKind>, IoError> {
+    Ok(match item.num("carbs")? {
+        Some(g) if g > 0.0 => Some(RecordKind::Carbs {
+            grams: Grams(in_range(
+                item,
+                "carbs",
+                g,
+                units::CARBS_MAX_G,
+                "carbohydrate (g)",
+            )?),
+        }),
+        _ => None,
+    })
+}
+
+/// A Combo Bolus: Careportal's `enteredinsulin` is the total, `insulin`
+/// the part given now, `relative` the extended part's rate (U/h).
+fn combo_bolus(item: &Item<'_>) -> Result<RecordKind, IoError> {
+    let now = item.num("insulin")?.unwrap_or(0.0);
+    let duration = minutes(item, "duration")?.unwrap_or(0);
+    let ext = match (item.num("enteredinsulin")?, item.num("relative")?) {
+        (Some(total), _) => (total - now).max(0.0),
+        (None, Some(rate)) => rate * f64::from(duration) / 60.0,
+        (None, None) => 0.0,
+    };
+    Ok(RecordKind::ExtendedBolus {
+        now: Units(in_range(
+            item,
+            "insulin",
+            now,
+            units::BOLUS_MAX_U,
+            "insulin (U)",
+        )?),
+        extended: Units(in_range(
+            item,
+            "enteredinsulin",
+            ext,
+            units::BOLUS_MAX_U,
+            "insulin (U)",
+        )?),
+        duration_min: duration,
+    })
+}
+
+/// A Temp Basal: `absolute` or `rate` in U/h, else `percent` as a change
+/// (Nightscout's -50 is half the scheduled rate).
+fn temp_basal(item: &Item<'_>) -> Result<RecordKind, IoError> {
+    let duration = minutes(item, "duration")?.unwrap_or(0);
+    let absolute = |field: &str, r: f64| {
+        in_range(item, field, r, units::BASAL_MAX_U_PER_H, "basal rate (U/h)")
+            .map(|r| TempRate::Absolute(UnitsPerHour(r)))
+    };
+    let rate = match (
+        item.num("absolute")?,
+        item.num("rate")?,
+        item.num("percent")?,
+    ) {
+        (Some(r), _, _) => absolute("absolute", r)?,
+        (None, Some(r), _) => absolute("rate", r)?,
+        (None, None, Some(p)) => TempRate::Percent(in_range(
+            item,
+            "percent",
+            100.0 + p,
+            units::PERCENT_MAX,
+            "percentage of the scheduled rate",
+        )?),
+        (None, None, None) => {
+            return Err(item.err("absolute", "a Temp Basal needs absolute, rate or percent"))
+        }
+    };
+    Ok(RecordKind::TempBasal {
+        rate,
+        duration_min: duration,
+    })
+}
+
+/// A Profile Switch with its profile embedded (`profileJson`), at its
+/// percentage; a temporary switch (it returns to the previous profile)
+/// or one with a timeshift is counted, and the schedule in force stays.
+fn profile_switch(item: &Item<'_>) -> Result<RecordKind, IoError> {
+    let Some(text) = item.str("profileJson")? else {
+        return Ok(RecordKind::Ignored {
+            kind: "Profile Switch (profile not embedded)".into(),
+        });
+    };
+    let v: Value = serde_json::from_str(text)
+        .map_err(|e| item.err("profileJson", format!("not valid JSON: {e}")))?;
+    let Value::Object(obj) = v else {
+        return Err(item.err("profileJson", "expected an object"));
+    };
+    let inner = Item {
+        file: item.file,
+        index: item.index,
+        obj: &obj,
+    };
+    let duration = minutes(item, "duration")?.unwrap_or(0);
+    let shift = item.num("timeshift")?.unwrap_or(0.0);
+    let percent = check_range(
+        &item.at("percentage"),
+        "percentage",
+        item.num("percentage")?.unwrap_or(100.0),
+        1.0,
+        units::PERCENT_MAX,
+        "profile percentage",
+    )?;
+    Ok(if duration > 0 {
+        RecordKind::Ignored {
+            kind: "Profile Switch, temporary (duration > 0)".into(),
+        }
+    } else if shift != 0.0 {
+        RecordKind::Ignored {
+            kind: "Profile Switch with a timeshift".into(),
+        }
+    } else {
+        scaled(schedule_of(&inner, "profileJson")?, percent)
+    })
+}
+
+/// A BG Check with its glucose: in the treatment's `units`, or `--units`
+/// (never guessed).
+fn bg_check(ctx: &Ctx<'_>, item: &Item<'_>) -> Result<RecordKind, IoError> {
+    let v = item.need_num("glucose", "glucose")?;
+    let unit = match item.str("units")? {
+        Some(u) => GlucoseUnit::parse(u)
+            .ok_or_else(|| item.err("units", format!("expected mg/dl or mmol, got \"{u}\"")))?,
+        None => ctx.opts.units.ok_or_else(|| {
+            item.err(
+                "units",
+                "missing: a BG Check's glucose needs units (or --units)",
+            )
+        })?,
+    };
+    Ok(RecordKind::Smbg {
+        glucose: Glucose {
+            mg_dl: MgDl(units::glucose_mg_dl(
+                &item.at("glucose"),
+                "glucose",
+                v,
+                unit,
+            )?),
+            censor: Censor::Exact,
+        },
+    })
 }
 
 /// A profile at `percent` % (AndroidAPS's Profile Switch percentage:

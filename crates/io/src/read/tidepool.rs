@@ -136,19 +136,6 @@ fn ms_to_min(item: &Item<'_>, field: &str) -> Result<Option<u32>, IoError> {
 }
 
 fn datum(item: &Item<'_>, ty: &str) -> Result<RecordKind, IoError> {
-    let insulin = |field: &str| -> Result<Option<Units>, IoError> {
-        match item.num(field)? {
-            None => Ok(None),
-            Some(u) => Ok(Some(Units(check_range(
-                &item.at(field),
-                field,
-                u,
-                0.0,
-                units::BOLUS_MAX_U,
-                "insulin (U)",
-            )?))),
-        }
-    };
     Ok(match ty {
         "cbg" => RecordKind::Cgm {
             glucose: glucose(item)?,
@@ -156,124 +143,16 @@ fn datum(item: &Item<'_>, ty: &str) -> Result<RecordKind, IoError> {
         "smbg" => RecordKind::Smbg {
             glucose: glucose(item)?,
         },
-        "bolus" => {
-            let normal = insulin("normal")?;
-            match insulin("extended")? {
-                Some(ext) => RecordKind::ExtendedBolus {
-                    now: normal.unwrap_or(Units(0.0)),
-                    extended: ext,
-                    duration_min: ms_to_min(item, "duration")?.ok_or_else(|| {
-                        item.err(
-                            "duration",
-                            "missing: an extended bolus needs its duration (ms)",
-                        )
-                    })?,
-                },
-                None => RecordKind::Bolus {
-                    units: normal.ok_or_else(|| {
-                        item.err("normal", "missing: a bolus needs normal or extended (U)")
-                    })?,
-                },
-            }
-        }
-        "basal" => {
-            let delivery = item.str("deliveryType")?.unwrap_or("");
-            let duration = ms_to_min(item, "duration")?;
-            let rate = |item: &Item<'_>| -> Result<UnitsPerHour, IoError> {
-                let r = item.need_num("rate", "a basal rate in U/h")?;
-                Ok(UnitsPerHour(check_range(
-                    &item.at("rate"),
-                    "rate",
-                    r,
-                    0.0,
-                    units::BASAL_MAX_U_PER_H,
-                    "basal rate (U/h)",
-                )?))
-            };
-            match delivery {
-                "scheduled" | "automated" => RecordKind::Schedule {
-                    profile: Box::new(Profile::basal_only(BasalSchedule::flat(rate(item)?))),
-                },
-                "temp" => RecordKind::TempBasal {
-                    // Tidepool gives the rate, and for percentage temps the
-                    // fraction of the schedule (0.5 = half).
-                    rate: match (item.num("rate")?, item.num("percent")?) {
-                        (Some(_), _) => TempRate::Absolute(rate(item)?),
-                        (None, Some(p)) => TempRate::Percent(check_range(
-                            &item.at("percent"),
-                            "percent",
-                            100.0 * p,
-                            0.0,
-                            units::PERCENT_MAX,
-                            "percentage of the scheduled rate",
-                        )?),
-                        (None, None) => {
-                            return Err(
-                                item.err("rate", "missing: a temp basal needs rate or percent")
-                            )
-                        }
-                    },
-                    duration_min: duration.ok_or_else(|| {
-                        item.err("duration", "missing: a temp basal needs its duration (ms)")
-                    })?,
-                },
-                "suspend" => RecordKind::Suspend {
-                    duration_min: duration,
-                },
-                other => {
-                    return Err(item.err(
-                        "deliveryType",
-                        format!("expected scheduled, automated, temp or suspend, got \"{other}\""),
-                    ))
-                }
-            }
-        }
+        "bolus" => bolus(item)?,
+        "basal" => basal(item)?,
         "insulin" => insulin_event(item)?,
-        "food" => {
-            let carb = item.get("nutrition").and_then(|n| n.get("carbohydrate"));
-            if let Some(u) = carb.and_then(|c| c.get("units")).and_then(Value::as_str) {
-                if !u.eq_ignore_ascii_case("grams") {
-                    return Err(item.err(
-                        "nutrition.carbohydrate.units",
-                        format!("expected grams, got \"{u}\""),
-                    ));
-                }
-            }
-            // `net` (carbohydrate less fibre) when given, else `total`.
-            let (field, g) = match (
-                carb.and_then(|c| c.get("net")),
-                carb.and_then(|c| c.get("total")),
-            ) {
-                (Some(v), _) => ("nutrition.carbohydrate.net", v),
-                (None, Some(v)) => ("nutrition.carbohydrate.total", v),
-                (None, None) => ("", &Value::Null),
-            };
-            match g.as_f64() {
-                None if !g.is_null() => {
-                    return Err(item.err(field, format!("expected grams as a number, got {g}")))
-                }
-                Some(g) => RecordKind::Carbs {
-                    grams: Grams(check_range(
-                        &item.at(field),
-                        field,
-                        g,
-                        0.0,
-                        units::CARBS_MAX_G,
-                        "carbohydrate (g)",
-                    )?),
-                },
-                None => RecordKind::Ignored {
-                    kind: "food without carbohydrate".into(),
-                },
-            }
-        }
+        "food" => food(item)?,
         "wizard" => match item.num("carbInput")? {
             Some(g) if g > 0.0 => RecordKind::Carbs {
-                grams: Grams(check_range(
-                    &item.at("carbInput"),
+                grams: Grams(in_range(
+                    item,
                     "carbInput",
                     g,
-                    0.0,
                     units::CARBS_MAX_G,
                     "carbohydrate (g)",
                 )?),
@@ -282,22 +161,155 @@ fn datum(item: &Item<'_>, ty: &str) -> Result<RecordKind, IoError> {
                 kind: "wizard without carbohydrate".into(),
             },
         },
-        "deviceEvent" => match item.str("subType")? {
-            Some("status") => match item.str("status")? {
-                Some("suspended") => RecordKind::Suspend {
-                    duration_min: ms_to_min(item, "duration")?,
-                },
-                Some("resumed") => RecordKind::Resume,
-                other => RecordKind::Ignored {
-                    kind: format!("deviceEvent status {}", other.unwrap_or("?")),
-                },
+        "deviceEvent" => device_event(item)?,
+        other => RecordKind::Ignored {
+            kind: other.to_string(),
+        },
+    })
+}
+
+/// `field`'s value `v` checked against `0..=max`, naming the field.
+fn in_range(item: &Item<'_>, field: &str, v: f64, max: f64, what: &str) -> Result<f64, IoError> {
+    check_range(&item.at(field), field, v, 0.0, max, what)
+}
+
+/// A `bolus`: `normal` now, and `extended` over `duration` (ms).
+fn bolus(item: &Item<'_>) -> Result<RecordKind, IoError> {
+    let insulin = |field: &str| -> Result<Option<Units>, IoError> {
+        match item.num(field)? {
+            None => Ok(None),
+            Some(u) => Ok(Some(Units(in_range(
+                item,
+                field,
+                u,
+                units::BOLUS_MAX_U,
+                "insulin (U)",
+            )?))),
+        }
+    };
+    let normal = insulin("normal")?;
+    Ok(match insulin("extended")? {
+        Some(ext) => RecordKind::ExtendedBolus {
+            now: normal.unwrap_or(Units(0.0)),
+            extended: ext,
+            duration_min: ms_to_min(item, "duration")?.ok_or_else(|| {
+                item.err(
+                    "duration",
+                    "missing: an extended bolus needs its duration (ms)",
+                )
+            })?,
+        },
+        None => RecordKind::Bolus {
+            units: normal.ok_or_else(|| {
+                item.err("normal", "missing: a bolus needs normal or extended (U)")
+            })?,
+        },
+    })
+}
+
+/// A `basal` by its `deliveryType`: scheduled or automated (the rate in
+/// force), temp (a rate, or for percentage temps the fraction of the
+/// schedule: 0.5 = half), suspend.
+fn basal(item: &Item<'_>) -> Result<RecordKind, IoError> {
+    let delivery = item.str("deliveryType")?.unwrap_or("");
+    let duration = ms_to_min(item, "duration")?;
+    let rate = || -> Result<UnitsPerHour, IoError> {
+        let r = item.need_num("rate", "a basal rate in U/h")?;
+        Ok(UnitsPerHour(in_range(
+            item,
+            "rate",
+            r,
+            units::BASAL_MAX_U_PER_H,
+            "basal rate (U/h)",
+        )?))
+    };
+    Ok(match delivery {
+        "scheduled" | "automated" => RecordKind::Schedule {
+            profile: Box::new(Profile::basal_only(BasalSchedule::flat(rate()?))),
+        },
+        "temp" => RecordKind::TempBasal {
+            rate: match (item.num("rate")?, item.num("percent")?) {
+                (Some(_), _) => TempRate::Absolute(rate()?),
+                (None, Some(p)) => TempRate::Percent(in_range(
+                    item,
+                    "percent",
+                    100.0 * p,
+                    units::PERCENT_MAX,
+                    "percentage of the scheduled rate",
+                )?),
+                (None, None) => {
+                    return Err(item.err("rate", "missing: a temp basal needs rate or percent"))
+                }
             },
+            duration_min: duration.ok_or_else(|| {
+                item.err("duration", "missing: a temp basal needs its duration (ms)")
+            })?,
+        },
+        "suspend" => RecordKind::Suspend {
+            duration_min: duration,
+        },
+        other => {
+            return Err(item.err(
+                "deliveryType",
+                format!("expected scheduled, automated, temp or suspend, got \"{other}\""),
+            ))
+        }
+    })
+}
+
+/// A `food`: `nutrition.carbohydrate` in grams, `net` (less fibre) when
+/// given, else `total`; other units are refused, no carbohydrate counted.
+fn food(item: &Item<'_>) -> Result<RecordKind, IoError> {
+    let carb = item.get("nutrition").and_then(|n| n.get("carbohydrate"));
+    if let Some(u) = carb.and_then(|c| c.get("units")).and_then(Value::as_str) {
+        if !u.eq_ignore_ascii_case("grams") {
+            return Err(item.err(
+                "nutrition.carbohydrate.units",
+                format!("expected grams, got \"{u}\""),
+            ));
+        }
+    }
+    let (field, g) = match (
+        carb.and_then(|c| c.get("net")),
+        carb.and_then(|c| c.get("total")),
+    ) {
+        (Some(v), _) => ("nutrition.carbohydrate.net", v),
+        (None, Some(v)) => ("nutrition.carbohydrate.total", v),
+        (None, None) => ("", &Value::Null),
+    };
+    Ok(match g.as_f64() {
+        None if !g.is_null() => {
+            return Err(item.err(field, format!("expected grams as a number, got {g}")))
+        }
+        Some(g) => RecordKind::Carbs {
+            grams: Grams(in_range(
+                item,
+                field,
+                g,
+                units::CARBS_MAX_G,
+                "carbohydrate (g)",
+            )?),
+        },
+        None => RecordKind::Ignored {
+            kind: "food without carbohydrate".into(),
+        },
+    })
+}
+
+/// A `deviceEvent`: a pump's suspension and resumption; the rest counted.
+fn device_event(item: &Item<'_>) -> Result<RecordKind, IoError> {
+    Ok(match item.str("subType")? {
+        Some("status") => match item.str("status")? {
+            Some("suspended") => RecordKind::Suspend {
+                duration_min: ms_to_min(item, "duration")?,
+            },
+            Some("resumed") => RecordKind::Resume,
             other => RecordKind::Ignored {
-                kind: format!("deviceEvent {}", other.unwrap_or("?")),
+                kind: format!("deviceEvent status {}", other.unwrap_or("?")),
             },
         },
         other => RecordKind::Ignored {
-            kind: other.to_string(),
+            kind: format!("deviceEvent {}", other.unwrap_or("?")),
         },
     })
 }

@@ -810,24 +810,18 @@ pub async fn bounds(
         Ok(x) => x,
         Err((field, msg)) => return refused(&s, &w.csrf, id, &form, &BOUNDS, field, msg).await,
     };
+    let range = |r: Option<Range>| {
+        r.map(|r| abba_api::Range {
+            min: r.min,
+            max: r.max,
+        })
+    };
     let wire = abba_api::BoundsBody {
         bounds: abba_api::Bounds {
-            basal: basal.map(|r| abba_api::Range {
-                min: r.min,
-                max: r.max,
-            }),
-            breakfast: cr.map(|r| abba_api::Range {
-                min: r.min,
-                max: r.max,
-            }),
-            lunch: cr.map(|r| abba_api::Range {
-                min: r.min,
-                max: r.max,
-            }),
-            dinner: cr.map(|r| abba_api::Range {
-                min: r.min,
-                max: r.max,
-            }),
+            basal: range(basal),
+            breakfast: range(cr),
+            lunch: range(cr),
+            dinner: range(cr),
         },
     };
     let out = s
@@ -1113,14 +1107,10 @@ pub async fn issue_token(
 pub async fn revoke_token(
     State(s): State<AppState>,
     ctx: Ctx,
-    Path((id, tid)): Path<(String, String)>,
+    Path(ids): Path<(String, String)>,
     body: RawBody,
 ) -> PageResult {
-    let id = person_id(&id)?;
-    let tid = person_id(&tid)?;
-    person_form(&s, &ctx, body, &["csrf"]).await?;
-    s.store(move |store| {
-        // Only a token of this person, from this person's page.
+    revoke_of_person(&s, &ctx, ids, body, "token-revoked", |store, id, tid| {
         if !store
             .tokens_of(Role::Person(id))?
             .iter()
@@ -1130,23 +1120,17 @@ pub async fn revoke_token(
         }
         Ok(store.revoke_token(tid)?)
     })
-    .await?;
-    Ok(see_other(&format!(
-        "/clinic/persons/{id}?done=token-revoked"
-    )))
+    .await
 }
 
 /// `POST /clinic/persons/{id}/sessions/{session}/revoke`.
 pub async fn revoke_session(
     State(s): State<AppState>,
     ctx: Ctx,
-    Path((id, sid)): Path<(String, String)>,
+    Path(ids): Path<(String, String)>,
     body: RawBody,
 ) -> PageResult {
-    let id = person_id(&id)?;
-    let sid = person_id(&sid)?;
-    person_form(&s, &ctx, body, &["csrf"]).await?;
-    s.store(move |store| {
+    revoke_of_person(&s, &ctx, ids, body, "session-revoked", |store, id, sid| {
         let now = session::now_ms();
         if !store
             .web_sessions(Role::Person(id), now)?
@@ -1157,8 +1141,23 @@ pub async fn revoke_session(
         }
         Ok(store.revoke_web_session(sid, now)?)
     })
-    .await?;
-    Ok(see_other(&format!(
-        "/clinic/persons/{id}?done=session-revoked"
-    )))
+    .await
+}
+
+/// A revocation from a person's page: the form checked, then `revoke`
+/// (person id, the credential's id) in the store, which refuses a
+/// credential that is not this person's, then back to the page.
+async fn revoke_of_person(
+    s: &AppState,
+    ctx: &Ctx,
+    (id, what): (String, String),
+    body: RawBody,
+    done: &str,
+    revoke: impl FnOnce(&mut Store, i64, i64) -> Result<(), ApiError> + Send + 'static,
+) -> PageResult {
+    let id = person_id(&id)?;
+    let what = person_id(&what)?;
+    person_form(s, ctx, body, &["csrf"]).await?;
+    s.store(move |store| revoke(store, id, what)).await?;
+    Ok(see_other(&format!("/clinic/persons/{id}?done={done}")))
 }

@@ -6,7 +6,8 @@
 //! - every rule of the crates table's "never depends on" column holds over
 //!   the transitive graph (a crate's own dev-dependencies count, unless the
 //!   rule says "but for tests");
-//! - every workspace crate has a row in the table.
+//! - every workspace crate has a row in the table;
+//! - libraries never print (invariant 5).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use serde_json::Value;
@@ -220,10 +221,62 @@ fn every_never_depends_on_rule_holds() {
         "abba-api",
         "abba-service",
         "abba-client",
+        "abba-nightscout",
+        "abba-web",
     ] {
         assert!(
             !reachable(&graph, name, true).contains("abba-sim"),
             "{name} depends on abba-sim"
         );
     }
+}
+
+/// Invariant 5: libraries never print; what a person or a log sees is the
+/// binary's (progress through callbacks, the service's lines through
+/// tracing). Every `print!`, `println!`, `eprint!`, `eprintln!` and
+/// `dbg!` outside a test module of a library crate fails this test; the
+/// `abba` binary, the Python module (its own entry points) and the build
+/// scripts' helper (cargo reads its `cargo:` lines) are the exceptions.
+#[test]
+fn libraries_never_print() {
+    let crates = root().join("crates");
+    let mut found = Vec::new();
+    let mut files = 0;
+    for entry in std::fs::read_dir(&crates).unwrap() {
+        let dir = entry.unwrap().path();
+        let name = dir.file_name().unwrap().to_string_lossy().to_string();
+        if matches!(name.as_str(), "cli" | "python" | "build-info") {
+            continue;
+        }
+        let mut stack = vec![dir.join("src")];
+        while let Some(d) = stack.pop() {
+            let Ok(rd) = std::fs::read_dir(&d) else {
+                continue;
+            };
+            for e in rd {
+                let p = e.unwrap().path();
+                if p.is_dir() {
+                    stack.push(p);
+                } else if p.extension().is_some_and(|x| x == "rs") {
+                    files += 1;
+                    let text = std::fs::read_to_string(&p).unwrap();
+                    // A file's test module stands at its end.
+                    let code = text.split("#[cfg(test)]").next().unwrap_or("");
+                    for (i, line) in code.lines().enumerate() {
+                        let l = line.split("//").next().unwrap_or("");
+                        for m in ["print!(", "println!(", "eprint!(", "eprintln!(", "dbg!("] {
+                            let hit = l.match_indices(m).any(|(at, _)| {
+                                !l[..at].ends_with(|c: char| c.is_alphanumeric() || c == '_')
+                            });
+                            if hit {
+                                found.push(format!("{}:{}: {}", p.display(), i + 1, line.trim()));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert!(files > 100, "only {files} library files read");
+    assert!(found.is_empty(), "libraries print:\n{}", found.join("\n"));
 }

@@ -104,6 +104,128 @@ pub struct EventGuard {
     first_day: Option<i64>,
 }
 
+/// Every value of `e` finite and within its plausibility limit
+/// ([`EventLimits`]); an event kind this advisor does not know is refused.
+fn check_values(e: &Event, limits: &EventLimits) -> Result<(), AdvisorError> {
+    let at = e.at;
+    match e.kind {
+        EventKind::Cgm(g) => check_value(
+            at,
+            "CGM glucose (mg/dL)",
+            g.0,
+            limits.glucose_min_mg_dl,
+            limits.glucose_max_mg_dl,
+        ),
+        EventKind::Smbg(g) => check_value(
+            at,
+            "SMBG glucose (mg/dL)",
+            g.0,
+            limits.glucose_min_mg_dl,
+            limits.glucose_max_mg_dl,
+        ),
+        EventKind::MealAnnounced { carbs, .. } => check_value(
+            at,
+            "announced carbohydrate (g)",
+            carbs.0,
+            0.0,
+            limits.carbs_max_g,
+        ),
+        EventKind::Bolus(u) => check_value(at, "bolus (U)", u.0, 0.0, limits.bolus_max_u),
+        EventKind::BasalRate(r) => {
+            check_value(at, "basal rate (U/h)", r.0, 0.0, limits.basal_max_u_per_h)
+        }
+        EventKind::SuggestionAccepted(v)
+        | EventKind::SuggestionRejected(v)
+        | EventKind::SuggestionOverridden(v) => check_answer(at, v, limits),
+        EventKind::TempBasal { rate, duration_min } => {
+            match rate {
+                TempBasalRate::UnitsPerHour(r) => check_value(
+                    at,
+                    "temporary basal rate (U/h)",
+                    r.0,
+                    0.0,
+                    limits.basal_max_u_per_h,
+                )?,
+                TempBasalRate::Percent(p) => check_value(
+                    at,
+                    "temporary basal (% of the scheduled rate)",
+                    p,
+                    0.0,
+                    limits.temp_basal_max_percent,
+                )?,
+            }
+            check_duration(
+                at,
+                "temporary basal duration (min)",
+                duration_min,
+                0,
+                limits.temp_basal_max_min,
+            )
+        }
+        EventKind::ExtendedBolus {
+            total,
+            immediate,
+            duration_min,
+        } => {
+            check_value(
+                at,
+                "extended bolus total (U)",
+                total.0,
+                0.0,
+                limits.bolus_max_u,
+            )?;
+            check_value(
+                at,
+                "extended bolus immediate part (U, at most the total)",
+                immediate.0,
+                0.0,
+                total.0,
+            )?;
+            check_duration(
+                at,
+                "extended bolus duration (min)",
+                duration_min,
+                1,
+                limits.extended_bolus_max_min,
+            )
+        }
+        EventKind::Suspend | EventKind::Resume | EventKind::DayClosed => Ok(()),
+        _ => Err(AdvisorError::UnsupportedEvent {
+            at,
+            kind: kind_name(&e.kind),
+        }),
+    }
+}
+
+/// The value an answer puts in force: a basal rate above zero, or a main
+/// meal's carb ratio above zero.
+fn check_answer(at: Timestamp, v: SettingValue, limits: &EventLimits) -> Result<(), AdvisorError> {
+    match v {
+        SettingValue::Basal { rate } => check_value(
+            at,
+            "basal rate in force (U/h)",
+            rate.0,
+            f64::MIN_POSITIVE,
+            limits.basal_max_u_per_h,
+        ),
+        SettingValue::CarbRatio { slot, .. } if slot.main_index().is_none() => {
+            Err(AdvisorError::InvalidValue {
+                at,
+                what: "carb ratio in force (only main meals have one)",
+                expected: "breakfast, lunch or dinner".into(),
+                got: f64::NAN,
+            })
+        }
+        SettingValue::CarbRatio { ratio, .. } => check_value(
+            at,
+            "carb ratio in force (g/U)",
+            ratio.0,
+            f64::MIN_POSITIVE,
+            limits.carbs_max_g,
+        ),
+    }
+}
+
 fn check_duration(
     at: Timestamp,
     what: &'static str,
@@ -148,8 +270,22 @@ impl EventGuard {
         self.first_day
     }
 
-    /// Checks `e` against the stream so far without changing anything.
+    /// Checks `e` against the stream so far without changing anything:
+    /// its time, a duplicate at its minute, its values, the order of the
+    /// day's main meals and of closed days.
     pub fn check(&self, e: &Event, limits: &EventLimits) -> Result<(), AdvisorError> {
+        self.check_time(e, limits)?;
+        check_values(e, limits)?;
+        match e.kind {
+            EventKind::MealAnnounced { slot, .. } => self.check_meal_order(e, slot),
+            EventKind::DayClosed => self.check_day_closed(e),
+            _ => Ok(()),
+        }
+    }
+
+    /// Within the clock's range, not before an event already accepted,
+    /// and not a second event of one kind at the same minute.
+    fn check_time(&self, e: &Event, limits: &EventLimits) -> Result<(), AdvisorError> {
         let kind = kind_name(&e.kind);
         let m = e.at.minutes();
         if m < 0 || m > limits.max_timestamp_min {
@@ -159,174 +295,68 @@ impl EventGuard {
                 max: limits.max_timestamp_min,
             });
         }
-        if let Some(prev) = self.last_at {
-            if e.at < prev {
-                return Err(AdvisorError::OutOfOrder {
-                    at: e.at,
-                    kind,
-                    previous: prev,
-                });
-            }
-            if e.at == prev {
-                let this = Seen::from(&e.kind);
-                for seen in &self.same_minute {
-                    let same_reading_kind = matches!(
-                        (seen, &this),
-                        (Seen::Cgm(_), Seen::Cgm(_)) | (Seen::Smbg(_), Seen::Smbg(_))
-                    );
-                    if *seen == this || same_reading_kind {
-                        return Err(AdvisorError::Duplicate {
-                            at: e.at,
-                            kind,
-                            detail: format!(
-                                "an event {seen:?} was already accepted at this minute"
-                            ),
-                        });
-                    }
-                }
-            }
+        let Some(prev) = self.last_at else {
+            return Ok(());
+        };
+        if e.at < prev {
+            return Err(AdvisorError::OutOfOrder {
+                at: e.at,
+                kind,
+                previous: prev,
+            });
         }
-        match e.kind {
-            EventKind::Cgm(g) => check_value(
-                e.at,
-                "CGM glucose (mg/dL)",
-                g.0,
-                limits.glucose_min_mg_dl,
-                limits.glucose_max_mg_dl,
-            )?,
-            EventKind::Smbg(g) => check_value(
-                e.at,
-                "SMBG glucose (mg/dL)",
-                g.0,
-                limits.glucose_min_mg_dl,
-                limits.glucose_max_mg_dl,
-            )?,
-            EventKind::MealAnnounced { carbs, slot } => {
-                check_value(
-                    e.at,
-                    "announced carbohydrate (g)",
-                    carbs.0,
-                    0.0,
-                    limits.carbs_max_g,
-                )?;
-                if let (Some(i), Some((day, last))) = (slot.main_index(), self.last_main_meal) {
-                    if day == e.at.day_index() && i <= last {
-                        return Err(AdvisorError::Duplicate {
-                            at: e.at,
-                            kind,
-                            detail: format!(
-                                "{} announced after {} on the same day (main meals are announced once each, in order)",
-                                slot.name(),
-                                MealSlot::MAIN[last].name()
-                            ),
-                        });
-                    }
+        if e.at == prev {
+            let this = Seen::from(&e.kind);
+            for seen in &self.same_minute {
+                let same_reading_kind = matches!(
+                    (seen, &this),
+                    (Seen::Cgm(_), Seen::Cgm(_)) | (Seen::Smbg(_), Seen::Smbg(_))
+                );
+                if *seen == this || same_reading_kind {
+                    return Err(AdvisorError::Duplicate {
+                        at: e.at,
+                        kind,
+                        detail: format!("an event {seen:?} was already accepted at this minute"),
+                    });
                 }
             }
-            EventKind::Bolus(u) => check_value(e.at, "bolus (U)", u.0, 0.0, limits.bolus_max_u)?,
-            EventKind::BasalRate(r) => {
-                check_value(e.at, "basal rate (U/h)", r.0, 0.0, limits.basal_max_u_per_h)?
-            }
-            EventKind::SuggestionAccepted(v)
-            | EventKind::SuggestionRejected(v)
-            | EventKind::SuggestionOverridden(v) => match v {
-                SettingValue::Basal { rate } => check_value(
-                    e.at,
-                    "basal rate in force (U/h)",
-                    rate.0,
-                    f64::MIN_POSITIVE,
-                    limits.basal_max_u_per_h,
-                )?,
-                SettingValue::CarbRatio { slot, ratio } => {
-                    if slot.main_index().is_none() {
-                        return Err(AdvisorError::InvalidValue {
-                            at: e.at,
-                            what: "carb ratio in force (only main meals have one)",
-                            expected: "breakfast, lunch or dinner".into(),
-                            got: f64::NAN,
-                        });
-                    }
-                    check_value(
-                        e.at,
-                        "carb ratio in force (g/U)",
-                        ratio.0,
-                        f64::MIN_POSITIVE,
-                        limits.carbs_max_g,
-                    )?
-                }
-            },
-            EventKind::TempBasal { rate, duration_min } => {
-                match rate {
-                    TempBasalRate::UnitsPerHour(r) => check_value(
-                        e.at,
-                        "temporary basal rate (U/h)",
-                        r.0,
-                        0.0,
-                        limits.basal_max_u_per_h,
-                    )?,
-                    TempBasalRate::Percent(p) => check_value(
-                        e.at,
-                        "temporary basal (% of the scheduled rate)",
-                        p,
-                        0.0,
-                        limits.temp_basal_max_percent,
-                    )?,
-                }
-                check_duration(
-                    e.at,
-                    "temporary basal duration (min)",
-                    duration_min,
-                    0,
-                    limits.temp_basal_max_min,
-                )?
-            }
-            EventKind::ExtendedBolus {
-                total,
-                immediate,
-                duration_min,
-            } => {
-                check_value(
-                    e.at,
-                    "extended bolus total (U)",
-                    total.0,
-                    0.0,
-                    limits.bolus_max_u,
-                )?;
-                check_value(
-                    e.at,
-                    "extended bolus immediate part (U, at most the total)",
-                    immediate.0,
-                    0.0,
-                    total.0,
-                )?;
-                check_duration(
-                    e.at,
-                    "extended bolus duration (min)",
-                    duration_min,
-                    1,
-                    limits.extended_bolus_max_min,
-                )?
-            }
-            EventKind::Suspend | EventKind::Resume => {}
-            EventKind::DayClosed => {
-                let d = closed_day(e.at);
-                if let Some(last) = self.last_closed_day {
-                    if d <= last {
-                        return Err(AdvisorError::Duplicate {
-                            at: e.at,
-                            kind,
-                            detail: format!(
-                                "it closes day D{} but D{} is already closed",
-                                d + 1,
-                                last + 1
-                            ),
-                        });
-                    }
-                }
-            }
-            _ => return Err(AdvisorError::UnsupportedEvent { at: e.at, kind }),
         }
         Ok(())
+    }
+
+    /// Main meals are announced once each a day, in order.
+    fn check_meal_order(&self, e: &Event, slot: MealSlot) -> Result<(), AdvisorError> {
+        if let (Some(i), Some((day, last))) = (slot.main_index(), self.last_main_meal) {
+            if day == e.at.day_index() && i <= last {
+                return Err(AdvisorError::Duplicate {
+                    at: e.at,
+                    kind: kind_name(&e.kind),
+                    detail: format!(
+                        "{} announced after {} on the same day (main meals are announced once each, in order)",
+                        slot.name(),
+                        MealSlot::MAIN[last].name()
+                    ),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// A day is closed once, after the days already closed.
+    fn check_day_closed(&self, e: &Event) -> Result<(), AdvisorError> {
+        let d = closed_day(e.at);
+        match self.last_closed_day {
+            Some(last) if d <= last => Err(AdvisorError::Duplicate {
+                at: e.at,
+                kind: kind_name(&e.kind),
+                detail: format!(
+                    "it closes day D{} but D{} is already closed",
+                    d + 1,
+                    last + 1
+                ),
+            }),
+            _ => Ok(()),
+        }
     }
 
     /// Records an accepted event (call after `check` succeeded).

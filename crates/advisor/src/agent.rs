@@ -226,7 +226,8 @@ impl Agent {
     }
 
     /// One decision: learning step for the previous decision, then a new
-    /// action, applied through `apply` (fusion, switch rule, clamp).
+    /// action, applied through `apply` (fusion, switch rule, clamp), by the
+    /// configured critic.
     pub(crate) fn decide(
         &mut self,
         f: &Features,
@@ -235,147 +236,173 @@ impl Agent {
         cfg: &AbbaConfig,
         apply: impl FnOnce(f64) -> Applied,
     ) -> (Learning, Action, Applied) {
-        let theta_before = self.theta;
-        let g = Self::basis(f, cfg);
-        let h = cfg.actor.h;
         let (learning, action, applied, last) = match self.critic.clone() {
-            Critic::ValueTd {
-                mut w,
-                mut z,
-                mut steps,
-            } => {
-                let mut td_error = None;
-                let mut critic_step_size = None;
-                let mut actor = ActorStep::NoPreviousDecision;
-                if let Some(prev) = self.last {
-                    let c = match cfg.critic.cost_timing {
-                        CostTiming::Outcome => cost,
-                        CostTiming::Literal => prev.cost,
-                    };
-                    // eq5 with the outcome convention of spec §5.1.
-                    let d = c + cfg.critic.gamma * dot(&w, &g) - dot(&w, &prev.g);
-                    td_error = Some(d);
-                    if d.is_finite() {
-                        let a_k = Self::step_size(steps, cfg);
-                        critic_step_size = Some(a_k);
-                        for j in 0..3 {
-                            w[j] += a_k * d * z[j]; // eq6
-                            z[j] = cfg.critic.lambda * z[j] + g[j]; // eq7
-                        }
-                        steps += 1;
-                        actor = match cfg.actor.rule {
-                            ActorRule::Eq28 => self.actor_step_eq28(&prev, d, cfg),
-                            ActorRule::ProjectedNatural => self.actor_step_natural(&prev, d, cfg),
-                        };
-                    } else {
-                        actor = ActorStep::SkippedNonFinite;
-                        self.counters.actor_skips += 1;
-                    }
-                } else {
-                    z = g; // z_0 = g(x_0)
-                }
-                let action = self.sample(f, p_s, cfg);
-                let applied = apply(action.p_e);
-                let last = LastDecision {
-                    f: f.vector(),
-                    g,
-                    phi: [0.0, 0.0, g[0], g[1], g[2]],
-                    cost,
-                    p_e: Self::gradient_action(&action, &applied, cfg),
-                    p_d: action.p_d,
-                    sigma: action.sigma,
-                };
-                self.critic = Critic::ValueTd { w, z, steps };
-                let learning = Learning {
-                    td_error,
-                    critic_step_size,
-                    actor,
-                    theta_before,
-                    theta_after: self.theta,
-                };
-                (learning, action, applied, last)
+            Critic::ValueTd { w, z, steps } => {
+                self.decide_value_td(f, cost, p_s, cfg, apply, (w, z, steps))
             }
             Critic::KondaTsitsiklis {
-                mut r,
-                mut z,
-                mut avg_cost,
-                mut steps,
-            } => {
-                // The new action comes from the current θ; the update affects the next one.
-                let action = self.sample(f, p_s, cfg);
-                let applied = apply(action.p_e);
-                let p_e = Self::gradient_action(&action, &applied, cfg);
-                let psi = if action.sigma >= cfg.actor.sigma_min {
-                    let k = (p_e - action.p_d) / (action.sigma * action.sigma) * h;
-                    [k * f.hyper, k * f.hypo]
-                } else {
-                    [0.0, 0.0]
-                };
-                let phi = [psi[0], psi[1], g[0], g[1], g[2]];
-                let mut td_error = None;
-                let mut critic_step_size = None;
-                let mut actor = ActorStep::NoPreviousDecision;
-                if let Some(prev) = self.last {
-                    let c = match cfg.critic.cost_timing {
-                        CostTiming::Outcome => cost,
-                        CostTiming::Literal => prev.cost,
-                    };
-                    let d = c - avg_cost + dot(&r, &phi) - dot(&r, &prev.phi);
-                    td_error = Some(d);
-                    if d.is_finite() {
-                        let a_k = Self::step_size(steps, cfg);
-                        critic_step_size = Some(a_k);
-                        for j in 0..5 {
-                            r[j] += a_k * d * z[j];
-                            z[j] = cfg.critic.lambda * z[j] + phi[j];
-                        }
-                        avg_cost += a_k * (c - avg_cost);
-                        steps += 1;
-                        if action.sigma < cfg.actor.sigma_min {
-                            self.counters.actor_skips += 1;
-                            actor = ActorStep::SkippedSmallSigma {
-                                sigma: action.sigma,
-                            };
-                        } else {
-                            let q = dot(&r, &phi);
-                            let raw = [-cfg.actor.beta * q * psi[0], -cfg.actor.beta * q * psi[1]];
-                            actor = self.apply_theta_step(raw, cfg);
-                        }
-                    } else {
-                        actor = ActorStep::SkippedNonFinite;
-                        self.counters.actor_skips += 1;
-                    }
-                } else {
-                    z = phi;
-                }
-                let last = LastDecision {
-                    f: f.vector(),
-                    g,
-                    phi,
-                    cost,
-                    p_e,
-                    p_d: action.p_d,
-                    sigma: action.sigma,
-                };
-                self.critic = Critic::KondaTsitsiklis {
-                    r,
-                    z,
-                    avg_cost,
-                    steps,
-                };
-                let learning = Learning {
-                    td_error,
-                    critic_step_size,
-                    actor,
-                    theta_before,
-                    theta_after: self.theta,
-                };
-                (learning, action, applied, last)
-            }
+                r,
+                z,
+                avg_cost,
+                steps,
+            } => self.decide_konda_tsitsiklis(f, cost, p_s, cfg, apply, (r, z, avg_cost, steps)),
         };
         self.last = Some(last);
         self.counters.decisions += 1;
         (learning, action, applied)
+    }
+
+    /// A decision with the value-function TD(λ) critic (eq5-eq7): the
+    /// previous decision's TD error updates the critic, then the actor
+    /// (eq28 or the projected natural step); then the new action.
+    fn decide_value_td(
+        &mut self,
+        f: &Features,
+        cost: f64,
+        p_s: f64,
+        cfg: &AbbaConfig,
+        apply: impl FnOnce(f64) -> Applied,
+        (mut w, mut z, mut steps): ([f64; 3], [f64; 3], u32),
+    ) -> (Learning, Action, Applied, LastDecision) {
+        let theta_before = self.theta;
+        let g = Self::basis(f, cfg);
+        let mut td_error = None;
+        let mut critic_step_size = None;
+        let mut actor = ActorStep::NoPreviousDecision;
+        if let Some(prev) = self.last {
+            let c = match cfg.critic.cost_timing {
+                CostTiming::Outcome => cost,
+                CostTiming::Literal => prev.cost,
+            };
+            // eq5 with the outcome convention of spec §5.1.
+            let d = c + cfg.critic.gamma * dot(&w, &g) - dot(&w, &prev.g);
+            td_error = Some(d);
+            if d.is_finite() {
+                let a_k = Self::step_size(steps, cfg);
+                critic_step_size = Some(a_k);
+                for j in 0..3 {
+                    w[j] += a_k * d * z[j]; // eq6
+                    z[j] = cfg.critic.lambda * z[j] + g[j]; // eq7
+                }
+                steps += 1;
+                actor = match cfg.actor.rule {
+                    ActorRule::Eq28 => self.actor_step_eq28(&prev, d, cfg),
+                    ActorRule::ProjectedNatural => self.actor_step_natural(&prev, d, cfg),
+                };
+            } else {
+                actor = ActorStep::SkippedNonFinite;
+                self.counters.actor_skips += 1;
+            }
+        } else {
+            z = g; // z_0 = g(x_0)
+        }
+        let action = self.sample(f, p_s, cfg);
+        let applied = apply(action.p_e);
+        let last = LastDecision {
+            f: f.vector(),
+            g,
+            phi: [0.0, 0.0, g[0], g[1], g[2]],
+            cost,
+            p_e: Self::gradient_action(&action, &applied, cfg),
+            p_d: action.p_d,
+            sigma: action.sigma,
+        };
+        self.critic = Critic::ValueTd { w, z, steps };
+        let learning = Learning {
+            td_error,
+            critic_step_size,
+            actor,
+            theta_before,
+            theta_after: self.theta,
+        };
+        (learning, action, applied, last)
+    }
+
+    /// A decision with Konda and Tsitsiklis's actor-critic: the new action
+    /// from the current θ, then the critic's average-cost TD update on the
+    /// compatible features and the actor's step (affecting the next action).
+    fn decide_konda_tsitsiklis(
+        &mut self,
+        f: &Features,
+        cost: f64,
+        p_s: f64,
+        cfg: &AbbaConfig,
+        apply: impl FnOnce(f64) -> Applied,
+        (mut r, mut z, mut avg_cost, mut steps): ([f64; 5], [f64; 5], f64, u32),
+    ) -> (Learning, Action, Applied, LastDecision) {
+        let theta_before = self.theta;
+        let g = Self::basis(f, cfg);
+        let h = cfg.actor.h;
+        // The new action comes from the current θ; the update affects the next one.
+        let action = self.sample(f, p_s, cfg);
+        let applied = apply(action.p_e);
+        let p_e = Self::gradient_action(&action, &applied, cfg);
+        let psi = if action.sigma >= cfg.actor.sigma_min {
+            let k = (p_e - action.p_d) / (action.sigma * action.sigma) * h;
+            [k * f.hyper, k * f.hypo]
+        } else {
+            [0.0, 0.0]
+        };
+        let phi = [psi[0], psi[1], g[0], g[1], g[2]];
+        let mut td_error = None;
+        let mut critic_step_size = None;
+        let mut actor = ActorStep::NoPreviousDecision;
+        if let Some(prev) = self.last {
+            let c = match cfg.critic.cost_timing {
+                CostTiming::Outcome => cost,
+                CostTiming::Literal => prev.cost,
+            };
+            let d = c - avg_cost + dot(&r, &phi) - dot(&r, &prev.phi);
+            td_error = Some(d);
+            if d.is_finite() {
+                let a_k = Self::step_size(steps, cfg);
+                critic_step_size = Some(a_k);
+                for j in 0..5 {
+                    r[j] += a_k * d * z[j];
+                    z[j] = cfg.critic.lambda * z[j] + phi[j];
+                }
+                avg_cost += a_k * (c - avg_cost);
+                steps += 1;
+                if action.sigma < cfg.actor.sigma_min {
+                    self.counters.actor_skips += 1;
+                    actor = ActorStep::SkippedSmallSigma {
+                        sigma: action.sigma,
+                    };
+                } else {
+                    let q = dot(&r, &phi);
+                    let raw = [-cfg.actor.beta * q * psi[0], -cfg.actor.beta * q * psi[1]];
+                    actor = self.apply_theta_step(raw, cfg);
+                }
+            } else {
+                actor = ActorStep::SkippedNonFinite;
+                self.counters.actor_skips += 1;
+            }
+        } else {
+            z = phi;
+        }
+        let last = LastDecision {
+            f: f.vector(),
+            g,
+            phi,
+            cost,
+            p_e,
+            p_d: action.p_d,
+            sigma: action.sigma,
+        };
+        self.critic = Critic::KondaTsitsiklis {
+            r,
+            z,
+            avg_cost,
+            steps,
+        };
+        let learning = Learning {
+            td_error,
+            critic_step_size,
+            actor,
+            theta_before,
+            theta_after: self.theta,
+        };
+        (learning, action, applied, last)
     }
 
     /// eq28 for the stored decision `prev` with TD error `d`, with the safeguards of spec §6.4.

@@ -4,6 +4,7 @@
 //! from it, and the store compared as records.
 #![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
 
+pub mod mongo;
 pub mod server;
 
 use abba_advisor::Mode;

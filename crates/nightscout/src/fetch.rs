@@ -7,7 +7,9 @@
 //! first); each next page asks for what is at or before the oldest time of
 //! the last one (`$lte`, so documents sharing that instant are not lost;
 //! they come again and are kept once by `_id`). A page that brings nothing
-//! new moves the bound one millisecond down; an empty page ends it.
+//! new (a page or more at its keys) has those keys read by `_id`
+//! ([`crate::by_id`]), then moves the bound below them; an empty page ends
+//! it.
 
 use crate::client::Client;
 use crate::error::NsError;
@@ -28,7 +30,7 @@ pub enum Collection {
 /// number; `created_at` as a string (MongoDB compares the stored string
 /// with the bound, which Nightscout rewrites to `toISOString()`'s form).
 #[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord)]
-enum Key {
+pub(crate) enum Key {
     Ms(i64),
     Text(String),
 }
@@ -48,7 +50,7 @@ impl Collection {
             Collection::Treatments => "/api/v1/treatments.json",
         }
     }
-    fn field(self) -> &'static str {
+    pub(crate) fn field(self) -> &'static str {
         match self {
             Collection::Entries => "date",
             Collection::Treatments => "created_at",
@@ -126,7 +128,7 @@ impl Collection {
 
 impl Key {
     /// The filter value.
-    fn query(&self) -> String {
+    pub(crate) fn query(&self) -> String {
         match self {
             Key::Ms(ms) => ms.to_string(),
             Key::Text(s) => s.clone(),
@@ -218,6 +220,55 @@ pub struct Pages {
     pub received: usize,
     /// `_id`s of documents marked `isValid: false` (deleted through API v3).
     pub deleted: Vec<String>,
+    /// Treatments found only by the `_id` probe (no `created_at` string).
+    pub without_created_at: usize,
+    /// What the paging could not prove complete, said in words (the
+    /// sync's report carries them; nothing is dropped in silence).
+    pub unproven: Vec<String>,
+}
+
+/// The documents of one fetch, each kept once by `_id` (the last fetched
+/// wins; a document served `isValid: false` is taken as deleted).
+#[derive(Default)]
+pub(crate) struct Collector {
+    pub(crate) out: Pages,
+    index: HashMap<String, usize>,
+}
+
+impl Collector {
+    /// Keeps `d`; whether it is new to this fetch.
+    pub(crate) fn take(&mut self, d: Value) -> bool {
+        let key = doc_key(&d);
+        if d.get("isValid") == Some(&Value::Bool(false)) {
+            if !self.out.deleted.contains(&key) {
+                self.out.deleted.push(key.clone());
+            }
+            if let Some(&i) = self.index.get(&key) {
+                self.out.docs[i] = Value::Null;
+            }
+            return false;
+        }
+        match self.index.get(&key) {
+            Some(&i) => {
+                self.out.docs[i] = d;
+                false
+            }
+            None => {
+                self.index.insert(key, self.out.docs.len());
+                self.out.docs.push(d);
+                true
+            }
+        }
+    }
+
+    /// The documents, newest first.
+    fn finish(self, c: Collection) -> Pages {
+        let mut out = self.out;
+        out.docs.retain(|d| !d.is_null());
+        out.docs
+            .sort_by_key(|d| std::cmp::Reverse(c.time_of(d).unwrap_or(i64::MIN)));
+        out
+    }
 }
 
 /// The most pages one collection's fetch asks for (a guard against a
@@ -234,11 +285,11 @@ pub fn doc_id(doc: &Value) -> Option<String> {
     }
 }
 
-fn doc_key(doc: &Value) -> String {
+pub(crate) fn doc_key(doc: &Value) -> String {
     doc_id(doc).unwrap_or_else(|| doc.to_string())
 }
 
-fn as_array(client: &Client, call: &str, v: Value) -> Result<Vec<Value>, NsError> {
+pub(crate) fn as_array(client: &Client, call: &str, v: Value) -> Result<Vec<Value>, NsError> {
     match v {
         Value::Array(a) => Ok(a),
         other => Err(NsError::Protocol {
@@ -276,7 +327,12 @@ const OFFSET_SLACK_MS: i64 = 14 * 3_600_000 + 1000;
 /// hold in several forms: with or without milliseconds, `Z` or an
 /// offset); each next page's `$lte` is the least bound in the server's
 /// form at or above the last page's least key, so no document between
-/// two pages is skipped whatever its form.
+/// two pages is skipped whatever its form. A page that brings nothing
+/// new holds only documents at its keys, as many as the server serves at
+/// once: that range of keys is read by `_id` ([`crate::by_id`]) before the
+/// paging steps below it. Treatments without a `created_at` string, which
+/// no bound on it matches, are read by `_id` too, those inserted since
+/// `since` (their ObjectId's time) and every one whose `_id` is a string.
 pub fn fetch_since(
     client: &Client,
     c: Collection,
@@ -287,8 +343,7 @@ pub fn fetch_since(
     let gte = format!("find[{field}][$gte]");
     let lte = format!("find[{field}][$lte]");
     let lower = since.map(|s| c.lower(s));
-    let mut out = Pages::default();
-    let mut index: HashMap<String, usize> = HashMap::new();
+    let mut col = Collector::default();
     let mut upper: Option<Key> = None;
     let call = format!("GET {}", c.path());
     let protocol = |problem: String| NsError::Protocol {
@@ -297,7 +352,7 @@ pub fn fetch_since(
         problem,
     };
     loop {
-        if out.pages >= MAX_PAGES {
+        if col.out.pages >= MAX_PAGES {
             return Err(protocol(format!(
                 "more than {MAX_PAGES} pages: the server seems to ignore find[{field}]"
             )));
@@ -311,11 +366,11 @@ pub fn fetch_since(
         }
         q.push(("count", page.to_string()));
         let docs = as_array(client, &call, client.get(c.path(), &q)?)?;
-        out.pages += 1;
+        col.out.pages += 1;
         if docs.is_empty() {
             break;
         }
-        out.received += docs.len();
+        col.out.received += docs.len();
         let mut fresh = 0;
         let mut least: Option<(Key, Key)> = None;
         for d in docs {
@@ -339,23 +394,8 @@ pub fn fetch_since(
                     Some((l, h)) => (l.min(lo), h.min(hi)),
                 });
             }
-            let key = doc_key(&d);
-            if d.get("isValid") == Some(&Value::Bool(false)) {
-                if !out.deleted.contains(&key) {
-                    out.deleted.push(key.clone());
-                }
-                if let Some(&i) = index.get(&key) {
-                    out.docs[i] = Value::Null;
-                }
-                continue;
-            }
-            match index.get(&key) {
-                Some(&i) => out.docs[i] = d,
-                None => {
-                    index.insert(key, out.docs.len());
-                    out.docs.push(d);
-                    fresh += 1;
-                }
+            if col.take(d) {
+                fresh += 1;
             }
         }
         let Some((least_lo, least_hi)) = least else {
@@ -364,10 +404,16 @@ pub fn fetch_since(
         };
         // Something new: the next page starts at the least key again (the
         // documents sharing it come once more, kept once); nothing new:
-        // below it.
+        // the keys from the least to the bound hold a page or more, read
+        // by `_id`, then below them.
         let next = if fresh > 0 {
             least_hi.at_or_above()
         } else {
+            let from = match &lower {
+                Some(l) if *l > least_lo => l.clone(),
+                _ => least_lo.clone(),
+            };
+            crate::by_id::range(client, c, &from, upper.as_ref(), page, &mut col)?;
             least_lo.below()
         };
         let Some(next) = next else { break };
@@ -376,10 +422,10 @@ pub fn fetch_since(
         }
         upper = Some(next);
     }
-    out.docs.retain(|d| !d.is_null());
-    out.docs
-        .sort_by_key(|d| std::cmp::Reverse(c.time_of(d).unwrap_or(i64::MIN)));
-    Ok(out)
+    if c == Collection::Treatments {
+        crate::by_id::without_created_at(client, since.unwrap_or(0), page, &mut col)?;
+    }
+    Ok(col.finish(c))
 }
 
 /// The profile store's documents (all of them: a few).
@@ -498,14 +544,10 @@ pub fn ids_of_identifier(
     }
     let q = [
         ("find[identifier]", identifier.to_string()),
-        // Without a bound on the date field Nightscout looks at 4 days only.
-        (
-            match c {
-                Collection::Entries => "find[date][$gte]",
-                Collection::Treatments => "find[created_at][$gte]",
-            },
-            c.lower(0).query(),
-        ),
+        // Naming `_id` skips Nightscout's default 4-day filter (a bound on
+        // the date field would miss a treatment without `created_at`);
+        // `$ne` the zero ObjectId excludes nothing.
+        ("find[_id][$ne]", crate::by_id::object_id_at(0)),
         ("count", "10".to_string()),
     ];
     let docs = as_array(

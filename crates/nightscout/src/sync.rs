@@ -67,6 +67,10 @@ pub struct SyncReport {
     /// site no longer serves in the window read again (deleted through
     /// API v1, which leaves no trace): their records are kept, and said.
     pub gone: Vec<String>,
+    /// What the paging could not prove complete (a server that does not
+    /// page by `_id` as Nightscout does, see [`crate::by_id`]): what was
+    /// read is imported, and what may be missing is said here.
+    pub unproven: Vec<String>,
 }
 
 /// One collection of a sync.
@@ -82,6 +86,8 @@ pub struct CollectionReport {
     pub pages: usize,
     /// abba's own Notes (write-back), left out.
     pub own: usize,
+    /// Treatments without a `created_at` string, found by `_id`.
+    pub without_created_at: usize,
 }
 
 /// What a check of a site found.
@@ -213,6 +219,7 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
     let mut fetched = Fetched::default();
     let mut reports = Vec::new();
     let mut gone = Vec::new();
+    let mut unproven = Vec::new();
     for c in [Collection::Entries, Collection::Treatments] {
         let mark = marks.get(c.name()).copied();
         // Always a lower bound: without one, Nightscout answers only the
@@ -230,7 +237,9 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
             documents: pages.docs.len(),
             pages: pages.pages,
             own,
+            without_created_at: pages.without_created_at,
         });
+        unproven.append(&mut pages.unproven);
         // The mark: the newest document that is not in the future (those
         // are refused by the import and fetched again until their time).
         let newest = pages
@@ -271,6 +280,7 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
         documents: profiles.len(),
         pages: 1,
         own: 0,
+        without_created_at: 0,
     });
     if !profiles.is_empty() {
         let docs: Vec<&Value> = profiles.iter().collect();
@@ -335,6 +345,7 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
         import,
         write_back,
         gone,
+        unproven,
     })
 }
 

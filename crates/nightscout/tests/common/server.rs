@@ -74,6 +74,9 @@ pub struct Site {
     pub denormalize: bool,
     /// API v3's largest `limit` (`API3_MAX_LIMIT`).
     pub v3_max_limit: usize,
+    /// `sort[...]` is ignored (a server that is not Nightscout's code:
+    /// always newest first by the date field).
+    pub ignores_sort: bool,
     next_id: u64,
     clock: i64,
 }
@@ -148,6 +151,7 @@ impl Site {
             v2_auth: true,
             denormalize: false,
             v3_max_limit: 1000,
+            ignores_sort: false,
             next_id: 1,
             clock: 1_700_000_000_000,
         }
@@ -512,7 +516,8 @@ async fn v1_list(
         let mut docs = kept;
         // MongoDB's sort: `sort[...]` as given, else the stored date
         // field, newest first (documents without it last).
-        let by = match mongo::sort_of(&q, (sort, -1)) {
+        let asked: &[(String, String)] = if site.ignores_sort { &[] } else { &q };
+        let by = match mongo::sort_of(asked, (sort, -1)) {
             Ok(b) => b,
             Err(e) => return mongo_error(&e),
         };

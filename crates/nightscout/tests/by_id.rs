@@ -1,0 +1,288 @@
+//! What paging by time cannot reach, read by `_id` (see `src/by_id.rs`):
+//! more treatments at one `created_at` than the server serves in a page,
+//! and treatments without `created_at` (API v3 inserts with
+//! `API3_CREATED_AT_FALLBACK_ENABLED=false`: `date` in ms and
+//! `utcOffset`), on a v1-only and on a v3 site, with ObjectId and string
+//! (Loop UUID) `_id`s mixed; a server that does not sort by `_id` is
+//! reported, not trusted.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod common;
+
+use abba_nightscout::site::credential;
+use abba_nightscout::{link, sync};
+use abba_store::link::Credential;
+use common::server::{Server, Site};
+use common::*;
+use serde_json::{json, Value};
+
+fn secret() -> Credential {
+    credential(None, Some(SECRET)).unwrap()
+}
+
+fn reader() -> Credential {
+    credential(Some("reader-0123456789abcdef"), None).unwrap()
+}
+
+fn ms_of(text: &str) -> i64 {
+    text.parse::<jiff::Timestamp>().unwrap().as_millisecond()
+}
+
+/// An ObjectId made at `ms` (by the server inserting it), the `n`-th.
+fn object_id(ms: i64, n: usize) -> String {
+    format!("{:08x}{:016x}", ms / 1000, 0x5eed_0000_0000_u64 + n as u64)
+}
+
+/// A Loop-style UUID `_id` (a string to MongoDB).
+fn uuid(n: usize) -> String {
+    format!("7d6bcbb3-9c4d-4e5e-8d7e-{n:012x}")
+}
+
+/// `n` BG Checks at one `created_at`, their `_id`s ObjectIds and UUIDs in
+/// turn, stored in an order that is not their `_id` order.
+fn one_instant(n: usize, at: &str) -> Vec<Value> {
+    let t = ms_of(at);
+    let mut docs: Vec<(usize, Value)> = (0..n)
+        .map(|i| {
+            let id = if i % 2 == 0 {
+                object_id(t + 60_000, i)
+            } else {
+                uuid(i)
+            };
+            let d = json!({"_id": id, "eventType": "BG Check", "created_at": at,
+                "glucose": 80 + (i % 90), "glucoseType": "Finger", "units": "mg/dl",
+                "enteredBy": "xDrip", "utcOffset": 60});
+            ((i * 7919) % n, d)
+        })
+        .collect();
+    docs.sort_by_key(|(k, _)| *k);
+    docs.into_iter().map(|(_, d)| d).collect()
+}
+
+/// The data set with every third treatment as API v3 stores it with the
+/// `created_at` fallback off: `date` (ms) and `utcOffset`, an
+/// `identifier`, `srvModified` / `srvCreated`, no `created_at`; its `_id`
+/// an ObjectId made a minute after its time, or (one in two of them) a
+/// UUID string. Returns how many lack `created_at`.
+fn without_created_at(d: &mut Data) -> usize {
+    let mut n = 0;
+    for (i, t) in d.treatments.iter_mut().enumerate() {
+        if i % 3 != 1 {
+            continue;
+        }
+        let at = ms_of(t["created_at"].as_str().unwrap());
+        let o = t.as_object_mut().unwrap();
+        o.remove("created_at");
+        o.insert("date".into(), json!(at));
+        o.insert("utcOffset".into(), json!(60));
+        o.insert("identifier".into(), json!(uuid(0x10_0000 + i)));
+        o.insert("srvCreated".into(), json!(at + 60_000));
+        o.insert("srvModified".into(), json!(at + 60_000));
+        let id = if n % 2 == 0 {
+            object_id(at + 60_000, i)
+        } else {
+            uuid(0x20_0000 + i)
+        };
+        o.insert("_id".into(), json!(id));
+        n += 1;
+    }
+    n
+}
+
+fn site_of(d: &Data, max_count: usize) -> Site {
+    let mut site = Site::new(SECRET);
+    site.max_count = max_count;
+    site.add("entries", d.entries.clone());
+    site.add("treatments", d.treatments.clone());
+    site.add("profile", d.profile.clone());
+    site
+}
+
+#[test]
+fn more_treatments_at_one_created_at_than_a_page_holds_all_arrive() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = data(1);
+    let at = d.treatments[3]["created_at"].as_str().unwrap().to_string();
+    d.treatments.extend(one_instant(2500, &at));
+    let files = export(dir.path(), &d);
+    // The server serves at most 1,000 a page.
+    let srv = Server::start(site_of(&d, 1000));
+    let (_, mut synced) = store_with_person(dir.path(), "sync.db", &files);
+    link(
+        &mut synced,
+        "ana",
+        &srv.url,
+        secret(),
+        false,
+        &fast_client(),
+    )
+    .unwrap();
+    let r = sync(&mut synced, "ana", &sync_opts()).unwrap();
+    assert!(r.unproven.is_empty(), "{:?}", r.unproven);
+    assert_eq!(r.collections[1].documents, d.treatments.len(), "{r:?}");
+    let log = srv.with(|s| s.log.clone());
+    assert!(
+        log.iter()
+            .any(|l| l.contains("sort%5B_id%5D=1") || l.contains("sort[_id]=1")),
+        "the key was read by _id: {log:?}"
+    );
+    let (_, mut imported) = store_with_person(dir.path(), "files.db", &files);
+    imported.import_files("ana", &files, None).unwrap();
+    assert_same_records(&synced, &imported);
+    // Again (the key is in the window read again): nothing new.
+    let again = sync(&mut synced, "ana", &sync_opts()).unwrap();
+    let a = again.import.import.unwrap();
+    assert_eq!((a.added, a.updated), (0, 0), "{a:?}");
+    assert!(again.gone.is_empty(), "{:?}", again.gone);
+    assert!(again.unproven.is_empty(), "{:?}", again.unproven);
+    assert!(
+        again.collections[1].documents > 2500,
+        "{:?}",
+        again.collections[1]
+    );
+    assert_same_records(&synced, &imported);
+}
+
+#[test]
+fn a_server_that_does_not_sort_by_id_is_reported_not_trusted() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = data(1);
+    let at = d.treatments[3]["created_at"].as_str().unwrap().to_string();
+    d.treatments.extend(one_instant(2500, &at));
+    let files = export(dir.path(), &d);
+    let mut site = site_of(&d, 1000);
+    site.ignores_sort = true;
+    let srv = Server::start(site);
+    let (_, mut synced) = store_with_person(dir.path(), "sync.db", &files);
+    link(
+        &mut synced,
+        "ana",
+        &srv.url,
+        secret(),
+        false,
+        &fast_client(),
+    )
+    .unwrap();
+    let r = sync(&mut synced, "ana", &sync_opts()).unwrap();
+    assert!(
+        r.unproven
+            .iter()
+            .any(|u| u.contains(&at) && u.contains("sort[_id]")),
+        "{:?}",
+        r.unproven
+    );
+    // What it read is imported; what it could not is said, not hidden.
+    assert!(r.collections[1].documents < d.treatments.len(), "{r:?}");
+}
+
+/// A site holding treatments without `created_at`: one sync equals a
+/// file import of the same documents, a second adds nothing, new ones
+/// (ObjectId and UUID) come in; on a v3 site one deleted through v3 goes.
+fn treatments_without_created_at(v3: bool) {
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = data(2);
+    let undated = without_created_at(&mut d);
+    assert!(undated >= 6);
+    let files = export(dir.path(), &d);
+    let mut site = site_of(&d, 5);
+    site.v3 = v3;
+    let srv = Server::start(site);
+    let (_, mut synced) = store_with_person(dir.path(), "sync.db", &files);
+    let cred = if v3 { reader() } else { secret() };
+    link(&mut synced, "ana", &srv.url, cred, false, &fast_client()).unwrap();
+    let r = sync(&mut synced, "ana", &sync_opts()).unwrap();
+    assert_eq!(r.v3, v3);
+    assert!(r.unproven.is_empty(), "{:?}", r.unproven);
+    assert_eq!(r.collections[1].documents, d.treatments.len(), "{r:?}");
+    assert_eq!(r.collections[1].without_created_at, undated);
+    let (_, mut imported) = store_with_person(dir.path(), "files.db", &files);
+    imported.import_files("ana", &files, None).unwrap();
+    assert_same_records(&synced, &imported);
+    assert_eq!(advice(&mut synced), advice(&mut imported));
+
+    let again = sync(&mut synced, "ana", &sync_opts()).unwrap();
+    let a = again.import.import.unwrap();
+    assert_eq!((a.added, a.updated), (0, 0), "{a:?}");
+    assert!(again.gone.is_empty(), "{:?}", again.gone);
+    assert!(again.unproven.is_empty(), "{:?}", again.unproven);
+    // Only what was inserted since the window read again is asked for.
+    assert!(
+        again.collections[1].without_created_at < undated,
+        "{:?}",
+        again.collections[1]
+    );
+
+    // New ones, as v3 would insert them: an ObjectId made now-ish, and a
+    // UUID `_id` (a string, outside any ObjectId bound).
+    let newest = d
+        .treatments
+        .iter()
+        .filter_map(|t| {
+            t.get("date")
+                .and_then(Value::as_i64)
+                .or_else(|| t.get("created_at")?.as_str().map(ms_of))
+        })
+        .max()
+        .unwrap();
+    let new: Vec<Value> = [(1, object_id(newest + 3_660_000, 1)), (2, uuid(0x30_0000))]
+        .into_iter()
+        .map(|(h, id)| {
+            let at = newest + h * 3_600_000;
+            json!({"_id": id, "eventType": "Correction Bolus", "insulin": 0.5 + h as f64 / 10.0,
+                "date": at, "utcOffset": 60, "enteredBy": "AndroidAPS",
+                "identifier": uuid(0x40_0000 + h as usize),
+                "srvCreated": at + 60_000, "srvModified": at + 60_000})
+        })
+        .collect();
+    srv.with(|s| s.add("treatments", new.clone()));
+    d.treatments.extend(new);
+    let files = export(dir.path(), &d);
+    let third = sync(&mut synced, "ana", &sync_opts()).unwrap();
+    assert_eq!(third.import.import.unwrap().added, 2);
+    let (_, mut imported) = store_with_person(dir.path(), "files2.db", &files);
+    imported.import_files("ana", &files, None).unwrap();
+    assert_same_records(&synced, &imported);
+
+    if v3 {
+        // The oldest with an ObjectId, deleted through v3 (by its
+        // identifier): outside what v1 is asked again, so only v3's
+        // history says so, and v1 (`find[identifier]`, no date bound)
+        // gives the `_id` its records are keyed by. Its records go.
+        let gone = d
+            .treatments
+            .iter()
+            .filter(|t| {
+                t.get("created_at").is_none()
+                    && abba_nightscout::fetch::is_object_id(t["_id"].as_str().unwrap())
+            })
+            .min_by_key(|t| t["date"].as_i64().unwrap())
+            .unwrap();
+        let kinds = store_kinds(&synced, gone["_id"].as_str().unwrap());
+        assert!(kinds > 0);
+        let identifier = gone["identifier"].as_str().unwrap().to_string();
+        srv.with(|s| s.soft_delete("treatments", &identifier));
+        let r = sync(&mut synced, "ana", &sync_opts()).unwrap();
+        assert_eq!(r.import.deleted, kinds, "{r:?}");
+        assert_eq!(store_kinds(&synced, gone["_id"].as_str().unwrap()), 0);
+    }
+}
+
+/// How many records the store holds of document `id`.
+fn store_kinds(store: &abba_store::Store, id: &str) -> usize {
+    store
+        .records("ana")
+        .unwrap()
+        .iter()
+        .filter(|r| format!("{:?}", r.id).contains(id))
+        .count()
+}
+
+#[test]
+fn treatments_without_created_at_on_a_v1_only_site_sync_as_files_import() {
+    treatments_without_created_at(false);
+}
+
+#[test]
+fn treatments_without_created_at_on_a_v3_site_sync_as_files_import() {
+    treatments_without_created_at(true);
+}

@@ -227,6 +227,26 @@ pub struct Pages {
     pub unproven: Vec<String>,
 }
 
+impl Pages {
+    /// Adds documents fetched beside the paging (kept once by `_id`, the
+    /// later replacing the earlier); how many were new.
+    pub fn add(&mut self, c: Collection, docs: Vec<Value>) -> usize {
+        let index = self
+            .docs
+            .iter()
+            .enumerate()
+            .map(|(i, d)| (doc_key(d), i))
+            .collect();
+        let mut col = Collector {
+            out: std::mem::take(self),
+            index,
+        };
+        let fresh = docs.into_iter().filter(|d| col.take(d.clone())).count();
+        *self = col.finish(c);
+        fresh
+    }
+}
+
 /// The documents of one fetch, each kept once by `_id` (the last fetched
 /// wins; a document served `isValid: false` is taken as deleted).
 #[derive(Default)]
@@ -461,23 +481,37 @@ pub fn v3_last_modified(client: &Client) -> Result<HashMap<String, i64>, NsError
     Ok(out)
 }
 
-/// API v3 `history` of `collection` after `since` (ms of `srvModified`):
-/// the identifiers of documents deleted (`isValid: false`) and the newest
-/// `srvModified` seen. `limit` is halved while the site refuses it (400:
-/// a site's `API3_MAX_LIMIT` below Nightscout's default 1,000).
-pub fn v3_deleted(
+/// What API v3 `history` said since a mark.
+#[derive(Debug, Clone, Default)]
+pub struct History {
+    /// Identifiers of documents deleted (`isValid: false`).
+    pub deleted: Vec<String>,
+    /// Identifiers of valid documents without a `created_at` string
+    /// (treatments v1 paging by time cannot see; one changed long after
+    /// it was inserted is outside the `_id` probe's window too).
+    pub without_created_at: Vec<String>,
+    /// The newest `srvModified` seen (the next mark).
+    pub mark: i64,
+}
+
+/// API v3 `history` of `collection` after `since` (ms of `srvModified`).
+/// `limit` is halved while the site refuses it (400: a site's
+/// `API3_MAX_LIMIT` below Nightscout's default 1,000).
+pub fn v3_history(
     client: &Client,
     collection: &str,
     since: i64,
     limit: usize,
-) -> Result<(Vec<String>, i64), NsError> {
-    let mut mark = since;
+) -> Result<History, NsError> {
+    let mut out = History {
+        mark: since,
+        ..History::default()
+    };
     let mut limit = limit.max(1);
-    let mut deleted = Vec::new();
     let path_of = |m: i64| format!("/api/v3/{collection}/history/{m}");
     let mut pages = 0;
     while pages < MAX_PAGES {
-        let path = path_of(mark);
+        let path = path_of(out.mark);
         let v = match client.get(&path, &[("limit", limit.to_string())]) {
             Ok(v) => v,
             Err(NsError::Status { status: 400, .. }) if limit > 1 => {
@@ -495,18 +529,23 @@ pub fn v3_deleted(
         if docs.is_empty() {
             break;
         }
-        let before = mark;
+        let before = out.mark;
         for d in &docs {
             if let Some(m) = d.get("srvModified").and_then(Value::as_i64) {
-                mark = mark.max(m);
+                out.mark = out.mark.max(m);
             }
+            let Some(id) = d.get("identifier").and_then(Value::as_str) else {
+                continue;
+            };
             if d.get("isValid") == Some(&Value::Bool(false)) {
-                if let Some(id) = d.get("identifier").and_then(Value::as_str) {
-                    deleted.push(id.to_string());
-                }
+                out.deleted.push(id.to_string());
+            } else if collection == "treatments"
+                && !d.get("created_at").is_some_and(Value::is_string)
+            {
+                out.without_created_at.push(id.to_string());
             }
         }
-        if mark == before {
+        if out.mark == before {
             return Err(NsError::Protocol {
                 site: client.site().to_string(),
                 call: format!("GET {path}"),
@@ -517,7 +556,35 @@ pub fn v3_deleted(
             break;
         }
     }
-    Ok((deleted, mark))
+    Ok(out)
+}
+
+/// The v1 documents (with the `_id` the import keys by) of the treatment
+/// API v3 calls `identifier`: by `_id` when it is an ObjectId (v3 names a
+/// document created through v1 by its `_id`), else by the `identifier`
+/// field. Naming `_id` skips Nightscout's default 4-day filter.
+pub fn treatments_of_identifier(client: &Client, identifier: &str) -> Result<Vec<Value>, NsError> {
+    let path = Collection::Treatments.path();
+    let q: Vec<(&str, String)> = if is_object_id(identifier) {
+        vec![
+            ("find[_id]", identifier.to_string()),
+            ("count", "10".into()),
+        ]
+    } else {
+        vec![
+            ("find[identifier]", identifier.to_string()),
+            ("find[_id][$ne]", crate::by_id::object_id_at(0)),
+            ("count", "10".into()),
+        ]
+    };
+    let docs = as_array(client, &format!("GET {path}"), client.get(path, &q)?)?;
+    Ok(docs
+        .into_iter()
+        .filter(|d| {
+            d.get("identifier").and_then(Value::as_str) == Some(identifier)
+                || doc_id(d).as_deref() == Some(identifier)
+        })
+        .collect())
 }
 
 /// Whether `s` is a MongoDB ObjectId in hex (what `_id` holds on a site).

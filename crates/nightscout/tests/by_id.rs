@@ -244,19 +244,41 @@ fn treatments_without_created_at(v3: bool) {
     assert_same_records(&synced, &imported);
 
     if v3 {
-        // The oldest with an ObjectId, deleted through v3 (by its
-        // identifier): outside what v1 is asked again, so only v3's
-        // history says so, and v1 (`find[identifier]`, no date bound)
-        // gives the `_id` its records are keyed by. Its records go.
-        let gone = d
+        // The two oldest with an ObjectId (outside what v1 is asked again,
+        // by time or by `_id`): only v3's history says they changed.
+        let mut old: Vec<Value> = d
             .treatments
             .iter()
             .filter(|t| {
                 t.get("created_at").is_none()
+                    && t.get("insulin").is_some_and(Value::is_number)
                     && abba_nightscout::fetch::is_object_id(t["_id"].as_str().unwrap())
             })
-            .min_by_key(|t| t["date"].as_i64().unwrap())
-            .unwrap();
+            .cloned()
+            .collect();
+        old.sort_by_key(|t| t["date"].as_i64().unwrap());
+        assert!(old.len() >= 2, "{old:?}");
+        // One changed through v3 (its dose): the store holds the new
+        // version, as a file import of the changed documents does.
+        let (changed, gone) = (&old[0], &old[1]);
+        let identifier = changed["identifier"].as_str().unwrap().to_string();
+        let dose = changed["insulin"].as_f64().unwrap() + 0.25;
+        srv.with(|s| s.change("treatments", &identifier, |t| t["insulin"] = json!(dose)));
+        for t in d.treatments.iter_mut() {
+            if t["identifier"] == changed["identifier"] {
+                t["insulin"] = json!(dose);
+            }
+        }
+        let r = sync(&mut synced, "ana", &sync_opts()).unwrap();
+        assert!(r.unproven.is_empty(), "{:?}", r.unproven);
+        assert_eq!(r.import.import.unwrap().updated, 1);
+        let files = export(dir.path(), &d);
+        let (_, mut imported) = store_with_person(dir.path(), "files3.db", &files);
+        imported.import_files("ana", &files, None).unwrap();
+        assert_same_records(&synced, &imported);
+        // One deleted through v3 (by its identifier): v1
+        // (`find[identifier]`, no date bound) gives the `_id` its records
+        // are keyed by. Its records go.
         let kinds = store_kinds(&synced, gone["_id"].as_str().unwrap());
         assert!(kinds > 0);
         let identifier = gone["identifier"].as_str().unwrap().to_string();

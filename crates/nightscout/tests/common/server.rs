@@ -190,6 +190,21 @@ impl Site {
         }
     }
 
+    /// Changes a document as API v3's PATCH does (by its `_id` or its
+    /// `identifier`): a new `srvModified`, in the document too.
+    pub fn change(&mut self, col: &'static str, id: &str, f: impl Fn(&mut Value)) {
+        let m = self.tick();
+        for d in self.docs.entry(col).or_default() {
+            if d.doc.get("_id").and_then(Value::as_str) == Some(id)
+                || d.doc.get("identifier").and_then(Value::as_str) == Some(id)
+            {
+                f(&mut d.doc);
+                d.doc["srvModified"] = json!(m);
+                d.srv_modified = m;
+            }
+        }
+    }
+
     /// Deletes a document as API v1 does (`DELETE /api/v1/treatments/<id>`,
     /// a MongoDB `deleteMany`): gone, with no trace in v1 or v3.
     pub fn hard_delete(&mut self, col: &'static str, id: &str) {

@@ -308,3 +308,52 @@ fn treatments_without_created_at_on_a_v1_only_site_sync_as_files_import() {
 fn treatments_without_created_at_on_a_v3_site_sync_as_files_import() {
     treatments_without_created_at(true);
 }
+
+#[test]
+fn more_entries_at_one_date_than_a_page_holds_all_arrive() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = data(1);
+    // 1,200 readings at one millisecond (written to MongoDB directly by
+    // many uploaders: Nightscout's own insert would merge them by
+    // sysTime and type), ObjectIds and UUIDs, on a server serving 500.
+    let t = d.entries[40]["date"].as_i64().unwrap() + 1;
+    let n = 1200;
+    let mut tie: Vec<(usize, Value)> = (0..n)
+        .map(|i| {
+            let id = if i % 2 == 0 {
+                object_id(t + 1000, i)
+            } else {
+                uuid(0x50_0000 + i)
+            };
+            let e = json!({"_id": id, "type": "mbg", "mbg": 70 + (i % 120), "date": t,
+                "dateString": common::server::iso(t), "device": format!("meter-{i}")});
+            ((i * 7919) % n, e)
+        })
+        .collect();
+    tie.sort_by_key(|(k, _)| *k);
+    d.entries.extend(tie.into_iter().map(|(_, e)| e));
+    d.entries
+        .sort_by_key(|e| std::cmp::Reverse(e["date"].as_i64().unwrap()));
+    let files = export(dir.path(), &d);
+    let srv = Server::start(site_of(&d, 500));
+    let (_, mut synced) = store_with_person(dir.path(), "sync.db", &files);
+    link(
+        &mut synced,
+        "ana",
+        &srv.url,
+        secret(),
+        false,
+        &fast_client(),
+    )
+    .unwrap();
+    let r = sync(&mut synced, "ana", &sync_opts()).unwrap();
+    assert!(r.unproven.is_empty(), "{:?}", r.unproven);
+    assert_eq!(r.collections[0].documents, d.entries.len(), "{r:?}");
+    let (_, mut imported) = store_with_person(dir.path(), "files.db", &files);
+    imported.import_files("ana", &files, None).unwrap();
+    assert_same_records(&synced, &imported);
+    let again = sync(&mut synced, "ana", &sync_opts()).unwrap();
+    let a = again.import.import.unwrap();
+    assert_eq!((a.added, a.updated), (0, 0), "{a:?}");
+    assert!(again.unproven.is_empty() && again.gone.is_empty());
+}

@@ -348,9 +348,9 @@ const OFFSET_SLACK_MS: i64 = 14 * 3_600_000 + 1000;
 /// offset); each next page's `$lte` is the least bound in the server's
 /// form at or above the last page's least key, so no document between
 /// two pages is skipped whatever its form. A page that brings nothing
-/// new holds only documents at its keys, as many as the server serves at
-/// once: that range of keys is read by `_id` ([`crate::by_id`]) before the
-/// paging steps below it. Treatments without a `created_at` string, which
+/// new and is as long as any the server served holds only documents at
+/// its keys, as many as the server serves at once: that range of keys is
+/// read by `_id` ([`crate::by_id`]) before the paging steps below it. Treatments without a `created_at` string, which
 /// no bound on it matches, are read by `_id` too, those inserted since
 /// `since` (their ObjectId's time) and every one whose `_id` is a string.
 pub fn fetch_since(
@@ -365,6 +365,7 @@ pub fn fetch_since(
     let lower = since.map(|s| c.lower(s));
     let mut col = Collector::default();
     let mut upper: Option<Key> = None;
+    let mut largest = 0;
     let call = format!("GET {}", c.path());
     let protocol = |problem: String| NsError::Protocol {
         site: client.site().to_string(),
@@ -391,6 +392,10 @@ pub fn fetch_since(
             break;
         }
         col.out.received += docs.len();
+        // A page shorter than one the server served before was not cut
+        // by its maximum: it holds everything in its bounds.
+        let whole = docs.len() < largest;
+        largest = largest.max(docs.len());
         let mut fresh = 0;
         let mut least: Option<(Key, Key)> = None;
         for d in docs {
@@ -424,10 +429,12 @@ pub fn fetch_since(
         };
         // Something new: the next page starts at the least key again (the
         // documents sharing it come once more, kept once); nothing new:
-        // the keys from the least to the bound hold a page or more, read
-        // by `_id`, then below them.
+        // below the least key, after reading by `_id` the keys from it to
+        // the bound when the page was full (they may hold more).
         let next = if fresh > 0 {
             least_hi.at_or_above()
+        } else if whole {
+            least_lo.below()
         } else {
             let from = match &lower {
                 Some(l) if *l > least_lo => l.clone(),

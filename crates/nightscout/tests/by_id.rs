@@ -28,37 +28,6 @@ fn ms_of(text: &str) -> i64 {
     text.parse::<jiff::Timestamp>().unwrap().as_millisecond()
 }
 
-/// An ObjectId made at `ms` (by the server inserting it), the `n`-th.
-fn object_id(ms: i64, n: usize) -> String {
-    format!("{:08x}{:016x}", ms / 1000, 0x5eed_0000_0000_u64 + n as u64)
-}
-
-/// A Loop-style UUID `_id` (a string to MongoDB).
-fn uuid(n: usize) -> String {
-    format!("7d6bcbb3-9c4d-4e5e-8d7e-{n:012x}")
-}
-
-/// `n` BG Checks at one `created_at`, their `_id`s ObjectIds and UUIDs in
-/// turn, stored in an order that is not their `_id` order.
-fn one_instant(n: usize, at: &str) -> Vec<Value> {
-    let t = ms_of(at);
-    let mut docs: Vec<(usize, Value)> = (0..n)
-        .map(|i| {
-            let id = if i % 2 == 0 {
-                object_id(t + 60_000, i)
-            } else {
-                uuid(i)
-            };
-            let d = json!({"_id": id, "eventType": "BG Check", "created_at": at,
-                "glucose": 80 + (i % 90), "glucoseType": "Finger", "units": "mg/dl",
-                "enteredBy": "xDrip", "utcOffset": 60});
-            ((i * 7919) % n, d)
-        })
-        .collect();
-    docs.sort_by_key(|(k, _)| *k);
-    docs.into_iter().map(|(_, d)| d).collect()
-}
-
 /// The data set with every third treatment as API v3 stores it with the
 /// `created_at` fallback off: `date` (ms) and `utcOffset`, an
 /// `identifier`, `srvModified` / `srvCreated`, no `created_at`; its `_id`

@@ -38,8 +38,14 @@
 //! The treatments without `created_at` are read from the ObjectId of the
 //! sync's lower bound on (an ObjectId's first 4 bytes are the second it
 //! was made, by the server inserting it): what was inserted since the
-//! window read again, so the cost follows what is new; those with a
-//! string `_id` have no time to start from and are read whole each sync.
+//! window read again, so the cost follows what is new, with no mark of
+//! its own. That misses none: the bound is the treatments' mark less the
+//! overlap (24 h), the mark is never later than the last sync plus the
+//! import's future skew (10 min), so a document inserted after the last
+//! sync began is above it, and one inserted before was read by a sync
+//! whose bound was no later (marks only grow), unless the clock making
+//! its ObjectId was a day off. Those with a string `_id` have no time to
+//! start from and are read whole each sync.
 
 use crate::client::Client;
 use crate::error::NsError;

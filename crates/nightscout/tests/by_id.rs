@@ -326,3 +326,63 @@ fn more_entries_at_one_date_than_a_page_holds_all_arrive() {
     assert_eq!((a.added, a.updated), (0, 0), "{a:?}");
     assert!(again.unproven.is_empty() && again.gone.is_empty());
 }
+
+#[test]
+fn the_test_server_types_and_compares_as_nightscout_and_mongodb_do() {
+    use common::mongo::{sort, sort_of, Find};
+    let q = |pairs: &[(&str, &str)]| -> Vec<(String, String)> {
+        pairs
+            .iter()
+            .map(|(k, v)| (k.to_string(), v.to_string()))
+            .collect()
+    };
+    let oid = "602d22d89e9fc2456f934373";
+    let docs = [
+        json!({"_id": oid, "created_at": "2026-01-14T21:54:00Z"}),
+        json!({"_id": uuid(1), "date": 1_768_427_640_000_i64}),
+        json!({"_id": "602d22d89e9fc2456f934374", "date": 1_768_427_640_000_i64}),
+    ];
+    let ids = |pairs: &[(&str, &str)]| -> Vec<String> {
+        let f = Find::parse("treatments", &q(pairs)).unwrap();
+        docs.iter()
+            .filter(|d| f.matches(d).unwrap())
+            .map(|d| d["_id"].as_str().unwrap().to_string())
+            .collect()
+    };
+    // `$gt` an ObjectId never matches a string `_id`; `$ne` matches all.
+    assert_eq!(
+        ids(&[("find[_id][$gt]", "000000000000000000000000")]),
+        [oid, "602d22d89e9fc2456f934374"]
+    );
+    assert_eq!(
+        ids(&[("find[_id][$ne]", "000000000000000000000000")]).len(),
+        3
+    );
+    assert_eq!(ids(&[("find[_id][$type]", "string")]), [uuid(1)]);
+    // "missing or not a string", valid only beside `_id`.
+    let undated = [
+        ("find[_id][$ne]", "000000000000000000000000"),
+        ("find[created_at][$not][$type]", "string"),
+    ];
+    assert_eq!(ids(&undated).len(), 2);
+    assert!(Find::parse("treatments", &q(&undated[1..])).is_err());
+    // Without `_id` a bound is rewritten to toISOString() form (which
+    // sorts below the stored `...:00Z`); with it, compared as given.
+    let b = "2026-01-14T21:54:00Z";
+    assert!(ids(&[("find[created_at][$lte]", b)]).is_empty());
+    assert_eq!(
+        ids(&[
+            ("find[created_at][$lte]", b),
+            ("find[_id][$type]", "objectId")
+        ]),
+        [oid]
+    );
+    // `sort[_id]=1`: strings before ObjectIds.
+    let mut sorted = docs.to_vec();
+    sort(
+        &mut sorted,
+        &sort_of(&q(&[("sort[_id]", "1")]), ("created_at", -1)).unwrap(),
+    );
+    assert_eq!(sorted[0]["_id"], json!(uuid(1)));
+    assert!(sort_of(&q(&[("sort[_id]", "up")]), ("created_at", -1)).is_err());
+}

@@ -271,6 +271,9 @@ pub fn sync(a: SyncArgs) -> Result<()> {
                         if r.gone.len() > shown.len() { ", ..." } else { "" }
                     );
                 }
+                for u in &r.unproven {
+                    println!("Not proven complete: {u}.");
+                }
                 if let Some(w) = &r.write_back {
                     println!(
                         "Written back: {} new Notes, {} updated{}.",

@@ -121,6 +121,30 @@ fn link_list_and_sync_show_no_credential_and_the_store_is_owner_only() {
 }
 
 #[test]
+fn sync_says_what_it_cannot_prove_complete() {
+    // 2,500 treatments at one `created_at` on a server serving 1,000 a
+    // page that ignores `sort[_id]`: read as far as it goes, and said.
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = data(1);
+    let at = d.treatments[3]["created_at"].as_str().unwrap().to_string();
+    d.treatments.extend(one_instant(2500, &at));
+    let files = export(dir.path(), &d);
+    let srv = server(&d, 1000);
+    srv.with(|s| s.ignores_sort = true);
+    let (db, store) = store_with_person(dir.path(), "cli.db", &files);
+    drop(store);
+    assert!(link_cli(&db, &srv.url).status.success());
+    let sync = sync_cli(&db).output().unwrap();
+    let out = String::from_utf8_lossy(&sync.stdout);
+    assert!(sync.status.success(), "{out}");
+    let line = out
+        .lines()
+        .find(|l| l.starts_with("Not proven complete:"))
+        .unwrap_or_else(|| panic!("{out}"));
+    assert!(line.contains(&at) && line.contains("sort[_id]"), "{line}");
+}
+
+#[test]
 fn sync_killed_20_times_then_completed_gives_the_same_store() {
     let dir = tempfile::tempdir().unwrap();
     let d = data(3);

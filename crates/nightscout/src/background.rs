@@ -162,6 +162,9 @@ pub fn round(
                     // be, it is kept in memory.
                     let a = sync_and_record(&mut store, person, &bg.sync);
                     if let Ok(r) = &a.result {
+                        for u in &r.unproven {
+                            tracing::warn!(person, what = %u, "the Nightscout sync could not prove this complete");
+                        }
                         if !r.gone.is_empty() {
                             tracing::warn!(person, documents = r.gone.len(), ids = ?r.gone, "documents no longer on the Nightscout site (deleted through API v1): their records are kept");
                         }

@@ -7,7 +7,9 @@
 //! first); each next page asks for what is at or before the oldest time of
 //! the last one (`$lte`, so documents sharing that instant are not lost;
 //! they come again and are kept once by `_id`). A page that brings nothing
-//! new moves the bound one millisecond down; an empty page ends it.
+//! new (a page or more at its keys) has those keys read by `_id`
+//! ([`crate::by_id`]), then moves the bound below them; an empty page ends
+//! it.
 
 use crate::client::Client;
 use crate::error::NsError;
@@ -28,7 +30,7 @@ pub enum Collection {
 /// number; `created_at` as a string (MongoDB compares the stored string
 /// with the bound, which Nightscout rewrites to `toISOString()`'s form).
 #[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord)]
-enum Key {
+pub(crate) enum Key {
     Ms(i64),
     Text(String),
 }
@@ -48,7 +50,7 @@ impl Collection {
             Collection::Treatments => "/api/v1/treatments.json",
         }
     }
-    fn field(self) -> &'static str {
+    pub(crate) fn field(self) -> &'static str {
         match self {
             Collection::Entries => "date",
             Collection::Treatments => "created_at",
@@ -126,7 +128,7 @@ impl Collection {
 
 impl Key {
     /// The filter value.
-    fn query(&self) -> String {
+    pub(crate) fn query(&self) -> String {
         match self {
             Key::Ms(ms) => ms.to_string(),
             Key::Text(s) => s.clone(),
@@ -218,6 +220,75 @@ pub struct Pages {
     pub received: usize,
     /// `_id`s of documents marked `isValid: false` (deleted through API v3).
     pub deleted: Vec<String>,
+    /// Treatments found only by the `_id` probe (no `created_at` string).
+    pub without_created_at: usize,
+    /// What the paging could not prove complete, said in words (the
+    /// sync's report carries them; nothing is dropped in silence).
+    pub unproven: Vec<String>,
+}
+
+impl Pages {
+    /// Adds documents fetched beside the paging (kept once by `_id`, the
+    /// later replacing the earlier); how many were new.
+    pub fn add(&mut self, c: Collection, docs: Vec<Value>) -> usize {
+        let index = self
+            .docs
+            .iter()
+            .enumerate()
+            .map(|(i, d)| (doc_key(d), i))
+            .collect();
+        let mut col = Collector {
+            out: std::mem::take(self),
+            index,
+        };
+        let fresh = docs.into_iter().filter(|d| col.take(d.clone())).count();
+        *self = col.finish(c);
+        fresh
+    }
+}
+
+/// The documents of one fetch, each kept once by `_id` (the last fetched
+/// wins; a document served `isValid: false` is taken as deleted).
+#[derive(Default)]
+pub(crate) struct Collector {
+    pub(crate) out: Pages,
+    index: HashMap<String, usize>,
+}
+
+impl Collector {
+    /// Keeps `d`; whether it is new to this fetch.
+    pub(crate) fn take(&mut self, d: Value) -> bool {
+        let key = doc_key(&d);
+        if d.get("isValid") == Some(&Value::Bool(false)) {
+            if !self.out.deleted.contains(&key) {
+                self.out.deleted.push(key.clone());
+            }
+            if let Some(&i) = self.index.get(&key) {
+                self.out.docs[i] = Value::Null;
+            }
+            return false;
+        }
+        match self.index.get(&key) {
+            Some(&i) => {
+                self.out.docs[i] = d;
+                false
+            }
+            None => {
+                self.index.insert(key, self.out.docs.len());
+                self.out.docs.push(d);
+                true
+            }
+        }
+    }
+
+    /// The documents, newest first.
+    fn finish(self, c: Collection) -> Pages {
+        let mut out = self.out;
+        out.docs.retain(|d| !d.is_null());
+        out.docs
+            .sort_by_key(|d| std::cmp::Reverse(c.time_of(d).unwrap_or(i64::MIN)));
+        out
+    }
 }
 
 /// The most pages one collection's fetch asks for (a guard against a
@@ -234,11 +305,11 @@ pub fn doc_id(doc: &Value) -> Option<String> {
     }
 }
 
-fn doc_key(doc: &Value) -> String {
+pub(crate) fn doc_key(doc: &Value) -> String {
     doc_id(doc).unwrap_or_else(|| doc.to_string())
 }
 
-fn as_array(client: &Client, call: &str, v: Value) -> Result<Vec<Value>, NsError> {
+pub(crate) fn as_array(client: &Client, call: &str, v: Value) -> Result<Vec<Value>, NsError> {
     match v {
         Value::Array(a) => Ok(a),
         other => Err(NsError::Protocol {
@@ -276,7 +347,12 @@ const OFFSET_SLACK_MS: i64 = 14 * 3_600_000 + 1000;
 /// hold in several forms: with or without milliseconds, `Z` or an
 /// offset); each next page's `$lte` is the least bound in the server's
 /// form at or above the last page's least key, so no document between
-/// two pages is skipped whatever its form.
+/// two pages is skipped whatever its form. A page that brings nothing
+/// new and is as long as any the server served holds only documents at
+/// its keys, as many as the server serves at once: that range of keys is
+/// read by `_id` ([`crate::by_id`]) before the paging steps below it. Treatments without a `created_at` string, which
+/// no bound on it matches, are read by `_id` too, those inserted since
+/// `since` (their ObjectId's time) and every one whose `_id` is a string.
 pub fn fetch_since(
     client: &Client,
     c: Collection,
@@ -287,9 +363,9 @@ pub fn fetch_since(
     let gte = format!("find[{field}][$gte]");
     let lte = format!("find[{field}][$lte]");
     let lower = since.map(|s| c.lower(s));
-    let mut out = Pages::default();
-    let mut index: HashMap<String, usize> = HashMap::new();
+    let mut col = Collector::default();
     let mut upper: Option<Key> = None;
+    let mut largest = 0;
     let call = format!("GET {}", c.path());
     let protocol = |problem: String| NsError::Protocol {
         site: client.site().to_string(),
@@ -297,7 +373,7 @@ pub fn fetch_since(
         problem,
     };
     loop {
-        if out.pages >= MAX_PAGES {
+        if col.out.pages >= MAX_PAGES {
             return Err(protocol(format!(
                 "more than {MAX_PAGES} pages: the server seems to ignore find[{field}]"
             )));
@@ -311,11 +387,15 @@ pub fn fetch_since(
         }
         q.push(("count", page.to_string()));
         let docs = as_array(client, &call, client.get(c.path(), &q)?)?;
-        out.pages += 1;
+        col.out.pages += 1;
         if docs.is_empty() {
             break;
         }
-        out.received += docs.len();
+        col.out.received += docs.len();
+        // A page shorter than one the server served before was not cut
+        // by its maximum: it holds everything in its bounds.
+        let whole = docs.len() < largest;
+        largest = largest.max(docs.len());
         let mut fresh = 0;
         let mut least: Option<(Key, Key)> = None;
         for d in docs {
@@ -339,23 +419,8 @@ pub fn fetch_since(
                     Some((l, h)) => (l.min(lo), h.min(hi)),
                 });
             }
-            let key = doc_key(&d);
-            if d.get("isValid") == Some(&Value::Bool(false)) {
-                if !out.deleted.contains(&key) {
-                    out.deleted.push(key.clone());
-                }
-                if let Some(&i) = index.get(&key) {
-                    out.docs[i] = Value::Null;
-                }
-                continue;
-            }
-            match index.get(&key) {
-                Some(&i) => out.docs[i] = d,
-                None => {
-                    index.insert(key, out.docs.len());
-                    out.docs.push(d);
-                    fresh += 1;
-                }
+            if col.take(d) {
+                fresh += 1;
             }
         }
         let Some((least_lo, least_hi)) = least else {
@@ -364,10 +429,18 @@ pub fn fetch_since(
         };
         // Something new: the next page starts at the least key again (the
         // documents sharing it come once more, kept once); nothing new:
-        // below it.
+        // below the least key, after reading by `_id` the keys from it to
+        // the bound when the page was full (they may hold more).
         let next = if fresh > 0 {
             least_hi.at_or_above()
+        } else if whole {
+            least_lo.below()
         } else {
+            let from = match &lower {
+                Some(l) if *l > least_lo => l.clone(),
+                _ => least_lo.clone(),
+            };
+            crate::by_id::range(client, c, &from, upper.as_ref(), page, &mut col)?;
             least_lo.below()
         };
         let Some(next) = next else { break };
@@ -376,10 +449,10 @@ pub fn fetch_since(
         }
         upper = Some(next);
     }
-    out.docs.retain(|d| !d.is_null());
-    out.docs
-        .sort_by_key(|d| std::cmp::Reverse(c.time_of(d).unwrap_or(i64::MIN)));
-    Ok(out)
+    if c == Collection::Treatments {
+        crate::by_id::without_created_at(client, since.unwrap_or(0), page, &mut col)?;
+    }
+    Ok(col.finish(c))
 }
 
 /// The profile store's documents (all of them: a few).
@@ -415,23 +488,37 @@ pub fn v3_last_modified(client: &Client) -> Result<HashMap<String, i64>, NsError
     Ok(out)
 }
 
-/// API v3 `history` of `collection` after `since` (ms of `srvModified`):
-/// the identifiers of documents deleted (`isValid: false`) and the newest
-/// `srvModified` seen. `limit` is halved while the site refuses it (400:
-/// a site's `API3_MAX_LIMIT` below Nightscout's default 1,000).
-pub fn v3_deleted(
+/// What API v3 `history` said since a mark.
+#[derive(Debug, Clone, Default)]
+pub struct History {
+    /// Identifiers of documents deleted (`isValid: false`).
+    pub deleted: Vec<String>,
+    /// Identifiers of valid documents without a `created_at` string
+    /// (treatments v1 paging by time cannot see; one changed long after
+    /// it was inserted is outside the `_id` probe's window too).
+    pub without_created_at: Vec<String>,
+    /// The newest `srvModified` seen (the next mark).
+    pub mark: i64,
+}
+
+/// API v3 `history` of `collection` after `since` (ms of `srvModified`).
+/// `limit` is halved while the site refuses it (400: a site's
+/// `API3_MAX_LIMIT` below Nightscout's default 1,000).
+pub fn v3_history(
     client: &Client,
     collection: &str,
     since: i64,
     limit: usize,
-) -> Result<(Vec<String>, i64), NsError> {
-    let mut mark = since;
+) -> Result<History, NsError> {
+    let mut out = History {
+        mark: since,
+        ..History::default()
+    };
     let mut limit = limit.max(1);
-    let mut deleted = Vec::new();
     let path_of = |m: i64| format!("/api/v3/{collection}/history/{m}");
     let mut pages = 0;
     while pages < MAX_PAGES {
-        let path = path_of(mark);
+        let path = path_of(out.mark);
         let v = match client.get(&path, &[("limit", limit.to_string())]) {
             Ok(v) => v,
             Err(NsError::Status { status: 400, .. }) if limit > 1 => {
@@ -449,18 +536,23 @@ pub fn v3_deleted(
         if docs.is_empty() {
             break;
         }
-        let before = mark;
+        let before = out.mark;
         for d in &docs {
             if let Some(m) = d.get("srvModified").and_then(Value::as_i64) {
-                mark = mark.max(m);
+                out.mark = out.mark.max(m);
             }
+            let Some(id) = d.get("identifier").and_then(Value::as_str) else {
+                continue;
+            };
             if d.get("isValid") == Some(&Value::Bool(false)) {
-                if let Some(id) = d.get("identifier").and_then(Value::as_str) {
-                    deleted.push(id.to_string());
-                }
+                out.deleted.push(id.to_string());
+            } else if collection == "treatments"
+                && !d.get("created_at").is_some_and(Value::is_string)
+            {
+                out.without_created_at.push(id.to_string());
             }
         }
-        if mark == before {
+        if out.mark == before {
             return Err(NsError::Protocol {
                 site: client.site().to_string(),
                 call: format!("GET {path}"),
@@ -471,7 +563,35 @@ pub fn v3_deleted(
             break;
         }
     }
-    Ok((deleted, mark))
+    Ok(out)
+}
+
+/// The v1 documents (with the `_id` the import keys by) of the treatment
+/// API v3 calls `identifier`: by `_id` when it is an ObjectId (v3 names a
+/// document created through v1 by its `_id`), else by the `identifier`
+/// field. Naming `_id` skips Nightscout's default 4-day filter.
+pub fn treatments_of_identifier(client: &Client, identifier: &str) -> Result<Vec<Value>, NsError> {
+    let path = Collection::Treatments.path();
+    let q: Vec<(&str, String)> = if is_object_id(identifier) {
+        vec![
+            ("find[_id]", identifier.to_string()),
+            ("count", "10".into()),
+        ]
+    } else {
+        vec![
+            ("find[identifier]", identifier.to_string()),
+            ("find[_id][$ne]", crate::by_id::object_id_at(0)),
+            ("count", "10".into()),
+        ]
+    };
+    let docs = as_array(client, &format!("GET {path}"), client.get(path, &q)?)?;
+    Ok(docs
+        .into_iter()
+        .filter(|d| {
+            d.get("identifier").and_then(Value::as_str) == Some(identifier)
+                || doc_id(d).as_deref() == Some(identifier)
+        })
+        .collect())
 }
 
 /// Whether `s` is a MongoDB ObjectId in hex (what `_id` holds on a site).
@@ -498,14 +618,10 @@ pub fn ids_of_identifier(
     }
     let q = [
         ("find[identifier]", identifier.to_string()),
-        // Without a bound on the date field Nightscout looks at 4 days only.
-        (
-            match c {
-                Collection::Entries => "find[date][$gte]",
-                Collection::Treatments => "find[created_at][$gte]",
-            },
-            c.lower(0).query(),
-        ),
+        // Naming `_id` skips Nightscout's default 4-day filter (a bound on
+        // the date field would miss a treatment without `created_at`);
+        // `$ne` the zero ObjectId excludes nothing.
+        ("find[_id][$ne]", crate::by_id::object_id_at(0)),
         ("count", "10".to_string()),
     ];
     let docs = as_array(

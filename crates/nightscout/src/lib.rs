@@ -6,6 +6,9 @@
 //!   redirects, retries of 429 and 5xx.
 //! - [`fetch`]: API v1 paging by time (newest first, `count`, duplicates
 //!   across pages), profiles, API v3 `history` for deletions.
+//! - [`by_id`]: API v1 paging by `_id` where time cannot page: more
+//!   documents at one key than a page holds, treatments without a
+//!   `created_at` string.
 //! - [`sync`]: what is new into the person's store, by the same import as
 //!   files, the marks advancing in the import's transaction.
 //! - [`write_back`]: opt-in; one Note per suggestion and an `abba` profile
@@ -16,6 +19,7 @@
 #![cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used))]
 
 pub mod background;
+pub mod by_id;
 pub mod client;
 pub mod error;
 pub mod fetch;

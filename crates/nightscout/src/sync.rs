@@ -67,6 +67,10 @@ pub struct SyncReport {
     /// site no longer serves in the window read again (deleted through
     /// API v1, which leaves no trace): their records are kept, and said.
     pub gone: Vec<String>,
+    /// What the paging could not prove complete (a server that does not
+    /// page by `_id` as Nightscout does, see [`crate::by_id`]): what was
+    /// read is imported, and what may be missing is said here.
+    pub unproven: Vec<String>,
 }
 
 /// One collection of a sync.
@@ -82,6 +86,8 @@ pub struct CollectionReport {
     pub pages: usize,
     /// abba's own Notes (write-back), left out.
     pub own: usize,
+    /// Treatments without a `created_at` string, found by `_id`.
+    pub without_created_at: usize,
 }
 
 /// What a check of a site found.
@@ -213,12 +219,62 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
     let mut fetched = Fetched::default();
     let mut reports = Vec::new();
     let mut gone = Vec::new();
+    let mut unproven = Vec::new();
+    let mut fetched_pages = Vec::new();
     for c in [Collection::Entries, Collection::Treatments] {
         let mark = marks.get(c.name()).copied();
         // Always a lower bound: without one, Nightscout answers only the
         // last 4 days (`deltaAgo` in `lib/server/query.js`).
         let since = Some(mark.map_or(0, |m| m.saturating_sub(opts.overlap_ms)));
-        let mut pages = fetch::fetch_since(&client, c, since, opts.page)?;
+        let pages = fetch::fetch_since(&client, c, since, opts.page)?;
+        fetched_pages.push((c, mark, since, pages));
+    }
+    let profiles = fetch::profiles(&client, opts.page)?;
+    // API v3: what was deleted since the last sync (a first sync starts
+    // from the site's lastModified: what it fetched is what is valid),
+    // and the treatments without `created_at` changed since, which the
+    // `_id` probe reaches only when they were inserted lately.
+    let v3 = client.has_jwt() && fetch::has_v3(&client);
+    if v3 {
+        let last = fetch::v3_last_modified(&client)?;
+        for col in ["entries", "treatments", "profile"] {
+            let key = format!("v3:{col}");
+            match marks.get(&key) {
+                Some(&m) => {
+                    let h = fetch::v3_history(&client, col, m, opts.page)?;
+                    let c = match col {
+                        "entries" => Some(Collection::Entries),
+                        "treatments" => Some(Collection::Treatments),
+                        _ => None,
+                    };
+                    for identifier in h.deleted {
+                        match c {
+                            // v3 keys by `identifier`, the import by `_id`.
+                            Some(c) => fetched.deleted.extend(fetch::ids_of_identifier(
+                                &client,
+                                c,
+                                &identifier,
+                            )?),
+                            None => fetched.deleted.push(identifier),
+                        }
+                    }
+                    if let Some((c, _, _, pages)) = fetched_pages
+                        .iter_mut()
+                        .find(|(c, ..)| *c == Collection::Treatments && col == "treatments")
+                    {
+                        changed_without_created_at(&client, *c, pages, &h.without_created_at)?;
+                    }
+                    fetched.marks.insert(key, h.mark);
+                }
+                None => {
+                    fetched
+                        .marks
+                        .insert(key, last.get(col).copied().unwrap_or(0));
+                }
+            }
+        }
+    }
+    for (c, mark, since, mut pages) in fetched_pages {
         gone.extend(gone_from(store, &link.person, &client, c, since, &pages)?);
         // abba's own Notes (write-back) are not the person's data.
         let before = pages.docs.len();
@@ -230,7 +286,9 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
             documents: pages.docs.len(),
             pages: pages.pages,
             own,
+            without_created_at: pages.without_created_at,
         });
+        unproven.append(&mut pages.unproven);
         // The mark: the newest document that is not in the future (those
         // are refused by the import and fetched again until their time).
         let newest = pages
@@ -264,13 +322,13 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
                 .push((client.site().join(c.path()), json_bytes(&docs)?));
         }
     }
-    let profiles = fetch::profiles(&client, opts.page)?;
     reports.push(CollectionReport {
         name: "profile",
         received: profiles.len(),
         documents: profiles.len(),
         pages: 1,
         own: 0,
+        without_created_at: 0,
     });
     if !profiles.is_empty() {
         let docs: Vec<&Value> = profiles.iter().collect();
@@ -278,42 +336,6 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
             client.site().join("/api/v1/profile.json"),
             json_bytes(&docs)?,
         ));
-    }
-    // API v3: what was deleted since the last sync (a first sync starts
-    // from the site's lastModified: what it fetched is what is valid).
-    let v3 = client.has_jwt() && fetch::has_v3(&client);
-    if v3 {
-        let last = fetch::v3_last_modified(&client)?;
-        for col in ["entries", "treatments", "profile"] {
-            let key = format!("v3:{col}");
-            match marks.get(&key) {
-                Some(&m) => {
-                    let (deleted, mark) = fetch::v3_deleted(&client, col, m, opts.page)?;
-                    let c = match col {
-                        "entries" => Some(Collection::Entries),
-                        "treatments" => Some(Collection::Treatments),
-                        _ => None,
-                    };
-                    for identifier in deleted {
-                        match c {
-                            // v3 keys by `identifier`, the import by `_id`.
-                            Some(c) => fetched.deleted.extend(fetch::ids_of_identifier(
-                                &client,
-                                c,
-                                &identifier,
-                            )?),
-                            None => fetched.deleted.push(identifier),
-                        }
-                    }
-                    fetched.marks.insert(key, mark);
-                }
-                None => {
-                    fetched
-                        .marks
-                        .insert(key, last.get(col).copied().unwrap_or(0));
-                }
-            }
-        }
     }
     fetched.deleted.sort();
     fetched.deleted.dedup();
@@ -335,7 +357,43 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
         import,
         write_back,
         gone,
+        unproven,
     })
+}
+
+/// The treatments API v3's history names as changed and valid without a
+/// `created_at` string that the v1 pages do not hold: their v1 documents
+/// (with the `_id` the import keys by) join the pages; one v1 does not
+/// serve is said in the report.
+fn changed_without_created_at(
+    client: &Client,
+    c: Collection,
+    pages: &mut fetch::Pages,
+    identifiers: &[String],
+) -> Result<(), NsError> {
+    let held: std::collections::HashSet<String> = pages
+        .docs
+        .iter()
+        .filter_map(fetch::doc_id)
+        .chain(pages.docs.iter().filter_map(|d| {
+            d.get("identifier")
+                .and_then(Value::as_str)
+                .map(String::from)
+        }))
+        .collect();
+    for identifier in identifiers.iter().filter(|i| !held.contains(*i)) {
+        let docs = fetch::treatments_of_identifier(client, identifier)?;
+        pages.pages += 1;
+        pages.received += docs.len();
+        if docs.is_empty() {
+            pages.unproven.push(format!(
+                "API v3's history names treatment {identifier} as changed, which API v1 does not serve"
+            ));
+            continue;
+        }
+        pages.without_created_at += pages.add(c, docs);
+    }
+    Ok(())
 }
 
 /// The documents of `c` whose records the store holds from this site in

@@ -4,6 +4,7 @@
 //! from it, and the store compared as records.
 #![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
 
+pub mod mongo;
 pub mod server;
 
 use abba_advisor::Mode;
@@ -202,4 +203,35 @@ pub fn assert_same_records(a: &Store, b: &Store) {
         ra.len(),
         rb.len()
     );
+}
+
+/// An ObjectId made at `ms` (by the server inserting it), the `n`-th.
+pub fn object_id(ms: i64, n: usize) -> String {
+    format!("{:08x}{:016x}", ms / 1000, 0x5eed_0000_0000_u64 + n as u64)
+}
+
+/// A Loop-style UUID `_id` (a string to MongoDB).
+pub fn uuid(n: usize) -> String {
+    format!("7d6bcbb3-9c4d-4e5e-8d7e-{n:012x}")
+}
+
+/// `n` BG Checks at one `created_at`, their `_id`s ObjectIds and UUIDs in
+/// turn, stored in an order that is not their `_id` order.
+pub fn one_instant(n: usize, at: &str) -> Vec<Value> {
+    let t = at.parse::<jiff::Timestamp>().unwrap().as_millisecond();
+    let mut docs: Vec<(usize, Value)> = (0..n)
+        .map(|i| {
+            let id = if i % 2 == 0 {
+                object_id(t + 60_000, i)
+            } else {
+                uuid(i)
+            };
+            let d = json!({"_id": id, "eventType": "BG Check", "created_at": at,
+                "glucose": 80 + (i % 90), "glucoseType": "Finger", "units": "mg/dl",
+                "enteredBy": "xDrip", "utcOffset": 60});
+            ((i * 7919) % n, d)
+        })
+        .collect();
+    docs.sort_by_key(|(k, _)| *k);
+    docs.into_iter().map(|(_, d)| d).collect()
 }

@@ -2,8 +2,9 @@
 //! Nightscout's documented API (our own code; `lib/server/swagger.yaml`,
 //! `lib/api3/doc/*.md`, wiki "API-v1-Security" of nightscout/cgm-remote-monitor):
 //!
-//! - v1 `entries`, `treatments` (`find[field][$gte|$gt|$lte|$lt]`, `count`
-//!   with a default of 10 and a server-side maximum, newest first),
+//! - v1 `entries`, `treatments` (`find[...]` and `sort[...]` as
+//!   `mongo.rs` evaluates them, `count` with Nightscout's defaults and a
+//!   server-side maximum, newest first unless sorted otherwise),
 //!   `profile` (newest `startDate` first), `status`; POST/PUT/DELETE of
 //!   treatments and PUT of profiles;
 //! - authentication: `api-secret` = SHA-1 hex of API_SECRET (admin),
@@ -18,15 +19,17 @@
 //!
 //! Filters and sorts act on the stored values as MongoDB's do on a real
 //! site (`lib/server/query.js`, `lib/server/treatments.js`,
-//! `lib/server/entries.js` of cgm-remote-monitor): `date` as a number,
-//! `created_at` as the stored string (with its bound rewritten to
-//! `toISOString()` form, as `enforceDateFilter` does), a document without
-//! the field matching no bound. Options for a site's other behaviours: a
+//! `lib/server/entries.js` of cgm-remote-monitor; see `mongo.rs`): `date`
+//! as a number, `created_at` as the stored string (with its bound
+//! rewritten to `toISOString()` form, as `enforceDateFilter` does, unless
+//! the query names `_id`), a document without the field matching no
+//! bound, a 24-hex `_id` an ObjectId and any other a string. Options for a site's other behaviours: a
 //! readable default role (`AUTH_DEFAULT_ROLES=readable`, Nightscout's
 //! default), no `/api/v2/authorization` (an older site: `?token=`),
 //! `DE_NORMALIZE_DATES`, a lower `API3_MAX_LIMIT`, a path prefix.
 #![allow(dead_code)]
 
+use super::mongo;
 use axum::body::{Body, Bytes};
 use axum::extract::{Path, Query, State};
 use axum::http::{HeaderMap, Method, StatusCode, Uri};
@@ -71,6 +74,9 @@ pub struct Site {
     pub denormalize: bool,
     /// API v3's largest `limit` (`API3_MAX_LIMIT`).
     pub v3_max_limit: usize,
+    /// `sort[...]` is ignored (a server that is not Nightscout's code:
+    /// always newest first by the date field).
+    pub ignores_sort: bool,
     next_id: u64,
     clock: i64,
 }
@@ -145,6 +151,7 @@ impl Site {
             v2_auth: true,
             denormalize: false,
             v3_max_limit: 1000,
+            ignores_sort: false,
             next_id: 1,
             clock: 1_700_000_000_000,
         }
@@ -178,6 +185,21 @@ impl Site {
                 || d.doc.get("identifier").and_then(Value::as_str) == Some(id)
             {
                 d.valid = false;
+                d.srv_modified = m;
+            }
+        }
+    }
+
+    /// Changes a document as API v3's PATCH does (by its `_id` or its
+    /// `identifier`): a new `srvModified`, in the document too.
+    pub fn change(&mut self, col: &'static str, id: &str, f: impl Fn(&mut Value)) {
+        let m = self.tick();
+        for d in self.docs.entry(col).or_default() {
+            if d.doc.get("_id").and_then(Value::as_str) == Some(id)
+                || d.doc.get("identifier").and_then(Value::as_str) == Some(id)
+            {
+                f(&mut d.doc);
+                d.doc["srvModified"] = json!(m);
                 d.srv_modified = m;
             }
         }
@@ -281,6 +303,15 @@ fn who(site: &mut Site, headers: &HeaderMap, query: &[(String, String)], v3: boo
     Who::Nobody
 }
 
+/// A query MongoDB or Nightscout's code refuses: Nightscout answers 500.
+fn mongo_error(e: &str) -> Response {
+    (
+        StatusCode::INTERNAL_SERVER_ERROR,
+        axum::Json(json!({"status": 500, "message": "Mongo Error", "description": e})),
+    )
+        .into_response()
+}
+
 fn unauthorized() -> Response {
     (
         StatusCode::UNAUTHORIZED,
@@ -363,28 +394,6 @@ pub fn iso(ms: i64) -> String {
         .unwrap()
         .strftime("%Y-%m-%dT%H:%M:%S%.3fZ")
         .to_string()
-}
-
-/// A filter value as Nightscout types it: `date` (entries) a number
-/// (`parseInt`); a date field's non-numeric value parsed and rewritten to
-/// `toISOString()` form (`enforceDateFilter`); the rest as given.
-fn typed_bound(col: &str, field: &str, value: &str) -> Result<Value, String> {
-    if col == "entries" && field == "date" {
-        return value
-            .parse::<f64>()
-            .map(|v| json!(v.trunc()))
-            .map_err(|_| format!("date {value}"));
-    }
-    let date_field = (col == "treatments" && field == "created_at")
-        || (col == "entries" && field == "dateString");
-    if date_field && value.parse::<f64>().is_err() {
-        let t = value
-            .replace(' ', "+")
-            .parse::<jiff::Timestamp>()
-            .map_err(|_| format!("Cannot parse {value} as a valid ISO-8601 date"))?;
-        return Ok(Value::String(iso(t.as_millisecond())));
-    }
-    Ok(Value::String(value.to_string()))
 }
 
 /// MongoDB's order of two stored values of one field: numbers by value,
@@ -493,14 +502,15 @@ async fn v1_list(
                     .collect()
             })
             .unwrap_or_default();
+        let find = match mongo::Find::parse(col, &q) {
+            Ok(f) => f,
+            Err(e) => return mongo_error(&e),
+        };
         // Nightscout's `enforceDateFilter`: a v1 query of entries or
-        // treatments without a bound on its date field (and no `_id`) gets
-        // the last 4 days.
-        let bounded = q.iter().any(|(k, _)| {
-            k.starts_with(&format!("find[{sort}]"))
-                || k.starts_with("find[_id]")
-                || (col == "entries" && k.starts_with("find[dateString]"))
-        });
+        // treatments without a bound on its date field and without `_id`
+        // gets the last 4 days.
+        let bounded =
+            find.has_id() || find.names(sort) || (col == "entries" && find.names("dateString"));
         if col != "profile" && !bounded {
             let from = jiff::Timestamp::now().as_millisecond() - 4 * 86_400_000;
             let bound = if col == "entries" {
@@ -510,44 +520,50 @@ async fn v1_list(
             };
             docs.retain(|d| keep(d, sort, "$gte", &bound));
         }
-        for (k, v) in &q {
-            let Some(rest) = k.strip_prefix("find[") else {
-                continue;
-            };
-            let (field, op) = match rest.split_once("][") {
-                Some((f, op)) => (f, op.trim_end_matches(']')),
-                None => (rest.trim_end_matches(']'), "$eq"),
-            };
-            let value = match typed_bound(col, field, v) {
-                Ok(v) => v,
-                Err(e) => {
-                    return (
-                        StatusCode::INTERNAL_SERVER_ERROR,
-                        axum::Json(json!({"status": 500, "message": e})),
-                    )
-                        .into_response()
-                }
-            };
-            docs.retain(|d| keep(d, field, op, &value));
+        let mut kept = Vec::with_capacity(docs.len());
+        for d in docs {
+            match find.matches(&d) {
+                Ok(true) => kept.push(d),
+                Ok(false) => {}
+                Err(e) => return mongo_error(&e),
+            }
         }
-        // MongoDB's sort on the stored field, newest first; documents
-        // without it last.
-        docs.sort_by(|a, b| match (a.get(sort), b.get(sort)) {
-            (Some(x), Some(y)) => mongo_cmp(y, x).unwrap_or(std::cmp::Ordering::Equal),
-            (Some(_), None) => std::cmp::Ordering::Less,
-            (None, Some(_)) => std::cmp::Ordering::Greater,
-            (None, None) => std::cmp::Ordering::Equal,
-        });
+        let mut docs = kept;
+        // MongoDB's sort: `sort[...]` as given, else the stored date
+        // field, newest first (documents without it last).
+        let asked: &[(String, String)] = if site.ignores_sort { &[] } else { &q };
+        let by = match mongo::sort_of(asked, (sort, -1)) {
+            Ok(b) => b,
+            Err(e) => return mongo_error(&e),
+        };
+        mongo::sort(&mut docs, &by);
         let count = q
             .iter()
             .find(|(k, _)| k == "count")
             .and_then(|(_, v)| v.parse::<usize>().ok())
-            .unwrap_or(10)
+            .unwrap_or(match col {
+                // `lib/api/treatments/index.js`: 1,000 with a `find`.
+                "treatments" if q.iter().any(|(k, _)| k.starts_with("find[")) => 1000,
+                "treatments" => 100,
+                _ => 10,
+            })
             .min(site.max_count);
+        let mut docs: Vec<Value> = docs.into_iter().take(count).collect();
+        if col == "entries" {
+            // `format_entries` orders the page by `mills` or `date`,
+            // newest first (a stable sort: ties keep MongoDB's order).
+            docs.sort_by_key(|d| {
+                std::cmp::Reverse(
+                    d.get("mills")
+                        .and_then(Value::as_i64)
+                        .or_else(|| d.get("date").and_then(Value::as_i64))
+                        .unwrap_or(i64::MIN),
+                )
+            });
+        }
         let denorm = site.denormalize;
         let page: Vec<Value> = docs
             .into_iter()
-            .take(count)
             .map(|d| match (denorm, col) {
                 (true, "treatments") => denormalized(d, "created_at"),
                 (true, "entries") => denormalized(d, "dateString"),

@@ -1,0 +1,265 @@
+//! Paging API v1 by `_id`, where paging by time cannot reach: the
+//! documents of one key (or one narrow range of keys) when they are more
+//! than the server serves in a page, and the treatments without a
+//! `created_at` string, which no bound on `created_at` matches (API v3
+//! inserts on a site with `API3_CREATED_AT_FALLBACK_ENABLED=false`, which
+//! carry `date` in ms; uploaders writing to MongoDB directly).
+//!
+//! What this relies on, read in cgm-remote-monitor 7e0e77f and the
+//! MongoDB node driver (our reading, not their code):
+//!
+//! - `lib/server/query.js` `create()`: a query naming `_id` skips
+//!   `enforceDateFilter` entirely (no default 4-day filter, and the other
+//!   fields' values reach MongoDB as the strings given: a `created_at`
+//!   bound is compared verbatim, and `find[created_at][$not][$type]=string`
+//!   is a valid filter, "missing or not a string"); every 24-hex leaf under
+//!   `_id` becomes an ObjectId (`updateIdQuery`).
+//! - `lib/server/treatments.js` `list()` and `lib/server/entries.js`
+//!   `list()`: `.sort(opts.sort || ...)` with the query string's `sort`, so
+//!   `sort[_id]=1` reaches the driver as `{_id: '1'}`; the driver's
+//!   `prepareDirection` (`src/sort.ts` of mongodb/node-mongodb-native, read
+//!   at one commit, not at the 5.9 line Nightscout pins) takes `'1'` and
+//!   `'-1'` as 1 and -1. `lib/api/entries/index.js` orders each page by
+//!   date again (a stable sort), treatments are served in MongoDB's order.
+//! - MongoDB compares only within a type: `$gt` an ObjectId never matches
+//!   a string `_id` (Loop's UUIDs), and in ascending order every string
+//!   comes before every ObjectId. So each set is read in two runs:
+//!   `find[_id][$type]=string` then `$gt` the last string, until an empty
+//!   page; then `find[_id][$gte]=<ObjectId>` then `$gt` the last, until an
+//!   empty page.
+//!
+//! What cannot be proven is said in [`crate::fetch::Pages::unproven`]: a page out of
+//! `_id` order or outside its bound (the server ignores `sort[_id]` or
+//! `find[_id]`), a string `_id` of 24 hex digits ending a page (it would
+//! be sent back as an ObjectId: the strings after it are not reached).
+//! A 24-hex `_id` stored as a string (Nightscout's own writes make
+//! ObjectIds of them) is taken for an ObjectId.
+//!
+//! The treatments without `created_at` are read from the ObjectId of the
+//! sync's lower bound on (an ObjectId's first 4 bytes are the second it
+//! was made, by the server inserting it): what was inserted since the
+//! window read again, so the cost follows what is new, with no mark of
+//! its own. That misses none: the bound is the treatments' mark less the
+//! overlap (24 h), the mark is never later than the last sync plus the
+//! import's future skew (10 min), so a document inserted after the last
+//! sync began is above it, and one inserted before was read by a sync
+//! whose bound was no later (marks only grow), unless the clock making
+//! its ObjectId was a day off. Those with a string `_id` have no time to
+//! start from and are read whole each sync.
+
+use crate::client::Client;
+use crate::error::NsError;
+use crate::fetch::{as_array, doc_id, is_object_id, Collection, Collector, Key, MAX_PAGES};
+use serde_json::Value;
+
+/// The least ObjectId made at or after `ms` (its seconds, then zeros).
+pub fn object_id_at(ms: i64) -> String {
+    let s = ms.div_euclid(1000).clamp(0, i64::from(u32::MAX));
+    format!("{s:08x}0000000000000000")
+}
+
+/// The documents of `c` with keys from `from` to `to` (inclusive; `None`:
+/// no upper bound), all of them, by `_id`.
+pub(crate) fn range(
+    client: &Client,
+    c: Collection,
+    from: &Key,
+    to: Option<&Key>,
+    page: usize,
+    col: &mut Collector,
+) -> Result<(), NsError> {
+    let field = c.field();
+    let mut filter = vec![(format!("find[{field}][$gte]"), from.query())];
+    if let Some(t) = to {
+        filter.push((format!("find[{field}][$lte]"), t.query()));
+    }
+    let what = match to {
+        Some(t) if t == from => format!("{} at {field} {}", c.name(), from.query()),
+        Some(t) => format!(
+            "{} with {field} from {} to {}",
+            c.name(),
+            from.query(),
+            t.query()
+        ),
+        None => format!("{} with {field} from {}", c.name(), from.query()),
+    };
+    paged(client, c, &filter, &object_id_at(0), page, &what, col).map(|_| ())
+}
+
+/// The treatments without a `created_at` string: those with an ObjectId
+/// made at or after `since_ms`, and every one with a string `_id`.
+pub(crate) fn without_created_at(
+    client: &Client,
+    since_ms: i64,
+    page: usize,
+    col: &mut Collector,
+) -> Result<(), NsError> {
+    let filter = vec![(
+        "find[created_at][$not][$type]".to_string(),
+        "string".to_string(),
+    )];
+    let found = paged(
+        client,
+        Collection::Treatments,
+        &filter,
+        &object_id_at(since_ms),
+        page,
+        "treatments without a created_at string",
+        col,
+    )?;
+    col.out.without_created_at += found;
+    Ok(())
+}
+
+/// Which run of `_id`s a page belongs to, and the last `_id` read in it.
+enum Run {
+    Strings(Option<String>),
+    ObjectIds(Option<String>),
+}
+
+/// Pages `filter` by `_id` ascending: the string `_id`s, then the
+/// ObjectIds from `from_oid`. Returns how many documents were new.
+fn paged(
+    client: &Client,
+    c: Collection,
+    filter: &[(String, String)],
+    from_oid: &str,
+    page: usize,
+    what: &str,
+    col: &mut Collector,
+) -> Result<usize, NsError> {
+    let mut run = Run::Strings(None);
+    let mut pages = 0;
+    let mut fresh = 0;
+    let call = format!("GET {}", c.path());
+    loop {
+        if pages >= MAX_PAGES {
+            return Err(NsError::Protocol {
+                site: client.site().to_string(),
+                call,
+                problem: format!("more than {MAX_PAGES} pages of {what} by _id"),
+            });
+        }
+        let mut q: Vec<(&str, String)> = filter
+            .iter()
+            .map(|(k, v)| (k.as_str(), v.clone()))
+            .collect();
+        match &run {
+            Run::Strings(None) => q.push(("find[_id][$type]", "string".into())),
+            Run::Strings(Some(l)) | Run::ObjectIds(Some(l)) => {
+                q.push(("find[_id][$gt]", l.clone()))
+            }
+            Run::ObjectIds(None) => q.push(("find[_id][$gte]", from_oid.to_string())),
+        }
+        q.push(("sort[_id]", "1".into()));
+        q.push(("count", page.to_string()));
+        let docs = as_array(client, &call, client.get(c.path(), &q)?)?;
+        pages += 1;
+        col.out.pages += 1;
+        if docs.is_empty() {
+            match run {
+                Run::Strings(_) => {
+                    run = Run::ObjectIds(None);
+                    continue;
+                }
+                Run::ObjectIds(_) => break,
+            }
+        }
+        col.out.received += docs.len();
+        let strings = matches!(run, Run::Strings(_));
+        let problem = check(c, &docs, &run, from_oid);
+        let last = docs
+            .iter()
+            .filter_map(|d| doc_id(d).map(|id| norm(id, strings)))
+            .max();
+        for d in docs {
+            if col.take(d) {
+                fresh += 1;
+            }
+        }
+        if let Some(p) = problem {
+            col.out
+                .unproven
+                .push(format!("{what}: {p}; more may be on the site"));
+            if strings {
+                run = Run::ObjectIds(None);
+                continue;
+            }
+            break;
+        }
+        let Some(last) = last else { break };
+        run = match run {
+            Run::Strings(_) if is_object_id(&last) => {
+                col.out.unproven.push(format!(
+                    "{what}: a page of string _ids ends at {last}, which reads as an ObjectId \
+                     and cannot bound the next page; string _ids after it may be on the site"
+                ));
+                Run::ObjectIds(None)
+            }
+            Run::Strings(_) => Run::Strings(Some(last)),
+            Run::ObjectIds(_) => Run::ObjectIds(Some(last)),
+        };
+    }
+    Ok(fresh)
+}
+
+/// An `_id` as MongoDB orders it within its run: a string by its bytes,
+/// an ObjectId by its bytes (its hex in lower case).
+fn norm(id: String, strings: bool) -> String {
+    if strings {
+        id
+    } else {
+        id.to_ascii_lowercase()
+    }
+}
+
+/// Why a page read by `_id` proves nothing, if it does not: an `_id`
+/// outside the page's bound or of the wrong run, or out of order
+/// (entries are served ordered by date again: only ties are checked).
+fn check(c: Collection, docs: &[Value], run: &Run, from_oid: &str) -> Option<String> {
+    let strings = matches!(run, Run::Strings(_));
+    let mut prev: Option<(String, Option<i64>)> = None;
+    for d in docs {
+        let Some(id) = doc_id(d) else {
+            return Some("a document without _id".into());
+        };
+        let oid = is_object_id(&id);
+        let id = norm(id, strings);
+        let outside = match run {
+            Run::Strings(None) => false,
+            Run::Strings(Some(l)) => id.as_str() <= l.as_str(),
+            Run::ObjectIds(None) => !oid || id.as_str() < from_oid,
+            Run::ObjectIds(Some(l)) => !oid || id.as_str() <= l.as_str(),
+        };
+        if outside {
+            return Some(format!(
+                "the server served _id {id} outside the asked bound (does it ignore find[_id]?)"
+            ));
+        }
+        let t = c.time_of(d);
+        if let Some((p, pt)) = &prev {
+            let compare = c == Collection::Treatments || *pt == t;
+            if compare && p.as_str() > id.as_str() {
+                return Some(format!(
+                    "the server served _id {id} after {p} (does it ignore sort[_id]?)"
+                ));
+            }
+        }
+        prev = Some((id, t));
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn object_ids_of_a_time_bound_what_was_made_since() {
+        assert_eq!(object_id_at(0), "000000000000000000000000");
+        // 2021-02-17T14:06:16Z, the time in 602d22d89e9fc2456f934373.
+        assert_eq!(object_id_at(1_613_570_776_999), "602d22d80000000000000000");
+        assert!("602d22d89e9fc2456f934373" >= object_id_at(1_613_570_776_000).as_str());
+        assert!("602d22d79e9fc2456f934373" < object_id_at(1_613_570_776_000).as_str());
+    }
+}

@@ -41,6 +41,60 @@ impl ArmKind {
             ArmKind::Autotune => "autotune",
         }
     }
+
+    /// The arm in a figure's legend: `ABBA`, `standard therapy`, ...
+    pub fn label(self) -> &'static str {
+        match self {
+            ArmKind::Abba => "ABBA",
+            ArmKind::Standard => "standard therapy",
+            ArmKind::R2r => "run-to-run",
+            ArmKind::Autotune => "autotune (oref0)",
+        }
+    }
+
+    /// The arm in a table's column header: `ABBA`, `standard`, ...
+    pub fn short_label(self) -> &'static str {
+        match self {
+            ArmKind::Abba => "ABBA",
+            ArmKind::Standard => "standard",
+            ArmKind::R2r => "run-to-run",
+            ArmKind::Autotune => "autotune",
+        }
+    }
+
+    /// The arm as a table's title, with the measurement mode it ran in.
+    pub fn title(self, mode: crate::Mode) -> String {
+        let mode = mode.name().to_uppercase();
+        match self {
+            ArmKind::Abba => format!("ABBA ({mode} mode)"),
+            ArmKind::Standard => "standard therapy (settings never change)".to_string(),
+            ArmKind::R2r => format!("run-to-run baseline ({mode} mode)"),
+            ArmKind::Autotune => {
+                "autotune (oref0), nightly over the previous day's CGM".to_string()
+            }
+        }
+    }
+
+    /// The trial configuration's section holding this arm's knobs.
+    pub fn config_section(self) -> &'static str {
+        match self {
+            ArmKind::Abba => "abba",
+            ArmKind::Standard => "fixed_limits",
+            ArmKind::R2r => "r2r",
+            ArmKind::Autotune => "autotune",
+        }
+    }
+
+    /// The arm's colour in figures (Okabe-Ito, distinguishable by people
+    /// with colour-vision deficiency), as RGB.
+    pub fn colour_rgb(self) -> (u8, u8, u8) {
+        match self {
+            ArmKind::Abba => (0, 114, 178),
+            ArmKind::Standard => (90, 90, 90),
+            ArmKind::R2r => (213, 94, 0),
+            ArmKind::Autotune => (0, 158, 115),
+        }
+    }
 }
 
 impl std::fmt::Display for ArmKind {
@@ -70,5 +124,17 @@ mod tests {
             assert_eq!(serde_json::to_string(&a).unwrap(), format!("\"{a}\""));
         }
         assert!("abba-cgm".parse::<ArmKind>().is_err());
+    }
+
+    #[test]
+    fn every_arm_has_its_own_labels_and_colour() {
+        for (i, a) in ArmKind::ALL.iter().enumerate() {
+            for b in &ArmKind::ALL[i + 1..] {
+                assert_ne!(a.label(), b.label());
+                assert_ne!(a.short_label(), b.short_label());
+                assert_ne!(a.colour_rgb(), b.colour_rgb());
+                assert_ne!(a.config_section(), b.config_section());
+            }
+        }
     }
 }

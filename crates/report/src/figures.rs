@@ -52,23 +52,8 @@ fn scenario_color(scenario: ScenarioId) -> RGBColor {
 
 /// Colours of the arms.
 fn arm_color(advisor: ArmKind) -> RGBColor {
-    match advisor {
-        ArmKind::Abba => RGBColor(0, 114, 178),
-        ArmKind::Standard => RGBColor(90, 90, 90),
-        ArmKind::R2r => RGBColor(213, 94, 0),
-        // Okabe-Ito bluish green.
-        ArmKind::Autotune => RGBColor(0, 158, 115),
-    }
-}
-
-/// The arm's name in a legend.
-fn arm_label(advisor: ArmKind) -> &'static str {
-    match advisor {
-        ArmKind::Abba => "ABBA",
-        ArmKind::Standard => "standard therapy",
-        ArmKind::R2r => "run-to-run",
-        ArmKind::Autotune => "autotune (oref0)",
-    }
+    let (r, g, b) = advisor.colour_rgb();
+    RGBColor(r, g, b)
 }
 
 /// The weeks simulated in any of `arms`, in protocol order.
@@ -580,7 +565,7 @@ pub fn fig_arms(arms: &[ArmResult]) -> Result<String, ReportError> {
         }
         let items: Vec<(String, RGBColor, Key)> = advisors
             .iter()
-            .map(|a| (arm_label(*a).to_string(), arm_color(*a), Key::Line))
+            .map(|a| (a.label().to_string(), arm_color(*a), Key::Line))
             .collect();
         draw_footer(footer, &items, &footer_notes(None, &ordered), FIG)
     })

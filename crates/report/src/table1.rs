@@ -407,16 +407,6 @@ pub fn format_p(p: f64) -> String {
     }
 }
 
-fn advisor_title(advisor: ArmKind, mode: Mode) -> String {
-    let mode = mode.name().to_uppercase();
-    match advisor {
-        ArmKind::Abba => format!("ABBA ({mode} mode)"),
-        ArmKind::Standard => "standard therapy (settings never change)".to_string(),
-        ArmKind::R2r => format!("run-to-run baseline ({mode} mode)"),
-        ArmKind::Autotune => "autotune (oref0), nightly over the previous day's CGM".to_string(),
-    }
-}
-
 fn scenario_title(scenario: ScenarioId) -> &'static str {
     match scenario {
         ScenarioId::S1 => "CGM throughout",
@@ -473,7 +463,7 @@ fn arms_side_by_side(s: &mut String, arms: &[ArmResult], scenario: ScenarioId) {
     let mut rule = String::from("|---|");
     for w in &weeks {
         for a in &in_scenario {
-            let _ = write!(header, " {w} {} |", short_advisor(a.advisor));
+            let _ = write!(header, " {w} {} |", a.advisor.short_label());
             rule.push_str("---:|");
         }
     }
@@ -498,15 +488,6 @@ fn arms_side_by_side(s: &mut String, arms: &[ArmResult], scenario: ScenarioId) {
         let _ = writeln!(s, "{line}");
     }
     let _ = writeln!(s);
-}
-
-fn short_advisor(advisor: ArmKind) -> &'static str {
-    match advisor {
-        ArmKind::Abba => "ABBA",
-        ArmKind::Standard => "standard",
-        ArmKind::R2r => "run-to-run",
-        ArmKind::Autotune => "autotune",
-    }
 }
 
 /// `table1.md`: for each scenario and arm, a table of the five bands, LBGI
@@ -561,7 +542,7 @@ pub fn table1_markdown(arms: &[ArmResult]) -> Result<String, ReportError> {
         let _ = writeln!(
             s,
             "### {scenario} · {} · n = {} patients\n",
-            advisor_title(advisor, arm_rows[0].mode),
+            advisor.title(arm_rows[0].mode),
             arm_rows[0].n_patients
         );
         let weeks: Vec<Week> = Week::TABLE

@@ -1,6 +1,6 @@
 //! The checks that turn a [`RawTrialConfig`] into a plan.
 
-use super::{advisor_spec, ArmKind, PlannedScenario, RawTrialConfig, TrialConfig};
+use super::{advisor_spec, PlannedScenario, RawTrialConfig, TrialConfig};
 use crate::error::TrialError;
 use abba_advisor::Mode;
 use abba_sim::scenario::ScenarioId;
@@ -114,12 +114,7 @@ pub(super) fn check(c: &RawTrialConfig) -> Result<Vec<PlannedScenario>, TrialErr
     // Every advisor that will run, checked now rather than inside the jobs.
     for p in &planned {
         for arm in &c.arms {
-            let field = match arm {
-                ArmKind::Abba => "abba",
-                ArmKind::Standard => "fixed_limits",
-                ArmKind::R2r => "r2r",
-                ArmKind::Autotune => "autotune",
-            };
+            let field = arm.config_section();
             advisor_spec(c, *arm, p.mode)
                 .validate()
                 .map_err(|e| TrialError::Config(format!("{field}: {e}")))?;

@@ -17,19 +17,13 @@ use abba_io::record::{Origin, OriginAt};
 use abba_io::{Record, RecordKind, Source, SourceId};
 use rusqlite::{params, Connection};
 
+/// A stored record's source, by the name serde gives it (`libre_view`,
+/// `care_link`, ...): the reader's enum is the one list of sources.
 fn parse_source(s: &str) -> Result<Source, StoreError> {
-    Ok(match s {
-        "nightscout" => Source::Nightscout,
-        "clarity" => Source::Clarity,
-        "libre_view" => Source::LibreView,
-        "tidepool" => Source::Tidepool,
-        "plain_csv" => Source::PlainCsv,
-        "care_link" => Source::CareLink,
-        other => {
-            return serde_json::from_value(serde_json::Value::String(other.into()))
-                .map_err(|e| StoreError::corrupt("record source", e))
-        }
-    })
+    use serde::de::IntoDeserializer;
+    use serde::Deserialize;
+    let de: serde::de::value::StrDeserializer<'_, serde::de::value::Error> = s.into_deserializer();
+    Source::deserialize(de).map_err(|e| StoreError::corrupt("record source", e))
 }
 
 /// The schema migration that re-keys records from the old identity (a

@@ -29,8 +29,9 @@ pub use error::{ErrorBody, ErrorCode};
 pub use events::{DeviceEvent, EventBody, EventsAck, EventsBody, MealSlot, TempRate};
 pub use sync::{SeqRange, SyncResponse};
 pub use views::{
-    AdviceResponse, DataSummary, Health, HistoryResponse, NightscoutLink, PhaseView, Setting,
-    SettingAdvice, Suggestion, SuggestionList,
+    AdviceResponse, BandedValue, DataSummary, Health, HistoryResponse, NightscoutLink,
+    NoPredictionKind, PhaseView, PredictedEffect, RangeFigures, Setting, SettingAdvice, Suggestion,
+    SuggestionEffect, SuggestionList, TwinCheckOutcome,
 };
 
 /// The notice every human-facing text carries.

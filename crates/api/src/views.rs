@@ -91,7 +91,9 @@ pub struct Suggestion {
     /// Day of the advisor's clock it is for (1 = day 1).
     pub day: i64,
     /// `open`, `accepted`, `rejected`, `overridden`, `superseded` (not
-    /// answered before the next one; taken as followed) or `no_update`.
+    /// answered before the next one; taken as followed) or `no_update`;
+    /// in the advice also `held_back` (open, but held back by the twin
+    /// check: see [`SuggestionEffect`]).
     pub status: String,
     /// The value in force after the answer (the suggestion while open).
     pub in_force: f64,
@@ -160,6 +162,100 @@ pub struct SettingAdvice {
     pub use_today: f64,
     /// The latest suggestion, if any.
     pub latest: Option<Suggestion>,
+    /// An open suggestion's predicted effect on the person's twin and the
+    /// twin check; absent when nothing is open.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub effect: Option<SuggestionEffect>,
+}
+
+/// A figure with its 5-95 % band over the twin's posterior draws.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct BandedValue {
+    /// At the twin's most probable parameters.
+    pub value: f64,
+    /// 5th percentile.
+    pub low: f64,
+    /// 95th percentile.
+    pub high: f64,
+}
+
+/// Time in 70-180 mg/dL and below 70 mg/dL (%, or percentage points for
+/// a change).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct RangeFigures {
+    /// Time in 70-180 mg/dL.
+    pub tir_pct: BandedValue,
+    /// Time below 70 mg/dL.
+    pub below_70_pct: BandedValue,
+}
+
+/// What the twin predicts over the recent days.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PredictedEffect {
+    /// Recent days replayed.
+    pub days: u64,
+    /// The twin's revision.
+    pub twin_revision: u32,
+    /// The twin's grade: `good` or `fair`.
+    pub grade: String,
+    /// The recorded days as they were (the settings in force).
+    pub in_force: RangeFigures,
+    /// The same days with the suggestion.
+    pub suggested: RangeFigures,
+    /// Suggested minus in force (percentage points).
+    pub change: RangeFigures,
+}
+
+/// What the twin check made of a suggestion.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum TwinCheckOutcome {
+    /// The predicted time below 70 does not rise by more than the margin.
+    Passed,
+    /// It does: the suggestion is held back (use the value in force).
+    HeldBack,
+    /// The check is off.
+    Off,
+    /// No prediction, nothing checked.
+    NoPrediction,
+}
+
+/// Why there is no prediction.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum NoPredictionKind {
+    /// This service predicts no effects.
+    NotAvailable,
+    /// The person has no twin yet.
+    NoTwin,
+    /// The twin's grade is "not usable".
+    NotUsable,
+    /// The twin is older than the data.
+    Outdated,
+    /// The twin's replay failed.
+    Failed,
+}
+
+/// A suggestion's predicted effect and the twin check.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct SuggestionEffect {
+    /// The prediction, when there is a usable twin fitted on the current data.
+    #[serde(default)]
+    pub predicted: Option<PredictedEffect>,
+    /// Otherwise why not.
+    #[serde(default)]
+    pub no_prediction: Option<NoPredictionKind>,
+    /// The details of why not, in plain words.
+    #[serde(default)]
+    pub no_prediction_detail: Option<String>,
+    /// The twin check.
+    pub twin_check: TwinCheckOutcome,
+    /// The check's margin (percentage points of time below 70 mg/dL).
+    pub margin_pp: f64,
 }
 
 /// What the advice rests on.

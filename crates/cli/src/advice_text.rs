@@ -1,9 +1,69 @@
 //! Today's advice as text for people.
 
 use abba_store::advise::{Advice, Phase, SettingAdvice};
+use abba_store::effect::{Band, CheckOutcome, Effect, NoPrediction, SettingEffect};
 use std::fmt::Write as _;
 
-fn name(setting: &str) -> String {
+fn band(b: &Band) -> String {
+    format!("{:.1} % ({:.1} to {:.1})", b.value, b.low, b.high)
+}
+
+fn points(b: &Band) -> String {
+    format!("{:+.1} points ({:+.1} to {:+.1})", b.value, b.low, b.high)
+}
+
+/// A suggestion's predicted effect and the twin check, in sentences (the
+/// CLI's words; `abba advise` and `abba report`).
+pub fn effect_lines(name: &str, unit: &str, in_force: f64, e: &SettingEffect) -> Vec<String> {
+    let mut out = Vec::new();
+    match &e.effect {
+        Effect::Predicted(p) => {
+            out.push(format!(
+                "Predicted on your twin (revision {}, {}) over the last {} days: time in range 70-180 {} with the suggestion, {} in force ({}); time below 70 {} with it, {} in force ({}).",
+                p.twin_revision,
+                p.grade,
+                p.days,
+                band(&p.suggested.tir_pct),
+                band(&p.in_force.tir_pct),
+                points(&p.change.tir_pct),
+                band(&p.suggested.below_70_pct),
+                band(&p.in_force.below_70_pct),
+                points(&p.change.below_70_pct),
+            ));
+            match e.check {
+                CheckOutcome::HeldBack => out.push(format!(
+                    "Held back by the twin check: your twin predicts time below 70 rising by {:.1} points, more than the {:.1}-point margin. Keep {in_force:.3} {unit} today and talk it over with your clinician.",
+                    p.change.below_70_pct.value, e.margin_pp
+                )),
+                CheckOutcome::Passed => out.push(format!(
+                    "Twin check passed: time below 70 does not rise by more than {:.1} points.",
+                    e.margin_pp
+                )),
+                CheckOutcome::Off => out.push("Twin check off (--twin-check off).".into()),
+                CheckOutcome::NoPrediction => {}
+            }
+        }
+        Effect::None(why) => out.push(format!(
+            "No predicted effect for the {name}: {}.",
+            match why {
+                NoPrediction::NotAvailable => "effects are not predicted here".to_string(),
+                NoPrediction::NoTwin =>
+                    "no twin yet (`abba twin fit` makes one from your data)".to_string(),
+                NoPrediction::NotUsable { reason } =>
+                    format!("your twin is not usable ({reason})"),
+                NoPrediction::Outdated { revision } => format!(
+                    "your twin (revision {revision}) is older than your data; `abba twin fit` refits it"
+                ),
+                NoPrediction::Failed { reason } =>
+                    format!("the twin's replay failed ({reason})"),
+            }
+        )),
+    }
+    out
+}
+
+/// The setting's name in the CLI's words.
+pub fn setting_name(setting: &str) -> String {
     match setting {
         "basal" => "Basal rate".into(),
         meal => format!("{}{} carb ratio", meal[..1].to_uppercase(), &meal[1..]),
@@ -14,7 +74,7 @@ fn setting(s: &mut String, a: &SettingAdvice) {
     let _ = writeln!(
         s,
         "{}: {:.3} {} in force",
-        name(a.setting),
+        setting_name(a.setting),
         a.in_force,
         a.unit
     );
@@ -44,10 +104,10 @@ fn setting(s: &mut String, a: &SettingAdvice) {
         );
         return;
     } else {
-        let what = if v.status == "open" {
-            "suggested, waiting for your answer"
-        } else {
-            v.status.as_str()
+        let what = match v.status.as_str() {
+            "open" => "suggested, waiting for your answer",
+            "held_back" => "held back by the twin check",
+            other => other,
         };
         let _ = writeln!(
             s,
@@ -63,6 +123,16 @@ fn setting(s: &mut String, a: &SettingAdvice) {
         }
     }
     let _ = writeln!(s, "    data: {}", v.data);
+    if let Some(e) = &a.effect {
+        for line in effect_lines(
+            &setting_name(a.setting).to_lowercase(),
+            a.unit,
+            a.in_force,
+            e,
+        ) {
+            let _ = writeln!(s, "    {line}");
+        }
+    }
     if v.status == "open" {
         let _ = writeln!(
             s,
@@ -173,10 +243,11 @@ pub fn advice_text(a: &Advice) -> String {
     if d.events_refused > 0 {
         let _ = writeln!(s, "  {} event(s) refused by the advisor", d.events_refused);
     }
-    if a.settings
-        .iter()
-        .any(|x| x.latest.as_ref().is_some_and(|v| v.status == "open"))
-    {
+    if a.settings.iter().any(|x| {
+        x.latest
+            .as_ref()
+            .is_some_and(|v| v.status == "open" || v.status == "held_back")
+    }) {
         let _ = writeln!(
             s,
             "\nAnswer with `abba answer --accept`, `--reject` or `--set basal=...,breakfast=...` once you have talked it over with your clinician."

@@ -11,12 +11,24 @@ pub struct Args {
     /// Print the advice as JSON.
     #[arg(long)]
     pub json: bool,
+    /// The twin check: hold back a suggestion whose predicted time below
+    /// 70 mg/dL rises by more than 1 point on the person's twin (on, off).
+    #[arg(long, value_name = "ON|OFF", default_value = "on")]
+    pub twin_check: String,
 }
 
 /// Runs `abba advise`.
 pub fn run(a: Args) -> Result<()> {
+    let check = crate::twin_effect::twin_check(&a.twin_check)?;
     let mut store = a.who.open()?;
-    let advice = store.advise(&a.who.person)?;
+    let twin = crate::twin_effect::TwinPredictor::new(&a.who.db);
+    let advice = store.advise_with(
+        &a.who.person,
+        Some(abba_store::effect::Effects {
+            predictor: &twin,
+            check,
+        }),
+    )?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&advice)?);
     } else {

@@ -40,6 +40,7 @@ mod therapy;
 mod trial;
 mod trial_limits;
 mod twin;
+mod twin_effect;
 
 /// abba: adaptive basal-bolus advisor and in-silico trial platform.
 #[derive(Parser)]

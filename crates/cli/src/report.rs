@@ -24,6 +24,9 @@ pub struct Args {
     /// Also print the page to PDF (same name, .pdf) with headless Chromium.
     #[arg(long)]
     pub pdf: bool,
+    /// The twin check on the open suggestions (on, off), as `abba advise`.
+    #[arg(long, value_name = "ON|OFF", default_value = "on")]
+    pub twin_check: String,
 }
 
 /// Runs `abba report`.
@@ -31,8 +34,29 @@ pub fn run(a: Args) -> Result<()> {
     if !a.who.db.is_file() {
         bail!("--db {}: no such store file", a.who.db.display());
     }
+    let check = crate::twin_effect::twin_check(&a.twin_check)?;
     let mut store = a.who.open()?;
-    let input = abba_store::report::person_input(&mut store, &a.who.person, a.days, a.units)?;
+    let mut input = abba_store::report::person_input(&mut store, &a.who.person, a.days, a.units)?;
+    // Each open suggestion's predicted effect on the person's twin.
+    let twin = crate::twin_effect::TwinPredictor::new(&a.who.db);
+    let advice = store.advise_with(
+        &a.who.person,
+        Some(abba_store::effect::Effects {
+            predictor: &twin,
+            check,
+        }),
+    )?;
+    for s in &advice.settings {
+        if let (Some(e), Some(v)) = (&s.effect, &s.latest) {
+            let name = crate::advice_text::setting_name(s.setting).to_lowercase();
+            let head = format!(
+                "Open suggestion for the {name}, {:.3} -> {:.3} {}:",
+                v.previous, v.suggested, s.unit
+            );
+            let lines = crate::advice_text::effect_lines(&name, s.unit, s.in_force, e);
+            input.notes.push(format!("{head} {}", lines.join(" ")));
+        }
+    }
     let html = person_report_html(&input)?;
     std::fs::write(&a.out, &html).with_context(|| format!("cannot write {}", a.out.display()))?;
     eprintln!(

@@ -62,6 +62,11 @@ pub struct ServeArgs {
     /// Background syncs at once.
     #[arg(long, value_name = "N", default_value_t = 2)]
     pub sync_concurrency: usize,
+    /// The twin check: hold back a suggestion whose predicted time below
+    /// 70 mg/dL rises by more than 1 point on the person's stored twin
+    /// (on, off). Twins are fitted by `abba twin fit`, never by the service.
+    #[arg(long, value_name = "ON|OFF", default_value = "on")]
+    pub twin_check: String,
 }
 
 /// `--sync-every`: a duration of at least a minute.
@@ -152,6 +157,10 @@ fn init_logging() {
 /// start once it listens.
 pub fn serve(a: ServeArgs) -> Result<()> {
     let settings = a.settings()?;
+    let effects = abba_service::EffectSource {
+        predictor: std::sync::Arc::new(crate::twin_effect::TwinPredictor::new(&a.db)),
+        check: crate::twin_effect::twin_check(&a.twin_check)?,
+    };
     let background = match &a.sync_every {
         Some(v) => Some(abba_nightscout::background::Background {
             every: sync_every(v)?,
@@ -163,7 +172,7 @@ pub fn serve(a: ServeArgs) -> Result<()> {
     init_logging();
     let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
     let syncing = std::sync::Mutex::new(None);
-    let served = abba_service::serve(&a.db, &a.listen, &settings, |addr| {
+    let served = abba_service::serve_with(&a.db, &a.listen, &settings, Some(effects), |addr| {
         tracing::info!(
             target: OUT,
             "abba serve: listening on http://{addr} (store {})",

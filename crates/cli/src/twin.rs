@@ -248,6 +248,7 @@ fn replay(a: ReplayArgs) -> Result<()> {
         basal,
         carb_ratio,
         carb_ratio_factor: a.carb_ratio_factor,
+        carb_ratio_factors: None,
     };
     what_if.check()?;
     let (events, _) = events(&a.who)?;

@@ -18,6 +18,7 @@ use abba_core::{
 };
 use abba_store::advise::{self, Advice, Phase, SuggestionView};
 use abba_store::app::NewAppEvent;
+use abba_store::effect;
 
 use abba_store::{Live, NewPerson, StoreError};
 use sha2::{Digest, Sha256};
@@ -359,7 +360,14 @@ pub fn advice(
                 unit: s.unit.to_string(),
                 in_force: s.in_force,
                 use_today: s.use_today,
-                latest,
+                latest: latest.map(|mut l| {
+                    // The advice's own status (held back by the twin check).
+                    if let Some(v) = &s.latest {
+                        l.status.clone_from(&v.status);
+                    }
+                    l
+                }),
+                effect: s.effect.as_ref().map(effect),
             })
         })
         .collect::<Result<Vec<_>, StoreError>>()?;
@@ -400,6 +408,65 @@ pub fn advice(
             events_refused: a.data.events_refused as u64,
         },
     })
+}
+
+fn band(b: &effect::Band) -> abba_api::BandedValue {
+    abba_api::BandedValue {
+        value: b.value,
+        low: b.low,
+        high: b.high,
+    }
+}
+
+fn figures(f: &effect::Figures) -> abba_api::RangeFigures {
+    abba_api::RangeFigures {
+        tir_pct: band(&f.tir_pct),
+        below_70_pct: band(&f.below_70_pct),
+    }
+}
+
+/// A suggestion's predicted effect as JSON.
+pub fn effect(e: &effect::SettingEffect) -> abba_api::SuggestionEffect {
+    use abba_api::{NoPredictionKind as K, TwinCheckOutcome as O};
+    let (predicted, none, detail) = match &e.effect {
+        effect::Effect::Predicted(p) => (
+            Some(abba_api::PredictedEffect {
+                days: p.days as u64,
+                twin_revision: p.twin_revision,
+                grade: p.grade.clone(),
+                in_force: figures(&p.in_force),
+                suggested: figures(&p.suggested),
+                change: figures(&p.change),
+            }),
+            None,
+            None,
+        ),
+        effect::Effect::None(why) => {
+            let (k, d) = match why {
+                effect::NoPrediction::NotAvailable => (K::NotAvailable, None),
+                effect::NoPrediction::NoTwin => (K::NoTwin, None),
+                effect::NoPrediction::NotUsable { reason } => (K::NotUsable, Some(reason.clone())),
+                effect::NoPrediction::Outdated { revision } => (
+                    K::Outdated,
+                    Some(format!("twin revision {revision} was fitted on older data")),
+                ),
+                effect::NoPrediction::Failed { reason } => (K::Failed, Some(reason.clone())),
+            };
+            (None, Some(k), d)
+        }
+    };
+    abba_api::SuggestionEffect {
+        predicted,
+        no_prediction: none,
+        no_prediction_detail: detail,
+        twin_check: match e.check {
+            effect::CheckOutcome::Passed => O::Passed,
+            effect::CheckOutcome::HeldBack => O::HeldBack,
+            effect::CheckOutcome::Off => O::Off,
+            effect::CheckOutcome::NoPrediction => O::NoPrediction,
+        },
+        margin_pp: e.margin_pp,
+    }
 }
 
 fn advise_key(d: &Decision) -> &'static str {

@@ -28,9 +28,9 @@ pub mod state;
 pub mod web;
 
 pub use error::{ApiError, ServiceError};
-pub use server::{router, router_with, serve};
+pub use server::{router, router_with, serve, serve_with};
 pub use settings::{ServeSettings, StoreSettings};
-pub use state::AppState;
+pub use state::{AppState, EffectSource};
 
 use abba_store::Store;
 use std::path::Path;

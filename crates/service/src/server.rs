@@ -100,12 +100,26 @@ pub fn serve(
     set: &ServeSettings,
     ready: impl FnOnce(SocketAddr),
 ) -> Result<(), ServiceError> {
+    serve_with(db, listen, set, None, ready)
+}
+
+/// [`serve`] with each suggestion's predicted effect from `effects`.
+pub fn serve_with(
+    db: &Path,
+    listen: &str,
+    set: &ServeSettings,
+    effects: Option<crate::state::EffectSource>,
+    ready: impl FnOnce(SocketAddr),
+) -> Result<(), ServiceError> {
     // Connections are file descriptors: allow as many as the hard limit.
     match rlimit::increase_nofile_limit(u64::MAX) {
         Ok(n) => tracing::info!(nofile = n, "open file limit"),
         Err(e) => tracing::warn!(error = %e, "cannot raise the open file limit"),
     }
     let state = AppState::open(db, set.store.clone())?;
+    if let Some(e) = effects {
+        state.set_effects(e)?;
+    }
     let rt = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()

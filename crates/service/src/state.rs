@@ -7,6 +7,7 @@
 use crate::auth::{self, Caller, Need};
 use crate::error::{ApiError, ServiceError};
 use crate::settings::StoreSettings;
+use abba_store::effect::{EffectPredictor, Effects, TwinCheck};
 use abba_store::{Live, Store, StoreError};
 use std::collections::HashMap;
 use std::net::IpAddr;
@@ -60,6 +61,35 @@ struct Inner {
     live: moka::sync::Cache<i64, Slot>,
     failures: Mutex<HashMap<IpAddr, Failures>>,
     settings: StoreSettings,
+    effects: std::sync::OnceLock<EffectSource>,
+}
+
+/// What predicts a suggestion's effect for the service (the `abba` binary
+/// wires in the person's stored twin) and the twin check.
+#[derive(Clone)]
+pub struct EffectSource {
+    /// The predictor (never fits inside a request).
+    pub predictor: Arc<dyn EffectPredictor>,
+    /// The twin check.
+    pub check: TwinCheck,
+}
+
+impl std::fmt::Debug for EffectSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("EffectSource")
+            .field("check", &self.check)
+            .finish_non_exhaustive()
+    }
+}
+
+impl EffectSource {
+    /// As the advice takes it.
+    pub fn effects(&self) -> Effects<'_> {
+        Effects {
+            predictor: self.predictor.as_ref(),
+            check: self.check,
+        }
+    }
 }
 
 /// Shared by every handler.
@@ -114,8 +144,23 @@ impl AppState {
                 live,
                 failures: Mutex::new(HashMap::new()),
                 settings,
+                effects: std::sync::OnceLock::new(),
             }),
         })
+    }
+
+    /// Puts each suggestion's predicted effect into the advice from now on
+    /// (once; a second call is refused).
+    pub fn set_effects(&self, source: EffectSource) -> Result<(), ServiceError> {
+        self.inner
+            .effects
+            .set(source)
+            .map_err(|_| ServiceError::Pool("the effect predictor is already set".into()))
+    }
+
+    /// The effect predictor and the twin check, when one is set.
+    pub fn effects(&self) -> Option<EffectSource> {
+        self.inner.effects.get().cloned()
     }
 
     /// The store file.

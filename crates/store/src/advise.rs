@@ -73,6 +73,10 @@ pub struct SettingAdvice {
     pub use_today: f64,
     /// The latest decision, if any.
     pub latest: Option<SuggestionView>,
+    /// An open suggestion's predicted effect and the twin check
+    /// ([`crate::effect`]); absent for a setting with nothing open.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub effect: Option<crate::effect::SettingEffect>,
 }
 
 /// Where the person stands.
@@ -492,6 +496,7 @@ pub fn advice_with(
                 in_force,
                 use_today,
                 latest,
+                effect: None,
             }
         })
         .collect();

@@ -21,6 +21,7 @@ pub mod answer;
 pub mod app;
 pub mod busy;
 pub mod check;
+pub mod effect;
 pub mod error;
 pub mod history;
 pub mod import;

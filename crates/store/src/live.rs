@@ -256,6 +256,14 @@ impl Live {
             self.extras.as_ref(),
         )
     }
+
+    /// [`Live::advice`] with each open suggestion's predicted effect and
+    /// the twin check ([`crate::effect::predict`]).
+    pub fn advice_with(&self, effects: Option<crate::effect::Effects<'_>>) -> advise::Advice {
+        let mut a = self.advice();
+        crate::effect::predict(&mut a, &self.stream.events, effects);
+        a
+    }
 }
 
 fn same(a: &Decision, b: &Decision) -> bool {

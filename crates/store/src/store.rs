@@ -499,8 +499,25 @@ impl Store {
     /// Today's advice.
     pub fn advise(&mut self, name: &str) -> Result<Advice, StoreError> {
         let (p, s) = self.state(name, true)?;
-        Ok(advise::advice_with(
-            &p,
+        Ok(Self::advice_of(&p, &s))
+    }
+
+    /// [`Store::advise`] with each open suggestion's predicted effect and
+    /// the twin check ([`crate::effect::predict`]).
+    pub fn advise_with(
+        &mut self,
+        name: &str,
+        effects: Option<crate::effect::Effects<'_>>,
+    ) -> Result<Advice, StoreError> {
+        let (p, s) = self.state(name, true)?;
+        let mut a = Self::advice_of(&p, &s);
+        crate::effect::predict(&mut a, &s.stream.events, effects);
+        Ok(a)
+    }
+
+    fn advice_of(p: &Person, s: &State) -> Advice {
+        advise::advice_with(
+            p,
             &s.stream,
             s.records,
             &s.advisor,
@@ -508,7 +525,7 @@ impl Store {
             &s.answers,
             s.refused,
             s.extras.as_ref(),
-        ))
+        )
     }
 
     /// Every decision with the answer and the value in force, oldest first.

@@ -210,7 +210,7 @@ pub fn same_outcome(a: (&PlannedScenario, ArmKind), b: (&PlannedScenario, ArmKin
 }
 
 /// The person and advisor of one run, and the run's name for messages.
-fn start(
+pub(crate) fn start(
     config: &TrialConfig,
     vp: &VirtualPatient,
     patient_no: u64,
@@ -251,7 +251,7 @@ fn start(
 }
 
 /// The result of a finished run.
-fn result(
+pub(crate) fn result(
     vp: &VirtualPatient,
     person: &VirtualPerson,
     advisor: &AnyAdvisor,

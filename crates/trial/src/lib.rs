@@ -69,6 +69,7 @@ pub mod protocol;
 pub mod report;
 pub mod runner;
 pub mod shard;
+pub mod twin_arm;
 pub mod w1_sensitivity;
 
 /// The results model and statistics live in abba-report; re-exported at

@@ -432,6 +432,10 @@ pub struct WhatIf {
     pub carb_ratio: Option<[f64; 3]>,
     /// Or: every carb ratio times this factor.
     pub carb_ratio_factor: Option<f64>,
+    /// And/or: each main meal's carb ratio (breakfast, lunch, dinner) times
+    /// its own factor (one suggestion changes one meal's ratio).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub carb_ratio_factors: Option<[f64; 3]>,
 }
 
 impl WhatIf {
@@ -467,6 +471,14 @@ impl WhatIf {
                 )));
             }
         }
+        for (k, f) in self.carb_ratio_factors.iter().flatten().enumerate() {
+            if !(f.is_finite() && (0.5..=2.0).contains(f)) {
+                return Err(TwinError::Setting(format!(
+                    "carb ratio factor {} ({f}): expected a number from 0.5 to 2",
+                    k + 1
+                )));
+            }
+        }
         Ok(())
     }
 
@@ -483,6 +495,11 @@ impl WhatIf {
         }
         if let Some(k) = self.carb_ratio_factor {
             f = f.map(|v| v / k);
+        }
+        if let Some(k) = self.carb_ratio_factors {
+            for s in 0..3 {
+                f[s] /= k[s];
+            }
         }
         Ok(f)
     }

@@ -148,6 +148,14 @@ pub struct SuggestionCard {
     pub own_value: String,
     /// The own value's unit.
     pub unit: String,
+    /// The predicted effect on the person's twin, or why there is none
+    /// (`.effect`).
+    pub effect: Option<String>,
+    /// The twin check's outcome in words (`.twin-check`).
+    pub twin_check: Option<String>,
+    /// True when the twin check held the suggestion back (no accept
+    /// button; keeping the value in force is the answer offered first).
+    pub held_back: bool,
 }
 
 /// One setting on Today.

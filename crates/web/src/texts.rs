@@ -88,6 +88,27 @@ pub struct Texts {
     pub no_change: &'static str,
     /// No decision yet.
     pub no_decision: &'static str,
+    /// A suggestion's predicted effect ({revision}, {grade}, {days},
+    /// {tir_new}, {tir_now}, {tir_change}, {low_new}, {low_now}, {low_change}).
+    pub effect_predicted: &'static str,
+    /// The twin check held a suggestion back ({rise}, {margin}, {value}).
+    pub twin_check_held_back: &'static str,
+    /// The twin check passed ({margin}).
+    pub twin_check_passed: &'static str,
+    /// The twin check is off.
+    pub twin_check_off: &'static str,
+    /// No prediction: this service predicts no effects.
+    pub no_prediction_not_available: &'static str,
+    /// No prediction: no twin yet.
+    pub no_prediction_no_twin: &'static str,
+    /// No prediction: the twin is not usable ({reason}).
+    pub no_prediction_not_usable: &'static str,
+    /// No prediction: the twin is older than the data ({revision}).
+    pub no_prediction_outdated: &'static str,
+    /// No prediction: the replay failed ({reason}).
+    pub no_prediction_failed: &'static str,
+    /// The report's note on an open suggestion ({setting}, {from}, {to}).
+    pub report_open_suggestion: &'static str,
     /// The first week ({done}, {left}, {total}).
     pub first_week: &'static str,
     /// Accept.
@@ -294,6 +315,16 @@ pub const EN: Texts = Texts {
     how_details: "How abba got there",
     no_change: "No change today.",
     no_decision: "No suggestion yet.",
+    effect_predicted: "Predicted on your twin (revision {revision}, {grade}) over the last {days} days: time in range (70-180 mg/dL) {tir_new} with the suggestion, {tir_now} as now ({tir_change}); time below 70 mg/dL {low_new} with it, {low_now} as now ({low_change}). A twin's prediction is not medical advice.",
+    twin_check_held_back: "Held back by the twin check: your twin predicts time below 70 mg/dL rising by {rise} points, more than the {margin}-point margin. Keep {value} today and talk it over with your clinician.",
+    twin_check_passed: "Twin check passed: time below 70 mg/dL does not rise by more than {margin} points.",
+    twin_check_off: "The twin check is off.",
+    no_prediction_not_available: "No predicted effect: this service has no twins.",
+    no_prediction_no_twin: "No predicted effect: you have no twin yet (abba twin fit makes one from your data).",
+    no_prediction_not_usable: "No predicted effect: your twin is not usable ({reason}).",
+    no_prediction_outdated: "No predicted effect: your twin (revision {revision}) is older than your data; it needs a refit (abba twin fit).",
+    no_prediction_failed: "No predicted effect: the twin's replay failed ({reason}).",
+    report_open_suggestion: "Open suggestion for {setting}: {from} to {to}.",
     first_week: "abba is observing your first week: day {done} of {total}, {left} to go. Your settings stay as they are until then.",
     accept: "Accept",
     reject: "Keep the previous value",

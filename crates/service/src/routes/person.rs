@@ -255,8 +255,9 @@ pub async fn advice(
     State(s): State<AppState>,
     PersonId(id): PersonId,
 ) -> Result<Json<AdviceResponse>, ApiError> {
+    let effects = s.effects();
     s.person(id, false, move |store, live| {
-        let a = live.advice();
+        let a = live.advice_with(effects.as_ref().map(|e| e.effects()));
         let mut r = convert::advice(live, a, &mut |d| store.producer(id, d))?;
         // The Nightscout link's last sync (issue 25).
         r.nightscout = store

@@ -7,12 +7,12 @@
 use super::page::{html, message, render, PageError, PageResult};
 use super::session::{self, Ctx};
 use crate::error::ApiError;
-use crate::state::AppState;
+use crate::state::{AppState, EffectSource};
 use abba_report::html::person::person_report_html;
 use abba_store::advise::SuggestionView;
 use abba_store::Live;
 use abba_web::pages::{History, HistoryRow, Layout};
-use abba_web::texts::EN;
+use abba_web::texts::{fill, EN};
 use axum::extract::{Path, State};
 use axum::http::{header, HeaderValue, StatusCode};
 use axum::response::Response;
@@ -100,18 +100,44 @@ pub async fn page(State(s): State<AppState>, ctx: Ctx) -> PageResult {
     render(StatusCode::OK, "history.html", &layout, &h)
 }
 
+/// Each open suggestion's predicted effect and the twin check, as notes
+/// of the report (the pages' words).
+fn effect_notes(live: &Live, fx: Option<&EffectSource>, notes: &mut Vec<String>) {
+    let a = live.advice_with(fx.map(EffectSource::effects));
+    for (&p, sa) in abba_store::advise::PARAMETERS.iter().zip(&a.settings) {
+        let (Some(e), Some(v)) = (&sa.effect, &sa.latest) else {
+            continue;
+        };
+        let (effect, check, _) = super::today::effect_words(p, e, sa.in_force);
+        let head = fill(
+            EN.report_open_suggestion,
+            &[
+                ("setting", super::today::title(p)),
+                ("from", &super::today::with_unit(p, v.previous)),
+                ("to", &super::today::with_unit(p, v.suggested)),
+            ],
+        );
+        let words: Vec<String> = [Some(head), effect, check].into_iter().flatten().collect();
+        notes.push(words.join(" "));
+    }
+}
+
 /// The report of person `id` as a page: the report's own HTML (one
 /// self-contained document with its inline stylesheet), served with a CSP
 /// that allows exactly that stylesheet (by its hash) and nothing else.
 async fn report(s: &AppState, id: i64, csrf: Option<String>) -> PageResult {
+    let fx = s.effects();
     let out = s
-        .person(id, false, |store, live| {
+        .person(id, false, move |store, live| {
             let name = live.person.name.clone();
             let unit = live.person.settings.units;
             match abba_store::report::person_input(store, &name, REPORT_DAYS, unit) {
-                Ok(input) => person_report_html(&input)
-                    .map(Some)
-                    .map_err(ApiError::internal),
+                Ok(mut input) => {
+                    effect_notes(live, fx.as_ref(), &mut input.notes);
+                    person_report_html(&input)
+                        .map(Some)
+                        .map_err(ApiError::internal)
+                }
                 Err(abba_store::StoreError::NoData(_)) => Ok(None),
                 Err(e) => Err(e.into()),
             }

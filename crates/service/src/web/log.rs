@@ -11,7 +11,7 @@ use super::today::{card, with_unit};
 use crate::body::RawBody;
 use crate::error::ApiError;
 use crate::routes::person::{post_batch, Numbering};
-use crate::state::AppState;
+use crate::state::{AppState, EffectSource};
 use abba_advisor::Parameter;
 use abba_api::{DeviceEvent, EventBody, EventsBody, MealSlot as WireSlot};
 use abba_core::units::GlucoseUnit;
@@ -92,7 +92,13 @@ pub fn round_bolus(units: f64) -> f64 {
 }
 
 /// The log's model; `typed` and errors after a refused entry.
-fn model(store: &Store, live: &Live, show: After, typed: Typed) -> Result<Log, ApiError> {
+fn model(
+    store: &Store,
+    live: &Live,
+    show: After,
+    typed: Typed,
+    fx: Option<&EffectSource>,
+) -> Result<Log, ApiError> {
     let id = live.person.id;
     let (glucose_label, glucose_step) = match live.person.settings.units {
         GlucoseUnit::MgDl => (fill(EN.glucose_label, &[("unit", "mg/dL")]), "1"),
@@ -100,12 +106,15 @@ fn model(store: &Store, live: &Live, show: After, typed: Typed) -> Result<Log, A
     };
     let import_fed = fed_by_imports(store, id)?.then(|| EN.log_import_fed.to_string());
     let slot = typed.slot.unwrap_or_else(|| default_slot(live));
-    let a = live.advice();
+    let a = live.advice_with(fx.map(EffectSource::effects));
     let setting = |p: Parameter| {
-        PARAMETERS
-            .iter()
-            .position(|&q| q == p)
-            .map(|i| (a.settings[i].use_today, a.settings[i].in_force))
+        PARAMETERS.iter().position(|&q| q == p).map(|i| {
+            (
+                a.settings[i].use_today,
+                a.settings[i].in_force,
+                a.settings[i].effect.clone(),
+            )
+        })
     };
     let mut meal_advice = None;
     let mut tomorrow_basal = None;
@@ -116,9 +125,9 @@ fn model(store: &Store, live: &Live, show: After, typed: Typed) -> Result<Log, A
                 store.app_event(id, seq)?.map(|e| e.event.kind)
             {
                 let p = Parameter::CarbRatio(slot);
-                if let Some((ratio, in_force)) = setting(p) {
+                if let Some((ratio, in_force, effect)) = setting(p) {
                     let bolus = round_bolus(carbs.0 / ratio);
-                    let c = card(live, p, None, in_force);
+                    let c = card(live, p, None, in_force, effect.as_ref());
                     meal_advice = Some(MealAdvice {
                         ratio: fill(EN.meal_ratio, &[("ratio", &with_unit(p, ratio))]),
                         bolus: fill(
@@ -137,7 +146,7 @@ fn model(store: &Store, live: &Live, show: After, typed: Typed) -> Result<Log, A
             }
         }
         After::DayClosed => {
-            if let Some((basal, _)) = setting(Parameter::Basal) {
+            if let Some((basal, _, _)) = setting(Parameter::Basal) {
                 tomorrow_basal = Some(fill(
                     EN.tomorrow_basal,
                     &[("value", &with_unit(Parameter::Basal, basal))],
@@ -186,9 +195,10 @@ struct Typed {
 pub async fn page(State(s): State<AppState>, ctx: Ctx, RawQuery(q): RawQuery) -> PageResult {
     let (id, w) = session::person_page(&s, &ctx).await?;
     let show = after(q.as_deref());
+    let fx = s.effects();
     let log = s
         .person(id, false, move |store, live| {
-            model(store, live, show, Typed::default())
+            model(store, live, show, Typed::default(), fx.as_ref())
         })
         .await?;
     show_log(StatusCode::OK, &w.csrf, log)
@@ -235,6 +245,7 @@ async fn enter(
             })
             .collect(),
     };
+    let fx = s.effects();
     s.person(id, true, move |store, live| {
         match post_batch(store, live, &b, Numbering::Next) {
             Ok(ack) => Ok(Ok(ack.acked)),
@@ -249,7 +260,7 @@ async fn enter(
                 } else {
                     t.carbs_error = Some(msg);
                 }
-                Ok(Err(model(store, live, After::Nothing, t)?))
+                Ok(Err(model(store, live, After::Nothing, t, fx.as_ref())?))
             }
             Err(e) => Err(e),
         }
@@ -294,9 +305,10 @@ pub async fn reading(State(s): State<AppState>, ctx: Ctx, body: RawBody) -> Page
             } else {
                 fill(EN.expected_number, &[("example", example)])
             });
+            let fx = s.effects();
             let log = s
                 .person(id, false, move |store, live| {
-                    model(store, live, After::Nothing, t)
+                    model(store, live, After::Nothing, t, fx.as_ref())
                 })
                 .await?;
             return show_log(StatusCode::UNPROCESSABLE_ENTITY, &w.csrf, log);
@@ -348,9 +360,10 @@ pub async fn meal(State(s): State<AppState>, ctx: Ctx, body: RawBody) -> PageRes
         } else {
             fill(EN.expected_number, &[("example", "45")])
         });
+        let fx = s.effects();
         let log = s
             .person(id, false, move |store, live| {
-                model(store, live, After::Nothing, t)
+                model(store, live, After::Nothing, t, fx.as_ref())
             })
             .await?;
         return show_log(StatusCode::UNPROCESSABLE_ENTITY, &w.csrf, log);

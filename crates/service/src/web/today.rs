@@ -9,10 +9,12 @@ use crate::body::RawBody;
 use crate::error::ApiError;
 use crate::routes::person::answer_batch;
 use crate::state::AppState;
+use crate::state::EffectSource;
 use abba_advisor::Parameter;
 use abba_api::{AnswerBody, AnswerItem, AnswerKind};
 use abba_store::advise::{Phase, SuggestionView, PARAMETERS};
 use abba_store::answer::param_key;
+use abba_store::effect::{Band, CheckOutcome, Effect, NoPrediction, SettingEffect};
 use abba_store::Live;
 use abba_web::pages::{Layout, SettingCard, SuggestionCard, Today};
 use abba_web::texts::{fill, EN};
@@ -50,7 +52,13 @@ pub struct ValueError {
 
 /// The card of one setting: the value in force and its latest decision.
 /// `fallback`: the value in force when the setting has no decision yet.
-pub fn card(live: &Live, p: Parameter, err: Option<&ValueError>, fallback: f64) -> SettingCard {
+pub fn card(
+    live: &Live,
+    p: Parameter,
+    err: Option<&ValueError>,
+    fallback: f64,
+    effect: Option<&SettingEffect>,
+) -> SettingCard {
     let views = live.views();
     let latest = live
         .decisions
@@ -98,6 +106,11 @@ pub fn card(live: &Live, p: Parameter, err: Option<&ValueError>, fallback: f64) 
     }
     .map(|t| fill(t, &[("value", &with_unit(p, v.in_force))]));
     let err = err.filter(|e| e.sid == sid);
+    let open = v.status == "open";
+    let (effect_words, check_words, held_back) = match effect.filter(|_| open) {
+        Some(e) => effect_words(p, e, v.previous),
+        None => (None, None, false),
+    };
     SettingCard {
         key: param_key(p),
         title: title(p),
@@ -108,19 +121,89 @@ pub fn card(live: &Live, p: Parameter, err: Option<&ValueError>, fallback: f64) 
             change: format!("{:+.1} %", v.change_percent),
             reason: v.reasons.first().cloned().unwrap_or_else(|| reason.clone()),
             details: v.reasons.iter().skip(1).cloned().collect(),
-            open: v.status == "open",
+            open,
             answered,
             value_error: err.map(|e| e.message.clone()),
             own_value: err.map(|e| e.typed.clone()).unwrap_or_default(),
             unit: p.unit().to_string(),
+            effect: effect_words,
+            twin_check: check_words,
+            held_back,
         }),
         note: None,
     }
 }
 
+fn pct(b: &Band) -> String {
+    format!("{:.1} % ({:.1} to {:.1})", b.value, b.low, b.high)
+}
+
+fn points(b: &Band) -> String {
+    format!("{:+.1} points, {:+.1} to {:+.1}", b.value, b.low, b.high)
+}
+
+/// An open suggestion's predicted effect and the twin check in words, and
+/// whether it is held back.
+pub fn effect_words(
+    p: Parameter,
+    e: &SettingEffect,
+    in_force: f64,
+) -> (Option<String>, Option<String>, bool) {
+    let margin = format!("{:.1}", e.margin_pp);
+    match &e.effect {
+        Effect::Predicted(x) => {
+            let effect = fill(
+                EN.effect_predicted,
+                &[
+                    ("revision", &x.twin_revision.to_string()),
+                    ("grade", &x.grade),
+                    ("days", &x.days.to_string()),
+                    ("tir_new", &pct(&x.suggested.tir_pct)),
+                    ("tir_now", &pct(&x.in_force.tir_pct)),
+                    ("tir_change", &points(&x.change.tir_pct)),
+                    ("low_new", &pct(&x.suggested.below_70_pct)),
+                    ("low_now", &pct(&x.in_force.below_70_pct)),
+                    ("low_change", &points(&x.change.below_70_pct)),
+                ],
+            );
+            let check = match e.check {
+                CheckOutcome::HeldBack => Some(fill(
+                    EN.twin_check_held_back,
+                    &[
+                        ("rise", &format!("{:.1}", x.change.below_70_pct.value)),
+                        ("margin", &margin),
+                        ("value", &with_unit(p, in_force)),
+                    ],
+                )),
+                CheckOutcome::Passed => Some(fill(EN.twin_check_passed, &[("margin", &margin)])),
+                CheckOutcome::Off => Some(EN.twin_check_off.to_string()),
+                CheckOutcome::NoPrediction => None,
+            };
+            (Some(effect), check, e.check == CheckOutcome::HeldBack)
+        }
+        Effect::None(why) => {
+            let words = match why {
+                NoPrediction::NotAvailable => EN.no_prediction_not_available.to_string(),
+                NoPrediction::NoTwin => EN.no_prediction_no_twin.to_string(),
+                NoPrediction::NotUsable { reason } => {
+                    fill(EN.no_prediction_not_usable, &[("reason", reason)])
+                }
+                NoPrediction::Outdated { revision } => fill(
+                    EN.no_prediction_outdated,
+                    &[("revision", &revision.to_string())],
+                ),
+                NoPrediction::Failed { reason } => {
+                    fill(EN.no_prediction_failed, &[("reason", reason)])
+                }
+            };
+            (Some(words), None, false)
+        }
+    }
+}
+
 /// Today's model.
-pub fn model(live: &Live, err: Option<&ValueError>) -> Today {
-    let a = live.advice();
+pub fn model(live: &Live, err: Option<&ValueError>, fx: Option<&EffectSource>) -> Today {
+    let a = live.advice_with(fx.map(EffectSource::effects));
     let total = live.person.settings.advisor.init_days;
     let first_week = match a.phase {
         Phase::NoData => Some((0, total)),
@@ -157,7 +240,7 @@ pub fn model(live: &Live, err: Option<&ValueError>) -> Today {
         settings: PARAMETERS
             .iter()
             .zip(&a.settings)
-            .map(|(&p, sa)| card(live, p, err, sa.in_force))
+            .map(|(&p, sa)| card(live, p, err, sa.in_force, sa.effect.as_ref()))
             .collect(),
     }
 }
@@ -174,9 +257,10 @@ fn status_text(q: Option<&str>) -> Option<String> {
 /// `GET /`: Today.
 pub async fn page(State(s): State<AppState>, ctx: Ctx, RawQuery(q): RawQuery) -> PageResult {
     let (id, w) = session::person_page(&s, &ctx).await?;
+    let fx = s.effects();
     let (today, name) = s
-        .person(id, false, |_, live| {
-            Ok((model(live, None), live.person.name.clone()))
+        .person(id, false, move |_, live| {
+            Ok((model(live, None, fx.as_ref()), live.person.name.clone()))
         })
         .await?;
     let layout = Layout::person(EN.today_title, &w.csrf, "/")
@@ -225,7 +309,13 @@ fn answer_item(form: &Form) -> Result<AnswerItem, (u64, String)> {
 
 /// The page's answer to a refused answer: Today again (422, or the
 /// store's status) with the error beside the own value.
-fn refused_answer(live: &Live, sid: u64, typed: &str, message: String) -> Today {
+fn refused_answer(
+    live: &Live,
+    sid: u64,
+    typed: &str,
+    message: String,
+    fx: Option<&EffectSource>,
+) -> Today {
     model(
         live,
         Some(&ValueError {
@@ -233,6 +323,7 @@ fn refused_answer(live: &Live, sid: u64, typed: &str, message: String) -> Today 
             typed: typed.to_string(),
             message,
         }),
+        fx,
     )
 }
 
@@ -249,12 +340,13 @@ pub async fn answer(State(s): State<AppState>, ctx: Ctx, body: RawBody) -> PageR
     let typed = form.text("value").to_string();
     let item = answer_item(&form);
     let action = form.text("action").to_string();
+    let fx = s.effects();
     let out = s
         .person(id, true, move |store, live| match item {
             Err((sid, message)) => Ok(Err((
                 StatusCode::UNPROCESSABLE_ENTITY,
                 live.person.name.clone(),
-                refused_answer(live, sid, &typed, message),
+                refused_answer(live, sid, &typed, message, fx.as_ref()),
             ))),
             Ok(item) => {
                 let sid = item.suggestion_id;
@@ -273,7 +365,7 @@ pub async fn answer(State(s): State<AppState>, ctx: Ctx, body: RawBody) -> PageR
                         Ok(Err((
                             st,
                             name,
-                            refused_answer(live, sid, &typed, plain(&e)),
+                            refused_answer(live, sid, &typed, plain(&e), fx.as_ref()),
                         )))
                     }
                     Err(e) => Err(e),

@@ -32,12 +32,22 @@ pub struct Resp {
 
 impl Svc {
     pub fn new() -> Self {
+        Self::with_effects(None)
+    }
+
+    /// A service whose advice has each suggestion's predicted effect from
+    /// `effects`.
+    pub fn with_effects(effects: Option<abba_service::EffectSource>) -> Self {
         let dir = tempfile::tempdir().unwrap();
         let db = dir.path().join("store.db");
         let mut store = abba_service::open_store(&db).unwrap();
         let (_, admin) = auth::issue(&mut store, Role::Admin).unwrap();
         drop(store);
-        let router = abba_service::router(AppState::open(&db, Default::default()).unwrap());
+        let state = AppState::open(&db, Default::default()).unwrap();
+        if let Some(e) = effects {
+            state.set_effects(e).unwrap();
+        }
+        let router = abba_service::router(state);
         Self {
             dir,
             db,

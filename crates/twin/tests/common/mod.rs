@@ -171,6 +171,7 @@ pub fn member(population: Population, no: u32) -> Outcome {
                 basal: BasalChange::Factor(1.1),
                 carb_ratio: None,
                 carb_ratio_factor: None,
+                carb_ratio_factors: None,
             },
         ),
         (
@@ -180,6 +181,7 @@ pub fn member(population: Population, no: u32) -> Outcome {
                 basal: BasalChange::Keep,
                 carb_ratio: None,
                 carb_ratio_factor: Some(1.1),
+                carb_ratio_factors: None,
             },
         ),
     ] {

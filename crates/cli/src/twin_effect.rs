@@ -1,0 +1,155 @@
+//! The person's stored twin as the store's [`EffectPredictor`]: what
+//! `abba advise`, `abba report` and `abba serve` put beside each open
+//! suggestion. Never fits: it reads the twin `abba twin fit` stored beside
+//! the store file, uses it only when its grade is usable and it was fitted
+//! on exactly the log the advice was built from, and replays the last
+//! [`EFFECT_DAYS`] days of its window with the suggestion against the
+//! recorded days. Replays are kept per (person, log hash, twin revision,
+//! setting, values), so a service answers a repeated request from memory.
+
+use abba_advisor::Parameter;
+use abba_store::effect::{
+    Band, Effect, EffectPredictor, EffectQuery, Figures, NoPrediction, Predicted, TwinCheck,
+};
+use abba_twin::{Banded, BasalChange, Grade, Ranges, WhatIf};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+/// Recent days a suggestion is replayed on.
+pub const EFFECT_DAYS: usize = 7;
+
+/// Replays kept at most (then the memory starts again).
+const CACHE_MAX: usize = 4096;
+
+type Key = (String, String, u32, &'static str, u64, u64);
+
+/// Twins beside a store file.
+#[derive(Debug)]
+pub struct TwinPredictor {
+    db: PathBuf,
+    cache: Mutex<HashMap<Key, Effect>>,
+}
+
+impl TwinPredictor {
+    /// The twins beside `db`.
+    pub fn new(db: &Path) -> Self {
+        Self {
+            db: db.to_path_buf(),
+            cache: Mutex::new(HashMap::new()),
+        }
+    }
+}
+
+/// `--twin-check on|off`.
+pub fn twin_check(on_off: &str) -> anyhow::Result<TwinCheck> {
+    match on_off {
+        "on" => Ok(TwinCheck::default()),
+        "off" => Ok(TwinCheck {
+            on: false,
+            ..TwinCheck::default()
+        }),
+        other => anyhow::bail!("--twin-check {other}: expected on or off"),
+    }
+}
+
+fn band(b: &Banded, f: fn(&Ranges) -> f64) -> Band {
+    Band {
+        value: f(&b.value),
+        low: f(&b.low),
+        high: f(&b.high),
+    }
+}
+
+fn figures(b: &Banded) -> Figures {
+    Figures {
+        tir_pct: band(b, |r| r.tir_pct),
+        below_70_pct: band(b, |r| r.below_70_pct),
+    }
+}
+
+/// The what-if of one suggestion: its setting times suggested / in force.
+fn what_if(q: &EffectQuery<'_>) -> WhatIf {
+    let factor = q.suggested / q.in_force;
+    let mut w = WhatIf {
+        basal: BasalChange::Keep,
+        carb_ratio: None,
+        carb_ratio_factor: None,
+        carb_ratio_factors: None,
+    };
+    match q.parameter {
+        Parameter::Basal => w.basal = BasalChange::Factor(factor),
+        Parameter::CarbRatio(slot) => {
+            let mut f = [1.0; 3];
+            if let Some(i) = slot.main_index() {
+                f[i] = factor;
+            }
+            w.carb_ratio_factors = Some(f);
+        }
+    }
+    w
+}
+
+impl EffectPredictor for TwinPredictor {
+    fn predict(&self, q: &EffectQuery<'_>) -> Effect {
+        let twin = match abba_twin::file::load(&self.db, q.person) {
+            Ok(Some(t)) => t,
+            Ok(None) => return Effect::None(NoPrediction::NoTwin),
+            Err(e) => {
+                return Effect::None(NoPrediction::Failed {
+                    reason: e.to_string(),
+                })
+            }
+        };
+        if twin.grade == Grade::NotUsable {
+            return Effect::None(NoPrediction::NotUsable {
+                reason: twin.grade_reason,
+            });
+        }
+        let hash = abba_twin::twin::events_hash(q.events);
+        if hash != twin.data.events_hash {
+            return Effect::None(NoPrediction::Outdated {
+                revision: twin.revision,
+            });
+        }
+        let key: Key = (
+            q.person.to_string(),
+            hash,
+            twin.revision,
+            abba_store::answer::param_key(q.parameter),
+            q.in_force.to_bits(),
+            q.suggested.to_bits(),
+        );
+        if let Some(e) = self
+            .cache
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .get(&key)
+        {
+            return e.clone();
+        }
+        let days = EFFECT_DAYS.min(twin.data.days);
+        let effect = match twin.replay(q.events, &what_if(q), days) {
+            Ok(r) => Effect::Predicted(Predicted {
+                days: r.days,
+                twin_revision: twin.revision,
+                grade: twin.grade.name().to_string(),
+                in_force: figures(&r.twin_recorded),
+                suggested: figures(&r.twin_what_if),
+                change: figures(&r.change),
+            }),
+            Err(e) => Effect::None(NoPrediction::Failed {
+                reason: e.to_string(),
+            }),
+        };
+        let mut cache = self
+            .cache
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        if cache.len() >= CACHE_MAX {
+            cache.clear();
+        }
+        cache.insert(key, effect.clone());
+        effect
+    }
+}

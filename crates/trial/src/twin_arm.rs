@@ -1,0 +1,288 @@
+//! The ABBA arm with the twin check (issue 27, item 7; opt-in, never in
+//! the default trial): a twin is fitted from the simulated person's device
+//! events, the same events the advisor sees (never the model's state or
+//! parameters), and each suggestion is replayed on it before the person
+//! gets it; one whose predicted time below 70 mg/dL rises by more than the
+//! margin is answered "rejected" for the person, so the value in force
+//! stays, as a person who heeds the check would do.
+//!
+//! The twin is fitted at the first closed day with [`TwinArmOptions::
+//! fit_days`] days of data and refitted every [`TwinArmOptions::
+//! refit_every_days`]; a suggestion is replayed on the last
+//! [`TwinArmOptions::replay_days`] days of the window the twin was fitted
+//! on. Before the first fit, and while the twin's grade is "not usable",
+//! suggestions pass unchecked (as for a person without a usable twin).
+//! Deterministic: fits and replays are.
+
+use crate::closed_loop::{self, Trace};
+use crate::error::TrialError;
+use crate::protocol::{PlannedScenario, TrialConfig};
+use crate::results::PatientResult;
+use abba_advisor::{Advisor, AdvisorError, ArmKind, Decision, Mode, Parameter};
+use abba_core::{Event, EventKind, GramsPerUnit, SettingValue, TherapySettings, UnitsPerHour};
+use abba_sim::cohort::{Population, VirtualPatient};
+use abba_twin::{BasalChange, Grade, Twin, TwinOptions, WhatIf};
+
+/// How the twin check runs in the trial.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TwinArmOptions {
+    /// Days of device data the twin is fitted on (the last ones).
+    pub fit_days: usize,
+    /// Days between refits.
+    pub refit_every_days: usize,
+    /// Days a suggestion is replayed on.
+    pub replay_days: usize,
+    /// The margin (percentage points of time below 70 mg/dL).
+    pub margin_pp: f64,
+}
+
+impl Default for TwinArmOptions {
+    fn default() -> Self {
+        Self {
+            fit_days: 14,
+            refit_every_days: 7,
+            replay_days: 7,
+            margin_pp: 1.0,
+        }
+    }
+}
+
+/// What the twin check did in one run.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct TwinArmStats {
+    /// Twins fitted.
+    pub fits: u32,
+    /// Of them, usable (grade good or fair).
+    pub usable_fits: u32,
+    /// Fits that failed.
+    pub failed_fits: u32,
+    /// Suggestions replayed on a usable twin.
+    pub checked: u32,
+    /// Of them, held back.
+    pub held_back: u32,
+    /// Suggestions that passed unchecked (no usable twin yet).
+    pub unchecked: u32,
+}
+
+/// An advisor whose suggestions pass the twin check.
+#[derive(Debug)]
+pub struct TwinChecked<A> {
+    inner: A,
+    events: Vec<Event>,
+    /// The twin and the events it was fitted on.
+    twin: Option<(Twin, Vec<Event>)>,
+    closed_days: usize,
+    fitted_at_day: Option<usize>,
+    name: String,
+    population: Population,
+    basal_in_force: f64,
+    options: TwinArmOptions,
+    /// What it did.
+    pub stats: TwinArmStats,
+}
+
+impl<A: Advisor> TwinChecked<A> {
+    /// Wraps `inner` for person `name` of `population` starting on `start`.
+    pub fn new(
+        inner: A,
+        name: &str,
+        population: Population,
+        start: TherapySettings,
+        options: TwinArmOptions,
+    ) -> Self {
+        Self {
+            inner,
+            events: Vec::new(),
+            twin: None,
+            closed_days: 0,
+            fitted_at_day: None,
+            name: name.to_string(),
+            population,
+            basal_in_force: start.basal.0,
+            options,
+            stats: TwinArmStats::default(),
+        }
+    }
+
+    /// The wrapped advisor.
+    pub fn inner(&self) -> &A {
+        &self.inner
+    }
+
+    fn refit_if_due(&mut self) {
+        let due = self.closed_days >= self.options.fit_days
+            && self
+                .fitted_at_day
+                .is_none_or(|d| self.closed_days >= d + self.options.refit_every_days);
+        if !due {
+            return;
+        }
+        self.fitted_at_day = Some(self.closed_days);
+        self.stats.fits += 1;
+        let fitted = Twin::fit(
+            &self.name,
+            &self.events,
+            &TwinOptions {
+                days: self.options.fit_days,
+                population: self.population,
+                basal_in_force_u_per_h: self.basal_in_force,
+                ..TwinOptions::default()
+            },
+        );
+        match fitted {
+            Ok(t) => {
+                if t.grade != Grade::NotUsable {
+                    self.stats.usable_fits += 1;
+                }
+                self.twin = Some((t, self.events.clone()));
+            }
+            Err(_) => {
+                self.stats.failed_fits += 1;
+                self.twin = None;
+            }
+        }
+    }
+
+    /// True when the twin predicts `d` to raise time below 70 by more than
+    /// the margin.
+    fn holds_back(&mut self, d: &Decision) -> bool {
+        let Some((twin, events)) = self
+            .twin
+            .as_ref()
+            .filter(|(t, _)| t.grade != Grade::NotUsable)
+        else {
+            self.stats.unchecked += 1;
+            return false;
+        };
+        let factor = d.new / d.old;
+        let mut w = WhatIf {
+            basal: BasalChange::Keep,
+            carb_ratio: None,
+            carb_ratio_factor: None,
+            carb_ratio_factors: None,
+        };
+        match d.parameter {
+            Parameter::Basal => w.basal = BasalChange::Factor(factor),
+            Parameter::CarbRatio(slot) => {
+                let mut f = [1.0; 3];
+                if let Some(i) = slot.main_index() {
+                    f[i] = factor;
+                }
+                w.carb_ratio_factors = Some(f);
+            }
+        }
+        let days = self.options.replay_days.min(twin.data.days);
+        match twin.replay(events, &w, days) {
+            Ok(r) => {
+                self.stats.checked += 1;
+                let held = r.change.value.below_70_pct > self.options.margin_pp;
+                self.stats.held_back += u32::from(held);
+                held
+            }
+            Err(_) => {
+                self.stats.unchecked += 1;
+                false
+            }
+        }
+    }
+}
+
+impl<A: Advisor> Advisor for TwinChecked<A> {
+    fn observe(&mut self, event: &Event) -> Result<Option<TherapySettings>, AdvisorError> {
+        let answer = self.inner.observe(event)?;
+        self.events.push(*event);
+        if event.kind == EventKind::DayClosed {
+            self.closed_days += 1;
+            self.refit_if_due();
+        }
+        if answer.is_none() {
+            return Ok(None);
+        }
+        // This event's decisions (the log's last ones, at its minute).
+        let mut new: Vec<Decision> = self
+            .inner
+            .decisions()
+            .iter()
+            .rev()
+            .take_while(|d| d.at == event.at)
+            .filter(|d| d.new != d.old)
+            .cloned()
+            .collect();
+        new.reverse();
+        let mut rejected = false;
+        for d in &new {
+            if !self.holds_back(d) {
+                continue;
+            }
+            let value = match d.parameter {
+                Parameter::Basal => SettingValue::Basal {
+                    rate: UnitsPerHour(d.old),
+                },
+                Parameter::CarbRatio(slot) => SettingValue::CarbRatio {
+                    slot,
+                    ratio: GramsPerUnit(d.old),
+                },
+            };
+            let reject = Event::new(event.at, EventKind::SuggestionRejected(value));
+            self.inner.observe(&reject)?;
+            self.events.push(reject);
+            rejected = true;
+        }
+        Ok(if rejected {
+            Some(*self.inner.settings())
+        } else {
+            answer
+        })
+    }
+
+    fn settings(&self) -> &TherapySettings {
+        self.inner.settings()
+    }
+
+    fn decisions(&self) -> &[Decision] {
+        self.inner.decisions()
+    }
+
+    fn take_decisions(&mut self) -> Vec<Decision> {
+        self.inner.take_decisions()
+    }
+
+    fn arm(&self) -> ArmKind {
+        self.inner.arm()
+    }
+
+    fn mode(&self) -> Option<Mode> {
+        self.inner.mode()
+    }
+}
+
+/// Runs `vp` through `scenario` in the ABBA arm with the twin check; the
+/// result is the trial's [`PatientResult`] (comparable with the plain ABBA
+/// arm's, paired: same person, same days) and what the check did.
+pub fn run_patient(
+    config: &TrialConfig,
+    vp: &VirtualPatient,
+    patient_no: u64,
+    scenario: &PlannedScenario,
+    options: TwinArmOptions,
+) -> Result<(PatientResult, TwinArmStats), TrialError> {
+    let (mut person, advisor, context) =
+        closed_loop::start(config, vp, patient_no, scenario, ArmKind::Abba)?;
+    let mut checked = TwinChecked::new(
+        advisor,
+        &vp.params.name,
+        config.population,
+        vp.therapy,
+        options,
+    );
+    let run = closed_loop::simulate(
+        &mut person,
+        &mut checked,
+        scenario.config.days,
+        config.failure_glucose_mg_dl,
+        &mut Trace::default(),
+        &context,
+    )?;
+    let r = closed_loop::result(vp, &person, checked.inner(), &run, &context)?;
+    Ok((r, checked.stats))
+}

@@ -428,18 +428,21 @@ fn scenario_title(scenario: ScenarioId) -> &'static str {
 }
 
 /// For one scenario with more than one arm: the arms' means ± SD side by
-/// side in W13 and W14 (the weeks after adaptation), one row per metric,
+/// side in W13 and W14 (the weeks after adaptation; a shorter run: its
+/// last two weeks), one row per metric,
 /// over the patients every arm still has in that week (a run that stopped
 /// early drops out of every arm here, so the columns compare the same
 /// people; the per-arm tables below keep each arm's own patients).
 fn arms_side_by_side(s: &mut String, arms: &[ArmResult], scenario: ScenarioId) {
     let in_scenario: Vec<&ArmResult> = arms.iter().filter(|a| a.scenario == scenario).collect();
-    let weeks: Vec<Week> = [Week::W13, Week::W14]
+    // The report's weeks after W1: W13 and W14, or a shorter run's last two.
+    let weeks: Vec<Week> = crate::select::table_weeks(arms)
         .into_iter()
         .filter(|w| {
-            in_scenario
-                .iter()
-                .any(|a| a.patients.iter().any(|p| p.week(*w).is_some()))
+            *w != Week::W1
+                && in_scenario
+                    .iter()
+                    .any(|a| a.patients.iter().any(|p| p.week(*w).is_some()))
         })
         .collect();
     if in_scenario.len() < 2 || weeks.is_empty() {
@@ -564,9 +567,11 @@ fn write_intro(s: &mut String) {
     );
 }
 
-/// The weeks of an arm's table: those of [`Week::TABLE`] its rows have.
+/// The weeks of an arm's table: those its rows have, which are the
+/// report's [`crate::select::table_weeks`] (W1, W13, W14; in a shorter run
+/// W1 and its last two weeks).
 fn arm_table_weeks(arm_rows: &[Table1Row]) -> Vec<Week> {
-    Week::TABLE
+    Week::ALL
         .into_iter()
         .filter(|w| arm_rows.iter().any(|r| r.week == *w))
         .collect()
@@ -606,9 +611,10 @@ fn write_missing_weeks(s: &mut String, arm: Option<&ArmResult>, weeks: &[Week]) 
         let present = arm.map(arm_weeks).unwrap_or_default();
         let _ = writeln!(
             s,
-            "{}: not simulated in this run (weeks present: {}).\n",
+            "{}: not simulated in this run (weeks present: {}; shown: {}).\n",
             missing.join(", "),
-            week_list(&present)
+            week_list(&present),
+            week_list(weeks)
         );
     }
 }

@@ -18,7 +18,7 @@ use crate::html::units::GlucoseUnit;
 use crate::html::{render_page, HtmlSection, Row};
 use crate::results::{ArmResult, Week};
 use crate::select::{
-    failure_time, metric_column, ordered_arms, stopped_runs, table_weeks, validate_arms,
+    failure_time, metric_column, ordered_arms, stopped_runs, table_weeks, validate_arms, weeks_note,
 };
 use crate::stats::{summarize_present, wilcoxon_signed_rank_present};
 use crate::summary::REPORT_WILCOXON;
@@ -125,7 +125,8 @@ struct ScenarioTable {
     rows: Vec<Row>,
 }
 
-fn facts(manifest: &Value) -> Vec<Row> {
+/// What ran (from the manifest), and which weeks the results have.
+fn facts(manifest: &Value, arms: &[ArmResult]) -> Vec<Row> {
     let get = |path: &str| {
         manifest.pointer(path).map(|v| match v {
             Value::String(s) => s.clone(),
@@ -144,6 +145,7 @@ fn facts(manifest: &Value) -> Vec<Row> {
     ]
     .into_iter()
     .filter_map(|(k, p)| get(p).map(|v| Row::of([k, &v])))
+    .chain(std::iter::once(Row::of(["Weeks", &weeks_note(arms)])))
     .collect()
 }
 
@@ -205,7 +207,7 @@ pub fn trial_report_html(
     let agp = agp_sections(&ordered, &shown)?;
     let ctx = minijinja::context! {
         title => "abba in-silico trial report",
-        facts => facts(manifest),
+        facts => facts(manifest, arms),
         table1 => table1,
         figures => figures,
         scenarios => scenarios,

@@ -54,6 +54,8 @@ fn scenario_color(scenario: ScenarioId) -> RGBColor {
         ScenarioId::S3 => RGBColor(0, 158, 115),
         ScenarioId::S4 => RGBColor(204, 121, 167),
         ScenarioId::S5 => RGBColor(86, 180, 233),
+        // Okabe-Ito vermillion.
+        ScenarioId::S6 => RGBColor(213, 94, 0),
     }
 }
 

@@ -424,6 +424,9 @@ fn scenario_title(scenario: ScenarioId) -> &'static str {
         ScenarioId::S3 => "SMBG with ±10 min timing uncertainty",
         ScenarioId::S4 => "as S3, plus 2 of 21 main meals skipped per week",
         ScenarioId::S5 => "not in the paper: S1 with hypoglycaemia treatment (15 g below 70 mg/dL)",
+        ScenarioId::S6 => {
+            "not in the paper: S1 with insulin sensitivity drifting ±30 % over 6 weeks"
+        }
     }
 }
 

@@ -424,13 +424,24 @@ pub struct ActorConfig {
     #[serde(default)]
     pub rule: ActorRule,
     /// β_0 of the projected natural-gradient step (β_k = β_0/(1 + k/κ)²,
-    /// κ = `critic.kappa`, k = actor steps taken). \[GUESS, calibrated].
+    /// κ = `critic.kappa`, k = actor steps taken). \[DEVIATION] 0: the
+    /// actor is frozen at the TE-scaled θ0, the simplest advisor with the
+    /// same results (learning with β_0 = 0.05, the earlier default, moved
+    /// LBGI + HBGI by at most 0.012 in S1 and in S6's slow sensitivity drift
+    /// on three held-out cohorts, against 0.6 between cohorts: BENCHMARKS.md,
+    /// "ABBA's defaults"). The paper's learning actor: `rule` = `eq28`, or
+    /// `natural_beta` > 0 ([`PAPER_LEARNING_NATURAL_BETA`]).
     #[serde(default = "default_natural_beta")]
     pub natural_beta: f64,
 }
 
-/// Default β_0 of the projected natural-gradient actor.
-pub const DEFAULT_NATURAL_BETA: f64 = 0.05;
+/// Default β_0 of the projected natural-gradient actor: 0, the actor
+/// frozen (its learning measurably adds nothing; see `natural_beta`).
+pub const DEFAULT_NATURAL_BETA: f64 = 0.0;
+
+/// β_0 of the learning actor as calibrated before it was frozen (the
+/// named knob for the paper's learning: `abba.actor.natural_beta` = 0.05).
+pub const PAPER_LEARNING_NATURAL_BETA: f64 = 0.05;
 
 fn default_natural_beta() -> f64 {
     DEFAULT_NATURAL_BETA

@@ -163,7 +163,7 @@ fn the_report_folder_and_traced_patients_are_checked_before_the_run() {
 #[test]
 fn bad_options_are_clear_errors() {
     let cases: [(&[&str], &str); 4] = [
-        (&["--scenarios", "S6"], "S6"),
+        (&["--scenarios", "S7"], "S7"),
         (&["--arms", "magic"], "magic"),
         (&["--days", "5"], "days"),
         (

@@ -22,6 +22,11 @@ pub enum ScenarioId {
     /// reading with rescue carbohydrate (the simulator's `HypoTreatment`).
     /// Not in [`ScenarioId::ALL`], so not in the default trial.
     S5,
+    /// Not in the paper: S1 with insulin sensitivity drifting slowly
+    /// (±30 % over a 6-week cycle, as with illness, weight change or the
+    /// menstrual cycle), where fixed settings must fall behind. Not in
+    /// [`ScenarioId::ALL`].
+    S6,
 }
 
 impl ScenarioId {
@@ -33,16 +38,17 @@ impl ScenarioId {
         ScenarioId::S4,
     ];
 
-    /// Every scenario that has a name: the paper's four and S5.
-    pub const KNOWN: [ScenarioId; 5] = [
+    /// Every scenario that has a name: the paper's four, S5 and S6.
+    pub const KNOWN: [ScenarioId; 6] = [
         ScenarioId::S1,
         ScenarioId::S2,
         ScenarioId::S3,
         ScenarioId::S4,
         ScenarioId::S5,
+        ScenarioId::S6,
     ];
 
-    /// 1..=5.
+    /// 1..=6.
     pub fn number(self) -> u64 {
         match self {
             ScenarioId::S1 => 1,
@@ -50,10 +56,11 @@ impl ScenarioId {
             ScenarioId::S3 => 3,
             ScenarioId::S4 => 4,
             ScenarioId::S5 => 5,
+            ScenarioId::S6 => 6,
         }
     }
 
-    /// "S1".."S5".
+    /// "S1".."S6".
     pub fn name(self) -> &'static str {
         match self {
             ScenarioId::S1 => "S1",
@@ -61,6 +68,7 @@ impl ScenarioId {
             ScenarioId::S3 => "S3",
             ScenarioId::S4 => "S4",
             ScenarioId::S5 => "S5",
+            ScenarioId::S6 => "S6",
         }
     }
 }
@@ -105,9 +113,10 @@ mod tests {
         }
         assert_eq!(" s3 ".parse::<ScenarioId>().unwrap(), ScenarioId::S3);
         assert_eq!("s5".parse::<ScenarioId>().unwrap(), ScenarioId::S5);
-        let e = "S6".parse::<ScenarioId>().unwrap_err().to_string();
+        assert_eq!("s6".parse::<ScenarioId>().unwrap(), ScenarioId::S6);
+        let e = "S7".parse::<ScenarioId>().unwrap_err().to_string();
         assert!(
-            e.contains("'S6'") && e.contains("S1, S2, S3, S4, S5"),
+            e.contains("'S7'") && e.contains("S1, S2, S3, S4, S5, S6"),
             "{e}"
         );
     }

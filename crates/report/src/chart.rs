@@ -19,6 +19,73 @@ pub(crate) const NEUTRAL: RGBColor = RGBColor(90, 90, 90);
 
 pub(crate) type Area<'a> = DrawingArea<SVGBackend<'a>, Shift>;
 
+/// The width every figure is drawn at (SVG user units). `report.html`
+/// scales a figure to the width of its column.
+pub const FIGURE_WIDTH: u32 = 800;
+
+/// The width a figure is printed at in `report.html` on A4: 210 mm less the
+/// page's two 12 mm margins, in CSS px (96 per inch; about 703).
+pub const A4_FIGURE_WIDTH_PX: f64 = (210.0 - 2.0 * 12.0) / 25.4 * 96.0;
+
+/// The smallest text of a figure printed at [`A4_FIGURE_WIDTH_PX`] (pt).
+pub const MIN_TEXT_PT: f64 = 9.0;
+
+/// plotters writes a font of size `s` as `font-size = s / 1.24`.
+const PLOTTERS_FONT_SCALE: f64 = 1.24;
+
+/// The font size to ask plotters for so that the text prints at `pt`
+/// points when the figure ([`FIGURE_WIDTH`] wide) is printed at
+/// [`A4_FIGURE_WIDTH_PX`] (1 pt = 4/3 CSS px); rounded up to 0.1.
+pub(crate) fn text_size(pt: f64) -> f64 {
+    let svg_px = pt * 4.0 / 3.0 * f64::from(FIGURE_WIDTH) / A4_FIGURE_WIDTH_PX;
+    (svg_px * PLOTTERS_FONT_SCALE * 10.0).ceil() / 10.0
+}
+
+/// The font size plotters writes into the SVG for `text_size(pt)`.
+pub(crate) fn svg_font_px(pt: f64) -> f64 {
+    text_size(pt) / PLOTTERS_FONT_SCALE
+}
+
+/// Text sizes of the figures (pt at A4 width), none below [`MIN_TEXT_PT`].
+pub(crate) mod pt {
+    /// Tick labels, footer notes, legend, reference-line labels.
+    pub(crate) const SMALL: f64 = super::MIN_TEXT_PT;
+    /// Axis descriptions.
+    pub(crate) const AXIS: f64 = 9.5;
+    /// Panel captions and messages.
+    pub(crate) const CAPTION: f64 = 10.0;
+    /// The figure's title.
+    pub(crate) const TITLE: f64 = 11.5;
+}
+
+/// A generous estimate of the width of `text` at SVG font size `px` (the
+/// generic sans-serif averages about 0.55 em a character).
+pub fn text_width(text: &str, px: f64) -> f64 {
+    0.58 * px * text.chars().count() as f64
+}
+
+/// `text` broken at spaces into lines no wider than `width` at font size `px`.
+pub(crate) fn wrap(text: &str, px: f64, width: f64) -> Vec<String> {
+    let mut lines: Vec<String> = Vec::new();
+    let mut line = String::new();
+    for word in text.split(' ') {
+        let candidate = if line.is_empty() {
+            word.to_string()
+        } else {
+            format!("{line} {word}")
+        };
+        if !line.is_empty() && text_width(&candidate, px) > width {
+            lines.push(std::mem::replace(&mut line, word.to_string()));
+        } else {
+            line = candidate;
+        }
+    }
+    if !line.is_empty() {
+        lines.push(line);
+    }
+    lines
+}
+
 pub(crate) fn plot_err<E: std::fmt::Display>(figure: &'static str) -> impl Fn(E) -> ReportError {
     move |e| ReportError::Plot {
         figure,
@@ -97,6 +164,28 @@ pub(crate) fn week_tick(x: &f64) -> String {
     }
 }
 
+/// The label of week tick `x` when only every `step`-th week, counted back
+/// from the axis's last week `last`, is labelled (a narrow panel).
+pub(crate) fn week_tick_every(x: &f64, step: u32, last: u32) -> String {
+    let label = week_tick(x);
+    let r = x.round();
+    if label.is_empty() || r > f64::from(last) || !(last - r as u32).is_multiple_of(step.max(1)) {
+        String::new()
+    } else {
+        label
+    }
+}
+
+/// The smallest step between labelled weeks that keeps two-digit labels
+/// apart on a plot `plot_width` wide showing the weeks of `axis`.
+pub(crate) fn week_label_step(axis: &WeekAxis, plot_width: f64) -> u32 {
+    let per_week = plot_width / (axis.hi - axis.lo).max(1.0);
+    let need = text_width("10", svg_font_px(pt::SMALL)) * 1.6;
+    (1..=14)
+        .find(|k| per_week * f64::from(*k) >= need)
+        .unwrap_or(14)
+}
+
 /// (low, high) spread around a point.
 pub(crate) type Span = Option<(f64, f64)>;
 
@@ -140,18 +229,22 @@ pub(crate) fn week_chart<'a, 'b>(
     let pe = plot_err(figure);
     let mut builder = ChartBuilder::on(area);
     if let Some(caption) = caption {
-        builder.caption(caption, (FONT, 19));
+        builder.caption(caption, (FONT, text_size(pt::CAPTION)));
     }
     let mut chart = builder
-        .margin(8)
-        .x_label_area_size(42)
+        .margin(6)
+        .x_label_area_size((3.2 * svg_font_px(pt::SMALL)) as u32)
         .y_label_area_size(y_label_area)
         .build_cartesian_2d(axis.lo..axis.hi, y_range.0..y_range.1)
         .map_err(&pe)?;
+    let plot_width = f64::from(area.dim_in_pixel().0) - f64::from(y_label_area) - 12.0;
+    let step = week_label_step(axis, plot_width);
+    let last = (axis.hi - 0.6).round() as u32;
+    let tick = move |x: &f64| week_tick_every(x, step, last);
     chart
         .configure_mesh()
         .x_labels(axis.labels)
-        .x_label_formatter(&week_tick)
+        .x_label_formatter(&tick)
         .y_labels(8)
         .y_label_formatter(&tidy)
         .y_max_light_lines(1)
@@ -160,12 +253,15 @@ pub(crate) fn week_chart<'a, 'b>(
         .bold_line_style(RGBColor(215, 215, 215))
         .x_desc("week")
         .y_desc(y_desc)
-        .label_style((FONT, 13))
-        .axis_desc_style((FONT, 14))
+        .label_style((FONT, text_size(pt::SMALL)))
+        .axis_desc_style((FONT, text_size(pt::AXIS)))
         .draw()
         .map_err(&pe)?;
     Ok(chart)
 }
+
+/// Room for the y tick labels and the y axis description (SVG units).
+pub(crate) const Y_LABEL_AREA: u32 = 62;
 
 /// One weekly panel: reference lines, then each line with its spread.
 pub(crate) fn draw_weekly_panel(
@@ -184,7 +280,7 @@ pub(crate) fn draw_weekly_panel(
         panel.y_range,
         Some(&panel.caption),
         panel.y_desc,
-        58,
+        Y_LABEL_AREA,
         figure,
     )?;
     for (y, label) in panel.refs {
@@ -203,7 +299,7 @@ pub(crate) fn draw_weekly_panel(
             .draw_series(std::iter::once(Text::new(
                 label.to_string(),
                 (axis.hi - 0.05, *y),
-                (FONT, 12)
+                (FONT, text_size(pt::SMALL))
                     .into_font()
                     .color(&REF_COLOR)
                     .pos(Pos::new(HPos::Right, VPos::Bottom)),
@@ -287,92 +383,149 @@ pub(crate) enum Key {
     Dashed,
 }
 
-/// A row of legend entries, then lines of notes, in the footer area.
-pub(crate) fn draw_footer(
+/// A figure's footer: legend entries (wrapped into rows), then notes
+/// (each wrapped into lines), all at [`pt::SMALL`].
+pub(crate) struct Footer<'a> {
+    pub(crate) items: &'a [(String, RGBColor, Key)],
+    pub(crate) notes: &'a [String],
+}
+
+const FOOTER_LEFT: i32 = 16;
+const KEY_WIDTH: i32 = 28;
+
+impl Footer<'_> {
+    fn px() -> f64 {
+        svg_font_px(pt::SMALL)
+    }
+
+    fn line_height() -> i32 {
+        (1.35 * Self::px()).ceil() as i32
+    }
+
+    /// Each legend entry's position (x, y of its key's centre line).
+    fn item_positions(&self) -> Vec<(i32, i32)> {
+        let right = FIGURE_WIDTH as i32 - FOOTER_LEFT;
+        let (mut x, mut y) = (FOOTER_LEFT, Self::line_height() / 2 + 4);
+        let mut out = Vec::new();
+        for (label, _, _) in self.items {
+            let w = KEY_WIDTH + 8 + text_width(label, Self::px()).ceil() as i32;
+            if x > FOOTER_LEFT && x + w > right {
+                x = FOOTER_LEFT;
+                y += Self::line_height() + 4;
+            }
+            out.push((x, y));
+            x += w + 24;
+        }
+        out
+    }
+
+    /// The notes' lines and the y of each (top).
+    fn note_lines(&self) -> Vec<(String, i32)> {
+        let top = self
+            .item_positions()
+            .last()
+            .map_or(4, |(_, y)| y + Self::line_height());
+        let width = f64::from(FIGURE_WIDTH) - 2.0 * f64::from(FOOTER_LEFT);
+        self.notes
+            .iter()
+            .flat_map(|n| wrap(n, Self::px(), width))
+            .enumerate()
+            .map(|(i, l)| (l, top + 4 + Self::line_height() * i as i32))
+            .collect()
+    }
+
+    /// The footer's height (SVG units).
+    pub(crate) fn height(&self) -> u32 {
+        let bottom = self
+            .note_lines()
+            .last()
+            .map(|(_, y)| y + Self::line_height())
+            .or_else(|| {
+                self.item_positions()
+                    .last()
+                    .map(|(_, y)| y + Self::line_height())
+            })
+            .unwrap_or(0);
+        bottom.max(0) as u32 + 6
+    }
+
+    fn draw(&self, area: &Area, figure: &'static str) -> Result<(), ReportError> {
+        let pe = plot_err(figure);
+        let size = text_size(pt::SMALL);
+        for ((label, color, key), (x, y)) in self.items.iter().zip(self.item_positions()) {
+            draw_key(area, *key, *color, x, y, figure)?;
+            area.draw(&Text::new(
+                label.clone(),
+                (x + KEY_WIDTH + 8, y),
+                (FONT, size)
+                    .into_font()
+                    .color(&BLACK)
+                    .pos(Pos::new(HPos::Left, VPos::Center)),
+            ))
+            .map_err(&pe)?;
+        }
+        for (line, y) in self.note_lines() {
+            area.draw(&Text::new(
+                line,
+                (FOOTER_LEFT, y),
+                (FONT, size).into_font().color(&RGBColor(60, 60, 60)),
+            ))
+            .map_err(&pe)?;
+        }
+        Ok(())
+    }
+}
+
+/// A legend key at (x, y): a line with a dot, a box, a band or a dashed line.
+fn draw_key(
     area: &Area,
-    items: &[(String, RGBColor, Key)],
-    notes: &[String],
+    key: Key,
+    color: RGBColor,
+    x: i32,
+    y: i32,
     figure: &'static str,
 ) -> Result<(), ReportError> {
     let pe = plot_err(figure);
-    let mut x = 70;
-    let y = 14;
-    for (label, color, key) in items {
-        match key {
-            Key::Line => {
+    match key {
+        Key::Line => {
+            area.draw(&PathElement::new(
+                vec![(x, y), (x + KEY_WIDTH, y)],
+                color.stroke_width(2),
+            ))
+            .map_err(&pe)?;
+            area.draw(&Circle::new((x + KEY_WIDTH / 2, y), 3, color.filled()))
+                .map_err(&pe)?;
+        }
+        Key::Box => {
+            area.draw(&Rectangle::new(
+                [(x + 6, y - 7), (x + 22, y + 7)],
+                color.mix(0.35).filled(),
+            ))
+            .map_err(&pe)?;
+            area.draw(&Rectangle::new(
+                [(x + 6, y - 7), (x + 22, y + 7)],
+                color.stroke_width(1),
+            ))
+            .map_err(&pe)?;
+        }
+        Key::Band => {
+            area.draw(&Rectangle::new(
+                [(x, y - 6), (x + KEY_WIDTH, y + 6)],
+                color.mix(0.18).filled(),
+            ))
+            .map_err(&pe)?;
+        }
+        Key::Dashed => {
+            for k in 0..3 {
                 area.draw(&PathElement::new(
-                    vec![(x, y), (x + 28, y)],
-                    color.stroke_width(2),
-                ))
-                .map_err(&pe)?;
-                area.draw(&Circle::new((x + 14, y), 3, color.filled()))
-                    .map_err(&pe)?;
-            }
-            Key::Box => {
-                area.draw(&Rectangle::new(
-                    [(x + 6, y - 7), (x + 22, y + 7)],
-                    color.mix(0.35).filled(),
-                ))
-                .map_err(&pe)?;
-                area.draw(&Rectangle::new(
-                    [(x + 6, y - 7), (x + 22, y + 7)],
+                    vec![(x + 10 * k, y), (x + 10 * k + 6, y)],
                     color.stroke_width(1),
                 ))
                 .map_err(&pe)?;
             }
-            Key::Band => {
-                area.draw(&Rectangle::new(
-                    [(x, y - 6), (x + 28, y + 6)],
-                    color.mix(0.18).filled(),
-                ))
-                .map_err(&pe)?;
-            }
-            Key::Dashed => {
-                for k in 0..3 {
-                    area.draw(&PathElement::new(
-                        vec![(x + 10 * k, y), (x + 10 * k + 6, y)],
-                        color.stroke_width(1),
-                    ))
-                    .map_err(&pe)?;
-                }
-            }
         }
-        area.draw(&Text::new(
-            label.clone(),
-            (x + 36, y),
-            (FONT, 14)
-                .into_font()
-                .color(&BLACK)
-                .pos(Pos::new(HPos::Left, VPos::Center)),
-        ))
-        .map_err(&pe)?;
-        x += 36 + 8 * label.chars().count() as i32 + 30;
-    }
-    for (i, note) in notes.iter().enumerate() {
-        area.draw(&Text::new(
-            note.clone(),
-            (70, 40 + 18 * i as i32),
-            (FONT, 13).into_font().color(&RGBColor(60, 60, 60)),
-        ))
-        .map_err(&pe)?;
     }
     Ok(())
-}
-
-/// Draws the figure frame (white background, title) and returns the body
-/// and footer areas.
-pub(crate) fn frame<'a>(
-    root: &Area<'a>,
-    title: &str,
-    footer_height: u32,
-    figure: &'static str,
-) -> Result<(Area<'a>, Area<'a>), ReportError> {
-    let pe = plot_err(figure);
-    root.fill(&WHITE).map_err(&pe)?;
-    let body = root.titled(title, (FONT, 24)).map_err(&pe)?;
-    let (_, h) = body.dim_in_pixel();
-    let (main, footer) = body.split_vertically(h.saturating_sub(footer_height));
-    Ok((main, footer))
 }
 
 pub(crate) fn draw_message(
@@ -384,7 +537,7 @@ pub(crate) fn draw_message(
     area.draw(&Text::new(
         message.to_string(),
         (w as i32 / 2, h as i32 / 2),
-        (FONT, 18)
+        (FONT, text_size(pt::CAPTION))
             .into_font()
             .color(&BLACK)
             .pos(Pos::new(HPos::Center, VPos::Center)),
@@ -392,21 +545,32 @@ pub(crate) fn draw_message(
     .map_err(plot_err(figure))
 }
 
-/// An SVG figure of `size` pixels titled `title`: `draw` gets the body and
-/// a footer of `footer_height` pixels.
+/// An SVG figure [`FIGURE_WIDTH`] wide titled `title`: `draw` gets a body
+/// `main_height` high; the footer below it is as high as its wrapped
+/// legend and notes need.
 pub(crate) fn render_svg(
-    size: (u32, u32),
+    main_height: u32,
     title: &str,
-    footer_height: u32,
+    footer: &Footer,
     figure: &'static str,
-    draw: impl FnOnce(&Area, &Area) -> Result<(), ReportError>,
+    draw: impl FnOnce(&Area) -> Result<(), ReportError>,
 ) -> Result<String, ReportError> {
+    let pe = plot_err(figure);
+    let title_height = (1.6 * svg_font_px(pt::TITLE)).ceil() as u32;
+    let footer_height = footer.height();
+    let size = (FIGURE_WIDTH, title_height + main_height + footer_height);
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
-        let (main, footer) = frame(&root, title, footer_height, figure)?;
-        draw(&main, &footer)?;
-        root.present().map_err(plot_err(figure))?;
+        root.fill(&WHITE).map_err(&pe)?;
+        let body = root
+            .titled(title, (FONT, text_size(pt::TITLE)))
+            .map_err(&pe)?;
+        let (_, h) = body.dim_in_pixel();
+        let (main, foot) = body.split_vertically(h.saturating_sub(footer_height));
+        draw(&main)?;
+        footer.draw(&foot, figure)?;
+        root.present().map_err(&pe)?;
     }
     Ok(svg)
 }

@@ -4,8 +4,8 @@
 //! by anything (the HTML report to come); the functions below draw them as
 //! SVG through [`crate::chart`]:
 //!
-//! - [`fig5_lbgi_hbgi`]: the paper's Fig. 5. Weekly LBGI (top row) and HBGI
-//!   (bottom row) of the `abba` arm, one column per scenario: mean over
+//! - [`fig5_lbgi_hbgi`]: the paper's Fig. 5. Weekly LBGI (left) and HBGI
+//!   (right) of the `abba` arm, one row per scenario: mean over
 //!   patients (line) and mean ± 1 SD (shaded, cut at 0), with the paper's
 //!   risk limits dashed (LBGI 1.1 and 2.5, HBGI 5).
 //! - [`fig6_mage`]: the paper's Fig. 6. Weekly mean MAGE of the `abba` arm,
@@ -16,23 +16,30 @@
 //!   `abba` arm, box plots grouped by week, one box per scenario: box = Q1
 //!   to Q3 (type-7 quartiles), bar = median, whiskers (Tukey) = the most
 //!   extreme values within 1.5 IQR of the box, dots = values beyond them.
-//! - [`fig_arms`]: ABBA against the baselines. Rows: % time in range
+//! - [`fig_arms`]: ABBA against the baselines. Columns: % time in range
 //!   70-180, % time < 70, % time > 180 mg/dL and total daily insulin; one
-//!   column per scenario; weekly mean over patients of each arm (abba,
-//!   standard, r2r).
+//!   row per scenario; weekly mean over patients of every arm that ran
+//!   (abba, standard, r2r, autotune).
+//!
+//! Every figure is [`crate::chart::FIGURE_WIDTH`] wide with its text sized
+//! so that it prints at 9 pt or more at A4 width (the report page's 186 mm
+//! of text width); long footer notes and legends wrap.
 //!
 //! Weeks on the x axis are numbered 1..14: Wk = D(7k−5)-D(7k+1) for
 //! k = 1..12 (W1 is standard therapy), 13 = D84-D90 and 14 = D92-D98, the
-//! paper's evaluation weeks. Only weeks that were simulated are drawn; a
-//! figure with nothing to draw says so in its body.
+//! paper's evaluation weeks. Only weeks that were simulated are drawn, and
+//! the footer names them (a 30-day run: weeks 1-4); a figure with nothing
+//! to draw says so in its body.
+
+use std::fmt::Write as _;
 
 use abba_core::{Metric, ScenarioId};
 use plotters::prelude::*;
 use serde::Serialize;
 
 use crate::chart::{
-    axis_of, draw_footer, draw_message, draw_weekly_panel, nice_range, plot_err, render_svg,
-    week_chart, week_x, Area, Key, Line, Panel, Spread, NEUTRAL, REF_COLOR,
+    axis_of, draw_message, draw_weekly_panel, nice_range, plot_err, render_svg, week_chart, week_x,
+    Area, Footer, Key, Line, Panel, Spread, NEUTRAL, REF_COLOR, Y_LABEL_AREA,
 };
 use crate::error::ReportError;
 use crate::results::{ArmKind, ArmResult, Week};
@@ -47,6 +54,8 @@ fn scenario_color(scenario: ScenarioId) -> RGBColor {
         ScenarioId::S3 => RGBColor(0, 158, 115),
         ScenarioId::S4 => RGBColor(204, 121, 167),
         ScenarioId::S5 => RGBColor(86, 180, 233),
+        // Okabe-Ito vermillion.
+        ScenarioId::S6 => RGBColor(213, 94, 0),
     }
 }
 
@@ -172,13 +181,36 @@ fn footer_notes(first: Option<String>, arms: &[&ArmResult]) -> Vec<String> {
              weeks after a stop are summarised over the remaining patients."
         )
     });
-    let weeks = "Week k = days 7k-5 to 7k+1 (week 1 = D2-D8, standard therapy before any adaptation); \
-                 week 13 = D84-D90 (with insulin-sensitivity variability), week 14 = D92-D98 (without)."
-        .to_string();
+    let weeks = weeks_footer(&week_axis(arms));
     [first, Some(weeks), stopped_note]
         .into_iter()
         .flatten()
         .collect()
+}
+
+/// The footer's sentence on the weeks: how a week is numbered, and of the
+/// paper's weeks 13 and 14 only those the run has (a shorter run names
+/// the weeks it has instead).
+fn weeks_footer(weeks: &[Week]) -> String {
+    let mut s = String::from(
+        "Week k = days 7k-5 to 7k+1 (week 1 = D2-D8, standard therapy before any adaptation)",
+    );
+    match (weeks.contains(&Week::W13), weeks.contains(&Week::W14)) {
+        (true, true) => s.push_str(
+            "; week 13 = D84-D90 (with insulin-sensitivity variability), week 14 = D92-D98 (without).",
+        ),
+        (true, false) => s.push_str(
+            "; week 13 = D84-D90 (with insulin-sensitivity variability); week 14 not simulated.",
+        ),
+        (false, _) => {
+            let last = weeks.last().map_or(0, |w| w.number());
+            let _ = write!(
+                s,
+                "; this run has weeks 1-{last} (the paper's weeks 13 and 14 need 98 days)."
+            );
+        }
+    }
+    s
 }
 
 /// One legend entry per ABBA arm: its scenario and patients, in its colour.
@@ -201,112 +233,115 @@ pub fn fig5_lbgi_hbgi(arms: &[ArmResult]) -> Result<String, ReportError> {
     const FIG: &str = "fig5_lbgi_hbgi.svg";
     let (abba, weeks) = abba_arms(arms)?;
     let title = "Fig. 5 - Weekly LBGI and HBGI, ABBA (mean ± SD over patients)";
-    render_svg((1600, 860), title, 90, FIG, |main, footer| {
+    let items = [
+        ("mean".to_string(), NEUTRAL, Key::Line),
+        ("mean ± 1 SD (cut at 0)".to_string(), NEUTRAL, Key::Band),
+        (
+            "paper's risk limits: LBGI minimal < 1.1, low 1.1-2.5; HBGI minimal < 5".to_string(),
+            REF_COLOR,
+            Key::Dashed,
+        ),
+    ];
+    let notes = footer_notes(None, &abba);
+    let footer = Footer {
+        items: &items,
+        notes: &notes,
+    };
+    // One row per scenario (LBGI left, HBGI right), so that a panel keeps
+    // half the page's width at any number of scenarios.
+    let rows = abba.len().max(1) as u32;
+    render_svg(PANEL_HEIGHT * rows, title, &footer, FIG, |main| {
         if abba.is_empty() {
-            draw_message(main, NO_ABBA, FIG)?;
-        } else {
-            let mut lbgi = Vec::new();
-            let mut hbgi = Vec::new();
-            for arm in &abba {
-                lbgi.push(mean_sd_line(arm, &weeks, Metric::Lbgi)?);
-                hbgi.push(mean_sd_line(arm, &weeks, Metric::Hbgi)?);
-            }
-            let lbgi_max = nice_range(0.0, max_of(&lbgi).max(3.0)).1;
-            let hbgi_max = nice_range(0.0, max_of(&hbgi).max(6.0)).1;
-            let panels = main.split_evenly((2, abba.len()));
-            for (i, arm) in abba.iter().enumerate() {
-                let n = n_text(arm);
-                let panel = |metric: Metric, y_max: f64, refs| Panel {
-                    caption: format!("{} · {} ({n})", arm.scenario, metric.label()),
-                    y_desc: metric.label(),
-                    y_range: (0.0, y_max),
-                    refs,
-                    spread: Spread::Shaded,
-                };
-                let rows: [(usize, Panel, &Line); 2] = [
-                    (
-                        i,
-                        panel(Metric::Lbgi, lbgi_max, &[(1.1, "1.1"), (2.5, "2.5")]),
-                        &lbgi[i],
-                    ),
-                    (
-                        abba.len() + i,
-                        panel(Metric::Hbgi, hbgi_max, &[(5.0, "5")]),
-                        &hbgi[i],
-                    ),
-                ];
-                for (at, panel, line) in rows {
-                    draw_weekly_panel(
-                        &panels[at],
-                        &weeks,
-                        &panel,
-                        std::slice::from_ref(line),
-                        FIG,
-                    )?;
-                }
+            return draw_message(main, NO_ABBA, FIG);
+        }
+        let mut lbgi = Vec::new();
+        let mut hbgi = Vec::new();
+        for arm in &abba {
+            lbgi.push(mean_sd_line(arm, &weeks, Metric::Lbgi)?);
+            hbgi.push(mean_sd_line(arm, &weeks, Metric::Hbgi)?);
+        }
+        let lbgi_max = nice_range(0.0, max_of(&lbgi).max(3.0)).1;
+        let hbgi_max = nice_range(0.0, max_of(&hbgi).max(6.0)).1;
+        let panels = main.split_evenly((abba.len(), 2));
+        for (i, arm) in abba.iter().enumerate() {
+            let n = n_text(arm);
+            let panel = |metric: Metric, y_max: f64, refs| Panel {
+                caption: format!("{} · {} ({n})", arm.scenario, metric.label()),
+                y_desc: metric.label(),
+                y_range: (0.0, y_max),
+                refs,
+                spread: Spread::Shaded,
+            };
+            let cells: [(usize, Panel, &Line); 2] = [
+                (
+                    2 * i,
+                    panel(Metric::Lbgi, lbgi_max, &[(1.1, "1.1"), (2.5, "2.5")]),
+                    &lbgi[i],
+                ),
+                (
+                    2 * i + 1,
+                    panel(Metric::Hbgi, hbgi_max, &[(5.0, "5")]),
+                    &hbgi[i],
+                ),
+            ];
+            for (at, panel, line) in cells {
+                draw_weekly_panel(&panels[at], &weeks, &panel, std::slice::from_ref(line), FIG)?;
             }
         }
-        draw_footer(
-            footer,
-            &[
-                ("mean".to_string(), NEUTRAL, Key::Line),
-                ("mean ± 1 SD (cut at 0)".to_string(), NEUTRAL, Key::Band),
-                (
-                    "paper's risk limits: LBGI minimal < 1.1, low 1.1-2.5; HBGI minimal < 5"
-                        .to_string(),
-                    REF_COLOR,
-                    Key::Dashed,
-                ),
-            ],
-            &footer_notes(None, &abba),
-            FIG,
-        )
+        Ok(())
     })
 }
+
+/// The height of one row of weekly panels (SVG units).
+const PANEL_HEIGHT: u32 = 210;
+
+/// The height of a figure's single weekly panel (SVG units).
+const SINGLE_PANEL_HEIGHT: u32 = 420;
 
 /// `fig6_mage.svg`: weekly MAGE of the `abba` arms (see the module docs).
 pub fn fig6_mage(arms: &[ArmResult]) -> Result<String, ReportError> {
     const FIG: &str = "fig6_mage.svg";
     let (abba, weeks) = abba_arms(arms)?;
     let title = "Fig. 6 - Weekly MAGE, ABBA (mean ± SD over patients)";
-    render_svg((1200, 760), title, 90, FIG, |main, footer| {
-        let mut undefined = 0usize;
-        let mut total = 0usize;
+    let (mut undefined, mut total) = (0usize, 0usize);
+    for wk in abba
+        .iter()
+        .flat_map(|a| a.patients.iter().flat_map(|p| &p.weeks))
+    {
+        total += 1;
+        undefined += usize::from(wk.metrics.mage.is_none());
+    }
+    let first = format!(
+        "Bars: ± 1 SD. MAGE: iglu's moving-average algorithm; undefined (no countable excursion) \
+         for {undefined} of {total} patient-weeks, left out of the means."
+    );
+    let items = scenario_legend(&abba, Key::Line);
+    let notes = footer_notes(Some(first), &abba);
+    let footer = Footer {
+        items: &items,
+        notes: &notes,
+    };
+    render_svg(SINGLE_PANEL_HEIGHT, title, &footer, FIG, |main| {
         if abba.is_empty() {
-            draw_message(main, NO_ABBA, FIG)?;
-        } else {
-            let mut lines = Vec::new();
-            for arm in &abba {
-                lines.push(mean_sd_line(arm, &weeks, Metric::Mage)?);
-                for wk in arm.patients.iter().flat_map(|p| &p.weeks) {
-                    total += 1;
-                    undefined += usize::from(wk.metrics.mage.is_none());
-                }
-            }
-            // From 0 mg/dL, as a reader expects.
-            let y_range = nice_range(0.0, max_of(&lines));
-            draw_weekly_panel(
-                main,
-                &weeks,
-                &Panel {
-                    caption: String::new(),
-                    y_desc: Metric::Mage.label(),
-                    y_range,
-                    refs: &[],
-                    spread: Spread::ErrorBars { dodge: 0.12 },
-                },
-                &lines,
-                FIG,
-            )?;
+            return draw_message(main, NO_ABBA, FIG);
         }
-        let first = format!(
-            "Bars: ± 1 SD. MAGE: iglu's moving-average algorithm; undefined (no countable excursion) \
-             for {undefined} of {total} patient-weeks, left out of the means."
-        );
-        draw_footer(
-            footer,
-            &scenario_legend(&abba, Key::Line),
-            &footer_notes(Some(first), &abba),
+        let mut lines = Vec::new();
+        for arm in &abba {
+            lines.push(mean_sd_line(arm, &weeks, Metric::Mage)?);
+        }
+        // From 0 mg/dL, as a reader expects.
+        let y_range = nice_range(0.0, max_of(&lines));
+        draw_weekly_panel(
+            main,
+            &weeks,
+            &Panel {
+                caption: String::new(),
+                y_desc: Metric::Mage.label(),
+                y_range,
+                refs: &[],
+                spread: Spread::ErrorBars { dodge: 0.12 },
+            },
+            &lines,
             FIG,
         )
     })
@@ -393,21 +428,21 @@ pub fn fig7_tdi(arms: &[ArmResult]) -> Result<String, ReportError> {
     const FIG: &str = "fig7_tdi.svg";
     let (abba, weeks) = abba_arms(arms)?;
     let title = "Fig. 7 - Weekly total daily insulin (TDI), ABBA";
-    render_svg((1500, 760), title, 90, FIG, |main, footer| {
+    let first = "Box: Q1-Q3 of the patients' weekly mean TDI; thick bar: median; whiskers: most extreme values \
+                 within 1.5 IQR of the box (Tukey); dots: values beyond."
+        .to_string();
+    let items = scenario_legend(&abba, Key::Box);
+    let notes = footer_notes(Some(first), &abba);
+    let footer = Footer {
+        items: &items,
+        notes: &notes,
+    };
+    render_svg(SINGLE_PANEL_HEIGHT, title, &footer, FIG, |main| {
         if abba.is_empty() {
-            draw_message(main, NO_ABBA, FIG)?;
+            draw_message(main, NO_ABBA, FIG)
         } else {
-            draw_tdi_boxes(main, &abba, &weeks, FIG)?;
+            draw_tdi_boxes(main, &abba, &weeks, FIG)
         }
-        let first = "Box: Q1-Q3 of the patients' weekly mean TDI; thick bar: median; whiskers: most extreme values \
-                     within 1.5 IQR of the box (Tukey); dots: values beyond."
-            .to_string();
-        draw_footer(
-            footer,
-            &scenario_legend(&abba, Key::Box),
-            &footer_notes(Some(first), &abba),
-            FIG,
-        )
     })
 }
 
@@ -478,7 +513,7 @@ fn draw_tdi_boxes(
         y_range,
         None,
         Metric::TdiUPerDay.label(),
-        62,
+        Y_LABEL_AREA,
         figure,
     )?;
     let k = abba.len() as f64;
@@ -521,9 +556,21 @@ pub fn fig_arms(arms: &[ArmResult]) -> Result<String, ReportError> {
         (Metric::TdiUPerDay, 10.0),
     ];
     let title = "ABBA vs baselines - weekly time in ranges and insulin (mean over patients)";
-    render_svg((1600, 1400), title, 80, FIG, |main, footer| {
-        let panels = main.split_evenly((rows.len(), scenarios.len()));
-        for (r, (metric, hi_floor)) in rows.iter().enumerate() {
+    let items: Vec<(String, RGBColor, Key)> = advisors
+        .iter()
+        .map(|a| (a.label().to_string(), arm_color(*a), Key::Line))
+        .collect();
+    let notes = footer_notes(None, &ordered);
+    let footer = Footer {
+        items: &items,
+        notes: &notes,
+    };
+    // One row per scenario, one column per metric (the page's width holds
+    // four panels at any number of scenarios).
+    let n_rows = scenarios.len().max(1) as u32;
+    render_svg(PANEL_HEIGHT * n_rows, title, &footer, FIG, |main| {
+        let panels = main.split_evenly((scenarios.len(), rows.len()));
+        for (c, (metric, hi_floor)) in rows.iter().enumerate() {
             let label = metric.short_label();
             let mut per_scenario = Vec::new();
             for s in &scenarios {
@@ -547,27 +594,25 @@ pub fn fig_arms(arms: &[ArmResult]) -> Result<String, ReportError> {
             } else {
                 nice_range(0.0, hi.max(*hi_floor))
             };
-            for (c, s) in scenarios.iter().enumerate() {
+            for (r, s) in scenarios.iter().enumerate() {
                 draw_weekly_panel(
-                    &panels[r * scenarios.len() + c],
+                    &panels[r * rows.len() + c],
                     &weeks,
                     &Panel {
-                        caption: format!("{s} · {label}"),
+                        // The unit is on the y axis; the caption must
+                        // fit a quarter of the page's width.
+                        caption: format!("{s} · {}", label.trim_end_matches(" mg/dL")),
                         y_desc: label,
                         y_range,
                         refs: &[],
                         spread: Spread::Hidden,
                     },
-                    &per_scenario[c],
+                    &per_scenario[r],
                     FIG,
                 )?;
             }
         }
-        let items: Vec<(String, RGBColor, Key)> = advisors
-            .iter()
-            .map(|a| (a.label().to_string(), arm_color(*a), Key::Line))
-            .collect();
-        draw_footer(footer, &items, &footer_notes(None, &ordered), FIG)
+        Ok(())
     })
 }
 
@@ -621,5 +666,11 @@ mod tests {
         assert_eq!(week_tick(&0.5), "");
         assert_eq!(week_tick(&15.0), "");
         assert_eq!(week_x(Week::W14), 14.0);
+        // A narrow panel labels every third week, counted back from the last.
+        let labels: Vec<String> = (1..=14)
+            .map(|k| crate::chart::week_tick_every(&f64::from(k), 3, 14))
+            .filter(|l| !l.is_empty())
+            .collect();
+        assert_eq!(labels, ["2", "5", "8", "11", "14"]);
     }
 }

@@ -41,6 +41,56 @@ pub fn table_weeks(arms: &[ArmResult]) -> Vec<Week> {
     present
 }
 
+/// The weeks any of `arms` has, in protocol order.
+pub fn run_weeks(arms: &[ArmResult]) -> Vec<Week> {
+    Week::ALL
+        .into_iter()
+        .filter(|w| arms.iter().any(|a| arm_weeks(a).contains(w)))
+        .collect()
+}
+
+/// `W1-W4`, `W1-W14` or `W1, W3, W13` (runs of consecutive weeks joined).
+pub fn week_span(weeks: &[Week]) -> String {
+    let mut parts: Vec<String> = Vec::new();
+    let mut i = 0;
+    while i < weeks.len() {
+        let mut j = i;
+        while j + 1 < weeks.len() && weeks[j + 1].number() == weeks[j].number() + 1 {
+            j += 1;
+        }
+        parts.push(if j > i + 1 {
+            format!("{}-{}", weeks[i], weeks[j])
+        } else if j == i + 1 {
+            format!("{}, {}", weeks[i], weeks[j])
+        } else {
+            weeks[i].to_string()
+        });
+        i = j + 1;
+    }
+    parts.join(", ")
+}
+
+/// Which weeks the run has and which the tables show, as one sentence
+/// (a short run says that the paper's W13 and W14 need 98 days).
+pub fn weeks_note(arms: &[ArmResult]) -> String {
+    let present = run_weeks(arms);
+    let shown = table_weeks(arms);
+    let missing: Vec<Week> = [Week::W13, Week::W14]
+        .into_iter()
+        .filter(|w| !present.contains(w))
+        .collect();
+    let why = match missing.as_slice() {
+        [] => String::new(),
+        [w] => format!(" ({w}, a week of the paper, is not simulated in this run)"),
+        _ => " (the paper's W13 = D84-D90 and W14 = D92-D98 need 98 days)".to_string(),
+    };
+    format!(
+        "Weeks simulated: {}{why}; the tables show {}.",
+        week_span(&present),
+        week_span(&shown)
+    )
+}
+
 /// How many patients of `arm` have week `week`.
 pub fn patients_with_week(arm: &ArmResult, week: Week) -> usize {
     arm.patients

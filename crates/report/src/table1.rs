@@ -414,22 +414,28 @@ fn scenario_title(scenario: ScenarioId) -> &'static str {
         ScenarioId::S3 => "SMBG with ±10 min timing uncertainty",
         ScenarioId::S4 => "as S3, plus 2 of 21 main meals skipped per week",
         ScenarioId::S5 => "not in the paper: S1 with hypoglycaemia treatment (15 g below 70 mg/dL)",
+        ScenarioId::S6 => {
+            "not in the paper: S1 with insulin sensitivity drifting ±30 % over 6 weeks"
+        }
     }
 }
 
 /// For one scenario with more than one arm: the arms' means ± SD side by
-/// side in W13 and W14 (the weeks after adaptation), one row per metric,
+/// side in W13 and W14 (the weeks after adaptation; a shorter run: its
+/// last two weeks), one row per metric,
 /// over the patients every arm still has in that week (a run that stopped
 /// early drops out of every arm here, so the columns compare the same
 /// people; the per-arm tables below keep each arm's own patients).
 fn arms_side_by_side(s: &mut String, arms: &[ArmResult], scenario: ScenarioId) {
     let in_scenario: Vec<&ArmResult> = arms.iter().filter(|a| a.scenario == scenario).collect();
-    let weeks: Vec<Week> = [Week::W13, Week::W14]
+    // The report's weeks after W1: W13 and W14, or a shorter run's last two.
+    let weeks: Vec<Week> = crate::select::table_weeks(arms)
         .into_iter()
         .filter(|w| {
-            in_scenario
-                .iter()
-                .any(|a| a.patients.iter().any(|p| p.week(*w).is_some()))
+            *w != Week::W1
+                && in_scenario
+                    .iter()
+                    .any(|a| a.patients.iter().any(|p| p.week(*w).is_some()))
         })
         .collect();
     if in_scenario.len() < 2 || weeks.is_empty() {
@@ -493,10 +499,29 @@ fn arms_side_by_side(s: &mut String, arms: &[ArmResult], scenario: ScenarioId) {
 /// `table1.md`: for each scenario and arm, a table of the five bands, LBGI
 /// and HBGI in W1, W13 and W14 (ours and the paper's mean ± SD) with our
 /// Wilcoxon p-values against W1, then the paper's LBGI/HBGI statements
-/// checked against our means.
+/// checked against our means. Built in named steps: [`write_intro`], per
+/// scenario its heading and [`arms_side_by_side`], per arm
+/// [`write_arm_block`], then [`write_unsimulated_arms`].
 pub fn table1_markdown(arms: &[ArmResult]) -> Result<String, ReportError> {
     let rows = table1_rows(arms)?;
     let mut s = String::new();
+    write_intro(&mut s);
+    let mut last_scenario = None;
+    for arm_rows in rows.chunk_by(|a, b| a.scenario == b.scenario && a.advisor == b.advisor) {
+        let scenario = arm_rows[0].scenario;
+        if last_scenario != Some(scenario) {
+            let _ = writeln!(s, "## {scenario}: {}\n", scenario_title(scenario));
+            arms_side_by_side(&mut s, arms, scenario);
+            last_scenario = Some(scenario);
+        }
+        write_arm_block(&mut s, arms, arm_rows);
+    }
+    write_unsimulated_arms(&mut s, arms, &rows);
+    Ok(s)
+}
+
+/// The title and the notes on method, the paper, stopped runs and p.
+fn write_intro(s: &mut String) {
     let _ = writeln!(s, "# Table I: glucose outcomes, ours beside the paper's\n");
     let _ = writeln!(
         s,
@@ -524,157 +549,186 @@ pub fn table1_markdown(arms: &[ArmResult]) -> Result<String, ReportError> {
         "**p**: our paired two-sided Wilcoxon signed-rank test of the week against W1 \
          (normal approximation, tie correction, Pratt's zero correction).\n"
     );
-    let mut i = 0;
-    let mut last_scenario = None;
-    while i < rows.len() {
-        let (scenario, advisor) = (rows[i].scenario, rows[i].advisor);
-        let end = rows[i..]
-            .iter()
-            .position(|r| r.scenario != scenario || r.advisor != advisor)
-            .map_or(rows.len(), |k| i + k);
-        let arm_rows = &rows[i..end];
-        i = end;
-        if last_scenario != Some(scenario) {
-            let _ = writeln!(s, "## {scenario}: {}\n", scenario_title(scenario));
-            arms_side_by_side(&mut s, arms, scenario);
-            last_scenario = Some(scenario);
-        }
+}
+
+/// The weeks of an arm's table: those its rows have, which are the
+/// report's [`crate::select::table_weeks`] (W1, W13, W14; in a shorter run
+/// W1 and its last two weeks).
+fn arm_table_weeks(arm_rows: &[Table1Row]) -> Vec<Week> {
+    Week::ALL
+        .into_iter()
+        .filter(|w| arm_rows.iter().any(|r| r.week == *w))
+        .collect()
+}
+
+/// One arm's block: heading, the weeks not simulated, its table, rescue
+/// carbohydrate and stopped runs, the paper's statements checked.
+fn write_arm_block(s: &mut String, arms: &[ArmResult], arm_rows: &[Table1Row]) {
+    let (scenario, advisor) = (arm_rows[0].scenario, arm_rows[0].advisor);
+    let _ = writeln!(
+        s,
+        "### {scenario} · {} · n = {} patients\n",
+        advisor.title(arm_rows[0].mode),
+        arm_rows[0].n_patients
+    );
+    let arm = arms
+        .iter()
+        .find(|a| a.scenario == scenario && a.advisor == advisor);
+    let weeks = arm_table_weeks(arm_rows);
+    write_missing_weeks(s, arm, &weeks);
+    write_week_table(s, arm, arm_rows, &weeks);
+    if let Some(arm) = arm {
+        write_rescue_and_stops(s, arm);
+    }
+    write_anchors(s, arm_rows);
+    let _ = writeln!(s);
+}
+
+/// Which of W1, W13, W14 this run did not simulate (and which it did).
+fn write_missing_weeks(s: &mut String, arm: Option<&ArmResult>, weeks: &[Week]) {
+    let missing: Vec<String> = Week::TABLE
+        .into_iter()
+        .filter(|w| !weeks.contains(w))
+        .map(|w| w.to_string())
+        .collect();
+    if !missing.is_empty() {
+        let present = arm.map(arm_weeks).unwrap_or_default();
         let _ = writeln!(
             s,
-            "### {scenario} · {} · n = {} patients\n",
-            advisor.title(arm_rows[0].mode),
-            arm_rows[0].n_patients
+            "{}: not simulated in this run (weeks present: {}; shown: {}).\n",
+            missing.join(", "),
+            week_list(&present),
+            week_list(weeks)
         );
-        let weeks: Vec<Week> = Week::TABLE
-            .into_iter()
-            .filter(|w| arm_rows.iter().any(|r| r.week == *w))
-            .collect();
-        let missing: Vec<String> = Week::TABLE
-            .into_iter()
-            .filter(|w| !weeks.contains(w))
-            .map(|w| w.to_string())
-            .collect();
-        if !missing.is_empty() {
-            let present = arms
-                .iter()
-                .find(|a| a.scenario == scenario && a.advisor == advisor)
-                .map(arm_weeks)
-                .unwrap_or_default();
-            let _ = writeln!(
-                s,
-                "{}: not simulated in this run (weeks present: {}).\n",
-                missing.join(", "),
-                week_list(&present)
-            );
-        }
-        let mut header = String::from("| Metric |");
-        let mut rule = String::from("|---|");
-        for w in &weeks {
-            let _ = write!(header, " {w} ours | {w} paper |");
-            rule.push_str("---:|---:|");
-            if *w != Week::W1 {
-                let _ = write!(header, " p {w} vs W1 |");
-                rule.push_str("---:|");
-            }
-        }
-        let _ = writeln!(s, "{header}\n{rule}");
-        let arm = arms
-            .iter()
-            .find(|a| a.scenario == scenario && a.advisor == advisor);
-        let mut n_line = String::from("| patients evaluated |");
-        for w in &weeks {
-            let n = arm.map_or(0, |a| patients_with_week(a, *w));
-            let paper_n = if arm_rows.iter().any(|r| r.week == *w && r.paper.is_some()) {
-                "100"
-            } else {
-                "—"
-            };
-            let _ = write!(n_line, " {n} | {paper_n} |");
-            if *w != Week::W1 {
-                n_line.push_str(" |");
-            }
-        }
-        let _ = writeln!(s, "{n_line}");
-        for metric in TABLE1_METRICS {
-            let mut line = format!("| {} |", metric.label());
-            for w in &weeks {
-                let Some(r) = arm_rows.iter().find(|r| r.week == *w && r.metric == metric) else {
-                    continue;
-                };
-                let decimals = if metric.is_seed_band() { 1 } else { 2 };
-                let paper = match (&r.paper, r.anchor) {
-                    (Some(p), _) => format!("{:.1} ± {:.1}", p.mean, p.sd),
-                    (None, Some(a)) => format!("text: {}", a.text),
-                    (None, None) => "—".to_string(),
-                };
-                let _ = write!(
-                    line,
-                    " {} | {paper} |",
-                    pm(r.ours.mean, r.ours.sd, decimals)
-                );
-                if *w != Week::W1 {
-                    let p = r.p_vs_w1.map_or("—".to_string(), format_p);
-                    let _ = write!(line, " {p} |");
-                }
-            }
-            let _ = writeln!(s, "{line}");
-        }
-        if let Some(arm) = arm {
-            let treatments: u32 = arm.patients.iter().map(|p| p.rescue_treatments).sum();
-            if treatments > 0 {
-                let grams: f64 = arm.patients.iter().map(|p| p.rescue_carbs_g).sum();
-                let _ = writeln!(
-                    s,
-                    "\nRescue carbohydrate (hypoglycaemia treatment by the person): {treatments} treatments, {grams:.0} g in all, {:.1} g per patient over the run.",
-                    grams / arm.patients.len().max(1) as f64
-                );
-            }
-            let stops = stopped_runs(arm);
-            if !stops.is_empty() {
-                let _ = writeln!(
-                    s,
-                    "\nRuns stopped early ({} of {}; plasma glucose below the failure threshold; \
-                     these patients count only in the weeks that ended before the stop):\n",
-                    stops.len(),
-                    arm.patients.len()
-                );
-                for (patient, f) in stops {
-                    let _ = writeln!(
-                        s,
-                        "- {patient}: {}, plasma glucose {:.1} mg/dL",
-                        failure_time(&f),
-                        f.glucose_mg_dl
-                    );
-                }
-            }
-        }
-        let anchored: Vec<&Table1Row> = arm_rows.iter().filter(|r| r.anchor.is_some()).collect();
-        if !anchored.is_empty() {
-            let _ = writeln!(
-                s,
-                "\nPaper's statements on LBGI/HBGI (section IV) against our means:\n"
-            );
-            for r in anchored {
-                if let Some(a) = r.anchor {
-                    let _ = writeln!(
-                        s,
-                        "- {} {}: paper \"{}\"; ours {:.2} — {}",
-                        r.metric.key().to_uppercase(),
-                        r.week,
-                        a.text,
-                        r.ours.mean,
-                        if a.holds(r.ours.mean) {
-                            "consistent"
-                        } else {
-                            "NOT consistent"
-                        }
-                    );
-                }
-            }
-        }
-        let _ = writeln!(s);
     }
-    // Arms that have no W1/W13/W14 at all (a very short trial).
+}
+
+/// The table of one arm: a header per week (ours, the paper's, p against
+/// W1), the patients evaluated, one line per metric.
+fn write_week_table(
+    s: &mut String,
+    arm: Option<&ArmResult>,
+    arm_rows: &[Table1Row],
+    weeks: &[Week],
+) {
+    let mut header = String::from("| Metric |");
+    let mut rule = String::from("|---|");
+    for w in weeks {
+        let _ = write!(header, " {w} ours | {w} paper |");
+        rule.push_str("---:|---:|");
+        if *w != Week::W1 {
+            let _ = write!(header, " p {w} vs W1 |");
+            rule.push_str("---:|");
+        }
+    }
+    let _ = writeln!(s, "{header}\n{rule}");
+    let mut n_line = String::from("| patients evaluated |");
+    for w in weeks {
+        let n = arm.map_or(0, |a| patients_with_week(a, *w));
+        let paper_n = if arm_rows.iter().any(|r| r.week == *w && r.paper.is_some()) {
+            "100"
+        } else {
+            "—"
+        };
+        let _ = write!(n_line, " {n} | {paper_n} |");
+        if *w != Week::W1 {
+            n_line.push_str(" |");
+        }
+    }
+    let _ = writeln!(s, "{n_line}");
+    for metric in TABLE1_METRICS {
+        let _ = writeln!(s, "{}", metric_line(arm_rows, weeks, metric));
+    }
+}
+
+/// One metric's line of an arm's table.
+fn metric_line(arm_rows: &[Table1Row], weeks: &[Week], metric: Metric) -> String {
+    let mut line = format!("| {} |", metric.label());
+    for w in weeks {
+        let Some(r) = arm_rows.iter().find(|r| r.week == *w && r.metric == metric) else {
+            continue;
+        };
+        let decimals = if metric.is_seed_band() { 1 } else { 2 };
+        let paper = match (&r.paper, r.anchor) {
+            (Some(p), _) => format!("{:.1} ± {:.1}", p.mean, p.sd),
+            (None, Some(a)) => format!("text: {}", a.text),
+            (None, None) => "—".to_string(),
+        };
+        let _ = write!(
+            line,
+            " {} | {paper} |",
+            pm(r.ours.mean, r.ours.sd, decimals)
+        );
+        if *w != Week::W1 {
+            let p = r.p_vs_w1.map_or("—".to_string(), format_p);
+            let _ = write!(line, " {p} |");
+        }
+    }
+    line
+}
+
+/// Rescue carbohydrate (if the person treated lows) and the stopped runs.
+fn write_rescue_and_stops(s: &mut String, arm: &ArmResult) {
+    let treatments: u32 = arm.patients.iter().map(|p| p.rescue_treatments).sum();
+    if treatments > 0 {
+        let grams: f64 = arm.patients.iter().map(|p| p.rescue_carbs_g).sum();
+        let _ = writeln!(
+            s,
+            "\nRescue carbohydrate (hypoglycaemia treatment by the person): {treatments} treatments, {grams:.0} g in all, {:.1} g per patient over the run.",
+            grams / arm.patients.len().max(1) as f64
+        );
+    }
+    let stops = stopped_runs(arm);
+    if !stops.is_empty() {
+        let _ = writeln!(
+            s,
+            "\nRuns stopped early ({} of {}; plasma glucose below the failure threshold; \
+             these patients count only in the weeks that ended before the stop):\n",
+            stops.len(),
+            arm.patients.len()
+        );
+        for (patient, f) in stops {
+            let _ = writeln!(
+                s,
+                "- {patient}: {}, plasma glucose {:.1} mg/dL",
+                failure_time(&f),
+                f.glucose_mg_dl
+            );
+        }
+    }
+}
+
+/// The paper's LBGI/HBGI statements against our means.
+fn write_anchors(s: &mut String, arm_rows: &[Table1Row]) {
+    let anchored: Vec<&Table1Row> = arm_rows.iter().filter(|r| r.anchor.is_some()).collect();
+    if anchored.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        s,
+        "\nPaper's statements on LBGI/HBGI (section IV) against our means:\n"
+    );
+    for r in anchored {
+        if let Some(a) = r.anchor {
+            let _ = writeln!(
+                s,
+                "- {} {}: paper \"{}\"; ours {:.2} — {}",
+                r.metric.key().to_uppercase(),
+                r.week,
+                a.text,
+                r.ours.mean,
+                if a.holds(r.ours.mean) {
+                    "consistent"
+                } else {
+                    "NOT consistent"
+                }
+            );
+        }
+    }
+}
+
+/// Arms that have no W1/W13/W14 at all (a very short trial).
+fn write_unsimulated_arms(s: &mut String, arms: &[ArmResult], rows: &[Table1Row]) {
     for arm in ordered_arms(arms) {
         if !rows
             .iter()
@@ -689,7 +743,6 @@ pub fn table1_markdown(arms: &[ArmResult]) -> Result<String, ReportError> {
             );
         }
     }
-    Ok(s)
 }
 
 /// `W1, W2, W13` style list.

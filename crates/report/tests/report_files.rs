@@ -477,8 +477,12 @@ fn figures_are_svg_with_their_titles() {
     }
     let f = files.iter().find(|f| f.name == "fig6_mage.svg").unwrap();
     let text = std::str::from_utf8(&f.bytes).unwrap();
-    // Two ABBA arms x 4 weeks, one MAGE undefined in each W13.
-    assert!(text.contains("for 2 of 24 patient-weeks"), "MAGE note");
+    // Two ABBA arms x 4 weeks, one MAGE undefined in each W13 (the note
+    // may be wrapped over lines).
+    assert!(
+        svg_words(text).contains("for 2 of 24 patient-weeks"),
+        "MAGE note"
+    );
 }
 
 #[test]
@@ -945,4 +949,171 @@ fn report_html_opens_with_the_arms_and_shows_a_short_runs_weeks() {
         "the short run's W2 is not shown"
     );
     assert!(!html.contains("<td>W13</td>"));
+}
+
+/// The four arms of a full-size synthetic trial in every scenario, the
+/// autotune arm a copy of run-to-run with its own name.
+fn full_trial_with_autotune() -> Vec<ArmResult> {
+    let mut arms = full_trial();
+    let autotune: Vec<ArmResult> = arms
+        .iter()
+        .filter(|a| a.advisor == ArmKind::R2r)
+        .map(|a| ArmResult {
+            advisor: ArmKind::Autotune,
+            ..a.clone()
+        })
+        .collect();
+    arms.extend(autotune);
+    arms
+}
+
+/// The text of an SVG's `<text>` content with its five entities resolved.
+fn unescape(s: &str) -> String {
+    s.replace("&lt;", "<")
+        .replace("&gt;", ">")
+        .replace("&quot;", "\"")
+        .replace("&apos;", "'")
+        .replace("&#39;", "'")
+        .replace("&amp;", "&")
+}
+
+/// All `<text>` contents of an SVG joined by spaces (wrapped notes read
+/// as one text).
+fn svg_words(svg: &str) -> String {
+    svg_texts(svg)
+        .into_iter()
+        .map(|t| t.4)
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// Every `<text>` of a plotters SVG: (x, anchor, font size, rotated, content).
+fn svg_texts(svg: &str) -> Vec<(f64, String, f64, bool, String)> {
+    let attr = |tag: &str, name: &str| -> Option<String> {
+        let at = tag.find(&format!(" {name}=\""))? + name.len() + 3;
+        Some(tag[at..].split('"').next()?.to_string())
+    };
+    svg.split("<text")
+        .skip(1)
+        .map(|rest| {
+            let (tag, body) = rest.split_once('>').unwrap();
+            let content = unescape(body.split("</text>").next().unwrap().trim());
+            (
+                attr(tag, "x").unwrap().parse().unwrap(),
+                attr(tag, "text-anchor").unwrap_or_else(|| "start".into()),
+                attr(tag, "font-size").unwrap().parse().unwrap(),
+                tag.contains("transform="),
+                content,
+            )
+        })
+        .collect()
+}
+
+/// At A4 width (the page's 186 mm of text width) every figure's text is
+/// at least 9 pt, and no horizontal text runs past the figure's edges (by a
+/// generous estimate of its width), in a full four-arm trial, a one-scenario
+/// trial and a 30-day one.
+#[test]
+fn figure_text_is_at_least_9_pt_at_a4_width_and_stays_inside() {
+    use abba_report::chart::{text_width, A4_FIGURE_WIDTH_PX, MIN_TEXT_PT};
+    assert!(
+        (A4_FIGURE_WIDTH_PX - 703.0).abs() < 0.1,
+        "{A4_FIGURE_WIDTH_PX}"
+    );
+    let full = full_trial_with_autotune();
+    let one: Vec<ArmResult> = full
+        .iter()
+        .filter(|a| a.scenario == ScenarioId::S4)
+        .cloned()
+        .collect();
+    let mut short = full.clone();
+    for p in short.iter_mut().flat_map(|a| a.patients.iter_mut()) {
+        p.weeks.truncate(4);
+    }
+    for (what, arms) in [("full", &full), ("S4 only", &one), ("30 days", &short)] {
+        let files = build_report(arms, &manifest(), None).unwrap();
+        for f in files.iter().filter(|f| f.name.ends_with(".svg")) {
+            let svg = String::from_utf8(f.bytes.clone()).unwrap();
+            let width: f64 = svg
+                .split("width=\"")
+                .nth(1)
+                .and_then(|r| r.split('"').next())
+                .unwrap()
+                .parse()
+                .unwrap();
+            let texts = svg_texts(&svg);
+            assert!(texts.len() > 10, "{what} {}", f.name);
+            for (x, anchor, size, rotated, content) in texts {
+                let printed_pt = size * A4_FIGURE_WIDTH_PX / width * 0.75;
+                assert!(
+                    printed_pt >= MIN_TEXT_PT,
+                    "{what} {}: {content:?} prints at {printed_pt:.2} pt",
+                    f.name
+                );
+                if rotated {
+                    continue;
+                }
+                let w = text_width(&content, size);
+                let (left, right) = match anchor.as_str() {
+                    "middle" => (x - w / 2.0, x + w / 2.0),
+                    "end" => (x - w, x),
+                    _ => (x, x + w),
+                };
+                assert!(
+                    left >= -1.0 && right <= width + 1.0,
+                    "{what} {}: {content:?} spans {left:.0}..{right:.0} of {width}",
+                    f.name
+                );
+            }
+        }
+    }
+}
+
+/// A 30-day run (weeks W1-W4) shows W1 and its last two weeks in every
+/// table, says which weeks exist, draws weeks 1-4 without claiming W13/W14,
+/// and has the autotune arm in every table and in the arms' figure.
+#[test]
+fn a_30_day_run_shows_the_weeks_it_has_with_every_arm() {
+    let mut arms: Vec<ArmResult> = full_trial_with_autotune()
+        .into_iter()
+        .filter(|a| a.scenario == ScenarioId::S1)
+        .collect();
+    for p in arms.iter_mut().flat_map(|a| a.patients.iter_mut()) {
+        p.weeks.truncate(4);
+    }
+    let files = build_report(&arms, &manifest(), None).unwrap();
+    let text = |name: &str| {
+        String::from_utf8(files.iter().find(|f| f.name == name).unwrap().bytes.clone()).unwrap()
+    };
+    let md = text("table1.md");
+    for want in [
+        "| Metric | W1 ours | W1 paper | W3 ours | W3 paper | p W3 vs W1 | W4 ours | W4 paper | p W4 vs W1 |",
+        "W13, W14: not simulated in this run (weeks present: W1, W2, W3, W4; shown: W1, W3, W4).",
+        "### S1 · autotune (oref0)",
+        "| W3 ABBA | W3 standard | W3 run-to-run | W3 autotune | W4 ABBA |",
+    ] {
+        assert!(md.contains(want), "table1.md lacks {want:?}:\n{md}");
+    }
+    assert!(!md.contains("W13 ours") && !md.contains("W2 ours"), "{md}");
+    let html = text("report.html");
+    for want in [
+        "Weeks simulated: W1-W4 (the paper&#39;s W13 = D84-D90 and W14 = D92-D98 need 98 days); the tables show W1, W3, W4.",
+        "<td>W4</td>",
+        "abba − autotune (p)",
+        "S1/autotune (cgm)",
+    ] {
+        assert!(html.contains(want), "report.html lacks {want:?}");
+    }
+    assert!(!html.contains("<td>W13</td>") && !html.contains("<td>W2</td>"));
+    for f in [
+        "fig5_lbgi_hbgi.svg",
+        "fig6_mage.svg",
+        "fig7_tdi.svg",
+        "fig_arms.svg",
+    ] {
+        let words = svg_words(&text(f));
+        assert!(words.contains("this run has weeks 1-4"), "{f}: {words}");
+        assert!(!words.contains("D84-D90"), "{f} names W13");
+    }
+    assert!(svg_words(&text("fig_arms.svg")).contains("autotune (oref0)"));
 }

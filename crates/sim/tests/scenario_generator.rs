@@ -473,7 +473,7 @@ fn invalid_configurations_are_rejected_naming_the_field() {
     );
     check(&|c| c.cgm.until_day = Some(0), "cgm.until_day");
     assert!("s3".parse::<ScenarioId>().unwrap() == ScenarioId::S3);
-    assert!("S6".parse::<ScenarioId>().is_err());
+    assert!("S7".parse::<ScenarioId>().is_err());
 }
 
 #[test]

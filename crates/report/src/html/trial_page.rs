@@ -17,7 +17,7 @@ use crate::html::svg::{accessible_svg, profile_svg, tir_bar_svg};
 use crate::html::{render_page, HtmlSection, Row};
 use crate::results::{ArmResult, Week};
 use crate::select::{
-    failure_time, metric_column, ordered_arms, stopped_runs, table_weeks, validate_arms,
+    failure_time, metric_column, ordered_arms, stopped_runs, table_weeks, validate_arms, weeks_note,
 };
 use crate::stats::{summarize_present, wilcoxon_signed_rank_present};
 use crate::summary::REPORT_WILCOXON;
@@ -125,7 +125,8 @@ struct ScenarioTable {
     rows: Vec<Row>,
 }
 
-fn facts(manifest: &Value) -> Vec<Row> {
+/// What ran (from the manifest), and which weeks the results have.
+fn facts(manifest: &Value, arms: &[ArmResult]) -> Vec<Row> {
     let get = |path: &str| {
         manifest.pointer(path).map(|v| match v {
             Value::String(s) => s.clone(),
@@ -144,6 +145,7 @@ fn facts(manifest: &Value) -> Vec<Row> {
     ]
     .into_iter()
     .filter_map(|(k, p)| get(p).map(|v| Row::of([k, &v])))
+    .chain(std::iter::once(Row::of(["Weeks", &weeks_note(arms)])))
     .collect()
 }
 
@@ -186,14 +188,41 @@ fn paired_difference(
 }
 
 /// The trial report page. `manifest` is the run's manifest (what ran);
-/// `extra` sections are placed after the stopped runs.
+/// `extra` sections are placed after the stopped runs. The page is built in
+/// named steps, each a function of the results: [`table1_cells`],
+/// [`figure_list`], [`side_by_side_tables`], [`stopped_rows`] and
+/// [`agp_sections`].
 pub fn trial_report_html(
     arms: &[ArmResult],
     manifest: &Value,
     extra: &[HtmlSection],
 ) -> Result<String, ReportError> {
     validate_arms(arms)?;
-    let table1: Vec<Row> = table1_rows(arms)?
+    let table1 = table1_cells(arms)?;
+    let figures = figure_list(arms)?;
+    let ordered = ordered_arms(arms);
+    let shown = table_weeks(arms);
+    let scenarios = side_by_side_tables(&ordered, &shown)?;
+    let stopped = stopped_rows(&ordered);
+    let agp = agp_sections(&ordered, &shown)?;
+    let ctx = minijinja::context! {
+        title => "abba in-silico trial report",
+        facts => facts(manifest, arms),
+        table1 => table1,
+        figures => figures,
+        scenarios => scenarios,
+        stopped => stopped,
+        extra => extra,
+        agp => agp,
+    };
+    render_page("trial.html", "trial report", ctx)
+}
+
+/// Table I as the page shows it: one row per arm, week and metric, ours
+/// (mean ± SD, median [Q1, Q3]) beside the paper's, p against W1 and the
+/// paper's statement.
+fn table1_cells(arms: &[ArmResult]) -> Result<Vec<Row>, ReportError> {
+    Ok(table1_rows(arms)?
         .iter()
         .map(|r| {
             let d = decimals(r.metric);
@@ -226,8 +255,11 @@ pub fn trial_report_html(
                 ),
             ])
         })
-        .collect();
+        .collect())
+}
 
+/// The figures (5, 6, 7 and the arms), each made accessible (title, desc).
+fn figure_list(arms: &[ArmResult]) -> Result<Vec<Figure>, ReportError> {
     let figs = [
         (
             "fig5",
@@ -254,75 +286,112 @@ pub fn trial_report_html(
             "Weekly time in 70-180 mg/dL and insulin, mean over patients, for every arm in each scenario.",
         ),
     ];
-    let figures: Vec<Figure> = figs
+    Ok(figs
         .into_iter()
         .map(|(id, svg, title, desc)| Figure {
             svg: accessible_svg(&svg, id, title, desc),
             caption: desc.to_string(),
         })
-        .collect();
+        .collect())
+}
 
-    let ordered = ordered_arms(arms);
-    let shown = table_weeks(arms);
+/// The metrics of the side-by-side tables: Table I's, then mean glucose,
+/// CV and total daily insulin.
+fn side_by_side_metrics() -> impl Iterator<Item = Metric> {
+    TABLE1_METRICS
+        .into_iter()
+        .chain([Metric::MeanMgDl, Metric::CvPct, Metric::TdiUPerDay])
+}
+
+/// One table per scenario: every arm's mean ± SD in each shown week, and
+/// ABBA's paired difference against every other arm.
+fn side_by_side_tables(
+    ordered: &[&ArmResult],
+    shown: &[Week],
+) -> Result<Vec<ScenarioTable>, ReportError> {
     let mut scenarios: Vec<ScenarioTable> = Vec::new();
     for scenario in abba_core::ScenarioId::ALL {
-        let group: Vec<&&ArmResult> = ordered.iter().filter(|a| a.scenario == scenario).collect();
+        let group: Vec<&ArmResult> = ordered
+            .iter()
+            .copied()
+            .filter(|a| a.scenario == scenario)
+            .collect();
         if group.is_empty() {
             continue;
         }
-        let mut headers = vec!["Metric".to_string(), "Week".to_string()];
-        headers.extend(group.iter().map(|a| format!("{} (mean ± SD)", a.advisor)));
-        // ABBA against each other arm: the mean paired difference over the
-        // patients both have, and its Wilcoxon signed-rank p.
-        let abba = group.iter().find(|a| a.advisor == ArmKind::Abba);
-        let others: Vec<&&&ArmResult> = group
-            .iter()
-            .filter(|a| a.advisor != ArmKind::Abba)
-            .collect();
-        if abba.is_some() {
-            headers.extend(others.iter().map(|a| format!("abba − {} (p)", a.advisor)));
-        }
-        let mut rows = Vec::new();
-        for metric in
-            TABLE1_METRICS
-                .into_iter()
-                .chain([Metric::MeanMgDl, Metric::CvPct, Metric::TdiUPerDay])
-        {
-            for &week in &shown {
-                let mut cells = vec![
-                    format!("{} ({})", metric.label(), metric.unit().symbol()),
-                    week.name().to_string(),
-                ];
-                let mut any = false;
-                for arm in &group {
-                    let s =
-                        summarize_present(&metric_column(arm, week, metric)).map_err(|source| {
-                            ReportError::Stats {
-                                what: format!("arm {}, week {week}, metric {metric}", arm.key()),
-                                source,
-                            }
-                        })?;
-                    any |= s.is_some();
-                    cells.push(s.map_or_else(|| "—".into(), |s| mean_sd(&s, decimals(metric))));
-                }
-                if let Some(a) = abba {
-                    for o in &others {
-                        cells.push(paired_difference(a, o, week, metric)?);
-                    }
-                }
-                if any {
-                    rows.push(Row { cells });
-                }
+        scenarios.push(scenario_table(scenario, &group, shown)?);
+    }
+    Ok(scenarios)
+}
+
+/// The side-by-side table of one scenario's arms (`group`, report order).
+fn scenario_table(
+    scenario: abba_core::ScenarioId,
+    group: &[&ArmResult],
+    shown: &[Week],
+) -> Result<ScenarioTable, ReportError> {
+    let mut headers = vec!["Metric".to_string(), "Week".to_string()];
+    headers.extend(group.iter().map(|a| format!("{} (mean ± SD)", a.advisor)));
+    // ABBA against each other arm: the mean paired difference over the
+    // patients both have, and its Wilcoxon signed-rank p.
+    let abba = group.iter().copied().find(|a| a.advisor == ArmKind::Abba);
+    let others: Vec<&ArmResult> = group
+        .iter()
+        .copied()
+        .filter(|a| a.advisor != ArmKind::Abba)
+        .collect();
+    if abba.is_some() {
+        headers.extend(others.iter().map(|a| format!("abba − {} (p)", a.advisor)));
+    }
+    let mut rows = Vec::new();
+    for metric in side_by_side_metrics() {
+        for &week in shown {
+            if let Some(row) = side_by_side_row(group, abba, &others, week, metric)? {
+                rows.push(row);
             }
         }
-        scenarios.push(ScenarioTable {
-            scenario: scenario.to_string(),
-            headers,
-            rows,
-        });
     }
+    Ok(ScenarioTable {
+        scenario: scenario.to_string(),
+        headers,
+        rows,
+    })
+}
 
-    let stopped: Vec<Row> = ordered
+/// One row of a side-by-side table (`None` when no arm has the week).
+fn side_by_side_row(
+    group: &[&ArmResult],
+    abba: Option<&ArmResult>,
+    others: &[&ArmResult],
+    week: Week,
+    metric: Metric,
+) -> Result<Option<Row>, ReportError> {
+    let mut cells = vec![
+        format!("{} ({})", metric.label(), metric.unit().symbol()),
+        week.name().to_string(),
+    ];
+    let mut any = false;
+    for arm in group {
+        let s = summarize_present(&metric_column(arm, week, metric)).map_err(|source| {
+            ReportError::Stats {
+                what: format!("arm {}, week {week}, metric {metric}", arm.key()),
+                source,
+            }
+        })?;
+        any |= s.is_some();
+        cells.push(s.map_or_else(|| "—".into(), |s| mean_sd(&s, decimals(metric))));
+    }
+    if let Some(a) = abba {
+        for o in others {
+            cells.push(paired_difference(a, o, week, metric)?);
+        }
+    }
+    Ok(any.then_some(Row { cells }))
+}
+
+/// One row per stopped run: arm, patient, when, plasma glucose.
+fn stopped_rows(ordered: &[&ArmResult]) -> Vec<Row> {
+    ordered
         .iter()
         .flat_map(|arm| {
             stopped_runs(arm).into_iter().map(move |(patient, f)| {
@@ -334,8 +403,12 @@ pub fn trial_report_html(
                 ])
             })
         })
-        .collect();
+        .collect()
+}
 
+/// Per arm, the cohort's glucose profile and time in ranges in each shown
+/// week (arms without any kept samples are left out).
+fn agp_sections(ordered: &[&ArmResult], shown: &[Week]) -> Result<Vec<ArmAgp>, ReportError> {
     // The pooled profiles (each sorts some 200,000 readings into bins) are
     // independent: computed in parallel, drawn in order.
     let profiles: Vec<Vec<Option<CohortWeekProfile>>> = ordered
@@ -349,39 +422,12 @@ pub fn trial_report_html(
         .collect::<Result<_, ReportError>>()?;
     let mut agp = Vec::new();
     for (i, (arm, arm_profiles)) in ordered.iter().zip(profiles).enumerate() {
-        let mut weeks = Vec::new();
-        for (&week, c) in shown.iter().zip(arm_profiles) {
-            if let Some(c) = c {
-                let (a, b) = week.days();
-                let title = format!(
-                    "{} {} (D{a}-D{b}), {} patients",
-                    arm.key(),
-                    week,
-                    c.n_patients
-                );
-                weeks.push(Figure {
-                    svg: profile_svg(
-                        &format!("agp{i}{week}"),
-                        &c.profile,
-                        GlucoseUnit::MgDl,
-                        &title,
-                    ),
-                    caption: format!(
-                        "{week}: pooled percentiles of plasma glucose every 5 min over {} samples.",
-                        c.n_samples
-                    ),
-                });
-                weeks.push(Figure {
-                    svg: tir_bar_svg(
-                        &format!("tir{i}{week}"),
-                        c.ranges_pct,
-                        &format!("{} {week}: time in ranges", arm.key()),
-                        GlucoseUnit::MgDl,
-                    ),
-                    caption: format!("{week}: % of pooled samples in the consensus ranges."),
-                });
-            }
-        }
+        let weeks: Vec<Figure> = shown
+            .iter()
+            .zip(arm_profiles)
+            .filter_map(|(&week, c)| c.map(|c| (week, c)))
+            .flat_map(|(week, c)| agp_week_figures(i, arm, week, &c))
+            .collect();
         if !weeks.is_empty() {
             agp.push(ArmAgp {
                 key: arm.key(),
@@ -394,16 +440,40 @@ pub fn trial_report_html(
             });
         }
     }
+    Ok(agp)
+}
 
-    let ctx = minijinja::context! {
-        title => "abba in-silico trial report",
-        facts => facts(manifest),
-        table1 => table1,
-        figures => figures,
-        scenarios => scenarios,
-        stopped => stopped,
-        extra => extra,
-        agp => agp,
-    };
-    render_page("trial.html", "trial report", ctx)
+/// The two figures of arm number `i` in one week: the percentile profile
+/// and the time-in-ranges bar.
+fn agp_week_figures(i: usize, arm: &ArmResult, week: Week, c: &CohortWeekProfile) -> [Figure; 2] {
+    let (a, b) = week.days();
+    let title = format!(
+        "{} {} (D{a}-D{b}), {} patients",
+        arm.key(),
+        week,
+        c.n_patients
+    );
+    [
+        Figure {
+            svg: profile_svg(
+                &format!("agp{i}{week}"),
+                &c.profile,
+                GlucoseUnit::MgDl,
+                &title,
+            ),
+            caption: format!(
+                "{week}: pooled percentiles of plasma glucose every 5 min over {} samples.",
+                c.n_samples
+            ),
+        },
+        Figure {
+            svg: tir_bar_svg(
+                &format!("tir{i}{week}"),
+                c.ranges_pct,
+                &format!("{} {week}: time in ranges", arm.key()),
+                GlucoseUnit::MgDl,
+            ),
+            caption: format!("{week}: % of pooled samples in the consensus ranges."),
+        },
+    ]
 }

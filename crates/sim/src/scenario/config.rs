@@ -135,6 +135,37 @@ pub struct SensitivityConfig {
     /// choice is not documented in any source we found).
     #[serde(default)]
     pub target: SensitivityTarget,
+    /// A slow drift of sensitivity on top of the daily factor (`None`, the
+    /// paper's protocol; on in S6).
+    #[serde(default)]
+    pub drift: Option<SensitivityDrift>,
+}
+
+/// A slow sinusoidal drift of insulin sensitivity: from `from_day` on, the
+/// day's factor is multiplied by 1 + amplitude · sin(2π (d − from_day) /
+/// period_days + φ), with the phase φ drawn once per patient, uniform in
+/// [0, 2π), from the patient's sensitivity stream (so one seed gives the
+/// same drift). It also acts on the days after `variable_until_day`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensitivityDrift {
+    /// Relative amplitude (0.3: ±30 %).
+    pub amplitude: f64,
+    /// Length of one cycle in days (42: six weeks).
+    pub period_days: u32,
+    /// First day (1-based) of the drift (9: after the standard-therapy
+    /// week, so that W1 is S1's).
+    pub from_day: u32,
+}
+
+impl Default for SensitivityDrift {
+    fn default() -> Self {
+        Self {
+            amplitude: 0.3,
+            period_days: 42,
+            from_day: 9,
+        }
+    }
 }
 
 impl Default for SensitivityConfig {
@@ -148,6 +179,7 @@ impl Default for SensitivityConfig {
             dawn_ramp_min: 30,
             variable_until_day: 90,
             target: SensitivityTarget::VmxAndKp3,
+            drift: None,
         }
     }
 }
@@ -250,7 +282,7 @@ impl ScenarioConfig {
             ScenarioId::S2 => (None, Some(smbg(0)), Some(8)),
             ScenarioId::S3 => (None, Some(smbg(10)), Some(8)),
             ScenarioId::S4 => (Some(SkipConfig::default()), Some(smbg(10)), Some(8)),
-            ScenarioId::S5 => (None, None, None),
+            ScenarioId::S5 | ScenarioId::S6 => (None, None, None),
         };
         Self {
             name: id.name().to_string(),
@@ -258,7 +290,10 @@ impl ScenarioConfig {
             random_key: 1,
             meals: MealConfig::default(),
             skip,
-            sensitivity: SensitivityConfig::default(),
+            sensitivity: SensitivityConfig {
+                drift: (id == ScenarioId::S6).then(SensitivityDrift::default),
+                ..SensitivityConfig::default()
+            },
             smbg,
             cgm: CgmWear {
                 until_day: cgm_until,
@@ -275,6 +310,23 @@ impl ScenarioConfig {
                 self.name
             )))
         };
+        if let Some(d) = &self.sensitivity.drift {
+            if !(d.amplitude.is_finite() && (0.0..1.0).contains(&d.amplitude)) {
+                return bad(
+                    "sensitivity.drift.amplitude",
+                    format!("must be in [0, 1), got {}", d.amplitude),
+                );
+            }
+            if d.period_days == 0 {
+                return bad("sensitivity.drift.period_days", "must be at least 1".into());
+            }
+            if d.from_day == 0 {
+                return bad(
+                    "sensitivity.drift.from_day",
+                    "must be at least 1 (1-based)".into(),
+                );
+            }
+        }
         if let Some(t) = &self.hypo_treatment {
             if !(t.below_mg_dl.is_finite() && t.below_mg_dl > 0.0 && t.below_mg_dl < 200.0) {
                 return bad(

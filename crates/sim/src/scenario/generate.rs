@@ -80,6 +80,9 @@ pub struct ScenarioGenerator {
     seeds: StreamSeeds,
 }
 
+/// The stream index of the sensitivity drift's phase (days use 0..days).
+const DRIFT_PHASE_STREAM: u64 = u64::MAX;
+
 fn day_rng(seed: u64, stream: u64) -> ChaCha8Rng {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     rng.set_stream(stream);
@@ -228,9 +231,10 @@ impl ScenarioGenerator {
         } else {
             s.daily_factor_min
         };
+        let drift = self.drift_factor(day_index);
         if day_index < s.variable_until_day {
             SensitivityDay {
-                daily_factor: factor,
+                daily_factor: factor * drift,
                 dawn: Some(Dawn {
                     factor: s.dawn_factor,
                     start_min: s.dawn_start_min,
@@ -240,10 +244,27 @@ impl ScenarioGenerator {
             }
         } else {
             SensitivityDay {
-                daily_factor: 1.0,
+                daily_factor: drift,
                 dawn: None,
             }
         }
+    }
+
+    /// The slow drift's factor on day `day_index` (0-based); 1 without a
+    /// drift or before it starts. The phase comes from the sensitivity
+    /// stream under a stream index no day uses.
+    fn drift_factor(&self, day_index: u32) -> f64 {
+        let Some(d) = self.config.sensitivity.drift else {
+            return 1.0;
+        };
+        let day = day_index + 1;
+        if day < d.from_day {
+            return 1.0;
+        }
+        let phase = day_rng(self.seeds.sensitivity, DRIFT_PHASE_STREAM)
+            .gen_range(0.0..std::f64::consts::TAU);
+        let t = f64::from(day - d.from_day) / f64::from(d.period_days);
+        1.0 + d.amplitude * (std::f64::consts::TAU * t + phase).sin()
     }
 
     /// For day `day_index`, whether each main meal (in template order) is skipped.

@@ -23,7 +23,7 @@ mod plan;
 
 pub use config::{
     CgmWear, HypoTreatment, MealConfig, MealTemplate, ScenarioConfig, ScenarioId,
-    SensitivityConfig, SensitivityTarget, SkipConfig, SmbgConfig,
+    SensitivityConfig, SensitivityDrift, SensitivityTarget, SkipConfig, SmbgConfig,
 };
 pub use generate::{ScenarioGenerator, StreamSeeds};
 pub use plan::{Dawn, DayPlan, PlannedMeal, SensitivityDay, SmbgPurpose, SmbgReading, DAY_MINUTES};

@@ -5,6 +5,9 @@ use crate::SimError;
 use abba_core::{Grams, MealSlot, MINUTES_PER_DAY};
 use serde::{Deserialize, Serialize};
 
+/// How a check names a refused field (the scenario's name added by `validate`).
+type Bad<'a> = dyn Fn(&str, String) -> Result<(), SimError> + 'a;
+
 /// The paper's four scenario names live in abba-core (results and reports
 /// carry them without seeing the simulator); re-exported here, where the
 /// scenarios themselves are defined.
@@ -310,6 +313,26 @@ impl ScenarioConfig {
                 self.name
             )))
         };
+        self.check_drift(&bad)?;
+        self.check_hypo_treatment(&bad)?;
+        if self.days == 0 {
+            return bad("days", "must be at least 1".into());
+        }
+        self.check_meals(&bad)?;
+        self.check_skip(&bad)?;
+        self.check_sensitivity(&bad)?;
+        self.check_smbg(&bad)?;
+        if let Some(0) = self.cgm.until_day {
+            return bad(
+                "cgm.until_day",
+                "days are counted from 1 (null: worn every day)".into(),
+            );
+        }
+        Ok(())
+    }
+
+    /// The slow drift of insulin sensitivity (S6).
+    fn check_drift(&self, bad: &Bad<'_>) -> Result<(), SimError> {
         if let Some(d) = &self.sensitivity.drift {
             if !(d.amplitude.is_finite() && (0.0..1.0).contains(&d.amplitude)) {
                 return bad(
@@ -327,6 +350,11 @@ impl ScenarioConfig {
                 );
             }
         }
+        Ok(())
+    }
+
+    /// The person's treatment of a low (S5).
+    fn check_hypo_treatment(&self, bad: &Bad<'_>) -> Result<(), SimError> {
         if let Some(t) = &self.hypo_treatment {
             if !(t.below_mg_dl.is_finite() && t.below_mg_dl > 0.0 && t.below_mg_dl < 200.0) {
                 return bad(
@@ -344,10 +372,14 @@ impl ScenarioConfig {
                 return bad("hypo_treatment.recheck_min", "must be at least 1".into());
             }
         }
+        Ok(())
+    }
+
+    /// The meal plan: announce factors, each meal's size and time window
+    /// (inside the day, in order, not overlapping), one meal per slot, only
+    /// main meals announced.
+    fn check_meals(&self, bad: &Bad<'_>) -> Result<(), SimError> {
         let day = MINUTES_PER_DAY as u32;
-        if self.days == 0 {
-            return bad("days", "must be at least 1".into());
-        }
         let m = &self.meals;
         if !(m.announce_factor_min.is_finite()
             && m.announce_factor_max.is_finite()
@@ -409,6 +441,13 @@ impl ScenarioConfig {
                 );
             }
         }
+        Ok(())
+    }
+
+    /// Skipped meals: blocks counted from day 1, no more skips than main
+    /// meals in a block.
+    fn check_skip(&self, bad: &Bad<'_>) -> Result<(), SimError> {
+        let m = &self.meals;
         if let Some(s) = &self.skip {
             if s.block_days == 0 {
                 return bad("skip.block_days", "must be at least 1".into());
@@ -438,6 +477,12 @@ impl ScenarioConfig {
                 );
             }
         }
+        Ok(())
+    }
+
+    /// Day-to-day sensitivity and the dawn phenomenon's window.
+    fn check_sensitivity(&self, bad: &Bad<'_>) -> Result<(), SimError> {
+        let day = MINUTES_PER_DAY as u32;
         let s = &self.sensitivity;
         if !(s.daily_factor_min.is_finite()
             && s.daily_factor_max.is_finite()
@@ -467,6 +512,13 @@ impl ScenarioConfig {
                 ),
             );
         }
+        Ok(())
+    }
+
+    /// The meter readings of SMBG mode, inside the day around the meals.
+    fn check_smbg(&self, bad: &Bad<'_>) -> Result<(), SimError> {
+        let day = MINUTES_PER_DAY as u32;
+        let m = &self.meals;
         if let Some(b) = &self.smbg {
             if b.from_day == 0 {
                 return bad("smbg.from_day", "days are counted from 1".into());
@@ -491,12 +543,6 @@ impl ScenarioConfig {
                     ),
                 );
             }
-        }
-        if let Some(0) = self.cgm.until_day {
-            return bad(
-                "cgm.until_day",
-                "days are counted from 1 (null: worn every day)".into(),
-            );
         }
         Ok(())
     }

@@ -11,7 +11,7 @@ use abba_advisor::Parameter;
 use abba_store::effect::{
     Band, Effect, EffectPredictor, EffectQuery, Figures, NoPrediction, Predicted, TwinCheck,
 };
-use abba_twin::{Banded, BasalChange, Grade, Ranges, WhatIf};
+use abba_twin::{Banded, Grade, Ranges, WhatIf};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
@@ -70,24 +70,11 @@ fn figures(b: &Banded) -> Figures {
 
 /// The what-if of one suggestion: its setting times suggested / in force.
 fn what_if(q: &EffectQuery<'_>) -> WhatIf {
-    let factor = q.suggested / q.in_force;
-    let mut w = WhatIf {
-        basal: BasalChange::Keep,
-        carb_ratio: None,
-        carb_ratio_factor: None,
-        carb_ratio_factors: None,
+    let meal = match q.parameter {
+        Parameter::Basal => None,
+        Parameter::CarbRatio(slot) => Some(slot),
     };
-    match q.parameter {
-        Parameter::Basal => w.basal = BasalChange::Factor(factor),
-        Parameter::CarbRatio(slot) => {
-            let mut f = [1.0; 3];
-            if let Some(i) = slot.main_index() {
-                f[i] = factor;
-            }
-            w.carb_ratio_factors = Some(f);
-        }
-    }
-    w
+    WhatIf::one_setting(meal, q.suggested / q.in_force)
 }
 
 impl EffectPredictor for TwinPredictor {

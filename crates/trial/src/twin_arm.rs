@@ -21,7 +21,7 @@ use crate::results::PatientResult;
 use abba_advisor::{Advisor, AdvisorError, ArmKind, Decision, Mode, Parameter};
 use abba_core::{Event, EventKind, GramsPerUnit, SettingValue, TherapySettings, UnitsPerHour};
 use abba_sim::cohort::{Population, VirtualPatient};
-use abba_twin::{BasalChange, Grade, Twin, TwinOptions, WhatIf};
+use abba_twin::{Grade, Twin, TwinOptions, WhatIf};
 
 /// How the twin check runs in the trial.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -154,23 +154,11 @@ impl<A: Advisor> TwinChecked<A> {
             self.stats.unchecked += 1;
             return false;
         };
-        let factor = d.new / d.old;
-        let mut w = WhatIf {
-            basal: BasalChange::Keep,
-            carb_ratio: None,
-            carb_ratio_factor: None,
-            carb_ratio_factors: None,
+        let meal = match d.parameter {
+            Parameter::Basal => None,
+            Parameter::CarbRatio(slot) => Some(slot),
         };
-        match d.parameter {
-            Parameter::Basal => w.basal = BasalChange::Factor(factor),
-            Parameter::CarbRatio(slot) => {
-                let mut f = [1.0; 3];
-                if let Some(i) = slot.main_index() {
-                    f[i] = factor;
-                }
-                w.carb_ratio_factors = Some(f);
-            }
-        }
+        let w = WhatIf::one_setting(meal, d.new / d.old);
         let days = self.options.replay_days.min(twin.data.days);
         match twin.replay(events, &w, days) {
             Ok(r) => {

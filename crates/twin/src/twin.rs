@@ -439,6 +439,29 @@ pub struct WhatIf {
 }
 
 impl WhatIf {
+    /// One setting times `factor`, the rest as recorded: the basal rate
+    /// (`meal` `None`) or one main meal's carb ratio (what one suggestion
+    /// changes; a snack has no ratio, so it changes nothing).
+    pub fn one_setting(meal: Option<abba_core::MealSlot>, factor: f64) -> WhatIf {
+        let mut w = WhatIf {
+            basal: BasalChange::Keep,
+            carb_ratio: None,
+            carb_ratio_factor: None,
+            carb_ratio_factors: None,
+        };
+        match meal {
+            None => w.basal = BasalChange::Factor(factor),
+            Some(slot) => {
+                let mut f = [1.0; 3];
+                if let Some(i) = slot.main_index() {
+                    f[i] = factor;
+                }
+                w.carb_ratio_factors = Some(f);
+            }
+        }
+        w
+    }
+
     /// Checks the settings against abba-core's plausibility limits.
     pub fn check(&self) -> Result<(), TwinError> {
         use abba_core::limits;

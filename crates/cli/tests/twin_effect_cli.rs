@@ -348,3 +348,54 @@ fn the_twin_check_holds_back_a_suggestion_its_twin_predicts_to_raise_lows() {
     assert!(!basal_card.contains("value=\"accept\""), "{basal_card}");
     assert!(basal_card.contains("value=\"reject\""), "{basal_card}");
 }
+
+/// Real data without insulin or carbohydrate (issue 27's real-data check):
+/// the I/O tests' LibreView export in Abbott's layout (Libre 3, CGM and
+/// scans only) gives a twin graded "not usable", said with its reason;
+/// `abba advise` shows no prediction (a line for an open suggestion, if
+/// there is one, says the twin is not usable).
+#[test]
+fn a_cgm_only_export_in_libreviews_layout_gives_a_twin_that_is_not_usable() {
+    let dir = TempDir::new("twin-effect-libreview");
+    let db = dir.0.join("lv.db");
+    let db = db.to_str().unwrap();
+    let export = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../io/tests/data/libreview_libre3_synthetic.csv");
+    ok(&abba(&[
+        "person",
+        "new",
+        "--db",
+        db,
+        "--name",
+        "lv",
+        "--tz",
+        "Europe/Zurich",
+        "--mode",
+        "cgm",
+        "--basal",
+        "0.9",
+        "--carb-ratio",
+        "10,10,10",
+    ]));
+    ok(&abba(&[
+        "import",
+        "--db",
+        db,
+        "--person",
+        "lv",
+        export.to_str().unwrap(),
+    ]));
+    let fit = ok(&abba(&["twin", "fit", "--db", db, "--person", "lv"]));
+    assert!(fit.contains(NOTICE), "{fit}");
+    assert!(fit.contains("Grade: not usable ("), "{fit}");
+    assert!(
+        fit.contains("no carbohydrate logged") || fit.contains("no insulin delivered"),
+        "the reason is named: {fit}"
+    );
+    let text = ok(&abba(&["advise", "--db", db, "--person", "lv"]));
+    assert!(text.contains(NOTICE), "{text}");
+    assert!(!text.contains("Predicted on your twin"), "{text}");
+    for line in text.lines().filter(|l| l.contains("No predicted effect")) {
+        assert!(line.contains("your twin is not usable ("), "{line}");
+    }
+}

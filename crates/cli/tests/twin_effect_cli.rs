@@ -353,7 +353,8 @@ fn the_twin_check_holds_back_a_suggestion_its_twin_predicts_to_raise_lows() {
 /// the I/O tests' LibreView export in Abbott's layout (Libre 3, CGM and
 /// scans only) gives a twin graded "not usable", said with its reason;
 /// `abba advise` shows no prediction (a line for an open suggestion, if
-/// there is one, says the twin is not usable).
+/// there is one, says the twin is not usable) and says the delivery is not
+/// known.
 #[test]
 fn a_cgm_only_export_in_libreviews_layout_gives_a_twin_that_is_not_usable() {
     let dir = TempDir::new("twin-effect-libreview");
@@ -395,6 +396,11 @@ fn a_cgm_only_export_in_libreviews_layout_gives_a_twin_that_is_not_usable() {
     let text = ok(&abba(&["advise", "--db", db, "--person", "lv"]));
     assert!(text.contains(NOTICE), "{text}");
     assert!(!text.contains("Predicted on your twin"), "{text}");
+    // Nor is a CGM-only export called open-loop pump therapy.
+    assert!(
+        text.contains("Delivery: no pump or insulin records (the delivery is not known)."),
+        "{text}"
+    );
     for line in text.lines().filter(|l| l.contains("No predicted effect")) {
         assert!(line.contains("your twin is not usable ("), "{line}");
     }

@@ -7,7 +7,9 @@
 //! `isSMB`, Loop's automatic boluses), Tidepool `automated` basal, or an
 //! uploader or device named as a loop system (iAPS, Trio, Loop, AndroidAPS,
 //! OpenAPS, FreeAPS, Control-IQ, CamAPS, 780G / SmartGuard auto mode).
-//! Injections: long-acting insulin and no pump basal record.
+//! Injections: long-acting insulin and no pump basal record. Data with no
+//! pump record and no insulin at all (a CGM-only export) show no delivery:
+//! abba says so instead of calling it open-loop pump therapy.
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -74,6 +76,9 @@ pub enum Delivery {
     ClosedLoop,
     /// Multiple daily injections.
     Injections,
+    /// No pump record and no insulin in the data (CGM or meter only): the
+    /// delivery is not known.
+    NoInsulinRecords,
 }
 
 impl Delivery {
@@ -83,6 +88,7 @@ impl Delivery {
             Delivery::OpenLoop => "open-loop pump therapy",
             Delivery::ClosedLoop => "automated insulin delivery (a closed loop)",
             Delivery::Injections => "multiple daily injections",
+            Delivery::NoInsulinRecords => "no pump or insulin records (the delivery is not known)",
         }
     }
 }
@@ -213,6 +219,8 @@ impl Evidence {
             Delivery::ClosedLoop
         } else if self.long_acting > 0 && self.pump_basal == 0 {
             Delivery::Injections
+        } else if self.pump_hours == 0 && self.long_acting == 0 {
+            Delivery::NoInsulinRecords
         } else {
             Delivery::OpenLoop
         }
@@ -278,7 +286,26 @@ mod tests {
         assert_eq!(e.systems.get("iaps"), Some(&1));
         assert_eq!(e.systems.get("trio"), Some(&1));
         assert_eq!(e.delivery(), Delivery::ClosedLoop);
-        let none = Evidence::from_file(br#"[{"eventType":"Meal Bolus","enteredBy":"xdrip"}]"#);
+        let mut none = Evidence::from_file(br#"[{"eventType":"Meal Bolus","enteredBy":"xdrip"}]"#);
+        // A day of pump records (counted from the records, not the file).
+        none.pump_hours = 24;
         assert_eq!(none.delivery(), Delivery::OpenLoop);
+    }
+
+    #[test]
+    fn data_without_pump_or_insulin_records_show_no_delivery() {
+        // CGM only: nothing says how insulin is delivered.
+        assert_eq!(Evidence::default().delivery(), Delivery::NoInsulinRecords);
+        let injections = Evidence {
+            long_acting: 3,
+            ..Evidence::default()
+        };
+        assert_eq!(injections.delivery(), Delivery::Injections);
+        let pump = Evidence {
+            pump_hours: 24,
+            pump_basal: 1,
+            ..Evidence::default()
+        };
+        assert_eq!(pump.delivery(), Delivery::OpenLoop);
     }
 }

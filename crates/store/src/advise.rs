@@ -377,6 +377,9 @@ fn delivery_view(person: &Person, extras: Option<&Extras>) -> DeliveryView {
     let kind = x.delivery();
     let note = match (kind, person.settings.allow_closed_loop) {
         (Delivery::OpenLoop, _) => None,
+        (Delivery::NoInsulinRecords, _) => Some(
+            "The data hold no pump or insulin records, so abba cannot tell how insulin is delivered: ABBA was designed and validated for open-loop pump therapy and needs the pump's basal and bolus records. Import them (or an export that has them) before any basal rate is suggested.".to_string(),
+        ),
         (_, false) => Some(format!(
             "The data show {}. ABBA was designed and validated for open-loop pump therapy: abba suggests no basal rate (what the loop or the injections delivered is not a schedule to adapt). Carb ratios are still suggested. For research only, a person created with --allow-closed-loop gets basal suggestions.",
             kind.name()

@@ -169,3 +169,180 @@ pub fn reasons_in(d: &Decision, cfg: &AbbaConfig, unit: GlucoseUnit) -> Vec<Stri
     ));
     out
 }
+
+/// Said by every human-facing output: what abba is, and is not.
+pub const NOTICE: &str = "abba is research software, not a medical device. Changes to insulin therapy belong with your clinician: discuss any suggestion with them before you act on it.";
+
+/// The data one update learned from: `n` readings between two local times.
+pub fn data_window(n: u32, from: &str, to: &str) -> String {
+    format!("{n} readings from {from} to {to}")
+}
+
+/// A decision that learned from no data window (a skipped decision point).
+pub const NO_DATA_WINDOW: &str = "no data window";
+
+/// The delivery of an app-fed person: what the pump app reports.
+pub const DELIVERY_AS_APP_REPORTS: &str = "as the app reports it";
+
+/// What the data gathered so far hold, for [`first_week_gaps`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FirstWeekData {
+    /// CGM readings.
+    pub cgm_readings: usize,
+    /// CGM readings against the days spanned × 288 (0-1).
+    pub cgm_coverage: f64,
+    /// Bolus records.
+    pub boluses: usize,
+    /// Announced meals (carbohydrate entries).
+    pub meals: usize,
+    /// Meter readings, when the person is in SMBG mode (none: CGM mode).
+    pub meter_readings: Option<usize>,
+}
+
+/// What the first week still lacks, one sentence each (empty: nothing).
+pub fn first_week_gaps(d: &FirstWeekData) -> Vec<String> {
+    let mut missing = Vec::new();
+    if d.cgm_readings == 0 {
+        missing.push(
+            "no CGM readings yet: the first week needs CGM data to set up the advisor".into(),
+        );
+    } else if d.cgm_coverage < 0.7 {
+        missing.push(format!(
+            "CGM coverage so far is {:.0} % (aim for 70 % or more)",
+            100.0 * d.cgm_coverage
+        ));
+    }
+    if d.boluses == 0 {
+        missing.push("no bolus records yet (import your pump's data)".into());
+    }
+    if d.meals == 0 {
+        missing.push("no meals (carbohydrate entries) yet".into());
+    }
+    if d.meter_readings == Some(0) {
+        missing.push("no meter (finger-stick) readings yet".into());
+    }
+    missing
+}
+
+/// The rule a day of the first week must meet (imported records).
+pub fn first_week_rule(init_days: u32) -> String {
+    format!(
+        "the first week needs {init_days} days each with at least 70 % of the expected CGM readings (SMBG mode: 3 meter readings) and pump records"
+    )
+}
+
+/// Why one day of the first week does not qualify: `why` are its gaps
+/// (see [`first_week_day_gaps`]); `today` when the day is not over.
+pub fn first_week_day(why: &[String], today: bool) -> String {
+    if today {
+        format!("so far {} (the day is not over)", why.join(", "))
+    } else {
+        why.join(", ")
+    }
+}
+
+/// A day's gaps against the first week's rule: CGM readings below 70 % of
+/// `expected` (CGM mode), meter readings below `needed` (SMBG mode, with
+/// `smbg`), no pump record.
+pub fn first_week_day_gaps(
+    cgm: Option<(usize, usize)>,
+    smbg: Option<(usize, usize)>,
+    pump_records: usize,
+) -> Vec<String> {
+    let mut why = Vec::new();
+    if let Some((n, expected)) = cgm {
+        why.push(format!(
+            "{n} CGM readings of the {expected} expected ({:.0} %; 70 % needed)",
+            100.0 * n as f64 / expected as f64
+        ));
+    }
+    if let Some((n, needed)) = smbg {
+        why.push(format!("{n} meter readings ({needed} needed)"));
+    }
+    if pump_records == 0 {
+        why.push("no pump records".into());
+    }
+    why
+}
+
+/// A local date, or "day N" (1-based) where the date cannot be written.
+pub fn day_or_date(date: Option<String>, index: i64) -> String {
+    date.unwrap_or_else(|| format!("day {}", index + 1))
+}
+
+/// A date with what is wrong with it.
+pub fn dated(date: &str, why: &str) -> String {
+    format!("{date}: {why}")
+}
+
+/// How insulin is delivered, when it is not the open-loop pump therapy
+/// ABBA was designed for, for [`delivery_note`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum NotDesignedFor<'a> {
+    /// No pump or insulin record at all: the delivery is not known.
+    NoInsulinRecords,
+    /// A closed loop or injections (`shown`: what the data show, in
+    /// words); `allowed`: the person was created with --allow-closed-loop.
+    Delivery {
+        /// What the data show, in words.
+        shown: &'a str,
+        /// Basal suggestions allowed anyway (research only).
+        allowed: bool,
+    },
+}
+
+/// What abba tells a person whose delivery it was not designed for.
+pub fn delivery_note(d: NotDesignedFor<'_>) -> String {
+    match d {
+        NotDesignedFor::NoInsulinRecords => "The data hold no pump or insulin records, so abba cannot tell how insulin is delivered: ABBA was designed and validated for open-loop pump therapy and needs the pump's basal and bolus records. Import them (or an export that has them) before any basal rate is suggested.".to_string(),
+        NotDesignedFor::Delivery { shown, allowed: false } => format!(
+            "The data show {shown}. ABBA was designed and validated for open-loop pump therapy: abba suggests no basal rate (what the loop or the injections delivered is not a schedule to adapt). Carb ratios are still suggested. For research only, a person created with --allow-closed-loop gets basal suggestions."
+        ),
+        NotDesignedFor::Delivery { shown, allowed: true } => format!(
+            "The data show {shown}, and this person was created with --allow-closed-loop (research only): basal suggestions are made although ABBA was not validated for it."
+        ),
+    }
+}
+
+/// A change of therapy the records show: when, from where, and what it
+/// put in force (`basal`: segments as `HH:MM` and U/h).
+pub fn therapy_change(
+    instant: &str,
+    origin: &str,
+    basal: Option<&[(String, f64)]>,
+    carb_ratios: Option<[f64; 3]>,
+) -> String {
+    let mut what = Vec::new();
+    if let Some(b) = basal {
+        let segs: Vec<String> = b.iter().map(|(at, r)| format!("{at} {r}")).collect();
+        what.push(format!("basal {} U/h", segs.join(", ")));
+    }
+    if let Some([b, l, d]) = carb_ratios {
+        what.push(format!("carb ratios {b}/{l}/{d} g/U"));
+    }
+    format!("from {instant} ({origin}): {}", what.join(", "))
+}
+
+/// A record the advisor did not use, as an example for the person.
+pub fn record_not_used(origin: &str, kind: &str, reason: &str) -> String {
+    format!("{origin} ({kind}): {reason}")
+}
+
+/// A setting's name for a report line (`basal`, or a meal's key).
+pub fn setting_name(key: &str) -> String {
+    match key {
+        "basal" => "basal rate".to_string(),
+        meal => format!("carb ratio ({meal})"),
+    }
+}
+
+/// A suggestion's answer for a report line: its status key, and the value
+/// in force with its unit for an override.
+pub fn answer_words(status: &str, in_force: f64, unit: &str) -> String {
+    match status {
+        "open" => "not answered yet".to_string(),
+        "overridden" => format!("set to {in_force:.3} {unit}"),
+        "superseded" => "not answered before the next suggestion (taken as followed)".to_string(),
+        other => other.to_string(),
+    }
+}

@@ -494,8 +494,12 @@ async fn a_clinic_and_a_person_in_headless_chromium() {
         .await
         .unwrap()
         .unwrap_or_default();
-    let slot = if slot == "snack" {
-        "dinner".to_string()
+    // The ratio learns from the previous day's window of the same meal:
+    // dinner's runs past midnight into today, which the export does not
+    // cover (a reading is missing at any hour the test runs), breakfast's
+    // and lunch's lie inside yesterday. The default slot follows the clock.
+    let slot = if slot == "snack" || slot == "dinner" {
+        "lunch".to_string()
     } else {
         slot
     };

@@ -77,12 +77,16 @@ fn every_day_has_its_panel_and_every_suggestion_its_answer() {
     let html = person_report_html(&input).unwrap();
     for (i, day) in input.days.iter().enumerate() {
         assert!(
-            html.contains(&format!(r#"<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 200 130" role="img" class="day{i}"><title>{}</title>"#, day.date)),
+            html.contains(&format!(r#"<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 {} 150" role="img" class="day{i}"><title>{}</title>"#, abba_report::html::svg::DAY_PANEL_WIDTH, day.date)),
             "no panel for {}",
             day.date
         );
     }
-    assert_eq!(html.matches(r#"viewBox="0 0 200 130""#).count(), 14);
+    let panel = format!(
+        r#"viewBox="0 0 {} 150""#,
+        abba_report::html::svg::DAY_PANEL_WIDTH
+    );
+    assert_eq!(html.matches(&panel).count(), 14);
     for s in &input.suggestions {
         let row = html
             .split("<tr>")

@@ -14,7 +14,7 @@ use serde::Serialize;
 use std::collections::BTreeMap;
 
 /// Said with every output meant for people.
-pub const NOTICE: &str = "abba is research software, not a medical device. Changes to insulin therapy belong with your clinician: discuss any suggestion with them before you act on it.";
+pub use abba_advisor::words::NOTICE;
 
 /// The four settings, in display order.
 pub const PARAMETERS: [Parameter; 4] = [
@@ -284,13 +284,12 @@ pub fn views_with(
                 (None, None) => ("superseded".to_string(), d.new),
             };
             let data = match &d.detail {
-                DecisionDetail::Abba(x) => format!(
-                    "{} readings from {} to {}",
+                DecisionDetail::Abba(x) => words::data_window(
                     x.window.n,
-                    local(c.as_ref(), x.window_start),
-                    local(c.as_ref(), x.window_end)
+                    &local(c.as_ref(), x.window_start),
+                    &local(c.as_ref(), x.window_end),
                 ),
-                _ => "no data window".to_string(),
+                _ => words::NO_DATA_WINDOW.to_string(),
             };
             SuggestionView {
                 setting: key,
@@ -335,28 +334,14 @@ fn first_week(person: &Person, events: &[Event]) -> Phase {
     let cgm = count(|k| matches!(k, EventKind::Cgm(_)));
     let days =
         (events.last().map_or(first.at, |e| e.at).day_index() - first.at.day_index() + 1).max(1);
-    let mut missing = Vec::new();
-    let coverage = cgm as f64 / (days as f64 * 288.0);
-    if cgm == 0 {
-        missing.push(
-            "no CGM readings yet: the first week needs CGM data to set up the advisor".into(),
-        );
-    } else if coverage < 0.7 {
-        missing.push(format!(
-            "CGM coverage so far is {:.0} % (aim for 70 % or more)",
-            100.0 * coverage
-        ));
-    }
-    if count(|k| matches!(k, EventKind::Bolus(_))) == 0 {
-        missing.push("no bolus records yet (import your pump's data)".into());
-    }
-    if count(|k| matches!(k, EventKind::MealAnnounced { .. })) == 0 {
-        missing.push("no meals (carbohydrate entries) yet".into());
-    }
-    if person.mode() == abba_advisor::Mode::Smbg && count(|k| matches!(k, EventKind::Smbg(_))) == 0
-    {
-        missing.push("no meter (finger-stick) readings yet".into());
-    }
+    let missing = words::first_week_gaps(&words::FirstWeekData {
+        cgm_readings: cgm,
+        cgm_coverage: cgm as f64 / (days as f64 * 288.0),
+        boluses: count(|k| matches!(k, EventKind::Bolus(_))),
+        meals: count(|k| matches!(k, EventKind::MealAnnounced { .. })),
+        meter_readings: (person.mode() == abba_advisor::Mode::Smbg)
+            .then(|| count(|k| matches!(k, EventKind::Smbg(_)))),
+    });
     Phase::FirstWeek {
         days_done: closed.min(init),
         days_left: init.saturating_sub(closed),
@@ -368,7 +353,7 @@ fn delivery_view(person: &Person, extras: Option<&Extras>) -> DeliveryView {
     let Some(x) = extras.filter(|x| !x.fed_by_app) else {
         return DeliveryView {
             kind: Delivery::OpenLoop,
-            words: "as the app reports it",
+            words: words::DELIVERY_AS_APP_REPORTS,
             evidence: Vec::new(),
             basal_suggestions: true,
             note: None,
@@ -377,17 +362,13 @@ fn delivery_view(person: &Person, extras: Option<&Extras>) -> DeliveryView {
     let kind = x.delivery();
     let note = match (kind, person.settings.allow_closed_loop) {
         (Delivery::OpenLoop, _) => None,
-        (Delivery::NoInsulinRecords, _) => Some(
-            "The data hold no pump or insulin records, so abba cannot tell how insulin is delivered: ABBA was designed and validated for open-loop pump therapy and needs the pump's basal and bolus records. Import them (or an export that has them) before any basal rate is suggested.".to_string(),
-        ),
-        (_, false) => Some(format!(
-            "The data show {}. ABBA was designed and validated for open-loop pump therapy: abba suggests no basal rate (what the loop or the injections delivered is not a schedule to adapt). Carb ratios are still suggested. For research only, a person created with --allow-closed-loop gets basal suggestions.",
-            kind.name()
+        (Delivery::NoInsulinRecords, _) => Some(words::delivery_note(
+            words::NotDesignedFor::NoInsulinRecords,
         )),
-        (_, true) => Some(format!(
-            "The data show {}, and this person was created with --allow-closed-loop (research only): basal suggestions are made although ABBA was not validated for it.",
-            kind.name()
-        )),
+        (_, allowed) => Some(words::delivery_note(words::NotDesignedFor::Delivery {
+            shown: kind.name(),
+            allowed,
+        })),
     };
     DeliveryView {
         kind,
@@ -403,16 +384,16 @@ fn therapy_view(person: &Person, advisor: &Abba, extras: Option<&Extras>) -> The
         x.changes
             .iter()
             .map(|c| {
-                let mut what = Vec::new();
-                if let Some(b) = &c.basal {
-                    let segs: Vec<String> =
-                        b.iter().map(|&(m, r)| format!("{} {r}", hhmm(m))).collect();
-                    what.push(format!("basal {} U/h", segs.join(", ")));
-                }
-                if let Some([b, l, d]) = c.carb_ratio {
-                    what.push(format!("carb ratios {b}/{l}/{d} g/U"));
-                }
-                format!("from {} ({}): {}", c.instant, c.origin, what.join(", "))
+                let basal: Option<Vec<(String, f64)>> = c
+                    .basal
+                    .as_ref()
+                    .map(|b| b.iter().map(|&(m, r)| (hhmm(m), r)).collect());
+                words::therapy_change(
+                    &c.instant.to_string(),
+                    &c.origin.to_string(),
+                    basal.as_deref(),
+                    c.carb_ratio,
+                )
             })
             .collect()
     });
@@ -438,9 +419,8 @@ fn first_week_view(
     }
     let c = clock(person)?;
     let date = |d: i64| {
-        c.first_day()
-            .checked_add(jiff::Span::new().days(d))
-            .map_or_else(|_| format!("day {}", d + 1), |x| x.to_string())
+        let date = c.first_day().checked_add(jiff::Span::new().days(d)).ok();
+        words::day_or_date(date.map(|x| x.to_string()), d)
     };
     Some(FirstWeekView {
         qualifying: x.first_week.qualifying.iter().map(|&d| date(d)).collect(),
@@ -448,7 +428,7 @@ fn first_week_view(
             .first_week
             .missing
             .iter()
-            .map(|(d, why)| format!("{}: {why}", date(*d)))
+            .map(|(d, why)| words::dated(&date(*d), why))
             .collect(),
     })
 }
@@ -513,9 +493,7 @@ pub fn advice_with(
             (Phase::FirstWeek { mut missing, .. }, Some(x)) => {
                 let init = person.settings.advisor.init_days;
                 let done = (x.first_week.qualifying.len() as u32).min(init);
-                missing.insert(0, format!(
-                    "the first week needs {init} days each with at least 70 % of the expected CGM readings (SMBG mode: 3 meter readings) and pump records"
-                ));
+                missing.insert(0, words::first_week_rule(init));
                 Phase::FirstWeek {
                     days_done: done,
                     days_left: init - done,
@@ -549,7 +527,9 @@ pub fn advice_with(
                 .rejected
                 .iter()
                 .take(3)
-                .map(|r| format!("{} ({}): {}", r.origin, r.kind, r.reason))
+                .map(|r| {
+                    words::record_not_used(&r.origin.to_string(), &r.kind.to_string(), &r.reason)
+                })
                 .collect(),
             events_refused: refused,
         },

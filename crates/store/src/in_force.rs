@@ -154,27 +154,16 @@ pub fn first_week(mode: Mode, init_days: u32, events: &[Event]) -> FirstWeek {
             break;
         }
         let (cgm, smbg, pump) = per_day.get(&day).copied().unwrap_or_default();
-        let mut why = Vec::new();
-        match mode {
-            Mode::Cgm if cgm < need_cgm => why.push(format!(
-                "{cgm} CGM readings of the {CGM_PER_DAY} expected ({:.0} %; 70 % needed)",
-                100.0 * cgm as f64 / CGM_PER_DAY as f64
-            )),
-            Mode::Smbg if smbg < SMBG_PER_DAY => {
-                why.push(format!("{smbg} meter readings ({SMBG_PER_DAY} needed)"))
-            }
-            _ => {}
-        }
-        if pump == 0 {
-            why.push("no pump records".into());
-        }
+        let why = abba_advisor::words::first_week_day_gaps(
+            (mode == Mode::Cgm && cgm < need_cgm).then_some((cgm, CGM_PER_DAY)),
+            (mode == Mode::Smbg && smbg < SMBG_PER_DAY).then_some((smbg, SMBG_PER_DAY)),
+            pump,
+        );
         if day > closed_until {
             // Today: not over yet.
             if !why.is_empty() {
-                w.missing.push((
-                    day,
-                    format!("so far {} (the day is not over)", why.join(", ")),
-                ));
+                w.missing
+                    .push((day, abba_advisor::words::first_week_day(&why, true)));
             }
             continue;
         }
@@ -184,7 +173,8 @@ pub fn first_week(mode: Mode, init_days: u32, events: &[Event]) -> FirstWeek {
                 w.end = day;
             }
         } else {
-            w.missing.push((day, why.join(", ")));
+            w.missing
+                .push((day, abba_advisor::words::first_week_day(&why, false)));
         }
     }
     w

@@ -242,16 +242,8 @@ pub fn person_input(
 
 /// A suggestion in words.
 fn line(v: &crate::advise::SuggestionView) -> SuggestionLine {
-    let setting = match v.setting {
-        "basal" => "basal rate".to_string(),
-        meal => format!("carb ratio ({meal})"),
-    };
-    let answer = match v.status.as_str() {
-        "open" => "not answered yet".to_string(),
-        "overridden" => format!("set to {:.3} {}", v.in_force, v.unit),
-        "superseded" => "not answered before the next suggestion (taken as followed)".to_string(),
-        other => other.to_string(),
-    };
+    let setting = abba_advisor::words::setting_name(v.setting);
+    let answer = abba_advisor::words::answer_words(&v.status, v.in_force, v.unit);
     let mut reason = v.reasons.join(" ");
     if reason.is_empty() {
         reason.clone_from(&v.data);

@@ -2,7 +2,8 @@
 //! page (issue 24), with no HTTP in it: abba-service owns the routes,
 //! sessions and the store; this crate turns page models into HTML.
 //!
-//! - Templates are minijinja files embedded with `include_str!`; every
+//! - Templates are the minijinja files of `templates/`, embedded by
+//!   `build.rs` (minijinja-embed: a new page is one more file); every
 //!   template name ends in `.html`, so every value is HTML-escaped unless
 //!   a template says otherwise (only the QR code's SVG, made by [`qr`]
 //!   with its one text escaped there): a person named
@@ -48,22 +49,6 @@ pub struct RenderError {
     pub source: minijinja::Error,
 }
 
-const TEMPLATES: &[(&str, &str)] = &[
-    ("base.html", include_str!("../templates/base.html")),
-    ("macros.html", include_str!("../templates/macros.html")),
-    ("message.html", include_str!("../templates/message.html")),
-    ("signin.html", include_str!("../templates/signin.html")),
-    ("today.html", include_str!("../templates/today.html")),
-    ("log.html", include_str!("../templates/log.html")),
-    ("clinic.html", include_str!("../templates/clinic.html")),
-    (
-        "clinic_person.html",
-        include_str!("../templates/clinic_person.html"),
-    ),
-    ("glucose.html", include_str!("../templates/glucose.html")),
-    ("history.html", include_str!("../templates/history.html")),
-];
-
 fn env() -> &'static minijinja::Environment<'static> {
     static ENV: OnceLock<minijinja::Environment<'static>> = OnceLock::new();
     ENV.get_or_init(|| {
@@ -71,13 +56,9 @@ fn env() -> &'static minijinja::Environment<'static> {
         // Escape by the name's ending (.html: HTML), the default, named
         // here so that nobody turns it off by accident.
         env.set_auto_escape_callback(minijinja::default_auto_escape_callback);
-        for (name, src) in TEMPLATES {
-            // The templates are ours and compiled in; a broken one fails
-            // the tests, which render every page.
-            if let Err(e) = env.add_template(name, src) {
-                panic!("template {name}: {e}");
-            }
-        }
+        // Every file of templates/, compiled in by build.rs; a broken one
+        // fails the tests, which render every page.
+        minijinja_embed::load_templates!(&mut env);
         env
     })
 }
@@ -132,8 +113,10 @@ mod tests {
 
     #[test]
     fn every_text_of_every_page_comes_from_the_texts() {
-        for (name, src) in TEMPLATES {
-            let left: String = literal_text(src)
+        let mut seen = 0;
+        for (name, tmpl) in env().templates() {
+            seen += 1;
+            let left: String = literal_text(tmpl.source())
                 .split_whitespace()
                 // (attribute fragments a macro writes inside a tag)
                 .filter(|w| !w.contains('='))
@@ -142,6 +125,11 @@ mod tests {
                 .join(" ");
             assert!(left.is_empty(), "{name} writes its own words: {left:?}");
         }
+        // Every file of templates/ is embedded (none forgotten by the build).
+        let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/templates");
+        let files = std::fs::read_dir(dir).unwrap().count();
+        assert_eq!(seen, files, "templates embedded against files in {dir}");
+        assert!(seen >= 10, "{seen} templates");
     }
 
     #[test]

@@ -14,7 +14,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::ReportError;
 use crate::html::profile::{time_of_day_profile, ProfileBin, DAY_MIN};
-use crate::html::svg::{day_panel_svg, profile_svg, tir_bar_svg};
+use crate::html::svg::{day_panel_svg, profile_svg, tir_bar_svg, FULL_WIDTH};
 use crate::html::{render_page, Row, DISCLAIMER};
 use abba_core::units::GlucoseUnit;
 
@@ -319,6 +319,7 @@ pub fn person_report_html(input: &PersonReportInput) -> Result<String, ReportErr
             "Glucose profile, {first} to {last} ({} days)",
             input.days.len()
         ),
+        FULL_WIDTH,
     );
     let panels: Vec<String> = input
         .days

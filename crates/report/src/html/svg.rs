@@ -73,6 +73,22 @@ pub fn esc(s: &str) -> String {
     out
 }
 
+/// Every figure here is drawn about as wide (in SVG units) as the slot it
+/// prints in on A4 (the report's 186 mm of text width is 703 CSS px), so
+/// one unit prints as about one CSS px and [`FONT`] at about 9.4 pt; the
+/// browser test of the reports measures the printed sizes (at least 9 pt).
+/// A full-width figure.
+pub const FULL_WIDTH: f64 = 700.0;
+/// A figure in half the width (the `.row` and `.weeks` columns, 345 px on
+/// A4).
+pub const HALF_WIDTH: f64 = 340.0;
+/// A day's panel (the `.days` grid's three columns, 230 px on A4).
+pub const DAY_PANEL_WIDTH: f64 = 228.0;
+/// The text of every figure (SVG units; at least 9 pt as printed).
+pub const FONT: f64 = 12.5;
+/// A figure's title.
+const TITLE_FONT: f64 = 13.5;
+
 /// An SVG under construction: the frame with its title and description.
 struct Figure {
     out: String,
@@ -221,10 +237,45 @@ fn target_lines(fig: &mut Figure, plot: Plot) {
 }
 
 /// The glucose profile (AGP style): 5-95 % and 25-75 % bands and the
-/// median by time of day, target lines at 70 and 180 mg/dL. `id` must be
-/// a CSS class naming the figure.
-pub fn profile_svg(id: &str, bins: &[ProfileBin], unit: GlucoseUnit, title: &str) -> String {
-    let (w, h) = (720.0, 300.0);
+/// median by time of day, target lines at 70 and 180 mg/dL, `w` units wide
+/// ([`FULL_WIDTH`] or [`HALF_WIDTH`]; the legend wraps to the width). `id`
+/// must be a CSS class naming the figure.
+pub fn profile_svg(
+    id: &str,
+    bins: &[ProfileBin],
+    unit: GlucoseUnit,
+    title: &str,
+    w: f64,
+) -> String {
+    let target = format!(
+        "target {} and {} {}",
+        unit.value(70.0),
+        unit.value(180.0),
+        unit.label()
+    );
+    let legend = [
+        ("median (50th percentile)", palette::BLUE, true),
+        ("25th-75th percentile", "#6FA8D6", false),
+        ("5th-95th percentile", "#BFD9EC", false),
+        (target.as_str(), palette::GREEN, true),
+    ];
+    // The legend's items left to right, wrapped at the figure's width.
+    let (left, right) = (56.0, 16.0);
+    let mut rows = 1.0;
+    let mut at = Vec::new();
+    let mut x = left;
+    for (label, _, _) in &legend {
+        let item = 22.0 + crate::chart::text_width(label, FONT);
+        if x > left && x + item > w - 4.0 {
+            rows += 1.0;
+            x = left;
+        }
+        at.push((x, rows));
+        x += item + 14.0;
+    }
+    let plot_h = if w >= FULL_WIDTH { 210.0 } else { 170.0 };
+    let legend_top = 28.0 + plot_h + 2.6 * FONT;
+    let h = legend_top + 6.0 + rows * 1.5 * FONT;
     let highest = bins
         .iter()
         .filter_map(|b| b.p.map(|p| p[4]))
@@ -233,13 +284,14 @@ pub fn profile_svg(id: &str, bins: &[ProfileBin], unit: GlucoseUnit, title: &str
     let desc = profile_description(bins, unit);
     let mut fig = Figure::new(id, w, h, title, &desc);
     let plot = Plot {
-        left: 56.0,
+        left,
         top: 28.0,
-        width: w - 56.0 - 16.0,
-        height: h - 28.0 - 62.0,
+        width: w - left - right,
+        height: plot_h,
         y_max,
     };
-    day_axes(&mut fig, plot, unit, 12.0, 3, true);
+    let every_h = if w >= FULL_WIDTH { 3 } else { 6 };
+    day_axes(&mut fig, plot, unit, FONT, every_h, true);
     // Bands as polygons over the bins that have readings (a bin is drawn at its middle).
     let mid = |b: &ProfileBin, bin_w: f64| f64::from(b.start_min) + bin_w / 2.0;
     let bin_w = bins
@@ -314,32 +366,19 @@ pub fn profile_svg(id: &str, bins: &[ProfileBin], unit: GlucoseUnit, title: &str
     let cy = plot.top + plot.height / 2.0;
     let _ = write!(
         fig.out,
-        r#"<text x="14" y="{cy:.1}" font-size="12" text-anchor="middle" transform="rotate(-90 14 {cy:.1})">Glucose ({})</text>"#,
+        r#"<text x="14" y="{cy:.1}" font-size="{FONT}" text-anchor="middle" transform="rotate(-90 14 {cy:.1})">Glucose ({})</text>"#,
         unit.label()
     );
     fig.text(
         plot.left + plot.width / 2.0,
-        h - 28.0,
-        12.0,
+        plot.top + plot.height + 2.4 * FONT,
+        FONT,
         "middle",
         "Time of day (hh:mm)",
     );
-    // Legend.
-    let ly = h - 10.0;
-    let mut x = plot.left;
-    let target = format!(
-        "target {} and {} {}",
-        unit.value(70.0),
-        unit.value(180.0),
-        unit.label()
-    );
-    for (label, fill, is_line) in [
-        ("median (50th percentile)", palette::BLUE, true),
-        ("25th-75th percentile", "#6FA8D6", false),
-        ("5th-95th percentile", "#BFD9EC", false),
-        (target.as_str(), palette::GREEN, true),
-    ] {
-        if is_line {
+    for ((label, fill, is_line), (x, row)) in legend.iter().zip(at) {
+        let ly = legend_top + row * 1.5 * FONT;
+        if *is_line {
             fig.line(
                 x,
                 ly - 4.0,
@@ -351,10 +390,9 @@ pub fn profile_svg(id: &str, bins: &[ProfileBin], unit: GlucoseUnit, title: &str
         } else {
             fig.rect(x, ly - 10.0, 18.0, 10.0, fill, "");
         }
-        fig.text(x + 22.0, ly, 11.0, "start", label);
-        x += 22.0 + 6.2 * label.len() as f64 + 14.0;
+        fig.text(x + 22.0, ly, FONT, "start", label);
     }
-    fig.text(plot.left, 16.0, 13.0, "start", title);
+    fig.text(plot.left, 17.0, TITLE_FONT, "start", title);
     fig.finish()
 }
 
@@ -408,7 +446,7 @@ pub fn tir_bar_svg(id: &str, pct: [f64; 5], title: &str, unit: GlucoseUnit) -> S
         "goal < 25 %",
         "goal < 5 %",
     ];
-    let (w, h) = (420.0, 260.0);
+    let (w, h) = (HALF_WIDTH, 260.0);
     let desc = names
         .iter()
         .zip(pct)
@@ -462,13 +500,13 @@ pub fn tir_bar_svg(id: &str, pct: [f64; 5], title: &str, unit: GlucoseUnit) -> S
         fig.text(
             bar_x + bar_w + 18.0,
             ly - 6.0,
-            12.0,
+            FONT,
             "start",
             &format!("{}: {:.1} %", names[i], pct[i]),
         );
-        fig.text(bar_x + bar_w + 18.0, ly + 9.0, 11.0, "start", GOALS[i]);
+        fig.text(bar_x + bar_w + 18.0, ly + 9.0, FONT, "start", GOALS[i]);
     }
-    fig.text(bar_x, 14.0, 12.0, "start", "% of readings (0-100 %)");
+    fig.text(bar_x, 14.0, FONT, "start", "% of readings (0-100 %)");
     fig.finish()
 }
 
@@ -482,7 +520,7 @@ pub fn day_panel_svg(
     meter: bool,
     unit: GlucoseUnit,
 ) -> String {
-    let (w, h) = (200.0, 130.0);
+    let (w, h) = (DAY_PANEL_WIDTH, 150.0);
     let desc = if readings.is_empty() {
         "No readings this day.".to_string()
     } else {
@@ -499,14 +537,14 @@ pub fn day_panel_svg(
     };
     let mut fig = Figure::new(id, w, h, title, &desc);
     let plot = Plot {
-        left: 30.0,
-        top: 18.0,
-        width: w - 36.0,
-        height: h - 18.0 - 20.0,
+        left: 32.0,
+        top: 20.0,
+        width: w - 32.0 - 6.0,
+        height: h - 20.0 - 1.6 * FONT,
         y_max: 400.0,
     };
-    day_axes(&mut fig, plot, unit, 9.0, 6, true);
-    fig.text(plot.left, 12.0, 11.0, "start", title);
+    day_axes(&mut fig, plot, unit, FONT, 6, true);
+    fig.text(plot.left, 14.0, FONT, "start", title);
     if meter {
         for (m, g) in readings {
             let _ = write!(

@@ -13,7 +13,7 @@ use serde_json::Value;
 use crate::error::ReportError;
 use crate::figures;
 use crate::html::profile::{time_of_day_profile, ProfileBin};
-use crate::html::svg::{accessible_svg, profile_svg, tir_bar_svg};
+use crate::html::svg::{accessible_svg, profile_svg, tir_bar_svg, HALF_WIDTH};
 use crate::html::{render_page, HtmlSection, Row};
 use crate::results::{ArmResult, Week};
 use crate::select::{
@@ -460,6 +460,7 @@ fn agp_week_figures(i: usize, arm: &ArmResult, week: Week, c: &CohortWeekProfile
                 &c.profile,
                 GlucoseUnit::MgDl,
                 &title,
+                HALF_WIDTH,
             ),
             caption: format!(
                 "{week}: pooled percentiles of plasma glucose every 5 min over {} samples.",

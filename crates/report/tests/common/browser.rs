@@ -1,6 +1,7 @@
 //! Opens a page in real headless Chromium (Debian's `chromium` package):
 //! records the console messages, the document's scroll and client widths
-//! at A4 width (794 CSS px), and a screenshot. Used by the HTML tests of
+//! at A4 width (794 CSS px), a screenshot, and the smallest text of any
+//! figure as printed on A4 (the page laid out at A4's text width). Used by the HTML tests of
 //! abba-report and abba-trial (`#[path]`-included there).
 //!
 //! Without a browser the tests skip with a message, except in CI
@@ -25,7 +26,17 @@ pub struct Rendered {
     pub client_width: u32,
     /// Console messages and page errors (the browser's log lines).
     pub console: Vec<String>,
+    /// The smallest figure text as printed on A4 (pt), with its text;
+    /// none when the page has no figure text.
+    pub smallest_figure_text: Option<(f64, String)>,
 }
+
+/// A4's text width (210 mm less the report's two 12 mm print margins), in
+/// CSS px: the width the page's print style lays the content out at.
+pub const A4_TEXT_WIDTH_PX: f64 = (210.0 - 2.0 * 12.0) / 25.4 * 96.0;
+
+/// The smallest text a figure may print at (pt).
+pub const MIN_FIGURE_TEXT_PT: f64 = 9.0;
 
 /// The browser binary, or `None` (after saying so) when it is absent
 /// outside CI.
@@ -132,15 +143,75 @@ pub fn open_at_a4(browser: &Path, page: &Path, screenshot: &Path) -> Rendered {
             + key.len();
         dom[i..dom[i..].find('"').unwrap() + i].parse().unwrap()
     };
+    let scroll_width = attr("data-scroll-width");
+    let client_width = attr("data-client-width");
+    let (smallest_figure_text, more) = smallest_figure_text(browser, &work, &html);
+    console.extend(more);
     Rendered {
-        scroll_width: attr("data-scroll-width"),
-        client_width: attr("data-client-width"),
+        scroll_width,
+        client_width,
         console,
+        smallest_figure_text,
     }
 }
 
+/// The page laid out as printed on A4 (its content exactly
+/// [`A4_TEXT_WIDTH_PX`] wide, as under the print style's 12 mm margins):
+/// the smallest rendered size of any `<text>` of an inline SVG, in pt
+/// (its font size times the SVG's scale to the page), and the browser's
+/// console lines.
+fn smallest_figure_text(
+    browser: &Path,
+    work: &Path,
+    html: &str,
+) -> (Option<(f64, String)>, Vec<String>) {
+    let url = |p: &Path| format!("file://{}", std::fs::canonicalize(p).unwrap().display());
+    let style = format!(
+        "<style>body{{max-width:none!important;width:{A4_TEXT_WIDTH_PX:.2}px!important;\
+         padding:0!important;margin:0!important}}</style></head>"
+    );
+    let script = "<script>var e=document.documentElement,min=-1,what='';\
+        document.querySelectorAll('svg text').forEach(function(t){\
+        var m=t.getScreenCTM();if(!m||!t.getClientRects().length)return;\
+        var px=parseFloat(getComputedStyle(t).fontSize)*Math.sqrt(m.a*m.a+m.b*m.b);\
+        if(min<0||px<min){min=px;what=t.textContent;}});\
+        e.setAttribute('data-min-text-px',String(min));\
+        e.setAttribute('data-min-text',what.replace(/[\"<>&]/g,' '));</script></body>";
+    let probe = work.join("print-probe.html");
+    std::fs::write(
+        &probe,
+        html.replacen("</head>", &style, 1)
+            .replacen("</body>", script, 1),
+    )
+    .unwrap();
+    let dump = Command::new(browser)
+        .args(base_args(&work.join("profile-print")))
+        .arg("--dump-dom")
+        .arg(url(&probe))
+        .output()
+        .unwrap();
+    assert!(
+        dump.status.success(),
+        "chromium --dump-dom failed: {}",
+        String::from_utf8_lossy(&dump.stderr)
+    );
+    let dom = String::from_utf8_lossy(&dump.stdout);
+    let attr = |name: &str| -> String {
+        let key = format!("{name}=\"");
+        let i = dom
+            .find(&key)
+            .unwrap_or_else(|| panic!("{name} not in the dumped DOM"))
+            + key.len();
+        dom[i..dom[i..].find('"').unwrap() + i].to_string()
+    };
+    let px: f64 = attr("data-min-text-px").parse().unwrap();
+    let smallest = (px >= 0.0).then(|| (px * 0.75, attr("data-min-text")));
+    (smallest, console_lines(&dump.stderr))
+}
+
 /// Opens the page and asserts: no console message, no horizontal overflow
-/// at A4 width. Returns the screenshot's path (a test output under target/).
+/// at A4 width, no figure text below 9 pt as printed on A4. Returns the
+/// screenshot's path (a test output under target/).
 pub fn assert_renders_at_a4(page: &Path) -> Option<PathBuf> {
     let browser = chromium()?;
     let screenshot = page.with_extension("a4.png");
@@ -162,6 +233,19 @@ pub fn assert_renders_at_a4(page: &Path) -> Option<PathBuf> {
         page.display(),
         r.scroll_width,
         r.client_width
+    );
+    let (pt, text) = r
+        .smallest_figure_text
+        .as_ref()
+        .map_or((f64::INFINITY, ""), |(pt, text)| (*pt, text.as_str()));
+    eprintln!(
+        "{}: smallest figure text {text:?} prints at {pt:.2} pt on A4",
+        page.display()
+    );
+    assert!(
+        pt >= MIN_FIGURE_TEXT_PT - 0.01, // (the browser's float rounding)
+        "{}: the figure text {text:?} prints at {pt:.2} pt on A4 (at least {MIN_FIGURE_TEXT_PT})",
+        page.display()
     );
     Some(screenshot)
 }

@@ -28,3 +28,13 @@ pub async fn healthz(State(s): State<AppState>) -> (StatusCode, Json<Health>) {
         }),
     )
 }
+
+#[cfg(test)]
+mod tests {
+    /// The API says the advisor's notice (abba-api depends on nothing of
+    /// abba's, so it keeps its own copy: this keeps the two the same).
+    #[test]
+    fn the_api_says_the_advisors_notice() {
+        assert_eq!(abba_api::NOTICE, abba_advisor::words::NOTICE);
+    }
+}

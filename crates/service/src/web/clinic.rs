@@ -1161,3 +1161,33 @@ async fn revoke_of_person(
     s.store(move |store| revoke(store, id, what)).await?;
     Ok(see_other(&format!("/clinic/persons/{id}?done={done}")))
 }
+
+/// This module's routes (merged by [`super::routes`]).
+pub fn routes() -> axum::Router<crate::state::AppState> {
+    use axum::extract::DefaultBodyLimit;
+    use axum::routing::{get, post};
+    axum::Router::new()
+        .route("/clinic", get(list))
+        .route(
+            "/clinic/persons",
+            post(create).layer(DefaultBodyLimit::max(MAX_UPLOAD_BYTES)),
+        )
+        .route("/clinic/persons/{id}", get(person))
+        .route("/clinic/persons/{id}/bounds", post(bounds))
+        .route("/clinic/persons/{id}/steps", post(steps))
+        .route("/clinic/persons/{id}/therapy", post(therapy))
+        .route(
+            "/clinic/persons/{id}/import",
+            post(import).layer(DefaultBodyLimit::max(MAX_UPLOAD_BYTES)),
+        )
+        .route("/clinic/persons/{id}/signin", post(issue_signin))
+        .route("/clinic/persons/{id}/tokens", post(issue_token))
+        .route(
+            "/clinic/persons/{id}/tokens/{token}/revoke",
+            post(revoke_token),
+        )
+        .route(
+            "/clinic/persons/{id}/sessions/{session}/revoke",
+            post(revoke_session),
+        )
+}

@@ -15,10 +15,70 @@ use abba_core::{EventKind, Timestamp};
 use abba_store::advise;
 use abba_store::Live;
 use abba_web::chart::{self, Point};
-use abba_web::pages::{Glucose, GlucoseRow, Layout, LinkChoice, SummaryItem};
+use abba_web::pages::Layout;
 use abba_web::texts::{fill, EN};
 use axum::extract::{RawQuery, State};
 use axum::http::StatusCode;
+use serde::Serialize;
+
+/// A link of a choice (the Glucose page's ranges).
+#[derive(Debug, Clone, Serialize)]
+pub struct LinkChoice {
+    /// Where.
+    pub href: &'static str,
+    /// Its text.
+    pub label: &'static str,
+    /// True for the one shown (`aria-current`).
+    pub current: bool,
+}
+
+/// One line of the Glucose page's summary.
+#[derive(Debug, Clone, Serialize)]
+pub struct SummaryItem {
+    /// What.
+    pub label: String,
+    /// Its value in words.
+    pub value: String,
+}
+
+/// The Glucose page.
+#[derive(Debug, Clone, Serialize)]
+pub struct Glucose {
+    /// The ranges (24 h, 14 days).
+    pub ranges: Vec<LinkChoice>,
+    /// The chart's accessible name.
+    pub chart_title: String,
+    /// The chart (none: no reading in the range).
+    pub chart: Option<abba_web::chart::Chart>,
+    /// The summary (time in ranges, mean, readings).
+    pub summary: Vec<SummaryItem>,
+    /// A note under the summary (finger sticks: shares of readings).
+    pub summary_note: Option<String>,
+    /// The chart's readings as a table (by hour over a day, by day over
+    /// two weeks), oldest first.
+    pub table: Vec<GlucoseRow>,
+    /// The table's caption.
+    pub table_caption: String,
+    /// The table's first column's name (hour or day).
+    pub table_period: &'static str,
+}
+
+/// One row of the Glucose page's table.
+#[derive(Debug, Clone, Serialize)]
+pub struct GlucoseRow {
+    /// The hour or the day.
+    pub period: String,
+    /// How many readings.
+    pub readings: usize,
+    /// Their mean, in the person's unit.
+    pub mean: String,
+    /// The lowest.
+    pub lowest: String,
+    /// The highest.
+    pub highest: String,
+    /// The share in the target range.
+    pub in_range: String,
+}
 
 /// The two windows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -295,4 +355,10 @@ pub async fn page(State(s): State<AppState>, ctx: Ctx, RawQuery(q): RawQuery) ->
         .await?;
     let layout = Layout::person(EN.glucose_title, &w.csrf, "/glucose").signed_in_as(&name);
     render(StatusCode::OK, "glucose.html", &layout, &g)
+}
+
+/// This module's routes (merged by [`super::routes`]).
+pub fn routes() -> axum::Router<crate::state::AppState> {
+    use axum::routing::get;
+    axum::Router::new().route("/glucose", get(page))
 }

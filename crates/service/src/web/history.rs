@@ -11,12 +11,41 @@ use crate::state::{AppState, EffectSource};
 use abba_report::html::person::person_report_html;
 use abba_store::advise::SuggestionView;
 use abba_store::Live;
-use abba_web::pages::{History, HistoryRow, Layout};
+use abba_web::pages::Layout;
 use abba_web::texts::{fill, EN};
 use axum::extract::{Path, State};
 use axum::http::{header, HeaderValue, StatusCode};
 use axum::response::Response;
+use serde::Serialize;
 use sha2::{Digest, Sha256};
+
+/// One row of the History table.
+#[derive(Debug, Clone, Serialize)]
+pub struct HistoryRow {
+    /// The local date of the day it is for.
+    pub day: String,
+    /// The setting's name.
+    pub setting: String,
+    /// Local date and time of the decision.
+    pub decided: String,
+    /// The value before, with its unit.
+    pub from: String,
+    /// The suggestion with its change (or "no change").
+    pub suggested: String,
+    /// The answer in words.
+    pub answer: String,
+    /// The value in force after it, with its unit.
+    pub in_force: String,
+    /// The reason in plain words.
+    pub reason: String,
+}
+
+/// The History page.
+#[derive(Debug, Clone, Serialize)]
+pub struct History {
+    /// Every decision, newest first.
+    pub rows: Vec<HistoryRow>,
+}
 
 /// Days of the report (as `abba report`'s default).
 pub const REPORT_DAYS: u32 = 14;
@@ -195,6 +224,15 @@ pub async fn clinic_report(
         return Err(super::page::not_found());
     };
     report(&s, id, Some(w.csrf)).await
+}
+
+/// This module's routes (merged by [`super::routes`]).
+pub fn routes() -> axum::Router<crate::state::AppState> {
+    use axum::routing::get;
+    axum::Router::new()
+        .route("/history", get(page))
+        .route("/report", get(person_report))
+        .route("/clinic/persons/{id}/report", get(clinic_report))
 }
 
 #[cfg(test)]

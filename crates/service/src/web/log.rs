@@ -18,10 +18,51 @@ use abba_core::units::GlucoseUnit;
 use abba_core::{EventKind, MealSlot};
 use abba_store::advise::PARAMETERS;
 use abba_store::{Live, Store};
-use abba_web::pages::{Choice, Layout, Log, MealAdvice};
+use abba_web::pages::{Choice, Layout};
 use abba_web::texts::{fill, EN};
 use axum::extract::{RawQuery, State};
 use axum::http::StatusCode;
+use serde::Serialize;
+
+/// The log.
+#[derive(Debug, Clone, Serialize)]
+pub struct Log {
+    /// An import-fed person: no forms, this says why.
+    pub import_fed: Option<String>,
+    /// The glucose label with the person's unit.
+    pub glucose_label: String,
+    /// The glucose field's `step`.
+    pub glucose_step: &'static str,
+    /// The meal slots, the default one selected.
+    pub slots: Vec<Choice>,
+    /// Values typed, kept after an error (glucose, carbs).
+    pub glucose: String,
+    /// Carbohydrate typed.
+    pub carbs: String,
+    /// The glucose field's error, beside it.
+    pub glucose_error: Option<String>,
+    /// The carbohydrate field's error, beside it.
+    pub carbs_error: Option<String>,
+    /// After a main meal: the ratio, the bolus and the suggestion to answer.
+    pub meal_advice: Option<MealAdvice>,
+    /// After a bedtime reading: tomorrow's basal.
+    pub tomorrow_basal: Option<String>,
+    /// The status message (moved into the layout's `#status`).
+    pub status: Option<String>,
+    /// The person's name (moved into the layout).
+    pub name: String,
+}
+
+/// The answer to a main meal.
+#[derive(Debug, Clone, Serialize)]
+pub struct MealAdvice {
+    /// The ratio to use, in words.
+    pub ratio: String,
+    /// The bolus it implies, in words.
+    pub bolus: String,
+    /// The open suggestion, if any (the same form as on Today).
+    pub suggestion: Option<abba_web::pages::SuggestionCard>,
+}
 
 /// The bolus step of the pump (U): abba's pump steps have none for
 /// boluses, so the common 0.05 U.
@@ -386,4 +427,13 @@ pub async fn meal(State(s): State<AppState>, ctx: Ctx, body: RawBody) -> PageRes
         Ok(_) => Ok(see_other("/log?saved=snack")),
         Err(log) => show_log(StatusCode::UNPROCESSABLE_ENTITY, &w.csrf, log),
     }
+}
+
+/// This module's routes (merged by [`super::routes`]).
+pub fn routes() -> axum::Router<crate::state::AppState> {
+    use axum::routing::{get, post};
+    axum::Router::new()
+        .route("/log", get(page))
+        .route("/log/reading", post(reading))
+        .route("/log/meal", post(meal))
 }

@@ -154,3 +154,11 @@ pub async fn icon() -> Response {
     );
     r
 }
+
+/// This module's routes (merged by [`super::routes`]).
+pub fn routes() -> axum::Router<crate::state::AppState> {
+    use axum::routing::get;
+    axum::Router::new()
+        .route(abba_web::STYLE_PATH, get(style))
+        .route("/favicon.ico", get(icon))
+}

@@ -14,12 +14,22 @@ use crate::body::RawBody;
 use crate::state::AppState;
 use abba_store::session::{LinkRefused, ABSOLUTE_MS, LINK_LIFE_MS};
 use abba_store::token::Role;
-use abba_web::pages::{Layout, Signin};
+use abba_web::pages::Layout;
 use abba_web::texts::EN;
 use axum::extract::{Path, RawQuery, State};
 use axum::http::{header, StatusCode};
 use axum::response::Response;
+use serde::Serialize;
 use subtle::ConstantTimeEq;
+
+/// The sign-in page of a link.
+#[derive(Debug, Clone, Serialize)]
+pub struct Signin {
+    /// The link's secret (the hidden `link` field).
+    pub link: String,
+    /// The double-submit token (the hidden `csrf` field, also a cookie).
+    pub csrf: String,
+}
 
 fn refused_text(r: LinkRefused) -> String {
     let why = match r {
@@ -136,4 +146,13 @@ pub async fn signout(State(s): State<AppState>, ctx: Ctx, body: RawBody) -> Page
     r.headers_mut()
         .append(header::SET_COOKIE, ctx.set_cookie(COOKIE, "", "/", 0));
     Ok(r)
+}
+
+/// This module's routes (merged by [`super::routes`]).
+pub fn routes() -> axum::Router<crate::state::AppState> {
+    use axum::routing::{get, post};
+    axum::Router::new()
+        .route("/signin", get(help).post(self::post))
+        .route("/signin/{secret}", get(page))
+        .route("/signout", post(signout))
 }

@@ -16,10 +16,37 @@ use abba_store::advise::{Phase, SuggestionView, PARAMETERS};
 use abba_store::answer::param_key;
 use abba_store::effect::{Band, CheckOutcome, Effect, NoPrediction, SettingEffect};
 use abba_store::Live;
-use abba_web::pages::{Layout, SettingCard, SuggestionCard, Today};
+use abba_web::pages::{Layout, SuggestionCard};
 use abba_web::texts::{fill, EN};
 use axum::extract::{RawQuery, State};
 use axum::http::StatusCode;
+use serde::Serialize;
+
+/// One setting on Today.
+#[derive(Debug, Clone, Serialize)]
+pub struct SettingCard {
+    /// `basal`, `breakfast`, `lunch` or `dinner` (the section is `setting-{key}`).
+    pub key: &'static str,
+    /// Its name.
+    pub title: &'static str,
+    /// The value in force with its unit.
+    pub in_force: String,
+    /// The latest suggestion, when there is one.
+    pub suggestion: Option<abba_web::pages::SuggestionCard>,
+    /// "No change today", "No suggestion yet" and the like.
+    pub note: Option<String>,
+}
+
+/// Today.
+#[derive(Debug, Clone, Serialize)]
+pub struct Today {
+    /// The first-week countdown (`#first-week`).
+    pub first_week: Option<String>,
+    /// What abba was not designed for (`#not-designed-for`).
+    pub not_designed_for: Option<String>,
+    /// The four settings.
+    pub settings: Vec<SettingCard>,
+}
 
 /// A value with its unit as the pages show it.
 pub fn with_unit(p: Parameter, v: f64) -> String {
@@ -391,4 +418,12 @@ pub fn plain(e: &ApiError) -> String {
         Some((head, rest)) if head.starts_with("answers[") => rest.to_string(),
         _ => m.to_string(),
     }
+}
+
+/// This module's routes (merged by [`super::routes`]).
+pub fn routes() -> axum::Router<crate::state::AppState> {
+    use axum::routing::{get, post};
+    axum::Router::new()
+        .route("/", get(page))
+        .route("/answer", post(answer))
 }

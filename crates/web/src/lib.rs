@@ -49,6 +49,15 @@ pub struct RenderError {
     pub source: minijinja::Error,
 }
 
+/// Every file of templates/, compiled in by build.rs (minijinja-embed's
+/// generated calls panic on a broken template; the tests render every
+/// page, so none ships).
+#[allow(clippy::expect_used)]
+fn add_templates(mut env: minijinja::Environment<'static>) -> minijinja::Environment<'static> {
+    minijinja_embed::load_templates!(&mut env);
+    env
+}
+
 fn env() -> &'static minijinja::Environment<'static> {
     static ENV: OnceLock<minijinja::Environment<'static>> = OnceLock::new();
     ENV.get_or_init(|| {
@@ -56,10 +65,7 @@ fn env() -> &'static minijinja::Environment<'static> {
         // Escape by the name's ending (.html: HTML), the default, named
         // here so that nobody turns it off by accident.
         env.set_auto_escape_callback(minijinja::default_auto_escape_callback);
-        // Every file of templates/, compiled in by build.rs; a broken one
-        // fails the tests, which render every page.
-        minijinja_embed::load_templates!(&mut env);
-        env
+        add_templates(env)
     })
 }
 

@@ -26,6 +26,7 @@ pub mod app;
 pub mod backend;
 pub mod busy;
 pub mod check;
+pub mod copy;
 pub mod effect;
 pub mod error;
 pub mod history;
@@ -40,6 +41,7 @@ pub mod report;
 pub mod schema;
 pub mod session;
 pub mod store;
+pub mod testing;
 pub mod token;
 
 pub use advise::{Advice, NOTICE};

@@ -2,7 +2,8 @@
 //!
 //! [`STEPS`] names the steps, oldest first; a store at version `v` has the
 //! first `v` of them. Each backend spells a step in its own DDL
-//! ([`crate::backend::sqlite::schema::ddl`]) and applies it in one
+//! ([`crate::backend::sqlite::schema::ddl`],
+//! [`crate::backend::postgres::schema::ddl`]) and applies it in one
 //! transaction together with the new version number; a step may also have
 //! a Rust part ([`code`]) run in that transaction through the backend-
 //! neutral [`Db`]. Never edit or reorder a step that shipped; append.
@@ -88,8 +89,17 @@ pub fn open_with(path: &Path, sync: Sync) -> Result<Conn, StoreError> {
 pub const DEFAULT_BUSY: std::time::Duration = std::time::Duration::from_secs(10);
 
 /// Like [`open_with`], waiting at most `busy` for another writer (see
-/// [`sqlite::Sqlite::open`]).
+/// [`sqlite::Sqlite::open`]). A `path` that is a PostgreSQL URL
+/// ([`crate::backend::postgres::is_url`]) opens that database instead (its
+/// commits are always durable: `sync` does not apply).
 pub fn open_opts(path: &Path, sync: Sync, busy: std::time::Duration) -> Result<Conn, StoreError> {
+    if let Some(url) = path
+        .to_str()
+        .filter(|p| crate::backend::postgres::is_url(p))
+    {
+        let pg = crate::backend::postgres::Pg::open(url, busy)?;
+        return Ok(Conn::Postgres(Box::new(pg)));
+    }
     Ok(Conn::Sqlite(Sqlite::open(path, sync, busy)?))
 }
 

@@ -265,9 +265,19 @@ impl Store {
         self.conn.synchronous()
     }
 
-    /// The backend holding the store (`sqlite`).
+    /// The backend holding the store (`sqlite`, `postgres`).
     pub fn backend(&self) -> &'static str {
         self.conn.backend()
+    }
+
+    /// Claims the background job named `key` (a person's sync, say) for
+    /// as long as this store stays open, when no other process holds it:
+    /// two service replicas on one PostgreSQL database never do the same
+    /// job at once. Always true on SQLite (one file, whose writers take
+    /// turns anyway).
+    pub fn claim(&self, key: &str) -> Result<bool, StoreError> {
+        let k = abba_io::record::content_hash([b"abba job ".as_slice(), key.as_bytes()]);
+        self.conn.try_lock(k as i64)
     }
 
     /// The imports of person `id`, oldest first.

@@ -5,7 +5,8 @@
 //! a *named* statement ([`Q`]) with backend-neutral [`Value`]s, get
 //! [`Row`]s back. The SQL text of every statement, the schema of every
 //! migration step and the mapping of the database's errors onto
-//! [`StoreError`] live in one module per backend ([`sqlite`] today). A
+//! [`StoreError`] live in one module per backend ([`sqlite`], the embedded
+//! default, and [`postgres`], a server shared by replicas). A
 //! backend's connection is a [`Conn`]; a transaction is a [`Tx`], which
 //! rolls back when dropped without [`Tx::commit`].
 //!
@@ -14,6 +15,7 @@
 //! backend and stays with the logic that owns it, while a backend only
 //! says how its dialect spells each statement.
 
+pub mod postgres;
 pub mod sqlite;
 
 use crate::error::StoreError;
@@ -199,6 +201,29 @@ impl std::fmt::Display for DbError {
 
 impl std::error::Error for DbError {}
 
+/// A store location as it may be shown: a PostgreSQL URL without its
+/// password (`postgres://u:***@host/db`, `password=***`), a file as it is.
+pub fn shown(db: &std::path::Path) -> String {
+    let s = db.display().to_string();
+    if !postgres::is_url(&s) {
+        return s;
+    }
+    let mut out = s.clone();
+    if let Some(start) = s.find("://").map(|i| i + 3) {
+        let end = s[start..].find(['/', '?']).map_or(s.len(), |i| start + i);
+        if let Some(at) = s[start..end].rfind('@') {
+            if let Some(colon) = s[start..start + at].find(':') {
+                out = format!("{}***{}", &s[..start + colon + 1], &s[start + at..]);
+            }
+        }
+    }
+    if let Some(i) = out.find("password=") {
+        let end = out[i..].find('&').map_or(out.len(), |j| i + j);
+        out.replace_range(i + 9..end, "***");
+    }
+    out
+}
+
 /// A connection or a transaction: runs named statements.
 pub trait Db {
     /// Runs a statement that returns no rows; the number of rows changed.
@@ -226,6 +251,8 @@ pub trait Db {
 pub enum Conn {
     /// An SQLite file.
     Sqlite(sqlite::Sqlite),
+    /// A PostgreSQL database (boxed: its client is the larger).
+    Postgres(Box<postgres::Pg>),
 }
 
 /// A transaction of a [`Conn`]; dropped without [`Tx::commit`], it rolls
@@ -233,6 +260,8 @@ pub enum Conn {
 pub enum Tx<'a> {
     /// SQLite's.
     Sqlite(sqlite::SqliteTx<'a>),
+    /// PostgreSQL's.
+    Postgres(postgres::PgTx<'a>),
 }
 
 impl Conn {
@@ -241,6 +270,7 @@ impl Conn {
     pub fn transaction(&mut self) -> Result<Tx<'_>, StoreError> {
         match self {
             Conn::Sqlite(c) => Ok(Tx::Sqlite(c.transaction(true)?)),
+            Conn::Postgres(c) => Ok(Tx::Postgres(c.transaction(true)?)),
         }
     }
 
@@ -248,13 +278,16 @@ impl Conn {
     pub fn read_transaction(&mut self) -> Result<Tx<'_>, StoreError> {
         match self {
             Conn::Sqlite(c) => Ok(Tx::Sqlite(c.transaction(false)?)),
+            Conn::Postgres(c) => Ok(Tx::Postgres(c.transaction(false)?)),
         }
     }
 
-    /// The database's own consistency check ("ok" when sound).
+    /// The database's own consistency check ("ok" when sound; a server
+    /// checks its own pages and answers "ok").
     pub fn integrity(&self) -> Result<Vec<String>, StoreError> {
         match self {
             Conn::Sqlite(c) => c.integrity(),
+            Conn::Postgres(_) => Ok(vec!["ok".into()]),
         }
     }
 
@@ -262,6 +295,7 @@ impl Conn {
     pub fn is_read_only(&self) -> Result<bool, StoreError> {
         match self {
             Conn::Sqlite(c) => c.is_read_only(),
+            Conn::Postgres(c) => c.is_read_only(),
         }
     }
 
@@ -270,13 +304,26 @@ impl Conn {
     pub fn synchronous(&self) -> Result<i64, StoreError> {
         match self {
             Conn::Sqlite(c) => c.synchronous(),
+            Conn::Postgres(_) => Ok(2),
         }
     }
 
-    /// The backend's name (`sqlite`).
+    /// Takes the store-wide lock `key` for background work when no other
+    /// process holds it (PostgreSQL: a session advisory lock, released
+    /// when this connection closes; SQLite: always taken, the one file's
+    /// writers take turns anyway). False when another holds it.
+    pub fn try_lock(&self, key: i64) -> Result<bool, StoreError> {
+        match self {
+            Conn::Sqlite(_) => Ok(true),
+            Conn::Postgres(c) => c.try_lock(key),
+        }
+    }
+
+    /// The backend's name (`sqlite`, `postgres`).
     pub fn backend(&self) -> &'static str {
         match self {
             Conn::Sqlite(_) => "sqlite",
+            Conn::Postgres(_) => "postgres",
         }
     }
 }
@@ -285,16 +332,19 @@ impl Db for Conn {
     fn execute(&self, q: Q, params: &[Value]) -> Result<usize, StoreError> {
         match self {
             Conn::Sqlite(c) => c.db().execute(q, params),
+            Conn::Postgres(c) => c.execute(q, params),
         }
     }
     fn rows(&self, q: Q, params: &[Value]) -> Result<Vec<Row>, StoreError> {
         match self {
             Conn::Sqlite(c) => c.db().rows(q, params),
+            Conn::Postgres(c) => c.rows(q, params),
         }
     }
     fn insert_id(&self, q: Q, params: &[Value]) -> Result<i64, StoreError> {
         match self {
             Conn::Sqlite(c) => c.db().insert_id(q, params),
+            Conn::Postgres(c) => c.insert_id(q, params),
         }
     }
 }
@@ -304,6 +354,7 @@ impl Tx<'_> {
     pub fn commit(self) -> Result<(), StoreError> {
         match self {
             Tx::Sqlite(t) => t.commit(),
+            Tx::Postgres(t) => t.commit(),
         }
     }
 }
@@ -312,16 +363,19 @@ impl Db for Tx<'_> {
     fn execute(&self, q: Q, params: &[Value]) -> Result<usize, StoreError> {
         match self {
             Tx::Sqlite(t) => t.db().execute(q, params),
+            Tx::Postgres(t) => t.execute(q, params),
         }
     }
     fn rows(&self, q: Q, params: &[Value]) -> Result<Vec<Row>, StoreError> {
         match self {
             Tx::Sqlite(t) => t.db().rows(q, params),
+            Tx::Postgres(t) => t.rows(q, params),
         }
     }
     fn insert_id(&self, q: Q, params: &[Value]) -> Result<i64, StoreError> {
         match self {
             Tx::Sqlite(t) => t.db().insert_id(q, params),
+            Tx::Postgres(t) => t.insert_id(q, params),
         }
     }
 }

@@ -210,4 +210,67 @@ statements! {
     TokenOtherAdmins = "SELECT count(*) FROM token WHERE role = 'admin' AND revoked_at IS NULL AND id != ?1";
     /// Token revoke.
     TokenRevoke = "UPDATE token SET revoked_at = ?1 WHERE id = ?2 AND revoked_at IS NULL";
+    // copy
+    /// Every row of `person`, in key order (`abba store copy`).
+    CopyReadPerson = "SELECT id, name, tz, mode, first_day, settings, created_at FROM person ORDER BY id";
+    /// One row of `person` as read by `CopyReadPerson`.
+    CopyWritePerson = "INSERT INTO person (id, name, tz, mode, first_day, settings, created_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)";
+    /// Every row of `import`, in key order (`abba store copy`).
+    CopyReadImport = "SELECT id, person_id, imported_at, files, formats, records_read, records_added, records_known FROM import ORDER BY id";
+    /// One row of `import` as read by `CopyReadImport`.
+    CopyWriteImport = "INSERT INTO import (id, person_id, imported_at, files, formats, records_read, records_added, records_known) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)";
+    /// Every row of `record`, in key order (`abba store copy`).
+    CopyReadRecord = "SELECT person_id, source, source_id, at_ms, kind, origin, import_id FROM record ORDER BY person_id, source, source_id";
+    /// One row of `record` as read by `CopyReadRecord`.
+    CopyWriteRecord = "INSERT INTO record (person_id, source, source_id, at_ms, kind, origin, import_id) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)";
+    /// Every row of `suggestion`, in key order (`abba store copy`).
+    CopyReadSuggestion = "SELECT person_id, at_min, parameter, old, new, skipped, decision FROM suggestion ORDER BY person_id, at_min, parameter";
+    /// One row of `suggestion` as read by `CopyReadSuggestion`.
+    CopyWriteSuggestion = "INSERT INTO suggestion (person_id, at_min, parameter, old, new, skipped, decision) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)";
+    /// Every row of `answer`, in key order (`abba store copy`).
+    CopyReadAnswer = "SELECT id, person_id, at_min, parameter, answer, suggested, previous, in_force, answered_at FROM answer ORDER BY id";
+    /// One row of `answer` as read by `CopyReadAnswer`.
+    CopyWriteAnswer = "INSERT INTO answer (id, person_id, at_min, parameter, answer, suggested, previous, in_force, answered_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)";
+    /// Every row of `snapshot`, in key order (`abba store copy`).
+    CopyReadSnapshot = "SELECT person_id, events, events_hash, answers, unused, state FROM snapshot ORDER BY person_id";
+    /// One row of `snapshot` as read by `CopyReadSnapshot`.
+    CopyWriteSnapshot = "INSERT INTO snapshot (person_id, events, events_hash, answers, unused, state) VALUES (?1, ?2, ?3, ?4, ?5, ?6)";
+    /// Every row of `token`, in key order (`abba store copy`).
+    CopyReadToken = "SELECT id, hash_prefix, hash, role, person_id, created_at, revoked_at FROM token ORDER BY id";
+    /// One row of `token` as read by `CopyReadToken`.
+    CopyWriteToken = "INSERT INTO token (id, hash_prefix, hash, role, person_id, created_at, revoked_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)";
+    /// Every row of `app_event`, in key order (`abba store copy`).
+    CopyReadAppEvent = "SELECT person_id, seq, at_ms, at_min, tag, kind, hash, received_at FROM app_event ORDER BY person_id, seq";
+    /// One row of `app_event` as read by `CopyReadAppEvent`.
+    CopyWriteAppEvent = "INSERT INTO app_event (person_id, seq, at_ms, at_min, tag, kind, hash, received_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)";
+    /// Every row of `therapy_change`, in key order (`abba store copy`).
+    CopyReadTherapyChange = "SELECT id, person_id, at_ms, change, recorded_at FROM therapy_change ORDER BY id";
+    /// One row of `therapy_change` as read by `CopyReadTherapyChange`.
+    CopyWriteTherapyChange = "INSERT INTO therapy_change (id, person_id, at_ms, change, recorded_at) VALUES (?1, ?2, ?3, ?4, ?5)";
+    /// Every row of `file_evidence`, in key order (`abba store copy`).
+    CopyReadFileEvidence = "SELECT person_id, file_hash, file, evidence FROM file_evidence ORDER BY person_id, file_hash";
+    /// One row of `file_evidence` as read by `CopyReadFileEvidence`.
+    CopyWriteFileEvidence = "INSERT INTO file_evidence (person_id, file_hash, file, evidence) VALUES (?1, ?2, ?3, ?4)";
+    /// Every row of `nightscout_link`, in key order (`abba store copy`).
+    CopyReadNightscoutLink = "SELECT person_id, url, credential_kind, credential, write_back, created_at, last_sync_at, last_success_at, last_error, failures FROM nightscout_link ORDER BY person_id";
+    /// One row of `nightscout_link` as read by `CopyReadNightscoutLink`.
+    CopyWriteNightscoutLink = "INSERT INTO nightscout_link (person_id, url, credential_kind, credential, write_back, created_at, last_sync_at, last_success_at, last_error, failures) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10)";
+    /// Every row of `nightscout_mark`, in key order (`abba store copy`).
+    CopyReadNightscoutMark = "SELECT person_id, collection, mark_ms FROM nightscout_mark ORDER BY person_id, collection";
+    /// One row of `nightscout_mark` as read by `CopyReadNightscoutMark`.
+    CopyWriteNightscoutMark = "INSERT INTO nightscout_mark (person_id, collection, mark_ms) VALUES (?1, ?2, ?3)";
+    /// Every row of `nightscout_written`, in key order (`abba store copy`).
+    CopyReadNightscoutWritten = "SELECT person_id, what, key, remote_id, content, written_at FROM nightscout_written ORDER BY person_id, what, key";
+    /// One row of `nightscout_written` as read by `CopyReadNightscoutWritten`.
+    CopyWriteNightscoutWritten = "INSERT INTO nightscout_written (person_id, what, key, remote_id, content, written_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6)";
+    /// Every row of `signin_link`, in key order (`abba store copy`).
+    CopyReadSigninLink = "SELECT id, hash, role, person_id, created_ms, expires_ms, used_ms FROM signin_link ORDER BY id";
+    /// One row of `signin_link` as read by `CopyReadSigninLink`.
+    CopyWriteSigninLink = "INSERT INTO signin_link (id, hash, role, person_id, created_ms, expires_ms, used_ms) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)";
+    /// Every row of `web_session`, in key order (`abba store copy`).
+    CopyReadWebSession = "SELECT id, hash, role, person_id, csrf, created_ms, seen_ms, expires_ms, revoked_ms FROM web_session ORDER BY id";
+    /// One row of `web_session` as read by `CopyReadWebSession`.
+    CopyWriteWebSession = "INSERT INTO web_session (id, hash, role, person_id, csrf, created_ms, seen_ms, expires_ms, revoked_ms) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)";
+    /// After a copy: generated ids continue after the copied ones (nothing to do on SQLite, whose next id is the largest plus one).
+    CopyResetIds = "SELECT 1";
 }

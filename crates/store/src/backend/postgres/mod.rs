@@ -7,6 +7,13 @@
 //! (the service pools them as it pools SQLite connections), with its
 //! prepared statements cached by name.
 //!
+//! The client is synchronous and must never block a thread that drives
+//! asynchronous tasks (the service's handlers, `#[tokio::test]`s): each
+//! [`Pg`] owns a thread of its own that holds the client and runs the
+//! store's statements one after another, sent to it as jobs; a
+//! transaction is `BEGIN` ... `COMMIT` on that connection (`ROLLBACK` when
+//! dropped uncommitted).
+//!
 //! The transactional guarantees are SQLite's: a transaction that may write
 //! first takes the store's advisory lock ([`WRITE_LOCK`]), so writers run one
 //! after another as SQLite's IMMEDIATE transactions do, and waits at most
@@ -23,6 +30,7 @@ use postgres::types::{IsNull, ToSql, Type};
 use postgres::{GenericClient, NoTls, Statement};
 use std::cell::RefCell;
 use std::collections::HashMap;
+use std::sync::{mpsc, Arc, Mutex, PoisonError};
 
 /// The advisory lock every write transaction of a store holds: one per
 /// schema (a store is the schema its search path names), so stores of one
@@ -152,14 +160,17 @@ fn row_of(r: &postgres::Row) -> Result<Row, StoreError> {
 }
 
 /// Prepared statements of one connection, by name.
-type Cache = RefCell<HashMap<Q, Statement>>;
+type Cache = Mutex<HashMap<Q, Statement>>;
 
 fn prepared<C: GenericClient>(c: &mut C, cache: &Cache, q: Q) -> Result<Statement, StoreError> {
-    if let Some(s) = cache.borrow().get(&q) {
+    if let Some(s) = cache.lock().unwrap_or_else(PoisonError::into_inner).get(&q) {
         return Ok(s.clone());
     }
     let s = c.prepare(&sql::text(q)).map_err(err)?;
-    cache.borrow_mut().insert(q, s.clone());
+    cache
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner)
+        .insert(q, s.clone());
     Ok(s)
 }
 
@@ -208,18 +219,19 @@ fn insert_id<C: GenericClient>(
     r.try_get::<_, i64>(0).map_err(err)
 }
 
-/// Statements on a client or a transaction of it.
+/// Statements on a client or a transaction of it (a migration's, on the
+/// connection's own thread).
 pub struct PgDb<'a, C: GenericClient> {
     c: RefCell<&'a mut C>,
     cache: Cache,
 }
 
 impl<'a, C: GenericClient> PgDb<'a, C> {
-    /// Statements on `c`, prepared afresh (a migration's).
+    /// Statements on `c`, prepared afresh.
     pub fn new(c: &'a mut C) -> Self {
         Self {
             c: RefCell::new(c),
-            cache: RefCell::new(HashMap::new()),
+            cache: Mutex::new(HashMap::new()),
         }
     }
 }
@@ -236,76 +248,128 @@ impl<C: GenericClient> Db for PgDb<'_, C> {
     }
 }
 
-/// One connection to a PostgreSQL store.
+/// Work for the connection's thread.
+type Job = Box<dyn FnOnce(&mut postgres::Client) + Send>;
+
+fn gone() -> StoreError {
+    StoreError::Db(DbError {
+        backend: "postgres",
+        kind: DbErrorKind::Connect,
+        message: "the connection's thread ended".into(),
+    })
+}
+
+/// One connection to a PostgreSQL store (its client on a thread of its
+/// own, which ends when this is dropped).
 pub struct Pg {
-    client: RefCell<postgres::Client>,
-    cache: Cache,
+    jobs: mpsc::Sender<Job>,
+    cache: Arc<Cache>,
 }
 
 /// A transaction of [`Pg`] (rolled back when dropped uncommitted).
 pub struct PgTx<'a> {
-    tx: RefCell<postgres::Transaction<'a>>,
-    cache: &'a Cache,
+    pg: &'a Pg,
+    done: bool,
 }
 
 impl Pg {
-    /// Connects to `url`, sets the busy timeout (how long a writer waits
-    /// for another) and applies the migrations.
+    /// Connects to `url` (on the connection's own thread), sets the busy
+    /// timeout (how long a writer waits for another) and applies the
+    /// migrations.
     pub fn open(url: &str, busy: std::time::Duration) -> Result<Self, StoreError> {
         let config: postgres::Config = url.parse().map_err(|e: postgres::Error| {
             StoreError::invalid("--db", format!("not a PostgreSQL URL this abba reads: {e}"))
         })?;
-        let mut client = config.connect(NoTls).map_err(|e| {
-            StoreError::Db(DbError {
-                backend: "postgres",
-                kind: DbErrorKind::Connect,
-                message: format!("cannot connect to the PostgreSQL server: {e}"),
+        let (jobs, inbox) = mpsc::channel::<Job>();
+        let (ready, opened) = mpsc::channel::<Result<(), StoreError>>();
+        std::thread::Builder::new()
+            .name("abba-postgres".into())
+            .spawn(move || {
+                let connected = config.connect(NoTls).map_err(|e| {
+                    StoreError::Db(DbError {
+                        backend: "postgres",
+                        kind: DbErrorKind::Connect,
+                        message: format!("cannot connect to the PostgreSQL server: {e}"),
+                    })
+                });
+                let mut client = match connected {
+                    Ok(c) => c,
+                    Err(e) => {
+                        let _ = ready.send(Err(e));
+                        return;
+                    }
+                };
+                let set = client
+                    .batch_execute(&format!(
+                        "SET lock_timeout = {}; SET client_min_messages = warning; SET synchronous_commit = on",
+                        busy.as_millis().max(1)
+                    ))
+                    .map_err(err)
+                    .and_then(|()| schema::migrate(&mut client));
+                let ok = set.is_ok();
+                let _ = ready.send(set);
+                if ok {
+                    for job in inbox {
+                        job(&mut client);
+                    }
+                }
             })
-        })?;
-        client
-            .batch_execute(&format!(
-                "SET lock_timeout = {}; SET client_min_messages = warning; SET synchronous_commit = on",
-                busy.as_millis().max(1)
-            ))
-            .map_err(err)?;
-        schema::migrate(&mut client)?;
+            .map_err(|e| StoreError::corrupt("connection thread", e))?;
+        opened.recv().map_err(|_| gone())??;
         Ok(Self {
-            client: RefCell::new(client),
-            cache: RefCell::new(HashMap::new()),
+            jobs,
+            cache: Arc::new(Mutex::new(HashMap::new())),
         })
+    }
+
+    /// Runs `f` on the connection's thread and waits for its answer.
+    fn call<R: Send + 'static>(
+        &self,
+        f: impl FnOnce(&mut postgres::Client, &Cache) -> Result<R, StoreError> + Send + 'static,
+    ) -> Result<R, StoreError> {
+        let (tx, rx) = mpsc::channel();
+        let cache = Arc::clone(&self.cache);
+        self.jobs
+            .send(Box::new(move |c| {
+                let _ = tx.send(f(c, &cache));
+            }))
+            .map_err(|_| gone())?;
+        rx.recv().map_err(|_| gone())?
+    }
+
+    fn batch(&self, sql: &'static str) -> Result<(), StoreError> {
+        self.call(move |c, _| c.batch_execute(sql).map_err(err))
     }
 
     /// Begins a transaction: one that may write takes [`WRITE_LOCK`]
     /// first; one that only reads is a read-only snapshot.
     pub fn transaction(&mut self, write: bool) -> Result<PgTx<'_>, StoreError> {
-        let Pg { client, cache } = self;
-        let client = client.get_mut();
-        let tx = if write {
-            let mut tx = client.transaction().map_err(err)?;
-            tx.execute(WRITE_LOCK, &[]).map_err(err)?;
-            tx
+        if write {
+            self.batch("BEGIN")?;
+            let tx = PgTx {
+                pg: self,
+                done: false,
+            };
+            // (Dropped on an error: rolled back.)
+            tx.pg.batch(WRITE_LOCK)?;
+            Ok(tx)
         } else {
-            client
-                .build_transaction()
-                .isolation_level(postgres::IsolationLevel::RepeatableRead)
-                .read_only(true)
-                .start()
-                .map_err(err)?
-        };
-        Ok(PgTx {
-            tx: RefCell::new(tx),
-            cache,
-        })
+            self.batch("BEGIN ISOLATION LEVEL REPEATABLE READ READ ONLY")?;
+            Ok(PgTx {
+                pg: self,
+                done: false,
+            })
+        }
     }
 
     /// True when the server only reads (a standby, or a read-only default).
     pub fn is_read_only(&self) -> Result<bool, StoreError> {
-        let r = self
-            .client
-            .borrow_mut()
-            .query_one("SHOW transaction_read_only", &[])
-            .map_err(err)?;
-        Ok(r.try_get::<_, String>(0).map_err(err)? == "on")
+        self.call(|c, _| {
+            let r = c
+                .query_one("SHOW transaction_read_only", &[])
+                .map_err(err)?;
+            Ok(r.try_get::<_, String>(0).map_err(err)? == "on")
+        })
     }
 
     /// Takes the session-level advisory lock `key` if no other session
@@ -314,45 +378,59 @@ impl Pg {
     pub fn try_lock(&self, key: i64) -> Result<bool, StoreError> {
         // (The store's schema, and 32 bits of the key.)
         let key = key as i32;
-        let r = self
-            .client
-            .borrow_mut()
-            .query_one(
-                "SELECT pg_try_advisory_lock(hashtext(current_schema()), $1)",
-                &[&key],
-            )
-            .map_err(err)?;
-        r.try_get::<_, bool>(0).map_err(err)
+        self.call(move |c, _| {
+            let r = c
+                .query_one(
+                    "SELECT pg_try_advisory_lock(hashtext(current_schema()), $1)",
+                    &[&key],
+                )
+                .map_err(err)?;
+            r.try_get::<_, bool>(0).map_err(err)
+        })
     }
 }
 
 impl Db for Pg {
     fn execute(&self, q: Q, p: &[Value]) -> Result<usize, StoreError> {
-        execute(&mut *self.client.borrow_mut(), &self.cache, q, p)
+        let p = p.to_vec();
+        self.call(move |c, cache| execute(c, cache, q, &p))
     }
     fn rows(&self, q: Q, p: &[Value]) -> Result<Vec<Row>, StoreError> {
-        rows(&mut *self.client.borrow_mut(), &self.cache, q, p)
+        let p = p.to_vec();
+        self.call(move |c, cache| rows(c, cache, q, &p))
     }
     fn insert_id(&self, q: Q, p: &[Value]) -> Result<i64, StoreError> {
-        insert_id(&mut *self.client.borrow_mut(), &self.cache, q, p)
+        let p = p.to_vec();
+        self.call(move |c, cache| insert_id(c, cache, q, &p))
     }
 }
 
 impl PgTx<'_> {
     /// Commits.
-    pub fn commit(self) -> Result<(), StoreError> {
-        self.tx.into_inner().commit().map_err(err)
+    pub fn commit(mut self) -> Result<(), StoreError> {
+        self.done = true;
+        self.pg.batch("COMMIT")
+    }
+}
+
+impl Drop for PgTx<'_> {
+    fn drop(&mut self) {
+        if !self.done {
+            // Nothing to tell anyone: a failed rollback ends with the
+            // connection, which rolls back too.
+            let _ = self.pg.batch("ROLLBACK");
+        }
     }
 }
 
 impl Db for PgTx<'_> {
     fn execute(&self, q: Q, p: &[Value]) -> Result<usize, StoreError> {
-        execute(&mut *self.tx.borrow_mut(), self.cache, q, p)
+        self.pg.execute(q, p)
     }
     fn rows(&self, q: Q, p: &[Value]) -> Result<Vec<Row>, StoreError> {
-        rows(&mut *self.tx.borrow_mut(), self.cache, q, p)
+        self.pg.rows(q, p)
     }
     fn insert_id(&self, q: Q, p: &[Value]) -> Result<i64, StoreError> {
-        insert_id(&mut *self.tx.borrow_mut(), self.cache, q, p)
+        self.pg.insert_id(q, p)
     }
 }

@@ -48,10 +48,14 @@ pub fn fresh_schema(base: &str) -> String {
         nanos,
         N.fetch_add(1, Ordering::Relaxed)
     );
-    let mut c = postgres::Client::connect(base, postgres::NoTls)
-        .unwrap_or_else(|e| panic!("{POSTGRES_VAR}={base}: cannot connect: {e}"));
-    c.batch_execute(&format!("CREATE SCHEMA {name}"))
-        .unwrap_or_else(|e| panic!("creating schema {name}: {e}"));
+    // (On a thread of its own: the synchronous client may not block a
+    // thread that drives async tasks, as a `#[tokio::test]` does.)
+    off_async(|| {
+        let mut c = postgres::Client::connect(base, postgres::NoTls)
+            .unwrap_or_else(|e| panic!("{POSTGRES_VAR}={base}: cannot connect: {e}"));
+        c.batch_execute(&format!("CREATE SCHEMA {name}"))
+            .unwrap_or_else(|e| panic!("creating schema {name}: {e}"));
+    });
     let sep = if base.contains('?') { '&' } else { '?' };
     format!("{base}{sep}options=-csearch_path%3D{name}")
 }
@@ -86,12 +90,23 @@ pub fn is_postgres(db: &Path) -> bool {
 pub fn count_rows(db: &Path, table: &str) -> i64 {
     let sql = format!("SELECT count(*) FROM {table}");
     match db.to_str().filter(|d| is_url(d)) {
-        Some(url) => postgres::Client::connect(url, postgres::NoTls)
-            .and_then(|mut c| c.query_one(sql.as_str(), &[]))
-            .map(|r| r.get::<_, i64>(0))
-            .unwrap_or_else(|e| panic!("counting {table}: {e}")),
+        Some(url) => off_async(|| {
+            postgres::Client::connect(url, postgres::NoTls)
+                .and_then(|mut c| c.query_one(sql.as_str(), &[]))
+                .map(|r| r.get::<_, i64>(0))
+                .unwrap_or_else(|e| panic!("counting {table}: {e}"))
+        }),
         None => rusqlite::Connection::open(db)
             .and_then(|c| c.query_row(&sql, [], |r| r.get(0)))
             .unwrap_or_else(|e| panic!("counting {table}: {e}")),
     }
+}
+
+/// Runs `f` on a thread of its own (a panic goes on in the caller).
+fn off_async<R: Send>(f: impl FnOnce() -> R + Send) -> R {
+    std::thread::scope(|s| {
+        s.spawn(f)
+            .join()
+            .unwrap_or_else(|p| std::panic::resume_unwind(p))
+    })
 }

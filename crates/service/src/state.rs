@@ -352,6 +352,13 @@ impl AppState {
 /// refuse it (the file or its folder read-only, a read-only medium).
 fn check_writable(store: &Store, db: &Path) -> Result<(), ServiceError> {
     let read_only = store.is_read_only()?;
+    if store.backend() != "sqlite" {
+        // A server: no file here to look at; it says itself.
+        return match read_only {
+            true => Err(ServiceError::ReadOnly(db.to_path_buf())),
+            false => Ok(()),
+        };
+    }
     let meta = std::fs::metadata(db).map_err(|source| ServiceError::Io {
         context: format!("reading {}", db.display()),
         source,

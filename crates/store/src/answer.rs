@@ -4,10 +4,10 @@
 //! decision it answers, so the advisor's next update starts from the value
 //! in force.
 
+use crate::backend::{args, Db, Q};
 use crate::error::StoreError;
 use abba_advisor::Parameter;
 use abba_core::{EventKind, GramsPerUnit, MealSlot, SettingValue, UnitsPerHour};
-use rusqlite::{params, Connection};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -105,24 +105,18 @@ impl Answer {
 pub type Answers = BTreeMap<(i64, &'static str), Answer>;
 
 /// Every answer of a person.
-pub fn load(conn: &Connection, person: i64) -> Result<Answers, StoreError> {
-    let mut st = conn.prepare(
-        "SELECT at_min, parameter, answer, suggested, previous, in_force, answered_at FROM answer WHERE person_id = ?1",
-    )?;
-    let rows = st.query_map(params![person], |r| {
-        Ok((
-            r.get::<_, i64>(0)?,
-            r.get::<_, String>(1)?,
-            r.get::<_, String>(2)?,
-            r.get::<_, f64>(3)?,
-            r.get::<_, f64>(4)?,
-            r.get::<_, f64>(5)?,
-            r.get::<_, String>(6)?,
-        ))
-    })?;
+pub fn load(conn: &dyn Db, person: i64) -> Result<Answers, StoreError> {
     let mut out = Answers::new();
-    for row in rows {
-        let (at_min, p, kind, suggested, previous, in_force, answered_at) = row?;
+    for r in conn.rows(Q::AnswersOf, args![person])? {
+        let (at_min, p, kind, suggested, previous, in_force, answered_at) = (
+            r.int(0)?,
+            r.text(1)?,
+            r.text(2)?,
+            r.real(3)?,
+            r.real(4)?,
+            r.real(5)?,
+            r.text(6)?,
+        );
         let parameter =
             parse_param(&p).ok_or_else(|| StoreError::corrupt("answer", format!("setting {p}")))?;
         let kind = AnswerKind::parse(&kind)
@@ -144,21 +138,21 @@ pub fn load(conn: &Connection, person: i64) -> Result<Answers, StoreError> {
 }
 
 /// Stores answers (inside the caller's transaction).
-pub fn insert(conn: &Connection, person: i64, answers: &[Answer]) -> Result<(), StoreError> {
-    let mut st = conn.prepare(
-        "INSERT INTO answer (person_id, at_min, parameter, answer, suggested, previous, in_force, answered_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)",
-    )?;
+pub fn insert(conn: &dyn Db, person: i64, answers: &[Answer]) -> Result<(), StoreError> {
     for a in answers {
-        st.execute(params![
-            person,
-            a.at_min,
-            param_key(a.parameter),
-            a.kind.name(),
-            a.suggested,
-            a.previous,
-            a.in_force,
-            a.answered_at
-        ])?;
+        conn.execute(
+            Q::AnswerPut,
+            args![
+                person,
+                a.at_min,
+                param_key(a.parameter),
+                a.kind.name(),
+                a.suggested,
+                a.previous,
+                a.in_force,
+                &a.answered_at
+            ],
+        )?;
     }
     Ok(())
 }

@@ -8,12 +8,12 @@
 //! the events in order of (advisor minute, seq). A person is fed by imports
 //! or by the app, not both.
 
+use crate::backend::{args, Db, Q};
 use crate::error::StoreError;
 use crate::person::Person;
 use abba_core::{Event, EventKind, Timestamp};
 use abba_io::clock::AdvisorClock;
 use abba_io::events::{kind_name, EventStream};
-use rusqlite::{params, Connection, OptionalExtension};
 use std::collections::BTreeMap;
 
 /// One event as the app posted it.
@@ -59,20 +59,12 @@ fn seq_sql(seq: u64) -> Result<i64, StoreError> {
 }
 
 /// Number of app events of a person.
-pub fn count(conn: &Connection, person: i64) -> Result<i64, StoreError> {
-    Ok(conn.query_row(
-        "SELECT count(*) FROM app_event WHERE person_id = ?1",
-        params![person],
-        |r| r.get(0),
-    )?)
+pub fn count(conn: &dyn Db, person: i64) -> Result<i64, StoreError> {
+    conn.one(Q::AppEventCount, args![person])?.int(0)
 }
 
-fn record_count(conn: &Connection, person: i64) -> Result<i64, StoreError> {
-    Ok(conn.query_row(
-        "SELECT count(*) FROM record WHERE person_id = ?1",
-        params![person],
-        |r| r.get(0),
-    )?)
+fn record_count(conn: &dyn Db, person: i64) -> Result<i64, StoreError> {
+    conn.one(Q::RecordCount, args![person])?.int(0)
 }
 
 /// Checks and stores a batch (call inside a transaction): every event is
@@ -80,7 +72,7 @@ fn record_count(conn: &Connection, person: i64) -> Result<i64, StoreError> {
 /// event when the person has none), held numbers are compared by payload.
 /// On an error nothing of the batch may be committed.
 pub fn insert(
-    conn: &Connection,
+    conn: &dyn Db,
     person: &mut Person,
     batch: &[NewAppEvent],
 ) -> Result<Inserted, StoreError> {
@@ -104,16 +96,12 @@ pub fn insert(
     let limit = person.settings.advisor.limits.max_timestamp_min;
     let now = jiff::Timestamp::now().to_string();
     let mut out = Inserted::default();
-    let mut get =
-        conn.prepare_cached("SELECT hash FROM app_event WHERE person_id = ?1 AND seq = ?2")?;
-    let mut put = conn.prepare_cached(
-        "INSERT INTO app_event (person_id, seq, at_ms, at_min, tag, kind, hash, received_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)",
-    )?;
     for (i, e) in batch.iter().enumerate() {
         let seq = seq_sql(e.seq)?;
-        let held: Option<Vec<u8>> = get
-            .query_row(params![person.id, seq], |r| r.get(0))
-            .optional()?;
+        let held: Option<Vec<u8>> = conn
+            .row(Q::AppEventHash, args![person.id, seq])?
+            .map(|r| r.blob(0))
+            .transpose()?;
         match held {
             Some(h) if h == e.hash => {
                 out.repeated.push(e.seq);
@@ -157,16 +145,19 @@ pub fn insert(
         }
         let kind =
             serde_json::to_string(&e.kind).map_err(|err| StoreError::corrupt("event", err))?;
-        put.execute(params![
-            person.id,
-            seq,
-            e.at.as_millisecond(),
-            at.0,
-            kind_name(&e.kind),
-            kind,
-            &e.hash[..],
-            now
-        ])?;
+        conn.execute(
+            Q::AppEventPut,
+            args![
+                person.id,
+                seq,
+                e.at.as_millisecond(),
+                at.0,
+                kind_name(&e.kind),
+                kind,
+                &e.hash[..],
+                &now
+            ],
+        )?;
         out.new.push(AppEvent {
             seq: e.seq,
             event: Event::new(at, e.kind),
@@ -178,20 +169,10 @@ pub fn insert(
 }
 
 /// Every app event of a person, in the advisor's order.
-pub fn load(conn: &Connection, person: i64) -> Result<Vec<AppEvent>, StoreError> {
-    let mut st = conn.prepare(
-        "SELECT seq, at_min, kind FROM app_event WHERE person_id = ?1 ORDER BY at_min, seq",
-    )?;
-    let rows = st.query_map(params![person], |r| {
-        Ok((
-            r.get::<_, i64>(0)?,
-            r.get::<_, i64>(1)?,
-            r.get::<_, String>(2)?,
-        ))
-    })?;
+pub fn load(conn: &dyn Db, person: i64) -> Result<Vec<AppEvent>, StoreError> {
     let mut out = Vec::new();
-    for row in rows {
-        let (seq, at, kind) = row?;
+    for r in conn.rows(Q::AppEventsOf, args![person])? {
+        let (seq, at, kind) = (r.int(0)?, r.int(1)?, r.text(2)?);
         let kind: EventKind =
             serde_json::from_str(&kind).map_err(|e| StoreError::corrupt("app event", e))?;
         out.push(AppEvent {
@@ -203,15 +184,10 @@ pub fn load(conn: &Connection, person: i64) -> Result<Vec<AppEvent>, StoreError>
 }
 
 /// The app event held under `seq`, if any.
-pub fn one(conn: &Connection, person: i64, seq: u64) -> Result<Option<AppEvent>, StoreError> {
-    let row: Option<(i64, String)> = conn
-        .query_row(
-            "SELECT at_min, kind FROM app_event WHERE person_id = ?1 AND seq = ?2",
-            params![person, seq_sql(seq)?],
-            |r| Ok((r.get(0)?, r.get(1)?)),
-        )
-        .optional()?;
-    row.map(|(at, kind)| {
+pub fn one(conn: &dyn Db, person: i64, seq: u64) -> Result<Option<AppEvent>, StoreError> {
+    let row = conn.row(Q::AppEventOne, args![person, seq_sql(seq)?])?;
+    row.map(|r| {
+        let (at, kind) = (r.int(0)?, r.text(1)?);
         let kind: EventKind =
             serde_json::from_str(&kind).map_err(|e| StoreError::corrupt("app event", e))?;
         Ok(AppEvent {
@@ -245,19 +221,15 @@ pub fn stream(person: &Person, events: &[AppEvent]) -> EventStream {
 /// Held sequence numbers ≥ `from` as maximal ranges (at most `max`), and
 /// whether more follow.
 pub fn held_ranges(
-    conn: &Connection,
+    conn: &dyn Db,
     person: i64,
     from: u64,
     max: usize,
 ) -> Result<(Vec<(u64, u64)>, bool), StoreError> {
     let from = i64::try_from(from).unwrap_or(i64::MAX);
-    let mut st = conn.prepare_cached(
-        "SELECT seq FROM app_event WHERE person_id = ?1 AND seq >= ?2 ORDER BY seq",
-    )?;
-    let rows = st.query_map(params![person, from], |r| r.get::<_, i64>(0))?;
     let mut out: Vec<(u64, u64)> = Vec::new();
-    for row in rows {
-        let s = row? as u64;
+    for r in conn.rows(Q::AppEventSeqsFrom, args![person, from])? {
+        let s = r.int(0)? as u64;
         if let Some(last) = out.last_mut().filter(|l| l.1 + 1 == s) {
             last.1 = s;
         } else if out.len() == max {
@@ -270,34 +242,21 @@ pub fn held_ranges(
 }
 
 /// The highest sequence number held.
-pub fn last_seq(conn: &Connection, person: i64) -> Result<Option<u64>, StoreError> {
-    let v: Option<i64> = conn.query_row(
-        "SELECT max(seq) FROM app_event WHERE person_id = ?1",
-        params![person],
-        |r| r.get(0),
-    )?;
+pub fn last_seq(conn: &dyn Db, person: i64) -> Result<Option<u64>, StoreError> {
+    let v = conn.one(Q::AppEventLastSeq, args![person])?.opt_int(0)?;
     Ok(v.map(|s| s as u64))
 }
 
 /// The seq of the app event at advisor minute `at` that makes a decision
 /// point of this kind: a `DayClosed` (basal) or the main meal of `slot`.
 pub fn producer(
-    conn: &Connection,
+    conn: &dyn Db,
     person: i64,
     at: i64,
     slot: Option<abba_core::MealSlot>,
 ) -> Result<Option<u64>, StoreError> {
-    // INDEXED BY: without statistics SQLite's planner takes the primary
-    // key's (person_id) prefix and scans the person's whole log, ~10 ms per
-    // call on a year of data (a history page asks this once per suggestion).
-    let mut st = conn.prepare_cached(
-        "SELECT seq, kind FROM app_event INDEXED BY app_event_by_time WHERE person_id = ?1 AND at_min = ?2 AND tag IN ('day_closed', 'meal_announced') ORDER BY seq",
-    )?;
-    let rows = st.query_map(params![person, at], |r| {
-        Ok((r.get::<_, i64>(0)?, r.get::<_, String>(1)?))
-    })?;
-    for row in rows {
-        let (seq, kind) = row?;
+    for r in conn.rows(Q::AppEventProducers, args![person, at])? {
+        let (seq, kind) = (r.int(0)?, r.text(1)?);
         let kind: EventKind =
             serde_json::from_str(&kind).map_err(|e| StoreError::corrupt("app event", e))?;
         let hit = match (kind, slot) {

@@ -6,15 +6,16 @@
 //! gone wrong, stored by an older abba that did not refuse it. Left in the
 //! log it stays the person's latest event for good (every real decision
 //! after it would come "before" it). The check lists every such event
-//! (app events and imported records) with SQLite's own integrity check;
+//! (app events and imported records) with the database's own integrity
+//! check (SQLite's `PRAGMA integrity_check`);
 //! [`Store::remove_future`] deletes exactly those events, in one
 //! transaction, with the answers to suggestions after the check's clock
 //! and the person's stored suggestions and snapshot (both are caches,
 //! rebuilt from the log on next use).
 
+use crate::backend::{args, Db, Q};
 use crate::error::StoreError;
 use crate::store::Store;
-use rusqlite::{params, Connection};
 
 /// One event dated in the future.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -59,24 +60,12 @@ fn instant(ms: i64) -> Result<jiff::Timestamp, StoreError> {
     jiff::Timestamp::from_millisecond(ms).map_err(|e| StoreError::corrupt("event instant", e))
 }
 
-fn future_events(conn: &Connection, now: jiff::Timestamp) -> Result<Vec<FutureEvent>, StoreError> {
+fn future_events(conn: &dyn Db, now: jiff::Timestamp) -> Result<Vec<FutureEvent>, StoreError> {
     let limit = limit_ms(now);
     let mut out = Vec::new();
-    let mut st = conn.prepare(
-        "SELECT p.name, a.person_id, a.seq, a.tag, a.at_ms FROM app_event a JOIN person p ON p.id = a.person_id
-         WHERE a.at_ms > ?1 ORDER BY p.name, a.at_ms, a.seq",
-    )?;
-    let rows = st.query_map(params![limit], |r| {
-        Ok((
-            r.get::<_, String>(0)?,
-            r.get::<_, i64>(1)?,
-            r.get::<_, i64>(2)?,
-            r.get::<_, String>(3)?,
-            r.get::<_, i64>(4)?,
-        ))
-    })?;
-    for row in rows {
-        let (person, person_id, seq, kind, at) = row?;
+    for r in conn.rows(Q::FutureAppEvents, args![limit])? {
+        let (person, person_id, seq, kind, at) =
+            (r.text(0)?, r.int(1)?, r.int(2)?, r.text(3)?, r.int(4)?);
         out.push(FutureEvent {
             person,
             person_id,
@@ -86,22 +75,15 @@ fn future_events(conn: &Connection, now: jiff::Timestamp) -> Result<Vec<FutureEv
             at: instant(at)?,
         });
     }
-    let mut st = conn.prepare(
-        "SELECT p.name, r.person_id, r.source, r.source_id, r.kind, r.at_ms FROM record r JOIN person p ON p.id = r.person_id
-         WHERE r.at_ms > ?1 ORDER BY p.name, r.at_ms, r.source, r.source_id",
-    )?;
-    let rows = st.query_map(params![limit], |r| {
-        Ok((
-            r.get::<_, String>(0)?,
-            r.get::<_, i64>(1)?,
-            r.get::<_, String>(2)?,
-            r.get::<_, String>(3)?,
-            r.get::<_, String>(4)?,
-            r.get::<_, i64>(5)?,
-        ))
-    })?;
-    for row in rows {
-        let (person, person_id, source, source_id, kind, at) = row?;
+    for r in conn.rows(Q::FutureRecords, args![limit])? {
+        let (person, person_id, source, source_id, kind, at) = (
+            r.text(0)?,
+            r.int(1)?,
+            r.text(2)?,
+            r.text(3)?,
+            r.text(4)?,
+            r.int(5)?,
+        );
         out.push(FutureEvent {
             person,
             person_id,
@@ -117,10 +99,7 @@ fn future_events(conn: &Connection, now: jiff::Timestamp) -> Result<Vec<FutureEv
 impl Store {
     /// Checks the store against the clock `now` (reads only).
     pub fn check(&self, now: jiff::Timestamp) -> Result<CheckReport, StoreError> {
-        let mut st = self.conn.prepare("PRAGMA integrity_check")?;
-        let integrity = st
-            .query_map([], |r| r.get::<_, String>(0))?
-            .collect::<Result<Vec<_>, _>>()?;
+        let integrity = self.conn.integrity()?;
         Ok(CheckReport {
             now,
             integrity,
@@ -142,23 +121,14 @@ impl Store {
         persons.dedup();
         for &id in &persons {
             let p = crate::person::load_by_id(&tx, id)?;
-            tx.execute(
-                "DELETE FROM app_event WHERE person_id = ?1 AND at_ms > ?2",
-                params![id, limit],
-            )?;
-            tx.execute(
-                "DELETE FROM record WHERE person_id = ?1 AND at_ms > ?2",
-                params![id, limit],
-            )?;
+            tx.execute(Q::AppEventDeleteAfter, args![id, limit])?;
+            tx.execute(Q::RecordDeleteAfter, args![id, limit])?;
             if let Some(clock) = crate::advise::clock(&p) {
                 let minute = clock.timestamp(instant(limit)?).0;
-                tx.execute(
-                    "DELETE FROM answer WHERE person_id = ?1 AND at_min > ?2",
-                    params![id, minute],
-                )?;
+                tx.execute(Q::AnswerDeleteAfter, args![id, minute])?;
             }
-            tx.execute("DELETE FROM suggestion WHERE person_id = ?1", params![id])?;
-            tx.execute("DELETE FROM snapshot WHERE person_id = ?1", params![id])?;
+            tx.execute(Q::SuggestionDeleteAll, args![id])?;
+            tx.execute(Q::SnapshotDelete, args![id])?;
         }
         tx.commit()?;
         self.cache.clear();

@@ -5,9 +5,10 @@ use thiserror::Error;
 /// Everything that can go wrong in the person store.
 #[derive(Debug, Error)]
 pub enum StoreError {
-    /// SQLite said no.
+    /// The database said no (its own message; the same variant for every
+    /// backend).
     #[error("database: {0}")]
-    Sql(#[from] rusqlite::Error),
+    Db(crate::backend::DbError),
     /// The database file was written by a newer abba.
     #[error(
         "the database has schema version {found}; this abba knows up to {known} (use a newer abba)"
@@ -88,24 +89,24 @@ impl StoreError {
         }
     }
 
-    /// True when SQLite stayed busy (another connection held the write
-    /// lock longer than the busy timeout).
-    pub fn is_busy(&self) -> bool {
-        matches!(
-            self,
-            StoreError::Sql(rusqlite::Error::SqliteFailure(e, _))
-                if matches!(e.code, rusqlite::ErrorCode::DatabaseBusy | rusqlite::ErrorCode::DatabaseLocked)
-        )
+    /// The database error's kind, if this is one.
+    pub fn db_kind(&self) -> Option<crate::backend::DbErrorKind> {
+        match self {
+            StoreError::Db(e) => Some(e.kind),
+            _ => None,
+        }
     }
 
-    /// True when the store file cannot be written (read-only file or
-    /// folder, read-only medium).
+    /// True when the database stayed busy (another connection held the
+    /// write lock longer than the busy timeout).
+    pub fn is_busy(&self) -> bool {
+        self.db_kind() == Some(crate::backend::DbErrorKind::Busy)
+    }
+
+    /// True when the store cannot be written (read-only file or folder,
+    /// read-only medium, a read-only server).
     pub fn is_read_only(&self) -> bool {
-        matches!(
-            self,
-            StoreError::Sql(rusqlite::Error::SqliteFailure(e, _))
-                if e.code == rusqlite::ErrorCode::ReadOnly
-        )
+        self.db_kind() == Some(crate::backend::DbErrorKind::ReadOnly)
     }
 
     /// A [`StoreError::Corrupt`] from a serde error.

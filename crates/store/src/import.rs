@@ -9,12 +9,12 @@
 //! person's day 1 are not used; both are counted with the first one's
 //! place, never stored.
 
+use crate::backend::{args, Conn, Db, Q};
 use crate::error::StoreError;
 use crate::log::key;
 use crate::person::{self, Person};
 use abba_io::read::{Batch, Refused, CROSS_UPLOAD_WINDOW_S};
 use abba_io::{RecordKind, Source, SourceId};
-use rusqlite::{params, Connection, OptionalExtension};
 use serde::Serialize;
 
 /// What one import did.
@@ -57,7 +57,7 @@ pub struct ImportSummary {
 /// row, or nothing. A batch with no record at all is an error naming the
 /// files ("no readings in FILE").
 pub fn import(
-    conn: &mut Connection,
+    conn: &mut Conn,
     person: &Person,
     batch: &Batch,
     now: jiff::Timestamp,
@@ -70,11 +70,11 @@ pub fn import(
 /// settings a profile brings, a link's high-water marks). `also` runs even
 /// when nothing is new.
 pub fn import_with(
-    conn: &mut Connection,
+    conn: &mut Conn,
     person: &Person,
     batch: &Batch,
     now: jiff::Timestamp,
-    also: &mut dyn FnMut(&rusqlite::Transaction<'_>) -> Result<(), StoreError>,
+    also: &mut dyn FnMut(&dyn Db) -> Result<(), StoreError>,
 ) -> Result<ImportSummary, StoreError> {
     let empty_files: Vec<String> = batch.empty_files().into_iter().map(String::from).collect();
     if batch.records.is_empty() {
@@ -154,37 +154,24 @@ pub fn import_with(
     let files = serde_json::to_string(&batch.files).map_err(|e| StoreError::corrupt("files", e))?;
     let formats =
         serde_json::to_string(&batch.formats).map_err(|e| StoreError::corrupt("formats", e))?;
-    tx.execute(
-        "INSERT INTO import (person_id, imported_at, files, formats, records_read, records_added, records_known) VALUES (?1, ?2, ?3, ?4, ?5, 0, 0)",
-        params![person.id, stamp, files, formats, rows.len() as i64],
+    let import_id = tx.insert_id(
+        Q::ImportPut,
+        args![person.id, stamp, files, formats, rows.len() as i64],
     )?;
-    let import_id = tx.last_insert_rowid();
     let (mut added, mut known, mut updated) = (0usize, 0usize, 0usize);
     {
-        let mut same = tx.prepare(
-            "SELECT 1 FROM record WHERE person_id = ?1 AND at_ms BETWEEN ?2 AND ?3 AND source = ?4 AND kind = ?5 LIMIT 1",
-        )?;
-        let mut held = tx.prepare(
-            "SELECT at_ms, kind FROM record WHERE person_id = ?1 AND source = ?2 AND source_id = ?3",
-        )?;
-        let mut insert = tx.prepare(
-            "INSERT INTO record (person_id, source, source_id, at_ms, kind, origin, import_id) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)",
-        )?;
-        let mut replace = tx.prepare(
-            "UPDATE record SET at_ms = ?4, kind = ?5, origin = ?6, import_id = ?7 WHERE person_id = ?1 AND source = ?2 AND source_id = ?3",
-        )?;
         for (source, id, at_ms, kind, origin, window, is_id) in &rows {
-            let stored: Option<(i64, String)> = held
-                .query_row(params![person.id, source, id], |r| {
-                    Ok((r.get(0)?, r.get(1)?))
-                })
-                .optional()?;
+            let stored = match tx.row(Q::RecordHeld, args![person.id, source, id])? {
+                Some(r) => Some((r.int(0)?, r.text(1)?)),
+                None => None,
+            };
             match stored {
                 Some((a, k)) if a == *at_ms && &k == kind => known += 1,
                 Some(_) if *is_id => {
-                    replace.execute(params![
-                        person.id, source, id, at_ms, kind, origin, import_id
-                    ])?;
+                    tx.execute(
+                        Q::RecordReplace,
+                        args![person.id, source, id, at_ms, kind, origin, import_id],
+                    )?;
                     updated += 1;
                 }
                 Some((a, k)) => {
@@ -197,21 +184,21 @@ pub fn import_with(
                 }
                 None => {
                     let by_content = match window {
-                        Some(w) => same
-                            .query_row(
-                                params![person.id, at_ms - w, at_ms + w, source, kind],
-                                |_| Ok(()),
-                            )
-                            .optional()?
+                        Some(w) => tx
+                            .row(
+                                Q::RecordSameContent,
+                                args![person.id, at_ms - w, at_ms + w, source, kind],
+                            )?
                             .is_some(),
                         None => false,
                     };
                     if by_content {
                         known += 1;
                     } else {
-                        insert.execute(params![
-                            person.id, source, id, at_ms, kind, origin, import_id
-                        ])?;
+                        tx.execute(
+                            Q::RecordPut,
+                            args![person.id, source, id, at_ms, kind, origin, import_id],
+                        )?;
                         added += 1;
                     }
                 }
@@ -220,12 +207,12 @@ pub fn import_with(
     }
     let import_id = if added == 0 && updated == 0 {
         // Nothing new: leave no trace beyond saying so.
-        tx.execute("DELETE FROM import WHERE id = ?1", params![import_id])?;
+        tx.execute(Q::ImportDelete, args![import_id])?;
         None
     } else {
         tx.execute(
-            "UPDATE import SET records_added = ?1, records_known = ?2 WHERE id = ?3",
-            params![added as i64, known as i64, import_id],
+            Q::ImportCounts,
+            args![added as i64, known as i64, import_id],
         )?;
         if let (None, Some(d)) = (person.first_day, first_day) {
             person::set_first_day(&tx, person.id, d)?;
@@ -268,20 +255,17 @@ pub struct ImportRow {
 }
 
 /// The person's imports, oldest first.
-pub fn imports(conn: &Connection, person: i64) -> Result<Vec<ImportRow>, StoreError> {
-    let mut st = conn.prepare(
-        "SELECT id, imported_at, files, records_read, records_added FROM import WHERE person_id = ?1 ORDER BY id",
-    )?;
-    let v = st
-        .query_map(params![person], |r| {
+pub fn imports(conn: &dyn Db, person: i64) -> Result<Vec<ImportRow>, StoreError> {
+    conn.rows(Q::ImportsOf, args![person])?
+        .into_iter()
+        .map(|r| {
             Ok(ImportRow {
-                id: r.get(0)?,
-                imported_at: r.get(1)?,
-                files: r.get(2)?,
-                read: r.get(3)?,
-                added: r.get(4)?,
+                id: r.int(0)?,
+                imported_at: r.text(1)?,
+                files: r.text(2)?,
+                read: r.int(3)?,
+                added: r.int(4)?,
             })
-        })?
-        .collect::<Result<Vec<_>, _>>()?;
-    Ok(v)
+        })
+        .collect()
 }

@@ -13,6 +13,7 @@
 //!   suggested unless the person allows it for research
 //!   (`--allow-closed-loop`).
 
+use crate::backend::{args, Db, Q};
 use crate::error::StoreError;
 use crate::person::{Person, TherapySource};
 use abba_advisor::Mode;
@@ -22,7 +23,6 @@ use abba_io::automation::{Delivery, Evidence};
 use abba_io::clock::AdvisorClock;
 use abba_io::therapy::PumpTherapy;
 use abba_io::Record;
-use rusqlite::{params, Connection};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -181,13 +181,13 @@ pub fn first_week(mode: Mode, init_days: u32, events: &[Event]) -> FirstWeek {
 }
 
 /// The clinician's recorded changes of a person.
-pub fn clinician_changes(conn: &Connection, person: i64) -> Result<Vec<TherapyChange>, StoreError> {
-    let mut st =
-        conn.prepare("SELECT change FROM therapy_change WHERE person_id = ?1 ORDER BY at_ms, id")?;
-    let rows = st.query_map(params![person], |r| r.get::<_, String>(0))?;
+pub fn clinician_changes(conn: &dyn Db, person: i64) -> Result<Vec<TherapyChange>, StoreError> {
     let mut out = Vec::new();
-    for r in rows {
-        out.push(serde_json::from_str(&r?).map_err(|e| StoreError::corrupt("therapy change", e))?);
+    for r in conn.rows(Q::TherapyChangesOf, args![person])? {
+        out.push(
+            serde_json::from_str(&r.text(0)?)
+                .map_err(|e| StoreError::corrupt("therapy change", e))?,
+        );
     }
     Ok(out)
 }
@@ -196,7 +196,7 @@ pub fn clinician_changes(conn: &Connection, person: i64) -> Result<Vec<TherapyCh
 /// bumps the person's revision, so a live advisor kept elsewhere (the
 /// service) is rebuilt with it.
 pub fn insert_change(
-    conn: &Connection,
+    conn: &dyn Db,
     person: i64,
     at: jiff::Timestamp,
     change: &TherapyChange,
@@ -204,20 +204,22 @@ pub fn insert_change(
     let json =
         serde_json::to_string(change).map_err(|e| StoreError::corrupt("therapy change", e))?;
     conn.execute(
-        "INSERT INTO therapy_change (person_id, at_ms, change, recorded_at) VALUES (?1, ?2, ?3, ?4)",
-        params![person, at.as_millisecond(), json, jiff::Timestamp::now().to_string()],
+        Q::TherapyChangePut,
+        args![
+            person,
+            at.as_millisecond(),
+            json,
+            jiff::Timestamp::now().to_string()
+        ],
     )?;
-    conn.execute(
-        "INSERT INTO person_rev VALUES (?1, 1) ON CONFLICT (person_id) DO UPDATE SET rev = rev + 1",
-        params![person],
-    )?;
+    conn.execute(Q::PersonRevBump, args![person])?;
     Ok(())
 }
 
 /// What applies to an app-fed person's replay: the clinician's changes,
 /// each in force from its time (none recorded: no extras, the replay is
 /// the events as posted).
-pub fn app_extras(conn: &Connection, person: &Person) -> Result<Option<Extras>, StoreError> {
+pub fn app_extras(conn: &dyn Db, person: &Person) -> Result<Option<Extras>, StoreError> {
     let changes = clinician_changes(conn, person.id)?;
     if changes.is_empty() {
         return Ok(None);
@@ -360,13 +362,11 @@ pub fn profile_changes(
 }
 
 /// File evidence of loops stored at import.
-pub fn file_evidence(conn: &Connection, person: i64) -> Result<Evidence, StoreError> {
-    let mut st = conn.prepare("SELECT evidence FROM file_evidence WHERE person_id = ?1")?;
-    let rows = st.query_map(params![person], |r| r.get::<_, String>(0))?;
+pub fn file_evidence(conn: &dyn Db, person: i64) -> Result<Evidence, StoreError> {
     let mut e = Evidence::default();
-    for r in rows {
-        let x: Evidence =
-            serde_json::from_str(&r?).map_err(|e| StoreError::corrupt("file evidence", e))?;
+    for r in conn.rows(Q::FileEvidenceOf, args![person])? {
+        let x: Evidence = serde_json::from_str(&r.text(0)?)
+            .map_err(|e| StoreError::corrupt("file evidence", e))?;
         e.add_file(&x);
     }
     Ok(e)
@@ -374,7 +374,7 @@ pub fn file_evidence(conn: &Connection, person: i64) -> Result<Evidence, StoreEr
 
 /// Stores what an import's files say about loops (one row per file content).
 pub fn store_file_evidence(
-    conn: &Connection,
+    conn: &dyn Db,
     person: i64,
     file: &str,
     bytes: &[u8],
@@ -385,10 +385,7 @@ pub fn store_file_evidence(
     }
     let hash = format!("{:016x}", abba_io::record::content_hash([bytes]));
     let json = serde_json::to_string(&e).map_err(|e| StoreError::corrupt("file evidence", e))?;
-    conn.execute(
-        "INSERT OR REPLACE INTO file_evidence (person_id, file_hash, file, evidence) VALUES (?1, ?2, ?3, ?4)",
-        params![person, hash, file, json],
-    )?;
+    conn.execute(Q::FileEvidencePut, args![person, hash, file, json])?;
     Ok(())
 }
 
@@ -418,11 +415,7 @@ pub fn record_facts(
 
 /// Everything [`Extras`] holds for an import-fed person: the records'
 /// facts with the clinician's changes and the files' evidence.
-pub fn extras(
-    conn: &Connection,
-    person: &Person,
-    facts: &RecordFacts,
-) -> Result<Extras, StoreError> {
+pub fn extras(conn: &dyn Db, person: &Person, facts: &RecordFacts) -> Result<Extras, StoreError> {
     let mut changes = facts.profile_changes.clone();
     changes.extend(clinician_changes(conn, person.id)?);
     changes.sort_by_key(|c| c.at);

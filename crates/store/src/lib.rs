@@ -1,7 +1,7 @@
-//! abba-store: a person's durable store on SQLite, and the advisor as a
-//! function of that store.
+//! abba-store: a person's durable store, and the advisor as a function of
+//! that store.
 //!
-//! One file holds many persons. Per person: the settings (zone, mode, meal
+//! One database holds many persons. Per person: the settings (zone, mode, meal
 //! windows, starting therapy, clinician bounds, the advisor's
 //! configuration), the append-only log of device records (each with its
 //! source and its identity there), the imports, every suggestion with its
@@ -10,7 +10,11 @@
 //! whenever the snapshot does not match them (decisions are a pure
 //! function of events, starting therapy and configuration).
 //!
-//! Each import and each answer is one transaction; the file is in WAL mode.
+//! Each import and each answer is one transaction. The logic speaks to the
+//! database only through [`backend`]: named statements with neutral values
+//! in a [`backend::Tx`]; every SQL string, the schema's DDL and the
+//! database's errors live in the backend's module (SQLite, one file in WAL
+//! mode, is the embedded default).
 //! abba-store depends on abba-core, abba-advisor and abba-io, never on the
 //! simulator. abba is research software, not a medical device.
 
@@ -19,8 +23,10 @@
 pub mod advise;
 pub mod answer;
 pub mod app;
+pub mod backend;
 pub mod busy;
 pub mod check;
+pub mod copy;
 pub mod effect;
 pub mod error;
 pub mod history;
@@ -35,6 +41,7 @@ pub mod report;
 pub mod schema;
 pub mod session;
 pub mod store;
+pub mod testing;
 pub mod token;
 
 pub use advise::{Advice, NOTICE};

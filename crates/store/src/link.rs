@@ -5,44 +5,15 @@
 //! in the same transaction as its records (a sync killed at any point
 //! leaves the store as before it, or as after it).
 
+use crate::backend::{args, Db, Row, Q};
 use crate::error::StoreError;
 use crate::import::ImportSummary;
 use crate::person::{self, Person};
 use crate::store::{ProfileResolution, Store};
 use abba_io::automation::Evidence;
 use abba_io::SourceId;
-use rusqlite::{params, Connection, OptionalExtension, Transaction};
 use serde::Serialize;
 use std::collections::BTreeMap;
-
-/// Schema migration of the link tables (appended to `schema::MIGRATIONS`).
-pub const MIGRATION: &str = "CREATE TABLE nightscout_link (
-        person_id INTEGER PRIMARY KEY REFERENCES person(id),
-        url TEXT NOT NULL,
-        credential_kind TEXT NOT NULL CHECK (credential_kind IN ('api_secret_sha1', 'token')),
-        credential TEXT NOT NULL,
-        write_back INTEGER NOT NULL,
-        created_at TEXT NOT NULL,
-        last_sync_at TEXT,
-        last_success_at TEXT,
-        last_error TEXT,
-        failures INTEGER NOT NULL DEFAULT 0
-    );
-    CREATE TABLE nightscout_mark (
-        person_id INTEGER NOT NULL REFERENCES person(id),
-        collection TEXT NOT NULL,
-        mark_ms INTEGER NOT NULL,
-        PRIMARY KEY (person_id, collection)
-    ) WITHOUT ROWID;
-    CREATE TABLE nightscout_written (
-        person_id INTEGER NOT NULL REFERENCES person(id),
-        what TEXT NOT NULL CHECK (what IN ('note', 'profile')),
-        key TEXT NOT NULL,
-        remote_id TEXT NOT NULL,
-        content TEXT NOT NULL,
-        written_at TEXT NOT NULL,
-        PRIMARY KEY (person_id, what, key)
-    ) WITHOUT ROWID;";
 
 /// How abba authenticates to the site.
 #[derive(Clone, PartialEq, Eq)]
@@ -175,36 +146,34 @@ pub struct SyncImport {
     pub deleted: usize,
 }
 
-fn person_id(conn: &Connection, name: &str) -> Result<Person, StoreError> {
+fn person_id(conn: &dyn Db, name: &str) -> Result<Person, StoreError> {
     person::load(conn, name)
 }
 
-fn row_to_link(r: &rusqlite::Row<'_>) -> rusqlite::Result<Link> {
-    let kind: String = r.get(2)?;
-    let secret: String = r.get(3)?;
+fn row_to_link(r: Row) -> Result<Link, StoreError> {
+    let kind = r.text(2)?;
+    let secret = r.text(3)?;
     Ok(Link {
-        person: r.get(0)?,
-        url: r.get(1)?,
+        person: r.text(0)?,
+        url: r.text(1)?,
         credential: if kind == "token" {
             Credential::Token(secret)
         } else {
             Credential::ApiSecretSha1(secret)
         },
-        write_back: r.get(4)?,
-        created_at: r.get(5)?,
-        last_sync_at: r.get(6)?,
-        last_success_at: r.get(7)?,
-        last_error: r.get(8)?,
-        failures: r.get::<_, i64>(9)?.clamp(0, i64::from(u32::MAX)) as u32,
+        write_back: r.bool(4)?,
+        created_at: r.text(5)?,
+        last_sync_at: r.opt_text(6)?,
+        last_success_at: r.opt_text(7)?,
+        last_error: r.opt_text(8)?,
+        failures: r.int(9)?.clamp(0, i64::from(u32::MAX)) as u32,
     })
 }
-
-const SELECT: &str = "SELECT p.name, l.url, l.credential_kind, l.credential, l.write_back, l.created_at, l.last_sync_at, l.last_success_at, l.last_error, l.failures FROM nightscout_link l JOIN person p ON p.id = l.person_id";
 
 /// Adds `n` to the loop evidence kept for a synced collection (one row per
 /// collection, so documents fetched again are not counted twice).
 fn add_evidence(
-    tx: &Transaction<'_>,
+    tx: &dyn Db,
     person: i64,
     collection: &str,
     bytes: &[u8],
@@ -214,13 +183,10 @@ fn add_evidence(
         return Ok(());
     }
     let key = format!("nightscout-sync:{collection}");
-    let held: Option<String> = tx
-        .query_row(
-            "SELECT evidence FROM file_evidence WHERE person_id = ?1 AND file_hash = ?2",
-            params![person, key],
-            |r| r.get(0),
-        )
-        .optional()?;
+    let held = tx
+        .row(Q::FileEvidenceOne, args![person, &key])?
+        .map(|r| r.text(0))
+        .transpose()?;
     let mut sum = match held {
         Some(j) => serde_json::from_str::<Evidence>(&j)
             .map_err(|e| StoreError::corrupt("file evidence", e))?,
@@ -228,45 +194,29 @@ fn add_evidence(
     };
     sum.add_file(&e);
     let json = serde_json::to_string(&sum).map_err(|e| StoreError::corrupt("file evidence", e))?;
-    tx.execute(
-        "INSERT OR REPLACE INTO file_evidence (person_id, file_hash, file, evidence) VALUES (?1, ?2, ?3, ?4)",
-        params![person, key, collection, json],
-    )?;
+    tx.execute(Q::FileEvidencePut, args![person, key, collection, json])?;
     Ok(())
 }
 
 /// Removes the records of the documents `ids` (and the further records
 /// one document gave, `ID#n`); returns how many.
-fn delete_records(tx: &Transaction<'_>, person: i64, ids: &[String]) -> Result<usize, StoreError> {
+fn delete_records(tx: &dyn Db, person: i64, ids: &[String]) -> Result<usize, StoreError> {
     let mut n = 0;
-    let mut exact = tx.prepare(
-        "DELETE FROM record WHERE person_id = ?1 AND source = 'nightscout' AND source_id = ?2",
-    )?;
-    let mut parts = tx.prepare(
-        "DELETE FROM record WHERE person_id = ?1 AND source = 'nightscout' AND substr(source_id, 1, ?3) = ?2",
-    )?;
     for id in ids {
         let key = serde_json::to_string(&SourceId::Id(id.as_str().into()))
             .map_err(|e| StoreError::corrupt("record id", e))?;
-        n += exact.execute(params![person, key])?;
+        n += tx.execute(Q::NightscoutRecordDelete, args![person, &key])?;
         // `{"id":"ID#` : the further records of the same document.
         let prefix = format!("{}#", key.trim_end_matches("\"}"));
-        n += parts.execute(params![person, prefix, prefix.chars().count() as i64])?;
+        let len = prefix.chars().count() as i64;
+        n += tx.execute(Q::NightscoutRecordPartsDelete, args![person, prefix, len])?;
     }
     Ok(n)
 }
 
-fn write_marks(
-    tx: &Transaction<'_>,
-    person: i64,
-    marks: &BTreeMap<String, i64>,
-) -> Result<(), StoreError> {
+fn write_marks(tx: &dyn Db, person: i64, marks: &BTreeMap<String, i64>) -> Result<(), StoreError> {
     for (c, m) in marks {
-        tx.execute(
-            "INSERT INTO nightscout_mark (person_id, collection, mark_ms) VALUES (?1, ?2, ?3)
-             ON CONFLICT (person_id, collection) DO UPDATE SET mark_ms = max(mark_ms, excluded.mark_ms)",
-            params![person, c, m],
-        )?;
+        tx.execute(Q::NightscoutMarkPut, args![person, c, m])?;
     }
     Ok(())
 }
@@ -283,27 +233,24 @@ impl Store {
     ) -> Result<Link, StoreError> {
         let p = person_id(&self.conn, name)?;
         let tx = self.conn.transaction()?;
-        let old: Option<String> = tx
-            .query_row(
-                "SELECT url FROM nightscout_link WHERE person_id = ?1",
-                params![p.id],
-                |r| r.get(0),
-            )
-            .optional()?;
+        let old = tx
+            .row(Q::NightscoutLinkUrl, args![p.id])?
+            .map(|r| r.text(0))
+            .transpose()?;
         if old.as_deref().is_some_and(|u| u != url) {
-            tx.execute(
-                "DELETE FROM nightscout_mark WHERE person_id = ?1",
-                params![p.id],
-            )?;
-            tx.execute(
-                "DELETE FROM nightscout_written WHERE person_id = ?1",
-                params![p.id],
-            )?;
+            tx.execute(Q::NightscoutMarksDelete, args![p.id])?;
+            tx.execute(Q::NightscoutWrittenDeleteAll, args![p.id])?;
         }
         tx.execute(
-            "INSERT INTO nightscout_link (person_id, url, credential_kind, credential, write_back, created_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6)
-             ON CONFLICT (person_id) DO UPDATE SET url = excluded.url, credential_kind = excluded.credential_kind, credential = excluded.credential, write_back = excluded.write_back",
-            params![p.id, url, credential.kind(), credential.secret(), write_back, jiff::Timestamp::now().to_string()],
+            Q::NightscoutLinkPut,
+            args![
+                p.id,
+                url,
+                credential.kind(),
+                credential.secret(),
+                write_back,
+                jiff::Timestamp::now().to_string()
+            ],
         )?;
         tx.commit()?;
         self.link(name)?
@@ -313,21 +260,19 @@ impl Store {
     /// The person's link, if any.
     pub fn link(&self, name: &str) -> Result<Option<Link>, StoreError> {
         let p = person_id(&self.conn, name)?;
-        Ok(self
-            .conn
-            .query_row(
-                &format!("{SELECT} WHERE l.person_id = ?1"),
-                params![p.id],
-                row_to_link,
-            )
-            .optional()?)
+        self.conn
+            .row(Q::NightscoutLinkOf, args![p.id])?
+            .map(row_to_link)
+            .transpose()
     }
 
     /// Every link, by person name.
     pub fn links(&self) -> Result<Vec<Link>, StoreError> {
-        let mut st = self.conn.prepare(&format!("{SELECT} ORDER BY p.name"))?;
-        let v = st.query_map([], row_to_link)?.collect::<Result<_, _>>()?;
-        Ok(v)
+        self.conn
+            .rows(Q::NightscoutLinks, args![])?
+            .into_iter()
+            .map(row_to_link)
+            .collect()
     }
 
     /// Removes the person's link, its marks and the list of what abba
@@ -335,16 +280,9 @@ impl Store {
     pub fn remove_link(&mut self, name: &str) -> Result<bool, StoreError> {
         let p = person_id(&self.conn, name)?;
         let tx = self.conn.transaction()?;
-        for t in ["nightscout_mark", "nightscout_written"] {
-            tx.execute(
-                &format!("DELETE FROM {t} WHERE person_id = ?1"),
-                params![p.id],
-            )?;
-        }
-        let n = tx.execute(
-            "DELETE FROM nightscout_link WHERE person_id = ?1",
-            params![p.id],
-        )?;
+        tx.execute(Q::NightscoutMarksDelete, args![p.id])?;
+        tx.execute(Q::NightscoutWrittenDeleteAll, args![p.id])?;
+        let n = tx.execute(Q::NightscoutLinkDelete, args![p.id])?;
         tx.commit()?;
         Ok(n > 0)
     }
@@ -352,13 +290,11 @@ impl Store {
     /// The person's high-water marks (ms), by collection.
     pub fn link_marks(&self, name: &str) -> Result<BTreeMap<String, i64>, StoreError> {
         let p = person_id(&self.conn, name)?;
-        let mut st = self
-            .conn
-            .prepare("SELECT collection, mark_ms FROM nightscout_mark WHERE person_id = ?1")?;
-        let v = st
-            .query_map(params![p.id], |r| Ok((r.get(0)?, r.get(1)?)))?
-            .collect::<Result<_, _>>()?;
-        Ok(v)
+        self.conn
+            .rows(Q::NightscoutMarksOf, args![p.id])?
+            .into_iter()
+            .map(|r| Ok((r.text(0)?, r.int(1)?)))
+            .collect()
     }
 
     /// Records a sync's outcome at `at`: `None` a success (the failures
@@ -372,14 +308,12 @@ impl Store {
         let p = person_id(&self.conn, name)?;
         let at = at.to_string();
         match error {
-            None => self.conn.execute(
-                "UPDATE nightscout_link SET last_sync_at = ?2, last_success_at = ?2, last_error = NULL, failures = 0 WHERE person_id = ?1",
-                params![p.id, at],
-            )?,
-            Some(e) => self.conn.execute(
-                "UPDATE nightscout_link SET last_sync_at = ?2, last_error = ?3, failures = failures + 1 WHERE person_id = ?1",
-                params![p.id, at, e],
-            )?,
+            None => self
+                .conn
+                .execute(Q::NightscoutSyncSucceeded, args![p.id, at])?,
+            Some(e) => self
+                .conn
+                .execute(Q::NightscoutSyncFailed, args![p.id, at, e])?,
         };
         Ok(())
     }
@@ -397,7 +331,7 @@ impl Store {
     ) -> Result<SyncImport, StoreError> {
         let p = person_id(&self.conn, name)?;
         let mut deleted = 0;
-        let mut also = |tx: &Transaction<'_>| -> Result<(), StoreError> {
+        let mut also = |tx: &dyn Db| -> Result<(), StoreError> {
             deleted = delete_records(tx, p.id, &fetched.deleted)?;
             for (c, bytes) in &fetched.fresh {
                 add_evidence(tx, p.id, c, bytes)?;
@@ -452,17 +386,13 @@ impl Store {
     ) -> Result<Vec<String>, StoreError> {
         let p = person_id(&self.conn, name)?;
         let prefix = format!("{origin}: ");
-        let mut st = self.conn.prepare(
-            "SELECT source_id FROM record WHERE person_id = ?1 AND source = 'nightscout' AND at_ms >= ?2 AND substr(origin, 1, ?4) = ?3",
-        )?;
-        let rows = st
-            .query_map(
-                params![p.id, from_ms, prefix, prefix.chars().count() as i64],
-                |r| r.get::<_, String>(0),
-            )?
-            .collect::<Result<Vec<_>, _>>()?;
+        let len = prefix.chars().count() as i64;
+        let rows = self
+            .conn
+            .rows(Q::NightscoutDocuments, args![p.id, from_ms, prefix, len])?;
         let mut out: Vec<String> = Vec::new();
-        for raw in rows {
+        for r in rows {
+            let raw = r.text(0)?;
             let id: SourceId =
                 serde_json::from_str(&raw).map_err(|e| StoreError::corrupt("record id", e))?;
             let SourceId::Id(id) = id else { continue };
@@ -482,28 +412,33 @@ impl Store {
     /// What abba wrote to the person's site.
     pub fn written(&self, name: &str) -> Result<Vec<Written>, StoreError> {
         let p = person_id(&self.conn, name)?;
-        let mut st = self.conn.prepare(
-            "SELECT what, key, remote_id, content FROM nightscout_written WHERE person_id = ?1 ORDER BY what, key",
-        )?;
-        let v = st
-            .query_map(params![p.id], |r| {
+        self.conn
+            .rows(Q::NightscoutWrittenOf, args![p.id])?
+            .into_iter()
+            .map(|r| {
                 Ok(Written {
-                    what: r.get(0)?,
-                    key: r.get(1)?,
-                    remote_id: r.get(2)?,
-                    content: r.get(3)?,
+                    what: r.text(0)?,
+                    key: r.text(1)?,
+                    remote_id: r.text(2)?,
+                    content: r.text(3)?,
                 })
-            })?
-            .collect::<Result<_, _>>()?;
-        Ok(v)
+            })
+            .collect()
     }
 
     /// Records (or replaces) something abba wrote to the site.
     pub fn set_written(&mut self, name: &str, w: &Written) -> Result<(), StoreError> {
         let p = person_id(&self.conn, name)?;
         self.conn.execute(
-            "INSERT OR REPLACE INTO nightscout_written (person_id, what, key, remote_id, content, written_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6)",
-            params![p.id, w.what, w.key, w.remote_id, w.content, jiff::Timestamp::now().to_string()],
+            Q::NightscoutWrittenPut,
+            args![
+                p.id,
+                &w.what,
+                &w.key,
+                &w.remote_id,
+                &w.content,
+                jiff::Timestamp::now().to_string()
+            ],
         )?;
         Ok(())
     }
@@ -511,10 +446,8 @@ impl Store {
     /// Forgets something abba wrote (after removing it from the site).
     pub fn forget_written(&mut self, name: &str, what: &str, key: &str) -> Result<(), StoreError> {
         let p = person_id(&self.conn, name)?;
-        self.conn.execute(
-            "DELETE FROM nightscout_written WHERE person_id = ?1 AND what = ?2 AND key = ?3",
-            params![p.id, what, key],
-        )?;
+        self.conn
+            .execute(Q::NightscoutWrittenDelete, args![p.id, what, key])?;
         Ok(())
     }
 }

@@ -14,6 +14,7 @@
 use crate::advise;
 use crate::answer::{self, param_key, Answer, AnswerKind, Answers};
 use crate::app::{self, AppEvent, NewAppEvent};
+use crate::backend::{args, Db, Q};
 use crate::error::StoreError;
 use crate::in_force::{Extras, TherapyChange};
 use crate::person::{self, Person};
@@ -23,7 +24,6 @@ use crate::token::{self, Role, StoredToken};
 use abba_advisor::{Abba, Advisor, ClinicianBounds, Decision, DecisionDetail, Parameter};
 use abba_core::EventKind;
 use abba_io::events::{kind_name, EventStream};
-use rusqlite::{params, Connection, OptionalExtension};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -94,52 +94,45 @@ pub struct SuggestionAnswer {
     pub value: Option<f64>,
 }
 
-fn last_key(conn: &Connection, person: i64) -> Result<Option<(i64, u64)>, StoreError> {
-    Ok(conn
-        .query_row(
-            "SELECT at_min, seq FROM app_event WHERE person_id = ?1 ORDER BY at_min DESC, seq DESC LIMIT 1",
-            params![person],
-            |r| Ok((r.get::<_, i64>(0)?, r.get::<_, i64>(1)? as u64)),
-        )
-        .optional()?)
+fn last_key(conn: &dyn Db, person: i64) -> Result<Option<(i64, u64)>, StoreError> {
+    conn.row(Q::AppEventLastKey, args![person])?
+        .map(|r| Ok((r.int(0)?, r.int(1)? as u64)))
+        .transpose()
 }
 
 /// Stores decisions in the suggestion table (a cache of the log's
 /// decisions; inside the caller's transaction).
 pub(crate) fn store_decisions(
-    conn: &Connection,
+    conn: &dyn Db,
     person: i64,
     decisions: &[Decision],
 ) -> Result<(), StoreError> {
-    let mut st = conn.prepare_cached(
-        "INSERT OR REPLACE INTO suggestion (person_id, at_min, parameter, old, new, skipped, decision) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)",
-    )?;
     for d in decisions {
         let json = serde_json::to_string(d).map_err(|e| StoreError::corrupt("suggestion", e))?;
         let skipped = matches!(d.detail, DecisionDetail::Skipped { .. });
-        st.execute(params![
-            person,
-            d.at.0,
-            param_key(d.parameter),
-            d.old,
-            d.new,
-            skipped,
-            json
-        ])?;
+        conn.execute(
+            Q::SuggestionPut,
+            args![
+                person,
+                d.at.0,
+                param_key(d.parameter),
+                d.old,
+                d.new,
+                skipped,
+                json
+            ],
+        )?;
     }
     Ok(())
 }
 
 /// The person's revision: bumped by the store's triggers on every write
 /// to what a live advisor is built from (0 before any).
-pub(crate) fn rev(conn: &Connection, person: i64) -> Result<i64, StoreError> {
+pub(crate) fn rev(conn: &dyn Db, person: i64) -> Result<i64, StoreError> {
     Ok(conn
-        .query_row(
-            "SELECT rev FROM person_rev WHERE person_id = ?1",
-            params![person],
-            |r| r.get(0),
-        )
-        .optional()?
+        .row(Q::PersonRev, args![person])?
+        .map(|r| r.int(0))
+        .transpose()?
         .unwrap_or(0))
 }
 
@@ -164,7 +157,7 @@ fn from_state(person: Person, s: State, last: Option<(i64, u64)>, rev: i64) -> L
 /// after the last event (see [`Extras::applied_after`]) is in the state
 /// but not in the hash: a replay from it puts the change in force again
 /// before the next event, which changes nothing (the same values).
-fn save_snapshot(conn: &Connection, live: &Live) -> Result<(), StoreError> {
+fn save_snapshot(conn: &dyn Db, live: &Live) -> Result<(), StoreError> {
     let events = &live.stream.events;
     let last = events.last().map_or(i64::MIN, |e| e.at.0);
     let mut answers: Vec<(i64, String)> = live
@@ -177,8 +170,8 @@ fn save_snapshot(conn: &Connection, live: &Live) -> Result<(), StoreError> {
     let answers =
         serde_json::to_string(&answers).map_err(|e| StoreError::corrupt("snapshot", e))?;
     conn.execute(
-        "INSERT OR REPLACE INTO snapshot (person_id, events, events_hash, answers, unused, state) VALUES (?1, ?2, ?3, ?4, ?5, ?6)",
-        params![
+        Q::SnapshotPut,
+        args![
             live.person.id,
             events.len() as i64,
             prefix_hash(events, events.len(), live.extras.as_ref()),
@@ -193,7 +186,7 @@ fn save_snapshot(conn: &Connection, live: &Live) -> Result<(), StoreError> {
 /// Feeds `new` (sorted, all after `live.last`) to the live advisor and
 /// stores the decisions; saves a snapshot at the start of each minute that
 /// closes a day.
-fn feed(conn: &Connection, live: &mut Live, new: &[AppEvent]) -> Result<Vec<Produced>, StoreError> {
+fn feed(conn: &dyn Db, live: &mut Live, new: &[AppEvent]) -> Result<Vec<Produced>, StoreError> {
     let mut produced = Vec::new();
     for (i, e) in new.iter().enumerate() {
         let prev = live.stream.events.last().map(|p| p.at);
@@ -310,9 +303,7 @@ impl Store {
     /// cached by the caller).
     pub fn live_read(&mut self, id: i64) -> Result<Live, StoreError> {
         let p = person::load_by_id(&self.conn, id)?;
-        let tx = self
-            .conn
-            .transaction_with_behavior(rusqlite::TransactionBehavior::Deferred)?;
+        let tx = self.conn.read_transaction()?;
         let s = crate::store::refresh_with(&tx, &mut self.cache, &p, true, false)?;
         let last = last_key(&tx, id)?;
         let r = rev(&tx, id)?;
@@ -639,11 +630,10 @@ impl Store {
     /// The id of the latest suggestion (by advisor minute, then setting
     /// basal, breakfast, lunch, dinner): `minute × 4 + setting`.
     pub fn latest_suggestion_id(&self, person: i64) -> Result<Option<u64>, StoreError> {
-        let v: Option<i64> = self.conn.query_row(
-            "SELECT max(at_min * 4 + CASE parameter WHEN 'basal' THEN 0 WHEN 'breakfast' THEN 1 WHEN 'lunch' THEN 2 ELSE 3 END) FROM suggestion WHERE person_id = ?1",
-            params![person],
-            |r| r.get(0),
-        )?;
+        let v = self
+            .conn
+            .one(Q::SuggestionLatestId, args![person])?
+            .opt_int(0)?;
         Ok(v.map(|x| x.max(0) as u64))
     }
 

@@ -7,6 +7,7 @@
 //! cannot change them: a record already known (same source, same id) is not
 //! added again.
 
+use crate::backend::{args, Db, Q};
 use crate::error::StoreError;
 use crate::person::Person;
 use abba_advisor::Mode;
@@ -15,7 +16,6 @@ use abba_io::events::{to_events, EventStream, Origins};
 use abba_io::read::merge_records;
 use abba_io::record::{Origin, OriginAt};
 use abba_io::{Record, RecordKind, Source, SourceId};
-use rusqlite::{params, Connection};
 
 /// A stored record's source, by the name serde gives it (`libre_view`,
 /// `care_link`, ...): the reader's enum is the one list of sources.
@@ -26,45 +26,17 @@ fn parse_source(s: &str) -> Result<Source, StoreError> {
     Source::deserialize(de).map_err(|e| StoreError::corrupt("record source", e))
 }
 
-/// The schema migration that re-keys records from the old identity (a
-/// Clarity row's `Index`, which restarts at 1 in every export) to the
-/// record's content ([`abba_io::record::content_id`]); its SQL is a comment,
-/// its work [`rekey`]. Append-only in `schema::MIGRATIONS`.
-pub const REKEY_MIGRATION: &str =
-    "-- record identity: Clarity rows re-keyed from their Index to their content (log::rekey)
-    SELECT 1;";
-
-/// The Rust half of a migration, found by its SQL (so that renumbering the
-/// list moves it along).
-pub fn migration_code(sql: &str) -> Option<MigrationCode> {
-    (sql == REKEY_MIGRATION).then_some(rekey as MigrationCode)
-}
-
-/// Rust code run inside a migration's transaction.
-pub type MigrationCode = fn(&Connection) -> Result<(), StoreError>;
-
-/// Re-keys every record whose id is a row index (`{"index": N}`) to its
+/// The schema step [`crate::schema::Step::Rekey`]: re-keys every record whose id is a row index (`{"index": N}`) to its
 /// content identity, inside the migration's transaction. A record whose
 /// new key is already held by one with the same instant and kind is the
 /// same record exported twice (the second import of an overlapping export
 /// under other row numbers) and is removed; a different record under that
 /// key would be lost, so the migration fails instead.
-pub fn rekey(conn: &Connection) -> Result<(), StoreError> {
-    let mut st = conn.prepare(
-        "SELECT person_id, source, source_id, at_ms, kind FROM record WHERE source_id LIKE '{\"index\":%'",
-    )?;
-    let rows = st
-        .query_map([], |r| {
-            Ok((
-                r.get::<_, i64>(0)?,
-                r.get::<_, String>(1)?,
-                r.get::<_, String>(2)?,
-                r.get::<_, i64>(3)?,
-                r.get::<_, String>(4)?,
-            ))
-        })?
-        .collect::<Result<Vec<_>, _>>()?;
-    for (person, source_text, old, at_ms, kind_text) in rows {
+pub fn rekey(conn: &dyn Db) -> Result<(), StoreError> {
+    let rows = conn.rows(Q::RecordsKeyedByIndex, args![])?;
+    for r in rows {
+        let (person, source_text, old, at_ms, kind_text) =
+            (r.int(0)?, r.text(1)?, r.text(2)?, r.int(3)?, r.text(4)?);
         let source = parse_source(&source_text)?;
         let kind: RecordKind =
             serde_json::from_str(&kind_text).map_err(|e| StoreError::corrupt("record", e))?;
@@ -72,29 +44,16 @@ pub fn rekey(conn: &Connection) -> Result<(), StoreError> {
             .map_err(|e| StoreError::corrupt("record instant", e))?;
         let new = serde_json::to_string(&abba_io::record::content_id(source, at, &kind))
             .map_err(|e| StoreError::corrupt("record id", e))?;
-        let held: Option<(i64, String)> = conn
-            .query_row(
-                "SELECT at_ms, kind FROM record WHERE person_id = ?1 AND source = ?2 AND source_id = ?3",
-                params![person, source_text, new],
-                |r| Ok((r.get(0)?, r.get(1)?)),
-            )
-            .map(Some)
-            .or_else(|e| match e {
-                rusqlite::Error::QueryReturnedNoRows => Ok(None),
-                e => Err(e),
-            })?;
+        let held = match conn.row(Q::RecordHeld, args![person, &source_text, &new])? {
+            Some(r) => Some((r.int(0)?, r.text(1)?)),
+            None => None,
+        };
         match held {
             None => {
-                conn.execute(
-                    "UPDATE record SET source_id = ?1 WHERE person_id = ?2 AND source = ?3 AND source_id = ?4",
-                    params![new, person, source_text, old],
-                )?;
+                conn.execute(Q::RecordRekey, args![&new, person, &source_text, &old])?;
             }
             Some((a, k)) if a == at_ms && k == kind_text => {
-                conn.execute(
-                    "DELETE FROM record WHERE person_id = ?1 AND source = ?2 AND source_id = ?3",
-                    params![person, source_text, old],
-                )?;
+                conn.execute(Q::RecordDelete, args![person, &source_text, &old])?;
             }
             Some(_) => {
                 return Err(StoreError::corrupt(
@@ -122,19 +81,13 @@ pub fn key(r: &Record) -> Result<(String, String), StoreError> {
 /// Every record of a person, in a fixed order (instant, source, id): the
 /// same set of records always gives the same list, whatever the order in
 /// which they were imported.
-pub fn records(conn: &Connection, person: i64) -> Result<Vec<Record>, StoreError> {
+pub fn records(conn: &dyn Db, person: i64) -> Result<Vec<Record>, StoreError> {
     // A scan of the primary key (no per-row index look-ups), sorted here.
-    let mut st =
-        conn.prepare("SELECT source, source_id, at_ms, kind FROM record WHERE person_id = ?1")?;
-    let rows = st.query_map(params![person], |r| {
-        Ok((
-            r.get::<_, String>(0)?,
-            r.get::<_, String>(1)?,
-            r.get::<_, i64>(2)?,
-            r.get::<_, String>(3)?,
-        ))
-    })?;
-    let mut raw = rows.collect::<Result<Vec<_>, _>>()?;
+    let mut raw = conn
+        .rows(Q::RecordsOf, args![person])?
+        .into_iter()
+        .map(|r| Ok((r.text(0)?, r.text(1)?, r.int(2)?, r.text(3)?)))
+        .collect::<Result<Vec<_>, StoreError>>()?;
     raw.sort_by(|a, b| (a.2, &a.0, &a.1).cmp(&(b.2, &b.0, &b.1)));
     let mut out = Vec::with_capacity(raw.len());
     for (source, id, at_ms, kind) in raw {

@@ -1,6 +1,7 @@
 //! Persons: name, zone, mode, meal windows, starting therapy, clinician
 //! bounds and the advisor's configuration.
 
+use crate::backend::{args, Db, Q};
 use crate::error::StoreError;
 use abba_advisor::{Abba, AbbaConfig, ClinicianBounds, MinData, Mode, PumpSteps};
 use abba_core::units::GlucoseUnit;
@@ -9,7 +10,6 @@ use abba_io::events::{DayClose, PersonSettings};
 use abba_io::meals::MealWindows;
 use jiff::civil::Date;
 use jiff::tz::TimeZone;
-use rusqlite::{params, Connection, OptionalExtension};
 use serde::{Deserialize, Serialize};
 
 /// Everything stored about a person besides the name, zone, mode and day 1.
@@ -217,29 +217,19 @@ pub fn check_name(name: &str) -> Result<&str, StoreError> {
     Ok(t)
 }
 
-/// The store migration that lets [`name_taken`] find its candidates by
-/// index: SQLite's `lower()` folds ASCII only, so names of ASCII
-/// characters are found by their folded form, and the others (which may
-/// fold to ASCII: the Kelvin sign is a K) are the rows of a partial index.
-pub const NAME_INDEX_MIGRATION: &str =
-    "CREATE INDEX IF NOT EXISTS person_by_folded_name ON person (lower(name));
-    CREATE INDEX IF NOT EXISTS person_not_ascii ON person (name) WHERE name GLOB '*[^ -~]*';";
-
 /// The name another person already has, compared case-insensitively
 /// (Unicode lower case: "Ana", "ANA" and "ana" are one name).
-pub fn name_taken(conn: &Connection, name: &str) -> Result<Option<String>, StoreError> {
+pub fn name_taken(conn: &dyn Db, name: &str) -> Result<Option<String>, StoreError> {
     let key = name.to_lowercase();
     let mut candidates: Vec<String> = Vec::new();
-    // The ASCII names that fold to the same (by index: for them SQLite's
-    // lower() is Unicode's); then the names with any other character (the
-    // partial index), compared here.
-    let mut st = conn.prepare_cached("SELECT name FROM person WHERE lower(name) = ?1")?;
-    for r in st.query_map([&key], |r| r.get::<_, String>(0))? {
-        candidates.push(r?);
+    // The ASCII names that fold to the same (by index: for them the
+    // database's lower() is Unicode's); then the names with any other
+    // character (a partial index), compared here.
+    for r in conn.rows(Q::PersonNamesFolded, args![&key])? {
+        candidates.push(r.text(0)?);
     }
-    let mut st = conn.prepare_cached("SELECT name FROM person WHERE name GLOB '*[^ -~]*'")?;
-    for r in st.query_map([], |r| r.get::<_, String>(0))? {
-        candidates.push(r?);
+    for r in conn.rows(Q::PersonNamesNotAscii, args![])? {
+        candidates.push(r.text(0)?);
     }
     Ok(candidates
         .into_iter()
@@ -247,7 +237,7 @@ pub fn name_taken(conn: &Connection, name: &str) -> Result<Option<String>, Store
 }
 
 /// Checks and stores a new person; returns its id.
-pub fn create(conn: &Connection, p: &NewPerson) -> Result<i64, StoreError> {
+pub fn create(conn: &dyn Db, p: &NewPerson) -> Result<i64, StoreError> {
     let name = check_name(&p.name)?;
     TimeZone::get(&p.tz).map_err(|e| {
         StoreError::invalid(
@@ -277,18 +267,17 @@ pub fn create(conn: &Connection, p: &NewPerson) -> Result<i64, StoreError> {
         return Err(StoreError::PersonExists(other));
     }
     let doc = serde_json::to_string(s).map_err(|e| StoreError::corrupt("person settings", e))?;
-    conn.execute(
-        "INSERT INTO person (name, tz, mode, first_day, settings, created_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6)",
-        params![
+    conn.insert_id(
+        Q::PersonPut,
+        args![
             name,
-            p.tz,
+            &p.tz,
             mode_name(s.advisor.mode),
             p.first_day.map(|d| d.to_string()),
             doc,
             jiff::Timestamp::now().to_string()
         ],
-    )?;
-    Ok(conn.last_insert_rowid())
+    )
 }
 
 /// Checks the starting therapy and the clinician's bounds against the
@@ -338,50 +327,35 @@ pub fn check_start(s: &PersonSettingsDoc) -> Result<(), StoreError> {
 }
 
 /// Replaces a person's settings document (checked as at creation).
-pub fn update_settings(
-    conn: &Connection,
-    id: i64,
-    s: &PersonSettingsDoc,
-) -> Result<(), StoreError> {
+pub fn update_settings(conn: &dyn Db, id: i64, s: &PersonSettingsDoc) -> Result<(), StoreError> {
     check_start(s)?;
     let doc = serde_json::to_string(s).map_err(|e| StoreError::corrupt("person settings", e))?;
-    conn.execute(
-        "UPDATE person SET settings = ?1 WHERE id = ?2",
-        params![doc, id],
-    )?;
+    conn.execute(Q::PersonSettingsPut, args![doc, id])?;
     Ok(())
 }
 
 /// Looks a person up by name.
-pub fn load(conn: &Connection, name: &str) -> Result<Person, StoreError> {
-    let row: Option<(i64, String, Option<String>, String)> = conn
-        .query_row(
-            "SELECT id, tz, first_day, settings FROM person WHERE name = ?1",
-            [name],
-            |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?)),
-        )
-        .optional()?;
-    let (id, tz, first_day, doc) = row.ok_or_else(|| StoreError::NoPerson(name.to_string()))?;
+pub fn load(conn: &dyn Db, name: &str) -> Result<Person, StoreError> {
+    let r = conn
+        .row(Q::PersonByName, args![name])?
+        .ok_or_else(|| StoreError::NoPerson(name.to_string()))?;
+    let (id, tz, first_day, doc) = (r.int(0)?, r.text(1)?, r.opt_text(2)?, r.text(3)?);
     parse(id, name.to_string(), tz, first_day, doc)
 }
 
 /// Looks a person up by row id.
-pub fn load_by_id(conn: &Connection, id: i64) -> Result<Person, StoreError> {
-    let row: Option<(String, String, Option<String>, String)> = conn
-        .query_row(
-            "SELECT name, tz, first_day, settings FROM person WHERE id = ?1",
-            [id],
-            |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?)),
-        )
-        .optional()?;
-    let (name, tz, first_day, doc) = row.ok_or(StoreError::NoPersonId(id))?;
+pub fn load_by_id(conn: &dyn Db, id: i64) -> Result<Person, StoreError> {
+    let r = conn
+        .row(Q::PersonById, args![id])?
+        .ok_or(StoreError::NoPersonId(id))?;
+    let (name, tz, first_day, doc) = (r.text(0)?, r.text(1)?, r.opt_text(2)?, r.text(3)?);
     parse(id, name, tz, first_day, doc)
 }
 
 /// Replaces a person's clinician bounds (the starting therapy must lie
 /// inside them).
 pub fn set_bounds(
-    conn: &Connection,
+    conn: &dyn Db,
     id: i64,
     bounds: abba_advisor::ClinicianBounds,
 ) -> Result<Person, StoreError> {
@@ -390,10 +364,7 @@ pub fn set_bounds(
     Abba::new(p.settings.advisor.clone(), p.settings.start)?.with_bounds(bounds)?;
     let doc = serde_json::to_string(&p.settings)
         .map_err(|e| StoreError::corrupt("person settings", e))?;
-    conn.execute(
-        "UPDATE person SET settings = ?1 WHERE id = ?2",
-        params![doc, id],
-    )?;
+    conn.execute(Q::PersonSettingsPut, args![doc, id])?;
     Ok(p)
 }
 
@@ -421,19 +392,15 @@ fn parse(
 }
 
 /// Sets day 1 (done once, at the first import).
-pub fn set_first_day(conn: &Connection, id: i64, day: Date) -> Result<(), StoreError> {
-    conn.execute(
-        "UPDATE person SET first_day = ?1 WHERE id = ?2 AND first_day IS NULL",
-        params![day.to_string(), id],
-    )?;
+pub fn set_first_day(conn: &dyn Db, id: i64, day: Date) -> Result<(), StoreError> {
+    conn.execute(Q::PersonFirstDayPut, args![day.to_string(), id])?;
     Ok(())
 }
 
 /// Names of every person in the file.
-pub fn names(conn: &Connection) -> Result<Vec<String>, StoreError> {
-    let mut st = conn.prepare("SELECT name FROM person ORDER BY name")?;
-    let v = st
-        .query_map([], |r| r.get(0))?
-        .collect::<Result<Vec<String>, _>>()?;
-    Ok(v)
+pub fn names(conn: &dyn Db) -> Result<Vec<String>, StoreError> {
+    conn.rows(Q::PersonNames, args![])?
+        .into_iter()
+        .map(|r| r.text(0))
+        .collect()
 }

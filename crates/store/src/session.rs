@@ -10,35 +10,10 @@
 //! revoked (the clinic's page lists them). The service makes the secrets;
 //! this module only keeps their hashes.
 
+use crate::backend::{args, Db, Q};
 use crate::error::StoreError;
 use crate::store::Store;
 use crate::token::Role;
-use rusqlite::{params, OptionalExtension};
-
-/// Migration 8: sign-in links and web sessions.
-pub const MIGRATION: &str = "CREATE TABLE signin_link (
-        id INTEGER PRIMARY KEY,
-        hash BLOB NOT NULL UNIQUE,
-        role TEXT NOT NULL CHECK (role IN ('admin', 'person')),
-        person_id INTEGER REFERENCES person(id),
-        created_ms INTEGER NOT NULL,
-        expires_ms INTEGER NOT NULL,
-        used_ms INTEGER,
-        CHECK ((role = 'admin') = (person_id IS NULL))
-    );
-    CREATE TABLE web_session (
-        id INTEGER PRIMARY KEY,
-        hash BLOB NOT NULL UNIQUE,
-        role TEXT NOT NULL CHECK (role IN ('admin', 'person')),
-        person_id INTEGER REFERENCES person(id),
-        csrf TEXT NOT NULL,
-        created_ms INTEGER NOT NULL,
-        seen_ms INTEGER NOT NULL,
-        expires_ms INTEGER NOT NULL,
-        revoked_ms INTEGER,
-        CHECK ((role = 'admin') = (person_id IS NULL))
-    );
-    CREATE INDEX web_session_by_person ON web_session (person_id);";
 
 /// How long a sign-in link works (ms): 15 minutes.
 pub const LINK_LIFE_MS: i64 = 15 * 60 * 1000;
@@ -114,11 +89,10 @@ impl Store {
         if let Some(id) = person {
             crate::person::load_by_id(&self.conn, id)?;
         }
-        self.conn.execute(
-            "INSERT INTO signin_link (hash, role, person_id, created_ms, expires_ms) VALUES (?1, ?2, ?3, ?4, ?5)",
-            params![&hash[..], name, person, now_ms, now_ms + LINK_LIFE_MS],
-        )?;
-        Ok(self.conn.last_insert_rowid())
+        self.conn.insert_id(
+            Q::SigninLinkPut,
+            args![&hash[..], name, person, now_ms, now_ms + LINK_LIFE_MS],
+        )
     }
 
     /// What a sign-in link would give now, without using it (a GET of the
@@ -146,16 +120,19 @@ impl Store {
             Ok(r) => r,
             Err(e) => return Ok(Err(e)),
         };
-        tx.execute(
-            "UPDATE signin_link SET used_ms = ?1 WHERE hash = ?2 AND used_ms IS NULL",
-            params![now_ms, &hash[..]],
-        )?;
+        tx.execute(Q::SigninLinkUse, args![now_ms, &hash[..]])?;
         let (name, person) = role_cols(role);
-        tx.execute(
-            "INSERT INTO web_session (hash, role, person_id, csrf, created_ms, seen_ms, expires_ms) VALUES (?1, ?2, ?3, ?4, ?5, ?5, ?6)",
-            params![&session_hash[..], name, person, csrf, now_ms, now_ms + ABSOLUTE_MS],
+        let id = tx.insert_id(
+            Q::WebSessionPut,
+            args![
+                &session_hash[..],
+                name,
+                person,
+                csrf,
+                now_ms,
+                now_ms + ABSOLUTE_MS
+            ],
         )?;
-        let id = tx.last_insert_rowid();
         tx.commit()?;
         Ok(Ok((role, id)))
     }
@@ -168,14 +145,19 @@ impl Store {
         hash: &[u8; 32],
         now_ms: i64,
     ) -> Result<Option<WebSession>, StoreError> {
-        let row: Option<SessionTuple> = self
-            .conn
-            .query_row(
-                "SELECT id, hash, role, person_id, csrf, seen_ms, expires_ms FROM web_session WHERE hash = ?1 AND revoked_ms IS NULL",
-                params![&hash[..]],
-                |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?, r.get(4)?, r.get(5)?, r.get(6)?)),
-            )
-            .optional()?;
+        let row: Option<SessionTuple> =
+            match self.conn.row(Q::WebSessionByHash, args![&hash[..]])? {
+                Some(r) => Some((
+                    r.int(0)?,
+                    r.blob(1)?,
+                    r.text(2)?,
+                    r.opt_int(3)?,
+                    r.text(4)?,
+                    r.int(5)?,
+                    r.int(6)?,
+                )),
+                None => None,
+            };
         let Some((id, stored, role, person, csrf, seen, expires)) = row else {
             return Ok(None);
         };
@@ -187,10 +169,7 @@ impl Store {
             return Ok(None);
         }
         if now_ms - seen >= TOUCH_MS {
-            self.conn.execute(
-                "UPDATE web_session SET seen_ms = ?1 WHERE id = ?2",
-                params![now_ms, id],
-            )?;
+            self.conn.execute(Q::WebSessionSeen, args![now_ms, id])?;
         }
         Ok(Some(WebSession {
             id,
@@ -201,18 +180,11 @@ impl Store {
 
     /// Revokes a session (revoking twice is fine); `NoToken` for none.
     pub fn revoke_web_session(&mut self, id: i64, now_ms: i64) -> Result<(), StoreError> {
-        let n: i64 = self.conn.query_row(
-            "SELECT count(*) FROM web_session WHERE id = ?1",
-            params![id],
-            |r| r.get(0),
-        )?;
+        let n = self.conn.one(Q::WebSessionCount, args![id])?.int(0)?;
         if n == 0 {
             return Err(StoreError::NoToken(id));
         }
-        self.conn.execute(
-            "UPDATE web_session SET revoked_ms = ?1 WHERE id = ?2 AND revoked_ms IS NULL",
-            params![now_ms, id],
-        )?;
+        self.conn.execute(Q::WebSessionRevoke, args![now_ms, id])?;
         Ok(())
     }
 
@@ -220,24 +192,20 @@ impl Store {
     /// newest first.
     pub fn web_sessions(&self, role: Role, now_ms: i64) -> Result<Vec<SessionRow>, StoreError> {
         let (name, person) = role_cols(role);
-        let mut st = self.conn.prepare_cached(
-            "SELECT id, role, person_id, created_ms, seen_ms, expires_ms FROM web_session
-             WHERE role = ?1 AND person_id IS ?2 AND revoked_ms IS NULL AND expires_ms > ?3 AND seen_ms > ?4
-             ORDER BY id DESC",
+        let rows = self.conn.rows(
+            Q::WebSessionsOf,
+            args![name, person, now_ms, now_ms - IDLE_MS],
         )?;
-        let rows = st.query_map(params![name, person, now_ms, now_ms - IDLE_MS], |r| {
-            Ok((
-                r.get::<_, i64>(0)?,
-                r.get::<_, String>(1)?,
-                r.get::<_, Option<i64>>(2)?,
-                r.get::<_, i64>(3)?,
-                r.get::<_, i64>(4)?,
-                r.get::<_, i64>(5)?,
-            ))
-        })?;
         let mut out = Vec::new();
-        for row in rows {
-            let (id, role, person, created_ms, seen_ms, expires_ms) = row?;
+        for r in rows {
+            let (id, role, person, created_ms, seen_ms, expires_ms) = (
+                r.int(0)?,
+                r.text(1)?,
+                r.opt_int(2)?,
+                r.int(3)?,
+                r.int(4)?,
+                r.int(5)?,
+            );
             out.push(SessionRow {
                 id,
                 role: role_of(&role, person)?,
@@ -256,17 +224,20 @@ type SessionTuple = (i64, Vec<u8>, String, Option<i64>, String, i64, i64);
 type LinkRow = (Vec<u8>, String, Option<i64>, i64, Option<i64>);
 
 fn link_state(
-    conn: &rusqlite::Connection,
+    conn: &dyn Db,
     hash: &[u8; 32],
     now_ms: i64,
 ) -> Result<Result<Role, LinkRefused>, StoreError> {
-    let row: Option<LinkRow> = conn
-        .query_row(
-            "SELECT hash, role, person_id, expires_ms, used_ms FROM signin_link WHERE hash = ?1",
-            params![&hash[..]],
-            |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?, r.get(4)?)),
-        )
-        .optional()?;
+    let row: Option<LinkRow> = match conn.row(Q::SigninLinkByHash, args![&hash[..]])? {
+        Some(r) => Some((
+            r.blob(0)?,
+            r.text(1)?,
+            r.opt_int(2)?,
+            r.int(3)?,
+            r.opt_int(4)?,
+        )),
+        None => None,
+    };
     let Some((stored, role, person, expires, used)) = row else {
         return Ok(Err(LinkRefused::Unknown));
     };

@@ -1,19 +1,20 @@
-//! The store: a SQLite file of persons, and the operations the CLI calls.
+//! The store: the persons of one database (an SQLite file by default),
+//! and the operations the CLI calls.
 
 use crate::advise::{self, Advice, SuggestionView};
 use crate::answer::{self, param_key, Answer, AnswerKind, Answers};
+use crate::backend::{args, Conn, Db, Q};
 use crate::error::StoreError;
 use crate::import::{self, ImportSummary};
 use crate::in_force::{self, Extras, RecordFacts};
 use crate::log;
 use crate::person::{self, NewPerson, Person};
 use crate::replay::{self, Snapshot};
-use abba_advisor::{Abba, Decision, DecisionDetail, Parameter};
+use abba_advisor::{Abba, Decision, Parameter};
 use abba_core::Event;
 use abba_io::events::EventStream;
 use abba_io::read::{read_all, Batch, Format, ReadOptions};
 use abba_io::Record;
-use rusqlite::{params, Connection, OptionalExtension};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -29,9 +30,9 @@ pub enum AnswerRequest {
     Set(Vec<(Parameter, f64)>),
 }
 
-/// A person store (one SQLite file).
+/// A person store (one database, through [`crate::backend`]).
 pub struct Store {
-    pub(crate) conn: Connection,
+    pub(crate) conn: Conn,
     /// Events per person, keyed by (record count, last import id, app
     /// events): the logs only grow, so an unchanged key means unchanged
     /// records.
@@ -63,25 +64,12 @@ pub(crate) struct State {
     pub(crate) extras: Option<Extras>,
 }
 
-fn load_snapshot(conn: &Connection, person: i64) -> Result<Option<Snapshot>, StoreError> {
-    let row = conn
-        .query_row(
-            "SELECT events, events_hash, answers, unused, state FROM snapshot WHERE person_id = ?1",
-            params![person],
-            |r| {
-                Ok((
-                    r.get::<_, i64>(0)?,
-                    r.get::<_, String>(1)?,
-                    r.get::<_, String>(2)?,
-                    r.get::<_, i64>(3)?,
-                    r.get::<_, String>(4)?,
-                ))
-            },
-        )
-        .optional()?;
-    let Some((events, events_hash, answers, unused, state)) = row else {
+fn load_snapshot(conn: &dyn Db, person: i64) -> Result<Option<Snapshot>, StoreError> {
+    let Some(r) = conn.row(Q::SnapshotGet, args![person])? else {
         return Ok(None);
     };
+    let (events, events_hash, answers, unused, state) =
+        (r.int(0)?, r.text(1)?, r.text(2)?, r.int(3)?, r.text(4)?);
     // An unreadable snapshot is only a lost shortcut: rebuild.
     let Ok(answers) = serde_json::from_str(&answers) else {
         return Ok(None);
@@ -95,14 +83,12 @@ fn load_snapshot(conn: &Connection, person: i64) -> Result<Option<Snapshot>, Sto
     }))
 }
 
-fn decisions(conn: &Connection, person: i64) -> Result<Vec<Decision>, StoreError> {
-    let mut st = conn.prepare(
-        "SELECT decision FROM suggestion WHERE person_id = ?1 ORDER BY at_min, parameter",
-    )?;
-    let rows = st.query_map(params![person], |r| r.get::<_, String>(0))?;
+fn decisions(conn: &dyn Db, person: i64) -> Result<Vec<Decision>, StoreError> {
     let mut out: Vec<Decision> = Vec::new();
-    for r in rows {
-        out.push(serde_json::from_str(&r?).map_err(|e| StoreError::corrupt("suggestion", e))?);
+    for r in conn.rows(Q::SuggestionDecisions, args![person])? {
+        out.push(
+            serde_json::from_str(&r.text(0)?).map_err(|e| StoreError::corrupt("suggestion", e))?,
+        );
     }
     Ok(out)
 }
@@ -110,7 +96,7 @@ fn decisions(conn: &Connection, person: i64) -> Result<Vec<Decision>, StoreError
 /// Replays the log (from the snapshot when usable), stores new decisions
 /// and the new snapshot. Call inside a transaction.
 pub(crate) fn refresh(
-    conn: &Connection,
+    conn: &dyn Db,
     cache: &mut HashMap<i64, Cached>,
     person: &Person,
     use_snapshot: bool,
@@ -121,17 +107,14 @@ pub(crate) fn refresh(
 /// [`refresh`]; with `write` false nothing is stored (a read transaction:
 /// the decisions are the stored ones with the replay's merged in).
 pub(crate) fn refresh_with(
-    conn: &Connection,
+    conn: &dyn Db,
     cache: &mut HashMap<i64, Cached>,
     person: &Person,
     use_snapshot: bool,
     write: bool,
 ) -> Result<State, StoreError> {
-    let (n, last): (i64, i64) = conn.query_row(
-        "SELECT count(*), coalesce(max(import_id), 0) FROM record WHERE person_id = ?1",
-        params![person.id],
-        |r| Ok((r.get(0)?, r.get(1)?)),
-    )?;
+    let r = conn.one(Q::RecordCountAndLastImport, args![person.id])?;
+    let (n, last) = (r.int(0)?, r.int(1)?);
     let key = (n, last, crate::app::count(conn, person.id)?);
     let (records, stream, facts) = match cache.get(&person.id) {
         Some(c) if c.key == key => (c.records, Arc::clone(&c.stream), c.facts.clone()),
@@ -224,36 +207,22 @@ pub(crate) fn refresh_with(
         });
     }
     if r.rebuilt {
-        conn.execute(
-            "DELETE FROM suggestion WHERE person_id = ?1",
-            params![person.id],
-        )?;
+        conn.execute(Q::SuggestionDeleteAll, args![person.id])?;
     }
-    {
-        let mut st = conn.prepare(
-            "INSERT OR REPLACE INTO suggestion (person_id, at_min, parameter, old, new, skipped, decision) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)",
-        )?;
-        for d in &r.decisions {
-            let json =
-                serde_json::to_string(d).map_err(|e| StoreError::corrupt("suggestion", e))?;
-            let skipped = matches!(d.detail, DecisionDetail::Skipped { .. });
-            st.execute(params![
-                person.id,
-                d.at.0,
-                param_key(d.parameter),
-                d.old,
-                d.new,
-                skipped,
-                json
-            ])?;
-        }
-    }
+    crate::live::store_decisions(conn, person.id, &r.decisions)?;
     let s = &r.snapshot;
     let answers_json =
         serde_json::to_string(&s.answers).map_err(|e| StoreError::corrupt("snapshot", e))?;
     conn.execute(
-        "INSERT OR REPLACE INTO snapshot (person_id, events, events_hash, answers, unused, state) VALUES (?1, ?2, ?3, ?4, ?5, ?6)",
-        params![person.id, s.events as i64, s.events_hash, answers_json, s.unused as i64, s.state],
+        Q::SnapshotPut,
+        args![
+            person.id,
+            s.events as i64,
+            &s.events_hash,
+            answers_json,
+            s.unused as i64,
+            &s.state
+        ],
     )?;
     let mut all = decisions(conn, person.id)?;
     all.sort_by_key(|d| d.at);
@@ -280,22 +249,35 @@ impl Store {
     /// Checks that the store answers a query (a pooled connection's and
     /// `/healthz`'s check).
     pub fn ping(&self) -> Result<(), StoreError> {
-        self.conn
-            .query_row("SELECT count(*) FROM person", [], |r| r.get::<_, i64>(0))?;
+        self.conn.one(Q::Ping, args![])?;
         Ok(())
     }
 
-    /// True when SQLite opened the store read-only (the file, its folder
-    /// or the medium).
+    /// True when the database was opened read-only (SQLite: the file, its
+    /// folder or the medium).
     pub fn is_read_only(&self) -> Result<bool, StoreError> {
-        Ok(self.conn.is_readonly(rusqlite::MAIN_DB)?)
+        self.conn.is_read_only()
     }
 
-    /// SQLite's `synchronous` level in force (1 NORMAL, 2 FULL).
+    /// SQLite's `synchronous` level in force (1 NORMAL, 2 FULL); a
+    /// database server whose commits are durable when they return says 2.
     pub fn synchronous(&self) -> Result<i64, StoreError> {
-        Ok(self
-            .conn
-            .pragma_query_value(None, "synchronous", |r| r.get(0))?)
+        self.conn.synchronous()
+    }
+
+    /// The backend holding the store (`sqlite`, `postgres`).
+    pub fn backend(&self) -> &'static str {
+        self.conn.backend()
+    }
+
+    /// Claims the background job named `key` (a person's sync, say) for
+    /// as long as this store stays open, when no other process holds it:
+    /// two service replicas on one PostgreSQL database never do the same
+    /// job at once. Always true on SQLite (one file, whose writers take
+    /// turns anyway).
+    pub fn claim(&self, key: &str) -> Result<bool, StoreError> {
+        let k = abba_io::record::content_hash([b"abba job ".as_slice(), key.as_bytes()]);
+        self.conn.try_lock(k as i64)
     }
 
     /// The imports of person `id`, oldest first.
@@ -404,7 +386,7 @@ impl Store {
         resolve: ProfileResolution,
         now: jiff::Timestamp,
         file_evidence: bool,
-        also: &mut dyn FnMut(&rusqlite::Transaction<'_>) -> Result<(), StoreError>,
+        also: &mut dyn FnMut(&dyn Db) -> Result<(), StoreError>,
     ) -> Result<ImportSummary, StoreError> {
         let p = self.person(name)?;
         let opts = ReadOptions {
@@ -667,7 +649,7 @@ pub enum ProfileResolution {
 /// the earliest one) against the store's therapy. Returns the person's new
 /// settings when they change.
 fn profile_check(
-    conn: &Connection,
+    conn: &dyn Db,
     p: &Person,
     batch: &Batch,
     contents: &[(String, Vec<u8>)],
@@ -704,11 +686,7 @@ fn profile_check(
         return Ok(None);
     }
     // The first reading: of the log if it has one, else of this batch.
-    let logged: Option<i64> = conn.query_row(
-        "SELECT min(at_ms) FROM record WHERE person_id = ?1 AND (kind LIKE '{\"type\":\"cgm\"%' OR kind LIKE '{\"type\":\"smbg\"%')",
-        params![p.id],
-        |r| r.get(0),
-    )?;
+    let logged = conn.one(Q::RecordFirstGlucose, args![p.id])?.opt_int(0)?;
     let first = logged
         .and_then(|ms| jiff::Timestamp::from_millisecond(ms).ok())
         .or_else(|| abba_io::events::first_glucose(&batch.records).map(|r| r.at));

@@ -5,8 +5,8 @@
 //! tells nothing useful about a token), then compares the whole hash in
 //! constant time.
 
+use crate::backend::{args, Db, Q};
 use crate::error::StoreError;
-use rusqlite::{params, Connection, OptionalExtension};
 
 /// Who a token speaks for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -45,7 +45,7 @@ pub fn same_hash(stored: &[u8], presented: &[u8; 32]) -> bool {
 }
 
 /// Stores a new token's hash; returns its id.
-pub fn insert(conn: &Connection, hash: &[u8; 32], role: Role) -> Result<i64, StoreError> {
+pub fn insert(conn: &dyn Db, hash: &[u8; 32], role: Role) -> Result<i64, StoreError> {
     let (name, person) = match role {
         Role::Admin => ("admin", None),
         Role::Person(id) => ("person", Some(id)),
@@ -53,36 +53,24 @@ pub fn insert(conn: &Connection, hash: &[u8; 32], role: Role) -> Result<i64, Sto
     if let Some(id) = person {
         crate::person::load_by_id(conn, id)?;
     }
-    conn.execute(
-        "INSERT INTO token (hash_prefix, hash, role, person_id, created_at) VALUES (?1, ?2, ?3, ?4, ?5)",
-        params![
+    conn.insert_id(
+        Q::TokenPut,
+        args![
             prefix(hash),
             &hash[..],
             name,
             person,
             jiff::Timestamp::now().to_string()
         ],
-    )?;
-    Ok(conn.last_insert_rowid())
+    )
 }
 
 /// The tokens whose hash has the same first 8 bytes as `hash`.
-pub fn candidates(conn: &Connection, hash: &[u8; 32]) -> Result<Vec<StoredToken>, StoreError> {
-    let mut st = conn.prepare_cached(
-        "SELECT id, hash, role, person_id, revoked_at IS NOT NULL FROM token WHERE hash_prefix = ?1",
-    )?;
-    let rows = st.query_map(params![prefix(hash)], |r| {
-        Ok((
-            r.get::<_, i64>(0)?,
-            r.get::<_, Vec<u8>>(1)?,
-            r.get::<_, String>(2)?,
-            r.get::<_, Option<i64>>(3)?,
-            r.get::<_, bool>(4)?,
-        ))
-    })?;
+pub fn candidates(conn: &dyn Db, hash: &[u8; 32]) -> Result<Vec<StoredToken>, StoreError> {
     let mut out = Vec::new();
-    for row in rows {
-        let (id, h, role, person, revoked) = row?;
+    for r in conn.rows(Q::TokensByPrefix, args![prefix(hash)])? {
+        let (id, h, role, person, revoked) =
+            (r.int(0)?, r.blob(1)?, r.text(2)?, r.opt_int(3)?, r.bool(4)?);
         let hash: [u8; 32] = h
             .try_into()
             .map_err(|_| StoreError::corrupt("token hash", "not 32 bytes"))?;
@@ -113,49 +101,41 @@ pub struct TokenRow {
 }
 
 /// The tokens of a role, newest first.
-pub fn list(conn: &Connection, role: Role) -> Result<Vec<TokenRow>, StoreError> {
+pub fn list(conn: &dyn Db, role: Role) -> Result<Vec<TokenRow>, StoreError> {
     let (name, person) = match role {
         Role::Admin => ("admin", None),
         Role::Person(id) => ("person", Some(id)),
     };
-    let mut st = conn.prepare_cached(
-        "SELECT id, created_at, revoked_at FROM token WHERE role = ?1 AND person_id IS ?2 ORDER BY id DESC",
-    )?;
-    let rows = st.query_map(params![name, person], |r| {
-        Ok(TokenRow {
-            id: r.get(0)?,
-            created_at: r.get(1)?,
-            revoked_at: r.get(2)?,
+    conn.rows(Q::TokensOf, args![name, person])?
+        .into_iter()
+        .map(|r| {
+            Ok(TokenRow {
+                id: r.int(0)?,
+                created_at: r.text(1)?,
+                revoked_at: r.opt_text(2)?,
+            })
         })
-    })?;
-    Ok(rows.collect::<Result<_, _>>()?)
+        .collect()
 }
 
 /// Revokes a token (revoking twice is fine).
-pub fn revoke(conn: &Connection, id: i64) -> Result<(), StoreError> {
-    let found: Option<(String, bool)> = conn
-        .query_row(
-            "SELECT role, revoked_at IS NOT NULL FROM token WHERE id = ?1",
-            params![id],
-            |r| Ok((r.get(0)?, r.get(1)?)),
-        )
-        .optional()?;
+pub fn revoke(conn: &dyn Db, id: i64) -> Result<(), StoreError> {
+    let found = match conn.row(Q::TokenState, args![id])? {
+        Some(r) => Some((r.text(0)?, r.bool(1)?)),
+        None => None,
+    };
     let Some((role, revoked)) = found else {
         return Err(StoreError::NoToken(id));
     };
     if role == "admin" && !revoked {
-        let others: i64 = conn.query_row(
-            "SELECT count(*) FROM token WHERE role = 'admin' AND revoked_at IS NULL AND id != ?1",
-            params![id],
-            |r| r.get(0),
-        )?;
+        let others = conn.one(Q::TokenOtherAdmins, args![id])?.int(0)?;
         if others == 0 {
             return Err(StoreError::LastAdmin(id));
         }
     }
     conn.execute(
-        "UPDATE token SET revoked_at = ?1 WHERE id = ?2 AND revoked_at IS NULL",
-        params![jiff::Timestamp::now().to_string(), id],
+        Q::TokenRevoke,
+        args![jiff::Timestamp::now().to_string(), id],
     )?;
     Ok(())
 }

@@ -170,8 +170,7 @@ fn the_migration_rekeys_index_identities_without_losing_a_record() {
             "DROP TABLE IF EXISTS person_rev; DROP TABLE IF EXISTS therapy_change; DROP TABLE IF EXISTS file_evidence; DROP TABLE IF EXISTS nightscout_written; DROP TABLE IF EXISTS nightscout_mark; DROP TABLE IF EXISTS nightscout_link; DROP TABLE IF EXISTS signin_link; DROP TABLE IF EXISTS web_session;",
         )
         .unwrap();
-        let before =
-            abba_store::schema::migration_number(abba_store::log::REKEY_MIGRATION).unwrap() - 1;
+        let before = abba_store::schema::version_of(abba_store::schema::Step::Rekey) - 1;
         conn.pragma_update(None, "user_version", before).unwrap();
     }
     let count = |_: &Store, sql: &str| -> i64 {

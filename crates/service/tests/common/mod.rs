@@ -39,7 +39,9 @@ impl Svc {
     /// `effects`.
     pub fn with_effects(effects: Option<abba_service::EffectSource>) -> Self {
         let dir = tempfile::tempdir().unwrap();
-        let db = dir.path().join("store.db");
+        // An SQLite file, or a fresh PostgreSQL schema when the run asks
+        // (ABBA_TEST_BACKEND=postgres).
+        let db = abba_store::testing::store_location(dir.path(), "store.db");
         let mut store = abba_service::open_store(&db).unwrap();
         let (_, admin) = auth::issue(&mut store, Role::Admin).unwrap();
         drop(store);

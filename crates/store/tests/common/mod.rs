@@ -87,8 +87,13 @@ pub fn person(name: &str) -> NewPerson {
     p
 }
 
-/// A temporary directory removed on drop.
-pub struct TempDir(pub std::path::PathBuf);
+/// A temporary directory removed on drop, and the test's store (a file in
+/// it, or a PostgreSQL schema when the run asks: see
+/// `abba_store::testing`).
+pub struct TempDir(
+    pub std::path::PathBuf,
+    std::sync::OnceLock<std::path::PathBuf>,
+);
 
 impl TempDir {
     /// A new empty directory.
@@ -102,22 +107,25 @@ impl TempDir {
         ));
         let _ = std::fs::remove_dir_all(&p);
         std::fs::create_dir_all(&p).unwrap();
-        TempDir(p)
+        TempDir(p, std::sync::OnceLock::new())
     }
 
-    /// A store file in it.
+    /// Where the test's store is (the same every time).
+    pub fn db(&self) -> &std::path::Path {
+        self.1
+            .get_or_init(|| abba_store::testing::store_location(&self.0, "abba.db"))
+    }
+
+    /// The test's store, opened.
     pub fn store(&self) -> Store {
-        Store::open(&self.0.join("abba.db")).unwrap()
+        Store::open(self.db()).unwrap()
     }
 
-    /// The rows of `table`, read by SQLite itself (the store keeps its
-    /// connection to itself).
+    /// The rows of `table`, read by the database itself (the store keeps
+    /// its connection to itself).
     #[allow(dead_code)]
     pub fn rows(&self, table: &str) -> i64 {
-        rusqlite::Connection::open(self.0.join("abba.db"))
-            .unwrap()
-            .query_row(&format!("SELECT count(*) FROM {table}"), [], |r| r.get(0))
-            .unwrap()
+        abba_store::testing::count_rows(self.db(), table)
     }
 }
 

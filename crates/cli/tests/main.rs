@@ -42,7 +42,6 @@ mod readme;
 mod report_cli;
 mod serve_cli;
 mod serve_output;
-mod service_crash;
 mod simulate_cli;
 mod store_cli;
 mod store_equivalence;

@@ -24,10 +24,12 @@
 //! `synchronous=FULL` is for).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use crate::service_common;
+mod service_common;
 
-// The CLI's reference app (`abba app`), compiled into this test binary (tests/main.rs).
-use crate::remote;
+/// The CLI's reference app (`abba app`), compiled as this test's own module.
+#[path = "../src/remote.rs"]
+#[allow(dead_code)]
+mod remote;
 
 use abba_api::{EventsBody, Mode, NewPersonBody, TherapyBody};
 use abba_client::{Client, Outbox, Retry};

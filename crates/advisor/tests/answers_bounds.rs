@@ -3,7 +3,7 @@
 //! suggestion leaves the bounds, a held one saying so (proptest).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 
 use abba_advisor::bounds::{ClinicianBounds, Range, Side};
 use abba_advisor::{Abba, AbbaConfig, Advisor, Decision, DecisionDetail, Mode, Parameter};

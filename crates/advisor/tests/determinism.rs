@@ -2,7 +2,7 @@
 //! resumed advisor makes the same decisions as one that never stopped.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 
 use abba_advisor::{
     Abba, AbbaConfig, Advisor, AdvisorSpec, AnyAdvisor, CriticVariant, Decision, Mode, R2rConfig,

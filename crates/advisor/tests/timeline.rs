@@ -2,7 +2,7 @@
 //! edge cases of §2.4, and the direction of adaptation on toy people.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 
 use abba_advisor::{
     Abba, AbbaConfig, Advisor, Decision, DecisionDetail, Mode, Parameter, SkipReason, TeOutcome,

@@ -3,7 +3,7 @@
 //! Bad input is refused before anything is created.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod service_common;
+use crate::service_common;
 
 use abba_client::Client;
 use service_common::{abba_bin, admin_token, Server, TempDir};

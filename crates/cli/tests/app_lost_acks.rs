@@ -9,12 +9,10 @@
 //! stored. The test requires each of the three to have happened.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod service_common;
+use crate::service_common;
 
-/// The CLI's reference app (`abba app`), compiled as this test's own module.
-#[path = "../src/remote.rs"]
-#[allow(dead_code)]
-mod remote;
+// The CLI's reference app (`abba app`), compiled into this test binary (tests/main.rs).
+use crate::remote;
 
 use abba_client::{Client, Retry};
 use abba_sim::scenario::ScenarioId;

@@ -7,7 +7,9 @@
 //!   the transitive graph (a crate's own dev-dependencies count, unless the
 //!   rule says "but for tests");
 //! - every workspace crate has a row in the table;
-//! - libraries never print (invariant 5).
+//! - libraries never print (invariant 5);
+//! - each crate has one integration-test binary, which declares every
+//!   test file beside it.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use serde_json::Value;
@@ -279,4 +281,93 @@ fn libraries_never_print() {
     }
     assert!(files > 100, "only {files} library files read");
     assert!(found.is_empty(), "libraries print:\n{}", found.join("\n"));
+}
+
+/// Test files that are binaries of their own, with why.
+const ALONE: &[(&str, &str, &str)] = &[(
+    "abba",
+    "service_crash.rs",
+    "asserts a floor on the events its clients post between SIGKILLs: other tests on the same cores push it under",
+)];
+
+/// One integration-test binary per crate (each binary is built and linked
+/// on its own, so many small ones cost CI minutes): a crate has one `test`
+/// target but for the files of [`ALONE`], and where that target is
+/// `tests/main.rs` (the crate sets `autotests = false`), every other
+/// `tests/*.rs` beside it is one of its modules or a target of its own,
+/// so that a new test file cannot be left out of the build unseen.
+#[test]
+fn each_crate_has_one_test_binary_that_declares_every_test_file() {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let out = Command::new(cargo)
+        .args([
+            "metadata",
+            "--format-version",
+            "1",
+            "--no-deps",
+            "--offline",
+        ])
+        .current_dir(root())
+        .output()
+        .expect("cargo metadata runs");
+    assert!(out.status.success(), "cargo metadata failed");
+    let meta: Value = serde_json::from_slice(&out.stdout).expect("cargo metadata prints JSON");
+    let mut problems = Vec::new();
+    let mut binaries = 0;
+    for p in meta["packages"].as_array().expect("packages") {
+        let name = p["name"].as_str().expect("name");
+        let tests: Vec<PathBuf> = p["targets"]
+            .as_array()
+            .expect("targets")
+            .iter()
+            .filter(|t| {
+                t["kind"]
+                    .as_array()
+                    .is_some_and(|k| k.iter().any(|k| k == "test"))
+            })
+            .map(|t| PathBuf::from(t["src_path"].as_str().expect("src_path")))
+            .collect();
+        binaries += tests.len();
+        let alone = |t: &PathBuf| {
+            ALONE.iter().any(|(crate_name, file, _)| {
+                *crate_name == name && t.ends_with(format!("tests/{file}"))
+            })
+        };
+        if tests.iter().filter(|t| !alone(t)).count() > 1 {
+            problems.push(format!(
+                "{name} has {} test binaries ({}): declare them as modules of one tests/main.rs",
+                tests.len(),
+                tests
+                    .iter()
+                    .map(|t| t.display().to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ));
+        }
+        for main in tests.iter().filter(|t| t.ends_with("tests/main.rs")) {
+            let text = std::fs::read_to_string(main).unwrap();
+            let declared: BTreeSet<String> = text
+                .lines()
+                .filter_map(|l| l.trim().strip_prefix("mod ")?.strip_suffix(';'))
+                .map(str::to_string)
+                .collect();
+            for e in std::fs::read_dir(main.parent().unwrap()).unwrap() {
+                let f = e.unwrap().path();
+                let stem = f.file_stem().unwrap().to_string_lossy().to_string();
+                if f.extension().is_some_and(|x| x == "rs")
+                    && stem != "main"
+                    && !declared.contains(&stem)
+                    && !tests.contains(&f)
+                {
+                    problems.push(format!(
+                        "{} is not a module of {}: it would never run",
+                        f.display(),
+                        main.display()
+                    ));
+                }
+            }
+        }
+    }
+    assert!(binaries >= 10, "only {binaries} test binaries found");
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
 }

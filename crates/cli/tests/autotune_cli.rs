@@ -6,7 +6,7 @@
 //! with what is missing.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod cli_common;
+use crate::cli_common;
 
 use cli_common::{abba, ok};
 use serde_json::Value;

@@ -8,8 +8,8 @@
 //! done or 120 s.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod cli_common;
-mod service_common;
+use crate::cli_common;
+use crate::service_common;
 
 use abba_api::{DeviceEvent, EventBody, EventsBody, MealSlot, Mode, NewPersonBody, TherapyBody};
 use abba_client::{Client, ClientError};

@@ -1,7 +1,7 @@
 //! `abba cohort` run as a user would: the built binary writing real files.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod cli_common;
+use crate::cli_common;
 
 use std::path::PathBuf;
 

@@ -2,7 +2,7 @@
 //! as a user would.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod cli_common;
+use crate::cli_common;
 
 use cli_common::{abba, ok};
 

@@ -6,8 +6,7 @@
 //! file import of the same documents); each killed state is consistent.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-#[path = "../../nightscout/tests/common/mod.rs"]
-mod common;
+use crate::common;
 
 use common::*;
 use std::io::Write;

@@ -3,8 +3,8 @@
 //! hidden characters, unique ignoring case; refusals name `--name`.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod cli_common;
-mod service_common;
+use crate::cli_common;
+use crate::service_common;
 
 use cli_common::abba;
 use service_common::TempDir;

@@ -13,7 +13,7 @@
 //!   fails this test.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod cli_common;
+use crate::cli_common;
 
 use cli_common::abba;
 use std::path::{Path, PathBuf};

@@ -6,9 +6,8 @@
 //! renders at A4 width in Chromium. CGM in mg/dL, SMBG in mmol/L.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-#[path = "../../report/tests/common/browser.rs"]
-mod browser;
-mod store_common;
+use crate::browser;
+use crate::store_common;
 
 use abba_core::{units::MG_DL_PER_MMOL_L, EventKind};
 use abba_sim::scenario::ScenarioId;

@@ -3,7 +3,7 @@
 //! the file and field, and crash safety (SIGKILL during `abba import`).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod cli_common;
+use crate::cli_common;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;

@@ -6,7 +6,7 @@
 //! rejection or an override the next update starts from the value in force.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod store_common;
+use crate::store_common;
 
 use abba_advisor::DecisionDetail;
 use abba_sim::scenario::ScenarioId;

@@ -7,8 +7,8 @@
 //! suggestion its twin predicts to raise time below 70 mg/dL.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod cli_common;
-mod service_common;
+use crate::cli_common;
+use crate::service_common;
 
 use cli_common::{abba, ok};
 use serde_json::Value;

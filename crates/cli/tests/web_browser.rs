@@ -17,11 +17,9 @@
 
 // The CLI's simulated pump app (`abba app`): its mapping of an event to
 // the wire.
-#[path = "../src/remote.rs"]
-#[allow(dead_code)]
-mod remote;
-mod service_common;
-mod web_common;
+use crate::remote;
+use crate::service_common;
+use crate::web_common;
 
 use abba_api::{DeviceEvent, EventsBody, Setting, Suggestion};
 use abba_client::Client;

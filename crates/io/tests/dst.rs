@@ -4,7 +4,7 @@
 //! hours; the advisor's clock stays in order.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 use std::collections::BTreeMap;
 
 use abba_io::events::PersonSettings;

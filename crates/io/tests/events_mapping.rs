@@ -2,7 +2,7 @@
 //! through profiles, temporary basals, suspend/resume; day closes.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 use abba_core::{EventKind, MealSlot, Timestamp};
 use abba_io::events::PersonSettings;
 use common::{fixture, opts, read};

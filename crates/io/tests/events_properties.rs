@@ -4,7 +4,7 @@
 //! stream is accepted by the advisor's own event guard, event by event.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 use abba_advisor::{Advisor, EventLimits, FixedTherapy};
 use abba_core::{GramsPerUnit, TherapySettings, UnitsPerHour};
 use abba_io::events::PersonSettings;

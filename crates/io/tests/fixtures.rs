@@ -2,7 +2,7 @@
 //! quirks are handled.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 use abba_io::record::{Censor, RecordKind, Source};
 use abba_io::{Format, GlucoseUnit, IoError, ReadOptions};
 use common::{fixture, opts, read};

@@ -3,7 +3,7 @@
 //! file, and a value error also names the line or JSON path and the field.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 use abba_io::{read_all, Format, IoError, ReadOptions};
 use common::{fixture, opts};
 use proptest::prelude::*;

@@ -7,7 +7,7 @@
 //! mmol/L; future records refused.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 use abba_io::record::{Censor, RecordKind, TempRate, SINCE_ALWAYS};
 use abba_io::{Format, GlucoseUnit, ReadOptions};
 use common::{fixture, opts, read};

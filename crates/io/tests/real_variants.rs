@@ -4,7 +4,7 @@
 //! the file, line or JSON path and field.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 use abba_io::record::RecordKind;
 use abba_io::Format;
 use common::{opts, read};

@@ -3,7 +3,7 @@
 //! show) and the person backs off; a later success clears it.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 
 use abba_nightscout::background::{round, Background, Unrecorded};
 use abba_nightscout::link;

@@ -7,7 +7,7 @@
 //! reported, not trusted.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 
 use abba_nightscout::site::credential;
 use abba_nightscout::{link, sync};

@@ -7,7 +7,7 @@
 //! documents deleted through API v1 (gone without a trace).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 
 use abba_nightscout::site::credential;
 use abba_nightscout::{link, sync, NsError};

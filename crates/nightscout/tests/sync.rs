@@ -6,7 +6,7 @@
 //! deletions remove their records.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 
 use abba_nightscout::site::credential;
 use abba_nightscout::{link, sync, NsError};
@@ -244,7 +244,7 @@ fn a_document_deleted_through_api_v3_leaves_the_store() {
 }
 
 /// Timings for BENCHMARKS.md (not a test of speed):
-/// `cargo test --release -p abba-nightscout --test sync -- --ignored --nocapture`.
+/// `cargo test --release -p abba-nightscout --test integration sync:: -- --ignored --nocapture`.
 #[test]
 #[ignore]
 fn measure_a_first_and_a_second_sync() {

@@ -5,7 +5,7 @@
 //! data; removing what abba wrote leaves the site as it was.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 
 use abba_nightscout::site::credential;
 use abba_nightscout::{link, sync, write_back};

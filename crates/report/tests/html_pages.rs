@@ -5,7 +5,7 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 
 use abba_advisor::Mode;
 use abba_core::units::GlucoseUnit;

@@ -6,7 +6,7 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 
 use abba_advisor::{Advisor, Decision, Parameter};
 use abba_core::{Event, EventKind, Grams, MealSlot, MgDl, Timestamp, Units};

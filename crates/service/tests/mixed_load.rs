@@ -10,7 +10,7 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 
 use abba_api::{
     DeviceEvent, EventBody, EventsBody, MealSlot, MinDataBody, Mode, NewPersonBody, TherapyBody,

@@ -2,7 +2,7 @@
 //! model, the noise statistics against the model's exact values, and
 //! determinism.
 //!
-//! Run: `cargo test --release -p abba-sim --test devices_cgm`
+//! Run: `cargo test --release -p abba-sim --test integration devices_cgm::`
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 

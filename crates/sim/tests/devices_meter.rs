@@ -1,6 +1,6 @@
 //! SMBG meter: ISO 15197:2013-like accuracy, rounding, clipping, determinism.
 //!
-//! Run: `cargo test --release -p abba-sim --test devices_meter`
+//! Run: `cargo test --release -p abba-sim --test integration devices_meter::`
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 

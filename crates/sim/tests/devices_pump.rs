@@ -1,7 +1,7 @@
 //! Insulin pump: increments, rounding, delivery speed, caps, exact totals,
 //! the device log, bad input.
 //!
-//! Run: `cargo test -p abba-sim --test devices_pump`
+//! Run: `cargo test --release -p abba-sim --test integration devices_pump::`
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 

@@ -3,7 +3,7 @@
 //! errors naming file, line or path and field), the snapshot as a shortcut.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 
 use abba_store::{AnswerRequest, StoreError};
 use common::{events, nightscout, person, read, TempDir};

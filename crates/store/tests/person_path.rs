@@ -7,7 +7,7 @@
 //! change at any time.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 
 use abba_advisor::steps::on_step;
 use abba_advisor::{Mode, PumpSteps};

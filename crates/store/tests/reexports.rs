@@ -6,7 +6,7 @@
 //! 1 is refused or not used, with the count and the first line.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 
 use abba_io::read::{read_all, Batch, ReadOptions};
 use abba_store::Store;

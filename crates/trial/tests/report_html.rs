@@ -4,8 +4,7 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-#[path = "../../report/tests/common/browser.rs"]
-mod browser;
+use crate::browser;
 
 use abba_report::build_report;
 use abba_report::html::trial_page::{cohort_profile, COHORT_BIN_MIN};

@@ -6,7 +6,7 @@
 //! basal and a 10 % carb-ratio change against the truth on the same days.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 
 use abba_sim::cohort::Population;
 

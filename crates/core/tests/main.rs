@@ -1,0 +1,11 @@
+//! The integration tests of `abba-core`, in one test binary: each
+//! `tests/<name>.rs` beside this file is a module of it (one build and
+//! one link for the crate instead of one per file). Run one file's tests
+//! with `cargo test --release -p abba-core --test integration <name>::`.
+//! A new test file is declared below (the architecture test fails on
+//! one that is not).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+// One module per test file.
+mod metrics_fixture;
+mod metrics_properties;

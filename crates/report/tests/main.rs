@@ -1,0 +1,16 @@
+//! The integration tests of `abba-report`, in one test binary: each
+//! `tests/<name>.rs` beside this file is a module of it (one build and
+//! one link for the crate instead of one per file). Run one file's tests
+//! with `cargo test --release -p abba-report --test integration <name>::`.
+//! A new test file is declared below (the architecture test fails on
+//! one that is not).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+// Helpers of the test files, each compiled once.
+mod common;
+
+// One module per test file.
+mod html_browser;
+mod html_pages;
+mod report_dir;
+mod report_files;

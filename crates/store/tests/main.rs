@@ -1,0 +1,16 @@
+//! The integration tests of `abba-store`, in one test binary: each
+//! `tests/<name>.rs` beside this file is a module of it (one build and
+//! one link for the crate instead of one per file). Run one file's tests
+//! with `cargo test --release -p abba-store --test integration <name>::`.
+//! A new test file is declared below (the architecture test fails on
+//! one that is not).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+// Helpers of the test files, each compiled once.
+mod common;
+
+// One module per test file.
+mod app_events;
+mod import_log;
+mod person_path;
+mod reexports;

@@ -11,6 +11,7 @@ mod common;
 
 // One module per test file.
 mod app_events;
+mod backends;
 mod import_log;
 mod person_path;
 mod reexports;

@@ -6,7 +6,7 @@
 //! skipped with a notice otherwise (an error under `CI=true`).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 
 use abba_store::testing::{fresh_schema, postgres_or_skip};
 use abba_store::{AnswerRequest, Store, StoreError};

@@ -96,7 +96,11 @@ fn check(scenario: ScenarioId, unit: &str, tag: &str) {
             "{tag}: no panel for {date}"
         );
     }
-    assert_eq!(html.matches(r#"viewBox="0 0 200 130""#).count(), 14);
+    let panel = format!(
+        r#"viewBox="0 0 {} 150""#,
+        abba_report::html::svg::DAY_PANEL_WIDTH
+    );
+    assert_eq!(html.matches(&panel).count(), 14);
 
     // Every suggestion of the period, with its answer.
     let shown: Vec<_> = history

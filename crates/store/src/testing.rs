@@ -19,22 +19,6 @@ pub fn postgres_url() -> Option<String> {
     std::env::var(POSTGRES_VAR).ok().filter(|u| !u.is_empty())
 }
 
-/// The base URL for a test that must run on PostgreSQL: `None` (with a
-/// printed notice) when the run gives none; under `CI=true` a missing
-/// server is an error (the CI run starts one).
-pub fn postgres_or_skip(test: &str) -> Option<String> {
-    match postgres_url() {
-        Some(u) => Some(u),
-        None if std::env::var("CI").is_ok_and(|v| v == "true") => {
-            panic!("{test}: CI=true but {POSTGRES_VAR} is not set (.ci/run starts a PostgreSQL server and sets it)")
-        }
-        None => {
-            eprintln!("{test}: skipped on PostgreSQL ({POSTGRES_VAR} is not set)");
-            None
-        }
-    }
-}
-
 /// A fresh, empty schema on the server at `base`; the URL of a store in it.
 pub fn fresh_schema(base: &str) -> String {
     use std::sync::atomic::{AtomicU64, Ordering};

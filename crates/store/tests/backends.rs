@@ -8,10 +8,26 @@
 
 use crate::common;
 
-use abba_store::testing::{fresh_schema, postgres_or_skip};
+use abba_store::testing::{fresh_schema, postgres_url, POSTGRES_VAR};
 use abba_store::{AnswerRequest, Store, StoreError};
 use common::{events, nightscout, person, read, TempDir};
 use std::path::PathBuf;
+
+/// The base URL for a test that must run on PostgreSQL: `None` (with a
+/// printed notice) when the run gives none; under `CI=true` a missing
+/// server is an error (the CI run starts one).
+fn postgres_or_skip(test: &str) -> Option<String> {
+    match postgres_url() {
+        Some(u) => Some(u),
+        None if std::env::var("CI").is_ok_and(|v| v == "true") => {
+            panic!("{test}: CI=true but {POSTGRES_VAR} is not set (.ci/run starts a PostgreSQL server and sets it)")
+        }
+        None => {
+            eprintln!("{test}: skipped on PostgreSQL ({POSTGRES_VAR} is not set)");
+            None
+        }
+    }
+}
 
 /// Everything a person sees, as JSON (compared across backends).
 fn seen(store: &mut Store) -> serde_json::Value {

@@ -122,27 +122,9 @@ pub fn open_at_a4(browser: &Path, page: &Path, screenshot: &Path) -> Rendered {
         e.setAttribute('data-client-width',String(e.clientWidth));</script></body>";
     let probe = work.join("probe.html");
     std::fs::write(&probe, html.replacen("</body>", probe_script, 1)).unwrap();
-    let dump = Command::new(browser)
-        .args(base_args(&work.join("profile-dom")))
-        .arg("--dump-dom")
-        .arg(url(&probe))
-        .output()
-        .unwrap();
-    assert!(
-        dump.status.success(),
-        "chromium --dump-dom failed: {}",
-        String::from_utf8_lossy(&dump.stderr)
-    );
-    console.extend(console_lines(&dump.stderr));
-    let dom = String::from_utf8_lossy(&dump.stdout);
-    let attr = |name: &str| -> u32 {
-        let key = format!("{name}=\"");
-        let i = dom
-            .find(&key)
-            .unwrap_or_else(|| panic!("{name} not in the dumped DOM"))
-            + key.len();
-        dom[i..dom[i..].find('"').unwrap() + i].parse().unwrap()
-    };
+    let (dom, more) = dump_dom(browser, &work.join("profile-dom"), &probe);
+    console.extend(more);
+    let attr = |name: &str| -> u32 { dom_attr(&dom, name).parse().unwrap() };
     let scroll_width = attr("data-scroll-width");
     let client_width = attr("data-client-width");
     let (smallest_figure_text, more) = smallest_figure_text(browser, &work, &html);
@@ -165,7 +147,6 @@ fn smallest_figure_text(
     work: &Path,
     html: &str,
 ) -> (Option<(f64, String)>, Vec<String>) {
-    let url = |p: &Path| format!("file://{}", std::fs::canonicalize(p).unwrap().display());
     let style = format!(
         "<style>body{{max-width:none!important;width:{A4_TEXT_WIDTH_PX:.2}px!important;\
          padding:0!important;margin:0!important}}</style></head>"
@@ -184,10 +165,21 @@ fn smallest_figure_text(
             .replacen("</body>", script, 1),
     )
     .unwrap();
+    let (dom, console) = dump_dom(browser, &work.join("profile-print"), &probe);
+    let attr = |name: &str| dom_attr(&dom, name);
+    let px: f64 = attr("data-min-text-px").parse().unwrap();
+    let smallest = (px >= 0.0).then(|| (px * 0.75, attr("data-min-text")));
+    (smallest, console)
+}
+
+/// The DOM of `page` after its scripts ran (`--dump-dom`), and the
+/// browser's console lines.
+fn dump_dom(browser: &Path, profile: &Path, page: &Path) -> (String, Vec<String>) {
+    let url = format!("file://{}", std::fs::canonicalize(page).unwrap().display());
     let dump = Command::new(browser)
-        .args(base_args(&work.join("profile-print")))
+        .args(base_args(profile))
         .arg("--dump-dom")
-        .arg(url(&probe))
+        .arg(url)
         .output()
         .unwrap();
     assert!(
@@ -195,18 +187,20 @@ fn smallest_figure_text(
         "chromium --dump-dom failed: {}",
         String::from_utf8_lossy(&dump.stderr)
     );
-    let dom = String::from_utf8_lossy(&dump.stdout);
-    let attr = |name: &str| -> String {
-        let key = format!("{name}=\"");
-        let i = dom
-            .find(&key)
-            .unwrap_or_else(|| panic!("{name} not in the dumped DOM"))
-            + key.len();
-        dom[i..dom[i..].find('"').unwrap() + i].to_string()
-    };
-    let px: f64 = attr("data-min-text-px").parse().unwrap();
-    let smallest = (px >= 0.0).then(|| (px * 0.75, attr("data-min-text")));
-    (smallest, console_lines(&dump.stderr))
+    (
+        String::from_utf8_lossy(&dump.stdout).into_owned(),
+        console_lines(&dump.stderr),
+    )
+}
+
+/// The value of the attribute `name` (the first one) in a dumped DOM.
+fn dom_attr(dom: &str, name: &str) -> String {
+    let key = format!("{name}=\"");
+    let i = dom
+        .find(&key)
+        .unwrap_or_else(|| panic!("{name} not in the dumped DOM"))
+        + key.len();
+    dom[i..dom[i..].find('"').unwrap() + i].to_string()
 }
 
 /// Opens the page and asserts: no console message, no horizontal overflow

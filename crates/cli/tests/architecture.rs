@@ -28,7 +28,8 @@ fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
-fn workspace() -> BTreeMap<String, Deps> {
+/// `cargo metadata` of the workspace (its own packages, no dependencies).
+fn metadata() -> Value {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let out = Command::new(cargo)
         .args([
@@ -46,7 +47,11 @@ fn workspace() -> BTreeMap<String, Deps> {
         "cargo metadata failed: {}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let meta: Value = serde_json::from_slice(&out.stdout).expect("cargo metadata prints JSON");
+    serde_json::from_slice(&out.stdout).expect("cargo metadata prints JSON")
+}
+
+fn workspace() -> BTreeMap<String, Deps> {
+    let meta = metadata();
     let packages = meta["packages"].as_array().expect("packages");
     let names: BTreeSet<String> = packages
         .iter()
@@ -298,20 +303,7 @@ const ALONE: &[(&str, &str, &str)] = &[(
 /// so that a new test file cannot be left out of the build unseen.
 #[test]
 fn each_crate_has_one_test_binary_that_declares_every_test_file() {
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let out = Command::new(cargo)
-        .args([
-            "metadata",
-            "--format-version",
-            "1",
-            "--no-deps",
-            "--offline",
-        ])
-        .current_dir(root())
-        .output()
-        .expect("cargo metadata runs");
-    assert!(out.status.success(), "cargo metadata failed");
-    let meta: Value = serde_json::from_slice(&out.stdout).expect("cargo metadata prints JSON");
+    let meta = metadata();
     let mut problems = Vec::new();
     let mut binaries = 0;
     for p in meta["packages"].as_array().expect("packages") {

@@ -23,9 +23,10 @@ impl PersonArgs {
     }
 }
 
-/// Opens a store file; the error names it.
+/// Opens a store (a file, or a `postgres://` URL); the error names it
+/// (a URL without its password).
 pub fn open(db: &Path) -> Result<Store> {
-    Store::open(db).with_context(|| format!("opening {}", db.display()))
+    Store::open(db).with_context(|| format!("opening {}", abba_store::backend::shown(db)))
 }
 
 #[cfg(test)]

@@ -1,5 +1,6 @@
-//! `abba store check` (what in a store cannot be right) and `abba store
-//! remove-future` (the documented repair of events dated in the future).
+//! `abba store check` (what in a store cannot be right), `abba store
+//! remove-future` (the documented repair of events dated in the future)
+//! and `abba store copy` (a whole store into another backend).
 use std::path::PathBuf;
 
 use abba_store::check::{CheckReport, FutureEvent};
@@ -34,6 +35,18 @@ pub enum What {
         /// Really delete (without it: only list what would go).
         #[arg(long)]
         yes: bool,
+    },
+    /// Copy every person with the whole log, answers, tokens, links and
+    /// sessions into an empty store: an SQLite file into a PostgreSQL
+    /// database (`--to postgres://USER@HOST/DB`) or back. One transaction:
+    /// the copy is whole or absent. Stop `abba serve` on the source first.
+    Copy {
+        /// The store to copy (a file, or a postgres:// URL).
+        #[arg(long, value_name = "FILE|URL")]
+        from: PathBuf,
+        /// The empty store to copy into (created if missing).
+        #[arg(long, value_name = "FILE|URL")]
+        to: PathBuf,
     },
 }
 
@@ -94,6 +107,21 @@ pub fn run(a: Args) -> Result<()> {
             println!("deleted {} events dated in the future:", gone.len());
             for f in &gone {
                 println!("{}", line(f));
+            }
+        }
+        What::Copy { from, to } => {
+            let mut src = crate::store_args::open(&from)?;
+            let mut dst = crate::store_args::open(&to)?;
+            let summary = src.copy_into(&mut dst)?;
+            println!(
+                "copied {} ({}) into {} ({}):",
+                abba_store::backend::shown(&from),
+                src.backend(),
+                abba_store::backend::shown(&to),
+                dst.backend()
+            );
+            for (table, rows) in &summary.tables {
+                println!("  {table}: {rows} rows");
             }
         }
     }

@@ -13,6 +13,10 @@
 //!     --clients 50 --batch 1 --seconds 30
 //! ```
 //!
+//! `--url` given twice or more (replicas of one service on one PostgreSQL
+//! database): client `i` talks to the `i`-th URL in turn, as a balancer
+//! spreading apps over replicas would.
+//!
 //! Only loopback addresses are accepted: this is a benchmark of a local
 //! server. abba is research software, not a medical device.
 
@@ -22,6 +26,8 @@ use std::time::{Duration, Instant};
 
 struct Opts {
     url: String,
+    /// Every `--url`, in order (client `i` uses `urls[i % len]`).
+    urls: Vec<String>,
     token: String,
     clients: usize,
     batch: usize,
@@ -31,6 +37,7 @@ struct Opts {
 fn parse() -> Result<Opts, String> {
     let mut o = Opts {
         url: "http://127.0.0.1:8090".into(),
+        urls: Vec::new(),
         token: String::new(),
         clients: 50,
         batch: 1,
@@ -40,7 +47,7 @@ fn parse() -> Result<Opts, String> {
     while let Some(a) = args.next() {
         let mut v = || args.next().ok_or(format!("{a}: value missing"));
         match a.as_str() {
-            "--url" => o.url = v()?,
+            "--url" => o.urls.push(v()?),
             "--token" => o.token = v()?,
             "--clients" => o.clients = v()?.parse().map_err(|e| format!("--clients: {e}"))?,
             "--batch" => o.batch = v()?.parse().map_err(|e| format!("--batch: {e}"))?,
@@ -48,18 +55,22 @@ fn parse() -> Result<Opts, String> {
             other => return Err(format!("unknown argument {other}")),
         }
     }
-    let host = o
-        .url
-        .strip_prefix("http://")
-        .and_then(|r| r.split(['/']).next())
-        .unwrap_or("");
-    let loopback =
-        host.starts_with("127.") || host.starts_with("localhost") || host.starts_with("[::1]");
-    if !loopback {
-        return Err(format!(
-            "--url {}: only loopback addresses (127.0.0.0/8, localhost, [::1])",
-            o.url
-        ));
+    if o.urls.is_empty() {
+        o.urls.push(o.url.clone());
+    }
+    o.url = o.urls[0].clone();
+    for url in &o.urls {
+        let host = url
+            .strip_prefix("http://")
+            .and_then(|r| r.split(['/']).next())
+            .unwrap_or("");
+        let loopback =
+            host.starts_with("127.") || host.starts_with("localhost") || host.starts_with("[::1]");
+        if !loopback {
+            return Err(format!(
+                "--url {url}: only loopback addresses (127.0.0.0/8, localhost, [::1])"
+            ));
+        }
     }
     if o.token.is_empty()
         || o.clients == 0
@@ -196,9 +207,10 @@ fn main() -> Result<(), String> {
     let until = start + Duration::from_secs_f64(o.seconds);
     let handles: Vec<_> = persons
         .into_iter()
-        .map(|(id, tok)| {
+        .enumerate()
+        .map(|(i, (id, tok))| {
             // One connection (agent) per client, as separate apps would have.
-            let c = Client::new(&o.url, Some(&tok));
+            let c = Client::new(&o.urls[i % o.urls.len()], Some(&tok));
             let batch = o.batch;
             std::thread::spawn(move || client_loop(c.map_err(|e| e.to_string())?, id, batch, until))
         })

@@ -7,6 +7,12 @@
 //! through `tracing`. A failure that could not be recorded on the link (the
 //! store could not be opened or written) is kept in memory and backs off
 //! the same way, until an attempt's outcome is recorded.
+//!
+//! Service replicas on one PostgreSQL database each run the rounds; a
+//! person's sync is claimed first ([`Store::claim`], an advisory lock held
+//! by the sync's connection), so one replica at a time syncs a person, and
+//! the link is read again under the claim (a sync another replica just
+//! finished leaves it not due).
 
 use crate::sync::{sync_and_record, SyncOptions};
 use abba_store::link::Link;
@@ -158,6 +164,24 @@ pub fn round(
                             return;
                         }
                     };
+                    // One replica at a time: the claim lasts as long as
+                    // this connection; under it the link must still be due.
+                    match store.claim(&format!("nightscout sync {person}")) {
+                        Ok(true) => {}
+                        Ok(false) => return,
+                        Err(e) => {
+                            record_failure(db, person, format!("the sync could not be claimed: {e}"), mem);
+                            return;
+                        }
+                    }
+                    match store.link(person) {
+                        Ok(Some(l)) if due(&with_unrecorded(l, mem), bg.every, jiff::Timestamp::now()) => {}
+                        Ok(_) => return,
+                        Err(e) => {
+                            record_failure(db, person, format!("the link could not be read: {e}"), mem);
+                            return;
+                        }
+                    }
                     // The outcome is recorded on the link; when it cannot
                     // be, it is kept in memory.
                     let a = sync_and_record(&mut store, person, &bg.sync);

@@ -16,12 +16,8 @@
 //! notice without it, an error under CI=true.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod service_common;
-
-/// The CLI's reference app (`abba app`), compiled as this test's own module.
-#[path = "../src/remote.rs"]
-#[allow(dead_code)]
-mod remote;
+use crate::remote;
+use crate::service_common;
 
 use abba_api::{EventsBody, Mode, NewPersonBody, TherapyBody};
 use abba_client::{Client, Outbox, Retry};
@@ -161,7 +157,7 @@ impl Drop for Balancer {
 
 /// A fresh PostgreSQL store, or `None` (skipped) without a server.
 fn database(test: &str) -> Option<PathBuf> {
-    let base = abba_store::testing::postgres_or_skip(test)?;
+    let base = crate::store_common::postgres_or_skip(test)?;
     Some(PathBuf::from(abba_store::testing::fresh_schema(&base)))
 }
 

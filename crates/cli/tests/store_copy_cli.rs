@@ -5,7 +5,7 @@
 //! `.ci/run`): skipped with a notice without one (an error under CI=true).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod cli_common;
+use crate::cli_common;
 
 use cli_common::abba;
 use std::path::PathBuf;
@@ -16,7 +16,7 @@ fn ok(args: &[&str]) -> String {
 
 #[test]
 fn a_store_copied_into_postgres_gives_the_same_advice_and_history() {
-    let Some(base) = abba_store::testing::postgres_or_skip(
+    let Some(base) = crate::store_common::postgres_or_skip(
         "a_store_copied_into_postgres_gives_the_same_advice_and_history",
     ) else {
         return;

@@ -140,15 +140,15 @@ pub fn round(
     mem: &Unrecorded,
 ) -> Result<usize, abba_store::StoreError> {
     let now = jiff::Timestamp::now();
-    let due: Vec<String> = Store::open(db)?
+    let due_now: Vec<String> = Store::open(db)?
         .links()?
         .into_iter()
         .map(|l| with_unrecorded(l, mem))
         .filter(|l| due(l, bg.every, now))
         .map(|l| l.person)
         .collect();
-    let n = due.len();
-    for chunk in due.chunks(bg.concurrency.max(1)) {
+    let n = due_now.len();
+    for chunk in due_now.chunks(bg.concurrency.max(1)) {
         std::thread::scope(|s| {
             for person in chunk {
                 s.spawn(move || {
@@ -175,8 +175,12 @@ pub fn round(
                         }
                     }
                     match store.link(person) {
-                        Ok(Some(l)) if due(&with_unrecorded(l, mem), bg.every, jiff::Timestamp::now()) => {}
-                        Ok(_) => return,
+                        Ok(Some(l)) => {
+                            if !due(&with_unrecorded(l, mem), bg.every, jiff::Timestamp::now()) {
+                                return;
+                            }
+                        }
+                        Ok(None) => return,
                         Err(e) => {
                             record_failure(db, person, format!("the link could not be read: {e}"), mem);
                             return;

@@ -138,3 +138,20 @@ impl Drop for TempDir {
         let _ = std::fs::remove_dir_all(&self.0);
     }
 }
+
+/// The base URL for a test that must run on PostgreSQL: `None` (with a
+/// printed notice) when the run gives none; under `CI=true` a missing
+/// server is an error (the CI run starts one).
+pub fn postgres_or_skip(test: &str) -> Option<String> {
+    use abba_store::testing::{postgres_url, POSTGRES_VAR};
+    match postgres_url() {
+        Some(u) => Some(u),
+        None if std::env::var("CI").is_ok_and(|v| v == "true") => {
+            panic!("{test}: CI=true but {POSTGRES_VAR} is not set (.ci/run starts a PostgreSQL server and sets it)")
+        }
+        None => {
+            eprintln!("{test}: skipped on PostgreSQL ({POSTGRES_VAR} is not set)");
+            None
+        }
+    }
+}

@@ -79,14 +79,34 @@ fn a_store_copied_into_postgres_gives_the_same_advice_and_history() {
         before,
         "the same advice and history on PostgreSQL"
     );
-    // The copied store goes on as the file would: the same answer gives
-    // the same advice on both (the history differs only in when it was
-    // answered).
-    let a = abba(&["answer", "--db", file, "--person", "ana", "--reject"]);
-    if a.status.success() {
-        ok(&["answer", "--db", &url, "--person", "ana", "--reject"]);
-        assert_eq!(seen(&url).0, seen(file).0, "after the same answer");
+    // The copied store goes on as the file would: four more days of the
+    // same person (an export of 20 days, its first 16 already held)
+    // imported into both give the same advice on both.
+    let more = dir.join("ns20");
+    ok(&[
+        "export",
+        "--patient",
+        "adult#002",
+        "--days",
+        "20",
+        "--tz",
+        "Europe/Zurich",
+        "--out",
+        more.to_str().unwrap(),
+    ]);
+    for db in [file, url.as_str()] {
+        let mut import = vec!["import", "--db", db, "--person", "ana"];
+        let files: Vec<String> = ["entries.json", "treatments.json", "profile.json"]
+            .iter()
+            .map(|f| more.join(f).display().to_string())
+            .collect();
+        import.extend(files.iter().map(String::as_str));
+        let text = ok(&import);
+        assert!(text.contains("new records"), "{db}: {text}");
     }
+    let after = seen(file);
+    assert_ne!(after.0, before.0, "four more days changed the advice");
+    assert_eq!(seen(&url), after, "after the same import on both");
     // A copy into a store that holds persons is refused, naming --to.
     let again = abba(&["store", "copy", "--from", file, "--to", &url]);
     assert!(!again.status.success());

@@ -29,12 +29,10 @@ fresh_db() {
   local name="abba_load_$1_$$"
   psql "$pg" -qAt -c "CREATE DATABASE $name" >/dev/null
   python3 - "$pg" "$name" <<'PY'
-import sys, urllib.parse as u
-p = u.urlsplit(sys.argv[1])
-print(u.urlunsplit((p.scheme, p.netloc, "/" + sys.argv[2], p.query, p.fragment)))
+import re, sys
+print(re.sub(r"^([a-z]+://[^/?]*)(/[^?]*)?", lambda m: m.group(1) + "/" + sys.argv[2], sys.argv[1], count=1))
 PY
 }
-
 # Starts a replica on $1 and prints its URL (the port it chose).
 serve() {
   local log="$work/serve-$RANDOM.log"
@@ -54,7 +52,7 @@ line() { # backend replicas clients batch db
   for _ in $(seq "$2"); do urls+=("$(serve "$5")"); done
   for u in "${urls[@]}"; do args+=(--url "$u"); done
   local token
-  token=$("$bin" token --db "$5" --admin)
+  token=$("$bin" token --db "$5" --admin 2>/dev/null)
   local out
   out=$("$load" "${args[@]}" --token "$token" --clients "$3" --batch "$4" --seconds "$secs" | tail -2 | tr '\n' ' ')
   echo "| $1 | $2 | $3 | $4 | $out|"

@@ -47,6 +47,7 @@ mod simulate_cli;
 mod store_cli;
 mod store_copy_cli;
 mod store_equivalence;
+mod store_migration;
 mod trial_cli;
 mod twin_effect_cli;
 mod web_browser;

@@ -52,10 +52,8 @@ fn stores_made_by_earlier_releases_open_with_nothing_lost() {
     assert!(!found.is_empty(), "no fixture in tests/data/migration");
     for fixture in found {
         let name = fixture.file_name().unwrap().to_string_lossy().to_string();
-        let dir = std::env::temp_dir().join(format!(
-            "abba-migration-{name}-{}",
-            std::process::id()
-        ));
+        let dir =
+            std::env::temp_dir().join(format!("abba-migration-{name}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
         let db = dir.join("store.db");
@@ -105,10 +103,9 @@ fn stores_made_by_earlier_releases_open_with_nothing_lost() {
         let ben = 2u64;
         let app = admin.with_token(&admin.issue_token(ben).unwrap().token);
         let held = app.sync(ben, 0).unwrap().held;
-        let events = abba_store::testing::count_rows(
-            &db,
-            &format!("app_event WHERE person_id = {ben}"),
-        ) as u64;
+        let events =
+            abba_store::testing::count_rows(&db, &format!("app_event WHERE person_id = {ben}"))
+                as u64;
         assert!(events > 1_000, "{name}: {events} app events");
         assert_eq!(
             held.iter().map(|h| (h.first, h.last)).collect::<Vec<_>>(),

@@ -290,7 +290,7 @@ impl Store {
     /// The person's live state, rebuilt from the store (snapshot + replay).
     pub fn live(&mut self, id: i64) -> Result<Live, StoreError> {
         let p = person::load_by_id(&self.conn, id)?;
-        let tx = self.conn.transaction()?;
+        let tx = self.conn.transaction_for(id)?;
         let s = refresh(&tx, &mut self.cache, &p, true)?;
         let last = last_key(&tx, id)?;
         let r = rev(&tx, id)?;
@@ -347,14 +347,14 @@ impl Store {
         next_seq: bool,
     ) -> Result<Posted, StoreError> {
         let id = live.person.id;
-        let mut tx = self.conn.transaction()?;
+        let mut tx = self.conn.transaction_for(id)?;
         // Someone else wrote for this person since `live` was built (the
         // CLI, another process): rebuild it first, holding the write lock
         // so nothing else comes in between.
         if rev(&tx, id)? != live.rev {
             drop(tx);
             *live = self.live(id)?;
-            tx = self.conn.transaction()?;
+            tx = self.conn.transaction_for(id)?;
             if rev(&tx, id)? != live.rev {
                 return Err(StoreError::corrupt(
                     "person revision",
@@ -502,7 +502,7 @@ impl Store {
             .iter()
             .all(|a| live.last_produced.contains(&(a.at_min, a.parameter)));
         if at_once {
-            let tx = self.conn.transaction()?;
+            let tx = self.conn.transaction_for(id)?;
             answer::insert(&tx, id, &out)?;
             let mut ordered: Vec<&Answer> = out.iter().collect();
             ordered.sort_by_key(|a| {
@@ -525,7 +525,7 @@ impl Store {
             return Ok((out, Vec::new()));
         }
         let p = person::load_by_id(&self.conn, id)?;
-        let tx = self.conn.transaction()?;
+        let tx = self.conn.transaction_for(id)?;
         answer::insert(&tx, id, &out)?;
         let s = refresh(&tx, &mut self.cache, &p, true)?;
         let last = last_key(&tx, id)?;
@@ -554,7 +554,7 @@ impl Store {
     ) -> Result<(TherapyChange, Live), StoreError> {
         let p = person::load_by_id(&self.conn, id)?;
         let (at, change) = crate::store::make_change(&p, basal, carb_ratio, at, by)?;
-        let tx = self.conn.transaction()?;
+        let tx = self.conn.transaction_for(id)?;
         crate::in_force::insert_change(&tx, id, at, &change)?;
         let s = refresh(&tx, &mut self.cache, &p, true)?;
         let last = last_key(&tx, id)?;
@@ -570,7 +570,7 @@ impl Store {
         id: i64,
         bounds: ClinicianBounds,
     ) -> Result<Live, StoreError> {
-        let tx = self.conn.transaction()?;
+        let tx = self.conn.transaction_for(id)?;
         let p = person::set_bounds(&tx, id, bounds)?;
         let s = refresh(&tx, &mut self.cache, &p, false)?;
         let last = last_key(&tx, id)?;
@@ -586,7 +586,7 @@ impl Store {
         id: i64,
         steps: abba_advisor::PumpSteps,
     ) -> Result<Live, StoreError> {
-        let tx = self.conn.transaction()?;
+        let tx = self.conn.transaction_for(id)?;
         let mut p = person::load_by_id(&tx, id)?;
         p.settings.pump_steps = Some(steps);
         // The whole advisor as it will be built, checked before the write.

@@ -1,7 +1,8 @@
 //! The two backends side by side: the same person, data and answers give
 //! the same advice, history and decisions on SQLite and on PostgreSQL;
 //! replicas starting at once migrate a database once; a write that fails
-//! half-way leaves nothing on either. The PostgreSQL half runs when the
+//! half-way leaves nothing on either; on PostgreSQL, two persons' writes
+//! run side by side while a write of the whole store waits for them. The PostgreSQL half runs when the
 //! run names a server (`ABBA_TEST_POSTGRES`, set by `.ci/run`), and is
 //! skipped with a notice otherwise (an error under `CI=true`).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
@@ -154,4 +155,45 @@ fn a_refused_import_leaves_nothing_on_either_backend() {
                 == 1
         );
     }
+}
+
+/// The kind of a store error, when it is the database's.
+fn db_kind(e: StoreError) -> Option<abba_store::backend::DbErrorKind> {
+    match e {
+        StoreError::Db(d) => Some(d.kind),
+        _ => None,
+    }
+}
+
+#[test]
+fn on_postgres_writes_for_two_persons_run_side_by_side_and_a_store_write_waits_for_them() {
+    use abba_store::backend::postgres::Pg;
+    use abba_store::backend::DbErrorKind::Busy;
+    let Some(base) = postgres_or_skip(
+        "on_postgres_writes_for_two_persons_run_side_by_side_and_a_store_write_waits_for_them",
+    ) else {
+        return;
+    };
+    let url = fresh_schema(&base);
+    let busy = std::time::Duration::from_millis(300);
+    let (mut a, mut b, mut c) = (
+        Pg::open(&url, busy).unwrap(),
+        Pg::open(&url, busy).unwrap(),
+        Pg::open(&url, busy).unwrap(),
+    );
+    let held = a.transaction_for(1).unwrap();
+    // Another person's write goes on beside person 1's and commits.
+    b.transaction_for(2).unwrap().commit().unwrap();
+    // Person 1's next write waits for the first, and is busy at the timeout.
+    assert_eq!(b.transaction_for(1).err().and_then(db_kind), Some(Busy));
+    // So is a write of the whole store (an import, a new person).
+    assert_eq!(c.transaction(true).err().and_then(db_kind), Some(Busy));
+    drop(held);
+    // Once it is rolled back, both go.
+    b.transaction_for(1).unwrap().commit().unwrap();
+    let whole = c.transaction(true).unwrap();
+    // And while the store is written as a whole, no person's write starts.
+    assert_eq!(b.transaction_for(2).err().and_then(db_kind), Some(Busy));
+    whole.commit().unwrap();
+    b.transaction_for(2).unwrap().commit().unwrap();
 }

@@ -274,6 +274,17 @@ impl Conn {
         }
     }
 
+    /// Begins a transaction that may write, but only person `person`'s
+    /// data (their events, answers, settings): SQLite as
+    /// [`Conn::transaction`]; PostgreSQL lets writes for other persons
+    /// run beside it ([`postgres::Pg::transaction_for`]).
+    pub fn transaction_for(&mut self, person: i64) -> Result<Tx<'_>, StoreError> {
+        match self {
+            Conn::Sqlite(c) => Ok(Tx::Sqlite(c.transaction(true)?)),
+            Conn::Postgres(c) => Ok(Tx::Postgres(c.transaction_for(person)?)),
+        }
+    }
+
     /// Begins a transaction that only reads (no write lock taken).
     pub fn read_transaction(&mut self) -> Result<Tx<'_>, StoreError> {
         match self {

@@ -20,6 +20,18 @@
 //! the busy timeout (`lock_timeout`) before answering busy; a read
 //! transaction is a REPEATABLE READ snapshot that takes no lock. A commit
 //! returns once the server has it on disk (`synchronous_commit` on).
+//!
+//! One refinement, since a server can do what a file cannot: a write that
+//! concerns one person only (an app's events, answers, a change of that
+//! person's settings: [`Pg::transaction_for`]) takes the store's lock
+//! *shared* and that person's lock ([`PERSON_LOCK`]) exclusive. Writes for
+//! two persons then run, and commit, side by side (the server flushes
+//! their commits together), while a write of the whole store (an import,
+//! a new person, a token, a migration's data) still waits for every one
+//! of them and they for it. What SQLite's one writer guaranteed holds per
+//! person: nothing comes between a person's writes, and a live advisor's
+//! revision check under the person's lock sees every committed write for
+//! that person.
 
 pub mod schema;
 pub mod sql;
@@ -37,6 +49,12 @@ use std::sync::{mpsc, Arc, Mutex, PoisonError};
 /// server do not wait for each other.
 pub const WRITE_LOCK: &str =
     "SELECT pg_advisory_xact_lock(hashtext('abba write ' || current_schema()))";
+
+/// The store's lock taken shared, then person `$1`'s exclusive (see the
+/// module doc): the write transaction of one person's data.
+pub const PERSON_LOCK: &str =
+    "SELECT pg_advisory_xact_lock_shared(hashtext('abba write ' || current_schema())); \
+     SELECT pg_advisory_xact_lock(hashtext('abba person ' || current_schema()), ";
 
 /// True when `db` names a PostgreSQL database rather than a file.
 pub fn is_url(db: &str) -> bool {
@@ -360,6 +378,22 @@ impl Pg {
                 done: false,
             })
         }
+    }
+
+    /// Begins a transaction that writes only person `person`'s data: the
+    /// store's lock shared and the person's exclusive ([`PERSON_LOCK`]), so
+    /// that writes for other persons go on beside it.
+    pub fn transaction_for(&mut self, person: i64) -> Result<PgTx<'_>, StoreError> {
+        self.batch("BEGIN")?;
+        let tx = PgTx {
+            pg: self,
+            done: false,
+        };
+        // (32 bits of the id: two persons sharing a lock only wait for
+        // each other. Dropped on an error: rolled back.)
+        let sql = format!("{PERSON_LOCK}{})", person as i32);
+        tx.pg.call(move |c, _| c.batch_execute(&sql).map_err(err))?;
+        Ok(tx)
     }
 
     /// True when the server only reads (a standby, or a read-only default).

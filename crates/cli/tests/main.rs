@@ -47,4 +47,5 @@ mod store_cli;
 mod store_equivalence;
 mod trial_cli;
 mod twin_effect_cli;
+mod twin_refit_cli;
 mod web_browser;

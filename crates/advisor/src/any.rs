@@ -125,6 +125,13 @@ impl AnyAdvisor {
             ArmKind::Standard => AnyAdvisor::Fixed(FixedTherapy::load_json(json)?),
             ArmKind::R2r => AnyAdvisor::RunToRun(RunToRun::load_json(json)?),
             ArmKind::Autotune => AnyAdvisor::Autotune(Box::new(Autotune::load_json(json)?)),
+            ArmKind::AbbaTwin => {
+                return Err(AdvisorError::State(
+                    "field `advisor` is \"abba-twin\", a trial arm (ABBA with the twin check) \
+                     without a saved state of its own: its advisor saves as \"abba\""
+                        .into(),
+                ))
+            }
         })
     }
 

@@ -15,11 +15,28 @@ pub enum ArmKind {
     R2r,
     /// OpenAPS oref0's autotune, nightly.
     Autotune,
+    /// ABBA whose suggestions pass the twin check (a trial arm: the twin,
+    /// fitted from the simulated person's device data, holds back a
+    /// suggestion predicted to raise time below 70 mg/dL; abba-trial's
+    /// `twin_arm`).
+    #[serde(rename = "abba-twin")]
+    AbbaTwin,
 }
 
 impl ArmKind {
     /// All arms, in report order.
-    pub const ALL: [ArmKind; 4] = [
+    pub const ALL: [ArmKind; 5] = [
+        ArmKind::Abba,
+        ArmKind::Standard,
+        ArmKind::R2r,
+        ArmKind::Autotune,
+        ArmKind::AbbaTwin,
+    ];
+
+    /// The arms that are an advisor of their own (every arm but
+    /// `abba-twin`, which is ABBA with the twin check, needs a twin and so
+    /// a simulator, and runs only in the trial).
+    pub const ADVISORS: [ArmKind; 4] = [
         ArmKind::Abba,
         ArmKind::Standard,
         ArmKind::R2r,
@@ -27,11 +44,11 @@ impl ArmKind {
     ];
 
     /// The arms a trial runs unless told otherwise (the paper's three);
-    /// autotune is opt-in (`--arms abba,standard,r2r,autotune`), so that the
-    /// default trial's files stay what they were.
+    /// autotune and abba-twin are opt-in (`--arms abba,standard,r2r,autotune`),
+    /// so that the default trial's files stay what they were.
     pub const DEFAULT: [ArmKind; 3] = [ArmKind::Abba, ArmKind::Standard, ArmKind::R2r];
 
-    /// `abba`, `standard`, `r2r`, `autotune`: the name used everywhere (reports, CLI,
+    /// `abba`, `standard`, `r2r`, `autotune`, `abba-twin`: the name used everywhere (reports, CLI,
     /// [`Advisor::name`](crate::Advisor::name)).
     pub fn name(self) -> &'static str {
         match self {
@@ -39,6 +56,7 @@ impl ArmKind {
             ArmKind::Standard => "standard",
             ArmKind::R2r => "r2r",
             ArmKind::Autotune => "autotune",
+            ArmKind::AbbaTwin => "abba-twin",
         }
     }
 
@@ -49,6 +67,7 @@ impl ArmKind {
             ArmKind::Standard => "standard therapy",
             ArmKind::R2r => "run-to-run",
             ArmKind::Autotune => "autotune (oref0)",
+            ArmKind::AbbaTwin => "ABBA with the twin check",
         }
     }
 
@@ -59,6 +78,7 @@ impl ArmKind {
             ArmKind::Standard => "standard",
             ArmKind::R2r => "run-to-run",
             ArmKind::Autotune => "autotune",
+            ArmKind::AbbaTwin => "ABBA+twin",
         }
     }
 
@@ -72,6 +92,7 @@ impl ArmKind {
             ArmKind::Autotune => {
                 "autotune (oref0), nightly over the previous day's CGM".to_string()
             }
+            ArmKind::AbbaTwin => format!("ABBA ({mode} mode) with the twin check"),
         }
     }
 
@@ -82,6 +103,7 @@ impl ArmKind {
             ArmKind::Standard => "fixed_limits",
             ArmKind::R2r => "r2r",
             ArmKind::Autotune => "autotune",
+            ArmKind::AbbaTwin => "twin_check",
         }
     }
 
@@ -93,6 +115,7 @@ impl ArmKind {
             ArmKind::Standard => (90, 90, 90),
             ArmKind::R2r => (213, 94, 0),
             ArmKind::Autotune => (0, 158, 115),
+            ArmKind::AbbaTwin => (204, 121, 167),
         }
     }
 }
@@ -109,7 +132,9 @@ impl std::str::FromStr for ArmKind {
         ArmKind::ALL
             .into_iter()
             .find(|a| a.name() == s)
-            .ok_or_else(|| format!("unknown arm '{s}' (expected abba, standard, r2r or autotune)"))
+            .ok_or_else(|| {
+                format!("unknown arm '{s}' (expected abba, standard, r2r, autotune or abba-twin)")
+            })
     }
 }
 

@@ -64,7 +64,8 @@ pub struct ServeArgs {
     pub sync_concurrency: usize,
     /// The twin check: hold back a suggestion whose predicted time below
     /// 70 mg/dL rises by more than 1 point on the person's stored twin
-    /// (on, off). Twins are fitted by `abba twin fit`, never by the service.
+    /// (on, off). Twins are first fitted by `abba twin fit`; the service
+    /// refits a person's twin in the background when their log changes.
     #[arg(long, value_name = "ON|OFF", default_value = "on")]
     pub twin_check: String,
 }
@@ -170,27 +171,47 @@ pub fn serve(a: ServeArgs) -> Result<()> {
         None => None,
     };
     init_logging();
+    // One refit at a time, on its own thread: the person's twin after their
+    // log changed (abba_service::refit).
+    let refits = abba_service::RefitQueue::start(
+        &a.db,
+        std::sync::Arc::new(crate::twin_effect::TwinRefits::new(&a.db)),
+    )
+    .context("starting the twin refit worker")?;
     let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
     let syncing = std::sync::Mutex::new(None);
-    let served = abba_service::serve_with(&a.db, &a.listen, &settings, Some(effects), |addr| {
-        tracing::info!(
-            target: OUT,
-            "abba serve: listening on http://{addr} (store {})",
-            a.db.display()
-        );
-        tracing::info!(target: OUT, "{}", abba_api::NOTICE);
-        // Whoever started us may wait for that line.
-        let _ = std::io::stdout().flush();
-        if let Some(bg) = background {
-            let (db, stop) = (a.db.clone(), std::sync::Arc::clone(&stop));
-            let t = std::thread::spawn(move || abba_nightscout::background::run(&db, &bg, &stop));
-            if let Ok(mut g) = syncing.lock() {
-                *g = Some(t);
+    let to_refit = refits.clone();
+    let served = abba_service::serve_with_twins(
+        &a.db,
+        &a.listen,
+        &settings,
+        Some(effects),
+        Some(refits.clone()),
+        |addr| {
+            tracing::info!(
+                target: OUT,
+                "abba serve: listening on http://{addr} (store {})",
+                a.db.display()
+            );
+            tracing::info!(target: OUT, "{}", abba_api::NOTICE);
+            // Whoever started us may wait for that line.
+            let _ = std::io::stdout().flush();
+            if let Some(bg) = background {
+                let (db, stop) = (a.db.clone(), std::sync::Arc::clone(&stop));
+                let t = std::thread::spawn(move || {
+                    abba_nightscout::background::run_with(&db, &bg, &stop, &|person| {
+                        to_refit.schedule(person);
+                    })
+                });
+                if let Ok(mut g) = syncing.lock() {
+                    *g = Some(t);
+                }
             }
-        }
-    })
+        },
+    )
     .with_context(|| format!("serving {}", a.db.display()));
     stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    refits.stop();
     if let Some(t) = syncing.lock().ok().and_then(|mut g| g.take()) {
         let _ = t.join();
     }

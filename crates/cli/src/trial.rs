@@ -46,7 +46,8 @@ pub struct Args {
     /// Scenarios, comma-separated (S1,S2,S3,S4).
     #[arg(long, value_delimiter = ',')]
     pub scenarios: Option<Vec<ScenarioId>>,
-    /// Arms, comma-separated (abba,standard,r2r; autotune is opt-in: abba,standard,r2r,autotune).
+    /// Arms, comma-separated (abba,standard,r2r; autotune and abba-twin, ABBA with
+    /// the twin check, are opt-in: abba,standard,r2r,autotune,abba-twin).
     #[arg(long, value_delimiter = ',')]
     pub arms: Option<Vec<ArmKind>>,
     /// Trial seed.

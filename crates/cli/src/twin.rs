@@ -3,6 +3,7 @@
 use std::path::PathBuf;
 
 use abba_sim::cohort::Population;
+use abba_twin::file::Refit;
 use abba_twin::{Banded, BasalChange, Ranges, Twin, TwinOptions, WhatIf, NOTICE};
 use anyhow::{anyhow, Result};
 
@@ -97,38 +98,28 @@ fn fit(a: FitArgs) -> Result<()> {
         .parse()
         .map_err(|e| anyhow!("--population: {e}"))?;
     let (events, basal) = events(&a.who)?;
-    let stored = abba_twin::file::load(&a.who.db, &a.who.person)?;
-    let hash = abba_twin::twin::events_hash(&events);
-    let twin = match stored {
-        Some(t)
-            if !a.force
-                && t.data.events_hash == hash
-                && t.data.days == a.days
-                && t.data.held_out_days == a.held_out
-                && t.prior.population == population =>
-        {
+    let options = TwinOptions {
+        days: a.days,
+        held_out_days: a.held_out,
+        population,
+        basal_in_force_u_per_h: basal,
+        ..TwinOptions::default()
+    };
+    let twin = match abba_twin::file::refit(&a.who.db, &a.who.person, &events, &options, a.force)? {
+        Refit::Unchanged(t) => {
             eprintln!(
                 "the log has not changed since twin revision {}: shown as stored (--force refits)",
                 t.revision
             );
             t
         }
-        previous => {
-            let mut t = Twin::fit(
-                &a.who.person,
-                &events,
-                &TwinOptions {
-                    days: a.days,
-                    held_out_days: a.held_out,
-                    population,
-                    basal_in_force_u_per_h: basal,
-                    ..TwinOptions::default()
-                },
-            )?;
-            t.revision = previous.map_or(1, |p| p.revision + 1);
-            let path = abba_twin::file::save(&a.who.db, &t)?;
-            eprintln!("stored twin revision {} in {}", t.revision, path.display());
-            t
+        Refit::Stored { twin, path } => {
+            eprintln!(
+                "stored twin revision {} in {}",
+                twin.revision,
+                path.display()
+            );
+            twin
         }
     };
     if a.who.json {

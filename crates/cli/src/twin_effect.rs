@@ -6,10 +6,17 @@
 //! [`EFFECT_DAYS`] days of its window with the suggestion against the
 //! recorded days. Replays are kept per (person, log hash, twin revision,
 //! setting, values), so a service answers a repeated request from memory.
+//!
+//! [`TwinRefits`] is the store's [`TwinRefitter`]: what `abba serve`'s refit
+//! worker calls after a person's log changed. It refits a person who has a
+//! twin (never one who has none) by abba-twin's refit rule
+//! ([`abba_twin::file::refit`]), with the stored twin's window, held-out
+//! days and population.
 
 use abba_advisor::Parameter;
 use abba_store::effect::{
-    Band, Effect, EffectPredictor, EffectQuery, Figures, NoPrediction, Predicted, TwinCheck,
+    Band, Effect, EffectPredictor, EffectQuery, Figures, NoPrediction, Predicted, RefitOutcome,
+    TwinCheck, TwinRefitter,
 };
 use abba_twin::{Banded, Grade, Ranges, WhatIf};
 use std::collections::HashMap;
@@ -138,5 +145,52 @@ impl EffectPredictor for TwinPredictor {
         }
         cache.insert(key, effect.clone());
         effect
+    }
+}
+
+/// Refits the twins beside a store file (`abba serve`'s refit worker).
+#[derive(Debug)]
+pub struct TwinRefits {
+    db: PathBuf,
+}
+
+impl TwinRefits {
+    /// The twins beside `db`.
+    pub fn new(db: &Path) -> Self {
+        Self {
+            db: db.to_path_buf(),
+        }
+    }
+}
+
+impl TwinRefitter for TwinRefits {
+    fn has_twin(&self, person: &str) -> bool {
+        abba_twin::file::path(&self.db, person).is_file()
+    }
+
+    fn refit(&self, store: &abba_store::Store, person: &str) -> Result<RefitOutcome, String> {
+        let Some(old) = abba_twin::file::load(&self.db, person).map_err(|e| e.to_string())? else {
+            return Ok(RefitOutcome::NoTwin);
+        };
+        let p = store.person(person).map_err(|e| e.to_string())?;
+        let events = store.events(person).map_err(|e| e.to_string())?;
+        let options = abba_twin::TwinOptions {
+            days: old.data.days,
+            held_out_days: old.data.held_out_days,
+            population: old.prior.population,
+            basal_in_force_u_per_h: p.settings.start.basal.0,
+            ..abba_twin::TwinOptions::default()
+        };
+        match abba_twin::file::refit(&self.db, person, &events, &options, false)
+            .map_err(|e| e.to_string())?
+        {
+            abba_twin::file::Refit::Unchanged(t) => Ok(RefitOutcome::Unchanged {
+                revision: t.revision,
+            }),
+            abba_twin::file::Refit::Stored { twin, .. } => Ok(RefitOutcome::Refitted {
+                revision: twin.revision,
+                grade: twin.grade.name().to_string(),
+            }),
+        }
     }
 }

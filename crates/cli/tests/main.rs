@@ -50,4 +50,5 @@ mod store_equivalence;
 mod store_migration;
 mod trial_cli;
 mod twin_effect_cli;
+mod twin_refit_cli;
 mod web_browser;

@@ -139,6 +139,18 @@ pub fn round(
     bg: &Background,
     mem: &Unrecorded,
 ) -> Result<usize, abba_store::StoreError> {
+    round_with(db, bg, mem, &|_| {})
+}
+
+/// [`round`], telling `after_import` the name of each person whose sync
+/// changed their log (records added, updated or deleted): the service
+/// refits their twin then.
+pub fn round_with(
+    db: &Path,
+    bg: &Background,
+    mem: &Unrecorded,
+    after_import: &(dyn Fn(&str) + Sync),
+) -> Result<usize, abba_store::StoreError> {
     let now = jiff::Timestamp::now();
     let due_now: Vec<String> = Store::open(db)?
         .links()?
@@ -190,6 +202,12 @@ pub fn round(
                     // be, it is kept in memory.
                     let a = sync_and_record(&mut store, person, &bg.sync);
                     if let Ok(r) = &a.result {
+                        let imported = r.import.import.as_ref();
+                        if r.import.deleted > 0
+                            || imported.is_some_and(|i| i.added > 0 || i.updated > 0)
+                        {
+                            after_import(person);
+                        }
                         for u in &r.unproven {
                             tracing::warn!(person, what = %u, "the Nightscout sync could not prove this complete");
                         }
@@ -228,13 +246,23 @@ pub fn round(
 /// cannot read the links (the store cannot be opened) is logged and
 /// tried again at the next round.
 pub fn run(db: &Path, bg: &Background, stop: &AtomicBool) {
+    run_with(db, bg, stop, &|_| {});
+}
+
+/// [`run`], with [`round_with`]'s `after_import`.
+pub fn run_with(
+    db: &Path,
+    bg: &Background,
+    stop: &AtomicBool,
+    after_import: &(dyn Fn(&str) + Sync),
+) {
     let tick = Duration::from_millis(200);
     let round_every = bg.every.min(Duration::from_secs(30));
     let mem = Unrecorded::default();
     let mut since = round_every;
     while !stop.load(Ordering::Relaxed) {
         if since >= round_every {
-            if let Err(e) = round(db, bg, &mem) {
+            if let Err(e) = round_with(db, bg, &mem, after_import) {
                 tracing::warn!(error = %e, "a background Nightscout round could not read the links");
             }
             since = Duration::ZERO;

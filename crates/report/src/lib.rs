@@ -48,4 +48,6 @@ pub use files::{
 };
 pub use manifest::RunInfo;
 pub use out_dir::ReportDir;
-pub use results::{ArmKind, ArmResult, PatientResult, RunFailure, Week, WeekResult};
+pub use results::{
+    ArmKind, ArmResult, PatientResult, RunFailure, TwinCheckCounts, Week, WeekResult,
+};

@@ -137,6 +137,45 @@ pub struct PatientResult {
     pub rescue_carbs_g: f64,
     /// Number of hypoglycaemia treatments over the run.
     pub rescue_treatments: u32,
+    /// What the twin check did over the run (the `abba-twin` arm only;
+    /// absent, and not serialised, for every other arm).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub twin_check: Option<TwinCheckCounts>,
+}
+
+/// What the twin check of the `abba-twin` arm did in one run: twins
+/// fitted, suggestions replayed on a usable twin, and of them the ones held
+/// back (answered "rejected" for the person, so the value in force stayed).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TwinCheckCounts {
+    /// Twins fitted.
+    pub fits: u32,
+    /// Of them, usable (grade good or fair).
+    pub usable_fits: u32,
+    /// Fits that failed.
+    pub failed_fits: u32,
+    /// Suggestions replayed on a usable twin.
+    pub checked: u32,
+    /// Of them, held back.
+    pub held_back: u32,
+    /// Suggestions that passed unchecked (no usable twin yet, or a replay
+    /// that failed).
+    pub unchecked: u32,
+}
+
+impl TwinCheckCounts {
+    /// The sum of two runs' counts.
+    pub fn plus(self, o: Self) -> Self {
+        Self {
+            fits: self.fits + o.fits,
+            usable_fits: self.usable_fits + o.usable_fits,
+            failed_fits: self.failed_fits + o.failed_fits,
+            checked: self.checked + o.checked,
+            held_back: self.held_back + o.held_back,
+            unchecked: self.unchecked + o.unchecked,
+        }
+    }
 }
 
 /// Where a run stopped because plasma glucose fell below the failure

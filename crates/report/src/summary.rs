@@ -179,9 +179,7 @@ pub fn summary_json(arms: &[ArmResult], manifest: &Value) -> Result<Value, Repor
                 "wilcoxon": Value::Object(wilcoxon),
             }),
         );
-        notes_arms.insert(
-            arm.key(),
-            json!({
+        let mut note = json!({
                 "mode": arm.mode,
                 "n_patients": arm.patients.len(),
                 "weeks_present": weeks_present,
@@ -197,8 +195,19 @@ pub fn summary_json(arms: &[ArmResult], manifest: &Value) -> Result<Value, Repor
                     .collect::<Vec<_>>(),
                 "mage_undefined": Value::Object(mage_undefined),
                 "wilcoxon": Value::Object(wilcoxon_notes),
-            }),
-        );
+        });
+        // The abba-twin arm's counts, summed over its patients (only that
+        // arm has them: other arms' notes are as they always were).
+        let twin_counts: Vec<_> = arm.patients.iter().filter_map(|p| p.twin_check).collect();
+        if !twin_counts.is_empty() {
+            let total = twin_counts
+                .iter()
+                .fold(crate::results::TwinCheckCounts::default(), |a, b| {
+                    a.plus(*b)
+                });
+            note["twin_check"] = json_of(&total, "the twin check's counts")?;
+        }
+        notes_arms.insert(arm.key(), note);
     }
     Ok(json!({
         "manifest": manifest,

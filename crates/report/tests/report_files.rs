@@ -108,6 +108,7 @@ fn patient(name: &str, weeks: Vec<WeekResult>) -> PatientResult {
         failure: None,
         rescue_carbs_g: 0.0,
         rescue_treatments: 0,
+        twin_check: None,
     }
 }
 

@@ -21,6 +21,7 @@ pub mod convert;
 pub mod error;
 pub mod extract;
 pub mod openapi;
+pub mod refit;
 pub mod routes;
 pub mod server;
 pub mod settings;
@@ -28,7 +29,8 @@ pub mod state;
 pub mod web;
 
 pub use error::{ApiError, ServiceError};
-pub use server::{router, router_with, serve, serve_with};
+pub use refit::RefitQueue;
+pub use server::{router, router_with, serve, serve_with, serve_with_twins};
 pub use settings::{ServeSettings, StoreSettings};
 pub use state::{AppState, EffectSource};
 

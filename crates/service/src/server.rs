@@ -111,6 +111,19 @@ pub fn serve_with(
     effects: Option<crate::state::EffectSource>,
     ready: impl FnOnce(SocketAddr),
 ) -> Result<(), ServiceError> {
+    serve_with_twins(db, listen, set, effects, None, ready)
+}
+
+/// [`serve_with`], refitting each person's twin in the background after
+/// their log changed through `refits` ([`crate::refit`]).
+pub fn serve_with_twins(
+    db: &Path,
+    listen: &str,
+    set: &ServeSettings,
+    effects: Option<crate::state::EffectSource>,
+    refits: Option<crate::refit::RefitQueue>,
+    ready: impl FnOnce(SocketAddr),
+) -> Result<(), ServiceError> {
     // Connections are file descriptors: allow as many as the hard limit.
     match rlimit::increase_nofile_limit(u64::MAX) {
         Ok(n) => tracing::info!(nofile = n, "open file limit"),
@@ -119,6 +132,9 @@ pub fn serve_with(
     let state = AppState::open(db, set.store.clone())?;
     if let Some(e) = effects {
         state.set_effects(e)?;
+    }
+    if let Some(q) = refits {
+        state.set_refits(q)?;
     }
     let rt = tokio::runtime::Builder::new_multi_thread()
         .enable_all()

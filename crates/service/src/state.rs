@@ -62,6 +62,7 @@ struct Inner {
     failures: Mutex<HashMap<IpAddr, Failures>>,
     settings: StoreSettings,
     effects: std::sync::OnceLock<EffectSource>,
+    refits: std::sync::OnceLock<crate::refit::RefitQueue>,
 }
 
 /// What predicts a suggestion's effect for the service (the `abba` binary
@@ -145,6 +146,7 @@ impl AppState {
                 failures: Mutex::new(HashMap::new()),
                 settings,
                 effects: std::sync::OnceLock::new(),
+                refits: std::sync::OnceLock::new(),
             }),
         })
     }
@@ -156,6 +158,23 @@ impl AppState {
             .effects
             .set(source)
             .map_err(|_| ServiceError::Pool("the effect predictor is already set".into()))
+    }
+
+    /// Refits a person's twin in the background after each write that may
+    /// change their log, from now on (once; a second call is refused).
+    pub fn set_refits(&self, refits: crate::refit::RefitQueue) -> Result<(), ServiceError> {
+        self.inner
+            .refits
+            .set(refits)
+            .map_err(|_| ServiceError::Pool("the twin refit worker is already set".into()))
+    }
+
+    /// Asks for a background refit of `person`'s twin (when a refit worker
+    /// is set and the person has a twin; never waits for the refit).
+    pub fn log_changed(&self, person: &str) {
+        if let Some(q) = self.inner.refits.get() {
+            q.schedule(person);
+        }
     }
 
     /// The effect predictor and the twin check, when one is set.
@@ -240,6 +259,10 @@ impl AppState {
                 _ => conn.live_read(id)?,
             };
             let out = f(&mut conn, &mut live);
+            if out.is_ok() && keep {
+                // A write: the person's twin may be older than the log now.
+                s.log_changed(&live.person.name);
+            }
             if out.is_ok() && (keep || was_cached) {
                 s.inner.live.insert(id, Arc::new(Mutex::new(Some(live))));
             }

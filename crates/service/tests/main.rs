@@ -19,4 +19,5 @@ mod mixed_load;
 mod openapi;
 mod pages;
 mod person_input;
+mod refit;
 mod seq;

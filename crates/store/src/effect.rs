@@ -129,6 +129,37 @@ pub trait EffectPredictor: Send + Sync {
     fn predict(&self, q: &EffectQuery<'_>) -> Effect;
 }
 
+/// What a refit did.
+#[derive(Debug, Clone, PartialEq)]
+pub enum RefitOutcome {
+    /// The person has no twin (none is made).
+    NoTwin,
+    /// The twin was fitted on exactly this log already: kept.
+    Unchanged {
+        /// Its revision.
+        revision: u32,
+    },
+    /// A new revision was stored.
+    Refitted {
+        /// The new revision.
+        revision: u32,
+        /// Its grade (`good`, `fair`, `not usable`).
+        grade: String,
+    },
+}
+
+/// What refits a person's twin when their log changed (the `abba` binary:
+/// abba-twin's refit rule on the twin stored beside the store). A refit
+/// takes seconds: the service runs it only on its refit worker.
+pub trait TwinRefitter: Send + Sync {
+    /// Whether `person` has a stored twin (cheap: no fit, no store read).
+    fn has_twin(&self, person: &str) -> bool;
+
+    /// Refits `person`'s twin on their whole log in `store`, if they have
+    /// one. An error says why nothing was stored (the old twin stays).
+    fn refit(&self, store: &crate::Store, person: &str) -> Result<RefitOutcome, String>;
+}
+
 /// The twin check, a named knob.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TwinCheck {

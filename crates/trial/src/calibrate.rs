@@ -591,7 +591,7 @@ pub fn calibrate(
     }
     let chosen = values_of(&current, &config.grids);
     let held_cohort = cohort_of(&config.held_out)?;
-    let held_trial = trial_for(&current, &config.held_out, ArmKind::ALL.to_vec())?;
+    let held_trial = trial_for(&current, &config.held_out, ArmKind::ADVISORS.to_vec())?;
     let held = run_trial_on(&held_trial, held_cohort, threads, &Silent)?;
     Ok(CalibrationReport {
         config: config.clone(),
@@ -775,7 +775,7 @@ mod tests {
         // The held-out cohort ran every arm in W13 and W14 of both scenarios.
         assert_eq!(r.held_out.len(), 4);
         for c in &r.held_out {
-            assert_eq!(c.arms.len(), ArmKind::ALL.len(), "{c:?}");
+            assert_eq!(c.arms.len(), ArmKind::ADVISORS.len(), "{c:?}");
         }
         let md = report_markdown(&r);
         assert!(md.contains("not a medical device"));

@@ -13,8 +13,9 @@
 use crate::error::TrialError;
 use crate::protocol::{ArmKind, PlannedScenario, TrialConfig};
 use crate::results::{evaluation_windows, PatientResult, RunFailure, Week, WeekResult};
+use crate::twin_arm::{TwinArmStats, TwinChecked};
 use abba_advisor::any::AnyAdvisor;
-use abba_advisor::Advisor;
+use abba_advisor::{Advisor, AdvisorError, Mode};
 use abba_core::metrics::metrics_regular;
 use abba_core::{derive_seed, Event, Stream, MINUTES_PER_DAY};
 use abba_sim::cohort::VirtualPatient;
@@ -209,6 +210,84 @@ pub fn same_outcome(a: (&PlannedScenario, ArmKind), b: (&PlannedScenario, ArmKin
         && physiology(a.0) == physiology(b.0)
 }
 
+/// The advisor of one run: an arm's own advisor, or ABBA with the twin
+/// check (the `abba-twin` arm, [`crate::twin_arm`]).
+#[derive(Debug)]
+// One per run; boxing the common case would only add noise.
+#[allow(clippy::large_enum_variant)]
+pub enum ArmAdvisor {
+    /// Every arm but `abba-twin`.
+    Plain(AnyAdvisor),
+    /// The `abba-twin` arm.
+    TwinChecked(Box<TwinChecked<AnyAdvisor>>),
+}
+
+impl ArmAdvisor {
+    fn any(&self) -> &AnyAdvisor {
+        match self {
+            ArmAdvisor::Plain(a) => a,
+            ArmAdvisor::TwinChecked(t) => t.inner(),
+        }
+    }
+
+    /// The TE initialisation report, if the advisor is ABBA and has
+    /// initialised.
+    pub fn init_report(&self) -> Option<&abba_advisor::abba::InitReport> {
+        self.any().init_report()
+    }
+
+    /// What the twin check did (the `abba-twin` arm only).
+    pub fn twin_stats(&self) -> Option<TwinArmStats> {
+        match self {
+            ArmAdvisor::Plain(_) => None,
+            ArmAdvisor::TwinChecked(t) => Some(t.stats),
+        }
+    }
+
+    fn advisor(&self) -> &dyn Advisor {
+        match self {
+            ArmAdvisor::Plain(a) => a,
+            ArmAdvisor::TwinChecked(t) => t.as_ref(),
+        }
+    }
+
+    fn advisor_mut(&mut self) -> &mut dyn Advisor {
+        match self {
+            ArmAdvisor::Plain(a) => a,
+            ArmAdvisor::TwinChecked(t) => t.as_mut(),
+        }
+    }
+}
+
+impl Advisor for ArmAdvisor {
+    fn observe(
+        &mut self,
+        event: &Event,
+    ) -> Result<Option<abba_core::TherapySettings>, AdvisorError> {
+        self.advisor_mut().observe(event)
+    }
+
+    fn settings(&self) -> &abba_core::TherapySettings {
+        self.advisor().settings()
+    }
+
+    fn decisions(&self) -> &[abba_advisor::decision::Decision] {
+        self.advisor().decisions()
+    }
+
+    fn take_decisions(&mut self) -> Vec<abba_advisor::decision::Decision> {
+        self.advisor_mut().take_decisions()
+    }
+
+    fn arm(&self) -> ArmKind {
+        self.advisor().arm()
+    }
+
+    fn mode(&self) -> Option<Mode> {
+        self.advisor().mode()
+    }
+}
+
 /// The person and advisor of one run, and the run's name for messages.
 pub(crate) fn start(
     config: &TrialConfig,
@@ -216,7 +295,7 @@ pub(crate) fn start(
     patient_no: u64,
     scenario: &PlannedScenario,
     arm: ArmKind,
-) -> Result<(VirtualPerson, AnyAdvisor, String), TrialError> {
+) -> Result<(VirtualPerson, ArmAdvisor, String), TrialError> {
     let context = format!("{} {}/{}", vp.params.name, scenario.config.name, arm);
     let person = VirtualPerson::new(
         vp,
@@ -247,6 +326,16 @@ pub(crate) fn start(
             context: context.clone(),
             source,
         })?;
+    let advisor = match arm {
+        ArmKind::AbbaTwin => ArmAdvisor::TwinChecked(Box::new(TwinChecked::new(
+            advisor,
+            &vp.params.name,
+            config.population,
+            vp.therapy,
+            config.twin_check.unwrap_or_default(),
+        ))),
+        _ => ArmAdvisor::Plain(advisor),
+    };
     Ok((person, advisor, context))
 }
 
@@ -254,7 +343,7 @@ pub(crate) fn start(
 pub(crate) fn result(
     vp: &VirtualPatient,
     person: &VirtualPerson,
-    advisor: &AnyAdvisor,
+    advisor: &ArmAdvisor,
     run: &LoopRun,
     context: &str,
 ) -> Result<PatientResult, TrialError> {
@@ -276,6 +365,7 @@ pub(crate) fn result(
         failure: run.failure,
         rescue_carbs_g: person.rescue().0,
         rescue_treatments: person.rescue().1,
+        twin_check: advisor.twin_stats(),
     })
 }
 

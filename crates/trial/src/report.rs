@@ -15,7 +15,7 @@ use serde_json::{json, Value};
 
 use crate::closed_loop::MinuteRecord;
 use crate::error::TrialError;
-use crate::protocol::{ArmKind, TrialConfig};
+use crate::protocol::TrialConfig;
 use crate::runner::{build_cohort, trace_patient, TrialOutput};
 
 /// The program that ran the trial, for the manifest.
@@ -196,7 +196,7 @@ pub fn trial_manifest(output: &TrialOutput, tool: &ToolInfo) -> Value {
             "evaluation": "plasma glucose G = Gp/Vg every 5 min; W1 = D2-D8, W13 = D84-D90, W14 = D92-D98; weekly Wk = D(7k-5)..D(7k+1)",
         },
         "te_calibration": {
-            "calibrated": used.calibrate_te_ref && used.arms.contains(&ArmKind::Abba),
+            "calibrated": used.calibrate_te_ref && used.runs_abba(),
             "te_ref_bits_cgm": used.abba.te.te_ref_bits,
             "te_ref_bits_smbg": used.te_ref_bits_smbg.unwrap_or(used.abba.te.te_ref_bits),
             "how": "median over the cohort of ABBA's own first-week TE estimate in each mode (spec §7.3)",

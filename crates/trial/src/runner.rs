@@ -120,7 +120,7 @@ fn prepare_on(
         .map_err(|e| TrialError::Config(format!("cannot start {threads} threads: {e}")))?;
     let mut config = config.clone();
     let mut first_week_te_bits = std::collections::BTreeMap::new();
-    if config.calibrate_te_ref && config.arms.contains(&ArmKind::Abba) {
+    if config.calibrate_te_ref && config.runs_abba() {
         // The TE estimate does not depend on TE_ref, so one pass for both
         // modes.
         let mut raw = config.raw().clone();

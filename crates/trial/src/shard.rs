@@ -19,7 +19,7 @@
 
 use crate::error::TrialError;
 use crate::protocol::TrialConfig;
-use crate::results::{PatientResult, RunFailure, Week, WeekResult};
+use crate::results::{PatientResult, RunFailure, TwinCheckCounts, Week, WeekResult};
 use crate::runner::{self, Progress, TrialOutput};
 use abba_core::metrics::GlucoseMetrics;
 use serde::{Deserialize, Serialize};
@@ -248,6 +248,10 @@ pub struct StoredPatient {
     failure: Option<(u32, u32, f64)>,
     rescue_carbs_g: f64,
     rescue_treatments: u32,
+    /// The abba-twin arm's counts (absent for every other arm, so shards
+    /// of trials without the arm read and write as before).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    twin_check: Option<TwinCheckCounts>,
 }
 
 /// A [`WeekResult`] with every metric field (including the ones the report
@@ -315,6 +319,7 @@ impl From<&PatientResult> for StoredPatient {
             failure: p.failure.map(|f| (f.day, f.minute_of_day, f.glucose_mg_dl)),
             rescue_carbs_g: p.rescue_carbs_g,
             rescue_treatments: p.rescue_treatments,
+            twin_check: p.twin_check,
         }
     }
 }
@@ -371,6 +376,7 @@ impl StoredPatient {
                 }),
             rescue_carbs_g: self.rescue_carbs_g,
             rescue_treatments: self.rescue_treatments,
+            twin_check: self.twin_check,
         }
     }
 }

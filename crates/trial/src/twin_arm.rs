@@ -1,10 +1,10 @@
-//! The ABBA arm with the twin check (issue 27, item 7; opt-in, never in
-//! the default trial): a twin is fitted from the simulated person's device
-//! events, the same events the advisor sees (never the model's state or
-//! parameters), and each suggestion is replayed on it before the person
-//! gets it; one whose predicted time below 70 mg/dL rises by more than the
-//! margin is answered "rejected" for the person, so the value in force
-//! stays, as a person who heeds the check would do.
+//! The ABBA arm with the twin check (`abba-twin`, issue 27, item 7; opt-in,
+//! never in the default trial): a twin is fitted from the simulated
+//! person's device events, the same events the advisor sees (never the
+//! model's state or parameters), and each suggestion is replayed on it
+//! before the person gets it; one whose predicted time below 70 mg/dL rises
+//! by more than the margin is answered "rejected" for the person, so the
+//! value in force stays, as a person who heeds the check would do.
 //!
 //! The twin is fitted at the first closed day with [`TwinArmOptions::
 //! fit_days`] days of data and refitted every [`TwinArmOptions::
@@ -13,6 +13,12 @@
 //! on. Before the first fit, and while the twin's grade is "not usable",
 //! suggestions pass unchecked (as for a person without a usable twin).
 //! Deterministic: fits and replays are.
+//!
+//! In a trial the arm is `--arms ...,abba-twin`: the runner builds ABBA
+//! (the `abba` section's knobs) wrapped in [`TwinChecked`] with the
+//! configuration's `twin_check` section, and each patient's result carries
+//! what the check did ([`TwinArmStats`]: summed per arm in `summary.json`'s
+//! notes).
 
 use crate::closed_loop::{self, Trace};
 use crate::error::TrialError;
@@ -22,17 +28,27 @@ use abba_advisor::{Advisor, AdvisorError, ArmKind, Decision, Mode, Parameter};
 use abba_core::{Event, EventKind, GramsPerUnit, SettingValue, TherapySettings, UnitsPerHour};
 use abba_sim::cohort::{Population, VirtualPatient};
 use abba_twin::{Grade, Twin, TwinOptions, WhatIf};
+use serde::{Deserialize, Serialize};
 
-/// How the twin check runs in the trial.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// What the twin check did in one run (abba-report's type: each patient's
+/// result carries it).
+pub use crate::results::TwinCheckCounts as TwinArmStats;
+
+/// How the twin check runs in the trial (the configuration's `twin_check`
+/// section; filled with these defaults when the arm runs, absent
+/// otherwise).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct TwinArmOptions {
-    /// Days of device data the twin is fitted on (the last ones).
+    /// Days of device data the twin is fitted on (the last ones; 14: the
+    /// window `abba twin fit` uses, 12 fitted and 2 held out).
     pub fit_days: usize,
-    /// Days between refits.
+    /// Days between refits (7: a week of new data).
     pub refit_every_days: usize,
-    /// Days a suggestion is replayed on.
+    /// Days a suggestion is replayed on (7, as beside a person's advice).
     pub replay_days: usize,
-    /// The margin (percentage points of time below 70 mg/dL).
+    /// The margin (percentage points of time below 70 mg/dL; 1, the
+    /// store's `TWIN_CHECK_MARGIN_PP`).
     pub margin_pp: f64,
 }
 
@@ -47,21 +63,34 @@ impl Default for TwinArmOptions {
     }
 }
 
-/// What the twin check did in one run.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct TwinArmStats {
-    /// Twins fitted.
-    pub fits: u32,
-    /// Of them, usable (grade good or fair).
-    pub usable_fits: u32,
-    /// Fits that failed.
-    pub failed_fits: u32,
-    /// Suggestions replayed on a usable twin.
-    pub checked: u32,
-    /// Of them, held back.
-    pub held_back: u32,
-    /// Suggestions that passed unchecked (no usable twin yet).
-    pub unchecked: u32,
+impl TwinArmOptions {
+    /// Checks the knobs (the error names the field).
+    pub fn validate(&self) -> Result<(), String> {
+        let held_out = TwinOptions::default().held_out_days;
+        if self.fit_days <= held_out + 2 {
+            return Err(format!(
+                "fit_days = {}: must be more than {} (the {held_out} held-out days and at least 3 fitted)",
+                self.fit_days,
+                held_out + 2
+            ));
+        }
+        if self.refit_every_days == 0 {
+            return Err("refit_every_days = 0: must be at least 1".into());
+        }
+        if self.replay_days == 0 || self.replay_days > self.fit_days {
+            return Err(format!(
+                "replay_days = {}: must be 1 to fit_days ({})",
+                self.replay_days, self.fit_days
+            ));
+        }
+        if !(self.margin_pp.is_finite() && self.margin_pp >= 0.0) {
+            return Err(format!(
+                "margin_pp = {}: must be a finite number of percentage points, 0 or more",
+                self.margin_pp
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// An advisor whose suggestions pass the twin check.
@@ -236,7 +265,10 @@ impl<A: Advisor> Advisor for TwinChecked<A> {
     }
 
     fn arm(&self) -> ArmKind {
-        self.inner.arm()
+        match self.inner.arm() {
+            ArmKind::Abba => ArmKind::AbbaTwin,
+            other => other,
+        }
     }
 
     fn mode(&self) -> Option<Mode> {
@@ -244,7 +276,8 @@ impl<A: Advisor> Advisor for TwinChecked<A> {
     }
 }
 
-/// Runs `vp` through `scenario` in the ABBA arm with the twin check; the
+/// Runs `vp` through `scenario` in the ABBA arm with the twin check, with
+/// `options` (instead of the configuration's `twin_check` section); the
 /// result is the trial's [`PatientResult`] (comparable with the plain ABBA
 /// arm's, paired: same person, same days) and what the check did.
 pub fn run_patient(
@@ -256,6 +289,11 @@ pub fn run_patient(
 ) -> Result<(PatientResult, TwinArmStats), TrialError> {
     let (mut person, advisor, context) =
         closed_loop::start(config, vp, patient_no, scenario, ArmKind::Abba)?;
+    let closed_loop::ArmAdvisor::Plain(advisor) = advisor else {
+        return Err(TrialError::Config(format!(
+            "{context}: the ABBA arm built a twin-checked advisor"
+        )));
+    };
     let mut checked = TwinChecked::new(
         advisor,
         &vp.params.name,
@@ -271,6 +309,8 @@ pub fn run_patient(
         &mut Trace::default(),
         &context,
     )?;
-    let r = closed_loop::result(vp, &person, checked.inner(), &run, &context)?;
-    Ok((r, checked.stats))
+    let stats = checked.stats;
+    let advisor = closed_loop::ArmAdvisor::TwinChecked(Box::new(checked));
+    let r = closed_loop::result(vp, &person, &advisor, &run, &context)?;
+    Ok((r, stats))
 }

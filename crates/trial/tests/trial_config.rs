@@ -246,3 +246,45 @@ fn the_autotune_arm_is_opt_in_and_its_section_leaves_out_what_the_trial_sets() {
         &["autotune", "autosens_max"],
     );
 }
+
+/// The abba-twin arm is opt-in like autotune: no `twin_check` section in
+/// the default plan, its defaults filled in when the arm runs, and a bad
+/// value refused at the door naming the field.
+#[test]
+fn the_twin_arm_is_opt_in_and_its_section_is_checked() {
+    let v = serde_json::to_value(TrialConfig::paper().unwrap()).unwrap();
+    assert!(v.get("twin_check").is_none(), "{v}");
+    let with = edited(|v| v["arms"] = json!(["abba", "abba-twin"])).unwrap();
+    let v = serde_json::to_value(&with).unwrap();
+    assert_eq!(v["twin_check"]["fit_days"], json!(14), "{v}");
+    assert_eq!(v["twin_check"]["margin_pp"], json!(1.0), "{v}");
+    // It runs ABBA's knobs.
+    assert_eq!(
+        with.advisor_spec(ArmKind::AbbaTwin, Mode::Cgm),
+        with.advisor_spec(ArmKind::Abba, Mode::Cgm)
+    );
+    for (field, value, expect) in [
+        ("replay_days", json!(0), "twin_check.replay_days"),
+        ("fit_days", json!(3), "twin_check.fit_days"),
+        ("margin_pp", json!(-1.0), "twin_check.margin_pp"),
+    ] {
+        refused(
+            |v| {
+                v["arms"] = json!(["abba-twin"]);
+                v["twin_check"] = json!({
+                    "fit_days": 14, "refit_every_days": 7, "replay_days": 7, "margin_pp": 1.0
+                });
+                v["twin_check"][field] = value;
+            },
+            &[expect],
+        );
+    }
+    refused(
+        |v| {
+            v["arms"] = json!(["abba-twin"]);
+            v["twin_check"] = json!({"fit_days": 14, "refit_every_days": 7, "replay_days": 7,
+                                     "margin_pp": 1.0, "margin": 2});
+        },
+        &["unknown field `margin`"],
+    );
+}

@@ -11,6 +11,7 @@ use abba_trial::protocol::{ArmKind, RawTrialConfig};
 use abba_trial::runner::build_cohort;
 use abba_trial::twin_arm::{run_patient, TwinArmOptions};
 use abba_trial::TrialConfig;
+use serde_json::Value;
 
 #[test]
 fn the_twin_checked_arm_fits_from_device_data_and_pairs_with_abba() {
@@ -43,8 +44,12 @@ fn the_twin_checked_arm_fits_from_device_data_and_pairs_with_abba() {
     // (the next refit would be at the 21st).
     assert_eq!(stats.fits, 1, "{stats:?}");
     assert!(stats.checked + stats.unchecked > 0, "{stats:?}");
+    assert_eq!(checked.twin_check, Some(stats));
+    assert_eq!(plain.twin_check, None);
     if stats.held_back == 0 {
-        assert_eq!(checked, plain, "nothing held back: the same run");
+        let mut unchecked = checked.clone();
+        unchecked.twin_check = None;
+        assert_eq!(unchecked, plain, "nothing held back: the same run");
     } else {
         assert_ne!(
             (
@@ -59,4 +64,49 @@ fn the_twin_checked_arm_fits_from_device_data_and_pairs_with_abba() {
         run_patient(&config, vp, no as u64, sc, TwinArmOptions::default()).unwrap();
     assert_eq!(again, checked);
     assert_eq!(stats2, stats);
+}
+
+/// The arm through the runner and the report: `--arms abba,abba-twin` runs
+/// it like any arm (paired with ABBA, same person, same days), its result
+/// equals the library entry's, and the report's notes carry the check's
+/// counts summed over the arm's patients (held back among them); the plain
+/// ABBA arm's notes have none.
+#[test]
+fn the_twin_arm_runs_through_the_runner_and_its_counts_are_reported() {
+    use abba_trial::runner::{run_trial, Silent};
+    let config = TrialConfig::try_from(RawTrialConfig {
+        patients: 2,
+        days: 21,
+        calibrate_te_ref: false,
+        scenarios: vec![ScenarioId::S1],
+        arms: vec![ArmKind::Abba, ArmKind::AbbaTwin],
+        ..RawTrialConfig::default()
+    })
+    .unwrap();
+    let out = run_trial(&config, 1, &Silent).unwrap();
+    let twin = out
+        .arms
+        .iter()
+        .find(|a| a.advisor == ArmKind::AbbaTwin)
+        .unwrap();
+    assert_eq!(twin.key(), "S1/abba-twin");
+    // The runner's run of patient 2 is the library entry's.
+    let sc = config.planned_scenario(ScenarioId::S1).unwrap();
+    let vp = &out.cohort.patients[1];
+    let (alone, stats) = run_patient(&config, vp, 2, sc, TwinArmOptions::default()).unwrap();
+    assert_eq!(twin.patients[1], alone);
+    let total = twin.patients.iter().map(|p| p.twin_check.unwrap()).fold(
+        Default::default(),
+        abba_trial::results::TwinCheckCounts::plus,
+    );
+    assert_eq!(total.fits, 2, "one fit per patient at the 14th closed day");
+    assert!(total.fits >= stats.fits);
+    let summary = abba_report::summary::summary_json(&out.arms, &Value::Null).unwrap();
+    let notes = &summary["notes"]["arms"];
+    let reported = &notes["S1/abba-twin"]["twin_check"];
+    assert_eq!(reported["held_back"], total.held_back, "{reported}");
+    assert_eq!(reported["checked"], total.checked, "{reported}");
+    assert_eq!(reported["fits"], 2, "{reported}");
+    assert!(notes["S1/abba"].get("twin_check").is_none());
+    assert!(summary["arms"]["S1/abba-twin"]["weeks"]["W1"].is_object());
 }

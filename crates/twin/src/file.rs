@@ -3,9 +3,19 @@
 //! byte outside `A-Z a-z 0-9 . _ -` written as `%XX`). Written atomically
 //! (a temporary file renamed over the old one), so a reader never sees half
 //! a twin. The store itself is never touched.
+//!
+//! **The refit rule** ([`refit`]), the same for `abba twin fit` and for the
+//! service's background refit: a stored twin fitted on exactly this log
+//! (same events hash) with the same window, held-out days and population
+//! is kept as it is; otherwise the twin is fitted again and stored as the
+//! next revision (1 for the first), whatever its grade: a "not usable"
+//! twin of the current log says so beside the advice, which is truer than
+//! a usable twin of older data. A fit that fails stores nothing, so the
+//! old file stays.
 
 use crate::error::TwinError;
-use crate::twin::{Twin, FORMAT};
+use crate::twin::{Twin, TwinOptions, FORMAT};
+use abba_core::Event;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -80,6 +90,46 @@ pub fn save(store: &Path, twin: &Twin) -> Result<PathBuf, TwinError> {
     tmp.persist(&p)
         .map_err(|e| err(format!("cannot write: {e}")))?;
     Ok(p)
+}
+
+/// What [`refit`] did.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Refit {
+    /// The stored twin was fitted on this log with these options: kept.
+    Unchanged(Twin),
+    /// A new revision, stored in the file.
+    Stored {
+        /// The twin.
+        twin: Twin,
+        /// Its file.
+        path: PathBuf,
+    },
+}
+
+/// Refits `person`'s twin on `events` (their whole log) by the rule of the
+/// module doc; `force` refits an unchanged log too.
+pub fn refit(
+    store: &Path,
+    person: &str,
+    events: &[Event],
+    options: &TwinOptions,
+    force: bool,
+) -> Result<Refit, TwinError> {
+    let stored = load(store, person)?;
+    let hash = crate::twin::events_hash(events);
+    if let Some(t) = stored.as_ref().filter(|t| {
+        !force
+            && t.data.events_hash == hash
+            && t.data.days == options.days
+            && t.data.held_out_days == options.held_out_days
+            && t.prior.population == options.population
+    }) {
+        return Ok(Refit::Unchanged(t.clone()));
+    }
+    let mut twin = Twin::fit(person, events, options)?;
+    twin.revision = stored.map_or(1, |p| p.revision + 1);
+    let path = save(store, &twin)?;
+    Ok(Refit::Stored { twin, path })
 }
 
 #[cfg(test)]

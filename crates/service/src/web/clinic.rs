@@ -1011,7 +1011,7 @@ pub async fn import(
     let out = s
         .store(move |store| {
             let name = store.person_by_id(id)?.name;
-            Ok(store
+            let out = store
                 .import_contents_with(
                     &name,
                     &contents,
@@ -1021,10 +1021,17 @@ pub async fn import(
                     true,
                     &mut |_| Ok(()),
                 )
-                .map_err(|e| e.to_string()))
+                .map_err(|e| e.to_string());
+            Ok(out.map(|summary| (name, summary)))
         })
         .await?;
     s.forget(id);
+    let out = out.map(|(name, summary)| {
+        if summary.added > 0 || summary.updated > 0 {
+            s.log_changed(&name);
+        }
+        summary
+    });
     match out {
         Ok(summary) => Ok(see_other(&format!(
             "/clinic/persons/{id}?done=import&added={}",

@@ -38,6 +38,16 @@ impl Svc {
     /// A service whose advice has each suggestion's predicted effect from
     /// `effects`.
     pub fn with_effects(effects: Option<abba_service::EffectSource>) -> Self {
+        Self::with_setup(|state| {
+            if let Some(e) = effects {
+                state.set_effects(e).unwrap();
+            }
+        })
+    }
+
+    /// A service whose state `setup` completes before the router is built
+    /// (it gets the store file through [`AppState::db`]).
+    pub fn with_setup(setup: impl FnOnce(&AppState)) -> Self {
         let dir = tempfile::tempdir().unwrap();
         // An SQLite file, or a fresh PostgreSQL schema when the run asks
         // (ABBA_TEST_BACKEND=postgres).
@@ -46,9 +56,7 @@ impl Svc {
         let (_, admin) = auth::issue(&mut store, Role::Admin).unwrap();
         drop(store);
         let state = AppState::open(&db, Default::default()).unwrap();
-        if let Some(e) = effects {
-            state.set_effects(e).unwrap();
-        }
+        setup(&state);
         let router = abba_service::router(state);
         Self {
             dir,

@@ -2,7 +2,7 @@
 
 use super::{advisor_spec, PlannedScenario, RawTrialConfig, TrialConfig};
 use crate::error::TrialError;
-use abba_advisor::Mode;
+use abba_advisor::{ArmKind, Mode};
 use abba_sim::scenario::ScenarioId;
 
 /// Every check of the plan; the scenarios resolved.
@@ -112,9 +112,17 @@ pub(super) fn check(c: &RawTrialConfig) -> Result<Vec<PlannedScenario>, TrialErr
         });
     }
     // Every advisor that will run, checked now rather than inside the jobs.
+    if let Some(t) = &c.twin_check {
+        t.validate()
+            .map_err(|e| TrialError::Config(format!("twin_check.{e}")))?;
+    }
     for p in &planned {
         for arm in &c.arms {
-            let field = arm.config_section();
+            // The abba-twin arm runs ABBA's knobs.
+            let field = match arm {
+                ArmKind::AbbaTwin => ArmKind::Abba.config_section(),
+                a => a.config_section(),
+            };
             advisor_spec(c, *arm, p.mode)
                 .validate()
                 .map_err(|e| TrialError::Config(format!("{field}: {e}")))?;

@@ -16,6 +16,7 @@
 //! gives what actually runs.
 
 use crate::error::TrialError;
+use crate::twin_arm::TwinArmOptions;
 use abba_advisor::any::AdvisorSpec;
 use abba_advisor::baselines::r2r::R2rConfig;
 use abba_advisor::{AbbaConfig, AutotuneConfig, EventLimits, Mode};
@@ -74,6 +75,12 @@ pub struct RawTrialConfig {
         with = "trial_set::autotune"
     )]
     pub autotune: Option<AutotuneConfig>,
+    /// The twin check of the `abba-twin` arm (ABBA with the twin check; it
+    /// runs with the `abba` section's knobs). Optional like `autotune`:
+    /// absent, the defaults; filled in when the arm runs, left out
+    /// otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub twin_check: Option<TwinArmOptions>,
     /// Plausibility limits of the fixed-therapy arm's event checks.
     pub fixed_limits: EventLimits,
     /// Devices, in the simulator's own types.
@@ -122,6 +129,7 @@ impl Default for RawTrialConfig {
             abba: AbbaConfig::new(Mode::Cgm, 0),
             r2r: R2rConfig::new(Mode::Cgm),
             autotune: None,
+            twin_check: None,
             fixed_limits: EventLimits::default(),
             devices: DeviceSet::default(),
             calibrate_te_ref: true,
@@ -172,6 +180,9 @@ impl TryFrom<RawTrialConfig> for TrialConfig {
     fn try_from(mut raw: RawTrialConfig) -> Result<Self, TrialError> {
         if raw.arms.contains(&ArmKind::Autotune) && raw.autotune.is_none() {
             raw.autotune = Some(default_autotune());
+        }
+        if raw.arms.contains(&ArmKind::AbbaTwin) && raw.twin_check.is_none() {
+            raw.twin_check = Some(TwinArmOptions::default());
         }
         let planned = check(&raw)?;
         Ok(Self { raw, planned })
@@ -237,6 +248,14 @@ impl TrialConfig {
 }
 
 impl RawTrialConfig {
+    /// Whether an arm runs ABBA (`abba`, or `abba-twin`: ABBA with the twin
+    /// check), so that its TE reference is calibrated.
+    pub fn runs_abba(&self) -> bool {
+        self.arms
+            .iter()
+            .any(|a| matches!(a, ArmKind::Abba | ArmKind::AbbaTwin))
+    }
+
     /// Parses a JSON configuration without checking its values (a UTF-8
     /// byte-order mark is allowed).
     pub fn from_json(text: &str) -> Result<Self, TrialError> {
@@ -260,7 +279,8 @@ impl RawTrialConfig {
 
 fn advisor_spec(raw: &RawTrialConfig, arm: ArmKind, mode: Mode) -> AdvisorSpec {
     match arm {
-        ArmKind::Abba => {
+        // ABBA with the twin check runs ABBA's knobs (the check wraps it).
+        ArmKind::Abba | ArmKind::AbbaTwin => {
             let mut c = raw.abba.clone();
             c.mode = mode;
             c.init_days = raw.init_days;

@@ -347,9 +347,10 @@ def main():
               f"| {row.get('abba_long_fit_days', '-')}: {f('abba_long_rmse')} / {f('abba_long_mard')} % |", flush=True)
         if "abba_error" in row:
             print(f"  abba twin fit failed: {row['abba_error']}", flush=True)
-    os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
-    with open(args.out, "w") as fo:
-        json.dump(results, fo, indent=1, default=str)
+        # Written after every window: a long run stopped early keeps its rows.
+        os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
+        with open(args.out, "w") as fo:
+            json.dump(results, fo, indent=1, default=str)
     print(f"\nwrote {args.out}")
 
 

@@ -19,7 +19,7 @@ pub struct Args {
     /// List the links: person, site, credential kind, last sync and error.
     #[arg(long)]
     pub list: bool,
-    /// The store file (with --list).
+    /// The store: a file, or a postgres:// URL (with --list).
     #[arg(long, value_name = "FILE")]
     pub db: Option<PathBuf>,
     /// Print the list as JSON.
@@ -73,7 +73,7 @@ pub struct RemoveArgs {
 /// Arguments of `abba sync`.
 #[derive(clap::Args, Debug)]
 pub struct SyncArgs {
-    /// The store file.
+    /// The store: a file, or a postgres:// URL.
     #[arg(long, value_name = "FILE")]
     pub db: PathBuf,
     /// The person [default: every linked person].

@@ -25,7 +25,7 @@ enum Command {
     New(Box<NewArgs>),
     /// List the persons of a store file.
     List {
-        /// The store file.
+        /// The store: a file, or a postgres:// URL.
         #[arg(long, value_name = "FILE")]
         db: PathBuf,
     },
@@ -40,7 +40,7 @@ enum ModeArg {
 
 #[derive(clap::Args, Debug)]
 struct NewArgs {
-    /// The store file.
+    /// The store: a file, or a postgres:// URL.
     #[arg(long, value_name = "FILE")]
     db: PathBuf,
     /// Unique name in the file.

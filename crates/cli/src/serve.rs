@@ -11,7 +11,7 @@ use anyhow::{bail, Context, Result};
 /// Arguments of `abba serve`.
 #[derive(clap::Args, Debug)]
 pub struct ServeArgs {
-    /// The store file (created if missing; a read-only one is refused).
+    /// The store: a file (created if missing; a read-only one is refused), or a postgres:// URL.
     #[arg(long, value_name = "FILE")]
     pub db: PathBuf,
     /// Address to listen on (port 0: any free port, printed).
@@ -223,7 +223,7 @@ pub fn serve(a: ServeArgs) -> Result<()> {
 /// Arguments of `abba token`.
 #[derive(clap::Args, Debug)]
 pub struct TokenArgs {
-    /// The store file (created if missing).
+    /// The store: a file (created if missing), or a postgres:// URL.
     #[arg(long, value_name = "FILE")]
     pub db: PathBuf,
     /// A clinic (admin) token: creates persons, sets bounds, issues tokens.

@@ -5,10 +5,10 @@ use std::path::{Path, PathBuf};
 use abba_store::Store;
 use anyhow::{Context, Result};
 
-/// The store file and the person in it.
+/// The store (a file or a PostgreSQL URL) and the person in it.
 #[derive(clap::Args, Debug)]
 pub struct PersonArgs {
-    /// The store file.
+    /// The store: a file, or a postgres:// URL.
     #[arg(long, value_name = "FILE")]
     pub db: PathBuf,
     /// The person.
@@ -71,7 +71,7 @@ mod tests {
                 (
                     Some("db"),
                     Some("FILE".to_string()),
-                    Some("The store file".to_string()),
+                    Some("The store: a file, or a postgres:// URL".to_string()),
                     true,
                 ),
                 (

@@ -20,7 +20,7 @@ pub enum What {
     /// than 10 minutes after this computer's clock; exit 1 when anything is
     /// wrong.
     Check {
-        /// The store file.
+        /// The store: a file, or a postgres:// URL.
         #[arg(long, value_name = "FILE")]
         db: PathBuf,
     },
@@ -29,7 +29,7 @@ pub enum What {
     /// are rebuilt). Prints what it deleted. Stop `abba serve` first or not:
     /// it notices the change.
     RemoveFuture {
-        /// The store file.
+        /// The store: a file, or a postgres:// URL.
         #[arg(long, value_name = "FILE")]
         db: PathBuf,
         /// Really delete (without it: only list what would go).

@@ -28,7 +28,7 @@ enum Command {
 /// Where and whose.
 #[derive(clap::Args, Debug)]
 struct Who {
-    /// The store file (the twin is kept in FILE.twins/).
+    /// The store file (the twin is kept in FILE.twins/; not yet for a postgres:// store).
     #[arg(long, value_name = "FILE")]
     db: PathBuf,
     /// The person.
@@ -97,6 +97,7 @@ fn fit(a: FitArgs) -> Result<()> {
         .population
         .parse()
         .map_err(|e| anyhow!("--population: {e}"))?;
+    let db = crate::twin_effect::twins_beside(&a.who.db).map_err(|e| anyhow!(e))?;
     let (events, basal) = events(&a.who)?;
     let options = TwinOptions {
         days: a.days,
@@ -105,7 +106,7 @@ fn fit(a: FitArgs) -> Result<()> {
         basal_in_force_u_per_h: basal,
         ..TwinOptions::default()
     };
-    let twin = match abba_twin::file::refit(&a.who.db, &a.who.person, &events, &options, a.force)? {
+    let twin = match abba_twin::file::refit(db, &a.who.person, &events, &options, a.force)? {
         Refit::Unchanged(t) => {
             eprintln!(
                 "the log has not changed since twin revision {}: shown as stored (--force refits)",
@@ -242,8 +243,9 @@ fn replay(a: ReplayArgs) -> Result<()> {
         carb_ratio_factors: None,
     };
     what_if.check()?;
+    let db = crate::twin_effect::twins_beside(&a.who.db).map_err(|e| anyhow!(e))?;
     let (events, _) = events(&a.who)?;
-    let twin = abba_twin::file::load(&a.who.db, &a.who.person)?.ok_or_else(|| {
+    let twin = abba_twin::file::load(db, &a.who.person)?.ok_or_else(|| {
         anyhow!(
             "{} has no twin yet: run `abba twin fit --db {} --person {}` first",
             a.who.person,

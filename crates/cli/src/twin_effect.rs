@@ -31,18 +31,34 @@ const CACHE_MAX: usize = 4096;
 
 type Key = (String, String, u32, &'static str, u64, u64);
 
+/// The store file twins are kept beside, or why there is none: twins live
+/// in a folder beside a store *file* (`abba_twin::file`), so a PostgreSQL
+/// store (a URL) has none yet, and a folder named after a URL would hold
+/// its password in a path.
+pub fn twins_beside(db: &Path) -> Result<&Path, String> {
+    if abba_store::backend::postgres::is_url(&db.to_string_lossy()) {
+        return Err(format!(
+            "twins are kept in a folder beside a store file, and {} is a PostgreSQL store: \
+             not yet supported there (copy the store into a file with `abba store copy` to fit and replay twins)",
+            abba_store::backend::shown(db)
+        ));
+    }
+    Ok(db)
+}
+
 /// Twins beside a store file.
 #[derive(Debug)]
 pub struct TwinPredictor {
-    db: PathBuf,
+    /// The store file, or why twins are not kept for this store.
+    db: Result<PathBuf, String>,
     cache: Mutex<HashMap<Key, Effect>>,
 }
 
 impl TwinPredictor {
-    /// The twins beside `db`.
+    /// The twins beside `db` (none for a PostgreSQL store: [`twins_beside`]).
     pub fn new(db: &Path) -> Self {
         Self {
-            db: db.to_path_buf(),
+            db: twins_beside(db).map(Path::to_path_buf),
             cache: Mutex::new(HashMap::new()),
         }
     }
@@ -86,7 +102,11 @@ fn what_if(q: &EffectQuery<'_>) -> WhatIf {
 
 impl EffectPredictor for TwinPredictor {
     fn predict(&self, q: &EffectQuery<'_>) -> Effect {
-        let twin = match abba_twin::file::load(&self.db, q.person) {
+        let db = match &self.db {
+            Ok(db) => db,
+            Err(_) => return Effect::None(NoPrediction::NotAvailable),
+        };
+        let twin = match abba_twin::file::load(db, q.person) {
             Ok(Some(t)) => t,
             Ok(None) => return Effect::None(NoPrediction::NoTwin),
             Err(e) => {
@@ -151,25 +171,31 @@ impl EffectPredictor for TwinPredictor {
 /// Refits the twins beside a store file (`abba serve`'s refit worker).
 #[derive(Debug)]
 pub struct TwinRefits {
-    db: PathBuf,
+    /// The store file; `None` for a PostgreSQL store, which has no twins.
+    db: Option<PathBuf>,
 }
 
 impl TwinRefits {
-    /// The twins beside `db`.
+    /// The twins beside `db` (none for a PostgreSQL store: [`twins_beside`]).
     pub fn new(db: &Path) -> Self {
         Self {
-            db: db.to_path_buf(),
+            db: twins_beside(db).ok().map(Path::to_path_buf),
         }
     }
 }
 
 impl TwinRefitter for TwinRefits {
     fn has_twin(&self, person: &str) -> bool {
-        abba_twin::file::path(&self.db, person).is_file()
+        self.db
+            .as_ref()
+            .is_some_and(|db| abba_twin::file::path(db, person).is_file())
     }
 
     fn refit(&self, store: &abba_store::Store, person: &str) -> Result<RefitOutcome, String> {
-        let Some(old) = abba_twin::file::load(&self.db, person).map_err(|e| e.to_string())? else {
+        let Some(db) = &self.db else {
+            return Ok(RefitOutcome::NoTwin);
+        };
+        let Some(old) = abba_twin::file::load(db, person).map_err(|e| e.to_string())? else {
             return Ok(RefitOutcome::NoTwin);
         };
         let p = store.person(person).map_err(|e| e.to_string())?;
@@ -181,7 +207,7 @@ impl TwinRefitter for TwinRefits {
             basal_in_force_u_per_h: p.settings.start.basal.0,
             ..abba_twin::TwinOptions::default()
         };
-        match abba_twin::file::refit(&self.db, person, &events, &options, false)
+        match abba_twin::file::refit(db, person, &events, &options, false)
             .map_err(|e| e.to_string())?
         {
             abba_twin::file::Refit::Unchanged(t) => Ok(RefitOutcome::Unchanged {

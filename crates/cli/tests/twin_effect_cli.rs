@@ -405,3 +405,25 @@ fn a_cgm_only_export_in_libreviews_layout_gives_a_twin_that_is_not_usable() {
         assert!(line.contains("your twin is not usable ("), "{line}");
     }
 }
+
+/// Twins are kept beside a store file: for a PostgreSQL store, `abba twin
+/// fit` and `abba twin replay` refuse before any work, saying why, without
+/// the URL's password (and make no folder named after the URL).
+#[test]
+fn twins_of_a_postgresql_store_are_refused_plainly_before_any_work() {
+    let url = "postgres://abba:s3cret@127.0.0.1:1/nowhere";
+    for cmd in [
+        vec!["twin", "fit", "--db", url, "--person", "ana"],
+        vec!["twin", "replay", "--db", url, "--person", "ana", "--basal-factor", "1.1"],
+    ] {
+        let out = abba(&cmd);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{cmd:?}: {err}");
+        assert!(
+            err.contains("PostgreSQL store") && err.contains("abba store copy"),
+            "{cmd:?}: {err}"
+        );
+        assert!(!err.contains("s3cret"), "{cmd:?}: the password is shown: {err}");
+    }
+    assert!(!Path::new("postgres:").exists());
+}

@@ -11,7 +11,9 @@
 //! - *not usable* when the window has no delivered insulin or no logged
 //!   carbohydrate (nothing to identify sensitivity or meals from), when the
 //!   held-out days hold fewer than half of their expected readings (CGM:
-//!   144 a day; meter: 2 a day), or when the held-out RMSE is not below the
+//!   half of a day at the sensor's own interval, [`Tape::cgm_interval_min`]:
+//!   144 a day for a 5-minute sensor, 48 for a Libre's 15-minute historic
+//!   record; meter: 2 a day), or when the held-out RMSE is not below the
 //!   mean-glucose RMSE;
 //! - *good* when the held-out RMSE is at most 0.8 × the mean-glucose RMSE,
 //!   the MARD at most 20 %, and the predicted time below 70 and time in
@@ -236,7 +238,7 @@ pub fn grade(tape: &Tape, check: Option<&HeldOut>) -> (Grade, String) {
         );
     };
     let per_day = match tape.reading_kind {
-        ReadingKind::Cgm => 144.0,
+        ReadingKind::Cgm => 0.5 * MINUTES_PER_DAY as f64 / tape.cgm_interval_min(),
         ReadingKind::Smbg => 2.0,
     };
     if (h.readings as f64) < per_day * h.days as f64 {

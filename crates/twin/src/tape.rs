@@ -107,6 +107,26 @@ pub struct Tape {
 }
 
 impl Tape {
+    /// The sensor's reading interval in minutes: the median gap between
+    /// consecutive readings, taken between 5 (today's CGMs) and 15 (a
+    /// Libre's historic record), so that a gap-ridden record is not
+    /// mistaken for a slower sensor; 5 when there are fewer than two
+    /// readings.
+    pub fn cgm_interval_min(&self) -> f64 {
+        let mut gaps: Vec<i64> = self
+            .readings
+            .windows(2)
+            .map(|w| w[1].0 - w[0].0)
+            .filter(|g| *g > 0)
+            .collect();
+        if gaps.is_empty() {
+            return 5.0;
+        }
+        let mid = gaps.len() / 2;
+        let (_, median, _) = gaps.select_nth_unstable(mid);
+        (*median as f64).clamp(5.0, 15.0)
+    }
+
     /// The last `days` local days of `events` that hold readings (the last
     /// day is the day of the last reading). `basal_u_per_h` is the
     /// scheduled basal in force before the log's first `BasalRate` (the
@@ -450,5 +470,22 @@ mod tests {
             none.to_string().contains("no CGM or meter readings"),
             "{none}"
         );
+    }
+
+    #[test]
+    fn the_sensor_interval_is_the_median_gap_so_a_libre_is_not_taken_for_a_gappy_cgm() {
+        let libre: Vec<Event> = (0..96).map(|k| ev(k * 15, EventKind::Cgm(MgDl(100.0)))).collect();
+        let t = Tape::from_events(&libre, 1, 0.0).unwrap();
+        assert_eq!(t.cgm_interval_min(), 15.0);
+        // A 5-minute sensor with a 3-hour gap stays a 5-minute sensor.
+        let gappy: Vec<Event> = (0..288)
+            .filter(|k| !(100..136).contains(k))
+            .map(|k| ev(k * 5, EventKind::Cgm(MgDl(100.0))))
+            .collect();
+        let t = Tape::from_events(&gappy, 1, 0.0).unwrap();
+        assert_eq!(t.cgm_interval_min(), 5.0);
+        // A 1-minute record expects no more than a 5-minute one.
+        let fast: Vec<Event> = (0..1440).map(|k| ev(k, EventKind::Cgm(MgDl(100.0)))).collect();
+        assert_eq!(Tape::from_events(&fast, 1, 0.0).unwrap().cgm_interval_min(), 5.0);
     }
 }

@@ -33,15 +33,17 @@ import re, sys
 print(re.sub(r"^([a-z]+://[^/?]*)(/[^?]*)?", lambda m: m.group(1) + "/" + sys.argv[2], sys.argv[1], count=1))
 PY
 }
-# Starts a replica on $1 and prints its URL (the port it chose).
+# Starts a replica on $1; its URL (the port it chose) in $served. (Not
+# a $(...) subshell, so that its pid is kept and the replica stopped after
+# its line: a replica left running would compete with the next lines.)
 serve() {
   local log="$work/serve-$RANDOM.log"
   "$bin" serve --db "$1" --listen 127.0.0.1:0 >"$log" 2>&1 &
   pids+=($!)
+  served=""
   for _ in $(seq 100); do
-    local addr
-    addr=$(grep -o 'http://127\.0\.0\.1:[0-9]*' "$log" | head -1 || true)
-    if [ -n "$addr" ]; then echo "$addr"; return; fi
+    served=$(grep -o 'http://127\.0\.0\.1:[0-9]*' "$log" | head -1 || true)
+    if [ -n "$served" ]; then return; fi
     sleep 0.1
   done
   echo "abba serve did not start: $(cat "$log")" >&2; exit 1
@@ -49,7 +51,7 @@ serve() {
 
 line() { # backend replicas clients batch db
   local urls=() args=()
-  for _ in $(seq "$2"); do urls+=("$(serve "$5")"); done
+  for _ in $(seq "$2"); do serve "$5"; urls+=("$served"); done
   for u in "${urls[@]}"; do args+=(--url "$u"); done
   local token
   token=$("$bin" token --db "$5" --admin 2>/dev/null)
@@ -57,6 +59,7 @@ line() { # backend replicas clients batch db
   out=$("$load" "${args[@]}" --token "$token" --clients "$3" --batch "$4" --seconds "$secs" | tail -2 | tr '\n' ' ')
   echo "| $1 | $2 | $3 | $4 | $out|"
   for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done
+  for p in "${pids[@]}"; do wait "$p" 2>/dev/null || true; done
   pids=()
   sleep 1
 }

@@ -414,7 +414,16 @@ fn twins_of_a_postgresql_store_are_refused_plainly_before_any_work() {
     let url = "postgres://abba:s3cret@127.0.0.1:1/nowhere";
     for cmd in [
         vec!["twin", "fit", "--db", url, "--person", "ana"],
-        vec!["twin", "replay", "--db", url, "--person", "ana", "--basal-factor", "1.1"],
+        vec![
+            "twin",
+            "replay",
+            "--db",
+            url,
+            "--person",
+            "ana",
+            "--basal-factor",
+            "1.1",
+        ],
     ] {
         let out = abba(&cmd);
         let err = String::from_utf8_lossy(&out.stderr);
@@ -423,7 +432,10 @@ fn twins_of_a_postgresql_store_are_refused_plainly_before_any_work() {
             err.contains("PostgreSQL store") && err.contains("abba store copy"),
             "{cmd:?}: {err}"
         );
-        assert!(!err.contains("s3cret"), "{cmd:?}: the password is shown: {err}");
+        assert!(
+            !err.contains("s3cret"),
+            "{cmd:?}: the password is shown: {err}"
+        );
     }
     assert!(!Path::new("postgres:").exists());
 }

@@ -474,7 +474,9 @@ mod tests {
 
     #[test]
     fn the_sensor_interval_is_the_median_gap_so_a_libre_is_not_taken_for_a_gappy_cgm() {
-        let libre: Vec<Event> = (0..96).map(|k| ev(k * 15, EventKind::Cgm(MgDl(100.0)))).collect();
+        let libre: Vec<Event> = (0..96)
+            .map(|k| ev(k * 15, EventKind::Cgm(MgDl(100.0))))
+            .collect();
         let t = Tape::from_events(&libre, 1, 0.0).unwrap();
         assert_eq!(t.cgm_interval_min(), 15.0);
         // A 5-minute sensor with a 3-hour gap stays a 5-minute sensor.
@@ -485,7 +487,12 @@ mod tests {
         let t = Tape::from_events(&gappy, 1, 0.0).unwrap();
         assert_eq!(t.cgm_interval_min(), 5.0);
         // A 1-minute record expects no more than a 5-minute one.
-        let fast: Vec<Event> = (0..1440).map(|k| ev(k, EventKind::Cgm(MgDl(100.0)))).collect();
-        assert_eq!(Tape::from_events(&fast, 1, 0.0).unwrap().cgm_interval_min(), 5.0);
+        let fast: Vec<Event> = (0..1440)
+            .map(|k| ev(k, EventKind::Cgm(MgDl(100.0))))
+            .collect();
+        assert_eq!(
+            Tape::from_events(&fast, 1, 0.0).unwrap().cgm_interval_min(),
+            5.0
+        );
     }
 }

@@ -210,11 +210,24 @@ pub fn read_with_settings(
     }
     let tz = ctx.require_tz("CareLink writes pump times without an offset")?;
     let mut out = Vec::new();
+    let mut unread_exchanges = 0usize;
+    let mut unread_exchanges_column: Option<String> = None;
     for span in &spans {
         let mut t = Table::open(file, &bytes[..span.end], span.header_at)?;
         let cols = Cols::of(&t)?;
-        if let Some(i) = cols.carb_ratio.filter(|&i| !grams_per_unit(&t.header[i])) {
-            settings.ratio_not_grams = Some(t.header[i].clone());
+        if let Some(i) = cols.carb_ratio {
+            let unit = ratio_unit(&t.header[i]);
+            let read = unit == Some(RatioUnit::GramsPerUnit)
+                || (unit.is_some() && ctx.opts.grams_per_exchange.is_some());
+            if !read {
+                settings.ratio_not_grams = Some(t.header[i].clone());
+            }
+        }
+        let exchanges_unread = cols
+            .carbs
+            .filter(|&i| in_exchanges(&t.header[i]) && ctx.opts.grams_per_exchange.is_none());
+        if let Some(i) = exchanges_unread {
+            unread_exchanges_column = Some(t.header[i].clone());
         }
         let order = date_order(
             file,
@@ -246,10 +259,12 @@ pub fn read_with_settings(
                 Section::Other => vec![RecordKind::Ignored {
                     kind: "row of an unknown CareLink section".into(),
                 }],
-                Section::Pump | Section::Sensor => row_kinds(&t, &cols, &at)?,
+                Section::Pump | Section::Sensor => {
+                    row_kinds(&t, &cols, &at, ctx.opts.grams_per_exchange)?
+                }
             };
             let carb_ratio = match span.section {
-                Section::Pump => wizard_carb_ratio(&t, &cols, &at)?,
+                Section::Pump => wizard_carb_ratio(&t, &cols, &at, ctx.opts.grams_per_exchange)?,
                 _ => None,
             };
             let cells = content_hash(t.raw().skip(1));
@@ -264,6 +279,8 @@ pub fn read_with_settings(
         // Oldest first, so that a wall time in the autumn fold is placed
         // by the device's order.
         let mut clock = WallClock::new(tz.clone());
+        let mut suspended = false;
+        let mut temp_until: Option<jiff::Timestamp> = None;
         let time_name = t.header[cols.time].clone();
         for row in rows.into_iter().rev() {
             at.place = Place::Line(row.line);
@@ -274,9 +291,40 @@ pub fn read_with_settings(
             if let Some(r) = row.carb_ratio {
                 settings.carb_ratio.push((instant, r, row.line));
             }
-            for kind in row.kinds {
+            for mut kind in row.kinds {
+                match &kind {
+                    RecordKind::Suspend { .. } => suspended = true,
+                    RecordKind::TempBasal { duration_min, .. } => {
+                        temp_until = (*duration_min > 0).then(|| {
+                            instant
+                                .checked_add(jiff::SignedDuration::from_mins(i64::from(
+                                    *duration_min,
+                                )))
+                                .unwrap_or(instant)
+                        })
+                    }
+                    RecordKind::Resume if !suspended => {
+                        kind = RecordKind::Ignored {
+                            kind: "resume row while pumping (a second resume row)".into(),
+                        }
+                    }
+                    RecordKind::Resume => suspended = false,
+                    RecordKind::Ignored { kind: k } if k.starts_with("BWZ carb input in exch") => {
+                        unread_exchanges += 1
+                    }
+                    _ => {}
+                }
+                // The Veo writes a `Basal Rate` row for the rate in effect:
+                // 0 at a suspension, the adjusted rate at a temporary basal;
+                // only the rows outside both say the scheduled rate.
+                let in_temp = temp_until.is_some_and(|end| instant < end);
                 if let RecordKind::Schedule { profile } = &kind {
-                    if let Some(s) = profile.basal.segments.first() {
+                    if let Some(s) = profile
+                        .basal
+                        .segments
+                        .first()
+                        .filter(|_| !suspended && !in_temp)
+                    {
                         settings.basal.push((instant, s.1 .0, row.line));
                     }
                 }
@@ -298,43 +346,122 @@ pub fn read_with_settings(
             }
         }
     }
+    if let Some(column) = unread_exchanges_column.filter(|_| unread_exchanges > 0) {
+        ctx.note(format!(
+            "carbohydrate not read: \"{column}\" counts in exchanges and an exchange is not one fixed mass ({unread_exchanges} wizard rows); give --grams-per-exchange G (10 for the Spanish raci\u{f3}n) to read it as grams"
+        ));
+    }
     settings.basal.sort_by_key(|b| b.0);
     settings.carb_ratio.sort_by_key(|c| c.0);
     Ok((out, settings))
 }
 
-/// True when a wizard carb-ratio column is in g/U (older pumps can count
-/// in exchanges: their ratios are not read).
-fn grams_per_unit(name: &str) -> bool {
-    name.replace(' ', "").to_ascii_lowercase().contains("(g/u)")
+/// What a wizard carb-ratio column counts in, from its name: grams per
+/// unit, units per exchange (`(U/Ex)`, the Paradigm set to exchanges) or
+/// exchanges per unit; `None` for a name that does not say.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum RatioUnit {
+    GramsPerUnit,
+    UnitsPerExchange,
+    ExchangesPerUnit,
 }
 
-/// The bolus wizard's carb ratio of a pump row: `BWZ Carb Ratio (g/U)`
-/// (0 on a correction without carbohydrate: none), checked against the
-/// plausibility limits.
-fn wizard_carb_ratio(t: &Table<'_>, c: &Cols, at: &Location) -> Result<Option<f64>, IoError> {
-    let Some(i) = c.carb_ratio.filter(|&i| grams_per_unit(&t.header[i])) else {
+fn ratio_unit(name: &str) -> Option<RatioUnit> {
+    let n = name.replace(' ', "").to_ascii_lowercase();
+    if n.contains("(g/u)") {
+        Some(RatioUnit::GramsPerUnit)
+    } else if n.contains("(u/ex)") || n.contains("(u/exch)") || n.contains("(u/exchange)") {
+        Some(RatioUnit::UnitsPerExchange)
+    } else if n.contains("(ex/u)") || n.contains("(exch/u)") || n.contains("(exchanges/u)") {
+        Some(RatioUnit::ExchangesPerUnit)
+    } else {
+        None
+    }
+}
+
+/// True for a carbohydrate column in exchanges (`BWZ Carb Input
+/// (exchanges)`).
+fn in_exchanges(name: &str) -> bool {
+    name.to_ascii_lowercase().contains("exch")
+}
+
+/// The bolus wizard's carb ratio of a pump row in g/U: `BWZ Carb Ratio
+/// (g/U)`, or `(U/Ex)` / `(Ex/U)` converted with `grams_per_exchange` (0,
+/// a correction without carbohydrate: none), checked against the
+/// plausibility limits. A column in exchanges without
+/// `grams_per_exchange`, or whose unit the name does not say: not read.
+fn wizard_carb_ratio(
+    t: &Table<'_>,
+    c: &Cols,
+    at: &Location,
+    grams_per_exchange: Option<f64>,
+) -> Result<Option<f64>, IoError> {
+    let Some(i) = c.carb_ratio else {
         return Ok(None);
+    };
+    let name = &t.header[i];
+    let (unit, g) = match (ratio_unit(name), grams_per_exchange) {
+        (Some(RatioUnit::GramsPerUnit), _) => (RatioUnit::GramsPerUnit, 1.0),
+        (Some(u), Some(g)) => (u, g),
+        _ => return Ok(None),
     };
     let text = t.cell(i);
     if text.is_empty() {
         return Ok(None);
     }
-    let name = &t.header[i];
     let v = number(text, t.delimiter).ok_or_else(|| {
         IoError::invalid(
             at.clone(),
             name,
-            format!("expected a carb ratio (g/U), got \"{text}\""),
+            format!("expected a carb ratio (a number), got \"{text}\""),
         )
     })?;
     if v == 0.0 {
         return Ok(None);
     }
+    let grams_per_unit = match unit {
+        RatioUnit::GramsPerUnit => v,
+        RatioUnit::UnitsPerExchange => g / v,
+        RatioUnit::ExchangesPerUnit => v * g,
+    };
     abba_core::limits::CARB_RATIO_G_PER_U
-        .check(v)
-        .map_err(|e| IoError::invalid(at.clone(), name, e.to_string()))?;
-    Ok(Some(v))
+        .check(grams_per_unit)
+        .map_err(|e| {
+            IoError::invalid(
+                at.clone(),
+                name,
+                format!("{v} is {grams_per_unit:.1} g/U: {e}"),
+            )
+        })?;
+    Ok(Some(grams_per_unit))
+}
+
+/// How a pump reports its state in the `Suspend` column. Suspensions and
+/// resumptions as the Paradigm and MiniMed pumps write them (the states
+/// Tidepool's uploader maps, tidepool-org/uploader, BSD-2; `LOWSG_SUSPEND`
+/// and `NOTSEATED_SUSPEND` also seen in the HUPA-UCM Paradigm Veo 754
+/// exports). Any other state is `None`: counted by name, not guessed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum PumpState {
+    Suspended,
+    Resumed,
+}
+
+fn pump_state(state: &str) -> Option<PumpState> {
+    match state.trim() {
+        "USER_SUSPEND"
+        | "ALARM_SUSPEND"
+        | "NOTSEATED_SUSPEND"
+        | "LOWSG_SUSPEND"
+        | "LOW_SUSPEND_MODE_1"
+        | "LOW_SUSPEND_NO_RESPONSE"
+        | "LOW_SUSPEND_USER_SELECTED" => Some(PumpState::Suspended),
+        "NORMAL_PUMPING"
+        | "USER_RESTART_BASAL"
+        | "AUTO_RESUME_COMPLETE"
+        | "AUTO_RESUME_REDUCED" => Some(PumpState::Resumed),
+        _ => None,
+    }
 }
 
 /// The date order of a section: year first (`2025/10/30`, CareLink's
@@ -390,7 +517,12 @@ fn hms_minutes(text: &str) -> Option<f64> {
 
 /// What one pump or sensor row says (at least one record: a row abba does
 /// not read is counted).
-fn row_kinds(t: &Table<'_>, c: &Cols, at: &Location) -> Result<Vec<RecordKind>, IoError> {
+fn row_kinds(
+    t: &Table<'_>,
+    c: &Cols,
+    at: &Location,
+    grams_per_exchange: Option<f64>,
+) -> Result<Vec<RecordKind>, IoError> {
     let delim = t.delimiter;
     let cell = |i: Option<usize>| i.map_or("", |i| t.cell(i));
     let name = |i: Option<usize>| i.map_or(String::new(), |i| t.header[i].clone());
@@ -544,14 +676,18 @@ fn row_kinds(t: &Table<'_>, c: &Cols, at: &Location) -> Result<Vec<RecordKind>, 
             }
         }
     }
-    if let Some(g) = num(c.carbs, "carbohydrate")? {
+    if let Some(v) = num(c.carbs, "carbohydrate")? {
         let n = name(c.carbs);
-        if n.to_ascii_lowercase().contains("exchange") {
-            kinds.push(RecordKind::Ignored {
-                kind: "BWZ carb input in exchanges (grams per exchange unknown)".into(),
-            });
-        } else if g > 0.0 {
-            kinds.push(RecordKind::Carbs {
+        let grams = match (in_exchanges(&n), grams_per_exchange) {
+            (false, _) => Some(v),
+            (true, Some(g)) => Some(v * g),
+            (true, None) => None,
+        };
+        match grams {
+            None => kinds.push(RecordKind::Ignored {
+                kind: "BWZ carb input in exchanges (no --grams-per-exchange)".into(),
+            }),
+            Some(g) if g > 0.0 => kinds.push(RecordKind::Carbs {
                 grams: Grams(check_range(
                     at,
                     &n,
@@ -560,22 +696,23 @@ fn row_kinds(t: &Table<'_>, c: &Cols, at: &Location) -> Result<Vec<RecordKind>, 
                     units::CARBS_MAX_G,
                     "carbohydrate (g)",
                 )?),
-            });
+            }),
+            Some(_) => {}
         }
     }
     let marker = cell(c.marker);
     if !marker.is_empty() {
         kinds.push(event_marker(marker, delim, at, &name(c.marker))?);
     }
-    match cell(c.suspend) {
-        "" => {}
-        "NORMAL_PUMPING" => kinds.push(RecordKind::Resume),
-        s if s.contains("SUSPEND") || s.contains("LOW") => {
-            kinds.push(RecordKind::Suspend { duration_min: None })
-        }
-        other => kinds.push(RecordKind::Ignored {
-            kind: format!("suspend state {other}"),
-        }),
+    let state = cell(c.suspend);
+    if !state.is_empty() {
+        kinds.push(match pump_state(state) {
+            Some(PumpState::Suspended) => RecordKind::Suspend { duration_min: None },
+            Some(PumpState::Resumed) => RecordKind::Resume,
+            None => RecordKind::Ignored {
+                kind: format!("unknown suspend state {state}"),
+            },
+        });
     }
     for (col, what) in [
         (c.alarm, "alarm"),

@@ -116,7 +116,11 @@ fn stores_made_by_earlier_releases_open_with_nothing_lost() {
                 let now = ok(&abba(&[what, "--db", d, "--person", p, "--json"]));
                 let then =
                     std::fs::read_to_string(fixture.join(format!("{p}.{what}.json"))).unwrap();
-                says_all_of(&json(&now), &json(&then), &format!("{name}: {what} of {p}: $"));
+                says_all_of(
+                    &json(&now),
+                    &json(&then),
+                    &format!("{name}: {what} of {p}: $"),
+                );
             }
         }
 

@@ -209,6 +209,15 @@ pub fn read_with_settings(
         ));
     }
     let tz = ctx.require_tz("CareLink writes pump times without an offset")?;
+    if let Some(g) = ctx
+        .opts
+        .grams_per_exchange
+        .filter(|g| !(g.is_finite() && *g > 0.0))
+    {
+        return Err(IoError::Settings(format!(
+            "grams per exchange {g}: expected a positive number of grams (10 for the Spanish raci\u{f3}n)"
+        )));
+    }
     let mut out = Vec::new();
     let mut unread_exchanges = 0usize;
     let mut unread_exchanges_column: Option<String> = None;

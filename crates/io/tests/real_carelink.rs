@@ -275,3 +275,70 @@ fn the_wizard_ratio_in_units_per_exchange_becomes_grams_per_unit() {
     assert_eq!(t.carb_ratio, [None; 3]);
     assert!(t.origin.contains("BWZ Carb Ratio (U/Ex)"), "{}", t.origin);
 }
+
+/// Carbohydrate at an instant (local Madrid time), if any.
+fn carbs_at(b: &abba_io::Batch, t: jiff::Timestamp) -> Vec<f64> {
+    b.records
+        .iter()
+        .filter(|r| r.at == t)
+        .filter_map(|r| match &r.kind {
+            RecordKind::Carbs { grams } => Some(grams.0),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn meal_markers_in_exchanges_are_carbohydrate_only_with_grams_per_exchange() {
+    // HUPA0006P's export: `Meal: 2.00exchanges` markers (a hard error for
+    // the whole file before).
+    const F: &str = "carelink_veo754_hupa0006p_markers.csv";
+    let without = read(&[(F, fixture(F))], &opts(TZ)).unwrap();
+    let counted = without
+        .records
+        .iter()
+        .filter(|r| matches!(&r.kind, RecordKind::Ignored { kind } if kind.starts_with("event marker meal in exchanges")))
+        .count();
+    assert_eq!(counted, 2);
+    assert_eq!(without.count("carbs"), 0);
+    assert_eq!(without.notes.len(), 1, "{:?}", without.notes);
+    assert!(
+        without.notes[0].contains("(3 rows)"),
+        "{}",
+        without.notes[0]
+    );
+    let b = read(&[(F, fixture(F))], &with_exchanges(10.0)).unwrap();
+    assert_eq!(carbs_at(&b, at(2018, 7, 14, 4, 30, 53)), vec![20.0]);
+    assert_eq!(carbs_at(&b, at(2018, 7, 14, 3, 17, 56)), vec![10.0]);
+    assert_eq!(carbs_at(&b, at(2018, 7, 14, 0, 16, 32)), vec![30.0]);
+    assert_eq!(b.count("carbs"), 3);
+}
+
+#[test]
+fn the_older_freestyle_libre_software_spanish_export_reads() {
+    // HUPA0003P's sensor export: `ID`, `Hora`, `Histórico glucosa (mg/dL)`,
+    // `Glucosa leída (mg/dL)` (scans), tab-separated, no metadata line.
+    const F: &str = "libreview_freestyle_hupa0003p.csv";
+    let text = String::from_utf8(fixture(F)).unwrap();
+    let of_type = |t: &str| {
+        text.lines()
+            .filter(|l| l.split('\t').nth(2) == Some(t))
+            .count()
+    };
+    let b = read(&[(F, fixture(F))], &opts(TZ)).unwrap();
+    assert_eq!(b.formats, vec![abba_io::Format::LibreView]);
+    assert_eq!(b.count("cgm"), of_type("0"));
+    assert_eq!(of_type("0"), 15);
+    let scans = b
+        .records
+        .iter()
+        .filter(|r| matches!(&r.kind, RecordKind::Ignored { kind } if kind == "scan glucose"))
+        .count();
+    assert_eq!(scans, of_type("1"));
+    // The food row (type 5) of 01:46: 16 g.
+    let t = datetime(2018, 6, 19, 1, 46, 0, 0)
+        .to_zoned(abba_io::time::zone(TZ).unwrap())
+        .unwrap()
+        .timestamp();
+    assert_eq!(carbs_at(&b, t), vec![16.0]);
+}

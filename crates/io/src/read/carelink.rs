@@ -318,7 +318,10 @@ pub fn read_with_settings(
                         }
                     }
                     RecordKind::Resume => suspended = false,
-                    RecordKind::Ignored { kind: k } if k.starts_with("BWZ carb input in exch") => {
+                    RecordKind::Ignored { kind: k }
+                        if k.starts_with("BWZ carb input in exch")
+                            || k.starts_with("event marker meal in exch") =>
+                    {
                         unread_exchanges += 1
                     }
                     _ => {}
@@ -355,9 +358,10 @@ pub fn read_with_settings(
             }
         }
     }
-    if let Some(column) = unread_exchanges_column.filter(|_| unread_exchanges > 0) {
+    if unread_exchanges > 0 {
+        let column = unread_exchanges_column.unwrap_or_else(|| "Event Marker".into());
         ctx.note(format!(
-            "carbohydrate not read: \"{column}\" counts in exchanges and an exchange is not one fixed mass ({unread_exchanges} wizard rows); give --grams-per-exchange G (10 for the Spanish raci\u{f3}n) to read it as grams"
+            "carbohydrate not read: \"{column}\" counts in exchanges and an exchange is not one fixed mass ({unread_exchanges} rows); give --grams-per-exchange G (10 for the Spanish raci\u{f3}n) to read it as grams"
         ));
     }
     settings.basal.sort_by_key(|b| b.0);
@@ -711,7 +715,13 @@ fn row_kinds(
     }
     let marker = cell(c.marker);
     if !marker.is_empty() {
-        kinds.push(event_marker(marker, delim, at, &name(c.marker))?);
+        kinds.push(event_marker(
+            marker,
+            delim,
+            at,
+            &name(c.marker),
+            grams_per_exchange,
+        )?);
     }
     let state = cell(c.suspend);
     if !state.is_empty() {
@@ -741,28 +751,44 @@ fn row_kinds(
     Ok(kinds)
 }
 
-/// An event marker's text: `Meal: 60,00grams` is carbohydrate; `Insulin:
-/// 27,00` an injection whose acting type CareLink does not say (counted);
-/// any other marker is counted by its name.
-fn event_marker(text: &str, delim: u8, at: &Location, field: &str) -> Result<RecordKind, IoError> {
+/// An event marker's text: `Meal: 60,00grams` is carbohydrate, and so is
+/// `Meal: 2.00exchanges` with `grams_per_exchange` (without it: counted,
+/// the file's note says so); `Insulin: 27,00` an injection whose acting
+/// type CareLink does not say (counted); any other marker is counted by
+/// its name.
+fn event_marker(
+    text: &str,
+    delim: u8,
+    at: &Location,
+    field: &str,
+    grams_per_exchange: Option<f64>,
+) -> Result<RecordKind, IoError> {
     let (label, value) = text.split_once(':').unwrap_or((text, ""));
     let label = label.trim();
     let value = value.trim();
     Ok(match label.to_ascii_lowercase().as_str() {
         "meal" => {
-            let grams = value.trim_end_matches("grams").trim();
-            let g = number(grams, delim).ok_or_else(|| {
+            let (amount, per) = match value.strip_suffix("exchanges") {
+                Some(ex) => (ex, grams_per_exchange),
+                None => (value.trim_end_matches("grams"), Some(1.0)),
+            };
+            let v = number(amount.trim(), delim).ok_or_else(|| {
                 IoError::invalid(
                     at.clone(),
                     field,
-                    format!("expected \"Meal: <grams>grams\", got \"{text}\""),
+                    format!("expected \"Meal: <grams>grams\" or \"Meal: <exchanges>exchanges\", got \"{text}\""),
                 )
             })?;
+            let Some(per) = per else {
+                return Ok(RecordKind::Ignored {
+                    kind: "event marker meal in exchanges (no --grams-per-exchange)".into(),
+                });
+            };
             RecordKind::Carbs {
                 grams: Grams(check_range(
                     at,
                     field,
-                    g,
+                    v * per,
                     0.0,
                     units::CARBS_MAX_G,
                     "carbohydrate (g)",

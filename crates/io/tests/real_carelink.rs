@@ -29,8 +29,7 @@ fn at(y: i16, mo: i8, d: i8, h: i8, mi: i8, s: i8) -> jiff::Timestamp {
 
 /// Basal delivered between `from` and `to` as the records say: the latest
 /// `Basal Rate` row's rate, a temporary basal's rate for its duration,
-/// nothing while suspended. (Only stretches without a temporary basal are
-/// checked below.)
+/// nothing while suspended.
 fn delivered(records: &[Record], from: jiff::Timestamp, to: jiff::Timestamp) -> f64 {
     let mut rate = None::<f64>;
     let mut temp: Option<(TempRate, jiff::Timestamp)> = None;
@@ -110,6 +109,28 @@ fn every_low_glucose_suspension_ends_at_its_resume_row() {
         + 0.85 * 125.0 / 60.0
         + 10.9;
     assert!((c - by_hand_c).abs() < 1e-6, "{c} vs {by_hand_c}");
+    // Under the temporary basal the pump wrote the rate in effect (0,46
+    // U/h at its start, 0,35 from 05:00): what it delivered, not 70 % of it.
+    let temp = delivered(
+        &b.records,
+        at(2018, 6, 18, 3, 36, 55),
+        at(2018, 6, 18, 7, 36, 55),
+    );
+    let by_hand_temp = 0.46 * (83.0 + 5.0 / 60.0) / 60.0 + 0.35 * (156.0 + 55.0 / 60.0) / 60.0;
+    assert!(
+        (temp - by_hand_temp).abs() < 1e-6,
+        "{temp} vs {by_hand_temp}"
+    );
+    let all = delivered(
+        &b.records,
+        at(2018, 6, 16, 21, 0, 0),
+        at(2018, 6, 19, 21, 0, 0),
+    );
+    assert!(
+        (all - (by_hand_a + by_hand_temp + by_hand_c)).abs() < 1e-6,
+        "{all}"
+    );
+    assert!((all - 43.8447).abs() < 1e-3, "{all}");
     // Every suspend state read as a suspension, every resume state as a
     // resumption; the NORMAL_PUMPING rows seconds after a resume are
     // counted, not read as a second resumption.

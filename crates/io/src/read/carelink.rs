@@ -77,6 +77,9 @@ fn section_of(divider: &str) -> Section {
 /// One section's header line (0-based) and the end of its rows (byte).
 struct Span {
     section: Section,
+    /// The divider names a Paradigm pump (its `Basal Rate` rows are the
+    /// rate in effect, see [`in_effect`]).
+    paradigm: bool,
     header_at: usize,
     end: usize,
 }
@@ -84,6 +87,7 @@ struct Span {
 fn spans(bytes: &[u8]) -> Vec<Span> {
     let mut out: Vec<Span> = Vec::new();
     let mut section = Section::Other;
+    let mut paradigm = false;
     let mut start = 0usize;
     for (i, line) in bytes.split(|&b| b == b'\n').enumerate() {
         let text = String::from_utf8_lossy(line);
@@ -93,12 +97,14 @@ fn spans(bytes: &[u8]) -> Vec<Span> {
                 last.end = last.end.min(start);
             }
             section = section_of(text);
+            paradigm = text.contains("Paradigm");
         } else if is_header(text) {
             if let Some(last) = out.last_mut() {
                 last.end = last.end.min(start);
             }
             out.push(Span {
                 section,
+                paradigm,
                 header_at: i,
                 end: bytes.len(),
             });
@@ -289,7 +295,7 @@ pub fn read_with_settings(
         // by the device's order.
         let mut clock = WallClock::new(tz.clone());
         let mut suspended = false;
-        let mut temp_until: Option<jiff::Timestamp> = None;
+        let mut temp: Option<(TempRate, jiff::Timestamp)> = None;
         let time_name = t.header[cols.time].clone();
         for row in rows.into_iter().rev() {
             at.place = Place::Line(row.line);
@@ -303,13 +309,14 @@ pub fn read_with_settings(
             for mut kind in row.kinds {
                 match &kind {
                     RecordKind::Suspend { .. } => suspended = true,
-                    RecordKind::TempBasal { duration_min, .. } => {
-                        temp_until = (*duration_min > 0).then(|| {
-                            instant
+                    RecordKind::TempBasal { rate, duration_min } => {
+                        temp = (*duration_min > 0).then(|| {
+                            let end = instant
                                 .checked_add(jiff::SignedDuration::from_mins(i64::from(
                                     *duration_min,
                                 )))
-                                .unwrap_or(instant)
+                                .unwrap_or(instant);
+                            (*rate, end)
                         })
                     }
                     RecordKind::Resume if !suspended => {
@@ -329,13 +336,17 @@ pub fn read_with_settings(
                 // The Veo writes a `Basal Rate` row for the rate in effect:
                 // 0 at a suspension, the adjusted rate at a temporary basal;
                 // only the rows outside both say the scheduled rate.
-                let in_temp = temp_until.is_some_and(|end| instant < end);
+                let in_temp = temp.filter(|t| instant < t.1).map(|t| t.0);
+                let in_temp_now = in_temp.is_some();
+                if span.paradigm {
+                    kind = in_effect(kind, suspended, in_temp);
+                }
                 if let RecordKind::Schedule { profile } = &kind {
                     if let Some(s) = profile
                         .basal
                         .segments
                         .first()
-                        .filter(|_| !suspended && !in_temp)
+                        .filter(|_| !suspended && !in_temp_now)
                     {
                         settings.basal.push((instant, s.1 .0, row.line));
                     }
@@ -367,6 +378,38 @@ pub fn read_with_settings(
     settings.basal.sort_by_key(|b| b.0);
     settings.carb_ratio.sort_by_key(|c| c.0);
     Ok((out, settings))
+}
+
+/// A Paradigm's `Basal Rate (U/h)` row is the rate in effect, not the
+/// schedule's (seen in the HUPA-UCM Veo 754 exports: `0.00` at each
+/// suspension; `0.46` at the start of a 70 % temporary basal over 0.65,
+/// `0.35` under it when the schedule steps to 0.50). Under a percent
+/// temporary basal the scheduled rate is the row's rate divided by the
+/// percentage, so that the delivered rate is the one the pump wrote; while
+/// suspended, or under a 0 % or absolute temporary basal, the row says
+/// nothing about the schedule: counted, not read.
+fn in_effect(kind: RecordKind, suspended: bool, temp: Option<TempRate>) -> RecordKind {
+    let RecordKind::Schedule { profile } = &kind else {
+        return kind;
+    };
+    let Some(&(_, rate)) = profile.basal.segments.first() else {
+        return kind;
+    };
+    match (suspended, temp) {
+        (false, None) => kind,
+        (false, Some(TempRate::Percent(p))) if p > 0.0 => RecordKind::Schedule {
+            profile: Box::new(Profile::basal_only(BasalSchedule::flat(UnitsPerHour(
+                rate.0 * 100.0 / p,
+            )))),
+        },
+        (true, _) => RecordKind::Ignored {
+            kind: "basal rate in effect while suspended (not the schedule)".into(),
+        },
+        (false, Some(_)) => RecordKind::Ignored {
+            kind: "basal rate in effect under a 0 % or absolute temporary basal (not the schedule)"
+                .into(),
+        },
+    }
 }
 
 /// What a wizard carb-ratio column counts in, from its name: grams per

@@ -47,7 +47,7 @@ fn delivered(records: &[Record], from: jiff::Timestamp, to: jiff::Timestamp) -> 
     for r in records {
         if r.at > from && r.at < to {
             let h = r.at.duration_since(last).as_secs_f64() / 3600.0;
-            if !suspended {
+            if !suspended && h > 0.0 {
                 total += now(rate, &temp, last) * h;
             }
             last = r.at;
@@ -362,4 +362,23 @@ fn the_older_freestyle_libre_software_spanish_export_reads() {
         .unwrap()
         .timestamp();
     assert_eq!(carbs_at(&b, t), vec![16.0]);
+}
+
+#[test]
+fn a_suspension_and_a_resumption_in_one_second_leave_the_pump_running() {
+    // HUPA0006P, 16/07/2018 21:55:00 ALARM_SUSPEND (battery alarm), then
+    // from 01:27:17 five ALARM_SUSPEND / NORMAL_PUMPING pairs each in one
+    // second (the resume row listed first), the clock set back two minutes
+    // at 01:32, and the pump's own 1.1 and 0.9 U/h rows at 01:31, 01:32 and
+    // 02:00 (written only while it delivers).
+    const F: &str = "carelink_veo754_hupa0006p_alarms.csv";
+    let b = read(&[(F, fixture(F))], &opts(TZ)).unwrap();
+    let d = delivered(
+        &b.records,
+        at(2018, 7, 16, 21, 55, 0),
+        at(2018, 7, 17, 5, 0, 0),
+    );
+    // By hand: nothing until 01:27:17, 1.1 U/h to 02:00, 0.9 U/h to 05:00.
+    let by_hand = 1.1 * (32.0 + 43.0 / 60.0) / 60.0 + 0.9 * 3.0;
+    assert!((d - by_hand).abs() < 1e-6, "{d} vs {by_hand}");
 }

@@ -297,7 +297,11 @@ pub fn read_with_settings(
         let mut suspended = false;
         let mut temp: Option<(TempRate, jiff::Timestamp)> = None;
         let time_name = t.header[cols.time].clone();
-        for row in rows.into_iter().rev() {
+        let mut rows: Vec<Row> = rows.into_iter().rev().collect();
+        if span.paradigm {
+            same_second_order(&mut rows);
+        }
+        for row in rows {
             at.place = Place::Line(row.line);
             let instant = clock.resolve(row.wall, &at, &time_name)?;
             if matches!(span.section, Section::Pump | Section::Sensor) {
@@ -378,6 +382,42 @@ pub fn read_with_settings(
     settings.basal.sort_by_key(|b| b.0);
     settings.carb_ratio.sort_by_key(|c| c.0);
     Ok((out, settings))
+}
+
+/// Orders the rows of one second (oldest first otherwise) as the pump
+/// ran them: a Paradigm writes a suspension and its resumption in the same
+/// second in either order (HUPA0006P, 17/07/2018 01:27:17: `ALARM_SUSPEND`
+/// listed after `NORMAL_PUMPING`, the rate rows after it delivering), so
+/// such a pair is read as a suspension of under a second: the suspend row
+/// first, then the `0.00` rate rows (in effect while suspended), the
+/// resume row, then the rest (the rates it resumed with).
+fn same_second_order(rows: &mut [Row]) {
+    let rank = |r: &Row| {
+        let is = |f: fn(&RecordKind) -> bool| r.kinds.iter().any(f);
+        if is(|k| matches!(k, RecordKind::Suspend { .. })) {
+            0
+        } else if is(|k| {
+            matches!(k, RecordKind::Schedule { profile }
+                if profile.basal.segments.first().is_some_and(|s| s.1 .0 == 0.0))
+        }) {
+            1
+        } else if is(|k| matches!(k, RecordKind::Resume)) {
+            2
+        } else {
+            3
+        }
+    };
+    let mut start = 0;
+    while start < rows.len() {
+        let wall = rows[start].wall;
+        let end = start + rows[start..].iter().take_while(|r| r.wall == wall).count();
+        let group = &mut rows[start..end];
+        let both = group.iter().any(|r| rank(r) == 0) && group.iter().any(|r| rank(r) == 2);
+        if both {
+            group.sort_by_key(|r| rank(r));
+        }
+        start = end;
+    }
 }
 
 /// A Paradigm's `Basal Rate (U/h)` row is the rate in effect, not the

@@ -24,6 +24,9 @@ pub struct Args {
     /// holds: keep the store's values (profiles are then not read as therapy).
     #[arg(long)]
     pub keep_therapy: bool,
+    /// CareLink: grams of carbohydrate in one exchange, for a pump whose bolus wizard counts in exchanges (10 for the Spanish ración; 12 and 15 are used elsewhere). Without it such carbohydrate is not read.
+    #[arg(long, value_name = "G")]
+    pub grams_per_exchange: Option<f64>,
     /// Export files (a Nightscout export is entries.json, treatments.json, profile.json).
     #[arg(required = true, value_name = "FILE")]
     pub files: Vec<PathBuf>,
@@ -43,7 +46,8 @@ pub fn run(a: Args) -> Result<()> {
         (_, true) => ProfileResolution::Keep,
         _ => ProfileResolution::Stop,
     };
-    let s = store.import_files_with(&a.who.person, &a.files, format, resolve)?;
+    let g = crate::input::grams_per_exchange(a.grams_per_exchange)?;
+    let s = store.import_files_with(&a.who.person, &a.files, format, resolve, g)?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&s)?);
         return Ok(());

@@ -33,6 +33,9 @@ pub struct InputArgs {
     /// Dates that do not tell their order (LibreView, CareLink, plain CSV: no day above 12, no AM/PM): day-first or month-first.
     #[arg(long, value_name = "ORDER")]
     pub date_order: Option<String>,
+    /// CareLink: grams of carbohydrate in one exchange, for a pump whose bolus wizard counts in exchanges (10 for the Spanish ración; 12 and 15 are used elsewhere). Without it such carbohydrate is not read.
+    #[arg(long, value_name = "G")]
+    pub grams_per_exchange: Option<f64>,
 }
 
 impl InputArgs {
@@ -67,7 +70,19 @@ impl InputArgs {
                 Some("month-first") => Some(DateOrder::MonthFirst),
                 Some(o) => bail!("--date-order {o}: expected day-first or month-first"),
             },
+            grams_per_exchange: grams_per_exchange(self.grams_per_exchange)?,
         })
+    }
+}
+
+/// Checks `--grams-per-exchange`: grams of carbohydrate in one exchange,
+/// 5 to 25 (the ración is 10 g; 12 and 15 g are used elsewhere).
+pub fn grams_per_exchange(g: Option<f64>) -> Result<Option<f64>> {
+    match g {
+        Some(g) if !(5.0..=25.0).contains(&g) => {
+            bail!("--grams-per-exchange {g}: expected the grams of carbohydrate in one exchange, 5 to 25 (10 for the Spanish ración)")
+        }
+        g => Ok(g),
     }
 }
 

@@ -58,6 +58,9 @@ struct NewArgs {
     /// carb ratios): the latest settings of the files.
     #[arg(long, value_name = "FILE", num_args = 1.., conflicts_with_all = ["basal"])]
     therapy_from: Vec<PathBuf>,
+    /// With --therapy-from a CareLink export whose bolus wizard counts in exchanges (`BWZ Carb Ratio (U/Ex)`): grams of carbohydrate in one exchange (10 for the Spanish ración), to read its carb ratios as g/U.
+    #[arg(long, value_name = "G", requires = "therapy_from")]
+    grams_per_exchange: Option<f64>,
     /// Current flat basal rate (U/h), when not --therapy-from.
     #[arg(long, value_name = "U_PER_H", required_unless_present = "therapy_from")]
     basal: Option<f64>,
@@ -159,6 +162,7 @@ fn new(a: NewArgs) -> Result<()> {
                 .with_context(|| format!("--tz \"{}\": not a known IANA zone", a.tz))?;
             let opts = abba_io::ReadOptions {
                 tz: Some(tz),
+                grams_per_exchange: crate::input::grams_per_exchange(a.grams_per_exchange)?,
                 ..abba_io::ReadOptions::default()
             };
             let given = a

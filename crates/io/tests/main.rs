@@ -16,5 +16,6 @@ mod events_mapping;
 mod events_properties;
 mod fixtures;
 mod never_panic;
+mod real_carelink;
 mod real_exports;
 mod real_variants;

@@ -339,18 +339,21 @@ impl Store {
         files: &[PathBuf],
         format: Option<Format>,
     ) -> Result<ImportSummary, StoreError> {
-        self.import_files_with(name, files, format, ProfileResolution::Stop)
+        self.import_files_with(name, files, format, ProfileResolution::Stop, None)
     }
 
     /// Like [`Store::import_files`], saying what to do when the export's
     /// pump profile differs from the therapy the store holds: stop (with
-    /// both values), adopt the profile, or keep the store's values.
+    /// both values), adopt the profile, or keep the store's values; a
+    /// CareLink export counting carbohydrate in exchanges is read with
+    /// `grams_per_exchange` (see [`ReadOptions::grams_per_exchange`]).
     pub fn import_files_with(
         &mut self,
         name: &str,
         files: &[PathBuf],
         format: Option<Format>,
         resolve: ProfileResolution,
+        grams_per_exchange: Option<f64>,
     ) -> Result<ImportSummary, StoreError> {
         let mut contents = Vec::with_capacity(files.len());
         for f in files {
@@ -361,10 +364,15 @@ impl Store {
             })?;
             contents.push((name, bytes));
         }
-        self.import_contents_with(
+        let read = ReadOptions {
+            format,
+            grams_per_exchange,
+            ..ReadOptions::default()
+        };
+        self.import_contents_read(
             name,
             &contents,
-            format,
+            &read,
             resolve,
             jiff::Timestamp::now(),
             true,
@@ -388,14 +396,33 @@ impl Store {
         file_evidence: bool,
         also: &mut dyn FnMut(&dyn Db) -> Result<(), StoreError>,
     ) -> Result<ImportSummary, StoreError> {
-        let p = self.person(name)?;
-        let opts = ReadOptions {
+        let read = ReadOptions {
             format,
-            tz: Some(p.tz.clone()),
             ..ReadOptions::default()
         };
+        self.import_contents_read(name, contents, &read, resolve, now, file_evidence, also)
+    }
+
+    /// [`Store::import_contents_with`] with the reading options `read`
+    /// (its `tz` is the person's, whatever `read` says).
+    #[allow(clippy::too_many_arguments)]
+    fn import_contents_read(
+        &mut self,
+        name: &str,
+        contents: &[(String, Vec<u8>)],
+        read: &ReadOptions,
+        resolve: ProfileResolution,
+        now: jiff::Timestamp,
+        file_evidence: bool,
+        also: &mut dyn FnMut(&dyn Db) -> Result<(), StoreError>,
+    ) -> Result<ImportSummary, StoreError> {
+        let p = self.person(name)?;
+        let opts = ReadOptions {
+            tz: Some(p.tz.clone()),
+            ..read.clone()
+        };
         let batch = read_all(contents, &opts)?;
-        let new_settings = profile_check(&self.conn, &p, &batch, contents, resolve)?;
+        let new_settings = profile_check(&self.conn, &p, &batch, contents, &opts, resolve)?;
         if let Some(doc) = &new_settings {
             // Checked in full before anything is written.
             let mut q = p.clone();
@@ -653,6 +680,7 @@ fn profile_check(
     p: &Person,
     batch: &Batch,
     contents: &[(String, Vec<u8>)],
+    opts: &ReadOptions,
     resolve: ProfileResolution,
 ) -> Result<Option<person::PersonSettingsDoc>, StoreError> {
     use person::TherapySource;
@@ -662,10 +690,6 @@ fn profile_check(
     let meals = &p.settings.meal_windows;
     let mut profiles = abba_io::therapy::settings_profiles(batch, meals)?;
     let store_cr = p.settings.start.carb_ratio.map(|c| c.0);
-    let opts = ReadOptions {
-        tz: Some(p.tz.clone()),
-        ..ReadOptions::default()
-    };
     for ((name, bytes), format) in contents.iter().zip(&batch.formats) {
         match format {
             Format::Tidepool => profiles.extend(abba_io::therapy::tidepool_pump_settings(
@@ -674,7 +698,7 @@ fn profile_check(
             // A CareLink export without Basal Rate rows or a full day says
             // nothing about the settings: nothing to compare.
             Format::CareLink => {
-                if let Ok(c) = abba_io::therapy::carelink_settings(name, bytes, &opts, meals)? {
+                if let Ok(c) = abba_io::therapy::carelink_settings(name, bytes, opts, meals)? {
                     profiles.push(c.or_held(meals, store_cr)?);
                 }
             }

@@ -401,7 +401,7 @@ fn an_import_whose_profile_differs_stops_with_both_values() {
     );
     assert!(store.records("ana").unwrap().is_empty(), "nothing imported");
     store
-        .import_files_with("ana", &files, None, ProfileResolution::Adopt)
+        .import_files_with("ana", &files, None, ProfileResolution::Adopt, None)
         .unwrap();
     let a = store.advise("ana").unwrap();
     assert_eq!(store.person("ana").unwrap().settings.start.basal.0, 1.35);
@@ -511,6 +511,7 @@ fn a_carelink_export_gives_the_therapy_and_an_import_that_differs_stops() {
             std::slice::from_ref(&us),
             None,
             ProfileResolution::Adopt,
+            None,
         )
         .unwrap();
     let dee = store.person("dee").unwrap();

@@ -77,6 +77,9 @@ fn section_of(divider: &str) -> Section {
 /// One section's header line (0-based) and the end of its rows (byte).
 struct Span {
     section: Section,
+    /// The divider names a Paradigm pump (its `Basal Rate` rows are the
+    /// rate in effect, see [`in_effect`]).
+    paradigm: bool,
     header_at: usize,
     end: usize,
 }
@@ -84,6 +87,7 @@ struct Span {
 fn spans(bytes: &[u8]) -> Vec<Span> {
     let mut out: Vec<Span> = Vec::new();
     let mut section = Section::Other;
+    let mut paradigm = false;
     let mut start = 0usize;
     for (i, line) in bytes.split(|&b| b == b'\n').enumerate() {
         let text = String::from_utf8_lossy(line);
@@ -93,12 +97,14 @@ fn spans(bytes: &[u8]) -> Vec<Span> {
                 last.end = last.end.min(start);
             }
             section = section_of(text);
+            paradigm = text.contains("Paradigm");
         } else if is_header(text) {
             if let Some(last) = out.last_mut() {
                 last.end = last.end.min(start);
             }
             out.push(Span {
                 section,
+                paradigm,
                 header_at: i,
                 end: bytes.len(),
             });
@@ -209,12 +215,34 @@ pub fn read_with_settings(
         ));
     }
     let tz = ctx.require_tz("CareLink writes pump times without an offset")?;
+    if let Some(g) = ctx
+        .opts
+        .grams_per_exchange
+        .filter(|g| !(g.is_finite() && *g > 0.0))
+    {
+        return Err(IoError::Settings(format!(
+            "grams per exchange {g}: expected a positive number of grams (10 for the Spanish raci\u{f3}n)"
+        )));
+    }
     let mut out = Vec::new();
+    let mut unread_exchanges = 0usize;
+    let mut unread_exchanges_column: Option<String> = None;
     for span in &spans {
         let mut t = Table::open(file, &bytes[..span.end], span.header_at)?;
         let cols = Cols::of(&t)?;
-        if let Some(i) = cols.carb_ratio.filter(|&i| !grams_per_unit(&t.header[i])) {
-            settings.ratio_not_grams = Some(t.header[i].clone());
+        if let Some(i) = cols.carb_ratio {
+            let unit = ratio_unit(&t.header[i]);
+            let read = unit == Some(RatioUnit::GramsPerUnit)
+                || (unit.is_some() && ctx.opts.grams_per_exchange.is_some());
+            if !read {
+                settings.ratio_not_grams = Some(t.header[i].clone());
+            }
+        }
+        let exchanges_unread = cols
+            .carbs
+            .filter(|&i| in_exchanges(&t.header[i]) && ctx.opts.grams_per_exchange.is_none());
+        if let Some(i) = exchanges_unread {
+            unread_exchanges_column = Some(t.header[i].clone());
         }
         let order = date_order(
             file,
@@ -246,10 +274,12 @@ pub fn read_with_settings(
                 Section::Other => vec![RecordKind::Ignored {
                     kind: "row of an unknown CareLink section".into(),
                 }],
-                Section::Pump | Section::Sensor => row_kinds(&t, &cols, &at)?,
+                Section::Pump | Section::Sensor => {
+                    row_kinds(&t, &cols, &at, ctx.opts.grams_per_exchange)?
+                }
             };
             let carb_ratio = match span.section {
-                Section::Pump => wizard_carb_ratio(&t, &cols, &at)?,
+                Section::Pump => wizard_carb_ratio(&t, &cols, &at, ctx.opts.grams_per_exchange)?,
                 _ => None,
             };
             let cells = content_hash(t.raw().skip(1));
@@ -264,8 +294,14 @@ pub fn read_with_settings(
         // Oldest first, so that a wall time in the autumn fold is placed
         // by the device's order.
         let mut clock = WallClock::new(tz.clone());
+        let mut suspended = false;
+        let mut temp: Option<(TempRate, jiff::Timestamp)> = None;
         let time_name = t.header[cols.time].clone();
-        for row in rows.into_iter().rev() {
+        let mut rows: Vec<Row> = rows.into_iter().rev().collect();
+        if span.paradigm {
+            same_second_order(&mut rows);
+        }
+        for row in rows {
             at.place = Place::Line(row.line);
             let instant = clock.resolve(row.wall, &at, &time_name)?;
             if matches!(span.section, Section::Pump | Section::Sensor) {
@@ -274,9 +310,48 @@ pub fn read_with_settings(
             if let Some(r) = row.carb_ratio {
                 settings.carb_ratio.push((instant, r, row.line));
             }
-            for kind in row.kinds {
+            for mut kind in row.kinds {
+                match &kind {
+                    RecordKind::Suspend { .. } => suspended = true,
+                    RecordKind::TempBasal { rate, duration_min } => {
+                        temp = (*duration_min > 0).then(|| {
+                            let end = instant
+                                .checked_add(jiff::SignedDuration::from_mins(i64::from(
+                                    *duration_min,
+                                )))
+                                .unwrap_or(instant);
+                            (*rate, end)
+                        })
+                    }
+                    RecordKind::Resume if !suspended => {
+                        kind = RecordKind::Ignored {
+                            kind: "resume row while pumping (a second resume row)".into(),
+                        }
+                    }
+                    RecordKind::Resume => suspended = false,
+                    RecordKind::Ignored { kind: k }
+                        if k.starts_with("BWZ carb input in exch")
+                            || k.starts_with("event marker meal in exch") =>
+                    {
+                        unread_exchanges += 1
+                    }
+                    _ => {}
+                }
+                // The Veo writes a `Basal Rate` row for the rate in effect:
+                // 0 at a suspension, the adjusted rate at a temporary basal;
+                // only the rows outside both say the scheduled rate.
+                let in_temp = temp.filter(|t| instant < t.1).map(|t| t.0);
+                let in_temp_now = in_temp.is_some();
+                if span.paradigm {
+                    kind = in_effect(kind, suspended, in_temp);
+                }
                 if let RecordKind::Schedule { profile } = &kind {
-                    if let Some(s) = profile.basal.segments.first() {
+                    if let Some(s) = profile
+                        .basal
+                        .segments
+                        .first()
+                        .filter(|_| !suspended && !in_temp_now)
+                    {
                         settings.basal.push((instant, s.1 .0, row.line));
                     }
                 }
@@ -298,43 +373,191 @@ pub fn read_with_settings(
             }
         }
     }
+    if unread_exchanges > 0 {
+        let column = unread_exchanges_column.unwrap_or_else(|| "Event Marker".into());
+        ctx.note(format!(
+            "carbohydrate not read: \"{column}\" counts in exchanges and an exchange is not one fixed mass ({unread_exchanges} rows); give --grams-per-exchange G (10 for the Spanish raci\u{f3}n) to read it as grams"
+        ));
+    }
     settings.basal.sort_by_key(|b| b.0);
     settings.carb_ratio.sort_by_key(|c| c.0);
     Ok((out, settings))
 }
 
-/// True when a wizard carb-ratio column is in g/U (older pumps can count
-/// in exchanges: their ratios are not read).
-fn grams_per_unit(name: &str) -> bool {
-    name.replace(' ', "").to_ascii_lowercase().contains("(g/u)")
+/// Orders the rows of one second (oldest first otherwise) as the pump
+/// ran them: a Paradigm writes a suspension and its resumption in the same
+/// second in either order (HUPA0006P, 17/07/2018 01:27:17: `ALARM_SUSPEND`
+/// listed after `NORMAL_PUMPING`, the rate rows after it delivering), so
+/// such a pair is read as a suspension of under a second: the suspend row
+/// first, then the `0.00` rate rows (in effect while suspended), the
+/// resume row, then the rest (the rates it resumed with).
+fn same_second_order(rows: &mut [Row]) {
+    let rank = |r: &Row| {
+        let is = |f: fn(&RecordKind) -> bool| r.kinds.iter().any(f);
+        if is(|k| matches!(k, RecordKind::Suspend { .. })) {
+            0
+        } else if is(|k| {
+            matches!(k, RecordKind::Schedule { profile }
+                if profile.basal.segments.first().is_some_and(|s| s.1 .0 == 0.0))
+        }) {
+            1
+        } else if is(|k| matches!(k, RecordKind::Resume)) {
+            2
+        } else {
+            3
+        }
+    };
+    let mut start = 0;
+    while start < rows.len() {
+        let wall = rows[start].wall;
+        let end = start + rows[start..].iter().take_while(|r| r.wall == wall).count();
+        let group = &mut rows[start..end];
+        let both = group.iter().any(|r| rank(r) == 0) && group.iter().any(|r| rank(r) == 2);
+        if both {
+            group.sort_by_key(|r| rank(r));
+        }
+        start = end;
+    }
 }
 
-/// The bolus wizard's carb ratio of a pump row: `BWZ Carb Ratio (g/U)`
-/// (0 on a correction without carbohydrate: none), checked against the
-/// plausibility limits.
-fn wizard_carb_ratio(t: &Table<'_>, c: &Cols, at: &Location) -> Result<Option<f64>, IoError> {
-    let Some(i) = c.carb_ratio.filter(|&i| grams_per_unit(&t.header[i])) else {
+/// A Paradigm's `Basal Rate (U/h)` row is the rate in effect, not the
+/// schedule's (seen in the HUPA-UCM Veo 754 exports: `0.00` at each
+/// suspension; `0.46` at the start of a 70 % temporary basal over 0.65,
+/// `0.35` under it when the schedule steps to 0.50). Under a percent
+/// temporary basal the scheduled rate is the row's rate divided by the
+/// percentage, so that the delivered rate is the one the pump wrote; while
+/// suspended, or under a 0 % or absolute temporary basal, the row says
+/// nothing about the schedule: counted, not read.
+fn in_effect(kind: RecordKind, suspended: bool, temp: Option<TempRate>) -> RecordKind {
+    let RecordKind::Schedule { profile } = &kind else {
+        return kind;
+    };
+    let Some(&(_, rate)) = profile.basal.segments.first() else {
+        return kind;
+    };
+    match (suspended, temp) {
+        (false, None) => kind,
+        (false, Some(TempRate::Percent(p))) if p > 0.0 => RecordKind::Schedule {
+            profile: Box::new(Profile::basal_only(BasalSchedule::flat(UnitsPerHour(
+                rate.0 * 100.0 / p,
+            )))),
+        },
+        (true, _) => RecordKind::Ignored {
+            kind: "basal rate in effect while suspended (not the schedule)".into(),
+        },
+        (false, Some(_)) => RecordKind::Ignored {
+            kind: "basal rate in effect under a 0 % or absolute temporary basal (not the schedule)"
+                .into(),
+        },
+    }
+}
+
+/// What a wizard carb-ratio column counts in, from its name: grams per
+/// unit, units per exchange (`(U/Ex)`, the Paradigm set to exchanges) or
+/// exchanges per unit; `None` for a name that does not say.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum RatioUnit {
+    GramsPerUnit,
+    UnitsPerExchange,
+    ExchangesPerUnit,
+}
+
+fn ratio_unit(name: &str) -> Option<RatioUnit> {
+    let n = name.replace(' ', "").to_ascii_lowercase();
+    if n.contains("(g/u)") {
+        Some(RatioUnit::GramsPerUnit)
+    } else if n.contains("(u/ex)") || n.contains("(u/exch)") || n.contains("(u/exchange)") {
+        Some(RatioUnit::UnitsPerExchange)
+    } else if n.contains("(ex/u)") || n.contains("(exch/u)") || n.contains("(exchanges/u)") {
+        Some(RatioUnit::ExchangesPerUnit)
+    } else {
+        None
+    }
+}
+
+/// True for a carbohydrate column in exchanges (`BWZ Carb Input
+/// (exchanges)`).
+fn in_exchanges(name: &str) -> bool {
+    name.to_ascii_lowercase().contains("exch")
+}
+
+/// The bolus wizard's carb ratio of a pump row in g/U: `BWZ Carb Ratio
+/// (g/U)`, or `(U/Ex)` / `(Ex/U)` converted with `grams_per_exchange` (0,
+/// a correction without carbohydrate: none), checked against the
+/// plausibility limits. A column in exchanges without
+/// `grams_per_exchange`, or whose unit the name does not say: not read.
+fn wizard_carb_ratio(
+    t: &Table<'_>,
+    c: &Cols,
+    at: &Location,
+    grams_per_exchange: Option<f64>,
+) -> Result<Option<f64>, IoError> {
+    let Some(i) = c.carb_ratio else {
         return Ok(None);
+    };
+    let name = &t.header[i];
+    let (unit, g) = match (ratio_unit(name), grams_per_exchange) {
+        (Some(RatioUnit::GramsPerUnit), _) => (RatioUnit::GramsPerUnit, 1.0),
+        (Some(u), Some(g)) => (u, g),
+        _ => return Ok(None),
     };
     let text = t.cell(i);
     if text.is_empty() {
         return Ok(None);
     }
-    let name = &t.header[i];
     let v = number(text, t.delimiter).ok_or_else(|| {
         IoError::invalid(
             at.clone(),
             name,
-            format!("expected a carb ratio (g/U), got \"{text}\""),
+            format!("expected a carb ratio (a number), got \"{text}\""),
         )
     })?;
     if v == 0.0 {
         return Ok(None);
     }
+    let grams_per_unit = match unit {
+        RatioUnit::GramsPerUnit => v,
+        RatioUnit::UnitsPerExchange => g / v,
+        RatioUnit::ExchangesPerUnit => v * g,
+    };
     abba_core::limits::CARB_RATIO_G_PER_U
-        .check(v)
-        .map_err(|e| IoError::invalid(at.clone(), name, e.to_string()))?;
-    Ok(Some(v))
+        .check(grams_per_unit)
+        .map_err(|e| {
+            IoError::invalid(
+                at.clone(),
+                name,
+                format!("{v} is {grams_per_unit:.1} g/U: {e}"),
+            )
+        })?;
+    Ok(Some(grams_per_unit))
+}
+
+/// How a pump reports its state in the `Suspend` column. Suspensions and
+/// resumptions as the Paradigm and MiniMed pumps write them (the states
+/// Tidepool's uploader maps, tidepool-org/uploader, BSD-2; `LOWSG_SUSPEND`
+/// and `NOTSEATED_SUSPEND` also seen in the HUPA-UCM Paradigm Veo 754
+/// exports). Any other state is `None`: counted by name, not guessed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum PumpState {
+    Suspended,
+    Resumed,
+}
+
+fn pump_state(state: &str) -> Option<PumpState> {
+    match state.trim() {
+        "USER_SUSPEND"
+        | "ALARM_SUSPEND"
+        | "NOTSEATED_SUSPEND"
+        | "LOWSG_SUSPEND"
+        | "LOW_SUSPEND_MODE_1"
+        | "LOW_SUSPEND_NO_RESPONSE"
+        | "LOW_SUSPEND_USER_SELECTED" => Some(PumpState::Suspended),
+        "NORMAL_PUMPING"
+        | "USER_RESTART_BASAL"
+        | "AUTO_RESUME_COMPLETE"
+        | "AUTO_RESUME_REDUCED" => Some(PumpState::Resumed),
+        _ => None,
+    }
 }
 
 /// The date order of a section: year first (`2025/10/30`, CareLink's
@@ -390,7 +613,12 @@ fn hms_minutes(text: &str) -> Option<f64> {
 
 /// What one pump or sensor row says (at least one record: a row abba does
 /// not read is counted).
-fn row_kinds(t: &Table<'_>, c: &Cols, at: &Location) -> Result<Vec<RecordKind>, IoError> {
+fn row_kinds(
+    t: &Table<'_>,
+    c: &Cols,
+    at: &Location,
+    grams_per_exchange: Option<f64>,
+) -> Result<Vec<RecordKind>, IoError> {
     let delim = t.delimiter;
     let cell = |i: Option<usize>| i.map_or("", |i| t.cell(i));
     let name = |i: Option<usize>| i.map_or(String::new(), |i| t.header[i].clone());
@@ -544,14 +772,18 @@ fn row_kinds(t: &Table<'_>, c: &Cols, at: &Location) -> Result<Vec<RecordKind>, 
             }
         }
     }
-    if let Some(g) = num(c.carbs, "carbohydrate")? {
+    if let Some(v) = num(c.carbs, "carbohydrate")? {
         let n = name(c.carbs);
-        if n.to_ascii_lowercase().contains("exchange") {
-            kinds.push(RecordKind::Ignored {
-                kind: "BWZ carb input in exchanges (grams per exchange unknown)".into(),
-            });
-        } else if g > 0.0 {
-            kinds.push(RecordKind::Carbs {
+        let grams = match (in_exchanges(&n), grams_per_exchange) {
+            (false, _) => Some(v),
+            (true, Some(g)) => Some(v * g),
+            (true, None) => None,
+        };
+        match grams {
+            None => kinds.push(RecordKind::Ignored {
+                kind: "BWZ carb input in exchanges (no --grams-per-exchange)".into(),
+            }),
+            Some(g) if g > 0.0 => kinds.push(RecordKind::Carbs {
                 grams: Grams(check_range(
                     at,
                     &n,
@@ -560,22 +792,29 @@ fn row_kinds(t: &Table<'_>, c: &Cols, at: &Location) -> Result<Vec<RecordKind>, 
                     units::CARBS_MAX_G,
                     "carbohydrate (g)",
                 )?),
-            });
+            }),
+            Some(_) => {}
         }
     }
     let marker = cell(c.marker);
     if !marker.is_empty() {
-        kinds.push(event_marker(marker, delim, at, &name(c.marker))?);
+        kinds.push(event_marker(
+            marker,
+            delim,
+            at,
+            &name(c.marker),
+            grams_per_exchange,
+        )?);
     }
-    match cell(c.suspend) {
-        "" => {}
-        "NORMAL_PUMPING" => kinds.push(RecordKind::Resume),
-        s if s.contains("SUSPEND") || s.contains("LOW") => {
-            kinds.push(RecordKind::Suspend { duration_min: None })
-        }
-        other => kinds.push(RecordKind::Ignored {
-            kind: format!("suspend state {other}"),
-        }),
+    let state = cell(c.suspend);
+    if !state.is_empty() {
+        kinds.push(match pump_state(state) {
+            Some(PumpState::Suspended) => RecordKind::Suspend { duration_min: None },
+            Some(PumpState::Resumed) => RecordKind::Resume,
+            None => RecordKind::Ignored {
+                kind: format!("unknown suspend state {state}"),
+            },
+        });
     }
     for (col, what) in [
         (c.alarm, "alarm"),
@@ -595,28 +834,44 @@ fn row_kinds(t: &Table<'_>, c: &Cols, at: &Location) -> Result<Vec<RecordKind>, 
     Ok(kinds)
 }
 
-/// An event marker's text: `Meal: 60,00grams` is carbohydrate; `Insulin:
-/// 27,00` an injection whose acting type CareLink does not say (counted);
-/// any other marker is counted by its name.
-fn event_marker(text: &str, delim: u8, at: &Location, field: &str) -> Result<RecordKind, IoError> {
+/// An event marker's text: `Meal: 60,00grams` is carbohydrate, and so is
+/// `Meal: 2.00exchanges` with `grams_per_exchange` (without it: counted,
+/// the file's note says so); `Insulin: 27,00` an injection whose acting
+/// type CareLink does not say (counted); any other marker is counted by
+/// its name.
+fn event_marker(
+    text: &str,
+    delim: u8,
+    at: &Location,
+    field: &str,
+    grams_per_exchange: Option<f64>,
+) -> Result<RecordKind, IoError> {
     let (label, value) = text.split_once(':').unwrap_or((text, ""));
     let label = label.trim();
     let value = value.trim();
     Ok(match label.to_ascii_lowercase().as_str() {
         "meal" => {
-            let grams = value.trim_end_matches("grams").trim();
-            let g = number(grams, delim).ok_or_else(|| {
+            let (amount, per) = match value.strip_suffix("exchanges") {
+                Some(ex) => (ex, grams_per_exchange),
+                None => (value.trim_end_matches("grams"), Some(1.0)),
+            };
+            let v = number(amount.trim(), delim).ok_or_else(|| {
                 IoError::invalid(
                     at.clone(),
                     field,
-                    format!("expected \"Meal: <grams>grams\", got \"{text}\""),
+                    format!("expected \"Meal: <grams>grams\" or \"Meal: <exchanges>exchanges\", got \"{text}\""),
                 )
             })?;
+            let Some(per) = per else {
+                return Ok(RecordKind::Ignored {
+                    kind: "event marker meal in exchanges (no --grams-per-exchange)".into(),
+                });
+            };
             RecordKind::Carbs {
                 grams: Grams(check_range(
                     at,
                     field,
-                    g,
+                    v * per,
                     0.0,
                     units::CARBS_MAX_G,
                     "carbohydrate (g)",

@@ -67,9 +67,12 @@ const TIME: [&str; 16] = [
     "aikaleima",
 ];
 const RECORD_TYPE: [&str; 3] = ["typ", "tipo", "type"];
-const HISTORIC: [&str; 3] = ["histor", "verlauf", "storico"];
-const SCAN: [&str; 5] = [
+const HISTORIC: [&str; 4] = ["histor", "histór", "verlauf", "storico"];
+const SCAN: [&str; 7] = [
     "scan",
+    // The older FreeStyle Libre software's Spanish "Glucosa leída".
+    "leída",
+    "leida",
     "escane",
     "numérisation",
     "numerisation",
@@ -164,7 +167,8 @@ pub fn role(header: &str) -> (Role, Option<GlucoseUnit>) {
         Role::Long
     } else if has(&name, &RECORD_TYPE) {
         Role::RecordType
-    } else if has(&name, &OTHER) {
+    } else if has(&name, &OTHER) || name.trim() == "id" {
+        // `ID`: the older FreeStyle Libre software's row number.
         Role::Other
     } else {
         Role::Unknown

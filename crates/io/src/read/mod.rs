@@ -73,6 +73,11 @@ pub struct ReadOptions {
     /// LibreView: day-first or month-first dates, for a file whose dates
     /// do not tell (used only then).
     pub date_order: Option<crate::time::DateOrder>,
+    /// CareLink: grams of carbohydrate in one exchange, for a pump whose
+    /// wizard counts in exchanges (10 for the Spanish ración; 12 and 15
+    /// are used elsewhere). Without it such carbohydrate is not read (the
+    /// file's notes say so).
+    pub grams_per_exchange: Option<f64>,
 }
 
 /// What a reader needs: the file's name and index, and the options.

@@ -11,7 +11,7 @@
 use crate::cli_common;
 use crate::service_common;
 
-use abba_api::{DeviceEvent, EventBody, EventsBody, MealSlot, Mode, NewPersonBody, TherapyBody};
+use abba_api::{DeviceEvent, EventBody, EventsBody, MealSlot};
 use abba_client::{Client, ClientError};
 use cli_common::abba;
 use service_common::{admin_token, Server, TempDir};
@@ -146,25 +146,10 @@ fn import_and_answer_succeed_while_four_apps_post() {
     let stop = Arc::new(AtomicBool::new(false));
     let apps: Vec<_> = (0..APPS)
         .map(|k| {
-            let p = c
-                .create_person(&NewPersonBody {
-                    name: format!("app-{k}"),
-                    tz: "UTC".into(),
-                    mode: Mode::Cgm,
-                    first_day: None,
-                    start: TherapyBody {
-                        basal_units_per_hour: 1.0,
-                        carb_ratio_g_per_unit: [10.0; 3],
-                    },
-                    bounds: None,
-                    min_data: None,
-                    advisor: None,
-                })
-                .unwrap();
-            let token = c.issue_token(p.id).unwrap().token;
+            let (id, token) = service_common::new_cgm_person(&c, &format!("app-{k}"), None);
             let client = Client::new(&server.url(), Some(&token)).unwrap();
             let stop = Arc::clone(&stop);
-            std::thread::spawn(move || app(client, p.id, stop, day1))
+            std::thread::spawn(move || app(client, id, stop, day1))
         })
         .collect();
     // Let the apps get going, then the CLI writes beside them.

@@ -19,7 +19,7 @@
 use crate::remote;
 use crate::service_common;
 
-use abba_api::{EventsBody, Mode, NewPersonBody, TherapyBody};
+use abba_api::EventsBody;
 use abba_client::{Client, Outbox, Retry};
 use abba_core::{EventKind, MgDl};
 use abba_sim::person::SuggestionResponse;
@@ -299,22 +299,11 @@ fn a_replica_killed_twenty_times_loses_no_acknowledged_event_and_stores_none_twi
         .as_millisecond();
     let mut persons = Vec::new();
     for c in 0..4 {
-        let p = admin
-            .create_person(&NewPersonBody {
-                name: format!("replica-{c}"),
-                tz: "UTC".into(),
-                mode: Mode::Cgm,
-                first_day: Some("2026-03-02".into()),
-                start: TherapyBody {
-                    basal_units_per_hour: 1.0,
-                    carb_ratio_g_per_unit: [10.0, 10.0, 10.0],
-                },
-                bounds: None,
-                min_data: None,
-                advisor: None,
-            })
-            .unwrap();
-        persons.push((p.id, admin.issue_token(p.id).unwrap().token));
+        persons.push(service_common::new_cgm_person(
+            &admin,
+            &format!("replica-{c}"),
+            Some("2026-03-02"),
+        ));
     }
     let stop = Arc::new(AtomicBool::new(false));
     let handles: Vec<_> = persons

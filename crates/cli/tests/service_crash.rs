@@ -31,7 +31,7 @@ mod service_common;
 #[allow(dead_code)]
 mod remote;
 
-use abba_api::{EventsBody, Mode, NewPersonBody, TherapyBody};
+use abba_api::EventsBody;
 use abba_client::{Client, Outbox, Retry};
 use abba_core::{EventKind, Grams, MealSlot, MgDl, Units};
 use remote::wire_event;
@@ -165,23 +165,11 @@ fn sigkill_under_load_loses_no_acknowledged_event_and_stores_none_twice() {
         .as_millisecond();
     let mut persons = Vec::new();
     for c in 0..CLIENTS {
-        let p = admin
-            .create_person(&NewPersonBody {
-                name: format!("crash-{c}"),
-                tz: "UTC".into(),
-                mode: Mode::Cgm,
-                first_day: Some(first_day.into()),
-                start: TherapyBody {
-                    basal_units_per_hour: 1.0,
-                    carb_ratio_g_per_unit: [10.0, 10.0, 10.0],
-                },
-                bounds: None,
-                min_data: None,
-                advisor: None,
-            })
-            .unwrap();
-        let t = admin.issue_token(p.id).unwrap();
-        persons.push((p.id, t.token));
+        persons.push(service_common::new_cgm_person(
+            &admin,
+            &format!("crash-{c}"),
+            Some(first_day),
+        ));
     }
 
     let started = Instant::now();

@@ -144,3 +144,33 @@ impl Drop for TempDir {
         let _ = std::fs::remove_dir_all(&self.0);
     }
 }
+
+/// A CGM person made through the API (UTC, 1 U/h, 10 g/U at every meal;
+/// `first_day` the service's default when `None`) and a token for them:
+/// (person id, token).
+pub fn new_cgm_person(
+    admin: &abba_client::Client,
+    name: &str,
+    first_day: Option<&str>,
+) -> (u64, String) {
+    let p = admin
+        .create_person(&abba_api::NewPersonBody {
+            name: name.into(),
+            tz: "UTC".into(),
+            mode: abba_api::Mode::Cgm,
+            first_day: first_day.map(Into::into),
+            start: abba_api::TherapyBody {
+                basal_units_per_hour: 1.0,
+                carb_ratio_g_per_unit: [10.0; 3],
+            },
+            bounds: None,
+            min_data: None,
+            advisor: None,
+        })
+        .expect("the admin creates a person");
+    let token = admin
+        .issue_token(p.id)
+        .expect("a token for the person")
+        .token;
+    (p.id, token)
+}

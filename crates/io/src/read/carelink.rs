@@ -437,11 +437,25 @@ fn in_effect(kind: RecordKind, suspended: bool, temp: Option<TempRate>) -> Recor
     };
     match (suspended, temp) {
         (false, None) => kind,
-        (false, Some(TempRate::Percent(p))) if p > 0.0 => RecordKind::Schedule {
-            profile: Box::new(Profile::basal_only(BasalSchedule::flat(UnitsPerHour(
-                rate.0 * 100.0 / p,
-            )))),
-        },
+        // (a schedule the row would imply above the plausible basal, as
+        // a 1 % temporary basal could, is not guessed either)
+        (false, Some(TempRate::Percent(p))) if p > 0.0 => {
+            let scheduled = rate.0 * 100.0 / p;
+            if scheduled <= units::BASAL_MAX_U_PER_H {
+                RecordKind::Schedule {
+                    profile: Box::new(Profile::basal_only(BasalSchedule::flat(UnitsPerHour(
+                        scheduled,
+                    )))),
+                }
+            } else {
+                RecordKind::Ignored {
+                    kind: format!(
+                        "basal rate in effect under a {p} % temporary basal implies {scheduled:.2} U/h scheduled, above {} U/h (not read as the schedule)",
+                        units::BASAL_MAX_U_PER_H
+                    ),
+                }
+            }
+        }
         (true, _) => RecordKind::Ignored {
             kind: "basal rate in effect while suspended (not the schedule)".into(),
         },
@@ -899,6 +913,52 @@ fn event_marker(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn rate_row(u_per_h: f64) -> RecordKind {
+        RecordKind::Schedule {
+            profile: Box::new(Profile::basal_only(BasalSchedule::flat(UnitsPerHour(
+                u_per_h,
+            )))),
+        }
+    }
+
+    fn scheduled(k: &RecordKind) -> Option<f64> {
+        match k {
+            RecordKind::Schedule { profile } => profile.basal.segments.first().map(|s| s.1 .0),
+            _ => None,
+        }
+    }
+
+    #[test]
+    fn a_paradigm_rate_row_is_the_rate_in_effect_and_says_the_schedule_only_where_it_can() {
+        // Pumping normally: the row is the schedule.
+        assert_eq!(
+            scheduled(&in_effect(rate_row(0.65), false, None)),
+            Some(0.65)
+        );
+        // Under a 70 % temporary basal, 0.46 U/h in effect: 0.657 scheduled.
+        let k = in_effect(rate_row(0.46), false, Some(TempRate::Percent(70.0)));
+        assert!((scheduled(&k).unwrap() - 0.46 / 0.7).abs() < 1e-12);
+        // Suspended, 0 %, absolute: nothing about the schedule (counted).
+        for (susp, temp) in [
+            (true, None),
+            (false, Some(TempRate::Percent(0.0))),
+            (false, Some(TempRate::Absolute(UnitsPerHour(0.3)))),
+        ] {
+            let k = in_effect(rate_row(0.0), susp, temp);
+            assert!(
+                matches!(k, RecordKind::Ignored { .. }),
+                "{susp} {temp:?}: {k:?}"
+            );
+        }
+        // A 1 % temporary basal at 0.6 U/h would imply 60 U/h scheduled:
+        // above the plausible basal, so not read.
+        let k = in_effect(rate_row(0.6), false, Some(TempRate::Percent(1.0)));
+        let RecordKind::Ignored { kind } = &k else {
+            panic!("{k:?}")
+        };
+        assert!(kind.contains("60.00 U/h"), "{kind}");
+    }
 
     #[test]
     fn durations_and_dates_read_as_carelink_writes_them() {

@@ -343,16 +343,15 @@ const WEB_SESSIONS: &str = concat!(
 /// transaction under the migration lock with its Rust part; refuses a
 /// database written by a newer abba.
 pub fn migrate(client: &mut postgres::Client) -> Result<(), StoreError> {
-    client
-        .batch_execute("CREATE TABLE IF NOT EXISTS abba_schema (version BIGINT NOT NULL)")
-        .or_else(|e| {
-            // Two replicas creating it at once: one wins, the other sees it.
-            if e.code() == Some(&postgres::error::SqlState::UNIQUE_VIOLATION) {
-                Ok(())
-            } else {
-                Err(err(e))
-            }
-        })?;
+    // The version table is made under the migration lock too: two
+    // replicas running `CREATE TABLE IF NOT EXISTS` at once can both pass
+    // the check and one then fails on the table's row type ("type
+    // abba_schema already exists"), which IF NOT EXISTS does not cover.
+    let mut tx = client.transaction().map_err(err)?;
+    tx.execute(MIGRATION_LOCK, &[]).map_err(err)?;
+    tx.batch_execute("CREATE TABLE IF NOT EXISTS abba_schema (version BIGINT NOT NULL)")
+        .map_err(err)?;
+    tx.commit().map_err(err)?;
     loop {
         let mut tx = client.transaction().map_err(err)?;
         tx.execute(MIGRATION_LOCK, &[]).map_err(err)?;

@@ -59,43 +59,7 @@ pub fn run(a: Args) -> Result<()> {
 
 /// Prints what an import did (also after `abba sync`).
 pub fn print_summary(s: &abba_store::ImportSummary, person: &str) {
-    if s.added == 0 && s.updated == 0 {
-        println!(
-            "Nothing new: all {} records of {} are already in {}'s log.",
-            s.known,
-            s.files.join(", "),
-            person
-        );
-    } else {
-        println!(
-            "Imported {} new records for {} ({} read, {} already known, {} newer versions of known records).",
-            s.added, person, s.read, s.known, s.updated
-        );
-    }
-    println!(
-        "Duplicates within and between the files: {} exact repeats, {} older versions of a repeated id, {} carried by two Tidepool uploads.",
-        s.duplicates_in_files, s.older_versions_in_files, s.cross_upload_duplicates
-    );
-    for (what, r) in [
-        ("dated after the time of import (refused)", &s.future),
-        ("before day 1, not used", &s.before_day_1),
-    ] {
-        if r.count > 0 {
-            println!(
-                "{} records {what}; the first: {} ({}).",
-                r.count,
-                r.first.as_deref().unwrap_or("?"),
-                r.first_at.as_deref().unwrap_or("?")
-            );
-        }
-    }
-    for f in &s.empty_files {
-        println!("No readings in {f}.");
-    }
-    for n in &s.notes {
-        println!("Note: {n}");
-    }
-    if let Some(d) = &s.first_day {
-        println!("Day 1 of the advisor: {d}.");
+    for line in s.lines(person) {
+        println!("{line}");
     }
 }

@@ -75,15 +75,13 @@ impl InputArgs {
     }
 }
 
-/// Checks `--grams-per-exchange`: grams of carbohydrate in one exchange,
-/// 5 to 25 (the ración is 10 g; 12 and 15 g are used elsewhere).
+/// Checks `--grams-per-exchange` ([`abba_io::read::check_grams_per_exchange`]).
 pub fn grams_per_exchange(g: Option<f64>) -> Result<Option<f64>> {
-    match g {
-        Some(g) if !(5.0..=25.0).contains(&g) => {
-            bail!("--grams-per-exchange {g}: expected the grams of carbohydrate in one exchange, 5 to 25 (10 for the Spanish ración)")
-        }
-        g => Ok(g),
-    }
+    g.map(|g| {
+        abba_io::read::check_grams_per_exchange(g)
+            .map_err(|e| anyhow!("--grams-per-exchange {g}: {e}"))
+    })
+    .transpose()
 }
 
 /// Parses `YYYY-MM-DD`.

@@ -337,6 +337,16 @@ async fn a_clinic_and_a_person_in_headless_chromium() {
         b.text("main").await.contains(nasty),
         "the name shown as text"
     );
+    // An export imported by the clinic's form: the page says what it did.
+    b.attach(
+        "form#import input[type=file][name=files]",
+        &export.join("entries.json"),
+    )
+    .await;
+    b.submit("form#import").await;
+    let result = b.text("#import-result").await;
+    assert!(result.contains("Imported "), "{result}");
+    b.check_page("clinic-person-import", 200, true).await;
     b.goto("/clinic").await;
     let mut names = Vec::new();
     for tr in b.find_all("#persons tr[data-person]").await {

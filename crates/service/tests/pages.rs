@@ -139,6 +139,65 @@ impl<'a> Browser<'a> {
         self.send(Method::POST, path, Some(form)).await
     }
 
+    /// A `multipart/form-data` POST as a browser sends a form with file
+    /// inputs: text fields, then files (field, file name, bytes).
+    async fn post_multipart(
+        &mut self,
+        path: &str,
+        fields: &[(&str, &str)],
+        files: &[(&str, &str, &[u8])],
+    ) -> Page {
+        const BOUNDARY: &str = "----abba-test-boundary-7MA4YWxkTrZu0gW";
+        let mut body = Vec::new();
+        for (k, v) in fields {
+            body.extend_from_slice(
+                format!(
+                    "--{BOUNDARY}\r\nContent-Disposition: form-data; name=\"{k}\"\r\n\r\n{v}\r\n"
+                )
+                .as_bytes(),
+            );
+        }
+        for (k, name, bytes) in files {
+            body.extend_from_slice(
+                format!("--{BOUNDARY}\r\nContent-Disposition: form-data; name=\"{k}\"; filename=\"{name}\"\r\nContent-Type: text/csv\r\n\r\n")
+                    .as_bytes(),
+            );
+            body.extend_from_slice(bytes);
+            body.extend_from_slice(b"\r\n");
+        }
+        body.extend_from_slice(format!("--{BOUNDARY}--\r\n").as_bytes());
+        let mut req = Request::builder()
+            .method(Method::POST)
+            .uri(path)
+            .header(header::HOST, HOST)
+            .header(header::ORIGIN, ORIGIN)
+            .header(
+                header::CONTENT_TYPE,
+                format!("multipart/form-data; boundary={BOUNDARY}"),
+            );
+        let c: Vec<String> = self
+            .cookies
+            .iter()
+            .map(|(k, v)| format!("{k}={v}"))
+            .collect();
+        req = req.header(header::COOKIE, c.join("; "));
+        let res = self
+            .svc
+            .router
+            .clone()
+            .oneshot(req.body(Body::from(body)).unwrap())
+            .await
+            .unwrap();
+        let status = res.status();
+        let headers = res.headers().clone();
+        let bytes = res.into_body().collect().await.unwrap().to_bytes();
+        Page {
+            status,
+            headers,
+            html: String::from_utf8_lossy(&bytes).to_string(),
+        }
+    }
+
     /// Opens a sign-in link and presses the button.
     async fn sign_in(&mut self, secret: &str) -> Page {
         let p = self.get(&format!("/signin/{secret}")).await;
@@ -951,6 +1010,140 @@ async fn the_clinics_change_of_therapy_goes_in_force_and_a_refused_value_stays_b
         "{}",
         page.html
     );
+}
+
+/// A real CareLink export (Paradigm Veo 754, HUPA-UCM, CC BY 4.0; see
+/// crates/io/tests/data/PROVENANCE.md) whose bolus wizard counts in
+/// exchanges: 28 exchanges of carbohydrate in 10 wizard rows.
+const EXCHANGES_EXPORT: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../io/tests/data/carelink_veo754_hupa0001p.csv"
+);
+
+/// The carbohydrate records in a person's log, in grams.
+fn logged_carbs(svc: &Svc, name: &str) -> Vec<f64> {
+    let store = abba_service::open_store(&svc.db).unwrap();
+    store
+        .records(name)
+        .unwrap()
+        .into_iter()
+        .filter_map(|r| match r.kind {
+            abba_io::RecordKind::Carbs { grams } => Some(grams.0),
+            _ => None,
+        })
+        .collect()
+}
+
+#[tokio::test]
+async fn the_clinics_import_reads_exchanges_with_the_grams_given_and_shows_every_note() {
+    let svc = Svc::new();
+    let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
+    let export = std::fs::read(EXCHANGES_EXPORT).unwrap();
+    let file = "carelink_veo754_hupa0001p.csv";
+    // The person from the export's pump profile; the wizard's ratios are
+    // in units per exchange, so the form takes grams per exchange too.
+    let person = [
+        ("csrf", csrf.as_str()),
+        ("name", "lucia"),
+        ("tz", "Europe/Madrid"),
+        ("unit", "mg/dL"),
+        ("mode", "cgm"),
+        ("carb_ratios", "8,7.5,11"),
+    ];
+    for bad in ["0.5", "ten"] {
+        let mut f = person.to_vec();
+        f.push(("grams_per_exchange", bad));
+        let p = admin
+            .post_multipart("/clinic/persons", &f, &[("profile", file, &export)])
+            .await;
+        assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+        assert!(
+            p.html.contains("id=\"grams_per_exchange-error\""),
+            "{}",
+            p.html
+        );
+        assert!(
+            p.html.contains(&format!("value=\"{bad}\"")),
+            "the typed value is kept"
+        );
+    }
+    let mut f = person.to_vec();
+    f.push(("grams_per_exchange", "10"));
+    let p = admin
+        .post_multipart("/clinic/persons", &f, &[("profile", file, &export)])
+        .await;
+    assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
+    let page_path = p.location().to_string();
+    let import = format!("{page_path}/import");
+
+    // A grams-per-exchange out of range is refused beside its field, and
+    // nothing is imported.
+    let p = admin
+        .post_multipart(
+            &import,
+            &[("csrf", &csrf), ("grams_per_exchange", "40")],
+            &[("files", file, &export)],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+    assert!(
+        p.html.contains("id=\"grams_per_exchange-error\""),
+        "{}",
+        p.html
+    );
+    assert!(p.html.contains("5 to 25"), "{}", p.html);
+    assert!(p.html.contains("value=\"40\""), "the typed value is kept");
+    assert!(logged_carbs(&svc, "lucia").is_empty());
+
+    // Without it: the rest imports, and the page says the carbohydrate was
+    // not read, and why (the reader's note, as `abba import` prints it).
+    let p = admin
+        .post_multipart(&import, &[("csrf", &csrf)], &[("files", file, &export)])
+        .await;
+    assert_eq!(p.status, StatusCode::OK, "{}", p.html);
+    let result = p.section("<ul id=\"import-result\"", "ul").to_string();
+    assert!(result.contains("Imported "), "{result}");
+    assert!(
+        result.contains("Note: ") && result.contains("BWZ Carb Input (exchanges)"),
+        "{result}"
+    );
+    assert!(p.html.contains("Imported."), "the status says it");
+    assert!(logged_carbs(&svc, "lucia").is_empty());
+
+    // With 10 g per exchange: the 28 exchanges come as 280 g, and the
+    // records already imported are known, not added twice.
+    let p = admin
+        .post_multipart(
+            &import,
+            &[("csrf", &csrf), ("grams_per_exchange", "10")],
+            &[("files", file, &export)],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::OK, "{}", p.html);
+    let result = p.section("<ul id=\"import-result\"", "ul").to_string();
+    assert!(result.contains("already known"), "{result}");
+    assert!(!result.contains("BWZ Carb Input (exchanges)"), "{result}");
+    let carbs = logged_carbs(&svc, "lucia");
+    let total: f64 = carbs.iter().sum();
+    assert!((total - 280.0).abs() < 1e-9, "{carbs:?}");
+
+    // The same files again: nothing new, said so.
+    let p = admin
+        .post_multipart(
+            &import,
+            &[("csrf", &csrf), ("grams_per_exchange", "10")],
+            &[("files", file, &export)],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::OK, "{}", p.html);
+    assert!(p.html.contains("Nothing new"), "{}", p.html);
+    assert_eq!(logged_carbs(&svc, "lucia").len(), carbs.len());
+
+    // Without the form's CSRF token: refused, nothing read.
+    let p = admin
+        .post_multipart(&import, &[("csrf", "0")], &[("files", file, &export)])
+        .await;
+    assert_eq!(p.status, StatusCode::FORBIDDEN);
 }
 
 #[tokio::test]

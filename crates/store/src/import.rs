@@ -51,6 +51,55 @@ pub struct ImportSummary {
     pub first_day: Option<String>,
 }
 
+impl ImportSummary {
+    /// What the import did, in sentences for a person or a clinician (the
+    /// CLI's `abba import` and `abba sync`, the clinic's page): the counts,
+    /// every refused or unused stretch with its first record, the files
+    /// with no readings and every reader's note. Nothing is left out.
+    pub fn lines(&self, person: &str) -> Vec<String> {
+        let mut out = Vec::new();
+        if self.added == 0 && self.updated == 0 {
+            out.push(format!(
+                "Nothing new: all {} records of {} are already in {person}'s log.",
+                self.known,
+                self.files.join(", ")
+            ));
+        } else {
+            out.push(format!(
+                "Imported {} new records for {person} ({} read, {} already known, {} newer versions of known records).",
+                self.added, self.read, self.known, self.updated
+            ));
+        }
+        out.push(format!(
+            "Duplicates within and between the files: {} exact repeats, {} older versions of a repeated id, {} carried by two Tidepool uploads.",
+            self.duplicates_in_files, self.older_versions_in_files, self.cross_upload_duplicates
+        ));
+        for (what, r) in [
+            ("dated after the time of import (refused)", &self.future),
+            ("before day 1, not used", &self.before_day_1),
+        ] {
+            if r.count > 0 {
+                out.push(format!(
+                    "{} records {what}; the first: {} ({}).",
+                    r.count,
+                    r.first.as_deref().unwrap_or("?"),
+                    r.first_at.as_deref().unwrap_or("?")
+                ));
+            }
+        }
+        for f in &self.empty_files {
+            out.push(format!("No readings in {f}."));
+        }
+        for n in &self.notes {
+            out.push(format!("Note: {n}"));
+        }
+        if let Some(d) = &self.first_day {
+            out.push(format!("Day 1 of the advisor: {d}."));
+        }
+        out
+    }
+}
+
 /// Adds `batch` to `person`'s log in one transaction, `now` being the
 /// time of import. Everything is read and checked before the transaction
 /// starts; the transaction either commits every new record and the import

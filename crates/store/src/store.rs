@@ -404,9 +404,10 @@ impl Store {
     }
 
     /// [`Store::import_contents_with`] with the reading options `read`
-    /// (its `tz` is the person's, whatever `read` says).
+    /// (its `tz` is the person's, whatever `read` says; a CareLink export
+    /// in exchanges needs its `grams_per_exchange`).
     #[allow(clippy::too_many_arguments)]
-    fn import_contents_read(
+    pub fn import_contents_read(
         &mut self,
         name: &str,
         contents: &[(String, Vec<u8>)],

@@ -477,6 +477,10 @@ pub struct ClinicTexts {
     pub import_files: &'static str,
     /// Button: import.
     pub import_button: &'static str,
+    /// Label: grams of carbohydrate per exchange (import and profile).
+    pub grams_per_exchange_label: &'static str,
+    /// Heading: what the import did.
+    pub import_result_title: &'static str,
     /// Heading: access.
     pub access_title: &'static str,
     /// Button: sign-in link.
@@ -582,6 +586,8 @@ pub const CLINIC_EN: ClinicTexts = ClinicTexts {
     import_title: "Import an export",
     import_files: "Export files (Nightscout, Clarity, LibreView, Tidepool, CareLink, CSV)",
     import_button: "Import",
+    grams_per_exchange_label: "Grams of carbohydrate per exchange, for a CareLink export whose bolus wizard counts in exchanges (10 for the Spanish raci\u{f3}n; empty otherwise)",
+    import_result_title: "What the import did",
     access_title: "Sign-in and tokens",
     make_signin: "Make a sign-in link",
     issue_token: "Issue an API token",

@@ -80,6 +80,24 @@ pub struct ReadOptions {
     pub grams_per_exchange: Option<f64>,
 }
 
+/// The grams of carbohydrate in one exchange abba accepts (the Spanish
+/// ración is 10 g; 12 and 15 g are used elsewhere).
+pub const GRAMS_PER_EXCHANGE: std::ops::RangeInclusive<f64> = 5.0..=25.0;
+
+/// Checks a given grams-per-exchange ([`ReadOptions::grams_per_exchange`]);
+/// the error says what is expected (the caller names the field).
+pub fn check_grams_per_exchange(g: f64) -> Result<f64, String> {
+    if GRAMS_PER_EXCHANGE.contains(&g) {
+        Ok(g)
+    } else {
+        Err(format!(
+            "expected the grams of carbohydrate in one exchange, {} to {} (10 for the Spanish raci\u{f3}n), got {g}",
+            GRAMS_PER_EXCHANGE.start(),
+            GRAMS_PER_EXCHANGE.end()
+        ))
+    }
+}
+
 /// What a reader needs: the file's name and index, and the options.
 pub struct Ctx<'a> {
     /// The file as the user named it.

@@ -252,6 +252,18 @@ fn carb_ratios(text: &str) -> Result<[f64; 3], String> {
     }
 }
 
+/// The optional grams-per-exchange field of the forms that read exports
+/// (a CareLink pump whose wizard counts in exchanges): empty is none.
+fn grams_per_exchange(text: &str) -> Result<Option<f64>, String> {
+    match text {
+        "" => Ok(None),
+        t => match form::number(t) {
+            Some(g) => abba_io::read::check_grams_per_exchange(g).map(Some),
+            None => Err(fill(EN.expected_number, &[("example", "10")])),
+        },
+    }
+}
+
 /// The new person from the form, or the errors beside each field.
 fn new_person(up: &Upload) -> Result<NewPerson, BTreeMap<String, String>> {
     let f = &up.text;
@@ -313,6 +325,13 @@ fn new_person(up: &Upload) -> Result<NewPerson, BTreeMap<String, String>> {
         .map(|(_, file, bytes)| (file.clone(), bytes.clone()))
         .collect();
     let (basal, cr) = (f.text("basal"), f.text("carb_ratios"));
+    let grams = match grams_per_exchange(f.text("grams_per_exchange")) {
+        Ok(g) => g,
+        Err(e) => {
+            errors.insert("grams_per_exchange".into(), e);
+            None
+        }
+    };
     let meal_windows = abba_io::meals::MealWindows::default();
     let mut start = None;
     let mut schedule = None;
@@ -340,6 +359,7 @@ fn new_person(up: &Upload) -> Result<NewPerson, BTreeMap<String, String>> {
             if let (Some(tz), false) = (zone.clone(), errors.contains_key("carb_ratios")) {
                 let opts = abba_io::ReadOptions {
                     tz: Some(tz),
+                    grams_per_exchange: grams,
                     ..abba_io::ReadOptions::default()
                 };
                 match abba_io::therapy::therapy_from_contents(
@@ -429,6 +449,7 @@ pub async fn create(State(s): State<AppState>, ctx: Ctx, m: Multipart) -> PageRe
         "basal",
         "carb_ratios",
         "first_day",
+        "grams_per_exchange",
         "profile",
     ])?;
     let values: BTreeMap<String, String> = [
@@ -439,6 +460,7 @@ pub async fn create(State(s): State<AppState>, ctx: Ctx, m: Multipart) -> PageRe
         "basal",
         "carb_ratios",
         "first_day",
+        "grams_per_exchange",
     ]
     .iter()
     .map(|k| (k.to_string(), up.text.text(k).to_string()))
@@ -509,6 +531,8 @@ struct PersonModel {
     signin_qr: Option<String>,
     /// After `form#issue-token`: the token, shown once.
     new_token: Option<String>,
+    /// After `form#import`: what the import did (every count and note).
+    import_result: Vec<String>,
     /// Errors beside the fields of every form.
     errors: BTreeMap<String, String>,
     /// What was typed into a refused form.
@@ -683,7 +707,6 @@ fn done_text(q: Option<&str>) -> Option<String> {
             "bounds" => C.saved_bounds,
             "steps" => C.saved_steps,
             "therapy" => C.saved_therapy,
-            "import" => C.imported,
             "token-revoked" => C.token_revoked,
             "session-revoked" => C.session_revoked,
             _ => return None,
@@ -975,8 +998,11 @@ pub async fn therapy(
     }
 }
 
-/// `POST /clinic/persons/{id}/import` (multipart, `files`): the same import
-/// as `abba import` (idempotent, whole or nothing).
+/// `POST /clinic/persons/{id}/import` (multipart, `files`, and
+/// `grams_per_exchange` for a CareLink export counting in exchanges): the
+/// same import as `abba import` (idempotent, whole or nothing). The page
+/// answers with what it did, every count and reader's note as `abba
+/// import` prints them (200: importing the same files again adds nothing).
 pub async fn import(
     State(s): State<AppState>,
     ctx: Ctx,
@@ -987,7 +1013,26 @@ pub async fn import(
     let w = admin_post_head(&s, &ctx).await?;
     let up = read_multipart(m).await?;
     upload_csrf(&w, &up)?;
-    up.text.only(&["csrf", "files"])?;
+    up.text.only(&["csrf", "files", "grams_per_exchange"])?;
+    let grams_text = up.text.text("grams_per_exchange").to_string();
+    let refuse = |field: &'static str, msg: String| {
+        let typed = grams_text.clone();
+        show_person(
+            &s,
+            &w.csrf,
+            id,
+            StatusCode::UNPROCESSABLE_ENTITY,
+            None,
+            move |m| {
+                m.errors.insert(field.into(), msg);
+                m.values.insert("grams_per_exchange".into(), typed);
+            },
+        )
+    };
+    let grams = match grams_per_exchange(&grams_text) {
+        Ok(g) => g,
+        Err(e) => return refuse("grams_per_exchange", e).await,
+    };
     let contents: Vec<(String, Vec<u8>)> = up
         .files
         .into_iter()
@@ -995,27 +1040,20 @@ pub async fn import(
         .map(|(_, name, bytes)| (name, bytes))
         .collect();
     if contents.is_empty() {
-        let msg = "choose one or more export files".to_string();
-        return show_person(
-            &s,
-            &w.csrf,
-            id,
-            StatusCode::UNPROCESSABLE_ENTITY,
-            None,
-            move |m| {
-                m.errors.insert("files".into(), msg);
-            },
-        )
-        .await;
+        return refuse("files", "choose one or more export files".into()).await;
     }
+    let read = abba_io::ReadOptions {
+        grams_per_exchange: grams,
+        ..abba_io::ReadOptions::default()
+    };
     let out = s
         .store(move |store| {
             let name = store.person_by_id(id)?.name;
             let out = store
-                .import_contents_with(
+                .import_contents_read(
                     &name,
                     &contents,
-                    None,
+                    &read,
                     ProfileResolution::Stop,
                     jiff::Timestamp::now(),
                     true,
@@ -1026,30 +1064,23 @@ pub async fn import(
         })
         .await?;
     s.forget(id);
-    let out = out.map(|(name, summary)| {
-        if summary.added > 0 || summary.updated > 0 {
-            s.log_changed(&name);
-        }
-        summary
-    });
     match out {
-        Ok(summary) => Ok(see_other(&format!(
-            "/clinic/persons/{id}?done=import&added={}",
-            summary.added
-        ))),
-        Err(msg) => {
+        Ok((name, summary)) => {
+            if summary.added > 0 || summary.updated > 0 {
+                s.log_changed(&name);
+            }
+            let lines = summary.lines(&name);
             show_person(
                 &s,
                 &w.csrf,
                 id,
-                StatusCode::UNPROCESSABLE_ENTITY,
-                None,
-                move |m| {
-                    m.errors.insert("files".into(), msg);
-                },
+                StatusCode::OK,
+                Some(C.imported.to_string()),
+                move |m| m.import_result = lines,
             )
             .await
         }
+        Err(msg) => refuse("files", msg).await,
     }
 }
 

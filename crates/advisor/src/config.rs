@@ -576,10 +576,11 @@ pub struct TeConfig {
     /// Upper clamp of TE_n. \[GUESS] 4.
     pub te_n_max: f64,
     /// θ0 for BR per unit TE_n: (hyper, hypo). \[GUESS, calibrated]
-    /// (+0.15, −0.20) (spec: (+0.10, −0.20); `abba calibrate`, BENCHMARKS.md).
+    /// (+0.45, −0.60) (spec: (+0.10, −0.20); `abba calibrate` on its
+    /// training cohort, gain 0.45 and hypo ratio 4/3; BENCHMARKS.md).
     pub theta0_br: [f64; 2],
     /// θ0 for each CIR per unit TE_n: (hyper, hypo). \[GUESS, calibrated]
-    /// (−0.15, +0.20) (spec: (−0.10, +0.20)).
+    /// (−0.20, +0.60) (spec: (−0.10, +0.20); gain 0.2, hypo ratio 3).
     pub theta0_cir: [f64; 2],
 }
 
@@ -598,8 +599,8 @@ impl Default for TeConfig {
             mapping: TeMapping::Proportional,
             te_n_min: 0.25,
             te_n_max: 4.0,
-            theta0_br: [0.15, -0.20],
-            theta0_cir: [-0.15, 0.20],
+            theta0_br: [0.45, -0.60],
+            theta0_cir: [-0.20, 0.60],
         }
     }
 }

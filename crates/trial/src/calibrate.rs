@@ -23,10 +23,23 @@ use std::collections::BTreeMap;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Knob {
-    /// |θ0_hyper| per unit TE_n: `te.theta0_br[0] = v`, `te.theta0_cir[0] = −v`.
-    Theta0Hyper,
-    /// |θ0_hypo| per unit TE_n: `te.theta0_br[1] = −v`, `te.theta0_cir[1] = v`.
-    Theta0Hypo,
+    /// The basal agent's gain per unit TE_n, its hyper weight:
+    /// `te.theta0_br = [v, −v·ρ]` with ρ its hypo ratio (kept). The basal's
+    /// and the carb ratios' gains are separate knobs (`benches/diagnosis`:
+    /// the basal wants a stronger gain than the carb ratios), and each is a
+    /// gain and a ratio rather than two weights, so that a coordinate step
+    /// can scale a gain without unbalancing its hyper and hypo responses
+    /// (a stronger hyper weight alone only adds hypoglycaemia).
+    BasalTheta0,
+    /// The basal agent's hypo weight over its hyper weight:
+    /// `te.theta0_br[1] = −v·te.theta0_br[0]`.
+    BasalHypoRatio,
+    /// The carb-ratio agents' gain, their hyper weight:
+    /// `te.theta0_cir = [−v, v·ρ]` with ρ their hypo ratio (kept).
+    CarbTheta0,
+    /// The carb-ratio agents' hypo weight over their hyper weight:
+    /// `te.theta0_cir[1] = −v·te.theta0_cir[0]`.
+    CarbHypoRatio,
     /// The SMBG-mode reading of eq10-11 `features.smbg_excursion`:
     /// 0 = out-of-range mean (literal), 1 = time-averaged.
     SmbgExcursion,
@@ -53,8 +66,10 @@ impl Knob {
     /// The configuration path the knob sets.
     pub fn path(self) -> &'static str {
         match self {
-            Knob::Theta0Hyper => "abba.te.theta0_br[0] = -abba.te.theta0_cir[0]",
-            Knob::Theta0Hypo => "abba.te.theta0_cir[1] = -abba.te.theta0_br[1]",
+            Knob::BasalTheta0 => "abba.te.theta0_br = [v, -v*ratio]",
+            Knob::BasalHypoRatio => "abba.te.theta0_br[1] = -v*abba.te.theta0_br[0]",
+            Knob::CarbTheta0 => "abba.te.theta0_cir = [-v, v*ratio]",
+            Knob::CarbHypoRatio => "abba.te.theta0_cir[1] = -v*abba.te.theta0_cir[0]",
             Knob::SmbgExcursion => {
                 "abba.features.smbg_excursion (0 = out_of_range_mean, 1 = time_averaged)"
             }
@@ -79,8 +94,10 @@ impl Knob {
     /// The knob's value in `c`.
     pub fn get(self, c: &RawTrialConfig) -> f64 {
         match self {
-            Knob::Theta0Hyper => c.abba.te.theta0_br[0],
-            Knob::Theta0Hypo => c.abba.te.theta0_cir[1],
+            Knob::BasalTheta0 => c.abba.te.theta0_br[0],
+            Knob::BasalHypoRatio => ratio(c.abba.te.theta0_br),
+            Knob::CarbTheta0 => -c.abba.te.theta0_cir[0],
+            Knob::CarbHypoRatio => ratio(c.abba.te.theta0_cir),
             Knob::SmbgExcursion => match c.abba.features.smbg_excursion {
                 Excursion::OutOfRangeMean => 0.0,
                 Excursion::TimeAveraged => 1.0,
@@ -98,13 +115,21 @@ impl Knob {
     /// Sets the knob in `c`.
     pub fn set(self, c: &mut RawTrialConfig, v: f64) {
         match self {
-            Knob::Theta0Hyper => {
-                c.abba.te.theta0_br[0] = v;
-                c.abba.te.theta0_cir[0] = -v;
+            Knob::BasalTheta0 => {
+                let r = ratio(c.abba.te.theta0_br);
+                c.abba.te.theta0_br = [v, round12(-v * r)];
             }
-            Knob::Theta0Hypo => {
-                c.abba.te.theta0_br[1] = -v;
-                c.abba.te.theta0_cir[1] = v;
+            Knob::BasalHypoRatio => {
+                let t = &mut c.abba.te.theta0_br;
+                t[1] = round12(-v * t[0]);
+            }
+            Knob::CarbTheta0 => {
+                let r = ratio(c.abba.te.theta0_cir);
+                c.abba.te.theta0_cir = [-v, round12(v * r)];
+            }
+            Knob::CarbHypoRatio => {
+                let t = &mut c.abba.te.theta0_cir;
+                t[1] = round12(-v * t[0]);
             }
             Knob::SmbgExcursion => {
                 c.abba.features.smbg_excursion = if v >= 0.5 {
@@ -130,6 +155,22 @@ impl Knob {
             Knob::R2rCarbGain => c.r2r.cir_gain = v,
         }
     }
+}
+
+/// A gain's hypo weight over its hyper weight (`|θ[1] / θ[0]|`; 1 for a
+/// zero hyper weight, which has no ratio to keep).
+fn ratio(theta: [f64; 2]) -> f64 {
+    if theta[0] == 0.0 {
+        1.0
+    } else {
+        round12((theta[1] / theta[0]).abs())
+    }
+}
+
+/// `x` to 12 decimals: a product of grid values is kept as the number it
+/// stands for (0.15 · 4/3 is 0.2, not 0.19999999999999998).
+fn round12(x: f64) -> f64 {
+    (x * 1e12).round() / 1e12
 }
 
 /// The candidate values of one knob.
@@ -228,8 +269,10 @@ impl Default for CalibrationConfig {
                 generated_only: false,
             },
             grids: vec![
-                grid(Knob::Theta0Hyper, &[0.1, 0.15, 0.2, 0.25, 0.3, 0.4]),
-                grid(Knob::Theta0Hypo, &[0.1, 0.15, 0.2, 0.25, 0.3]),
+                grid(Knob::BasalTheta0, &[0.1, 0.15, 0.2, 0.3, 0.45, 0.6]),
+                grid(Knob::BasalHypoRatio, &[1.0, 1.5, 2.0, 3.0]),
+                grid(Knob::CarbTheta0, &[0.05, 0.1, 0.15, 0.2, 0.3]),
+                grid(Knob::CarbHypoRatio, &[1.0, 1.5, 2.0, 3.0]),
                 grid(Knob::SmbgExcursion, &[0.0, 1.0]),
                 grid(Knob::FeatureGMax, &[200.0, 250.0, 300.0, 400.0, 550.0]),
                 grid(Knob::FeatureGMin, &[30.0, 40.0, 50.0]),
@@ -676,8 +719,10 @@ mod tests {
         }
         assert_eq!(c.abba.features.smbg_excursion, Excursion::TimeAveraged);
         for (k, v) in [
-            (Knob::Theta0Hyper, 0.3),
-            (Knob::Theta0Hypo, 0.15),
+            (Knob::BasalHypoRatio, 2.0),
+            (Knob::BasalTheta0, 0.45),
+            (Knob::CarbTheta0, 0.1),
+            (Knob::CarbHypoRatio, 4.0),
             (Knob::FeatureGMax, 350.0),
             (Knob::FeatureGMin, 30.0),
             (Knob::FeatureGMinCgm, 70.0),
@@ -689,8 +734,16 @@ mod tests {
             k.set(&mut c, v);
             assert_eq!(k.get(&c), v, "{k:?}");
         }
-        assert_eq!(c.abba.te.theta0_br, [0.3, -0.15]);
-        assert_eq!(c.abba.te.theta0_cir, [-0.3, 0.15]);
+        // A gain keeps its ratio; a ratio keeps its gain.
+        assert_eq!(c.abba.te.theta0_br, [0.45, -0.9]);
+        assert_eq!(c.abba.te.theta0_cir, [-0.1, 0.4]);
+        Knob::BasalTheta0.set(&mut c, 0.15);
+        assert_eq!(c.abba.te.theta0_br, [0.15, -0.3]);
+        let mut d = RawTrialConfig::default();
+        d.abba.te.theta0_cir = [-0.15, 0.2];
+        Knob::CarbTheta0.set(&mut d, 0.45);
+        assert_eq!(d.abba.te.theta0_cir, [-0.45, 0.6]);
+        assert_eq!(Knob::CarbHypoRatio.get(&d), round12(4.0 / 3.0));
         assert_eq!(c.abba.features.g_max_mg_dl, 350.0);
         assert_eq!(c.abba.features.cgm_g_min_mg_dl, Some(70.0));
         assert_eq!(c.abba.features.cgm_g_max_mg_dl, Some(300.0));
@@ -739,7 +792,7 @@ mod tests {
         cal.passes = 1;
         cal.grids = vec![
             KnobGrid {
-                knob: Knob::Theta0Hyper,
+                knob: Knob::BasalTheta0,
                 values: vec![0.1, 0.3],
             },
             KnobGrid {
@@ -759,8 +812,8 @@ mod tests {
             assert!(v == r.start[&g.knob] || g.values.contains(&v), "{g:?}: {v}");
         }
         assert_eq!(
-            Knob::Theta0Hyper.get(&r.chosen_trial),
-            r.chosen[&Knob::Theta0Hyper]
+            Knob::BasalTheta0.get(&r.chosen_trial),
+            r.chosen[&Knob::BasalTheta0]
         );
         // An accepted entry beats the best so far of its arm (its start and
         // earlier accepted entries) by the noise margin.

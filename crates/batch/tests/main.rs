@@ -7,4 +7,5 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 // One module per test file.
+mod company;
 mod patient_batch;

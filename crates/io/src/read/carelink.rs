@@ -376,7 +376,7 @@ pub fn read_with_settings(
     if unread_exchanges > 0 {
         let column = unread_exchanges_column.unwrap_or_else(|| "Event Marker".into());
         ctx.note(format!(
-            "carbohydrate not read: \"{column}\" counts in exchanges and an exchange is not one fixed mass ({unread_exchanges} rows); give --grams-per-exchange G (10 for the Spanish raci\u{f3}n) to read it as grams"
+            "carbohydrate not read: \"{column}\" counts in exchanges and an exchange is not one fixed mass ({unread_exchanges} rows); give the grams per exchange (--grams-per-exchange G, or the clinic page's grams-per-exchange field; 10 for the Spanish raci\u{f3}n) to read it as grams"
         ));
     }
     settings.basal.sort_by_key(|b| b.0);

@@ -1034,6 +1034,27 @@ fn logged_carbs(svc: &Svc, name: &str) -> Vec<f64> {
         .collect()
 }
 
+/// Posts [`EXCHANGES_EXPORT`]'s bytes to a person's import form (`path`),
+/// with `grams` per exchange when given.
+async fn import_export(
+    b: &mut Browser<'_>,
+    path: &str,
+    csrf: &str,
+    grams: Option<&str>,
+    export: &[u8],
+) -> Page {
+    let mut fields = vec![("csrf", csrf)];
+    if let Some(g) = grams {
+        fields.push(("grams_per_exchange", g));
+    }
+    b.post_multipart(
+        path,
+        &fields,
+        &[("files", "carelink_veo754_hupa0001p.csv", export)],
+    )
+    .await
+}
+
 #[tokio::test]
 async fn the_clinics_import_reads_exchanges_with_the_grams_given_and_shows_every_note() {
     let svc = Svc::new();
@@ -1078,13 +1099,7 @@ async fn the_clinics_import_reads_exchanges_with_the_grams_given_and_shows_every
 
     // A grams-per-exchange out of range is refused beside its field, and
     // nothing is imported.
-    let p = admin
-        .post_multipart(
-            &import,
-            &[("csrf", &csrf), ("grams_per_exchange", "40")],
-            &[("files", file, &export)],
-        )
-        .await;
+    let p = import_export(&mut admin, &import, &csrf, Some("40"), &export).await;
     assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
     assert!(
         p.html.contains("id=\"grams_per_exchange-error\""),
@@ -1097,9 +1112,7 @@ async fn the_clinics_import_reads_exchanges_with_the_grams_given_and_shows_every
 
     // Without it: the rest imports, and the page says the carbohydrate was
     // not read, and why (the reader's note, as `abba import` prints it).
-    let p = admin
-        .post_multipart(&import, &[("csrf", &csrf)], &[("files", file, &export)])
-        .await;
+    let p = import_export(&mut admin, &import, &csrf, None, &export).await;
     assert_eq!(p.status, StatusCode::OK, "{}", p.html);
     let result = p.section("<ul id=\"import-result\"", "ul").to_string();
     assert!(result.contains("Imported "), "{result}");
@@ -1112,13 +1125,7 @@ async fn the_clinics_import_reads_exchanges_with_the_grams_given_and_shows_every
 
     // With 10 g per exchange: the 28 exchanges come as 280 g, and the
     // records already imported are known, not added twice.
-    let p = admin
-        .post_multipart(
-            &import,
-            &[("csrf", &csrf), ("grams_per_exchange", "10")],
-            &[("files", file, &export)],
-        )
-        .await;
+    let p = import_export(&mut admin, &import, &csrf, Some("10"), &export).await;
     assert_eq!(p.status, StatusCode::OK, "{}", p.html);
     let result = p.section("<ul id=\"import-result\"", "ul").to_string();
     assert!(result.contains("already known"), "{result}");
@@ -1128,13 +1135,7 @@ async fn the_clinics_import_reads_exchanges_with_the_grams_given_and_shows_every
     assert!((total - 280.0).abs() < 1e-9, "{carbs:?}");
 
     // The same files again: nothing new, said so.
-    let p = admin
-        .post_multipart(
-            &import,
-            &[("csrf", &csrf), ("grams_per_exchange", "10")],
-            &[("files", file, &export)],
-        )
-        .await;
+    let p = import_export(&mut admin, &import, &csrf, Some("10"), &export).await;
     assert_eq!(p.status, StatusCode::OK, "{}", p.html);
     assert!(p.html.contains("Nothing new"), "{}", p.html);
     assert_eq!(logged_carbs(&svc, "lucia").len(), carbs.len());

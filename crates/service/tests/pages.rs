@@ -80,18 +80,23 @@ impl<'a> Browser<'a> {
         }
     }
 
+    /// The jar as a `Cookie` header.
+    fn cookie_header(&self) -> String {
+        let c: Vec<String> = self
+            .cookies
+            .iter()
+            .map(|(k, v)| format!("{k}={v}"))
+            .collect();
+        c.join("; ")
+    }
+
     async fn send(&mut self, method: Method, path: &str, form: Option<&[(&str, &str)]>) -> Page {
         let mut req = Request::builder()
             .method(method.clone())
             .uri(path)
             .header(header::HOST, HOST);
         if !self.cookies.is_empty() {
-            let c: Vec<String> = self
-                .cookies
-                .iter()
-                .map(|(k, v)| format!("{k}={v}"))
-                .collect();
-            req = req.header(header::COOKIE, c.join("; "));
+            req = req.header(header::COOKIE, self.cookie_header());
         }
         if method == Method::POST {
             if let Some(o) = self.origin {
@@ -175,12 +180,7 @@ impl<'a> Browser<'a> {
                 header::CONTENT_TYPE,
                 format!("multipart/form-data; boundary={BOUNDARY}"),
             );
-        let c: Vec<String> = self
-            .cookies
-            .iter()
-            .map(|(k, v)| format!("{k}={v}"))
-            .collect();
-        req = req.header(header::COOKIE, c.join("; "));
+        req = req.header(header::COOKIE, self.cookie_header());
         let res = self
             .svc
             .router

@@ -1147,6 +1147,69 @@ async fn the_clinics_import_reads_exchanges_with_the_grams_given_and_shows_every
     assert_eq!(p.status, StatusCode::FORBIDDEN);
 }
 
+/// An import while another writer holds the store: the service's 503 (retry
+/// later), not an error beside the files, and nothing imported.
+#[tokio::test]
+async fn the_clinics_import_on_a_busy_store_is_a_503_not_a_field_error() {
+    let mut svc = Svc::new();
+    if abba_store::testing::is_postgres(&svc.db) {
+        eprintln!(
+            "the_clinics_import_on_a_busy_store_is_a_503_not_a_field_error: SQLite's write lock"
+        );
+        return;
+    }
+    let id = svc.person("ana").await;
+    let state = abba_service::AppState::open(
+        &svc.db,
+        abba_service::StoreSettings {
+            busy_timeout: std::time::Duration::from_millis(300),
+            ..abba_service::StoreSettings::default()
+        },
+    )
+    .unwrap();
+    svc.router = abba_service::router(state);
+    let (mut admin, _) = signed_in(&svc, Role::Admin).await;
+    let page = admin.get(&format!("/clinic/persons/{id}")).await;
+    assert_eq!(page.status, StatusCode::OK);
+    let csrf = page.hidden("csrf");
+    // A day of Nightscout CGM (no profile: nothing for the settings check).
+    let day0: jiff::Timestamp = "2026-11-02T00:00:00Z".parse().unwrap();
+    let entries: Vec<Value> = (0..288)
+        .map(|k| {
+            let t = day0 + jiff::SignedDuration::from_mins(5 * k);
+            json!({"_id": format!("e{k}"), "type": "sgv", "sgv": 120,
+                   "date": t.as_millisecond(), "dateString": t.to_string()})
+        })
+        .collect();
+    let bytes = serde_json::to_vec(&entries).unwrap();
+    let path = format!("/clinic/persons/{id}/import");
+    let other = rusqlite::Connection::open(&svc.db).unwrap();
+    other.execute_batch("BEGIN IMMEDIATE").unwrap();
+    let p = admin
+        .post_multipart(
+            &path,
+            &[("csrf", &csrf)],
+            &[("files", "entries.json", &bytes)],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::SERVICE_UNAVAILABLE, "{}", p.html);
+    assert!(!p.html.contains("id=\"files-error\""), "{}", p.html);
+    other.execute_batch("ROLLBACK").unwrap();
+    let store = abba_service::open_store(&svc.db).unwrap();
+    assert!(store.records("ana").unwrap().is_empty(), "nothing imported");
+    drop(store);
+    // The writer gone, the same import goes through.
+    let p = admin
+        .post_multipart(
+            &path,
+            &[("csrf", &csrf)],
+            &[("files", "entries.json", &bytes)],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::OK, "{}", p.html);
+    assert!(p.html.contains("Imported 288 new records"), "{}", p.html);
+}
+
 #[tokio::test]
 async fn today_for_a_person_fed_by_imports_says_what_abba_advise_says() {
     let svc = Svc::new();

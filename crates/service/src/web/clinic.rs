@@ -1046,21 +1046,29 @@ pub async fn import(
         grams_per_exchange: grams,
         ..abba_io::ReadOptions::default()
     };
+    // What the files or the person's settings refuse is shown beside the
+    // files; a busy, read-only or broken store is the service's error
+    // (503 / 500), never a field's (as the change of therapy).
     let out = s
         .store(move |store| {
             let name = store.person_by_id(id)?.name;
-            let out = store
-                .import_contents_read(
-                    &name,
-                    &contents,
-                    &read,
-                    ProfileResolution::Stop,
-                    jiff::Timestamp::now(),
-                    true,
-                    &mut |_| Ok(()),
-                )
-                .map_err(|e| e.to_string());
-            Ok(out.map(|summary| (name, summary)))
+            match store.import_contents_read(
+                &name,
+                &contents,
+                &read,
+                ProfileResolution::Stop,
+                jiff::Timestamp::now(),
+                true,
+                &mut |_| Ok(()),
+            ) {
+                Ok(summary) => Ok(Ok((name, summary))),
+                Err(
+                    e @ (abba_store::StoreError::Db(_)
+                    | abba_store::StoreError::Corrupt { .. }
+                    | abba_store::StoreError::NewerSchema { .. }),
+                ) => Err(e.into()),
+                Err(e) => Ok(Err(e.to_string())),
+            }
         })
         .await?;
     s.forget(id);

@@ -144,6 +144,9 @@ impl From<StoreError> for ApiError {
     fn from(e: StoreError) -> Self {
         match e {
             StoreError::Invalid { field, problem } => ApiError::invalid(field, problem),
+            StoreError::ProfileDiffers { origin, difference } => {
+                ApiError::invalid(origin, difference)
+            }
             StoreError::SeqConflict { index, .. } => {
                 let msg = e.to_string();
                 ApiError::conflict(msg).at(format!("events[{index}].seq"))

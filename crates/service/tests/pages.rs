@@ -1210,6 +1210,147 @@ async fn the_clinics_import_on_a_busy_store_is_a_503_not_a_field_error() {
     assert!(p.html.contains("Imported 288 new records"), "{}", p.html);
 }
 
+/// A Nightscout export (profile, entries, treatments) from
+/// crates/io/tests/data: its profile's basal schedule (0.8 / 0.95 / 0.8
+/// U/h) differs from the 1.0 U/h the test person is created with.
+fn nightscout_export() -> Vec<(&'static str, Vec<u8>)> {
+    ["profile", "entries", "treatments"]
+        .into_iter()
+        .map(|kind| {
+            let file = format!(
+                "{}/../io/tests/data/nightscout_{kind}_synthetic.json",
+                env!("CARGO_MANIFEST_DIR")
+            );
+            (kind, std::fs::read(file).unwrap())
+        })
+        .collect()
+}
+
+/// The import form's choice when the export's pump profile differs from
+/// the therapy abba holds: stop (the default) shows both values and the
+/// page's own choice (not the CLI's flags), nothing imported; adopt puts
+/// the profile in force; keep keeps abba's therapy; anything else is
+/// refused beside the choice.
+#[tokio::test]
+async fn the_clinics_import_asks_what_to_do_when_the_pumps_profile_differs() {
+    let svc = Svc::new();
+    let body = |name: &str| {
+        json!({
+            "name": name, "tz": "Europe/Zurich", "mode": "cgm",
+            "start": {"basal_units_per_hour": 1.0, "carb_ratio_g_per_unit": [10.0, 12.0, 11.0]}
+        })
+    };
+    let adopt = svc.person_with(body("ada")).await;
+    let keep = svc.person_with(body("kim")).await;
+    let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
+    let files = nightscout_export();
+    let named: Vec<(String, Vec<u8>)> = files
+        .iter()
+        .map(|(k, b)| (format!("{k}.json"), b.clone()))
+        .collect();
+    let parts: Vec<(&str, &str, &[u8])> = named
+        .iter()
+        .map(|(n, b)| ("files", n.as_str(), b.as_slice()))
+        .collect();
+    let import = |id: u64| format!("/clinic/persons/{id}/import");
+    let person = |name: &str| {
+        abba_service::open_store(&svc.db)
+            .unwrap()
+            .person(name)
+            .unwrap()
+    };
+
+    // The page offers the three choices, stop checked.
+    let page = admin.get(&format!("/clinic/persons/{adopt}")).await;
+    assert_eq!(page.status, StatusCode::OK);
+    let choice = page.section("<fieldset id=\"profile_choice\"", "fieldset");
+    for v in ["stop", "adopt", "keep"] {
+        assert!(choice.contains(&format!("value=\"{v}\"")), "{choice}");
+    }
+    assert!(choice.contains("value=\"stop\" checked"), "{choice}");
+
+    // No choice (stop): refused beside the choice with both values.
+    let p = admin
+        .post_multipart(&import(adopt), &[("csrf", &csrf)], &parts)
+        .await;
+    assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+    let err = p.section("<p class=\"field-error\" id=\"profile_choice-error\"", "p");
+    assert!(err.contains("differs") && err.contains("0.95"), "{err}");
+    assert!(err.contains("(basal 1 U"), "{err}");
+    assert!(err.contains("Choose what abba should do"), "{err}");
+    assert!(!err.contains("--adopt-profile"), "the page's words: {err}");
+    assert!(
+        p.html.contains("aria-describedby=\"profile_choice-error\""),
+        "the group names its error"
+    );
+    assert!(abba_service::open_store(&svc.db)
+        .unwrap()
+        .records("ada")
+        .unwrap()
+        .is_empty());
+
+    // A choice the form does not offer: refused, nothing imported.
+    let p = admin
+        .post_multipart(
+            &import(adopt),
+            &[("csrf", &csrf), ("profile_choice", "both")],
+            &parts,
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+    assert!(p.html.contains("id=\"profile_choice-error\""), "{}", p.html);
+    assert!(
+        p.html.contains("expected stop, adopt or keep"),
+        "{}",
+        p.html
+    );
+    assert!(abba_service::open_store(&svc.db)
+        .unwrap()
+        .records("ada")
+        .unwrap()
+        .is_empty());
+
+    // Adopt: imported, the pump's schedule in force.
+    let p = admin
+        .post_multipart(
+            &import(adopt),
+            &[("csrf", &csrf), ("profile_choice", "adopt")],
+            &parts,
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::OK, "{}", p.html);
+    assert!(p.html.contains("id=\"import-result\""), "{}", p.html);
+    let s = person("ada").settings;
+    let rates: Vec<f64> = s
+        .basal_schedule
+        .clone()
+        .unwrap()
+        .iter()
+        .map(|r| r.1)
+        .collect();
+    assert_eq!(rates, [0.8, 0.95, 0.8]);
+    assert_eq!(s.therapy_source, abba_store::person::TherapySource::Profile);
+
+    // Keep: imported, abba's therapy kept.
+    let p = admin
+        .post_multipart(
+            &import(keep),
+            &[("csrf", &csrf), ("profile_choice", "keep")],
+            &parts,
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::OK, "{}", p.html);
+    let s = person("kim").settings;
+    assert_eq!(s.start.basal.0, 1.0);
+    assert!(s.basal_schedule.is_none());
+    assert_eq!(s.therapy_source, abba_store::person::TherapySource::Kept);
+    assert!(!abba_service::open_store(&svc.db)
+        .unwrap()
+        .records("kim")
+        .unwrap()
+        .is_empty());
+}
+
 #[tokio::test]
 async fn today_for_a_person_fed_by_imports_says_what_abba_advise_says() {
     let svc = Svc::new();

@@ -38,6 +38,18 @@ pub enum StoreError {
         /// What is wrong and what was expected.
         problem: String,
     },
+    /// An export's pump profile differs from the therapy the store holds
+    /// (an import that was told to stop then): nothing was imported, and
+    /// the importer chooses ([`crate::ProfileResolution`]). The message
+    /// names the CLI's flags; a page shows [`StoreError::ProfileDiffers`]'s
+    /// `difference` with its own choice.
+    #[error("{origin}: {difference} Import again with --adopt-profile to put the pump's profile in force (what the pump runs), or with --keep-therapy to keep the store's values (profiles in the data are then not read as therapy).")]
+    ProfileDiffers {
+        /// Where the profile was read (file and row or document).
+        origin: String,
+        /// Both values and that nothing was imported.
+        difference: String,
+    },
     /// Reading or mapping device data failed (names file, line or path, field).
     #[error(transparent)]
     Io(#[from] abba_io::IoError),

@@ -739,10 +739,10 @@ fn profile_check(
                     p.settings.start.basal.0
                 )
             };
-            Err(StoreError::Invalid {
-                field: at_start.origin.clone(),
-                problem: format!(
-                    "the pump's profile ({}) differs from the therapy the store holds for {} ({held}, carb ratios {b}/{l}/{d} g/U). Nothing was imported. Import again with --adopt-profile to put the pump's profile in force (what the pump runs), or with --keep-therapy to keep the store's values (profiles in the data are then not read as therapy).",
+            Err(StoreError::ProfileDiffers {
+                origin: at_start.origin.clone(),
+                difference: format!(
+                    "the pump's profile ({}) differs from the therapy the store holds for {} ({held}, carb ratios {b}/{l}/{d} g/U). Nothing was imported.",
                     at_start.describe(),
                     p.name
                 ),

@@ -479,6 +479,17 @@ pub struct ClinicTexts {
     pub import_button: &'static str,
     /// Label: grams of carbohydrate per exchange (import and profile).
     pub grams_per_exchange_label: &'static str,
+    /// Legend: what an import does when the export's pump profile differs
+    /// from the therapy abba holds.
+    pub profile_choice_legend: &'static str,
+    /// Option: stop and show both.
+    pub profile_stop: &'static str,
+    /// Option: put the pump's profile in force.
+    pub profile_adopt: &'static str,
+    /// Option: keep abba's therapy.
+    pub profile_keep: &'static str,
+    /// After a stopped import: how to go on.
+    pub profile_choose: &'static str,
     /// Heading: what the import did.
     pub import_result_title: &'static str,
     /// Heading: access.
@@ -587,6 +598,11 @@ pub const CLINIC_EN: ClinicTexts = ClinicTexts {
     import_files: "Export files (Nightscout, Clarity, LibreView, Tidepool, CareLink, CSV)",
     import_button: "Import",
     grams_per_exchange_label: "Grams of carbohydrate per exchange, for a CareLink export whose bolus wizard counts in exchanges (10 for the Spanish raci\u{f3}n; empty otherwise)",
+    profile_choice_legend: "If an export's pump profile differs from the therapy abba holds",
+    profile_stop: "Stop and show both (nothing is imported)",
+    profile_adopt: "Put the pump's profile in force (what the pump runs)",
+    profile_keep: "Keep abba's therapy (profiles in the data are then not read as therapy)",
+    profile_choose: "Choose what abba should do below, then choose the files again and import.",
     import_result_title: "What the import did",
     access_title: "Sign-in and tokens",
     make_signin: "Make a sign-in link",

@@ -1013,10 +1013,13 @@ pub async fn import(
     let w = admin_post_head(&s, &ctx).await?;
     let up = read_multipart(m).await?;
     upload_csrf(&w, &up)?;
-    up.text.only(&["csrf", "files", "grams_per_exchange"])?;
+    up.text
+        .only(&["csrf", "files", "grams_per_exchange", "profile_choice"])?;
     let grams_text = up.text.text("grams_per_exchange").to_string();
+    let choice_text = up.text.text("profile_choice").to_string();
     let refuse = |field: &'static str, msg: String| {
         let typed = grams_text.clone();
+        let choice = choice_text.clone();
         show_person(
             &s,
             &w.csrf,
@@ -1026,12 +1029,17 @@ pub async fn import(
             move |m| {
                 m.errors.insert(field.into(), msg);
                 m.values.insert("grams_per_exchange".into(), typed);
+                m.values.insert("profile_choice".into(), choice);
             },
         )
     };
     let grams = match grams_per_exchange(&grams_text) {
         Ok(g) => g,
         Err(e) => return refuse("grams_per_exchange", e).await,
+    };
+    let resolve = match profile_choice(&choice_text) {
+        Ok(r) => r,
+        Err(e) => return refuse("profile_choice", e).await,
     };
     let contents: Vec<(String, Vec<u8>)> = up
         .files
@@ -1056,7 +1064,7 @@ pub async fn import(
                 &name,
                 &contents,
                 &read,
-                ProfileResolution::Stop,
+                resolve,
                 jiff::Timestamp::now(),
                 true,
                 &mut |_| Ok(()),
@@ -1067,7 +1075,12 @@ pub async fn import(
                     | abba_store::StoreError::Corrupt { .. }
                     | abba_store::StoreError::NewerSchema { .. }),
                 ) => Err(e.into()),
-                Err(e) => Ok(Err(e.to_string())),
+                // The page's own choice instead of the CLI's flags.
+                Err(abba_store::StoreError::ProfileDiffers { origin, difference }) => Ok(Err((
+                    "profile_choice",
+                    format!("{origin}: {difference} {}", C.profile_choose),
+                ))),
+                Err(e) => Ok(Err(("files", e.to_string()))),
             }
         })
         .await?;
@@ -1088,7 +1101,19 @@ pub async fn import(
             )
             .await
         }
-        Err(msg) => refuse("files", msg).await,
+        Err((field, msg)) => refuse(field, msg).await,
+    }
+}
+
+/// The import form's `profile_choice`: what to do when an export's pump
+/// profile differs from the therapy the store holds (`abba import`'s
+/// `--adopt-profile` / `--keep-therapy`; empty or `stop`: stop and say so).
+fn profile_choice(text: &str) -> Result<ProfileResolution, String> {
+    match text {
+        "" | "stop" => Ok(ProfileResolution::Stop),
+        "adopt" => Ok(ProfileResolution::Adopt),
+        "keep" => Ok(ProfileResolution::Keep),
+        other => Err(format!("expected stop, adopt or keep, got {other:?}")),
     }
 }
 

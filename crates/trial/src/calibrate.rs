@@ -343,6 +343,28 @@ impl CalibrationConfig {
             if g.values.iter().any(|v| !v.is_finite()) {
                 return bad(format!("{:?}: candidate values must be finite", g.knob));
             }
+            // A gain of 0 turns the agent off and leaves no hypo ratio to
+            // keep for the next gain (the weights would be [0, 0]); a
+            // negative one reverses it. A ratio below 0 flips the hypo
+            // weight's sign.
+            let (positive, what) = match g.knob {
+                Knob::BasalTheta0 | Knob::CarbTheta0 => (true, "a gain (the hyper weight's size)"),
+                Knob::BasalHypoRatio | Knob::CarbHypoRatio => {
+                    (false, "a ratio of the weights' sizes")
+                }
+                _ => continue,
+            };
+            if let Some(v) = g
+                .values
+                .iter()
+                .find(|&&v| if positive { v <= 0.0 } else { v < 0.0 })
+            {
+                return bad(format!(
+                    "{:?}: each candidate is {what} and must be {}, got {v}",
+                    g.knob,
+                    if positive { "above 0" } else { "at least 0" }
+                ));
+            }
         }
         if self.passes == 0 {
             return bad("passes must be at least 1".into());
@@ -750,6 +772,29 @@ mod tests {
         assert_eq!(c.abba.actor.natural_beta, 0.2);
         assert_eq!((c.r2r.basal_gain, c.r2r.cir_gain), (0.3, 0.2));
         TrialConfig::try_from(c).unwrap();
+    }
+
+    #[test]
+    fn a_gain_must_be_above_0_and_a_ratio_at_least_0() {
+        let base = RawTrialConfig::default();
+        for (knob, v, ok) in [
+            (Knob::BasalTheta0, 0.0, false),
+            (Knob::CarbTheta0, -0.1, false),
+            (Knob::CarbTheta0, 0.05, true),
+            (Knob::BasalHypoRatio, -1.0, false),
+            (Knob::CarbHypoRatio, 0.0, true),
+        ] {
+            let mut cal = CalibrationConfig::default();
+            cal.grids = vec![KnobGrid {
+                knob,
+                values: vec![0.3, v],
+            }];
+            let r = cal.validate(&base);
+            assert_eq!(r.is_ok(), ok, "{knob:?} {v}: {r:?}");
+            if let Err(e) = r {
+                assert!(e.to_string().contains(&format!("{knob:?}")), "{e}");
+            }
+        }
     }
 
     #[test]

@@ -208,34 +208,3 @@ fn group_equals_alone(
         );
     }
 }
-
-/// The abba-twin arm (ABBA with the twin check: a twin fitted from the
-/// simulated device data at the 14th closed day) gives the same bytes
-/// serial and parallel, and only it carries the check's counts.
-#[test]
-fn the_twin_arm_is_the_same_serial_and_parallel() {
-    use abba_trial::ArmKind;
-    let config = TrialConfig::try_from(RawTrialConfig {
-        patients: 2,
-        days: 21,
-        scenarios: vec![ScenarioId::S1],
-        arms: vec![ArmKind::Abba, ArmKind::AbbaTwin],
-        ..RawTrialConfig::default()
-    })
-    .unwrap();
-    let serial = run_trial(&config, 1, &Silent).unwrap();
-    let parallel = run_trial(&config, 2, &Silent).unwrap();
-    assert_eq!(
-        serde_json::to_string(&serial.arms).unwrap(),
-        serde_json::to_string(&parallel.arms).unwrap(),
-        "serial and parallel differ"
-    );
-    assert_eq!(serial.arms.len(), 2);
-    for p in &serial.arms[0].patients {
-        assert!(p.twin_check.is_none(), "plain ABBA has no twin check");
-    }
-    for p in &serial.arms[1].patients {
-        let c = p.twin_check.expect("the abba-twin arm's counts");
-        assert_eq!(c.fits, 1, "{c:?}");
-    }
-}

@@ -67,8 +67,9 @@ fn the_twin_checked_arm_fits_from_device_data_and_pairs_with_abba() {
 }
 
 /// The arm through the runner and the report: `--arms abba,abba-twin` runs
-/// it like any arm (paired with ABBA, same person, same days), its result
-/// equals the library entry's, and the report's notes carry the check's
+/// it like any arm (paired with ABBA, same person, same days), the same
+/// bytes serial and parallel, its result equals the library entry's, only
+/// it carries the check's counts, and the report's notes carry the check's
 /// counts summed over the arm's patients (held back among them); the plain
 /// ABBA arm's notes have none.
 #[test]
@@ -84,6 +85,21 @@ fn the_twin_arm_runs_through_the_runner_and_its_counts_are_reported() {
     })
     .unwrap();
     let out = run_trial(&config, 1, &Silent).unwrap();
+    // The same bytes serial and parallel (its twins' fits included; the
+    // check of trial_determinism.rs for this arm, here to share the run).
+    let parallel = run_trial(&config, 2, &Silent).unwrap();
+    assert_eq!(
+        serde_json::to_string(&out.arms).unwrap(),
+        serde_json::to_string(&parallel.arms).unwrap(),
+        "serial and parallel differ"
+    );
+    for p in &out.arms[0].patients {
+        assert!(p.twin_check.is_none(), "plain ABBA has no twin check");
+    }
+    for p in &out.arms[1].patients {
+        let c = p.twin_check.expect("the abba-twin arm's counts");
+        assert_eq!(c.fits, 1, "{c:?}");
+    }
     let twin = out
         .arms
         .iter()

@@ -1263,6 +1263,11 @@ async fn the_clinics_import_asks_what_to_do_when_the_pumps_profile_differs() {
     // The page offers the three choices, stop checked.
     let page = admin.get(&format!("/clinic/persons/{adopt}")).await;
     assert_eq!(page.status, StatusCode::OK);
+    assert!(
+        page.html.contains("given when the person was created"),
+        "{}",
+        page.html
+    );
     let choice = page.section("<fieldset id=\"profile_choice\"", "fieldset");
     for v in ["stop", "adopt", "keep"] {
         assert!(choice.contains(&format!("value=\"{v}\"")), "{choice}");
@@ -1330,6 +1335,12 @@ async fn the_clinics_import_asks_what_to_do_when_the_pumps_profile_differs() {
         .collect();
     assert_eq!(rates, [0.8, 0.95, 0.8]);
     assert_eq!(s.therapy_source, abba_store::person::TherapySource::Profile);
+    let source = |p: &Page| p.section("<p id=\"therapy-source\"", "p").to_string();
+    assert!(
+        source(&p).contains("the pump&#x27;s profile"),
+        "{}",
+        source(&p)
+    );
 
     // Keep: imported, abba's therapy kept.
     let p = admin
@@ -1344,6 +1355,7 @@ async fn the_clinics_import_asks_what_to_do_when_the_pumps_profile_differs() {
     assert_eq!(s.start.basal.0, 1.0);
     assert!(s.basal_schedule.is_none());
     assert_eq!(s.therapy_source, abba_store::person::TherapySource::Kept);
+    assert!(source(&p).contains("kept over the pump"), "{}", source(&p));
     assert!(!abba_service::open_store(&svc.db)
         .unwrap()
         .records("kim")

@@ -73,7 +73,7 @@ impl TherapySource {
                 "the pump's profile (profile switches in force from their time)"
             }
             TherapySource::Kept => {
-                "the store's values, kept over the pump's profile (import --keep-therapy)"
+                "the store's values, kept over the pump's profile (profiles in the data are not read as therapy)"
             }
         }
     }

@@ -490,6 +490,8 @@ pub struct ClinicTexts {
     pub profile_keep: &'static str,
     /// After a stopped import: how to go on.
     pub profile_choose: &'static str,
+    /// Before where the therapy in force comes from.
+    pub therapy_from: &'static str,
     /// Heading: what the import did.
     pub import_result_title: &'static str,
     /// Heading: access.
@@ -603,6 +605,7 @@ pub const CLINIC_EN: ClinicTexts = ClinicTexts {
     profile_adopt: "Put the pump's profile in force (what the pump runs)",
     profile_keep: "Keep abba's therapy (profiles in the data are then not read as therapy)",
     profile_choose: "Choose what abba should do below, then choose the files again and import.",
+    therapy_from: "The therapy in force comes from:",
     import_result_title: "What the import did",
     access_title: "Sign-in and tokens",
     make_signin: "Make a sign-in link",

@@ -523,6 +523,9 @@ struct PersonModel {
     bounds: BTreeMap<&'static str, String>,
     steps: BTreeMap<&'static str, String>,
     waiting: Vec<(String, String)>,
+    /// Where the therapy in force comes from (given, the pump's profile,
+    /// kept over it).
+    therapy_source: String,
     tokens: Vec<Item>,
     sessions: Vec<Item>,
     nightscout: Option<String>,
@@ -657,6 +660,7 @@ fn person_model(store: &mut Store, id: i64) -> Result<PersonModel, ApiError> {
             ("cr_step", format!("{}", steps.carb_ratio_g_per_u)),
         ]),
         waiting,
+        therapy_source: a.therapy.source.to_string(),
         tokens,
         sessions,
         nightscout,

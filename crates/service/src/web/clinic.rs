@@ -1059,7 +1059,7 @@ pub async fn import(
         ..abba_io::ReadOptions::default()
     };
     // What the files or the person's settings refuse is shown beside the
-    // files; a busy, read-only or broken store is the service's error
+    // files, a differing pump profile beside the choice; a busy, read-only or broken store is the service's error
     // (503 / 500), never a field's (as the change of therapy).
     let out = s
         .store(move |store| {

@@ -784,11 +784,13 @@ mod tests {
             (Knob::BasalHypoRatio, -1.0, false),
             (Knob::CarbHypoRatio, 0.0, true),
         ] {
-            let mut cal = CalibrationConfig::default();
-            cal.grids = vec![KnobGrid {
-                knob,
-                values: vec![0.3, v],
-            }];
+            let cal = CalibrationConfig {
+                grids: vec![KnobGrid {
+                    knob,
+                    values: vec![0.3, v],
+                }],
+                ..CalibrationConfig::default()
+            };
             let r = cal.validate(&base);
             assert_eq!(r.is_ok(), ok, "{knob:?} {v}: {r:?}");
             if let Err(e) = r {

@@ -1226,6 +1226,23 @@ fn nightscout_export() -> Vec<(&'static str, Vec<u8>)> {
         .collect()
 }
 
+/// Posts `parts` to person `id`'s import form with `choice` as its
+/// `profile_choice`.
+async fn import_choosing(
+    b: &mut Browser<'_>,
+    id: u64,
+    csrf: &str,
+    choice: &str,
+    parts: &[(&str, &str, &[u8])],
+) -> Page {
+    b.post_multipart(
+        &format!("/clinic/persons/{id}/import"),
+        &[("csrf", csrf), ("profile_choice", choice)],
+        parts,
+    )
+    .await
+}
+
 /// The import form's choice when the export's pump profile differs from
 /// the therapy abba holds: stop (the default) shows both values and the
 /// page's own choice (not the CLI's flags), nothing imported; adopt puts
@@ -1298,13 +1315,7 @@ async fn the_clinics_import_asks_what_to_do_when_the_pumps_profile_differs() {
     assert_eq!(records("ada"), 0, "nothing imported");
 
     // A choice the form does not offer: refused, nothing imported.
-    let p = admin
-        .post_multipart(
-            &import(adopt),
-            &[("csrf", &csrf), ("profile_choice", "both")],
-            &parts,
-        )
-        .await;
+    let p = import_choosing(&mut admin, adopt, &csrf, "both", &parts).await;
     assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
     assert!(p.html.contains("id=\"profile_choice-error\""), "{}", p.html);
     assert!(
@@ -1315,13 +1326,7 @@ async fn the_clinics_import_asks_what_to_do_when_the_pumps_profile_differs() {
     assert_eq!(records("ada"), 0, "nothing imported");
 
     // Adopt: imported, the pump's schedule in force.
-    let p = admin
-        .post_multipart(
-            &import(adopt),
-            &[("csrf", &csrf), ("profile_choice", "adopt")],
-            &parts,
-        )
-        .await;
+    let p = import_choosing(&mut admin, adopt, &csrf, "adopt", &parts).await;
     assert_eq!(p.status, StatusCode::OK, "{}", p.html);
     assert!(p.html.contains("id=\"import-result\""), "{}", p.html);
     let s = person("ada").settings;
@@ -1342,13 +1347,7 @@ async fn the_clinics_import_asks_what_to_do_when_the_pumps_profile_differs() {
     );
 
     // Keep: imported, abba's therapy kept.
-    let p = admin
-        .post_multipart(
-            &import(keep),
-            &[("csrf", &csrf), ("profile_choice", "keep")],
-            &parts,
-        )
-        .await;
+    let p = import_choosing(&mut admin, keep, &csrf, "keep", &parts).await;
     assert_eq!(p.status, StatusCode::OK, "{}", p.html);
     let s = person("kim").settings;
     assert_eq!(s.start.basal.0, 1.0);

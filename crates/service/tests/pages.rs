@@ -1183,15 +1183,15 @@ async fn the_clinics_import_on_a_busy_store_is_a_503_not_a_field_error() {
         .collect();
     let bytes = serde_json::to_vec(&entries).unwrap();
     let path = format!("/clinic/persons/{id}/import");
+    // The same request both times: refused while the writer holds the
+    // store, then accepted.
+    let (fields, files) = (
+        [("csrf", csrf.as_str())],
+        [("files", "entries.json", bytes.as_slice())],
+    );
     let other = rusqlite::Connection::open(&svc.db).unwrap();
     other.execute_batch("BEGIN IMMEDIATE").unwrap();
-    let p = admin
-        .post_multipart(
-            &path,
-            &[("csrf", &csrf)],
-            &[("files", "entries.json", &bytes)],
-        )
-        .await;
+    let p = admin.post_multipart(&path, &fields, &files).await;
     assert_eq!(p.status, StatusCode::SERVICE_UNAVAILABLE, "{}", p.html);
     assert!(!p.html.contains("id=\"files-error\""), "{}", p.html);
     other.execute_batch("ROLLBACK").unwrap();
@@ -1199,13 +1199,7 @@ async fn the_clinics_import_on_a_busy_store_is_a_503_not_a_field_error() {
     assert!(store.records("ana").unwrap().is_empty(), "nothing imported");
     drop(store);
     // The writer gone, the same import goes through.
-    let p = admin
-        .post_multipart(
-            &path,
-            &[("csrf", &csrf)],
-            &[("files", "entries.json", &bytes)],
-        )
-        .await;
+    let p = admin.post_multipart(&path, &fields, &files).await;
     assert_eq!(p.status, StatusCode::OK, "{}", p.html);
     assert!(p.html.contains("Imported 288 new records"), "{}", p.html);
 }

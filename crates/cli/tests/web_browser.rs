@@ -84,8 +84,11 @@ fn shows(text: &str, x: f64) -> bool {
 /// The pump app's events for the export's eight days (abba-io reads the
 /// export as an import would), with the day closing at today's midnight
 /// that a CGM app posts with its first event of the day.
-fn app_events(export: &Path, first_day: jiff::civil::Date) -> Vec<Vec<DeviceEvent>> {
-    let tz = jiff::tz::TimeZone::UTC;
+fn app_events(
+    export: &Path,
+    tz: jiff::tz::TimeZone,
+    first_day: jiff::civil::Date,
+) -> Vec<Vec<DeviceEvent>> {
     let opts = ReadOptions {
         tz: Some(tz.clone()),
         ..ReadOptions::default()
@@ -149,6 +152,24 @@ fn profile_therapy(export: &Path) -> (f64, Vec<f64>) {
     (basal, ratios)
 }
 
+/// A zone in which it is about noon now: the test's "today" (its days,
+/// the meal's slot, yesterday's windows) holds for its whole run, whatever
+/// hour it starts at. In UTC a run that crossed midnight made the meal a
+/// day-10 decision with no day 9 to learn from (CI, 2026-12-05 00:00).
+/// `Etc/GMT-N` is N hours ahead of UTC (the tz database's inverted sign).
+fn zone_at_noon() -> String {
+    let hour = i32::from(
+        jiff::Timestamp::now()
+            .to_zoned(jiff::tz::TimeZone::UTC)
+            .hour(),
+    );
+    match 12 - hour {
+        0 => "Etc/GMT".to_string(),
+        ahead if ahead > 0 => format!("Etc/GMT-{ahead}"),
+        behind => format!("Etc/GMT+{}", -behind),
+    }
+}
+
 fn setting_name(s: Setting) -> &'static str {
     match s {
         Setting::Basal => "basal",
@@ -175,9 +196,9 @@ async fn a_clinic_and_a_person_in_headless_chromium() {
 
     // An export of eight past days (the standard arm: the pump's settings
     // never change), its profile uploaded to create the person.
-    let today = jiff::Timestamp::now()
-        .to_zoned(jiff::tz::TimeZone::UTC)
-        .date();
+    let zone = zone_at_noon();
+    let tz = jiff::tz::TimeZone::get(&zone).unwrap();
+    let today = jiff::Timestamp::now().to_zoned(tz.clone()).date();
     let first_day = today.checked_sub(jiff::Span::new().days(8)).unwrap();
     // The export's first (warm-up) day is not written: 9 days from the day
     // before `first_day` give the eight days from `first_day` on.
@@ -192,7 +213,7 @@ async fn a_clinic_and_a_person_in_headless_chromium() {
         "--arm",
         "standard",
         "--tz",
-        "UTC",
+        &zone,
         "--start",
         &start.to_string(),
         "--out",
@@ -216,7 +237,7 @@ async fn a_clinic_and_a_person_in_headless_chromium() {
     // ---- creates a person from the export's pump profile ---------------
     let name = "ana-web";
     b.fill("form#new-person input[name=name]", name).await;
-    b.fill("form#new-person input[name=tz]", "UTC").await;
+    b.fill("form#new-person input[name=tz]", &zone).await;
     b.select("form#new-person select[name=unit]", "mg/dL").await;
     b.select("form#new-person select[name=mode]", "cgm").await;
     b.attach(
@@ -275,7 +296,7 @@ async fn a_clinic_and_a_person_in_headless_chromium() {
     let app = Client::new(&base, Some(&token)).unwrap();
     let mut last: Vec<Suggestion> = Vec::new();
     let mut last_seq = 0;
-    for day in app_events(&export, first_day) {
+    for day in app_events(&export, tz.clone(), first_day) {
         last_seq = last_seq.max(day.iter().map(|e| e.seq).max().unwrap_or(0));
         let ack = app.post_events(id, &EventsBody { events: day }).unwrap();
         last = ack.answers;

@@ -189,7 +189,7 @@ pub const DELIVERY_AS_APP_REPORTS: &str = "as the app reports it";
 pub struct FirstWeekData {
     /// CGM readings.
     pub cgm_readings: usize,
-    /// CGM readings against the days spanned × 288 (0-1).
+    /// CGM readings against the days spanned × the readings a day of the sensor's period (0-1).
     pub cgm_coverage: f64,
     /// Bolus records.
     pub boluses: usize,

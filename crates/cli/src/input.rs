@@ -1,5 +1,5 @@
-//! Options shared by `abba metrics` and `abba events`: which files, how to
-//! read them. Parsing only; reading is abba-io's.
+//! Options shared by `abba metrics`, `abba events` and `abba import`:
+//! which files, how to read them. Parsing only; reading is abba-io's.
 use std::path::PathBuf;
 
 use abba_io::time::DateOrder;
@@ -12,13 +12,35 @@ pub struct InputArgs {
     /// Export files (Nightscout JSON, Dexcom Clarity CSV, LibreView CSV, Tidepool JSON, Medtronic CareLink CSV, plain CSV).
     #[arg(long, value_name = "FILE", num_args = 1.., required = true)]
     pub input: Vec<PathBuf>,
-    /// Format of every input: nightscout, clarity, libreview, tidepool, carelink, csv [default: detected from content].
-    #[arg(long, value_name = "FORMAT")]
-    pub format: Option<String>,
     /// The person's IANA time zone (how times without an offset are read, how days are grouped).
     #[arg(long, value_name = "ZONE")]
     pub tz: Option<String>,
-    /// Glucose unit of files that do not say (plain CSV): mg/dL or mmol/L.
+    #[command(flatten)]
+    pub read: ReadFlags,
+}
+
+impl InputArgs {
+    /// The reader options these arguments ask for.
+    pub fn options(&self) -> Result<ReadOptions> {
+        Ok(ReadOptions {
+            tz: match &self.tz {
+                Some(z) => Some(abba_io::time::zone(z)?),
+                None => None,
+            },
+            ..self.read.options()?
+        })
+    }
+}
+
+/// What a file does not say about itself, given by the person: the
+/// flags the readers' errors name (`abba import`, `abba events`, `abba
+/// metrics`). The zone is the person's (or `--tz`), never one of these.
+#[derive(clap::Args, Debug, Default)]
+pub struct ReadFlags {
+    /// Format of every input: nightscout, clarity, libreview, tidepool, carelink, csv [default: detected from content].
+    #[arg(long, value_name = "FORMAT")]
+    pub format: Option<String>,
+    /// Glucose unit of values that do not say theirs (plain CSV, a Nightscout BG Check without `units`): mg/dL or mmol/L; checked against files that do say.
     #[arg(long, value_name = "UNIT")]
     pub units: Option<String>,
     /// Plain CSV: name of the time column.
@@ -30,6 +52,14 @@ pub struct InputArgs {
     /// Plain CSV: use only the rows whose `id` column equals ID.
     #[arg(long, value_name = "ID")]
     pub subject: Option<String>,
+    #[command(flatten)]
+    pub dates: DateFlags,
+}
+
+/// How dates are read where the file does not tell, and CareLink's exchanges
+/// (also for `abba person new --therapy-from`).
+#[derive(clap::Args, Debug, Default)]
+pub struct DateFlags {
     /// Dates that do not tell their order (LibreView, CareLink, plain CSV: no day above 12, no AM/PM): day-first or month-first.
     #[arg(long, value_name = "ORDER")]
     pub date_order: Option<String>,
@@ -38,8 +68,8 @@ pub struct InputArgs {
     pub grams_per_exchange: Option<f64>,
 }
 
-impl InputArgs {
-    /// The reader options these arguments ask for.
+impl ReadFlags {
+    /// The reader options these flags ask for (no zone).
     pub fn options(&self) -> Result<ReadOptions> {
         Ok(ReadOptions {
             format: match &self.format {
@@ -57,13 +87,18 @@ impl InputArgs {
                 ),
                 None => None,
             },
-            tz: match &self.tz {
-                Some(z) => Some(abba_io::time::zone(z)?),
-                None => None,
-            },
             time_column: self.time_column.clone(),
             glucose_column: self.glucose_column.clone(),
             subject: self.subject.clone(),
+            ..self.dates.options()?
+        })
+    }
+}
+
+impl DateFlags {
+    /// The reader options these flags ask for (the rest default).
+    pub fn options(&self) -> Result<ReadOptions> {
+        Ok(ReadOptions {
             date_order: match self.date_order.as_deref() {
                 None => None,
                 Some("day-first") => Some(DateOrder::DayFirst),
@@ -71,6 +106,7 @@ impl InputArgs {
                 Some(o) => bail!("--date-order {o}: expected day-first or month-first"),
             },
             grams_per_exchange: grams_per_exchange(self.grams_per_exchange)?,
+            ..ReadOptions::default()
         })
     }
 }

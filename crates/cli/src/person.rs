@@ -61,6 +61,9 @@ struct NewArgs {
     /// With --therapy-from a CareLink export whose bolus wizard counts in exchanges (`BWZ Carb Ratio (U/Ex)`): grams of carbohydrate in one exchange (10 for the Spanish ración), to read its carb ratios as g/U.
     #[arg(long, value_name = "G", requires = "therapy_from")]
     grams_per_exchange: Option<f64>,
+    /// With --therapy-from an export whose dates do not tell their order (CareLink, LibreView: no day above 12): day-first or month-first.
+    #[arg(long, value_name = "ORDER", requires = "therapy_from")]
+    date_order: Option<String>,
     /// Current flat basal rate (U/h), when not --therapy-from.
     #[arg(long, value_name = "U_PER_H", required_unless_present = "therapy_from")]
     basal: Option<f64>,
@@ -160,10 +163,13 @@ fn new(a: NewArgs) -> Result<()> {
         _ => {
             let tz = jiff::tz::TimeZone::get(&a.tz)
                 .with_context(|| format!("--tz \"{}\": not a known IANA zone", a.tz))?;
+            let dates = crate::input::DateFlags {
+                date_order: a.date_order.clone(),
+                grams_per_exchange: a.grams_per_exchange,
+            };
             let opts = abba_io::ReadOptions {
                 tz: Some(tz),
-                grams_per_exchange: crate::input::grams_per_exchange(a.grams_per_exchange)?,
-                ..abba_io::ReadOptions::default()
+                ..dates.options()?
             };
             let given = a
                 .carb_ratio

@@ -201,6 +201,33 @@ pub struct MinuteBatch {
 
 type Arr<'py> = Bound<'py, PyArray1<f64>>;
 
+/// Environments stepped on one thread below this many (rayon's hand-off
+/// costs more than a few environments' steps).
+const PARALLEL_FROM: usize = 32;
+
+/// One step of every environment, on every core for a large batch. Each
+/// environment is independent of the others, so the results are the same
+/// on any number of threads.
+fn step_all(
+    sims: &mut [MinuteSim],
+    basal: &[f64],
+    bolus: &[f64],
+) -> Vec<Result<StepOut, abba_sim::SimError>> {
+    if sims.len() < PARALLEL_FROM {
+        return sims
+            .iter_mut()
+            .zip(basal.iter().zip(bolus))
+            .map(|(sim, (b, o))| sim.step(*b, *o))
+            .collect();
+    }
+    use rayon::prelude::*;
+    sims.par_iter_mut()
+        .zip(basal.par_iter().zip(bolus.par_iter()))
+        .with_min_len(PARALLEL_FROM / 2)
+        .map(|(sim, (b, o))| sim.step(*b, *o))
+        .collect()
+}
+
 /// A batch needs one seed per patient, and at least one patient.
 fn check_batch(patients: &[String], seeds: &[u64]) -> PyResult<()> {
     if patients.len() != seeds.len() || patients.is_empty() {
@@ -288,9 +315,10 @@ impl MinuteBatch {
                 bolus.len()
             )));
         }
+        let outs = py.allow_threads(|| step_all(&mut self.sims, basal, bolus));
         let mut cols: [Vec<f64>; 7] = std::array::from_fn(|_| Vec::with_capacity(n));
-        for (i, sim) in self.sims.iter_mut().enumerate() {
-            let o: StepOut = sim.step(basal[i], bolus[i]).map_err(value_error)?;
+        for o in outs {
+            let o: StepOut = o.map_err(value_error)?;
             for (c, v) in cols.iter_mut().zip([
                 o.cgm_mg_dl,
                 o.bg_mg_dl,

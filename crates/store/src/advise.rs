@@ -336,7 +336,9 @@ fn first_week(person: &Person, events: &[Event]) -> Phase {
         (events.last().map_or(first.at, |e| e.at).day_index() - first.at.day_index() + 1).max(1);
     let missing = words::first_week_gaps(&words::FirstWeekData {
         cgm_readings: cgm,
-        cgm_coverage: cgm as f64 / (days as f64 * 288.0),
+        cgm_coverage: cgm as f64
+            / (days as f64
+                * (abba_core::MINUTES_PER_DAY / crate::in_force::cgm_period_min(events)) as f64),
         boluses: count(|k| matches!(k, EventKind::Bolus(_))),
         meals: count(|k| matches!(k, EventKind::MealAnnounced { .. })),
         meter_readings: (person.mode() == abba_advisor::Mode::Smbg)

@@ -192,6 +192,20 @@ pub fn import_with(
             is_id,
         ));
     }
+    // A file that lies wholly in the future (a device clock set wrong, an
+    // export read in the wrong zone) is an error, not an import of nothing.
+    if rows.is_empty() && future.count > 0 {
+        return Err(StoreError::Feed(format!(
+            "every record of {} that abba would keep is dated after the time of import ({}): {} records, the first {} ({}); check the device's clock and {}'s zone ({}). Nothing was imported",
+            batch.files.join(", "),
+            now.round(jiff::Unit::Second).unwrap_or(now),
+            future.count,
+            future.first.as_deref().unwrap_or("?"),
+            future.first_at.as_deref().unwrap_or("?"),
+            person.name,
+            person.tz.iana_name().unwrap_or("?"),
+        )));
+    }
     let tx = conn.transaction()?;
     if crate::app::count(&tx, person.id)? > 0 {
         return Err(StoreError::Feed(format!(

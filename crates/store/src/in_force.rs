@@ -28,8 +28,39 @@ use std::collections::BTreeMap;
 
 /// Share of the expected CGM readings a qualifying day needs.
 pub const CGM_DAY_SHARE: f64 = 0.7;
-/// CGM readings expected in a day (one every 5 minutes).
+/// CGM readings expected in a day of a 5-minute sensor (Dexcom, Libre 3,
+/// Guardian); see [`cgm_period_min`] for the others.
 pub const CGM_PER_DAY: usize = 288;
+/// The longest sensor period abba accepts as a CGM's (FreeStyle Libre 1
+/// and 2 keep one historic reading every 15 minutes).
+pub const CGM_PERIOD_MAX_MIN: i64 = 15;
+
+/// The CGM's own period in minutes: the median interval between
+/// consecutive CGM readings of the log (1 to [`CGM_PERIOD_MAX_MIN`]; 5
+/// without two readings). A FreeStyle Libre 1 or 2 export (96 historic
+/// readings a day) is judged against its 96, not a Dexcom's 288; sensor
+/// gaps do not move the median.
+pub fn cgm_period_min(events: &[Event]) -> i64 {
+    let mut last = None;
+    let mut gaps = Vec::new();
+    for e in events {
+        if let EventKind::Cgm(_) = e.kind {
+            if let Some(prev) = last {
+                let gap = e.at.0 - prev;
+                if gap > 0 {
+                    gaps.push(gap);
+                }
+            }
+            last = Some(e.at.0);
+        }
+    }
+    if gaps.is_empty() {
+        return 5;
+    }
+    let mid = gaps.len() / 2;
+    let (_, median, _) = gaps.select_nth_unstable(mid);
+    (*median).clamp(1, CGM_PERIOD_MAX_MIN)
+}
 /// Meter readings a qualifying SMBG day needs (70 % of the four a day).
 pub const SMBG_PER_DAY: usize = 3;
 
@@ -69,6 +100,9 @@ pub struct FirstWeek {
     pub missing: Vec<(i64, String)>,
     /// The day whose close ends the first week (`i64::MAX`: not yet).
     pub end: i64,
+    /// The CGM's period the days were judged by ([`cgm_period_min`]; 0
+    /// where no CGM data were judged).
+    pub cgm_period_min: i64,
 }
 
 /// Everything derived from the log for one replay.
@@ -102,8 +136,13 @@ impl Extras {
             .iter()
             .filter(|c| last.is_some_and(|l| c.at <= l))
             .collect();
-        let json =
-            serde_json::to_vec(&(upto, self.hold_basal, self.first_week.end)).unwrap_or_default();
+        let json = serde_json::to_vec(&(
+            upto,
+            self.hold_basal,
+            self.first_week.end,
+            self.first_week.cgm_period_min,
+        ))
+        .unwrap_or_default();
         format!("{:016x}", abba_io::record::content_hash([json.as_slice()]))
     }
 }
@@ -148,14 +187,17 @@ pub fn first_week(mode: Mode, init_days: u32, events: &[Event]) -> FirstWeek {
         end: i64::MAX,
         ..FirstWeek::default()
     };
-    let need_cgm = (CGM_DAY_SHARE * CGM_PER_DAY as f64).ceil() as usize;
+    let period = cgm_period_min(events);
+    w.cgm_period_min = period;
+    let cgm_per_day = (abba_core::MINUTES_PER_DAY / period) as usize;
+    let need_cgm = (CGM_DAY_SHARE * cgm_per_day as f64).ceil() as usize;
     for day in first..=last.max(closed_until) {
         if w.qualifying.len() as u32 >= init_days {
             break;
         }
         let (cgm, smbg, pump) = per_day.get(&day).copied().unwrap_or_default();
         let why = abba_advisor::words::first_week_day_gaps(
-            (mode == Mode::Cgm && cgm < need_cgm).then_some((cgm, CGM_PER_DAY)),
+            (mode == Mode::Cgm && cgm < need_cgm).then_some((cgm, cgm_per_day)),
             (mode == Mode::Smbg && smbg < SMBG_PER_DAY).then_some((smbg, SMBG_PER_DAY)),
             pump,
         );

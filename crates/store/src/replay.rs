@@ -159,7 +159,15 @@ pub fn replay(
     let fresh = || -> Result<Abba, StoreError> {
         let a = person.advisor()?;
         Ok(match extras {
-            Some(x) if !x.fed_by_app => a.with_first_week_end(x.first_week.end),
+            Some(x) if !x.fed_by_app => {
+                // A window's readings are counted at the sensor's own
+                // period when it is longer than the person's rule says
+                // (a FreeStyle Libre's 15 minutes against 5).
+                let mut rule = person.settings.min_data;
+                let period = u32::try_from(x.first_week.cgm_period_min).unwrap_or(0);
+                rule.cgm_period_min = rule.cgm_period_min.max(period);
+                a.with_min_data(rule).with_first_week_end(x.first_week.end)
+            }
             _ => a,
         })
     };

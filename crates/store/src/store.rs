@@ -355,6 +355,25 @@ impl Store {
         resolve: ProfileResolution,
         grams_per_exchange: Option<f64>,
     ) -> Result<ImportSummary, StoreError> {
+        let read = ReadOptions {
+            format,
+            grams_per_exchange,
+            ..ReadOptions::default()
+        };
+        self.import_files_read(name, files, &read, resolve)
+    }
+
+    /// [`Store::import_files_with`] with every reading option the person
+    /// gave (`abba import`'s flags: format, unit of values that do not say
+    /// theirs, plain CSV's columns, date order, grams per exchange); the
+    /// zone is the person's, whatever `read.tz` says.
+    pub fn import_files_read(
+        &mut self,
+        name: &str,
+        files: &[PathBuf],
+        read: &ReadOptions,
+        resolve: ProfileResolution,
+    ) -> Result<ImportSummary, StoreError> {
         let mut contents = Vec::with_capacity(files.len());
         for f in files {
             let name = f.display().to_string();
@@ -364,15 +383,10 @@ impl Store {
             })?;
             contents.push((name, bytes));
         }
-        let read = ReadOptions {
-            format,
-            grams_per_exchange,
-            ..ReadOptions::default()
-        };
         self.import_contents_read(
             name,
             &contents,
-            &read,
+            read,
             resolve,
             jiff::Timestamp::now(),
             true,

@@ -568,6 +568,12 @@ fn a_carelink_export_gives_the_therapy_and_an_import_that_differs_stops() {
 /// suspend, an `upload`, and a `deviceEvent` 20 days before the first
 /// reading.
 fn tidepool_export(dir: &std::path::Path, days: i64) -> PathBuf {
+    tidepool_export_every(dir, days, 5)
+}
+
+/// [`tidepool_export`] with a CGM reading every `cgm_min` minutes (15: a
+/// FreeStyle Libre 1 or 2's historic series).
+fn tidepool_export_every(dir: &std::path::Path, days: i64, cgm_min: i64) -> PathBuf {
     let mut items: Vec<Value> = Vec::new();
     let mut n = 0u64;
     let mut id = || {
@@ -597,9 +603,9 @@ fn tidepool_export(dir: &std::path::Path, days: i64) -> PathBuf {
     ));
     for day in 0..days {
         let day_ms = DAY1_MS + day * 86_400_000;
-        for k in 0..288i64 {
-            let ms = day_ms + k * 300_000;
-            let mg = 165.0 + 35.0 * ((k * 5) as f64 / 240.0 + day as f64).sin();
+        for k in 0..1440 / cgm_min {
+            let ms = day_ms + k * cgm_min * 60_000;
+            let mg = 165.0 + 35.0 * ((k * cgm_min) as f64 / 240.0 + day as f64).sin();
             items.push(with(
                 base(ms, "cbg", id()),
                 json!({"units": "mmol/L", "value": (mg / 18.01559 * 10.0).round() / 10.0}),
@@ -673,6 +679,65 @@ fn tidepool_export(dir: &std::path::Path, days: i64) -> PathBuf {
     let p = dir.join("tidepool.json");
     std::fs::write(&p, serde_json::to_vec(&Value::Array(items)).unwrap()).unwrap();
     p
+}
+
+#[test]
+fn a_libres_fifteen_minute_readings_complete_the_first_week_and_feed_updates() {
+    // An OmniPod with a FreeStyle Libre 2 (Tidepool's demo account has
+    // one): 96 historic readings a day. Judged against a 5-minute
+    // sensor's 288, no day qualified and no window had enough readings.
+    let dir = TempDir::new("libre-15");
+    let files = vec![tidepool_export_every(&dir.0, 15, 15)];
+    let mut store = dir.store();
+    store.create_person(&person_from(&files, "lia")).unwrap();
+    store.import_files("lia", &files, None).unwrap();
+    let a = store.advise("lia").unwrap();
+    assert!(
+        a.first_week.is_none(),
+        "the first week completed: {:?}",
+        a.first_week
+    );
+    let history = store.history("lia").unwrap();
+    assert!(
+        history.iter().any(|v| v.setting == "basal" && !v.no_update),
+        "a basal update from 15-minute readings: {history:?}"
+    );
+    // Days with a third of their readings do not qualify, and say so
+    // against a Libre's 96 readings a day (eight days, two of them gappy:
+    // the first week is still open).
+    let dir = TempDir::new("libre-15-gaps");
+    let file = tidepool_export_every(&dir.0, 8, 15);
+    let mut items: Vec<Value> =
+        serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+    let day = |v: &Value| v["time"].as_str().unwrap_or_default()[..10].to_string();
+    let (gappy_1, gappy_2) = ("2026-05-05".to_string(), "2026-05-06".to_string());
+    let mut k = 0;
+    items.retain(|v| {
+        if v["type"] == "cbg" && (day(v) == gappy_1 || day(v) == gappy_2) {
+            k += 1;
+            k % 3 == 0
+        } else {
+            true
+        }
+    });
+    std::fs::write(&file, serde_json::to_string(&items).unwrap()).unwrap();
+    let mut store = dir.store();
+    store
+        .create_person(&person_from(&[file.clone()], "lia"))
+        .unwrap();
+    store.import_files("lia", &[file], None).unwrap();
+    let week = store
+        .advise("lia")
+        .unwrap()
+        .first_week
+        .expect("the first week is open");
+    assert!(
+        week.missing
+            .iter()
+            .any(|m| m.contains("of the 96 expected")),
+        "a gappy day is judged against a Libre's 96 readings: {week:?}"
+    );
+    assert!(week.qualifying.len() >= 5, "{week:?}");
 }
 
 #[test]

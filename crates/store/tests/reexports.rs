@@ -240,6 +240,32 @@ fn future_rows_are_refused_and_rows_before_day_1_not_used() {
 }
 
 #[test]
+fn an_export_wholly_in_the_future_is_an_error_and_imports_nothing() {
+    // A device clock a year ahead, or an export read in the wrong zone: not
+    // "nothing new" with a count, but an error naming the first record.
+    let dir = TempDir::new("all-future");
+    let mut store = dir.store();
+    store.create_person(&person("ana")).unwrap();
+    let bytes = clarity(0, 1440, false);
+    let before: jiff::Timestamp = "2026-05-03T12:00:00Z".parse().unwrap();
+    let e = store
+        .import_at("ana", &read(&[("late.csv", bytes.clone())]), before)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("every record of late.csv that abba would keep is dated after the time of import (2026-05-03T12:00:00Z): 288 records, the first late.csv: line "),
+        "{e}"
+    );
+    assert!(e.ends_with("Nothing was imported"), "{e}");
+    assert!(store.history("ana").unwrap().is_empty());
+    // The same file once its days have come: imported whole.
+    let s = store
+        .import_at("ana", &read(&[("late.csv", bytes)]), now())
+        .unwrap();
+    assert_eq!((s.added, s.future.count), (288, 0));
+}
+
+#[test]
 fn a_header_only_export_says_no_readings() {
     let dir = TempDir::new("empty");
     let mut store = dir.store();

@@ -306,16 +306,32 @@ class T1DSimVectorEnv(gymnasium.vector.VectorEnv):
         self.render_mode = None
         self.spec = None
         self._window = max(1, int(60 / self.sample_time))
+        # The last hour of CGM readings, for a reward_fun only: a ring
+        # whose newest column is self._pos (no copy of the whole window per
+        # step). The default reward needs only the previous reading's risk.
         self._hist = np.zeros((num_envs, self._window))
+        self._pos = self._window - 1
         self._count = np.zeros(num_envs, dtype=np.int64)
         self._steps = np.zeros(num_envs, dtype=np.int64)
+        self._last_risk = np.zeros(num_envs)
+        # The info masks (every environment reports every key), shared
+        # read-only between steps.
+        self._all = np.ones(num_envs, dtype=bool)
+        self._all.flags.writeable = False
 
     def _reset_one(self, i: int) -> float:
         cgm = self.batch.reset_one(i, _seed(self._rng))
-        self._hist[i, -1] = cgm
+        self._hist[i, self._pos] = cgm
         self._count[i] = 1
         self._steps[i] = 0
+        self._last_risk[i] = _risk(np.float64(cgm))
         return cgm
+
+    def _last_hour(self, i: int) -> list:
+        """Environment i's readings since its reset, at most an hour, oldest first."""
+        n = int(self._count[i])
+        cols = [(self._pos - k) % self._window for k in range(n - 1, -1, -1)]
+        return list(self._hist[i, cols])
 
     def reset(self, *, seed: Optional[Union[int, Sequence[int]]] = None, options=None):
         if seed is not None:
@@ -328,19 +344,17 @@ class T1DSimVectorEnv(gymnasium.vector.VectorEnv):
         basal = np.ascontiguousarray(a[:, 0])
         bolus = np.ascontiguousarray(a[:, 1]) if self.bolus_action else np.zeros(self.num_envs)
         cgm, bg, plasma, meal, cho, insulin, done = self.batch.step(basal, bolus)
-        self._hist = np.roll(self._hist, -1, axis=1)
-        self._hist[:, -1] = cgm
-        self._count = np.minimum(self._count + 1, self._window)
         self._steps += 1
         if self.reward_fun is None:
-            prev, cur = self._hist[:, -2], self._hist[:, -1]
-            rewards = _risk(prev) - _risk(cur) if self._window > 1 else np.zeros(self.num_envs)
+            risk = _risk(cgm)
+            rewards = self._last_risk - risk if self._window > 1 else np.zeros(self.num_envs)
+            self._last_risk = risk
         else:
+            self._pos = (self._pos + 1) % self._window
+            self._hist[:, self._pos] = cgm
+            np.minimum(self._count + 1, self._window, out=self._count)
             rewards = np.array(
-                [
-                    float(self.reward_fun(list(self._hist[i, self._window - self._count[i] :])))
-                    for i in range(self.num_envs)
-                ]
+                [float(self.reward_fun(self._last_hour(i))) for i in range(self.num_envs)]
             )
         terminated = done.astype(bool)
         truncated = (
@@ -357,7 +371,7 @@ class T1DSimVectorEnv(gymnasium.vector.VectorEnv):
             "insulin_u_per_min": insulin,
         }
         for k in list(infos):
-            infos["_" + k] = np.ones(self.num_envs, dtype=bool)
+            infos["_" + k] = self._all
         ended = np.flatnonzero(terminated | truncated)
         if ended.size:
             final_obs = np.full(self.num_envs, None, dtype=object)

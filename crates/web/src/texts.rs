@@ -479,6 +479,18 @@ pub struct ClinicTexts {
     pub import_button: &'static str,
     /// Label: grams of carbohydrate per exchange (import and profile).
     pub grams_per_exchange_label: &'static str,
+    /// Label: the date order of a file whose dates do not tell.
+    pub date_order_label: &'static str,
+    /// Option: the file's dates tell their order.
+    pub date_order_file: &'static str,
+    /// Option: day first.
+    pub date_order_day_first: &'static str,
+    /// Option: month first.
+    pub date_order_month_first: &'static str,
+    /// Label: the glucose unit of values that do not say theirs.
+    pub units_label: &'static str,
+    /// Option: every value says its unit.
+    pub units_file: &'static str,
     /// Legend: what an import does when the export's pump profile differs
     /// from the therapy abba holds.
     pub profile_choice_legend: &'static str,
@@ -600,6 +612,12 @@ pub const CLINIC_EN: ClinicTexts = ClinicTexts {
     import_files: "Export files (Nightscout, Clarity, LibreView, Tidepool, CareLink, CSV)",
     import_button: "Import",
     grams_per_exchange_label: "Grams of carbohydrate per exchange, for a CareLink export whose bolus wizard counts in exchanges (10 for the Spanish raci\u{f3}n; empty otherwise)",
+    date_order_label: "Date order, for a LibreView, CareLink or CSV file whose dates do not tell (no day above 12; the import's error says so)",
+    date_order_file: "As the file shows",
+    date_order_day_first: "Day first (31/12)",
+    date_order_month_first: "Month first (12/31)",
+    units_label: "Glucose unit of values that do not say theirs (a plain CSV, a Nightscout BG Check without units)",
+    units_file: "As the file says",
     profile_choice_legend: "If an export's pump profile differs from the therapy abba holds",
     profile_stop: "Stop and show both (nothing is imported)",
     profile_adopt: "Put the pump's profile in force (what the pump runs)",

@@ -1002,8 +1002,10 @@ pub async fn therapy(
     }
 }
 
-/// `POST /clinic/persons/{id}/import` (multipart, `files`, and
-/// `grams_per_exchange` for a CareLink export counting in exchanges): the
+/// `POST /clinic/persons/{id}/import` (multipart, `files`;
+/// `grams_per_exchange` for a CareLink export counting in exchanges,
+/// `date_order` and `units` for files that do not tell, as `abba import`'s
+/// flags): the
 /// same import as `abba import` (idempotent, whole or nothing). The page
 /// answers with what it did, every count and reader's note as `abba
 /// import` prints them (200: importing the same files again adds nothing).
@@ -1017,13 +1019,28 @@ pub async fn import(
     let w = admin_post_head(&s, &ctx).await?;
     let up = read_multipart(m).await?;
     upload_csrf(&w, &up)?;
-    up.text
-        .only(&["csrf", "files", "grams_per_exchange", "profile_choice"])?;
+    up.text.only(&[
+        "csrf",
+        "files",
+        "grams_per_exchange",
+        "date_order",
+        "units",
+        "profile_choice",
+    ])?;
+    // What the person typed or chose, shown again on a refusal.
+    let kept: Vec<(&'static str, String)> = [
+        "grams_per_exchange",
+        "date_order",
+        "units",
+        "profile_choice",
+    ]
+    .into_iter()
+    .map(|k| (k, up.text.text(k).to_string()))
+    .collect();
     let grams_text = up.text.text("grams_per_exchange").to_string();
     let choice_text = up.text.text("profile_choice").to_string();
     let refuse = |field: &'static str, msg: String| {
-        let typed = grams_text.clone();
-        let choice = choice_text.clone();
+        let kept = kept.clone();
         show_person(
             &s,
             &w.csrf,
@@ -1032,14 +1049,34 @@ pub async fn import(
             None,
             move |m| {
                 m.errors.insert(field.into(), msg);
-                m.values.insert("grams_per_exchange".into(), typed);
-                m.values.insert("profile_choice".into(), choice);
+                for (k, v) in kept {
+                    m.values.insert(k.into(), v);
+                }
             },
         )
     };
     let grams = match grams_per_exchange(&grams_text) {
         Ok(g) => g,
         Err(e) => return refuse("grams_per_exchange", e).await,
+    };
+    let date_order = match up.text.text("date_order") {
+        "" => None,
+        "day-first" => Some(abba_io::time::DateOrder::DayFirst),
+        "month-first" => Some(abba_io::time::DateOrder::MonthFirst),
+        other => {
+            return refuse(
+                "date_order",
+                format!("expected day-first or month-first, got {other:?}"),
+            )
+            .await
+        }
+    };
+    let units = match up.text.text("units") {
+        "" => None,
+        u => match abba_io::GlucoseUnit::parse(u) {
+            Some(u) => Some(u),
+            None => return refuse("units", format!("expected mg/dL or mmol/L, got {u:?}")).await,
+        },
     };
     let resolve = match profile_choice(&choice_text) {
         Ok(r) => r,
@@ -1056,6 +1093,8 @@ pub async fn import(
     }
     let read = abba_io::ReadOptions {
         grams_per_exchange: grams,
+        date_order,
+        units,
         ..abba_io::ReadOptions::default()
     };
     // What the files or the person's settings refuse is shown beside the

@@ -139,6 +139,24 @@ fn a_nightscout_profile_at_the_epoch_is_in_force_since_always() {
     assert!(e.to_string().contains("looks like seconds"), "{e}");
 }
 
+#[test]
+fn a_nightscout_profile_is_in_force_from_its_start_date_not_its_upload() {
+    // openaps' test profile (oref0's ns-profile shape: values as strings):
+    // in force from 2015-08-17, uploaded on 2015-11-08.
+    let profile = br#"[{"_id":"5637c1eb76ec4a3f0d2f0e8e","defaultProfile":"Default",
+      "startDate":"2015-08-17T00:00:00.000Z","created_at":"2015-11-08T19:58:03.579Z",
+      "store":{"Default":{"dia":"3","timezone":"America/Los_Angeles","units":"mg/dl",
+        "carbratio":[{"time":"00:00","value":"15","timeAsSeconds":"0"}],
+        "basal":[{"time":"00:00","value":"1.0","timeAsSeconds":"0"}]}}}]"#;
+    let b = read(
+        &[("profile.json", profile.to_vec())],
+        &ReadOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(b.records.len(), 1);
+    assert_eq!(b.records[0].at.to_string(), "2015-08-17T00:00:00Z");
+}
+
 /// A Clarity export around a phone clock change: from `change` on the
 /// written times are an hour early, the transmitter's clock goes on.
 fn clarity_clock_change(transmitter: bool) -> Vec<u8> {

@@ -150,7 +150,8 @@ fn check_error_codes(file: &str, records: &[Record]) -> Result<(), IoError> {
 }
 
 /// The item's instant: `date` / `mills` (ms since the epoch), else
-/// `dateString` / `created_at` / `startDate` / `timestamp` (ISO 8601).
+/// `dateString` / `created_at` / `startDate` / `timestamp` (ISO 8601); a
+/// profile document's is its `startDate` when it has one.
 fn instant(item: &Item<'_>) -> Result<jiff::Timestamp, IoError> {
     // A profile (or Profile Switch) dated at the epoch is Nightscout's
     // default record: in force since always.
@@ -169,6 +170,15 @@ fn instant(item: &Item<'_>) -> Result<jiff::Timestamp, IoError> {
         });
         if epoch_ms || epoch_text {
             return Ok(crate::record::SINCE_ALWAYS);
+        }
+        // A profile document is in force from its `startDate` (Nightscout
+        // derives `mills` from it); `created_at` is when it was uploaded,
+        // often months later (openaps' test profile: in force from
+        // 2015-08-17, uploaded 2015-11-08).
+        if item.get("store").is_some() {
+            if let Some(t) = item.str("startDate").ok().flatten().and_then(parse_instant) {
+                return Ok(t);
+            }
         }
     }
     for field in ["date", "mills", "created_at", "dateString"] {

@@ -156,6 +156,34 @@ impl PatientBatch {
         })
     }
 
+    /// Puts `patient` (its parameters and its state as it stands) in
+    /// place of patient `i`, the others unchanged: an environment starting
+    /// a new episode. The patient must use the batch's solver.
+    pub fn replace(&mut self, i: usize, patient: Patient) -> Result<(), SimError> {
+        let n = self.patients.len();
+        if i >= n {
+            return Err(SimError::Config(format!("patient {i} of a batch of {n}")));
+        }
+        if patient.solver() != self.patients[0].solver() {
+            return Err(SimError::Config(
+                "the patients of a batch must share one solver".into(),
+            ));
+        }
+        let g = i / LANES;
+        let members = (g * LANES..((g + 1) * LANES).min(n))
+            .map(|j| {
+                if j == i {
+                    Ok(patient.clone())
+                } else {
+                    self.patient(j)
+                }
+            })
+            .collect::<Result<Vec<Patient>, SimError>>()?;
+        self.groups[g] = Group::gather(std::array::from_fn(|l| &members[l.min(members.len() - 1)]));
+        self.patients[i] = patient;
+        Ok(())
+    }
+
     /// The states x1..x13 of patient `i`.
     pub fn state_array(&self, i: usize) -> [f64; 13] {
         self.groups[i / LANES].state_array(i % LANES)

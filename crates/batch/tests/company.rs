@@ -122,3 +122,48 @@ fn a_patient_is_the_same_in_any_company() {
         assert!(bits(&alone) == bits(&mine), "patient {k} differs alone");
     }
 }
+
+/// `replace(i, p)` starts patient i afresh in place (an environment's new
+/// episode): from then on it goes exactly as `p` in a batch of its own,
+/// and the others go on unchanged, to the bit.
+#[test]
+fn a_patient_replaced_goes_on_as_a_new_one_and_the_others_unchanged() {
+    let (patients, days) = cohort_day();
+    let n = patients.len();
+    let s: Vec<f64> = (0..n).map(sensitivity).collect();
+    let stop = 6 * 60 + 30;
+    let mut batch = PatientBatch::new(patients.clone()).unwrap();
+    let mut untouched = PatientBatch::new(patients.clone()).unwrap();
+    for m in 0..stop {
+        let rates: Vec<MinuteRates> = days.iter().map(|d| d.minutes[m]).collect();
+        batch.step(&rates, &s).unwrap();
+        untouched.step(&rates, &s).unwrap();
+    }
+    // Patient 17 becomes patient 3 at minute 0 (another group's).
+    let k = 17;
+    let fresh = patients[3].clone();
+    batch.replace(k, fresh.clone()).unwrap();
+    let mut alone = PatientBatch::new(vec![fresh]).unwrap();
+    assert_eq!(batch.minute(k), 0);
+    for m in stop..stop + 240 {
+        let mut rates: Vec<MinuteRates> = days.iter().map(|d| d.minutes[m]).collect();
+        let mine = days[3].minutes[m - stop];
+        rates[k] = mine;
+        batch.step(&rates, &s).unwrap();
+        alone.step(&[mine], &s[k..=k]).unwrap();
+        let mut others = rates.clone();
+        others[k] = days[k].minutes[m];
+        untouched.step(&others, &s).unwrap();
+        assert!(
+            bits(&[batch.state_array(k)]) == bits(&[alone.state_array(0)]),
+            "minute {m}: the replaced patient differs from its run alone"
+        );
+        for i in (0..n).filter(|&i| i != k) {
+            assert!(
+                bits(&[batch.state_array(i)]) == bits(&[untouched.state_array(i)]),
+                "minute {m}: patient {i} changed with its neighbour"
+            );
+        }
+    }
+    assert!(batch.replace(n, patients[0].clone()).is_err());
+}

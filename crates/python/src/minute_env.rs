@@ -22,8 +22,10 @@
 //! distributions as simglucose's but other draws; and the CGM reads once at
 //! reset (simglucose draws twice at t = 0).
 
+use abba_batch::PatientBatch;
 use abba_core::MgDl;
 use abba_sim::devices::cgm::{CgmConfig, CgmSensor};
+use abba_sim::inputs::MinuteRates;
 use abba_sim::patient::{EatingQueue, Patient, PatientParams};
 use abba_sim::SimError;
 use rand::{Rng, SeedableRng};
@@ -100,17 +102,30 @@ pub struct MinuteEnvConfig {
     pub start_minute_of_day: Option<u32>,
 }
 
-/// One environment.
+/// Everything of one environment around its patient: the meals, the
+/// eating queue, the pump and the CGM. [`MinuteSim`] pairs it with a
+/// [`Patient`]; [`MinuteShard`] with a lane of a [`PatientBatch`].
 #[derive(Debug, Clone)]
-pub struct MinuteSim {
+pub struct Surround {
     config: MinuteEnvConfig,
-    patient: Patient,
     queue: EatingQueue,
     cgm: CgmSensor,
     last_cgm: f64,
     start_minute_of_day: u32,
     meal_seed: u64,
     day_meals: (i64, Vec<(u32, f64)>),
+    /// The step under way: its insulin (U/min) and its sums.
+    insulin: f64,
+    sums: StepSums,
+}
+
+/// Sums over the minutes of a step.
+#[derive(Debug, Clone, Copy, Default)]
+struct StepSums {
+    cho: f64,
+    bg: f64,
+    cgm: f64,
+    announced: f64,
 }
 
 fn seed_of(seed: u64, stream: u64) -> u64 {
@@ -119,23 +134,24 @@ fn seed_of(seed: u64, stream: u64) -> u64 {
     rng.gen()
 }
 
-impl MinuteSim {
-    /// A new environment, reset with `seed`.
-    pub fn new(config: MinuteEnvConfig, seed: u64) -> Result<Self, SimError> {
-        let patient = Patient::new(config.params.clone())?;
+impl Surround {
+    /// The surroundings of a new environment and its patient, reset with
+    /// `seed`; then [`Surround::first_reading`] of the patient.
+    fn new(config: MinuteEnvConfig, seed: u64) -> Result<(Self, Patient), SimError> {
         let cgm = CgmSensor::new(config.cgm.clone(), 0)?;
-        let mut sim = Self {
+        let mut s = Self {
             config,
-            patient,
             queue: EatingQueue::new(),
             cgm,
             last_cgm: 0.0,
             start_minute_of_day: 0,
             meal_seed: 0,
             day_meals: (-1, Vec::new()),
+            insulin: 0.0,
+            sums: StepSums::default(),
         };
-        sim.reset(seed)?;
-        Ok(sim)
+        let patient = s.reset(seed)?;
+        Ok((s, patient))
     }
 
     /// The configuration.
@@ -143,8 +159,9 @@ impl MinuteSim {
         &self.config
     }
 
-    /// Starts a new episode from `seed`; returns the first CGM reading (mg/dL).
-    pub fn reset(&mut self, seed: u64) -> Result<f64, SimError> {
+    /// Starts a new episode from `seed`: its patient (at minute 0); the
+    /// CGM's first reading comes from [`Surround::first_reading`].
+    fn reset(&mut self, seed: u64) -> Result<Patient, SimError> {
         let mut rng = ChaCha8Rng::seed_from_u64(seed_of(seed, 1));
         let mut params = self.config.params.clone();
         if let Some(x) = self.config.init_state {
@@ -160,31 +177,24 @@ impl MinuteSim {
             Some(m) => m % 1440,
             None => rng.gen_range(0..24) * 60,
         };
-        self.patient = Patient::new(params)?;
+        let patient = Patient::new(params)?;
         self.queue = EatingQueue::new();
         self.cgm = CgmSensor::new(self.config.cgm.clone(), seed_of(seed, 2))?;
         self.meal_seed = seed_of(seed, 3);
         self.day_meals = (-1, Vec::new());
-        let first = self
-            .cgm
-            .read(MgDl(self.patient.subcutaneous_glucose_mg_dl()))?;
+        Ok(patient)
+    }
+
+    /// The CGM's reading at reset, of subcutaneous glucose `gs` (mg/dL).
+    fn first_reading(&mut self, gs: f64) -> Result<f64, SimError> {
+        let first = self.cgm.read(MgDl(gs))?;
         self.last_cgm = first.0;
         Ok(first.0)
     }
 
-    /// Minutes since the episode started.
-    pub fn minute(&self) -> i64 {
-        self.patient.minute()
-    }
-
-    /// Time of day now (minutes after midnight).
-    pub fn minute_of_day(&self) -> u32 {
-        ((i64::from(self.start_minute_of_day) + self.patient.minute()).rem_euclid(1440)) as u32
-    }
-
-    /// The patient.
-    pub fn patient(&self) -> &Patient {
-        &self.patient
+    /// Time of day at `minute` of the episode (minutes after midnight).
+    pub fn minute_of_day(&self, minute: i64) -> u32 {
+        ((i64::from(self.start_minute_of_day) + minute).rem_euclid(1440)) as u32
     }
 
     /// The CGM's sample time (minutes per step).
@@ -192,9 +202,8 @@ impl MinuteSim {
         self.config.cgm.sample_time_min
     }
 
-    /// Grams announced at the current minute.
-    fn meal_now(&mut self) -> f64 {
-        let t = self.patient.minute();
+    /// Grams announced at minute `t` of the episode.
+    fn meal_at(&mut self, t: i64) -> f64 {
         match &self.config.meals {
             Meals::Custom(list) => list.iter().filter(|(m, _)| *m == t).map(|(_, g)| g).sum(),
             Meals::Random => {
@@ -214,6 +223,119 @@ impl MinuteSim {
         }
     }
 
+    /// Starts a step: `basal_u_per_min` and `bolus_u_per_min` through the
+    /// pump, held for the step.
+    fn begin_step(
+        &mut self,
+        basal_u_per_min: f64,
+        bolus_u_per_min: f64,
+        minute: i64,
+    ) -> Result<(), SimError> {
+        if !(basal_u_per_min.is_finite() && bolus_u_per_min.is_finite()) {
+            return Err(SimError::InvalidInput {
+                patient: self.config.params.name.clone(),
+                minute,
+                reason: format!(
+                    "action must be finite: basal {basal_u_per_min} U/min, bolus {bolus_u_per_min} U/min"
+                ),
+            });
+        }
+        self.insulin =
+            self.config.pump.deliver(basal_u_per_min) + self.config.pump.deliver(bolus_u_per_min);
+        self.sums = StepSums::default();
+        Ok(())
+    }
+
+    /// The patient's input for minute `t` of the episode: the meal of the
+    /// minute to the eating queue, what is eaten in it, the step's insulin.
+    fn minute_input(&mut self, t: i64) -> MinuteRates {
+        let meal = self.meal_at(t);
+        if meal > 0.0 {
+            self.queue.add(meal);
+            self.sums.announced += meal;
+        }
+        let eaten = self.queue.eat_minute();
+        self.sums.cho += eaten;
+        MinuteRates {
+            cho_g_per_min: eaten,
+            insulin_u_per_min: self.insulin,
+        }
+    }
+
+    /// After the patient reached minute `t` with subcutaneous glucose
+    /// `gs`: the CGM reads at its sample times and holds its reading.
+    fn after_minute(&mut self, t: i64, gs: f64) -> Result<(), SimError> {
+        if t % i64::from(self.sample_time_min()) == 0 {
+            self.last_cgm = self.cgm.read(MgDl(gs))?.0;
+        }
+        self.sums.bg += gs;
+        self.sums.cgm += self.last_cgm;
+        Ok(())
+    }
+
+    /// What the step produced, plasma glucose `plasma` at its end.
+    fn end_step(&self, plasma: f64) -> StepOut {
+        let k = f64::from(self.sample_time_min());
+        let bg = self.sums.bg / k;
+        StepOut {
+            cgm_mg_dl: self.sums.cgm / k,
+            bg_mg_dl: bg,
+            plasma_mg_dl: plasma,
+            cho_g_per_min: self.sums.cho / k,
+            meal_g_per_min: self.sums.announced / k,
+            insulin_u_per_min: self.insulin,
+            done: !(10.0..=600.0).contains(&bg),
+        }
+    }
+}
+
+/// One environment: a patient and its surroundings.
+#[derive(Debug, Clone)]
+pub struct MinuteSim {
+    surround: Surround,
+    patient: Patient,
+}
+
+impl MinuteSim {
+    /// A new environment, reset with `seed`.
+    pub fn new(config: MinuteEnvConfig, seed: u64) -> Result<Self, SimError> {
+        let (mut surround, patient) = Surround::new(config, seed)?;
+        surround.first_reading(patient.subcutaneous_glucose_mg_dl())?;
+        Ok(Self { surround, patient })
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &MinuteEnvConfig {
+        self.surround.config()
+    }
+
+    /// Starts a new episode from `seed`; returns the first CGM reading (mg/dL).
+    pub fn reset(&mut self, seed: u64) -> Result<f64, SimError> {
+        self.patient = self.surround.reset(seed)?;
+        self.surround
+            .first_reading(self.patient.subcutaneous_glucose_mg_dl())
+    }
+
+    /// Minutes since the episode started.
+    pub fn minute(&self) -> i64 {
+        self.patient.minute()
+    }
+
+    /// Time of day now (minutes after midnight).
+    pub fn minute_of_day(&self) -> u32 {
+        self.surround.minute_of_day(self.patient.minute())
+    }
+
+    /// The patient.
+    pub fn patient(&self) -> &Patient {
+        &self.patient
+    }
+
+    /// The CGM's sample time (minutes per step).
+    pub fn sample_time_min(&self) -> u32 {
+        self.surround.sample_time_min()
+    }
+
     /// One step: `basal_u_per_min` and `bolus_u_per_min` (each through the
     /// pump) held for `sample_time` minutes.
     pub fn step(
@@ -221,46 +343,107 @@ impl MinuteSim {
         basal_u_per_min: f64,
         bolus_u_per_min: f64,
     ) -> Result<StepOut, SimError> {
-        if !(basal_u_per_min.is_finite() && bolus_u_per_min.is_finite()) {
-            return Err(SimError::InvalidInput {
-                patient: self.config.params.name.clone(),
-                minute: self.patient.minute(),
-                reason: format!(
-                    "action must be finite: basal {basal_u_per_min} U/min, bolus {bolus_u_per_min} U/min"
-                ),
-            });
+        let (s, p) = (&mut self.surround, &mut self.patient);
+        s.begin_step(basal_u_per_min, bolus_u_per_min, p.minute())?;
+        for _ in 0..s.sample_time_min() {
+            let u = s.minute_input(p.minute());
+            p.step(u.cho_g_per_min, u.insulin_u_per_min, 1.0)?;
+            s.after_minute(p.minute(), p.subcutaneous_glucose_mg_dl())?;
         }
-        let insulin =
-            self.config.pump.deliver(basal_u_per_min) + self.config.pump.deliver(bolus_u_per_min);
-        let n = self.sample_time_min();
-        let (mut cho, mut bg, mut cgm, mut announced) = (0.0, 0.0, 0.0, 0.0);
-        for _ in 0..n {
-            let meal = self.meal_now();
-            if meal > 0.0 {
-                self.queue.add(meal);
-                announced += meal;
-            }
-            let eaten = self.queue.eat_minute();
-            self.patient.step(eaten, insulin, 1.0)?;
-            let gs = self.patient.subcutaneous_glucose_mg_dl();
-            if self.patient.minute() % i64::from(n) == 0 {
-                self.last_cgm = self.cgm.read(MgDl(gs))?.0;
-            }
-            cho += eaten;
-            bg += gs;
-            cgm += self.last_cgm;
+        Ok(s.end_step(p.glucose_mg_dl()))
+    }
+}
+
+/// Many environments whose patients are the lanes of one
+/// [`PatientBatch`], stepped together (one sample time for all). Patient
+/// i's glucose is within 1e-9 mg/dL of [`MinuteSim`]'s (the batch's exp of
+/// kempt's tanh, within 2 ulp of libm's; `abba-batch`), and does not
+/// depend on which environments share the shard (exactly: the batch's
+/// "any company" property).
+#[derive(Debug, Clone)]
+pub struct MinuteShard {
+    batch: PatientBatch,
+    surrounds: Vec<Surround>,
+    rates: Vec<MinuteRates>,
+    ones: Vec<f64>,
+}
+
+impl MinuteShard {
+    /// Environments `configs[i]` reset with `seeds[i]`; returns the shard
+    /// and each environment's first CGM reading.
+    pub fn new(configs: Vec<MinuteEnvConfig>, seeds: &[u64]) -> Result<(Self, Vec<f64>), SimError> {
+        let mut surrounds = Vec::with_capacity(configs.len());
+        let mut patients = Vec::with_capacity(configs.len());
+        let mut first = Vec::with_capacity(configs.len());
+        for (c, seed) in configs.into_iter().zip(seeds) {
+            let (mut s, p) = Surround::new(c, *seed)?;
+            first.push(s.first_reading(p.subcutaneous_glucose_mg_dl())?);
+            surrounds.push(s);
+            patients.push(p);
         }
-        let k = f64::from(n);
-        let bg = bg / k;
-        Ok(StepOut {
-            cgm_mg_dl: cgm / k,
-            bg_mg_dl: bg,
-            plasma_mg_dl: self.patient.glucose_mg_dl(),
-            cho_g_per_min: cho / k,
-            meal_g_per_min: announced / k,
-            insulin_u_per_min: insulin,
-            done: !(10.0..=600.0).contains(&bg),
-        })
+        let n = patients.len();
+        Ok((
+            Self {
+                batch: PatientBatch::new(patients)?,
+                surrounds,
+                rates: Vec::with_capacity(n),
+                ones: vec![1.0; n],
+            },
+            first,
+        ))
+    }
+
+    /// Number of environments.
+    pub fn len(&self) -> usize {
+        self.surrounds.len()
+    }
+
+    /// True when the shard has no environment.
+    pub fn is_empty(&self) -> bool {
+        self.surrounds.is_empty()
+    }
+
+    /// Starts environment `i`'s new episode from `seed`; returns its first
+    /// CGM reading.
+    pub fn reset_one(&mut self, i: usize, seed: u64) -> Result<f64, SimError> {
+        let patient = self.surrounds[i].reset(seed)?;
+        let gs = patient.subcutaneous_glucose_mg_dl();
+        self.batch.replace(i, patient)?;
+        self.surrounds[i].first_reading(gs)
+    }
+
+    /// Time of day of environment `i` (minutes after midnight).
+    pub fn minute_of_day(&self, i: usize) -> u32 {
+        self.surrounds[i].minute_of_day(self.batch.minute(i))
+    }
+
+    /// One step of every environment (`basal[i]`, `bolus[i]` for
+    /// environment i, as [`MinuteSim::step`]).
+    pub fn step(&mut self, basal: &[f64], bolus: &[f64]) -> Result<Vec<StepOut>, SimError> {
+        let n = self.len();
+        for (i, s) in self.surrounds.iter_mut().enumerate() {
+            s.begin_step(basal[i], bolus[i], self.batch.minute(i))?;
+        }
+        let minutes = self.surrounds.first().map_or(0, Surround::sample_time_min);
+        for _ in 0..minutes {
+            self.rates.clear();
+            for (i, s) in self.surrounds.iter_mut().enumerate() {
+                self.rates.push(s.minute_input(self.batch.minute(i)));
+            }
+            self.batch.step(&self.rates, &self.ones[..n])?;
+            for (i, s) in self.surrounds.iter_mut().enumerate() {
+                s.after_minute(
+                    self.batch.minute(i),
+                    self.batch.subcutaneous_glucose_mg_dl(i),
+                )?;
+            }
+        }
+        Ok(self
+            .surrounds
+            .iter()
+            .enumerate()
+            .map(|(i, s)| s.end_step(self.batch.glucose_mg_dl(i)))
+            .collect())
     }
 }
 

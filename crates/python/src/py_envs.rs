@@ -2,7 +2,7 @@
 //! environment, or a batch stepped in one call.
 
 use crate::daily_env::{DailySim, DayOut};
-use crate::minute_env::{CompatPump, Meals, MinuteEnvConfig, MinuteSim, StepOut};
+use crate::minute_env::{CompatPump, Meals, MinuteEnvConfig, MinuteShard, MinuteSim};
 use crate::py_sim::{cohort_patient, params_of};
 use crate::value_error;
 use abba_sim::devices::cgm::CgmConfig;
@@ -196,37 +196,14 @@ impl MinuteCore {
 /// Many minute-level environments stepped in one call.
 #[pyclass(module = "abba._abba")]
 pub struct MinuteBatch {
-    sims: Vec<MinuteSim>,
+    /// The environments in order, in shards of `shard_len` (the last may
+    /// be shorter): one shard per core, each a `PatientBatch`.
+    shards: Vec<MinuteShard>,
+    shard_len: usize,
+    sample_time_min: u32,
 }
 
 type Arr<'py> = Bound<'py, PyArray1<f64>>;
-
-/// Environments stepped on one thread below this many (rayon's hand-off
-/// costs more than a few environments' steps).
-const PARALLEL_FROM: usize = 32;
-
-/// One step of every environment, on every core for a large batch. Each
-/// environment is independent of the others, so the results are the same
-/// on any number of threads.
-fn step_all(
-    sims: &mut [MinuteSim],
-    basal: &[f64],
-    bolus: &[f64],
-) -> Vec<Result<StepOut, abba_sim::SimError>> {
-    if sims.len() < PARALLEL_FROM {
-        return sims
-            .iter_mut()
-            .zip(basal.iter().zip(bolus))
-            .map(|(sim, (b, o))| sim.step(*b, *o))
-            .collect();
-    }
-    use rayon::prelude::*;
-    sims.par_iter_mut()
-        .zip(basal.par_iter().zip(bolus.par_iter()))
-        .with_min_len(PARALLEL_FROM / 2)
-        .map(|(sim, (b, o))| sim.step(*b, *o))
-        .collect()
-}
 
 /// A batch needs one seed per patient, and at least one patient.
 fn check_batch(patients: &[String], seeds: &[u64]) -> PyResult<()> {
@@ -238,6 +215,19 @@ fn check_batch(patients: &[String], seeds: &[u64]) -> PyResult<()> {
         )));
     }
     Ok(())
+}
+
+/// Shards of a batch of `n` environments: one per core while each holds
+/// at least two groups of the batch's lanes (fewer environments step on
+/// one thread; rayon's hand-off costs more than they do). A patient's
+/// results do not depend on its shard, so the number of cores does not
+/// change them.
+fn shard_len(n: usize) -> usize {
+    let per_shard = 2 * abba_batch::LANES;
+    let shards = rayon::current_num_threads()
+        .min(n / per_shard)
+        .max(1);
+    n.div_ceil(shards)
 }
 
 #[pymethods]
@@ -257,11 +247,10 @@ impl MinuteBatch {
         cohort_seed: u64,
     ) -> PyResult<Self> {
         check_batch(&patients, &seeds)?;
-        let sims = patients
+        let configs = patients
             .iter()
-            .zip(&seeds)
-            .map(|(p, s)| {
-                let c = minute_config(
+            .map(|p| {
+                minute_config(
                     p,
                     sensor,
                     pump,
@@ -270,20 +259,34 @@ impl MinuteBatch {
                     None,
                     start_minute_of_day,
                     cohort_seed,
-                )?;
-                MinuteSim::new(c, *s).map_err(value_error)
+                )
             })
-            .collect::<PyResult<_>>()?;
-        Ok(Self { sims })
+            .collect::<PyResult<Vec<_>>>()?;
+        let sample_time_min = configs[0].cgm.sample_time_min;
+        let len = shard_len(configs.len());
+        let mut shards = Vec::new();
+        let mut rest = configs;
+        for seeds in seeds.chunks(len) {
+            let tail = rest.split_off(seeds.len());
+            let (shard, _) = MinuteShard::new(rest, seeds).map_err(value_error)?;
+            shards.push(shard);
+            rest = tail;
+        }
+        Ok(Self {
+            shards,
+            shard_len: len,
+            sample_time_min,
+        })
     }
 
     /// Resets environment `i`; returns its first CGM reading.
     fn reset_one(&mut self, i: usize, seed: u64) -> PyResult<f64> {
-        let n = self.sims.len();
-        self.sims
-            .get_mut(i)
-            .ok_or_else(|| value_error(format!("environment {i} of {n}")))?
-            .reset(seed)
+        let n = self.__len__();
+        if i >= n {
+            return Err(value_error(format!("environment {i} of {n}")));
+        }
+        self.shards[i / self.shard_len]
+            .reset_one(i % self.shard_len, seed)
             .map_err(value_error)
     }
 
@@ -307,7 +310,7 @@ impl MinuteBatch {
     )> {
         let basal = basal_u_per_min.as_slice().map_err(value_error)?;
         let bolus = bolus_u_per_min.as_slice().map_err(value_error)?;
-        let n = self.sims.len();
+        let n = self.__len__();
         if basal.len() != n || bolus.len() != n {
             return Err(value_error(format!(
                 "expected {n} actions, got {} basal and {} bolus",
@@ -315,20 +318,36 @@ impl MinuteBatch {
                 bolus.len()
             )));
         }
-        let outs = py.allow_threads(|| step_all(&mut self.sims, basal, bolus));
+        let len = self.shard_len;
+        let shards = &mut self.shards;
+        let outs = py.allow_threads(|| {
+            use rayon::prelude::*;
+            let step = |(shard, (b, o)): (&mut MinuteShard, (&[f64], &[f64]))| shard.step(b, o);
+            let work = shards.iter_mut().zip(basal.chunks(len).zip(bolus.chunks(len)));
+            if shards_len_one(len, n) {
+                work.map(step).collect::<Vec<_>>()
+            } else {
+                shards
+                    .par_iter_mut()
+                    .zip(basal.par_chunks(len).zip(bolus.par_chunks(len)))
+                    .map(step)
+                    .collect()
+            }
+        });
         let mut cols: [Vec<f64>; 7] = std::array::from_fn(|_| Vec::with_capacity(n));
-        for o in outs {
-            let o: StepOut = o.map_err(value_error)?;
-            for (c, v) in cols.iter_mut().zip([
-                o.cgm_mg_dl,
-                o.bg_mg_dl,
-                o.plasma_mg_dl,
-                o.meal_g_per_min,
-                o.cho_g_per_min,
-                o.insulin_u_per_min,
-                f64::from(u8::from(o.done)),
-            ]) {
-                c.push(v);
+        for shard in outs {
+            for o in shard.map_err(value_error)? {
+                for (c, v) in cols.iter_mut().zip([
+                    o.cgm_mg_dl,
+                    o.bg_mg_dl,
+                    o.plasma_mg_dl,
+                    o.meal_g_per_min,
+                    o.cho_g_per_min,
+                    o.insulin_u_per_min,
+                    f64::from(u8::from(o.done)),
+                ]) {
+                    c.push(v);
+                }
             }
         }
         let [a, b, c, d, e, f, g] = cols;
@@ -345,20 +364,28 @@ impl MinuteBatch {
 
     /// Number of environments.
     fn __len__(&self) -> usize {
-        self.sims.len()
+        self.shards.iter().map(MinuteShard::len).sum()
     }
 
     /// Minutes per step.
     #[getter]
     fn sample_time_min(&self) -> u32 {
-        self.sims.first().map_or(0, MinuteSim::sample_time_min)
+        self.sample_time_min
     }
 
     /// Time of day of every environment (minutes after midnight).
     #[getter]
     fn minute_of_day(&self) -> Vec<u32> {
-        self.sims.iter().map(MinuteSim::minute_of_day).collect()
+        self.shards
+            .iter()
+            .flat_map(|s| (0..s.len()).map(|i| s.minute_of_day(i)))
+            .collect()
     }
+}
+
+/// True when a batch of `n` in shards of `len` is one shard.
+fn shards_len_one(len: usize, n: usize) -> bool {
+    len >= n
 }
 
 fn daily_sim(

@@ -77,6 +77,9 @@ fn section_of(divider: &str) -> Section {
 /// One section's header line (0-based) and the end of its rows (byte).
 struct Span {
     section: Section,
+    /// The device its divider names (`MiniMed 780G MMT-1886`), empty for a
+    /// header before any divider.
+    device: String,
     /// The divider names a Paradigm pump (its `Basal Rate` rows are the
     /// rate in effect, see [`in_effect`]).
     paradigm: bool,
@@ -84,9 +87,31 @@ struct Span {
     end: usize,
 }
 
+impl Span {
+    /// The section in words, for notes.
+    fn describe(&self) -> String {
+        let what = match self.section {
+            Section::Pump => "Pump section",
+            Section::Sensor => "Sensor section",
+            Section::Totals => "\"Aggregated Auto Insulin Data\" section",
+            Section::Other => "section",
+        };
+        if self.device.is_empty() {
+            format!("the {what} with its header on line {}", self.header_at + 1)
+        } else {
+            format!(
+                "the {what} of {} (header on line {})",
+                self.device,
+                self.header_at + 1
+            )
+        }
+    }
+}
+
 fn spans(bytes: &[u8]) -> Vec<Span> {
     let mut out: Vec<Span> = Vec::new();
     let mut section = Section::Other;
+    let mut device = String::new();
     let mut paradigm = false;
     let mut start = 0usize;
     for (i, line) in bytes.split(|&b| b == b'\n').enumerate() {
@@ -97,6 +122,11 @@ fn spans(bytes: &[u8]) -> Vec<Span> {
                 last.end = last.end.min(start);
             }
             section = section_of(text);
+            device = text
+                .split([';', ','])
+                .nth(1)
+                .map(|c| c.trim().trim_matches('"').to_string())
+                .unwrap_or_default();
             paradigm = text.contains("Paradigm");
         } else if is_header(text) {
             if let Some(last) = out.last_mut() {
@@ -104,6 +134,7 @@ fn spans(bytes: &[u8]) -> Vec<Span> {
             }
             out.push(Span {
                 section,
+                device: device.clone(),
                 paradigm,
                 header_at: i,
                 end: bytes.len(),
@@ -227,7 +258,21 @@ pub fn read_with_settings(
     let mut out = Vec::new();
     let mut unread_exchanges = 0usize;
     let mut unread_exchanges_column: Option<String> = None;
-    for span in &spans {
+    let (row_counts, order) = survey(file, bytes, &spans, ctx.opts.date_order)?;
+    for (span, rows_in_span) in spans.iter().zip(row_counts) {
+        if rows_in_span == 0 {
+            // A Paradigm without a sensor writes the Sensor section's
+            // divider and header and no row; a second pump, its own.
+            ctx.note(format!("{} has no rows: skipped", span.describe()));
+            continue;
+        }
+        let order = order.ok_or_else(|| {
+            IoError::format(
+                file,
+                "every date could be day-first or month-first (no day above 12); give \
+                 --date-order day-first or month-first",
+            )
+        })?;
         let mut t = Table::open(file, &bytes[..span.end], span.header_at)?;
         let cols = Cols::of(&t)?;
         if let Some(i) = cols.carb_ratio {
@@ -244,12 +289,6 @@ pub fn read_with_settings(
         if let Some(i) = exchanges_unread {
             unread_exchanges_column = Some(t.header[i].clone());
         }
-        let order = date_order(
-            file,
-            &mut Table::open(file, &bytes[..span.end], span.header_at)?,
-            cols.date,
-            ctx.opts.date_order,
-        )?;
         let mut rows: Vec<Row> = Vec::new();
         let mut at = Location::line(file, 0);
         while let Some(line) = t.next_row()? {
@@ -574,31 +613,39 @@ fn pump_state(state: &str) -> Option<PumpState> {
     }
 }
 
-/// The date order of a section: year first (`2025/10/30`, CareLink's
-/// current form), or what the dates show, or `--date-order`; never guessed.
-fn date_order(
+/// The rows of each section (a row has a date or a time) and the file's
+/// date order: year first (`2025/10/30`, CareLink's current form), or
+/// what the first date that tells shows (a day above 12), in any section,
+/// or `--date-order`; `None` when nothing tells (an error only for a
+/// section with rows to read). Never guessed.
+fn survey(
     file: &str,
-    t: &mut Table<'_>,
-    date: usize,
+    bytes: &[u8],
+    spans: &[Span],
     given: Option<DateOrder>,
-) -> Result<DateOrder, IoError> {
-    while t.next_row()?.is_some() {
-        let cell = t.cell(date);
-        if cell.is_empty() {
-            continue;
+) -> Result<(Vec<usize>, Option<DateOrder>), IoError> {
+    let mut counts = Vec::with_capacity(spans.len());
+    let mut order = None;
+    for span in spans {
+        let mut t = Table::open(file, &bytes[..span.end], span.header_at)?;
+        let (date, time) = (
+            t.need_column_starting("CareLink", "Date")?,
+            t.need_column_starting("CareLink", "Time")?,
+        );
+        let mut n = 0usize;
+        while t.next_row()?.is_some() {
+            let cell = t.cell(date);
+            if cell.is_empty() && t.cell(time).is_empty() {
+                continue;
+            }
+            n += 1;
+            if order.is_none() && !cell.is_empty() {
+                order = super::libreview::order_evidence(&format!("{cell} 00:00"));
+            }
         }
-        if let Some(o) = super::libreview::order_evidence(&format!("{cell} 00:00")) {
-            return Ok(o);
-        }
+        counts.push(n);
     }
-    match given {
-        Some(o) => Ok(o),
-        None => Err(IoError::format(
-            file,
-            "every date could be day-first or month-first (no day above 12); give --date-order \
-             day-first or month-first",
-        )),
-    }
+    Ok((counts, order.or(given)))
 }
 
 /// A date and a time cell as one wall time; a two-digit year (older

@@ -48,3 +48,46 @@ fn a_section_without_rows_is_skipped_and_year_first_dates_need_no_date_order() {
         b.notes
     );
 }
+
+/// A MiniMed 780G in SmartGuard (auto mode), European layout (synthetic
+/// values in the columns of a real 780G export; see PROVENANCE.md).
+const SMARTGUARD: &str = "carelink_780g_smartguard_synthetic.csv";
+const BERLIN: &str = "Europe/Berlin";
+
+#[test]
+fn smartguard_auto_mode_is_loop_evidence_and_a_780g_in_manual_mode_is_not() {
+    use abba_io::automation::{Delivery, Evidence};
+    let tz = abba_io::time::zone(BERLIN).unwrap();
+    let bytes = fixture(SMARTGUARD);
+    let e = Evidence::from_file(&bytes);
+    // The auto correction (CLOSED_LOOP_AUTO_BOLUS) and the auto basal
+    // micro-bolus (CLOSED_LOOP_AUTO_BASAL) are automatic doses.
+    assert_eq!(e.smb, 2, "{e:?}");
+    // Three boluses delivered in auto mode (CLOSED_LOOP_BG_CORRECTION_AND_
+    // FOOD_BOLUS) and one daily total of auto insulin, named with the pump.
+    let words = e.words().join("; ");
+    assert!(
+        words.contains("3 records from or naming SmartGuard auto mode")
+            && words.contains("1 records from or naming SmartGuard auto mode")
+            && words.contains("MiniMed 780G MMT-1886"),
+        "{words}"
+    );
+    assert_eq!(e.delivery(), Delivery::ClosedLoop);
+    // With the records' own counts (pump days, no short temp basals) the
+    // file's evidence still makes it a loop: abba advises no basal.
+    let b = read(&[(SMARTGUARD, bytes.clone())], &opts(BERLIN)).unwrap();
+    let mut all = Evidence::from_records(&b.records, &tz);
+    all.add_file(&e);
+    assert_eq!(all.delivery(), Delivery::ClosedLoop);
+
+    // A 780G in manual mode (its name in every divider, boluses from
+    // BOLUS_WIZARD): the name alone is no loop, the pump runs open loop.
+    let manual = fixture("carelink_780g_mmol_synthetic.csv");
+    let m = Evidence::from_file(&manual);
+    assert_eq!((m.smb, m.systems.len()), (0, 0), "{m:?}");
+    let b = read(&[("manual.csv", manual)], &opts("Europe/Zurich")).unwrap();
+    let mut all =
+        Evidence::from_records(&b.records, &abba_io::time::zone("Europe/Zurich").unwrap());
+    all.add_file(&m);
+    assert_eq!(all.delivery(), Delivery::OpenLoop);
+}

@@ -145,6 +145,65 @@ fn spans(bytes: &[u8]) -> Vec<Span> {
     out
 }
 
+/// What a CareLink export says of SmartGuard's auto mode (the MiniMed
+/// 780G's closed loop), from its `Bolus Source` cells: boluses the pump
+/// gives in auto mode are `CLOSED_LOOP_*` (the person's own,
+/// `CLOSED_LOOP_BG_CORRECTION_AND_FOOD_BOLUS`, and the automatic ones,
+/// `CLOSED_LOOP_AUTO_BASAL` micro-boluses and `CLOSED_LOOP_AUTO_BOLUS`
+/// corrections), and the "Aggregated Auto Insulin Data" section's daily
+/// totals are `CLOSED_LOOP_AUTO_INSULIN`. In manual mode the same pump
+/// writes `BOLUS_WIZARD` and no auto insulin, so its name alone says
+/// nothing of the loop.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct AutoMode {
+    /// The device the first section divider names (`MiniMed 780G
+    /// MMT-1886`).
+    pub device: Option<String>,
+    /// Delivered boluses the loop gave on its own (`CLOSED_LOOP_AUTO_*`).
+    pub automatic_doses: usize,
+    /// Other delivered boluses given in auto mode (`CLOSED_LOOP_*`).
+    pub auto_mode_boluses: usize,
+    /// Daily auto insulin totals (`CLOSED_LOOP_*` rows of the
+    /// "Aggregated Auto Insulin Data" section).
+    pub auto_insulin_totals: usize,
+}
+
+/// Reads [`AutoMode`] from a CareLink export (BOM stripped, UTF-8); a
+/// file that is not one, or a section that cannot be read, adds nothing
+/// (the reader reports what is wrong with it).
+pub fn auto_mode(bytes: &[u8]) -> AutoMode {
+    let mut out = AutoMode::default();
+    let spans = spans(bytes);
+    out.device = spans
+        .iter()
+        .map(|s| s.device.clone())
+        .find(|d| !d.is_empty());
+    for span in &spans {
+        let Ok(mut t) = Table::open("", &bytes[..span.end], span.header_at) else {
+            continue;
+        };
+        let (Some(source), Some(delivered)) = (
+            t.column_starting("Bolus Source"),
+            t.column_starting("Bolus Volume Delivered"),
+        ) else {
+            continue;
+        };
+        while let Ok(Some(_)) = t.next_row() {
+            let src = t.cell(source);
+            if !src.starts_with("CLOSED_LOOP_") || t.cell(delivered).is_empty() {
+                continue;
+            }
+            match span.section {
+                Section::Totals => out.auto_insulin_totals += 1,
+                Section::Pump if src.starts_with("CLOSED_LOOP_AUTO_") => out.automatic_doses += 1,
+                Section::Pump => out.auto_mode_boluses += 1,
+                _ => {}
+            }
+        }
+    }
+    out
+}
+
 /// A row's cells by name (absent columns read as empty).
 struct Cols {
     date: usize,

@@ -462,7 +462,8 @@ fn place_by_transmitter(ctx: &Ctx<'_>, out: &mut [Record], readings: &[TxReading
             }
             let shift = jiff::SignedDuration::from_secs(off - reference);
             ctx.note(format!(
-                "lines {first}-{last}: {} readings of transmitter {tx_id} written {} to {} were                  placed by the transmitter's clock (the phone's clock differed by {shift:#})",
+                "lines {first}-{last}: {} readings of transmitter {tx_id} written {} to {} were \
+                 placed by the transmitter's clock (the phone's clock differed by {shift:#})",
                 s.len(),
                 written.0,
                 written.1
@@ -492,7 +493,8 @@ fn drop_conflicting_stretches(ctx: &Ctx<'_>, out: &mut Vec<Record>) {
             crate::record::OriginAt::Item(i) => i,
         };
         ctx.note(format!(
-            "lines {}-{}: {} readings written {} to {} fall on times the series already              covered (the clock went back?) and carry no transmitter time: not read",
+            "lines {}-{}: {} readings written {} to {} fall on times the series already \
+             covered (the clock went back?) and carry no transmitter time: not read",
             line(s.0),
             line(s.1),
             s.2,

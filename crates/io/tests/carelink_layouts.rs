@@ -5,6 +5,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use crate::common;
+use abba_io::record::RecordKind;
 use common::{fixture, opts, read};
 use jiff::civil::datetime;
 
@@ -16,6 +17,23 @@ fn at_ny(y: i16, mo: i8, d: i8, h: i8, mi: i8, s: i8) -> jiff::Timestamp {
         .to_zoned(abba_io::time::zone(NEW_YORK).unwrap())
         .unwrap()
         .timestamp()
+}
+
+fn ignored(b: &abba_io::Batch, what: &str) -> usize {
+    b.records
+        .iter()
+        .filter(|r| matches!(&r.kind, RecordKind::Ignored { kind } if kind.starts_with(what)))
+        .count()
+}
+
+fn carbs(b: &abba_io::Batch) -> Vec<(jiff::Timestamp, f64)> {
+    b.records
+        .iter()
+        .filter_map(|r| match &r.kind {
+            RecordKind::Carbs { grams } => Some((r.at, grams.0)),
+            _ => None,
+        })
+        .collect()
 }
 
 #[test]
@@ -90,4 +108,51 @@ fn smartguard_auto_mode_is_loop_evidence_and_a_780g_in_manual_mode_is_not() {
         Evidence::from_records(&b.records, &abba_io::time::zone("Europe/Zurich").unwrap());
     all.add_file(&m);
     assert_eq!(all.delivery(), Delivery::OpenLoop);
+}
+
+#[test]
+fn a_paradigm_wizard_run_again_before_its_bolus_is_one_meal() {
+    // The Revel writes a wizard row each time the person confirms the
+    // wizard: 06/10 15:39:17 and 15:39:19 the same 35 g (then one 5.8 U
+    // bolus), 11/10 16:44:22 and 16:44:24 the same 15 g (one 2.5 U bolus),
+    // 22/09 12:25:15 29 g then 12:25:28 25 g (one 4.5 U bolus, the second
+    // row's estimate). One meal each, at the row the bolus followed.
+    let b = read(&[(REVEL, fixture(REVEL))], &opts(NEW_YORK)).unwrap();
+    assert_eq!(
+        carbs(&b),
+        vec![
+            (at_ny(2018, 9, 22, 12, 25, 28), 25.0),
+            (at_ny(2018, 10, 6, 14, 8, 49), 25.0),
+            (at_ny(2018, 10, 6, 15, 39, 19), 35.0),
+            (at_ny(2018, 10, 11, 15, 3, 52), 15.0),
+            (at_ny(2018, 10, 11, 16, 44, 24), 15.0),
+        ]
+    );
+    assert_eq!(
+        ignored(&b, "bolus wizard row repeated with the same values"),
+        2
+    );
+    assert_eq!(
+        ignored(&b, "bolus wizard row changed and confirmed again"),
+        1
+    );
+    // 06/10: one 35 g dinner, no 35 g snack beside it.
+    let zone = abba_io::time::zone(NEW_YORK).unwrap();
+    let s = b
+        .to_events(&abba_io::events::PersonSettings::new(zone))
+        .unwrap();
+    let meals: Vec<(abba_core::MealSlot, f64)> = s
+        .events
+        .iter()
+        .filter_map(|e| match e.kind {
+            abba_core::EventKind::MealAnnounced { slot, carbs } => Some((slot, carbs.0)),
+            _ => None,
+        })
+        .collect();
+    // (22/09 has no glucose reading: the advisor's first day is 06/10.)
+    use abba_core::MealSlot::{Dinner, Lunch};
+    assert_eq!(
+        meals,
+        vec![(Lunch, 25.0), (Dinner, 35.0), (Lunch, 15.0), (Dinner, 15.0)]
+    );
 }

@@ -226,6 +226,8 @@ struct Cols {
     rewind: Option<usize>,
     prime: Option<usize>,
     time_change: Option<usize>,
+    /// Every `BWZ ...` column.
+    bwz: Vec<usize>,
 }
 
 impl Cols {
@@ -252,6 +254,9 @@ impl Cols {
             rewind: col("Rewind"),
             prime: col("Prime Type"),
             time_change: col("New Device Time"),
+            bwz: (0..t.header.len())
+                .filter(|&i| t.header[i].starts_with("BWZ"))
+                .collect(),
         })
     }
 }
@@ -266,6 +271,14 @@ struct Row {
     cells: u64,
     /// The bolus wizard's carb ratio (g/U) on a wizard row of the pump.
     carb_ratio: Option<f64>,
+    /// A wizard row of the pump (its `BWZ Carb Input` filled, 0 for a
+    /// correction; a Veo writes some of a wizard's cells on a second row
+    /// without it): its `BWZ` cells' hash, and whether its `BWZ Status`
+    /// says what became of it.
+    wizard: Option<(u64, bool)>,
+    /// A bolus row of the pump (a `Bolus Type`; a dual bolus's square part
+    /// is the same bolus as its normal part and not counted).
+    bolus: bool,
 }
 
 /// What a CareLink export says about the pump's settings: the rows that
@@ -381,12 +394,29 @@ pub fn read_with_settings(
                 _ => None,
             };
             let cells = content_hash(t.raw().skip(1));
+            let pump = span.section == Section::Pump;
+            let wizard = (pump && cols.carbs.is_some_and(|i| !t.cell(i).is_empty())).then(|| {
+                let status = cols
+                    .bwz
+                    .iter()
+                    .any(|&i| t.header[i].starts_with("BWZ Status") && !t.cell(i).is_empty());
+                (
+                    content_hash(cols.bwz.iter().map(|&i| t.cell(i).as_bytes())),
+                    status,
+                )
+            });
+            let bolus_type = cols.bolus_type.map_or("", |i| t.cell(i));
+            let bolus = pump
+                && !bolus_type.is_empty()
+                && !bolus_type.to_ascii_lowercase().contains("square part");
             rows.push(Row {
                 line,
                 wall,
                 kinds,
                 cells,
                 carb_ratio,
+                wizard,
+                bolus,
             });
         }
         // Oldest first, so that a wall time in the autumn fold is placed
@@ -399,6 +429,7 @@ pub fn read_with_settings(
         if span.paradigm {
             same_second_order(&mut rows);
         }
+        confirmed_again(&mut rows);
         for row in rows {
             at.place = Place::Line(row.line);
             let instant = clock.resolve(row.wall, &at, &time_name)?;
@@ -480,6 +511,73 @@ pub fn read_with_settings(
     settings.basal.sort_by_key(|b| b.0);
     settings.carb_ratio.sort_by_key(|c| c.0);
     Ok((out, settings))
+}
+
+/// How soon after a wizard row another one is the same wizard confirmed
+/// again (seconds): the Paradigm rows seen are 2 to 37 s apart.
+const WIZARD_AGAIN_S: i64 = 60;
+
+/// A wizard row without a `BWZ Status` (the Paradigm and MiniMed pumps
+/// before the 780G) whose carbohydrate the person confirmed again before
+/// any bolus: the pump writes a wizard row at each confirmation, and the
+/// bolus that follows goes with the last one (GluGo's Revel 723 export:
+/// the same 35 g at 15:39:17 and 15:39:19 with one 5.8 U bolus at
+/// 15:39:19; 29 g at 12:25:15 changed to 25 g at 12:25:28, the 4.5 U bolus
+/// the second row's estimate). So a wizard row followed within
+/// [`WIZARD_AGAIN_S`] (and at least a second later) by another wizard row,
+/// with no bolus from its own second to the other's, is not a meal: its carbohydrate is counted as
+/// repeated (the same values) or changed, and the later row is the meal.
+fn confirmed_again(rows: &mut [Row]) {
+    let mut order: Vec<usize> = (0..rows.len()).collect();
+    order.sort_by_key(|&k| rows[k].wall);
+    let window = jiff::SignedDuration::from_secs(WIZARD_AGAIN_S);
+    let mut first_of_second = 0;
+    for p in 0..order.len() {
+        let i = order[p];
+        let t0 = rows[i].wall;
+        if rows[order[first_of_second]].wall < t0 {
+            first_of_second = p;
+        }
+        let Some((values, false)) = rows[i].wizard else {
+            continue;
+        };
+        if !rows[i]
+            .kinds
+            .iter()
+            .any(|k| matches!(k, RecordKind::Carbs { .. }))
+        {
+            continue;
+        }
+        let Some(&j) = order[p + 1..]
+            .iter()
+            .take_while(|&&k| rows[k].wall.duration_since(t0) <= window)
+            .find(|&&k| rows[k].wizard.is_some() && rows[k].wall > t0)
+        else {
+            continue;
+        };
+        let t1 = rows[j].wall;
+        let bolus_between = order[first_of_second..]
+            .iter()
+            .take_while(|&&k| rows[k].wall < t1)
+            .any(|&k| rows[k].bolus);
+        if bolus_between {
+            continue;
+        }
+        let same = rows[j].wizard.is_some_and(|(v, _)| v == values);
+        for k in &mut rows[i].kinds {
+            if matches!(k, RecordKind::Carbs { .. }) {
+                *k = RecordKind::Ignored {
+                    kind: if same {
+                        "bolus wizard row repeated with the same values before its bolus (one meal)"
+                            .into()
+                    } else {
+                        "bolus wizard row changed and confirmed again before any bolus (the later row is the meal)"
+                            .into()
+                    },
+                };
+            }
+        }
+    }
 }
 
 /// Orders the rows of one second (oldest first otherwise) as the pump

@@ -156,3 +156,32 @@ fn a_paradigm_wizard_run_again_before_its_bolus_is_one_meal() {
         vec![(Lunch, 25.0), (Dinner, 35.0), (Lunch, 15.0), (Dinner, 15.0)]
     );
 }
+
+#[test]
+fn a_780g_wizard_not_delivered_is_no_meal() {
+    // Lunch: the wizard at 12:15:20 (40 g) and 12:16:55 (8 g) "Not
+    // Delivered" (a low, the bolus declined), then 55 g delivered at
+    // 12:20:41: one 55 g lunch.
+    let b = read(&[(SMARTGUARD, fixture(SMARTGUARD))], &opts(BERLIN)).unwrap();
+    let at = |h, mi, s| {
+        datetime(2026, 3, 14, h, mi, s, 0)
+            .to_zoned(abba_io::time::zone(BERLIN).unwrap())
+            .unwrap()
+            .timestamp()
+    };
+    assert_eq!(
+        carbs(&b),
+        vec![
+            (at(7, 42, 10), 42.0),
+            (at(12, 20, 41), 55.0),
+            (at(19, 3, 20), 60.0)
+        ]
+    );
+    assert_eq!(
+        ignored(
+            &b,
+            "bolus wizard carbohydrate not delivered (BWZ Status Not Delivered)"
+        ),
+        2
+    );
+}

@@ -12,7 +12,10 @@
 //! (the scheduled rate from then on), temporary basals (`Temp Basal
 //! Amount`, `Temp Basal Type` absolute or percent, `Temp Basal Duration`),
 //! boluses by `Bolus Type` (Normal, Square, Dual normal and square parts)
-//! with `Bolus Volume Delivered (U)`, `BWZ Carb Input (grams)`, suspend and
+//! with `Bolus Volume Delivered (U)`, `BWZ Carb Input (grams)` (not of a
+//! wizard the person confirmed again before its bolus, see
+//! [`confirmed_again`], nor of one whose `BWZ Status` is `Not
+//! Delivered`), suspend and
 //! resume (`Suspend`), and event markers written as text (`Meal:
 //! 60,00grams` is carbohydrate; `Insulin: 27,00` is counted, its acting
 //! type unknown). From the sensor section: `Sensor Glucose` (CGM). Alarms,
@@ -218,6 +221,8 @@ struct Cols {
     bolus_duration: Option<usize>,
     bolus_source: Option<usize>,
     carbs: Option<usize>,
+    /// `BWZ Status` (the 780G's): `Delivered` or `Not Delivered`.
+    bwz_status: Option<usize>,
     carb_ratio: Option<usize>,
     sensor: Option<usize>,
     marker: Option<usize>,
@@ -246,6 +251,7 @@ impl Cols {
             bolus_duration: col("Programmed Bolus Duration").or_else(|| col("Bolus Duration")),
             bolus_source: col("Bolus Source"),
             carbs: col("BWZ Carb Input"),
+            bwz_status: col("BWZ Status"),
             carb_ratio: col("BWZ Carb Ratio"),
             sensor: col("Sensor Glucose"),
             marker: col("Event Marker"),
@@ -997,10 +1003,27 @@ fn row_kinds(
             (true, Some(g)) => Some(v * g),
             (true, None) => None,
         };
+        let status = cell(c.bwz_status);
         match grams {
             None => kinds.push(RecordKind::Ignored {
                 kind: "BWZ carb input in exchanges (no --grams-per-exchange)".into(),
             }),
+            // The 780G says what became of the wizard: carbohydrate of one
+            // whose bolus was not delivered (declined, a low, confirmed
+            // again later) is no meal.
+            Some(g) if g > 0.0 && status.eq_ignore_ascii_case("Not Delivered") => {
+                kinds.push(RecordKind::Ignored {
+                    kind: "bolus wizard carbohydrate not delivered (BWZ Status Not Delivered)"
+                        .into(),
+                })
+            }
+            Some(g)
+                if g > 0.0 && !status.is_empty() && !status.eq_ignore_ascii_case("Delivered") =>
+            {
+                kinds.push(RecordKind::Ignored {
+                    kind: format!("bolus wizard carbohydrate with BWZ Status {status} (not read)"),
+                })
+            }
             Some(g) if g > 0.0 => kinds.push(RecordKind::Carbs {
                 grams: Grams(check_range(
                     at,

@@ -1,7 +1,10 @@
 //! CareLink exports in the layouts real exports show and the shared
-//! samples did not: a Paradigm Revel 723's US export (GluGo, MIT; see
-//! tests/data/PROVENANCE.md) with a second header without its divider and
-//! a trailing Sensor section without rows.
+//! samples did not (see tests/data/PROVENANCE.md): a Paradigm Revel 723's
+//! US export (GluGo, MIT) with a second header without its divider, a
+//! trailing Sensor section without rows and wizards confirmed twice; a
+//! MiniMed 780G in SmartGuard (synthetic, in the real 54-column layout)
+//! with wizards not delivered; the older CareLink Personal layout
+//! (Tidepool's rows, BSD-2), refused by name.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use crate::common;
@@ -183,5 +186,51 @@ fn a_780g_wizard_not_delivered_is_no_meal() {
             "bolus wizard carbohydrate not delivered (BWZ Status Not Delivered)"
         ),
         2
+    );
+}
+
+/// The older CareLink Personal export (2010-2014): a "Data Range" first
+/// line, `Raw-Type` / `Raw-Values` columns, no section dividers (rows
+/// picked from real exports by Tidepool, BSD-2; see PROVENANCE.md).
+const PERSONAL_2014: &str = "carelink_personal_2014_tidepool.csv";
+
+#[test]
+fn the_older_carelink_personal_layout_is_refused_by_name() {
+    let bytes = fixture(PERSONAL_2014);
+    // Without the "Data Range" line (as some copies have it) too.
+    let text = String::from_utf8(bytes.clone()).unwrap();
+    let headless = text.split_once('\n').unwrap().1.as_bytes().to_vec();
+    for (name, b) in [("p.csv", bytes), ("q.csv", headless)] {
+        // Detected (it was taken for a plain CSV), and with --format
+        // carelink (it "read" every row as one of an unknown section).
+        for format in [None, Some(abba_io::Format::CareLink)] {
+            let o = abba_io::ReadOptions {
+                format,
+                ..opts(NEW_YORK)
+            };
+            let err = read(&[(name, b.clone())], &o).unwrap_err().to_string();
+            assert!(
+                err.starts_with(name) && err.contains("older CareLink Personal layout"),
+                "{name} {format:?}: {err}"
+            );
+        }
+    }
+}
+
+#[test]
+fn a_carelink_file_without_a_pump_or_sensor_section_reads_nothing_and_says_so() {
+    // A header after the preamble and no divider: no section abba knows,
+    // so nothing would be read; refused instead of an empty success.
+    let text =
+        "Last Name,First Name,Patient ID,Start Date,End Date,Device,Paradigm Revel - 723\r\n\
+                \"A\",\"B\",\"\",\"7/27/18\",\"10/18/18\",\"Serial Number\",XXXXXX\r\n\
+                Index,Date,Time,New Device Time,BG Reading (mg/dL),Basal Rate (U/h)\r\n\
+                0.00000,2018/09/26,14:00:00,,,0.25\r\n";
+    let err = read(&[("n.csv", text.into())], &opts(NEW_YORK))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.starts_with("n.csv") && err.contains("no Pump or Sensor section"),
+        "{err}"
     );
 }

@@ -51,6 +51,20 @@ pub fn looks_like(head: &str) -> bool {
     header && (head.contains("-------;") || head.contains("-------,") || preamble)
 }
 
+/// Whether the start of a file is the older CareLink Personal export
+/// (2010-2014, seen in the rows Tidepool kept from real exports): a
+/// `Data Range,...` first line, or a header `Index,Date,Time,Timestamp,...`
+/// with `Raw-Type` and `Raw-Values` columns; no section dividers, the basal
+/// schedule only inside `Raw-Values` text. abba does not read it.
+pub fn looks_like_personal(head: &str) -> bool {
+    let head = head.trim_start_matches('\u{feff}');
+    head.starts_with("Data Range")
+        || head.lines().take(5).any(|l| {
+            let l = l.trim_start_matches('"');
+            l.starts_with("Index") && l.contains("Raw-Type") && l.contains("Raw-Values")
+        })
+}
+
 /// A section of the export.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Section {
@@ -316,11 +330,28 @@ pub fn read_with_settings(
 ) -> Result<(Vec<Record>, SettingsRows), IoError> {
     let file = ctx.file;
     let mut settings = SettingsRows::default();
+    let head = String::from_utf8_lossy(&bytes[..bytes.len().min(4096)]);
+    if looks_like_personal(&head) {
+        return Err(IoError::format(
+            file,
+            "this is the older CareLink Personal layout (2010-2014: Raw-Type and Raw-Values \
+             columns, a \"Data Range\" first line, no Pump or Sensor sections), which abba \
+             does not read; abba reads CareLink's current export, whose Pump and Sensor \
+             sections each open with a divider (-------,<device>,Pump,...)",
+        ));
+    }
     let spans = spans(bytes);
     if spans.is_empty() {
         return Err(IoError::format(
             file,
             "a CareLink export needs a section header \"Index;Date;Time;...\"; none found",
+        ));
+    }
+    if spans.iter().all(|s| s.section == Section::Other) {
+        return Err(IoError::format(
+            file,
+            "no Pump or Sensor section found (each opens with a divider like \
+             -------;<device>;Pump;<serial>;-------): nothing in the file would be read",
         ));
     }
     let tz = ctx.require_tz("CareLink writes pump times without an offset")?;

@@ -3,7 +3,8 @@
 //! US export (GluGo, MIT) with a second header without its divider, a
 //! trailing Sensor section without rows and wizards confirmed twice; a
 //! MiniMed 780G in SmartGuard (synthetic, in the real 54-column layout)
-//! with wizards not delivered; the older CareLink Personal layout
+//! with wizards not delivered; a Guardian 4 system's meal markers without
+//! an amount (synthetic, in the real layout); the older CareLink Personal layout
 //! (Tidepool's rows, BSD-2), refused by name.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -233,4 +234,34 @@ fn a_carelink_file_without_a_pump_or_sensor_section_reads_nothing_and_says_so() 
         err.starts_with("n.csv") && err.contains("no Pump or Sensor section"),
         "{err}"
     );
+}
+
+/// A Guardian 4 system (CGM only, injections logged in the app as event
+/// markers), in the layout of a real export (synthetic values; see
+/// PROVENANCE.md).
+const GUARDIAN: &str = "carelink_guardian4_synthetic.csv";
+
+#[test]
+fn a_meal_marker_of_one_gram_is_a_meal_without_its_amount() {
+    // A real Guardian 4 export logs every meal as "Meal: 1.00grams" (23 of
+    // 23) beside its injection of 8 to 25 U: the app's mark that a meal
+    // happened, not its carbohydrate. As a 1 g meal it would teach the
+    // advisor a carb ratio of 0.04 g/U.
+    let b = read(&[(GUARDIAN, fixture(GUARDIAN))], &opts("Asia/Taipei")).unwrap();
+    let noon = datetime(2025, 2, 11, 12, 20, 0, 0)
+        .to_zoned(abba_io::time::zone("Asia/Taipei").unwrap())
+        .unwrap()
+        .timestamp();
+    // The marker with a real amount is read.
+    assert_eq!(carbs(&b), vec![(noon, 30.0)]);
+    assert_eq!(ignored(&b, "event marker meal without its amount"), 3);
+    assert!(
+        b.notes
+            .iter()
+            .any(|n| n.contains("3 \"Meal:\" event markers") && n.contains("1 g or less")),
+        "{:?}",
+        b.notes
+    );
+    // The empty second Pump section is skipped, the sensor read.
+    assert_eq!(b.count("cgm"), 24);
 }

@@ -17,7 +17,8 @@
 //! [`confirmed_again`], nor of one whose `BWZ Status` is `Not
 //! Delivered`), suspend and
 //! resume (`Suspend`), and event markers written as text (`Meal:
-//! 60,00grams` is carbohydrate; `Insulin: 27,00` is counted, its acting
+//! 60,00grams` is carbohydrate, `Meal: 1.00grams` a meal without its
+//! amount, counted; `Insulin: 27,00` is counted, its acting
 //! type unknown). From the sensor section: `Sensor Glucose` (CGM). Alarms,
 //! primes, rewinds, SmartGuard's auto-basal micro-boluses, the
 //! "Aggregated Auto Insulin Data" daily totals (not doses) and every other
@@ -367,6 +368,7 @@ pub fn read_with_settings(
     let mut out = Vec::new();
     let mut unread_exchanges = 0usize;
     let mut unread_exchanges_column: Option<String> = None;
+    let mut meals_without_amount = 0usize;
     let (row_counts, order) = survey(file, bytes, &spans, ctx.opts.date_order)?;
     for (span, rows_in_span) in spans.iter().zip(row_counts) {
         if rows_in_span == 0 {
@@ -501,6 +503,9 @@ pub fn read_with_settings(
                     {
                         unread_exchanges += 1
                     }
+                    RecordKind::Ignored { kind: k } if k == MEAL_WITHOUT_AMOUNT => {
+                        meals_without_amount += 1
+                    }
                     _ => {}
                 }
                 // The Veo writes a `Basal Rate` row for the rate in effect:
@@ -543,6 +548,13 @@ pub fn read_with_settings(
         let column = unread_exchanges_column.unwrap_or_else(|| "Event Marker".into());
         ctx.note(format!(
             "carbohydrate not read: \"{column}\" counts in exchanges and an exchange is not one fixed mass ({unread_exchanges} rows); give the grams per exchange (--grams-per-exchange G, or the clinic page's grams-per-exchange field; 10 for the Spanish raci\u{f3}n) to read it as grams"
+        ));
+    }
+    if meals_without_amount > 0 {
+        ctx.note(format!(
+            "{meals_without_amount} \"Meal:\" event markers of {MEAL_MARKER_NO_AMOUNT_G} g or less \
+             were counted, not read as carbohydrate: a meal without its amount (a Guardian \
+             system's app marks meals so), and abba learns from a meal's carbohydrate"
         ));
     }
     settings.basal.sort_by_key(|b| b.0);
@@ -1106,7 +1118,19 @@ fn row_kinds(
     Ok(kinds)
 }
 
-/// An event marker's text: `Meal: 60,00grams` is carbohydrate, and so is
+/// A `Meal:` marker of this many grams or fewer is a meal without its
+/// amount: a real Guardian 4 export (CGM only, injections logged in the
+/// app) marks every meal `Meal: 1.00grams` (23 of 23) beside its 8 to
+/// 25 U injection; no meal is 1 g, and read as one it would make a carb
+/// ratio of 0.04 g/U. Counted and noted, not read.
+const MEAL_MARKER_NO_AMOUNT_G: f64 = 1.0;
+
+/// The kind a [`MEAL_MARKER_NO_AMOUNT_G`] marker is counted as.
+const MEAL_WITHOUT_AMOUNT: &str =
+    "event marker meal without its amount (1 g or less, not read as carbohydrate)";
+
+/// An event marker's text: `Meal: 60,00grams` is carbohydrate (more than
+/// [`MEAL_MARKER_NO_AMOUNT_G`]), and so is
 /// `Meal: 2.00exchanges` with `grams_per_exchange` (without it: counted,
 /// the file's note says so); `Insulin: 27,00` an injection whose acting
 /// type CareLink does not say (counted); any other marker is counted by
@@ -1139,6 +1163,11 @@ fn event_marker(
                     kind: "event marker meal in exchanges (no --grams-per-exchange)".into(),
                 });
             };
+            if v * per <= MEAL_MARKER_NO_AMOUNT_G {
+                return Ok(RecordKind::Ignored {
+                    kind: MEAL_WITHOUT_AMOUNT.into(),
+                });
+            }
             RecordKind::Carbs {
                 grams: Grams(check_range(
                     at,

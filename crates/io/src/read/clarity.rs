@@ -8,7 +8,9 @@
 //! readings; Insulin (Fast-Acting, Long-Acting; any other subtype is an
 //! error) and Carbs rows are read;
 //! every other event type (Exercise, Health, Alert, Device, ...) is counted.
-//! A data row without its time is an error.
+//! A data row without its time is an error; the preamble's rows, which
+//! have none (FirstName, LastName, DateOfBirth, Device, Alert settings),
+//! are counted by type in the file's note.
 //!
 //! Identity: an EGV or Calibration row with its transmitter id and
 //! transmitter time is `transmitter id:transmitter time:event type` (the
@@ -147,6 +149,8 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     let mut offsets: std::collections::BTreeMap<String, i64> = Default::default();
     // Rows in the fold no transmitter clock places (line, event type).
     let mut unplaced: Vec<(u64, String)> = Vec::new();
+    // Rows without a time (the preamble), by event type.
+    let mut untimed: std::collections::BTreeMap<String, usize> = Default::default();
     // One location reused for every row (no allocation per row).
     let mut at = Location::line(file, 0);
     while let Some(line) = t.next_row()? {
@@ -161,7 +165,14 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
                     format!("a {kind_text} row needs its time; the cell is empty"),
                 ));
             }
-            continue; // preamble: patient, device and alert settings
+            // The preamble: patient, device and alert settings.
+            let kind = if kind_text.is_empty() {
+                "(no event type)"
+            } else {
+                kind_text
+            };
+            *untimed.entry(kind.to_string()).or_default() += 1;
+            continue;
         }
         let dt = parse_wall(time_text, DateOrder::YearFirst).ok_or_else(|| {
             IoError::invalid(
@@ -224,6 +235,15 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
             id,
             origin: ctx.origin_line(line),
         });
+    }
+    if !untimed.is_empty() {
+        let total: usize = untimed.values().sum();
+        let kinds: Vec<String> = untimed.iter().map(|(k, n)| format!("{k} {n}")).collect();
+        ctx.note(format!(
+            "{total} rows without a time (the export's preamble of the person, the device and \
+             its alert settings: {}): not read",
+            kinds.join(", ")
+        ));
     }
     if !unplaced.is_empty() {
         let listed: Vec<String> = unplaced

@@ -369,9 +369,9 @@ pub fn read_with_settings(
     let mut unread_exchanges = 0usize;
     let mut unread_exchanges_column: Option<String> = None;
     let mut meals_without_amount = 0usize;
-    let (row_counts, order) = survey(file, bytes, &spans, ctx.opts.date_order)?;
-    for (span, rows_in_span) in spans.iter().zip(row_counts) {
-        if rows_in_span == 0 {
+    let (has_rows, order) = survey(file, bytes, &spans, ctx.opts.date_order)?;
+    for (span, has_rows) in spans.iter().zip(has_rows) {
+        if !has_rows {
             // A Paradigm without a sensor writes the Sensor section's
             // divider and header and no row; a second pump, its own.
             ctx.note(format!("{} has no rows: skipped", span.describe()));
@@ -819,7 +819,7 @@ fn pump_state(state: &str) -> Option<PumpState> {
     }
 }
 
-/// The rows of each section (a row has a date or a time) and the file's
+/// Whether each section has a row (a date or a time), and the file's
 /// date order: year first (`2025/10/30`, CareLink's current form), or
 /// what the first date that tells shows (a day above 12), in any section,
 /// or `--date-order`; `None` when nothing tells (an error only for a
@@ -829,8 +829,8 @@ fn survey(
     bytes: &[u8],
     spans: &[Span],
     given: Option<DateOrder>,
-) -> Result<(Vec<usize>, Option<DateOrder>), IoError> {
-    let mut counts = Vec::with_capacity(spans.len());
+) -> Result<(Vec<bool>, Option<DateOrder>), IoError> {
+    let mut has_rows = Vec::with_capacity(spans.len());
     let mut order = None;
     for span in spans {
         let mut t = Table::open(file, &bytes[..span.end], span.header_at)?;
@@ -838,20 +838,21 @@ fn survey(
             t.need_column_starting("CareLink", "Date")?,
             t.need_column_starting("CareLink", "Time")?,
         );
-        let mut n = 0usize;
-        while t.next_row()?.is_some() {
+        let mut rows = false;
+        // (up to the first row and the first date that tells)
+        while !(rows && order.is_some()) && t.next_row()?.is_some() {
             let cell = t.cell(date);
             if cell.is_empty() && t.cell(time).is_empty() {
                 continue;
             }
-            n += 1;
+            rows = true;
             if order.is_none() && !cell.is_empty() {
                 order = super::libreview::order_evidence(&format!("{cell} 00:00"));
             }
         }
-        counts.push(n);
+        has_rows.push(rows);
     }
-    Ok((counts, order.or(given)))
+    Ok((has_rows, order.or(given)))
 }
 
 /// A date and a time cell as one wall time; a two-digit year (older

@@ -207,7 +207,7 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
             _ => wall.resolve(dt, &at, &c.time_name)?,
         };
         if let Some((id, tx_time)) = &tx {
-            let offset = instant.as_second() - *tx_time;
+            let offset = instant.as_second().saturating_sub(*tx_time);
             match offsets.get_mut(id) {
                 Some(o) => *o = offset,
                 None => {
@@ -407,7 +407,12 @@ fn by_transmitter(
     offset: i64,
     tx_time: i64,
 ) -> Option<jiff::Timestamp> {
-    let fits = |t: jiff::Timestamp| (t.as_second() - tx_time - offset).abs() <= CLOCK_JUMP_S;
+    let fits = |t: jiff::Timestamp| {
+        t.as_second()
+            .checked_sub(tx_time)
+            .and_then(|d| d.checked_sub(offset))
+            .is_some_and(|d| (-CLOCK_JUMP_S..=CLOCK_JUMP_S).contains(&d))
+    };
     match (fits(early), fits(late)) {
         (true, false) => Some(early),
         (false, true) => Some(late),

@@ -4,9 +4,14 @@
 //!
 //! A loop is recognised by any of: short temporary basals (≤ 30 min)
 //! started in most hours of the pump's days, super micro boluses (SMB,
-//! `isSMB`, Loop's automatic boluses), Tidepool `automated` basal, or an
-//! uploader or device named as a loop system (iAPS, Trio, Loop, AndroidAPS,
-//! OpenAPS, FreeAPS, Control-IQ, CamAPS, 780G / SmartGuard auto mode).
+//! `isSMB`, Loop's automatic boluses), Tidepool `automated` basal, an
+//! uploader or device of a JSON export named as a loop system (iAPS, Trio,
+//! Loop, AndroidAPS, OpenAPS, FreeAPS, Control-IQ, CamAPS, 780G /
+//! SmartGuard auto mode), or in a CareLink export SmartGuard's auto mode:
+//! `Bolus Source` `CLOSED_LOOP_*` (the automatic `CLOSED_LOOP_AUTO_*`
+//! doses count as automatic boluses) and the "Aggregated Auto Insulin
+//! Data" totals. A CareLink export naming a 780G without these is not a
+//! loop: the 780G also runs in manual mode, open-loop therapy.
 //! Injections: long-acting insulin and no pump basal record. Data with no
 //! pump record and no insulin at all (a CGM-only export) show no delivery:
 //! abba says so instead of calling it open-loop pump therapy.
@@ -16,6 +21,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
+use crate::read::carelink;
 use crate::record::{Record, RecordKind};
 
 /// Names of loop systems as uploaders and devices spell them (lower case).
@@ -136,11 +142,12 @@ impl Evidence {
 
     /// Counts from an export file as it is (what normalised records do not
     /// keep: SMB marks, uploader and device names, Tidepool's delivery
-    /// type). A file that is not JSON adds nothing.
+    /// type, CareLink's SmartGuard auto mode, see [`Evidence::from_carelink`]).
+    /// Any other file adds nothing.
     pub fn from_file(bytes: &[u8]) -> Self {
         let mut e = Evidence::default();
         let Ok(v) = serde_json::from_slice::<Value>(bytes) else {
-            return e;
+            return Self::from_carelink(bytes);
         };
         let items = match v {
             Value::Array(a) => a,
@@ -187,6 +194,38 @@ impl Evidence {
                     *e.systems.entry((*name).to_string()).or_default() += 1;
                 }
             }
+        }
+        e
+    }
+
+    /// A CareLink export's auto-mode evidence ([`carelink::auto_mode`]):
+    /// its automatic doses (`CLOSED_LOOP_AUTO_*`) counted as automatic
+    /// boluses, its boluses in auto mode and its daily auto insulin totals
+    /// as "SmartGuard auto mode" with the pump's name. The pump's name
+    /// alone (a 780G) is not evidence: the 780G also runs in manual mode,
+    /// open-loop therapy. Anything but a CareLink export adds nothing.
+    pub fn from_carelink(bytes: &[u8]) -> Self {
+        let mut e = Evidence::default();
+        let decoded = crate::read::table::utf16_to_utf8("", bytes).ok().flatten();
+        let bytes = crate::read::table::strip_bom(decoded.as_deref().unwrap_or(bytes));
+        let head = String::from_utf8_lossy(&bytes[..bytes.len().min(4096)]);
+        if !carelink::looks_like(&head) {
+            return e;
+        }
+        let a = carelink::auto_mode(bytes);
+        let device = a.device.map_or(String::new(), |d| format!(", {d}"));
+        e.smb = a.automatic_doses;
+        if a.auto_mode_boluses > 0 {
+            e.systems.insert(
+                format!("SmartGuard auto mode (CareLink boluses with Bolus Source CLOSED_LOOP_*{device})"),
+                a.auto_mode_boluses,
+            );
+        }
+        if a.auto_insulin_totals > 0 {
+            e.systems.insert(
+                format!("SmartGuard auto mode (CareLink daily totals of auto insulin{device})"),
+                a.auto_insulin_totals,
+            );
         }
         e
     }

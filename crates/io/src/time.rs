@@ -147,6 +147,30 @@ impl WallClock {
         Self { tz, last: None }
     }
 
+    /// Both instants of `dt` (earlier, later) when it falls in the autumn
+    /// fold; `None` for any other wall time.
+    pub fn fold(&self, dt: DateTime) -> Option<(Timestamp, Timestamp)> {
+        match self.tz.to_ambiguous_timestamp(dt).offset() {
+            AmbiguousOffset::Fold { before, after } => {
+                Some((before.to_timestamp(dt).ok()?, after.to_timestamp(dt).ok()?))
+            }
+            _ => None,
+        }
+    }
+
+    /// Records an instant placed by other evidence (a transmitter's
+    /// clock), so that the order rule of [`WallClock::resolve`] counts it.
+    pub fn place(&mut self, ts: Timestamp) {
+        if self.last.is_none_or(|l| ts > l) {
+            self.last = Some(ts);
+        }
+    }
+
+    /// The zone's name (for messages).
+    pub fn zone_name(&self) -> &str {
+        self.tz.iana_name().unwrap_or("the given zone")
+    }
+
     /// The instant of `dt`, read at `at` (for errors) in `field`.
     pub fn resolve(
         &mut self,

@@ -164,3 +164,51 @@ fn a_repeated_hour_out_of_device_order_is_reported_not_reordered() {
         "{err}"
     );
 }
+
+#[test]
+fn a_clarity_export_across_the_autumn_change_is_placed_by_the_transmitter_clock() {
+    // Clarity lists rows by wall time: the two passes through 01:00-02:00
+    // of 2023-11-05 (America/Chicago) interleave, each wall time twice
+    // (the second pass sometimes first). The transmitter's clock (seconds,
+    // one per reading every 300) tells the passes apart: 3600 s apart.
+    const F: &str = "clarity_g6_autumn_fold_synthetic.csv";
+    let b = read(&[(F, common::fixture(F))], &opts("America/Chicago")).unwrap();
+    let cgm: Vec<(Timestamp, f64)> = b
+        .records
+        .iter()
+        .filter_map(|r| match r.kind {
+            RecordKind::Cgm { glucose } => Some((r.at, glucose.mg_dl.0)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(cgm.len(), 48);
+    let first: Timestamp = "2023-11-05T04:03:41Z".parse().unwrap();
+    for (i, (t, g)) in cgm.iter().enumerate() {
+        // Every reading at its true instant, 5 minutes apart, in the
+        // order the sensor read them (118 falling to 89, then rising).
+        assert_eq!(*t, first + SignedDuration::from_mins(5 * i as i64), "{i}");
+        let want = if i < 30 { 118 - i } else { 88 + (i - 30) * 2 };
+        assert_eq!(*g, want as f64, "{i}");
+    }
+    // The app's entries: before and after the repeated hour read; the one
+    // inside it has no transmitter time and the file's order cannot tell
+    // its pass: reported with its line, not read.
+    let carbs: Vec<Timestamp> = b
+        .records
+        .iter()
+        .filter(|r| matches!(r.kind, RecordKind::Carbs { .. }))
+        .map(|r| r.at)
+        .collect();
+    assert_eq!(
+        carbs,
+        vec!["2023-11-05T05:20:05Z".parse::<Timestamp>().unwrap()]
+    );
+    assert_eq!(b.count("bolus"), 1);
+    assert!(
+        b.notes
+            .iter()
+            .any(|n| n.contains("line 48") && n.contains("Carbs") && n.contains("not read")),
+        "{:?}",
+        b.notes
+    );
+}

@@ -43,6 +43,16 @@ fn clarity_fixture_loads_with_its_counts_and_censored_values() {
         b.records[0].id,
         abba_io::SourceId::Id("HBRPOI:4240874:EGV".into())
     );
+    // The preamble's rows have no time, so no record: counted in a note
+    // by their event type instead of passed over in silence.
+    assert_eq!(b.notes.len(), 1, "{:?}", b.notes);
+    assert!(
+        b.notes[0].contains("10 rows without a time")
+            && b.notes[0].contains("Alert 7")
+            && b.notes[0].contains("FirstName 1"),
+        "{}",
+        b.notes[0]
+    );
 }
 
 #[test]

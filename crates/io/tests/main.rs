@@ -11,6 +11,7 @@ mod common;
 
 // One module per test file.
 mod boundary;
+mod carelink_layouts;
 mod dst;
 mod events_mapping;
 mod events_properties;

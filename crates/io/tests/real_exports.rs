@@ -203,6 +203,7 @@ fn a_clarity_phone_clock_change_is_placed_by_the_transmitter_clock() {
         "{}",
         b.notes[0]
     );
+    assert!(!b.notes[0].contains("  "), "{}", b.notes[0]);
 }
 
 #[test]
@@ -221,6 +222,7 @@ fn without_transmitter_times_the_conflicting_stretch_is_reported_and_the_rest_ke
         "{}",
         b.notes[0]
     );
+    assert!(!b.notes[0].contains("  "), "{}", b.notes[0]);
 }
 
 #[test]

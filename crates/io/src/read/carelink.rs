@@ -12,9 +12,13 @@
 //! (the scheduled rate from then on), temporary basals (`Temp Basal
 //! Amount`, `Temp Basal Type` absolute or percent, `Temp Basal Duration`),
 //! boluses by `Bolus Type` (Normal, Square, Dual normal and square parts)
-//! with `Bolus Volume Delivered (U)`, `BWZ Carb Input (grams)`, suspend and
+//! with `Bolus Volume Delivered (U)`, `BWZ Carb Input (grams)` (not of a
+//! wizard the person confirmed again before its bolus, see
+//! [`confirmed_again`], nor of one whose `BWZ Status` is `Not
+//! Delivered`), suspend and
 //! resume (`Suspend`), and event markers written as text (`Meal:
-//! 60,00grams` is carbohydrate; `Insulin: 27,00` is counted, its acting
+//! 60,00grams` is carbohydrate, `Meal: 1.00grams` a meal without its
+//! amount, counted; `Insulin: 27,00` is counted, its acting
 //! type unknown). From the sensor section: `Sensor Glucose` (CGM). Alarms,
 //! primes, rewinds, SmartGuard's auto-basal micro-boluses, the
 //! "Aggregated Auto Insulin Data" daily totals (not doses) and every other
@@ -48,6 +52,20 @@ pub fn looks_like(head: &str) -> bool {
     header && (head.contains("-------;") || head.contains("-------,") || preamble)
 }
 
+/// Whether the start of a file is the older CareLink Personal export
+/// (2010-2014, seen in the rows Tidepool kept from real exports): a
+/// `Data Range,...` first line, or a header `Index,Date,Time,Timestamp,...`
+/// with `Raw-Type` and `Raw-Values` columns; no section dividers, the basal
+/// schedule only inside `Raw-Values` text. abba does not read it.
+pub fn looks_like_personal(head: &str) -> bool {
+    let head = head.trim_start_matches('\u{feff}');
+    head.starts_with("Data Range")
+        || head.lines().take(5).any(|l| {
+            let l = l.trim_start_matches('"');
+            l.starts_with("Index") && l.contains("Raw-Type") && l.contains("Raw-Values")
+        })
+}
+
 /// A section of the export.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Section {
@@ -77,6 +95,9 @@ fn section_of(divider: &str) -> Section {
 /// One section's header line (0-based) and the end of its rows (byte).
 struct Span {
     section: Section,
+    /// The device its divider names (`MiniMed 780G MMT-1886`), empty for a
+    /// header before any divider.
+    device: String,
     /// The divider names a Paradigm pump (its `Basal Rate` rows are the
     /// rate in effect, see [`in_effect`]).
     paradigm: bool,
@@ -84,9 +105,31 @@ struct Span {
     end: usize,
 }
 
+impl Span {
+    /// The section in words, for notes.
+    fn describe(&self) -> String {
+        let what = match self.section {
+            Section::Pump => "Pump section",
+            Section::Sensor => "Sensor section",
+            Section::Totals => "\"Aggregated Auto Insulin Data\" section",
+            Section::Other => "section",
+        };
+        if self.device.is_empty() {
+            format!("the {what} with its header on line {}", self.header_at + 1)
+        } else {
+            format!(
+                "the {what} of {} (header on line {})",
+                self.device,
+                self.header_at + 1
+            )
+        }
+    }
+}
+
 fn spans(bytes: &[u8]) -> Vec<Span> {
     let mut out: Vec<Span> = Vec::new();
     let mut section = Section::Other;
+    let mut device = String::new();
     let mut paradigm = false;
     let mut start = 0usize;
     for (i, line) in bytes.split(|&b| b == b'\n').enumerate() {
@@ -97,6 +140,11 @@ fn spans(bytes: &[u8]) -> Vec<Span> {
                 last.end = last.end.min(start);
             }
             section = section_of(text);
+            device = text
+                .split([';', ','])
+                .nth(1)
+                .map(|c| c.trim().trim_matches('"').to_string())
+                .unwrap_or_default();
             paradigm = text.contains("Paradigm");
         } else if is_header(text) {
             if let Some(last) = out.last_mut() {
@@ -104,12 +152,72 @@ fn spans(bytes: &[u8]) -> Vec<Span> {
             }
             out.push(Span {
                 section,
+                device: device.clone(),
                 paradigm,
                 header_at: i,
                 end: bytes.len(),
             });
         }
         start += line.len() + 1;
+    }
+    out
+}
+
+/// What a CareLink export says of SmartGuard's auto mode (the MiniMed
+/// 780G's closed loop), from its `Bolus Source` cells: boluses the pump
+/// gives in auto mode are `CLOSED_LOOP_*` (the person's own,
+/// `CLOSED_LOOP_BG_CORRECTION_AND_FOOD_BOLUS`, and the automatic ones,
+/// `CLOSED_LOOP_AUTO_BASAL` micro-boluses and `CLOSED_LOOP_AUTO_BOLUS`
+/// corrections), and the "Aggregated Auto Insulin Data" section's daily
+/// totals are `CLOSED_LOOP_AUTO_INSULIN`. In manual mode the same pump
+/// writes `BOLUS_WIZARD` and no auto insulin, so its name alone says
+/// nothing of the loop.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct AutoMode {
+    /// The device the first section divider names (`MiniMed 780G
+    /// MMT-1886`).
+    pub device: Option<String>,
+    /// Delivered boluses the loop gave on its own (`CLOSED_LOOP_AUTO_*`).
+    pub automatic_doses: usize,
+    /// Other delivered boluses given in auto mode (`CLOSED_LOOP_*`).
+    pub auto_mode_boluses: usize,
+    /// Daily auto insulin totals (`CLOSED_LOOP_*` rows of the
+    /// "Aggregated Auto Insulin Data" section).
+    pub auto_insulin_totals: usize,
+}
+
+/// Reads [`AutoMode`] from a CareLink export (BOM stripped, UTF-8); a
+/// file that is not one, or a section that cannot be read, adds nothing
+/// (the reader reports what is wrong with it).
+pub fn auto_mode(bytes: &[u8]) -> AutoMode {
+    let mut out = AutoMode::default();
+    let spans = spans(bytes);
+    out.device = spans
+        .iter()
+        .map(|s| s.device.clone())
+        .find(|d| !d.is_empty());
+    for span in &spans {
+        let Ok(mut t) = Table::open("", &bytes[..span.end], span.header_at) else {
+            continue;
+        };
+        let (Some(source), Some(delivered)) = (
+            t.column_starting("Bolus Source"),
+            t.column_starting("Bolus Volume Delivered"),
+        ) else {
+            continue;
+        };
+        while let Ok(Some(_)) = t.next_row() {
+            let src = t.cell(source);
+            if !src.starts_with("CLOSED_LOOP_") || t.cell(delivered).is_empty() {
+                continue;
+            }
+            match span.section {
+                Section::Totals => out.auto_insulin_totals += 1,
+                Section::Pump if src.starts_with("CLOSED_LOOP_AUTO_") => out.automatic_doses += 1,
+                Section::Pump => out.auto_mode_boluses += 1,
+                _ => {}
+            }
+        }
     }
     out
 }
@@ -128,6 +236,8 @@ struct Cols {
     bolus_duration: Option<usize>,
     bolus_source: Option<usize>,
     carbs: Option<usize>,
+    /// `BWZ Status` (the 780G's): `Delivered` or `Not Delivered`.
+    bwz_status: Option<usize>,
     carb_ratio: Option<usize>,
     sensor: Option<usize>,
     marker: Option<usize>,
@@ -136,6 +246,8 @@ struct Cols {
     rewind: Option<usize>,
     prime: Option<usize>,
     time_change: Option<usize>,
+    /// Every `BWZ ...` column.
+    bwz: Vec<usize>,
 }
 
 impl Cols {
@@ -154,6 +266,7 @@ impl Cols {
             bolus_duration: col("Programmed Bolus Duration").or_else(|| col("Bolus Duration")),
             bolus_source: col("Bolus Source"),
             carbs: col("BWZ Carb Input"),
+            bwz_status: col("BWZ Status"),
             carb_ratio: col("BWZ Carb Ratio"),
             sensor: col("Sensor Glucose"),
             marker: col("Event Marker"),
@@ -162,6 +275,9 @@ impl Cols {
             rewind: col("Rewind"),
             prime: col("Prime Type"),
             time_change: col("New Device Time"),
+            bwz: (0..t.header.len())
+                .filter(|&i| t.header[i].starts_with("BWZ"))
+                .collect(),
         })
     }
 }
@@ -176,6 +292,14 @@ struct Row {
     cells: u64,
     /// The bolus wizard's carb ratio (g/U) on a wizard row of the pump.
     carb_ratio: Option<f64>,
+    /// A wizard row of the pump (its `BWZ Carb Input` filled, 0 for a
+    /// correction; a Veo writes some of a wizard's cells on a second row
+    /// without it): its `BWZ` cells' hash, and whether its `BWZ Status`
+    /// says what became of it.
+    wizard: Option<(u64, bool)>,
+    /// A bolus row of the pump (a `Bolus Type`; a dual bolus's square part
+    /// is the same bolus as its normal part and not counted).
+    bolus: bool,
 }
 
 /// What a CareLink export says about the pump's settings: the rows that
@@ -207,11 +331,28 @@ pub fn read_with_settings(
 ) -> Result<(Vec<Record>, SettingsRows), IoError> {
     let file = ctx.file;
     let mut settings = SettingsRows::default();
+    let head = String::from_utf8_lossy(&bytes[..bytes.len().min(4096)]);
+    if looks_like_personal(&head) {
+        return Err(IoError::format(
+            file,
+            "this is the older CareLink Personal layout (2010-2014: Raw-Type and Raw-Values \
+             columns, a \"Data Range\" first line, no Pump or Sensor sections), which abba \
+             does not read; abba reads CareLink's current export, whose Pump and Sensor \
+             sections each open with a divider (-------,<device>,Pump,...)",
+        ));
+    }
     let spans = spans(bytes);
     if spans.is_empty() {
         return Err(IoError::format(
             file,
             "a CareLink export needs a section header \"Index;Date;Time;...\"; none found",
+        ));
+    }
+    if spans.iter().all(|s| s.section == Section::Other) {
+        return Err(IoError::format(
+            file,
+            "no Pump or Sensor section found (each opens with a divider like \
+             -------;<device>;Pump;<serial>;-------): nothing in the file would be read",
         ));
     }
     let tz = ctx.require_tz("CareLink writes pump times without an offset")?;
@@ -227,7 +368,22 @@ pub fn read_with_settings(
     let mut out = Vec::new();
     let mut unread_exchanges = 0usize;
     let mut unread_exchanges_column: Option<String> = None;
-    for span in &spans {
+    let mut meals_without_amount = 0usize;
+    let (has_rows, order) = survey(file, bytes, &spans, ctx.opts.date_order)?;
+    for (span, has_rows) in spans.iter().zip(has_rows) {
+        if !has_rows {
+            // A Paradigm without a sensor writes the Sensor section's
+            // divider and header and no row; a second pump, its own.
+            ctx.note(format!("{} has no rows: skipped", span.describe()));
+            continue;
+        }
+        let order = order.ok_or_else(|| {
+            IoError::format(
+                file,
+                "every date could be day-first or month-first (no day above 12); give \
+                 --date-order day-first or month-first",
+            )
+        })?;
         let mut t = Table::open(file, &bytes[..span.end], span.header_at)?;
         let cols = Cols::of(&t)?;
         if let Some(i) = cols.carb_ratio {
@@ -244,12 +400,6 @@ pub fn read_with_settings(
         if let Some(i) = exchanges_unread {
             unread_exchanges_column = Some(t.header[i].clone());
         }
-        let order = date_order(
-            file,
-            &mut Table::open(file, &bytes[..span.end], span.header_at)?,
-            cols.date,
-            ctx.opts.date_order,
-        )?;
         let mut rows: Vec<Row> = Vec::new();
         let mut at = Location::line(file, 0);
         while let Some(line) = t.next_row()? {
@@ -283,12 +433,29 @@ pub fn read_with_settings(
                 _ => None,
             };
             let cells = content_hash(t.raw().skip(1));
+            let pump = span.section == Section::Pump;
+            let wizard = (pump && cols.carbs.is_some_and(|i| !t.cell(i).is_empty())).then(|| {
+                let status = cols
+                    .bwz
+                    .iter()
+                    .any(|&i| t.header[i].starts_with("BWZ Status") && !t.cell(i).is_empty());
+                (
+                    content_hash(cols.bwz.iter().map(|&i| t.cell(i).as_bytes())),
+                    status,
+                )
+            });
+            let bolus_type = cols.bolus_type.map_or("", |i| t.cell(i));
+            let bolus = pump
+                && !bolus_type.is_empty()
+                && !bolus_type.to_ascii_lowercase().contains("square part");
             rows.push(Row {
                 line,
                 wall,
                 kinds,
                 cells,
                 carb_ratio,
+                wizard,
+                bolus,
             });
         }
         // Oldest first, so that a wall time in the autumn fold is placed
@@ -301,6 +468,7 @@ pub fn read_with_settings(
         if span.paradigm {
             same_second_order(&mut rows);
         }
+        confirmed_again(&mut rows);
         for row in rows {
             at.place = Place::Line(row.line);
             let instant = clock.resolve(row.wall, &at, &time_name)?;
@@ -334,6 +502,9 @@ pub fn read_with_settings(
                             || k.starts_with("event marker meal in exch") =>
                     {
                         unread_exchanges += 1
+                    }
+                    RecordKind::Ignored { kind: k } if k == MEAL_WITHOUT_AMOUNT => {
+                        meals_without_amount += 1
                     }
                     _ => {}
                 }
@@ -379,9 +550,83 @@ pub fn read_with_settings(
             "carbohydrate not read: \"{column}\" counts in exchanges and an exchange is not one fixed mass ({unread_exchanges} rows); give the grams per exchange (--grams-per-exchange G, or the clinic page's grams-per-exchange field; 10 for the Spanish raci\u{f3}n) to read it as grams"
         ));
     }
+    if meals_without_amount > 0 {
+        ctx.note(format!(
+            "{meals_without_amount} \"Meal:\" event markers of {MEAL_MARKER_NO_AMOUNT_G} g or less \
+             were counted, not read as carbohydrate: a meal without its amount (a Guardian \
+             system's app marks meals so), and abba learns from a meal's carbohydrate"
+        ));
+    }
     settings.basal.sort_by_key(|b| b.0);
     settings.carb_ratio.sort_by_key(|c| c.0);
     Ok((out, settings))
+}
+
+/// How soon after a wizard row another one is the same wizard confirmed
+/// again (seconds): the Paradigm rows seen are 2 to 37 s apart.
+const WIZARD_AGAIN_S: i64 = 60;
+
+/// A wizard row without a `BWZ Status` (the Paradigm and MiniMed pumps
+/// before the 780G) whose carbohydrate the person confirmed again before
+/// any bolus: the pump writes a wizard row at each confirmation, and the
+/// bolus that follows goes with the last one (GluGo's Revel 723 export:
+/// the same 35 g at 15:39:17 and 15:39:19 with one 5.8 U bolus at
+/// 15:39:19; 29 g at 12:25:15 changed to 25 g at 12:25:28, the 4.5 U bolus
+/// the second row's estimate). So a wizard row followed within
+/// [`WIZARD_AGAIN_S`] (and at least a second later) by another wizard row,
+/// with no bolus from its own second to the other's, is not a meal: its carbohydrate is counted as
+/// repeated (the same values) or changed, and the later row is the meal.
+fn confirmed_again(rows: &mut [Row]) {
+    let mut order: Vec<usize> = (0..rows.len()).collect();
+    order.sort_by_key(|&k| rows[k].wall);
+    let window = jiff::SignedDuration::from_secs(WIZARD_AGAIN_S);
+    let mut first_of_second = 0;
+    for p in 0..order.len() {
+        let i = order[p];
+        let t0 = rows[i].wall;
+        if rows[order[first_of_second]].wall < t0 {
+            first_of_second = p;
+        }
+        let Some((values, false)) = rows[i].wizard else {
+            continue;
+        };
+        if !rows[i]
+            .kinds
+            .iter()
+            .any(|k| matches!(k, RecordKind::Carbs { .. }))
+        {
+            continue;
+        }
+        let Some(&j) = order[p + 1..]
+            .iter()
+            .take_while(|&&k| rows[k].wall.duration_since(t0) <= window)
+            .find(|&&k| rows[k].wizard.is_some() && rows[k].wall > t0)
+        else {
+            continue;
+        };
+        let t1 = rows[j].wall;
+        let bolus_between = order[first_of_second..]
+            .iter()
+            .take_while(|&&k| rows[k].wall < t1)
+            .any(|&k| rows[k].bolus);
+        if bolus_between {
+            continue;
+        }
+        let same = rows[j].wizard.is_some_and(|(v, _)| v == values);
+        for k in &mut rows[i].kinds {
+            if matches!(k, RecordKind::Carbs { .. }) {
+                *k = RecordKind::Ignored {
+                    kind: if same {
+                        "bolus wizard row repeated with the same values before its bolus (one meal)"
+                            .into()
+                    } else {
+                        "bolus wizard row changed and confirmed again before any bolus (the later row is the meal)"
+                            .into()
+                    },
+                };
+            }
+        }
+    }
 }
 
 /// Orders the rows of one second (oldest first otherwise) as the pump
@@ -574,31 +819,40 @@ fn pump_state(state: &str) -> Option<PumpState> {
     }
 }
 
-/// The date order of a section: year first (`2025/10/30`, CareLink's
-/// current form), or what the dates show, or `--date-order`; never guessed.
-fn date_order(
+/// Whether each section has a row (a date or a time), and the file's
+/// date order: year first (`2025/10/30`, CareLink's current form), or
+/// what the first date that tells shows (a day above 12), in any section,
+/// or `--date-order`; `None` when nothing tells (an error only for a
+/// section with rows to read). Never guessed.
+fn survey(
     file: &str,
-    t: &mut Table<'_>,
-    date: usize,
+    bytes: &[u8],
+    spans: &[Span],
     given: Option<DateOrder>,
-) -> Result<DateOrder, IoError> {
-    while t.next_row()?.is_some() {
-        let cell = t.cell(date);
-        if cell.is_empty() {
-            continue;
+) -> Result<(Vec<bool>, Option<DateOrder>), IoError> {
+    let mut has_rows = Vec::with_capacity(spans.len());
+    let mut order = None;
+    for span in spans {
+        let mut t = Table::open(file, &bytes[..span.end], span.header_at)?;
+        let (date, time) = (
+            t.need_column_starting("CareLink", "Date")?,
+            t.need_column_starting("CareLink", "Time")?,
+        );
+        let mut rows = false;
+        // (up to the first row and the first date that tells)
+        while !(rows && order.is_some()) && t.next_row()?.is_some() {
+            let cell = t.cell(date);
+            if cell.is_empty() && t.cell(time).is_empty() {
+                continue;
+            }
+            rows = true;
+            if order.is_none() && !cell.is_empty() {
+                order = super::libreview::order_evidence(&format!("{cell} 00:00"));
+            }
         }
-        if let Some(o) = super::libreview::order_evidence(&format!("{cell} 00:00")) {
-            return Ok(o);
-        }
+        has_rows.push(rows);
     }
-    match given {
-        Some(o) => Ok(o),
-        None => Err(IoError::format(
-            file,
-            "every date could be day-first or month-first (no day above 12); give --date-order \
-             day-first or month-first",
-        )),
-    }
+    Ok((has_rows, order.or(given)))
 }
 
 /// A date and a time cell as one wall time; a two-digit year (older
@@ -793,10 +1047,27 @@ fn row_kinds(
             (true, Some(g)) => Some(v * g),
             (true, None) => None,
         };
+        let status = cell(c.bwz_status);
         match grams {
             None => kinds.push(RecordKind::Ignored {
                 kind: "BWZ carb input in exchanges (no --grams-per-exchange)".into(),
             }),
+            // The 780G says what became of the wizard: carbohydrate of one
+            // whose bolus was not delivered (declined, a low, confirmed
+            // again later) is no meal.
+            Some(g) if g > 0.0 && status.eq_ignore_ascii_case("Not Delivered") => {
+                kinds.push(RecordKind::Ignored {
+                    kind: "bolus wizard carbohydrate not delivered (BWZ Status Not Delivered)"
+                        .into(),
+                })
+            }
+            Some(g)
+                if g > 0.0 && !status.is_empty() && !status.eq_ignore_ascii_case("Delivered") =>
+            {
+                kinds.push(RecordKind::Ignored {
+                    kind: format!("bolus wizard carbohydrate with BWZ Status {status} (not read)"),
+                })
+            }
             Some(g) if g > 0.0 => kinds.push(RecordKind::Carbs {
                 grams: Grams(check_range(
                     at,
@@ -848,7 +1119,19 @@ fn row_kinds(
     Ok(kinds)
 }
 
-/// An event marker's text: `Meal: 60,00grams` is carbohydrate, and so is
+/// A `Meal:` marker of this many grams or fewer is a meal without its
+/// amount: a real Guardian 4 export (CGM only, injections logged in the
+/// app) marks every meal `Meal: 1.00grams` (23 of 23) beside its 8 to
+/// 25 U injection; no meal is 1 g, and read as one it would make a carb
+/// ratio of 0.04 g/U. Counted and noted, not read.
+const MEAL_MARKER_NO_AMOUNT_G: f64 = 1.0;
+
+/// The kind a [`MEAL_MARKER_NO_AMOUNT_G`] marker is counted as.
+const MEAL_WITHOUT_AMOUNT: &str =
+    "event marker meal without its amount (1 g or less, not read as carbohydrate)";
+
+/// An event marker's text: `Meal: 60,00grams` is carbohydrate (more than
+/// [`MEAL_MARKER_NO_AMOUNT_G`]), and so is
 /// `Meal: 2.00exchanges` with `grams_per_exchange` (without it: counted,
 /// the file's note says so); `Insulin: 27,00` an injection whose acting
 /// type CareLink does not say (counted); any other marker is counted by
@@ -881,6 +1164,11 @@ fn event_marker(
                     kind: "event marker meal in exchanges (no --grams-per-exchange)".into(),
                 });
             };
+            if v * per <= MEAL_MARKER_NO_AMOUNT_G {
+                return Ok(RecordKind::Ignored {
+                    kind: MEAL_WITHOUT_AMOUNT.into(),
+                });
+            }
             RecordKind::Carbs {
                 grams: Grams(check_range(
                     at,

@@ -8,7 +8,9 @@
 //! readings; Insulin (Fast-Acting, Long-Acting; any other subtype is an
 //! error) and Carbs rows are read;
 //! every other event type (Exercise, Health, Alert, Device, ...) is counted.
-//! A data row without its time is an error.
+//! A data row without its time is an error; the preamble's rows, which
+//! have none (FirstName, LastName, DateOfBirth, Device, Alert settings),
+//! are counted by type in the file's note.
 //!
 //! Identity: an EGV or Calibration row with its transmitter id and
 //! transmitter time is `transmitter id:transmitter time:event type` (the
@@ -23,6 +25,13 @@
 //! is reported. Without transmitter times, readings written at times the
 //! series already covered (the clock went back) are a conflicting stretch:
 //! reported with its lines, span and count, not read; the rest is read.
+//!
+//! Clarity lists rows by wall time, so across the autumn clock change the
+//! two passes through the repeated hour interleave (seen in a real Android
+//! G6 export of 2023-11-05, America/Chicago): the file's order cannot tell
+//! them apart, the transmitter's clock can (the two candidates are 3600 s
+//! apart). Once readings carry transmitter times, a row in the fold is
+//! placed by its transmitter's clock; one it cannot place is reported.
 //!
 //! Headers in another language (German, French, Spanish, Italian, Dutch)
 //! are recognised by the export's structure: the time in column 2 with
@@ -135,6 +144,13 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     let mut wall = WallClock::new(tz);
     let mut out = Vec::with_capacity(t.lines_left());
     let mut egv_clock: Vec<TxReading> = Vec::new();
+    // Each transmitter's written time less its own clock (s), at its
+    // latest reading: what places a reading in the autumn fold.
+    let mut offsets: std::collections::BTreeMap<String, i64> = Default::default();
+    // Rows in the fold no transmitter clock places (line, event type).
+    let mut unplaced: Vec<(u64, String)> = Vec::new();
+    // Rows without a time (the preamble), by event type.
+    let mut untimed: std::collections::BTreeMap<String, usize> = Default::default();
     // One location reused for every row (no allocation per row).
     let mut at = Location::line(file, 0);
     while let Some(line) = t.next_row()? {
@@ -149,7 +165,14 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
                     format!("a {kind_text} row needs its time; the cell is empty"),
                 ));
             }
-            continue; // preamble: patient, device and alert settings
+            // The preamble: patient, device and alert settings.
+            let kind = if kind_text.is_empty() {
+                "(no event type)"
+            } else {
+                kind_text
+            };
+            *untimed.entry(kind.to_string()).or_default() += 1;
+            continue;
         }
         let dt = parse_wall(time_text, DateOrder::YearFirst).ok_or_else(|| {
             IoError::invalid(
@@ -158,9 +181,40 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
                 format!("expected a time like 2019-08-15T00:03:27, got \"{time_text}\""),
             )
         })?;
-        let instant = wall.resolve(dt, &at, &c.time_name)?;
         let kind = row_kind(&t, &c, &at, line, kind_text)?;
         let tx = transmitter_clock(&t, &c, &kind);
+        let instant = match wall.fold(dt) {
+            // Clarity lists rows by wall time, so the two passes through
+            // the repeated hour interleave and the file's order cannot
+            // tell them apart; once readings carry transmitter times, a
+            // reading is placed by its transmitter's clock, and a row it
+            // cannot place is reported, not guessed.
+            Some((early, late)) if !offsets.is_empty() => {
+                let placed = tx.as_ref().and_then(|(id, tx_time)| {
+                    by_transmitter(early, late, *offsets.get(id)?, *tx_time)
+                });
+                match placed {
+                    Some(ts) => {
+                        wall.place(ts);
+                        ts
+                    }
+                    None => {
+                        unplaced.push((line, kind_text.to_string()));
+                        continue;
+                    }
+                }
+            }
+            _ => wall.resolve(dt, &at, &c.time_name)?,
+        };
+        if let Some((id, tx_time)) = &tx {
+            let offset = instant.as_second().saturating_sub(*tx_time);
+            match offsets.get_mut(id) {
+                Some(o) => *o = offset,
+                None => {
+                    offsets.insert(id.clone(), offset);
+                }
+            }
+        }
         let id = match &tx {
             Some((tx_id, tx_time)) => SourceId::Id(format!("{tx_id}:{tx_time}:{kind_text}").into()),
             None => row_id(Source::Clarity, instant, &kind, t.raw(), Some(0)),
@@ -181,6 +235,31 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
             id,
             origin: ctx.origin_line(line),
         });
+    }
+    if !untimed.is_empty() {
+        let total: usize = untimed.values().sum();
+        let kinds: Vec<String> = untimed.iter().map(|(k, n)| format!("{k} {n}")).collect();
+        ctx.note(format!(
+            "{total} rows without a time (the export's preamble of the person, the device and \
+             its alert settings: {}): not read",
+            kinds.join(", ")
+        ));
+    }
+    if !unplaced.is_empty() {
+        let listed: Vec<String> = unplaced
+            .iter()
+            .take(10)
+            .map(|(line, kind)| format!("line {line} ({kind})"))
+            .collect();
+        let more = if unplaced.len() > 10 { ", ..." } else { "" };
+        ctx.note(format!(
+            "{} row(s) written in the hour {} repeats at the autumn change carry no transmitter \
+             time that places them ({}{more}); Clarity lists rows by wall time, so which of \
+             the two passes each belongs to is not known: not read",
+            unplaced.len(),
+            wall.zone_name(),
+            listed.join(", ")
+        ));
     }
     if egv_clock.is_empty() {
         drop_conflicting_stretches(ctx, &mut out);
@@ -318,6 +397,29 @@ fn transmitter_clock(t: &Table<'_>, c: &Columns, kind: &RecordKind) -> Option<(S
     }
 }
 
+/// The instant of a reading in the autumn fold whose transmitter's
+/// written-less-transmitter time was `offset` (s) at its reading before:
+/// the one of `early` and `late` (an hour apart) that keeps it within
+/// [`CLOCK_JUMP_S`]; `None` if neither or both do (the phone's clock moved).
+fn by_transmitter(
+    early: jiff::Timestamp,
+    late: jiff::Timestamp,
+    offset: i64,
+    tx_time: i64,
+) -> Option<jiff::Timestamp> {
+    let fits = |t: jiff::Timestamp| {
+        t.as_second()
+            .checked_sub(tx_time)
+            .and_then(|d| d.checked_sub(offset))
+            .is_some_and(|d| (-CLOCK_JUMP_S..=CLOCK_JUMP_S).contains(&d))
+    };
+    match (fits(early), fits(late)) {
+        (true, false) => Some(early),
+        (false, true) => Some(late),
+        _ => None,
+    }
+}
+
 /// An EGV row's transmitter clock: its index in the records, the
 /// transmitter, its time (s) and the row's line.
 struct TxReading {
@@ -385,7 +487,8 @@ fn place_by_transmitter(ctx: &Ctx<'_>, out: &mut [Record], readings: &[TxReading
             }
             let shift = jiff::SignedDuration::from_secs(off - reference);
             ctx.note(format!(
-                "lines {first}-{last}: {} readings of transmitter {tx_id} written {} to {} were                  placed by the transmitter's clock (the phone's clock differed by {shift:#})",
+                "lines {first}-{last}: {} readings of transmitter {tx_id} written {} to {} were \
+                 placed by the transmitter's clock (the phone's clock differed by {shift:#})",
                 s.len(),
                 written.0,
                 written.1
@@ -415,7 +518,8 @@ fn drop_conflicting_stretches(ctx: &Ctx<'_>, out: &mut Vec<Record>) {
             crate::record::OriginAt::Item(i) => i,
         };
         ctx.note(format!(
-            "lines {}-{}: {} readings written {} to {} fall on times the series already              covered (the clock went back?) and carry no transmitter time: not read",
+            "lines {}-{}: {} readings written {} to {} fall on times the series already \
+             covered (the clock went back?) and carry no transmitter time: not read",
             line(s.0),
             line(s.1),
             s.2,

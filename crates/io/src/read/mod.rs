@@ -167,7 +167,9 @@ pub fn detect(file: &str, bytes: &[u8]) -> Result<Format, IoError> {
         });
     }
     let first = head.lines().next().unwrap_or("");
-    if carelink::looks_like(&head) {
+    if carelink::looks_like(&head) || carelink::looks_like_personal(&head) {
+        // (the older Personal layout is refused by the CareLink reader,
+        // with its name)
         return Ok(Format::CareLink);
     }
     if clarity::looks_like(first) {

@@ -1,0 +1,267 @@
+//! CareLink exports in the layouts real exports show and the shared
+//! samples did not (see tests/data/PROVENANCE.md): a Paradigm Revel 723's
+//! US export (GluGo, MIT) with a second header without its divider, a
+//! trailing Sensor section without rows and wizards confirmed twice; a
+//! MiniMed 780G in SmartGuard (synthetic, in the real 54-column layout)
+//! with wizards not delivered; a Guardian 4 system's meal markers without
+//! an amount (synthetic, in the real layout); the older CareLink Personal layout
+//! (Tidepool's rows, BSD-2), refused by name.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use crate::common;
+use abba_io::record::RecordKind;
+use common::{fixture, opts, read};
+use jiff::civil::datetime;
+
+const REVEL: &str = "carelink_paradigm723_glugo.csv";
+const NEW_YORK: &str = "America/New_York";
+
+fn at_ny(y: i16, mo: i8, d: i8, h: i8, mi: i8, s: i8) -> jiff::Timestamp {
+    datetime(y, mo, d, h, mi, s, 0)
+        .to_zoned(abba_io::time::zone(NEW_YORK).unwrap())
+        .unwrap()
+        .timestamp()
+}
+
+fn ignored(b: &abba_io::Batch, what: &str) -> usize {
+    b.records
+        .iter()
+        .filter(|r| matches!(&r.kind, RecordKind::Ignored { kind } if kind.starts_with(what)))
+        .count()
+}
+
+fn carbs(b: &abba_io::Batch) -> Vec<(jiff::Timestamp, f64)> {
+    b.records
+        .iter()
+        .filter_map(|r| match &r.kind {
+            RecordKind::Carbs { grams } => Some((r.at, grams.0)),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn a_section_without_rows_is_skipped_and_year_first_dates_need_no_date_order() {
+    // The export ends with the Sensor section's divider and header and no
+    // row (a Paradigm without a sensor): the whole file was refused with
+    // "every date could be day-first or month-first", its dates all
+    // 2018/MM/DD.
+    let b = read(&[(REVEL, fixture(REVEL))], &opts(NEW_YORK)).unwrap();
+    assert_eq!(b.formats, vec![abba_io::Format::CareLink]);
+    // Every pump row of both headers is read (35 rows).
+    assert_eq!(
+        b.records.first().unwrap().at,
+        at_ny(2018, 9, 22, 11, 59, 51)
+    );
+    assert_eq!(
+        b.records.last().unwrap().at,
+        at_ny(2018, 10, 11, 18, 14, 22)
+    );
+    assert_eq!(b.count("bolus"), 6);
+    assert_eq!(b.count("smbg"), 2);
+    assert_eq!(b.count("suspend"), 2);
+    assert_eq!(b.count("resume"), 1);
+    // The empty section is named in a note, with its line.
+    assert!(
+        b.notes
+            .iter()
+            .any(|n| n.contains("line 47") && n.contains("Sensor") && n.contains("no rows")),
+        "{:?}",
+        b.notes
+    );
+}
+
+/// A MiniMed 780G in SmartGuard (auto mode), European layout (synthetic
+/// values in the columns of a real 780G export; see PROVENANCE.md).
+const SMARTGUARD: &str = "carelink_780g_smartguard_synthetic.csv";
+const BERLIN: &str = "Europe/Berlin";
+
+#[test]
+fn smartguard_auto_mode_is_loop_evidence_and_a_780g_in_manual_mode_is_not() {
+    use abba_io::automation::{Delivery, Evidence};
+    let tz = abba_io::time::zone(BERLIN).unwrap();
+    let bytes = fixture(SMARTGUARD);
+    let e = Evidence::from_file(&bytes);
+    // The auto correction (CLOSED_LOOP_AUTO_BOLUS) and the auto basal
+    // micro-bolus (CLOSED_LOOP_AUTO_BASAL) are automatic doses.
+    assert_eq!(e.smb, 2, "{e:?}");
+    // Three boluses delivered in auto mode (CLOSED_LOOP_BG_CORRECTION_AND_
+    // FOOD_BOLUS) and one daily total of auto insulin, named with the pump.
+    let words = e.words().join("; ");
+    assert!(
+        words.contains("3 records from or naming SmartGuard auto mode")
+            && words.contains("1 records from or naming SmartGuard auto mode")
+            && words.contains("MiniMed 780G MMT-1886"),
+        "{words}"
+    );
+    assert_eq!(e.delivery(), Delivery::ClosedLoop);
+    // With the records' own counts (pump days, no short temp basals) the
+    // file's evidence still makes it a loop: abba advises no basal.
+    let b = read(&[(SMARTGUARD, bytes.clone())], &opts(BERLIN)).unwrap();
+    let mut all = Evidence::from_records(&b.records, &tz);
+    all.add_file(&e);
+    assert_eq!(all.delivery(), Delivery::ClosedLoop);
+
+    // A 780G in manual mode (its name in every divider, boluses from
+    // BOLUS_WIZARD): the name alone is no loop, the pump runs open loop.
+    let manual = fixture("carelink_780g_mmol_synthetic.csv");
+    let m = Evidence::from_file(&manual);
+    assert_eq!((m.smb, m.systems.len()), (0, 0), "{m:?}");
+    let b = read(&[("manual.csv", manual)], &opts("Europe/Zurich")).unwrap();
+    let mut all =
+        Evidence::from_records(&b.records, &abba_io::time::zone("Europe/Zurich").unwrap());
+    all.add_file(&m);
+    assert_eq!(all.delivery(), Delivery::OpenLoop);
+}
+
+#[test]
+fn a_paradigm_wizard_run_again_before_its_bolus_is_one_meal() {
+    // The Revel writes a wizard row each time the person confirms the
+    // wizard: 06/10 15:39:17 and 15:39:19 the same 35 g (then one 5.8 U
+    // bolus), 11/10 16:44:22 and 16:44:24 the same 15 g (one 2.5 U bolus),
+    // 22/09 12:25:15 29 g then 12:25:28 25 g (one 4.5 U bolus, the second
+    // row's estimate). One meal each, at the row the bolus followed.
+    let b = read(&[(REVEL, fixture(REVEL))], &opts(NEW_YORK)).unwrap();
+    assert_eq!(
+        carbs(&b),
+        vec![
+            (at_ny(2018, 9, 22, 12, 25, 28), 25.0),
+            (at_ny(2018, 10, 6, 14, 8, 49), 25.0),
+            (at_ny(2018, 10, 6, 15, 39, 19), 35.0),
+            (at_ny(2018, 10, 11, 15, 3, 52), 15.0),
+            (at_ny(2018, 10, 11, 16, 44, 24), 15.0),
+        ]
+    );
+    assert_eq!(
+        ignored(&b, "bolus wizard row repeated with the same values"),
+        2
+    );
+    assert_eq!(
+        ignored(&b, "bolus wizard row changed and confirmed again"),
+        1
+    );
+    // 06/10: one 35 g dinner, no 35 g snack beside it.
+    let zone = abba_io::time::zone(NEW_YORK).unwrap();
+    let s = b
+        .to_events(&abba_io::events::PersonSettings::new(zone))
+        .unwrap();
+    let meals: Vec<(abba_core::MealSlot, f64)> = s
+        .events
+        .iter()
+        .filter_map(|e| match e.kind {
+            abba_core::EventKind::MealAnnounced { slot, carbs } => Some((slot, carbs.0)),
+            _ => None,
+        })
+        .collect();
+    // (22/09 has no glucose reading: the advisor's first day is 06/10.)
+    use abba_core::MealSlot::{Dinner, Lunch};
+    assert_eq!(
+        meals,
+        vec![(Lunch, 25.0), (Dinner, 35.0), (Lunch, 15.0), (Dinner, 15.0)]
+    );
+}
+
+#[test]
+fn a_780g_wizard_not_delivered_is_no_meal() {
+    // Lunch: the wizard at 12:15:20 (40 g) and 12:16:55 (8 g) "Not
+    // Delivered" (a low, the bolus declined), then 55 g delivered at
+    // 12:20:41: one 55 g lunch.
+    let b = read(&[(SMARTGUARD, fixture(SMARTGUARD))], &opts(BERLIN)).unwrap();
+    let at = |h, mi, s| {
+        datetime(2026, 3, 14, h, mi, s, 0)
+            .to_zoned(abba_io::time::zone(BERLIN).unwrap())
+            .unwrap()
+            .timestamp()
+    };
+    assert_eq!(
+        carbs(&b),
+        vec![
+            (at(7, 42, 10), 42.0),
+            (at(12, 20, 41), 55.0),
+            (at(19, 3, 20), 60.0)
+        ]
+    );
+    assert_eq!(
+        ignored(
+            &b,
+            "bolus wizard carbohydrate not delivered (BWZ Status Not Delivered)"
+        ),
+        2
+    );
+}
+
+/// The older CareLink Personal export (2010-2014): a "Data Range" first
+/// line, `Raw-Type` / `Raw-Values` columns, no section dividers (rows
+/// picked from real exports by Tidepool, BSD-2; see PROVENANCE.md).
+const PERSONAL_2014: &str = "carelink_personal_2014_tidepool.csv";
+
+#[test]
+fn the_older_carelink_personal_layout_is_refused_by_name() {
+    let bytes = fixture(PERSONAL_2014);
+    // Without the "Data Range" line (as some copies have it) too.
+    let text = String::from_utf8(bytes.clone()).unwrap();
+    let headless = text.split_once('\n').unwrap().1.as_bytes().to_vec();
+    for (name, b) in [("p.csv", bytes), ("q.csv", headless)] {
+        // Detected (it was taken for a plain CSV), and with --format
+        // carelink (it "read" every row as one of an unknown section).
+        for format in [None, Some(abba_io::Format::CareLink)] {
+            let o = abba_io::ReadOptions {
+                format,
+                ..opts(NEW_YORK)
+            };
+            let err = read(&[(name, b.clone())], &o).unwrap_err().to_string();
+            assert!(
+                err.starts_with(name) && err.contains("older CareLink Personal layout"),
+                "{name} {format:?}: {err}"
+            );
+        }
+    }
+}
+
+#[test]
+fn a_carelink_file_without_a_pump_or_sensor_section_reads_nothing_and_says_so() {
+    // A header after the preamble and no divider: no section abba knows,
+    // so nothing would be read; refused instead of an empty success.
+    let text =
+        "Last Name,First Name,Patient ID,Start Date,End Date,Device,Paradigm Revel - 723\r\n\
+                \"A\",\"B\",\"\",\"7/27/18\",\"10/18/18\",\"Serial Number\",XXXXXX\r\n\
+                Index,Date,Time,New Device Time,BG Reading (mg/dL),Basal Rate (U/h)\r\n\
+                0.00000,2018/09/26,14:00:00,,,0.25\r\n";
+    let err = read(&[("n.csv", text.into())], &opts(NEW_YORK))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.starts_with("n.csv") && err.contains("no Pump or Sensor section"),
+        "{err}"
+    );
+}
+
+/// A Guardian 4 system (CGM only, injections logged in the app as event
+/// markers), in the layout of a real export (synthetic values; see
+/// PROVENANCE.md).
+const GUARDIAN: &str = "carelink_guardian4_synthetic.csv";
+
+#[test]
+fn a_meal_marker_of_one_gram_is_a_meal_without_its_amount() {
+    // A real Guardian 4 export logs every meal as "Meal: 1.00grams" (23 of
+    // 23) beside its injection of 8 to 25 U: the app's mark that a meal
+    // happened, not its carbohydrate. As a 1 g meal it would teach the
+    // advisor a carb ratio of 0.04 g/U.
+    let b = read(&[(GUARDIAN, fixture(GUARDIAN))], &opts("Asia/Taipei")).unwrap();
+    let noon = datetime(2025, 2, 11, 12, 20, 0, 0)
+        .to_zoned(abba_io::time::zone("Asia/Taipei").unwrap())
+        .unwrap()
+        .timestamp();
+    // The marker with a real amount is read.
+    assert_eq!(carbs(&b), vec![(noon, 30.0)]);
+    assert_eq!(ignored(&b, "event marker meal without its amount"), 3);
+    assert!(
+        b.notes
+            .iter()
+            .any(|n| n.contains("3 \"Meal:\" event markers") && n.contains("1 g or less")),
+        "{:?}",
+        b.notes
+    );
+    // The empty second Pump section is skipped, the sensor read.
+    assert_eq!(b.count("cgm"), 24);
+}

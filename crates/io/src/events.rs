@@ -450,10 +450,17 @@ fn map_records(
                 }
             }
             RecordKind::Schedule { profile } => {
+                // A zone named otherwise but keeping the person's clock at
+                // the profile's time (Loop writes "ETC/GMT+7" for Phoenix)
+                // needs no note.
+                let other_clock = |z: &str| match jiff::tz::TimeZone::get(z) {
+                    Ok(tz) => tz.to_offset(r.at) != person.tz.to_offset(r.at),
+                    Err(_) => true,
+                };
                 if let Some(zone) = profile
                     .timezone
                     .as_deref()
-                    .filter(|z| Some(*z) != person.tz.iana_name())
+                    .filter(|z| Some(*z) != person.tz.iana_name() && other_clock(z))
                 {
                     out.notes.push(format!(
                         "{}: the profile names time zone {zone}, the person's is {}; times are read in the person's",

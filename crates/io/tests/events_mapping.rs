@@ -160,3 +160,30 @@ fn percent_temp_basal_suspend_resume_and_a_second_breakfast() {
         ]
     );
 }
+
+/// A profile naming another zone is noted only when that zone keeps
+/// another clock at the profile's time: Loop writes "ETC/GMT+7" for a
+/// person in Phoenix (the same clock all year); Denver's summer time is an
+/// hour ahead of Phoenix.
+#[test]
+fn a_profile_zone_is_noted_only_when_its_clock_differs() {
+    let notes = |zone: &str| {
+        let t = format!(
+            r#"[{{"_id":"p","startDate":"2024-07-04T07:00:00Z","defaultProfile":"D","store":{{"D":{{"timezone":"{zone}","basal":[{{"time":"00:00","value":1.0}}]}}}}}},
+ {{"_id":"h","type":"sgv","sgv":120,"date":1720080000000}}]"#
+        );
+        let b = read(&[("t.json", t.into())], &opts("America/Phoenix")).unwrap();
+        b.to_events(&PersonSettings::new(
+            abba_io::time::zone("America/Phoenix").unwrap(),
+        ))
+        .unwrap()
+        .notes
+        .into_iter()
+        .filter(|n| n.contains("names time zone"))
+        .count()
+    };
+    assert_eq!(notes("ETC/GMT+7"), 0);
+    assert_eq!(notes("America/Phoenix"), 0);
+    assert_eq!(notes("America/Denver"), 1);
+    assert_eq!(notes("Mars/Olympus"), 1);
+}

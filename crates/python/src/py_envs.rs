@@ -224,9 +224,7 @@ fn check_batch(patients: &[String], seeds: &[u64]) -> PyResult<()> {
 /// change them.
 fn shard_len(n: usize) -> usize {
     let per_shard = 2 * abba_batch::LANES;
-    let shards = rayon::current_num_threads()
-        .min(n / per_shard)
-        .max(1);
+    let shards = rayon::current_num_threads().min(n / per_shard).max(1);
     n.div_ceil(shards)
 }
 
@@ -323,7 +321,9 @@ impl MinuteBatch {
         let outs = py.allow_threads(|| {
             use rayon::prelude::*;
             let step = |(shard, (b, o)): (&mut MinuteShard, (&[f64], &[f64]))| shard.step(b, o);
-            let work = shards.iter_mut().zip(basal.chunks(len).zip(bolus.chunks(len)));
+            let work = shards
+                .iter_mut()
+                .zip(basal.chunks(len).zip(bolus.chunks(len)));
             if shards_len_one(len, n) {
                 work.map(step).collect::<Vec<_>>()
             } else {

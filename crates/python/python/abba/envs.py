@@ -318,6 +318,8 @@ class T1DSimVectorEnv(gymnasium.vector.VectorEnv):
         # read-only between steps.
         self._all = np.ones(num_envs, dtype=bool)
         self._all.flags.writeable = False
+        self._no_bolus = np.zeros(num_envs)
+        self._no_bolus.flags.writeable = False
 
     def _reset_one(self, i: int) -> float:
         cgm = self.batch.reset_one(i, _seed(self._rng))
@@ -342,11 +344,10 @@ class T1DSimVectorEnv(gymnasium.vector.VectorEnv):
     def step(self, actions):
         a = np.asarray(actions, dtype=np.float64).reshape(self.num_envs, -1)
         basal = np.ascontiguousarray(a[:, 0])
-        bolus = np.ascontiguousarray(a[:, 1]) if self.bolus_action else np.zeros(self.num_envs)
-        cgm, bg, plasma, meal, cho, insulin, done = self.batch.step(basal, bolus)
+        bolus = np.ascontiguousarray(a[:, 1]) if self.bolus_action else self._no_bolus
+        cgm, bg, plasma, meal, cho, insulin, done, risk = self.batch.step(basal, bolus)
         self._steps += 1
         if self.reward_fun is None:
-            risk = _risk(cgm)
             rewards = self._last_risk - risk if self._window > 1 else np.zeros(self.num_envs)
             self._last_risk = risk
         else:

@@ -723,7 +723,7 @@ fn a_libres_fifteen_minute_readings_complete_the_first_week_and_feed_updates() {
     std::fs::write(&file, serde_json::to_string(&items).unwrap()).unwrap();
     let mut store = dir.store();
     store
-        .create_person(&person_from(&[file.clone()], "lia"))
+        .create_person(&person_from(std::slice::from_ref(&file), "lia"))
         .unwrap();
     store.import_files("lia", &[file], None).unwrap();
     let week = store

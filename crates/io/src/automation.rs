@@ -62,7 +62,8 @@ pub struct Evidence {
     pub pump_hours: usize,
     /// Super micro boluses and automatic boluses.
     pub smb: usize,
-    /// Tidepool basal records with `deliveryType: automated`.
+    /// Basal records a loop set on its own: Tidepool's `deliveryType:
+    /// automated`, Nightscout Temp Basals marked `automatic` (Loop).
     pub automated_basal: usize,
     /// Loop systems named by uploaders and devices, with counts.
     pub systems: BTreeMap<String, usize>,
@@ -155,15 +156,20 @@ impl Evidence {
         };
         for item in &items {
             let s = |k: &str| item.get(k).and_then(Value::as_str).unwrap_or("");
+            let automatic = item.get("automatic").and_then(Value::as_bool) == Some(true);
+            // Loop writes its own temporary basals `automatic` too, with
+            // the insulin they delivered: basal records, not boluses.
+            let temp_basal = s("eventType") == "Temp Basal";
             if s("eventType") == "SMB"
                 || item.get("isSMB").and_then(Value::as_bool) == Some(true)
-                || (item.get("automatic").and_then(Value::as_bool) == Some(true)
-                    && item.get("insulin").is_some())
+                || (automatic && !temp_basal && item.get("insulin").is_some())
                 || (s("type") == "bolus" && s("subType") == "automated")
             {
                 e.smb += 1;
             }
-            if s("type") == "basal" && s("deliveryType") == "automated" {
+            if (s("type") == "basal" && s("deliveryType") == "automated")
+                || (automatic && temp_basal)
+            {
                 e.automated_basal += 1;
             }
             // Nightscout device status of a loop: `loop` (Loop) or `openaps`
@@ -329,6 +335,22 @@ mod tests {
         // A day of pump records (counted from the records, not the file).
         none.pump_hours = 24;
         assert_eq!(none.delivery(), Delivery::OpenLoop);
+    }
+
+    #[test]
+    fn loops_automatic_temp_basals_are_basal_records_not_boluses() {
+        // Loop's shapes (Nightscout's captured Loop fixtures): its temporary
+        // basals and its automatic boluses both carry `automatic` and the
+        // insulin they delivered.
+        let e = Evidence::from_file(
+            br#"[{"eventType":"Temp Basal","automatic":true,"rate":0.4,"absolute":0.4,"duration":30,"insulin":0.0426},
+                 {"eventType":"Temp Basal","automatic":true,"rate":0,"absolute":0,"duration":30,"insulin":0},
+                 {"eventType":"Correction Bolus","automatic":true,"insulin":0.35},
+                 {"eventType":"Correction Bolus","automatic":false,"insulin":2.0}]"#,
+        );
+        assert_eq!((e.automated_basal, e.smb), (2, 1));
+        assert_eq!(e.delivery(), Delivery::ClosedLoop);
+        assert!(e.words().iter().any(|w| w == "2 automated basal records"));
     }
 
     #[test]

@@ -232,10 +232,16 @@ pub fn first_week_rule(init_days: u32) -> String {
 }
 
 /// Why one day of the first week does not qualify: `why` are its gaps
-/// (see [`first_week_day_gaps`]); `today` when the day is not over.
+/// (see [`first_week_day_gaps`]); `today` for the last day of the data,
+/// which no later data closed.
 pub fn first_week_day(why: &[String], today: bool) -> String {
     if today {
-        format!("so far {} (the day is not over)", why.join(", "))
+        // The last day of the data: today's, or the day an export ends
+        // (years ago, for an old one); either way no later data closed it.
+        format!(
+            "so far {} (the last day of the data: it counts once later data close it)",
+            why.join(", ")
+        )
     } else {
         why.join(", ")
     }

@@ -69,7 +69,7 @@ pub fn issue_signin(store: &mut Store, role: Role) -> Result<String, ServiceErro
 }
 
 /// The token of an `Authorization` header value, if it has the right form.
-fn parse(header: &str) -> Option<&str> {
+pub fn parse(header: &str) -> Option<&str> {
     let (scheme, token) = header.split_once(' ')?;
     if !scheme.eq_ignore_ascii_case("bearer") {
         return None;

@@ -69,7 +69,7 @@ pub fn router_with(state: AppState, set: &ServeSettings) -> Router {
             header::REFERRER_POLICY,
             HeaderValue::from_static("no-referrer"),
         ));
-    api.merge(crate::web::routes())
+    api.merge(crate::web::routes(state.clone()))
         .fallback(routes::not_found)
         .method_not_allowed_fallback(routes::method_not_allowed)
         .layer(DefaultBodyLimit::max(abba_api::MAX_BODY_BYTES))

@@ -66,8 +66,10 @@ pub struct StoreSettings {
     pub cache_events: u64,
     /// A live advisor unused this long is dropped.
     pub cache_idle: Duration,
-    /// Failed authentications one client address may make per window
-    /// before it gets 429 for the rest of the window.
+    /// Failed authentications one client address (an IPv6 address: its
+    /// /64) may make per window before its missing, malformed, unknown or
+    /// revoked tokens get 429 for the rest of the window; a valid token
+    /// from that address still gets in.
     pub auth_failures: u32,
     /// The window of `auth_failures`.
     pub auth_window: Duration,

@@ -297,24 +297,35 @@ impl AppState {
     }
 
     /// Checks the request's `Authorization` header value against what the
-    /// endpoint needs. A client (by address) that failed more than the
-    /// settings allow in the current window is answered 429 without a
-    /// look at its token.
+    /// endpoint needs. A client (by address; an IPv6 address by its /64)
+    /// that failed more than the settings allow in the current window is
+    /// answered 429 for a missing, malformed, unknown or revoked token; a
+    /// valid token is never refused for its address's failures (behind a
+    /// proxy or a carrier's NAT every client shares one address, and one
+    /// client's 30 bad tokens would lock every app out). Only a token of
+    /// the documented form is looked up then.
     pub async fn authorize(
         &self,
         header: Option<String>,
         peer: Option<IpAddr>,
         need: Need,
     ) -> Result<Caller, ApiError> {
-        if let Some(ip) = peer {
-            self.check_failures(ip)?;
+        let client = peer.map(client_key);
+        let limited = client.and_then(|c| self.check_failures(c).err());
+        if let Some(too_many) = &limited {
+            if header.as_deref().and_then(auth::parse).is_none() {
+                return Err(too_many.clone());
+            }
         }
         let out = self
             .store(move |store| auth::authorize(store, header.as_deref(), need))
             .await;
-        if let (Some(ip), Err(e)) = (peer, &out) {
+        if let (Some(c), Err(e)) = (client, &out) {
             if e.status == axum::http::StatusCode::UNAUTHORIZED {
-                self.note_failure(ip);
+                if let Some(too_many) = limited {
+                    return Err(too_many);
+                }
+                self.note_failure(c);
             }
         }
         out
@@ -395,4 +406,19 @@ fn check_writable(store: &Store, db: &Path) -> Result<(), ServiceError> {
         return Err(ServiceError::ReadOnly(db.to_path_buf()));
     }
     Ok(())
+}
+
+/// The key of a client's failed authentications: its IPv4 address, or the
+/// /64 network of an IPv6 address (one host holds a whole /64).
+fn client_key(ip: IpAddr) -> IpAddr {
+    match ip {
+        IpAddr::V4(_) => ip,
+        IpAddr::V6(v6) => match v6.to_ipv4_mapped() {
+            Some(v4) => IpAddr::V4(v4),
+            None => {
+                let s = v6.segments();
+                IpAddr::V6(std::net::Ipv6Addr::new(s[0], s[1], s[2], s[3], 0, 0, 0, 0))
+            }
+        },
+    }
 }

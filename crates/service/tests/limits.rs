@@ -468,3 +468,100 @@ async fn the_cache_is_bounded_by_the_events_its_advisors_hold() {
         .await;
     assert_eq!(r.json["last_seq"], 3999, "{}", r.text);
 }
+
+/// The failed-token limit slows a guesser down without locking anybody
+/// out: behind a proxy or a carrier's NAT every client shares one address,
+/// so a valid token from an address over its limit still gets in (an
+/// attacker's probe: 30 bad tokens a minute locked every app out).
+#[test]
+fn a_valid_token_gets_in_from_an_address_over_its_failed_tokens() {
+    let svc = Svc::new();
+    let server = Server::start(
+        &svc.db,
+        ServeSettings {
+            store: StoreSettings {
+                auth_failures: 3,
+                ..StoreSettings::default()
+            },
+            ..ServeSettings::default()
+        },
+    );
+    let get = |auth: &str| {
+        raw(
+            server.addr,
+            &format!(
+                "GET /v1/openapi.json HTTP/1.1\r\nHost: x\r\nAuthorization: {auth}\r\nConnection: close\r\n\r\n"
+            ),
+        )
+    };
+    let unknown = format!("Bearer abba_{}", "0".repeat(64));
+    for _ in 0..3 {
+        let r = get(&unknown);
+        assert!(r.starts_with("HTTP/1.1 401"), "{r}");
+    }
+    for auth in [unknown.as_str(), "Bearer nonsense", "Basic abc"] {
+        let r = get(auth);
+        assert!(r.starts_with("HTTP/1.1 429"), "{auth}: {r}");
+        assert!(r.to_ascii_lowercase().contains("retry-after:"), "{r}");
+    }
+    let valid = format!("Bearer {}", svc.admin);
+    let r = get(&valid);
+    assert!(
+        r.starts_with("HTTP/1.1 200"),
+        "the valid token from the same address: {r}"
+    );
+    let r = get(&unknown);
+    assert!(
+        r.starts_with("HTTP/1.1 429"),
+        "still limited for bad tokens: {r}"
+    );
+}
+
+/// A page's POST from a client without a live session is refused before
+/// its body is read (an attacker's probe held every request slot of
+/// `/log/reading` and `/signin`'s neighbours with bodies sent a byte every
+/// few seconds, so real persons' readings got 503).
+#[test]
+fn a_page_post_without_a_live_session_is_refused_before_its_body() {
+    let svc = Svc::new();
+    let server = Server::start(&svc.db, ServeSettings::default());
+    let addr = server.addr;
+    let zeros = "0".repeat(64);
+    for (path, cookie) in [
+        ("/log/reading", String::new()),
+        ("/log/meal", format!("Cookie: abba_session={zeros}\r\n")),
+        ("/answer", String::new()),
+        (
+            "/clinic/persons/1/bounds",
+            format!("Cookie: abba_session={zeros}\r\n"),
+        ),
+        ("/clinic/persons/1/import", String::new()),
+        ("/signout", String::new()),
+    ] {
+        let mut s = TcpStream::connect(addr).unwrap();
+        s.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+        let t = Instant::now();
+        s.write_all(
+            format!(
+                "POST {path} HTTP/1.1\r\nHost: {addr}\r\nOrigin: http://{addr}\r\n{cookie}Content-Type: application/x-www-form-urlencoded\r\nContent-Length: 100000\r\n\r\ncsrf="
+            )
+            .as_bytes(),
+        )
+        .unwrap();
+        let mut head = Vec::new();
+        let mut b = [0u8; 1024];
+        while !head.windows(4).any(|w| w == b"\r\n\r\n") {
+            match s.read(&mut b) {
+                Ok(0) | Err(_) => break,
+                Ok(n) => head.extend_from_slice(&b[..n]),
+            }
+        }
+        let head = String::from_utf8_lossy(&head);
+        assert!(head.starts_with("HTTP/1.1 403"), "{path}: {head}");
+        assert!(
+            t.elapsed() < Duration::from_secs(3),
+            "{path}: answered after {:?}, not before the body",
+            t.elapsed()
+        );
+    }
+}

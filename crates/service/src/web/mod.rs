@@ -25,7 +25,7 @@ use tower_http::set_header::SetResponseHeaderLayer;
 
 /// The pages' routes (each page module lists its own) with their headers (merged into the service's router
 /// before its layers).
-pub fn routes() -> Router<AppState> {
+pub fn routes(state: AppState) -> Router<AppState> {
     let set = |name: HeaderName, value: &'static str| {
         SetResponseHeaderLayer::overriding(name, HeaderValue::from_static(value))
     };
@@ -42,6 +42,10 @@ pub fn routes() -> Router<AppState> {
         .merge(glucose::routes())
         .merge(history::routes())
         .merge(clinic::routes())
+        .layer(axum::middleware::from_fn_with_state(
+            state,
+            session::session_before_body,
+        ))
         .layer(csp)
         .layer(set(header::X_FRAME_OPTIONS, "DENY"))
         .layer(set(header::REFERRER_POLICY, page::REFERRER_POLICY))

@@ -12,6 +12,10 @@
 //!   this host (the request's `Host`), then the form's `csrf` must equal
 //!   the session's token (compared in constant time). Otherwise 403 and
 //!   nothing changes.
+//! - A POST that needs a session is refused (403) before its body is read
+//!   when it comes from another origin or without a live session
+//!   ([`session_before_body`]): an anonymous client cannot hold the
+//!   service's request slots by sending a form's body a byte at a time.
 
 use super::form::Form;
 use super::page::{forbidden_csrf, forbidden_role, see_other, PageError};
@@ -195,5 +199,34 @@ pub async fn person_post(
     match w.role {
         Role::Person(id) => Ok((id, w)),
         Role::Admin => Err(forbidden_role()),
+    }
+}
+
+/// Middleware of the pages: a POST other than the sign-in form's (which
+/// brings its one-time link in the body) must come from this origin with a
+/// live session, checked from its head before the body is read (403
+/// otherwise, as the handler's own check would answer). The handler still
+/// checks the session, its role and the form's CSRF token.
+pub async fn session_before_body(
+    axum::extract::State(s): axum::extract::State<AppState>,
+    req: axum::extract::Request,
+    next: axum::middleware::Next,
+) -> axum::response::Response {
+    use axum::response::IntoResponse;
+    if req.method() != axum::http::Method::POST || req.uri().path() == "/signin" {
+        return next.run(req).await;
+    }
+    let (mut parts, body) = req.into_parts();
+    let Ok(ctx) = Ctx::from_request_parts(&mut parts, &s).await;
+    if !ctx.same_origin() {
+        return forbidden_csrf().into_response();
+    }
+    match current(&s, &ctx).await {
+        Ok(Some(_)) => {
+            next.run(axum::extract::Request::from_parts(parts, body))
+                .await
+        }
+        Ok(None) => forbidden_csrf().into_response(),
+        Err(e) => e.into_response(),
     }
 }

@@ -89,7 +89,27 @@ pub fn router_with(state: AppState, set: &ServeSettings) -> Router {
         .layer(PropagateRequestIdLayer::x_request_id())
         .layer(TraceLayer::new_for_http())
         .layer(SetRequestIdLayer::x_request_id(MakeRequestUuid))
+        .layer(axum::middleware::map_request(safe_request_id))
         .with_state(state)
+}
+
+/// A client's `X-Request-Id` is kept (a proxy's, for log correlation) only
+/// when it is 1 to 64 letters, digits, `-`, `_` or `.`; any other is
+/// dropped, so the service makes its own (a probe's `<script>` was echoed
+/// back and written to the log).
+async fn safe_request_id(mut req: axum::extract::Request) -> axum::extract::Request {
+    let safe = |v: &HeaderValue| {
+        let b = v.as_bytes();
+        (1..=64).contains(&b.len())
+            && b.iter()
+                .all(|c| c.is_ascii_alphanumeric() || matches!(c, b'-' | b'_' | b'.'))
+    };
+    let headers = req.headers_mut();
+    let all: Vec<HeaderValue> = headers.get_all("x-request-id").iter().cloned().collect();
+    if all.len() != 1 || !safe(&all[0]) {
+        headers.remove("x-request-id");
+    }
+    req
 }
 
 /// Serves `db` on `listen` until SIGTERM or Ctrl-C; `ready` is told the

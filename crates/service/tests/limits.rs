@@ -565,3 +565,35 @@ fn a_page_post_without_a_live_session_is_refused_before_its_body() {
         );
     }
 }
+
+/// A client's `X-Request-Id` comes back only when it is a plain token (a
+/// proxy's, for log correlation); markup or an overlong one is replaced by
+/// the service's own.
+#[tokio::test]
+async fn a_request_id_is_echoed_only_when_it_is_a_plain_token() {
+    let svc = Svc::new();
+    let id_for = |sent: &'static str| {
+        let router = svc.router.clone();
+        async move {
+            let req = axum::http::Request::builder()
+                .uri("/healthz")
+                .header("x-request-id", sent)
+                .body(axum::body::Body::empty())
+                .unwrap();
+            use tower::ServiceExt;
+            let res = router.oneshot(req).await.unwrap();
+            res.headers()["x-request-id"].to_str().unwrap().to_string()
+        }
+    };
+    assert_eq!(id_for("proxy-7f3a.12_b").await, "proxy-7f3a.12_b");
+    for bad in ["<script>abc", "a b", "x/../y"] {
+        let got = id_for(bad).await;
+        assert_ne!(got, bad);
+        assert!(
+            got.bytes().all(|c| c.is_ascii_hexdigit() || c == b'-'),
+            "{got}"
+        );
+    }
+    let long: &'static str = Box::leak("a".repeat(65).into_boxed_str());
+    assert_ne!(id_for(long).await, long);
+}

@@ -232,6 +232,28 @@ fn app_events(svc: &Svc, person: u64) -> i64 {
     store.app_event_count(person as i64).unwrap()
 }
 
+/// Signing in on a browser that holds another session (a shared phone)
+/// ends that session on the server, not only in this browser.
+#[tokio::test]
+async fn signing_in_over_a_session_revokes_it() {
+    let svc = Svc::new();
+    let ana = svc.person("ana").await;
+    let bob = svc.person("bob").await;
+    let (mut b, _) = signed_in(&svc, Role::Person(bob as i64)).await;
+    let bobs = b.cookies.clone();
+    assert_eq!(b.get("/").await.status, StatusCode::OK);
+    let p = b.sign_in(&link(&svc, Role::Person(ana as i64))).await;
+    assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
+    assert_ne!(b.cookies, bobs, "a new session cookie");
+    assert_eq!(b.get("/").await.status, StatusCode::OK, "ana is in");
+    // Bob's cookie, kept by someone else: the session is over.
+    let mut old = Browser::new(&svc);
+    old.cookies = bobs;
+    let p = old.get("/").await;
+    assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
+    assert_eq!(p.location(), "/signin");
+}
+
 #[tokio::test]
 async fn a_sign_in_link_works_once_and_gives_a_strict_http_only_cookie() {
     let svc = Svc::new();

@@ -89,7 +89,8 @@ pub async fn page(State(s): State<AppState>, ctx: Ctx, Path(secret): Path<String
 }
 
 /// `POST /signin`: uses the link once; 303 to `/` (a person) or
-/// `/clinic` (the admin) with the session cookie.
+/// `/clinic` (the admin) with the session cookie; a session the browser
+/// held before is revoked.
 pub async fn post(State(s): State<AppState>, ctx: Ctx, body: RawBody) -> PageResult {
     if !ctx.same_origin() {
         return Err(forbidden_csrf());
@@ -115,6 +116,13 @@ pub async fn post(State(s): State<AppState>, ctx: Ctx, body: RawBody) -> PageRes
         Ok((role, _)) => role,
         Err(r) => return Ok(refused(r)),
     };
+    // A session this browser held before (another person's, on a shared
+    // phone) ends here, not when it would have expired.
+    if let Some(old) = session::current(&s, &ctx).await? {
+        s.store(move |store| Ok(store.revoke_web_session(old.id, session::now_ms())?))
+            .await
+            .map_err(PageError::from)?;
+    }
     let mut r = see_other(match role {
         Role::Admin => "/clinic",
         Role::Person(_) => "/",

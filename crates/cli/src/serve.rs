@@ -27,7 +27,7 @@ pub struct ServeArgs {
     /// 408 when a request is not answered this many seconds after its head.
     #[arg(long, value_name = "S", default_value_t = 60.0)]
     pub request_timeout: f64,
-    /// Connections held at once (more are closed at once).
+    /// Connections held at once (more get 503 and are closed at once).
     #[arg(long, value_name = "N", default_value_t = 8192)]
     pub max_connections: usize,
     /// Requests in flight at once (more get 503 with Retry-After).

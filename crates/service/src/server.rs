@@ -21,6 +21,26 @@ use tower_http::set_header::SetResponseHeaderLayer;
 use tower_http::timeout::{RequestBodyTimeoutLayer, TimeoutLayer};
 use tower_http::trace::TraceLayer;
 
+/// Connections past the limit answered 503 at once, at most (more are
+/// closed without an answer).
+const AT_LIMIT_ANSWERS: usize = 64;
+
+/// The whole answer to a connection past the limit: the service's 503
+/// body, `Retry-After: 1`, and the connection closed.
+fn at_limit_response() -> Vec<u8> {
+    let body = serde_json::json!({
+        "status": 503,
+        "code": "busy",
+        "message": "the service is at its limit of connections; retry shortly",
+    })
+    .to_string();
+    format!(
+        "HTTP/1.1 503 Service Unavailable\r\ncontent-type: application/json\r\nretry-after: 1\r\ncache-control: no-store\r\nx-content-type-options: nosniff\r\ncontent-security-policy: default-src 'none'; frame-ancestors 'none'\r\ncontent-length: {}\r\nconnection: close\r\n\r\n{body}",
+        body.len()
+    )
+    .into_bytes()
+}
+
 /// The router over a state, with the default settings.
 pub fn router(state: AppState) -> Router {
     router_with(state, &ServeSettings::default())
@@ -194,6 +214,8 @@ pub async fn run_until(
     stop: impl std::future::Future<Output = ()>,
 ) {
     let slots = Arc::new(tokio::sync::Semaphore::new(set.max_connections));
+    let refusals = Arc::new(tokio::sync::Semaphore::new(AT_LIMIT_ANSWERS));
+    let at_limit: Arc<[u8]> = at_limit_response().into();
     let graceful = hyper_util::server::graceful::GracefulShutdown::new();
     let mut http = hyper::server::conn::http1::Builder::new();
     http.timer(TokioTimer::new())
@@ -218,11 +240,26 @@ pub async fn run_until(
             if !full_logged {
                 tracing::warn!(
                     max = set.max_connections,
-                    "at the connection limit: new connections are closed"
+                    "at the connection limit: new connections get 503 and are closed"
                 );
                 full_logged = true;
             }
-            drop(stream);
+            // A client past the limit is told so (503 with Retry-After,
+            // as for requests in flight) rather than reset, as long as
+            // few such answers are under way; each gets a second.
+            if let Ok(refusal) = Arc::clone(&refusals).try_acquire_owned() {
+                let at_limit = Arc::clone(&at_limit);
+                tokio::spawn(async move {
+                    use tokio::io::AsyncWriteExt;
+                    let mut stream = stream;
+                    let _ = tokio::time::timeout(
+                        std::time::Duration::from_secs(1),
+                        stream.write_all(&at_limit[..]),
+                    )
+                    .await;
+                    drop(refusal);
+                });
+            }
             continue;
         };
         full_logged = false;

@@ -17,7 +17,8 @@ pub struct ServeSettings {
     /// A request not answered this long after its head gets 408 (a handler
     /// that runs away; the heaviest page is far below).
     pub request_timeout: Duration,
-    /// Connections held at once; one more is accepted and closed at once
+    /// Connections held at once; one more is accepted, answered 503 and
+    /// closed at once
     /// (so the listen queue never fills and `/healthz` keeps answering
     /// once timeouts free slots).
     pub max_connections: usize,

@@ -597,3 +597,36 @@ async fn a_request_id_is_echoed_only_when_it_is_a_plain_token() {
     let long: &'static str = Box::leak("a".repeat(65).into_boxed_str());
     assert_ne!(id_for(long).await, long);
 }
+
+/// Past the connection limit a new client is told 503 with Retry-After
+/// (the probe's clients got a reset), and once a held connection goes the
+/// next is served.
+#[test]
+fn a_connection_past_the_limit_gets_503_not_a_reset() {
+    let svc = Svc::new();
+    let server = Server::start(
+        &svc.db,
+        ServeSettings {
+            max_connections: 4,
+            ..ServeSettings::default()
+        },
+    );
+    let held: Vec<TcpStream> = (0..4)
+        .map(|_| TcpStream::connect(server.addr).unwrap())
+        .collect();
+    std::thread::sleep(Duration::from_millis(200));
+    let r = raw(
+        server.addr,
+        "GET /healthz HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n",
+    );
+    assert!(r.starts_with("HTTP/1.1 503"), "{r}");
+    assert!(r.contains("retry-after: 1"), "{r}");
+    assert!(r.contains("\"code\":\"busy\""), "{r}");
+    drop(held);
+    std::thread::sleep(Duration::from_millis(200));
+    let r = raw(
+        server.addr,
+        "GET /healthz HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n",
+    );
+    assert!(r.starts_with("HTTP/1.1 200"), "{r}");
+}

@@ -92,10 +92,12 @@ fn locate(bytes: &[u8], path: String, message: String) -> (String, String) {
     (path, format!("{message}{which}"))
 }
 
-fn is_timeout(e: &BytesRejection) -> bool {
+pub(crate) fn is_timeout(e: &BytesRejection) -> bool {
     let mut cur: Option<&(dyn std::error::Error + 'static)> = Some(e);
     while let Some(err) = cur {
-        if err.is::<tower_http::timeout::TimeoutError>() {
+        if err.is::<tower_http::timeout::TimeoutError>()
+            || err.is::<crate::deadline::BodyDeadline>()
+        {
             return true;
         }
         cur = err.source();

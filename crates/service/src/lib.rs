@@ -18,6 +18,7 @@
 pub mod auth;
 pub mod body;
 pub mod convert;
+pub mod deadline;
 pub mod error;
 pub mod extract;
 pub mod openapi;

@@ -71,6 +71,7 @@ async fn timeout_body(r: Response) -> Response {
 pub fn router_with(state: AppState, set: &ServeSettings) -> Router {
     use crate::routes;
     let (api, _) = crate::openapi::api().split_for_parts();
+    let body_timeout = set.body_timeout;
     let headers = ServiceBuilder::new()
         .layer(SetResponseHeaderLayer::overriding(
             header::CACHE_CONTROL,
@@ -94,6 +95,9 @@ pub fn router_with(state: AppState, set: &ServeSettings) -> Router {
         .method_not_allowed_fallback(routes::method_not_allowed)
         .layer(DefaultBodyLimit::max(abba_api::MAX_BODY_BYTES))
         .layer(RequestBodyTimeoutLayer::new(set.body_timeout))
+        .layer(axum::middleware::map_request(move |req| async move {
+            crate::deadline::small_body_deadline(req, body_timeout)
+        }))
         .layer(axum::middleware::map_response(timeout_body))
         .layer(TimeoutLayer::with_status_code(
             StatusCode::REQUEST_TIMEOUT,

@@ -630,3 +630,53 @@ fn a_connection_past_the_limit_gets_503_not_a_reset() {
     );
     assert!(r.starts_with("HTTP/1.1 200"), "{r}");
 }
+
+/// A small body sent a byte at a time gets 408 once the body timeout is
+/// over counted from its head, not from its last byte (tower-http's
+/// timeout restarts with every frame: the probe's client, a byte every 5
+/// s, held `/signin` until the 60 s request timeout).
+#[test]
+fn a_small_body_sent_a_byte_at_a_time_gets_408_at_the_body_timeout() {
+    let svc = Svc::new();
+    let server = Server::start(
+        &svc.db,
+        ServeSettings {
+            body_timeout: Duration::from_secs(2),
+            ..ServeSettings::default()
+        },
+    );
+    let addr = server.addr;
+    let mut s = TcpStream::connect(addr).unwrap();
+    s.set_read_timeout(Some(Duration::from_millis(300)))
+        .unwrap();
+    let t = Instant::now();
+    s.write_all(
+        format!(
+            "POST /signin HTTP/1.1\r\nHost: {addr}\r\nOrigin: http://{addr}\r\nContent-Type: application/x-www-form-urlencoded\r\nContent-Length: 200\r\n\r\n"
+        )
+        .as_bytes(),
+    )
+    .unwrap();
+    let mut out = Vec::new();
+    let mut b = [0u8; 1024];
+    while t.elapsed() < Duration::from_secs(10) {
+        let _ = s.write_all(b"c");
+        match s.read(&mut b) {
+            Ok(0) => break,
+            Ok(n) => {
+                out.extend_from_slice(&b[..n]);
+                if out.windows(4).any(|w| w == b"\r\n\r\n") {
+                    break;
+                }
+            }
+            Err(_) => {}
+        }
+    }
+    let text = String::from_utf8_lossy(&out);
+    assert!(text.starts_with("HTTP/1.1 408"), "{text}");
+    assert!(
+        t.elapsed() < Duration::from_secs(4),
+        "answered after {:?}",
+        t.elapsed()
+    );
+}

@@ -17,6 +17,9 @@ impl Form {
     /// the CSRF token was).
     pub fn parse(headers: &HeaderMap, body: RawBody) -> Result<Self, ApiError> {
         let bytes = body.map_err(|e| {
+            if crate::body::is_timeout(&e) {
+                return ApiError::timeout("the form");
+            }
             ApiError::new(
                 e.status(),
                 abba_api::ErrorCode::BadJson,

@@ -56,6 +56,9 @@ pub struct ServeArgs {
     /// it gets 429 for the rest of the minute.
     #[arg(long, value_name = "N", default_value_t = 30)]
     pub auth_failures: u32,
+    /// The URL persons reach the service at (for example https://abba.clinic.example behind a TLS proxy): the clinic's sign-in links name it [default: the URL each request came to, from its Host header].
+    #[arg(long, value_name = "URL")]
+    pub public_url: Option<String>,
     /// Sync every linked Nightscout site this often in the background (`5m`, `300s`, `1h`); failures back off.
     #[arg(long, value_name = "DURATION")]
     pub sync_every: Option<String>,
@@ -95,6 +98,24 @@ fn count<T: PartialOrd + Default + std::fmt::Display + Copy>(flag: &str, v: T) -
     Ok(v)
 }
 
+/// Checks `--public-url`: http:// or https:// and a host, no path, query
+/// or spaces; a trailing slash is dropped.
+fn public_url(text: &str) -> Result<String> {
+    let t = text.trim().trim_end_matches('/');
+    let rest = t
+        .strip_prefix("https://")
+        .or_else(|| t.strip_prefix("http://"))
+        .ok_or_else(|| anyhow::anyhow!("--public-url {text}: expected http:// or https:// and a host, for example https://abba.clinic.example"))?;
+    if rest.is_empty()
+        || rest
+            .chars()
+            .any(|c| c.is_whitespace() || c.is_control() || matches!(c, '/' | '?' | '#' | '@'))
+    {
+        anyhow::bail!("--public-url {text}: expected a scheme and a host (and port), nothing after them, for example https://abba.clinic.example");
+    }
+    Ok(t.to_string())
+}
+
 impl ServeArgs {
     /// The service's settings, each checked.
     pub fn settings(&self) -> Result<ServeSettings> {
@@ -113,6 +134,7 @@ impl ServeArgs {
                 cache_events: count("cache-events", self.cache_events)?,
                 cache_idle: seconds("cache-idle", self.cache_idle)?,
                 auth_failures: count("auth-failures", self.auth_failures)?,
+                public_url: self.public_url.as_deref().map(public_url).transpose()?,
                 ..d
             },
         })

@@ -76,6 +76,11 @@ pub struct StoreSettings {
     pub auth_failures: u32,
     /// The window of `auth_failures`.
     pub auth_window: Duration,
+    /// The URL persons reach the service at (`https://abba.clinic.example`,
+    /// no trailing slash), for the sign-in links the clinic's page makes;
+    /// without it a link names the request's `Host`, which a proxy may
+    /// pass on from anyone (`abba serve --public-url`).
+    pub public_url: Option<String>,
 }
 
 impl Default for StoreSettings {
@@ -89,6 +94,7 @@ impl Default for StoreSettings {
             cache_idle: Duration::from_secs(30 * 60),
             auth_failures: 30,
             auth_window: Duration::from_secs(60),
+            public_url: None,
         }
     }
 }

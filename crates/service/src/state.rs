@@ -331,6 +331,11 @@ impl AppState {
         out
     }
 
+    /// The URL persons reach the service at, if one was given.
+    pub fn public_url(&self) -> Option<&str> {
+        self.inner.settings.public_url.as_deref()
+    }
+
     fn check_failures(&self, ip: IpAddr) -> Result<(), ApiError> {
         let set = &self.inner.settings;
         let failures = lock(&self.inner.failures);

@@ -232,6 +232,45 @@ fn app_events(svc: &Svc, person: u64) -> i64 {
     store.app_event_count(person as i64).unwrap()
 }
 
+/// The sign-in link the clinic's page shows for person `id`.
+async fn link_shown(svc: &Svc, id: u64) -> String {
+    let (mut admin, _) = signed_in(svc, Role::Admin).await;
+    let path = format!("/clinic/persons/{id}");
+    let csrf = admin.get(&path).await.hidden("csrf");
+    let p = admin
+        .post(&format!("{path}/signin"), &[("csrf", &csrf)])
+        .await;
+    assert_eq!(p.status, StatusCode::OK, "{}", p.html);
+    p.section("<code id=\"signin-url\"", "code").to_string()
+}
+
+/// The clinic's sign-in link names `abba serve --public-url` when given,
+/// not the request's Host (which a proxy may pass on from anyone).
+#[tokio::test]
+async fn a_sign_in_link_names_the_public_url_not_the_requests_host() {
+    let mut svc = Svc::new();
+    let id = svc.person("ana").await;
+    let shown = link_shown(&svc, id).await;
+    assert!(
+        shown.contains("http:&#x2f;&#x2f;abba.test&#x2f;signin&#x2f;"),
+        "{shown}"
+    );
+    let state = abba_service::AppState::open(
+        &svc.db,
+        abba_service::StoreSettings {
+            public_url: Some("https://abba.clinic.example".into()),
+            ..abba_service::StoreSettings::default()
+        },
+    )
+    .unwrap();
+    svc.router = abba_service::router(state);
+    let shown = link_shown(&svc, id).await;
+    assert!(
+        shown.contains("https:&#x2f;&#x2f;abba.clinic.example&#x2f;signin&#x2f;"),
+        "{shown}"
+    );
+}
+
 /// Signing in on a browser that holds another session (a shared phone)
 /// ends that session on the server, not only in this browser.
 #[tokio::test]

@@ -1160,8 +1160,12 @@ fn profile_choice(text: &str) -> Result<ProfileResolution, String> {
     }
 }
 
-/// The URL this request reached abba at (for a sign-in link).
-fn base_url(ctx: &Ctx) -> String {
+/// The URL persons reach abba at (for a sign-in link): `abba serve
+/// --public-url`, else the one this request came to.
+fn base_url(s: &AppState, ctx: &Ctx) -> String {
+    if let Some(url) = s.public_url() {
+        return url.to_string();
+    }
     let host = ctx
         .headers
         .get(axum::http::header::HOST)
@@ -1187,7 +1191,7 @@ pub async fn issue_signin(
             auth::issue_signin(store, Role::Person(id)).map_err(ApiError::internal)
         })
         .await?;
-    let url = format!("{}/signin/{secret}", base_url(&ctx));
+    let url = format!("{}/signin/{secret}", base_url(&s, &ctx));
     let qr = abba_web::qr::svg(&url, "QR code of the sign-in link").map_err(ApiError::internal)?;
     show_person(&s, &w.csrf, id, StatusCode::OK, None, move |m| {
         m.signin_url = Some(url);

@@ -98,11 +98,13 @@ pub fn router_with(state: AppState, set: &ServeSettings) -> Router {
         .layer(axum::middleware::map_request(move |req| async move {
             crate::deadline::small_body_deadline(req, body_timeout)
         }))
-        .layer(axum::middleware::map_response(timeout_body))
         .layer(TimeoutLayer::with_status_code(
             StatusCode::REQUEST_TIMEOUT,
             set.request_timeout,
         ))
+        // Outside the request timeout, so that its bare 408 gets the
+        // service's body too.
+        .layer(axum::middleware::map_response(timeout_body))
         .layer(
             ServiceBuilder::new()
                 .layer(HandleErrorLayer::new(refused))

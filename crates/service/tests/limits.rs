@@ -680,3 +680,47 @@ fn a_small_body_sent_a_byte_at_a_time_gets_408_at_the_body_timeout() {
         t.elapsed()
     );
 }
+
+/// A large body trickled past the request timeout gets the service's 408
+/// body (`code: timeout`), not an empty one (the probe saw `content-length:
+/// 0`).
+#[test]
+fn the_request_timeout_answers_with_the_services_408_body() {
+    let svc = Svc::new();
+    let server = Server::start(
+        &svc.db,
+        ServeSettings {
+            request_timeout: Duration::from_secs(2),
+            ..ServeSettings::default()
+        },
+    );
+    let addr = server.addr;
+    let mut s = TcpStream::connect(addr).unwrap();
+    s.set_read_timeout(Some(Duration::from_millis(300)))
+        .unwrap();
+    let t = Instant::now();
+    s.write_all(
+        format!(
+            "POST /v1/persons HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer {}\r\nContent-Type: application/json\r\nContent-Length: 100000\r\n\r\n",
+            svc.admin
+        )
+        .as_bytes(),
+    )
+    .unwrap();
+    let mut out = Vec::new();
+    let mut b = [0u8; 4096];
+    while t.elapsed() < Duration::from_secs(10) {
+        let _ = s.write_all(b" ");
+        match s.read(&mut b) {
+            Ok(0) => break,
+            Ok(n) => out.extend_from_slice(&b[..n]),
+            Err(_) => {}
+        }
+        if String::from_utf8_lossy(&out).contains("\"code\"") {
+            break;
+        }
+    }
+    let text = String::from_utf8_lossy(&out);
+    assert!(text.starts_with("HTTP/1.1 408"), "{text}");
+    assert!(text.contains("\"code\":\"timeout\""), "{text}");
+}

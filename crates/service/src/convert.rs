@@ -547,7 +547,7 @@ pub fn new_person(b: &NewPersonBody) -> Result<NewPerson, ApiError> {
         other => other.into(),
     })?;
     let start = start(&b.start)?;
-    let mut p = NewPerson::new(name, &b.tz, mode, start);
+    let mut p = NewPerson::new(&name, &b.tz, mode, start);
     if let Some(day) = &b.first_day {
         let d: jiff::civil::Date = day.parse().map_err(|e| {
             ApiError::invalid(

@@ -151,7 +151,9 @@ impl From<StoreError> for ApiError {
                 let msg = e.to_string();
                 ApiError::conflict(msg).at(format!("events[{index}].seq"))
             }
-            StoreError::PersonExists(_) => ApiError::conflict(e.to_string()).at("name"),
+            StoreError::PersonExists(_) | StoreError::PersonLookAlike { .. } => {
+                ApiError::conflict(e.to_string()).at("name")
+            }
             StoreError::Answer(m) => ApiError::conflict(m),
             StoreError::Feed(m) => ApiError::conflict(m),
             StoreError::NoPerson(_) | StoreError::NoPersonId(_) => ApiError::no_person(),

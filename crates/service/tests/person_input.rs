@@ -1,6 +1,7 @@
 //! What `POST /v1/persons` and `PUT .../bounds` accept: names without
-//! control characters, escape sequences or hidden characters, trimmed and
-//! unique ignoring case; the starting therapy and the bounds within the
+//! control characters, escape sequences or hidden characters, trimmed,
+//! composed (NFC), unique ignoring case and not looking like another
+//! person's; the starting therapy and the bounds within the
 //! plausibility limits of `abba_core::limits` (the CLI's), each refusal
 //! naming the field and the range.
 
@@ -38,6 +39,21 @@ async fn names_with_control_or_hidden_characters_are_refused() {
         "nul\u{0}",
         "rtl\u{202e}gnp.exe",
         "zero\u{200b}width",
+        // Format characters, tags, variation selectors, fillers, blanks,
+        // separators (the security probe's).
+        "bob\u{e0020}",
+        "ana\u{ad}",
+        "ana\u{34f}",
+        "x\u{61c}ALM",
+        "\u{3164}",
+        "\u{ad}",
+        "\u{2800}",
+        "\u{115f}\u{1160}",
+        "x\u{2028}y",
+        "x\u{fff9}y",
+        "x\u{180e}y",
+        "x\u{fe0f}y",
+        "\u{301}ana",
     ] {
         let r = create(&svc, &body(bad)).await;
         assert_eq!(
@@ -107,6 +123,28 @@ async fn names_are_trimmed_and_unique_ignoring_case() {
     assert_eq!(r.status, StatusCode::CREATED, "{}", r.text);
     let r = create(&svc, &body("KELVIN")).await;
     assert_eq!(r.status, StatusCode::CONFLICT, "{}", r.text);
+}
+
+#[tokio::test]
+async fn names_are_stored_composed_and_look_alikes_are_refused() {
+    let svc = Svc::new();
+    for name in ["ana", "Ana\u{301}l"] {
+        let r = create(&svc, &body(name)).await;
+        assert_eq!(r.status, StatusCode::CREATED, "{name:?}: {}", r.text);
+    }
+    // Stored composed (NFC): "a" and a combining acute became "á".
+    let store = abba_store::Store::open(&svc.db).unwrap();
+    assert!(store.persons().unwrap().contains(&"An\u{e1}l".to_string()));
+    let r = create(&svc, &body("an\u{e1}l")).await;
+    assert_eq!(r.status, StatusCode::CONFLICT, "{}", r.text);
+    // Cyrillic "а", fullwidth "ａ": they look like "ana".
+    for look_alike in ["\u{430}na", "\u{ff41}na"] {
+        let r = create(&svc, &body(look_alike)).await;
+        assert_eq!(r.status, StatusCode::CONFLICT, "{look_alike:?}: {}", r.text);
+        assert_eq!(r.json["path"], "name");
+        let m = r.json["message"].as_str().unwrap();
+        assert!(m.contains("looks like") && m.contains("\"ana\""), "{m}");
+    }
 }
 
 #[tokio::test]

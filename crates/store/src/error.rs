@@ -30,6 +30,18 @@ pub enum StoreError {
         "a person named \"{0}\" already exists in this database (names are compared ignoring case)"
     )]
     PersonExists(String),
+    /// The name looks like another person's ([`crate::person::name_looks`]).
+    #[error(
+        "the name \"{name}\"{} looks like the name of the existing person \"{existing}\"{} (names are compared as they look: letters of another script or width that look the same, ignoring case): choose a name that tells them apart",
+        spelled(.name),
+        spelled(.existing)
+    )]
+    PersonLookAlike {
+        /// The new name.
+        name: String,
+        /// The existing person's name.
+        existing: String,
+    },
     /// A setting or an argument is not acceptable; names the field.
     #[error("{field}: {problem}")]
     Invalid {
@@ -128,4 +140,24 @@ impl StoreError {
             detail: e.to_string(),
         }
     }
+}
+
+/// " (spelled a\u{301})": a name's characters beyond ASCII as code
+/// points, so that two names that look the same read differently; nothing
+/// for an ASCII name.
+fn spelled(name: &str) -> String {
+    if name.is_ascii() {
+        return String::new();
+    }
+    let s: String = name
+        .chars()
+        .map(|c| {
+            if c.is_ascii() {
+                c.to_string()
+            } else {
+                c.escape_unicode().to_string()
+            }
+        })
+        .collect();
+    format!(" (spelled {s})")
 }

@@ -11,6 +11,8 @@ use abba_io::meals::MealWindows;
 use jiff::civil::Date;
 use jiff::tz::TimeZone;
 use serde::{Deserialize, Serialize};
+use unicode_normalization::UnicodeNormalization;
+use unicode_properties::{GeneralCategory, GeneralCategoryGroup, UnicodeGeneralCategory};
 
 /// Everything stored about a person besides the name, zone, mode and day 1.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -98,11 +100,11 @@ impl NewPerson {
     /// default data rule and ABBA's default configuration for `mode` with an
     /// exploration seed derived from the name.
     pub fn new(name: &str, tz: &str, mode: Mode, start: TherapySettings) -> Self {
-        // The name as it will be stored (see [`check_name`]).
-        let name = name.trim();
+        // The name as it will be stored (see [`check_name`]): trimmed, NFC.
+        let name: String = name.trim().nfc().collect();
         let seed = abba_io::record::content_hash([name.as_bytes()]);
         Self {
-            name: name.to_string(),
+            name,
             tz: tz.to_string(),
             first_day: None,
             settings: PersonSettingsDoc {
@@ -180,41 +182,159 @@ impl Person {
 /// Longest person name, in characters.
 pub const MAX_NAME_CHARS: usize = 200;
 
-/// Characters a name may not hold besides control characters: the ones
-/// that reorder or hide text on a screen (bidirectional overrides and
-/// isolates, zero-width characters, the byte-order mark).
+/// Characters a name may not hold although their general category
+/// alone would let them in: the ones that show nothing or change how
+/// the text around them is shown. Besides the format characters (Cf,
+/// refused by category; listed here too where the old check named them:
+/// bidirectional overrides and isolates, zero-width characters, the
+/// byte-order mark), the default-ignorable characters of other
+/// categories (DerivedCoreProperties.txt): the combining grapheme
+/// joiner, the Hangul fillers, the Khmer inherent vowels, the Mongolian
+/// and the other variation selectors, the tag characters; and the
+/// braille blank, which shows as a space.
 fn hidden(c: char) -> bool {
-    matches!(c, '\u{200B}'..='\u{200F}' | '\u{202A}'..='\u{202E}' | '\u{2060}'..='\u{2069}' | '\u{FEFF}')
+    matches!(
+        c,
+        '\u{034F}'
+            | '\u{115F}'
+            | '\u{1160}'
+            | '\u{17B4}'
+            | '\u{17B5}'
+            | '\u{180B}'..='\u{180F}'
+            | '\u{200B}'..='\u{200F}'
+            | '\u{202A}'..='\u{202E}'
+            | '\u{2060}'..='\u{206F}'
+            | '\u{2800}'
+            | '\u{3164}'
+            | '\u{FE00}'..='\u{FE0F}'
+            | '\u{FEFF}'
+            | '\u{FFA0}'
+            | '\u{E0000}'..='\u{E007F}'
+            | '\u{E0100}'..='\u{E01EF}'
+    )
 }
 
-/// A person's name as stored: trimmed, 1 to [`MAX_NAME_CHARS`] characters,
-/// no control character (newlines, tabs, ESC and with it every terminal
-/// escape sequence, DEL, C1 controls) and none of the characters that
-/// reorder or hide text. The error names the field and the character.
-pub fn check_name(name: &str) -> Result<&str, StoreError> {
+/// Why a name may not hold `c`, if it may not.
+fn refused(c: char) -> Option<&'static str> {
+    use GeneralCategory as G;
+    let g = c.general_category();
+    Some(if c.is_control() {
+        "a name may not hold control characters (newlines, tabs, escape sequences)"
+    } else if c != ' '
+        && (c.is_whitespace()
+            || matches!(
+                g,
+                G::LineSeparator | G::ParagraphSeparator | G::SpaceSeparator
+            ))
+    {
+        "the only white space a name may hold is the ordinary space (U+0020)"
+    } else if g == G::Format || hidden(c) {
+        "a name may not hold characters that show nothing or that reorder or hide text (format characters, variation selectors, tags, fillers, blank signs)"
+    } else if g == G::PrivateUse {
+        "a name may not hold private-use characters (each screen shows them differently, or not at all)"
+    } else if matches!(g, G::Unassigned | G::Surrogate) {
+        "a name may not hold characters that Unicode has not assigned (as this abba knows it)"
+    } else {
+        return None;
+    })
+}
+
+fn invalid_char(i: usize, c: char, why: &str) -> StoreError {
+    StoreError::invalid(
+        "--name",
+        format!("character {} is {}: {why}", i + 1, c.escape_unicode()),
+    )
+}
+
+/// A person's name as stored: trimmed, in Unicode's composed form (NFC:
+/// an "á" typed as "a" and a combining accent is stored as the one
+/// character "á"), 1 to [`MAX_NAME_CHARS`] characters. Refused: control
+/// characters (newlines, tabs, ESC and with it every terminal escape
+/// sequence, DEL, C1 controls); white space other than the ordinary
+/// space; format characters (general category Cf: bidirectional marks,
+/// overrides and isolates, zero-width characters, the soft hyphen, tags
+/// ...), line and paragraph separators (Zl, Zp), private-use (Co),
+/// unassigned (Cn) and surrogate (Cs) code points; the default-ignorable
+/// and blank characters of [`hidden`]; a combining mark as the first
+/// character; a name without a letter or a digit. The error names the
+/// field, the character's place and its code point.
+pub fn check_name(name: &str) -> Result<String, StoreError> {
     let t = name.trim();
-    let n = t.chars().count();
+    let stored: String = t.nfc().collect();
+    let n = stored.chars().count();
     if n == 0 || n > MAX_NAME_CHARS {
         return Err(StoreError::invalid(
             "--name",
             format!("expected 1 to {MAX_NAME_CHARS} characters (spaces at either end do not count), got {n}"),
         ));
     }
-    if let Some((i, c)) = t
+    // (Places are counted in the name as given, trimmed.)
+    if let Some((i, c, why)) = t
         .chars()
         .enumerate()
-        .find(|(_, c)| c.is_control() || hidden(*c))
+        .find_map(|(i, c)| refused(c).map(|why| (i, c, why)))
     {
-        return Err(StoreError::invalid(
-            "--name",
-            format!(
-                "character {} is {}: a name may not hold control characters (newlines, tabs, escape sequences) or characters that reorder or hide text",
-                i + 1,
-                c.escape_unicode()
-            ),
+        return Err(invalid_char(i, c, why));
+    }
+    if let Some(c) = t
+        .chars()
+        .next()
+        .filter(|c| c.general_category_group() == GeneralCategoryGroup::Mark)
+    {
+        return Err(invalid_char(
+            0,
+            c,
+            "a name may not start with a combining mark (it would sit on whatever is shown before the name)",
         ));
     }
-    Ok(t)
+    if !t.chars().any(|c| {
+        matches!(
+            c.general_category_group(),
+            GeneralCategoryGroup::Letter | GeneralCategoryGroup::Number
+        )
+    }) {
+        return Err(StoreError::invalid(
+            "--name",
+            "a name must hold at least one letter or digit",
+        ));
+    }
+    Ok(stored)
+}
+
+/// What a name looks like, as two keys: names with an equal key look
+/// alike on a screen. Both are confusable skeletons (Unicode Technical
+/// Standard #39: look-alike characters of every script mapped to one
+/// prototype, default-ignorable characters dropped) of the name's NFKC
+/// form (fullwidth and other compatibility forms as the plain letter),
+/// with runs of spaces as one (a web page shows them so): `folded` of the
+/// case-folded form (Cyrillic "аna", fullwidth "ＡＮＡ" and "ana" are one),
+/// `cased` of the form as written (capital "I" and small "l" are one,
+/// which case folding would tell apart).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct NameLooks {
+    /// The skeleton of the case-folded NFKC form.
+    pub folded: String,
+    /// The skeleton of the NFKC form.
+    pub cased: String,
+}
+
+/// The keys of what `name` looks like (see [`NameLooks`]).
+pub fn name_looks(name: &str) -> NameLooks {
+    fn one_space(s: impl Iterator<Item = char>) -> String {
+        let mut out = String::new();
+        for c in s {
+            if !(c == ' ' && out.ends_with(' ')) {
+                out.push(c);
+            }
+        }
+        out.trim().to_string()
+    }
+    let nfkc: String = name.nfkc().collect();
+    let folded: String = caseless::default_case_fold_str(&nfkc).nfkc().collect();
+    NameLooks {
+        folded: one_space(unicode_security::skeleton(&folded)),
+        cased: one_space(unicode_security::skeleton(&nfkc)),
+    }
 }
 
 /// The name another person already has, compared case-insensitively
@@ -234,6 +354,26 @@ pub fn name_taken(conn: &dyn Db, name: &str) -> Result<Option<String>, StoreErro
     Ok(candidates
         .into_iter()
         .find(|other| other.to_lowercase() == key))
+}
+
+/// The name of a person whose name looks like one with keys `looks` (the
+/// oldest such person), by the indexes of the keys.
+pub fn name_look_alike(conn: &dyn Db, looks: &NameLooks) -> Result<Option<String>, StoreError> {
+    conn.row(Q::PersonNameLookAlike, args![&looks.folded, &looks.cased])?
+        .map(|r| r.text(0))
+        .transpose()
+}
+
+/// Schema step 9 ([`crate::schema::Step::NameLooks`]): the keys of what
+/// each stored name looks like. Persons whose names already look alike
+/// are kept as they are (only new names are refused).
+pub fn fill_name_looks(conn: &dyn Db) -> Result<(), StoreError> {
+    for r in conn.rows(Q::PersonIdsAndNames, args![])? {
+        let (id, name) = (r.int(0)?, r.text(1)?);
+        let looks = name_looks(&name);
+        conn.execute(Q::PersonNameLooksPut, args![looks.folded, looks.cased, id])?;
+    }
+    Ok(())
 }
 
 /// Checks and stores a new person; returns its id.
@@ -263,19 +403,28 @@ pub fn create(conn: &dyn Db, p: &NewPerson) -> Result<i64, StoreError> {
     if let Some(sch) = &s.basal_schedule {
         a.with_basal_schedule(sch.clone())?;
     }
-    if let Some(other) = name_taken(conn, name)? {
+    // Both checks and the insert are one write transaction of the
+    // caller's (the store's write lock held on either backend): two
+    // creations never both pass.
+    if let Some(other) = name_taken(conn, &name)? {
         return Err(StoreError::PersonExists(other));
+    }
+    let looks = name_looks(&name);
+    if let Some(existing) = name_look_alike(conn, &looks)? {
+        return Err(StoreError::PersonLookAlike { name, existing });
     }
     let doc = serde_json::to_string(s).map_err(|e| StoreError::corrupt("person settings", e))?;
     conn.insert_id(
         Q::PersonPut,
         args![
-            name,
+            &name,
             &p.tz,
             mode_name(s.advisor.mode),
             p.first_day.map(|d| d.to_string()),
             doc,
-            jiff::Timestamp::now().to_string()
+            jiff::Timestamp::now().to_string(),
+            looks.folded,
+            looks.cased
         ],
     )
 }
@@ -334,13 +483,22 @@ pub fn update_settings(conn: &dyn Db, id: i64, s: &PersonSettingsDoc) -> Result<
     Ok(())
 }
 
-/// Looks a person up by name.
+/// Looks a person up by name: as given, else in its composed form (NFC,
+/// as names are stored since schema step 9: an "á" typed as "a" and a
+/// combining accent finds "á").
 pub fn load(conn: &dyn Db, name: &str) -> Result<Person, StoreError> {
-    let r = conn
+    let mut found = conn
         .row(Q::PersonByName, args![name])?
-        .ok_or_else(|| StoreError::NoPerson(name.to_string()))?;
+        .map(|r| (name.to_string(), r));
+    if found.is_none() {
+        let nfc: String = name.nfc().collect();
+        if nfc != name {
+            found = conn.row(Q::PersonByName, args![&nfc])?.map(|r| (nfc, r));
+        }
+    }
+    let (name, r) = found.ok_or_else(|| StoreError::NoPerson(name.to_string()))?;
     let (id, tz, first_day, doc) = (r.int(0)?, r.text(1)?, r.opt_text(2)?, r.text(3)?);
-    parse(id, name.to_string(), tz, first_day, doc)
+    parse(id, name, tz, first_day, doc)
 }
 
 /// Looks a person up by row id.

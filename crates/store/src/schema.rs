@@ -38,6 +38,11 @@ pub enum Step {
     Nightscout,
     /// 8 (issue 24): the web pages' one-time sign-in links and sessions.
     WebSessions,
+    /// 9: names compared as they look: each person's confusable skeletons
+    /// ([`crate::person::name_looks`]), indexed, filled for the persons
+    /// stored ([`crate::person::fill_name_looks`]; persons whose names
+    /// already look alike are kept, only new ones are refused).
+    NameLooks,
 }
 
 /// The steps, oldest first.
@@ -50,6 +55,7 @@ pub const STEPS: &[Step] = &[
     Step::NameIndex,
     Step::Nightscout,
     Step::WebSessions,
+    Step::NameLooks,
 ];
 
 /// Rust code run inside a step's transaction.
@@ -57,7 +63,11 @@ pub type MigrationCode = fn(&dyn Db) -> Result<(), StoreError>;
 
 /// The Rust part of a step, if it has one.
 pub fn code(step: Step) -> Option<MigrationCode> {
-    (step == Step::Rekey).then_some(crate::log::rekey as MigrationCode)
+    match step {
+        Step::Rekey => Some(crate::log::rekey as MigrationCode),
+        Step::NameLooks => Some(crate::person::fill_name_looks as MigrationCode),
+        _ => None,
+    }
 }
 
 /// The version a step brings a store to (its 1-based place in the list).

@@ -13,5 +13,6 @@ mod common;
 mod app_events;
 mod backends;
 mod import_log;
+mod person_names;
 mod person_path;
 mod reexports;

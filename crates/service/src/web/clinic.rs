@@ -421,7 +421,11 @@ fn new_person(up: &Upload) -> Result<NewPerson, BTreeMap<String, String>> {
 /// The form field a store error names (`--basal` → `basal`, ...).
 fn field_of(e: &abba_store::StoreError) -> &'static str {
     let text = e.to_string();
-    if matches!(e, abba_store::StoreError::PersonExists(_)) || text.contains("name") {
+    if matches!(
+        e,
+        abba_store::StoreError::PersonExists(_) | abba_store::StoreError::PersonLookAlike { .. }
+    ) || text.contains("name")
+    {
         "name"
     } else if text.contains("carb") {
         "carb_ratios"

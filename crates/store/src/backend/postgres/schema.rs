@@ -35,6 +35,7 @@ pub fn ddl(step: Step) -> &'static str {
         Step::NameIndex => NAME_INDEX,
         Step::Nightscout => NIGHTSCOUT,
         Step::WebSessions => WEB_SESSIONS,
+        Step::NameLooks => NAME_LOOKS,
     }
 }
 
@@ -337,6 +338,19 @@ const WEB_SESSIONS: &str = concat!(
         CHECK ((role = 'admin') = (person_id IS NULL))
     );
     CREATE INDEX web_session_by_person ON web_session (person_id);"
+);
+
+/// As SQLite's: the two confusable skeletons of each name, indexed (not
+/// unique), filled in Rust.
+const NAME_LOOKS: &str = concat!(
+    "ALTER TABLE person ADD COLUMN skeleton_folded ",
+    text!(),
+    ";
+    ALTER TABLE person ADD COLUMN skeleton_cased ",
+    text!(),
+    ";
+    CREATE INDEX person_by_skeleton_folded ON person (skeleton_folded);
+    CREATE INDEX person_by_skeleton_cased ON person (skeleton_cased);"
 );
 
 /// Applies every step the database does not have yet, each in its own

@@ -24,6 +24,7 @@ pub fn ddl(step: Step) -> &'static str {
         Step::NameIndex => NAME_INDEX,
         Step::Nightscout => NIGHTSCOUT,
         Step::WebSessions => WEB_SESSIONS,
+        Step::NameLooks => NAME_LOOKS,
     }
 }
 
@@ -246,6 +247,16 @@ const WEB_SESSIONS: &str = "CREATE TABLE signin_link (
         CHECK ((role = 'admin') = (person_id IS NULL))
     );
     CREATE INDEX web_session_by_person ON web_session (person_id);";
+
+/// What each person's name looks like: its two confusable skeletons
+/// ([`crate::person::name_looks`]), filled in Rust for the persons stored
+/// ([`crate::person::fill_name_looks`]). The indexes are not unique:
+/// persons stored before whose names look alike stay; a new name is
+/// refused in the creation's write transaction.
+const NAME_LOOKS: &str = "ALTER TABLE person ADD COLUMN skeleton_folded TEXT;
+    ALTER TABLE person ADD COLUMN skeleton_cased TEXT;
+    CREATE INDEX person_by_skeleton_folded ON person (skeleton_folded);
+    CREATE INDEX person_by_skeleton_cased ON person (skeleton_cased);";
 
 /// Applies every step the file does not have yet, each in its own
 /// transaction with its Rust part ([`crate::schema::code`]); refuses a

@@ -167,7 +167,13 @@ statements! {
     /// Person names not ascii.
     PersonNamesNotAscii = "SELECT name FROM person WHERE name GLOB '*[^ -~]*'";
     /// Person put.
-    PersonPut = "INSERT INTO person (name, tz, mode, first_day, settings, created_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6)";
+    PersonPut = "INSERT INTO person (name, tz, mode, first_day, settings, created_at, skeleton_folded, skeleton_cased) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)";
+    /// The oldest person whose name looks like one with these keys (by the indexes of schema step 9).
+    PersonNameLookAlike = "SELECT name FROM person WHERE skeleton_folded = ?1 OR skeleton_cased = ?2 ORDER BY id LIMIT 1";
+    /// Every person's id and name (schema step 9).
+    PersonIdsAndNames = "SELECT id, name FROM person ORDER BY id";
+    /// The keys of what a person's name looks like (schema step 9).
+    PersonNameLooksPut = "UPDATE person SET skeleton_folded = ?1, skeleton_cased = ?2 WHERE id = ?3";
     /// Person settings put.
     PersonSettingsPut = "UPDATE person SET settings = ?1 WHERE id = ?2";
     /// Person by name.
@@ -212,9 +218,9 @@ statements! {
     TokenRevoke = "UPDATE token SET revoked_at = ?1 WHERE id = ?2 AND revoked_at IS NULL";
     // copy
     /// Every row of `person`, in key order (`abba store copy`).
-    CopyReadPerson = "SELECT id, name, tz, mode, first_day, settings, created_at FROM person ORDER BY id";
+    CopyReadPerson = "SELECT id, name, tz, mode, first_day, settings, created_at, skeleton_folded, skeleton_cased FROM person ORDER BY id";
     /// One row of `person` as read by `CopyReadPerson`.
-    CopyWritePerson = "INSERT INTO person (id, name, tz, mode, first_day, settings, created_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)";
+    CopyWritePerson = "INSERT INTO person (id, name, tz, mode, first_day, settings, created_at, skeleton_folded, skeleton_cased) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)";
     /// Every row of `import`, in key order (`abba store copy`).
     CopyReadImport = "SELECT id, person_id, imported_at, files, formats, records_read, records_added, records_known FROM import ORDER BY id";
     /// One row of `import` as read by `CopyReadImport`.

@@ -631,6 +631,31 @@ fn a_connection_past_the_limit_gets_503_not_a_reset() {
     assert!(r.starts_with("HTTP/1.1 200"), "{r}");
 }
 
+/// Sends `head`, then one byte of body every 300 ms until the service
+/// answers (`done` says the answer is whole) or 10 s pass; the answer and
+/// the time it took.
+fn trickle(addr: SocketAddr, head: &str, done: impl Fn(&str) -> bool) -> (String, Duration) {
+    let mut s = TcpStream::connect(addr).unwrap();
+    s.set_read_timeout(Some(Duration::from_millis(300)))
+        .unwrap();
+    let t = Instant::now();
+    s.write_all(head.as_bytes()).unwrap();
+    let mut out = Vec::new();
+    let mut b = [0u8; 4096];
+    while t.elapsed() < Duration::from_secs(10) {
+        let _ = s.write_all(b" ");
+        match s.read(&mut b) {
+            Ok(0) => break,
+            Ok(n) => out.extend_from_slice(&b[..n]),
+            Err(_) => {}
+        }
+        if done(&String::from_utf8_lossy(&out)) {
+            break;
+        }
+    }
+    (String::from_utf8_lossy(&out).to_string(), t.elapsed())
+}
+
 /// A small body sent a byte at a time gets 408 once the body timeout is
 /// over counted from its head, not from its last byte (tower-http's
 /// timeout restarts with every frame: the probe's client, a byte every 5
@@ -646,39 +671,15 @@ fn a_small_body_sent_a_byte_at_a_time_gets_408_at_the_body_timeout() {
         },
     );
     let addr = server.addr;
-    let mut s = TcpStream::connect(addr).unwrap();
-    s.set_read_timeout(Some(Duration::from_millis(300)))
-        .unwrap();
-    let t = Instant::now();
-    s.write_all(
-        format!(
+    let (text, took) = trickle(
+        addr,
+        &format!(
             "POST /signin HTTP/1.1\r\nHost: {addr}\r\nOrigin: http://{addr}\r\nContent-Type: application/x-www-form-urlencoded\r\nContent-Length: 200\r\n\r\n"
-        )
-        .as_bytes(),
-    )
-    .unwrap();
-    let mut out = Vec::new();
-    let mut b = [0u8; 1024];
-    while t.elapsed() < Duration::from_secs(10) {
-        let _ = s.write_all(b"c");
-        match s.read(&mut b) {
-            Ok(0) => break,
-            Ok(n) => {
-                out.extend_from_slice(&b[..n]);
-                if out.windows(4).any(|w| w == b"\r\n\r\n") {
-                    break;
-                }
-            }
-            Err(_) => {}
-        }
-    }
-    let text = String::from_utf8_lossy(&out);
-    assert!(text.starts_with("HTTP/1.1 408"), "{text}");
-    assert!(
-        t.elapsed() < Duration::from_secs(4),
-        "answered after {:?}",
-        t.elapsed()
+        ),
+        |t| t.contains("\r\n\r\n"),
     );
+    assert!(text.starts_with("HTTP/1.1 408"), "{text}");
+    assert!(took < Duration::from_secs(4), "answered after {took:?}");
 }
 
 /// A large body trickled past the request timeout gets the service's 408
@@ -694,33 +695,14 @@ fn the_request_timeout_answers_with_the_services_408_body() {
             ..ServeSettings::default()
         },
     );
-    let addr = server.addr;
-    let mut s = TcpStream::connect(addr).unwrap();
-    s.set_read_timeout(Some(Duration::from_millis(300)))
-        .unwrap();
-    let t = Instant::now();
-    s.write_all(
-        format!(
+    let (text, _) = trickle(
+        server.addr,
+        &format!(
             "POST /v1/persons HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer {}\r\nContent-Type: application/json\r\nContent-Length: 100000\r\n\r\n",
             svc.admin
-        )
-        .as_bytes(),
-    )
-    .unwrap();
-    let mut out = Vec::new();
-    let mut b = [0u8; 4096];
-    while t.elapsed() < Duration::from_secs(10) {
-        let _ = s.write_all(b" ");
-        match s.read(&mut b) {
-            Ok(0) => break,
-            Ok(n) => out.extend_from_slice(&b[..n]),
-            Err(_) => {}
-        }
-        if String::from_utf8_lossy(&out).contains("\"code\"") {
-            break;
-        }
-    }
-    let text = String::from_utf8_lossy(&out);
+        ),
+        |t| t.contains("\"code\""),
+    );
     assert!(text.starts_with("HTTP/1.1 408"), "{text}");
     assert!(text.contains("\"code\":\"timeout\""), "{text}");
 }

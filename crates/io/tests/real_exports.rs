@@ -140,6 +140,27 @@ fn a_nightscout_profile_at_the_epoch_is_in_force_since_always() {
 }
 
 #[test]
+fn a_temp_basal_with_only_a_rate_above_any_basal_rate_is_counted_not_fatal() {
+    // The shape of Nightscout's captured AndroidAPS treatments: `rate`
+    // alone, 0-340 (percentages by their look). The file was refused whole
+    // at the first 140; now those are counted and the rest read.
+    let t = br#"[
+      {"_id":"a","eventType":"Temp Basal","created_at":"2026-05-08T23:55:17.000Z","device":"openaps://AndroidAPS","duration":30,"rate":140},
+      {"_id":"b","eventType":"Temp Basal","created_at":"2026-05-08T23:35:29.000Z","device":"openaps://AndroidAPS","duration":30,"rate":0},
+      {"_id":"c","eventType":"Temp Basal","created_at":"2026-05-08T23:25:16.000Z","device":"openaps://AndroidAPS","duration":30,"rate":300},
+      {"_id":"d","eventType":"Correction Bolus","created_at":"2026-05-08T23:20:00.000Z","insulin":0.5}
+    ]"#;
+    let b = read(&[("treatments.json", t.to_vec())], &ReadOptions::default()).unwrap();
+    let what = "Temp Basal with only a rate above any basal rate (U/h or a percentage?)";
+    assert_eq!(ignored(&b, what), 2);
+    assert_eq!(b.records.len(), 4);
+    // With `absolute` the same value is an error naming the field.
+    let bad = br#"[{"_id":"e","eventType":"Temp Basal","created_at":"2026-05-08T23:55:17.000Z","duration":30,"absolute":140}]"#;
+    let e = read(&[("t.json", bad.to_vec())], &ReadOptions::default()).unwrap_err();
+    assert!(e.to_string().contains("absolute"), "{e}");
+}
+
+#[test]
 fn a_nightscout_profile_is_in_force_from_its_start_date_not_its_upload() {
     // openaps' test profile (oref0's ns-profile shape: values as strings):
     // in force from 2015-08-17, uploaded on 2015-11-08.

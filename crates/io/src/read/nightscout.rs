@@ -434,7 +434,8 @@ fn combo_bolus(item: &Item<'_>) -> Result<RecordKind, IoError> {
 }
 
 /// A Temp Basal: `absolute` or `rate` in U/h, else `percent` as a change
-/// (Nightscout's -50 is half the scheduled rate).
+/// (Nightscout's -50 is half the scheduled rate); a `rate` alone above any
+/// basal rate is counted, not read.
 fn temp_basal(item: &Item<'_>) -> Result<RecordKind, IoError> {
     let duration = minutes(item, "duration")?.unwrap_or(0);
     let absolute = |field: &str, r: f64| {
@@ -447,6 +448,15 @@ fn temp_basal(item: &Item<'_>) -> Result<RecordKind, IoError> {
         item.num("percent")?,
     ) {
         (Some(r), _, _) => absolute("absolute", r)?,
+        // `rate` alone above any basal rate: not U/h (Nightscout's
+        // captured AndroidAPS treatments hold 0-340 there, percentages by
+        // their look): counted as not read, the rest of the file kept.
+        (None, Some(r), None) if r.is_finite() && r > units::BASAL_MAX_U_PER_H => {
+            return Ok(RecordKind::Ignored {
+                kind: "Temp Basal with only a rate above any basal rate (U/h or a percentage?)"
+                    .into(),
+            })
+        }
         (None, Some(r), _) => absolute("rate", r)?,
         (None, None, Some(p)) => TempRate::Percent(in_range(
             item,

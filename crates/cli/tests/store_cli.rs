@@ -556,6 +556,13 @@ fn advise_counts_down_the_first_week_in_words() {
     assert!(text.contains(NOTICE), "{text}");
 }
 
+/// Runs `abba ARGS`, which must fail with `needle` in its error.
+fn refused(args: &[&str], needle: &str) {
+    let out = abba(args);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains(needle), "{err}");
+}
+
 /// Every flag a reader's error names is one `abba import` takes: a
 /// LibreView export whose dates do not tell their order (a FreeStyle
 /// Libre 2 reader's file of the first days of a month, day-first) and a
@@ -599,11 +606,9 @@ fn the_flags_an_import_error_names_are_flags_of_abba_import() {
     let libre = dir.join("libre2.csv");
     std::fs::write(&libre, csv).unwrap();
     let libre = libre.to_str().unwrap();
-    let out = abba(&["import", "--db", db, "--person", "lea", libre]);
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        !out.status.success() && err.contains("--date-order"),
-        "{err}"
+    refused(
+        &["import", "--db", db, "--person", "lea", libre],
+        "--date-order",
     );
     let s = ok(&[
         "import",
@@ -626,27 +631,26 @@ fn the_flags_an_import_error_names_are_flags_of_abba_import() {
     )
     .unwrap();
     let treatments = treatments.to_str().unwrap();
-    let out = abba(&["import", "--db", db, "--person", "lea", treatments]);
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success() && err.contains("--units"), "{err}");
+    refused(
+        &["import", "--db", db, "--person", "lea", treatments],
+        "--units",
+    );
     let s = ok(&[
         "import", "--db", db, "--person", "lea", "--units", "mmol/L", treatments,
     ]);
     assert!(s.contains("Imported 1 new records"), "{s}");
-    let out = abba(&[
-        "import",
-        "--db",
-        db,
-        "--person",
-        "lea",
-        "--date-order",
-        "sideways",
-        libre,
-    ]);
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        !out.status.success() && err.contains("expected day-first or month-first"),
-        "{err}"
+    refused(
+        &[
+            "import",
+            "--db",
+            db,
+            "--person",
+            "lea",
+            "--date-order",
+            "sideways",
+            libre,
+        ],
+        "expected day-first or month-first",
     );
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -76,6 +76,10 @@ pub fn small_body_deadline(req: Request, within: Duration) -> Request {
         return req;
     }
     let (parts, body) = req.into_parts();
+    // No body (a GET, most requests): nothing to time, no timer made.
+    if body.is_end_stream() {
+        return Request::from_parts(parts, body);
+    }
     let body = Body::new(DeadlineBody {
         inner: body,
         sleep: Box::pin(tokio::time::sleep(within)),

@@ -93,10 +93,12 @@ def main():
     print(f"abba {abba.__version__} ({abba.GIT_REVISION})")
     sg = simglucose_env(480)
     ours = abba_env(48_000)
-    vec = abba_vector(256, 480)
+    vecs = [(n, abba_vector(n, 480)) for n in (64, 256, 1024)]
     print(f"simglucose 0.2.11 T1DSimGymnaisumEnv: {sg:12,.0f} steps/s")
     print(f"abba T1DSimEnv:                       {ours:12,.0f} steps/s ({ours / sg:,.0f}x)")
-    print(f"abba T1DSimVectorEnv (256 envs):      {vec:12,.0f} steps/s ({vec / sg:,.0f}x)")
+    for n, vec in vecs:
+        label = f"abba T1DSimVectorEnv ({n} envs):"
+        print(f"{label:38}{vec:12,.0f} steps/s ({vec / sg:,.0f}x)")
     d1 = daily(90)
     dv = daily_vector(32, 30)
     print(f"abba DailyAdvisorEnv:                 {d1:12,.0f} days/s")

@@ -65,6 +65,10 @@ pub struct PatientBatch {
     /// The patients as given (parameters and names; their states are the
     /// lanes' from the first step on, see [`PatientBatch::patient`]).
     patients: Vec<Patient>,
+    /// Each patient's glucose distribution volume Vg (dL/kg), beside the
+    /// lanes: reading a patient's glucose each minute touches no
+    /// [`Patient`].
+    vg: Vec<f64>,
     /// Groups of [`LANES`] patients; the last group is padded with copies
     /// of its last patient, whose results are never read.
     groups: Vec<Group>,
@@ -110,6 +114,7 @@ impl PatientBatch {
         // (A batch without patients has no busy lanes and no scratch.)
         let scratch = groups.first().cloned().into_iter().collect();
         Ok(Self {
+            vg: patients.iter().map(|p| p.params().vg).collect(),
             patients,
             groups,
             busy: Vec::new(),
@@ -180,6 +185,7 @@ impl PatientBatch {
             })
             .collect::<Result<Vec<Patient>, SimError>>()?;
         self.groups[g] = Group::gather(std::array::from_fn(|l| &members[l.min(members.len() - 1)]));
+        self.vg[i] = patient.params().vg;
         self.patients[i] = patient;
         Ok(())
     }
@@ -196,13 +202,13 @@ impl PatientBatch {
 
     /// Plasma glucose of patient `i` (mg/dL), as [`Patient::glucose_mg_dl`].
     pub fn glucose_mg_dl(&self, i: usize) -> f64 {
-        self.groups[i / LANES].x[ix::GP].0[i % LANES] / self.patients[i].params().vg
+        self.groups[i / LANES].x[ix::GP].0[i % LANES] / self.vg[i]
     }
 
     /// Subcutaneous glucose of patient `i` (mg/dL), as
     /// [`Patient::subcutaneous_glucose_mg_dl`].
     pub fn subcutaneous_glucose_mg_dl(&self, i: usize) -> f64 {
-        self.groups[i / LANES].x[ix::GS].0[i % LANES] / self.patients[i].params().vg
+        self.groups[i / LANES].x[ix::GS].0[i % LANES] / self.vg[i]
     }
 
     /// Advances every patient one minute: patient `i` with `rates[i]` and

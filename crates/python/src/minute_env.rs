@@ -111,9 +111,21 @@ pub struct Surround {
     queue: EatingQueue,
     cgm: CgmSensor,
     last_cgm: f64,
+    /// Minutes until the CGM's next sample (it reads at every multiple of
+    /// its sample time from minute 0: a countdown, not a division per
+    /// minute).
+    to_sample: u32,
+    /// The last action and what the pump made of it (U/min): most
+    /// policies hold a rate for many steps, and the pump's rounding is a
+    /// library call.
+    last_action: (f64, f64),
+    last_delivered: f64,
     start_minute_of_day: u32,
     meal_seed: u64,
     day_meals: (i64, Vec<(u32, f64)>),
+    /// The episode minute of the next meal (no meal before it): most
+    /// minutes have none, and finding that out is one comparison.
+    next_meal: i64,
     /// The step under way: its insulin (U/min) and its sums.
     insulin: f64,
     sums: StepSums,
@@ -144,9 +156,13 @@ impl Surround {
             queue: EatingQueue::new(),
             cgm,
             last_cgm: 0.0,
+            to_sample: 0,
+            last_action: (f64::NAN, f64::NAN),
+            last_delivered: 0.0,
             start_minute_of_day: 0,
             meal_seed: 0,
             day_meals: (-1, Vec::new()),
+            next_meal: 0,
             insulin: 0.0,
             sums: StepSums::default(),
         };
@@ -182,6 +198,7 @@ impl Surround {
         self.cgm = CgmSensor::new(self.config.cgm.clone(), seed_of(seed, 2))?;
         self.meal_seed = seed_of(seed, 3);
         self.day_meals = (-1, Vec::new());
+        self.next_meal = 0;
         Ok(patient)
     }
 
@@ -189,6 +206,7 @@ impl Surround {
     fn first_reading(&mut self, gs: f64) -> Result<f64, SimError> {
         let first = self.cgm.read(MgDl(gs))?;
         self.last_cgm = first.0;
+        self.to_sample = self.sample_time_min();
         Ok(first.0)
     }
 
@@ -202,8 +220,46 @@ impl Surround {
         self.config.cgm.sample_time_min
     }
 
-    /// Grams announced at minute `t` of the episode.
+    /// Grams announced at minute `t` of the episode (called minute after
+    /// minute).
     fn meal_at(&mut self, t: i64) -> f64 {
+        if t < self.next_meal {
+            return 0.0;
+        }
+        let grams = self.meals_of_minute(t);
+        self.next_meal = self.first_meal_after(t);
+        grams
+    }
+
+    /// The episode minute of the first meal after minute `t` (for random
+    /// meals at most the next midnight, where the next day's are drawn).
+    fn first_meal_after(&self, t: i64) -> i64 {
+        match &self.config.meals {
+            Meals::Custom(list) => list
+                .iter()
+                .map(|(m, _)| *m)
+                .filter(|m| *m > t)
+                .min()
+                .unwrap_or(i64::MAX),
+            Meals::Random => {
+                let start = i64::from(self.start_minute_of_day);
+                let day = (start + t).div_euclid(1440);
+                let tod = (start + t).rem_euclid(1440);
+                let next_tod = self
+                    .day_meals
+                    .1
+                    .iter()
+                    .map(|(m, _)| i64::from(*m))
+                    .filter(|m| *m > tod)
+                    .min()
+                    .unwrap_or(1440);
+                day * 1440 + next_tod - start
+            }
+        }
+    }
+
+    /// Grams announced at minute `t` of the episode, looked up.
+    fn meals_of_minute(&mut self, t: i64) -> f64 {
         match &self.config.meals {
             Meals::Custom(list) => list.iter().filter(|(m, _)| *m == t).map(|(_, g)| g).sum(),
             Meals::Random => {
@@ -240,8 +296,13 @@ impl Surround {
                 ),
             });
         }
-        self.insulin =
-            self.config.pump.deliver(basal_u_per_min) + self.config.pump.deliver(bolus_u_per_min);
+        // (NaN never equals, so the first step always asks the pump.)
+        if self.last_action != (basal_u_per_min, bolus_u_per_min) {
+            self.last_action = (basal_u_per_min, bolus_u_per_min);
+            self.last_delivered = self.config.pump.deliver(basal_u_per_min)
+                + self.config.pump.deliver(bolus_u_per_min);
+        }
+        self.insulin = self.last_delivered;
         self.sums = StepSums::default();
         Ok(())
     }
@@ -262,11 +323,13 @@ impl Surround {
         }
     }
 
-    /// After the patient reached minute `t` with subcutaneous glucose
+    /// After the patient reached the next minute with subcutaneous glucose
     /// `gs`: the CGM reads at its sample times and holds its reading.
-    fn after_minute(&mut self, t: i64, gs: f64) -> Result<(), SimError> {
-        if t % i64::from(self.sample_time_min()) == 0 {
+    fn after_minute(&mut self, gs: f64) -> Result<(), SimError> {
+        self.to_sample = self.to_sample.saturating_sub(1);
+        if self.to_sample == 0 {
             self.last_cgm = self.cgm.read(MgDl(gs))?.0;
+            self.to_sample = self.sample_time_min();
         }
         self.sums.bg += gs;
         self.sums.cgm += self.last_cgm;
@@ -348,7 +411,7 @@ impl MinuteSim {
         for _ in 0..s.sample_time_min() {
             let u = s.minute_input(p.minute());
             p.step(u.cho_g_per_min, u.insulin_u_per_min, 1.0)?;
-            s.after_minute(p.minute(), p.subcutaneous_glucose_mg_dl())?;
+            s.after_minute(p.subcutaneous_glucose_mg_dl())?;
         }
         Ok(s.end_step(p.glucose_mg_dl()))
     }
@@ -419,23 +482,28 @@ impl MinuteShard {
 
     /// One step of every environment (`basal[i]`, `bolus[i]` for
     /// environment i, as [`MinuteSim::step`]).
+    ///
+    /// Each environment's inputs for the whole step are worked out first
+    /// (what is eaten depends on the meals only, never on the patient), so
+    /// each minute touches only the lanes and the CGM: one pass over the
+    /// environments per step, not three per minute.
     pub fn step(&mut self, basal: &[f64], bolus: &[f64]) -> Result<Vec<StepOut>, SimError> {
         let n = self.len();
+        let minutes = self.surrounds.first().map_or(0, Surround::sample_time_min) as usize;
+        self.rates.clear();
+        self.rates.resize(minutes * n, MinuteRates::default());
         for (i, s) in self.surrounds.iter_mut().enumerate() {
-            s.begin_step(basal[i], bolus[i], self.batch.minute(i))?;
-        }
-        let minutes = self.surrounds.first().map_or(0, Surround::sample_time_min);
-        for _ in 0..minutes {
-            self.rates.clear();
-            for (i, s) in self.surrounds.iter_mut().enumerate() {
-                self.rates.push(s.minute_input(self.batch.minute(i)));
+            let start = self.batch.minute(i);
+            s.begin_step(basal[i], bolus[i], start)?;
+            for m in 0..minutes {
+                self.rates[m * n + i] = s.minute_input(start + m as i64);
             }
-            self.batch.step(&self.rates, &self.ones[..n])?;
+        }
+        for m in 0..minutes {
+            self.batch
+                .step(&self.rates[m * n..(m + 1) * n], &self.ones[..n])?;
             for (i, s) in self.surrounds.iter_mut().enumerate() {
-                s.after_minute(
-                    self.batch.minute(i),
-                    self.batch.subcutaneous_glucose_mg_dl(i),
-                )?;
+                s.after_minute(self.batch.subcutaneous_glucose_mg_dl(i))?;
             }
         }
         Ok(self

@@ -201,6 +201,10 @@ pub struct MinuteBatch {
     shards: Vec<MinuteShard>,
     shard_len: usize,
     sample_time_min: u32,
+    /// Steps since each environment's reset (for truncation).
+    steps: Vec<u64>,
+    /// The risk of each environment's last CGM reading (for the reward).
+    last_risk: Vec<f64>,
 }
 
 type Arr<'py> = Bound<'py, PyArray1<f64>>;
@@ -264,17 +268,21 @@ impl MinuteBatch {
         let sample_time_min = configs[0].cgm.sample_time_min;
         let len = shard_len(configs.len());
         let mut shards = Vec::new();
+        let mut last_risk = Vec::with_capacity(seeds.len());
         let mut rest = configs;
         for seeds in seeds.chunks(len) {
             let tail = rest.split_off(seeds.len());
-            let (shard, _) = MinuteShard::new(rest, seeds).map_err(value_error)?;
+            let (shard, first) = MinuteShard::new(rest, seeds).map_err(value_error)?;
             shards.push(shard);
+            last_risk.extend(first.into_iter().map(risk));
             rest = tail;
         }
         Ok(Self {
             shards,
             shard_len: len,
             sample_time_min,
+            steps: vec![0; last_risk.len()],
+            last_risk,
         })
     }
 
@@ -284,9 +292,12 @@ impl MinuteBatch {
         if i >= n {
             return Err(value_error(format!("environment {i} of {n}")));
         }
-        self.shards[i / self.shard_len]
+        let first = self.shards[i / self.shard_len]
             .reset_one(i % self.shard_len, seed)
-            .map_err(value_error)
+            .map_err(value_error)?;
+        self.steps[i] = 0;
+        self.last_risk[i] = risk(first);
+        Ok(first)
     }
 
     /// One step of every environment: basal and bolus rates (U/min), one
@@ -311,6 +322,166 @@ impl MinuteBatch {
     )> {
         let basal = basal_u_per_min.as_slice().map_err(value_error)?;
         let bolus = bolus_u_per_min.as_slice().map_err(value_error)?;
+        let outs = self.step_all(py, basal, bolus)?;
+        let n = outs.len();
+        let mut cols: [Vec<f64>; 8] = std::array::from_fn(|_| Vec::with_capacity(n));
+        for o in outs {
+            for (c, v) in cols.iter_mut().zip([
+                o.cgm_mg_dl,
+                o.bg_mg_dl,
+                o.plasma_mg_dl,
+                o.meal_g_per_min,
+                o.cho_g_per_min,
+                o.insulin_u_per_min,
+                f64::from(u8::from(o.done)),
+                risk(o.cgm_mg_dl),
+            ]) {
+                c.push(v);
+            }
+        }
+        let [a, b, c, d, e, f, g, h] = cols;
+        Ok((
+            a.into_pyarray(py),
+            b.into_pyarray(py),
+            c.into_pyarray(py),
+            d.into_pyarray(py),
+            e.into_pyarray(py),
+            f.into_pyarray(py),
+            g.into_pyarray(py),
+            h.into_pyarray(py),
+        ))
+    }
+
+    /// One step of every environment as `T1DSimVectorEnv.step` returns it,
+    /// the episode bookkeeping done here (a numpy call costs about a
+    /// microsecond, as much as 10 environments' minutes): `actions` of
+    /// shape (n, 1) or (n, 2) (basal, and bolus when `bolus_action`),
+    /// U/min. Returns (observation as float32 of shape (n, 1), reward:
+    /// simglucose's `risk_diff`, zero when `risk_reward` is false,
+    /// terminated, truncated after `max_episode_steps`, the indices of the
+    /// environments that ended (None: none did), the CGM readings as
+    /// float64 (None unless `want_cgm`), and the arrays bg, plasma,
+    /// meal_g_per_min, cho_g_per_min, insulin_u_per_min).
+    #[pyo3(signature = (actions, bolus_action, max_episode_steps, risk_reward = true, want_cgm = false))]
+    #[allow(clippy::type_complexity)]
+    fn step_gym<'py>(
+        &mut self,
+        py: Python<'py>,
+        actions: PyReadonlyArray2<'py, f64>,
+        bolus_action: bool,
+        max_episode_steps: Option<u64>,
+        risk_reward: bool,
+        want_cgm: bool,
+    ) -> PyResult<(
+        Bound<'py, PyArray2<f32>>,
+        Arr<'py>,
+        Bound<'py, PyArray1<bool>>,
+        Bound<'py, PyArray1<bool>>,
+        Option<Vec<usize>>,
+        Option<Arr<'py>>,
+        Arr<'py>,
+        Arr<'py>,
+        Arr<'py>,
+        Arr<'py>,
+        Arr<'py>,
+    )> {
+        let n = self.__len__();
+        let a = actions.as_array();
+        let width = a.ncols();
+        if a.nrows() != n || width == 0 || (bolus_action && width < 2) {
+            return Err(value_error(format!(
+                "expected actions of shape ({n}, {}), got {:?}",
+                if bolus_action { 2 } else { 1 },
+                a.shape()
+            )));
+        }
+        let basal: Vec<f64> = a.column(0).to_vec();
+        let bolus: Vec<f64> = if bolus_action {
+            a.column(1).to_vec()
+        } else {
+            vec![0.0; n]
+        };
+        let outs = self.step_all(py, &basal, &bolus)?;
+        let mut obs = Vec::with_capacity(n);
+        let mut reward = Vec::with_capacity(n);
+        let mut terminated = Vec::with_capacity(n);
+        let mut truncated = Vec::with_capacity(n);
+        let mut ended = Vec::new();
+        let mut cols: [Vec<f64>; 6] = std::array::from_fn(|_| Vec::with_capacity(n));
+        for (i, o) in outs.into_iter().enumerate() {
+            self.steps[i] += 1;
+            let r = risk(o.cgm_mg_dl);
+            reward.push(if risk_reward {
+                self.last_risk[i] - r
+            } else {
+                0.0
+            });
+            self.last_risk[i] = r;
+            let cut = !o.done && max_episode_steps.is_some_and(|m| self.steps[i] >= m);
+            if o.done || cut {
+                ended.push(i);
+            }
+            obs.push(o.cgm_mg_dl as f32);
+            terminated.push(o.done);
+            truncated.push(cut);
+            for (c, v) in cols.iter_mut().zip([
+                o.cgm_mg_dl,
+                o.bg_mg_dl,
+                o.plasma_mg_dl,
+                o.meal_g_per_min,
+                o.cho_g_per_min,
+                o.insulin_u_per_min,
+            ]) {
+                c.push(v);
+            }
+        }
+        let obs = numpy::ndarray::Array2::from_shape_vec((n, 1), obs).map_err(value_error)?;
+        let [c0, c1, c2, c3, c4, c5] = cols;
+        Ok((
+            obs.into_pyarray(py),
+            reward.into_pyarray(py),
+            terminated.into_pyarray(py),
+            truncated.into_pyarray(py),
+            (!ended.is_empty()).then_some(ended),
+            want_cgm.then(|| c0.into_pyarray(py)),
+            c1.into_pyarray(py),
+            c2.into_pyarray(py),
+            c3.into_pyarray(py),
+            c4.into_pyarray(py),
+            c5.into_pyarray(py),
+        ))
+    }
+
+    /// Number of environments.
+    fn __len__(&self) -> usize {
+        self.shards.iter().map(MinuteShard::len).sum()
+    }
+
+    /// Minutes per step.
+    #[getter]
+    fn sample_time_min(&self) -> u32 {
+        self.sample_time_min
+    }
+
+    /// Time of day of every environment (minutes after midnight).
+    #[getter]
+    fn minute_of_day(&self) -> Vec<u32> {
+        self.shards
+            .iter()
+            .flat_map(|s| (0..s.len()).map(|i| s.minute_of_day(i)))
+            .collect()
+    }
+}
+
+impl MinuteBatch {
+    /// One step of every environment, `basal[i]` and `bolus[i]` for
+    /// environment i (U/min): the shards on the cores, without the GIL.
+    fn step_all(
+        &mut self,
+        py: Python<'_>,
+        basal: &[f64],
+        bolus: &[f64],
+    ) -> PyResult<Vec<crate::minute_env::StepOut>> {
         let n = self.__len__();
         if basal.len() != n || bolus.len() != n {
             return Err(value_error(format!(
@@ -337,54 +508,11 @@ impl MinuteBatch {
                     .collect()
             }
         });
-        let mut cols: [Vec<f64>; 8] = std::array::from_fn(|_| Vec::with_capacity(n));
+        let mut all = Vec::with_capacity(n);
         for shard in outs {
-            for o in shard.map_err(value_error)? {
-                for (c, v) in cols.iter_mut().zip([
-                    o.cgm_mg_dl,
-                    o.bg_mg_dl,
-                    o.plasma_mg_dl,
-                    o.meal_g_per_min,
-                    o.cho_g_per_min,
-                    o.insulin_u_per_min,
-                    f64::from(u8::from(o.done)),
-                    risk(o.cgm_mg_dl),
-                ]) {
-                    c.push(v);
-                }
-            }
+            all.extend(shard.map_err(value_error)?);
         }
-        let [a, b, c, d, e, f, g, h] = cols;
-        Ok((
-            a.into_pyarray(py),
-            b.into_pyarray(py),
-            c.into_pyarray(py),
-            d.into_pyarray(py),
-            e.into_pyarray(py),
-            f.into_pyarray(py),
-            g.into_pyarray(py),
-            h.into_pyarray(py),
-        ))
-    }
-
-    /// Number of environments.
-    fn __len__(&self) -> usize {
-        self.shards.iter().map(MinuteShard::len).sum()
-    }
-
-    /// Minutes per step.
-    #[getter]
-    fn sample_time_min(&self) -> u32 {
-        self.sample_time_min
-    }
-
-    /// Time of day of every environment (minutes after midnight).
-    #[getter]
-    fn minute_of_day(&self) -> Vec<u32> {
-        self.shards
-            .iter()
-            .flat_map(|s| (0..s.len()).map(|i| s.minute_of_day(i)))
-            .collect()
+        Ok(all)
     }
 }
 

@@ -148,6 +148,15 @@ def test_vector_minute_env_steps_all_and_autoresets():
         obs, r, term, trunc, info = v.step(np.full((3, 1), 0.01))
         assert obs.shape == (3, 1) and r.shape == (3,)
     assert trunc.all() and "final_observation" in info
+    # After the same-step reset the reward's previous reading is the new
+    # episode's first (the observation returned at the truncation; float32,
+    # 1e-5 mg/dL apart from the reading the reward uses, and the risk moves
+    # by at most 0.3 per mg/dL: 3e-6).
+    obs2, r2, *_ = v.step(np.full((3, 1), 0.01))
+    for i in range(3):
+        assert r2[i] == pytest.approx(risk_diff([obs[i, 0], obs2[i, 0]]), abs=6e-6)
+        last = info["final_observation"][i][0]
+        assert r2[i] != pytest.approx(risk_diff([last, obs2[i, 0]]), abs=6e-6)
     # Same seed, same batch.
     w = T1DSimVectorEnv(3, patient_name=["adult#001", "child#001", "adolescent#001"], seed=4)
     a, _ = w.reset(seed=1)
@@ -244,3 +253,56 @@ def test_vector_minute_env_patients_are_the_same_in_any_company_and_alone():
             cgm, bg, plasma, *_ = single[k].step(float(basal[i]), float(bolus[i]))
             assert abs(bg - out[1][i]) < 1e-9 and abs(plasma - out[2][i]) < 1e-9, (step, i)
             assert abs(cgm - out[0][i]) < 1e-9, (step, i)
+
+
+def test_vector_minute_env_random_meals_follow_simglucose_random_scenario():
+    # simglucose's RandomScenario: breakfast, lunch and dinner with
+    # probability 0.95 (45, 70, 80 g on average), three snacks with 0.3
+    # (10 g): 194.25 g a day on average, breakfast between 05:00 and 09:00.
+    # Three days of 64 environments from midnight (a fixed seed: the same
+    # draws every run; 4 standard errors either side of the mean).
+    n, steps_per_day = 64, 480
+    v = T1DSimVectorEnv(n, patient_name="adult#001", seed=7, start_minute_of_day=0,
+                        max_episode_steps=None)
+    v.reset(seed=7)
+    grams = np.zeros((n, 3))
+    breakfasts = np.zeros((n, 3), dtype=int)
+    for k in range(3 * steps_per_day):
+        _, _, term, _, info = v.step(np.full((n, 1), 0.02))
+        assert not term.any()
+        day, minute = divmod(k * 3, 1440)
+        announced = info["meal"] * 3
+        grams[:, day] += announced
+        if 300 <= minute < 540:
+            breakfasts[:, day] += announced > 20
+    assert 185.0 <= grams.mean() <= 204.0, grams.mean()
+    assert (breakfasts <= 1).all()
+    assert 0.9 <= breakfasts.mean() <= 1.0
+    # Every day has its own draws.
+    assert len({tuple(np.round(grams[:, d], 6)) for d in range(3)}) == 3
+
+
+def test_vector_minute_env_reward_fun_sees_each_environments_last_hour():
+    # A custom reward gets each environment's readings since its reset, at
+    # most an hour (20 at 3 min), oldest first; with simglucose's
+    # risk_diff it gives the default reward.
+    kw = dict(patient_name=["adult#001", "child#002"], seed=3, max_episode_steps=30)
+    seen = []
+
+    def reward(hour):
+        seen.append(len(hour))
+        return risk_diff(hour)
+
+    custom = T1DSimVectorEnv(2, reward_fun=reward, **kw)
+    default = T1DSimVectorEnv(2, **kw)
+    custom.reset(seed=5)
+    default.reset(seed=5)
+    for k in range(35):
+        _, rc, _, trunc_c, _ = custom.step(np.full((2, 1), 0.01))
+        _, rd, _, trunc_d, _ = default.step(np.full((2, 1), 0.01))
+        assert rc == pytest.approx(rd, rel=1e-9, abs=1e-12), k
+        assert (trunc_c == trunc_d).all()
+    # Two environments a step; 2, 3, ... readings, at most 20; after the
+    # truncation at step 30 the history starts again from the new reading.
+    assert seen[:4] == [2, 2, 3, 3]
+    assert max(seen) == 20 and seen[2 * 29] == 20 and seen[2 * 30] == 2

@@ -42,6 +42,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
+use std::sync::{Arc, Mutex, OnceLock};
 
 /// The sensor parameter table (simglucose's `sensor_params.csv`).
 const SENSOR_TABLE: &str = include_str!("../../../../data/uva-padova/sensor_params.csv");
@@ -232,6 +233,33 @@ impl CgmConfig {
     }
 }
 
+/// The spline weights made so far, by sample time (minutes).
+type WeightTables = Vec<(u32, Arc<NotAKnotWeights>)>;
+
+/// The spline weights of a sensor with `sample_time_min`, computed once per
+/// sample time in the process and shared: a vector environment of 256
+/// Dexcom sensors kept 256 copies of the same 4.4 KB table, which pushed
+/// the patients' state out of the processor's cache (the environment's
+/// step ran 1.2× slower). The lock is taken only when a sensor is made.
+fn shared_weights(sample_time_min: u32) -> Result<Arc<NotAKnotWeights>, SimError> {
+    static TABLES: OnceLock<Mutex<WeightTables>> = OnceLock::new();
+    let tables = TABLES.get_or_init(|| Mutex::new(Vec::new()));
+    // A poisoned lock only means another thread panicked while pushing a
+    // finished table: the list is still whole.
+    let mut list = tables
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    if let Some((_, w)) = list.iter().find(|(t, _)| *t == sample_time_min) {
+        return Ok(Arc::clone(w));
+    }
+    let n = (BATCH_MIN / sample_time_min.max(1)) as usize;
+    let step = f64::from(sample_time_min) / f64::from(LATENT_STEP_MIN);
+    let positions: Vec<f64> = (1..=n).map(|j| j as f64 * step).collect();
+    let weights = Arc::new(NotAKnotWeights::new(&positions)?);
+    list.push((sample_time_min, Arc::clone(&weights)));
+    Ok(weights)
+}
+
 /// The CGM noise sequence ε (mg/dL), one value per sample time.
 ///
 /// Holds the current batch's 11 knot values and the precomputed spline
@@ -245,8 +273,9 @@ pub struct CgmNoise {
     latent: f64,
     /// η at the knots of the current batch (knot 0 = last of the previous one).
     knots: [f64; KNOTS],
-    /// Spline weights of the sample positions 1..=n of a batch.
-    weights: NotAKnotWeights,
+    /// Spline weights of the sample positions 1..=n of a batch, shared by
+    /// every sensor with the same sample time (see [`shared_weights`]).
+    weights: Arc<NotAKnotWeights>,
     /// Index of the next sample in the batch; == n when the batch is used up.
     next: usize,
 }
@@ -255,10 +284,8 @@ impl CgmNoise {
     /// A noise sequence for `config`, seeded with `seed`.
     pub fn new(config: &CgmConfig, seed: u64) -> Result<Self, SimError> {
         config.validate()?;
-        let n = config.samples_per_batch();
-        let step = f64::from(config.sample_time_min) / f64::from(LATENT_STEP_MIN);
-        let positions: Vec<f64> = (1..=n).map(|j| j as f64 * step).collect();
-        let weights = NotAKnotWeights::new(&positions)?;
+        let weights = shared_weights(config.sample_time_min)?;
+        let n = weights.len();
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         // e_0 = w_0: the first latent value is a plain standard normal.
         let latent: f64 = rng.sample(StandardNormal);

@@ -31,6 +31,8 @@ for sc in ("S1", "S2", "S4"):
     for w in ("W13", "W14"):
         a, s, r2 = (by[(sc, arm, w)] for arm in ("abba", "standard", "r2r"))
         pts = [p for p in a if p in s and p in r2]
+        if not pts:
+            continue  # a scenario the trial did not run
         low = sorted(((f(a[p], "below_70"), p) for p in pts), reverse=True)
         total = sum(x for x, _ in low)
         worse = sum(1 for p in pts if f(a[p], "below_70") > f(s[p], "below_70"))
@@ -50,6 +52,8 @@ first = [r for r in rows if r["week"] == "W1"]
 for sc in ("S1", "S2"):
     for arm in ("abba", "r2r"):
         rs = [r for r in first if r["scenario"] == sc and r["advisor"] == arm]
+        if len(rs) < 2:
+            continue
         def q(v):
             qs = statistics.quantiles(v, n=4)
             return f"{statistics.median(v):.2f} [{qs[0]:.2f}, {qs[2]:.2f}]"

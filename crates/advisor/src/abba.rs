@@ -70,6 +70,11 @@ pub struct Abba {
     /// 0: basal; 1..=3: carb ratios of breakfast, lunch, dinner.
     agents: [Agent; 4],
     day_windows: DayWindows<WindowStats>,
+    /// The readings of the basal agent's hours of each day, when its
+    /// features come from part of the day
+    /// (`features.cgm_basal_window_min`).
+    #[serde(default, skip_serializing_if = "DayWindows::is_empty")]
+    basal_windows: DayWindows<WindowStats>,
     meal_windows: MealWindows<WindowStats>,
     last_br_change: Option<(f64, f64)>,
     log: DecisionLog,
@@ -146,6 +151,7 @@ impl Abba {
             init: None,
             agents,
             day_windows: DayWindows::default(),
+            basal_windows: DayWindows::default(),
             meal_windows: MealWindows::default(),
             last_br_change: None,
             bounds: ClinicianBounds::default(),
@@ -445,11 +451,16 @@ impl Abba {
     }
 
     /// One update of parameter `p` from `window` = (start, end, stats).
+    /// One update of `p` from `window`; `part` (the basal agent's hours of
+    /// the day, `features.cgm_basal_window_min`) is where the features come
+    /// from when given, the whole window still deciding the data rule and
+    /// the hypo guard.
     fn decide(
         &mut self,
         at: Timestamp,
         p: Parameter,
         window: Result<(Timestamp, Timestamp, WindowStats), SkipReason>,
+        part: Option<(Timestamp, Timestamp, WindowStats)>,
     ) {
         let old = self.value(p);
         let skipped = |reason| Decision {
@@ -475,6 +486,25 @@ impl Abba {
                 return self.log.push(skipped(reason));
             }
         }
+        // The hypo guard looks at the whole window.
+        let window_hyponumber = stats.hyponumber;
+        let (start, end, stats) = match part {
+            None => (start, end, stats),
+            Some(w) if w.2.is_empty() => return self.log.push(skipped(SkipReason::EmptyWindow)),
+            Some((from, to, part)) => {
+                if let Some(rule) = self.min_data {
+                    let required = rule.required(self.config.mode, from, to, true);
+                    if part.n < required {
+                        let reason = SkipReason::TooFewReadings {
+                            n: part.n,
+                            required,
+                        };
+                        return self.log.push(skipped(reason));
+                    }
+                }
+                (from, to, part)
+            }
+        };
         let cfg = &self.config;
         let kind = match p {
             Parameter::Basal => ParamKind::Basal,
@@ -492,7 +522,7 @@ impl Abba {
             cfg.update.switch_rule,
             cfg.update.max_relative_change,
         );
-        let guard_hypo = cfg.update.hypo_guard && stats.hyponumber > 0;
+        let guard_hypo = cfg.update.hypo_guard && window_hyponumber > 0;
         let (learning, action, mut applied) =
             self.agents[agent_index(p)].decide(&f, cost, p_s, cfg, |p_e| {
                 let mut a = apply_action(kind, old, p_e, m, br_change, switch, max);
@@ -510,7 +540,8 @@ impl Abba {
                 let asked = applied.new / old - 1.0;
                 let mut carried = self.carry[i];
                 // After a low, nothing carried may add insulin.
-                if (applied.hypo_guard_fired || stats.hyponumber > 0) && adds_insulin(kind, carried)
+                if (applied.hypo_guard_fired || window_hyponumber > 0)
+                    && adds_insulin(kind, carried)
                 {
                     carried = 0.0;
                 }
@@ -589,6 +620,13 @@ impl Abba {
     fn reading(&mut self, at: Timestamp, g_mg_dl: f64) {
         let cfg = &self.config.features;
         self.day_windows.day_mut(at.day_index()).push(g_mg_dl, cfg);
+        if cfg.basal_window_is_part(self.config.mode)
+            && cfg.in_basal_window(self.config.mode, at.minute_of_day())
+        {
+            self.basal_windows
+                .day_mut(at.day_index())
+                .push(g_mg_dl, cfg);
+        }
         if let Some((_, acc)) = self.meal_windows.open_mut() {
             acc.push(g_mg_dl, cfg);
         }
@@ -670,12 +708,13 @@ impl Abba {
                 let window = prev
                     .map(|w| (w.start, w.end, w.acc))
                     .ok_or(SkipReason::NoPreviousDayWindow);
-                self.decide(e.at, Parameter::CarbRatio(MealSlot::MAIN[i]), window);
+                self.decide(e.at, Parameter::CarbRatio(MealSlot::MAIN[i]), window, None);
                 Some(self.settings)
             }
             EventKind::DayClosed => {
                 let day = closed_day(e.at);
                 let stats = self.day_windows.close(day);
+                let part_stats = self.basal_windows.close(day);
                 if !self.initialised {
                     let first = self.guard.first_day().unwrap_or(day);
                     let end = self
@@ -688,7 +727,15 @@ impl Abba {
                 }
                 let start = Timestamp::from_day_and_minute(day, 0);
                 let window = stats.map(|s| (start, e.at, s)).ok_or(SkipReason::NoDayData);
-                self.decide(e.at, Parameter::Basal, window);
+                let part = match self.config.features.cgm_basal_window_min {
+                    Some([from, to]) if self.config.mode == Mode::Cgm => Some((
+                        Timestamp(start.0 + from),
+                        Timestamp(start.0 + to),
+                        part_stats.unwrap_or_default(),
+                    )),
+                    _ => None,
+                };
+                self.decide(e.at, Parameter::Basal, window, part);
                 Some(self.settings)
             }
             _ => None,

@@ -193,6 +193,16 @@ pub struct FeatureConfig {
     /// `g_max_mg_dl`. \[GUESS §3, calibrated] 400.
     #[serde(default)]
     pub cgm_g_max_mg_dl: Option<f64>,
+    /// CGM mode: the minutes of the calendar day `[from, to)` after
+    /// midnight whose readings the basal agent's features come from;
+    /// `None`: the whole day (the seed). \[DEVIATION when set] A flat
+    /// basal judged on the whole day answers the post-meal
+    /// hyperglycaemia that is the carb ratios' (benches/diagnosis,
+    /// children in CGM mode); clinicians and the run-to-run baseline judge
+    /// it on the fasting hours. The day's readings still decide the data
+    /// rule and the hypo guard (a low at any hour blocks more insulin).
+    #[serde(default)]
+    pub cgm_basal_window_min: Option<[i64; 2]>,
 }
 
 impl FeatureConfig {
@@ -223,6 +233,20 @@ impl FeatureConfig {
             Mode::Cgm => self.cgm_excursion,
             Mode::Smbg => self.smbg_excursion,
         }
+    }
+
+    /// Whether a reading at `minute_of_day` counts for the basal agent's
+    /// features of an advisor in `mode` (see `cgm_basal_window_min`).
+    pub fn in_basal_window(&self, mode: Mode, minute_of_day: i64) -> bool {
+        match (mode, self.cgm_basal_window_min) {
+            (Mode::Cgm, Some([from, to])) => (from..to).contains(&minute_of_day),
+            _ => true,
+        }
+    }
+
+    /// True when the basal agent's features come from part of the day.
+    pub fn basal_window_is_part(&self, mode: Mode) -> bool {
+        mode == Mode::Cgm && self.cgm_basal_window_min.is_some()
     }
 
     /// G_min for an advisor in `mode`.
@@ -256,6 +280,7 @@ impl Default for FeatureConfig {
             smbg_excursion: default_smbg_excursion(),
             cgm_g_min_mg_dl: None,
             cgm_g_max_mg_dl: Some(400.0),
+            cgm_basal_window_min: None,
         }
     }
 }
@@ -287,6 +312,16 @@ impl FeatureConfig {
         }
         if let Some(g) = self.cgm_g_min_mg_dl {
             check_range("features.cgm_g_min_mg_dl", g, 1e-9, self.g_low_mg_dl - 1e-9)?;
+        }
+        if let Some([from, to]) = self.cgm_basal_window_min {
+            if !(0 <= from && from < to && to <= 1440) {
+                return Err(AdvisorError::Config {
+                    field: "features.cgm_basal_window_min".into(),
+                    problem: format!(
+                        "[{from}, {to}]: expected minutes after midnight with 0 <= from < to <= 1440"
+                    ),
+                });
+            }
         }
         check_positive(
             "features.hyponumber_below_mg_dl",

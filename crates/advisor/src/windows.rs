@@ -44,6 +44,11 @@ impl<A: Default> DayWindows<A> {
         &mut self.current.get_or_insert_with(|| (day, A::default())).1
     }
 
+    /// True when no day is open.
+    pub fn is_empty(&self) -> bool {
+        self.current.is_none() && self.previous.is_none()
+    }
+
     /// Removes and returns the accumulator of `day`, dropping any older one.
     pub fn close(&mut self, day: i64) -> Option<A> {
         let mut out = None;

@@ -469,3 +469,99 @@ fn projected_actor_keeps_theta_in_its_sign_pattern_where_eq28_leaves_it() {
         "expected eq28 to leave the sign pattern somewhere: {literal:?}"
     );
 }
+
+#[test]
+fn a_basal_window_judges_the_night_and_leaves_the_meals_to_the_carb_ratios() {
+    // Under-bolused meals (carb ratios 10 against a need of 7: ~190 mg/dL
+    // after each meal), the right basal (fasting 110 mg/dL). Judged on the
+    // whole day the basal agent answers the meals' hyperglycaemia with
+    // more basal; judged on 00:00-07:00 it sees a night in range.
+    let toy = Toy {
+        basal_need: 1.0,
+        cr_need: [7.0; 3],
+        ..NEUTRAL
+    };
+    let whole = AbbaConfig::new(Mode::Cgm, 5);
+    let mut night = AbbaConfig::new(Mode::Cgm, 5);
+    night.features.cgm_basal_window_min = Some([0, 420]);
+    let (s_whole, _) = final_settings_with(whole, toy, 25);
+    let (s_night, d) = final_settings_with(night.clone(), toy, 25);
+    println!(
+        "basal: whole day {}, night {}",
+        s_whole.basal.0, s_night.basal.0
+    );
+    assert!(s_whole.basal.0 > 1.04, "whole day: {}", s_whole.basal.0);
+    assert!(
+        (s_night.basal.0 - 1.0).abs() < 0.03,
+        "night: {}",
+        s_night.basal.0
+    );
+    // Both still give the meals more insulin.
+    assert!(
+        s_night.carb_ratio.iter().all(|cr| cr.0 < 9.9),
+        "{s_night:?}"
+    );
+    // Each basal decision names the night as its window: 84 five-minute
+    // readings from 00:00 to 07:00 of the closed day.
+    let basal: Vec<_> = d
+        .iter()
+        .filter(|x| x.parameter == Parameter::Basal)
+        .collect();
+    assert!(basal.len() >= 15);
+    for x in basal {
+        let e = explanation(x);
+        let day = e.window_start.day_index();
+        assert_eq!(
+            (e.window_start, e.window_end),
+            (t(day, 0), t(day, 420)),
+            "{x}"
+        );
+        assert_eq!(e.window.n, 84, "{x}");
+    }
+    // SMBG mode reads its four readings a day as before.
+    let mut smbg = AbbaConfig::new(Mode::Smbg, 5);
+    smbg.features.cgm_basal_window_min = Some([0, 420]);
+    let (_, d) = final_settings_with(smbg, toy, 12);
+    let x = d.iter().find(|x| x.parameter == Parameter::Basal).unwrap();
+    assert_eq!(explanation(x).window.n, 4);
+    // A window that is not part of a day is refused by name.
+    for bad in [[420, 0], [-60, 420], [0, 1441], [300, 300]] {
+        let mut c = AbbaConfig::new(Mode::Cgm, 5);
+        c.features.cgm_basal_window_min = Some(bad);
+        let e = Abba::new(c, start()).unwrap_err().to_string();
+        assert!(e.contains("features.cgm_basal_window_min"), "{e}");
+    }
+    // The data rule holds the night to its coverage: a night with readings
+    // only until 03:00 (36 of 84) is too little, though its day has 252
+    // of 288 readings (more than 70 %).
+    let mut recorder = Abba::new(night.clone(), start()).unwrap();
+    let events = toy.run(&mut recorder, Mode::Cgm, 1, 12, 7);
+    let gap_day = 10;
+    let mut a = Abba::new(night, start())
+        .unwrap()
+        .with_min_data(abba_advisor::MinData::default());
+    for e in events.iter().filter(|e| {
+        !(matches!(e.kind, EventKind::Cgm(_))
+            && e.at.day_index() == gap_day
+            && (180..420).contains(&e.at.minute_of_day()))
+    }) {
+        a.observe(e).unwrap();
+    }
+    let d = a.take_decisions();
+    let skipped = d
+        .iter()
+        .find(|x| x.parameter == Parameter::Basal && x.at == t(gap_day + 1, 0))
+        .unwrap();
+    assert!(
+        matches!(
+            skipped.detail,
+            DecisionDetail::Skipped {
+                reason: SkipReason::TooFewReadings {
+                    n: 36,
+                    required: 58
+                }
+            }
+        ),
+        "{skipped}"
+    );
+}

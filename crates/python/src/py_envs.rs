@@ -519,7 +519,7 @@ impl MinuteBatch {
 /// Kovatchev's risk of one glucose value (mg/dL), LBGI + HBGI as
 /// simglucose's `risk_index([bg], 1)` (and `abba.envs.risk_index`).
 fn risk(bg_mg_dl: f64) -> f64 {
-    let f = 1.509 * (bg_mg_dl.max(1e-9).ln().powf(1.084) - 5.381);
+    let f = 1.509 * ((1.084 * bg_mg_dl.max(1e-9).ln().ln()).exp() - 5.381);
     10.0 * f * f
 }
 

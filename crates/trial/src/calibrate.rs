@@ -60,7 +60,17 @@ pub enum Knob {
     R2rBasalGain,
     /// Run-to-run carb-ratio gain `r2r.cir_gain`.
     R2rCarbGain,
+    /// The hours of the day the basal agent judges in CGM mode
+    /// `features.cgm_basal_window_min`: 0 = the whole day (the seed), 1 =
+    /// 00:00-07:00, 2 = 02:00-07:00 (the night before breakfast;
+    /// benches/diagnosis, children in CGM mode). Not in the default grid:
+    /// on the adult training cohort it keeps the whole day (the
+    /// diagnosis), so the recorded calibration stands; a spec may add it.
+    CgmBasalWindow,
 }
+
+/// The windows of [`Knob::CgmBasalWindow`], by value.
+const CGM_BASAL_WINDOWS: [Option<[i64; 2]>; 3] = [None, Some([0, 420]), Some([120, 420])];
 
 impl Knob {
     /// The configuration path the knob sets.
@@ -80,6 +90,9 @@ impl Knob {
             Knob::ActorStep => "abba.actor.natural_beta",
             Knob::R2rBasalGain => "r2r.basal_gain",
             Knob::R2rCarbGain => "r2r.cir_gain",
+            Knob::CgmBasalWindow => {
+                "abba.features.cgm_basal_window_min (0 = whole day, 1 = 00:00-07:00, 2 = 02:00-07:00)"
+            }
         }
     }
 
@@ -109,6 +122,10 @@ impl Knob {
             Knob::ActorStep => c.abba.actor.natural_beta,
             Knob::R2rBasalGain => c.r2r.basal_gain,
             Knob::R2rCarbGain => c.r2r.cir_gain,
+            Knob::CgmBasalWindow => CGM_BASAL_WINDOWS
+                .iter()
+                .position(|w| *w == c.abba.features.cgm_basal_window_min)
+                .map_or(f64::NAN, |i| i as f64),
         }
     }
 
@@ -153,6 +170,10 @@ impl Knob {
             Knob::ActorStep => c.abba.actor.natural_beta = v,
             Knob::R2rBasalGain => c.r2r.basal_gain = v,
             Knob::R2rCarbGain => c.r2r.cir_gain = v,
+            Knob::CgmBasalWindow => {
+                let i = (v.round().max(0.0) as usize).min(CGM_BASAL_WINDOWS.len() - 1);
+                c.abba.features.cgm_basal_window_min = CGM_BASAL_WINDOWS[i];
+            }
         }
     }
 }
@@ -738,6 +759,11 @@ mod tests {
         for v in [0.0, 1.0] {
             Knob::SmbgExcursion.set(&mut c, v);
             assert_eq!(Knob::SmbgExcursion.get(&c), v);
+        }
+        for (v, w) in [(1.0, Some([0, 420])), (2.0, Some([120, 420])), (0.0, None)] {
+            Knob::CgmBasalWindow.set(&mut c, v);
+            assert_eq!(Knob::CgmBasalWindow.get(&c), v);
+            assert_eq!(c.abba.features.cgm_basal_window_min, w);
         }
         assert_eq!(c.abba.features.smbg_excursion, Excursion::TimeAveraged);
         for (k, v) in [

@@ -1,6 +1,7 @@
 //! Nightscout API JSON as downloaded (newest first): `entries.json` (`sgv`,
 //! `mbg`, `cal`), `treatments.json` (boluses, carbs, temporary basals,
-//! suspend/resume, everything else counted by `eventType`) and
+//! suspend/resume, everything else counted by `eventType`; a document
+//! marked `isValid: false` counted, see [`is_valid`]) and
 //! `profile.json` (basal schedule in U/h, `timezone`, `units`). Entries
 //! store glucose in mg/dL whatever the display unit; a treatment's
 //! `glucose` (BG Check) says its unit in `units`.
@@ -38,7 +39,14 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
             Some(other) => return Err(item.err("_id", format!("expected a string, got {other}"))),
         };
         let version = modified(&item)?;
-        let kinds = if item.get("store").is_some() {
+        let kinds = if !is_valid(&item)? {
+            vec![RecordKind::Ignored {
+                kind: format!(
+                    "{} marked isValid: false (deleted where it was written)",
+                    item.str("eventType")?.unwrap_or("record")
+                ),
+            }]
+        } else if item.get("store").is_some() {
             vec![profile(&item)?]
         } else if let Some(event) = item.str("eventType")? {
             treatment(ctx, &item, event)?
@@ -64,6 +72,22 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     check_error_codes(ctx.file, &out)?;
     latest_versions(ctx, &mut out, &versions);
     Ok(out)
+}
+
+/// A document's `isValid` (true when absent). AndroidAPS never deletes a
+/// document it uploaded: a treatment deleted in AndroidAPS is sent again
+/// with `isValid: false` (NSClient: `nsUpdate` of the record's JSON, which
+/// carries `isValid`, `plugins/sync/.../nsclient/DataSyncSelectorV1.kt`
+/// and `nsclient/extensions/*Extension.kt` `toJson`; NSClientV3: the
+/// `isValid` of `core/nssdk/.../mapper/TreatmentMapper.kt`), and
+/// Nightscout's API v3 deletes by the same mark; API v1 still lists such
+/// documents. They did not happen: counted, not read.
+fn is_valid(item: &Item<'_>) -> Result<bool, IoError> {
+    match item.get("isValid") {
+        None | Some(Value::Bool(true)) => Ok(true),
+        Some(Value::Bool(false)) => Ok(false),
+        Some(other) => Err(item.err("isValid", format!("expected true or false, got {other}"))),
+    }
 }
 
 /// A document's version stamp: `srvModified` (Nightscout API v3, ms) or
@@ -319,6 +343,30 @@ fn entry(item: &Item<'_>) -> Result<RecordKind, IoError> {
     })
 }
 
+/// A treatment's duration in minutes: `durationInMilliseconds` to the
+/// nearest minute when given, else `duration` (minutes). AndroidAPS
+/// writes both and its `duration` is the milliseconds cut down to whole
+/// minutes (`T.msecs(duration).mins()`, "rounded duration leads to
+/// different basal IOB": `plugins/sync/.../nsclient/extensions/
+/// TemporaryBasalExtension.kt`); AndroidAPS reads the milliseconds first
+/// (`temporaryBasalFromJson`), so does abba.
+fn duration(item: &Item<'_>) -> Result<Option<u32>, IoError> {
+    match item.num("durationInMilliseconds")? {
+        None => minutes(item, "duration"),
+        Some(ms) => Ok(Some(
+            check_range(
+                &item.at("durationInMilliseconds"),
+                "durationInMilliseconds",
+                ms / 60_000.0,
+                0.0,
+                units::DURATION_MAX_MIN,
+                "duration (min, from milliseconds)",
+            )?
+            .round() as u32,
+        )),
+    }
+}
+
 fn minutes(item: &Item<'_>, field: &str) -> Result<Option<u32>, IoError> {
     match item.num(field)? {
         None => Ok(None),
@@ -350,7 +398,7 @@ fn treatment(ctx: &Ctx<'_>, item: &Item<'_>, event: &str) -> Result<Vec<RecordKi
         }
         "Temp Basal" => kinds.push(temp_basal(item)?),
         "Suspend Pump" | "Pump Suspend" => kinds.push(RecordKind::Suspend {
-            duration_min: minutes(item, "duration")?,
+            duration_min: duration(item)?,
         }),
         "Resume Pump" | "Pump Resume" => kinds.push(RecordKind::Resume),
         "Profile Switch" => kinds.push(profile_switch(item)?),
@@ -408,7 +456,7 @@ fn carbs(item: &Item<'_>) -> Result<Option<RecordKind>, IoError> {
 /// the part given now, `relative` the extended part's rate (U/h).
 fn combo_bolus(item: &Item<'_>) -> Result<RecordKind, IoError> {
     let now = item.num("insulin")?.unwrap_or(0.0);
-    let duration = minutes(item, "duration")?.unwrap_or(0);
+    let duration = duration(item)?.unwrap_or(0);
     let ext = match (item.num("enteredinsulin")?, item.num("relative")?) {
         (Some(total), _) => (total - now).max(0.0),
         (None, Some(rate)) => rate * f64::from(duration) / 60.0,
@@ -433,38 +481,77 @@ fn combo_bolus(item: &Item<'_>) -> Result<RecordKind, IoError> {
     })
 }
 
-/// A Temp Basal: `absolute` or `rate` in U/h, else `percent` as a change
-/// (Nightscout's -50 is half the scheduled rate); a `rate` alone above any
-/// basal rate is counted, not read.
+/// A Temp Basal, read as Nightscout itself and AndroidAPS read it
+/// (`getTempBasal` in cgm-remote-monitor's `lib/profilefunctions.js`,
+/// `temporaryBasalFromJson` in AndroidAPS's `plugins/sync/.../nsclient/
+/// extensions/TemporaryBasalExtension.kt`): `absolute` (U/h) when given,
+/// else `percent`, a change (-50 is half the scheduled rate, -100 none).
+///
+/// `rate` beside them is never read. AndroidAPS writes it for OpenAPS's
+/// sake as its own conversion to U/h (`convertedToAbsolute`: its profile's
+/// rate at the start times the percentage, `toNSTemporaryBasal` in
+/// `nsclientV3/extensions/TemporaryBasalExtension.kt`), which abba cannot
+/// check; and its 3.0 development builds of April-December 2021 wrote the
+/// percentage itself there (commits 2463f8fc47 to 682628e845). So a
+/// percent temp basal is never read as U/h. `rate` alone (Nightscout's API
+/// v1 drops a `percent` of 0, `deleteIfEmpty` in `lib/server/treatments.js`,
+/// leaving AndroidAPS's `rate`) is U/h up to any basal rate and counted
+/// above it, as a percentage it may be.
+///
+/// AndroidAPS's `type`: `PUMP_SUSPEND` (suspended on the pump) and
+/// `EMULATED_PUMP_SUSPEND` (AndroidAPS's own zero temp basal for a
+/// suspension, `LoopPlugin.kt`; `PumpSync.TemporaryBasalType`) are a
+/// suspension for the duration; `SUPERBOLUS` and `NORMAL` are temp basals.
+/// `FAKE_EXTENDED` with `extendedEmulated` is an extended bolus AndroidAPS
+/// ran in place of a high temp basal (`EB.toTemporaryBasal`: `absolute` =
+/// the scheduled rate + the extended bolus's rate): read as that temp
+/// basal, and the Combo Bolus nested in `extendedEmulated` is the same
+/// insulin, not read again (AndroidAPS uploads that extended bolus only
+/// this way, `toNSExtendedBolus` in `nsclientV3/extensions/
+/// ExtendedBolusExtension.kt`).
 fn temp_basal(item: &Item<'_>) -> Result<RecordKind, IoError> {
-    let duration = minutes(item, "duration")?.unwrap_or(0);
+    let duration = duration(item)?.unwrap_or(0);
     let absolute = |field: &str, r: f64| {
         in_range(item, field, r, units::BASAL_MAX_U_PER_H, "basal rate (U/h)")
             .map(|r| TempRate::Absolute(UnitsPerHour(r)))
     };
-    let rate = match (
+    let (abs, percent, rate) = (
         item.num("absolute")?,
-        item.num("rate")?,
         item.num("percent")?,
-    ) {
+        item.num("rate")?,
+    );
+    if let Some(t @ ("PUMP_SUSPEND" | "EMULATED_PUMP_SUSPEND")) = item.str("type")? {
+        let zero = match (abs, percent, rate) {
+            (Some(a), _, _) => a == 0.0,
+            (None, Some(p), _) => p == -100.0,
+            (None, None, r) => r == Some(0.0),
+        };
+        return Ok(if zero {
+            RecordKind::Suspend {
+                duration_min: Some(duration),
+            }
+        } else {
+            RecordKind::Ignored {
+                kind: format!("Temp Basal of type {t} with a rate above zero"),
+            }
+        });
+    }
+    let rate = match (abs, percent, rate) {
         (Some(r), _, _) => absolute("absolute", r)?,
-        // `rate` alone above any basal rate: not U/h (Nightscout's
-        // captured AndroidAPS treatments hold 0-340 there, percentages by
-        // their look): counted as not read, the rest of the file kept.
-        (None, Some(r), None) if r.is_finite() && r > units::BASAL_MAX_U_PER_H => {
-            return Ok(RecordKind::Ignored {
-                kind: "Temp Basal with only a rate above any basal rate (U/h or a percentage?)"
-                    .into(),
-            })
-        }
-        (None, Some(r), _) => absolute("rate", r)?,
-        (None, None, Some(p)) => TempRate::Percent(in_range(
+        (None, Some(p), _) => TempRate::Percent(in_range(
             item,
             "percent",
             100.0 + p,
             units::PERCENT_MAX,
             "percentage of the scheduled rate",
         )?),
+        (None, None, Some(r)) if r > units::BASAL_MAX_U_PER_H => {
+            return Ok(RecordKind::Ignored {
+                kind: "Temp Basal with only a rate above any basal rate (U/h or a percentage?)"
+                    .into(),
+            })
+        }
+        (None, None, Some(r)) => absolute("rate", r)?,
         (None, None, None) => {
             return Err(item.err("absolute", "a Temp Basal needs absolute, rate or percent"))
         }

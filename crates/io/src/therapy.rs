@@ -17,6 +17,18 @@
 //! at its midnight; a slot without a wizard event (name the carb ratios
 //! with `--carb-ratio` then); a wizard ratio not in g/U (exchanges).
 //!
+//! A CareLink export that shows SmartGuard auto mode (any `Bolus Source`
+//! `CLOSED_LOOP_*` row with a delivered volume, or the "Aggregated Auto
+//! Insulin Data" totals: [`crate::read::carelink::auto_mode`]) gives no
+//! basal schedule: in auto mode the 670G/770G/780G deliver auto basal
+//! (`CLOSED_LOOP_AUTO_BASAL` micro-boluses) and the manual-mode basal
+//! patterns are not active (Tidepool's uploader makes an empty "Auto Mode"
+//! pattern the active one then: tidepool-org/uploader pull request 583,
+//! `lib/drivers/medtronic600/NGPHistoryParser.js` `buildSettingsRecords`);
+//! the `Basal Rate` rows are the manual pattern the pump falls back to,
+//! not what it ran. The whole export is refused for the basal: abba reads
+//! no time of leaving auto mode from its rows.
+//!
 //! A schedule record without carb ratios (Tidepool's delivered scheduled
 //! basal) says what was delivered, not what the settings are: it is not a
 //! settings profile here.
@@ -303,6 +315,18 @@ pub fn carelink_settings(
         )
     })?;
     let rows = crate::read::carelink_settings_rows(file, bytes, opts)?;
+    let auto = crate::read::carelink::auto_mode(bytes);
+    let auto_rows = auto.auto_mode_boluses + auto.automatic_doses + auto.auto_insulin_totals;
+    if auto_rows > 0 {
+        return Ok(Err(format!(
+            "{file}: the pump ran SmartGuard auto mode ({auto_rows} rows with Bolus Source \
+             CLOSED_LOOP_*{}): in auto mode it does not deliver the \"Basal Rate (U/h)\" \
+             rows' manual-mode pattern but auto basal of its own, so they are not read as the \
+             basal schedule; abba was not designed for a closed loop and gives it no basal \
+             advice (an export of a period in manual mode only can be read)",
+            auto.device.map_or(String::new(), |d| format!(", {d}"))
+        )));
+    }
     let (Some(end), Some(_)) = (rows.end, rows.basal.first()) else {
         return Ok(Err(format!(
             "{file}: no \"Basal Rate (U/h)\" rows (the pump's scheduled basal rate is not in the export)"

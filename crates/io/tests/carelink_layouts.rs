@@ -265,3 +265,29 @@ fn a_meal_marker_of_one_gram_is_a_meal_without_its_amount() {
     // The empty second Pump section is skipped, the sensor read.
     assert_eq!(b.count("cgm"), 24);
 }
+
+#[test]
+fn therapy_from_a_smartguard_export_refuses_the_basal_rate_rows() {
+    // In auto mode the Basal Rate rows are the manual pattern the pump
+    // did not run: no basal schedule from them, and the reason given.
+    let meals = abba_io::meals::MealWindows::default();
+    let why = abba_io::therapy::carelink_settings(
+        SMARTGUARD,
+        &fixture(SMARTGUARD),
+        &opts(BERLIN),
+        &meals,
+    )
+    .unwrap()
+    .unwrap_err();
+    assert!(why.contains("SmartGuard auto mode"), "{why}");
+    assert!(why.contains("not designed for a closed loop"), "{why}");
+    let e = abba_io::therapy::therapy_from_contents(
+        &[(SMARTGUARD.to_string(), fixture(SMARTGUARD))],
+        &opts(BERLIN),
+        &meals,
+        Some([10.0, 12.0, 12.0]),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("SmartGuard auto mode"), "{e}");
+}

@@ -10,6 +10,7 @@
 mod common;
 
 // One module per test file.
+mod aaps;
 mod boundary;
 mod carelink_layouts;
 mod dst;

@@ -247,6 +247,9 @@ fn nightscout_date_in_seconds_is_refused() {
     assert!(err.contains("looks like seconds"), "{err}");
 }
 
+/// A schedule record: its instant, basal and carb-ratio segments.
+type Sched = (String, Vec<(u32, f64)>, Vec<(u32, f64)>);
+
 #[test]
 fn nightscout_profile_switch_percentage_temporary_and_timeshift() {
     let profile = r#"{\"basal\":[{\"time\":\"00:00\",\"value\":1.0},{\"time\":\"12:00\",\"value\":0.5}],\"carbratio\":[{\"time\":\"00:00\",\"value\":10}]}"#;
@@ -258,33 +261,97 @@ fn nightscout_profile_switch_percentage_temporary_and_timeshift() {
 ]"#
     );
     let b = read(&[("t.json", treatments.into())], &opts("UTC")).unwrap();
-    let schedules: Vec<_> = b
+    let schedules: Vec<Sched> = b
         .records
         .iter()
         .filter_map(|r| match &r.kind {
-            RecordKind::Schedule { profile } => Some(profile.clone()),
+            RecordKind::Schedule { profile } => Some((
+                r.at.to_string(),
+                profile
+                    .basal
+                    .segments
+                    .iter()
+                    .map(|s| (s.0, s.1 .0))
+                    .collect(),
+                profile.carb_ratio.iter().map(|s| (s.0, s.1 .0)).collect(),
+            )),
             _ => None,
         })
         .collect();
-    assert_eq!(schedules.len(), 1);
-    let rates: Vec<f64> = schedules[0].basal.segments.iter().map(|s| s.1 .0).collect();
-    assert_eq!(rates, vec![0.8, 0.4]);
-    assert_eq!(schedules[0].carb_ratio[0].1 .0, 12.5);
-    let ignored: Vec<&str> = b
-        .records
-        .iter()
-        .filter_map(|r| match &r.kind {
-            RecordKind::Ignored { kind } => Some(kind.as_str()),
-            _ => None,
-        })
-        .collect();
+    let s = |at: &str, basal: &[(u32, f64)], cr: &[(u32, f64)]| {
+        (at.to_string(), basal.to_vec(), cr.to_vec())
+    };
     assert_eq!(
-        ignored,
-        [
-            "Profile Switch, temporary (duration > 0)",
-            "Profile Switch with a timeshift"
+        schedules,
+        vec![
+            // 80 %: basal ×0.8, carb ratio ÷0.8.
+            s(
+                "2024-03-04T00:00:00Z",
+                &[(0, 0.8), (720, 0.4)],
+                &[(0, 12.5)]
+            ),
+            // 150 % for two hours, then the permanent 80 % again.
+            s(
+                "2024-03-05T00:00:00Z",
+                &[(0, 1.5), (720, 0.75)],
+                &[(0, 10.0 / 1.5)]
+            ),
+            s(
+                "2024-03-05T02:00:00Z",
+                &[(0, 0.8), (720, 0.4)],
+                &[(0, 12.5)]
+            ),
+            // Shifted 2 h later: 00:00-02:00 has the profile's 22:00-24:00.
+            s(
+                "2024-03-06T00:00:00Z",
+                &[(0, 0.5), (120, 1.0), (840, 0.5)],
+                &[(0, 10.0)]
+            ),
         ]
     );
+    assert_eq!(b.count("ignored"), 0);
+}
+
+#[test]
+fn nightscout_profile_switch_timeshift_in_hours_or_androidaps_milliseconds() {
+    let profile =
+        r#"{\"basal\":[{\"time\":\"00:00\",\"value\":1.0},{\"time\":\"06:00\",\"value\":2.0}]}"#;
+    let one = |shift: &str| {
+        let t = format!(
+            r#"[{{"_id":"p","eventType":"Profile Switch","created_at":"2024-03-04T00:00:00Z","profile":"A","percentage":100,"timeshift":{shift},"duration":0,"profileJson":"{profile}"}}]"#
+        );
+        read(&[("t.json", t.into())], &opts("UTC")).map(|b| match &b.records[0].kind {
+            RecordKind::Schedule { profile } => profile
+                .basal
+                .segments
+                .iter()
+                .map(|s| (s.0, s.1 .0))
+                .collect::<Vec<_>>(),
+            other => panic!("{other:?}"),
+        })
+    };
+    // AndroidAPS 3.2+ writes -1 h as -3600000; older versions as -1.
+    // The profile's 06:00-24:00 at 2.0 runs 05:00-23:00.
+    let earlier = vec![(0, 1.0), (300, 2.0), (1380, 1.0)];
+    assert_eq!(one("-3600000").unwrap(), earlier);
+    assert_eq!(one("-1").unwrap(), earlier);
+    let e = one("90").unwrap_err().to_string();
+    assert!(e.contains("timeshift"), "{e}");
+}
+
+#[test]
+fn a_temporary_switch_with_no_permanent_one_before_it_is_counted() {
+    let profile = r#"{\"basal\":[{\"time\":\"00:00\",\"value\":1.0}]}"#;
+    let t = format!(
+        r#"[
+ {{"_id":"b","eventType":"Correction Bolus","created_at":"2024-03-05T08:00:00Z","insulin":1}},
+ {{"_id":"p","eventType":"Profile Switch","created_at":"2024-03-05T00:00:00Z","profile":"A","percentage":50,"duration":60,"profileJson":"{profile}"}}
+]"#
+    );
+    let b = read(&[("t.json", t.into())], &opts("UTC")).unwrap();
+    assert_eq!(b.count("basal_schedule"), 0);
+    assert!(b.records.iter().any(|r| matches!(&r.kind,
+        RecordKind::Ignored { kind } if kind.starts_with("Profile Switch, temporary, and the file holds no permanent switch"))));
 }
 
 #[test]

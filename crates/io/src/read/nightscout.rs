@@ -1,6 +1,7 @@
 //! Nightscout API JSON as downloaded (newest first): `entries.json` (`sgv`,
 //! `mbg`, `cal`), `treatments.json` (boluses, carbs, temporary basals,
-//! suspend/resume, everything else counted by `eventType`) and
+//! suspend/resume, everything else counted by `eventType`; a document
+//! marked `isValid: false` counted, see [`is_valid`]) and
 //! `profile.json` (basal schedule in U/h, `timezone`, `units`). Entries
 //! store glucose in mg/dL whatever the display unit; a treatment's
 //! `glucose` (BG Check) says its unit in `units`.
@@ -24,6 +25,7 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     let items = parse_array(ctx.file, bytes)?;
     let mut out = Vec::with_capacity(items.len());
     let mut versions: Vec<Option<f64>> = Vec::with_capacity(items.len());
+    let mut switches: Vec<Switch> = Vec::new();
     for item in objects(ctx.file, &items)? {
         let at = instant(&item)?;
         // `_id` is a string from the API, `{"$oid": ...}` from a MongoDB dump.
@@ -38,13 +40,28 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
             Some(other) => return Err(item.err("_id", format!("expected a string, got {other}"))),
         };
         let version = modified(&item)?;
-        let kinds = if item.get("store").is_some() {
+        let kinds = if !is_valid(&item)? {
+            vec![RecordKind::Ignored {
+                kind: format!(
+                    "{} marked isValid: false (deleted where it was written)",
+                    item.str("eventType")?.unwrap_or("record")
+                ),
+            }]
+        } else if item.get("store").is_some() {
             vec![profile(&item)?]
         } else if let Some(event) = item.str("eventType")? {
             treatment(ctx, &item, event)?
         } else {
             vec![entry(&item)?]
         };
+        if item.str("eventType")? == Some("Profile Switch")
+            && matches!(kinds.first(), Some(RecordKind::Schedule { .. }))
+        {
+            switches.push(Switch {
+                record: out.len(),
+                minutes: switch_minutes(&item)?,
+            });
+        }
         for (n, kind) in kinds.into_iter().enumerate() {
             let id = match (&id, n) {
                 (SourceId::Id(s), 0) => SourceId::Id(s.clone()),
@@ -62,8 +79,142 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
         }
     }
     check_error_codes(ctx.file, &out)?;
+    temporary_switches(&mut out, &mut versions, &switches);
     latest_versions(ctx, &mut out, &versions);
     Ok(out)
+}
+
+/// A Profile Switch read as a schedule: its record's index and its
+/// duration (0: until the next switch).
+struct Switch {
+    record: usize,
+    minutes: u32,
+}
+
+/// A Profile Switch's duration in minutes, as AndroidAPS reads it back
+/// (`PS.fromJson` in `plugins/sync/.../nsclient/extensions/
+/// ProfileSwitchExtension.kt`: `originalDuration` in ms, else `duration`
+/// in minutes; NSClientV3 writes `durationInMilliseconds`).
+fn switch_minutes(item: &Item<'_>) -> Result<u32, IoError> {
+    if item.get("durationInMilliseconds").is_none() {
+        if let Some(ms) = item.num("originalDuration")? {
+            return Ok(check_range(
+                &item.at("originalDuration"),
+                "originalDuration",
+                ms / 60_000.0,
+                0.0,
+                units::DURATION_MAX_MIN * 365.0,
+                "duration (min, from milliseconds)",
+            )?
+            .round() as u32);
+        }
+    }
+    Ok(match item.num("durationInMilliseconds")? {
+        Some(_) => duration(item)?.unwrap_or(0),
+        None => match item.num("duration")? {
+            None => 0,
+            Some(d) => check_range(
+                &item.at("duration"),
+                "duration",
+                d,
+                0.0,
+                units::DURATION_MAX_MIN * 365.0,
+                "duration (min)",
+            )?
+            .round() as u32,
+        },
+    })
+}
+
+/// A temporary Profile Switch (a duration above 0) is in force from its
+/// start until its end or the next switch, whichever is first; then
+/// AndroidAPS runs the latest permanent switch again
+/// (`getProfileSwitchActiveAt` in `database/impl/.../AppRepository.kt`:
+/// the temporary switch active at the time, else the latest permanent
+/// one, the later of the two). So at the end of a temporary switch that
+/// no other switch cut short, and that ends within the file's records, a
+/// schedule record (id `<_id>#end`) brings back the latest permanent
+/// switch before it. When the file holds no permanent switch before it,
+/// what the pump returned to is not known: the temporary switch is
+/// counted, not read (its profile would stay in force for good).
+fn temporary_switches(out: &mut Vec<Record>, versions: &mut Vec<Option<f64>>, switches: &[Switch]) {
+    let Some(last) = out.iter().map(|r| r.at).max() else {
+        return;
+    };
+    // One version of each switch: the one `latest_versions` keeps.
+    let mut latest: std::collections::HashMap<&SourceId, &Switch> =
+        std::collections::HashMap::new();
+    for s in switches {
+        let e = latest.entry(&out[s.record].id).or_insert(s);
+        let newer = match (versions[e.record], versions[s.record]) {
+            (Some(a), Some(b)) => b >= a,
+            (Some(_), None) => false,
+            _ => true,
+        };
+        if newer {
+            *e = s;
+        }
+    }
+    let mut kept: Vec<&Switch> = latest.into_values().collect();
+    kept.sort_by_key(|s| (out[s.record].at, s.record));
+    let mut ends = Vec::new();
+    let mut unknown = Vec::new();
+    for (i, s) in kept.iter().enumerate() {
+        if s.minutes == 0 {
+            continue;
+        }
+        let start = out[s.record].at;
+        let end = start
+            .checked_add(jiff::SignedDuration::from_mins(i64::from(s.minutes)))
+            .unwrap_or(jiff::Timestamp::MAX);
+        let cut_short = kept
+            .get(i + 1)
+            .is_some_and(|next| out[next.record].at < end);
+        if cut_short || end > last {
+            continue;
+        }
+        match kept[..i].iter().rev().find(|p| p.minutes == 0) {
+            Some(p) => ends.push((s.record, end, out[p.record].kind.clone())),
+            None => unknown.push(s.record),
+        }
+    }
+    for i in unknown {
+        out[i].kind = RecordKind::Ignored {
+            kind: "Profile Switch, temporary, and the file holds no permanent switch before it \
+                   (what the pump returned to is not known)"
+                .into(),
+        };
+    }
+    for (i, end, kind) in ends {
+        let id = match &out[i].id {
+            SourceId::Id(s) => SourceId::Id(format!("{s}#end").into()),
+            SourceId::Hash(_) => content_id(Source::Nightscout, end, &kind),
+        };
+        versions.push(versions[i]);
+        out.push(Record {
+            at: end,
+            kind,
+            source: Source::Nightscout,
+            id,
+            origin: out[i].origin,
+        });
+    }
+}
+
+/// A document's `isValid` (true when absent). AndroidAPS never deletes a
+/// document it uploaded: a treatment deleted in AndroidAPS is sent again
+/// with `isValid: false` (NSClient: `nsUpdate` of the record's JSON, which
+/// carries `isValid`, `plugins/sync/.../nsclient/DataSyncSelectorV1.kt`
+/// and `nsclient/extensions/*Extension.kt` `toJson`; NSClientV3: the
+/// `isValid` of `core/nssdk/.../mapper/TreatmentMapper.kt`), and
+/// Nightscout's API v3 deletes by the same mark; API v1 still lists such
+/// documents. They did not happen: counted, not read.
+fn is_valid(item: &Item<'_>) -> Result<bool, IoError> {
+    match item.get("isValid") {
+        None | Some(Value::Bool(true)) => Ok(true),
+        Some(Value::Bool(false)) => Ok(false),
+        Some(other) => Err(item.err("isValid", format!("expected true or false, got {other}"))),
+    }
 }
 
 /// A document's version stamp: `srvModified` (Nightscout API v3, ms) or
@@ -319,6 +470,30 @@ fn entry(item: &Item<'_>) -> Result<RecordKind, IoError> {
     })
 }
 
+/// A treatment's duration in minutes: `durationInMilliseconds` to the
+/// nearest minute when given, else `duration` (minutes). AndroidAPS
+/// writes both and its `duration` is the milliseconds cut down to whole
+/// minutes (`T.msecs(duration).mins()`, "rounded duration leads to
+/// different basal IOB": `plugins/sync/.../nsclient/extensions/
+/// TemporaryBasalExtension.kt`); AndroidAPS reads the milliseconds first
+/// (`temporaryBasalFromJson`), so does abba.
+fn duration(item: &Item<'_>) -> Result<Option<u32>, IoError> {
+    match item.num("durationInMilliseconds")? {
+        None => minutes(item, "duration"),
+        Some(ms) => Ok(Some(
+            check_range(
+                &item.at("durationInMilliseconds"),
+                "durationInMilliseconds",
+                ms / 60_000.0,
+                0.0,
+                units::DURATION_MAX_MIN,
+                "duration (min, from milliseconds)",
+            )?
+            .round() as u32,
+        )),
+    }
+}
+
 fn minutes(item: &Item<'_>, field: &str) -> Result<Option<u32>, IoError> {
     match item.num(field)? {
         None => Ok(None),
@@ -350,7 +525,7 @@ fn treatment(ctx: &Ctx<'_>, item: &Item<'_>, event: &str) -> Result<Vec<RecordKi
         }
         "Temp Basal" => kinds.push(temp_basal(item)?),
         "Suspend Pump" | "Pump Suspend" => kinds.push(RecordKind::Suspend {
-            duration_min: minutes(item, "duration")?,
+            duration_min: duration(item)?,
         }),
         "Resume Pump" | "Pump Resume" => kinds.push(RecordKind::Resume),
         "Profile Switch" => kinds.push(profile_switch(item)?),
@@ -408,7 +583,7 @@ fn carbs(item: &Item<'_>) -> Result<Option<RecordKind>, IoError> {
 /// the part given now, `relative` the extended part's rate (U/h).
 fn combo_bolus(item: &Item<'_>) -> Result<RecordKind, IoError> {
     let now = item.num("insulin")?.unwrap_or(0.0);
-    let duration = minutes(item, "duration")?.unwrap_or(0);
+    let duration = duration(item)?.unwrap_or(0);
     let ext = match (item.num("enteredinsulin")?, item.num("relative")?) {
         (Some(total), _) => (total - now).max(0.0),
         (None, Some(rate)) => rate * f64::from(duration) / 60.0,
@@ -433,38 +608,77 @@ fn combo_bolus(item: &Item<'_>) -> Result<RecordKind, IoError> {
     })
 }
 
-/// A Temp Basal: `absolute` or `rate` in U/h, else `percent` as a change
-/// (Nightscout's -50 is half the scheduled rate); a `rate` alone above any
-/// basal rate is counted, not read.
+/// A Temp Basal, read as Nightscout itself and AndroidAPS read it
+/// (`getTempBasal` in cgm-remote-monitor's `lib/profilefunctions.js`,
+/// `temporaryBasalFromJson` in AndroidAPS's `plugins/sync/.../nsclient/
+/// extensions/TemporaryBasalExtension.kt`): `absolute` (U/h) when given,
+/// else `percent`, a change (-50 is half the scheduled rate, -100 none).
+///
+/// `rate` beside them is never read. AndroidAPS writes it for OpenAPS's
+/// sake as its own conversion to U/h (`convertedToAbsolute`: its profile's
+/// rate at the start times the percentage, `toNSTemporaryBasal` in
+/// `nsclientV3/extensions/TemporaryBasalExtension.kt`), which abba cannot
+/// check; and its 3.0 development builds of April-December 2021 wrote the
+/// percentage itself there (commits 2463f8fc47 to 682628e845). So a
+/// percent temp basal is never read as U/h. `rate` alone (Nightscout's API
+/// v1 drops a `percent` of 0, `deleteIfEmpty` in `lib/server/treatments.js`,
+/// leaving AndroidAPS's `rate`) is U/h up to any basal rate and counted
+/// above it, as a percentage it may be.
+///
+/// AndroidAPS's `type`: `PUMP_SUSPEND` (suspended on the pump) and
+/// `EMULATED_PUMP_SUSPEND` (AndroidAPS's own zero temp basal for a
+/// suspension, `LoopPlugin.kt`; `PumpSync.TemporaryBasalType`) are a
+/// suspension for the duration; `SUPERBOLUS` and `NORMAL` are temp basals.
+/// `FAKE_EXTENDED` with `extendedEmulated` is an extended bolus AndroidAPS
+/// ran in place of a high temp basal (`EB.toTemporaryBasal`: `absolute` =
+/// the scheduled rate + the extended bolus's rate): read as that temp
+/// basal, and the Combo Bolus nested in `extendedEmulated` is the same
+/// insulin, not read again (AndroidAPS uploads that extended bolus only
+/// this way, `toNSExtendedBolus` in `nsclientV3/extensions/
+/// ExtendedBolusExtension.kt`).
 fn temp_basal(item: &Item<'_>) -> Result<RecordKind, IoError> {
-    let duration = minutes(item, "duration")?.unwrap_or(0);
+    let duration = duration(item)?.unwrap_or(0);
     let absolute = |field: &str, r: f64| {
         in_range(item, field, r, units::BASAL_MAX_U_PER_H, "basal rate (U/h)")
             .map(|r| TempRate::Absolute(UnitsPerHour(r)))
     };
-    let rate = match (
+    let (abs, percent, rate) = (
         item.num("absolute")?,
-        item.num("rate")?,
         item.num("percent")?,
-    ) {
+        item.num("rate")?,
+    );
+    if let Some(t @ ("PUMP_SUSPEND" | "EMULATED_PUMP_SUSPEND")) = item.str("type")? {
+        let zero = match (abs, percent, rate) {
+            (Some(a), _, _) => a == 0.0,
+            (None, Some(p), _) => p == -100.0,
+            (None, None, r) => r == Some(0.0),
+        };
+        return Ok(if zero {
+            RecordKind::Suspend {
+                duration_min: Some(duration),
+            }
+        } else {
+            RecordKind::Ignored {
+                kind: format!("Temp Basal of type {t} with a rate above zero"),
+            }
+        });
+    }
+    let rate = match (abs, percent, rate) {
         (Some(r), _, _) => absolute("absolute", r)?,
-        // `rate` alone above any basal rate: not U/h (Nightscout's
-        // captured AndroidAPS treatments hold 0-340 there, percentages by
-        // their look): counted as not read, the rest of the file kept.
-        (None, Some(r), None) if r.is_finite() && r > units::BASAL_MAX_U_PER_H => {
-            return Ok(RecordKind::Ignored {
-                kind: "Temp Basal with only a rate above any basal rate (U/h or a percentage?)"
-                    .into(),
-            })
-        }
-        (None, Some(r), _) => absolute("rate", r)?,
-        (None, None, Some(p)) => TempRate::Percent(in_range(
+        (None, Some(p), _) => TempRate::Percent(in_range(
             item,
             "percent",
             100.0 + p,
             units::PERCENT_MAX,
             "percentage of the scheduled rate",
         )?),
+        (None, None, Some(r)) if r > units::BASAL_MAX_U_PER_H => {
+            return Ok(RecordKind::Ignored {
+                kind: "Temp Basal with only a rate above any basal rate (U/h or a percentage?)"
+                    .into(),
+            })
+        }
+        (None, None, Some(r)) => absolute("rate", r)?,
         (None, None, None) => {
             return Err(item.err("absolute", "a Temp Basal needs absolute, rate or percent"))
         }
@@ -475,9 +689,17 @@ fn temp_basal(item: &Item<'_>) -> Result<RecordKind, IoError> {
     })
 }
 
-/// A Profile Switch with its profile embedded (`profileJson`), at its
-/// percentage; a temporary switch (it returns to the previous profile)
-/// or one with a timeshift is counted, and the schedule in force stays.
+/// A Profile Switch with its profile embedded (`profileJson`), as
+/// AndroidAPS runs it: `profileJson` is the profile as chosen, before the
+/// switch's `percentage` and `timeshift` (AndroidAPS resets both before
+/// writing it: `PS.toJson` in `plugins/sync/.../nsclient/extensions/
+/// ProfileSwitchExtension.kt`, `toNSProfileSwitch` in `nsclientV3/
+/// extensions/`), so both are applied here as AndroidAPS applies them
+/// (`ProfileSealed.kt`, `BlockExtension.kt`): basal rates times p/100,
+/// carb ratios (and ISF, which abba does not read) divided by p/100; the
+/// value at a local time t is the profile's at t − timeshift. Whether the
+/// switch is temporary is settled over the whole file
+/// ([`temporary_switches`]).
 fn profile_switch(item: &Item<'_>) -> Result<RecordKind, IoError> {
     let Some(text) = item.str("profileJson")? else {
         return Ok(RecordKind::Ignored {
@@ -494,8 +716,6 @@ fn profile_switch(item: &Item<'_>) -> Result<RecordKind, IoError> {
         index: item.index,
         obj: &obj,
     };
-    let duration = minutes(item, "duration")?.unwrap_or(0);
-    let shift = item.num("timeshift")?.unwrap_or(0.0);
     let percent = check_range(
         &item.at("percentage"),
         "percentage",
@@ -504,17 +724,79 @@ fn profile_switch(item: &Item<'_>) -> Result<RecordKind, IoError> {
         units::PERCENT_MAX,
         "profile percentage",
     )?;
-    Ok(if duration > 0 {
-        RecordKind::Ignored {
-            kind: "Profile Switch, temporary (duration > 0)".into(),
-        }
-    } else if shift != 0.0 {
-        RecordKind::Ignored {
-            kind: "Profile Switch with a timeshift".into(),
-        }
+    let shift = timeshift_hours(item)?;
+    Ok(shifted(
+        scaled(schedule_of(&inner, "profileJson")?, percent),
+        shift,
+    ))
+}
+
+/// A Profile Switch's `timeshift` in whole hours. AndroidAPS 2.x to 3.1
+/// wrote hours (`T.msecs(timeshift).hours()`, commit e48d317d55); from 3.2
+/// (commit 774ed51e1b) it writes its own value in milliseconds. A shift
+/// is a whole number of hours within a day either way, so the two never
+/// meet: a value within ±23 is hours, a multiple of 3 600 000 within ±23 h
+/// is milliseconds; anything else is refused.
+fn timeshift_hours(item: &Item<'_>) -> Result<i64, IoError> {
+    let Some(v) = item.num("timeshift")? else {
+        return Ok(0);
+    };
+    const HOUR_MS: f64 = 3_600_000.0;
+    if v.fract() == 0.0 && v.abs() <= 23.0 {
+        Ok(v as i64)
+    } else if (v / HOUR_MS).fract() == 0.0 && (v / HOUR_MS).abs() <= 23.0 {
+        Ok((v / HOUR_MS) as i64)
     } else {
-        scaled(schedule_of(&inner, "profileJson")?, percent)
-    })
+        Err(item.err(
+            "timeshift",
+            format!(
+                "expected whole hours within a day (-23..23, or in milliseconds a multiple of \
+                 3600000 as AndroidAPS 3.2 writes it), got {v}"
+            ),
+        ))
+    }
+}
+
+/// A time-of-day schedule moved `hours` later: the value at minute m is
+/// the one the schedule had at m − 60·hours (mod a day).
+fn shift_by<T: Copy + PartialEq>(segments: &[(u32, T)], hours: i64) -> Vec<(u32, T)> {
+    if hours == 0 || segments.is_empty() {
+        return segments.to_vec();
+    }
+    let by = (hours * 60).rem_euclid(1440) as u32;
+    let at = |m: u32| {
+        let src = (m + 1440 - by) % 1440;
+        segments
+            .iter()
+            .take_while(|s| s.0 <= src)
+            .last()
+            .unwrap_or(&segments[0])
+            .1
+    };
+    let mut starts: Vec<u32> = segments.iter().map(|s| (s.0 + by) % 1440).collect();
+    starts.push(0);
+    starts.sort_unstable();
+    starts.dedup();
+    let mut out: Vec<(u32, T)> = Vec::with_capacity(starts.len());
+    for m in starts {
+        let v = at(m);
+        if out.last().is_none_or(|l| l.1 != v) {
+            out.push((m, v));
+        }
+    }
+    out
+}
+
+/// A profile with its schedules shifted `hours` later ([`shift_by`]).
+fn shifted(kind: RecordKind, hours: i64) -> RecordKind {
+    match kind {
+        RecordKind::Schedule { mut profile } if hours != 0 => {
+            profile.basal.segments = shift_by(&profile.basal.segments, hours);
+            profile.carb_ratio = shift_by(&profile.carb_ratio, hours);
+            RecordKind::Schedule { profile }
+        }
+        other => other,
+    }
 }
 
 /// A BG Check with its glucose: in the treatment's `units`, or `--units`

@@ -519,6 +519,9 @@ impl MinuteBatch {
 /// Kovatchev's risk of one glucose value (mg/dL), LBGI + HBGI as
 /// simglucose's `risk_index([bg], 1)` (and `abba.envs.risk_index`).
 fn risk(bg_mg_dl: f64) -> f64 {
+    // ln(bg)^1.084 as exp(1.084·ln(ln bg)): the same number within a few
+    // ulp and, once per environment and step, 3 % of the vector
+    // environment's time less than `powf` (glibc's pow).
     let f = 1.509 * ((1.084 * bg_mg_dl.max(1e-9).ln().ln()).exp() - 5.381);
     10.0 * f * f
 }

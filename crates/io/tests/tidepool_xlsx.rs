@@ -399,3 +399,80 @@ fn a_truncated_or_damaged_workbook_is_an_error_never_a_panic() {
     }
     let _ = read(&[("f.xlsx", flipped)], &opts("UTC"));
 }
+
+#[test]
+fn pump_settings_are_the_active_profile_and_unreadable_ones_are_noted_not_fatal() {
+    let data = person_data();
+    let o = opts("Europe/Zurich");
+    let expected = RecordKind::Schedule {
+        profile: Box::new(abba_io::record::Profile {
+            basal: abba_io::record::BasalSchedule {
+                segments: vec![
+                    (0, abba_core::UnitsPerHour(0.8)),
+                    (360, abba_core::UnitsPerHour(1.0)),
+                ],
+            },
+            carb_ratio: vec![
+                (0, abba_core::GramsPerUnit(10.0)),
+                (660, abba_core::GramsPerUnit(12.0)),
+            ],
+            timezone: None,
+        }),
+    };
+    for (name, bytes) in [
+        ("TidepoolExport.json", json_bytes(&data)),
+        ("TidepoolExport.xlsx", workbook(&data, &Options::default())),
+    ] {
+        let b = read(&[(name, bytes)], &o).unwrap();
+        let ps = b
+            .records
+            .iter()
+            .find(|r| r.id == abba_io::SourceId::Id("ps1".into()))
+            .unwrap();
+        assert_eq!(ps.kind, expected, "{name}");
+        assert_eq!(ps.at.to_string(), "2026-05-04T00:00:00Z");
+    }
+    // Carb ratios in exchanges: counted with a note naming the field, the
+    // rest of the file read.
+    let mut ex = data.clone();
+    let i = ex.iter().position(|d| d["type"] == "pumpSettings").unwrap();
+    ex[i]["units"]["carb"] = "exchanges".into();
+    for (name, bytes) in [
+        ("TidepoolExport.json", json_bytes(&ex)),
+        ("TidepoolExport.xlsx", workbook(&ex, &Options::default())),
+    ] {
+        let b = read(&[(name, bytes)], &o).unwrap();
+        let ps = b
+            .records
+            .iter()
+            .find(|r| r.id == abba_io::SourceId::Id("ps1".into()))
+            .unwrap();
+        assert_eq!(
+            ps.kind,
+            RecordKind::Ignored {
+                kind: "pumpSettings".into()
+            },
+            "{name}"
+        );
+        assert_eq!(b.count("cgm"), 3 * 288 + 1, "{name}");
+        assert_eq!(b.notes.len(), 1, "{name}: {:?}", b.notes);
+        assert!(
+            b.notes[0].contains("exchanges")
+                && b.notes[0].contains("not read as a change of therapy"),
+            "{name}: {:?}",
+            b.notes
+        );
+    }
+    // The workbook's note names the sheet, the row and the column.
+    let b = read(
+        &[("TidepoolExport.xlsx", workbook(&ex, &Options::default()))],
+        &o,
+    )
+    .unwrap();
+    assert!(
+        b.notes[0].contains("sheet \"Basal Schedules\", row 2")
+            && b.notes[0].contains("Carb Units"),
+        "{:?}",
+        b.notes
+    );
+}

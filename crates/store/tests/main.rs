@@ -18,4 +18,4 @@ mod import_log;
 mod person_names;
 mod person_path;
 mod reexports;
-mod tidepool_reimport;
+mod tidepool;

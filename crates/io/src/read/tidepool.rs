@@ -4,8 +4,21 @@
 //! automated, temp or suspend, `rate` U/h, `duration` ms), `food`
 //! (`nutrition.carbohydrate.net` g), `wizard` (`carbInput`; its bolus is a
 //! record of its own), `insulin` (pen doses: `dose.total`, rapid/short or
-//! intermediate/long by `formulation.simple.actingType`); every other type
-//! is counted by type.
+//! intermediate/long by `formulation.simple.actingType`), `pumpSettings`
+//! (the active basal schedule and the carb ratios, a therapy profile from
+//! its `time`: see [`pump_settings_profile`]); every other type is counted
+//! by type.
+//!
+//! This is Tidepool's data model as its API gives it (`/data/{user}`,
+//! durations in ms, objects nested). Tidepool Web's "Export" runs the data
+//! through `@tidepool/data-tools` first, for JSON as for Excel (see
+//! [`super::tidepool_xlsx`]): its JSON has durations of basal, bolus and
+//! device events in **minutes**, `nutrition` and `annotations` as JSON
+//! text, glucose in the unit chosen at export (with `units` saying which),
+//! pump settings split into `pumpSettings.basalSchedules` ... rows, and no
+//! `dose` on pen `insulin`. That form is not detected here yet (its
+//! durations would be read as ms): read from Tidepool's own code, not yet
+//! from a real file; the Excel export of the same data is read right.
 
 use abba_core::{Grams, MgDl, Units, UnitsPerHour};
 use serde_json::Value;
@@ -68,7 +81,7 @@ pub fn read_xlsx(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
 /// array or a workbook's rows) as records; `origin` says where each was
 /// read.
 pub(crate) fn read_items(
-    _ctx: &Ctx<'_>,
+    ctx: &Ctx<'_>,
     items: &[Item<'_>],
     origin: impl Fn(&Item<'_>) -> Origin,
 ) -> Result<Vec<Record>, IoError> {
@@ -77,9 +90,12 @@ pub(crate) fn read_items(
         let ty = item
             .str("type")?
             .ok_or_else(|| item.err("type", "missing: every Tidepool datum has a type"))?;
-        let kind = datum(item, ty)?;
+        let kind = match ty {
+            "pumpSettings" => settings(ctx, item),
+            _ => datum(item, ty)?,
+        };
         let Some(time) = item.str("time")? else {
-            if matches!(kind, RecordKind::Ignored { .. }) {
+            if matches!(kind, RecordKind::Ignored { .. }) || ty == "pumpSettings" {
                 continue; // settings and uploads without a time: not data
             }
             return Err(item.err("time", "missing: expected an ISO 8601 time"));
@@ -377,6 +393,50 @@ fn insulin_event(item: &Item<'_>) -> Result<RecordKind, IoError> {
     })
 }
 
+/// A `pumpSettings` datum: a therapy profile in force from its `time`
+/// ([`RecordKind::Schedule`] with the active basal schedule and the carb
+/// ratios), which the store puts in force where it differs from the one
+/// before it (as a Nightscout profile or Profile Switch). `time` is the
+/// only instant Tidepool gives: for Medtronic pumps when the settings took
+/// effect, for the others when the pump was read (the upload); the change
+/// is placed there, no earlier than the data show it, so advice before
+/// it is judged against the settings known before. Settings that cannot
+/// be read as a profile (carb ratios in exchanges, no active schedule
+/// among several, a value beyond the plausible) are counted with a note
+/// saying why, not read, and the rest of the file is kept.
+fn settings(ctx: &Ctx<'_>, item: &Item<'_>) -> RecordKind {
+    match pump_settings_profile(item).and_then(|p| within_limits(item, p)) {
+        Ok(profile) => RecordKind::Schedule {
+            profile: Box::new(profile),
+        },
+        Err(e) => {
+            ctx.notes.borrow_mut().push(format!(
+                "{e}; these pump settings are counted, not read as a change of therapy"
+            ));
+            RecordKind::Ignored {
+                kind: "pumpSettings".into(),
+            }
+        }
+    }
+}
+
+/// `profile` when every rate and ratio is within abba's limits.
+fn within_limits(item: &Item<'_>, profile: Profile) -> Result<Profile, IoError> {
+    use abba_core::limits::{BASAL_U_PER_H, CARB_RATIO_G_PER_U};
+    let hhmm = |m: u32| format!("{:02}:{:02}", m / 60, m % 60);
+    for &(m, r) in &profile.basal.segments {
+        BASAL_U_PER_H
+            .check(r.0)
+            .map_err(|e| item.err("basalSchedules", format!("the rate from {}: {e}", hhmm(m))))?;
+    }
+    for &(m, r) in &profile.carb_ratio {
+        CARB_RATIO_G_PER_U
+            .check(r.0)
+            .map_err(|e| item.err("carbRatio", format!("the ratio from {}: {e}", hhmm(m))))?;
+    }
+    Ok(profile)
+}
+
 /// The settings profile of a `pumpSettings` datum, as Tidepool's data
 /// model has it: the `activeSchedule` of the named `basalSchedules` (the
 /// only one when there is one), the carb ratios of `carbRatio` (one
@@ -523,6 +583,7 @@ fn sheet_items<'a>(file: &'a str, book: &'a tidepool_xlsx::Book) -> Vec<Item<'a>
         .enumerate()
         .map(|(index, r)| {
             let layout = &tidepool_xlsx::SHEETS[usize::from(r.sheet)];
+            let joined = r.obj.get("type").and_then(Value::as_str) == Some("pumpSettings");
             Item {
                 file,
                 index,
@@ -530,7 +591,11 @@ fn sheet_items<'a>(file: &'a str, book: &'a tidepool_xlsx::Book) -> Vec<Item<'a>
                 sheet: Some(SheetPlace {
                     sheet: layout.name,
                     row: r.row,
-                    columns: layout.columns,
+                    columns: if joined {
+                        tidepool_xlsx::JOINED_SETTINGS
+                    } else {
+                        layout.columns
+                    },
                 }),
             }
         })

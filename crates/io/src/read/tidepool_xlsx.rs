@@ -304,6 +304,29 @@ pub const SHEETS: &[Layout] = &[
     ),
 ];
 
+/// How errors name the fields of pump settings joined from their rows
+/// (the place named is the settings' first row).
+pub const JOINED_SETTINGS: &[(&str, &str)] = &[
+    ("time", "Zulu Time"),
+    ("type", "Tidepool Data Type"),
+    ("id", "Id"),
+    ("activeSchedule", "Active Schedule"),
+    (
+        "basalSchedules",
+        "Basal Schedule Start and Rate (sheet Basal Schedules)",
+    ),
+    (
+        "carbRatio",
+        "Carb Ratio Start and Amount (sheet Carb Ratios)",
+    ),
+    (
+        "carbRatios",
+        "Carb Ratio Start and Amount (sheet Carb Ratios)",
+    ),
+    ("units.carb", "Carb Units (sheet Carb Ratios)"),
+    ("units.bg", "BG Units"),
+];
+
 /// The first sheet of every Tidepool workbook (hidden when the export
 /// finished).
 pub const ERROR_SHEET: &str = "EXPORT ERROR";

@@ -16,9 +16,9 @@
 //! device events in **minutes**, `nutrition` and `annotations` as JSON
 //! text, glucose in the unit chosen at export (with `units` saying which),
 //! pump settings split into `pumpSettings.basalSchedules` ... rows, and no
-//! `dose` on pen `insulin`. That form is not detected here yet (its
-//! durations would be read as ms): read from Tidepool's own code, not yet
-//! from a real file; the Excel export of the same data is read right.
+//! `dose` on pen `insulin` (counted, not read). That form is known by its
+//! marks and turned back into the data model first (see `export_form`);
+//! read from Tidepool's own code, not from a real file.
 
 use abba_core::{Grams, MgDl, Units, UnitsPerHour};
 use serde_json::Value;
@@ -53,9 +53,97 @@ pub const TYPES: [&str; 13] = [
 
 /// Reads a Tidepool export (JSON).
 pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
-    let items = parse_array(ctx.file, bytes)?;
-    let items = objects(ctx.file, &items)?;
-    read_items(ctx, &items, |item| ctx.origin_item(item.index))
+    let values = parse_array(ctx.file, bytes)?;
+    let items = objects(ctx.file, &values)?;
+    match export_form(ctx.file, &items)? {
+        None => read_items(ctx, &items, |item| ctx.origin_item(item.index)),
+        Some((rows, notes)) => {
+            ctx.notes.borrow_mut().extend(notes);
+            let items: Vec<Item<'_>> = rows
+                .iter()
+                .map(|(obj, index)| Item::json(ctx.file, *index, obj))
+                .collect();
+            read_items(ctx, &items, |item| ctx.origin_item(item.index))
+        }
+    }
+}
+
+/// How a pen dose of Tidepool Web's export (which leaves out `dose`) is
+/// counted.
+const PEN_WITHOUT_DOSE: &str = "insulin without its dose (Tidepool Web export)";
+
+/// Fields Tidepool Web's export writes as JSON text where the data model
+/// has an object or an array.
+const EXPORT_TEXT: [&str; 5] = [
+    "nutrition",
+    "annotations",
+    "payload",
+    "deviceManufacturers",
+    "deviceTags",
+];
+
+/// Tidepool Web's JSON export (the data run through its export processor,
+/// see [`super::tidepool_xlsx`]) as the data model, or `None` for a file
+/// in the data model's own form. The export's form is known by any of: a
+/// flattened key (`suppressed.rate`, `recommended.net`), a split settings
+/// row (`pumpSettings.basalSchedules`), the `localTime` the export adds,
+/// JSON text in `nutrition`, `annotations`, `payload`,
+/// `deviceManufacturers` or `deviceTags`, or the `exportError` item of an
+/// export cut short (noted). A file with none of these is read as the data
+/// model: the two forms differ only in durations then (ms or minutes), and
+/// the export writes every upload's `deviceTags` as text.
+#[allow(clippy::type_complexity)]
+fn export_form(
+    file: &str,
+    items: &[Item<'_>],
+) -> Result<Option<(Vec<(serde_json::Map<String, Value>, usize)>, Vec<String>)>, IoError> {
+    let marked = items.iter().any(|i| {
+        i.obj
+            .keys()
+            .any(|k| k.contains('.') || k == "localTime" || k == "exportError")
+            || i.obj
+                .get("type")
+                .and_then(Value::as_str)
+                .is_some_and(|t| t.starts_with("pumpSettings."))
+            || EXPORT_TEXT
+                .iter()
+                .any(|f| matches!(i.obj.get(*f), Some(Value::String(_))))
+    });
+    if !marked {
+        return Ok(None);
+    }
+    let mut notes = Vec::new();
+    let mut rows = Vec::with_capacity(items.len());
+    let mut pens = 0usize;
+    for item in items {
+        if item.get("type").is_none() {
+            if let Some(e) = item.get("exportError") {
+                notes.push(format!(
+                    "{file}: $[{}]: Tidepool's export was cut short ({e}); the data before it are read, the rest is missing",
+                    item.index
+                ));
+                continue;
+            }
+        }
+        let ty = item
+            .str("type")?
+            .ok_or_else(|| item.err("type", "missing: every Tidepool datum has a type"))?;
+        let mut model =
+            tidepool_xlsx::to_model(ty, item.obj.clone()).map_err(|(f, m)| item.err(&f, m))?;
+        if ty == "insulin" && !model.contains_key("dose") {
+            // The export keeps only the fields of its configuration: a pen
+            // dose arrives without its dose.
+            pens += 1;
+            model.insert("type".into(), Value::String(PEN_WITHOUT_DOSE.into()));
+        }
+        rows.push((model, item.index));
+    }
+    if pens > 0 {
+        notes.push(format!(
+            "{file}: {pens} pen insulin doses (`insulin`) without their dose, as Tidepool Web's export writes them: counted, not read"
+        ));
+    }
+    Ok(Some((tidepool_xlsx::join_settings(rows), notes)))
 }
 
 /// Reads Tidepool's Excel export (see [`super::tidepool_xlsx`]): each row
@@ -572,7 +660,16 @@ pub(crate) fn pump_settings(
             .enumerate()
             .filter_map(|(index, v)| v.as_object().map(|obj| Item::json(file, index, obj)))
             .collect();
-        Ok(each(&items))
+        match export_form(file, &items)? {
+            None => Ok(each(&items)),
+            Some((rows, _)) => {
+                let items: Vec<Item<'_>> = rows
+                    .iter()
+                    .map(|(obj, index)| Item::json(file, *index, obj))
+                    .collect();
+                Ok(each(&items))
+            }
+        }
     }
 }
 

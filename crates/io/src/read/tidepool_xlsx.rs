@@ -557,6 +557,57 @@ const JSON_TEXT: [&str; 2] = ["nutrition", "annotations"];
 /// Time columns besides `Zulu Time`: not read (the instant is `time`).
 const OTHER_TIMES: [&str; 3] = ["localTime", "deviceTime", "computerTime"];
 
+/// A datum as Tidepool's export processor leaves it (`a.b` keys, JSON
+/// text, durations of basal, bolus and device events in minutes, the
+/// settings' `start` a date on 1970-01-01) as Tidepool's data model; an
+/// error names the field.
+pub(crate) fn to_model(
+    ty: &str,
+    flat: Map<String, Value>,
+) -> Result<Map<String, Value>, (String, String)> {
+    let mut obj = Map::new();
+    for (k, mut v) in flat {
+        if k == "localTime" {
+            continue; // synthesised by the export from time and offset
+        }
+        if JSON_TEXT.contains(&k.as_str()) {
+            if let Value::String(s) = &v {
+                v = serde_json::from_str(s).map_err(|e| {
+                    (
+                        k.clone(),
+                        format!("expected JSON text (as Tidepool writes it), {e}"),
+                    )
+                })?;
+            }
+        }
+        if DURATION_IN_MINUTES.contains(&ty) && (k == "duration" || k == "expectedDuration") {
+            let min = v
+                .as_f64()
+                .ok_or_else(|| (k.clone(), format!("expected minutes as a number, got {v}")))?;
+            v = Value::Number(
+                Number::from_f64(min * 60_000.0)
+                    .ok_or_else(|| (k.clone(), format!("expected minutes, got {min}")))?,
+            );
+        }
+        if k.ends_with(".start") {
+            if let Value::String(s) = &v {
+                let ms = crate::time::parse_instant(s)
+                    .map(|t| t.as_millisecond())
+                    .filter(|ms| (0..86_400_000).contains(ms))
+                    .ok_or_else(|| {
+                        (
+                            k.clone(),
+                            format!("expected a time of day (a date on 1970-01-01), got \"{s}\""),
+                        )
+                    })?;
+                v = Value::Number(ms.into());
+            }
+        }
+        set(&mut obj, &k, v);
+    }
+    Ok(obj)
+}
+
 /// The data of Tidepool's workbook `bytes` as objects of the data model
 /// (see the module documentation).
 pub(crate) fn read(file: &str, bytes: &[u8]) -> Result<Book, IoError> {
@@ -667,18 +718,8 @@ pub(crate) fn read(file: &str, bytes: &[u8]) -> Result<Book, IoError> {
                 } else {
                     value(cell).map_err(|m| err(field, m))?
                 };
-                let Some(mut v) = v else { continue };
-                if JSON_TEXT.contains(&field) {
-                    if let Value::String(s) = &v {
-                        v = serde_json::from_str(s).map_err(|e| {
-                            err(
-                                field,
-                                format!("expected JSON text (as Tidepool writes it), {e}"),
-                            )
-                        })?;
-                    }
-                }
-                set(&mut obj, field, v);
+                let Some(v) = v else { continue };
+                obj.insert(field.to_string(), v);
             }
             let ty = match obj.get("type") {
                 Some(Value::String(t)) => t.clone(),
@@ -704,18 +745,7 @@ pub(crate) fn read(file: &str, bytes: &[u8]) -> Result<Book, IoError> {
                 ));
             }
             obj.insert("type".into(), Value::String(ty.clone()));
-            if DURATION_IN_MINUTES.contains(&ty.as_str()) {
-                for f in ["duration", "expectedDuration"] {
-                    if let Some(v) = obj.get(f) {
-                        let min = v.as_f64().ok_or_else(|| {
-                            err(f, format!("expected minutes as a number, got {v}"))
-                        })?;
-                        let ms = Number::from_f64(min * 60_000.0)
-                            .ok_or_else(|| err(f, format!("expected minutes, got {min}")))?;
-                        obj.insert(f.into(), Value::Number(ms));
-                    }
-                }
-            }
+            let obj = to_model(&ty, obj).map_err(|(f, m)| err(&f, m))?;
             out.rows.push(SheetRow {
                 obj,
                 sheet: li as u16,
@@ -734,39 +764,50 @@ pub(crate) fn read(file: &str, bytes: &[u8]) -> Result<Book, IoError> {
             ),
         ));
     }
-    out.rows = join_settings(out.rows);
+    let rows = join_settings(
+        out.rows
+            .into_iter()
+            .map(|r| (r.obj, (r.sheet, r.row)))
+            .collect(),
+    );
+    out.rows = rows
+        .into_iter()
+        .map(|(obj, (sheet, row))| SheetRow { obj, sheet, row })
+        .collect();
     Ok(out)
 }
 
 /// The split pump-settings rows joined back into one `pumpSettings` object
-/// per settings datum (by `id`, else by time), at its first row.
-fn join_settings(rows: Vec<SheetRow>) -> Vec<SheetRow> {
-    let key = |r: &SheetRow| -> Option<String> {
-        let ty = r.obj.get("type")?.as_str()?;
+/// per settings datum (by `id`, else by time), at its first row (`P`:
+/// where each row was read).
+pub(crate) fn join_settings<P: Copy>(
+    rows: Vec<(Map<String, Value>, P)>,
+) -> Vec<(Map<String, Value>, P)> {
+    let key = |obj: &Map<String, Value>| -> Option<String> {
+        let ty = obj.get("type")?.as_str()?;
         ty.starts_with("pumpSettings.")
-            .then(|| match r.obj.get("id").and_then(Value::as_str) {
+            .then(|| match obj.get("id").and_then(Value::as_str) {
                 Some(id) => format!("id {id}"),
                 None => format!(
                     "time {}",
-                    r.obj.get("time").and_then(Value::as_str).unwrap_or("")
+                    obj.get("time").and_then(Value::as_str).unwrap_or("")
                 ),
             })
     };
-    let mut out: Vec<SheetRow> = Vec::with_capacity(rows.len());
+    let mut out: Vec<(Map<String, Value>, P)> = Vec::with_capacity(rows.len());
     let mut at: HashMap<String, usize> = HashMap::new();
-    for r in rows {
-        let Some(k) = key(&r) else {
-            out.push(r);
+    for (obj, place) in rows {
+        let Some(k) = key(&obj) else {
+            out.push((obj, place));
             continue;
         };
-        let ty = r
-            .obj
+        let ty = obj
             .get("type")
             .and_then(Value::as_str)
             .unwrap_or("")
             .to_string();
         let i = *at.entry(k).or_insert_with(|| {
-            let mut common = r.obj.clone();
+            let mut common = obj.clone();
             for f in [
                 "basalSchedule",
                 "carbRatio",
@@ -779,14 +820,10 @@ fn join_settings(rows: Vec<SheetRow>) -> Vec<SheetRow> {
                 common.remove(f);
             }
             common.insert("type".into(), Value::String("pumpSettings".into()));
-            out.push(SheetRow {
-                obj: common,
-                sheet: r.sheet,
-                row: r.row,
-            });
+            out.push((common, place));
             out.len() - 1
         });
-        let settings = &mut out[i].obj;
+        let settings = &mut out[i].0;
         // The split field, and where the data model keeps it: a named
         // schedule (`basalSchedules`, `carbRatios` ...) or one array.
         let (part, named, single) = match ty.as_str() {
@@ -805,10 +842,10 @@ fn join_settings(rows: Vec<SheetRow>) -> Vec<SheetRow> {
             }
             _ => continue,
         };
-        let Some(segment) = r.obj.get(part).cloned() else {
+        let Some(segment) = obj.get(part).cloned() else {
             continue;
         };
-        if let Some(Value::Object(u)) = r.obj.get("units") {
+        if let Some(Value::Object(u)) = obj.get("units") {
             let units = settings
                 .entry("units")
                 .or_insert_with(|| Value::Object(Map::new()));
@@ -823,8 +860,7 @@ fn join_settings(rows: Vec<SheetRow>) -> Vec<SheetRow> {
                 .entry(field)
                 .or_insert_with(|| Value::Array(Vec::new())),
             None => {
-                let name = r
-                    .obj
+                let name = obj
                     .get("scheduleName")
                     .and_then(Value::as_str)
                     .unwrap_or("")

@@ -364,6 +364,54 @@ fn field<'a>(d: &'a Value, f: &str) -> Option<&'a Value> {
     (!v.is_null()).then_some(v)
 }
 
+/// `data` (Tidepool's data model) as Tidepool Web's JSON export writes it:
+/// through the same processor as the workbook (glucose in `bg_units`,
+/// durations in minutes, settings split, objects kept one level flat as
+/// `a.b` keys, `nutrition`, `annotations`, `payload` and the upload's lists
+/// as JSON text, only the configured fields; no `localTime` since 2026),
+/// times as the data model's text, a settings segment's `start` a date on
+/// 1970-01-01 as JSON writes dates.
+pub fn export_json(data: &[Value], bg_units: &str) -> Vec<u8> {
+    let mut rows: Vec<Value> = Vec::new();
+    for d in data {
+        if d["type"] == "pumpSettings" {
+            rows.extend(split(d));
+        } else {
+            rows.push(d.clone());
+        }
+    }
+    let mut out = Vec::new();
+    for r in &rows {
+        let p = process(r, bg_units);
+        let ty = p["type"].as_str().unwrap();
+        let own: &[(&str, &str)] = SHEETS.iter().find(|s| s.0 == ty).map_or(&[], |s| s.3);
+        let mut flat = serde_json::Map::new();
+        let fields = HEAD
+            .iter()
+            .chain(&[("type", "")])
+            .chain(own)
+            .chain(&SETTINGS_HIDDEN)
+            .chain(&TAIL);
+        for (f, _) in fields {
+            if *f == "localTime" {
+                continue;
+            }
+            let Some(v) = field(&p, f) else { continue };
+            let v = if f.ends_with(".start") {
+                let t = jiff::Timestamp::from_millisecond(v.as_i64().unwrap()).unwrap();
+                json!(t.strftime("%Y-%m-%dT%H:%M:%S.000Z").to_string())
+            } else if STRINGIFIED.contains(f) {
+                json!(v.to_string())
+            } else {
+                v.clone()
+            };
+            flat.insert(f.to_string(), v);
+        }
+        out.push(Value::Object(flat));
+    }
+    serde_json::to_vec(&out).unwrap()
+}
+
 /// `data` (Tidepool's data model) as Tidepool's Excel export.
 pub fn workbook(data: &[Value], o: &Options) -> Vec<u8> {
     let mut rows: Vec<Value> = Vec::new();

@@ -9,7 +9,7 @@ use anyhow::{anyhow, bail, Result};
 /// How to read the input files.
 #[derive(clap::Args, Debug)]
 pub struct InputArgs {
-    /// Export files (Nightscout JSON, Dexcom Clarity CSV, LibreView CSV, Tidepool JSON, Medtronic CareLink CSV, plain CSV).
+    /// Export files (Nightscout JSON, Dexcom Clarity CSV, LibreView CSV, Tidepool JSON or Excel (.xlsx), Medtronic CareLink CSV, plain CSV).
     #[arg(long, value_name = "FILE", num_args = 1.., required = true)]
     pub input: Vec<PathBuf>,
     /// The person's IANA time zone (how times without an offset are read, how days are grouped).
@@ -37,7 +37,7 @@ impl InputArgs {
 /// metrics`). The zone is the person's (or `--tz`), never one of these.
 #[derive(clap::Args, Debug, Default)]
 pub struct ReadFlags {
-    /// Format of every input: nightscout, clarity, libreview, tidepool, carelink, csv [default: detected from content].
+    /// Format of every input: nightscout, clarity, libreview, tidepool (JSON or its Excel export), tidepool-xlsx, carelink, csv [default: detected from content].
     #[arg(long, value_name = "FORMAT")]
     pub format: Option<String>,
     /// Glucose unit of values that do not say theirs (plain CSV, a Nightscout BG Check without `units`): mg/dL or mmol/L; checked against files that do say.
@@ -75,7 +75,7 @@ impl ReadFlags {
             format: match &self.format {
                 Some(f) => Some(Format::parse(f).ok_or_else(|| {
                     anyhow!(
-                        "--format {f}: expected nightscout, clarity, libreview, tidepool, carelink or csv"
+                        "--format {f}: expected nightscout, clarity, libreview, tidepool, tidepool-xlsx, carelink or csv"
                     )
                 })?),
                 None => None,

@@ -53,7 +53,9 @@ struct NewArgs {
     #[arg(long, value_enum)]
     mode: ModeArg,
     /// The therapy in force from the pump's export: a Nightscout profile
-    /// store (profile.json) or Profile Switch, Tidepool pumpSettings, or a
+    /// store (profile.json) or Profile Switch, Tidepool pumpSettings (its
+    /// JSON, or the Basal Schedules and Carb Ratios sheets of its Excel
+    /// export), or a
     /// CareLink CSV (its last full day's basal rates, the bolus wizard's
     /// carb ratios): the latest settings of the files.
     #[arg(long, value_name = "FILE", num_args = 1.., conflicts_with_all = ["basal"])]

@@ -20,6 +20,8 @@ mod common;
 mod remote;
 mod service_common;
 mod store_common;
+#[path = "../../io/tests/support/tidepool_workbook.rs"]
+mod tidepool_workbook;
 mod web_common;
 
 // One module per test file.
@@ -48,6 +50,7 @@ mod store_cli;
 mod store_copy_cli;
 mod store_equivalence;
 mod store_migration;
+mod tidepool_cli;
 mod trial_cli;
 mod twin_effect_cli;
 mod twin_refit_cli;

@@ -12,6 +12,14 @@ pub enum Place {
     Line(u64),
     /// A JSON path such as `$[12].insulin` (the field is given separately).
     Json(String),
+    /// A row of a workbook's sheet: the sheet's name and Excel's 1-based
+    /// row number (the column is given as the field).
+    Sheet {
+        /// The sheet's name.
+        sheet: String,
+        /// Excel's row number (1 is the header row).
+        row: u32,
+    },
 }
 
 /// A position in an input: file name and place.
@@ -38,6 +46,16 @@ impl Location {
             place: Place::Json(path.into()),
         }
     }
+    /// A row of a sheet of the workbook `file`.
+    pub fn sheet(file: &str, sheet: &str, row: u32) -> Self {
+        Self {
+            file: file.to_string(),
+            place: Place::Sheet {
+                sheet: sheet.to_string(),
+                row,
+            },
+        }
+    }
     /// The whole of `file`.
     pub fn file(file: &str) -> Self {
         Self {
@@ -53,6 +71,7 @@ impl fmt::Display for Location {
             Place::File => write!(f, "{}", self.file),
             Place::Line(n) => write!(f, "{}: line {n}", self.file),
             Place::Json(p) => write!(f, "{}: {p}", self.file),
+            Place::Sheet { sheet, row } => write!(f, "{}: sheet \"{sheet}\", row {row}", self.file),
         }
     }
 }

@@ -225,6 +225,10 @@ impl Origins<'_> {
                 match r.origin.at {
                     OriginAt::Line(n) => format!("{file}: line {n}"),
                     OriginAt::Item(i) => format!("{file}: $[{i}]"),
+                    OriginAt::Row { sheet, row } => format!(
+                        "{file}: sheet \"{}\", row {row}",
+                        crate::read::tidepool_xlsx::sheet_name(sheet)
+                    ),
                 }
             }
             Origins::Stored => format!("{} record of {}", r.source.name(), r.at),

@@ -1,11 +1,12 @@
 //! abba-io: real device data in and out.
 //!
 //! Readers for Nightscout (entries, treatments, profile JSON), Dexcom
-//! Clarity CSV, LibreView CSV, Tidepool JSON and plain CSV turn exports
+//! Clarity CSV, LibreView CSV, Tidepool JSON and Excel (.xlsx), Medtronic
+//! CareLink CSV and plain CSV turn exports
 //! into one normalised [`Record`] stream (source, identity in the source,
 //! UTC instant). Units are never guessed, every value is checked against a
-//! plausibility limit, and every error names the file, the line or JSON
-//! path and the field. [`events::to_events`] is the one place where
+//! plausibility limit, and every error names the file, the line, JSON
+//! path or sheet and row, and the field. [`events::to_events`] is the one place where
 //! records become the advisor's [`abba_core::Event`]s on its clock (days
 //! from the person's first day, minutes of local time);
 //! [`nightscout_out`] writes the other way.

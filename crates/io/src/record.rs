@@ -73,7 +73,8 @@ pub fn content_id(source: Source, at: jiff::Timestamp, kind: &RecordKind) -> Sou
 }
 
 /// Where the record was read: the file (an index into the batch's file
-/// list) and its line (text formats) or array index (JSON formats).
+/// list) and its line (text formats), array index (JSON formats) or sheet
+/// and row (workbooks).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
 pub struct Origin {
     /// Index into [`crate::Batch::files`].
@@ -90,6 +91,15 @@ pub enum OriginAt {
     Line(u32),
     /// 0-based index in the file's top-level JSON array.
     Item(u32),
+    /// A row of a workbook (Tidepool's Excel export): the sheet, as its
+    /// index in [`crate::read::tidepool_xlsx::SHEETS`], and Excel's
+    /// 1-based row number.
+    Row {
+        /// Index of the sheet's layout in `tidepool_xlsx::SHEETS`.
+        sheet: u16,
+        /// Excel's row number.
+        row: u32,
+    },
 }
 
 /// A glucose value as the device reported it.

@@ -38,7 +38,6 @@ use std::path::PathBuf;
 use abba_core::limits::{BASAL_U_PER_H, CARB_RATIO_G_PER_U};
 use abba_core::{GramsPerUnit, TherapySettings, UnitsPerHour};
 use serde::Serialize;
-use serde_json::Value;
 
 use crate::error::{IoError, Location};
 use crate::meals::MealWindows;
@@ -426,126 +425,20 @@ pub fn settings_profiles(batch: &Batch, meals: &MealWindows) -> Result<Vec<PumpT
     Ok(out)
 }
 
-/// Tidepool `pumpSettings` of one file, as Tidepool's data model has them:
-/// the `activeSchedule` of the named `basalSchedules` (the only one when
-/// there is one), the carb ratios of `carbRatio` (one schedule, most
-/// pumps) or of `carbRatios` (named like the basal schedules: Tandem,
-/// Omnipod 5), `start` in ms from midnight, `units.carb` grams (exchanges
-/// are refused). BG targets and sensitivities (mmol/L in Tidepool) are not
-/// read. `time` is when the pump was read (for Medtronic: when the
-/// settings took effect), so a record at the upload says what the pump
-/// ran then.
+/// Tidepool `pumpSettings` of one file (Tidepool JSON or Tidepool's Excel
+/// export), each read by [`crate::read::tidepool::pump_settings_profile`]
+/// (the active basal schedule, the carb ratios in g/U; exchanges refused)
+/// and checked against the limits; an error names the datum. `time` is
+/// when the pump was read (for Medtronic: when the settings took effect),
+/// so a record at the upload says what the pump ran then.
 pub fn tidepool_pump_settings(
     file: &str,
     bytes: &[u8],
     meals: &MealWindows,
 ) -> Result<Vec<PumpTherapy>, IoError> {
-    let v: Value = serde_json::from_slice(bytes).map_err(|e| {
-        IoError::invalid(
-            Location::line(file, e.line() as u64),
-            "json",
-            format!("not valid JSON: {e}"),
-        )
-    })?;
-    let items = match v {
-        Value::Array(a) => a,
-        other => vec![other],
-    };
     let mut out = Vec::new();
-    for (i, item) in items.iter().enumerate() {
-        if item.get("type").and_then(Value::as_str) != Some("pumpSettings") {
-            continue;
-        }
-        let path = format!("$[{i}]");
-        let err =
-            |field: &str, msg: String| IoError::invalid(Location::json(file, &path), field, msg);
-        let time = item
-            .get("time")
-            .and_then(Value::as_str)
-            .ok_or_else(|| err("time", "missing: expected an ISO 8601 time".into()))?;
-        let at = crate::time::parse_instant(time).ok_or_else(|| {
-            err(
-                "time",
-                format!("expected an ISO 8601 time with Z or offset, got \"{time}\""),
-            )
-        })?;
-        // Carb ratios in g/U: a pump counting exchanges is not read.
-        let carb_unit = item
-            .get("units")
-            .and_then(|u| u.get("carb").or_else(|| u.get("carbs")))
-            .and_then(Value::as_str);
-        if let Some(u) = carb_unit.filter(|u| !u.eq_ignore_ascii_case("grams")) {
-            return Err(err(
-                "units.carb",
-                format!("expected grams (carb ratios in g/U), got \"{u}\""),
-            ));
-        }
-        let active = item.get("activeSchedule").and_then(Value::as_str);
-        let pick = |field: &str| -> Option<&Value> {
-            let v = item.get(field)?;
-            match v {
-                Value::Object(named) => active
-                    .and_then(|a| named.get(a))
-                    .or_else(|| (named.len() == 1).then(|| named.values().next()).flatten()),
-                other => Some(other),
-            }
-        };
-        let segments = |field: &str, value: &str| -> Result<Vec<(u32, f64)>, IoError> {
-            let Some(Value::Array(rows)) = pick(field) else {
-                return Err(err(field, format!("missing: expected an array of {{start, {value}}} (of the active schedule {active:?})")));
-            };
-            let mut s: Vec<(u32, f64)> = Vec::new();
-            for (j, row) in rows.iter().enumerate() {
-                let f = format!("{field}[{j}]");
-                let start = row
-                    .get("start")
-                    .and_then(Value::as_f64)
-                    .ok_or_else(|| err(&f, "missing start (ms from midnight)".into()))?;
-                let x = row
-                    .get(value)
-                    .and_then(Value::as_f64)
-                    .ok_or_else(|| err(&f, format!("missing {value}")))?;
-                let m = start / 60_000.0;
-                if !(0.0..1440.0).contains(&m) || m.fract() != 0.0 {
-                    return Err(err(
-                        &f,
-                        format!("start {start} ms is not a whole minute of the day"),
-                    ));
-                }
-                let m = m as u32;
-                if s.last().is_some_and(|l| m <= l.0) || (s.is_empty() && m != 0) {
-                    return Err(err(&f, "starts must begin at 0 and increase".into()));
-                }
-                s.push((m, x));
-            }
-            if s.is_empty() {
-                return Err(err(field, "the schedule is empty".into()));
-            }
-            Ok(s)
-        };
-        let basal = segments("basalSchedules", "rate")?;
-        let cr_field = if item.get("carbRatios").is_some() {
-            "carbRatios"
-        } else {
-            "carbRatio"
-        };
-        let cr = segments(cr_field, "amount")?;
-        let profile = Profile {
-            basal: crate::record::BasalSchedule {
-                segments: basal
-                    .into_iter()
-                    .map(|(m, r)| (m, UnitsPerHour(r)))
-                    .collect(),
-            },
-            carb_ratio: cr.into_iter().map(|(m, r)| (m, GramsPerUnit(r))).collect(),
-            timezone: None,
-        };
-        out.push(PumpTherapy::from_profile(
-            &profile,
-            meals,
-            format!("{file}: {path}"),
-            at,
-        )?);
+    for (at, place, profile) in crate::read::tidepool::pump_settings(file, bytes)? {
+        out.push(PumpTherapy::from_profile(&profile?, meals, place, at?)?);
     }
     Ok(out)
 }
@@ -594,7 +487,7 @@ pub fn therapy_from_contents(
     let mut all = settings_profiles(&batch, meals)?;
     let mut why_not = Vec::new();
     for ((name, bytes), format) in inputs.iter().zip(&batch.formats) {
-        if *format == Format::Tidepool {
+        if matches!(format, Format::Tidepool | Format::TidepoolXlsx) {
             all.extend(tidepool_pump_settings(name, bytes, meals)?);
         } else if *format == Format::CareLink {
             match carelink_settings(name, bytes, opts, meals)? {

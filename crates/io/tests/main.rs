@@ -8,6 +8,8 @@
 
 // Helpers of the test files, each compiled once.
 mod common;
+#[path = "support/tidepool_workbook.rs"]
+mod tidepool_workbook;
 
 // One module per test file.
 mod aaps;
@@ -21,3 +23,4 @@ mod never_panic;
 mod real_carelink;
 mod real_exports;
 mod real_variants;
+mod tidepool_xlsx;

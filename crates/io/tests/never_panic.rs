@@ -8,12 +8,13 @@ use abba_io::{read_all, Format, IoError, ReadOptions};
 use common::{fixture, opts};
 use proptest::prelude::*;
 
-const FORMATS: [Option<Format>; 7] = [
+const FORMATS: [Option<Format>; 8] = [
     None,
     Some(Format::Nightscout),
     Some(Format::Clarity),
     Some(Format::LibreView),
     Some(Format::Tidepool),
+    Some(Format::TidepoolXlsx),
     Some(Format::Csv),
     Some(Format::CareLink),
 ];
@@ -31,7 +32,13 @@ fn check(name: &str, bytes: Vec<u8>, format: Option<Format>) -> Result<(), TestC
             match &e {
                 IoError::Invalid { .. } => {
                     prop_assert!(msg.starts_with(name), "{}", msg);
-                    prop_assert!(msg.contains(": line ") || msg.contains(": $["), "{}", msg);
+                    prop_assert!(
+                        msg.contains(": line ")
+                            || msg.contains(": $[")
+                            || msg.contains(": sheet \""),
+                        "{}",
+                        msg
+                    );
                     prop_assert!(msg.contains(", field \""), "{}", msg);
                 }
                 IoError::Format { .. } | IoError::Units { .. } => {
@@ -114,7 +121,7 @@ proptest! {
     #![proptest_config(ProptestConfig { cases: 512, ..ProptestConfig::default() })]
 
     #[test]
-    fn arbitrary_bytes_never_panic(bytes in prop::collection::vec(any::<u8>(), 0..2048), f in 0usize..7) {
+    fn arbitrary_bytes_never_panic(bytes in prop::collection::vec(any::<u8>(), 0..2048), f in 0usize..8) {
         check("arbitrary.bin", bytes, FORMATS[f])?;
     }
 
@@ -187,5 +194,23 @@ proptest! {
     ) {
         let bytes = apply(fixture("carelink_780g_synthetic.csv"), &mutations);
         check("carelink.csv", bytes, forced.then_some(Format::CareLink))?;
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 128, ..ProptestConfig::default() })]
+
+    /// Tidepool's workbook (a zip of XML), mutated: detected and forced.
+    #[test]
+    fn mutated_tidepool_workbooks_never_panic(
+        mutations in prop::collection::vec(mutation(), 1..4),
+        forced in any::<bool>(),
+    ) {
+        let book = crate::tidepool_workbook::workbook(
+            &crate::tidepool_workbook::person_data()[..60],
+            &crate::tidepool_workbook::Options::default(),
+        );
+        let bytes = apply(book, &mutations);
+        check("TidepoolExport.xlsx", bytes, forced.then_some(Format::TidepoolXlsx))?;
     }
 }

@@ -707,9 +707,9 @@ fn profile_check(
     let store_cr = p.settings.start.carb_ratio.map(|c| c.0);
     for ((name, bytes), format) in contents.iter().zip(&batch.formats) {
         match format {
-            Format::Tidepool => profiles.extend(abba_io::therapy::tidepool_pump_settings(
-                name, bytes, meals,
-            )?),
+            Format::Tidepool | Format::TidepoolXlsx => profiles.extend(
+                abba_io::therapy::tidepool_pump_settings(name, bytes, meals)?,
+            ),
             // A CareLink export without Basal Rate rows or a full day says
             // nothing about the settings: nothing to compare.
             Format::CareLink => {

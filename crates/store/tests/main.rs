@@ -8,6 +8,8 @@
 
 // Helpers of the test files, each compiled once.
 mod common;
+#[path = "../../io/tests/support/tidepool_workbook.rs"]
+mod tidepool_workbook;
 
 // One module per test file.
 mod app_events;
@@ -16,3 +18,4 @@ mod import_log;
 mod person_names;
 mod person_path;
 mod reexports;
+mod tidepool;

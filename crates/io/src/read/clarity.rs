@@ -515,7 +515,7 @@ fn drop_conflicting_stretches(ctx: &Ctx<'_>, out: &mut Vec<Record>) {
     let report = |s: (usize, usize, usize), out: &[Record]| {
         let line = |i: usize| match out[i].origin.at {
             crate::record::OriginAt::Line(l) => l,
-            crate::record::OriginAt::Item(i) => i,
+            crate::record::OriginAt::Item(i) | crate::record::OriginAt::Row { row: i, .. } => i,
         };
         ctx.note(format!(
             "lines {}-{}: {} readings written {} to {} fall on times the series already \

@@ -4,28 +4,102 @@ use serde_json::{Map, Value};
 
 use crate::error::{IoError, Location};
 
-/// One item of a top-level JSON array, with its path for errors.
+/// One item of a top-level JSON array, with its path for errors; or one
+/// row of a workbook turned into the same object (Tidepool's Excel export),
+/// with its sheet, row and column headers for errors.
 pub struct Item<'a> {
     /// The file.
     pub file: &'a str,
-    /// Index in the array.
+    /// Index in the array (a workbook's: in the order read).
     pub index: usize,
     /// The object.
     pub obj: &'a Map<String, Value>,
+    /// The sheet row the object was read from, if it was.
+    pub sheet: Option<SheetPlace<'a>>,
+}
+
+/// Where a workbook row's object was read: the sheet, Excel's row number,
+/// and the column header of each field (errors name the column).
+#[derive(Clone, Copy)]
+pub struct SheetPlace<'a> {
+    /// The sheet's name.
+    pub sheet: &'a str,
+    /// Excel's 1-based row number.
+    pub row: u32,
+    /// (field, column header) of the sheet's layout; a nested field
+    /// (`nutrition.carbohydrate.net`) is named by the column of its first
+    /// part.
+    pub columns: &'a [(&'static str, &'static str)],
+}
+
+impl SheetPlace<'_> {
+    /// The column that holds `field`, as the sheet's header names it.
+    pub fn column(&self, field: &str) -> String {
+        if let Some((_, h)) = self.columns.iter().find(|(f, _)| *f == field) {
+            return (*h).to_string();
+        }
+        let mut best: Option<(&str, &str)> = None;
+        for (f, h) in self.columns {
+            if field.starts_with(f)
+                && field.as_bytes().get(f.len()) == Some(&b'.')
+                && best.is_none_or(|b| f.len() > b.0.len())
+            {
+                best = Some((f, h));
+            }
+        }
+        match best {
+            Some((f, h)) => format!("{h} ({})", &field[f.len() + 1..]),
+            None => field.to_string(),
+        }
+    }
 }
 
 impl<'a> Item<'a> {
+    /// An item of a JSON array.
+    pub fn json(file: &'a str, index: usize, obj: &'a Map<String, Value>) -> Self {
+        Self {
+            file,
+            index,
+            obj,
+            sheet: None,
+        }
+    }
+    /// How errors name `field`: the field, or in a workbook its column.
+    pub fn name(&self, field: &str) -> String {
+        match &self.sheet {
+            Some(s) => s.column(field),
+            None => field.to_string(),
+        }
+    }
     /// The location of `field` in this item.
     pub fn at(&self, field: &str) -> Location {
-        Location::json(self.file, format!("$[{}].{field}", self.index))
+        match &self.sheet {
+            Some(s) => Location::sheet(self.file, s.sheet, s.row),
+            None => Location::json(self.file, format!("$[{}].{field}", self.index)),
+        }
     }
     /// An error about `field`.
     pub fn err(&self, field: &str, message: impl Into<String>) -> IoError {
         IoError::Invalid {
-            at: Location::json(self.file, format!("$[{}]", self.index)),
-            field: field.to_string(),
+            at: match &self.sheet {
+                Some(s) => Location::sheet(self.file, s.sheet, s.row),
+                None => Location::json(self.file, format!("$[{}]", self.index)),
+            },
+            field: self.name(field),
             message: message.into(),
         }
+    }
+    /// `field`'s value `v` checked against `min..=max` (`what` names the
+    /// quantity), the error naming the field or column.
+    pub fn range(
+        &self,
+        field: &str,
+        v: f64,
+        min: f64,
+        max: f64,
+        what: &str,
+    ) -> Result<f64, IoError> {
+        crate::units::check_range(&self.at(field), &self.name(field), v, min, max, what)
     }
     /// A field that is present and not null.
     pub fn get(&self, field: &str) -> Option<&'a Value> {
@@ -129,7 +203,7 @@ pub fn objects<'a>(file: &'a str, items: &'a [Value]) -> Result<Vec<Item<'a>>, I
         .iter()
         .enumerate()
         .map(|(index, v)| match v {
-            Value::Object(obj) => Ok(Item { file, index, obj }),
+            Value::Object(obj) => Ok(Item::json(file, index, obj)),
             other => Err(IoError::Invalid {
                 at: Location::json(file, format!("$[{index}]")),
                 field: "record".into(),

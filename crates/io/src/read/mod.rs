@@ -10,6 +10,7 @@ pub mod nightscout;
 pub mod plain;
 pub mod table;
 pub mod tidepool;
+pub mod tidepool_xlsx;
 
 use std::collections::BTreeMap;
 
@@ -32,6 +33,8 @@ pub enum Format {
     LibreView,
     /// Tidepool JSON.
     Tidepool,
+    /// Tidepool's Excel export (.xlsx).
+    TidepoolXlsx,
     /// Plain CSV with named columns.
     Csv,
     /// Medtronic CareLink CSV.
@@ -40,16 +43,33 @@ pub enum Format {
 
 impl Format {
     /// Reads a format name (`nightscout`, `clarity`, `libreview`,
-    /// `tidepool`, `csv`).
+    /// `tidepool`, `tidepool-xlsx`, `csv`, `carelink`). `tidepool` also
+    /// reads Tidepool's workbook when the file is one.
     pub fn parse(name: &str) -> Option<Self> {
         match name.to_ascii_lowercase().as_str() {
             "nightscout" => Some(Self::Nightscout),
             "clarity" | "dexcom" => Some(Self::Clarity),
             "libreview" | "libre" => Some(Self::LibreView),
             "tidepool" => Some(Self::Tidepool),
+            "tidepool-xlsx" | "tidepool_xlsx" => Some(Self::TidepoolXlsx),
             "csv" => Some(Self::Csv),
             "carelink" | "medtronic" => Some(Self::CareLink),
             _ => None,
+        }
+    }
+}
+
+impl Format {
+    /// The name `--format` takes.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Nightscout => "nightscout",
+            Self::Clarity => "clarity",
+            Self::LibreView => "libreview",
+            Self::Tidepool => "tidepool",
+            Self::TidepoolXlsx => "tidepool-xlsx",
+            Self::Csv => "csv",
+            Self::CareLink => "carelink",
         }
     }
 }
@@ -143,8 +163,13 @@ impl Ctx<'_> {
     }
 }
 
-/// Detects the format from the first bytes of the content.
+/// Detects the format from the first bytes of the content (a workbook:
+/// from its sheets).
 pub fn detect(file: &str, bytes: &[u8]) -> Result<Format, IoError> {
+    if tidepool_xlsx::is_zip(bytes) {
+        tidepool_xlsx::check(file, bytes)?;
+        return Ok(Format::TidepoolXlsx);
+    }
     let text = table::strip_bom(bytes);
     let start = text
         .iter()
@@ -201,28 +226,60 @@ pub fn read_bytes_noted(
     bytes: &[u8],
     opts: &ReadOptions,
 ) -> Result<(Format, Vec<Record>, Vec<String>), IoError> {
-    let decoded = table::utf16_to_utf8(file, bytes)?;
-    let bytes = decoded.as_deref().unwrap_or(bytes);
-    let format = match opts.format {
-        Some(f) => f,
-        None => detect(file, bytes)?,
-    };
-    let bytes = table::strip_bom(bytes);
     let ctx = Ctx {
         file,
         index,
         opts,
         notes: Default::default(),
     };
+    // A workbook (a zip) is binary: no text decoding.
+    if tidepool_xlsx::is_zip(bytes) {
+        let format = workbook_format(file, bytes, opts.format)?;
+        let records = tidepool::read_xlsx(&ctx, bytes)?;
+        return Ok((format, records, ctx.notes.into_inner()));
+    }
+    let decoded = table::utf16_to_utf8(file, bytes)?;
+    let bytes = decoded.as_deref().unwrap_or(bytes);
+    let format = match opts.format {
+        Some(Format::TidepoolXlsx) => {
+            return Err(IoError::format(
+                file,
+                "given as tidepool-xlsx but not an Excel workbook (.xlsx is a zip archive)",
+            ))
+        }
+        Some(f) => f,
+        None => detect(file, bytes)?,
+    };
+    let bytes = table::strip_bom(bytes);
     let records = match format {
         Format::Nightscout => nightscout::read(&ctx, bytes)?,
         Format::Clarity => clarity::read(&ctx, bytes)?,
         Format::LibreView => libreview::read(&ctx, bytes)?,
         Format::Tidepool => tidepool::read(&ctx, bytes)?,
+        Format::TidepoolXlsx => tidepool::read_xlsx(&ctx, bytes)?,
         Format::Csv => plain::read(&ctx, bytes)?,
         Format::CareLink => carelink::read(&ctx, bytes)?,
     };
     Ok((format, records, ctx.notes.into_inner()))
+}
+
+/// The format of a workbook (a zip): Tidepool's Excel export, whether
+/// detected or given as `tidepool` or `tidepool-xlsx`; another format
+/// given for a workbook is refused by name.
+fn workbook_format(file: &str, bytes: &[u8], given: Option<Format>) -> Result<Format, IoError> {
+    match given {
+        None | Some(Format::Tidepool | Format::TidepoolXlsx) => {
+            tidepool_xlsx::check(file, bytes)?;
+            Ok(Format::TidepoolXlsx)
+        }
+        Some(other) => Err(IoError::format(
+            file,
+            format!(
+                "an Excel workbook (.xlsx), given as {}: abba reads no workbook but Tidepool's export; give the CSV or JSON that site exports",
+                other.name()
+            ),
+        )),
+    }
 }
 
 /// The rows of one CareLink file that say what the pump's settings are

@@ -711,11 +711,7 @@ fn profile_switch(item: &Item<'_>) -> Result<RecordKind, IoError> {
     let Value::Object(obj) = v else {
         return Err(item.err("profileJson", "expected an object"));
     };
-    let inner = Item {
-        file: item.file,
-        index: item.index,
-        obj: &obj,
-    };
+    let inner = Item::json(item.file, item.index, &obj);
     let percent = check_range(
         &item.at("percentage"),
         "percentage",
@@ -860,11 +856,7 @@ fn profile(item: &Item<'_>) -> Result<RecordKind, IoError> {
             format!("names \"{name}\", which the store does not hold"),
         ));
     };
-    let inner = Item {
-        file: item.file,
-        index: item.index,
-        obj: p,
-    };
+    let inner = Item::json(item.file, item.index, p);
     schedule_of(&inner, &format!("store.{name}"))
 }
 
@@ -887,11 +879,7 @@ fn by_time_of_day(
         let Value::Object(obj) = row else {
             return Err(p.err(&f, "expected {time, value}"));
         };
-        let r = Item {
-            file: p.file,
-            index: p.index,
-            obj,
-        };
+        let r = Item::json(p.file, p.index, obj);
         let minute = match (r.num("timeAsSeconds")?, r.str("time")?) {
             (Some(s), _) => s / 60.0,
             (None, Some(t)) => {

@@ -4,23 +4,35 @@
 //! automated, temp or suspend, `rate` U/h, `duration` ms), `food`
 //! (`nutrition.carbohydrate.net` g), `wizard` (`carbInput`; its bolus is a
 //! record of its own), `insulin` (pen doses: `dose.total`, rapid/short or
-//! intermediate/long by `formulation.simple.actingType`); every other type
-//! is counted by type.
+//! intermediate/long by `formulation.simple.actingType`), `pumpSettings`
+//! (the active basal schedule and the carb ratios, a therapy profile from
+//! its `time`: see [`pump_settings_profile`]); every other type is counted
+//! by type.
+//!
+//! This is Tidepool's data model as its API gives it (`/data/{user}`,
+//! durations in ms, objects nested). Tidepool Web's "Export" runs the data
+//! through `@tidepool/data-tools` first, for JSON as for Excel (see
+//! [`super::tidepool_xlsx`]): its JSON has durations of basal, bolus and
+//! device events in **minutes**, `nutrition` and `annotations` as JSON
+//! text, glucose in the unit chosen at export (with `units` saying which),
+//! pump settings split into `pumpSettings.basalSchedules` ... rows, and no
+//! `dose` on pen `insulin` (counted, not read). That form is known by its
+//! marks and turned back into the data model first (see `export_form`);
+//! read from Tidepool's own code, not from a real file.
 
 use abba_core::{Grams, MgDl, Units, UnitsPerHour};
 use serde_json::Value;
 
-use super::json::{objects, parse_array, Item};
+use super::json::{objects, parse_array, Item, SheetPlace};
+use super::tidepool_xlsx;
 use super::Ctx;
 use crate::error::IoError;
 use crate::record::{
-    content_id, BasalSchedule, Censor, Glucose, Profile, Record, RecordKind, Source, SourceId,
-    TempRate,
+    content_id, BasalSchedule, Censor, Glucose, Origin, OriginAt, Profile, Record, RecordKind,
+    Source, SourceId, TempRate,
 };
 use crate::time::parse_instant;
-use crate::units::{
-    self, check_range, GLUCOSE_MAX_MG_DL, GLUCOSE_MIN_MG_DL, TIDEPOOL_MG_DL_PER_MMOL_L,
-};
+use crate::units::{self, GLUCOSE_MAX_MG_DL, GLUCOSE_MIN_MG_DL, TIDEPOOL_MG_DL_PER_MMOL_L};
 
 /// Tidepool's data types (for format detection).
 pub const TYPES: [&str; 13] = [
@@ -39,17 +51,139 @@ pub const TYPES: [&str; 13] = [
     "bloodKetone",
 ];
 
-/// Reads a Tidepool export.
+/// Reads a Tidepool export (JSON).
 pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
-    let items = parse_array(ctx.file, bytes)?;
-    let mut out = Vec::with_capacity(items.len());
-    for item in objects(ctx.file, &items)? {
+    let values = parse_array(ctx.file, bytes)?;
+    let items = objects(ctx.file, &values)?;
+    match export_form(ctx.file, &items)? {
+        None => read_items(ctx, &items, |item| ctx.origin_item(item.index)),
+        Some((rows, notes)) => {
+            ctx.notes.borrow_mut().extend(notes);
+            let items: Vec<Item<'_>> = rows
+                .iter()
+                .map(|(obj, index)| Item::json(ctx.file, *index, obj))
+                .collect();
+            read_items(ctx, &items, |item| ctx.origin_item(item.index))
+        }
+    }
+}
+
+/// How a pen dose of Tidepool Web's export (which leaves out `dose`) is
+/// counted.
+const PEN_WITHOUT_DOSE: &str = "insulin without its dose (Tidepool Web export)";
+
+/// Fields Tidepool Web's export writes as JSON text where the data model
+/// has an object or an array.
+const EXPORT_TEXT: [&str; 5] = [
+    "nutrition",
+    "annotations",
+    "payload",
+    "deviceManufacturers",
+    "deviceTags",
+];
+
+/// Tidepool Web's JSON export (the data run through its export processor,
+/// see [`super::tidepool_xlsx`]) as the data model, or `None` for a file
+/// in the data model's own form. The export's form is known by any of: a
+/// flattened key (`suppressed.rate`, `recommended.net`), a split settings
+/// row (`pumpSettings.basalSchedules`), the `localTime` the export adds,
+/// JSON text in `nutrition`, `annotations`, `payload`,
+/// `deviceManufacturers` or `deviceTags`, or the `exportError` item of an
+/// export cut short (noted). A file with none of these is read as the data
+/// model: the two forms differ only in durations then (ms or minutes), and
+/// the export writes every upload's `deviceTags` as text.
+#[allow(clippy::type_complexity)]
+fn export_form(
+    file: &str,
+    items: &[Item<'_>],
+) -> Result<Option<(Vec<(serde_json::Map<String, Value>, usize)>, Vec<String>)>, IoError> {
+    let marked = items.iter().any(|i| {
+        i.obj
+            .keys()
+            .any(|k| k.contains('.') || k == "localTime" || k == "exportError")
+            || i.obj
+                .get("type")
+                .and_then(Value::as_str)
+                .is_some_and(|t| t.starts_with("pumpSettings."))
+            || EXPORT_TEXT
+                .iter()
+                .any(|f| matches!(i.obj.get(*f), Some(Value::String(_))))
+    });
+    if !marked {
+        return Ok(None);
+    }
+    let mut notes = Vec::new();
+    let mut rows = Vec::with_capacity(items.len());
+    let mut pens = 0usize;
+    for item in items {
+        if item.get("type").is_none() {
+            if let Some(e) = item.get("exportError") {
+                notes.push(format!(
+                    "{file}: $[{}]: Tidepool's export was cut short ({e}); the data before it are read, the rest is missing",
+                    item.index
+                ));
+                continue;
+            }
+        }
         let ty = item
             .str("type")?
             .ok_or_else(|| item.err("type", "missing: every Tidepool datum has a type"))?;
-        let kind = datum(&item, ty)?;
+        let mut model =
+            tidepool_xlsx::to_model(ty, item.obj.clone()).map_err(|(f, m)| item.err(&f, m))?;
+        if ty == "insulin" && !model.contains_key("dose") {
+            // The export keeps only the fields of its configuration: a pen
+            // dose arrives without its dose.
+            pens += 1;
+            model.insert("type".into(), Value::String(PEN_WITHOUT_DOSE.into()));
+        }
+        rows.push((model, item.index));
+    }
+    if pens > 0 {
+        notes.push(format!(
+            "{file}: {pens} pen insulin doses (`insulin`) without their dose, as Tidepool Web's export writes them: counted, not read"
+        ));
+    }
+    Ok(Some((tidepool_xlsx::join_settings(rows), notes)))
+}
+
+/// Reads Tidepool's Excel export (see [`super::tidepool_xlsx`]): each row
+/// becomes the data-model object it was written from and is read as the
+/// JSON reader reads it.
+pub fn read_xlsx(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
+    let book = tidepool_xlsx::read(ctx.file, bytes)?;
+    ctx.notes.borrow_mut().extend(book.notes.iter().cloned());
+    let items = sheet_items(ctx.file, &book);
+    read_items(ctx, &items, |item| {
+        let r = &book.rows[item.index];
+        Origin {
+            file: ctx.index,
+            at: OriginAt::Row {
+                sheet: r.sheet,
+                row: r.row,
+            },
+        }
+    })
+}
+
+/// Tidepool data (each an object of Tidepool's data model, from a JSON
+/// array or a workbook's rows) as records; `origin` says where each was
+/// read.
+pub(crate) fn read_items(
+    ctx: &Ctx<'_>,
+    items: &[Item<'_>],
+    origin: impl Fn(&Item<'_>) -> Origin,
+) -> Result<Vec<Record>, IoError> {
+    let mut out = Vec::with_capacity(items.len());
+    for item in items {
+        let ty = item
+            .str("type")?
+            .ok_or_else(|| item.err("type", "missing: every Tidepool datum has a type"))?;
+        let kind = match ty {
+            "pumpSettings" => settings(ctx, item),
+            _ => datum(item, ty)?,
+        };
         let Some(time) = item.str("time")? else {
-            if matches!(kind, RecordKind::Ignored { .. }) {
+            if matches!(kind, RecordKind::Ignored { .. }) || ty == "pumpSettings" {
                 continue; // settings and uploads without a time: not data
             }
             return Err(item.err("time", "missing: expected an ISO 8601 time"));
@@ -69,7 +203,7 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
             kind,
             source: Source::Tidepool,
             id,
-            origin: ctx.origin_item(item.index),
+            origin: origin(item),
         });
     }
     Ok(out)
@@ -122,8 +256,7 @@ fn ms_to_min(item: &Item<'_>, field: &str) -> Result<Option<u32>, IoError> {
     match item.num(field)? {
         None => Ok(None),
         Some(ms) => Ok(Some(
-            (check_range(
-                &item.at(field),
+            (item.range(
                 field,
                 ms / 60_000.0,
                 0.0,
@@ -170,7 +303,7 @@ fn datum(item: &Item<'_>, ty: &str) -> Result<RecordKind, IoError> {
 
 /// `field`'s value `v` checked against `0..=max`, naming the field.
 fn in_range(item: &Item<'_>, field: &str, v: f64, max: f64, what: &str) -> Result<f64, IoError> {
-    check_range(&item.at(field), field, v, 0.0, max, what)
+    item.range(field, v, 0.0, max, what)
 }
 
 /// A `bolus`: `normal` now, and `extended` over `duration` (ms).
@@ -193,10 +326,7 @@ fn bolus(item: &Item<'_>) -> Result<RecordKind, IoError> {
             now: normal.unwrap_or(Units(0.0)),
             extended: ext,
             duration_min: ms_to_min(item, "duration")?.ok_or_else(|| {
-                item.err(
-                    "duration",
-                    "missing: an extended bolus needs its duration (ms)",
-                )
+                item.err("duration", "missing: an extended bolus needs its duration")
             })?,
         },
         None => RecordKind::Bolus {
@@ -241,9 +371,8 @@ fn basal(item: &Item<'_>) -> Result<RecordKind, IoError> {
                     return Err(item.err("rate", "missing: a temp basal needs rate or percent"))
                 }
             },
-            duration_min: duration.ok_or_else(|| {
-                item.err("duration", "missing: a temp basal needs its duration (ms)")
-            })?,
+            duration_min: duration
+                .ok_or_else(|| item.err("duration", "missing: a temp basal needs its duration"))?,
         },
         "suspend" => RecordKind::Suspend {
             duration_min: duration,
@@ -331,14 +460,7 @@ fn insulin_event(item: &Item<'_>) -> Result<RecordKind, IoError> {
             .ok_or_else(|| item.err("dose.total", format!("expected a number, got {v}")))?,
         None => return Err(item.err("dose.total", "missing: an insulin datum needs its dose (U)")),
     };
-    let units = Units(check_range(
-        &item.at("dose.total"),
-        "dose.total",
-        total,
-        0.0,
-        units::BOLUS_MAX_U,
-        "insulin (U)",
-    )?);
+    let units = Units(item.range("dose.total", total, 0.0, units::BOLUS_MAX_U, "insulin (U)")?);
     let acting = item
         .get("formulation")
         .and_then(|f| f.get("simple"))
@@ -357,4 +479,222 @@ fn insulin_event(item: &Item<'_>) -> Result<RecordKind, IoError> {
             kind: "insulin without an acting type".into(),
         },
     })
+}
+
+/// A `pumpSettings` datum: a therapy profile in force from its `time`
+/// ([`RecordKind::Schedule`] with the active basal schedule and the carb
+/// ratios), which the store puts in force where it differs from the one
+/// before it (as a Nightscout profile or Profile Switch). `time` is the
+/// only instant Tidepool gives: for Medtronic pumps when the settings took
+/// effect, for the others when the pump was read (the upload); the change
+/// is placed there, no earlier than the data show it, so advice before
+/// it is judged against the settings known before. Settings that cannot
+/// be read as a profile (carb ratios in exchanges, no active schedule
+/// among several, a value beyond the plausible) are counted with a note
+/// saying why, not read, and the rest of the file is kept.
+fn settings(ctx: &Ctx<'_>, item: &Item<'_>) -> RecordKind {
+    match pump_settings_profile(item).and_then(|p| within_limits(item, p)) {
+        Ok(profile) => RecordKind::Schedule {
+            profile: Box::new(profile),
+        },
+        Err(e) => {
+            ctx.notes.borrow_mut().push(format!(
+                "{e}; these pump settings are counted, not read as a change of therapy"
+            ));
+            RecordKind::Ignored {
+                kind: "pumpSettings".into(),
+            }
+        }
+    }
+}
+
+/// `profile` when every rate and ratio is within abba's limits.
+fn within_limits(item: &Item<'_>, profile: Profile) -> Result<Profile, IoError> {
+    use abba_core::limits::{BASAL_U_PER_H, CARB_RATIO_G_PER_U};
+    let hhmm = |m: u32| format!("{:02}:{:02}", m / 60, m % 60);
+    for &(m, r) in &profile.basal.segments {
+        BASAL_U_PER_H
+            .check(r.0)
+            .map_err(|e| item.err("basalSchedules", format!("the rate from {}: {e}", hhmm(m))))?;
+    }
+    for &(m, r) in &profile.carb_ratio {
+        CARB_RATIO_G_PER_U
+            .check(r.0)
+            .map_err(|e| item.err("carbRatio", format!("the ratio from {}: {e}", hhmm(m))))?;
+    }
+    Ok(profile)
+}
+
+/// The settings profile of a `pumpSettings` datum, as Tidepool's data
+/// model has it: the `activeSchedule` of the named `basalSchedules` (the
+/// only one when there is one), the carb ratios of `carbRatio` (one
+/// schedule, most pumps) or of `carbRatios` (named like the basal
+/// schedules: Tandem, Omnipod 5), `start` in ms from midnight, `units.carb`
+/// grams (exchanges are refused). BG targets and sensitivities are not
+/// read. Values are checked by [`crate::therapy::PumpTherapy::from_profile`].
+pub fn pump_settings_profile(item: &Item<'_>) -> Result<Profile, IoError> {
+    // Carb ratios in g/U: a pump counting exchanges is not read.
+    let carb_unit = item
+        .get("units")
+        .and_then(|u| u.get("carb").or_else(|| u.get("carbs")))
+        .and_then(Value::as_str);
+    if let Some(u) = carb_unit.filter(|u| !u.eq_ignore_ascii_case("grams")) {
+        return Err(item.err(
+            "units.carb",
+            format!("expected grams (carb ratios in g/U), got \"{u}\""),
+        ));
+    }
+    let active = item.get("activeSchedule").and_then(Value::as_str);
+    let pick = |field: &str| -> Option<&Value> {
+        let v = item.get(field)?;
+        match v {
+            Value::Object(named) => active
+                .and_then(|a| named.get(a))
+                .or_else(|| (named.len() == 1).then(|| named.values().next()).flatten()),
+            other => Some(other),
+        }
+    };
+    let segments = |field: &str, value: &str| -> Result<Vec<(u32, f64)>, IoError> {
+        let Some(Value::Array(rows)) = pick(field) else {
+            return Err(item.err(
+                field,
+                format!("missing: expected an array of {{start, {value}}} (of the active schedule {active:?})"),
+            ));
+        };
+        let mut s: Vec<(u32, f64)> = Vec::new();
+        for (j, row) in rows.iter().enumerate() {
+            let f = format!("{field}[{j}]");
+            let start = row
+                .get("start")
+                .and_then(Value::as_f64)
+                .ok_or_else(|| item.err(&f, "missing start (ms from midnight)"))?;
+            let x = row
+                .get(value)
+                .and_then(Value::as_f64)
+                .ok_or_else(|| item.err(&f, format!("missing {value}")))?;
+            let m = start / 60_000.0;
+            if !(0.0..1440.0).contains(&m) || m.fract() != 0.0 {
+                return Err(item.err(
+                    &f,
+                    format!("start {start} ms is not a whole minute of the day"),
+                ));
+            }
+            let m = m as u32;
+            if s.last().is_some_and(|l| m <= l.0) || (s.is_empty() && m != 0) {
+                return Err(item.err(&f, "starts must begin at 0 and increase"));
+            }
+            s.push((m, x));
+        }
+        if s.is_empty() {
+            return Err(item.err(field, "the schedule is empty"));
+        }
+        Ok(s)
+    };
+    let basal = segments("basalSchedules", "rate")?;
+    let cr_field = if item.get("carbRatios").is_some() {
+        "carbRatios"
+    } else {
+        "carbRatio"
+    };
+    let cr = segments(cr_field, "amount")?;
+    Ok(Profile {
+        basal: BasalSchedule {
+            segments: basal
+                .into_iter()
+                .map(|(m, r)| (m, UnitsPerHour(r)))
+                .collect(),
+        },
+        carb_ratio: cr
+            .into_iter()
+            .map(|(m, r)| (m, abba_core::GramsPerUnit(r)))
+            .collect(),
+        timezone: None,
+    })
+}
+
+/// Every `pumpSettings` datum of a Tidepool export (JSON or workbook) with
+/// its instant, where it was read, and its profile or why it has none.
+#[allow(clippy::type_complexity)]
+pub(crate) fn pump_settings(
+    file: &str,
+    bytes: &[u8],
+) -> Result<
+    Vec<(
+        Result<jiff::Timestamp, IoError>,
+        String,
+        Result<Profile, IoError>,
+    )>,
+    IoError,
+> {
+    let each = |items: &[Item<'_>]| {
+        items
+            .iter()
+            .filter(|i| i.str("type").ok().flatten() == Some("pumpSettings"))
+            .map(|item| {
+                let at = item.str("time").and_then(|t| {
+                    let t =
+                        t.ok_or_else(|| item.err("time", "missing: expected an ISO 8601 time"))?;
+                    parse_instant(t).ok_or_else(|| {
+                        item.err(
+                            "time",
+                            format!("expected an ISO 8601 time with Z or offset, got \"{t}\""),
+                        )
+                    })
+                });
+                let place = match &item.sheet {
+                    Some(s) => format!("{file}: sheet \"{}\", row {}", s.sheet, s.row),
+                    None => format!("{file}: $[{}]", item.index),
+                };
+                (at, place, pump_settings_profile(item))
+            })
+            .collect()
+    };
+    if tidepool_xlsx::is_zip(bytes) {
+        let book = tidepool_xlsx::read(file, bytes)?;
+        let items = sheet_items(file, &book);
+        Ok(each(&items))
+    } else {
+        let values = parse_array(file, bytes)?;
+        let items: Vec<Item<'_>> = values
+            .iter()
+            .enumerate()
+            .filter_map(|(index, v)| v.as_object().map(|obj| Item::json(file, index, obj)))
+            .collect();
+        match export_form(file, &items)? {
+            None => Ok(each(&items)),
+            Some((rows, _)) => {
+                let items: Vec<Item<'_>> = rows
+                    .iter()
+                    .map(|(obj, index)| Item::json(file, *index, obj))
+                    .collect();
+                Ok(each(&items))
+            }
+        }
+    }
+}
+
+/// A workbook's objects as items naming their sheet, row and columns.
+fn sheet_items<'a>(file: &'a str, book: &'a tidepool_xlsx::Book) -> Vec<Item<'a>> {
+    book.rows
+        .iter()
+        .enumerate()
+        .map(|(index, r)| {
+            let layout = &tidepool_xlsx::SHEETS[usize::from(r.sheet)];
+            let joined = r.obj.get("type").and_then(Value::as_str) == Some("pumpSettings");
+            Item {
+                file,
+                index,
+                obj: &r.obj,
+                sheet: Some(SheetPlace {
+                    sheet: layout.name,
+                    row: r.row,
+                    columns: if joined {
+                        tidepool_xlsx::JOINED_SETTINGS
+                    } else {
+                        layout.columns
+                    },
+                }),
+            }
+        })
+        .collect()
 }

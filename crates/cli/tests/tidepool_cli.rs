@@ -1,0 +1,80 @@
+//! `abba` on Tidepool's Excel export: detected from its sheets, its pump
+//! settings a therapy for `person new --therapy-from`, imported, and the
+//! JSON of the same data imported after it adds nothing; `--format
+//! tidepool-xlsx` named; another workbook refused with its sheets.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use crate::cli_common::{abba, ok};
+use crate::tidepool_workbook::{person_data, workbook, Options};
+
+fn tmp(tag: &str) -> std::path::PathBuf {
+    let p = std::env::temp_dir().join(format!("abba-tidepool-cli-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&p);
+    std::fs::create_dir_all(&p).unwrap();
+    p
+}
+
+#[test]
+fn a_tidepool_workbook_through_the_cli() {
+    let dir = tmp("xlsx");
+    let xlsx = dir.join("TidepoolExport.xlsx");
+    let json = dir.join("TidepoolExport.json");
+    let data = person_data();
+    let bytes = workbook(
+        &data,
+        &Options {
+            bg_units: "mg/dL",
+            ..Options::default()
+        },
+    );
+    std::fs::write(&xlsx, &bytes).unwrap();
+    std::fs::write(&json, serde_json::to_vec(&data).unwrap()).unwrap();
+    let (x, j) = (xlsx.to_str().unwrap(), json.to_str().unwrap());
+    let db = dir.join("abba.db");
+    let db = db.to_str().unwrap();
+    let text = ok(&abba(&[
+        "person",
+        "new",
+        "--db",
+        db,
+        "--name",
+        "tia",
+        "--tz",
+        "Europe/Zurich",
+        "--mode",
+        "cgm",
+        "--therapy-from",
+        x,
+    ]));
+    // The Standard schedule's two rates and the carb ratios 10/12.
+    assert!(text.contains("0.8") && text.contains("12"), "{text}");
+    let first = ok(&abba(&["import", "--db", db, "--person", "tia", x]));
+    assert!(first.contains("Imported"), "{first}");
+    let again = ok(&abba(&["import", "--db", db, "--person", "tia", j]));
+    assert!(again.contains("Nothing new"), "{again}");
+    // Named as a format; another format for a workbook is refused.
+    let events = ok(&abba(&[
+        "events",
+        "--input",
+        x,
+        "--tz",
+        "Europe/Zurich",
+        "--format",
+        "tidepool-xlsx",
+    ]));
+    assert!(events.contains("cgm"), "{events}");
+    let out = abba(&[
+        "events",
+        "--input",
+        x,
+        "--tz",
+        "Europe/Zurich",
+        "--format",
+        "clarity",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("Excel workbook"),
+        "{err}"
+    );
+}

@@ -90,15 +90,27 @@ def daily_vector(num_envs, days):
 
 
 def main():
+    # Three rounds, each measuring simglucose and then abba's environments
+    # right after it: on a shared machine the load moves between minutes,
+    # so each round's ratio is taken within the round, and the medians are
+    # printed with their range.
     print(f"abba {abba.__version__} ({abba.GIT_REVISION})")
-    sg = simglucose_env(480)
-    ours = abba_env(48_000)
-    vecs = [(n, abba_vector(n, 480)) for n in (64, 256, 1024)]
-    print(f"simglucose 0.2.11 T1DSimGymnaisumEnv: {sg:12,.0f} steps/s")
-    print(f"abba T1DSimEnv:                       {ours:12,.0f} steps/s ({ours / sg:,.0f}x)")
-    for n, vec in vecs:
-        label = f"abba T1DSimVectorEnv ({n} envs):"
-        print(f"{label:38}{vec:12,.0f} steps/s ({vec / sg:,.0f}x)")
+    rows = {}
+    for _ in range(3):
+        sg = simglucose_env(480)
+        rows.setdefault("simglucose 0.2.11 T1DSimGymnaisumEnv:", []).append((sg, 1.0))
+        ours = abba_env(48_000)
+        rows.setdefault("abba T1DSimEnv:", []).append((ours, ours / sg))
+        for n in (64, 256, 1024):
+            vec = abba_vector(n, 480)
+            rows.setdefault(f"abba T1DSimVectorEnv ({n} envs):", []).append((vec, vec / sg))
+    for label, runs in rows.items():
+        rates = sorted(r for r, _ in runs)
+        ratios = sorted(x for _, x in runs)
+        print(
+            f"{label:38}{rates[1]:12,.0f} steps/s ({rates[0]:,.0f}-{rates[-1]:,.0f}); "
+            f"x simglucose: median {ratios[1]:,.0f} ({ratios[0]:,.0f}-{ratios[-1]:,.0f})"
+        )
     d1 = daily(90)
     dv = daily_vector(32, 30)
     print(f"abba DailyAdvisorEnv:                 {d1:12,.0f} days/s")

@@ -3,7 +3,7 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 
 fn abba() -> Command {
@@ -12,10 +12,28 @@ fn abba() -> Command {
     c
 }
 
-fn dir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("abba-bad-input-{}-{tag}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+/// A fresh directory, removed when the test ends (it used to stay in the
+/// temporary directory after every run).
+struct Dir(tempfile::TempDir);
+
+impl std::ops::Deref for Dir {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        self.0.path()
+    }
+}
+
+impl AsRef<Path> for Dir {
+    fn as_ref(&self) -> &Path {
+        self.0.path()
+    }
+}
+
+fn dir(tag: &str) -> Dir {
+    Dir(tempfile::Builder::new()
+        .prefix(&format!("abba-bad-input-{tag}-"))
+        .tempdir()
+        .unwrap())
 }
 
 fn stderr(o: &Output) -> String {

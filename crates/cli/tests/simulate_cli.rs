@@ -2,17 +2,14 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use std::path::PathBuf;
 use std::process::Command;
 
 fn abba() -> Command {
     Command::new(env!("CARGO_BIN_EXE_abba"))
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("abba-sim-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
+fn tmp(name: &str) -> crate::cli_common::TmpPath {
+    crate::cli_common::tmp_path("abba-sim-cli-", name)
 }
 
 const REFERENCE: &str = include_str!("../../sim/tests/data/reference-adult001.csv");

@@ -5,7 +5,7 @@
 
 use crate::cli_common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
 use cli_common::abba;
@@ -16,11 +16,9 @@ fn ok(args: &[&str]) -> String {
     cli_common::ok(&abba(args))
 }
 
-fn tmp(tag: &str) -> PathBuf {
-    let p = std::env::temp_dir().join(format!("abba-store-cli-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&p);
-    std::fs::create_dir_all(&p).unwrap();
-    p
+/// A fresh directory for `tag`, removed when dropped.
+fn tmp(tag: &str) -> crate::cli_common::TmpPath {
+    crate::cli_common::tmp_path(&format!("abba-store-cli-{tag}-"), "")
 }
 
 fn export(dir: &Path, name: &str, days: u32) -> Vec<String> {

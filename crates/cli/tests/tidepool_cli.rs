@@ -7,11 +7,9 @@
 use crate::cli_common::{abba, ok};
 use crate::tidepool_workbook::{person_data, workbook, Options};
 
-fn tmp(tag: &str) -> std::path::PathBuf {
-    let p = std::env::temp_dir().join(format!("abba-tidepool-cli-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&p);
-    std::fs::create_dir_all(&p).unwrap();
-    p
+/// A fresh directory for `tag`, removed when dropped.
+fn tmp(tag: &str) -> crate::cli_common::TmpPath {
+    crate::cli_common::tmp_path(&format!("abba-tidepool-cli-{tag}-"), "")
 }
 
 #[test]

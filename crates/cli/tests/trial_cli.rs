@@ -12,10 +12,8 @@ fn abba() -> Command {
     Command::new(env!("CARGO_BIN_EXE_abba"))
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("abba-trial-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
+fn tmp(name: &str) -> crate::cli_common::TmpPath {
+    crate::cli_common::tmp_path("abba-trial-cli-", name)
 }
 
 fn small_trial(out: &Path, threads: &str, extra: &[&str]) {

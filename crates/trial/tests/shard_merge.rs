@@ -37,15 +37,18 @@ fn report(output: &TrialOutput) -> Vec<(&'static str, Vec<u8>)> {
 }
 
 fn shards(config: &TrialConfig, n: u32) -> Vec<ShardFile> {
-    let dir = std::env::temp_dir().join(format!("abba-shard-test-{}-{n}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    // Written and read back through files; the directory goes with the test.
+    let dir = tempfile::Builder::new()
+        .prefix(&format!("abba-shard-test-{n}-"))
+        .tempdir()
+        .unwrap();
     // Run them in reverse order and with different thread counts: neither matters.
     (1..=n)
         .rev()
         .map(|i| {
             let spec = ShardSpec::new(i, n).unwrap();
             let s = run_shard(config, spec, (i % 2) as usize, &Silent).unwrap();
-            let path = dir.join(format!("{i}.json"));
+            let path = dir.path().join(format!("{i}.json"));
             write_shard(&path, &s).unwrap();
             read_shard(&path).unwrap()
         })

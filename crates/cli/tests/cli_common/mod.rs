@@ -26,3 +26,42 @@ pub fn ok(out: &Output) -> String {
     );
     String::from_utf8(out.stdout.clone()).expect("abba's output is UTF-8")
 }
+
+/// A path `name` in a fresh temporary directory; the directory and all in
+/// it are removed when the value is dropped (the tests left tens of MB of
+/// reports in the temporary directory at every run).
+pub struct TmpPath {
+    path: std::path::PathBuf,
+    _dir: tempfile::TempDir,
+}
+
+impl std::ops::Deref for TmpPath {
+    type Target = std::path::Path;
+    fn deref(&self) -> &std::path::Path {
+        &self.path
+    }
+}
+
+impl AsRef<std::path::Path> for TmpPath {
+    fn as_ref(&self) -> &std::path::Path {
+        &self.path
+    }
+}
+
+impl AsRef<std::ffi::OsStr> for TmpPath {
+    fn as_ref(&self) -> &std::ffi::OsStr {
+        self.path.as_os_str()
+    }
+}
+
+/// `name` in a new temporary directory whose name starts with `prefix`.
+pub fn tmp_path(prefix: &str, name: &str) -> TmpPath {
+    let dir = tempfile::Builder::new()
+        .prefix(prefix)
+        .tempdir()
+        .expect("a temporary directory");
+    TmpPath {
+        path: dir.path().join(name),
+        _dir: dir,
+    }
+}

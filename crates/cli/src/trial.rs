@@ -34,7 +34,9 @@ pub struct Args {
     /// Print the effective configuration as JSON and exit.
     #[arg(long)]
     pub print_config: bool,
-    /// Cohort population: adults, adolescents or children.
+    /// Cohort population: adults, adolescents or children (without --config,
+    /// with ABBA's defaults for that population: the basal agent's hours in
+    /// CGM mode)
     #[arg(long)]
     pub population: Option<String>,
     /// Number of patients (the first 10 are the public ones).
@@ -84,12 +86,18 @@ pub(crate) fn config_from(args: &Args) -> Result<TrialConfig> {
         None => RawTrialConfig::default(),
     };
     if let Some(p) = &args.population {
-        c.population = match p.as_str() {
+        let population = match p.as_str() {
             "adults" => Population::Adults,
             "adolescents" => Population::Adolescents,
             "children" => Population::Children,
             _ => bail!("--population: expected adults, adolescents or children, got '{p}'"),
         };
+        // Without a configuration file, the population's own defaults; a
+        // file's knobs stay as written.
+        if args.config.is_none() {
+            c = RawTrialConfig::for_population(population);
+        }
+        c.population = population;
     }
     if let Some(n) = args.patients {
         c.patients = n;

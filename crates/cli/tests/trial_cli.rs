@@ -208,6 +208,43 @@ fn the_defaults_are_the_paper_protocol() {
 }
 
 #[test]
+fn a_population_brings_its_own_abba_defaults_unless_a_file_sets_them() {
+    let window = |args: &[&str]| -> serde_json::Value {
+        let out = abba().args(args).output().unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let c: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        c["abba"]["features"]["cgm_basal_window_min"].clone()
+    };
+    let print = |p: &str| window(&["trial", "--print-config", "--population", p]);
+    assert_eq!(print("adults"), serde_json::Value::Null);
+    assert_eq!(print("adolescents"), serde_json::json!([0, 420]));
+    assert_eq!(print("children"), serde_json::json!([120, 420]));
+    assert_eq!(
+        window(&["trial", "--print-config"]),
+        serde_json::Value::Null
+    );
+    // A configuration file's knobs stay as written; the flag changes only
+    // the cohort.
+    let path = tmp("adult-defaults.json");
+    let out = abba().args(["trial", "--print-config"]).output().unwrap();
+    std::fs::write(&path, &out.stdout).unwrap();
+    let p = path.to_str().unwrap();
+    let args = [
+        "trial",
+        "--print-config",
+        "--config",
+        p,
+        "--population",
+        "children",
+    ];
+    assert_eq!(window(&args), serde_json::Value::Null);
+}
+
+#[test]
 fn shards_and_merge_write_the_single_run_report() {
     let single = tmp("shard-single");
     small_trial(&single, "0", &[]);

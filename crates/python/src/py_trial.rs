@@ -37,11 +37,19 @@ fn report<'py>(
         .collect())
 }
 
-/// The paper's protocol as JSON (every knob at its default).
+/// The paper's protocol as JSON (every knob at its default; for a cohort
+/// of `population`, ABBA's defaults for it).
 #[pyfunction]
-fn default_config_json() -> PyResult<String> {
-    serde_json::to_string_pretty(&abba_trial::protocol::RawTrialConfig::default())
-        .map_err(value_error)
+#[pyo3(signature = (population = None))]
+fn default_config_json(population: Option<&str>) -> PyResult<String> {
+    let raw = match population {
+        None => abba_trial::protocol::RawTrialConfig::default(),
+        Some(p) => abba_trial::protocol::RawTrialConfig::for_population(
+            p.parse::<abba_sim::cohort::Population>()
+                .map_err(value_error)?,
+        ),
+    };
+    serde_json::to_string_pretty(&raw).map_err(value_error)
 }
 
 /// Runs a whole trial; returns its report files.

@@ -87,6 +87,17 @@ def test_shards_merge_and_refuse_incomplete_sets(single):
         abba.trial.merge(texts[:2])
 
 
+def test_a_population_brings_its_own_abba_defaults():
+    assert abba.trial.default_config()["abba"]["features"]["cgm_basal_window_min"] is None
+    kids = abba.trial.default_config("children")
+    assert kids["population"] == "children"
+    assert kids["abba"]["features"]["cgm_basal_window_min"] == [120, 420]
+    merged = json.loads(abba.trial._config_json({"population": "adolescents", "patients": 3}))
+    assert merged["abba"]["features"]["cgm_basal_window_min"] == [0, 420]
+    with pytest.raises(ValueError, match="toddlers"):
+        abba.trial.default_config("toddlers")
+
+
 def test_config_changes_are_checked_knob_by_knob():
     c = abba.trial.default_config()
     merged = json.loads(abba.trial._config_json({"abba": {"te": {"te_ref_bits": 0.5}}}))

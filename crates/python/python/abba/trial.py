@@ -17,10 +17,14 @@ import pandas as pd
 from . import _abba
 
 
-def default_config() -> dict:
+def default_config(population: Optional[str] = None) -> dict:
     """The paper's protocol with every knob at its default (what ``abba
-    trial --print-config`` prints)."""
-    return json.loads(_abba.default_config_json())
+    trial --print-config`` prints); for a cohort of ``population``
+    ("adults", "adolescents" or "children"), ABBA's defaults for it (what
+    ``abba trial --population P --print-config`` prints)."""
+    if population is None:
+        return json.loads(_abba.default_config_json())
+    return json.loads(_abba.default_config_json(population))
 
 
 def _merge(base: dict, changes: dict, path: str = "") -> dict:
@@ -36,14 +40,14 @@ def _merge(base: dict, changes: dict, path: str = "") -> dict:
 
 
 def _config_json(config: Optional[Union[dict, str]]) -> str:
-    """A whole configuration as JSON: the paper's defaults with ``config``'s
-    knobs changed (nested dicts change only the keys they name; an unknown
+    """A whole configuration as JSON: the paper's defaults (its population's,
+    when it names one) with ``config``'s knobs changed (nested dicts change only the keys they name; an unknown
     knob is an error), or ``config`` itself when it is a JSON text."""
     if config is None:
         return json.dumps(default_config())
     if isinstance(config, str):
         return config
-    return json.dumps(_merge(default_config(), config))
+    return json.dumps(_merge(default_config(config.get("population")), config))
 
 
 @dataclass

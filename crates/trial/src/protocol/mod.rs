@@ -141,6 +141,28 @@ impl Default for RawTrialConfig {
     }
 }
 
+impl RawTrialConfig {
+    /// The built-in defaults for a cohort of `population`: the paper's
+    /// protocol with ABBA's knobs as `abba calibrate` chose them, where a
+    /// population's training cohort chose otherwise than the adults'. Only
+    /// the basal agent's hours in CGM mode differ (`abba calibrate` over
+    /// `cgm_basal_window` on 60 generated patients of each population,
+    /// seeds 101; benches/diagnosis/README.md): adults the whole day,
+    /// adolescents 00:00-07:00, children 02:00-07:00.
+    pub fn for_population(population: Population) -> Self {
+        let mut c = Self {
+            population,
+            ..Self::default()
+        };
+        c.abba.features.cgm_basal_window_min = match population {
+            Population::Adults => None,
+            Population::Adolescents => Some([0, 420]),
+            Population::Children => Some([120, 420]),
+        };
+        c
+    }
+}
+
 /// One scenario of a checked plan.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlannedScenario {

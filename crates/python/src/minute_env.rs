@@ -55,6 +55,21 @@ pub struct StepOut {
     pub done: bool,
 }
 
+impl StepOut {
+    /// The step's arrays as the Python environments return them, in order:
+    /// CGM, BG, plasma glucose, meal, carbohydrate eaten, insulin.
+    pub fn columns(&self) -> [f64; 6] {
+        [
+            self.cgm_mg_dl,
+            self.bg_mg_dl,
+            self.plasma_mg_dl,
+            self.meal_g_per_min,
+            self.cho_g_per_min,
+            self.insulin_u_per_min,
+        ]
+    }
+}
+
 /// The pump of simglucose's environment (a row of its `pump_params.csv`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CompatPump {

@@ -326,16 +326,18 @@ impl MinuteBatch {
         let n = outs.len();
         let mut cols: [Vec<f64>; 8] = std::array::from_fn(|_| Vec::with_capacity(n));
         for o in outs {
-            for (c, v) in cols.iter_mut().zip([
-                o.cgm_mg_dl,
-                o.bg_mg_dl,
-                o.plasma_mg_dl,
-                o.meal_g_per_min,
-                o.cho_g_per_min,
-                o.insulin_u_per_min,
+            let [a, b, c, d, e, f] = o.columns();
+            let row = [
+                a,
+                b,
+                c,
+                d,
+                e,
+                f,
                 f64::from(u8::from(o.done)),
                 risk(o.cgm_mg_dl),
-            ]) {
+            ];
+            for (c, v) in cols.iter_mut().zip(row) {
                 c.push(v);
             }
         }
@@ -424,14 +426,7 @@ impl MinuteBatch {
             obs.push(o.cgm_mg_dl as f32);
             terminated.push(o.done);
             truncated.push(cut);
-            for (c, v) in cols.iter_mut().zip([
-                o.cgm_mg_dl,
-                o.bg_mg_dl,
-                o.plasma_mg_dl,
-                o.meal_g_per_min,
-                o.cho_g_per_min,
-                o.insulin_u_per_min,
-            ]) {
+            for (c, v) in cols.iter_mut().zip(o.columns()) {
                 c.push(v);
             }
         }

@@ -166,6 +166,18 @@ fn durations_in_minutes_settings_and_food_are_read_as_the_data_model_says() {
 
 /// A workbook of one sheet: `headers`, then `rows` of cells (a number, or
 /// text), the first column a date serial.
+/// File `name` read, and the record of the test's pump settings (`ps1`).
+fn settings_record(name: &str, bytes: Vec<u8>, o: &ReadOptions) -> (abba_io::Batch, Record) {
+    let b = read(&[(name, bytes)], o).unwrap();
+    let ps = b
+        .records
+        .iter()
+        .find(|r| r.id == abba_io::SourceId::Id("ps1".into()))
+        .unwrap()
+        .clone();
+    (b, ps)
+}
+
 fn sheet(name: &str, headers: &[&str], rows: &[Vec<Value>]) -> Vec<u8> {
     let mut wb = Workbook::new();
     let ws = wb.add_worksheet();
@@ -429,12 +441,7 @@ fn pump_settings_are_the_active_profile_and_unreadable_ones_are_noted_not_fatal(
         ("TidepoolExport.json", json_bytes(&data)),
         ("TidepoolExport.xlsx", workbook(&data, &Options::default())),
     ] {
-        let b = read(&[(name, bytes)], &o).unwrap();
-        let ps = b
-            .records
-            .iter()
-            .find(|r| r.id == abba_io::SourceId::Id("ps1".into()))
-            .unwrap();
+        let (_, ps) = settings_record(name, bytes, &o);
         assert_eq!(ps.kind, expected, "{name}");
         assert_eq!(ps.at.to_string(), "2026-05-04T00:00:00Z");
     }
@@ -447,12 +454,7 @@ fn pump_settings_are_the_active_profile_and_unreadable_ones_are_noted_not_fatal(
         ("TidepoolExport.json", json_bytes(&ex)),
         ("TidepoolExport.xlsx", workbook(&ex, &Options::default())),
     ] {
-        let b = read(&[(name, bytes)], &o).unwrap();
-        let ps = b
-            .records
-            .iter()
-            .find(|r| r.id == abba_io::SourceId::Id("ps1".into()))
-            .unwrap();
+        let (b, ps) = settings_record(name, bytes, &o);
         assert_eq!(
             ps.kind,
             RecordKind::Ignored {

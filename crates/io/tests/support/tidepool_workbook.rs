@@ -372,14 +372,7 @@ fn field<'a>(d: &'a Value, f: &str) -> Option<&'a Value> {
 /// times as the data model's text, a settings segment's `start` a date on
 /// 1970-01-01 as JSON writes dates.
 pub fn export_json(data: &[Value], bg_units: &str) -> Vec<u8> {
-    let mut rows: Vec<Value> = Vec::new();
-    for d in data {
-        if d["type"] == "pumpSettings" {
-            rows.extend(split(d));
-        } else {
-            rows.push(d.clone());
-        }
-    }
+    let rows = export_rows(data);
     let mut out = Vec::new();
     for r in &rows {
         let p = process(r, bg_units);
@@ -412,9 +405,10 @@ pub fn export_json(data: &[Value], bg_units: &str) -> Vec<u8> {
     serde_json::to_vec(&out).unwrap()
 }
 
-/// `data` (Tidepool's data model) as Tidepool's Excel export.
-pub fn workbook(data: &[Value], o: &Options) -> Vec<u8> {
-    let mut rows: Vec<Value> = Vec::new();
+/// The rows Tidepool's export writes of `data`: each `pumpSettings` split
+/// into its segments, every other datum as it is.
+fn export_rows(data: &[Value]) -> Vec<Value> {
+    let mut rows = Vec::new();
     for d in data {
         if d["type"] == "pumpSettings" {
             rows.extend(split(d));
@@ -422,6 +416,12 @@ pub fn workbook(data: &[Value], o: &Options) -> Vec<u8> {
             rows.push(d.clone());
         }
     }
+    rows
+}
+
+/// `data` (Tidepool's data model) as Tidepool's Excel export.
+pub fn workbook(data: &[Value], o: &Options) -> Vec<u8> {
+    let rows = export_rows(data);
     let date = Format::new().set_num_format("yyyy-mm-dd hh:mm:ss");
     let time_of_day = Format::new().set_num_format("[$-x-systime]h:mm am/pm");
     let mut wb = Workbook::new();

@@ -727,14 +727,17 @@ impl Abba {
                 }
                 let start = Timestamp::from_day_and_minute(day, 0);
                 let window = stats.map(|s| (start, e.at, s)).ok_or(SkipReason::NoDayData);
-                let part = match self.config.features.cgm_basal_window_min {
-                    Some([from, to]) if self.config.mode == Mode::Cgm => Some((
-                        Timestamp(start.0 + from),
-                        Timestamp(start.0 + to),
-                        part_stats.unwrap_or_default(),
-                    )),
-                    _ => None,
-                };
+                let part =
+                    self.config
+                        .features
+                        .basal_window_for(self.config.mode)
+                        .map(|[from, to]| {
+                            (
+                                Timestamp(start.0 + from),
+                                Timestamp(start.0 + to),
+                                part_stats.unwrap_or_default(),
+                            )
+                        });
                 self.decide(e.at, Parameter::Basal, window, part);
                 Some(self.settings)
             }

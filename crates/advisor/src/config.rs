@@ -203,6 +203,12 @@ pub struct FeatureConfig {
     /// rule and the hypo guard (a low at any hour blocks more insulin).
     #[serde(default)]
     pub cgm_basal_window_min: Option<[i64; 2]>,
+    /// SMBG mode: the same for the finger-stick readings (`None`: the
+    /// whole day, the seed). \[DEVIATION when set] With four readings a
+    /// day the window holds the fasting one before breakfast (20 min
+    /// before it, ±15 min, ±10 more in S3 and S4).
+    #[serde(default)]
+    pub smbg_basal_window_min: Option<[i64; 2]>,
 }
 
 impl FeatureConfig {
@@ -238,15 +244,24 @@ impl FeatureConfig {
     /// Whether a reading at `minute_of_day` counts for the basal agent's
     /// features of an advisor in `mode` (see `cgm_basal_window_min`).
     pub fn in_basal_window(&self, mode: Mode, minute_of_day: i64) -> bool {
-        match (mode, self.cgm_basal_window_min) {
-            (Mode::Cgm, Some([from, to])) => (from..to).contains(&minute_of_day),
-            _ => true,
+        match self.basal_window_for(mode) {
+            Some([from, to]) => (from..to).contains(&minute_of_day),
+            None => true,
         }
     }
 
     /// True when the basal agent's features come from part of the day.
     pub fn basal_window_is_part(&self, mode: Mode) -> bool {
-        mode == Mode::Cgm && self.cgm_basal_window_min.is_some()
+        self.basal_window_for(mode).is_some()
+    }
+
+    /// The basal agent's hours `[from, to)` (minutes after midnight) in
+    /// `mode`, `None` for the whole day.
+    pub fn basal_window_for(&self, mode: Mode) -> Option<[i64; 2]> {
+        match mode {
+            Mode::Cgm => self.cgm_basal_window_min,
+            Mode::Smbg => self.smbg_basal_window_min,
+        }
     }
 
     /// G_min for an advisor in `mode`.
@@ -281,6 +296,7 @@ impl Default for FeatureConfig {
             cgm_g_min_mg_dl: None,
             cgm_g_max_mg_dl: Some(400.0),
             cgm_basal_window_min: None,
+            smbg_basal_window_min: None,
         }
     }
 }
@@ -313,14 +329,19 @@ impl FeatureConfig {
         if let Some(g) = self.cgm_g_min_mg_dl {
             check_range("features.cgm_g_min_mg_dl", g, 1e-9, self.g_low_mg_dl - 1e-9)?;
         }
-        if let Some([from, to]) = self.cgm_basal_window_min {
-            if !(0 <= from && from < to && to <= 1440) {
-                return Err(AdvisorError::Config {
-                    field: "features.cgm_basal_window_min".into(),
-                    problem: format!(
-                        "[{from}, {to}]: expected minutes after midnight with 0 <= from < to <= 1440"
-                    ),
-                });
+        for (field, window) in [
+            ("features.cgm_basal_window_min", self.cgm_basal_window_min),
+            ("features.smbg_basal_window_min", self.smbg_basal_window_min),
+        ] {
+            if let Some([from, to]) = window {
+                if !(0 <= from && from < to && to <= 1440) {
+                    return Err(AdvisorError::Config {
+                        field: field.into(),
+                        problem: format!(
+                            "[{from}, {to}]: expected minutes after midnight with 0 <= from < to <= 1440"
+                        ),
+                    });
+                }
             }
         }
         check_positive(

@@ -524,12 +524,51 @@ fn a_basal_window_judges_the_night_and_leaves_the_meals_to_the_carb_ratios() {
     let (_, d) = final_settings_with(smbg, toy, 12);
     let x = d.iter().find(|x| x.parameter == Parameter::Basal).unwrap();
     assert_eq!(explanation(x).window.n, 4);
+    // SMBG mode's own window holds the fasting reading (06:40): the basal
+    // stays where the fasting glucose is right; on the whole day its four
+    // readings (three after meals) raise it.
+    let (s_whole, _) = final_settings_with(AbbaConfig::new(Mode::Smbg, 5), toy, 25);
+    let mut fasting = AbbaConfig::new(Mode::Smbg, 5);
+    fasting.features.smbg_basal_window_min = Some([0, 450]);
+    let (s_fasting, d) = final_settings_with(fasting, toy, 25);
+    println!(
+        "SMBG basal: whole day {}, fasting reading {}",
+        s_whole.basal.0, s_fasting.basal.0
+    );
+    assert!(
+        s_whole.basal.0 > 1.04,
+        "SMBG whole day: {}",
+        s_whole.basal.0
+    );
+    assert!(
+        (s_fasting.basal.0 - 1.0).abs() < 0.03,
+        "SMBG fasting: {}",
+        s_fasting.basal.0
+    );
+    let basal: Vec<_> = d
+        .iter()
+        .filter(|x| x.parameter == Parameter::Basal)
+        .collect();
+    assert!(basal.len() >= 15);
+    for x in basal {
+        let e = explanation(x);
+        let day = e.window_start.day_index();
+        assert_eq!(
+            (e.window_start, e.window_end, e.window.n),
+            (t(day, 0), t(day, 450), 1),
+            "{x}"
+        );
+    }
     // A window that is not part of a day is refused by name.
     for bad in [[420, 0], [-60, 420], [0, 1441], [300, 300]] {
         let mut c = AbbaConfig::new(Mode::Cgm, 5);
         c.features.cgm_basal_window_min = Some(bad);
         let e = Abba::new(c, start()).unwrap_err().to_string();
         assert!(e.contains("features.cgm_basal_window_min"), "{e}");
+        let mut c = AbbaConfig::new(Mode::Smbg, 5);
+        c.features.smbg_basal_window_min = Some(bad);
+        let e = Abba::new(c, start()).unwrap_err().to_string();
+        assert!(e.contains("features.smbg_basal_window_min"), "{e}");
     }
     // The data rule holds the night to its coverage: a night with readings
     // only until 03:00 (36 of 84) is too little, though its day has 252

@@ -217,16 +217,18 @@ fn a_population_brings_its_own_abba_defaults_unless_a_file_sets_them() {
             String::from_utf8_lossy(&out.stderr)
         );
         let c: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-        c["abba"]["features"]["cgm_basal_window_min"].clone()
+        let f = &c["abba"]["features"];
+        serde_json::json!([f["cgm_basal_window_min"], f["smbg_basal_window_min"]])
     };
+    let none = serde_json::json!([null, null]);
     let print = |p: &str| window(&["trial", "--print-config", "--population", p]);
-    assert_eq!(print("adults"), serde_json::Value::Null);
-    assert_eq!(print("adolescents"), serde_json::json!([0, 420]));
-    assert_eq!(print("children"), serde_json::json!([120, 420]));
+    assert_eq!(print("adults"), none);
     assert_eq!(
-        window(&["trial", "--print-config"]),
-        serde_json::Value::Null
+        print("adolescents"),
+        serde_json::json!([[0, 420], [0, 450]])
     );
+    assert_eq!(print("children"), serde_json::json!([[120, 420], [0, 450]]));
+    assert_eq!(window(&["trial", "--print-config"]), none);
     // A configuration file's knobs stay as written; the flag changes only
     // the cohort.
     let path = tmp("adult-defaults.json");
@@ -241,7 +243,7 @@ fn a_population_brings_its_own_abba_defaults_unless_a_file_sets_them() {
         "--population",
         "children",
     ];
-    assert_eq!(window(&args), serde_json::Value::Null);
+    assert_eq!(window(&args), none);
 }
 
 #[test]

@@ -88,12 +88,16 @@ def test_shards_merge_and_refuse_incomplete_sets(single):
 
 
 def test_a_population_brings_its_own_abba_defaults():
-    assert abba.trial.default_config()["abba"]["features"]["cgm_basal_window_min"] is None
+    adults = abba.trial.default_config()["abba"]["features"]
+    assert adults["cgm_basal_window_min"] is None
+    assert adults["smbg_basal_window_min"] is None
     kids = abba.trial.default_config("children")
     assert kids["population"] == "children"
     assert kids["abba"]["features"]["cgm_basal_window_min"] == [120, 420]
+    assert kids["abba"]["features"]["smbg_basal_window_min"] == [0, 450]
     merged = json.loads(abba.trial._config_json({"population": "adolescents", "patients": 3}))
     assert merged["abba"]["features"]["cgm_basal_window_min"] == [0, 420]
+    assert merged["abba"]["features"]["smbg_basal_window_min"] == [0, 450]
     with pytest.raises(ValueError, match="toddlers"):
         abba.trial.default_config("toddlers")
 

@@ -67,10 +67,17 @@ pub enum Knob {
     /// on the adult training cohort it keeps the whole day (the
     /// diagnosis), so the recorded calibration stands; a spec may add it.
     CgmBasalWindow,
+    /// The same in SMBG mode, `features.smbg_basal_window_min`: 0 = the
+    /// whole day (the seed), 1 = 00:00-07:30 (the fasting reading before
+    /// breakfast). Not in the default grid.
+    SmbgBasalWindow,
 }
 
 /// The windows of [`Knob::CgmBasalWindow`], by value.
 const CGM_BASAL_WINDOWS: [Option<[i64; 2]>; 3] = [None, Some([0, 420]), Some([120, 420])];
+
+/// The windows of [`Knob::SmbgBasalWindow`], by value.
+const SMBG_BASAL_WINDOWS: [Option<[i64; 2]>; 2] = [None, Some([0, 450])];
 
 impl Knob {
     /// The configuration path the knob sets.
@@ -92,6 +99,9 @@ impl Knob {
             Knob::R2rCarbGain => "r2r.cir_gain",
             Knob::CgmBasalWindow => {
                 "abba.features.cgm_basal_window_min (0 = whole day, 1 = 00:00-07:00, 2 = 02:00-07:00)"
+            }
+            Knob::SmbgBasalWindow => {
+                "abba.features.smbg_basal_window_min (0 = whole day, 1 = 00:00-07:30)"
             }
         }
     }
@@ -125,6 +135,10 @@ impl Knob {
             Knob::CgmBasalWindow => CGM_BASAL_WINDOWS
                 .iter()
                 .position(|w| *w == c.abba.features.cgm_basal_window_min)
+                .map_or(f64::NAN, |i| i as f64),
+            Knob::SmbgBasalWindow => SMBG_BASAL_WINDOWS
+                .iter()
+                .position(|w| *w == c.abba.features.smbg_basal_window_min)
                 .map_or(f64::NAN, |i| i as f64),
         }
     }
@@ -173,6 +187,10 @@ impl Knob {
             Knob::CgmBasalWindow => {
                 let i = (v.round().max(0.0) as usize).min(CGM_BASAL_WINDOWS.len() - 1);
                 c.abba.features.cgm_basal_window_min = CGM_BASAL_WINDOWS[i];
+            }
+            Knob::SmbgBasalWindow => {
+                let i = (v.round().max(0.0) as usize).min(SMBG_BASAL_WINDOWS.len() - 1);
+                c.abba.features.smbg_basal_window_min = SMBG_BASAL_WINDOWS[i];
             }
         }
     }
@@ -764,6 +782,11 @@ mod tests {
             Knob::CgmBasalWindow.set(&mut c, v);
             assert_eq!(Knob::CgmBasalWindow.get(&c), v);
             assert_eq!(c.abba.features.cgm_basal_window_min, w);
+        }
+        for (v, w) in [(1.0, Some([0, 450])), (0.0, None)] {
+            Knob::SmbgBasalWindow.set(&mut c, v);
+            assert_eq!(Knob::SmbgBasalWindow.get(&c), v);
+            assert_eq!(c.abba.features.smbg_basal_window_min, w);
         }
         assert_eq!(c.abba.features.smbg_excursion, Excursion::TimeAveraged);
         for (k, v) in [

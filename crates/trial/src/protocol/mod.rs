@@ -145,19 +145,22 @@ impl RawTrialConfig {
     /// The built-in defaults for a cohort of `population`: the paper's
     /// protocol with ABBA's knobs as `abba calibrate` chose them, where a
     /// population's training cohort chose otherwise than the adults'. Only
-    /// the basal agent's hours in CGM mode differ (`abba calibrate` over
-    /// `cgm_basal_window` on 60 generated patients of each population,
-    /// seeds 101; benches/diagnosis/README.md): adults the whole day,
-    /// adolescents 00:00-07:00, children 02:00-07:00.
+    /// the basal agent's hours differ (`abba calibrate` over
+    /// `cgm_basal_window` and `smbg_basal_window` on 60 generated patients
+    /// of each population, seeds 101; benches/diagnosis/README.md): adults
+    /// the whole day in both modes; adolescents 00:00-07:00 in CGM mode and
+    /// children 02:00-07:00; both the fasting reading before breakfast
+    /// (00:00-07:30) in SMBG mode.
     pub fn for_population(population: Population) -> Self {
         let mut c = Self {
             population,
             ..Self::default()
         };
-        c.abba.features.cgm_basal_window_min = match population {
-            Population::Adults => None,
-            Population::Adolescents => Some([0, 420]),
-            Population::Children => Some([120, 420]),
+        let f = &mut c.abba.features;
+        (f.cgm_basal_window_min, f.smbg_basal_window_min) = match population {
+            Population::Adults => (None, None),
+            Population::Adolescents => (Some([0, 420]), Some([0, 450])),
+            Population::Children => (Some([120, 420]), Some([0, 450])),
         };
         c
     }

@@ -652,3 +652,41 @@ fn the_flags_an_import_error_names_are_flags_of_abba_import() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `person new --therapy-from` on AndroidAPS treatments whose last Profile
+/// Switch (80 % for 2 h) is still running at the end: the person gets the
+/// permanent profile, and the output says why the 80 % one was not taken.
+#[test]
+fn person_new_from_an_export_ending_in_a_temporary_profile_takes_the_permanent_one() {
+    let dir = tmp("aaps-temporary");
+    let db = dir.join("a.db");
+    let treatments = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../io/tests/data/nightscout_treatments_aaps_profile_switch_synthetic.json"
+    );
+    let text = ok(&[
+        "person",
+        "new",
+        "--db",
+        db.to_str().unwrap(),
+        "--name",
+        "ida",
+        "--tz",
+        "Europe/Zurich",
+        "--mode",
+        "cgm",
+        "--therapy-from",
+        treatments,
+    ]);
+    assert!(
+        text.contains("basal schedule 00:00 0.8, 06:00 1, 12:00 0.9, 18:00 0.85 U/h")
+            && text.contains("carb ratios 10/12/11 g/U"),
+        "{text}"
+    );
+    assert!(
+        text.contains("Note: A temporary profile")
+            && text.contains("was still running at the end of the data")
+            && text.contains("not taken as the person's settings"),
+        "{text}"
+    );
+}

@@ -59,6 +59,15 @@ pub struct PumpTherapy {
     /// In force from (UTC).
     #[serde(serialize_with = "crate::time::serialize_instant")]
     pub at: jiff::Timestamp,
+    /// A temporary profile (an AndroidAPS Profile Switch with a duration):
+    /// its minutes. It is not the person's settings (see
+    /// [`therapy_from_contents`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub temporary_min: Option<u32>,
+    /// What a person should know about how these settings were chosen (a
+    /// temporary profile running at the end of the data, not taken).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub notes: Vec<String>,
 }
 
 /// The value of a time-of-day schedule in force for the longest part of
@@ -73,6 +82,14 @@ pub fn value_for_window(schedule: &[(u32, f64)], (from, to): (u32, u32)) -> Opti
         }
     }
     best.map(|b| b.1)
+}
+
+/// A rate or ratio for people: at most four decimals (a profile scaled by
+/// a percentage gives 0.6400000000000001).
+fn num(v: f64) -> String {
+    let s = format!("{v:.4}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    s.to_string()
 }
 
 fn hhmm(m: u32) -> String {
@@ -132,6 +149,8 @@ impl PumpTherapy {
             carb_ratio,
             origin,
             at,
+            temporary_min: profile.temporary_min,
+            notes: Vec::new(),
         })
     }
 
@@ -157,12 +176,12 @@ impl PumpTherapy {
     /// The basal schedule and carb ratios in words.
     pub fn describe(&self) -> String {
         let basal = if self.basal.len() == 1 {
-            format!("basal {} U/h", self.basal[0].1)
+            format!("basal {} U/h", num(self.basal[0].1))
         } else {
             let segs: Vec<String> = self
                 .basal
                 .iter()
-                .map(|&(m, r)| format!("{} {r}", hhmm(m)))
+                .map(|&(m, r)| format!("{} {}", hhmm(m), num(r)))
                 .collect();
             format!(
                 "basal schedule {} U/h (mean {:.3} U/h)",
@@ -170,7 +189,7 @@ impl PumpTherapy {
                 self.mean_basal()
             )
         };
-        let [b, l, d] = self.carb_ratio;
+        let [b, l, d] = self.carb_ratio.map(num);
         format!("{basal}, carb ratios {b}/{l}/{d} g/U")
     }
 
@@ -295,6 +314,8 @@ impl CareLinkTherapy {
             carb_ratio,
             origin,
             at: self.at,
+            temporary_min: None,
+            notes: Vec::new(),
         })
     }
 }
@@ -497,7 +518,8 @@ pub fn therapy_from_contents(
         }
     }
     all.sort_by_key(|t| t.at);
-    let mut latest = all.pop().ok_or_else(|| {
+    let data_end = batch.records.iter().map(|r| r.at).max();
+    let mut latest = permanent_at_end(&mut all, data_end)?.ok_or_else(|| {
         let names: Vec<&str> = inputs.iter().map(|(n, _)| n.as_str()).collect();
         let mut msg = "no settings profile with a basal schedule and carb ratios (expected a Nightscout profile store or Profile Switch, Tidepool pumpSettings, or a CareLink export with Basal Rate and bolus wizard rows)".to_string();
         for w in &why_not {
@@ -515,6 +537,80 @@ pub fn therapy_from_contents(
         latest.carb_ratio = cr;
     }
     Ok(latest)
+}
+
+/// The person's settings among `all` (oldest first): the latest one,
+/// unless it is a temporary profile (an AndroidAPS Profile Switch with a
+/// duration that no later profile follows, so still running at the end of
+/// its file's records): then the latest permanent profile before it, the
+/// one AndroidAPS returns to, with a note naming the temporary one. An
+/// error when no permanent profile comes before it (what the pump returns
+/// to is not known). `None` when `all` is empty.
+fn permanent_at_end(
+    all: &mut Vec<PumpTherapy>,
+    data_end: Option<jiff::Timestamp>,
+) -> Result<Option<PumpTherapy>, IoError> {
+    let Some(latest) = all.pop() else {
+        return Ok(None);
+    };
+    let Some(minutes) = latest.temporary_min else {
+        return Ok(Some(latest));
+    };
+    let end = latest
+        .at
+        .checked_add(jiff::SignedDuration::from_mins(i64::from(minutes)))
+        .unwrap_or(jiff::Timestamp::MAX);
+    let window = format!(
+        "{}, in force from {} for {minutes} min, until {end}",
+        latest.describe(),
+        latest.at
+    );
+    let what = format!("a temporary profile, {} ({window})", latest.origin);
+    let ended = data_end.filter(|&last| end <= last);
+    let Some(mut base) = all
+        .iter()
+        .rev()
+        .find(|t| t.temporary_min.is_none())
+        .cloned()
+    else {
+        let when = match ended {
+            Some(last) => format!("ended at {end}, after the last record of its file (the data go on to {last}), and the profile it returned to is not known"),
+            None => "was still running at the end of the data".to_string(),
+        };
+        return Err(IoError::format(
+            &latest.origin,
+            format!(
+                "the latest settings profile is a temporary profile ({window}), and it {when}; a temporary profile is not the person's settings, and the files hold no permanent profile before it (the one the pump returns to): export a longer period that includes the permanent Profile Switch, or give --basal and --carb-ratio"
+            ),
+        ));
+    };
+    let note = match ended {
+        Some(last) => format!(
+            "{} ended at {end}, after the last record of its file (the data go on to {last}): the settings at the end of the data are the permanent profile it returned to: {}, in force since {} ({})",
+            upper_first(&what),
+            base.describe(),
+            base.at,
+            base.origin
+        ),
+        None => format!(
+            "{} was still running at the end of the data{}: it was not taken as the person's settings, which are the permanent profile it returns to: {}, in force since {} ({})",
+            upper_first(&what),
+            data_end.map_or(String::new(), |l| format!(" ({l})")),
+            base.describe(),
+            base.at,
+            base.origin
+        ),
+    };
+    base.notes.push(note);
+    Ok(Some(base))
+}
+
+fn upper_first(s: &str) -> String {
+    let mut c = s.chars();
+    match c.next() {
+        Some(f) => f.to_uppercase().chain(c).collect(),
+        None => String::new(),
+    }
 }
 
 #[cfg(test)]

@@ -690,3 +690,45 @@ fn person_new_from_an_export_ending_in_a_temporary_profile_takes_the_permanent_o
         "{text}"
     );
 }
+
+/// `person new --therapy-from` on a MiniMed 780G export switching between
+/// SmartGuard auto mode and manual mode: the manual days' schedule is the
+/// therapy, the auto days are named, and the advice still sees a closed
+/// loop (no basal advice).
+#[test]
+fn person_new_from_a_780g_switching_modes_takes_the_manual_schedule_and_keeps_the_loop() {
+    let dir = tmp("780g-modes");
+    let db = dir.join("m.db");
+    let db = db.to_str().unwrap();
+    let csv = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../io/tests/data/carelink_780g_mixed_modes_synthetic.csv"
+    );
+    let text = ok(&[
+        "person",
+        "new",
+        "--db",
+        db,
+        "--name",
+        "mo",
+        "--tz",
+        "Europe/Berlin",
+        "--mode",
+        "cgm",
+        "--therapy-from",
+        csv,
+    ]);
+    assert!(
+        text.contains("basal schedule 00:00 0.65, 06:00 0.9, 12:00 0.8, 20:00 0.7 U/h")
+            && text.contains("the Basal Rate rows of 2026-03-12 (manual mode)")
+            && text.contains("Note: ")
+            && text.contains(
+                "SmartGuard auto mode (a closed loop, MiniMed 780G MMT-1886) on 2026-03-09"
+            ),
+        "{text}"
+    );
+    ok(&["import", "--db", db, "--person", "mo", csv]);
+    let json = ok(&["advise", "--db", db, "--person", "mo", "--json"]);
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(v["delivery"]["kind"], "closed_loop", "{json}");
+}

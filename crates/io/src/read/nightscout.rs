@@ -98,14 +98,13 @@ struct Switch {
 
 /// A Profile Switch's profile in words: `profile` (AndroidAPS writes the
 /// customised name there, e.g. `Exercise(80%)`), else `originalProfileName`,
-/// with its `percentage` when not 100.
+/// with its `percentage` when not 100. Words for a note only: a name that
+/// is not text is left out, never an error.
 fn switch_name(item: &Item<'_>) -> Result<String, IoError> {
-    let name = match item.str("profile")? {
+    let text = |f: &str| item.str(f).ok().flatten();
+    let name = match text("profile").or_else(|| text("originalProfileName")) {
         Some(n) => format!("profile \"{n}\""),
-        None => match item.str("originalProfileName")? {
-            Some(n) => format!("profile \"{n}\""),
-            None => "an unnamed profile".to_string(),
-        },
+        None => "an unnamed profile".to_string(),
     };
     Ok(match item.num("percentage")? {
         Some(p) if p != 100.0 => format!("{name} at {p} %"),

@@ -242,6 +242,9 @@ fn new(a: NewArgs) -> Result<()> {
         a.basal_step,
         a.carb_ratio_step
     );
+    for n in from.iter().flat_map(|t| &t.notes) {
+        println!("Note: {n}.");
+    }
     if a.allow_closed_loop {
         println!("--allow-closed-loop: basal rates will be suggested even if the data show a closed loop or injections (research only; ABBA was validated for open-loop pump therapy).");
     }

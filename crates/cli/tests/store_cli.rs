@@ -652,3 +652,83 @@ fn the_flags_an_import_error_names_are_flags_of_abba_import() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `person new --therapy-from` on AndroidAPS treatments whose last Profile
+/// Switch (80 % for 2 h) is still running at the end: the person gets the
+/// permanent profile, and the output says why the 80 % one was not taken.
+#[test]
+fn person_new_from_an_export_ending_in_a_temporary_profile_takes_the_permanent_one() {
+    let dir = tmp("aaps-temporary");
+    let db = dir.join("a.db");
+    let treatments = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../io/tests/data/nightscout_treatments_aaps_profile_switch_synthetic.json"
+    );
+    let text = ok(&[
+        "person",
+        "new",
+        "--db",
+        db.to_str().unwrap(),
+        "--name",
+        "ida",
+        "--tz",
+        "Europe/Zurich",
+        "--mode",
+        "cgm",
+        "--therapy-from",
+        treatments,
+    ]);
+    assert!(
+        text.contains("basal schedule 00:00 0.8, 06:00 1, 12:00 0.9, 18:00 0.85 U/h")
+            && text.contains("carb ratios 10/12/11 g/U"),
+        "{text}"
+    );
+    assert!(
+        text.contains("Note: A temporary profile")
+            && text.contains("was still running at the end of the data")
+            && text.contains("not taken as the person's settings"),
+        "{text}"
+    );
+}
+
+/// `person new --therapy-from` on a MiniMed 780G export switching between
+/// SmartGuard auto mode and manual mode: the manual days' schedule is the
+/// therapy, the auto days are named, and the advice still sees a closed
+/// loop (no basal advice).
+#[test]
+fn person_new_from_a_780g_switching_modes_takes_the_manual_schedule_and_keeps_the_loop() {
+    let dir = tmp("780g-modes");
+    let db = dir.join("m.db");
+    let db = db.to_str().unwrap();
+    let csv = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../io/tests/data/carelink_780g_mixed_modes_synthetic.csv"
+    );
+    let text = ok(&[
+        "person",
+        "new",
+        "--db",
+        db,
+        "--name",
+        "mo",
+        "--tz",
+        "Europe/Berlin",
+        "--mode",
+        "cgm",
+        "--therapy-from",
+        csv,
+    ]);
+    assert!(
+        text.contains("basal schedule 00:00 0.65, 06:00 0.9, 12:00 0.8, 20:00 0.7 U/h")
+            && text.contains("the Basal Rate rows of 2026-03-12 (manual mode)")
+            && text.contains("Note: ")
+            && text.contains(
+                "SmartGuard auto mode (a closed loop, MiniMed 780G MMT-1886) on 2026-03-09"
+            ),
+        "{text}"
+    );
+    ok(&["import", "--db", db, "--person", "mo", csv]);
+    let json = ok(&["advise", "--db", db, "--person", "mo", "--json"]);
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(v["delivery"]["kind"], "closed_loop", "{json}");
+}

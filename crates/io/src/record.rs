@@ -179,6 +179,13 @@ pub struct Profile {
     pub carb_ratio: Vec<(u32, abba_core::GramsPerUnit)>,
     /// The time zone the profile names, if any.
     pub timezone: Option<String>,
+    /// A temporary profile (AndroidAPS's Profile Switch with a duration):
+    /// in force for this many minutes from the record's instant unless
+    /// another profile comes first; then the latest permanent profile
+    /// before it is in force again. `None`: permanent (until the next
+    /// profile).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub temporary_min: Option<u32>,
 }
 
 impl Profile {
@@ -188,6 +195,7 @@ impl Profile {
             basal,
             carb_ratio: Vec::new(),
             timezone: None,
+            temporary_min: None,
         }
     }
 }

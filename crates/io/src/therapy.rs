@@ -17,17 +17,22 @@
 //! at its midnight; a slot without a wizard event (name the carb ratios
 //! with `--carb-ratio` then); a wizard ratio not in g/U (exchanges).
 //!
-//! A CareLink export that shows SmartGuard auto mode (any `Bolus Source`
-//! `CLOSED_LOOP_*` row with a delivered volume, or the "Aggregated Auto
-//! Insulin Data" totals: [`crate::read::carelink::auto_mode`]) gives no
-//! basal schedule: in auto mode the 670G/770G/780G deliver auto basal
-//! (`CLOSED_LOOP_AUTO_BASAL` micro-boluses) and the manual-mode basal
-//! patterns are not active (Tidepool's uploader makes an empty "Auto Mode"
-//! pattern the active one then: tidepool-org/uploader pull request 583,
-//! `lib/drivers/medtronic600/NGPHistoryParser.js` `buildSettingsRecords`);
-//! the `Basal Rate` rows are the manual pattern the pump falls back to,
-//! not what it ran. The whole export is refused for the basal: abba reads
-//! no time of leaving auto mode from its rows.
+//! In SmartGuard auto mode (the 670G/770G/780G's closed loop) the pump
+//! delivers auto basal (`CLOSED_LOOP_AUTO_BASAL` micro-boluses) and the
+//! manual-mode basal patterns are not active (Tidepool's uploader makes an
+//! empty "Auto Mode" pattern the active one then: tidepool-org/uploader
+//! pull request 583, `lib/drivers/medtronic600/NGPHistoryParser.js`
+//! `buildSettingsRecords`); the `Basal Rate` rows then are not what it
+//! ran. The CSV marks no time of entering or leaving auto mode, but each
+//! `Bolus Source` `CLOSED_LOOP_*` row with a delivered volume and each
+//! "Aggregated Auto Insulin Data" daily total says auto mode ran on its
+//! local day ([`crate::read::carelink::SettingsRows::closed_loop`],
+//! `auto_insulin_days`). So the basal schedule of an export mixing the
+//! modes is the one of the latest full day without any of it (a manual
+//! day) whose rate at midnight comes from a row of a manual day too; the
+//! auto days are named in a note, stretch by stretch, and an export
+//! without such a day is refused as before (the whole of it in auto mode).
+//! The export stays loop evidence for the advice ([`crate::automation`]).
 //!
 //! A schedule record without carb ratios (Tidepool's delivered scheduled
 //! basal) says what was delivered, not what the settings are: it is not a
@@ -59,6 +64,15 @@ pub struct PumpTherapy {
     /// In force from (UTC).
     #[serde(serialize_with = "crate::time::serialize_instant")]
     pub at: jiff::Timestamp,
+    /// A temporary profile (an AndroidAPS Profile Switch with a duration):
+    /// its minutes. It is not the person's settings (see
+    /// [`therapy_from_contents`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub temporary_min: Option<u32>,
+    /// What a person should know about how these settings were chosen (a
+    /// temporary profile running at the end of the data, not taken).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub notes: Vec<String>,
 }
 
 /// The value of a time-of-day schedule in force for the longest part of
@@ -73,6 +87,14 @@ pub fn value_for_window(schedule: &[(u32, f64)], (from, to): (u32, u32)) -> Opti
         }
     }
     best.map(|b| b.1)
+}
+
+/// A rate or ratio for people: at most four decimals (a profile scaled by
+/// a percentage gives 0.6400000000000001).
+fn num(v: f64) -> String {
+    let s = format!("{v:.4}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    s.to_string()
 }
 
 fn hhmm(m: u32) -> String {
@@ -132,6 +154,8 @@ impl PumpTherapy {
             carb_ratio,
             origin,
             at,
+            temporary_min: profile.temporary_min,
+            notes: Vec::new(),
         })
     }
 
@@ -157,12 +181,12 @@ impl PumpTherapy {
     /// The basal schedule and carb ratios in words.
     pub fn describe(&self) -> String {
         let basal = if self.basal.len() == 1 {
-            format!("basal {} U/h", self.basal[0].1)
+            format!("basal {} U/h", num(self.basal[0].1))
         } else {
             let segs: Vec<String> = self
                 .basal
                 .iter()
-                .map(|&(m, r)| format!("{} {r}", hhmm(m)))
+                .map(|&(m, r)| format!("{} {}", hhmm(m), num(r)))
                 .collect();
             format!(
                 "basal schedule {} U/h (mean {:.3} U/h)",
@@ -170,7 +194,7 @@ impl PumpTherapy {
                 self.mean_basal()
             )
         };
-        let [b, l, d] = self.carb_ratio;
+        let [b, l, d] = self.carb_ratio.map(num);
         format!("{basal}, carb ratios {b}/{l}/{d} g/U")
     }
 
@@ -206,6 +230,65 @@ pub struct CareLinkTherapy {
     /// In force from (the day's local midnight, UTC).
     #[serde(serialize_with = "crate::time::serialize_instant")]
     pub at: jiff::Timestamp,
+    /// What a person should know: the stretches of SmartGuard auto mode,
+    /// whose `Basal Rate` rows were not read.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub notes: Vec<String>,
+}
+
+/// The days of SmartGuard auto mode in words: each stretch of consecutive
+/// local days, with the local times of its first and last `CLOSED_LOOP_*`
+/// pump row and its daily auto insulin totals.
+fn auto_periods(
+    days: &std::collections::BTreeSet<jiff::civil::Date>,
+    rows: &crate::read::carelink::SettingsRows,
+    local: &dyn Fn(jiff::Timestamp) -> jiff::civil::DateTime,
+) -> String {
+    let mut stretches: Vec<(jiff::civil::Date, jiff::civil::Date)> = Vec::new();
+    for &d in days {
+        match stretches.last_mut() {
+            Some(s) if s.1.tomorrow().ok() == Some(d) => s.1 = d,
+            _ => stretches.push((d, d)),
+        }
+    }
+    let words: Vec<String> = stretches
+        .iter()
+        .map(|&(from, to)| {
+            let span = if from == to {
+                from.to_string()
+            } else {
+                format!("{from} to {to}")
+            };
+            let inside: Vec<jiff::civil::DateTime> = rows
+                .closed_loop
+                .iter()
+                .map(|c| local(c.0))
+                .filter(|t| (from..=to).contains(&t.date()))
+                .collect();
+            let totals = rows
+                .auto_insulin_days
+                .iter()
+                .filter(|d| (from..=to).contains(&d.0))
+                .count();
+            let hm = |t: &jiff::civil::DateTime| t.strftime("%Y-%m-%d %H:%M").to_string();
+            let mut what = Vec::new();
+            match (inside.first(), inside.last()) {
+                (Some(a), Some(b)) if inside.len() > 1 => what.push(format!(
+                    "{} CLOSED_LOOP_* rows from {} to {} local time",
+                    inside.len(),
+                    hm(a),
+                    hm(b)
+                )),
+                (Some(a), _) => what.push(format!("a CLOSED_LOOP_* row at {} local time", hm(a))),
+                _ => {}
+            }
+            if totals > 0 {
+                what.push(format!("{totals} daily auto insulin totals"));
+            }
+            format!("{span} ({})", what.join(", "))
+        })
+        .collect();
+    words.join("; ")
 }
 
 const SLOTS: [&str; 3] = ["breakfast", "lunch", "dinner"];
@@ -295,6 +378,8 @@ impl CareLinkTherapy {
             carb_ratio,
             origin,
             at: self.at,
+            temporary_min: None,
+            notes: self.notes.clone(),
         })
     }
 }
@@ -316,23 +401,36 @@ pub fn carelink_settings(
     let rows = crate::read::carelink_settings_rows(file, bytes, opts)?;
     let auto = crate::read::carelink::auto_mode(bytes);
     let auto_rows = auto.auto_mode_boluses + auto.automatic_doses + auto.auto_insulin_totals;
-    if auto_rows > 0 {
-        return Ok(Err(format!(
+    let device = auto.device.map_or(String::new(), |d| format!(", {d}"));
+    let local = |t: jiff::Timestamp| tz.to_datetime(t);
+    // The local days SmartGuard's auto mode ran on (any part of them).
+    let mut auto_days: std::collections::BTreeSet<jiff::civil::Date> =
+        rows.closed_loop.iter().map(|c| local(c.0).date()).collect();
+    auto_days.extend(rows.auto_insulin_days.iter().map(|d| d.0));
+    let closed_loop = |periods: &str| {
+        format!(
             "{file}: the pump ran SmartGuard auto mode ({auto_rows} rows with Bolus Source \
-             CLOSED_LOOP_*{}): in auto mode it does not deliver the \"Basal Rate (U/h)\" \
-             rows' manual-mode pattern but auto basal of its own, so they are not read as the \
-             basal schedule; abba was not designed for a closed loop and gives it no basal \
-             advice (an export of a period in manual mode only can be read)",
-            auto.device.map_or(String::new(), |d| format!(", {d}"))
-        )));
+             CLOSED_LOOP_*{device}{periods}): in auto mode it does not deliver the \"Basal Rate \
+             (U/h)\" rows' manual-mode pattern but auto basal of its own, so they are not read \
+             as the basal schedule; abba was not designed for a closed loop and gives it no \
+             basal advice; the export holds no full local day in manual mode with the \
+             scheduled basal rate known at its midnight (an export of a period in manual mode \
+             can be read)"
+        )
+    };
+    if auto_rows > 0 && auto_days.is_empty() {
+        // Rows the counts saw and the dates did not: refused as a whole.
+        return Ok(Err(closed_loop("")));
     }
-    let (Some(end), Some(_)) = (rows.end, rows.basal.first()) else {
+    let (Some(end), Some(first_basal)) = (rows.end, rows.basal.first()) else {
+        if auto_rows > 0 {
+            return Ok(Err(closed_loop("")));
+        }
         return Ok(Err(format!(
             "{file}: no \"Basal Rate (U/h)\" rows (the pump's scheduled basal rate is not in the export)"
         )));
     };
-    let local = |t: jiff::Timestamp| tz.to_datetime(t);
-    let day = local(end)
+    let last_day = local(end)
         .date()
         .yesterday()
         .map_err(|e| IoError::format(file, e.to_string()))?;
@@ -341,16 +439,53 @@ pub fn carelink_settings(
             .map(|z| z.timestamp())
             .map_err(|e| IoError::format(file, e.to_string()))
     };
-    let start = midnight(day)?;
+    // The latest full day in manual mode (none of it in auto mode) whose
+    // rate at midnight comes from a row written in manual mode too: in
+    // auto mode the `Basal Rate` rows are not what the pump ran.
+    let first_day = local(first_basal.0).date();
+    let mut day = last_day;
+    let chosen = loop {
+        if day < first_day {
+            break None;
+        }
+        if !auto_days.contains(&day) {
+            let start = midnight(day)?;
+            if let Some(&b) = rows.basal.iter().rev().find(|b| b.0 <= start) {
+                if !auto_days.contains(&local(b.0).date()) {
+                    break Some((day, start, b));
+                }
+            }
+            if auto_days.is_empty() {
+                break None;
+            }
+        }
+        day = day
+            .yesterday()
+            .map_err(|e| IoError::format(file, e.to_string()))?;
+    };
+    let periods = auto_periods(&auto_days, &rows, &local);
+    let Some((day, start, (_, first_rate, first_line))) = chosen else {
+        if !auto_days.is_empty() {
+            return Ok(Err(closed_loop(&format!("; auto mode on {periods}"))));
+        }
+        return Ok(Err(format!(
+            "{file}: the export covers no full day with the scheduled basal rate known at its midnight (the last full day is {last_day}; its first \"Basal Rate (U/h)\" row is after 00:00): export a longer period"
+        )));
+    };
+    let notes = if auto_days.is_empty() {
+        Vec::new()
+    } else {
+        vec![format!(
+            "{file}: the pump ran SmartGuard auto mode (a closed loop{device}) on {periods}: \
+             those days' \"Basal Rate (U/h)\" rows are not read as the basal schedule, and abba \
+             gives a closed loop no basal advice; the basal schedule is the one of {day}, the \
+             latest full day in manual mode"
+        )]
+    };
     let stop = midnight(
         day.tomorrow()
             .map_err(|e| IoError::format(file, e.to_string()))?,
     )?;
-    let Some(&(_, first_rate, first_line)) = rows.basal.iter().rev().find(|b| b.0 <= start) else {
-        return Ok(Err(format!(
-            "{file}: the export covers no full day with the scheduled basal rate known at its midnight (the last full day is {day}; its first \"Basal Rate (U/h)\" row is after 00:00): export a longer period"
-        )));
-    };
     let check = |r: f64, line: u64| {
         BASAL_U_PER_H.check(r).map_err(|e| {
             IoError::invalid(
@@ -391,10 +526,17 @@ pub fn carelink_settings(
             })
             .map(|c| c.1);
     }
+    let mode = if auto_days.is_empty() {
+        ""
+    } else {
+        " (manual mode)"
+    };
     let origin = match &rows.ratio_not_grams {
-        None => format!("{file}: the Basal Rate rows of {day} and the bolus wizard's carb ratios"),
+        None => format!(
+            "{file}: the Basal Rate rows of {day}{mode} and the bolus wizard's carb ratios"
+        ),
         Some(col) => format!(
-            "{file}: the Basal Rate rows of {day} (the wizard's \"{col}\" is not in g/U: not read)"
+            "{file}: the Basal Rate rows of {day}{mode} (the wizard's \"{col}\" is not in g/U: not read)"
         ),
     };
     Ok(Ok(CareLinkTherapy {
@@ -403,6 +545,7 @@ pub fn carelink_settings(
         day,
         origin,
         at: start,
+        notes,
     }))
 }
 
@@ -497,7 +640,8 @@ pub fn therapy_from_contents(
         }
     }
     all.sort_by_key(|t| t.at);
-    let mut latest = all.pop().ok_or_else(|| {
+    let data_end = batch.records.iter().map(|r| r.at).max();
+    let mut latest = permanent_at_end(&mut all, data_end)?.ok_or_else(|| {
         let names: Vec<&str> = inputs.iter().map(|(n, _)| n.as_str()).collect();
         let mut msg = "no settings profile with a basal schedule and carb ratios (expected a Nightscout profile store or Profile Switch, Tidepool pumpSettings, or a CareLink export with Basal Rate and bolus wizard rows)".to_string();
         for w in &why_not {
@@ -515,6 +659,80 @@ pub fn therapy_from_contents(
         latest.carb_ratio = cr;
     }
     Ok(latest)
+}
+
+/// The person's settings among `all` (oldest first): the latest one,
+/// unless it is a temporary profile (an AndroidAPS Profile Switch with a
+/// duration that no later profile follows, so still running at the end of
+/// its file's records): then the latest permanent profile before it, the
+/// one AndroidAPS returns to, with a note naming the temporary one. An
+/// error when no permanent profile comes before it (what the pump returns
+/// to is not known). `None` when `all` is empty.
+fn permanent_at_end(
+    all: &mut Vec<PumpTherapy>,
+    data_end: Option<jiff::Timestamp>,
+) -> Result<Option<PumpTherapy>, IoError> {
+    let Some(latest) = all.pop() else {
+        return Ok(None);
+    };
+    let Some(minutes) = latest.temporary_min else {
+        return Ok(Some(latest));
+    };
+    let end = latest
+        .at
+        .checked_add(jiff::SignedDuration::from_mins(i64::from(minutes)))
+        .unwrap_or(jiff::Timestamp::MAX);
+    let window = format!(
+        "{}, in force from {} for {minutes} min, until {end}",
+        latest.describe(),
+        latest.at
+    );
+    let what = format!("a temporary profile, {} ({window})", latest.origin);
+    let ended = data_end.filter(|&last| end <= last);
+    let Some(mut base) = all
+        .iter()
+        .rev()
+        .find(|t| t.temporary_min.is_none())
+        .cloned()
+    else {
+        let when = match ended {
+            Some(last) => format!("ended at {end}, after the last record of its file (the data go on to {last}), and the profile it returned to is not known"),
+            None => "was still running at the end of the data".to_string(),
+        };
+        return Err(IoError::format(
+            &latest.origin,
+            format!(
+                "the latest settings profile is a temporary profile ({window}), and it {when}; a temporary profile is not the person's settings, and the files hold no permanent profile before it (the one the pump returns to): export a longer period that includes the permanent Profile Switch, or give --basal and --carb-ratio"
+            ),
+        ));
+    };
+    let note = match ended {
+        Some(last) => format!(
+            "{} ended at {end}, after the last record of its file (the data go on to {last}): the settings at the end of the data are the permanent profile it returned to: {}, in force since {} ({})",
+            upper_first(&what),
+            base.describe(),
+            base.at,
+            base.origin
+        ),
+        None => format!(
+            "{} was still running at the end of the data{}: it was not taken as the person's settings, which are the permanent profile it returns to: {}, in force since {} ({})",
+            upper_first(&what),
+            data_end.map_or(String::new(), |l| format!(" ({l})")),
+            base.describe(),
+            base.at,
+            base.origin
+        ),
+    };
+    base.notes.push(note);
+    Ok(Some(base))
+}
+
+fn upper_first(s: &str) -> String {
+    let mut c = s.chars();
+    match c.next() {
+        Some(f) => f.to_uppercase().chain(c).collect(),
+        None => String::new(),
+    }
 }
 
 #[cfg(test)]

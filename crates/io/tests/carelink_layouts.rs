@@ -291,3 +291,105 @@ fn therapy_from_a_smartguard_export_refuses_the_basal_rate_rows() {
     .to_string();
     assert!(e.contains("SmartGuard auto mode"), "{e}");
 }
+
+/// A MiniMed 780G switching modes (synthetic values in the columns of a
+/// real 780G export; see PROVENANCE.md): SmartGuard auto mode on
+/// 2026-03-09, manual mode 2026-03-10 to 03-12 (the pattern's `Basal Rate`
+/// rows, `BOLUS_WIZARD` boluses), auto mode again from the morning of
+/// 03-13 to the end (14th, 20:00).
+const MIXED: &str = "carelink_780g_mixed_modes_synthetic.csv";
+
+/// The mixed export with the 780G's `BOLUS_WIZARD` boluses of `days` made
+/// auto mode's (`CLOSED_LOOP_BG_CORRECTION_AND_FOOD_BOLUS`) and the
+/// `Basal Rate` rows at `drop` (date;time) left out.
+fn mixed_with(days: &[&str], drop: &[&str]) -> Vec<u8> {
+    let text = String::from_utf8(fixture(MIXED)).unwrap();
+    let lines: Vec<String> = text
+        .split("\r\n")
+        .filter(|l| !drop.iter().any(|d| l.contains(&format!(";{d};;;;;0,"))))
+        .map(|l| {
+            if days.iter().any(|d| l.contains(&format!(";{d};"))) {
+                l.replace("BOLUS_WIZARD", "CLOSED_LOOP_BG_CORRECTION_AND_FOOD_BOLUS")
+            } else {
+                l.to_string()
+            }
+        })
+        .collect();
+    lines.join("\r\n").into_bytes()
+}
+
+#[test]
+fn therapy_from_a_780g_switching_modes_reads_the_manual_days_and_names_the_auto_ones() {
+    let meals = abba_io::meals::MealWindows::default();
+    let c = abba_io::therapy::carelink_settings(MIXED, &fixture(MIXED), &opts(BERLIN), &meals)
+        .unwrap()
+        .unwrap();
+    // The latest full day in manual mode, 03-12: the pattern's segments,
+    // not the auto days' irregular rows.
+    assert_eq!(c.day.to_string(), "2026-03-12");
+    assert_eq!(
+        c.basal,
+        vec![(0, 0.65), (360, 0.9), (720, 0.8), (1200, 0.7)]
+    );
+    // The wizard's ratios (it runs in both modes).
+    assert_eq!(c.carb_ratio, [Some(10.0), Some(12.0), Some(11.0)]);
+    let [note] = &c.notes[..] else {
+        panic!("{:?}", c.notes)
+    };
+    for part in [
+        "SmartGuard auto mode (a closed loop, MiniMed 780G MMT-1886) on 2026-03-09 (4 CLOSED_LOOP_* rows from 2026-03-09 07:43 to 2026-03-09 19:05 local time, 1 daily auto insulin totals); 2026-03-13 to 2026-03-14 (5 CLOSED_LOOP_* rows from 2026-03-13 08:23 to 2026-03-14 13:10 local time, 2 daily auto insulin totals)",
+        "not read as the basal schedule",
+        "no basal advice",
+        "the one of 2026-03-12, the latest full day in manual mode",
+    ] {
+        assert!(note.contains(part), "{part}: {note}");
+    }
+    let t = abba_io::therapy::therapy_from_contents(
+        &[(MIXED.to_string(), fixture(MIXED))],
+        &opts(BERLIN),
+        &meals,
+        None,
+    )
+    .unwrap();
+    assert!(
+        t.origin.contains("of 2026-03-12 (manual mode)"),
+        "{}",
+        t.origin
+    );
+    assert_eq!(t.notes, c.notes);
+    // The advice side still sees the file as a closed loop.
+    use abba_io::automation::{Delivery, Evidence};
+    assert_eq!(
+        Evidence::from_file(&fixture(MIXED)).delivery(),
+        Delivery::ClosedLoop
+    );
+}
+
+#[test]
+fn a_manual_day_whose_midnight_rate_was_written_in_auto_mode_is_not_read() {
+    let meals = abba_io::meals::MealWindows::default();
+    let settings = |bytes: Vec<u8>| {
+        abba_io::therapy::carelink_settings(MIXED, &bytes, &opts(BERLIN), &meals).unwrap()
+    };
+    // 03-11 and 03-12 in auto mode: 03-10 is the manual day, its rate at
+    // midnight the row of 00:00 that day.
+    let c = settings(mixed_with(&["2026/03/11", "2026/03/12"], &[])).unwrap();
+    assert_eq!(c.day.to_string(), "2026-03-10");
+    assert_eq!(c.basal[0], (0, 0.65));
+    // Without that row, 03-10's midnight rate is the auto day's last row
+    // (0.6 at 21:20 on 03-09): no manual day, and the auto stretches named.
+    let why = settings(mixed_with(
+        &["2026/03/11", "2026/03/12"],
+        &["2026/03/10;00:00:00"],
+    ))
+    .unwrap_err();
+    for part in [
+        "SmartGuard auto mode",
+        "not designed for a closed loop",
+        "auto mode on 2026-03-09 (",
+        "; 2026-03-11 to 2026-03-14 (",
+        "no full local day in manual mode",
+    ] {
+        assert!(why.contains(part), "{part}: {why}");
+    }
+}

@@ -435,6 +435,7 @@ fn pump_settings_are_the_active_profile_and_unreadable_ones_are_noted_not_fatal(
                 (660, abba_core::GramsPerUnit(12.0)),
             ],
             timezone: None,
+            temporary_min: None,
         }),
     };
     for (name, bytes) in [

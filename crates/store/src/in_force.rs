@@ -352,7 +352,15 @@ pub fn not_future(at: jiff::Timestamp, field: &str) -> Result<(), StoreError> {
 
 /// The settings profiles of the log that become therapy in force (when the
 /// person's therapy follows the pump's profile): each one that differs from
-/// the one before it.
+/// the one before it. A temporary profile (an AndroidAPS Profile Switch
+/// with a duration, [`abba_io::record::Profile::temporary_min`]) is in
+/// force from its instant until its end or the next profile, whichever is
+/// first; at its end the latest permanent profile before it (else the
+/// person's starting settings) is in force again, as AndroidAPS runs it.
+/// That end may lie after the data: a temporary profile running at the end
+/// of the data is not the person's settings, so the return is in force
+/// from then on (the replay puts a change after the last event in force
+/// now).
 pub fn profile_changes(
     person: &Person,
     records: &[Record],
@@ -376,6 +384,38 @@ pub fn profile_changes(
             .unwrap_or_else(|| vec![(0, person.settings.start.basal.0)]),
         person.settings.start.carb_ratio.map(|c| c.0),
     );
+    // The latest permanent profile (and its instant) and the end of the
+    // temporary one in force, if any.
+    let mut base: (Vec<(u32, f64)>, [f64; 3], Option<jiff::Timestamp>) =
+        (prev.0.clone(), prev.1, None);
+    let mut temporary: Option<(jiff::Timestamp, jiff::Timestamp)> = None;
+    let push = |out: &mut Vec<TherapyChange>,
+                prev: &mut (Vec<(u32, f64)>, [f64; 3]),
+                at: jiff::Timestamp,
+                basal: &[(u32, f64)],
+                carb_ratio: [f64; 3],
+                origin: String| {
+        let ts = clock.timestamp(at);
+        *prev = (basal.to_vec(), carb_ratio);
+        out.push(TherapyChange {
+            at: if ts.day_index() < 0 { Timestamp(0) } else { ts },
+            instant: at.to_string(),
+            basal: Some(basal.to_vec()),
+            carb_ratio: Some(carb_ratio),
+            source: ChangeSource::Profile,
+            origin,
+        });
+    };
+    let back =
+        |base: &(Vec<(u32, f64)>, [f64; 3], Option<jiff::Timestamp>),
+         start: jiff::Timestamp,
+         end: jiff::Timestamp| {
+            format!(
+            "the pump's profile {} again at the end of the temporary profile of {start} ({end})",
+            base.2
+                .map_or("before it (the starting settings)".to_string(), |t| format!("of {t}"))
+        )
+        };
     for r in records {
         let abba_io::RecordKind::Schedule { profile } = &r.kind else {
             continue;
@@ -383,22 +423,42 @@ pub fn profile_changes(
         if profile.carb_ratio.is_empty() {
             continue;
         }
+        // A temporary profile that ended before this one: the permanent
+        // one is back at its end.
+        if let Some((start, end)) = temporary.filter(|t| t.1 <= r.at) {
+            if !(prev.0 == base.0 && prev.1 == base.1) {
+                let (b, c) = (base.0.clone(), base.1);
+                push(&mut out, &mut prev, end, &b, c, back(&base, start, end));
+            }
+        }
         let t =
             PumpTherapy::from_profile(profile, meals, format!("{:?} {:?}", r.source, r.id), r.at)?;
+        temporary = profile.temporary_min.map(|m| {
+            let end =
+                r.at.checked_add(jiff::SignedDuration::from_mins(i64::from(m)))
+                    .unwrap_or(jiff::Timestamp::MAX);
+            (r.at, end)
+        });
+        if temporary.is_none() {
+            base = (t.basal.clone(), t.carb_ratio, Some(r.at));
+        }
         if t.same_settings(&prev.0, prev.1) {
             continue;
         }
-        let ts = clock.timestamp(r.at);
-        let at = if ts.day_index() < 0 { Timestamp(0) } else { ts };
-        prev = (t.basal.clone(), t.carb_ratio);
-        out.push(TherapyChange {
-            at,
-            instant: r.at.to_string(),
-            basal: Some(t.basal),
-            carb_ratio: Some(t.carb_ratio),
-            source: ChangeSource::Profile,
-            origin: format!("the pump's profile of {}", r.at),
-        });
+        push(
+            &mut out,
+            &mut prev,
+            r.at,
+            &t.basal,
+            t.carb_ratio,
+            format!("the pump's profile of {}", r.at),
+        );
+    }
+    if let Some((start, end)) = temporary {
+        if !(prev.0 == base.0 && prev.1 == base.1) && end < jiff::Timestamp::MAX {
+            let (b, c) = (base.0.clone(), base.1);
+            push(&mut out, &mut prev, end, &b, c, back(&base, start, end));
+        }
     }
     Ok(out)
 }

@@ -720,6 +720,9 @@ fn profile_check(
             _ => {}
         }
     }
+    // A temporary profile (an AndroidAPS Profile Switch with a duration)
+    // is not the person's settings: the permanent ones are compared.
+    profiles.retain(|t| t.temporary_min.is_none());
     profiles.sort_by_key(|t| t.at);
     if profiles.is_empty() {
         return Ok(None);

@@ -794,3 +794,98 @@ fn an_open_loop_tidepool_export_gives_the_pumps_therapy_a_first_week_and_suggest
         }
     }
 }
+
+/// AndroidAPS's Profile Switch as its NSClient uploads it (`profile`,
+/// `percentage`, `timeshift`, `duration` in minutes, `originalDuration` in
+/// ms, the profile as chosen in `profileJson`).
+fn aaps_switch(id: &str, ms: i64, percentage: u32, minutes: i64, plan: &Plan) -> Value {
+    let arr = |v: &[(&str, f64)]| -> Value {
+        v.iter()
+            .map(|(t, x)| json!({"time": t, "timeAsSeconds": seconds(t), "value": x}))
+            .collect()
+    };
+    let profile = json!({"units": "mg/dl", "dia": 5, "timezone": TZ,
+        "basal": arr(&plan.basal), "carbratio": arr(&plan.carb_ratio),
+        "sens": arr(&[("00:00", 50.0)]), "target_low": arr(&[("00:00", 100.0)]),
+        "target_high": arr(&[("00:00", 110.0)])});
+    let name = if percentage == 100 {
+        "LocalProfile0".to_string()
+    } else {
+        format!("LocalProfile0({percentage}%)")
+    };
+    json!({"_id": id, "timeshift": 0, "percentage": percentage, "duration": minutes,
+        "profile": name, "originalProfileName": "LocalProfile0",
+        "originalDuration": minutes * 60_000, "created_at": iso(ms),
+        "enteredBy": "openaps://AndroidAPS", "isValid": true, "eventType": "Profile Switch",
+        "profileJson": profile.to_string(), "pumpType": "DANA_RS", "utcOffset": 120})
+}
+
+/// An export whose last AndroidAPS Profile Switch is an 80 % profile for
+/// 2 h, set at 22:30 on the last day and still running when the data end
+/// (23:55): the person's settings are the permanent profile, the 80 % one
+/// is in force in its window, and the permanent one is in force again
+/// after it (today's advice starts from it).
+#[test]
+fn a_temporary_profile_running_at_the_end_of_the_data_is_not_the_therapy_in_force() {
+    let plan = Plan {
+        basal: vec![("00:00", 1.0), ("12:00", 1.2)],
+        ..Plan::default()
+    };
+    let dir = TempDir::new("aaps-temporary");
+    let files = export(&dir.0, &plan);
+    let mut treatments: Vec<Value> =
+        serde_json::from_slice(&std::fs::read(&files[1]).unwrap()).unwrap();
+    let last_day = DAY1_MS + (plan.days - 1) * 86_400_000;
+    treatments.push(aaps_switch(
+        "66f0b2a1c574da0004a39006",
+        DAY1_MS - 86_400_000 + 3_600_000,
+        100,
+        0,
+        &plan,
+    ));
+    treatments.push(aaps_switch(
+        "66f0b2a1c574da0004a39010",
+        last_day + (22 * 60 + 30) * 60_000,
+        80,
+        120,
+        &plan,
+    ));
+    std::fs::write(&files[1], serde_json::to_vec(&treatments).unwrap()).unwrap();
+    let opts = ReadOptions {
+        tz: Some(TimeZone::get(TZ).unwrap()),
+        ..ReadOptions::default()
+    };
+    let meals = abba_io::meals::MealWindows::default();
+    let t = therapy_from_files(&files, &opts, &meals).unwrap();
+    assert_eq!(t.basal, vec![(0, 1.0), (720, 1.2)], "{t:?}");
+    assert!(
+        t.notes.len() == 1 && t.notes[0].contains("was still running at the end of the data"),
+        "{:?}",
+        t.notes
+    );
+    let mut store = dir.store();
+    store.create_person(&person_from(&files, "ana")).unwrap();
+    let s = store.import_files("ana", &files, None).unwrap();
+    assert!(
+        s.notes.iter().any(|n| n.contains("still running")),
+        "{:?}",
+        s.notes
+    );
+    let a = store.advise("ana").unwrap();
+    // In force after the data: the permanent profile, not 0.8/0.96.
+    assert_eq!(
+        a.therapy.basal_schedule,
+        Some(vec![("00:00".to_string(), 1.0), ("12:00".to_string(), 1.2)]),
+        "{:?}",
+        a.therapy
+    );
+    // The 80 % profile was in force in its window, then the permanent one.
+    let [.., temp, back] = &a.therapy.changes[..] else {
+        panic!("{:?}", a.therapy.changes)
+    };
+    assert!(temp.contains("0.8") && temp.contains("0.96"), "{temp}");
+    assert!(
+        back.contains("at the end of the temporary profile") && back.contains("1.2"),
+        "{back}"
+    );
+}

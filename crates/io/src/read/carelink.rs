@@ -300,6 +300,8 @@ struct Row {
     /// A bolus row of the pump (a `Bolus Type`; a dual bolus's square part
     /// is the same bolus as its normal part and not counted).
     bolus: bool,
+    /// A row of SmartGuard's auto mode (see [`SettingsRows::closed_loop`]).
+    closed_loop: bool,
 }
 
 /// What a CareLink export says about the pump's settings: the rows that
@@ -316,6 +318,14 @@ pub struct SettingsRows {
     pub end: Option<jiff::Timestamp>,
     /// A wizard carb-ratio column not in g/U (its name): not read.
     pub ratio_not_grams: Option<String>,
+    /// Pump rows SmartGuard's auto mode wrote (`Bolus Source`
+    /// `CLOSED_LOOP_*` with a delivered volume, as [`auto_mode`] counts
+    /// them): instant and line, oldest first.
+    pub closed_loop: Vec<(jiff::Timestamp, u64)>,
+    /// The local dates of the "Aggregated Auto Insulin Data" daily totals
+    /// (`CLOSED_LOOP_*` with a volume: auto mode delivered insulin that
+    /// day), with their lines.
+    pub auto_insulin_days: Vec<(jiff::civil::Date, u64)>,
 }
 
 /// Reads a CareLink export.
@@ -448,6 +458,11 @@ pub fn read_with_settings(
             let bolus = pump
                 && !bolus_type.is_empty()
                 && !bolus_type.to_ascii_lowercase().contains("square part");
+            let closed_loop = matches!(span.section, Section::Pump | Section::Totals)
+                && cols
+                    .bolus_source
+                    .is_some_and(|i| t.cell(i).starts_with("CLOSED_LOOP_"))
+                && cols.bolus_delivered.is_some_and(|i| !t.cell(i).is_empty());
             rows.push(Row {
                 line,
                 wall,
@@ -456,6 +471,7 @@ pub fn read_with_settings(
                 carb_ratio,
                 wizard,
                 bolus,
+                closed_loop,
             });
         }
         // Oldest first, so that a wall time in the autumn fold is placed
@@ -477,6 +493,13 @@ pub fn read_with_settings(
             }
             if let Some(r) = row.carb_ratio {
                 settings.carb_ratio.push((instant, r, row.line));
+            }
+            if row.closed_loop {
+                if span.section == Section::Totals {
+                    settings.auto_insulin_days.push((row.wall.date(), row.line));
+                } else {
+                    settings.closed_loop.push((instant, row.line));
+                }
             }
             for mut kind in row.kinds {
                 match &kind {
@@ -558,6 +581,8 @@ pub fn read_with_settings(
         ));
     }
     settings.basal.sort_by_key(|b| b.0);
+    settings.closed_loop.sort_by_key(|c| c.0);
+    settings.auto_insulin_days.sort();
     settings.carb_ratio.sort_by_key(|c| c.0);
     Ok((out, settings))
 }

@@ -60,6 +60,8 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
             switches.push(Switch {
                 record: out.len(),
                 minutes: switch_minutes(&item)?,
+                item: item.index,
+                name: switch_name(&item)?,
             });
         }
         for (n, kind) in kinds.into_iter().enumerate() {
@@ -79,16 +81,35 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
         }
     }
     check_error_codes(ctx.file, &out)?;
-    temporary_switches(&mut out, &mut versions, &switches);
+    temporary_switches(ctx, &mut out, &mut versions, &switches);
     latest_versions(ctx, &mut out, &versions);
     Ok(out)
 }
 
-/// A Profile Switch read as a schedule: its record's index and its
-/// duration (0: until the next switch).
+/// A Profile Switch read as a schedule: its record's index, its duration
+/// (0: until the next switch), its JSON item and its profile's name and
+/// percentage in words (for notes).
 struct Switch {
     record: usize,
     minutes: u32,
+    item: usize,
+    name: String,
+}
+
+/// A Profile Switch's profile in words: `profile` (AndroidAPS writes the
+/// customised name there, e.g. `Exercise(80%)`), else `originalProfileName`,
+/// with its `percentage` when not 100. Words for a note only: a name that
+/// is not text is left out, never an error.
+fn switch_name(item: &Item<'_>) -> Result<String, IoError> {
+    let text = |f: &str| item.str(f).ok().flatten();
+    let name = match text("profile").or_else(|| text("originalProfileName")) {
+        Some(n) => format!("profile \"{n}\""),
+        None => "an unnamed profile".to_string(),
+    };
+    Ok(match item.num("percentage")? {
+        Some(p) if p != 100.0 => format!("{name} at {p} %"),
+        _ => name,
+    })
 }
 
 /// A Profile Switch's duration in minutes, as AndroidAPS reads it back
@@ -131,13 +152,30 @@ fn switch_minutes(item: &Item<'_>) -> Result<u32, IoError> {
 /// AndroidAPS runs the latest permanent switch again
 /// (`getProfileSwitchActiveAt` in `database/impl/.../AppRepository.kt`:
 /// the temporary switch active at the time, else the latest permanent
-/// one, the later of the two). So at the end of a temporary switch that
-/// no other switch cut short, and that ends within the file's records, a
-/// schedule record (id `<_id>#end`) brings back the latest permanent
-/// switch before it. When the file holds no permanent switch before it,
-/// what the pump returned to is not known: the temporary switch is
-/// counted, not read (its profile would stay in force for good).
-fn temporary_switches(out: &mut Vec<Record>, versions: &mut Vec<Option<f64>>, switches: &[Switch]) {
+/// one, the later of the two). Every temporary switch's schedule carries
+/// its duration ([`crate::record::Profile::temporary_min`]), so that whoever
+/// reads the records (the therapy in force, the store's therapy changes)
+/// can tell it from the person's settings. At the end of a temporary
+/// switch that no other switch cut short, and that ends within the file's
+/// records, a schedule record (id `<_id>#end`) brings back the latest
+/// permanent switch before it. When the file holds no permanent switch
+/// before it, what the pump returned to is not known: the temporary switch
+/// is counted, not read (its profile would stay in force for good). A
+/// temporary switch still running at the file's last record gets no
+/// `#end` record (its end is not in the data, and a later switch may yet
+/// cut it short) and a note saying so and what it returns to.
+fn temporary_switches(
+    ctx: &Ctx<'_>,
+    out: &mut Vec<Record>,
+    versions: &mut Vec<Option<f64>>,
+    switches: &[Switch],
+) {
+    // Every version of a switch is marked, so that equal versions stay equal.
+    for s in switches {
+        if let (RecordKind::Schedule { profile }, 1..) = (&mut out[s.record].kind, s.minutes) {
+            profile.temporary_min = Some(s.minutes);
+        }
+    }
     let Some(last) = out.iter().map(|r| r.at).max() else {
         return;
     };
@@ -170,10 +208,31 @@ fn temporary_switches(out: &mut Vec<Record>, versions: &mut Vec<Option<f64>>, sw
         let cut_short = kept
             .get(i + 1)
             .is_some_and(|next| out[next.record].at < end);
-        if cut_short || end > last {
+        if cut_short {
             continue;
         }
-        match kept[..i].iter().rev().find(|p| p.minutes == 0) {
+        let permanent = kept[..i].iter().rev().find(|p| p.minutes == 0);
+        if end > last {
+            let returns = match permanent {
+                Some(p) => format!(
+                    "at its end AndroidAPS returns to the permanent Profile Switch of {} \
+                     ($[{}], {}), which stays the person's settings",
+                    out[p.record].at, p.item, p.name
+                ),
+                None => "the file holds no permanent Profile Switch before it, so the profile \
+                         it returns to (the person's settings) is not known"
+                    .to_string(),
+            };
+            ctx.note(format!(
+                "the Profile Switch of {start} ($[{}], {}) is temporary ({} min, until {end}) \
+                 and was still running at the file's last record ({last}): a temporary \
+                 profile, in force in its window only and not taken as the person's \
+                 settings; {returns}",
+                s.item, s.name, s.minutes
+            ));
+            continue;
+        }
+        match permanent {
             Some(p) => ends.push((s.record, end, out[p.record].kind.clone())),
             None => unknown.push(s.record),
         }
@@ -949,6 +1008,7 @@ fn schedule_of(p: &Item<'_>, prefix: &str) -> Result<RecordKind, IoError> {
                 .map(|(m, r)| (m, GramsPerUnit(r)))
                 .collect(),
             timezone: p.str("timezone")?.map(str::to_string),
+            temporary_min: None,
         }),
     })
 }

@@ -609,6 +609,7 @@ pub fn pump_settings_profile(item: &Item<'_>) -> Result<Profile, IoError> {
             .map(|(m, r)| (m, abba_core::GramsPerUnit(r)))
             .collect(),
         timezone: None,
+        temporary_min: None,
     })
 }
 

@@ -9,6 +9,11 @@ plasma glucose agrees with abba's (`abba simulate --day standard`).
 
     python3 -m venv /tmp/sg && /tmp/sg/bin/pip install simglucose==0.2.11
     /tmp/sg/bin/python benches/simglucose_day.py [repeats]
+
+Also times one patient-day of simglucose's own simulation, as its users
+run it (`sim_engine.sim` of a `SimObj`: `T1DSimEnv` with the Dexcom CGM,
+the Insulet pump and a `RandomScenario`, driven by its `BBController`, 3-min
+sample time, results kept in memory), adult#001, seed 1.
 """
 import sys
 import time
@@ -27,6 +32,31 @@ def one_day(name="adult#001", cr=10.0):
     return patient.state[3] / patient._params.Vg
 
 
+def one_simulated_day():
+    import contextlib
+    import io
+    from datetime import datetime, timedelta
+
+    from simglucose.actuator.pump import InsulinPump
+    from simglucose.controller.basal_bolus_ctrller import BBController
+    from simglucose.sensor.cgm import CGMSensor
+    from simglucose.simulation.env import T1DSimEnv
+    from simglucose.simulation.scenario_gen import RandomScenario
+    from simglucose.simulation.sim_engine import SimObj
+
+    start = datetime(2018, 1, 1)
+    env = T1DSimEnv(
+        T1DPatient.withName("adult#001"),
+        CGMSensor.withName("Dexcom", seed=1),
+        InsulinPump.withName("Insulet"),
+        RandomScenario(start_time=start, seed=1),
+    )
+    run = SimObj(env, BBController(), timedelta(days=1), animate=False, path=None)
+    with contextlib.redirect_stdout(io.StringIO()):
+        run.simulate()
+    return run.results()
+
+
 def main():
     repeats = int(sys.argv[1]) if len(sys.argv) > 1 else 3
     times = []
@@ -37,6 +67,15 @@ def main():
     times.sort()
     print(f"simglucose 0.2.11, adult#001 standard day: median {times[len(times) // 2]:.3f} s "
           f"per patient-day over {repeats} runs (min {times[0]:.3f} s); final G = {g:.4f} mg/dL")
+    full = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        results = one_simulated_day()
+        full.append(time.perf_counter() - start)
+    full.sort()
+    print(f"simglucose 0.2.11, its own simulation (T1DSimEnv, BBController, RandomScenario): median "
+          f"{full[len(full) // 2]:.3f} s per patient-day over {repeats} runs (min {full[0]:.3f} s); "
+          f"{len(results)} samples")
 
 
 if __name__ == "__main__":

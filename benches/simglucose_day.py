@@ -57,22 +57,22 @@ def one_simulated_day():
     return run.results()
 
 
-def main():
-    repeats = int(sys.argv[1]) if len(sys.argv) > 1 else 3
+def timed(run, repeats):
+    """The sorted wall times of `repeats` calls of `run`, and its last result."""
     times = []
     for _ in range(repeats):
         start = time.perf_counter()
-        g = one_day()
+        result = run()
         times.append(time.perf_counter() - start)
-    times.sort()
+    return sorted(times), result
+
+
+def main():
+    repeats = int(sys.argv[1]) if len(sys.argv) > 1 else 3
+    times, g = timed(one_day, repeats)
     print(f"simglucose 0.2.11, adult#001 standard day: median {times[len(times) // 2]:.3f} s "
           f"per patient-day over {repeats} runs (min {times[0]:.3f} s); final G = {g:.4f} mg/dL")
-    full = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        results = one_simulated_day()
-        full.append(time.perf_counter() - start)
-    full.sort()
+    full, results = timed(one_simulated_day, repeats)
     print(f"simglucose 0.2.11, its own simulation (T1DSimEnv, BBController, RandomScenario): median "
           f"{full[len(full) // 2]:.3f} s per patient-day over {repeats} runs (min {full[0]:.3f} s); "
           f"{len(results)} samples")

@@ -470,6 +470,25 @@ fn projected_actor_keeps_theta_in_its_sign_pattern_where_eq28_leaves_it() {
     );
 }
 
+/// Every basal decision of `d` (at least 15) names `[from, to)` of its
+/// closed day as its window, with `n` readings in it.
+fn assert_basal_windows(d: &[Decision], [from, to]: [i64; 2], n: u32) {
+    let basal: Vec<_> = d
+        .iter()
+        .filter(|x| x.parameter == Parameter::Basal)
+        .collect();
+    assert!(basal.len() >= 15);
+    for x in basal {
+        let e = explanation(x);
+        let day = e.window_start.day_index();
+        assert_eq!(
+            (e.window_start, e.window_end, e.window.n),
+            (t(day, from), t(day, to), n),
+            "{x}"
+        );
+    }
+}
+
 #[test]
 fn a_basal_window_judges_the_night_and_leaves_the_meals_to_the_carb_ratios() {
     // Under-bolused meals (carb ratios 10 against a need of 7: ~190 mg/dL
@@ -503,21 +522,7 @@ fn a_basal_window_judges_the_night_and_leaves_the_meals_to_the_carb_ratios() {
     );
     // Each basal decision names the night as its window: 84 five-minute
     // readings from 00:00 to 07:00 of the closed day.
-    let basal: Vec<_> = d
-        .iter()
-        .filter(|x| x.parameter == Parameter::Basal)
-        .collect();
-    assert!(basal.len() >= 15);
-    for x in basal {
-        let e = explanation(x);
-        let day = e.window_start.day_index();
-        assert_eq!(
-            (e.window_start, e.window_end),
-            (t(day, 0), t(day, 420)),
-            "{x}"
-        );
-        assert_eq!(e.window.n, 84, "{x}");
-    }
+    assert_basal_windows(&d, [0, 420], 84);
     // SMBG mode reads its four readings a day as before.
     let mut smbg = AbbaConfig::new(Mode::Smbg, 5);
     smbg.features.cgm_basal_window_min = Some([0, 420]);
@@ -545,20 +550,7 @@ fn a_basal_window_judges_the_night_and_leaves_the_meals_to_the_carb_ratios() {
         "SMBG fasting: {}",
         s_fasting.basal.0
     );
-    let basal: Vec<_> = d
-        .iter()
-        .filter(|x| x.parameter == Parameter::Basal)
-        .collect();
-    assert!(basal.len() >= 15);
-    for x in basal {
-        let e = explanation(x);
-        let day = e.window_start.day_index();
-        assert_eq!(
-            (e.window_start, e.window_end, e.window.n),
-            (t(day, 0), t(day, 450), 1),
-            "{x}"
-        );
-    }
+    assert_basal_windows(&d, [0, 450], 1);
     // A window that is not part of a day is refused by name.
     for bad in [[420, 0], [-60, 420], [0, 1441], [300, 300]] {
         let mut c = AbbaConfig::new(Mode::Cgm, 5);

@@ -493,7 +493,12 @@ impl Abba {
             Some(w) if w.2.is_empty() => return self.log.push(skipped(SkipReason::EmptyWindow)),
             Some((from, to, part)) => {
                 if let Some(rule) = self.min_data {
-                    let required = rule.required(self.config.mode, from, to, true);
+                    // CGM: the hours' coverage. SMBG: the window holds a
+                    // reading or two by design (the fasting one, the
+                    // night's two), so it asks what a meal window asks;
+                    // the day's own count was checked above.
+                    let day = self.config.mode == Mode::Cgm;
+                    let required = rule.required(self.config.mode, from, to, day);
                     if part.n < required {
                         let reason = SkipReason::TooFewReadings {
                             n: part.n,
@@ -620,12 +625,12 @@ impl Abba {
     fn reading(&mut self, at: Timestamp, g_mg_dl: f64) {
         let cfg = &self.config.features;
         self.day_windows.day_mut(at.day_index()).push(g_mg_dl, cfg);
-        if cfg.basal_window_is_part(self.config.mode)
-            && cfg.in_basal_window(self.config.mode, at.minute_of_day())
-        {
-            self.basal_windows
-                .day_mut(at.day_index())
-                .push(g_mg_dl, cfg);
+        if cfg.basal_window_is_part(self.config.mode) {
+            if let Some(ahead) = cfg.basal_window_day(self.config.mode, at.minute_of_day()) {
+                self.basal_windows
+                    .day_mut(at.day_index() + ahead)
+                    .push(g_mg_dl, cfg);
+            }
         }
         if let Some((_, acc)) = self.meal_windows.open_mut() {
             acc.push(g_mg_dl, cfg);

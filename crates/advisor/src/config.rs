@@ -8,6 +8,7 @@
 //! guessed scales chosen by `abba calibrate`).
 
 use crate::error::{check_count, check_positive, check_range, config_err, AdvisorError};
+use abba_core::MINUTES_PER_DAY;
 use serde::{Deserialize, Serialize};
 
 /// Which measurements drive the advisor.
@@ -194,8 +195,9 @@ pub struct FeatureConfig {
     #[serde(default)]
     pub cgm_g_max_mg_dl: Option<f64>,
     /// CGM mode: the minutes of the calendar day `[from, to)` after
-    /// midnight whose readings the basal agent's features come from;
-    /// `None`: the whole day (the seed). \[DEVIATION when set] A flat
+    /// midnight whose readings the basal agent's features come from (a
+    /// negative `from` starts the evening before: `[-120, 420]` is 22:00 to
+    /// 07:00); `None`: the whole day (the seed). \[DEVIATION when set] A flat
     /// basal judged on the whole day answers the post-meal
     /// hyperglycaemia that is the carb ratios' (benches/diagnosis,
     /// children in CGM mode); clinicians and the run-to-run baseline judge
@@ -204,9 +206,11 @@ pub struct FeatureConfig {
     #[serde(default)]
     pub cgm_basal_window_min: Option<[i64; 2]>,
     /// SMBG mode: the same for the finger-stick readings (`None`: the
-    /// whole day, the seed). \[DEVIATION when set] With four readings a
-    /// day the window holds the fasting one before breakfast (20 min
-    /// before it, ±15 min, ±10 more in S3 and S4).
+    /// whole day, the seed). \[DEVIATION] With four readings a day
+    /// `[0, 450]` holds the fasting one before breakfast (20 min before
+    /// it, ±15 min, ±10 more in S3 and S4); `[-90, 450]`, the default
+    /// (`abba calibrate` on adults; benches/diagnosis/README.md), adds the
+    /// bedtime reading of the evening before: the night's two readings.
     #[serde(default)]
     pub smbg_basal_window_min: Option<[i64; 2]>,
 }
@@ -223,6 +227,7 @@ impl FeatureConfig {
             smbg_excursion: Excursion::OutOfRangeMean,
             cgm_g_min_mg_dl: None,
             cgm_g_max_mg_dl: None,
+            smbg_basal_window_min: None,
             ..Self::default()
         }
     }
@@ -241,12 +246,17 @@ impl FeatureConfig {
         }
     }
 
-    /// Whether a reading at `minute_of_day` counts for the basal agent's
-    /// features of an advisor in `mode` (see `cgm_basal_window_min`).
-    pub fn in_basal_window(&self, mode: Mode, minute_of_day: i64) -> bool {
+    /// For a reading at `minute_of_day` of an advisor in `mode`, the
+    /// calendar day whose basal window it belongs to, relative to its own:
+    /// 0 for its own day, 1 for the next (a window that starts the evening
+    /// before, `from` < 0), `None` for none (see `cgm_basal_window_min`).
+    /// Without a window every reading is its own day's.
+    pub fn basal_window_day(&self, mode: Mode, minute_of_day: i64) -> Option<i64> {
         match self.basal_window_for(mode) {
-            Some([from, to]) => (from..to).contains(&minute_of_day),
-            None => true,
+            None => Some(0),
+            Some([from, to]) if (from..to).contains(&minute_of_day) => Some(0),
+            Some([from, _]) if from < 0 && minute_of_day >= MINUTES_PER_DAY + from => Some(1),
+            Some(_) => None,
         }
     }
 
@@ -296,7 +306,7 @@ impl Default for FeatureConfig {
             cgm_g_min_mg_dl: None,
             cgm_g_max_mg_dl: Some(400.0),
             cgm_basal_window_min: None,
-            smbg_basal_window_min: None,
+            smbg_basal_window_min: Some([-90, 450]),
         }
     }
 }
@@ -334,11 +344,15 @@ impl FeatureConfig {
             ("features.smbg_basal_window_min", self.smbg_basal_window_min),
         ] {
             if let Some([from, to]) = window {
-                if !(0 <= from && from < to && to <= 1440) {
+                if !(-MINUTES_PER_DAY < from
+                    && from < to
+                    && to <= MINUTES_PER_DAY
+                    && to - from <= MINUTES_PER_DAY)
+                {
                     return Err(AdvisorError::Config {
                         field: field.into(),
                         problem: format!(
-                            "[{from}, {to}]: expected minutes after midnight with 0 <= from < to <= 1440"
+                            "[{from}, {to}]: expected minutes after the closed day's midnight with -1440 < from < to <= 1440 (from < 0: the evening before) and at most a day long"
                         ),
                     });
                 }

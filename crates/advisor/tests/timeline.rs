@@ -31,12 +31,14 @@ fn smbg_timeline_first_updates_and_windows() {
     };
     toy.run(&mut a, Mode::Smbg, 1, 11, 7);
     let d = a.take_decisions();
-    // First decision: BR at 23:00 of D8 (index 7) from D8's four SMBG values.
+    // First decision: BR at 23:00 of D8 (index 7) from the night's two SMBG
+    // values (the default window, 22:30 of D7 to 07:30 of D8: D7's bedtime
+    // and D8's pre-breakfast readings).
     assert_eq!(d[0].parameter, Parameter::Basal);
     assert_eq!(d[0].at, t(7, 1380), "first BR update at 23:00 D8");
     let x = explanation(&d[0]);
-    assert_eq!(x.window.n, 4, "BR window = the day's 4 SMBG values");
-    assert_eq!(x.window_start, t(7, 0));
+    assert_eq!(x.window.n, 2, "BR window = the night's 2 SMBG values");
+    assert_eq!((x.window_start, x.window_end), (t(6, 1350), t(7, 450)));
     // Then D9: CIR1, CIR2, CIR3 at the announcements, BR at 23:00.
     let expect = [
         (Parameter::CarbRatio(MealSlot::Breakfast), t(8, 420)),
@@ -480,7 +482,7 @@ fn assert_basal_windows(d: &[Decision], [from, to]: [i64; 2], n: u32) {
     assert!(basal.len() >= 15);
     for x in basal {
         let e = explanation(x);
-        let day = e.window_start.day_index();
+        let day = (e.window_end.0 - to).div_euclid(1440);
         assert_eq!(
             (e.window_start, e.window_end, e.window.n),
             (t(day, from), t(day, to), n),
@@ -526,13 +528,16 @@ fn a_basal_window_judges_the_night_and_leaves_the_meals_to_the_carb_ratios() {
     // SMBG mode reads its four readings a day as before.
     let mut smbg = AbbaConfig::new(Mode::Smbg, 5);
     smbg.features.cgm_basal_window_min = Some([0, 420]);
+    smbg.features.smbg_basal_window_min = None;
     let (_, d) = final_settings_with(smbg, toy, 12);
     let x = d.iter().find(|x| x.parameter == Parameter::Basal).unwrap();
     assert_eq!(explanation(x).window.n, 4);
     // SMBG mode's own window holds the fasting reading (06:40): the basal
     // stays where the fasting glucose is right; on the whole day its four
     // readings (three after meals) raise it.
-    let (s_whole, _) = final_settings_with(AbbaConfig::new(Mode::Smbg, 5), toy, 25);
+    let mut whole_day = AbbaConfig::new(Mode::Smbg, 5);
+    whole_day.features.smbg_basal_window_min = None;
+    let (s_whole, _) = final_settings_with(whole_day, toy, 25);
     let mut fasting = AbbaConfig::new(Mode::Smbg, 5);
     fasting.features.smbg_basal_window_min = Some([0, 450]);
     let (s_fasting, d) = final_settings_with(fasting, toy, 25);
@@ -551,8 +556,30 @@ fn a_basal_window_judges_the_night_and_leaves_the_meals_to_the_carb_ratios() {
         s_fasting.basal.0
     );
     assert_basal_windows(&d, [0, 450], 1);
+    // A window from the evening before holds the night's two readings:
+    // bedtime (23:00) and fasting (06:40).
+    let mut evening = AbbaConfig::new(Mode::Smbg, 5);
+    evening.features.smbg_basal_window_min = Some([-90, 450]);
+    let (_, d) = final_settings_with(evening.clone(), toy, 25);
+    assert_basal_windows(&d, [-90, 450], 2);
+    // The data rule (a person's store sets it) asks of these few readings
+    // what it asks of a meal window, the day's count checked on the day:
+    // the basal still moves.
+    let mut ruled = Abba::new(evening, start())
+        .unwrap()
+        .with_min_data(abba_advisor::MinData::default());
+    toy.run(&mut ruled, Mode::Smbg, 1, 14, 7);
+    let basal: Vec<_> = ruled
+        .take_decisions()
+        .into_iter()
+        .filter(|x| x.parameter == Parameter::Basal)
+        .collect();
+    assert!(basal.len() >= 5);
+    for x in &basal {
+        assert!(matches!(x.detail, DecisionDetail::Abba(_)), "{x}");
+    }
     // A window that is not part of a day is refused by name.
-    for bad in [[420, 0], [-60, 420], [0, 1441], [300, 300]] {
+    for bad in [[420, 0], [-1440, 420], [0, 1441], [300, 300], [-600, 1000]] {
         let mut c = AbbaConfig::new(Mode::Cgm, 5);
         c.features.cgm_basal_window_min = Some(bad);
         let e = Abba::new(c, start()).unwrap_err().to_string();

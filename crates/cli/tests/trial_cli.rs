@@ -220,15 +220,15 @@ fn a_population_brings_its_own_abba_defaults_unless_a_file_sets_them() {
         let f = &c["abba"]["features"];
         serde_json::json!([f["cgm_basal_window_min"], f["smbg_basal_window_min"]])
     };
-    let none = serde_json::json!([null, null]);
+    let adults = serde_json::json!([null, [-90, 450]]);
     let print = |p: &str| window(&["trial", "--print-config", "--population", p]);
-    assert_eq!(print("adults"), none);
+    assert_eq!(print("adults"), adults);
     assert_eq!(
         print("adolescents"),
         serde_json::json!([[0, 420], [0, 450]])
     );
     assert_eq!(print("children"), serde_json::json!([[120, 420], [0, 450]]));
-    assert_eq!(window(&["trial", "--print-config"]), none);
+    assert_eq!(window(&["trial", "--print-config"]), adults);
     // A configuration file's knobs stay as written; the flag changes only
     // the cohort.
     let path = tmp("adult-defaults.json");
@@ -243,7 +243,7 @@ fn a_population_brings_its_own_abba_defaults_unless_a_file_sets_them() {
         "--population",
         "children",
     ];
-    assert_eq!(window(&args), none);
+    assert_eq!(window(&args), adults);
 }
 
 #[test]

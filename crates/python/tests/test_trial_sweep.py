@@ -90,7 +90,7 @@ def test_shards_merge_and_refuse_incomplete_sets(single):
 def test_a_population_brings_its_own_abba_defaults():
     adults = abba.trial.default_config()["abba"]["features"]
     assert adults["cgm_basal_window_min"] is None
-    assert adults["smbg_basal_window_min"] is None
+    assert adults["smbg_basal_window_min"] == [-90, 450]
     kids = abba.trial.default_config("children")
     assert kids["population"] == "children"
     assert kids["abba"]["features"]["cgm_basal_window_min"] == [120, 420]

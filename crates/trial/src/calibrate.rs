@@ -69,7 +69,8 @@ pub enum Knob {
     CgmBasalWindow,
     /// The same in SMBG mode, `features.smbg_basal_window_min`: 0 = the
     /// whole day (the seed), 1 = 00:00-07:30 (the fasting reading before
-    /// breakfast). Not in the default grid.
+    /// breakfast), 2 = 22:30 the evening before to 07:30 (the night's
+    /// bedtime and fasting readings). Not in the default grid.
     SmbgBasalWindow,
 }
 
@@ -77,7 +78,7 @@ pub enum Knob {
 const CGM_BASAL_WINDOWS: [Option<[i64; 2]>; 3] = [None, Some([0, 420]), Some([120, 420])];
 
 /// The windows of [`Knob::SmbgBasalWindow`], by value.
-const SMBG_BASAL_WINDOWS: [Option<[i64; 2]>; 2] = [None, Some([0, 450])];
+const SMBG_BASAL_WINDOWS: [Option<[i64; 2]>; 3] = [None, Some([0, 450]), Some([-90, 450])];
 
 impl Knob {
     /// The configuration path the knob sets.
@@ -101,7 +102,7 @@ impl Knob {
                 "abba.features.cgm_basal_window_min (0 = whole day, 1 = 00:00-07:00, 2 = 02:00-07:00)"
             }
             Knob::SmbgBasalWindow => {
-                "abba.features.smbg_basal_window_min (0 = whole day, 1 = 00:00-07:30)"
+                "abba.features.smbg_basal_window_min (0 = whole day, 1 = 00:00-07:30, 2 = 22:30 the evening before to 07:30)"
             }
         }
     }
@@ -783,7 +784,7 @@ mod tests {
             assert_eq!(Knob::CgmBasalWindow.get(&c), v);
             assert_eq!(c.abba.features.cgm_basal_window_min, w);
         }
-        for (v, w) in [(1.0, Some([0, 450])), (0.0, None)] {
+        for (v, w) in [(1.0, Some([0, 450])), (2.0, Some([-90, 450])), (0.0, None)] {
             Knob::SmbgBasalWindow.set(&mut c, v);
             assert_eq!(Knob::SmbgBasalWindow.get(&c), v);
             assert_eq!(c.abba.features.smbg_basal_window_min, w);

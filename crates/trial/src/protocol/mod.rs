@@ -148,8 +148,9 @@ impl RawTrialConfig {
     /// the basal agent's hours differ (`abba calibrate` over
     /// `cgm_basal_window` and `smbg_basal_window` on 60 generated patients
     /// of each population, seeds 101; benches/diagnosis/README.md): adults
-    /// the whole day in both modes; adolescents 00:00-07:00 in CGM mode and
-    /// children 02:00-07:00; both the fasting reading before breakfast
+    /// the whole day in CGM mode and the night's bedtime and fasting
+    /// readings in SMBG mode (the defaults); adolescents 00:00-07:00 in CGM
+    /// mode and children 02:00-07:00; both the fasting reading alone
     /// (00:00-07:30) in SMBG mode.
     pub fn for_population(population: Population) -> Self {
         let mut c = Self {
@@ -157,11 +158,16 @@ impl RawTrialConfig {
             ..Self::default()
         };
         let f = &mut c.abba.features;
-        (f.cgm_basal_window_min, f.smbg_basal_window_min) = match population {
-            Population::Adults => (None, None),
-            Population::Adolescents => (Some([0, 420]), Some([0, 450])),
-            Population::Children => (Some([120, 420]), Some([0, 450])),
-        };
+        match population {
+            Population::Adults => {}
+            Population::Adolescents => {
+                (f.cgm_basal_window_min, f.smbg_basal_window_min) = (Some([0, 420]), Some([0, 450]))
+            }
+            Population::Children => {
+                (f.cgm_basal_window_min, f.smbg_basal_window_min) =
+                    (Some([120, 420]), Some([0, 450]))
+            }
+        }
         c
     }
 }

@@ -178,6 +178,23 @@ pub fn data_window(n: u32, from: &str, to: &str) -> String {
     format!("{n} readings from {from} to {to}")
 }
 
+/// Why a basal update learned from part of the day (`[from, to)`, minutes
+/// after midnight): the hours, and the age group whose defaults chose them
+/// (`None`: the advisor's configuration chose them, not an age group's
+/// defaults).
+pub fn basal_hours(window_min: [i64; 2], group: Option<crate::AgeGroup>) -> String {
+    let hhmm = |m: i64| format!("{:02}:{:02}", m / 60, m % 60);
+    let hours = format!(
+        "The basal rate learns from the readings from {} to {} only",
+        hhmm(window_min[0]),
+        hhmm(window_min[1])
+    );
+    match group {
+        Some(g) => format!("{hours}: the advisor's defaults for {}.", g.plural()),
+        None => format!("{hours}, as the advisor's configuration sets."),
+    }
+}
+
 /// A decision that learned from no data window (a skipped decision point).
 pub const NO_DATA_WINDOW: &str = "no data window";
 

@@ -243,7 +243,6 @@ pub fn views_with(
     let hold_basal = extras.is_some_and(|x| x.hold_basal);
     let changes: &[TherapyChange] = extras.map_or(&[], |x| &x.changes);
     let c = clock(person);
-    let cfg = &person.settings.advisor;
     let mut latest: BTreeMap<&'static str, usize> = BTreeMap::new();
     for (i, d) in decisions.iter().enumerate() {
         latest.insert(param_key(d.parameter), i);
@@ -301,7 +300,7 @@ pub fn views_with(
                 change_percent: 100.0 * (d.new / d.old - 1.0),
                 no_update: skipped.is_some(),
                 no_update_reason: skipped,
-                reasons: words::reasons_in(d, cfg, person.settings.units),
+                reasons: reasons(person, d),
                 data,
                 status,
                 in_force,
@@ -311,6 +310,21 @@ pub fn views_with(
             }
         })
         .collect()
+}
+
+/// The reasons of one decision; a basal update that learned from part
+/// of the day says which hours and whose defaults chose them.
+fn reasons(person: &Person, d: &Decision) -> Vec<String> {
+    let s = &person.settings;
+    let mut out = words::reasons_in(d, &s.advisor, s.units);
+    let f = &s.advisor.features;
+    if let (Parameter::Basal, DecisionDetail::Abba(_), Some(w)) =
+        (d.parameter, &d.detail, f.basal_window_for(s.advisor.mode))
+    {
+        let group = s.age_group.holds(f).then_some(s.age_group);
+        out.insert(1, words::basal_hours(w, group));
+    }
+    out
 }
 
 fn value(a: &Abba, p: Parameter) -> f64 {

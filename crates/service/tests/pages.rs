@@ -1537,3 +1537,63 @@ async fn today_for_a_person_fed_by_imports_says_what_abba_advise_says() {
     // The Log knows this person is fed by imports: nothing to enter there.
     assert!(b.get("/log").await.html.contains("id=\"import-fed\""));
 }
+
+/// The clinic's new-person form takes the age group (a labelled select,
+/// adult by default): its defaults in the stored advisor configuration,
+/// the group on the person's page; an unknown one stays beside its field.
+#[tokio::test]
+async fn the_clinics_new_person_form_takes_an_age_group() {
+    let svc = Svc::new();
+    let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
+    let page = admin.get("/clinic").await;
+    assert_eq!(page.status, StatusCode::OK);
+    assert!(
+        page.html.contains("<label for=\"age_group\">")
+            && page
+                .html
+                .contains("<select id=\"age_group\" name=\"age_group\"")
+            && page.html.contains("<option value=\"adult\" selected>"),
+        "{}",
+        page.html
+    );
+    let person = |group: &'static str| {
+        vec![
+            ("csrf", csrf.clone()),
+            ("name", "kim".to_string()),
+            ("tz", "Europe/Zurich".to_string()),
+            ("unit", "mg/dL".to_string()),
+            ("mode", "cgm".to_string()),
+            ("age_group", group.to_string()),
+            ("basal", "0.6".to_string()),
+            ("carb_ratios", "20,22,21".to_string()),
+        ]
+    };
+    let fields = person("<b>toddler</b>");
+    let f: Vec<(&str, &str)> = fields.iter().map(|(k, v)| (*k, v.as_str())).collect();
+    let p = admin.post_multipart("/clinic/persons", &f, &[]).await;
+    assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+    let error = p.section("id=\"age_group-error\"", "p").to_string();
+    assert!(
+        error.contains("expected adult, adolescent or child") && !error.contains("<b>"),
+        "{error}"
+    );
+    assert!(abba_service::open_store(&svc.db)
+        .unwrap()
+        .person("kim")
+        .is_err());
+    let fields = person("child");
+    let f: Vec<(&str, &str)> = fields.iter().map(|(k, v)| (*k, v.as_str())).collect();
+    let p = admin.post_multipart("/clinic/persons", &f, &[]).await;
+    assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
+    let page = admin.get(p.location()).await;
+    assert!(page.html.contains("age group child"), "{}", page.html);
+    let kim = abba_service::open_store(&svc.db)
+        .unwrap()
+        .person("kim")
+        .unwrap();
+    assert_eq!(kim.settings.age_group, abba_advisor::AgeGroup::Child);
+    assert_eq!(
+        kim.settings.advisor.features.cgm_basal_window_min,
+        Some([120, 420])
+    );
+}

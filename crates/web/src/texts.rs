@@ -435,7 +435,7 @@ pub struct ClinicTexts {
     pub token_revoked: &'static str,
     /// Status: session revoked.
     pub session_revoked: &'static str,
-    /// The person's mode, zone and unit ({mode}, {tz}, {unit}).
+    /// The person's mode, zone, unit and age group ({mode}, {tz}, {unit}, {age_group}).
     pub person_summary: &'static str,
     /// The link to the person's report.
     pub person_report: &'static str,
@@ -560,6 +560,8 @@ pub struct ClinicTexts {
     pub unit_label: &'static str,
     /// Label: mode.
     pub mode_label: &'static str,
+    /// Label: age group.
+    pub age_group_label: &'static str,
     /// Label: profile file.
     pub profile_label: &'static str,
     /// Before the by-hand fields.
@@ -590,7 +592,7 @@ pub const CLINIC_EN: ClinicTexts = ClinicTexts {
     imported: "Imported.",
     token_revoked: "Revoked: the token.",
     session_revoked: "Revoked: the session.",
-    person_summary: "{mode} mode, zone {tz}, glucose in {unit}.",
+    person_summary: "{mode} mode, zone {tz}, glucose in {unit}, age group {age_group}.",
     person_report: "The person's report",
     nightscout: "Nightscout:",
     signin_link_title: "Sign-in link (works once, for 15 minutes)",
@@ -652,6 +654,7 @@ pub const CLINIC_EN: ClinicTexts = ClinicTexts {
     new_person_title: "A new person",
     unit_label: "Glucose unit",
     mode_label: "Mode",
+    age_group_label: "Age group (the advisor's defaults for it: the hours the basal rate learns from)",
     profile_label: "The pump's profile: a Nightscout profile, Tidepool or CareLink export",
     or_by_hand: "Or, instead of a profile:",
     basal_label: "Basal rate (U/h)",

@@ -14,7 +14,7 @@ use crate::body::RawBody;
 use crate::error::ApiError;
 use crate::state::AppState;
 use abba_advisor::bounds::Range;
-use abba_advisor::{Mode, Parameter, PumpSteps};
+use abba_advisor::{AgeGroup, Mode, Parameter, PumpSteps};
 use abba_core::units::GlucoseUnit;
 use abba_core::{GramsPerUnit, TherapySettings, UnitsPerHour};
 use abba_store::advise::{self, PARAMETERS};
@@ -51,6 +51,7 @@ pub struct NewPersonForm {
     errors: BTreeMap<String, String>,
     units: Vec<Choice>,
     modes: Vec<Choice>,
+    age_groups: Vec<Choice>,
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -77,9 +78,21 @@ impl NewPersonForm {
             .cloned()
             .unwrap_or_else(|| "mg/dL".into());
         let mode = values.get("mode").cloned().unwrap_or_else(|| "smbg".into());
+        let age_group = values
+            .get("age_group")
+            .cloned()
+            .unwrap_or_else(|| "adult".into());
         Self {
             units: choices(&[("mg/dL", "mg/dL"), ("mmol/L", "mmol/L")], &unit),
             modes: choices(&[("smbg", "SMBG (meter)"), ("cgm", "CGM")], &mode),
+            age_groups: choices(
+                &[
+                    ("adult", "Adult"),
+                    ("adolescent", "Adolescent"),
+                    ("child", "Child"),
+                ],
+                &age_group,
+            ),
             values,
             errors,
         }
@@ -305,6 +318,24 @@ fn new_person(up: &Upload) -> Result<NewPerson, BTreeMap<String, String>> {
             Mode::Smbg
         }
     };
+    // Absent: the default, an adult (as the API's).
+    let age_group = match f.text("age_group") {
+        "" => Some(AgeGroup::Adult),
+        g => AgeGroup::parse(g),
+    };
+    let age_group = match age_group {
+        Some(g) => g,
+        None => {
+            errors.insert(
+                "age_group".into(),
+                format!(
+                    "expected adult, adolescent or child, got {:?}",
+                    f.text("age_group")
+                ),
+            );
+            AgeGroup::Adult
+        }
+    };
     let first_day = match f.text("first_day") {
         "" => None,
         d => match d.parse::<jiff::civil::Date>() {
@@ -407,6 +438,7 @@ fn new_person(up: &Upload) -> Result<NewPerson, BTreeMap<String, String>> {
         return Err(errors);
     };
     let mut p = NewPerson::new(&name, &tz, mode, start);
+    p.settings.set_age_group(age_group);
     p.first_day = first_day;
     p.settings.meal_windows = meal_windows;
     p.settings.basal_schedule = schedule;
@@ -450,6 +482,7 @@ pub async fn create(State(s): State<AppState>, ctx: Ctx, m: Multipart) -> PageRe
         "tz",
         "unit",
         "mode",
+        "age_group",
         "basal",
         "carb_ratios",
         "first_day",
@@ -461,6 +494,7 @@ pub async fn create(State(s): State<AppState>, ctx: Ctx, m: Multipart) -> PageRe
         "tz",
         "unit",
         "mode",
+        "age_group",
         "basal",
         "carb_ratios",
         "first_day",
@@ -642,6 +676,7 @@ fn person_model(store: &mut Store, id: i64) -> Result<PersonModel, ApiError> {
             ("mode", &a.mode.to_string().to_uppercase()),
             ("tz", &a.tz),
             ("unit", unit),
+            ("age_group", p.settings.age_group.name()),
         ],
     );
     Ok(PersonModel {

@@ -60,6 +60,13 @@ fn a_child_learns_its_basal_rate_from_02_to_07_and_is_told_so() {
         "{:?}",
         basal.reasons
     );
+    let notes = store.advise("Cleo").unwrap().notes;
+    assert!(
+        notes
+            .iter()
+            .any(|n| n.ends_with("the advisor's defaults for children.")),
+        "{notes:?}"
+    );
     // The carb ratios are told nothing of it.
     for v in history.iter().filter(|v| v.setting != "basal") {
         assert!(!v.reasons.iter().any(|r| r.contains("basal rate learns")));
@@ -74,6 +81,12 @@ fn a_child_learns_its_basal_rate_from_02_to_07_and_is_told_so() {
     assert_eq!(p.settings.advisor.features.cgm_basal_window_min, None);
     let hours = basal_hours(&mut store, "Cleo");
     assert!(hours.iter().all(|&h| h == (0, 1440)), "{hours:?}");
+    assert!(!store
+        .advise("Cleo")
+        .unwrap()
+        .notes
+        .iter()
+        .any(|n| n.contains("basal rate learns")));
     let history = store.history("Cleo").unwrap();
     assert!(!history
         .iter()

@@ -211,8 +211,9 @@ fn new(a: NewArgs) -> Result<()> {
     });
     p.settings.meal_windows = meal_windows;
     p.settings.basal_schedule = schedule;
-    if from.is_some() {
+    if let Some(t) = &from {
         p.settings.therapy_source = TherapySource::Profile;
+        p.settings.therapy_notes.clone_from(&t.notes);
     }
     p.settings.pump_steps = Some(PumpSteps {
         basal_u_per_h: a.basal_step,

@@ -689,6 +689,14 @@ fn person_new_from_an_export_ending_in_a_temporary_profile_takes_the_permanent_o
             && text.contains("not taken as the person's settings"),
         "{text}"
     );
+    // Kept with the person's settings, for the clinic's page.
+    let p = abba_store::Store::open(&db).unwrap().person("ida").unwrap();
+    assert!(
+        p.settings.therapy_notes.len() == 1
+            && p.settings.therapy_notes[0].starts_with("A temporary profile"),
+        "{:?}",
+        p.settings.therapy_notes
+    );
 }
 
 /// `person new --therapy-from` on a MiniMed 780G export switching between

@@ -1597,3 +1597,60 @@ async fn the_clinics_new_person_form_takes_an_age_group() {
         Some([120, 420])
     );
 }
+
+/// A person from an uploaded profile: what the reader noted about it (a
+/// temporary profile still running at the end, not taken) is on the
+/// person's page the form lands on, escaped, and stays there.
+#[tokio::test]
+async fn the_notes_of_the_uploaded_profile_are_on_the_persons_page() {
+    let svc = Svc::new();
+    let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
+    let file = "nightscout_treatments_aaps_profile_switch_synthetic.json";
+    let export = std::fs::read(format!(
+        "{}/../io/tests/data/{file}",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap();
+    let f = [
+        ("csrf", csrf.as_str()),
+        ("name", "ida"),
+        ("tz", "Europe/Zurich"),
+        ("unit", "mg/dL"),
+        ("mode", "cgm"),
+    ];
+    let p = admin
+        .post_multipart("/clinic/persons", &f, &[("profile", file, &export)])
+        .await;
+    assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
+    let path = p.location().to_string();
+    for _ in 0..2 {
+        let page = admin.get(&path).await;
+        assert_eq!(page.status, StatusCode::OK);
+        let notes = page.section("<ul id=\"therapy-notes\"", "ul").to_string();
+        assert!(
+            notes.contains("<li>A temporary profile")
+                && notes.contains("was still running at the end of the data")
+                && notes.contains("not taken as the person&#x27;s settings"),
+            "{notes}"
+        );
+        assert!(
+            page.html.contains("<h3 id=\"therapy-notes-title\">"),
+            "{}",
+            page.html
+        );
+    }
+    // A person given by hand has no such notes.
+    let f = [
+        ("csrf", csrf.as_str()),
+        ("name", "ben"),
+        ("tz", "Europe/Zurich"),
+        ("unit", "mg/dL"),
+        ("mode", "cgm"),
+        ("basal", "0.8"),
+        ("carb_ratios", "10,12,11"),
+    ];
+    let p = admin.post_multipart("/clinic/persons", &f, &[]).await;
+    assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
+    let page = admin.get(p.location()).await;
+    assert!(!page.html.contains("therapy-notes"), "{}", page.html);
+}

@@ -53,6 +53,12 @@ pub struct PersonSettingsDoc {
     /// existed are adults, as they were advised.
     #[serde(default)]
     pub age_group: AgeGroup,
+    /// What the reader noted about the export the starting therapy was
+    /// read from (`person new --therapy-from`, the clinic's upload: a
+    /// temporary profile not taken, a pump's auto-mode days), kept for the
+    /// clinic's page.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub therapy_notes: Vec<String>,
 }
 
 impl PersonSettingsDoc {
@@ -134,6 +140,7 @@ impl NewPerson {
                 allow_closed_loop: false,
                 units: GlucoseUnit::MgDl,
                 age_group: AgeGroup::Adult,
+                therapy_notes: Vec::new(),
             },
         }
     }

@@ -117,10 +117,14 @@ fn a_person_stored_before_age_groups_loads_as_an_adult() {
             r.get(0)
         })
         .unwrap();
-    assert!(!doc.contains("age_group"), "{doc}");
+    assert!(
+        !doc.contains("age_group") && !doc.contains("therapy_notes"),
+        "{doc}"
+    );
     drop(c);
     let store = Store::open(&db).unwrap();
     let p = store.person("Ada").unwrap();
     assert_eq!(p.settings.age_group, AgeGroup::Adult);
     assert!(AgeGroup::Adult.holds(&p.settings.advisor.features));
+    assert!(p.settings.therapy_notes.is_empty());
 }

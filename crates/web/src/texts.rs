@@ -504,6 +504,9 @@ pub struct ClinicTexts {
     pub profile_choose: &'static str,
     /// Before where the therapy in force comes from.
     pub therapy_from: &'static str,
+    /// Heading: what the reader noted about the profile the starting
+    /// therapy was read from.
+    pub therapy_notes_title: &'static str,
     /// Heading: what the import did.
     pub import_result_title: &'static str,
     /// Heading: access.
@@ -626,6 +629,7 @@ pub const CLINIC_EN: ClinicTexts = ClinicTexts {
     profile_keep: "Keep abba's therapy (profiles in the data are then not read as therapy)",
     profile_choose: "Choose what abba should do below, then choose the files again and import.",
     therapy_from: "The therapy in force comes from:",
+    therapy_notes_title: "Notes on the profile the starting therapy was read from",
     import_result_title: "What the import did",
     access_title: "Sign-in and tokens",
     make_signin: "Make a sign-in link",

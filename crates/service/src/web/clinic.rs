@@ -367,6 +367,7 @@ fn new_person(up: &Upload) -> Result<NewPerson, BTreeMap<String, String>> {
     let mut start = None;
     let mut schedule = None;
     let mut from_profile = false;
+    let mut notes = Vec::new();
     match (profiles.is_empty(), basal.is_empty()) {
         (false, false) => {
             errors.insert(
@@ -403,6 +404,7 @@ fn new_person(up: &Upload) -> Result<NewPerson, BTreeMap<String, String>> {
                         schedule = (t.basal.len() > 1).then(|| t.basal.clone());
                         start = Some(t.settings());
                         from_profile = true;
+                        notes = t.notes;
                     }
                     Err(e) => {
                         errors.insert("profile".into(), e.to_string());
@@ -444,6 +446,7 @@ fn new_person(up: &Upload) -> Result<NewPerson, BTreeMap<String, String>> {
     p.settings.basal_schedule = schedule;
     if from_profile {
         p.settings.therapy_source = TherapySource::Profile;
+        p.settings.therapy_notes = notes;
     }
     p.settings.pump_steps = Some(PumpSteps::default());
     p.settings.units = units;
@@ -574,6 +577,9 @@ struct PersonModel {
     new_token: Option<String>,
     /// After `form#import`: what the import did (every count and note).
     import_result: Vec<String>,
+    /// What the reader noted about the profile the starting therapy was
+    /// read from (kept with the person's settings).
+    therapy_notes: Vec<String>,
     /// Errors beside the fields of every form.
     errors: BTreeMap<String, String>,
     /// What was typed into a refused form.
@@ -700,6 +706,7 @@ fn person_model(store: &mut Store, id: i64) -> Result<PersonModel, ApiError> {
         ]),
         waiting,
         therapy_source: a.therapy.source.to_string(),
+        therapy_notes: p.settings.therapy_notes.clone(),
         tokens,
         sessions,
         nightscout,

@@ -1596,6 +1596,51 @@ async fn the_clinics_new_person_form_takes_an_age_group() {
         kim.settings.advisor.features.cgm_basal_window_min,
         Some([120, 420])
     );
+
+    // Changed on the person's page: an unknown group stays beside its
+    // field, nothing changed; adult: the whole day again.
+    let path = p.location().to_string();
+    assert!(
+        page.html.contains("<form id=\"age-group\"")
+            && page.html.contains("<option value=\"child\" selected>"),
+        "{}",
+        page.html
+    );
+    let change = format!("{path}/age-group");
+    let r = admin
+        .post(&change, &[("csrf", csrf.as_str()), ("age_group", "teen")])
+        .await;
+    assert_eq!(r.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", r.html);
+    let error = r.section("id=\"age_group-error\"", "p").to_string();
+    assert!(
+        error.contains("expected adult, adolescent or child"),
+        "{error}"
+    );
+    let stored = |svc: &Svc| {
+        abba_service::open_store(&svc.db)
+            .unwrap()
+            .person("kim")
+            .unwrap()
+            .settings
+    };
+    assert_eq!(stored(&svc).age_group, abba_advisor::AgeGroup::Child);
+    let r = admin.post(&change, &[("age_group", "adult")]).await;
+    assert_eq!(r.status, StatusCode::FORBIDDEN, "without the CSRF token");
+    assert_eq!(stored(&svc).age_group, abba_advisor::AgeGroup::Child);
+    let r = admin
+        .post(&change, &[("csrf", csrf.as_str()), ("age_group", "adult")])
+        .await;
+    assert_eq!(r.status, StatusCode::SEE_OTHER, "{}", r.html);
+    let s = stored(&svc);
+    assert_eq!(s.age_group, abba_advisor::AgeGroup::Adult);
+    assert_eq!(s.advisor.features.cgm_basal_window_min, None);
+    assert_eq!(s.advisor.features.smbg_basal_window_min, None);
+    let page = admin.get(r.location()).await;
+    assert!(
+        page.html.contains("Saved: the age group") && page.html.contains("age group adult"),
+        "{}",
+        page.html
+    );
 }
 
 /// A person from an uploaded profile: what the reader noted about it (a

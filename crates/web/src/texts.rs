@@ -427,6 +427,8 @@ pub struct ClinicTexts {
     pub saved_bounds: &'static str,
     /// Status: steps saved.
     pub saved_steps: &'static str,
+    /// Status: age group saved.
+    pub saved_age_group: &'static str,
     /// Status: therapy saved.
     pub saved_therapy: &'static str,
     /// Status: imported.
@@ -465,6 +467,10 @@ pub struct ClinicTexts {
     pub steps_title: &'static str,
     /// Button: steps.
     pub save_steps: &'static str,
+    /// Heading: the person's age group.
+    pub age_group_title: &'static str,
+    /// Button: save the age group.
+    pub save_age_group: &'static str,
     /// Heading: therapy change.
     pub therapy_title: &'static str,
     /// Label: new carb ratios.
@@ -591,6 +597,7 @@ pub const CLINIC_EN: ClinicTexts = ClinicTexts {
     link_new: "linked; not synced yet",
     saved_bounds: "Saved: the bounds.",
     saved_steps: "Saved: the pump's steps.",
+    saved_age_group: "Saved: the age group (every decision replayed with its defaults).",
     saved_therapy: "Saved: the change of therapy.",
     imported: "Imported.",
     token_revoked: "Revoked: the token.",
@@ -610,6 +617,8 @@ pub const CLINIC_EN: ClinicTexts = ClinicTexts {
     save_bounds: "Save the bounds",
     steps_title: "The pump's steps",
     save_steps: "Save the steps",
+    age_group_title: "Age group",
+    save_age_group: "Save the age group",
     therapy_title: "A change of therapy",
     new_carb_ratios: "New carb ratios of breakfast, lunch, dinner (g/U, e.g. 10,12,11)",
     record_change: "Record the change",

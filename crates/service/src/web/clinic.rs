@@ -71,6 +71,28 @@ fn choices(values: &[(&'static str, &'static str)], selected: &str) -> Vec<Choic
         .collect()
 }
 
+/// The age groups of the forms, `selected` chosen.
+fn age_group_choices(selected: &str) -> Vec<Choice> {
+    choices(
+        &[
+            ("adult", "Adult"),
+            ("adolescent", "Adolescent"),
+            ("child", "Child"),
+        ],
+        selected,
+    )
+}
+
+/// An age group from a form's field: absent, the default (adult, as the
+/// API's); otherwise one of the three names.
+fn age_group_field(text: &str) -> Result<AgeGroup, String> {
+    match text {
+        "" => Ok(AgeGroup::Adult),
+        g => AgeGroup::parse(g)
+            .ok_or_else(|| format!("expected adult, adolescent or child, got {g:?}")),
+    }
+}
+
 impl NewPersonForm {
     fn new(values: BTreeMap<String, String>, errors: BTreeMap<String, String>) -> Self {
         let unit = values
@@ -85,14 +107,7 @@ impl NewPersonForm {
         Self {
             units: choices(&[("mg/dL", "mg/dL"), ("mmol/L", "mmol/L")], &unit),
             modes: choices(&[("smbg", "SMBG (meter)"), ("cgm", "CGM")], &mode),
-            age_groups: choices(
-                &[
-                    ("adult", "Adult"),
-                    ("adolescent", "Adolescent"),
-                    ("child", "Child"),
-                ],
-                &age_group,
-            ),
+            age_groups: age_group_choices(&age_group),
             values,
             errors,
         }
@@ -318,21 +333,10 @@ fn new_person(up: &Upload) -> Result<NewPerson, BTreeMap<String, String>> {
             Mode::Smbg
         }
     };
-    // Absent: the default, an adult (as the API's).
-    let age_group = match f.text("age_group") {
-        "" => Some(AgeGroup::Adult),
-        g => AgeGroup::parse(g),
-    };
-    let age_group = match age_group {
-        Some(g) => g,
-        None => {
-            errors.insert(
-                "age_group".into(),
-                format!(
-                    "expected adult, adolescent or child, got {:?}",
-                    f.text("age_group")
-                ),
-            );
+    let age_group = match age_group_field(f.text("age_group")) {
+        Ok(g) => g,
+        Err(e) => {
+            errors.insert("age_group".into(), e);
             AgeGroup::Adult
         }
     };
@@ -580,6 +584,8 @@ struct PersonModel {
     /// What the reader noted about the profile the starting therapy was
     /// read from (kept with the person's settings).
     therapy_notes: Vec<String>,
+    /// The age groups, the person's selected.
+    age_groups: Vec<Choice>,
     /// Errors beside the fields of every form.
     errors: BTreeMap<String, String>,
     /// What was typed into a refused form.
@@ -707,6 +713,7 @@ fn person_model(store: &mut Store, id: i64) -> Result<PersonModel, ApiError> {
         waiting,
         therapy_source: a.therapy.source.to_string(),
         therapy_notes: p.settings.therapy_notes.clone(),
+        age_groups: age_group_choices(p.settings.age_group.name()),
         tokens,
         sessions,
         nightscout,
@@ -756,6 +763,7 @@ fn done_text(q: Option<&str>) -> Option<String> {
         match what {
             "bounds" => C.saved_bounds,
             "steps" => C.saved_steps,
+            "age-group" => C.saved_age_group,
             "therapy" => C.saved_therapy,
             "token-revoked" => C.token_revoked,
             "session-revoked" => C.session_revoked,
@@ -968,6 +976,42 @@ pub async fn steps(
             };
             refused(&s, &w.csrf, id, &form, &fields, field, msg).await
         }
+    }
+}
+
+/// `POST /clinic/persons/{id}/age-group`: the person's age group (its
+/// defaults applied, every decision replayed: `Store::set_age_group_by_id`).
+pub async fn age_group(
+    State(s): State<AppState>,
+    ctx: Ctx,
+    Path(id): Path<String>,
+    body: RawBody,
+) -> PageResult {
+    let id = person_id(&id)?;
+    let (w, form) = person_form(&s, &ctx, body, &["csrf", "age_group"]).await?;
+    let group = match form.text("age_group") {
+        "" => Err(EN.missing_field.to_string()),
+        g => age_group_field(g),
+    };
+    let group = match group {
+        Ok(g) => g,
+        Err(msg) => return refused(&s, &w.csrf, id, &form, &["age_group"], "age_group", msg).await,
+    };
+    let out = s
+        .person(id, true, move |store, live| {
+            match store.set_age_group_by_id(id, group) {
+                Ok(l) => {
+                    *live = l;
+                    Ok(Ok(()))
+                }
+                Err(e @ abba_store::StoreError::Advisor(_)) => Ok(Err(e.to_string())),
+                Err(e) => Err(e.into()),
+            }
+        })
+        .await?;
+    match out {
+        Ok(()) => Ok(see_other(&format!("/clinic/persons/{id}?done=age-group"))),
+        Err(msg) => refused(&s, &w.csrf, id, &form, &["age_group"], "age_group", msg).await,
     }
 }
 
@@ -1339,6 +1383,7 @@ pub fn routes() -> axum::Router<crate::state::AppState> {
         .route("/clinic/persons/{id}", get(person))
         .route("/clinic/persons/{id}/bounds", post(bounds))
         .route("/clinic/persons/{id}/steps", post(steps))
+        .route("/clinic/persons/{id}/age-group", post(age_group))
         .route("/clinic/persons/{id}/therapy", post(therapy))
         .route(
             "/clinic/persons/{id}/import",

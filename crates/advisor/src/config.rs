@@ -31,6 +31,80 @@ impl Mode {
     }
 }
 
+/// A person's age group: it chooses the per-population defaults of ABBA's
+/// knobs, the one home of the values the trial calibrated per population
+/// (`abba_trial::protocol::RawTrialConfig::for_population` maps its
+/// populations here; a person's settings carry one, default adult).
+///
+/// Only the basal agent's hours differ, chosen by `abba calibrate` over
+/// `cgm_basal_window` and `smbg_basal_window` on 60 generated patients of
+/// each population, seeds 101 (benches/diagnosis/README.md): adults the
+/// whole day in CGM mode and the night's bedtime and fasting readings
+/// (22:30 the evening before to 07:30) in SMBG mode, which are
+/// [`FeatureConfig::default`]'s; adolescents 00:00-07:00 in CGM mode and
+/// children 02:00-07:00, both the fasting reading before breakfast
+/// (00:00-07:30) in SMBG mode.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum AgeGroup {
+    /// Adults (the defaults).
+    #[default]
+    Adult,
+    /// Adolescents.
+    Adolescent,
+    /// Children.
+    Child,
+}
+
+impl AgeGroup {
+    /// Every age group, adults first.
+    pub const ALL: [AgeGroup; 3] = [AgeGroup::Adult, AgeGroup::Adolescent, AgeGroup::Child];
+
+    /// The serialised name: `adult`, `adolescent`, `child`.
+    pub fn name(self) -> &'static str {
+        match self {
+            AgeGroup::Adult => "adult",
+            AgeGroup::Adolescent => "adolescent",
+            AgeGroup::Child => "child",
+        }
+    }
+
+    /// The group by its serialised name (exactly; `None` otherwise).
+    pub fn parse(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|g| g.name() == name)
+    }
+
+    /// The group in the plural, as people read it: "adults",
+    /// "adolescents", "children".
+    pub fn plural(self) -> &'static str {
+        match self {
+            AgeGroup::Adult => "adults",
+            AgeGroup::Adolescent => "adolescents",
+            AgeGroup::Child => "children",
+        }
+    }
+
+    /// The basal agent's hours of this group's defaults:
+    /// (`features.cgm_basal_window_min`, `features.smbg_basal_window_min`).
+    pub fn basal_windows_min(self) -> (Option<[i64; 2]>, Option<[i64; 2]>) {
+        match self {
+            AgeGroup::Adult => (None, Some([-90, 450])),
+            AgeGroup::Adolescent => (Some([0, 420]), Some([0, 450])),
+            AgeGroup::Child => (Some([120, 420]), Some([0, 450])),
+        }
+    }
+
+    /// Sets the knobs this group's defaults choose in `f` (both modes').
+    pub fn apply(self, f: &mut FeatureConfig) {
+        (f.cgm_basal_window_min, f.smbg_basal_window_min) = self.basal_windows_min();
+    }
+
+    /// Whether `f` holds this group's defaults (of the knobs it chooses).
+    pub fn holds(self, f: &FeatureConfig) -> bool {
+        (f.cgm_basal_window_min, f.smbg_basal_window_min) == self.basal_windows_min()
+    }
+}
+
 /// Plausibility limits for incoming events; values outside are rejected with an error.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -783,6 +857,13 @@ impl AbbaConfig {
         }
     }
 
+    /// [`AbbaConfig::new`] with the defaults of `group` (see [`AgeGroup`]).
+    pub fn for_age_group(mode: Mode, exploration_seed: u64, group: AgeGroup) -> Self {
+        let mut c = Self::new(mode, exploration_seed);
+        group.apply(&mut c.features);
+        c
+    }
+
     /// Parses a JSON configuration and validates it.
     pub fn from_json(json: &str) -> Result<Self, AdvisorError> {
         parse_checked(json, Self::validate)
@@ -862,6 +943,43 @@ mod tests {
         let s = serde_json::to_string(&c).unwrap();
         let back: AbbaConfig = serde_json::from_str(&s).unwrap();
         assert_eq!(back, c);
+    }
+
+    #[test]
+    fn each_age_group_chooses_its_basal_hours_and_nothing_else() {
+        let hours = |g: AgeGroup, mode: Mode| {
+            AbbaConfig::for_age_group(mode, 7, g)
+                .features
+                .basal_window_for(mode)
+        };
+        assert_eq!(hours(AgeGroup::Adult, Mode::Cgm), None);
+        assert_eq!(hours(AgeGroup::Adult, Mode::Smbg), Some([-90, 450]));
+        assert_eq!(hours(AgeGroup::Adolescent, Mode::Cgm), Some([0, 420]));
+        assert_eq!(hours(AgeGroup::Adolescent, Mode::Smbg), Some([0, 450]));
+        assert_eq!(hours(AgeGroup::Child, Mode::Cgm), Some([120, 420]));
+        assert_eq!(hours(AgeGroup::Child, Mode::Smbg), Some([0, 450]));
+        assert_eq!(AgeGroup::default(), AgeGroup::Adult);
+        for g in AgeGroup::ALL {
+            for mode in [Mode::Cgm, Mode::Smbg] {
+                let c = AbbaConfig::for_age_group(mode, 7, g);
+                c.validate().unwrap();
+                assert!(g.holds(&c.features));
+                // Everything but the basal hours is the mode's default.
+                let mut plain = AbbaConfig::new(mode, 7);
+                g.apply(&mut plain.features);
+                assert_eq!(plain, c);
+                let mut back = c.clone();
+                AgeGroup::Adult.apply(&mut back.features);
+                assert_eq!(back, AbbaConfig::new(mode, 7));
+            }
+            assert_eq!(AgeGroup::parse(g.name()), Some(g));
+            let json = serde_json::to_string(&g).unwrap();
+            assert_eq!(json, format!("\"{}\"", g.name()));
+            assert_eq!(serde_json::from_str::<AgeGroup>(&json).unwrap(), g);
+        }
+        assert!(!AgeGroup::Child.holds(&AbbaConfig::new(Mode::Cgm, 7).features));
+        assert_eq!(AgeGroup::parse("Child"), None);
+        assert!(serde_json::from_str::<AgeGroup>("\"toddler\"").is_err());
     }
 
     #[test]

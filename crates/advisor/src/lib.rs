@@ -117,7 +117,7 @@ pub use baselines::autotune::{Autotune, AutotuneConfig};
 pub use baselines::fixed::FixedTherapy;
 pub use baselines::r2r::{R2rConfig, RunToRun};
 pub use bounds::{BoundHeld, ClinicianBounds};
-pub use config::{AbbaConfig, CriticVariant, EventLimits, Mode};
+pub use config::{AbbaConfig, AgeGroup, CriticVariant, EventLimits, Mode};
 pub use data_rule::MinData;
 pub use decision::{Decision, DecisionDetail, SkipReason};
 pub use error::AdvisorError;

@@ -178,6 +178,34 @@ pub fn data_window(n: u32, from: &str, to: &str) -> String {
     format!("{n} readings from {from} to {to}")
 }
 
+/// Why a basal update learned from part of the day (`[from, to)`, minutes
+/// after midnight): the hours, and the age group whose defaults chose them
+/// (`None`: the advisor's configuration chose them, not an age group's
+/// defaults).
+pub fn basal_hours(window_min: [i64; 2], group: Option<crate::AgeGroup>) -> String {
+    let hours = format!(
+        "The basal rate learns from the readings from {} to {} only",
+        window_clock(window_min[0]),
+        window_clock(window_min[1])
+    );
+    match group {
+        Some(g) => format!("{hours}: the advisor's defaults for {}.", g.plural()),
+        None => format!("{hours}, as the advisor's configuration sets."),
+    }
+}
+
+/// A basal window's edge (minutes after the closed day's midnight) as a
+/// clock time: `07:30`, or `22:30 the evening before` for a negative one.
+pub fn window_clock(minutes: i64) -> String {
+    let m = minutes.rem_euclid(24 * 60);
+    let clock = format!("{:02}:{:02}", m / 60, m % 60);
+    match minutes {
+        i64::MIN..=-1 => format!("{clock} the evening before"),
+        1440 => "24:00".into(),
+        _ => clock,
+    }
+}
+
 /// A decision that learned from no data window (a skipped decision point).
 pub const NO_DATA_WINDOW: &str = "no data window";
 

@@ -13,6 +13,22 @@ pub enum Mode {
     Smbg,
 }
 
+/// A person's age group: it chooses the advisor's defaults the in-silico
+/// trial calibrated for it (the hours of the day the basal rate learns
+/// from: adults the whole day; adolescents 00:00-07:00 and children
+/// 02:00-07:00 in CGM mode; both the fasting reading, 00:00-07:30, in SMBG
+/// mode).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum AgeGroup {
+    /// Adults.
+    Adult,
+    /// Adolescents.
+    Adolescent,
+    /// Children.
+    Child,
+}
+
 /// The therapy in force when the person starts.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
@@ -90,11 +106,16 @@ pub struct NewPersonBody {
     #[serde(default)]
     pub min_data: Option<MinDataBody>,
     /// The advisor's full configuration as abba's `AbbaConfig` JSON (its
-    /// mode must equal `mode`); default: ABBA's defaults for the mode with
-    /// an exploration seed derived from the name.
+    /// mode must equal `mode`); default: ABBA's defaults for the mode and
+    /// the age group with an exploration seed derived from the name.
     #[serde(default)]
     #[schema(value_type = Option<Object>)]
     pub advisor: Option<serde_json::Value>,
+    /// The person's age group, whose defaults the advisor takes (default:
+    /// adult). Not with `advisor`, whose configuration sets those knobs
+    /// itself (422).
+    #[serde(default)]
+    pub age_group: Option<AgeGroup>,
 }
 
 /// The created person.

@@ -21,8 +21,9 @@ pub mod sync;
 pub mod views;
 
 pub use admin::{
-    BasalSegment, Bounds, BoundsBody, CarbRatios, MinDataBody, Mode, NewPersonBody, PersonCreated,
-    Range, TherapyBody, TherapyChangeBody, TherapyChanged, TokenIssued, TokenRevoked,
+    AgeGroup, BasalSegment, Bounds, BoundsBody, CarbRatios, MinDataBody, Mode, NewPersonBody,
+    PersonCreated, Range, TherapyBody, TherapyChangeBody, TherapyChanged, TokenIssued,
+    TokenRevoked,
 };
 pub use answers::{AnswerBody, AnswerItem, AnswerKind, Answered, AnswersAck};
 pub use error::{ErrorBody, ErrorCode};

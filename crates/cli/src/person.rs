@@ -2,7 +2,7 @@
 use std::path::PathBuf;
 
 use abba_advisor::bounds::Range;
-use abba_advisor::{Mode, PumpSteps};
+use abba_advisor::{AgeGroup, Mode, PumpSteps};
 use abba_core::units::GlucoseUnit;
 use abba_core::{GramsPerUnit, TherapySettings, UnitsPerHour};
 use abba_io::meals::MealWindows;
@@ -38,6 +38,14 @@ enum ModeArg {
     Smbg,
 }
 
+/// Age group (its defaults of the advisor's knobs).
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum AgeGroupArg {
+    Adult,
+    Adolescent,
+    Child,
+}
+
 #[derive(clap::Args, Debug)]
 struct NewArgs {
     /// The store: a file, or a postgres:// URL.
@@ -52,6 +60,14 @@ struct NewArgs {
     /// Which readings the advisor learns from.
     #[arg(long, value_enum)]
     mode: ModeArg,
+    /// The person's age group: it chooses the advisor's defaults calibrated
+    /// for it in the trial (the hours the basal rate learns from: adults
+    /// the whole day in CGM mode and the night's bedtime and fasting
+    /// readings, 22:30-07:30, in SMBG mode; adolescents 00:00-07:00 and
+    /// children 02:00-07:00 in CGM mode, both the fasting reading,
+    /// 00:00-07:30, in SMBG mode).
+    #[arg(long, value_enum, default_value = "adult")]
+    age_group: AgeGroupArg,
     /// The therapy in force from the pump's export: a Nightscout profile
     /// store (profile.json) or Profile Switch, Tidepool pumpSettings (its
     /// JSON, or the Basal Schedules and Carb Ratios sheets of its Excel
@@ -190,10 +206,16 @@ fn new(a: NewArgs) -> Result<()> {
         }
     };
     let mut p = NewPerson::new(&a.name, &a.tz, mode, start);
+    p.settings.set_age_group(match a.age_group {
+        AgeGroupArg::Adult => AgeGroup::Adult,
+        AgeGroupArg::Adolescent => AgeGroup::Adolescent,
+        AgeGroupArg::Child => AgeGroup::Child,
+    });
     p.settings.meal_windows = meal_windows;
     p.settings.basal_schedule = schedule;
-    if from.is_some() {
+    if let Some(t) = &from {
         p.settings.therapy_source = TherapySource::Profile;
+        p.settings.therapy_notes.clone_from(&t.notes);
     }
     p.settings.pump_steps = Some(PumpSteps {
         basal_u_per_h: a.basal_step,
@@ -230,8 +252,17 @@ fn new(a: NewArgs) -> Result<()> {
         ),
         None => format!("basal {} U/h, carb ratios {b}/{l}/{d} g/U", start.basal.0),
     };
+    let group = person.settings.age_group;
+    let hours = match person.settings.advisor.features.basal_window_for(mode) {
+        Some([from, to]) => format!(
+            "the basal rate learns from {} to {}",
+            abba_advisor::words::window_clock(from),
+            abba_advisor::words::window_clock(to)
+        ),
+        None => "the basal rate learns from the whole day".into(),
+    };
     println!(
-        "Created {} in {} ({} mode, zone {}): {therapy}; pump steps {} U/h and {} g/U.",
+        "Created {} in {} ({} mode, zone {}, age group {}: {hours}): {therapy}; pump steps {} U/h and {} g/U.",
         person.name,
         a.db.display(),
         match mode {
@@ -239,6 +270,7 @@ fn new(a: NewArgs) -> Result<()> {
             Mode::Smbg => "SMBG",
         },
         a.tz,
+        group.name(),
         a.basal_step,
         a.carb_ratio_step
     );

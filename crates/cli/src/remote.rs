@@ -171,6 +171,7 @@ pub fn person_body(
             smbg_per_meal: 0,
         }),
         advisor: Some(advisor),
+        age_group: None,
     })
 }
 

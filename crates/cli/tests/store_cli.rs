@@ -689,6 +689,14 @@ fn person_new_from_an_export_ending_in_a_temporary_profile_takes_the_permanent_o
             && text.contains("not taken as the person's settings"),
         "{text}"
     );
+    // Kept with the person's settings, for the clinic's page.
+    let p = abba_store::Store::open(&db).unwrap().person("ida").unwrap();
+    assert!(
+        p.settings.therapy_notes.len() == 1
+            && p.settings.therapy_notes[0].starts_with("A temporary profile"),
+        "{:?}",
+        p.settings.therapy_notes
+    );
 }
 
 /// `person new --therapy-from` on a MiniMed 780G export switching between
@@ -731,4 +739,78 @@ fn person_new_from_a_780g_switching_modes_takes_the_manual_schedule_and_keeps_th
     let json = ok(&["advise", "--db", db, "--person", "mo", "--json"]);
     let v: serde_json::Value = serde_json::from_str(&json).unwrap();
     assert_eq!(v["delivery"]["kind"], "closed_loop", "{json}");
+}
+
+/// `--age-group child`: the trial's defaults for children in the stored
+/// advisor configuration, basal updates that learn from 02:00-07:00 in
+/// CGM mode and say so; a group abba does not know is refused by name.
+#[test]
+fn a_child_gets_the_childrens_basal_hours() {
+    let dir = tmp("child");
+    let db = dir.join("kid.db");
+    let db = db.to_str().unwrap();
+    let files = export(&dir, "ns", 12);
+    let new = |group: &str| {
+        abba(&[
+            "person",
+            "new",
+            "--db",
+            db,
+            "--name",
+            "kid",
+            "--tz",
+            "Europe/Zurich",
+            "--mode",
+            "cgm",
+            "--therapy-from",
+            files[2].as_str(),
+            "--age-group",
+            group,
+        ])
+    };
+    let out = new("toddler");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("--age-group") && err.contains("child"),
+        "{err}"
+    );
+    let text = cli_common::ok(&new("child"));
+    assert!(
+        text.contains("age group child: the basal rate learns from 02:00 to 07:00"),
+        "{text}"
+    );
+    let store = abba_store::Store::open(Path::new(db)).unwrap();
+    let p = store.person("kid").unwrap();
+    assert_eq!(p.settings.age_group, abba_advisor::AgeGroup::Child);
+    let f = &p.settings.advisor.features;
+    assert_eq!(f.cgm_basal_window_min, Some([120, 420]));
+    assert_eq!(f.smbg_basal_window_min, Some([0, 450]));
+    drop(store);
+    let base = ["--db", db, "--person", "kid"];
+    let mut import: Vec<&str> = vec!["import"];
+    import.extend(base);
+    import.extend(files.iter().map(String::as_str));
+    ok(&import);
+    let history = ok(&[&["history"][..], &base, &["--json"]].concat());
+    let rows: Vec<serde_json::Value> = serde_json::from_str(&history).unwrap();
+    let basal: Vec<&serde_json::Value> = rows
+        .iter()
+        .filter(|r| r["setting"] == "basal" && r["no_update"] == false)
+        .collect();
+    assert!(!basal.is_empty(), "{history}");
+    for r in basal {
+        let data = r["data"].as_str().unwrap();
+        assert!(
+            data.contains(" 02:00 to ") && data.ends_with(" 07:00"),
+            "{r}"
+        );
+        assert!(
+            r["reasons"].as_array().unwrap().iter().any(|x| x
+                == "The basal rate learns from the readings from 02:00 to 07:00 only: the advisor's defaults for children."),
+            "{r}"
+        );
+    }
+    let text = ok(&[&["advise"][..], &base].concat());
+    assert!(text.contains("defaults for children"), "{text}");
+    let _ = std::fs::remove_dir_all(&dir);
 }

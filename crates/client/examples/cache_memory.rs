@@ -143,6 +143,7 @@ fn main() -> Result<(), String> {
                 bounds: None,
                 min_data: None,
                 advisor: None,
+                age_group: None,
             })
             .map_err(|e| e.to_string())?;
         for chunk in evs.chunks(abba_api::MAX_EVENTS_PER_BATCH) {

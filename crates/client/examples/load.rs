@@ -197,6 +197,7 @@ fn main() -> Result<(), String> {
                 bounds: None,
                 min_data: None,
                 advisor: None,
+                age_group: None,
             })
             .map_err(|e| e.to_string())?;
         let t = admin.issue_token(p.id).map_err(|e| e.to_string())?;

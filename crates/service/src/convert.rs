@@ -593,7 +593,20 @@ pub fn new_person(b: &NewPersonBody) -> Result<NewPerson, ApiError> {
                 "the advisor's mode must equal the person's mode",
             ));
         }
+        if b.age_group.is_some() {
+            return Err(ApiError::invalid(
+                "age_group",
+                "give an age group or a full advisor configuration, not both: the configuration sets the basal agent's hours itself (features.cgm_basal_window_min, features.smbg_basal_window_min)",
+            ));
+        }
         p.settings.advisor = c;
+    }
+    if let Some(g) = b.age_group {
+        p.settings.set_age_group(match g {
+            abba_api::AgeGroup::Adult => abba_advisor::AgeGroup::Adult,
+            abba_api::AgeGroup::Adolescent => abba_advisor::AgeGroup::Adolescent,
+            abba_api::AgeGroup::Child => abba_advisor::AgeGroup::Child,
+        });
     }
     Ok(p)
 }

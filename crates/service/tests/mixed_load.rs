@@ -103,6 +103,7 @@ fn person_body(name: &str, first_day: jiff::civil::Date) -> NewPersonBody {
             smbg_per_meal: 0,
         }),
         advisor: None,
+        age_group: None,
     }
 }
 

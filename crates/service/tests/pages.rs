@@ -1537,3 +1537,165 @@ async fn today_for_a_person_fed_by_imports_says_what_abba_advise_says() {
     // The Log knows this person is fed by imports: nothing to enter there.
     assert!(b.get("/log").await.html.contains("id=\"import-fed\""));
 }
+
+/// The clinic's new-person form takes the age group (a labelled select,
+/// adult by default): its defaults in the stored advisor configuration,
+/// the group on the person's page; an unknown one stays beside its field.
+#[tokio::test]
+async fn the_clinics_new_person_form_takes_an_age_group() {
+    let svc = Svc::new();
+    let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
+    let page = admin.get("/clinic").await;
+    assert_eq!(page.status, StatusCode::OK);
+    assert!(
+        page.html.contains("<label for=\"age_group\">")
+            && page
+                .html
+                .contains("<select id=\"age_group\" name=\"age_group\"")
+            && page.html.contains("<option value=\"adult\" selected>"),
+        "{}",
+        page.html
+    );
+    let person = |group: &'static str| {
+        vec![
+            ("csrf", csrf.clone()),
+            ("name", "kim".to_string()),
+            ("tz", "Europe/Zurich".to_string()),
+            ("unit", "mg/dL".to_string()),
+            ("mode", "cgm".to_string()),
+            ("age_group", group.to_string()),
+            ("basal", "0.6".to_string()),
+            ("carb_ratios", "20,22,21".to_string()),
+        ]
+    };
+    let fields = person("<b>toddler</b>");
+    let f: Vec<(&str, &str)> = fields.iter().map(|(k, v)| (*k, v.as_str())).collect();
+    let p = admin.post_multipart("/clinic/persons", &f, &[]).await;
+    assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+    let error = p.section("id=\"age_group-error\"", "p").to_string();
+    assert!(
+        error.contains("expected adult, adolescent or child") && !error.contains("<b>"),
+        "{error}"
+    );
+    assert!(abba_service::open_store(&svc.db)
+        .unwrap()
+        .person("kim")
+        .is_err());
+    let fields = person("child");
+    let f: Vec<(&str, &str)> = fields.iter().map(|(k, v)| (*k, v.as_str())).collect();
+    let p = admin.post_multipart("/clinic/persons", &f, &[]).await;
+    assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
+    let page = admin.get(p.location()).await;
+    assert!(page.html.contains("age group child"), "{}", page.html);
+    let kim = abba_service::open_store(&svc.db)
+        .unwrap()
+        .person("kim")
+        .unwrap();
+    assert_eq!(kim.settings.age_group, abba_advisor::AgeGroup::Child);
+    assert_eq!(
+        kim.settings.advisor.features.cgm_basal_window_min,
+        Some([120, 420])
+    );
+
+    // Changed on the person's page: an unknown group stays beside its
+    // field, nothing changed; adult: the whole day again.
+    let path = p.location().to_string();
+    assert!(
+        page.html.contains("<form id=\"age-group\"")
+            && page.html.contains("<option value=\"child\" selected>"),
+        "{}",
+        page.html
+    );
+    let change = format!("{path}/age-group");
+    let r = admin
+        .post(&change, &[("csrf", csrf.as_str()), ("age_group", "teen")])
+        .await;
+    assert_eq!(r.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", r.html);
+    let error = r.section("id=\"age_group-error\"", "p").to_string();
+    assert!(
+        error.contains("expected adult, adolescent or child"),
+        "{error}"
+    );
+    let stored = |svc: &Svc| {
+        abba_service::open_store(&svc.db)
+            .unwrap()
+            .person("kim")
+            .unwrap()
+            .settings
+    };
+    assert_eq!(stored(&svc).age_group, abba_advisor::AgeGroup::Child);
+    let r = admin.post(&change, &[("age_group", "adult")]).await;
+    assert_eq!(r.status, StatusCode::FORBIDDEN, "without the CSRF token");
+    assert_eq!(stored(&svc).age_group, abba_advisor::AgeGroup::Child);
+    let r = admin
+        .post(&change, &[("csrf", csrf.as_str()), ("age_group", "adult")])
+        .await;
+    assert_eq!(r.status, StatusCode::SEE_OTHER, "{}", r.html);
+    let s = stored(&svc);
+    assert_eq!(s.age_group, abba_advisor::AgeGroup::Adult);
+    assert_eq!(s.advisor.features.cgm_basal_window_min, None);
+    assert_eq!(s.advisor.features.smbg_basal_window_min, None);
+    let page = admin.get(r.location()).await;
+    assert!(
+        page.html.contains("Saved: the age group") && page.html.contains("age group adult"),
+        "{}",
+        page.html
+    );
+}
+
+/// A person from an uploaded profile: what the reader noted about it (a
+/// temporary profile still running at the end, not taken) is on the
+/// person's page the form lands on, escaped, and stays there.
+#[tokio::test]
+async fn the_notes_of_the_uploaded_profile_are_on_the_persons_page() {
+    let svc = Svc::new();
+    let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
+    let file = "nightscout_treatments_aaps_profile_switch_synthetic.json";
+    let export = std::fs::read(format!(
+        "{}/../io/tests/data/{file}",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap();
+    let f = [
+        ("csrf", csrf.as_str()),
+        ("name", "ida"),
+        ("tz", "Europe/Zurich"),
+        ("unit", "mg/dL"),
+        ("mode", "cgm"),
+    ];
+    let p = admin
+        .post_multipart("/clinic/persons", &f, &[("profile", file, &export)])
+        .await;
+    assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
+    let path = p.location().to_string();
+    for _ in 0..2 {
+        let page = admin.get(&path).await;
+        assert_eq!(page.status, StatusCode::OK);
+        let notes = page.section("<ul id=\"therapy-notes\"", "ul").to_string();
+        assert!(
+            notes.contains("<li>A temporary profile")
+                && notes.contains("was still running at the end of the data")
+                && notes.contains("not taken as the person&#x27;s settings"),
+            "{notes}"
+        );
+        assert!(
+            page.html.contains("<h3 id=\"therapy-notes-title\">"),
+            "{}",
+            page.html
+        );
+    }
+    // A person given by hand has no such notes.
+    let f = [
+        ("csrf", csrf.as_str()),
+        ("name", "ben"),
+        ("tz", "Europe/Zurich"),
+        ("unit", "mg/dL"),
+        ("mode", "cgm"),
+        ("basal", "0.8"),
+        ("carb_ratios", "10,12,11"),
+    ];
+    let p = admin.post_multipart("/clinic/persons", &f, &[]).await;
+    assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
+    let page = admin.get(p.location()).await;
+    assert!(!page.html.contains("therapy-notes"), "{}", page.html);
+}

@@ -238,3 +238,51 @@ async fn the_starting_therapy_and_bounds_are_checked_against_the_limits() {
         assert_eq!(r.json["path"], *path, "{bd}: {}", r.text);
     }
 }
+
+/// `age_group`: the group's defaults in the stored advisor configuration
+/// (default adult); an unknown group, or a group beside a full advisor
+/// configuration, refused naming the field.
+#[tokio::test]
+async fn an_age_group_chooses_the_advisors_defaults_and_an_unknown_one_is_refused() {
+    let svc = Svc::new();
+    let mut b = body("kid");
+    b["age_group"] = json!("child");
+    let r = create(&svc, &b).await;
+    assert_eq!(r.status, StatusCode::CREATED, "{}", r.text);
+    let r = create(&svc, &body("grown-up")).await;
+    assert_eq!(r.status, StatusCode::CREATED, "{}", r.text);
+    let store = abba_service::open_store(&svc.db).unwrap();
+    let kid = store.person("kid").unwrap();
+    assert_eq!(kid.settings.age_group, abba_advisor::AgeGroup::Child);
+    assert_eq!(
+        kid.settings.advisor.features.cgm_basal_window_min,
+        Some([120, 420])
+    );
+    assert_eq!(
+        kid.settings.advisor.features.smbg_basal_window_min,
+        Some([0, 450])
+    );
+    let adult = store.person("grown-up").unwrap();
+    assert_eq!(adult.settings.age_group, abba_advisor::AgeGroup::Adult);
+    assert_eq!(adult.settings.advisor.features.cgm_basal_window_min, None);
+    drop(store);
+
+    let mut b = body("toddler");
+    b["age_group"] = json!("toddler");
+    let r = create(&svc, &b).await;
+    assert_eq!(r.status, StatusCode::BAD_REQUEST, "{}", r.text);
+    assert_eq!(r.json["path"], "age_group", "{}", r.text);
+    let m = r.json["message"].as_str().unwrap();
+    assert!(m.contains("toddler") && m.contains("child"), "{m}");
+
+    let mut b = body("both");
+    b["age_group"] = json!("adolescent");
+    b["advisor"] =
+        serde_json::to_value(abba_advisor::AbbaConfig::new(abba_advisor::Mode::Cgm, 1)).unwrap();
+    let r = create(&svc, &b).await;
+    assert_eq!(r.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", r.text);
+    assert_eq!(r.json["path"], "age_group", "{}", r.text);
+    assert!(r.text.contains("not both"), "{}", r.text);
+    let store = abba_service::open_store(&svc.db).unwrap();
+    assert!(store.person("toddler").is_err() && store.person("both").is_err());
+}

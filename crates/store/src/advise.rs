@@ -141,7 +141,9 @@ pub struct Advice {
     /// Import-fed persons in the first week: the days that qualify and those that do not.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub first_week: Option<FirstWeekView>,
-    /// Things to know about the data (hypoglycaemia treatments, zones).
+    /// Things to know about the data (hypoglycaemia treatments, zones) and
+    /// the advice (the hours the basal rate learns from, when part of the
+    /// day, and whose defaults chose them).
     pub notes: Vec<String>,
 }
 
@@ -243,7 +245,6 @@ pub fn views_with(
     let hold_basal = extras.is_some_and(|x| x.hold_basal);
     let changes: &[TherapyChange] = extras.map_or(&[], |x| &x.changes);
     let c = clock(person);
-    let cfg = &person.settings.advisor;
     let mut latest: BTreeMap<&'static str, usize> = BTreeMap::new();
     for (i, d) in decisions.iter().enumerate() {
         latest.insert(param_key(d.parameter), i);
@@ -301,7 +302,7 @@ pub fn views_with(
                 change_percent: 100.0 * (d.new / d.old - 1.0),
                 no_update: skipped.is_some(),
                 no_update_reason: skipped,
-                reasons: words::reasons_in(d, cfg, person.settings.units),
+                reasons: reasons(person, d),
                 data,
                 status,
                 in_force,
@@ -311,6 +312,30 @@ pub fn views_with(
             }
         })
         .collect()
+}
+
+/// When the basal agent learns from part of the day: which hours, and
+/// whose defaults chose them (the person's age group's, or the advisor's
+/// configuration).
+fn basal_hours(person: &Person) -> Option<String> {
+    let s = &person.settings;
+    let f = &s.advisor.features;
+    let w = f.basal_window_for(s.advisor.mode)?;
+    let group = s.age_group.holds(f).then_some(s.age_group);
+    Some(words::basal_hours(w, group))
+}
+
+/// The reasons of one decision; a basal update that learned from part
+/// of the day says which hours and whose defaults chose them.
+fn reasons(person: &Person, d: &Decision) -> Vec<String> {
+    let s = &person.settings;
+    let mut out = words::reasons_in(d, &s.advisor, s.units);
+    if let (Parameter::Basal, DecisionDetail::Abba(_), Some(h)) =
+        (d.parameter, &d.detail, basal_hours(person))
+    {
+        out.insert(1, h);
+    }
+    out
 }
 
 fn value(a: &Abba, p: Parameter) -> f64 {
@@ -538,6 +563,11 @@ pub fn advice_with(
         therapy: therapy_view(person, advisor, extras),
         delivery: delivery_view(person, extras),
         first_week: first_week_view(person, extras, advisor.is_initialised()),
-        notes: stream.notes.clone(),
+        notes: stream
+            .notes
+            .iter()
+            .cloned()
+            .chain(basal_hours(person))
+            .collect(),
     }
 }

@@ -599,6 +599,27 @@ impl Store {
         Ok(from_state(p, s, last, r))
     }
 
+    /// Makes the person one of `group` (its defaults applied to the
+    /// advisor's configuration, see [`abba_advisor::AgeGroup`]) and rebuilds
+    /// the advisor from scratch, as [`Store::set_bounds_by_id`]: every
+    /// decision is replayed with the group's basal hours.
+    pub fn set_age_group_by_id(
+        &mut self,
+        id: i64,
+        group: abba_advisor::AgeGroup,
+    ) -> Result<Live, StoreError> {
+        let tx = self.conn.transaction_for(id)?;
+        let mut p = person::load_by_id(&tx, id)?;
+        p.settings.set_age_group(group);
+        p.advisor()?;
+        person::update_settings(&tx, id, &p.settings)?;
+        let s = refresh(&tx, &mut self.cache, &p, false)?;
+        let last = last_key(&tx, id)?;
+        let r = rev(&tx, id)?;
+        tx.commit()?;
+        Ok(from_state(p, s, last, r))
+    }
+
     /// The tokens of a role (a person's, or the admin's), newest first.
     pub fn tokens_of(&self, role: Role) -> Result<Vec<token::TokenRow>, StoreError> {
         token::list(&self.conn, role)

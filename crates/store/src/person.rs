@@ -3,7 +3,7 @@
 
 use crate::backend::{args, Db, Q};
 use crate::error::StoreError;
-use abba_advisor::{Abba, AbbaConfig, ClinicianBounds, MinData, Mode, PumpSteps};
+use abba_advisor::{Abba, AbbaConfig, AgeGroup, ClinicianBounds, MinData, Mode, PumpSteps};
 use abba_core::units::GlucoseUnit;
 use abba_core::TherapySettings;
 use abba_io::events::{DayClose, PersonSettings};
@@ -48,6 +48,26 @@ pub struct PersonSettingsDoc {
     /// The glucose unit of every text for this person.
     #[serde(default)]
     pub units: GlucoseUnit,
+    /// The person's age group, whose defaults `advisor` holds (set it with
+    /// [`PersonSettingsDoc::set_age_group`]); persons stored before it
+    /// existed are adults, as they were advised.
+    #[serde(default)]
+    pub age_group: AgeGroup,
+    /// What the reader noted about the export the starting therapy was
+    /// read from (`person new --therapy-from`, the clinic's upload: a
+    /// temporary profile not taken, a pump's auto-mode days), kept for the
+    /// clinic's page.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub therapy_notes: Vec<String>,
+}
+
+impl PersonSettingsDoc {
+    /// Makes the person one of `group`: records it and applies its
+    /// defaults to the advisor's configuration (see [`AgeGroup`]).
+    pub fn set_age_group(&mut self, group: AgeGroup) {
+        self.age_group = group;
+        group.apply(&mut self.advisor.features);
+    }
 }
 
 /// Where a person's therapy in force comes from.
@@ -119,6 +139,8 @@ impl NewPerson {
                 therapy_source: TherapySource::Given,
                 allow_closed_loop: false,
                 units: GlucoseUnit::MgDl,
+                age_group: AgeGroup::Adult,
+                therapy_notes: Vec::new(),
             },
         }
     }

@@ -427,6 +427,8 @@ pub struct ClinicTexts {
     pub saved_bounds: &'static str,
     /// Status: steps saved.
     pub saved_steps: &'static str,
+    /// Status: age group saved.
+    pub saved_age_group: &'static str,
     /// Status: therapy saved.
     pub saved_therapy: &'static str,
     /// Status: imported.
@@ -435,7 +437,7 @@ pub struct ClinicTexts {
     pub token_revoked: &'static str,
     /// Status: session revoked.
     pub session_revoked: &'static str,
-    /// The person's mode, zone and unit ({mode}, {tz}, {unit}).
+    /// The person's mode, zone, unit and age group ({mode}, {tz}, {unit}, {age_group}).
     pub person_summary: &'static str,
     /// The link to the person's report.
     pub person_report: &'static str,
@@ -465,6 +467,10 @@ pub struct ClinicTexts {
     pub steps_title: &'static str,
     /// Button: steps.
     pub save_steps: &'static str,
+    /// Heading: the person's age group.
+    pub age_group_title: &'static str,
+    /// Button: save the age group.
+    pub save_age_group: &'static str,
     /// Heading: therapy change.
     pub therapy_title: &'static str,
     /// Label: new carb ratios.
@@ -504,6 +510,9 @@ pub struct ClinicTexts {
     pub profile_choose: &'static str,
     /// Before where the therapy in force comes from.
     pub therapy_from: &'static str,
+    /// Heading: what the reader noted about the profile the starting
+    /// therapy was read from.
+    pub therapy_notes_title: &'static str,
     /// Heading: what the import did.
     pub import_result_title: &'static str,
     /// Heading: access.
@@ -560,6 +569,8 @@ pub struct ClinicTexts {
     pub unit_label: &'static str,
     /// Label: mode.
     pub mode_label: &'static str,
+    /// Label: age group.
+    pub age_group_label: &'static str,
     /// Label: profile file.
     pub profile_label: &'static str,
     /// Before the by-hand fields.
@@ -586,11 +597,12 @@ pub const CLINIC_EN: ClinicTexts = ClinicTexts {
     link_new: "linked; not synced yet",
     saved_bounds: "Saved: the bounds.",
     saved_steps: "Saved: the pump's steps.",
+    saved_age_group: "Saved: the age group (every decision replayed with its defaults).",
     saved_therapy: "Saved: the change of therapy.",
     imported: "Imported.",
     token_revoked: "Revoked: the token.",
     session_revoked: "Revoked: the session.",
-    person_summary: "{mode} mode, zone {tz}, glucose in {unit}.",
+    person_summary: "{mode} mode, zone {tz}, glucose in {unit}, age group {age_group}.",
     person_report: "The person's report",
     nightscout: "Nightscout:",
     signin_link_title: "Sign-in link (works once, for 15 minutes)",
@@ -605,6 +617,8 @@ pub const CLINIC_EN: ClinicTexts = ClinicTexts {
     save_bounds: "Save the bounds",
     steps_title: "The pump's steps",
     save_steps: "Save the steps",
+    age_group_title: "Age group",
+    save_age_group: "Save the age group",
     therapy_title: "A change of therapy",
     new_carb_ratios: "New carb ratios of breakfast, lunch, dinner (g/U, e.g. 10,12,11)",
     record_change: "Record the change",
@@ -624,6 +638,7 @@ pub const CLINIC_EN: ClinicTexts = ClinicTexts {
     profile_keep: "Keep abba's therapy (profiles in the data are then not read as therapy)",
     profile_choose: "Choose what abba should do below, then choose the files again and import.",
     therapy_from: "The therapy in force comes from:",
+    therapy_notes_title: "Notes on the profile the starting therapy was read from",
     import_result_title: "What the import did",
     access_title: "Sign-in and tokens",
     make_signin: "Make a sign-in link",
@@ -652,6 +667,7 @@ pub const CLINIC_EN: ClinicTexts = ClinicTexts {
     new_person_title: "A new person",
     unit_label: "Glucose unit",
     mode_label: "Mode",
+    age_group_label: "Age group (the advisor's defaults for it: the hours the basal rate learns from)",
     profile_label: "The pump's profile: a Nightscout profile, Tidepool or CareLink export",
     or_by_hand: "Or, instead of a profile:",
     basal_label: "Basal rate (U/h)",

@@ -166,6 +166,7 @@ pub fn new_cgm_person(
             bounds: None,
             min_data: None,
             advisor: None,
+            age_group: None,
         })
         .expect("the admin creates a person");
     let token = admin

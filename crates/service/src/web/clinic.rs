@@ -14,7 +14,7 @@ use crate::body::RawBody;
 use crate::error::ApiError;
 use crate::state::AppState;
 use abba_advisor::bounds::Range;
-use abba_advisor::{Mode, Parameter, PumpSteps};
+use abba_advisor::{AgeGroup, Mode, Parameter, PumpSteps};
 use abba_core::units::GlucoseUnit;
 use abba_core::{GramsPerUnit, TherapySettings, UnitsPerHour};
 use abba_store::advise::{self, PARAMETERS};
@@ -51,6 +51,7 @@ pub struct NewPersonForm {
     errors: BTreeMap<String, String>,
     units: Vec<Choice>,
     modes: Vec<Choice>,
+    age_groups: Vec<Choice>,
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -70,6 +71,28 @@ fn choices(values: &[(&'static str, &'static str)], selected: &str) -> Vec<Choic
         .collect()
 }
 
+/// The age groups of the forms, `selected` chosen.
+fn age_group_choices(selected: &str) -> Vec<Choice> {
+    choices(
+        &[
+            ("adult", "Adult"),
+            ("adolescent", "Adolescent"),
+            ("child", "Child"),
+        ],
+        selected,
+    )
+}
+
+/// An age group from a form's field: absent, the default (adult, as the
+/// API's); otherwise one of the three names.
+fn age_group_field(text: &str) -> Result<AgeGroup, String> {
+    match text {
+        "" => Ok(AgeGroup::Adult),
+        g => AgeGroup::parse(g)
+            .ok_or_else(|| format!("expected adult, adolescent or child, got {g:?}")),
+    }
+}
+
 impl NewPersonForm {
     fn new(values: BTreeMap<String, String>, errors: BTreeMap<String, String>) -> Self {
         let unit = values
@@ -77,9 +100,14 @@ impl NewPersonForm {
             .cloned()
             .unwrap_or_else(|| "mg/dL".into());
         let mode = values.get("mode").cloned().unwrap_or_else(|| "smbg".into());
+        let age_group = values
+            .get("age_group")
+            .cloned()
+            .unwrap_or_else(|| "adult".into());
         Self {
             units: choices(&[("mg/dL", "mg/dL"), ("mmol/L", "mmol/L")], &unit),
             modes: choices(&[("smbg", "SMBG (meter)"), ("cgm", "CGM")], &mode),
+            age_groups: age_group_choices(&age_group),
             values,
             errors,
         }
@@ -305,6 +333,13 @@ fn new_person(up: &Upload) -> Result<NewPerson, BTreeMap<String, String>> {
             Mode::Smbg
         }
     };
+    let age_group = match age_group_field(f.text("age_group")) {
+        Ok(g) => g,
+        Err(e) => {
+            errors.insert("age_group".into(), e);
+            AgeGroup::Adult
+        }
+    };
     let first_day = match f.text("first_day") {
         "" => None,
         d => match d.parse::<jiff::civil::Date>() {
@@ -336,6 +371,7 @@ fn new_person(up: &Upload) -> Result<NewPerson, BTreeMap<String, String>> {
     let mut start = None;
     let mut schedule = None;
     let mut from_profile = false;
+    let mut notes = Vec::new();
     match (profiles.is_empty(), basal.is_empty()) {
         (false, false) => {
             errors.insert(
@@ -372,6 +408,7 @@ fn new_person(up: &Upload) -> Result<NewPerson, BTreeMap<String, String>> {
                         schedule = (t.basal.len() > 1).then(|| t.basal.clone());
                         start = Some(t.settings());
                         from_profile = true;
+                        notes = t.notes;
                     }
                     Err(e) => {
                         errors.insert("profile".into(), e.to_string());
@@ -407,11 +444,13 @@ fn new_person(up: &Upload) -> Result<NewPerson, BTreeMap<String, String>> {
         return Err(errors);
     };
     let mut p = NewPerson::new(&name, &tz, mode, start);
+    p.settings.set_age_group(age_group);
     p.first_day = first_day;
     p.settings.meal_windows = meal_windows;
     p.settings.basal_schedule = schedule;
     if from_profile {
         p.settings.therapy_source = TherapySource::Profile;
+        p.settings.therapy_notes = notes;
     }
     p.settings.pump_steps = Some(PumpSteps::default());
     p.settings.units = units;
@@ -450,6 +489,7 @@ pub async fn create(State(s): State<AppState>, ctx: Ctx, m: Multipart) -> PageRe
         "tz",
         "unit",
         "mode",
+        "age_group",
         "basal",
         "carb_ratios",
         "first_day",
@@ -461,6 +501,7 @@ pub async fn create(State(s): State<AppState>, ctx: Ctx, m: Multipart) -> PageRe
         "tz",
         "unit",
         "mode",
+        "age_group",
         "basal",
         "carb_ratios",
         "first_day",
@@ -540,6 +581,11 @@ struct PersonModel {
     new_token: Option<String>,
     /// After `form#import`: what the import did (every count and note).
     import_result: Vec<String>,
+    /// What the reader noted about the profile the starting therapy was
+    /// read from (kept with the person's settings).
+    therapy_notes: Vec<String>,
+    /// The age groups, the person's selected.
+    age_groups: Vec<Choice>,
     /// Errors beside the fields of every form.
     errors: BTreeMap<String, String>,
     /// What was typed into a refused form.
@@ -642,6 +688,7 @@ fn person_model(store: &mut Store, id: i64) -> Result<PersonModel, ApiError> {
             ("mode", &a.mode.to_string().to_uppercase()),
             ("tz", &a.tz),
             ("unit", unit),
+            ("age_group", p.settings.age_group.name()),
         ],
     );
     Ok(PersonModel {
@@ -665,6 +712,8 @@ fn person_model(store: &mut Store, id: i64) -> Result<PersonModel, ApiError> {
         ]),
         waiting,
         therapy_source: a.therapy.source.to_string(),
+        therapy_notes: p.settings.therapy_notes.clone(),
+        age_groups: age_group_choices(p.settings.age_group.name()),
         tokens,
         sessions,
         nightscout,
@@ -714,6 +763,7 @@ fn done_text(q: Option<&str>) -> Option<String> {
         match what {
             "bounds" => C.saved_bounds,
             "steps" => C.saved_steps,
+            "age-group" => C.saved_age_group,
             "therapy" => C.saved_therapy,
             "token-revoked" => C.token_revoked,
             "session-revoked" => C.session_revoked,
@@ -926,6 +976,42 @@ pub async fn steps(
             };
             refused(&s, &w.csrf, id, &form, &fields, field, msg).await
         }
+    }
+}
+
+/// `POST /clinic/persons/{id}/age-group`: the person's age group (its
+/// defaults applied, every decision replayed: `Store::set_age_group_by_id`).
+pub async fn age_group(
+    State(s): State<AppState>,
+    ctx: Ctx,
+    Path(id): Path<String>,
+    body: RawBody,
+) -> PageResult {
+    let id = person_id(&id)?;
+    let (w, form) = person_form(&s, &ctx, body, &["csrf", "age_group"]).await?;
+    let group = match form.text("age_group") {
+        "" => Err(EN.missing_field.to_string()),
+        g => age_group_field(g),
+    };
+    let group = match group {
+        Ok(g) => g,
+        Err(msg) => return refused(&s, &w.csrf, id, &form, &["age_group"], "age_group", msg).await,
+    };
+    let out = s
+        .person(id, true, move |store, live| {
+            match store.set_age_group_by_id(id, group) {
+                Ok(l) => {
+                    *live = l;
+                    Ok(Ok(()))
+                }
+                Err(e @ abba_store::StoreError::Advisor(_)) => Ok(Err(e.to_string())),
+                Err(e) => Err(e.into()),
+            }
+        })
+        .await?;
+    match out {
+        Ok(()) => Ok(see_other(&format!("/clinic/persons/{id}?done=age-group"))),
+        Err(msg) => refused(&s, &w.csrf, id, &form, &["age_group"], "age_group", msg).await,
     }
 }
 
@@ -1297,6 +1383,7 @@ pub fn routes() -> axum::Router<crate::state::AppState> {
         .route("/clinic/persons/{id}", get(person))
         .route("/clinic/persons/{id}/bounds", post(bounds))
         .route("/clinic/persons/{id}/steps", post(steps))
+        .route("/clinic/persons/{id}/age-group", post(age_group))
         .route("/clinic/persons/{id}/therapy", post(therapy))
         .route(
             "/clinic/persons/{id}/import",

@@ -19,7 +19,7 @@ use crate::error::TrialError;
 use crate::twin_arm::TwinArmOptions;
 use abba_advisor::any::AdvisorSpec;
 use abba_advisor::baselines::r2r::R2rConfig;
-use abba_advisor::{AbbaConfig, AutotuneConfig, EventLimits, Mode};
+use abba_advisor::{AbbaConfig, AgeGroup, AutotuneConfig, EventLimits, Mode};
 use abba_sim::cohort::Population;
 use abba_sim::devices::DeviceSet;
 use abba_sim::person::{Behaviour, DayClosing};
@@ -144,31 +144,25 @@ impl Default for RawTrialConfig {
 impl RawTrialConfig {
     /// The built-in defaults for a cohort of `population`: the paper's
     /// protocol with ABBA's knobs as `abba calibrate` chose them, where a
-    /// population's training cohort chose otherwise than the adults'. Only
-    /// the basal agent's hours differ (`abba calibrate` over
-    /// `cgm_basal_window` and `smbg_basal_window` on 60 generated patients
-    /// of each population, seeds 101; benches/diagnosis/README.md): adults
-    /// the whole day in CGM mode and the night's bedtime and fasting
-    /// readings in SMBG mode (the defaults); adolescents 00:00-07:00 in CGM
-    /// mode and children 02:00-07:00; both the fasting reading alone
-    /// (00:00-07:30) in SMBG mode.
+    /// population's training cohort chose otherwise than the adults': the
+    /// defaults of its [`AgeGroup`] (only the basal agent's hours differ;
+    /// the values and where they come from are documented there).
     pub fn for_population(population: Population) -> Self {
         let mut c = Self {
             population,
             ..Self::default()
         };
-        let f = &mut c.abba.features;
-        match population {
-            Population::Adults => {}
-            Population::Adolescents => {
-                (f.cgm_basal_window_min, f.smbg_basal_window_min) = (Some([0, 420]), Some([0, 450]))
-            }
-            Population::Children => {
-                (f.cgm_basal_window_min, f.smbg_basal_window_min) =
-                    (Some([120, 420]), Some([0, 450]))
-            }
-        }
+        age_group(population).apply(&mut c.abba.features);
         c
+    }
+}
+
+/// The age group whose defaults a cohort of `population` gets.
+pub fn age_group(population: Population) -> AgeGroup {
+    match population {
+        Population::Adults => AgeGroup::Adult,
+        Population::Adolescents => AgeGroup::Adolescent,
+        Population::Children => AgeGroup::Child,
     }
 }
 

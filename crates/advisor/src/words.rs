@@ -380,3 +380,22 @@ pub fn answer_words(status: &str, in_force: f64, unit: &str) -> String {
         other => other.to_string(),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::{basal_hours, window_clock};
+    use crate::AgeGroup;
+
+    #[test]
+    fn window_edges_read_as_clock_times() {
+        assert_eq!(window_clock(450), "07:30");
+        assert_eq!(window_clock(0), "00:00");
+        assert_eq!(window_clock(1440), "24:00");
+        assert_eq!(window_clock(-90), "22:30 the evening before");
+        assert_eq!(
+            basal_hours([-90, 450], Some(AgeGroup::Adult)),
+            "The basal rate learns from the readings from 22:30 the evening before to 07:30 only: \
+             the advisor's defaults for adults."
+        );
+    }
+}

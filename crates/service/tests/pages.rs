@@ -1633,8 +1633,13 @@ async fn the_clinics_new_person_form_takes_an_age_group() {
     assert_eq!(r.status, StatusCode::SEE_OTHER, "{}", r.html);
     let s = stored(&svc);
     assert_eq!(s.age_group, abba_advisor::AgeGroup::Adult);
-    assert_eq!(s.advisor.features.cgm_basal_window_min, None);
-    assert_eq!(s.advisor.features.smbg_basal_window_min, None);
+    assert_eq!(
+        (
+            s.advisor.features.cgm_basal_window_min,
+            s.advisor.features.smbg_basal_window_min
+        ),
+        abba_advisor::AgeGroup::Adult.basal_windows_min()
+    );
     let page = admin.get(r.location()).await;
     assert!(
         page.html.contains("Saved: the age group") && page.html.contains("age group adult"),

@@ -586,10 +586,20 @@ impl Store {
         id: i64,
         steps: abba_advisor::PumpSteps,
     ) -> Result<Live, StoreError> {
+        self.change_settings_by_id(id, |s| s.pump_steps = Some(steps))
+    }
+
+    /// Changes a person's settings with `change` and rebuilds the advisor
+    /// from scratch, in one transaction: the whole advisor as it will be
+    /// built is checked before the write.
+    fn change_settings_by_id(
+        &mut self,
+        id: i64,
+        change: impl FnOnce(&mut person::PersonSettingsDoc),
+    ) -> Result<Live, StoreError> {
         let tx = self.conn.transaction_for(id)?;
         let mut p = person::load_by_id(&tx, id)?;
-        p.settings.pump_steps = Some(steps);
-        // The whole advisor as it will be built, checked before the write.
+        change(&mut p.settings);
         p.advisor()?;
         person::update_settings(&tx, id, &p.settings)?;
         let s = refresh(&tx, &mut self.cache, &p, false)?;
@@ -608,16 +618,7 @@ impl Store {
         id: i64,
         group: abba_advisor::AgeGroup,
     ) -> Result<Live, StoreError> {
-        let tx = self.conn.transaction_for(id)?;
-        let mut p = person::load_by_id(&tx, id)?;
-        p.settings.set_age_group(group);
-        p.advisor()?;
-        person::update_settings(&tx, id, &p.settings)?;
-        let s = refresh(&tx, &mut self.cache, &p, false)?;
-        let last = last_key(&tx, id)?;
-        let r = rev(&tx, id)?;
-        tx.commit()?;
-        Ok(from_state(p, s, last, r))
+        self.change_settings_by_id(id, |s| s.set_age_group(group))
     }
 
     /// The tokens of a role (a person's, or the admin's), newest first.

@@ -20,7 +20,7 @@ use abba_core::{GramsPerUnit, TherapySettings, UnitsPerHour};
 use abba_store::advise::{self, PARAMETERS};
 use abba_store::person::TherapySource;
 use abba_store::token::Role;
-use abba_store::{NewPerson, ProfileResolution, Store};
+use abba_store::{Live, NewPerson, ProfileResolution, Store};
 use abba_web::pages::{Choice, Layout};
 use abba_web::texts::{fill, CLINIC_EN as C, EN};
 use axum::extract::{Multipart, Path, RawQuery, State};
@@ -956,14 +956,7 @@ pub async fn steps(
     };
     let out = s
         .person(id, true, move |store, live| {
-            match store.set_pump_steps_by_id(id, steps) {
-                Ok(l) => {
-                    *live = l;
-                    Ok(Ok(()))
-                }
-                Err(e @ abba_store::StoreError::Advisor(_)) => Ok(Err(e.to_string())),
-                Err(e) => Err(e.into()),
-            }
+            settings_changed(store.set_pump_steps_by_id(id, steps), live)
         })
         .await?;
     match out {
@@ -976,6 +969,23 @@ pub async fn steps(
             };
             refused(&s, &w.csrf, id, &form, &fields, field, msg).await
         }
+    }
+}
+
+/// A settings change's outcome for the page: the rebuilt person in
+/// `live`, or what the advisor refused (shown beside the form), or an
+/// error of the service.
+fn settings_changed(
+    out: Result<Live, abba_store::StoreError>,
+    live: &mut Live,
+) -> Result<Result<(), String>, ApiError> {
+    match out {
+        Ok(l) => {
+            *live = l;
+            Ok(Ok(()))
+        }
+        Err(e @ abba_store::StoreError::Advisor(_)) => Ok(Err(e.to_string())),
+        Err(e) => Err(e.into()),
     }
 }
 
@@ -999,14 +1009,7 @@ pub async fn age_group(
     };
     let out = s
         .person(id, true, move |store, live| {
-            match store.set_age_group_by_id(id, group) {
-                Ok(l) => {
-                    *live = l;
-                    Ok(Ok(()))
-                }
-                Err(e @ abba_store::StoreError::Advisor(_)) => Ok(Err(e.to_string())),
-                Err(e) => Err(e.into()),
-            }
+            settings_changed(store.set_age_group_by_id(id, group), live)
         })
         .await?;
     match out {

@@ -524,7 +524,7 @@ impl Abba {
         };
         let (m, switch, max) = (
             cfg.update.fusion_m,
-            cfg.update.switch_rule,
+            cfg.update.switch_rule_for(cfg.mode),
             cfg.update.max_relative_change,
         );
         let guard_hypo = cfg.update.hypo_guard && window_hyponumber > 0;

@@ -36,14 +36,19 @@ impl Mode {
 /// (`abba_trial::protocol::RawTrialConfig::for_population` maps its
 /// populations here; a person's settings carry one, default adult).
 ///
-/// Only the basal agent's hours differ, chosen by `abba calibrate` over
-/// `cgm_basal_window` and `smbg_basal_window` on 60 generated patients of
-/// each population, seeds 101 (benches/diagnosis/README.md): adults the
-/// whole day in CGM mode and the night's bedtime and fasting readings
-/// (22:30 the evening before to 07:30) in SMBG mode, which are
-/// [`FeatureConfig::default`]'s; adolescents 00:00-07:00 in CGM mode and
-/// children 02:00-07:00, both the fasting reading before breakfast
-/// (00:00-07:30) in SMBG mode.
+/// The basal agent's hours and CGM mode's CIR switch rule and G_max
+/// differ, chosen by `abba calibrate` over `cgm_basal_window`,
+/// `smbg_basal_window`, `cgm_switch_rule` and `feature_g_max_cgm` on 60
+/// generated patients of each population, seeds 101
+/// (benches/diagnosis/README.md): adults the whole day in CGM mode and
+/// the night's bedtime and fasting readings (22:30 the evening before to
+/// 07:30) in SMBG mode, which are [`FeatureConfig::default`]'s;
+/// adolescents 00:00-07:00 in CGM mode and children 02:00-07:00, both the
+/// fasting reading before breakfast (00:00-07:30) in SMBG mode. The switch
+/// rule is off in CGM mode for adults ([`UpdateConfig::default`]'s), the
+/// seed's for adolescents and children; CGM mode's
+/// G_max is 350 mg/dL for adults ([`FeatureConfig::default`]'s), 400 for
+/// the others.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum AgeGroup {
@@ -94,9 +99,38 @@ impl AgeGroup {
         }
     }
 
-    /// Sets the knobs this group's defaults choose in `f` (both modes').
-    pub fn apply(self, f: &mut FeatureConfig) {
+    /// CGM mode's CIR switch rule of this group's defaults
+    /// (`update.cgm_switch_rule`): off for adults, the seed's (as
+    /// `update.switch_rule`) for adolescents and children. `abba calibrate`
+    /// on each population's training cohort chose off for adults and
+    /// adolescents, on for children; for adolescents off stopped more runs
+    /// below 10 mg/dL on both evaluation cohorts (1 -> 5 and 0 -> 4,
+    /// standard therapy 3 and 4), so they keep the rule
+    /// (benches/diagnosis/README.md).
+    pub fn cgm_switch_rule(self) -> Option<bool> {
+        match self {
+            AgeGroup::Adult => Some(false),
+            AgeGroup::Adolescent | AgeGroup::Child => None,
+        }
+    }
+
+    /// CGM mode's hyper normalisation G_max of this group's defaults
+    /// (`features.cgm_g_max_mg_dl`): 350 mg/dL for adults, 400 for
+    /// adolescents and children (`abba calibrate`, as above).
+    pub fn cgm_g_max_mg_dl(self) -> f64 {
+        match self {
+            AgeGroup::Adult => 350.0,
+            AgeGroup::Adolescent | AgeGroup::Child => 400.0,
+        }
+    }
+
+    /// Sets the knobs this group's defaults choose in `c`: the basal
+    /// agent's hours (both modes'), CGM mode's switch rule and G_max.
+    pub fn apply(self, c: &mut AbbaConfig) {
+        let f = &mut c.features;
         (f.cgm_basal_window_min, f.smbg_basal_window_min) = self.basal_windows_min();
+        f.cgm_g_max_mg_dl = Some(self.cgm_g_max_mg_dl());
+        c.update.cgm_switch_rule = self.cgm_switch_rule();
     }
 
     /// Whether `f` holds this group's defaults (of the knobs it chooses).
@@ -265,7 +299,9 @@ pub struct FeatureConfig {
     #[serde(default)]
     pub cgm_g_min_mg_dl: Option<f64>,
     /// G_max in CGM mode (F_hyper = raw/(G_max − G_H)); `None` uses
-    /// `g_max_mg_dl`. \[GUESS §3, calibrated] 400.
+    /// `g_max_mg_dl`. \[GUESS §3, calibrated] 350 (adults, with CGM mode's
+    /// switch rule off; 400 before it, and for adolescents and children:
+    /// [`AgeGroup`]).
     #[serde(default)]
     pub cgm_g_max_mg_dl: Option<f64>,
     /// CGM mode: the minutes of the calendar day `[from, to)` after
@@ -378,7 +414,7 @@ impl Default for FeatureConfig {
             cgm_excursion: Excursion::TimeAveraged,
             smbg_excursion: default_smbg_excursion(),
             cgm_g_min_mg_dl: None,
-            cgm_g_max_mg_dl: Some(400.0),
+            cgm_g_max_mg_dl: Some(350.0),
             cgm_basal_window_min: None,
             smbg_basal_window_min: Some([-90, 450]),
         }
@@ -647,6 +683,16 @@ pub struct UpdateConfig {
     pub max_relative_change: f64,
     /// Apply the CIR switch rule l (eq20-21). \[SEED] true.
     pub switch_rule: bool,
+    /// CGM mode's own switch rule, `None`: as `switch_rule` (the seed's
+    /// one rule for both modes). \[DEVIATION] Off in CGM mode by default
+    /// (`abba calibrate`, benches/diagnosis/README.md): with a reading
+    /// every 5 minutes the basal agent rises on most days, and the rule
+    /// then held the breakfast carb ratio still through the dawn factor's
+    /// mornings (60-67 of 90 breakfast decisions); in SMBG mode it keeps
+    /// both agents from adding insulin on the same four readings, and
+    /// stays.
+    #[serde(default)]
+    pub cgm_switch_rule: Option<bool>,
     /// Extra safety, **not in the seed or the spec** (a deviation when on):
     /// cancel any update that would add insulin (basal up, carb ratio down)
     /// when its window holds a reading below `features.hyponumber_below_mg_dl`.
@@ -661,7 +707,26 @@ impl Default for UpdateConfig {
             fusion_m: 0.5,
             max_relative_change: 0.05,
             switch_rule: true,
+            cgm_switch_rule: Some(false),
             hypo_guard: false,
+        }
+    }
+}
+
+impl UpdateConfig {
+    /// The seed's literal update rules (the switch rule in both modes).
+    pub fn spec() -> Self {
+        Self {
+            cgm_switch_rule: None,
+            ..Self::default()
+        }
+    }
+
+    /// Whether the CIR switch rule applies to an advisor in `mode`.
+    pub fn switch_rule_for(&self, mode: Mode) -> bool {
+        match mode {
+            Mode::Cgm => self.cgm_switch_rule.unwrap_or(self.switch_rule),
+            Mode::Smbg => self.switch_rule,
         }
     }
 }
@@ -860,7 +925,7 @@ impl AbbaConfig {
     /// [`AbbaConfig::new`] with the defaults of `group` (see [`AgeGroup`]).
     pub fn for_age_group(mode: Mode, exploration_seed: u64, group: AgeGroup) -> Self {
         let mut c = Self::new(mode, exploration_seed);
-        group.apply(&mut c.features);
+        group.apply(&mut c);
         c
     }
 
@@ -946,7 +1011,7 @@ mod tests {
     }
 
     #[test]
-    fn each_age_group_chooses_its_basal_hours_and_nothing_else() {
+    fn each_age_group_chooses_its_basal_hours_switch_rule_and_cgm_g_max_and_nothing_else() {
         let hours = |g: AgeGroup, mode: Mode| {
             AbbaConfig::for_age_group(mode, 7, g)
                 .features
@@ -958,18 +1023,30 @@ mod tests {
         assert_eq!(hours(AgeGroup::Adolescent, Mode::Smbg), Some([0, 450]));
         assert_eq!(hours(AgeGroup::Child, Mode::Cgm), Some([120, 420]));
         assert_eq!(hours(AgeGroup::Child, Mode::Smbg), Some([0, 450]));
+        let cgm = |g: AgeGroup| {
+            let c = AbbaConfig::for_age_group(Mode::Cgm, 7, g);
+            (
+                c.update.switch_rule_for(Mode::Cgm),
+                c.features.g_max_for(Mode::Cgm),
+            )
+        };
+        assert_eq!(cgm(AgeGroup::Adult), (false, 350.0));
+        assert_eq!(cgm(AgeGroup::Adolescent), (true, 400.0));
+        assert_eq!(cgm(AgeGroup::Child), (true, 400.0));
         assert_eq!(AgeGroup::default(), AgeGroup::Adult);
         for g in AgeGroup::ALL {
             for mode in [Mode::Cgm, Mode::Smbg] {
                 let c = AbbaConfig::for_age_group(mode, 7, g);
                 c.validate().unwrap();
                 assert!(g.holds(&c.features));
-                // Everything but the basal hours is the mode's default.
+                // SMBG mode keeps the seed's switch rule in every group.
+                assert!(c.update.switch_rule_for(Mode::Smbg));
+                // Everything else is the mode's default.
                 let mut plain = AbbaConfig::new(mode, 7);
-                g.apply(&mut plain.features);
+                g.apply(&mut plain);
                 assert_eq!(plain, c);
                 let mut back = c.clone();
-                AgeGroup::Adult.apply(&mut back.features);
+                AgeGroup::Adult.apply(&mut back);
                 assert_eq!(back, AbbaConfig::new(mode, 7));
             }
             assert_eq!(AgeGroup::parse(g.name()), Some(g));
@@ -980,6 +1057,39 @@ mod tests {
         assert!(!AgeGroup::Child.holds(&AbbaConfig::new(Mode::Cgm, 7).features));
         assert_eq!(AgeGroup::parse("Child"), None);
         assert!(serde_json::from_str::<AgeGroup>("\"toddler\"").is_err());
+    }
+
+    #[test]
+    fn cgm_switch_rule_follows_the_seed_unless_set() {
+        // The seed's one rule for both modes, and a stored configuration
+        // from before the knob (no field): CGM mode follows switch_rule.
+        let spec = UpdateConfig::spec();
+        assert_eq!(spec.cgm_switch_rule, None);
+        for on in [true, false] {
+            let u = UpdateConfig {
+                switch_rule: on,
+                ..UpdateConfig::spec()
+            };
+            assert_eq!(
+                (u.switch_rule_for(Mode::Cgm), u.switch_rule_for(Mode::Smbg)),
+                (on, on)
+            );
+        }
+        let mut json = serde_json::to_value(UpdateConfig::default()).unwrap();
+        json.as_object_mut().unwrap().remove("cgm_switch_rule");
+        let old: UpdateConfig = serde_json::from_value(json).unwrap();
+        assert_eq!(old, spec);
+        // The default: off in CGM mode only.
+        let d = UpdateConfig::default();
+        assert!(!d.switch_rule_for(Mode::Cgm));
+        assert!(d.switch_rule_for(Mode::Smbg));
+        let set_on = UpdateConfig {
+            cgm_switch_rule: Some(true),
+            switch_rule: false,
+            ..d
+        };
+        assert!(set_on.switch_rule_for(Mode::Cgm));
+        assert!(!set_on.switch_rule_for(Mode::Smbg));
     }
 
     #[test]

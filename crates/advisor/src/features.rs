@@ -201,9 +201,10 @@ mod tests {
         let all_day = stats(&[80.0; 288]).features(&cfg, Mode::Cgm);
         close("F_hypo of a day at 80", 0.2, all_day.hypo);
         close("15 min of 24 h = 1/96", all_day.hypo / 96.0, dip.hypo);
-        // Hyper side: 2 of 4 readings 100 above G_H -> 200/4 = 50 -> 0.2.
+        // Hyper side: 2 of 4 readings 100 above G_H -> 200/4 = 50, divided
+        // by CGM mode's G_max − G_H = 350 − 150 -> 0.25.
         let f = stats(&[250.0, 250.0, 120.0, 120.0]).features(&cfg, Mode::Cgm);
-        close("time-averaged hyper", 0.2, f.hyper);
+        close("time-averaged hyper", 0.25, f.hyper);
         // SMBG mode has its own knob: out-of-range mean (100 -> 0.4).
         let cfg = FeatureConfig {
             cgm_excursion: Excursion::TimeAveraged,
@@ -270,9 +271,9 @@ mod tests {
         close("CGM F_hyper", 0.5, s.features(&cfg, Mode::Cgm).hyper);
         close("SMBG F_hyper", 0.4, s.features(&cfg, Mode::Smbg).hyper);
         // The defaults: time-averaged in both modes (50 mg/dL), divided by
-        // 250 − 150 in SMBG mode and by 400 − 150 in CGM mode.
+        // 250 − 150 in SMBG mode and by 350 − 150 in CGM mode.
         close("default SMBG", 0.5, s.features(&default, Mode::Smbg).hyper);
-        close("default CGM", 0.2, s.features(&default, Mode::Cgm).hyper);
+        close("default CGM", 0.25, s.features(&default, Mode::Cgm).hyper);
     }
 
     #[test]

@@ -343,6 +343,8 @@ fn literal_actor_step_is_clipped_at_almost_every_update() {
     let mut config = AbbaConfig::new(Mode::Cgm, 11);
     config.actor.rule = abba_advisor::config::ActorRule::Eq28;
     config.actor.theta_step_clip = 0.5;
+    // ... and the seed's update rules (the CIR switch rule in CGM mode too).
+    config.update = abba_advisor::config::UpdateConfig::spec();
     let mut a = Abba::new(config, start()).unwrap();
     toy.run(&mut a, Mode::Cgm, 1, 30, 7);
     let c = a.counters(Parameter::Basal);

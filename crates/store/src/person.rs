@@ -66,7 +66,7 @@ impl PersonSettingsDoc {
     /// defaults to the advisor's configuration (see [`AgeGroup`]).
     pub fn set_age_group(&mut self, group: AgeGroup) {
         self.age_group = group;
-        group.apply(&mut self.advisor.features);
+        group.apply(&mut self.advisor);
     }
 }
 

@@ -72,6 +72,9 @@ pub enum Knob {
     /// breakfast), 2 = 22:30 the evening before to 07:30 (the night's
     /// bedtime and fasting readings). Not in the default grid.
     SmbgBasalWindow,
+    /// CGM mode's CIR switch rule (eq20-21) `update.cgm_switch_rule`: 1 =
+    /// on (the seed), 0 = off. Not in the default grid.
+    CgmSwitchRule,
 }
 
 /// The windows of [`Knob::CgmBasalWindow`], by value.
@@ -104,6 +107,7 @@ impl Knob {
             Knob::SmbgBasalWindow => {
                 "abba.features.smbg_basal_window_min (0 = whole day, 1 = 00:00-07:30, 2 = 22:30 the evening before to 07:30)"
             }
+            Knob::CgmSwitchRule => "abba.update.cgm_switch_rule (1 = on, 0 = off)",
         }
     }
 
@@ -141,6 +145,13 @@ impl Knob {
                 .iter()
                 .position(|w| *w == c.abba.features.smbg_basal_window_min)
                 .map_or(f64::NAN, |i| i as f64),
+            Knob::CgmSwitchRule => {
+                if c.abba.update.switch_rule_for(Mode::Cgm) {
+                    1.0
+                } else {
+                    0.0
+                }
+            }
         }
     }
 
@@ -193,6 +204,7 @@ impl Knob {
                 let i = (v.round().max(0.0) as usize).min(SMBG_BASAL_WINDOWS.len() - 1);
                 c.abba.features.smbg_basal_window_min = SMBG_BASAL_WINDOWS[i];
             }
+            Knob::CgmSwitchRule => c.abba.update.cgm_switch_rule = Some(v >= 0.5),
         }
     }
 }
@@ -788,6 +800,13 @@ mod tests {
             Knob::SmbgBasalWindow.set(&mut c, v);
             assert_eq!(Knob::SmbgBasalWindow.get(&c), v);
             assert_eq!(c.abba.features.smbg_basal_window_min, w);
+        }
+        assert_eq!(Knob::CgmSwitchRule.get(&c), 0.0);
+        for (v, on) in [(1.0, true), (0.0, false)] {
+            Knob::CgmSwitchRule.set(&mut c, v);
+            assert_eq!(Knob::CgmSwitchRule.get(&c), v);
+            assert_eq!(c.abba.update.switch_rule_for(Mode::Cgm), on);
+            assert!(c.abba.update.switch_rule_for(Mode::Smbg));
         }
         assert_eq!(c.abba.features.smbg_excursion, Excursion::TimeAveraged);
         for (k, v) in [

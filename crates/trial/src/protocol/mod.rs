@@ -152,7 +152,7 @@ impl RawTrialConfig {
             population,
             ..Self::default()
         };
-        age_group(population).apply(&mut c.abba.features);
+        age_group(population).apply(&mut c.abba);
         c
     }
 }

@@ -7,7 +7,10 @@
 //! `isSMB`, Loop's automatic boluses), Tidepool `automated` basal, an
 //! uploader or device of a JSON export named as a loop system (iAPS, Trio,
 //! Loop, AndroidAPS, OpenAPS, FreeAPS, Control-IQ, CamAPS, 780G /
-//! SmartGuard auto mode), or in a CareLink export SmartGuard's auto mode:
+//! SmartGuard auto mode), a Nightscout Profile Switch to the pump's auto
+//! mode (a MiniMed 670G's "Auto Mode", see
+//! [`crate::read::nightscout::is_auto_mode_switch`]), or in a CareLink
+//! export SmartGuard's auto mode:
 //! `Bolus Source` `CLOSED_LOOP_*` (the automatic `CLOSED_LOOP_AUTO_*`
 //! doses count as automatic boluses) and the "Aggregated Auto Insulin
 //! Data" totals. A CareLink export naming a 780G without these is not a
@@ -40,6 +43,11 @@ pub const LOOP_NAMES: [&str; 13] = [
     "smartguard",
     "omnipod 5",
 ];
+
+/// How the loop evidence names Nightscout Profile Switches to a pump's
+/// auto mode ([`crate::read::nightscout::is_auto_mode_switch`]).
+pub const AUTO_MODE_SWITCHES: &str =
+    "SmartGuard auto mode (Nightscout Profile Switches to the pump's \"Auto Mode\")";
 
 /// A temporary basal this short or shorter is a loop's adjustment.
 pub const SHORT_TEMP_BASAL_MIN: u32 = 30;
@@ -109,6 +117,13 @@ impl Evidence {
         for r in records {
             let local = tz.to_datetime(r.at);
             match &r.kind {
+                // The end of a temporary basal (0 min): none was started.
+                RecordKind::TempBasal {
+                    duration_min: 0, ..
+                } => {
+                    e.pump_basal += 1;
+                    pump_days.insert(local.date());
+                }
                 RecordKind::TempBasal { rate, duration_min } => {
                     e.temp_basals += 1;
                     e.pump_basal += 1;
@@ -147,14 +162,19 @@ impl Evidence {
     /// Any other file adds nothing.
     pub fn from_file(bytes: &[u8]) -> Self {
         let mut e = Evidence::default();
-        let Ok(v) = serde_json::from_slice::<Value>(bytes) else {
+        // A JSON array, one object, or mongoexport's one document a line.
+        let Ok(items) = crate::read::json::parse_array("", bytes) else {
             return Self::from_carelink(bytes);
         };
-        let items = match v {
-            Value::Array(a) => a,
-            other => vec![other],
-        };
         for item in &items {
+            // A Nightscout Profile Switch to the pump's auto mode (the
+            // MiniMed 670G's SmartGuard, as 600SeriesAndroidUploader writes it).
+            if item
+                .as_object()
+                .is_some_and(crate::read::nightscout::is_auto_mode_switch)
+            {
+                *e.systems.entry(AUTO_MODE_SWITCHES.to_string()).or_default() += 1;
+            }
             let s = |k: &str| item.get(k).and_then(Value::as_str).unwrap_or("");
             let automatic = item.get("automatic").and_then(Value::as_bool) == Some(true);
             // Loop writes its own temporary basals `automatic` too, with

@@ -641,15 +641,27 @@ pub fn therapy_from_contents(
     }
     all.sort_by_key(|t| t.at);
     let data_end = batch.records.iter().map(|r| r.at).max();
+    let auto = auto_mode_switches(&batch);
     let mut latest = permanent_at_end(&mut all, data_end)?.ok_or_else(|| {
         let names: Vec<&str> = inputs.iter().map(|(n, _)| n.as_str()).collect();
         let mut msg = "no settings profile with a basal schedule and carb ratios (expected a Nightscout profile store or Profile Switch, Tidepool pumpSettings, or a CareLink export with Basal Rate and bolus wizard rows)".to_string();
+        if let Some(words) = &auto {
+            msg.push_str(&format!(
+                "; the files' only Profile Switches with a profile are {words}, a closed loop's and not a therapy: the files hold no manual profile (export a period that includes one, or give --basal and --carb-ratio)"
+            ));
+        }
         for w in &why_not {
             msg.push_str("; ");
             msg.push_str(w);
         }
         IoError::format(&names.join(", "), msg)
     })?;
+    if let Some(words) = &auto {
+        latest.notes.push(format!(
+            "The files' {words} were skipped: the pump's auto mode is a closed loop, not a therapy; the settings are the latest manual profile, of {}",
+            latest.at
+        ));
+    }
     if let Some(cr) = carb_ratio {
         for (i, v) in cr.iter().enumerate() {
             CARB_RATIO_G_PER_U.check(*v).map_err(|e| {
@@ -659,6 +671,28 @@ pub fn therapy_from_contents(
         latest.carb_ratio = cr;
     }
     Ok(latest)
+}
+
+/// The Profile Switches of `batch` to the pump's auto mode
+/// ([`crate::read::nightscout::is_auto_mode_switch`]) in words: how many,
+/// when, the latest's place; `None` when there are none.
+fn auto_mode_switches(batch: &Batch) -> Option<String> {
+    let auto: Vec<&crate::record::Record> = batch
+        .records
+        .iter()
+        .filter(|r| {
+            matches!(&r.kind, RecordKind::Ignored { kind }
+                if kind == crate::read::nightscout::AUTO_MODE_SWITCH)
+        })
+        .collect();
+    let first = auto.iter().map(|r| r.at).min()?;
+    let last = auto.iter().max_by_key(|r| r.at)?;
+    Some(format!(
+        "{} Profile Switches to the pump's auto mode (\"Auto Mode\", a placeholder basal), from {first} to {}, the latest at {}",
+        auto.len(),
+        last.at,
+        batch.origin(last)
+    ))
 }
 
 /// The person's settings among `all` (oldest first): the latest one,

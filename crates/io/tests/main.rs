@@ -20,6 +20,7 @@ mod events_mapping;
 mod events_properties;
 mod fixtures;
 mod never_panic;
+mod nightscout_uploaders;
 mod real_carelink;
 mod real_exports;
 mod real_variants;

@@ -15,6 +15,7 @@ mod tidepool_workbook;
 mod app_events;
 mod backends;
 mod import_log;
+mod nightscout_670g;
 mod person_age;
 mod person_names;
 mod person_path;

@@ -1,7 +1,9 @@
 //! Nightscout API JSON as downloaded (newest first): `entries.json` (`sgv`,
 //! `mbg`, `cal`), `treatments.json` (boluses, carbs, temporary basals,
 //! suspend/resume, everything else counted by `eventType`; a document
-//! marked `isValid: false` counted, see [`is_valid`]) and
+//! marked `isValid: false` counted, see [`is_valid`]; a treatment without
+//! an eventType read for its insulin and carbs; a Profile Switch to a
+//! pump's auto mode counted as loop evidence, see [`is_auto_mode_switch`]) and
 //! `profile.json` (basal schedule in U/h, `timezone`, `units`). Entries
 //! store glucose in mg/dL whatever the display unit; a treatment's
 //! `glucose` (BG Check) says its unit in `units`.
@@ -26,6 +28,7 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     let mut out = Vec::with_capacity(items.len());
     let mut versions: Vec<Option<f64>> = Vec::with_capacity(items.len());
     let mut switches: Vec<Switch> = Vec::new();
+    let mut tally = Tally::default();
     for item in objects(ctx.file, &items)? {
         let at = instant(&item)?;
         // `_id` is a string from the API, `{"$oid": ...}` from a MongoDB dump.
@@ -50,7 +53,9 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
         } else if item.get("store").is_some() {
             vec![profile(&item)?]
         } else if let Some(event) = item.str("eventType")? {
-            treatment(ctx, &item, event)?
+            treatment(ctx, &item, event, &mut tally)?
+        } else if untyped_treatment(&item) {
+            treatment(ctx, &item, "", &mut tally)?
         } else {
             vec![entry(&item)?]
         };
@@ -81,6 +86,7 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
         }
     }
     check_error_codes(ctx.file, &out)?;
+    tally.note(ctx, &out);
     temporary_switches(ctx, &mut out, &mut versions, &switches);
     latest_versions(ctx, &mut out, &versions);
     Ok(out)
@@ -570,7 +576,154 @@ fn minutes(item: &Item<'_>, field: &str) -> Result<Option<u32>, IoError> {
     }
 }
 
-fn treatment(ctx: &Ctx<'_>, item: &Item<'_>, event: &str) -> Result<Vec<RecordKind>, IoError> {
+/// What the reader read in Nightscout's own way and reports in the file's
+/// notes: the JSON item of each (the first is named).
+#[derive(Default)]
+struct Tally {
+    /// Temp Basals of duration 0 with no rate: ends of the running one.
+    temp_basal_ends: Vec<usize>,
+    /// Temp Basals with a duration and no rate: the scheduled rate.
+    temp_basal_scheduled: Vec<usize>,
+    /// Treatments without an eventType that carried insulin or carbs.
+    untyped: Vec<usize>,
+}
+
+impl Tally {
+    /// The file's notes on what was read so, and on the Profile Switches
+    /// to the pump's auto mode among `out` ([`AUTO_MODE_SWITCH`]).
+    fn note(&self, ctx: &Ctx<'_>, out: &[Record]) {
+        let first = |v: &[usize]| format!("the first at $[{}]", v[0]);
+        if !self.temp_basal_ends.is_empty() {
+            ctx.note(format!(
+                "{} Temp Basals of duration 0 with no absolute, rate or percent ({}; \
+                 600SeriesAndroidUploader writes \"Pump resumed insulin delivery\" so): \
+                 Nightscout reads a Temp Basal without a duration as the end of the temporary \
+                 basal running then; read so (a temporary basal of 0 min, which cancels the \
+                 running one)",
+                self.temp_basal_ends.len(),
+                first(&self.temp_basal_ends)
+            ));
+        }
+        if !self.temp_basal_scheduled.is_empty() {
+            ctx.note(format!(
+                "{} Temp Basals with a duration and no absolute, rate or percent ({}): \
+                 Nightscout's API v1 drops a percent of 0 (100 % of the scheduled rate) when \
+                 it stores a treatment, and Nightscout reads a Temp Basal without a rate as \
+                 the scheduled rate; read as 100 % of the scheduled rate for their duration",
+                self.temp_basal_scheduled.len(),
+                first(&self.temp_basal_scheduled)
+            ));
+        }
+        if !self.untyped.is_empty() {
+            ctx.note(format!(
+                "{} treatments without an eventType (\"\", \"<None>\" or none at all) carry \
+                 insulin or carbs ({}): read as boluses and carbohydrate, as Nightscout counts \
+                 any treatment's insulin and carbs in its IOB and COB",
+                self.untyped.len(),
+                first(&self.untyped)
+            ));
+        }
+        let auto: Vec<&Record> = out
+            .iter()
+            .filter(|r| matches!(&r.kind, RecordKind::Ignored { kind } if kind == AUTO_MODE_SWITCH))
+            .collect();
+        if let (Some(a), Some(b)) = (
+            auto.iter().min_by_key(|r| r.at),
+            auto.iter().max_by_key(|r| r.at),
+        ) {
+            let items: Vec<String> = auto
+                .iter()
+                .take(5)
+                .map(|r| match r.origin.at {
+                    crate::record::OriginAt::Item(i) => format!("$[{i}]"),
+                    _ => "?".into(),
+                })
+                .collect();
+            let more = if auto.len() > 5 { ", ..." } else { "" };
+            ctx.note(format!(
+                "{} Profile Switches put the pump in its auto mode, from {} to {} ({}{more}): \
+                 a profile named \"Auto Mode\" or with a placeholder basal below \
+                 {AUTO_MODE_PLACEHOLDER_U_PER_H} U/h, which no pump delivers (the MiniMed \
+                 670G's SmartGuard auto mode, as its uploader writes it); in auto mode the pump \
+                 delivers a basal of its own, which the file does not hold: a closed loop, not \
+                 a therapy, so these are not read as basal schedules (no basal rate from them \
+                 reaches the advisor) and abba gives a closed loop no basal advice; the manual \
+                 profile before them stays the schedule the records follow",
+                auto.len(),
+                a.at,
+                b.at,
+                items.join(", ")
+            ));
+        }
+    }
+}
+
+/// The kind a Profile Switch to the pump's auto mode is counted under
+/// ([`is_auto_mode_switch`]).
+pub const AUTO_MODE_SWITCH: &str =
+    "Profile Switch to the pump's auto mode (a closed loop, not a therapy)";
+
+/// A basal rate below this (U/h) in every segment of a profile is a
+/// placeholder: pumps deliver 0.01-0.05 U/h at the least (abba's limit is
+/// 0.025 U/h).
+pub const AUTO_MODE_PLACEHOLDER_U_PER_H: f64 = 0.001;
+
+/// Whether a Nightscout document is a Profile Switch to a pump's automatic
+/// mode rather than a therapy: the MiniMed 670G's SmartGuard auto mode,
+/// as 600SeriesAndroidUploader writes it (`profile` "Auto Mode", notes
+/// "Auto Mode: active") and AndroidAPS's NSClient uploads it again with a
+/// `profileJson` whose only basal is 0.000001 U/h. Either mark is enough:
+/// a profile named "Auto Mode" with no embedded profile or with every
+/// basal rate below abba's smallest (0.025 U/h), or any profile whose
+/// every basal rate is above 0 and below [`AUTO_MODE_PLACEHOLDER_U_PER_H`].
+/// A profile named "Auto Mode" with real rates is read as a profile.
+pub fn is_auto_mode_switch(obj: &serde_json::Map<String, Value>) -> bool {
+    if obj.get("eventType").and_then(Value::as_str) != Some("Profile Switch") {
+        return false;
+    }
+    let named = ["profile", "originalProfileName"].iter().any(|f| {
+        obj.get(*f)
+            .and_then(Value::as_str)
+            .is_some_and(|n| n.trim().eq_ignore_ascii_case("auto mode"))
+    });
+    let rates = obj
+        .get("profileJson")
+        .and_then(Value::as_str)
+        .and_then(|t| serde_json::from_str::<Value>(t).ok())
+        .and_then(|p| match p.get("basal") {
+            Some(Value::Array(rows)) if !rows.is_empty() => rows
+                .iter()
+                .map(|r| match r.get("value") {
+                    Some(Value::Number(n)) => n.as_f64(),
+                    Some(Value::String(s)) => s.trim().parse::<f64>().ok(),
+                    _ => None,
+                })
+                .collect::<Option<Vec<f64>>>(),
+            _ => None,
+        });
+    let below = |max: f64| {
+        rates
+            .as_ref()
+            .is_some_and(|r| r.iter().all(|&v| v > 0.0 && v < max))
+    };
+    let embedded = obj.get("profileJson").is_some_and(|v| !v.is_null());
+    below(AUTO_MODE_PLACEHOLDER_U_PER_H)
+        || (named && (!embedded || below(abba_core::limits::BASAL_U_PER_H.min)))
+}
+
+/// A document without `eventType` that is a treatment, not an entry: no
+/// entry's `type`, `sgv` or `mbg`, and `insulin` or `carbs`.
+fn untyped_treatment(item: &Item<'_>) -> bool {
+    ["type", "sgv", "mbg"].iter().all(|f| item.get(f).is_none())
+        && ["insulin", "carbs"].iter().any(|f| item.get(f).is_some())
+}
+
+fn treatment(
+    ctx: &Ctx<'_>,
+    item: &Item<'_>,
+    event: &str,
+    tally: &mut Tally,
+) -> Result<Vec<RecordKind>, IoError> {
     let mut kinds = Vec::new();
     match event {
         "Meal Bolus" | "Snack Bolus" | "Bolus Wizard" | "Correction Bolus" | "SMB" | "Bolus"
@@ -578,15 +731,36 @@ fn treatment(ctx: &Ctx<'_>, item: &Item<'_>, event: &str) -> Result<Vec<RecordKi
             kinds.extend(carbs(item)?);
             kinds.extend(insulin(item)?);
         }
+        // No eventType (empty, missing, or AndroidAPS NSClient's "<None>"):
+        // Nightscout's IOB and COB count any treatment's `insulin` and
+        // `carbs` (`lib/plugins/iob.js`, `cob.js`), so abba reads them,
+        // checked as any bolus and carbohydrate; a dose of 0 is none.
+        "" | "<None>" => {
+            kinds.extend(carbs(item)?);
+            kinds.extend(
+                insulin(item)?
+                    .filter(|k| !matches!(k, RecordKind::Bolus { units } if units.0 == 0.0)),
+            );
+            if kinds.is_empty() {
+                kinds.push(RecordKind::Ignored {
+                    kind: "treatment without eventType, insulin or carbs".into(),
+                });
+            } else {
+                tally.untyped.push(item.index);
+            }
+        }
         "Combo Bolus" => {
             kinds.extend(carbs(item)?);
             kinds.push(combo_bolus(item)?);
         }
-        "Temp Basal" => kinds.push(temp_basal(item)?),
+        "Temp Basal" => kinds.push(temp_basal(item, tally)?),
         "Suspend Pump" | "Pump Suspend" => kinds.push(RecordKind::Suspend {
             duration_min: duration(item)?,
         }),
         "Resume Pump" | "Pump Resume" => kinds.push(RecordKind::Resume),
+        "Profile Switch" if is_auto_mode_switch(item.obj) => kinds.push(RecordKind::Ignored {
+            kind: AUTO_MODE_SWITCH.into(),
+        }),
         "Profile Switch" => kinds.push(profile_switch(item)?),
         "BG Check" if item.get("glucose").is_some() => kinds.push(bg_check(ctx, item)?),
         other => kinds.push(RecordKind::Ignored {
@@ -695,7 +869,20 @@ fn combo_bolus(item: &Item<'_>) -> Result<RecordKind, IoError> {
 /// insulin, not read again (AndroidAPS uploads that extended bolus only
 /// this way, `toNSExtendedBolus` in `nsclientV3/extensions/
 /// ExtendedBolusExtension.kt`).
-fn temp_basal(item: &Item<'_>) -> Result<RecordKind, IoError> {
+///
+/// Without `absolute`, `rate` or `percent`, Nightscout reads a Temp Basal
+/// as the scheduled rate (`getTempBasal`), and one without a duration as
+/// the end of the temporary basal running then (`processDurations` in
+/// `lib/data/ddata.js` cuts every temp basal at a treatment whose
+/// `duration` is 0 or missing). Such records are real: 600SeriesAndroid
+/// Uploader (MiniMed 600 series) writes the pump's resume as a Temp Basal
+/// of duration 0 with only notes ("Pump resumed insulin delivery: ..."),
+/// and Nightscout's API v1 drops a `percent` of 0 (`deleteIfEmpty` in
+/// `lib/server/treatments.js`), so its "Temp Basal: 100%" keeps only its
+/// duration. abba reads them as Nightscout does: the end (a temporary
+/// basal of 0 min, the advisor's cancel), or 100 % of the scheduled rate
+/// for the duration; both counted in the file's notes.
+fn temp_basal(item: &Item<'_>, tally: &mut Tally) -> Result<RecordKind, IoError> {
     let duration = duration(item)?.unwrap_or(0);
     let absolute = |field: &str, r: f64| {
         in_range(item, field, r, units::BASAL_MAX_U_PER_H, "basal rate (U/h)")
@@ -739,7 +926,12 @@ fn temp_basal(item: &Item<'_>) -> Result<RecordKind, IoError> {
         }
         (None, None, Some(r)) => absolute("rate", r)?,
         (None, None, None) => {
-            return Err(item.err("absolute", "a Temp Basal needs absolute, rate or percent"))
+            if duration == 0 {
+                tally.temp_basal_ends.push(item.index);
+            } else {
+                tally.temp_basal_scheduled.push(item.index);
+            }
+            TempRate::Percent(100.0)
         }
     };
     Ok(RecordKind::TempBasal {

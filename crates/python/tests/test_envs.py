@@ -124,8 +124,9 @@ def test_daily_env_days_actions_and_rewards():
     hyper = np.clip(cgm - 150, 0, None)
     hypo = np.clip(90 - cgm, 0, None)
     # CGM mode's default features: the time-averaged excursion (sum over
-    # every reading / number of readings), normalised by 400-150 and 90-40.
-    f_hyper = min(1.0, hyper.sum() / len(cgm) / 250)
+    # every reading / number of readings), normalised by 350-150 (adults'
+    # CGM G_max) and 90-40.
+    f_hyper = min(1.0, hyper.sum() / len(cgm) / 200)
     f_hypo = min(1.0, hypo.sum() / len(cgm) / 50)
     assert r == pytest.approx(-(f_hyper + 10 * f_hypo), rel=1e-9)
     # More insulin: lower mean glucose on the same day (same seed).

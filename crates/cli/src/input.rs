@@ -60,7 +60,7 @@ pub struct ReadFlags {
 /// (also for `abba person new --therapy-from`).
 #[derive(clap::Args, Debug, Default)]
 pub struct DateFlags {
-    /// Dates that do not tell their order (LibreView, CareLink, plain CSV: no day above 12, no AM/PM): day-first or month-first.
+    /// Dates that do not tell their order (LibreView, CareLink, plain CSV: no day above 12; AM/PM does not tell): day-first or month-first.
     #[arg(long, value_name = "ORDER")]
     pub date_order: Option<String>,
     /// CareLink: grams of carbohydrate in one exchange, for a pump whose bolus wizard counts in exchanges (10 for the Spanish ración; 12 and 15 are used elsewhere). Without it such carbohydrate is not read.

@@ -53,12 +53,14 @@ pub fn run(args: Args) -> Result<()> {
     let to = args.to.as_deref().map(|d| date("--to", d)).transpose()?;
     let (mut times, mut glucose, mut censored) = (Vec::new(), Vec::new(), 0usize);
     let mut last: Option<&abba_io::Record> = None;
+    let mut outside = 0usize;
     for r in &batch.records {
         let RecordKind::Cgm { glucose: g } = r.kind else {
             continue;
         };
         let day = tz.to_datetime(r.at).date();
         if from.is_some_and(|f| day < f) || to.is_some_and(|t| day > t) {
+            outside += 1;
             continue;
         }
         if let Some(prev) = last.filter(|p| p.at == r.at) {
@@ -76,8 +78,9 @@ pub fn run(args: Args) -> Result<()> {
     let files = batch.files.join(", ");
     if times.len() < 2 {
         bail!(
-            "{files}: need at least 2 CGM readings in the chosen days, found {}",
-            times.len()
+            "{files}: need at least 2 CGM readings in the chosen days, found {}{}",
+            times.len(),
+            not_cgm(&batch, outside)
         );
     }
     let cov = coverage(&times).context("coverage")?;
@@ -105,6 +108,42 @@ pub fn run(args: Args) -> Result<()> {
         first,
     );
     Ok(())
+}
+
+/// What the files held besides the CGM readings used, for the error when
+/// there are too few: readings outside the chosen days and every other
+/// record by kind (those counted and not read say so; the readers' notes,
+/// printed above, say why).
+fn not_cgm(batch: &abba_io::Batch, outside: usize) -> String {
+    let mut kinds = std::collections::BTreeMap::<String, usize>::new();
+    for r in &batch.records {
+        match &r.kind {
+            RecordKind::Cgm { .. } => {}
+            RecordKind::Ignored { kind } => {
+                *kinds
+                    .entry(format!("{kind} (counted, not read)"))
+                    .or_default() += 1
+            }
+            k => *kinds.entry(k.name().to_string()).or_default() += 1,
+        }
+    }
+    let mut parts = Vec::new();
+    if outside > 0 {
+        parts.push(format!("{outside} CGM readings outside the chosen days"));
+    }
+    parts.extend(kinds.iter().map(|(k, n)| format!("{n} {k}")));
+    if parts.is_empty() {
+        return String::new();
+    }
+    format!(
+        "; the records read: {}{}",
+        parts.join(", "),
+        if batch.notes.is_empty() {
+            ""
+        } else {
+            " (see the notes above)"
+        }
+    )
 }
 
 fn batch_first(times: &[f64]) -> jiff::Timestamp {

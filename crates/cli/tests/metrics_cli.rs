@@ -364,3 +364,30 @@ fn several_subjects_need_a_choice() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("no rows with id \"c\""));
 }
+
+#[test]
+fn too_few_cgm_readings_says_what_the_file_held_and_why() {
+    // A FreeStyle Libre "Patient report" writes every row as record type
+    // 1 (scan): no CGM reading. The error counts the rows by kind and the
+    // note says why they are not CGM (abba-io's fixture, in the layout of
+    // cgmanalysis' Libre.csv).
+    let file = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../io/tests/data/libreview_patient_report_mdyy_synthetic.csv"
+    );
+    let out = abba(&[
+        "metrics",
+        "--input",
+        file,
+        "--tz",
+        "America/Denver",
+        "--no-units",
+    ]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("need at least 2 CGM readings in the chosen days, found 0; the records read: 8 scan glucose (counted, not read) (see the notes above)")
+            && err.contains("the 8 rows of record type 1 (scan glucose) are counted, not read as CGM"),
+        "{err}"
+    );
+}

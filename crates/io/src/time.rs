@@ -65,7 +65,11 @@ pub enum DateOrder {
 
 /// Parses a wall time: a date in `order` (separators `-`, `.` or `/`), a
 /// space or `T`, `HH:MM` with optional `:SS` and fraction, and an optional
-/// `AM`/`PM`. Returns `None` for anything else, including impossible dates.
+/// `AM`/`PM`. Day, month and hour may be written without a leading zero
+/// (`8/1/18 9:05`); a day-first or month-first date may have a two-digit
+/// year, which is 20YY (`8/1/18` is 2018, as the FreeStyle Libre software
+/// and CareLink write it); a year-first date has four. Returns `None` for
+/// anything else, including impossible dates.
 pub fn parse_wall(text: &str, order: DateOrder) -> Option<DateTime> {
     let t = text.trim();
     let (date, rest) = t.split_at(t.find([' ', 'T'])?);
@@ -81,11 +85,18 @@ pub fn parse_wall(text: &str, order: DateOrder) -> Option<DateTime> {
         }
         s.parse().ok()
     };
+    // A two-digit year is 20YY.
+    let year = |s: &str| match s.len() {
+        4 => num(s),
+        2 => num(s).map(|y| 2000 + y),
+        _ => None,
+    };
+    let day_or_month = |s: &str| if s.len() <= 2 { num(s) } else { None };
     let (y, m, d) = match order {
-        DateOrder::YearFirst if a.len() == 4 => (num(a)?, num(b)?, num(c)?),
-        DateOrder::DayFirst if c.len() == 4 => (num(c)?, num(b)?, num(a)?),
-        DateOrder::MonthFirst if c.len() == 4 => (num(c)?, num(a)?, num(b)?),
-        _ => return None,
+        DateOrder::YearFirst if a.len() == 4 => (num(a)?, day_or_month(b)?, day_or_month(c)?),
+        DateOrder::DayFirst => (year(c)?, day_or_month(b)?, day_or_month(a)?),
+        DateOrder::MonthFirst => (year(c)?, day_or_month(a)?, day_or_month(b)?),
+        DateOrder::YearFirst => return None,
     };
     let (clock, meridiem) = match rest.rsplit_once(' ') {
         Some((clock, ampm)) => (clock.trim(), Some(ampm.to_ascii_uppercase())),
@@ -273,9 +284,24 @@ mod tests {
             parse_wall("05/01/2024 12:03 PM", DateOrder::MonthFirst).map(|d| d.hour()),
             Some(12)
         );
+        // Without leading zeros, and with a two-digit year (20YY).
+        let august = DateTime::new(2018, 8, 1, 9, 5, 0, 0).unwrap();
+        for (text, order) in [
+            ("8/1/18 9:05", DateOrder::MonthFirst),
+            ("8/1/2018 09:05", DateOrder::MonthFirst),
+            ("08/01/18 9:05", DateOrder::MonthFirst),
+            ("1-8-18 09:05 AM", DateOrder::DayFirst),
+            ("1.8.2018 9:05", DateOrder::DayFirst),
+        ] {
+            assert_eq!(parse_wall(text, order), Some(august), "{text}");
+        }
+        // A year-first date needs its four digits.
+        assert_eq!(parse_wall("18-08-01 09:05", DateOrder::YearFirst), None);
         for bad in [
             "",
             "2024-05-01",
+            "8/1/018 09:05",
+            "008/1/2018 09:05",
             "31-02-2024 00:00",
             "2024-05-01 25:00",
             "x y",

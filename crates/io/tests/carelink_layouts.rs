@@ -218,6 +218,41 @@ fn the_older_carelink_personal_layout_is_refused_by_name() {
     }
 }
 
+/// The older layout as CareLink Personal v1.0.1 wrote it in 2013-2015:
+/// a title line and an 11-line preamble before the same `Raw-Type` table
+/// (synthetic values in the layout of real exports; see PROVENANCE.md).
+const PERSONAL_V101: &str = "carelink_personal_v101_synthetic.csv";
+
+#[test]
+fn the_older_carelink_personal_layout_with_its_v101_preamble_is_detected_and_refused() {
+    let bytes = fixture(PERSONAL_V101);
+    // Detected as CareLink (it was "cannot tell the format"), and refused
+    // by name with --format carelink too (it was "no Pump or Sensor
+    // section"), saying what the file shows of the layout.
+    for format in [None, Some(abba_io::Format::CareLink)] {
+        let o = abba_io::ReadOptions {
+            format,
+            ..opts(NEW_YORK)
+        };
+        let err = read(&[("v101.csv", bytes.clone())], &o)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.starts_with("v101.csv")
+                && err.contains("older CareLink Personal layout")
+                && err.contains(
+                    "its first line \"Medtronic Diabetes CareLink Personal Data Export File (v1.0.1)\""
+                )
+                && err.contains("its header on line 12 with Raw-Type and Raw-Values columns"),
+            "{format:?}: {err}"
+        );
+    }
+    assert_eq!(
+        abba_io::read::detect("v101.csv", &bytes).unwrap(),
+        abba_io::Format::CareLink
+    );
+}
+
 #[test]
 fn a_carelink_file_without_a_pump_or_sensor_section_reads_nothing_and_says_so() {
     // A header after the preamble and no divider: no section abba knows,

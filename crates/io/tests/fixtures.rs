@@ -264,7 +264,20 @@ fn libreview_us_times_with_am_pm() {
     s.push_str("Device,Serial Number,Device Timestamp,Record Type,Historic Glucose mg/dL,Scan Glucose mg/dL\n");
     s.push_str("FreeStyle Libre 3,X,05-01-2024 12:03 AM,0,100,\n");
     s.push_str("FreeStyle Libre 3,X,05-01-2024 12:08 PM,1,,120\n");
-    let b = read(&[("us.csv", s.into_bytes())], &opts("America/New_York")).unwrap();
+    // AM/PM does not tell the order (LibreView writes `20-12-2021 11:15
+    // PM` too) and no day is above 12: --date-order is needed.
+    let err = read(
+        &[("us.csv", s.clone().into_bytes())],
+        &opts("America/New_York"),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(err.contains("--date-order"), "{err}");
+    let o = ReadOptions {
+        date_order: Some(abba_io::time::DateOrder::MonthFirst),
+        ..opts("America/New_York")
+    };
+    let b = read(&[("us.csv", s.into_bytes())], &o).unwrap();
     assert_eq!(b.records[0].at.to_string(), "2024-05-01T04:03:00Z");
     assert_eq!(b.records[1].at.to_string(), "2024-05-01T16:08:00Z");
 }

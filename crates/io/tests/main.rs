@@ -19,6 +19,7 @@ mod dst;
 mod events_mapping;
 mod events_properties;
 mod fixtures;
+mod libreview_dates;
 mod never_panic;
 mod nightscout_uploaders;
 mod real_carelink;

@@ -52,18 +52,67 @@ pub fn looks_like(head: &str) -> bool {
     header && (head.contains("-------;") || head.contains("-------,") || preamble)
 }
 
-/// Whether the start of a file is the older CareLink Personal export
-/// (2010-2014, seen in the rows Tidepool kept from real exports): a
-/// `Data Range,...` first line, or a header `Index,Date,Time,Timestamp,...`
-/// with `Raw-Type` and `Raw-Values` columns; no section dividers, the basal
-/// schedule only inside `Raw-Values` text. abba does not read it.
-pub fn looks_like_personal(head: &str) -> bool {
-    let head = head.trim_start_matches('\u{feff}');
-    head.starts_with("Data Range")
-        || head.lines().take(5).any(|l| {
+/// The first line of a CareLink Personal export of 2013-2015 (`... (v1.0.1)`):
+/// a preamble (`PATIENT INFO`, `Name`, `Report Range`, `DEVICE INFO`,
+/// `Pump:`, `Meter:`, `Sensor:`, `Data Exported on`, `DEVICE DATA (N
+/// records)`, `Data Range`; the device lines vary, so the header is on
+/// line 10-12), then the `Raw-Type` table.
+const PERSONAL_TITLE: &str = "Medtronic Diabetes CareLink Personal Data Export File";
+
+/// How many lines may come before the older layout's header (the v1.0.1
+/// preamble has 11).
+const PERSONAL_HEADER_LINES: usize = 20;
+
+/// The 1-based line of the older layout's header (`Index,Date,Time,...`
+/// with `Raw-Type` and `Raw-Values` columns) among the first lines.
+fn personal_header_line(head: &str) -> Option<usize> {
+    head.lines()
+        .take(PERSONAL_HEADER_LINES)
+        .position(|l| {
             let l = l.trim_start_matches('"');
             l.starts_with("Index") && l.contains("Raw-Type") && l.contains("Raw-Values")
         })
+        .map(|i| i + 1)
+}
+
+/// Whether the start of a file is the older CareLink Personal export
+/// (2010-2015, seen in real exports and in the rows Tidepool kept from
+/// them): the title line `Medtronic Diabetes CareLink Personal Data Export
+/// File (v1.0.1)` and its preamble, or a `Data Range,...` first line, or a
+/// header `Index,Date,Time,Timestamp,...` with `Raw-Type` and `Raw-Values`
+/// columns among the first lines; no section dividers, the basal schedule
+/// only inside `Raw-Values` text. abba does not read it.
+pub fn looks_like_personal(head: &str) -> bool {
+    let head = head.trim_start_matches('\u{feff}');
+    let first = head.trim_start_matches('"');
+    first.starts_with("Data Range")
+        || first.starts_with(PERSONAL_TITLE)
+        || personal_header_line(head).is_some()
+}
+
+/// The refusal of the older layout, saying what the file shows of it.
+fn personal_refusal(file: &str, head: &str) -> IoError {
+    let head = head.trim_start_matches('\u{feff}');
+    let first = head.lines().next().unwrap_or("").trim().trim_matches('"');
+    let title = if first.starts_with(PERSONAL_TITLE) {
+        format!("its first line \"{first}\"")
+    } else if first.starts_with("Data Range") {
+        "a \"Data Range\" first line".to_string()
+    } else {
+        "no preamble".to_string()
+    };
+    let header = personal_header_line(head).map_or(String::new(), |n| {
+        format!(", its header on line {n} with Raw-Type and Raw-Values columns")
+    });
+    IoError::format(
+        file,
+        format!(
+            "this is the older CareLink Personal layout (2010-2015: {title}{header}; one table \
+             of every device's rows, no Pump or Sensor sections, the basal schedule only inside \
+             Raw-Values text), which abba does not read; abba reads CareLink's current export, \
+             whose Pump and Sensor sections each open with a divider (-------,<device>,Pump,...)"
+        ),
+    )
 }
 
 /// A section of the export.
@@ -343,13 +392,7 @@ pub fn read_with_settings(
     let mut settings = SettingsRows::default();
     let head = String::from_utf8_lossy(&bytes[..bytes.len().min(4096)]);
     if looks_like_personal(&head) {
-        return Err(IoError::format(
-            file,
-            "this is the older CareLink Personal layout (2010-2014: Raw-Type and Raw-Values \
-             columns, a \"Data Range\" first line, no Pump or Sensor sections), which abba \
-             does not read; abba reads CareLink's current export, whose Pump and Sensor \
-             sections each open with a divider (-------,<device>,Pump,...)",
-        ));
+        return Err(personal_refusal(file, &head));
     }
     let spans = spans(bytes);
     if spans.is_empty() {

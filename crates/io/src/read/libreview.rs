@@ -4,9 +4,12 @@
 //! 1 scan glucose, 2 strip (meter) glucose, 3 ketone, 4 insulin, 5 food,
 //! 6 notes and time changes. Device times carry no offset and come in the
 //! account's locale: `12-04-1961 22:30` (day first), `05-01-2024 12:03 AM`
-//! (month first with AM/PM), `2024/05/01 00:03` (year first), `24.02.2021
-//! 07:00` (day first with dots); the order is taken from the file's own
-//! evidence or `--date-order`, never guessed. The header is written in the
+//! (month first with AM/PM), `20-12-2021 11:15 PM` (day first with AM/PM),
+//! `2024/05/01 00:03` (year first), `24.02.2021 07:00` (day first with
+//! dots); the older FreeStyle Libre software's "Patient report" writes
+//! `8/1/18 12:00` (no leading zeros, a two-digit year: 20YY). The order is
+//! taken from the file's own evidence (a day above 12, a four-digit year
+//! first; AM/PM tells nothing) or `--date-order`, never guessed. The header is written in the
 //! account's language and found among the first lines
 //! ([`libreview_columns`]); numbers may use a decimal comma (`"5,6"`).
 //! Scan (type 1), ketone (3) and note (6) rows are counted, not read.
@@ -65,23 +68,24 @@ fn header_line(file: &str, bytes: &[u8]) -> Result<usize, IoError> {
     ))
 }
 
-/// What one time cell says about the date order, if anything: year
-/// first, AM/PM (month first, as US accounts write), a first field above 12
-/// (day first) or a second field above 12 (month first).
+/// What one time cell says about the date order, if anything: a
+/// four-digit first number (year first), a first number above 12 (day
+/// first) or a second number above 12 (month first). AM/PM says nothing:
+/// LibreView writes the 12-hour clock with either order (`05-01-2024 12:03
+/// AM` in the US, `20-12-2021 11:15 PM` elsewhere).
 pub(crate) fn order_evidence(cell: &str) -> Option<DateOrder> {
     let s = cell.trim().trim_matches('"');
-    if s.get(4..5)
-        .is_some_and(|c| c == "-" || c == "/" || c == ".")
-    {
+    let date = s.split([' ', 'T']).next()?;
+    let mut parts = date.split(['-', '/', '.']);
+    let (a, b) = (parts.next()?, parts.next()?);
+    let digits = |x: &str| !x.is_empty() && x.bytes().all(|c| c.is_ascii_digit());
+    if !digits(a) || !digits(b) {
+        return None;
+    }
+    if a.len() == 4 {
         return Some(DateOrder::YearFirst);
     }
-    let upper = s.to_ascii_uppercase();
-    if upper.ends_with("AM") || upper.ends_with("PM") {
-        return Some(DateOrder::MonthFirst);
-    }
-    let mut parts = s.split(['-', '/', '.', ' ']);
-    let a: u32 = parts.next()?.parse().ok()?;
-    let b: u32 = parts.next()?.parse().ok()?;
+    let (a, b): (u32, u32) = (a.parse().ok()?, b.parse().ok()?);
     match (a > 12, b > 12) {
         (true, false) => Some(DateOrder::DayFirst),
         (false, true) => Some(DateOrder::MonthFirst),
@@ -89,28 +93,91 @@ pub(crate) fn order_evidence(cell: &str) -> Option<DateOrder> {
     }
 }
 
-/// The file's date order: the first time cell that tells, else the one
-/// the user gave, else an error (never guessed).
-fn date_order(
-    file: &str,
-    rows: &[u8],
-    delimiter: u8,
-    column: usize,
-    given: Option<DateOrder>,
-) -> Result<DateOrder, IoError> {
-    for line in rows.split(|&b| b == b'\n') {
-        let cell = line.split(|&b| b == delimiter).nth(column).unwrap_or(b"");
-        if let Some(o) = order_evidence(&String::from_utf8_lossy(cell)) {
-            return Ok(o);
+/// Where the file's date order was learnt (for messages).
+enum OrderFrom {
+    /// A row whose date tells (its line and time cell).
+    Row(u64, String),
+    /// `--date-order`, every date being possible both ways.
+    Given,
+}
+
+impl OrderFrom {
+    /// The order and its source in words, with an example of it.
+    fn describe(&self, order: DateOrder) -> String {
+        let (what, example) = match order {
+            DateOrder::DayFirst => ("day first", "12-04-2024 22:30"),
+            DateOrder::MonthFirst => ("month first", "04-12-2024 10:30 PM"),
+            DateOrder::YearFirst => ("year first", "2024-04-12 22:30"),
+        };
+        match self {
+            Self::Row(line, text) => format!("like \"{text}\" ({what}, as line {line} shows)"),
+            Self::Given => {
+                format!("like {example} ({what}, as --date-order says; no date in the file tells)")
+            }
         }
     }
-    given.ok_or_else(|| {
-        IoError::format(
-            file,
-            "every date could be day-first or month-first (no day above 12, no AM/PM); give \
-             --date-order day-first or month-first",
-        )
-    })
+}
+
+fn order_name(o: DateOrder) -> &'static str {
+    match o {
+        DateOrder::DayFirst => "day-first",
+        DateOrder::MonthFirst => "month-first",
+        DateOrder::YearFirst => "year-first",
+    }
+}
+
+/// The file's date order: the first time cell that tells (checked against
+/// `--date-order` when given: a disagreement is an error), else the order
+/// given, else an error naming the first row (never guessed). A year-first
+/// file needs no order.
+fn date_order(
+    t: &mut Table<'_>,
+    column: usize,
+    given: Option<DateOrder>,
+) -> Result<(DateOrder, OrderFrom), IoError> {
+    let mut first: Option<(u64, String)> = None;
+    while let Some(line) = t.next_row()? {
+        let text = t.cell(column);
+        if text.is_empty() {
+            continue;
+        }
+        first.get_or_insert_with(|| (line, text.to_string()));
+        let Some(o) = order_evidence(text) else {
+            continue;
+        };
+        return match given {
+            Some(g) if o != DateOrder::YearFirst && g != o => Err(IoError::invalid(
+                Location::line(t.file, line),
+                &t.header[column],
+                format!(
+                    "\"{text}\" can only be {} (a number above 12 where the {} would be), but \
+                     --date-order says {}",
+                    order_name(o),
+                    if o == DateOrder::DayFirst {
+                        "month"
+                    } else {
+                        "day"
+                    },
+                    order_name(g)
+                ),
+            )),
+            _ => Ok((o, OrderFrom::Row(line, text.to_string()))),
+        };
+    }
+    match (given, first) {
+        (Some(g), _) => Ok((g, OrderFrom::Given)),
+        (None, Some((line, text))) => Err(IoError::invalid(
+            Location::line(t.file, line),
+            &t.header[column],
+            format!(
+                "\"{text}\" and every date after it could be day-first or month-first (no day \
+                 above 12; AM/PM does not tell, LibreView writes it with either order); give \
+                 --date-order day-first or month-first"
+            ),
+        )),
+        // No row with a time: nothing to read, the order does not matter.
+        (None, None) => Ok((DateOrder::YearFirst, OrderFrom::Given)),
+    }
 }
 
 /// Reads a LibreView export: the header line and columns, the date
@@ -123,20 +190,13 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     let tz = ctx.require_tz("LibreView writes device times without an offset")?;
     let mut wall = WallClock::new(tz);
     let time_name = t.header[cols.time].clone();
-    let rows_start = bytes
-        .iter()
-        .enumerate()
-        .filter(|&(_, &b)| b == b'\n')
-        .nth(header_at)
-        .map_or(bytes.len(), |(i, _)| i + 1);
-    let order = date_order(
-        file,
-        &bytes[rows_start..],
-        t.delimiter,
+    let (order, from) = date_order(
+        &mut Table::open(file, bytes, header_at)?,
         cols.time,
         ctx.opts.date_order,
     )?;
     let mut out = Vec::with_capacity(t.lines_left());
+    let (mut historic_rows, mut scan_rows, mut scans_in_historic) = (0usize, 0usize, 0usize);
     // One location reused for every row (no allocation per row).
     let mut at = Location::line(file, 0);
     while let Some(line) = t.next_row()? {
@@ -147,15 +207,8 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
                 at.clone(),
                 &time_name,
                 format!(
-                    "expected a device time like {} , got \"{text}\"",
-                    match order {
-                        DateOrder::DayFirst =>
-                            "12-04-2024 22:30 (day first, as the file's first row)",
-                        DateOrder::MonthFirst =>
-                            "04-12-2024 10:30 PM (month first, as the file's first row)",
-                        DateOrder::YearFirst =>
-                            "2024-04-12 22:30 (year first, as the file's first row)",
-                    }
+                    "expected a device time {}, got \"{text}\"",
+                    from.describe(order)
                 ),
             )
         })?;
@@ -166,6 +219,14 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
             at: &at,
         };
         for kind in row.kinds()? {
+            match &kind {
+                RecordKind::Cgm { .. } => historic_rows += 1,
+                RecordKind::Ignored { kind } if kind == SCAN => {
+                    scan_rows += 1;
+                    scans_in_historic += usize::from(!t.cell(cols.historic).is_empty());
+                }
+                _ => {}
+            }
             out.push(Record {
                 at: instant,
                 id: row_id(Source::LibreView, instant, &kind, t.raw(), None),
@@ -175,8 +236,27 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
             });
         }
     }
+    if historic_rows == 0 && scan_rows > 0 {
+        // Without a word, `metrics` would only find no CGM reading.
+        ctx.note(format!(
+            "no historic glucose row (record type 0, the CGM series abba reads): the {scan_rows} \
+             rows of record type 1 (scan glucose) are counted, not read as CGM{}",
+            if scans_in_historic > 0 {
+                format!(
+                    "; {scans_in_historic} of them have their value in the column \"{}\", but \
+                     their record type says scan",
+                    t.header[cols.historic]
+                )
+            } else {
+                String::new()
+            }
+        ));
+    }
     Ok(out)
 }
+
+/// The ignored kind of a scan row (record type 1).
+const SCAN: &str = "scan glucose";
 
 /// One data row with its columns and place, read by record type.
 struct Row<'r, 't> {
@@ -246,7 +326,7 @@ impl Row<'_, '_> {
             "" => vec![RecordKind::Cgm {
                 glucose: self.glucose(Some(cols.historic), &t.header[cols.historic])?,
             }],
-            "1" => ignored("scan glucose"),
+            "1" => ignored(SCAN),
             "2" => vec![RecordKind::Smbg {
                 glucose: self.glucose(
                     cols.strip,

@@ -15,6 +15,54 @@ use std::fmt;
 /// The bytes of a body, or the error for a body that could not be read.
 pub type RawBody = Result<Bytes, BytesRejection>;
 
+/// The most a request to `path` may declare (bytes): a clinic's upload
+/// [`crate::web::clinic::MAX_UPLOAD_BYTES`], any other
+/// [`abba_api::MAX_BODY_BYTES`].
+pub fn body_limit(method: &axum::http::Method, path: &str) -> usize {
+    if method == axum::http::Method::POST && crate::web::clinic::is_upload(path) {
+        crate::web::clinic::MAX_UPLOAD_BYTES
+    } else {
+        abba_api::MAX_BODY_BYTES
+    }
+}
+
+/// Middleware: a request whose `Content-Length` is over its route's limit
+/// ([`body_limit`]) is refused at once with 413 and the connection closed,
+/// before a byte of its body is read: no `100 Continue` for a client that
+/// asked (`Expect: 100-continue`), no wait for a body that never comes.
+/// (Reading stops at the limit too, for a body without a length.)
+pub async fn refuse_declared_oversize(
+    req: axum::extract::Request,
+    next: axum::middleware::Next,
+) -> axum::response::Response {
+    use axum::response::IntoResponse;
+    let limit = body_limit(req.method(), req.uri().path());
+    let declared = req
+        .headers()
+        .get(header::CONTENT_LENGTH)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.trim().parse::<u64>().ok());
+    let Some(n) = declared.filter(|&n| n > limit as u64) else {
+        return next.run(req).await;
+    };
+    let e = ApiError::new(
+        StatusCode::PAYLOAD_TOO_LARGE,
+        ErrorCode::TooLarge,
+        format!("the body is declared as {n} bytes, larger than {limit} bytes"),
+    );
+    let path = req.uri().path();
+    let mut r = if path.starts_with("/v1/") || path == "/healthz" {
+        e.into_response()
+    } else {
+        crate::web::page::PageError::from(e).into_response()
+    };
+    r.headers_mut().insert(
+        header::CONNECTION,
+        axum::http::HeaderValue::from_static("close"),
+    );
+    r
+}
+
 /// Parses a JSON body.
 pub fn parse<T: DeserializeOwned>(headers: &HeaderMap, body: RawBody) -> Result<T, ApiError> {
     let bytes = body.map_err(|e| {

@@ -111,6 +111,10 @@ pub fn router_with(state: AppState, set: &ServeSettings) -> Router {
                 .load_shed()
                 .concurrency_limit(set.max_in_flight),
         )
+        // A declared length over the limit: 413 before the body is read.
+        .layer(axum::middleware::from_fn(
+            crate::body::refuse_declared_oversize,
+        ))
         .layer(headers)
         .layer(PropagateRequestIdLayer::x_request_id())
         .layer(TraceLayer::new_for_http())

@@ -706,3 +706,52 @@ fn the_request_timeout_answers_with_the_services_408_body() {
     assert!(text.starts_with("HTTP/1.1 408"), "{text}");
     assert!(text.contains("\"code\":\"timeout\""), "{text}");
 }
+
+/// A request declaring a body over the limit is refused at once (413, the
+/// connection closed), its body never read: no `100 Continue` to a client
+/// that asked, no wait for a body that never comes. A clinic's upload
+/// keeps its larger limit.
+#[test]
+fn a_declared_body_over_the_limit_gets_413_at_once() {
+    let svc = Svc::new();
+    let server = Server::start(&svc.db, ServeSettings::default());
+    let admin = svc.admin.clone();
+    for (what, head) in [
+        (
+            "expect 100-continue",
+            format!("POST /v1/persons HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer {admin}\r\nContent-Type: application/json\r\nContent-Length: 5000000\r\nExpect: 100-continue\r\n\r\n"),
+        ),
+        (
+            "no body",
+            format!("POST /v1/persons HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer {admin}\r\nContent-Type: application/json\r\nContent-Length: 99999999999\r\n\r\n"),
+        ),
+        (
+            "a page",
+            "POST /log/meal HTTP/1.1\r\nHost: x\r\nContent-Type: application/x-www-form-urlencoded\r\nContent-Length: 5000000\r\nExpect: 100-continue\r\n\r\n".to_string(),
+        ),
+    ] {
+        let mut s = TcpStream::connect(server.addr).unwrap();
+        s.set_read_timeout(Some(Duration::from_secs(20))).unwrap();
+        let t = Instant::now();
+        s.write_all(head.as_bytes()).unwrap();
+        let mut out = Vec::new();
+        let _ = s.read_to_end(&mut out);
+        let took = t.elapsed();
+        let text = String::from_utf8_lossy(&out);
+        assert!(text.starts_with("HTTP/1.1 413"), "{what}: {text}");
+        assert!(!text.contains("100 Continue"), "{what}: {text}");
+        assert!(took < Duration::from_secs(2), "{what}: after {took:?}");
+    }
+    let json = raw(
+        server.addr,
+        &format!("POST /v1/persons HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer {admin}\r\nContent-Type: application/json\r\nContent-Length: 99999999999\r\n\r\n"),
+    );
+    assert!(json.contains("\"code\":\"too_large\""), "{json}");
+    // An upload of 5 MB is within the clinic's limit: not refused for its
+    // length (here 403: no session, before its body).
+    let upload = raw(
+        server.addr,
+        &format!("POST /clinic/persons/1/import HTTP/1.1\r\nHost: {0}\r\nOrigin: http://{0}\r\nContent-Type: multipart/form-data; boundary=x\r\nContent-Length: 5000000\r\nExpect: 100-continue\r\n\r\n", server.addr),
+    );
+    assert!(upload.starts_with("HTTP/1.1 403"), "{upload}");
+}

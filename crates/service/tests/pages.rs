@@ -614,8 +614,12 @@ async fn a_post_without_the_csrf_token_or_from_another_origin_changes_nothing() 
     }
     assert_eq!(app_events(&svc, a), 0);
     assert_eq!(b.get("/").await.status, StatusCode::OK, "still signed in");
+    let key = b.get("/log").await.hidden("submission");
     let p = b
-        .post("/log/reading", &[("glucose", "120"), ("csrf", &csrf)])
+        .post(
+            "/log/reading",
+            &[("glucose", "120"), ("csrf", &csrf), ("submission", &key)],
+        )
         .await;
     assert_eq!(
         (p.status, p.location()),
@@ -754,14 +758,24 @@ async fn a_person_logs_a_reading_and_a_meal_and_answers_on_the_pages() {
     let basal_sid = open_sid(today.section("<section id=\"setting-basal\"", "section"))
         .expect("an open basal suggestion after the day closed");
     // A meter reading, then a main meal: its carb ratio and bolus.
+    let key = b.get("/log").await.hidden("submission");
     let p = b
-        .post("/log/reading", &[("csrf", &csrf), ("glucose", "142")])
+        .post(
+            "/log/reading",
+            &[("csrf", &csrf), ("glucose", "142"), ("submission", &key)],
+        )
         .await;
     assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
+    let key = b.get("/log").await.hidden("submission");
     let p = b
         .post(
             "/log/meal",
-            &[("csrf", &csrf), ("carbs", "60"), ("slot", "lunch")],
+            &[
+                ("csrf", &csrf),
+                ("carbs", "60"),
+                ("slot", "lunch"),
+                ("submission", &key),
+            ],
         )
         .await;
     assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
@@ -772,6 +786,7 @@ async fn a_person_logs_a_reading_and_a_meal_and_answers_on_the_pages() {
         .to_string();
     assert!(advice.contains("60 g at"), "{advice}");
     let meal_sid = open_sid(&advice).expect("the lunch suggestion to answer");
+    let key = log.hidden("submission");
     // The events went through the one event path with the next seqs.
     assert_eq!(app_events(&svc, id), before + 2);
     let sync = svc
@@ -791,6 +806,7 @@ async fn a_person_logs_a_reading_and_a_meal_and_answers_on_the_pages() {
                 ("csrf", &csrf),
                 ("suggestion_id", &meal_sid),
                 ("action", "accept"),
+                ("submission", &key),
             ],
         )
         .await;
@@ -804,6 +820,7 @@ async fn a_person_logs_a_reading_and_a_meal_and_answers_on_the_pages() {
     assert!(today
         .section("<div id=\"status\"", "div")
         .contains("accepted"));
+    let key = today.hidden("submission");
     // An own basal value outside the bounds: refused beside the field.
     let p = b
         .post(
@@ -813,6 +830,7 @@ async fn a_person_logs_a_reading_and_a_meal_and_answers_on_the_pages() {
                 ("suggestion_id", &basal_sid),
                 ("action", "override"),
                 ("value", "3.5"),
+                ("submission", &key),
             ],
         )
         .await;
@@ -835,6 +853,7 @@ async fn a_person_logs_a_reading_and_a_meal_and_answers_on_the_pages() {
                 ("suggestion_id", &basal_sid),
                 ("action", "override"),
                 ("value", "1.1"),
+                ("submission", &key),
             ],
         )
         .await;
@@ -1703,4 +1722,294 @@ async fn the_notes_of_the_uploaded_profile_are_on_the_persons_page() {
     assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
     let page = admin.get(p.location()).await;
     assert!(!page.html.contains("therapy-notes"), "{}", page.html);
+}
+
+/// A person made on the clinic's page (mode `cgm` or `smbg`, unit
+/// `mg/dL` or `mmol/L`); their id.
+async fn clinic_person(svc: &Svc, name: &str, mode: &str, unit: &str) -> u64 {
+    let (mut admin, csrf) = signed_in(svc, Role::Admin).await;
+    let f = [
+        ("csrf", csrf.as_str()),
+        ("name", name),
+        ("tz", "UTC"),
+        ("unit", unit),
+        ("mode", mode),
+        ("age_group", "adult"),
+        ("basal", "1.0"),
+        ("carb_ratios", "10,12,11"),
+    ];
+    let p = admin.post_multipart("/clinic/persons", &f, &[]).await;
+    assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
+    let store = abba_service::open_store(&svc.db).unwrap();
+    store.person(name).unwrap().id as u64
+}
+
+/// The `app_event` rows of a kind (`meal_announced`, `smbg`, ...).
+fn rows_of(svc: &Svc, person: u64, tag: &str) -> usize {
+    let store = abba_service::open_store(&svc.db).unwrap();
+    let n = store.app_event_count(person as i64).unwrap();
+    (0..=n as u64 + 16)
+        .filter_map(|seq| store.app_event(person as i64, seq).unwrap())
+        .filter(|e| abba_io::events::kind_name(&e.event.kind) == tag)
+        .count()
+}
+
+/// The same form sent twice (a double click, a retry after a timeout):
+/// one event, one answer; the second gets the first's result. Another
+/// value typed into the same page is another entry; a form without its
+/// one-time key stores nothing.
+#[tokio::test]
+async fn a_form_sent_twice_stores_its_event_or_answer_once() {
+    let svc = Svc::new();
+    let (id, token) = person_past_first_week(&svc, "ana", 9).await;
+    let (mut b, csrf) = signed_in(&svc, Role::Person(id as i64)).await;
+    let before = app_events(&svc, id);
+    let meals = rows_of(&svc, id, "meal_announced");
+    let log = b.get("/log").await;
+    let key = log.hidden("submission");
+    let meal = [
+        ("csrf", csrf.as_str()),
+        ("carbs", "60"),
+        ("slot", "lunch"),
+        ("submission", key.as_str()),
+    ];
+    let first = b.post("/log/meal", &meal).await;
+    assert_eq!(first.status, StatusCode::SEE_OTHER, "{}", first.html);
+    assert!(first.location().starts_with("/log?meal="));
+    let second = b.post("/log/meal", &meal).await;
+    assert_eq!(
+        (second.status, second.location()),
+        (StatusCode::SEE_OTHER, first.location()),
+        "the first result again"
+    );
+    assert_eq!(app_events(&svc, id), before + 1);
+    assert_eq!(rows_of(&svc, id, "meal_announced"), meals + 1);
+    // A reading sent twice: one; with another value from the same page: a second.
+    let reading = |g: &'static str| {
+        [
+            ("csrf", csrf.clone()),
+            ("glucose", g.to_string()),
+            ("submission", key.clone()),
+        ]
+    };
+    let send = |f: [(&'static str, String); 3]| f;
+    for _ in 0..2 {
+        let f = send(reading("142"));
+        let f: Vec<(&str, &str)> = f.iter().map(|(k, v)| (*k, v.as_str())).collect();
+        let p = b.post("/log/reading", &f).await;
+        assert_eq!(
+            (p.status, p.location()),
+            (StatusCode::SEE_OTHER, "/log?saved=reading")
+        );
+    }
+    assert_eq!(app_events(&svc, id), before + 2);
+    let f = send(reading("150"));
+    let f: Vec<(&str, &str)> = f.iter().map(|(k, v)| (*k, v.as_str())).collect();
+    assert_eq!(
+        b.post("/log/reading", &f).await.status,
+        StatusCode::SEE_OTHER
+    );
+    assert_eq!(app_events(&svc, id), before + 3);
+    // Without the key (a page of an older version): refused, nothing stored.
+    let p = b
+        .post(
+            "/log/reading",
+            &[("csrf", csrf.as_str()), ("glucose", "130")],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+    assert!(p.html.contains("reload the page"), "{}", p.html);
+    assert_eq!(app_events(&svc, id), before + 3);
+    // An answer sent twice: accepted once, the second gets the same page.
+    let log = b.get(first.location()).await;
+    let advice = log
+        .section("<section id=\"meal-advice\"", "section")
+        .to_string();
+    let sid = open_sid(&advice).expect("the lunch suggestion to answer");
+    let key = log.hidden("submission");
+    let answer = [
+        ("csrf", csrf.as_str()),
+        ("suggestion_id", sid.as_str()),
+        ("action", "accept"),
+        ("submission", key.as_str()),
+    ];
+    for _ in 0..2 {
+        let p = b.post("/answer", &answer).await;
+        assert_eq!(
+            (p.status, p.location()),
+            (StatusCode::SEE_OTHER, "/?answered=accept"),
+            "{}",
+            p.html
+        );
+    }
+    let h = svc
+        .call(
+            Method::GET,
+            &format!("/v1/persons/{id}/history?limit=1000"),
+            Some(&token),
+            None,
+        )
+        .await;
+    let accepted = h.json["suggestions"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|s| s["status"] == "accepted")
+        .count();
+    assert_eq!(accepted, 1, "{}", h.text);
+}
+
+/// After an app numbered an event 2^53 − 1 (the API's largest seq), the
+/// Log numbers nothing past it: the entry is refused on the page, nothing
+/// stored, and sync never says a seq the API would refuse.
+#[tokio::test]
+async fn the_logs_numbers_never_pass_the_apis_seq_limit() {
+    let svc = Svc::new();
+    let id = svc.person("ana").await;
+    let (_, token) = svc.token(id).await;
+    assert_eq!(abba_store::app::MAX_SEQ, abba_api::MAX_SEQ);
+    let minute_ago = (jiff::Timestamp::now() - jiff::SignedDuration::from_mins(1)).to_string();
+    let r = svc
+        .call(
+            Method::POST,
+            &format!("/v1/persons/{id}/events"),
+            Some(&token),
+            Some(
+                &json!({"events": [{"seq": abba_api::MAX_SEQ, "at": minute_ago,
+                "event": {"type": "cgm", "mg_dl": 120.0}}]}),
+            ),
+        )
+        .await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+    let (mut b, csrf) = signed_in(&svc, Role::Person(id as i64)).await;
+    let key = b.get("/log").await.hidden("submission");
+    let p = b
+        .post(
+            "/log/reading",
+            &[("csrf", &csrf), ("glucose", "120"), ("submission", &key)],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+    assert!(
+        p.section("id=\"glucose-error\"", "p")
+            .contains("no event number is left"),
+        "{}",
+        p.html
+    );
+    assert_eq!(app_events(&svc, id), 1, "nothing stored");
+    let sync = svc
+        .call(
+            Method::GET,
+            &format!("/v1/persons/{id}/sync"),
+            Some(&token),
+            None,
+        )
+        .await;
+    assert_eq!(sync.json["last_seq"].as_u64(), Some(abba_api::MAX_SEQ));
+}
+
+/// The bedtime box closes an SMBG day; a CGM day closes by itself at the
+/// first event after midnight: no box, and `bedtime=on` from a CGM person
+/// is refused on the page with nothing stored.
+#[tokio::test]
+async fn the_bedtime_box_is_for_finger_sticks_only() {
+    let svc = Svc::new();
+    let cgm = clinic_person(&svc, "cem", "cgm", "mg/dL").await;
+    let smbg = clinic_person(&svc, "sam", "smbg", "mg/dL").await;
+    let (mut b, csrf) = signed_in(&svc, Role::Person(smbg as i64)).await;
+    let log = b.get("/log").await;
+    assert!(log.html.contains("name=\"bedtime\""), "{}", log.html);
+    let (mut b, csrf_c) = signed_in(&svc, Role::Person(cgm as i64)).await;
+    let log = b.get("/log").await;
+    assert_eq!(log.status, StatusCode::OK);
+    assert!(!log.html.contains("name=\"bedtime\""), "{}", log.html);
+    let key = log.hidden("submission");
+    let p = b
+        .post(
+            "/log/reading",
+            &[
+                ("csrf", &csrf_c),
+                ("glucose", "100"),
+                ("bedtime", "on"),
+                ("submission", &key),
+            ],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+    assert!(
+        p.section("id=\"glucose-error\"", "p")
+            .contains("does not close the day"),
+        "{}",
+        p.html
+    );
+    assert_eq!(app_events(&svc, cgm), 0, "nothing stored");
+    let _ = csrf;
+}
+
+/// A mmol/L person who types a value in mg/dL is told so in mmol/L.
+#[tokio::test]
+async fn a_reading_out_of_range_is_refused_in_the_persons_unit() {
+    let svc = Svc::new();
+    let id = clinic_person(&svc, "mia", "smbg", "mmol/L").await;
+    let (mut b, csrf) = signed_in(&svc, Role::Person(id as i64)).await;
+    let key = b.get("/log").await.hidden("submission");
+    let p = b
+        .post(
+            "/log/reading",
+            &[("csrf", &csrf), ("glucose", "120"), ("submission", &key)],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+    let error = p.section("id=\"glucose-error\"", "p").to_string();
+    assert!(
+        error.contains("from 0.6 to 55.5 mmol&#x2f;L; you entered 120")
+            && error.contains("120 mg&#x2f;dL would be 6.7 mmol&#x2f;L")
+            && !error.contains("2161"),
+        "{error}"
+    );
+    assert_eq!(app_events(&svc, id), 0);
+    let p = b
+        .post(
+            "/log/reading",
+            &[("csrf", &csrf), ("glucose", "6,7"), ("submission", &key)],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
+    assert_eq!(app_events(&svc, id), 1);
+}
+
+/// A person's read-only pages answer while another writer (an `abba
+/// import`) holds the store: the session's "seen" is noted only when the
+/// store is free, never waited for.
+#[tokio::test]
+async fn read_only_pages_answer_while_another_writer_holds_the_store() {
+    let mut svc = Svc::new();
+    if abba_store::testing::is_postgres(&svc.db) {
+        eprintln!(
+            "read_only_pages_answer_while_another_writer_holds_the_store: SQLite's write lock"
+        );
+        return;
+    }
+    let (id, _) = person_past_first_week(&svc, "ana", 2).await;
+    let state = abba_service::AppState::open(
+        &svc.db,
+        abba_service::StoreSettings {
+            busy_timeout: std::time::Duration::from_millis(300),
+            ..abba_service::StoreSettings::default()
+        },
+    )
+    .unwrap();
+    svc.router = abba_service::router(state);
+    let (mut b, _) = signed_in(&svc, Role::Person(id as i64)).await;
+    let other = rusqlite::Connection::open(&svc.db).unwrap();
+    for path in ["/", "/history", "/glucose?range=14d", "/report", "/log"] {
+        // Last used long enough ago that this use would be noted.
+        other
+            .execute("UPDATE web_session SET seen_ms = seen_ms - 3600000", [])
+            .unwrap();
+        other.execute_batch("BEGIN IMMEDIATE").unwrap();
+        let p = b.get(path).await;
+        other.execute_batch("ROLLBACK").unwrap();
+        assert_eq!(p.status, StatusCode::OK, "{path}: {}", p.html);
+    }
 }

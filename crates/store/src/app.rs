@@ -241,6 +241,11 @@ pub fn held_ranges(
     Ok((out, false))
 }
 
+/// The largest seq (2^53 − 1, exact in every JSON implementation): the
+/// API's limit (`abba_api::MAX_SEQ`), which numbers given by the store
+/// itself (the web pages' entries) never pass either.
+pub const MAX_SEQ: u64 = (1 << 53) - 1;
+
 /// The highest sequence number held.
 pub fn last_seq(conn: &dyn Db, person: i64) -> Result<Option<u64>, StoreError> {
     let v = conn.one(Q::AppEventLastSeq, args![person])?.opt_int(0)?;

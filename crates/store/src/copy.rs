@@ -51,6 +51,11 @@ const TABLES: &[(&str, Q, Q)] = &[
     ),
     ("signin_link", Q::CopyReadSigninLink, Q::CopyWriteSigninLink),
     ("web_session", Q::CopyReadWebSession, Q::CopyWriteWebSession),
+    (
+        "web_submission",
+        Q::CopyReadWebSubmission,
+        Q::CopyWriteWebSubmission,
+    ),
 ];
 
 /// What a copy moved: rows per table, in copy order.

@@ -41,6 +41,7 @@ pub mod report;
 pub mod schema;
 pub mod session;
 pub mod store;
+pub mod submission;
 pub mod testing;
 pub mod token;
 

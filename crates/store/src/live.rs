@@ -325,26 +325,42 @@ impl Store {
         live: &mut Live,
         batch: &[NewAppEvent],
     ) -> Result<Posted, StoreError> {
-        self.post(live, batch, false)
+        self.post(live, batch, None)
     }
 
     /// Like [`Store::post_events`] for events entered on the web pages,
     /// which have no app counter: the batch's `seq`s are replaced by the
     /// person's next free numbers (one above the highest held), read in
     /// the insert's own transaction, so two entries never share a number.
+    ///
+    /// With `once` (a web form's submission key, [`crate::submission`]) the
+    /// batch is stored only if that submission was not made before, and
+    /// the key is kept with the seqs in the same transaction: the same
+    /// form sent again stores nothing and gets the first seqs back (as
+    /// `repeated`).
+    ///
+    /// The numbers never pass [`app::MAX_SEQ`], the API's limit (2^53 − 1,
+    /// exact in every JSON implementation): numbering web entries after the
+    /// highest seq held keeps them from colliding with any number already
+    /// given, and once an app has used the top of the range no number above
+    /// it is left, so the entry is refused (nothing stored) rather than
+    /// numbered where an app could never sync it.
     pub fn post_events_next_seq(
         &mut self,
         live: &mut Live,
         batch: &[NewAppEvent],
+        once: Option<&crate::submission::SubmissionKey>,
     ) -> Result<Posted, StoreError> {
-        self.post(live, batch, true)
+        self.post(live, batch, Some(once))
     }
 
+    /// `next_seq`: `None` for the app's own numbers, `Some(once)` for the
+    /// next free ones (with a web form's submission key).
     fn post(
         &mut self,
         live: &mut Live,
         batch: &[NewAppEvent],
-        next_seq: bool,
+        next_seq: Option<Option<&crate::submission::SubmissionKey>>,
     ) -> Result<Posted, StoreError> {
         let id = live.person.id;
         let mut tx = self.conn.transaction_for(id)?;
@@ -363,8 +379,26 @@ impl Store {
             }
         }
         let numbered: Vec<NewAppEvent>;
-        let batch = if next_seq {
+        let once = next_seq.flatten();
+        if let Some(key) = once {
+            if let Some(outcome) = crate::submission::get(&tx, id, key)? {
+                return Ok(Posted {
+                    stored: Vec::new(),
+                    repeated: crate::submission::outcome_seqs(&outcome)?,
+                    produced: Vec::new(),
+                    rebuilt: false,
+                });
+            }
+        }
+        let batch = if next_seq.is_some() {
             let base = app::last_seq(&tx, id)?.map_or(0, |s| s + 1);
+            let last = base.saturating_add(batch.len() as u64).saturating_sub(1);
+            if !batch.is_empty() && last > app::MAX_SEQ {
+                return Err(StoreError::Feed(format!(
+                    "no event number is left for this entry: an app numbered an event {}, the largest number the API allows (2^53 - 1), and entries made here are numbered after the highest one held; nothing was stored",
+                    base - 1
+                )));
+            }
             numbered = batch
                 .iter()
                 .zip(base..)
@@ -376,6 +410,16 @@ impl Store {
         };
         let mut person = live.person.clone();
         let ins = app::insert(&tx, &mut person, batch)?;
+        if let Some(key) = once {
+            let seqs: Vec<u64> = ins.new.iter().map(|e| e.seq).collect();
+            crate::submission::put(
+                &tx,
+                id,
+                key,
+                &crate::submission::seqs_outcome(&seqs),
+                jiff::Timestamp::now().as_millisecond(),
+            )?;
+        }
         // A clinician's change already put in force after the last event
         // fed: an event before it must see the old therapy (a rebuild).
         let pending = live

@@ -28,7 +28,8 @@ pub fn person_input(
     let person = store.person(name)?;
     let mode = person.mode();
     let events = store.events(name)?;
-    let history = store.history(name)?;
+    // A report only reads (nothing stored, no write lock taken).
+    let history = store.history_read(name)?;
     let (Some(first_day), Some(last)) = (person.first_day, events.last()) else {
         return Err(StoreError::NoData(name.to_string()));
     };
@@ -193,7 +194,7 @@ pub fn person_input(
             }
         }
     }
-    let advice = store.advise(name)?;
+    let advice = store.advise_read(name)?;
     let mut notes = Vec::new();
     if let Some(note) = &advice.delivery.note {
         notes.push(note.clone());

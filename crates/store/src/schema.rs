@@ -43,6 +43,10 @@ pub enum Step {
     /// stored ([`crate::person::fill_name_looks`]; persons whose names
     /// already look alike are kept, only new ones are refused).
     NameLooks,
+    /// 10: the web forms' one-time submission keys ([`crate::submission`]):
+    /// a form sent twice (a double click, a retry after a timeout) is
+    /// recognised and stores nothing twice.
+    WebSubmissions,
 }
 
 /// The steps, oldest first.
@@ -56,6 +60,7 @@ pub const STEPS: &[Step] = &[
     Step::Nightscout,
     Step::WebSessions,
     Step::NameLooks,
+    Step::WebSubmissions,
 ];
 
 /// Rust code run inside a step's transaction.

@@ -139,7 +139,11 @@ impl Store {
 
     /// The live session whose cookie secret hashes to `hash` (not revoked,
     /// used within [`IDLE_MS`], younger than [`ABSOLUTE_MS`]); notes its
-    /// use.
+    /// use, at most every [`TOUCH_MS`] and only when no other writer holds
+    /// the store: a read-only page must not wait (nor fail) because an
+    /// import writes. A use not noted is noted at the next request; a
+    /// session used at all within the idle period is used far more often
+    /// than the store is busy.
     pub fn web_session(
         &mut self,
         hash: &[u8; 32],
@@ -169,7 +173,9 @@ impl Store {
             return Ok(None);
         }
         if now_ms - seen >= TOUCH_MS {
-            self.conn.execute(Q::WebSessionSeen, args![now_ms, id])?;
+            // Best effort: skipped when the store is busy.
+            self.conn
+                .try_execute(Q::WebSessionSeen, args![now_ms, id])?;
         }
         Ok(Some(WebSession {
             id,
@@ -287,6 +293,37 @@ mod tests {
             s.peek_signin_link(&[9u8; 32], 0).unwrap(),
             Err(LinkRefused::Unknown)
         );
+    }
+
+    #[test]
+    fn a_session_is_found_without_waiting_while_another_writer_holds_the_store() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("s.db");
+        let mut s = Store::open_service(&path, std::time::Duration::from_secs(5)).unwrap();
+        let (l, k) = ([7u8; 32], [8u8; 32]);
+        s.insert_signin_link(&l, Role::Admin, 0).unwrap();
+        s.consume_signin_link(&l, &k, "t", 0).unwrap().unwrap();
+        let other = rusqlite::Connection::open(&path).unwrap();
+        other.execute_batch("BEGIN IMMEDIATE").unwrap();
+        let t = std::time::Instant::now();
+        // Its use would be noted now (older than TOUCH_MS): skipped, not waited for.
+        assert!(s.web_session(&k, 10 * TOUCH_MS).unwrap().is_some());
+        assert!(
+            t.elapsed() < std::time::Duration::from_secs(1),
+            "{:?}",
+            t.elapsed()
+        );
+        other.execute_batch("ROLLBACK").unwrap();
+        let seen = |s: &Store| s.web_sessions(Role::Admin, 20 * TOUCH_MS).unwrap()[0].seen_ms;
+        assert_eq!(seen(&s), 0, "not noted while busy");
+        s.web_session(&k, 11 * TOUCH_MS).unwrap().unwrap();
+        assert_eq!(seen(&s), 11 * TOUCH_MS, "noted once the store is free");
+        // The connection's busy timeout is back: a write waits again.
+        let wait: i64 = match &s.conn {
+            crate::backend::Conn::Sqlite(c) => c.busy_timeout_ms().unwrap(),
+            crate::backend::Conn::Postgres(_) => unreachable!(),
+        };
+        assert_eq!(wait, 5000);
     }
 
     #[test]

@@ -505,6 +505,22 @@ impl Store {
         Ok((p, s))
     }
 
+    /// [`Store::state`] from the snapshot in a read transaction that
+    /// writes nothing (no write lock taken).
+    fn state_read(&mut self, name: &str) -> Result<(Person, State), StoreError> {
+        let p = self.person(name)?;
+        let tx = self.conn.read_transaction()?;
+        let s = refresh_with(&tx, &mut self.cache, &p, true, false)?;
+        tx.commit()?;
+        Ok((p, s))
+    }
+
+    /// [`Store::advise`] in a read transaction that writes nothing.
+    pub fn advise_read(&mut self, name: &str) -> Result<Advice, StoreError> {
+        let (p, s) = self.state_read(name)?;
+        Ok(Self::advice_of(&p, &s))
+    }
+
     /// The advisor after the whole log, from the snapshot when it matches.
     pub fn advisor(&mut self, name: &str) -> Result<Abba, StoreError> {
         Ok(self.state(name, true)?.1.advisor)
@@ -555,6 +571,19 @@ impl Store {
     /// Every decision with the answer and the value in force, oldest first.
     pub fn history(&mut self, name: &str) -> Result<Vec<SuggestionView>, StoreError> {
         let (p, s) = self.state(name, true)?;
+        Ok(advise::views_with(
+            &p,
+            &s.decisions,
+            &s.answers,
+            s.extras.as_ref(),
+        ))
+    }
+
+    /// [`Store::history`] in a read transaction that writes nothing (no
+    /// write lock: a report is read while another writer, an import,
+    /// holds the store).
+    pub fn history_read(&mut self, name: &str) -> Result<Vec<SuggestionView>, StoreError> {
+        let (p, s) = self.state_read(name)?;
         Ok(advise::views_with(
             &p,
             &s.decisions,

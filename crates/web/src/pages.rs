@@ -30,6 +30,10 @@ pub struct Layout {
     pub status: Option<String>,
     /// Who is signed in, in words (`Signed in as NAME`).
     pub who: Option<String>,
+    /// The one-time key of this page's forms that write (the hidden
+    /// `submission` field, random for every page shown): the same form
+    /// sent twice is recognised and stores nothing twice.
+    pub submission: Option<String>,
 }
 
 impl Layout {
@@ -41,6 +45,7 @@ impl Layout {
             csrf,
             status: None,
             who: None,
+            submission: None,
         }
     }
 
@@ -65,6 +70,7 @@ impl Layout {
             csrf: Some(csrf.to_string()),
             status: None,
             who: None,
+            submission: None,
         }
     }
 
@@ -80,12 +86,19 @@ impl Layout {
             csrf: Some(csrf.to_string()),
             status: None,
             who: None,
+            submission: None,
         }
     }
 
     /// The same layout naming who is signed in.
     pub fn signed_in_as(mut self, name: &str) -> Self {
         self.who = Some(crate::texts::fill(EN.signed_in_as, &[("name", name)]));
+        self
+    }
+
+    /// The same layout with the one-time key of its forms.
+    pub fn with_submission(mut self, key: String) -> Self {
+        self.submission = Some(key);
         self
     }
 

@@ -181,6 +181,15 @@ pub struct Texts {
     pub expected_number: &'static str,
     /// A field is missing.
     pub missing_field: &'static str,
+    /// A reading outside the plausible range, in the person's unit.
+    pub glucose_out_of_range: &'static str,
+    /// A mmol/L reading that looks like mg/dL.
+    pub glucose_looks_mg_dl: &'static str,
+    /// A bedtime reading from a person using a CGM (their days close by
+    /// themselves).
+    pub bedtime_cgm: &'static str,
+    /// A form without its one-time key (a page from an older version).
+    pub submission_missing: &'static str,
     /// Title of the clinic's page.
     pub clinic_title: &'static str,
     /// Column: readings.
@@ -361,6 +370,10 @@ pub const EN: Texts = Texts {
     status_snack: "Saved: your snack (abba suggests carb ratios for the three main meals only).",
     expected_number: "Enter a number, for example {example}.",
     missing_field: "This field is needed.",
+    glucose_out_of_range: "Enter a reading from {min} to {max} {unit}; you entered {value}.",
+    glucose_looks_mg_dl: "Your readings are in mmol/L: {value} mg/dL would be {mmol} mmol/L.",
+    bedtime_cgm: "Your CGM closes each day at the first reading after midnight, so a bedtime reading does not close the day here. Nothing was saved; save the reading without the bedtime box.",
+    submission_missing: "This form is from an older page: reload the page and send it again. Nothing was saved.",
     clinic_title: "Persons",
     table_readings: "Readings",
     table_mean: "Mean",

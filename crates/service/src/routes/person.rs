@@ -51,8 +51,10 @@ pub enum Numbering {
     /// The app's own `seq`s (the `/v1` endpoint).
     App,
     /// The person's next free numbers, assigned in the insert's
-    /// transaction (the web pages' Log: the `seq`s given are placeholders).
-    Next,
+    /// transaction (the web pages' Log: the `seq`s given are placeholders),
+    /// with the form's submission key: a form sent again stores nothing
+    /// and is acknowledged with the first submission's seqs.
+    Next(Option<abba_store::submission::SubmissionKey>),
 }
 
 /// The one path of device events into the store, for the `/v1` endpoint
@@ -69,11 +71,16 @@ pub fn post_batch(
     let batch = convert::check_events(b, &limits, jiff::Timestamp::now())?;
     let posted = match numbering {
         Numbering::App => store.post_events(live, &batch)?,
-        Numbering::Next => store.post_events_next_seq(live, &batch)?,
+        Numbering::Next(once) => store.post_events_next_seq(live, &batch, once.as_ref())?,
     };
     let mut acked: Vec<u64> = match numbering {
         Numbering::App => b.events.iter().map(|e| e.seq).collect(),
-        Numbering::Next => posted.stored.iter().map(|e| e.seq).collect(),
+        Numbering::Next(_) => posted
+            .stored
+            .iter()
+            .map(|e| e.seq)
+            .chain(posted.repeated.iter().copied())
+            .collect(),
     };
     acked.sort_unstable();
     let seqs: HashMap<(i64, &'static str), Option<u64>> = posted

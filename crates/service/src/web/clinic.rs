@@ -1373,6 +1373,19 @@ async fn revoke_of_person(
     Ok(see_other(&format!("/clinic/persons/{id}?done={done}")))
 }
 
+/// True for a path whose POST takes an upload of up to
+/// [`MAX_UPLOAD_BYTES`] (the routes below with that body limit; every
+/// other body is at most `abba_api::MAX_BODY_BYTES`): the service refuses
+/// a request declaring more before reading it
+/// ([`crate::body::refuse_declared_oversize`]).
+pub fn is_upload(path: &str) -> bool {
+    path == "/clinic/persons"
+        || path
+            .strip_prefix("/clinic/persons/")
+            .and_then(|rest| rest.strip_suffix("/import"))
+            .is_some_and(|id| !id.is_empty() && !id.contains('/'))
+}
+
 /// This module's routes (merged by [`super::routes`]).
 pub fn routes() -> axum::Router<crate::state::AppState> {
     use axum::extract::DefaultBodyLimit;

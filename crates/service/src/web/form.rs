@@ -84,6 +84,37 @@ impl Form {
     }
 }
 
+/// The one-time key field of the forms that write ([`Form::submission`]).
+pub const SUBMISSION: &str = "submission";
+
+impl Form {
+    /// The submission's key for the store ([`abba_store::submission`]):
+    /// SHA-256 of the form's one-time key (the hidden `submission` field,
+    /// 64 hex digits rendered with the page), its action and every other
+    /// field but the CSRF token. The same form sent twice (a double
+    /// click, a retry) has the same key; the same page's form sent with
+    /// other values (a second reading typed into a page restored by the
+    /// Back button) is another submission. `None` without a well-formed
+    /// key (a form from a page of an older version).
+    pub fn submission(&self, action: &str) -> Option<abba_store::submission::SubmissionKey> {
+        let key = self
+            .get(SUBMISSION)
+            .filter(|k| super::session::is_secret(k))?;
+        let mut fields: Vec<&(String, String)> = self
+            .fields
+            .iter()
+            .filter(|(k, _)| k != "csrf" && k != SUBMISSION)
+            .collect();
+        fields.sort();
+        // Each part with its length: no two forms give the same text.
+        let mut text = format!("{}:{action}{}:{key}", action.len(), key.len());
+        for (k, v) in fields {
+            text.push_str(&format!("{}:{k}{}:{v}", k.len(), v.len()));
+        }
+        Some(crate::auth::hash(&text))
+    }
+}
+
 /// A decimal number as people type it: `5.4` or `5,4` (one decimal comma
 /// is read as the point); anything else is `None`.
 pub fn number(text: &str) -> Option<f64> {
@@ -99,6 +130,31 @@ pub fn number(text: &str) -> Option<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_submission_key_is_the_form_not_its_csrf_token() {
+        let key = "ab".repeat(32);
+        let form = |pairs: &[(&str, &str)]| {
+            Form::from_pairs(
+                pairs
+                    .iter()
+                    .map(|(k, v)| (k.to_string(), v.to_string()))
+                    .collect(),
+            )
+        };
+        let a = form(&[("csrf", "1"), ("submission", &key), ("glucose", "120")]);
+        let b = form(&[("glucose", "120"), ("submission", &key), ("csrf", "2")]);
+        let c = form(&[("csrf", "1"), ("submission", &key), ("glucose", "121")]);
+        let k = a.submission("/log/reading").unwrap();
+        assert_eq!(b.submission("/log/reading"), Some(k));
+        assert_ne!(c.submission("/log/reading"), Some(k));
+        assert_ne!(a.submission("/log/meal"), Some(k));
+        assert_eq!(form(&[("glucose", "120")]).submission("/log/reading"), None);
+        assert_eq!(
+            form(&[("submission", "x"), ("glucose", "120")]).submission("/log/reading"),
+            None
+        );
+    }
 
     #[test]
     fn numbers_with_a_decimal_comma_or_point() {

@@ -3,6 +3,12 @@
 //! through [`post_batch`], the path of `POST /v1/persons/{id}/events`,
 //! numbered with the person's next free seqs in the insert's transaction.
 //! A person fed by imports gets no form (the store refuses mixing).
+//!
+//! Each form carries a one-time key ([`Form::submission`]): the same form
+//! sent twice (a double click, a retry after a timeout) stores nothing
+//! the second time and answers with the first result. The bedtime box is
+//! for finger sticks (SMBG) only: a CGM person's day closes at the first
+//! event after local midnight, by their app.
 
 use super::form::{self, Form};
 use super::page::{render, see_other, PageResult};
@@ -12,11 +18,12 @@ use crate::body::RawBody;
 use crate::error::ApiError;
 use crate::routes::person::{post_batch, Numbering};
 use crate::state::{AppState, EffectSource};
-use abba_advisor::Parameter;
+use abba_advisor::{Mode, Parameter};
 use abba_api::{DeviceEvent, EventBody, EventsBody, MealSlot as WireSlot};
 use abba_core::units::GlucoseUnit;
 use abba_core::{EventKind, MealSlot};
 use abba_store::advise::PARAMETERS;
+use abba_store::submission::SubmissionKey;
 use abba_store::{Live, Store};
 use abba_web::pages::{Choice, Layout};
 use abba_web::texts::{fill, EN};
@@ -33,6 +40,8 @@ pub struct Log {
     pub glucose_label: String,
     /// The glucose field's `step`.
     pub glucose_step: &'static str,
+    /// The bedtime box (it closes the day): SMBG mode only.
+    pub bedtime: bool,
     /// The meal slots, the default one selected.
     pub slots: Vec<Choice>,
     /// Values typed, kept after an error (glucose, carbs).
@@ -201,6 +210,7 @@ fn model(
     }
     Ok(Log {
         import_fed,
+        bedtime: live.person.mode() == Mode::Smbg,
         glucose_label,
         glucose_step,
         slots: SLOTS
@@ -245,10 +255,12 @@ pub async fn page(State(s): State<AppState>, ctx: Ctx, RawQuery(q): RawQuery) ->
     show_log(StatusCode::OK, &w.csrf, log)
 }
 
+/// The Log, its forms with a new one-time key.
 fn show_log(status: StatusCode, csrf: &str, mut log: Log) -> PageResult {
     let layout = Layout::person(EN.log_title, csrf, "/log")
         .signed_in_as(&log.name)
-        .with_status(log.status.take());
+        .with_status(log.status.take())
+        .with_submission(session::secret()?);
     render(status, "log.html", &layout, &log)
 }
 
@@ -265,14 +277,16 @@ fn value_message(e: &ApiError) -> String {
     }
 }
 
-/// Posts `events` (placeholder seqs) through the one event path; a value
-/// refused by its checks comes back as the field's error.
+/// Posts `events` (placeholder seqs) through the one event path, once for
+/// the form's submission key `once` (a second time: the first seqs, nothing
+/// stored); a value refused by its checks comes back as the field's error.
 async fn enter(
     s: &AppState,
     id: i64,
     events: Vec<EventBody>,
     typed: Typed,
     field: &'static str,
+    once: SubmissionKey,
 ) -> Result<Result<Vec<u64>, Log>, ApiError> {
     let now = jiff::Timestamp::now().to_string();
     let b = EventsBody {
@@ -288,7 +302,7 @@ async fn enter(
     };
     let fx = s.effects();
     s.person(id, true, move |store, live| {
-        match post_batch(store, live, &b, Numbering::Next) {
+        match post_batch(store, live, &b, Numbering::Next(Some(once))) {
             Ok(ack) => Ok(Ok(ack.acked)),
             Err(e)
                 if e.status == StatusCode::UNPROCESSABLE_ENTITY
@@ -309,15 +323,52 @@ async fn enter(
     .await
 }
 
+/// The form's submission key; a form without one (from a page of an
+/// older version) is refused, nothing stored.
+fn once(form: &Form, action: &str) -> Result<SubmissionKey, ApiError> {
+    form.submission(action)
+        .ok_or_else(|| ApiError::invalid(form::SUBMISSION, EN.submission_missing))
+}
+
+/// Refuses a reading outside the plausible range in the person's unit
+/// (the store's check would say it in mg/dL): the message beside the field.
+fn out_of_range(value: f64, units: GlucoseUnit, limits: (f64, f64)) -> Option<String> {
+    let mg_dl = units.to_mg_dl(value);
+    if abba_core::limits::within(mg_dl, limits.0, limits.1) {
+        return None;
+    }
+    let mut m = fill(
+        EN.glucose_out_of_range,
+        &[
+            ("min", &units.value(limits.0)),
+            ("max", &units.value(limits.1)),
+            ("unit", units.label()),
+            ("value", &format!("{value}")),
+        ],
+    );
+    if units == GlucoseUnit::MmolL && abba_core::limits::within(value, limits.0, limits.1) {
+        m.push(' ');
+        m.push_str(&fill(
+            EN.glucose_looks_mg_dl,
+            &[
+                ("value", &format!("{value}")),
+                ("mmol", &GlucoseUnit::MmolL.value(value)),
+            ],
+        ));
+    }
+    Some(m)
+}
+
 /// `POST /log/reading`: a meter reading in the person's unit; with
-/// `bedtime` the day is closed right after it.
+/// `bedtime` (SMBG mode only) the day is closed right after it.
 pub async fn reading(State(s): State<AppState>, ctx: Ctx, body: RawBody) -> PageResult {
     if !ctx.same_origin() {
         return Err(super::page::forbidden_csrf());
     }
     let form = Form::parse(&ctx.headers, body)?;
     let (id, w) = session::person_post(&s, &ctx, &form).await?;
-    form.only(&["csrf", "glucose", "bedtime"])?;
+    form.only(&["csrf", form::SUBMISSION, "glucose", "bedtime"])?;
+    let key = once(&form, "/log/reading")?;
     let typed = Typed {
         glucose: form.text("glucose").to_string(),
         ..Typed::default()
@@ -329,23 +380,36 @@ pub async fn reading(State(s): State<AppState>, ctx: Ctx, body: RawBody) -> Page
             return Err(ApiError::invalid("bedtime", format!("expected on, got {other:?}")).into())
         }
     };
-    let units = s
-        .person(id, false, |_, live| Ok(live.person.settings.units))
+    let (units, mode, limits) = s
+        .person(id, false, |_, live| {
+            let l = &live.person.settings.advisor.limits;
+            Ok((
+                live.person.settings.units,
+                live.person.mode(),
+                (l.glucose_min_mg_dl, l.glucose_max_mg_dl),
+            ))
+        })
         .await?;
-    let value = match form::number(&typed.glucose) {
-        Some(v) => v,
+    let number = form::number(&typed.glucose);
+    let refused = match number {
+        // A CGM day closes by itself (the first event after midnight).
+        _ if bedtime && mode != Mode::Smbg => Some(EN.bedtime_cgm.to_string()),
+        Some(v) => out_of_range(v, units, limits),
+        None if typed.glucose.is_empty() => Some(EN.missing_field.to_string()),
         None => {
             let example = if units == GlucoseUnit::MmolL {
                 "5.8"
             } else {
                 "105"
             };
+            Some(fill(EN.expected_number, &[("example", example)]))
+        }
+    };
+    let value = match (number, refused) {
+        (Some(v), None) => v,
+        (_, error) => {
             let mut t = typed;
-            t.glucose_error = Some(if t.glucose.is_empty() {
-                EN.missing_field.to_string()
-            } else {
-                fill(EN.expected_number, &[("example", example)])
-            });
+            t.glucose_error = error;
             let fx = s.effects();
             let log = s
                 .person(id, false, move |store, live| {
@@ -360,7 +424,7 @@ pub async fn reading(State(s): State<AppState>, ctx: Ctx, body: RawBody) -> Page
     if bedtime {
         events.push(EventBody::DayClosed);
     }
-    match enter(&s, id, events, typed, "glucose").await? {
+    match enter(&s, id, events, typed, "glucose", key).await? {
         Ok(_) if bedtime => Ok(see_other("/log?closed=1")),
         Ok(_) => Ok(see_other("/log?saved=reading")),
         Err(log) => show_log(StatusCode::UNPROCESSABLE_ENTITY, &w.csrf, log),
@@ -375,7 +439,8 @@ pub async fn meal(State(s): State<AppState>, ctx: Ctx, body: RawBody) -> PageRes
     }
     let form = Form::parse(&ctx.headers, body)?;
     let (id, w) = session::person_post(&s, &ctx, &form).await?;
-    form.only(&["csrf", "carbs", "slot"])?;
+    form.only(&["csrf", form::SUBMISSION, "carbs", "slot"])?;
+    let key = once(&form, "/log/meal")?;
     let slot = SLOTS
         .iter()
         .find(|(k, _)| *k == form.text("slot"))
@@ -419,7 +484,7 @@ pub async fn meal(State(s): State<AppState>, ctx: Ctx, body: RawBody) -> PageRes
         carbs_g,
         slot: wire,
     }];
-    match enter(&s, id, events, typed, "carbs").await? {
+    match enter(&s, id, events, typed, "carbs", key).await? {
         Ok(seqs) if slot.main_index().is_some() => match seqs.first() {
             Some(seq) => Ok(see_other(&format!("/log?meal={seq}"))),
             None => Ok(see_other("/log")),

@@ -292,7 +292,8 @@ pub async fn page(State(s): State<AppState>, ctx: Ctx, RawQuery(q): RawQuery) ->
         .await?;
     let layout = Layout::person(EN.today_title, &w.csrf, "/")
         .signed_in_as(&name)
-        .with_status(status_text(q.as_deref()));
+        .with_status(status_text(q.as_deref()))
+        .with_submission(session::secret()?);
     render(StatusCode::OK, "today.html", &layout, &today)
 }
 
@@ -356,56 +357,79 @@ fn refused_answer(
 
 /// `POST /answer`: one answer, then 303 back to Today with a status
 /// message; a refused own value: Today again (422) with the error beside
-/// the field.
+/// the field. The same form sent again (its one-time key,
+/// [`Form::submission`]) answers with the first result and stores nothing:
+/// the key is kept after the answer's commit (the answer path has its own
+/// transactions), under the person's lock; if it could not be kept, a
+/// second answer to the same suggestion is still refused by the store
+/// (it is no longer open), never stored twice.
 pub async fn answer(State(s): State<AppState>, ctx: Ctx, body: RawBody) -> PageResult {
     if !ctx.same_origin() {
         return Err(super::page::forbidden_csrf());
     }
     let form = Form::parse(&ctx.headers, body)?;
     let (id, w) = session::person_post(&s, &ctx, &form).await?;
-    form.only(&["csrf", "suggestion_id", "action", "value"])?;
+    form.only(&["csrf", form::SUBMISSION, "suggestion_id", "action", "value"])?;
+    let key = form
+        .submission("/answer")
+        .ok_or_else(|| crate::error::ApiError::invalid(form::SUBMISSION, EN.submission_missing))?;
     let typed = form.text("value").to_string();
     let item = answer_item(&form);
     let action = form.text("action").to_string();
     let fx = s.effects();
+    let outcome = format!("/?answered={action}");
     let out = s
-        .person(id, true, move |store, live| match item {
-            Err((sid, message)) => Ok(Err((
-                StatusCode::UNPROCESSABLE_ENTITY,
-                live.person.name.clone(),
-                refused_answer(live, sid, &typed, message, fx.as_ref()),
-            ))),
-            Ok(item) => {
-                let sid = item.suggestion_id;
-                let b = AnswerBody {
-                    answers: vec![item],
-                };
-                let name = live.person.name.clone();
-                match answer_batch(store, live, &b) {
-                    Ok(_) => Ok(Ok(())),
-                    Err(e)
-                        if e.status == StatusCode::UNPROCESSABLE_ENTITY
-                            || e.status == StatusCode::CONFLICT
-                            || e.status == StatusCode::NOT_FOUND =>
-                    {
-                        let st = e.status;
-                        Ok(Err((
-                            st,
-                            name,
-                            refused_answer(live, sid, &typed, plain(&e), fx.as_ref()),
-                        )))
+        .person(id, true, move |store, live| {
+            if let Some(first) = store.submission(id, &key)? {
+                return Ok(Ok(first));
+            }
+            match item {
+                Err((sid, message)) => Ok(Err((
+                    StatusCode::UNPROCESSABLE_ENTITY,
+                    live.person.name.clone(),
+                    refused_answer(live, sid, &typed, message, fx.as_ref()),
+                ))),
+                Ok(item) => {
+                    let sid = item.suggestion_id;
+                    let b = AnswerBody {
+                        answers: vec![item],
+                    };
+                    let name = live.person.name.clone();
+                    match answer_batch(store, live, &b) {
+                        Ok(_) => {
+                            let now = jiff::Timestamp::now().as_millisecond();
+                            if let Err(e) = store.record_submission(id, &key, &outcome, now) {
+                                // The answer is committed: say so all the same.
+                                tracing::warn!(error = %e, "an answer's submission key not kept");
+                            }
+                            Ok(Ok(outcome))
+                        }
+                        Err(e)
+                            if e.status == StatusCode::UNPROCESSABLE_ENTITY
+                                || e.status == StatusCode::CONFLICT
+                                || e.status == StatusCode::NOT_FOUND =>
+                        {
+                            let st = e.status;
+                            Ok(Err((
+                                st,
+                                name,
+                                refused_answer(live, sid, &typed, plain(&e), fx.as_ref()),
+                            )))
+                        }
+                        Err(e) => Err(e),
                     }
-                    Err(e) => Err(e),
                 }
             }
         })
         .await?;
     match out {
-        Ok(()) => Ok(see_other(&format!("/?answered={action}"))),
+        Ok(to) => Ok(see_other(&to)),
         Err((status, name, today)) => render(
             status,
             "today.html",
-            &Layout::person(EN.today_title, &w.csrf, "/").signed_in_as(&name),
+            &Layout::person(EN.today_title, &w.csrf, "/")
+                .signed_in_as(&name)
+                .with_submission(session::secret()?),
             &today,
         ),
     }

@@ -330,6 +330,25 @@ impl Conn {
         }
     }
 
+    /// Runs a write that may be skipped (a session's last use): at once or
+    /// not at all, never waiting for another writer. `Ok(None)` when the
+    /// store is busy (SQLite: another connection holds the write lock; a
+    /// PostgreSQL row lock held by another transaction).
+    pub fn try_execute(&mut self, q: Q, params: &[Value]) -> Result<Option<usize>, StoreError> {
+        let out = match self {
+            Conn::Sqlite(c) => c.execute_no_wait(q, params),
+            Conn::Postgres(c) => c.execute(q, params),
+        };
+        match out {
+            Ok(n) => Ok(Some(n)),
+            Err(StoreError::Db(DbError {
+                kind: DbErrorKind::Busy,
+                ..
+            })) => Ok(None),
+            Err(e) => Err(e),
+        }
+    }
+
     /// The backend's name (`sqlite`, `postgres`).
     pub fn backend(&self) -> &'static str {
         match self {

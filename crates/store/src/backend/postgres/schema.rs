@@ -36,6 +36,7 @@ pub fn ddl(step: Step) -> &'static str {
         Step::Nightscout => NIGHTSCOUT,
         Step::WebSessions => WEB_SESSIONS,
         Step::NameLooks => NAME_LOOKS,
+        Step::WebSubmissions => WEB_SUBMISSIONS,
     }
 }
 
@@ -351,6 +352,19 @@ const NAME_LOOKS: &str = concat!(
     ";
     CREATE INDEX person_by_skeleton_folded ON person (skeleton_folded);
     CREATE INDEX person_by_skeleton_cased ON person (skeleton_cased);"
+);
+
+/// As SQLite's: the web forms' one-time submissions.
+const WEB_SUBMISSIONS: &str = concat!(
+    "CREATE TABLE web_submission (
+        person_id BIGINT NOT NULL REFERENCES person(id),
+        key BYTEA NOT NULL,
+        outcome ",
+    text!(),
+    " NOT NULL,
+        at_ms BIGINT NOT NULL,
+        PRIMARY KEY (person_id, key)
+    );"
 );
 
 /// Applies every step the database does not have yet, each in its own

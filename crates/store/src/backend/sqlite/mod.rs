@@ -167,6 +167,31 @@ impl Sqlite {
         Ok(SqliteTx(t.map_err(err)?))
     }
 
+    /// Runs a statement without waiting for the write lock: SQLite's
+    /// busy handler is off for it (`SQLITE_BUSY` at once when another
+    /// connection writes), then the connection's busy timeout is back.
+    pub fn execute_no_wait(&mut self, q: Q, params: &[Value]) -> Result<usize, StoreError> {
+        let wait_ms = self.busy_timeout_ms()?;
+        self.conn
+            .busy_timeout(std::time::Duration::ZERO)
+            .map_err(err)?;
+        let out = self.db().execute(q, params);
+        let back = self
+            .conn
+            .busy_timeout(std::time::Duration::from_millis(wait_ms.max(0) as u64))
+            .map_err(err);
+        let n = out?;
+        back?;
+        Ok(n)
+    }
+
+    /// The connection's busy timeout (ms).
+    pub fn busy_timeout_ms(&self) -> Result<i64, StoreError> {
+        self.conn
+            .pragma_query_value(None, "busy_timeout", |r| r.get(0))
+            .map_err(err)
+    }
+
     /// `PRAGMA integrity_check`'s lines.
     pub fn integrity(&self) -> Result<Vec<String>, StoreError> {
         let mut st = self.conn.prepare("PRAGMA integrity_check").map_err(err)?;

@@ -25,6 +25,7 @@ pub fn ddl(step: Step) -> &'static str {
         Step::Nightscout => NIGHTSCOUT,
         Step::WebSessions => WEB_SESSIONS,
         Step::NameLooks => NAME_LOOKS,
+        Step::WebSubmissions => WEB_SUBMISSIONS,
     }
 }
 
@@ -257,6 +258,17 @@ const NAME_LOOKS: &str = "ALTER TABLE person ADD COLUMN skeleton_folded TEXT;
     ALTER TABLE person ADD COLUMN skeleton_cased TEXT;
     CREATE INDEX person_by_skeleton_folded ON person (skeleton_folded);
     CREATE INDEX person_by_skeleton_cased ON person (skeleton_cased);";
+
+/// The web forms' one-time submissions ([`crate::submission`]): the
+/// SHA-256 of a form's key, action and fields, what it did (its outcome),
+/// when; kept a week.
+const WEB_SUBMISSIONS: &str = "CREATE TABLE web_submission (
+        person_id INTEGER NOT NULL REFERENCES person(id),
+        key BLOB NOT NULL,
+        outcome TEXT NOT NULL,
+        at_ms INTEGER NOT NULL,
+        PRIMARY KEY (person_id, key)
+    ) WITHOUT ROWID;";
 
 /// Applies every step the file does not have yet, each in its own
 /// transaction with its Rust part ([`crate::schema::code`]); refuses a

@@ -201,6 +201,12 @@ statements! {
     WebSessionRevoke = "UPDATE web_session SET revoked_ms = ?1 WHERE id = ?2 AND revoked_ms IS NULL";
     /// Web sessions of.
     WebSessionsOf = "SELECT id, role, person_id, created_ms, seen_ms, expires_ms FROM web_session WHERE role = ?1 AND person_id IS ?2 AND revoked_ms IS NULL AND expires_ms > ?3 AND seen_ms > ?4 ORDER BY id DESC";
+    /// A web form's submission: its outcome.
+    WebSubmissionGet = "SELECT outcome FROM web_submission WHERE person_id = ?1 AND key = ?2";
+    /// A web form's submission put (a second one of the same key is ignored).
+    WebSubmissionPut = "INSERT INTO web_submission (person_id, key, outcome, at_ms) VALUES (?1, ?2, ?3, ?4) ON CONFLICT (person_id, key) DO NOTHING";
+    /// A person's web form submissions older than ?2 removed.
+    WebSubmissionPrune = "DELETE FROM web_submission WHERE person_id = ?1 AND at_ms < ?2";
     /// Signin link by hash.
     SigninLinkByHash = "SELECT hash, role, person_id, expires_ms, used_ms FROM signin_link WHERE hash = ?1";
     // token
@@ -277,6 +283,10 @@ statements! {
     CopyReadWebSession = "SELECT id, hash, role, person_id, csrf, created_ms, seen_ms, expires_ms, revoked_ms FROM web_session ORDER BY id";
     /// One row of `web_session` as read by `CopyReadWebSession`.
     CopyWriteWebSession = "INSERT INTO web_session (id, hash, role, person_id, csrf, created_ms, seen_ms, expires_ms, revoked_ms) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)";
+    /// Every row of `web_submission`.
+    CopyReadWebSubmission = "SELECT person_id, key, outcome, at_ms FROM web_submission ORDER BY person_id, key";
+    /// One row of `web_submission` as read by `CopyReadWebSubmission`.
+    CopyWriteWebSubmission = "INSERT INTO web_submission (person_id, key, outcome, at_ms) VALUES (?1, ?2, ?3, ?4)";
     /// After a copy: generated ids continue after the copied ones (nothing to do on SQLite, whose next id is the largest plus one).
     CopyResetIds = "SELECT 1";
 }

@@ -67,6 +67,16 @@ pub struct Bounds {
     pub dinner: Option<Range>,
 }
 
+/// The smallest change the person's pump can make to each setting.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PumpStepsBody {
+    /// Basal-rate step (U/h): 0.05, 0.025 or 0.01.
+    pub basal_units_per_hour: f64,
+    /// Carb-ratio step (g/U): 0.1 or 1.
+    pub carb_ratio_g_per_unit: f64,
+}
+
 /// Minimum data per window for an update (all zero: no minimum, as in the
 /// in-silico trial).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
@@ -101,6 +111,16 @@ pub struct NewPersonBody {
     /// Clinician bounds (default: none).
     #[serde(default)]
     pub bounds: Option<Bounds>,
+    /// The pump's steps: suggestions are rounded to them and an override
+    /// must be on them (default: 0.05 U/h and 0.1 g/U, as `abba person
+    /// new`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pump_steps: Option<PumpStepsBody>,
+    /// Research only: no pump steps, values unrounded as in the paper and
+    /// the in-silico trial (the simulated app, `abba app`); not with
+    /// `pump_steps` (422).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub continuous_values: bool,
     /// Minimum data per window (default: 70 % CGM coverage, 3 meter
     /// readings a day, 1 per meal window).
     #[serde(default)]

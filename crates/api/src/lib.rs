@@ -22,8 +22,8 @@ pub mod views;
 
 pub use admin::{
     AgeGroup, BasalSegment, Bounds, BoundsBody, CarbRatios, MinDataBody, Mode, NewPersonBody,
-    PersonCreated, Range, TherapyBody, TherapyChangeBody, TherapyChanged, TokenIssued,
-    TokenRevoked,
+    PersonCreated, PumpStepsBody, Range, TherapyBody, TherapyChangeBody, TherapyChanged,
+    TokenIssued, TokenRevoked,
 };
 pub use answers::{AnswerBody, AnswerItem, AnswerKind, Answered, AnswersAck};
 pub use error::{ErrorBody, ErrorCode};

@@ -164,6 +164,8 @@ pub fn person_body(
             carb_ratio_g_per_unit: [t.carb_ratio[0].0, t.carb_ratio[1].0, t.carb_ratio[2].0],
         },
         bounds: None,
+        pump_steps: None,
+        continuous_values: true,
         min_data: Some(MinDataBody {
             cgm_coverage: 0.0,
             cgm_period_min: 5,

@@ -814,3 +814,72 @@ fn a_child_gets_the_childrens_basal_hours() {
     assert!(text.contains("defaults for children"), "{text}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The probe's import: a reading at -99999999999999 ms (year -1199) beside
+/// a true one is refused with its place, the rest imported, and day 1 is the
+/// true reading's date (no million day closings); `person new
+/// --first-day` outside 1990-01-01..tomorrow is refused, naming the range.
+#[test]
+fn a_record_before_1990_is_refused_and_day_1_stays_true() {
+    let dir = tmp("too-old");
+    let db = dir.join("abba.db");
+    let db = db.to_str().unwrap();
+    let new = |name: &str, first_day: Option<&str>| {
+        let mut a = vec![
+            "person",
+            "new",
+            "--db",
+            db,
+            "--name",
+            name,
+            "--tz",
+            "UTC",
+            "--mode",
+            "cgm",
+            "--basal",
+            "1",
+            "--carb-ratio",
+            "10,10,10",
+        ];
+        if let Some(d) = first_day {
+            a.extend(["--first-day", d]);
+        }
+        abba(&a)
+    };
+    for day in ["9999-12-31", "0001-01-01"] {
+        let out = new("bo", Some(day));
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success()
+                && err.contains("--first-day")
+                && err.contains("expected a date from 1990-01-01"),
+            "{err}"
+        );
+    }
+    let out = new("ana", None);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let file = dir.join("entries.json");
+    std::fs::write(
+        &file,
+        r#"[{"sgv":120,"date":-99999999999999,"type":"sgv"},{"_id":"2","type":"sgv","sgv":130,"date":1777860000000}]"#,
+    )
+    .unwrap();
+    let out = ok(&[
+        "import",
+        "--db",
+        db,
+        "--person",
+        "ana",
+        file.to_str().unwrap(),
+    ]);
+    assert!(
+        out.contains("1 records dated before 1990-01-01")
+            && out.contains("entries.json: $[0]")
+            && out.contains("Day 1 of the advisor: 2026-05-04."),
+        "{out}"
+    );
+}

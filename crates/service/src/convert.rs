@@ -555,8 +555,45 @@ pub fn new_person(b: &NewPersonBody) -> Result<NewPerson, ApiError> {
                 format!("expected a date YYYY-MM-DD, got {day:?}: {e}"),
             )
         })?;
+        // The store's rule (`abba person new --first-day` too), named here
+        // by the body's field; an unknown zone is the store's 422 on `tz`.
+        if let Ok(tz) = jiff::tz::TimeZone::get(&b.tz) {
+            abba_store::person::check_first_day(d, &tz, jiff::Timestamp::now())
+                .map_err(|m| ApiError::invalid("first_day", m))?;
+        }
         p.first_day = Some(d);
     }
+    // The pump's steps: `abba person new`'s defaults unless given; none
+    // only when asked (research).
+    p.settings.pump_steps = match (b.pump_steps, b.continuous_values) {
+        (Some(_), true) => {
+            return Err(ApiError::invalid(
+                "continuous_values",
+                "give pump_steps or continuous_values, not both",
+            ))
+        }
+        (None, true) => None,
+        (None, false) => Some(abba_advisor::PumpSteps::default()),
+        (Some(st), false) => {
+            let steps = abba_advisor::PumpSteps {
+                basal_u_per_h: st.basal_units_per_hour,
+                carb_ratio_g_per_u: st.carb_ratio_g_per_unit,
+            };
+            steps.validate().map_err(|e| {
+                let (field, problem) = match e {
+                    abba_advisor::AdvisorError::Config { field, problem } => (field, problem),
+                    other => (String::new(), other.to_string()),
+                };
+                let path = if field.contains("carb") {
+                    "pump_steps.carb_ratio_g_per_unit"
+                } else {
+                    "pump_steps.basal_units_per_hour"
+                };
+                ApiError::invalid(path, problem)
+            })?;
+            Some(steps)
+        }
+    };
     if let Some(bd) = &b.bounds {
         p.settings.bounds = bounds(bd, "bounds")?;
     }

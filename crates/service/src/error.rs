@@ -154,7 +154,18 @@ impl From<StoreError> for ApiError {
             StoreError::PersonExists(_) | StoreError::PersonLookAlike { .. } => {
                 ApiError::conflict(e.to_string()).at("name")
             }
-            StoreError::Answer(m) => ApiError::conflict(m),
+            // "answers[i].field: ...": the field is the path.
+            StoreError::Answer(m) => {
+                let path = m
+                    .split_once(": ")
+                    .map(|(head, _)| head)
+                    .filter(|h| h.starts_with("answers[") && !h.contains(' '))
+                    .map(str::to_string);
+                match path {
+                    Some(p) => ApiError::conflict(m).at(p),
+                    None => ApiError::conflict(m),
+                }
+            }
             StoreError::Feed(m) => ApiError::conflict(m),
             StoreError::NoPerson(_) | StoreError::NoPersonId(_) => ApiError::no_person(),
             StoreError::NoData(_) => ApiError::conflict(e.to_string()),

@@ -19,7 +19,7 @@ const DAYS: i64 = 12;
 /// A deterministic app stream: CGM every 5 min with meal excursions, three
 /// meals with their boluses, the day closed at 00:00 after that minute's
 /// reading (from day 2). (seq, event, wire event).
-fn stream() -> Vec<(u64, Event, Value)> {
+pub(crate) fn stream() -> Vec<(u64, Event, Value)> {
     let mut out = Vec::new();
     let mut seq = 100u64;
     let meals = [
@@ -81,9 +81,12 @@ fn stream() -> Vec<(u64, Event, Value)> {
     out
 }
 
+/// (Values unrounded, as in the paper: the overrides below are 97 % and 99
+/// % of a suggestion, off any pump step.)
 fn person_body(name: &str) -> Value {
     json!({
         "name": name, "tz": "UTC", "mode": "cgm", "first_day": "2026-01-01",
+        "continuous_values": true,
         "start": {"basal_units_per_hour": 1.0, "carb_ratio_g_per_unit": [10.0, 12.0, 11.0]},
         "min_data": {"cgm_coverage": 0.0, "cgm_period_min": 5, "smbg_per_day": 0, "smbg_per_meal": 0}
     })
@@ -364,8 +367,9 @@ async fn one_big_batch_a_late_event_and_an_answer_agree_with_a_replay() {
     assert_eq!(row.status, "overridden");
     assert_eq!(row.in_force, value);
 
-    // A next day close: the in-process advisor told the same override.
-    let close_at = (DAYS) * 1440 + 5;
+    // A next day close (at midnight, as a CGM app closes its days): the
+    // in-process advisor told the same override.
+    let close_at = (DAYS) * 1440;
     let mut advisor = store.person_by_id(id as i64).unwrap().advisor().unwrap();
     let latest_at = latest["id"].as_u64().unwrap() / 4;
     for (_, e, _) in &events {

@@ -13,6 +13,7 @@ mod common;
 mod access;
 mod effects;
 mod hostile;
+mod implausible;
 mod limits;
 mod live_advisor;
 mod mixed_load;

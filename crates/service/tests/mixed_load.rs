@@ -96,6 +96,8 @@ fn person_body(name: &str, first_day: jiff::civil::Date) -> NewPersonBody {
             carb_ratio_g_per_unit: [10.0, 12.0, 11.0],
         },
         bounds: None,
+        pump_steps: None,
+        continuous_values: false,
         min_data: Some(MinDataBody {
             cgm_coverage: 0.0,
             cgm_period_min: 5,

@@ -163,6 +163,7 @@ async fn every_response_conforms() {
         }};
     }
     let person = json!({"name": "ann", "tz": "UTC", "mode": "cgm", "first_day": "2026-01-01",
+        "continuous_values": true,
         "start": {"basal_units_per_hour": 1.0, "carb_ratio_g_per_unit": [10.0, 12.0, 11.0]},
         "min_data": {"cgm_coverage": 0.0, "cgm_period_min": 5, "smbg_per_day": 0, "smbg_per_meal": 0}});
     check!(Method::GET, "/healthz", "/healthz", None, None);

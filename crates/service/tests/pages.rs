@@ -665,6 +665,7 @@ async fn person_past_first_week(svc: &Svc, name: &str, days: i64) -> (u64, Strin
     let id = svc
         .person_with(json!({
             "name": name, "tz": "UTC", "mode": "cgm", "first_day": first.to_string(),
+            "continuous_values": true,
             "start": {"basal_units_per_hour": 1.0, "carb_ratio_g_per_unit": [10.0, 12.0, 11.0]},
             "min_data": {"cgm_coverage": 0.0, "cgm_period_min": 5, "smbg_per_day": 0, "smbg_per_meal": 0}
         }))
@@ -2012,4 +2013,41 @@ async fn read_only_pages_answer_while_another_writer_holds_the_store() {
         other.execute_batch("ROLLBACK").unwrap();
         assert_eq!(p.status, StatusCode::OK, "{path}: {}", p.html);
     }
+}
+
+/// The clinic's page shows the pump steps the store holds: a person made
+/// by `POST /v1/persons` has `abba person new`'s (0.05 U/h, 0.1 g/U); a
+/// person without steps (research, continuous values) shows none, never
+/// defaults they do not have.
+#[tokio::test]
+async fn the_clinic_page_shows_the_steps_the_store_holds() {
+    let svc = Svc::new();
+    let with = svc
+        .person_with(serde_json::json!({
+            "name": "ana", "tz": "UTC", "mode": "cgm",
+            "start": {"basal_units_per_hour": 1.0, "carb_ratio_g_per_unit": [10.0, 12.0, 11.0]}
+        }))
+        .await;
+    let without = svc
+        .person_with(serde_json::json!({
+            "name": "bo", "tz": "UTC", "mode": "cgm", "continuous_values": true,
+            "start": {"basal_units_per_hour": 1.0, "carb_ratio_g_per_unit": [10.0, 12.0, 11.0]}
+        }))
+        .await;
+    let (mut admin, _) = signed_in(&svc, Role::Admin).await;
+    let page = admin.get(&format!("/clinic/persons/{with}")).await;
+    assert_eq!(page.status, StatusCode::OK, "{}", page.html);
+    let steps = page.section("<form id=\"steps\"", "form");
+    assert!(
+        steps.contains("name=\"basal_step\" type=\"text\" inputmode=\"decimal\" value=\"0.05\"")
+            && steps.contains("name=\"cr_step\" type=\"text\" inputmode=\"decimal\" value=\"0.1\""),
+        "{steps}"
+    );
+    let page = admin.get(&format!("/clinic/persons/{without}")).await;
+    let steps = page.section("<form id=\"steps\"", "form");
+    assert!(
+        steps.contains("name=\"basal_step\" type=\"text\" inputmode=\"decimal\" value=\"\"")
+            && steps.contains("name=\"cr_step\" type=\"text\" inputmode=\"decimal\" value=\"\""),
+        "{steps}"
+    );
 }

@@ -82,6 +82,18 @@ pub fn insert(
             person.id
         )));
     }
+    // An event dated before any sensor or pump logged data cannot be
+    // true, and must never become day 1 (imports refuse such records too).
+    if let Some((i, e)) = batch
+        .iter()
+        .enumerate()
+        .find(|(_, e)| e.at < abba_io::read::RECORDS_FROM)
+    {
+        return Err(StoreError::invalid(
+            format!("events[{i}].at"),
+            format!("{} is {}", e.at, abba_io::read::too_old_words()),
+        ));
+    }
     if person.first_day.is_none() {
         if let Some(first) = batch.iter().map(|e| e.at).min() {
             let day = person.tz.to_datetime(first).date();
@@ -130,6 +142,26 @@ pub fn insert(
             return Err(StoreError::invalid(
                 format!("events[{i}].at"),
                 format!("{} is more than {limit} minutes after day 1", e.at),
+            ));
+        }
+        // CGM mode: the day closes at local midnight (the advisor closes
+        // the day that holds the minute before the event); a day_closed at
+        // any other time would close the day still running, and a second
+        // basal decision would follow for one date.
+        if e.kind == EventKind::DayClosed
+            && person.mode() == abba_advisor::Mode::Cgm
+            && at.minute_of_day() != 0
+        {
+            let local = person.tz.to_datetime(e.at);
+            return Err(StoreError::invalid(
+                format!("events[{i}].at"),
+                format!(
+                    "a CGM-mode person's day closes at local midnight: post day_closed at 00:00 of the next day ({}T00:00 in {}) with the first event after midnight, not at {} ({} local)",
+                    local.date().tomorrow().unwrap_or(local.date()),
+                    person.tz.iana_name().unwrap_or("the person's zone"),
+                    e.at,
+                    local.strftime("%H:%M"),
+                ),
             ));
         }
         if matches!(

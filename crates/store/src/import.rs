@@ -5,9 +5,11 @@
 //! apart): counted, never added twice. A known id with other content is a
 //! newer version of that record (a Nightscout document rewritten): it
 //! replaces the stored one, counted. Records dated after the time of
-//! import (beyond the clock skew) are refused, and records before the
-//! person's day 1 are not used; both are counted with the first one's
-//! place, never stored.
+//! import (beyond the clock skew) or before
+//! [`abba_io::read::RECORDS_FROM`] (1990-01-01: no sensor or pump logged
+//! data then) are refused, and records before the person's day 1 are not
+//! used; each is counted with the first one's place, never stored, and a
+//! refused record never sets day 1.
 
 use crate::backend::{args, Conn, Db, Q};
 use crate::error::StoreError;
@@ -40,6 +42,9 @@ pub struct ImportSummary {
     pub cross_upload_duplicates: usize,
     /// Records dated after the time of import: refused.
     pub future: Refused,
+    /// Records dated before [`abba_io::read::RECORDS_FROM`] (1990-01-01):
+    /// refused (they cannot be true).
+    pub too_old: Refused,
     /// Records before the person's day 1: not used, not stored.
     pub before_day_1: Refused,
     /// Files from which no record was read.
@@ -74,8 +79,10 @@ impl ImportSummary {
             "Duplicates within and between the files: {} exact repeats, {} older versions of a repeated id, {} carried by two Tidepool uploads.",
             self.duplicates_in_files, self.older_versions_in_files, self.cross_upload_duplicates
         ));
+        let too_old = format!("{} (refused)", abba_io::read::too_old_words());
         for (what, r) in [
             ("dated after the time of import (refused)", &self.future),
+            (too_old.as_str(), &self.too_old),
             ("before day 1, not used", &self.before_day_1),
         ] {
             if r.count > 0 {
@@ -126,6 +133,12 @@ pub fn import_with(
     also: &mut dyn FnMut(&dyn Db) -> Result<(), StoreError>,
 ) -> Result<ImportSummary, StoreError> {
     let empty_files: Vec<String> = batch.empty_files().into_iter().map(String::from).collect();
+    // What the reader took out as too old ([`abba_io::read::read_all`]),
+    // and what a batch made otherwise still holds (counted below).
+    let mut too_old = batch.too_old.clone();
+    if batch.records.is_empty() && too_old.count > 0 {
+        return Err(all_too_old(batch, &too_old));
+    }
     if batch.records.is_empty() {
         let files = if empty_files.is_empty() {
             batch.files.join(", ")
@@ -151,7 +164,9 @@ pub fn import_with(
         .records
         .iter()
         .filter(|r| {
-            r.at <= limit && matches!(r.kind, RecordKind::Cgm { .. } | RecordKind::Smbg { .. })
+            r.at <= limit
+                && !abba_io::read::too_old(r)
+                && matches!(r.kind, RecordKind::Cgm { .. } | RecordKind::Smbg { .. })
         })
         .min_by_key(|r| r.at);
     let first_day = match (person.first_day, first_useful) {
@@ -163,6 +178,10 @@ pub fn import_with(
     for r in &batch.records {
         if r.at > limit {
             note(&mut future, r);
+            continue;
+        }
+        if abba_io::read::too_old(r) {
+            note(&mut too_old, r);
             continue;
         }
         // A profile before day 1 is in force on day 1: kept.
@@ -205,6 +224,9 @@ pub fn import_with(
             person.name,
             person.tz.iana_name().unwrap_or("?"),
         )));
+    }
+    if rows.is_empty() && too_old.count > 0 && future.count == 0 && before_day_1.count == 0 {
+        return Err(all_too_old(batch, &too_old));
     }
     let tx = conn.transaction()?;
     if crate::app::count(&tx, person.id)? > 0 {
@@ -295,11 +317,25 @@ pub fn import_with(
         older_versions_in_files: batch.older_versions,
         cross_upload_duplicates: batch.cross_upload.values().sum(),
         future,
+        too_old,
         before_day_1,
         empty_files,
         notes: batch.notes.clone(),
         first_day: first_day.map(|d| d.to_string()),
     })
+}
+
+/// A batch whose every record is dated before
+/// [`abba_io::read::RECORDS_FROM`]: an error, not an import of nothing.
+fn all_too_old(batch: &Batch, too_old: &Refused) -> StoreError {
+    StoreError::Feed(format!(
+        "every record of {} is {}: {} records, the first {} ({}). Nothing was imported",
+        batch.files.join(", "),
+        abba_io::read::too_old_words(),
+        too_old.count,
+        too_old.first.as_deref().unwrap_or("?"),
+        too_old.first_at.as_deref().unwrap_or("?"),
+    ))
 }
 
 /// One past import.

@@ -343,6 +343,8 @@ impl Store {
                 tz: Some(p.tz.clone()),
                 ..abba_io::ReadOptions::default()
             };
+            // (Records the import refuses as too old are records here: it
+            // reports them, an error when they are all it would read.)
             !abba_io::read::read_all(&fetched.contents, &opts)?
                 .records
                 .is_empty()

@@ -398,15 +398,38 @@ pub fn fill_name_looks(conn: &dyn Db) -> Result<(), StoreError> {
     Ok(())
 }
 
+/// Checks a given day 1 in the person's zone `tz` at `now`: from
+/// [`abba_io::read::RECORDS_FROM_DATE`] (1990-01-01: no sensor or pump
+/// logged data before, and imports refuse such records) to tomorrow in the
+/// person's zone (a person may be created the evening before they start).
+/// A day 1 outside could never receive data. The error says the range
+/// (the caller names the field).
+pub fn check_first_day(day: Date, tz: &TimeZone, now: jiff::Timestamp) -> Result<(), String> {
+    let today = tz.to_datetime(now).date();
+    let last = today.tomorrow().unwrap_or(today);
+    let first = abba_io::read::RECORDS_FROM_DATE;
+    if day < first || day > last {
+        return Err(format!(
+            "expected a date from {first} (no glucose sensor or insulin pump logged data before) to {last} (tomorrow in {}), got {day}",
+            tz.iana_name().unwrap_or("the person's zone")
+        ));
+    }
+    Ok(())
+}
+
 /// Checks and stores a new person; returns its id.
 pub fn create(conn: &dyn Db, p: &NewPerson) -> Result<i64, StoreError> {
     let name = check_name(&p.name)?;
-    TimeZone::get(&p.tz).map_err(|e| {
+    let tz = TimeZone::get(&p.tz).map_err(|e| {
         StoreError::invalid(
             "--tz",
             format!("\"{}\" is not a known IANA zone ({e})", p.tz),
         )
     })?;
+    if let Some(day) = p.first_day {
+        check_first_day(day, &tz, jiff::Timestamp::now())
+            .map_err(|m| StoreError::invalid("--first-day", m))?;
+    }
     let s = &p.settings;
     s.meal_windows.validate()?;
     if s.bedtime_min >= 1440 {

@@ -436,7 +436,10 @@ impl Store {
             tz: Some(p.tz.clone()),
             ..read.clone()
         };
-        let batch = read_all(contents, &opts)?;
+        let mut batch = read_all(contents, &opts)?;
+        // Records that cannot be true (before 1990) are out before the
+        // profile is compared: counted, reported by the import.
+        batch.refuse_too_old();
         let new_settings = profile_check(&self.conn, &p, &batch, contents, &opts, resolve)?;
         if let Some(doc) = &new_settings {
             // Checked in full before anything is written.
@@ -809,6 +812,35 @@ fn profile_check(
 
 /// A value the person puts in force must lie within the plausibility
 /// limits of [`abba_core::limits`] and the clinician's bounds.
+/// Checks that a value the person puts in force (an override: `abba
+/// answer --set`, `POST .../answers`, the Today page's own value) is one
+/// their pump can be set to: a multiple of the pump's step for the
+/// setting, when the person has steps. Never rounded: the error names the
+/// step and the two nearest values on it (the caller names the field).
+pub fn on_pump_step(p: &Person, param: Parameter, v: f64) -> Result<(), String> {
+    let Some(steps) = p.settings.pump_steps else {
+        return Ok(());
+    };
+    let (step, what) = match param {
+        Parameter::Basal => (steps.basal_u_per_h, "basal"),
+        Parameter::CarbRatio(_) => (steps.carb_ratio_g_per_u, "carb-ratio"),
+    };
+    if !v.is_finite() || abba_advisor::steps::on_step(v, step) {
+        return Ok(());
+    }
+    let k = (v / step).floor() as i64;
+    let (below, above) = (
+        abba_advisor::steps::multiple(k, step),
+        abba_advisor::steps::multiple(k + 1, step),
+    );
+    let unit = param.unit();
+    Err(format!(
+        "{v} {unit} is not on the pump's {what} step ({step} {unit}): the nearest values the pump can be set to are {below} and {above} {unit} (abba does not round a value put in force)"
+    ))
+}
+
+/// Checks a value put in force for `param` against the plausibility
+/// limits, the pump's step ([`on_pump_step`]) and the clinician's bounds.
 pub(crate) fn check_value(p: &Person, param: Parameter, v: f64) -> Result<(), StoreError> {
     let field = format!("--set {}", param_key(param));
     let limit = match param {
@@ -818,6 +850,7 @@ pub(crate) fn check_value(p: &Person, param: Parameter, v: f64) -> Result<(), St
     limit
         .check(v)
         .map_err(|e| StoreError::invalid(field.clone(), e.to_string()))?;
+    on_pump_step(p, param, v).map_err(|m| StoreError::invalid(field.clone(), m))?;
     if let Some(r) = p.settings.bounds.range(param) {
         if !r.contains(v) {
             return Err(StoreError::invalid(

@@ -164,6 +164,8 @@ pub fn new_cgm_person(
                 carb_ratio_g_per_unit: [10.0; 3],
             },
             bounds: None,
+            pump_steps: None,
+            continuous_values: false,
             min_data: None,
             advisor: None,
             age_group: None,

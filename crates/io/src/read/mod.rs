@@ -324,6 +324,13 @@ pub struct Batch {
     /// What the readers reported without refusing (stretches placed by a
     /// transmitter's clock, repeats kept once), each starting with its file.
     pub notes: Vec<String>,
+    /// Records dated before [`RECORDS_FROM`] (they cannot be true in a
+    /// person's log): taken out of `records` by [`Batch::refuse_too_old`],
+    /// which the store's import calls, counted with the first one's place,
+    /// never used. (The readers keep them: `abba metrics` and `abba
+    /// events` read simulated output, whose minute 0 is the epoch.)
+    #[serde(default)]
+    pub too_old: Refused,
 }
 
 /// How far apart (seconds) two Tidepool data of the same kind and value
@@ -340,8 +347,40 @@ pub fn future_limit(now: jiff::Timestamp) -> jiff::Timestamp {
     .unwrap_or(now)
 }
 
-/// Records refused (dated after the time of import) or not used (before
-/// the person's day 1): how many, and the first.
+/// The earliest instant a record may carry: 1990-01-01T00:00:00Z. No
+/// glucose sensor, meter or insulin pump logged data abba reads before
+/// then (the first meters with a memory and the first pumps with a
+/// history came in the 1990s; the first CGM in 1999), so a record dated
+/// earlier is a wrong clock or a wrong unit (seconds read as
+/// milliseconds, a negative number), never a person's data: the store's
+/// import refuses it, record by record (see [`too_old`],
+/// [`Batch::refuse_too_old`]). Nightscout's default profile dated at the
+/// epoch ([`crate::record::SINCE_ALWAYS`], "in force since always") is
+/// the one exception.
+pub const RECORDS_FROM: jiff::Timestamp = jiff::Timestamp::constant(631_152_000, 0);
+
+/// [`RECORDS_FROM`] as a date (the earliest day 1 a person may have).
+pub const RECORDS_FROM_DATE: jiff::civil::Date = jiff::civil::date(1990, 1, 1);
+
+/// True for a record dated before [`RECORDS_FROM`]: it cannot be true
+/// (a therapy profile at [`crate::record::SINCE_ALWAYS`] is in force since
+/// always and is kept).
+pub fn too_old(r: &Record) -> bool {
+    r.at < RECORDS_FROM
+        && !(r.at == crate::record::SINCE_ALWAYS && matches!(r.kind, RecordKind::Schedule { .. }))
+}
+
+/// What [`too_old`] expects, for messages.
+pub fn too_old_words() -> String {
+    format!(
+        "dated before {} (no glucose sensor, meter or insulin pump logged data then: a wrong clock or a time in the wrong unit; expected a time from {} on)",
+        RECORDS_FROM_DATE, RECORDS_FROM
+    )
+}
+
+/// Records refused (dated after the time of import or before
+/// [`RECORDS_FROM`]) or not used (before the person's day 1): how many,
+/// and the first.
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct Refused {
     /// How many.
@@ -372,6 +411,36 @@ impl Batch {
         refused.count = self.records.len() - keep;
         self.records.truncate(keep);
         refused
+    }
+    /// Removes the records dated before [`RECORDS_FROM`] ([`too_old`]):
+    /// they cannot be true. Adds them to [`Batch::too_old`] (their count
+    /// and the first in file order) and returns it.
+    pub fn refuse_too_old(&mut self) -> &Refused {
+        let old: Vec<&Record> = self.records.iter().filter(|r| too_old(r)).collect();
+        if !old.is_empty() {
+            let first = old.iter().min_by_key(|r| r.origin).copied();
+            let first_new = first.map(|r| (self.origin(r), r.at.to_string()));
+            let first_held = self.too_old.first.is_some();
+            self.too_old.count += old.len();
+            if let (false, Some((place, at))) = (first_held, first_new) {
+                self.too_old.first = Some(place);
+                self.too_old.first_at = Some(at);
+            }
+            self.records.retain(|r| !too_old(r));
+        }
+        &self.too_old
+    }
+    /// What [`Batch::refuse_too_old`] refused, in a sentence (`None`: nothing).
+    pub fn too_old_line(&self) -> Option<String> {
+        (self.too_old.count > 0).then(|| {
+            format!(
+                "{} records {} were refused; the first: {} ({})",
+                self.too_old.count,
+                too_old_words(),
+                self.too_old.first.as_deref().unwrap_or("?"),
+                self.too_old.first_at.as_deref().unwrap_or("?")
+            )
+        })
     }
     /// The files from which no record was read.
     pub fn empty_files(&self) -> Vec<&str> {
@@ -455,6 +524,7 @@ pub fn merge(files: Vec<String>, formats: Vec<Format>, mut records: Vec<Record>)
         cross_upload: removed.cross_upload,
         per_file: Vec::new(),
         notes: Vec::new(),
+        too_old: Refused::default(),
     }
 }
 

@@ -466,6 +466,8 @@ fn field_of(e: &abba_store::StoreError) -> &'static str {
     ) || text.contains("name")
     {
         "name"
+    } else if text.starts_with("--first-day") {
+        "first_day"
     } else if text.contains("carb") {
         "carb_ratios"
     } else if text.contains("basal") {
@@ -647,7 +649,9 @@ fn person_model(store: &mut Store, id: i64) -> Result<PersonModel, ApiError> {
     let b = p.settings.bounds;
     let (basal_min, basal_max) = range_text(b.basal);
     let (cr_min, cr_max) = range_text(b.carb_ratio[0]);
-    let steps = p.settings.pump_steps.unwrap_or_default();
+    // What the store holds: a person without steps (continuous values,
+    // research) shows empty fields, never defaults they do not have.
+    let steps = p.settings.pump_steps;
     let now = session::now_ms();
     let tokens = store
         .tokens_of(Role::Person(id))?
@@ -706,10 +710,14 @@ fn person_model(store: &mut Store, id: i64) -> Result<PersonModel, ApiError> {
             ("cr_min", cr_min),
             ("cr_max", cr_max),
         ]),
-        steps: BTreeMap::from([
-            ("basal_step", format!("{}", steps.basal_u_per_h)),
-            ("cr_step", format!("{}", steps.carb_ratio_g_per_u)),
-        ]),
+        steps: steps
+            .map(|st| {
+                BTreeMap::from([
+                    ("basal_step", format!("{}", st.basal_u_per_h)),
+                    ("cr_step", format!("{}", st.carb_ratio_g_per_u)),
+                ])
+            })
+            .unwrap_or_default(),
         waiting,
         therapy_source: a.therapy.source.to_string(),
         therapy_notes: p.settings.therapy_notes.clone(),

@@ -106,10 +106,14 @@ impl Svc {
         Resp { status, text, json }
     }
 
-    /// Creates a person (CGM, UTC, day 1 = 2026-01-01); returns the id.
+    /// Creates a person (CGM, UTC, day 1 = 2026-01-01; values unrounded as
+    /// in the trial, `continuous_values`: the short synthetic streams'
+    /// small updates stay updates, not a pump step's "no change"); returns
+    /// the id.
     pub async fn person(&self, name: &str) -> u64 {
         self.person_with(json!({
             "name": name, "tz": "UTC", "mode": "cgm", "first_day": "2026-01-01",
+            "continuous_values": true,
             "start": {"basal_units_per_hour": 1.0, "carb_ratio_g_per_unit": [10.0, 12.0, 11.0]}
         }))
         .await

@@ -129,7 +129,9 @@ async fn fed_person(svc: &Svc) -> (u64, Vec<Value>) {
     let id = svc
         .person_with(json!({
             "name": "ana", "tz": "UTC", "mode": "cgm", "first_day": "2026-01-01",
-            "start": {"basal_units_per_hour": 1.0, "carb_ratio_g_per_unit": [10.0, 12.0, 11.0]},
+            // (large enough that the stream's daily changes, some below a
+            // pump step, add up to steps within its days: open suggestions)
+            "start": {"basal_units_per_hour": 5.0, "carb_ratio_g_per_unit": [40.0, 45.0, 42.0]},
             "min_data": {"cgm_coverage": 0.0, "cgm_period_min": 5, "smbg_per_day": 0, "smbg_per_meal": 0}
         }))
         .await;
@@ -177,21 +179,31 @@ async fn an_override_off_the_pumps_step_is_refused_with_the_nearest_values() {
     let svc = Svc::new();
     let (id, _) = fed_person(&svc).await;
     let open = open_suggestions(&svc, id).await;
-    assert!(!open.is_empty(), "an open suggestion");
+    if open.is_empty() {
+        let r = svc
+            .call(
+                Method::GET,
+                &format!("/v1/persons/{id}/suggestions?after=0&limit=1000"),
+                Some(&svc.admin),
+                None,
+            )
+            .await;
+        panic!("no open suggestion: {}", r.text);
+    }
     let answer = |sid: &Value, value: f64| json!({"answers": [{"suggestion_id": sid, "answer": "override", "value": value}]});
     let path = format!("/v1/persons/{id}/answers");
-    // The probe's values: 9.25 g/U (step 0.1), 0.8883639681743214 U/h
-    // (step 0.05).
+    // Off the steps as the probe's values were (9.25 g/U against a step
+    // of 0.1, 0.8883639681743214 U/h against 0.05), near these settings.
     for s in &open {
         let (value, said) = if s["parameter"] == "basal" {
             (
-                0.8883639681743214,
-                "0.8883639681743214 U/h is not on the pump's basal step (0.05 U/h): the nearest values the pump can be set to are 0.85 and 0.9 U/h",
+                4.8883639681743214,
+                "4.888363968174321 U/h is not on the pump's basal step (0.05 U/h): the nearest values the pump can be set to are 4.85 and 4.9 U/h",
             )
         } else {
             (
-                9.25,
-                "9.25 g/U is not on the pump's carb-ratio step (0.1 g/U): the nearest values the pump can be set to are 9.2 and 9.3 g/U",
+                40.25,
+                "40.25 g/U is not on the pump's carb-ratio step (0.1 g/U): the nearest values the pump can be set to are 40.2 and 40.3 g/U",
             )
         };
         let r = svc
@@ -209,7 +221,7 @@ async fn an_override_off_the_pumps_step_is_refused_with_the_nearest_values() {
     }
     // On the step: in force as given.
     let s = &open[0];
-    let value = if s["parameter"] == "basal" { 0.9 } else { 9.3 };
+    let value = if s["parameter"] == "basal" { 4.9 } else { 40.3 };
     let r = svc
         .call(
             Method::POST,

@@ -197,7 +197,7 @@ async fn an_override_off_the_pumps_step_is_refused_with_the_nearest_values() {
     for s in &open {
         let (value, said) = if s["parameter"] == "basal" {
             (
-                4.8883639681743214,
+                4.888_363_968_174_321,
                 "4.888363968174321 U/h is not on the pump's basal step (0.05 U/h): the nearest values the pump can be set to are 4.85 and 4.9 U/h",
             )
         } else {

@@ -8,7 +8,7 @@ use crate::decision::{
     AbbaExplanation, Decision, DecisionDetail, DecisionLog, Rounded, SkipReason,
 };
 use crate::error::AdvisorError;
-use crate::features::{local_cost, WindowStats};
+use crate::features::{local_cost, NightStats, WindowStats};
 use crate::fusion::apply_action;
 use crate::guard::{closed_day, EventGuard};
 use crate::parameter::Parameter;
@@ -75,6 +75,11 @@ pub struct Abba {
     /// (`features.cgm_basal_window_min`).
     #[serde(default, skip_serializing_if = "DayWindows::is_empty")]
     basal_windows: DayWindows<WindowStats>,
+    /// The same readings split into evening and morning, when an SMBG
+    /// night's fall decides the evening reading's part
+    /// (`features.smbg_night_fall_mg_dl`).
+    #[serde(default, skip_serializing_if = "DayWindows::is_empty")]
+    nights: DayWindows<NightStats>,
     meal_windows: MealWindows<WindowStats>,
     last_br_change: Option<(f64, f64)>,
     log: DecisionLog,
@@ -152,6 +157,7 @@ impl Abba {
             agents,
             day_windows: DayWindows::default(),
             basal_windows: DayWindows::default(),
+            nights: DayWindows::default(),
             meal_windows: MealWindows::default(),
             last_br_change: None,
             bounds: ClinicianBounds::default(),
@@ -627,9 +633,16 @@ impl Abba {
         self.day_windows.day_mut(at.day_index()).push(g_mg_dl, cfg);
         if cfg.basal_window_is_part(self.config.mode) {
             if let Some(ahead) = cfg.basal_window_day(self.config.mode, at.minute_of_day()) {
-                self.basal_windows
-                    .day_mut(at.day_index() + ahead)
-                    .push(g_mg_dl, cfg);
+                let day = at.day_index() + ahead;
+                self.basal_windows.day_mut(day).push(g_mg_dl, cfg);
+                if self.config.mode == Mode::Smbg && cfg.smbg_night_fall_mg_dl.is_some() {
+                    let night = self.nights.day_mut(day);
+                    if ahead == 1 {
+                        night.push_evening(g_mg_dl, cfg);
+                    } else {
+                        night.push_morning(g_mg_dl, cfg);
+                    }
+                }
             }
         }
         if let Some((_, acc)) = self.meal_windows.open_mut() {
@@ -719,7 +732,13 @@ impl Abba {
             EventKind::DayClosed => {
                 let day = closed_day(e.at);
                 let stats = self.day_windows.close(day);
-                let part_stats = self.basal_windows.close(day);
+                let mut part_stats = self.basal_windows.close(day);
+                let night = self.nights.close(day);
+                if let (Some(fall), Some(n)) = (self.config.features.smbg_night_fall_mg_dl, night) {
+                    if self.config.mode == Mode::Smbg {
+                        part_stats = Some(n.window(fall));
+                    }
+                }
                 if !self.initialised {
                     let first = self.guard.first_day().unwrap_or(day);
                     let end = self

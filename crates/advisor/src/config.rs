@@ -323,6 +323,17 @@ pub struct FeatureConfig {
     /// bedtime reading of the evening before: the night's two readings.
     #[serde(default)]
     pub smbg_basal_window_min: Option<[i64; 2]>,
+    /// SMBG mode, with a basal window that starts the evening before
+    /// (`smbg_basal_window_min`): an evening reading above G_H counts for
+    /// the basal agent as in range (no hyper excursion, not in eq27's N2)
+    /// when the night fell, i.e. the window's first reading of the morning
+    /// is at least this many mg/dL below the evening's last. Glucose that
+    /// falls through the night says the basal is not short; the high
+    /// bedtime reading is the dinner's (the dinner ratio's agent judges
+    /// it). Its hypo parts always count. `None`: the evening reading counts
+    /// as it is. \[DEVIATION when set]
+    #[serde(default)]
+    pub smbg_night_fall_mg_dl: Option<f64>,
 }
 
 impl FeatureConfig {
@@ -338,6 +349,7 @@ impl FeatureConfig {
             cgm_g_min_mg_dl: None,
             cgm_g_max_mg_dl: None,
             smbg_basal_window_min: None,
+            smbg_night_fall_mg_dl: None,
             ..Self::default()
         }
     }
@@ -417,6 +429,7 @@ impl Default for FeatureConfig {
             cgm_g_max_mg_dl: Some(350.0),
             cgm_basal_window_min: None,
             smbg_basal_window_min: Some([-90, 450]),
+            smbg_night_fall_mg_dl: None,
         }
     }
 }
@@ -467,6 +480,9 @@ impl FeatureConfig {
                     });
                 }
             }
+        }
+        if let Some(fall) = self.smbg_night_fall_mg_dl {
+            check_range("features.smbg_night_fall_mg_dl", fall, 0.0, 1e4)?;
         }
         check_positive(
             "features.hyponumber_below_mg_dl",

@@ -62,6 +62,66 @@ impl WindowStats {
     }
 }
 
+/// The night of an SMBG basal window that starts the evening before
+/// (`features.smbg_night_fall_mg_dl`): the evening's and the morning's
+/// readings apart, and the two readings that tell whether the night fell.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct NightStats {
+    /// The readings of the evening before.
+    pub evening: WindowStats,
+    /// The readings of the morning (from midnight to the window's end).
+    pub morning: WindowStats,
+    /// The evening's last reading (mg/dL).
+    pub last_evening_mg_dl: Option<f64>,
+    /// The morning's first reading (mg/dL).
+    pub first_morning_mg_dl: Option<f64>,
+}
+
+impl NightStats {
+    /// Adds a reading of the evening before.
+    pub fn push_evening(&mut self, g_mg_dl: f64, cfg: &FeatureConfig) {
+        self.evening.push(g_mg_dl, cfg);
+        self.last_evening_mg_dl = Some(g_mg_dl);
+    }
+
+    /// Adds a reading of the morning.
+    pub fn push_morning(&mut self, g_mg_dl: f64, cfg: &FeatureConfig) {
+        self.morning.push(g_mg_dl, cfg);
+        self.first_morning_mg_dl.get_or_insert(g_mg_dl);
+    }
+
+    /// How far glucose fell from the evening's last reading to the
+    /// morning's first (mg/dL; negative: it rose), when both exist.
+    pub fn fall_mg_dl(&self) -> Option<f64> {
+        Some(self.last_evening_mg_dl? - self.first_morning_mg_dl?)
+    }
+
+    /// The window's statistics, evening then morning; when the night fell
+    /// by at least `fall_mg_dl`, the evening's readings count as in range
+    /// above G_L (their hyper excursions and N2 left out, their hypo parts
+    /// kept).
+    pub fn window(&self, fall_mg_dl: f64) -> WindowStats {
+        let e = self.evening;
+        let m = self.morning;
+        let fell = self.fall_mg_dl().is_some_and(|f| f >= fall_mg_dl);
+        let (n_hyper, sum_hyper, n2) = if fell {
+            (0, 0.0, 0)
+        } else {
+            (e.n_hyper, e.sum_hyper_mg_dl, e.n2)
+        };
+        WindowStats {
+            n: e.n + m.n,
+            n_hyper: n_hyper + m.n_hyper,
+            sum_hyper_mg_dl: sum_hyper + m.sum_hyper_mg_dl,
+            n_hypo: e.n_hypo + m.n_hypo,
+            sum_hypo_mg_dl: e.sum_hypo_mg_dl + m.sum_hypo_mg_dl,
+            hyponumber: e.hyponumber + m.hyponumber,
+            n1: e.n1 + m.n1,
+            n2: n2 + m.n2,
+        }
+    }
+}
+
 /// The feature vector F = (F_hyper, F_hypo) with its raw (mg/dL) parts.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct Features {
@@ -245,6 +305,51 @@ mod tests {
             day.features(&cgm_literal, Mode::Smbg),
             day.features(&averaged, Mode::Smbg)
         );
+    }
+
+    #[test]
+    fn a_high_bedtime_reading_whose_night_fell_counts_as_in_range_and_its_lows_always_count() {
+        let cfg = FeatureConfig::default();
+        let night = |evening: &[f64], morning: &[f64]| {
+            let mut n = NightStats::default();
+            for g in evening {
+                n.push_evening(*g, &cfg);
+            }
+            for g in morning {
+                n.push_morning(*g, &cfg);
+            }
+            n
+        };
+        // Bedtime 200, fasting 140: the night fell 60 mg/dL.
+        let fell = night(&[200.0], &[140.0]);
+        assert_eq!(fell.fall_mg_dl(), Some(60.0));
+        // With a threshold of 30 the bedtime reading counts as in range:
+        // no hyper excursion, not in N2, but still one of the two readings.
+        let w = fell.window(30.0);
+        assert_eq!((w.n, w.n_hyper, w.n2), (2, 0, 1));
+        assert_eq!(w.sum_hyper_mg_dl, 0.0);
+        // With 60 it still counts as in range (at least the threshold); with
+        // 61 the night did not fall enough: both readings as they are.
+        assert_eq!(fell.window(60.0), w);
+        assert_eq!(fell.window(61.0), stats(&[200.0, 140.0]));
+        // A night that rose (160 -> 190): the bedtime reading counts.
+        let rose = night(&[160.0], &[190.0]);
+        assert_eq!(rose.window(0.0), stats(&[160.0, 190.0]));
+        // A low bedtime reading is never discounted, however far the night fell.
+        let low = night(&[85.0], &[60.0]);
+        let w = low.window(0.0);
+        assert_eq!((w.n_hypo, w.hyponumber, w.n1), (2, 1, 1));
+        assert_eq!(w, stats(&[85.0, 60.0]));
+        // Without a morning reading (or an evening one) there is no fall.
+        assert_eq!(night(&[220.0], &[]).window(0.0), stats(&[220.0]));
+        assert_eq!(night(&[], &[220.0]).window(0.0), stats(&[220.0]));
+        // The fall is measured from the evening's last reading to the
+        // morning's first.
+        let two = night(&[120.0, 230.0], &[180.0, 250.0]);
+        assert_eq!(two.fall_mg_dl(), Some(50.0));
+        let w = two.window(40.0);
+        assert_eq!((w.n, w.n_hyper, w.n2), (4, 2, 2));
+        assert_eq!(w.sum_hyper_mg_dl, 30.0 + 100.0);
     }
 
     #[test]

@@ -625,3 +625,70 @@ fn a_basal_window_judges_the_night_and_leaves_the_meals_to_the_carb_ratios() {
         "{skipped}"
     );
 }
+
+#[test]
+fn a_night_that_fell_from_a_high_bedtime_reading_does_not_raise_the_basal_when_asked() {
+    // The toy's SMBG days with every bedtime reading (23:00) at 200 mg/dL and
+    // every fasting one (06:40) at 135: the night fell 65 mg/dL.
+    let toy = Toy {
+        basal_need: 1.0,
+        cr_need: [10.0; 3],
+        ..NEUTRAL
+    };
+    let mut recorder = abba(Mode::Smbg, 5);
+    let events: Vec<Event> = toy
+        .run(&mut recorder, Mode::Smbg, 1, 14, 7)
+        .into_iter()
+        .map(|mut e| {
+            if let EventKind::Smbg(_) = e.kind {
+                let m = e.at.minute_of_day();
+                if m >= 22 * 60 {
+                    e.kind = EventKind::Smbg(MgDl(200.0));
+                } else if m < 450 {
+                    e.kind = EventKind::Smbg(MgDl(135.0));
+                }
+            }
+            e
+        })
+        .collect();
+    let basal_features = |fall: Option<f64>| {
+        let mut c = AbbaConfig::new(Mode::Smbg, 5);
+        assert_eq!(c.features.smbg_basal_window_min, Some([-90, 450]));
+        assert_eq!(c.features.smbg_night_fall_mg_dl, None, "off by default");
+        c.features.smbg_night_fall_mg_dl = fall;
+        let mut a = Abba::new(c, start()).unwrap();
+        for e in &events {
+            a.observe(e).unwrap();
+        }
+        let d: Vec<_> = a
+            .take_decisions()
+            .into_iter()
+            .filter(|x| x.parameter == Parameter::Basal)
+            .collect();
+        assert!(d.len() >= 6, "{}", d.len());
+        d.iter()
+            .map(|x| (explanation(x).window, explanation(x).features))
+            .collect::<Vec<_>>()
+    };
+    // As the seed reads it: the bedtime reading's 50 mg/dL above G_H over
+    // the night's two readings, F_hyper = 25 / (250 − 150).
+    for (w, f) in basal_features(None) {
+        assert_eq!((w.n, w.n_hyper), (2, 1));
+        assert!((f.hyper - 0.25).abs() < 1e-12, "{f:?}");
+    }
+    // With the night's fall asked for (30 mg/dL), it counts as in range.
+    for (w, f) in basal_features(Some(30.0)) {
+        assert_eq!((w.n, w.n_hyper, w.n2), (2, 0, 1));
+        assert_eq!(f.hyper, 0.0);
+    }
+    // A fall smaller than asked leaves it as it is.
+    for (w, f) in basal_features(Some(80.0)) {
+        assert_eq!((w.n, w.n_hyper), (2, 1));
+        assert!((f.hyper - 0.25).abs() < 1e-12, "{f:?}");
+    }
+    // A negative threshold is refused by name.
+    let mut c = AbbaConfig::new(Mode::Smbg, 5);
+    c.features.smbg_night_fall_mg_dl = Some(-1.0);
+    let e = Abba::new(c, start()).unwrap_err().to_string();
+    assert!(e.contains("features.smbg_night_fall_mg_dl"), "{e}");
+}

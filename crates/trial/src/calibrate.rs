@@ -75,6 +75,11 @@ pub enum Knob {
     /// CGM mode's CIR switch rule (eq20-21) `update.cgm_switch_rule`: 1 =
     /// on (the seed), 0 = off. Not in the default grid.
     CgmSwitchRule,
+    /// SMBG mode's night fall `features.smbg_night_fall_mg_dl` (mg/dL; a
+    /// negative value = off, the seed): an evening reading whose night
+    /// fell this much counts for the basal agent as in range. Not in the
+    /// default grid.
+    SmbgNightFall,
 }
 
 /// The windows of [`Knob::CgmBasalWindow`], by value.
@@ -108,6 +113,7 @@ impl Knob {
                 "abba.features.smbg_basal_window_min (0 = whole day, 1 = 00:00-07:30, 2 = 22:30 the evening before to 07:30)"
             }
             Knob::CgmSwitchRule => "abba.update.cgm_switch_rule (1 = on, 0 = off)",
+            Knob::SmbgNightFall => "abba.features.smbg_night_fall_mg_dl (mg/dL; < 0 = off)",
         }
     }
 
@@ -152,6 +158,7 @@ impl Knob {
                     0.0
                 }
             }
+            Knob::SmbgNightFall => c.abba.features.smbg_night_fall_mg_dl.unwrap_or(-1.0),
         }
     }
 
@@ -205,6 +212,9 @@ impl Knob {
                 c.abba.features.smbg_basal_window_min = SMBG_BASAL_WINDOWS[i];
             }
             Knob::CgmSwitchRule => c.abba.update.cgm_switch_rule = Some(v >= 0.5),
+            Knob::SmbgNightFall => {
+                c.abba.features.smbg_night_fall_mg_dl = (v >= 0.0).then_some(v);
+            }
         }
     }
 }
@@ -807,6 +817,12 @@ mod tests {
             assert_eq!(Knob::CgmSwitchRule.get(&c), v);
             assert_eq!(c.abba.update.switch_rule_for(Mode::Cgm), on);
             assert!(c.abba.update.switch_rule_for(Mode::Smbg));
+        }
+        assert_eq!(Knob::SmbgNightFall.get(&c), -1.0, "off by default");
+        for (v, fall) in [(30.0, Some(30.0)), (0.0, Some(0.0)), (-1.0, None)] {
+            Knob::SmbgNightFall.set(&mut c, v);
+            assert_eq!(Knob::SmbgNightFall.get(&c), v);
+            assert_eq!(c.abba.features.smbg_night_fall_mg_dl, fall);
         }
         assert_eq!(c.abba.features.smbg_excursion, Excursion::TimeAveraged);
         for (k, v) in [

@@ -224,6 +224,7 @@ impl Twin {
                 fit_days,
                 iters_per_start: options.iters_per_start,
                 find_meals: true,
+                ..FitOptions::default()
             },
         )?;
         let hash = events_hash(events);

@@ -194,12 +194,10 @@ pub fn serve_with_twins(
             source,
         })?;
     rt.block_on(async move {
-        let listener = tokio::net::TcpListener::bind(listen)
-            .await
-            .map_err(|source| ServiceError::Io {
-                context: format!("binding {listen}"),
-                source,
-            })?;
+        let listener = bind(listen).await.map_err(|source| ServiceError::Io {
+            context: format!("binding {listen}"),
+            source,
+        })?;
         let addr = listener.local_addr().map_err(|source| ServiceError::Io {
             context: "reading the bound address".into(),
             source,
@@ -208,6 +206,42 @@ pub fn serve_with_twins(
         run(listener, router_with(state, set), set).await;
         Ok(())
     })
+}
+
+/// The listen queue of the service's socket. A burst of connections (a
+/// flood of idle ones, many apps at once) waits there while the accept
+/// loop takes them; past it the kernel drops their SYNs and each client
+/// retries a second later. Linux caps it at `net.core.somaxconn` (4,096
+/// since 5.4); tokio's `TcpListener::bind` asks for 1,024.
+pub const LISTEN_BACKLOG: u32 = 4096;
+
+/// Binds `listen` (`host:port`; each address a name resolves to is tried
+/// in turn) with [`LISTEN_BACKLOG`] and `SO_REUSEADDR` on Unix, as
+/// `TcpListener::bind` would.
+pub async fn bind(listen: &str) -> std::io::Result<tokio::net::TcpListener> {
+    let mut last = None;
+    for addr in tokio::net::lookup_host(listen).await? {
+        let socket = if addr.is_ipv4() {
+            tokio::net::TcpSocket::new_v4()?
+        } else {
+            tokio::net::TcpSocket::new_v6()?
+        };
+        #[cfg(unix)]
+        socket.set_reuseaddr(true)?;
+        match socket.bind(addr) {
+            Ok(()) => match socket.listen(LISTEN_BACKLOG) {
+                Ok(l) => return Ok(l),
+                Err(e) => last = Some(e),
+            },
+            Err(e) => last = Some(e),
+        }
+    }
+    Err(last.unwrap_or_else(|| {
+        std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            format!("{listen} resolves to no address"),
+        )
+    }))
 }
 
 /// Accepts connections until a shutdown signal, then gives those open

@@ -179,10 +179,8 @@ impl Server {
     /// Serves `db` with `set` on a free loopback port.
     pub fn start(db: &std::path::Path, set: ServeSettings) -> Self {
         let state = AppState::open(db, set.store.clone()).unwrap();
-        let std_listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
-        std_listener.set_nonblocking(true).unwrap();
-        let addr = std_listener.local_addr().unwrap();
         let (tx, rx) = tokio::sync::oneshot::channel::<()>();
+        let (bound, addr) = std::sync::mpsc::channel();
         let thread = std::thread::spawn(move || {
             let rt = tokio::runtime::Builder::new_multi_thread()
                 .worker_threads(2)
@@ -190,7 +188,10 @@ impl Server {
                 .build()
                 .unwrap();
             rt.block_on(async move {
-                let listener = tokio::net::TcpListener::from_std(std_listener).unwrap();
+                // The socket `abba serve` has (its listen queue: a flood
+                // of connects waits there, not in SYN retries).
+                let listener = abba_service::server::bind("127.0.0.1:0").await.unwrap();
+                bound.send(listener.local_addr().unwrap()).unwrap();
                 let router = abba_service::router_with(state, &set);
                 abba_service::server::run_until(listener, router, &set, async {
                     let _ = rx.await;
@@ -199,7 +200,7 @@ impl Server {
             });
         });
         Self {
-            addr,
+            addr: addr.recv().unwrap(),
             stop: Some(tx),
             thread: Some(thread),
         }

@@ -755,3 +755,22 @@ fn a_declared_body_over_the_limit_gets_413_at_once() {
     );
     assert!(upload.starts_with("HTTP/1.1 403"), "{upload}");
 }
+
+#[test]
+fn the_service_binds_a_name_or_an_address_and_a_taken_port_is_an_error() {
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    rt.block_on(async {
+        use abba_service::server::bind;
+        let by_name = bind("localhost:0").await.unwrap();
+        assert!(by_name.local_addr().unwrap().ip().is_loopback());
+        let first = bind("127.0.0.1:0").await.unwrap();
+        let taken = first.local_addr().unwrap();
+        let e = bind(&taken.to_string()).await.unwrap_err();
+        assert_eq!(e.kind(), std::io::ErrorKind::AddrInUse, "{e}");
+        // No port: refused before anything is bound.
+        assert!(bind("127.0.0.1").await.is_err());
+    });
+}

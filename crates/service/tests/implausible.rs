@@ -60,14 +60,18 @@ fn steps_of(svc: &Svc, id: u64) -> Option<abba_advisor::PumpSteps> {
     store.person_by_id(id as i64).unwrap().settings.pump_steps
 }
 
+/// Creates a person from `b` (201 asserted) and returns the pump steps stored for them.
+async fn created_steps(svc: &Svc, b: &Value) -> Option<abba_advisor::PumpSteps> {
+    let r = create(svc, b).await;
+    assert_eq!(r.status, StatusCode::CREATED, "{}", r.text);
+    steps_of(svc, r.json["id"].as_u64().unwrap())
+}
+
 #[tokio::test]
 async fn api_persons_get_the_clis_pump_steps_or_the_ones_given() {
     let svc = Svc::new();
-    let r = create(&svc, &body("ana")).await;
-    assert_eq!(r.status, StatusCode::CREATED, "{}", r.text);
-    let id = r.json["id"].as_u64().unwrap();
     assert_eq!(
-        steps_of(&svc, id),
+        created_steps(&svc, &body("ana")).await,
         Some(abba_advisor::PumpSteps {
             basal_u_per_h: 0.05,
             carb_ratio_g_per_u: 0.1
@@ -75,11 +79,8 @@ async fn api_persons_get_the_clis_pump_steps_or_the_ones_given() {
     );
     let mut b = body("bo");
     b["pump_steps"] = json!({"basal_units_per_hour": 0.025, "carb_ratio_g_per_unit": 1.0});
-    let r = create(&svc, &b).await;
-    assert_eq!(r.status, StatusCode::CREATED, "{}", r.text);
-    let id = r.json["id"].as_u64().unwrap();
     assert_eq!(
-        steps_of(&svc, id),
+        created_steps(&svc, &b).await,
         Some(abba_advisor::PumpSteps {
             basal_u_per_h: 0.025,
             carb_ratio_g_per_u: 1.0
@@ -88,9 +89,7 @@ async fn api_persons_get_the_clis_pump_steps_or_the_ones_given() {
     // Research: no steps, only when asked.
     let mut b = body("cy");
     b["continuous_values"] = json!(true);
-    let r = create(&svc, &b).await;
-    assert_eq!(r.status, StatusCode::CREATED, "{}", r.text);
-    assert_eq!(steps_of(&svc, r.json["id"].as_u64().unwrap()), None);
+    assert_eq!(created_steps(&svc, &b).await, None);
     // Steps no pump has, as the CLI refuses them.
     for (steps, path, expected) in [
         (

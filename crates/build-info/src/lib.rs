@@ -15,9 +15,17 @@ pub fn git_revision() -> String {
         .and_then(|o| String::from_utf8(o.stdout).ok())
         .map(|s| s.trim().to_string())
         .unwrap_or_else(|| "unknown".to_string());
-    // Mark a build from a work tree with uncommitted changes.
+    // Mark a build from a work tree with uncommitted changes. Without the
+    // optional locks, `git status` does not write the refreshed index back:
+    // a fresh clone's first status would, and the newer .git/index would
+    // then rerun this script (and rebuild its crate) on the next build.
     let dirty = Command::new("git")
-        .args(["status", "--porcelain", "--untracked-files=no"])
+        .args([
+            "--no-optional-locks",
+            "status",
+            "--porcelain",
+            "--untracked-files=no",
+        ])
         .output()
         .ok()
         .filter(|o| o.status.success())

@@ -8,7 +8,7 @@
 #![allow(clippy::expect_used, missing_docs)]
 
 use abba_sim::inputs::InputDay;
-use abba_sim::patient::{GutTape, Patient, PatientParams, Solver};
+use abba_sim::patient::{GutTape, Pair, Patient, PatientParams, Solver, SplitInput};
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
 
 fn patient_day(c: &mut Criterion) {
@@ -59,6 +59,55 @@ fn patient_day(c: &mut Criterion) {
                     }
                 }
                 black_box(runs[2].glucose_mg_dl())
+            })
+        });
+    }
+    group.finish();
+
+    // The trial's group: ten runs of adult#001 (its arms and scenarios)
+    // eating the same with different insulin (×0.8 .. ×1.25), sharing the
+    // gut, stepped one by one or two by two with their bodies side by side
+    // (`Pair`), as the trial steps them (time per patient-day = time / 10).
+    let mut group = c.benchmark_group("patient_day_10_runs");
+    group.throughput(Throughput::Elements(10));
+    let scale: [f64; 10] = std::array::from_fn(|k| 0.8 + 0.05 * k as f64);
+    for (label, paired) in [("one_by_one", false), ("two_by_two", true)] {
+        group.bench_function(label, |b| {
+            b.iter(|| {
+                let mut runs: Vec<Patient> = (0..10).map(|_| start.clone()).collect();
+                let mut tape = GutTape::new();
+                for r in &day.minutes {
+                    let input = |k: usize| SplitInput {
+                        cho_g_per_min: r.cho_g_per_min,
+                        insulin_u_per_min: r.insulin_u_per_min * scale[k],
+                        sensitivity: 1.0,
+                        egp_sensitivity: 1.0,
+                    };
+                    if paired {
+                        for (j, pair) in runs.chunks_exact_mut(2).enumerate() {
+                            let [a, b] = pair else { unreachable!() };
+                            Patient::step_split_shared_side::<Pair, 2>(
+                                [a, b],
+                                [input(2 * j), input(2 * j + 1)],
+                                &mut tape,
+                            )
+                            .expect("finite");
+                        }
+                    } else {
+                        for (k, p) in runs.iter_mut().enumerate() {
+                            let i = input(k);
+                            p.step_split_shared(
+                                i.cho_g_per_min,
+                                i.insulin_u_per_min,
+                                1.0,
+                                1.0,
+                                &mut tape,
+                            )
+                            .expect("finite");
+                        }
+                    }
+                }
+                black_box(runs[9].glucose_mg_dl())
             })
         });
     }

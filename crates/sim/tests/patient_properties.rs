@@ -190,6 +190,66 @@ fn gut_tape_sharing_is_bit_identical_to_stepping_alone() {
     }
 }
 
+/// Runs stepped two at a time (`Patient::step_split_shared_side`, the
+/// bodies side by side in one vector) stay bit-identical to each run
+/// stepped alone: pairs that eat the same (the first records the gut, the
+/// second pair replays it), a pair whose second run eats less (each goes
+/// alone), and a pair of two different patients (different constants).
+#[test]
+fn pair_stepping_is_bit_identical_to_stepping_alone() {
+    use abba_sim::patient::{GutTape, Pair, SplitInput};
+    let all = public();
+    for (i, p) in all.iter().enumerate() {
+        let other = all[(i + 1) % all.len()].clone();
+        let day = InputDay::standard(p, 10.0);
+        let scale = [1.0, 0.7, 1.4, 1.1, 0.9, 1.2];
+        let mut alone: Vec<Patient> = (0..6)
+            .map(|k| Patient::new(if k == 5 { other.clone() } else { p.clone() }).unwrap())
+            .collect();
+        let mut paired = alone.clone();
+        let mut tape = GutTape::new();
+        for (m, r) in day.minutes.iter().enumerate() {
+            let s = 1.0 + 0.2 * (m as f64 / 300.0).sin();
+            let input = |k: usize| SplitInput {
+                // Run 3 eats 10 % less: its gut differs from run 2's.
+                cho_g_per_min: if k == 3 { 0.9 } else { 1.0 } * r.cho_g_per_min,
+                insulin_u_per_min: r.insulin_u_per_min * scale[k],
+                sensitivity: s,
+                egp_sensitivity: 1.0 / s,
+            };
+            for (k, run) in alone.iter_mut().enumerate() {
+                let i = input(k);
+                run.step_split(
+                    i.cho_g_per_min,
+                    i.insulin_u_per_min,
+                    i.sensitivity,
+                    i.egp_sensitivity,
+                )
+                .unwrap();
+            }
+            for (j, pair) in paired.chunks_exact_mut(2).enumerate() {
+                let [a, b] = pair else { unreachable!() };
+                Patient::step_split_shared_side::<Pair, 2>(
+                    [a, b],
+                    [input(2 * j), input(2 * j + 1)],
+                    &mut tape,
+                )
+                .unwrap();
+            }
+            for (k, (a, b)) in alone.iter().zip(&paired).enumerate() {
+                assert_eq!(
+                    a.state_array().map(f64::to_bits),
+                    b.state_array().map(f64::to_bits),
+                    "{} run {k} minute {m}",
+                    p.name
+                );
+            }
+        }
+        // The second run of the first pair replays every minute.
+        assert!(tape.replays() >= 1440, "{}: {}", p.name, tape.replays());
+    }
+}
+
 /// Two runs whose stomachs are equal (both empty before the first meal) but
 /// whose Qgut is not: the tape replays the gut's whole minute (Qgut at each
 /// stage and at the end), so its key must hold Qgut too, or the second run

@@ -19,7 +19,7 @@ use abba_advisor::{Advisor, AdvisorError, Mode};
 use abba_core::metrics::metrics_regular;
 use abba_core::{derive_seed, Event, Stream, MINUTES_PER_DAY};
 use abba_sim::cohort::VirtualPatient;
-use abba_sim::patient::GutTape;
+use abba_sim::patient::{GutTape, Pair};
 use abba_sim::person::VirtualPerson;
 
 pub use abba_sim::person::MinuteRecord;
@@ -453,6 +453,11 @@ fn simulate_lockstep<A: Advisor>(
             *at = person.insulin_delivered().0;
         }
         for m in 0..MINUTES_PER_DAY as usize {
+            // Each run's minute up to the integration; the runs then
+            // integrate two by two, their bodies side by side
+            // (`end_minutes_shared_side`: about the time of one run), the
+            // last alone when their number is odd.
+            let mut waiting: Option<(&mut VirtualPerson, &String)> = None;
             for ((person, advisor, context), run) in runs.iter_mut().zip(out.iter_mut()) {
                 if run.failure.is_some() || day >= run.daily_insulin_u.len() {
                     continue;
@@ -476,7 +481,27 @@ fn simulate_lockstep<A: Advisor>(
                         person.suggest(settings).map_err(sim)?;
                     }
                 }
-                person.end_minute_shared(&mut tape).map_err(sim)?;
+                match waiting.take() {
+                    None => waiting = Some((person, context)),
+                    Some((first, first_context)) => {
+                        VirtualPerson::end_minutes_shared_side::<Pair, 2>(
+                            [first, person],
+                            &mut tape,
+                        )
+                        .map_err(|source| TrialError::Sim {
+                            context: format!("{first_context} / {context}"),
+                            source,
+                        })?
+                    }
+                }
+            }
+            if let Some((person, context)) = waiting {
+                person
+                    .end_minute_shared(&mut tape)
+                    .map_err(|source| TrialError::Sim {
+                        context: context.clone(),
+                        source,
+                    })?;
             }
         }
         for (((person, advisor, _), run), at) in runs.iter_mut().zip(out.iter_mut()).zip(&midnight)

@@ -14,18 +14,21 @@
 pub mod eating;
 pub mod lanes;
 pub mod model;
+pub mod pair;
 pub mod params;
 pub mod solver;
 pub mod state;
 
 pub use eating::{EatingQueue, EAT_RATE_G_PER_MIN};
 pub use model::{derivatives, MinuteInput, ModelConsts};
+pub use pair::{Pair, Side};
 pub use params::{PatientParams, QuestRow, N_STATES};
 pub use solver::{GutTape, Solver};
 pub use state::PatientState;
 
 use crate::error::SimError;
 use abba_core::units::MG_PER_G;
+use std::sync::Arc;
 
 /// Where a patient stands between two minutes, beyond its parameters:
 /// what a stepper outside this crate (`abba-batch`) reads to take a
@@ -46,12 +49,27 @@ pub struct MinuteState {
     pub last_input: MinuteInput,
 }
 
+/// One minute's inputs of [`Patient::step_split`] and its shared forms.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SplitInput {
+    /// Carbohydrate eaten (g/min, through the eating queue).
+    pub cho_g_per_min: f64,
+    /// Insulin infused (U/min).
+    pub insulin_u_per_min: f64,
+    /// Insulin sensitivity multiplier on Vmx (1 = nominal).
+    pub sensitivity: f64,
+    /// Insulin sensitivity multiplier on kp3, the liver's insulin action.
+    pub egp_sensitivity: f64,
+}
+
 /// One virtual patient: parameters, state and the eating-episode
 /// bookkeeping that defines Dbar.
 #[derive(Debug, Clone)]
 pub struct Patient {
     params: PatientParams,
-    consts: ModelConsts,
+    /// Shared by the runs of one patient once a pair found them equal
+    /// ([`Patient::integrate_pair_shared`]); never changed.
+    consts: Arc<ModelConsts>,
     solver: Solver,
     /// State, minute count, eating bookkeeping and last input.
     now: MinuteState,
@@ -87,7 +105,7 @@ impl Patient {
                 last_food_taken_g: 0.0,
                 last_input: MinuteInput::new(&consts, 0.0, 0.0, 0.0, 1.0),
             },
-            consts,
+            consts: Arc::new(consts),
             params,
             solver,
         })
@@ -206,11 +224,12 @@ impl Patient {
         egp_sensitivity: f64,
         tape: &mut GutTape,
     ) -> Result<(), SimError> {
-        if !(egp_sensitivity.is_finite() && egp_sensitivity > 0.0) {
-            return Err(self.bad_input(cho_g_per_min, insulin_u_per_min, egp_sensitivity));
-        }
-        self.begin_minute(cho_g_per_min, insulin_u_per_min, sensitivity)?;
-        self.now.last_input.s_kp3 = egp_sensitivity * self.consts.kp3;
+        self.begin_step(SplitInput {
+            cho_g_per_min,
+            insulin_u_per_min,
+            sensitivity,
+            egp_sensitivity,
+        })?;
         self.solver.advance_minute_shared(
             &self.consts,
             &self.now.last_input,
@@ -218,6 +237,95 @@ impl Patient {
             tape,
         );
         self.end_minute()
+    }
+
+    /// [`Patient::step_split_shared`] for `W` runs at once, in order: the
+    /// same results, bit for bit, but when all are this patient eating the
+    /// same, their bodies are integrated side by side as one `T` ([`Pair`]; [`Solver::advance_side_shared`]), in about the time of
+    /// one. When a run's inputs are refused, the runs before it have taken
+    /// their minute (as they would have one by one) and the others have
+    /// not.
+    pub fn step_split_shared_side<T: Side<W>, const W: usize>(
+        mut runs: [&mut Patient; W],
+        inputs: [SplitInput; W],
+        tape: &mut GutTape,
+    ) -> Result<(), SimError> {
+        for k in 0..W {
+            if let Err(e) = runs[k].begin_step(inputs[k]) {
+                for run in &mut runs[..k] {
+                    run.integrate_shared(tape);
+                    run.end_minute()?;
+                }
+                return Err(e);
+            }
+        }
+        Self::integrate_side_shared::<T, W>(&mut runs, tape);
+        let mut ended = Ok(());
+        for run in runs {
+            ended = ended.and(run.end_minute());
+        }
+        ended
+    }
+
+    /// Integrates the minute begun by [`Patient::begin_step`] of every run,
+    /// sharing the gut through `tape`; side by side when they are the same
+    /// patient with the same solver, else one after the other.
+    #[inline]
+    pub(crate) fn integrate_side_shared<T: Side<W>, const W: usize>(
+        runs: &mut [&mut Patient; W],
+        tape: &mut GutTape,
+    ) {
+        let (first, rest) = runs.split_at_mut(1);
+        let first = &first[0];
+        let mut same = true;
+        for run in rest.iter_mut() {
+            // Equal constants are shared from the first time (one pointer
+            // comparison a minute after that, not forty values).
+            let same_consts = Arc::ptr_eq(&first.consts, &run.consts) || {
+                let equal = *first.consts == *run.consts;
+                if equal {
+                    run.consts = Arc::clone(&first.consts);
+                }
+                equal
+            };
+            same &= same_consts && run.solver == first.solver;
+        }
+        if !same {
+            for run in runs.iter_mut() {
+                run.integrate_shared(tape);
+            }
+            return;
+        }
+        let solver = runs[0].solver;
+        let consts = Arc::clone(&runs[0].consts);
+        let inputs: [MinuteInput; W] = std::array::from_fn(|l| runs[l].now.last_input);
+        let states = runs.each_mut().map(|run| &mut run.now.x);
+        solver.advance_side_shared::<T, W>(&consts, inputs.each_ref(), states, tape);
+    }
+
+    /// The part of [`Patient::step_split`] before the integration: checks
+    /// and books the minute's inputs.
+    #[inline]
+    pub(crate) fn begin_step(&mut self, i: SplitInput) -> Result<(), SimError> {
+        if !(i.egp_sensitivity.is_finite() && i.egp_sensitivity > 0.0) {
+            return Err(self.bad_input(i.cho_g_per_min, i.insulin_u_per_min, i.egp_sensitivity));
+        }
+        self.begin_minute(i.cho_g_per_min, i.insulin_u_per_min, i.sensitivity)?;
+        // (The next minute's input recomputes s·kp3 from its own sensitivity.)
+        self.now.last_input.s_kp3 = i.egp_sensitivity * self.consts.kp3;
+        Ok(())
+    }
+
+    /// Integrates the minute begun by [`Patient::begin_step`], sharing the
+    /// gut through `tape`.
+    #[inline]
+    pub(crate) fn integrate_shared(&mut self, tape: &mut GutTape) {
+        self.solver.advance_minute_shared(
+            &self.consts,
+            &self.now.last_input,
+            &mut self.now.x,
+            tape,
+        );
     }
 
     /// Checks the minute's inputs, updates the eating-episode bookkeeping

@@ -145,6 +145,13 @@ macro_rules! regather {
     };
 }
 
+/// Every field of `W` structs through `f`: `f([s[0].field, ...])`.
+macro_rules! gather_fields {
+    (($s:expr, $f:expr), $ty:ident { $($fi:ident),* $(,)? }) => {
+        $ty { $($fi: ($f)(std::array::from_fn(|l| $s[l].$fi)),)* }
+    };
+}
+
 /// Calls `$mac!($arg, Struct { every field })` for the two structs that
 /// exist as lanes, so that their field lists are written once.
 macro_rules! with_fields {
@@ -211,6 +218,29 @@ macro_rules! with_fields {
             }
         )
     };
+}
+
+impl<T: Copy> ModelConsts<T> {
+    /// Field by field `f([s[0].field, s[1].field, ...])`: `W` patients'
+    /// constants as one struct of another number type.
+    #[inline(always)]
+    pub fn gather_with<U, const W: usize>(
+        s: [&Self; W],
+        f: impl Fn([T; W]) -> U,
+    ) -> ModelConsts<U> {
+        with_fields!(gather_fields, (s, f), ModelConsts)
+    }
+}
+
+impl<T: Copy> MinuteInput<T> {
+    /// Field by field `f([s[0].field, s[1].field, ...])`.
+    #[inline(always)]
+    pub fn gather_with<U, const W: usize>(
+        s: [&Self; W],
+        f: impl Fn([T; W]) -> U,
+    ) -> MinuteInput<U> {
+        with_fields!(gather_fields, (s, f), MinuteInput)
+    }
 }
 
 impl<const W: usize> ModelConsts<Lanes<W>> {

@@ -7,7 +7,12 @@
 //! agreement with simglucose's adaptive Dormand-Prince solver.
 
 use super::lanes::Real;
-use super::model::{body_derivatives, derivatives_given_kempt, kempt_at, MinuteInput, ModelConsts};
+use super::model::{
+    body_derivatives, derivatives_given_kempt, gut_derivatives, kempt_at, MinuteInput, ModelConsts,
+};
+#[cfg(doc)]
+use super::pair::Pair;
+use super::pair::Side;
 use serde::{Deserialize, Serialize};
 
 /// How one minute is integrated.
@@ -197,6 +202,96 @@ impl Solver {
         tape.end = [x[0], x[1], x[2]];
         tape.key = Some(key);
     }
+
+    /// [`Solver::advance_minute_shared`] for `W` runs of one patient (the
+    /// same `c`) at once, `T` holding one value of each ([`Pair`]): when
+    /// all eat the same this minute (their gut keys match), the gut's minute is computed once (or taken from the tape)
+    /// and their bodies are integrated side by side, which a core steps in
+    /// about the time of one (see [`super::pair`]). Otherwise each goes
+    /// alone, in order. Bit-identical to `advance_minute_shared` on each
+    /// run in order.
+    pub fn advance_side_shared<T: Side<W>, const W: usize>(
+        &self,
+        c: &ModelConsts,
+        u: [&MinuteInput; W],
+        mut x: [&mut [f64; 13]; W],
+        tape: &mut GutTape,
+    ) {
+        let key = GutKey::of(*self, c, u[0], x[0]);
+        if !(1..W).all(|l| GutKey::of(*self, c, u[l], x[l]).matches(&key)) {
+            for (u, x) in u.into_iter().zip(x) {
+                self.advance_minute_shared(c, u, x, tape);
+            }
+            return;
+        }
+        if tape.key.is_some_and(|k| k.matches(&key)) {
+            tape.replays += W as u64;
+        } else {
+            // The gut's minute alone, as the full step computes it (the
+            // gut reads no other state), recorded for these runs and later
+            // ones; the first run's body is then integrated from the tape
+            // like the others'.
+            self.record_gut(c, u[0], x[0], tape);
+            tape.key = Some(key);
+            tape.replays += W as u64 - 1;
+        }
+        let n = tape.substeps;
+        let h = 1.0 / n as f64;
+        let cw = ModelConsts::gather_with([c], |[v]| T::splat(v));
+        let uw = MinuteInput::gather_with(u, T::from_lanes);
+        let mut xw: [T; 13] =
+            std::array::from_fn(|i| T::from_lanes(std::array::from_fn(|l| x[l][i])));
+        for q in tape.q_gut.chunks_exact(4).take(n as usize) {
+            rk4_body_step(&cw, &uw, &mut xw, h, [q[0], q[1], q[2], q[3]].map(T::splat));
+        }
+        for (i, v) in xw.iter().enumerate().skip(3) {
+            for (l, run) in v.lanes().into_iter().enumerate() {
+                x[l][i] = run;
+            }
+        }
+        for run in x.iter_mut() {
+            run[..3].copy_from_slice(&tape.end);
+        }
+    }
+
+    /// Integrates the gut's minute (Qsto1, Qsto2, Qgut) from state `x`
+    /// alone into `tape` (sub-steps, Qgut at every RK4 stage, the end
+    /// state), with the same operations on those states as the full step
+    /// ([`rk4_step`]): the gut is a closed subsystem. `x` is not changed.
+    fn record_gut(&self, c: &ModelConsts, u: &MinuteInput, x: &[f64; 13], tape: &mut GutTape) {
+        let n = self.substeps_for(c, u, x);
+        let h = 1.0 / n as f64;
+        tape.q_gut.clear();
+        // The gut's states in a full state vector (the rest zero: nothing
+        // the gut's equations read).
+        let mut g = [0.0; 13];
+        g[..3].copy_from_slice(&x[..3]);
+        for _ in 0..n {
+            let stage = |y: &[f64; 13], q: &mut Vec<f64>| {
+                q.push(y[2]);
+                gut_derivatives(c, u, y, kempt_at(c, u, y))
+            };
+            let k1 = stage(&g, &mut tape.q_gut);
+            let mut y = g;
+            for i in 0..3 {
+                y[i] = g[i] + k1[i] * (0.5 * h);
+            }
+            let k2 = stage(&y, &mut tape.q_gut);
+            for i in 0..3 {
+                y[i] = g[i] + k2[i] * (0.5 * h);
+            }
+            let k3 = stage(&y, &mut tape.q_gut);
+            for i in 0..3 {
+                y[i] = g[i] + k3[i] * h;
+            }
+            let k4 = stage(&y, &mut tape.q_gut);
+            for i in 0..3 {
+                g[i] += (k1[i] + k2[i] * 2.0 + k3[i] * 2.0 + k4[i]) * (h / 6.0);
+            }
+        }
+        tape.substeps = n;
+        tape.end = [g[0], g[1], g[2]];
+    }
 }
 
 impl Default for Solver {
@@ -268,7 +363,13 @@ fn rk4_step_with<T: Real>(
 /// each of the four stages given: the same operations on those states as
 /// the full step, so the same bits.
 #[inline(always)]
-fn rk4_body_step(c: &ModelConsts, u: &MinuteInput, x: &mut [f64; 13], h: f64, q_gut: [f64; 4]) {
+fn rk4_body_step<T: Real>(
+    c: &ModelConsts<T>,
+    u: &MinuteInput<T>,
+    x: &mut [T; 13],
+    h: f64,
+    q_gut: [T; 4],
+) {
     let k1 = body_derivatives(c, u, x, q_gut[0]);
     let mut y = *x;
     for i in 0..10 {
@@ -284,6 +385,6 @@ fn rk4_body_step(c: &ModelConsts, u: &MinuteInput, x: &mut [f64; 13], h: f64, q_
     }
     let k4 = body_derivatives(c, u, &y, q_gut[3]);
     for i in 0..10 {
-        x[i + 3] += (k1[i] + k2[i] * 2.0 + k3[i] * 2.0 + k4[i]) * (h / 6.0);
+        x[i + 3] = x[i + 3] + (k1[i] + k2[i] * 2.0 + k3[i] * 2.0 + k4[i]) * (h / 6.0);
     }
 }

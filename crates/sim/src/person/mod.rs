@@ -35,7 +35,9 @@ pub use behaviour::{Behaviour, DayClosing, SuggestionResponse};
 
 use crate::cohort::VirtualPatient;
 use crate::devices::{CgmSensor, DeviceSet, Pump, SmbgMeter};
-use crate::patient::{EatingQueue, GutTape, Patient};
+#[cfg(doc)]
+use crate::patient::Pair;
+use crate::patient::{EatingQueue, GutTape, Patient, Side, SplitInput};
 use crate::scenario::{
     DayPlan, ScenarioConfig, ScenarioGenerator, SensitivityTarget, SmbgPurpose, DAY_MINUTES,
 };
@@ -512,6 +514,62 @@ impl VirtualPerson {
     }
 
     fn end_minute_with(&mut self, tape: Option<&mut GutTape>) -> Result<(), SimError> {
+        let input = self.before_integration()?;
+        match tape {
+            Some(t) => {
+                self.patient.begin_step(input)?;
+                self.patient.integrate_shared(t);
+                self.patient.end_minute()?;
+            }
+            None => self.patient.step_split(
+                input.cho_g_per_min,
+                input.insulin_u_per_min,
+                input.sensitivity,
+                input.egp_sensitivity,
+            )?,
+        }
+        self.after_integration();
+        Ok(())
+    }
+
+    /// [`end_minute_shared`](Self::end_minute_shared) of each person in
+    /// order, with the same results bit for bit; when all are the same
+    /// patient eating the same (the trial's arms and scenarios), their
+    /// bodies are integrated side by side as one `T` ([`Pair`];
+    /// [`Patient::step_split_shared_side`]), in about the time of one.
+    /// When a person's minute is refused, those before it have ended
+    /// theirs; when a state turns non-finite, those before it have ended
+    /// theirs and those after it are left mid-minute.
+    pub fn end_minutes_shared_side<T: Side<W>, const W: usize>(
+        mut people: [&mut VirtualPerson; W],
+        tape: &mut GutTape,
+    ) -> Result<(), SimError> {
+        for k in 0..W {
+            let begun = people[k]
+                .before_integration()
+                .and_then(|input| people[k].patient.begin_step(input));
+            if let Err(e) = begun {
+                for person in &mut people[..k] {
+                    person.patient.integrate_shared(tape);
+                    person.patient.end_minute()?;
+                    person.after_integration();
+                }
+                return Err(e);
+            }
+        }
+        let mut patients = people.each_mut().map(|person| &mut person.patient);
+        Patient::integrate_side_shared::<T, W>(&mut patients, tape);
+        for person in people {
+            person.patient.end_minute()?;
+            person.after_integration();
+        }
+        Ok(())
+    }
+
+    /// The minute's delivery and eating, recorded, as the patient model's
+    /// inputs (after every event of the minute was taken).
+    #[inline]
+    fn before_integration(&mut self) -> Result<SplitInput, SimError> {
         if self.phase != Phase::Done {
             return Err(SimError::Config(format!(
                 "{}: finish_minute at {} before every event of the minute was taken",
@@ -531,12 +589,17 @@ impl VirtualPerson {
             SensitivityTarget::VmxAndKp3 => sensitivity,
             SensitivityTarget::Vmx => 1.0,
         };
-        match tape {
-            Some(t) => self
-                .patient
-                .step_split_shared(cho, insulin, sensitivity, liver, t)?,
-            None => self.patient.step_split(cho, insulin, sensitivity, liver)?,
-        }
+        Ok(SplitInput {
+            cho_g_per_min: cho,
+            insulin_u_per_min: insulin,
+            sensitivity,
+            egp_sensitivity: liver,
+        })
+    }
+
+    /// The clock after the minute was integrated.
+    #[inline]
+    fn after_integration(&mut self) {
         self.now = self.now.plus(1);
         self.minute_of_day += 1;
         if self.minute_of_day == DAY_MINUTES as u32 {
@@ -545,7 +608,6 @@ impl VirtualPerson {
             self.app_today = self.day_index + 1 >= i64::from(self.behaviour.app_from_day);
         }
         self.phase = Phase::Idle;
-        Ok(())
     }
 
     /// The record of the minute: complete after

@@ -297,10 +297,17 @@ impl Patient {
             return;
         }
         let solver = runs[0].solver;
-        let consts = Arc::clone(&runs[0].consts);
-        let inputs: [MinuteInput; W] = std::array::from_fn(|l| runs[l].now.last_input);
-        let states = runs.each_mut().map(|run| &mut run.now.x);
-        solver.advance_side_shared::<T, W>(&consts, inputs.each_ref(), states, tape);
+        // Each run's constants (shared) and state, borrowed apart (no
+        // reference count touched in the minute).
+        let parts = runs.each_mut().map(|run| {
+            let Patient { consts, now, .. } = &mut **run;
+            let MinuteState { x, last_input, .. } = now;
+            (&**consts, &*last_input, x)
+        });
+        let consts = parts[0].0;
+        let inputs = parts.each_ref().map(|(_, input, _)| *input);
+        let states = parts.map(|(_, _, x)| x);
+        solver.advance_side_shared::<T, W>(consts, inputs, states, tape);
     }
 
     /// The part of [`Patient::step_split`] before the integration: checks

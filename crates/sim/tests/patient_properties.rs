@@ -250,6 +250,41 @@ fn pair_stepping_is_bit_identical_to_stepping_alone() {
     }
 }
 
+/// A pair whose second run's input is refused: the error names it, the
+/// first run has taken its minute as it would have alone, and the second
+/// has not moved.
+#[test]
+fn pair_stepping_with_a_refused_input_steps_the_runs_before_it() {
+    use abba_sim::patient::{GutTape, Pair, SplitInput};
+    let p = PatientParams::public("adult#001").unwrap();
+    let start = Patient::new(p).unwrap();
+    let good = SplitInput {
+        cho_g_per_min: 5.0,
+        insulin_u_per_min: 0.02,
+        sensitivity: 1.0,
+        egp_sensitivity: 1.0,
+    };
+    let bad = SplitInput {
+        insulin_u_per_min: -1.0,
+        ..good
+    };
+    let mut alone = start.clone();
+    alone.step_split(5.0, 0.02, 1.0, 1.0).unwrap();
+    let (mut a, mut b) = (start.clone(), start.clone());
+    let mut tape = GutTape::new();
+    let e = Patient::step_split_shared_side::<Pair, 2>([&mut a, &mut b], [good, bad], &mut tape)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("insulin rate"), "{e}");
+    assert_eq!(
+        a.state_array().map(f64::to_bits),
+        alone.state_array().map(f64::to_bits)
+    );
+    assert_eq!(a.minute(), 1);
+    assert_eq!(b.minute(), 0);
+    assert_eq!(b.state_array(), start.state_array());
+}
+
 /// Two runs whose stomachs are equal (both empty before the first meal) but
 /// whose Qgut is not: the tape replays the gut's whole minute (Qgut at each
 /// stage and at the end), so its key must hold Qgut too, or the second run

@@ -514,19 +514,16 @@ impl VirtualPerson {
     }
 
     fn end_minute_with(&mut self, tape: Option<&mut GutTape>) -> Result<(), SimError> {
-        let input = self.before_integration()?;
+        let i = self.before_integration()?;
+        let (cho, insulin, s, liver) = (
+            i.cho_g_per_min,
+            i.insulin_u_per_min,
+            i.sensitivity,
+            i.egp_sensitivity,
+        );
         match tape {
-            Some(t) => {
-                self.patient.begin_step(input)?;
-                self.patient.integrate_shared(t);
-                self.patient.end_minute()?;
-            }
-            None => self.patient.step_split(
-                input.cho_g_per_min,
-                input.insulin_u_per_min,
-                input.sensitivity,
-                input.egp_sensitivity,
-            )?,
+            Some(t) => self.patient.step_split_shared(cho, insulin, s, liver, t)?,
+            None => self.patient.step_split(cho, insulin, s, liver)?,
         }
         self.after_integration();
         Ok(())

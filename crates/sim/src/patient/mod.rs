@@ -67,8 +67,8 @@ pub struct SplitInput {
 #[derive(Debug, Clone)]
 pub struct Patient {
     params: PatientParams,
-    /// Shared by the runs of one patient once a pair found them equal
-    /// ([`Patient::integrate_pair_shared`]); never changed.
+    /// Shared by the runs of one patient once a side-by-side step found
+    /// them equal ([`Patient::integrate_side_shared`]); never changed.
     consts: Arc<ModelConsts>,
     solver: Solver,
     /// State, minute count, eating bookkeeping and last input.
@@ -241,10 +241,10 @@ impl Patient {
 
     /// [`Patient::step_split_shared`] for `W` runs at once, in order: the
     /// same results, bit for bit, but when all are this patient eating the
-    /// same, their bodies are integrated side by side as one `T` ([`Pair`]; [`Solver::advance_side_shared`]), in about the time of
-    /// one. When a run's inputs are refused, the runs before it have taken
-    /// their minute (as they would have one by one) and the others have
-    /// not.
+    /// same, their bodies are integrated side by side as one `T` ([`Pair`];
+    /// [`Solver::advance_side_shared`]), in about the time of one. When a
+    /// run's inputs are refused, the runs before it have taken their
+    /// minute (as they would have one by one) and the others have not.
     pub fn step_split_shared_side<T: Side<W>, const W: usize>(
         mut runs: [&mut Patient; W],
         inputs: [SplitInput; W],

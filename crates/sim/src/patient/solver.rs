@@ -205,11 +205,11 @@ impl Solver {
 
     /// [`Solver::advance_minute_shared`] for `W` runs of one patient (the
     /// same `c`) at once, `T` holding one value of each ([`Pair`]): when
-    /// all eat the same this minute (their gut keys match), the gut's minute is computed once (or taken from the tape)
-    /// and their bodies are integrated side by side, which a core steps in
-    /// about the time of one (see [`super::pair`]). Otherwise each goes
-    /// alone, in order. Bit-identical to `advance_minute_shared` on each
-    /// run in order.
+    /// all eat the same this minute (their gut keys match), the gut's
+    /// minute is computed once (or taken from the tape) and their bodies
+    /// are integrated side by side, which a core steps in about the time
+    /// of one (see [`super::pair`]). Otherwise each goes alone, in order.
+    /// Bit-identical to `advance_minute_shared` on each run in order.
     pub fn advance_side_shared<T: Side<W>, const W: usize>(
         &self,
         c: &ModelConsts,

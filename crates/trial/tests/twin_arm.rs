@@ -59,11 +59,8 @@ fn the_twin_checked_arm_fits_from_device_data_and_pairs_with_abba() {
             (plain.final_basal_u_per_h, plain.final_carb_ratio_g_per_u),
         );
     }
-    // Deterministic.
-    let (again, stats2) =
-        run_patient(&config, vp, no as u64, sc, TwinArmOptions::default()).unwrap();
-    assert_eq!(again, checked);
-    assert_eq!(stats2, stats);
+    // (That a second run is the same bytes, serial or parallel, is the
+    // next test's: a twin's fit is the costly part of both.)
 }
 
 /// The arm through the runner and the report: `--arms abba,abba-twin` runs

@@ -108,21 +108,40 @@ pub fn start_glucose(tape: &Tape, fallback: f64) -> f64 {
 
 impl Problem<'_> {
     /// Predicted glucose per minute at z (with `insulin` in place of the
-    /// recorded insulin when given).
+    /// recorded insulin when given), up to the last counted reading: the
+    /// minutes after it (the held-out days, days left out at the end) are
+    /// not simulated, as no fitted reading can see them. (A run's minutes
+    /// do not depend on later ones, so the prediction is the same numbers
+    /// as the whole window's, cut; the cut saved the two held-out days of
+    /// every 14-day fit's simulations, 2/14 of them.)
     pub fn predict(&self, z: &[f64], insulin: Option<&[f64]>) -> Result<Vec<f64>, TwinError> {
         let (p, extras) = self.prior.params(z)?;
         let meals = eaten_meals(self.tape, extras.carb_factors, &self.found);
         self.sims.set(self.sims.get() + 1);
+        let insulin = insulin.unwrap_or(&self.insulin);
         sim::run(
             &p,
             &RunInputs {
                 start_minute: self.tape.start_minute,
-                insulin_u_per_min: insulin.unwrap_or(&self.insulin),
+                insulin_u_per_min: &insulin[..self.fitted_minutes().min(insulin.len())],
                 meals: &meals,
                 start_glucose_mg_dl: start_glucose(self.tape, p.gb),
                 dawn_factor: extras.dawn_factor,
             },
         )
+    }
+
+    /// Minutes from the tape's start to just after its last counted
+    /// reading (0 when none counts).
+    pub fn fitted_minutes(&self) -> usize {
+        self.tape
+            .readings
+            .iter()
+            .zip(&self.counted)
+            .filter(|(_, c)| **c)
+            .map(|(&(m, _), _)| (m - self.tape.start_minute + 1).max(0) as usize)
+            .max()
+            .unwrap_or(0)
     }
 
     /// Sum of squared residuals and count over the counted readings.

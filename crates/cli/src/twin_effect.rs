@@ -5,7 +5,10 @@
 //! on exactly the log the advice was built from, and replays the last
 //! [`EFFECT_DAYS`] days of its window with the suggestion against the
 //! recorded days. Replays are kept per (person, log hash, twin revision,
-//! setting, values), so a service answers a repeated request from memory.
+//! setting, values), so a service answers a repeated request from memory;
+//! and each person's last twin read is kept with the runs under the
+//! recorded settings its replays share, so a day's other suggestions
+//! replay in half the runs.
 //!
 //! [`TwinRefits`] is the store's [`TwinRefitter`]: what `abba serve`'s refit
 //! worker calls after a person's log changed. It refits a person who has a
@@ -28,6 +31,9 @@ pub const EFFECT_DAYS: usize = 7;
 
 /// Replays kept at most (then the memory starts again).
 const CACHE_MAX: usize = 4096;
+
+/// Persons whose last twin read is kept at most (then they start again).
+const TWINS_MAX: usize = 256;
 
 type Key = (String, String, u32, &'static str, u64, u64);
 
@@ -52,6 +58,8 @@ pub struct TwinPredictor {
     /// The store file, or why twins are not kept for this store.
     db: Result<PathBuf, String>,
     cache: Mutex<HashMap<Key, Effect>>,
+    /// Each person's twin as last read, with the runs its replays keep.
+    twins: Mutex<HashMap<String, std::sync::Arc<abba_twin::Twin>>>,
 }
 
 impl TwinPredictor {
@@ -60,6 +68,7 @@ impl TwinPredictor {
         Self {
             db: twins_beside(db).map(Path::to_path_buf),
             cache: Mutex::new(HashMap::new()),
+            twins: Mutex::new(HashMap::new()),
         }
     }
 }
@@ -142,6 +151,25 @@ impl EffectPredictor for TwinPredictor {
         {
             return e.clone();
         }
+        // The twin read before for this person when it is the same fit
+        // (its kept runs are then this one's), else this one, kept.
+        let twin = {
+            let mut twins = self
+                .twins
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner);
+            match twins.get(q.person) {
+                Some(kept) if **kept == twin => kept.clone(),
+                _ => {
+                    if twins.len() >= TWINS_MAX {
+                        twins.clear();
+                    }
+                    let twin = std::sync::Arc::new(twin);
+                    twins.insert(q.person.to_string(), twin.clone());
+                    twin
+                }
+            }
+        };
         let days = EFFECT_DAYS.min(twin.data.days);
         let effect = match twin.replay(q.events, &what_if(q), days) {
             Ok(r) => Effect::Predicted(Predicted {

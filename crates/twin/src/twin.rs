@@ -117,6 +117,58 @@ pub struct Twin {
     pub grade: Grade,
     /// Its rule applied.
     pub grade_reason: String,
+    /// The replays' runs under the recorded settings, kept between replays
+    /// (not stored, not compared).
+    #[serde(skip)]
+    recorded_runs: RecordedCache,
+}
+
+/// A replay's runs under the recorded settings over its last `days` days:
+/// the MAP point's figures and each posterior draw's (`None` where the
+/// draw's run failed). A replay is only made on the events the twin was
+/// fitted on, so these are the same for every what-if replayed over as
+/// many days: computed once, they halve the runs of every later replay
+/// (a day's four suggestions in the trial's twin arm, a person's three).
+#[derive(Debug)]
+struct RecordedRuns {
+    days: usize,
+    map: Ranges,
+    draws: Vec<Option<Ranges>>,
+}
+
+/// At most this many [`RecordedRuns`] (one per replay length) are kept.
+const RECORDED_RUNS_KEPT: usize = 4;
+
+/// The twin's [`RecordedRuns`]. A clone shares them; every cache is equal
+/// (it holds what the twin's own fields determine).
+#[derive(Default)]
+struct RecordedCache(std::sync::Mutex<Vec<std::sync::Arc<RecordedRuns>>>);
+
+impl RecordedCache {
+    fn kept(&self) -> std::sync::MutexGuard<'_, Vec<std::sync::Arc<RecordedRuns>>> {
+        // (A panic while the list was held leaves a list of whole entries.)
+        self.0
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+}
+
+impl Clone for RecordedCache {
+    fn clone(&self) -> Self {
+        RecordedCache(std::sync::Mutex::new(self.kept().clone()))
+    }
+}
+
+impl PartialEq for RecordedCache {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl std::fmt::Debug for RecordedCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "RecordedCache({} kept)", self.kept().len())
+    }
 }
 
 /// How to fit.
@@ -287,6 +339,7 @@ impl Twin {
             held_out_error,
             grade,
             grade_reason,
+            recorded_runs: RecordedCache::default(),
         })
     }
 
@@ -359,29 +412,58 @@ impl Twin {
         };
         let from = (tape.days - days) * MINUTES_PER_DAY as usize;
         let grid = |p: &[f64]| -> Vec<f64> { p[from..].iter().step_by(5).copied().collect() };
-        let run = |z: &[f64]| -> Result<(Ranges, Ranges), TwinError> {
-            let a = predict(&self.prior, &tape, &self.found_meals, z, &recorded)?;
-            let b = predict(&self.prior, &tape, &self.found_meals, z, &changed)?;
-            Ok((Ranges::of(&grid(&a))?, Ranges::of(&grid(&b))?))
-        };
-        let (base, new) = run(&self.z)?;
-        let mut base_d = Vec::new();
-        let mut new_d = Vec::new();
-        let mut delta_d = Vec::new();
-        let mut failed = 0;
-        for z in draws(
+        let zs = draws(
             &self.z,
             &self.covariance,
             &self.data.events_hash,
             fit::BAND_SAMPLES,
-        ) {
-            match run(&z) {
-                Ok((a, b)) => {
+        );
+        let run = |z: &[f64], insulin: &[f64]| -> Result<Ranges, TwinError> {
+            Ranges::of(&grid(&predict(
+                &self.prior,
+                &tape,
+                &self.found_meals,
+                z,
+                insulin,
+            )?))
+        };
+        let kept = self
+            .recorded_runs
+            .kept()
+            .iter()
+            .find(|r| r.days == days)
+            .cloned();
+        let recorded_runs = match kept {
+            Some(r) => r,
+            None => {
+                let r = std::sync::Arc::new(RecordedRuns {
+                    days,
+                    map: run(&self.z, &recorded)?,
+                    draws: zs.iter().map(|z| run(z, &recorded).ok()).collect(),
+                });
+                let mut list = self.recorded_runs.kept();
+                if list.len() >= RECORDED_RUNS_KEPT {
+                    list.remove(0);
+                }
+                list.push(r.clone());
+                r
+            }
+        };
+        let base = recorded_runs.map;
+        let new = run(&self.z, &changed)?;
+        let mut base_d = Vec::new();
+        let mut new_d = Vec::new();
+        let mut delta_d = Vec::new();
+        let mut failed = 0;
+        for (z, a) in zs.iter().zip(&recorded_runs.draws) {
+            // A draw counts when both of its runs succeed.
+            match a.map(|a| (a, run(z, &changed))) {
+                Some((a, Ok(b))) => {
                     delta_d.push(b.minus(&a));
                     base_d.push(a);
                     new_d.push(b);
                 }
-                Err(_) => failed += 1,
+                _ => failed += 1,
             }
         }
         let from_minute = tape.start_minute + from as i64;

@@ -187,7 +187,20 @@ pub fn member(population: Population, no: u32) -> Outcome {
     ] {
         let (_, m) = live(&config, vp, u64::from(no), therapy);
         let t = truth_ranges(&m, REPLAY_DAYS).minus(&truth_base);
-        let predicted = match twin.replay_for_validation(&logged, &change, REPLAY_DAYS) {
+        let replay = twin.replay_for_validation(&logged, &change, REPLAY_DAYS);
+        // The second what-if reuses the recorded settings' runs the first
+        // one kept: the same replay as a twin read back from its stored
+        // form, which keeps none.
+        let stored: Twin = serde_json::from_str(&serde_json::to_string(&twin).unwrap()).unwrap();
+        assert_eq!(
+            replay.as_ref().ok(),
+            stored
+                .replay_for_validation(&logged, &change, REPLAY_DAYS)
+                .as_ref()
+                .ok(),
+            "{label}: a replay with the kept runs differs from one without"
+        );
+        let predicted = match replay {
             Ok(r) => [r.change.value.tir_pct, r.change.value.below_70_pct],
             Err(_) => [f64::NAN; 2],
         };

@@ -131,7 +131,8 @@ pub struct Twin {
 /// (a day's four suggestions in the trial's twin arm, a person's three).
 #[derive(Debug)]
 struct RecordedRuns {
-    days: usize,
+    /// What the runs were made from ([`Twin::recorded_runs_key`]).
+    key: String,
     map: Ranges,
     draws: Vec<Option<Ranges>>,
 }
@@ -139,8 +140,9 @@ struct RecordedRuns {
 /// At most this many [`RecordedRuns`] (one per replay length) are kept.
 const RECORDED_RUNS_KEPT: usize = 4;
 
-/// The twin's [`RecordedRuns`]. A clone shares them; every cache is equal
-/// (it holds what the twin's own fields determine).
+/// The twin's [`RecordedRuns`]. A clone shares them (each is found by what
+/// it was made from, so a clone whose fields are then changed finds none);
+/// every cache is equal (it holds what the twin's own fields determine).
 #[derive(Default)]
 struct RecordedCache(std::sync::Mutex<Vec<std::sync::Arc<RecordedRuns>>>);
 
@@ -382,6 +384,23 @@ impl Twin {
         self.replay_inner(events, what_if, days, false)
     }
 
+    /// Everything a replay's runs under the recorded settings depend on
+    /// besides the events (which must be the fitted ones): the fitted
+    /// point, its covariance (the draws), the prior, the found meals, the
+    /// data range and the replay's length (`None`, nothing kept, should
+    /// they not serialise).
+    fn recorded_runs_key(&self, days: usize) -> Option<String> {
+        serde_json::to_string(&(
+            &self.z,
+            &self.covariance,
+            &self.prior,
+            &self.found_meals,
+            &self.data,
+            days,
+        ))
+        .ok()
+    }
+
     fn replay_inner(
         &self,
         events: &[Event],
@@ -427,25 +446,29 @@ impl Twin {
                 insulin,
             )?))
         };
-        let kept = self
-            .recorded_runs
-            .kept()
-            .iter()
-            .find(|r| r.days == days)
-            .cloned();
+        let key = self.recorded_runs_key(days);
+        let kept = key.as_ref().and_then(|key| {
+            self.recorded_runs
+                .kept()
+                .iter()
+                .find(|r| &r.key == key)
+                .cloned()
+        });
         let recorded_runs = match kept {
             Some(r) => r,
             None => {
                 let r = std::sync::Arc::new(RecordedRuns {
-                    days,
+                    key: key.clone().unwrap_or_default(),
                     map: run(&self.z, &recorded)?,
                     draws: zs.iter().map(|z| run(z, &recorded).ok()).collect(),
                 });
-                let mut list = self.recorded_runs.kept();
-                if list.len() >= RECORDED_RUNS_KEPT {
-                    list.remove(0);
+                if key.is_some() {
+                    let mut list = self.recorded_runs.kept();
+                    if list.len() >= RECORDED_RUNS_KEPT {
+                        list.remove(0);
+                    }
+                    list.push(r.clone());
                 }
-                list.push(r.clone());
                 r
             }
         };

@@ -191,7 +191,7 @@ pub fn member(population: Population, no: u32) -> Outcome {
         // The second what-if reuses the recorded settings' runs the first
         // one kept: the same replay as a twin read back from its stored
         // form, which keeps none.
-        let stored: Twin = serde_json::from_str(&serde_json::to_string(&twin).unwrap()).unwrap();
+        let stored = stored_form(&twin);
         assert_eq!(
             replay.as_ref().ok(),
             stored
@@ -206,6 +206,25 @@ pub fn member(population: Population, no: u32) -> Outcome {
         };
         what_if.push((label, predicted, [t.tir_pct, t.below_70_pct]));
     }
+    // A clone shares the kept runs; changed, it must not use them.
+    let (mut moved, mut moved_stored) = (twin.clone(), stored_form(&twin));
+    moved.z[0] += 0.5;
+    moved_stored.z[0] += 0.5;
+    let change = WhatIf {
+        basal: BasalChange::Factor(0.9),
+        carb_ratio: None,
+        carb_ratio_factor: None,
+        carb_ratio_factors: None,
+    };
+    assert_eq!(
+        moved
+            .replay_for_validation(&logged, &change, REPLAY_DAYS)
+            .ok(),
+        moved_stored
+            .replay_for_validation(&logged, &change, REPLAY_DAYS)
+            .ok(),
+        "a changed clone replayed with its original's kept runs"
+    );
     let tape = twin.tape(&logged).unwrap();
     let oracle = abba_twin::sim::run(
         &vp.params,
@@ -250,4 +269,9 @@ pub fn member(population: Population, no: u32) -> Outcome {
             .map(|e| (e.name.clone(), e.value))
             .collect(),
     }
+}
+
+/// `twin` read back from its stored form (which keeps no runs).
+fn stored_form(twin: &Twin) -> Twin {
+    serde_json::from_str(&serde_json::to_string(twin).unwrap()).unwrap()
 }

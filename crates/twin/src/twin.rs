@@ -458,6 +458,7 @@ impl Twin {
             Some(r) => r,
             None => {
                 let r = std::sync::Arc::new(RecordedRuns {
+                    // (without a key the runs serve this replay only)
                     key: key.clone().unwrap_or_default(),
                     map: run(&self.z, &recorded)?,
                     draws: zs.iter().map(|z| run(z, &recorded).ok()).collect(),

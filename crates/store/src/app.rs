@@ -202,8 +202,22 @@ pub fn insert(
 
 /// Every app event of a person, in the advisor's order.
 pub fn load(conn: &dyn Db, person: i64) -> Result<Vec<AppEvent>, StoreError> {
-    let mut out = Vec::new();
-    for r in conn.rows(Q::AppEventsOf, args![person])? {
+    events_of(conn.rows(Q::AppEventsOf, args![person])?)
+}
+
+/// The app events that come after `key` (minute, seq) in the advisor's
+/// order, in that order.
+pub fn load_after(
+    conn: &dyn Db,
+    person: i64,
+    key: (i64, u64),
+) -> Result<Vec<AppEvent>, StoreError> {
+    events_of(conn.rows(Q::AppEventsAfter, args![person, key.0, seq_sql(key.1)?])?)
+}
+
+fn events_of(rows: Vec<crate::backend::Row>) -> Result<Vec<AppEvent>, StoreError> {
+    let mut out = Vec::with_capacity(rows.len());
+    for r in rows {
         let (seq, at, kind) = (r.int(0)?, r.int(1)?, r.text(2)?);
         let kind: EventKind =
             serde_json::from_str(&kind).map_err(|e| StoreError::corrupt("app event", e))?;
@@ -232,21 +246,31 @@ pub fn one(conn: &dyn Db, person: i64, seq: u64) -> Result<Option<AppEvent>, Sto
 
 /// The event stream of an app-fed person (the events as posted).
 pub fn stream(person: &Person, events: &[AppEvent]) -> EventStream {
-    let mut counts: BTreeMap<String, usize> = BTreeMap::new();
-    for e in events {
-        *counts.entry(kind_name(&e.event.kind).into()).or_default() += 1;
-    }
-    EventStream {
+    let mut s = EventStream {
         first_day: person.first_day.map(|d| d.to_string()).unwrap_or_default(),
         tz: person.tz.iana_name().unwrap_or("?").to_string(),
-        events: events.iter().map(|e| e.event).collect(),
-        counts,
+        events: Vec::with_capacity(events.len()),
+        counts: BTreeMap::new(),
         ignored: BTreeMap::new(),
         not_mapped: BTreeMap::new(),
         censored: 0,
         rejected: Vec::new(),
         meal_rule: "meal slots as the app posted them".into(),
         notes: Vec::new(),
+    };
+    extend_stream(&mut s, events);
+    s
+}
+
+/// Appends app events that come after every event of `stream` (the
+/// advisor's order) to it.
+pub fn extend_stream(stream: &mut EventStream, events: &[AppEvent]) {
+    for e in events {
+        *stream
+            .counts
+            .entry(kind_name(&e.event.kind).into())
+            .or_default() += 1;
+        stream.events.push(e.event);
     }
 }
 

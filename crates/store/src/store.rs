@@ -3,6 +3,7 @@
 
 use crate::advise::{self, Advice, SuggestionView};
 use crate::answer::{self, param_key, Answer, AnswerKind, Answers};
+use crate::app::AppEvent;
 use crate::backend::{args, Conn, Db, Q};
 use crate::error::StoreError;
 use crate::import::{self, ImportSummary};
@@ -35,8 +36,38 @@ pub struct Store {
     pub(crate) conn: Conn,
     /// Events per person, keyed by (record count, last import id, app
     /// events): the logs only grow, so an unchanged key means unchanged
-    /// records.
-    pub(crate) cache: HashMap<i64, Cached>,
+    /// records. An app-fed person's stream is brought up to date by
+    /// loading only the events after its last one, when those are all the
+    /// new ones (another replica or connection stored them).
+    pub(crate) cache: StreamCache,
+}
+
+/// The event streams one connection keeps ([`Store`]'s `cache`), and how
+/// they were loaded.
+#[derive(Default)]
+pub(crate) struct StreamCache {
+    map: HashMap<i64, Cached>,
+    loads: StreamLoads,
+}
+
+impl StreamCache {
+    pub(crate) fn clear(&mut self) {
+        self.map.clear();
+    }
+
+    pub(crate) fn remove(&mut self, person: &i64) {
+        self.map.remove(person);
+    }
+}
+
+/// How a connection's event streams were brought up to date since it was
+/// opened ([`Store::stream_loads`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct StreamLoads {
+    /// Whole logs read.
+    pub whole: u64,
+    /// Cached app-fed streams extended by the events after their last one.
+    pub tail: u64,
 }
 
 /// The most event streams one connection keeps.
@@ -49,6 +80,8 @@ pub(crate) struct Cached {
     /// Import-fed persons: what the records say (profiles, delivery, the
     /// first week); none for app-fed persons.
     facts: Option<Arc<RecordFacts>>,
+    /// App-fed persons: the stream's last event with its (minute, seq).
+    last_app: Option<AppEvent>,
 }
 
 /// Everything one refresh knows.
@@ -83,6 +116,36 @@ fn load_snapshot(conn: &dyn Db, person: i64) -> Result<Option<Snapshot>, StoreEr
     }))
 }
 
+/// An app-fed person's cached stream `c` brought up to `key` by appending
+/// the events after its last one, when they are all the new events: the
+/// last event is still held as cached, and the cached count plus the
+/// events after it make the count now (events are only ever added while a
+/// store is served; a late event, dated before the last one, and any
+/// other change give `None`, and the caller loads the whole log).
+fn app_tail(
+    conn: &dyn Db,
+    person: i64,
+    mut c: Cached,
+    key: (i64, i64, i64),
+) -> Result<Option<Cached>, StoreError> {
+    let Some(last) = c.last_app else {
+        return Ok(None);
+    };
+    let app_fed = c.facts.is_none() && (c.key.0, c.key.1) == (0, 0) && (key.0, key.1) == (0, 0);
+    if !app_fed || key.2 <= c.key.2 || crate::app::one(conn, person, last.seq)? != Some(last) {
+        return Ok(None);
+    }
+    let tail = crate::app::load_after(conn, person, last.key())?;
+    if c.key.2 + tail.len() as i64 != key.2 {
+        return Ok(None);
+    }
+    crate::app::extend_stream(Arc::make_mut(&mut c.stream), &tail);
+    c.records += tail.len();
+    c.key = key;
+    c.last_app = tail.last().copied().or(c.last_app);
+    Ok(Some(c))
+}
+
 fn decisions(conn: &dyn Db, person: i64) -> Result<Vec<Decision>, StoreError> {
     let mut out: Vec<Decision> = Vec::new();
     for r in conn.rows(Q::SuggestionDecisions, args![person])? {
@@ -97,7 +160,7 @@ fn decisions(conn: &dyn Db, person: i64) -> Result<Vec<Decision>, StoreError> {
 /// and the new snapshot. Call inside a transaction.
 pub(crate) fn refresh(
     conn: &dyn Db,
-    cache: &mut HashMap<i64, Cached>,
+    cache: &mut StreamCache,
     person: &Person,
     use_snapshot: bool,
 ) -> Result<State, StoreError> {
@@ -108,7 +171,7 @@ pub(crate) fn refresh(
 /// the decisions are the stored ones with the replay's merged in).
 pub(crate) fn refresh_with(
     conn: &dyn Db,
-    cache: &mut HashMap<i64, Cached>,
+    cache: &mut StreamCache,
     person: &Person,
     use_snapshot: bool,
     write: bool,
@@ -116,17 +179,29 @@ pub(crate) fn refresh_with(
     let r = conn.one(Q::RecordCountAndLastImport, args![person.id])?;
     let (n, last) = (r.int(0)?, r.int(1)?);
     let key = (n, last, crate::app::count(conn, person.id)?);
-    let (records, stream, facts) = match cache.get(&person.id) {
-        Some(c) if c.key == key => (c.records, Arc::clone(&c.stream), c.facts.clone()),
-        _ => {
-            let (records, stream, facts) = if key.2 > 0 || key.0 == 0 {
+    let cached = cache.map.remove(&person.id);
+    let current = match cached {
+        Some(c) if c.key == key => Some(c),
+        Some(c) => {
+            let grown = app_tail(conn, person.id, c, key)?;
+            cache.loads.tail += u64::from(grown.is_some());
+            grown
+        }
+        None => None,
+    };
+    let (records, stream, facts, last_app) = match current {
+        Some(c) => (c.records, c.stream, c.facts, c.last_app),
+        None => {
+            cache.loads.whole += 1;
+            let (records, stream, facts, last_app) = if key.2 > 0 || key.0 == 0 {
                 // An app-fed person: the events as the app posted them.
                 // (A person with no data yet has no record facts either:
                 // a first week "never ended" would keep the live advisor
                 // that the app's first events advance from ever
                 // initialising.)
                 let app = crate::app::load(conn, person.id)?;
-                (app.len(), crate::app::stream(person, &app), None)
+                let last_app = app.last().copied();
+                (app.len(), crate::app::stream(person, &app), None, last_app)
             } else {
                 let recs = log::records(conn, person.id)?;
                 let n = recs.len();
@@ -136,26 +211,26 @@ pub(crate) fn refresh_with(
                     &recs,
                     &stream.events,
                 )?));
-                (n, stream, facts)
+                (n, stream, facts, None)
             };
-            let stream = Arc::new(stream);
-            // Bounded: a connection serving many persons keeps only the
-            // streams of a few (each is a person's whole log).
-            if cache.len() >= MAX_CACHED_STREAMS {
-                cache.clear();
-            }
-            cache.insert(
-                person.id,
-                Cached {
-                    key,
-                    records,
-                    stream: Arc::clone(&stream),
-                    facts: facts.clone(),
-                },
-            );
-            (records, stream, facts)
+            (records, Arc::new(stream), facts, last_app)
         }
     };
+    // Bounded: a connection serving many persons keeps only the streams of
+    // a few (each is a person's whole log).
+    if cache.map.len() >= MAX_CACHED_STREAMS {
+        cache.map.clear();
+    }
+    cache.map.insert(
+        person.id,
+        Cached {
+            key,
+            records,
+            stream: Arc::clone(&stream),
+            facts: facts.clone(),
+            last_app,
+        },
+    );
     let extras = match &facts {
         Some(f) => Some(in_force::extras(conn, person, f)?),
         None => in_force::app_extras(conn, person)?,
@@ -242,7 +317,7 @@ impl Store {
     pub fn open(path: &Path) -> Result<Self, StoreError> {
         Ok(Self {
             conn: crate::schema::open(path)?,
-            cache: HashMap::new(),
+            cache: StreamCache::default(),
         })
     }
 
@@ -527,6 +602,11 @@ impl Store {
     /// The advisor after the whole log, from the snapshot when it matches.
     pub fn advisor(&mut self, name: &str) -> Result<Abba, StoreError> {
         Ok(self.state(name, true)?.1.advisor)
+    }
+
+    /// How this connection's event streams were brought up to date.
+    pub fn stream_loads(&self) -> StreamLoads {
+        self.cache.loads
     }
 
     /// The advisor rebuilt from scratch (the snapshot ignored and replaced).

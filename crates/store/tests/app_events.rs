@@ -268,3 +268,74 @@ fn a_clinicians_change_reaches_an_app_fed_persons_advisor_at_its_time() {
     assert!(advice.first_week.is_none());
     assert_eq!(live2.advisor, store.rebuild("ana").unwrap());
 }
+
+/// Two live states of one person agree in everything the service reads.
+fn assert_same_live(got: &abba_store::Live, fresh: &abba_store::Live, what: &str) {
+    assert_eq!(got.stream.events, fresh.stream.events, "{what}: events");
+    assert_eq!(got.stream.counts, fresh.stream.counts, "{what}: counts");
+    assert_eq!(got.records, fresh.records, "{what}: records");
+    assert_eq!(got.advisor, fresh.advisor, "{what}: advisor");
+    assert_eq!(got.decisions, fresh.decisions, "{what}: decisions");
+    assert_eq!(got.refused, fresh.refused, "{what}: refused");
+    assert_eq!(got.rev, fresh.rev, "{what}: revision");
+}
+
+#[test]
+fn a_cached_log_takes_only_the_events_another_connection_stored_after_it() {
+    use abba_core::{Event, MgDl, Timestamp};
+    let dir = TempDir::new("app-tail");
+    // Two connections, as two replicas of the service (or two pooled
+    // connections of one) hold them, each with its own cached logs.
+    let (mut a, mut b) = (dir.store(), dir.store());
+    let mut np = person("ana");
+    np.first_day = Some("2026-05-04".parse().unwrap());
+    let p = a.create_person(&np).unwrap();
+    let evs = events(8);
+    let batch = app_batch(1, &evs);
+    let day = |d| {
+        evs.iter()
+            .position(|e| e.at >= Timestamp::from_day_and_minute(d, 0))
+            .unwrap()
+    };
+    let post = |s: &mut abba_store::store::Store, events: &[NewAppEvent]| {
+        let mut live = s.live(p.id).unwrap();
+        s.post_events(&mut live, events).unwrap();
+    };
+    post(&mut a, &batch[..day(3)]);
+    a.live(p.id).unwrap();
+    let start = a.stream_loads();
+
+    // Days 3-4 stored by the other connection: A reads only those.
+    post(&mut b, &batch[day(3)..day(5)]);
+    let grown = a.live(p.id).unwrap();
+    let loads = a.stream_loads();
+    assert_eq!((loads.whole, loads.tail), (start.whole, start.tail + 1));
+    assert_same_live(&grown, &dir.store().live(p.id).unwrap(), "after days 3-4");
+    // The same in a read transaction (nothing written).
+    post(&mut b, &batch[day(5)..day(6)]);
+    let read = a.live_read(p.id).unwrap();
+    assert_eq!(a.stream_loads().tail, start.tail + 2);
+    assert_same_live(&read, &dir.store().live_read(p.id).unwrap(), "read");
+
+    // A late reading, dated before the cached log's last event: not a
+    // tail, so A reads the whole log again.
+    let late = Event::new(
+        Timestamp::from_day_and_minute(4, 2),
+        EventKind::Cgm(MgDl(101.0)),
+    );
+    post(&mut b, &app_batch(100_000, &[late]));
+    let with_late = a.live(p.id).unwrap();
+    let loads = a.stream_loads();
+    assert_eq!((loads.whole, loads.tail), (start.whole + 1, start.tail + 2));
+    assert_same_live(&with_late, &dir.store().live(p.id).unwrap(), "late");
+    assert!(with_late.stream.events.contains(&late));
+
+    // Then the rest, stored by B: a tail again, and the same advisor as
+    // the whole log replayed from scratch.
+    post(&mut b, &batch[day(6)..]);
+    let last = a.live(p.id).unwrap();
+    assert_eq!(a.stream_loads().tail, start.tail + 3);
+    assert_same_live(&last, &dir.store().live(p.id).unwrap(), "the rest");
+    assert_eq!(last.advisor, a.rebuild("ana").unwrap());
+    assert_eq!(last.stream.events.len(), evs.len() + 1);
+}

@@ -59,6 +59,8 @@ statements! {
     AppEventPut = "INSERT INTO app_event (person_id, seq, at_ms, at_min, tag, kind, hash, received_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8)";
     /// App events of.
     AppEventsOf = "SELECT seq, at_min, kind FROM app_event WHERE person_id = ?1 ORDER BY at_min, seq";
+    /// App events after (minute, seq), in the advisor's order.
+    AppEventsAfter = "SELECT seq, at_min, kind FROM app_event WHERE person_id = ?1 AND (at_min > ?2 OR (at_min = ?2 AND seq > ?3)) ORDER BY at_min, seq";
     /// App event one.
     AppEventOne = "SELECT at_min, kind FROM app_event WHERE person_id = ?1 AND seq = ?2";
     /// App event seqs from.

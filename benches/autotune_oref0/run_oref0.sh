@@ -23,4 +23,14 @@ for day in 1 2; do
       "$data/pumpprofile.json" > "$data/autotune.day$day.json" 2>/dev/null
   cp "$data/autotune.day$day.json" "$work/profile.json"
 done
+# The same days in the forms real uploaders store them (make_quirks.py).
+python3 "$here/make_quirks.py" "$data" "$data"
+cp "$data/pumpprofile.json" "$work/profile.json"
+for day in 1 2; do
+  node "$bin/oref0-autotune-prep.js" "$data/treatments.quirks.json" "$work/profile.json" \
+      "$data/entries.quirks.day$day.json" "$data/pumpprofile.json" > "$work/prepped.quirks.day$day.json" 2>/dev/null
+  node "$bin/oref0-autotune-core.js" "$work/prepped.quirks.day$day.json" "$work/profile.json" \
+      "$data/pumpprofile.json" > "$data/autotune.quirks.day$day.json" 2>/dev/null
+  cp "$data/autotune.quirks.day$day.json" "$work/profile.json"
+done
 echo "wrote $data"

@@ -58,7 +58,11 @@ fn day_data(entries: &str) -> DayData {
     for t in read("treatments.json").as_array().unwrap() {
         let at_ms = ms(t["created_at"].as_str().unwrap());
         if let Some(g) = t["carbs"].as_f64() {
-            carbs.push(Carbs { at_ms, grams: g });
+            carbs.push(Carbs {
+                at_ms,
+                grams: g,
+                stamp_ms: t["timestamp"].as_str().map(ms),
+            });
         }
         if t["eventType"] == "Temp Basal" {
             insulin.push(Insulin::Temp {

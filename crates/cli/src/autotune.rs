@@ -11,12 +11,13 @@ use abba_advisor::baselines::autotune::{
     Reading, Tuned,
 };
 use abba_core::units::GlucoseUnit;
-use abba_io::record::{RecordKind, TempRate};
+use abba_io::record::{Origin, OriginAt, RecordKind, TempRate};
 use abba_io::{Format, ReadOptions, Record};
 use abba_store::Store;
 use anyhow::{bail, Context, Result};
 use jiff::civil::Date;
 use jiff::tz::TimeZone;
+use std::collections::HashMap;
 
 use crate::input::date;
 
@@ -120,6 +121,7 @@ struct Inputs {
 fn inputs(
     records: &[Record],
     origin: &dyn Fn(&Record) -> String,
+    stamps: &Stamps,
     profile: &Profile,
     clock: &Zone,
 ) -> Result<Inputs> {
@@ -152,6 +154,7 @@ fn inputs(
             RecordKind::Carbs { grams } => x.carbs.push(Carbs {
                 at_ms: at,
                 grams: grams.0,
+                stamp_ms: stamps.get(&r.origin).copied(),
             }),
             RecordKind::TempBasal { rate, duration_min } => {
                 let rate = match rate {
@@ -415,13 +418,65 @@ type Source = (
     TimeZone,
     Profile,
     IsfUnit,
+    Stamps,
 );
+
+/// Each Nightscout treatment's own `timestamp` field (ms), by where it was
+/// read: oref0's duplicate check of meals compares it (abba-advisor's
+/// autotune, choice 4). A store keeps none.
+type Stamps = HashMap<Origin, i64>;
+
+/// The `timestamp` fields of the treatments in file `file` of a batch (a
+/// JSON array, or one document per line as mongoexport writes them), as
+/// JavaScript's `Date` reads them: a number is ms, a text without an offset
+/// is local time. A field that is neither is left out (oref0 can match no
+/// time with it either).
+fn stamps(path: &Path, file: u16, tz: &TimeZone) -> Result<Stamps> {
+    use serde_json::Value;
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("{}: cannot read", path.display()))?;
+    let items: Vec<(OriginAt, Value)> = match serde_json::from_str::<Value>(&text) {
+        Ok(Value::Array(items)) => items
+            .into_iter()
+            .enumerate()
+            .map(|(i, v)| (OriginAt::Item(i as u32), v))
+            .collect(),
+        _ => text
+            .lines()
+            .enumerate()
+            .filter_map(|(n, l)| {
+                Some((OriginAt::Line(n as u32 + 1), serde_json::from_str(l).ok()?))
+            })
+            .collect(),
+    };
+    let instant = |v: &Value| -> Option<i64> {
+        match v {
+            Value::Number(n) => n.as_f64().map(|ms| ms as i64),
+            Value::String(s) => s
+                .parse::<jiff::Timestamp>()
+                .ok()
+                .or_else(|| {
+                    let civil: jiff::civil::DateTime = s.parse().ok()?;
+                    civil.to_zoned(tz.clone()).ok().map(|z| z.timestamp())
+                })
+                .map(|t| t.as_millisecond()),
+            _ => None,
+        }
+    };
+    Ok(items
+        .iter()
+        .filter_map(|(at, v)| Some((Origin { file, at: *at }, instant(v.get("timestamp")?)?)))
+        .collect())
+}
 
 /// Runs `abba autotune`.
 pub fn run(args: Args) -> Result<()> {
     let mut said = Vec::new();
-    let (records, origin, tz, profile, unit): Source = match (&args.entries, &args.db, &args.person)
-    {
+    let (records, origin, tz, profile, unit, stamps): Source = match (
+        &args.entries,
+        &args.db,
+        &args.person,
+    ) {
         (Some(entries), _, _) => {
             let (Some(treatments), Some(profile), Some(tz)) =
                 (&args.treatments, &args.profile, &args.tz)
@@ -437,8 +492,16 @@ pub fn run(args: Args) -> Result<()> {
             let mut batch = abba_io::read_files(&[entries.clone(), treatments.clone()], &opts)?;
             said.extend(reading_report(&mut batch));
             let records = batch.records.clone();
+            let stamps = stamps(treatments, 1, &tz)?;
             let origin = Box::new(move |r: &Record| batch.origin(r));
-            (records, origin, tz, read_profile(profile)?, IsfUnit::MgDl)
+            (
+                records,
+                origin,
+                tz,
+                read_profile(profile)?,
+                IsfUnit::MgDl,
+                stamps,
+            )
         }
         (None, Some(db), Some(name)) => {
             let mut store = crate::store_args::open(db)?;
@@ -471,7 +534,14 @@ pub fn run(args: Args) -> Result<()> {
                     r.at
                 )
             });
-            (records, origin, person.tz.clone(), profile, unit)
+            (
+                records,
+                origin,
+                person.tz.clone(),
+                profile,
+                unit,
+                Stamps::new(),
+            )
         }
         _ => bail!("give --entries, --treatments, --profile and --tz, or --db and --person"),
     };
@@ -479,7 +549,7 @@ pub fn run(args: Args) -> Result<()> {
         Some(p) => read_profile(p)?,
         None => profile.clone(),
     };
-    let x = inputs(&records, &*origin, &profile, &Zone(tz.clone()))?;
+    let x = inputs(&records, &*origin, &stamps, &profile, &Zone(tz.clone()))?;
     let range = days(&args, &tz, &x.glucose)?;
     let out = run_days(&x, &tz, range, profile, &pump)?;
     if args.json {

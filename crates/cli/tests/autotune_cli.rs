@@ -35,8 +35,12 @@ fn read(path: &str) -> Value {
 /// Both fixture days' entries in one file, as a Nightscout download of the
 /// two days would be.
 fn entries(dir: &Path) -> String {
+    entries_of(dir, ["entries.day1.json", "entries.day2.json"])
+}
+
+fn entries_of(dir: &Path, days: [&str; 2]) -> String {
     let mut all = Vec::new();
-    for d in ["entries.day1.json", "entries.day2.json"] {
+    for d in days {
         all.extend(read(&data(d)).as_array().unwrap().iter().cloned());
     }
     let path = dir.join("entries.json");
@@ -47,7 +51,11 @@ fn entries(dir: &Path) -> String {
 /// Every hourly basal within 0.005 U/h, ISF and carb ratio within 0.5 % of
 /// oref0's day-2 profile.
 fn assert_oref0_day2(profile: &Value, isf_scale: f64) {
-    let want = read(&data("autotune.day2.json"));
+    assert_oref0(profile, isf_scale, "autotune.day2.json");
+}
+
+fn assert_oref0(profile: &Value, isf_scale: f64, oref0: &str) {
+    let want = read(&data(oref0));
     let got_b = profile["basalprofile"].as_array().unwrap();
     let want_b = want["basalprofile"].as_array().unwrap();
     assert_eq!(got_b.len(), 24);
@@ -106,6 +114,59 @@ fn nightscout_files_give_oref0s_profile() {
     assert!(text.contains("research software, not a medical device"));
     assert!(text.contains("ISF [mg/dL/U]"));
     assert!(text.contains("\"basalprofile\""));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The same days in the forms real uploaders store them
+/// (benches/autotune_oref0/make_quirks.py: OpenAPS, AndroidAPS and Loop
+/// temporary basals, percent temps, super-micro-boluses, Bolus Wizard and
+/// Loop's carbs apart from their bolus, carbs uploaded twice, records
+/// without insulin or carbs, repeated readings, meter readings and a
+/// calibration): the profile oref0 0.7.1 makes of them, the carbs it takes
+/// once taken once.
+#[test]
+fn real_uploaders_forms_give_oref0s_profile() {
+    let dir = tmp("quirks");
+    let e = entries_of(
+        &dir,
+        ["entries.quirks.day1.json", "entries.quirks.day2.json"],
+    );
+    let out = ok(&abba(&[
+        "autotune",
+        "--entries",
+        &e,
+        "--treatments",
+        &data("treatments.quirks.json"),
+        "--profile",
+        &data("profile.day1.json"),
+        "--pump-profile",
+        &data("pumpprofile.json"),
+        "--tz",
+        "Europe/Zurich",
+        "--json",
+    ]));
+    let json: Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(
+        json["days"],
+        serde_json::json!(["2026-01-10", "2026-01-11"])
+    );
+    assert_oref0(&json["profile"], 1.0, "autotune.quirks.day2.json");
+    // Loop's carbs carry a `timestamp`: the second upload of one meal, 0.6 s
+    // later, is taken once, as oref0 does (a copy of a Careportal meal,
+    // which has none, is taken twice by both).
+    let notes: Vec<String> = json["runs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .flat_map(|r| r["notes"].as_array().unwrap().iter())
+        .map(|n| n.as_str().unwrap().to_string())
+        .collect();
+    assert!(
+        notes
+            .iter()
+            .any(|n| n.starts_with("1 carb entry within 2 s of another taken once")),
+        "{notes:?}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 

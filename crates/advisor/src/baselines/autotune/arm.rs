@@ -285,6 +285,7 @@ impl Autotune {
                 .map(|&(m, g)| Carbs {
                     at_ms: ms(m),
                     grams: g,
+                    stamp_ms: None,
                 })
                 .collect(),
         };

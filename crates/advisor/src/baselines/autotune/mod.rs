@@ -43,9 +43,15 @@
 //!    counts them. Extended boluses: the immediate part is a bolus, the
 //!    extended part 0.05 U pieces spread over its duration (oref0 ignores
 //!    Nightscout's `Combo Bolus`).
-//! 4. oref0's duplicate check of meal entries compares a `timestamp` field
-//!    Nightscout treatments do not carry, so it never fires on Nightscout
-//!    data; we do not dedupe (abba's readers report duplicate records).
+//! 4. oref0's duplicate check of meal entries (newest `created_at` first)
+//!    drops a carb entry whose own `timestamp` field is within 2 s of a
+//!    meal already taken ([`Carbs::stamp_ms`], [`DUPLICATE_MEAL_MS`]); an
+//!    entry without that field (AndroidAPS, the Careportal) is never
+//!    dropped. We do the same, and the run's notes count the dropped ones.
+//!    Records repeated whole (same instant, kind and values) are read once
+//!    by abba's readers, which report them; oref0 would count them twice
+//!    (Nightscout itself refuses a second treatment with the same
+//!    `created_at` and `eventType`, so real downloads rarely hold any).
 //! 5. Rounding is JavaScript's: `Math.round` (halves up), `toFixed(2)`
 //!    (exact decimal, halves away from zero), `parseInt` (truncation); see
 //!    [`js`].
@@ -105,11 +111,21 @@ pub struct Reading {
 /// Carbohydrate entered.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Carbs {
-    /// When (ms since the epoch).
+    /// When (ms since the epoch; Nightscout's `created_at`).
     pub at_ms: i64,
     /// Grams.
     pub grams: f64,
+    /// The instant of the record's own `timestamp` field, when it has one
+    /// (Nightscout treatments uploaded by Loop and OpenAPS rigs do; those
+    /// of AndroidAPS and the Careportal do not): what oref0's duplicate
+    /// check of meals compares (choice 4 of the module's doc).
+    pub stamp_ms: Option<i64>,
 }
+
+/// How close (ms, exclusive) a meal's `timestamp` must be to the time of a
+/// meal already taken for oref0 to drop it as the same meal uploaded twice
+/// (lib/meal/history.js).
+pub const DUPLICATE_MEAL_MS: i64 = 2_000;
 
 /// Insulin delivery records.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -127,14 +127,16 @@ pub fn categorize(day: &DayData, profile: &Profile, clock: &dyn LocalClock) -> P
     }
     let model = profile.insulin();
     let carb_ratio = profile.carb_ratio.unwrap_or(f64::NAN);
-    // Meals newest first; those before the oldest reading dropped (but the newest is always kept).
-    let mut meals: Vec<Carbs> = day
-        .carbs
-        .iter()
-        .filter(|c| c.grams > 0.0)
-        .copied()
-        .collect();
-    meals.sort_by_key(|x| std::cmp::Reverse(x.at_ms));
+    // Meals newest first, a meal uploaded twice once; those before the
+    // oldest reading dropped (but the newest is always kept).
+    let mut meals = meal_inputs(&day.carbs);
+    let repeated = day.carbs.iter().filter(|c| c.grams > 0.0).count() - meals.len();
+    if repeated > 0 {
+        out.notes.push(format!(
+            "{repeated} carb entr{} within 2 s of another taken once, as oref0 does",
+            if repeated == 1 { "y" } else { "ies" }
+        ));
+    }
     let oldest = b[b.len() - 1].0;
     let mut i = meals.len();
     while i > 1 {
@@ -334,6 +336,27 @@ pub fn categorize(day: &DayData, profile: &Profile, clock: &dyn LocalClock) -> P
     out
 }
 
+/// The meals oref0's meal history takes, newest first: carb entries with
+/// grams > 0 in order of `created_at` (latest first, ties in the given
+/// order), each dropped when its own `timestamp` is within
+/// [`super::DUPLICATE_MEAL_MS`] of a meal taken before it.
+fn meal_inputs(carbs: &[Carbs]) -> Vec<Carbs> {
+    let mut all: Vec<Carbs> = carbs.iter().filter(|c| c.grams > 0.0).copied().collect();
+    all.sort_by_key(|x| std::cmp::Reverse(x.at_ms));
+    let mut taken: Vec<Carbs> = Vec::with_capacity(all.len());
+    for c in all {
+        let repeat = c.stamp_ms.is_some_and(|t| {
+            taken
+                .iter()
+                .any(|m| (m.at_ms - t).abs() < super::DUPLICATE_MEAL_MS)
+        });
+        if !repeat {
+            taken.push(c);
+        }
+    }
+    taken
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -397,10 +420,42 @@ mod tests {
     }
 
     #[test]
+    fn a_meal_uploaded_twice_is_taken_once_only_when_its_timestamp_says_so() {
+        let c = |at_ms: i64, grams: f64, stamp_ms: Option<i64>| Carbs {
+            at_ms,
+            grams,
+            stamp_ms,
+        };
+        let t = 14 * H;
+        // Newest first: the copy 600 ms later is taken, and the first
+        // upload (its `timestamp` 600 ms before it) dropped.
+        let taken = meal_inputs(&[c(t, 40.0, Some(t)), c(t + 600, 40.0, None)]);
+        assert_eq!(taken, [c(t + 600, 40.0, None)]);
+        // Within 2 s, exclusive; whatever the grams.
+        let taken = meal_inputs(&[c(t, 40.0, Some(t)), c(t + 1_999, 25.0, None)]);
+        assert_eq!(taken.len(), 1);
+        let taken = meal_inputs(&[c(t, 40.0, Some(t)), c(t + 2_000, 40.0, None)]);
+        assert_eq!(taken.len(), 2);
+        // Without a `timestamp` of its own an entry is never a copy, even
+        // at the same instant; zero grams are no meal.
+        let taken = meal_inputs(&[c(t, 40.0, None), c(t, 40.0, None), c(t, 0.0, None)]);
+        assert_eq!(taken.len(), 2);
+        // The check is against meals taken, not against every entry: a
+        // dropped copy does not drop a third.
+        let taken = meal_inputs(&[
+            c(t + 3_000, 40.0, None),
+            c(t + 1_500, 40.0, Some(t + 1_500)),
+            c(t, 40.0, Some(t)),
+        ]);
+        assert_eq!(taken, [c(t + 3_000, 40.0, None), c(t, 40.0, Some(t))]);
+    }
+
+    #[test]
     fn a_meal_is_carb_absorption_from_start_to_end() {
         let carbs = Carbs {
             at_ms: 14 * H,
             grams: 40.0,
+            stamp_ms: None,
         };
         let bolus = Insulin::Bolus {
             at_ms: 14 * H,

@@ -13,7 +13,8 @@ person's data):
   `temp`, a local `timestamp` with its offset beside `created_at`),
   AndroidAPS (`absolute` and `rate`, `durationInMilliseconds`, `date` in ms,
   `isValid`, `pumpId`, `enteredBy` openaps://AndroidAPS), Loop (`duration`
-  in fractional minutes, `automatic`, `reason`), and AndroidAPS percent
+  in fractional minutes, the `amount` delivered in 0.05 U pulses, which
+  oref0 takes over `rate`, `automatic`, `reason`), and AndroidAPS percent
   temps (`percent` beside `absolute`);
 - meal boluses, in turn: Careportal "Meal Bolus" (insulin and carbs),
   "Bolus Wizard" (insulin and carbs), and Loop's separate "Carb Correction"
@@ -70,9 +71,11 @@ def temp(t, i):
                 "duration": minutes, "durationInMilliseconds": minutes * 60000, "type": "NORMAL",
                 "rate": rate, "absolute": rate, "pumpId": 40000 + i, "pumpType": "OMNIPOD_DASH",
                 "pumpSerial": "4241", "utcOffset": 60, "enteredBy": "openaps://AndroidAPS"}
-    if form == 2:  # Loop
+    if form == 2:  # Loop: fractional minutes, and the units delivered in pump pulses of 0.05 U
+        ran = float(minutes) - (0.25 if i % 8 == 2 else 0.0)
+        delivered = round(round(rate * ran / 60 / 0.05) * 0.05, 2)
         return {"eventType": "Temp Basal", "timestamp": iso(at), "created_at": iso(at), "temp": "absolute",
-                "rate": rate, "absolute": rate, "duration": float(minutes), "automatic": True,
+                "rate": rate, "absolute": rate, "duration": ran, "amount": delivered, "automatic": True,
                 "reason": "Temp Basal", "enteredBy": "loop://iPhone", "syncIdentifier": f"tb{i:05d}"}
     # AndroidAPS percent temp (the absolute rate beside it)
     return {"eventType": "Temp Basal", "created_at": iso(at), "date": ms(at), "isValid": True,

@@ -7,8 +7,8 @@
 use std::path::{Path, PathBuf};
 
 use abba_advisor::baselines::autotune::{
-    autotune_day, recommendations_table, Carbs, DayData, Insulin, IsfUnit, LocalClock, Profile,
-    Reading, Tuned,
+    autotune_day, recommendations_table, Carbs, DayData, Insulin, IsfUnit, LocalClock,
+    NightscoutTemp, Profile, Reading, Tuned,
 };
 use abba_core::units::GlucoseUnit;
 use abba_io::record::{Origin, OriginAt, RecordKind, TempRate};
@@ -121,7 +121,7 @@ struct Inputs {
 fn inputs(
     records: &[Record],
     origin: &dyn Fn(&Record) -> String,
-    stamps: &Stamps,
+    oref0: &Oref0Fields,
     profile: &Profile,
     clock: &Zone,
 ) -> Result<Inputs> {
@@ -154,17 +154,21 @@ fn inputs(
             RecordKind::Carbs { grams } => x.carbs.push(Carbs {
                 at_ms: at,
                 grams: grams.0,
-                stamp_ms: stamps.get(&r.origin).copied(),
+                stamp_ms: oref0.stamps.get(&r.origin).copied(),
             }),
             RecordKind::TempBasal { rate, duration_min } => {
-                let rate = match rate {
-                    TempRate::Absolute(r) => r.0,
-                    TempRate::Percent(p) => p / 100.0 * profile.basal_at(clock.minute_of_day(at)),
+                let (rate, duration_min) = match (oref0.temps.get(&r.origin), rate) {
+                    (Some(&seen), _) => seen,
+                    (None, TempRate::Absolute(r)) => (r.0, f64::from(*duration_min)),
+                    (None, TempRate::Percent(p)) => (
+                        p / 100.0 * profile.basal_at(clock.minute_of_day(at)),
+                        f64::from(*duration_min),
+                    ),
                 };
                 x.insulin.push(Insulin::Temp {
                     at_ms: at,
                     rate,
-                    duration_min: f64::from(*duration_min),
+                    duration_min,
                 });
             }
             RecordKind::ExtendedBolus {
@@ -418,20 +422,27 @@ type Source = (
     TimeZone,
     Profile,
     IsfUnit,
-    Stamps,
+    Oref0Fields,
 );
 
-/// Each Nightscout treatment's own `timestamp` field (ms), by where it was
-/// read: oref0's duplicate check of meals compares it (abba-advisor's
-/// autotune, choice 4). A store keeps none.
-type Stamps = HashMap<Origin, i64>;
+/// What oref0 reads of each Nightscout treatment beyond abba's reader, by
+/// where the treatment was read (abba-advisor's autotune, choices 2 and
+/// 4). A store keeps neither.
+#[derive(Default)]
+struct Oref0Fields {
+    /// The treatment's own `timestamp` field (ms), which oref0's duplicate
+    /// check of meals compares.
+    stamps: HashMap<Origin, i64>,
+    /// A "Temp Basal"'s (rate U/h, minutes) as oref0 takes them.
+    temps: HashMap<Origin, (f64, f64)>,
+}
 
-/// The `timestamp` fields of the treatments in file `file` of a batch (a
-/// JSON array, or one document per line as mongoexport writes them), as
-/// JavaScript's `Date` reads them: a number is ms, a text without an offset
-/// is local time. A field that is neither is left out (oref0 can match no
-/// time with it either).
-fn stamps(path: &Path, file: u16, tz: &TimeZone) -> Result<Stamps> {
+/// [`Oref0Fields`] of the treatments in file `file` of a batch (a JSON
+/// array, or one document per line as mongoexport writes them). A
+/// `timestamp` is read as JavaScript's `Date` reads it: a number is ms, a
+/// text without an offset is local time; one that is neither is left out
+/// (oref0 can match no time with it either).
+fn oref0_fields(path: &Path, file: u16, tz: &TimeZone) -> Result<Oref0Fields> {
     use serde_json::Value;
     let text = std::fs::read_to_string(path)
         .with_context(|| format!("{}: cannot read", path.display()))?;
@@ -463,16 +474,33 @@ fn stamps(path: &Path, file: u16, tz: &TimeZone) -> Result<Stamps> {
             _ => None,
         }
     };
-    Ok(items
-        .iter()
-        .filter_map(|(at, v)| Some((Origin { file, at: *at }, instant(v.get("timestamp")?)?)))
-        .collect())
+    let mut out = Oref0Fields::default();
+    for (at, v) in &items {
+        let origin = Origin { file, at: *at };
+        if let Some(t) = v.get("timestamp").and_then(instant) {
+            out.stamps.insert(origin, t);
+        }
+        if v.get("eventType").and_then(Value::as_str) == Some("Temp Basal") {
+            let number = |k: &str| v.get(k).and_then(Value::as_f64);
+            let temp = NightscoutTemp {
+                entered_by: v.get("enteredBy").and_then(Value::as_str),
+                rate: number("rate"),
+                absolute: number("absolute"),
+                amount: number("amount"),
+                duration_min: number("duration"),
+            };
+            if let Some(t) = temp.oref0() {
+                out.temps.insert(origin, t);
+            }
+        }
+    }
+    Ok(out)
 }
 
 /// Runs `abba autotune`.
 pub fn run(args: Args) -> Result<()> {
     let mut said = Vec::new();
-    let (records, origin, tz, profile, unit, stamps): Source = match (
+    let (records, origin, tz, profile, unit, oref0): Source = match (
         &args.entries,
         &args.db,
         &args.person,
@@ -492,7 +520,7 @@ pub fn run(args: Args) -> Result<()> {
             let mut batch = abba_io::read_files(&[entries.clone(), treatments.clone()], &opts)?;
             said.extend(reading_report(&mut batch));
             let records = batch.records.clone();
-            let stamps = stamps(treatments, 1, &tz)?;
+            let oref0 = oref0_fields(treatments, 1, &tz)?;
             let origin = Box::new(move |r: &Record| batch.origin(r));
             (
                 records,
@@ -500,7 +528,7 @@ pub fn run(args: Args) -> Result<()> {
                 tz,
                 read_profile(profile)?,
                 IsfUnit::MgDl,
-                stamps,
+                oref0,
             )
         }
         (None, Some(db), Some(name)) => {
@@ -540,7 +568,7 @@ pub fn run(args: Args) -> Result<()> {
                 person.tz.clone(),
                 profile,
                 unit,
-                Stamps::new(),
+                Oref0Fields::default(),
             )
         }
         _ => bail!("give --entries, --treatments, --profile and --tz, or --db and --person"),
@@ -549,7 +577,7 @@ pub fn run(args: Args) -> Result<()> {
         Some(p) => read_profile(p)?,
         None => profile.clone(),
     };
-    let x = inputs(&records, &*origin, &stamps, &profile, &Zone(tz.clone()))?;
+    let x = inputs(&records, &*origin, &oref0, &profile, &Zone(tz.clone()))?;
     let range = days(&args, &tz, &x.glucose)?;
     let out = run_days(&x, &tz, range, profile, &pump)?;
     if args.json {

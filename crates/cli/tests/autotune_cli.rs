@@ -151,6 +151,18 @@ fn real_uploaders_forms_give_oref0s_profile() {
         serde_json::json!(["2026-01-10", "2026-01-11"])
     );
     assert_oref0(&json["profile"], 1.0, "autotune.quirks.day2.json");
+    // Within the tolerance, and also the same figures as oref0
+    // prints them (3 decimals): a rule of oref0's that we missed moves
+    // these days by less than the tolerance (Loop's delivered `amount`
+    // unread: basal 0.004 U/h, ISF 0.4 %).
+    let want = read(&data("autotune.quirks.day2.json"));
+    let p = &json["profile"];
+    assert_eq!(p["basalprofile"], want["basalprofile"]);
+    assert_eq!(
+        p["isfProfile"]["sensitivities"][0]["sensitivity"],
+        want["isfProfile"]["sensitivities"][0]["sensitivity"]
+    );
+    assert_eq!(p["carb_ratio"], want["carb_ratio"]);
     // Loop's carbs carry a `timestamp`: the second upload of one meal, 0.6 s
     // later, is taken once, as oref0 does (a copy of a Careportal meal,
     // which has none, is taken twice by both).

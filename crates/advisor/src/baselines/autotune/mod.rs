@@ -32,12 +32,14 @@
 //!    `Snack Bolus` and `Bolus Wizard`; its xDrip and HAPP branches are
 //!    covered by the same rule). Carbs are any record with carbs > 0, as
 //!    oref0's meal history takes them.
-//! 2. A temporary basal's rate is `absolute`, else `rate` (oref0: `absolute`
-//!    for AndroidAPS uploads, `rate` otherwise, Loop's delivered `amount`
-//!    when present; abba's reader does not read `amount`). A percentage temp
-//!    is turned into a rate with the profile's scheduled rate at its start
-//!    (oref0 gives it no rate, so no insulin). Durations are whole minutes
-//!    (abba's reader rounds them; oref0 keeps fractions).
+//! 2. A temporary basal's rate and duration are read as oref0 reads them
+//!    ([`NightscoutTemp::oref0`]): `absolute` for AndroidAPS uploads, `rate`
+//!    otherwise, Loop's delivered `amount` over the duration when present,
+//!    the duration's fractions kept (`abba autotune` on Nightscout files).
+//!    From a store, or where oref0 would compute no number, abba's reader's
+//!    rate (`absolute`, else `rate`) and whole minutes are used; a
+//!    percentage temp is then turned into a rate with the profile's
+//!    scheduled rate at its start (oref0 gives it no rate, so no insulin).
 //! 3. Pump suspends and resumes from Nightscout are not used, as in oref0
 //!    (which reads suspends only from a Medtronic pump history); the caller
 //!    counts them. Extended boluses: the immediate part is a bolus, the
@@ -146,6 +148,43 @@ pub enum Insulin {
         /// Minutes.
         duration_min: f64,
     },
+}
+
+/// A Nightscout "Temp Basal" treatment's fields that oref0's insulin
+/// history reads (lib/iob/history.js), for [`NightscoutTemp::oref0`].
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct NightscoutTemp<'a> {
+    /// `enteredBy`.
+    pub entered_by: Option<&'a str>,
+    /// `rate` (U/h).
+    pub rate: Option<f64>,
+    /// `absolute` (U/h).
+    pub absolute: Option<f64>,
+    /// `amount`: the units delivered (Loop uploads it).
+    pub amount: Option<f64>,
+    /// `duration` (minutes, fractions kept).
+    pub duration_min: Option<f64>,
+}
+
+impl NightscoutTemp<'_> {
+    /// The (rate U/h, minutes) oref0 takes: `absolute` from AndroidAPS and
+    /// HAPP, otherwise `rate`, or the delivered `amount` over the duration
+    /// when there is one (Loop's temps: choice 2 of the module's doc).
+    /// `None` when a field it needs is missing or the duration is not
+    /// positive (oref0 would compute no number; the caller keeps its own
+    /// reading).
+    pub fn oref0(&self) -> Option<(f64, f64)> {
+        let minutes = self.duration_min.filter(|d| d.is_finite() && *d > 0.0)?;
+        let rate = if matches!(self.entered_by, Some("HAPP_App" | "openaps://AndroidAPS")) {
+            self.absolute?
+        } else {
+            match self.amount {
+                Some(units) => units / minutes * 60.0,
+                None => self.rate?,
+            }
+        };
+        rate.is_finite().then_some((rate, minutes))
+    }
 }
 
 impl Insulin {
@@ -277,4 +316,60 @@ pub fn recommendations_table(t: &Tuned, unit: IsfUnit) -> String {
         ));
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::NightscoutTemp;
+
+    #[test]
+    fn a_nightscout_temp_is_read_as_oref0_reads_it() {
+        let loop_temp = NightscoutTemp {
+            entered_by: Some("loop://iPhone"),
+            rate: Some(0.55),
+            absolute: Some(0.55),
+            amount: Some(0.25),
+            duration_min: Some(29.75),
+        };
+        // Loop: the units delivered over the minutes ran, fractions kept.
+        assert_eq!(loop_temp.oref0(), Some((0.25 / 29.75 * 60.0, 29.75)));
+        // Without `amount`: `rate`, not `absolute`.
+        let rig = NightscoutTemp {
+            entered_by: Some("openaps://medtronic/723"),
+            rate: Some(0.5),
+            absolute: Some(0.45),
+            amount: None,
+            duration_min: Some(30.0),
+        };
+        assert_eq!(rig.oref0(), Some((0.5, 30.0)));
+        // AndroidAPS and HAPP: `absolute`, even beside an `amount`.
+        for who in ["openaps://AndroidAPS", "HAPP_App"] {
+            let t = NightscoutTemp {
+                entered_by: Some(who),
+                amount: Some(1.0),
+                ..rig
+            };
+            assert_eq!(t.oref0(), Some((0.45, 30.0)), "{who}");
+        }
+        // No number oref0 could use: the caller keeps its own reading.
+        let none = [
+            NightscoutTemp { rate: None, ..rig },
+            NightscoutTemp {
+                duration_min: Some(0.0),
+                ..loop_temp
+            },
+            NightscoutTemp {
+                duration_min: None,
+                ..rig
+            },
+            NightscoutTemp {
+                entered_by: Some("openaps://AndroidAPS"),
+                absolute: None,
+                ..rig
+            },
+        ];
+        for t in none {
+            assert_eq!(t.oref0(), None, "{t:?}");
+        }
+    }
 }

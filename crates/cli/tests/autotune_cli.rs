@@ -82,23 +82,32 @@ fn assert_oref0(profile: &Value, isf_scale: f64, oref0: &str) {
     );
 }
 
-#[test]
-fn nightscout_files_give_oref0s_profile() {
-    let dir = tmp("files");
-    let e = entries(&dir);
-    let base = [
+/// `abba autotune` on Nightscout files: the fixture's entries, the
+/// treatments file named, its day-1 profile and the pump profile.
+fn files_args(entries: &str, treatments: &str) -> Vec<String> {
+    [
         "autotune",
         "--entries",
-        &e,
+        entries,
         "--treatments",
-        &data("treatments.json"),
+        &data(treatments),
         "--profile",
         &data("profile.day1.json"),
         "--pump-profile",
         &data("pumpprofile.json"),
         "--tz",
         "Europe/Zurich",
-    ];
+    ]
+    .map(String::from)
+    .to_vec()
+}
+
+#[test]
+fn nightscout_files_give_oref0s_profile() {
+    let dir = tmp("files");
+    let e = entries(&dir);
+    let args = files_args(&e, "treatments.json");
+    let base: Vec<&str> = args.iter().map(String::as_str).collect();
     let json: Value = serde_json::from_str(&ok(&abba(&[&base[..], &["--json"]].concat()))).unwrap();
     assert_eq!(
         json["days"],
@@ -131,20 +140,9 @@ fn real_uploaders_forms_give_oref0s_profile() {
         &dir,
         ["entries.quirks.day1.json", "entries.quirks.day2.json"],
     );
-    let out = ok(&abba(&[
-        "autotune",
-        "--entries",
-        &e,
-        "--treatments",
-        &data("treatments.quirks.json"),
-        "--profile",
-        &data("profile.day1.json"),
-        "--pump-profile",
-        &data("pumpprofile.json"),
-        "--tz",
-        "Europe/Zurich",
-        "--json",
-    ]));
+    let mut args = files_args(&e, "treatments.quirks.json");
+    args.push("--json".into());
+    let out = ok(&abba(&args.iter().map(String::as_str).collect::<Vec<_>>()));
     let json: Value = serde_json::from_str(&out).unwrap();
     assert_eq!(
         json["days"],

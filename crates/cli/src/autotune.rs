@@ -437,29 +437,21 @@ struct Oref0Fields {
     temps: HashMap<Origin, (f64, f64)>,
 }
 
-/// [`Oref0Fields`] of the treatments in file `file` of a batch (a JSON
-/// array, or one document per line as mongoexport writes them). A
+/// [`Oref0Fields`] of the treatments in file `file` of a batch, read as
+/// abba's reader reads them (UTF-16 or a BOM decoded; a JSON array, or one
+/// document a line as mongoexport writes them; extended-JSON numbers). A
 /// `timestamp` is read as JavaScript's `Date` reads it: a number is ms, a
 /// text without an offset is local time; one that is neither is left out
-/// (oref0 can match no time with it either).
+/// (oref0 can match no time with it either). A field oref0 could not use
+/// leaves abba's reading of that treatment in place.
 fn oref0_fields(path: &Path, file: u16, tz: &TimeZone) -> Result<Oref0Fields> {
+    use abba_io::read::{json, table};
     use serde_json::Value;
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("{}: cannot read", path.display()))?;
-    let items: Vec<(OriginAt, Value)> = match serde_json::from_str::<Value>(&text) {
-        Ok(Value::Array(items)) => items
-            .into_iter()
-            .enumerate()
-            .map(|(i, v)| (OriginAt::Item(i as u32), v))
-            .collect(),
-        _ => text
-            .lines()
-            .enumerate()
-            .filter_map(|(n, l)| {
-                Some((OriginAt::Line(n as u32 + 1), serde_json::from_str(l).ok()?))
-            })
-            .collect(),
-    };
+    let name = path.display().to_string();
+    let bytes = std::fs::read(path).with_context(|| format!("{name}: cannot read"))?;
+    let decoded = table::utf16_to_utf8(&name, &bytes)?;
+    let text = table::strip_bom(decoded.as_deref().unwrap_or(&bytes));
+    let values = json::parse_array(&name, text)?;
     let instant = |v: &Value| -> Option<i64> {
         match v {
             Value::Number(n) => n.as_f64().map(|ms| ms as i64),
@@ -475,15 +467,20 @@ fn oref0_fields(path: &Path, file: u16, tz: &TimeZone) -> Result<Oref0Fields> {
         }
     };
     let mut out = Oref0Fields::default();
-    for (at, v) in &items {
-        let origin = Origin { file, at: *at };
-        if let Some(t) = v.get("timestamp").and_then(instant) {
+    for (index, v) in values.iter().enumerate() {
+        let Value::Object(obj) = v else { continue };
+        let item = json::Item::json(&name, index, obj);
+        let origin = Origin {
+            file,
+            at: OriginAt::Item(u32::try_from(index).unwrap_or(u32::MAX)),
+        };
+        if let Some(t) = item.get("timestamp").and_then(instant) {
             out.stamps.insert(origin, t);
         }
-        if v.get("eventType").and_then(Value::as_str) == Some("Temp Basal") {
-            let number = |k: &str| v.get(k).and_then(Value::as_f64);
+        if item.str("eventType").ok().flatten() == Some("Temp Basal") {
+            let number = |k: &str| item.num(k).ok().flatten();
             let temp = NightscoutTemp {
-                entered_by: v.get("enteredBy").and_then(Value::as_str),
+                entered_by: item.str("enteredBy").ok().flatten(),
                 rate: number("rate"),
                 absolute: number("absolute"),
                 amount: number("amount"),

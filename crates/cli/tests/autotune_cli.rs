@@ -82,15 +82,15 @@ fn assert_oref0(profile: &Value, isf_scale: f64, oref0: &str) {
     );
 }
 
-/// `abba autotune` on Nightscout files: the fixture's entries, the
-/// treatments file named, its day-1 profile and the pump profile.
+/// `abba autotune` on Nightscout files: the entries and treatments given,
+/// the fixture's day-1 profile and the pump profile.
 fn files_args(entries: &str, treatments: &str) -> Vec<String> {
     [
         "autotune",
         "--entries",
         entries,
         "--treatments",
-        &data(treatments),
+        treatments,
         "--profile",
         &data("profile.day1.json"),
         "--pump-profile",
@@ -106,7 +106,7 @@ fn files_args(entries: &str, treatments: &str) -> Vec<String> {
 fn nightscout_files_give_oref0s_profile() {
     let dir = tmp("files");
     let e = entries(&dir);
-    let args = files_args(&e, "treatments.json");
+    let args = files_args(&e, &data("treatments.json"));
     let base: Vec<&str> = args.iter().map(String::as_str).collect();
     let json: Value = serde_json::from_str(&ok(&abba(&[&base[..], &["--json"]].concat()))).unwrap();
     assert_eq!(
@@ -140,7 +140,38 @@ fn real_uploaders_forms_give_oref0s_profile() {
         &dir,
         ["entries.quirks.day1.json", "entries.quirks.day2.json"],
     );
-    let mut args = files_args(&e, "treatments.quirks.json");
+    // The file as downloaded, as Windows PowerShell's redirection writes it
+    // (UTF-16 with a byte-order mark), and as mongoexport writes the
+    // collection (one document a line).
+    let treatments = data("treatments.quirks.json");
+    let items = read(&treatments);
+    let utf16 = dir.join("treatments.utf16.json");
+    let text = serde_json::to_string(&items).unwrap();
+    let mut bytes = vec![0xff, 0xfe];
+    bytes.extend(text.encode_utf16().flat_map(u16::to_le_bytes));
+    std::fs::write(&utf16, bytes).unwrap();
+    let lines = dir.join("treatments.mongoexport.json");
+    let docs: Vec<String> = items
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|d| serde_json::to_string(d).unwrap())
+        .collect();
+    std::fs::write(&lines, docs.join("\n")).unwrap();
+    for file in [treatments.clone(), path(&utf16), path(&lines)] {
+        real_uploaders_file_gives_oref0s_profile(&e, &file);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+fn path(p: &Path) -> String {
+    p.to_str().unwrap().to_string()
+}
+
+/// The checks of [`real_uploaders_forms_give_oref0s_profile`] on one
+/// treatments file.
+fn real_uploaders_file_gives_oref0s_profile(e: &str, treatments: &str) {
+    let mut args = files_args(e, treatments);
     args.push("--json".into());
     let out = ok(&abba(&args.iter().map(String::as_str).collect::<Vec<_>>()));
     let json: Value = serde_json::from_str(&out).unwrap();
@@ -177,7 +208,6 @@ fn real_uploaders_forms_give_oref0s_profile() {
             .any(|n| n.starts_with("1 carb entry within 2 s of another taken once")),
         "{notes:?}"
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// A store whose person follows the fixture's pump profile (a Nightscout

@@ -33,4 +33,19 @@ for day in 1 2; do
       "$data/pumpprofile.json" > "$data/autotune.quirks.day$day.json" 2>/dev/null
   cp "$data/autotune.quirks.day$day.json" "$work/profile.json"
 done
+# The quirk days moved onto the days the clocks change (shift_days.py):
+# spring forward (2026-03-28/29) and fall back (2026-10-24/25).
+for change in spring:77:2026-03-28 autumn:287:2026-10-24; do
+  name=${change%%:*}; rest=${change#*:}; by=${rest%%:*}; first=${rest#*:}
+  python3 "$here/shift_days.py" "$data" "$by" "$first" "$work/$name"
+  cp "$data/pumpprofile.json" "$work/profile.json"
+  for day in 1 2; do
+    node "$bin/oref0-autotune-prep.js" "$work/$name/treatments.json" "$work/profile.json" \
+        "$work/$name/entries.day$day.json" "$data/pumpprofile.json" > "$work/$name/prepped.day$day.json" 2>/dev/null
+    node "$bin/oref0-autotune-core.js" "$work/$name/prepped.day$day.json" "$work/profile.json" \
+        "$data/pumpprofile.json" > "$work/profile.next.json" 2>/dev/null
+    mv "$work/profile.next.json" "$work/profile.json"
+  done
+  cp "$work/profile.json" "$data/autotune.quirks.$name.day2.json"
+done
 echo "wrote $data"

@@ -210,6 +210,77 @@ fn real_uploaders_file_gives_oref0s_profile(e: &str, treatments: &str) {
     );
 }
 
+/// Every instant of the quirk days' files moved by `days` whole days, text
+/// instants written in UTC with milliseconds (as
+/// benches/autotune_oref0/shift_days.py moves them for oref0): the
+/// entries and treatments files.
+fn moved_files(dir: &Path, days: i64) -> (String, String) {
+    let by = jiff::SignedDuration::from_hours(24 * days);
+    let move_item = |mut v: Value| {
+        let o = v.as_object_mut().unwrap();
+        for k in ["created_at", "timestamp", "dateString", "sysTime"] {
+            if let Some(Value::String(t)) = o.get(k) {
+                let t: jiff::Timestamp = t.parse().unwrap();
+                let t = t.checked_add(by).unwrap();
+                o.insert(
+                    k.into(),
+                    t.strftime("%Y-%m-%dT%H:%M:%S%.3fZ").to_string().into(),
+                );
+            }
+        }
+        if let Some(ms) = o.get("date").and_then(Value::as_i64) {
+            o.insert("date".into(), (ms + by.as_millis() as i64).into());
+        }
+        v
+    };
+    let moved = |names: &[&str], to: &str| {
+        let all: Vec<Value> = names
+            .iter()
+            .flat_map(|n| read(&data(n)).as_array().unwrap().clone())
+            .map(move_item)
+            .collect();
+        let path = dir.join(to);
+        std::fs::write(&path, serde_json::to_string(&all).unwrap()).unwrap();
+        path.to_str().unwrap().to_string()
+    };
+    (
+        moved(
+            &["entries.quirks.day1.json", "entries.quirks.day2.json"],
+            "entries.json",
+        ),
+        moved(&["treatments.quirks.json"], "treatments.json"),
+    )
+}
+
+/// The quirk days moved onto the days Europe/Zurich's clocks change (a
+/// 23-hour and a 25-hour day; autotune's days run from 04:00 to 04:00
+/// local): oref0 0.7.1's profile, figure for figure.
+#[test]
+fn days_on_which_the_clocks_change_give_oref0s_profile() {
+    for (name, days, start, end) in [
+        ("spring", 77, "2026-03-28", "2026-03-29"),
+        ("autumn", 287, "2026-10-24", "2026-10-25"),
+    ] {
+        let dir = tmp(name);
+        let (e, t) = moved_files(&dir, days);
+        let mut args = files_args(&e, &t);
+        args.extend(["--start", start, "--end", end, "--json"].map(String::from));
+        let out = ok(&abba(&args.iter().map(String::as_str).collect::<Vec<_>>()));
+        let json: Value = serde_json::from_str(&out).unwrap();
+        assert_eq!(json["days"], serde_json::json!([start, end]), "{name}");
+        let want = read(&data(&format!("autotune.quirks.{name}.day2.json")));
+        let p = &json["profile"];
+        assert_eq!(p["basalprofile"], want["basalprofile"], "{name}");
+        assert_eq!(
+            p["isfProfile"]["sensitivities"][0]["sensitivity"],
+            want["isfProfile"]["sensitivities"][0]["sensitivity"],
+            "{name}"
+        );
+        assert_eq!(p["carb_ratio"], want["carb_ratio"], "{name}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
+
 /// A store whose person follows the fixture's pump profile (a Nightscout
 /// profile store with the same schedule and carb ratio) and holds both
 /// days' entries and the treatments.

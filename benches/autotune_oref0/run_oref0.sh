@@ -40,7 +40,7 @@ for change in spring:77:2026-03-28 autumn:287:2026-10-24; do
   python3 "$here/shift_days.py" "$data" "$by" "$first" "$work/$name"
   cp "$data/pumpprofile.json" "$work/profile.json"
   for day in 1 2; do
-    node "$bin/oref0-autotune-prep.js" "$work/$name/treatments.json" "$work/profile.json" \
+    node "$bin/oref0-autotune-prep.js" "$work/$name/treatments.day$day.json" "$work/profile.json" \
         "$work/$name/entries.day$day.json" "$data/pumpprofile.json" > "$work/$name/prepped.day$day.json" 2>/dev/null
     node "$bin/oref0-autotune-core.js" "$work/$name/prepped.day$day.json" "$work/profile.json" \
         "$data/pumpprofile.json" > "$work/profile.next.json" 2>/dev/null

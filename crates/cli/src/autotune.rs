@@ -60,7 +60,7 @@ pub struct Args {
     /// exponential rapid-acting curve.
     #[arg(long, value_name = "HOURS", default_value_t = 5.0)]
     dia: f64,
-    /// Tune the last N complete days (04:00 to 04:00 local) of the data.
+    /// Tune the last N complete days (04:00 to 04:00 local, as oref0-autotune.sh counts them) of the data.
     #[arg(long, value_name = "N", conflicts_with = "start")]
     days: Option<u32>,
     /// First day to tune (YYYY-MM-DD) [default: the first complete day of the data].
@@ -94,13 +94,12 @@ fn midnight_plus(tz: &TimeZone, day: Date, hours: i64) -> Result<i64> {
     Ok(midnight.timestamp().as_millisecond() + hours * 3_600_000)
 }
 
-/// 04:00 local time of `day` (the start of autotune's day).
-fn four_am(tz: &TimeZone, day: Date) -> Result<i64> {
-    Ok(day
-        .at(4, 0, 0, 0)
-        .to_zoned(tz.clone())?
-        .timestamp()
-        .as_millisecond())
+/// Autotune's day `day` (ms, both ends included): its glucose from local
+/// midnight + 4 h to midnight + 28 h, as `oref0-autotune.sh` asks
+/// Nightscout for it (`date -d "DAY +4 hours"`: hours elapsed, so 04:00 to
+/// 04:00 local, but from 05:00 or 03:00 on the days the clocks change).
+fn day_window(tz: &TimeZone, day: Date) -> Result<(i64, i64)> {
+    Ok((midnight_plus(tz, day, 4)?, midnight_plus(tz, day, 28)?))
 }
 
 fn read_profile(path: &Path) -> Result<Profile> {
@@ -226,7 +225,7 @@ fn reading_report(batch: &mut abba_io::Batch) -> Vec<String> {
 }
 
 /// Which days: `--start`/`--end`, `--days N` (the last N complete days), or
-/// every complete day (04:00 to 04:00 local within the readings).
+/// every complete day ([`day_window`] within the readings).
 fn days(args: &Args, tz: &TimeZone, glucose: &[Reading]) -> Result<(Date, Date)> {
     let (Some(first), Some(last)) = (
         glucose.iter().map(|g| g.at_ms).min(),
@@ -239,9 +238,9 @@ fn days(args: &Args, tz: &TimeZone, glucose: &[Reading]) -> Result<(Date, Date)>
             .to_zoned(tz.clone())
             .date())
     };
-    // The last day whose next 04:00 has been reached by the readings.
+    // The last day whose window's end has been reached by the readings.
     let mut last_complete = day_of(last)?;
-    while four_am(tz, last_complete.tomorrow()?)? > last {
+    while day_window(tz, last_complete)?.1 > last {
         last_complete = last_complete.yesterday()?;
     }
     let end = match &args.end {
@@ -252,10 +251,10 @@ fn days(args: &Args, tz: &TimeZone, glucose: &[Reading]) -> Result<(Date, Date)>
         (Some(d), _) => date("--start", d)?,
         (None, Some(0)) => bail!("--days: expected at least 1, got 0"),
         (None, Some(n)) => end.checked_sub(jiff::Span::new().days(i64::from(n) - 1))?,
-        // The first day whose 04:00 has a reading at or after it.
+        // The first day whose window starts at or before the first reading.
         (None, None) => {
             let d = day_of(first)?;
-            if four_am(tz, d)? >= first {
+            if day_window(tz, d)?.0 >= first {
                 d
             } else {
                 d.tomorrow()?
@@ -269,7 +268,7 @@ fn days(args: &Args, tz: &TimeZone, glucose: &[Reading]) -> Result<(Date, Date)>
             jiff::Timestamp::from_millisecond(last)?
         );
     }
-    if four_am(tz, end.tomorrow()?)? > last {
+    if day_window(tz, end)?.1 > last {
         bail!(
             "{end}: the day (to 04:00 of the next) is not complete in the readings, which end at {}",
             jiff::Timestamp::from_millisecond(last)?
@@ -299,7 +298,7 @@ fn run_days(
     let mut last = None;
     let mut d = start;
     while d <= end {
-        let (g0, g1) = (four_am(tz, d)?, four_am(tz, d.tomorrow()?)?);
+        let (g0, g1) = day_window(tz, d)?;
         let (t0, t1) = (midnight_plus(tz, d, -18)?, midnight_plus(tz, d, 42)?);
         let day = DayData {
             glucose: x

@@ -18,11 +18,12 @@
 //! - [`profile`]: oref0's profile JSON.
 //! - [`arm`]: the trial arm ([`Autotune`]), nightly over the previous day.
 //!
-//! A day is what `oref0-autotune.sh` downloads for it: glucose from 04:00
-//! local time to 04:00 the next day, insulin and carbs from 18 h before to
-//! 42 h after midnight (IOB needs the hours before). Times are ms since the
-//! epoch; the local hour comes from a [`LocalClock`] (oref0 uses the
-//! process's time zone).
+//! A day is what `oref0-autotune.sh` downloads for it: glucose from 4 h
+//! after local midnight to 28 h after it (04:00 to 04:00 local; hours
+//! elapsed, so on the days the clocks change from 05:00 or 03:00), insulin
+//! and carbs from 18 h before to 42 h after midnight (IOB needs the hours
+//! before). Times are ms since the epoch; the local hour comes from a
+//! [`LocalClock`] (oref0 uses the process's time zone).
 //!
 //! # Choices (where oref0's data handling had to be mapped or we differ)
 //!
@@ -199,7 +200,7 @@ impl Insulin {
 /// One day's data (see the module doc for the windows).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct DayData {
-    /// CGM readings of the day (04:00 to 04:00 local).
+    /// CGM readings of the day (local midnight + 4 h to + 28 h).
     pub glucose: Vec<Reading>,
     /// Insulin records (from 18 h before the day).
     pub insulin: Vec<Insulin>,

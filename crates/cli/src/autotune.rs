@@ -35,7 +35,9 @@ pub struct Args {
     #[arg(long, value_name = "FILE", requires = "entries")]
     treatments: Option<PathBuf>,
     /// The profile to tune, in oref0's JSON shape (basalprofile, isfProfile,
-    /// carb_ratio, dia, curve, ...). With --db: instead of the person's
+    /// carb_ratio, dia, curve, ...), or a Nightscout profile store
+    /// (api/v1/profile.json: its newest default profile, oref0's defaults
+    /// for the curve and autosens). With --db: instead of the person's
     /// therapy in force.
     #[arg(long, value_name = "FILE")]
     profile: Option<PathBuf>,
@@ -102,10 +104,30 @@ fn day_window(tz: &TimeZone, day: Date) -> Result<(i64, i64)> {
     Ok((midnight_plus(tz, day, 4)?, midnight_plus(tz, day, 28)?))
 }
 
-fn read_profile(path: &Path) -> Result<Profile> {
+/// An oref0 profile document, or a Nightscout profile store (an array of
+/// documents, or one with a `store`), which becomes one (what was taken
+/// from it goes to `said`).
+fn read_profile(path: &Path, said: &mut Vec<String>) -> Result<Profile> {
     let text = std::fs::read_to_string(path)
         .with_context(|| format!("{}: cannot read", path.display()))?;
-    Profile::from_json(&text).with_context(|| format!("{}", path.display()))
+    let name = path.display().to_string();
+    let v: serde_json::Value =
+        serde_json::from_str(&text).with_context(|| format!("{name}: not valid JSON"))?;
+    match v {
+        serde_json::Value::Object(m) if !m.contains_key("store") => {
+            Profile::from_map(m).with_context(|| name.clone())
+        }
+        v => {
+            let (p, notes) = Profile::from_nightscout(&v).with_context(|| name.clone())?;
+            for n in notes {
+                let line = format!("{name}: {n}");
+                if !said.contains(&line) {
+                    said.push(line);
+                }
+            }
+            Ok(p)
+        }
+    }
 }
 
 /// The records as autotune's inputs.
@@ -522,7 +544,7 @@ pub fn run(args: Args) -> Result<()> {
                 records,
                 origin,
                 tz,
-                read_profile(profile)?,
+                read_profile(profile, &mut said)?,
                 IsfUnit::MgDl,
                 oref0,
             )
@@ -532,7 +554,7 @@ pub fn run(args: Args) -> Result<()> {
             let person = store.person(name)?;
             let unit = isf_unit(person.settings.units);
             let profile = match (&args.profile, args.isf) {
-                    (Some(p), None) => read_profile(p)?,
+                    (Some(p), None) => read_profile(p, &mut said)?,
                     (Some(_), Some(_)) => {
                         bail!("--isf and --profile: give one (the profile has its own ISF)")
                     }
@@ -570,7 +592,7 @@ pub fn run(args: Args) -> Result<()> {
         _ => bail!("give --entries, --treatments, --profile and --tz, or --db and --person"),
     };
     let pump = match &args.pump_profile {
-        Some(p) => read_profile(p)?,
+        Some(p) => read_profile(p, &mut said)?,
         None => profile.clone(),
     };
     let x = inputs(&records, &*origin, &oref0, &profile, &Zone(tz.clone()))?;

@@ -210,6 +210,48 @@ fn real_uploaders_file_gives_oref0s_profile(e: &str, treatments: &str) {
     );
 }
 
+/// A Nightscout profile store given for the profile and the pump profile
+/// (ns_profile.json: pumpprofile.json's schedule, ISF, carb ratio and DIA
+/// as Nightscout keeps them): the same tuned profile as oref0 0.7.1's from
+/// pumpprofile.json, figure for figure, and what was taken said once.
+#[test]
+fn a_nightscout_profile_store_is_tuned_as_oref0s_profile() {
+    let dir = tmp("ns-profile");
+    let e = entries_of(
+        &dir,
+        ["entries.quirks.day1.json", "entries.quirks.day2.json"],
+    );
+    let ns = data("ns_profile.json");
+    let mut args = files_args(&e, &data("treatments.quirks.json"));
+    for flag in ["--profile", "--pump-profile"] {
+        let at = args.iter().position(|a| a == flag).unwrap();
+        args[at + 1] = ns.clone();
+    }
+    args.push("--json".into());
+    let out = ok(&abba(&args.iter().map(String::as_str).collect::<Vec<_>>()));
+    let json: Value = serde_json::from_str(&out).unwrap();
+    let want = read(&data("autotune.quirks.day2.json"));
+    let p = &json["profile"];
+    assert_eq!(p["basalprofile"], want["basalprofile"]);
+    assert_eq!(
+        p["isfProfile"]["sensitivities"][0]["sensitivity"],
+        want["isfProfile"]["sensitivities"][0]["sensitivity"]
+    );
+    assert_eq!(p["carb_ratio"], want["carb_ratio"]);
+    let taken: Vec<&Value> = json["notes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|n| {
+            n.as_str()
+                .unwrap()
+                .contains("Nightscout profile \"Default\"")
+        })
+        .collect();
+    assert_eq!(taken.len(), 1, "{}", json["notes"]);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// Every instant of the quirk days' files moved by `days` whole days, text
 /// instants written in UTC with milliseconds (as
 /// benches/autotune_oref0/shift_days.py moves them for oref0): the

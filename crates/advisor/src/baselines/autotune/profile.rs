@@ -89,6 +89,79 @@ fn minutes(path: String, v: Option<f64>) -> Result<u32, AutotuneError> {
     }
 }
 
+/// mg/dL per mmol/L of an ISF, as `oref0-get-profile` converts a profile in
+/// mmol/L (`sensitivity * 18`).
+pub const OREF0_MG_DL_PER_MMOL_L: f64 = 18.0;
+
+/// A Nightscout profile's schedule `key` (`[{time, value, timeAsSeconds}]`)
+/// as (minute of the local day, value), sorted; the first must start at
+/// 00:00.
+fn schedule(
+    p: &Map<String, Value>,
+    path: &str,
+    key: &str,
+) -> Result<Vec<(u32, f64)>, AutotuneError> {
+    let Some(Value::Array(items)) = p.get(key) else {
+        return Err(err(
+            format!("{path}.{key}"),
+            "missing: expected [{time, value}]",
+        ));
+    };
+    let mut out = Vec::with_capacity(items.len());
+    for (n, e) in items.iter().enumerate() {
+        let at = format!("{path}.{key}[{n}]");
+        let Value::Object(e) = e else {
+            return Err(err(at, "expected {time, value}"));
+        };
+        let m = match num(e, &format!("{at}."), "timeAsSeconds")? {
+            Some(s) if s.fract() == 0.0 && (s as i64) % 60 == 0 => {
+                minutes(format!("{at}.timeAsSeconds"), Some(s / 60.0))?
+            }
+            Some(s) => {
+                return Err(err(
+                    format!("{at}.timeAsSeconds"),
+                    format!("expected whole minutes in seconds, got {s}"),
+                ))
+            }
+            None => {
+                let t = e.get("time").and_then(Value::as_str).unwrap_or("");
+                let mut parts = t.split(':').map(|x| x.parse::<u32>().ok());
+                match (parts.next().flatten(), parts.next().flatten()) {
+                    (Some(h), Some(mi)) if h < 24 && mi < 60 => h * 60 + mi,
+                    _ => {
+                        return Err(err(
+                            format!("{at}.time"),
+                            format!("expected HH:MM, got \"{t}\""),
+                        ))
+                    }
+                }
+            }
+        };
+        let v = num(e, &format!("{at}."), "value")?
+            .ok_or_else(|| err(format!("{at}.value"), "missing"))?;
+        out.push((m, v));
+    }
+    out.sort_by_key(|e| e.0);
+    if out.first().map(|e| e.0) != Some(0) {
+        return Err(err(
+            format!("{path}.{key}"),
+            "expected a first entry at 00:00",
+        ));
+    }
+    Ok(out)
+}
+
+/// The mean of a schedule over the day, each value weighted by the minutes
+/// it is in force.
+fn mean_over_day(s: &[(u32, f64)]) -> f64 {
+    let total: f64 = s
+        .iter()
+        .enumerate()
+        .map(|(i, &(m, v))| v * f64::from(s.get(i + 1).map_or(1440, |n| n.0) - m))
+        .sum();
+    total / 1440.0
+}
+
 impl Profile {
     /// Parses an oref0 profile document; every error names its JSON path.
     pub fn from_json(text: &str) -> Result<Self, AutotuneError> {
@@ -255,6 +328,120 @@ impl Profile {
         }
     }
 
+    /// An oref0 profile from a Nightscout profile store (`api/v1/profile`:
+    /// an array of documents, or one document): the newest document's
+    /// `defaultProfile`, its basal schedule, ISF schedule, carb ratio and
+    /// DIA, with oref0's defaults for what a Nightscout profile does not
+    /// hold (the rapid-acting curve, peak 75 min unused,
+    /// `min_5m_carbimpact` 8, autosens 0.7-1.2), as `from_schedule` makes
+    /// them. An ISF in mmol/L is converted as `oref0-get-profile` converts
+    /// one ([`OREF0_MG_DL_PER_MMOL_L`]); the units must be given. Several
+    /// carb ratios become their mean over the day, weighted by the hours
+    /// each is in force (oref0 tunes one). Returns what was taken, one line
+    /// each; every error names its JSON path.
+    pub fn from_nightscout(v: &Value) -> Result<(Self, Vec<String>), AutotuneError> {
+        let docs: Vec<(String, &Map<String, Value>)> = match v {
+            Value::Array(items) => items
+                .iter()
+                .enumerate()
+                .map(|(k, d)| match d {
+                    Value::Object(o) => Ok((format!("$[{k}]"), o)),
+                    _ => Err(err(
+                        format!("$[{k}]"),
+                        "expected a profile document (an object)",
+                    )),
+                })
+                .collect::<Result<_, _>>()?,
+            Value::Object(o) => vec![("$".to_string(), o)],
+            _ => return Err(err("$", "expected a Nightscout profile store")),
+        };
+        // The newest by `mills` (Nightscout's own order is newest first).
+        let (path, doc) = docs
+            .iter()
+            .enumerate()
+            .max_by(|(i, a), (j, b)| {
+                let mills = |d: &Map<String, Value>| d.get("mills").and_then(Value::as_f64);
+                mills(a.1)
+                    .partial_cmp(&mills(b.1))
+                    .unwrap_or(std::cmp::Ordering::Equal)
+                    .then(j.cmp(i))
+            })
+            .map(|(_, d)| d.clone())
+            .ok_or_else(|| err("$", "no profile document"))?;
+        let name = doc
+            .get("defaultProfile")
+            .and_then(Value::as_str)
+            .ok_or_else(|| err(format!("{path}.defaultProfile"), "missing: expected a name"))?;
+        let store_path = format!("{path}.store.{name}");
+        let Some(Value::Object(p)) = doc.get("store").and_then(|s| s.get(name)) else {
+            return Err(err(
+                &store_path,
+                "missing: the default profile is not in the store",
+            ));
+        };
+        let units = p
+            .get("units")
+            .or_else(|| doc.get("units"))
+            .and_then(Value::as_str)
+            .ok_or_else(|| {
+                err(
+                    format!("{store_path}.units"),
+                    "missing: expected mg/dl or mmol (the ISF's unit is never guessed)",
+                )
+            })?;
+        let per_unit = match units.to_ascii_lowercase().as_str() {
+            "mg/dl" | "mgdl" | "mg" => 1.0,
+            "mmol" | "mmol/l" => OREF0_MG_DL_PER_MMOL_L,
+            other => {
+                return Err(err(
+                    format!("{store_path}.units"),
+                    format!("expected mg/dl or mmol, got \"{other}\""),
+                ))
+            }
+        };
+        let basal = schedule(p, &store_path, "basal")?;
+        let sens = schedule(p, &store_path, "sens")?;
+        let ratios = schedule(p, &store_path, "carbratio")?;
+        let dia_h = num(p, &format!("{store_path}."), "dia")?
+            .ok_or_else(|| err(format!("{store_path}.dia"), "missing (hours)"))?;
+        let carb_ratio = js::round_to(mean_over_day(&ratios), 3);
+        let mut profile = Self::from_schedule(&basal, sens[0].1 * per_unit, carb_ratio, dia_h)?;
+        let isf: Vec<Value> = sens
+            .iter()
+            .enumerate()
+            .map(|(i, &(m, v))| {
+                let end = sens.get(i + 1).map_or(1440, |n| n.0);
+                json!({"i": i, "start": format!("{:02}:{:02}:00", m / 60, m % 60), "offset": m,
+                       "x": i, "endOffset": end, "sensitivity": v * per_unit})
+            })
+            .collect();
+        profile.raw.insert(
+            "isfProfile".into(),
+            json!({"units": "mg/dL", "sensitivities": isf}),
+        );
+        let profile = Self::from_map(profile.raw)?;
+        let mut said = vec![format!(
+            "profile: Nightscout profile \"{name}\" of {path}: {} basal segment(s), {} ISF segment(s){}, carb ratio {}, DIA {dia_h} h; oref0's defaults for the rest (rapid-acting curve, min_5m_carbimpact 8, autosens 0.7-1.2)",
+            basal.len(),
+            sens.len(),
+            if per_unit == 1.0 { String::new() } else { format!(" converted from mmol/L x {OREF0_MG_DL_PER_MMOL_L}") },
+            carb_ratio,
+        )];
+        if ratios.len() > 1 {
+            said.push(format!(
+                "profile: {} carb ratios ({}) taken as their mean over the day, weighted by the hours each is in force: {} g/U (oref0 tunes one)",
+                ratios.len(),
+                ratios
+                    .iter()
+                    .map(|&(m, r)| format!("{:02}:{:02} {r}", m / 60, m % 60))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                carb_ratio,
+            ));
+        }
+        Ok((profile, said))
+    }
+
     /// The insulin model the profile asks for.
     pub fn insulin(&self) -> InsulinModel {
         let custom = if self.use_custom_peak {
@@ -319,5 +506,107 @@ impl Profile {
                 untuned: e.untuned,
             }
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn store(units: &str, extra: Value) -> Value {
+        let mut p = json!({
+            "dia": 5, "units": units,
+            "carbratio": [{"time": "00:00", "value": 10, "timeAsSeconds": 0}],
+            "sens": [{"time": "00:00", "value": 45, "timeAsSeconds": 0}],
+            "basal": [{"time": "00:00", "value": 0.9, "timeAsSeconds": 0},
+                      {"time": "07:30", "value": 1.2}],
+        });
+        for (k, v) in extra.as_object().unwrap() {
+            p[k] = v.clone();
+        }
+        json!([{"defaultProfile": "Old", "mills": 1, "store": {"Old": {}}},
+               {"defaultProfile": "Default", "mills": 2, "store": {"Default": p}}])
+    }
+
+    #[test]
+    fn a_nightscout_profile_store_becomes_an_oref0_profile() {
+        let (p, said) = Profile::from_nightscout(&store("mg/dl", json!({}))).unwrap();
+        let want = Profile::from_schedule(&[(0, 0.9), (450, 1.2)], 45.0, 10.0, 5.0).unwrap();
+        assert_eq!(p.basal, want.basal);
+        assert_eq!(p.isf, want.isf);
+        assert_eq!(
+            (p.carb_ratio, p.dia_h, p.curve),
+            (Some(10.0), 5.0, Curve::RapidActing)
+        );
+        assert_eq!(
+            (p.autosens_min, p.autosens_max, p.min_5m_carbimpact),
+            (0.7, 1.2, 8.0)
+        );
+        // The newest document (by `mills`), whatever its place.
+        assert!(said[0].contains("\"Default\" of $[1]"), "{said:?}");
+        // mmol/L: every ISF entry times 18, as oref0-get-profile converts;
+        // carb ratios: their mean over the day, by the hours in force.
+        let (p, said) = Profile::from_nightscout(&store(
+            "mmol",
+            json!({"sens": [{"time": "00:00", "value": 2.5}, {"time": "12:00", "value": 3.0}],
+                   "carbratio": [{"time": "00:00", "value": 10}, {"time": "06:00", "value": 14}]}),
+        ))
+        .unwrap();
+        assert_eq!(
+            p.isf,
+            [
+                Sensitivity {
+                    offset: 0,
+                    sensitivity: 45.0
+                },
+                Sensitivity {
+                    offset: 720,
+                    sensitivity: 54.0
+                }
+            ]
+        );
+        assert_eq!(p.carb_ratio, Some(13.0));
+        assert_eq!(p.raw["isfProfile"]["sensitivities"][0]["endOffset"], 720);
+        assert!(
+            said.iter().any(|l| l.contains("mean over the day")),
+            "{said:?}"
+        );
+    }
+
+    #[test]
+    fn a_nightscout_profile_that_cannot_be_read_names_its_field() {
+        let e = |v: Value| match Profile::from_nightscout(&v) {
+            Err(AutotuneError::Profile { path, .. }) => path,
+            other => panic!("expected an error, got {other:?}"),
+        };
+        let mut no_units = store("mg/dl", json!({}));
+        no_units[1]["store"]["Default"]
+            .as_object_mut()
+            .unwrap()
+            .remove("units");
+        assert_eq!(e(no_units), "$[1].store.Default.units");
+        assert_eq!(e(store("mmol/kg", json!({}))), "$[1].store.Default.units");
+        assert_eq!(
+            e(store(
+                "mg/dl",
+                json!({"basal": [{"time": "7:3x", "value": 1}]})
+            )),
+            "$[1].store.Default.basal[0].time"
+        );
+        assert_eq!(
+            e(store(
+                "mg/dl",
+                json!({"sens": [{"time": "01:00", "value": 40}]})
+            )),
+            "$[1].store.Default.sens"
+        );
+        assert_eq!(
+            e(store(
+                "mg/dl",
+                json!({"sens": [{"time": "00:00", "value": 4000}]})
+            )),
+            "isfProfile.sensitivities[0].sensitivity"
+        );
+        assert_eq!(e(json!([{"store": {}}])), "$[0].defaultProfile");
     }
 }

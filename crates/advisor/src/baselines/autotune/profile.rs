@@ -421,7 +421,10 @@ impl Profile {
         );
         let profile = Self::from_map(profile.raw)?;
         let mut said = vec![format!(
-            "profile: Nightscout profile \"{name}\" of {path}: {} basal segment(s), {} ISF segment(s){}, carb ratio {}, DIA {dia_h} h; oref0's defaults for the rest (rapid-acting curve, min_5m_carbimpact 8, autosens 0.7-1.2)",
+            "profile: Nightscout profile \"{name}\" of {path}{}: {} basal segment(s), {} ISF segment(s){}, carb ratio {}, DIA {dia_h} h; oref0's defaults for the rest (rapid-acting curve, min_5m_carbimpact 8, autosens 0.7-1.2)",
+            p.get("timezone")
+                .and_then(Value::as_str)
+                .map_or(String::new(), |z| format!(" (its schedules in {z}'s hours)")),
             basal.len(),
             sens.len(),
             if per_unit == 1.0 { String::new() } else { format!(" converted from mmol/L x {OREF0_MG_DL_PER_MMOL_L}") },

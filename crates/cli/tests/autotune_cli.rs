@@ -102,6 +102,17 @@ fn files_args(entries: &str, treatments: &str) -> Vec<String> {
     .to_vec()
 }
 
+/// The hourly basals, the ISF and the carb ratio of oref0's profile in
+/// file `oref0`, as oref0 prints them (3 decimals), and each hour's days
+/// without data.
+fn assert_oref0_printed(profile: &Value, oref0: &str) {
+    let want = read(&data(oref0));
+    assert_eq!(profile["basalprofile"], want["basalprofile"], "{oref0}");
+    let isf = |p: &Value| p["isfProfile"]["sensitivities"][0]["sensitivity"].clone();
+    assert_eq!(isf(profile), isf(&want), "{oref0}");
+    assert_eq!(profile["carb_ratio"], want["carb_ratio"], "{oref0}");
+}
+
 #[test]
 fn nightscout_files_give_oref0s_profile() {
     let dir = tmp("files");
@@ -184,14 +195,7 @@ fn real_uploaders_file_gives_oref0s_profile(e: &str, treatments: &str) {
     // prints them (3 decimals): a rule of oref0's that we missed moves
     // these days by less than the tolerance (Loop's delivered `amount`
     // unread: basal 0.004 U/h, ISF 0.4 %).
-    let want = read(&data("autotune.quirks.day2.json"));
-    let p = &json["profile"];
-    assert_eq!(p["basalprofile"], want["basalprofile"]);
-    assert_eq!(
-        p["isfProfile"]["sensitivities"][0]["sensitivity"],
-        want["isfProfile"]["sensitivities"][0]["sensitivity"]
-    );
-    assert_eq!(p["carb_ratio"], want["carb_ratio"]);
+    assert_oref0_printed(&json["profile"], "autotune.quirks.day2.json");
     // Loop's carbs carry a `timestamp`: the second upload of one meal, 0.6 s
     // later, is taken once, as oref0 does (a copy of a Careportal meal,
     // which has none, is taken twice by both).
@@ -230,14 +234,7 @@ fn a_nightscout_profile_store_is_tuned_as_oref0s_profile() {
     args.push("--json".into());
     let out = ok(&abba(&args.iter().map(String::as_str).collect::<Vec<_>>()));
     let json: Value = serde_json::from_str(&out).unwrap();
-    let want = read(&data("autotune.quirks.day2.json"));
-    let p = &json["profile"];
-    assert_eq!(p["basalprofile"], want["basalprofile"]);
-    assert_eq!(
-        p["isfProfile"]["sensitivities"][0]["sensitivity"],
-        want["isfProfile"]["sensitivities"][0]["sensitivity"]
-    );
-    assert_eq!(p["carb_ratio"], want["carb_ratio"]);
+    assert_oref0_printed(&json["profile"], "autotune.quirks.day2.json");
     let taken: Vec<&Value> = json["notes"]
         .as_array()
         .unwrap()
@@ -310,15 +307,10 @@ fn days_on_which_the_clocks_change_give_oref0s_profile() {
         let out = ok(&abba(&args.iter().map(String::as_str).collect::<Vec<_>>()));
         let json: Value = serde_json::from_str(&out).unwrap();
         assert_eq!(json["days"], serde_json::json!([start, end]), "{name}");
-        let want = read(&data(&format!("autotune.quirks.{name}.day2.json")));
-        let p = &json["profile"];
-        assert_eq!(p["basalprofile"], want["basalprofile"], "{name}");
-        assert_eq!(
-            p["isfProfile"]["sensitivities"][0]["sensitivity"],
-            want["isfProfile"]["sensitivities"][0]["sensitivity"],
-            "{name}"
+        assert_oref0_printed(
+            &json["profile"],
+            &format!("autotune.quirks.{name}.day2.json"),
         );
-        assert_eq!(p["carb_ratio"], want["carb_ratio"], "{name}");
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

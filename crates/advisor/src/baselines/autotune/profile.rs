@@ -353,7 +353,12 @@ impl Profile {
                 })
                 .collect::<Result<_, _>>()?,
             Value::Object(o) => vec![("$".to_string(), o)],
-            _ => return Err(err("$", "expected a Nightscout profile store")),
+            _ => {
+                return Err(err(
+                    "$",
+                    "expected an oref0 profile (an object) or a Nightscout profile store (an array of documents)",
+                ))
+            }
         };
         // The newest by `mills` (Nightscout's own order is newest first).
         let (path, doc) = docs

@@ -570,6 +570,10 @@ pub fn run(args: Args) -> Result<()> {
                     ),
                 };
             let records = store.records(name)?;
+            said.push(
+                "a store keeps abba's reading of each record, not every Nightscout field oref0 reads (a meal's own `timestamp`, Loop's delivered `amount`): on such uploads oref0 on the same files can differ (give --entries and --treatments for oref0's figures)"
+                    .into(),
+            );
             let who = name.clone();
             let db = db.display().to_string();
             let origin = Box::new(move |r: &Record| {

@@ -365,6 +365,15 @@ fn a_persons_store_gives_oref0s_profile_in_their_unit() {
     );
     assert_eq!(json["isf"]["unit"], "mg/dL/U");
     assert_oref0_day2(&json["profile"], 1.0);
+    // What a store cannot keep of the files is said.
+    assert!(
+        json["notes"].as_array().unwrap().iter().any(|n| n
+            .as_str()
+            .unwrap()
+            .starts_with("a store keeps abba's reading")),
+        "{}",
+        json["notes"]
+    );
     // --days 1: only the last complete day, from the therapy in force.
     let one: Value = serde_json::from_str(&ok(&abba(
         &[&base[..], &["--isf", "45", "--days", "1", "--json"]].concat(),

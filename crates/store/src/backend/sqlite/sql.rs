@@ -60,7 +60,7 @@ statements! {
     /// App events of.
     AppEventsOf = "SELECT seq, at_min, kind FROM app_event WHERE person_id = ?1 ORDER BY at_min, seq";
     /// App events after (minute, seq), in the advisor's order.
-    AppEventsAfter = "SELECT seq, at_min, kind FROM app_event WHERE person_id = ?1 AND (at_min > ?2 OR (at_min = ?2 AND seq > ?3)) ORDER BY at_min, seq";
+    AppEventsAfter = "SELECT seq, at_min, kind FROM app_event WHERE person_id = ?1 AND (at_min, seq) > (?2, ?3) ORDER BY at_min, seq";
     /// App event one.
     AppEventOne = "SELECT at_min, kind FROM app_event WHERE person_id = ?1 AND seq = ?2";
     /// App event seqs from.

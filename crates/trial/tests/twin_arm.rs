@@ -81,10 +81,26 @@ fn the_twin_arm_runs_through_the_runner_and_its_counts_are_reported() {
         ..RawTrialConfig::default()
     })
     .unwrap();
-    let out = run_trial(&config, 1, &Silent).unwrap();
+    // The serial run, a parallel run and patient 2 alone, side by side (each
+    // fit is serial; this test ends its binary's run, when the other test
+    // thread has nothing left to do).
+    let sc = config.planned_scenario(ScenarioId::S1).unwrap();
+    let cohort = build_cohort(&config).unwrap();
+    let (out, parallel, (alone, stats)) = std::thread::scope(|s| {
+        let serial = s.spawn(|| run_trial(&config, 1, &Silent).unwrap());
+        let parallel = s.spawn(|| run_trial(&config, 2, &Silent).unwrap());
+        let alone = run_patient(
+            &config,
+            &cohort.patients[1],
+            2,
+            sc,
+            TwinArmOptions::default(),
+        )
+        .unwrap();
+        (serial.join().unwrap(), parallel.join().unwrap(), alone)
+    });
     // The same bytes serial and parallel (its twins' fits included; the
     // check of trial_determinism.rs for this arm, here to share the run).
-    let parallel = run_trial(&config, 2, &Silent).unwrap();
     assert_eq!(
         serde_json::to_string(&out.arms).unwrap(),
         serde_json::to_string(&parallel.arms).unwrap(),
@@ -103,10 +119,9 @@ fn the_twin_arm_runs_through_the_runner_and_its_counts_are_reported() {
         .find(|a| a.advisor == ArmKind::AbbaTwin)
         .unwrap();
     assert_eq!(twin.key(), "S1/abba-twin");
-    // The runner's run of patient 2 is the library entry's.
-    let sc = config.planned_scenario(ScenarioId::S1).unwrap();
-    let vp = &out.cohort.patients[1];
-    let (alone, stats) = run_patient(&config, vp, 2, sc, TwinArmOptions::default()).unwrap();
+    // The runner's run of patient 2 is the library entry's, on the
+    // runner's cohort.
+    assert_eq!(out.cohort.patients[1], cohort.patients[1]);
     assert_eq!(twin.patients[1], alone);
     let total = twin.patients.iter().map(|p| p.twin_check.unwrap()).fold(
         Default::default(),

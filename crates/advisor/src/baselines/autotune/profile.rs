@@ -616,5 +616,7 @@ mod tests {
             "isfProfile.sensitivities[0].sensitivity"
         );
         assert_eq!(e(json!([{"store": {}}])), "$[0].defaultProfile");
+        assert_eq!(e(json!("profile.json")), "$");
+        assert_eq!(e(json!([1])), "$[0]");
     }
 }

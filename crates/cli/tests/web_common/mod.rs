@@ -241,6 +241,8 @@ pub struct Browser {
     pub problems: Vec<String>,
     /// The pages checked, by name.
     pub checked: Vec<String>,
+    /// The window's size less its viewport's, as last measured.
+    frame: std::sync::Mutex<(i64, i64)>,
 }
 
 impl Browser {
@@ -290,6 +292,7 @@ impl Browser {
             base: base.trim_end_matches('/').to_string(),
             problems: Vec::new(),
             checked: Vec::new(),
+            frame: std::sync::Mutex::new((0, 0)),
         }
     }
 
@@ -448,26 +451,51 @@ impl Browser {
     }
 
     /// Makes the page's viewport exactly `width` × `height` CSS px (the
-    /// window is larger by the headless browser's own frame).
+    /// window is larger by the headless browser's own frame, measured once
+    /// and kept). Chromium resizes a window after it answers the WebDriver
+    /// command, so a size that is not the one wanted is read until it
+    /// settles (on a loaded machine the first read can still show the old
+    /// height) before the frame is measured from it.
     pub async fn set_viewport(&self, width: u32, height: u32) {
         let want = (i64::from(width), i64::from(height));
-        let (mut w, mut h) = want;
-        for _ in 0..3 {
+        let mut tries = 0;
+        loop {
+            let frame = *self.frame.lock().unwrap();
+            let (w, h) = (want.0 + frame.0, want.1 + frame.1);
             self.client
                 .set_window_size(w as u32, h as u32)
                 .await
                 .unwrap();
-            let (iw, ih) = self.viewport().await;
-            if (iw, ih) == want {
+            let seen = self.settled_viewport(want).await;
+            if seen == want {
                 return;
             }
-            w += want.0 - iw;
-            h += want.1 - ih;
+            tries += 1;
+            assert!(
+                tries < 4,
+                "cannot make the viewport {width}x{height}: it is {seen:?}"
+            );
+            *self.frame.lock().unwrap() = (w - seen.0, h - seen.1);
         }
-        panic!(
-            "cannot make the viewport {width}x{height}: it is {:?}",
-            self.viewport().await
-        );
+    }
+
+    /// The viewport once it is `want` or has read the same for 200 ms
+    /// (at most 5 s).
+    async fn settled_viewport(&self, want: (i64, i64)) -> (i64, i64) {
+        let start = Instant::now();
+        let mut last = self.viewport().await;
+        let mut same_since = Instant::now();
+        while last != want && start.elapsed() < Duration::from_secs(5) {
+            tokio::time::sleep(Duration::from_millis(25)).await;
+            let now = self.viewport().await;
+            if now != last {
+                last = now;
+                same_since = Instant::now();
+            } else if same_since.elapsed() >= Duration::from_millis(200) {
+                break;
+            }
+        }
+        last
     }
 
     /// The browser's log since the last call: (level, message).

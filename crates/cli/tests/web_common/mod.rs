@@ -462,11 +462,12 @@ impl Browser {
         loop {
             let frame = *self.frame.lock().unwrap();
             let (w, h) = (want.0 + frame.0, want.1 + frame.1);
+            let before = self.viewport().await;
             self.client
                 .set_window_size(w as u32, h as u32)
                 .await
                 .unwrap();
-            let seen = self.settled_viewport(want).await;
+            let seen = self.settled_viewport(want, before).await;
             if seen == want {
                 return;
             }
@@ -479,9 +480,9 @@ impl Browser {
         }
     }
 
-    /// The viewport once it is `want` or has read the same for 200 ms
-    /// (at most 5 s).
-    async fn settled_viewport(&self, want: (i64, i64)) -> (i64, i64) {
+    /// The viewport once it is `want`, or once it has left `before` (its
+    /// size before the resize) and read the same for 200 ms; at most 5 s.
+    async fn settled_viewport(&self, want: (i64, i64), before: (i64, i64)) -> (i64, i64) {
         let start = Instant::now();
         let mut last = self.viewport().await;
         let mut same_since = Instant::now();
@@ -491,7 +492,7 @@ impl Browser {
             if now != last {
                 last = now;
                 same_since = Instant::now();
-            } else if same_since.elapsed() >= Duration::from_millis(200) {
+            } else if last != before && same_since.elapsed() >= Duration::from_millis(200) {
                 break;
             }
         }

@@ -346,7 +346,9 @@ impl Store {
     }
 
     /// Claims the background job named `key` (a person's sync, say) for
-    /// as long as this store stays open, when no other process holds it:
+    /// as long as this store stays open (on PostgreSQL the claim is
+    /// released, and the server has said so, before the store's drop
+    /// returns), when no other process holds it:
     /// two service replicas on one PostgreSQL database never do the same
     /// job at once. Always true on SQLite (one file, whose writers take
     /// turns anyway).

@@ -120,6 +120,38 @@ fn replicas_starting_at_once_migrate_one_postgres_database_once() {
     assert_eq!(s.persons().unwrap(), ["ana"]);
 }
 
+/// A job's claim (`Store::claim`: a person's Nightscout sync, a twin
+/// refit) is held while its store is open and is free as soon as the store
+/// is closed. A closed connection's backend releases its session locks when
+/// it exits, after the client has gone on; a store closed without releasing
+/// them left the next connection's claim refused at random (a refit of the
+/// service's PostgreSQL pass skipped under load, 2026-12-06).
+#[test]
+fn a_claim_is_held_while_its_store_is_open_and_free_once_it_is_closed() {
+    let Some(base) =
+        postgres_or_skip("a_claim_is_held_while_its_store_is_open_and_free_once_it_is_closed")
+    else {
+        return;
+    };
+    let url = PathBuf::from(fresh_schema(&base));
+    let other = Store::open(&url).unwrap();
+    let job = "twin refit ana";
+    for round in 0..40 {
+        let first = Store::open(&url).unwrap();
+        assert!(first.claim(job).unwrap(), "round {round}: the first claim");
+        assert!(
+            !other.claim(job).unwrap(),
+            "round {round}: held by the open store"
+        );
+        drop(first);
+        let next = Store::open(&url).unwrap();
+        assert!(
+            next.claim(job).unwrap(),
+            "round {round}: the claim of a closed store is still held"
+        );
+    }
+}
+
 #[test]
 fn a_refused_import_leaves_nothing_on_either_backend() {
     let dir = TempDir::new("refused");

@@ -282,6 +282,9 @@ fn gone() -> StoreError {
 pub struct Pg {
     jobs: mpsc::Sender<Job>,
     cache: Arc<Cache>,
+    /// Whether [`Pg::try_lock`] took a session lock (released when the
+    /// store is dropped).
+    claimed: std::sync::atomic::AtomicBool,
 }
 
 /// A transaction of [`Pg`] (rolled back when dropped uncommitted).
@@ -337,6 +340,7 @@ impl Pg {
         Ok(Self {
             jobs,
             cache: Arc::new(Mutex::new(HashMap::new())),
+            claimed: std::sync::atomic::AtomicBool::new(false),
         })
     }
 
@@ -408,11 +412,11 @@ impl Pg {
 
     /// Takes the session-level advisory lock `key` if no other session
     /// holds it (background work done by one process at a time; released
-    /// when this connection closes); false when another holds it.
+    /// when this store is dropped); false when another holds it.
     pub fn try_lock(&self, key: i64) -> Result<bool, StoreError> {
         // (The store's schema, and 32 bits of the key.)
         let key = key as i32;
-        self.call(move |c, _| {
+        let taken = self.call(move |c, _| {
             let r = c
                 .query_one(
                     "SELECT pg_try_advisory_lock(hashtext(current_schema()), $1)",
@@ -420,7 +424,26 @@ impl Pg {
                 )
                 .map_err(err)?;
             r.try_get::<_, bool>(0).map_err(err)
-        })
+        })?;
+        if taken {
+            self.claimed
+                .store(true, std::sync::atomic::Ordering::Relaxed);
+        }
+        Ok(taken)
+    }
+}
+
+impl Drop for Pg {
+    /// Releases the session locks [`Pg::try_lock`] took, and waits for the
+    /// server to say so. Closing the connection alone releases them only
+    /// when the server's backend exits, after this process has gone on: a
+    /// claim made right after (the next refit of the same person) was
+    /// refused at random under load. (Nothing to report on failure: the
+    /// connection's end releases them too.)
+    fn drop(&mut self) {
+        if self.claimed.load(std::sync::atomic::Ordering::Relaxed) {
+            let _ = self.batch("SELECT pg_advisory_unlock_all()");
+        }
     }
 }
 

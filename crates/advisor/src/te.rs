@@ -258,34 +258,76 @@ fn quantile_bins(x: &[f64], bins: usize) -> Vec<u8> {
         .collect()
 }
 
-/// TE_u for one lag on binned signals (`ab[t]`: the cell of glucose at
-/// t + 1 and t, see `max_over_lags`); returns (bits, triples used).
-fn te_at_lag(ab: &[u16], i: &[u8], lag: usize, bins: usize, counts: &mut [u32]) -> (f64, usize) {
-    counts.iter_mut().for_each(|c| *c = 0);
-    let b = bins;
-    let mut n = 0usize;
-    for t in lag..ab.len() {
-        let (x, c) = (ab[t], i[t - lag]);
-        if x == u16::MAX || c == MISSING {
-            continue;
+/// The counting space of [`te_at_lag`], reused across lags and
+/// surrogates. A missing glucose pair goes to an extra row and a missing
+/// source bin to an extra column of the (glucose pair, source) table, so
+/// the count of a time step is one branch-free increment; four tables
+/// take the steps in turn, so that consecutive steps in one cell (glucose
+/// moves slowly) do not wait on each other's increment.
+struct TeCounts {
+    /// Four tables of (b² + 1) rows × (b + 1) columns.
+    tables: Vec<u32>,
+    /// The (a, b, c) counts of the valid cells, `(a·b + b')·b + c`.
+    counts: Vec<u32>,
+    n_b: Vec<u32>,
+    n_ab: Vec<u32>,
+    n_bc: Vec<u32>,
+}
+
+impl TeCounts {
+    fn new(b: usize) -> Self {
+        Self {
+            tables: vec![0; 4 * (b * b + 1) * (b + 1)],
+            counts: vec![0; b * b * b],
+            n_b: vec![0; b],
+            n_ab: vec![0; b * b],
+            n_bc: vec![0; b * b],
         }
-        counts[x as usize * b + c as usize] += 1;
-        n += 1;
+    }
+}
+
+/// TE_u for one lag on binned signals (`rows[t]`: the table row of the
+/// glucose pair (t + 1, t), times the row length; `cols[t]`: the source
+/// bin at t, see `max_over_lags`); returns (bits, triples used).
+fn te_at_lag(rows: &[u32], cols: &[u8], lag: usize, b: usize, w: &mut TeCounts) -> (f64, usize) {
+    let cells = (b * b + 1) * (b + 1);
+    w.tables.fill(0);
+    let xs = rows.get(lag..).unwrap_or(&[]);
+    let cs = &cols[..xs.len()];
+    let mut xq = xs.chunks_exact(4);
+    let mut cq = cs.chunks_exact(4);
+    for (x4, c4) in (&mut xq).zip(&mut cq) {
+        for k in 0..4 {
+            w.tables[k * cells + x4[k] as usize + c4[k] as usize] += 1;
+        }
+    }
+    for (x, c) in xq.remainder().iter().zip(cq.remainder()) {
+        w.tables[*x as usize + *c as usize] += 1;
+    }
+    let mut n = 0usize;
+    for row in 0..b * b {
+        for c in 0..b {
+            let cell = row * (b + 1) + c;
+            let k = (0..4).map(|q| w.tables[q * cells + cell]).sum::<u32>();
+            w.counts[row * b + c] = k;
+            n += k as usize;
+        }
     }
     if n == 0 {
         return (0.0, 0);
     }
+    let counts = &w.counts;
     // TE = Σ p(a,b,c) log2[ p(a,b,c) p(b) / (p(b,c) p(a,b)) ]
-    let mut n_b = vec![0u32; b];
-    let mut n_ab = vec![0u32; b * b];
-    let mut n_bc = vec![0u32; b * b];
+    w.n_b.fill(0);
+    w.n_ab.fill(0);
+    w.n_bc.fill(0);
     for a in 0..b {
         for bb in 0..b {
             for c in 0..b {
                 let k = counts[(a * b + bb) * b + c];
-                n_b[bb] += k;
-                n_ab[a * b + bb] += k;
-                n_bc[bb * b + c] += k;
+                w.n_b[bb] += k;
+                w.n_ab[a * b + bb] += k;
+                w.n_bc[bb * b + c] += k;
             }
         }
     }
@@ -297,8 +339,8 @@ fn te_at_lag(ab: &[u16], i: &[u8], lag: usize, bins: usize, counts: &mut [u32]) 
                 if k == 0 {
                     continue;
                 }
-                let ratio = f64::from(k) * f64::from(n_b[bb])
-                    / (f64::from(n_bc[bb * b + c]) * f64::from(n_ab[a * b + bb]));
+                let ratio = f64::from(k) * f64::from(w.n_b[bb])
+                    / (f64::from(w.n_bc[bb * b + c]) * f64::from(w.n_ab[a * b + bb]));
                 te += f64::from(k) / n as f64 * ratio.log2();
             }
         }
@@ -306,24 +348,30 @@ fn te_at_lag(ab: &[u16], i: &[u8], lag: usize, bins: usize, counts: &mut [u32]) 
     (te, n)
 }
 
-fn max_over_lags(g: &[u8], i: &[u8], cfg: &TeConfig, counts: &mut [u32]) -> (f64, usize, usize) {
+fn max_over_lags(g: &[u8], i: &[u8], cfg: &TeConfig, w: &mut TeCounts) -> (f64, usize, usize) {
     let mut best = (f64::NEG_INFINITY, 0usize);
     let mut pairs0 = 0;
-    // The (next glucose, glucose) cell of every t, computed once for all
-    // lags (`u16::MAX` where either is missing).
+    // The table row of the (next glucose, glucose) pair of every t,
+    // computed once for all lags (row b² where either is missing), and
+    // the source's column (b where missing).
     let b = cfg.bins;
-    let ab: Vec<u16> = (0..g.len().saturating_sub(1))
+    let rows: Vec<u32> = (0..g.len().saturating_sub(1))
         .map(|t| {
             let (a, bb) = (g[t + 1], g[t]);
-            if a == MISSING || bb == MISSING {
-                u16::MAX
+            let row = if a == MISSING || bb == MISSING {
+                b * b
             } else {
-                (a as usize * b + bb as usize) as u16
-            }
+                a as usize * b + bb as usize
+            };
+            (row * (b + 1)) as u32
         })
         .collect();
+    let cols: Vec<u8> = i
+        .iter()
+        .map(|&c| if c == MISSING { b as u8 } else { c })
+        .collect();
     for lag in 0..=cfg.max_lag_steps {
-        let (te, n) = te_at_lag(&ab, i, lag, b, counts);
+        let (te, n) = te_at_lag(&rows, &cols, lag, b, w);
         if lag == 0 {
             pairs0 = n;
         }
@@ -378,7 +426,7 @@ pub fn transfer_entropy(
         .collect();
     let g_bins = quantile_bins(glucose_mg_dl, cfg.bins);
     let i_bins = quantile_bins(&itil, cfg.bins);
-    let mut counts = vec![0u32; cfg.bins.pow(3)];
+    let mut counts = TeCounts::new(cfg.bins);
     let (observed, best_lag, pairs) = max_over_lags(&g_bins, &i_bins, cfg, &mut counts);
     let coverage = glucose_mg_dl.iter().filter(|g| g.is_finite()).count() as f64 / n.max(1) as f64;
     if pairs < cfg.min_pairs {

@@ -237,6 +237,88 @@ fn nightscout_sgv_error_codes_are_counted_not_read_as_glucose() {
     assert!(err.to_string().contains("$[0], field \"sgv\""), "{err}");
 }
 
+/// The bottom of a real night-time low as iAPS uploads it to Nightscout
+/// (the layout of GlucoseDAO/cgm_format's `data/input/nightscout_entries.json`,
+/// MIT, real iAPS data: `glucose`, `unfiltered` and `uncalibrated` beside
+/// `sgv`, `utcOffset` 0, a UUID `_id`): 98 -> 32 -> 55 mg/dL over 1 h 45.
+/// Values between 13 and 38 are glucose, not Dexcom's error codes (0-12):
+/// dropping them hid the lowest readings of a severe hypoglycaemia.
+#[test]
+fn nightscout_sgv_between_13_and_38_is_the_bottom_of_a_low_not_an_error_code() {
+    // An hour of the evening's fall, then the low.
+    let values = [
+        98, 94, 90, 87, 83, 79, 75, 71, 67, 63, 60, 56, 53, 51, 47, 43, 38, 34, 32, 34, 43, 55,
+    ];
+    let start_ms: i64 = 1_775_338_223_000; // 2026-04-04T21:30:23Z
+    let items: Vec<String> = values
+        .iter()
+        .enumerate()
+        .map(|(k, v)| {
+            let ms = start_ms + 300_000 * k as i64;
+            let at = jiff::Timestamp::from_millisecond(ms).unwrap();
+            format!(
+                r#"{{"_id":"6E2C1B7A-0D4F-4C55-9A1E-3B2F6A7C8D{k:02}","date":{ms},"dateString":"{at}","glucose":{v},"direction":"Flat","type":"sgv","sessionStartDate":"2026-04-02T14:10:28.450Z","sgv":{v},"unfiltered":{v},"uncalibrated":{v},"utcOffset":0,"sysTime":"{at}"}}"#
+            )
+        })
+        .collect();
+    let entries = format!("[{}]", items.join(",\n"));
+    let b = read(
+        &[("entries.json", entries.clone().into())],
+        &opts("Europe/Moscow"),
+    )
+    .unwrap();
+    let got: Vec<f64> = b
+        .records
+        .iter()
+        .filter_map(|r| match &r.kind {
+            RecordKind::Cgm { glucose } => Some(glucose.mg_dl.0),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(
+        got,
+        values.map(f64::from),
+        "every reading of the low is kept"
+    );
+    assert!(
+        b.notes
+            .iter()
+            .any(|n| n.contains("4 sgv values between 13 and 38 mg/dL are kept as glucose")),
+        "{:?}",
+        b.notes
+    );
+    // With an error code among them, the code is still not glucose, and
+    // the note says it was dropped.
+    let with_code = entries.replacen("\"sgv\":53", "\"sgv\":5", 1);
+    let b = read(
+        &[("entries.json", with_code.into())],
+        &opts("Europe/Moscow"),
+    )
+    .unwrap();
+    assert_eq!(b.count("cgm"), values.len() - 1);
+    assert!(
+        b.notes
+            .iter()
+            .any(|n| n.contains("1 sgv values are Dexcom's error codes")),
+        "{:?}",
+        b.notes
+    );
+    // Integer glucose in mmol/L (5-20) is still refused as a unit error,
+    // whether it reads as codes or as lows.
+    let mmol = r#"[
+ {"_id":"a","type":"sgv","sgv":14,"date":1709557200000},
+ {"_id":"b","type":"sgv","sgv":16,"date":1709557500000},
+ {"_id":"c","type":"sgv","sgv":6,"date":1709557800000},
+ {"_id":"d","type":"sgv","sgv":120,"date":1709558100000}
+]"#;
+    let err = read(&[("m.json", mmol.into())], &opts("UTC")).unwrap_err();
+    assert!(matches!(err, abba_io::IoError::Units { .. }), "{err}");
+    assert!(
+        err.to_string().contains("3 of 4 sgv values are below 39"),
+        "{err}"
+    );
+}
+
 #[test]
 fn nightscout_date_in_seconds_is_refused() {
     let entries = r#"[{"_id":"a","type":"sgv","sgv":120,"date":1709557200}]"#;

@@ -85,7 +85,7 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
             });
         }
     }
-    check_error_codes(ctx.file, &out)?;
+    check_error_codes(ctx, &out)?;
     tally.note(ctx, &out);
     temporary_switches(ctx, &mut out, &mut versions, &switches);
     latest_versions(ctx, &mut out, &versions);
@@ -337,30 +337,50 @@ fn latest_versions(ctx: &Ctx<'_>, out: &mut Vec<Record>, versions: &[Option<f64>
     }
 }
 
-/// Error codes are rare: a file where most `sgv` values are below 39 is
-/// more likely glucose in mmol/L (which Nightscout entries must not hold)
-/// than a sensor failing all the time, and is refused.
-fn check_error_codes(file: &str, records: &[Record]) -> Result<(), IoError> {
+/// Error codes and glucose below 39 mg/dL are rare: a file where most
+/// `sgv` values are below 39 is more likely glucose in mmol/L (which
+/// Nightscout entries must not hold) than a sensor failing or reading a
+/// severe low all the time, and is refused. Otherwise the codes dropped
+/// and the readings kept below 39 are named in the file's notes.
+fn check_error_codes(ctx: &Ctx<'_>, records: &[Record]) -> Result<(), IoError> {
     let codes = records
         .iter()
         .filter(|r| {
             matches!(&r.kind, RecordKind::Ignored { kind } if kind.starts_with("sgv sensor error code"))
         })
         .count();
+    let below = |r: &Record| matches!(r.kind, RecordKind::Cgm { glucose } if glucose.mg_dl.0 < SGV_ERROR_BELOW);
+    let low = records.iter().filter(|r| below(r)).count();
     let readings = records
         .iter()
         .filter(|r| matches!(r.kind, RecordKind::Cgm { .. }))
         .count();
-    if codes > 0 && codes >= readings {
+    if codes + low > 0 && codes + low >= readings - low {
         return Err(IoError::Units {
-            file: file.to_string(),
+            file: ctx.file.to_string(),
             message: format!(
-                "{codes} of {} sgv values are below {SGV_ERROR_BELOW}, which Nightscout uses for \
-                 sensor error codes; so many look like glucose in mmol/L, but Nightscout entries \
-                 hold mg/dL (check the uploader's settings)",
+                "{} of {} sgv values are below {SGV_ERROR_BELOW} ({codes} of them Dexcom's error \
+                 codes 0-{SGV_CODE_MAX}); so many look like glucose in mmol/L, but Nightscout \
+                 entries hold mg/dL (check the uploader's settings)",
+                codes + low,
                 codes + readings
             ),
         });
+    }
+    if codes > 0 {
+        ctx.note(format!(
+            "{codes} sgv values are Dexcom's error codes (0-{SGV_CODE_MAX}: sensor not active, \
+             not calibrated, bad radio ...), not glucose: counted, not read as readings"
+        ));
+    }
+    if low > 0 {
+        ctx.note(format!(
+            "{low} sgv values between {} and {} mg/dL are kept as glucose (Nightscout shows values \
+             below {SGV_ERROR_BELOW} as errors, but uploaders that read the sensor themselves, \
+             such as iAPS and xDrip+, store the bottom of a low there)",
+            SGV_CODE_MAX + 1.0,
+            SGV_ERROR_BELOW - 1.0
+        ));
     }
     Ok(())
 }
@@ -478,9 +498,19 @@ fn instant(item: &Item<'_>) -> Result<jiff::Timestamp, IoError> {
 /// seconds, not milliseconds.
 const MS_SINCE_1973: f64 = 1e11;
 
-/// Nightscout's `sgv` values below this are CGM error codes, not glucose
-/// (Nightscout's own error-code display treats them so).
+/// Nightscout's `sgv` values below this are shown by Nightscout as "?"
+/// (its error display), but only the whole numbers up to
+/// [`SGV_CODE_MAX`] are codes: uploaders that read a sensor themselves
+/// (iAPS, xDrip+) store real glucose between 13 and 38 mg/dL, the bottom
+/// of a severe hypoglycaemia, which must reach the advisor.
 pub const SGV_ERROR_BELOW: f64 = 39.0;
+
+/// The largest of Dexcom's special values, which receivers and uploaders
+/// write as `sgv` for an error state (1 sensor not active, 2 minimal
+/// deviation, 3 no antenna, 5 not calibrated, 6 counts deviation, 9
+/// absolute deviation, 10 power deviation, 12 bad RF; Nightscout's
+/// error-code table): not glucose.
+pub const SGV_CODE_MAX: f64 = 12.0;
 
 fn entry(item: &Item<'_>) -> Result<RecordKind, IoError> {
     let kind = item.str("type")?.unwrap_or(if item.get("sgv").is_some() {
@@ -501,13 +531,11 @@ fn entry(item: &Item<'_>) -> Result<RecordKind, IoError> {
     };
     Ok(match kind {
         // Dexcom receivers and uploaders write their error states as sgv
-        // values below 39 (1 sensor not active, 5 not calibrated, 9
-        // absolute deviation, 10 power deviation, 12 bad RF, ...): not
-        // glucose, counted by code.
+        // values 0..=12 (SGV_CODE_MAX): not glucose, counted by code.
         "sgv"
             if item
                 .num("sgv")?
-                .is_some_and(|v| (0.0..SGV_ERROR_BELOW).contains(&v) && v.fract() == 0.0) =>
+                .is_some_and(|v| (0.0..=SGV_CODE_MAX).contains(&v) && v.fract() == 0.0) =>
         {
             RecordKind::Ignored {
                 kind: format!(

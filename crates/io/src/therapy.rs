@@ -586,6 +586,26 @@ pub fn tidepool_pump_settings(
     Ok(out)
 }
 
+/// Like [`tidepool_pump_settings`], skipping the `pumpSettings` it cannot
+/// read (the reader counts them, with a note, as settings not read): an
+/// import compares the readable ones with the store's therapy and goes on.
+pub fn tidepool_pump_settings_readable(
+    file: &str,
+    bytes: &[u8],
+    meals: &MealWindows,
+) -> Result<Vec<PumpTherapy>, IoError> {
+    let mut out = Vec::new();
+    for (at, place, profile) in crate::read::tidepool::pump_settings(file, bytes)? {
+        let (Ok(at), Ok(profile)) = (at, profile) else {
+            continue;
+        };
+        if let Ok(t) = PumpTherapy::from_profile(&profile, meals, place, at) {
+            out.push(t);
+        }
+    }
+    Ok(out)
+}
+
 /// The settings profile in force at the end of `paths` (the latest one):
 /// Nightscout profiles and Profile Switches, Tidepool `pumpSettings`,
 /// CareLink's rows (see the module documentation).

@@ -821,8 +821,10 @@ fn profile_check(
     let store_cr = p.settings.start.carb_ratio.map(|c| c.0);
     for ((name, bytes), format) in contents.iter().zip(&batch.formats) {
         match format {
+            // Settings the reader could not read are in the batch's notes
+            // ("counted, not read"); the readable ones are compared.
             Format::Tidepool | Format::TidepoolXlsx => profiles.extend(
-                abba_io::therapy::tidepool_pump_settings(name, bytes, meals)?,
+                abba_io::therapy::tidepool_pump_settings_readable(name, bytes, meals)?,
             ),
             // A CareLink export without Basal Rate rows or a full day says
             // nothing about the settings: nothing to compare.

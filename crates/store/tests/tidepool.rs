@@ -233,3 +233,85 @@ fn pump_settings_changed_mid_export_are_a_change_of_therapy_from_their_time() {
         assert!(before.iter().all(|d| d.old < 11.5), "{name}");
     }
 }
+
+/// A `pumpSettings` as Diabeloop's Tidepool data (tide-whisperer's
+/// `usecase/converter_test.json`, used as a layout reference) carries it:
+/// a long `payload.history` before its `type`, and an active schedule
+/// whose basal rows the item does not hold. The export's first item.
+fn unreadable_settings(ms: i64) -> Value {
+    let history: Vec<Value> = (0..120)
+        .map(|k| {
+            json!({"changeDate": iso(ms - k * 86_400_000), "parameters": [
+                {"changeType": "changed", "effectiveDate": iso(ms - k * 86_400_000),
+                 "level": 1, "name": "MEAL_RATIO_BREAKFAST_FACTOR", "unit": "%", "value": "100"}]})
+        })
+        .collect();
+    json!({"payload": {"history": history}, "activeSchedule": "Normal",
+        "basalSchedules": {}, "carbRatio": [{"start": 0, "amount": 10.0}],
+        "units": {"carb": "grams", "bg": "mg/dL"}, "deviceId": "DBLG1-0001",
+        "id": "ps-unreadable", "time": iso(ms), "timezoneOffset": 120, "type": "pumpSettings"})
+}
+
+/// An export that opens with settings abba cannot read (their history
+/// runs past the first 4 KB) is told from its items' own keys, read as
+/// Tidepool without `--format`, and imported whole: the settings counted
+/// with a note, the readings kept (before, it was read as Nightscout and
+/// refused, or with `--format tidepool` refused whole by the profile
+/// check).
+#[test]
+fn an_export_opening_with_unreadable_settings_is_told_and_imported_with_a_note() {
+    let mut data = vec![unreadable_settings(DAY1_MS)];
+    data.extend(
+        changed_mid_export()
+            .into_iter()
+            .filter(|v| v["type"] != "pumpSettings"),
+    );
+    let bytes = serde_json::to_vec(&data).unwrap();
+    assert!(
+        bytes
+            .windows(21)
+            .position(|w| w == b"\"type\":\"pumpSettings\"")
+            .unwrap()
+            > 4096,
+        "the first item's type comes after the first 4 KB"
+    );
+    assert_eq!(
+        abba_io::read::detect("export.json", &bytes).unwrap(),
+        abba_io::Format::Tidepool
+    );
+    let dir = TempDir::new("tp-unreadable");
+    let mut store = dir.store();
+    let mut p = person_a();
+    p.settings.therapy_source = TherapySource::Given;
+    store.create_person(&p).unwrap();
+    let summary = store
+        .import_contents_with(
+            "tia",
+            &[("export.json".into(), bytes)],
+            None,
+            abba_store::ProfileResolution::Stop,
+            jiff::Timestamp::now(),
+            true,
+            &mut |_| Ok(()),
+        )
+        .unwrap();
+    assert!(
+        summary
+            .notes
+            .iter()
+            .any(|n| n.contains("$[0], field \"basalSchedules\"")
+                && n.contains("active schedule \"Normal\"")
+                && n.contains("counted, not read")),
+        "{:?}",
+        summary.notes
+    );
+    assert_eq!(
+        store
+            .records("tia")
+            .unwrap()
+            .iter()
+            .filter(|r| r.kind.name() == "cgm")
+            .count(),
+        14 * 288
+    );
+}

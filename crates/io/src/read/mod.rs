@@ -178,7 +178,22 @@ pub fn detect(file: &str, bytes: &[u8]) -> Result<Format, IoError> {
     let head = String::from_utf8_lossy(&text[start..text.len().min(start + 4096)]);
     if head.starts_with('[') || head.starts_with('{') {
         // Tidepool data carry `type` and `time`; Nightscout uses `date`,
-        // `created_at`, `eventType`, `sgv`, `store`.
+        // `created_at`, `eventType`, `sgv`, `store`. The first item's own
+        // keys decide when it can be read whole (a Tidepool export may
+        // open with a `pumpSettings` whose history runs over many KB before
+        // its `type`); else the first 4 KB's text.
+        if let Some(item) = first_json_item(&text[start..]) {
+            let kind = item.get("type").and_then(|t| t.as_str());
+            let tidepool = kind.is_some_and(|k| tidepool::TYPES.contains(&k))
+                && item.contains_key("time")
+                && !item.contains_key("eventType")
+                && !item.contains_key("sgv");
+            return Ok(if tidepool {
+                Format::Tidepool
+            } else {
+                Format::Nightscout
+            });
+        }
         let tidepool = tidepool::TYPES.iter().any(|t| {
             head.contains(&format!("\"type\": \"{t}\""))
                 || head.contains(&format!("\"type\":\"{t}\""))
@@ -207,6 +222,53 @@ pub fn detect(file: &str, bytes: &[u8]) -> Result<Format, IoError> {
         return Ok(Format::Csv);
     }
     Err(IoError::format(file, "cannot tell the format from the content (expected JSON or CSV with a header); give --format"))
+}
+
+/// The first item of a JSON array (or the object itself), when it is an
+/// object that ends within its first MiB; `None` otherwise (the caller
+/// then reads the text). Only that item is parsed: a scan for where it
+/// ends (braces outside strings), then serde_json on those bytes.
+fn first_json_item(json: &[u8]) -> Option<serde_json::Map<String, serde_json::Value>> {
+    const LIMIT: usize = 1 << 20;
+    let skip_ws = |from: usize| {
+        json[from..]
+            .iter()
+            .position(|b| !b.is_ascii_whitespace())
+            .map(|k| from + k)
+    };
+    let at = skip_ws(0)?;
+    let open = match json[at] {
+        b'[' => skip_ws(at + 1)?,
+        b'{' => at,
+        _ => return None,
+    };
+    if json[open] != b'{' {
+        return None;
+    }
+    let (mut depth, mut in_string, mut escaped) = (0usize, false, false);
+    for (k, &b) in json[open..].iter().enumerate().take(LIMIT) {
+        if in_string {
+            match b {
+                _ if escaped => escaped = false,
+                b'\\' => escaped = true,
+                b'"' => in_string = false,
+                _ => {}
+            }
+            continue;
+        }
+        match b {
+            b'"' => in_string = true,
+            b'{' | b'[' => depth += 1,
+            b'}' | b']' => {
+                depth = depth.checked_sub(1)?;
+                if depth == 0 {
+                    return serde_json::from_slice(&json[open..=open + k]).ok();
+                }
+            }
+            _ => {}
+        }
+    }
+    None
 }
 
 /// Reads one file's bytes (named `file`, index `index` in the batch).

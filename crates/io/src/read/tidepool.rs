@@ -556,9 +556,13 @@ pub fn pump_settings_profile(item: &Item<'_>) -> Result<Profile, IoError> {
     };
     let segments = |field: &str, value: &str| -> Result<Vec<(u32, f64)>, IoError> {
         let Some(Value::Array(rows)) = pick(field) else {
+            let schedule = match active {
+                Some(a) => format!("of the active schedule \"{a}\""),
+                None => "no activeSchedule named".to_string(),
+            };
             return Err(item.err(
                 field,
-                format!("missing: expected an array of {{start, {value}}} (of the active schedule {active:?})"),
+                format!("missing: expected an array of {{start, {value}}} ({schedule})"),
             ));
         };
         let mut s: Vec<(u32, f64)> = Vec::new();

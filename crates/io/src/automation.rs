@@ -15,7 +15,9 @@
 //! doses count as automatic boluses) and the "Aggregated Auto Insulin
 //! Data" totals. A CareLink export naming a 780G without these is not a
 //! loop: the 780G also runs in manual mode, open-loop therapy.
-//! Injections: long-acting insulin and no pump basal record. Data with no
+//! Injections: long-acting insulin and no pump basal record, or
+//! injections logged in a CGM's app (CareLink's `Insulin: N` markers) and
+//! no pump record at all. Data with no
 //! pump record and no insulin at all (a CGM-only export) show no delivery:
 //! abba says so instead of calling it open-loop pump therapy.
 
@@ -77,6 +79,10 @@ pub struct Evidence {
     pub systems: BTreeMap<String, usize>,
     /// Long-acting insulin records.
     pub long_acting: usize,
+    /// Injections logged in a CGM's app without their acting type
+    /// (CareLink's `Insulin: N` event markers).
+    #[serde(default)]
+    pub injection_markers: usize,
     /// Pump basal records (profiles, temporary basals, suspensions).
     pub pump_basal: usize,
 }
@@ -148,6 +154,9 @@ impl Evidence {
                     pump_days.insert(local.date());
                 }
                 RecordKind::LongActing { .. } => e.long_acting += 1,
+                RecordKind::Ignored { kind } if kind == carelink::INSULIN_MARKER => {
+                    e.injection_markers += 1
+                }
                 _ => {}
             }
         }
@@ -282,7 +291,9 @@ impl Evidence {
             || !self.systems.is_empty()
         {
             Delivery::ClosedLoop
-        } else if self.long_acting > 0 && self.pump_basal == 0 {
+        } else if self.long_acting > 0 && self.pump_basal == 0
+            || self.injection_markers > 0 && self.pump_basal == 0 && self.pump_hours == 0
+        {
             Delivery::Injections
         } else if self.pump_hours == 0 && self.long_acting == 0 {
             Delivery::NoInsulinRecords
@@ -319,6 +330,12 @@ impl Evidence {
             out.push(format!(
                 "{} long-acting insulin records, {} pump basal records",
                 self.long_acting, self.pump_basal
+            ));
+        }
+        if self.injection_markers > 0 {
+            out.push(format!(
+                "{} injections logged as event markers (\"Insulin: N\", acting type not given), {} pump records",
+                self.injection_markers, self.pump_basal
             ));
         }
         out

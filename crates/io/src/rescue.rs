@@ -1,6 +1,7 @@
 //! Hypoglycaemia treatments are not meals: carbohydrate taken while
 //! glucose is below 70 mg/dL, or within 15 minutes after such a reading,
-//! with no bolus within 15 minutes of it, is a rescue treatment. It is
+//! with no bolus (or injection logged as an event marker) within 15
+//! minutes of it, is a rescue treatment. It is
 //! counted and shown, never announced to the advisor as a meal, so it
 //! never moves a carb ratio.
 
@@ -37,6 +38,11 @@ impl Rescue {
                 }
                 RecordKind::Bolus { units } if units.0 > 0.0 => boluses.push(r.at),
                 RecordKind::ExtendedBolus { .. } => boluses.push(r.at),
+                // An injection logged in a CGM's app (CareLink's `Insulin:
+                // N` marker): insulin at the meal, as a bolus is.
+                RecordKind::Ignored { kind } if kind == crate::read::carelink::INSULIN_MARKER => {
+                    boluses.push(r.at)
+                }
                 _ => {}
             }
         }

@@ -4,7 +4,7 @@
 //! trailing Sensor section without rows and wizards confirmed twice; a
 //! MiniMed 780G in SmartGuard (synthetic, in the real 54-column layout)
 //! with wizards not delivered; a Guardian 4 system's meal markers without
-//! an amount (synthetic, in the real layout); the older CareLink Personal layout
+//! an amount and its injections (synthetic, in the real layout); the older CareLink Personal layout
 //! (Tidepool's rows, BSD-2), refused by name.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -299,6 +299,61 @@ fn a_meal_marker_of_one_gram_is_a_meal_without_its_amount() {
     );
     // The empty second Pump section is skipped, the sensor read.
     assert_eq!(b.count("cgm"), 24);
+}
+
+/// A Guardian system's `Insulin: N` markers are injections logged in its
+/// app (a real Guardian Connect export, GlucoseDAO/cgm_format's
+/// `medtronics_test_livia.csv`, MIT, has 387 beside its meals): the data
+/// show multiple daily injections, not "no insulin records", and
+/// carbohydrate with an injection beside it is a meal even after a low
+/// reading (there, 87 of 205 meals were taken for hypoglycaemia
+/// treatments).
+#[test]
+fn injections_logged_as_event_markers_are_injections_and_insulin_at_the_meal() {
+    use abba_io::automation::{Delivery, Evidence};
+    use abba_io::rescue::Rescue;
+    let taipei = abba_io::time::zone("Asia/Taipei").unwrap();
+    let text = String::from_utf8(fixture(GUARDIAN)).unwrap();
+    let b = read(
+        &[(GUARDIAN, text.clone().into_bytes())],
+        &opts("Asia/Taipei"),
+    )
+    .unwrap();
+    let e = Evidence::from_records(&b.records, &taipei);
+    assert_eq!(e.injection_markers, 4);
+    assert_eq!(e.delivery(), Delivery::Injections, "{:?}", e.words());
+    assert!(e
+        .words()
+        .iter()
+        .any(|w| w.starts_with("4 injections logged as event markers")));
+    // A sensor reading of 62 mg/dL five minutes before the 12:20 meal,
+    // which has its injection (Insulin: 6.00) at 12:20.
+    let template = text
+        .lines()
+        .find(|l| l.contains(",2025/02/11,18:12:12,"))
+        .unwrap();
+    let low = template
+        .replace("18:12:12", "12:15:00")
+        .replace(",163,", ",62,");
+    let with_low = text.replacen(template, &format!("{low}\r\n{template}"), 1);
+    let noon = datetime(2025, 2, 11, 12, 20, 0, 0)
+        .to_zoned(taipei.clone())
+        .unwrap()
+        .timestamp();
+    let b = read(
+        &[(GUARDIAN, with_low.clone().into_bytes())],
+        &opts("Asia/Taipei"),
+    )
+    .unwrap();
+    assert_eq!(b.count("cgm"), 25);
+    assert!(
+        !Rescue::new(&b.records).is_rescue(noon),
+        "a meal, with its injection"
+    );
+    // Without the injection, the same carbohydrate treats the low.
+    let without = with_low.replace("Insulin: 6.00", "Exercise: 30");
+    let b = read(&[(GUARDIAN, without.into_bytes())], &opts("Asia/Taipei")).unwrap();
+    assert!(Rescue::new(&b.records).is_rescue(noon));
 }
 
 #[test]

@@ -1194,6 +1194,14 @@ fn row_kinds(
 /// ratio of 0.04 g/U. Counted and noted, not read.
 const MEAL_MARKER_NO_AMOUNT_G: f64 = 1.0;
 
+/// The kind an `Insulin: N` event marker is counted as: an injection
+/// logged in a CGM's app (Guardian Connect, Guardian 4), whose dose
+/// CareLink gives but not whether it was rapid- or long-acting. Not read
+/// as a bolus or a basal, but evidence of injections
+/// ([`crate::automation::Evidence`]) and insulin at a meal for the rescue
+/// rule ([`crate::rescue`]).
+pub const INSULIN_MARKER: &str = "event marker insulin (acting type not given)";
+
 /// The kind a [`MEAL_MARKER_NO_AMOUNT_G`] marker is counted as.
 const MEAL_WITHOUT_AMOUNT: &str =
     "event marker meal without its amount (1 g or less, not read as carbohydrate)";
@@ -1257,7 +1265,7 @@ fn event_marker(
                 )
             })?;
             RecordKind::Ignored {
-                kind: "event marker insulin (acting type not given)".into(),
+                kind: INSULIN_MARKER.into(),
             }
         }
         _ => RecordKind::Ignored {

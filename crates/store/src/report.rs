@@ -102,6 +102,7 @@ pub fn person_input(
             t = end;
         }
     };
+    let mut same_minute = SameMinute::default();
     for e in &events {
         let t = e.at.minutes();
         let k = usize::try_from(e.at.day_index() - first_index).ok();
@@ -136,16 +137,12 @@ pub fn person_input(
         let day = &mut out[k];
         let minute_of_day = e.at.minute_of_day() as u32;
         match e.kind {
-            EventKind::Cgm(g) if mode == abba_advisor::Mode::Cgm => day.readings.push(Reading {
-                at_s: t * 60,
-                minute_of_day,
-                mg_dl: g.0,
-            }),
-            EventKind::Smbg(g) if mode == abba_advisor::Mode::Smbg => day.readings.push(Reading {
-                at_s: t * 60,
-                minute_of_day,
-                mg_dl: g.0,
-            }),
+            EventKind::Cgm(g) if mode == abba_advisor::Mode::Cgm => {
+                same_minute.push(day, t * 60, minute_of_day, g.0)
+            }
+            EventKind::Smbg(g) if mode == abba_advisor::Mode::Smbg => {
+                same_minute.push(day, t * 60, minute_of_day, g.0)
+            }
             EventKind::MealAnnounced { carbs, slot } => {
                 *day.carbs_g.get_or_insert(0.0) += carbs.0;
                 day.meals.push(MealTime {
@@ -196,6 +193,14 @@ pub fn person_input(
     }
     let advice = store.advise_read(name)?;
     let mut notes = Vec::new();
+    if same_minute.merged > 0 {
+        notes.push(format!(
+            "{} readings were taken in the same minute as another (a finger-stick checked \
+             again, two sources of one sensor): the log keeps time to the minute, so the \
+             report shows each minute's mean.",
+            same_minute.merged
+        ));
+    }
     if let Some(note) = &advice.delivery.note {
         notes.push(note.clone());
         if !advice.delivery.evidence.is_empty() {
@@ -256,5 +261,37 @@ fn line(v: &crate::advise::SuggestionView) -> SuggestionLine {
         to: format!("{:.3} {} ({:+.1} %)", v.suggested, v.unit, v.change_percent),
         reason,
         answer,
+    }
+}
+
+/// Readings of one minute, as the report shows them: the log keeps time
+/// to the minute, so two readings in one minute (a finger-stick checked
+/// again seconds later, a sensor's reading from two sources) cannot be
+/// ordered; the report shows their mean and counts them.
+#[derive(Default)]
+struct SameMinute {
+    /// Readings in the last reading's minute so far.
+    count: usize,
+    /// Readings merged into an earlier one of their minute.
+    merged: usize,
+}
+
+impl SameMinute {
+    fn push(&mut self, day: &mut PersonDay, at_s: i64, minute_of_day: u32, mg_dl: f64) {
+        match day.readings.last_mut() {
+            Some(last) if last.at_s == at_s => {
+                self.count += 1;
+                last.mg_dl += (mg_dl - last.mg_dl) / self.count as f64;
+                self.merged += 1;
+            }
+            _ => {
+                self.count = 1;
+                day.readings.push(Reading {
+                    at_s,
+                    minute_of_day,
+                    mg_dl,
+                });
+            }
+        }
     }
 }

@@ -339,3 +339,54 @@ fn a_cached_log_takes_only_the_events_another_connection_stored_after_it() {
     assert_eq!(last.advisor, a.rebuild("ana").unwrap());
     assert_eq!(last.stream.events.len(), evs.len() + 1);
 }
+
+/// Two readings in one minute, as the service probe posted them (30 s
+/// apart; a finger-stick checked again seconds later, a sensor's reading
+/// from two uploaders), cannot be ordered, since the log keeps time to the
+/// minute: the person report shows their mean and says so (before, the
+/// report refused its own input and the service answered 500 on the
+/// person's and the clinic's report pages).
+#[test]
+fn two_readings_in_one_minute_are_one_mean_in_the_person_report() {
+    let dir = TempDir::new("same-minute");
+    let mut store = dir.store();
+    let mut np = person("ana");
+    np.first_day = Some("2026-05-04".parse().unwrap());
+    let p = store.create_person(&np).unwrap();
+    let evs = events(3);
+    let at = abba_core::Timestamp::from_day_and_minute(1, 600);
+    let k = evs
+        .iter()
+        .position(|e| e.at == at && matches!(e.kind, EventKind::Cgm(_)))
+        .unwrap();
+    let EventKind::Cgm(first) = evs[k].kind else {
+        unreachable!()
+    };
+    let mut batch = app_batch(1, &evs);
+    let mut again = batch[k].clone();
+    again.seq = batch.len() as u64 + 1;
+    again.at = again.at + jiff::SignedDuration::from_secs(30);
+    again.kind = EventKind::Cgm(abba_core::MgDl(first.0 + 10.0));
+    again.hash[0] ^= 0xff;
+    batch.push(again);
+    let mut live = store.live(p.id).unwrap();
+    store.post_events(&mut live, &batch).unwrap();
+    let input = abba_store::report::person_input(&mut store, "ana", 14, abba_io::GlucoseUnit::MgDl)
+        .unwrap();
+    abba_report::html::person::person_report_html(&input).unwrap();
+    let at_minute: Vec<f64> = input.days[1]
+        .readings
+        .iter()
+        .filter(|r| r.minute_of_day == 600)
+        .map(|r| r.mg_dl)
+        .collect();
+    assert_eq!(at_minute, vec![first.0 + 5.0]);
+    assert!(
+        input
+            .notes
+            .iter()
+            .any(|n| n.starts_with("1 readings were taken in the same minute")),
+        "{:?}",
+        input.notes
+    );
+}

@@ -15,14 +15,22 @@ use std::fmt;
 /// The bytes of a body, or the error for a body that could not be read.
 pub type RawBody = Result<Bytes, BytesRejection>;
 
+/// The most a form of the pages may declare (bytes): the sign-in form, a
+/// logged reading or meal, an answer, a clinic's settings are a few
+/// hundred bytes (a service probe held the sign-in's slots with bodies
+/// declared at 1 MB).
+pub const FORM_BODY_BYTES: usize = 64 * 1024;
+
 /// The most a request to `path` may declare (bytes): a clinic's upload
-/// [`crate::web::clinic::MAX_UPLOAD_BYTES`], any other
-/// [`abba_api::MAX_BODY_BYTES`].
+/// [`crate::web::clinic::MAX_UPLOAD_BYTES`], the API
+/// [`abba_api::MAX_BODY_BYTES`], a form of the pages [`FORM_BODY_BYTES`].
 pub fn body_limit(method: &axum::http::Method, path: &str) -> usize {
     if method == axum::http::Method::POST && crate::web::clinic::is_upload(path) {
         crate::web::clinic::MAX_UPLOAD_BYTES
-    } else {
+    } else if path.starts_with("/v1/") {
         abba_api::MAX_BODY_BYTES
+    } else {
+        FORM_BODY_BYTES
     }
 }
 

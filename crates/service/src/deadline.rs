@@ -1,12 +1,15 @@
-//! A whole-body deadline for small request bodies.
+//! A whole-body deadline for request bodies.
 //!
 //! tower-http's body timeout restarts with every frame, so a client that
 //! sends a byte every few seconds keeps a request (and its slot) open until
-//! the request timeout. A body of at most [`SMALL_BODY_BYTES`] (every form
-//! of the pages, the sign-in form, an app's batch of events), or one whose
-//! length is not given, must arrive whole within the body timeout of its
-//! head; a larger one (a clinic's upload of exports) keeps the per-frame
-//! timeout and the request's.
+//! the request timeout. Every body but a clinic's upload of exports (the
+//! forms of the pages, the sign-in form, an app's batch of events: at most
+//! [`abba_api::MAX_BODY_BYTES`]) must arrive whole within the body timeout
+//! of its head, whatever length it declares; an upload (up to
+//! `MAX_UPLOAD_BYTES`, from a clinic's slow line) keeps the per-frame
+//! timeout and the request's. (A service probe held every sign-in slot
+//! with bodies declared at 1 MB and trickled a byte every 3 s, when only
+//! bodies of 64 KiB or less had the deadline.)
 
 use axum::body::{Body, Bytes, HttpBody};
 use axum::extract::Request;
@@ -15,9 +18,6 @@ use std::future::Future;
 use std::pin::Pin;
 use std::task::{Context, Poll};
 use std::time::Duration;
-
-/// Bodies up to this size (bytes) must arrive whole within the deadline.
-pub const SMALL_BODY_BYTES: u64 = 64 * 1024;
 
 /// The error of a body past its deadline: the request's answer is 408, as
 /// for the per-frame timeout (`body::is_timeout` knows both).
@@ -64,15 +64,17 @@ impl HttpBody for DeadlineBody {
     }
 }
 
-/// Wraps a small body of `req` (see the module docs) in the deadline
-/// `within` from now.
-pub fn small_body_deadline(req: Request, within: Duration) -> Request {
+/// Wraps the body of `req` (but an upload's, see the module docs) in the
+/// deadline `within` from now.
+pub fn body_deadline(req: Request, within: Duration) -> Request {
     let length = req
         .headers()
         .get(header::CONTENT_LENGTH)
         .and_then(|v| v.to_str().ok())
         .and_then(|v| v.trim().parse::<u64>().ok());
-    if length.is_some_and(|n| n == 0 || n > SMALL_BODY_BYTES) {
+    let upload =
+        req.method() == axum::http::Method::POST && crate::web::clinic::is_upload(req.uri().path());
+    if length == Some(0) || upload {
         return req;
     }
     let (parts, body) = req.into_parts();

@@ -96,7 +96,7 @@ pub fn router_with(state: AppState, set: &ServeSettings) -> Router {
         .layer(DefaultBodyLimit::max(abba_api::MAX_BODY_BYTES))
         .layer(RequestBodyTimeoutLayer::new(set.body_timeout))
         .layer(axum::middleware::map_request(move |req| async move {
-            crate::deadline::small_body_deadline(req, body_timeout)
+            crate::deadline::body_deadline(req, body_timeout)
         }))
         .layer(TimeoutLayer::with_status_code(
             StatusCode::REQUEST_TIMEOUT,

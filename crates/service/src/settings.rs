@@ -12,9 +12,8 @@ pub struct ServeSettings {
     /// setting covers the header-read and the idle keep-alive timeout.
     pub header_timeout: Duration,
     /// A request body that has not arrived whole this long after its head
-    /// gets 408 when it is small (at most 64 KiB, or of no given length:
-    /// every form, an app's batch of events; `crate::deadline`); a larger
-    /// one (a clinic's upload) when no byte came for this long.
+    /// gets 408 (every form, an app's batch of events; `crate::deadline`);
+    /// a clinic's upload only when no byte came for this long.
     pub body_timeout: Duration,
     /// A request not answered this long after its head gets 408 (a handler
     /// that runs away; the heaviest page is far below).

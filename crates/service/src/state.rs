@@ -249,7 +249,7 @@ impl AppState {
         let s = self.clone();
         tokio::task::spawn_blocking(move || {
             let person_lock = s.person_lock(id);
-            let _held = lock(&person_lock);
+            let _held = s.lock_person(&person_lock)?;
             let mut conn = s.conn()?;
             let cached = s.inner.live.remove(&id).and_then(|slot| lock(&slot).take());
             let was_cached = cached.is_some();
@@ -285,6 +285,31 @@ impl AppState {
                 self.inner.settings.retry_after,
             )
         })
+    }
+
+    /// Takes a person's lock, waiting at most the store's busy timeout: a
+    /// person whose earlier requests still run (a long report of a large
+    /// log, many requests at once) gets 503 with `Retry-After`, not a wait
+    /// until the request timeout's 408 on a blocking thread (a service
+    /// probe queued seven reports of one person: the last waited 60 s). The
+    /// wait polls, so no thread is parked past its deadline.
+    fn lock_person<'a>(&self, m: &'a Mutex<()>) -> Result<MutexGuard<'a, ()>, ApiError> {
+        let set = &self.inner.settings;
+        let deadline = Instant::now() + set.busy_timeout;
+        loop {
+            match m.try_lock() {
+                Ok(held) => return Ok(held),
+                Err(std::sync::TryLockError::Poisoned(p)) => return Ok(p.into_inner()),
+                Err(std::sync::TryLockError::WouldBlock) => {}
+            }
+            if Instant::now() >= deadline {
+                return Err(ApiError::busy(
+                    "this person's earlier requests are still running",
+                    set.retry_after,
+                ));
+            }
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
     }
 
     fn person_lock(&self, id: i64) -> Arc<Mutex<()>> {

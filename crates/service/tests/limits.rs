@@ -226,6 +226,47 @@ async fn a_store_held_by_another_writer_gives_503_with_retry_after() {
     assert_eq!(router.oneshot(req).await.unwrap().status(), StatusCode::OK);
 }
 
+/// A person whose earlier request still holds their lock past the busy
+/// timeout gets 503 with `Retry-After` (a service probe queued seven long
+/// reports of one person: the last ones waited until the request
+/// timeout's 408, a blocking thread parked each), and the next request
+/// after it is served.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_person_busy_past_the_busy_timeout_gives_503_with_retry_after() {
+    let svc = Svc::new();
+    let id = svc.person("alice").await as i64;
+    let state = AppState::open(
+        &svc.db,
+        StoreSettings {
+            busy_timeout: Duration::from_millis(300),
+            ..StoreSettings::default()
+        },
+    )
+    .unwrap();
+    let long = {
+        let state = state.clone();
+        tokio::spawn(async move {
+            state
+                .person(id, false, |_, _| {
+                    std::thread::sleep(Duration::from_millis(1500));
+                    Ok(())
+                })
+                .await
+        })
+    };
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    let t = Instant::now();
+    let e = state.person(id, false, |_, _| Ok(())).await.unwrap_err();
+    assert_eq!(e.status, StatusCode::SERVICE_UNAVAILABLE, "{e:?}");
+    assert!(
+        t.elapsed() < Duration::from_millis(1000),
+        "{:?}",
+        t.elapsed()
+    );
+    long.await.unwrap().unwrap();
+    state.person(id, false, |_, _| Ok(())).await.unwrap();
+}
+
 #[test]
 fn the_service_refuses_a_read_only_store() {
     use std::os::unix::fs::PermissionsExt;

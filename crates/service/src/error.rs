@@ -134,10 +134,28 @@ impl ApiError {
         ErrorBody {
             status: self.status.as_u16(),
             code: self.code,
-            message: self.message.clone(),
-            path: self.path.clone(),
+            message: shortened(&self.message, MAX_MESSAGE_CHARS),
+            path: self.path.as_deref().map(|p| shortened(p, MAX_PATH_CHARS)),
         }
     }
+}
+
+/// The longest message an error body carries (characters): a message
+/// quotes the value it refuses, and a service probe's 900 KB body with a
+/// bad instant came back as a 300 KB message.
+pub const MAX_MESSAGE_CHARS: usize = 1000;
+
+/// The longest JSON path or parameter name an error body carries.
+pub const MAX_PATH_CHARS: usize = 200;
+
+/// `text` cut to `max` characters, saying how much was left out.
+fn shortened(text: &str, max: usize) -> String {
+    let n = text.chars().count();
+    if n <= max {
+        return text.to_string();
+    }
+    let kept: String = text.chars().take(max).collect();
+    format!("{kept}… ({} more characters left out)", n - max)
 }
 
 impl From<StoreError> for ApiError {
@@ -233,4 +251,26 @@ pub enum ServiceError {
     /// Token generation.
     #[error("the operating system's random generator failed: {0}")]
     Random(String),
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_long_message_is_cut_and_says_so() {
+        let e = ApiError::invalid("at", format!("bad value \"{}\"", "9".repeat(300_000)));
+        let b = e.body();
+        assert!(
+            b.message.chars().count() < MAX_MESSAGE_CHARS + 60,
+            "{}",
+            b.message.len()
+        );
+        assert!(
+            b.message.ends_with("more characters left out)"),
+            "{}",
+            &b.message[990..]
+        );
+        assert_eq!(ApiError::invalid("at", "short").body().message, "short");
+    }
 }

@@ -119,8 +119,7 @@ pub fn not_found() -> PageError {
 pub fn error_page(e: &ApiError) -> Response {
     let text = match e.status {
         StatusCode::SERVICE_UNAVAILABLE => EN.busy.to_string(),
-        StatusCode::INTERNAL_SERVER_ERROR => e.message.clone(),
-        _ => e.message.clone(),
+        _ => e.body().message,
     };
     let title = match e.status {
         StatusCode::NOT_FOUND => EN.not_found_title,

@@ -33,6 +33,10 @@ pub struct ServeArgs {
     /// Requests in flight at once (more get 503 with Retry-After).
     #[arg(long, value_name = "N", default_value_t = 256)]
     pub max_in_flight: usize,
+    /// Requests in flight at once from one client address (more get 503;
+    /// loopback, a local proxy, is not counted).
+    #[arg(long, value_name = "N", default_value_t = 64)]
+    pub max_in_flight_per_client: usize,
     /// Seconds requests in flight get to finish after SIGTERM or Ctrl-C.
     #[arg(long, value_name = "S", default_value_t = 10.0)]
     pub shutdown_grace: f64,
@@ -126,6 +130,10 @@ impl ServeArgs {
             request_timeout: seconds("request-timeout", self.request_timeout)?,
             max_connections: count("max-connections", self.max_connections)?,
             max_in_flight: count("max-in-flight", self.max_in_flight)?,
+            max_in_flight_per_client: count(
+                "max-in-flight-per-client",
+                self.max_in_flight_per_client,
+            )?,
             shutdown_grace: seconds("shutdown-grace", self.shutdown_grace)?,
             store: StoreSettings {
                 connections: count("connections", self.connections)?,

@@ -56,6 +56,53 @@ async fn refused(e: BoxError) -> Response {
     }
 }
 
+/// Requests in flight per client address ([`ServeSettings::max_in_flight_per_client`]).
+#[derive(Clone, Default)]
+struct PerClient {
+    counts: Arc<std::sync::Mutex<std::collections::HashMap<std::net::IpAddr, usize>>>,
+}
+
+/// A request counted for its client until dropped.
+struct Counted {
+    counts: Arc<std::sync::Mutex<std::collections::HashMap<std::net::IpAddr, usize>>>,
+    key: std::net::IpAddr,
+}
+
+impl Drop for Counted {
+    fn drop(&mut self) {
+        let mut counts = self
+            .counts
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        if let Some(n) = counts.get_mut(&self.key) {
+            *n -= 1;
+            if *n == 0 {
+                counts.remove(&self.key);
+            }
+        }
+    }
+}
+
+impl PerClient {
+    /// Counts a request of `ip`, or `None` when the client is at `cap`.
+    fn enter(&self, ip: std::net::IpAddr, cap: usize) -> Option<Counted> {
+        let key = crate::state::client_key(ip);
+        let mut counts = self
+            .counts
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        let n = counts.entry(key).or_insert(0);
+        if *n >= cap {
+            return None;
+        }
+        *n += 1;
+        Some(Counted {
+            counts: Arc::clone(&self.counts),
+            key,
+        })
+    }
+}
+
 /// tower-http's timeout answers 408 with an empty body: give it ours.
 async fn timeout_body(r: Response) -> Response {
     if r.status() == StatusCode::REQUEST_TIMEOUT && !r.headers().contains_key(header::CONTENT_TYPE)
@@ -72,6 +119,8 @@ pub fn router_with(state: AppState, set: &ServeSettings) -> Router {
     use crate::routes;
     let (api, _) = crate::openapi::api().split_for_parts();
     let body_timeout = set.body_timeout;
+    let per_client = PerClient::default();
+    let client_cap = set.max_in_flight_per_client;
     let headers = ServiceBuilder::new()
         .layer(SetResponseHeaderLayer::overriding(
             header::CACHE_CONTROL,
@@ -111,6 +160,33 @@ pub fn router_with(state: AppState, set: &ServeSettings) -> Router {
                 .load_shed()
                 .concurrency_limit(set.max_in_flight),
         )
+        // One client's share of the slots above: a probe held every slot
+        // with one token's slow bodies, and another person's events got
+        // 503 for as long as it went on.
+        .layer(axum::middleware::from_fn(
+            move |req: axum::extract::Request, next: axum::middleware::Next| {
+                let per_client = per_client.clone();
+                async move {
+                    let peer = req
+                        .extensions()
+                        .get::<ConnectInfo<SocketAddr>>()
+                        .map(|c| c.0.ip())
+                        .filter(|ip| !ip.is_loopback());
+                    let Some(ip) = peer else {
+                        return next.run(req).await;
+                    };
+                    let Some(_counted) = per_client.enter(ip, client_cap) else {
+                        tracing::warn!(client = %crate::state::client_key(ip), "a client at its limit of requests in flight: 503");
+                        return ApiError::busy(
+                            "this client is at its limit of requests in flight",
+                            1,
+                        )
+                        .into_response();
+                    };
+                    next.run(req).await
+                }
+            },
+        ))
         // A declared length over the limit: 413 before the body is read.
         .layer(axum::middleware::from_fn(
             crate::body::refuse_declared_oversize,

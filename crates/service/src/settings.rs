@@ -25,6 +25,12 @@ pub struct ServeSettings {
     pub max_connections: usize,
     /// Requests in flight at once; more get 503 with `Retry-After`.
     pub max_in_flight: usize,
+    /// Requests in flight at once from one client address (an IPv6
+    /// address's /64); more get 503 with `Retry-After`, so that one client
+    /// cannot hold every slot of `max_in_flight`. Loopback is not counted:
+    /// a local reverse proxy carries every client's requests, and limits
+    /// its clients itself.
+    pub max_in_flight_per_client: usize,
     /// On SIGTERM or Ctrl-C, requests in flight get this long to finish;
     /// then the service stops anyway.
     pub shutdown_grace: Duration,
@@ -40,6 +46,7 @@ impl Default for ServeSettings {
             request_timeout: Duration::from_secs(60),
             max_connections: 8192,
             max_in_flight: 256,
+            max_in_flight_per_client: 64,
             shutdown_grace: Duration::from_secs(10),
             store: StoreSettings::default(),
         }

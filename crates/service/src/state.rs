@@ -440,7 +440,7 @@ fn check_writable(store: &Store, db: &Path) -> Result<(), ServiceError> {
 
 /// The key of a client's failed authentications: its IPv4 address, or the
 /// /64 network of an IPv6 address (one host holds a whole /64).
-fn client_key(ip: IpAddr) -> IpAddr {
+pub(crate) fn client_key(ip: IpAddr) -> IpAddr {
     match ip {
         IpAddr::V4(_) => ip,
         IpAddr::V6(v6) => match v6.to_ipv4_mapped() {

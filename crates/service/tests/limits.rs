@@ -267,6 +267,88 @@ async fn a_person_busy_past_the_busy_timeout_gives_503_with_retry_after() {
     state.person(id, false, |_, _| Ok(())).await.unwrap();
 }
 
+/// A body that never comes (a client that stalls after its head).
+struct Stalled;
+
+impl http_body::Body for Stalled {
+    type Data = axum::body::Bytes;
+    type Error = std::convert::Infallible;
+    fn poll_frame(
+        self: std::pin::Pin<&mut Self>,
+        _: &mut std::task::Context<'_>,
+    ) -> std::task::Poll<Option<Result<http_body::Frame<Self::Data>, Self::Error>>> {
+        std::task::Poll::Pending
+    }
+}
+
+/// One client address holds at most its share of the requests in flight
+/// (a probe held every slot with one token's 270 slow bodies, and another
+/// person's events got 503 while it went on): past it, that client gets
+/// 503 with `Retry-After` while another client is served, and its slots
+/// come back when its requests end.
+#[tokio::test]
+async fn one_client_cannot_hold_every_slot_in_flight() {
+    use axum::extract::ConnectInfo;
+    use std::net::SocketAddr;
+    use tower::ServiceExt;
+    let svc = Svc::new();
+    let state = AppState::open(&svc.db, StoreSettings::default()).unwrap();
+    let router = abba_service::server::router_with(
+        state,
+        &ServeSettings {
+            max_in_flight_per_client: 2,
+            ..ServeSettings::default()
+        },
+    );
+    let from = |ip: [u8; 4], mut req: axum::http::Request<axum::body::Body>| {
+        req.extensions_mut()
+            .insert(ConnectInfo(SocketAddr::from((ip, 40_000))));
+        req
+    };
+    let stalled = || {
+        axum::http::Request::builder()
+            .method(Method::POST)
+            .uri("/v1/persons")
+            .header("authorization", format!("Bearer {}", svc.admin))
+            .header("content-type", "application/json")
+            .header("content-length", "100")
+            .body(axum::body::Body::new(Stalled))
+            .unwrap()
+    };
+    let health = || {
+        axum::http::Request::builder()
+            .uri("/healthz")
+            .body(axum::body::Body::empty())
+            .unwrap()
+    };
+    let held: Vec<_> = (0..2)
+        .map(|_| tokio::spawn(router.clone().oneshot(from([203, 0, 113, 7], stalled()))))
+        .collect();
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    let r = router
+        .clone()
+        .oneshot(from([203, 0, 113, 7], health()))
+        .await
+        .unwrap();
+    assert_eq!(r.status(), StatusCode::SERVICE_UNAVAILABLE);
+    assert_eq!(r.headers()["retry-after"], "1");
+    let other = router
+        .clone()
+        .oneshot(from([198, 51, 100, 9], health()))
+        .await
+        .unwrap();
+    assert_eq!(other.status(), StatusCode::OK);
+    for h in held {
+        h.abort();
+        let _ = h.await;
+    }
+    let again = router
+        .oneshot(from([203, 0, 113, 7], health()))
+        .await
+        .unwrap();
+    assert_eq!(again.status(), StatusCode::OK);
+}
+
 #[test]
 fn the_service_refuses_a_read_only_store() {
     use std::os::unix::fs::PermissionsExt;

@@ -30,6 +30,10 @@ pub struct ServeArgs {
     /// Connections held at once (more get 503 and are closed at once).
     #[arg(long, value_name = "N", default_value_t = 8192)]
     pub max_connections: usize,
+    /// Connections held at once from one client address (more get 503;
+    /// loopback, a local proxy, is not counted).
+    #[arg(long, value_name = "N", default_value_t = 256)]
+    pub max_connections_per_client: usize,
     /// Requests in flight at once (more get 503 with Retry-After).
     #[arg(long, value_name = "N", default_value_t = 256)]
     pub max_in_flight: usize,
@@ -129,6 +133,10 @@ impl ServeArgs {
             body_timeout: seconds("body-timeout", self.body_timeout)?,
             request_timeout: seconds("request-timeout", self.request_timeout)?,
             max_connections: count("max-connections", self.max_connections)?,
+            max_connections_per_client: count(
+                "max-connections-per-client",
+                self.max_connections_per_client,
+            )?,
             max_in_flight: count("max-in-flight", self.max_in_flight)?,
             max_in_flight_per_client: count(
                 "max-in-flight-per-client",

@@ -342,6 +342,7 @@ pub async fn run_until(
         .header_read_timeout(set.header_timeout)
         .keep_alive(true);
     let mut full_logged = false;
+    let per_client = PerClient::default();
     tokio::pin!(stop);
     loop {
         let (stream, peer) = tokio::select! {
@@ -355,6 +356,32 @@ pub async fn run_until(
                 }
             },
             _ = &mut stop => break,
+        };
+        // One client's share of the connections (loopback, a local
+        // proxy, not counted).
+        let counted = if peer.ip().is_loopback() {
+            None
+        } else {
+            match per_client.enter(peer.ip(), set.max_connections_per_client) {
+                Some(c) => Some(c),
+                None => {
+                    tracing::debug!(client = %crate::state::client_key(peer.ip()), "a client at its limit of connections: 503");
+                    if let Ok(refusal) = Arc::clone(&refusals).try_acquire_owned() {
+                        let at_limit = Arc::clone(&at_limit);
+                        tokio::spawn(async move {
+                            use tokio::io::AsyncWriteExt;
+                            let mut stream = stream;
+                            let _ = tokio::time::timeout(
+                                std::time::Duration::from_secs(1),
+                                stream.write_all(&at_limit[..]),
+                            )
+                            .await;
+                            drop(refusal);
+                        });
+                    }
+                    continue;
+                }
+            }
         };
         let Ok(slot) = Arc::clone(&slots).try_acquire_owned() else {
             if !full_logged {
@@ -391,6 +418,7 @@ pub async fn run_until(
                 tracing::debug!(client = %peer, error = %e, "connection ended");
             }
             drop(slot);
+            drop(counted);
         });
     }
     drop(listener);
@@ -425,5 +453,34 @@ async fn shutdown_signal() {
     tokio::select! {
         _ = ctrl_c => {},
         _ = term => {},
+    }
+}
+
+#[cfg(test)]
+mod per_client_tests {
+    use super::PerClient;
+    use std::net::IpAddr;
+
+    /// A client holds at most its cap; a slot comes back when its request
+    /// or connection ends; an IPv6 client is its /64 (one host holds a
+    /// whole /64), another address is counted apart.
+    #[test]
+    fn a_client_holds_at_most_its_cap_and_gets_its_slots_back() {
+        let p = PerClient::default();
+        let a: IpAddr = "2001:db8:1:2::10".parse().unwrap();
+        let same_64: IpAddr = "2001:db8:1:2:ffff::1".parse().unwrap();
+        let other: IpAddr = "198.51.100.9".parse().unwrap();
+        let first = p.enter(a, 2).unwrap();
+        let second = p.enter(same_64, 2).unwrap();
+        assert!(p.enter(a, 2).is_none(), "a /64 is one client");
+        assert!(p.enter(other, 2).is_some(), "another client is apart");
+        drop(first);
+        let third = p.enter(same_64, 2);
+        assert!(third.is_some(), "a slot comes back");
+        drop((second, third));
+        assert!(
+            p.counts.lock().unwrap().is_empty(),
+            "no entry is kept for a client with nothing in flight"
+        );
     }
 }

@@ -365,7 +365,7 @@ fn two_readings_in_one_minute_are_one_mean_in_the_person_report() {
     let mut batch = app_batch(1, &evs);
     let mut again = batch[k].clone();
     again.seq = batch.len() as u64 + 1;
-    again.at = again.at + jiff::SignedDuration::from_secs(30);
+    again.at += jiff::SignedDuration::from_secs(30);
     again.kind = EventKind::Cgm(abba_core::MgDl(first.0 + 10.0));
     again.hash[0] ^= 0xff;
     batch.push(again);

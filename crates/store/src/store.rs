@@ -73,6 +73,13 @@ pub struct StreamLoads {
 /// The most event streams one connection keeps.
 const MAX_CACHED_STREAMS: usize = 8;
 
+/// The most events the streams one connection keeps may hold together
+/// (about 80 bytes each: some 20 MB, two years of one person's CGM); a
+/// person's log larger than this is read whole on each use, not kept (a
+/// service probe's 1.5 million readings in one log left each of the pool's
+/// connections holding them: 1.2 GB after one import).
+const MAX_CACHED_EVENTS: usize = 250_000;
+
 pub(crate) struct Cached {
     key: (i64, i64, i64),
     records: usize,
@@ -217,20 +224,24 @@ pub(crate) fn refresh_with(
         }
     };
     // Bounded: a connection serving many persons keeps only the streams of
-    // a few (each is a person's whole log).
-    if cache.map.len() >= MAX_CACHED_STREAMS {
+    // a few (each is a person's whole log), and only so many events.
+    let events = stream.events.len();
+    let held: usize = cache.map.values().map(|c| c.stream.events.len()).sum();
+    if cache.map.len() >= MAX_CACHED_STREAMS || held + events > MAX_CACHED_EVENTS {
         cache.map.clear();
     }
-    cache.map.insert(
-        person.id,
-        Cached {
-            key,
-            records,
-            stream: Arc::clone(&stream),
-            facts: facts.clone(),
-            last_app,
-        },
-    );
+    if events <= MAX_CACHED_EVENTS {
+        cache.map.insert(
+            person.id,
+            Cached {
+                key,
+                records,
+                stream: Arc::clone(&stream),
+                facts: facts.clone(),
+                last_app,
+            },
+        );
+    }
     let extras = match &facts {
         Some(f) => Some(in_force::extras(conn, person, f)?),
         None => in_force::app_extras(conn, person)?,

@@ -140,23 +140,11 @@ impl ApiError {
     }
 }
 
-/// The longest message an error body carries (characters): a message
-/// quotes the value it refuses, and a service probe's 900 KB body with a
-/// bad instant came back as a 300 KB message.
-pub const MAX_MESSAGE_CHARS: usize = 1000;
+use abba_web::pages::shortened;
+pub use abba_web::pages::MAX_MESSAGE_CHARS;
 
 /// The longest JSON path or parameter name an error body carries.
 pub const MAX_PATH_CHARS: usize = 200;
-
-/// `text` cut to `max` characters, saying how much was left out.
-fn shortened(text: &str, max: usize) -> String {
-    let n = text.chars().count();
-    if n <= max {
-        return text.to_string();
-    }
-    let kept: String = text.chars().take(max).collect();
-    format!("{kept}… ({} more characters left out)", n - max)
-}
 
 impl From<StoreError> for ApiError {
     fn from(e: StoreError) -> Self {

@@ -103,10 +103,27 @@ impl Layout {
     }
 
     /// The same layout with a status message.
+    /// The page's status line (an error's message quotes the value it
+    /// refuses: cut at [`MAX_MESSAGE_CHARS`]).
     pub fn with_status(mut self, status: Option<String>) -> Self {
-        self.status = status;
+        self.status = status.map(|s| shortened(&s, MAX_MESSAGE_CHARS));
         self
     }
+}
+
+/// The longest message a page or an error body carries (characters): a
+/// message quotes the value it refuses, and a service probe's 900 KB body
+/// with a bad instant came back as a 300 KB message.
+pub const MAX_MESSAGE_CHARS: usize = 1000;
+
+/// `text` cut to `max` characters, saying how much was left out.
+pub fn shortened(text: &str, max: usize) -> String {
+    let n = text.chars().count();
+    if n <= max {
+        return text.to_string();
+    }
+    let kept: String = text.chars().take(max).collect();
+    format!("{kept}… ({} more characters left out)", n - max)
 }
 
 /// A page that only says something (a refusal, an explanation).
@@ -162,4 +179,25 @@ pub struct Choice {
     pub label: &'static str,
     /// Selected.
     pub selected: bool,
+}
+
+#[cfg(test)]
+mod shortened_tests {
+    use super::*;
+
+    /// A page's status line quotes what it refuses, cut at the limit and
+    /// saying how much was left out (a probe's 200,000-character column
+    /// name came back whole on the clinic's import page).
+    #[test]
+    fn a_long_status_is_cut_and_says_so() {
+        let long = format!("unknown column \"{}\"", "x".repeat(200_000));
+        let cut = shortened(&long, MAX_MESSAGE_CHARS);
+        assert!(cut.chars().count() < MAX_MESSAGE_CHARS + 60);
+        let left = long.chars().count() - MAX_MESSAGE_CHARS;
+        assert!(
+            cut.ends_with(&format!("({left} more characters left out)")),
+            "{cut:.40}"
+        );
+        assert_eq!(shortened("short", MAX_MESSAGE_CHARS), "short");
+    }
 }

@@ -95,6 +95,16 @@ fn age_group_field(text: &str) -> Result<AgeGroup, String> {
 
 impl NewPersonForm {
     fn new(values: BTreeMap<String, String>, errors: BTreeMap<String, String>) -> Self {
+        // An error quotes the value it refuses: cut, as every message is.
+        let errors: BTreeMap<String, String> = errors
+            .into_iter()
+            .map(|(k, v)| {
+                (
+                    k,
+                    abba_web::pages::shortened(&v, abba_web::pages::MAX_MESSAGE_CHARS),
+                )
+            })
+            .collect();
         let unit = values
             .get("unit")
             .cloned()

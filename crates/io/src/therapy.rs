@@ -594,16 +594,12 @@ pub fn tidepool_pump_settings_readable(
     bytes: &[u8],
     meals: &MealWindows,
 ) -> Result<Vec<PumpTherapy>, IoError> {
-    let mut out = Vec::new();
-    for (at, place, profile) in crate::read::tidepool::pump_settings(file, bytes)? {
-        let (Ok(at), Ok(profile)) = (at, profile) else {
-            continue;
-        };
-        if let Ok(t) = PumpTherapy::from_profile(&profile, meals, place, at) {
-            out.push(t);
-        }
-    }
-    Ok(out)
+    Ok(crate::read::tidepool::pump_settings(file, bytes)?
+        .into_iter()
+        .filter_map(|(at, place, profile)| {
+            PumpTherapy::from_profile(&profile.ok()?, meals, place, at.ok()?).ok()
+        })
+        .collect())
 }
 
 /// The settings profile in force at the end of `paths` (the latest one):

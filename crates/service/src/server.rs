@@ -366,19 +366,7 @@ pub async fn run_until(
                 Some(c) => Some(c),
                 None => {
                     tracing::debug!(client = %crate::state::client_key(peer.ip()), "a client at its limit of connections: 503");
-                    if let Ok(refusal) = Arc::clone(&refusals).try_acquire_owned() {
-                        let at_limit = Arc::clone(&at_limit);
-                        tokio::spawn(async move {
-                            use tokio::io::AsyncWriteExt;
-                            let mut stream = stream;
-                            let _ = tokio::time::timeout(
-                                std::time::Duration::from_secs(1),
-                                stream.write_all(&at_limit[..]),
-                            )
-                            .await;
-                            drop(refusal);
-                        });
-                    }
+                    refuse_connection(stream, &refusals, &at_limit);
                     continue;
                 }
             }
@@ -391,22 +379,7 @@ pub async fn run_until(
                 );
                 full_logged = true;
             }
-            // A client past the limit is told so (503 with Retry-After,
-            // as for requests in flight) rather than reset, as long as
-            // few such answers are under way; each gets a second.
-            if let Ok(refusal) = Arc::clone(&refusals).try_acquire_owned() {
-                let at_limit = Arc::clone(&at_limit);
-                tokio::spawn(async move {
-                    use tokio::io::AsyncWriteExt;
-                    let mut stream = stream;
-                    let _ = tokio::time::timeout(
-                        std::time::Duration::from_secs(1),
-                        stream.write_all(&at_limit[..]),
-                    )
-                    .await;
-                    drop(refusal);
-                });
-            }
+            refuse_connection(stream, &refusals, &at_limit);
             continue;
         };
         full_logged = false;
@@ -429,6 +402,30 @@ pub async fn run_until(
             tracing::warn!(grace_s = set.shutdown_grace.as_secs_f64(), "grace period over: stopping with connections open");
         }
     }
+}
+
+/// A connection past a limit is told so (503 with Retry-After, as for
+/// requests in flight) rather than reset, as long as few such answers are
+/// under way (`refusals`); each gets a second, then it is closed.
+fn refuse_connection(
+    stream: tokio::net::TcpStream,
+    refusals: &Arc<tokio::sync::Semaphore>,
+    at_limit: &Arc<[u8]>,
+) {
+    let Ok(refusal) = Arc::clone(refusals).try_acquire_owned() else {
+        return;
+    };
+    let at_limit = Arc::clone(at_limit);
+    tokio::spawn(async move {
+        use tokio::io::AsyncWriteExt;
+        let mut stream = stream;
+        let _ = tokio::time::timeout(
+            std::time::Duration::from_secs(1),
+            stream.write_all(&at_limit[..]),
+        )
+        .await;
+        drop(refusal);
+    });
 }
 
 /// Resolves on Ctrl-C or SIGTERM.

@@ -182,24 +182,23 @@ pub fn detect(file: &str, bytes: &[u8]) -> Result<Format, IoError> {
         // keys decide when it can be read whole (a Tidepool export may
         // open with a `pumpSettings` whose history runs over many KB before
         // its `type`); else the first 4 KB's text.
-        if let Some(item) = first_json_item(&text[start..]) {
-            let kind = item.get("type").and_then(|t| t.as_str());
-            let tidepool = kind.is_some_and(|k| tidepool::TYPES.contains(&k))
-                && item.contains_key("time")
-                && !item.contains_key("eventType")
-                && !item.contains_key("sgv");
-            return Ok(if tidepool {
-                Format::Tidepool
-            } else {
-                Format::Nightscout
-            });
-        }
-        let tidepool = tidepool::TYPES.iter().any(|t| {
-            head.contains(&format!("\"type\": \"{t}\""))
-                || head.contains(&format!("\"type\":\"{t}\""))
-        }) && head.contains("\"time\"")
-            && !head.contains("\"eventType\"")
-            && !head.contains("\"sgv\"");
+        let tidepool = match first_json_item(&text[start..]) {
+            Some(item) => {
+                let kind = item.get("type").and_then(|t| t.as_str());
+                kind.is_some_and(|k| tidepool::TYPES.contains(&k))
+                    && item.contains_key("time")
+                    && !item.contains_key("eventType")
+                    && !item.contains_key("sgv")
+            }
+            None => {
+                tidepool::TYPES.iter().any(|t| {
+                    head.contains(&format!("\"type\": \"{t}\""))
+                        || head.contains(&format!("\"type\":\"{t}\""))
+                }) && head.contains("\"time\"")
+                    && !head.contains("\"eventType\"")
+                    && !head.contains("\"sgv\"")
+            }
+        };
         return Ok(if tidepool {
             Format::Tidepool
         } else {

@@ -12,6 +12,7 @@ use crate::features::{local_cost, NightStats, WindowStats};
 use crate::fusion::apply_action;
 use crate::guard::{closed_day, EventGuard};
 use crate::parameter::Parameter;
+use crate::recent_low::RecentLows;
 use crate::steps::{
     mean_rate, rescale_schedule, round_change, scale_schedule, validate_segments, PumpSteps,
     Segments,
@@ -116,6 +117,10 @@ pub struct Abba {
     /// advisor (an own value, a kept one, a new therapy).
     #[serde(default, skip_serializing_if = "no_carry")]
     carry: [f64; 4],
+    /// SMBG mode: the readings the recent-low rules
+    /// (`update.smbg_recent_low_*`) may still need.
+    #[serde(default, skip_serializing_if = "RecentLows::is_empty")]
+    recent_lows: RecentLows,
 }
 
 fn no_carry(c: &[f64; 4]) -> bool {
@@ -167,6 +172,7 @@ impl Abba {
             prev_basal_schedule: None,
             first_week_end: None,
             carry: [0.0; 4],
+            recent_lows: RecentLows::default(),
         })
     }
 
@@ -534,12 +540,18 @@ impl Abba {
             cfg.update.max_relative_change,
         );
         let guard_hypo = cfg.update.hypo_guard && window_hyponumber > 0;
+        // SMBG: a low reading of the last hours, in any window.
+        let recent_low = cfg
+            .update
+            .recent_low_for(cfg.mode, kind)
+            .filter(|r| self.recent_lows.any_within(at, *r));
         let (learning, action, mut applied) =
             self.agents[agent_index(p)].decide(&f, cost, p_s, cfg, |p_e| {
                 let mut a = apply_action(kind, old, p_e, m, br_change, switch, max);
-                if guard_hypo && adds_insulin(kind, a.new / old - 1.0) {
+                if (guard_hypo || recent_low.is_some()) && adds_insulin(kind, a.new / old - 1.0) {
                     a.new = old;
-                    a.hypo_guard_fired = true;
+                    a.hypo_guard_fired = guard_hypo;
+                    a.recent_low = if guard_hypo { None } else { recent_low };
                 }
                 a
             });
@@ -551,7 +563,7 @@ impl Abba {
                 let asked = applied.new / old - 1.0;
                 let mut carried = self.carry[i];
                 // After a low, nothing carried may add insulin.
-                if (applied.hypo_guard_fired || window_hyponumber > 0)
+                if (applied.hypo_guard_fired || window_hyponumber > 0 || recent_low.is_some())
                     && adds_insulin(kind, carried)
                 {
                     carried = 0.0;
@@ -629,6 +641,14 @@ impl Abba {
     }
 
     fn reading(&mut self, at: Timestamp, g_mg_dl: f64) {
+        if self.config.mode == Mode::Smbg {
+            let u = &self.config.update;
+            self.recent_lows.push(
+                at,
+                g_mg_dl,
+                [u.smbg_recent_low_basal, u.smbg_recent_low_carb_ratios],
+            );
+        }
         let cfg = &self.config.features;
         self.day_windows.day_mut(at.day_index()).push(g_mg_dl, cfg);
         if cfg.basal_window_is_part(self.config.mode) {

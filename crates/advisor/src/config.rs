@@ -8,6 +8,7 @@
 //! guessed scales chosen by `abba calibrate`).
 
 use crate::error::{check_count, check_positive, check_range, config_err, AdvisorError};
+use crate::supervisor::ParamKind;
 use abba_core::MINUTES_PER_DAY;
 use serde::{Deserialize, Serialize};
 
@@ -114,6 +115,22 @@ impl AgeGroup {
         }
     }
 
+    /// SMBG mode's carb-ratio recent-low rule of this group's defaults
+    /// (`update.smbg_recent_low_carb_ratios`): below 90 mg/dL for 72 hours
+    /// for adults, off for adolescents and children. `abba calibrate` on
+    /// each population's training cohort turned it on everywhere
+    /// (adolescents 100 mg/dL, 168 h; children 100 mg/dL, 72 h), but on
+    /// both evaluation cohorts it gave back more hyperglycaemia than the
+    /// lows it saved: children's W14 LBGI + HBGI rose above standard
+    /// therapy's, adolescents' to within 5 % of it
+    /// (benches/calibration/smbg_recent_low), so they keep the seed's rules.
+    pub fn smbg_recent_low_carb_ratios(self) -> Option<RecentLow> {
+        match self {
+            AgeGroup::Adult => default_smbg_recent_low_carb_ratios(),
+            AgeGroup::Adolescent | AgeGroup::Child => None,
+        }
+    }
+
     /// CGM mode's hyper normalisation G_max of this group's defaults
     /// (`features.cgm_g_max_mg_dl`): 350 mg/dL for adults, 400 for
     /// adolescents and children (`abba calibrate`, as above).
@@ -125,12 +142,14 @@ impl AgeGroup {
     }
 
     /// Sets the knobs this group's defaults choose in `c`: the basal
-    /// agent's hours (both modes'), CGM mode's switch rule and G_max.
+    /// agent's hours (both modes'), CGM mode's switch rule and G_max, and
+    /// SMBG mode's carb-ratio recent-low rule.
     pub fn apply(self, c: &mut AbbaConfig) {
         let f = &mut c.features;
         (f.cgm_basal_window_min, f.smbg_basal_window_min) = self.basal_windows_min();
         f.cgm_g_max_mg_dl = Some(self.cgm_g_max_mg_dl());
         c.update.cgm_switch_rule = self.cgm_switch_rule();
+        c.update.smbg_recent_low_carb_ratios = self.smbg_recent_low_carb_ratios();
     }
 
     /// Whether `f` holds this group's defaults (of the knobs it chooses).
@@ -715,6 +734,45 @@ pub struct UpdateConfig {
     /// Default false (spec-literal). The supervisory action alone never adds
     /// insulin on such windows, but P_a (the learned part) can.
     pub hypo_guard: bool,
+    /// SMBG mode: no basal update adds insulin while a reading below
+    /// the threshold was taken within the look-back, whatever window it
+    /// fell in. \[DEVIATION when set] Four readings a day see a fraction of
+    /// the lows: a low reading at one hour says that today's settings leave
+    /// unseen lows at others (benches/diagnosis/README.md, "SMBG W14").
+    /// `None`: off (the seed).
+    #[serde(default)]
+    pub smbg_recent_low_basal: Option<RecentLow>,
+    /// The same for the three carb ratios (no ratio goes down). Default:
+    /// below 90 mg/dL, 72 hours (`abba calibrate` on adults,
+    /// benches/calibration/smbg_recent_low); the basal's rule raised
+    /// W13 hyperglycaemia there and stays off. A stored configuration
+    /// from before the rule (no field) keeps working as it did: off.
+    #[serde(default)]
+    pub smbg_recent_low_carb_ratios: Option<RecentLow>,
+}
+
+/// A reading threshold and a look-back ([`UpdateConfig::smbg_recent_low_basal`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RecentLow {
+    /// A reading below this (mg/dL) is a recent low.
+    pub below_mg_dl: f64,
+    /// How long (hours) after it no update adds insulin.
+    pub hours: u32,
+}
+
+impl RecentLow {
+    /// The longest look-back kept (four weeks).
+    pub const MAX_HOURS: u32 = 24 * 28;
+    /// The highest threshold (mg/dL): above it a reading is not low.
+    pub const MAX_BELOW_MG_DL: f64 = 150.0;
+}
+
+fn default_smbg_recent_low_carb_ratios() -> Option<RecentLow> {
+    Some(RecentLow {
+        below_mg_dl: 90.0,
+        hours: 72,
+    })
 }
 
 impl Default for UpdateConfig {
@@ -725,6 +783,8 @@ impl Default for UpdateConfig {
             switch_rule: true,
             cgm_switch_rule: Some(false),
             hypo_guard: false,
+            smbg_recent_low_basal: None,
+            smbg_recent_low_carb_ratios: default_smbg_recent_low_carb_ratios(),
         }
     }
 }
@@ -734,7 +794,18 @@ impl UpdateConfig {
     pub fn spec() -> Self {
         Self {
             cgm_switch_rule: None,
+            smbg_recent_low_carb_ratios: None,
             ..Self::default()
+        }
+    }
+
+    /// The recent-low rule for an update of `kind` by an advisor in
+    /// `mode` (SMBG mode only).
+    pub fn recent_low_for(&self, mode: Mode, kind: ParamKind) -> Option<RecentLow> {
+        match (mode, kind) {
+            (Mode::Cgm, _) => None,
+            (Mode::Smbg, ParamKind::Basal) => self.smbg_recent_low_basal,
+            (Mode::Smbg, ParamKind::CarbRatio) => self.smbg_recent_low_carb_ratios,
         }
     }
 
@@ -1002,6 +1073,26 @@ impl AbbaConfig {
         )?;
         check_range("supervisor.cgm_mixed_gain", s.cgm_mixed_gain, 0.0, 10.0)?;
         check_range("update.fusion_m", self.update.fusion_m, 0.0, 0.999_999)?;
+        for (field, r) in [
+            (
+                "update.smbg_recent_low_basal",
+                self.update.smbg_recent_low_basal,
+            ),
+            (
+                "update.smbg_recent_low_carb_ratios",
+                self.update.smbg_recent_low_carb_ratios,
+            ),
+        ] {
+            if let Some(r) = r {
+                check_range(
+                    &format!("{field}.below_mg_dl"),
+                    r.below_mg_dl,
+                    20.0,
+                    RecentLow::MAX_BELOW_MG_DL,
+                )?;
+                check_count(&format!("{field}.hours"), r.hours, 1, RecentLow::MAX_HOURS)?;
+            }
+        }
         check_range(
             "update.max_relative_change",
             self.update.max_relative_change,
@@ -1093,6 +1184,9 @@ mod tests {
         }
         let mut json = serde_json::to_value(UpdateConfig::default()).unwrap();
         json.as_object_mut().unwrap().remove("cgm_switch_rule");
+        json.as_object_mut()
+            .unwrap()
+            .remove("smbg_recent_low_carb_ratios");
         let old: UpdateConfig = serde_json::from_value(json).unwrap();
         assert_eq!(old, spec);
         // The default: off in CGM mode only.

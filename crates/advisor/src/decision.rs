@@ -210,6 +210,13 @@ impl std::fmt::Display for Decision {
                 if x.applied.hypo_guard_fired {
                     write!(f, ", hypo guard cancelled an insulin increase")?;
                 }
+                if let Some(r) = x.applied.recent_low {
+                    write!(
+                        f,
+                        ", a reading below {} mg/dL in the last {} h cancelled an insulin increase",
+                        r.below_mg_dl, r.hours
+                    )?;
+                }
                 if x.applied.non_finite {
                     write!(f, ", non-finite action ignored")?;
                 }

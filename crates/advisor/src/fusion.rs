@@ -1,5 +1,6 @@
 //! From the action P_e to the new parameter value: eq16-21 and the 5 % clamp.
 
+use crate::config::RecentLow;
 use crate::supervisor::ParamKind;
 use serde::{Deserialize, Serialize};
 
@@ -21,6 +22,10 @@ pub struct Applied {
     /// The optional hypo guard (`update.hypo_guard`) cancelled an insulin increase.
     #[serde(default)]
     pub hypo_guard_fired: bool,
+    /// SMBG mode: the recent-low rule (`update.smbg_recent_low_*`) that
+    /// cancelled an insulin increase.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub recent_low: Option<RecentLow>,
     /// AP_final, the value from now on.
     pub new: f64,
 }
@@ -62,6 +67,7 @@ pub fn apply_action(
             clamp_fired: false,
             non_finite: true,
             hypo_guard_fired: false,
+            recent_low: None,
             new: old,
         };
     }
@@ -77,6 +83,7 @@ pub fn apply_action(
         clamp_fired: clamped != value,
         non_finite: false,
         hypo_guard_fired: false,
+        recent_low: None,
         new: clamped,
     }
 }

@@ -102,6 +102,7 @@ pub mod features;
 pub mod fusion;
 pub mod guard;
 pub mod parameter;
+pub mod recent_low;
 mod rng;
 pub mod state;
 pub mod steps;

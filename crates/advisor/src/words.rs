@@ -122,6 +122,12 @@ pub fn reasons_in(d: &Decision, cfg: &AbbaConfig, unit: GlucoseUnit) -> Vec<Stri
     if a.hypo_guard_fired {
         out.push("An increase of insulin was cancelled because of a low reading.".into());
     }
+    if let Some(r) = a.recent_low {
+        out.push(format!(
+            "An increase of insulin was cancelled: a finger-stick in the last {} hours was below {:.0} mg/dL, and four readings a day miss most lows.",
+            r.hours, r.below_mg_dl
+        ));
+    }
     if a.non_finite {
         out.push("The computation gave no usable number; the value stays.".into());
     }

@@ -692,3 +692,104 @@ fn a_night_that_fell_from_a_high_bedtime_reading_does_not_raise_the_basal_when_a
     let e = Abba::new(c, start()).unwrap_err().to_string();
     assert!(e.contains("features.smbg_night_fall_mg_dl"), "{e}");
 }
+
+/// A toy whose breakfast bolus is too large (the pre-lunch finger-stick is
+/// low) and whose lunch bolus too small (the pre-dinner one is high).
+const LOW_BEFORE_LUNCH: Toy = Toy {
+    basal_need: 1.0,
+    cr_need: [20.0, 7.0, 10.0],
+    ..NEUTRAL
+};
+
+/// Whether a finger-stick below `below` was fed in the `hours` before `at`.
+fn low_within(events: &[Event], at: abba_core::Timestamp, below: f64, hours: i64) -> bool {
+    events.iter().any(|e| {
+        matches!(e.kind, EventKind::Smbg(MgDl(g)) if g < below)
+            && e.at <= at
+            && at.minutes() - e.at.minutes() < hours * 60
+    })
+}
+
+#[test]
+fn smbg_a_recent_low_in_any_window_keeps_every_carb_ratio_from_going_down() {
+    let cfg = AbbaConfig::new(Mode::Smbg, 3);
+    let rule = cfg
+        .update
+        .smbg_recent_low_carb_ratios
+        .expect("on by default");
+    assert_eq!((rule.below_mg_dl, rule.hours), (90.0, 72));
+    let run = |cfg: AbbaConfig| {
+        let mut a = Abba::new(cfg.clone(), start()).unwrap();
+        let events = LOW_BEFORE_LUNCH.run(&mut a, Mode::Smbg, 1, 40, 7);
+        (events, a.take_decisions(), cfg)
+    };
+    let lunch = Parameter::CarbRatio(MealSlot::Lunch);
+    // On: no lunch ratio goes down within 72 h of a reading below 90, and
+    // the decision says why.
+    let (events, d, cfg) = run(cfg);
+    let mut fired = 0;
+    for x in d.iter().filter(|x| x.parameter == lunch) {
+        let DecisionDetail::Abba(e) = &x.detail else {
+            continue;
+        };
+        if low_within(&events, x.at, 90.0, 72) {
+            assert!(x.new >= x.old, "the lunch ratio went down after a low: {x}");
+        }
+        if e.applied.recent_low.is_some() {
+            fired += 1;
+            let why = abba_advisor::words::reasons(x, &cfg).join(" ");
+            assert!(
+                why.contains("below 90 mg/dL") && why.contains("72 hours"),
+                "{why}"
+            );
+            assert!(x.to_string().contains("below 90 mg/dL"), "{x}");
+        }
+    }
+    assert!(fired >= 5, "the rule held the lunch ratio {fired} times");
+    // The lunch window itself holds no low (its reading is the high
+    // pre-dinner one): the window's own hypo guard would not have seen it.
+    // Off, the same person's lunch ratio goes down after such lows.
+    let mut off = AbbaConfig::new(Mode::Smbg, 3);
+    off.update.smbg_recent_low_carb_ratios = None;
+    let (events, d, _) = run(off);
+    let lowered = d
+        .iter()
+        .filter(|x| x.parameter == lunch && x.new < x.old && low_within(&events, x.at, 90.0, 72))
+        .count();
+    assert!(
+        lowered >= 5,
+        "off, the lunch ratio fell {lowered} times after a low"
+    );
+}
+
+#[test]
+fn the_recent_low_rules_are_smbg_only_off_in_the_seed_and_checked() {
+    use abba_advisor::config::{RecentLow, UpdateConfig};
+    use abba_advisor::supervisor::ParamKind;
+    let rule = RecentLow {
+        below_mg_dl: 80.0,
+        hours: 48,
+    };
+    let u = UpdateConfig {
+        smbg_recent_low_basal: Some(rule),
+        smbg_recent_low_carb_ratios: Some(rule),
+        ..UpdateConfig::default()
+    };
+    for kind in [ParamKind::Basal, ParamKind::CarbRatio] {
+        assert_eq!(u.recent_low_for(Mode::Cgm, kind), None);
+        assert_eq!(u.recent_low_for(Mode::Smbg, kind), Some(rule));
+    }
+    assert_eq!(UpdateConfig::spec().smbg_recent_low_carb_ratios, None);
+    assert_eq!(UpdateConfig::default().smbg_recent_low_basal, None);
+    // Bad values are named.
+    let mut cfg = AbbaConfig::new(Mode::Smbg, 1);
+    cfg.update.smbg_recent_low_carb_ratios = Some(RecentLow {
+        below_mg_dl: 90.0,
+        hours: 0,
+    });
+    let err = cfg.validate().unwrap_err().to_string();
+    assert!(
+        err.contains("update.smbg_recent_low_carb_ratios.hours"),
+        "{err}"
+    );
+}

@@ -12,7 +12,7 @@ use crate::error::TrialError;
 use crate::protocol::{ArmKind, RawTrialConfig, TrialConfig};
 use crate::results::ArmResult;
 use crate::runner::{build_cohort, run_trial_on, Silent};
-use abba_advisor::config::Excursion;
+use abba_advisor::config::{Excursion, RecentLow};
 use abba_advisor::Mode;
 use abba_sim::cohort::{Cohort, Origin, Population};
 use abba_sim::scenario::ScenarioId;
@@ -80,7 +80,21 @@ pub enum Knob {
     /// fell this much counts for the basal agent as in range. Not in the
     /// default grid.
     SmbgNightFall,
+    /// SMBG mode: the threshold (mg/dL) of the basal's recent-low rule
+    /// `update.smbg_recent_low_basal` (a negative value = off, the seed;
+    /// a new rule looks back [`RECENT_LOW_HOURS`] hours). Not in the
+    /// default grid.
+    SmbgRecentLowBasalBelow,
+    /// Its look-back in hours (nothing to set while the rule is off).
+    SmbgRecentLowBasalHours,
+    /// The same for the carb ratios, `update.smbg_recent_low_carb_ratios`.
+    SmbgRecentLowCarbBelow,
+    /// Its look-back in hours.
+    SmbgRecentLowCarbHours,
 }
+
+/// The look-back of a recent-low rule that a threshold knob turns on.
+pub const RECENT_LOW_HOURS: u32 = 72;
 
 /// The windows of [`Knob::CgmBasalWindow`], by value.
 const CGM_BASAL_WINDOWS: [Option<[i64; 2]>; 3] = [None, Some([0, 420]), Some([120, 420])];
@@ -114,6 +128,14 @@ impl Knob {
             }
             Knob::CgmSwitchRule => "abba.update.cgm_switch_rule (1 = on, 0 = off)",
             Knob::SmbgNightFall => "abba.features.smbg_night_fall_mg_dl (mg/dL; < 0 = off)",
+            Knob::SmbgRecentLowBasalBelow => {
+                "abba.update.smbg_recent_low_basal.below_mg_dl (mg/dL; < 0 = off)"
+            }
+            Knob::SmbgRecentLowBasalHours => "abba.update.smbg_recent_low_basal.hours",
+            Knob::SmbgRecentLowCarbBelow => {
+                "abba.update.smbg_recent_low_carb_ratios.below_mg_dl (mg/dL; < 0 = off)"
+            }
+            Knob::SmbgRecentLowCarbHours => "abba.update.smbg_recent_low_carb_ratios.hours",
         }
     }
 
@@ -159,6 +181,12 @@ impl Knob {
                 }
             }
             Knob::SmbgNightFall => c.abba.features.smbg_night_fall_mg_dl.unwrap_or(-1.0),
+            Knob::SmbgRecentLowBasalBelow => below_or_off(c.abba.update.smbg_recent_low_basal),
+            Knob::SmbgRecentLowBasalHours => hours_or_default(c.abba.update.smbg_recent_low_basal),
+            Knob::SmbgRecentLowCarbBelow => below_or_off(c.abba.update.smbg_recent_low_carb_ratios),
+            Knob::SmbgRecentLowCarbHours => {
+                hours_or_default(c.abba.update.smbg_recent_low_carb_ratios)
+            }
         }
     }
 
@@ -215,7 +243,41 @@ impl Knob {
             Knob::SmbgNightFall => {
                 c.abba.features.smbg_night_fall_mg_dl = (v >= 0.0).then_some(v);
             }
+            Knob::SmbgRecentLowBasalBelow => set_below(&mut c.abba.update.smbg_recent_low_basal, v),
+            Knob::SmbgRecentLowBasalHours => set_hours(&mut c.abba.update.smbg_recent_low_basal, v),
+            Knob::SmbgRecentLowCarbBelow => {
+                set_below(&mut c.abba.update.smbg_recent_low_carb_ratios, v);
+            }
+            Knob::SmbgRecentLowCarbHours => {
+                set_hours(&mut c.abba.update.smbg_recent_low_carb_ratios, v);
+            }
         }
+    }
+}
+
+/// A recent-low rule's threshold, or −1 when it is off.
+fn below_or_off(r: Option<RecentLow>) -> f64 {
+    r.map_or(-1.0, |r| r.below_mg_dl)
+}
+
+/// A recent-low rule's look-back, or the one a threshold would turn on.
+fn hours_or_default(r: Option<RecentLow>) -> f64 {
+    f64::from(r.map_or(RECENT_LOW_HOURS, |r| r.hours))
+}
+
+/// Turns a recent-low rule off (`v < 0`) or sets its threshold, keeping
+/// its look-back ([`RECENT_LOW_HOURS`] for a new rule).
+fn set_below(r: &mut Option<RecentLow>, v: f64) {
+    *r = (v >= 0.0).then(|| RecentLow {
+        below_mg_dl: v,
+        hours: r.map_or(RECENT_LOW_HOURS, |r| r.hours),
+    });
+}
+
+/// Sets a recent-low rule's look-back (hours, rounded); an off rule stays off.
+fn set_hours(r: &mut Option<RecentLow>, v: f64) {
+    if let Some(r) = r {
+        r.hours = v.round().max(1.0) as u32;
     }
 }
 
@@ -284,6 +346,18 @@ pub struct Objective {
     pub tir_weight: f64,
     /// Per stopped run beyond standard's.
     pub stop_weight: f64,
+    /// Per percentage point of W14 time below 70 mg/dL above
+    /// `w14_below_70_cap`, whatever standard therapy's (0: off, the
+    /// default; issue 26 asks for the paper's safety level, 0.3 %).
+    #[serde(default)]
+    pub w14_cap_weight: f64,
+    /// The W14 time below 70 mg/dL (%) that `w14_cap_weight` allows.
+    #[serde(default = "default_w14_below_70_cap")]
+    pub w14_below_70_cap: f64,
+}
+
+fn default_w14_below_70_cap() -> f64 {
+    0.3
 }
 
 /// Everything `abba calibrate` needs.
@@ -351,6 +425,8 @@ impl Default for CalibrationConfig {
                 hypo_margin: 0.5,
                 tir_weight: 0.2,
                 stop_weight: 1.0,
+                w14_cap_weight: 0.0,
+                w14_below_70_cap: default_w14_below_70_cap(),
             },
         }
     }
@@ -443,6 +519,8 @@ impl CalibrationConfig {
             ("hypo_margin", o.hypo_margin),
             ("tir_weight", o.tir_weight),
             ("stop_weight", o.stop_weight),
+            ("w14_cap_weight", o.w14_cap_weight),
+            ("w14_below_70_cap", o.w14_below_70_cap),
         ] {
             if !(w.is_finite() && w >= 0.0) {
                 return bad(format!("objective.{name} must be finite and >= 0, got {w}"));
@@ -540,7 +618,8 @@ pub fn score(rows: &[Comparison], arm: &str, o: &Objective) -> Result<f64, Trial
             + o.hypo_weight * (a.below_70 - s.below_70 + o.hypo_margin).max(0.0)
             + o.tir_weight * (s.tir - 1.0 - a.tir).max(0.0);
         if r.week == "W14" {
-            total += o.stop_weight * a.stopped.saturating_sub(s.stopped) as f64;
+            total += o.stop_weight * a.stopped.saturating_sub(s.stopped) as f64
+                + o.w14_cap_weight * (a.below_70 - o.w14_below_70_cap).max(0.0);
         }
     }
     Ok(total)
@@ -973,6 +1052,8 @@ mod tests {
             hypo_margin: 0.0,
             tir_weight: 0.2,
             stop_weight: 1.0,
+            w14_cap_weight: 0.0,
+            w14_below_70_cap: 0.3,
         };
         let out = |tir, below_70, hbgi| Outcome {
             tir,
@@ -982,14 +1063,15 @@ mod tests {
             stopped: 0,
             n: 10,
         };
-        let row = |abba| Comparison {
+        let row_in = |week: &str, abba| Comparison {
             scenario: "S1".into(),
-            week: "W13".into(),
+            week: week.into(),
             arms: BTreeMap::from([
                 ("abba".to_string(), abba),
                 ("standard".to_string(), out(80.0, 1.0, 3.5)),
             ]),
         };
+        let row = |abba| row_in("W13", abba);
         let same = score(&[row(out(80.0, 1.0, 3.5))], "abba", &o).unwrap();
         assert!((same - 1.0).abs() < 1e-12);
         let better = score(&[row(out(85.0, 1.0, 1.5))], "abba", &o).unwrap();
@@ -1005,5 +1087,53 @@ mod tests {
         };
         let same = score(&[row(out(80.0, 1.0, 3.5))], "abba", &m).unwrap();
         assert!((same - 2.0).abs() < 1e-12);
+        // The W14 cap: 3 per point of W14 time below 70 above 0.3 %,
+        // whatever standard's; W13 is not capped.
+        let capped = Objective {
+            w14_cap_weight: 3.0,
+            ..o.clone()
+        };
+        let w14 = score(&[row_in("W14", out(80.0, 0.5, 3.5))], "abba", &capped).unwrap();
+        assert!((w14 - (1.0 + 3.0 * 0.2)).abs() < 1e-12, "{w14}");
+        let under = score(&[row_in("W14", out(80.0, 0.25, 3.5))], "abba", &capped).unwrap();
+        assert!((under - 1.0).abs() < 1e-12, "{under}");
+        let w13 = score(&[row(out(80.0, 0.5, 3.5))], "abba", &capped).unwrap();
+        assert!((w13 - 1.0).abs() < 1e-12, "{w13}");
+    }
+
+    #[test]
+    fn recent_low_knobs_turn_a_rule_on_and_off_and_keep_its_hours() {
+        let mut c = RawTrialConfig::default();
+        for (below, hours, get) in [
+            (
+                Knob::SmbgRecentLowBasalBelow,
+                Knob::SmbgRecentLowBasalHours,
+                (|c: &RawTrialConfig| c.abba.update.smbg_recent_low_basal)
+                    as fn(&RawTrialConfig) -> _,
+            ),
+            (
+                Knob::SmbgRecentLowCarbBelow,
+                Knob::SmbgRecentLowCarbHours,
+                |c: &RawTrialConfig| c.abba.update.smbg_recent_low_carb_ratios,
+            ),
+        ] {
+            below.set(&mut c, -1.0);
+            assert_eq!(get(&c), None);
+            hours.set(&mut c, 24.0);
+            assert_eq!(get(&c), None, "an off rule stays off");
+            below.set(&mut c, 80.0);
+            assert_eq!(
+                get(&c),
+                Some(RecentLow {
+                    below_mg_dl: 80.0,
+                    hours: RECENT_LOW_HOURS
+                })
+            );
+            hours.set(&mut c, 96.0);
+            below.set(&mut c, 90.0);
+            assert_eq!((below.get(&c), hours.get(&c)), (90.0, 96.0));
+            below.set(&mut c, -1.0);
+            assert_eq!(below.get(&c), -1.0);
+        }
     }
 }

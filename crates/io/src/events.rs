@@ -528,6 +528,8 @@ fn close_at_midnights(events: &mut Vec<Event>) {
         ));
         day += 1;
     }
+    // Exactly: a long log's list would otherwise double.
+    events.reserve_exact(closes.len());
     events.extend(closes);
     events.sort_by_key(|e| (e.at, rank(&e.kind)));
 }

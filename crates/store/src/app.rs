@@ -202,7 +202,10 @@ pub fn insert(
 
 /// Every app event of a person, in the advisor's order.
 pub fn load(conn: &dyn Db, person: i64) -> Result<Vec<AppEvent>, StoreError> {
-    events_of(conn.rows(Q::AppEventsOf, args![person])?)
+    // Sized by the count (a hint) and parsed row by row: a long log is
+    // never held as rows too.
+    let n = count(conn, person)?;
+    events_of(conn, Q::AppEventsOf, args![person], n)
 }
 
 /// The app events that come after `key` (minute, seq) in the advisor's
@@ -212,20 +215,31 @@ pub fn load_after(
     person: i64,
     key: (i64, u64),
 ) -> Result<Vec<AppEvent>, StoreError> {
-    events_of(conn.rows(Q::AppEventsAfter, args![person, key.0, seq_sql(key.1)?])?)
+    events_of(
+        conn,
+        Q::AppEventsAfter,
+        args![person, key.0, seq_sql(key.1)?],
+        0,
+    )
 }
 
-fn events_of(rows: Vec<crate::backend::Row>) -> Result<Vec<AppEvent>, StoreError> {
-    let mut out = Vec::with_capacity(rows.len());
-    for r in rows {
-        let (seq, at, kind) = (r.int(0)?, r.int(1)?, r.text(2)?);
+fn events_of(
+    conn: &dyn Db,
+    q: Q,
+    params: &[crate::backend::Value],
+    expected: i64,
+) -> Result<Vec<AppEvent>, StoreError> {
+    let mut out = Vec::with_capacity(usize::try_from(expected).unwrap_or(0));
+    conn.each_row(q, params, &mut |r| {
+        let (seq, at) = (r.int(0)?, r.int(1)?);
         let kind: EventKind =
-            serde_json::from_str(&kind).map_err(|e| StoreError::corrupt("app event", e))?;
+            serde_json::from_str(r.str(2)?).map_err(|e| StoreError::corrupt("app event", e))?;
         out.push(AppEvent {
             seq: seq as u64,
             event: Event::new(Timestamp(at), kind),
         });
-    }
+        Ok(())
+    })?;
     Ok(out)
 }
 

@@ -15,12 +15,14 @@
 
 use crate::backend::{args, Db, Q};
 use crate::error::StoreError;
+use crate::log;
 use crate::person::{Person, TherapySource};
 use abba_advisor::Mode;
 use abba_core::limits::{BASAL_U_PER_H, CARB_RATIO_G_PER_U, FUTURE_SKEW_MINUTES};
 use abba_core::{Event, EventKind, Timestamp};
 use abba_io::automation::{Delivery, Evidence};
 use abba_io::clock::AdvisorClock;
+use abba_io::events::EventStream;
 use abba_io::therapy::PumpTherapy;
 use abba_io::Record;
 use serde::{Deserialize, Serialize};
@@ -502,17 +504,29 @@ pub struct RecordFacts {
     pub first_week: FirstWeek,
 }
 
-/// The facts of an import-fed person's records and events.
+/// The facts of an import-fed person's records and their events: the
+/// records are taken, made into the events ([`log::events`]) and dropped,
+/// so that a long log is never held twice.
 pub fn record_facts(
     person: &Person,
-    records: &[Record],
-    events: &[Event],
-) -> Result<RecordFacts, StoreError> {
-    Ok(RecordFacts {
-        profile_changes: profile_changes(person, records)?,
-        evidence: Evidence::from_records(records, &person.tz),
-        first_week: first_week(person.mode(), person.settings.advisor.init_days, events),
-    })
+    records: Vec<Record>,
+) -> Result<(EventStream, RecordFacts), StoreError> {
+    let profile_changes = profile_changes(person, &records)?;
+    let evidence = Evidence::from_records(&records, &person.tz);
+    let stream = log::events(person, records)?;
+    let first_week = first_week(
+        person.mode(),
+        person.settings.advisor.init_days,
+        &stream.events,
+    );
+    Ok((
+        stream,
+        RecordFacts {
+            profile_changes,
+            evidence,
+            first_week,
+        },
+    ))
 }
 
 /// Everything [`Extras`] holds for an import-fed person: the records'

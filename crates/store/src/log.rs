@@ -82,22 +82,19 @@ pub fn key(r: &Record) -> Result<(String, String), StoreError> {
 /// same set of records always gives the same list, whatever the order in
 /// which they were imported.
 pub fn records(conn: &dyn Db, person: i64) -> Result<Vec<Record>, StoreError> {
-    // A scan of the primary key (no per-row index look-ups), sorted here.
-    let mut raw = conn
-        .rows(Q::RecordsOf, args![person])?
-        .into_iter()
-        .map(|r| Ok((r.text(0)?, r.text(1)?, r.int(2)?, r.text(3)?)))
-        .collect::<Result<Vec<_>, StoreError>>()?;
-    raw.sort_by(|a, b| (a.2, &a.0, &a.1).cmp(&(b.2, &b.0, &b.1)));
-    let mut out = Vec::with_capacity(raw.len());
-    for (source, id, at_ms, kind) in raw {
-        let source = parse_source(&source)?;
+    // A scan of the primary key (no per-row index look-ups), each row parsed
+    // as it comes (a long log is never held as text too), sorted here. The
+    // count sizes the list (a hint: a write in between only regrows it).
+    let n = conn.one(Q::RecordCount, args![person])?.int(0)?;
+    let mut out = Vec::with_capacity(usize::try_from(n).unwrap_or(0));
+    conn.each_row(Q::RecordsOf, args![person], &mut |r| {
+        let source = parse_source(r.str(0)?)?;
         let id: SourceId =
-            serde_json::from_str(&id).map_err(|e| StoreError::corrupt("record id", e))?;
-        let kind: RecordKind =
-            serde_json::from_str(&kind).map_err(|e| StoreError::corrupt("record", e))?;
-        let at = jiff::Timestamp::from_millisecond(at_ms)
+            serde_json::from_str(r.str(1)?).map_err(|e| StoreError::corrupt("record id", e))?;
+        let at = jiff::Timestamp::from_millisecond(r.int(2)?)
             .map_err(|e| StoreError::corrupt("record instant", e))?;
+        let kind: RecordKind =
+            serde_json::from_str(r.str(3)?).map_err(|e| StoreError::corrupt("record", e))?;
         out.push(Record {
             at,
             kind,
@@ -105,9 +102,28 @@ pub fn records(conn: &dyn Db, person: i64) -> Result<Vec<Record>, StoreError> {
             id,
             origin: Origin {
                 file: 0,
-                at: OriginAt::Item(u32::try_from(out.len()).unwrap_or(u32::MAX)),
+                at: OriginAt::Item(0),
             },
         });
+        Ok(())
+    })?;
+    // The order of the stored columns: instant, then the key's text (made
+    // again only for records of one instant, which are few).
+    let mut bad = None;
+    out.sort_by(|a, b| {
+        a.at.cmp(&b.at).then_with(|| match (key(a), key(b)) {
+            (Ok(ka), Ok(kb)) => ka.cmp(&kb),
+            (Err(e), _) | (_, Err(e)) => {
+                bad.get_or_insert(e);
+                std::cmp::Ordering::Equal
+            }
+        })
+    });
+    if let Some(e) = bad {
+        return Err(e);
+    }
+    for (i, r) in out.iter_mut().enumerate() {
+        r.origin.at = OriginAt::Item(u32::try_from(i).unwrap_or(u32::MAX));
     }
     Ok(out)
 }

@@ -212,13 +212,8 @@ pub(crate) fn refresh_with(
             } else {
                 let recs = log::records(conn, person.id)?;
                 let n = recs.len();
-                let stream = log::events(person, recs.clone())?;
-                let facts = Some(Arc::new(in_force::record_facts(
-                    person,
-                    &recs,
-                    &stream.events,
-                )?));
-                (n, stream, facts, None)
+                let (stream, facts) = in_force::record_facts(person, recs)?;
+                (n, stream, Some(Arc::new(facts)), None)
             };
             (records, Arc::new(stream), facts, last_app)
         }

@@ -270,3 +270,25 @@ fn first_week_countdown_and_a_day_with_too_little_data() {
         .unwrap();
     assert!(!full.no_update, "{full:?}");
 }
+
+#[test]
+fn records_of_one_instant_are_listed_in_their_key_order() {
+    // A meal's carbohydrate and its bolus share an instant: the list is
+    // ordered by instant, then by the stored (source, id) text, as the
+    // store's columns sort (the list is read row by row and sorted after).
+    let dir = TempDir::new("ties");
+    let mut store = dir.store();
+    store.create_person(&person("ana")).unwrap();
+    store.import("ana", &read(&nightscout(&events(3))).unwrap()).unwrap();
+    let records = store.records("ana").unwrap();
+    let keys: Vec<_> = records
+        .iter()
+        .map(|r| (r.at, abba_store::log::key(r).unwrap()))
+        .collect();
+    let ties = keys.windows(2).filter(|w| w[0].0 == w[1].0).count();
+    assert!(ties >= 9, "{ties} records share an instant with the one before");
+    assert!(keys.windows(2).all(|w| w[0] < w[1]), "not in (instant, source, id) order");
+    for (i, r) in records.iter().enumerate() {
+        assert_eq!(r.origin.at, abba_io::record::OriginAt::Item(i as u32));
+    }
+}

@@ -150,6 +150,14 @@ impl Row {
         }
     }
 
+    /// A text column, borrowed.
+    pub fn str(&self, i: usize) -> Result<&str, StoreError> {
+        match self.at(i)? {
+            Value::Text(v) => Ok(v),
+            v => Err(column_error(i, "text", v)),
+        }
+    }
+
     /// A text column that may be NULL.
     pub fn opt_text(&self, i: usize) -> Result<Option<String>, StoreError> {
         match self.at(i)? {
@@ -234,6 +242,18 @@ pub trait Db {
 
     /// Runs an insert of one row with a generated `id`; that id.
     fn insert_id(&self, q: Q, params: &[Value]) -> Result<i64, StoreError>;
+
+    /// Runs a query and hands each row to `f` in turn. A backend that can
+    /// stream (SQLite) never holds every row at once: a person's whole log
+    /// is read this way.
+    fn each_row(
+        &self,
+        q: Q,
+        params: &[Value],
+        f: &mut dyn FnMut(Row) -> Result<(), StoreError>,
+    ) -> Result<(), StoreError> {
+        self.rows(q, params)?.into_iter().try_for_each(f)
+    }
 
     /// The first row, if any.
     fn row(&self, q: Q, params: &[Value]) -> Result<Option<Row>, StoreError> {
@@ -377,6 +397,17 @@ impl Db for Conn {
             Conn::Postgres(c) => c.insert_id(q, params),
         }
     }
+    fn each_row(
+        &self,
+        q: Q,
+        params: &[Value],
+        f: &mut dyn FnMut(Row) -> Result<(), StoreError>,
+    ) -> Result<(), StoreError> {
+        match self {
+            Conn::Sqlite(c) => c.db().each_row(q, params, f),
+            Conn::Postgres(c) => c.each_row(q, params, f),
+        }
+    }
 }
 
 impl Tx<'_> {
@@ -406,6 +437,17 @@ impl Db for Tx<'_> {
         match self {
             Tx::Sqlite(t) => t.db().insert_id(q, params),
             Tx::Postgres(t) => t.insert_id(q, params),
+        }
+    }
+    fn each_row(
+        &self,
+        q: Q,
+        params: &[Value],
+        f: &mut dyn FnMut(Row) -> Result<(), StoreError>,
+    ) -> Result<(), StoreError> {
+        match self {
+            Tx::Sqlite(t) => t.db().each_row(q, params, f),
+            Tx::Postgres(t) => t.each_row(q, params, f),
         }
     }
 }

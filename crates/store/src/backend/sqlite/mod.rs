@@ -79,18 +79,31 @@ impl Db for SqliteDb<'_> {
     }
 
     fn rows(&self, q: Q, params: &[Value]) -> Result<Vec<Row>, StoreError> {
+        let mut out = Vec::new();
+        self.each_row(q, params, &mut |row| {
+            out.push(row);
+            Ok(())
+        })?;
+        Ok(out)
+    }
+
+    fn each_row(
+        &self,
+        q: Q,
+        params: &[Value],
+        f: &mut dyn FnMut(Row) -> Result<(), StoreError>,
+    ) -> Result<(), StoreError> {
         let mut st = self.0.prepare_cached(sql::text(q)).map_err(err)?;
         let n = st.column_count();
         let mut rows = st.query(rusqlite::params_from_iter(params)).map_err(err)?;
-        let mut out = Vec::new();
         while let Some(r) = rows.next().map_err(err)? {
             let mut row = Vec::with_capacity(n);
             for i in 0..n {
                 row.push(value(r.get_ref(i).map_err(err)?)?);
             }
-            out.push(Row(row));
+            f(Row(row))?;
         }
-        Ok(out)
+        Ok(())
     }
 
     fn insert_id(&self, q: Q, params: &[Value]) -> Result<i64, StoreError> {

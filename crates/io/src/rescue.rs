@@ -18,23 +18,25 @@ pub const COUNT_KEY: &str = "rescue_carbs";
 /// The rule in words.
 pub const RULE: &str = "carbohydrate within 15 min after a glucose reading below 70 mg/dL, with no bolus within 15 min";
 
-/// The low readings and boluses of a record stream, by instant.
+/// The low readings and boluses of a record stream, by instant (only the
+/// low readings are kept: a long log's in-range readings would weigh the
+/// most and decide nothing).
 pub struct Rescue {
     lows: Vec<jiff::Timestamp>,
-    /// Every glucose reading: (instant, low?).
-    readings: Vec<(jiff::Timestamp, bool)>,
     boluses: Vec<jiff::Timestamp>,
 }
 
 impl Rescue {
     /// Indexes `records` (any order).
     pub fn new(records: &[Record]) -> Self {
-        let mut readings = Vec::new();
+        let mut lows = Vec::new();
         let mut boluses = Vec::new();
         for r in records {
             match &r.kind {
                 RecordKind::Cgm { glucose } | RecordKind::Smbg { glucose } => {
-                    readings.push((r.at, glucose.mg_dl.0 < LOW_MG_DL))
+                    if glucose.mg_dl.0 < LOW_MG_DL {
+                        lows.push(r.at);
+                    }
                 }
                 RecordKind::Bolus { units } if units.0 > 0.0 => boluses.push(r.at),
                 RecordKind::ExtendedBolus { .. } => boluses.push(r.at),
@@ -46,30 +48,20 @@ impl Rescue {
                 _ => {}
             }
         }
-        readings.sort_by_key(|x| x.0);
+        lows.sort();
         boluses.sort();
-        let lows = readings.iter().filter(|x| x.1).map(|x| x.0).collect();
-        Self {
-            lows,
-            readings,
-            boluses,
-        }
+        Self { lows, boluses }
     }
 
-    /// True when carbohydrate at `at` treats a low: the latest reading at
-    /// or before `at` within 15 min was low (glucose below 70 mg/dL now or
+    /// True when carbohydrate at `at` treats a low: a reading at or
+    /// before `at`, within 15 min, was low (glucose below 70 mg/dL now or
     /// just before), and no bolus lies within 15 min.
     pub fn is_rescue(&self, at: jiff::Timestamp) -> bool {
-        if self.lows.is_empty() {
-            return false;
-        }
         let window = jiff::SignedDuration::from_mins(AFTER_LOW_MIN);
-        let i = self.readings.partition_point(|x| x.0 <= at);
-        let low_before = self.readings[..i]
-            .iter()
-            .rev()
-            .take_while(|x| at.duration_since(x.0) <= window)
-            .any(|x| x.1);
+        // The latest low at or before `at` is within the window exactly
+        // when some low is.
+        let i = self.lows.partition_point(|&t| t <= at);
+        let low_before = i > 0 && at.duration_since(self.lows[i - 1]) <= window;
         if !low_before {
             return false;
         }
@@ -77,5 +69,65 @@ impl Rescue {
         let j = self.boluses.partition_point(|&b| b < at);
         let close = |b: &jiff::Timestamp| at.duration_since(*b).abs() <= near;
         !(self.boluses.get(j).is_some_and(close) || j > 0 && close(&self.boluses[j - 1]))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::record::{Glucose, Origin, OriginAt, Source, SourceId};
+    use abba_core::Units;
+
+    fn at(min: i64) -> jiff::Timestamp {
+        jiff::Timestamp::from_second(1_780_000_000 + min * 60).unwrap()
+    }
+
+    fn record(min: i64, kind: RecordKind) -> Record {
+        Record {
+            at: at(min),
+            kind,
+            source: Source::Nightscout,
+            id: SourceId::Hash(min as u64),
+            origin: Origin {
+                file: 0,
+                at: OriginAt::Item(0),
+            },
+        }
+    }
+
+    fn reading(min: i64, mg_dl: f64) -> Record {
+        record(
+            min,
+            RecordKind::Cgm {
+                glucose: Glucose::exact(mg_dl),
+            },
+        )
+    }
+
+    #[test]
+    fn carbohydrate_within_15_min_after_a_low_without_a_bolus_is_a_rescue() {
+        // A low at 0, an in-range reading at 5 (the low still counts), a
+        // bolus at 100.
+        let records = [
+            reading(0, 62.0),
+            reading(5, 75.0),
+            reading(20, 80.0),
+            record(100, RecordKind::Bolus { units: Units(2.0) }),
+            reading(95, 65.0),
+        ];
+        let r = Rescue::new(&records);
+        assert!(r.is_rescue(at(0)), "at the low itself");
+        assert!(
+            r.is_rescue(at(10)),
+            "10 min after it, a later reading in range"
+        );
+        assert!(r.is_rescue(at(15)), "15 min after it");
+        assert!(!r.is_rescue(at(16)), "16 min after it");
+        assert!(!r.is_rescue(at(-1)), "before it");
+        assert!(!r.is_rescue(at(96)), "a bolus 4 min later: a meal");
+        assert!(
+            !Rescue::new(&records[1..3]).is_rescue(at(10)),
+            "no low at all"
+        );
     }
 }

@@ -177,16 +177,20 @@ pub fn person_input(
             d.bolus_u = None;
         }
     }
-    // Hypoglycaemia treatments, from the records (they are not meals).
-    let records = store.records(name)?;
-    let rescue = abba_io::rescue::Rescue::new(&records);
-    let clock = abba_io::clock::AdvisorClock::new(person.tz.clone(), first_day);
-    for r in &records {
-        if let abba_io::RecordKind::Carbs { grams } = r.kind {
-            if rescue.is_rescue(r.at) {
-                let k = clock.timestamp(r.at).day_index() - first_index;
-                if let Some(d) = usize::try_from(k).ok().and_then(|k| out.get_mut(k)) {
-                    *d.rescue_g.get_or_insert(0.0) += grams.0;
+    // Hypoglycaemia treatments, from the records (they are not meals); the
+    // records are dropped before the advice is built (a long log's are
+    // large).
+    {
+        let records = store.records(name)?;
+        let rescue = abba_io::rescue::Rescue::new(&records);
+        let clock = abba_io::clock::AdvisorClock::new(person.tz.clone(), first_day);
+        for r in &records {
+            if let abba_io::RecordKind::Carbs { grams } = r.kind {
+                if rescue.is_rescue(r.at) {
+                    let k = clock.timestamp(r.at).day_index() - first_index;
+                    if let Some(d) = usize::try_from(k).ok().and_then(|k| out.get_mut(k)) {
+                        *d.rescue_g.get_or_insert(0.0) += grams.0;
+                    }
                 }
             }
         }

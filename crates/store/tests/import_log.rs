@@ -279,15 +279,23 @@ fn records_of_one_instant_are_listed_in_their_key_order() {
     let dir = TempDir::new("ties");
     let mut store = dir.store();
     store.create_person(&person("ana")).unwrap();
-    store.import("ana", &read(&nightscout(&events(3))).unwrap()).unwrap();
+    store
+        .import("ana", &read(&nightscout(&events(3))).unwrap())
+        .unwrap();
     let records = store.records("ana").unwrap();
     let keys: Vec<_> = records
         .iter()
         .map(|r| (r.at, abba_store::log::key(r).unwrap()))
         .collect();
     let ties = keys.windows(2).filter(|w| w[0].0 == w[1].0).count();
-    assert!(ties >= 9, "{ties} records share an instant with the one before");
-    assert!(keys.windows(2).all(|w| w[0] < w[1]), "not in (instant, source, id) order");
+    assert!(
+        ties >= 9,
+        "{ties} records share an instant with the one before"
+    );
+    assert!(
+        keys.windows(2).all(|w| w[0] < w[1]),
+        "not in (instant, source, id) order"
+    );
     for (i, r) in records.iter().enumerate() {
         assert_eq!(r.origin.at, abba_io::record::OriginAt::Item(i as u32));
     }

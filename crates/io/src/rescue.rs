@@ -33,10 +33,10 @@ impl Rescue {
         let mut boluses = Vec::new();
         for r in records {
             match &r.kind {
-                RecordKind::Cgm { glucose } | RecordKind::Smbg { glucose } => {
-                    if glucose.mg_dl.0 < LOW_MG_DL {
-                        lows.push(r.at);
-                    }
+                RecordKind::Cgm { glucose } | RecordKind::Smbg { glucose }
+                    if glucose.mg_dl.0 < LOW_MG_DL =>
+                {
+                    lows.push(r.at)
                 }
                 RecordKind::Bolus { units } if units.0 > 0.0 => boluses.push(r.at),
                 RecordKind::ExtendedBolus { .. } => boluses.push(r.at),

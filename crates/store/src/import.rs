@@ -194,22 +194,15 @@ pub fn import_with(
             }
         }
         let (source, id) = key(r)?;
-        let kind = serde_json::to_string(&r.kind).map_err(|e| StoreError::corrupt("record", e))?;
         let window = match (r.source, &r.kind) {
             (_, RecordKind::Ignored { .. }) => None,
             (Source::Tidepool, _) => Some(CROSS_UPLOAD_WINDOW_S * 1000),
             _ => Some(0),
         };
         let is_id = matches!(r.id, SourceId::Id(_));
-        rows.push((
-            source,
-            id,
-            r.at.as_millisecond(),
-            kind,
-            batch.origin(r),
-            window,
-            is_id,
-        ));
+        // The record's stored text and origin are made when it is written
+        // (a long export's would double what the import holds).
+        rows.push((source, id, r.at.as_millisecond(), r, window, is_id));
     }
     // A file that lies wholly in the future (a device clock set wrong, an
     // export read in the wrong zone) is an error, not an import of nothing.
@@ -228,6 +221,11 @@ pub fn import_with(
     if rows.is_empty() && too_old.count > 0 && future.count == 0 && before_day_1.count == 0 {
         return Err(all_too_old(batch, &too_old));
     }
+    // In key order (stable: rows of one key keep theirs): the records'
+    // table is keyed by (source, id), and a long export's ids (content
+    // hashes) come in no order, so each look-up and insert would land on
+    // another page (a 15-year CSV: 40 -> 24 s).
+    rows.sort_by(|a, b| (&a.0, &a.1).cmp(&(&b.0, &b.1)));
     let tx = conn.transaction()?;
     if crate::app::count(&tx, person.id)? > 0 {
         return Err(StoreError::Feed(format!(
@@ -245,7 +243,10 @@ pub fn import_with(
     )?;
     let (mut added, mut known, mut updated) = (0usize, 0usize, 0usize);
     {
-        for (source, id, at_ms, kind, origin, window, is_id) in &rows {
+        for (source, id, at_ms, record, window, is_id) in &rows {
+            let kind = &serde_json::to_string(&record.kind)
+                .map_err(|e| StoreError::corrupt("record", e))?;
+            let origin = &batch.origin(record);
             let stored = match tx.row(Q::RecordHeld, args![person.id, source, id])? {
                 Some(r) => Some((r.int(0)?, r.text(1)?)),
                 None => None,

@@ -74,7 +74,9 @@ pub fn key(r: &Record) -> Result<(String, String), StoreError> {
         Ok(serde_json::Value::String(s)) => s,
         _ => return Err(StoreError::corrupt("record source", "not a string")),
     };
-    let id = serde_json::to_string(&r.id).map_err(|e| StoreError::corrupt("record id", e))?;
+    let mut id = serde_json::to_string(&r.id).map_err(|e| StoreError::corrupt("record id", e))?;
+    // serde_json's buffer starts at 128 bytes; an import holds one id a row.
+    id.shrink_to_fit();
     Ok((source, id))
 }
 

@@ -124,8 +124,9 @@ pub fn reasons_in(d: &Decision, cfg: &AbbaConfig, unit: GlucoseUnit) -> Vec<Stri
     }
     if let Some(r) = a.recent_low {
         out.push(format!(
-            "An increase of insulin was cancelled: a finger-stick in the last {} hours was below {:.0} mg/dL, and four readings a day miss most lows.",
-            r.hours, r.below_mg_dl
+            "An increase of insulin was cancelled: a finger-stick in the last {} hours was below {}, and four readings a day miss most lows.",
+            r.hours,
+            glucose(r.below_mg_dl, unit)
         ));
     }
     if a.non_finite {

@@ -743,6 +743,9 @@ fn smbg_a_recent_low_in_any_window_keeps_every_carb_ratio_from_going_down() {
                 "{why}"
             );
             assert!(x.to_string().contains("below 90 mg/dL"), "{x}");
+            let mmol =
+                abba_advisor::words::reasons_in(x, &cfg, abba_core::units::GlucoseUnit::MmolL);
+            assert!(mmol.join(" ").contains("below 5.0 mmol/L"), "{mmol:?}");
         }
     }
     assert!(fired >= 5, "the rule held the lunch ratio {fired} times");

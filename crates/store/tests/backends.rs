@@ -235,3 +235,63 @@ fn on_postgres_writes_for_two_persons_run_side_by_side_and_a_store_write_waits_f
     whole.commit().unwrap();
     b.transaction_for(2).unwrap().commit().unwrap();
 }
+
+#[test]
+fn a_long_result_streams_on_both_backends_and_a_failed_reader_leaves_the_connection_usable() {
+    use abba_store::backend::{postgres::Pg, sqlite::Sqlite, Db, Value, Q};
+    // 16 days of CGM: 4,608 readings and the meals, several of PostgreSQL's
+    // parts of 1,024 rows.
+    let check = |db: &dyn Db, id: i64| {
+        let all = db.rows(Q::RecordsOf, &[Value::Int(id)]).unwrap().len();
+        assert!(all > 4_608, "{all} records");
+        let mut n = 0;
+        db.each_row(Q::RecordsOf, &[Value::Int(id)], &mut |_| {
+            n += 1;
+            Ok(())
+        })
+        .unwrap();
+        assert_eq!(n, all, "every row streamed once");
+        // A reader that fails part-way gets its own error back ...
+        let mut seen = 0;
+        let err = db
+            .each_row(Q::RecordsOf, &[Value::Int(id)], &mut |_| {
+                seen += 1;
+                if seen == 1_500 {
+                    return Err(StoreError::invalid("reader", "stop"));
+                }
+                Ok(())
+            })
+            .unwrap_err();
+        assert!(err.to_string().contains("stop"), "{err}");
+        assert_eq!(seen, 1_500);
+        // ... and the connection answers the next query.
+        assert_eq!(db.rows(Q::RecordsOf, &[Value::Int(id)]).unwrap().len(), all);
+    };
+    let fill = |db: &std::path::Path| {
+        let mut store = Store::open(db).unwrap();
+        store.create_person(&person("ana")).unwrap();
+        store
+            .import("ana", &read(&nightscout(&events(16))).unwrap())
+            .unwrap();
+        store.person("ana").unwrap().id
+    };
+    let dir = TempDir::new("stream");
+    let lite = dir.0.join("lite.db");
+    let id = fill(&lite);
+    let conn = Sqlite::open(
+        &lite,
+        abba_store::backend::sqlite::Sync::Normal,
+        std::time::Duration::from_secs(5),
+    )
+    .unwrap();
+    check(&conn.db(), id);
+    let Some(base) = postgres_or_skip(
+        "a_long_result_streams_on_both_backends_and_a_failed_reader_leaves_the_connection_usable",
+    ) else {
+        return;
+    };
+    let url = fresh_schema(&base);
+    let id = fill(&PathBuf::from(&url));
+    let pg = Pg::open(&url, std::time::Duration::from_secs(5)).unwrap();
+    check(&pg, id);
+}

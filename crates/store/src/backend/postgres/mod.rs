@@ -38,6 +38,7 @@ pub mod sql;
 
 use super::{Db, DbError, DbErrorKind, Row, Value, Q};
 use crate::error::StoreError;
+use postgres::fallible_iterator::FallibleIterator;
 use postgres::types::{IsNull, ToSql, Type};
 use postgres::{GenericClient, NoTls, Statement};
 use std::cell::RefCell;
@@ -447,6 +448,16 @@ impl Drop for Pg {
     }
 }
 
+/// A part of a streamed result ([`Pg`]'s `each_row`).
+enum Part {
+    Rows(Vec<Row>),
+    End,
+    Failed(StoreError),
+}
+
+/// Rows a streamed result sends at a time.
+const STREAM_CHUNK: usize = 1024;
+
 impl Db for Pg {
     fn execute(&self, q: Q, p: &[Value]) -> Result<usize, StoreError> {
         let p = p.to_vec();
@@ -455,6 +466,50 @@ impl Db for Pg {
     fn rows(&self, q: Q, p: &[Value]) -> Result<Vec<Row>, StoreError> {
         let p = p.to_vec();
         self.call(move |c, cache| rows(c, cache, q, &p))
+    }
+    /// Streams: the connection's thread reads the rows as the server sends
+    /// them and passes them on a few at a time (at most two parts wait), so
+    /// a person's whole log is never held at once.
+    fn each_row(
+        &self,
+        q: Q,
+        p: &[Value],
+        f: &mut dyn FnMut(Row) -> Result<(), StoreError>,
+    ) -> Result<(), StoreError> {
+        let p = p.to_vec();
+        let (tx, rx) = mpsc::sync_channel::<Part>(2);
+        let cache = Arc::clone(&self.cache);
+        self.jobs
+            .send(Box::new(move |c| {
+                let run = |c: &mut postgres::Client| -> Result<bool, StoreError> {
+                    let st = prepared(c, &cache, q)?;
+                    let mut it = c.query_raw(&st, params(&p)).map_err(err)?;
+                    let mut chunk = Vec::with_capacity(STREAM_CHUNK);
+                    while let Some(r) = it.next().map_err(err)? {
+                        chunk.push(row_of(&r)?);
+                        if chunk.len() == STREAM_CHUNK
+                            && tx.send(Part::Rows(std::mem::take(&mut chunk))).is_err()
+                        {
+                            // The caller stopped reading (its callback failed).
+                            return Ok(false);
+                        }
+                    }
+                    Ok(chunk.is_empty() || tx.send(Part::Rows(chunk)).is_ok())
+                };
+                let _ = match run(c) {
+                    Ok(true) => tx.send(Part::End),
+                    Ok(false) => Ok(()),
+                    Err(e) => tx.send(Part::Failed(e)),
+                };
+            }))
+            .map_err(|_| gone())?;
+        loop {
+            match rx.recv().map_err(|_| gone())? {
+                Part::Rows(rows) => rows.into_iter().try_for_each(&mut *f)?,
+                Part::End => return Ok(()),
+                Part::Failed(e) => return Err(e),
+            }
+        }
     }
     fn insert_id(&self, q: Q, p: &[Value]) -> Result<i64, StoreError> {
         let p = p.to_vec();
@@ -486,6 +541,14 @@ impl Db for PgTx<'_> {
     }
     fn rows(&self, q: Q, p: &[Value]) -> Result<Vec<Row>, StoreError> {
         self.pg.rows(q, p)
+    }
+    fn each_row(
+        &self,
+        q: Q,
+        p: &[Value],
+        f: &mut dyn FnMut(Row) -> Result<(), StoreError>,
+    ) -> Result<(), StoreError> {
+        self.pg.each_row(q, p, f)
     }
     fn insert_id(&self, q: Q, p: &[Value]) -> Result<i64, StoreError> {
         self.pg.insert_id(q, p)

@@ -232,6 +232,9 @@ pub fn shown(db: &std::path::Path) -> String {
     out
 }
 
+/// What [`Db::each_row`] hands each row to.
+pub type RowSink<'f> = dyn FnMut(Row) -> Result<(), StoreError> + 'f;
+
 /// A connection or a transaction: runs named statements.
 pub trait Db {
     /// Runs a statement that returns no rows; the number of rows changed.
@@ -246,12 +249,7 @@ pub trait Db {
     /// Runs a query and hands each row to `f` in turn. A backend that can
     /// stream (SQLite) never holds every row at once: a person's whole log
     /// is read this way.
-    fn each_row(
-        &self,
-        q: Q,
-        params: &[Value],
-        f: &mut dyn FnMut(Row) -> Result<(), StoreError>,
-    ) -> Result<(), StoreError> {
+    fn each_row(&self, q: Q, params: &[Value], f: &mut RowSink<'_>) -> Result<(), StoreError> {
         self.rows(q, params)?.into_iter().try_for_each(f)
     }
 
@@ -397,12 +395,7 @@ impl Db for Conn {
             Conn::Postgres(c) => c.insert_id(q, params),
         }
     }
-    fn each_row(
-        &self,
-        q: Q,
-        params: &[Value],
-        f: &mut dyn FnMut(Row) -> Result<(), StoreError>,
-    ) -> Result<(), StoreError> {
+    fn each_row(&self, q: Q, params: &[Value], f: &mut RowSink<'_>) -> Result<(), StoreError> {
         match self {
             Conn::Sqlite(c) => c.db().each_row(q, params, f),
             Conn::Postgres(c) => c.each_row(q, params, f),
@@ -439,12 +432,7 @@ impl Db for Tx<'_> {
             Tx::Postgres(t) => t.insert_id(q, params),
         }
     }
-    fn each_row(
-        &self,
-        q: Q,
-        params: &[Value],
-        f: &mut dyn FnMut(Row) -> Result<(), StoreError>,
-    ) -> Result<(), StoreError> {
+    fn each_row(&self, q: Q, params: &[Value], f: &mut RowSink<'_>) -> Result<(), StoreError> {
         match self {
             Tx::Sqlite(t) => t.db().each_row(q, params, f),
             Tx::Postgres(t) => t.each_row(q, params, f),

@@ -36,7 +36,7 @@
 pub mod schema;
 pub mod sql;
 
-use super::{Db, DbError, DbErrorKind, Row, Value, Q};
+use super::{Db, DbError, DbErrorKind, Row, RowSink, Value, Q};
 use crate::error::StoreError;
 use postgres::fallible_iterator::FallibleIterator;
 use postgres::types::{IsNull, ToSql, Type};
@@ -470,12 +470,7 @@ impl Db for Pg {
     /// Streams: the connection's thread reads the rows as the server sends
     /// them and passes them on a few at a time (at most two parts wait), so
     /// a person's whole log is never held at once.
-    fn each_row(
-        &self,
-        q: Q,
-        p: &[Value],
-        f: &mut dyn FnMut(Row) -> Result<(), StoreError>,
-    ) -> Result<(), StoreError> {
+    fn each_row(&self, q: Q, p: &[Value], f: &mut RowSink<'_>) -> Result<(), StoreError> {
         let p = p.to_vec();
         let (tx, rx) = mpsc::sync_channel::<Part>(2);
         let cache = Arc::clone(&self.cache);
@@ -542,12 +537,7 @@ impl Db for PgTx<'_> {
     fn rows(&self, q: Q, p: &[Value]) -> Result<Vec<Row>, StoreError> {
         self.pg.rows(q, p)
     }
-    fn each_row(
-        &self,
-        q: Q,
-        p: &[Value],
-        f: &mut dyn FnMut(Row) -> Result<(), StoreError>,
-    ) -> Result<(), StoreError> {
+    fn each_row(&self, q: Q, p: &[Value], f: &mut RowSink<'_>) -> Result<(), StoreError> {
         self.pg.each_row(q, p, f)
     }
     fn insert_id(&self, q: Q, p: &[Value]) -> Result<i64, StoreError> {

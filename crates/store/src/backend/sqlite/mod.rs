@@ -5,7 +5,7 @@
 pub mod schema;
 pub mod sql;
 
-use super::{Db, DbError, DbErrorKind, Row, Value, Q};
+use super::{Db, DbError, DbErrorKind, Row, RowSink, Value, Q};
 use crate::error::StoreError;
 use rusqlite::types::{ToSqlOutput, ValueRef};
 use rusqlite::{Connection, ToSql};
@@ -87,12 +87,7 @@ impl Db for SqliteDb<'_> {
         Ok(out)
     }
 
-    fn each_row(
-        &self,
-        q: Q,
-        params: &[Value],
-        f: &mut dyn FnMut(Row) -> Result<(), StoreError>,
-    ) -> Result<(), StoreError> {
+    fn each_row(&self, q: Q, params: &[Value], f: &mut RowSink<'_>) -> Result<(), StoreError> {
         let mut st = self.0.prepare_cached(sql::text(q)).map_err(err)?;
         let n = st.column_count();
         let mut rows = st.query(rusqlite::params_from_iter(params)).map_err(err)?;

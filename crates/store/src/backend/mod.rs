@@ -246,9 +246,11 @@ pub trait Db {
     /// Runs an insert of one row with a generated `id`; that id.
     fn insert_id(&self, q: Q, params: &[Value]) -> Result<i64, StoreError>;
 
-    /// Runs a query and hands each row to `f` in turn. A backend that can
-    /// stream (SQLite) never holds every row at once: a person's whole log
-    /// is read this way.
+    /// Runs a query and hands each row to `f` in turn, never holding every
+    /// row at once (SQLite steps its statement; PostgreSQL's connection
+    /// thread passes rows on in parts): a person's whole log is read this
+    /// way. `f` must not run statements on this connection (on PostgreSQL
+    /// its thread is busy with this query: that would wait forever).
     fn each_row(&self, q: Q, params: &[Value], f: &mut RowSink<'_>) -> Result<(), StoreError> {
         self.rows(q, params)?.into_iter().try_for_each(f)
     }

@@ -122,7 +122,7 @@ impl AgeGroup {
     /// (adolescents 100 mg/dL, 168 h; children 100 mg/dL, 72 h), but on
     /// both evaluation cohorts it gave back more hyperglycaemia than the
     /// lows it saved: children's W14 LBGI + HBGI rose above standard
-    /// therapy's, adolescents' to within 5 % of it
+    /// therapy's, adolescents' to 3-6 % under it (8-15 % without)
     /// (benches/calibration/smbg_recent_low), so they keep the seed's rules.
     pub fn smbg_recent_low_carb_ratios(self) -> Option<RecentLow> {
         match self {

@@ -168,6 +168,18 @@ async fn health_data_answers_carry_no_store_nosniff_and_a_csp() {
     assert!(h.contains_key("x-request-id"));
 }
 
+/// The service's state over `db` with a busy timeout of 300 ms.
+fn short_busy_state(db: &std::path::Path) -> AppState {
+    AppState::open(
+        db,
+        StoreSettings {
+            busy_timeout: Duration::from_millis(300),
+            ..StoreSettings::default()
+        },
+    )
+    .unwrap()
+}
+
 #[tokio::test]
 async fn a_store_held_by_another_writer_gives_503_with_retry_after() {
     let svc = Svc::new();
@@ -176,14 +188,7 @@ async fn a_store_held_by_another_writer_gives_503_with_retry_after() {
         return;
     }
     let id = svc.person("alice").await;
-    let state = AppState::open(
-        &svc.db,
-        StoreSettings {
-            busy_timeout: Duration::from_millis(300),
-            ..StoreSettings::default()
-        },
-    )
-    .unwrap();
+    let state = short_busy_state(&svc.db);
     let router = abba_service::router(state);
     // Another connection takes the write lock and keeps it.
     let other = rusqlite::Connection::open(&svc.db).unwrap();
@@ -235,14 +240,7 @@ async fn a_store_held_by_another_writer_gives_503_with_retry_after() {
 async fn a_person_busy_past_the_busy_timeout_gives_503_with_retry_after() {
     let svc = Svc::new();
     let id = svc.person("alice").await as i64;
-    let state = AppState::open(
-        &svc.db,
-        StoreSettings {
-            busy_timeout: Duration::from_millis(300),
-            ..StoreSettings::default()
-        },
-    )
-    .unwrap();
+    let state = short_busy_state(&svc.db);
     let long = {
         let state = state.clone();
         tokio::spawn(async move {

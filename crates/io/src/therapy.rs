@@ -672,6 +672,14 @@ pub fn therapy_from_contents(
         }
         IoError::format(&names.join(", "), msg)
     })?;
+    if batch.unread.count > 0 {
+        latest.notes.push(format!(
+            "{} rows or items of the files could not be read and were left out (the first: {}); \
+             the settings are the latest of what was read",
+            batch.unread.count,
+            batch.unread.first.join("; ")
+        ));
+    }
     if let Some(words) = &auto {
         latest.notes.push(format!(
             "The files' {words} were skipped: the pump's auto mode is a closed loop, not a therapy; the settings are the latest manual profile, of {}",

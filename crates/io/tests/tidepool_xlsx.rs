@@ -209,8 +209,14 @@ fn sheet(name: &str, headers: &[&str], rows: &[Vec<Value>]) -> Vec<u8> {
 
 const CGM: [&str; 5] = ["Zulu Time", "Tidepool Data Type", "Value", "Units", "Id"];
 
+/// What reading refused: the workbook's error when none of it could be
+/// read, else the first row left out (the other rows read, the row
+/// reported in a note).
 fn error(bytes: Vec<u8>, o: &ReadOptions) -> String {
-    read(&[("export.xlsx", bytes)], o).unwrap_err().to_string()
+    match read(&[("export.xlsx", bytes.clone())], o) {
+        Err(e) => e.to_string(),
+        Ok(_) => crate::common::read_in_part(&[("export.xlsx", bytes)], o).1,
+    }
 }
 
 #[test]

@@ -54,6 +54,19 @@ pub struct ImportSummary {
     pub notes: Vec<String>,
     /// Day 1 of the person's clock (set by the first import).
     pub first_day: Option<String>,
+    /// When the files show a delivery ABBA was not designed for (a closed
+    /// loop, injections): what they show, and whether the person is
+    /// allowed basal suggestions anyway (research only).
+    pub delivery: Option<DeliveryShown>,
+}
+
+/// A delivery the imported files show that ABBA was not designed for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub struct DeliveryShown {
+    /// What the files show.
+    pub delivery: abba_io::automation::Delivery,
+    /// The person was created with `--allow-closed-loop`.
+    pub allowed: bool,
 }
 
 impl ImportSummary {
@@ -99,6 +112,17 @@ impl ImportSummary {
         }
         for n in &self.notes {
             out.push(format!("Note: {n}"));
+        }
+        if let Some(d) = &self.delivery {
+            let what = if d.allowed {
+                format!("{person}'s basal suggestions continue for research only (created with --allow-closed-loop)")
+            } else {
+                format!("abba suggests no basal rate for {person} (abba advise says why)")
+            };
+            out.push(format!(
+                "These files show {}: ABBA was designed and validated for open-loop pump therapy, so {what}.",
+                d.delivery.name()
+            ));
         }
         if let Some(d) = &self.first_day {
             out.push(format!("Day 1 of the advisor: {d}."));
@@ -323,6 +347,7 @@ pub fn import_with(
         empty_files,
         notes: batch.notes.clone(),
         first_day: first_day.map(|d| d.to_string()),
+        delivery: None,
     })
 }
 

@@ -476,19 +476,20 @@ pub fn file_evidence(conn: &dyn Db, person: i64) -> Result<Evidence, StoreError>
     Ok(e)
 }
 
-/// Stores what an import's files say about loops (one row per file content).
+/// Stores what an import's file says about loops (one row per file
+/// content): `e`, its [`Evidence::from_file`].
 pub fn store_file_evidence(
     conn: &dyn Db,
     person: i64,
     file: &str,
     bytes: &[u8],
+    e: &Evidence,
 ) -> Result<(), StoreError> {
-    let e = Evidence::from_file(bytes);
     if e.smb == 0 && e.automated_basal == 0 && e.systems.is_empty() {
         return Ok(());
     }
     let hash = format!("{:016x}", abba_io::record::content_hash([bytes]));
-    let json = serde_json::to_string(&e).map_err(|e| StoreError::corrupt("file evidence", e))?;
+    let json = serde_json::to_string(e).map_err(|e| StoreError::corrupt("file evidence", e))?;
     conn.execute(Q::FileEvidencePut, args![person, hash, file, json])?;
     Ok(())
 }

@@ -13,6 +13,7 @@ use crate::person::{self, NewPerson, Person};
 use crate::replay::{self, Snapshot};
 use abba_advisor::{Abba, Decision, Parameter};
 use abba_core::Event;
+use abba_io::automation::{Delivery, Evidence};
 use abba_io::events::EventStream;
 use abba_io::read::{read_all, Batch, Format, ReadOptions};
 use abba_io::Record;
@@ -531,17 +532,39 @@ impl Store {
             q.advisor()?;
             person::check_start(doc)?;
         }
-        let summary = import::import_with(&mut self.conn, &p, &batch, now, &mut |tx| {
+        // What the files say about loops (kept with the log when
+        // `file_evidence`), and what they and their records show of the
+        // delivery, for the import's words.
+        // (A sync keeps its own: its words then come from the records.)
+        let evidence: Vec<Evidence> = match file_evidence {
+            true => contents
+                .iter()
+                .map(|(_, bytes)| Evidence::from_file(bytes))
+                .collect(),
+            false => Vec::new(),
+        };
+        let mut summary = import::import_with(&mut self.conn, &p, &batch, now, &mut |tx| {
             if let Some(doc) = &new_settings {
                 person::update_settings(tx, p.id, doc)?;
             }
             if file_evidence {
-                for (name, bytes) in contents {
-                    in_force::store_file_evidence(tx, p.id, name, bytes)?;
+                for ((name, bytes), e) in contents.iter().zip(&evidence) {
+                    in_force::store_file_evidence(tx, p.id, name, bytes, e)?;
                 }
             }
             also(tx)
         })?;
+        let mut shown = Evidence::from_records(&batch.records, &p.tz);
+        for e in &evidence {
+            shown.add_file(e);
+        }
+        summary.delivery = match shown.delivery() {
+            d @ (Delivery::ClosedLoop | Delivery::Injections) => Some(import::DeliveryShown {
+                delivery: d,
+                allowed: p.settings.allow_closed_loop,
+            }),
+            _ => None,
+        };
         self.cache.remove(&p.id);
         Ok(summary)
     }

@@ -322,3 +322,54 @@ fn an_app_event_before_1990_is_refused_and_sets_no_day_1() {
     }
     assert_eq!(store.person("ana").unwrap().first_day, None);
 }
+
+/// An import of a loop's files says at once that abba suggests no basal
+/// rate (before, only `advise` said so); an open-loop import says nothing
+/// of the kind.
+#[test]
+fn an_import_of_a_closed_loops_files_says_abba_holds_the_basal() {
+    let dir = TempDir::new("loop-import");
+    let mut store = dir.store();
+    store.create_person(&person("ana")).unwrap();
+    let data = |f: &str| {
+        std::fs::read(format!(
+            "{}/../io/tests/data/{f}",
+            env!("CARGO_MANIFEST_DIR")
+        ))
+        .unwrap()
+    };
+    let entries = br#"[{"_id":"e1","type":"sgv","sgv":131,"date":1778486400000},
+                       {"_id":"e2","type":"sgv","sgv":135,"date":1778486700000}]"#;
+    let import = |store: &mut abba_store::Store, files: Vec<(String, Vec<u8>)>| {
+        store
+            .import_contents_with(
+                "ana",
+                &files,
+                None,
+                abba_store::ProfileResolution::Stop,
+                "2026-06-01T00:00:00Z".parse().unwrap(),
+                true,
+                &mut |_| Ok(()),
+            )
+            .unwrap()
+    };
+    let open = import(&mut store, vec![("entries.json".into(), entries.to_vec())]);
+    assert_eq!(open.delivery, None);
+    assert!(!open
+        .lines("ana")
+        .join("\n")
+        .contains("open-loop pump therapy"));
+    let s = import(
+        &mut store,
+        vec![(
+            "devicestatus.json".into(),
+            data("nightscout_devicestatus_synthetic.json"),
+        )],
+    );
+    let lines = s.lines("ana").join("\n");
+    assert!(
+        lines.contains("These files show automated insulin delivery (a closed loop)")
+            && lines.contains("abba suggests no basal rate for ana"),
+        "{lines}"
+    );
+}

@@ -27,7 +27,7 @@
 use abba_core::{Grams, MgDl, Units, UnitsPerHour};
 
 use super::table::{number, Table};
-use super::Ctx;
+use super::{or_skip, Ctx};
 use crate::error::{IoError, Location, Place};
 use crate::record::{
     content_hash, content_id, BasalSchedule, Censor, Glucose, Profile, Record, RecordKind, Source,
@@ -50,6 +50,24 @@ pub fn looks_like(head: &str) -> bool {
     let preamble =
         head.starts_with("Last Name;First Name") || head.starts_with("Last Name,First Name");
     header && (head.contains("-------;") || head.contains("-------,") || preamble)
+}
+
+/// A CareLink export whose columns abba does not read: its section
+/// divider (`-------;<device>;Pump|Sensor|...;<serial>;-------`, in every
+/// language) is there but no English header is: the export of CareLink set
+/// to another language. Returns the header line after the divider, for the
+/// message.
+pub fn other_language_header(head: &str) -> Option<&str> {
+    let mut lines = head.lines();
+    while let Some(line) = lines.next() {
+        let l = line.trim().trim_matches('"');
+        let divider = (l.starts_with("-------;") || l.starts_with("-------,"))
+            && (l.ends_with(";-------") || l.ends_with(",-------"));
+        if divider && !head.lines().any(is_header) {
+            return Some(lines.next().unwrap_or("").trim());
+        }
+    }
+    None
 }
 
 /// The first line of a CareLink Personal export of 2013-2015 (`... (v1.0.1)`):
@@ -461,15 +479,18 @@ pub fn read_with_settings(
             if date.is_empty() && time.is_empty() {
                 continue; // a blank row inside a section
             }
-            let wall = wall_time(date, time, order).ok_or_else(|| {
-                IoError::invalid(
-                    at.clone(),
-                    &t.header[cols.date],
-                    format!(
-                        "expected a date and time like 2025/10/30 17:36:29, got \"{date}\" \"{time}\""
-                    ),
-                )
-            })?;
+            let wall = or_skip!(
+                ctx,
+                wall_time(date, time, order).ok_or_else(|| {
+                    IoError::invalid(
+                        at.clone(),
+                        &t.header[cols.date],
+                        format!(
+                            "expected a date and time like 2025/10/30 17:36:29, got \"{date}\" \"{time}\""
+                        ),
+                    )
+                })
+            );
             let kinds = match span.section {
                 Section::Totals => vec![RecordKind::Ignored {
                     kind: "daily auto insulin total (not a dose)".into(),
@@ -478,11 +499,14 @@ pub fn read_with_settings(
                     kind: "row of an unknown CareLink section".into(),
                 }],
                 Section::Pump | Section::Sensor => {
-                    row_kinds(&t, &cols, &at, ctx.opts.grams_per_exchange)?
+                    or_skip!(ctx, row_kinds(&t, &cols, &at, ctx.opts.grams_per_exchange))
                 }
             };
             let carb_ratio = match span.section {
-                Section::Pump => wizard_carb_ratio(&t, &cols, &at, ctx.opts.grams_per_exchange)?,
+                Section::Pump => or_skip!(
+                    ctx,
+                    wizard_carb_ratio(&t, &cols, &at, ctx.opts.grams_per_exchange)
+                ),
                 _ => None,
             };
             let cells = content_hash(t.raw().skip(1));
@@ -530,7 +554,7 @@ pub fn read_with_settings(
         confirmed_again(&mut rows);
         for row in rows {
             at.place = Place::Line(row.line);
-            let instant = clock.resolve(row.wall, &at, &time_name)?;
+            let instant = or_skip!(ctx, clock.resolve(row.wall, &at, &time_name));
             if matches!(span.section, Section::Pump | Section::Sensor) {
                 settings.end = settings.end.max(Some(instant));
             }

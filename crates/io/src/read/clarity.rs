@@ -41,7 +41,7 @@
 use abba_core::{Grams, Units};
 
 use super::table::{required_number, Table};
-use super::Ctx;
+use super::{or_skip, Ctx};
 use crate::error::{IoError, Location, Place};
 use crate::record::{row_id, Censor, Glucose, Record, RecordKind, Source, SourceId};
 use crate::time::{parse_wall, DateOrder, WallClock};
@@ -159,11 +159,14 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
         let time_text = t.cell(c.time_at);
         if time_text.is_empty() {
             if DATA_EVENTS.contains(&kind_text) {
-                return Err(IoError::invalid(
-                    at.clone(),
-                    &c.time_name,
-                    format!("a {kind_text} row needs its time; the cell is empty"),
-                ));
+                or_skip!(
+                    ctx,
+                    Err::<(), _>(IoError::invalid(
+                        at.clone(),
+                        &c.time_name,
+                        format!("a {kind_text} row needs its time; the cell is empty"),
+                    ))
+                );
             }
             // The preamble: patient, device and alert settings.
             let kind = if kind_text.is_empty() {
@@ -174,14 +177,17 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
             *untimed.entry(kind.to_string()).or_default() += 1;
             continue;
         }
-        let dt = parse_wall(time_text, DateOrder::YearFirst).ok_or_else(|| {
-            IoError::invalid(
-                at.clone(),
-                &c.time_name,
-                format!("expected a time like 2019-08-15T00:03:27, got \"{time_text}\""),
-            )
-        })?;
-        let kind = row_kind(&t, &c, &at, line, kind_text)?;
+        let dt = or_skip!(
+            ctx,
+            parse_wall(time_text, DateOrder::YearFirst).ok_or_else(|| {
+                IoError::invalid(
+                    at.clone(),
+                    &c.time_name,
+                    format!("expected a time like 2019-08-15T00:03:27, got \"{time_text}\""),
+                )
+            })
+        );
+        let kind = or_skip!(ctx, row_kind(&t, &c, &at, line, kind_text));
         let tx = transmitter_clock(&t, &c, &kind);
         let instant = match wall.fold(dt) {
             // Clarity lists rows by wall time, so the two passes through
@@ -204,7 +210,7 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
                     }
                 }
             }
-            _ => wall.resolve(dt, &at, &c.time_name)?,
+            _ => or_skip!(ctx, wall.resolve(dt, &at, &c.time_name)),
         };
         if let Some((id, tx_time)) = &tx {
             let offset = instant.as_second().saturating_sub(*tx_time);

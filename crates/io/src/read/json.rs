@@ -177,6 +177,19 @@ pub fn parse_array(file: &str, bytes: &[u8]) -> Result<Vec<Value>, IoError> {
     })?;
     match v {
         Value::Array(items) => Ok(items),
+        // Nightscout API v3 answers `{"status": 200, "result": [...]}` (a
+        // search or history) or `{"status": 200, "result": {...}}` (one
+        // document): its records are the result's.
+        Value::Object(mut o)
+            if o.contains_key("status")
+                && matches!(o.get("result"), Some(Value::Array(_) | Value::Object(_))) =>
+        {
+            match o.remove("result") {
+                Some(Value::Array(items)) => Ok(items),
+                Some(one) => Ok(vec![one]),
+                None => Ok(Vec::new()),
+            }
+        }
         Value::Object(_) => Ok(vec![v]),
         other => Err(IoError::format(
             file,
@@ -197,18 +210,25 @@ pub fn kind(v: &Value) -> &'static str {
     }
 }
 
-/// Each item as an object, or an error naming its path.
-pub fn objects<'a>(file: &'a str, items: &'a [Value]) -> Result<Vec<Item<'a>>, IoError> {
-    items
-        .iter()
-        .enumerate()
-        .map(|(index, v)| match v {
-            Value::Object(obj) => Ok(Item::json(file, index, obj)),
-            other => Err(IoError::Invalid {
-                at: Location::json(file, format!("$[{index}]")),
-                field: "record".into(),
-                message: format!("expected an object, got {}", kind(other)),
-            }),
-        })
-        .collect()
+/// Item `index` of a file's array as an object, or an error naming its
+/// path.
+pub fn object<'a>(file: &'a str, index: usize, v: &'a Value) -> Result<Item<'a>, IoError> {
+    match v {
+        Value::Object(obj) => Ok(Item::json(file, index, obj)),
+        other => Err(IoError::Invalid {
+            at: Location::json(file, format!("$[{index}]")),
+            field: "record".into(),
+            message: format!("expected an object, got {}", kind(other)),
+        }),
+    }
+}
+
+/// The items that are objects; any other is left out and reported
+/// ([`super::Ctx::skip`]).
+pub fn objects<'a>(ctx: &super::Ctx<'a>, items: &'a [Value]) -> Result<Vec<Item<'a>>, IoError> {
+    let mut out = Vec::with_capacity(items.len());
+    for (index, v) in items.iter().enumerate() {
+        out.push(super::or_skip!(ctx, object(ctx.file, index, v)));
+    }
+    Ok(out)
 }

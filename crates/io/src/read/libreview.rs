@@ -18,7 +18,7 @@ use abba_core::{Grams, MgDl, Units};
 
 use super::libreview_columns::{self, Role};
 use super::table::{number, Table};
-use super::Ctx;
+use super::{or_skip, Ctx};
 use crate::error::{IoError, Location, Place};
 use crate::record::{row_id, Glucose, Record, RecordKind, Source};
 use crate::time::{parse_wall, DateOrder, WallClock};
@@ -202,23 +202,26 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     while let Some(line) = t.next_row()? {
         at.place = Place::Line(line);
         let text = t.cell(cols.time);
-        let dt = parse_wall(text, order).ok_or_else(|| {
-            IoError::invalid(
-                at.clone(),
-                &time_name,
-                format!(
-                    "expected a device time {}, got \"{text}\"",
-                    from.describe(order)
-                ),
-            )
-        })?;
-        let instant = wall.resolve(dt, &at, &time_name)?;
+        let dt = or_skip!(
+            ctx,
+            parse_wall(text, order).ok_or_else(|| {
+                IoError::invalid(
+                    at.clone(),
+                    &time_name,
+                    format!(
+                        "expected a device time {}, got \"{text}\"",
+                        from.describe(order)
+                    ),
+                )
+            })
+        );
+        let instant = or_skip!(ctx, wall.resolve(dt, &at, &time_name));
         let row = Row {
             t: &t,
             cols: &cols,
             at: &at,
         };
-        for kind in row.kinds()? {
+        for kind in or_skip!(ctx, row.kinds()) {
             match &kind {
                 RecordKind::Cgm { .. } => historic_rows += 1,
                 RecordKind::Ignored { kind } if kind == SCAN => {

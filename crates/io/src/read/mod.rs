@@ -129,7 +129,39 @@ pub struct Ctx<'a> {
     /// What the reader reports about the file without refusing it (a
     /// stretch placed by the transmitter's clock, repeats kept once).
     pub notes: std::cell::RefCell<Vec<String>>,
+    /// Rows and items that could not be read ([`Ctx::skip`]).
+    pub skipped: std::cell::RefCell<Skipped>,
 }
+
+/// The rows or items of a file that could not be read: left out, the rest
+/// of the file read ([`Ctx::skip`], [`or_skip!`]).
+#[derive(Debug, Default)]
+pub struct Skipped {
+    /// How many.
+    pub count: usize,
+    /// The first few errors, in file order.
+    pub first: Vec<IoError>,
+}
+
+/// How many of the skipped rows' errors a note quotes.
+const SKIPPED_QUOTED: usize = 3;
+
+/// In a reader's loop over rows or items: the value of `$e`, or, when it
+/// is an error about that row or item ([`IoError::Invalid`]), the row is
+/// left out and reported ([`Ctx::skip`]) and the loop goes on with the
+/// next; any other error ends the read.
+macro_rules! or_skip {
+    ($ctx:expr, $e:expr) => {
+        match $e {
+            Ok(v) => v,
+            Err(e) => {
+                $ctx.skip(e)?;
+                continue;
+            }
+        }
+    };
+}
+pub(crate) use or_skip;
 
 impl Ctx<'_> {
     /// Reports something about the file (see [`Ctx::notes`]).
@@ -137,6 +169,22 @@ impl Ctx<'_> {
         self.notes
             .borrow_mut()
             .push(format!("{}: {}", self.file, text.into()));
+    }
+    /// One row or item that could not be read: an error about it alone
+    /// ([`IoError::Invalid`]) is kept for the file's report and the row is
+    /// left out (one odd row does not cost the rest of the file; a file of
+    /// which no row could be read is refused with the first error, see
+    /// [`read_bytes_noted`]). Any other error is the file's: returned.
+    pub fn skip(&self, e: IoError) -> Result<(), IoError> {
+        if !matches!(e, IoError::Invalid { .. }) {
+            return Err(e);
+        }
+        let mut s = self.skipped.borrow_mut();
+        s.count += 1;
+        if s.first.len() < SKIPPED_QUOTED {
+            s.first.push(e);
+        }
+        Ok(())
     }
     /// The origin of a CSV line.
     pub fn origin_line(&self, line: u64) -> Origin {
@@ -211,11 +259,25 @@ pub fn detect(file: &str, bytes: &[u8]) -> Result<Format, IoError> {
         // with its name)
         return Ok(Format::CareLink);
     }
+    if let Some(header) = carelink::other_language_header(&head) {
+        let shown: String = header.chars().take(160).collect();
+        return Err(IoError::format(
+            file,
+            format!(
+                "a Medtronic CareLink export whose columns are not in English (its header: \"{shown}\"); \
+                 abba reads CareLink's English column names: set CareLink's language to English, \
+                 export again and import that file"
+            ),
+        ));
+    }
     if clarity::looks_like(first) {
         return Ok(Format::Clarity);
     }
     if libreview::looks_like(&head) {
         return Ok(Format::LibreView);
+    }
+    if nightscout::looks_like_csv(first) {
+        return Ok(Format::Nightscout);
     }
     if first.contains(',') || first.contains(';') || first.contains('\t') {
         return Ok(Format::Csv);
@@ -277,27 +339,58 @@ pub fn read_bytes(
     bytes: &[u8],
     opts: &ReadOptions,
 ) -> Result<(Format, Vec<Record>), IoError> {
-    read_bytes_noted(file, index, bytes, opts).map(|(f, r, _)| (f, r))
+    read_bytes_noted(file, index, bytes, opts).map(|f| (f.format, f.records))
 }
 
-/// Like [`read_bytes`], with the reader's notes on the file.
+/// One file as read: its format, records, the reader's notes and the rows
+/// or items left out.
+pub struct FileRead {
+    /// The format.
+    pub format: Format,
+    /// The records.
+    pub records: Vec<Record>,
+    /// The reader's notes on the file.
+    pub notes: Vec<String>,
+    /// Rows or items that could not be read (left out, reported in a note).
+    pub unread: Unread,
+}
+
+/// Rows or items of the files that could not be read and were left out
+/// (each reported in its file's note): how many, and the first errors.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct Unread {
+    /// How many.
+    pub count: usize,
+    /// The first few errors (naming file, line or JSON path, and field).
+    pub first: Vec<String>,
+}
+
+/// Like [`read_bytes`], with the reader's notes on the file and the rows
+/// left out.
 pub fn read_bytes_noted(
     file: &str,
     index: u16,
     bytes: &[u8],
     opts: &ReadOptions,
-) -> Result<(Format, Vec<Record>, Vec<String>), IoError> {
+) -> Result<FileRead, IoError> {
     let ctx = Ctx {
         file,
         index,
         opts,
         notes: Default::default(),
+        skipped: Default::default(),
     };
     // A workbook (a zip) is binary: no text decoding.
     if tidepool_xlsx::is_zip(bytes) {
         let format = workbook_format(file, bytes, opts.format)?;
         let records = tidepool::read_xlsx(&ctx, bytes)?;
-        return Ok((format, records, ctx.notes.into_inner()));
+        let (records, unread) = skipped_rows(&ctx, records)?;
+        return Ok(FileRead {
+            format,
+            records,
+            notes: ctx.notes.into_inner(),
+            unread,
+        });
     }
     let decoded = table::utf16_to_utf8(file, bytes)?;
     let bytes = decoded.as_deref().unwrap_or(bytes);
@@ -321,7 +414,56 @@ pub fn read_bytes_noted(
         Format::Csv => plain::read(&ctx, bytes)?,
         Format::CareLink => carelink::read(&ctx, bytes)?,
     };
-    Ok((format, records, ctx.notes.into_inner()))
+    let (records, unread) = skipped_rows(&ctx, records)?;
+    Ok(FileRead {
+        format,
+        records,
+        notes: ctx.notes.into_inner(),
+        unread,
+    })
+}
+
+/// The reader's records when some rows or items could not be read
+/// ([`Ctx::skip`]): a note names how many and quotes the first errors; a
+/// file of which nothing could be read is refused with its first error
+/// (the layout, the unit or the format is likely not what abba took it
+/// for).
+fn skipped_rows(ctx: &Ctx<'_>, records: Vec<Record>) -> Result<(Vec<Record>, Unread), IoError> {
+    let mut skipped = ctx.skipped.take();
+    if skipped.count == 0 {
+        return Ok((records, Unread::default()));
+    }
+    if records.is_empty() {
+        return Err(skipped.first.remove(0));
+    }
+    let quoted: Vec<String> = skipped.first.iter().map(ToString::to_string).collect();
+    let more = if skipped.count > quoted.len() {
+        format!("; and {} more", skipped.count - quoted.len())
+    } else {
+        String::new()
+    };
+    let (n, what) = match skipped.count {
+        1 => ("1 row or item", "it was"),
+        _ => ("rows or items", "they were"),
+    };
+    let n = if skipped.count == 1 {
+        n.to_string()
+    } else {
+        format!("{} {n}", skipped.count)
+    };
+    ctx.note(format!(
+        "{n} could not be read: {what} left out and the rest of the file read (fix the file and \
+         import it again to add {}): {}{more}",
+        if skipped.count == 1 { "it" } else { "them" },
+        quoted.join("; ")
+    ));
+    Ok((
+        records,
+        Unread {
+            count: skipped.count,
+            first: quoted,
+        },
+    ))
 }
 
 /// The format of a workbook (a zip): Tidepool's Excel export, whether
@@ -357,8 +499,15 @@ pub fn carelink_settings_rows(
         index: 0,
         opts,
         notes: Default::default(),
+        skipped: Default::default(),
     };
-    carelink::read_with_settings(&ctx, bytes).map(|(_, s)| s)
+    let (_, settings) = carelink::read_with_settings(&ctx, bytes)?;
+    // The therapy is not taken from a file read in part: a row left out
+    // may be the setting itself.
+    if let Some(e) = ctx.skipped.take().first.into_iter().next() {
+        return Err(e);
+    }
+    Ok(settings)
 }
 
 /// Records of several files, merged.
@@ -392,6 +541,10 @@ pub struct Batch {
     /// events` read simulated output, whose minute 0 is the epoch.)
     #[serde(default)]
     pub too_old: Refused,
+    /// Rows or items that could not be read and were left out, the rest of
+    /// their files read (each file's note says so).
+    #[serde(default)]
+    pub unread: Unread,
 }
 
 /// How far apart (seconds) two Tidepool data of the same kind and value
@@ -533,8 +686,16 @@ pub fn read_all(inputs: &[(String, Vec<u8>)], opts: &ReadOptions) -> Result<Batc
     let mut formats = Vec::new();
     let mut per_file = Vec::new();
     let mut notes = Vec::new();
+    let mut unread = Unread::default();
     for (i, (name, bytes)) in inputs.iter().enumerate() {
-        let (format, mut r, mut n) = read_bytes_noted(name, i as u16, bytes, opts)?;
+        let FileRead {
+            format,
+            records: mut r,
+            notes: mut n,
+            unread: u,
+        } = read_bytes_noted(name, i as u16, bytes, opts)?;
+        unread.count += u.count;
+        unread.first.extend(u.first);
         formats.push(format);
         per_file.push(r.len());
         notes.append(&mut n);
@@ -551,6 +712,7 @@ pub fn read_all(inputs: &[(String, Vec<u8>)], opts: &ReadOptions) -> Result<Batc
     );
     batch.per_file = per_file;
     batch.notes = notes;
+    batch.unread = unread;
     Ok(batch)
 }
 
@@ -586,6 +748,7 @@ pub fn merge(files: Vec<String>, formats: Vec<Format>, mut records: Vec<Record>)
         per_file: Vec::new(),
         notes: Vec::new(),
         too_old: Refused::default(),
+        unread: Unread::default(),
     }
 }
 

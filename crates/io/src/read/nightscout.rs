@@ -11,8 +11,8 @@
 use abba_core::{Grams, GramsPerUnit, MgDl, Units, UnitsPerHour};
 use serde_json::Value;
 
-use super::json::{objects, parse_array, Item};
-use super::Ctx;
+use super::json::{object, parse_array, Item};
+use super::{or_skip, Ctx};
 use crate::error::IoError;
 use crate::record::{
     content_id, BasalSchedule, Censor, Glucose, Profile, Record, RecordKind, Source, SourceId,
@@ -24,51 +24,38 @@ use crate::units::{self, check_range, GlucoseUnit};
 /// Reads a Nightscout JSON file (entries, treatments or profiles, told
 /// apart item by item).
 pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
+    let text = bytes.trim_ascii_start();
+    if !text.starts_with(b"[") && !text.starts_with(b"{") {
+        let first = text.split(|b| *b == b'\n').next().unwrap_or_default();
+        if looks_like_csv(&String::from_utf8_lossy(first)) {
+            return read_csv(ctx, bytes);
+        }
+    }
     let items = parse_array(ctx.file, bytes)?;
     let mut out = Vec::with_capacity(items.len());
     let mut versions: Vec<Option<f64>> = Vec::with_capacity(items.len());
     let mut switches: Vec<Switch> = Vec::new();
     let mut tally = Tally::default();
-    for item in objects(ctx.file, &items)? {
-        let at = instant(&item)?;
-        // `_id` is a string from the API, `{"$oid": ...}` from a MongoDB dump.
-        let id = match item.get("_id") {
-            Some(Value::String(id)) => SourceId::Id(id.as_str().into()),
-            Some(Value::Object(o)) => match o.get("$oid") {
-                Some(Value::String(id)) => SourceId::Id(id.as_str().into()),
-                _ => return Err(item.err("_id", "expected a string or {\"$oid\": string}")),
-            },
-            // No id (the first record of some dumps): its content is its identity.
-            None => SourceId::Hash(0),
-            Some(other) => return Err(item.err("_id", format!("expected a string, got {other}"))),
+    for (index, value) in items.iter().enumerate() {
+        let item = or_skip!(ctx, object(ctx.file, index, value));
+        let at = or_skip!(ctx, instant(&item));
+        let id = or_skip!(ctx, document_id(&item));
+        let version = or_skip!(ctx, modified(&item));
+        let kinds = or_skip!(ctx, kinds(ctx, &item, &mut tally));
+        let switch = match item.str("eventType") {
+            Ok(Some("Profile Switch"))
+                if matches!(kinds.first(), Some(RecordKind::Schedule { .. })) =>
+            {
+                Some(Switch {
+                    record: out.len(),
+                    minutes: or_skip!(ctx, switch_minutes(&item)),
+                    item: item.index,
+                    name: or_skip!(ctx, switch_name(&item)),
+                })
+            }
+            _ => None,
         };
-        let version = modified(&item)?;
-        let kinds = if !is_valid(&item)? {
-            vec![RecordKind::Ignored {
-                kind: format!(
-                    "{} marked isValid: false (deleted where it was written)",
-                    item.str("eventType")?.unwrap_or("record")
-                ),
-            }]
-        } else if item.get("store").is_some() {
-            vec![profile(&item)?]
-        } else if let Some(event) = item.str("eventType")? {
-            treatment(ctx, &item, event, &mut tally)?
-        } else if untyped_treatment(&item) {
-            treatment(ctx, &item, "", &mut tally)?
-        } else {
-            vec![entry(&item)?]
-        };
-        if item.str("eventType")? == Some("Profile Switch")
-            && matches!(kinds.first(), Some(RecordKind::Schedule { .. }))
-        {
-            switches.push(Switch {
-                record: out.len(),
-                minutes: switch_minutes(&item)?,
-                item: item.index,
-                name: switch_name(&item)?,
-            });
-        }
+        switches.extend(switch);
         for (n, kind) in kinds.into_iter().enumerate() {
             let id = match (&id, n) {
                 (SourceId::Id(s), 0) => SourceId::Id(s.clone()),
@@ -90,6 +77,199 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     temporary_switches(ctx, &mut out, &mut versions, &switches);
     latest_versions(ctx, &mut out, &versions);
     Ok(out)
+}
+
+/// Nightscout's own CSV and TSV of entries (`/api/v1/entries.csv`,
+/// `.tsv`, `.txt`; `lib/api/entries/index.js`, `formatWithSeparator`):
+/// no header, one entry a line, its `dateString`, `date` (ms since the
+/// epoch), `sgv` (mg/dL), `direction` and `device`, each as JSON writes it
+/// (strings quoted, a missing value empty), separated by `,` or a tab. The
+/// first line decides: a second cell of 12 or 13 digits (milliseconds
+/// since 1973 or later) and a third that is a number or empty.
+pub fn looks_like_csv(first_line: &str) -> bool {
+    let Some(sep) = [',', '\t'].into_iter().find(|c| first_line.contains(*c)) else {
+        return false;
+    };
+    let cells: Vec<&str> = first_line
+        .trim_end_matches(['\r', '\n'])
+        .split(sep)
+        .map(|c| c.trim().trim_matches('"'))
+        .collect();
+    cells.len() >= 3
+        && cells.len() <= 5
+        && (12..=13).contains(&cells[1].len())
+        && cells[1].bytes().all(|b| b.is_ascii_digit())
+        && (cells[2].is_empty() || cells[2].parse::<f64>().is_ok())
+}
+
+/// Reads Nightscout's CSV or TSV of entries ([`looks_like_csv`]): each
+/// line's `date` and `sgv` as the JSON entries are read (mg/dL, Dexcom's
+/// error codes counted); a line without an sgv (a meter reading or a
+/// calibration: the CSV carries no `mbg`) is counted, not read. Its time
+/// is `date`, which says the instant; `dateString` is the same in words.
+pub fn read_csv(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
+    let first = (bytes.trim_ascii_start().split(|b| *b == b'\n').next()).unwrap_or_default();
+    let delimiter = if first.contains(&b'\t') { b'\t' } else { b',' };
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .delimiter(delimiter)
+        .flexible(true)
+        .from_reader(bytes);
+    let mut out = Vec::new();
+    let mut record = csv::StringRecord::new();
+    let mut no_sgv = 0usize;
+    loop {
+        let line = reader.position().line();
+        match reader.read_record(&mut record) {
+            Ok(false) => break,
+            Ok(true) => {}
+            Err(e) => {
+                return Err(IoError::invalid(
+                    crate::error::Location::line(ctx.file, line),
+                    "line",
+                    format!("not a CSV line of Nightscout entries: {e}"),
+                ))
+            }
+        }
+        let cell = |i: usize| record.get(i).map(str::trim).unwrap_or("");
+        if record.iter().all(|c| c.trim().is_empty()) {
+            continue;
+        }
+        let mut obj = serde_json::Map::new();
+        let date = or_skip!(
+            ctx,
+            cell(1).parse::<i64>().map_err(|_| IoError::invalid(
+                crate::error::Location::line(ctx.file, line),
+                "date",
+                format!(
+                    "expected the entry's time in milliseconds since 1970 (the second cell), got \"{}\"",
+                    cell(1)
+                ),
+            ))
+        );
+        obj.insert("date".into(), Value::from(date));
+        if cell(2).is_empty() {
+            no_sgv += 1;
+            obj.insert("type".into(), Value::from("no sgv in Nightscout's CSV"));
+        } else {
+            obj.insert("type".into(), Value::from("sgv"));
+            obj.insert("sgv".into(), Value::from(cell(2)));
+        }
+        let item = Item::json(ctx.file, out.len(), &obj);
+        let on_line = |e: IoError| match e {
+            IoError::Invalid { field, message, .. } => IoError::Invalid {
+                at: crate::error::Location::line(ctx.file, line),
+                field: match field.as_str() {
+                    "sgv" => "sgv (the third cell)".into(),
+                    "date" => "date (the second cell)".into(),
+                    _ => field,
+                },
+                message,
+            },
+            other => other,
+        };
+        let at = or_skip!(ctx, instant(&item).map_err(on_line));
+        let kind = or_skip!(ctx, entry(&item).map_err(on_line));
+        out.push(Record {
+            at,
+            id: content_id(Source::Nightscout, at, &kind),
+            kind,
+            source: Source::Nightscout,
+            origin: ctx.origin_line(line),
+        });
+    }
+    if no_sgv > 0 {
+        ctx.note(format!(
+            "{no_sgv} lines without an sgv (meter readings or calibrations: Nightscout's CSV of \
+             entries carries no mbg): counted, not read"
+        ));
+    }
+    check_error_codes(ctx, &out)?;
+    Ok(out)
+}
+
+/// A document's identity: `_id`, a string from the API or `{"$oid": ...}`
+/// from a MongoDB dump; else API v3's `identifier` (a document created
+/// through API v1 has its `_id` there, so both name it alike); else none
+/// (the first record of some dumps), and its content is its identity.
+fn document_id(item: &Item<'_>) -> Result<SourceId, IoError> {
+    match item.get("_id") {
+        Some(Value::String(id)) => Ok(SourceId::Id(id.as_str().into())),
+        Some(Value::Object(o)) => match o.get("$oid") {
+            Some(Value::String(id)) => Ok(SourceId::Id(id.as_str().into())),
+            _ => Err(item.err("_id", "expected a string or {\"$oid\": string}")),
+        },
+        None => match item.get("identifier") {
+            Some(Value::String(id)) => Ok(SourceId::Id(id.as_str().into())),
+            None => Ok(SourceId::Hash(0)),
+            Some(other) => Err(item.err("identifier", format!("expected a string, got {other}"))),
+        },
+        Some(other) => Err(item.err("_id", format!("expected a string, got {other}"))),
+    }
+}
+
+/// What one document holds: a profile, a treatment's records, an entry,
+/// a device status, or a document deleted where it was written.
+fn kinds(ctx: &Ctx<'_>, item: &Item<'_>, tally: &mut Tally) -> Result<Vec<RecordKind>, IoError> {
+    Ok(if !is_valid(item)? {
+        vec![RecordKind::Ignored {
+            kind: format!(
+                "{} marked isValid: false (deleted where it was written)",
+                item.str("eventType")?.unwrap_or("record")
+            ),
+        }]
+    } else if item.get("store").is_some() {
+        vec![profile(item)?]
+    } else if let Some(event) = item.str("eventType")? {
+        treatment(ctx, item, event, tally)?
+    } else if untyped_treatment(item) {
+        treatment(ctx, item, "", tally)?
+    } else if let Some(kind) = device_status(item) {
+        vec![kind]
+    } else {
+        vec![entry(item)?]
+    })
+}
+
+/// The keys of a Nightscout `devicestatus` document (`/api/v1/devicestatus`):
+/// what the uploader, the pump and a loop reported (battery, reservoir,
+/// insulin on board, a loop's predictions and what it enacted). Loop
+/// writes `loop`, OpenAPS, AndroidAPS, iAPS and Trio `openaps`, the
+/// 600-series uploader `pump` with `uploaderBattery`, xDrip+ `xdripjs`.
+pub const DEVICE_STATUS_KEYS: [&str; 8] = [
+    "loop",
+    "openaps",
+    "pump",
+    "uploader",
+    "uploaderBattery",
+    "xdripjs",
+    "override",
+    "radioAdapter",
+];
+
+/// A device status document (no `type`, `sgv`, `mbg` or `eventType`, and a
+/// key of [`DEVICE_STATUS_KEYS`]): counted, not read. It holds no glucose
+/// and no dose; a loop's status marks a closed loop (the
+/// [`crate::automation::Evidence`] of the file counts it).
+fn device_status(item: &Item<'_>) -> Option<RecordKind> {
+    if ["type", "sgv", "mbg", "eventType"]
+        .iter()
+        .any(|f| item.get(f).is_some())
+    {
+        return None;
+    }
+    let of = ["loop", "openaps"]
+        .into_iter()
+        .find(|k| item.get(k).is_some_and(Value::is_object));
+    if of.is_none() && !DEVICE_STATUS_KEYS.iter().any(|k| item.get(k).is_some()) {
+        return None;
+    }
+    Some(RecordKind::Ignored {
+        kind: match of {
+            Some(k) => format!("devicestatus of a closed loop ({k})"),
+            None => "devicestatus".into(),
+        },
+    })
 }
 
 /// A Profile Switch read as a schedule: its record's index, its duration
@@ -476,6 +656,16 @@ fn instant(item: &Item<'_>) -> Result<jiff::Timestamp, IoError> {
         if let Some(text) = item.get(field) {
             if let Value::Number(n) = text {
                 let ms = n.as_f64().unwrap_or(f64::NAN);
+                if ms.is_nan() || ms.abs() < MS_SINCE_1973 {
+                    return Err(item.err(
+                        field,
+                        format!(
+                            "{ms} is before 1973 as milliseconds since 1970; it looks like \
+                             seconds (a number in {field} is read as milliseconds, as \
+                             Nightscout's date)"
+                        ),
+                    ));
+                }
                 return jiff::Timestamp::from_millisecond(ms as i64)
                     .map_err(|e| item.err(field, format!("{ms} is not a time: {e}")));
             }

@@ -7,7 +7,7 @@
 use abba_core::{Grams, Units, UnitsPerHour};
 
 use super::table::{required_number, unit_in_name, Table};
-use super::Ctx;
+use super::{or_skip, Ctx};
 use crate::error::{IoError, Location, Place};
 use crate::record::{content_id, BasalSchedule, Glucose, Profile, Record, RecordKind, Source};
 use crate::time::{has_offset, parse_instant, parse_wall, DateOrder, WallClock};
@@ -131,10 +131,14 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     let mut at = Location::line(file, 0);
     while let Some(line) = t.next_row()? {
         at.place = Place::Line(line);
+        // (Several subjects without --subject is the file's error.)
         if !rows.is_wanted_subject(ctx, &t, &c, &at, line)? {
             continue;
         }
-        let instant = rows.instant(&t, &c, &at, line)?;
+        // A row is read whole or not at all.
+        let instant = or_skip!(ctx, rows.instant(&t, &c, &at, line));
+        let glucose = or_skip!(ctx, glucose_record(&t, &c, &at, line));
+        let amounts = or_skip!(ctx, amount_records(&t, &c, &at, line));
         let mut push = |kind: RecordKind| {
             out.push(Record {
                 at: instant,
@@ -144,11 +148,11 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
                 origin: ctx.origin_line(line),
             })
         };
-        if let Some((kind, raw)) = glucose_record(&t, &c, &at, line)? {
+        if let Some((kind, raw)) = glucose {
             raw_glucose.push(raw);
             push(kind);
         }
-        for kind in amount_records(&t, &c, &at, line)? {
+        for kind in amounts {
             push(kind);
         }
     }
@@ -170,6 +174,22 @@ impl Columns {
     /// cannot be read, naming the columns found.
     fn find(ctx: &Ctx<'_>, t: &Table<'_>, bytes: &[u8]) -> Result<Columns, IoError> {
         let file = ctx.file;
+        let data: Vec<&String> = t.header.iter().filter(|c| looks_like_data(c)).collect();
+        if data.len() >= 2 {
+            return Err(IoError::format(
+                file,
+                format!(
+                    "line {} looks like data, not a header ({}): a plain CSV needs a first line \
+                     naming its columns (for example time,glucose_mg_dl); add one, or give the \
+                     export's own format with --format",
+                    t.header_line,
+                    data.iter()
+                        .map(|c| format!("\"{c}\""))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            ));
+        }
         let time_at = time_column(ctx, t)?;
         let split = match (
             ctx.opts.time_column.is_none(),
@@ -184,15 +204,8 @@ impl Columns {
             None => t.header[time_at].clone(),
         };
         let minute_clock = split.is_none() && time_name.eq_ignore_ascii_case("minute");
-        let order = if minute_clock {
-            DateOrder::YearFirst
-        } else {
-            date_order(
-                ctx,
-                bytes,
-                split.map_or((time_at, None), |(d, c)| (d, Some(c))),
-            )?
-        };
+        // Every column is found before the dates are read, so that a file
+        // missing several things says so column first, not in turns.
         let glucose_at = glucose_column(ctx, t)?;
         let carbs_at = find(t, "carbs").or_else(|| find(t, "carbs_g"));
         let bolus_at = find(t, "bolus").or_else(|| find(t, "bolus_u"));
@@ -207,6 +220,15 @@ impl Columns {
                 ),
             ));
         }
+        let order = if minute_clock {
+            DateOrder::YearFirst
+        } else {
+            date_order(
+                ctx,
+                bytes,
+                split.map_or((time_at, None), |(d, c)| (d, Some(c))),
+            )?
+        };
         let glucose_name = glucose_at.map(|i| t.header[i].clone()).unwrap_or_default();
         let named = glucose_at.and_then(|i| unit_in_name(&t.header[i]));
         let unit = glucose_unit(ctx, &glucose_name, glucose_at.is_some(), named)?;
@@ -237,6 +259,16 @@ impl Columns {
             id_at,
         })
     }
+}
+
+/// A header cell that reads as a value (a number, a date or a time: digits
+/// with only `.:-/+,` spaces, `T`, `Z`, AM and PM around them), as in a
+/// file without a header row.
+fn looks_like_data(cell: &str) -> bool {
+    let c = cell.trim();
+    c.bytes().any(|b| b.is_ascii_digit())
+        && c.bytes()
+            .all(|b| b.is_ascii_digit() || b" .:-/+,TZAPMapm".contains(&b))
 }
 
 /// The time column: `--time-column`, else the first of the usual names.
@@ -396,13 +428,15 @@ impl Rows {
         let offset = has_offset(text);
         match self.with_offset {
             None => self.with_offset = Some((offset, line)),
+            // The file's, not the row's: which of the two is meant cannot
+            // be told, so no row is left out in its favour.
             Some((first, first_line)) if first != offset => {
-                return Err(IoError::invalid(
-                    at.clone(),
-                    &c.time_name,
+                return Err(IoError::format(
+                    &at.file,
                     format!(
-                        "time \"{text}\" {} a UTC offset but the time on line {first_line} {}; \
-                         a file must not mix the two",
+                        "line {line}, field \"{}\": time \"{text}\" {} a UTC offset but the \
+                         time on line {first_line} {}; a file must not mix the two",
+                        c.time_name,
                         if offset { "has" } else { "has no" },
                         if first { "has one" } else { "has none" }
                     ),

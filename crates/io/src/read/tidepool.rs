@@ -25,7 +25,7 @@ use serde_json::Value;
 
 use super::json::{objects, parse_array, Item, SheetPlace};
 use super::tidepool_xlsx;
-use super::Ctx;
+use super::{or_skip, Ctx};
 use crate::error::IoError;
 use crate::record::{
     content_id, BasalSchedule, Censor, Glucose, Origin, OriginAt, Profile, Record, RecordKind,
@@ -54,8 +54,8 @@ pub const TYPES: [&str; 13] = [
 /// Reads a Tidepool export (JSON).
 pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     let values = parse_array(ctx.file, bytes)?;
-    let items = objects(ctx.file, &values)?;
-    match export_form(ctx.file, &items)? {
+    let items = objects(ctx, &values)?;
+    match export_form(ctx, &items)? {
         None => read_items(ctx, &items, |item| ctx.origin_item(item.index)),
         Some((rows, notes)) => {
             ctx.notes.borrow_mut().extend(notes);
@@ -94,9 +94,10 @@ const EXPORT_TEXT: [&str; 5] = [
 /// the export writes every upload's `deviceTags` as text.
 #[allow(clippy::type_complexity)]
 fn export_form(
-    file: &str,
+    ctx: &Ctx<'_>,
     items: &[Item<'_>],
 ) -> Result<Option<(Vec<(serde_json::Map<String, Value>, usize)>, Vec<String>)>, IoError> {
+    let file = ctx.file;
     let marked = items.iter().any(|i| {
         i.obj
             .keys()
@@ -125,11 +126,15 @@ fn export_form(
                 continue;
             }
         }
-        let ty = item
-            .str("type")?
-            .ok_or_else(|| item.err("type", "missing: every Tidepool datum has a type"))?;
-        let mut model =
-            tidepool_xlsx::to_model(ty, item.obj.clone()).map_err(|(f, m)| item.err(&f, m))?;
+        let ty = or_skip!(
+            ctx,
+            item.str("type")?
+                .ok_or_else(|| item.err("type", "missing: every Tidepool datum has a type"))
+        );
+        let mut model = or_skip!(
+            ctx,
+            tidepool_xlsx::to_model(ty, item.obj.clone()).map_err(|(f, m)| item.err(&f, m))
+        );
         if ty == "insulin" && !model.contains_key("dose") {
             // The export keeps only the fields of its configuration: a pen
             // dose arrives without its dose.
@@ -175,26 +180,35 @@ pub(crate) fn read_items(
 ) -> Result<Vec<Record>, IoError> {
     let mut out = Vec::with_capacity(items.len());
     for item in items {
-        let ty = item
-            .str("type")?
-            .ok_or_else(|| item.err("type", "missing: every Tidepool datum has a type"))?;
+        let ty = or_skip!(
+            ctx,
+            item.str("type")?
+                .ok_or_else(|| item.err("type", "missing: every Tidepool datum has a type"))
+        );
         let kind = match ty {
             "pumpSettings" => settings(ctx, item),
-            _ => datum(item, ty)?,
+            _ => or_skip!(ctx, datum(item, ty)),
         };
-        let Some(time) = item.str("time")? else {
+        let Some(time) = or_skip!(ctx, item.str("time")) else {
             if matches!(kind, RecordKind::Ignored { .. }) || ty == "pumpSettings" {
                 continue; // settings and uploads without a time: not data
             }
-            return Err(item.err("time", "missing: expected an ISO 8601 time"));
+            or_skip!(
+                ctx,
+                Err::<(), _>(item.err("time", "missing: expected an ISO 8601 time"))
+            );
+            continue;
         };
-        let at = parse_instant(time).ok_or_else(|| {
-            item.err(
-                "time",
-                format!("expected an ISO 8601 time with Z or offset, got \"{time}\""),
-            )
-        })?;
-        let id = match item.str("id")? {
+        let at = or_skip!(
+            ctx,
+            parse_instant(time).ok_or_else(|| {
+                item.err(
+                    "time",
+                    format!("expected an ISO 8601 time with Z or offset, got \"{time}\""),
+                )
+            })
+        );
+        let id = match or_skip!(ctx, item.str("id")) {
             Some(id) => SourceId::Id(id.into()),
             None => content_id(Source::Tidepool, at, &kind),
         };
@@ -665,7 +679,17 @@ pub(crate) fn pump_settings(
             .enumerate()
             .filter_map(|(index, v)| v.as_object().map(|obj| Item::json(file, index, obj)))
             .collect();
-        match export_form(file, &items)? {
+        // Only the settings are wanted here: a datum the export form
+        // cannot read is the data's reader's to report.
+        let opts = super::ReadOptions::default();
+        let ctx = Ctx {
+            file,
+            index: 0,
+            opts: &opts,
+            notes: Default::default(),
+            skipped: Default::default(),
+        };
+        match export_form(&ctx, &items)? {
             None => Ok(each(&items)),
             Some((rows, _)) => {
                 let items: Vec<Item<'_>> = rows

@@ -71,7 +71,7 @@ pub async fn create_person(
         (status = 403, description = "Not an admin token", body = ErrorBody),
         (status = 404, description = "No such person", body = ErrorBody),
         (status = 413, description = "Body too large", body = ErrorBody),
-        (status = 422, description = "Bounds refused (the starting therapy must lie inside)", body = ErrorBody)))]
+        (status = 422, description = "Bounds refused (each setting's value in force must lie inside)", body = ErrorBody)))]
 pub async fn set_bounds(
     State(s): State<AppState>,
     AdminPath(id): AdminPath,

@@ -2051,3 +2051,47 @@ async fn the_clinic_page_shows_the_steps_the_store_holds() {
         "{steps}"
     );
 }
+
+/// The clinic's sign-in-link and token forms on a store held by another
+/// writer: 503 with `Retry-After` as every other form (they gave 500).
+#[tokio::test]
+async fn the_clinics_link_and_token_forms_on_a_busy_store_give_503() {
+    let mut svc = Svc::new();
+    if abba_store::testing::is_postgres(&svc.db) {
+        eprintln!("the_clinics_link_and_token_forms_on_a_busy_store_give_503: SQLite's write lock");
+        return;
+    }
+    let a = svc.person("ada").await;
+    let state = abba_service::AppState::open(
+        &svc.db,
+        abba_service::StoreSettings {
+            busy_timeout: std::time::Duration::from_millis(300),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    svc.router = abba_service::router(state);
+    let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
+    let forms = [
+        format!("/clinic/persons/{a}/signin"),
+        format!("/clinic/persons/{a}/tokens"),
+    ];
+    let other = rusqlite::Connection::open(&svc.db).unwrap();
+    other.execute_batch("BEGIN IMMEDIATE").unwrap();
+    for path in &forms {
+        let p = admin.post(path, &[("csrf", &csrf)]).await;
+        assert_eq!(
+            p.status,
+            StatusCode::SERVICE_UNAVAILABLE,
+            "{path}: {}",
+            p.html
+        );
+        assert_eq!(p.headers[header::RETRY_AFTER], "1", "{path}");
+        assert!(p.html.contains("not a medical device"), "{}", p.html);
+    }
+    other.execute_batch("ROLLBACK").unwrap();
+    for path in &forms {
+        let p = admin.post(path, &[("csrf", &csrf)]).await;
+        assert_eq!(p.status, StatusCode::OK, "{path}: {}", p.html);
+    }
+}

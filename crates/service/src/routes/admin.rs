@@ -176,10 +176,7 @@ pub async fn issue_token(
     let (token_id, token) = s
         .store(move |store| {
             store.person_by_id(id)?;
-            auth::issue(store, Role::Person(id)).map_err(|e| match e {
-                crate::error::ServiceError::Store(s) => s.into(),
-                other => ApiError::internal(other),
-            })
+            Ok(auth::issue(store, Role::Person(id))?)
         })
         .await?;
     Ok((

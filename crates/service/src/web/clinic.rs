@@ -1299,7 +1299,7 @@ pub async fn issue_signin(
     let secret = s
         .store(move |store| {
             store.person_by_id(id)?;
-            auth::issue_signin(store, Role::Person(id)).map_err(ApiError::internal)
+            Ok(auth::issue_signin(store, Role::Person(id))?)
         })
         .await?;
     let url = format!("{}/signin/{secret}", base_url(&s, &ctx));
@@ -1323,7 +1323,7 @@ pub async fn issue_token(
     let (_, token) = s
         .store(move |store| {
             store.person_by_id(id)?;
-            auth::issue(store, Role::Person(id)).map_err(ApiError::internal)
+            Ok(auth::issue(store, Role::Person(id))?)
         })
         .await?;
     show_person(&s, &w.csrf, id, StatusCode::OK, None, move |m| {

@@ -2095,3 +2095,38 @@ async fn the_clinics_link_and_token_forms_on_a_busy_store_give_503() {
         assert_eq!(p.status, StatusCode::OK, "{path}: {}", p.html);
     }
 }
+
+/// A suggestion the clinician's change of settings replaced is not shown
+/// as "Suggested" on Today: it says it was replaced and what is in force.
+#[tokio::test]
+async fn today_shows_a_replaced_suggestion_as_replaced_not_suggested() {
+    let svc = Svc::new();
+    let (id, _) = person_past_first_week(&svc, "rae", 9).await;
+    let (mut b, _) = signed_in(&svc, Role::Person(id as i64)).await;
+    let today = b.get("/").await;
+    let card = today.section("<section id=\"setting-basal\"", "section");
+    assert!(open_sid(card).is_some(), "{card}");
+    assert!(card.contains("Suggested:"), "{card}");
+    let r = svc
+        .call(
+            Method::POST,
+            &format!("/v1/persons/{id}/therapy"),
+            Some(&svc.admin),
+            Some(&json!({"basal_units_per_hour": 1.3})),
+        )
+        .await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+    let today = b.get("/").await;
+    assert_eq!(today.status, StatusCode::OK);
+    let card = today.section("<section id=\"setting-basal\"", "section");
+    assert!(open_sid(card).is_none(), "{card}");
+    assert!(!card.contains("Suggested:"), "{card}");
+    assert!(card.contains("Last suggestion:"), "{card}");
+    assert!(
+        card.contains(
+            "Replaced by your clinician&#x27;s change of settings: 1.30 U&#x2f;h is in force."
+        ),
+        "{card}"
+    );
+    assert!(today.html.contains("not a medical device"));
+}

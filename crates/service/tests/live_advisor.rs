@@ -808,3 +808,35 @@ async fn bounds_are_checked_against_the_value_in_force_and_the_advice_keeps_to_t
     }
     assert!(from_outside > 0, "{}", r.text);
 }
+
+#[tokio::test]
+async fn a_clinicians_change_before_day_1_is_refused_naming_at() {
+    let svc = Svc::new();
+    let id = svc.person("dee").await;
+    let therapy = format!("/v1/persons/{id}/therapy");
+    for at in ["1980-01-01T00:00:00Z", "2025-12-31T23:59:00Z"] {
+        let body = json!({"basal_units_per_hour": 1.1, "at": at});
+        let r = svc
+            .call(Method::POST, &therapy, Some(&svc.admin), Some(&body))
+            .await;
+        assert_eq!(
+            r.status,
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "{at}: {}",
+            r.text
+        );
+        assert_eq!(r.json["path"], "at", "{}", r.text);
+        assert!(
+            r.text
+                .contains("expected an instant on or after 2026-01-01 00:00 (UTC)"),
+            "{}",
+            r.text
+        );
+    }
+    // Day 1's first minute is accepted.
+    let body = json!({"basal_units_per_hour": 1.1, "at": "2026-01-01T00:00:00Z"});
+    let r = svc
+        .call(Method::POST, &therapy, Some(&svc.admin), Some(&body))
+        .await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+}

@@ -2130,3 +2130,60 @@ async fn today_shows_a_replaced_suggestion_as_replaced_not_suggested() {
     );
     assert!(today.html.contains("not a medical device"));
 }
+
+/// What is no page as asked gets the service's HTML page with the notice,
+/// never axum's plain-text rejection or the API's JSON 404: a form that is
+/// not multipart (415), a path segment that is not UTF-8, an unknown URL.
+#[tokio::test]
+async fn malformed_page_requests_get_the_services_pages() {
+    let svc = Svc::new();
+    let a = svc.person("ada").await;
+    let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
+    let is_page = |p: &Page, status: StatusCode, what: &str| {
+        assert_eq!(p.status, status, "{what}: {}", p.html);
+        let ct = p.headers[header::CONTENT_TYPE].to_str().unwrap();
+        assert!(ct.starts_with("text/html"), "{what}: {ct}");
+        assert!(
+            p.html.contains("not a medical device"),
+            "{what}: {}",
+            p.html
+        );
+    };
+    // Not multipart: 415.
+    for path in [
+        "/clinic/persons".to_string(),
+        format!("/clinic/persons/{a}/import"),
+    ] {
+        let p = admin.post(&path, &[("csrf", &csrf), ("name", "x")]).await;
+        is_page(&p, StatusCode::UNSUPPORTED_MEDIA_TYPE, &path);
+        assert!(p.html.contains("multipart"), "{}", p.html);
+    }
+    // Not UTF-8 in the path: as an unknown link or id.
+    let p = admin.get("/signin/%ff").await;
+    assert_ne!(p.status, StatusCode::BAD_REQUEST, "{}", p.html);
+    assert!(p.html.contains("not a medical device"), "{}", p.html);
+    let p = admin.get("/clinic/persons/%ff").await;
+    is_page(&p, StatusCode::NOT_FOUND, "/clinic/persons/%ff");
+    let p = admin
+        .post(
+            &format!("/clinic/persons/{a}/tokens/%ff/revoke"),
+            &[("csrf", &csrf)],
+        )
+        .await;
+    is_page(&p, StatusCode::NOT_FOUND, "revoke %ff");
+    // Unknown URLs: the 404 page with the pages' CSP; /v1 stays JSON.
+    for path in [
+        "/nonexistent",
+        "/robots.txt",
+        &format!("/clinic/persons/{a}/unknown"),
+    ] {
+        let p = admin.get(path).await;
+        is_page(&p, StatusCode::NOT_FOUND, path);
+        assert_eq!(p.headers[header::CONTENT_SECURITY_POLICY], CSP, "{path}");
+    }
+    let r = svc
+        .call(Method::GET, "/v1/nonexistent", Some(&svc.admin), None)
+        .await;
+    assert_eq!(r.status, StatusCode::NOT_FOUND);
+    assert_eq!(r.json["code"], "not_found", "{}", r.text);
+}

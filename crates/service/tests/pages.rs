@@ -2187,3 +2187,84 @@ async fn malformed_page_requests_get_the_services_pages() {
     assert_eq!(r.status, StatusCode::NOT_FOUND);
     assert_eq!(r.json["code"], "not_found", "{}", r.text);
 }
+
+/// Refusals name their field: bounds that leave out the value in force
+/// name `bounds.basal` / `bounds.lunch` (and the clinic's form shows a
+/// basal one beside the basal box), a change of settings for a person
+/// without data says so in the API's words, a form field sent twice is
+/// named on the page.
+#[tokio::test]
+async fn refusals_name_the_field_they_are_about() {
+    let svc = Svc::new();
+    let a = svc.person("ada").await;
+    let bounds = format!("/v1/persons/{a}/bounds");
+    for (body, path) in [
+        (
+            json!({"bounds": {"basal": {"min": 1.5, "max": 2.0}}}),
+            "bounds.basal",
+        ),
+        (
+            json!({"bounds": {"lunch": {"min": 20.0, "max": 30.0}}}),
+            "bounds.lunch",
+        ),
+    ] {
+        let r = svc
+            .call(Method::PUT, &bounds, Some(&svc.admin), Some(&body))
+            .await;
+        assert_eq!(r.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", r.text);
+        assert_eq!(r.json["path"], path, "{}", r.text);
+    }
+    let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
+    let p = admin
+        .post(
+            &format!("/clinic/persons/{a}/bounds"),
+            &[
+                ("csrf", &csrf),
+                ("basal_min", "1.5"),
+                ("basal_max", "2.0"),
+                ("cr_min", ""),
+                ("cr_max", ""),
+            ],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+    assert!(p.html.contains("id=\"basal_min-error\""), "{}", p.html);
+    assert!(!p.html.contains("id=\"cr_min-error\""), "{}", p.html);
+    // No data yet: day 1 is not known.
+    let none = svc
+        .person_with(json!({
+            "name": "nod", "tz": "UTC", "mode": "cgm",
+            "start": {"basal_units_per_hour": 1.0, "carb_ratio_g_per_unit": [10.0, 12.0, 11.0]}
+        }))
+        .await;
+    let r = svc
+        .call(
+            Method::POST,
+            &format!("/v1/persons/{none}/therapy"),
+            Some(&svc.admin),
+            Some(&json!({"basal_units_per_hour": 1.1})),
+        )
+        .await;
+    assert_eq!(r.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", r.text);
+    assert!(r.json["path"].is_null(), "{}", r.text);
+    let m = r.json["message"].as_str().unwrap();
+    assert!(m.contains("no data yet") && m.contains("/events"), "{m}");
+    assert!(!m.contains("import first"), "{m}");
+    // A field sent twice.
+    let (mut b, csrf) = signed_in(&svc, Role::Person(a as i64)).await;
+    let key = b.get("/log").await.hidden("submission");
+    let p = b
+        .post(
+            "/log/reading",
+            &[
+                ("glucose", "123"),
+                ("glucose", "5"),
+                ("csrf", &csrf),
+                ("submission", &key),
+            ],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+    assert!(p.html.contains("`glucose` was given twice"), "{}", p.html);
+    assert_eq!(app_events(&svc, a), 0);
+}

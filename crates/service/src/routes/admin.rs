@@ -154,10 +154,24 @@ pub fn put_bounds(
 ) -> Result<(), ApiError> {
     let bounds = convert::bounds(&b.bounds, "bounds")?;
     *live = store.set_bounds_by_id(id, bounds).map_err(|e| match e {
-        StoreError::Advisor(a) => ApiError::invalid("bounds", a.to_string()),
+        StoreError::Advisor(a) => ApiError::invalid(bounds_path(&a), a.to_string()),
         other => other.into(),
     })?;
     Ok(())
+}
+
+/// The JSON path of the bounds an advisor's refusal is about (its field
+/// names the setting: "clinician bounds (basal rate)", "... (lunch carb
+/// ratio)"): `bounds.basal`, `bounds.lunch`, or `bounds` when it names none.
+fn bounds_path(a: &abba_advisor::AdvisorError) -> String {
+    let field = match a {
+        abba_advisor::AdvisorError::Config { field, .. } => field.as_str(),
+        _ => "",
+    };
+    ["basal", "breakfast", "lunch", "dinner"]
+        .into_iter()
+        .find(|s| field.contains(s))
+        .map_or_else(|| "bounds".to_string(), |s| format!("bounds.{s}"))
 }
 
 /// Issues a person's token (shown once).

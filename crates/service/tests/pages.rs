@@ -2268,3 +2268,39 @@ async fn refusals_name_the_field_they_are_about() {
     assert!(p.html.contains("`glucose` was given twice"), "{}", p.html);
     assert_eq!(app_events(&svc, a), 0);
 }
+
+/// The import page's refusals name its own fields (or the command for
+/// what it cannot choose), never the CLI's flags.
+#[tokio::test]
+async fn the_clinics_import_words_its_errors_for_its_own_fields() {
+    let svc = Svc::new();
+    let id = svc.person("ana").await;
+    let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
+    let import = format!("/clinic/persons/{id}/import");
+    let no_unit = "time,glucose\n2026-01-02 08:00,120\n2026-01-02 08:05,122\n";
+    let no_order = "time,glucose mg/dL\n02/01/2026 08:00,120\n03/01/2026 08:05,122\n";
+    let unknown = "\u{1}\u{2} nothing a reader knows\n";
+    for (file, want) in [
+        (
+            no_unit,
+            "choose mg&#x2f;dL or mmol&#x2f;L in the &quot;Glucose unit&quot; field",
+        ),
+        (no_order, "in the &quot;Date order&quot; field"),
+        (unknown, "this page cannot choose a format"),
+    ] {
+        let files = [("files", "export.csv", file.as_bytes())];
+        let p = admin
+            .post_multipart(&import, &[("csrf", &csrf)], &files)
+            .await;
+        assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+        let error = p
+            .section("<p class=\"field-error\" id=\"files-error\"", "p")
+            .to_string();
+        assert!(error.contains(want), "{want}: {error}");
+        // A flag only in the command named for what the page cannot do.
+        assert!(
+            !error.replace("`abba import --", "").contains(" --"),
+            "a CLI flag: {error}"
+        );
+    }
+}

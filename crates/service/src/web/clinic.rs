@@ -1248,7 +1248,7 @@ pub async fn import(
                     "profile_choice",
                     format!("{origin}: {difference} {}", C.profile_choose),
                 ))),
-                Err(e) => Ok(Err(("files", e.to_string()))),
+                Err(e) => Ok(Err(("files", page_words(&e.to_string())))),
             }
         })
         .await?;
@@ -1271,6 +1271,70 @@ pub async fn import(
         }
         Err((field, msg)) => refuse(field, msg).await,
     }
+}
+
+/// A reader's or the store's refusal in the import page's words: the
+/// CLI's flags it names become this page's fields (the glucose unit, the
+/// date order, the grams per exchange) or, for what the page cannot
+/// choose (a format, a column, a subject), the command that can.
+fn page_words(msg: &str) -> String {
+    const FIELD_UNIT: &str = "the \"Glucose unit\" field";
+    const FIELD_ORDER: &str = "the \"Date order\" field";
+    let mut out = msg.to_string();
+    for (cli, page) in [
+        (
+            "give --units mg/dL or --units mmol/L",
+            "choose mg/dL or mmol/L in the \"Glucose unit\" field",
+        ),
+        ("give --units mg/dL", "choose mg/dL in the \"Glucose unit\" field"),
+        ("(or --units)", "(or the \"Glucose unit\" field)"),
+        ("check --units", "check the \"Glucose unit\" field"),
+        ("--units says", "the \"Glucose unit\" field says"),
+        (
+            "give --date-order day-first or month-first",
+            "choose day first or month first in the \"Date order\" field",
+        ),
+        (
+            "--date-order day-first or month-first",
+            "the \"Date order\" field (day first or month first)",
+        ),
+        ("give --date-order", "choose one in the \"Date order\" field"),
+        ("--date-order says", "the \"Date order\" field says"),
+        ("as --date-order says", "as the \"Date order\" field says"),
+        (
+            "(--grams-per-exchange G, or the clinic page's grams-per-exchange field;",
+            "(the \"Grams of carbohydrate per exchange\" field;",
+        ),
+        (
+            "no --grams-per-exchange",
+            "no \"Grams of carbohydrate per exchange\" given",
+        ),
+        (
+            "give --format",
+            "this page cannot choose a format: upload an export abba detects, or import the file with `abba import --format`",
+        ),
+        (
+            "choose one with --time-column",
+            "this page cannot choose a column: import the file with `abba import --time-column`",
+        ),
+        (
+            "choose one with --glucose-column",
+            "this page cannot choose a column: import the file with `abba import --glucose-column`",
+        ),
+        (
+            "choose one with --subject",
+            "this page cannot choose a subject: import the file with `abba import --subject`",
+        ),
+    ] {
+        out = out.replace(cli, page);
+    }
+    // Anything left names a flag this page has as a field.
+    out.replace("--units", FIELD_UNIT)
+        .replace("--date-order", FIELD_ORDER)
+        .replace(
+            "--grams-per-exchange",
+            "the \"Grams of carbohydrate per exchange\" field",
+        )
 }
 
 /// The import form's `profile_choice`: what to do when an export's pump

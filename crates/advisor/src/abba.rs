@@ -176,31 +176,20 @@ impl Abba {
         })
     }
 
-    /// Sets the clinician bounds. The starting therapy must lie inside them.
-    pub fn with_bounds(mut self, bounds: ClinicianBounds) -> Result<Self, AdvisorError> {
+    /// Sets the clinician bounds. The value in force (at construction, the
+    /// starting therapy) must lie inside them.
+    pub fn with_bounds(self, bounds: ClinicianBounds) -> Result<Self, AdvisorError> {
         bounds.validate()?;
-        let params = [
-            Parameter::Basal,
-            Parameter::CarbRatio(MealSlot::Breakfast),
-            Parameter::CarbRatio(MealSlot::Lunch),
-            Parameter::CarbRatio(MealSlot::Dinner),
-        ];
-        for p in params {
-            if let Some(r) = bounds.range(p) {
-                let v = self.value(p);
-                if !r.contains(v) {
-                    return Err(AdvisorError::Config {
-                        field: format!("clinician bounds ({p})"),
-                        problem: format!(
-                            "the value in force {v} {} lies outside {}-{}",
-                            p.unit(),
-                            r.min,
-                            r.max
-                        ),
-                    });
-                }
-            }
-        }
+        bounds.check_in_force(|p| self.value(p))?;
+        self.with_later_bounds(bounds)
+    }
+
+    /// Sets clinician bounds that were checked against the value in force
+    /// when they were set, later than the starting therapy (which may lie
+    /// outside them): while the value in force lies outside, each update
+    /// moves it into them, past the 5 % a day if need be, and says so.
+    pub fn with_later_bounds(mut self, bounds: ClinicianBounds) -> Result<Self, AdvisorError> {
+        bounds.validate()?;
         self.bounds = bounds;
         Ok(self)
     }
@@ -555,16 +544,24 @@ impl Abba {
                 }
                 a
             });
-        let (held, bound) = self.bounds.hold(p, applied.new);
+        // The value in force may lie outside bounds set after it: the
+        // suggestion then moves into them (the bound comes before the clamp).
+        let outside = self.bounds.range(p).is_some_and(|r| !r.contains(old));
+        let (held, mut bound) = self.bounds.hold(p, applied.new);
+        if let Some(b) = &mut bound {
+            b.from_outside = outside;
+        }
         applied.new = held;
         let rounded = match self.steps {
             Some(steps) => {
                 let i = agent_index(p);
                 let asked = applied.new / old - 1.0;
                 let mut carried = self.carry[i];
-                // After a low, nothing carried may add insulin.
-                if (applied.hypo_guard_fired || window_hyponumber > 0 || recent_low.is_some())
-                    && adds_insulin(kind, carried)
+                // After a low, nothing carried may add insulin; nothing
+                // carried counts while the value moves into the bounds.
+                if outside
+                    || ((applied.hypo_guard_fired || window_hyponumber > 0 || recent_low.is_some())
+                        && adds_insulin(kind, carried))
                 {
                     carried = 0.0;
                 }
@@ -572,7 +569,11 @@ impl Abba {
                 r.carried = carried;
                 // What is still owed, at most one step.
                 let step = r.step / old;
-                self.carry[i] = (asked + carried - (r.new / old - 1.0)).clamp(-step, step);
+                self.carry[i] = if outside {
+                    0.0
+                } else {
+                    (asked + carried - (r.new / old - 1.0)).clamp(-step, step)
+                };
                 Some(r)
             }
             None => None,

@@ -52,6 +52,11 @@ pub struct BoundHeld {
     pub bound: f64,
     /// The value after the 5 % clamp, before the bound.
     pub requested: f64,
+    /// The value in force lay outside the bounds (bounds set after it was
+    /// put in force, or a pump profile outside them): the suggestion moved
+    /// into them, by more than the 5 % a day if need be.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub from_outside: bool,
 }
 
 impl ClinicianBounds {
@@ -86,6 +91,28 @@ impl ClinicianBounds {
         Ok(())
     }
 
+    /// Checks that each setting's value in force (`value`) lies inside its
+    /// range: the error names the setting, the value and the range.
+    pub fn check_in_force(&self, value: impl Fn(Parameter) -> f64) -> Result<(), AdvisorError> {
+        for p in Parameter::MAIN {
+            if let Some(r) = self.range(p) {
+                let v = value(p);
+                if !r.contains(v) {
+                    return Err(AdvisorError::Config {
+                        field: format!("clinician bounds ({p})"),
+                        problem: format!(
+                            "the value in force {v} {} lies outside {}-{}",
+                            p.unit(),
+                            r.min,
+                            r.max
+                        ),
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
     /// Holds `v` inside the parameter's range; says which bound held it.
     pub fn hold(&self, p: Parameter, v: f64) -> (f64, Option<BoundHeld>) {
         match self.range(p) {
@@ -95,6 +122,7 @@ impl ClinicianBounds {
                     side: Side::Lower,
                     bound: r.min,
                     requested: v,
+                    from_outside: false,
                 }),
             ),
             Some(r) if v > r.max => (
@@ -103,6 +131,7 @@ impl ClinicianBounds {
                     side: Side::Upper,
                     bound: r.max,
                     requested: v,
+                    from_outside: false,
                 }),
             ),
             _ => (v, None),

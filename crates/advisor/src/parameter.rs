@@ -24,6 +24,15 @@ impl std::fmt::Display for Parameter {
 }
 
 impl Parameter {
+    /// The four settings ABBA advises: the basal rate, then the carb ratios
+    /// of breakfast, lunch and dinner.
+    pub const MAIN: [Parameter; 4] = [
+        Parameter::Basal,
+        Parameter::CarbRatio(MealSlot::Breakfast),
+        Parameter::CarbRatio(MealSlot::Lunch),
+        Parameter::CarbRatio(MealSlot::Dinner),
+    ];
+
     /// Unit of the parameter's values.
     pub fn unit(self) -> &'static str {
         match self {

@@ -85,7 +85,9 @@ pub fn nearest_within(target: f64, step: f64, lo: f64, hi: f64) -> Option<f64> {
 /// Rounds `requested` (a change from `old`) to `step`: the nearest multiple
 /// on the requested side of `old`, within `[old·(1−max), old·(1+max)]` and
 /// `allowed` (the clinician's bounds). `old` when no multiple fits (a change
-/// smaller than one step) or nothing was asked.
+/// smaller than one step) or nothing was asked. When `old` itself lies
+/// outside `allowed`, the multiple inside `allowed` nearest to `requested`,
+/// whatever the clamp.
 pub fn round_change(
     old: f64,
     requested: f64,
@@ -93,7 +95,18 @@ pub fn round_change(
     max_relative_change: f64,
     allowed: Option<(f64, f64)>,
 ) -> f64 {
-    if !(requested.is_finite() && old.is_finite()) || requested == old {
+    if !(requested.is_finite() && old.is_finite()) {
+        return old;
+    }
+    if let Some((a, b)) = allowed.filter(|&(a, b)| old < a || old > b) {
+        // The value in force lies outside the clinician's bounds (set after
+        // it): the bounds come before the clamp, so the value moves into
+        // them, to the multiple inside nearest to the request (the bound
+        // itself when no multiple fits between them).
+        let target = requested.clamp(a, b);
+        return nearest_within(target, step, a, b).unwrap_or(target);
+    }
+    if requested == old {
         return old;
     }
     let (mut lo, mut hi) = if requested > old {
@@ -159,7 +172,8 @@ pub fn validate_segments(segments: &[(u32, f64)]) -> Result<(), AdvisorError> {
 /// Scales every segment of `old` by the factor `requested_mean / mean(old)`
 /// and rounds each to `step` within its own clamp. Each segment keeps the
 /// side of the change; the clinician's bounds, if any, hold the new mean
-/// (when rounding would carry it outside, the schedule stays).
+/// (when rounding would carry it outside, the schedule stays; a schedule
+/// whose mean lies outside them moves into them, unclamped).
 pub fn scale_schedule(
     old: &[(u32, f64)],
     requested_mean: f64,
@@ -170,6 +184,9 @@ pub fn scale_schedule(
     let m = mean_rate(old);
     if !(m > 0.0 && requested_mean.is_finite()) {
         return old.to_vec();
+    }
+    if let Some((a, b)) = allowed_mean.filter(|&(a, b)| m < a || m > b) {
+        return into_bounds(old, requested_mean.clamp(a, b), step, a, b);
     }
     let f = requested_mean / m;
     let new: Segments = old
@@ -186,6 +203,27 @@ pub fn scale_schedule(
         Some((a, b)) if nm < a - 1e-12 || nm > b + 1e-12 => old.to_vec(),
         _ => new,
     }
+}
+
+/// A schedule whose mean lies outside the clinician's bounds `[a, b]`,
+/// scaled by one factor to `target` (inside them) without the clamp: each
+/// segment rounded to the nearest step, or towards the bounds when that
+/// carries the mean outside, or unrounded when no rounding fits.
+fn into_bounds(old: &[(u32, f64)], target: f64, step: f64, a: f64, b: f64) -> Segments {
+    let f = target / mean_rate(old);
+    let scaled = |round: fn(f64) -> f64| -> Segments {
+        old.iter()
+            .map(|&(from, r)| (from, multiple((round(r * f / step) as i64).max(1), step)))
+            .collect()
+    };
+    let inside = |s: &Segments| {
+        let m = mean_rate(s);
+        m >= a - 1e-9 && m <= b + 1e-9
+    };
+    [scaled(f64::round), scaled(f64::floor), scaled(f64::ceil)]
+        .into_iter()
+        .find(inside)
+        .unwrap_or_else(|| old.iter().map(|&(from, r)| (from, r * f)).collect())
 }
 
 /// Scales a schedule to a new mean without a clamp (a value the person or
@@ -221,6 +259,25 @@ mod tests {
         assert_eq!(round_change(10.0, 9.94, 0.1, 0.05, None), 9.9);
         // Off the step, the nearest multiple on the asked side.
         assert_eq!(round_change(0.898, 0.92, 0.05, 0.05, None), 0.9);
+    }
+
+    #[test]
+    fn a_value_in_force_outside_the_bounds_moves_into_them() {
+        // 1.2 in force, bounds 0.5-1.0 (set later), held at 1.0: past the
+        // clamp, onto the bound, not "no change".
+        assert_eq!(round_change(1.2, 1.0, 0.05, 0.05, Some((0.5, 1.0))), 1.0);
+        assert_eq!(round_change(1.2, 0.91, 0.05, 0.05, Some((0.5, 0.91))), 0.9);
+        assert_eq!(round_change(0.4, 0.5, 0.1, 0.05, Some((0.55, 2.0))), 0.6);
+        // No multiple between the bounds: the bound itself.
+        assert_eq!(
+            round_change(1.2, 0.92, 0.05, 0.05, Some((0.91, 0.93))),
+            0.92
+        );
+        let s = vec![(0, 1.0), (360, 1.4), (1200, 1.1)];
+        let n = scale_schedule(&s, 0.9, 0.05, 0.05, Some((0.8, 0.9)));
+        let m = mean_rate(&n);
+        assert!((0.8..=0.9).contains(&m), "{n:?}: {m}");
+        assert!(n.iter().all(|&(_, r)| on_step(r, 0.05)), "{n:?}");
     }
 
     #[test]

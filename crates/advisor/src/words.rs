@@ -141,6 +141,13 @@ pub fn reasons_in(d: &Decision, cfg: &AbbaConfig, unit: GlucoseUnit) -> Vec<Stri
             "Held at your clinician's {side} bound {} {u} (the advisor asked for {:.3}).",
             b.bound, b.requested
         ));
+        if b.from_outside {
+            out.push(format!(
+                "The value in force, {:.3} {u}, lies outside your clinician's bounds: the suggestion moves into them, by more than {:.0} % a day if need be.",
+                d.old,
+                100.0 * cfg.update.max_relative_change
+            ));
+        }
     }
     if let Some(r) = &x.rounded {
         if r.carried != 0.0 {

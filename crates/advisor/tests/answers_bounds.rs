@@ -167,3 +167,54 @@ fn bounds_must_contain_the_value_in_force() {
     let e = abba(Mode::Cgm).with_bounds(b).unwrap_err();
     assert!(e.to_string().contains("outside"), "{e}");
 }
+
+#[test]
+fn a_value_in_force_outside_later_bounds_moves_into_them() {
+    // Bounds set after the therapy in force (1 U/h, 10 g/U) exclude it:
+    // the first update moves each setting into them, past the 5 % a day,
+    // on the pump's step, and says so; no update stays outside.
+    let bounds = ClinicianBounds {
+        basal: Some(Range {
+            min: 0.61,
+            max: 0.83,
+        }),
+        carb_ratio: [Some(Range {
+            min: 11.03,
+            max: 12.0,
+        }); 3],
+    };
+    assert!(abba(Mode::Cgm).with_bounds(bounds).is_err());
+    for steps in [None, Some(abba_advisor::PumpSteps::default())] {
+        let mut a = abba(Mode::Cgm).with_later_bounds(bounds).unwrap();
+        if let Some(s) = steps {
+            a = a.with_pump_steps(s).unwrap();
+        }
+        NEUTRAL.run(&mut a, Mode::Cgm, 1, 12, 7);
+        let moved: Vec<Decision> = a
+            .take_decisions()
+            .into_iter()
+            .filter(|d| !matches!(d.detail, DecisionDetail::Skipped { .. }))
+            .collect();
+        assert!(moved.len() > 8, "{moved:?}");
+        for p in Parameter::MAIN {
+            let first = moved.iter().find(|d| d.parameter == p).unwrap();
+            let r = bounds.range(p).unwrap();
+            assert!(!r.contains(first.old), "{first}");
+            assert!(r.contains(first.new), "{steps:?}: {first}");
+            if steps.is_some() {
+                let step = if p == Parameter::Basal { 0.05 } else { 0.1 };
+                assert!(abba_advisor::steps::on_step(first.new, step), "{first}");
+            }
+            let words = abba_advisor::words::reasons(first, &AbbaConfig::new(Mode::Cgm, 7));
+            let text = words.join(" ");
+            assert!(
+                text.contains("lies outside your clinician's bounds"),
+                "{text}"
+            );
+            assert!(!text.contains("no change"), "{text}");
+        }
+        for d in &moved {
+            assert!(bounds.range(d.parameter).unwrap().contains(d.new), "{d}");
+        }
+    }
+}

@@ -768,8 +768,23 @@ pub fn therapy_change_error(e: StoreError) -> ApiError {
                 "basal_schedule".to_string()
             } else if field == "--at" {
                 "at".to_string()
+            } else if problem.contains("day 1 is not known") {
+                // The person's state, not a field of the body: worded for
+                // the API (the store's words name the CLI's import).
+                return ApiError::new(
+                    axum::http::StatusCode::UNPROCESSABLE_ENTITY,
+                    abba_api::ErrorCode::Invalid,
+                    "the person has no data yet, so day 1 is not known: post their events \
+                     (POST /v1/persons/{id}/events) or import an export first, or create \
+                     the person with these values as the starting therapy",
+                );
             } else {
-                String::new()
+                // Nothing to change: no setting given.
+                return ApiError::new(
+                    axum::http::StatusCode::UNPROCESSABLE_ENTITY,
+                    abba_api::ErrorCode::Invalid,
+                    "expected basal_units_per_hour or basal_schedule, and/or carb_ratios",
+                );
             };
             ApiError::invalid(f, problem)
         }

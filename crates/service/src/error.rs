@@ -201,6 +201,26 @@ impl From<StoreError> for ApiError {
     }
 }
 
+/// A service error met while answering a request: the store's as
+/// [`StoreError`]'s (contention 503 with `Retry-After`, never 500), an
+/// unwritable store 503, the rest 500.
+impl From<ServiceError> for ApiError {
+    fn from(e: ServiceError) -> Self {
+        match e {
+            ServiceError::Store(s) => s.into(),
+            ServiceError::ReadOnly(_) => {
+                tracing::error!(error = %e, "the store cannot be written");
+                ApiError::new(
+                    StatusCode::SERVICE_UNAVAILABLE,
+                    ErrorCode::Unavailable,
+                    "the store cannot be written (read-only)",
+                )
+            }
+            other => ApiError::internal(other),
+        }
+    }
+}
+
 impl IntoResponse for ApiError {
     fn into_response(self) -> Response {
         let mut r = (self.status, Json(self.body())).into_response();

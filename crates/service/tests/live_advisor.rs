@@ -725,3 +725,118 @@ async fn a_clinicians_change_by_the_api_and_the_cli_reaches_an_app_fed_person() 
         assert_eq!(r.json["path"], field, "{}", r.text);
     }
 }
+
+#[tokio::test]
+async fn bounds_are_checked_against_the_value_in_force_and_the_advice_keeps_to_them() {
+    let svc = Svc::new();
+    let id = svc.person_with(person_body("bea")).await;
+    let (_, t) = svc.token(id).await;
+    let events = stream();
+    post_like_an_app(&svc, id, &t, &events).await;
+    // The clinician puts 1.3 U/h in force from day 9, 06:00 (started at 1).
+    let body = json!({"basal_units_per_hour": 1.3, "at": common::at(8 * 1440 + 360)});
+    let therapy = format!("/v1/persons/{id}/therapy");
+    let r = svc
+        .call(Method::POST, &therapy, Some(&svc.admin), Some(&body))
+        .await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+    // (The days after it moved it a little.)
+    let in_force = r.json["basal_in_force"].as_f64().unwrap();
+    assert!((1.25..1.35).contains(&in_force), "{}", r.text);
+    let bounds = format!("/v1/persons/{id}/bounds");
+    // Bounds that leave out the value in force are refused, naming it...
+    let tight = json!({"bounds": {"basal": {"min": 0.5, "max": 1.0}}});
+    let r = svc
+        .call(Method::PUT, &bounds, Some(&svc.admin), Some(&tight))
+        .await;
+    assert_eq!(r.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", r.text);
+    assert!(r.text.contains("value in force 1.3"), "{}", r.text);
+    // ... and bounds around it accepted, though the starting 1 U/h is out.
+    let around = json!({"bounds": {"basal": {"min": 1.2, "max": 1.4}}});
+    let r = svc
+        .call(Method::PUT, &bounds, Some(&svc.admin), Some(&around))
+        .await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+    let r = svc
+        .call(
+            Method::GET,
+            &format!("/v1/persons/{id}/advice"),
+            Some(&t),
+            None,
+        )
+        .await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+    let basal = r.json["settings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|s| s["setting"] == "basal")
+        .unwrap()
+        .clone();
+    for v in [&basal["in_force"], &basal["use_today"]] {
+        let v = v.as_f64().unwrap();
+        assert!((1.2..=1.4).contains(&v), "{basal}");
+    }
+    // Every basal suggestion lies inside the bounds; those from the
+    // starting 1 U/h, outside them, moved into them and say why.
+    let r = svc
+        .call(
+            Method::GET,
+            &format!("/v1/persons/{id}/history"),
+            Some(&t),
+            None,
+        )
+        .await;
+    let all = r.json["suggestions"].as_array().unwrap();
+    let basal: Vec<&Value> = all
+        .iter()
+        .filter(|s| s["parameter"] == "basal" && s["no_update"] == false)
+        .collect();
+    assert!(basal.len() > 2, "{}", r.text);
+    let mut from_outside = 0;
+    for s in basal {
+        let v = s["value"].as_f64().unwrap();
+        assert!((1.2..=1.4).contains(&v), "{s}");
+        if s["previous"].as_f64().unwrap() < 1.2 {
+            from_outside += 1;
+            let reasons = s["reasons"].to_string();
+            assert!(
+                reasons.contains("lies outside your clinician's bounds"),
+                "{s}"
+            );
+        }
+    }
+    assert!(from_outside > 0, "{}", r.text);
+}
+
+#[tokio::test]
+async fn a_clinicians_change_before_day_1_is_refused_naming_at() {
+    let svc = Svc::new();
+    let id = svc.person("dee").await;
+    let therapy = format!("/v1/persons/{id}/therapy");
+    for at in ["1980-01-01T00:00:00Z", "2025-12-31T23:59:00Z"] {
+        let body = json!({"basal_units_per_hour": 1.1, "at": at});
+        let r = svc
+            .call(Method::POST, &therapy, Some(&svc.admin), Some(&body))
+            .await;
+        assert_eq!(
+            r.status,
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "{at}: {}",
+            r.text
+        );
+        assert_eq!(r.json["path"], "at", "{}", r.text);
+        assert!(
+            r.text
+                .contains("expected an instant on or after 2026-01-01 00:00 (UTC)"),
+            "{}",
+            r.text
+        );
+    }
+    // Day 1's first minute is accepted.
+    let body = json!({"basal_units_per_hour": 1.1, "at": "2026-01-01T00:00:00Z"});
+    let r = svc
+        .call(Method::POST, &therapy, Some(&svc.admin), Some(&body))
+        .await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+}

@@ -2051,3 +2051,256 @@ async fn the_clinic_page_shows_the_steps_the_store_holds() {
         "{steps}"
     );
 }
+
+/// The clinic's sign-in-link and token forms on a store held by another
+/// writer: 503 with `Retry-After` as every other form (they gave 500).
+#[tokio::test]
+async fn the_clinics_link_and_token_forms_on_a_busy_store_give_503() {
+    let mut svc = Svc::new();
+    if abba_store::testing::is_postgres(&svc.db) {
+        eprintln!("the_clinics_link_and_token_forms_on_a_busy_store_give_503: SQLite's write lock");
+        return;
+    }
+    let a = svc.person("ada").await;
+    let state = abba_service::AppState::open(
+        &svc.db,
+        abba_service::StoreSettings {
+            busy_timeout: std::time::Duration::from_millis(300),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    svc.router = abba_service::router(state);
+    let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
+    let forms = [
+        format!("/clinic/persons/{a}/signin"),
+        format!("/clinic/persons/{a}/tokens"),
+    ];
+    let other = rusqlite::Connection::open(&svc.db).unwrap();
+    other.execute_batch("BEGIN IMMEDIATE").unwrap();
+    for path in &forms {
+        let p = admin.post(path, &[("csrf", &csrf)]).await;
+        assert_eq!(
+            p.status,
+            StatusCode::SERVICE_UNAVAILABLE,
+            "{path}: {}",
+            p.html
+        );
+        assert_eq!(p.headers[header::RETRY_AFTER], "1", "{path}");
+        assert!(p.html.contains("not a medical device"), "{}", p.html);
+    }
+    other.execute_batch("ROLLBACK").unwrap();
+    for path in &forms {
+        let p = admin.post(path, &[("csrf", &csrf)]).await;
+        assert_eq!(p.status, StatusCode::OK, "{path}: {}", p.html);
+    }
+}
+
+/// A suggestion the clinician's change of settings replaced is not shown
+/// as "Suggested" on Today: it says it was replaced and what is in force.
+#[tokio::test]
+async fn today_shows_a_replaced_suggestion_as_replaced_not_suggested() {
+    let svc = Svc::new();
+    let (id, _) = person_past_first_week(&svc, "rae", 9).await;
+    let (mut b, _) = signed_in(&svc, Role::Person(id as i64)).await;
+    let today = b.get("/").await;
+    let card = today.section("<section id=\"setting-basal\"", "section");
+    assert!(open_sid(card).is_some(), "{card}");
+    assert!(card.contains("Suggested:"), "{card}");
+    let r = svc
+        .call(
+            Method::POST,
+            &format!("/v1/persons/{id}/therapy"),
+            Some(&svc.admin),
+            Some(&json!({"basal_units_per_hour": 1.3})),
+        )
+        .await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+    let today = b.get("/").await;
+    assert_eq!(today.status, StatusCode::OK);
+    let card = today.section("<section id=\"setting-basal\"", "section");
+    assert!(open_sid(card).is_none(), "{card}");
+    assert!(!card.contains("Suggested:"), "{card}");
+    assert!(card.contains("Last suggestion:"), "{card}");
+    assert!(
+        card.contains(
+            "Replaced by your clinician&#x27;s change of settings: 1.30 U&#x2f;h is in force."
+        ),
+        "{card}"
+    );
+    assert!(today.html.contains("not a medical device"));
+}
+
+/// What is no page as asked gets the service's HTML page with the notice,
+/// never axum's plain-text rejection or the API's JSON 404: a form that is
+/// not multipart (415), a path segment that is not UTF-8, an unknown URL.
+#[tokio::test]
+async fn malformed_page_requests_get_the_services_pages() {
+    let svc = Svc::new();
+    let a = svc.person("ada").await;
+    let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
+    let is_page = |p: &Page, status: StatusCode, what: &str| {
+        assert_eq!(p.status, status, "{what}: {}", p.html);
+        let ct = p.headers[header::CONTENT_TYPE].to_str().unwrap();
+        assert!(ct.starts_with("text/html"), "{what}: {ct}");
+        assert!(
+            p.html.contains("not a medical device"),
+            "{what}: {}",
+            p.html
+        );
+    };
+    // Not multipart: 415.
+    for path in [
+        "/clinic/persons".to_string(),
+        format!("/clinic/persons/{a}/import"),
+    ] {
+        let p = admin.post(&path, &[("csrf", &csrf), ("name", "x")]).await;
+        is_page(&p, StatusCode::UNSUPPORTED_MEDIA_TYPE, &path);
+        assert!(p.html.contains("multipart"), "{}", p.html);
+    }
+    // Not UTF-8 in the path: as an unknown link or id.
+    let p = admin.get("/signin/%ff").await;
+    assert_ne!(p.status, StatusCode::BAD_REQUEST, "{}", p.html);
+    assert!(p.html.contains("not a medical device"), "{}", p.html);
+    let p = admin.get("/clinic/persons/%ff").await;
+    is_page(&p, StatusCode::NOT_FOUND, "/clinic/persons/%ff");
+    let p = admin
+        .post(
+            &format!("/clinic/persons/{a}/tokens/%ff/revoke"),
+            &[("csrf", &csrf)],
+        )
+        .await;
+    is_page(&p, StatusCode::NOT_FOUND, "revoke %ff");
+    // Unknown URLs: the 404 page with the pages' CSP; /v1 stays JSON.
+    for path in [
+        "/nonexistent",
+        "/robots.txt",
+        &format!("/clinic/persons/{a}/unknown"),
+    ] {
+        let p = admin.get(path).await;
+        is_page(&p, StatusCode::NOT_FOUND, path);
+        assert_eq!(p.headers[header::CONTENT_SECURITY_POLICY], CSP, "{path}");
+    }
+    let r = svc
+        .call(Method::GET, "/v1/nonexistent", Some(&svc.admin), None)
+        .await;
+    assert_eq!(r.status, StatusCode::NOT_FOUND);
+    assert_eq!(r.json["code"], "not_found", "{}", r.text);
+}
+
+/// Refusals name their field: bounds that leave out the value in force
+/// name `bounds.basal` / `bounds.lunch` (and the clinic's form shows a
+/// basal one beside the basal box), a change of settings for a person
+/// without data says so in the API's words, a form field sent twice is
+/// named on the page.
+#[tokio::test]
+async fn refusals_name_the_field_they_are_about() {
+    let svc = Svc::new();
+    let a = svc.person("ada").await;
+    let bounds = format!("/v1/persons/{a}/bounds");
+    for (body, path) in [
+        (
+            json!({"bounds": {"basal": {"min": 1.5, "max": 2.0}}}),
+            "bounds.basal",
+        ),
+        (
+            json!({"bounds": {"lunch": {"min": 20.0, "max": 30.0}}}),
+            "bounds.lunch",
+        ),
+    ] {
+        let r = svc
+            .call(Method::PUT, &bounds, Some(&svc.admin), Some(&body))
+            .await;
+        assert_eq!(r.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", r.text);
+        assert_eq!(r.json["path"], path, "{}", r.text);
+    }
+    let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
+    let p = admin
+        .post(
+            &format!("/clinic/persons/{a}/bounds"),
+            &[
+                ("csrf", &csrf),
+                ("basal_min", "1.5"),
+                ("basal_max", "2.0"),
+                ("cr_min", ""),
+                ("cr_max", ""),
+            ],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+    assert!(p.html.contains("id=\"basal_min-error\""), "{}", p.html);
+    assert!(!p.html.contains("id=\"cr_min-error\""), "{}", p.html);
+    // No data yet: day 1 is not known.
+    let none = svc
+        .person_with(json!({
+            "name": "nod", "tz": "UTC", "mode": "cgm",
+            "start": {"basal_units_per_hour": 1.0, "carb_ratio_g_per_unit": [10.0, 12.0, 11.0]}
+        }))
+        .await;
+    let r = svc
+        .call(
+            Method::POST,
+            &format!("/v1/persons/{none}/therapy"),
+            Some(&svc.admin),
+            Some(&json!({"basal_units_per_hour": 1.1})),
+        )
+        .await;
+    assert_eq!(r.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", r.text);
+    assert!(r.json["path"].is_null(), "{}", r.text);
+    let m = r.json["message"].as_str().unwrap();
+    assert!(m.contains("no data yet") && m.contains("/events"), "{m}");
+    assert!(!m.contains("import first"), "{m}");
+    // A field sent twice.
+    let (mut b, csrf) = signed_in(&svc, Role::Person(a as i64)).await;
+    let key = b.get("/log").await.hidden("submission");
+    let p = b
+        .post(
+            "/log/reading",
+            &[
+                ("glucose", "123"),
+                ("glucose", "5"),
+                ("csrf", &csrf),
+                ("submission", &key),
+            ],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+    assert!(p.html.contains("`glucose` was given twice"), "{}", p.html);
+    assert_eq!(app_events(&svc, a), 0);
+}
+
+/// The import page's refusals name its own fields (or the command for
+/// what it cannot choose), never the CLI's flags.
+#[tokio::test]
+async fn the_clinics_import_words_its_errors_for_its_own_fields() {
+    let svc = Svc::new();
+    let id = svc.person("ana").await;
+    let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
+    let import = format!("/clinic/persons/{id}/import");
+    let no_unit = "time,glucose\n2026-01-02 08:00,120\n2026-01-02 08:05,122\n";
+    let no_order = "time,glucose mg/dL\n02/01/2026 08:00,120\n03/01/2026 08:05,122\n";
+    let unknown = "\u{1}\u{2} nothing a reader knows\n";
+    for (file, want) in [
+        (
+            no_unit,
+            "choose mg&#x2f;dL or mmol&#x2f;L in the &quot;Glucose unit&quot; field",
+        ),
+        (no_order, "in the &quot;Date order&quot; field"),
+        (unknown, "this page cannot choose a format"),
+    ] {
+        let files = [("files", "export.csv", file.as_bytes())];
+        let p = admin
+            .post_multipart(&import, &[("csrf", &csrf)], &files)
+            .await;
+        assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+        let error = p
+            .section("<p class=\"field-error\" id=\"files-error\"", "p")
+            .to_string();
+        assert!(error.contains(want), "{want}: {error}");
+        // A flag only in the command named for what the page cannot do.
+        assert!(
+            !error.replace("`abba import --", "").contains(" --"),
+            "a CLI flag: {error}"
+        );
+    }
+}

@@ -608,14 +608,27 @@ impl Store {
     }
 
     /// Replaces a person's clinician bounds and rebuilds the advisor from
-    /// scratch (the stored snapshot carries the old bounds).
+    /// scratch (the stored snapshot carries the old bounds). Each setting's
+    /// value in force now (after the clinician's changes and the answers,
+    /// as the advice shows it) must lie inside the bounds.
     pub fn set_bounds_by_id(
         &mut self,
         id: i64,
         bounds: ClinicianBounds,
     ) -> Result<Live, StoreError> {
         let tx = self.conn.transaction_for(id)?;
-        let p = person::set_bounds(&tx, id, bounds)?;
+        let now = person::load_by_id(&tx, id)?;
+        let s = refresh(&tx, &mut self.cache, &now, true)?;
+        let advice = from_state(now, s, None, 0).advice();
+        let in_force = |p: Parameter| {
+            let key = param_key(p);
+            advice
+                .settings
+                .iter()
+                .find(|x| x.setting == key)
+                .map_or(f64::NAN, |x| x.in_force)
+        };
+        let p = person::set_bounds(&tx, id, bounds, in_force)?;
         let s = refresh(&tx, &mut self.cache, &p, false)?;
         let last = last_key(&tx, id)?;
         let r = rev(&tx, id)?;

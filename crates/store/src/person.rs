@@ -176,8 +176,10 @@ impl Person {
 
     /// A fresh advisor for this person (the state before any event).
     pub fn advisor(&self) -> Result<Abba, StoreError> {
+        // The bounds were checked against the value in force when they were
+        // set, which may not be the starting therapy.
         let mut a = Abba::new(self.settings.advisor.clone(), self.settings.start)?
-            .with_bounds(self.settings.bounds)?
+            .with_later_bounds(self.settings.bounds)?
             .with_min_data(self.settings.min_data);
         if let Some(steps) = self.settings.pump_steps {
             a = a.with_pump_steps(steps)?;
@@ -555,16 +557,19 @@ pub fn load_by_id(conn: &dyn Db, id: i64) -> Result<Person, StoreError> {
     parse(id, name, tz, first_day, doc)
 }
 
-/// Replaces a person's clinician bounds (the starting therapy must lie
-/// inside them).
+/// Replaces a person's clinician bounds: each setting's value in force now
+/// (`in_force`, after the clinician's changes and the answers) must lie
+/// inside them.
 pub fn set_bounds(
     conn: &dyn Db,
     id: i64,
     bounds: abba_advisor::ClinicianBounds,
+    in_force: impl Fn(abba_advisor::Parameter) -> f64,
 ) -> Result<Person, StoreError> {
     let mut p = load_by_id(conn, id)?;
     p.settings.bounds = bounds;
-    Abba::new(p.settings.advisor.clone(), p.settings.start)?.with_bounds(bounds)?;
+    bounds.validate()?;
+    bounds.check_in_force(in_force)?;
     let doc = serde_json::to_string(&p.settings)
         .map_err(|e| StoreError::corrupt("person settings", e))?;
     conn.execute(Q::PersonSettingsPut, args![doc, id])?;

@@ -573,8 +573,8 @@ impl Store {
     /// (default: now) whether or not a suggestion is open, for a person fed
     /// by imports or by the app alike; the advisor's next update starts
     /// from it (a change before the last event rebuilds the advisor from
-    /// there). `basal`: a schedule (one segment: a flat rate); values not
-    /// given stay.
+    /// there; one before the person's day 1 is refused). `basal`: a
+    /// schedule (one segment: a flat rate); values not given stay.
     pub fn set_therapy(
         &mut self,
         name: &str,
@@ -803,12 +803,19 @@ pub(crate) fn make_change(
     };
     let clock = abba_io::clock::AdvisorClock::new(p.tz.clone(), first);
     let ts = clock.timestamp(at);
+    if ts.day_index() < 0 {
+        // Not clamped to day 1: a change before the data is a wrong date.
+        return Err(StoreError::invalid(
+            "--at",
+            format!(
+                "{at} is before {}'s day 1: expected an instant on or after {first} 00:00 ({})",
+                p.name,
+                p.tz.iana_name().unwrap_or("the person's zone")
+            ),
+        ));
+    }
     let change = in_force::TherapyChange {
-        at: if ts.day_index() < 0 {
-            abba_core::Timestamp(0)
-        } else {
-            ts
-        },
+        at: ts,
         instant: at.to_string(),
         basal,
         carb_ratio,

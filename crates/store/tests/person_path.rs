@@ -443,6 +443,19 @@ fn the_clinicians_change_is_in_force_at_any_time() {
     assert!(store
         .set_therapy("ana", None, Some([9.0; 3]), Some(later))
         .is_err());
+    // Refused, not clamped to day 1: a time before day 1 (a minute before,
+    // or 1980), naming --at and what is expected.
+    let before: jiff::Timestamp = iso(DAY1_MS - 60_000).parse().unwrap();
+    for at in [before, "1980-01-01T00:00:00Z".parse().unwrap()] {
+        let e = store
+            .set_therapy("ana", Some(vec![(0, 1.0)]), None, Some(at))
+            .unwrap_err();
+        let text = e.to_string();
+        assert!(text.contains("--at"), "{text}");
+        assert!(text.contains("before ana's day 1"), "{text}");
+        assert!(text.contains("expected an instant on or after"), "{text}");
+    }
+    assert_eq!(store.advise("ana").unwrap().settings[0].in_force, 1.2);
 }
 
 #[test]

@@ -140,6 +140,9 @@ pub struct Message {
 pub struct SuggestionCard {
     /// The suggestion's id (`suggestion_id`).
     pub sid: u64,
+    /// What the value is: "Suggested" while open, else the last
+    /// suggestion (answered, replaced).
+    pub label: &'static str,
     /// The suggested value with its unit.
     pub value: String,
     /// Its change, in words (`+4.0 %`).

@@ -86,6 +86,14 @@ pub struct Texts {
     pub how_details: &'static str,
     /// No change today.
     pub no_change: &'static str,
+    /// The label of a suggestion no longer open (answered, replaced).
+    pub last_suggestion: &'static str,
+    /// A basal suggestion not offered (a loop, injections, unknown delivery).
+    pub not_offered: &'static str,
+    /// Replaced by the clinician's change of settings ({value}).
+    pub answered_replaced: &'static str,
+    /// Not answered before the next one, taken as followed ({value}).
+    pub answered_superseded: &'static str,
     /// No decision yet.
     pub no_decision: &'static str,
     /// A suggestion's predicted effect ({revision}, {grade}, {days},
@@ -323,6 +331,10 @@ pub const EN: Texts = Texts {
     why: "Why",
     how_details: "How abba got there",
     no_change: "No change today.",
+    last_suggestion: "Last suggestion",
+    not_offered: "No basal rate is suggested for how your insulin is delivered (see your clinician).",
+    answered_replaced: "Replaced by your clinician's change of settings: {value} is in force.",
+    answered_superseded: "Not answered before the next suggestion (taken as followed): {value} is in force.",
     no_decision: "No suggestion yet.",
     effect_predicted: "Predicted on your twin (revision {revision}, {grade}) over the last {days} days: time in range (70-180 mg/dL) {tir_new} with the suggestion, {tir_now} as now ({tir_change}); time below 70 mg/dL {low_new} with it, {low_now} as now ({low_change}). A twin's prediction is not medical advice.",
     twin_check_held_back: "Held back by the twin check: your twin predicts time below 70 mg/dL rising by {rise} points, more than the {margin}-point margin. Keep {value} today and talk it over with your clinician.",

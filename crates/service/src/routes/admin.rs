@@ -71,7 +71,7 @@ pub async fn create_person(
         (status = 403, description = "Not an admin token", body = ErrorBody),
         (status = 404, description = "No such person", body = ErrorBody),
         (status = 413, description = "Body too large", body = ErrorBody),
-        (status = 422, description = "Bounds refused (the starting therapy must lie inside)", body = ErrorBody)))]
+        (status = 422, description = "Bounds refused (each setting's value in force must lie inside)", body = ErrorBody)))]
 pub async fn set_bounds(
     State(s): State<AppState>,
     AdminPath(id): AdminPath,
@@ -154,10 +154,24 @@ pub fn put_bounds(
 ) -> Result<(), ApiError> {
     let bounds = convert::bounds(&b.bounds, "bounds")?;
     *live = store.set_bounds_by_id(id, bounds).map_err(|e| match e {
-        StoreError::Advisor(a) => ApiError::invalid("bounds", a.to_string()),
+        StoreError::Advisor(a) => ApiError::invalid(bounds_path(&a), a.to_string()),
         other => other.into(),
     })?;
     Ok(())
+}
+
+/// The JSON path of the bounds an advisor's refusal is about (its field
+/// names the setting: "clinician bounds (basal rate)", "... (lunch carb
+/// ratio)"): `bounds.basal`, `bounds.lunch`, or `bounds` when it names none.
+fn bounds_path(a: &abba_advisor::AdvisorError) -> String {
+    let field = match a {
+        abba_advisor::AdvisorError::Config { field, .. } => field.as_str(),
+        _ => "",
+    };
+    ["basal", "breakfast", "lunch", "dinner"]
+        .into_iter()
+        .find(|s| field.contains(s))
+        .map_or_else(|| "bounds".to_string(), |s| format!("bounds.{s}"))
 }
 
 /// Issues a person's token (shown once).
@@ -176,10 +190,7 @@ pub async fn issue_token(
     let (token_id, token) = s
         .store(move |store| {
             store.person_by_id(id)?;
-            auth::issue(store, Role::Person(id)).map_err(|e| match e {
-                crate::error::ServiceError::Store(s) => s.into(),
-                other => ApiError::internal(other),
-            })
+            Ok(auth::issue(store, Role::Person(id))?)
         })
         .await?;
     Ok((

@@ -58,9 +58,21 @@ pub fn query_u64(raw: Option<&str>, known: &[&str]) -> Result<Vec<(String, u64)>
     Ok(out)
 }
 
-/// 404 for an unknown path.
-pub async fn not_found() -> ApiError {
-    ApiError::not_found("no such endpoint (see GET /v1/openapi.json)")
+/// 404 for an unknown path: under an API version (`/v1`, `/v2`, ...) and
+/// `/healthz` the API's JSON error, elsewhere the pages' 404 page.
+pub async fn not_found(uri: axum::http::Uri) -> axum::response::Response {
+    use axum::response::IntoResponse;
+    let path = uri.path();
+    let first = path.trim_start_matches('/').split('/').next().unwrap_or("");
+    let api = first == "healthz"
+        || first
+            .strip_prefix('v')
+            .is_some_and(|n| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()));
+    if api {
+        ApiError::not_found("no such endpoint (see GET /v1/openapi.json)").into_response()
+    } else {
+        crate::web::page::unknown_page()
+    }
 }
 
 /// 405 for a known path with another method.

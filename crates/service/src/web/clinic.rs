@@ -6,7 +6,7 @@
 //! function for it (the same as `/v1` and the CLI).
 
 use super::form::{self, Form};
-use super::page::{forbidden_csrf, not_found, render, see_other, PageError, PageResult};
+use super::page::{forbidden_csrf, not_found, render, see_other, PageError, PageResult, PathText};
 use super::session::{self, Ctx};
 use super::today::with_unit;
 use crate::auth;
@@ -23,7 +23,8 @@ use abba_store::token::Role;
 use abba_store::{Live, NewPerson, ProfileResolution, Store};
 use abba_web::pages::{Choice, Layout};
 use abba_web::texts::{fill, CLINIC_EN as C, EN};
-use axum::extract::{Multipart, Path, RawQuery, State};
+use axum::extract::multipart::MultipartRejection;
+use axum::extract::{Multipart, RawQuery, State};
 use axum::http::StatusCode;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -220,7 +221,16 @@ struct Upload {
     files: Vec<(String, String, Vec<u8>)>,
 }
 
-async fn read_multipart(mut m: Multipart) -> Result<Upload, ApiError> {
+async fn read_multipart(m: Result<Multipart, MultipartRejection>) -> Result<Upload, ApiError> {
+    // Not a multipart form (another content type, no boundary): the
+    // service's 415 page, not axum's plain-text rejection.
+    let mut m = m.map_err(|e| {
+        ApiError::new(
+            StatusCode::UNSUPPORTED_MEDIA_TYPE,
+            abba_api::ErrorCode::UnsupportedMediaType,
+            format!("expected the page's upload form (multipart/form-data with a boundary): {e}"),
+        )
+    })?;
     let mut pairs = Vec::new();
     let mut files = Vec::new();
     let bad = |e: axum::extract::multipart::MultipartError| {
@@ -491,7 +501,11 @@ fn field_of(e: &abba_store::StoreError) -> &'static str {
 
 /// `POST /clinic/persons` (multipart): creates a person; 303 to their page,
 /// or the form again (422) with each error beside its field.
-pub async fn create(State(s): State<AppState>, ctx: Ctx, m: Multipart) -> PageResult {
+pub async fn create(
+    State(s): State<AppState>,
+    ctx: Ctx,
+    m: Result<Multipart, MultipartRejection>,
+) -> PageResult {
     let w = admin_post_head(&s, &ctx).await?;
     let up = read_multipart(m).await?;
     upload_csrf(&w, &up)?;
@@ -795,7 +809,7 @@ fn done_text(q: Option<&str>) -> Option<String> {
 pub async fn person(
     State(s): State<AppState>,
     ctx: Ctx,
-    Path(id): Path<String>,
+    PathText(id): PathText<String>,
     RawQuery(q): RawQuery,
 ) -> PageResult {
     let w = session::admin_page(&s, &ctx).await?;
@@ -892,7 +906,7 @@ const BOUNDS: [&str; 4] = ["basal_min", "basal_max", "cr_min", "cr_max"];
 pub async fn bounds(
     State(s): State<AppState>,
     ctx: Ctx,
-    Path(id): Path<String>,
+    PathText(id): PathText<String>,
     body: RawBody,
 ) -> PageResult {
     let id = person_id(&id)?;
@@ -945,7 +959,7 @@ pub async fn bounds(
 pub async fn steps(
     State(s): State<AppState>,
     ctx: Ctx,
-    Path(id): Path<String>,
+    PathText(id): PathText<String>,
     body: RawBody,
 ) -> PageResult {
     let id = person_id(&id)?;
@@ -1012,7 +1026,7 @@ fn settings_changed(
 pub async fn age_group(
     State(s): State<AppState>,
     ctx: Ctx,
-    Path(id): Path<String>,
+    PathText(id): PathText<String>,
     body: RawBody,
 ) -> PageResult {
     let id = person_id(&id)?;
@@ -1041,7 +1055,7 @@ pub async fn age_group(
 pub async fn therapy(
     State(s): State<AppState>,
     ctx: Ctx,
-    Path(id): Path<String>,
+    PathText(id): PathText<String>,
     body: RawBody,
 ) -> PageResult {
     let id = person_id(&id)?;
@@ -1123,8 +1137,8 @@ pub async fn therapy(
 pub async fn import(
     State(s): State<AppState>,
     ctx: Ctx,
-    Path(id): Path<String>,
-    m: Multipart,
+    PathText(id): PathText<String>,
+    m: Result<Multipart, MultipartRejection>,
 ) -> PageResult {
     let id = person_id(&id)?;
     let w = admin_post_head(&s, &ctx).await?;
@@ -1234,7 +1248,7 @@ pub async fn import(
                     "profile_choice",
                     format!("{origin}: {difference} {}", C.profile_choose),
                 ))),
-                Err(e) => Ok(Err(("files", e.to_string()))),
+                Err(e) => Ok(Err(("files", page_words(&e.to_string())))),
             }
         })
         .await?;
@@ -1257,6 +1271,70 @@ pub async fn import(
         }
         Err((field, msg)) => refuse(field, msg).await,
     }
+}
+
+/// A reader's or the store's refusal in the import page's words: the
+/// CLI's flags it names become this page's fields (the glucose unit, the
+/// date order, the grams per exchange) or, for what the page cannot
+/// choose (a format, a column, a subject), the command that can.
+fn page_words(msg: &str) -> String {
+    const FIELD_UNIT: &str = "the \"Glucose unit\" field";
+    const FIELD_ORDER: &str = "the \"Date order\" field";
+    let mut out = msg.to_string();
+    for (cli, page) in [
+        (
+            "give --units mg/dL or --units mmol/L",
+            "choose mg/dL or mmol/L in the \"Glucose unit\" field",
+        ),
+        ("give --units mg/dL", "choose mg/dL in the \"Glucose unit\" field"),
+        ("(or --units)", "(or the \"Glucose unit\" field)"),
+        ("check --units", "check the \"Glucose unit\" field"),
+        ("--units says", "the \"Glucose unit\" field says"),
+        (
+            "give --date-order day-first or month-first",
+            "choose day first or month first in the \"Date order\" field",
+        ),
+        (
+            "--date-order day-first or month-first",
+            "the \"Date order\" field (day first or month first)",
+        ),
+        ("give --date-order", "choose one in the \"Date order\" field"),
+        ("--date-order says", "the \"Date order\" field says"),
+        ("as --date-order says", "as the \"Date order\" field says"),
+        (
+            "(--grams-per-exchange G, or the clinic page's grams-per-exchange field;",
+            "(the \"Grams of carbohydrate per exchange\" field;",
+        ),
+        (
+            "no --grams-per-exchange",
+            "no \"Grams of carbohydrate per exchange\" given",
+        ),
+        (
+            "give --format",
+            "this page cannot choose a format: upload an export abba detects, or import the file with `abba import --format`",
+        ),
+        (
+            "choose one with --time-column",
+            "this page cannot choose a column: import the file with `abba import --time-column`",
+        ),
+        (
+            "choose one with --glucose-column",
+            "this page cannot choose a column: import the file with `abba import --glucose-column`",
+        ),
+        (
+            "choose one with --subject",
+            "this page cannot choose a subject: import the file with `abba import --subject`",
+        ),
+    ] {
+        out = out.replace(cli, page);
+    }
+    // Anything left names a flag this page has as a field.
+    out.replace("--units", FIELD_UNIT)
+        .replace("--date-order", FIELD_ORDER)
+        .replace(
+            "--grams-per-exchange",
+            "the \"Grams of carbohydrate per exchange\" field",
+        )
 }
 
 /// The import form's `profile_choice`: what to do when an export's pump
@@ -1291,7 +1369,7 @@ fn base_url(s: &AppState, ctx: &Ctx) -> String {
 pub async fn issue_signin(
     State(s): State<AppState>,
     ctx: Ctx,
-    Path(id): Path<String>,
+    PathText(id): PathText<String>,
     body: RawBody,
 ) -> PageResult {
     let id = person_id(&id)?;
@@ -1299,7 +1377,7 @@ pub async fn issue_signin(
     let secret = s
         .store(move |store| {
             store.person_by_id(id)?;
-            auth::issue_signin(store, Role::Person(id)).map_err(ApiError::internal)
+            Ok(auth::issue_signin(store, Role::Person(id))?)
         })
         .await?;
     let url = format!("{}/signin/{secret}", base_url(&s, &ctx));
@@ -1315,7 +1393,7 @@ pub async fn issue_signin(
 pub async fn issue_token(
     State(s): State<AppState>,
     ctx: Ctx,
-    Path(id): Path<String>,
+    PathText(id): PathText<String>,
     body: RawBody,
 ) -> PageResult {
     let id = person_id(&id)?;
@@ -1323,7 +1401,7 @@ pub async fn issue_token(
     let (_, token) = s
         .store(move |store| {
             store.person_by_id(id)?;
-            auth::issue(store, Role::Person(id)).map_err(ApiError::internal)
+            Ok(auth::issue(store, Role::Person(id))?)
         })
         .await?;
     show_person(&s, &w.csrf, id, StatusCode::OK, None, move |m| {
@@ -1336,7 +1414,7 @@ pub async fn issue_token(
 pub async fn revoke_token(
     State(s): State<AppState>,
     ctx: Ctx,
-    Path(ids): Path<(String, String)>,
+    PathText(ids): PathText<(String, String)>,
     body: RawBody,
 ) -> PageResult {
     revoke_of_person(&s, &ctx, ids, body, "token-revoked", |store, id, tid| {
@@ -1356,7 +1434,7 @@ pub async fn revoke_token(
 pub async fn revoke_session(
     State(s): State<AppState>,
     ctx: Ctx,
-    Path(ids): Path<(String, String)>,
+    PathText(ids): PathText<(String, String)>,
     body: RawBody,
 ) -> PageResult {
     revoke_of_person(&s, &ctx, ids, body, "session-revoked", |store, id, sid| {

@@ -59,7 +59,10 @@ impl Form {
                 ));
             }
             if self.fields[..i].iter().any(|(f, _)| f == k) {
-                return Err(ApiError::invalid(k.clone(), "given twice"));
+                return Err(ApiError::invalid(
+                    k.clone(),
+                    format!("the field `{k}` was given twice; expected it once"),
+                ));
             }
         }
         Ok(())

@@ -4,7 +4,7 @@
 //!
 //! The clinic opens the same report at `/clinic/persons/{id}/report`.
 
-use super::page::{html, message, render, PageError, PageResult};
+use super::page::{html, message, render, PageError, PageResult, PathText};
 use super::session::{self, Ctx};
 use crate::error::ApiError;
 use crate::state::{AppState, EffectSource};
@@ -13,7 +13,7 @@ use abba_store::advise::SuggestionView;
 use abba_store::Live;
 use abba_web::pages::Layout;
 use abba_web::texts::{fill, EN};
-use axum::extract::{Path, State};
+use axum::extract::State;
 use axum::http::{header, HeaderValue, StatusCode};
 use axum::response::Response;
 use serde::Serialize;
@@ -217,7 +217,7 @@ pub async fn person_report(State(s): State<AppState>, ctx: Ctx) -> Result<Respon
 pub async fn clinic_report(
     State(s): State<AppState>,
     ctx: Ctx,
-    Path(id): Path<String>,
+    PathText(id): PathText<String>,
 ) -> Result<Response, PageError> {
     let w = session::admin_page(&s, &ctx).await?;
     let Ok(id) = id.parse::<i64>() else {

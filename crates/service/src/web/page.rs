@@ -15,6 +15,32 @@ use serde::Serialize;
 /// leaves it either (the pages link nowhere else).
 pub const REFERRER_POLICY: &str = "same-origin";
 
+/// A page path's parameters as text, "" for one that could not be decoded
+/// (invalid UTF-8 after percent-decoding): the handler answers it as any
+/// unknown id or link, with its page, never axum's plain-text 400.
+#[derive(Debug, Clone)]
+pub struct PathText<T>(pub T);
+
+impl<S, T> axum::extract::FromRequestParts<S> for PathText<T>
+where
+    S: Send + Sync,
+    T: serde::de::DeserializeOwned + Default + Send,
+{
+    type Rejection = std::convert::Infallible;
+
+    async fn from_request_parts(
+        parts: &mut axum::http::request::Parts,
+        state: &S,
+    ) -> Result<Self, Self::Rejection> {
+        Ok(PathText(
+            axum::extract::Path::<T>::from_request_parts(parts, state)
+                .await
+                .map(|axum::extract::Path(t)| t)
+                .unwrap_or_default(),
+        ))
+    }
+}
+
 /// A page that could not be shown as asked: already a response.
 #[derive(Debug)]
 pub struct PageError(pub Box<Response>);
@@ -112,6 +138,23 @@ pub fn not_found() -> PageError {
         EN.not_found,
         None,
     ))
+}
+
+/// The answer to a URL that is no page (the router's fallback outside
+/// `/v1`): the 404 page, with the pages' headers.
+pub fn unknown_page() -> Response {
+    let mut r = not_found().into_response();
+    let h = r.headers_mut();
+    for (name, value) in [
+        (header::CONTENT_SECURITY_POLICY, abba_web::CSP),
+        (header::X_FRAME_OPTIONS, "DENY"),
+        (header::REFERRER_POLICY, REFERRER_POLICY),
+        (header::CACHE_CONTROL, "no-store"),
+        (header::X_CONTENT_TYPE_OPTIONS, "nosniff"),
+    ] {
+        h.insert(name, HeaderValue::from_static(value));
+    }
+    r
 }
 
 /// An error of the store or the service as a page (503 keeps its

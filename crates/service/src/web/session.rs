@@ -124,7 +124,7 @@ impl Ctx {
 /// 64 lower-case hex digits from the OS CSPRNG (a link's, a session's or
 /// a CSRF token's secret).
 pub fn secret() -> Result<String, ApiError> {
-    let t = auth::new_token().map_err(ApiError::internal)?;
+    let t = auth::new_token()?;
     Ok(t.trim_start_matches(auth::PREFIX).to_string())
 }
 

@@ -7,7 +7,7 @@
 //! form's `csrf` field), with the same Origin check as every POST.
 
 use super::form::Form;
-use super::page::{forbidden_csrf, message, render, see_other, PageError, PageResult};
+use super::page::{forbidden_csrf, message, render, see_other, PageError, PageResult, PathText};
 use super::session::{self, Ctx, COOKIE, SIGNIN_COOKIE};
 use crate::auth;
 use crate::body::RawBody;
@@ -16,7 +16,7 @@ use abba_store::session::{LinkRefused, ABSOLUTE_MS, LINK_LIFE_MS};
 use abba_store::token::Role;
 use abba_web::pages::Layout;
 use abba_web::texts::EN;
-use axum::extract::{Path, RawQuery, State};
+use axum::extract::{RawQuery, State};
 use axum::http::{header, StatusCode};
 use axum::response::Response;
 use serde::Serialize;
@@ -60,7 +60,11 @@ pub async fn help(RawQuery(q): RawQuery) -> Response {
 }
 
 /// `GET /signin/{secret}`: the sign-in button (the link is not used).
-pub async fn page(State(s): State<AppState>, ctx: Ctx, Path(secret): Path<String>) -> PageResult {
+pub async fn page(
+    State(s): State<AppState>,
+    ctx: Ctx,
+    PathText(secret): PathText<String>,
+) -> PageResult {
     if !session::is_secret(&secret) {
         return Ok(refused(LinkRefused::Unknown));
     }

@@ -114,13 +114,20 @@ pub fn card(
     } else {
         v.reasons.join(" ")
     };
-    if v.no_update {
+    // Only an open suggestion is shown as one; a change under one pump
+    // step and a basal rate not offered are notes.
+    if v.no_update || v.status == "no_change" || v.status == "not_offered" {
+        let note = if v.status == "not_offered" {
+            EN.not_offered.to_string()
+        } else {
+            format!("{} {reason}", EN.no_change).trim().to_string()
+        };
         return SettingCard {
             key: param_key(p),
             title: title(p),
             in_force: with_unit(p, in_force_now(v)),
             suggestion: None,
-            note: Some(format!("{} {reason}", EN.no_change).trim().to_string()),
+            note: Some(note),
         };
     }
     let setting = crate::convert::setting(p);
@@ -129,6 +136,8 @@ pub fn card(
         "accepted" => Some(EN.answered_accepted),
         "rejected" => Some(EN.answered_rejected),
         "overridden" => Some(EN.answered_overridden),
+        "replaced" => Some(EN.answered_replaced),
+        "superseded" => Some(EN.answered_superseded),
         _ => None,
     }
     .map(|t| fill(t, &[("value", &with_unit(p, v.in_force))]));
@@ -144,6 +153,11 @@ pub fn card(
         in_force: with_unit(p, in_force_now(v)),
         suggestion: Some(SuggestionCard {
             sid,
+            label: if open {
+                EN.suggested
+            } else {
+                EN.last_suggestion
+            },
             value: with_unit(p, v.suggested),
             change: format!("{:+.1} %", v.change_percent),
             reason: v.reasons.first().cloned().unwrap_or_else(|| reason.clone()),

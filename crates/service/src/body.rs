@@ -98,6 +98,19 @@ pub fn parse<T: DeserializeOwned>(headers: &HeaderMap, body: RawBody) -> Result<
             "expected Content-Type: application/json",
         ));
     }
+    // A compressed body would be read as JSON and refused as bad JSON
+    // with a misleading place: the encoding is named instead.
+    if let Some(enc) = headers
+        .get(header::CONTENT_ENCODING)
+        .map(|v| v.to_str().unwrap_or("?").trim())
+        .filter(|e| !e.is_empty() && !e.eq_ignore_ascii_case("identity"))
+    {
+        return Err(ApiError::new(
+            StatusCode::UNSUPPORTED_MEDIA_TYPE,
+            ErrorCode::UnsupportedMediaType,
+            format!("Content-Encoding \"{enc}\" is not accepted: send the JSON body uncompressed"),
+        ));
+    }
     no_duplicate_keys(&bytes)?;
     let mut de = serde_json::Deserializer::from_slice(&bytes);
     let value: T = serde_path_to_error::deserialize(&mut de).map_err(|e| {

@@ -283,6 +283,28 @@ fn deep_nesting_oversized_bodies_and_big_numbers() {
         w.svc.router.clone().oneshot(req).await.unwrap()
     });
     assert_eq!(r.status(), StatusCode::UNSUPPORTED_MEDIA_TYPE);
+    // A compressed body: 415 naming the encoding, not "bad JSON".
+    let r = w.rt.block_on(async {
+        let req = axum::http::Request::builder()
+            .method(Method::POST)
+            .uri(format!("/v1/persons/{}/events", w.person))
+            .header("authorization", format!("Bearer {}", w.token))
+            .header("content-type", "application/json")
+            .header("content-encoding", "gzip")
+            .body(axum::body::Body::from(vec![0x1f_u8, 0x8b, 8, 0, 0, 0]))
+            .unwrap();
+        use tower::ServiceExt;
+        w.svc.router.clone().oneshot(req).await.unwrap()
+    });
+    assert_eq!(r.status(), StatusCode::UNSUPPORTED_MEDIA_TYPE);
+    let body =
+        w.rt.block_on(axum::body::to_bytes(r.into_body(), 1 << 16))
+            .unwrap();
+    let text = String::from_utf8_lossy(&body);
+    assert!(
+        text.contains("Content-Encoding \\\"gzip\\\" is not accepted"),
+        "{text}"
+    );
 }
 
 #[test]

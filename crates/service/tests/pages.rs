@@ -2278,7 +2278,7 @@ async fn the_clinics_import_words_its_errors_for_its_own_fields() {
     let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
     let import = format!("/clinic/persons/{id}/import");
     let no_unit = "time,glucose\n2026-01-02 08:00,120\n2026-01-02 08:05,122\n";
-    let no_order = "time,glucose mg/dL\n02/01/2026 08:00,120\n03/01/2026 08:05,122\n";
+    let no_order = "time,glucose_mg_dl\n02/01/2026 08:00,120\n03/01/2026 08:05,122\n";
     let unknown = "\u{1}\u{2} nothing a reader knows\n";
     for (file, want) in [
         (

@@ -91,6 +91,36 @@ impl ClinicianBounds {
         Ok(())
     }
 
+    /// Checks that each range holds a value the pump can be set to (a
+    /// multiple of its step): otherwise the bounds and the pump's steps
+    /// cannot both hold a suggestion. The error names the setting, the
+    /// range and the nearest values on the step.
+    pub fn check_steps(&self, steps: crate::steps::PumpSteps) -> Result<(), AdvisorError> {
+        for p in Parameter::MAIN {
+            let Some(r) = self.range(p) else { continue };
+            let step = match p {
+                Parameter::Basal => steps.basal_u_per_h,
+                Parameter::CarbRatio(_) => steps.carb_ratio_g_per_u,
+            };
+            if crate::steps::nearest_within(r.min, step, r.min, r.max).is_none() {
+                let below = (r.min / step).floor() * step;
+                return Err(AdvisorError::Config {
+                    field: format!("clinician bounds ({p})"),
+                    problem: format!(
+                        "no value on the pump's step of {step} {} lies in {}-{}: widen them to \
+                         hold one (for example {:.3} or {:.3})",
+                        p.unit(),
+                        r.min,
+                        r.max,
+                        below,
+                        below + step
+                    ),
+                });
+            }
+        }
+        Ok(())
+    }
+
     /// Checks that each setting's value in force (`value`) lies inside its
     /// range: the error names the setting, the value and the range.
     pub fn check_in_force(&self, value: impl Fn(Parameter) -> f64) -> Result<(), AdvisorError> {
@@ -143,6 +173,42 @@ impl ClinicianBounds {
 mod tests {
     use super::*;
     use abba_core::MealSlot;
+
+    #[test]
+    fn bounds_must_hold_a_value_on_the_pumps_step() {
+        let steps = crate::steps::PumpSteps::default();
+        let b = |basal: (f64, f64), lunch: (f64, f64)| ClinicianBounds {
+            basal: Some(Range {
+                min: basal.0,
+                max: basal.1,
+            }),
+            carb_ratio: [
+                None,
+                Some(Range {
+                    min: lunch.0,
+                    max: lunch.1,
+                }),
+                None,
+            ],
+        };
+        assert!(b((0.9, 0.9), (8.0, 8.0)).check_steps(steps).is_ok());
+        assert!(b((0.91, 0.95), (8.05, 8.1)).check_steps(steps).is_ok());
+        let e = b((0.91, 0.93), (8.0, 9.0))
+            .check_steps(steps)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("clinician bounds (basal rate)")
+                && e.contains("0.91-0.93")
+                && e.contains("0.900 or 0.950"),
+            "{e}"
+        );
+        let e = b((0.5, 1.0), (8.01, 8.09))
+            .check_steps(steps)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("lunch") && e.contains("8.01-8.09"), "{e}");
+    }
 
     #[test]
     fn holds_at_the_bound_and_says_which() {

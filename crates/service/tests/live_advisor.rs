@@ -726,6 +726,29 @@ async fn a_clinicians_change_by_the_api_and_the_cli_reaches_an_app_fed_person() 
     }
 }
 
+/// Bounds that hold no value on the pump's step are refused where they
+/// are set (a suggestion could not keep to both), naming the setting.
+#[tokio::test]
+async fn bounds_must_hold_a_value_on_the_pumps_step() {
+    let svc = Svc::new();
+    let mut body = person_body("cat");
+    body.as_object_mut().unwrap().remove("continuous_values");
+    let id = svc.person_with(body).await;
+    let bounds = format!("/v1/persons/{id}/bounds");
+    let off_step = json!({"bounds": {"basal": {"min": 0.91, "max": 0.94}}});
+    let r = svc
+        .call(Method::PUT, &bounds, Some(&svc.admin), Some(&off_step))
+        .await;
+    assert_eq!(r.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", r.text);
+    assert_eq!(r.json["path"], "bounds.basal", "{}", r.text);
+    assert!(r.text.contains("no value on the pump's step"), "{}", r.text);
+    let on_step = json!({"bounds": {"basal": {"min": 0.91, "max": 1.04}}});
+    let r = svc
+        .call(Method::PUT, &bounds, Some(&svc.admin), Some(&on_step))
+        .await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+}
+
 #[tokio::test]
 async fn bounds_are_checked_against_the_value_in_force_and_the_advice_keeps_to_them() {
     let svc = Svc::new();
@@ -751,6 +774,7 @@ async fn bounds_are_checked_against_the_value_in_force_and_the_advice_keeps_to_t
         .await;
     assert_eq!(r.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", r.text);
     assert!(r.text.contains("value in force 1.3"), "{}", r.text);
+
     // ... and bounds around it accepted, though the starting 1 U/h is out.
     let around = json!({"bounds": {"basal": {"min": 1.2, "max": 1.4}}});
     let r = svc

@@ -643,6 +643,9 @@ impl Store {
         id: i64,
         steps: abba_advisor::PumpSteps,
     ) -> Result<Live, StoreError> {
+        steps.validate()?;
+        let bounds = person::load_by_id(&self.conn, id)?.settings.bounds;
+        bounds.check_steps(steps)?;
         self.change_settings_by_id(id, |s| s.pump_steps = Some(steps))
     }
 

@@ -445,6 +445,7 @@ pub fn create(conn: &dyn Db, p: &NewPerson) -> Result<i64, StoreError> {
     // schedule and that the starting therapy lies inside the bounds.
     let mut a = Abba::new(s.advisor.clone(), s.start)?.with_bounds(s.bounds)?;
     if let Some(steps) = s.pump_steps {
+        s.bounds.check_steps(steps)?;
         a = a.with_pump_steps(steps)?;
     }
     if let Some(sch) = &s.basal_schedule {
@@ -569,6 +570,9 @@ pub fn set_bounds(
     let mut p = load_by_id(conn, id)?;
     p.settings.bounds = bounds;
     bounds.validate()?;
+    if let Some(steps) = p.settings.pump_steps {
+        bounds.check_steps(steps)?;
+    }
     bounds.check_in_force(in_force)?;
     let doc = serde_json::to_string(&p.settings)
         .map_err(|e| StoreError::corrupt("person settings", e))?;

@@ -391,6 +391,7 @@ pub fn answer_words(status: &str, in_force: f64, unit: &str) -> String {
         "open" => "not answered yet".to_string(),
         "overridden" => format!("set to {in_force:.3} {unit}"),
         "superseded" => "not answered before the next suggestion (taken as followed)".to_string(),
+        "unseen" => "never shown (past data of one import; not followed)".to_string(),
         other => other.to_string(),
     }
 }

@@ -91,7 +91,9 @@ pub struct Suggestion {
     /// Day of the advisor's clock it is for (1 = day 1).
     pub day: i64,
     /// `open`, `accepted`, `rejected`, `overridden`, `superseded` (not
-    /// answered before the next one; taken as followed) or `no_update`;
+    /// answered before the next one; taken as followed), `unseen` (made and
+    /// followed by the next within one import, as the history a first
+    /// import brings: never shown, not followed) or `no_update`;
     /// in the advice also `held_back` (open, but held back by the twin
     /// check: see [`SuggestionEffect`]).
     pub status: String,

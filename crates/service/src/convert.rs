@@ -319,7 +319,13 @@ pub fn page(
     );
     for (v, &(_, i)) in views.iter_mut().zip(&picked) {
         if v.status == "open" && latest.get(v.setting) != Some(&i) {
-            v.status = "superseded".into();
+            let d = &live.decisions[i];
+            if live.extras.as_ref().is_some_and(|x| !x.shown(d.at)) {
+                v.status = "unseen".into();
+                v.in_force = d.old;
+            } else {
+                v.status = "superseded".into();
+            }
         }
     }
     let list = decisions

@@ -50,7 +50,9 @@ pub struct SuggestionView {
     /// The data it rests on, in plain words.
     pub data: String,
     /// `open`, `accepted`, `rejected`, `overridden`, `superseded` (not
-    /// answered before the next one; taken as followed) or `no_update`.
+    /// answered before the next one; taken as followed), `unseen` (made and
+    /// followed by the next within one import, as history a first import
+    /// brings: never shown, not followed), or `no_update`.
     pub status: String,
     /// The value in force after the answer (or the suggestion if open).
     pub in_force: f64,
@@ -282,6 +284,11 @@ pub fn views_with(
                     ("no_change".to_string(), d.old)
                 }
                 (None, None) if latest.get(key) == Some(&i) => ("open".to_string(), d.new),
+                // Made and followed by the next within one import: never
+                // shown, so not taken as followed (see `Extras::shown`).
+                (None, None) if extras.is_some_and(|x| !x.shown(d.at)) => {
+                    ("unseen".to_string(), d.old)
+                }
                 (None, None) => ("superseded".to_string(), d.new),
             };
             let data = match &d.detail {

@@ -122,9 +122,34 @@ pub struct Extras {
     pub evidence: Evidence,
     /// True when basal updates are not offered (loop or injections, not allowed).
     pub hold_basal: bool,
+    /// An import-fed person: the advisor's time at which each import left
+    /// the log ([`import_ends`]), oldest first. Empty: every suggestion
+    /// counts as shown (an app-fed person sees each as it is made).
+    pub shown_until: Vec<Timestamp>,
 }
 
+/// How long after its decision a suggestion counts as shown when an
+/// import ends there (minutes): the day until the same setting's next
+/// daily update.
+pub const SHOWN_WITHIN_MIN: i64 = 1440;
+
 impl Extras {
+    /// Whether the person could see a suggestion decided at `at` before
+    /// the next update of its setting: an import left the log within a day
+    /// after it (the advice of that import showed it). A suggestion made
+    /// and followed by the next one within one import (the history a
+    /// first import or sync brings) was never shown: it is not taken as
+    /// followed, and the value in force stays what the pump had.
+    pub fn shown(&self, at: Timestamp) -> bool {
+        if self.fed_by_app || self.shown_until.is_empty() {
+            return true;
+        }
+        let first = self.shown_until.partition_point(|b| b.0 < at.0);
+        self.shown_until
+            .get(first)
+            .is_some_and(|b| b.0 < at.0 + SHOWN_WITHIN_MIN)
+    }
+
     /// What the data show.
     pub fn delivery(&self) -> Delivery {
         self.evidence.delivery()
@@ -138,11 +163,20 @@ impl Extras {
             .iter()
             .filter(|c| last.is_some_and(|l| c.at <= l))
             .collect();
+        // The import ends that decide whether a suggestion up to `last`
+        // was shown.
+        let ends: Vec<i64> = self
+            .shown_until
+            .iter()
+            .filter(|b| last.is_some_and(|l| b.0 < l.0 + SHOWN_WITHIN_MIN))
+            .map(|b| b.0)
+            .collect();
         let json = serde_json::to_vec(&(
             upto,
             self.hold_basal,
             self.first_week.end,
             self.first_week.cgm_period_min,
+            ends,
         ))
         .unwrap_or_default();
         format!("{:016x}", abba_io::record::content_hash([json.as_slice()]))
@@ -277,6 +311,7 @@ pub fn app_extras(conn: &dyn Db, person: &Person) -> Result<Option<Extras>, Stor
         },
         evidence: Evidence::default(),
         hold_basal: false,
+        shown_until: Vec::new(),
     }))
 }
 
@@ -503,6 +538,32 @@ pub struct RecordFacts {
     pub evidence: Evidence,
     /// The first week.
     pub first_week: FirstWeek,
+    /// Where each import left the log (see [`Extras::shown_until`]).
+    pub shown_until: Vec<Timestamp>,
+}
+
+/// The advisor's time at which each import left the person's log: the
+/// latest instant any import up to it brought, in import order (`imports`:
+/// each import's latest instant, ms, as [`log::records_and_imports`] reads
+/// them), on the person's clock. A suggestion is shown to the person
+/// only at these times (see [`Extras::shown`]).
+pub fn import_ends(person: &Person, imports: &[(i64, i64)]) -> Vec<Timestamp> {
+    let Some(day1) = person.first_day else {
+        return Vec::new();
+    };
+    let clock = AdvisorClock::new(person.tz.clone(), day1);
+    let mut out: Vec<Timestamp> = Vec::with_capacity(imports.len());
+    let mut latest = i64::MIN;
+    for &(_, ms) in imports {
+        if ms <= latest {
+            continue; // an import of older data leaves the log where it was
+        }
+        latest = ms;
+        if let Ok(at) = jiff::Timestamp::from_millisecond(ms) {
+            out.push(clock.timestamp(at));
+        }
+    }
+    out
 }
 
 /// The facts of an import-fed person's records and their events: the
@@ -511,6 +572,7 @@ pub struct RecordFacts {
 pub fn record_facts(
     person: &Person,
     records: Vec<Record>,
+    imports: &[(i64, i64)],
 ) -> Result<(EventStream, RecordFacts), StoreError> {
     let profile_changes = profile_changes(person, &records)?;
     let evidence = Evidence::from_records(&records, &person.tz);
@@ -526,6 +588,7 @@ pub fn record_facts(
             profile_changes,
             evidence,
             first_week,
+            shown_until: import_ends(person, imports),
         },
     ))
 }
@@ -546,5 +609,6 @@ pub fn extras(conn: &dyn Db, person: &Person, facts: &RecordFacts) -> Result<Ext
         first_week: facts.first_week.clone(),
         evidence,
         hold_basal,
+        shown_until: facts.shown_until.clone(),
     })
 }

@@ -84,16 +84,33 @@ pub fn key(r: &Record) -> Result<(String, String), StoreError> {
 /// same set of records always gives the same list, whatever the order in
 /// which they were imported.
 pub fn records(conn: &dyn Db, person: i64) -> Result<Vec<Record>, StoreError> {
+    records_and_imports(conn, person).map(|(r, _)| r)
+}
+
+/// For each import (in the order made, by id), the latest instant among
+/// the records it brought that are still stored as it brought them (ms
+/// since the epoch).
+pub type ImportEnds = Vec<(i64, i64)>;
+
+/// [`records`], and where each import left them ([`ImportEnds`]).
+pub fn records_and_imports(
+    conn: &dyn Db,
+    person: i64,
+) -> Result<(Vec<Record>, ImportEnds), StoreError> {
     // A scan of the primary key (no per-row index look-ups), each row parsed
     // as it comes (a long log is never held as text too), sorted here. The
     // count sizes the list (a hint: a write in between only regrows it).
     let n = conn.one(Q::RecordCount, args![person])?.int(0)?;
     let mut out = Vec::with_capacity(usize::try_from(n).unwrap_or(0));
+    let mut imports: std::collections::BTreeMap<i64, i64> = Default::default();
     conn.each_row(Q::RecordsOf, args![person], &mut |r| {
+        let at_ms = r.int(2)?;
+        let latest = imports.entry(r.int(4)?).or_insert(at_ms);
+        *latest = (*latest).max(at_ms);
         let source = parse_source(r.str(0)?)?;
         let id: SourceId =
             serde_json::from_str(r.str(1)?).map_err(|e| StoreError::corrupt("record id", e))?;
-        let at = jiff::Timestamp::from_millisecond(r.int(2)?)
+        let at = jiff::Timestamp::from_millisecond(at_ms)
             .map_err(|e| StoreError::corrupt("record instant", e))?;
         let kind: RecordKind =
             serde_json::from_str(r.str(3)?).map_err(|e| StoreError::corrupt("record", e))?;
@@ -127,7 +144,7 @@ pub fn records(conn: &dyn Db, person: i64) -> Result<Vec<Record>, StoreError> {
     for (i, r) in out.iter_mut().enumerate() {
         r.origin.at = OriginAt::Item(u32::try_from(i).unwrap_or(u32::MAX));
     }
-    Ok(out)
+    Ok((out, imports.into_iter().collect()))
 }
 
 /// The advisor's events for `records` (see the module documentation).

@@ -229,6 +229,20 @@ pub fn replay(
                     rate: UnitsPerHour(d.old),
                 };
                 advisor.observe(&Event::new(d.at, EventKind::SuggestionRejected(keep)))?;
+            } else if d.new != d.old && !extras.is_none_or(|x| x.shown(d.at)) {
+                // Never shown (made and followed by the next within one
+                // import, the history a first import brings): not taken as
+                // followed; the value in force stays what the pump had.
+                let keep = match d.parameter {
+                    Parameter::Basal => SettingValue::Basal {
+                        rate: UnitsPerHour(d.old),
+                    },
+                    Parameter::CarbRatio(slot) => SettingValue::CarbRatio {
+                        slot,
+                        ratio: GramsPerUnit(d.old),
+                    },
+                };
+                advisor.observe(&Event::new(d.at, EventKind::SuggestionRejected(keep)))?;
             }
             decisions.push(d);
         }

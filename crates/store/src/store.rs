@@ -211,9 +211,9 @@ pub(crate) fn refresh_with(
                 let last_app = app.last().copied();
                 (app.len(), crate::app::stream(person, &app), None, last_app)
             } else {
-                let recs = log::records(conn, person.id)?;
+                let (recs, imports) = log::records_and_imports(conn, person.id)?;
                 let n = recs.len();
-                let (stream, facts) = in_force::record_facts(person, recs)?;
+                let (stream, facts) = in_force::record_facts(person, recs, &imports)?;
                 (n, stream, Some(Arc::new(facts)), None)
             };
             (records, Arc::new(stream), facts, last_app)

@@ -228,9 +228,20 @@ fn a_five_segment_schedule_is_scaled_by_one_factor_on_the_pumps_step() {
         if new != prev {
             changed += 1;
         }
-        prev = new;
+        // The 14 days came in one import: a suggestion followed by the
+        // next within it was never shown and left the schedule in force.
+        if v.status != "unseen" {
+            prev = new;
+        }
     }
     assert!(changed > 0, "no basal suggestion moved the schedule");
+    assert!(
+        basal[..basal.len() - 1]
+            .iter()
+            .all(|v| v.status == "unseen"),
+        "{:?}",
+        basal.iter().map(|v| &v.status).collect::<Vec<_>>()
+    );
     for v in history
         .iter()
         .filter(|v| v.setting != "basal" && !v.no_update)
@@ -899,5 +910,109 @@ fn a_temporary_profile_running_at_the_end_of_the_data_is_not_the_therapy_in_forc
     assert!(
         back.contains("at the end of the temporary profile") && back.contains("1.2"),
         "{back}"
+    );
+}
+
+/// The exported files cut at the end of day `days` (local): entries and
+/// treatments up to then, the profile whole (an export made that day).
+fn export_until(files: &[PathBuf], dir: &std::path::Path, days: i64) -> Vec<PathBuf> {
+    let end = DAY1_MS + days * 86_400_000;
+    let at = |v: &Value| {
+        v["date"].as_i64().unwrap_or_else(|| {
+            jiff::Timestamp::from_str_opt(v["created_at"].as_str())
+                .map_or(i64::MIN, |t| t.as_millisecond())
+        })
+    };
+    files
+        .iter()
+        .map(|f| {
+            let mut v: Value = serde_json::from_slice(&std::fs::read(f).unwrap()).unwrap();
+            let name = f.file_name().unwrap().to_str().unwrap();
+            if name != "profile.json" {
+                let items = v.as_array_mut().unwrap();
+                items.retain(|x| at(x) < end);
+            }
+            let p = dir.join(format!("d{days}-{name}"));
+            std::fs::write(&p, serde_json::to_vec(&v).unwrap()).unwrap();
+            p
+        })
+        .collect()
+}
+
+trait FromStrOpt {
+    fn from_str_opt(s: Option<&str>) -> Option<jiff::Timestamp>;
+}
+
+impl FromStrOpt for jiff::Timestamp {
+    fn from_str_opt(s: Option<&str>) -> Option<jiff::Timestamp> {
+        s.and_then(|s| s.parse().ok())
+    }
+}
+
+/// Two weeks of history in one import (a person's first export, or a
+/// first sync): the suggestions made on it and followed by the next within
+/// it were never shown, so none is taken as followed and the values in
+/// force stay the pump's profile; the same days imported day by day show
+/// each suggestion, and one nobody answered is taken as followed.
+#[test]
+fn suggestions_made_on_the_history_of_one_import_are_not_taken_as_followed() {
+    let plan = Plan {
+        days: 16,
+        level: 190.0,
+        ..Plan::default()
+    };
+    let (dir, mut store, files) = setup("history-once", &plan);
+    let a = store.advise("ana").unwrap();
+    let history = store.history("ana").unwrap();
+    let moved: Vec<_> = history
+        .iter()
+        .filter(|v| !v.no_update && v.suggested != v.previous)
+        .collect();
+    assert!(moved.len() > 4, "the high days must ask for more insulin");
+    for key in ["basal", "breakfast", "lunch", "dinner"] {
+        // The setting's last decision is the one the import showed.
+        let last = history.iter().rfind(|v| v.setting == key).unwrap();
+        for v in moved
+            .iter()
+            .filter(|v| v.setting == key && v.decided_at != last.decided_at)
+        {
+            assert_eq!(v.status, "unseen", "{key} at {}", v.decided_at);
+            assert_eq!(v.in_force, v.previous, "{key}");
+        }
+    }
+    // In force: the profile's 1.0 U/h and 10 g/U; each open suggestion
+    // one step (at most 5 %) from them.
+    for s in &a.settings {
+        let profile = if s.setting == "basal" { 1.0 } else { 10.0 };
+        assert!(
+            (s.in_force - profile).abs() < 1e-9,
+            "{}: {}",
+            s.setting,
+            s.in_force
+        );
+    }
+    // Day by day: every suggestion was the latest after some import.
+    let mut daily = dir.store();
+    let mut p = person_from(&files, "ben");
+    p.first_day = None;
+    daily.create_person(&p).unwrap();
+    for day in 1..=plan.days {
+        let cut = export_until(&files, &dir.0, day);
+        daily
+            .import_files_with("ben", &cut, None, ProfileResolution::Keep, None)
+            .unwrap();
+    }
+    let h = daily.history("ben").unwrap();
+    assert!(
+        h.iter().all(|v| v.status != "unseen"),
+        "daily imports show every suggestion"
+    );
+    assert!(h.iter().any(|v| v.status == "superseded"));
+    let b = daily.advise("ben").unwrap();
+    assert!(
+        b.settings
+            .iter()
+            .any(|s| (s.in_force - if s.setting == "basal" { 1.0 } else { 10.0 }).abs() > 1e-9),
+        "unanswered suggestions shown day by day are taken as followed"
     );
 }

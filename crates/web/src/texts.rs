@@ -94,6 +94,9 @@ pub struct Texts {
     pub answered_replaced: &'static str,
     /// Not answered before the next one, taken as followed ({value}).
     pub answered_superseded: &'static str,
+    /// Made on past data and followed by the next within one import: never
+    /// shown, not followed ({value}).
+    pub answered_unseen: &'static str,
     /// No decision yet.
     pub no_decision: &'static str,
     /// A suggestion's predicted effect ({revision}, {grade}, {days},
@@ -284,6 +287,8 @@ pub struct Texts {
     pub status_overridden_word: &'static str,
     /// Not answered before the next suggestion.
     pub status_superseded_word: &'static str,
+    /// Never shown (history of one import).
+    pub status_unseen_word: &'static str,
     /// No change.
     pub status_no_update_word: &'static str,
     /// The report without data.
@@ -335,6 +340,7 @@ pub const EN: Texts = Texts {
     not_offered: "No basal rate is suggested for how your insulin is delivered (see your clinician).",
     answered_replaced: "Replaced by your clinician's change of settings: {value} is in force.",
     answered_superseded: "Not answered before the next suggestion (taken as followed): {value} is in force.",
+    answered_unseen: "Made on past data that came in one import with later data, so never shown and not followed: {value} stayed in force.",
     no_decision: "No suggestion yet.",
     effect_predicted: "Predicted on your twin (revision {revision}, {grade}) over the last {days} days: time in range (70-180 mg/dL) {tir_new} with the suggestion, {tir_now} as now ({tir_change}); time below 70 mg/dL {low_new} with it, {low_now} as now ({low_change}). A twin's prediction is not medical advice.",
     twin_check_held_back: "Held back by the twin check: your twin predicts time below 70 mg/dL rising by {rise} points, more than the {margin}-point margin. Keep {value} today and talk it over with your clinician.",
@@ -429,6 +435,7 @@ pub const EN: Texts = Texts {
     status_rejected_word: "kept the previous value",
     status_overridden_word: "own value",
     status_superseded_word: "not answered before the next one (taken as followed)",
+    status_unseen_word: "never shown (past data of one import; not followed)",
     status_no_update_word: "no change",
     report_no_data: "There is nothing to report yet: the report needs at least one day of data.",
 };

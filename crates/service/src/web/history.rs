@@ -74,6 +74,7 @@ fn answer(v: &SuggestionView) -> &'static str {
         "rejected" => EN.status_rejected_word,
         "overridden" => EN.status_overridden_word,
         "superseded" => EN.status_superseded_word,
+        "unseen" => EN.status_unseen_word,
         _ => EN.status_no_update_word,
     }
 }

@@ -138,6 +138,7 @@ pub fn card(
         "overridden" => Some(EN.answered_overridden),
         "replaced" => Some(EN.answered_replaced),
         "superseded" => Some(EN.answered_superseded),
+        "unseen" => Some(EN.answered_unseen),
         _ => None,
     }
     .map(|t| fill(t, &[("value", &with_unit(p, v.in_force))]));

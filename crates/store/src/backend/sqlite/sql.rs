@@ -162,7 +162,7 @@ statements! {
     /// Record delete.
     RecordDelete = "DELETE FROM record WHERE person_id = ?1 AND source = ?2 AND source_id = ?3";
     /// A scan of the primary key (no per-row index look-ups), sorted by the caller.
-    RecordsOf = "SELECT source, source_id, at_ms, kind FROM record WHERE person_id = ?1";
+    RecordsOf = "SELECT source, source_id, at_ms, kind, import_id FROM record WHERE person_id = ?1";
     // person
     /// Person names folded.
     PersonNamesFolded = "SELECT name FROM person WHERE lower(name) = ?1";

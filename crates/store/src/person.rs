@@ -428,6 +428,16 @@ pub fn create(conn: &dyn Db, p: &NewPerson) -> Result<i64, StoreError> {
             format!("\"{}\" is not a known IANA zone ({e})", p.tz),
         )
     })?;
+    // tzdata's "Factory" is the zone of a machine not yet set up (local
+    // time unknown), never a person's.
+    if p.tz.trim().eq_ignore_ascii_case("factory") {
+        return Err(StoreError::invalid(
+            "--tz",
+            "\"Factory\" is tzdata's zone for a machine whose zone is not set, not a place: give the person's zone, for example Europe/Zurich",
+        ));
+    }
+    // Stored as the database spells it ("europe/zurich" is Europe/Zurich).
+    let zone_name = tz.iana_name().unwrap_or(p.tz.as_str()).to_string();
     if let Some(day) = p.first_day {
         check_first_day(day, &tz, jiff::Timestamp::now())
             .map_err(|m| StoreError::invalid("--first-day", m))?;
@@ -466,7 +476,7 @@ pub fn create(conn: &dyn Db, p: &NewPerson) -> Result<i64, StoreError> {
         Q::PersonPut,
         args![
             &name,
-            &p.tz,
+            &zone_name,
             mode_name(s.advisor.mode),
             p.first_day.map(|d| d.to_string()),
             doc,

@@ -373,3 +373,22 @@ fn an_import_of_a_closed_loops_files_says_abba_holds_the_basal() {
         "{lines}"
     );
 }
+
+/// A zone is stored as tzdata spells it, and tzdata's "Factory" (a
+/// machine whose zone is not set) is no person's zone.
+#[test]
+fn a_zone_is_stored_as_tzdata_spells_it_and_factory_is_refused() {
+    let dir = TempDir::new("zones");
+    let mut store = dir.store();
+    let mut p = person("ana");
+    p.tz = "europe/zurich".into();
+    store.create_person(&p).unwrap();
+    assert_eq!(
+        store.person("ana").unwrap().tz.iana_name(),
+        Some("Europe/Zurich")
+    );
+    let mut f = person("ben");
+    f.tz = "Factory".into();
+    let e = store.create_person(&f).unwrap_err().to_string();
+    assert!(e.contains("Factory") && e.contains("--tz"), "{e}");
+}

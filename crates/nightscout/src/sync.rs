@@ -88,6 +88,10 @@ pub struct CollectionReport {
     pub own: usize,
     /// Treatments without a `created_at` string, found by `_id`.
     pub without_created_at: usize,
+    /// Documents dated before the window read again that were inserted
+    /// or changed since (uploaded late): found by their ObjectId's time,
+    /// or named by API v3's history.
+    pub late: usize,
 }
 
 /// What a check of a site found.
@@ -221,51 +225,24 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
     let mut gone = Vec::new();
     let mut unproven = Vec::new();
     let mut fetched_pages = Vec::new();
-    for c in [Collection::Entries, Collection::Treatments] {
-        let mark = marks.get(c.name()).copied();
-        // Always a lower bound: without one, Nightscout answers only the
-        // last 4 days (`deltaAgo` in `lib/server/query.js`).
-        let since = Some(mark.map_or(0, |m| m.saturating_sub(opts.overlap_ms)));
-        let pages = fetch::fetch_since(&client, c, since, opts.page)?;
-        fetched_pages.push((c, mark, since, pages));
-    }
+    // API v3 first: what changed since the last sync, so the v1 reads
+    // reach back to the earliest valid document changed (one uploaded or
+    // edited long after its time, which the window alone would miss).
+    // What was deleted since (a first sync starts from the site's
+    // lastModified: what it fetched is what is valid), and the treatments
+    // without `created_at` changed since, which the `_id` probe reaches
+    // only when they were inserted lately.
+    // (The profiles first: the first call exchanges a token for the JWT
+    // that API v3 takes.)
     let profiles = fetch::profiles(&client, opts.page)?;
-    // API v3: what was deleted since the last sync (a first sync starts
-    // from the site's lastModified: what it fetched is what is valid),
-    // and the treatments without `created_at` changed since, which the
-    // `_id` probe reaches only when they were inserted lately.
     let v3 = client.has_jwt() && fetch::has_v3(&client);
+    let mut histories: Vec<(&str, fetch::History)> = Vec::new();
     if v3 {
         let last = fetch::v3_last_modified(&client)?;
         for col in ["entries", "treatments", "profile"] {
             let key = format!("v3:{col}");
             match marks.get(&key) {
-                Some(&m) => {
-                    let h = fetch::v3_history(&client, col, m, opts.page)?;
-                    let c = match col {
-                        "entries" => Some(Collection::Entries),
-                        "treatments" => Some(Collection::Treatments),
-                        _ => None,
-                    };
-                    for identifier in h.deleted {
-                        match c {
-                            // v3 keys by `identifier`, the import by `_id`.
-                            Some(c) => fetched.deleted.extend(fetch::ids_of_identifier(
-                                &client,
-                                c,
-                                &identifier,
-                            )?),
-                            None => fetched.deleted.push(identifier),
-                        }
-                    }
-                    if let Some((c, _, _, pages)) = fetched_pages
-                        .iter_mut()
-                        .find(|(c, ..)| *c == Collection::Treatments && col == "treatments")
-                    {
-                        changed_without_created_at(&client, *c, pages, &h.without_created_at)?;
-                    }
-                    fetched.marks.insert(key, h.mark);
-                }
+                Some(&m) => histories.push((col, fetch::v3_history(&client, col, m, opts.page)?)),
                 None => {
                     fetched
                         .marks
@@ -273,6 +250,57 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
                 }
             }
         }
+    }
+    for c in [Collection::Entries, Collection::Treatments] {
+        let mark = marks.get(c.name()).copied();
+        // Always a lower bound: without one, Nightscout answers only the
+        // last 4 days (`deltaAgo` in `lib/server/query.js`).
+        let window = mark.map_or(0, |m| m.saturating_sub(opts.overlap_ms));
+        let changed: Vec<i64> = histories
+            .iter()
+            .filter(|(col, _)| *col == c.name())
+            .flat_map(|(_, h)| h.times.iter().copied())
+            .collect();
+        // A treatment's `created_at` with an offset is compared as its
+        // string: the bound goes as far below as an offset may read.
+        let slack = match c {
+            Collection::Entries => 0,
+            Collection::Treatments => fetch::OFFSET_SLACK_MS,
+        };
+        let since = changed
+            .iter()
+            .map(|t| t.saturating_sub(slack).max(0))
+            .min()
+            .map_or(window, |e| e.min(window));
+        let mut pages = fetch::fetch_since(&client, c, Some(since), opts.page)?;
+        pages.late += changed.iter().filter(|&&t| t < window).count();
+        fetched_pages.push((c, mark, Some(since), pages));
+    }
+    for (col, h) in histories {
+        let key = format!("v3:{col}");
+        let c = match col {
+            "entries" => Some(Collection::Entries),
+            "treatments" => Some(Collection::Treatments),
+            _ => None,
+        };
+        for identifier in h.deleted {
+            match c {
+                // v3 keys by `identifier`, the import by `_id`.
+                Some(c) => {
+                    fetched
+                        .deleted
+                        .extend(fetch::ids_of_identifier(&client, c, &identifier)?)
+                }
+                None => fetched.deleted.push(identifier),
+            }
+        }
+        if let Some((c, _, _, pages)) = fetched_pages
+            .iter_mut()
+            .find(|(c, ..)| *c == Collection::Treatments && col == "treatments")
+        {
+            changed_without_created_at(&client, *c, pages, &h.without_created_at)?;
+        }
+        fetched.marks.insert(key, h.mark);
     }
     for (c, mark, since, mut pages) in fetched_pages {
         gone.extend(gone_from(store, &link.person, &client, c, since, &pages)?);
@@ -287,6 +315,7 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
             pages: pages.pages,
             own,
             without_created_at: pages.without_created_at,
+            late: pages.late,
         });
         unproven.append(&mut pages.unproven);
         // The mark: the newest document that is not in the future (those
@@ -329,6 +358,7 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
         pages: 1,
         own: 0,
         without_created_at: 0,
+        late: 0,
     });
     if !profiles.is_empty() {
         let docs: Vec<&Value> = profiles.iter().collect();

@@ -272,7 +272,11 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
             .map(|t| t.saturating_sub(slack).max(0))
             .min()
             .map_or(window, |e| e.min(window));
-        let mut pages = fetch::fetch_since(&client, c, Some(since), opts.page)?;
+        // Read from that much earlier still, so every document whose time
+        // is in the window is served whatever offset its string carries,
+        // and the whole window can be compared with the store (`gone`).
+        let read_from = since.saturating_sub(slack).max(0);
+        let mut pages = fetch::fetch_since(&client, c, Some(read_from), opts.page)?;
         pages.late += changed.iter().filter(|&&t| t < window).count();
         fetched_pages.push((c, mark, Some(since), pages));
     }
@@ -429,9 +433,9 @@ fn changed_without_created_at(
 /// The documents of `c` whose records the store holds from this site in
 /// the window just read again (from `since`) but which the site no
 /// longer serves: deleted through API v1, which removes a document and
-/// leaves nothing to sync. Treatments are compared from 14 hours into the
-/// window: a `created_at` written with an offset is compared by its
-/// string and may fall outside the window's bound near its start.
+/// leaves nothing to sync. The whole window is compared: treatments are
+/// read from 14 hours before it (a `created_at` written with an offset is
+/// compared by its string, which may read up to that much earlier).
 fn gone_from(
     store: &Store,
     person: &str,
@@ -440,11 +444,7 @@ fn gone_from(
     since: Option<i64>,
     pages: &fetch::Pages,
 ) -> Result<Vec<String>, NsError> {
-    let from = match (c, since) {
-        (_, None) => i64::MIN,
-        (Collection::Entries, Some(s)) => s,
-        (Collection::Treatments, Some(s)) => s.saturating_add(14 * 3_600_000 + 1000),
-    };
+    let from = since.unwrap_or(i64::MIN);
     let served: std::collections::HashSet<String> = pages
         .docs
         .iter()

@@ -201,12 +201,16 @@ impl Client {
                 .agent
                 .get(&url)
                 .header("Accept", "application/json")
+                .header("Accept-Encoding", "identity")
                 .call();
             match r {
                 Ok(mut resp) => {
                     let status = resp.status().as_u16();
                     match status {
                         200 => {
+                            if let Some(enc) = foreign_encoding(&resp) {
+                                return Err(self.protocol(&call, not_identity(&enc)));
+                            }
                             let text = resp
                                 .body_mut()
                                 .with_config()
@@ -310,6 +314,9 @@ impl Client {
         let status = resp.status().as_u16();
         match status {
             200..=299 => {
+                if let Some(enc) = foreign_encoding(&resp) {
+                    return Err(self.protocol(call, not_identity(&enc)));
+                }
                 let text = match resp
                     .body_mut()
                     .with_config()
@@ -401,7 +408,9 @@ impl Client {
         bearer: Option<&str>,
         pairs: &[(&str, String)],
     ) -> ureq::RequestBuilder<B> {
-        let rb = rb.header("Accept", "application/json");
+        let rb = rb
+            .header("Accept", "application/json")
+            .header("Accept-Encoding", "identity");
         let rb = match (&self.credential, bearer) {
             (_, Some(j)) => rb.header("Authorization", format!("Bearer {j}")),
             (Credential::ApiSecretSha1(h), None) => rb.header("api-secret", h),
@@ -409,6 +418,28 @@ impl Client {
         };
         pairs.iter().fold(rb, |rb, (k, v)| rb.query(*k, v))
     }
+}
+
+/// The answer's `Content-Encoding` when it is not `identity` (abba asks
+/// for `identity` only and reads no other).
+fn foreign_encoding(resp: &ureq::http::Response<ureq::Body>) -> Option<String> {
+    let enc = resp
+        .headers()
+        .get_all("content-encoding")
+        .iter()
+        .map(|v| String::from_utf8_lossy(v.as_bytes()).trim().to_string())
+        .filter(|v| !v.is_empty() && !v.eq_ignore_ascii_case("identity"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    (!enc.is_empty()).then_some(enc)
+}
+
+fn not_identity(enc: &str) -> String {
+    format!(
+        "the site answered with Content-Encoding: {enc}, which abba did not ask for \
+         (it sends Accept-Encoding: identity) and does not read; a proxy in front of \
+         Nightscout that compresses every answer does this: it should honour Accept-Encoding"
+    )
 }
 
 /// Retry-After in seconds (an HTTP date is not waited for: the backoff).

@@ -346,3 +346,29 @@ fn late_uploads_come_in_by_their_object_id_on_a_v1_only_link() {
 fn late_uploads_come_in_by_api_v3_history() {
     late_uploads_come_in(true);
 }
+
+/// A proxy that compresses whatever the client asked for: the link is
+/// refused at once, naming the encoding (not after 5 tries as a body that
+/// is "not valid UTF-8").
+#[test]
+fn a_compressed_answer_nobody_asked_for_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = data(1);
+    let files = export(dir.path(), &d);
+    let srv = server(&d, 1000);
+    let (_, mut store) = store_with_person(dir.path(), "gz.db", &files);
+    srv.with(|s| {
+        s.faults = vec![Fault {
+            path: "status".into(),
+            kind: FaultKind::Gzip,
+            times: 10,
+        }];
+        s.log.clear();
+    });
+    let e = link(&mut store, "ana", &srv.url, secret(), false, &fast_client()).unwrap_err();
+    let text = e.to_string();
+    assert!(matches!(e, NsError::Protocol { .. }), "{text}");
+    assert!(text.contains("Content-Encoding: gzip"), "{text}");
+    assert_eq!(srv.with(|s| s.log.len()), 1, "not retried");
+    assert!(store.link("ana").unwrap().is_none());
+}

@@ -15,7 +15,7 @@
 //!   `limit` at most 1,000, ascending `srvModified`, deleted documents with
 //!   `isValid: false`);
 //! - injected faults: a status (401, 500, 429 with Retry-After), a
-//!   connection cut mid-page, a slow answer.
+//!   connection cut mid-page, a slow answer, a gzip answer nobody asked for.
 //!
 //! Filters and sorts act on the stored values as MongoDB's do on a real
 //! site (`lib/server/query.js`, `lib/server/treatments.js`,
@@ -114,6 +114,9 @@ pub enum FaultKind {
     Cut,
     /// Wait this long before answering.
     Slow(Duration),
+    /// Answer gzip-compressed (`Content-Encoding: gzip`) whatever the
+    /// client asked for, as a misconfigured proxy does.
+    Gzip,
 }
 
 /// The SHA-1 hex Nightscout compares the `api-secret` header with.
@@ -373,8 +376,45 @@ async fn answer(kind: Option<FaultKind>, status: StatusCode, body: Value) -> Res
             tokio::time::sleep(d).await;
             (status, axum::Json(body)).into_response()
         }
+        Some(FaultKind::Gzip) => Response::builder()
+            .status(status)
+            .header("content-type", "application/json")
+            .header("content-encoding", "gzip")
+            .body(Body::from(gzip_stored(body.to_string().as_bytes())))
+            .unwrap_or_default(),
         None => (status, axum::Json(body)).into_response(),
     }
+}
+
+/// `data` as a gzip stream of stored (uncompressed) deflate blocks.
+fn gzip_stored(data: &[u8]) -> Vec<u8> {
+    let mut out = vec![0x1f, 0x8b, 8, 0, 0, 0, 0, 0, 0, 255];
+    let chunks: Vec<&[u8]> = if data.is_empty() {
+        vec![&[]]
+    } else {
+        data.chunks(65_535).collect()
+    };
+    for (i, c) in chunks.iter().enumerate() {
+        out.push(u8::from(i + 1 == chunks.len()));
+        let len = c.len() as u16;
+        out.extend_from_slice(&len.to_le_bytes());
+        out.extend_from_slice(&(!len).to_le_bytes());
+        out.extend_from_slice(c);
+    }
+    let mut crc = !0u32;
+    for &b in data {
+        crc ^= u32::from(b);
+        for _ in 0..8 {
+            crc = if crc & 1 == 1 {
+                (crc >> 1) ^ 0xedb8_8320
+            } else {
+                crc >> 1
+            };
+        }
+    }
+    out.extend_from_slice(&(!crc).to_le_bytes());
+    out.extend_from_slice(&(data.len() as u32).to_le_bytes());
+    out
 }
 
 fn ms_of(v: &Value, field: &str) -> Option<i64> {

@@ -105,6 +105,9 @@ pub struct Check {
     pub v3: bool,
     /// The newest entry's time, if any (the read).
     pub newest_entry: Option<String>,
+    /// With `--write-back`: why the right to write could not be checked
+    /// (`None`: checked, or not asked).
+    pub write_unverified: Option<String>,
 }
 
 /// A client of the person's link.
@@ -152,10 +155,75 @@ pub fn check_link(client: &Client) -> Result<Check, NsError> {
         // gets the token in the query, which v3 refuses).
         v3: client.has_jwt() && fetch::has_v3(client),
         newest_entry,
+        write_unverified: None,
     })
 }
 
-/// Checks the site and stores the link for `person`.
+/// What the write-back writes, as Nightscout's permissions name it: Notes
+/// created and updated, the profile document updated.
+pub const WRITE_PERMISSIONS: [(&str, &str); 3] = [
+    ("api:treatments:create", "create treatments"),
+    ("api:treatments:update", "update treatments"),
+    ("api:profile:update", "update the profile"),
+];
+
+/// Whether the link's credential may write what the write-back writes:
+/// `Ok(None)` yes; `Ok(Some(why))` it could not be told (said, not
+/// refused); an error when it may not. The API secret may do everything;
+/// an access token's permissions are those its exchange named, else asked
+/// of `/api/v2/authorization/debug/check/<permission>`.
+pub fn check_write(client: &Client) -> Result<Option<String>, NsError> {
+    if !client.has_token() {
+        return Ok(None);
+    }
+    let mut missing = Vec::new();
+    let mut unknown = Vec::new();
+    match client.grants() {
+        Some(grants) => {
+            for (p, what) in WRITE_PERMISSIONS {
+                if !grants.iter().any(|g| crate::client::permits(g, p)) {
+                    missing.push((p, what));
+                }
+            }
+        }
+        None => {
+            for (p, what) in WRITE_PERMISSIONS {
+                match client.get(&format!("/api/v2/authorization/debug/check/{p}"), &[]) {
+                    Ok(_) => {}
+                    Err(NsError::Unauthorized { .. })
+                    | Err(NsError::Status {
+                        status: 401 | 403, ..
+                    }) => missing.push((p, what)),
+                    Err(_) => unknown.push(p),
+                }
+            }
+        }
+    }
+    if !missing.is_empty() {
+        return Err(NsError::CannotWrite {
+            site: client.site().to_string(),
+            what: missing
+                .iter()
+                .map(|(_, w)| *w)
+                .collect::<Vec<_>>()
+                .join(", "),
+            missing: missing
+                .iter()
+                .map(|(p, _)| *p)
+                .collect::<Vec<_>>()
+                .join(", "),
+        });
+    }
+    Ok((!unknown.is_empty()).then(|| {
+        format!(
+            "the site did not say whether the access token may write ({}): the first write-back will tell",
+            unknown.join(", ")
+        )
+    }))
+}
+
+/// Checks the site and stores the link for `person` (with `write_back`,
+/// only when the credential may write what it writes).
 pub fn link(
     store: &mut Store,
     person: &str,
@@ -168,7 +236,10 @@ pub fn link(
     store.person(person)?;
     let site = SiteUrl::parse(url)?;
     let client = Client::new(site.clone(), credential.clone(), opts.clone());
-    let check = check_link(&client)?;
+    let mut check = check_link(&client)?;
+    if write_back {
+        check.write_unverified = check_write(&client)?;
+    }
     let link = store.set_link(person, site.as_str(), &credential, write_back)?;
     Ok((link, check))
 }

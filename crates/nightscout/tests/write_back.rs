@@ -128,14 +128,70 @@ fn one_note_per_suggestion_and_a_profile_beside_the_default() {
 }
 
 #[test]
-fn a_reader_token_cannot_write_back_and_says_why() {
+fn a_token_that_may_not_write_is_refused_at_link_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = data(1);
+    let files = export(dir.path(), &d);
+    let srv = server(&d, 1000);
+    let (_, mut store) = store_with_person(dir.path(), "ro.db", &files);
+    for grants_in_exchange in [true, false] {
+        srv.with(|s| s.grants_in_exchange = grants_in_exchange);
+        // Readable only; careportal may create treatments but not update
+        // them or the profile.
+        for (token, missing) in [
+            ("reader-0123456789abcdef", "api:treatments:create"),
+            ("care-0123456789abcdef", "api:treatments:update"),
+        ] {
+            let cred = credential(Some(token), None).unwrap();
+            let e = link(
+                &mut store,
+                "ana",
+                &srv.url,
+                cred.clone(),
+                true,
+                &fast_client(),
+            )
+            .unwrap_err();
+            let text = e.to_string();
+            assert!(
+                matches!(e, abba_nightscout::NsError::CannotWrite { .. }),
+                "{text}"
+            );
+            assert!(
+                text.contains(missing) && text.contains("--write-back") && !text.contains(token),
+                "{text}"
+            );
+            assert!(store.link("ana").unwrap().is_none(), "not stored");
+            // Without write-back the same token links.
+            link(&mut store, "ana", &srv.url, cred, false, &fast_client()).unwrap();
+            assert!(store.remove_link("ana").unwrap());
+        }
+        // An admin token may.
+        let admin = credential(Some("admin-0123456789abcdef"), None).unwrap();
+        let (_, check) = link(&mut store, "ana", &srv.url, admin, true, &fast_client()).unwrap();
+        assert_eq!(check.write_unverified, None);
+        assert!(store.remove_link("ana").unwrap());
+    }
+    // A site that tells neither way: linked, and said.
+    srv.with(|s| {
+        s.grants_in_exchange = false;
+        s.v2_auth = false;
+    });
+    let reader = credential(Some("reader-0123456789abcdef"), None).unwrap();
+    let (_, check) = link(&mut store, "ana", &srv.url, reader, true, &fast_client()).unwrap();
+    assert!(check.write_unverified.is_some(), "{check:?}");
+}
+
+#[test]
+fn a_token_whose_rights_were_taken_away_fails_the_write_back_and_says_why() {
     let dir = tempfile::tempdir().unwrap();
     let d = data(5);
     let files = export(dir.path(), &d);
     let srv = server(&d, 1000);
     let (_, mut store) = store_with_person(dir.path(), "ro.db", &files);
     let token = credential(Some("reader-0123456789abcdef"), None).unwrap();
-    link(&mut store, "ana", &srv.url, token, true, &fast_client()).unwrap();
+    // (Stored directly: linking would refuse it.)
+    store.set_link("ana", &srv.url, &token, true).unwrap();
     let e = sync(&mut store, "ana", &sync_opts()).unwrap_err();
     let text = e.to_string();
     assert!(

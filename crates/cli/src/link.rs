@@ -143,6 +143,7 @@ fn nightscout(n: NightscoutArgs) -> Result<()> {
         version,
         v3,
         newest_entry,
+        write_unverified,
     } = check;
     println!(
         "Linked {} to {} ({name} {version}; API v3 {}), with {}{}.",
@@ -159,6 +160,9 @@ fn nightscout(n: NightscoutArgs) -> Result<()> {
             ""
         }
     );
+    if let Some(why) = write_unverified {
+        println!("Write-back not checked: {why}.");
+    }
     match newest_entry {
         Some(t) => println!(
             "The newest entry there: {t}. Run `abba sync --db {} --person {}`.",
@@ -239,6 +243,7 @@ pub fn sync(a: SyncArgs) -> Result<()> {
         ..SyncOptions::default()
     };
     let mut failed = Vec::new();
+    let mut write_back_failed = Vec::new();
     for p in &persons {
         match abba_nightscout::sync(&mut store, p, &opts) {
             Ok(r) => {
@@ -288,17 +293,32 @@ pub fn sync(a: SyncArgs) -> Result<()> {
                 }
                 print!("{}", advice_text(&store.advise(p)?));
             }
+            // The records of this sync are in; only writing back failed.
+            Err(e @ abba_nightscout::NsError::WriteBack(_)) => {
+                eprintln!("{p}: {e}");
+                write_back_failed.push(p.clone());
+            }
             Err(e) => {
                 eprintln!("{p}: the sync failed: {e}");
                 failed.push(p.clone());
             }
         }
     }
-    if !failed.is_empty() {
-        bail!(
-            "the sync failed for {}; the store holds what earlier syncs brought",
-            failed.join(", ")
-        );
+    if !failed.is_empty() || !write_back_failed.is_empty() {
+        let mut parts = Vec::new();
+        if !failed.is_empty() {
+            parts.push(format!(
+                "the sync failed for {}; the store holds what earlier syncs brought",
+                failed.join(", ")
+            ));
+        }
+        if !write_back_failed.is_empty() {
+            parts.push(format!(
+                "writing back failed for {}; this sync's records are in the store",
+                write_back_failed.join(", ")
+            ));
+        }
+        bail!("{}", parts.join("; "));
     }
     Ok(())
 }

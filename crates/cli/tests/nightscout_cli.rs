@@ -119,6 +119,60 @@ fn link_list_and_sync_show_no_credential_and_the_store_is_owner_only() {
     assert!(!err.contains("not-the-right-secret"), "{err}");
 }
 
+/// A read-only token with `--write-back` is refused at link time, naming
+/// what it may not do; a write-back that fails later says this sync's
+/// records are in, not that the store holds only earlier syncs'.
+#[test]
+fn write_back_without_the_right_to_write_is_said_plainly() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = data(1);
+    let files = export(dir.path(), &d);
+    let srv = server(&d, 1000);
+    let (db, store) = store_with_person(dir.path(), "ro.db", &files);
+    drop(store);
+    let mut child = abba()
+        .args(["link", "nightscout", "--db"])
+        .arg(&db)
+        .args([
+            "--person",
+            "ana",
+            "--url",
+            &srv.url,
+            "--token",
+            "-",
+            "--write-back",
+        ])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    writeln!(child.stdin.take().unwrap(), "reader-0123456789abcdef").unwrap();
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        err.contains("may not create treatments") && err.contains("--write-back"),
+        "{err}"
+    );
+    let mut store = abba_store::Store::open(&db).unwrap();
+    assert!(store.link("ana").unwrap().is_none());
+    // Stored directly (as a token whose rights were taken away later).
+    let token = abba_nightscout::site::credential(Some("reader-0123456789abcdef"), None).unwrap();
+    store.set_link("ana", &srv.url, &token, true).unwrap();
+    drop(store);
+    let sync = sync_cli(&db).output().unwrap();
+    let err = String::from_utf8_lossy(&sync.stderr);
+    assert!(!sync.status.success());
+    assert!(
+        err.contains("writing back failed for ana; this sync's records are in the store")
+            && !err.contains("earlier syncs"),
+        "{err}"
+    );
+    let store = abba_store::Store::open(&db).unwrap();
+    assert!(!store.records("ana").unwrap().is_empty());
+}
+
 #[test]
 fn sync_says_what_it_cannot_prove_complete() {
     // 2,500 treatments at one `created_at` on a server serving 1,000 a

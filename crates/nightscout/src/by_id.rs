@@ -83,7 +83,7 @@ pub(crate) fn range(
         ),
         None => format!("{} with {field} from {}", c.name(), from.query()),
     };
-    paged(client, c, &filter, &object_id_at(0), page, &what, col).map(|_| ())
+    paged(client, c, &filter, &object_id_at(0), true, page, &what, col).map(|_| ())
 }
 
 /// The treatments without a `created_at` string: those with an ObjectId
@@ -103,6 +103,7 @@ pub(crate) fn without_created_at(
         Collection::Treatments,
         &filter,
         &object_id_at(since_ms),
+        true,
         page,
         "treatments without a created_at string",
         col,
@@ -111,24 +112,71 @@ pub(crate) fn without_created_at(
     Ok(())
 }
 
+/// The documents of `c` inserted since `since_ms` (an ObjectId made at
+/// or after it) but dated before it: uploaded late (an uploader catching
+/// up after days offline, a meal entered afterwards in Careportal), so
+/// outside the window paging by time reads again. Treatments are asked
+/// with `created_at` below the window's start plus the widest offset a
+/// string may carry (compared verbatim: the query names `_id`); those
+/// already read by time come again and are kept once. Only ObjectIds: a
+/// string `_id` (Loop's UUIDs) tells nothing of when it was inserted.
+/// Returns how many documents were new to this fetch.
+pub(crate) fn inserted_since(
+    client: &Client,
+    c: Collection,
+    since_ms: i64,
+    page: usize,
+    col: &mut Collector,
+) -> Result<usize, NsError> {
+    let before = match c {
+        Collection::Entries => since_ms.to_string(),
+        Collection::Treatments => {
+            crate::fetch::iso_ms(since_ms.saturating_add(crate::fetch::OFFSET_SLACK_MS))
+        }
+    };
+    let field = c.field();
+    let filter = vec![(format!("find[{field}][$lt]"), before.clone())];
+    let what = format!(
+        "{} inserted since {} with {field} before {before}",
+        c.name(),
+        crate::fetch::iso_ms(since_ms)
+    );
+    paged(
+        client,
+        c,
+        &filter,
+        &object_id_at(since_ms),
+        false,
+        page,
+        &what,
+        col,
+    )
+}
+
 /// Which run of `_id`s a page belongs to, and the last `_id` read in it.
 enum Run {
     Strings(Option<String>),
     ObjectIds(Option<String>),
 }
 
-/// Pages `filter` by `_id` ascending: the string `_id`s, then the
-/// ObjectIds from `from_oid`. Returns how many documents were new.
+/// Pages `filter` by `_id` ascending: the string `_id`s (when `strings`),
+/// then the ObjectIds from `from_oid`. Returns how many documents were new.
+#[allow(clippy::too_many_arguments)]
 fn paged(
     client: &Client,
     c: Collection,
     filter: &[(String, String)],
     from_oid: &str,
+    strings: bool,
     page: usize,
     what: &str,
     col: &mut Collector,
 ) -> Result<usize, NsError> {
-    let mut run = Run::Strings(None);
+    let mut run = if strings {
+        Run::Strings(None)
+    } else {
+        Run::ObjectIds(None)
+    };
     let mut pages = 0;
     let mut fresh = 0;
     let call = format!("GET {}", c.path());

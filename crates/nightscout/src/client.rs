@@ -50,6 +50,9 @@ pub struct Client {
     /// The JWT for an access token (`None`: not asked yet); `Some(None)`:
     /// the site has no `/api/v2/authorization` (the token goes as `?token=`).
     jwt: Mutex<Option<Option<String>>>,
+    /// What the token's exchange said it may do (Nightscout's
+    /// `permissions`, or `permissionGroups` flattened).
+    grants: Mutex<Option<Vec<String>>>,
 }
 
 /// An HTTP method abba uses.
@@ -99,6 +102,7 @@ impl Client {
             credential,
             opts,
             jwt: Mutex::new(None),
+            grants: Mutex::new(None),
         }
     }
 
@@ -117,6 +121,14 @@ impl Client {
     /// after the first call.
     pub fn has_jwt(&self) -> bool {
         self.jwt.lock().is_ok_and(|g| matches!(*g, Some(Some(_))))
+    }
+
+    /// The Shiro-style permissions the token's exchange granted
+    /// (`api:treatments:create`, `*`, ...): `None` when there was no
+    /// exchange (an API secret, a site without API v2 authorization) or
+    /// it named none. Known after the first call.
+    pub fn grants(&self) -> Option<Vec<String>> {
+        self.grants.lock().ok().and_then(|g| g.clone())
     }
 
     /// GET `path` with `query`, as JSON.
@@ -201,12 +213,16 @@ impl Client {
                 .agent
                 .get(&url)
                 .header("Accept", "application/json")
+                .header("Accept-Encoding", "identity")
                 .call();
             match r {
                 Ok(mut resp) => {
                     let status = resp.status().as_u16();
                     match status {
                         200 => {
+                            if let Some(enc) = foreign_encoding(&resp) {
+                                return Err(self.protocol(&call, not_identity(&enc)));
+                            }
                             let text = resp
                                 .body_mut()
                                 .with_config()
@@ -220,6 +236,9 @@ impl Client {
                             let jwt = v.get("token").and_then(Value::as_str).ok_or_else(|| {
                                 self.protocol(&call, "expected {\"token\": JWT}".into())
                             })?;
+                            if let Ok(mut g) = self.grants.lock() {
+                                *g = grants_of(&v);
+                            }
                             break Some(jwt.to_string());
                         }
                         401 => return Err(self.unauthorized(&call)),
@@ -310,6 +329,9 @@ impl Client {
         let status = resp.status().as_u16();
         match status {
             200..=299 => {
+                if let Some(enc) = foreign_encoding(&resp) {
+                    return Err(self.protocol(call, not_identity(&enc)));
+                }
                 let text = match resp
                     .body_mut()
                     .with_config()
@@ -401,7 +423,9 @@ impl Client {
         bearer: Option<&str>,
         pairs: &[(&str, String)],
     ) -> ureq::RequestBuilder<B> {
-        let rb = rb.header("Accept", "application/json");
+        let rb = rb
+            .header("Accept", "application/json")
+            .header("Accept-Encoding", "identity");
         let rb = match (&self.credential, bearer) {
             (_, Some(j)) => rb.header("Authorization", format!("Bearer {j}")),
             (Credential::ApiSecretSha1(h), None) => rb.header("api-secret", h),
@@ -409,6 +433,71 @@ impl Client {
         };
         pairs.iter().fold(rb, |rb, (k, v)| rb.query(*k, v))
     }
+}
+
+/// The permissions an authorization answer names: `permissions` (a list)
+/// or `permissionGroups` (a list per role), `None` when it names none.
+fn grants_of(v: &Value) -> Option<Vec<String>> {
+    let mut out = Vec::new();
+    for key in ["permissions", "permissionGroups"] {
+        let Some(Value::Array(a)) = v.get(key) else {
+            continue;
+        };
+        for x in a {
+            match x {
+                Value::String(p) => out.push(p.clone()),
+                Value::Array(group) => {
+                    out.extend(group.iter().filter_map(Value::as_str).map(String::from))
+                }
+                _ => {}
+            }
+        }
+    }
+    (!out.is_empty()).then_some(out)
+}
+
+/// Whether Shiro-style `grant` (`*`, `api:treatments:*`,
+/// `api:treatments,profile:create`; parts it leaves out are `*`) permits
+/// `permission` (`api:treatments:create`).
+pub fn permits(grant: &str, permission: &str) -> bool {
+    let g: Vec<&str> = grant.split(':').collect();
+    let p: Vec<&str> = permission.split(':').collect();
+    for (i, part) in g.iter().enumerate() {
+        let any = part.split(',').any(|o| o.trim() == "*");
+        match p.get(i) {
+            // A grant longer than the permission: only wildcards after it.
+            None if any => {}
+            None => return false,
+            Some(want) => {
+                if !any && !part.split(',').any(|o| o.trim() == *want) {
+                    return false;
+                }
+            }
+        }
+    }
+    true
+}
+
+/// The answer's `Content-Encoding` when it is not `identity` (abba asks
+/// for `identity` only and reads no other).
+fn foreign_encoding(resp: &ureq::http::Response<ureq::Body>) -> Option<String> {
+    let enc = resp
+        .headers()
+        .get_all("content-encoding")
+        .iter()
+        .map(|v| String::from_utf8_lossy(v.as_bytes()).trim().to_string())
+        .filter(|v| !v.is_empty() && !v.eq_ignore_ascii_case("identity"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    (!enc.is_empty()).then_some(enc)
+}
+
+fn not_identity(enc: &str) -> String {
+    format!(
+        "the site answered with Content-Encoding: {enc}, which abba did not ask for \
+         (it sends Accept-Encoding: identity) and does not read; a proxy in front of \
+         Nightscout that compresses every answer does this: it should honour Accept-Encoding"
+    )
 }
 
 /// Retry-After in seconds (an HTTP date is not waited for: the backoff).
@@ -441,4 +530,43 @@ fn encode_segment(s: &str) -> String {
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shiro_grants() {
+        for (g, p, ok) in [
+            ("*", "api:treatments:create", true),
+            ("*:*:read", "api:treatments:create", false),
+            ("*:*:read", "api:treatments:read", true),
+            ("api:treatments:create", "api:treatments:create", true),
+            ("api:treatments:create", "api:treatments:update", false),
+            ("api:treatments", "api:treatments:update", true),
+            ("api:treatments,profile:*", "api:profile:update", true),
+            ("api:entries:*", "api:profile:update", false),
+            ("api:treatments:create:*", "api:treatments:create", true),
+            ("api:treatments:create:x", "api:treatments:create", false),
+        ] {
+            assert_eq!(permits(g, p), ok, "{g} {p}");
+        }
+        let v = serde_json::json!({"token": "j", "permissionGroups": [["*:*:read"], ["api:treatments:create"]]});
+        assert_eq!(
+            grants_of(&v),
+            Some(vec![
+                "*:*:read".to_string(),
+                "api:treatments:create".to_string()
+            ])
+        );
+        assert_eq!(
+            grants_of(&serde_json::json!({"permissionGroups": []})),
+            None
+        );
+        assert_eq!(
+            grants_of(&serde_json::json!({"permissions": ["*"]})),
+            Some(vec!["*".to_string()])
+        );
+    }
 }

@@ -91,6 +91,17 @@ pub enum NsError {
     /// The person has no link.
     #[error("{0} has no Nightscout link (make one with `abba link nightscout --person {0} --url ... --token ...`)")]
     NoLink(String),
+    /// `--write-back` with a credential that may not write what abba
+    /// writes.
+    #[error("{site}: the access token may not {what} ({missing}), which --write-back needs; give a token whose roles allow it (Nightscout's admin role does), or link without --write-back")]
+    CannotWrite {
+        /// The site.
+        site: String,
+        /// In words.
+        what: String,
+        /// The permissions missing.
+        missing: String,
+    },
     /// The sync's records came in, writing back failed.
     #[error("the sync's records are in the store; writing back failed: {0}")]
     WriteBack(Box<NsError>),

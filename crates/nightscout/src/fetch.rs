@@ -222,6 +222,10 @@ pub struct Pages {
     pub deleted: Vec<String>,
     /// Treatments found only by the `_id` probe (no `created_at` string).
     pub without_created_at: usize,
+    /// Documents dated before the window read again but inserted since
+    /// its start (uploaded late), found by their ObjectId or named by API
+    /// v3's history.
+    pub late: usize,
     /// What the paging could not prove complete, said in words (the
     /// sync's report carries them; nothing is dropped in silence).
     pub unproven: Vec<String>,
@@ -336,7 +340,7 @@ fn kind_of(v: &Value) -> &'static str {
 
 /// How far a served `created_at` may read from the time it stands for
 /// (an offset of up to 14 hours written in the string).
-const OFFSET_SLACK_MS: i64 = 14 * 3_600_000 + 1000;
+pub const OFFSET_SLACK_MS: i64 = 14 * 3_600_000 + 1000;
 
 /// Every document of `c` at or after `since` (ms; `None`: all), `page`
 /// documents asked per page.
@@ -353,6 +357,8 @@ const OFFSET_SLACK_MS: i64 = 14 * 3_600_000 + 1000;
 /// read by `_id` ([`crate::by_id`]) before the paging steps below it. Treatments without a `created_at` string, which
 /// no bound on it matches, are read by `_id` too, those inserted since
 /// `since` (their ObjectId's time) and every one whose `_id` is a string.
+/// So are the documents inserted since `since` but dated before it
+/// (uploaded late), which paging by time from `since` cannot reach.
 pub fn fetch_since(
     client: &Client,
     c: Collection,
@@ -452,6 +458,10 @@ pub fn fetch_since(
     if c == Collection::Treatments {
         crate::by_id::without_created_at(client, since.unwrap_or(0), page, &mut col)?;
     }
+    if let Some(s) = since.filter(|&s| s > 0) {
+        let late = crate::by_id::inserted_since(client, c, s, page, &mut col)?;
+        col.out.late += late;
+    }
     Ok(col.finish(c))
 }
 
@@ -497,6 +507,10 @@ pub struct History {
     /// (treatments v1 paging by time cannot see; one changed long after
     /// it was inserted is outside the `_id` probe's window too).
     pub without_created_at: Vec<String>,
+    /// The times (ms, by the collection's date field) of the valid
+    /// documents changed: a v1 read from the earliest sees them all, those
+    /// uploaded or changed late included.
+    pub times: Vec<i64>,
     /// The newest `srvModified` seen (the next mark).
     pub mark: i64,
 }
@@ -546,10 +560,18 @@ pub fn v3_history(
             };
             if d.get("isValid") == Some(&Value::Bool(false)) {
                 out.deleted.push(id.to_string());
-            } else if collection == "treatments"
-                && !d.get("created_at").is_some_and(Value::is_string)
-            {
+                continue;
+            }
+            if collection == "treatments" && !d.get("created_at").is_some_and(Value::is_string) {
                 out.without_created_at.push(id.to_string());
+            }
+            let c = match collection {
+                "entries" => Some(Collection::Entries),
+                "treatments" => Some(Collection::Treatments),
+                _ => None,
+            };
+            if let Some(t) = c.and_then(|c| c.time_of(d)) {
+                out.times.push(t);
             }
         }
         if out.mark == before {

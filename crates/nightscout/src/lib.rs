@@ -11,7 +11,7 @@
 //!   `created_at` string.
 //! - [`sync`]: what is new into the person's store, by the same import as
 //!   files, the marks advancing in the import's transaction.
-//! - [`write_back`]: opt-in; one Note per suggestion and an `abba` profile
+//! - [`write_back`]: opt-in; one Note per open or answered suggestion and an `abba` profile
 //!   beside the person's own, never the default and never a Profile Switch.
 //!
 //! abba is research software, not a medical device.

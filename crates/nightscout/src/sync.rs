@@ -88,6 +88,10 @@ pub struct CollectionReport {
     pub own: usize,
     /// Treatments without a `created_at` string, found by `_id`.
     pub without_created_at: usize,
+    /// Documents dated before the window read again that were inserted
+    /// or changed since (uploaded late): found by their ObjectId's time,
+    /// or named by API v3's history.
+    pub late: usize,
 }
 
 /// What a check of a site found.
@@ -101,6 +105,9 @@ pub struct Check {
     pub v3: bool,
     /// The newest entry's time, if any (the read).
     pub newest_entry: Option<String>,
+    /// With `--write-back`: why the right to write could not be checked
+    /// (`None`: checked, or not asked).
+    pub write_unverified: Option<String>,
 }
 
 /// A client of the person's link.
@@ -148,10 +155,75 @@ pub fn check_link(client: &Client) -> Result<Check, NsError> {
         // gets the token in the query, which v3 refuses).
         v3: client.has_jwt() && fetch::has_v3(client),
         newest_entry,
+        write_unverified: None,
     })
 }
 
-/// Checks the site and stores the link for `person`.
+/// What the write-back writes, as Nightscout's permissions name it: Notes
+/// created and updated, the profile document updated.
+pub const WRITE_PERMISSIONS: [(&str, &str); 3] = [
+    ("api:treatments:create", "create treatments"),
+    ("api:treatments:update", "update treatments"),
+    ("api:profile:update", "update the profile"),
+];
+
+/// Whether the link's credential may write what the write-back writes:
+/// `Ok(None)` yes; `Ok(Some(why))` it could not be told (said, not
+/// refused); an error when it may not. The API secret may do everything;
+/// an access token's permissions are those its exchange named, else asked
+/// of `/api/v2/authorization/debug/check/<permission>`.
+pub fn check_write(client: &Client) -> Result<Option<String>, NsError> {
+    if !client.has_token() {
+        return Ok(None);
+    }
+    let mut missing = Vec::new();
+    let mut unknown = Vec::new();
+    match client.grants() {
+        Some(grants) => {
+            for (p, what) in WRITE_PERMISSIONS {
+                if !grants.iter().any(|g| crate::client::permits(g, p)) {
+                    missing.push((p, what));
+                }
+            }
+        }
+        None => {
+            for (p, what) in WRITE_PERMISSIONS {
+                match client.get(&format!("/api/v2/authorization/debug/check/{p}"), &[]) {
+                    Ok(_) => {}
+                    Err(NsError::Unauthorized { .. })
+                    | Err(NsError::Status {
+                        status: 401 | 403, ..
+                    }) => missing.push((p, what)),
+                    Err(_) => unknown.push(p),
+                }
+            }
+        }
+    }
+    if !missing.is_empty() {
+        return Err(NsError::CannotWrite {
+            site: client.site().to_string(),
+            what: missing
+                .iter()
+                .map(|(_, w)| *w)
+                .collect::<Vec<_>>()
+                .join(", "),
+            missing: missing
+                .iter()
+                .map(|(p, _)| *p)
+                .collect::<Vec<_>>()
+                .join(", "),
+        });
+    }
+    Ok((!unknown.is_empty()).then(|| {
+        format!(
+            "the site did not say whether the access token may write ({}): the first write-back will tell",
+            unknown.join(", ")
+        )
+    }))
+}
+
+/// Checks the site and stores the link for `person` (with `write_back`,
+/// only when the credential may write what it writes).
 pub fn link(
     store: &mut Store,
     person: &str,
@@ -164,7 +236,10 @@ pub fn link(
     store.person(person)?;
     let site = SiteUrl::parse(url)?;
     let client = Client::new(site.clone(), credential.clone(), opts.clone());
-    let check = check_link(&client)?;
+    let mut check = check_link(&client)?;
+    if write_back {
+        check.write_unverified = check_write(&client)?;
+    }
     let link = store.set_link(person, site.as_str(), &credential, write_back)?;
     Ok((link, check))
 }
@@ -221,51 +296,24 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
     let mut gone = Vec::new();
     let mut unproven = Vec::new();
     let mut fetched_pages = Vec::new();
-    for c in [Collection::Entries, Collection::Treatments] {
-        let mark = marks.get(c.name()).copied();
-        // Always a lower bound: without one, Nightscout answers only the
-        // last 4 days (`deltaAgo` in `lib/server/query.js`).
-        let since = Some(mark.map_or(0, |m| m.saturating_sub(opts.overlap_ms)));
-        let pages = fetch::fetch_since(&client, c, since, opts.page)?;
-        fetched_pages.push((c, mark, since, pages));
-    }
+    // API v3 first: what changed since the last sync, so the v1 reads
+    // reach back to the earliest valid document changed (one uploaded or
+    // edited long after its time, which the window alone would miss).
+    // What was deleted since (a first sync starts from the site's
+    // lastModified: what it fetched is what is valid), and the treatments
+    // without `created_at` changed since, which the `_id` probe reaches
+    // only when they were inserted lately.
+    // (The profiles first: the first call exchanges a token for the JWT
+    // that API v3 takes.)
     let profiles = fetch::profiles(&client, opts.page)?;
-    // API v3: what was deleted since the last sync (a first sync starts
-    // from the site's lastModified: what it fetched is what is valid),
-    // and the treatments without `created_at` changed since, which the
-    // `_id` probe reaches only when they were inserted lately.
     let v3 = client.has_jwt() && fetch::has_v3(&client);
+    let mut histories: Vec<(&str, fetch::History)> = Vec::new();
     if v3 {
         let last = fetch::v3_last_modified(&client)?;
         for col in ["entries", "treatments", "profile"] {
             let key = format!("v3:{col}");
             match marks.get(&key) {
-                Some(&m) => {
-                    let h = fetch::v3_history(&client, col, m, opts.page)?;
-                    let c = match col {
-                        "entries" => Some(Collection::Entries),
-                        "treatments" => Some(Collection::Treatments),
-                        _ => None,
-                    };
-                    for identifier in h.deleted {
-                        match c {
-                            // v3 keys by `identifier`, the import by `_id`.
-                            Some(c) => fetched.deleted.extend(fetch::ids_of_identifier(
-                                &client,
-                                c,
-                                &identifier,
-                            )?),
-                            None => fetched.deleted.push(identifier),
-                        }
-                    }
-                    if let Some((c, _, _, pages)) = fetched_pages
-                        .iter_mut()
-                        .find(|(c, ..)| *c == Collection::Treatments && col == "treatments")
-                    {
-                        changed_without_created_at(&client, *c, pages, &h.without_created_at)?;
-                    }
-                    fetched.marks.insert(key, h.mark);
-                }
+                Some(&m) => histories.push((col, fetch::v3_history(&client, col, m, opts.page)?)),
                 None => {
                     fetched
                         .marks
@@ -273,6 +321,61 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
                 }
             }
         }
+    }
+    for c in [Collection::Entries, Collection::Treatments] {
+        let mark = marks.get(c.name()).copied();
+        // Always a lower bound: without one, Nightscout answers only the
+        // last 4 days (`deltaAgo` in `lib/server/query.js`).
+        let window = mark.map_or(0, |m| m.saturating_sub(opts.overlap_ms));
+        let changed: Vec<i64> = histories
+            .iter()
+            .filter(|(col, _)| *col == c.name())
+            .flat_map(|(_, h)| h.times.iter().copied())
+            .collect();
+        // A treatment's `created_at` with an offset is compared as its
+        // string: the bound goes as far below as an offset may read.
+        let slack = match c {
+            Collection::Entries => 0,
+            Collection::Treatments => fetch::OFFSET_SLACK_MS,
+        };
+        let since = changed
+            .iter()
+            .map(|t| t.saturating_sub(slack).max(0))
+            .min()
+            .map_or(window, |e| e.min(window));
+        // Read from that much earlier still, so every document whose time
+        // is in the window is served whatever offset its string carries,
+        // and the whole window can be compared with the store (`gone`).
+        let read_from = since.saturating_sub(slack).max(0);
+        let mut pages = fetch::fetch_since(&client, c, Some(read_from), opts.page)?;
+        pages.late += changed.iter().filter(|&&t| t < window).count();
+        fetched_pages.push((c, mark, Some(since), pages));
+    }
+    for (col, h) in histories {
+        let key = format!("v3:{col}");
+        let c = match col {
+            "entries" => Some(Collection::Entries),
+            "treatments" => Some(Collection::Treatments),
+            _ => None,
+        };
+        for identifier in h.deleted {
+            match c {
+                // v3 keys by `identifier`, the import by `_id`.
+                Some(c) => {
+                    fetched
+                        .deleted
+                        .extend(fetch::ids_of_identifier(&client, c, &identifier)?)
+                }
+                None => fetched.deleted.push(identifier),
+            }
+        }
+        if let Some((c, _, _, pages)) = fetched_pages
+            .iter_mut()
+            .find(|(c, ..)| *c == Collection::Treatments && col == "treatments")
+        {
+            changed_without_created_at(&client, *c, pages, &h.without_created_at)?;
+        }
+        fetched.marks.insert(key, h.mark);
     }
     for (c, mark, since, mut pages) in fetched_pages {
         gone.extend(gone_from(store, &link.person, &client, c, since, &pages)?);
@@ -287,6 +390,7 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
             pages: pages.pages,
             own,
             without_created_at: pages.without_created_at,
+            late: pages.late,
         });
         unproven.append(&mut pages.unproven);
         // The mark: the newest document that is not in the future (those
@@ -329,6 +433,7 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
         pages: 1,
         own: 0,
         without_created_at: 0,
+        late: 0,
     });
     if !profiles.is_empty() {
         let docs: Vec<&Value> = profiles.iter().collect();
@@ -399,9 +504,9 @@ fn changed_without_created_at(
 /// The documents of `c` whose records the store holds from this site in
 /// the window just read again (from `since`) but which the site no
 /// longer serves: deleted through API v1, which removes a document and
-/// leaves nothing to sync. Treatments are compared from 14 hours into the
-/// window: a `created_at` written with an offset is compared by its
-/// string and may fall outside the window's bound near its start.
+/// leaves nothing to sync. The whole window is compared: treatments are
+/// read from 14 hours before it (a `created_at` written with an offset is
+/// compared by its string, which may read up to that much earlier).
 fn gone_from(
     store: &Store,
     person: &str,
@@ -410,11 +515,7 @@ fn gone_from(
     since: Option<i64>,
     pages: &fetch::Pages,
 ) -> Result<Vec<String>, NsError> {
-    let from = match (c, since) {
-        (_, None) => i64::MIN,
-        (Collection::Entries, Some(s)) => s,
-        (Collection::Treatments, Some(s)) => s.saturating_add(14 * 3_600_000 + 1000),
-    };
+    let from = since.unwrap_or(i64::MIN);
     let served: std::collections::HashSet<String> = pages
         .docs
         .iter()

@@ -1,6 +1,7 @@
-//! Writing back (opt-in per link): each suggestion as one treatment of
-//! type Note (`enteredBy: abba`, the suggestion and its reasons in the
-//! person's unit), updated when it is answered; the settings to use today
+//! Writing back (opt-in per link): each suggestion a person can act on
+//! (open or answered) as one treatment of type Note at its decision's
+//! time (`enteredBy: abba`, the suggestion at the pump's step and its
+//! reasons in the person's unit), updated when it is answered; the settings to use today
 //! as a separate profile named `abba` in the profile store, beside the
 //! person's own: never the default profile and never a Profile Switch (a
 //! profile in Nightscout does not change the pump; the person decides).
@@ -46,18 +47,42 @@ fn protocol(client: &Client, call: &str, problem: impl Into<String>) -> NsError 
     }
 }
 
-/// The note for a suggestion (without `_id` and `created_at`).
-fn note_text(v: &abba_store::advise::SuggestionView) -> String {
+/// How many decimals a value of `setting` is shown with: the pump's step
+/// (0.05 U/h: 2, 0.1 g/U: 1) when the person has one, else 3 (as the CLI
+/// prints them).
+/// `steps`: the pump's (basal U/h, carb ratio g/U).
+fn decimals(steps: Option<(f64, f64)>, setting: &str) -> usize {
+    let Some((basal, ratio)) = steps else {
+        return 3;
+    };
+    let step = if setting == "basal" { basal } else { ratio };
+    (0..=4)
+        .find(|&d| {
+            let x = step * 10f64.powi(d as i32);
+            (x - x.round()).abs() < 1e-6
+        })
+        .unwrap_or(4)
+}
+
+/// The note for a suggestion (without `_id` and `created_at`), its values
+/// at `dp` decimals.
+fn note_text(v: &abba_store::advise::SuggestionView, dp: usize) -> String {
+    // A change below 0.05 % is not shown as "+0.0 %".
+    let pct = if v.change_percent.abs() < 0.05 {
+        format!("{:+.2}", v.change_percent)
+    } else {
+        format!("{:+.1}", v.change_percent)
+    };
     let mut s = format!(
-        "abba suggests {} {} {} (was {}, {:+.1} %), day {}, decided {}; status: {}.",
-        v.setting, v.suggested, v.unit, v.previous, v.change_percent, v.day, v.decided_at, v.status
+        "abba suggests {} {:.dp$} {} (was {:.dp$}, {pct} %), day {}, decided {}; status: {}.",
+        v.setting, v.suggested, v.unit, v.previous, v.day, v.decided_at, v.status
     );
     if !v.reasons.is_empty() {
         s.push_str(" Why: ");
         s.push_str(&v.reasons.join(" "));
     }
     if let Some(sched) = &v.schedule {
-        let parts: Vec<String> = sched.iter().map(|(t, r)| format!("{t} {r}")).collect();
+        let parts: Vec<String> = sched.iter().map(|(t, r)| format!("{t} {r:.dp$}")).collect();
         s.push_str(&format!(" Schedule (U/h): {}.", parts.join(", ")));
     }
     s.push(' ');
@@ -65,7 +90,33 @@ fn note_text(v: &abba_store::advise::SuggestionView) -> String {
     s
 }
 
-/// Writes what is new or changed since the last write-back.
+/// Whether a suggestion is one a person can act on, so worth a Note of
+/// its own: open, or answered, and a change at the precision shown. Not a
+/// decision without an update, a change below the pump's step, a basal
+/// not offered, or one superseded before anybody saw it (a Note already
+/// written for a suggestion is updated whatever it became).
+fn actionable(v: &abba_store::advise::SuggestionView, dp: usize) -> bool {
+    let status = matches!(
+        v.status.as_str(),
+        "open" | "accepted" | "rejected" | "overridden"
+    );
+    let changed =
+        format!("{:.dp$}", v.suggested) != format!("{:.dp$}", v.previous) || v.schedule.is_some();
+    !v.no_update && status && changed
+}
+
+/// The instant of a decision from its local time in the person's zone
+/// (`YYYY-MM-DD HH:MM`, or an instant when the advisor had no clock).
+fn decided_instant(decided_at: &str, tz: &jiff::tz::TimeZone) -> Option<jiff::Timestamp> {
+    if let Ok(dt) = jiff::civil::DateTime::strptime("%Y-%m-%d %H:%M", decided_at) {
+        return dt.to_zoned(tz.clone()).ok().map(|z| z.timestamp());
+    }
+    decided_at.parse::<jiff::Timestamp>().ok()
+}
+
+/// Writes what is new or changed since the last write-back: a Note for
+/// each suggestion a person can act on, dated at its decision, and the
+/// update of a Note written before when its suggestion changed status.
 pub fn write_back(
     store: &mut Store,
     client: &Client,
@@ -74,19 +125,41 @@ pub fn write_back(
     let mut report = WriteReport::default();
     let views = store.history(person)?;
     let written = store.written(person)?;
-    let now = crate::fetch::iso_ms(jiff::Timestamp::now().as_millisecond());
+    let p = store.person(person)?;
+    let steps = p
+        .settings
+        .pump_steps
+        .map(|s| (s.basal_u_per_h, s.carb_ratio_g_per_u));
     for v in views.iter().filter(|v| !v.no_update) {
         let key = format!("{}|{}", v.decided_at, v.setting);
-        let notes = note_text(v);
+        let dp = decimals(steps, v.setting);
+        let notes = note_text(v, dp);
         let held = written.iter().find(|w| w.what == "note" && w.key == key);
+        if held.is_none() && !actionable(v, dp) {
+            continue;
+        }
+        let Some(at) = decided_instant(&v.decided_at, &p.tz) else {
+            return Err(protocol(
+                client,
+                "POST /api/v1/treatments",
+                format!(
+                    "the time of the {} suggestion, {}, is not a time abba can write",
+                    v.setting, v.decided_at
+                ),
+            ));
+        };
+        let created_at = crate::fetch::iso_ms(at.as_millisecond());
         match held {
             Some(w) => {
                 let old: Value = serde_json::from_str(&w.content).unwrap_or(Value::Null);
-                if old.get("notes").and_then(Value::as_str) == Some(notes.as_str()) {
+                if old.get("notes").and_then(Value::as_str) == Some(notes.as_str())
+                    && old.get("created_at").and_then(Value::as_str) == Some(created_at.as_str())
+                {
                     continue;
                 }
                 let mut doc = old.as_object().cloned().unwrap_or_default();
                 doc.insert("notes".into(), Value::String(notes));
+                doc.insert("created_at".into(), Value::String(created_at));
                 doc.insert("_id".into(), Value::String(w.remote_id.clone()));
                 let doc = Value::Object(doc);
                 client.call(Method::Put, "/api/v1/treatments", &[], Some(&doc))?;
@@ -103,7 +176,7 @@ pub fn write_back(
                 let doc = json!({
                     "eventType": "Note",
                     "enteredBy": ENTERED_BY,
-                    "created_at": now,
+                    "created_at": created_at,
                     "notes": notes,
                 });
                 let call = "POST /api/v1/treatments";
@@ -302,4 +375,18 @@ pub fn delete_written(store: &mut Store, client: &Client, person: &str) -> Resul
         n += 1;
     }
     Ok(n)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn values_are_shown_at_the_pumps_step() {
+        assert_eq!(decimals(None, "basal"), 3);
+        assert_eq!(decimals(Some((0.05, 0.1)), "basal"), 2);
+        assert_eq!(decimals(Some((0.025, 1.0)), "basal"), 3);
+        assert_eq!(decimals(Some((0.05, 0.1)), "lunch"), 1);
+        assert_eq!(decimals(Some((0.05, 1.0)), "dinner"), 0);
+    }
 }

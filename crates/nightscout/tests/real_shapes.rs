@@ -294,3 +294,46 @@ fn documents_deleted_through_api_v1_are_kept_and_reported() {
     assert_eq!(r.gone, vec![meal]);
     assert_eq!(records(&store), before);
 }
+
+#[test]
+fn documents_deleted_through_api_v1_early_in_the_window_are_reported_too() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = data(1);
+    // The newest treatment is at 2026-01-14T21:54Z: the window read again
+    // starts 24 h before. A bolus 1 h into it written at -05:00 (its string
+    // reads 5 h earlier, before the window's bound) is still served and
+    // not taken as gone.
+    let start = ms(&d.treatments[0], "created_at") - 24 * 3_600_000;
+    let early = json!({"_id": object_id(start, 9), "eventType": "Correction Bolus",
+        "created_at": with_offset(start + 3_600_000, -300, false),
+        "insulin": 0.3, "enteredBy": "Careportal", "utcOffset": -300});
+    d.treatments.push(early.clone());
+    let files = export(dir.path(), &d);
+    let srv = Server::start(site_of(&d, 1000));
+    let (_, mut store) = store_with_person(dir.path(), "sync.db", &files);
+    link(&mut store, "ana", &srv.url, secret(), false, &fast_client()).unwrap();
+    sync(&mut store, "ana", &sync_opts()).unwrap();
+    let before = records(&store);
+    // Deleted through v1: the temporary basal 3.6 h and the meal bolus
+    // 8 h into the window.
+    let id_at = |at: &str| {
+        d.treatments.iter().find(|t| t["created_at"] == at).unwrap()["_id"]
+            .as_str()
+            .unwrap()
+            .to_string()
+    };
+    let basal = id_at("2026-01-14T01:30:00.000Z");
+    let meal = id_at("2026-01-14T06:02:00.000Z");
+    srv.with(|s| {
+        s.hard_delete("treatments", &basal);
+        s.hard_delete("treatments", &meal);
+    });
+    let r = sync(&mut store, "ana", &sync_opts()).unwrap();
+    let mut want = vec![basal, meal];
+    want.sort();
+    let mut gone = r.gone.clone();
+    gone.sort();
+    assert_eq!(gone, want);
+    assert_eq!(r.import.deleted, 0);
+    assert_eq!(records(&store), before);
+}

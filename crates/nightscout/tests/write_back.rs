@@ -33,11 +33,12 @@ fn one_note_per_suggestion_and_a_profile_beside_the_default() {
     link(&mut store, "ana", &srv.url, token, true, &fast_client()).unwrap();
     let r = sync(&mut store, "ana", &sync_opts()).unwrap();
     let w = r.write_back.unwrap();
+    // What a person can act on: the open suggestions (none is answered yet).
     let suggestions: Vec<_> = store
         .history("ana")
         .unwrap()
         .into_iter()
-        .filter(|v| !v.no_update)
+        .filter(|v| v.status == "open")
         .collect();
     assert!(
         !suggestions.is_empty(),
@@ -127,14 +128,70 @@ fn one_note_per_suggestion_and_a_profile_beside_the_default() {
 }
 
 #[test]
-fn a_reader_token_cannot_write_back_and_says_why() {
+fn a_token_that_may_not_write_is_refused_at_link_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = data(1);
+    let files = export(dir.path(), &d);
+    let srv = server(&d, 1000);
+    let (_, mut store) = store_with_person(dir.path(), "ro.db", &files);
+    for grants_in_exchange in [true, false] {
+        srv.with(|s| s.grants_in_exchange = grants_in_exchange);
+        // Readable only; careportal may create treatments but not update
+        // them or the profile.
+        for (token, missing) in [
+            ("reader-0123456789abcdef", "api:treatments:create"),
+            ("care-0123456789abcdef", "api:treatments:update"),
+        ] {
+            let cred = credential(Some(token), None).unwrap();
+            let e = link(
+                &mut store,
+                "ana",
+                &srv.url,
+                cred.clone(),
+                true,
+                &fast_client(),
+            )
+            .unwrap_err();
+            let text = e.to_string();
+            assert!(
+                matches!(e, abba_nightscout::NsError::CannotWrite { .. }),
+                "{text}"
+            );
+            assert!(
+                text.contains(missing) && text.contains("--write-back") && !text.contains(token),
+                "{text}"
+            );
+            assert!(store.link("ana").unwrap().is_none(), "not stored");
+            // Without write-back the same token links.
+            link(&mut store, "ana", &srv.url, cred, false, &fast_client()).unwrap();
+            assert!(store.remove_link("ana").unwrap());
+        }
+        // An admin token may.
+        let admin = credential(Some("admin-0123456789abcdef"), None).unwrap();
+        let (_, check) = link(&mut store, "ana", &srv.url, admin, true, &fast_client()).unwrap();
+        assert_eq!(check.write_unverified, None);
+        assert!(store.remove_link("ana").unwrap());
+    }
+    // A site that tells neither way: linked, and said.
+    srv.with(|s| {
+        s.grants_in_exchange = false;
+        s.v2_auth = false;
+    });
+    let reader = credential(Some("reader-0123456789abcdef"), None).unwrap();
+    let (_, check) = link(&mut store, "ana", &srv.url, reader, true, &fast_client()).unwrap();
+    assert!(check.write_unverified.is_some(), "{check:?}");
+}
+
+#[test]
+fn a_token_whose_rights_were_taken_away_fails_the_write_back_and_says_why() {
     let dir = tempfile::tempdir().unwrap();
     let d = data(5);
     let files = export(dir.path(), &d);
     let srv = server(&d, 1000);
     let (_, mut store) = store_with_person(dir.path(), "ro.db", &files);
     let token = credential(Some("reader-0123456789abcdef"), None).unwrap();
-    link(&mut store, "ana", &srv.url, token, true, &fast_client()).unwrap();
+    // (Stored directly: linking would refuse it.)
+    store.set_link("ana", &srv.url, &token, true).unwrap();
     let e = sync(&mut store, "ana", &sync_opts()).unwrap_err();
     let text = e.to_string();
     assert!(
@@ -144,4 +201,57 @@ fn a_reader_token_cannot_write_back_and_says_why() {
     // The records of the sync are in: the write-back comes after the import.
     assert!(!store.records("ana").unwrap().is_empty());
     assert!(abba_notes(&srv).is_empty());
+}
+
+/// The first write-back of a person with two weeks of decisions: a Note
+/// for each suggestion a person can act on (open or answered), not for
+/// the superseded ones, the basal not offered or the decisions without an
+/// update; each dated at its decision, its values as the CLI shows them.
+#[test]
+fn the_first_write_back_writes_what_can_be_acted_on_at_its_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = data(5);
+    let files = export(dir.path(), &d);
+    let srv = server(&d, 1000);
+    let (_, mut store) = store_with_person(dir.path(), "wb.db", &files);
+    let token = credential(Some("admin-0123456789abcdef"), None).unwrap();
+    link(&mut store, "ana", &srv.url, token, true, &fast_client()).unwrap();
+    let r = sync(&mut store, "ana", &sync_opts()).unwrap();
+    let history = store.history("ana").unwrap();
+    let open: Vec<_> = history.iter().filter(|v| v.status == "open").collect();
+    assert!(
+        history
+            .iter()
+            .any(|v| v.status == "superseded" || v.status == "not_offered"),
+        "the fixture's two weeks hold decisions nobody can act on"
+    );
+    assert_eq!(r.write_back.unwrap().notes_created, open.len());
+    let notes = abba_notes(&srv);
+    assert_eq!(notes.len(), open.len());
+    let tz = jiff::tz::TimeZone::get(TZ).unwrap();
+    for v in &open {
+        let at = jiff::civil::DateTime::strptime("%Y-%m-%d %H:%M", &v.decided_at)
+            .unwrap()
+            .to_zoned(tz.clone())
+            .unwrap()
+            .timestamp();
+        let when = at.strftime("%Y-%m-%dT%H:%M:%S%.3fZ").to_string();
+        let n = notes
+            .iter()
+            .find(|n| n["created_at"] == when.as_str())
+            .unwrap_or_else(|| panic!("no Note at {when}: {notes:?}"));
+        // The Note's own line (the reasons after "Why:" are the advisor's words).
+        let text = n["notes"].as_str().unwrap();
+        let head = text.split(" Why:").next().unwrap();
+        let shown = format!(
+            "{} {:.3} {} (was {:.3},",
+            v.setting, v.suggested, v.unit, v.previous
+        );
+        assert!(head.contains(&shown), "{shown} in {head}");
+        assert!(!text.contains(&v.suggested.to_string()), "{text}");
+        assert!(
+            !head.contains("+0.0 %") && !head.contains("-0.0 %"),
+            "{head}"
+        );
+    }
 }

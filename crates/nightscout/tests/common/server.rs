@@ -15,7 +15,7 @@
 //!   `limit` at most 1,000, ascending `srvModified`, deleted documents with
 //!   `isValid: false`);
 //! - injected faults: a status (401, 500, 429 with Retry-After), a
-//!   connection cut mid-page, a slow answer.
+//!   connection cut mid-page, a slow answer, a gzip answer nobody asked for.
 //!
 //! Filters and sorts act on the stored values as MongoDB's do on a real
 //! site (`lib/server/query.js`, `lib/server/treatments.js`,
@@ -69,6 +69,10 @@ pub struct Site {
     pub default_readable: bool,
     /// `/api/v2/authorization/request/<token>` is offered.
     pub v2_auth: bool,
+    /// Its answer names the token's permissions (`permissionGroups`, one
+    /// list per role, as Nightscout 15 does); else only
+    /// `/api/v2/authorization/debug/check/<permission>` tells.
+    pub grants_in_exchange: bool,
     /// `DE_NORMALIZE_DATES`: v1 serves `created_at` / `dateString` in the
     /// document's `utcOffset` (and drops `utcOffset`).
     pub denormalize: bool,
@@ -114,6 +118,9 @@ pub enum FaultKind {
     Cut,
     /// Wait this long before answering.
     Slow(Duration),
+    /// Answer gzip-compressed (`Content-Encoding: gzip`) whatever the
+    /// client asked for, as a misconfigured proxy does.
+    Gzip,
 }
 
 /// The SHA-1 hex Nightscout compares the `api-secret` header with.
@@ -149,6 +156,7 @@ impl Site {
             page_delay: Duration::ZERO,
             default_readable: false,
             v2_auth: true,
+            grants_in_exchange: true,
             denormalize: false,
             v3_max_limit: 1000,
             ignores_sort: false,
@@ -373,8 +381,45 @@ async fn answer(kind: Option<FaultKind>, status: StatusCode, body: Value) -> Res
             tokio::time::sleep(d).await;
             (status, axum::Json(body)).into_response()
         }
+        Some(FaultKind::Gzip) => Response::builder()
+            .status(status)
+            .header("content-type", "application/json")
+            .header("content-encoding", "gzip")
+            .body(Body::from(gzip_stored(body.to_string().as_bytes())))
+            .unwrap_or_default(),
         None => (status, axum::Json(body)).into_response(),
     }
+}
+
+/// `data` as a gzip stream of stored (uncompressed) deflate blocks.
+fn gzip_stored(data: &[u8]) -> Vec<u8> {
+    let mut out = vec![0x1f, 0x8b, 8, 0, 0, 0, 0, 0, 0, 255];
+    let chunks: Vec<&[u8]> = if data.is_empty() {
+        vec![&[]]
+    } else {
+        data.chunks(65_535).collect()
+    };
+    for (i, c) in chunks.iter().enumerate() {
+        out.push(u8::from(i + 1 == chunks.len()));
+        let len = c.len() as u16;
+        out.extend_from_slice(&len.to_le_bytes());
+        out.extend_from_slice(&(!len).to_le_bytes());
+        out.extend_from_slice(c);
+    }
+    let mut crc = !0u32;
+    for &b in data {
+        crc ^= u32::from(b);
+        for _ in 0..8 {
+            crc = if crc & 1 == 1 {
+                (crc >> 1) ^ 0xedb8_8320
+            } else {
+                crc >> 1
+            };
+        }
+    }
+    out.extend_from_slice(&(!crc).to_le_bytes());
+    out.extend_from_slice(&(data.len() as u32).to_le_bytes());
+    out
 }
 
 fn ms_of(v: &Value, field: &str) -> Option<i64> {
@@ -721,11 +766,55 @@ async fn authorization_request(State(s): State<Shared>, Path(token): Path<String
     let jwt = format!("eyJhbGciOiJIUzI1NiJ9.eyJ0ZXN0Ijo{n}fQ.sig{n}");
     let uses = site.jwt_uses;
     site.jwts.insert(jwt.clone(), (token.clone(), uses));
-    (
-        StatusCode::OK,
-        axum::Json(json!({"token": jwt, "sub": token, "iat": 1, "exp": 2})),
-    )
-        .into_response()
+    let mut answer = json!({"token": jwt, "sub": token, "iat": 1, "exp": 2});
+    if site.grants_in_exchange {
+        let groups: Vec<Vec<&str>> = site.tokens[&token]
+            .iter()
+            .map(|r| permissions_of_role(r))
+            .collect();
+        answer["permissionGroups"] = json!(groups);
+    }
+    (StatusCode::OK, axum::Json(answer)).into_response()
+}
+
+/// Nightscout's default roles as permissions (`lib/authorization/storage.js`).
+fn permissions_of_role(role: &str) -> Vec<&'static str> {
+    match role {
+        "admin" => vec!["*"],
+        "readable" => vec!["*:*:read"],
+        "careportal" => vec!["api:treatments:create"],
+        _ => vec![],
+    }
+}
+
+/// `/api/v2/authorization/debug/check/<permission>`: `{check: true}` when
+/// the caller's roles grant it, else 401.
+async fn authorization_check(
+    State(s): State<Shared>,
+    headers: HeaderMap,
+    Path(permission): Path<String>,
+    Query(q): Query<Vec<(String, String)>>,
+) -> Response {
+    let mut site = s.lock().unwrap();
+    site.log.push(format!(
+        "GET /api/v2/authorization/debug/check/{permission}"
+    ));
+    if !site.v2_auth {
+        return (StatusCode::NOT_FOUND, "Cannot GET").into_response();
+    }
+    let Who::Roles(_, w) = who(&mut site, &headers, &q, false) else {
+        return unauthorized();
+    };
+    let ok = match permission.as_str() {
+        p if p.ends_with(":read") => true,
+        "api:treatments:create" => w.treatments,
+        _ => w.profile,
+    };
+    if ok {
+        axum::Json(json!({"check": true})).into_response()
+    } else {
+        unauthorized()
+    }
 }
 
 async fn v3_version(State(s): State<Shared>) -> Response {
@@ -856,6 +945,10 @@ impl Server {
             .route(
                 "/api/v2/authorization/request/{token}",
                 get(authorization_request),
+            )
+            .route(
+                "/api/v2/authorization/debug/check/{permission}",
+                get(authorization_check),
             )
             .route("/api/v3/version", get(v3_version))
             .route("/api/v3/lastModified", get(v3_last_modified))

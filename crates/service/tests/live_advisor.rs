@@ -344,7 +344,24 @@ async fn one_big_batch_a_late_event_and_an_answer_agree_with_a_replay() {
         .await;
     assert_eq!(r.status, StatusCode::OK, "{}", r.text);
     assert_eq!(r.json["answered"][0]["in_force"].as_f64().unwrap(), value);
-    // Answering it again: it is no longer open.
+    // The same answer again (an app retrying after a lost reply): the same
+    // acknowledgement, nothing stored twice.
+    let rev_before = abba_store::testing::count_rows(&svc.db, "answer");
+    let r = svc
+        .call(
+            Method::POST,
+            &format!("/v1/persons/{id}/answers"),
+            Some(&t),
+            Some(&json!({"answers": [{"suggestion_id": latest["id"], "answer": "override", "value": value}]})),
+        )
+        .await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+    assert_eq!(r.json["answered"][0]["in_force"].as_f64().unwrap(), value);
+    assert_eq!(
+        abba_store::testing::count_rows(&svc.db, "answer"),
+        rev_before
+    );
+    // Another answer to it: it is no longer open.
     let r = svc
         .call(
             Method::POST,

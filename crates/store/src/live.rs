@@ -472,8 +472,10 @@ impl Store {
     }
 
     /// Records answers to single open suggestions (one transaction) and
-    /// rebuilds `live`. Returns the answers stored and the later decisions
-    /// whose value changed.
+    /// rebuilds `live`. Returns the answers, in the order of `items`, and
+    /// the later decisions whose value changed. An answer the store holds
+    /// already, the same (an app sending it again after a lost reply), is
+    /// acknowledged again as stored, and nothing is written for it.
     pub fn answer_suggestions(
         &mut self,
         live: &mut Live,
@@ -482,6 +484,9 @@ impl Store {
         let views = live.views();
         let now = jiff::Timestamp::now().to_string();
         let mut out = Vec::new();
+        // Every answer in the order asked: the new ones (`out`) and those
+        // held already.
+        let mut all: Vec<Answer> = Vec::new();
         for (i, item) in items.iter().enumerate() {
             let field = format!("answers[{i}].suggestion_id");
             let Some(k) = live
@@ -492,6 +497,29 @@ impl Store {
                 return Err(StoreError::NoSuggestion(field));
             };
             let (d, v) = (&live.decisions[k], &views[k]);
+            let held = live
+                .answers
+                .get(&(item.at_min, param_key(item.parameter)))
+                .filter(|a| {
+                    a.kind == item.kind
+                        && match item.value {
+                            Some(x) => (a.in_force - x).abs() < 1e-9,
+                            None => item.kind != AnswerKind::Overridden,
+                        }
+                });
+            if let Some(a) = held {
+                if all
+                    .iter()
+                    .any(|b: &Answer| b.at_min == item.at_min && b.parameter == item.parameter)
+                {
+                    return Err(StoreError::invalid(
+                        field,
+                        "the suggestion is answered twice",
+                    ));
+                }
+                all.push(a.clone());
+                continue;
+            }
             if v.status != "open" {
                 return Err(StoreError::Answer(format!(
                     "{field}: the suggestion is {} (only the latest suggestion of a setting, with an update and not yet answered, can be answered)",
@@ -528,7 +556,7 @@ impl Store {
                     ))
                 }
             };
-            out.push(Answer {
+            let a = Answer {
                 at_min: item.at_min,
                 parameter: item.parameter,
                 kind: item.kind,
@@ -536,7 +564,13 @@ impl Store {
                 previous: d.old,
                 in_force,
                 answered_at: now.clone(),
-            });
+            };
+            all.push(a.clone());
+            out.push(a);
+        }
+        if out.is_empty() {
+            // Every answer was held already: nothing to write.
+            return Ok((all, Vec::new()));
         }
         let id = live.person.id;
         // Answers to what the last event fed decided: a replay would feed
@@ -566,7 +600,7 @@ impl Store {
             live.decisions.extend(more);
             live.rev = rev(&tx, id)?;
             tx.commit()?;
-            return Ok((out, Vec::new()));
+            return Ok((all, Vec::new()));
         }
         let p = person::load_by_id(&self.conn, id)?;
         let tx = self.conn.transaction_for(id)?;
@@ -583,7 +617,7 @@ impl Store {
             .filter(|d| before.iter().any(|b| same(b, d) && b.new != d.new))
             .cloned()
             .collect();
-        Ok((out, changed))
+        Ok((all, changed))
     }
 
     /// Records a clinician's change of therapy for the person (as

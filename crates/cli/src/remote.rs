@@ -91,8 +91,8 @@ pub struct RemoteRun {
     /// Answers the app posted (the person's acceptances, rejections and
     /// overrides).
     pub answers_posted: u64,
-    /// Answer posts whose acknowledgement was lost but which the service
-    /// had stored.
+    /// Answer posts that needed another attempt (an acknowledgement lost)
+    /// and were then acknowledged, stored once.
     pub answers_recovered: u64,
     /// The outbox's counters (posts, failures, syncs, events).
     pub outbox: OutboxStats,
@@ -413,7 +413,11 @@ pub fn run_remote(
                 let posted =
                     post_answers(&app.client, app.person, &body, &app.retry).map_err(&err)?;
                 run.answers_wait += t.elapsed();
-                if posted == abba_client::AnswersPosted::AlreadyStored {
+                if matches!(
+                    posted,
+                    abba_client::AnswersPosted::AlreadyStored
+                        | abba_client::AnswersPosted::AckedAfterRetry(_)
+                ) {
                     run.answers_recovered += body.answers.len() as u64;
                 }
             }

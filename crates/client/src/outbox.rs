@@ -258,17 +258,23 @@ pub fn contains(ranges: &[SeqRange], seq: u64) -> bool {
 /// What became of answers posted with [`post_answers`].
 #[derive(Debug, Clone, PartialEq)]
 pub enum AnswersPosted {
-    /// The service acknowledged them.
+    /// The service acknowledged them at the first attempt.
     Acked(AnswersAck),
-    /// An attempt whose acknowledgement was lost had stored them: the
-    /// suggestions are no longer open and carry the status asked for.
+    /// The service acknowledged them after an attempt failed (a lost
+    /// reply, a timeout): the service acknowledges the same answers again
+    /// as it did the first time and stores them once.
+    AckedAfterRetry(AnswersAck),
+    /// An attempt whose acknowledgement was lost had stored them (a
+    /// service older than the acknowledgement of repeats answered 409):
+    /// the suggestions are no longer open and carry the status asked for.
     AlreadyStored,
 }
 
-/// Posts answers, retrying transient failures. Answers are not
-/// idempotent (a second answer to a suggestion is refused with 409), so
-/// after a failure a 409 is checked against the suggestions: when each
-/// carries the answer asked for, an earlier attempt stored them.
+/// Posts answers, retrying transient failures. The service acknowledges
+/// answers it holds already, the same, as it did the first time; a 409
+/// after a failure (a service that refused repeats) is checked against the
+/// suggestions: when each carries the answer asked for, an earlier attempt
+/// stored them.
 pub fn post_answers(
     client: &Client,
     person: u64,
@@ -278,6 +284,7 @@ pub fn post_answers(
     let mut backoff = Backoff::new(*retry);
     loop {
         match client.post_answers(person, body) {
+            Ok(ack) if backoff.failures > 0 => return Ok(AnswersPosted::AckedAfterRetry(ack)),
             Ok(ack) => return Ok(AnswersPosted::Acked(ack)),
             Err(e) if e.status() == Some(409) && backoff.failures > 0 => {
                 let first = body.answers.iter().map(|a| a.suggestion_id).min();

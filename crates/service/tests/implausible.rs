@@ -231,13 +231,24 @@ async fn an_override_off_the_pumps_step_is_refused_with_the_nearest_values() {
         .await;
     assert_eq!(r.status, StatusCode::OK, "{}", r.text);
     assert_eq!(r.json["answered"][0]["in_force"], value);
-    // Again: 409, and the path is the field the message names.
+    // The same again (a retry): the same acknowledgement.
     let r = svc
         .call(
             Method::POST,
             &path,
             Some(&svc.admin),
             Some(&answer(&s["id"], value)),
+        )
+        .await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+    assert_eq!(r.json["answered"][0]["in_force"], value);
+    // Another value: 409, and the path is the field the message names.
+    let r = svc
+        .call(
+            Method::POST,
+            &path,
+            Some(&svc.admin),
+            Some(&answer(&s["id"], value + 0.1)),
         )
         .await;
     assert_eq!(r.status, StatusCode::CONFLICT, "{}", r.text);

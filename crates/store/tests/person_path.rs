@@ -919,7 +919,9 @@ fn export_until(files: &[PathBuf], dir: &std::path::Path, days: i64) -> Vec<Path
     let end = DAY1_MS + days * 86_400_000;
     let at = |v: &Value| {
         v["date"].as_i64().unwrap_or_else(|| {
-            jiff::Timestamp::from_str_opt(v["created_at"].as_str())
+            v["created_at"]
+                .as_str()
+                .and_then(|s| s.parse::<jiff::Timestamp>().ok())
                 .map_or(i64::MIN, |t| t.as_millisecond())
         })
     };
@@ -937,16 +939,6 @@ fn export_until(files: &[PathBuf], dir: &std::path::Path, days: i64) -> Vec<Path
             p
         })
         .collect()
-}
-
-trait FromStrOpt {
-    fn from_str_opt(s: Option<&str>) -> Option<jiff::Timestamp>;
-}
-
-impl FromStrOpt for jiff::Timestamp {
-    fn from_str_opt(s: Option<&str>) -> Option<jiff::Timestamp> {
-        s.and_then(|s| s.parse().ok())
-    }
 }
 
 /// Two weeks of history in one import (a person's first export, or a

@@ -125,7 +125,7 @@ pub fn check_events(
                 format!("sequence number {} appears twice in the batch", e.seq),
             ));
         }
-        let at: jiff::Timestamp = e.at.parse().map_err(|err| {
+        let at: jiff::Timestamp = rfc3339(&e.at).map_err(|err| {
             ApiError::invalid(
                 format!("events[{i}].at"),
                 format!(
@@ -732,7 +732,7 @@ pub fn therapy_change(b: &TherapyChangeBody) -> Result<TherapyChangeIn, ApiError
     let at = match &b.at {
         None => None,
         Some(t) => {
-            let at: jiff::Timestamp = t.parse().map_err(|err| {
+            let at: jiff::Timestamp = rfc3339(t).map_err(|err| {
                 ApiError::invalid(
                     "at",
                     format!(
@@ -797,4 +797,33 @@ pub fn therapy_change_error(e: StoreError) -> ApiError {
         StoreError::Advisor(a) => ApiError::invalid("basal_schedule", a.to_string()),
         other => other.into(),
     }
+}
+
+/// An instant with its offset as the API takes it (RFC 3339): the offset
+/// within a real zone's, −12:00 to +14:00 (jiff reads up to ±25:59, which
+/// no clock shows).
+fn rfc3339(text: &str) -> Result<jiff::Timestamp, String> {
+    let at: jiff::Timestamp = text.parse().map_err(|e: jiff::Error| e.to_string())?;
+    let t = text.trim();
+    if t.ends_with(['Z', 'z']) {
+        return Ok(at);
+    }
+    let Some(sign_at) = t.rfind(['+', '-']) else {
+        return Ok(at);
+    };
+    let digits: String = t[sign_at + 1..]
+        .chars()
+        .filter(char::is_ascii_digit)
+        .collect();
+    let hours: i64 = digits.get(..2).and_then(|h| h.parse().ok()).unwrap_or(0);
+    let minutes: i64 = digits.get(2..4).and_then(|m| m.parse().ok()).unwrap_or(0);
+    let offset = hours * 60 + minutes;
+    let east = t.as_bytes()[sign_at] == b'+';
+    if minutes >= 60 || (east && offset > 14 * 60) || (!east && offset > 12 * 60) {
+        return Err(format!(
+            "the offset {} is beyond any zone's (-12:00 to +14:00)",
+            &t[sign_at..]
+        ));
+    }
+    Ok(at)
 }

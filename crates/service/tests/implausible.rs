@@ -305,3 +305,47 @@ async fn a_cgm_apps_day_closed_off_midnight_is_refused() {
     assert_eq!(r.status, StatusCode::OK, "{}", r.text);
     assert_eq!(basal_decisions(&svc), before + 1);
 }
+
+/// An offset no clock shows (beyond -12:00 to +14:00; jiff alone reads up
+/// to ±25:59) is refused at the field, as is one with 60 minutes or more.
+#[tokio::test]
+async fn an_offset_beyond_any_zones_is_refused() {
+    let svc = Svc::new();
+    let id = svc
+        .person_with(json!({
+            "name": "ana", "tz": "UTC", "mode": "cgm", "first_day": "2026-01-01",
+            "start": {"basal_units_per_hour": 1.0, "carb_ratio_g_per_unit": [10.0, 10.0, 10.0]}
+        }))
+        .await;
+    let path = format!("/v1/persons/{id}/events");
+    for (i, (at, ok)) in [
+        ("2026-01-02T08:00:00+25:00", false),
+        ("2026-01-02T08:00:00+14:30", false),
+        ("2026-01-02T08:00:00-13:00", false),
+        ("2026-01-02T08:00:00+05:75", false),
+        ("2026-01-02T08:00:00+14:00", true),
+        ("2026-01-02T08:00:00-12:00", true),
+        ("2026-01-02T08:00:00.250+05:45", true),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let seq = i as u64 + 1;
+        let body =
+            json!({"events": [{"seq": seq, "at": at, "event": {"type": "cgm", "mg_dl": 120.0}}]});
+        let r = svc
+            .call(Method::POST, &path, Some(&svc.admin), Some(&body))
+            .await;
+        if ok {
+            assert_eq!(r.status, StatusCode::OK, "{at}: {}", r.text);
+        } else {
+            assert_eq!(
+                r.status,
+                StatusCode::UNPROCESSABLE_ENTITY,
+                "{at}: {}",
+                r.text
+            );
+            assert_eq!(r.json["path"], "events[0].at", "{}", r.text);
+        }
+    }
+}

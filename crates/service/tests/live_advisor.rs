@@ -334,42 +334,25 @@ async fn one_big_batch_a_late_event_and_an_answer_agree_with_a_replay() {
         .clone();
     assert_eq!(latest["status"], "open");
     let value = latest["value"].as_f64().unwrap() * 0.97;
-    let r = svc
-        .call(
-            Method::POST,
-            &format!("/v1/persons/{id}/answers"),
-            Some(&t),
-            Some(&json!({"answers": [{"suggestion_id": latest["id"], "answer": "override", "value": value}]})),
-        )
-        .await;
+    let answers = format!("/v1/persons/{id}/answers");
+    let post = |body: Value| {
+        let (svc, answers, t) = (&svc, &answers, &t);
+        async move { svc.call(Method::POST, answers, Some(t), Some(&body)).await }
+    };
+    let overridden =
+        json!({"answers": [{"suggestion_id": latest["id"], "answer": "override", "value": value}]});
+    let r = post(overridden.clone()).await;
     assert_eq!(r.status, StatusCode::OK, "{}", r.text);
     assert_eq!(r.json["answered"][0]["in_force"].as_f64().unwrap(), value);
     // The same answer again (an app retrying after a lost reply): the same
     // acknowledgement, nothing stored twice.
-    let rev_before = abba_store::testing::count_rows(&svc.db, "answer");
-    let r = svc
-        .call(
-            Method::POST,
-            &format!("/v1/persons/{id}/answers"),
-            Some(&t),
-            Some(&json!({"answers": [{"suggestion_id": latest["id"], "answer": "override", "value": value}]})),
-        )
-        .await;
+    let stored = abba_store::testing::count_rows(&svc.db, "answer");
+    let r = post(overridden).await;
     assert_eq!(r.status, StatusCode::OK, "{}", r.text);
     assert_eq!(r.json["answered"][0]["in_force"].as_f64().unwrap(), value);
-    assert_eq!(
-        abba_store::testing::count_rows(&svc.db, "answer"),
-        rev_before
-    );
+    assert_eq!(abba_store::testing::count_rows(&svc.db, "answer"), stored);
     // Another answer to it: it is no longer open.
-    let r = svc
-        .call(
-            Method::POST,
-            &format!("/v1/persons/{id}/answers"),
-            Some(&t),
-            Some(&json!({"answers": [{"suggestion_id": latest["id"], "answer": "accept"}]})),
-        )
-        .await;
+    let r = post(json!({"answers": [{"suggestion_id": latest["id"], "answer": "accept"}]})).await;
     assert_eq!(r.status, StatusCode::CONFLICT, "{}", r.text);
     let mut store = abba_store::Store::open(&svc.db).unwrap();
     let h = store.history("bo").unwrap();

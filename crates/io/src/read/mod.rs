@@ -442,19 +442,13 @@ fn skipped_rows(ctx: &Ctx<'_>, records: Vec<Record>) -> Result<(Vec<Record>, Unr
     } else {
         String::new()
     };
-    let (n, what) = match skipped.count {
-        1 => ("1 row or item", "it was"),
-        _ => ("rows or items", "they were"),
-    };
-    let n = if skipped.count == 1 {
-        n.to_string()
-    } else {
-        format!("{} {n}", skipped.count)
+    let (n, what, them) = match skipped.count {
+        1 => ("1 row or item".to_string(), "it was", "it"),
+        n => (format!("{n} rows or items"), "they were", "them"),
     };
     ctx.note(format!(
         "{n} could not be read: {what} left out and the rest of the file read (fix the file and \
-         import it again to add {}): {}{more}",
-        if skipped.count == 1 { "it" } else { "them" },
+         import it again to add {them}): {}{more}",
         quoted.join("; ")
     ));
     Ok((

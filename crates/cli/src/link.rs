@@ -254,7 +254,17 @@ pub fn sync(a: SyncArgs) -> Result<()> {
                 let parts: Vec<String> = r
                     .collections
                     .iter()
-                    .map(|c| format!("{} {} documents in {} pages", c.name, c.documents, c.pages))
+                    .map(|c| {
+                        let mut s =
+                            format!("{} {} documents in {} pages", c.name, c.documents, c.pages);
+                        if c.late > 0 {
+                            s += &format!(
+                                " ({} uploaded late: dated before the window read again, inserted or changed since)",
+                                c.late
+                            );
+                        }
+                        s
+                    })
                     .collect();
                 println!("Synced {} from {}: {}.", r.person, r.site, parts.join(", "));
                 match &r.import.import {
@@ -275,9 +285,6 @@ pub fn sync(a: SyncArgs) -> Result<()> {
                         shown.join(", "),
                         if r.gone.len() > shown.len() { ", ..." } else { "" }
                     );
-                }
-                for u in &r.unproven {
-                    println!("Not proven complete: {u}.");
                 }
                 if let Some(w) = &r.write_back {
                     println!(

@@ -174,27 +174,85 @@ fn write_back_without_the_right_to_write_is_said_plainly() {
 }
 
 #[test]
-fn sync_says_what_it_cannot_prove_complete() {
+fn a_sync_that_cannot_prove_it_read_everything_fails_without_advice() {
     // 2,500 treatments at one `created_at` on a server serving 1,000 a
-    // page that ignores `sort[_id]`: read as far as it goes, and said.
+    // page that ignores `sort[_id]` and the bounds on `_id`: nothing proves
+    // the pages hold all of them. The sync fails (exit code nonzero),
+    // names the key, imports nothing and prints no advice.
     let dir = tempfile::tempdir().unwrap();
     let mut d = data(1);
     let at = d.treatments[3]["created_at"].as_str().unwrap().to_string();
     d.treatments.extend(one_instant(2500, &at));
     let files = export(dir.path(), &d);
     let srv = server(&d, 1000);
-    srv.with(|s| s.ignores_sort = true);
+    srv.with(|s| {
+        s.ignores_sort = true;
+        s.ignores_id_bounds = true;
+    });
     let (db, store) = store_with_person(dir.path(), "cli.db", &files);
     drop(store);
     assert!(link_cli(&db, &srv.url).status.success());
     let sync = sync_cli(&db).output().unwrap();
     let out = String::from_utf8_lossy(&sync.stdout);
-    assert!(sync.status.success(), "{out}");
+    let err = String::from_utf8_lossy(&sync.stderr);
+    assert!(!sync.status.success(), "{out}{err}");
+    assert!(
+        err.contains("cannot prove it read everything")
+            && err.contains(&at)
+            && err.contains("find[_id]"),
+        "{err}"
+    );
+    assert!(!out.contains("Basal") && !out.contains("Synced"), "{out}");
+    assert_eq!(state(&db), (Vec::new(), Vec::new()));
+    // Where the server honours the bounds but not the order, the ranges of
+    // `_id` read everything: the sync succeeds with the file import's records.
+    srv.with(|s| s.ignores_id_bounds = false);
+    let sync = sync_cli(&db).output().unwrap();
+    assert!(
+        sync.status.success(),
+        "{}",
+        String::from_utf8_lossy(&sync.stderr)
+    );
+    let (_, mut imported) = store_with_person(dir.path(), "files.db", &files);
+    imported.import_files("ana", &files, None).unwrap();
+    assert_eq!(state(&db).0, records(&imported));
+}
+
+/// A treatment uploaded late (dated 36 h before the newest, inserted
+/// after the first sync): `abba sync` says so in words, not only in its
+/// JSON report.
+#[test]
+fn sync_says_late_uploads_in_words() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = data(1);
+    let files = export(dir.path(), &d);
+    let srv = server(&d, 1000);
+    let (db, store) = store_with_person(dir.path(), "late.db", &files);
+    drop(store);
+    assert!(link_cli(&db, &srv.url).status.success());
+    let first = sync_cli(&db).output().unwrap();
+    assert!(first.status.success());
+    assert!(!String::from_utf8_lossy(&first.stdout).contains("uploaded late"));
+    let now = jiff::Timestamp::now().as_millisecond();
+    srv.with(|s| {
+        s.add(
+            "treatments",
+            vec![serde_json::json!({"_id": object_id(now, 1),
+                "eventType": "Correction Bolus", "created_at": "2026-01-13T09:54:00.000Z",
+                "insulin": 1.5, "enteredBy": "Careportal", "utcOffset": 60})],
+        )
+    });
+    let two = sync_cli(&db).output().unwrap();
+    let out = String::from_utf8_lossy(&two.stdout);
+    assert!(two.status.success(), "{out}");
     let line = out
         .lines()
-        .find(|l| l.starts_with("Not proven complete:"))
+        .find(|l| l.starts_with("Synced"))
         .unwrap_or_else(|| panic!("{out}"));
-    assert!(line.contains(&at) && line.contains("sort[_id]"), "{line}");
+    assert!(line.contains("uploaded late"), "{line}");
+    let json = sync_cli(&db).arg("--json").output().unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
+    assert!(v["collections"][1]["late"].as_u64().unwrap() >= 1, "{v}");
 }
 
 #[test]

@@ -208,9 +208,6 @@ pub fn round_with(
                         {
                             after_import(person);
                         }
-                        for u in &r.unproven {
-                            tracing::warn!(person, what = %u, "the Nightscout sync could not prove this complete");
-                        }
                         if !r.gone.is_empty() {
                             tracing::warn!(person, documents = r.gone.len(), ids = ?r.gone, "documents no longer on the Nightscout site (deleted through API v1): their records are kept");
                         }

@@ -28,10 +28,13 @@
 //!   page; then `find[_id][$gte]=<ObjectId>` then `$gt` the last, until an
 //!   empty page.
 //!
-//! What cannot be proven is said in [`crate::fetch::Pages::unproven`]: a page out of
-//! `_id` order or outside its bound (the server ignores `sort[_id]` or
-//! `find[_id]`), a string `_id` of 24 hex digits ending a page (it would
-//! be sent back as an ObjectId: the strings after it are not reached).
+//! A page out of `_id` order (the server ignores `sort[_id]`) has the
+//! rest of its run read by ranges of `_id` ([`split`]), which need no
+//! order. What cannot be proven is put in
+//! [`crate::fetch::Pages::unproven`], which fails the sync: a page
+//! outside its bound (the server ignores `find[_id]`), a string `_id` of
+//! 24 hex digits ending a page or needed as a bound (it would be sent back
+//! as an ObjectId: the strings after it are not reached).
 //! A 24-hex `_id` stored as a string (Nightscout's own writes make
 //! ObjectIds of them) is taken for an ObjectId.
 //!
@@ -159,8 +162,40 @@ enum Run {
     ObjectIds(Option<String>),
 }
 
+/// The lower bound of a range of `_id`s within one run.
+#[derive(Debug, Clone)]
+enum Lower {
+    /// The strings run from its start (`$type` string only).
+    Start,
+    /// `$gte` this `_id`.
+    From(String),
+    /// `$gt` this `_id`.
+    After(String),
+}
+
+impl Lower {
+    fn of(run: &Run, from_oid: &str) -> Lower {
+        match run {
+            Run::Strings(None) => Lower::Start,
+            Run::ObjectIds(None) => Lower::From(from_oid.to_string()),
+            Run::Strings(Some(l)) | Run::ObjectIds(Some(l)) => Lower::After(l.clone()),
+        }
+    }
+    /// Whether `id` (as [`norm`] gives it) is at or above this bound.
+    fn admits(&self, id: &str) -> bool {
+        match self {
+            Lower::Start => true,
+            Lower::From(l) => id >= l.as_str(),
+            Lower::After(l) => id > l.as_str(),
+        }
+    }
+}
+
 /// Pages `filter` by `_id` ascending: the string `_id`s (when `strings`),
 /// then the ObjectIds from `from_oid`. Returns how many documents were new.
+/// A server that serves a run's pages out of `_id` order (it ignores
+/// `sort[_id]`) has the rest of the run read by ranges of `_id`
+/// ([`split`]), which need no order.
 #[allow(clippy::too_many_arguments)]
 fn paged(
     client: &Client,
@@ -179,6 +214,7 @@ fn paged(
     };
     let mut pages = 0;
     let mut fresh = 0;
+    let mut largest = 0;
     let call = format!("GET {}", c.path());
     loop {
         if pages >= MAX_PAGES {
@@ -214,6 +250,7 @@ fn paged(
             }
         }
         col.out.received += docs.len();
+        largest = largest.max(docs.len());
         let strings = matches!(run, Run::Strings(_));
         let problem = check(c, &docs, &run, from_oid);
         let last = docs
@@ -225,15 +262,28 @@ fn paged(
                 fresh += 1;
             }
         }
-        if let Some(p) = problem {
-            col.out
-                .unproven
-                .push(format!("{what}: {p}; more may be on the site"));
-            if strings {
-                run = Run::ObjectIds(None);
-                continue;
+        match problem {
+            Some(Problem::Unordered) => {
+                // The range this page was asked for, read without order.
+                let lower = Lower::of(&run, from_oid);
+                fresh += split(client, c, filter, strings, lower, page, largest, what, col)?;
+                if strings {
+                    run = Run::ObjectIds(None);
+                    continue;
+                }
+                break;
             }
-            break;
+            Some(Problem::Unbounded(p)) => {
+                col.out
+                    .unproven
+                    .push(format!("{what}: {p}; more may be on the site"));
+                if strings {
+                    run = Run::ObjectIds(None);
+                    continue;
+                }
+                break;
+            }
+            None => {}
         }
         let Some(last) = last else { break };
         run = match run {
@@ -251,6 +301,117 @@ fn paged(
     Ok(fresh)
 }
 
+/// Reads the `_id`s of one run from `lower` on without relying on the
+/// server's order (one that ignores `sort[_id]`): a range whose page is
+/// shorter than the longest the server served holds everything in it; a
+/// full one is split at the median `_id` it brought, into the `_id`s below
+/// it (`$lt`) and those from it (`$gte`), each holding fewer documents
+/// than the range, until every range is read whole. What the server
+/// serves outside a range's bounds (it ignores `find[_id]`) proves
+/// nothing and is said. Returns how many documents were new.
+#[allow(clippy::too_many_arguments)]
+fn split(
+    client: &Client,
+    c: Collection,
+    filter: &[(String, String)],
+    strings: bool,
+    lower: Lower,
+    page: usize,
+    mut largest: usize,
+    what: &str,
+    col: &mut Collector,
+) -> Result<usize, NsError> {
+    let call = format!("GET {}", c.path());
+    let mut ranges: Vec<(Lower, Option<String>)> = vec![(lower, None)];
+    let mut fresh = 0;
+    let mut pages = 0;
+    while let Some((lo, hi)) = ranges.pop() {
+        if pages >= MAX_PAGES {
+            return Err(NsError::Protocol {
+                site: client.site().to_string(),
+                call,
+                problem: format!("more than {MAX_PAGES} pages of {what} by ranges of _id"),
+            });
+        }
+        let mut q: Vec<(&str, String)> = filter
+            .iter()
+            .map(|(k, v)| (k.as_str(), v.clone()))
+            .collect();
+        if strings {
+            q.push(("find[_id][$type]", "string".into()));
+        }
+        match &lo {
+            Lower::Start => {}
+            Lower::From(l) => q.push(("find[_id][$gte]", l.clone())),
+            Lower::After(l) => q.push(("find[_id][$gt]", l.clone())),
+        }
+        if let Some(h) = &hi {
+            q.push(("find[_id][$lt]", h.clone()));
+        }
+        q.push(("sort[_id]", "1".into()));
+        q.push(("count", page.to_string()));
+        let docs = as_array(client, &call, client.get(c.path(), &q)?)?;
+        pages += 1;
+        col.out.pages += 1;
+        col.out.received += docs.len();
+        let full = !docs.is_empty() && docs.len() >= largest;
+        largest = largest.max(docs.len());
+        let mut ids = Vec::with_capacity(docs.len());
+        let mut outside = None;
+        for d in &docs {
+            let Some(id) = doc_id(d) else {
+                outside = Some("a document without _id".to_string());
+                break;
+            };
+            let oid = is_object_id(&id);
+            let id = norm(id, strings);
+            // (A 24-hex string among the strings is taken for an
+            // ObjectId by the server too: the module's known limit.)
+            let inside =
+                (strings || oid) && lo.admits(&id) && hi.as_deref().is_none_or(|h| id.as_str() < h);
+            if !inside {
+                outside = Some(format!(
+                    "the server served _id {id} outside the asked range (it ignores find[_id])"
+                ));
+                break;
+            }
+            ids.push(id);
+        }
+        for d in docs {
+            if col.take(d) {
+                fresh += 1;
+            }
+        }
+        if let Some(p) = outside {
+            col.out
+                .unproven
+                .push(format!("{what}: {p}; more may be on the site"));
+            return Ok(fresh);
+        }
+        if !full {
+            continue;
+        }
+        ids.sort();
+        ids.dedup();
+        let Some(mid) = ids.get(ids.len() / 2).filter(|_| ids.len() > 1).cloned() else {
+            col.out.unproven.push(format!(
+                "{what}: a full page of one _id; more may be on the site"
+            ));
+            return Ok(fresh);
+        };
+        if strings && is_object_id(&mid) {
+            col.out.unproven.push(format!(
+                "{what}: the string _id {mid} reads as an ObjectId and cannot bound a range; \
+                 string _ids near it may be on the site"
+            ));
+            return Ok(fresh);
+        }
+        ranges.push((lo, Some(mid.clone())));
+        ranges.push((Lower::From(mid), hi));
+    }
+    Ok(fresh)
+}
+
 /// An `_id` as MongoDB orders it within its run: a string by its bytes,
 /// an ObjectId by its bytes (its hex in lower case).
 fn norm(id: String, strings: bool) -> String {
@@ -261,15 +422,25 @@ fn norm(id: String, strings: bool) -> String {
     }
 }
 
+/// Why a page read by `_id` cannot be paged on from its last `_id`.
+enum Problem {
+    /// Out of `_id` order (the server ignores `sort[_id]`): the range is
+    /// read by [`split`] instead.
+    Unordered,
+    /// Outside the page's bound or without `_id`: nothing bounds it.
+    Unbounded(String),
+}
+
 /// Why a page read by `_id` proves nothing, if it does not: an `_id`
 /// outside the page's bound or of the wrong run, or out of order
 /// (entries are served ordered by date again: only ties are checked).
-fn check(c: Collection, docs: &[Value], run: &Run, from_oid: &str) -> Option<String> {
+fn check(c: Collection, docs: &[Value], run: &Run, from_oid: &str) -> Option<Problem> {
     let strings = matches!(run, Run::Strings(_));
     let mut prev: Option<(String, Option<i64>)> = None;
+    let mut unordered = None;
     for d in docs {
         let Some(id) = doc_id(d) else {
-            return Some("a document without _id".into());
+            return Some(Problem::Unbounded("a document without _id".into()));
         };
         let oid = is_object_id(&id);
         let id = norm(id, strings);
@@ -280,22 +451,20 @@ fn check(c: Collection, docs: &[Value], run: &Run, from_oid: &str) -> Option<Str
             Run::ObjectIds(Some(l)) => !oid || id.as_str() <= l.as_str(),
         };
         if outside {
-            return Some(format!(
-                "the server served _id {id} outside the asked bound (does it ignore find[_id]?)"
-            ));
+            return Some(Problem::Unbounded(format!(
+                "the server served _id {id} outside the asked bound (it ignores find[_id])"
+            )));
         }
         let t = c.time_of(d);
         if let Some((p, pt)) = &prev {
             let compare = c == Collection::Treatments || *pt == t;
-            if compare && p.as_str() > id.as_str() {
-                return Some(format!(
-                    "the server served _id {id} after {p} (does it ignore sort[_id]?)"
-                ));
+            if compare && p.as_str() > id.as_str() && unordered.is_none() {
+                unordered = Some(Problem::Unordered);
             }
         }
         prev = Some((id, t));
     }
-    None
+    unordered
 }
 
 #[cfg(test)]

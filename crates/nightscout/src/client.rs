@@ -258,6 +258,12 @@ impl Client {
                         }
                     }
                 }
+                Err(e) if refused_certificate(&e) => {
+                    return Err(NsError::Certificate {
+                        site: self.site.to_string(),
+                        problem: e.to_string(),
+                    })
+                }
                 Err(_) if attempt < self.opts.attempts => {
                     std::thread::sleep(backoff);
                     backoff = backoff.saturating_mul(2);
@@ -323,6 +329,13 @@ impl Client {
         };
         let mut resp = match sent {
             Ok(r) => r,
+            // A certificate abba does not trust is not retried.
+            Err(e) if refused_certificate(&e) => {
+                return Err(NsError::Certificate {
+                    site: self.site.to_string(),
+                    problem: e.to_string(),
+                })
+            }
             // Connection refused or cut, a timeout: retried.
             Err(e) => return Ok(Outcome::Retry(e.to_string(), None)),
         };
@@ -498,6 +511,20 @@ fn not_identity(enc: &str) -> String {
          (it sends Accept-Encoding: identity) and does not read; a proxy in front of \
          Nightscout that compresses every answer does this: it should honour Accept-Encoding"
     )
+}
+
+/// Whether a failed call is the site's TLS certificate refused (rustls:
+/// not valid for the name, expired, or not from an authority abba trusts,
+/// such as a self-signed one): retrying cannot help.
+fn refused_certificate(e: &ureq::Error) -> bool {
+    let mut text = e.to_string();
+    let mut source = std::error::Error::source(e);
+    while let Some(s) = source {
+        text.push_str(&s.to_string());
+        source = s.source();
+    }
+    let text = text.to_ascii_lowercase();
+    text.contains("certificate") || text.contains("unknownissuer")
 }
 
 /// Retry-After in seconds (an HTTP date is not waited for: the backoff).

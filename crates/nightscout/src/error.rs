@@ -41,6 +41,14 @@ pub enum NsError {
         /// Which role it needs.
         need: String,
     },
+    /// The site's TLS certificate was refused (not retried).
+    #[error("{site}: its TLS certificate is refused ({problem}): abba trusts the public certificate authorities only (webpki roots), so a self-signed certificate, an expired one or one for another name does not pass. Give the site a certificate from a public authority (Let's Encrypt), or link the address the certificate names")]
+    Certificate {
+        /// The site.
+        site: String,
+        /// What rustls said.
+        problem: String,
+    },
     /// The site answered with a redirect, which abba does not follow with
     /// the credential.
     #[error("{site}: {call} is redirected to {to} (HTTP {status}); abba does not follow redirects with the credential: link that URL instead if it is the same site")]
@@ -87,6 +95,16 @@ pub enum NsError {
         call: String,
         /// What was expected.
         problem: String,
+    },
+    /// The site served what abba cannot prove to be all of it (a server
+    /// that does not page as Nightscout does): nothing of this sync is
+    /// imported, so no advice rests on a day that may be incomplete.
+    #[error("{site}: the sync cannot prove it read everything, so it imported nothing (the store and the advice stay as the last complete sync left them): {}. The site does not answer as Nightscout does; abba will try again at the next sync", what.join("; "))]
+    Incomplete {
+        /// The site.
+        site: String,
+        /// What may be missing, each in words.
+        what: Vec<String>,
     },
     /// The person has no link.
     #[error("{0} has no Nightscout link (make one with `abba link nightscout --person {0} --url ... --token ...`)")]

@@ -226,8 +226,9 @@ pub struct Pages {
     /// its start (uploaded late), found by their ObjectId or named by API
     /// v3's history.
     pub late: usize,
-    /// What the paging could not prove complete, said in words (the
-    /// sync's report carries them; nothing is dropped in silence).
+    /// What the paging could not prove complete, said in words: the
+    /// sync fails with them ([`crate::NsError::Incomplete`]) and imports
+    /// nothing.
     pub unproven: Vec<String>,
 }
 
@@ -404,6 +405,12 @@ pub fn fetch_since(
         largest = largest.max(docs.len());
         let mut fresh = 0;
         let mut least: Option<(Key, Key)> = None;
+        // Newest first, as the server compares: a document whose least
+        // possible key is above the greatest of the one served before it
+        // proves the server does not sort by the date field (the pages
+        // are then not the newest at or below each bound).
+        let mut prev: Option<Key> = None;
+        let mut unsorted = false;
         for d in docs {
             if let (Some(t), Some(u)) = (c.time_of(&d), &upper) {
                 let beyond = match u {
@@ -420,6 +427,10 @@ pub fn fetch_since(
                 }
             }
             if let Some((lo, hi)) = c.keys_of(&d) {
+                if prev.as_ref().is_some_and(|p| lo > *p) {
+                    unsorted = true;
+                }
+                prev = Some(hi.clone());
                 least = Some(match least {
                     None => (lo, hi),
                     Some((l, h)) => (l.min(lo), h.min(hi)),
@@ -428,6 +439,14 @@ pub fn fetch_since(
             if col.take(d) {
                 fresh += 1;
             }
+        }
+        if unsorted {
+            // Paging by time stands on that order; by `_id` it needs none
+            // (ranges of `_id` where the server ignores `sort[_id]` too):
+            // the whole window is read so.
+            let from = lower.clone().unwrap_or_else(|| c.lower(0));
+            crate::by_id::range(client, c, &from, None, page, &mut col)?;
+            break;
         }
         let Some((least_lo, least_hi)) = least else {
             // No document carries a time: nothing to page by.
@@ -463,6 +482,48 @@ pub fn fetch_since(
         col.out.late += late;
     }
     Ok(col.finish(c))
+}
+
+/// Whether the site filters `c` by time as Nightscout does: asked for
+/// the documents at or before the epoch's first millisecond, it must
+/// serve none dated later (a server that ignores `find[date]` or
+/// `find[created_at]` answers its newest documents whatever the bound).
+/// abba reads by time and has no way around a server that does not
+/// filter by it: the link is refused before anything is stored.
+pub fn check_time_filter(client: &Client, c: Collection) -> Result<(), NsError> {
+    let field = c.field();
+    let (from, to) = (c.lower(0), c.lower(1));
+    let q = [
+        (format!("find[{field}][$gte]"), from.query()),
+        (format!("find[{field}][$lte]"), to.query()),
+        ("count".to_string(), "1".to_string()),
+    ];
+    let q: Vec<(&str, String)> = q.iter().map(|(k, v)| (k.as_str(), v.clone())).collect();
+    let call = format!("GET {}", c.path());
+    let docs = as_array(client, &call, client.get(c.path(), &q)?)?;
+    let slack = match c {
+        Collection::Entries => 1,
+        Collection::Treatments => OFFSET_SLACK_MS,
+    };
+    if let Some(t) = docs
+        .iter()
+        .filter_map(|d| c.time_of(d))
+        .find(|&t| t > slack)
+    {
+        return Err(NsError::Protocol {
+            site: client.site().to_string(),
+            call,
+            problem: format!(
+                "asked for {} at or before {}, the site served one at {}: it ignores \
+                 find[{field}], and abba, which reads a site by time, cannot read it \
+                 completely. Nightscout (cgm-remote-monitor) filters by it; this server does not",
+                c.name(),
+                to.query(),
+                iso_ms(t)
+            ),
+        });
+    }
+    Ok(())
 }
 
 /// The profile store's documents (all of them: a few).

@@ -19,8 +19,12 @@ pub struct SiteUrl {
 impl SiteUrl {
     /// Checks `url`.
     pub fn parse(url: &str) -> Result<Self, NsError> {
+        // The URL as the messages show it: a user, password or query
+        // (xDrip's `https://SECRET@host/api/v1`, `?token=...`) may hold a
+        // credential, which no message shows.
+        let shown = redacted(url);
         let bad = |problem: &str| NsError::Url {
-            url: url.to_string(),
+            url: shown.clone(),
             problem: problem.to_string(),
         };
         let trimmed = url.trim();
@@ -68,7 +72,16 @@ impl SiteUrl {
             }
             other => return Err(bad(&format!("scheme {other}: expected https"))),
         }
-        let path = uri.path().trim_end_matches('/');
+        // The API's own path pasted with the site (uploaders are
+        // configured with `https://host/api/v1`): the site is what is
+        // before it.
+        let mut path = uri.path().trim_end_matches('/');
+        for api in ["/api/v1", "/api/v2", "/api/v3"] {
+            if path.to_ascii_lowercase().ends_with(api) {
+                path = path[..path.len() - api.len()].trim_end_matches('/');
+                break;
+            }
+        }
         let base = format!(
             "{scheme}://{}{path}",
             authority.as_str().to_ascii_lowercase()
@@ -96,6 +109,45 @@ impl std::fmt::Display for SiteUrl {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(&self.base)
     }
+}
+
+/// `url` with what may be a credential replaced by `***`: the user and
+/// password before `@` and the query's values.
+fn redacted(url: &str) -> String {
+    let url = url.trim();
+    let (head, query) = match url.split_once('?') {
+        Some((h, q)) => (h, Some(q)),
+        None => (url, None),
+    };
+    let mut out = match head.split_once("://") {
+        Some((scheme, rest)) => {
+            let (authority, path) = match rest.find('/') {
+                Some(i) => rest.split_at(i),
+                None => (rest, ""),
+            };
+            match authority.rsplit_once('@') {
+                Some((_, host)) => format!("{scheme}://***@{host}{path}"),
+                None => head.to_string(),
+            }
+        }
+        None => match head.rsplit_once('@') {
+            Some((_, host)) => format!("***@{host}"),
+            None => head.to_string(),
+        },
+    };
+    if let Some(q) = query {
+        let q = q.split('#').next().unwrap_or("");
+        let parts: Vec<String> = q
+            .split('&')
+            .map(|kv| match kv.split_once('=') {
+                Some((k, _)) => format!("{k}=***"),
+                None => kv.to_string(),
+            })
+            .collect();
+        out.push('?');
+        out.push_str(&parts.join("&"));
+    }
+    out
 }
 
 /// The SHA-1 hex of an API secret (what the `api-secret` header carries).
@@ -158,6 +210,40 @@ mod tests {
             "my.site.example",
         ] {
             assert!(SiteUrl::parse(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn the_apis_path_pasted_with_the_site_is_the_site() {
+        for (given, base) in [
+            ("https://my.site.example/api/v1", "https://my.site.example"),
+            ("https://my.site.example/api/v1/", "https://my.site.example"),
+            (
+                "https://my.site.example/ns/API/V1/",
+                "https://my.site.example/ns",
+            ),
+            ("https://my.site.example/api/v3", "https://my.site.example"),
+            ("https://my.site.example/api", "https://my.site.example/api"),
+        ] {
+            assert_eq!(SiteUrl::parse(given).unwrap().as_str(), base, "{given}");
+        }
+    }
+
+    #[test]
+    fn a_credential_in_a_refused_url_is_not_shown() {
+        for (given, secret) in [
+            ("https://s3cr3t-api-secret@my.site.example/api/v1", "s3cr3t"),
+            ("https://user:pa55word@my.site.example", "pa55word"),
+            (
+                "https://my.site.example/?token=reader-0123456789abcdef",
+                "0123456789abcdef",
+            ),
+            ("http://s3cr3t-api-secret@my.site.example/api/v1", "s3cr3t"),
+            ("s3cr3t-api-secret@my.site.example", "s3cr3t"),
+        ] {
+            let e = SiteUrl::parse(given).unwrap_err().to_string();
+            assert!(!e.contains(secret), "{e}");
+            assert!(e.contains("my.site.example"), "{e}");
         }
     }
 

@@ -67,10 +67,6 @@ pub struct SyncReport {
     /// site no longer serves in the window read again (deleted through
     /// API v1, which leaves no trace): their records are kept, and said.
     pub gone: Vec<String>,
-    /// What the paging could not prove complete (a server that does not
-    /// page by `_id` as Nightscout does, see [`crate::by_id`]): what was
-    /// read is imported, and what may be missing is said here.
-    pub unproven: Vec<String>,
 }
 
 /// One collection of a sync.
@@ -148,6 +144,11 @@ pub fn check_link(client: &Client) -> Result<Check, NsError> {
             })
         }
     };
+    // A server that does not filter by time is refused here, before the
+    // link is stored, rather than at every sync.
+    for c in [Collection::Entries, Collection::Treatments] {
+        fetch::check_time_filter(client, c)?;
+    }
     Ok(Check {
         name: s("name"),
         version: s("version"),
@@ -442,6 +443,16 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
             json_bytes(&docs)?,
         ));
     }
+    // What the paging could not prove complete (a server that does not
+    // page by `_id` as Nightscout does, see [`crate::by_id`]) fails the
+    // sync before anything is imported: no advice on a day that may lack
+    // records, and the next sync reads the same again.
+    if !unproven.is_empty() {
+        return Err(NsError::Incomplete {
+            site: client.site().to_string(),
+            what: unproven,
+        });
+    }
     fetched.deleted.sort();
     fetched.deleted.dedup();
     gone.retain(|id| fetched.deleted.binary_search(id).is_err());
@@ -462,7 +473,6 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
         import,
         write_back,
         gone,
-        unproven,
     })
 }
 

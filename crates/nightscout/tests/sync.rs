@@ -372,3 +372,31 @@ fn a_compressed_answer_nobody_asked_for_is_named() {
     assert_eq!(srv.with(|s| s.log.len()), 1, "not retried");
     assert!(store.link("ana").unwrap().is_none());
 }
+
+/// A server that ignores `find[date]` (it answers its newest documents
+/// whatever the bound) cannot be read by time, and abba has no other way
+/// to read it whole: the link is refused at once, naming the filter,
+/// before anything is stored; a link made before that check fails its
+/// sync with the same words and imports nothing.
+#[test]
+fn a_server_that_ignores_the_time_filter_is_refused_when_linked() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = data(1);
+    let files = export(dir.path(), &d);
+    let srv = server(&d, 100);
+    srv.with(|s| s.ignores_time_filter = true);
+    let (_, mut store) = store_with_person(dir.path(), "nofilter.db", &files);
+    let e = link(&mut store, "ana", &srv.url, secret(), false, &fast_client()).unwrap_err();
+    let text = e.to_string();
+    assert!(matches!(e, NsError::Protocol { .. }), "{text}");
+    assert!(
+        text.contains("ignores find[date]") && text.contains("cannot read it completely"),
+        "{text}"
+    );
+    assert!(store.link("ana").unwrap().is_none());
+    // Linked before the check existed: the sync fails, nothing imported.
+    store.set_link("ana", &srv.url, &secret(), false).unwrap();
+    let e = sync(&mut store, "ana", &sync_opts()).unwrap_err();
+    assert!(e.to_string().contains("ignores find[date]"), "{e}");
+    assert!(store.records("ana").unwrap().is_empty());
+}

@@ -81,6 +81,16 @@ pub struct Site {
     /// `sort[...]` is ignored (a server that is not Nightscout's code:
     /// always newest first by the date field).
     pub ignores_sort: bool,
+    /// `find[_id][$gt|$gte|$lt|$lte]` are ignored (a server that is not
+    /// Nightscout's code and filters `_id` by equality only).
+    pub ignores_id_bounds: bool,
+    /// `find[<date field>]` is ignored (`date` of entries, `created_at` of
+    /// treatments): the newest documents whatever the bound, as a server
+    /// that is not Nightscout's code may answer.
+    pub ignores_time_filter: bool,
+    /// No sort at all, not even by the date field: documents in the order
+    /// they were stored (a server that is not Nightscout's code).
+    pub unsorted: bool,
     next_id: u64,
     clock: i64,
 }
@@ -160,6 +170,9 @@ impl Site {
             denormalize: false,
             v3_max_limit: 1000,
             ignores_sort: false,
+            ignores_id_bounds: false,
+            ignores_time_filter: false,
+            unsorted: false,
             next_id: 1,
             clock: 1_700_000_000_000,
         }
@@ -547,6 +560,34 @@ async fn v1_list(
                     .collect()
             })
             .unwrap_or_default();
+        let q: Vec<(String, String)> = if site.ignores_time_filter {
+            q.into_iter()
+                .filter(|(k, _)| !k.starts_with("find[date]") && !k.starts_with("find[created_at]"))
+                .collect()
+        } else {
+            q
+        };
+        let q: Vec<(String, String)> = if site.ignores_id_bounds {
+            let had_id = q.iter().any(|(k, _)| k.starts_with("find[_id]"));
+            let mut q: Vec<(String, String)> = q
+                .into_iter()
+                .filter(|(k, _)| {
+                    !["$gt", "$gte", "$lt", "$lte"]
+                        .iter()
+                        .any(|op| k == &format!("find[_id][{op}]"))
+                })
+                .collect();
+            // Still a query naming `_id` (no date rewriting), matching all.
+            if had_id && !q.iter().any(|(k, _)| k.starts_with("find[_id]")) {
+                q.push((
+                    "find[_id][$ne]".to_string(),
+                    "000000000000000000000000".to_string(),
+                ));
+            }
+            q
+        } else {
+            q
+        };
         let find = match mongo::Find::parse(col, &q) {
             Ok(f) => f,
             Err(e) => return mongo_error(&e),
@@ -556,7 +597,7 @@ async fn v1_list(
         // gets the last 4 days.
         let bounded =
             find.has_id() || find.names(sort) || (col == "entries" && find.names("dateString"));
-        if col != "profile" && !bounded {
+        if col != "profile" && !bounded && !site.ignores_time_filter {
             let from = jiff::Timestamp::now().as_millisecond() - 4 * 86_400_000;
             let bound = if col == "entries" {
                 json!(from)
@@ -581,7 +622,9 @@ async fn v1_list(
             Ok(b) => b,
             Err(e) => return mongo_error(&e),
         };
-        mongo::sort(&mut docs, &by);
+        if !site.unsorted {
+            mongo::sort(&mut docs, &by);
+        }
         let count = q
             .iter()
             .find(|(k, _)| k == "count")

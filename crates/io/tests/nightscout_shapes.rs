@@ -131,3 +131,29 @@ fn nightscouts_own_csv_and_tsv_of_entries_are_read_by_their_date() {
         "{e}"
     );
 }
+
+/// A Profile Switch that only names its profile (Nightscout's Careportal
+/// writes `profile` and `duration`, no `profileJson`) is not applied, and
+/// the file's note says so, naming where the first one is: the person is
+/// not left believing the switch was followed.
+#[test]
+fn a_profile_switch_that_only_names_its_profile_is_said_not_applied() {
+    let t = br#"[
+      {"_id": "t1", "eventType": "Correction Bolus", "created_at": "2026-12-01T10:00:00.000Z", "insulin": 1.0},
+      {"_id": "t2", "eventType": "Profile Switch", "created_at": "2026-12-01T11:00:00.000Z",
+       "profile": "Sport", "duration": 0, "enteredBy": "careportal"}
+    ]"#;
+    let b = read(&[("treatments.json", t.to_vec())], &opts("UTC")).unwrap();
+    assert_eq!(ignored(&b), ["Profile Switch (profile not embedded)"]);
+    let note = b
+        .notes
+        .iter()
+        .find(|n| n.contains("without embedding"))
+        .unwrap_or_else(|| panic!("{:?}", b.notes));
+    assert!(
+        note.contains("1 Profile Switches")
+            && note.contains("$[1]")
+            && note.contains("not applied"),
+        "{note}"
+    );
+}

@@ -841,6 +841,28 @@ impl Tally {
                 first(&self.untyped)
             ));
         }
+        let named: Vec<&Record> = out
+            .iter()
+            .filter(
+                |r| matches!(&r.kind, RecordKind::Ignored { kind } if kind == NOT_EMBEDDED_SWITCH),
+            )
+            .collect();
+        if let Some(f) = named.iter().min_by_key(|r| r.at) {
+            let at = match f.origin.at {
+                crate::record::OriginAt::Item(i) => format!("$[{i}]"),
+                _ => "?".into(),
+            };
+            ctx.note(format!(
+                "{} Profile Switches name a profile without embedding it (no profileJson, as \
+                 Nightscout's Careportal writes them; the first at {} ({at})): the settings they \
+                 switch to are not in the treatment, so they are not applied; the therapy in \
+                 force follows the profile documents and the switches that embed their profile. \
+                 If the pump now runs other settings, the clinician's change of settings puts \
+                 them in force",
+                named.len(),
+                f.at
+            ));
+        }
         let auto: Vec<&Record> = out
             .iter()
             .filter(|r| matches!(&r.kind, RecordKind::Ignored { kind } if kind == AUTO_MODE_SWITCH))
@@ -875,6 +897,10 @@ impl Tally {
         }
     }
 }
+
+/// The kind a Profile Switch that names its profile without embedding it
+/// (no `profileJson`: Nightscout's Careportal, OpenAPS) is counted under.
+const NOT_EMBEDDED_SWITCH: &str = "Profile Switch (profile not embedded)";
 
 /// The kind a Profile Switch to the pump's auto mode is counted under
 /// ([`is_auto_mode_switch`]).
@@ -1172,7 +1198,7 @@ fn temp_basal(item: &Item<'_>, tally: &mut Tally) -> Result<RecordKind, IoError>
 fn profile_switch(item: &Item<'_>) -> Result<RecordKind, IoError> {
     let Some(text) = item.str("profileJson")? else {
         return Ok(RecordKind::Ignored {
-            kind: "Profile Switch (profile not embedded)".into(),
+            kind: NOT_EMBEDDED_SWITCH.into(),
         });
     };
     let v: Value = serde_json::from_str(text)

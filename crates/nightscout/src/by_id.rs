@@ -401,8 +401,9 @@ fn split(
         };
         if strings && is_object_id(&mid) {
             col.out.unproven.push(format!(
-                "{what}: the string _id {mid} reads as an ObjectId and cannot bound a range; \
-                 string _ids near it may be on the site"
+                "{what}: _id {mid}, served among the string _ids, reads as an ObjectId \
+                 (the server ignores find[_id][$type], or holds a 24-hex string) and cannot \
+                 bound a range of strings; string _ids near it may be on the site"
             ));
             return Ok(fresh);
         }

@@ -400,3 +400,51 @@ fn a_server_that_ignores_the_time_filter_is_refused_when_linked() {
     assert!(e.to_string().contains("ignores find[date]"), "{e}");
     assert!(store.records("ana").unwrap().is_empty());
 }
+
+/// A treatment deleted through API v3 and uploaded again under another
+/// `_id` with the same content (an uploader re-sending it, a person
+/// entering it again) is one bolus the site holds: the sync keeps it.
+/// Before, the new document's records were taken as known (the old
+/// document's, still in the log) and then removed with the old: the
+/// bolus and its carbs were lost from the store while valid on the site.
+#[test]
+fn a_document_deleted_and_uploaded_again_under_another_id_stays() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = data(1);
+    let files = export(dir.path(), &d);
+    let srv = server(&d, 1000);
+    let token = credential(Some("reader-0123456789abcdef"), None).unwrap();
+    let mut store = linked(dir.path(), &srv, &files, token);
+    sync(&mut store, "ana", &sync_opts()).unwrap();
+    let before = records(&store).len();
+    let meal = d
+        .treatments
+        .iter()
+        .find(|t| t["eventType"] == "Meal Bolus")
+        .unwrap()
+        .clone();
+    let id = meal["_id"].as_str().unwrap().to_string();
+    let mut again = meal.clone();
+    let now = jiff::Timestamp::now().as_millisecond();
+    again["_id"] = serde_json::Value::String(object_id(now, 9));
+    srv.with(|s| {
+        s.soft_delete("treatments", &id);
+        s.add("treatments", vec![again.clone()]);
+    });
+    let r = sync(&mut store, "ana", &sync_opts()).unwrap();
+    assert_eq!(r.import.deleted, 2, "{r:?}");
+    // The same records as a file import of what the site holds valid.
+    let mut valid = d;
+    valid.treatments.retain(|t| t["_id"].as_str() != Some(&id));
+    valid.treatments.push(again);
+    let dir2 = tempfile::tempdir().unwrap();
+    let valid_files = export(dir2.path(), &valid);
+    let (_, mut imported) = store_with_person(dir2.path(), "files.db", &valid_files);
+    imported.import_files("ana", &valid_files, None).unwrap();
+    assert_same_records(&store, &imported);
+    assert_eq!(records(&store).len(), before);
+    // Once: a sync after changes nothing.
+    let a = sync(&mut store, "ana", &sync_opts()).unwrap();
+    assert_eq!(a.import.deleted, 0);
+    assert_same_records(&store, &imported);
+}

@@ -145,10 +145,14 @@ pub fn import(
     import_with(conn, person, batch, now, &mut |_| Ok(()))
 }
 
-/// [`import`], running `also` inside the import's transaction just before
-/// it commits (whatever must be written together with the records: the
-/// settings a profile brings, a link's high-water marks). `also` runs even
-/// when nothing is new.
+/// [`import`], running `also` inside the import's transaction before its
+/// records are written (whatever must be written together with the
+/// records: the settings a profile brings, a link's high-water marks, the
+/// removal of a sync's deleted documents, which must go before the new
+/// records are compared with the log: a document deleted and uploaded
+/// again under another `_id` with the same content is then added, not
+/// taken as known and removed with the old). `also` runs even when
+/// nothing is new.
 pub fn import_with(
     conn: &mut Conn,
     person: &Person,
@@ -257,6 +261,7 @@ pub fn import_with(
             person.name
         )));
     }
+    also(&tx)?;
     let stamp = now.to_string();
     let files = serde_json::to_string(&batch.files).map_err(|e| StoreError::corrupt("files", e))?;
     let formats =
@@ -329,7 +334,6 @@ pub fn import_with(
         }
         Some(import_id)
     };
-    also(&tx)?;
     tx.commit()?;
     Ok(ImportSummary {
         import_id,

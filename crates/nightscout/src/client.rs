@@ -564,6 +564,26 @@ mod tests {
     use super::*;
 
     #[test]
+    fn a_refused_certificate_is_told_from_a_failure_worth_retrying() {
+        // As ureq reports rustls's refusal of a self-signed certificate.
+        let e = ureq::Error::Io(std::io::Error::other(
+            "invalid peer certificate: Other(OtherError(CaUsedAsEndEntity))",
+        ));
+        assert!(refused_certificate(&e));
+        let e = ureq::Error::Io(std::io::Error::other(
+            "invalid peer certificate: UnknownIssuer",
+        ));
+        assert!(refused_certificate(&e));
+        for e in [
+            ureq::Error::ConnectionFailed,
+            ureq::Error::HostNotFound,
+            ureq::Error::Io(std::io::Error::from(std::io::ErrorKind::ConnectionReset)),
+        ] {
+            assert!(!refused_certificate(&e), "{e}");
+        }
+    }
+
+    #[test]
     fn shiro_grants() {
         for (g, p, ok) in [
             ("*", "api:treatments:create", true),

@@ -56,6 +56,9 @@ pub struct Texts {
     pub forbidden_title: &'static str,
     /// A form without a valid CSRF token or from another origin.
     pub forbidden_csrf: &'static str,
+    /// A form sent without a live session (signed out, the session ended
+    /// or was revoked).
+    pub forbidden_no_session: &'static str,
     /// A page for the other role.
     pub forbidden_role: &'static str,
     /// Title of a page that does not exist.
@@ -144,6 +147,9 @@ pub struct Texts {
     pub status_rejected: &'static str,
     /// Status: own value.
     pub status_overridden: &'static str,
+    /// An answer refused for a suggestion the page no longer offers to
+    /// answer (answered in another tab, replaced): {reason}.
+    pub answer_not_saved: &'static str,
     /// Title of the log.
     pub log_title: &'static str,
     /// The reading form's heading.
@@ -321,6 +327,7 @@ pub const EN: Texts = Texts {
     signed_out: "You are signed out on this device.",
     forbidden_title: "Not allowed",
     forbidden_csrf: "This form was not sent from abba's own page, or the page was too old. Go back, reload the page and send the form again.",
+    forbidden_no_session: "You are not signed in on this device any more (you signed out, or your session ended): this form was not taken and nothing was saved. Open the sign-in link (or scan the QR code) your clinic gave you to sign in again.",
     forbidden_role: "You are signed in with an account that cannot open this page.",
     not_found_title: "Not found",
     not_found: "There is no such page.",
@@ -364,6 +371,7 @@ pub const EN: Texts = Texts {
     status_accepted: "Saved: you accepted the suggestion.",
     status_rejected: "Saved: you kept the previous value.",
     status_overridden: "Saved: your own value is in force.",
+    answer_not_saved: "Your answer was not saved: {reason}. The page now shows each setting as it stands.",
     log_title: "Log",
     log_reading: "A meter reading",
     glucose_label: "Glucose ({unit})",
@@ -545,6 +553,11 @@ pub struct ClinicTexts {
     /// Heading: what the reader noted about the profile the starting
     /// therapy was read from.
     pub therapy_notes_title: &'static str,
+    /// Heading: how insulin is delivered, when it keeps basal suggestions
+    /// back (a closed loop, injections, no insulin records).
+    pub delivery_title: &'static str,
+    /// Before the evidence of the delivery.
+    pub delivery_evidence: &'static str,
     /// Heading: what the import did.
     pub import_result_title: &'static str,
     /// Heading: access.
@@ -671,6 +684,8 @@ pub const CLINIC_EN: ClinicTexts = ClinicTexts {
     profile_choose: "Choose what abba should do below, then choose the files again and import.",
     therapy_from: "The therapy in force comes from:",
     therapy_notes_title: "Notes on the profile the starting therapy was read from",
+    delivery_title: "How insulin is delivered, from the data",
+    delivery_evidence: "What the data show:",
     import_result_title: "What the import did",
     access_title: "Sign-in and tokens",
     make_signin: "Make a sign-in link",

@@ -44,6 +44,11 @@ pub struct Today {
     pub first_week: Option<String>,
     /// What abba was not designed for (`#not-designed-for`).
     pub not_designed_for: Option<String>,
+    /// An answer refused for a suggestion the page shows no form for (it
+    /// was answered in another tab or replaced since the page was shown):
+    /// why, above the cards (`#answer-refused`), since there is no field
+    /// to show it beside.
+    pub answer_refused: Option<String>,
     /// The four settings.
     pub settings: Vec<SettingCard>,
 }
@@ -279,6 +284,7 @@ pub fn model(live: &Live, err: Option<&ValueError>, fx: Option<&EffectSource>) -
     Today {
         first_week,
         not_designed_for,
+        answer_refused: None,
         settings: PARAMETERS
             .iter()
             .zip(&a.settings)
@@ -359,15 +365,22 @@ fn refused_answer(
     message: String,
     fx: Option<&EffectSource>,
 ) -> Today {
-    model(
-        live,
-        Some(&ValueError {
-            sid,
-            typed: typed.to_string(),
-            message,
-        }),
-        fx,
-    )
+    let err = ValueError {
+        sid,
+        typed: typed.to_string(),
+        message,
+    };
+    let mut today = model(live, Some(&err), fx);
+    let beside_its_field = today
+        .settings
+        .iter()
+        .filter_map(|c| c.suggestion.as_ref())
+        .any(|s| s.sid == sid && s.open);
+    if !beside_its_field {
+        let reason = err.message.trim_end().trim_end_matches('.');
+        today.answer_refused = Some(fill(EN.answer_not_saved, &[("reason", reason)]));
+    }
+    today
 }
 
 /// `POST /answer`: one answer, then 303 back to Today with a status

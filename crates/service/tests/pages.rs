@@ -2590,3 +2590,82 @@ async fn the_new_person_forms_refusals_name_no_cli_flag() {
         assert!(!error.contains("--"), "no CLI flag: {error}");
     }
 }
+
+/// A wrong file uploaded to the import (a PDF report, a photo): refused
+/// beside the files field naming what it is, never its bytes shown as a
+/// CSV's column names; nothing stored.
+#[tokio::test]
+async fn the_clinics_import_names_a_pdf_or_a_binary_file() {
+    let svc = Svc::new();
+    let id = svc.person("ana").await;
+    let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
+    let import = format!("/clinic/persons/{id}/import");
+    let pdf: &[u8] = b"%PDF-1.7\n%\xe2\xe3\xcf\xd3\n1 0 obj <</Type /Catalog>>, endobj\n";
+    let png: &[u8] = b"\x89PNG\r\n\x1a\n\0\0\0\rIHDR,\x01\x02,\x03\n";
+    for (name, bytes, want) in [
+        ("clarity.pdf", pdf, "a PDF document"),
+        ("photo.png", png, "binary data"),
+    ] {
+        let p = admin
+            .post_multipart(&import, &[("csrf", &csrf)], &[("files", name, bytes)])
+            .await;
+        assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+        let error = p.section("<p class=\"field-error\" id=\"files-error\"", "p");
+        assert!(error.contains(name) && error.contains(want), "{error}");
+        assert!(!error.contains("column"), "{error}");
+    }
+    let store = abba_service::open_store(&svc.db).unwrap();
+    assert!(store.records("ana").unwrap().is_empty());
+}
+
+/// An own value that is no number: the error beside the field gives an
+/// example in that setting's unit (a basal rate in U/h, a carb ratio in
+/// g/U), not a basal rate's for a carb ratio.
+#[tokio::test]
+async fn an_own_value_that_is_no_number_gets_an_example_in_its_unit() {
+    let svc = Svc::new();
+    let (id, _) = person_past_first_week(&svc, "ana", 9).await;
+    let (mut b, csrf) = signed_in(&svc, Role::Person(id as i64)).await;
+    let today = b.get("/").await;
+    let basal_sid = open_sid(today.section("<section id=\"setting-basal\"", "section"))
+        .expect("an open basal suggestion");
+    let key = b.get("/log").await.hidden("submission");
+    let p = b
+        .post(
+            "/log/meal",
+            &[
+                ("csrf", &csrf),
+                ("carbs", "60"),
+                ("slot", "lunch"),
+                ("submission", &key),
+            ],
+        )
+        .await;
+    let log = b.get(p.location()).await;
+    let meal_sid = open_sid(log.section("<section id=\"meal-advice\"", "section"))
+        .expect("the lunch suggestion to answer");
+    for (sid, example) in [
+        (&basal_sid, "for example 0.85."),
+        (&meal_sid, "for example 10.5."),
+    ] {
+        let key = b.get("/").await.hidden("submission");
+        let p = b
+            .post(
+                "/answer",
+                &[
+                    ("csrf", &csrf),
+                    ("suggestion_id", sid),
+                    ("action", "override"),
+                    ("value", "abc"),
+                    ("submission", &key),
+                ],
+            )
+            .await;
+        assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+        let error = p.section(
+            &format!("<p class=\"field-error\" id=\"value-error-{sid}\""),
+            "p",
+        );
+        assert!(error.contains(example), "{example}: {error}");
+    }
+}

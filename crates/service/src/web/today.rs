@@ -340,7 +340,14 @@ fn answer_item(form: &Form) -> Result<AnswerItem, (u64, String)> {
         "override" if typed.is_empty() => return Err((sid, EN.missing_field.to_string())),
         "override" => match form::number(typed) {
             Some(v) => (AnswerKind::Override, Some(v)),
-            None => return Err((sid, fill(EN.expected_number, &[("example", "0.85")]))),
+            None => {
+                // An example in the setting's own unit (U/h or g/U).
+                let example = match abba_api::Setting::from_suggestion_id(sid).1 {
+                    abba_api::Setting::Basal => "0.85",
+                    _ => "10.5",
+                };
+                return Err((sid, fill(EN.expected_number, &[("example", example)])));
+            }
         },
         other => {
             return Err((

@@ -11,7 +11,8 @@
 //! outside the clinician's bounds (refused beside the field, nothing
 //! stored) and inside them (accepted). `abba history --json` then holds
 //! exactly those two answers. Every page is checked at 390×844 and
-//! 1280×800: screenshot, axe-core, console, horizontal scroll
+//! 1280×800 (and for horizontal scroll at 320 px): screenshot, axe-core
+//! at every impact, console, horizontal scroll
 //! (`web_common`).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -724,16 +725,7 @@ async fn a_long_name_never_makes_a_page_scroll_sideways() {
             );
             for (w, h) in [(320, 640), (1280, 800)] {
                 b.set_viewport(w, h).await;
-                let v = b
-                    .client
-                    .execute(
-                        "const e = document.documentElement; return [e.scrollWidth, e.clientWidth];",
-                        vec![],
-                    )
-                    .await
-                    .unwrap();
-                let (sw, cw) = (v[0].as_u64().unwrap_or(0), v[1].as_u64().unwrap_or(0));
-                if sw > cw {
+                if let Some((sw, cw)) = b.sideways().await {
                     problems.push(format!(
                         "{path} at {w}x{h}: horizontal scroll (scrollWidth {sw} > clientWidth {cw})"
                     ));

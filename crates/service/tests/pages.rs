@@ -2669,3 +2669,46 @@ async fn an_own_value_that_is_no_number_gets_an_example_in_its_unit() {
         assert!(error.contains(example), "{example}: {error}");
     }
 }
+
+/// The steps and the change-of-therapy forms with both fields unreadable:
+/// both errors beside their fields at once; nothing changes.
+#[tokio::test]
+async fn the_steps_and_therapy_forms_show_every_unreadable_field_at_once() {
+    let svc = Svc::new();
+    let id = svc.person("ana").await;
+    let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
+    let before = abba_service::open_store(&svc.db)
+        .unwrap()
+        .person("ana")
+        .unwrap()
+        .settings;
+    for (form, fields) in [
+        ("steps", [("basal_step", "fine"), ("cr_step", "1/10")]),
+        ("therapy", [("basal", "0.9 U"), ("carb_ratios", "10;12;11")]),
+    ] {
+        let mut f = vec![("csrf", csrf.as_str())];
+        f.extend(fields);
+        let p = admin
+            .post(&format!("/clinic/persons/{id}/{form}"), &f)
+            .await;
+        assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+        for (field, _) in fields {
+            assert!(
+                p.html
+                    .contains(&format!("<p class=\"field-error\" id=\"{field}-error\">")),
+                "{form}: {field}'s error beside it: {}",
+                p.html
+            );
+            assert!(p
+                .html
+                .contains(&format!("aria-describedby=\"{field}-error\"")));
+        }
+    }
+    let after = abba_service::open_store(&svc.db)
+        .unwrap()
+        .person("ana")
+        .unwrap()
+        .settings;
+    assert_eq!(after.pump_steps, before.pump_steps);
+    assert_eq!(after.start, before.start);
+}

@@ -1049,17 +1049,18 @@ pub async fn steps(
         form::number(form.text("cr_step")),
     );
     let (Some(b), Some(c)) = (b, c) else {
-        let field = if b.is_none() { "basal_step" } else { "cr_step" };
-        return refused(
-            &s,
-            &w.csrf,
-            id,
-            &form,
-            &fields,
-            field,
-            fill(EN.expected_number, &[("example", "0.05")]),
-        )
-        .await;
+        // Each unreadable field's error beside it, at once.
+        let errors = [("basal_step", b, "0.05"), ("cr_step", c, "0.1")]
+            .into_iter()
+            .filter(|(_, v, _)| v.is_none())
+            .map(|(f, _, example)| {
+                (
+                    f.to_string(),
+                    fill(EN.expected_number, &[("example", example)]),
+                )
+            })
+            .collect();
+        return refused_all(&s, &w.csrf, id, &form, &fields, errors).await;
     };
     let steps = PumpSteps {
         basal_u_per_h: b,
@@ -1141,29 +1142,25 @@ pub async fn therapy(
     let fields = ["basal", "carb_ratios"];
     let (w, form) = person_form(&s, &ctx, body, &["csrf", "basal", "carb_ratios"]).await?;
     let basal = match form.text("basal") {
-        "" => None,
-        t => match form::number(t) {
-            Some(v) => Some(vec![(0, v)]),
-            None => {
-                return refused(
-                    &s,
-                    &w.csrf,
-                    id,
-                    &form,
-                    &fields,
-                    "basal",
-                    fill(EN.expected_number, &[("example", "0.85")]),
-                )
-                .await
-            }
-        },
+        "" => Ok(None),
+        t => form::number(t)
+            .map(|v| Some(vec![(0, v)]))
+            .ok_or_else(|| fill(EN.expected_number, &[("example", "0.85")])),
     };
     let cr = match form.text("carb_ratios") {
-        "" => None,
-        t => match carb_ratios(t) {
-            Ok(c) => Some(c),
-            Err(e) => return refused(&s, &w.csrf, id, &form, &fields, "carb_ratios", e).await,
-        },
+        "" => Ok(None),
+        t => carb_ratios(t).map(Some),
+    };
+    let (basal, cr) = match (basal, cr) {
+        (Ok(b), Ok(c)) => (b, c),
+        (b, c) => {
+            // Each unreadable field's error beside it, at once.
+            let errors = [("basal", b.err()), ("carb_ratios", c.err())]
+                .into_iter()
+                .filter_map(|(f, e)| Some((f.to_string(), e?)))
+                .collect();
+            return refused_all(&s, &w.csrf, id, &form, &fields, errors).await;
+        }
     };
     if basal.is_none() && cr.is_none() {
         return refused(

@@ -2645,8 +2645,8 @@ async fn an_own_value_that_is_no_number_gets_an_example_in_its_unit() {
     let meal_sid = open_sid(log.section("<section id=\"meal-advice\"", "section"))
         .expect("the lunch suggestion to answer");
     for (sid, example) in [
-        (&basal_sid, "for example 0.85."),
-        (&meal_sid, "for example 10.5."),
+        (&basal_sid, "for example 0.85 "),
+        (&meal_sid, "for example 10.5 "),
     ] {
         let key = b.get("/").await.hidden("submission");
         let p = b
@@ -2711,4 +2711,52 @@ async fn the_steps_and_therapy_forms_show_every_unreadable_field_at_once() {
         .settings;
     assert_eq!(after.pump_steps, before.pump_steps);
     assert_eq!(after.start, before.start);
+}
+
+/// "1,000" g is a thousands separator in English and a decimal comma
+/// elsewhere: refused beside the field, nothing stored (it was read as
+/// 1 g). "45,5" g is 45.5 g, and the meal's advice says 45.5, not 46.
+#[tokio::test]
+async fn an_ambiguous_thousands_comma_is_refused_and_a_decimal_comma_kept() {
+    let svc = Svc::new();
+    let (id, _) = person_past_first_week(&svc, "ana", 9).await;
+    let (mut b, csrf) = signed_in(&svc, Role::Person(id as i64)).await;
+    let before = app_events(&svc, id);
+    let key = b.get("/log").await.hidden("submission");
+    let p = b
+        .post(
+            "/log/meal",
+            &[
+                ("csrf", &csrf),
+                ("carbs", "1,000"),
+                ("slot", "snack"),
+                ("submission", &key),
+            ],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+    let error = p.section("<p class=\"field-error\" id=\"carbs-error\"", "p");
+    assert!(error.contains("no thousands separator"), "{error}");
+    assert!(
+        p.html.contains("value=\"1,000\""),
+        "the typed value is kept"
+    );
+    assert_eq!(app_events(&svc, id), before);
+    let key = b.get("/log").await.hidden("submission");
+    let p = b
+        .post(
+            "/log/meal",
+            &[
+                ("csrf", &csrf),
+                ("carbs", "45,5"),
+                ("slot", "lunch"),
+                ("submission", &key),
+            ],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
+    let log = b.get(p.location()).await;
+    let advice = log.section("<section id=\"meal-advice\"", "section");
+    assert!(advice.contains("45.5 g at"), "{advice}");
+    assert_eq!(app_events(&svc, id), before + 1);
 }

@@ -394,7 +394,7 @@ pub const EN: Texts = Texts {
     status_day_closed: "Saved: your bedtime reading closed the day.",
     status_meal: "Saved: your meal.",
     status_snack: "Saved: your snack (abba suggests carb ratios for the three main meals only).",
-    expected_number: "Enter a number, for example {example}.",
+    expected_number: "Enter a number, for example {example} (a decimal point or comma, no thousands separator).",
     missing_field: "This field is needed.",
     glucose_out_of_range: "Enter a reading from {min} to {max} {unit}; you entered {value}.",
     glucose_looks_mg_dl: "Your readings are in mmol/L: {value} mg/dL would be {mmol} mmol/L.",

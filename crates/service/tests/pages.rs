@@ -2760,3 +2760,43 @@ async fn an_ambiguous_thousands_comma_is_refused_and_a_decimal_comma_kept() {
     assert!(advice.contains("45.5 g at"), "{advice}");
     assert_eq!(app_events(&svc, id), before + 1);
 }
+
+/// An upload over the limit (a browser declares its size): 413 at once,
+/// a page that says how large it was, the limit and what to do, with a
+/// link back to the form, never the service's "something went wrong".
+#[tokio::test]
+async fn an_upload_over_the_limit_says_what_to_do() {
+    let svc = Svc::new();
+    let id = svc.person("ana").await;
+    let (admin, _) = signed_in(&svc, Role::Admin).await;
+    for (path, back) in [
+        (
+            format!("/clinic/persons/{id}/import"),
+            format!("/clinic/persons/{id}"),
+        ),
+        ("/clinic/persons".to_string(), "/clinic".to_string()),
+    ] {
+        let req = Request::builder()
+            .method(Method::POST)
+            .uri(&path)
+            .header(header::HOST, HOST)
+            .header(header::ORIGIN, ORIGIN)
+            .header(header::COOKIE, admin.cookie_header())
+            .header(
+                header::CONTENT_TYPE,
+                "multipart/form-data; boundary=----abba-test-boundary",
+            )
+            .header(header::CONTENT_LENGTH, 70 * 1024 * 1024)
+            .body(Body::empty())
+            .unwrap();
+        let res = svc.router.clone().oneshot(req).await.unwrap();
+        assert_eq!(res.status(), StatusCode::PAYLOAD_TOO_LARGE, "{path}");
+        let bytes = res.into_body().collect().await.unwrap().to_bytes();
+        let html = String::from_utf8_lossy(&bytes);
+        assert!(html.contains("70.0 MB, at most 32.0 MB"), "{html}");
+        assert!(html.contains("Nothing was imported"), "{html}");
+        assert!(!html.contains("Something went wrong"), "{html}");
+        let link = format!("href=\"{}\"", back.replace('/', "&#x2f;"));
+        assert!(html.contains(&link), "{link}: {html}");
+    }
+}

@@ -560,6 +560,12 @@ pub struct ClinicTexts {
     pub delivery_evidence: &'static str,
     /// Heading: what the import did.
     pub import_result_title: &'static str,
+    /// Title of the page of an upload over the limit.
+    pub upload_too_large_title: &'static str,
+    /// An upload over the limit ({size}, {max} in MB): nothing imported.
+    pub upload_too_large: &'static str,
+    /// The link back to the form.
+    pub back_to_form: &'static str,
     /// Heading: access.
     pub access_title: &'static str,
     /// Button: sign-in link.
@@ -687,6 +693,9 @@ pub const CLINIC_EN: ClinicTexts = ClinicTexts {
     delivery_title: "How insulin is delivered, from the data",
     delivery_evidence: "What the data show:",
     import_result_title: "What the import did",
+    upload_too_large_title: "Too large to upload",
+    upload_too_large: "These files are too large to upload at once: {size} MB, at most {max} MB in one upload. Nothing was imported or created. Upload fewer files at a time, or export a shorter period.",
+    back_to_form: "Back to the form",
     access_title: "Sign-in and tokens",
     make_signin: "Make a sign-in link",
     issue_token: "Issue an API token",

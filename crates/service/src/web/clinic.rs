@@ -1558,6 +1558,30 @@ pub fn is_upload(path: &str) -> bool {
             .is_some_and(|id| !id.is_empty() && !id.contains('/'))
 }
 
+/// The page of an upload (`path`, [`is_upload`]) that declares `size`
+/// bytes, over [`MAX_UPLOAD_BYTES`]: 413, what to do, a link back to the
+/// form (the person's page, or the clinic's for a new person).
+pub fn upload_too_large(path: &str, size: u64) -> axum::response::Response {
+    use axum::response::IntoResponse;
+    let mb = |b: f64| format!("{:.1}", b / (1024.0 * 1024.0));
+    let back = path.strip_suffix("/import").unwrap_or("/clinic");
+    let model = abba_web::pages::Message {
+        text: fill(
+            C.upload_too_large,
+            &[
+                ("size", &mb(size as f64)),
+                ("max", &mb(MAX_UPLOAD_BYTES as f64)),
+            ],
+        ),
+        link: Some((back.to_string(), C.back_to_form.to_string())),
+    };
+    let layout = Layout::new(C.upload_too_large_title, None);
+    match abba_web::render("message.html", &layout, &model) {
+        Ok(body) => super::page::html(StatusCode::PAYLOAD_TOO_LARGE, body),
+        Err(e) => ApiError::internal(e).into_response(),
+    }
+}
+
 /// This module's routes (merged by [`super::routes`]).
 pub fn routes() -> axum::Router<crate::state::AppState> {
     use axum::extract::DefaultBodyLimit;

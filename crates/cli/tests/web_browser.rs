@@ -11,7 +11,8 @@
 //! outside the clinician's bounds (refused beside the field, nothing
 //! stored) and inside them (accepted). `abba history --json` then holds
 //! exactly those two answers. Every page is checked at 390×844 and
-//! 1280×800: screenshot, axe-core, console, horizontal scroll
+//! 1280×800 (and for horizontal scroll at 320 px): screenshot, axe-core
+//! at every impact, console, horizontal scroll
 //! (`web_common`).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -672,4 +673,66 @@ async fn the_harness_drives_headless_chromium() {
     );
     let _ = b.axe().await;
     b.close().await;
+}
+
+/// A name of 200 characters without a space (the longest the store takes)
+/// never pushes a page sideways: on the phone's narrowest width (320 CSS
+/// px) and on the desktop, the clinic's list and the person's page, and
+/// each page of the person's app, are no wider than the viewport.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_long_name_never_makes_a_page_scroll_sideways() {
+    let Some(tools) = tools() else {
+        return;
+    };
+    let dir = TempDir::new("web-long-name");
+    let db = dir.0.join("clinic.db");
+    let db_s = db.to_str().unwrap().to_string();
+    abba(&["token", "--db", &db_s, "--admin"]);
+    let name = "Maximilian".repeat(20);
+    abba(&[
+        "person",
+        "new",
+        "--db",
+        &db_s,
+        "--name",
+        &name,
+        "--tz",
+        "Europe/Zurich",
+        "--mode",
+        "smbg",
+        "--basal",
+        "0.9",
+        "--carb-ratio",
+        "10,12,11",
+    ]);
+    let server = Server::start(&db);
+    let base = server.url();
+    let driver = Driver::start(&tools, &dir.0);
+    let b = Browser::open(&tools, &driver, &dir.0, &base).await;
+    let mut problems = Vec::new();
+    let pages: [(&[&str], &[&str]); 2] = [
+        (&["--admin"], &["/clinic", "/clinic/persons/1"]),
+        (&["--person", &name], &["/", "/log", "/glucose", "/history"]),
+    ];
+    for (who, paths) in pages {
+        b.goto(&signin_link(&db, who, &base)).await;
+        b.click_and_wait("form#signin-form button#signin").await;
+        for path in paths {
+            b.goto(path).await;
+            assert!(
+                b.body_text().await.contains(&name),
+                "{path} names the person"
+            );
+            for (w, h) in [(320, 640), (1280, 800)] {
+                b.set_viewport(w, h).await;
+                if let Some((sw, cw)) = b.sideways().await {
+                    problems.push(format!(
+                        "{path} at {w}x{h}: horizontal scroll (scrollWidth {sw} > clientWidth {cw})"
+                    ));
+                }
+            }
+        }
+    }
+    b.close().await;
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
 }

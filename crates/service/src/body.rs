@@ -61,6 +61,8 @@ pub async fn refuse_declared_oversize(
     let path = req.uri().path();
     let mut r = if path.starts_with("/v1/") || path == "/healthz" {
         e.into_response()
+    } else if req.method() == axum::http::Method::POST && crate::web::clinic::is_upload(path) {
+        crate::web::clinic::upload_too_large(path, n)
     } else {
         crate::web::page::PageError::from(e).into_response()
     };

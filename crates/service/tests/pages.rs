@@ -2304,3 +2304,499 @@ async fn the_clinics_import_words_its_errors_for_its_own_fields() {
         );
     }
 }
+
+/// Two tabs of Today: the basal suggestion accepted in one, "keep the
+/// previous value" pressed on the other's older page. The store refuses
+/// the second answer (the suggestion is no longer open) and keeps the
+/// first; the page says so above the cards, since the card it came from
+/// has no answer form left to show the error beside.
+#[tokio::test]
+async fn an_answer_from_an_older_tab_is_refused_with_a_message() {
+    let svc = Svc::new();
+    let (id, token) = person_past_first_week(&svc, "ana", 9).await;
+    let (mut b, csrf) = signed_in(&svc, Role::Person(id as i64)).await;
+    let tab_a = b.get("/").await;
+    let tab_b = b.get("/").await;
+    let sid = open_sid(tab_a.section("<section id=\"setting-basal\"", "section"))
+        .expect("an open basal suggestion after the day closed");
+    let answer = |action: &'static str, key: String| {
+        vec![
+            ("csrf", csrf.clone()),
+            ("suggestion_id", sid.clone()),
+            ("action", action.to_string()),
+            ("submission", key),
+        ]
+    };
+    let fields = answer("accept", tab_b.hidden("submission"));
+    let f: Vec<(&str, &str)> = fields.iter().map(|(k, v)| (*k, v.as_str())).collect();
+    let p = b.post("/answer", &f).await;
+    assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
+    let fields = answer("reject", tab_a.hidden("submission"));
+    let f: Vec<(&str, &str)> = fields.iter().map(|(k, v)| (*k, v.as_str())).collect();
+    let p = b.post("/answer", &f).await;
+    assert_eq!(p.status, StatusCode::CONFLICT, "{}", p.html);
+    let refused = p.section("<p id=\"answer-refused\"", "p");
+    assert!(
+        refused.contains("Your answer was not saved"),
+        "the refusal is on the page: {}",
+        p.html
+    );
+    assert!(
+        !p.section("<section id=\"setting-basal\"", "section")
+            .contains("name=\"suggestion_id\""),
+        "no answer form left for it"
+    );
+    // The first answer stands.
+    let h = svc
+        .call(
+            Method::GET,
+            &format!("/v1/persons/{id}/history?limit=1000"),
+            Some(&token),
+            None,
+        )
+        .await;
+    let status: Vec<&str> = h.json["suggestions"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|s| s["id"].as_u64().map(|x| x.to_string()) == Some(sid.clone()))
+        .map(|s| s["status"].as_str().unwrap())
+        .collect();
+    assert_eq!(status, vec!["accepted"], "{}", h.text);
+    // An own value refused beside its open field stays there, no banner.
+    let today = b.get("/").await;
+    assert!(!today.html.contains("id=\"answer-refused\""));
+}
+
+/// A form sent from a page left open after signing out (another tab, the
+/// Back button) is refused, nothing stored, and the page says why: the
+/// person is signed out, not that the form came from elsewhere.
+#[tokio::test]
+async fn a_form_sent_after_signing_out_says_the_person_is_signed_out() {
+    let svc = Svc::new();
+    let a = svc.person("ana").await;
+    let (mut b, csrf) = signed_in(&svc, Role::Person(a as i64)).await;
+    let key = b.get("/log").await.hidden("submission");
+    let session = b.cookies.get("abba_session").cloned().unwrap();
+    let p = b.post("/signout", &[("csrf", &csrf)]).await;
+    assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
+    // The other tab still sends the old cookie.
+    b.cookies.insert("abba_session".into(), session);
+    let p = b
+        .post(
+            "/log/reading",
+            &[("glucose", "120"), ("csrf", &csrf), ("submission", &key)],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::FORBIDDEN, "{}", p.html);
+    assert!(
+        p.html
+            .contains("You are not signed in on this device any more"),
+        "{}",
+        p.html
+    );
+    assert!(p.html.contains("nothing was saved"), "{}", p.html);
+    assert!(!p.html.contains("not sent from abba"), "{}", p.html);
+    assert_eq!(app_events(&svc, a), 0);
+    // From another origin it is still the other refusal.
+    b.origin = Some("http://evil.test");
+    let p = b
+        .post(
+            "/log/reading",
+            &[("glucose", "120"), ("csrf", &csrf), ("submission", &key)],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::FORBIDDEN);
+    assert!(p.html.contains("not sent from abba"), "{}", p.html);
+}
+
+/// A person whose uploaded export shows a closed loop (AndroidAPS): the
+/// clinic's page of the person says that no basal rate is suggested and
+/// why, with the records that show it (what `abba advise` says under
+/// "Delivery"); a person with no such data says nothing of it.
+#[tokio::test]
+async fn the_clinic_page_of_a_person_on_a_closed_loop_says_why_no_basal_is_suggested() {
+    let svc = Svc::new();
+    let body = |name: &str| {
+        json!({
+            "name": name, "tz": "Europe/Zurich", "mode": "cgm",
+            "start": {"basal_units_per_hour": 1.0, "carb_ratio_g_per_unit": [10.0, 12.0, 11.0]}
+        })
+    };
+    let looped = svc.person_with(body("lou")).await;
+    let open = svc.person_with(body("ola")).await;
+    let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
+    let data = |f: &str| {
+        std::fs::read(format!(
+            "{}/../io/tests/data/{f}",
+            env!("CARGO_MANIFEST_DIR")
+        ))
+        .unwrap()
+    };
+    let entries = data("nightscout_entries_synthetic.json");
+    let aaps = data("nightscout_treatments_aaps_synthetic.json");
+    let p = import_choosing(
+        &mut admin,
+        looped,
+        &csrf,
+        "keep",
+        &[
+            ("files", "entries.json", &entries),
+            ("files", "treatments.json", &aaps),
+        ],
+    )
+    .await;
+    assert_eq!(p.status, StatusCode::OK, "{}", p.html);
+    let page = admin.get(&format!("/clinic/persons/{looped}")).await;
+    let note = page.section("<p id=\"delivery-note\"", "p");
+    assert!(note.contains("closed loop"), "{note}");
+    assert!(note.contains("suggests no basal rate"), "{note}");
+    let evidence = page.section("<ul id=\"delivery-evidence\"", "ul");
+    assert!(evidence.to_lowercase().contains("androidaps"), "{evidence}");
+    // A person with no import yet: nothing to say.
+    let page = admin.get(&format!("/clinic/persons/{open}")).await;
+    assert!(!page.html.contains("id=\"delivery-note\""), "{}", page.html);
+}
+
+/// The bounds form with two unreadable fields, one in each range: both
+/// errors beside their fields at once (not one per submission), what was
+/// typed kept, nothing stored.
+#[tokio::test]
+async fn the_bounds_form_shows_every_fields_error_at_once() {
+    let svc = Svc::new();
+    let id = svc.person("ana").await;
+    let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
+    let path = format!("/clinic/persons/{id}/bounds");
+    let p = admin
+        .post(
+            &path,
+            &[
+                ("csrf", &csrf),
+                ("basal_min", "abc"),
+                ("basal_max", "1,2"),
+                ("cr_min", "6"),
+                ("cr_max", "NaN"),
+            ],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+    for field in ["basal_min", "cr_max"] {
+        assert!(
+            p.html
+                .contains(&format!("<p class=\"field-error\" id=\"{field}-error\">")),
+            "{field}'s error beside it: {}",
+            p.html
+        );
+        assert!(
+            p.html
+                .contains(&format!("aria-describedby=\"{field}-error\"")),
+            "{field}"
+        );
+    }
+    for field in ["basal_max", "cr_min"] {
+        assert!(
+            !p.html.contains(&format!("id=\"{field}-error\"")),
+            "{field}"
+        );
+    }
+    assert!(p.html.contains("value=\"abc\"") && p.html.contains("value=\"NaN\""));
+    let store = abba_service::open_store(&svc.db).unwrap();
+    let bounds = store.person("ana").unwrap().settings.bounds;
+    assert!(
+        bounds.basal.is_none() && bounds.carb_ratio[0].is_none(),
+        "{bounds:?}"
+    );
+}
+
+/// `--public-url https://...`: persons reach the service over TLS, so the
+/// sign-in and session cookies are `Secure` even when the proxy in front
+/// sends no `X-Forwarded-Proto` (or is on another machine); an `http://`
+/// public URL changes nothing.
+#[tokio::test]
+async fn an_https_public_url_makes_every_cookie_secure() {
+    let mut svc = Svc::new();
+    let id = svc.person("ana").await;
+    for (url, secure) in [
+        ("https://abba.clinic.example", true),
+        ("http://abba.lan", false),
+    ] {
+        let state = abba_service::AppState::open(
+            &svc.db,
+            abba_service::StoreSettings {
+                public_url: Some(url.into()),
+                ..abba_service::StoreSettings::default()
+            },
+        )
+        .unwrap();
+        svc.router = abba_service::router(state);
+        let mut b = Browser::new(&svc);
+        let secret = link(&svc, Role::Person(id as i64));
+        let page = b
+            .send(Method::GET, &format!("/signin/{secret}"), None)
+            .await;
+        let signin = page
+            .headers
+            .get(header::SET_COOKIE)
+            .unwrap()
+            .to_str()
+            .unwrap();
+        assert_eq!(signin.contains("; Secure"), secure, "{url}: {signin}");
+        let csrf = page.hidden("csrf");
+        let p = b
+            .post("/signin", &[("csrf", &csrf), ("link", &secret)])
+            .await;
+        assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
+        let session = p
+            .headers
+            .get_all(header::SET_COOKIE)
+            .iter()
+            .map(|v| v.to_str().unwrap().to_string())
+            .find(|v| v.starts_with("abba_session="))
+            .unwrap();
+        assert_eq!(session.contains("; Secure"), secure, "{url}: {session}");
+        assert!(session.contains("HttpOnly") && session.contains("SameSite=Strict"));
+    }
+}
+
+/// The new-person form's refusals from the store are worded for the page:
+/// beside the field, without the CLI flag the store's message starts with.
+#[tokio::test]
+async fn the_new_person_forms_refusals_name_no_cli_flag() {
+    let svc = Svc::new();
+    let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
+    for (field, value, said) in [
+        ("basal", "-1", "must be between 0.025 and 35"),
+        ("first_day", "2099-01-01", "expected a date from 1990-01-01"),
+    ] {
+        let mut f = vec![
+            ("csrf", csrf.as_str()),
+            ("name", "ana"),
+            ("tz", "UTC"),
+            ("unit", "mg/dL"),
+            ("mode", "cgm"),
+            ("age_group", "adult"),
+            ("basal", "1.0"),
+            ("carb_ratios", "10,12,11"),
+        ];
+        f.retain(|(k, _)| *k != field);
+        f.push((field, value));
+        let p = admin.post_multipart("/clinic/persons", &f, &[]).await;
+        assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+        let error = p.section(
+            &format!("<p class=\"field-error\" id=\"{field}-error\""),
+            "p",
+        );
+        assert!(error.contains(said), "{error}");
+        assert!(!error.contains("--"), "no CLI flag: {error}");
+    }
+}
+
+/// A wrong file uploaded to the import (a PDF report, a photo): refused
+/// beside the files field naming what it is, never its bytes shown as a
+/// CSV's column names; nothing stored.
+#[tokio::test]
+async fn the_clinics_import_names_a_pdf_or_a_binary_file() {
+    let svc = Svc::new();
+    let id = svc.person("ana").await;
+    let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
+    let import = format!("/clinic/persons/{id}/import");
+    let pdf: &[u8] = b"%PDF-1.7\n%\xe2\xe3\xcf\xd3\n1 0 obj <</Type /Catalog>>, endobj\n";
+    let png: &[u8] = b"\x89PNG\r\n\x1a\n\0\0\0\rIHDR,\x01\x02,\x03\n";
+    for (name, bytes, want) in [
+        ("clarity.pdf", pdf, "a PDF document"),
+        ("photo.png", png, "binary data"),
+    ] {
+        let p = admin
+            .post_multipart(&import, &[("csrf", &csrf)], &[("files", name, bytes)])
+            .await;
+        assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+        let error = p.section("<p class=\"field-error\" id=\"files-error\"", "p");
+        assert!(error.contains(name) && error.contains(want), "{error}");
+        assert!(!error.contains("column"), "{error}");
+    }
+    let store = abba_service::open_store(&svc.db).unwrap();
+    assert!(store.records("ana").unwrap().is_empty());
+}
+
+/// An own value that is no number: the error beside the field gives an
+/// example in that setting's unit (a basal rate in U/h, a carb ratio in
+/// g/U), not a basal rate's for a carb ratio.
+#[tokio::test]
+async fn an_own_value_that_is_no_number_gets_an_example_in_its_unit() {
+    let svc = Svc::new();
+    let (id, _) = person_past_first_week(&svc, "ana", 9).await;
+    let (mut b, csrf) = signed_in(&svc, Role::Person(id as i64)).await;
+    let today = b.get("/").await;
+    let basal_sid = open_sid(today.section("<section id=\"setting-basal\"", "section"))
+        .expect("an open basal suggestion");
+    let key = b.get("/log").await.hidden("submission");
+    let p = b
+        .post(
+            "/log/meal",
+            &[
+                ("csrf", &csrf),
+                ("carbs", "60"),
+                ("slot", "lunch"),
+                ("submission", &key),
+            ],
+        )
+        .await;
+    let log = b.get(p.location()).await;
+    let meal_sid = open_sid(log.section("<section id=\"meal-advice\"", "section"))
+        .expect("the lunch suggestion to answer");
+    for (sid, example) in [
+        (&basal_sid, "for example 0.85 "),
+        (&meal_sid, "for example 10.5 "),
+    ] {
+        let key = b.get("/").await.hidden("submission");
+        let p = b
+            .post(
+                "/answer",
+                &[
+                    ("csrf", &csrf),
+                    ("suggestion_id", sid),
+                    ("action", "override"),
+                    ("value", "abc"),
+                    ("submission", &key),
+                ],
+            )
+            .await;
+        assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+        let error = p.section(
+            &format!("<p class=\"field-error\" id=\"value-error-{sid}\""),
+            "p",
+        );
+        assert!(error.contains(example), "{example}: {error}");
+    }
+}
+
+/// The steps and the change-of-therapy forms with both fields unreadable:
+/// both errors beside their fields at once; nothing changes.
+#[tokio::test]
+async fn the_steps_and_therapy_forms_show_every_unreadable_field_at_once() {
+    let svc = Svc::new();
+    let id = svc.person("ana").await;
+    let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
+    let before = abba_service::open_store(&svc.db)
+        .unwrap()
+        .person("ana")
+        .unwrap()
+        .settings;
+    for (form, fields) in [
+        ("steps", [("basal_step", "fine"), ("cr_step", "1/10")]),
+        ("therapy", [("basal", "0.9 U"), ("carb_ratios", "10;12;11")]),
+    ] {
+        let mut f = vec![("csrf", csrf.as_str())];
+        f.extend(fields);
+        let p = admin
+            .post(&format!("/clinic/persons/{id}/{form}"), &f)
+            .await;
+        assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+        for (field, _) in fields {
+            assert!(
+                p.html
+                    .contains(&format!("<p class=\"field-error\" id=\"{field}-error\">")),
+                "{form}: {field}'s error beside it: {}",
+                p.html
+            );
+            assert!(p
+                .html
+                .contains(&format!("aria-describedby=\"{field}-error\"")));
+        }
+    }
+    let after = abba_service::open_store(&svc.db)
+        .unwrap()
+        .person("ana")
+        .unwrap()
+        .settings;
+    assert_eq!(after.pump_steps, before.pump_steps);
+    assert_eq!(after.start, before.start);
+}
+
+/// "1,000" g is a thousands separator in English and a decimal comma
+/// elsewhere: refused beside the field, nothing stored (it was read as
+/// 1 g). "45,5" g is 45.5 g, and the meal's advice says 45.5, not 46.
+#[tokio::test]
+async fn an_ambiguous_thousands_comma_is_refused_and_a_decimal_comma_kept() {
+    let svc = Svc::new();
+    let (id, _) = person_past_first_week(&svc, "ana", 9).await;
+    let (mut b, csrf) = signed_in(&svc, Role::Person(id as i64)).await;
+    let before = app_events(&svc, id);
+    let key = b.get("/log").await.hidden("submission");
+    let p = b
+        .post(
+            "/log/meal",
+            &[
+                ("csrf", &csrf),
+                ("carbs", "1,000"),
+                ("slot", "snack"),
+                ("submission", &key),
+            ],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+    let error = p.section("<p class=\"field-error\" id=\"carbs-error\"", "p");
+    assert!(error.contains("no thousands separator"), "{error}");
+    assert!(
+        p.html.contains("value=\"1,000\""),
+        "the typed value is kept"
+    );
+    assert_eq!(app_events(&svc, id), before);
+    let key = b.get("/log").await.hidden("submission");
+    let p = b
+        .post(
+            "/log/meal",
+            &[
+                ("csrf", &csrf),
+                ("carbs", "45,5"),
+                ("slot", "lunch"),
+                ("submission", &key),
+            ],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
+    let log = b.get(p.location()).await;
+    let advice = log.section("<section id=\"meal-advice\"", "section");
+    assert!(advice.contains("45.5 g at"), "{advice}");
+    assert_eq!(app_events(&svc, id), before + 1);
+}
+
+/// An upload over the limit (a browser declares its size): 413 at once,
+/// a page that says how large it was, the limit and what to do, with a
+/// link back to the form, never the service's "something went wrong".
+#[tokio::test]
+async fn an_upload_over_the_limit_says_what_to_do() {
+    let svc = Svc::new();
+    let id = svc.person("ana").await;
+    let (admin, _) = signed_in(&svc, Role::Admin).await;
+    for (path, back) in [
+        (
+            format!("/clinic/persons/{id}/import"),
+            format!("/clinic/persons/{id}"),
+        ),
+        ("/clinic/persons".to_string(), "/clinic".to_string()),
+    ] {
+        let req = Request::builder()
+            .method(Method::POST)
+            .uri(&path)
+            .header(header::HOST, HOST)
+            .header(header::ORIGIN, ORIGIN)
+            .header(header::COOKIE, admin.cookie_header())
+            .header(
+                header::CONTENT_TYPE,
+                "multipart/form-data; boundary=----abba-test-boundary",
+            )
+            .header(header::CONTENT_LENGTH, 70 * 1024 * 1024)
+            .body(Body::empty())
+            .unwrap();
+        let res = svc.router.clone().oneshot(req).await.unwrap();
+        assert_eq!(res.status(), StatusCode::PAYLOAD_TOO_LARGE, "{path}");
+        let bytes = res.into_body().collect().await.unwrap().to_bytes();
+        let html = String::from_utf8_lossy(&bytes);
+        assert!(html.contains("70.0 MB, at most 32.0 MB"), "{html}");
+        assert!(html.contains("Nothing was imported"), "{html}");
+        assert!(!html.contains("Something went wrong"), "{html}");
+        let link = format!("href=\"{}\"", back.replace('/', "&#x2f;"));
+        assert!(html.contains(&link), "{link}: {html}");
+    }
+}

@@ -161,4 +161,29 @@ mod tests {
         assert!(!html.contains("49"));
         assert!(html.contains(texts::EN.notice));
     }
+
+    #[test]
+    fn a_page_without_navigation_has_no_empty_list() {
+        let message = pages::Message {
+            text: "x".into(),
+            link: None,
+        };
+        let html = render(
+            "message.html",
+            &pages::Layout::new("Sign in", None),
+            &message,
+        )
+        .unwrap();
+        let nav = &html[html.find("<nav").unwrap()..html.find("</nav>").unwrap()];
+        assert!(
+            !nav.contains("<ul"),
+            "no empty list (HTML Tidy trims it): {nav}"
+        );
+        let layout = pages::Layout::person("Today", "c", "/");
+        let html = render("message.html", &layout, &message).unwrap();
+        assert!(
+            html.contains("<li><a href=\"&#x2f;\" aria-current=\"page\">"),
+            "{html}"
+        );
+    }
 }

@@ -56,6 +56,9 @@ pub struct Texts {
     pub forbidden_title: &'static str,
     /// A form without a valid CSRF token or from another origin.
     pub forbidden_csrf: &'static str,
+    /// A form sent without a live session (signed out, the session ended
+    /// or was revoked).
+    pub forbidden_no_session: &'static str,
     /// A page for the other role.
     pub forbidden_role: &'static str,
     /// Title of a page that does not exist.
@@ -144,6 +147,9 @@ pub struct Texts {
     pub status_rejected: &'static str,
     /// Status: own value.
     pub status_overridden: &'static str,
+    /// An answer refused for a suggestion the page no longer offers to
+    /// answer (answered in another tab, replaced): {reason}.
+    pub answer_not_saved: &'static str,
     /// Title of the log.
     pub log_title: &'static str,
     /// The reading form's heading.
@@ -321,6 +327,7 @@ pub const EN: Texts = Texts {
     signed_out: "You are signed out on this device.",
     forbidden_title: "Not allowed",
     forbidden_csrf: "This form was not sent from abba's own page, or the page was too old. Go back, reload the page and send the form again.",
+    forbidden_no_session: "You are not signed in on this device any more (you signed out, or your session ended): this form was not taken and nothing was saved. Open the sign-in link (or scan the QR code) your clinic gave you to sign in again.",
     forbidden_role: "You are signed in with an account that cannot open this page.",
     not_found_title: "Not found",
     not_found: "There is no such page.",
@@ -342,9 +349,9 @@ pub const EN: Texts = Texts {
     answered_superseded: "Not answered before the next suggestion (taken as followed): {value} is in force.",
     answered_unseen: "Made on past data that came in one import with later data, so never shown and not followed: {value} stayed in force.",
     no_decision: "No suggestion yet.",
-    effect_predicted: "Predicted on your twin (revision {revision}, {grade}) over the last {days} days: time in range (70-180 mg/dL) {tir_new} with the suggestion, {tir_now} as now ({tir_change}); time below 70 mg/dL {low_new} with it, {low_now} as now ({low_change}). A twin's prediction is not medical advice.",
-    twin_check_held_back: "Held back by the twin check: your twin predicts time below 70 mg/dL rising by {rise} points, more than the {margin}-point margin. Keep {value} today and talk it over with your clinician.",
-    twin_check_passed: "Twin check passed: time below 70 mg/dL does not rise by more than {margin} points.",
+    effect_predicted: "Predicted on your twin (revision {revision}, {grade}) over the last {days} days: time in range ({range}) {tir_new} with the suggestion, {tir_now} as now ({tir_change}); time below {low} {low_new} with it, {low_now} as now ({low_change}). A twin's prediction is not medical advice.",
+    twin_check_held_back: "Held back by the twin check: your twin predicts time below {low} rising by {rise} points, more than the {margin}-point margin. Keep {value} today and talk it over with your clinician.",
+    twin_check_passed: "Twin check passed: time below {low} does not rise by more than {margin} points.",
     twin_check_off: "The twin check is off.",
     no_prediction_not_available: "No predicted effect: this service has no twins.",
     no_prediction_no_twin: "No predicted effect: you have no twin yet (abba twin fit makes one from your data).",
@@ -364,6 +371,7 @@ pub const EN: Texts = Texts {
     status_accepted: "Saved: you accepted the suggestion.",
     status_rejected: "Saved: you kept the previous value.",
     status_overridden: "Saved: your own value is in force.",
+    answer_not_saved: "Your answer was not saved: {reason}. The page now shows each setting as it stands.",
     log_title: "Log",
     log_reading: "A meter reading",
     glucose_label: "Glucose ({unit})",
@@ -386,7 +394,7 @@ pub const EN: Texts = Texts {
     status_day_closed: "Saved: your bedtime reading closed the day.",
     status_meal: "Saved: your meal.",
     status_snack: "Saved: your snack (abba suggests carb ratios for the three main meals only).",
-    expected_number: "Enter a number, for example {example}.",
+    expected_number: "Enter a number, for example {example} (a decimal point or comma, no thousands separator).",
     missing_field: "This field is needed.",
     glucose_out_of_range: "Enter a reading from {min} to {max} {unit}; you entered {value}.",
     glucose_looks_mg_dl: "Your readings are in mmol/L: {value} mg/dL would be {mmol} mmol/L.",
@@ -545,8 +553,19 @@ pub struct ClinicTexts {
     /// Heading: what the reader noted about the profile the starting
     /// therapy was read from.
     pub therapy_notes_title: &'static str,
+    /// Heading: how insulin is delivered, when it keeps basal suggestions
+    /// back (a closed loop, injections, no insulin records).
+    pub delivery_title: &'static str,
+    /// Before the evidence of the delivery.
+    pub delivery_evidence: &'static str,
     /// Heading: what the import did.
     pub import_result_title: &'static str,
+    /// Title of the page of an upload over the limit.
+    pub upload_too_large_title: &'static str,
+    /// An upload over the limit ({size}, {max} in MB): nothing imported.
+    pub upload_too_large: &'static str,
+    /// The link back to the form.
+    pub back_to_form: &'static str,
     /// Heading: access.
     pub access_title: &'static str,
     /// Button: sign-in link.
@@ -671,7 +690,12 @@ pub const CLINIC_EN: ClinicTexts = ClinicTexts {
     profile_choose: "Choose what abba should do below, then choose the files again and import.",
     therapy_from: "The therapy in force comes from:",
     therapy_notes_title: "Notes on the profile the starting therapy was read from",
+    delivery_title: "How insulin is delivered, from the data",
+    delivery_evidence: "What the data show:",
     import_result_title: "What the import did",
+    upload_too_large_title: "Too large to upload",
+    upload_too_large: "These files are too large to upload at once: {size} MB, at most {max} MB in one upload. Nothing was imported or created. Upload fewer files at a time, or export a shorter period.",
+    back_to_form: "Back to the form",
     access_title: "Sign-in and tokens",
     make_signin: "Make a sign-in link",
     issue_token: "Issue an API token",

@@ -223,7 +223,17 @@ pub fn detect(file: &str, bytes: &[u8]) -> Result<Format, IoError> {
         .iter()
         .position(|b| !b.is_ascii_whitespace())
         .unwrap_or(text.len());
-    let head = String::from_utf8_lossy(&text[start..text.len().min(start + 4096)]);
+    let raw_head = &text[start..text.len().min(start + 4096)];
+    if let Some(what) = not_text(raw_head) {
+        return Err(IoError::format(
+            file,
+            format!(
+                "{what}, not a data export: abba reads CSV, TSV or JSON exports and Excel \
+                 workbooks (.xlsx); export the data again as one of those"
+            ),
+        ));
+    }
+    let head = String::from_utf8_lossy(raw_head);
     if head.starts_with('[') || head.starts_with('{') {
         // Tidepool data carry `type` and `time`; Nightscout uses `date`,
         // `created_at`, `eventType`, `sgv`, `store`. The first item's own
@@ -283,6 +293,20 @@ pub fn detect(file: &str, bytes: &[u8]) -> Result<Format, IoError> {
         return Ok(Format::Csv);
     }
     Err(IoError::format(file, "cannot tell the format from the content (expected JSON or CSV with a header); give --format"))
+}
+
+/// What a file's first bytes show it is when it is no text at all (a
+/// PDF, or binary data: a NUL byte, which no text export holds once a
+/// UTF-16 one is decoded), so that its bytes are never shown as column
+/// names; `None` for text.
+fn not_text(head: &[u8]) -> Option<&'static str> {
+    if head.starts_with(b"%PDF-") {
+        Some("a PDF document (a printed report)")
+    } else if head.contains(&0) {
+        Some("binary data (or UTF-16 text without its byte-order mark)")
+    } else {
+        None
+    }
 }
 
 /// The first item of a JSON array (or the object itself), when it is an
@@ -837,4 +861,27 @@ fn drop_older_versions(records: &mut Vec<Record>) -> usize {
         !drop[i - 1]
     });
     before - records.len()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_pdf_or_binary_file_is_named_not_read_as_columns() {
+        let pdf = b"%PDF-1.7\n%\xe2\xe3\xcf\xd3\n1 0 obj <</Type /Catalog>> endobj\n";
+        let e = detect("report.pdf", pdf).unwrap_err().to_string();
+        assert!(
+            e.contains("report.pdf") && e.contains("a PDF document"),
+            "{e}"
+        );
+        let png = b"\x89PNG\r\n\x1a\n\0\0\0\rIHDR,x,y\n";
+        let e = detect("photo.png", png).unwrap_err().to_string();
+        assert!(e.contains("binary data") && !e.contains("IHDR"), "{e}");
+        // Text, a UTF-16 export decoded before: still read.
+        assert_eq!(
+            detect("a.csv", b"time,glucose\n2026-01-01 00:00,100\n").unwrap(),
+            Format::Csv
+        );
+    }
 }

@@ -283,7 +283,9 @@ async fn admin_post_head(
     if !ctx.same_origin() {
         return Err(forbidden_csrf());
     }
-    let w = session::current(s, ctx).await?.ok_or_else(forbidden_csrf)?;
+    let w = session::current(s, ctx)
+        .await?
+        .ok_or_else(super::page::forbidden_no_session)?;
     match w.role {
         Role::Admin => Ok(w),
         Role::Person(_) => Err(super::page::forbidden_role()),
@@ -499,6 +501,22 @@ fn field_of(e: &abba_store::StoreError) -> &'static str {
     }
 }
 
+/// A store message without the CLI flag it starts with (`--basal: ...`):
+/// beside its field on the page, the field names it.
+fn without_flag(msg: &str) -> &str {
+    match msg.split_once(": ") {
+        Some((flag, rest))
+            if flag.starts_with("--")
+                && flag[2..]
+                    .bytes()
+                    .all(|b| b.is_ascii_lowercase() || b == b'-') =>
+        {
+            rest
+        }
+        _ => msg,
+    }
+}
+
 /// `POST /clinic/persons` (multipart): creates a person; 303 to their page,
 /// or the form again (422) with each error beside its field.
 pub async fn create(
@@ -553,7 +571,7 @@ pub async fn create(
         .store(move |store| {
             Ok(store.create_person(&np).map_err(|e| {
                 let f = field_of(&e);
-                (f, e.to_string())
+                (f, without_flag(&e.to_string()).to_string())
             }))
         })
         .await?;
@@ -612,10 +630,24 @@ struct PersonModel {
     therapy_notes: Vec<String>,
     /// The age groups, the person's selected.
     age_groups: Vec<Choice>,
+    /// Why no basal rate is suggested (a closed loop, injections, no
+    /// insulin records), with the records that show it; none when basal
+    /// rates are suggested.
+    delivery: Option<DeliveryModel>,
     /// Errors beside the fields of every form.
     errors: BTreeMap<String, String>,
     /// What was typed into a refused form.
     values: BTreeMap<String, String>,
+}
+
+/// How insulin is delivered, when it keeps basal suggestions back (what
+/// `abba advise` says under "Delivery").
+#[derive(Debug, Clone, Default, Serialize)]
+struct DeliveryModel {
+    /// The note (what the data show and what abba does about it).
+    note: String,
+    /// The evidence (counts of the records that show it).
+    evidence: Vec<String>,
 }
 
 fn ms_text(ms: i64) -> String {
@@ -746,6 +778,16 @@ fn person_model(store: &mut Store, id: i64) -> Result<PersonModel, ApiError> {
         therapy_source: a.therapy.source.to_string(),
         therapy_notes: p.settings.therapy_notes.clone(),
         age_groups: age_group_choices(p.settings.age_group.name()),
+        delivery: (!a.delivery.basal_suggestions || a.delivery.note.is_some()).then(|| {
+            DeliveryModel {
+                note: a
+                    .delivery
+                    .note
+                    .clone()
+                    .unwrap_or_else(|| a.delivery.words.to_string()),
+                evidence: a.delivery.evidence.clone(),
+            }
+        }),
         tokens,
         sessions,
         nightscout,
@@ -855,11 +897,31 @@ async fn refused(
     field: &str,
     message: String,
 ) -> PageResult {
+    refused_all(
+        s,
+        csrf,
+        id,
+        form,
+        fields,
+        vec![(field.to_string(), message)],
+    )
+    .await
+}
+
+/// A refused form with an error beside each of `errors`' fields (every
+/// field found wrong at once, not one per submission) and what was typed.
+async fn refused_all(
+    s: &AppState,
+    csrf: &str,
+    id: i64,
+    form: &Form,
+    fields: &[&'static str],
+    errors: Vec<(String, String)>,
+) -> PageResult {
     let values: BTreeMap<String, String> = fields
         .iter()
         .map(|k| (k.to_string(), form.text(k).to_string()))
         .collect();
-    let field = field.to_string();
     show_person(
         s,
         csrf,
@@ -868,7 +930,7 @@ async fn refused(
         None,
         move |m| {
             m.values = values;
-            m.errors.insert(field, message);
+            m.errors.extend(errors);
         },
     )
     .await
@@ -886,16 +948,29 @@ fn optional_number(
     }
 }
 
+/// A range of two optional fields; every field's error (both ends
+/// unreadable: both).
 fn range_of(
     form: &Form,
     lo: &'static str,
     hi: &'static str,
-) -> Result<Option<Range>, (&'static str, String)> {
-    match (optional_number(form, lo)?, optional_number(form, hi)?) {
-        (None, None) => Ok(None),
-        (Some(min), Some(max)) => Ok(Some(Range { min, max })),
-        (None, Some(_)) => Err((lo, "give both ends of the range, or neither".into())),
-        (Some(_), None) => Err((hi, "give both ends of the range, or neither".into())),
+) -> Result<Option<Range>, Vec<(String, String)>> {
+    match (optional_number(form, lo), optional_number(form, hi)) {
+        (Ok(None), Ok(None)) => Ok(None),
+        (Ok(Some(min)), Ok(Some(max))) => Ok(Some(Range { min, max })),
+        (Ok(None), Ok(Some(_))) => Err(vec![(
+            lo.to_string(),
+            "give both ends of the range, or neither".into(),
+        )]),
+        (Ok(Some(_)), Ok(None)) => Err(vec![(
+            hi.to_string(),
+            "give both ends of the range, or neither".into(),
+        )]),
+        (a, b) => Err([a.err(), b.err()]
+            .into_iter()
+            .flatten()
+            .map(|(f, m)| (f.to_string(), m))
+            .collect()),
     }
 }
 
@@ -917,11 +992,15 @@ pub async fn bounds(
         &["csrf", "basal_min", "basal_max", "cr_min", "cr_max"],
     )
     .await?;
-    let parsed = range_of(&form, "basal_min", "basal_max")
-        .and_then(|b| Ok((b, range_of(&form, "cr_min", "cr_max")?)));
-    let (basal, cr) = match parsed {
-        Ok(x) => x,
-        Err((field, msg)) => return refused(&s, &w.csrf, id, &form, &BOUNDS, field, msg).await,
+    let (basal, cr) = match (
+        range_of(&form, "basal_min", "basal_max"),
+        range_of(&form, "cr_min", "cr_max"),
+    ) {
+        (Ok(b), Ok(c)) => (b, c),
+        (b, c) => {
+            let errors = [b.err(), c.err()].into_iter().flatten().flatten().collect();
+            return refused_all(&s, &w.csrf, id, &form, &BOUNDS, errors).await;
+        }
     };
     let range = |r: Option<Range>| {
         r.map(|r| abba_api::Range {
@@ -970,17 +1049,18 @@ pub async fn steps(
         form::number(form.text("cr_step")),
     );
     let (Some(b), Some(c)) = (b, c) else {
-        let field = if b.is_none() { "basal_step" } else { "cr_step" };
-        return refused(
-            &s,
-            &w.csrf,
-            id,
-            &form,
-            &fields,
-            field,
-            fill(EN.expected_number, &[("example", "0.05")]),
-        )
-        .await;
+        // Each unreadable field's error beside it, at once.
+        let errors = [("basal_step", b, "0.05"), ("cr_step", c, "0.1")]
+            .into_iter()
+            .filter(|(_, v, _)| v.is_none())
+            .map(|(f, _, example)| {
+                (
+                    f.to_string(),
+                    fill(EN.expected_number, &[("example", example)]),
+                )
+            })
+            .collect();
+        return refused_all(&s, &w.csrf, id, &form, &fields, errors).await;
     };
     let steps = PumpSteps {
         basal_u_per_h: b,
@@ -1062,29 +1142,25 @@ pub async fn therapy(
     let fields = ["basal", "carb_ratios"];
     let (w, form) = person_form(&s, &ctx, body, &["csrf", "basal", "carb_ratios"]).await?;
     let basal = match form.text("basal") {
-        "" => None,
-        t => match form::number(t) {
-            Some(v) => Some(vec![(0, v)]),
-            None => {
-                return refused(
-                    &s,
-                    &w.csrf,
-                    id,
-                    &form,
-                    &fields,
-                    "basal",
-                    fill(EN.expected_number, &[("example", "0.85")]),
-                )
-                .await
-            }
-        },
+        "" => Ok(None),
+        t => form::number(t)
+            .map(|v| Some(vec![(0, v)]))
+            .ok_or_else(|| fill(EN.expected_number, &[("example", "0.85")])),
     };
     let cr = match form.text("carb_ratios") {
-        "" => None,
-        t => match carb_ratios(t) {
-            Ok(c) => Some(c),
-            Err(e) => return refused(&s, &w.csrf, id, &form, &fields, "carb_ratios", e).await,
-        },
+        "" => Ok(None),
+        t => carb_ratios(t).map(Some),
+    };
+    let (basal, cr) = match (basal, cr) {
+        (Ok(b), Ok(c)) => (b, c),
+        (b, c) => {
+            // Each unreadable field's error beside it, at once.
+            let errors = [("basal", b.err()), ("carb_ratios", c.err())]
+                .into_iter()
+                .filter_map(|(f, e)| Some((f.to_string(), e?)))
+                .collect();
+            return refused_all(&s, &w.csrf, id, &form, &fields, errors).await;
+        }
     };
     if basal.is_none() && cr.is_none() {
         return refused(
@@ -1480,6 +1556,30 @@ pub fn is_upload(path: &str) -> bool {
             .strip_prefix("/clinic/persons/")
             .and_then(|rest| rest.strip_suffix("/import"))
             .is_some_and(|id| !id.is_empty() && !id.contains('/'))
+}
+
+/// The page of an upload (`path`, [`is_upload`]) that declares `size`
+/// bytes, over [`MAX_UPLOAD_BYTES`]: 413, what to do, a link back to the
+/// form (the person's page, or the clinic's for a new person).
+pub fn upload_too_large(path: &str, size: u64) -> axum::response::Response {
+    use axum::response::IntoResponse;
+    let mb = |b: f64| format!("{:.1}", b / (1024.0 * 1024.0));
+    let back = path.strip_suffix("/import").unwrap_or("/clinic");
+    let model = abba_web::pages::Message {
+        text: fill(
+            C.upload_too_large,
+            &[
+                ("size", &mb(size as f64)),
+                ("max", &mb(MAX_UPLOAD_BYTES as f64)),
+            ],
+        ),
+        link: Some((back.to_string(), C.back_to_form.to_string())),
+    };
+    let layout = Layout::new(C.upload_too_large_title, None);
+    match abba_web::render("message.html", &layout, &model) {
+        Ok(body) => super::page::html(StatusCode::PAYLOAD_TOO_LARGE, body),
+        Err(e) => ApiError::internal(e).into_response(),
+    }
 }
 
 /// This module's routes (merged by [`super::routes`]).

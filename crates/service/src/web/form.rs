@@ -119,10 +119,22 @@ impl Form {
 }
 
 /// A decimal number as people type it: `5.4` or `5,4` (one decimal comma
-/// is read as the point); anything else is `None`.
+/// is read as the point); anything else is `None`. A comma followed by
+/// exactly three digits after a whole part other than 0 (`1,000`,
+/// `12,500`) is `None` too: a thousands separator in English, a decimal
+/// comma elsewhere, so never guessed (`0,850` is 0.85).
 pub fn number(text: &str) -> Option<f64> {
     let t = text.trim();
     let t = if t.matches(',').count() == 1 && !t.contains('.') {
+        let (whole, decimals) = t.split_once(',').unwrap_or((t, ""));
+        let digits = whole.trim_start_matches(['+', '-']);
+        let thousands = decimals.len() == 3
+            && decimals.bytes().all(|b| b.is_ascii_digit())
+            && !digits.is_empty()
+            && digits.bytes().any(|b| b != b'0');
+        if thousands {
+            return None;
+        }
         t.replace(',', ".")
     } else {
         t.to_string()
@@ -164,6 +176,13 @@ mod tests {
         assert_eq!(number(" 5,4 "), Some(5.4));
         assert_eq!(number("5.4"), Some(5.4));
         assert_eq!(number("1,000.5"), None);
+        // A thousands separator or a decimal comma: not guessed.
+        assert_eq!(number("1,000"), None);
+        assert_eq!(number("12,500"), None);
+        assert_eq!(number("0,850"), Some(0.85));
+        assert_eq!(number("0,85"), Some(0.85));
+        assert_eq!(number("1,25"), Some(1.25));
+        assert_eq!(number("1,0"), Some(1.0));
         assert_eq!(number("NaN"), None);
         assert_eq!(number("inf"), None);
         assert_eq!(number(""), None);

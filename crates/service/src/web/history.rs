@@ -138,7 +138,8 @@ fn effect_notes(live: &Live, fx: Option<&EffectSource>, notes: &mut Vec<String>)
         let (Some(e), Some(v)) = (&sa.effect, &sa.latest) else {
             continue;
         };
-        let (effect, check, _) = super::today::effect_words(p, e, sa.in_force);
+        let (effect, check, _) =
+            super::today::effect_words(p, e, sa.in_force, live.person.settings.units);
         let head = fill(
             EN.report_open_suggestion,
             &[

@@ -183,7 +183,8 @@ fn model(
                         bolus: fill(
                             EN.meal_bolus,
                             &[
-                                ("carbs", &format!("{:.0}", carbs.0)),
+                                // As typed: 45.5 g stays 45.5, not 46.
+                                ("carbs", &format!("{}", (carbs.0 * 10.0).round() / 10.0)),
                                 ("ratio", &with_unit(p, ratio)),
                                 ("bolus", &format!("{bolus:.2}")),
                                 ("step", &format!("{BOLUS_STEP}")),

@@ -120,6 +120,17 @@ pub fn forbidden_csrf() -> PageError {
     ))
 }
 
+/// 403 for a form sent without a live session (signed out, expired or
+/// revoked): says so, never that the form came from elsewhere.
+pub fn forbidden_no_session() -> PageError {
+    PageError::of(message(
+        StatusCode::FORBIDDEN,
+        EN.forbidden_title,
+        EN.forbidden_no_session,
+        None,
+    ))
+}
+
 /// 403 for a page of the other role.
 pub fn forbidden_role() -> PageError {
     PageError::of(message(

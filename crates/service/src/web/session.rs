@@ -7,7 +7,8 @@
 //! - `HttpOnly; SameSite=Strict; Path=/`, and `Secure` when the request
 //!   came over TLS: abba serves plain HTTP itself, so that is when a
 //!   reverse proxy on the same machine (a loopback peer) says
-//!   `X-Forwarded-Proto: https`. Nothing else is trusted to say so.
+//!   `X-Forwarded-Proto: https` (no other peer is trusted to say so), or
+//!   always when the service's `--public-url` is `https://`.
 //! - Every POST: the `Origin` (or, without one, the `Referer`) must name
 //!   this host (the request's `Host`), then the form's `csrf` must equal
 //!   the session's token (compared in constant time). Otherwise 403 and
@@ -18,7 +19,7 @@
 //!   service's request slots by sending a form's body a byte at a time.
 
 use super::form::Form;
-use super::page::{forbidden_csrf, forbidden_role, see_other, PageError};
+use super::page::{forbidden_csrf, forbidden_no_session, forbidden_role, see_other, PageError};
 use crate::auth;
 use crate::error::ApiError;
 use crate::state::AppState;
@@ -44,10 +45,13 @@ pub struct Ctx {
     pub https: bool,
 }
 
-impl<S: Send + Sync> FromRequestParts<S> for Ctx {
+impl FromRequestParts<AppState> for Ctx {
     type Rejection = std::convert::Infallible;
 
-    async fn from_request_parts(parts: &mut Parts, _: &S) -> Result<Self, Self::Rejection> {
+    async fn from_request_parts(
+        parts: &mut Parts,
+        state: &AppState,
+    ) -> Result<Self, Self::Rejection> {
         let loopback = parts
             .extensions
             .get::<ConnectInfo<SocketAddr>>()
@@ -58,9 +62,16 @@ impl<S: Send + Sync> FromRequestParts<S> for Ctx {
             .and_then(|v| v.to_str().ok())
             .is_some_and(|v| v.trim().eq_ignore_ascii_case("https"));
         let tls = parts.uri.scheme_str() == Some("https");
+        // `--public-url https://...`: persons reach the service over TLS
+        // (a proxy that does not say X-Forwarded-Proto, or one on another
+        // machine), so its cookies are never sent in clear.
+        let public_https = state
+            .public_url()
+            .and_then(|u| u.get(..8))
+            .is_some_and(|p| p.eq_ignore_ascii_case("https://"));
         Ok(Ctx {
             headers: parts.headers.clone(),
-            https: tls || (loopback && forwarded),
+            https: tls || (loopback && forwarded) || public_https,
         })
     }
 }
@@ -175,12 +186,14 @@ pub async fn admin_page(s: &AppState, ctx: &Ctx) -> Result<WebSession, PageError
 }
 
 /// Checks a POST: same origin, a live session, its CSRF token. 403 for
-/// each failure (nothing is read or changed before).
+/// each failure (nothing is read or changed before); without a live
+/// session the page says so (signed out or ended), not that the form came
+/// from elsewhere.
 pub async fn post_session(s: &AppState, ctx: &Ctx, form: &Form) -> Result<WebSession, PageError> {
     if !ctx.same_origin() {
         return Err(forbidden_csrf());
     }
-    let w = current(s, ctx).await?.ok_or_else(forbidden_csrf)?;
+    let w = current(s, ctx).await?.ok_or_else(forbidden_no_session)?;
     let sent = form.get("csrf").unwrap_or("");
     if !bool::from(sent.as_bytes().ct_eq(w.csrf.as_bytes())) {
         return Err(forbidden_csrf());
@@ -226,7 +239,7 @@ pub async fn session_before_body(
             next.run(axum::extract::Request::from_parts(parts, body))
                 .await
         }
-        Ok(None) => forbidden_csrf().into_response(),
+        Ok(None) => forbidden_no_session().into_response(),
         Err(e) => e.into_response(),
     }
 }

@@ -12,6 +12,7 @@ use crate::state::AppState;
 use crate::state::EffectSource;
 use abba_advisor::Parameter;
 use abba_api::{AnswerBody, AnswerItem, AnswerKind};
+use abba_core::units::GlucoseUnit;
 use abba_store::advise::{Phase, SuggestionView, PARAMETERS};
 use abba_store::answer::param_key;
 use abba_store::effect::{Band, CheckOutcome, Effect, NoPrediction, SettingEffect};
@@ -44,6 +45,11 @@ pub struct Today {
     pub first_week: Option<String>,
     /// What abba was not designed for (`#not-designed-for`).
     pub not_designed_for: Option<String>,
+    /// An answer refused for a suggestion the page shows no form for (it
+    /// was answered in another tab or replaced since the page was shown):
+    /// why, above the cards (`#answer-refused`), since there is no field
+    /// to show it beside.
+    pub answer_refused: Option<String>,
     /// The four settings.
     pub settings: Vec<SettingCard>,
 }
@@ -145,7 +151,7 @@ pub fn card(
     let err = err.filter(|e| e.sid == sid);
     let open = v.status == "open";
     let (effect_words, check_words, held_back) = match effect.filter(|_| open) {
-        Some(e) => effect_words(p, e, v.previous),
+        Some(e) => effect_words(p, e, v.previous, live.person.settings.units),
         None => (None, None, false),
     };
     SettingCard {
@@ -185,13 +191,22 @@ fn points(b: &Band) -> String {
 }
 
 /// An open suggestion's predicted effect and the twin check in words, and
-/// whether it is held back.
+/// whether it is held back; the target range and the low mark (70-180
+/// and 70 mg/dL) in the person's unit.
 pub fn effect_words(
     p: Parameter,
     e: &SettingEffect,
     in_force: f64,
+    units: GlucoseUnit,
 ) -> (Option<String>, Option<String>, bool) {
     let margin = format!("{:.1}", e.margin_pp);
+    let range = format!(
+        "{}-{} {}",
+        units.value(70.0),
+        units.value(180.0),
+        units.label()
+    );
+    let low = units.with_unit(70.0);
     match &e.effect {
         Effect::Predicted(x) => {
             let effect = fill(
@@ -206,6 +221,8 @@ pub fn effect_words(
                     ("low_new", &pct(&x.suggested.below_70_pct)),
                     ("low_now", &pct(&x.in_force.below_70_pct)),
                     ("low_change", &points(&x.change.below_70_pct)),
+                    ("range", &range),
+                    ("low", &low),
                 ],
             );
             let check = match e.check {
@@ -215,9 +232,13 @@ pub fn effect_words(
                         ("rise", &format!("{:.1}", x.change.below_70_pct.value)),
                         ("margin", &margin),
                         ("value", &with_unit(p, in_force)),
+                        ("low", &low),
                     ],
                 )),
-                CheckOutcome::Passed => Some(fill(EN.twin_check_passed, &[("margin", &margin)])),
+                CheckOutcome::Passed => Some(fill(
+                    EN.twin_check_passed,
+                    &[("margin", &margin), ("low", &low)],
+                )),
                 CheckOutcome::Off => Some(EN.twin_check_off.to_string()),
                 CheckOutcome::NoPrediction => None,
             };
@@ -279,6 +300,7 @@ pub fn model(live: &Live, err: Option<&ValueError>, fx: Option<&EffectSource>) -
     Today {
         first_week,
         not_designed_for,
+        answer_refused: None,
         settings: PARAMETERS
             .iter()
             .zip(&a.settings)
@@ -334,7 +356,14 @@ fn answer_item(form: &Form) -> Result<AnswerItem, (u64, String)> {
         "override" if typed.is_empty() => return Err((sid, EN.missing_field.to_string())),
         "override" => match form::number(typed) {
             Some(v) => (AnswerKind::Override, Some(v)),
-            None => return Err((sid, fill(EN.expected_number, &[("example", "0.85")]))),
+            None => {
+                // An example in the setting's own unit (U/h or g/U).
+                let example = match abba_api::Setting::from_suggestion_id(sid).1 {
+                    abba_api::Setting::Basal => "0.85",
+                    _ => "10.5",
+                };
+                return Err((sid, fill(EN.expected_number, &[("example", example)])));
+            }
         },
         other => {
             return Err((
@@ -359,15 +388,22 @@ fn refused_answer(
     message: String,
     fx: Option<&EffectSource>,
 ) -> Today {
-    model(
-        live,
-        Some(&ValueError {
-            sid,
-            typed: typed.to_string(),
-            message,
-        }),
-        fx,
-    )
+    let err = ValueError {
+        sid,
+        typed: typed.to_string(),
+        message,
+    };
+    let mut today = model(live, Some(&err), fx);
+    let beside_its_field = today
+        .settings
+        .iter()
+        .filter_map(|c| c.suggestion.as_ref())
+        .any(|s| s.sid == sid && s.open);
+    if !beside_its_field {
+        let reason = err.message.trim_end().trim_end_matches('.');
+        today.answer_refused = Some(fill(EN.answer_not_saved, &[("reason", reason)]));
+    }
+    today
 }
 
 /// `POST /answer`: one answer, then 303 back to Today with a status
@@ -465,4 +501,52 @@ pub fn routes() -> axum::Router<crate::state::AppState> {
     axum::Router::new()
         .route("/", get(page))
         .route("/answer", post(answer))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use abba_store::effect::{Figures, Predicted};
+
+    fn effect(check: CheckOutcome) -> SettingEffect {
+        let band = |v: f64| Band {
+            value: v,
+            low: v - 0.5,
+            high: v + 0.5,
+        };
+        let f = |tir: f64, below: f64| Figures {
+            tir_pct: band(tir),
+            below_70_pct: band(below),
+        };
+        SettingEffect {
+            effect: Effect::Predicted(Predicted {
+                days: 7,
+                twin_revision: 3,
+                grade: "fair".into(),
+                in_force: f(70.0, 1.0),
+                suggested: f(71.0, 2.5),
+                change: f(1.0, 1.5),
+            }),
+            check,
+            margin_pp: 1.0,
+        }
+    }
+
+    #[test]
+    fn the_predicted_effect_names_the_range_in_the_persons_unit() {
+        for check in [CheckOutcome::HeldBack, CheckOutcome::Passed] {
+            let e = effect(check);
+            let (words, check_words, _) =
+                effect_words(Parameter::Basal, &e, 0.9, GlucoseUnit::MmolL);
+            let all = format!("{} {}", words.unwrap(), check_words.unwrap());
+            assert!(all.contains("time in range (3.9-10.0 mmol/L)"), "{all}");
+            assert!(all.contains("time below 3.9 mmol/L"), "{all}");
+            assert!(!all.contains("mg/dL"), "{all}");
+            let (words, check_words, _) =
+                effect_words(Parameter::Basal, &e, 0.9, GlucoseUnit::MgDl);
+            let all = format!("{} {}", words.unwrap(), check_words.unwrap());
+            assert!(all.contains("time in range (70-180 mg/dL)"), "{all}");
+            assert!(!all.contains("mmol/L"), "{all}");
+        }
+    }
 }

@@ -324,7 +324,10 @@ impl Evidence {
             out.push(format!("{} automated basal records", self.automated_basal));
         }
         for (k, v) in &self.systems {
-            out.push(format!("{v} records from or naming {k}"));
+            out.push(format!(
+                "{v} record{} from or naming {k}",
+                if *v == 1 { "" } else { "s" }
+            ));
         }
         if self.long_acting > 0 {
             out.push(format!(

@@ -90,7 +90,7 @@ fn smartguard_auto_mode_is_loop_evidence_and_a_780g_in_manual_mode_is_not() {
     let words = e.words().join("; ");
     assert!(
         words.contains("3 records from or naming SmartGuard auto mode")
-            && words.contains("1 records from or naming SmartGuard auto mode")
+            && words.contains("1 record from or naming SmartGuard auto mode")
             && words.contains("MiniMed 780G MMT-1886"),
         "{words}"
     );

@@ -2800,3 +2800,52 @@ async fn an_upload_over_the_limit_says_what_to_do() {
         assert!(html.contains(&link), "{link}: {html}");
     }
 }
+
+#[tokio::test]
+async fn the_clinics_list_says_each_persons_zone_and_both_units_of_its_low_mark() {
+    let svc = Svc::new();
+    let id = svc
+        .person_with(json!({
+            "name": "kiri", "tz": "Pacific/Auckland", "mode": "cgm",
+            "first_day": "2026-01-01",
+            "start": {"basal_units_per_hour": 1.0, "carb_ratio_g_per_unit": [10.0, 12.0, 11.0]}
+        }))
+        .await;
+    let (_, token) = svc.token(id).await;
+    // Two readings on day 1 at 08:00 and 08:05 Auckland time (UTC+13).
+    let events: Vec<Value> = [(0, 140.0), (5, 60.0)]
+        .iter()
+        .enumerate()
+        .map(|(i, &(m, g))| {
+            json!({"seq": i + 1, "at": format!("2026-01-01T08:{m:02}:00+13:00"),
+                   "event": {"type": "cgm", "mg_dl": g}})
+        })
+        .collect();
+    let r = svc
+        .call(
+            Method::POST,
+            &format!("/v1/persons/{id}/events"),
+            Some(&token),
+            Some(&json!({ "events": events })),
+        )
+        .await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+    let (mut admin, _) = signed_in(&svc, Role::Admin).await;
+    let list = admin.get("/clinic").await;
+    let start = list.html.find("<tr data-person=\"kiri\"").unwrap();
+    let row = &list.html[start..];
+    let row = &row[..row.find("</tr>").unwrap()];
+    // The last reading in her own clock, and which clock that is.
+    assert!(
+        row.contains("08:05") && row.contains("Pacific&#x2f;Auckland")
+            || row.contains("Pacific/Auckland"),
+        "{row}"
+    );
+    assert!(
+        list.html
+            .replace("&#x2f;", "/")
+            .contains("Below 70 mg/dL (3.9 mmol/L)"),
+        "the column names its mark in both units: {}",
+        list.html
+    );
+}

@@ -69,6 +69,11 @@ pub struct DeliveryShown {
     pub allowed: bool,
 }
 
+/// "1 record", "2 records".
+fn records(n: usize) -> String {
+    format!("{n} record{}", if n == 1 { "" } else { "s" })
+}
+
 impl ImportSummary {
     /// What the import did, in sentences for a person or a clinician (the
     /// CLI's `abba import` and `abba sync`, the clinic's page): the counts,
@@ -76,11 +81,17 @@ impl ImportSummary {
     /// with no readings and every reader's note. Nothing is left out.
     pub fn lines(&self, person: &str) -> Vec<String> {
         let mut out = Vec::new();
-        if self.added == 0 && self.updated == 0 {
+        if self.added == 0 && self.updated == 0 && self.known == 0 {
             out.push(format!(
-                "Nothing new: all {} records of {} are already in {person}'s log.",
-                self.known,
+                "Nothing was added to {person}'s log: no record of {} could be used (below).",
                 self.files.join(", ")
+            ));
+        } else if self.added == 0 && self.updated == 0 {
+            out.push(format!(
+                "Nothing new: {} of {} {} already in {person}'s log.",
+                records(self.known),
+                self.files.join(", "),
+                if self.known == 1 { "is" } else { "are" }
             ));
         } else {
             out.push(format!(
@@ -100,8 +111,8 @@ impl ImportSummary {
         ] {
             if r.count > 0 {
                 out.push(format!(
-                    "{} records {what}; the first: {} ({}).",
-                    r.count,
+                    "{} {what}; the first: {} ({}).",
+                    records(r.count),
                     r.first.as_deref().unwrap_or("?"),
                     r.first_at.as_deref().unwrap_or("?")
                 ));

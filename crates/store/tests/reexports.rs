@@ -241,6 +241,46 @@ fn future_rows_are_refused_and_rows_before_day_1_not_used() {
 }
 
 #[test]
+fn an_export_wholly_before_day_1_says_nothing_was_added_and_why() {
+    let dir = TempDir::new("before-day-1");
+    let mut store = dir.store();
+    store.create_person(&person("ana")).unwrap(); // day 1 = 2026-05-04
+    let at: jiff::Timestamp = "2026-05-04T12:00:00Z".parse().unwrap();
+    let s = store
+        .import_at("ana", &read(&[("old.csv", clarity(-240, 0, false))]), at)
+        .unwrap();
+    assert_eq!(
+        (s.added, s.known, s.before_day_1.count),
+        (0, 0, 48),
+        "{s:?}"
+    );
+    let lines = s.lines("ana");
+    // Not "all 0 records are already in the log": none could be used.
+    assert_eq!(
+        lines[0], "Nothing was added to ana's log: no record of old.csv could be used (below).",
+        "{lines:?}"
+    );
+    assert!(
+        lines
+            .iter()
+            .any(|l| l.starts_with("48 records before day 1, not used; the first: old.csv: line 4")),
+        "{lines:?}"
+    );
+    // One record is one record.
+    let one = store
+        .import_at("ana", &read(&[("one.csv", clarity(0, 5, false))]), at)
+        .unwrap();
+    assert_eq!(one.added, 1, "{one:?}");
+    let again = store
+        .import_at("ana", &read(&[("one.csv", clarity(0, 5, false))]), at)
+        .unwrap();
+    assert_eq!(
+        again.lines("ana")[0],
+        "Nothing new: 1 record of one.csv is already in ana's log."
+    );
+}
+
+#[test]
 fn an_export_wholly_in_the_future_is_an_error_and_imports_nothing() {
     // A device clock a year ahead, or an export read in the wrong zone: not
     // "nothing new" with a count, but an error naming the first record.

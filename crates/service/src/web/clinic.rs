@@ -132,7 +132,13 @@ fn row(store: &mut Store, id: i64, now_ms: i64) -> Result<Row, ApiError> {
     let clock = advise::clock(p);
     let last = live.stream.events.last();
     let last_data = last
-        .map(|e| advise::local(clock.as_ref(), e.at))
+        .map(|e| {
+            let at = advise::local(clock.as_ref(), e.at);
+            match p.tz.iana_name() {
+                Some(zone) => format!("{at} ({zone})"),
+                None => at,
+            }
+        })
         .unwrap_or_else(|| C.no_data.into());
     let end = last.map_or(0, |e| e.at.0);
     let glucose: Vec<f64> = live

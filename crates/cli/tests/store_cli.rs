@@ -311,7 +311,7 @@ fn errors_name_the_file_and_field() {
     let said = String::from_utf8_lossy(&out.stdout);
     assert!(
         out.status.success()
-            && said.contains("Imported 1 new records")
+            && said.contains("Imported 1 new record ")
             && said.contains("entries.json: $[1], field \"sgv\""),
         "{said}"
     );
@@ -639,7 +639,7 @@ fn the_flags_an_import_error_names_are_flags_of_abba_import() {
     let s = ok(&[
         "import", "--db", db, "--person", "lea", "--units", "mmol/L", treatments,
     ]);
-    assert!(s.contains("Imported 1 new records"), "{s}");
+    assert!(s.contains("Imported 1 new record "), "{s}");
     refused(
         &[
             "import",
@@ -880,7 +880,7 @@ fn a_record_before_1990_is_refused_and_day_1_stays_true() {
         file.to_str().unwrap(),
     ]);
     assert!(
-        out.contains("1 records dated before 1990-01-01")
+        out.contains("1 record dated before 1990-01-01")
             && out.contains("entries.json: $[0]")
             && out.contains("Day 1 of the advisor: 2026-05-04."),
         "{out}"

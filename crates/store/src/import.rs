@@ -95,8 +95,12 @@ impl ImportSummary {
             ));
         } else {
             out.push(format!(
-                "Imported {} new records for {person} ({} read, {} already known, {} newer versions of known records).",
-                self.added, self.read, self.known, self.updated
+                "Imported {} new {} for {person} ({} read, {} already known, {} newer versions of known records).",
+                self.added,
+                if self.added == 1 { "record" } else { "records" },
+                self.read,
+                self.known,
+                self.updated
             ));
         }
         out.push(format!(

@@ -55,7 +55,7 @@ fn a_record_before_1990_is_refused_with_its_place_and_never_sets_day_1() {
     assert_eq!(p.first_day, Some("2026-05-04".parse().unwrap()));
     let lines = s.lines("ana").join("\n");
     assert!(
-        lines.contains("1 records dated before 1990-01-01")
+        lines.contains("1 record dated before 1990-01-01")
             && lines.contains("entries.json: $[0]")
             && lines.contains("expected a time from 1990-01-01T00:00:00Z on"),
         "{lines}"

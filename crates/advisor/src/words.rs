@@ -164,10 +164,18 @@ pub fn reasons_in(d: &Decision, cfg: &AbbaConfig, unit: GlucoseUnit) -> Vec<Stri
                     r.requested, r.step
                 )
             } else {
-                format!(
-                    "Rounded to your pump's step of {} {u}: {:.3} -> {} {u}.",
-                    r.step, r.requested, r.new
-                )
+                match &r.segments {
+                    // A schedule's segments are on the step, their mean
+                    // need not be.
+                    Some(_) => format!(
+                        "Each segment rounded to your pump's step of {} {u}: {:.3} -> {:.3} {u} (the schedule's mean).",
+                        r.step, r.requested, r.new
+                    ),
+                    None => format!(
+                        "Rounded to your pump's step of {} {u}: {:.3} -> {} {u}.",
+                        r.step, r.requested, r.new
+                    ),
+                }
             });
         }
     }
@@ -369,6 +377,30 @@ pub fn therapy_change(
         what.push(format!("carb ratios {b}/{l}/{d} g/U"));
     }
     format!("from {instant} ({origin}): {}", what.join(", "))
+}
+
+/// A main meal the data never show in its window (`window`: `HH:MM-HH:MM`),
+/// while `snacks` carbohydrate entries fell outside the windows or after
+/// a window's first: why its carb ratio gets no suggestion.
+pub fn meal_not_seen(meal: &str, window: &str, snacks: usize) -> String {
+    format!(
+        "No {meal} in the data: no carbohydrate entry in the {meal} window ({window}, local time); {snacks} entries outside the windows or after a window's first were taken as snacks. abba suggests no {meal} carb ratio until a {meal} is logged in its window (meal windows are set when the person is created, --meal-windows)."
+    )
+}
+
+/// A basal schedule in words: `HH:MM rate` segments and U/h.
+pub fn schedule(segments: &[(String, f64)]) -> String {
+    let segs: Vec<String> = segments.iter().map(|(at, r)| format!("{at} {r}")).collect();
+    format!("{} U/h", segs.join(", "))
+}
+
+/// The basal schedule in force, for a page that shows the basal rate as
+/// the schedule's mean.
+pub fn basal_schedule_in_force(segments: &[(String, f64)]) -> String {
+    format!(
+        "Basal schedule in force: {}; the basal rates below are its mean (each update scales every segment).",
+        schedule(segments)
+    )
 }
 
 /// A record the advisor did not use, as an example for the person.

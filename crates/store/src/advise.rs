@@ -345,6 +345,40 @@ fn reasons(person: &Person, d: &Decision) -> Vec<String> {
     out
 }
 
+/// Main meals imported data never show in their window, once a day has
+/// closed and some carbohydrate was logged: their carb ratios get no
+/// suggestion, and the person is told why (someone who skips breakfast, a
+/// night-shift worker eating outside the windows).
+fn meals_not_seen(person: &Person, events: &[Event]) -> Vec<String> {
+    if !events.iter().any(|e| e.kind == EventKind::DayClosed) {
+        return Vec::new();
+    }
+    let mut seen = [0usize; 3];
+    let mut snacks = 0;
+    for e in events {
+        if let EventKind::MealAnnounced { slot, .. } = e.kind {
+            match slot.main_index() {
+                Some(i) => seen[i] += 1,
+                None => snacks += 1,
+            }
+        }
+    }
+    if snacks + seen.iter().sum::<usize>() == 0 {
+        return Vec::new();
+    }
+    let w = person.settings.meal_windows;
+    let windows = [w.breakfast, w.lunch, w.dinner];
+    MealSlot::MAIN
+        .iter()
+        .zip(windows)
+        .zip(seen)
+        .filter(|(_, n)| *n == 0)
+        .map(|((slot, (from, to)), _)| {
+            words::meal_not_seen(slot.name(), &format!("{}-{}", hhmm(from), hhmm(to)), snacks)
+        })
+        .collect()
+}
+
 fn value(a: &Abba, p: Parameter) -> f64 {
     let s = a.settings();
     match p {
@@ -413,7 +447,15 @@ fn delivery_view(person: &Person, extras: Option<&Extras>) -> DeliveryView {
     }
 }
 
-fn therapy_view(person: &Person, advisor: &Abba, extras: Option<&Extras>) -> TherapyView {
+/// `basal_open`: a basal suggestion waits for an answer; the replayed
+/// advisor already runs its schedule, so the one in force is the schedule
+/// before it.
+fn therapy_view(
+    person: &Person,
+    advisor: &Abba,
+    extras: Option<&Extras>,
+    basal_open: bool,
+) -> TherapyView {
     let changes = extras.map_or_else(Vec::new, |x| {
         x.changes
             .iter()
@@ -433,10 +475,14 @@ fn therapy_view(person: &Person, advisor: &Abba, extras: Option<&Extras>) -> The
     });
     TherapyView {
         source: person.settings.therapy_source.words(),
-        basal_schedule: advisor
-            .basal_schedule()
-            .filter(|s| s.len() > 1)
-            .map(|s| s.iter().map(|&(m, r)| (hhmm(m), r)).collect()),
+        basal_schedule: if basal_open {
+            advisor.previous_basal_schedule()
+        } else {
+            None
+        }
+        .or_else(|| advisor.basal_schedule())
+        .filter(|s| s.len() > 1)
+        .map(|s| s.iter().map(|&(m, r)| (hhmm(m), r)).collect()),
         pump_steps: advisor.pump_steps(),
         changes,
     }
@@ -497,7 +543,7 @@ pub fn advice_with(
 ) -> Advice {
     let c = clock(person);
     let all = views_with(person, decisions, answers, extras);
-    let settings = PARAMETERS
+    let settings: Vec<SettingAdvice> = PARAMETERS
         .iter()
         .map(|&p| {
             let key = param_key(p);
@@ -537,6 +583,9 @@ pub fn advice_with(
             (p, _) => p,
         }
     };
+    let basal_open = settings.first().is_some_and(|s| {
+        s.setting == "basal" && s.latest.as_ref().is_some_and(|v| v.status == "open")
+    });
     let span = match (stream.events.first(), stream.events.last()) {
         (Some(a), Some(b)) => Some((local(c.as_ref(), a.at), local(c.as_ref(), b.at))),
         _ => None,
@@ -567,7 +616,7 @@ pub fn advice_with(
                 .collect(),
             events_refused: refused,
         },
-        therapy: therapy_view(person, advisor, extras),
+        therapy: therapy_view(person, advisor, extras, basal_open),
         delivery: delivery_view(person, extras),
         first_week: first_week_view(person, extras, advisor.is_initialised()),
         notes: stream
@@ -575,6 +624,12 @@ pub fn advice_with(
             .iter()
             .cloned()
             .chain(basal_hours(person))
+            .chain(
+                extras
+                    .filter(|x| !x.fed_by_app)
+                    .map(|_| meals_not_seen(person, &stream.events))
+                    .unwrap_or_default(),
+            )
             .collect(),
     }
 }

@@ -388,6 +388,22 @@ pub fn meal_not_seen(meal: &str, window: &str, snacks: usize) -> String {
     )
 }
 
+/// Readings the device reported only as Low or High (beyond its range).
+pub fn censored_readings(n: usize) -> String {
+    format!(
+        "{n} glucose readings were reported by the device only as Low or High (beyond its range): they count at the device's limit, so the mean and the times below and above range are bounds, not exact values."
+    )
+}
+
+/// Records of the log the advisor did not use, for a page that shows the
+/// data (`examples`: a few, in words).
+pub fn records_left_out(n: usize, examples: &[String]) -> String {
+    format!(
+        "{n} records of the log were left out of the advice, for example: {}.",
+        examples.join("; ")
+    )
+}
+
 /// A basal schedule in words: `HH:MM rate` segments and U/h.
 pub fn schedule(segments: &[(String, f64)]) -> String {
     let segs: Vec<String> = segments.iter().map(|(at, r)| format!("{at} {r}")).collect();

@@ -623,6 +623,7 @@ pub fn advice_with(
             .notes
             .iter()
             .cloned()
+            .chain((stream.censored > 0).then(|| words::censored_readings(stream.censored)))
             .chain(basal_hours(person))
             .chain(
                 extras

@@ -215,6 +215,16 @@ pub fn person_input(
         }
     }
 
+    // What the advice says about the data (readings at the device's
+    // limit, hypoglycaemia treatments, meals outside their windows, zones)
+    // and the rows it left out.
+    notes.extend(advice.notes.iter().cloned());
+    if advice.data.records_not_used > 0 {
+        notes.push(abba_advisor::words::records_left_out(
+            advice.data.records_not_used,
+            &advice.data.not_used_examples,
+        ));
+    }
     if let Some(schedule) = &advice.therapy.basal_schedule {
         notes.push(abba_advisor::words::basal_schedule_in_force(schedule));
     }

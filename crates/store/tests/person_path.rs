@@ -1148,3 +1148,81 @@ fn suggestions_made_on_the_history_of_one_import_are_not_taken_as_followed() {
         "unanswered suggestions shown day by day are taken as followed"
     );
 }
+
+/// A Dexcom Clarity CSV in its export layout (header, preamble rows without
+/// a time, EGV rows every 5 min): three days at `level`, with a night's
+/// compression low the sensor reports as `Low`, an afternoon above its
+/// range as `High`, and one reading repeated 20 s later with another value.
+fn clarity_with_low_and_high(dir: &std::path::Path) -> PathBuf {
+    let mut lines = vec![
+        "Index,Timestamp (YYYY-MM-DDThh:mm:ss),Event Type,Event Subtype,Patient Info,Device Info,Source Device ID,Glucose Value (mg/dL),Insulin Value (u),Carb Value (grams),Duration (hh:mm:ss),Glucose Rate of Change (mg/dL/min),Transmitter Time (Long Integer),Transmitter ID".to_string(),
+        "1,,FirstName,,Ana,,,,,,,,,".to_string(),
+        "2,,Device,,,Dexcom G6 Mobile App,android G6,,,,,,,".to_string(),
+    ];
+    let mut i = 3;
+    let mut tx = 400_000;
+    for day in 0..3 {
+        for k in 0..288 {
+            let m = k * 5;
+            let value = match (day, m) {
+                (1, 120..=140) => "Low".to_string(),
+                (2, 900..=925) => "High".to_string(),
+                _ => (140 + (k % 24)).to_string(),
+            };
+            let at = format!("2026-05-{:02}T{:02}:{:02}:07", 4 + day, m / 60, m % 60);
+            lines.push(format!(
+                "{i},{at},EGV,,,,android G6,{value},,,,,{tx},ABC123"
+            ));
+            if (day, m) == (0, 600) {
+                i += 1;
+                let again = format!("2026-05-04T{:02}:{:02}:27", m / 60, m % 60);
+                lines.push(format!(
+                    "{i},{again},EGV,,,,android G6,199,,,,,{},ABC123",
+                    tx + 20
+                ));
+            }
+            i += 1;
+            tx += 300;
+        }
+    }
+    let p = dir.join("Clarity_Export.csv");
+    std::fs::write(&p, lines.join("\n") + "\n").unwrap();
+    p
+}
+
+#[test]
+fn readings_beyond_the_sensors_range_and_rows_left_out_are_stated_in_advice_and_report() {
+    let dir = TempDir::new("clarity-censored");
+    let file = clarity_with_low_and_high(&dir.0);
+    let mut store = dir.store();
+    let start = abba_core::TherapySettings {
+        basal: abba_core::UnitsPerHour(0.9),
+        carb_ratio: [abba_core::GramsPerUnit(10.0); 3],
+    };
+    store
+        .create_person(&NewPerson::new("ana", TZ, Mode::Cgm, start))
+        .unwrap();
+    store.import_files("ana", &[file], None).unwrap();
+    // 5 Low (02:00-02:20) and 6 High (15:00-15:25).
+    let censored = abba_advisor::words::censored_readings(11);
+    let a = store.advise("ana").unwrap();
+    assert!(a.notes.contains(&censored), "{:?}", a.notes);
+    let left_out = a.data.records_not_used;
+    assert!(
+        left_out > 0,
+        "the repeated reading is left out: {:?}",
+        a.data
+    );
+    let input =
+        abba_store::report::person_input(&mut store, "ana", 3, abba_core::units::GlucoseUnit::MgDl)
+            .unwrap();
+    assert!(input.notes.contains(&censored), "{:?}", input.notes);
+    assert!(
+        input
+            .notes
+            .iter()
+            .any(|n| n.starts_with(&format!("{left_out} records of the log were left out"))),
+        "{:?}",
+        input.notes
+    );
+}

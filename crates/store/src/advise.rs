@@ -464,8 +464,18 @@ fn therapy_view(
                     .basal
                     .as_ref()
                     .map(|b| b.iter().map(|&(m, r)| (hhmm(m), r)).collect());
+                // In the person's zone, as every time the advice shows.
+                let local = c
+                    .instant
+                    .parse::<jiff::Timestamp>()
+                    .map(|t| {
+                        t.to_zoned(person.tz.clone())
+                            .strftime("%Y-%m-%d %H:%M")
+                            .to_string()
+                    })
+                    .unwrap_or_else(|_| c.instant.clone());
                 words::therapy_change(
-                    &c.instant.to_string(),
+                    &local,
                     &c.origin.to_string(),
                     basal.as_deref(),
                     c.carb_ratio,

@@ -1047,6 +1047,11 @@ fn a_temporary_profile_running_at_the_end_of_the_data_is_not_the_therapy_in_forc
         panic!("{:?}", a.therapy.changes)
     };
     assert!(temp.contains("0.8") && temp.contains("0.96"), "{temp}");
+    // Dated in the person's zone (22:30 in Zurich, 20:30 UTC), once.
+    assert!(
+        temp.starts_with("from 2026-05-13 22:30 (the pump's profile):"),
+        "{temp}"
+    );
     assert!(
         back.contains("at the end of the temporary profile") && back.contains("1.2"),
         "{back}"

@@ -388,6 +388,15 @@ pub fn meal_not_seen(meal: &str, window: &str, snacks: usize) -> String {
     )
 }
 
+/// Segments of the basal schedule in force outside the clinician's basal
+/// bounds, which hold the schedule's mean (`outside`: `HH:MM rate`).
+pub fn segments_outside_bounds(min: f64, max: f64, outside: &[String]) -> String {
+    format!(
+        "Your clinician's basal bounds ({min}-{max} U/h) hold the schedule's mean, not each segment: {} U/h lie outside them, and each update scales every segment by the same factor. The pump's maximum basal rate is not checked by abba.",
+        outside.join(", ")
+    )
+}
+
 /// Readings the device reported only as Low or High (beyond its range).
 pub fn censored_readings(n: usize) -> String {
     format!(

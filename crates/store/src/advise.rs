@@ -345,6 +345,20 @@ fn reasons(person: &Person, d: &Decision) -> Vec<String> {
     out
 }
 
+/// The schedule in force's segments outside the clinician's basal bounds
+/// (which hold its mean), said once.
+fn segments_outside(person: &Person, therapy: &TherapyView) -> Option<String> {
+    let r = person.settings.bounds.basal?;
+    let outside: Vec<String> = therapy
+        .basal_schedule
+        .as_ref()?
+        .iter()
+        .filter(|(_, v)| *v < r.min - 1e-9 || *v > r.max + 1e-9)
+        .map(|(t, v)| format!("{t} {v}"))
+        .collect();
+    (!outside.is_empty()).then(|| words::segments_outside_bounds(r.min, r.max, &outside))
+}
+
 /// Main meals imported data never show in their window, once a day has
 /// closed and some carbohydrate was logged: their carb ratios get no
 /// suggestion, and the person is told why (someone who skips breakfast, a
@@ -596,6 +610,8 @@ pub fn advice_with(
     let basal_open = settings.first().is_some_and(|s| {
         s.setting == "basal" && s.latest.as_ref().is_some_and(|v| v.status == "open")
     });
+    let therapy = therapy_view(person, advisor, extras, basal_open);
+    let outside = segments_outside(person, &therapy);
     let span = match (stream.events.first(), stream.events.last()) {
         (Some(a), Some(b)) => Some((local(c.as_ref(), a.at), local(c.as_ref(), b.at))),
         _ => None,
@@ -626,7 +642,7 @@ pub fn advice_with(
                 .collect(),
             events_refused: refused,
         },
-        therapy: therapy_view(person, advisor, extras, basal_open),
+        therapy,
         delivery: delivery_view(person, extras),
         first_week: first_week_view(person, extras, advisor.is_initialised()),
         notes: stream
@@ -635,6 +651,7 @@ pub fn advice_with(
             .cloned()
             .chain((stream.censored > 0).then(|| words::censored_readings(stream.censored)))
             .chain(basal_hours(person))
+            .chain(outside)
             .chain(
                 extras
                     .filter(|x| !x.fed_by_app)

@@ -1231,3 +1231,37 @@ fn readings_beyond_the_sensors_range_and_rows_left_out_are_stated_in_advice_and_
         input.notes
     );
 }
+
+#[test]
+fn schedule_segments_outside_the_clinicians_basal_bounds_are_named() {
+    // Bounds 0.9-1.2 U/h around the mean (1.04), the 07:00 segment (1.4)
+    // and the midnight one (0.8) outside them.
+    let plan = open_schedule_plan();
+    let dir = TempDir::new("schedule-bounds");
+    let files = export(&dir.0, &plan);
+    let mut store = dir.store();
+    let mut p = person_from(&files, "ana");
+    p.settings.bounds.basal = Some(abba_advisor::bounds::Range { min: 0.9, max: 1.2 });
+    store.create_person(&p).unwrap();
+    store.import_files("ana", &files, None).unwrap();
+    let a = store.advise("ana").unwrap();
+    let note = a
+        .notes
+        .iter()
+        .find(|n| {
+            n.starts_with("Your clinician's basal bounds (0.9-1.2 U/h) hold the schedule's mean")
+        })
+        .unwrap_or_else(|| panic!("{:?}", a.notes));
+    assert!(
+        note.contains("00:00 0.8, 07:00 1.4 U/h lie outside"),
+        "{note}"
+    );
+    // Without bounds, nothing to say.
+    let (_d, mut store2, _) = setup("schedule-no-bounds", &plan);
+    let a2 = store2.advise("ana").unwrap();
+    assert!(
+        a2.notes.iter().all(|n| !n.contains("basal bounds")),
+        "{:?}",
+        a2.notes
+    );
+}

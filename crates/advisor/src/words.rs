@@ -370,11 +370,15 @@ pub fn therapy_change(
 ) -> String {
     let mut what = Vec::new();
     if let Some(b) = basal {
-        let segs: Vec<String> = b.iter().map(|(at, r)| format!("{at} {r}")).collect();
-        what.push(format!("basal {} U/h", segs.join(", ")));
+        what.push(format!("basal {}", schedule(b)));
     }
     if let Some([b, l, d]) = carb_ratios {
-        what.push(format!("carb ratios {b}/{l}/{d} g/U"));
+        what.push(format!(
+            "carb ratios {}/{}/{} g/U",
+            rate(b),
+            rate(l),
+            rate(d)
+        ));
     }
     format!("from {instant} ({origin}): {}", what.join(", "))
 }
@@ -392,7 +396,9 @@ pub fn meal_not_seen(meal: &str, window: &str, snacks: usize) -> String {
 /// bounds, which hold the schedule's mean (`outside`: `HH:MM rate`).
 pub fn segments_outside_bounds(min: f64, max: f64, outside: &[String]) -> String {
     format!(
-        "Your clinician's basal bounds ({min}-{max} U/h) hold the schedule's mean, not each segment: {} U/h lie outside them, and each update scales every segment by the same factor. The pump's maximum basal rate is not checked by abba.",
+        "Your clinician's basal bounds ({}-{} U/h) hold the schedule's mean, not each segment: {} U/h lie outside them, and each update scales every segment by the same factor. The pump's maximum basal rate is not checked by abba.",
+        rate(min),
+        rate(max),
         outside.join(", ")
     )
 }
@@ -413,10 +419,26 @@ pub fn records_left_out(n: usize, examples: &[String]) -> String {
     )
 }
 
+/// A rate or ratio as people read it: at most four decimals, trailing
+/// zeros dropped (a profile scaled by a percentage holds
+/// 1.2000000000000002).
+pub fn rate(v: f64) -> String {
+    let s = format!("{v:.4}");
+    s.trim_end_matches('0').trim_end_matches('.').to_string()
+}
+
+/// A basal schedule's segments in words: `HH:MM rate, ...` (no unit).
+pub fn segments(segments: &[(String, f64)]) -> String {
+    let segs: Vec<String> = segments
+        .iter()
+        .map(|(at, r)| format!("{at} {}", rate(*r)))
+        .collect();
+    segs.join(", ")
+}
+
 /// A basal schedule in words: `HH:MM rate` segments and U/h.
-pub fn schedule(segments: &[(String, f64)]) -> String {
-    let segs: Vec<String> = segments.iter().map(|(at, r)| format!("{at} {r}")).collect();
-    format!("{} U/h", segs.join(", "))
+pub fn schedule(segments_: &[(String, f64)]) -> String {
+    format!("{} U/h", segments(segments_))
 }
 
 /// The basal schedule in force, for a page that shows the basal rate as
@@ -455,6 +477,28 @@ pub fn answer_words(status: &str, in_force: f64, unit: &str) -> String {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn schedules_print_rates_without_binary_noise() {
+        let s = vec![
+            ("00:00".to_string(), 1.1),
+            ("19:00".to_string(), 1.2000000000000002),
+        ];
+        assert_eq!(super::schedule(&s), "00:00 1.1, 19:00 1.2 U/h");
+        assert_eq!(super::rate(0.6400000000000001), "0.64");
+        assert_eq!(super::rate(0.025), "0.025");
+        assert_eq!(super::rate(2.0), "2");
+        let c = super::therapy_change(
+            "2026-05-13 22:30",
+            "x",
+            Some(&s),
+            Some([9.0, 12.5, 0.30000000000000004 * 10.0]),
+        );
+        assert_eq!(
+            c,
+            "from 2026-05-13 22:30 (x): basal 00:00 1.1, 19:00 1.2 U/h, carb ratios 9/12.5/3 g/U"
+        );
+    }
+
     use super::{basal_hours, window_clock};
     use crate::AgeGroup;
 

@@ -130,8 +130,12 @@ fn setting(s: &mut String, a: &SettingAdvice, glucose: GlucoseUnit) {
             v.day, v.decided_at, v.previous, v.suggested, v.unit, v.change_percent
         );
         if let Some(sch) = &v.schedule {
-            let segs: Vec<String> = sch.iter().map(|(t, r)| format!("{t} {r}")).collect();
-            let _ = writeln!(s, "    schedule: {} {}", segs.join(", "), v.unit);
+            let _ = writeln!(
+                s,
+                "    schedule: {} {}",
+                abba_advisor::words::segments(sch),
+                v.unit
+            );
         }
         for r in &v.reasons {
             let _ = writeln!(s, "    - {r}");
@@ -220,8 +224,7 @@ pub fn advice_text(a: &Advice, glucose: GlucoseUnit) -> String {
     let t = &a.therapy;
     let _ = writeln!(s, "Therapy in force: {}.", t.source);
     if let Some(sch) = &t.basal_schedule {
-        let segs: Vec<String> = sch.iter().map(|(t, r)| format!("{t} {r}")).collect();
-        let _ = writeln!(s, "  basal schedule: {} U/h (the basal rate below is its mean; each update scales every segment)", segs.join(", "));
+        let _ = writeln!(s, "  basal schedule: {} U/h (the basal rate below is its mean; each update scales every segment)", abba_advisor::words::segments(sch));
     }
     if let Some(p) = &t.pump_steps {
         let _ = writeln!(

@@ -354,7 +354,7 @@ fn segments_outside(person: &Person, therapy: &TherapyView) -> Option<String> {
         .as_ref()?
         .iter()
         .filter(|(_, v)| *v < r.min - 1e-9 || *v > r.max + 1e-9)
-        .map(|(t, v)| format!("{t} {v}"))
+        .map(|(t, v)| format!("{t} {}", words::rate(*v)))
         .collect();
     (!outside.is_empty()).then(|| words::segments_outside_bounds(r.min, r.max, &outside))
 }

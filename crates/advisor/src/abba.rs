@@ -246,6 +246,12 @@ impl Abba {
         self.basal_schedule.as_ref()
     }
 
+    /// The basal schedule before the last basal update that changed it
+    /// (the one in force while that update waits for an answer), if any.
+    pub fn previous_basal_schedule(&self) -> Option<&Segments> {
+        self.prev_basal_schedule.as_ref()
+    }
+
     /// A change of therapy made outside the advisor (a profile switch on
     /// the pump, the clinician's new settings): in force from now on, the
     /// next update starts from it.

@@ -164,10 +164,18 @@ pub fn reasons_in(d: &Decision, cfg: &AbbaConfig, unit: GlucoseUnit) -> Vec<Stri
                     r.requested, r.step
                 )
             } else {
-                format!(
-                    "Rounded to your pump's step of {} {u}: {:.3} -> {} {u}.",
-                    r.step, r.requested, r.new
-                )
+                match &r.segments {
+                    // A schedule's segments are on the step, their mean
+                    // need not be.
+                    Some(_) => format!(
+                        "Each segment rounded to your pump's step of {} {u}: {:.3} -> {:.3} {u} (the schedule's mean).",
+                        r.step, r.requested, r.new
+                    ),
+                    None => format!(
+                        "Rounded to your pump's step of {} {u}: {:.3} -> {} {u}.",
+                        r.step, r.requested, r.new
+                    ),
+                }
             });
         }
     }
@@ -362,13 +370,84 @@ pub fn therapy_change(
 ) -> String {
     let mut what = Vec::new();
     if let Some(b) = basal {
-        let segs: Vec<String> = b.iter().map(|(at, r)| format!("{at} {r}")).collect();
-        what.push(format!("basal {} U/h", segs.join(", ")));
+        what.push(format!("basal {}", schedule(b)));
     }
     if let Some([b, l, d]) = carb_ratios {
-        what.push(format!("carb ratios {b}/{l}/{d} g/U"));
+        what.push(format!(
+            "carb ratios {}/{}/{} g/U",
+            rate(b),
+            rate(l),
+            rate(d)
+        ));
     }
     format!("from {instant} ({origin}): {}", what.join(", "))
+}
+
+/// A main meal the data never show in its window (`window`: `HH:MM-HH:MM`),
+/// while `snacks` carbohydrate entries fell outside the windows or after
+/// a window's first: why its carb ratio gets no suggestion.
+pub fn meal_not_seen(meal: &str, window: &str, snacks: usize) -> String {
+    format!(
+        "No {meal} in the data: no carbohydrate entry in the {meal} window ({window}, local time); {snacks} entries outside the windows or after a window's first were taken as snacks. abba suggests no {meal} carb ratio until a {meal} is logged in its window (meal windows are set when the person is created, --meal-windows)."
+    )
+}
+
+/// Segments of the basal schedule in force outside the clinician's basal
+/// bounds, which hold the schedule's mean (`outside`: `HH:MM rate`).
+pub fn segments_outside_bounds(min: f64, max: f64, outside: &[String]) -> String {
+    format!(
+        "Your clinician's basal bounds ({}-{} U/h) hold the schedule's mean, not each segment: {} U/h lie outside them, and each update scales every segment by the same factor. The pump's maximum basal rate is not checked by abba.",
+        rate(min),
+        rate(max),
+        outside.join(", ")
+    )
+}
+
+/// Readings the device reported only as Low or High (beyond its range).
+pub fn censored_readings(n: usize) -> String {
+    format!(
+        "{n} glucose readings were reported by the device only as Low or High (beyond its range): they count at the device's limit, so the mean and the times below and above range are bounds, not exact values."
+    )
+}
+
+/// Records of the log the advisor did not use, for a page that shows the
+/// data (`examples`: a few, in words).
+pub fn records_left_out(n: usize, examples: &[String]) -> String {
+    format!(
+        "{n} records of the log were left out of the advice, for example: {}.",
+        examples.join("; ")
+    )
+}
+
+/// A rate or ratio as people read it: at most four decimals, trailing
+/// zeros dropped (a profile scaled by a percentage holds
+/// 1.2000000000000002).
+pub fn rate(v: f64) -> String {
+    let s = format!("{v:.4}");
+    s.trim_end_matches('0').trim_end_matches('.').to_string()
+}
+
+/// A basal schedule's segments in words: `HH:MM rate, ...` (no unit).
+pub fn segments(segments: &[(String, f64)]) -> String {
+    let segs: Vec<String> = segments
+        .iter()
+        .map(|(at, r)| format!("{at} {}", rate(*r)))
+        .collect();
+    segs.join(", ")
+}
+
+/// A basal schedule in words: `HH:MM rate` segments and U/h.
+pub fn schedule(segments_: &[(String, f64)]) -> String {
+    format!("{} U/h", segments(segments_))
+}
+
+/// The basal schedule in force, for a page that shows the basal rate as
+/// the schedule's mean.
+pub fn basal_schedule_in_force(segments: &[(String, f64)]) -> String {
+    format!(
+        "Basal schedule in force: {}; the basal rates below are its mean (each update scales every segment).",
+        schedule(segments)
+    )
 }
 
 /// A record the advisor did not use, as an example for the person.
@@ -398,6 +477,28 @@ pub fn answer_words(status: &str, in_force: f64, unit: &str) -> String {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn schedules_print_rates_without_binary_noise() {
+        let s = vec![
+            ("00:00".to_string(), 1.1),
+            ("19:00".to_string(), 1.2000000000000002),
+        ];
+        assert_eq!(super::schedule(&s), "00:00 1.1, 19:00 1.2 U/h");
+        assert_eq!(super::rate(0.6400000000000001), "0.64");
+        assert_eq!(super::rate(0.025), "0.025");
+        assert_eq!(super::rate(2.0), "2");
+        let c = super::therapy_change(
+            "2026-05-13 22:30",
+            "x",
+            Some(&s),
+            Some([9.0, 12.5, 0.30000000000000004 * 10.0]),
+        );
+        assert_eq!(
+            c,
+            "from 2026-05-13 22:30 (x): basal 00:00 1.1, 19:00 1.2 U/h, carb ratios 9/12.5/3 g/U"
+        );
+    }
+
     use super::{basal_hours, window_clock};
     use crate::AgeGroup;
 

@@ -1,5 +1,6 @@
 //! Today's advice as text for people.
 
+use abba_core::units::GlucoseUnit;
 use abba_store::advise::{Advice, Phase, SettingAdvice};
 use abba_store::effect::{Band, CheckOutcome, Effect, NoPrediction, SettingEffect};
 use std::fmt::Write as _;
@@ -14,12 +15,26 @@ fn points(b: &Band) -> String {
 
 /// A suggestion's predicted effect and the twin check, in sentences (the
 /// CLI's words; `abba advise` and `abba report`).
-pub fn effect_lines(name: &str, unit: &str, in_force: f64, e: &SettingEffect) -> Vec<String> {
+pub fn effect_lines(
+    name: &str,
+    unit: &str,
+    in_force: f64,
+    e: &SettingEffect,
+    glucose: GlucoseUnit,
+) -> Vec<String> {
     let mut out = Vec::new();
+    // The ranges in the person's glucose unit.
+    let range = format!(
+        "{}-{} {}",
+        glucose.value(70.0),
+        glucose.value(180.0),
+        glucose.label()
+    );
+    let below = glucose.with_unit(70.0);
     match &e.effect {
         Effect::Predicted(p) => {
             out.push(format!(
-                "Predicted on your twin (revision {}, {}) over the last {} days: time in range 70-180 {} with the suggestion, {} in force ({}); time below 70 {} with it, {} in force ({}).",
+                "Predicted on your twin (revision {}, {}) over the last {} days: time in range {range} {} with the suggestion, {} in force ({}); time below {below} {} with it, {} in force ({}).",
                 p.twin_revision,
                 p.grade,
                 p.days,
@@ -32,11 +47,11 @@ pub fn effect_lines(name: &str, unit: &str, in_force: f64, e: &SettingEffect) ->
             ));
             match e.check {
                 CheckOutcome::HeldBack => out.push(format!(
-                    "Held back by the twin check: your twin predicts time below 70 rising by {:.1} points, more than the {:.1}-point margin. Keep {in_force:.3} {unit} today and talk it over with your clinician.",
+                    "Held back by the twin check: your twin predicts time below {below} rising by {:.1} points, more than the {:.1}-point margin. Keep {in_force:.3} {unit} today and talk it over with your clinician.",
                     p.change.below_70_pct.value, e.margin_pp
                 )),
                 CheckOutcome::Passed => out.push(format!(
-                    "Twin check passed: time below 70 does not rise by more than {:.1} points.",
+                    "Twin check passed: time below {below} does not rise by more than {:.1} points.",
                     e.margin_pp
                 )),
                 CheckOutcome::Off => out.push("Twin check off (--twin-check off).".into()),
@@ -70,7 +85,7 @@ pub fn setting_name(setting: &str) -> String {
     }
 }
 
-fn setting(s: &mut String, a: &SettingAdvice) {
+fn setting(s: &mut String, a: &SettingAdvice, glucose: GlucoseUnit) {
     let _ = writeln!(
         s,
         "{}: {:.3} {} in force",
@@ -115,8 +130,12 @@ fn setting(s: &mut String, a: &SettingAdvice) {
             v.day, v.decided_at, v.previous, v.suggested, v.unit, v.change_percent
         );
         if let Some(sch) = &v.schedule {
-            let segs: Vec<String> = sch.iter().map(|(t, r)| format!("{t} {r}")).collect();
-            let _ = writeln!(s, "    schedule: {} {}", segs.join(", "), v.unit);
+            let _ = writeln!(
+                s,
+                "    schedule: {} {}",
+                abba_advisor::words::segments(sch),
+                v.unit
+            );
         }
         for r in &v.reasons {
             let _ = writeln!(s, "    - {r}");
@@ -129,6 +148,7 @@ fn setting(s: &mut String, a: &SettingAdvice) {
             a.unit,
             a.in_force,
             e,
+            glucose,
         ) {
             let _ = writeln!(s, "    {line}");
         }
@@ -143,7 +163,8 @@ fn setting(s: &mut String, a: &SettingAdvice) {
 }
 
 /// The advice as text.
-pub fn advice_text(a: &Advice) -> String {
+/// `glucose`: the person's unit, for the predicted effects' ranges.
+pub fn advice_text(a: &Advice, glucose: GlucoseUnit) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -203,8 +224,7 @@ pub fn advice_text(a: &Advice) -> String {
     let t = &a.therapy;
     let _ = writeln!(s, "Therapy in force: {}.", t.source);
     if let Some(sch) = &t.basal_schedule {
-        let segs: Vec<String> = sch.iter().map(|(t, r)| format!("{t} {r}")).collect();
-        let _ = writeln!(s, "  basal schedule: {} U/h (the basal rate below is its mean; each update scales every segment)", segs.join(", "));
+        let _ = writeln!(s, "  basal schedule: {} U/h (the basal rate below is its mean; each update scales every segment)", abba_advisor::words::segments(sch));
     }
     if let Some(p) = &t.pump_steps {
         let _ = writeln!(
@@ -218,7 +238,7 @@ pub fn advice_text(a: &Advice) -> String {
     }
     let _ = writeln!(s);
     for x in &a.settings {
-        setting(&mut s, x);
+        setting(&mut s, x, glucose);
     }
     let d = &a.data;
     let _ = writeln!(s, "\nData: {} records", d.records);
@@ -254,4 +274,55 @@ pub fn advice_text(a: &Advice) -> String {
         );
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use abba_store::effect::{Figures, Predicted};
+
+    fn effect(rise: f64) -> SettingEffect {
+        let b = |v: f64| Band {
+            value: v,
+            low: v - 1.0,
+            high: v + 1.0,
+        };
+        let figures = |tir: f64, low: f64| Figures {
+            tir_pct: b(tir),
+            below_70_pct: b(low),
+        };
+        SettingEffect {
+            effect: Effect::Predicted(Predicted {
+                days: 7,
+                twin_revision: 2,
+                grade: "good".into(),
+                in_force: figures(80.0, 2.0),
+                suggested: figures(82.0, 2.0 + rise),
+                change: figures(2.0, rise),
+            }),
+            check: if rise > 1.0 {
+                CheckOutcome::HeldBack
+            } else {
+                CheckOutcome::Passed
+            },
+            margin_pp: 1.0,
+        }
+    }
+
+    #[test]
+    fn predicted_effects_name_the_ranges_in_the_persons_unit() {
+        for (rise, check) in [(0.5, "Twin check passed"), (1.5, "Held back")] {
+            let mmol = effect_lines("basal rate", "U/h", 0.9, &effect(rise), GlucoseUnit::MmolL);
+            assert!(
+                mmol[0].contains("time in range 3.9-10.0 mmol/L 82.0 %"),
+                "{mmol:?}"
+            );
+            assert!(mmol[0].contains("time below 3.9 mmol/L"), "{mmol:?}");
+            assert!(mmol[1].starts_with(check) && mmol[1].contains("below 3.9 mmol/L"));
+            assert!(mmol.iter().all(|l| !l.contains("70")), "{mmol:?}");
+            let mg = effect_lines("basal rate", "U/h", 0.9, &effect(rise), GlucoseUnit::MgDl);
+            assert!(mg[0].contains("time in range 70-180 mg/dL"), "{mg:?}");
+            assert!(mg[1].contains("below 70 mg/dL"), "{mg:?}");
+        }
+    }
 }

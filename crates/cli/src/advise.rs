@@ -32,7 +32,8 @@ pub fn run(a: Args) -> Result<()> {
     if a.json {
         println!("{}", serde_json::to_string_pretty(&advice)?);
     } else {
-        print!("{}", advice_text(&advice));
+        let glucose = store.person(&a.who.person)?.settings.units;
+        print!("{}", advice_text(&advice, glucose));
     }
     Ok(())
 }

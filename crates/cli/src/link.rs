@@ -298,7 +298,8 @@ pub fn sync(a: SyncArgs) -> Result<()> {
                         }
                     );
                 }
-                print!("{}", advice_text(&store.advise(p)?));
+                let glucose = store.person(p)?.settings.units;
+                print!("{}", advice_text(&store.advise(p)?, glucose));
             }
             // The records of this sync are in; only writing back failed.
             Err(e @ abba_nightscout::NsError::WriteBack(_)) => {

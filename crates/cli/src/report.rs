@@ -53,7 +53,7 @@ pub fn run(a: Args) -> Result<()> {
                 "Open suggestion for the {name}, {:.3} -> {:.3} {}:",
                 v.previous, v.suggested, s.unit
             );
-            let lines = crate::advice_text::effect_lines(&name, s.unit, s.in_force, e);
+            let lines = crate::advice_text::effect_lines(&name, s.unit, s.in_force, e, a.units);
             input.notes.push(format!("{head} {}", lines.join(" ")));
         }
     }

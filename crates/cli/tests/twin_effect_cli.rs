@@ -312,7 +312,7 @@ fn the_twin_check_holds_back_a_suggestion_its_twin_predicts_to_raise_lows() {
     assert!(text.contains("held back by the twin check"), "{text}");
     assert!(
         text.contains(&format!(
-            "your twin predicts time below 70 rising by {rise:.1} points, more than the 1.0-point margin. Keep {from:.3} U/h today"
+            "your twin predicts time below 70 mg/dL rising by {rise:.1} points, more than the 1.0-point margin. Keep {from:.3} U/h today"
         )),
         "{text}"
     );

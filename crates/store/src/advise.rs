@@ -345,6 +345,54 @@ fn reasons(person: &Person, d: &Decision) -> Vec<String> {
     out
 }
 
+/// The schedule in force's segments outside the clinician's basal bounds
+/// (which hold its mean), said once.
+fn segments_outside(person: &Person, therapy: &TherapyView) -> Option<String> {
+    let r = person.settings.bounds.basal?;
+    let outside: Vec<String> = therapy
+        .basal_schedule
+        .as_ref()?
+        .iter()
+        .filter(|(_, v)| *v < r.min - 1e-9 || *v > r.max + 1e-9)
+        .map(|(t, v)| format!("{t} {}", words::rate(*v)))
+        .collect();
+    (!outside.is_empty()).then(|| words::segments_outside_bounds(r.min, r.max, &outside))
+}
+
+/// Main meals imported data never show in their window, once a day has
+/// closed and some carbohydrate was logged: their carb ratios get no
+/// suggestion, and the person is told why (someone who skips breakfast, a
+/// night-shift worker eating outside the windows).
+fn meals_not_seen(person: &Person, events: &[Event]) -> Vec<String> {
+    if !events.iter().any(|e| e.kind == EventKind::DayClosed) {
+        return Vec::new();
+    }
+    let mut seen = [0usize; 3];
+    let mut snacks = 0;
+    for e in events {
+        if let EventKind::MealAnnounced { slot, .. } = e.kind {
+            match slot.main_index() {
+                Some(i) => seen[i] += 1,
+                None => snacks += 1,
+            }
+        }
+    }
+    if snacks + seen.iter().sum::<usize>() == 0 {
+        return Vec::new();
+    }
+    let w = person.settings.meal_windows;
+    let windows = [w.breakfast, w.lunch, w.dinner];
+    MealSlot::MAIN
+        .iter()
+        .zip(windows)
+        .zip(seen)
+        .filter(|(_, n)| *n == 0)
+        .map(|((slot, (from, to)), _)| {
+            words::meal_not_seen(slot.name(), &format!("{}-{}", hhmm(from), hhmm(to)), snacks)
+        })
+        .collect()
+}
+
 fn value(a: &Abba, p: Parameter) -> f64 {
     let s = a.settings();
     match p {
@@ -413,7 +461,15 @@ fn delivery_view(person: &Person, extras: Option<&Extras>) -> DeliveryView {
     }
 }
 
-fn therapy_view(person: &Person, advisor: &Abba, extras: Option<&Extras>) -> TherapyView {
+/// `basal_open`: a basal suggestion waits for an answer; the replayed
+/// advisor already runs its schedule, so the one in force is the schedule
+/// before it.
+fn therapy_view(
+    person: &Person,
+    advisor: &Abba,
+    extras: Option<&Extras>,
+    basal_open: bool,
+) -> TherapyView {
     let changes = extras.map_or_else(Vec::new, |x| {
         x.changes
             .iter()
@@ -422,8 +478,18 @@ fn therapy_view(person: &Person, advisor: &Abba, extras: Option<&Extras>) -> The
                     .basal
                     .as_ref()
                     .map(|b| b.iter().map(|&(m, r)| (hhmm(m), r)).collect());
+                // In the person's zone, as every time the advice shows.
+                let local = c
+                    .instant
+                    .parse::<jiff::Timestamp>()
+                    .map(|t| {
+                        t.to_zoned(person.tz.clone())
+                            .strftime("%Y-%m-%d %H:%M")
+                            .to_string()
+                    })
+                    .unwrap_or_else(|_| c.instant.clone());
                 words::therapy_change(
-                    &c.instant.to_string(),
+                    &local,
                     &c.origin.to_string(),
                     basal.as_deref(),
                     c.carb_ratio,
@@ -433,10 +499,14 @@ fn therapy_view(person: &Person, advisor: &Abba, extras: Option<&Extras>) -> The
     });
     TherapyView {
         source: person.settings.therapy_source.words(),
-        basal_schedule: advisor
-            .basal_schedule()
-            .filter(|s| s.len() > 1)
-            .map(|s| s.iter().map(|&(m, r)| (hhmm(m), r)).collect()),
+        basal_schedule: if basal_open {
+            advisor.previous_basal_schedule()
+        } else {
+            None
+        }
+        .or_else(|| advisor.basal_schedule())
+        .filter(|s| s.len() > 1)
+        .map(|s| s.iter().map(|&(m, r)| (hhmm(m), r)).collect()),
         pump_steps: advisor.pump_steps(),
         changes,
     }
@@ -497,7 +567,7 @@ pub fn advice_with(
 ) -> Advice {
     let c = clock(person);
     let all = views_with(person, decisions, answers, extras);
-    let settings = PARAMETERS
+    let settings: Vec<SettingAdvice> = PARAMETERS
         .iter()
         .map(|&p| {
             let key = param_key(p);
@@ -537,6 +607,11 @@ pub fn advice_with(
             (p, _) => p,
         }
     };
+    let basal_open = settings.first().is_some_and(|s| {
+        s.setting == "basal" && s.latest.as_ref().is_some_and(|v| v.status == "open")
+    });
+    let therapy = therapy_view(person, advisor, extras, basal_open);
+    let outside = segments_outside(person, &therapy);
     let span = match (stream.events.first(), stream.events.last()) {
         (Some(a), Some(b)) => Some((local(c.as_ref(), a.at), local(c.as_ref(), b.at))),
         _ => None,
@@ -567,14 +642,22 @@ pub fn advice_with(
                 .collect(),
             events_refused: refused,
         },
-        therapy: therapy_view(person, advisor, extras),
+        therapy,
         delivery: delivery_view(person, extras),
         first_week: first_week_view(person, extras, advisor.is_initialised()),
         notes: stream
             .notes
             .iter()
             .cloned()
+            .chain((stream.censored > 0).then(|| words::censored_readings(stream.censored)))
             .chain(basal_hours(person))
+            .chain(outside)
+            .chain(
+                extras
+                    .filter(|x| !x.fed_by_app)
+                    .map(|_| meals_not_seen(person, &stream.events))
+                    .unwrap_or_default(),
+            )
             .collect(),
     }
 }

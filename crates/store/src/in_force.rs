@@ -488,7 +488,8 @@ pub fn profile_changes(
             r.at,
             &t.basal,
             t.carb_ratio,
-            format!("the pump's profile of {}", r.at),
+            // When: the change's own instant, shown beside it.
+            "the pump's profile".to_string(),
         );
     }
     if let Some((start, end)) = temporary {

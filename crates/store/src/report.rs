@@ -215,6 +215,20 @@ pub fn person_input(
         }
     }
 
+    // What the advice says about the data (readings at the device's
+    // limit, hypoglycaemia treatments, meals outside their windows, zones)
+    // and the rows it left out.
+    notes.extend(advice.notes.iter().cloned());
+    if advice.data.records_not_used > 0 {
+        notes.push(abba_advisor::words::records_left_out(
+            advice.data.records_not_used,
+            &advice.data.not_used_examples,
+        ));
+    }
+    if let Some(schedule) = &advice.therapy.basal_schedule {
+        notes.push(abba_advisor::words::basal_schedule_in_force(schedule));
+    }
+
     // Settings in force by day: the start, then each answered suggestion's
     // value from the day it is for.
     let mut settings = person.settings.start;
@@ -223,7 +237,12 @@ pub fn person_input(
     for k in 0..n as i64 {
         let day_number = first_index + k + 1;
         while let Some(v) = views.next_if(|v| v.day <= day_number) {
-            let value = v.in_force;
+            // A suggestion still waiting for an answer (or held back by
+            // the twin check) is not in force.
+            let value = match v.status.as_str() {
+                "open" | "held_back" => v.previous,
+                _ => v.in_force,
+            };
             match v.setting {
                 "basal" => settings.basal.0 = value,
                 "breakfast" => settings.carb_ratio[0].0 = value,
@@ -262,7 +281,16 @@ fn line(v: &crate::advise::SuggestionView) -> SuggestionLine {
         when: v.decided_at.clone(),
         setting,
         from: format!("{:.3} {}", v.previous, v.unit),
-        to: format!("{:.3} {} ({:+.1} %)", v.suggested, v.unit, v.change_percent),
+        to: match &v.schedule {
+            Some(sch) => format!(
+                "{:.3} {} ({:+.1} %): {}",
+                v.suggested,
+                v.unit,
+                v.change_percent,
+                abba_advisor::words::schedule(sch)
+            ),
+            None => format!("{:.3} {} ({:+.1} %)", v.suggested, v.unit, v.change_percent),
+        },
         reason,
         answer,
     }

@@ -44,6 +44,8 @@ struct Plan {
     profile_from_day: i64,
     basal: Vec<(&'static str, f64)>,
     carb_ratio: Vec<(&'static str, f64)>,
+    /// Meal boluses: (local minute of the day, carbohydrate g).
+    meals: Vec<(i64, f64)>,
 }
 
 impl Default for Plan {
@@ -57,6 +59,11 @@ impl Default for Plan {
             profile_from_day: -1,
             basal: vec![("00:00", 1.0)],
             carb_ratio: vec![("00:00", 10.0)],
+            meals: vec![
+                (7 * 60 + 2, 45.0),
+                (12 * 60 + 17, 60.0),
+                (18 * 60 + 32, 70.0),
+            ],
         }
     }
 }
@@ -92,11 +99,7 @@ fn export(dir: &std::path::Path, plan: &Plan) -> Vec<PathBuf> {
                 "dateString": iso(ms), "direction": "Flat", "device": "xDrip-DexcomG6"}),
             );
         }
-        for (minute, carbs) in [
-            (7 * 60 + 2, 45.0),
-            (12 * 60 + 17, 60.0),
-            (18 * 60 + 32, 70.0),
-        ] {
+        for &(minute, carbs) in &plan.meals {
             let ms = base + minute * 60_000;
             treatments.push(
                 json!({"_id": id(), "eventType": "Meal Bolus", "carbs": carbs,
@@ -249,6 +252,143 @@ fn a_five_segment_schedule_is_scaled_by_one_factor_on_the_pumps_step() {
         assert!(on_step(v.suggested, 0.1), "{} g/U", v.suggested);
         assert!(v.status != "open" || v.suggested != v.previous);
     }
+}
+
+/// The 5-segment schedule of `a_five_segment_schedule_...`, on days low
+/// enough that the last basal update lowers it and waits for an answer.
+fn open_schedule_plan() -> Plan {
+    Plan {
+        level: 80.0,
+        basal: vec![
+            ("00:00", 0.8),
+            ("03:00", 1.1),
+            ("07:00", 1.4),
+            ("12:00", 1.0),
+            ("20:00", 0.9),
+        ],
+        carb_ratio: vec![("00:00", 9.0), ("11:00", 12.0), ("16:00", 10.0)],
+        days: 14,
+        ..Plan::default()
+    }
+}
+
+#[test]
+fn the_schedule_in_force_is_the_pumps_while_a_basal_suggestion_waits() {
+    let plan = open_schedule_plan();
+    let (_d, mut store, _) = setup("schedule-open", &plan);
+    let a = store.advise("ana").unwrap();
+    let basal = &a.settings[0];
+    let open = basal.latest.as_ref().expect("a basal suggestion");
+    assert_eq!(open.status, "open", "{open:?}");
+    let suggested = open.schedule.clone().expect("a suggested schedule");
+    let pumps: Vec<(String, f64)> = plan
+        .basal
+        .iter()
+        .map(|&(t, r)| (t.to_string(), r))
+        .collect();
+    assert_ne!(suggested, pumps, "the suggestion changes the schedule");
+    // Not answered: the pump still runs its own schedule.
+    assert_eq!(a.therapy.basal_schedule, Some(pumps.clone()));
+    assert!((basal.in_force - open.previous).abs() < 1e-12);
+
+    // The report's settings by day: an open suggestion is not in force;
+    // the schedule in force is stated, the suggested one beside its line.
+    let input =
+        abba_store::report::person_input(&mut store, "ana", 3, abba_core::units::GlucoseUnit::MgDl)
+            .unwrap();
+    let last = input.days.last().unwrap().settings.unwrap();
+    assert!(
+        (last.basal_u_per_h - open.previous).abs() < 1e-12,
+        "the last day shows {} U/h in force, the suggestion {} is open",
+        last.basal_u_per_h,
+        open.suggested
+    );
+    let in_force = abba_advisor::words::schedule(&pumps);
+    assert!(
+        input.notes.iter().any(|n| n.contains(&in_force)),
+        "no note names the schedule in force ({in_force}): {:?}",
+        input.notes
+    );
+    let line = input
+        .suggestions
+        .iter()
+        .rev()
+        .find(|l| l.setting == "basal rate")
+        .unwrap();
+    assert!(
+        line.to.contains(&abba_advisor::words::schedule(&suggested)),
+        "{}",
+        line.to
+    );
+}
+
+#[test]
+fn a_schedules_reasons_print_numbers_for_people() {
+    let (_d, mut store, _) = setup("schedule-words", &open_schedule_plan());
+    let history = store.history("ana").unwrap();
+    let long = regex_lite_long_decimal;
+    let mut rounded = 0;
+    for v in history.iter().filter(|v| v.setting == "basal") {
+        for r in &v.reasons {
+            assert!(!long(r), "a raw float in: {r}");
+            rounded += usize::from(r.contains("rounded to your pump's step"));
+        }
+    }
+    assert!(rounded > 0, "no basal reason about the pump's step");
+}
+
+/// True when `text` holds a number with more than four decimals.
+fn regex_lite_long_decimal(text: &str) -> bool {
+    let b = text.as_bytes();
+    b.windows(7)
+        .any(|w| w[0].is_ascii_digit() && w[1] == b'.' && w[2..].iter().all(u8::is_ascii_digit))
+}
+
+#[test]
+fn meals_outside_the_windows_are_named_as_why_a_carb_ratio_gets_no_suggestion() {
+    // A night-shift worker: a meal before the shift (22:40), one in it
+    // (03:10) and one after sleep (14:05); breakfast and dinner never fall
+    // in their windows.
+    let plan = Plan {
+        meals: vec![
+            (22 * 60 + 40, 60.0),
+            (3 * 60 + 10, 45.0),
+            (14 * 60 + 5, 70.0),
+        ],
+        ..Plan::default()
+    };
+    let (_d, mut store, _) = setup("night-shift", &plan);
+    let a = store.advise("ana").unwrap();
+    for (i, meal) in ["breakfast", "lunch", "dinner"].iter().enumerate() {
+        let named = a
+            .notes
+            .iter()
+            .any(|n| n.starts_with(&format!("No {meal} in the data")));
+        let seen = i == 1;
+        assert_eq!(named, !seen, "{meal}: {:?}", a.notes);
+        if !seen {
+            assert!(a.settings[i + 1].latest.is_none());
+        }
+    }
+    let note = a
+        .notes
+        .iter()
+        .find(|n| n.starts_with("No breakfast"))
+        .unwrap();
+    assert!(note.contains("05:00-10:30"), "{note}");
+    // Two of each day's three entries were snacks.
+    assert!(
+        note.contains(&format!("{} entries", 2 * plan.days)),
+        "{note}"
+    );
+    // A person eating the three meals in their windows gets no such note.
+    let (_d2, mut store2, _) = setup("day-meals", &Plan::default());
+    let a2 = store2.advise("ana").unwrap();
+    assert!(
+        a2.notes.iter().all(|n| !n.starts_with("No ")),
+        "{:?}",
+        a2.notes
+    );
 }
 
 #[test]
@@ -907,6 +1047,11 @@ fn a_temporary_profile_running_at_the_end_of_the_data_is_not_the_therapy_in_forc
         panic!("{:?}", a.therapy.changes)
     };
     assert!(temp.contains("0.8") && temp.contains("0.96"), "{temp}");
+    // Dated in the person's zone (22:30 in Zurich, 20:30 UTC), once.
+    assert!(
+        temp.starts_with("from 2026-05-13 22:30 (the pump's profile):"),
+        "{temp}"
+    );
     assert!(
         back.contains("at the end of the temporary profile") && back.contains("1.2"),
         "{back}"
@@ -1006,5 +1151,117 @@ fn suggestions_made_on_the_history_of_one_import_are_not_taken_as_followed() {
             .iter()
             .any(|s| (s.in_force - if s.setting == "basal" { 1.0 } else { 10.0 }).abs() > 1e-9),
         "unanswered suggestions shown day by day are taken as followed"
+    );
+}
+
+/// A Dexcom Clarity CSV in its export layout (header, preamble rows without
+/// a time, EGV rows every 5 min): three days at `level`, with a night's
+/// compression low the sensor reports as `Low`, an afternoon above its
+/// range as `High`, and one reading repeated 20 s later with another value.
+fn clarity_with_low_and_high(dir: &std::path::Path) -> PathBuf {
+    let mut lines = vec![
+        "Index,Timestamp (YYYY-MM-DDThh:mm:ss),Event Type,Event Subtype,Patient Info,Device Info,Source Device ID,Glucose Value (mg/dL),Insulin Value (u),Carb Value (grams),Duration (hh:mm:ss),Glucose Rate of Change (mg/dL/min),Transmitter Time (Long Integer),Transmitter ID".to_string(),
+        "1,,FirstName,,Ana,,,,,,,,,".to_string(),
+        "2,,Device,,,Dexcom G6 Mobile App,android G6,,,,,,,".to_string(),
+    ];
+    let mut i = 3;
+    let mut tx = 400_000;
+    for day in 0..3 {
+        for k in 0..288 {
+            let m = k * 5;
+            let value = match (day, m) {
+                (1, 120..=140) => "Low".to_string(),
+                (2, 900..=925) => "High".to_string(),
+                _ => (140 + (k % 24)).to_string(),
+            };
+            let at = format!("2026-05-{:02}T{:02}:{:02}:07", 4 + day, m / 60, m % 60);
+            lines.push(format!(
+                "{i},{at},EGV,,,,android G6,{value},,,,,{tx},ABC123"
+            ));
+            if (day, m) == (0, 600) {
+                i += 1;
+                let again = format!("2026-05-04T{:02}:{:02}:27", m / 60, m % 60);
+                lines.push(format!(
+                    "{i},{again},EGV,,,,android G6,199,,,,,{},ABC123",
+                    tx + 20
+                ));
+            }
+            i += 1;
+            tx += 300;
+        }
+    }
+    let p = dir.join("Clarity_Export.csv");
+    std::fs::write(&p, lines.join("\n") + "\n").unwrap();
+    p
+}
+
+#[test]
+fn readings_beyond_the_sensors_range_and_rows_left_out_are_stated_in_advice_and_report() {
+    let dir = TempDir::new("clarity-censored");
+    let file = clarity_with_low_and_high(&dir.0);
+    let mut store = dir.store();
+    let start = abba_core::TherapySettings {
+        basal: abba_core::UnitsPerHour(0.9),
+        carb_ratio: [abba_core::GramsPerUnit(10.0); 3],
+    };
+    store
+        .create_person(&NewPerson::new("ana", TZ, Mode::Cgm, start))
+        .unwrap();
+    store.import_files("ana", &[file], None).unwrap();
+    // 5 Low (02:00-02:20) and 6 High (15:00-15:25).
+    let censored = abba_advisor::words::censored_readings(11);
+    let a = store.advise("ana").unwrap();
+    assert!(a.notes.contains(&censored), "{:?}", a.notes);
+    let left_out = a.data.records_not_used;
+    assert!(
+        left_out > 0,
+        "the repeated reading is left out: {:?}",
+        a.data
+    );
+    let input =
+        abba_store::report::person_input(&mut store, "ana", 3, abba_core::units::GlucoseUnit::MgDl)
+            .unwrap();
+    assert!(input.notes.contains(&censored), "{:?}", input.notes);
+    assert!(
+        input
+            .notes
+            .iter()
+            .any(|n| n.starts_with(&format!("{left_out} records of the log were left out"))),
+        "{:?}",
+        input.notes
+    );
+}
+
+#[test]
+fn schedule_segments_outside_the_clinicians_basal_bounds_are_named() {
+    // Bounds 0.9-1.2 U/h around the mean (1.04), the 07:00 segment (1.4)
+    // and the midnight one (0.8) outside them.
+    let plan = open_schedule_plan();
+    let dir = TempDir::new("schedule-bounds");
+    let files = export(&dir.0, &plan);
+    let mut store = dir.store();
+    let mut p = person_from(&files, "ana");
+    p.settings.bounds.basal = Some(abba_advisor::bounds::Range { min: 0.9, max: 1.2 });
+    store.create_person(&p).unwrap();
+    store.import_files("ana", &files, None).unwrap();
+    let a = store.advise("ana").unwrap();
+    let note = a
+        .notes
+        .iter()
+        .find(|n| {
+            n.starts_with("Your clinician's basal bounds (0.9-1.2 U/h) hold the schedule's mean")
+        })
+        .unwrap_or_else(|| panic!("{:?}", a.notes));
+    assert!(
+        note.contains("00:00 0.8, 07:00 1.4 U/h lie outside"),
+        "{note}"
+    );
+    // Without bounds, nothing to say.
+    let (_d, mut store2, _) = setup("schedule-no-bounds", &plan);
+    let a2 = store2.advise("ana").unwrap();
+    assert!(
+        a2.notes.iter().all(|n| !n.contains("basal bounds")),
+        "{:?}",
+        a2.notes
     );
 }

@@ -49,25 +49,46 @@ fn json(text: &str) -> serde_json::Value {
 
 /// Everything `then` says, `now` says the same at the same place (JSON
 /// path `at`); `now` may say more (a field a later release added, such as
-/// a suggestion's predicted effect on the person's twin).
-fn says_all_of(now: &serde_json::Value, then: &serde_json::Value, at: &str) {
-    use serde_json::Value::{Array, Object};
+/// a suggestion's predicted effect on the person's twin). `tz` is the
+/// person's zone (see [`reworded`]).
+fn says_all_of(now: &serde_json::Value, then: &serde_json::Value, at: &str, tz: &str) {
+    use serde_json::Value::{Array, Object, String as Text};
     match (now, then) {
         (Object(n), Object(t)) => {
             for (k, v) in t {
                 let Some(nv) = n.get(k) else {
                     panic!("{at}.{k}: missing now (was {v})");
                 };
-                says_all_of(nv, v, &format!("{at}.{k}"));
+                says_all_of(nv, v, &format!("{at}.{k}"), tz);
             }
         }
         (Array(n), Array(t)) => {
             assert_eq!(n.len(), t.len(), "{at}: number of items");
             for (i, (nv, tv)) in n.iter().zip(t).enumerate() {
-                says_all_of(nv, tv, &format!("{at}[{i}]"));
+                says_all_of(nv, tv, &format!("{at}[{i}]"), tz);
             }
         }
+        (Text(n), Text(t)) if at.contains(".therapy.changes[") => {
+            assert_eq!(n, &reworded(t, tz), "{at}")
+        }
         _ => assert_eq!(now, then, "{at}"),
+    }
+}
+
+/// What an earlier release printed, in this release's words where only
+/// the words changed on purpose: a change of therapy is dated in the
+/// person's zone ("from 2026-01-15 00:00 (...)"; those releases gave the
+/// UTC instant, "from 2026-01-14T23:00:00Z (...)"; 2026-12-06).
+fn reworded(then: &str, tz: &str) -> String {
+    let Some((instant, rest)) = then.strip_prefix("from ").and_then(|t| t.split_once(' ')) else {
+        return then.to_string();
+    };
+    match instant.parse::<jiff::Timestamp>() {
+        Ok(t) => format!(
+            "from {} {rest}",
+            t.in_tz(tz).unwrap().strftime("%Y-%m-%d %H:%M")
+        ),
+        Err(_) => then.to_string(),
     }
 }
 
@@ -124,10 +145,13 @@ fn stores_made_by_earlier_releases_open_with_nothing_lost() {
                     fixture.join(format!("{p}.{what}.json"))
                 })
                 .unwrap();
+                let now = json(&now);
+                let tz = now["tz"].as_str().unwrap_or("UTC").to_string();
                 says_all_of(
-                    &json(&now),
+                    &now,
                     &json(&then),
                     &format!("{name}: {what} of {p}: $"),
+                    &tz,
                 );
             }
         }

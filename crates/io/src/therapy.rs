@@ -77,16 +77,95 @@ pub struct PumpTherapy {
 
 /// The value of a time-of-day schedule in force for the longest part of
 /// `[from, to)` (minutes of the day; the earlier value on a tie).
-pub fn value_for_window(schedule: &[(u32, f64)], (from, to): (u32, u32)) -> Option<f64> {
-    let mut best: Option<(u32, f64)> = None;
-    for (i, &(start, v)) in schedule.iter().enumerate() {
+pub fn value_for_window(schedule: &[(u32, f64)], window: (u32, u32)) -> Option<f64> {
+    segment_for_window(schedule, window).map(|i| schedule[i].1)
+}
+
+/// The index of the segment of a time-of-day schedule in force for the
+/// longest part of `[from, to)` (the earlier one on a tie).
+pub fn segment_for_window(schedule: &[(u32, f64)], (from, to): (u32, u32)) -> Option<usize> {
+    let mut best: Option<(u32, usize)> = None;
+    for (i, &(start, _)) in schedule.iter().enumerate() {
         let end = schedule.get(i + 1).map_or(1440, |s| s.0);
         let overlap = end.min(to).saturating_sub(start.max(from));
         if overlap > 0 && best.is_none_or(|(b, _)| overlap > b) {
-            best = Some((overlap, v));
+            best = Some((overlap, i));
         }
     }
     best.map(|b| b.1)
+}
+
+/// How a carb-ratio schedule of more than one segment becomes abba's three
+/// meal ratios, in words for the person and the clinician: which segment
+/// each meal's ratio is read from (the one an accepted suggestion changes
+/// on the pump), meals that share a segment, and segments no meal reads
+/// (abba suggests nothing for them). Empty for a single ratio.
+pub fn carb_ratio_schedule_notes(cr: &[(u32, f64)], meals: &MealWindows) -> Vec<String> {
+    if cr.len() < 2 {
+        return Vec::new();
+    }
+    let span = |i: usize| {
+        let end = cr.get(i + 1).map_or(1440, |s| s.0);
+        format!("{}-{}", hhmm(cr[i].0), hhmm(end))
+    };
+    let names = ["breakfast", "lunch", "dinner"];
+    let windows = [meals.breakfast, meals.lunch, meals.dinner];
+    let read: Vec<Option<usize>> = windows.iter().map(|&w| segment_for_window(cr, w)).collect();
+    let all: Vec<String> = cr
+        .iter()
+        .map(|&(m, r)| format!("{} {}", hhmm(m), num(r)))
+        .collect();
+    let per_meal: Vec<String> = names
+        .iter()
+        .zip(&read)
+        .zip(windows)
+        .map(|((name, seg), (from, to))| match seg {
+            Some(i) => format!(
+                "{name} {} g/U (the segment {}, longest in the {name} window {}-{})",
+                num(cr[*i].1),
+                span(*i),
+                hhmm(from),
+                hhmm(to)
+            ),
+            None => format!("{name}: no segment (an empty window)"),
+        })
+        .collect();
+    let mut out = vec![format!(
+        "The pump's carb-ratio schedule has {} segments ({} g/U); abba adapts one ratio per meal: {}. An accepted carb-ratio suggestion is for that segment.",
+        cr.len(),
+        all.join(", "),
+        per_meal.join("; ")
+    )];
+    for i in 0..cr.len() {
+        let sharing: Vec<&str> = names
+            .iter()
+            .zip(&read)
+            .filter(|(_, s)| **s == Some(i))
+            .map(|(n, _)| *n)
+            .collect();
+        if sharing.len() > 1 {
+            out.push(format!(
+                "{} are read from the same segment ({}): the pump needs that segment split at the meal windows' boundary to follow different suggestions for them.",
+                sharing.join(" and "),
+                span(i)
+            ));
+        }
+    }
+    let unread: Vec<String> = (0..cr.len())
+        .filter(|i| !read.contains(&Some(*i)))
+        .map(|i| format!("{} {} g/U", span(i), num(cr[i].1)))
+        .collect();
+    if !unread.is_empty() {
+        out.push(format!(
+            "No meal's ratio is read from the segment{} {}: abba suggests nothing for {}; {} as the pump has {}.",
+            if unread.len() == 1 { "" } else { "s" },
+            unread.join(", "),
+            if unread.len() == 1 { "it" } else { "them" },
+            if unread.len() == 1 { "it stays" } else { "they stay" },
+            if unread.len() == 1 { "it" } else { "them" },
+        ));
+    }
+    out
 }
 
 /// A rate or ratio for people: at most four decimals (a profile scaled by
@@ -148,6 +227,7 @@ impl PumpTherapy {
         for (i, w) in windows.into_iter().enumerate() {
             carb_ratio[i] = value_for_window(&cr, w).unwrap_or(cr[0].1);
         }
+        let notes = carb_ratio_schedule_notes(&cr, meals);
         Ok(Self {
             basal,
             carb_ratio_schedule: cr,
@@ -155,7 +235,7 @@ impl PumpTherapy {
             origin,
             at,
             temporary_min: profile.temporary_min,
-            notes: Vec::new(),
+            notes,
         })
     }
 
@@ -796,6 +876,45 @@ fn upper_first(s: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_carb_ratio_schedule_says_which_segment_each_meal_reads_and_which_none_reads() {
+        let meals = MealWindows::default(); // 05:00-10:30, 10:30-15:30, 15:30-22:00
+                                            // Five segments: the night's and the late evening's are read by no
+                                            // meal; breakfast reads 06:00-11:00, lunch 11:00-17:00 (its whole
+                                            // window but 10:30-11:00), dinner 17:00-21:00.
+        let cr = [
+            (0, 15.0),
+            (360, 8.0),
+            (660, 12.0),
+            (1020, 10.0),
+            (1260, 14.0),
+        ];
+        let n = carb_ratio_schedule_notes(&cr, &meals);
+        assert_eq!(n.len(), 2, "{n:?}");
+        assert!(
+            n[0].starts_with("The pump's carb-ratio schedule has 5 segments (00:00 15, 06:00 8, 11:00 12, 17:00 10, 21:00 14 g/U)")
+                && n[0].contains("breakfast 8 g/U (the segment 06:00-11:00, longest in the breakfast window 05:00-10:30)")
+                && n[0].contains("lunch 12 g/U (the segment 11:00-17:00")
+                && n[0].contains("dinner 10 g/U (the segment 17:00-21:00"),
+            "{n:?}"
+        );
+        assert_eq!(
+            n[1],
+            "No meal's ratio is read from the segments 00:00-06:00 15 g/U, 21:00-24:00 14 g/U: abba suggests nothing for them; they stay as the pump has them."
+        );
+        // Two segments: lunch and dinner share one, and the notes say the
+        // pump needs it split to follow both.
+        let two = carb_ratio_schedule_notes(&[(0, 9.0), (660, 11.0)], &meals);
+        assert!(
+            two.iter()
+                .any(|l| l
+                    .starts_with("lunch and dinner are read from the same segment (11:00-24:00)")),
+            "{two:?}"
+        );
+        // One ratio: nothing to say.
+        assert!(carb_ratio_schedule_notes(&[(0, 10.0)], &meals).is_empty());
+    }
 
     #[test]
     fn a_carb_ratio_schedule_maps_to_meal_slots_by_the_longest_part_of_each_window() {

@@ -99,7 +99,8 @@ pub fn segment_for_window(schedule: &[(u32, f64)], (from, to): (u32, u32)) -> Op
 /// meal ratios, in words for the person and the clinician: which segment
 /// each meal's ratio is read from (the one an accepted suggestion changes
 /// on the pump), meals that share a segment, and segments no meal reads
-/// (abba suggests nothing for them). Empty for a single ratio.
+/// (abba suggests nothing for them). Empty for a single ratio and for
+/// three segments each read by one meal.
 pub fn carb_ratio_schedule_notes(cr: &[(u32, f64)], meals: &MealWindows) -> Vec<String> {
     if cr.len() < 2 {
         return Vec::new();
@@ -111,6 +112,10 @@ pub fn carb_ratio_schedule_notes(cr: &[(u32, f64)], meals: &MealWindows) -> Vec<
     let names = ["breakfast", "lunch", "dinner"];
     let windows = [meals.breakfast, meals.lunch, meals.dinner];
     let read: Vec<Option<usize>> = windows.iter().map(|&w| segment_for_window(cr, w)).collect();
+    // Each segment read by one meal: the three ratios are the schedule.
+    if cr.len() == 3 && (0..3).all(|i| read.contains(&Some(i))) {
+        return Vec::new();
+    }
     let all: Vec<String> = cr
         .iter()
         .map(|&(m, r)| format!("{} {}", hhmm(m), num(r)))
@@ -912,8 +917,11 @@ mod tests {
                     .starts_with("lunch and dinner are read from the same segment (11:00-24:00)")),
             "{two:?}"
         );
-        // One ratio: nothing to say.
+        // One ratio, or one segment a meal: nothing to say.
         assert!(carb_ratio_schedule_notes(&[(0, 10.0)], &meals).is_empty());
+        assert!(
+            carb_ratio_schedule_notes(&[(0, 8.0), (600, 12.0), (1020, 10.0)], &meals).is_empty()
+        );
     }
 
     #[test]

@@ -69,6 +69,25 @@ pub fn run(a: Args) -> Result<()> {
             x.parameter.unit()
         );
     }
+    // A basal rate answered for a schedule: the schedule it puts in force,
+    // on the pump's step, is what to program (its mean may differ from the
+    // answered rate by the steps' rounding).
+    if answers
+        .iter()
+        .any(|x| x.parameter == abba_advisor::Parameter::Basal)
+    {
+        let advice = store.advise(&a.who.person)?;
+        if let (Some(s), Some(mean)) = (
+            &advice.therapy.basal_schedule,
+            advice.therapy.basal_schedule_mean,
+        ) {
+            println!(
+                "The basal schedule in force now, to program on the pump: {} U/h (mean {:.3} U/h).",
+                abba_advisor::words::segments(s),
+                mean
+            );
+        }
+    }
     println!("The advisor's next update of each starts from the value in force.\n{NOTICE}");
     Ok(())
 }

@@ -157,6 +157,9 @@ pub struct TherapyView {
     /// The basal schedule in force (local start, U/h), when there is one.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub basal_schedule: Option<Vec<(String, f64)>>,
+    /// That schedule's mean rate (its daily total / 24 h, U/h).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub basal_schedule_mean: Option<f64>,
     /// The pump's steps (none: continuous values).
     pub pump_steps: Option<abba_advisor::PumpSteps>,
     /// Changes of therapy in the data and by the clinician, in words.
@@ -497,16 +500,17 @@ fn therapy_view(
             })
             .collect()
     });
+    let schedule = if basal_open {
+        advisor.previous_basal_schedule()
+    } else {
+        None
+    }
+    .or_else(|| advisor.basal_schedule())
+    .filter(|s| s.len() > 1);
     TherapyView {
         source: person.settings.therapy_source.words(),
-        basal_schedule: if basal_open {
-            advisor.previous_basal_schedule()
-        } else {
-            None
-        }
-        .or_else(|| advisor.basal_schedule())
-        .filter(|s| s.len() > 1)
-        .map(|s| s.iter().map(|&(m, r)| (hhmm(m), r)).collect()),
+        basal_schedule: schedule.map(|s| s.iter().map(|&(m, r)| (hhmm(m), r)).collect()),
+        basal_schedule_mean: schedule.map(|s| abba_advisor::steps::mean_rate(s)),
         pump_steps: advisor.pump_steps(),
         changes,
     }

@@ -320,6 +320,38 @@ fn the_schedule_in_force_is_the_pumps_while_a_basal_suggestion_waits() {
         "{}",
         line.to
     );
+
+    // An own rate for the schedule: the schedule it puts in force (each
+    // segment on the pump's step) is the one to program, with its mean.
+    let own = ((open.previous / 0.05).round() + 1.0) * 0.05;
+    store
+        .answer(
+            "ana",
+            &abba_store::AnswerRequest::Set(vec![(abba_advisor::Parameter::Basal, own)]),
+        )
+        .unwrap();
+    let after = store.advise("ana").unwrap();
+    let schedule = after
+        .therapy
+        .basal_schedule
+        .clone()
+        .expect("a schedule in force");
+    assert_ne!(schedule, pumps, "the own rate is in force");
+    let minutes: Vec<(u32, f64)> = schedule
+        .iter()
+        .map(|(t, r)| {
+            let (h, m) = t.split_once(':').unwrap();
+            (
+                h.parse::<u32>().unwrap() * 60 + m.parse::<u32>().unwrap(),
+                *r,
+            )
+        })
+        .collect();
+    let mean = after.therapy.basal_schedule_mean.expect("its mean");
+    assert!(
+        (mean - abba_advisor::steps::mean_rate(&minutes)).abs() < 1e-12,
+        "{mean} is the mean of {schedule:?}"
+    );
 }
 
 #[test]

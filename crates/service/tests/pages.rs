@@ -2849,3 +2849,32 @@ async fn the_clinics_list_says_each_persons_zone_and_both_units_of_its_low_mark(
         list.html
     );
 }
+
+#[tokio::test]
+async fn the_new_person_form_sent_twice_makes_one_person_and_shows_it_both_times() {
+    let svc = Svc::new();
+    let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
+    let form = [
+        ("csrf", csrf.as_str()),
+        ("name", "noa"),
+        ("tz", "Europe/Zurich"),
+        ("unit", "mg/dL"),
+        ("mode", "cgm"),
+        ("basal", "0.9"),
+        ("carb_ratios", "10,12,11"),
+    ];
+    // A double click: the second send is answered as the first was.
+    let first = admin.post_multipart("/clinic/persons", &form, &[]).await;
+    assert_eq!(first.status, StatusCode::SEE_OTHER, "{}", first.html);
+    let again = admin.post_multipart("/clinic/persons", &form, &[]).await;
+    assert_eq!(again.status, StatusCode::SEE_OTHER, "{}", again.html);
+    assert_eq!(again.location(), first.location());
+    let store = abba_service::open_store(&svc.db).unwrap();
+    assert_eq!(store.persons().unwrap(), ["noa"]);
+    // Other settings under the taken name: refused beside the name.
+    let mut other = form.to_vec();
+    other[5] = ("basal", "1.1");
+    let p = admin.post_multipart("/clinic/persons", &other, &[]).await;
+    assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+    assert!(p.html.contains("already exists"), "{}", p.html);
+}

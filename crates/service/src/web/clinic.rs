@@ -523,6 +523,24 @@ fn without_flag(msg: &str) -> &str {
     }
 }
 
+/// True when the person named as `np` exists with exactly its zone, day 1
+/// and settings and holds no data yet (no import, no app event): the same
+/// creation sent again, not another person under a taken name.
+fn same_new_person(
+    store: &mut abba_store::Store,
+    np: &NewPerson,
+) -> Result<bool, abba_store::StoreError> {
+    let Ok(p) = store.person(&np.name) else {
+        return Ok(false);
+    };
+    Ok(p.name == np.name
+        && p.tz.iana_name() == Some(np.tz.as_str())
+        && p.first_day == np.first_day
+        && p.settings == np.settings
+        && store.imports_of(p.id)?.is_empty()
+        && store.app_event_count(p.id)? == 0)
+}
+
 /// `POST /clinic/persons` (multipart): creates a person; 303 to their page,
 /// or the form again (422) with each error beside its field.
 pub async fn create(
@@ -575,10 +593,20 @@ pub async fn create(
     };
     let out = s
         .store(move |store| {
-            Ok(store.create_person(&np).map_err(|e| {
-                let f = field_of(&e);
-                (f, without_flag(&e.to_string()).to_string())
-            }))
+            Ok(match store.create_person(&np) {
+                Ok(p) => Ok(p),
+                // The same form sent twice (a double click, a reload): the
+                // person it made, as the first answer would have shown.
+                Err(abba_store::StoreError::PersonExists(_)) if same_new_person(store, &np)? => {
+                    store
+                        .person(&np.name)
+                        .map_err(|e| ("name", without_flag(&e.to_string()).to_string()))
+                }
+                Err(e) => {
+                    let f = field_of(&e);
+                    Err((f, without_flag(&e.to_string()).to_string()))
+                }
+            })
         })
         .await?;
     match out {

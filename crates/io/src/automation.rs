@@ -19,7 +19,10 @@
 //! injections logged in a CGM's app (CareLink's `Insulin: N` markers) and
 //! no pump record at all. Data with no
 //! pump record and no insulin at all (a CGM-only export) show no delivery:
-//! abba says so instead of calling it open-loop pump therapy.
+//! abba says so instead of calling it open-loop pump therapy. For a
+//! person the last [`LOOP_RECENT_DAYS`] of the data tell: records before
+//! them, and files whose loop marks are all dated before them, are a past
+//! loop (named in the words, not counted).
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -85,7 +88,26 @@ pub struct Evidence {
     pub injection_markers: usize,
     /// Pump basal records (profiles, temporary basals, suspensions).
     pub pump_basal: usize,
+    /// The latest instant (Unix ms) of a file item that marks a loop (an
+    /// SMB, an automated basal, a loop system named), when every such item
+    /// is dated ([`Evidence::from_file`]); marks all older than the last
+    /// [`LOOP_RECENT_DAYS`] of a person's data are a past loop.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub loop_marks_until_ms: Option<i64>,
+    /// A file item marked a loop without a time abba could read (such
+    /// marks always count as current).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub undated_loop_marks: bool,
+    /// Loop marks of files left out because they all end before the last
+    /// [`LOOP_RECENT_DAYS`] of the data: the latest (Unix ms), for words.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub past_loop_until_ms: Option<i64>,
 }
+
+/// The days at the end of a person's data whose records and loop marks
+/// tell the delivery: a loop run only before them (a person who stopped
+/// looping) does not hold the basal advice for good.
+pub const LOOP_RECENT_DAYS: i64 = 28;
 
 /// What the data show.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -176,6 +198,25 @@ impl Evidence {
             return Self::from_carelink(bytes);
         };
         for item in &items {
+            let before = (e.smb, e.automated_basal, e.systems.values().sum::<usize>());
+            e.count_item(item);
+            if before != (e.smb, e.automated_basal, e.systems.values().sum::<usize>()) {
+                match item_time_ms(item) {
+                    Some(ms) => {
+                        e.loop_marks_until_ms =
+                            Some(e.loop_marks_until_ms.map_or(ms, |u| u.max(ms)))
+                    }
+                    None => e.undated_loop_marks = true,
+                }
+            }
+        }
+        e
+    }
+
+    /// Counts one item of a JSON export (see [`Evidence::from_file`]).
+    fn count_item(&mut self, item: &Value) {
+        let e = self;
+        {
             // A Nightscout Profile Switch to the pump's auto mode (the
             // MiniMed 670G's SmartGuard, as 600SeriesAndroidUploader writes it).
             if item
@@ -230,7 +271,13 @@ impl Evidence {
                 }
             }
         }
-        e
+    }
+
+    /// True when the file's loop marks are all dated and end before
+    /// `recent_from_ms` (the start of the last [`LOOP_RECENT_DAYS`] of a
+    /// person's data): a past loop.
+    pub fn loop_marks_before(&self, recent_from_ms: i64) -> bool {
+        !self.undated_loop_marks && self.loop_marks_until_ms.is_some_and(|u| u < recent_from_ms)
     }
 
     /// A CareLink export's auto-mode evidence ([`carelink::auto_mode`]):
@@ -272,6 +319,9 @@ impl Evidence {
         for (k, v) in &other.systems {
             *self.systems.entry(k.clone()).or_default() += v;
         }
+        self.loop_marks_until_ms = self.loop_marks_until_ms.max(other.loop_marks_until_ms);
+        self.undated_loop_marks |= other.undated_loop_marks;
+        self.past_loop_until_ms = self.past_loop_until_ms.max(other.past_loop_until_ms);
     }
 
     /// Share of the pump's hours with a short temporary basal.
@@ -329,6 +379,13 @@ impl Evidence {
                 if *v == 1 { "" } else { "s" }
             ));
         }
+        if let Some(ms) = self.past_loop_until_ms {
+            let until = jiff::Timestamp::from_millisecond(ms)
+                .map_or_else(|_| ms.to_string(), |t| t.to_string());
+            out.push(format!(
+                "loop marks in earlier files until {until}, before the last {LOOP_RECENT_DAYS} days of the data: a past loop, not counted"
+            ));
+        }
         if self.long_acting > 0 {
             out.push(format!(
                 "{} long-acting insulin records, {} pump basal records",
@@ -343,6 +400,24 @@ impl Evidence {
         }
         out
     }
+}
+
+/// The instant of a JSON export's item (Unix ms), from the fields
+/// Nightscout and Tidepool date it with: `date` or `mills` (ms), or
+/// `created_at`, `dateString`, `timestamp`, `time` with an offset.
+fn item_time_ms(item: &Value) -> Option<i64> {
+    for key in ["date", "mills"] {
+        if let Some(ms) = item.get(key).and_then(Value::as_f64) {
+            if ms.is_finite() && ms > 0.0 {
+                return Some(ms as i64);
+            }
+        }
+    }
+    ["created_at", "dateString", "timestamp", "time", "date"]
+        .iter()
+        .filter_map(|k| item.get(*k).and_then(Value::as_str))
+        .find_map(|t| t.parse::<jiff::Timestamp>().ok())
+        .map(jiff::Timestamp::as_millisecond)
 }
 
 /// True when `text` names `name` as a word (so "loop" is not found in

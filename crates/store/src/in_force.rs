@@ -501,13 +501,24 @@ pub fn profile_changes(
     Ok(out)
 }
 
-/// File evidence of loops stored at import.
-pub fn file_evidence(conn: &dyn Db, person: i64) -> Result<Evidence, StoreError> {
+/// File evidence of loops stored at import: each file's, but a file whose
+/// loop marks all end before `recent_from_ms` (the last
+/// [`abba_io::automation::LOOP_RECENT_DAYS`] of the data) only as the
+/// past loop it shows.
+pub fn file_evidence(
+    conn: &dyn Db,
+    person: i64,
+    recent_from_ms: Option<i64>,
+) -> Result<Evidence, StoreError> {
     let mut e = Evidence::default();
     for r in conn.rows(Q::FileEvidenceOf, args![person])? {
         let x: Evidence = serde_json::from_str(&r.text(0)?)
             .map_err(|e| StoreError::corrupt("file evidence", e))?;
-        e.add_file(&x);
+        if recent_from_ms.is_some_and(|from| x.loop_marks_before(from)) {
+            e.past_loop_until_ms = e.past_loop_until_ms.max(x.loop_marks_until_ms);
+        } else {
+            e.add_file(&x);
+        }
     }
     Ok(e)
 }
@@ -541,6 +552,10 @@ pub struct RecordFacts {
     pub first_week: FirstWeek,
     /// Where each import left the log (see [`Extras::shown_until`]).
     pub shown_until: Vec<Timestamp>,
+    /// The start (Unix ms) of the last
+    /// [`abba_io::automation::LOOP_RECENT_DAYS`] of the records, whose
+    /// evidence tells the delivery.
+    pub recent_from_ms: Option<i64>,
 }
 
 /// The advisor's time at which each import left the person's log: the
@@ -576,7 +591,23 @@ pub fn record_facts(
     imports: &[(i64, i64)],
 ) -> Result<(EventStream, RecordFacts), StoreError> {
     let profile_changes = profile_changes(person, &records)?;
-    let evidence = Evidence::from_records(&records, &person.tz);
+    // The delivery is told by the last days of the data: a loop, or
+    // injections, given up before them do not hold the advice for good.
+    let recent_from_ms = records
+        .iter()
+        .map(|r| r.at.as_millisecond())
+        .max()
+        .map(|end| end - abba_io::automation::LOOP_RECENT_DAYS * 86_400_000);
+    let recent: Vec<Record> = match recent_from_ms {
+        Some(from) => records
+            .iter()
+            .filter(|r| r.at.as_millisecond() >= from)
+            .cloned()
+            .collect(),
+        None => Vec::new(),
+    };
+    let evidence = Evidence::from_records(&recent, &person.tz);
+    drop(recent);
     let stream = log::events(person, records)?;
     let first_week = first_week(
         person.mode(),
@@ -590,6 +621,7 @@ pub fn record_facts(
             evidence,
             first_week,
             shown_until: import_ends(person, imports),
+            recent_from_ms,
         },
     ))
 }
@@ -601,7 +633,7 @@ pub fn extras(conn: &dyn Db, person: &Person, facts: &RecordFacts) -> Result<Ext
     changes.extend(clinician_changes(conn, person.id)?);
     changes.sort_by_key(|c| c.at);
     let mut evidence = facts.evidence.clone();
-    evidence.add_file(&file_evidence(conn, person.id)?);
+    evidence.add_file(&file_evidence(conn, person.id, facts.recent_from_ms)?);
     let hold_basal =
         evidence.delivery() != Delivery::OpenLoop && !person.settings.allow_closed_loop;
     Ok(Extras {

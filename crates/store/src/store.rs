@@ -554,8 +554,27 @@ impl Store {
             }
             also(tx)
         })?;
-        let mut shown = Evidence::from_records(&batch.records, &p.tz);
-        for e in &evidence {
+        // As the advice tells it: by the files' last days
+        // (`in_force::record_facts`), a loop given up before them is past.
+        let recent_from = batch
+            .records
+            .iter()
+            .map(|r| r.at.as_millisecond())
+            .max()
+            .map_or(i64::MIN, |end| {
+                end - abba_io::automation::LOOP_RECENT_DAYS * 86_400_000
+            });
+        let recent: Vec<abba_io::Record> = batch
+            .records
+            .iter()
+            .filter(|r| r.at.as_millisecond() >= recent_from)
+            .cloned()
+            .collect();
+        let mut shown = Evidence::from_records(&recent, &p.tz);
+        for e in evidence
+            .iter()
+            .filter(|e| !e.loop_marks_before(recent_from))
+        {
             shown.add_file(e);
         }
         summary.delivery = match shown.delivery() {

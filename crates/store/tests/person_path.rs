@@ -38,6 +38,8 @@ struct Plan {
     level: f64,
     /// A closed loop: 5-minute temporary basals and SMBs, entered by iAPS.
     looped: bool,
+    /// The loop ran only on the days before this one.
+    loop_until_day: Option<i64>,
     /// A low at 10:30 treated with 16 g of "Carb Correction", no bolus.
     rescue: bool,
     /// The profile's start relative to day 1 (days).
@@ -55,6 +57,7 @@ impl Default for Plan {
             gap: Vec::new(),
             level: 150.0,
             looped: false,
+            loop_until_day: None,
             rescue: false,
             profile_from_day: -1,
             basal: vec![("00:00", 1.0)],
@@ -113,7 +116,7 @@ fn export(dir: &std::path::Path, plan: &Plan) -> Vec<PathBuf> {
                 "created_at": iso(ms), "enteredBy": "pump"}),
             );
         }
-        if plan.looped {
+        if plan.looped && plan.loop_until_day.is_none_or(|d| day < d) {
             for k in 0..288i64 {
                 let ms = base + k * 300_000 + 60_000;
                 let rate = if k % 3 == 0 { 0.0 } else { 1.2 };
@@ -457,6 +460,48 @@ fn a_closed_loop_gets_no_basal_suggestion_and_is_named_with_its_evidence() {
         .iter()
         .filter(|v| v.setting == "basal")
         .all(|v| v.status != "open" && v.in_force == 1.0));
+}
+
+#[test]
+fn a_loop_given_up_before_the_last_four_weeks_holds_no_advice_and_is_named_as_past() {
+    // iAPS looped on days 1-10 of 45, then the pump ran open loop: the
+    // last 28 days tell the delivery.
+    let plan = Plan {
+        looped: true,
+        loop_until_day: Some(10),
+        days: 45,
+        ..Plan::default()
+    };
+    let (_d, mut store, files) = setup("past-loop", &plan);
+    // The import's words say no loop either.
+    let again = store.import_files("ana", &files, None).unwrap();
+    assert_eq!(again.delivery, None, "{again:?}");
+    let a = store.advise("ana").unwrap();
+    assert_eq!(
+        a.delivery.kind,
+        abba_io::automation::Delivery::OpenLoop,
+        "{:?}",
+        a.delivery
+    );
+    assert!(a.delivery.basal_suggestions);
+    let ev = a.delivery.evidence.join("; ");
+    assert!(
+        ev.contains("loop marks in earlier files until 2026-05-13T")
+            && ev.contains("a past loop, not counted"),
+        "{ev}"
+    );
+    // A loop that ran until day 30 of 45 is within the last 28 days: the
+    // basal is held.
+    let plan = Plan {
+        loop_until_day: Some(30),
+        ..plan
+    };
+    let (_d, mut store, files) = setup("recent-loop", &plan);
+    let again = store.import_files("ana", &files, None).unwrap();
+    assert!(again.delivery.is_some(), "{again:?}");
+    let a = store.advise("ana").unwrap();
+    assert_eq!(a.delivery.kind, abba_io::automation::Delivery::ClosedLoop);
+    assert!(!a.delivery.basal_suggestions);
 }
 
 #[test]

@@ -24,12 +24,7 @@ pub fn effect_lines(
 ) -> Vec<String> {
     let mut out = Vec::new();
     // The ranges in the person's glucose unit.
-    let range = format!(
-        "{}-{} {}",
-        glucose.value(70.0),
-        glucose.value(180.0),
-        glucose.label()
-    );
+    let range = glucose.range(70.0, 180.0);
     let below = glucose.with_unit(70.0);
     match &e.effect {
         Effect::Predicted(p) => {

@@ -82,6 +82,17 @@ impl GlucoseUnit {
         format!("{} {}", self.value(mg_dl), self.label())
     }
 
+    /// A range given in mg/dL, in this unit: `70-180 mg/dL`,
+    /// `3.9-10.0 mmol/L`.
+    pub fn range(self, lo_mg_dl: f64, hi_mg_dl: f64) -> String {
+        format!(
+            "{}-{} {}",
+            self.value(lo_mg_dl),
+            self.value(hi_mg_dl),
+            self.label()
+        )
+    }
+
     /// An axis tick (mmol/L ticks are whole numbers).
     pub fn tick(self, mg_dl: f64) -> String {
         match self {

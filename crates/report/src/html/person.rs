@@ -433,7 +433,7 @@ pub fn person_report_html(input: &PersonReportInput) -> Result<String, ReportErr
         profile_svg => profile,
         profile_rows => profile_rows,
         bin_min => profile_bin_min(input.mode),
-        target_range => format!("{}-{} {}", unit.value(70.0), unit.value(180.0), unit.label()),
+        target_range => unit.range(70.0, 180.0),
         panels => panels,
         readings_per_day => readings_per_day,
         settings => settings,

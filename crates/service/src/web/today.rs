@@ -200,12 +200,7 @@ pub fn effect_words(
     units: GlucoseUnit,
 ) -> (Option<String>, Option<String>, bool) {
     let margin = format!("{:.1}", e.margin_pp);
-    let range = format!(
-        "{}-{} {}",
-        units.value(70.0),
-        units.value(180.0),
-        units.label()
-    );
+    let range = units.range(70.0, 180.0);
     let low = units.with_unit(70.0);
     match &e.effect {
         Effect::Predicted(x) => {

@@ -525,6 +525,30 @@ fn a_hypoglycaemia_treatment_does_not_move_a_carb_ratio() {
 }
 
 #[test]
+fn the_hypoglycaemia_treatment_note_speaks_the_persons_unit() {
+    let with = Plan {
+        rescue: true,
+        days: 4,
+        ..Plan::default()
+    };
+    let dir = TempDir::new("rescue-mmol");
+    let files = export(&dir.0, &with);
+    let mut store = dir.store();
+    let mut p = person_from(&files, "ana");
+    p.settings.units = abba_core::units::GlucoseUnit::MmolL;
+    store.create_person(&p).unwrap();
+    store.import_files("ana", &files, None).unwrap();
+    let a = store.advise("ana").unwrap();
+    let note = a
+        .notes
+        .iter()
+        .find(|n| n.contains("hypoglycaemia"))
+        .unwrap_or_else(|| panic!("no rescue note in {:?}", a.notes));
+    assert!(note.contains("below 3.9 mmol/L"), "{note}");
+    assert!(!note.contains("mg/dL"), "{note}");
+}
+
+#[test]
 fn an_import_whose_profile_differs_stops_with_both_values() {
     let dir = TempDir::new("mismatch");
     let files = export(

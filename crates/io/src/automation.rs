@@ -85,6 +85,10 @@ pub struct Evidence {
     pub injection_markers: usize,
     /// Pump basal records (profiles, temporary basals, suspensions).
     pub pump_basal: usize,
+    /// The device's UTC offsets the files carry ([`crate::clocks`]; the
+    /// store keeps a file's when some are not the person's zone's).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub clocks: Vec<crate::clocks::ClockStretch>,
 }
 
 /// What the data show.
@@ -272,6 +276,7 @@ impl Evidence {
         for (k, v) in &other.systems {
             *self.systems.entry(k.clone()).or_default() += v;
         }
+        self.clocks.extend_from_slice(&other.clocks);
     }
 
     /// Share of the pump's hours with a short temporary basal.

@@ -2,13 +2,14 @@
 //! records (abba-twin), kept beside the store file.
 use std::path::PathBuf;
 
+use abba_core::units::GlucoseUnit;
 use abba_sim::cohort::Population;
 use abba_twin::file::Refit;
 use abba_twin::{Banded, BasalChange, Ranges, Twin, TwinOptions, WhatIf, NOTICE};
 use anyhow::{anyhow, Result};
 
 /// A line of the what-if table: its name and the figure it reads.
-type Row = (&'static str, fn(&Ranges) -> f64);
+type Row = (String, fn(&Ranges) -> f64);
 
 /// Arguments of `abba twin`.
 #[derive(clap::Args, Debug)]
@@ -86,10 +87,16 @@ pub fn run(a: Args) -> Result<()> {
     }
 }
 
-fn events(who: &Who) -> Result<(Vec<abba_core::Event>, f64)> {
+/// The person's events, the basal rate in force at the start and the
+/// unit they read glucose in.
+fn events(who: &Who) -> Result<(Vec<abba_core::Event>, f64, GlucoseUnit)> {
     let store = crate::store_args::open(&who.db)?;
     let person = store.person(&who.person)?;
-    Ok((store.events(&who.person)?, person.settings.start.basal.0))
+    Ok((
+        store.events(&who.person)?,
+        person.settings.start.basal.0,
+        person.settings.units,
+    ))
 }
 
 fn fit(a: FitArgs) -> Result<()> {
@@ -98,12 +105,13 @@ fn fit(a: FitArgs) -> Result<()> {
         .parse()
         .map_err(|e| anyhow!("--population: {e}"))?;
     let db = crate::twin_effect::twins_beside(&a.who.db).map_err(|e| anyhow!(e))?;
-    let (events, basal) = events(&a.who)?;
+    let (events, basal, units) = events(&a.who)?;
     let options = TwinOptions {
         days: a.days,
         held_out_days: a.held_out,
         population,
         basal_in_force_u_per_h: basal,
+        units,
         ..TwinOptions::default()
     };
     let twin = match abba_twin::file::refit(db, &a.who.person, &events, &options, a.force)? {
@@ -126,12 +134,16 @@ fn fit(a: FitArgs) -> Result<()> {
     if a.who.json {
         println!("{}", serde_json::to_string_pretty(&twin)?);
     } else {
-        print!("{}", fit_text(&twin));
+        print!("{}", fit_text(&twin, units));
     }
     Ok(())
 }
 
-fn fit_text(t: &Twin) -> String {
+/// The fitted twin in words, glucose in the person's `units`.
+fn fit_text(t: &Twin, units: GlucoseUnit) -> String {
+    let unit = units.label();
+    let spread = |mg_dl: f64| abba_twin::check::spread(units, mg_dl);
+    let (low, high) = (units.value(70.0), units.value(180.0));
     let mut s = format!(
         "Twin of {} (revision {}, prior: {}): {}\n{NOTICE}\n\n",
         t.person,
@@ -151,11 +163,13 @@ fn fit_text(t: &Twin) -> String {
     );
     if let Some(h) = &t.held_out {
         s += &format!(
-            "Held-out days: RMSE {:.1} mg/dL (their own mean glucose: {:.1}), MARD {:.1} %\n",
-            h.rmse_mg_dl, h.mean_glucose_rmse_mg_dl, h.mard_pct
+            "Held-out days: RMSE {} {unit} (their own mean glucose: {}), MARD {:.1} %\n",
+            spread(h.rmse_mg_dl),
+            spread(h.mean_glucose_rmse_mg_dl),
+            h.mard_pct
         );
         s += &format!(
-            "  time in 70-180: observed {:.1} %, predicted {}\n  time below 70:  observed {:.1} %, predicted {}\n",
+            "  time in {low}-{high}: observed {:.1} %, predicted {}\n  time below {low}:  observed {:.1} %, predicted {}\n",
             h.observed.tir_pct,
             band(&h.predicted, |r| r.tir_pct),
             h.observed.below_70_pct,
@@ -165,8 +179,12 @@ fn fit_text(t: &Twin) -> String {
         s += &format!("Held-out days: no check ({e})\n");
     }
     s += &format!(
-        "Fit: RMSE {:.1} mg/dL, MARD {:.1} % over {} readings; {} simulations of the window, {} short runs\n",
-        t.fit.rmse_mg_dl, t.fit.mard_pct, t.fit.readings, t.fit.simulations, t.fit.local_runs
+        "Fit: RMSE {} {unit}, MARD {:.1} % over {} readings; {} simulations of the window, {} short runs\n",
+        spread(t.fit.rmse_mg_dl),
+        t.fit.mard_pct,
+        t.fit.readings,
+        t.fit.simulations,
+        t.fit.local_runs
     );
     s += "Parameters (fitted, prior, posterior SD of the log):\n";
     for e in &t.estimates {
@@ -196,7 +214,13 @@ fn fit_text(t: &Twin) -> String {
         } else {
             t.unexplained_days
                 .iter()
-                .map(|d| format!("day {} (RMSE {:.0} mg/dL)", d.day_index + 1, d.rmse_mg_dl))
+                .map(|d| {
+                    format!(
+                        "day {} (RMSE {} {unit})",
+                        d.day_index + 1,
+                        units.value(d.rmse_mg_dl)
+                    )
+                })
                 .collect::<Vec<_>>()
                 .join(", ")
         }
@@ -244,7 +268,7 @@ fn replay(a: ReplayArgs) -> Result<()> {
     };
     what_if.check()?;
     let db = crate::twin_effect::twins_beside(&a.who.db).map_err(|e| anyhow!(e))?;
-    let (events, _) = events(&a.who)?;
+    let (events, _, units) = events(&a.who)?;
     let twin = abba_twin::file::load(db, &a.who.person)?.ok_or_else(|| {
         anyhow!(
             "{} has no twin yet: run `abba twin fit --db {} --person {}` first",
@@ -271,11 +295,12 @@ fn replay(a: ReplayArgs) -> Result<()> {
         "{:<16} {:>10} {:>26} {:>26} {:>26}",
         "", "recorded", "twin, recorded settings", "twin, what-if", "change"
     );
+    let (low, high) = (units.value(70.0), units.value(180.0));
     let rows: [Row; 4] = [
-        ("time 70-180 %", |r| r.tir_pct),
-        ("time < 70 %", |r| r.below_70_pct),
-        ("LBGI", |r| r.lbgi),
-        ("HBGI", |r| r.hbgi),
+        (format!("time {low}-{high} %"), |r| r.tir_pct),
+        (format!("time < {low} %"), |r| r.below_70_pct),
+        ("LBGI".into(), |r| r.lbgi),
+        ("HBGI".into(), |r| r.hbgi),
     ];
     for (name, f) in rows {
         println!(

@@ -233,6 +233,7 @@ impl TwinRefitter for TwinRefits {
             held_out_days: old.data.held_out_days,
             population: old.prior.population,
             basal_in_force_u_per_h: p.settings.start.basal.0,
+            units: p.settings.units,
             ..abba_twin::TwinOptions::default()
         };
         match abba_twin::file::refit(db, person, &events, &options, false)

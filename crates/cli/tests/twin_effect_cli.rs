@@ -446,3 +446,79 @@ fn twins_of_a_postgresql_store_are_refused_plainly_before_any_work() {
     }
     assert!(!Path::new("postgres:").exists());
 }
+
+/// A person of `days` simulated days (at least 9), created with `--units
+/// mmol/L`.
+fn mmol_person(dir: &Path, days: u32) -> String {
+    let ns = dir.join(format!("ns{days}"));
+    ok(&abba(&[
+        "export",
+        "--patient",
+        "adult#004",
+        "--days",
+        &days.to_string(),
+        "--arm",
+        "standard",
+        "--out",
+        ns.to_str().unwrap(),
+    ]));
+    let db = dir.join(format!("m{days}.db")).display().to_string();
+    let files: Vec<String> = ["entries.json", "treatments.json", "profile.json"]
+        .iter()
+        .map(|f| ns.join(f).display().to_string())
+        .collect();
+    ok(&abba(&[
+        "person",
+        "new",
+        "--db",
+        &db,
+        "--name",
+        "mo",
+        "--tz",
+        "UTC",
+        "--mode",
+        "cgm",
+        "--therapy-from",
+        &files[2],
+        "--units",
+        "mmol/L",
+    ]));
+    let mut args = vec!["import", "--db", &db, "--person", "mo"];
+    args.extend(files.iter().map(String::as_str));
+    ok(&abba(&args));
+    db
+}
+
+/// `abba twin fit` speaks the person's unit: an mmol/L person's grade,
+/// held-out and fit lines are in mmol/L, never mg/dL.
+#[test]
+fn a_twin_of_an_mmol_person_is_told_in_mmol() {
+    let dir = TempDir::new("twin-mmol");
+    let db = mmol_person(&dir.0, 9);
+    let fit = ok(&abba(&[
+        "twin", "fit", "--db", &db, "--person", "mo", "--days", "6",
+    ]));
+    assert!(fit.contains(NOTICE), "{fit}");
+    assert!(!fit.contains("mg/dL"), "{fit}");
+    assert!(
+        fit.contains("Fit: RMSE ") && fit.contains(" mmol/L, MARD"),
+        "{fit}"
+    );
+    assert!(fit.contains("time in 3.9-10.0: observed"), "{fit}");
+    assert!(fit.contains("time below 3.9:"), "{fit}");
+}
+
+/// A twin is fitted on at least 3 days besides its held-out days: on
+/// fewer, `abba twin fit` refuses, saying so, and stores nothing.
+#[test]
+fn a_twin_on_too_few_days_is_refused_with_why() {
+    let dir = TempDir::new("twin-thin");
+    let db = mmol_person(&dir.0, 9);
+    // A 3-day window, 2 of them held out: 1 fitted.
+    let out = abba(&["twin", "fit", "--db", &db, "--person", "mo", "--days", "3"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{err}");
+    assert!(err.contains("fitted on 1 day:"), "{err}");
+    assert!(err.contains("at least 3 fitted days"), "{err}");
+    assert!(!Path::new(&format!("{db}.twins")).join("mo.json").exists());
+}

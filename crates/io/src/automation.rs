@@ -102,6 +102,10 @@ pub struct Evidence {
     /// [`LOOP_RECENT_DAYS`] of the data: the latest (Unix ms), for words.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub past_loop_until_ms: Option<i64>,
+    /// The device's UTC offsets the files carry ([`crate::clocks`]; the
+    /// store keeps a file's when some are not the person's zone's).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub clocks: Vec<crate::clocks::ClockStretch>,
 }
 
 /// The days at the end of a person's data whose records and loop marks
@@ -322,6 +326,7 @@ impl Evidence {
         self.loop_marks_until_ms = self.loop_marks_until_ms.max(other.loop_marks_until_ms);
         self.undated_loop_marks |= other.undated_loop_marks;
         self.past_loop_until_ms = self.past_loop_until_ms.max(other.past_loop_until_ms);
+        self.clocks.extend_from_slice(&other.clocks);
     }
 
     /// Share of the pump's hours with a short temporary basal.

@@ -49,6 +49,8 @@ pub struct PersonSettings {
     pub meals: MealWindows,
     /// When days close.
     pub day_close: DayClose,
+    /// The unit the person reads glucose in: the notes' words use it.
+    pub units: crate::units::GlucoseUnit,
 }
 
 impl PersonSettings {
@@ -59,6 +61,7 @@ impl PersonSettings {
             first_day: None,
             meals: MealWindows::default(),
             day_close: DayClose::Midnight,
+            units: crate::units::GlucoseUnit::MgDl,
         }
     }
 }
@@ -276,7 +279,7 @@ pub fn to_events(
     for e in &kept {
         *out.counts.entry(kind_name(&e.kind).into()).or_default() += 1;
     }
-    rescued.note(&mut out);
+    rescued.note(person.units, &mut out);
     out.events = kept;
     Ok(out)
 }
@@ -311,14 +314,14 @@ struct Rescued {
 
 impl Rescued {
     /// Their count and a note, if there were any.
-    fn note(&self, out: &mut EventStream) {
+    fn note(&self, units: crate::units::GlucoseUnit, out: &mut EventStream) {
         if self.n > 0 {
             out.counts.insert(crate::rescue::COUNT_KEY.into(), self.n);
             out.notes.push(format!(
                 "{} carbohydrate entries ({:.0} g in all) were hypoglycaemia treatments ({}): counted, not meals, never used to learn a carb ratio",
                 self.n,
                 self.grams,
-                crate::rescue::RULE
+                crate::rescue::rule(units)
             ));
         }
     }

@@ -16,6 +16,7 @@
 
 pub mod automation;
 pub mod clock;
+pub mod clocks;
 pub mod coverage;
 pub mod error;
 pub mod events;

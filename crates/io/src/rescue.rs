@@ -15,8 +15,14 @@ pub const AFTER_LOW_MIN: i64 = 15;
 pub const BOLUS_NEAR_MIN: i64 = 15;
 /// The key of the rescue count in an event stream's counts.
 pub const COUNT_KEY: &str = "rescue_carbs";
-/// The rule in words.
-pub const RULE: &str = "carbohydrate within 15 min after a glucose reading below 70 mg/dL, with no bolus within 15 min";
+/// The rule in words, the low limit in the person's unit (70 mg/dL,
+/// 3.9 mmol/L).
+pub fn rule(units: crate::units::GlucoseUnit) -> String {
+    format!(
+        "carbohydrate within {AFTER_LOW_MIN} min after a glucose reading below {}, with no bolus within {BOLUS_NEAR_MIN} min",
+        units.with_unit(LOW_MG_DL)
+    )
+}
 
 /// The low readings and boluses of a record stream, by instant (only the
 /// low readings are kept: a long log's in-range readings would weigh the

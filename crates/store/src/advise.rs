@@ -658,6 +658,11 @@ pub fn advice_with(
             .chain(outside)
             .chain(
                 extras
+                    .map(|x| abba_io::clocks::notes(&x.evidence.clocks, &person.tz))
+                    .unwrap_or_default(),
+            )
+            .chain(
+                extras
                     .filter(|x| !x.fed_by_app)
                     .map(|_| meals_not_seen(person, &stream.events))
                     .unwrap_or_default(),

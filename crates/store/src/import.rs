@@ -364,7 +364,13 @@ pub fn import_with(
         too_old,
         before_day_1,
         empty_files,
-        notes: batch.notes.clone(),
+        notes: (batch.notes.iter().cloned())
+            .chain(batch.files.iter().zip(&batch.clocks).flat_map(|(f, c)| {
+                abba_io::clocks::notes(c, &person.tz)
+                    .into_iter()
+                    .map(move |n| format!("{f}: {n}"))
+            }))
+            .collect(),
         first_day: first_day.map(|d| d.to_string()),
         delivery: None,
     })

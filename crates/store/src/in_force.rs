@@ -516,6 +516,7 @@ pub fn file_evidence(
             .map_err(|e| StoreError::corrupt("file evidence", e))?;
         if recent_from_ms.is_some_and(|from| x.loop_marks_before(from)) {
             e.past_loop_until_ms = e.past_loop_until_ms.max(x.loop_marks_until_ms);
+            e.clocks.extend_from_slice(&x.clocks);
         } else {
             e.add_file(&x);
         }
@@ -523,16 +524,21 @@ pub fn file_evidence(
     Ok(e)
 }
 
-/// Stores what an import's file says about loops (one row per file
-/// content): `e`, its [`Evidence::from_file`].
+/// Stores what an import's file says about loops and the device's
+/// clock (one row per file content): `e`, its [`Evidence::from_file`]
+/// with the reader's [`abba_io::clocks::ClockStretch`]es; a file with
+/// neither loop evidence nor a stretch away from the person's zone `tz`
+/// stores nothing.
 pub fn store_file_evidence(
     conn: &dyn Db,
     person: i64,
+    tz: &jiff::tz::TimeZone,
     file: &str,
     bytes: &[u8],
     e: &Evidence,
 ) -> Result<(), StoreError> {
-    if e.smb == 0 && e.automated_basal == 0 && e.systems.is_empty() {
+    let away = !abba_io::clocks::away(&e.clocks, tz).is_empty();
+    if e.smb == 0 && e.automated_basal == 0 && e.systems.is_empty() && !away {
         return Ok(());
     }
     let hash = format!("{:016x}", abba_io::record::content_hash([bytes]));

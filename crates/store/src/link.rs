@@ -174,14 +174,31 @@ fn row_to_link(r: Row) -> Result<Link, StoreError> {
 /// collection, so documents fetched again are not counted twice).
 fn add_evidence(
     tx: &dyn Db,
-    person: i64,
+    person: &Person,
     collection: &str,
     bytes: &[u8],
 ) -> Result<(), StoreError> {
-    let e = Evidence::from_file(bytes);
-    if e.smb == 0 && e.automated_basal == 0 && e.systems.is_empty() {
+    let mut e = Evidence::from_file(bytes);
+    // The device's clock away from the person's zone (abba_io::clocks):
+    // only the stretches away are kept, so that the row stays small over
+    // many syncs.
+    let opts = abba_io::ReadOptions {
+        tz: Some(person.tz.clone()),
+        format: Some(abba_io::read::Format::Nightscout),
+        ..abba_io::ReadOptions::default()
+    };
+    let away = |c: &[abba_io::clocks::ClockStretch]| -> Vec<abba_io::clocks::ClockStretch> {
+        (abba_io::clocks::away(c, &person.tz).into_iter())
+            .map(|a| a.stretch)
+            .collect()
+    };
+    if let Ok(read) = abba_io::read::read_bytes_noted(collection, 0, bytes, &opts) {
+        e.clocks = away(&read.clocks);
+    }
+    if e.smb == 0 && e.automated_basal == 0 && e.systems.is_empty() && e.clocks.is_empty() {
         return Ok(());
     }
+    let person = person.id;
     let key = format!("nightscout-sync:{collection}");
     let held = tx
         .row(Q::FileEvidenceOne, args![person, &key])?
@@ -193,6 +210,7 @@ fn add_evidence(
         None => Evidence::default(),
     };
     sum.add_file(&e);
+    sum.clocks = away(&sum.clocks);
     let json = serde_json::to_string(&sum).map_err(|e| StoreError::corrupt("file evidence", e))?;
     tx.execute(Q::FileEvidencePut, args![person, key, collection, json])?;
     Ok(())
@@ -334,7 +352,7 @@ impl Store {
         let mut also = |tx: &dyn Db| -> Result<(), StoreError> {
             deleted = delete_records(tx, p.id, &fetched.deleted)?;
             for (c, bytes) in &fetched.fresh {
-                add_evidence(tx, p.id, c, bytes)?;
+                add_evidence(tx, &p, c, bytes)?;
             }
             write_marks(tx, p.id, &fetched.marks)
         };

@@ -195,6 +195,7 @@ impl Person {
         let mut s = PersonSettings::new(self.tz.clone());
         s.first_day = self.first_day;
         s.meals = self.settings.meal_windows;
+        s.units = self.settings.units;
         s.day_close = match self.mode() {
             Mode::Cgm => DayClose::Midnight,
             Mode::Smbg => DayClose::Never,

@@ -539,7 +539,11 @@ impl Store {
         let evidence: Vec<Evidence> = match file_evidence {
             true => contents
                 .iter()
-                .map(|(_, bytes)| Evidence::from_file(bytes))
+                .enumerate()
+                .map(|(i, (_, bytes))| Evidence {
+                    clocks: batch.clocks.get(i).cloned().unwrap_or_default(),
+                    ..Evidence::from_file(bytes)
+                })
                 .collect(),
             false => Vec::new(),
         };
@@ -549,7 +553,7 @@ impl Store {
             }
             if file_evidence {
                 for ((name, bytes), e) in contents.iter().zip(&evidence) {
-                    in_force::store_file_evidence(tx, p.id, name, bytes, e)?;
+                    in_force::store_file_evidence(tx, p.id, &p.tz, name, bytes, e)?;
                 }
             }
             also(tx)

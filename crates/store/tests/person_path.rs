@@ -602,6 +602,145 @@ fn a_hypoglycaemia_treatment_does_not_move_a_carb_ratio() {
 }
 
 #[test]
+fn the_hypoglycaemia_treatment_note_speaks_the_persons_unit() {
+    let with = Plan {
+        rescue: true,
+        days: 4,
+        ..Plan::default()
+    };
+    let dir = TempDir::new("rescue-mmol");
+    let files = export(&dir.0, &with);
+    let mut store = dir.store();
+    let mut p = person_from(&files, "ana");
+    p.settings.units = abba_core::units::GlucoseUnit::MmolL;
+    store.create_person(&p).unwrap();
+    store.import_files("ana", &files, None).unwrap();
+    let a = store.advise("ana").unwrap();
+    let note = a
+        .notes
+        .iter()
+        .find(|n| n.contains("hypoglycaemia"))
+        .unwrap_or_else(|| panic!("no rescue note in {:?}", a.notes));
+    assert!(note.contains("below 3.9 mmol/L"), "{note}");
+    assert!(!note.contains("mg/dL"), "{note}");
+}
+
+/// Sets each entry's and treatment's `utcOffset` (minutes): `away` on
+/// days `trip` (indices), UTC+02:00 (Zurich in May) on the others.
+fn with_offsets(files: &[PathBuf], trip: std::ops::Range<i64>, away: i64) {
+    for f in &files[..2] {
+        let items: Vec<Value> = serde_json::from_slice::<Vec<Value>>(&std::fs::read(f).unwrap())
+            .unwrap()
+            .into_iter()
+            .map(|mut x| {
+                let ms = x["date"].as_i64().unwrap_or_else(|| {
+                    x["created_at"]
+                        .as_str()
+                        .unwrap()
+                        .parse::<jiff::Timestamp>()
+                        .unwrap()
+                        .as_millisecond()
+                });
+                let day = (ms - DAY1_MS).div_euclid(86_400_000);
+                x["utcOffset"] = json!(if trip.contains(&day) { away } else { 120 });
+                x
+            })
+            .collect();
+        std::fs::write(f, serde_json::to_vec(&items).unwrap()).unwrap();
+    }
+}
+
+#[test]
+fn a_trip_across_time_zones_is_named_by_the_import_and_the_advice() {
+    let plan = Plan {
+        days: 8,
+        ..Plan::default()
+    };
+    let dir = TempDir::new("trip");
+    let files = export(&dir.0, &plan);
+    // Days 3 to 5 in New York (UTC-04:00 in May).
+    with_offsets(&files, 3..6, -240);
+    let mut store = dir.store();
+    store.create_person(&person_from(&files, "ana")).unwrap();
+    let summary = store.import_files("ana", &files, None).unwrap();
+    let first = iso(DAY1_MS + 3 * 86_400_000);
+    let named = |notes: &[String]| -> Vec<String> {
+        notes
+            .iter()
+            .filter(|n| n.contains("UTC-04:00"))
+            .cloned()
+            .collect()
+    };
+    let in_import = named(&summary.notes);
+    // Entries and treatments each name the stretch, from its first instant.
+    assert_eq!(in_import.len(), 2, "{:?}", summary.notes);
+    assert!(
+        in_import
+            .iter()
+            .any(|n| n.contains(&format!("entries.json: from {first}"))),
+        "{in_import:?}"
+    );
+    for n in &in_import {
+        assert!(n.contains("Europe/Zurich's at UTC+02:00"), "{n}");
+        assert!(
+            n.contains("meal slots and days follow Europe/Zurich"),
+            "{n}"
+        );
+    }
+    // The stretch at home is not named.
+    assert!(
+        !summary
+            .notes
+            .iter()
+            .any(|n| n.contains("clock was at UTC+02:00")),
+        "{:?}",
+        summary.notes
+    );
+    let a = store.advise("ana").unwrap();
+    let in_advice = named(&a.notes);
+    assert_eq!(in_advice.len(), 1, "{:?}", a.notes);
+    assert!(
+        in_advice[0].contains(&format!("from {first}")),
+        "{}",
+        in_advice[0]
+    );
+    // The last instant: the last entry of day 5 (23:55 local, 21:55 UTC).
+    let last = iso(DAY1_MS + 6 * 86_400_000 - 300_000);
+    assert!(
+        in_advice[0].contains(&format!("to {last}")),
+        "{}",
+        in_advice[0]
+    );
+}
+
+#[test]
+fn a_person_at_home_gets_no_note_on_clocks() {
+    let dir = TempDir::new("home");
+    let files = export(
+        &dir.0,
+        &Plan {
+            days: 4,
+            ..Plan::default()
+        },
+    );
+    with_offsets(&files, 0..0, 120);
+    let mut store = dir.store();
+    store.create_person(&person_from(&files, "ana")).unwrap();
+    let summary = store.import_files("ana", &files, None).unwrap();
+    assert!(
+        !summary.notes.iter().any(|n| n.contains("device's clock")),
+        "{:?}",
+        summary.notes
+    );
+    let a = store.advise("ana").unwrap();
+    assert!(
+        !a.notes.iter().any(|n| n.contains("device's clock")),
+        "{:?}",
+        a.notes
+    );
+}
+
+#[test]
 fn an_import_whose_profile_differs_stops_with_both_values() {
     let dir = TempDir::new("mismatch");
     let files = export(

@@ -67,11 +67,12 @@ impl TwinArmOptions {
     /// Checks the knobs (the error names the field).
     pub fn validate(&self) -> Result<(), String> {
         let held_out = TwinOptions::default().held_out_days;
-        if self.fit_days <= held_out + 2 {
+        let least = abba_twin::MIN_FIT_DAYS;
+        if self.fit_days < held_out + least {
             return Err(format!(
-                "fit_days = {}: must be more than {} (the {held_out} held-out days and at least 3 fitted)",
+                "fit_days = {}: must be more than {} (the {held_out} held-out days and at least {least} fitted)",
                 self.fit_days,
-                held_out + 2
+                held_out + least - 1
             ));
         }
         if self.refit_every_days == 0 {

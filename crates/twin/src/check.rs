@@ -8,7 +8,8 @@
 //! mg/dL observed and predicted at the same minutes, with the band.
 //!
 //! **Grade** ([`grade`]):
-//! - *not usable* when the window has no delivered insulin or no logged
+//! - *not usable* when fewer than [`MIN_FIT_DAYS`] days were fitted (a
+//!   fit is then refused: [`crate::Twin::fit`]), when the window has no delivered insulin or no logged
 //!   carbohydrate (nothing to identify sensitivity or meals from), when the
 //!   held-out days hold fewer than half of their expected readings (CGM:
 //!   half of a day at the sensor's own interval, [`Tape::cgm_interval_min`]:
@@ -25,6 +26,7 @@
 use crate::error::TwinError;
 use crate::tape::{ReadingKind, Tape};
 use abba_core::metrics::metrics_regular;
+use abba_core::units::GlucoseUnit;
 use abba_core::MINUTES_PER_DAY;
 use serde::{Deserialize, Serialize};
 
@@ -114,6 +116,29 @@ impl Banded {
             low: at(0.05),
             high: at(0.95),
         }
+    }
+}
+
+/// The fewest fitted days a twin is made from (besides its held-out
+/// days): on fewer, one day's meals and insulin stand for the person's
+/// sensitivity and meals, and the held-out check says little. (The
+/// trial's twin arm fits on at least as many.)
+pub const MIN_FIT_DAYS: usize = 3;
+
+/// Why a fit on `fit_days` days is not made.
+pub fn too_few_fit_days(fit_days: usize) -> String {
+    format!(
+        "fitted on {fit_days} day{}: a twin needs at least {MIN_FIT_DAYS} fitted days besides its held-out days",
+        if fit_days == 1 { "" } else { "s" }
+    )
+}
+
+/// A spread of glucose (an RMSE) given in mg/dL, in `units` as printed
+/// (one decimal in mg/dL, two in mmol/L).
+pub fn spread(units: GlucoseUnit, mg_dl: f64) -> String {
+    match units {
+        GlucoseUnit::MgDl => format!("{mg_dl:.1}"),
+        GlucoseUnit::MmolL => format!("{:.2}", units.from_mg_dl(mg_dl)),
     }
 }
 
@@ -217,8 +242,17 @@ pub fn held_out(
     })
 }
 
-/// The grade and its reason (module docs).
-pub fn grade(tape: &Tape, check: Option<&HeldOut>) -> (Grade, String) {
+/// The grade and its reason (module docs), its glucose in `units` (the
+/// person's).
+pub fn grade(
+    tape: &Tape,
+    fit_days: usize,
+    check: Option<&HeldOut>,
+    units: GlucoseUnit,
+) -> (Grade, String) {
+    if fit_days < MIN_FIT_DAYS {
+        return (Grade::NotUsable, too_few_fit_days(fit_days));
+    }
     if tape.total_insulin_u() <= 0.0 {
         return (
             Grade::NotUsable,
@@ -250,12 +284,16 @@ pub fn grade(tape: &Tape, check: Option<&HeldOut>) -> (Grade, String) {
             ),
         );
     }
+    let (rmse, mean) = (
+        spread(units, h.rmse_mg_dl),
+        spread(units, h.mean_glucose_rmse_mg_dl),
+    );
+    let (unit, low) = (units.label(), units.value(70.0));
     if h.rmse_mg_dl >= h.mean_glucose_rmse_mg_dl {
         return (
             Grade::NotUsable,
             format!(
-                "held-out RMSE {:.1} mg/dL is not below the {:.1} mg/dL of the days' own mean glucose",
-                h.rmse_mg_dl, h.mean_glucose_rmse_mg_dl
+                "held-out RMSE {rmse} {unit} is not below the {mean} {unit} of the days' own mean glucose"
             ),
         );
     }
@@ -269,17 +307,106 @@ pub fn grade(tape: &Tape, check: Option<&HeldOut>) -> (Grade, String) {
         (
             Grade::Good,
             format!(
-                "held-out RMSE {:.1} <= 0.8 x {:.1} mg/dL, MARD {:.1} % <= 20 %, time below 70 within {:.1} <= 3 pp and in range within {:.1} <= 15 pp",
-                h.rmse_mg_dl, h.mean_glucose_rmse_mg_dl, h.mard_pct, d_tbr, d_tir
+                "held-out RMSE {rmse} <= 0.8 x {mean} {unit}, MARD {:.1} % <= 20 %, time below {low} within {:.1} <= 3 pp and in range within {:.1} <= 15 pp",
+                h.mard_pct, d_tbr, d_tir
             ),
         )
     } else {
         (
             Grade::Fair,
             format!(
-                "held-out RMSE {:.1} below the mean glucose's {:.1} mg/dL, but not good (MARD {:.1} %, time below 70 off by {:.1} pp, in range by {:.1} pp)",
-                h.rmse_mg_dl, h.mean_glucose_rmse_mg_dl, h.mard_pct, d_tbr, d_tir
+                "held-out RMSE {rmse} below the mean glucose's {mean} {unit}, but not good (MARD {:.1} %, time below {low} off by {:.1} pp, in range by {:.1} pp)",
+                h.mard_pct, d_tbr, d_tir
             ),
         )
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use abba_core::{Event, EventKind, Grams, MealSlot, MgDl, Timestamp, Units, UnitsPerHour};
+
+    /// `days` days of 5-minute CGM readings, a basal rate and three meals
+    /// with their boluses a day.
+    pub(crate) fn days_of_events(days: i64) -> Vec<Event> {
+        let mut v = vec![Event::new(
+            Timestamp(0),
+            EventKind::BasalRate(UnitsPerHour(1.0)),
+        )];
+        for d in 0..days {
+            for k in 0..288 {
+                let m = d * 1440 + k * 5;
+                let g = 140.0 + 40.0 * ((m as f64) / 240.0).sin();
+                v.push(Event::new(Timestamp(m), EventKind::Cgm(MgDl(g))));
+            }
+            for (at, slot) in [
+                (420, MealSlot::Breakfast),
+                (750, MealSlot::Lunch),
+                (1110, MealSlot::Dinner),
+            ] {
+                let m = d * 1440 + at;
+                v.push(Event::new(
+                    Timestamp(m),
+                    EventKind::MealAnnounced {
+                        carbs: Grams(50.0),
+                        slot,
+                    },
+                ));
+                v.push(Event::new(Timestamp(m + 1), EventKind::Bolus(Units(5.0))));
+            }
+        }
+        v.sort_by_key(|e| e.at);
+        v
+    }
+
+    fn ranges(tir: f64, below: f64) -> Ranges {
+        Ranges {
+            tir_pct: tir,
+            below_70_pct: below,
+            lbgi: 1.0,
+            hbgi: 3.0,
+        }
+    }
+
+    #[test]
+    fn fewer_fitted_days_than_the_least_are_not_usable() {
+        let tape = Tape::from_events(&days_of_events(4), 4, 1.0).unwrap();
+        for fit_days in 0..MIN_FIT_DAYS {
+            let (g, why) = grade(&tape, fit_days, None, GlucoseUnit::MgDl);
+            assert_eq!(g, Grade::NotUsable, "{fit_days}");
+            assert!(why.contains("at least 3 fitted days"), "{why}");
+        }
+    }
+
+    #[test]
+    fn the_grade_speaks_the_persons_unit() {
+        let tape = Tape::from_events(&days_of_events(5), 5, 1.0).unwrap();
+        let h = HeldOut {
+            days: 2,
+            readings: 576,
+            rmse_mg_dl: 18.0,
+            mard_pct: 9.0,
+            mean_glucose_rmse_mg_dl: 36.0,
+            observed: ranges(70.0, 2.0),
+            predicted: Banded {
+                value: ranges(72.0, 2.5),
+                low: ranges(65.0, 1.0),
+                high: ranges(80.0, 4.0),
+            },
+        };
+        let (g, mg) = grade(&tape, 3, Some(&h), GlucoseUnit::MgDl);
+        assert_eq!(g, Grade::Good);
+        assert!(
+            mg.contains("0.8 x 36.0 mg/dL") && mg.contains("below 70 "),
+            "{mg}"
+        );
+        let (g, mmol) = grade(&tape, 3, Some(&h), GlucoseUnit::MmolL);
+        assert_eq!(g, Grade::Good);
+        assert!(!mmol.contains("mg/dL"), "{mmol}");
+        assert!(
+            mmol.contains("RMSE 1.00 <= 0.8 x 2.00 mmol/L") && mmol.contains("below 3.9 "),
+            "{mmol}"
+        );
     }
 }

@@ -41,6 +41,6 @@ pub mod sim;
 pub mod tape;
 pub mod twin;
 
-pub use check::{Banded, Grade, HeldOut, Ranges};
+pub use check::{Banded, Grade, HeldOut, Ranges, MIN_FIT_DAYS};
 pub use error::TwinError;
 pub use twin::{BasalChange, Replay, Twin, TwinOptions, WhatIf, NOTICE};

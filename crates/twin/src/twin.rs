@@ -187,6 +187,8 @@ pub struct TwinOptions {
     /// The scheduled basal in force before the log's first basal record
     /// (U/h; the person's therapy in force).
     pub basal_in_force_u_per_h: f64,
+    /// The person's glucose unit: the grade's words use it.
+    pub units: abba_core::units::GlucoseUnit,
 }
 
 impl Default for TwinOptions {
@@ -197,6 +199,7 @@ impl Default for TwinOptions {
             held_out_days: 2,
             population: Population::Adults,
             iters_per_start: FitOptions::default().iters_per_start,
+            units: abba_core::units::GlucoseUnit::MgDl,
         }
     }
 }
@@ -270,6 +273,15 @@ impl Twin {
             )));
         }
         let fit_days = tape.days - options.held_out_days;
+        if fit_days < check::MIN_FIT_DAYS {
+            return Err(TwinError::Data(format!(
+                "the log holds {} days with readings in the {}-day window, {} of them held out: {}",
+                tape.days,
+                options.days,
+                options.held_out_days,
+                check::too_few_fit_days(fit_days)
+            )));
+        }
         let prior = Prior::new(options.population, tape.mean_scheduled_basal_u_per_h())?;
         let outcome = fit::fit(
             &tape,
@@ -294,7 +306,7 @@ impl Twin {
                 Ok(h) => (Some(h), None),
                 Err(e) => (None, Some(e.to_string())),
             };
-        let (grade, grade_reason) = check::grade(&tape, held_out.as_ref());
+        let (grade, grade_reason) = check::grade(&tape, fit_days, held_out.as_ref(), options.units);
         let at_prior = prior.values(&prior_zero());
         let fitted = prior.values(&outcome.z);
         let estimates = (0..N_PARAMS)
@@ -658,4 +670,24 @@ pub struct Replay {
     pub draws: usize,
     /// Draws whose candidate failed (no steady state or a crash).
     pub failed_draws: usize,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_fit_on_fewer_days_than_the_least_is_refused_with_why() {
+        // 4 days with readings, 2 held out: 2 fitted.
+        let events = crate::check::tests::days_of_events(4);
+        let options = TwinOptions {
+            days: 4,
+            held_out_days: 2,
+            basal_in_force_u_per_h: 1.0,
+            ..TwinOptions::default()
+        };
+        let e = Twin::fit("ana", &events, &options).unwrap_err().to_string();
+        assert!(e.contains("fitted on 2 days"), "{e}");
+        assert!(e.contains("at least 3 fitted days"), "{e}");
+    }
 }

@@ -131,6 +131,9 @@ pub struct Ctx<'a> {
     pub notes: std::cell::RefCell<Vec<String>>,
     /// Rows and items that could not be read ([`Ctx::skip`]).
     pub skipped: std::cell::RefCell<Skipped>,
+    /// The device's UTC offsets the file carries, with their instants
+    /// ([`Ctx::clock`], [`crate::clocks`]).
+    pub clocks: std::cell::RefCell<Vec<(jiff::Timestamp, i32)>>,
 }
 
 /// The rows or items of a file that could not be read: left out, the rest
@@ -169,6 +172,11 @@ impl Ctx<'_> {
         self.notes
             .borrow_mut()
             .push(format!("{}: {}", self.file, text.into()));
+    }
+    /// A datum at `at` written by a device at `offset_s` seconds east of
+    /// UTC (see [`crate::clocks`]).
+    pub fn clock(&self, at: jiff::Timestamp, offset_s: i32) {
+        self.clocks.borrow_mut().push((at, offset_s));
     }
     /// One row or item that could not be read: an error about it alone
     /// ([`IoError::Invalid`]) is kept for the file's report and the row is
@@ -377,6 +385,8 @@ pub struct FileRead {
     pub notes: Vec<String>,
     /// Rows or items that could not be read (left out, reported in a note).
     pub unread: Unread,
+    /// The device's UTC offsets the file carries ([`crate::clocks`]).
+    pub clocks: Vec<crate::clocks::ClockStretch>,
 }
 
 /// Rows or items of the files that could not be read and were left out
@@ -403,6 +413,7 @@ pub fn read_bytes_noted(
         opts,
         notes: Default::default(),
         skipped: Default::default(),
+        clocks: Default::default(),
     };
     // A workbook (a zip) is binary: no text decoding.
     if tidepool_xlsx::is_zip(bytes) {
@@ -414,6 +425,7 @@ pub fn read_bytes_noted(
             records,
             notes: ctx.notes.into_inner(),
             unread,
+            clocks: crate::clocks::stretches(ctx.clocks.into_inner()),
         });
     }
     let decoded = table::utf16_to_utf8(file, bytes)?;
@@ -444,6 +456,7 @@ pub fn read_bytes_noted(
         records,
         notes: ctx.notes.into_inner(),
         unread,
+        clocks: crate::clocks::stretches(ctx.clocks.into_inner()),
     })
 }
 
@@ -518,6 +531,7 @@ pub fn carelink_settings_rows(
         opts,
         notes: Default::default(),
         skipped: Default::default(),
+        clocks: Default::default(),
     };
     let (_, settings) = carelink::read_with_settings(&ctx, bytes)?;
     // The therapy is not taken from a file read in part: a row left out
@@ -563,6 +577,11 @@ pub struct Batch {
     /// their files read (each file's note says so).
     #[serde(default)]
     pub unread: Unread,
+    /// Per file (in file order; empty for a batch made otherwise): the
+    /// device's UTC offsets it carries ([`crate::clocks`]), compared with
+    /// the person's zone by the store's import.
+    #[serde(default)]
+    pub clocks: Vec<Vec<crate::clocks::ClockStretch>>,
 }
 
 /// How far apart (seconds) two Tidepool data of the same kind and value
@@ -705,13 +724,16 @@ pub fn read_all(inputs: &[(String, Vec<u8>)], opts: &ReadOptions) -> Result<Batc
     let mut per_file = Vec::new();
     let mut notes = Vec::new();
     let mut unread = Unread::default();
+    let mut clocks = Vec::with_capacity(inputs.len());
     for (i, (name, bytes)) in inputs.iter().enumerate() {
         let FileRead {
             format,
             records: mut r,
             notes: mut n,
             unread: u,
+            clocks: c,
         } = read_bytes_noted(name, i as u16, bytes, opts)?;
+        clocks.push(c);
         unread.count += u.count;
         unread.first.extend(u.first);
         formats.push(format);
@@ -731,6 +753,7 @@ pub fn read_all(inputs: &[(String, Vec<u8>)], opts: &ReadOptions) -> Result<Batc
     batch.per_file = per_file;
     batch.notes = notes;
     batch.unread = unread;
+    batch.clocks = clocks;
     Ok(batch)
 }
 
@@ -767,6 +790,7 @@ pub fn merge(files: Vec<String>, formats: Vec<Format>, mut records: Vec<Record>)
         notes: Vec::new(),
         too_old: Refused::default(),
         unread: Unread::default(),
+        clocks: Vec::new(),
     }
 }
 

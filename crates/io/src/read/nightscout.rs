@@ -39,6 +39,9 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     for (index, value) in items.iter().enumerate() {
         let item = or_skip!(ctx, object(ctx.file, index, value));
         let at = or_skip!(ctx, instant(&item));
+        if let Some(offset) = device_offset(&item) {
+            ctx.clock(at, offset);
+        }
         let id = or_skip!(ctx, document_id(&item));
         let version = or_skip!(ctx, modified(&item));
         let kinds = or_skip!(ctx, kinds(ctx, &item, &mut tally));
@@ -170,6 +173,9 @@ pub fn read_csv(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
         };
         let at = or_skip!(ctx, instant(&item).map_err(on_line));
         let kind = or_skip!(ctx, entry(&item).map_err(on_line));
+        if let Some(offset) = crate::clocks::text_offset_s(cell(0)) {
+            ctx.clock(at, offset);
+        }
         out.push(Record {
             at,
             id: content_id(Source::Nightscout, at, &kind),
@@ -682,6 +688,26 @@ fn instant(item: &Item<'_>) -> Result<jiff::Timestamp, IoError> {
         "date",
         "missing: every record needs date, dateString, created_at or startDate",
     ))
+}
+
+/// The offset from UTC the uploader's device was at when it wrote the
+/// item (seconds east; [`crate::clocks`]): its `utcOffset` (minutes,
+/// xDrip+, AndroidAPS, Loop), else the offset of its `dateString` or
+/// `created_at` when that is not UTC. A profile document says nothing of
+/// where the person was (its zone is its `timezone`): none.
+fn device_offset(item: &Item<'_>) -> Option<i32> {
+    if item.get("store").is_some() {
+        return None;
+    }
+    if let Some(m) = item.num("utcOffset").ok().flatten() {
+        return crate::clocks::minutes_offset_s(m);
+    }
+    ["dateString", "created_at"].iter().find_map(|f| {
+        item.str(f)
+            .ok()
+            .flatten()
+            .and_then(crate::clocks::text_offset_s)
+    })
 }
 
 /// 10^11 ms is March 1973, decades before Nightscout: a smaller `date` is

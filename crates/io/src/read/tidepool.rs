@@ -212,6 +212,13 @@ pub(crate) fn read_items(
             Some(id) => SourceId::Id(id.into()),
             None => content_id(Source::Tidepool, at, &kind),
         };
+        // The device's zone offset (minutes east; `conversionOffset` is
+        // the device clock's error, not a zone): noted, never applied.
+        if let Some(s) =
+            (item.num("timezoneOffset").ok().flatten()).and_then(crate::clocks::minutes_offset_s)
+        {
+            ctx.clock(at, s);
+        }
         out.push(Record {
             at,
             kind,
@@ -688,6 +695,7 @@ pub(crate) fn pump_settings(
             opts: &opts,
             notes: Default::default(),
             skipped: Default::default(),
+            clocks: Default::default(),
         };
         match export_form(&ctx, &items)? {
             None => Ok(each(&items)),

@@ -159,8 +159,10 @@ pub fn offset_name(seconds: i32) -> String {
 /// follow the stored zone.
 pub fn notes(stretches: &[ClockStretch], tz: &TimeZone) -> Vec<String> {
     let zone = tz.iana_name().unwrap_or("the stored zone");
-    away(stretches, tz)
+    let away = away(stretches, tz);
+    let mut out: Vec<String> = away
         .iter()
+        .take(MAX_NOTES)
         .map(|a| {
             let at = |ms: i64| {
                 Timestamp::from_millisecond(ms)
@@ -185,8 +187,22 @@ pub fn notes(stretches: &[ClockStretch], tz: &TimeZone) -> Vec<String> {
                 offset_name(a.stretch.offset_s),
             )
         })
-        .collect()
+        .collect();
+    // Offsets that change back and forth (two uploaders set to different
+    // zones writing into one collection) would make a sentence each.
+    if let Some(last) = away.last().filter(|_| away.len() > MAX_NOTES) {
+        let until = Timestamp::from_millisecond(last.stretch.last_ms)
+            .map_or_else(|_| last.stretch.last_ms.to_string(), |t| t.to_string());
+        out.push(format!(
+            "and {} more stretches away from {zone}'s offset, until {until}",
+            away.len() - MAX_NOTES
+        ));
+    }
+    out
 }
+
+/// At most this many stretches are said one by one; the rest are counted.
+pub const MAX_NOTES: usize = 5;
 
 #[cfg(test)]
 mod tests {
@@ -242,5 +258,24 @@ mod tests {
         // In New York's zone, only the two stretches at home are away.
         let ny = TimeZone::get("America/New_York").unwrap();
         assert_eq!(away(&s, &ny).len(), 2);
+    }
+
+    #[test]
+    fn offsets_changing_back_and_forth_are_said_five_times_then_counted() {
+        let berlin = TimeZone::get("Europe/Berlin").unwrap();
+        let t0: Timestamp = "2024-06-01T00:00:00Z".parse().unwrap();
+        // Two uploaders, one at home (+02:00), one at UTC-05:00, in turn.
+        let seen: Vec<(Timestamp, i32)> = (0..40)
+            .map(|k| {
+                let off = if k % 2 == 0 { 7200 } else { -18000 };
+                (t0 + jiff::SignedDuration::from_mins(5 * k), off)
+            })
+            .collect();
+        let n = notes(&stretches(seen), &berlin);
+        assert_eq!(n.len(), MAX_NOTES + 1, "{n:?}");
+        assert_eq!(
+            n[MAX_NOTES],
+            "and 15 more stretches away from Europe/Berlin's offset, until 2024-06-01T03:15:00Z"
+        );
     }
 }

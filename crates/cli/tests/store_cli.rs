@@ -420,37 +420,42 @@ fn sigkill_during_import_leaves_whole_imports_only() {
         "--carb-ratio",
         "10,10,10",
     ]);
-    // How long a whole import of the big export takes (process included).
-    let t = Instant::now();
-    let probe = dir.join("probe.db");
-    let probe = probe.to_str().unwrap().to_string();
-    ok(&[
-        "person",
-        "new",
-        "--db",
-        &probe,
-        "--name",
-        "p",
-        "--tz",
-        "UTC",
-        "--mode",
-        "cgm",
-        "--basal",
-        "1",
-        "--carb-ratio",
-        "10,10,10",
-    ]);
-    let mut a = vec![
-        "import",
-        "--db",
-        probe.as_str(),
-        "--person",
-        "p",
-        "--keep-therapy",
-    ];
-    a.extend(big.iter().map(String::as_str));
-    ok(&a);
-    let full = t.elapsed().as_micros() as u64;
+    // How long a whole import of the big export takes (process included):
+    // the fastest of three, so that one import slowed by the other tests
+    // running beside this one does not push most kills past the end.
+    let mut full = u64::MAX;
+    for i in 0..3 {
+        let probe = dir.join(format!("probe{i}.db"));
+        let probe = probe.to_str().unwrap().to_string();
+        ok(&[
+            "person",
+            "new",
+            "--db",
+            &probe,
+            "--name",
+            "p",
+            "--tz",
+            "UTC",
+            "--mode",
+            "cgm",
+            "--basal",
+            "1",
+            "--carb-ratio",
+            "10,10,10",
+        ]);
+        let mut a = vec![
+            "import",
+            "--db",
+            probe.as_str(),
+            "--person",
+            "p",
+            "--keep-therapy",
+        ];
+        a.extend(big.iter().map(String::as_str));
+        let t = Instant::now();
+        ok(&a);
+        full = full.min(t.elapsed().as_micros() as u64);
+    }
     let allowed = [0, n_small, n_big];
     let mut seed: u64 = 0x5eed;
     let (mut interrupted, mut completed) = (0, 0);

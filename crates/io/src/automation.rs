@@ -113,6 +113,16 @@ pub struct Evidence {
 /// looping) does not hold the basal advice for good.
 pub const LOOP_RECENT_DAYS: i64 = 28;
 
+/// The start (Unix ms) of the last [`LOOP_RECENT_DAYS`] of `records`
+/// (before their latest instant); `None` without records.
+pub fn recent_from_ms(records: &[Record]) -> Option<i64> {
+    records
+        .iter()
+        .map(|r| r.at.as_millisecond())
+        .max()
+        .map(|end| end - LOOP_RECENT_DAYS * 86_400_000)
+}
+
 /// What the data show.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -143,10 +153,16 @@ impl Delivery {
 impl Evidence {
     /// Counts from normalised records (zone `tz` for the hours).
     pub fn from_records(records: &[Record], tz: &jiff::tz::TimeZone) -> Self {
+        Self::from_records_since(records, tz, i64::MIN)
+    }
+
+    /// Counts from the records at or after `from_ms` (Unix ms; see
+    /// [`recent_from_ms`]).
+    pub fn from_records_since(records: &[Record], tz: &jiff::tz::TimeZone, from_ms: i64) -> Self {
         let mut e = Evidence::default();
         let mut short_hours = BTreeSet::new();
         let mut pump_days = BTreeSet::new();
-        for r in records {
+        for r in records.iter().filter(|r| r.at.as_millisecond() >= from_ms) {
             let local = tz.to_datetime(r.at);
             match &r.kind {
                 // The end of a temporary basal (0 min): none was started.

@@ -599,21 +599,9 @@ pub fn record_facts(
     let profile_changes = profile_changes(person, &records)?;
     // The delivery is told by the last days of the data: a loop, or
     // injections, given up before them do not hold the advice for good.
-    let recent_from_ms = records
-        .iter()
-        .map(|r| r.at.as_millisecond())
-        .max()
-        .map(|end| end - abba_io::automation::LOOP_RECENT_DAYS * 86_400_000);
-    let recent: Vec<Record> = match recent_from_ms {
-        Some(from) => records
-            .iter()
-            .filter(|r| r.at.as_millisecond() >= from)
-            .cloned()
-            .collect(),
-        None => Vec::new(),
-    };
-    let evidence = Evidence::from_records(&recent, &person.tz);
-    drop(recent);
+    let recent_from_ms = abba_io::automation::recent_from_ms(&records);
+    let evidence =
+        Evidence::from_records_since(&records, &person.tz, recent_from_ms.unwrap_or(i64::MAX));
     let stream = log::events(person, records)?;
     let first_week = first_week(
         person.mode(),

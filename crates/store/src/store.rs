@@ -560,24 +560,12 @@ impl Store {
         })?;
         // As the advice tells it: by the files' last days
         // (`in_force::record_facts`), a loop given up before them is past.
-        let recent_from = batch
-            .records
-            .iter()
-            .map(|r| r.at.as_millisecond())
-            .max()
-            .map_or(i64::MIN, |end| {
-                end - abba_io::automation::LOOP_RECENT_DAYS * 86_400_000
-            });
-        let recent: Vec<abba_io::Record> = batch
-            .records
-            .iter()
-            .filter(|r| r.at.as_millisecond() >= recent_from)
-            .cloned()
-            .collect();
-        let mut shown = Evidence::from_records(&recent, &p.tz);
+        let recent_from = abba_io::automation::recent_from_ms(&batch.records);
+        let mut shown =
+            Evidence::from_records_since(&batch.records, &p.tz, recent_from.unwrap_or(i64::MAX));
         for e in evidence
             .iter()
-            .filter(|e| !e.loop_marks_before(recent_from))
+            .filter(|e| !recent_from.is_some_and(|f| e.loop_marks_before(f)))
         {
             shown.add_file(e);
         }

@@ -366,19 +366,17 @@ fn sigkill_during_import_leaves_whole_imports_only() {
     let dir = tmp("kill");
     let small = export(&dir, "small", 20);
     let big = export(&dir, "big", 30);
-    // Reference counts from clean imports.
-    let count = |files: &[String]| -> i64 {
-        let db = dir.join(format!("ref{}.db", files.len() + files[0].len()));
-        let db = db.to_str().unwrap().to_string();
+    // A person "p" in a new store (CGM, 1 U/h, 10 g/U).
+    let new_person = |db: &str, tz: &str| {
         ok(&[
             "person",
             "new",
             "--db",
-            &db,
+            db,
             "--name",
             "p",
             "--tz",
-            "Europe/Zurich",
+            tz,
             "--mode",
             "cgm",
             "--basal",
@@ -386,6 +384,12 @@ fn sigkill_during_import_leaves_whole_imports_only() {
             "--carb-ratio",
             "10,10,10",
         ]);
+    };
+    // Reference counts from clean imports.
+    let count = |files: &[String]| -> i64 {
+        let db = dir.join(format!("ref{}.db", files.len() + files[0].len()));
+        let db = db.to_str().unwrap().to_string();
+        new_person(&db, "Europe/Zurich");
         // The store keeps its values (the export's profile says 1.35 U/h).
         let mut a = vec![
             "import",
@@ -404,22 +408,7 @@ fn sigkill_during_import_leaves_whole_imports_only() {
     let n_big = count(&big);
     let db = dir.join("abba.db");
     let dbs = db.to_str().unwrap().to_string();
-    ok(&[
-        "person",
-        "new",
-        "--db",
-        &dbs,
-        "--name",
-        "p",
-        "--tz",
-        "Europe/Zurich",
-        "--mode",
-        "cgm",
-        "--basal",
-        "1",
-        "--carb-ratio",
-        "10,10,10",
-    ]);
+    new_person(&dbs, "Europe/Zurich");
     // How long a whole import of the big export takes (process included):
     // the fastest of three, so that one import slowed by the other tests
     // running beside this one does not push most kills past the end.
@@ -427,22 +416,7 @@ fn sigkill_during_import_leaves_whole_imports_only() {
     for i in 0..3 {
         let probe = dir.join(format!("probe{i}.db"));
         let probe = probe.to_str().unwrap().to_string();
-        ok(&[
-            "person",
-            "new",
-            "--db",
-            &probe,
-            "--name",
-            "p",
-            "--tz",
-            "UTC",
-            "--mode",
-            "cgm",
-            "--basal",
-            "1",
-            "--carb-ratio",
-            "10,10,10",
-        ]);
+        new_person(&probe, "UTC");
         let mut a = vec![
             "import",
             "--db",

@@ -245,10 +245,10 @@ fn new(a: NewArgs) -> Result<()> {
     let [b, l, d] = start.carb_ratio.map(|c| c.0);
     let therapy = match &from {
         Some(t) => format!(
-            "{} (from {}, in force since {})",
+            "{} (from {}, {})",
             t.describe(),
             t.origin,
-            t.at
+            since_words(t.at, &a.tz)
         ),
         None => format!("basal {} U/h, carb ratios {b}/{l}/{d} g/U", start.basal.0),
     };
@@ -295,5 +295,20 @@ pub fn run(a: Args) -> Result<()> {
             }
             Ok(())
         }
+    }
+}
+
+/// When a therapy read from an export took effect, in the person's zone
+/// (the person's own clock, as every date abba prints for them).
+fn since_words(at: jiff::Timestamp, tz: &str) -> String {
+    if at == abba_io::record::SINCE_ALWAYS {
+        return "undated: in force since always".into();
+    }
+    match jiff::tz::TimeZone::get(tz) {
+        Ok(z) => format!(
+            "in force since {}",
+            at.to_zoned(z).strftime("%Y-%m-%d %H:%M %Z")
+        ),
+        Err(_) => format!("in force since {at}"),
     }
 }

@@ -15,9 +15,9 @@ pub struct Args {
     /// Days in the report, ending at the last day with data.
     #[arg(long, default_value_t = 14, value_name = "N")]
     pub days: u32,
-    /// Glucose unit of the page: mg/dL or mmol/L.
-    #[arg(long, default_value = "mg/dL", value_name = "UNIT")]
-    pub units: GlucoseUnit,
+    /// Glucose unit of the page: mg/dL or mmol/L [default: the person's unit]
+    #[arg(long, value_name = "UNIT")]
+    pub units: Option<GlucoseUnit>,
     /// The HTML file to write.
     #[arg(long, value_name = "FILE")]
     pub out: PathBuf,
@@ -36,7 +36,12 @@ pub fn run(a: Args) -> Result<()> {
     }
     let check = crate::twin_effect::twin_check(&a.twin_check)?;
     let mut store = a.who.open()?;
-    let mut input = abba_store::report::person_input(&mut store, &a.who.person, a.days, a.units)?;
+    // The page, its reasons and notes in one unit: the person's unless asked.
+    let unit = match a.units {
+        Some(u) => u,
+        None => store.person(&a.who.person)?.settings.units,
+    };
+    let mut input = abba_store::report::person_input(&mut store, &a.who.person, a.days, unit)?;
     // Each open suggestion's predicted effect on the person's twin.
     let twin = crate::twin_effect::TwinPredictor::new(&a.who.db);
     let advice = store.advise_with(
@@ -53,7 +58,7 @@ pub fn run(a: Args) -> Result<()> {
                 "Open suggestion for the {name}, {:.3} -> {:.3} {}:",
                 v.previous, v.suggested, s.unit
             );
-            let lines = crate::advice_text::effect_lines(&name, s.unit, s.in_force, e, a.units);
+            let lines = crate::advice_text::effect_lines(&name, s.unit, s.in_force, e, unit);
             input.notes.push(format!("{head} {}", lines.join(" ")));
         }
     }

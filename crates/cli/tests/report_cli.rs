@@ -218,6 +218,63 @@ fn pdf_is_printed_by_chromium_when_asked() {
 }
 
 #[test]
+fn the_page_speaks_the_person_s_unit_unless_asked_and_never_two() {
+    // A person who reads mmol/L: without --units the page is theirs, the
+    // table of suggestions and its reasons included; with --units mg/dL the
+    // reasons follow the page (before, the page defaulted to mg/dL while
+    // its reasons stayed in mmol/L).
+    let mut sim = simulate(ScenarioId::S1, 1, 12);
+    sim.person.settings.units = abba_core::units::GlucoseUnit::MmolL;
+    let dir = TempDir::new("report-unit");
+    let mut store = sim.store(&dir.0);
+    store
+        .import(&sim.person.name, &sim.export(0, sim.last_day()))
+        .unwrap();
+    drop(store);
+    let page = dir.0.join("page.html");
+    let report = |extra: &[&str]| -> String {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_abba"))
+            .args(["report", "--db"])
+            .arg(dir.0.join("abba.db"))
+            .args(["--person", &sim.person.name])
+            .args(extra)
+            .arg("--out")
+            .arg(&page)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        std::fs::read_to_string(&page).unwrap()
+    };
+    // The rows of the suggestions' table: their reasons name glucose
+    // thresholds ("above ... and ... below ...").
+    let rows = |html: &str| -> Vec<String> {
+        html.split("<tr>")
+            .filter(|r| r.contains("readings of the window"))
+            .map(str::to_string)
+            .collect()
+    };
+    let own = report(&[]);
+    let own_rows = rows(&own);
+    assert!(!own_rows.is_empty(), "no suggestion rows");
+    for r in &own_rows {
+        assert!(r.contains("mmol/L") && !r.contains("mg/dL"), "{r}");
+    }
+    assert!(
+        own.contains("<strong>Unit:</strong> mmol/L"),
+        "the page's unit is not the person's"
+    );
+    let asked = report(&["--units", "mg/dL"]);
+    assert!(asked.contains("<strong>Unit:</strong> mg/dL"));
+    for r in &rows(&asked) {
+        assert!(r.contains("mg/dL") && !r.contains("mmol/L"), "{r}");
+    }
+}
+
+#[test]
 fn unknown_person_and_bad_unit_are_refused() {
     let dir = TempDir::new("report-bad");
     let sim = simulate(ScenarioId::S1, 1, 9);

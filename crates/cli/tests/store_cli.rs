@@ -177,7 +177,7 @@ fn the_readmes_first_run_puts_the_pumps_profile_in_force() {
     let files = export(&dir, "ns", 12);
     let profile = files[2].as_str();
     let base = ["--db", db, "--person", "ana"];
-    ok(&[
+    let created = ok(&[
         "person",
         "new",
         "--db",
@@ -203,6 +203,17 @@ fn the_readmes_first_run_puts_the_pumps_profile_in_force() {
     let v: serde_json::Value = serde_json::from_str(&json).unwrap();
     // What the exported profile says (adult#002's standard therapy).
     let p: serde_json::Value = serde_json::from_slice(&std::fs::read(profile).unwrap()).unwrap();
+    // The profile's start, told on the person's clock (not as a UTC instant).
+    let since: jiff::Timestamp = p[0]["startDate"].as_str().unwrap().parse().unwrap();
+    let zurich = jiff::tz::TimeZone::get("Europe/Zurich").unwrap();
+    let local = since
+        .to_zoned(zurich)
+        .strftime("%Y-%m-%d %H:%M %Z")
+        .to_string();
+    assert!(
+        created.contains(&format!("in force since {local})")),
+        "{created}"
+    );
     let store = &p[0]["store"]["abba"];
     let basal = store["basal"][0]["value"].as_f64().unwrap();
     let cr = store["carbratio"][0]["value"].as_f64().unwrap();

@@ -29,7 +29,7 @@ pub fn person_input(
     let mode = person.mode();
     let events = store.events(name)?;
     // A report only reads (nothing stored, no write lock taken).
-    let history = store.history_read(name)?;
+    let history = store.history_read(name, unit)?;
     let (Some(first_day), Some(last)) = (person.first_day, events.last()) else {
         return Err(StoreError::NoData(name.to_string()));
     };
@@ -195,7 +195,7 @@ pub fn person_input(
             }
         }
     }
-    let advice = store.advise_read(name)?;
+    let advice = store.advise_read(name, unit)?;
     let mut notes = Vec::new();
     if same_minute.merged > 0 {
         notes.push(format!(

@@ -12,6 +12,7 @@ use crate::log;
 use crate::person::{self, NewPerson, Person};
 use crate::replay::{self, Snapshot};
 use abba_advisor::{Abba, Decision, Parameter};
+use abba_core::units::GlucoseUnit;
 use abba_core::Event;
 use abba_io::automation::{Delivery, Evidence};
 use abba_io::events::EventStream;
@@ -635,9 +636,12 @@ impl Store {
         Ok((p, s))
     }
 
-    /// [`Store::advise`] in a read transaction that writes nothing.
-    pub fn advise_read(&mut self, name: &str) -> Result<Advice, StoreError> {
-        let (p, s) = self.state_read(name)?;
+    /// [`Store::advise`] in a read transaction that writes nothing, its
+    /// words in `unit` (a report's page may use another unit than the
+    /// person's own).
+    pub fn advise_read(&mut self, name: &str, unit: GlucoseUnit) -> Result<Advice, StoreError> {
+        let (mut p, s) = self.state_read(name)?;
+        p.settings.units = unit;
         Ok(Self::advice_of(&p, &s))
     }
 
@@ -706,9 +710,14 @@ impl Store {
 
     /// [`Store::history`] in a read transaction that writes nothing (no
     /// write lock: a report is read while another writer, an import,
-    /// holds the store).
-    pub fn history_read(&mut self, name: &str) -> Result<Vec<SuggestionView>, StoreError> {
-        let (p, s) = self.state_read(name)?;
+    /// holds the store); the reasons in `unit`.
+    pub fn history_read(
+        &mut self,
+        name: &str,
+        unit: GlucoseUnit,
+    ) -> Result<Vec<SuggestionView>, StoreError> {
+        let (mut p, s) = self.state_read(name)?;
+        p.settings.units = unit;
         Ok(advise::views_with(
             &p,
             &s.decisions,

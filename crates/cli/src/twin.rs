@@ -90,12 +90,26 @@ pub fn run(a: Args) -> Result<()> {
 /// The person's events, the basal rate in force at the start and the
 /// unit they read glucose in.
 fn events(who: &Who) -> Result<(Vec<abba_core::Event>, f64, GlucoseUnit)> {
+    let (events, basal, units, _) = events_dated(who)?;
+    Ok((events, basal, units))
+}
+
+/// [`events`] and the person's day 1 (the date of day index 0).
+fn events_dated(
+    who: &Who,
+) -> Result<(
+    Vec<abba_core::Event>,
+    f64,
+    GlucoseUnit,
+    Option<jiff::civil::Date>,
+)> {
     let store = crate::store_args::open(&who.db)?;
     let person = store.person(&who.person)?;
     Ok((
         store.events(&who.person)?,
         person.settings.start.basal.0,
         person.settings.units,
+        person.first_day,
     ))
 }
 
@@ -105,7 +119,7 @@ fn fit(a: FitArgs) -> Result<()> {
         .parse()
         .map_err(|e| anyhow!("--population: {e}"))?;
     let db = crate::twin_effect::twins_beside(&a.who.db).map_err(|e| anyhow!(e))?;
-    let (events, basal, units) = events(&a.who)?;
+    let (events, basal, units, first_day) = events_dated(&a.who)?;
     let options = TwinOptions {
         days: a.days,
         held_out_days: a.held_out,
@@ -134,13 +148,40 @@ fn fit(a: FitArgs) -> Result<()> {
     if a.who.json {
         println!("{}", serde_json::to_string_pretty(&twin)?);
     } else {
-        print!("{}", fit_text(&twin, units));
+        print!("{}", fit_text(&twin, units, first_day));
     }
     Ok(())
 }
 
-/// The fitted twin in words, glucose in the person's `units`.
-fn fit_text(t: &Twin, units: GlucoseUnit) -> String {
+/// The date of a day index (0 = day 1), or "day N" without day 1.
+fn day_words(first_day: Option<jiff::civil::Date>, index: i64) -> String {
+    first_day
+        .and_then(|d| d.checked_add(jiff::Span::new().days(index)).ok())
+        .map_or_else(|| format!("day {}", index + 1), |d| d.to_string())
+}
+
+/// A fitted parameter's value and prior in words, with its unit: the
+/// basal glucose in the person's unit, the others as the model has them.
+fn estimate_line(e: &abba_twin::twin::Estimate, units: GlucoseUnit) -> String {
+    let (value, prior, unit) = match e.name.as_str() {
+        "basal_glucose" => (
+            units.from_mg_dl(e.value),
+            units.from_mg_dl(e.prior_value),
+            units.label().to_string(),
+        ),
+        "basal_need" => (e.value, e.prior_value, "U/h".to_string()),
+        "absorption" => (e.value, e.prior_value, "/min".to_string()),
+        _ => (e.value, e.prior_value, "×".to_string()),
+    };
+    format!(
+        "  {:<22} {:>9.4} {unit:<6} (prior {prior:.4}, SD {:.3})\n",
+        e.name, value, e.posterior_log_sd
+    )
+}
+
+/// The fitted twin in words, glucose in the person's `units`, days as
+/// dates when day 1 is known.
+fn fit_text(t: &Twin, units: GlucoseUnit, first_day: Option<jiff::civil::Date>) -> String {
     let unit = units.label();
     let spread = |mg_dl: f64| abba_twin::check::spread(units, mg_dl);
     let (low, high) = (units.value(70.0), units.value(180.0));
@@ -153,10 +194,10 @@ fn fit_text(t: &Twin, units: GlucoseUnit) -> String {
     );
     s += &format!("Grade: {} ({})\n", t.grade.name(), t.grade_reason);
     s += &format!(
-        "Window: {} days from local minute {} (day {}), {} fitted, {} held out; {} readings\n",
+        "Window: {} days from {} (day {}), {} fitted, {} held out; {} readings\n",
         t.data.days,
-        t.data.start_minute,
-        t.data.start_minute / 1440 + 1,
+        day_words(first_day, t.data.start_minute.div_euclid(1440)),
+        t.data.start_minute.div_euclid(1440) + 1,
         t.data.fit_days,
         t.data.held_out_days,
         t.data.readings
@@ -186,27 +227,27 @@ fn fit_text(t: &Twin, units: GlucoseUnit) -> String {
         t.fit.simulations,
         t.fit.local_runs
     );
-    s += "Parameters (fitted, prior, posterior SD of the log):\n";
+    s += "Parameters (fitted, unit, prior, posterior SD of the log; × a multiplier):\n";
     for e in &t.estimates {
-        s += &format!(
-            "  {:<22} {:>9.4}  (prior {:.4}, SD {:.3})\n",
-            e.name, e.value, e.prior_value, e.posterior_log_sd
-        );
+        s += &estimate_line(e, units);
     }
-    s += &format!(
-        "Unlogged meals found: {}{}\n",
-        t.found_meals.len(),
-        t.found_meals
-            .iter()
-            .map(|m| format!(
-                " day {} {:02}:{:02} {:.0} g;",
-                m.minute / 1440 + 1,
-                m.minute % 1440 / 60,
-                m.minute % 60,
+    let meals: Vec<String> = t
+        .found_meals
+        .iter()
+        .map(|m| {
+            format!(
+                "{} {:02}:{:02} {:.0} g",
+                day_words(first_day, m.minute.div_euclid(1440)),
+                m.minute.rem_euclid(1440) / 60,
+                m.minute.rem_euclid(60),
                 m.grams
-            ))
-            .collect::<String>()
-    );
+            )
+        })
+        .collect();
+    s += &match meals.len() {
+        0 => "Unlogged meals found: none\n".to_string(),
+        n => format!("Unlogged meals found: {n}: {}\n", meals.join("; ")),
+    };
     s += &format!(
         "Days not explained (left out): {}\n",
         if t.unexplained_days.is_empty() {
@@ -216,8 +257,8 @@ fn fit_text(t: &Twin, units: GlucoseUnit) -> String {
                 .iter()
                 .map(|d| {
                     format!(
-                        "day {} (RMSE {} {unit})",
-                        d.day_index + 1,
+                        "{} (RMSE {} {unit})",
+                        day_words(first_day, d.day_index),
                         units.value(d.rmse_mg_dl)
                     )
                 })

@@ -146,6 +146,22 @@ fn a_usable_twin_puts_its_prediction_beside_every_open_suggestion() {
 
     let fit = ok(&abba(&["twin", "fit", "--db", &db, "--person", "ana"]));
     assert!(!fit.contains(": not usable"), "a usable twin: {fit}");
+    // Days as the person's dates (not "local minute 21600"), every
+    // parameter with its unit, the basal glucose in the person's.
+    let window = fit.lines().find(|l| l.starts_with("Window: ")).unwrap();
+    let date = window
+        .split(" days from ")
+        .nth(1)
+        .unwrap()
+        .get(..10)
+        .unwrap();
+    assert!(date.parse::<jiff::civil::Date>().is_ok(), "{window}");
+    let glucose = fit
+        .lines()
+        .find(|l| l.trim_start().starts_with("basal_glucose"))
+        .unwrap();
+    assert!(glucose.contains(" mg/dL "), "{glucose}");
+    assert!(fit.contains("basal_need") && fit.contains(" U/h "), "{fit}");
 
     let text = ok(&abba(&["advise", "--db", &db, "--person", "ana"]));
     assert!(

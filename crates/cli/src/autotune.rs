@@ -59,9 +59,9 @@ pub struct Args {
     #[arg(long, value_name = "ISF", allow_negative_numbers = true)]
     isf: Option<f64>,
     /// With --db and no --profile: duration of insulin action (h) of the
-    /// exponential rapid-acting curve.
-    #[arg(long, value_name = "HOURS", default_value_t = 5.0)]
-    dia: f64,
+    /// exponential rapid-acting curve [default: 5].
+    #[arg(long, value_name = "HOURS")]
+    dia: Option<f64>,
     /// Tune the last N complete days (04:00 to 04:00 local, as oref0-autotune.sh counts them) of the data.
     #[arg(long, value_name = "N", conflicts_with = "start")]
     days: Option<u32>,
@@ -515,6 +515,22 @@ fn oref0_fields(path: &Path, file: u16, tz: &TimeZone) -> Result<Oref0Fields> {
     Ok(out)
 }
 
+/// The duration of insulin action of a profile made from the store (h).
+const DEFAULT_DIA_H: f64 = 5.0;
+
+/// `--isf` and `--dia` describe the profile abba makes from a store; with
+/// `--profile` (which has its own) they would be ignored, so they are
+/// refused.
+fn given_with_profile(args: &Args) -> Result<()> {
+    if args.isf.is_some() {
+        bail!("--isf and --profile: give one (the profile has its own ISF, `sens` in a Nightscout profile store, `isfProfile` in oref0's)");
+    }
+    if args.dia.is_some() {
+        bail!("--dia and --profile: give one (the profile has its own duration of insulin action, `dia`)");
+    }
+    Ok(())
+}
+
 /// Runs `abba autotune`.
 pub fn run(args: Args) -> Result<()> {
     let mut said = Vec::new();
@@ -529,6 +545,7 @@ pub fn run(args: Args) -> Result<()> {
             else {
                 bail!("--entries needs --treatments, --profile and --tz");
             };
+            given_with_profile(&args)?;
             let tz = abba_io::time::zone(tz)?;
             let opts = ReadOptions {
                 format: Some(Format::Nightscout),
@@ -554,13 +571,14 @@ pub fn run(args: Args) -> Result<()> {
             let person = store.person(name)?;
             let unit = isf_unit(person.settings.units);
             let profile = match (&args.profile, args.isf) {
-                    (Some(p), None) => read_profile(p, &mut said)?,
-                    (Some(_), Some(_)) => {
-                        bail!("--isf and --profile: give one (the profile has its own ISF)")
+                    (Some(p), _) => {
+                        given_with_profile(&args)?;
+                        read_profile(p, &mut said)?
                     }
                     (None, Some(isf)) => {
+                        let dia = args.dia.unwrap_or(DEFAULT_DIA_H);
                         let (p, s) =
-                            person_profile(&mut store, name, person.settings.units, isf, args.dia)?;
+                            person_profile(&mut store, name, person.settings.units, isf, dia)?;
                         said.extend(s);
                         p
                     }

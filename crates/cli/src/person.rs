@@ -293,6 +293,8 @@ pub fn run(a: Args) -> Result<()> {
             for n in store.persons()? {
                 println!("{n}");
             }
+            // The names alone on stdout (for scripts); the notice beside them.
+            eprintln!("{}", abba_advisor::words::NOTICE);
             Ok(())
         }
     }

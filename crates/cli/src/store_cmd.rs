@@ -83,6 +83,7 @@ fn print_report(r: &CheckReport) {
 
 /// Runs `abba store`.
 pub fn run(a: Args) -> Result<()> {
+    eprintln!("{}", abba_advisor::words::NOTICE);
     let now = jiff::Timestamp::now();
     match a.what {
         What::Check { db } => {

@@ -385,6 +385,31 @@ fn a_persons_store_gives_oref0s_profile_in_their_unit() {
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("--isf") && err.contains("mg/dL/U"), "{err}");
+    // --isf or --dia beside a profile (files or store) would be ignored:
+    // refused, naming both (before, the files' run used the profile's and
+    // said nothing).
+    let profile = data("ns_profile.json");
+    let entries = data("entries.day1.json");
+    let treatments = data("treatments.json");
+    let with_files = files_args(&entries, &treatments);
+    for (extra, flag) in [(["--isf", "45"], "--isf"), (["--dia", "4"], "--dia")] {
+        for args in [
+            [&base[..], &["--profile", &profile], &extra[..]].concat(),
+            [
+                &with_files.iter().map(String::as_str).collect::<Vec<_>>()[..],
+                &extra[..],
+            ]
+            .concat(),
+        ] {
+            let out = abba(&args);
+            assert!(!out.status.success(), "{args:?}");
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert!(
+                err.contains(&format!("{flag} and --profile: give one")),
+                "{err}"
+            );
+        }
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
 

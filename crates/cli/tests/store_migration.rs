@@ -125,11 +125,19 @@ fn stores_made_by_earlier_releases_open_with_nothing_lost() {
             abba_store::schema::current_version(),
             "{name}: migrated to the current schema ({check})"
         );
+        let list = abba(&["person", "list", "--db", d]);
         assert_eq!(
-            ok(&abba(&["person", "list", "--db", d])),
+            ok(&list),
             std::fs::read_to_string(fixture.join("persons.txt")).unwrap(),
             "{name}: persons"
         );
+        // The names alone on stdout, the notice on stderr (as `store check`).
+        for out in [&list, &abba(&["store", "check", "--db", d])] {
+            assert!(
+                String::from_utf8_lossy(&out.stderr).contains("not a medical device"),
+                "{name}: no notice"
+            );
+        }
 
         // The same advice and history as the earlier release gave.
         for p in ["ana", "ben"] {

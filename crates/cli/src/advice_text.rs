@@ -274,34 +274,14 @@ pub fn advice_text(a: &Advice, glucose: GlucoseUnit) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use abba_store::effect::{Figures, Predicted};
 
     fn effect(rise: f64) -> SettingEffect {
-        let b = |v: f64| Band {
-            value: v,
-            low: v - 1.0,
-            high: v + 1.0,
+        let check = if rise > 1.0 {
+            CheckOutcome::HeldBack
+        } else {
+            CheckOutcome::Passed
         };
-        let figures = |tir: f64, low: f64| Figures {
-            tir_pct: b(tir),
-            below_70_pct: b(low),
-        };
-        SettingEffect {
-            effect: Effect::Predicted(Predicted {
-                days: 7,
-                twin_revision: 2,
-                grade: "good".into(),
-                in_force: figures(80.0, 2.0),
-                suggested: figures(82.0, 2.0 + rise),
-                change: figures(2.0, rise),
-            }),
-            check: if rise > 1.0 {
-                CheckOutcome::HeldBack
-            } else {
-                CheckOutcome::Passed
-            },
-            margin_pp: 1.0,
-        }
+        abba_store::testing::predicted_effect((80.0, 2.0), (82.0, 2.0 + rise), 1.0, check)
     }
 
     #[test]

@@ -94,3 +94,37 @@ fn off_async<R: Send>(f: impl FnOnce() -> R + Send) -> R {
             .unwrap_or_else(|p| std::panic::resume_unwind(p))
     })
 }
+
+/// A twin's prediction for tests of its words: the recorded days'
+/// (time in range %, time below 70 %) and the suggestion's, each figure
+/// within ± `spread` (its band), the change their difference; the check's
+/// outcome as given, a margin of 1 point.
+pub fn predicted_effect(
+    in_force: (f64, f64),
+    suggested: (f64, f64),
+    spread: f64,
+    check: crate::effect::CheckOutcome,
+) -> crate::effect::SettingEffect {
+    use crate::effect::{Band, Effect, Figures, Predicted, SettingEffect};
+    let band = |v: f64| Band {
+        value: v,
+        low: v - spread,
+        high: v + spread,
+    };
+    let figures = |(tir, below): (f64, f64)| Figures {
+        tir_pct: band(tir),
+        below_70_pct: band(below),
+    };
+    SettingEffect {
+        effect: Effect::Predicted(Predicted {
+            days: 7,
+            twin_revision: 2,
+            grade: "good".into(),
+            in_force: figures(in_force),
+            suggested: figures(suggested),
+            change: figures((suggested.0 - in_force.0, suggested.1 - in_force.1)),
+        }),
+        check,
+        margin_pp: 1.0,
+    }
+}

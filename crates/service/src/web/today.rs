@@ -501,30 +501,9 @@ pub fn routes() -> axum::Router<crate::state::AppState> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use abba_store::effect::{Figures, Predicted};
 
     fn effect(check: CheckOutcome) -> SettingEffect {
-        let band = |v: f64| Band {
-            value: v,
-            low: v - 0.5,
-            high: v + 0.5,
-        };
-        let f = |tir: f64, below: f64| Figures {
-            tir_pct: band(tir),
-            below_70_pct: band(below),
-        };
-        SettingEffect {
-            effect: Effect::Predicted(Predicted {
-                days: 7,
-                twin_revision: 3,
-                grade: "fair".into(),
-                in_force: f(70.0, 1.0),
-                suggested: f(71.0, 2.5),
-                change: f(1.0, 1.5),
-            }),
-            check,
-            margin_pp: 1.0,
-        }
+        abba_store::testing::predicted_effect((70.0, 1.0), (71.0, 2.5), 0.5, check)
     }
 
     #[test]

@@ -134,6 +134,16 @@ pub struct Ctx<'a> {
     /// The device's UTC offsets the file carries, with their instants
     /// ([`Ctx::clock`], [`crate::clocks`]).
     pub clocks: std::cell::RefCell<Vec<(jiff::Timestamp, i32)>>,
+    /// The Nightscout profile stores of the whole batch (every file's),
+    /// in which a Profile Switch that only names its profile is looked up
+    /// ([`nightscout::ProfileStore`]); empty on a first read.
+    pub stores: &'a [nightscout::ProfileStore],
+    /// The profile stores this file holds (read by the Nightscout reader).
+    pub found_stores: std::cell::RefCell<Vec<nightscout::ProfileStore>>,
+    /// Whether this file holds a Profile Switch that only names its
+    /// profile and no store was given to look it up in: [`read_all`]
+    /// reads it again with the batch's stores.
+    pub wants_stores: std::cell::Cell<bool>,
 }
 
 /// The rows or items of a file that could not be read: left out, the rest
@@ -387,6 +397,11 @@ pub struct FileRead {
     pub unread: Unread,
     /// The device's UTC offsets the file carries ([`crate::clocks`]).
     pub clocks: Vec<crate::clocks::ClockStretch>,
+    /// The Nightscout profile stores the file holds.
+    pub stores: Vec<nightscout::ProfileStore>,
+    /// Whether the file names profiles of a store it was not given
+    /// ([`Ctx::wants_stores`]).
+    pub wants_stores: bool,
 }
 
 /// Rows or items of the files that could not be read and were left out
@@ -407,6 +422,18 @@ pub fn read_bytes_noted(
     bytes: &[u8],
     opts: &ReadOptions,
 ) -> Result<FileRead, IoError> {
+    read_bytes_with_stores(file, index, bytes, opts, &[])
+}
+
+/// [`read_bytes_noted`] with the batch's Nightscout profile stores, in
+/// which a Profile Switch that only names its profile is looked up.
+pub fn read_bytes_with_stores(
+    file: &str,
+    index: u16,
+    bytes: &[u8],
+    opts: &ReadOptions,
+    stores: &[nightscout::ProfileStore],
+) -> Result<FileRead, IoError> {
     let ctx = Ctx {
         file,
         index,
@@ -414,6 +441,9 @@ pub fn read_bytes_noted(
         notes: Default::default(),
         skipped: Default::default(),
         clocks: Default::default(),
+        stores,
+        found_stores: Default::default(),
+        wants_stores: Default::default(),
     };
     // A workbook (a zip) is binary: no text decoding.
     if tidepool_xlsx::is_zip(bytes) {
@@ -426,6 +456,8 @@ pub fn read_bytes_noted(
             notes: ctx.notes.into_inner(),
             unread,
             clocks: crate::clocks::stretches(ctx.clocks.into_inner()),
+            stores: ctx.found_stores.into_inner(),
+            wants_stores: ctx.wants_stores.get(),
         });
     }
     let decoded = table::utf16_to_utf8(file, bytes)?;
@@ -457,6 +489,8 @@ pub fn read_bytes_noted(
         notes: ctx.notes.into_inner(),
         unread,
         clocks: crate::clocks::stretches(ctx.clocks.into_inner()),
+        stores: ctx.found_stores.into_inner(),
+        wants_stores: ctx.wants_stores.get(),
     })
 }
 
@@ -532,6 +566,9 @@ pub fn carelink_settings_rows(
         notes: Default::default(),
         skipped: Default::default(),
         clocks: Default::default(),
+        stores: &[],
+        found_stores: Default::default(),
+        wants_stores: Default::default(),
     };
     let (_, settings) = carelink::read_with_settings(&ctx, bytes)?;
     // The therapy is not taken from a file read in part: a row left out
@@ -725,14 +762,34 @@ pub fn read_all(inputs: &[(String, Vec<u8>)], opts: &ReadOptions) -> Result<Batc
     let mut notes = Vec::new();
     let mut unread = Unread::default();
     let mut clocks = Vec::with_capacity(inputs.len());
+    let mut reads = Vec::with_capacity(inputs.len());
     for (i, (name, bytes)) in inputs.iter().enumerate() {
-        let FileRead {
-            format,
-            records: mut r,
-            notes: mut n,
-            unread: u,
-            clocks: c,
-        } = read_bytes_noted(name, i as u16, bytes, opts)?;
+        reads.push(read_bytes_noted(name, i as u16, bytes, opts)?);
+    }
+    // A Profile Switch that only names its profile (Nightscout's
+    // Careportal) is looked up in the profile stores of the whole batch
+    // (profile.json beside treatments.json): the files that hold one are
+    // read again with them.
+    let stores: Vec<nightscout::ProfileStore> = reads
+        .iter()
+        .flat_map(|r| r.stores.iter().cloned())
+        .collect();
+    if !stores.is_empty() {
+        for (i, (name, bytes)) in inputs.iter().enumerate() {
+            if reads[i].wants_stores {
+                reads[i] = read_bytes_with_stores(name, i as u16, bytes, opts, &stores)?;
+            }
+        }
+    }
+    for FileRead {
+        format,
+        records: mut r,
+        notes: mut n,
+        unread: u,
+        clocks: c,
+        ..
+    } in reads
+    {
         clocks.push(c);
         unread.count += u.count;
         unread.first.extend(u.first);

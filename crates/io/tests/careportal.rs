@@ -281,3 +281,22 @@ fn careportal_boluses_carbs_and_a_hand_entered_temp_basal_are_each_read_once() {
         .iter()
         .any(|r| matches!(&r.kind, RecordKind::Ignored { kind } if kind == "Site Change")));
 }
+
+/// Nightscout stores every treatment sent with a `created_at` in UTC (the
+/// Careportal's `toISOString()`) with `utcOffset` 0: no device clock at
+/// UTC+00:00 is reported for a person in Zurich.
+#[test]
+fn careportals_utc_offset_of_0_is_no_device_clock() {
+    let b = both();
+    assert!(
+        b.clocks.iter().all(Vec::is_empty),
+        "{:?} {:?}",
+        b.clocks,
+        b.notes
+    );
+    // A real offset is still one: xDrip+'s +60 at home, -300 away.
+    let t = br#"[{"_id": "a", "eventType": "Note", "created_at": "2026-11-22T08:00:00.000Z", "utcOffset": -300}]"#;
+    let b = read(&[("t.json", t.to_vec())], &opts("Europe/Zurich")).unwrap();
+    assert_eq!(b.clocks[0].len(), 1);
+    assert_eq!(b.clocks[0][0].offset_s, -300 * 60);
+}

@@ -704,15 +704,25 @@ fn instant(item: &Item<'_>) -> Result<jiff::Timestamp, IoError> {
 
 /// The offset from UTC the uploader's device was at when it wrote the
 /// item (seconds east; [`crate::clocks`]): its `utcOffset` (minutes,
-/// xDrip+, AndroidAPS, Loop), else the offset of its `dateString` or
-/// `created_at` when that is not UTC. A profile document says nothing of
-/// where the person was (its zone is its `timezone`): none.
+/// xDrip+, AndroidAPS, Loop) when not 0, else the offset of its
+/// `dateString` or `created_at` when that is not UTC. A `utcOffset` of 0
+/// says nothing of the device's zone: Nightscout's API v1 writes it from
+/// the offset the uploader's own time string carries
+/// (`moment.parseZone(...).utcOffset()` of an entry's `dateString` in
+/// `lib/server/entries.js`, of a treatment's `created_at` in
+/// `lib/server/treatments.js` `prepareData`), so every time written in UTC
+/// (Careportal's `toISOString()`, Loop's, iAPS's and the Dexcom bridge's
+/// `Z` times) is stored with 0, whatever zone the person was in. A
+/// profile document says nothing of where the person was (its zone is
+/// its `timezone`): none.
 fn device_offset(item: &Item<'_>) -> Option<i32> {
     if item.get("store").is_some() {
         return None;
     }
     if let Some(m) = item.num("utcOffset").ok().flatten() {
-        return crate::clocks::minutes_offset_s(m);
+        if m != 0.0 {
+            return crate::clocks::minutes_offset_s(m);
+        }
     }
     ["dateString", "created_at"].iter().find_map(|f| {
         item.str(f)

@@ -300,3 +300,26 @@ fn careportals_utc_offset_of_0_is_no_device_clock() {
     assert_eq!(b.clocks[0].len(), 1);
     assert_eq!(b.clocks[0][0].offset_s, -300 * 60);
 }
+
+/// A Profile Switch that neither embeds nor names a profile, beside a
+/// profile store: not applied, and the note says it names none (not that
+/// the store is missing).
+#[test]
+fn a_switch_naming_no_profile_beside_a_store_is_said_to_name_none() {
+    let t = br#"[{"_id": "s1", "eventType": "Profile Switch", "created_at": "2026-11-22T08:00:00.000Z", "duration": 0}]"#;
+    let b = read(
+        &[
+            ("treatments.json", t.to_vec()),
+            ("profile.json", fixture(PROFILES)),
+        ],
+        &opts("Europe/Zurich"),
+    )
+    .unwrap();
+    assert!(schedules_at(&b, "2026-11-22T08:00:00Z").is_empty());
+    let n = note(&b, "neither embed a profile");
+    assert!(n.contains("$[0]") && n.contains("not applied"), "{n}");
+    assert!(!b
+        .notes
+        .iter()
+        .any(|n| n.contains("hold no Nightscout profile store")));
+}

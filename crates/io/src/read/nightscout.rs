@@ -916,16 +916,28 @@ impl Tally {
                 crate::record::OriginAt::Item(i) => format!("$[{i}]"),
                 _ => "?".into(),
             };
-            ctx.note(format!(
-                "{} Profile Switches name a profile without embedding it (no profileJson, as \
-                 Nightscout's Careportal writes them; the first at {} ({at})): the settings they \
-                 switch to are not in the treatment, and the files imported with it hold no \
-                 Nightscout profile store (profile.json) to look the name up in, so they are not \
-                 applied; the therapy in force follows the profile documents and the switches \
-                 that embed their profile. Import profile.json with the treatments to apply them",
-                named.len(),
-                f.at
-            ));
+            if ctx.stores.is_empty() {
+                ctx.note(format!(
+                    "{} Profile Switches name a profile without embedding it (no profileJson, as \
+                     Nightscout's Careportal writes them; the first at {} ({at})): the settings \
+                     they switch to are not in the treatment, and the files imported with it hold \
+                     no Nightscout profile store (profile.json) to look the name up in, so they \
+                     are not applied; the therapy in force follows the profile documents and the \
+                     switches that embed their profile. Import profile.json with the treatments \
+                     to apply them",
+                    named.len(),
+                    f.at
+                ));
+            } else {
+                ctx.note(format!(
+                    "{} Profile Switches neither embed a profile (no profileJson) nor name one \
+                     (no profile; the first at {} ({at})): the settings they switch to are not \
+                     known, so they are not applied; the therapy in force stays the one before \
+                     them",
+                    named.len(),
+                    f.at
+                ));
+            }
         }
         if let Some((item, at, name, store)) = self.named.iter().min_by_key(|n| (n.1, n.0)) {
             let names: std::collections::BTreeSet<&str> =

@@ -86,7 +86,7 @@ pub fn run(args: Args) -> Result<()> {
     println!("  records by kind: {kinds:?}");
     println!("  duplicates removed: {:?}", batch.duplicates);
     println!(
-        "  older versions of a repeated id removed: {}; carried by two Tidepool uploads: {:?}",
+        "  older versions of a repeated id removed: {}; carried by two uploads seconds apart: {:?}",
         batch.older_versions, batch.cross_upload
     );
     if future.count > 0 {

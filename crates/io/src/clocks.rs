@@ -4,7 +4,8 @@
 //! abba reads a person's local times (meal slots, days) in the zone
 //! stored for them, never in the zone a device was set to. Some exports
 //! say what offset the device was at: Nightscout's `utcOffset` (minutes,
-//! written by xDrip+, AndroidAPS and Loop on entries and treatments) or a
+//! written by xDrip+, AndroidAPS and Loop on entries and treatments; 0
+//! says nothing, Nightscout writes it for every time sent in UTC) or a
 //! `dateString` / `created_at` written with a non-zero offset; Tidepool's
 //! `timezoneOffset` (minutes). (A time written in UTC, `Z` or `+00:00`,
 //! says nothing of the device's zone. Tidepool's `conversionOffset` is

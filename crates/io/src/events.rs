@@ -541,7 +541,8 @@ fn close_at_midnights(events: &mut Vec<Event>) {
 /// last); boluses of one minute, and snacks of one minute, become one
 /// event with their sum (the advisor takes two equal events in a minute
 /// for a repeat; two records of the device are two doses). A second
-/// reading (or day close) of a minute is rejected.
+/// reading (or day close) of a minute is rejected, and so is a second
+/// resume (the pump runs after it as after the first).
 fn one_per_minute(events: Vec<Event>, rejected: &mut Vec<Rejected>) -> Vec<Event> {
     let mut kept: Vec<Event> = Vec::with_capacity(events.len());
     for e in events {
@@ -572,6 +573,19 @@ fn one_per_minute(events: Vec<Event>, rejected: &mut Vec<Rejected>) -> Vec<Event
                 match e.kind {
                     EventKind::BasalRate(_) | EventKind::TempBasal { .. } => {
                         *prev = e;
+                        continue;
+                    }
+                    // Two resumes of one minute: a suspension that ended
+                    // at its time (or by a resume) and one that began and
+                    // ended again within the minute (the minute's events
+                    // sorted by kind put both resumes after its suspend):
+                    // the pump runs after both, as after one.
+                    EventKind::Resume => {
+                        rejected.push(Rejected {
+                            origin: format!("advisor time {}", e.at),
+                            kind: kind_name(&e.kind).into(),
+                            reason: "a second resume in the same minute (a suspension that began and ended within the minute): the pump runs after it as after the first, which was kept".into(),
+                        });
                         continue;
                     }
                     EventKind::Cgm(_) | EventKind::Smbg(_) | EventKind::DayClosed => {

@@ -136,3 +136,40 @@ fn doses_of_one_minute_become_one_event_with_their_sum() {
         guard.observe(e).unwrap();
     }
 }
+
+/// A suspension with a duration that ends in the minute another
+/// suspension begins and is resumed: two resumes in one minute, which the
+/// advisor's guard takes for a repeat. One is kept, the other counted.
+/// Found by the property above (its shrunk case).
+#[test]
+fn two_resumes_of_one_minute_are_one_event() {
+    let items = [
+        Item::Suspend(490_946, 1),
+        Item::Resume(490_946),
+        Item::Suspend(484_680, 104),
+    ];
+    let start: jiff::Timestamp = STARTS[0].parse().unwrap();
+    let bytes = nightscout(start, &items, &[(0, 10)]);
+    let batch = read(&[("ns.json", bytes)], &abba_io::ReadOptions::default()).unwrap();
+    let tz = abba_io::time::zone(ZONES[0]).unwrap();
+    let stream = batch.to_events(&PersonSettings::new(tz)).unwrap();
+    let settings = TherapySettings::new(UnitsPerHour(1.0), GramsPerUnit(10.0)).unwrap();
+    let mut guard = FixedTherapy::new(settings, EventLimits::default()).unwrap();
+    for e in &stream.events {
+        guard.observe(e).unwrap();
+    }
+    let resumes = stream
+        .events
+        .iter()
+        .filter(|e| matches!(e.kind, abba_core::EventKind::Resume))
+        .count();
+    assert_eq!(resumes, 1, "{:?}", stream.events);
+    assert!(
+        stream
+            .rejected
+            .iter()
+            .any(|r| r.reason.starts_with("a second resume in the same minute")),
+        "{:?}",
+        stream.rejected
+    );
+}

@@ -15,6 +15,7 @@ mod tidepool_workbook;
 mod aaps;
 mod boundary;
 mod carelink_layouts;
+mod careportal;
 mod device_clocks;
 mod dst;
 mod events_mapping;

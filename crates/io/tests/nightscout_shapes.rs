@@ -157,3 +157,55 @@ fn a_profile_switch_that_only_names_its_profile_is_said_not_applied() {
         "{note}"
     );
 }
+
+/// One sensor's readings uploaded by two uploaders (xDrip+ and Juggluco,
+/// each with its own clock and layout: xDrip+'s `dateString` and `sysTime`
+/// with a `+0100` offset, `filtered`, `unfiltered`, `noise`, `utcOffset`;
+/// Juggluco's in UTC) a few seconds apart, each its own document: every
+/// reading is read once, the copies counted. Readings a minute apart (a
+/// FreeStyle Libre 3) stay two, even of one value.
+#[test]
+fn one_reading_uploaded_by_two_uploaders_seconds_apart_is_read_once() {
+    let start = 1_795_856_400_000_i64; // 2026-11-28T06:20:00Z
+    let mut docs = Vec::new();
+    for i in 0..6_i64 {
+        let ms = start + i * 300_000 + 123;
+        let t = jiff::Timestamp::from_millisecond(ms).unwrap();
+        let local = t
+            .to_zoned(jiff::tz::TimeZone::get("Europe/Zurich").unwrap())
+            .strftime("%Y-%m-%dT%H:%M:%S%.3f%z")
+            .to_string();
+        let sgv = 120 + i * 3;
+        docs.push(serde_json::json!({"_id": format!("x{i}"), "device": "xDrip-DexcomG6",
+            "date": ms, "dateString": local, "sysTime": local, "sgv": sgv, "delta": 3.0,
+            "direction": "FortyFiveUp", "type": "sgv", "filtered": 151000 + i, "unfiltered": 150000 + i,
+            "rssi": 100, "noise": 1, "utcOffset": 60}));
+        let j = ms + 4_000;
+        docs.push(
+            serde_json::json!({"_id": format!("j{i}"), "device": "Juggluco",
+            "date": j, "dateString": jiff::Timestamp::from_millisecond(j).unwrap().to_string(),
+            "sgv": sgv, "direction": "FortyFiveUp", "type": "sgv"}),
+        );
+    }
+    // A Libre 3 read every minute: one value twice, 60 s apart.
+    for (n, ms) in [(0, start - 120_000), (1, start - 60_000)] {
+        docs.push(
+            serde_json::json!({"_id": format!("l{n}"), "device": "Juggluco",
+            "date": ms, "sgv": 118, "type": "sgv"}),
+        );
+    }
+    docs.sort_by_key(|d| -d["date"].as_i64().unwrap());
+    let b = read(
+        &[("entries.json", serde_json::to_vec(&docs).unwrap())],
+        &opts("Europe/Zurich"),
+    )
+    .unwrap();
+    assert_eq!(b.count("cgm"), 8, "{:?}", b.cross_upload);
+    assert_eq!(b.cross_upload.get("cgm"), Some(&6));
+    // The copy kept is the earlier one (xDrip+'s).
+    let first = b
+        .records
+        .iter()
+        .find(|r| r.at.as_millisecond() == start + 123);
+    assert!(first.is_some_and(|r| r.id == SourceId::Id("x0".into())));
+}

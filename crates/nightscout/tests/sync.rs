@@ -448,3 +448,70 @@ fn a_document_deleted_and_uploaded_again_under_another_id_stays() {
     assert_eq!(a.import.deleted, 0);
     assert_same_records(&store, &imported);
 }
+
+/// A Profile Switch that only names its profile (Careportal's: `profile`,
+/// no `profileJson`) runs that profile of the site's profile store, which
+/// the link reads at `/api/v1/profile.json`: the synced records hold its
+/// basal schedule from the switch on, as a file import of the same
+/// documents does; a name the store does not hold is counted, not applied.
+#[test]
+fn a_switch_naming_a_profile_of_the_sites_store_is_applied_by_the_sync() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = data(1);
+    let mut weekend = d.profile[0]["store"]["Default"].clone();
+    weekend["basal"] = serde_json::json!([
+        {"time": "00:00", "value": 0.6, "timeAsSeconds": 0},
+        {"time": "07:00", "value": 0.7, "timeAsSeconds": 25200}
+    ]);
+    for p in &mut d.profile {
+        p["store"]["Weekend"] = weekend.clone();
+    }
+    let switch = |id: &str, at: &str, name: &str| {
+        serde_json::json!({"_id": id, "enteredBy": "Ana", "eventType": "Profile Switch",
+            "created_at": at, "profile": name, "units": "mmol", "utcOffset": 0})
+    };
+    d.treatments.insert(
+        0,
+        switch(
+            "6551aaaaaaaaaaaaaaaaaaa1",
+            "2026-01-14T06:00:00.000Z",
+            "Weekend",
+        ),
+    );
+    d.treatments.insert(
+        0,
+        switch(
+            "6551aaaaaaaaaaaaaaaaaaa2",
+            "2026-01-14T20:00:00.000Z",
+            "Holiday",
+        ),
+    );
+    let files = export(dir.path(), &d);
+    let srv = server(&d, 1000);
+    let mut synced = linked(dir.path(), &srv, &files, secret());
+    sync(&mut synced, "ana", &sync_opts()).unwrap();
+    let at: jiff::Timestamp = "2026-01-14T06:00:00Z".parse().unwrap();
+    let records = synced.records("ana").unwrap();
+    let basal: Vec<Vec<(u32, f64)>> = records
+        .iter()
+        .filter(|r| r.at == at)
+        .filter_map(|r| match &r.kind {
+            abba_io::RecordKind::Schedule { profile } => Some(
+                profile
+                    .basal
+                    .segments
+                    .iter()
+                    .map(|s| (s.0, s.1 .0))
+                    .collect(),
+            ),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(basal, [vec![(0, 0.6), (420, 0.7)]]);
+    let holiday: jiff::Timestamp = "2026-01-14T20:00:00Z".parse().unwrap();
+    assert!(records.iter().any(|r| r.at == holiday
+        && matches!(&r.kind, abba_io::RecordKind::Ignored { kind } if kind.contains("does not hold"))));
+    let (_, mut imported) = store_with_person(dir.path(), "files.db", &files);
+    imported.import_files("ana", &files, None).unwrap();
+    assert_same_records(&synced, &imported);
+}

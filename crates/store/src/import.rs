@@ -1,8 +1,8 @@
 //! Importing device exports: one transaction per import. A record is known
 //! when the log holds its identity (same source, same id) or the same
 //! record by content (same source, instant, kind and values; for Tidepool
-//! within [`CROSS_UPLOAD_WINDOW_S`], as two uploads carry one datum seconds
-//! apart): counted, never added twice. A known id with other content is a
+//! data and Nightscout CGM readings within [`abba_io::read::twice_window_ms`],
+//! as two uploads carry one datum seconds apart): counted, never added twice. A known id with other content is a
 //! newer version of that record (a Nightscout document rewritten): it
 //! replaces the stored one, counted. Records dated after the time of
 //! import (beyond the clock skew) or before
@@ -15,8 +15,8 @@ use crate::backend::{args, Conn, Db, Q};
 use crate::error::StoreError;
 use crate::log::key;
 use crate::person::{self, Person};
-use abba_io::read::{Batch, Refused, CROSS_UPLOAD_WINDOW_S};
-use abba_io::{RecordKind, Source, SourceId};
+use abba_io::read::{Batch, Refused};
+use abba_io::{RecordKind, SourceId};
 use serde::Serialize;
 
 /// What one import did.
@@ -104,7 +104,7 @@ impl ImportSummary {
             ));
         }
         out.push(format!(
-            "Duplicates within and between the files: {} exact repeats, {} older versions of a repeated id, {} carried by two Tidepool uploads.",
+            "Duplicates within and between the files: {} exact repeats, {} older versions of a repeated id, {} carried by two uploads seconds apart (Tidepool's pump and Apple Health, two Nightscout uploaders of one sensor).",
             self.duplicates_in_files, self.older_versions_in_files, self.cross_upload_duplicates
         ));
         let too_old = format!("{} (refused)", abba_io::read::too_old_words());
@@ -237,10 +237,9 @@ pub fn import_with(
             }
         }
         let (source, id) = key(r)?;
-        let window = match (r.source, &r.kind) {
-            (_, RecordKind::Ignored { .. }) => None,
-            (Source::Tidepool, _) => Some(CROSS_UPLOAD_WINDOW_S * 1000),
-            _ => Some(0),
+        let window = match &r.kind {
+            RecordKind::Ignored { .. } => None,
+            _ => Some(abba_io::read::twice_window_ms(r)),
         };
         let is_id = matches!(r.id, SourceId::Id(_));
         // The record's stored text and origin are made when it is written

@@ -316,3 +316,46 @@ fn a_header_only_export_says_no_readings() {
         .unwrap_err();
     assert_eq!(e.to_string(), "no readings in empty.csv");
 }
+
+/// Nightscout entries of `n` readings every 5 min from 2026-05-04 06:00
+/// UTC, by `device`, `offset_ms` after the sensor's time, ids `prefix`N.
+fn nightscout_entries(n: i64, device: &str, offset_ms: i64, prefix: &str) -> Vec<u8> {
+    let start = 1_777_874_400_000_i64; // 2026-05-04T06:00:00Z
+    let docs: Vec<serde_json::Value> = (0..n)
+        .rev()
+        .map(|i| {
+            let ms = start + i * 300_000 + offset_ms;
+            serde_json::json!({"_id": format!("{prefix}{i}"), "device": device, "date": ms,
+                "dateString": jiff::Timestamp::from_millisecond(ms).unwrap().to_string(),
+                "sgv": 110 + (i * 7) % 60, "direction": "Flat", "type": "sgv"})
+        })
+        .collect();
+    serde_json::to_vec(&docs).unwrap()
+}
+
+/// One sensor's readings uploaded by two Nightscout uploaders seconds
+/// apart, the second's copies coming in a later import (the next sync):
+/// known, not added again.
+#[test]
+fn a_nightscout_reading_uploaded_again_by_a_second_uploader_seconds_later_is_known() {
+    let dir = TempDir::new("two_uploaders");
+    let mut store = dir.store();
+    store.create_person(&person("ana")).unwrap();
+    let a = store
+        .import_at(
+            "ana",
+            &read(&[("a.json", nightscout_entries(24, "xDrip-DexcomG6", 0, "x"))]),
+            now(),
+        )
+        .unwrap();
+    assert_eq!(a.added, 24);
+    let b = store
+        .import_at(
+            "ana",
+            &read(&[("b.json", nightscout_entries(30, "share2", 9_000, "s"))]),
+            now(),
+        )
+        .unwrap();
+    assert_eq!((b.added, b.known), (6, 24), "{b:?}");
+    assert_eq!(contents(&store, "ana").len(), 30);
+}

@@ -134,6 +134,16 @@ pub struct Ctx<'a> {
     /// The device's UTC offsets the file carries, with their instants
     /// ([`Ctx::clock`], [`crate::clocks`]).
     pub clocks: std::cell::RefCell<Vec<(jiff::Timestamp, i32)>>,
+    /// The Nightscout profile stores of the whole batch (every file's),
+    /// in which a Profile Switch that only names its profile is looked up
+    /// ([`nightscout::ProfileStore`]); empty on a first read.
+    pub stores: &'a [nightscout::ProfileStore],
+    /// The profile stores this file holds (read by the Nightscout reader).
+    pub found_stores: std::cell::RefCell<Vec<nightscout::ProfileStore>>,
+    /// Whether this file holds a Profile Switch that only names its
+    /// profile and no store was given to look it up in: [`read_all`]
+    /// reads it again with the batch's stores.
+    pub wants_stores: std::cell::Cell<bool>,
 }
 
 /// The rows or items of a file that could not be read: left out, the rest
@@ -387,6 +397,11 @@ pub struct FileRead {
     pub unread: Unread,
     /// The device's UTC offsets the file carries ([`crate::clocks`]).
     pub clocks: Vec<crate::clocks::ClockStretch>,
+    /// The Nightscout profile stores the file holds.
+    pub stores: Vec<nightscout::ProfileStore>,
+    /// Whether the file names profiles of a store it was not given
+    /// ([`Ctx::wants_stores`]).
+    pub wants_stores: bool,
 }
 
 /// Rows or items of the files that could not be read and were left out
@@ -407,6 +422,18 @@ pub fn read_bytes_noted(
     bytes: &[u8],
     opts: &ReadOptions,
 ) -> Result<FileRead, IoError> {
+    read_bytes_with_stores(file, index, bytes, opts, &[])
+}
+
+/// [`read_bytes_noted`] with the batch's Nightscout profile stores, in
+/// which a Profile Switch that only names its profile is looked up.
+pub fn read_bytes_with_stores(
+    file: &str,
+    index: u16,
+    bytes: &[u8],
+    opts: &ReadOptions,
+    stores: &[nightscout::ProfileStore],
+) -> Result<FileRead, IoError> {
     let ctx = Ctx {
         file,
         index,
@@ -414,6 +441,9 @@ pub fn read_bytes_noted(
         notes: Default::default(),
         skipped: Default::default(),
         clocks: Default::default(),
+        stores,
+        found_stores: Default::default(),
+        wants_stores: Default::default(),
     };
     // A workbook (a zip) is binary: no text decoding.
     if tidepool_xlsx::is_zip(bytes) {
@@ -426,6 +456,8 @@ pub fn read_bytes_noted(
             notes: ctx.notes.into_inner(),
             unread,
             clocks: crate::clocks::stretches(ctx.clocks.into_inner()),
+            stores: ctx.found_stores.into_inner(),
+            wants_stores: ctx.wants_stores.get(),
         });
     }
     let decoded = table::utf16_to_utf8(file, bytes)?;
@@ -457,6 +489,8 @@ pub fn read_bytes_noted(
         notes: ctx.notes.into_inner(),
         unread,
         clocks: crate::clocks::stretches(ctx.clocks.into_inner()),
+        stores: ctx.found_stores.into_inner(),
+        wants_stores: ctx.wants_stores.get(),
     })
 }
 
@@ -532,6 +566,9 @@ pub fn carelink_settings_rows(
         notes: Default::default(),
         skipped: Default::default(),
         clocks: Default::default(),
+        stores: &[],
+        found_stores: Default::default(),
+        wants_stores: Default::default(),
     };
     let (_, settings) = carelink::read_with_settings(&ctx, bytes)?;
     // The therapy is not taken from a file read in part: a row left out
@@ -558,8 +595,9 @@ pub struct Batch {
     /// (Nightscout documents AndroidAPS rewrites): the latest version is
     /// kept, these are removed.
     pub older_versions: usize,
-    /// Tidepool readings and doses carried twice by two uploads (a pump and
-    /// Apple Health) seconds apart: one is kept (see [`CROSS_UPLOAD_WINDOW_S`]).
+    /// Readings and doses carried twice by two uploads seconds apart
+    /// (Tidepool's pump and Apple Health uploads; two Nightscout uploaders
+    /// of one sensor): one is kept (see [`twice_window_ms`]).
     pub cross_upload: BTreeMap<String, usize>,
     /// Records read from each file (before merging), in file order.
     pub per_file: Vec<usize>,
@@ -588,6 +626,30 @@ pub struct Batch {
 /// may be and still be one datum uploaded twice (a pump upload and Apple
 /// Health carry the same bolus or reading with clocks seconds apart).
 pub const CROSS_UPLOAD_WINDOW_S: i64 = 60;
+
+/// How far apart (seconds) two Nightscout CGM readings of the same value,
+/// from two documents, may be and still be one reading uploaded twice:
+/// two uploaders of one sensor (Loop and Nightscout's Dexcom bridge, the
+/// Dexcom app on a phone and on a watch through Share, xDrip+ beside
+/// Juggluco or AndroidAPS) each write it with their own clock, seconds
+/// apart (Dexcom Share's two copies come about 10 s apart). No CGM reads
+/// more often than once a minute (the FreeStyle Libre 3), so two readings
+/// less than 30 s apart are never two readings.
+pub const NIGHTSCOUT_CGM_TWICE_S: i64 = 30;
+
+/// The window (ms) within which a record of the same source, kind and
+/// values but another identity is the same datum uploaded twice: Tidepool
+/// readings and doses [`CROSS_UPLOAD_WINDOW_S`], Nightscout CGM readings
+/// [`NIGHTSCOUT_CGM_TWICE_S`]; 0 for any other record (only the same
+/// instant is the same datum) and for what is counted, not read.
+pub fn twice_window_ms(r: &Record) -> i64 {
+    match (r.source, &r.kind) {
+        (_, RecordKind::Ignored { .. }) => 0,
+        (Source::Tidepool, _) => CROSS_UPLOAD_WINDOW_S * 1000,
+        (Source::Nightscout, RecordKind::Cgm { .. }) => NIGHTSCOUT_CGM_TWICE_S * 1000,
+        _ => 0,
+    }
+}
 
 /// The latest instant a record read at `now` may carry:
 /// [`abba_core::limits::FUTURE_SKEW_MINUTES`] after it.
@@ -725,14 +787,34 @@ pub fn read_all(inputs: &[(String, Vec<u8>)], opts: &ReadOptions) -> Result<Batc
     let mut notes = Vec::new();
     let mut unread = Unread::default();
     let mut clocks = Vec::with_capacity(inputs.len());
+    let mut reads = Vec::with_capacity(inputs.len());
     for (i, (name, bytes)) in inputs.iter().enumerate() {
-        let FileRead {
-            format,
-            records: mut r,
-            notes: mut n,
-            unread: u,
-            clocks: c,
-        } = read_bytes_noted(name, i as u16, bytes, opts)?;
+        reads.push(read_bytes_noted(name, i as u16, bytes, opts)?);
+    }
+    // A Profile Switch that only names its profile (Nightscout's
+    // Careportal) is looked up in the profile stores of the whole batch
+    // (profile.json beside treatments.json): the files that hold one are
+    // read again with them.
+    let stores: Vec<nightscout::ProfileStore> = reads
+        .iter()
+        .flat_map(|r| r.stores.iter().cloned())
+        .collect();
+    if !stores.is_empty() {
+        for (i, (name, bytes)) in inputs.iter().enumerate() {
+            if reads[i].wants_stores {
+                reads[i] = read_bytes_with_stores(name, i as u16, bytes, opts, &stores)?;
+            }
+        }
+    }
+    for FileRead {
+        format,
+        records: mut r,
+        notes: mut n,
+        unread: u,
+        clocks: c,
+        ..
+    } in reads
+    {
         clocks.push(c);
         unread.count += u.count;
         unread.first.extend(u.first);
@@ -774,8 +856,8 @@ pub fn read_files(paths: &[std::path::PathBuf], opts: &ReadOptions) -> Result<Ba
 /// Sorts records by instant and removes exact duplicates (same instant,
 /// same kind and values; for ignored records also the same identity),
 /// counting them; of records sharing an id ([`SourceId::Id`]) keeps the
-/// last read (the latest version); of Tidepool data carried by two uploads
-/// within [`CROSS_UPLOAD_WINDOW_S`] keeps the first. Works in place: a
+/// last read (the latest version); of data carried by two uploads within
+/// [`twice_window_ms`] keeps the first. Works in place: a
 /// 10-year CGM file is about a million records.
 pub fn merge(files: Vec<String>, formats: Vec<Format>, mut records: Vec<Record>) -> Batch {
     let removed = merge_records(&mut records);
@@ -801,8 +883,7 @@ pub struct Removed {
     pub duplicates: BTreeMap<String, usize>,
     /// Older versions of a record (see [`Batch::older_versions`]).
     pub older_versions: usize,
-    /// Tidepool data carried by two uploads, by kind (see
-    /// [`Batch::cross_upload`]).
+    /// Data carried by two uploads, by kind (see [`Batch::cross_upload`]).
     pub cross_upload: BTreeMap<String, usize>,
 }
 
@@ -816,7 +897,6 @@ pub fn merge_records(records: &mut Vec<Record>) -> Removed {
     }
     let mut duplicates: BTreeMap<String, usize> = BTreeMap::new();
     let mut cross_upload: BTreeMap<String, usize> = BTreeMap::new();
-    let window = jiff::SignedDuration::from_secs(CROSS_UPLOAD_WINDOW_S);
     let mut write = 0;
     let mut group_start = 0;
     for read in 0..records.len() {
@@ -831,12 +911,14 @@ pub fn merge_records(records: &mut Vec<Record>) -> Removed {
             *duplicates.entry(r.kind.name().to_string()).or_default() += 1;
             continue;
         }
-        if r.source == Source::Tidepool && !matches!(r.kind, RecordKind::Ignored { .. }) {
+        let window = twice_window_ms(r);
+        if window > 0 {
+            let window = jiff::SignedDuration::from_millis(window);
             let twice = records[..write]
                 .iter()
                 .rev()
                 .take_while(|k| r.at.duration_since(k.at) <= window)
-                .any(|k| k.source == Source::Tidepool && k.kind == r.kind && k.id != r.id);
+                .any(|k| k.source == r.source && k.kind == r.kind && k.id != r.id);
             if twice {
                 *cross_upload.entry(r.kind.name().to_string()).or_default() += 1;
                 continue;

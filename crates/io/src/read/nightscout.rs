@@ -3,8 +3,11 @@
 //! suspend/resume, everything else counted by `eventType`; a document
 //! marked `isValid: false` counted, see [`is_valid`]; a treatment without
 //! an eventType read for its insulin and carbs; a Profile Switch to a
-//! pump's auto mode counted as loop evidence, see [`is_auto_mode_switch`]) and
-//! `profile.json` (basal schedule in U/h, `timezone`, `units`). Entries
+//! pump's auto mode counted as loop evidence, see [`is_auto_mode_switch`];
+//! a Profile Switch that only names its profile applied from the batch's
+//! profile store, see [`named_switch`]) and `profile.json` (basal schedule
+//! in U/h, `timezone`, `units`; every named profile kept for the
+//! switches, [`ProfileStore`]). Entries
 //! store glucose in mg/dL whatever the display unit; a treatment's
 //! `glucose` (BG Check) says its unit in `units`.
 
@@ -44,7 +47,11 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
         }
         let id = or_skip!(ctx, document_id(&item));
         let version = or_skip!(ctx, modified(&item));
-        let kinds = or_skip!(ctx, kinds(ctx, &item, &mut tally));
+        let kinds = or_skip!(ctx, kinds(ctx, &item, at, &mut tally));
+        if item.get("store").is_some() && matches!(kinds.first(), Some(RecordKind::Schedule { .. }))
+        {
+            ctx.found_stores.borrow_mut().push(store_of(ctx, &item, at));
+        }
         let switch = match item.str("eventType") {
             Ok(Some("Profile Switch"))
                 if matches!(kinds.first(), Some(RecordKind::Schedule { .. })) =>
@@ -216,7 +223,12 @@ fn document_id(item: &Item<'_>) -> Result<SourceId, IoError> {
 
 /// What one document holds: a profile, a treatment's records, an entry,
 /// a device status, or a document deleted where it was written.
-fn kinds(ctx: &Ctx<'_>, item: &Item<'_>, tally: &mut Tally) -> Result<Vec<RecordKind>, IoError> {
+fn kinds(
+    ctx: &Ctx<'_>,
+    item: &Item<'_>,
+    at: jiff::Timestamp,
+    tally: &mut Tally,
+) -> Result<Vec<RecordKind>, IoError> {
     Ok(if !is_valid(item)? {
         vec![RecordKind::Ignored {
             kind: format!(
@@ -227,9 +239,9 @@ fn kinds(ctx: &Ctx<'_>, item: &Item<'_>, tally: &mut Tally) -> Result<Vec<Record
     } else if item.get("store").is_some() {
         vec![profile(item)?]
     } else if let Some(event) = item.str("eventType")? {
-        treatment(ctx, item, event, tally)?
+        treatment(ctx, item, at, event, tally)?
     } else if untyped_treatment(item) {
-        treatment(ctx, item, "", tally)?
+        treatment(ctx, item, at, "", tally)?
     } else if let Some(kind) = device_status(item) {
         vec![kind]
     } else {
@@ -692,15 +704,25 @@ fn instant(item: &Item<'_>) -> Result<jiff::Timestamp, IoError> {
 
 /// The offset from UTC the uploader's device was at when it wrote the
 /// item (seconds east; [`crate::clocks`]): its `utcOffset` (minutes,
-/// xDrip+, AndroidAPS, Loop), else the offset of its `dateString` or
-/// `created_at` when that is not UTC. A profile document says nothing of
-/// where the person was (its zone is its `timezone`): none.
+/// xDrip+, AndroidAPS, Loop) when not 0, else the offset of its
+/// `dateString` or `created_at` when that is not UTC. A `utcOffset` of 0
+/// says nothing of the device's zone: Nightscout's API v1 writes it from
+/// the offset the uploader's own time string carries
+/// (`moment.parseZone(...).utcOffset()` of an entry's `dateString` in
+/// `lib/server/entries.js`, of a treatment's `created_at` in
+/// `lib/server/treatments.js` `prepareData`), so every time written in UTC
+/// (Careportal's `toISOString()`, Loop's, iAPS's and the Dexcom bridge's
+/// `Z` times) is stored with 0, whatever zone the person was in. A
+/// profile document says nothing of where the person was (its zone is
+/// its `timezone`): none.
 fn device_offset(item: &Item<'_>) -> Option<i32> {
     if item.get("store").is_some() {
         return None;
     }
     if let Some(m) = item.num("utcOffset").ok().flatten() {
-        return crate::clocks::minutes_offset_s(m);
+        if m != 0.0 {
+            return crate::clocks::minutes_offset_s(m);
+        }
     }
     ["dateString", "created_at"].iter().find_map(|f| {
         item.str(f)
@@ -830,6 +852,22 @@ struct Tally {
     temp_basal_scheduled: Vec<usize>,
     /// Treatments without an eventType that carried insulin or carbs.
     untyped: Vec<usize>,
+    /// Profile Switches that only name their profile, applied from the
+    /// profile store: (item, instant, name, the store's place).
+    named: Vec<(usize, jiff::Timestamp, String, String)>,
+    /// Profile Switches naming a profile the store in force does not hold.
+    unknown_names: Vec<UnknownName>,
+}
+
+/// A Profile Switch naming a profile the profile store in force at it
+/// does not hold.
+struct UnknownName {
+    item: usize,
+    at: jiff::Timestamp,
+    name: String,
+    store: String,
+    store_at: jiff::Timestamp,
+    held: Vec<String>,
 }
 
 impl Tally {
@@ -878,15 +916,64 @@ impl Tally {
                 crate::record::OriginAt::Item(i) => format!("$[{i}]"),
                 _ => "?".into(),
             };
+            if ctx.stores.is_empty() {
+                ctx.note(format!(
+                    "{} Profile Switches name a profile without embedding it (no profileJson, as \
+                     Nightscout's Careportal writes them; the first at {} ({at})): the settings \
+                     they switch to are not in the treatment, and the files imported with it hold \
+                     no Nightscout profile store (profile.json) to look the name up in, so they \
+                     are not applied; the therapy in force follows the profile documents and the \
+                     switches that embed their profile. Import profile.json with the treatments \
+                     to apply them",
+                    named.len(),
+                    f.at
+                ));
+            } else {
+                ctx.note(format!(
+                    "{} Profile Switches neither embed a profile (no profileJson) nor name one \
+                     (no profile; the first at {} ({at})): the settings they switch to are not \
+                     known, so they are not applied; the therapy in force stays the one before \
+                     them",
+                    named.len(),
+                    f.at
+                ));
+            }
+        }
+        if let Some((item, at, name, store)) = self.named.iter().min_by_key(|n| (n.1, n.0)) {
+            let names: std::collections::BTreeSet<&str> =
+                self.named.iter().map(|n| n.2.as_str()).collect();
+            let names: Vec<String> = names.iter().map(|n| format!("\"{n}\"")).collect();
             ctx.note(format!(
-                "{} Profile Switches name a profile without embedding it (no profileJson, as \
-                 Nightscout's Careportal writes them; the first at {} ({at})): the settings they \
-                 switch to are not in the treatment, so they are not applied; the therapy in \
-                 force follows the profile documents and the switches that embed their profile. \
-                 If the pump now runs other settings, the clinician's change of settings puts \
-                 them in force",
-                named.len(),
-                f.at
+                "{} Profile Switches name a profile of the Nightscout profile store without \
+                 embedding it (no profileJson, as Careportal writes them; {}; the first at {at} \
+                 ($[{item}]), \"{name}\" from {store}): applied as Nightscout applies them, each \
+                 the profile of that name in the profile document in force at the switch (its \
+                 basal schedule in U/h and carb ratios in g/U, at the switch's percentage and \
+                 timeshift when it has them), for its duration or until the next switch",
+                self.named.len(),
+                names.join(", ")
+            ));
+        }
+        for u in &self.unknown_names {
+            ctx.note(format!(
+                "the Profile Switch of {} ($[{}]) names the profile \"{}\", which the profile \
+                 store in force then ({}, from {}) does not hold (it holds {}): not applied (the \
+                 settings it switched to are not known; Nightscout shows the default profile \
+                 then); the therapy in force stays the one before it",
+                u.at,
+                u.item,
+                u.name,
+                u.store,
+                u.store_at,
+                if u.held.is_empty() {
+                    "no profile".to_string()
+                } else {
+                    u.held
+                        .iter()
+                        .map(|n| format!("\"{n}\""))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                }
             ));
         }
         let auto: Vec<&Record> = out
@@ -927,6 +1014,11 @@ impl Tally {
 /// The kind a Profile Switch that names its profile without embedding it
 /// (no `profileJson`: Nightscout's Careportal, OpenAPS) is counted under.
 const NOT_EMBEDDED_SWITCH: &str = "Profile Switch (profile not embedded)";
+
+/// The kind a Profile Switch naming a profile the profile store in force
+/// does not hold is counted under ([`named_switch`]).
+const NAME_NOT_IN_STORE: &str =
+    "Profile Switch to a profile the profile store does not hold (not applied)";
 
 /// The kind a Profile Switch to the pump's auto mode is counted under
 /// ([`is_auto_mode_switch`]).
@@ -991,6 +1083,7 @@ fn untyped_treatment(item: &Item<'_>) -> bool {
 fn treatment(
     ctx: &Ctx<'_>,
     item: &Item<'_>,
+    at: jiff::Timestamp,
     event: &str,
     tally: &mut Tally,
 ) -> Result<Vec<RecordKind>, IoError> {
@@ -1031,7 +1124,7 @@ fn treatment(
         "Profile Switch" if is_auto_mode_switch(item.obj) => kinds.push(RecordKind::Ignored {
             kind: AUTO_MODE_SWITCH.into(),
         }),
-        "Profile Switch" => kinds.push(profile_switch(item)?),
+        "Profile Switch" => kinds.push(profile_switch(ctx, item, at, tally)?),
         "BG Check" if item.get("glucose").is_some() => kinds.push(bg_check(ctx, item)?),
         other => kinds.push(RecordKind::Ignored {
             kind: other.to_string(),
@@ -1221,11 +1314,18 @@ fn temp_basal(item: &Item<'_>, tally: &mut Tally) -> Result<RecordKind, IoError>
 /// value at a local time t is the profile's at t − timeshift. Whether the
 /// switch is temporary is settled over the whole file
 /// ([`temporary_switches`]).
-fn profile_switch(item: &Item<'_>) -> Result<RecordKind, IoError> {
+///
+/// A Profile Switch that only names its profile (`profile`, no
+/// `profileJson`: Nightscout's Careportal) runs that profile of the
+/// Nightscout profile store in force at the switch ([`named_switch`]).
+fn profile_switch(
+    ctx: &Ctx<'_>,
+    item: &Item<'_>,
+    at: jiff::Timestamp,
+    tally: &mut Tally,
+) -> Result<RecordKind, IoError> {
     let Some(text) = item.str("profileJson")? else {
-        return Ok(RecordKind::Ignored {
-            kind: NOT_EMBEDDED_SWITCH.into(),
-        });
+        return named_switch(ctx, item, at, tally);
     };
     let v: Value = serde_json::from_str(text)
         .map_err(|e| item.err("profileJson", format!("not valid JSON: {e}")))?;
@@ -1233,6 +1333,12 @@ fn profile_switch(item: &Item<'_>) -> Result<RecordKind, IoError> {
         return Err(item.err("profileJson", "expected an object"));
     };
     let inner = Item::json(item.file, item.index, &obj);
+    switch_applied(item, schedule_of(&inner, "profileJson")?)
+}
+
+/// A Profile Switch's profile at its `percentage` and moved by its
+/// `timeshift` (see [`profile_switch`]).
+fn switch_applied(item: &Item<'_>, profile: RecordKind) -> Result<RecordKind, IoError> {
     let percent = check_range(
         &item.at("percentage"),
         "percentage",
@@ -1242,10 +1348,137 @@ fn profile_switch(item: &Item<'_>) -> Result<RecordKind, IoError> {
         "profile percentage",
     )?;
     let shift = timeshift_hours(item)?;
-    Ok(shifted(
-        scaled(schedule_of(&inner, "profileJson")?, percent),
-        shift,
-    ))
+    Ok(shifted(scaled(profile, percent), shift))
+}
+
+/// One profile document of Nightscout's profile store (`profile.json`,
+/// `/api/v1/profile`): in force from its instant (its `startDate`), its
+/// `defaultProfile`, and every named profile of its `store` as read (or
+/// why it could not be: only a switch to it needs it).
+#[derive(Debug, Clone)]
+pub struct ProfileStore {
+    /// In force from.
+    pub at: jiff::Timestamp,
+    /// Its `defaultProfile`.
+    pub default: String,
+    /// Each named profile of `store`, in the document's order.
+    pub profiles: Vec<(String, Result<Profile, String>)>,
+    /// Where it was read (`file $[i]`).
+    pub place: String,
+}
+
+/// A profile document's store ([`ProfileStore`]).
+fn store_of(ctx: &Ctx<'_>, item: &Item<'_>, at: jiff::Timestamp) -> ProfileStore {
+    let mut profiles = Vec::new();
+    if let Some(Value::Object(store)) = item.get("store") {
+        for (name, p) in store {
+            let read = match p {
+                Value::Object(p) => {
+                    match schedule_of(
+                        &Item::json(item.file, item.index, p),
+                        &format!("store.{name}"),
+                    ) {
+                        Ok(RecordKind::Schedule { profile }) => Ok(*profile),
+                        Ok(_) => Err("not a profile".to_string()),
+                        Err(e) => Err(e.to_string()),
+                    }
+                }
+                other => Err(format!(
+                    "{} $[{}].store.{name}: expected an object, got {}",
+                    ctx.file,
+                    item.index,
+                    super::json::kind(other)
+                )),
+            };
+            profiles.push((name.clone(), read));
+        }
+    }
+    ProfileStore {
+        at,
+        default: item
+            .str("defaultProfile")
+            .ok()
+            .flatten()
+            .unwrap_or("")
+            .to_string(),
+        profiles,
+        place: format!("{} $[{}]", ctx.file, item.index),
+    }
+}
+
+/// A Profile Switch that names its profile without embedding it
+/// (Nightscout's Careportal writes `profile` and `duration` only): as
+/// Nightscout reads it (`activeProfileToTime` in cgm-remote-monitor's
+/// `lib/profilefunctions.js`), the profile of that name in the profile
+/// document in force at the switch (the latest `startDate` at or before
+/// it; a switch before every document: the earliest). Its basal schedule
+/// and carb ratios are applied, at the switch's `percentage` and moved by
+/// its `timeshift` when it has them (as for an embedded profile). Without
+/// any profile store in the batch the switch is counted, not read, and the
+/// reader asks for the batch's stores ([`Ctx::wants_stores`]); a name the
+/// store in force does not hold is counted, not read, and named in a note
+/// (Nightscout then keeps the default profile; abba keeps the therapy in
+/// force); a named profile that cannot be read leaves the switch out with
+/// that error.
+fn named_switch(
+    ctx: &Ctx<'_>,
+    item: &Item<'_>,
+    at: jiff::Timestamp,
+    tally: &mut Tally,
+) -> Result<RecordKind, IoError> {
+    let not_embedded = || RecordKind::Ignored {
+        kind: NOT_EMBEDDED_SWITCH.into(),
+    };
+    if ctx.stores.is_empty() {
+        ctx.wants_stores.set(true);
+        return Ok(not_embedded());
+    }
+    let Some(name) = item.str("profile")? else {
+        return Ok(not_embedded());
+    };
+    let doc = ctx
+        .stores
+        .iter()
+        .filter(|s| s.at <= at)
+        .max_by_key(|s| s.at)
+        .or_else(|| ctx.stores.iter().min_by_key(|s| s.at));
+    let Some(doc) = doc else {
+        return Ok(not_embedded());
+    };
+    match doc.profiles.iter().find(|(n, _)| n == name) {
+        None => {
+            tally.unknown_names.push(UnknownName {
+                item: item.index,
+                at,
+                name: name.to_string(),
+                store: doc.place.clone(),
+                store_at: doc.at,
+                held: doc.profiles.iter().map(|(n, _)| n.clone()).collect(),
+            });
+            Ok(RecordKind::Ignored {
+                kind: NAME_NOT_IN_STORE.into(),
+            })
+        }
+        Some((_, Err(why))) => Err(item.err(
+            "profile",
+            format!(
+                "names \"{name}\" of the profile store {} (in force from {}), which could not be \
+                 read: {why}",
+                doc.place, doc.at
+            ),
+        )),
+        Some((_, Ok(p))) => {
+            tally
+                .named
+                .push((item.index, at, name.to_string(), doc.place.clone()));
+            switch_applied(
+                item,
+                RecordKind::Schedule {
+                    profile: Box::new(p.clone()),
+                },
+            )
+        }
+    }
 }
 
 /// A Profile Switch's `timeshift` in whole hours. AndroidAPS 2.x to 3.1

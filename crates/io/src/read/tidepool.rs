@@ -696,6 +696,9 @@ pub(crate) fn pump_settings(
             notes: Default::default(),
             skipped: Default::default(),
             clocks: Default::default(),
+            stores: &[],
+            found_stores: Default::default(),
+            wants_stores: Default::default(),
         };
         match export_form(&ctx, &items)? {
             None => Ok(each(&items)),

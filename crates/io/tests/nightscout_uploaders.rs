@@ -331,3 +331,110 @@ fn treatments_without_an_event_type_are_read_for_their_insulin_and_carbs() {
         "{e}"
     );
 }
+
+const XDRIP: &str = "nightscout_treatments_xdrip_injections_synthetic.json";
+
+#[test]
+fn xdrip_and_careportal_treatments_of_event_type_none_are_read_and_pens_basal_is_not_a_bolus() {
+    // xDrip+ and Careportal write "<none>" (lowercase) as the event type of
+    // plain insulin and carbs: abba ignored them all. xDrip+'s multiple
+    // insulins name each injection; its `insulin` is their sum, so a
+    // Lantus dose was read as a 22 U bolus.
+    let b = read(
+        &[("treatments.json", fixture(XDRIP))],
+        &opts("Europe/London"),
+    )
+    .unwrap();
+    let u = |x: f64| abba_core::Units(x);
+    assert_eq!(
+        kind_at(&b, "2026-03-09T21:30:00Z"),
+        vec![RecordKind::LongActing { units: u(22.0) }]
+    );
+    let mut dinner = kind_at(&b, "2026-03-10T18:45:00Z");
+    dinner.sort_by_key(|k| k.name());
+    assert_eq!(
+        dinner,
+        vec![
+            RecordKind::Bolus { units: u(7.0) },
+            RecordKind::Carbs {
+                grams: abba_core::Grams(70.0)
+            },
+            RecordKind::LongActing { units: u(22.0) },
+        ]
+    );
+    let mut lunch = kind_at(&b, "2026-03-10T12:15:00Z");
+    lunch.sort_by_key(|k| k.name());
+    assert_eq!(
+        lunch,
+        vec![
+            RecordKind::Bolus { units: u(6.5) },
+            RecordKind::Carbs {
+                grams: abba_core::Grams(60.0)
+            },
+        ]
+    );
+    // Careportal's "<none>": its insulin and carbs, as Nightscout counts them.
+    let mut snack = kind_at(&b, "2026-03-10T15:30:00Z");
+    snack.sort_by_key(|k| k.name());
+    assert_eq!(
+        snack,
+        vec![
+            RecordKind::Bolus { units: u(1.5) },
+            RecordKind::Carbs {
+                grams: abba_core::Grams(15.0)
+            },
+        ]
+    );
+    // An insulin whose acting type xDrip+ did not know is counted, not read.
+    assert_eq!(
+        kind_at(&b, "2026-03-10T22:10:00Z"),
+        vec![RecordKind::Ignored {
+            kind: "insulin injection of unknown (acting type not known)".into()
+        }]
+    );
+    // Pens' basal insulin and no pump record: injections, not a pump.
+    let e = Evidence::from_records(&b.records, &jiff::tz::TimeZone::UTC);
+    assert_eq!(e.delivery(), Delivery::Injections, "{e:?}");
+
+    // A total the injections do not add up to, or a list that is not one,
+    // is refused naming the field.
+    for (doc, field) in [
+        (
+            r#"{"_id":"a","eventType":"<none>","insulin":9,"insulinInjections":"[{\"insulin\":\"Humalog\",\"units\":4.0}]","created_at":"2026-03-12T08:00:00Z"}"#,
+            "insulin",
+        ),
+        (
+            r#"{"_id":"b","eventType":"<none>","insulin":4,"insulinInjections":"Humalog 4","created_at":"2026-03-12T08:00:00Z"}"#,
+            "insulinInjections",
+        ),
+        (
+            r#"{"_id":"c","eventType":"<none>","insulin":4,"insulinInjections":[{"insulin":"Humalog"}],"created_at":"2026-03-12T08:00:00Z"}"#,
+            "insulinInjections[0].units",
+        ),
+    ] {
+        let e = read(&[("t.json", format!("[{doc}]").into())], &opts("UTC"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("t.json") && e.contains(field), "{field}: {e}");
+    }
+    // Careportal's "Temp Basal Start" / "End" as other tools post them.
+    let temps = r#"[
+ {"_id":"t1","eventType":"Temp Basal Start","absolute":0.4,"duration":60,"created_at":"2026-03-12T08:00:00Z"},
+ {"_id":"t2","eventType":"Temp Basal End","created_at":"2026-03-12T08:30:00Z"}
+]"#;
+    let b = read(&[("t.json", temps.into())], &opts("UTC")).unwrap();
+    let kinds: Vec<_> = b.records.iter().map(|r| r.kind.clone()).collect();
+    assert_eq!(
+        kinds,
+        vec![
+            RecordKind::TempBasal {
+                rate: TempRate::Absolute(abba_core::UnitsPerHour(0.4)),
+                duration_min: 60
+            },
+            RecordKind::TempBasal {
+                rate: TempRate::Percent(100.0),
+                duration_min: 0
+            },
+        ]
+    );
+}

@@ -898,7 +898,7 @@ impl Tally {
         }
         if !self.untyped.is_empty() {
             ctx.note(format!(
-                "{} treatments without an eventType (\"\", \"<None>\" or none at all) carry \
+                "{} treatments without an eventType (\"\", \"<none>\", \"<None>\" or none at all) carry \
                  insulin or carbs ({}): read as boluses and carbohydrate, as Nightscout counts \
                  any treatment's insulin and carbs in its IOB and COB",
                 self.untyped.len(),
@@ -1088,20 +1088,29 @@ fn treatment(
     tally: &mut Tally,
 ) -> Result<Vec<RecordKind>, IoError> {
     let mut kinds = Vec::new();
+    // Careportal's own default event type, and xDrip+'s, is "<none>"
+    // (Nightscout's `lib/plugins/careportal.js`; xDrip+'s `Treatments`);
+    // AndroidAPS's NSClient writes "<None>".
+    let event = if event.eq_ignore_ascii_case("<none>") {
+        ""
+    } else {
+        event
+    };
     match event {
         "Meal Bolus" | "Snack Bolus" | "Bolus Wizard" | "Correction Bolus" | "SMB" | "Bolus"
         | "Carb Correction" | "Carbs" => {
             kinds.extend(carbs(item)?);
-            kinds.extend(insulin(item)?);
+            kinds.extend(insulin_doses(item)?);
         }
-        // No eventType (empty, missing, or AndroidAPS NSClient's "<None>"):
-        // Nightscout's IOB and COB count any treatment's `insulin` and
-        // `carbs` (`lib/plugins/iob.js`, `cob.js`), so abba reads them,
-        // checked as any bolus and carbohydrate; a dose of 0 is none.
-        "" | "<None>" => {
+        // No eventType (empty, missing, "<none>" or "<None>"): Nightscout's
+        // IOB and COB count any treatment's `insulin` and `carbs`
+        // (`lib/plugins/iob.js`, `cob.js`), so abba reads them, checked as
+        // any bolus and carbohydrate; a dose of 0 is none.
+        "" => {
             kinds.extend(carbs(item)?);
             kinds.extend(
-                insulin(item)?
+                insulin_doses(item)?
+                    .into_iter()
                     .filter(|k| !matches!(k, RecordKind::Bolus { units } if units.0 == 0.0)),
             );
             if kinds.is_empty() {
@@ -1116,7 +1125,13 @@ fn treatment(
             kinds.extend(carbs(item)?);
             kinds.push(combo_bolus(item)?);
         }
-        "Temp Basal" => kinds.push(temp_basal(item, tally)?),
+        // Careportal's menu names "Temp Basal Start" and "Temp Basal End"
+        // (its form stores both as "Temp Basal"; other tools post them as
+        // named, and Nightscout reads any event type holding "Temp Basal"
+        // as one, `lib/data/ddata.js`).
+        "Temp Basal" | "Temp Basal Start" | "Temp Basal End" => {
+            kinds.push(temp_basal(item, tally)?)
+        }
         "Suspend Pump" | "Pump Suspend" => kinds.push(RecordKind::Suspend {
             duration_min: duration(item)?,
         }),
@@ -1157,6 +1172,133 @@ fn insulin(item: &Item<'_>) -> Result<Option<RecordKind>, IoError> {
         }),
         None => None,
     })
+}
+
+/// Insulins that act for a day or longer (basal insulin injected with a
+/// pen), by name: xDrip+'s profiles whose action lasts over 1000 minutes
+/// (its `isBasal`, `res/raw/insulin_profiles.json`: Insulatard, Toujeo,
+/// Lantus, Levemir, Basaglar, Tresiba) and their generic and other brand
+/// names.
+const LONG_ACTING_INSULINS: [&str; 19] = [
+    "insulatard",
+    "toujeo",
+    "lantus",
+    "levemir",
+    "basaglar",
+    "tresiba",
+    "abasaglar",
+    "semglee",
+    "rezvoglar",
+    "glargine",
+    "detemir",
+    "degludec",
+    "icodec",
+    "awiqli",
+    "nph",
+    "humulin n",
+    "novolin n",
+    "protaphane",
+    "insuman basal",
+];
+
+/// Rapid- and short-acting insulins (bolus insulin), by name: xDrip+'s
+/// other profiles (FIASP, Afrezza, Apidra, Novorapid, Humalog, Lispro,
+/// Actrapid) and their generic and other brand names.
+const RAPID_ACTING_INSULINS: [&str; 16] = [
+    "fiasp",
+    "afrezza",
+    "apidra",
+    "novorapid",
+    "humalog",
+    "lispro",
+    "actrapid",
+    "novolog",
+    "lyumjev",
+    "admelog",
+    "aspart",
+    "glulisine",
+    "humulin r",
+    "novolin r",
+    "insuman rapid",
+    "regular",
+];
+
+/// A treatment's insulin: its `insulin` as one bolus, or, when xDrip+'s
+/// multiple insulins name each injection (`insulinInjections`, a JSON list
+/// `[{"insulin": NAME, "units": U}]`, in a string as xDrip+ uploads it),
+/// each injection by its insulin: a long-acting one is basal insulin from
+/// a pen, not a bolus (xDrip+'s `insulin` is the sum of all). An insulin
+/// whose acting type is not known is left out and counted.
+fn insulin_doses(item: &Item<'_>) -> Result<Vec<RecordKind>, IoError> {
+    const FIELD: &str = "insulinInjections";
+    let list = match item.get(FIELD) {
+        None | Some(Value::Null) => return Ok(insulin(item)?.into_iter().collect()),
+        Some(Value::String(s)) if s.trim().is_empty() => {
+            return Ok(insulin(item)?.into_iter().collect())
+        }
+        Some(Value::String(s)) => serde_json::from_str::<Value>(s)
+            .map_err(|e| item.err(FIELD, format!("expected a JSON list of injections: {e}")))?,
+        Some(v) => v.clone(),
+    };
+    let Value::Array(list) = list else {
+        return Err(item.err(FIELD, "expected a list of {insulin, units}"));
+    };
+    if list.is_empty() {
+        return Ok(insulin(item)?.into_iter().collect());
+    }
+    let mut out = Vec::new();
+    let mut sum = 0.0;
+    for (i, inj) in list.iter().enumerate() {
+        let field = format!("{FIELD}[{i}]");
+        let name = inj
+            .get("insulin")
+            .and_then(Value::as_str)
+            .ok_or_else(|| item.err(&format!("{field}.insulin"), "expected the insulin's name"))?;
+        let u = inj.get("units").and_then(Value::as_f64).ok_or_else(|| {
+            item.err(&format!("{field}.units"), "expected the dose (U), a number")
+        })?;
+        let units = Units(in_range(
+            item,
+            &format!("{field}.units"),
+            u,
+            units::BOLUS_MAX_U,
+            "insulin (U)",
+        )?);
+        sum += u;
+        let key = name.trim().to_lowercase();
+        // The name, a brand followed by more ("Lantus U100"), or one of its
+        // words ("Insulin glargine").
+        let known = |names: &[&str]| {
+            names.iter().any(|n| {
+                key == *n
+                    || key.starts_with(&format!("{n} "))
+                    || (!n.contains(' ')
+                        && key.split(|c: char| !c.is_alphanumeric()).any(|w| w == *n))
+            })
+        };
+        out.push(if known(&LONG_ACTING_INSULINS) {
+            RecordKind::LongActing { units }
+        } else if known(&RAPID_ACTING_INSULINS) {
+            RecordKind::Bolus { units }
+        } else {
+            RecordKind::Ignored {
+                kind: format!("insulin injection of {name} (acting type not known)"),
+            }
+        });
+    }
+    // xDrip+'s `insulin` is the injections' sum: another total cannot be
+    // told apart from an injection missing from the list.
+    if let Some(total) = item.num("insulin")? {
+        if (total - sum).abs() > 0.01 {
+            return Err(item.err(
+                "insulin",
+                format!(
+                    "{total} U, but its insulinInjections sum to {sum} U (which dose was given?)"
+                ),
+            ));
+        }
+    }
+    Ok(out)
 }
 
 /// A treatment's `carbs`, if above zero.

@@ -217,7 +217,10 @@ impl Evidence {
         let Ok(items) = crate::read::json::parse_array("", bytes) else {
             return Self::from_carelink(bytes);
         };
-        for item in &items {
+        // A document deleted where it was written (`isValid: false`, as
+        // AndroidAPS and API v3 mark them) is not read, nor is it evidence.
+        let deleted = |item: &Value| item.get("isValid") == Some(&Value::Bool(false));
+        for item in items.iter().filter(|i| !deleted(i)) {
             let before = (e.smb, e.automated_basal, e.systems.values().sum::<usize>());
             e.count_item(item);
             if before != (e.smb, e.automated_basal, e.systems.values().sum::<usize>()) {
@@ -467,6 +470,11 @@ mod tests {
         assert_eq!(e.systems.get("iaps"), Some(&1));
         assert_eq!(e.systems.get("trio"), Some(&1));
         assert_eq!(e.delivery(), Delivery::ClosedLoop);
+        // A document deleted where it was written is no evidence.
+        let deleted = Evidence::from_file(
+            br#"[{"eventType":"SMB","insulin":0.2,"isSMB":true,"isValid":false,"enteredBy":"openaps://AAPS"}]"#,
+        );
+        assert_eq!((deleted.smb, deleted.systems.len()), (0, 0), "{deleted:?}");
         let mut none = Evidence::from_file(br#"[{"eventType":"Meal Bolus","enteredBy":"xdrip"}]"#);
         // A day of pump records (counted from the records, not the file).
         none.pump_hours = 24;

@@ -2015,6 +2015,55 @@ async fn read_only_pages_answer_while_another_writer_holds_the_store() {
     }
 }
 
+/// A sign-in with a link that is unknown, used or expired is refused from
+/// a read: it never waits for the store's write lock. Each such POST (an
+/// anonymous client's, with a made-up link and its own double-submit
+/// cookie) began a write transaction: while another writer held the store
+/// it held a pooled connection for the whole busy timeout and got 503, and
+/// a dozen of them kept a person's reads waiting for a connection.
+#[tokio::test]
+async fn a_made_up_sign_in_link_is_refused_without_the_write_lock() {
+    let mut svc = Svc::new();
+    if abba_store::testing::is_postgres(&svc.db) {
+        eprintln!("a_made_up_sign_in_link_is_refused_without_the_write_lock: SQLite's write lock");
+        return;
+    }
+    let id = svc.person("ana").await;
+    let used = link(&svc, Role::Person(id as i64));
+    let mut first = Browser::new(&svc);
+    assert_eq!(first.sign_in(&used).await.status, StatusCode::SEE_OTHER);
+    let state = abba_service::AppState::open(
+        &svc.db,
+        abba_service::StoreSettings {
+            busy_timeout: std::time::Duration::from_millis(300),
+            ..abba_service::StoreSettings::default()
+        },
+    )
+    .unwrap();
+    svc.router = abba_service::router(state);
+    let live = link(&svc, Role::Person(id as i64));
+    let other = rusqlite::Connection::open(&svc.db).unwrap();
+    other.execute_batch("BEGIN IMMEDIATE").unwrap();
+    let made_up = "ab".repeat(32);
+    for (secret, why) in [(made_up.as_str(), "unknown"), (used.as_str(), "used")] {
+        let mut b = Browser::new(&svc);
+        let csrf = "cd".repeat(32);
+        b.cookies.insert("abba_signin".into(), csrf.clone());
+        let p = b
+            .post("/signin", &[("csrf", &csrf), ("link", secret)])
+            .await;
+        assert_eq!(p.status, StatusCode::FORBIDDEN, "{why}: {}", p.html);
+        assert!(p.headers.get(header::SET_COOKIE).is_none(), "{why}");
+    }
+    // A live link still needs the write lock: busy, then used once free.
+    let mut b = Browser::new(&svc);
+    let p = b.sign_in(&live).await;
+    assert_eq!(p.status, StatusCode::SERVICE_UNAVAILABLE, "{}", p.html);
+    other.execute_batch("ROLLBACK").unwrap();
+    let p = b.sign_in(&live).await;
+    assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
+}
+
 /// The clinic's page shows the pump steps the store holds: a person made
 /// by `POST /v1/persons` has `abba person new`'s (0.05 U/h, 0.1 g/U); a
 /// person without steps (research, continuous values) shows none, never

@@ -2064,6 +2064,61 @@ async fn a_made_up_sign_in_link_is_refused_without_the_write_lock() {
     assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
 }
 
+/// A text field of the clinic's upload forms with bytes that are no UTF-8
+/// (no browser sends them; a client can) is refused, never decoded with
+/// U+FFFD in their place: the new person's name was stored as "eva\u{FFFD}\u{FFFD}".
+#[tokio::test]
+async fn a_form_field_that_is_not_utf8_is_refused_not_replaced() {
+    let svc = Svc::new();
+    let (admin, csrf) = signed_in(&svc, Role::Admin).await;
+    const BOUNDARY: &str = "----abba-test-boundary-utf8";
+    let mut body = Vec::new();
+    for (k, v) in [
+        ("csrf", csrf.as_bytes()),
+        ("name", &b"eva\xff\xfe"[..]),
+        ("tz", b"UTC"),
+        ("unit", b"mg/dL"),
+        ("mode", b"cgm"),
+        ("age_group", b"adult"),
+        ("basal", b"0.9"),
+        ("carb_ratios", b"10,12,11"),
+    ] {
+        body.extend_from_slice(
+            format!("--{BOUNDARY}\r\nContent-Disposition: form-data; name=\"{k}\"\r\n\r\n")
+                .as_bytes(),
+        );
+        body.extend_from_slice(v);
+        body.extend_from_slice(b"\r\n");
+    }
+    body.extend_from_slice(format!("--{BOUNDARY}--\r\n").as_bytes());
+    let req = Request::builder()
+        .method(Method::POST)
+        .uri("/clinic/persons")
+        .header(header::HOST, HOST)
+        .header(header::ORIGIN, ORIGIN)
+        .header(
+            header::CONTENT_TYPE,
+            format!("multipart/form-data; boundary={BOUNDARY}"),
+        )
+        .header(header::COOKIE, admin.cookie_header())
+        .body(Body::from(body))
+        .unwrap();
+    let res = svc.router.clone().oneshot(req).await.unwrap();
+    let status = res.status();
+    let html =
+        String::from_utf8_lossy(&res.into_body().collect().await.unwrap().to_bytes()).to_string();
+    assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY, "{html}");
+    assert!(
+        html.contains("name") && html.contains("not UTF-8") && html.contains("byte 4"),
+        "{html}"
+    );
+    let names = abba_service::open_store(&svc.db)
+        .unwrap()
+        .persons()
+        .unwrap();
+    assert!(names.is_empty(), "nothing stored: {names:?}");
+}
+
 /// The clinic's page shows the pump steps the store holds: a person made
 /// by `POST /v1/persons` has `abba person new`'s (0.05 U/h, 0.1 g/U); a
 /// person without steps (research, continuous values) shows none, never

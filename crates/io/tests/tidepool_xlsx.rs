@@ -533,3 +533,73 @@ fn tidepool_webs_json_export_is_read_as_the_data_model_it_was_made_from() {
         b.notes
     );
 }
+
+/// A sheet with a value at A1 and one at XFD1048576 is two cells, not a
+/// range of 17 billion: the reader once asked calamine for the dense
+/// range (512 GiB) and the allocation failure aborted the process (`abba
+/// serve` with it, from a clinic's upload of a 6 kB file).
+#[test]
+fn a_sheet_with_a_far_corner_cell_is_read_cell_by_cell() {
+    let t = crate::tidepool_workbook::serial(1_777_900_000_000);
+    let mut wb = Workbook::new();
+    let ws = wb.add_worksheet();
+    ws.set_name("CGM").unwrap();
+    for (c, h) in CGM.iter().enumerate() {
+        ws.write_string(0, c as u16, *h).unwrap();
+    }
+    let date = rust_xlsxwriter::Format::new().set_num_format("yyyy-mm-dd hh:mm:ss");
+    ws.write_number_with_format(1, 0, t, &date).unwrap();
+    ws.write_string(1, 1, "cbg").unwrap();
+    ws.write_number(1, 2, 6.5).unwrap();
+    ws.write_string(1, 3, "mmol/L").unwrap();
+    ws.write_string(1, 4, "a").unwrap();
+    // Column XFD of Excel's last row: under no header.
+    ws.write_number(1_048_575, 16_383, 1.0).unwrap();
+    let bytes = wb.save_to_buffer().unwrap();
+    let e = error(bytes, &opts("UTC"));
+    assert!(
+        e.contains("row 1048576") && e.contains("CGM"),
+        "the far row is named: {e}"
+    );
+}
+
+/// A workbook whose parts hold more than abba reads once inflated (a zip
+/// bomb: a few megabytes that inflate to gigabytes) is refused by
+/// name from its declared sizes, before a part is inflated.
+#[test]
+fn a_workbook_inflating_past_the_limit_is_refused_before_it_is_inflated() {
+    use std::io::Write;
+    let t = crate::tidepool_workbook::serial(1_777_900_000_000);
+    let ok = serde_json::json!([t, "cbg", 6.5, "mmol/L", "a"]);
+    let small = sheet("CGM", &CGM, &[ok.as_array().unwrap().clone()]);
+    // The same workbook with one more part of zeros past the limit.
+    let mut zip = zip::ZipWriter::new_append(std::io::Cursor::new(small.clone())).unwrap();
+    let options = zip::write::SimpleFileOptions::default()
+        .compression_method(zip::CompressionMethod::Deflated)
+        .compression_level(Some(1))
+        .large_file(true);
+    zip.start_file("xl/media/padding.bin", options).unwrap();
+    let chunk = vec![0u8; 1 << 20];
+    let limit = abba_io::read::tidepool_xlsx::MAX_INFLATED_BYTES;
+    for _ in 0..=limit / (1 << 20) {
+        zip.write_all(&chunk).unwrap();
+    }
+    let bomb = zip.finish().unwrap().into_inner();
+    assert!(
+        (bomb.len() as u64) * 64 < limit,
+        "a small file: {} bytes",
+        bomb.len()
+    );
+    // Without the padding the workbook is read.
+    read(&[("export.xlsx", small)], &opts("UTC")).unwrap();
+    let e = read(&[("export.xlsx", bomb)], &opts("UTC"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("export.xlsx")
+            && e.contains("256 MiB")
+            && e.contains("once uncompressed")
+            && e.contains("shorter date range"),
+        "{e}"
+    );
+}

@@ -2015,6 +2015,110 @@ async fn read_only_pages_answer_while_another_writer_holds_the_store() {
     }
 }
 
+/// A sign-in with a link that is unknown, used or expired is refused from
+/// a read: it never waits for the store's write lock. Each such POST (an
+/// anonymous client's, with a made-up link and its own double-submit
+/// cookie) began a write transaction: while another writer held the store
+/// it held a pooled connection for the whole busy timeout and got 503, and
+/// a dozen of them kept a person's reads waiting for a connection.
+#[tokio::test]
+async fn a_made_up_sign_in_link_is_refused_without_the_write_lock() {
+    let mut svc = Svc::new();
+    if abba_store::testing::is_postgres(&svc.db) {
+        eprintln!("a_made_up_sign_in_link_is_refused_without_the_write_lock: SQLite's write lock");
+        return;
+    }
+    let id = svc.person("ana").await;
+    let used = link(&svc, Role::Person(id as i64));
+    let mut first = Browser::new(&svc);
+    assert_eq!(first.sign_in(&used).await.status, StatusCode::SEE_OTHER);
+    let state = abba_service::AppState::open(
+        &svc.db,
+        abba_service::StoreSettings {
+            busy_timeout: std::time::Duration::from_millis(300),
+            ..abba_service::StoreSettings::default()
+        },
+    )
+    .unwrap();
+    svc.router = abba_service::router(state);
+    let live = link(&svc, Role::Person(id as i64));
+    let other = rusqlite::Connection::open(&svc.db).unwrap();
+    other.execute_batch("BEGIN IMMEDIATE").unwrap();
+    let made_up = "ab".repeat(32);
+    for (secret, why) in [(made_up.as_str(), "unknown"), (used.as_str(), "used")] {
+        let mut b = Browser::new(&svc);
+        let csrf = "cd".repeat(32);
+        b.cookies.insert("abba_signin".into(), csrf.clone());
+        let p = b
+            .post("/signin", &[("csrf", &csrf), ("link", secret)])
+            .await;
+        assert_eq!(p.status, StatusCode::FORBIDDEN, "{why}: {}", p.html);
+        assert!(p.headers.get(header::SET_COOKIE).is_none(), "{why}");
+    }
+    // A live link still needs the write lock: busy, then used once free.
+    let mut b = Browser::new(&svc);
+    let p = b.sign_in(&live).await;
+    assert_eq!(p.status, StatusCode::SERVICE_UNAVAILABLE, "{}", p.html);
+    other.execute_batch("ROLLBACK").unwrap();
+    let p = b.sign_in(&live).await;
+    assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
+}
+
+/// A text field of the clinic's upload forms with bytes that are no UTF-8
+/// (no browser sends them; a client can) is refused, never decoded with
+/// U+FFFD in their place: the new person's name was stored as "eva\u{FFFD}\u{FFFD}".
+#[tokio::test]
+async fn a_form_field_that_is_not_utf8_is_refused_not_replaced() {
+    let svc = Svc::new();
+    let (admin, csrf) = signed_in(&svc, Role::Admin).await;
+    const BOUNDARY: &str = "----abba-test-boundary-utf8";
+    let mut body = Vec::new();
+    for (k, v) in [
+        ("csrf", csrf.as_bytes()),
+        ("name", &b"eva\xff\xfe"[..]),
+        ("tz", b"UTC"),
+        ("unit", b"mg/dL"),
+        ("mode", b"cgm"),
+        ("age_group", b"adult"),
+        ("basal", b"0.9"),
+        ("carb_ratios", b"10,12,11"),
+    ] {
+        body.extend_from_slice(
+            format!("--{BOUNDARY}\r\nContent-Disposition: form-data; name=\"{k}\"\r\n\r\n")
+                .as_bytes(),
+        );
+        body.extend_from_slice(v);
+        body.extend_from_slice(b"\r\n");
+    }
+    body.extend_from_slice(format!("--{BOUNDARY}--\r\n").as_bytes());
+    let req = Request::builder()
+        .method(Method::POST)
+        .uri("/clinic/persons")
+        .header(header::HOST, HOST)
+        .header(header::ORIGIN, ORIGIN)
+        .header(
+            header::CONTENT_TYPE,
+            format!("multipart/form-data; boundary={BOUNDARY}"),
+        )
+        .header(header::COOKIE, admin.cookie_header())
+        .body(Body::from(body))
+        .unwrap();
+    let res = svc.router.clone().oneshot(req).await.unwrap();
+    let status = res.status();
+    let html =
+        String::from_utf8_lossy(&res.into_body().collect().await.unwrap().to_bytes()).to_string();
+    assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY, "{html}");
+    assert!(
+        html.contains("name") && html.contains("not UTF-8") && html.contains("byte 4"),
+        "{html}"
+    );
+    let names = abba_service::open_store(&svc.db)
+        .unwrap()
+        .persons()
+        .unwrap();
+    assert!(names.is_empty(), "nothing stored: {names:?}");
+}
+
 /// The clinic's page shows the pump steps the store holds: a person made
 /// by `POST /v1/persons` has `abba person new`'s (0.05 U/h, 0.1 g/U); a
 /// person without steps (research, continuous values) shows none, never

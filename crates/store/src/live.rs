@@ -289,9 +289,26 @@ impl Store {
 
     /// The person's live state, rebuilt from the store (snapshot + replay).
     pub fn live(&mut self, id: i64) -> Result<Live, StoreError> {
-        let p = person::load_by_id(&self.conn, id)?;
+        // The replay (a year of CGM: ~0.2 s) in a read transaction, then
+        // only its decisions and snapshot stored under the write lock while
+        // the person's revision is still the one replayed: an app posting
+        // late events to a long log held SQLite's one writer for every
+        // replay, and other persons' writes waited past the busy timeout.
+        let read = self.conn.read_transaction()?;
+        let p = person::load_by_id(&read, id)?;
+        let replayed = crate::store::replay_log(&read, &mut self.cache, &p, true)?;
+        let read_rev = rev(&read, id)?;
+        read.commit()?;
         let tx = self.conn.transaction_for(id)?;
-        let s = refresh(&tx, &mut self.cache, &p, true)?;
+        let (p, s) = if rev(&tx, id)? == read_rev {
+            let s = crate::store::store_replayed(&tx, &p, replayed)?;
+            (p, s)
+        } else {
+            // Written meanwhile: replayed again, holding the lock.
+            let p = person::load_by_id(&tx, id)?;
+            let s = refresh(&tx, &mut self.cache, &p, true)?;
+            (p, s)
+        };
         let last = last_key(&tx, id)?;
         let r = rev(&tx, id)?;
         tx.commit()?;

@@ -185,6 +185,34 @@ pub(crate) fn refresh_with(
     use_snapshot: bool,
     write: bool,
 ) -> Result<State, StoreError> {
+    let replayed = replay_log(conn, cache, person, use_snapshot)?;
+    if write {
+        store_replayed(conn, person, replayed)
+    } else {
+        Ok(merged_unstored(conn, person, replayed)?)
+    }
+}
+
+/// A replay of a person's log, not stored yet ([`refresh_with`]): made in
+/// a read transaction, then stored in a short write transaction while the
+/// person's revision is the one it read ([`Store::live`]).
+pub(crate) struct Replayed {
+    stream: Arc<EventStream>,
+    records: usize,
+    r: replay::Replay,
+    answers: Answers,
+    refused: usize,
+    extras: Option<Extras>,
+}
+
+/// Replays the person's log (from the snapshot when usable); stores
+/// nothing.
+pub(crate) fn replay_log(
+    conn: &dyn Db,
+    cache: &mut StreamCache,
+    person: &Person,
+    use_snapshot: bool,
+) -> Result<Replayed, StoreError> {
     let r = conn.one(Q::RecordCountAndLastImport, args![person.id])?;
     let (n, last) = (r.int(0)?, r.int(1)?);
     let key = (n, last, crate::app::count(conn, person.id)?);
@@ -263,7 +291,32 @@ pub(crate) fn refresh_with(
         (Some(s), false) => s.unused + r.refused.len(),
         _ => r.refused.len(),
     };
-    if !write {
+    Ok(Replayed {
+        stream,
+        records,
+        r,
+        answers,
+        refused,
+        extras,
+    })
+}
+
+/// The state of a replay without storing it: the decisions are the stored
+/// ones with the replay's merged in.
+fn merged_unstored(
+    conn: &dyn Db,
+    person: &Person,
+    replayed: Replayed,
+) -> Result<State, StoreError> {
+    let Replayed {
+        stream,
+        records,
+        r,
+        answers,
+        refused,
+        extras,
+    } = replayed;
+    {
         let mut all = if r.rebuilt {
             Vec::new()
         } else {
@@ -279,7 +332,7 @@ pub(crate) fn refresh_with(
             }
         }
         all.sort_by_key(|d| (d.at, param_key(d.parameter)));
-        return Ok(State {
+        Ok(State {
             stream,
             records,
             advisor: r.advisor,
@@ -287,8 +340,25 @@ pub(crate) fn refresh_with(
             answers,
             refused,
             extras,
-        });
+        })
     }
+}
+
+/// Stores a replay's decisions and its snapshot (inside a write
+/// transaction); the state with every stored decision.
+pub(crate) fn store_replayed(
+    conn: &dyn Db,
+    person: &Person,
+    replayed: Replayed,
+) -> Result<State, StoreError> {
+    let Replayed {
+        stream,
+        records,
+        r,
+        answers,
+        refused,
+        extras,
+    } = replayed;
     if r.rebuilt {
         conn.execute(Q::SuggestionDeleteAll, args![person.id])?;
     }

@@ -343,13 +343,82 @@ pub fn is_zip(bytes: &[u8]) -> bool {
     bytes.starts_with(b"PK\x03\x04")
 }
 
-fn open<'a>(file: &str, bytes: &'a [u8]) -> Result<Xlsx<Cursor<&'a [u8]>>, IoError> {
-    Xlsx::new(Cursor::new(bytes)).map_err(|e| {
-        IoError::format(
+/// The most a workbook's parts may hold together once uncompressed
+/// (bytes): about 500,000 rows of Tidepool's sheets (years of CGM). A zip
+/// archive inflates a part up to about a thousand times, so a workbook of
+/// a few megabytes can hold gigabytes of XML (a zip bomb): refused from
+/// the sizes its directory declares, before any part is inflated (the
+/// `zip` reader stops at a part's declared size).
+pub const MAX_INFLATED_BYTES: u64 = 256 * 1024 * 1024;
+
+fn not_a_workbook(file: &str, e: impl std::fmt::Display) -> IoError {
+    IoError::format(
+        file,
+        format!("a zip archive that is not a readable Excel workbook (.xlsx): {e}"),
+    )
+}
+
+/// Refuses a workbook whose parts declare more than
+/// [`MAX_INFLATED_BYTES`] together.
+fn check_inflated(file: &str, bytes: &[u8]) -> Result<(), IoError> {
+    let mut zip = zip::ZipArchive::new(Cursor::new(bytes)).map_err(|e| not_a_workbook(file, e))?;
+    let mut total: u64 = 0;
+    for i in 0..zip.len() {
+        let part = zip.by_index_raw(i).map_err(|e| not_a_workbook(file, e))?;
+        total = total.saturating_add(part.size());
+    }
+    if total > MAX_INFLATED_BYTES {
+        let mib = |b: u64| b / (1024 * 1024);
+        return Err(IoError::format(
             file,
-            format!("a zip archive that is not a readable Excel workbook (.xlsx): {e}"),
-        )
-    })
+            format!(
+                "an Excel workbook of {} bytes whose parts hold {} MiB once uncompressed, more than the {} MiB abba reads from one workbook: export a shorter date range (or Tidepool's JSON)",
+                bytes.len(),
+                mib(total),
+                mib(MAX_INFLATED_BYTES)
+            ),
+        ));
+    }
+    Ok(())
+}
+
+fn open<'a>(file: &str, bytes: &'a [u8]) -> Result<Xlsx<Cursor<&'a [u8]>>, IoError> {
+    check_inflated(file, bytes)?;
+    Xlsx::new(Cursor::new(bytes)).map_err(|e| not_a_workbook(file, e))
+}
+
+/// A sheet's row that holds a value: Excel's row number, its cells by column.
+type SheetRowCells = (u32, std::collections::BTreeMap<u32, Data>);
+
+/// A sheet's rows that hold a value, in order. Read cell by cell, never as one dense range: a
+/// sheet with one cell at A1 and one at XFD1048576 would be a range of
+/// 17 billion cells (calamine's `worksheet_range` asked for 512 GiB and
+/// aborted the process).
+fn sheet_rows(
+    book: &mut Xlsx<Cursor<&[u8]>>,
+    file: &str,
+    name: &str,
+) -> Result<Vec<SheetRowCells>, IoError> {
+    let bad = |e: calamine::XlsxError| {
+        IoError::format(file, format!("sheet \"{name}\" cannot be read: {e}"))
+    };
+    let mut cells = match book.worksheet_cells_reader(name) {
+        Ok(c) => c,
+        // Not a worksheet (a chart sheet): no rows, as calamine's range.
+        Err(calamine::XlsxError::NotAWorksheet(_)) => return Ok(Vec::new()),
+        Err(e) => return Err(bad(e)),
+    };
+    let mut rows: std::collections::BTreeMap<u32, std::collections::BTreeMap<u32, Data>> =
+        std::collections::BTreeMap::new();
+    while let Some(cell) = cells.next_cell().map_err(bad)? {
+        let value = Data::from(cell.get_value().clone());
+        if matches!(value, Data::Empty) {
+            continue;
+        }
+        let (r, c) = cell.get_position();
+        rows.entry(r).or_default().insert(c, value);
+    }
+    Ok(rows.into_iter().map(|(r, cells)| (r + 1, cells)).collect())
 }
 
 fn expected() -> String {
@@ -644,36 +713,27 @@ pub(crate) fn read(file: &str, bytes: &[u8]) -> Result<Book, IoError> {
         };
         known = true;
         let layout = &SHEETS[li];
-        let range = book
-            .worksheet_range(name)
-            .map_err(|e| IoError::format(file, format!("sheet \"{name}\" cannot be read: {e}")))?;
-        let Some((top, _)) = range.start() else {
+        let mut rows = sheet_rows(&mut book, file, name)?.into_iter();
+        let Some((header_row, header)) = rows.next() else {
             continue; // an empty sheet
         };
-        let mut rows = range.rows();
-        let Some(header) = rows.next() else { continue };
-        let header_row = top + 1;
-        // Column index -> field, by the header's text.
-        let mut fields: Vec<Option<&'static str>> = Vec::with_capacity(header.len());
-        for cell in header {
+        // Column -> field, by the header's text.
+        let mut fields: HashMap<u32, &'static str> = HashMap::new();
+        for (c, cell) in &header {
             let text = match cell {
                 Data::String(s) => s.trim(),
                 _ => "",
             };
-            fields.push(
-                layout
-                    .columns
-                    .iter()
-                    .find(|(_, h)| h.eq_ignore_ascii_case(text))
-                    .map(|(f, _)| *f),
-            );
-        }
-        if !fields.contains(&Some("time")) {
-            let found: Vec<String> = header
+            if let Some((f, _)) = layout
+                .columns
                 .iter()
-                .filter(|c| !matches!(c, Data::Empty))
-                .map(|c| format!("\"{c}\""))
-                .collect();
+                .find(|(_, h)| h.eq_ignore_ascii_case(text))
+            {
+                fields.insert(*c, f);
+            }
+        }
+        if !fields.values().any(|f| *f == "time") {
+            let found: Vec<String> = header.values().map(|c| format!("\"{c}\"")).collect();
             return Err(IoError::format(
                 file,
                 format!(
@@ -690,17 +750,13 @@ pub(crate) fn read(file: &str, bytes: &[u8]) -> Result<Book, IoError> {
                 .find(|c| c.0 == f)
                 .map_or_else(|| f.to_string(), |c| c.1.to_string())
         };
-        for (i, cells) in rows.enumerate() {
-            let row = header_row + 1 + i as u32;
-            if cells.iter().all(|c| matches!(c, Data::Empty)) {
-                continue;
-            }
+        for (row, cells) in rows {
             let err = |field: &str, message: String| {
                 IoError::invalid(Location::sheet(file, name, row), &column(field), message)
             };
             let mut obj = Map::new();
-            for (c, cell) in cells.iter().enumerate() {
-                let Some(field) = fields.get(c).copied().flatten() else {
+            for (c, cell) in &cells {
+                let Some(field) = fields.get(c).copied() else {
                     continue;
                 };
                 if OTHER_TIMES.contains(&field) {

@@ -257,7 +257,18 @@ async fn read_multipart(m: Result<Multipart, MultipartRejection>) -> Result<Uplo
                 }
             }
             None => {
-                let v = field.text().await.map_err(bad)?;
+                // Read as bytes, never decoded lossily: a name with bytes
+                // that are no UTF-8 was stored with U+FFFD in their place.
+                let bytes = field.bytes().await.map_err(bad)?;
+                let v = String::from_utf8(bytes.to_vec()).map_err(|e| {
+                    ApiError::invalid(
+                        name.clone(),
+                        format!(
+                            "the field `{name}` is not UTF-8 text (byte {} is no character): nothing was saved",
+                            e.utf8_error().valid_up_to() + 1
+                        ),
+                    )
+                })?;
                 pairs.push((name, v));
             }
         }

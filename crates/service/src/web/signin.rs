@@ -110,6 +110,17 @@ pub async fn post(State(s): State<AppState>, ctx: Ctx, body: RawBody) -> PageRes
     if !session::is_secret(&link) {
         return Ok(refused(LinkRefused::Unknown));
     }
+    // A link that is unknown, used or expired is refused from a read:
+    // using one takes the store's write lock, and an anonymous client's
+    // made-up links would otherwise each wait for it (holding a pooled
+    // connection for the busy timeout while another writer works).
+    let lh = auth::hash(&link);
+    let state = s
+        .store(move |store| Ok(store.peek_signin_link(&lh, session::now_ms())?))
+        .await?;
+    if let Err(r) = state {
+        return Ok(refused(r));
+    }
     let value = session::secret()?;
     let csrf = session::secret()?;
     let (lh, sh) = (auth::hash(&link), auth::hash(&value));

@@ -193,7 +193,7 @@ pub fn router_with(state: AppState, set: &ServeSettings) -> Router {
         ))
         .layer(headers)
         .layer(PropagateRequestIdLayer::x_request_id())
-        .layer(TraceLayer::new_for_http())
+        .layer(TraceLayer::new_for_http().make_span_with(request_span))
         .layer(SetRequestIdLayer::x_request_id(MakeRequestUuid))
         .layer(axum::middleware::map_request(safe_request_id))
         .with_state(state)
@@ -479,5 +479,37 @@ mod per_client_tests {
             p.counts.lock().unwrap().is_empty(),
             "no entry is kept for a client with nothing in flight"
         );
+    }
+}
+
+/// The trace's span of a request: its method and path, a sign-in link's
+/// secret (`/signin/{secret}`, a credential until it is used) replaced by
+/// `…`, and no query string.
+fn request_span(req: &axum::http::Request<axum::body::Body>) -> tracing::Span {
+    let path = logged_path(req.uri().path());
+    tracing::debug_span!("request", method = %req.method(), path = %path, version = ?req.version())
+}
+
+/// [`request_span`]'s path.
+fn logged_path(path: &str) -> std::borrow::Cow<'_, str> {
+    match path.strip_prefix("/signin/") {
+        Some(rest) if !rest.is_empty() => "/signin/…".into(),
+        _ => path.into(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::logged_path;
+
+    #[test]
+    fn a_sign_in_links_secret_is_never_in_the_trace() {
+        let secret = "ab".repeat(32);
+        let path = format!("/signin/{secret}");
+        let logged = logged_path(&path);
+        assert!(!logged.contains(&secret), "{logged}");
+        assert_eq!(logged, "/signin/…");
+        assert_eq!(logged_path("/signin"), "/signin");
+        assert_eq!(logged_path("/v1/persons/3/events"), "/v1/persons/3/events");
     }
 }

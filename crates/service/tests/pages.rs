@@ -2662,6 +2662,45 @@ async fn an_https_public_url_makes_every_cookie_secure() {
     }
 }
 
+/// Behind a proxy that rewrites `Host` to the service's own address, the
+/// browser's `Origin` names `--public-url`: its forms are same-origin
+/// (they were all refused 403); any other origin still is not.
+#[tokio::test]
+async fn forms_from_the_public_url_pass_the_origin_check_behind_a_host_rewriting_proxy() {
+    let mut svc = Svc::new();
+    let id = svc.person("ana").await;
+    let state = abba_service::AppState::open(
+        &svc.db,
+        abba_service::StoreSettings {
+            public_url: Some("https://abba.clinic.example/".into()),
+            ..abba_service::StoreSettings::default()
+        },
+    )
+    .unwrap();
+    svc.router = abba_service::router(state);
+    for (origin, passes) in [
+        ("https://abba.clinic.example", true),
+        ("https://ABBA.clinic.example", true),
+        ("https://evil.example", false),
+        ("https://abba.clinic.example.evil.example", false),
+    ] {
+        let mut b = Browser::new(&svc);
+        b.origin = Some(origin);
+        let secret = link(&svc, Role::Person(id as i64));
+        let page = b.get(&format!("/signin/{secret}")).await;
+        let csrf = page.hidden("csrf");
+        let p = b
+            .post("/signin", &[("csrf", &csrf), ("link", &secret)])
+            .await;
+        let want = if passes {
+            StatusCode::SEE_OTHER
+        } else {
+            StatusCode::FORBIDDEN
+        };
+        assert_eq!(p.status, want, "{origin}: {}", p.html);
+    }
+}
+
 /// The new-person form's refusals from the store are worded for the page:
 /// beside the field, without the CLI flag the store's message starts with.
 #[tokio::test]

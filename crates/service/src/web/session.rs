@@ -43,6 +43,9 @@ pub struct Ctx {
     pub headers: HeaderMap,
     /// True when the request came over TLS (a trusted proxy said so).
     pub https: bool,
+    /// `--public-url`'s host and port, lower case: the origin persons'
+    /// browsers name when a proxy in front rewrites `Host`.
+    pub public_authority: Option<String>,
 }
 
 impl FromRequestParts<AppState> for Ctx {
@@ -72,6 +75,7 @@ impl FromRequestParts<AppState> for Ctx {
         Ok(Ctx {
             headers: parts.headers.clone(),
             https: tls || (loopback && forwarded) || public_https,
+            public_authority: state.public_url().and_then(authority_of),
         })
     }
 }
@@ -102,34 +106,34 @@ impl Ctx {
     }
 
     /// True when the request's `Origin` (or, without one, its `Referer`)
-    /// is this host. Browsers send `Origin` with every form POST.
+    /// is this host, or the `--public-url` persons are given (a proxy in
+    /// front may rewrite `Host` to the service's own address). Browsers
+    /// send `Origin` with every form POST.
     pub fn same_origin(&self) -> bool {
-        let Some(host) = self.headers.get(header::HOST).and_then(|v| v.to_str().ok()) else {
-            return false;
-        };
-        let authority_of = |url: &str| -> Option<String> {
-            let rest = url
-                .strip_prefix("https://")
-                .or_else(|| url.strip_prefix("http://"))?;
-            Some(rest.split('/').next().unwrap_or("").to_ascii_lowercase())
-        };
-        let host = host.to_ascii_lowercase();
-        if let Some(o) = self.headers.get(header::ORIGIN) {
-            return o
-                .to_str()
-                .ok()
-                .and_then(authority_of)
-                .is_some_and(|a| a == host);
-        }
-        if let Some(r) = self.headers.get(header::REFERER) {
-            return r
-                .to_str()
-                .ok()
-                .and_then(authority_of)
-                .is_some_and(|a| a == host);
-        }
-        false
+        let host = self
+            .headers
+            .get(header::HOST)
+            .and_then(|v| v.to_str().ok())
+            .map(str::to_ascii_lowercase);
+        let ours =
+            |a: &String| host.as_ref() == Some(a) || self.public_authority.as_ref() == Some(a);
+        let named = self
+            .headers
+            .get(header::ORIGIN)
+            .or_else(|| self.headers.get(header::REFERER));
+        named
+            .and_then(|v| v.to_str().ok())
+            .and_then(authority_of)
+            .is_some_and(|a| ours(&a))
     }
+}
+
+/// The host and port of an `http(s)://` URL, lower case.
+fn authority_of(url: &str) -> Option<String> {
+    let rest = url
+        .strip_prefix("https://")
+        .or_else(|| url.strip_prefix("http://"))?;
+    Some(rest.split('/').next().unwrap_or("").to_ascii_lowercase())
 }
 
 /// 64 lower-case hex digits from the OS CSPRNG (a link's, a session's or

@@ -716,3 +716,58 @@ fn a_windows_1252_export_is_read_with_its_accented_column_names() {
     );
     assert_eq!((b.count("cgm"), b.count("smbg")), (1, 1));
 }
+
+/// Dexcom Clarity set to Spanish, as the HUPA-UCM dataset's Dexcom files
+/// are (CC BY 4.0; read by public scripts with `;`, a BOM, and the names
+/// "Marca temporal (AAAA-MM-DDThh:mm:ss)", "Tipo de evento", "Nivel de
+/// glucosa (mg/dl)", "Nivel de insulina (u)", "Nivel de carbohidratos
+/// (gramos)", sensor rows of the type "Niveles estimados de glucosa");
+/// the other column names and every row are ours.
+fn clarity_spanish(extra: &str) -> Vec<u8> {
+    let mut s = String::from(
+        "\u{feff}Índice;Marca temporal (AAAA-MM-DDThh:mm:ss);Tipo de evento;Subtipo de evento;Información del paciente;Información del dispositivo;ID del dispositivo de origen;Nivel de glucosa (mg/dl);Nivel de insulina (u);Nivel de carbohidratos (gramos);Duración (hh:mm:ss);Tasa de cambio de glucosa (mg/dl/min);Hora del transmisor (entero largo);ID del transmisor\r\n\
+         1;;Nombre;;Ana;;;;;;;;;\r\n\
+         2;;Dispositivo;;;G6;G6;;;;;;;\r\n",
+    );
+    for k in 0..6 {
+        s.push_str(&format!(
+            "{};2021-06-18T08:{:02}:07;Niveles estimados de glucosa;;;;G6;{};;;;;{};8XXXXX\r\n",
+            k + 3,
+            k * 5,
+            100 + 4 * k,
+            400_000 + 300 * k
+        ));
+    }
+    s.push_str("9;2021-06-18T08:31:00;Carbohidratos;;;;G6;;;45;;;;\r\n");
+    s.push_str(extra);
+    s.into_bytes()
+}
+
+#[test]
+fn clarity_in_spanish_reads_its_sensor_rows_and_refuses_a_glucose_it_cannot_name() {
+    let b = read(&[("es.csv", clarity_spanish(""))], &opts("Europe/Madrid")).unwrap();
+    assert_eq!(b.formats, vec![Format::Clarity]);
+    let cgm: Vec<(String, f64)> = b
+        .records
+        .iter()
+        .filter_map(|r| match &r.kind {
+            RecordKind::Cgm { glucose } => Some((r.at.to_string(), glucose.mg_dl.0)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(cgm.len(), 6, "{:?}", b.records);
+    assert_eq!(cgm[0], ("2021-06-18T06:00:07Z".to_string(), 100.0));
+    assert_eq!(cgm[5], ("2021-06-18T06:25:07Z".to_string(), 120.0));
+    assert_eq!(b.count("carbs"), 1);
+    // An event type abba cannot name that carries a glucose value is left
+    // out and reported, never counted away as ignored.
+    let odd = "10;2021-06-18T08:35:07;Glucosa del sensor;;;;G6;131;;;;;402100;8XXXXX\r\n";
+    let (b, first) =
+        common::read_in_part(&[("es.csv", clarity_spanish(odd))], &opts("Europe/Madrid"));
+    assert_eq!(b.count("cgm"), 6);
+    assert!(
+        first.starts_with("es.csv: line 11, field \"Tipo de evento\"")
+            && first.contains("\"Glucosa del sensor\" carries a glucose value"),
+        "{first}"
+    );
+}

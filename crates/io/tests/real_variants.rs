@@ -5,7 +5,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use crate::common;
-use abba_io::record::RecordKind;
+use abba_io::record::{Censor, RecordKind};
 use abba_io::Format;
 use common::{opts, read};
 
@@ -730,11 +730,15 @@ fn clarity_spanish(extra: &str) -> Vec<u8> {
          2;;Dispositivo;;;G6;G6;;;;;;;\r\n",
     );
     for k in 0..6 {
+        let value = match k {
+            2 => "Nivel bajo".to_string(),
+            3 => "Nivel alto".to_string(),
+            _ => (100 + 4 * k).to_string(),
+        };
         s.push_str(&format!(
-            "{};2021-06-18T08:{:02}:07;Niveles estimados de glucosa;;;;G6;{};;;;;{};8XXXXX\r\n",
+            "{};2021-06-18T08:{:02}:07;Niveles estimados de glucosa;;;;G6;{value};;;;;{};8XXXXX\r\n",
             k + 3,
             k * 5,
-            100 + 4 * k,
             400_000 + 300 * k
         ));
     }
@@ -747,17 +751,23 @@ fn clarity_spanish(extra: &str) -> Vec<u8> {
 fn clarity_in_spanish_reads_its_sensor_rows_and_refuses_a_glucose_it_cannot_name() {
     let b = read(&[("es.csv", clarity_spanish(""))], &opts("Europe/Madrid")).unwrap();
     assert_eq!(b.formats, vec![Format::Clarity]);
-    let cgm: Vec<(String, f64)> = b
+    let cgm: Vec<(String, f64, Censor)> = b
         .records
         .iter()
         .filter_map(|r| match &r.kind {
-            RecordKind::Cgm { glucose } => Some((r.at.to_string(), glucose.mg_dl.0)),
+            RecordKind::Cgm { glucose } => {
+                Some((r.at.to_string(), glucose.mg_dl.0, glucose.censor))
+            }
             _ => None,
         })
         .collect();
     assert_eq!(cgm.len(), 6, "{:?}", b.records);
-    assert_eq!(cgm[0], ("2021-06-18T06:00:07Z".to_string(), 100.0));
-    assert_eq!(cgm[5], ("2021-06-18T06:25:07Z".to_string(), 120.0));
+    let at = |m: u32| format!("2021-06-18T06:{m:02}:07Z");
+    assert_eq!(cgm[0], (at(0), 100.0, Censor::Exact));
+    // "Nivel bajo" and "Nivel alto": the sensor's limits, censored.
+    assert_eq!(cgm[2], (at(10), 40.0, Censor::Below));
+    assert_eq!(cgm[3], (at(15), 400.0, Censor::Above));
+    assert_eq!(cgm[5], (at(25), 120.0, Censor::Exact));
     assert_eq!(b.count("carbs"), 1);
     // An event type abba cannot name that carries a glucose value is left
     // out and reported, never counted away as ignored.

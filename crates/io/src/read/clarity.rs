@@ -389,8 +389,9 @@ fn glucose(t: &Table<'_>, c: &Columns, at: &Location, line: u64) -> Result<Gluco
     };
     let text = t.cell(c.glucose_at);
     let (value, censor) = match text.to_ascii_lowercase().as_str() {
-        "low" => (low, Censor::Below),
-        "high" => (high, Censor::Above),
+        // The Spanish export writes "Nivel bajo" and "Nivel alto".
+        "low" | "nivel bajo" => (low, Censor::Below),
+        "high" | "nivel alto" => (high, Censor::Above),
         _ => (
             required_number(
                 &at.file,

@@ -6,6 +6,28 @@ use crate::error::{IoError, Location};
 /// converts with this factor).
 pub const TIDEPOOL_MG_DL_PER_MMOL_L: f64 = 18.01559;
 
+/// How far (mg/dL) a glucose value Tidepool gives can be from the whole
+/// mg/dL the device read: Tidepool keeps glucose in mmol/L to 5 decimals,
+/// so a reading of 100 mg/dL is kept as 5.55075 and comes back as
+/// 100.00004 (half the last decimal, times the factor; a hair more for
+/// the floating point).
+const TIDEPOOL_ROUNDING_MG_DL: f64 = 0.5e-5 * TIDEPOOL_MG_DL_PER_MMOL_L * (1.0 + 1e-9);
+
+/// A Tidepool glucose value in mg/dL (converted from its mmol/L, or as
+/// its export in mg/dL writes it): the whole mg/dL the device read when
+/// the value is within Tidepool's rounding of one (5.55075 mmol/L is 100
+/// mg/dL, not 100.00004, which would count a reading at 54 or 180 mg/dL
+/// on the wrong side of a threshold); any other value as it is (a meter's
+/// 5.6 mmol/L is 100.887 mg/dL).
+pub fn tidepool_mg_dl(mg: f64) -> f64 {
+    let whole = mg.round();
+    if (mg - whole).abs() <= TIDEPOOL_ROUNDING_MG_DL {
+        whole
+    } else {
+        mg
+    }
+}
+
 /// Glucose below this is not a reading (mg/dL); the advisor's limit too.
 pub const GLUCOSE_MIN_MG_DL: f64 = 10.0;
 /// Glucose above this is not a reading (mg/dL); the advisor's limit too.

@@ -113,3 +113,60 @@ fn a_tidepool_datum_that_cannot_be_read_is_left_out_and_reported() {
     assert_eq!(b.count("cgm"), 2);
     assert!(e.starts_with("tp.json: $[1], field \"annotations\""), "{e}");
 }
+
+/// A file's bytes with its last line cut short: no line end, the line
+/// ending `keep` bytes into its cell `cell` (0-based).
+fn cut_in_cell(bytes: &[u8], cell: usize, keep: usize) -> (Vec<u8>, Vec<u8>) {
+    let text = std::str::from_utf8(bytes).unwrap();
+    let body = text.trim_end_matches(['\r', '\n']);
+    let start = body.rfind('\n').unwrap() + 1;
+    let last = &body[start..];
+    let delimiter = [',', ';', '\t']
+        .into_iter()
+        .max_by_key(|&d| last.matches(d).count())
+        .unwrap();
+    let at: usize = last.split(delimiter).take(cell).map(|c| c.len() + 1).sum();
+    let whole_but_last = body.as_bytes()[..start].to_vec();
+    let cut = body.as_bytes()[..start + at + keep].to_vec();
+    (whole_but_last, cut)
+}
+
+#[test]
+fn a_csv_file_cut_within_its_last_line_leaves_that_line_out_and_says_so() {
+    // Each export cut two characters into its last row's glucose (or, for
+    // CareLink, the sensor value's) cell: `145` would be read as `14`.
+    let cases = [
+        ("libreview_libre3_synthetic.csv", 4, "Europe/London"),
+        ("clarity_export_synthetic.csv", 7, "America/Chicago"),
+        ("carelink_780g_synthetic.csv", 30, "Europe/Zurich"),
+        ("carelink_630g_us_synthetic.csv", 30, "America/Chicago"),
+    ];
+    for (name, cell, tz) in cases {
+        let (whole, cut) = cut_in_cell(&fixture(name), cell, 2);
+        let want = read(&[(name, whole.clone())], &opts(tz)).unwrap();
+        let (got, first) = read_in_part(&[(name, cut)], &opts(tz));
+        assert_eq!(got.records, want.records, "{name}");
+        assert_eq!(got.unread.count, 1, "{name}");
+        let line = whole.iter().filter(|&&b| b == b'\n').count() + 1;
+        assert!(
+            first.starts_with(&format!("{name}: line {line}, field \"row\""))
+                && first.contains("the file ends within this line"),
+            "{name}: {first}"
+        );
+    }
+    // A whole last line without its line end is read.
+    let csv = "time,glucose_mg_dl\n2024-01-01 00:00,150\n2024-01-01 00:05,145";
+    let b = read(&[("p.csv", csv.into())], &ReadOptions::default()).unwrap();
+    assert_eq!((b.count("cgm"), b.unread.count), (2, 0));
+    // A plain CSV cut within its last line: 145 cut to 14 is not read as
+    // a severe low.
+    let csv = "time,glucose_mg_dl,bolus\n2024-01-01 00:00,150,\n2024-01-01 00:05,14";
+    let (b, first) = read_in_part(&[("p.csv", csv.into())], &ReadOptions::default());
+    assert_eq!(b.count("cgm"), 1);
+    assert!(first.starts_with("p.csv: line 3, field \"row\""), "{first}");
+    // A quote left open is cut too, whatever the cells.
+    let csv =
+        "time,glucose_mg_dl,note\n2024-01-01 00:00,150,\"a\"\n2024-01-01 00:05,145,\"lunch, la";
+    let (b, _) = read_in_part(&[("p.csv", csv.into())], &ReadOptions::default());
+    assert_eq!(b.count("cgm"), 1);
+}

@@ -5,7 +5,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use crate::common;
-use abba_io::record::RecordKind;
+use abba_io::record::{Censor, RecordKind};
 use abba_io::Format;
 use common::{opts, read};
 
@@ -128,6 +128,115 @@ fn libreview_in_spanish_dutch_and_french_after_metadata_lines() {
             .find(|r| r.origin.file == file && r.origin.at == abba_io::record::OriginAt::Line(line))
             .unwrap();
         assert_eq!(r.at.to_string(), "2020-05-13T06:00:00Z", "file {file}");
+    }
+}
+
+/// Spanish column names as LibreView and the older FreeStyle software
+/// write them (the HUPA-UCM dataset's exports, CC BY 4.0, and a Latin
+/// American LibreView export's 19 columns: names only, the rows are ours).
+const ES_LIBRELINK: &str = "Dispositivo,Número de serial,Sello de tiempo del dispositivo,Tipo de registro,Historial de glucosa mg/dL,Escaneo de glucosa mg/dL,Insulina de acción rápida no numérica,Insulina de acción rápida (unidades),Alimento no numérico,Carbohidratos (gramos),Carbohidratos (porciones),Insulina de acción larga no numérica,Insulina de acción larga (unidades),Notas,Tira reactiva para glucosa mg/dL,Cuerpos cetónicos mmol/L,Comida e insulina (unidades),Insulina de corrección (unidades),Insulina del cambio de usuario (unidades)";
+const ES_LATAM: &str = "Dispositivo,Número de serie,Sello de tiempo del dispositivo,Tipo de registro,Historial de glucosa mg/dL,Escaneo de glucosa mg/dL,Insulina de acción rápida no numérica,Insulina de acción rápida (unidades),Alimento no numérico,Carbohidratos (gramos),Carbohidratos (porciones),Insulina de acción prolongada no numérica,Insulina de acción prolongada (unidades),Notas,Banda de glucosa mg/dL,Cetona mmol/L,Insulina para la hora de la comida (unidades),Insulina de corrección (unidades),Insulina de cambio de usuario (unidades)";
+/// The older FreeStyle software in French (tab-separated).
+const FR_DESKTOP: &str = "ID\tHeure\tType d'enregistrement\tHistorique du taux de glucose (mg/dL)\tTaux de glucose scanné (mg/dL)\tInsuline à action rapide (sans valeur numérique)\tInsuline à action rapide (unités)\tNourriture (sans valeur numérique)\tGlucides (grammes)\tInsuline à action lente (sans valeur numérique)\tInsuline à action lente (unités)\tCommentaires\tGlycémie avec électrode de dosage (mg/dL)\tCétonémie (mmol/L)\tInsuline repas (unités)\tInsuline de correction (unités)\tInsuline modifiée par l'utilisateur (unités)";
+
+/// A row to write: its time, record type and the cells set (index, text).
+type RowSpec<'a> = (&'a str, u8, &'a [(usize, &'a str)]);
+
+/// Rows of `n` cells (`sep`-joined) with their cells set.
+fn rows(sep: &str, n: usize, rows: &[RowSpec<'_>], time_at: usize, type_at: usize) -> String {
+    rows.iter()
+        .map(|(time, ty, cells)| {
+            let mut c = vec![String::new(); n];
+            c[time_at] = (*time).into();
+            c[type_at] = ty.to_string();
+            for &(i, v) in *cells {
+                c[i] = v.into();
+            }
+            c.join(sep) + "\r\n"
+        })
+        .collect()
+}
+
+#[test]
+fn libreview_in_spanish_and_older_french_with_ketones_strips_long_acting_and_portions() {
+    let es_rows: &[RowSpec<'_>] = &[
+        ("13-05-2020 08:00", 0, &[(4, "104")]),
+        ("13-05-2020 08:05", 2, &[(14, "98")]),
+        ("13-05-2020 08:06", 3, &[(15, "\"0,3\"")]),
+        ("13-05-2020 08:10", 4, &[(7, "5")]),
+        ("13-05-2020 22:00", 4, &[(12, "16")]),
+        ("13-05-2020 08:11", 5, &[(9, "45")]),
+        ("13-05-2020 13:00", 5, &[(10, "2")]),
+    ];
+    let es = format!(
+        "Informe del paciente X,Generado el,14-05-2020 00:45 UTC,Generado por,Y\r\nX,\r\n{ES_LIBRELINK}\r\n{}",
+        rows(",", 19, es_rows, 2, 3)
+    );
+    let latam = format!(
+        "Informe del paciente X,Generado el,14-05-2020 00:45 UTC,Generado por,Y\r\n{ES_LATAM}\r\n{}",
+        rows(",", 19, es_rows, 2, 3)
+    );
+    let fr_rows: &[RowSpec<'_>] = &[
+        ("2020/05/13 08:00", 0, &[(3, "104")]),
+        ("2020/05/13 08:05", 2, &[(12, "98")]),
+        ("2020/05/13 08:06", 3, &[(13, "0,3")]),
+        ("2020/05/13 08:10", 4, &[(6, "5")]),
+        ("2020/05/13 22:00", 4, &[(10, "16")]),
+        ("2020/05/13 08:11", 5, &[(8, "45")]),
+        ("2020/05/13 13:00", 6, &[(11, "Café")]),
+    ];
+    let fr = format!(
+        "Patient X\r\n{FR_DESKTOP}\r\n{}",
+        rows("\t", 17, fr_rows, 1, 2)
+    );
+    for (name, text) in [("es.csv", es), ("latam.csv", latam), ("fr.txt", fr)] {
+        let b = read(&[(name, text.into_bytes())], &opts("Europe/Madrid"))
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(b.formats, vec![Format::LibreView], "{name}");
+        assert_eq!(b.unread.count, 0, "{name}: {:?}", b.unread);
+        let kinds: Vec<(String, &RecordKind)> = b
+            .records
+            .iter()
+            .map(|r| (r.at.to_string(), &r.kind))
+            .collect();
+        let one = |at: &str| {
+            kinds
+                .iter()
+                .filter(|(t, _)| t == at)
+                .map(|(_, k)| *k)
+                .collect::<Vec<_>>()
+        };
+        assert!(
+            matches!(one("2020-05-13T06:00:00Z")[..], [RecordKind::Cgm { glucose }] if glucose.mg_dl.0 == 104.0),
+            "{name}"
+        );
+        assert!(
+            matches!(one("2020-05-13T06:05:00Z")[..], [RecordKind::Smbg { glucose }] if glucose.mg_dl.0 == 98.0),
+            "{name}"
+        );
+        assert!(
+            matches!(one("2020-05-13T06:06:00Z")[..], [RecordKind::Ignored { kind }] if kind == "ketone"),
+            "{name}"
+        );
+        assert!(
+            matches!(one("2020-05-13T06:10:00Z")[..], [RecordKind::Bolus { units }] if units.0 == 5.0),
+            "{name}"
+        );
+        assert!(
+            matches!(one("2020-05-13T20:00:00Z")[..], [RecordKind::LongActing { units }] if units.0 == 16.0),
+            "{name}"
+        );
+        assert!(
+            matches!(one("2020-05-13T06:11:00Z")[..], [RecordKind::Carbs { grams }] if grams.0 == 45.0),
+            "{name}"
+        );
+        assert!(
+            matches!(
+                one("2020-05-13T11:00:00Z")[..],
+                [RecordKind::Ignored { .. }]
+            ),
+            "{name}"
+        );
     }
 }
 
@@ -514,5 +623,161 @@ fn clarity_mmol_calibrations_censored_values_and_rows_without_time() {
     assert!(
         err.starts_with("c.csv: line 4, field \"Timestamp (YYYY-MM-DDThh:mm:ss)\""),
         "{err}"
+    );
+}
+
+#[test]
+fn tidepool_mmol_to_five_decimals_is_the_whole_mg_dl_the_sensor_read() {
+    // Tidepool keeps a sensor's mg/dL in mmol/L to 5 decimals: 54, 70,
+    // 180 and 250 mg/dL come back a hair off (53.99993, 180.00003), on
+    // the wrong side of the thresholds the metrics count. A meter's
+    // 5.6 mmol/L is kept as it is.
+    let whole = [54.0, 70.0, 100.0, 180.0, 250.0, 39.0, 401.0];
+    let mut items: Vec<String> = whole
+        .iter()
+        .enumerate()
+        .map(|(i, mg)| {
+            let mmol = (mg / 18.01559_f64 * 1e5).round() / 1e5;
+            format!(
+                r#"{{"type":"cbg","units":"mmol/L","value":{mmol},"time":"2024-03-14T06:{:02}:00.000Z","id":"c{i}"}}"#,
+                i * 5
+            )
+        })
+        .collect();
+    items.push(r#"{"type":"smbg","units":"mmol/L","value":5.6,"time":"2024-03-14T07:00:00.000Z","id":"m"}"#.into());
+    // The export in mg/dL writes the product itself.
+    items.push(r#"{"type":"cbg","units":"mg/dL","value":100.0000362,"time":"2024-03-14T07:05:00.000Z","id":"x"}"#.into());
+    let json = format!("[{}]", items.join(",\n"));
+    assert!(
+        json.contains("5.55075") && json.contains("2.9974"),
+        "{json}"
+    );
+    let b = read(&[("tp.json", json.into_bytes())], &opts("UTC")).unwrap();
+    let got: Vec<f64> = b
+        .records
+        .iter()
+        .map(|r| match &r.kind {
+            RecordKind::Cgm { glucose } | RecordKind::Smbg { glucose } => glucose.mg_dl.0,
+            other => panic!("{other:?}"),
+        })
+        .collect();
+    let mut want = whole.to_vec();
+    want.push(5.6 * 18.01559);
+    want.push(100.0);
+    assert_eq!(got, want);
+}
+
+/// Windows-1252 bytes of `text` (its letters are all Latin-1).
+fn windows_1252(text: &str) -> Vec<u8> {
+    text.chars()
+        .map(|c| u8::try_from(u32::from(c)).expect("a Latin-1 letter"))
+        .collect()
+}
+
+#[test]
+fn a_windows_1252_export_is_read_with_its_accented_column_names() {
+    // The French export saved again by Excel on Windows: `é` is the byte
+    // 0xE9, which is no UTF-8; the glucose columns' names carry it.
+    let fr = "Données de glucose,Généré le,14-05-2020 09:00 UTC,Généré par,W\r\n\
+              Appareil,Numéro de série,Horodatage de l'appareil,Type d'enregistrement,Historique de la glycémie mg/dL,Numérisation de la glycémie mg/dL,Glycémie par bandelette mg/dL,Notes\r\n\
+              FreeStyle Libre,S,13-05-2020 08:00,0,99,,,\r\n\
+              FreeStyle Libre,S,13-05-2020 08:05,1,,104,,\r\n\
+              FreeStyle Libre,S,13-05-2020 08:06,2,,,101,\r\n\
+              FreeStyle Libre,S,13-05-2020 08:10,6,,,,Café au lait\r\n";
+    let bytes = windows_1252(fr);
+    assert!(std::str::from_utf8(&bytes).is_err());
+    let b = read(&[("fr.csv", bytes)], &opts("Europe/Paris")).unwrap();
+    assert_eq!(b.formats, vec![Format::LibreView]);
+    assert_eq!(
+        (b.count("cgm"), b.count("smbg"), b.count("ignored")),
+        (1, 1, 2)
+    );
+    assert!(
+        b.notes
+            .iter()
+            .any(|n| n.starts_with("fr.csv: not UTF-8 text: read as Windows-1252")),
+        "{:?}",
+        b.notes
+    );
+    // The same file in UTF-8 has no such note; cut within its last `é`,
+    // it is still UTF-8 (cut short), not Windows-1252.
+    let b = read(&[("fr.csv", fr.into())], &opts("Europe/Paris")).unwrap();
+    assert!(
+        b.notes.iter().all(|n| !n.contains("Windows-1252")),
+        "{:?}",
+        b.notes
+    );
+    let cut = &fr.as_bytes()[..fr.find("é au lait").unwrap() + 1];
+    let b = read(&[("fr.csv", cut.to_vec())], &opts("Europe/Paris")).unwrap();
+    assert!(
+        b.notes.iter().all(|n| !n.contains("Windows-1252")),
+        "{:?}",
+        b.notes
+    );
+    assert_eq!((b.count("cgm"), b.count("smbg")), (1, 1));
+}
+
+/// Dexcom Clarity set to Spanish, as the HUPA-UCM dataset's Dexcom files
+/// are (CC BY 4.0; read by public scripts with `;`, a BOM, and the names
+/// "Marca temporal (AAAA-MM-DDThh:mm:ss)", "Tipo de evento", "Nivel de
+/// glucosa (mg/dl)", "Nivel de insulina (u)", "Nivel de carbohidratos
+/// (gramos)", sensor rows of the type "Niveles estimados de glucosa");
+/// the other column names and every row are ours.
+fn clarity_spanish(extra: &str) -> Vec<u8> {
+    let mut s = String::from(
+        "\u{feff}Índice;Marca temporal (AAAA-MM-DDThh:mm:ss);Tipo de evento;Subtipo de evento;Información del paciente;Información del dispositivo;ID del dispositivo de origen;Nivel de glucosa (mg/dl);Nivel de insulina (u);Nivel de carbohidratos (gramos);Duración (hh:mm:ss);Tasa de cambio de glucosa (mg/dl/min);Hora del transmisor (entero largo);ID del transmisor\r\n\
+         1;;Nombre;;Ana;;;;;;;;;\r\n\
+         2;;Dispositivo;;;G6;G6;;;;;;;\r\n",
+    );
+    for k in 0..6 {
+        let value = match k {
+            2 => "Nivel bajo".to_string(),
+            3 => "Nivel alto".to_string(),
+            _ => (100 + 4 * k).to_string(),
+        };
+        s.push_str(&format!(
+            "{};2021-06-18T08:{:02}:07;Niveles estimados de glucosa;;;;G6;{value};;;;;{};8XXXXX\r\n",
+            k + 3,
+            k * 5,
+            400_000 + 300 * k
+        ));
+    }
+    s.push_str("9;2021-06-18T08:31:00;Carbohidratos;;;;G6;;;45;;;;\r\n");
+    s.push_str(extra);
+    s.into_bytes()
+}
+
+#[test]
+fn clarity_in_spanish_reads_its_sensor_rows_and_refuses_a_glucose_it_cannot_name() {
+    let b = read(&[("es.csv", clarity_spanish(""))], &opts("Europe/Madrid")).unwrap();
+    assert_eq!(b.formats, vec![Format::Clarity]);
+    let cgm: Vec<(String, f64, Censor)> = b
+        .records
+        .iter()
+        .filter_map(|r| match &r.kind {
+            RecordKind::Cgm { glucose } => {
+                Some((r.at.to_string(), glucose.mg_dl.0, glucose.censor))
+            }
+            _ => None,
+        })
+        .collect();
+    assert_eq!(cgm.len(), 6, "{:?}", b.records);
+    let at = |m: u32| format!("2021-06-18T06:{m:02}:07Z");
+    assert_eq!(cgm[0], (at(0), 100.0, Censor::Exact));
+    // "Nivel bajo" and "Nivel alto": the sensor's limits, censored.
+    assert_eq!(cgm[2], (at(10), 40.0, Censor::Below));
+    assert_eq!(cgm[3], (at(15), 400.0, Censor::Above));
+    assert_eq!(cgm[5], (at(25), 120.0, Censor::Exact));
+    assert_eq!(b.count("carbs"), 1);
+    // An event type abba cannot name that carries a glucose value is left
+    // out and reported, never counted away as ignored.
+    let odd = "10;2021-06-18T08:35:07;Glucosa del sensor;;;;G6;131;;;;;402100;8XXXXX\r\n";
+    let (b, first) =
+        common::read_in_part(&[("es.csv", clarity_spanish(odd))], &opts("Europe/Madrid"));
+    assert_eq!(b.count("cgm"), 6);
+    assert!(
+        first.starts_with("es.csv: line 11, field \"Tipo de evento\"")
+            && first.contains("\"Glucosa del sensor\" carries a glucose value"),
+        "{first}"
     );
 }

@@ -7,7 +7,9 @@
 //! (never dropped, never read as exact). Calibration rows are meter
 //! readings; Insulin (Fast-Acting, Long-Acting; any other subtype is an
 //! error) and Carbs rows are read;
-//! every other event type (Exercise, Health, Alert, Device, ...) is counted.
+//! every other event type (Exercise, Health, Alert, Device, ...) is counted,
+//! unless it carries a glucose value: a reading under a name abba does not
+//! know (another language's word for EGV) is an error, never ignored.
 //! A data row without its time is an error; the preamble's rows, which
 //! have none (FirstName, LastName, DateOfBirth, Device, Alert settings),
 //! are counted by type in the file's note.
@@ -52,8 +54,11 @@ use crate::units::{self, check_range, GlucoseUnit};
 /// exports write them.
 const DATA_EVENTS: [&str; 4] = ["EGV", "Calibration", "Insulin", "Carbs"];
 
-/// Localised event type names, mapped to Clarity's English ones.
-const EVENT_NAMES: [(&str, &str); 12] = [
+/// Localised event type names, mapped to Clarity's English ones (the
+/// Spanish export names its sensor readings "Niveles estimados de
+/// glucosa", as the HUPA-UCM dataset's Dexcom files show).
+const EVENT_NAMES: [(&str, &str); 13] = [
+    ("Niveles estimados de glucosa", "EGV"),
     ("Kalibrierung", "Calibration"),
     ("Kohlenhydrate", "Carbs"),
     ("Étalonnage", "Calibration"),
@@ -349,6 +354,22 @@ fn row_kind(
                 )?),
             }
         }
+        // Another event type with a glucose value: a sensor or meter
+        // reading under a name abba does not know (a language's word for
+        // EGV), never counted away as ignored.
+        other if !t.cell(c.glucose_at).is_empty() => {
+            return Err(IoError::invalid(
+                at.clone(),
+                &t.header[c.type_at],
+                format!(
+                    "the event type \"{other}\" carries a glucose value (\"{}\" in \"{}\"); \
+                     abba reads glucose from EGV (sensor) and Calibration (meter) rows and does \
+                     not guess what this one is: export the file with Clarity set to English",
+                    t.cell(c.glucose_at),
+                    c.glucose_name
+                ),
+            ))
+        }
         other => RecordKind::Ignored {
             kind: if subtype.is_empty() {
                 other.to_string()
@@ -368,8 +389,9 @@ fn glucose(t: &Table<'_>, c: &Columns, at: &Location, line: u64) -> Result<Gluco
     };
     let text = t.cell(c.glucose_at);
     let (value, censor) = match text.to_ascii_lowercase().as_str() {
-        "low" => (low, Censor::Below),
-        "high" => (high, Censor::Above),
+        // The Spanish export writes "Nivel bajo" and "Nivel alto".
+        "low" | "nivel bajo" => (low, Censor::Below),
+        "high" | "nivel alto" => (high, Censor::Above),
         _ => (
             required_number(
                 &at.file,

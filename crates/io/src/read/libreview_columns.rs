@@ -78,7 +78,7 @@ const SCAN: [&str; 7] = [
     "numerisation",
     "digitaliz",
 ];
-const STRIP: [&str; 7] = [
+const STRIP: [&str; 10] = [
     "strip",
     "streifen",
     "tira",
@@ -86,8 +86,14 @@ const STRIP: [&str; 7] = [
     "striscia",
     "teststrook",
     "sangu",
+    // Spanish (Latin America) "Banda de glucosa"; the older French
+    // software's "Glycémie avec électrode de dosage".
+    "banda",
+    "électrode",
+    "electrode",
 ];
-const KETONE: [&str; 4] = ["keton", "céton", "ceton", "cheton"];
+// Spanish "Cuerpos cetónicos" as LibreView writes it.
+const KETONE: [&str; 5] = ["keton", "céton", "ceton", "cetón", "cheton"];
 const NON_NUMERIC: [&str; 2] = ["numeri", "numéri"];
 const USER_CHANGE: [&str; 6] = [
     "user change",
@@ -98,17 +104,19 @@ const USER_CHANGE: [&str; 6] = [
     "alteração",
 ];
 const RAPID: [&str; 6] = ["rapid", "rápid", "schnell", "snelwerk", "snel", "kurz"];
-const LONG: [&str; 7] = [
-    "long", "depot", "langwerk", "lenta", "lento", "prolong", "basal",
+// Spanish "acción larga", French (older software) "action lente".
+const LONG: [&str; 9] = [
+    "long", "depot", "langwerk", "lenta", "lento", "lente", "larga", "prolong", "basal",
 ];
 const MEAL: [&str; 6] = ["meal", "mahlzeit", "maaltijd", "comida", "repas", "pasto"];
 const CORRECTION: [&str; 3] = ["correc", "korrektur", "correz"];
 const CARBS: [&str; 5] = ["carb", "kohlenhydrat", "koolhydrat", "glucide", "hidrato"];
 const GRAMS: [&str; 1] = ["gram"];
-const SERVINGS: [&str; 6] = [
-    "serving", "portion", "portie", "racion", "ración", "porzion",
+// Spanish "porciones".
+const SERVINGS: [&str; 7] = [
+    "serving", "portion", "portie", "porcion", "racion", "ración", "porzion",
 ];
-const OTHER: [&str; 12] = [
+const OTHER: [&str; 13] = [
     "device",
     "gerät",
     "dispositivo",
@@ -121,6 +129,8 @@ const OTHER: [&str; 12] = [
     "notiz",
     "notit",
     "nota",
+    // The older French software's "Commentaires".
+    "comment",
 ];
 
 /// The role of a header cell, with the glucose unit it names (if any).

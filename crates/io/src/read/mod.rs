@@ -460,7 +460,7 @@ pub fn read_bytes_with_stores(
             wants_stores: ctx.wants_stores.get(),
         });
     }
-    let decoded = table::utf16_to_utf8(file, bytes)?;
+    let decoded = decode_text(&ctx, bytes)?;
     let bytes = decoded.as_deref().unwrap_or(bytes);
     let format = match opts.format {
         Some(Format::TidepoolXlsx) => {
@@ -473,6 +473,7 @@ pub fn read_bytes_with_stores(
         None => detect(file, bytes)?,
     };
     let bytes = table::strip_bom(bytes);
+    let bytes = whole_lines(&ctx, format, bytes)?;
     let records = match format {
         Format::Nightscout => nightscout::read(&ctx, bytes)?,
         Format::Clarity => clarity::read(&ctx, bytes)?,
@@ -492,6 +493,43 @@ pub fn read_bytes_with_stores(
         stores: ctx.found_stores.into_inner(),
         wants_stores: ctx.wants_stores.get(),
     })
+}
+
+/// A text file's bytes as UTF-8, when they are not: UTF-16 (with its
+/// byte-order mark) decoded, or a file that is not UTF-8 read as
+/// Windows-1252 with a note saying so ([`table::windows_1252_to_utf8`]).
+fn decode_text(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Option<Vec<u8>>, IoError> {
+    if let Some(utf8) = table::utf16_to_utf8(ctx.file, bytes)? {
+        return Ok(Some(utf8));
+    }
+    let decoded = table::windows_1252_to_utf8(bytes);
+    if decoded.is_some() {
+        ctx.note(
+            "not UTF-8 text: read as Windows-1252 (Western European, the encoding Windows \
+             programs save CSV in); only letters in names and notes depend on it",
+        );
+    }
+    Ok(decoded)
+}
+
+/// A CSV file's bytes without a last line the file ends within (cut
+/// short: see [`table::CutLine`]), which is reported as a row not read;
+/// JSON is left whole (its parser tells where it ends early).
+fn whole_lines<'b>(ctx: &Ctx<'_>, format: Format, bytes: &'b [u8]) -> Result<&'b [u8], IoError> {
+    let json = bytes
+        .iter()
+        .find(|b| !b.is_ascii_whitespace())
+        .is_some_and(|&b| b == b'[' || b == b'{');
+    if matches!(format, Format::Tidepool | Format::TidepoolXlsx) || json {
+        return Ok(bytes);
+    }
+    match table::cut_last_line(bytes) {
+        Some(cut) => {
+            ctx.skip(cut.error(ctx.file))?;
+            Ok(&bytes[..cut.start])
+        }
+        None => Ok(bytes),
+    }
 }
 
 /// The reader's records when some rows or items could not be read
@@ -557,8 +595,6 @@ pub fn carelink_settings_rows(
     bytes: &[u8],
     opts: &ReadOptions,
 ) -> Result<carelink::SettingsRows, IoError> {
-    let decoded = table::utf16_to_utf8(file, bytes)?;
-    let bytes = table::strip_bom(decoded.as_deref().unwrap_or(bytes));
     let ctx = Ctx {
         file,
         index: 0,
@@ -570,6 +606,9 @@ pub fn carelink_settings_rows(
         found_stores: Default::default(),
         wants_stores: Default::default(),
     };
+    let decoded = decode_text(&ctx, bytes)?;
+    let bytes = table::strip_bom(decoded.as_deref().unwrap_or(bytes));
+    let bytes = whole_lines(&ctx, Format::CareLink, bytes)?;
     let (_, settings) = carelink::read_with_settings(&ctx, bytes)?;
     // The therapy is not taken from a file read in part: a row left out
     // may be the setting itself.

@@ -60,6 +60,126 @@ pub fn utf16_to_utf8(file: &str, bytes: &[u8]) -> Result<Option<Vec<u8>>, IoErro
         .map_err(|e| IoError::format(file, format!("the file says UTF-16 but is not: {e}")))
 }
 
+/// The characters Windows-1252 puts at bytes 0x80-0x9F (where Latin-1 has
+/// control codes; the five bytes it leaves undefined stay those codes).
+const WINDOWS_1252_80_9F: [char; 32] = [
+    '\u{20AC}', '\u{81}', '\u{201A}', '\u{192}', '\u{201E}', '\u{2026}', '\u{2020}', '\u{2021}',
+    '\u{2C6}', '\u{2030}', '\u{160}', '\u{2039}', '\u{152}', '\u{8D}', '\u{17D}', '\u{8F}',
+    '\u{90}', '\u{2018}', '\u{2019}', '\u{201C}', '\u{201D}', '\u{2022}', '\u{2013}', '\u{2014}',
+    '\u{2DC}', '\u{2122}', '\u{161}', '\u{203A}', '\u{153}', '\u{9D}', '\u{17E}', '\u{178}',
+];
+
+/// A text file that is not UTF-8 as UTF-8 bytes, read as Windows-1252
+/// (Western European: the encoding in which Windows programs, Excel among
+/// them, save CSV; `é` is one byte, 0xE9); `None` for UTF-8, and for a
+/// file whose only fault is a character cut at its very end (UTF-8 cut
+/// short: the cut line is the readers' to report, see [`cut_last_line`]).
+/// Only letters change with the encoding: digits, separators and the
+/// English, German, French, Spanish, Italian and Dutch column names abba
+/// reads are the same bytes or the same letters in either.
+pub fn windows_1252_to_utf8(bytes: &[u8]) -> Option<Vec<u8>> {
+    match std::str::from_utf8(bytes) {
+        Ok(_) => None,
+        Err(e) if e.error_len().is_none() => None,
+        Err(_) => Some(
+            bytes
+                .iter()
+                .map(|&b| match b {
+                    0x80..=0x9F => WINDOWS_1252_80_9F[usize::from(b - 0x80)],
+                    _ => char::from(b),
+                })
+                .collect::<String>()
+                .into_bytes(),
+        ),
+    }
+}
+
+/// A CSV file's last line when the file ends within it (a download or a
+/// copy cut short): no line end after it and fewer cells than the line
+/// before it, or a quote left open. Such a line's last cell is a part of
+/// what was written (`145` cut to `14`), so it is never read.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct CutLine {
+    /// Where the line starts (the bytes before it are whole lines).
+    pub start: usize,
+    /// Its 1-based line number.
+    pub line: u64,
+    /// The cells it has.
+    pub cells: usize,
+    /// The cells the line before it has.
+    pub expected: usize,
+}
+
+impl CutLine {
+    /// The error that reports the line (left out, the rest read).
+    pub fn error(&self, file: &str) -> IoError {
+        IoError::invalid(
+            Location::line(file, self.line),
+            "row",
+            format!(
+                "the file ends within this line (no line end after it, {} of the {} cells the \
+                 line before it has{}): the export was cut short and its last value may be cut \
+                 too, so the line is not read; export the file again to read it",
+                self.cells,
+                self.expected,
+                if self.cells >= self.expected {
+                    ", a quote left open"
+                } else {
+                    ""
+                }
+            ),
+        )
+    }
+}
+
+/// The cut last line of a CSV file (BOM stripped), if it is cut (see
+/// [`CutLine`]). A section divider before it (CareLink's `-------;...`)
+/// or a file of one line tells nothing.
+pub fn cut_last_line(bytes: &[u8]) -> Option<CutLine> {
+    if bytes.last().is_some_and(|&b| b == b'\n') {
+        return None;
+    }
+    let start = bytes.iter().rposition(|&b| b == b'\n')? + 1;
+    let last = &bytes[start..];
+    if last.iter().all(u8::is_ascii_whitespace) {
+        return None;
+    }
+    let before = bytes[..start]
+        .split(|&b| b == b'\n')
+        .rev()
+        .find(|l| !l.iter().all(u8::is_ascii_whitespace))?;
+    if before.trim_ascii_start().starts_with(b"-------")
+        || before.trim_ascii_start().starts_with(b"\"-------")
+    {
+        return None;
+    }
+    let delimiter = sniff(before);
+    let cells = |line: &[u8]| {
+        let mut reader = csv::ReaderBuilder::new()
+            .has_headers(false)
+            .flexible(true)
+            .delimiter(delimiter)
+            .from_reader(line);
+        let mut record = csv::ByteRecord::new();
+        match reader.read_byte_record(&mut record) {
+            Ok(true) => record.len(),
+            _ => 0,
+        }
+    };
+    let (have, expected) = (cells(last), cells(before));
+    let open_quote = last.iter().filter(|&&b| b == b'"').count() % 2 == 1;
+    if have >= expected && !open_quote {
+        return None;
+    }
+    let line = bytes[..start].iter().filter(|&&b| b == b'\n').count() as u64 + 1;
+    Some(CutLine {
+        start,
+        line,
+        cells: have,
+        expected,
+    })
+}
+
 /// The byte offset where line `n` (0-based) starts, if the input has it.
 fn line_start(bytes: &[u8], n: usize) -> Option<usize> {
     let mut at = 0;

@@ -1,5 +1,7 @@
 //! Tidepool JSON (its data model): `cbg` and `smbg` (`value` with `units`,
-//! mmol/L converted with Tidepool's own 18.01559), `bolus` (`normal`,
+//! mmol/L converted with Tidepool's own 18.01559, a value within the
+//! rounding of Tidepool's 5 decimals of a whole mg/dL read as that whole
+//! number: [`units::tidepool_mg_dl`]), `bolus` (`normal`,
 //! `extended` over `duration` ms), `basal` (`deliveryType` scheduled,
 //! automated, temp or suspend, `rate` U/h, `duration` ms), `food`
 //! (`nutrition.carbohydrate.net` g), `wizard` (`carbInput`; its bolus is a
@@ -236,8 +238,8 @@ fn glucose(item: &Item<'_>) -> Result<Glucose, IoError> {
         .str("units")?
         .ok_or_else(|| item.err("units", "missing: expected mmol/L or mg/dL"))?;
     let mg = match units::GlucoseUnit::parse(units_text) {
-        Some(units::GlucoseUnit::MmolL) => v * TIDEPOOL_MG_DL_PER_MMOL_L,
-        Some(units::GlucoseUnit::MgDl) => v,
+        Some(units::GlucoseUnit::MmolL) => units::tidepool_mg_dl(v * TIDEPOOL_MG_DL_PER_MMOL_L),
+        Some(units::GlucoseUnit::MgDl) => units::tidepool_mg_dl(v),
         None => {
             return Err(item.err(
                 "units",

@@ -301,6 +301,21 @@ pub(crate) fn replay_log(
     })
 }
 
+impl Replayed {
+    /// The state, with `decisions` as the log's.
+    fn into_state(self, decisions: Vec<Decision>) -> State {
+        State {
+            stream: self.stream,
+            records: self.records,
+            advisor: self.r.advisor,
+            decisions,
+            answers: self.answers,
+            refused: self.refused,
+            extras: self.extras,
+        }
+    }
+}
+
 /// The state of a replay without storing it: the decisions are the stored
 /// ones with the replay's merged in.
 fn merged_unstored(
@@ -308,40 +323,22 @@ fn merged_unstored(
     person: &Person,
     replayed: Replayed,
 ) -> Result<State, StoreError> {
-    let Replayed {
-        stream,
-        records,
-        r,
-        answers,
-        refused,
-        extras,
-    } = replayed;
-    {
-        let mut all = if r.rebuilt {
-            Vec::new()
-        } else {
-            decisions(conn, person.id)?
-        };
-        for d in &r.decisions {
-            match all
-                .iter_mut()
-                .find(|x| x.at == d.at && x.parameter == d.parameter)
-            {
-                Some(x) => *x = d.clone(),
-                None => all.push(d.clone()),
-            }
+    let mut all = if replayed.r.rebuilt {
+        Vec::new()
+    } else {
+        decisions(conn, person.id)?
+    };
+    for d in &replayed.r.decisions {
+        match all
+            .iter_mut()
+            .find(|x| x.at == d.at && x.parameter == d.parameter)
+        {
+            Some(x) => *x = d.clone(),
+            None => all.push(d.clone()),
         }
-        all.sort_by_key(|d| (d.at, param_key(d.parameter)));
-        Ok(State {
-            stream,
-            records,
-            advisor: r.advisor,
-            decisions: all,
-            answers,
-            refused,
-            extras,
-        })
     }
+    all.sort_by_key(|d| (d.at, param_key(d.parameter)));
+    Ok(replayed.into_state(all))
 }
 
 /// Stores a replay's decisions and its snapshot (inside a write
@@ -351,14 +348,7 @@ pub(crate) fn store_replayed(
     person: &Person,
     replayed: Replayed,
 ) -> Result<State, StoreError> {
-    let Replayed {
-        stream,
-        records,
-        r,
-        answers,
-        refused,
-        extras,
-    } = replayed;
+    let r = &replayed.r;
     if r.rebuilt {
         conn.execute(Q::SuggestionDeleteAll, args![person.id])?;
     }
@@ -379,15 +369,7 @@ pub(crate) fn store_replayed(
     )?;
     let mut all = decisions(conn, person.id)?;
     all.sort_by_key(|d| d.at);
-    Ok(State {
-        stream,
-        records,
-        advisor: r.advisor,
-        decisions: all,
-        answers,
-        refused,
-        extras,
-    })
+    Ok(replayed.into_state(all))
 }
 
 impl Store {

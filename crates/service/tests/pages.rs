@@ -989,7 +989,13 @@ async fn a_person_without_data_sees_an_empty_chart_and_no_report_yet() {
 #[tokio::test]
 async fn the_clinic_shows_each_persons_nightscout_link_and_its_last_sync_never_its_credential() {
     let svc = Svc::new();
-    let a = svc.person("ana").await;
+    let a = svc
+        .person_with(json!({
+            "name": "ana", "tz": "Europe/Zurich", "mode": "cgm", "first_day": "2026-01-01",
+            "continuous_values": true,
+            "start": {"basal_units_per_hour": 1.0, "carb_ratio_g_per_unit": [10.0, 12.0, 11.0]}
+        }))
+        .await;
     let _ = svc.person("ben").await;
     let secret = "ana-0123456789abcdef";
     {
@@ -1007,7 +1013,7 @@ async fn the_clinic_shows_each_persons_nightscout_link_and_its_last_sync_never_i
             .record_sync("ana", at, Some("401 Unauthorized: the token was refused"))
             .unwrap();
     }
-    let (mut admin, _) = signed_in(&svc, Role::Admin).await;
+    let (mut admin, admin_csrf) = signed_in(&svc, Role::Admin).await;
     let list = admin.get("/clinic").await;
     assert_eq!(list.status, StatusCode::OK);
     let row = |name: &str| {
@@ -1028,10 +1034,25 @@ async fn the_clinic_shows_each_persons_nightscout_link_and_its_last_sync_never_i
         ns.contains("https:&#x2f;&#x2f;ana.example.org") || ns.contains("https://ana.example.org"),
         "{ns}"
     );
+    // On the person's clock, the zone named (never a UTC instant).
     assert!(
-        ns.contains("2026-12-01T08:00:00Z") && ns.contains("failed: 401"),
+        ns.replace("&#x2f;", "/")
+            .contains("last sync 2026-12-01 09:00 (Europe/Zurich)")
+            && ns.contains("failed: 401"),
         "{ns}"
     );
+    // A session and a token are listed on the person's clock too.
+    let _person = signed_in(&svc, Role::Person(a as i64)).await;
+    let f = [("csrf", admin_csrf.as_str())];
+    let issued = admin.post(&format!("/clinic/persons/{a}/tokens"), &f).await;
+    assert_eq!(issued.status, StatusCode::OK, "{}", issued.html);
+    let page = admin.get(&format!("/clinic/persons/{a}")).await;
+    assert!(
+        page.html.contains("signed in ") && page.html.contains("token "),
+        "{}",
+        page.html
+    );
+    assert_eq!(utc_instant_in(&page.html), None, "{}", page.html);
     for html in [&list.html, &page.html] {
         assert!(!html.contains(secret), "the credential is never shown");
     }
@@ -1043,10 +1064,13 @@ async fn the_clinic_shows_each_persons_nightscout_link_and_its_last_sync_never_i
     }
     let list = admin.get("/clinic").await;
     assert!(
-        list.html.contains("linked; last sync 2026-12-01T08:05:00Z"),
+        list.html
+            .replace("&#x2f;", "/")
+            .contains("linked; last sync 2026-12-01 09:05 (Europe/Zurich)"),
         "{}",
         list.html
     );
+    assert_eq!(utc_instant_in(&list.html), None, "{}", list.html);
     assert!(!list.html.contains("failed"));
 }
 
@@ -3020,4 +3044,86 @@ async fn the_new_person_form_sent_twice_makes_one_person_and_shows_it_both_times
     let p = admin.post_multipart("/clinic/persons", &other, &[]).await;
     assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
     assert!(p.html.contains("already exists"), "{}", p.html);
+}
+
+/// A person on pens (xDrip+'s injections, crates/io/tests/data): Today
+/// says the data show injections and no basal rate is suggested, in words
+/// a person can act on, never a flag of `abba person new`; the clinic's
+/// page names the command, as its form has no such field.
+#[tokio::test]
+async fn a_person_on_injections_reads_no_command_line_flag_on_their_pages() {
+    let svc = Svc::new();
+    let id = svc
+        .person_with(json!({
+            "name": "pens", "tz": "Europe/London", "mode": "cgm",
+            "start": {"basal_units_per_hour": 1.0, "carb_ratio_g_per_unit": [10.0, 12.0, 11.0]}
+        }))
+        .await;
+    // Three days of CGM beside the pen injections of 2026-03-10.
+    let day0: jiff::Timestamp = "2026-03-08T00:00:00Z".parse().unwrap();
+    let entries: Vec<Value> = (0..3 * 288)
+        .map(|k| {
+            let t = day0 + jiff::SignedDuration::from_mins(5 * k);
+            json!({"_id": format!("e{k}"), "type": "sgv", "sgv": 120 + (k % 30),
+                   "date": t.as_millisecond(), "dateString": t.to_string(), "direction": "Flat"})
+        })
+        .collect();
+    let entries_file = svc.dir.path().join("entries.json");
+    std::fs::write(&entries_file, serde_json::to_string(&entries).unwrap()).unwrap();
+    let treatments = std::path::PathBuf::from(format!(
+        "{}/../io/tests/data/nightscout_treatments_xdrip_injections_synthetic.json",
+        env!("CARGO_MANIFEST_DIR")
+    ));
+    {
+        let mut store = abba_service::open_store(&svc.db).unwrap();
+        store
+            .import_files("pens", &[entries_file, treatments], None)
+            .unwrap();
+    }
+    let (mut b, _) = signed_in(&svc, Role::Person(id as i64)).await;
+    let today = b.get("/").await;
+    assert_eq!(today.status, StatusCode::OK);
+    let note = today
+        .html
+        .split("<p id=\"not-designed-for\" class=\"callout\">")
+        .nth(1)
+        .unwrap_or_else(|| panic!("no delivery note on Today: {}", today.html));
+    let note = &note[..note.find("</p>").unwrap()];
+    assert!(note.contains("multiple daily injections"), "{note}");
+    assert!(note.contains("your clinic"), "{note}");
+    for page in ["/", "/history"] {
+        let p = b.get(page).await;
+        assert!(
+            !p.html.contains("--allow-closed-loop") && !p.html.contains("--meal-windows"),
+            "{page} names a flag: {}",
+            p.html
+        );
+    }
+    let (mut admin, _) = signed_in(&svc, Role::Admin).await;
+    let clinic = admin.get(&format!("/clinic/persons/{id}")).await;
+    assert!(
+        clinic
+            .html
+            .contains("created with `abba person new --allow-closed-loop`"),
+        "{}",
+        clinic.html
+    );
+}
+
+/// The first `YYYY-MM-DDTHH:MM` (an instant as RFC 3339 writes it) in
+/// `html`, if any: a page says times on a clock, never as UTC instants.
+fn utc_instant_in(html: &str) -> Option<String> {
+    let b = html.as_bytes();
+    let digits = |r: std::ops::Range<usize>| r.clone().all(|i| b[i].is_ascii_digit());
+    (0..b.len().saturating_sub(16)).find_map(|i| {
+        (digits(i..i + 4)
+            && b[i + 4] == b'-'
+            && digits(i + 5..i + 7)
+            && b[i + 7] == b'-'
+            && digits(i + 8..i + 10)
+            && b[i + 10] == b'T'
+            && digits(i + 11..i + 13)
+            && b[i + 13] == b':')
+            .then(|| html[i..i + 16].to_string())
+    })
 }

@@ -169,7 +169,7 @@ fn row(store: &mut Store, id: i64, now_ms: i64) -> Result<Row, ApiError> {
         .link(&p.name)?
         .map(|l| match (&l.last_error, &l.last_sync_at) {
             (Some(e), _) => fill(C.link_failed, &[("error", e)]),
-            (None, Some(t)) => fill(C.link_synced, &[("at", t)]),
+            (None, Some(t)) => fill(C.link_synced, &[("at", &instant_text(t, &p.tz))]),
             (None, None) => C.link_new.into(),
         });
     let _ = now_ms;
@@ -695,10 +695,29 @@ struct DeliveryModel {
     evidence: Vec<String>,
 }
 
-fn ms_text(ms: i64) -> String {
-    jiff::Timestamp::from_millisecond(ms)
-        .map(|t| t.round(jiff::Unit::Minute).unwrap_or(t).to_string())
-        .unwrap_or_default()
+/// An instant (milliseconds) on the person's clock, the zone named.
+fn ms_text(ms: i64, tz: &jiff::tz::TimeZone) -> String {
+    jiff::Timestamp::from_millisecond(ms).map_or_else(|_| String::new(), |t| zoned_text(t, tz))
+}
+
+/// An instant the store keeps as UTC text (a token's issue, a sync) on
+/// the person's clock, the zone named; text that is no instant as it is.
+fn instant_text(text: &str, tz: &jiff::tz::TimeZone) -> String {
+    text.parse::<jiff::Timestamp>()
+        .map_or_else(|_| text.to_string(), |t| zoned_text(t, tz))
+}
+
+/// `2026-12-01 09:05 (Europe/Zurich)`: as the list's last data, to the
+/// minute, in the zone `tz` (its UTC offset when it has no name).
+fn zoned_text(t: jiff::Timestamp, tz: &jiff::tz::TimeZone) -> String {
+    let z = t
+        .round(jiff::Unit::Minute)
+        .unwrap_or(t)
+        .to_zoned(tz.clone());
+    match tz.iana_name() {
+        Some(zone) => format!("{} ({zone})", z.strftime("%Y-%m-%d %H:%M")),
+        None => z.strftime("%Y-%m-%d %H:%M (UTC%:z)").to_string(),
+    }
 }
 
 fn range_text(r: Option<Range>) -> (String, String) {
@@ -760,7 +779,11 @@ fn person_model(store: &mut Store, id: i64) -> Result<PersonModel, ApiError> {
         .filter(|t| t.revoked_at.is_none())
         .map(|t| Item {
             id: t.id,
-            text: format!("token {} issued {}", t.id, t.created_at),
+            text: format!(
+                "token {} issued {}",
+                t.id,
+                instant_text(&t.created_at, &p.tz)
+            ),
         })
         .collect();
     let sessions = store
@@ -770,9 +793,9 @@ fn person_model(store: &mut Store, id: i64) -> Result<PersonModel, ApiError> {
             id: x.id,
             text: format!(
                 "signed in {}, last used {}, ends {}",
-                ms_text(x.created_ms),
-                ms_text(x.seen_ms),
-                ms_text(x.ends_ms)
+                ms_text(x.created_ms, &p.tz),
+                ms_text(x.seen_ms, &p.tz),
+                ms_text(x.ends_ms, &p.tz)
             ),
         })
         .collect();
@@ -780,7 +803,9 @@ fn person_model(store: &mut Store, id: i64) -> Result<PersonModel, ApiError> {
         format!(
             "{}: last sync {}{}",
             l.url,
-            l.last_sync_at.as_deref().unwrap_or("never"),
+            l.last_sync_at
+                .as_deref()
+                .map_or_else(|| "never".to_string(), |t| instant_text(t, &p.tz)),
             l.last_error
                 .map(|e| format!(", failed: {e}"))
                 .unwrap_or_default()
@@ -825,11 +850,10 @@ fn person_model(store: &mut Store, id: i64) -> Result<PersonModel, ApiError> {
         age_groups: age_group_choices(p.settings.age_group.name()),
         delivery: (!a.delivery.basal_suggestions || a.delivery.note.is_some()).then(|| {
             DeliveryModel {
-                note: a
-                    .delivery
-                    .note
-                    .clone()
-                    .unwrap_or_else(|| a.delivery.words.to_string()),
+                note: a.delivery.note.as_deref().map_or_else(
+                    || a.delivery.words.to_string(),
+                    super::advice_words::for_clinic,
+                ),
                 evidence: a.delivery.evidence.clone(),
             }
         }),
@@ -1379,7 +1403,11 @@ pub async fn import(
             if summary.added > 0 || summary.updated > 0 {
                 s.log_changed(&name);
             }
-            let lines = summary.lines(&name);
+            let lines: Vec<String> = summary
+                .lines(&name)
+                .iter()
+                .map(|l| super::advice_words::for_clinic(l))
+                .collect();
             show_person(
                 &s,
                 &w.csrf,

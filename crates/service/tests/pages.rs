@@ -3127,3 +3127,60 @@ fn utc_instant_in(html: &str) -> Option<String> {
             .then(|| html[i..i + 16].to_string())
     })
 }
+
+/// What the clinic's import says (its notes, its refusals) names times on
+/// the person's clock with the zone, never as UTC instants: Careportal's
+/// Profile Switches naming a profile the import cannot look up, and a file
+/// refused for its dates.
+#[tokio::test]
+async fn the_clinics_import_says_times_on_the_persons_clock() {
+    let svc = Svc::new();
+    let id = svc
+        .person_with(json!({
+            "name": "zoe", "tz": "Europe/Zurich", "mode": "cgm",
+            "start": {"basal_units_per_hour": 1.0, "carb_ratio_g_per_unit": [10.0, 12.0, 11.0]}
+        }))
+        .await;
+    let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
+    let data = |f: &str| {
+        std::fs::read(format!(
+            "{}/../io/tests/data/{f}",
+            env!("CARGO_MANIFEST_DIR")
+        ))
+        .unwrap()
+    };
+    let path = format!("/clinic/persons/{id}/import");
+    let treatments = data("nightscout_treatments_careportal_switches_synthetic.json");
+    let p = admin
+        .post_multipart(
+            &path,
+            &[("csrf", csrf.as_str())],
+            &[("files", "treatments.json", &treatments)],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::OK, "{}", p.html);
+    let html = p.html.replace("&#x2f;", "/");
+    // The first named switch: 2026-11-14T08:00:00Z in the file.
+    assert!(
+        html.contains("the first at 2026-11-14 09:00 (Europe/Zurich)"),
+        "{html}"
+    );
+    assert_eq!(utc_instant_in(&p.html), None, "{}", p.html);
+    // Sensor readings dated in 1961 are refused; the bound is said on
+    // the person's clock too.
+    let clarity = data("clarity_export_synthetic.csv");
+    let p = admin
+        .post_multipart(
+            &path,
+            &[("csrf", csrf.as_str())],
+            &[("files", "clarity.csv", &clarity)],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+    let html = p.html.replace("&#x2f;", "/");
+    assert!(
+        html.contains("1961-04-12 00:56:47 (Europe/Zurich)"),
+        "{html}"
+    );
+    assert_eq!(utc_instant_in(&p.html), None, "{}", p.html);
+}

@@ -707,6 +707,57 @@ fn instant_text(text: &str, tz: &jiff::tz::TimeZone) -> String {
         .map_or_else(|_| text.to_string(), |t| zoned_text(t, tz))
 }
 
+/// `text` with every UTC instant in it (`2026-11-14T08:00:00Z`, as the
+/// readers and the store write them in their notes and errors) said on
+/// the person's clock, the zone named, to the second when it has seconds.
+pub fn local_instants(text: &str, tz: &jiff::tz::TimeZone) -> String {
+    let b = text.as_bytes();
+    let digit = |i: usize| b.get(i).is_some_and(u8::is_ascii_digit);
+    let mut out = String::with_capacity(text.len());
+    let mut done = 0;
+    let mut i = 0;
+    while i + 17 <= b.len() {
+        let head = (0..4).all(|k| digit(i + k))
+            && b[i + 4] == b'-'
+            && digit(i + 5)
+            && digit(i + 6)
+            && b[i + 7] == b'-'
+            && digit(i + 8)
+            && digit(i + 9)
+            && b[i + 10] == b'T'
+            && (i == 0 || !b[i - 1].is_ascii_alphanumeric());
+        let end = head
+            .then(|| b[i..].iter().position(|&c| c == b'Z').map(|z| i + z + 1))
+            .flatten()
+            .filter(|&e| {
+                e - i <= 30
+                    && b[i + 11..e - 1]
+                        .iter()
+                        .all(|c| c.is_ascii_digit() || matches!(c, b':' | b'.'))
+            });
+        let parsed = end.and_then(|e| Some((e, text[i..e].parse::<jiff::Timestamp>().ok()?)));
+        if let Some((e, t)) = parsed {
+            let z = t.to_zoned(tz.clone());
+            let clock = if z.second() == 0 && z.subsec_nanosecond() == 0 {
+                z.strftime("%Y-%m-%d %H:%M").to_string()
+            } else {
+                z.strftime("%Y-%m-%d %H:%M:%S").to_string()
+            };
+            out.push_str(&text[done..i]);
+            out.push_str(&match tz.iana_name() {
+                Some(zone) => format!("{clock} ({zone})"),
+                None => format!("{clock} ({})", z.strftime("UTC%:z")),
+            });
+            done = e;
+            i = e;
+        } else {
+            i += 1;
+        }
+    }
+    out.push_str(&text[done..]);
+    out
+}
+
 /// `2026-12-01 09:05 (Europe/Zurich)`: as the list's last data, to the
 /// minute, in the zone `tz` (its UTC offset when it has no name).
 fn zoned_text(t: jiff::Timestamp, tz: &jiff::tz::TimeZone) -> String {
@@ -1372,7 +1423,9 @@ pub async fn import(
     // (503 / 500), never a field's (as the change of therapy).
     let out = s
         .store(move |store| {
-            let name = store.person_by_id(id)?.name;
+            let person = store.person_by_id(id)?;
+            let (name, tz) = (person.name, person.tz);
+            let local = |text: &str| local_instants(text, &tz);
             match store.import_contents_read(
                 &name,
                 &contents,
@@ -1382,7 +1435,14 @@ pub async fn import(
                 true,
                 &mut |_| Ok(()),
             ) {
-                Ok(summary) => Ok(Ok((name, summary))),
+                Ok(summary) => {
+                    let lines: Vec<String> = summary
+                        .lines(&name)
+                        .iter()
+                        .map(|l| local(&super::advice_words::for_clinic(l)))
+                        .collect();
+                    Ok(Ok((name, summary, lines)))
+                }
                 Err(
                     e @ (abba_store::StoreError::Db(_)
                     | abba_store::StoreError::Corrupt { .. }
@@ -1391,23 +1451,18 @@ pub async fn import(
                 // The page's own choice instead of the CLI's flags.
                 Err(abba_store::StoreError::ProfileDiffers { origin, difference }) => Ok(Err((
                     "profile_choice",
-                    format!("{origin}: {difference} {}", C.profile_choose),
+                    local(&format!("{origin}: {difference} {}", C.profile_choose)),
                 ))),
-                Err(e) => Ok(Err(("files", page_words(&e.to_string())))),
+                Err(e) => Ok(Err(("files", local(&page_words(&e.to_string()))))),
             }
         })
         .await?;
     s.forget(id);
     match out {
-        Ok((name, summary)) => {
+        Ok((name, summary, lines)) => {
             if summary.added > 0 || summary.updated > 0 {
                 s.log_changed(&name);
             }
-            let lines: Vec<String> = summary
-                .lines(&name)
-                .iter()
-                .map(|l| super::advice_words::for_clinic(l))
-                .collect();
             show_person(
                 &s,
                 &w.csrf,
@@ -1684,4 +1739,35 @@ pub fn routes() -> axum::Router<crate::state::AppState> {
             "/clinic/persons/{id}/sessions/{session}/revoke",
             post(revoke_session),
         )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn instants_are_said_on_the_persons_clock() {
+        let zurich = jiff::tz::TimeZone::get("Europe/Zurich").unwrap();
+        assert_eq!(
+            local_instants(
+                "the first at 2026-11-14T08:00:00Z ($[10]); line 12 (2021-06-18T06:05:07.250Z), from 1990-01-01T00:00:00Z on",
+                &zurich
+            ),
+            "the first at 2026-11-14 09:00 (Europe/Zurich) ($[10]); line 12 (2021-06-18 08:05:07 (Europe/Zurich)), from 1990-01-01 01:00 (Europe/Zurich) on"
+        );
+        // Not an instant: a local date-time, a date, a word ending in Z.
+        for text in [
+            "2026-11-14T08:00",
+            "2026-11-14 and FOOZ",
+            "x2026-11-14T08:00:00Z",
+            "é 2026-13-40T99:00:00Z",
+        ] {
+            assert_eq!(local_instants(text, &zurich), text);
+        }
+        let fixed = jiff::tz::TimeZone::fixed(jiff::tz::offset(-5));
+        assert_eq!(
+            local_instants("at 2026-11-14T08:00:00Z.", &fixed),
+            "at 2026-11-14 03:00 (UTC-05:00)."
+        );
+    }
 }

@@ -3183,4 +3183,29 @@ async fn the_clinics_import_says_times_on_the_persons_clock() {
         "{html}"
     );
     assert_eq!(utc_instant_in(&p.html), None, "{}", p.html);
+    // One reading a year ahead (a device clock set wrong): one record,
+    // on the person's clock.
+    let next_year = jiff::Zoned::now().year() + 1;
+    let ahead = format!(
+        "Glukose-Werte,Erstellt am,24.11.2026 12:12 UTC,Erstellt von,Test\r\n{LIBRE_DE}\r\nFreeStyle Libre 2,ABC,22.11.{next_year} 07:00,0,\"5,6\",,,,,,,,,,,,,,\r\n"
+    );
+    let p = admin
+        .post_multipart(
+            &path,
+            &[("csrf", csrf.as_str())],
+            &[("files", "ahead.csv", ahead.as_bytes())],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+    let html = p.html.replace("&#x2f;", "/");
+    assert!(
+        html.contains(&format!(
+            "1 record, the first ahead.csv: line 3 ({next_year}-11-22 07:00 (Europe/Zurich))"
+        )),
+        "{html}"
+    );
+    assert_eq!(utc_instant_in(&p.html), None, "{}", p.html);
 }
+
+/// LibreView's header for a German account in mmol/L (its 19 columns).
+const LIBRE_DE: &str = "Gerät,Seriennummer,Gerätezeitstempel,Aufzeichnungstyp,Glukosewert-Verlauf mmol/L,Glukose-Scan mmol/L,Nicht numerisches schnellwirkendes Insulin,Schnellwirkendes Insulin (Einheiten),Nicht numerische Nahrungsdaten,Kohlenhydrate (Gramm),Kohlenhydrate (Portionen),Nicht numerisches Depotinsulin,Depotinsulin (Einheiten),Notizen,Glukose-Teststreifen mmol/L,Keton mmol/L,Mahlzeiteninsulin (Einheiten),Korrekturinsulin (Einheiten),Insulin-Änderung durch Anwender (Einheiten)";

@@ -984,6 +984,13 @@ async fn a_person_without_data_sees_an_empty_chart_and_no_report_yet() {
     let r = b.get("/report").await;
     assert_eq!(r.status, StatusCode::OK);
     assert!(r.html.contains("nothing to report yet"), "{}", r.html);
+    // Today counts the first week's days done, never a "day 0".
+    let t = b.get("/").await;
+    assert!(
+        t.html.contains("0 of 7 days done, 7 to go") && !t.html.contains("day 0"),
+        "{}",
+        t.html
+    );
 }
 
 #[tokio::test]

@@ -359,7 +359,7 @@ pub const EN: Texts = Texts {
     no_prediction_outdated: "No predicted effect: your twin (revision {revision}) is older than your data and needs a refit (abba refits it when your data change; ask your clinic if this stays).",
     no_prediction_failed: "No predicted effect: the twin's replay failed ({reason}).",
     report_open_suggestion: "Open suggestion for {setting}: {from} to {to}.",
-    first_week: "abba is observing your first week: day {done} of {total}, {left} to go. Your settings stay as they are until then.",
+    first_week: "abba is observing your first week: {done} of {total} days done, {left} to go. Your settings stay as they are until then.",
     accept: "Accept",
     reject: "Keep the previous value",
     own_value: "My own value",

@@ -2763,6 +2763,47 @@ async fn the_new_person_forms_refusals_name_no_cli_flag() {
         assert!(error.contains(said), "{error}");
         assert!(!error.contains("--"), "no CLI flag: {error}");
     }
+    // A CareLink export whose bolus wizard never ran at dinner: the
+    // profile's refusal asks for the form's carb-ratio field, not a flag.
+    let carelink = std::fs::read(format!(
+        "{}/../io/tests/data/carelink_780g_mmol_synthetic.csv",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap();
+    let f = [
+        ("csrf", csrf.as_str()),
+        ("name", "cal"),
+        ("tz", "Europe/Madrid"),
+        ("unit", "mmol/L"),
+        ("mode", "cgm"),
+        ("age_group", "adult"),
+    ];
+    let p = admin
+        .post_multipart(
+            "/clinic/persons",
+            &f,
+            &[("profile", "carelink.csv", &carelink)],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+    let error = p.section("<p class=\"field-error\" id=\"profile-error\"", "p");
+    assert!(
+        error.contains("no bolus wizard event with a carb ratio in the dinner window"),
+        "{error}"
+    );
+    assert!(error.contains("&quot;Carb ratios&quot; field"), "{error}");
+    assert!(!error.contains("--"), "no CLI flag: {error}");
+    // With the three ratios given, the same export makes the person.
+    let mut f = f.to_vec();
+    f.push(("carb_ratios", "10,12,11"));
+    let p = admin
+        .post_multipart(
+            "/clinic/persons",
+            &f,
+            &[("profile", "carelink.csv", &carelink)],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
 }
 
 /// A wrong file uploaded to the import (a PDF report, a photo): refused

@@ -450,7 +450,7 @@ fn new_person(up: &Upload) -> Result<NewPerson, BTreeMap<String, String>> {
                         notes = t.notes;
                     }
                     Err(e) => {
-                        errors.insert("profile".into(), e.to_string());
+                        errors.insert("profile".into(), profile_words(&e.to_string()));
                     }
                 }
             }
@@ -494,6 +494,26 @@ fn new_person(up: &Upload) -> Result<NewPerson, BTreeMap<String, String>> {
     p.settings.pump_steps = Some(PumpSteps::default());
     p.settings.units = units;
     Ok(p)
+}
+
+/// What reading an uploaded profile refused, in the new-person form's
+/// words: its fields instead of `abba person new`'s flags.
+fn profile_words(msg: &str) -> String {
+    const RATIOS: &str = "the \"Carb ratios\" field";
+    msg.replace(
+        "give the carb ratios with --carb-ratio B,L,D",
+        "give the carb ratios of breakfast, lunch and dinner in the \"Carb ratios\" field (with a profile they replace its ratios)",
+    )
+    .replace(
+        "give --basal and --carb-ratio",
+        "create the person without a profile, from the \"Basal rate\" and \"Carb ratios\" fields",
+    )
+    .replace(
+        "give the person's zone with --tz",
+        "give the person's zone in the \"Time zone\" field",
+    )
+    .replace("--carb-ratio", RATIOS)
+    .replace("--basal", "the \"Basal rate\" field")
 }
 
 /// The form field a store error names (`--basal` → `basal`, ...).

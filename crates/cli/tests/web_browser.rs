@@ -736,3 +736,83 @@ async fn a_long_name_never_makes_a_page_scroll_sideways() {
     b.close().await;
     assert!(problems.is_empty(), "{}", problems.join("\n"));
 }
+
+/// A person on pens whose xDrip+ treatments the clinic imports (the
+/// readers' fixture, crates/io/tests/data): the clinic's page and the
+/// person's Today say the data show injections and that no basal rate is
+/// suggested, in words without a command-line flag; each page passes the
+/// checks of every page (axe, console, no sideways scroll, the notice).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_person_on_pens_reads_what_today_says_about_injections() {
+    let Some(tools) = tools() else {
+        return;
+    };
+    let dir = TempDir::new("web-pens");
+    let db = dir.0.join("clinic.db");
+    let db_s = db.to_str().unwrap().to_string();
+    abba(&["token", "--db", &db_s, "--admin"]);
+    // Three days of CGM around the injections of 2026-03-10.
+    let day0: jiff::Timestamp = "2026-03-08T00:00:00Z".parse().unwrap();
+    let entries: Vec<serde_json::Value> = (0..3 * 288)
+        .map(|k| {
+            let t = day0 + jiff::SignedDuration::from_mins(5 * k);
+            serde_json::json!({"_id": format!("e{k}"), "type": "sgv", "sgv": 110 + (k % 40),
+                   "date": t.as_millisecond(), "dateString": t.to_string(), "direction": "Flat"})
+        })
+        .collect();
+    let entries_file = dir.0.join("entries.json");
+    std::fs::write(&entries_file, serde_json::to_string(&entries).unwrap()).unwrap();
+    let treatments = web_common::workspace_root()
+        .join("crates/io/tests/data/nightscout_treatments_xdrip_injections_synthetic.json");
+    let server = Server::start(&db);
+    let base = server.url();
+    let driver = Driver::start(&tools, &dir.0);
+    let mut b = Browser::open(&tools, &driver, &dir.0, &base).await;
+    b.goto(&signin_link(&db, &["--admin"], &base)).await;
+    b.click_and_wait("form#signin-form button#signin").await;
+    b.goto("/clinic").await;
+    b.fill("form#new-person input[name=name]", "pens").await;
+    b.fill("form#new-person input[name=tz]", "Europe/London")
+        .await;
+    b.select("form#new-person select[name=unit]", "mmol/L")
+        .await;
+    b.select("form#new-person select[name=mode]", "cgm").await;
+    b.fill("form#new-person input[name=basal]", "0.9").await;
+    b.fill("form#new-person input[name=carb_ratios]", "10,12,11")
+        .await;
+    b.submit("form#new-person").await;
+    assert!(b.path().await.starts_with("/clinic/persons/"));
+    for file in [&entries_file, &treatments] {
+        b.attach("form#import input[type=file][name=files]", file)
+            .await;
+        b.submit("form#import").await;
+        let result = b.text("#import-result").await;
+        assert!(result.contains("Imported "), "{result}");
+    }
+    let result = b.text("#import-result").await;
+    assert!(
+        result.contains("These files show multiple daily injections"),
+        "{result}"
+    );
+    b.check_page("clinic-person-pens", 200, true).await;
+    b.goto(&signin_link(&db, &["--person", "pens"], &base))
+        .await;
+    b.click_and_wait("form#signin-form button#signin").await;
+    assert_eq!(b.path().await, "/");
+    let note = b.text("#not-designed-for").await;
+    assert!(note.contains("multiple daily injections"), "{note}");
+    assert!(
+        note.contains("suggests no basal rate") && note.contains("your clinic"),
+        "{note}"
+    );
+    let body = b.body_text().await;
+    assert!(!body.contains(" --"), "Today names a flag: {body}");
+    b.check_page("today-pens", 200, true).await;
+    b.goto("/history").await;
+    b.check_page("history-pens", 200, true).await;
+    b.goto("/glucose?range=14d").await;
+    assert!(b.body_text().await.contains("mmol/L"));
+    b.check_page("glucose-pens", 200, true).await;
+    b.assert_no_problems();
+    b.close().await;
+}

@@ -984,12 +984,25 @@ async fn a_person_without_data_sees_an_empty_chart_and_no_report_yet() {
     let r = b.get("/report").await;
     assert_eq!(r.status, StatusCode::OK);
     assert!(r.html.contains("nothing to report yet"), "{}", r.html);
+    // Today counts the first week's days done, never a "day 0".
+    let t = b.get("/").await;
+    assert!(
+        t.html.contains("0 of 7 days done, 7 to go") && !t.html.contains("day 0"),
+        "{}",
+        t.html
+    );
 }
 
 #[tokio::test]
 async fn the_clinic_shows_each_persons_nightscout_link_and_its_last_sync_never_its_credential() {
     let svc = Svc::new();
-    let a = svc.person("ana").await;
+    let a = svc
+        .person_with(json!({
+            "name": "ana", "tz": "Europe/Zurich", "mode": "cgm", "first_day": "2026-01-01",
+            "continuous_values": true,
+            "start": {"basal_units_per_hour": 1.0, "carb_ratio_g_per_unit": [10.0, 12.0, 11.0]}
+        }))
+        .await;
     let _ = svc.person("ben").await;
     let secret = "ana-0123456789abcdef";
     {
@@ -1007,7 +1020,7 @@ async fn the_clinic_shows_each_persons_nightscout_link_and_its_last_sync_never_i
             .record_sync("ana", at, Some("401 Unauthorized: the token was refused"))
             .unwrap();
     }
-    let (mut admin, _) = signed_in(&svc, Role::Admin).await;
+    let (mut admin, admin_csrf) = signed_in(&svc, Role::Admin).await;
     let list = admin.get("/clinic").await;
     assert_eq!(list.status, StatusCode::OK);
     let row = |name: &str| {
@@ -1028,10 +1041,25 @@ async fn the_clinic_shows_each_persons_nightscout_link_and_its_last_sync_never_i
         ns.contains("https:&#x2f;&#x2f;ana.example.org") || ns.contains("https://ana.example.org"),
         "{ns}"
     );
+    // On the person's clock, the zone named (never a UTC instant).
     assert!(
-        ns.contains("2026-12-01T08:00:00Z") && ns.contains("failed: 401"),
+        ns.replace("&#x2f;", "/")
+            .contains("last sync 2026-12-01 09:00 (Europe/Zurich)")
+            && ns.contains("failed: 401"),
         "{ns}"
     );
+    // A session and a token are listed on the person's clock too.
+    let _person = signed_in(&svc, Role::Person(a as i64)).await;
+    let f = [("csrf", admin_csrf.as_str())];
+    let issued = admin.post(&format!("/clinic/persons/{a}/tokens"), &f).await;
+    assert_eq!(issued.status, StatusCode::OK, "{}", issued.html);
+    let page = admin.get(&format!("/clinic/persons/{a}")).await;
+    assert!(
+        page.html.contains("signed in ") && page.html.contains("token "),
+        "{}",
+        page.html
+    );
+    assert_eq!(utc_instant_in(&page.html), None, "{}", page.html);
     for html in [&list.html, &page.html] {
         assert!(!html.contains(secret), "the credential is never shown");
     }
@@ -1043,10 +1071,13 @@ async fn the_clinic_shows_each_persons_nightscout_link_and_its_last_sync_never_i
     }
     let list = admin.get("/clinic").await;
     assert!(
-        list.html.contains("linked; last sync 2026-12-01T08:05:00Z"),
+        list.html
+            .replace("&#x2f;", "/")
+            .contains("linked; last sync 2026-12-01 09:05 (Europe/Zurich)"),
         "{}",
         list.html
     );
+    assert_eq!(utc_instant_in(&list.html), None, "{}", list.html);
     assert!(!list.html.contains("failed"));
 }
 
@@ -2732,6 +2763,47 @@ async fn the_new_person_forms_refusals_name_no_cli_flag() {
         assert!(error.contains(said), "{error}");
         assert!(!error.contains("--"), "no CLI flag: {error}");
     }
+    // A CareLink export whose bolus wizard never ran at dinner: the
+    // profile's refusal asks for the form's carb-ratio field, not a flag.
+    let carelink = std::fs::read(format!(
+        "{}/../io/tests/data/carelink_780g_mmol_synthetic.csv",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap();
+    let f = [
+        ("csrf", csrf.as_str()),
+        ("name", "cal"),
+        ("tz", "Europe/Madrid"),
+        ("unit", "mmol/L"),
+        ("mode", "cgm"),
+        ("age_group", "adult"),
+    ];
+    let p = admin
+        .post_multipart(
+            "/clinic/persons",
+            &f,
+            &[("profile", "carelink.csv", &carelink)],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+    let error = p.section("<p class=\"field-error\" id=\"profile-error\"", "p");
+    assert!(
+        error.contains("no bolus wizard event with a carb ratio in the dinner window"),
+        "{error}"
+    );
+    assert!(error.contains("&quot;Carb ratios&quot; field"), "{error}");
+    assert!(!error.contains("--"), "no CLI flag: {error}");
+    // With the three ratios given, the same export makes the person.
+    let mut f = f.to_vec();
+    f.push(("carb_ratios", "10,12,11"));
+    let p = admin
+        .post_multipart(
+            "/clinic/persons",
+            &f,
+            &[("profile", "carelink.csv", &carelink)],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
 }
 
 /// A wrong file uploaded to the import (a PDF report, a photo): refused
@@ -3021,3 +3093,167 @@ async fn the_new_person_form_sent_twice_makes_one_person_and_shows_it_both_times
     assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
     assert!(p.html.contains("already exists"), "{}", p.html);
 }
+
+/// A person on pens (xDrip+'s injections, crates/io/tests/data): Today
+/// says the data show injections and no basal rate is suggested, in words
+/// a person can act on, never a flag of `abba person new`; the clinic's
+/// page names the command, as its form has no such field.
+#[tokio::test]
+async fn a_person_on_injections_reads_no_command_line_flag_on_their_pages() {
+    let svc = Svc::new();
+    let id = svc
+        .person_with(json!({
+            "name": "pens", "tz": "Europe/London", "mode": "cgm",
+            "start": {"basal_units_per_hour": 1.0, "carb_ratio_g_per_unit": [10.0, 12.0, 11.0]}
+        }))
+        .await;
+    // Three days of CGM beside the pen injections of 2026-03-10.
+    let day0: jiff::Timestamp = "2026-03-08T00:00:00Z".parse().unwrap();
+    let entries: Vec<Value> = (0..3 * 288)
+        .map(|k| {
+            let t = day0 + jiff::SignedDuration::from_mins(5 * k);
+            json!({"_id": format!("e{k}"), "type": "sgv", "sgv": 120 + (k % 30),
+                   "date": t.as_millisecond(), "dateString": t.to_string(), "direction": "Flat"})
+        })
+        .collect();
+    let entries_file = svc.dir.path().join("entries.json");
+    std::fs::write(&entries_file, serde_json::to_string(&entries).unwrap()).unwrap();
+    let treatments = std::path::PathBuf::from(format!(
+        "{}/../io/tests/data/nightscout_treatments_xdrip_injections_synthetic.json",
+        env!("CARGO_MANIFEST_DIR")
+    ));
+    {
+        let mut store = abba_service::open_store(&svc.db).unwrap();
+        store
+            .import_files("pens", &[entries_file, treatments], None)
+            .unwrap();
+    }
+    let (mut b, _) = signed_in(&svc, Role::Person(id as i64)).await;
+    let today = b.get("/").await;
+    assert_eq!(today.status, StatusCode::OK);
+    let note = today
+        .html
+        .split("<p id=\"not-designed-for\" class=\"callout\">")
+        .nth(1)
+        .unwrap_or_else(|| panic!("no delivery note on Today: {}", today.html));
+    let note = &note[..note.find("</p>").unwrap()];
+    assert!(note.contains("multiple daily injections"), "{note}");
+    assert!(note.contains("your clinic"), "{note}");
+    for page in ["/", "/history"] {
+        let p = b.get(page).await;
+        assert!(
+            !p.html.contains("--allow-closed-loop") && !p.html.contains("--meal-windows"),
+            "{page} names a flag: {}",
+            p.html
+        );
+    }
+    let (mut admin, _) = signed_in(&svc, Role::Admin).await;
+    let clinic = admin.get(&format!("/clinic/persons/{id}")).await;
+    assert!(
+        clinic
+            .html
+            .contains("created with `abba person new --allow-closed-loop`"),
+        "{}",
+        clinic.html
+    );
+}
+
+/// The first `YYYY-MM-DDTHH:MM` (an instant as RFC 3339 writes it) in
+/// `html`, if any: a page says times on a clock, never as UTC instants.
+fn utc_instant_in(html: &str) -> Option<String> {
+    let b = html.as_bytes();
+    let digits = |r: std::ops::Range<usize>| r.clone().all(|i| b[i].is_ascii_digit());
+    (0..b.len().saturating_sub(16)).find_map(|i| {
+        (digits(i..i + 4)
+            && b[i + 4] == b'-'
+            && digits(i + 5..i + 7)
+            && b[i + 7] == b'-'
+            && digits(i + 8..i + 10)
+            && b[i + 10] == b'T'
+            && digits(i + 11..i + 13)
+            && b[i + 13] == b':')
+            .then(|| html[i..i + 16].to_string())
+    })
+}
+
+/// What the clinic's import says (its notes, its refusals) names times on
+/// the person's clock with the zone, never as UTC instants: Careportal's
+/// Profile Switches naming a profile the import cannot look up, and a file
+/// refused for its dates.
+#[tokio::test]
+async fn the_clinics_import_says_times_on_the_persons_clock() {
+    let svc = Svc::new();
+    let id = svc
+        .person_with(json!({
+            "name": "zoe", "tz": "Europe/Zurich", "mode": "cgm",
+            "start": {"basal_units_per_hour": 1.0, "carb_ratio_g_per_unit": [10.0, 12.0, 11.0]}
+        }))
+        .await;
+    let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
+    let data = |f: &str| {
+        std::fs::read(format!(
+            "{}/../io/tests/data/{f}",
+            env!("CARGO_MANIFEST_DIR")
+        ))
+        .unwrap()
+    };
+    let path = format!("/clinic/persons/{id}/import");
+    let treatments = data("nightscout_treatments_careportal_switches_synthetic.json");
+    let p = admin
+        .post_multipart(
+            &path,
+            &[("csrf", csrf.as_str())],
+            &[("files", "treatments.json", &treatments)],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::OK, "{}", p.html);
+    let html = p.html.replace("&#x2f;", "/");
+    // The first named switch: 2026-11-14T08:00:00Z in the file.
+    assert!(
+        html.contains("the first at 2026-11-14 09:00 (Europe/Zurich)"),
+        "{html}"
+    );
+    assert_eq!(utc_instant_in(&p.html), None, "{}", p.html);
+    // Sensor readings dated in 1961 are refused; the bound is said on
+    // the person's clock too.
+    let clarity = data("clarity_export_synthetic.csv");
+    let p = admin
+        .post_multipart(
+            &path,
+            &[("csrf", csrf.as_str())],
+            &[("files", "clarity.csv", &clarity)],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+    let html = p.html.replace("&#x2f;", "/");
+    assert!(
+        html.contains("1961-04-12 00:56:47 (Europe/Zurich)"),
+        "{html}"
+    );
+    assert_eq!(utc_instant_in(&p.html), None, "{}", p.html);
+    // One reading a year ahead (a device clock set wrong): one record,
+    // on the person's clock.
+    let next_year = jiff::Zoned::now().year() + 1;
+    let ahead = format!(
+        "Glukose-Werte,Erstellt am,24.11.2026 12:12 UTC,Erstellt von,Test\r\n{LIBRE_DE}\r\nFreeStyle Libre 2,ABC,22.11.{next_year} 07:00,0,\"5,6\",,,,,,,,,,,,,,\r\n"
+    );
+    let p = admin
+        .post_multipart(
+            &path,
+            &[("csrf", csrf.as_str())],
+            &[("files", "ahead.csv", ahead.as_bytes())],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+    let html = p.html.replace("&#x2f;", "/");
+    assert!(
+        html.contains(&format!(
+            "1 record, the first ahead.csv: line 3 ({next_year}-11-22 07:00 (Europe/Zurich))"
+        )),
+        "{html}"
+    );
+    assert_eq!(utc_instant_in(&p.html), None, "{}", p.html);
+}
+
+/// LibreView's header for a German account in mmol/L (its 19 columns).
+const LIBRE_DE: &str = "Gerät,Seriennummer,Gerätezeitstempel,Aufzeichnungstyp,Glukosewert-Verlauf mmol/L,Glukose-Scan mmol/L,Nicht numerisches schnellwirkendes Insulin,Schnellwirkendes Insulin (Einheiten),Nicht numerische Nahrungsdaten,Kohlenhydrate (Gramm),Kohlenhydrate (Portionen),Nicht numerisches Depotinsulin,Depotinsulin (Einheiten),Notizen,Glukose-Teststreifen mmol/L,Keton mmol/L,Mahlzeiteninsulin (Einheiten),Korrekturinsulin (Einheiten),Insulin-Änderung durch Anwender (Einheiten)";

@@ -250,10 +250,10 @@ pub fn import_with(
     // export read in the wrong zone) is an error, not an import of nothing.
     if rows.is_empty() && future.count > 0 {
         return Err(StoreError::Feed(format!(
-            "every record of {} that abba would keep is dated after the time of import ({}): {} records, the first {} ({}); check the device's clock and {}'s zone ({}). Nothing was imported",
+            "every record of {} that abba would keep is dated after the time of import ({}): {}, the first {} ({}); check the device's clock and {}'s zone ({}). Nothing was imported",
             batch.files.join(", "),
             now.round(jiff::Unit::Second).unwrap_or(now),
-            future.count,
+            records(future.count),
             future.first.as_deref().unwrap_or("?"),
             future.first_at.as_deref().unwrap_or("?"),
             person.name,
@@ -379,10 +379,10 @@ pub fn import_with(
 /// [`abba_io::read::RECORDS_FROM`]: an error, not an import of nothing.
 fn all_too_old(batch: &Batch, too_old: &Refused) -> StoreError {
     StoreError::Feed(format!(
-        "every record of {} is {}: {} records, the first {} ({}). Nothing was imported",
+        "every record of {} is {}: {}, the first {} ({}). Nothing was imported",
         batch.files.join(", "),
         abba_io::read::too_old_words(),
-        too_old.count,
+        records(too_old.count),
         too_old.first.as_deref().unwrap_or("?"),
         too_old.first_at.as_deref().unwrap_or("?"),
     ))

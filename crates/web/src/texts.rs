@@ -354,12 +354,12 @@ pub const EN: Texts = Texts {
     twin_check_passed: "Twin check passed: time below {low} does not rise by more than {margin} points.",
     twin_check_off: "The twin check is off.",
     no_prediction_not_available: "No predicted effect: this service has no twins.",
-    no_prediction_no_twin: "No predicted effect: you have no twin yet (abba twin fit makes one from your data).",
+    no_prediction_no_twin: "No predicted effect: you have no twin yet (your clinic can make one from your data).",
     no_prediction_not_usable: "No predicted effect: your twin is not usable ({reason}).",
-    no_prediction_outdated: "No predicted effect: your twin (revision {revision}) is older than your data; it needs a refit (abba twin fit).",
+    no_prediction_outdated: "No predicted effect: your twin (revision {revision}) is older than your data and needs a refit (abba refits it when your data change; ask your clinic if this stays).",
     no_prediction_failed: "No predicted effect: the twin's replay failed ({reason}).",
     report_open_suggestion: "Open suggestion for {setting}: {from} to {to}.",
-    first_week: "abba is observing your first week: day {done} of {total}, {left} to go. Your settings stay as they are until then.",
+    first_week: "abba is observing your first week: {done} of {total} days done, {left} to go. Your settings stay as they are until then.",
     accept: "Accept",
     reject: "Keep the previous value",
     own_value: "My own value",
@@ -772,5 +772,23 @@ mod tests {
         assert!(EN
             .notice
             .starts_with("abba is research software, not a medical device"));
+    }
+
+    /// The person's pages name no command or flag: a person has no
+    /// command line (the clinic's texts may name one).
+    #[test]
+    fn the_persons_texts_name_no_command() {
+        let Ok(serde_json::Value::Object(texts)) = serde_json::to_value(EN) else {
+            panic!("EN is an object of texts")
+        };
+        for (key, text) in texts {
+            let text = text.as_str().unwrap_or_default();
+            assert!(
+                !text.contains("abba twin")
+                    && !text.contains(" --")
+                    && !text.contains("abba person"),
+                "{key}: {text}"
+            );
+        }
     }
 }

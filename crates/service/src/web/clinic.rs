@@ -169,7 +169,7 @@ fn row(store: &mut Store, id: i64, now_ms: i64) -> Result<Row, ApiError> {
         .link(&p.name)?
         .map(|l| match (&l.last_error, &l.last_sync_at) {
             (Some(e), _) => fill(C.link_failed, &[("error", e)]),
-            (None, Some(t)) => fill(C.link_synced, &[("at", t)]),
+            (None, Some(t)) => fill(C.link_synced, &[("at", &instant_text(t, &p.tz))]),
             (None, None) => C.link_new.into(),
         });
     let _ = now_ms;
@@ -450,7 +450,7 @@ fn new_person(up: &Upload) -> Result<NewPerson, BTreeMap<String, String>> {
                         notes = t.notes;
                     }
                     Err(e) => {
-                        errors.insert("profile".into(), e.to_string());
+                        errors.insert("profile".into(), profile_words(&e.to_string()));
                     }
                 }
             }
@@ -494,6 +494,26 @@ fn new_person(up: &Upload) -> Result<NewPerson, BTreeMap<String, String>> {
     p.settings.pump_steps = Some(PumpSteps::default());
     p.settings.units = units;
     Ok(p)
+}
+
+/// What reading an uploaded profile refused, in the new-person form's
+/// words: its fields instead of `abba person new`'s flags.
+fn profile_words(msg: &str) -> String {
+    const RATIOS: &str = "the \"Carb ratios\" field";
+    msg.replace(
+        "give the carb ratios with --carb-ratio B,L,D",
+        "give the carb ratios of breakfast, lunch and dinner in the \"Carb ratios\" field (with a profile they replace its ratios)",
+    )
+    .replace(
+        "give --basal and --carb-ratio",
+        "create the person without a profile, from the \"Basal rate\" and \"Carb ratios\" fields",
+    )
+    .replace(
+        "give the person's zone with --tz",
+        "give the person's zone in the \"Time zone\" field",
+    )
+    .replace("--carb-ratio", RATIOS)
+    .replace("--basal", "the \"Basal rate\" field")
 }
 
 /// The form field a store error names (`--basal` → `basal`, ...).
@@ -695,10 +715,80 @@ struct DeliveryModel {
     evidence: Vec<String>,
 }
 
-fn ms_text(ms: i64) -> String {
-    jiff::Timestamp::from_millisecond(ms)
-        .map(|t| t.round(jiff::Unit::Minute).unwrap_or(t).to_string())
-        .unwrap_or_default()
+/// An instant (milliseconds) on the person's clock, the zone named.
+fn ms_text(ms: i64, tz: &jiff::tz::TimeZone) -> String {
+    jiff::Timestamp::from_millisecond(ms).map_or_else(|_| String::new(), |t| zoned_text(t, tz))
+}
+
+/// An instant the store keeps as UTC text (a token's issue, a sync) on
+/// the person's clock, the zone named; text that is no instant as it is.
+fn instant_text(text: &str, tz: &jiff::tz::TimeZone) -> String {
+    text.parse::<jiff::Timestamp>()
+        .map_or_else(|_| text.to_string(), |t| zoned_text(t, tz))
+}
+
+/// `text` with every UTC instant in it (`2026-11-14T08:00:00Z`, as the
+/// readers and the store write them in their notes and errors) said on
+/// the person's clock, the zone named, to the second when it has seconds.
+pub fn local_instants(text: &str, tz: &jiff::tz::TimeZone) -> String {
+    let b = text.as_bytes();
+    let digit = |i: usize| b.get(i).is_some_and(u8::is_ascii_digit);
+    let mut out = String::with_capacity(text.len());
+    let mut done = 0;
+    let mut i = 0;
+    while i + 17 <= b.len() {
+        let head = (0..4).all(|k| digit(i + k))
+            && b[i + 4] == b'-'
+            && digit(i + 5)
+            && digit(i + 6)
+            && b[i + 7] == b'-'
+            && digit(i + 8)
+            && digit(i + 9)
+            && b[i + 10] == b'T'
+            && (i == 0 || !b[i - 1].is_ascii_alphanumeric());
+        let end = head
+            .then(|| b[i..].iter().position(|&c| c == b'Z').map(|z| i + z + 1))
+            .flatten()
+            .filter(|&e| {
+                e - i <= 30
+                    && b[i + 11..e - 1]
+                        .iter()
+                        .all(|c| c.is_ascii_digit() || matches!(c, b':' | b'.'))
+            });
+        let parsed = end.and_then(|e| Some((e, text[i..e].parse::<jiff::Timestamp>().ok()?)));
+        if let Some((e, t)) = parsed {
+            let z = t.to_zoned(tz.clone());
+            let clock = if z.second() == 0 && z.subsec_nanosecond() == 0 {
+                z.strftime("%Y-%m-%d %H:%M").to_string()
+            } else {
+                z.strftime("%Y-%m-%d %H:%M:%S").to_string()
+            };
+            out.push_str(&text[done..i]);
+            out.push_str(&match tz.iana_name() {
+                Some(zone) => format!("{clock} ({zone})"),
+                None => format!("{clock} ({})", z.strftime("UTC%:z")),
+            });
+            done = e;
+            i = e;
+        } else {
+            i += 1;
+        }
+    }
+    out.push_str(&text[done..]);
+    out
+}
+
+/// `2026-12-01 09:05 (Europe/Zurich)`: as the list's last data, to the
+/// minute, in the zone `tz` (its UTC offset when it has no name).
+fn zoned_text(t: jiff::Timestamp, tz: &jiff::tz::TimeZone) -> String {
+    let z = t
+        .round(jiff::Unit::Minute)
+        .unwrap_or(t)
+        .to_zoned(tz.clone());
+    match tz.iana_name() {
+        Some(zone) => format!("{} ({zone})", z.strftime("%Y-%m-%d %H:%M")),
+        None => z.strftime("%Y-%m-%d %H:%M (UTC%:z)").to_string(),
+    }
 }
 
 fn range_text(r: Option<Range>) -> (String, String) {
@@ -760,7 +850,11 @@ fn person_model(store: &mut Store, id: i64) -> Result<PersonModel, ApiError> {
         .filter(|t| t.revoked_at.is_none())
         .map(|t| Item {
             id: t.id,
-            text: format!("token {} issued {}", t.id, t.created_at),
+            text: format!(
+                "token {} issued {}",
+                t.id,
+                instant_text(&t.created_at, &p.tz)
+            ),
         })
         .collect();
     let sessions = store
@@ -770,9 +864,9 @@ fn person_model(store: &mut Store, id: i64) -> Result<PersonModel, ApiError> {
             id: x.id,
             text: format!(
                 "signed in {}, last used {}, ends {}",
-                ms_text(x.created_ms),
-                ms_text(x.seen_ms),
-                ms_text(x.ends_ms)
+                ms_text(x.created_ms, &p.tz),
+                ms_text(x.seen_ms, &p.tz),
+                ms_text(x.ends_ms, &p.tz)
             ),
         })
         .collect();
@@ -780,7 +874,9 @@ fn person_model(store: &mut Store, id: i64) -> Result<PersonModel, ApiError> {
         format!(
             "{}: last sync {}{}",
             l.url,
-            l.last_sync_at.as_deref().unwrap_or("never"),
+            l.last_sync_at
+                .as_deref()
+                .map_or_else(|| "never".to_string(), |t| instant_text(t, &p.tz)),
             l.last_error
                 .map(|e| format!(", failed: {e}"))
                 .unwrap_or_default()
@@ -825,11 +921,10 @@ fn person_model(store: &mut Store, id: i64) -> Result<PersonModel, ApiError> {
         age_groups: age_group_choices(p.settings.age_group.name()),
         delivery: (!a.delivery.basal_suggestions || a.delivery.note.is_some()).then(|| {
             DeliveryModel {
-                note: a
-                    .delivery
-                    .note
-                    .clone()
-                    .unwrap_or_else(|| a.delivery.words.to_string()),
+                note: a.delivery.note.as_deref().map_or_else(
+                    || a.delivery.words.to_string(),
+                    super::advice_words::for_clinic,
+                ),
                 evidence: a.delivery.evidence.clone(),
             }
         }),
@@ -1348,7 +1443,9 @@ pub async fn import(
     // (503 / 500), never a field's (as the change of therapy).
     let out = s
         .store(move |store| {
-            let name = store.person_by_id(id)?.name;
+            let person = store.person_by_id(id)?;
+            let (name, tz) = (person.name, person.tz);
+            let local = |text: &str| local_instants(text, &tz);
             match store.import_contents_read(
                 &name,
                 &contents,
@@ -1358,7 +1455,14 @@ pub async fn import(
                 true,
                 &mut |_| Ok(()),
             ) {
-                Ok(summary) => Ok(Ok((name, summary))),
+                Ok(summary) => {
+                    let lines: Vec<String> = summary
+                        .lines(&name)
+                        .iter()
+                        .map(|l| local(&super::advice_words::for_clinic(l)))
+                        .collect();
+                    Ok(Ok((name, summary, lines)))
+                }
                 Err(
                     e @ (abba_store::StoreError::Db(_)
                     | abba_store::StoreError::Corrupt { .. }
@@ -1367,19 +1471,18 @@ pub async fn import(
                 // The page's own choice instead of the CLI's flags.
                 Err(abba_store::StoreError::ProfileDiffers { origin, difference }) => Ok(Err((
                     "profile_choice",
-                    format!("{origin}: {difference} {}", C.profile_choose),
+                    local(&format!("{origin}: {difference} {}", C.profile_choose)),
                 ))),
-                Err(e) => Ok(Err(("files", page_words(&e.to_string())))),
+                Err(e) => Ok(Err(("files", local(&page_words(&e.to_string()))))),
             }
         })
         .await?;
     s.forget(id);
     match out {
-        Ok((name, summary)) => {
+        Ok((name, summary, lines)) => {
             if summary.added > 0 || summary.updated > 0 {
                 s.log_changed(&name);
             }
-            let lines = summary.lines(&name);
             show_person(
                 &s,
                 &w.csrf,
@@ -1656,4 +1759,35 @@ pub fn routes() -> axum::Router<crate::state::AppState> {
             "/clinic/persons/{id}/sessions/{session}/revoke",
             post(revoke_session),
         )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn instants_are_said_on_the_persons_clock() {
+        let zurich = jiff::tz::TimeZone::get("Europe/Zurich").unwrap();
+        assert_eq!(
+            local_instants(
+                "the first at 2026-11-14T08:00:00Z ($[10]); line 12 (2021-06-18T06:05:07.250Z), from 1990-01-01T00:00:00Z on",
+                &zurich
+            ),
+            "the first at 2026-11-14 09:00 (Europe/Zurich) ($[10]); line 12 (2021-06-18 08:05:07 (Europe/Zurich)), from 1990-01-01 01:00 (Europe/Zurich) on"
+        );
+        // Not an instant: a local date-time, a date, a word ending in Z.
+        for text in [
+            "2026-11-14T08:00",
+            "2026-11-14 and FOOZ",
+            "x2026-11-14T08:00:00Z",
+            "é 2026-13-40T99:00:00Z",
+        ] {
+            assert_eq!(local_instants(text, &zurich), text);
+        }
+        let fixed = jiff::tz::TimeZone::fixed(jiff::tz::offset(-5));
+        assert_eq!(
+            local_instants("at 2026-11-14T08:00:00Z.", &fixed),
+            "at 2026-11-14 03:00 (UTC-05:00)."
+        );
+    }
 }

@@ -90,11 +90,11 @@ pub fn model(live: &Live) -> History {
             let day = first_day
                 .and_then(|d| d.checked_add(jiff::Span::new().days(v.day - 1)).ok())
                 .map_or_else(|| format!("day {}", v.day), |d| d.to_string());
-            let reason = if v.reasons.is_empty() {
+            let reason = super::advice_words::for_person(&if v.reasons.is_empty() {
                 v.no_update_reason.clone().unwrap_or_default()
             } else {
                 v.reasons.join(" ")
-            };
+            });
             HistoryRow {
                 day,
                 setting: setting_name(v.setting).to_string(),

@@ -8,6 +8,7 @@
 //! POST needs the session's CSRF token and a same-origin `Origin` (or
 //! `Referer`). See crates/service/README.md, "The pages".
 
+pub mod advice_words;
 pub mod clinic;
 pub mod form;
 pub mod glucose;

@@ -115,11 +115,11 @@ pub fn card(
             note: Some(EN.no_decision.to_string()),
         };
     };
-    let reason = if v.reasons.is_empty() {
+    let reason = super::advice_words::for_person(&if v.reasons.is_empty() {
         v.no_update_reason.clone().unwrap_or_default()
     } else {
         v.reasons.join(" ")
-    };
+    });
     // Only an open suggestion is shown as one; a change under one pump
     // step and a basal rate not offered are notes.
     if v.no_update || v.status == "no_change" || v.status == "not_offered" {
@@ -285,12 +285,10 @@ pub fn model(live: &Live, err: Option<&ValueError>, fx: Option<&EffectSource>) -
     let not_designed_for = if a.delivery.basal_suggestions {
         None
     } else {
-        Some(
-            a.delivery
-                .note
-                .clone()
-                .unwrap_or_else(|| a.delivery.words.to_string()),
-        )
+        Some(a.delivery.note.as_deref().map_or_else(
+            || a.delivery.words.to_string(),
+            super::advice_words::for_person,
+        ))
     };
     Today {
         first_week,

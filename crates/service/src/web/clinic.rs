@@ -729,7 +729,9 @@ fn instant_text(text: &str, tz: &jiff::tz::TimeZone) -> String {
 
 /// `text` with every UTC instant in it (`2026-11-14T08:00:00Z`, as the
 /// readers and the store write them in their notes and errors) said on
-/// the person's clock, the zone named, to the second when it has seconds.
+/// the person's clock, the zone named, to the second when it has seconds;
+/// a quoted one (`got "2099-01-01T00:00:00Z"`, the file's own words) is
+/// left as it is.
 pub fn local_instants(text: &str, tz: &jiff::tz::TimeZone) -> String {
     let b = text.as_bytes();
     let digit = |i: usize| b.get(i).is_some_and(u8::is_ascii_digit);
@@ -745,7 +747,9 @@ pub fn local_instants(text: &str, tz: &jiff::tz::TimeZone) -> String {
             && digit(i + 8)
             && digit(i + 9)
             && b[i + 10] == b'T'
-            && (i == 0 || !b[i - 1].is_ascii_alphanumeric());
+            // Not inside a word, nor a value quoted from a file (an
+            // error says what the file holds, as it holds it).
+            && (i == 0 || !(b[i - 1].is_ascii_alphanumeric() || b[i - 1] == b'"'));
         let end = head
             .then(|| b[i..].iter().position(|&c| c == b'Z').map(|z| i + z + 1))
             .flatten()
@@ -925,7 +929,12 @@ fn person_model(store: &mut Store, id: i64) -> Result<PersonModel, ApiError> {
                     || a.delivery.words.to_string(),
                     super::advice_words::for_clinic,
                 ),
-                evidence: a.delivery.evidence.clone(),
+                evidence: a
+                    .delivery
+                    .evidence
+                    .iter()
+                    .map(|e| local_instants(e, &p.tz))
+                    .collect(),
             }
         }),
         tokens,
@@ -1780,6 +1789,7 @@ mod tests {
             "2026-11-14T08:00",
             "2026-11-14 and FOOZ",
             "x2026-11-14T08:00:00Z",
+            "got \"2099-01-01T00:00:00Z\"",
             "é 2026-13-40T99:00:00Z",
         ] {
             assert_eq!(local_instants(text, &zurich), text);

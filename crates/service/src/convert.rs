@@ -16,6 +16,7 @@ use abba_core::{
     Event, EventKind, Grams, GramsPerUnit, MealSlot, MgDl, TempBasalRate, TherapySettings,
     Timestamp, Units, UnitsPerHour,
 };
+use abba_io::automation::Delivery;
 use abba_store::advise::{self, Advice, Phase, SuggestionView};
 use abba_store::app::NewAppEvent;
 use abba_store::effect;
@@ -254,7 +255,23 @@ fn suggestion(live: &Live, d: &Decision, v: &SuggestionView, seq: Option<u64>) -
         day: v.day,
         status: v.status.clone(),
         in_force: v.in_force,
+        schedule: v.schedule.as_deref().map(segments),
+        answer_note: v.answer_note.clone(),
     }
+}
+
+/// A schedule as the store's views show it (local `HH:MM`, U/h) on the
+/// wire (minute of the day, U/h).
+fn segments(s: &[(String, f64)]) -> Vec<abba_api::BasalSegment> {
+    s.iter()
+        .map(|(t, r)| abba_api::BasalSegment {
+            start_minute: t
+                .split_once(':')
+                .and_then(|(h, m)| Some(h.parse::<u32>().ok()? * 60 + m.parse::<u32>().ok()?))
+                .unwrap_or(0),
+            units_per_hour: *r,
+        })
+        .collect()
 }
 
 /// Finds the app event (its seq) that made a decision; a store error is
@@ -413,6 +430,34 @@ pub fn advice(
             not_used_examples: a.data.not_used_examples,
             events_refused: a.data.events_refused as u64,
         },
+        therapy: abba_api::TherapyInForce {
+            source: a.therapy.source.to_string(),
+            basal_schedule: a.therapy.basal_schedule.as_deref().map(segments),
+            basal_schedule_mean: a.therapy.basal_schedule_mean,
+            pump_steps: a.therapy.pump_steps.map(|p| abba_api::PumpStepsBody {
+                basal_units_per_hour: p.basal_u_per_h,
+                carb_ratio_g_per_unit: p.carb_ratio_g_per_u,
+            }),
+            changes: a.therapy.changes,
+        },
+        delivery: abba_api::DeliveryView {
+            kind: match a.delivery.kind {
+                Delivery::OpenLoop => "open_loop",
+                Delivery::ClosedLoop => "closed_loop",
+                Delivery::Injections => "injections",
+                Delivery::NoInsulinRecords => "no_insulin_records",
+            }
+            .to_string(),
+            words: a.delivery.words.to_string(),
+            evidence: a.delivery.evidence,
+            basal_suggestions: a.delivery.basal_suggestions,
+            note: a.delivery.note,
+        },
+        first_week: a.first_week.map(|f| abba_api::FirstWeekDays {
+            qualifying: f.qualifying,
+            missing: f.missing,
+        }),
+        notes: a.notes,
     })
 }
 

@@ -3021,3 +3021,41 @@ async fn the_new_person_form_sent_twice_makes_one_person_and_shows_it_both_times
     assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
     assert!(p.html.contains("already exists"), "{}", p.html);
 }
+
+/// The characters the pages escape, back.
+fn unescaped(html: &str) -> String {
+    html.replace("&#x27;", "'")
+        .replace("&#x2f;", "/")
+        .replace("&quot;", "\"")
+        .replace("&lt;", "<")
+        .replace("&gt;", ">")
+        .replace("&amp;", "&")
+}
+
+#[tokio::test]
+async fn today_shows_the_schedule_in_force_the_suggested_schedule_and_the_advices_notes() {
+    let svc = Svc::new();
+    let (id, advice) = crate::advice_parity::imported_person(&svc, 12);
+    let (mut b, _) = signed_in(&svc, Role::Person(id as i64)).await;
+    let today = b.get("/").await;
+    assert_eq!(today.status, StatusCode::OK, "{}", today.html);
+    assert!(!advice.notes.is_empty(), "a trip: {:#?}", advice.notes);
+    let notes = unescaped(today.section("<section id=\"advice-notes\"", "section"));
+    for n in &advice.notes {
+        assert!(notes.contains(n.as_str()), "{n}\nnot in\n{notes}");
+    }
+    let basal = unescaped(today.section("<section id=\"setting-basal\"", "section"));
+    let in_force = advice.therapy.basal_schedule.as_ref().unwrap();
+    assert!(
+        basal.contains(&abba_advisor::words::schedule(in_force)),
+        "the schedule in force: {basal}"
+    );
+    let latest = advice.settings[0].latest.as_ref().unwrap();
+    assert_eq!(latest.status, "open", "{latest:#?}");
+    let suggested = latest.schedule.as_ref().unwrap();
+    assert_ne!(suggested, in_force);
+    assert!(
+        basal.contains(&abba_advisor::words::schedule(suggested)),
+        "the suggested schedule: {basal}"
+    );
+}

@@ -85,7 +85,8 @@ pub struct Suggestion {
     pub reasons: Vec<String>,
     /// The data it rests on, in plain words.
     pub data: String,
-    /// When it was decided: RFC 3339 instant.
+    /// When it was decided: RFC 3339 at the person's offset (their local
+    /// time, as `abba advise` shows it).
     #[schema(format = DateTime)]
     pub decided_at: String,
     /// Day of the advisor's clock it is for (1 = day 1).

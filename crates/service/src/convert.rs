@@ -233,9 +233,18 @@ pub fn suggestion_id(d: &Decision) -> u64 {
 }
 
 fn suggestion(live: &Live, d: &Decision, v: &SuggestionView, seq: Option<u64>) -> Suggestion {
+    // An RFC 3339 instant at the person's offset: the local time the
+    // advice shows, never a bare UTC instant.
     let instant = advise::clock(&live.person)
         .and_then(|c| c.instant(d.at).ok())
-        .map_or_else(|| d.at.to_string(), |i| i.to_string());
+        .map_or_else(
+            || d.at.to_string(),
+            |i| {
+                i.to_zoned(live.person.tz.clone())
+                    .strftime("%Y-%m-%dT%H:%M:%S%:z")
+                    .to_string()
+            },
+        );
     let reason = match &v.no_update_reason {
         Some(r) => r.clone(),
         None => v.reasons.join(" "),

@@ -158,6 +158,15 @@ async fn parity(days: i64) {
         .iter()
         .zip(cli["settings"].as_array().unwrap())
     {
+        // The same local time, at the person's offset (Zurich in May).
+        if let Some(local) = c["latest"]["decided_at"].as_str() {
+            assert_eq!(
+                a["latest"]["decided_at"].as_str().unwrap(),
+                format!("{}:00+02:00", local.replace(' ', "T")),
+                "{}",
+                c["setting"]
+            );
+        }
         let want = wire_schedule(&c["latest"]["schedule"]);
         schedules += usize::from(!want.is_null());
         assert_eq!(

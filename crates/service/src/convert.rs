@@ -328,32 +328,16 @@ pub fn page(
         None
     };
     // The latest decision of each setting is the only one that can be
-    // open: known from the whole list, not the page.
-    let mut latest: BTreeMap<&'static str, usize> = BTreeMap::new();
-    for (i, d) in live.decisions.iter().enumerate() {
-        latest.insert(abba_store::answer::param_key(d.parameter), i);
-    }
-    let decisions: Vec<Decision> = picked
-        .iter()
-        .map(|&(_, i)| live.decisions[i].clone())
-        .collect();
-    let mut views = advise::views_with(
+    // open (or replaced): known from the whole list, not the page.
+    let indices: Vec<usize> = picked.iter().map(|&(_, i)| i).collect();
+    let decisions: Vec<Decision> = indices.iter().map(|&i| live.decisions[i].clone()).collect();
+    let views = advise::views_at(
         &live.person,
-        &decisions,
+        &live.decisions,
+        &indices,
         &live.answers,
         live.extras.as_ref(),
     );
-    for (v, &(_, i)) in views.iter_mut().zip(&picked) {
-        if v.status == "open" && latest.get(v.setting) != Some(&i) {
-            let d = &live.decisions[i];
-            if live.extras.as_ref().is_some_and(|x| !x.shown(d.at)) {
-                v.status = "unseen".into();
-                v.in_force = d.old;
-            } else {
-                v.status = "superseded".into();
-            }
-        }
-    }
     let list = decisions
         .iter()
         .zip(&views)

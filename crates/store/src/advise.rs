@@ -252,6 +252,20 @@ pub fn views_with(
     answers: &Answers,
     extras: Option<&Extras>,
 ) -> Vec<SuggestionView> {
+    let all: Vec<usize> = (0..decisions.len()).collect();
+    views_at(person, decisions, &all, answers, extras)
+}
+
+/// Like [`views_with`] for the decisions at `picked` (indices into
+/// `decisions`, a page of them): each says what it says in the whole list
+/// (only the latest of a setting can be open or replaced).
+pub fn views_at(
+    person: &Person,
+    decisions: &[Decision],
+    picked: &[usize],
+    answers: &Answers,
+    extras: Option<&Extras>,
+) -> Vec<SuggestionView> {
     let hold_basal = extras.is_some_and(|x| x.hold_basal);
     let changes: &[TherapyChange] = extras.map_or(&[], |x| &x.changes);
     let c = clock(person);
@@ -259,9 +273,9 @@ pub fn views_with(
     for (i, d) in decisions.iter().enumerate() {
         latest.insert(param_key(d.parameter), i);
     }
-    decisions
+    picked
         .iter()
-        .enumerate()
+        .filter_map(|&i| Some((i, decisions.get(i)?)))
         .map(|(i, d)| {
             let key = param_key(d.parameter);
             let skipped = match &d.detail {

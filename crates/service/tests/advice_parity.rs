@@ -26,7 +26,7 @@ fn iso(ms: i64) -> String {
 /// boluses a day, carbohydrate alone on day 3 (a snack), the last
 /// two days' readings from a device at UTC-05:00 (a trip), and a profile
 /// with a two-segment basal schedule.
-fn export(dir: &std::path::Path, days: i64) -> Vec<std::path::PathBuf> {
+pub(crate) fn export(dir: &std::path::Path, days: i64) -> Vec<std::path::PathBuf> {
     let mut entries = Vec::new();
     let mut treatments = Vec::new();
     for day in 0..days {

@@ -1605,6 +1605,23 @@ fn an_answer_to_a_suggestion_a_later_import_changed_is_kept_and_said() {
     );
     let in_force = &advice.settings[0];
     assert_eq!(in_force.in_force, basal.in_force);
+    // The report's suggestion says it with the answer.
+    let report = abba_store::report::person_input(
+        &mut store,
+        "ana",
+        14,
+        abba_core::units::GlucoseUnit::MgDl,
+    )
+    .unwrap();
+    assert!(
+        report.suggestions.iter().any(|l| l.answer.contains(note)),
+        "the report's answers: {:#?}",
+        report
+            .suggestions
+            .iter()
+            .map(|l| &l.answer)
+            .collect::<Vec<_>>()
+    );
     // A rebuild from scratch gives the same.
     store.rebuild("ana").unwrap();
     assert_eq!(store.history("ana").unwrap(), history);

@@ -427,6 +427,28 @@ pub fn rate(v: f64) -> String {
     s.trim_end_matches('0').trim_end_matches('.').to_string()
 }
 
+/// An answer given to a suggestion that data imported after it changed:
+/// what was answered, what the suggestion is now, and that the answer
+/// stands (the value the person put in force stays).
+pub fn answer_on_changed_suggestion(
+    setting: &str,
+    decided_at: &str,
+    answer: &str,
+    then: (f64, f64),
+    now: (f64, f64),
+    in_force: f64,
+    unit: &str,
+) -> String {
+    format!(
+        "The {setting} suggestion of {decided_at} was {} {unit} (from {} {unit}) when you answered ({answer}); data imported since change it to {} {unit} (from {} {unit}). Your answer stands: {} {unit} stays in force, and the next update starts from it.",
+        rate(then.1),
+        rate(then.0),
+        rate(now.1),
+        rate(now.0),
+        rate(in_force)
+    )
+}
+
 /// A basal schedule's segments in words: `HH:MM rate, ...` (no unit).
 pub fn segments(segments: &[(String, f64)]) -> String {
     let segs: Vec<String> = segments

@@ -30,9 +30,9 @@ pub use error::{ErrorBody, ErrorCode};
 pub use events::{DeviceEvent, EventBody, EventsAck, EventsBody, MealSlot, TempRate};
 pub use sync::{SeqRange, SyncResponse};
 pub use views::{
-    AdviceResponse, BandedValue, DataSummary, Health, HistoryResponse, NightscoutLink,
-    NoPredictionKind, PhaseView, PredictedEffect, RangeFigures, Setting, SettingAdvice, Suggestion,
-    SuggestionEffect, SuggestionList, TwinCheckOutcome,
+    AdviceResponse, BandedValue, DataSummary, DeliveryView, FirstWeekDays, Health, HistoryResponse,
+    NightscoutLink, NoPredictionKind, PhaseView, PredictedEffect, RangeFigures, Setting,
+    SettingAdvice, Suggestion, SuggestionEffect, SuggestionList, TherapyInForce, TwinCheckOutcome,
 };
 
 /// The notice every human-facing text carries.

@@ -85,7 +85,8 @@ pub struct Suggestion {
     pub reasons: Vec<String>,
     /// The data it rests on, in plain words.
     pub data: String,
-    /// When it was decided: RFC 3339 instant.
+    /// When it was decided: RFC 3339 at the person's offset (their local
+    /// time, as `abba advise` shows it).
     #[schema(format = DateTime)]
     pub decided_at: String,
     /// Day of the advisor's clock it is for (1 = day 1).
@@ -99,6 +100,15 @@ pub struct Suggestion {
     pub status: String,
     /// The value in force after the answer (the suggestion while open).
     pub in_force: f64,
+    /// A basal rate for a basal schedule: the suggested schedule, every
+    /// segment on the pump's step (what to program; `value` is its mean).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub schedule: Option<Vec<crate::admin::BasalSegment>>,
+    /// An answer given when the suggestion said something else (data
+    /// imported after the answer changed it): both, in words; the answer
+    /// stands.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub answer_note: Option<String>,
 }
 
 /// `GET /v1/persons/{id}/suggestions?after=ID`.
@@ -278,6 +288,52 @@ pub struct DataSummary {
     pub events_refused: u64,
 }
 
+/// The therapy in force.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct TherapyInForce {
+    /// Where it comes from, in words.
+    pub source: String,
+    /// The basal schedule in force, when the pump runs one.
+    #[serde(default)]
+    pub basal_schedule: Option<Vec<crate::admin::BasalSegment>>,
+    /// That schedule's mean rate (its daily total / 24 h, U/h).
+    #[serde(default)]
+    pub basal_schedule_mean: Option<f64>,
+    /// The pump's steps (none: continuous values).
+    #[serde(default)]
+    pub pump_steps: Option<crate::admin::PumpStepsBody>,
+    /// Changes of therapy in the data and by the clinician, in words.
+    pub changes: Vec<String>,
+}
+
+/// How insulin is delivered, as the data show it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct DeliveryView {
+    /// `open_loop`, `closed_loop`, `injections` or `no_insulin_records`.
+    pub kind: String,
+    /// In words.
+    pub words: String,
+    /// The evidence, in words.
+    pub evidence: Vec<String>,
+    /// True when basal rates are suggested.
+    pub basal_suggestions: bool,
+    /// What the person should know about it.
+    #[serde(default)]
+    pub note: Option<String>,
+}
+
+/// The first week counted from imported data.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct FirstWeekDays {
+    /// Local dates of the qualifying days.
+    pub qualifying: Vec<String>,
+    /// Local dates that do not qualify, with why.
+    pub missing: Vec<String>,
+}
+
 /// `GET /v1/persons/{id}/advice`: what `abba advise` shows, as JSON.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
@@ -300,6 +356,19 @@ pub struct AdviceResponse {
     pub settings: Vec<SettingAdvice>,
     /// The data.
     pub data: DataSummary,
+    /// The therapy in force: where it comes from, the basal schedule, the
+    /// pump's steps, the changes of therapy (what `abba advise` shows).
+    pub therapy: TherapyInForce,
+    /// How insulin is delivered, as the data show it.
+    pub delivery: DeliveryView,
+    /// Import-fed persons in the first week: the days that qualify and
+    /// those that do not.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub first_week: Option<FirstWeekDays>,
+    /// Things to know about the data and the advice, in plain words (a
+    /// trip's clock, hypoglycaemia treatments, meals not seen, ...).
+    #[serde(default)]
+    pub notes: Vec<String>,
     /// The person's Nightscout link, if any: the last sync's time and error.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub nightscout: Option<NightscoutLink>,

@@ -20,7 +20,8 @@ pub struct Args {
     /// Cohort size (the trial's --patients; the first 10 are the public patients).
     #[arg(long, default_value_t = 10)]
     patients: u32,
-    /// Days to simulate.
+    /// Days to simulate; the first is the trial's warm-up day, which has
+    /// no device data (so N days give N - 1 days of data).
     #[arg(long, default_value_t = 14)]
     days: u32,
     /// Arm whose advisor runs: abba, standard or r2r.
@@ -29,7 +30,9 @@ pub struct Args {
     /// The person's IANA time zone.
     #[arg(long, value_name = "ZONE", default_value = "UTC")]
     tz: String,
-    /// Calendar date of day 1 (YYYY-MM-DD).
+    /// Calendar date of the simulation's first day (YYYY-MM-DD), the
+    /// warm-up day: the device data, and so a person's day 1, start the
+    /// next day (the pump profile is dated from this one).
     #[arg(long, value_name = "DATE", default_value = "2026-01-05")]
     start: String,
     /// Folder for entries.json, treatments.json and profile.json.

@@ -553,6 +553,8 @@ mod tests {
             day: 1,
             status: "open".into(),
             in_force: 10.0,
+            schedule: None,
+            answer_note: None,
         }
     }
 

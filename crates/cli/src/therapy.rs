@@ -103,11 +103,19 @@ fn set(a: SetArgs) -> Result<()> {
     if let Some([b, l, d]) = c.carb_ratio {
         what.push(format!("carb ratios {b}/{l}/{d} g/U"));
     }
+    // In the person's zone, as the advice says it.
+    let from = c.instant.parse::<jiff::Timestamp>().map_or_else(
+        |_| c.instant.clone(),
+        |t| {
+            t.to_zoned(p.tz.clone())
+                .strftime("%Y-%m-%d %H:%M %Z")
+                .to_string()
+        },
+    );
     println!(
-        "Recorded for {}: {}, in force from {} (the advisor's next update starts from it).",
+        "Recorded for {}: {}, in force from {from} (the advisor's next update starts from it).",
         a.who.person,
         what.join(", "),
-        c.instant
     );
     println!("{NOTICE}");
     Ok(())

@@ -246,6 +246,17 @@ fn the_readmes_first_run_puts_the_pumps_profile_in_force() {
     ]
     .concat());
     assert!(text.contains(NOTICE), "{text}");
+    // A change dated as a UTC instant is told on the person's clock.
+    let text = ok(&[
+        &["therapy", "set"][..],
+        &base,
+        &["--carb-ratio", "8,8.5,8", "--at", "2026-01-10T11:00:00Z"],
+    ]
+    .concat());
+    assert!(
+        text.contains("in force from 2026-01-10 12:00 CET") && !text.contains("11:00:00Z"),
+        "{text}"
+    );
     let json = ok(&[&["advise"][..], &base, &["--json"]].concat());
     let v: serde_json::Value = serde_json::from_str(&json).unwrap();
     assert_eq!(v["settings"][0]["in_force"], 1.3, "{json}");

@@ -165,11 +165,7 @@ pub fn notes(stretches: &[ClockStretch], tz: &TimeZone) -> Vec<String> {
         .iter()
         .take(MAX_NOTES)
         .map(|a| {
-            let at = |ms: i64| {
-                Timestamp::from_millisecond(ms)
-                    .map(|t| t.round(jiff::Unit::Minute).unwrap_or(t).to_string())
-                    .unwrap_or_else(|_| ms.to_string())
-            };
+            let at = |ms: i64| local(ms, tz);
             let zone_offset = if a.zone_first_s == a.zone_last_s {
                 offset_name(a.zone_first_s)
             } else {
@@ -192,14 +188,27 @@ pub fn notes(stretches: &[ClockStretch], tz: &TimeZone) -> Vec<String> {
     // Offsets that change back and forth (two uploaders set to different
     // zones writing into one collection) would make a sentence each.
     if let Some(last) = away.last().filter(|_| away.len() > MAX_NOTES) {
-        let until = Timestamp::from_millisecond(last.stretch.last_ms)
-            .map_or_else(|_| last.stretch.last_ms.to_string(), |t| t.to_string());
+        let until = local(last.stretch.last_ms, tz);
         out.push(format!(
             "and {} more stretches away from {zone}'s offset, until {until}",
             away.len() - MAX_NOTES
         ));
     }
     out
+}
+
+/// A Unix-ms instant as the person reads it: local date and minute in
+/// their zone (as every time the advice shows).
+fn local(ms: i64, tz: &TimeZone) -> String {
+    Timestamp::from_millisecond(ms)
+        .map(|t| {
+            t.round(jiff::Unit::Minute)
+                .unwrap_or(t)
+                .to_zoned(tz.clone())
+                .strftime("%Y-%m-%d %H:%M")
+                .to_string()
+        })
+        .unwrap_or_else(|_| ms.to_string())
 }
 
 /// At most this many stretches are said one by one; the rest are counted.
@@ -249,7 +258,8 @@ mod tests {
         assert_eq!(a[0].zone_first_s, 7200);
         let n = notes(&s, &berlin);
         assert!(
-            n[0].contains("from 2024-06-10T00:00:00Z to 2024-06-11T23:00:00Z"),
+            // In the person's zone, as every time the advice shows.
+            n[0].contains("from 2024-06-10 02:00 to 2024-06-12 01:00"),
             "{n:?}"
         );
         assert!(
@@ -276,7 +286,7 @@ mod tests {
         assert_eq!(n.len(), MAX_NOTES + 1, "{n:?}");
         assert_eq!(
             n[MAX_NOTES],
-            "and 15 more stretches away from Europe/Berlin's offset, until 2024-06-01T03:15:00Z"
+            "and 15 more stretches away from Europe/Berlin's offset, until 2024-06-01 05:15"
         );
     }
 }

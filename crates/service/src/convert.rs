@@ -16,6 +16,7 @@ use abba_core::{
     Event, EventKind, Grams, GramsPerUnit, MealSlot, MgDl, TempBasalRate, TherapySettings,
     Timestamp, Units, UnitsPerHour,
 };
+use abba_io::automation::Delivery;
 use abba_store::advise::{self, Advice, Phase, SuggestionView};
 use abba_store::app::NewAppEvent;
 use abba_store::effect;
@@ -232,9 +233,18 @@ pub fn suggestion_id(d: &Decision) -> u64 {
 }
 
 fn suggestion(live: &Live, d: &Decision, v: &SuggestionView, seq: Option<u64>) -> Suggestion {
+    // An RFC 3339 instant at the person's offset: the local time the
+    // advice shows, never a bare UTC instant.
     let instant = advise::clock(&live.person)
         .and_then(|c| c.instant(d.at).ok())
-        .map_or_else(|| d.at.to_string(), |i| i.to_string());
+        .map_or_else(
+            || d.at.to_string(),
+            |i| {
+                i.to_zoned(live.person.tz.clone())
+                    .strftime("%Y-%m-%dT%H:%M:%S%:z")
+                    .to_string()
+            },
+        );
     let reason = match &v.no_update_reason {
         Some(r) => r.clone(),
         None => v.reasons.join(" "),
@@ -254,7 +264,23 @@ fn suggestion(live: &Live, d: &Decision, v: &SuggestionView, seq: Option<u64>) -
         day: v.day,
         status: v.status.clone(),
         in_force: v.in_force,
+        schedule: v.schedule.as_deref().map(segments),
+        answer_note: v.answer_note.clone(),
     }
+}
+
+/// A schedule as the store's views show it (local `HH:MM`, U/h) on the
+/// wire (minute of the day, U/h).
+fn segments(s: &[(String, f64)]) -> Vec<abba_api::BasalSegment> {
+    s.iter()
+        .map(|(t, r)| abba_api::BasalSegment {
+            start_minute: t
+                .split_once(':')
+                .and_then(|(h, m)| Some(h.parse::<u32>().ok()? * 60 + m.parse::<u32>().ok()?))
+                .unwrap_or(0),
+            units_per_hour: *r,
+        })
+        .collect()
 }
 
 /// Finds the app event (its seq) that made a decision; a store error is
@@ -302,32 +328,16 @@ pub fn page(
         None
     };
     // The latest decision of each setting is the only one that can be
-    // open: known from the whole list, not the page.
-    let mut latest: BTreeMap<&'static str, usize> = BTreeMap::new();
-    for (i, d) in live.decisions.iter().enumerate() {
-        latest.insert(abba_store::answer::param_key(d.parameter), i);
-    }
-    let decisions: Vec<Decision> = picked
-        .iter()
-        .map(|&(_, i)| live.decisions[i].clone())
-        .collect();
-    let mut views = advise::views_with(
+    // open (or replaced): known from the whole list, not the page.
+    let indices: Vec<usize> = picked.iter().map(|&(_, i)| i).collect();
+    let decisions: Vec<Decision> = indices.iter().map(|&i| live.decisions[i].clone()).collect();
+    let views = advise::views_at(
         &live.person,
-        &decisions,
+        &live.decisions,
+        &indices,
         &live.answers,
         live.extras.as_ref(),
     );
-    for (v, &(_, i)) in views.iter_mut().zip(&picked) {
-        if v.status == "open" && latest.get(v.setting) != Some(&i) {
-            let d = &live.decisions[i];
-            if live.extras.as_ref().is_some_and(|x| !x.shown(d.at)) {
-                v.status = "unseen".into();
-                v.in_force = d.old;
-            } else {
-                v.status = "superseded".into();
-            }
-        }
-    }
     let list = decisions
         .iter()
         .zip(&views)
@@ -413,6 +423,34 @@ pub fn advice(
             not_used_examples: a.data.not_used_examples,
             events_refused: a.data.events_refused as u64,
         },
+        therapy: abba_api::TherapyInForce {
+            source: a.therapy.source.to_string(),
+            basal_schedule: a.therapy.basal_schedule.as_deref().map(segments),
+            basal_schedule_mean: a.therapy.basal_schedule_mean,
+            pump_steps: a.therapy.pump_steps.map(|p| abba_api::PumpStepsBody {
+                basal_units_per_hour: p.basal_u_per_h,
+                carb_ratio_g_per_unit: p.carb_ratio_g_per_u,
+            }),
+            changes: a.therapy.changes,
+        },
+        delivery: abba_api::DeliveryView {
+            kind: match a.delivery.kind {
+                Delivery::OpenLoop => "open_loop",
+                Delivery::ClosedLoop => "closed_loop",
+                Delivery::Injections => "injections",
+                Delivery::NoInsulinRecords => "no_insulin_records",
+            }
+            .to_string(),
+            words: a.delivery.words.to_string(),
+            evidence: a.delivery.evidence,
+            basal_suggestions: a.delivery.basal_suggestions,
+            note: a.delivery.note,
+        },
+        first_week: a.first_week.map(|f| abba_api::FirstWeekDays {
+            qualifying: f.qualifying,
+            missing: f.missing,
+        }),
+        notes: a.notes,
     })
 }
 

@@ -864,3 +864,59 @@ async fn a_clinicians_change_before_day_1_is_refused_naming_at() {
         .await;
     assert_eq!(r.status, StatusCode::OK, "{}", r.text);
 }
+
+/// The history read page by page says of each suggestion what the whole
+/// history says: a suggestion followed by the next and then by a change of
+/// therapy is superseded, whichever page it is the last of its setting on.
+#[tokio::test]
+async fn the_history_page_by_page_says_what_the_whole_history_says() {
+    let svc = Svc::new();
+    let id = svc.person_with(person_body("pia")).await;
+    let (_, t) = svc.token(id).await;
+    let events = stream();
+    let cut = events
+        .iter()
+        .position(|(_, e, _)| e.at.0 >= 8 * 1440 + 300)
+        .unwrap();
+    post_like_an_app(&svc, id, &t, &events[..cut]).await;
+    let body = json!({"basal_units_per_hour": 1.1,
+        "carb_ratios": {"breakfast": 9.0, "lunch": 13.0, "dinner": 10.5},
+        "at": common::at(8 * 1440 + 360)});
+    let therapy = format!("/v1/persons/{id}/therapy");
+    let r = svc
+        .call(Method::POST, &therapy, Some(&svc.admin), Some(&body))
+        .await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+    post_like_an_app(&svc, id, &t, &events[cut..]).await;
+    let uri = format!("/v1/persons/{id}/history");
+    let whole = svc.call(Method::GET, &uri, Some(&t), None).await;
+    let whole = whole.json["suggestions"].as_array().unwrap().clone();
+    assert!(whole.iter().any(|s| s["status"] == "superseded"));
+    for limit in [1, 3] {
+        let mut paged = Vec::new();
+        let mut after: Option<u64> = None;
+        loop {
+            let q = match after {
+                Some(a) => format!("{uri}?limit={limit}&after={a}"),
+                None => format!("{uri}?limit={limit}"),
+            };
+            let r = svc.call(Method::GET, &q, Some(&t), None).await;
+            assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+            paged.extend(r.json["suggestions"].as_array().unwrap().iter().cloned());
+            match r.json["next_after"].as_u64() {
+                Some(a) => after = Some(a),
+                None => break,
+            }
+        }
+        assert_eq!(paged.len(), whole.len());
+        for (p, w) in paged.iter().zip(&whole) {
+            assert_eq!(p["id"], w["id"]);
+            assert_eq!(
+                (&p["status"], &p["in_force"]),
+                (&w["status"], &w["in_force"]),
+                "limit {limit}, suggestion {}",
+                w["id"]
+            );
+        }
+    }
+}

@@ -11,6 +11,7 @@ mod common;
 
 // One module per test file.
 mod access;
+mod advice_parity;
 mod effects;
 mod hostile;
 mod implausible;

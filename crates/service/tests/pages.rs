@@ -3257,3 +3257,124 @@ async fn the_clinics_import_says_times_on_the_persons_clock() {
 
 /// LibreView's header for a German account in mmol/L (its 19 columns).
 const LIBRE_DE: &str = "Gerät,Seriennummer,Gerätezeitstempel,Aufzeichnungstyp,Glukosewert-Verlauf mmol/L,Glukose-Scan mmol/L,Nicht numerisches schnellwirkendes Insulin,Schnellwirkendes Insulin (Einheiten),Nicht numerische Nahrungsdaten,Kohlenhydrate (Gramm),Kohlenhydrate (Portionen),Nicht numerisches Depotinsulin,Depotinsulin (Einheiten),Notizen,Glukose-Teststreifen mmol/L,Keton mmol/L,Mahlzeiteninsulin (Einheiten),Korrekturinsulin (Einheiten),Insulin-Änderung durch Anwender (Einheiten)";
+
+/// The characters the pages escape, back.
+fn unescaped(html: &str) -> String {
+    html.replace("&#x27;", "'")
+        .replace("&#x2f;", "/")
+        .replace("&quot;", "\"")
+        .replace("&lt;", "<")
+        .replace("&gt;", ">")
+        .replace("&amp;", "&")
+}
+
+#[tokio::test]
+async fn today_shows_the_schedule_in_force_the_suggested_schedule_and_the_advices_notes() {
+    let svc = Svc::new();
+    let (id, advice) = crate::advice_parity::imported_person(&svc, 12);
+    let (mut b, _) = signed_in(&svc, Role::Person(id as i64)).await;
+    let today = b.get("/").await;
+    assert_eq!(today.status, StatusCode::OK, "{}", today.html);
+    assert!(!advice.notes.is_empty(), "a trip: {:#?}", advice.notes);
+    let notes = unescaped(today.section("<section id=\"advice-notes\"", "section"));
+    for n in &advice.notes {
+        assert!(notes.contains(n.as_str()), "{n}\nnot in\n{notes}");
+    }
+    let basal = unescaped(today.section("<section id=\"setting-basal\"", "section"));
+    let in_force = advice.therapy.basal_schedule.as_ref().unwrap();
+    assert!(
+        basal.contains(&abba_advisor::words::schedule(in_force)),
+        "the schedule in force: {basal}"
+    );
+    let latest = advice.settings[0].latest.as_ref().unwrap();
+    assert_eq!(latest.status, "open", "{latest:#?}");
+    let suggested = latest.schedule.as_ref().unwrap();
+    assert_ne!(suggested, in_force);
+    assert!(
+        basal.contains(&abba_advisor::words::schedule(suggested)),
+        "the suggested schedule: {basal}"
+    );
+}
+
+#[tokio::test]
+async fn history_says_an_answer_a_later_import_changed_and_that_it_stands() {
+    use abba_advisor::{Mode, PumpSteps};
+    let svc = Svc::new();
+    let full = crate::advice_parity::export(svc.dir.path(), 12);
+    // Imported in three: days 0-9 without day 9's evening, day 10 the
+    // next day (showing its suggestions), then day 9's evening: a low the
+    // sensor uploads late.
+    let day9 = 1_777_845_600_000_i64 + 9 * 86_400_000;
+    let late = (day9 + 19 * 3_600_000)..(day9 + 23 * 3_600_000);
+    let day10 = day9 + 86_400_000;
+    let read = |f: &std::path::PathBuf| -> Vec<Value> {
+        serde_json::from_slice(&std::fs::read(f).unwrap()).unwrap()
+    };
+    let ms = |v: &Value| {
+        v["date"].as_i64().unwrap_or_else(|| {
+            v["created_at"]
+                .as_str()
+                .unwrap()
+                .parse::<jiff::Timestamp>()
+                .unwrap()
+                .as_millisecond()
+        })
+    };
+    let mut parts: [Vec<Value>; 3] = Default::default();
+    for mut v in read(&full[0]).into_iter().chain(read(&full[1])) {
+        let t = ms(&v);
+        let k = if late.contains(&t) && v.get("sgv").is_some() {
+            v["sgv"] = json!(62);
+            2
+        } else if t < day10 {
+            0
+        } else if t < day10 + 86_400_000 {
+            1
+        } else {
+            continue;
+        };
+        parts[k].push(v);
+    }
+    let file = |k: usize| {
+        let (e, t): (Vec<&Value>, Vec<&Value>) =
+            parts[k].iter().partition(|x| x.get("sgv").is_some());
+        let ep = svc.dir.path().join(format!("part{k}-entries.json"));
+        std::fs::write(&ep, serde_json::to_vec(&e).unwrap()).unwrap();
+        let tp = svc.dir.path().join(format!("part{k}-treatments.json"));
+        std::fs::write(&tp, serde_json::to_vec(&t).unwrap()).unwrap();
+        vec![ep, tp]
+    };
+    let mut store = abba_store::Store::open(&svc.db).unwrap();
+    let start = abba_core::TherapySettings::new(
+        abba_core::UnitsPerHour(1.0),
+        abba_core::GramsPerUnit(10.0),
+    )
+    .unwrap();
+    let mut p = abba_store::NewPerson::new("ana", "Europe/Zurich", Mode::Cgm, start);
+    p.settings.pump_steps = Some(PumpSteps::default());
+    let id = store.create_person(&p).unwrap().id;
+    store.import_files("ana", &file(0), None).unwrap();
+    store.import_files("ana", &file(1), None).unwrap();
+    let answered = store
+        .answer("ana", &abba_store::AnswerRequest::Accept)
+        .unwrap();
+    assert!(!answered.is_empty());
+    store.import_files("ana", &file(2), None).unwrap();
+    let notes: Vec<String> = store
+        .history("ana")
+        .unwrap()
+        .into_iter()
+        .filter_map(|v| v.answer_note)
+        .collect();
+    assert!(
+        !notes.is_empty(),
+        "the late low changed an answered suggestion"
+    );
+    let (mut b, _) = signed_in(&svc, Role::Person(id)).await;
+    let h = b.get("/history").await;
+    assert_eq!(h.status, StatusCode::OK, "{}", h.html);
+    let table = unescaped(h.section("<table id=\"history\"", "table"));
+    for n in &notes {
+        assert!(table.contains(n.as_str()), "{n}\nnot in\n{table}");
+    }
+}

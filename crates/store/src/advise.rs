@@ -60,6 +60,11 @@ pub struct SuggestionView {
     /// pump's step (local start time, U/h).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub schedule: Option<Vec<(String, f64)>>,
+    /// An answer given when the suggestion said something else (data
+    /// imported after the answer changed it): both, in words; the answer
+    /// stands.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub answer_note: Option<String>,
 }
 
 /// One setting today.
@@ -247,6 +252,20 @@ pub fn views_with(
     answers: &Answers,
     extras: Option<&Extras>,
 ) -> Vec<SuggestionView> {
+    let all: Vec<usize> = (0..decisions.len()).collect();
+    views_at(person, decisions, &all, answers, extras)
+}
+
+/// Like [`views_with`] for the decisions at `picked` (indices into
+/// `decisions`, a page of them): each says what it says in the whole list
+/// (only the latest of a setting can be open or replaced).
+pub fn views_at(
+    person: &Person,
+    decisions: &[Decision],
+    picked: &[usize],
+    answers: &Answers,
+    extras: Option<&Extras>,
+) -> Vec<SuggestionView> {
     let hold_basal = extras.is_some_and(|x| x.hold_basal);
     let changes: &[TherapyChange] = extras.map_or(&[], |x| &x.changes);
     let c = clock(person);
@@ -254,9 +273,9 @@ pub fn views_with(
     for (i, d) in decisions.iter().enumerate() {
         latest.insert(param_key(d.parameter), i);
     }
-    decisions
+    picked
         .iter()
-        .enumerate()
+        .filter_map(|&i| Some((i, decisions.get(i)?)))
         .map(|(i, d)| {
             let key = param_key(d.parameter);
             let skipped = match &d.detail {
@@ -294,6 +313,19 @@ pub fn views_with(
                 }
                 (None, None) => ("superseded".to_string(), d.new),
             };
+            let answer_note = answer
+                .filter(|a| (a.suggested - d.new).abs() > 1e-9 || (a.previous - d.old).abs() > 1e-9)
+                .map(|a| {
+                    words::answer_on_changed_suggestion(
+                        &d.parameter.to_string(),
+                        &local(c.as_ref(), d.at),
+                        a.kind.name(),
+                        (a.previous, a.suggested),
+                        (d.old, d.new),
+                        a.in_force,
+                        d.parameter.unit(),
+                    )
+                });
             let data = match &d.detail {
                 DecisionDetail::Abba(x) => words::data_window(
                     x.window.n,
@@ -319,6 +351,7 @@ pub fn views_with(
                 schedule: rounded
                     .and_then(|r| r.segments.as_ref())
                     .map(|seg| seg.iter().map(|&(m, r)| (hhmm(m), r)).collect()),
+                answer_note,
             }
         })
         .collect()
@@ -615,6 +648,11 @@ pub fn advice_with(
         s.setting == "basal" && s.latest.as_ref().is_some_and(|v| v.status == "open")
     });
     let therapy = therapy_view(person, advisor, extras, basal_open);
+    // The latest answers that later data changed, said with the advice.
+    let answers_changed: Vec<String> = settings
+        .iter()
+        .filter_map(|s| s.latest.as_ref()?.answer_note.clone())
+        .collect();
     let outside = segments_outside(person, &therapy);
     let span = match (stream.events.first(), stream.events.last()) {
         (Some(a), Some(b)) => Some((local(c.as_ref(), a.at), local(c.as_ref(), b.at))),
@@ -667,6 +705,7 @@ pub fn advice_with(
                     .map(|_| meals_not_seen(person, &stream.events))
                     .unwrap_or_default(),
             )
+            .chain(answers_changed)
             .collect(),
     }
 }

@@ -29,6 +29,9 @@ pub fn to_text(person: &str, rows: &[SuggestionView]) -> String {
             r.in_force,
             r.unit
         );
+        if let Some(n) = &r.answer_note {
+            let _ = writeln!(s, "      {n}");
+        }
     }
     s
 }

@@ -272,7 +272,11 @@ pub fn person_input(
 /// A suggestion in words.
 fn line(v: &crate::advise::SuggestionView) -> SuggestionLine {
     let setting = abba_advisor::words::setting_name(v.setting);
-    let answer = abba_advisor::words::answer_words(&v.status, v.in_force, v.unit);
+    let mut answer = abba_advisor::words::answer_words(&v.status, v.in_force, v.unit);
+    // An answer a later import changed the suggestion of: said, both values.
+    if let Some(n) = &v.answer_note {
+        answer = format!("{answer} {n}");
+    }
     let mut reason = v.reasons.join(" ");
     if reason.is_empty() {
         reason.clone_from(&v.data);

@@ -663,7 +663,8 @@ fn a_trip_across_time_zones_is_named_by_the_import_and_the_advice() {
     let mut store = dir.store();
     store.create_person(&person_from(&files, "ana")).unwrap();
     let summary = store.import_files("ana", &files, None).unwrap();
-    let first = iso(DAY1_MS + 3 * 86_400_000);
+    // Times in the person's zone (day 3 is 2026-05-07), never UTC instants.
+    let first = "2026-05-07 00:00";
     let named = |notes: &[String]| -> Vec<String> {
         notes
             .iter()
@@ -682,6 +683,7 @@ fn a_trip_across_time_zones_is_named_by_the_import_and_the_advice() {
     );
     for n in &in_import {
         assert!(n.contains("Europe/Zurich's at UTC+02:00"), "{n}");
+        assert!(!n.contains(":00Z"), "no UTC instant: {n}");
         assert!(
             n.contains("meal slots and days follow Europe/Zurich"),
             "{n}"
@@ -705,7 +707,7 @@ fn a_trip_across_time_zones_is_named_by_the_import_and_the_advice() {
         in_advice[0]
     );
     // The last instant: the last entry of day 5 (23:55 local, 21:55 UTC).
-    let last = iso(DAY1_MS + 6 * 86_400_000 - 300_000);
+    let last = "2026-05-09 23:55";
     assert!(
         in_advice[0].contains(&format!("to {last}")),
         "{}",
@@ -1480,4 +1482,147 @@ fn schedule_segments_outside_the_clinicians_basal_bounds_are_named() {
         "{:?}",
         a2.notes
     );
+}
+
+/// The readings of day index `day` from `from_h` to `to_h` o'clock in
+/// `files` (written as `tag-NAME` in `dir`): left out (`low` None, a
+/// sensor gap a later export fills) or set to `low` mg/dL.
+fn readings_changed(
+    files: &[PathBuf],
+    dir: &std::path::Path,
+    tag: &str,
+    (day, from_h, to_h): (i64, i64, i64),
+    low: Option<f64>,
+) -> Vec<PathBuf> {
+    let from = DAY1_MS + day * 86_400_000 + from_h * 3_600_000;
+    let to = DAY1_MS + day * 86_400_000 + to_h * 3_600_000;
+    files
+        .iter()
+        .map(|f| {
+            let mut v: Value = serde_json::from_slice(&std::fs::read(f).unwrap()).unwrap();
+            let name = f.file_name().unwrap().to_str().unwrap();
+            if name.ends_with("entries.json") {
+                let items = v.as_array_mut().unwrap();
+                let inside = |x: &Value| (from..to).contains(&x["date"].as_i64().unwrap_or(0));
+                match low {
+                    None => items.retain(|x| !inside(x)),
+                    Some(g) => items
+                        .iter_mut()
+                        .filter(|x| inside(x))
+                        .for_each(|x| x["sgv"] = json!(g)),
+                }
+            }
+            let p = dir.join(format!("{tag}-{name}"));
+            std::fs::write(&p, serde_json::to_vec(&v).unwrap()).unwrap();
+            p
+        })
+        .collect()
+}
+
+/// An answer given, then an export whose late readings change the
+/// suggestion it answered: the answer stays recorded once, the value the
+/// person put on the pump stays in force, and the history and the advice
+/// say that the suggestion changed after the answer, with both values.
+#[test]
+fn an_answer_to_a_suggestion_a_later_import_changed_is_kept_and_said() {
+    let plan = Plan {
+        days: 14,
+        level: 230.0,
+        ..Plan::default()
+    };
+    let dir = TempDir::new("answer-changed");
+    let files = export(&dir.0, &plan);
+    // Day index 9's late morning: a low the sensor uploads late.
+    let late = (9, 9, 15);
+    let files = readings_changed(&files, &dir.0, "low", late, Some(62.0));
+    let mut store = dir.store();
+    let mut p = person_from(&files, "ana");
+    p.first_day = None;
+    store.create_person(&p).unwrap();
+    for day in 1..=11 {
+        let cut = export_until(&files, &dir.0, day);
+        let cut = if day >= 10 {
+            readings_changed(&cut, &dir.0, "gap", late, None)
+        } else {
+            cut
+        };
+        store
+            .import_files_with("ana", &cut, None, ProfileResolution::Keep, None)
+            .unwrap();
+    }
+    let answered = store
+        .answer("ana", &abba_store::AnswerRequest::Accept)
+        .unwrap();
+    let basal = answered
+        .iter()
+        .find(|a| a.parameter == abba_advisor::Parameter::Basal)
+        .expect("a basal suggestion was open");
+    assert!(
+        basal.suggested > basal.previous,
+        "the high days ask for more"
+    );
+    let history_before = store.history("ana").unwrap();
+    // The full export: day index 9's low arrives late, and the basal
+    // suggestion the person accepted is now another.
+    let full = export_until(&files, &dir.0, 11);
+    store
+        .import_files_with("ana", &full, None, ProfileResolution::Keep, None)
+        .unwrap();
+    let history = store.history("ana").unwrap();
+    assert_eq!(history.len(), history_before.len(), "the same decisions");
+    assert_eq!(
+        dir.rows("answer"),
+        answered.len() as i64,
+        "each answer stored once"
+    );
+    let row = history.iter().rfind(|v| v.setting == "basal").unwrap();
+    assert_ne!(
+        row.suggested, basal.suggested,
+        "the late low changed it: {row:#?}"
+    );
+    assert_eq!(row.status, "accepted", "the person's answer stays");
+    assert_eq!(
+        row.in_force, basal.in_force,
+        "what the person programmed stays"
+    );
+    let note = row.answer_note.as_deref().expect("said in the history");
+    for v in [basal.suggested, row.suggested, basal.in_force] {
+        assert!(
+            note.contains(&abba_advisor::words::rate(v)),
+            "{v} in {note}"
+        );
+    }
+    assert!(abba_store::history::to_text("ana", &history).contains(note));
+    // Answers whose suggestion did not change say nothing more.
+    for v in history.iter().filter(|v| v.setting != "basal") {
+        assert!(v.answer_note.is_none(), "{v:#?}");
+    }
+    let advice = store.advise("ana").unwrap();
+    assert!(
+        advice.notes.iter().any(|n| n == note),
+        "{:#?}",
+        advice.notes
+    );
+    let in_force = &advice.settings[0];
+    assert_eq!(in_force.in_force, basal.in_force);
+    // The report's suggestion says it with the answer.
+    let report = abba_store::report::person_input(
+        &mut store,
+        "ana",
+        14,
+        abba_core::units::GlucoseUnit::MgDl,
+    )
+    .unwrap();
+    assert!(
+        report.suggestions.iter().any(|l| l.answer.contains(note)),
+        "the report's answers: {:#?}",
+        report
+            .suggestions
+            .iter()
+            .map(|l| &l.answer)
+            .collect::<Vec<_>>()
+    );
+    // A rebuild from scratch gives the same.
+    store.rebuild("ana").unwrap();
+    assert_eq!(store.history("ana").unwrap(), history);
 }

@@ -171,6 +171,9 @@ pub struct SuggestionCard {
     /// True when the twin check held the suggestion back (no accept
     /// button; keeping the value in force is the answer offered first).
     pub held_back: bool,
+    /// A basal rate for a schedule: the suggested schedule in words
+    /// (`.schedule`); `value` is its mean.
+    pub schedule: Option<String>,
 }
 
 /// An option of a select.

@@ -102,6 +102,12 @@ pub struct Texts {
     pub answered_unseen: &'static str,
     /// No decision yet.
     pub no_decision: &'static str,
+    /// The basal schedule in force ({segments}, {mean}).
+    pub schedule_in_force: &'static str,
+    /// A suggested basal schedule ({segments}).
+    pub schedule_suggested: &'static str,
+    /// The heading of the advice's notes on Today.
+    pub advice_notes: &'static str,
     /// A suggestion's predicted effect ({revision}, {grade}, {days},
     /// {tir_new}, {tir_now}, {tir_change}, {low_new}, {low_now}, {low_change}).
     pub effect_predicted: &'static str,
@@ -349,6 +355,9 @@ pub const EN: Texts = Texts {
     answered_superseded: "Not answered before the next suggestion (taken as followed): {value} is in force.",
     answered_unseen: "Made on past data that came in one import with later data, so never shown and not followed: {value} stayed in force.",
     no_decision: "No suggestion yet.",
+    schedule_in_force: "Your pump's basal schedule: {segments}, the rate above is its mean ({mean}).",
+    schedule_suggested: "Suggested schedule, each segment on the pump's step: {segments}.",
+    advice_notes: "About your data",
     effect_predicted: "Predicted on your twin (revision {revision}, {grade}) over the last {days} days: time in range ({range}) {tir_new} with the suggestion, {tir_now} as now ({tir_change}); time below {low} {low_new} with it, {low_now} as now ({low_change}). A twin's prediction is not medical advice.",
     twin_check_held_back: "Held back by the twin check: your twin predicts time below {low} rising by {rise} points, more than the {margin}-point margin. Keep {value} today and talk it over with your clinician.",
     twin_check_passed: "Twin check passed: time below {low} does not rise by more than {margin} points.",

@@ -38,6 +38,9 @@ pub struct HistoryRow {
     pub in_force: String,
     /// The reason in plain words.
     pub reason: String,
+    /// An answer given when the suggestion said something else (data
+    /// imported after it changed the suggestion), in words.
+    pub answer_note: Option<String>,
 }
 
 /// The History page.
@@ -112,6 +115,7 @@ pub fn model(live: &Live) -> History {
                 answer: answer(v).to_string(),
                 in_force: value(v.in_force, v.unit),
                 reason,
+                answer_note: v.answer_note.clone(),
             }
         })
         .collect();

@@ -36,6 +36,9 @@ pub struct SettingCard {
     pub suggestion: Option<abba_web::pages::SuggestionCard>,
     /// "No change today", "No suggestion yet" and the like.
     pub note: Option<String>,
+    /// The basal schedule in force, segment by segment (a basal card of
+    /// a pump running a schedule: `in_force` is its mean), `.schedule`.
+    pub schedule: Option<String>,
 }
 
 /// Today.
@@ -52,6 +55,10 @@ pub struct Today {
     pub answer_refused: Option<String>,
     /// The four settings.
     pub settings: Vec<SettingCard>,
+    /// What the advice says about the data and the therapy (a trip's
+    /// clock, hypoglycaemia treatments, meals not seen, ...), as `abba
+    /// advise` says it (`#advice-notes`).
+    pub notes: Vec<String>,
 }
 
 /// A value with its unit as the pages show it.
@@ -113,6 +120,7 @@ pub fn card(
             in_force: with_unit(p, fallback),
             suggestion: None,
             note: Some(EN.no_decision.to_string()),
+            schedule: None,
         };
     };
     let reason = super::advice_words::for_person(&if v.reasons.is_empty() {
@@ -134,6 +142,7 @@ pub fn card(
             in_force: with_unit(p, in_force_now(v)),
             suggestion: None,
             note: Some(note),
+            schedule: None,
         };
     }
     let setting = crate::convert::setting(p);
@@ -177,8 +186,15 @@ pub fn card(
             effect: effect_words,
             twin_check: check_words,
             held_back,
+            schedule: v.schedule.as_ref().map(|sch| {
+                fill(
+                    EN.schedule_suggested,
+                    &[("segments", &abba_advisor::words::schedule(sch))],
+                )
+            }),
         }),
         note: None,
+        schedule: None,
     }
 }
 
@@ -290,15 +306,35 @@ pub fn model(live: &Live, err: Option<&ValueError>, fx: Option<&EffectSource>) -
             super::advice_words::for_person,
         ))
     };
+    let in_force_schedule = a.therapy.basal_schedule.as_ref().map(|sch| {
+        fill(
+            EN.schedule_in_force,
+            &[
+                ("segments", &abba_advisor::words::schedule(sch)),
+                (
+                    "mean",
+                    &with_unit(
+                        Parameter::Basal,
+                        a.therapy.basal_schedule_mean.unwrap_or(f64::NAN),
+                    ),
+                ),
+            ],
+        )
+    });
+    let mut settings: Vec<SettingCard> = PARAMETERS
+        .iter()
+        .zip(&a.settings)
+        .map(|(&p, sa)| card(live, p, err, sa.in_force, sa.effect.as_ref()))
+        .collect();
+    for c in settings.iter_mut().filter(|c| c.key == "basal") {
+        c.schedule.clone_from(&in_force_schedule);
+    }
     Today {
         first_week,
         not_designed_for,
         answer_refused: None,
-        settings: PARAMETERS
-            .iter()
-            .zip(&a.settings)
-            .map(|(&p, sa)| card(live, p, err, sa.in_force, sa.effect.as_ref()))
-            .collect(),
+        settings,
+        notes: a.notes,
     }
 }
 

@@ -187,24 +187,29 @@ fn smbg_person_report_in_mmol_l() {
     check(ScenarioId::S2, "mmol/L", "report-smbg");
 }
 
-#[test]
-fn pdf_is_printed_by_chromium_when_asked() {
-    if browser::chromium().is_none() {
-        return;
-    }
-    let sim = simulate(ScenarioId::S1, 1, 10);
-    let dir = TempDir::new("report-pdf");
+/// A simulated S1 person of `days` days in a store of its own (every
+/// record imported), with `unit` as theirs.
+fn stored_person(tag: &str, days: u32, unit: abba_core::units::GlucoseUnit) -> (TempDir, String) {
+    let mut sim = simulate(ScenarioId::S1, 1, days);
+    sim.person.settings.units = unit;
+    let dir = TempDir::new(tag);
     let mut store = sim.store(&dir.0);
     store
         .import(&sim.person.name, &sim.export(0, sim.last_day()))
         .unwrap();
-    drop(store);
-    let page = dir.0.join("page.html");
+    (dir, sim.person.name.clone())
+}
+
+/// `abba report` of `name` in `dir`'s store with `extra` flags, into
+/// `page`; it must succeed.
+fn report_ok(dir: &TempDir, name: &str, extra: &[&str], page: &std::path::Path) {
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_abba"))
         .args(["report", "--db"])
         .arg(dir.0.join("abba.db"))
-        .args(["--person", &sim.person.name, "--pdf", "--out"])
-        .arg(&page)
+        .args(["--person", name])
+        .args(extra)
+        .arg("--out")
+        .arg(page)
         .output()
         .unwrap();
     assert!(
@@ -212,6 +217,16 @@ fn pdf_is_printed_by_chromium_when_asked() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
+}
+
+#[test]
+fn pdf_is_printed_by_chromium_when_asked() {
+    if browser::chromium().is_none() {
+        return;
+    }
+    let (dir, name) = stored_person("report-pdf", 10, abba_core::units::GlucoseUnit::MgDl);
+    let page = dir.0.join("page.html");
+    report_ok(&dir, &name, &["--pdf"], &page);
     let pdf = std::fs::read(dir.0.join("page.pdf")).unwrap();
     assert!(pdf.starts_with(b"%PDF-"), "not a PDF");
     assert!(pdf.len() > 10_000);
@@ -223,30 +238,10 @@ fn the_page_speaks_the_person_s_unit_unless_asked_and_never_two() {
     // table of suggestions and its reasons included; with --units mg/dL the
     // reasons follow the page (before, the page defaulted to mg/dL while
     // its reasons stayed in mmol/L).
-    let mut sim = simulate(ScenarioId::S1, 1, 12);
-    sim.person.settings.units = abba_core::units::GlucoseUnit::MmolL;
-    let dir = TempDir::new("report-unit");
-    let mut store = sim.store(&dir.0);
-    store
-        .import(&sim.person.name, &sim.export(0, sim.last_day()))
-        .unwrap();
-    drop(store);
+    let (dir, name) = stored_person("report-unit", 12, abba_core::units::GlucoseUnit::MmolL);
     let page = dir.0.join("page.html");
     let report = |extra: &[&str]| -> String {
-        let out = std::process::Command::new(env!("CARGO_BIN_EXE_abba"))
-            .args(["report", "--db"])
-            .arg(dir.0.join("abba.db"))
-            .args(["--person", &sim.person.name])
-            .args(extra)
-            .arg("--out")
-            .arg(&page)
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        report_ok(&dir, &name, extra, &page);
         std::fs::read_to_string(&page).unwrap()
     };
     // The rows of the suggestions' table: their reasons name glucose

@@ -1530,6 +1530,22 @@ async fn the_clinics_import_asks_what_to_do_when_the_pumps_profile_differs() {
     assert!(records("kim") > 0, "imported");
 }
 
+/// `days` whole days of CGM every 5 minutes from `start` (UTC), as
+/// Nightscout exports them, in the service's folder; the file's path.
+fn cgm_entries(svc: &Svc, start: &str, days: i64) -> std::path::PathBuf {
+    let day0: jiff::Timestamp = start.parse().unwrap();
+    let entries: Vec<Value> = (0..days * 288)
+        .map(|k| {
+            let t = day0 + jiff::SignedDuration::from_mins(5 * k);
+            json!({"_id": format!("e{k}"), "type": "sgv", "sgv": 120 + (k % 30),
+                   "date": t.as_millisecond(), "dateString": t.to_string(), "direction": "Flat"})
+        })
+        .collect();
+    let file = svc.dir.path().join("entries.json");
+    std::fs::write(&file, serde_json::to_string(&entries).unwrap()).unwrap();
+    file
+}
+
 #[tokio::test]
 async fn today_for_a_person_fed_by_imports_says_what_abba_advise_says() {
     let svc = Svc::new();
@@ -1541,16 +1557,7 @@ async fn today_for_a_person_fed_by_imports_says_what_abba_advise_says() {
         }))
         .await;
     // Two whole days of CGM every 5 minutes, as Nightscout exports them.
-    let day0: jiff::Timestamp = "2026-11-02T00:00:00Z".parse().unwrap();
-    let entries: Vec<Value> = (0..2 * 288)
-        .map(|k| {
-            let t = day0 + jiff::SignedDuration::from_mins(5 * k);
-            json!({"_id": format!("e{k}"), "type": "sgv", "sgv": 120 + (k % 30),
-                   "date": t.as_millisecond(), "dateString": t.to_string(), "direction": "Flat"})
-        })
-        .collect();
-    let file = svc.dir.path().join("entries.json");
-    std::fs::write(&file, serde_json::to_string(&entries).unwrap()).unwrap();
+    let file = cgm_entries(&svc, "2026-11-02T00:00:00Z", 2);
     let advice = {
         let mut store = abba_service::open_store(&svc.db).unwrap();
         store.import_files("imp", &[file], None).unwrap();
@@ -3108,16 +3115,7 @@ async fn a_person_on_injections_reads_no_command_line_flag_on_their_pages() {
         }))
         .await;
     // Three days of CGM beside the pen injections of 2026-03-10.
-    let day0: jiff::Timestamp = "2026-03-08T00:00:00Z".parse().unwrap();
-    let entries: Vec<Value> = (0..3 * 288)
-        .map(|k| {
-            let t = day0 + jiff::SignedDuration::from_mins(5 * k);
-            json!({"_id": format!("e{k}"), "type": "sgv", "sgv": 120 + (k % 30),
-                   "date": t.as_millisecond(), "dateString": t.to_string(), "direction": "Flat"})
-        })
-        .collect();
-    let entries_file = svc.dir.path().join("entries.json");
-    std::fs::write(&entries_file, serde_json::to_string(&entries).unwrap()).unwrap();
+    let entries_file = cgm_entries(&svc, "2026-03-08T00:00:00Z", 3);
     let treatments = std::path::PathBuf::from(format!(
         "{}/../io/tests/data/nightscout_treatments_xdrip_injections_synthetic.json",
         env!("CARGO_MANIFEST_DIR")

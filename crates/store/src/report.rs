@@ -266,6 +266,7 @@ pub fn person_input(
         days: out,
         suggestions,
         notes,
+        back: None,
     })
 }
 

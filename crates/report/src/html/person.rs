@@ -57,6 +57,19 @@ pub struct PersonReportInput {
     /// a closed loop and its evidence), shown at the top.
     #[serde(default)]
     pub notes: Vec<String>,
+    /// Served in the app: the link back to where the reader came from
+    /// (not printed); `None` for a file.
+    #[serde(default)]
+    pub back: Option<BackLink>,
+}
+
+/// A link at the top of a served report (a relative path and its words).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BackLink {
+    /// Where it goes (a path of the app).
+    pub href: String,
+    /// What it says.
+    pub label: String,
 }
 
 /// Fewer days than this make an AGP unreliable (the international
@@ -443,6 +456,7 @@ pub fn person_report_html(input: &PersonReportInput) -> Result<String, ReportErr
         insulin => insulin,
         warnings => data_warnings(input, summary.cgm_active_pct),
         notes => &input.notes,
+        back => &input.back,
     };
     render_page("person.html", "person report", ctx)
 }

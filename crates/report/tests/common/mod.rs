@@ -119,6 +119,7 @@ pub fn synthetic_person(days: usize, mode: Mode, unit: GlucoseUnit) -> PersonRep
         days: out,
         suggestions,
         notes: Vec::new(),
+        back: None,
     }
 }
 

@@ -8,7 +8,7 @@ use super::page::{html, message, render, PageError, PageResult, PathText};
 use super::session::{self, Ctx};
 use crate::error::ApiError;
 use crate::state::{AppState, EffectSource};
-use abba_report::html::person::person_report_html;
+use abba_report::html::person::{person_report_html, BackLink};
 use abba_store::advise::SuggestionView;
 use abba_store::Live;
 use abba_web::pages::Layout;
@@ -160,7 +160,7 @@ fn effect_notes(live: &Live, fx: Option<&EffectSource>, notes: &mut Vec<String>)
 /// The report of person `id` as a page: the report's own HTML (one
 /// self-contained document with its inline stylesheet), served with a CSP
 /// that allows exactly that stylesheet (by its hash) and nothing else.
-async fn report(s: &AppState, id: i64, csrf: Option<String>) -> PageResult {
+async fn report(s: &AppState, id: i64, csrf: Option<String>, back: BackLink) -> PageResult {
     let fx = s.effects();
     let out = s
         .person(id, false, move |store, live| {
@@ -169,6 +169,7 @@ async fn report(s: &AppState, id: i64, csrf: Option<String>) -> PageResult {
             match abba_store::report::person_input(store, &name, REPORT_DAYS, unit) {
                 Ok(mut input) => {
                     effect_notes(live, fx.as_ref(), &mut input.notes);
+                    input.back = Some(back);
                     person_report_html(&input)
                         .map(Some)
                         .map_err(ApiError::internal)
@@ -216,7 +217,11 @@ pub fn report_csp(doc: &str) -> String {
 /// `GET /report`: the person's own report.
 pub async fn person_report(State(s): State<AppState>, ctx: Ctx) -> Result<Response, PageError> {
     let (id, w) = session::person_page(&s, &ctx).await?;
-    report(&s, id, Some(w.csrf)).await
+    let back = BackLink {
+        href: "/".into(),
+        label: "Back to Today".into(),
+    };
+    report(&s, id, Some(w.csrf), back).await
 }
 
 /// `GET /clinic/persons/{id}/report`: a person's report for the clinic.
@@ -229,7 +234,11 @@ pub async fn clinic_report(
     let Ok(id) = id.parse::<i64>() else {
         return Err(super::page::not_found());
     };
-    report(&s, id, Some(w.csrf)).await
+    let back = BackLink {
+        href: format!("/clinic/persons/{id}"),
+        label: "Back to the person's page".into(),
+    };
+    report(&s, id, Some(w.csrf), back).await
 }
 
 /// This module's routes (merged by [`super::routes`]).

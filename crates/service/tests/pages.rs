@@ -3214,61 +3214,49 @@ async fn the_clinics_import_says_times_on_the_persons_clock() {
         .unwrap()
     };
     let path = format!("/clinic/persons/{id}/import");
+    // One file through the clinic's import: the status it must get, the
+    // page's text (with no UTC instant left in it).
+    let mut import = async |name: &str, bytes: &[u8], status: StatusCode| -> String {
+        let p = admin
+            .post_multipart(&path, &[("csrf", csrf.as_str())], &[("files", name, bytes)])
+            .await;
+        assert_eq!(p.status, status, "{}", p.html);
+        assert_eq!(utc_instant_in(&p.html), None, "{}", p.html);
+        p.html.replace("&#x2f;", "/")
+    };
     let treatments = data("nightscout_treatments_careportal_switches_synthetic.json");
-    let p = admin
-        .post_multipart(
-            &path,
-            &[("csrf", csrf.as_str())],
-            &[("files", "treatments.json", &treatments)],
-        )
-        .await;
-    assert_eq!(p.status, StatusCode::OK, "{}", p.html);
-    let html = p.html.replace("&#x2f;", "/");
+    let html = import("treatments.json", &treatments, StatusCode::OK).await;
     // The first named switch: 2026-11-14T08:00:00Z in the file.
     assert!(
         html.contains("the first at 2026-11-14 09:00 (Europe/Zurich)"),
         "{html}"
     );
-    assert_eq!(utc_instant_in(&p.html), None, "{}", p.html);
     // Sensor readings dated in 1961 are refused; the bound is said on
     // the person's clock too.
     let clarity = data("clarity_export_synthetic.csv");
-    let p = admin
-        .post_multipart(
-            &path,
-            &[("csrf", csrf.as_str())],
-            &[("files", "clarity.csv", &clarity)],
-        )
-        .await;
-    assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
-    let html = p.html.replace("&#x2f;", "/");
+    let html = import("clarity.csv", &clarity, StatusCode::UNPROCESSABLE_ENTITY).await;
     assert!(
         html.contains("1961-04-12 00:56:47 (Europe/Zurich)"),
         "{html}"
     );
-    assert_eq!(utc_instant_in(&p.html), None, "{}", p.html);
     // One reading a year ahead (a device clock set wrong): one record,
     // on the person's clock.
     let next_year = jiff::Zoned::now().year() + 1;
     let ahead = format!(
         "Glukose-Werte,Erstellt am,24.11.2026 12:12 UTC,Erstellt von,Test\r\n{LIBRE_DE}\r\nFreeStyle Libre 2,ABC,22.11.{next_year} 07:00,0,\"5,6\",,,,,,,,,,,,,,\r\n"
     );
-    let p = admin
-        .post_multipart(
-            &path,
-            &[("csrf", csrf.as_str())],
-            &[("files", "ahead.csv", ahead.as_bytes())],
-        )
-        .await;
-    assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
-    let html = p.html.replace("&#x2f;", "/");
+    let html = import(
+        "ahead.csv",
+        ahead.as_bytes(),
+        StatusCode::UNPROCESSABLE_ENTITY,
+    )
+    .await;
     assert!(
         html.contains(&format!(
             "1 record, the first ahead.csv: line 3 ({next_year}-11-22 07:00 (Europe/Zurich))"
         )),
         "{html}"
     );
-    assert_eq!(utc_instant_in(&p.html), None, "{}", p.html);
 }
 
 /// LibreView's header for a German account in mmol/L (its 19 columns).

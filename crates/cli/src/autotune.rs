@@ -246,6 +246,19 @@ fn reading_report(batch: &mut abba_io::Batch) -> Vec<String> {
     out
 }
 
+/// An error after reading, with what reading noted (records refused as
+/// dated in the future, above all, may be why no day is left).
+fn with_notes(e: anyhow::Error, said: &[String]) -> anyhow::Error {
+    if said.is_empty() {
+        e
+    } else {
+        anyhow::anyhow!(
+            "{e:#}\nwhat reading the files noted:\n  {}",
+            said.join("\n  ")
+        )
+    }
+}
+
 /// Which days: `--start`/`--end`, `--days N` (the last N complete days), or
 /// every complete day ([`day_window`] within the readings).
 fn days(args: &Args, tz: &TimeZone, glucose: &[Reading]) -> Result<(Date, Date)> {
@@ -618,8 +631,8 @@ pub fn run(args: Args) -> Result<()> {
         None => profile.clone(),
     };
     let x = inputs(&records, &*origin, &oref0, &profile, &Zone(tz.clone()))?;
-    let range = days(&args, &tz, &x.glucose)?;
-    let out = run_days(&x, &tz, range, profile, &pump)?;
+    let range = days(&args, &tz, &x.glucose).map_err(|e| with_notes(e, &said))?;
+    let out = run_days(&x, &tz, range, profile, &pump).map_err(|e| with_notes(e, &said))?;
     if args.json {
         let doc = serde_json::json!({
             "notice": NOTICE,

@@ -480,5 +480,61 @@ fn bad_requests_name_what_is_wrong() {
         err.contains("2026-01-12") && err.contains("not complete"),
         "{err}"
     );
+    // Readings from a device whose clock ran years ahead: refused as from
+    // the future, and the error says so instead of only "no readings".
+    let mut ahead = read(&e);
+    for x in ahead.as_array_mut().unwrap() {
+        let date = x["date"].as_i64().unwrap() + 3 * 365 * 86_400_000;
+        x["date"] = serde_json::json!(date);
+        let o = x.as_object_mut().unwrap();
+        o.remove("dateString");
+        o.remove("sysTime");
+    }
+    let ahead_path = dir.join("ahead.json");
+    std::fs::write(&ahead_path, ahead.to_string()).unwrap();
+    let out = abba(&[
+        "autotune",
+        "--entries",
+        ahead_path.to_str().unwrap(),
+        "--treatments",
+        &data("treatments.json"),
+        "--profile",
+        &data("profile.day1.json"),
+        "--tz",
+        "Europe/Zurich",
+    ]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("no CGM readings") && err.contains("dated in the future"),
+        "{err}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A day on which oref0's ISF ratios hold NaN (0 / 0: readings without
+/// insulin activity, counted for ISF when too many deviations are meals;
+/// nan_day/, found by benches/autotune_oref0/differential.py): the median
+/// is where node's sort leaves the NaN, and the ISF stays, as oref0's does.
+/// Before, our sort panicked on it.
+#[test]
+fn a_day_whose_isf_ratios_hold_nan_gives_oref0s_profile() {
+    let out = ok(&abba(&[
+        "autotune",
+        "--entries",
+        &data("nan_day/entries.json"),
+        "--treatments",
+        &data("nan_day/treatments.json"),
+        "--profile",
+        &data("nan_day/profile.json"),
+        "--pump-profile",
+        &data("nan_day/pumpprofile.json"),
+        "--tz",
+        "Pacific/Auckland",
+        "--json",
+    ]));
+    let json: Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(json["days"], serde_json::json!(["2026-03-06"]));
+    assert_oref0(&json["profile"], 1.0, "nan_day/autotune.json");
+    assert_oref0_printed(&json["profile"], "nan_day/autotune.json");
 }

@@ -76,6 +76,7 @@ pub mod arm;
 pub mod curve;
 pub mod iob;
 pub mod js;
+pub mod js_sort;
 pub mod prep;
 pub mod profile;
 pub mod tune;

@@ -288,12 +288,8 @@ pub fn categorize(day: &DayData, profile: &Profile, clock: &dyn LocalClock) -> P
     let mut basal_d = pick(&basal);
     let uam_d = pick(&uams);
     let by_deviation = |v: &mut Vec<Datum>| {
-        // JavaScript's a - b: -0 equals 0, NaN compares equal (the sort is stable).
-        v.sort_by(|a, b| {
-            a.deviation
-                .partial_cmp(&b.deviation)
-                .unwrap_or(std::cmp::Ordering::Equal)
-        });
+        // JavaScript's a - b, in node's order (NaN is no order).
+        super::js_sort::sort_by(v, |a, b| a.deviation - b.deviation);
         v.truncate(v.len() / 2);
     };
     if csf_d.len() > 12 {

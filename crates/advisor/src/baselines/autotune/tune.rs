@@ -50,8 +50,10 @@ fn percentile(sorted: &[f64], p: f64) -> f64 {
     sorted[lower] * (1.0 - weight) + sorted[lower + 1] * weight
 }
 
+/// `v.sort((a, b) => a - b)` in node's order: a ratio of a reading without
+/// insulin activity is NaN (0 / 0), which that comparator cannot order.
 fn sorted(mut v: Vec<f64>) -> Vec<f64> {
-    v.sort_by(|a, b| a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal));
+    super::js_sort::sort_by(&mut v, |a, b| a - b);
     v
 }
 

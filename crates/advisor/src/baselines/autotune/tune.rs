@@ -6,7 +6,7 @@
 //! between `autosens_min` and `autosens_max` times the pump profile's value.
 
 use super::js;
-use super::prep::Prepped;
+use super::prep::{Datum, Prepped};
 use super::profile::{BasalEntry, Profile};
 use super::LocalClock;
 use serde_json::{json, Value};
@@ -55,6 +55,19 @@ fn percentile(sorted: &[f64], p: f64) -> f64 {
 fn sorted(mut v: Vec<f64>) -> Vec<f64> {
     super::js_sort::sort_by(&mut v, |a, b| a - b);
     v
+}
+
+/// The ISF data's ratios `1 + deviation / BGI`, in the order oref0's sort
+/// leaves them. oref0's core reads BGI back with parseFloat (from the
+/// prepped JSON), which has no -0: a reading without insulin activity
+/// divides by +0 (`+ 0.0` turns our -0.0 into +0.0), so its ratio is +∞
+/// for a rise, −∞ for a fall and NaN for none.
+fn isf_ratios(isf: &[Datum]) -> Vec<f64> {
+    sorted(
+        isf.iter()
+            .map(|d| 1.0 + d.deviation / (d.bgi + 0.0))
+            .collect(),
+    )
 }
 
 /// One autotune step from `previous` (the profile tuned so far, with the
@@ -216,13 +229,7 @@ pub fn tune(
     };
 
     // ISF from the median ratio of deviation to insulin impact.
-    let ratios = sorted(
-        prepped
-            .isf
-            .iter()
-            .map(|d| 1.0 + d.deviation / d.bgi)
-            .collect(),
-    );
+    let ratios = isf_ratios(&prepped.isf);
     let p50 = js::round_to(percentile(&ratios, 0.5), 3);
     let full_isf = if prepped.isf.len() < 10 {
         notes.push(format!(
@@ -328,5 +335,41 @@ impl Tuned {
         doc.insert("dia".into(), js_num(self.dia_h));
         doc.insert("insulinPeakTime".into(), js_num(self.peak_min));
         Value::Object(doc)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::baselines::autotune::Category;
+
+    fn datum(deviation: f64, bgi: f64) -> Datum {
+        Datum {
+            at_ms: 0,
+            glucose: 120.0,
+            avg_delta: deviation + bgi,
+            bgi,
+            deviation,
+            category: Category::Isf,
+            meal_absorption: None,
+            meal_carbs: 0.0,
+        }
+    }
+
+    /// A BGI of -0 (no insulin activity) divides as +0, as it does in
+    /// oref0's core: a rise is +∞, not −∞, and the median moves with it
+    /// (benches/autotune_oref0/differential.py's case 19 before: ISF 49.467
+    /// against oref0's 53).
+    #[test]
+    fn a_bgi_of_minus_zero_divides_as_plus_zero() {
+        let mut data = vec![datum(2.0, -0.0), datum(3.0, -0.0), datum(-1.0, -0.0)];
+        data.extend((0..4).map(|i| datum(-0.5 * f64::from(i), -2.0)));
+        let r = isf_ratios(&data);
+        assert_eq!(r.len(), 7);
+        assert_eq!(r[0], f64::NEG_INFINITY, "{r:?}");
+        assert_eq!(&r[5..], &[f64::INFINITY, f64::INFINITY], "{r:?}");
+        assert_eq!(percentile(&r, 0.5), 1.625, "{r:?}");
+        // 0 / 0 is NaN, kept where node's sort leaves it.
+        assert!(isf_ratios(&[datum(0.0, -0.0)])[0].is_nan());
     }
 }

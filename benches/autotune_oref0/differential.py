@@ -24,6 +24,8 @@ from datetime import datetime, timedelta, timezone, date
 from zoneinfo import ZoneInfo
 
 OREF = "node_modules/oref0/bin"
+# Cases draw bolus forms oref0 does not read (ABBA_DIFF_ODD=1).
+ODD = os.environ.get("ABBA_DIFF_ODD") == "1"
 ZONES = ["Europe/Zurich", "America/New_York", "America/Los_Angeles", "Asia/Kolkata",
          "Australia/Sydney", "UTC", "Pacific/Auckland", "America/Sao_Paulo", "Asia/Tokyo"]
 
@@ -34,6 +36,76 @@ def iso(ts):
 
 def hhmm(m):
     return f"{m // 60:02d}:{m % 60:02d}:00"
+
+
+def temp_form(rng, t, n, rate, minutes, tz):
+    """A temporary basal as OpenAPS (rng None, or in turn), AndroidAPS
+    (absolute or percent) or Loop (fractional minutes, `amount`) upload it."""
+    base = {"_id": f"t{n:05d}", "eventType": "Temp Basal", "created_at": iso(t)}
+    form = 0 if rng is None else rng.randrange(4)
+    ms = int(t.timestamp() * 1000)
+    if form == 0:
+        return dict(base, rate=rate, absolute=rate, duration=minutes, temp="absolute",
+                    timestamp=t.astimezone(tz).isoformat(), enteredBy="openaps://medtronic/723")
+    if form == 1 or form == 3:
+        doc = dict(base, date=ms, isValid=True, duration=minutes, durationInMilliseconds=minutes * 60000,
+                   type="NORMAL", rate=rate, absolute=rate, pumpId=40000 + n, pumpType="OMNIPOD_DASH",
+                   utcOffset=int(t.astimezone(tz).utcoffset().total_seconds() // 60),
+                   enteredBy="openaps://AndroidAPS")
+        if form == 3:
+            doc["percent"] = -30
+        return doc
+    ran = float(minutes) - (0.25 if n % 8 == 2 else 0.0)
+    delivered = round(round(rate * ran / 60 / 0.05) * 0.05, 2)
+    return dict(base, timestamp=iso(t), temp="absolute", rate=rate, absolute=rate, duration=ran,
+                amount=delivered, automatic=True, reason="Temp Basal", enteredBy="loop://iPhone",
+                syncIdentifier=f"tb{n:05d}")
+
+
+def bolus_form(rng, id_, at, units):
+    """A correction bolus as Careportal's Correction Bolus, or (rng given,
+    in turn) as uploads oref0 does not read insulin from: Trio's and iAPS's
+    "Bolus", Careportal's "Combo Bolus" (now and extended parts) and its
+    default "<none>"."""
+    base = {"_id": id_, "created_at": iso(at), "insulin": units, "enteredBy": "fuzz"}
+    form = 0 if rng is None else rng.randrange(4)
+    if form == 0:
+        return dict(base, eventType="Correction Bolus")
+    if form == 1:
+        return dict(base, eventType="Bolus", type="normal", isSMB=False, enteredBy="Trio")
+    if form == 2:
+        ext = round(units * 0.4, 1)
+        return dict(base, eventType="Combo Bolus", insulin=round(units - ext, 2), enteredinsulin=units,
+                    splitNow=60, splitExt=40, relative=round(ext * 2, 2), duration=30, enteredBy="careportal")
+    return dict(base, eventType="<none>", enteredBy="careportal")
+
+
+def meal_form(rng, tr, i):
+    """A meal as Careportal's Meal Bolus, a Bolus Wizard, or Loop's carbs
+    apart from their bolus (40 s later)."""
+    form = rng.randrange(3)
+    if form == 0 or "carbs" not in tr:
+        return [tr]
+    if form == 1:
+        return [dict(tr, eventType="Bolus Wizard", enteredBy="careportal", bolusCalculatorResult="{}")]
+    at = datetime.fromisoformat(tr["created_at"].replace("Z", "+00:00"))
+    later = at + timedelta(seconds=40)
+    return [{"_id": f"carb{i}", "eventType": "Carb Correction", "created_at": iso(at), "timestamp": iso(at),
+             "carbs": tr["carbs"], "absorptionTime": 180, "enteredBy": "loop://iPhone"},
+            {"_id": f"bolus{i}", "eventType": "Correction Bolus", "created_at": iso(later),
+             "timestamp": iso(later), "insulin": tr["insulin"], "programmed": tr["insulin"],
+             "type": "normal", "automatic": False, "enteredBy": "loop://iPhone"}]
+
+
+def isf_schedule(rng, isf):
+    """One to three ISF segments (oref0 categorises by the ISF in force)."""
+    starts = sorted(set([0] + [rng.randrange(1, 48) * 30 for _ in range(rng.randrange(3))]))
+    out = []
+    for i, m in enumerate(starts):
+        end = starts[i + 1] if i + 1 < len(starts) else 1440
+        out.append({"i": i, "start": hhmm(m), "sensitivity": isf if i == 0 else round(isf * rng.uniform(0.7, 1.3)),
+                    "offset": m, "x": i, "endOffset": end})
+    return out
 
 
 def run(cmd, **kw):
@@ -84,6 +156,8 @@ def case(abba, k):
         return rate
 
     days = [start + timedelta(days=8 + i) for i in range(ndays)]
+    forms = rng.random() < 0.5
+    odd = ODD and rng.random() < 0.7
     first = datetime.combine(days[0], datetime.min.time()).replace(tzinfo=tz) - timedelta(hours=18)
     last = datetime.combine(days[-1], datetime.min.time()).replace(tzinfo=tz) + timedelta(hours=28)
     temps = []
@@ -99,18 +173,27 @@ def case(abba, k):
         duration = rng.choice([20, 30, 30, 45, 60, 120])
         n += 1
         if rng.random() > 0.05:
-            temps.append({"_id": f"t{n:05d}", "eventType": "Temp Basal", "created_at": iso(t),
-                          "rate": round(rate, 2), "absolute": round(rate, 2), "duration": duration,
-                          "enteredBy": "openaps://fuzz"})
+            temps.append(temp_form(rng if forms else None, t, n, round(rate, 2), duration, tz))
+            if forms and rng.random() < 0.1:  # an SMB after the temp
+                at = t + timedelta(minutes=2)
+                temps.append({"_id": f"s{n:05d}", "eventType": "Correction Bolus", "created_at": iso(at),
+                              "date": int(at.timestamp() * 1000), "insulin": rng.choice([0.1, 0.15, 0.2, 0.3]),
+                              "type": "SMB", "isSMB": True, "isValid": True, "pumpId": 50000 + n,
+                              "enteredBy": "openaps://AndroidAPS"})
+            if forms and rng.random() < 0.05:  # a cancel (a zero-minute temp)
+                at = t + timedelta(minutes=every // 2 or 1)
+                temps.append({"_id": f"x{n:05d}", "eventType": "Temp Basal", "created_at": iso(at),
+                              "rate": 0, "absolute": 0, "duration": 0, "enteredBy": "openaps://fuzz"})
         t += timedelta(minutes=every)
     extra = []
     for day in days:
         for _ in range(rng.randint(0, 3)):
             at = datetime.combine(day, datetime.min.time()).replace(tzinfo=tz) + timedelta(minutes=rng.randint(0, 1439))
-            extra.append({"_id": f"c{len(extra)}", "eventType": "Correction Bolus", "created_at": iso(at),
-                          "insulin": round(rng.uniform(0.2, 3.0), 1), "enteredBy": "fuzz"})
+            extra.append(bolus_form(rng if odd else None, f"c{len(extra)}", at, round(rng.uniform(0.2, 3.0), 1)))
     for tr in treatments:
         tr["created_at"] = tr["created_at"].replace("Z", ".000Z") if "." not in tr["created_at"] else tr["created_at"]
+    if forms:
+        treatments = [x for i, tr in enumerate(treatments) for x in meal_form(rng, tr, i)]
     allt = sorted(treatments + temps + extra, key=lambda x: x["created_at"], reverse=True)
     lo, hi = int(first.timestamp() * 1000), int(last.timestamp() * 1000)
 
@@ -131,8 +214,7 @@ def case(abba, k):
         "autosens_min": rng.choice([0.7, 0.7, 0.5, 0.9]),
         "carb_ratio": cr,
         "basalprofile": [{"i": i, "start": hhmm(m), "minutes": m, "rate": r} for i, (m, r) in enumerate(basal)],
-        "isfProfile": {"units": "mg/dL", "user_preferred_units": "mg/dL", "sensitivities": [
-            {"i": 0, "start": "00:00:00", "sensitivity": isf, "offset": 0, "x": 0, "endOffset": 1440}]},
+        "isfProfile": {"units": "mg/dL", "user_preferred_units": "mg/dL", "sensitivities": isf_schedule(rng, isf)},
         "timezone": zone,
     }
     json.dump(profile, open(f"{work}/pumpprofile.json", "w"), indent=1)
@@ -180,7 +262,7 @@ def case(abba, k):
         bad.append(f"isf {gi} vs {wi}")
     if abs(got["carb_ratio"] / want["carb_ratio"] - 1) > 0.005:
         bad.append(f"cr {got['carb_ratio']} vs {want['carb_ratio']}")
-    desc = f"{patient} {arm} {zone} {days[0]} x{ndays} {curve} dia {profile['dia']} peak {profile['insulinPeakTime'] if custom else '-'} every {every}"
+    desc = f"{patient} {arm} {zone} {days[0]} x{ndays} {'forms ' if forms else ''}{'odd ' if odd else ''}isf x{len(profile['isfProfile']['sensitivities'])} {curve} dia {profile['dia']} peak {profile['insulinPeakTime'] if custom else '-'} every {every}"
     return ("ok" if not bad else "DIFF", desc + ("; " + "; ".join(bad[:6]) if bad else ""))
 
 

@@ -137,6 +137,8 @@ struct Inputs {
     carbs: Vec<Carbs>,
     /// Records autotune does not read, by kind.
     unused: std::collections::BTreeMap<String, usize>,
+    /// Bolus insulin (U) in treatments oref0 reads no insulin from.
+    unread_units: f64,
 }
 
 fn inputs(
@@ -153,6 +155,7 @@ fn inputs(
         insulin: Vec::new(),
         carbs: Vec::new(),
         unused: Default::default(),
+        unread_units: 0.0,
     };
     for r in records {
         let at = r.at.as_millisecond();
@@ -162,6 +165,34 @@ fn inputs(
                 origin(r),
                 r.at
             );
+        }
+        // Insulin in a treatment oref0 reads no insulin from (or a temp it
+        // does not read as one) is left out, as oref0 leaves it, and said.
+        let wanted = match &r.kind {
+            RecordKind::Bolus { .. } | RecordKind::ExtendedBolus { .. } => Some(Oref0Reads::Bolus),
+            RecordKind::TempBasal { .. } => Some(Oref0Reads::Temp),
+            _ => None,
+        };
+        if let (Some(wanted), Some(reads)) = (wanted, oref0.reads.get(&r.origin)) {
+            if *reads != wanted {
+                let event = match reads {
+                    Oref0Reads::Neither(e) => e.clone(),
+                    Oref0Reads::Bolus => "a bolus".into(),
+                    Oref0Reads::Temp => "Temp Basal".into(),
+                };
+                let units = match &r.kind {
+                    RecordKind::Bolus { units } => Some(units.0),
+                    RecordKind::ExtendedBolus { now, extended, .. } => Some(now.0 + extended.0),
+                    _ => None,
+                };
+                let kind = format!(
+                    "{} in \"{event}\" (oref0 reads no insulin there)",
+                    r.kind.name()
+                );
+                *x.unused.entry(kind).or_default() += 1;
+                x.unread_units += units.unwrap_or(0.0);
+                continue;
+            }
         }
         match &r.kind {
             RecordKind::Cgm { glucose: g } => x.glucose.push(Reading {
@@ -469,6 +500,57 @@ struct Oref0Fields {
     stamps: HashMap<Origin, i64>,
     /// A "Temp Basal"'s (rate U/h, minutes) as oref0 takes them.
     temps: HashMap<Origin, (f64, f64)>,
+    /// What oref0 reads insulin from in each treatment (empty for a store,
+    /// whose records have no Nightscout document: all are read).
+    reads: HashMap<Origin, Oref0Reads>,
+}
+
+/// What oref0 0.7.1 reads insulin from in a Nightscout treatment: the first
+/// rule of its `lib/iob/history.js` that matches (carbs are read from any
+/// treatment that has them, by `lib/meal/history.js`).
+#[derive(Debug, Clone, PartialEq)]
+enum Oref0Reads {
+    /// A bolus: a pump record (`_type` "Bolus"), eventType "Meal Bolus",
+    /// "Correction Bolus", "Snack Bolus" or "Bolus Wizard", or any
+    /// treatment entered by "xdrip" (or by "HAPP_App" with insulin).
+    Bolus,
+    /// A temporary basal: eventType exactly "Temp Basal".
+    Temp,
+    /// No insulin: any other treatment (Trio's "Bolus", Careportal's
+    /// "Combo Bolus" and "<none>", "Temp Basal Start" ...), named by its
+    /// eventType.
+    Neither(String),
+}
+
+impl Oref0Reads {
+    fn of(obj: &serde_json::Map<String, serde_json::Value>) -> Self {
+        let text = |k: &str| obj.get(k).and_then(serde_json::Value::as_str);
+        let pump_bolus = text("_type") == Some("Bolus")
+            || obj
+                .get("bolus")
+                .and_then(|b| b.get("_type"))
+                .and_then(serde_json::Value::as_str)
+                == Some("Bolus");
+        let event = text("eventType");
+        let entered_by = text("enteredBy");
+        let has_insulin = obj.get("insulin").is_some_and(|v| {
+            v.as_f64().is_some_and(|u| u != 0.0) || v.as_str().is_some_and(|s| !s.is_empty())
+        });
+        if pump_bolus
+            || matches!(
+                event,
+                Some("Meal Bolus" | "Correction Bolus" | "Snack Bolus" | "Bolus Wizard")
+            )
+            || entered_by == Some("xdrip")
+            || (entered_by == Some("HAPP_App") && has_insulin)
+        {
+            Oref0Reads::Bolus
+        } else if event == Some("Temp Basal") {
+            Oref0Reads::Temp
+        } else {
+            Oref0Reads::Neither(event.unwrap_or("no eventType").to_string())
+        }
+    }
 }
 
 /// [`Oref0Fields`] of the treatments in file `file` of a batch, read as
@@ -511,6 +593,7 @@ fn oref0_fields(path: &Path, file: u16, tz: &TimeZone) -> Result<Oref0Fields> {
         if let Some(t) = item.get("timestamp").and_then(instant) {
             out.stamps.insert(origin, t);
         }
+        out.reads.insert(origin, Oref0Reads::of(obj));
         if item.str("eventType").ok().flatten() == Some("Temp Basal") {
             let number = |k: &str| item.num(k).ok().flatten();
             let temp = NightscoutTemp {
@@ -631,6 +714,12 @@ pub fn run(args: Args) -> Result<()> {
         None => profile.clone(),
     };
     let x = inputs(&records, &*origin, &oref0, &profile, &Zone(tz.clone()))?;
+    if x.unread_units > 0.0 {
+        said.push(format!(
+            "{:.2} U of boluses are in treatments oref0 reads no insulin from (eventType other than Meal Bolus, Correction Bolus, Snack Bolus or Bolus Wizard; counted below): left out as oref0 leaves them out, so the tuned profile does not account for them",
+            x.unread_units
+        ));
+    }
     let range = days(&args, &tz, &x.glucose).map_err(|e| with_notes(e, &said))?;
     let out = run_days(&x, &tz, range, profile, &pump).map_err(|e| with_notes(e, &said))?;
     if args.json {

@@ -538,3 +538,64 @@ fn a_day_whose_isf_ratios_hold_nan_gives_oref0s_profile() {
     assert_oref0(&json["profile"], 1.0, "nan_day/autotune.json");
     assert_oref0_printed(&json["profile"], "nan_day/autotune.json");
 }
+
+/// oref0 reads bolus insulin only from Meal Bolus, Correction Bolus, Snack
+/// Bolus and Bolus Wizard treatments (and xDrip+'s), and temps only from
+/// "Temp Basal": the quirk days with a Trio "Bolus", a Careportal "Combo
+/// Bolus" and "<none>" bolus and a "Temp Basal Start" added give oref0
+/// 0.7.1 the same profile as without them (checked with node 20 when this
+/// test was written; benches/autotune_oref0/differential.py with
+/// ABBA_DIFF_ODD=1 draws such days), and abba the same, saying what it left
+/// out and how much insulin.
+#[test]
+fn treatments_oref0_reads_no_insulin_from_are_left_out_and_said() {
+    let dir = tmp("odd");
+    let e = entries_of(
+        &dir,
+        ["entries.quirks.day1.json", "entries.quirks.day2.json"],
+    );
+    let mut items = read(&data("treatments.quirks.json"))
+        .as_array()
+        .unwrap()
+        .clone();
+    items.extend([
+        serde_json::json!({"eventType": "Bolus", "insulin": 2.0, "type": "normal", "isSMB": false,
+            "enteredBy": "Trio", "created_at": "2026-01-10T12:30:00.000Z"}),
+        serde_json::json!({"eventType": "Combo Bolus", "insulin": 1.2, "enteredinsulin": 2.0,
+            "splitNow": 60, "splitExt": 40, "relative": 1.6, "duration": 30,
+            "enteredBy": "careportal", "created_at": "2026-01-10T18:00:00.000Z"}),
+        serde_json::json!({"eventType": "<none>", "insulin": 1.0, "enteredBy": "careportal",
+            "created_at": "2026-01-11T09:00:00.000Z"}),
+        serde_json::json!({"eventType": "Temp Basal Start", "rate": 2.0, "absolute": 2.0,
+            "duration": 60, "enteredBy": "careportal", "created_at": "2026-01-11T02:00:00.000Z"}),
+    ]);
+    // Newest first, as Nightscout answers (oref0 skips records out of order).
+    items.sort_by(|a, b| b["created_at"].as_str().cmp(&a["created_at"].as_str()));
+    let treatments = dir.join("treatments.odd.json");
+    std::fs::write(&treatments, serde_json::to_string(&items).unwrap()).unwrap();
+    let mut args = files_args(&e, treatments.to_str().unwrap());
+    args.push("--json".into());
+    let json: Value = serde_json::from_str(&ok(&abba(
+        &args.iter().map(String::as_str).collect::<Vec<_>>(),
+    )))
+    .unwrap();
+    assert_oref0_printed(&json["profile"], "autotune.quirks.day2.json");
+    let unused = &json["unused_records"];
+    for (kind, n) in [
+        ("bolus in \"Bolus\" (oref0 reads no insulin there)", 1),
+        ("bolus in \"<none>\" (oref0 reads no insulin there)", 1),
+        (
+            "extended_bolus in \"Combo Bolus\" (oref0 reads no insulin there)",
+            1,
+        ),
+        (
+            "temp_basal in \"Temp Basal Start\" (oref0 reads no insulin there)",
+            1,
+        ),
+    ] {
+        assert_eq!(unused[kind], n, "{kind}: {unused}");
+    }
+    let notes = json["notes"].to_string();
+    assert!(notes.contains("5.00 U of boluses"), "{notes}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

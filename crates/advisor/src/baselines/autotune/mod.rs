@@ -27,12 +27,18 @@
 //!
 //! # Choices (where oref0's data handling had to be mapped or we differ)
 //!
-//! 1. Records come from abba's readers (`abba-io`), not from oref0's
-//!    field tests: every treatment with insulin counts as a bolus, whatever
-//!    its `eventType` (oref0 counts `Meal Bolus`, `Correction Bolus`,
-//!    `Snack Bolus` and `Bolus Wizard`; its xDrip and HAPP branches are
-//!    covered by the same rule). Carbs are any record with carbs > 0, as
-//!    oref0's meal history takes them.
+//! 1. Records come from abba's readers (`abba-io`). On Nightscout files
+//!    (`abba autotune --entries`), insulin is read only from the
+//!    treatments oref0's lib/iob/history.js reads it from (`Meal Bolus`,
+//!    `Correction Bolus`, `Snack Bolus`, `Bolus Wizard`, a pump record's
+//!    `_type` Bolus, anything entered by `xdrip`, `HAPP_App` with insulin)
+//!    and temps only from `Temp Basal`: Trio's `Bolus`, Careportal's
+//!    `Combo Bolus` and `<none>` or a `Temp Basal Start` are left out as
+//!    oref0 leaves them out, counted, and their units said, because the
+//!    outputs must match oref0's on real days. From a store (no Nightscout
+//!    document left), every insulin record counts, whatever its source.
+//!    Carbs are any record with carbs > 0, as oref0's meal history takes
+//!    them.
 //! 2. A temporary basal's rate and duration are read as oref0 reads them
 //!    ([`NightscoutTemp::oref0`]): `absolute` for AndroidAPS uploads, `rate`
 //!    otherwise, Loop's delivered `amount` over the duration when present,
@@ -43,9 +49,9 @@
 //!    scheduled rate at its start (oref0 gives it no rate, so no insulin).
 //! 3. Pump suspends and resumes from Nightscout are not used, as in oref0
 //!    (which reads suspends only from a Medtronic pump history); the caller
-//!    counts them. Extended boluses: the immediate part is a bolus, the
-//!    extended part 0.05 U pieces spread over its duration (oref0 ignores
-//!    Nightscout's `Combo Bolus`).
+//!    counts them. Extended boluses from a store: the immediate part is a
+//!    bolus, the extended part 0.05 U pieces spread over its duration
+//!    (from Nightscout files, a `Combo Bolus` is left out, as in 1).
 //! 4. oref0's duplicate check of meal entries (newest `created_at` first)
 //!    drops a carb entry whose own `timestamp` field is within 2 s of a
 //!    meal already taken ([`Carbs::stamp_ms`], [`DUPLICATE_MEAL_MS`]); an
@@ -71,6 +77,10 @@
 //!    ISF and carb ratio must lie in [`abba_core::limits`].
 //! 9. The ISF and carb-ratio schedules: like oref0, only the first ISF and
 //!    the one `carb_ratio` are tuned.
+//! 10. oref0's `a - b` sorts are node's ([`js_sort`]: V8's TimSort), so a
+//!     ratio of 0 / 0 (NaN, no insulin activity) lands where it lands in
+//!     oref0, and a BGI of -0 divides as +0, as oref0's core reads it back
+//!     from JSON.
 
 pub mod arm;
 pub mod curve;

@@ -208,6 +208,9 @@ pub fn round_with(
                         {
                             after_import(person);
                         }
+                        for w in &r.warnings {
+                            tracing::warn!(person, warning = %w, "a background Nightscout sync could not check everything");
+                        }
                         if !r.gone.is_empty() {
                             tracing::warn!(person, documents = r.gone.len(), ids = ?r.gone, "documents no longer on the Nightscout site (deleted through API v1): their records are kept");
                         }

@@ -1,0 +1,166 @@
+//! The sync against servers that are Nightscout-compatible but not
+//! Nightscout's code, each quirk on its own: answers 404 where there is
+//! nothing to serve, a profile served as an object, pages oldest first.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use crate::common;
+
+use abba_nightscout::site::credential;
+use abba_nightscout::{link, sync};
+use abba_store::link::Credential;
+use common::server::{Server, Site};
+use common::*;
+
+fn secret() -> Credential {
+    credential(None, Some(SECRET)).unwrap()
+}
+
+fn site_of(d: &Data, max_count: usize) -> Site {
+    let mut site = Site::new(SECRET);
+    site.max_count = max_count;
+    site.add("entries", d.entries.clone());
+    site.add("treatments", d.treatments.clone());
+    site.add("profile", d.profile.clone());
+    site
+}
+
+/// Links and syncs twice `site` holding `d`: the store holds what a file
+/// import of `d` holds, and the second sync adds nothing; the second
+/// sync's report.
+fn syncs_as_files_import(d: &Data, site: Site) -> abba_nightscout::SyncReport {
+    let dir = tempfile::tempdir().unwrap();
+    let files = export(dir.path(), d);
+    let srv = Server::start(site);
+    let (_, mut synced) = store_with_person(dir.path(), "sync.db", &files);
+    link(
+        &mut synced,
+        "ana",
+        &srv.url,
+        secret(),
+        false,
+        &fast_client(),
+    )
+    .unwrap();
+    let r = sync(&mut synced, "ana", &sync_opts()).unwrap();
+    assert_eq!(r.collections[0].documents, d.entries.len());
+    assert_eq!(r.collections[1].documents, d.treatments.len());
+    let (_, mut imported) = store_with_person(dir.path(), "files.db", &files);
+    imported.import_files("ana", &files, None).unwrap();
+    assert_same_records(&synced, &imported);
+    let again = sync(&mut synced, "ana", &sync_opts()).unwrap();
+    let a = again.import.import.as_ref().unwrap();
+    assert_eq!((a.added, a.updated), (0, 0), "{a:?}");
+    assert!(again.gone.is_empty(), "{:?}", again.gone);
+    assert_same_records(&synced, &imported);
+    again
+}
+
+#[test]
+fn a_server_answering_404_for_nothing_to_serve() {
+    let d = data(2);
+    let mut site = site_of(&d, 1000);
+    site.empty_is_404 = true;
+    site.v3 = false;
+    let again = syncs_as_files_import(&d, site);
+    assert!(again.warnings.is_empty(), "{:?}", again.warnings);
+}
+
+#[test]
+fn a_profile_served_as_an_object() {
+    // The site's one profile document (no record at the epoch).
+    let mut d = data(1);
+    d.profile.truncate(1);
+    let mut site = site_of(&d, 1000);
+    site.profile_as_object = true;
+    let again = syncs_as_files_import(&d, site);
+    assert!(again.warnings.is_empty(), "{:?}", again.warnings);
+}
+
+#[test]
+fn pages_served_oldest_first() {
+    let d = data(2);
+    let mut site = site_of(&d, 100);
+    site.ascending = true;
+    let again = syncs_as_files_import(&d, site);
+    assert!(again.warnings.is_empty(), "{:?}", again.warnings);
+}
+
+#[test]
+fn count_ignored_pages_of_ten() {
+    let d = data(1);
+    let again = syncs_as_files_import(&d, site_of(&d, 10));
+    assert!(again.warnings.is_empty(), "{:?}", again.warnings);
+}
+
+#[test]
+fn a_server_ignoring_bounds_on_id() {
+    let d = data(1);
+    let mut site = site_of(&d, 1000);
+    site.ignores_id_bounds = true;
+    // What was read by time is complete and imported; the late uploads
+    // abba looks for by `_id` cannot be, which the report says (each
+    // collection's).
+    let again = syncs_as_files_import(&d, site);
+    assert_eq!(again.warnings.len(), 2, "{:?}", again.warnings);
+    for (w, c) in again.warnings.iter().zip(["entries", "treatments"]) {
+        assert!(
+            w.contains("late uploads") && w.contains(c) && w.contains("find[_id]"),
+            "{w}"
+        );
+    }
+}
+
+#[test]
+fn late_entries_on_a_server_that_ignores_sort_by_id_all_arrive() {
+    // A server that serves every page newest first by `date`, whatever
+    // `sort[_id]` asks; an uploader catching up after days offline sends
+    // more entries than a page holds, dated days before the window read
+    // again (after the person's first day), their ObjectIds made at insertion (rising with their dates).
+    // Paging those by `_id` from the last of a page would skip the rest.
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = data(2);
+    let oldest = d.entries.last().unwrap()["date"].as_i64().unwrap();
+    // The uploader's stretch: no other reading in it.
+    let (from, to) = (oldest + 86_400_000, oldest + 86_400_000 + 1500 * 30_000);
+    d.entries.retain(|e| {
+        let t = e["date"].as_i64().unwrap();
+        t < from - 600_000 || t > to + 600_000
+    });
+    let mut site = site_of(&d, 1000);
+    site.ignores_sort = true;
+    site.v3 = false;
+    let now = jiff::Timestamp::now().as_millisecond();
+    let late: Vec<serde_json::Value> = (0..1500)
+        .map(|i| {
+            let at = from + i as i64 * 30_000;
+            serde_json::json!({"_id": object_id(now, i), "type": "sgv", "sgv": 100 + i % 50,
+                "date": at, "dateString": common::server::iso(at), "device": "xDrip-DexcomG6"})
+        })
+        .collect();
+    let mut all = Data {
+        entries: d.entries.clone(),
+        treatments: d.treatments.clone(),
+        profile: d.profile.clone(),
+    };
+    all.entries.extend(late.iter().cloned());
+    let files = export(dir.path(), &all);
+    let srv = Server::start(site);
+    let (_, mut synced) = store_with_person(dir.path(), "sync.db", &files);
+    link(
+        &mut synced,
+        "ana",
+        &srv.url,
+        secret(),
+        false,
+        &fast_client(),
+    )
+    .unwrap();
+    sync(&mut synced, "ana", &sync_opts()).unwrap();
+    srv.with(|s| s.add("entries", late));
+    let r = sync(&mut synced, "ana", &sync_opts()).unwrap();
+    assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+    assert!(r.collections[0].late >= 1500, "{:?}", r.collections[0]);
+    let (_, mut imported) = store_with_person(dir.path(), "files.db", &files);
+    imported.import_files("ana", &files, None).unwrap();
+    assert_same_records(&synced, &imported);
+}

@@ -1,15 +1,18 @@
 //! The sync against servers that are Nightscout-compatible but not
 //! Nightscout's code, each quirk on its own: answers 404 where there is
-//! nothing to serve, a profile served as an object, pages oldest first.
+//! nothing to serve, a profile served as an object, pages oldest first,
+//! pages of 10 whatever `count` asks, bounds on `_id` or `sort[_id]`
+//! ignored, 503 with Retry-After, a redirect echoing the token.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use crate::common;
 
 use abba_nightscout::site::credential;
-use abba_nightscout::{link, sync};
+use abba_nightscout::{link, sync, NsError};
 use abba_store::link::Credential;
-use common::server::{Server, Site};
+use common::server::{Fault, FaultKind, Server, Site};
 use common::*;
+use std::time::Duration;
 
 fn secret() -> Credential {
     credential(None, Some(SECRET)).unwrap()
@@ -163,4 +166,65 @@ fn late_entries_on_a_server_that_ignores_sort_by_id_all_arrive() {
     let (_, mut imported) = store_with_person(dir.path(), "files.db", &files);
     imported.import_files("ana", &files, None).unwrap();
     assert_same_records(&synced, &imported);
+}
+
+#[test]
+fn a_503_with_retry_after_is_waited_for_and_a_longer_one_ends_the_sync() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = data(1);
+    let files = export(dir.path(), &d);
+    let srv = Server::start(site_of(&d, 1000));
+    let (_, mut store) = store_with_person(dir.path(), "sync.db", &files);
+    link(&mut store, "ana", &srv.url, secret(), false, &fast_client()).unwrap();
+    let fault = |kind: FaultKind| Fault {
+        path: "entries".into(),
+        kind,
+        times: 1,
+    };
+    // Retry-After 2 s is longer than the client's whole backoff (20 ms,
+    // doubled per try): only waiting for it passes the time checked.
+    srv.with(|s| s.faults = vec![fault(FaultKind::Unavailable(2))]);
+    let t0 = std::time::Instant::now();
+    sync(&mut store, "ana", &sync_opts()).unwrap();
+    assert!(t0.elapsed() >= Duration::from_secs(2), "{:?}", t0.elapsed());
+    // Longer than abba waits (5 s here): said at once, not slept.
+    srv.with(|s| s.faults = vec![fault(FaultKind::Unavailable(3600))]);
+    let t0 = std::time::Instant::now();
+    let e = sync(&mut store, "ana", &sync_opts()).unwrap_err();
+    assert!(t0.elapsed() < Duration::from_secs(5), "{:?}", t0.elapsed());
+    let text = e.to_string();
+    assert!(
+        matches!(e, NsError::GaveUp { .. }) && text.contains("503") && text.contains("3600"),
+        "{text}"
+    );
+}
+
+#[test]
+fn a_redirect_that_carries_the_token_back_does_not_show_it() {
+    // A site without API v2 authorization takes the token in the query;
+    // its redirect (moved, or http to https) echoes the query back.
+    let dir = tempfile::tempdir().unwrap();
+    let d = data(1);
+    let files = export(dir.path(), &d);
+    let mut site = site_of(&d, 1000);
+    site.v2_auth = false;
+    let token = "reader-0123456789abcdef";
+    site.faults = vec![Fault {
+        path: "status".into(),
+        kind: FaultKind::Redirect(format!(
+            "https://moved.example/api/v1/status.json?token={token}"
+        )),
+        times: 1,
+    }];
+    let srv = Server::start(site);
+    let (_, mut store) = store_with_person(dir.path(), "sync.db", &files);
+    let reader = credential(Some(token), None).unwrap();
+    let e = link(&mut store, "ana", &srv.url, reader, false, &fast_client()).unwrap_err();
+    let text = e.to_string();
+    assert!(matches!(e, NsError::Redirect { status: 301, .. }), "{text}");
+    assert!(
+        text.contains("https://moved.example/api/v1/status.json"),
+        "{text}"
+    );
+    assert!(!text.contains(token), "{text}");
 }

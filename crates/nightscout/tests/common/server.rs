@@ -135,6 +135,11 @@ pub enum FaultKind {
     Status(u16),
     /// 429 with Retry-After (s).
     TooMany(u64),
+    /// 503 with Retry-After (s), as a server restarting or a proxy
+    /// before one says.
+    Unavailable(u64),
+    /// 301 to this Location (a site moved, or http to https).
+    Redirect(String),
     /// Send half of the body, then cut the connection.
     Cut,
     /// Wait this long before answering.
@@ -387,6 +392,18 @@ async fn answer(kind: Option<FaultKind>, status: StatusCode, body: Value) -> Res
             StatusCode::TOO_MANY_REQUESTS,
             [("retry-after", secs.to_string())],
             "Too Many Requests",
+        )
+            .into_response(),
+        Some(FaultKind::Unavailable(secs)) => (
+            StatusCode::SERVICE_UNAVAILABLE,
+            [("retry-after", secs.to_string())],
+            "Service Unavailable",
+        )
+            .into_response(),
+        Some(FaultKind::Redirect(to)) => (
+            StatusCode::MOVED_PERMANENTLY,
+            [("location", to)],
+            "Moved Permanently",
         )
             .into_response(),
         Some(FaultKind::Cut) => {

@@ -285,12 +285,17 @@ pub fn sync(store: &mut Store, person: &str, opts: &SyncOptions) -> Result<SyncR
 fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncReport, NsError> {
     let client = client_of(link, &opts.client)?;
     // The site is there (a 404 from a read of documents is taken as
-    // none, which only a site that answers its status may say).
-    client.get("/api/v1/status.json", &[])?;
+    // none, which only a site that answers its status may say), and its
+    // glucose unit, which a BG Check without its own `units` is in.
+    let status = client.get("/api/v1/status.json", &[])?;
+    let units = site_units(&status);
     let now = opts.now.unwrap_or_else(jiff::Timestamp::now);
     let marks = store.link_marks(&link.person)?;
     let future = abba_io::read::future_limit(now).as_millisecond();
-    let mut fetched = Fetched::default();
+    let mut fetched = Fetched {
+        units,
+        ..Fetched::default()
+    };
     let mut reports = Vec::new();
     let mut gone = Vec::new();
     let mut unproven = Vec::new();
@@ -475,6 +480,15 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
         gone,
         warnings,
     })
+}
+
+/// The glucose unit a site's `status.json` names (`settings.units`:
+/// `mg/dl` or `mmol`), if it names one abba reads.
+pub fn site_units(status: &Value) -> Option<abba_io::units::GlucoseUnit> {
+    status
+        .pointer("/settings/units")
+        .and_then(Value::as_str)
+        .and_then(abba_io::units::GlucoseUnit::parse)
 }
 
 /// The treatments API v3's history names as changed and valid without a

@@ -228,3 +228,54 @@ fn a_redirect_that_carries_the_token_back_does_not_show_it() {
     );
     assert!(!text.contains(token), "{text}");
 }
+
+/// The site's BG Checks' glucose (mg/dL) in the store after a sync, by
+/// the status's `settings.units`.
+fn bg_checks_by_status_units(units: Option<&'static str>) -> (Vec<f64>, Vec<String>) {
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = data(1);
+    let at = d.treatments[0]["created_at"].as_str().unwrap().to_string();
+    // Careportal's BG Check as a server that is not Nightscout's code may
+    // hold it: the glucose without its unit beside it.
+    d.treatments
+        .push(serde_json::json!({"_id": "c0ffee00c0ffee00c0ffee01",
+        "eventType": "BG Check", "created_at": at, "glucose": 6.5,
+        "glucoseType": "Finger", "enteredBy": "careportal"}));
+    let files = export(dir.path(), &d);
+    let mut site = site_of(&d, 1000);
+    site.status_units = units;
+    let srv = Server::start(site);
+    let (_, mut store) = store_with_person(dir.path(), "sync.db", &files);
+    link(&mut store, "ana", &srv.url, secret(), false, &fast_client()).unwrap();
+    let r = sync(&mut store, "ana", &sync_opts()).unwrap();
+    let glucose = store
+        .records("ana")
+        .unwrap()
+        .iter()
+        .filter(|r| matches!(&r.id, abba_io::record::SourceId::Id(id) if id.as_ref() == "c0ffee00c0ffee00c0ffee01"))
+        .map(|r| match &r.kind {
+            abba_io::record::RecordKind::Smbg { glucose } => glucose.mg_dl.0,
+            other => panic!("{other:?}"),
+        })
+        .collect();
+    (glucose, r.import.import.unwrap().notes)
+}
+
+#[test]
+fn a_bg_check_without_units_is_in_the_sites_unit_and_else_reported() {
+    let (mmol, _) = bg_checks_by_status_units(Some("mmol"));
+    assert_eq!(mmol.len(), 1);
+    assert!(
+        (mmol[0] - 6.5 * abba_core::units::MG_DL_PER_MMOL_L).abs() < 1e-9,
+        "{mmol:?}"
+    );
+    let (mg, _) = bg_checks_by_status_units(Some("mg/dl"));
+    // 6.5 mg/dL is no glucose a meter reads: refused, not converted.
+    assert!(mg.is_empty(), "{mg:?}");
+    let (none, notes) = bg_checks_by_status_units(None);
+    assert!(none.is_empty(), "{none:?}");
+    assert!(
+        notes.iter().any(|n| n.contains("units")),
+        "the BG Check is reported: {notes:?}"
+    );
+}

@@ -279,3 +279,79 @@ fn a_bg_check_without_units_is_in_the_sites_unit_and_else_reported() {
         "the BG Check is reported: {notes:?}"
     );
 }
+
+#[test]
+fn ninety_days_back_filled_interrupted_then_resumed_every_reading_once() {
+    // 91 days of 5-minute entries on a server capping pages at 1,000; the
+    // first sync fails half-way (the site errs longer than the retries),
+    // the next one completes; a later sync reads only what is new.
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = data(1);
+    let newest = d.entries[0]["date"].as_i64().unwrap();
+    let n = 91 * 288;
+    d.entries = (0..n)
+        .map(|i| {
+            let at = newest - i as i64 * 300_000;
+            serde_json::json!({"_id": object_id(at, i), "type": "sgv", "sgv": 80 + (i * 13) % 120,
+                "date": at, "dateString": common::server::iso(at), "device": "xDrip-DexcomG6"})
+        })
+        .collect();
+    let profile_start = newest - (n as i64 + 288) * 300_000;
+    d.profile[0]["mills"] = serde_json::json!(profile_start);
+    d.profile[0]["startDate"] = serde_json::json!(common::server::iso(profile_start));
+    let files = export(dir.path(), &d);
+    let mut site = site_of(&d, 1000);
+    site.v3 = false;
+    let srv = Server::start(site);
+    let (_, mut store) = store_with_person(dir.path(), "sync.db", &files);
+    link(&mut store, "ana", &srv.url, secret(), false, &fast_client()).unwrap();
+    // 12 pages through, then every try of the next fails.
+    srv.with(|s| {
+        s.faults = vec![Fault {
+            path: "entries".into(),
+            kind: FaultKind::After(12, Box::new(FaultKind::Status(500))),
+            times: 4,
+        }];
+        s.log.clear();
+    });
+    let e = sync(&mut store, "ana", &sync_opts()).unwrap_err();
+    assert!(matches!(e, NsError::GaveUp { .. }), "{e}");
+    assert!(store.records("ana").unwrap().is_empty());
+    assert!(store.link_marks("ana").unwrap().is_empty());
+    let failed_at = srv.with(|s| s.log.iter().filter(|l| l.contains("entries")).count());
+    assert!(failed_at >= 16, "it failed half-way: {failed_at} reads");
+    let r = sync(&mut store, "ana", &sync_opts()).unwrap();
+    assert_eq!(r.collections[0].documents, n);
+    let cgm = |store: &abba_store::Store| {
+        store
+            .records("ana")
+            .unwrap()
+            .iter()
+            .filter(|r| matches!(r.kind, abba_io::record::RecordKind::Cgm { .. }))
+            .map(|r| r.at)
+            .collect::<Vec<_>>()
+    };
+    let mut at = cgm(&store);
+    assert_eq!(at.len(), n);
+    at.sort();
+    at.dedup();
+    assert_eq!(at.len(), n, "each reading once");
+    // A day later: 288 new readings; the sync reads them and the window
+    // read again, not the months.
+    let new: Vec<serde_json::Value> = (1..=288)
+        .map(|i| {
+            let t = newest + i as i64 * 300_000;
+            serde_json::json!({"_id": object_id(t, n + i), "type": "sgv", "sgv": 100,
+                "date": t, "dateString": common::server::iso(t), "device": "xDrip-DexcomG6"})
+        })
+        .collect();
+    srv.with(|s| s.add("entries", new));
+    let r = sync(&mut store, "ana", &sync_opts()).unwrap();
+    assert!(
+        r.collections[0].received < 3 * 288 + 10,
+        "{:?}",
+        r.collections[0]
+    );
+    assert_eq!(r.import.import.unwrap().added, 288);
+    assert_eq!(cgm(&store).len(), n + 288);
+}

@@ -140,6 +140,9 @@ pub enum FaultKind {
     Unavailable(u64),
     /// 301 to this Location (a site moved, or http to https).
     Redirect(String),
+    /// Lets this many matching requests through, then acts as the
+    /// other kind (a site that fails half-way through a long read).
+    After(usize, Box<FaultKind>),
     /// Send half of the body, then cut the connection.
     Cut,
     /// Wait this long before answering.
@@ -369,6 +372,14 @@ fn fault(site: &mut Site, path: &str) -> Option<FaultKind> {
         .faults
         .iter()
         .position(|f| path.contains(&f.path) && f.times > 0)?;
+    if let FaultKind::After(n, inner) = &mut site.faults[i].kind {
+        if *n > 0 {
+            *n -= 1;
+            return None;
+        }
+        let k = (**inner).clone();
+        site.faults[i].kind = k;
+    }
     site.faults[i].times -= 1;
     let k = site.faults[i].kind.clone();
     if site.faults[i].times == 0 {
@@ -432,7 +443,8 @@ async fn answer(kind: Option<FaultKind>, status: StatusCode, body: Value) -> Res
             .header("content-encoding", "gzip")
             .body(Body::from(gzip_stored(body.to_string().as_bytes())))
             .unwrap_or_default(),
-        None => (status, axum::Json(body)).into_response(),
+        // (Resolved by `fault` before it is met.)
+        Some(FaultKind::After(..)) | None => (status, axum::Json(body)).into_response(),
     }
 }
 

@@ -518,25 +518,36 @@ pub fn permits(grant: &str, permission: &str) -> bool {
     true
 }
 
-/// The answer's `Content-Encoding` when it is not `identity` (abba asks
-/// for `identity` only and reads no other).
+/// The answer's `Content-Encoding` when abba cannot read it: abba asks
+/// for `identity`, and reads `gzip` all the same (a proxy in front of a
+/// site that compresses every answer; ureq decodes it, the body limit
+/// counting the decoded bytes), but no other, nor gzip twice.
 fn foreign_encoding(resp: &ureq::http::Response<ureq::Body>) -> Option<String> {
-    let enc = resp
+    let codings: Vec<String> = resp
         .headers()
         .get_all("content-encoding")
         .iter()
-        .map(|v| String::from_utf8_lossy(v.as_bytes()).trim().to_string())
-        .filter(|v| !v.is_empty() && !v.eq_ignore_ascii_case("identity"))
-        .collect::<Vec<_>>()
-        .join(", ");
-    (!enc.is_empty()).then_some(enc)
+        .flat_map(|v| {
+            String::from_utf8_lossy(v.as_bytes())
+                .split(',')
+                .map(|c| c.trim().to_string())
+                .collect::<Vec<_>>()
+        })
+        .filter(|c| !c.is_empty() && !c.eq_ignore_ascii_case("identity"))
+        .collect();
+    match codings.as_slice() {
+        [] => None,
+        [one] if one == "gzip" => None,
+        _ => Some(codings.join(", ")),
+    }
 }
 
 fn not_identity(enc: &str) -> String {
     format!(
         "the site answered with Content-Encoding: {enc}, which abba did not ask for \
-         (it sends Accept-Encoding: identity) and does not read; a proxy in front of \
-         Nightscout that compresses every answer does this: it should honour Accept-Encoding"
+         (it sends Accept-Encoding: identity) and does not read (only gzip); a proxy in \
+         front of Nightscout that compresses every answer does this: it should honour \
+         Accept-Encoding"
     )
 }
 

@@ -150,6 +150,9 @@ pub enum FaultKind {
     /// Answer gzip-compressed (`Content-Encoding: gzip`) whatever the
     /// client asked for, as a misconfigured proxy does.
     Gzip,
+    /// Answer with this `Content-Encoding` (the body as it is), as a
+    /// proxy compressing in a coding abba does not read would label it.
+    Encoded(&'static str),
 }
 
 /// The SHA-1 hex Nightscout compares the `api-secret` header with.
@@ -437,6 +440,12 @@ async fn answer(kind: Option<FaultKind>, status: StatusCode, body: Value) -> Res
             tokio::time::sleep(d).await;
             (status, axum::Json(body)).into_response()
         }
+        Some(FaultKind::Encoded(coding)) => Response::builder()
+            .status(status)
+            .header("content-type", "application/json")
+            .header("content-encoding", coding)
+            .body(Body::from(body.to_string()))
+            .unwrap_or_default(),
         Some(FaultKind::Gzip) => Response::builder()
             .status(status)
             .header("content-type", "application/json")

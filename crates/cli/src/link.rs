@@ -286,6 +286,9 @@ pub fn sync(a: SyncArgs) -> Result<()> {
                         if r.gone.len() > shown.len() { ", ..." } else { "" }
                     );
                 }
+                for w in &r.warnings {
+                    println!("Not checked: {w}.");
+                }
                 if let Some(w) = &r.write_back {
                     println!(
                         "Written back: {} new Notes, {} updated{}.",

@@ -1,6 +1,7 @@
-//! Keeping every linked person current (`abba serve --sync-every`): every
-//! tick, the links that are due are synced, at most `concurrency` at once,
-//! each on its own store connection. A link that failed waits longer
+//! Keeping every linked person current (`abba serve --sync-every`): the
+//! links that are due are synced, at most `concurrency` at once, each on
+//! its own store connection; a slot freed is taken by the next person due
+//! at once, so a slow or stalled site holds its own slot only. A link that failed waits longer
 //! before its next try: the interval doubled per failure in a row, at most
 //! [`MAX_BACKOFF`]. Outcomes are recorded on the link (last sync, error,
 //! failures), which the API and `abba link --list` show, and logged
@@ -17,7 +18,7 @@
 use crate::sync::{sync_and_record, SyncOptions};
 use abba_store::link::Link;
 use abba_store::Store;
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
@@ -151,92 +152,117 @@ pub fn round_with(
     mem: &Unrecorded,
     after_import: &(dyn Fn(&str) + Sync),
 ) -> Result<usize, abba_store::StoreError> {
-    let now = jiff::Timestamp::now();
-    let due_now: Vec<String> = Store::open(db)?
-        .links()?
-        .into_iter()
-        .map(|l| with_unrecorded(l, mem))
-        .filter(|l| due(l, bg.every, now))
-        .map(|l| l.person)
-        .collect();
+    let due_now = due_persons(db, bg, mem, &HashSet::new())?;
     let n = due_now.len();
     for chunk in due_now.chunks(bg.concurrency.max(1)) {
         std::thread::scope(|s| {
             for person in chunk {
-                s.spawn(move || {
-                    let mut store = match Store::open(db) {
-                        Ok(s) => s,
-                        Err(e) => {
-                            record_failure(
-                                db,
-                                person,
-                                format!("the store could not be opened for the sync: {e}"),
-                                mem,
-                            );
-                            return;
-                        }
-                    };
-                    // One replica at a time: the claim lasts as long as
-                    // this connection; under it the link must still be due.
-                    match store.claim(&format!("nightscout sync {person}")) {
-                        Ok(true) => {}
-                        Ok(false) => return,
-                        Err(e) => {
-                            record_failure(db, person, format!("the sync could not be claimed: {e}"), mem);
-                            return;
-                        }
-                    }
-                    match store.link(person) {
-                        Ok(Some(l)) => {
-                            if !due(&with_unrecorded(l, mem), bg.every, jiff::Timestamp::now()) {
-                                return;
-                            }
-                        }
-                        Ok(None) => return,
-                        Err(e) => {
-                            record_failure(db, person, format!("the link could not be read: {e}"), mem);
-                            return;
-                        }
-                    }
-                    // The outcome is recorded on the link; when it cannot
-                    // be, it is kept in memory.
-                    let a = sync_and_record(&mut store, person, &bg.sync);
-                    if let Ok(r) = &a.result {
-                        let imported = r.import.import.as_ref();
-                        if r.import.deleted > 0
-                            || imported.is_some_and(|i| i.added > 0 || i.updated > 0)
-                        {
-                            after_import(person);
-                        }
-                        if !r.gone.is_empty() {
-                            tracing::warn!(person, documents = r.gone.len(), ids = ?r.gone, "documents no longer on the Nightscout site (deleted through API v1): their records are kept");
-                        }
-                    }
-                    match (a.result, a.recorded) {
-                        (Ok(_), Ok(())) => mem.clear(person),
-                        (Err(e), Ok(())) => {
-                            mem.clear(person);
-                            tracing::warn!(person, error = %e, "background Nightscout sync failed");
-                        }
-                        (Ok(_), Err(e)) => {
-                            // The import is in; only its record is not: once
-                            // more on a fresh connection, else the next round
-                            // syncs again (and finds nothing new).
-                            mem.clear(person);
-                            let again = Store::open(db).and_then(|mut s| {
-                                s.record_sync(person, jiff::Timestamp::now(), None)
-                            });
-                            if let Err(e2) = again {
-                                tracing::warn!(person, error = %e, again = %e2, "a background Nightscout sync succeeded but could not be recorded on the link");
-                            }
-                        }
-                        (Err(e), Err(_)) => record_failure(db, person, e.to_string(), mem),
-                    }
-                });
+                s.spawn(move || sync_one(db, bg, mem, person, after_import));
             }
         });
     }
     Ok(n)
+}
+
+/// The persons whose links are due now, but those in `busy`.
+fn due_persons(
+    db: &Path,
+    bg: &Background,
+    mem: &Unrecorded,
+    busy: &HashSet<String>,
+) -> Result<Vec<String>, abba_store::StoreError> {
+    let now = jiff::Timestamp::now();
+    Ok(Store::open(db)?
+        .links()?
+        .into_iter()
+        .map(|l| with_unrecorded(l, mem))
+        .filter(|l| !busy.contains(&l.person) && due(l, bg.every, now))
+        .map(|l| l.person)
+        .collect())
+}
+
+/// One person's sync on its own store connection, its outcome recorded
+/// on the link (or kept in `mem`).
+fn sync_one(
+    db: &Path,
+    bg: &Background,
+    mem: &Unrecorded,
+    person: &str,
+    after_import: &(dyn Fn(&str) + Sync),
+) {
+    let mut store = match Store::open(db) {
+        Ok(s) => s,
+        Err(e) => {
+            record_failure(
+                db,
+                person,
+                format!("the store could not be opened for the sync: {e}"),
+                mem,
+            );
+            return;
+        }
+    };
+    // One replica at a time: the claim lasts as long as
+    // this connection; under it the link must still be due.
+    match store.claim(&format!("nightscout sync {person}")) {
+        Ok(true) => {}
+        Ok(false) => return,
+        Err(e) => {
+            record_failure(
+                db,
+                person,
+                format!("the sync could not be claimed: {e}"),
+                mem,
+            );
+            return;
+        }
+    }
+    match store.link(person) {
+        Ok(Some(l)) => {
+            if !due(&with_unrecorded(l, mem), bg.every, jiff::Timestamp::now()) {
+                return;
+            }
+        }
+        Ok(None) => return,
+        Err(e) => {
+            record_failure(db, person, format!("the link could not be read: {e}"), mem);
+            return;
+        }
+    }
+    // The outcome is recorded on the link; when it cannot
+    // be, it is kept in memory.
+    let a = sync_and_record(&mut store, person, &bg.sync);
+    if let Ok(r) = &a.result {
+        let imported = r.import.import.as_ref();
+        if r.import.deleted > 0 || imported.is_some_and(|i| i.added > 0 || i.updated > 0) {
+            after_import(person);
+        }
+        for w in &r.warnings {
+            tracing::warn!(person, warning = %w, "a background Nightscout sync could not check everything");
+        }
+        if !r.gone.is_empty() {
+            tracing::warn!(person, documents = r.gone.len(), ids = ?r.gone, "documents no longer on the Nightscout site (deleted through API v1): their records are kept");
+        }
+    }
+    match (a.result, a.recorded) {
+        (Ok(_), Ok(())) => mem.clear(person),
+        (Err(e), Ok(())) => {
+            mem.clear(person);
+            tracing::warn!(person, error = %e, "background Nightscout sync failed");
+        }
+        (Ok(_), Err(e)) => {
+            // The import is in; only its record is not: once
+            // more on a fresh connection, else the next round
+            // syncs again (and finds nothing new).
+            mem.clear(person);
+            let again = Store::open(db)
+                .and_then(|mut s| s.record_sync(person, jiff::Timestamp::now(), None));
+            if let Err(e2) = again {
+                tracing::warn!(person, error = %e, again = %e2, "a background Nightscout sync succeeded but could not be recorded on the link");
+            }
+        }
+        (Err(e), Err(_)) => record_failure(db, person, e.to_string(), mem),
+    }
 }
 
 /// Runs rounds until `stop` is set (checked every 200 ms). A round that
@@ -246,7 +272,10 @@ pub fn run(db: &Path, bg: &Background, stop: &AtomicBool) {
     run_with(db, bg, stop, &|_| {});
 }
 
-/// [`run`], with [`round_with`]'s `after_import`.
+/// [`run`], with [`round_with`]'s `after_import`. Syncs run in at most
+/// `concurrency` slots, each taken by the next due person as soon as it
+/// is free: a site that is slow or stalled (each call has its timeouts)
+/// holds its own slot only, and the others' syncs go on at their times.
 pub fn run_with(
     db: &Path,
     bg: &Background,
@@ -255,18 +284,49 @@ pub fn run_with(
 ) {
     let tick = Duration::from_millis(200);
     let round_every = bg.every.min(Duration::from_secs(30));
+    let slots = bg.concurrency.max(1);
     let mem = Unrecorded::default();
-    let mut since = round_every;
-    while !stop.load(Ordering::Relaxed) {
-        if since >= round_every {
-            if let Err(e) = round_with(db, bg, &mem, after_import) {
-                tracing::warn!(error = %e, "a background Nightscout round could not read the links");
+    let busy: Mutex<HashSet<String>> = Mutex::new(HashSet::new());
+    // Persons left waiting for a slot at the last look: looked at again as
+    // soon as one is free.
+    let waiting = AtomicBool::new(false);
+    let mem = &mem;
+    let busy = &busy;
+    let waiting = &waiting;
+    std::thread::scope(|s| {
+        let mut since = round_every;
+        while !stop.load(Ordering::Relaxed) {
+            let in_flight = busy.lock().map_or(slots, |b| b.len());
+            let free = slots.saturating_sub(in_flight);
+            if free > 0 && (since >= round_every || waiting.load(Ordering::Relaxed)) {
+                let taken = busy.lock().map(|b| b.clone()).unwrap_or_default();
+                match due_persons(db, bg, mem, &taken) {
+                    Ok(due_now) => {
+                        waiting.store(due_now.len() > free, Ordering::Relaxed);
+                        for person in due_now.into_iter().take(free) {
+                            if let Ok(mut b) = busy.lock() {
+                                b.insert(person.clone());
+                            }
+                            s.spawn(move || {
+                                sync_one(db, bg, mem, &person, after_import);
+                                if let Ok(mut b) = busy.lock() {
+                                    b.remove(&person);
+                                }
+                            });
+                        }
+                    }
+                    Err(e) => {
+                        tracing::warn!(error = %e, "a background Nightscout round could not read the links")
+                    }
+                }
+                if since >= round_every {
+                    since = Duration::ZERO;
+                }
             }
-            since = Duration::ZERO;
+            std::thread::sleep(tick);
+            since += tick;
         }
-        std::thread::sleep(tick);
-        since += tick;
-    }
+    });
 }
 
 #[cfg(test)]

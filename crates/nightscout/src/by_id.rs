@@ -52,7 +52,7 @@
 
 use crate::client::Client;
 use crate::error::NsError;
-use crate::fetch::{as_array, doc_id, is_object_id, Collection, Collector, Key, MAX_PAGES};
+use crate::fetch::{doc_id, is_object_id, list, Collection, Collector, Key, MAX_PAGES};
 use serde_json::Value;
 
 /// The least ObjectId made at or after `ms` (its seconds, then zeros).
@@ -237,7 +237,7 @@ fn paged(
         }
         q.push(("sort[_id]", "1".into()));
         q.push(("count", page.to_string()));
-        let docs = as_array(client, &call, client.get(c.path(), &q)?)?;
+        let docs = list(client, c.path(), &q)?;
         pages += 1;
         col.out.pages += 1;
         if docs.is_empty() {
@@ -252,7 +252,17 @@ fn paged(
         col.out.received += docs.len();
         largest = largest.max(docs.len());
         let strings = matches!(run, Run::Strings(_));
-        let problem = check(c, &docs, &run, from_oid);
+        // Entries come ordered by date again (Nightscout's
+        // `format_entries`), so their order cannot show a server that
+        // ignores `sort[_id]`: a full page of them may be any of the
+        // run's documents, not its first, and its last `_id` bounds
+        // nothing. Such a page's range is read by ranges of `_id`.
+        let full = docs.len() > 1 && docs.len() >= col.largest;
+        col.largest = col.largest.max(docs.len());
+        let problem = match check(c, &docs, &run, from_oid) {
+            None if c == Collection::Entries && full => Some(Problem::Unordered),
+            p => p,
+        };
         let last = docs
             .iter()
             .filter_map(|d| doc_id(d).map(|id| norm(id, strings)))
@@ -350,7 +360,7 @@ fn split(
         }
         q.push(("sort[_id]", "1".into()));
         q.push(("count", page.to_string()));
-        let docs = as_array(client, &call, client.get(c.path(), &q)?)?;
+        let docs = list(client, c.path(), &q)?;
         pages += 1;
         col.out.pages += 1;
         col.out.received += docs.len();

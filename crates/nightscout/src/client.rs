@@ -245,7 +245,11 @@ impl Client {
                         // A site without API v2 authorization: `?token=`.
                         404 => break None,
                         s if (s == 429 || s >= 500) && attempt < self.opts.attempts => {
-                            std::thread::sleep(retry_after(&resp).unwrap_or(backoff));
+                            let wait = retry_after(&resp);
+                            if let Some(w) = wait.filter(|w| *w > self.opts.max_retry_after) {
+                                return Err(self.wait_too_long(&call, s, w));
+                            }
+                            std::thread::sleep(wait.unwrap_or(backoff));
                             backoff = backoff.saturating_mul(2);
                         }
                         s => {
@@ -280,6 +284,32 @@ impl Client {
         };
         self.set_jwt(Some(got.clone()));
         Ok(got)
+    }
+
+    /// `text` without the access token (a server may echo the request's
+    /// URL, `?token=` included, in an answer or a Location).
+    fn scrub(&self, text: &str) -> String {
+        match &self.credential {
+            Credential::Token(t) if !t.is_empty() => text
+                .replace(t.as_str(), "***")
+                .replace(&encode_segment(t), "***"),
+            _ => text.to_string(),
+        }
+    }
+
+    /// A Retry-After longer than abba waits: the sync ends, to be tried
+    /// again later.
+    fn wait_too_long(&self, call: &str, status: u16, wait: Duration) -> NsError {
+        NsError::GaveUp {
+            site: self.site.to_string(),
+            call: call.to_string(),
+            attempts: 1,
+            last: format!(
+                "HTTP {status} with Retry-After {} s, longer than abba waits ({} s): sync again later",
+                wait.as_secs(),
+                self.opts.max_retry_after.as_secs()
+            ),
+        }
     }
 
     fn protocol(&self, call: &str, problem: String) -> NsError {
@@ -369,12 +399,14 @@ impl Client {
                 }
             }
             300..=399 => {
+                // A Location that carries the query back (`?token=...`)
+                // is shown without its values.
                 let to = resp
                     .headers()
                     .get("location")
                     .and_then(|v| v.to_str().ok())
-                    .unwrap_or("?")
-                    .to_string();
+                    .map(|l| crate::site::redacted(&self.scrub(l)))
+                    .unwrap_or_else(|| "?".to_string());
                 Err(NsError::Redirect {
                     site: self.site.to_string(),
                     call: call.to_string(),
@@ -394,23 +426,18 @@ impl Client {
             }),
             429 => {
                 let wait = retry_after(&resp);
-                if let Some(w) = wait {
-                    if w > self.opts.max_retry_after {
-                        return Err(NsError::GaveUp {
-                            site: self.site.to_string(),
-                            call: call.to_string(),
-                            attempts: 1,
-                            last: format!(
-                                "429 Too Many Requests with Retry-After {} s, longer than abba waits ({} s): sync again later",
-                                w.as_secs(),
-                                self.opts.max_retry_after.as_secs()
-                            ),
-                        });
+                match wait {
+                    Some(w) if w > self.opts.max_retry_after => {
+                        Err(self.wait_too_long(call, status, w))
                     }
+                    _ => Ok(Outcome::Retry("429 Too Many Requests".into(), wait)),
                 }
-                Ok(Outcome::Retry("429 Too Many Requests".into(), wait))
             }
-            500..=599 => Ok(Outcome::Retry(format!("HTTP {status}"), None)),
+            // 503 (and any 5xx) with Retry-After: waited for as a 429's.
+            500..=599 => match retry_after(&resp) {
+                Some(w) if w > self.opts.max_retry_after => Err(self.wait_too_long(call, status, w)),
+                wait => Ok(Outcome::Retry(format!("HTTP {status}"), wait)),
+            },
             _ => {
                 let text = resp
                     .body_mut()
@@ -422,7 +449,7 @@ impl Client {
                     site: self.site.to_string(),
                     call: call.to_string(),
                     status,
-                    body: text.chars().take(300).collect(),
+                    body: self.scrub(&text).chars().take(300).collect(),
                 })
             }
         }
@@ -491,25 +518,36 @@ pub fn permits(grant: &str, permission: &str) -> bool {
     true
 }
 
-/// The answer's `Content-Encoding` when it is not `identity` (abba asks
-/// for `identity` only and reads no other).
+/// The answer's `Content-Encoding` when abba cannot read it: abba asks
+/// for `identity`, and reads `gzip` all the same (a proxy in front of a
+/// site that compresses every answer; ureq decodes it, the body limit
+/// counting the decoded bytes), but no other, nor gzip twice.
 fn foreign_encoding(resp: &ureq::http::Response<ureq::Body>) -> Option<String> {
-    let enc = resp
+    let codings: Vec<String> = resp
         .headers()
         .get_all("content-encoding")
         .iter()
-        .map(|v| String::from_utf8_lossy(v.as_bytes()).trim().to_string())
-        .filter(|v| !v.is_empty() && !v.eq_ignore_ascii_case("identity"))
-        .collect::<Vec<_>>()
-        .join(", ");
-    (!enc.is_empty()).then_some(enc)
+        .flat_map(|v| {
+            String::from_utf8_lossy(v.as_bytes())
+                .split(',')
+                .map(|c| c.trim().to_string())
+                .collect::<Vec<_>>()
+        })
+        .filter(|c| !c.is_empty() && !c.eq_ignore_ascii_case("identity"))
+        .collect();
+    match codings.as_slice() {
+        [] => None,
+        [one] if one == "gzip" => None,
+        _ => Some(codings.join(", ")),
+    }
 }
 
 fn not_identity(enc: &str) -> String {
     format!(
         "the site answered with Content-Encoding: {enc}, which abba did not ask for \
-         (it sends Accept-Encoding: identity) and does not read; a proxy in front of \
-         Nightscout that compresses every answer does this: it should honour Accept-Encoding"
+         (it sends Accept-Encoding: identity) and does not read (only gzip); a proxy in \
+         front of Nightscout that compresses every answer does this: it should honour \
+         Accept-Encoding"
     )
 }
 
@@ -527,13 +565,21 @@ fn refused_certificate(e: &ureq::Error) -> bool {
     text.contains("certificate") || text.contains("unknownissuer")
 }
 
-/// Retry-After in seconds (an HTTP date is not waited for: the backoff).
+/// Retry-After: seconds, or an HTTP date (`Sun, 06 Dec 2026 17:30:00
+/// GMT`) counted from now (a date past is no wait).
 fn retry_after(resp: &ureq::http::Response<ureq::Body>) -> Option<Duration> {
-    resp.headers()
-        .get("retry-after")
-        .and_then(|v| v.to_str().ok())
-        .and_then(|s| s.trim().parse::<u64>().ok())
-        .map(Duration::from_secs)
+    let v = resp.headers().get("retry-after")?.to_str().ok()?;
+    retry_after_value(v, jiff::Timestamp::now())
+}
+
+fn retry_after_value(v: &str, now: jiff::Timestamp) -> Option<Duration> {
+    let v = v.trim();
+    if let Ok(s) = v.parse::<u64>() {
+        return Some(Duration::from_secs(s));
+    }
+    let at = jiff::fmt::rfc2822::parse(v).ok()?.timestamp();
+    let secs = at.as_second().saturating_sub(now.as_second()).max(0);
+    Some(Duration::from_secs(secs.unsigned_abs()))
 }
 
 /// `METHOD path?query` for messages (never the token).
@@ -581,6 +627,21 @@ mod tests {
         ] {
             assert!(!refused_certificate(&e), "{e}");
         }
+    }
+
+    #[test]
+    fn retry_after_in_seconds_or_as_an_http_date() {
+        let now: jiff::Timestamp = "2026-12-06T17:30:00Z".parse().unwrap();
+        let at = |v: &str| retry_after_value(v, now);
+        assert_eq!(at("120"), Some(Duration::from_secs(120)));
+        assert_eq!(at(" 0 "), Some(Duration::ZERO));
+        assert_eq!(
+            at("Sun, 06 Dec 2026 17:31:30 GMT"),
+            Some(Duration::from_secs(90))
+        );
+        assert_eq!(at("Sun, 06 Dec 2026 17:00:00 GMT"), Some(Duration::ZERO));
+        assert_eq!(at("soon"), None);
+        assert_eq!(at("-5"), None);
     }
 
     #[test]

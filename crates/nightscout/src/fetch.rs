@@ -89,7 +89,7 @@ impl Collection {
     /// `DE_NORMALIZE_DATES`, which rewrites the stored UTC string on the
     /// way out), also the UTC form it is stored in. A document without
     /// the field is keyed by its time in the server's form.
-    fn keys_of(self, doc: &Value) -> Option<(Key, Key)> {
+    pub(crate) fn keys_of(self, doc: &Value) -> Option<(Key, Key)> {
         match self {
             Collection::Entries => {
                 let t = self.time_of(doc)?;
@@ -136,7 +136,7 @@ impl Key {
     }
     /// The least bound in the server's form at or above this key (so
     /// `$lte` of it keeps every document keyed at or below this one).
-    fn at_or_above(&self) -> Option<Key> {
+    pub(crate) fn at_or_above(&self) -> Option<Key> {
         match self {
             Key::Ms(ms) => Some(Key::Ms(*ms)),
             Key::Text(s) => canonical_at_or_above(s).map(Key::Text),
@@ -230,6 +230,10 @@ pub struct Pages {
     /// sync fails with them ([`crate::NsError::Incomplete`]) and imports
     /// nothing.
     pub unproven: Vec<String>,
+    /// What could not be looked for beyond the window read by time,
+    /// said in words (late uploads on a server that cannot be read by
+    /// `_id`): what was read is complete and imported, these are said.
+    pub warnings: Vec<String>,
 }
 
 impl Pages {
@@ -245,6 +249,7 @@ impl Pages {
         let mut col = Collector {
             out: std::mem::take(self),
             index,
+            largest: 0,
         };
         let fresh = docs.into_iter().filter(|d| col.take(d.clone())).count();
         *self = col.finish(c);
@@ -258,6 +263,9 @@ impl Pages {
 pub(crate) struct Collector {
     pub(crate) out: Pages,
     index: HashMap<String, usize>,
+    /// The longest page the server served in this fetch (a page as long
+    /// may have been cut by its maximum).
+    pub(crate) largest: usize,
 }
 
 impl Collector {
@@ -312,6 +320,22 @@ pub fn doc_id(doc: &Value) -> Option<String> {
 
 pub(crate) fn doc_key(doc: &Value) -> String {
     doc_id(doc).unwrap_or_else(|| doc.to_string())
+}
+
+/// The documents a v1 read of `path` serves: a JSON array, or none when
+/// the site answers 404 (a server that is not Nightscout's code may say
+/// "nothing found" so; that the site is there at all is known from its
+/// `status.json`, which the link and every sync read first).
+pub(crate) fn list(
+    client: &Client,
+    path: &str,
+    query: &[(&str, String)],
+) -> Result<Vec<Value>, NsError> {
+    match client.get(path, query) {
+        Ok(v) => as_array(client, &format!("GET {path}"), v),
+        Err(NsError::Status { status: 404, .. }) => Ok(Vec::new()),
+        Err(e) => Err(e),
+    }
 }
 
 pub(crate) fn as_array(client: &Client, call: &str, v: Value) -> Result<Vec<Value>, NsError> {
@@ -393,7 +417,7 @@ pub fn fetch_since(
             q.push((&lte, u.query()));
         }
         q.push(("count", page.to_string()));
-        let docs = as_array(client, &call, client.get(c.path(), &q)?)?;
+        let docs = list(client, c.path(), &q)?;
         col.out.pages += 1;
         if docs.is_empty() {
             break;
@@ -403,6 +427,7 @@ pub fn fetch_since(
         // by its maximum: it holds everything in its bounds.
         let whole = docs.len() < largest;
         largest = largest.max(docs.len());
+        col.largest = col.largest.max(largest);
         let mut fresh = 0;
         let mut least: Option<(Key, Key)> = None;
         // Newest first, as the server compares: a document whose least
@@ -441,11 +466,10 @@ pub fn fetch_since(
             }
         }
         if unsorted {
-            // Paging by time stands on that order; by `_id` it needs none
-            // (ranges of `_id` where the server ignores `sort[_id]` too):
-            // the whole window is read so.
+            // Paging by time stands on that order; ranges of time need
+            // none (nor any order of `_id`): the whole window is read so.
             let from = lower.clone().unwrap_or_else(|| c.lower(0));
-            crate::by_id::range(client, c, &from, None, page, &mut col)?;
+            crate::by_time::window(client, c, &from, None, page, largest, &mut col)?;
             break;
         }
         let Some((least_lo, least_hi)) = least else {
@@ -478,8 +502,16 @@ pub fn fetch_since(
         crate::by_id::without_created_at(client, since.unwrap_or(0), page, &mut col)?;
     }
     if let Some(s) = since.filter(|&s| s > 0) {
+        let before = col.out.unproven.len();
         let late = crate::by_id::inserted_since(client, c, s, page, &mut col)?;
         col.out.late += late;
+        // Late uploads are looked for beyond the window by `_id`; a server
+        // that cannot be read so leaves them unseen. The window read by
+        // time is complete all the same: said, not a failed sync.
+        let cannot: Vec<String> = col.out.unproven.drain(before..).collect();
+        col.out.warnings.extend(cannot.into_iter().map(|w| {
+            format!("late uploads (dated before the window read again) cannot be looked for: {w}")
+        }));
     }
     Ok(col.finish(c))
 }
@@ -500,7 +532,7 @@ pub fn check_time_filter(client: &Client, c: Collection) -> Result<(), NsError> 
     ];
     let q: Vec<(&str, String)> = q.iter().map(|(k, v)| (k.as_str(), v.clone())).collect();
     let call = format!("GET {}", c.path());
-    let docs = as_array(client, &call, client.get(c.path(), &q)?)?;
+    let docs = list(client, c.path(), &q)?;
     let slack = match c {
         Collection::Entries => 1,
         Collection::Treatments => OFFSET_SLACK_MS,
@@ -526,11 +558,17 @@ pub fn check_time_filter(client: &Client, c: Collection) -> Result<(), NsError> 
     Ok(())
 }
 
-/// The profile store's documents (all of them: a few).
+/// The profile store's documents (all of them: a few). A site that
+/// serves one profile document as an object (not in an array, as
+/// `/api/v1/profile/current` does) has that one; a 404 is none.
 pub fn profiles(client: &Client, count: usize) -> Result<Vec<Value>, NsError> {
     let path = "/api/v1/profile.json";
-    let v = client.get(path, &[("count", count.to_string())])?;
-    let docs = as_array(client, &format!("GET {path}"), v)?;
+    let docs = match client.get(path, &[("count", count.to_string())]) {
+        Ok(Value::Object(o)) if o.contains_key("store") => vec![Value::Object(o)],
+        Ok(v) => as_array(client, &format!("GET {path}"), v)?,
+        Err(NsError::Status { status: 404, .. }) => Vec::new(),
+        Err(e) => return Err(e),
+    };
     Ok(docs
         .into_iter()
         .filter(|d| d.get("isValid") != Some(&Value::Bool(false)))
@@ -667,7 +705,7 @@ pub fn treatments_of_identifier(client: &Client, identifier: &str) -> Result<Vec
             ("count", "10".into()),
         ]
     };
-    let docs = as_array(client, &format!("GET {path}"), client.get(path, &q)?)?;
+    let docs = list(client, path, &q)?;
     Ok(docs
         .into_iter()
         .filter(|d| {
@@ -707,11 +745,7 @@ pub fn ids_of_identifier(
         ("find[_id][$ne]", crate::by_id::object_id_at(0)),
         ("count", "10".to_string()),
     ];
-    let docs = as_array(
-        client,
-        &format!("GET {}", c.path()),
-        client.get(c.path(), &q)?,
-    )?;
+    let docs = list(client, c.path(), &q)?;
     for d in &docs {
         if d.get("identifier").and_then(Value::as_str) == Some(identifier) {
             if let Some(id) = doc_id(d) {

@@ -9,6 +9,8 @@
 //! - [`by_id`]: API v1 paging by `_id` where time cannot page: more
 //!   documents at one key than a page holds, treatments without a
 //!   `created_at` string.
+//! - [`by_time`]: API v1 read by ranges of time where the server's pages
+//!   are not in time order (oldest first, or as stored).
 //! - [`sync`]: what is new into the person's store, by the same import as
 //!   files, the marks advancing in the import's transaction.
 //! - [`write_back`]: opt-in; one Note per open or answered suggestion and an `abba` profile
@@ -20,6 +22,7 @@
 
 pub mod background;
 pub mod by_id;
+pub mod by_time;
 pub mod client;
 pub mod error;
 pub mod fetch;

@@ -113,7 +113,7 @@ impl std::fmt::Display for SiteUrl {
 
 /// `url` with what may be a credential replaced by `***`: the user and
 /// password before `@` and the query's values.
-fn redacted(url: &str) -> String {
+pub(crate) fn redacted(url: &str) -> String {
     let url = url.trim();
     let (head, query) = match url.split_once('?') {
         Some((h, q)) => (h, Some(q)),

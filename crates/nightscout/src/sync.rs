@@ -67,6 +67,9 @@ pub struct SyncReport {
     /// site no longer serves in the window read again (deleted through
     /// API v1, which leaves no trace): their records are kept, and said.
     pub gone: Vec<String>,
+    /// What the sync could not look for, in words (late uploads on a
+    /// server that cannot be read by `_id`): what it read is imported.
+    pub warnings: Vec<String>,
 }
 
 /// One collection of a sync.
@@ -127,23 +130,15 @@ pub fn check_link(client: &Client) -> Result<Check, NsError> {
             .to_string()
     };
     // With a bound on `date`: without one Nightscout looks at 4 days only.
-    let newest = client.get(
+    let newest = fetch::list(
+        client,
         Collection::Entries.path(),
         &[("find[date][$gte]", "0".into()), ("count", "1".into())],
     )?;
-    let newest_entry = match &newest {
-        Value::Array(a) => a
-            .first()
-            .and_then(|d| Collection::Entries.time_of(d))
-            .map(fetch::iso_ms),
-        _ => {
-            return Err(NsError::Protocol {
-                site: client.site().to_string(),
-                call: format!("GET {}", Collection::Entries.path()),
-                problem: "expected a JSON array of entries".into(),
-            })
-        }
-    };
+    let newest_entry = newest
+        .first()
+        .and_then(|d| Collection::Entries.time_of(d))
+        .map(fetch::iso_ms);
     // A server that does not filter by time is refused here, before the
     // link is stored, rather than at every sync.
     for c in [Collection::Entries, Collection::Treatments] {
@@ -289,13 +284,22 @@ pub fn sync(store: &mut Store, person: &str, opts: &SyncOptions) -> Result<SyncR
 
 fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncReport, NsError> {
     let client = client_of(link, &opts.client)?;
+    // The site is there (a 404 from a read of documents is taken as
+    // none, which only a site that answers its status may say), and its
+    // glucose unit, which a BG Check without its own `units` is in.
+    let status = client.get("/api/v1/status.json", &[])?;
+    let units = site_units(&status);
     let now = opts.now.unwrap_or_else(jiff::Timestamp::now);
     let marks = store.link_marks(&link.person)?;
     let future = abba_io::read::future_limit(now).as_millisecond();
-    let mut fetched = Fetched::default();
+    let mut fetched = Fetched {
+        units,
+        ..Fetched::default()
+    };
     let mut reports = Vec::new();
     let mut gone = Vec::new();
     let mut unproven = Vec::new();
+    let mut warnings = Vec::new();
     let mut fetched_pages = Vec::new();
     // API v3 first: what changed since the last sync, so the v1 reads
     // reach back to the earliest valid document changed (one uploaded or
@@ -394,6 +398,7 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
             late: pages.late,
         });
         unproven.append(&mut pages.unproven);
+        warnings.append(&mut pages.warnings);
         // The mark: the newest document that is not in the future (those
         // are refused by the import and fetched again until their time).
         let newest = pages
@@ -473,7 +478,17 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
         import,
         write_back,
         gone,
+        warnings,
     })
+}
+
+/// The glucose unit a site's `status.json` names (`settings.units`:
+/// `mg/dl` or `mmol`), if it names one abba reads.
+pub fn site_units(status: &Value) -> Option<abba_io::units::GlucoseUnit> {
+    status
+        .pointer("/settings/units")
+        .and_then(Value::as_str)
+        .and_then(abba_io::units::GlucoseUnit::parse)
 }
 
 /// The treatments API v3's history names as changed and valid without a

@@ -12,6 +12,8 @@ mod common;
 // One module per test file.
 mod background;
 mod by_id;
+mod dst;
+mod quirks;
 mod real_shapes;
 mod sync;
 mod write_back;

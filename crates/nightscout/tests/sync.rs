@@ -351,26 +351,52 @@ fn late_uploads_come_in_by_api_v3_history() {
 /// refused at once, naming the encoding (not after 5 tries as a body that
 /// is "not valid UTF-8").
 #[test]
-fn a_compressed_answer_nobody_asked_for_is_named() {
+fn a_gzip_answer_nobody_asked_for_is_read_and_another_coding_named() {
+    // A proxy that compresses every answer with gzip, whatever abba asked
+    // (identity): the link is made and the sync reads everything.
     let dir = tempfile::tempdir().unwrap();
     let d = data(1);
     let files = export(dir.path(), &d);
     let srv = server(&d, 1000);
     let (_, mut store) = store_with_person(dir.path(), "gz.db", &files);
+    let gzip = |path: &str| Fault {
+        path: path.into(),
+        kind: FaultKind::Gzip,
+        times: 1000,
+    };
+    srv.with(|s| {
+        s.faults = vec![
+            gzip("status"),
+            gzip("entries"),
+            gzip("treatments"),
+            gzip("profile"),
+        ]
+    });
+    link(&mut store, "ana", &srv.url, secret(), false, &fast_client()).unwrap();
+    sync(&mut store, "ana", &sync_opts()).unwrap();
+    assert!(
+        srv.with(|s| s.faults.iter().all(|f| f.times < 1000)),
+        "every answer was gzip"
+    );
+    let (_, mut imported) = store_with_person(dir.path(), "files.db", &files);
+    imported.import_files("ana", &files, None).unwrap();
+    assert_same_records(&store, &imported);
+    // A coding abba does not read is named at once, not retried.
+    let (_, mut other) = store_with_person(dir.path(), "br.db", &files);
     srv.with(|s| {
         s.faults = vec![Fault {
             path: "status".into(),
-            kind: FaultKind::Gzip,
+            kind: FaultKind::Encoded("br"),
             times: 10,
         }];
         s.log.clear();
     });
-    let e = link(&mut store, "ana", &srv.url, secret(), false, &fast_client()).unwrap_err();
+    let e = link(&mut other, "ana", &srv.url, secret(), false, &fast_client()).unwrap_err();
     let text = e.to_string();
     assert!(matches!(e, NsError::Protocol { .. }), "{text}");
-    assert!(text.contains("Content-Encoding: gzip"), "{text}");
+    assert!(text.contains("Content-Encoding: br"), "{text}");
     assert_eq!(srv.with(|s| s.log.len()), 1, "not retried");
-    assert!(store.link("ana").unwrap().is_none());
+    assert!(other.link("ana").unwrap().is_none());
 }
 
 /// A server that ignores `find[date]` (it answers its newest documents

@@ -135,6 +135,11 @@ pub struct Fetched {
     pub marks: BTreeMap<String, i64>,
     /// (collection, JSON array of its documents new since the last mark).
     pub fresh: Vec<(String, Vec<u8>)>,
+    /// The site's glucose unit (`settings.units` of its `status.json`):
+    /// a BG Check that does not say its own `units` is in it, as the site
+    /// shows it. `None`: the site does not say (such a BG Check is then
+    /// reported, not read).
+    pub units: Option<abba_io::units::GlucoseUnit>,
 }
 
 /// What the import of a sync did.
@@ -359,6 +364,7 @@ impl Store {
         let has_records = {
             let opts = abba_io::ReadOptions {
                 tz: Some(p.tz.clone()),
+                units: fetched.units,
                 ..abba_io::ReadOptions::default()
             };
             // (Records the import refuses as too old are records here: it
@@ -377,10 +383,15 @@ impl Store {
                 deleted,
             });
         }
-        let s = self.import_contents_with(
+        let read = abba_io::ReadOptions {
+            format: Some(abba_io::read::Format::Nightscout),
+            units: fetched.units,
+            ..abba_io::ReadOptions::default()
+        };
+        let s = self.import_contents_read(
             name,
             &fetched.contents,
-            Some(abba_io::read::Format::Nightscout),
+            &read,
             resolve,
             now,
             false,

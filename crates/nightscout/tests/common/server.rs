@@ -91,6 +91,17 @@ pub struct Site {
     /// No sort at all, not even by the date field: documents in the order
     /// they were stored (a server that is not Nightscout's code).
     pub unsorted: bool,
+    /// Oldest first by the date field whatever `sort[...]` asks (a
+    /// server that is not Nightscout's code).
+    pub ascending: bool,
+    /// A v1 list with no document to serve answers 404 instead of `[]`
+    /// (a server that is not Nightscout's code).
+    pub empty_is_404: bool,
+    /// `/api/v1/profile.json` answers its newest document as an object,
+    /// not in an array (as `/api/v1/profile/current` does).
+    pub profile_as_object: bool,
+    /// `settings.units` in `/api/v1/status.json` (`None`: no `settings`).
+    pub status_units: Option<&'static str>,
     next_id: u64,
     clock: i64,
 }
@@ -124,6 +135,14 @@ pub enum FaultKind {
     Status(u16),
     /// 429 with Retry-After (s).
     TooMany(u64),
+    /// 503 with Retry-After (s), as a server restarting or a proxy
+    /// before one says.
+    Unavailable(u64),
+    /// 301 to this Location (a site moved, or http to https).
+    Redirect(String),
+    /// Lets this many matching requests through, then acts as the
+    /// other kind (a site that fails half-way through a long read).
+    After(usize, Box<FaultKind>),
     /// Send half of the body, then cut the connection.
     Cut,
     /// Wait this long before answering.
@@ -131,6 +150,9 @@ pub enum FaultKind {
     /// Answer gzip-compressed (`Content-Encoding: gzip`) whatever the
     /// client asked for, as a misconfigured proxy does.
     Gzip,
+    /// Answer with this `Content-Encoding` (the body as it is), as a
+    /// proxy compressing in a coding abba does not read would label it.
+    Encoded(&'static str),
 }
 
 /// The SHA-1 hex Nightscout compares the `api-secret` header with.
@@ -173,6 +195,10 @@ impl Site {
             ignores_id_bounds: false,
             ignores_time_filter: false,
             unsorted: false,
+            ascending: false,
+            empty_is_404: false,
+            profile_as_object: false,
+            status_units: None,
             next_id: 1,
             clock: 1_700_000_000_000,
         }
@@ -349,6 +375,14 @@ fn fault(site: &mut Site, path: &str) -> Option<FaultKind> {
         .faults
         .iter()
         .position(|f| path.contains(&f.path) && f.times > 0)?;
+    if let FaultKind::After(n, inner) = &mut site.faults[i].kind {
+        if *n > 0 {
+            *n -= 1;
+            return None;
+        }
+        let k = (**inner).clone();
+        site.faults[i].kind = k;
+    }
     site.faults[i].times -= 1;
     let k = site.faults[i].kind.clone();
     if site.faults[i].times == 0 {
@@ -374,6 +408,18 @@ async fn answer(kind: Option<FaultKind>, status: StatusCode, body: Value) -> Res
             "Too Many Requests",
         )
             .into_response(),
+        Some(FaultKind::Unavailable(secs)) => (
+            StatusCode::SERVICE_UNAVAILABLE,
+            [("retry-after", secs.to_string())],
+            "Service Unavailable",
+        )
+            .into_response(),
+        Some(FaultKind::Redirect(to)) => (
+            StatusCode::MOVED_PERMANENTLY,
+            [("location", to)],
+            "Moved Permanently",
+        )
+            .into_response(),
         Some(FaultKind::Cut) => {
             let text = body.to_string().into_bytes();
             let half = Bytes::from(text[..text.len() / 2].to_vec());
@@ -394,13 +440,20 @@ async fn answer(kind: Option<FaultKind>, status: StatusCode, body: Value) -> Res
             tokio::time::sleep(d).await;
             (status, axum::Json(body)).into_response()
         }
+        Some(FaultKind::Encoded(coding)) => Response::builder()
+            .status(status)
+            .header("content-type", "application/json")
+            .header("content-encoding", coding)
+            .body(Body::from(body.to_string()))
+            .unwrap_or_default(),
         Some(FaultKind::Gzip) => Response::builder()
             .status(status)
             .header("content-type", "application/json")
             .header("content-encoding", "gzip")
             .body(Body::from(gzip_stored(body.to_string().as_bytes())))
             .unwrap_or_default(),
-        None => (status, axum::Json(body)).into_response(),
+        // (Resolved by `fault` before it is met.)
+        Some(FaultKind::After(..)) | None => (status, axum::Json(body)).into_response(),
     }
 }
 
@@ -617,8 +670,12 @@ async fn v1_list(
         let mut docs = kept;
         // MongoDB's sort: `sort[...]` as given, else the stored date
         // field, newest first (documents without it last).
-        let asked: &[(String, String)] = if site.ignores_sort { &[] } else { &q };
-        let by = match mongo::sort_of(asked, (sort, -1)) {
+        let asked: &[(String, String)] = if site.ignores_sort || site.ascending {
+            &[]
+        } else {
+            &q
+        };
+        let by = match mongo::sort_of(asked, (sort, if site.ascending { 1 } else { -1 })) {
             Ok(b) => b,
             Err(e) => return mongo_error(&e),
         };
@@ -637,7 +694,7 @@ async fn v1_list(
             })
             .min(site.max_count);
         let mut docs: Vec<Value> = docs.into_iter().take(count).collect();
-        if col == "entries" {
+        if col == "entries" && !site.ascending {
             // `format_entries` orders the page by `mills` or `date`,
             // newest first (a stable sort: ties keep MongoDB's order).
             docs.sort_by_key(|d| {
@@ -658,7 +715,18 @@ async fn v1_list(
                 _ => d,
             })
             .collect();
-        (kind, Value::Array(page), site.page_delay)
+        if page.is_empty() && site.empty_is_404 {
+            return (
+                StatusCode::NOT_FOUND,
+                axum::Json(json!({"status": 404, "message": "no documents found"})),
+            )
+                .into_response();
+        }
+        let body = match (col, site.profile_as_object, page.first()) {
+            ("profile", true, Some(first)) => first.clone(),
+            _ => Value::Array(page),
+        };
+        (kind, body, site.page_delay)
     };
     if !delay.is_zero() {
         tokio::time::sleep(delay).await;
@@ -672,7 +740,7 @@ async fn status(
     uri: Uri,
     Query(q): Query<Vec<(String, String)>>,
 ) -> Response {
-    let kind = {
+    let (kind, units) = {
         let mut site = s.lock().unwrap();
         site.log.push(format!("GET {}", uri.path()));
         if !matches!(
@@ -681,14 +749,14 @@ async fn status(
         ) {
             return unauthorized();
         }
-        fault(&mut site, uri.path())
+        (fault(&mut site, uri.path()), site.status_units)
     };
-    answer(
-        kind,
-        StatusCode::OK,
-        json!({"status": "ok", "name": "nightscout", "version": "15.0.3-test", "apiEnabled": true}),
-    )
-    .await
+    let mut body =
+        json!({"status": "ok", "name": "nightscout", "version": "15.0.3-test", "apiEnabled": true});
+    if let Some(u) = units {
+        body["settings"] = json!({"units": u});
+    }
+    answer(kind, StatusCode::OK, body).await
 }
 
 async fn write_treatments(

@@ -14,6 +14,7 @@ mod tidepool_workbook;
 // One module per test file.
 mod aaps;
 mod boundary;
+mod carelink_clock;
 mod carelink_layouts;
 mod careportal;
 mod device_clocks;
@@ -29,4 +30,5 @@ mod partial_files;
 mod real_carelink;
 mod real_exports;
 mod real_variants;
+mod tidepool_model;
 mod tidepool_xlsx;

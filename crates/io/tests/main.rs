@@ -23,6 +23,7 @@ mod events_mapping;
 mod events_properties;
 mod fixtures;
 mod libreview_dates;
+mod libreview_insulin;
 mod never_panic;
 mod nightscout_shapes;
 mod nightscout_uploaders;

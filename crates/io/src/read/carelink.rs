@@ -26,6 +26,7 @@
 
 use abba_core::{Grams, MgDl, Units, UnitsPerHour};
 
+use super::carelink_clock;
 use super::table::{number, Table};
 use super::{or_skip, Ctx};
 use crate::error::{IoError, Location, Place};
@@ -369,6 +370,9 @@ struct Row {
     bolus: bool,
     /// A row of SmartGuard's auto mode (see [`SettingsRows::closed_loop`]).
     closed_loop: bool,
+    /// The time the pump's clock was set to (`New Device Time`), on a
+    /// pump row that says so.
+    set_to: Option<jiff::civil::DateTime>,
 }
 
 /// What a CareLink export says about the pump's settings: the rows that
@@ -437,6 +441,8 @@ pub fn read_with_settings(
         )));
     }
     let mut out = Vec::new();
+    // The pump's clock set by a daylight-saving shift, by device.
+    let mut clock_shifts: Vec<(String, carelink_clock::Shift)> = Vec::new();
     let mut unread_exchanges = 0usize;
     let mut unread_exchanges_column: Option<String> = None;
     let mut meals_without_amount = 0usize;
@@ -530,6 +536,12 @@ pub fn read_with_settings(
                     .bolus_source
                     .is_some_and(|i| t.cell(i).starts_with("CLOSED_LOOP_"))
                 && cols.bolus_delivered.is_some_and(|i| !t.cell(i).is_empty());
+            let set_to = cols
+                .time_change
+                .filter(|_| pump)
+                .map(|i| t.cell(i))
+                .and_then(|c| c.split_once(' '))
+                .and_then(|(d, h)| wall_time(d, h.trim(), order));
             rows.push(Row {
                 line,
                 wall,
@@ -539,6 +551,7 @@ pub fn read_with_settings(
                 wizard,
                 bolus,
                 closed_loop,
+                set_to,
             });
         }
         // Oldest first, so that a wall time in the autumn fold is placed
@@ -552,9 +565,25 @@ pub fn read_with_settings(
             same_second_order(&mut rows);
         }
         confirmed_again(&mut rows);
+        if span.section == Section::Pump {
+            let found = carelink_clock::shifts(&tz, &clock_settings(&rows));
+            clock_shifts.extend(found.into_iter().map(|s| (span.device.clone(), s)));
+        }
+        let own: Vec<carelink_clock::Shift> = clock_shifts
+            .iter()
+            .filter(|(d, _)| *d == span.device && span.section != Section::Totals)
+            .map(|(_, s)| s.clone())
+            .collect();
+        let mut pump_clock = carelink_clock::Placer::new(&own);
         for row in rows {
             at.place = Place::Line(row.line);
-            let instant = or_skip!(ctx, clock.resolve(row.wall, &at, &time_name));
+            let instant = match pump_clock.place(row.wall, row.line) {
+                Some(t) => {
+                    clock.place(t);
+                    t
+                }
+                None => or_skip!(ctx, clock.resolve(row.wall, &at, &time_name)),
+            };
             if matches!(span.section, Section::Pump | Section::Sensor) {
                 settings.end = settings.end.max(Some(instant));
             }
@@ -633,6 +662,9 @@ pub fn read_with_settings(
                 });
             }
         }
+        for note in pump_clock.notes(&tz, &span.describe()) {
+            ctx.note(note);
+        }
     }
     if unread_exchanges > 0 {
         let column = unread_exchanges_column.unwrap_or_else(|| "Event Marker".into());
@@ -652,6 +684,27 @@ pub fn read_with_settings(
     settings.auto_insulin_days.sort();
     settings.carb_ratio.sort_by_key(|c| c.0);
     Ok((out, settings))
+}
+
+/// The settings of the pump's clock among a section's rows (oldest first):
+/// of each run of rows with one `New Device Time`, the first is at the old
+/// clock's time (the next, at the new clock's).
+fn clock_settings(rows: &[Row]) -> Vec<carelink_clock::Setting> {
+    let mut out = Vec::new();
+    let mut previous: Option<jiff::civil::DateTime> = None;
+    for row in rows {
+        if let Some(to) = row.set_to {
+            if previous != Some(to) {
+                out.push(carelink_clock::Setting {
+                    line: row.line,
+                    from: row.wall,
+                    to,
+                });
+            }
+        }
+        previous = row.set_to;
+    }
+    out
 }
 
 /// How soon after a wizard row another one is the same wizard confirmed

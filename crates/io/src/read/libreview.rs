@@ -370,10 +370,31 @@ impl Row<'_, '_> {
     }
 
     /// An insulin row: rapid-acting (or meal + correction) as a bolus,
-    /// long-acting as an injection.
+    /// long-acting as an injection. A dose the person changed from the
+    /// calculator's suggestion (`User Change Insulin`) without the
+    /// rapid-acting dose given is refused: whether the change adds to the
+    /// meal and correction parts is not written, and abba does not guess.
     fn insulin(&self) -> Result<Vec<RecordKind>, IoError> {
         let cols = self.cols;
         let mut kinds = Vec::new();
+        if let Some((name, v)) = self.value(cols.user_change)?.filter(|c| c.1 != 0.0) {
+            if self.value(cols.rapid)?.is_none() {
+                let rapid = cols
+                    .rapid
+                    .map_or("a rapid-acting insulin column".to_string(), |i| {
+                        format!("\"{}\"", self.t.header[i])
+                    });
+                return Err(IoError::invalid(
+                    self.at.clone(),
+                    &name,
+                    format!(
+                        "the person changed the suggested dose by {v} U and the row gives no \
+                         rapid-acting dose in {rapid}; abba does not guess the dose given from \
+                         the meal and correction parts and the change"
+                    ),
+                ));
+            }
+        }
         let bolus = match self.value(cols.rapid)? {
             Some(v) => Some(v),
             None => match (self.value(cols.meal)?, self.value(cols.correction)?) {
@@ -439,6 +460,7 @@ struct Columns {
     long: Option<usize>,
     meal: Option<usize>,
     correction: Option<usize>,
+    user_change: Option<usize>,
     carbs: Option<usize>,
     servings: Option<usize>,
     /// Columns not recognised (checked on insulin and food rows).
@@ -510,6 +532,7 @@ impl Columns {
             long: first(Role::Long),
             meal: first(Role::Meal),
             correction: first(Role::Correction),
+            user_change: first(Role::UserChange),
             carbs: first(Role::CarbsGrams),
             servings: first(Role::CarbsServings),
             unknown,

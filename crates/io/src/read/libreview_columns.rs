@@ -37,8 +37,11 @@ pub enum Role {
     CarbsGrams,
     /// Carbohydrates in servings.
     CarbsServings,
+    /// The person's change of the dose the reader's calculator suggested
+    /// (U): read only to refuse a dose it changed without the dose itself.
+    UserChange,
     /// Known and not needed: device, serial number, notes, the
-    /// "non-numeric" flag columns, the user's change of a suggested dose.
+    /// "non-numeric" flag columns.
     Other,
     /// Not recognised.
     Unknown,
@@ -157,8 +160,10 @@ pub fn role(header: &str) -> (Role, Option<GlucoseUnit>) {
         || ["time", "zeit", "heure", "hora", "ora", "tijd"].contains(&name.trim())
     {
         Role::Time
-    } else if has(&name, &NON_NUMERIC) || has(&name, &USER_CHANGE) {
+    } else if has(&name, &NON_NUMERIC) {
         Role::Other
+    } else if has(&name, &USER_CHANGE) {
+        Role::UserChange
     } else if has(&name, &CARBS) {
         if has(&name, &GRAMS) {
             Role::CarbsGrams
@@ -243,7 +248,7 @@ mod tests {
             Role::Ketone,
             Role::Meal,
             Role::Correction,
-            Role::Other,
+            Role::UserChange,
         ];
         for h in headers {
             let got: Vec<Role> = cells(h).iter().map(|c| role(c).0).collect();

@@ -2,6 +2,7 @@
 //! files into one sorted stream with duplicates removed and counted.
 
 pub mod carelink;
+pub mod carelink_clock;
 pub mod clarity;
 pub mod json;
 pub mod libreview;

@@ -4,9 +4,11 @@
 //! number: [`units::tidepool_mg_dl`]), `bolus` (`normal`,
 //! `extended` over `duration` ms), `basal` (`deliveryType` scheduled,
 //! automated, temp or suspend, `rate` U/h, `duration` ms), `food`
-//! (`nutrition.carbohydrate.net` g), `wizard` (`carbInput`; its bolus is a
-//! record of its own), `insulin` (pen doses: `dose.total`, rapid/short or
-//! intermediate/long by `formulation.simple.actingType`), `pumpSettings`
+//! (`nutrition.carbohydrate.net` g), `wizard` (`carbInput` in grams, or
+//! in exchanges where `carbUnits` says so, read only with the grams per
+//! exchange given; its bolus is a record of its own), `insulin` (pen
+//! doses: `dose.total`, rapid/short or intermediate/long by
+//! `formulation.simple.actingType`), `pumpSettings`
 //! (the active basal schedule and the carb ratios, a therapy profile from
 //! its `time`: see [`pump_settings_profile`]); every other type is counted
 //! by type.
@@ -181,6 +183,7 @@ pub(crate) fn read_items(
     origin: impl Fn(&Item<'_>) -> Origin,
 ) -> Result<Vec<Record>, IoError> {
     let mut out = Vec::with_capacity(items.len());
+    let mut exchanges = 0usize;
     for item in items {
         let ty = or_skip!(
             ctx,
@@ -189,7 +192,7 @@ pub(crate) fn read_items(
         );
         let kind = match ty {
             "pumpSettings" => settings(ctx, item),
-            _ => or_skip!(ctx, datum(item, ty)),
+            _ => or_skip!(ctx, datum(item, ty, ctx.opts.grams_per_exchange)),
         };
         let Some(time) = or_skip!(ctx, item.str("time")) else {
             if matches!(kind, RecordKind::Ignored { .. }) || ty == "pumpSettings" {
@@ -221,6 +224,9 @@ pub(crate) fn read_items(
         {
             ctx.clock(at, s);
         }
+        if matches!(&kind, RecordKind::Ignored { kind } if kind == WIZARD_EXCHANGES) {
+            exchanges += 1;
+        }
         out.push(Record {
             at,
             kind,
@@ -228,6 +234,15 @@ pub(crate) fn read_items(
             id,
             origin: origin(item),
         });
+    }
+    if exchanges > 0 {
+        ctx.note(format!(
+            "carbohydrate not read: {exchanges} bolus wizard record{} (`wizard`) in exchanges \
+             (`carbUnits`), and an exchange is not one fixed mass; give the grams per exchange \
+             (--grams-per-exchange G, or the clinic page's grams-per-exchange field; 10 for the \
+             Spanish raci\u{f3}n) to read it as grams",
+            if exchanges == 1 { "" } else { "s" }
+        ));
     }
     Ok(out)
 }
@@ -291,7 +306,11 @@ fn ms_to_min(item: &Item<'_>, field: &str) -> Result<Option<u32>, IoError> {
     }
 }
 
-fn datum(item: &Item<'_>, ty: &str) -> Result<RecordKind, IoError> {
+fn datum(
+    item: &Item<'_>,
+    ty: &str,
+    grams_per_exchange: Option<f64>,
+) -> Result<RecordKind, IoError> {
     Ok(match ty {
         "cbg" => RecordKind::Cgm {
             glucose: glucose(item)?,
@@ -303,23 +322,51 @@ fn datum(item: &Item<'_>, ty: &str) -> Result<RecordKind, IoError> {
         "basal" => basal(item)?,
         "insulin" => insulin_event(item)?,
         "food" => food(item)?,
-        "wizard" => match item.num("carbInput")? {
-            Some(g) if g > 0.0 => RecordKind::Carbs {
-                grams: Grams(in_range(
-                    item,
-                    "carbInput",
-                    g,
-                    units::CARBS_MAX_G,
-                    "carbohydrate (g)",
-                )?),
-            },
-            _ => RecordKind::Ignored {
-                kind: "wizard without carbohydrate".into(),
-            },
-        },
+        "wizard" => wizard(item, grams_per_exchange)?,
         "deviceEvent" => device_event(item)?,
         other => RecordKind::Ignored {
             kind: other.to_string(),
+        },
+    })
+}
+
+/// The kind a wizard's carbohydrate in exchanges is counted as without
+/// the grams of one exchange.
+const WIZARD_EXCHANGES: &str = "wizard carbohydrate in exchanges (no --grams-per-exchange)";
+
+/// A `wizard` (bolus calculator): its `carbInput` as carbohydrate, in
+/// grams, or in exchanges where `carbUnits` says `exchanges` (a Medtronic
+/// pump whose wizard counts exchanges; Tidepool's viewer shows them as
+/// such) converted with `grams_per_exchange`, and without it counted, not
+/// read (the file's note says so). Any other `carbUnits` is refused. Its
+/// bolus is a record of its own.
+fn wizard(item: &Item<'_>, grams_per_exchange: Option<f64>) -> Result<RecordKind, IoError> {
+    let per = match item.str("carbUnits")? {
+        None => Some(1.0),
+        Some(u) if u.eq_ignore_ascii_case("grams") => Some(1.0),
+        Some(u) if u.eq_ignore_ascii_case("exchanges") => grams_per_exchange,
+        Some(other) => {
+            return Err(item.err(
+                "carbUnits",
+                format!("expected grams or exchanges, got \"{other}\""),
+            ))
+        }
+    };
+    Ok(match (item.num("carbInput")?, per) {
+        (Some(v), Some(g)) if v > 0.0 => RecordKind::Carbs {
+            grams: Grams(in_range(
+                item,
+                "carbInput",
+                v * g,
+                units::CARBS_MAX_G,
+                "carbohydrate (g)",
+            )?),
+        },
+        (Some(v), None) if v > 0.0 => RecordKind::Ignored {
+            kind: WIZARD_EXCHANGES.into(),
+        },
+        _ => RecordKind::Ignored {
+            kind: "wizard without carbohydrate".into(),
         },
     })
 }

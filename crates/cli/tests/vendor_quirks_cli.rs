@@ -1,0 +1,103 @@
+//! `abba import` on vendor exports' quirks, run as a user would: a
+//! Tidepool export of a pump whose bolus wizard counts exchanges, and a
+//! CareLink export across the autumn change whose pump kept summer time
+//! until set by hand.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use crate::cli_common::{abba, ok, tmp_path, TmpPath};
+
+const IO_DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../io/tests/data");
+
+/// A fresh directory for `tag`, removed when dropped.
+fn tmp(tag: &str) -> TmpPath {
+    tmp_path(&format!("abba-vendor-quirks-{tag}-"), "")
+}
+
+/// The `abba events --json` answer for `file` with `extra` flags.
+fn events(file: &str, tz: &str, extra: &[&str]) -> serde_json::Value {
+    let mut args = vec!["events", "--tz", tz, "--json", "--input", file];
+    args.extend_from_slice(extra);
+    serde_json::from_str(&ok(&abba(&args))).unwrap()
+}
+
+#[test]
+fn a_tidepool_wizard_in_exchanges_is_imported_only_with_grams_per_exchange() {
+    let dir = tmp("tidepool-exchanges");
+    let db = dir.join("a.db");
+    let db = db.to_str().unwrap();
+    let file = format!("{IO_DATA}/tidepool_medtronic_exchanges_synthetic.json");
+    ok(&abba(&[
+        "person",
+        "new",
+        "--db",
+        db,
+        "--name",
+        "ana",
+        "--tz",
+        "Europe/Madrid",
+        "--mode",
+        "cgm",
+        "--basal",
+        "0.85",
+        "--carb-ratio",
+        "10,10,10",
+    ]));
+    let text = ok(&abba(&["import", "--db", db, "--person", "ana", &file]));
+    assert!(
+        text.contains("2 bolus wizard records (`wizard`) in exchanges")
+            && text.contains("--grams-per-exchange"),
+        "{text}"
+    );
+    // No meal was read from them; with 12 g an exchange, 48 g and 66 g.
+    let v = events(&file, "Europe/Madrid", &[]);
+    assert_eq!(v["mapping"]["counts"].get("meal_announced"), None, "{v}");
+    let v = events(&file, "Europe/Madrid", &["--grams-per-exchange", "12"]);
+    let grams: Vec<f64> = v["records"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|r| r["kind"]["type"] == "carbs")
+        .map(|r| r["kind"]["grams"].as_f64().unwrap())
+        .collect();
+    assert_eq!(grams, vec![48.0, 66.0], "{v}");
+}
+
+#[test]
+fn a_carelink_pump_clock_set_back_after_the_autumn_change_imports_without_a_repeated_hour() {
+    let dir = tmp("carelink-autumn");
+    let db = dir.join("c.db");
+    let db = db.to_str().unwrap();
+    let file = format!("{IO_DATA}/carelink_780g_autumn_clock_synthetic.csv");
+    ok(&abba(&[
+        "person",
+        "new",
+        "--db",
+        db,
+        "--name",
+        "carl",
+        "--tz",
+        "Europe/Zurich",
+        "--mode",
+        "cgm",
+        "--therapy-from",
+        &file,
+        // The export has no dinner wizard event.
+        "--carb-ratio",
+        "10,12,12",
+    ]));
+    let text = ok(&abba(&["import", "--db", db, "--person", "carl", &file]));
+    assert!(
+        text.contains("the pump's clock was set from 2026-10-25T09:00:00 to 2026-10-25T08:00:00")
+            && text.contains("at the offset it kept (UTC+02:00)"),
+        "{text}"
+    );
+    // Every reading in a minute of its own: none rejected as a second
+    // reading of a minute (as the repeated hour would be).
+    let v = events(&file, "Europe/Zurich", &[]);
+    assert_eq!(
+        v["mapping"]["rejected"].as_array().map(Vec::len),
+        Some(0),
+        "{}",
+        v["mapping"]
+    );
+}

@@ -1,0 +1,290 @@
+//! A MiniMed pump's clock across a daylight-saving change. The pump keeps
+//! the time it was set to: it does not follow the clocks' change, the
+//! person sets it by hand, and CareLink writes each setting as rows with
+//! `New Device Time` (the first of them, in the pump's order, at the old
+//! clock's time: `1:32:01` with New Device Time `1:30`, as in real
+//! exports). Until that setting the pump writes its rows on the offset it
+//! kept, so read on the zone's new offset they would be an hour off: an
+//! hour repeated in autumn, an hour that does not exist in spring.
+//!
+//! A setting by the zone's shift (within [`SHIFT_TOLERANCE_S`]) made
+//! within [`SETTING_WINDOW_S`] after a change (or before one: set the
+//! evening before) is such a correction: the rows written on the pump's
+//! clock between the change and the setting are placed at the offset
+//! that clock kept, and the file's note says which. Any other setting
+//! (a trip, a clock set right by minutes) changes nothing here.
+
+use jiff::civil::DateTime;
+use jiff::tz::{Offset, TimeZone};
+use jiff::{SignedDuration, Timestamp};
+
+/// How far a setting may differ from the zone's shift (s): set by hand,
+/// to the minute.
+pub const SHIFT_TOLERANCE_S: i64 = 600;
+
+/// How long before or after the zone's change the pump's clock may be set
+/// for the setting to be taken as the change (s): a week.
+pub const SETTING_WINDOW_S: i64 = 7 * 86_400;
+
+/// A setting of the pump's clock: the row (line) at the old clock's time
+/// and the time it was set to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Setting {
+    /// The line of the row at the old clock's time.
+    pub line: u64,
+    /// The old clock's time of the setting (the row's date and time).
+    pub from: DateTime,
+    /// The time it was set to (`New Device Time`).
+    pub to: DateTime,
+}
+
+/// A setting that followed (or anticipated) a change of the zone's clocks.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Shift {
+    setting: Setting,
+    /// The zone's change.
+    transition: Timestamp,
+    /// The zone's offset before and after it.
+    before: Offset,
+    after: Offset,
+    /// The instant of the setting (the old clock, on `before`).
+    at: Timestamp,
+}
+
+/// The settings among `settings` that are a daylight-saving change of
+/// `tz` (see the module documentation).
+pub fn shifts(tz: &TimeZone, settings: &[Setting]) -> Vec<Shift> {
+    let mut out = Vec::new();
+    for &s in settings {
+        let delta = s.to.duration_since(s.from).as_secs();
+        if delta.abs() < 1800 {
+            continue; // a clock set right by minutes
+        }
+        // The zone's changes within the window around the old clock's time.
+        let Ok(rough) = tz.to_timestamp(s.from) else {
+            continue;
+        };
+        let window = SignedDuration::from_secs(SETTING_WINDOW_S + 86_400);
+        let (Ok(lo), Ok(hi)) = (rough.checked_sub(window), rough.checked_add(window)) else {
+            continue;
+        };
+        let found = tz
+            .following(lo)
+            .take_while(|t| t.timestamp() <= hi)
+            .find_map(|t| {
+                let transition = t.timestamp();
+                let before =
+                    tz.to_offset(transition.checked_sub(SignedDuration::from_secs(1)).ok()?);
+                let after = t.offset();
+                let shift = i64::from(after.seconds() - before.seconds());
+                let at = before.to_timestamp(s.from).ok()?;
+                let near = at.duration_since(transition).as_secs().abs() <= SETTING_WINDOW_S;
+                ((delta - shift).abs() <= SHIFT_TOLERANCE_S && shift != 0 && near).then_some(
+                    Shift {
+                        setting: s,
+                        transition,
+                        before,
+                        after,
+                        at,
+                    },
+                )
+            });
+        out.extend(found);
+    }
+    out
+}
+
+/// Places one section's rows (in the pump's order, oldest first) by the
+/// shifts: `Some(instant)` for a row written on the offset the pump's
+/// clock kept, `None` for a row the zone places.
+pub struct Placer<'s> {
+    shifts: &'s [Shift],
+    state: Vec<State>,
+}
+
+/// Where one shift's rows are in a section.
+#[derive(Debug, Clone, Default)]
+struct State {
+    /// The setting was passed (a row on the new clock was seen).
+    passed: bool,
+    /// The latest instant read on the old clock.
+    latest: Option<Timestamp>,
+    /// Rows placed at the offset the pump kept: count, first and last line.
+    placed: usize,
+    lines: Option<(u64, u64)>,
+}
+
+impl<'s> Placer<'s> {
+    /// A placer of one section by `shifts`.
+    pub fn new(shifts: &'s [Shift]) -> Self {
+        Self {
+            shifts,
+            state: vec![State::default(); shifts.len()],
+        }
+    }
+
+    /// The instant of a row written at `wall` (line `line`) on the pump's
+    /// clock, when a shift places it.
+    pub fn place(&mut self, wall: DateTime, line: u64) -> Option<Timestamp> {
+        for (s, st) in self.shifts.iter().zip(self.state.iter_mut()) {
+            let (Ok(old), Ok(new)) = (s.before.to_timestamp(wall), s.after.to_timestamp(wall))
+            else {
+                continue;
+            };
+            let first = s.transition.min(s.at);
+            let day = SignedDuration::from_hours(24);
+            if first.checked_sub(day).is_ok_and(|lo| old < lo) && !st.passed {
+                continue; // long before the change and the setting
+            }
+            let half = SignedDuration::from_secs(
+                (s.after.seconds() - s.before.seconds()).unsigned_abs() as i64 / 2,
+            );
+            if !st.passed {
+                // On the new clock: past the setting's instant, or back by
+                // more than half the shift (the autumn's repeated hour).
+                let ahead = s.at.checked_add(half).is_ok_and(|a| old > a);
+                let back = st
+                    .latest
+                    .and_then(|l| l.checked_sub(half).ok())
+                    .is_some_and(|l| old < l);
+                st.passed = ahead || back;
+            }
+            let placed = if st.passed {
+                (new < s.transition).then_some(new)
+            } else {
+                st.latest = st.latest.max(Some(old));
+                (old >= s.transition).then_some(old)
+            };
+            if let Some(t) = placed {
+                st.placed += 1;
+                st.lines = Some(
+                    st.lines
+                        .map_or((line, line), |(a, b)| (a.min(line), b.max(line))),
+                );
+                return Some(t);
+            }
+        }
+        None
+    }
+
+    /// What was placed, in words (one note a shift that placed rows).
+    pub fn notes(&self, tz: &TimeZone, section: &str) -> Vec<String> {
+        let zone = tz.iana_name().unwrap_or("the zone");
+        self.shifts
+            .iter()
+            .zip(&self.state)
+            .filter(|(_, st)| st.placed > 0)
+            .map(|(s, st)| {
+                let (a, b) = st.lines.unwrap_or((0, 0));
+                let lines = if a == b {
+                    format!("line {a}")
+                } else {
+                    format!("lines {a}-{b}")
+                };
+                let (kept, when) = if s.at >= s.transition {
+                    (s.before, "after")
+                } else {
+                    (s.after, "before")
+                };
+                format!(
+                    "the pump's clock was set from {} to {} (line {}, New Device Time), {when} \
+                     {zone}'s clocks changed from {} to {} ({}): {} rows of {section} written on \
+                     the pump's clock between the two ({lines}) were placed at the offset it kept \
+                     ({}), not an hour off",
+                    s.setting.from,
+                    s.setting.to,
+                    s.setting.line,
+                    utc(s.before),
+                    utc(s.after),
+                    s.transition,
+                    st.placed,
+                    utc(kept)
+                )
+            })
+            .collect()
+    }
+}
+
+/// An offset as `UTC+02:00`.
+fn utc(o: Offset) -> String {
+    let s = o.seconds();
+    let sign = if s < 0 { '-' } else { '+' };
+    let m = s.unsigned_abs() / 60;
+    format!("UTC{sign}{:02}:{:02}", m / 60, m % 60)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use jiff::civil::datetime;
+
+    fn zurich() -> TimeZone {
+        TimeZone::get("Europe/Zurich").unwrap()
+    }
+
+    #[test]
+    fn a_setting_by_the_shift_after_the_autumn_change_is_one() {
+        // 2026-10-25 03:00 CEST -> 02:00 CET; the pump set back at 09:00.
+        let s = Setting {
+            line: 10,
+            from: datetime(2026, 10, 25, 9, 0, 0, 0),
+            to: datetime(2026, 10, 25, 8, 0, 0, 0),
+        };
+        let shifts = shifts(&zurich(), &[s]);
+        assert_eq!(shifts.len(), 1);
+        let mut p = Placer::new(&shifts);
+        // Before the change: the zone places it.
+        assert_eq!(p.place(datetime(2026, 10, 25, 1, 30, 0, 0), 1), None);
+        // 05:00 on the pump's summer clock is 04:00 CET (03:00 UTC).
+        let t = p.place(datetime(2026, 10, 25, 5, 0, 0, 0), 2).unwrap();
+        assert_eq!(t.to_string(), "2026-10-25T03:00:00Z");
+        // 08:59 on the old clock, then 08:00 on the new one: the zone's.
+        assert!(p.place(datetime(2026, 10, 25, 8, 59, 0, 0), 3).is_some());
+        assert_eq!(p.place(datetime(2026, 10, 25, 8, 0, 5, 0), 4), None);
+        assert_eq!(p.place(datetime(2026, 10, 25, 8, 30, 0, 0), 5), None);
+    }
+
+    #[test]
+    fn a_setting_the_evening_before_the_change_places_the_rows_after_it() {
+        // Set back at 22:00 CEST on the 24th, before the change at 01:00
+        // UTC on the 25th: the pump runs on winter time while Zurich is
+        // still on summer time.
+        let s = Setting {
+            line: 10,
+            from: datetime(2026, 10, 24, 22, 0, 0, 0),
+            to: datetime(2026, 10, 24, 21, 0, 0, 0),
+        };
+        let shifts = shifts(&zurich(), &[s]);
+        assert_eq!(shifts.len(), 1);
+        let mut p = Placer::new(&shifts);
+        assert_eq!(p.place(datetime(2026, 10, 24, 21, 55, 0, 0), 1), None);
+        // 21:00:05 on the new clock (UTC+01:00) is 22:00:05 CEST.
+        let t = p.place(datetime(2026, 10, 24, 21, 0, 5, 0), 2).unwrap();
+        assert_eq!(t.to_string(), "2026-10-24T20:00:05Z");
+        let t = p.place(datetime(2026, 10, 25, 1, 30, 0, 0), 3).unwrap();
+        assert_eq!(t.to_string(), "2026-10-25T00:30:00Z");
+        // From the change on, the pump's clock is the zone's.
+        assert_eq!(p.place(datetime(2026, 10, 25, 2, 0, 0, 0), 4), None);
+        assert_eq!(p.notes(&zurich(), "the Pump section").len(), 1);
+    }
+
+    #[test]
+    fn a_trip_or_a_clock_set_by_minutes_is_not() {
+        let minutes = Setting {
+            line: 1,
+            from: datetime(2026, 10, 25, 9, 2, 0, 0),
+            to: datetime(2026, 10, 25, 9, 0, 0, 0),
+        };
+        let months_later = Setting {
+            line: 2,
+            from: datetime(2026, 12, 25, 9, 0, 0, 0),
+            to: datetime(2026, 12, 25, 8, 0, 0, 0),
+        };
+        let six_hours = Setting {
+            line: 3,
+            from: datetime(2026, 10, 25, 9, 0, 0, 0),
+            to: datetime(2026, 10, 25, 3, 0, 0, 0),
+        };
+        assert!(shifts(&zurich(), &[minutes, months_later, six_hours]).is_empty());
+    }
+}

@@ -54,4 +54,5 @@ mod tidepool_cli;
 mod trial_cli;
 mod twin_effect_cli;
 mod twin_refit_cli;
+mod uploaders_cli;
 mod web_browser;

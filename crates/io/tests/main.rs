@@ -22,6 +22,7 @@ mod events_mapping;
 mod events_properties;
 mod fixtures;
 mod libreview_dates;
+mod loop_uploads;
 mod never_panic;
 mod nightscout_shapes;
 mod nightscout_uploaders;

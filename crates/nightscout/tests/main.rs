@@ -12,6 +12,7 @@ mod common;
 // One module per test file.
 mod background;
 mod by_id;
+mod loop_modes;
 mod real_shapes;
 mod sync;
 mod write_back;

@@ -331,12 +331,16 @@ impl Evidence {
                 }
                 None => {}
             }
+            // `app`: the client that wrote a document through Nightscout's
+            // API v3 ("AAPS" for AndroidAPS's NSClientV3, which writes no
+            // `enteredBy` on its boluses and temporary basals).
             for key in [
                 "enteredBy",
                 "device",
                 "uploader",
                 "deviceModel",
                 "deviceManufacturers",
+                "app",
             ] {
                 let text = match item.get(key) {
                     Some(Value::String(t)) => t.to_ascii_lowercase(),

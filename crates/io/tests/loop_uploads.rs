@@ -280,3 +280,41 @@ fn loops_square_bolus_is_an_extended_bolus() {
         ]
     );
 }
+
+/// Trio writes the pump's suspensions and resumes as Notes named after the
+/// history event; they are the pump stopping and starting, not notes.
+#[test]
+fn trios_suspend_and_resume_notes_are_the_pump_stopping_and_starting() {
+    let json = br#"[{"eventType":"Note","created_at":"2026-11-21T16:20:41.000Z","enteredBy":"Trio","notes":"PumpResume","utcOffset":0,"_id":"673fb1e2f3a4b5c6d7e8f902"},
+        {"eventType":"Note","created_at":"2026-11-21T15:52:03.000Z","enteredBy":"Trio","notes":"PumpSuspend","utcOffset":0,"_id":"673fb1e2f3a4b5c6d7e8f901"},
+        {"eventType":"Note","created_at":"2026-11-21T15:00:00.000Z","enteredBy":"Trio","notes":"PumpSuspend at lunch?","utcOffset":0,"_id":"673fb1e2f3a4b5c6d7e8f900"}]"#;
+    let b = read(
+        &[("treatments.json", json.to_vec())],
+        &opts("Europe/Zurich"),
+    )
+    .unwrap();
+    assert_eq!(
+        kinds(&b),
+        vec![
+            (
+                "2026-11-21T15:00:00Z".to_string(),
+                RecordKind::Ignored {
+                    kind: "Note".into()
+                }
+            ),
+            (
+                "2026-11-21T15:52:03Z".to_string(),
+                RecordKind::Suspend { duration_min: None }
+            ),
+            ("2026-11-21T16:20:41Z".to_string(), RecordKind::Resume),
+        ]
+    );
+}
+
+/// AndroidAPS's NSClientV3 names itself in `app`, not `enteredBy`.
+#[test]
+fn androidaps_v3_documents_name_it_in_app() {
+    let json = br#"[{"identifier":"5d2e8c1a-0b7f-4e3d-9c6a-1f0e2d3c4b5a","date":1795268400000,"utcOffset":60,"app":"AAPS","eventType":"Temp Basal","isValid":true,"duration":30,"durationInMilliseconds":1800000,"type":"NORMAL","rate":0.6,"absolute":0.6,"pumpId":61001,"pumpType":"OMNIPOD_DASH","pumpSerial":"SYNTH0D44","srvModified":1795268401000,"srvCreated":1795268401000}]"#;
+    let e = Evidence::from_file(json);
+    assert_eq!(e.systems.get("aaps"), Some(&1), "{e:?}");
+}

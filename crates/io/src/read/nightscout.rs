@@ -1386,6 +1386,16 @@ fn treatment(
             duration_min: duration(item)?,
         }),
         "Resume Pump" | "Pump Resume" => kinds.push(RecordKind::Resume),
+        // Trio writes the pump's suspensions and resumes from its history
+        // as Notes whose `notes` is the event's name ("PumpSuspend",
+        // "PumpResume": `PumpHistoryStorage.swift`,
+        // `getPumpHistoryNotYetUploadedToNightscout`).
+        "Note" if item.str("notes")?.map(str::trim) == Some("PumpSuspend") => {
+            kinds.push(RecordKind::Suspend { duration_min: None })
+        }
+        "Note" if item.str("notes")?.map(str::trim) == Some("PumpResume") => {
+            kinds.push(RecordKind::Resume)
+        }
         "Profile Switch" if is_auto_mode_switch(item.obj) => kinds.push(RecordKind::Ignored {
             kind: AUTO_MODE_SWITCH.into(),
         }),

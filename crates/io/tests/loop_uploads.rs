@@ -318,3 +318,28 @@ fn androidaps_v3_documents_name_it_in_app() {
     let e = Evidence::from_file(json);
     assert_eq!(e.systems.get("aaps"), Some(&1), "{e:?}");
 }
+
+/// A document rewritten under its own `_id` (AndroidAPS's NSClient updates
+/// a temporary basal it cut short) is one document in two versions, not
+/// two copies: the last in the file is kept, as for any `_id`.
+#[test]
+fn a_document_rewritten_under_its_own_id_is_not_refused_as_copies() {
+    let json = br#"[{"_id":"673fc0a1b2c3d4e5f6a7b801","created_at":"2026-11-21T10:00:00.000Z","enteredBy":"openaps://AndroidAPS","eventType":"Temp Basal","isValid":true,"duration":30,"durationInMilliseconds":1800000,"type":"NORMAL","rate":0.5,"absolute":0.5,"pumpId":70001,"pumpType":"DANA_RS","pumpSerial":"SYNTHDRS07","utcOffset":0},
+        {"_id":"673fc0a1b2c3d4e5f6a7b801","created_at":"2026-11-21T10:00:00.000Z","enteredBy":"openaps://AndroidAPS","eventType":"Temp Basal","isValid":true,"duration":9,"durationInMilliseconds":540000,"type":"NORMAL","rate":0.5,"absolute":0.5,"pumpId":70001,"endId":70002,"pumpType":"DANA_RS","pumpSerial":"SYNTHDRS07","utcOffset":0}]"#;
+    let b = read(
+        &[("treatments.json", json.to_vec())],
+        &opts("Europe/Zurich"),
+    )
+    .unwrap();
+    assert_eq!(b.unread.count, 0, "{:?}", b.unread);
+    assert_eq!(
+        kinds(&b),
+        vec![(
+            "2026-11-21T10:00:00Z".to_string(),
+            RecordKind::TempBasal {
+                rate: TempRate::Absolute(abba_core::UnitsPerHour(0.5)),
+                duration_min: 9
+            }
+        )]
+    );
+}

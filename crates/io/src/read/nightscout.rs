@@ -610,16 +610,30 @@ fn pump_copies(
     keys: &[Option<PumpEvent>],
 ) -> Result<std::collections::HashSet<u32>, IoError> {
     use std::collections::{HashMap, HashSet};
-    // Each pump event's documents (item indices, in file order).
-    let mut copies: HashMap<&PumpEvent, Vec<u32>> = HashMap::new();
+    // Each pump event's documents (item indices, in file order). A
+    // document that comes again under its own `_id` is one document in
+    // versions ([`latest_versions`] keeps one): its last item stands for it.
+    let mut copies: HashMap<&PumpEvent, Vec<(u32, Option<&str>)>> = HashMap::new();
     for (r, key) in out.iter().zip(keys) {
-        if let Some(k) = key {
-            let items = copies.entry(k).or_default();
-            if items.last() != Some(&item_of(r)) {
-                items.push(item_of(r));
-            }
+        let Some(k) = key else { continue };
+        let id = match &r.id {
+            SourceId::Id(id) => id.split('#').next(),
+            SourceId::Hash(_) => None,
+        };
+        let items = copies.entry(k).or_default();
+        let item = item_of(r);
+        match items
+            .iter_mut()
+            .find(|(i, d)| *i == item || (id.is_some() && *d == id))
+        {
+            Some(same) => same.0 = item,
+            None => items.push((item, id)),
         }
     }
+    let copies: HashMap<&PumpEvent, Vec<u32>> = copies
+        .into_iter()
+        .map(|(k, v)| (k, v.into_iter().map(|(i, _)| i).collect()))
+        .collect();
     let content = |item: u32| -> Vec<(jiff::Timestamp, &RecordKind)> {
         out.iter()
             .filter(|r| item_of(r) == item)

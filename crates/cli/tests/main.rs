@@ -55,4 +55,5 @@ mod trial_cli;
 mod twin_effect_cli;
 mod twin_refit_cli;
 mod vendor_quirks_cli;
+mod uploaders_cli;
 mod web_browser;

@@ -80,6 +80,11 @@ pub struct Evidence {
     pub automated_basal: usize,
     /// Loop systems named by uploaders and devices, with counts.
     pub systems: BTreeMap<String, usize>,
+    /// A loop app's own records of running in open loop (AndroidAPS's
+    /// permanent running mode `OPEN_LOOP`, see [`running_mode`]): it
+    /// suggests, the person decides.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub open_loop_modes: usize,
     /// Long-acting insulin records.
     pub long_acting: usize,
     /// Injections logged in a CGM's app without their acting type
@@ -147,6 +152,49 @@ impl Delivery {
             Delivery::Injections => "multiple daily injections",
             Delivery::NoInsulinRecords => "no pump or insulin records (the delivery is not known)",
         }
+    }
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
+}
+
+/// The start of the keys under which [`Evidence::systems`] counts device
+/// status documents of a loop (`devicestatus.loop`, `devicestatus.openaps`).
+const DEVICE_STATUS_MARK: &str = "devicestatus.";
+
+/// What a loop app's running-mode record says (see [`running_mode`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RunningMode {
+    /// Permanent open loop: the app suggests, the person decides.
+    Open,
+    /// Closed loop (`CLOSED_LOOP`, or `CLOSED_LOOP_LGS`: low-glucose
+    /// suspend only), permanent or not; the mode's name.
+    Closed(&'static str),
+}
+
+/// The running mode an AndroidAPS "OpenAPS Offline" treatment records
+/// (AndroidAPS 3.4 and later, `RM` in `core/data/.../model/RM.kt`, written
+/// by `nsclient/extensions/RunningModeExtension.kt` and
+/// `nsclientV3/extensions/RunningModeExtension.kt`): `mode` `OPEN_LOOP`,
+/// `CLOSED_LOOP` or `CLOSED_LOOP_LGS` with `duration` 0 and
+/// `originalDuration` its real length in ms (0: until the next mode). An
+/// `OPEN_LOOP` with an `originalDuration` is temporary (AndroidAPS forces it
+/// for a while when closing the loop is not allowed) and says nothing of
+/// the mode after it; the other modes (suspended, disconnected, disabled,
+/// superbolus) say nothing of open or closed. `None` for anything else.
+pub fn running_mode(item: &Value) -> Option<RunningMode> {
+    if item.get("eventType").and_then(Value::as_str) != Some("OpenAPS Offline") {
+        return None;
+    }
+    let permanent = item
+        .get("originalDuration")
+        .is_none_or(|d| d.is_null() || d.as_f64() == Some(0.0));
+    match item.get("mode").and_then(Value::as_str)? {
+        "OPEN_LOOP" if permanent => Some(RunningMode::Open),
+        "CLOSED_LOOP" => Some(RunningMode::Closed("CLOSED_LOOP")),
+        "CLOSED_LOOP_LGS" => Some(RunningMode::Closed("CLOSED_LOOP_LGS")),
+        _ => None,
     }
 }
 
@@ -269,15 +317,30 @@ impl Evidence {
             // (OpenAPS, AndroidAPS, iAPS, Trio).
             for key in ["loop", "openaps"] {
                 if item.get(key).is_some_and(Value::is_object) {
-                    *e.systems.entry(format!("devicestatus.{key}")).or_default() += 1;
+                    *e.systems
+                        .entry(format!("{DEVICE_STATUS_MARK}{key}"))
+                        .or_default() += 1;
                 }
             }
+            match running_mode(item) {
+                Some(RunningMode::Open) => e.open_loop_modes += 1,
+                Some(RunningMode::Closed(mode)) => {
+                    *e.systems
+                        .entry(format!("AndroidAPS's running mode {mode}"))
+                        .or_default() += 1
+                }
+                None => {}
+            }
+            // `app`: the client that wrote a document through Nightscout's
+            // API v3 ("AAPS" for AndroidAPS's NSClientV3, which writes no
+            // `enteredBy` on its boluses and temporary basals).
             for key in [
                 "enteredBy",
                 "device",
                 "uploader",
                 "deviceModel",
                 "deviceManufacturers",
+                "app",
             ] {
                 let text = match item.get(key) {
                     Some(Value::String(t)) => t.to_ascii_lowercase(),
@@ -339,6 +402,7 @@ impl Evidence {
     pub fn add_file(&mut self, other: &Evidence) {
         self.smb += other.smb;
         self.automated_basal += other.automated_basal;
+        self.open_loop_modes += other.open_loop_modes;
         for (k, v) in &other.systems {
             *self.systems.entry(k.clone()).or_default() += v;
         }
@@ -357,9 +421,23 @@ impl Evidence {
         }
     }
 
+    /// True when the loop marks are only AndroidAPS's name and device
+    /// status (no closed running mode, SMB, automated basal or short
+    /// temporary basals in most hours) and the app recorded running in open
+    /// loop ([`Evidence::open_loop_modes`]): open-loop pump therapy.
+    pub fn app_in_open_loop(&self) -> bool {
+        self.open_loop_modes > 0
+            && self.short_temp_share() < LOOP_HOUR_SHARE
+            && self.smb == 0
+            && self.automated_basal == 0
+            && self.systems.keys().all(|k| app_mark(k))
+    }
+
     /// What the counts show.
     pub fn delivery(&self) -> Delivery {
-        if self.short_temp_share() >= LOOP_HOUR_SHARE
+        if self.app_in_open_loop() {
+            Delivery::OpenLoop
+        } else if self.short_temp_share() >= LOOP_HOUR_SHARE
             || self.smb > 0
             || self.automated_basal > 0
             || !self.systems.is_empty()
@@ -403,6 +481,27 @@ impl Evidence {
                 if *v == 1 { "" } else { "s" }
             ));
         }
+        let apps_only = !self.systems.is_empty() && self.systems.keys().all(|k| app_mark(k));
+        if self.app_in_open_loop() {
+            out.push(format!(
+                "{} running-mode record{} of AndroidAPS in open loop (\"OpenAPS Offline\", mode OPEN_LOOP) and no closed mode: it suggests temporary basals and the person decides, open-loop pump therapy",
+                self.open_loop_modes,
+                if self.open_loop_modes == 1 { "" } else { "s" }
+            ));
+        } else if self.open_loop_modes > 0 {
+            out.push(format!(
+                "{} running-mode records of AndroidAPS in open loop (OPEN_LOOP), but the marks above show the loop closed: taken as a closed loop",
+                self.open_loop_modes
+            ));
+        } else if apps_only
+            && self.smb == 0
+            && self.automated_basal == 0
+            && self.short_temp_share() < LOOP_HOUR_SHARE
+        {
+            out.push(
+                "AndroidAPS (or OpenAPS) is named, with no record of its running mode (AndroidAPS 3.4 and later write it as \"OpenAPS Offline\" with mode OPEN_LOOP or CLOSED_LOOP): taken as a closed loop, the safe side".into(),
+            );
+        }
         if let Some(ms) = self.past_loop_until_ms {
             let until = jiff::Timestamp::from_millisecond(ms)
                 .map_or_else(|_| ms.to_string(), |t| t.to_string());
@@ -442,6 +541,16 @@ fn item_time_ms(item: &Value) -> Option<i64> {
         .filter_map(|k| item.get(*k).and_then(Value::as_str))
         .find_map(|t| t.parse::<jiff::Timestamp>().ok())
         .map(jiff::Timestamp::as_millisecond)
+}
+
+/// True when a key of [`Evidence::systems`] only names AndroidAPS (its
+/// treatments' `enteredBy` `openaps://AndroidAPS`, its running modes'
+/// `openaps://AAPS`, its device's `openaps://<phone>`) or counts its device
+/// status (`openaps`, with `suggested` and, when the person accepted one,
+/// `enacted`): what AndroidAPS writes in open loop too.
+fn app_mark(key: &str) -> bool {
+    ["androidaps", "aaps", "openaps"].contains(&key)
+        || key == format!("{DEVICE_STATUS_MARK}openaps")
 }
 
 /// True when `text` names `name` as a word (so "loop" is not found in

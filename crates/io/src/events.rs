@@ -123,7 +123,9 @@ pub fn kind_name(k: &EventKind) -> &'static str {
 
 /// Order of kinds within one minute, as the closed loop feeds them:
 /// readings, the announcement, its bolus, other pump records, the day's
-/// close, then the basal rate the advisor's answer set.
+/// close, then the basal rate the advisor's answer set. Suspensions and
+/// resumes share a rank, so that a minute keeps them in the order they
+/// happened (the sort is stable; see [`one_per_minute`]).
 fn rank(k: &EventKind) -> u8 {
     match k {
         EventKind::Cgm(_) => 0,
@@ -131,8 +133,7 @@ fn rank(k: &EventKind) -> u8 {
         EventKind::MealAnnounced { .. } => 2,
         EventKind::Bolus(_) => 3,
         EventKind::ExtendedBolus { .. } => 4,
-        EventKind::Suspend => 5,
-        EventKind::Resume => 6,
+        EventKind::Suspend | EventKind::Resume => 5,
         EventKind::TempBasal { .. } => 7,
         EventKind::DayClosed => 8,
         EventKind::BasalRate(_) => 9,
@@ -542,10 +543,44 @@ fn close_at_midnights(events: &mut Vec<Event>) {
 /// event with their sum (the advisor takes two equal events in a minute
 /// for a repeat; two records of the device are two doses). A second
 /// reading (or day close) of a minute is rejected, and so is a second
-/// resume (the pump runs after it as after the first).
+/// resume (the pump runs after it as after the first). Suspensions and
+/// resumes alternate in time ([`map_records`] sends a suspend only while
+/// the pump runs, a resume only while it is suspended) and keep their order
+/// in a minute ([`rank`]): of three in one minute (suspend, resume,
+/// suspend), the middle state lasted less than the minute, and the second
+/// and third are rejected, so that the minute ends as the records say (the
+/// advisor takes a second equal event in a minute for a repeat).
 fn one_per_minute(events: Vec<Event>, rejected: &mut Vec<Rejected>) -> Vec<Event> {
     let mut kept: Vec<Event> = Vec::with_capacity(events.len());
+    let pump_state = |k: &EventKind| matches!(k, EventKind::Suspend | EventKind::Resume);
     for e in events {
+        let n = kept.len();
+        if pump_state(&e.kind)
+            && n >= 2
+            && kept[n - 2..]
+                .iter()
+                .all(|k| k.at == e.at && pump_state(&k.kind))
+            && kept[n - 2].kind != kept[n - 1].kind
+        {
+            let Some(between) = kept.pop() else { continue };
+            let (first, end, short) = match kept[n - 2].kind {
+                EventKind::Suspend => ("suspend", "suspended", "the pump ran for"),
+                _ => ("resume", "running", "the suspension lasted"),
+            };
+            let reason = format!(
+                "a {} and a {} after a {first} of the same minute ({short} less than the minute): the minute ends {end}, as the records say",
+                kind_name(&between.kind),
+                kind_name(&e.kind),
+            );
+            for dropped in [&between, &e] {
+                rejected.push(Rejected {
+                    origin: format!("advisor time {}", dropped.at),
+                    kind: kind_name(&dropped.kind).into(),
+                    reason: reason.clone(),
+                });
+            }
+            continue;
+        }
         if let Some(prev) = kept.last_mut() {
             if prev.at == e.at
                 && std::mem::discriminant(&prev.kind) == std::mem::discriminant(&e.kind)

@@ -165,10 +165,76 @@ fn two_resumes_of_one_minute_are_one_event() {
         .count();
     assert_eq!(resumes, 1, "{:?}", stream.events);
     assert!(
+        stream.rejected.iter().any(|r| r.kind == "resume"
+            && r.reason
+                .starts_with("a suspend and a resume after a resume of the same minute")),
+        "{:?}",
+        stream.rejected
+    );
+}
+
+/// A suspension, a resume and a suspension again within one minute (a
+/// pump alarm resumed and suspending again, a person pressing twice): the
+/// pump is suspended after the minute, as the last record says; sorting
+/// the minute's events by kind put the resume last and left the pump
+/// running. Four within a minute (suspend, resume, suspend, resume) leave
+/// it running. The advisor's guard accepts the stream.
+#[test]
+fn a_suspend_resume_suspend_of_one_minute_ends_it_suspended() {
+    let start: jiff::Timestamp = STARTS[0].parse().unwrap();
+    let t = 9 * 3600 + 10;
+    let u = 15 * 3600 + 5;
+    let items = [
+        Item::Sgv(t - 300, 120),
+        Item::Suspend(t, 120),
+        Item::Resume(t + 15),
+        Item::Suspend(t + 40, 120),
+        Item::Sgv(t + 300, 121),
+        Item::Suspend(u, 60),
+        Item::Resume(u + 10),
+        Item::Suspend(u + 20, 60),
+        Item::Resume(u + 30),
+        Item::Sgv(u + 300, 122),
+    ];
+    let bytes = nightscout(start, &items, &[(0, 100)]);
+    let batch = read(&[("ns.json", bytes)], &abba_io::ReadOptions::default()).unwrap();
+    let tz = abba_io::time::zone("UTC").unwrap();
+    let stream = batch.to_events(&PersonSettings::new(tz)).unwrap();
+    let settings = TherapySettings::new(UnitsPerHour(1.0), GramsPerUnit(10.0)).unwrap();
+    let mut guard = FixedTherapy::new(settings, EventLimits::default()).unwrap();
+    for e in &stream.events {
+        guard.observe(e).unwrap();
+    }
+    let pump = |minute_of_day: i64| -> Vec<&'static str> {
         stream
-            .rejected
+            .events
             .iter()
-            .any(|r| r.reason.starts_with("a second resume in the same minute")),
+            .filter(|e| e.at.minute_of_day() == minute_of_day)
+            .filter_map(|e| match e.kind {
+                abba_core::EventKind::Suspend => Some("suspend"),
+                abba_core::EventKind::Resume => Some("resume"),
+                _ => None,
+            })
+            .collect()
+    };
+    assert_eq!(pump(9 * 60), vec!["suspend"], "{:?}", stream.events);
+    assert_eq!(
+        pump(15 * 60),
+        vec!["suspend", "resume"],
+        "{:?}",
+        stream.events
+    );
+    // The suspension of 09:00 ends after its 120 min.
+    assert_eq!(pump(11 * 60), vec!["resume"], "{:?}", stream.events);
+    let dropped: Vec<&str> = stream
+        .rejected
+        .iter()
+        .filter(|r| r.reason.contains("of the same minute"))
+        .map(|r| r.kind.as_str())
+        .collect();
+    assert_eq!(
+        dropped,
+        vec!["resume", "suspend", "resume", "suspend"],
         "{:?}",
         stream.rejected
     );

@@ -24,6 +24,7 @@ mod events_properties;
 mod fixtures;
 mod libreview_dates;
 mod libreview_insulin;
+mod loop_uploads;
 mod never_panic;
 mod nightscout_shapes;
 mod nightscout_uploaders;

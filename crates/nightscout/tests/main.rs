@@ -14,6 +14,7 @@ mod background;
 mod by_id;
 mod dst;
 mod quirks;
+mod loop_modes;
 mod real_shapes;
 mod sync;
 mod write_back;

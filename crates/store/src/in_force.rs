@@ -538,7 +538,12 @@ pub fn store_file_evidence(
     e: &Evidence,
 ) -> Result<(), StoreError> {
     let away = !abba_io::clocks::away(&e.clocks, tz).is_empty();
-    if e.smb == 0 && e.automated_basal == 0 && e.systems.is_empty() && !away {
+    if e.smb == 0
+        && e.automated_basal == 0
+        && e.systems.is_empty()
+        && e.open_loop_modes == 0
+        && !away
+    {
         return Ok(());
     }
     let hash = format!("{:016x}", abba_io::record::content_hash([bytes]));

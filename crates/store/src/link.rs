@@ -200,7 +200,12 @@ fn add_evidence(
     if let Ok(read) = abba_io::read::read_bytes_noted(collection, 0, bytes, &opts) {
         e.clocks = away(&read.clocks);
     }
-    if e.smb == 0 && e.automated_basal == 0 && e.systems.is_empty() && e.clocks.is_empty() {
+    if e.smb == 0
+        && e.automated_basal == 0
+        && e.systems.is_empty()
+        && e.open_loop_modes == 0
+        && e.clocks.is_empty()
+    {
         return Ok(());
     }
     let person = person.id;

@@ -37,6 +37,7 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     let items = parse_array(ctx.file, bytes)?;
     let mut out = Vec::with_capacity(items.len());
     let mut versions: Vec<Option<f64>> = Vec::with_capacity(items.len());
+    let mut pump_keys: Vec<Option<PumpEvent>> = Vec::with_capacity(items.len());
     let mut switches: Vec<Switch> = Vec::new();
     let mut tally = Tally::default();
     for (index, value) in items.iter().enumerate() {
@@ -48,6 +49,10 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
         let id = or_skip!(ctx, document_id(&item));
         let version = or_skip!(ctx, modified(&item));
         let kinds = or_skip!(ctx, kinds(ctx, &item, at, &mut tally));
+        let pump_key = match kinds.first() {
+            Some(RecordKind::Ignored { .. }) | None => None,
+            Some(_) => or_skip!(ctx, pump_event(&item)),
+        };
         if item.get("store").is_some() && matches!(kinds.first(), Some(RecordKind::Schedule { .. }))
         {
             ctx.found_stores.borrow_mut().push(store_of(ctx, &item, at));
@@ -73,6 +78,7 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
                 (SourceId::Hash(_), _) => content_id(Source::Nightscout, at, &kind),
             };
             versions.push(version);
+            pump_keys.push(pump_key.clone());
             out.push(Record {
                 at,
                 kind,
@@ -83,9 +89,13 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
         }
     }
     check_error_codes(ctx, &out)?;
+    let copies = pump_copies(ctx, &items, &out, &versions, &pump_keys)?;
     tally.note(ctx, &out);
     temporary_switches(ctx, &mut out, &mut versions, &switches);
     latest_versions(ctx, &mut out, &versions);
+    if !copies.is_empty() {
+        out.retain(|r| !copies.contains(&item_of(r)));
+    }
     Ok(out)
 }
 
@@ -533,6 +543,214 @@ fn latest_versions(ctx: &Ctx<'_>, out: &mut Vec<Record>, versions: &[Option<f64>
             before - out.len()
         ));
     }
+}
+
+/// How far apart (seconds) copies of one pump event with the same values
+/// may be and still read alike: AndroidAPS dates a dose when it sends the
+/// command and again, seconds apart, when it reads the pump's history.
+const COPY_WITHIN_S: i64 = 60;
+
+/// One event of a pump's history as AndroidAPS names it: its `eventType`
+/// and the pump's `pumpType`, `pumpSerial` and `pumpId` (the history
+/// record's number; `nsclient/extensions/*Extension.kt` and
+/// `core/nssdk/.../mapper/TreatmentMapper.kt` write all three beside each
+/// bolus, temporary basal and extended bolus read from the pump).
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+struct PumpEvent {
+    event: String,
+    pump_type: String,
+    serial: String,
+    id: i64,
+}
+
+/// The pump event a document carries ([`PumpEvent`]), if it has a
+/// `pumpId`; one that is not a whole number is refused.
+fn pump_event(item: &Item<'_>) -> Result<Option<PumpEvent>, IoError> {
+    let id = match item.get("pumpId") {
+        None | Some(Value::Null) => return Ok(None),
+        Some(Value::Number(n)) => n
+            .as_i64()
+            .or_else(|| n.as_f64().filter(|f| f.fract() == 0.0).map(|f| f as i64)),
+        Some(_) => None,
+    };
+    let Some(id) = id else {
+        return Err(item.err(
+            "pumpId",
+            format!(
+                "expected the pump history record's number (a whole number), got {}",
+                item.get("pumpId").map_or(String::new(), Value::to_string)
+            ),
+        ));
+    };
+    Ok(Some(PumpEvent {
+        event: item.str("eventType")?.unwrap_or("").to_string(),
+        pump_type: item.str("pumpType")?.unwrap_or("").to_string(),
+        serial: item.str("pumpSerial")?.unwrap_or("").to_string(),
+        id,
+    }))
+}
+
+/// Documents naming one pump event ([`PumpEvent`]) under other `_id`s are
+/// copies of it, not more doses: AndroidAPS uploads its history again after
+/// a reinstall or a lost answer, and a switch between its NSClient (API v1)
+/// and NSClientV3 can leave a copy of each (Nightscout merges copies only
+/// of the same `created_at` and `eventType`, `lib/server/treatments.js`,
+/// or `identifier`). The copies are one event. Copies that read alike (the
+/// same values, within [`COPY_WITHIN_S`]): one is kept, the latest
+/// version (`srvModified`) when every copy has one, else the first. Copies
+/// that differ (a bolus cut short, a temporary basal ended early): the
+/// latest version when every copy has a `srvModified`; without it all
+/// are left out, each reported as unread (abba does not guess which dose
+/// was given). Counted in a note.
+fn pump_copies(
+    ctx: &Ctx<'_>,
+    items: &[Value],
+    out: &[Record],
+    versions: &[Option<f64>],
+    keys: &[Option<PumpEvent>],
+) -> Result<std::collections::HashSet<u32>, IoError> {
+    use std::collections::{HashMap, HashSet};
+    // Each pump event's documents (item indices, in file order). A
+    // document that comes again under its own `_id` is one document in
+    // versions ([`latest_versions`] keeps one): its last item stands for it.
+    let mut copies: HashMap<&PumpEvent, Vec<(u32, Option<&str>)>> = HashMap::new();
+    for (r, key) in out.iter().zip(keys) {
+        let Some(k) = key else { continue };
+        let id = match &r.id {
+            SourceId::Id(id) => id.split('#').next(),
+            SourceId::Hash(_) => None,
+        };
+        let items = copies.entry(k).or_default();
+        let item = item_of(r);
+        match items
+            .iter_mut()
+            .find(|(i, d)| *i == item || (id.is_some() && *d == id))
+        {
+            Some(same) => same.0 = item,
+            None => items.push((item, id)),
+        }
+    }
+    let copies: HashMap<&PumpEvent, Vec<u32>> = copies
+        .into_iter()
+        .map(|(k, v)| (k, v.into_iter().map(|(i, _)| i).collect()))
+        .collect();
+    let content = |item: u32| -> Vec<(jiff::Timestamp, &RecordKind)> {
+        out.iter()
+            .filter(|r| item_of(r) == item)
+            .map(|r| (r.at, &r.kind))
+            .collect()
+    };
+    let version = |item: u32| {
+        out.iter()
+            .position(|r| item_of(r) == item)
+            .and_then(|i| versions[i])
+    };
+    let mut drop: HashSet<u32> = HashSet::new();
+    let (mut alike, mut newer) = (0usize, 0usize);
+    let mut groups: Vec<(&PumpEvent, &Vec<u32>)> = copies
+        .iter()
+        .filter(|(_, v)| v.len() > 1)
+        .map(|(k, v)| (*k, v))
+        .collect();
+    groups.sort_by_key(|(_, v)| v[0]);
+    for (key, group) in groups {
+        let stamps: Option<Vec<f64>> = group.iter().map(|&i| version(i)).collect();
+        let latest = stamps.as_ref().map(|s| {
+            (0..group.len())
+                .max_by(|&a, &b| s[a].total_cmp(&s[b]))
+                .unwrap_or(0)
+        });
+        let first = content(group[0]);
+        let like_first = |i: u32| {
+            let c = content(i);
+            c.len() == first.len()
+                && c.iter().zip(&first).all(|((a, k), (b, l))| {
+                    k == l
+                        && a.duration_since(*b).abs()
+                            <= jiff::SignedDuration::from_secs(COPY_WITHIN_S)
+                })
+        };
+        if group[1..].iter().all(|&i| like_first(i)) {
+            let kept = latest.unwrap_or(0);
+            drop.extend(
+                (group.iter().enumerate())
+                    .filter(|(n, _)| *n != kept)
+                    .map(|(_, i)| *i),
+            );
+            alike += group.len() - 1;
+            continue;
+        }
+        if let Some(kept) = latest {
+            drop.extend(
+                (group.iter().enumerate())
+                    .filter(|(n, _)| *n != kept)
+                    .map(|(_, i)| *i),
+            );
+            newer += group.len() - 1;
+            continue;
+        }
+        drop.extend(group);
+        let named: Vec<String> = group.iter().map(|i| format!("$[{i}]")).collect();
+        for &i in group {
+            ctx.skip(IoError::invalid(
+                crate::error::Location::json(ctx.file, format!("$[{i}]")),
+                "pumpId",
+                format!(
+                    "{} documents ({}) carry one pump event ({}, pump {} {}, pumpId {}) with other \
+                     values (this one: {}) and no srvModified to tell the latest version: none is \
+                     read, abba does not guess which was given",
+                    group.len(),
+                    named.join(", "),
+                    if key.event.is_empty() { "no eventType" } else { &key.event },
+                    if key.pump_type.is_empty() { "?" } else { &key.pump_type },
+                    if key.serial.is_empty() { "?" } else { &key.serial },
+                    key.id,
+                    values_of(items.get(i as usize))
+                ),
+            ))?;
+        }
+    }
+    if alike + newer > 0 {
+        ctx.note(format!(
+            "{} documents repeat a pump event of another document under another _id (the same \
+             eventType, pumpType, pumpSerial and pumpId, as AndroidAPS writes beside what it read \
+             from the pump; uploaded again): one event, read once ({alike} copies with the same \
+             values within {COPY_WITHIN_S} s, the latest srvModified or else the first kept; \
+             {newer} older versions, the latest srvModified kept)",
+            alike + newer
+        ));
+    }
+    Ok(drop)
+}
+
+/// The JSON item a record was read from (its index in the file).
+fn item_of(r: &Record) -> u32 {
+    match r.origin.at {
+        crate::record::OriginAt::Item(i) => i,
+        _ => u32::MAX,
+    }
+}
+
+/// A treatment's time and amounts in words (for messages).
+fn values_of(item: Option<&Value>) -> String {
+    let Some(item) = item else {
+        return "?".into();
+    };
+    let fields = [
+        "created_at",
+        "date",
+        "insulin",
+        "carbs",
+        "absolute",
+        "rate",
+        "percent",
+        "duration",
+    ];
+    let shown: Vec<String> = fields
+        .iter()
+        .filter_map(|f| item.get(*f).map(|v| format!("{f} {v}")))
+        .collect();
+    shown.join(", ")
 }
 
 /// Error codes and glucose below 39 mg/dL are rare: a file where most
@@ -1011,6 +1229,13 @@ impl Tally {
     }
 }
 
+/// The kind a bolus of type PRIMING (AndroidAPS) is counted under.
+pub const PRIME: &str = "prime (a bolus of type PRIMING: tubing or cannula filled, not a dose)";
+
+/// The kind a Site Change carrying insulin is counted under.
+pub const SITE_CHANGE_PRIME: &str =
+    "Site Change with insulin (the prime or cannula fill, not a dose)";
+
 /// The kind a Profile Switch that names its profile without embedding it
 /// (no `profileJson`: Nightscout's Careportal, OpenAPS) is counted under.
 const NOT_EMBEDDED_SWITCH: &str = "Profile Switch (profile not embedded)";
@@ -1097,8 +1322,47 @@ fn treatment(
         event
     };
     match event {
+        // AndroidAPS's bolus of type PRIMING (`BS.Type`, written as a Meal
+        // Bolus by `nsclient/extensions/BolusExtension.kt`): the tubing or
+        // cannula filled, no insulin into the body; AndroidAPS leaves it
+        // out of insulin on board. Its carbs, if any, are read.
+        _ if item
+            .str("type")?
+            .is_some_and(|t| t.eq_ignore_ascii_case("PRIMING"))
+            && item.get("insulin").is_some() =>
+        {
+            kinds.extend(carbs(item)?);
+            kinds.push(RecordKind::Ignored { kind: PRIME.into() });
+        }
+        // Careportal's Site Change offers an insulin field (the prime or
+        // cannula fill, `lib/plugins/careportal.js`): not a dose.
+        "Site Change" if item.get("insulin").is_some_and(|v| !v.is_null()) => {
+            kinds.push(RecordKind::Ignored {
+                kind: SITE_CHANGE_PRIME.into(),
+            })
+        }
+        // Loop writes a bolus delivered over 30 min or more as a Correction
+        // Bolus of `type` "square" with its `duration` in minutes
+        // (LoopKit's NightscoutService `DoseEntry.swift`, NightscoutKit's
+        // `BolusNightscoutTreatment`): the insulin runs over the duration,
+        // an extended bolus with nothing given at once.
+        "Correction Bolus" if item.str("type")? == Some("square") => {
+            match (insulin(item)?, duration(item)?) {
+                (Some(RecordKind::Bolus { units }), Some(d)) if d > 0 => {
+                    kinds.push(RecordKind::ExtendedBolus {
+                        now: Units(0.0),
+                        extended: units,
+                        duration_min: d,
+                    })
+                }
+                (dose, _) => kinds.extend(dose),
+            }
+        }
+        // Trio and iAPS write insulin given outside the pump (a pen) as
+        // "External Insulin" (`PumpEventStored.EventType.isExternal`),
+        // counted in their insulin on board like a bolus.
         "Meal Bolus" | "Snack Bolus" | "Bolus Wizard" | "Correction Bolus" | "SMB" | "Bolus"
-        | "Carb Correction" | "Carbs" => {
+        | "External Insulin" | "Carb Correction" | "Carbs" => {
             kinds.extend(carbs(item)?);
             kinds.extend(insulin_doses(item)?);
         }
@@ -1136,6 +1400,16 @@ fn treatment(
             duration_min: duration(item)?,
         }),
         "Resume Pump" | "Pump Resume" => kinds.push(RecordKind::Resume),
+        // Trio writes the pump's suspensions and resumes from its history
+        // as Notes whose `notes` is the event's name ("PumpSuspend",
+        // "PumpResume": `PumpHistoryStorage.swift`,
+        // `getPumpHistoryNotYetUploadedToNightscout`).
+        "Note" if item.str("notes")?.map(str::trim) == Some("PumpSuspend") => {
+            kinds.push(RecordKind::Suspend { duration_min: None })
+        }
+        "Note" if item.str("notes")?.map(str::trim) == Some("PumpResume") => {
+            kinds.push(RecordKind::Resume)
+        }
         "Profile Switch" if is_auto_mode_switch(item.obj) => kinds.push(RecordKind::Ignored {
             kind: AUTO_MODE_SWITCH.into(),
         }),

@@ -1,0 +1,98 @@
+//! The live link on AndroidAPS's uploads (fixture
+//! `nightscout_treatments_aaps_open_loop_synthetic.json` of abba-io, see
+//! its PROVENANCE.md): an AndroidAPS in open loop (its running mode
+//! OPEN_LOOP) gets advice; when it closes the loop, the running mode the
+//! next sync brings holds the basal advice.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use crate::common;
+
+use abba_advisor::Mode;
+use abba_core::{GramsPerUnit, TherapySettings, UnitsPerHour};
+use abba_nightscout::site::credential;
+use abba_nightscout::{link, sync};
+use abba_store::{NewPerson, Store};
+use common::server::{Server, Site};
+use common::*;
+use serde_json::{json, Value};
+
+/// CGM entries every 5 min from 2026-11-15 20:00 to 2026-11-18 22:55 UTC,
+/// newest first, as xDrip+ uploads them.
+fn entries() -> Vec<Value> {
+    let start: i64 = 1_794_772_800_000; // 2026-11-15T20:00:00Z
+    (0..(3 * 288 + 36))
+        .rev()
+        .map(|i: i64| {
+            let ms = start + i * 300_000;
+            json!({
+                "_id": format!("6736e0a1f2c3b4a5d6{i:06x}"),
+                "device": "xDrip-DexcomG6",
+                "date": ms,
+                "dateString": jiff::Timestamp::from_millisecond(ms).unwrap().to_string(),
+                "sgv": 110 + (i % 36) * 2,
+                "direction": "Flat",
+                "type": "sgv",
+                "utcOffset": 60,
+            })
+        })
+        .collect()
+}
+
+fn treatments() -> Vec<Value> {
+    let p = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../io/tests/data/nightscout_treatments_aaps_open_loop_synthetic.json"
+    );
+    serde_json::from_slice(&std::fs::read(p).unwrap()).unwrap()
+}
+
+#[test]
+fn a_linked_androidaps_in_open_loop_gets_advice_until_it_closes_the_loop() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut site = Site::new(SECRET);
+    site.add("entries", entries());
+    site.add("treatments", treatments());
+    let srv = Server::start(site);
+    let mut store = Store::open(&dir.path().join("link.db")).unwrap();
+    let start = TherapySettings::new(UnitsPerHour(0.85), GramsPerUnit(10.0)).unwrap();
+    store
+        .create_person(&NewPerson::new("ana", TZ, Mode::Cgm, start))
+        .unwrap();
+    let secret = credential(None, Some(SECRET)).unwrap();
+    link(&mut store, "ana", &srv.url, secret, false, &fast_client()).unwrap();
+    sync(&mut store, "ana", &sync_opts()).unwrap();
+    let a = advice(&mut store);
+    assert_eq!(a["delivery"]["kind"], "open_loop", "{}", a["delivery"]);
+    assert_eq!(
+        a["delivery"]["basal_suggestions"], true,
+        "{}",
+        a["delivery"]
+    );
+    // AndroidAPS closes the loop: the running mode it uploads reaches the
+    // store with the next sync.
+    srv.with(|s| {
+        s.add(
+            "treatments",
+            vec![json!({
+                "_id": "6735c1a2e4b0f81d9cffff01",
+                "created_at": "2026-11-18T21:00:00.000Z",
+                "enteredBy": "openaps://AAPS",
+                "eventType": "OpenAPS Offline",
+                "isValid": true,
+                "duration": 0,
+                "durationInMilliseconds": 0,
+                "originalDuration": 0,
+                "mode": "CLOSED_LOOP",
+                "utcOffset": 0
+            })],
+        )
+    });
+    sync(&mut store, "ana", &sync_opts()).unwrap();
+    let a = advice(&mut store);
+    assert_eq!(a["delivery"]["kind"], "closed_loop", "{}", a["delivery"]);
+    assert_eq!(
+        a["delivery"]["basal_suggestions"], false,
+        "{}",
+        a["delivery"]
+    );
+}

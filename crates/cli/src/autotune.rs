@@ -223,6 +223,17 @@ fn inputs(
                     duration_min,
                 });
             }
+            // A Nightscout bolus oref0 reads (Loop's square "Correction
+            // Bolus") is all of its insulin at its start, as oref0 reads
+            // `insulin`.
+            RecordKind::ExtendedBolus { now, extended, .. }
+                if oref0.reads.get(&r.origin) == Some(&Oref0Reads::Bolus) =>
+            {
+                x.insulin.push(Insulin::Bolus {
+                    at_ms: at,
+                    units: now.0 + extended.0,
+                });
+            }
             RecordKind::ExtendedBolus {
                 now,
                 extended,

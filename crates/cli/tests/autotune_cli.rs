@@ -599,3 +599,43 @@ fn treatments_oref0_reads_no_insulin_from_are_left_out_and_said() {
     assert!(notes.contains("5.00 U of boluses"), "{notes}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Loop's square bolus (a "Correction Bolus" of `type` square over
+/// `duration` minutes) is read by abba's readers as an extended bolus, but
+/// oref0 reads a Correction Bolus's `insulin` at its start: autotune on
+/// Nightscout files takes it as oref0 does, the same as a normal bolus of
+/// the same units (and the day's profile moves with it: it is read).
+#[test]
+fn a_loop_square_bolus_is_tuned_as_oref0_reads_it() {
+    let dir = tmp("square");
+    let e = entries_of(
+        &dir,
+        ["entries.quirks.day1.json", "entries.quirks.day2.json"],
+    );
+    let base = read(&data("treatments.quirks.json"))
+        .as_array()
+        .unwrap()
+        .clone();
+    let profile_with = |extra: Value, tag: &str| -> Value {
+        let mut items = base.clone();
+        items.push(extra);
+        items.sort_by(|a, b| b["created_at"].as_str().cmp(&a["created_at"].as_str()));
+        let path = dir.join(format!("treatments.{tag}.json"));
+        std::fs::write(&path, serde_json::to_string(&items).unwrap()).unwrap();
+        let mut args = files_args(&e, path.to_str().unwrap());
+        args.push("--json".into());
+        let out = ok(&abba(&args.iter().map(String::as_str).collect::<Vec<_>>()));
+        serde_json::from_str::<Value>(&out).unwrap()["profile"].clone()
+    };
+    let bolus = serde_json::json!({"eventType": "Correction Bolus", "insulin": 2.4,
+        "programmed": 2.4, "automatic": false, "enteredBy": "loop://iPhone",
+        "created_at": "2026-01-10T15:30:00.000Z", "timestamp": "2026-01-10T15:30:00.000Z"});
+    let mut square = bolus.clone();
+    square["type"] = "square".into();
+    square["duration"] = 90.into();
+    let normal = profile_with(bolus, "normal");
+    assert_eq!(profile_with(square, "square"), normal);
+    let without = read(&data("autotune.quirks.day2.json"));
+    assert_ne!(normal["basalprofile"], without["basalprofile"]);
+    let _ = std::fs::remove_dir_all(&dir);
+}

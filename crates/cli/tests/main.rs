@@ -54,6 +54,6 @@ mod tidepool_cli;
 mod trial_cli;
 mod twin_effect_cli;
 mod twin_refit_cli;
-mod vendor_quirks_cli;
 mod uploaders_cli;
+mod vendor_quirks_cli;
 mod web_browser;

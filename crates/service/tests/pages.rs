@@ -26,10 +26,10 @@ const CSP: &str = "default-src 'none'; style-src 'self'; img-src 'self' data:; f
 
 /// A page's answer.
 #[derive(Debug)]
-struct Page {
-    status: StatusCode,
-    headers: axum::http::HeaderMap,
-    html: String,
+pub(crate) struct Page {
+    pub(crate) status: StatusCode,
+    pub(crate) headers: axum::http::HeaderMap,
+    pub(crate) html: String,
 }
 
 impl Page {
@@ -53,7 +53,7 @@ impl Page {
     }
 
     /// The HTML of the element starting at `start` up to its `</tag>`.
-    fn section(&self, start: &str, tag: &str) -> &str {
+    pub(crate) fn section(&self, start: &str, tag: &str) -> &str {
         let i = self
             .html
             .find(start)
@@ -65,7 +65,7 @@ impl Page {
 }
 
 /// A browser without JavaScript: a cookie jar, same-origin forms.
-struct Browser<'a> {
+pub(crate) struct Browser<'a> {
     svc: &'a Svc,
     cookies: BTreeMap<String, String>,
     origin: Option<&'static str>,
@@ -136,7 +136,7 @@ impl<'a> Browser<'a> {
         }
     }
 
-    async fn get(&mut self, path: &str) -> Page {
+    pub(crate) async fn get(&mut self, path: &str) -> Page {
         self.send(Method::GET, path, None).await
     }
 
@@ -214,7 +214,7 @@ fn link(svc: &Svc, role: Role) -> String {
 }
 
 /// A person's signed-in browser and their session's CSRF token.
-async fn signed_in<'a>(svc: &'a Svc, role: Role) -> (Browser<'a>, String) {
+pub(crate) async fn signed_in<'a>(svc: &'a Svc, role: Role) -> (Browser<'a>, String) {
     let mut b = Browser::new(svc);
     let p = b.sign_in(&link(svc, role)).await;
     assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
@@ -655,6 +655,107 @@ async fn a_hostile_name_is_inert_on_every_page_that_shows_it() {
     }
 }
 
+/// Names a person's devices write into their exports (a Nightscout
+/// profile's name, the profile a Profile Switch names, the uploader's
+/// `enteredBy`) and their clinic's import reads: inert on the import's
+/// result, the clinic's person page, every page of the person and both
+/// reports.
+#[tokio::test]
+async fn hostile_names_in_an_imported_export_are_inert_on_every_page_and_report() {
+    const PROFILE: &str = "<img src=x onerror=alert(2)>";
+    const SWITCHED: &str = "<script>alert(3)</script>";
+    let svc = Svc::new();
+    let id = svc
+        .person_with(json!({
+            "name": "ana", "tz": "UTC", "mode": "cgm",
+            "start": {"basal_units_per_hour": 1.0, "carb_ratio_g_per_unit": [10.0, 12.0, 11.0]}
+        }))
+        .await;
+    let entries = std::fs::read(cgm_entries(&svc, "2026-11-02T00:00:00Z", 3)).unwrap();
+    let at = |day: i64, hhmm: &str| format!("2026-11-0{}T{hhmm}:00.000Z", 2 + day);
+    let mut treatments = vec![json!({"_id": "sw", "eventType": "Profile Switch",
+        "profile": SWITCHED, "duration": 0, "created_at": at(1, "10:00"), "enteredBy": HOSTILE})];
+    for day in 0..3 {
+        for (k, (hhmm, carbs)) in [("07:30", 40), ("12:30", 60), ("19:00", 70)]
+            .iter()
+            .enumerate()
+        {
+            treatments.push(
+                json!({"_id": format!("m{day}{k}"), "eventType": "Meal Bolus",
+                "carbs": carbs, "insulin": f64::from(*carbs) / 10.0,
+                "created_at": at(day, hhmm), "enteredBy": HOSTILE}),
+            );
+        }
+    }
+    let seg = |v: f64| json!([{"time": "00:00", "timeAsSeconds": 0, "value": v}]);
+    let profile = json!([{"_id": "p1", "defaultProfile": PROFILE,
+        "startDate": "2026-11-01T00:00:00.000Z", "mills": 1_761_955_200_000_i64, "units": "mg/dl",
+        "store": {PROFILE: {"basal": seg(0.9), "carbratio": seg(10.0), "sens": seg(50.0),
+            "target_low": seg(100.0), "target_high": seg(120.0), "timezone": "UTC",
+            "units": "mg/dl", "dia": 5}}}]);
+    let (treatments, profile) = (
+        serde_json::to_vec(&treatments).unwrap(),
+        serde_json::to_vec(&profile).unwrap(),
+    );
+    let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
+    let p = import_choosing(
+        &mut admin,
+        id,
+        &csrf,
+        "adopt",
+        &[
+            ("files", "entries.json", &entries),
+            ("files", "treatments.json", &treatments),
+            ("files", "profile.json", &profile),
+        ],
+    )
+    .await;
+    assert_eq!(p.status, StatusCode::OK, "{}", p.html);
+    // The import names the profiles (so the test can fail), escaped.
+    let switched = "&lt;script&gt;alert(3)&lt;&#x2f;script&gt;";
+    assert!(p.html.contains(switched), "{}", p.html);
+    let raw = |html: &str| {
+        ["<script", "<img"]
+            .into_iter()
+            .filter(|r| html.contains(r))
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(raw(&p.html), Vec::<&str>::new(), "{}", p.html);
+    for path in [
+        format!("/clinic/persons/{id}"),
+        format!("/clinic/persons/{id}/report"),
+    ] {
+        let p = admin.get(&path).await;
+        assert_eq!(p.status, StatusCode::OK, "{path}");
+        assert_eq!(raw(&p.html), Vec::<&str>::new(), "{path}: {}", p.html);
+    }
+    let (mut b, _) = signed_in(&svc, Role::Person(id as i64)).await;
+    for path in ["/", "/log", "/glucose", "/history", "/report"] {
+        let p = b.get(path).await;
+        assert_eq!(p.status, StatusCode::OK, "{path}");
+        assert_eq!(raw(&p.html), Vec::<&str>::new(), "{path}: {}", p.html);
+    }
+    // A person created from that profile: the page the form lands on.
+    let f = [
+        ("csrf", csrf.as_str()),
+        ("name", "bo"),
+        ("tz", "UTC"),
+        ("unit", "mg/dL"),
+        ("mode", "cgm"),
+    ];
+    let p = admin
+        .post_multipart(
+            "/clinic/persons",
+            &f,
+            &[("profile", "profile.json", &profile)],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
+    let p = admin.get(p.location()).await;
+    assert_eq!(p.status, StatusCode::OK);
+    assert_eq!(raw(&p.html), Vec::<&str>::new(), "{}", p.html);
+}
+
 /// A CGM person in UTC whose day 1 was `days` days before today, with the
 /// first week of data posted by their app through /v1 (no data rule).
 async fn person_past_first_week(svc: &Svc, name: &str, days: i64) -> (u64, String) {
@@ -813,14 +914,24 @@ async fn a_person_logs_a_reading_and_a_meal_and_answers_on_the_pages() {
         .await;
     assert_eq!(
         (p.status, p.location()),
-        (StatusCode::SEE_OTHER, "/?answered=accept"),
+        (
+            StatusCode::SEE_OTHER,
+            format!("/?answered={meal_sid}").as_str()
+        ),
         "{}",
         p.html
     );
     let today = b.get(p.location()).await;
+    // The acknowledgement says what the store recorded, under the notice.
+    let status = unescaped(today.section("<div id=\"status\"", "div"));
+    assert!(
+        status.contains("Saved: you accepted the suggested lunch carb ratio; ")
+            && status.contains(" g/U is in force."),
+        "{status}"
+    );
     assert!(today
-        .section("<div id=\"status\"", "div")
-        .contains("accepted"));
+        .html
+        .contains("research software, not a medical device"));
     let key = today.hidden("submission");
     // An own basal value outside the bounds: refused beside the field.
     let p = b
@@ -860,9 +971,19 @@ async fn a_person_logs_a_reading_and_a_meal_and_answers_on_the_pages() {
         .await;
     assert_eq!(
         (p.status, p.location()),
-        (StatusCode::SEE_OTHER, "/?answered=override"),
+        (
+            StatusCode::SEE_OTHER,
+            format!("/?answered={basal_sid}").as_str()
+        ),
         "{}",
         p.html
+    );
+    let today = b.get(p.location()).await;
+    assert!(
+        unescaped(today.section("<div id=\"status\"", "div"))
+            .contains("Saved: you chose your own basal rate; 1.10 U/h is in force."),
+        "{}",
+        today.html
     );
     // The store's history holds exactly those two answers.
     let h = svc
@@ -1894,7 +2015,7 @@ async fn a_form_sent_twice_stores_its_event_or_answer_once() {
         let p = b.post("/answer", &answer).await;
         assert_eq!(
             (p.status, p.location()),
-            (StatusCode::SEE_OTHER, "/?answered=accept"),
+            (StatusCode::SEE_OTHER, format!("/?answered={sid}").as_str()),
             "{}",
             p.html
         );

@@ -123,7 +123,8 @@ pub fn card(
             schedule: None,
         };
     };
-    let reason = super::advice_words::for_person(&if v.reasons.is_empty() {
+    let words = super::advice_words::for_person;
+    let reason = words(&if v.reasons.is_empty() {
         v.no_update_reason.clone().unwrap_or_default()
     } else {
         v.reasons.join(" ")
@@ -176,8 +177,11 @@ pub fn card(
             },
             value: with_unit(p, v.suggested),
             change: format!("{:+.1} %", v.change_percent),
-            reason: v.reasons.first().cloned().unwrap_or_else(|| reason.clone()),
-            details: v.reasons.iter().skip(1).cloned().collect(),
+            reason: v
+                .reasons
+                .first()
+                .map_or_else(|| reason.clone(), |r| words(r)),
+            details: v.reasons.iter().skip(1).map(|r| words(r)).collect(),
             open,
             answered,
             value_error: err.map(|e| e.message.clone()),
@@ -277,6 +281,8 @@ pub fn effect_words(
 
 /// Today's model.
 pub fn model(live: &Live, err: Option<&ValueError>, fx: Option<&EffectSource>) -> Today {
+    // The advice's sentences in the person's words (no CLI flag).
+    let words = super::advice_words::for_person;
     let a = live.advice_with(fx.map(EffectSource::effects));
     let total = live.person.settings.advisor.init_days;
     let first_week = match a.phase {
@@ -301,10 +307,12 @@ pub fn model(live: &Live, err: Option<&ValueError>, fx: Option<&EffectSource>) -
     let not_designed_for = if a.delivery.basal_suggestions {
         None
     } else {
-        Some(a.delivery.note.as_deref().map_or_else(
-            || a.delivery.words.to_string(),
-            super::advice_words::for_person,
-        ))
+        Some(
+            a.delivery
+                .note
+                .as_deref()
+                .map_or_else(|| a.delivery.words.to_string(), words),
+        )
     };
     let in_force_schedule = a.therapy.basal_schedule.as_ref().map(|sch| {
         fill(
@@ -334,31 +342,52 @@ pub fn model(live: &Live, err: Option<&ValueError>, fx: Option<&EffectSource>) -
         not_designed_for,
         answer_refused: None,
         settings,
-        notes: a.notes,
+        notes: a.notes.iter().map(|n| words(n)).collect(),
     }
 }
 
-fn status_text(q: Option<&str>) -> Option<String> {
-    match q? {
-        "answered=accept" => Some(EN.status_accepted.into()),
-        "answered=reject" => Some(EN.status_rejected.into()),
-        "answered=override" => Some(EN.status_overridden.into()),
-        _ => None,
-    }
+/// The status after an answer (`?answered=SID`, where the answer form
+/// sends the person): what the store holds for that suggestion, the
+/// setting and the value in force, when it holds an answer of the person
+/// to it; nothing otherwise (a link made up or kept from another day says
+/// nothing was saved that was not).
+fn answered_status(live: &Live, q: Option<&str>) -> Option<String> {
+    let sid = q?.strip_prefix("answered=")?.parse::<u64>().ok()?;
+    let views = live.views();
+    let (d, v) = live.decisions.iter().zip(&views).find(|(d, _)| {
+        crate::convert::setting(d.parameter).suggestion_id(d.at.0.max(0) as u64) == sid
+    })?;
+    let text = match v.status.as_str() {
+        "accepted" => EN.status_accepted,
+        "rejected" => EN.status_rejected,
+        "overridden" => EN.status_overridden,
+        _ => return None,
+    };
+    Some(fill(
+        text,
+        &[
+            ("setting", &title(d.parameter).to_lowercase()),
+            ("value", &with_unit(d.parameter, v.in_force)),
+        ],
+    ))
 }
 
 /// `GET /`: Today.
 pub async fn page(State(s): State<AppState>, ctx: Ctx, RawQuery(q): RawQuery) -> PageResult {
     let (id, w) = session::person_page(&s, &ctx).await?;
     let fx = s.effects();
-    let (today, name) = s
+    let (today, name, status) = s
         .person(id, false, move |_, live| {
-            Ok((model(live, None, fx.as_ref()), live.person.name.clone()))
+            Ok((
+                model(live, None, fx.as_ref()),
+                live.person.name.clone(),
+                answered_status(live, q.as_deref()),
+            ))
         })
         .await?;
     let layout = Layout::person(EN.today_title, &w.csrf, "/")
         .signed_in_as(&name)
-        .with_status(status_text(q.as_deref()))
+        .with_status(status)
         .with_submission(session::secret()?);
     render(StatusCode::OK, "today.html", &layout, &today)
 }
@@ -455,9 +484,12 @@ pub async fn answer(State(s): State<AppState>, ctx: Ctx, body: RawBody) -> PageR
         .ok_or_else(|| crate::error::ApiError::invalid(form::SUBMISSION, EN.submission_missing))?;
     let typed = form.text("value").to_string();
     let item = answer_item(&form);
-    let action = form.text("action").to_string();
     let fx = s.effects();
-    let outcome = format!("/?answered={action}");
+    // Today names the setting and the value the store now holds.
+    let outcome = match &item {
+        Ok(a) => format!("/?answered={}", a.suggestion_id),
+        Err(_) => "/".to_string(),
+    };
     let out = s
         .person(id, true, move |store, live| {
             if let Some(first) = store.submission(id, &key)? {

@@ -933,6 +933,19 @@ async fn a_person_logs_a_reading_and_a_meal_and_answers_on_the_pages() {
         .html
         .contains("research software, not a medical device"));
     let key = today.hidden("submission");
+    // A status link made up (or kept from before, or of an older
+    // version's form) says nothing: the basal suggestion is still open.
+    for q in [
+        format!("/?answered={basal_sid}"),
+        "/?answered=accept".into(),
+    ] {
+        let p = b.get(&q).await;
+        assert_eq!(
+            p.section("<div id=\"status\"", "div"),
+            "<div id=\"status\" role=\"status\">",
+            "{q}"
+        );
+    }
     // An own basal value outside the bounds: refused beside the field.
     let p = b
         .post(
@@ -1015,6 +1028,74 @@ async fn a_person_logs_a_reading_and_a_meal_and_answers_on_the_pages() {
         "{}",
         h.text
     );
+}
+
+/// An own value off the pump's step, past what pumps can program or
+/// outside the clinician's bounds: Today again (422) with the reason
+/// beside the field, the typed value kept and nothing stored.
+#[tokio::test]
+async fn an_own_value_off_the_step_past_the_limits_or_the_bounds_is_refused_beside_it() {
+    let svc = Svc::new();
+    let (id, token) = person_past_first_week(&svc, "ana", 9).await;
+    let (mut admin, acsrf) = signed_in(&svc, Role::Admin).await;
+    let path = format!("/clinic/persons/{id}");
+    for (form, fields) in [
+        ("steps", [("basal_step", "0.05"), ("cr_step", "0.1")]),
+        ("bounds", [("basal_min", "0.5"), ("basal_max", "2")]),
+    ] {
+        let mut f = vec![("csrf", acsrf.as_str())];
+        f.extend(fields);
+        let p = admin.post(&format!("{path}/{form}"), &f).await;
+        assert_eq!(p.status, StatusCode::SEE_OTHER, "{form}: {}", p.html);
+    }
+    let (mut b, csrf) = signed_in(&svc, Role::Person(id as i64)).await;
+    let today = b.get("/").await;
+    let sid = open_sid(today.section("<section id=\"setting-basal\"", "section"))
+        .expect("an open basal suggestion");
+    for (typed, why) in [
+        ("1.07", "1.07 U/h is not on the pump's basal step (0.05 U/h): the nearest values the pump can be set to are 1.05 and 1.1 U/h"),
+        ("40", "basal rate (U/h) must be between 0.025 and 35 U/h (the range pumps can program), got 40"),
+        ("2.5", "2.5 U/h is outside the clinician's bounds 0.5-2"),
+    ] {
+        let key = b.get("/").await.hidden("submission");
+        let p = b
+            .post(
+                "/answer",
+                &[
+                    ("csrf", &csrf),
+                    ("suggestion_id", &sid),
+                    ("action", "override"),
+                    ("value", typed),
+                    ("submission", &key),
+                ],
+            )
+            .await;
+        assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{typed}: {}", p.html);
+        let card = p.section("<section id=\"setting-basal\"", "section");
+        let start = format!("<p class=\"field-error\" id=\"value-error-{sid}\">");
+        let i = card
+            .find(&start)
+            .unwrap_or_else(|| panic!("{typed}: no error beside the field: {card}"));
+        let error = &card[i..i + card[i..].find("</p>").unwrap()];
+        assert!(unescaped(error).contains(why), "{typed}: {error}");
+        assert!(card.contains(&format!("value=\"{typed}\"")), "{typed} kept: {card}");
+        assert!(p.html.contains("research software, not a medical device"));
+    }
+    let h = svc
+        .call(
+            Method::GET,
+            &format!("/v1/persons/{id}/history?limit=1000"),
+            Some(&token),
+            None,
+        )
+        .await;
+    let answered = h.json["suggestions"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|s| ["accepted", "rejected", "overridden"].contains(&s["status"].as_str().unwrap()))
+        .count();
+    assert_eq!(answered, 0, "{}", h.text);
 }
 
 #[tokio::test]

@@ -161,8 +161,16 @@ async fn the_clinics_page_today_and_abba_advise_say_the_same_day() {
         }
         suggestions += 1;
         let suggested = format!("Suggested: {}", with_unit(&latest["suggested"]));
+        // When it was made and on what data: a suggestion read days after
+        // its data says so, as `abba advise` does.
+        let made = format!(
+            "Made on {} (local time). Data: {}.",
+            latest["decided_at"].as_str().unwrap(),
+            latest["data"].as_str().unwrap()
+        );
         for page in [&on_today, &on_clinic] {
             assert!(page.contains(&suggested), "{key}: {suggested:?} in {page}");
+            assert!(page.contains(&made), "{key}: {made:?} in {page}");
             for r in latest["reasons"].as_array().unwrap() {
                 let r = for_person(r.as_str().unwrap());
                 assert!(page.contains(&r), "{key}: reason {r:?} in {page}");

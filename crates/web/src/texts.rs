@@ -147,6 +147,8 @@ pub struct Texts {
     pub answered_rejected: &'static str,
     /// Answered: own value ({value}).
     pub answered_overridden: &'static str,
+    /// When a suggestion was made and on what data ({at}, {data}).
+    pub suggestion_made: &'static str,
     /// Status after an answer, said from the store: accepted ({setting},
     /// lower case, and the {value} in force).
     pub status_accepted: &'static str,
@@ -378,6 +380,7 @@ pub const EN: Texts = Texts {
     answered_accepted: "You accepted it: {value} is in force.",
     answered_rejected: "You kept the previous value: {value} is in force.",
     answered_overridden: "You chose your own value: {value} is in force.",
+    suggestion_made: "Made on {at} (local time). Data: {data}.",
     status_accepted: "Saved: you accepted the suggested {setting}; {value} is in force.",
     status_rejected: "Saved: you kept the previous {setting}; {value} is in force.",
     status_overridden: "Saved: you chose your own {setting}; {value} is in force.",

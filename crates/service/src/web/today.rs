@@ -177,6 +177,10 @@ pub fn card(
             },
             value: with_unit(p, v.suggested),
             change: format!("{:+.1} %", v.change_percent),
+            made: fill(
+                EN.suggestion_made,
+                &[("at", &v.decided_at), ("data", &v.data)],
+            ),
             reason: v
                 .reasons
                 .first()

@@ -2908,15 +2908,39 @@ async fn an_https_public_url_makes_every_cookie_secure() {
             .post("/signin", &[("csrf", &csrf), ("link", &secret)])
             .await;
         assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
+        // Over TLS the session cookie is `__Host-` (only this host sets it).
+        let name = if secure {
+            "__Host-abba_session="
+        } else {
+            "abba_session="
+        };
         let session = p
             .headers
             .get_all(header::SET_COOKIE)
             .iter()
             .map(|v| v.to_str().unwrap().to_string())
-            .find(|v| v.starts_with("abba_session="))
-            .unwrap();
+            .find(|v| v.starts_with(name))
+            .unwrap_or_else(|| panic!("{url}: no {name} in {:?}", p.headers));
         assert_eq!(session.contains("; Secure"), secure, "{url}: {session}");
         assert!(session.contains("HttpOnly") && session.contains("SameSite=Strict"));
+        assert!(session.contains("; Path=/;") && !session.contains("Domain"));
+        assert_eq!(b.get("/").await.status, StatusCode::OK, "{url}: signed in");
+        // The same live session under the plain name, as a site on a
+        // sibling subdomain can plant it for the whole domain (cookie
+        // tossing): over TLS it is not read, so it signs nobody in.
+        let value = session[name.len()..].split(';').next().unwrap().to_string();
+        let mut tossed = Browser::new(&svc);
+        tossed.cookies.insert("abba_session".into(), value);
+        let p = tossed.get("/").await;
+        if secure {
+            assert_eq!(
+                (p.status, p.location()),
+                (StatusCode::SEE_OTHER, "/signin"),
+                "{url}: a tossed abba_session signs in"
+            );
+        } else {
+            assert_eq!(p.status, StatusCode::OK, "{url}: {}", p.html);
+        }
     }
 }
 

@@ -198,3 +198,55 @@ async fn the_clinics_page_today_and_abba_advise_say_the_same_day() {
         assert!(table.contains(&row), "{row:?} in {table}");
     }
 }
+
+/// A person on pens (xDrip+'s injections) and one on a closed loop
+/// (AndroidAPS): Today, the clinic's copy of it and `abba advise` say the
+/// same refusal of basal suggestions (the person's words on Today and its
+/// copy, the command's on the clinic's own delivery note).
+#[tokio::test]
+async fn the_refusal_of_basal_suggestions_is_the_same_on_today_the_clinic_and_abba_advise() {
+    for (fixture, shown) in [
+        (
+            "nightscout_treatments_xdrip_injections_synthetic.json",
+            "multiple daily injections",
+        ),
+        ("nightscout_treatments_aaps_synthetic.json", "closed loop"),
+    ] {
+        let svc = Svc::new();
+        let day0: jiff::Timestamp = "2026-03-08T00:00:00Z".parse().unwrap();
+        let entries: Vec<Value> = (0..4 * 288)
+            .map(|k| {
+                let t = day0 + jiff::SignedDuration::from_mins(5 * k);
+                serde_json::json!({"_id": format!("e{k}"), "type": "sgv", "sgv": 110 + (k % 40),
+                    "date": t.as_millisecond(), "dateString": t.to_string()})
+            })
+            .collect();
+        let file = svc.dir.path().join("entries.json");
+        std::fs::write(&file, serde_json::to_vec(&entries).unwrap()).unwrap();
+        let treatments = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../io/tests/data")
+            .join(fixture);
+        let (id, advice) = person_from(&svc, &[file, treatments]);
+        assert!(
+            !advice.delivery.basal_suggestions,
+            "{fixture}: {:?}",
+            advice.delivery
+        );
+        let note = advice.delivery.note.clone().expect("a delivery note");
+        assert!(note.contains(shown), "{fixture}: {note}");
+        let (mut person, _) = signed_in(&svc, Role::Person(id as i64)).await;
+        let today = person.get("/").await;
+        let (mut admin, _) = signed_in(&svc, Role::Admin).await;
+        let clinic = admin.get(&format!("/clinic/persons/{id}")).await;
+        let on_today = text(today.section("<p id=\"not-designed-for\"", "p"));
+        let on_copy = text(clinic.section("<p id=\"today-not-designed-for\"", "p"));
+        assert_eq!(on_copy, on_today, "{fixture}");
+        assert_eq!(on_today, for_person(&note), "{fixture}");
+        let own = text(clinic.section("<p id=\"delivery-note\"", "p"));
+        assert_eq!(
+            own,
+            abba_service::web::advice_words::for_clinic(&note),
+            "{fixture}"
+        );
+    }
+}

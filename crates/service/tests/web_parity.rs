@@ -133,6 +133,13 @@ async fn the_clinics_page_today_and_abba_advise_say_the_same_day() {
         assert!(notes.contains(&said), "{said:?} not in {notes:?}");
     }
     assert!(!today.html.contains("--"), "Today names a CLI flag");
+    // One snack (day 3's hypo treatment) in the singular.
+    assert!(
+        notes.contains(
+            "; 1 entry outside the windows or after a window's first was taken as a snack."
+        ),
+        "{notes}"
+    );
     let mut suggestions = 0;
     for s in cli["settings"].as_array().unwrap() {
         let key = s["setting"].as_str().unwrap();

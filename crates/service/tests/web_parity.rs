@@ -147,13 +147,15 @@ async fn the_clinics_page_today_and_abba_advise_say_the_same_day() {
         let on_clinic =
             text(clinic.section(&format!("<section id=\"today-setting-{key}\""), "section"));
         let unit = if key == "basal" { "U/h" } else { "g/U" };
+        // As `abba advise` gives it (three decimals), without the zeros
+        // past the pages' two (basal) or one (carb ratio).
         let with_unit = |v: &Value| {
-            let v = v.as_f64().unwrap();
-            if key == "basal" {
-                format!("{v:.2} {unit}")
-            } else {
-                format!("{v:.1} {unit}")
+            let mut t = format!("{:.3}", v.as_f64().unwrap());
+            let least = if key == "basal" { 2 } else { 1 };
+            while t.ends_with('0') && t.len() - t.find('.').unwrap() - 1 > least {
+                t.pop();
             }
+            format!("{t} {unit}")
         };
         let in_force = with_unit(&s["in_force"]);
         assert!(

@@ -61,12 +61,28 @@ pub struct Today {
     pub notes: Vec<String>,
 }
 
-/// A value with its unit as the pages show it.
+/// A value with its unit as the pages show it: a basal rate with two
+/// decimals and a carb ratio with one, or with three when the value has
+/// them (a pump's 0.025 U/h step: 1.375 U/h is never shown as 1.38, a
+/// rate the pump cannot be set to; `abba advise` gives three).
 pub fn with_unit(p: Parameter, v: f64) -> String {
     match p {
-        Parameter::Basal => format!("{v:.2} U/h"),
-        Parameter::CarbRatio(_) => format!("{v:.1} g/U"),
+        Parameter::Basal => format!("{} U/h", decimals(v, 2)),
+        Parameter::CarbRatio(_) => format!("{} g/U", decimals(v, 1)),
     }
+}
+
+/// `v` to three decimals, trailing zeros dropped down to `least`.
+fn decimals(v: f64, least: usize) -> String {
+    let text = format!("{v:.3}");
+    let Some((whole, frac)) = text.split_once('.') else {
+        return text;
+    };
+    let mut frac = frac.to_string();
+    while frac.len() > least && frac.ends_with('0') {
+        frac.pop();
+    }
+    format!("{whole}.{frac}")
 }
 
 /// The setting's name.
@@ -574,6 +590,24 @@ mod tests {
 
     fn effect(check: CheckOutcome) -> SettingEffect {
         abba_store::testing::predicted_effect((70.0, 1.0), (71.0, 2.5), 0.5, check)
+    }
+
+    #[test]
+    fn a_value_is_shown_with_every_decimal_it_has_up_to_three() {
+        let cr = Parameter::CarbRatio(abba_core::MealSlot::Lunch);
+        for (p, v, shown) in [
+            (Parameter::Basal, 1.375, "1.375 U/h"),
+            (Parameter::Basal, 0.825, "0.825 U/h"),
+            (Parameter::Basal, 1.35, "1.35 U/h"),
+            (Parameter::Basal, 1.3, "1.30 U/h"),
+            (Parameter::Basal, 1.0437, "1.044 U/h"),
+            (cr, 22.0, "22.0 g/U"),
+            (cr, 21.9, "21.9 g/U"),
+            (cr, 21.949, "21.949 g/U"),
+            (Parameter::Basal, f64::NAN, "NaN U/h"),
+        ] {
+            assert_eq!(with_unit(p, v), shown, "{v}");
+        }
     }
 
     #[test]

@@ -2548,6 +2548,29 @@ async fn malformed_page_requests_get_the_services_pages() {
         .await;
     assert_eq!(r.status, StatusCode::NOT_FOUND);
     assert_eq!(r.json["code"], "not_found", "{}", r.text);
+    // A page asked with a method it does not take: a page with the
+    // pages' headers and `Allow` (it was the API's JSON);
+    // /v1 stays JSON.
+    for (method, path) in [
+        (Method::PUT, "/answer"),
+        (Method::DELETE, "/clinic"),
+        (Method::POST, "/"),
+    ] {
+        let p = admin.send(method.clone(), path, None).await;
+        is_page(&p, StatusCode::METHOD_NOT_ALLOWED, path);
+        assert_eq!(p.headers[header::CONTENT_SECURITY_POLICY], CSP, "{path}");
+        assert_eq!(p.headers[header::X_FRAME_OPTIONS], "DENY", "{path}");
+        assert!(
+            p.headers.contains_key(header::ALLOW),
+            "{method} {path}: {:?}",
+            p.headers
+        );
+    }
+    let r = svc
+        .call(Method::PUT, "/v1/persons", Some(&svc.admin), None)
+        .await;
+    assert_eq!(r.status, StatusCode::METHOD_NOT_ALLOWED);
+    assert_eq!(r.json["code"], "method_not_allowed", "{}", r.text);
 }
 
 /// Refusals name their field: bounds that leave out the value in force

@@ -65,6 +65,10 @@ pub struct Texts {
     pub not_found_title: &'static str,
     /// A page that does not exist.
     pub not_found: &'static str,
+    /// A page asked with a method it does not take (title).
+    pub not_allowed_title: &'static str,
+    /// Its text.
+    pub not_allowed: &'static str,
     /// Title of a fault of abba.
     pub error_title: &'static str,
     /// The store is busy.
@@ -339,6 +343,8 @@ pub const EN: Texts = Texts {
     forbidden_no_session: "You are not signed in on this device any more (you signed out, or your session ended): this form was not taken and nothing was saved. Open the sign-in link (or scan the QR code) your clinic gave you to sign in again.",
     forbidden_role: "You are signed in with an account that cannot open this page.",
     not_found_title: "Not found",
+    not_allowed_title: "Not a request this page takes",
+    not_allowed: "This page is opened with a link or sent with its own form, not with this kind of request. Open abba's pages from their links.",
     not_found: "There is no such page.",
     error_title: "Something went wrong",
     busy: "abba is busy. Nothing was saved; try again in a moment.",

@@ -628,6 +628,42 @@ async fn a_post_without_the_csrf_token_or_from_another_origin_changes_nothing() 
     assert_eq!(app_events(&svc, a), 1);
 }
 
+/// The CSRF token is the session's: the person's token from their other
+/// browser, another person's or the clinic's, sent with this session's
+/// cookie, is refused (403) and nothing is stored; each session's own
+/// goes through.
+#[tokio::test]
+async fn a_csrf_token_of_another_session_is_refused() {
+    let svc = Svc::new();
+    let a = svc.person("ana").await;
+    let o = svc.person("otto").await;
+    let (mut b, csrf) = signed_in(&svc, Role::Person(a as i64)).await;
+    let (_, same_person) = signed_in(&svc, Role::Person(a as i64)).await;
+    let (_, other_person) = signed_in(&svc, Role::Person(o as i64)).await;
+    let (_, clinic) = signed_in(&svc, Role::Admin).await;
+    for token in [&same_person, &other_person, &clinic] {
+        assert_ne!(token, &csrf);
+        let key = b.get("/log").await.hidden("submission");
+        let p = b
+            .post(
+                "/log/reading",
+                &[("glucose", "120"), ("csrf", token), ("submission", &key)],
+            )
+            .await;
+        assert_eq!(p.status, StatusCode::FORBIDDEN, "{}", p.html);
+    }
+    assert_eq!(app_events(&svc, a), 0);
+    let key = b.get("/log").await.hidden("submission");
+    let p = b
+        .post(
+            "/log/reading",
+            &[("glucose", "120"), ("csrf", &csrf), ("submission", &key)],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
+    assert_eq!(app_events(&svc, a), 1);
+}
+
 #[tokio::test]
 async fn a_hostile_name_is_inert_on_every_page_that_shows_it() {
     let svc = Svc::new();

@@ -388,7 +388,14 @@ pub fn therapy_change(
 /// a window's first: why its carb ratio gets no suggestion.
 pub fn meal_not_seen(meal: &str, window: &str, snacks: usize) -> String {
     format!(
-        "No {meal} in the data: no carbohydrate entry in the {meal} window ({window}, local time); {snacks} entries outside the windows or after a window's first were taken as snacks. abba suggests no {meal} carb ratio until a {meal} is logged in its window (meal windows are set when the person is created, --meal-windows)."
+        "No {meal} in the data: no carbohydrate entry in the {meal} window ({window}, local time); {}. abba suggests no {meal} carb ratio until a {meal} is logged in its window (meal windows are set when the person is created, --meal-windows).",
+        match snacks {
+            1 => "1 entry outside the windows or after a window's first was taken as a snack"
+                .to_string(),
+            n => format!(
+                "{n} entries outside the windows or after a window's first were taken as snacks"
+            ),
+        }
     )
 }
 

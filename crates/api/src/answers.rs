@@ -57,6 +57,8 @@ pub struct Answered {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct AnswersAck {
+    /// The notice: abba is research software, not a medical device.
+    pub notice: String,
     /// What was stored.
     pub answered: Vec<Answered>,
     /// Later suggestions whose value changed because the advisor now starts

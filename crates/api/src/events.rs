@@ -124,6 +124,9 @@ pub enum EventBody {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct EventsAck {
+    /// The notice: abba is research software, not a medical device (the
+    /// acknowledgement may carry suggestions).
+    pub notice: String,
     /// Every sequence number of the batch, ascending: each is now held.
     pub acked: Vec<u64>,
     /// How many of them were stored by this request.

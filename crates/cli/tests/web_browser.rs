@@ -816,3 +816,253 @@ async fn a_person_on_pens_reads_what_today_says_about_injections() {
     b.assert_no_problems();
     b.close().await;
 }
+
+/// WebDriver's Tab and Enter keys.
+const TAB: &str = "\u{E004}";
+const ENTER: &str = "\u{E007}";
+
+/// Presses Tab until `css` has the focus (at most 80 times): how many
+/// presses it took.
+async fn tab_to(b: &Browser, css: &str) -> usize {
+    let target = b.find(css).await.element_id();
+    for presses in 0..80 {
+        let active = b.client.active_element().await.unwrap();
+        if active.element_id() == target {
+            return presses;
+        }
+        active.send_keys(TAB).await.unwrap();
+    }
+    panic!("Tab never reaches `{css}` on {}", b.path().await)
+}
+
+/// Waits (WebDriver only, no script) until the browser is on a page whose
+/// path and query start with `prefix`.
+async fn wait_for_path(b: &Browser, prefix: &str) {
+    let started = std::time::Instant::now();
+    loop {
+        let path = b.path().await;
+        if path.starts_with(prefix) && b.exists("#notice").await {
+            return;
+        }
+        assert!(
+            started.elapsed() < std::time::Duration::from_secs(30),
+            "never reached {prefix}: on {path}"
+        );
+        tokio::time::sleep(std::time::Duration::from_millis(50)).await;
+    }
+}
+
+/// A person fed by an import signs in, answers a suggestion and has an own
+/// value refused, with the keyboard only (Tab and Enter) in Chromium with
+/// JavaScript off, at a phone's width: the skip link comes first, every
+/// control is reached, each form works as plain HTML. The answer's
+/// acknowledgement names the setting and the value in force beside the
+/// notice. The clinic's page of that person, with its copy of Today, and
+/// Today pass every page check and fit 360 px.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_person_answers_with_the_keyboard_in_a_browser_without_javascript() {
+    let Some(tools) = tools() else {
+        return;
+    };
+    let dir = TempDir::new("web-keyboard");
+    let db = dir.0.join("clinic.db");
+    let db_s = db.to_str().unwrap().to_string();
+    abba(&["token", "--db", &db_s, "--admin"]);
+    // Eight days of a simulated pump's export whose last day ran high (every
+    // reading 120 mg/dL up, at most 400): suggestions to answer.
+    let export = dir.0.join("export");
+    abba(&[
+        "export",
+        "--patient",
+        "adult#007",
+        "--days",
+        "9",
+        "--arm",
+        "standard",
+        "--tz",
+        "UTC",
+        "--start",
+        "2026-11-01",
+        "--out",
+        export.to_str().unwrap(),
+    ]);
+    let entries = export.join("entries.json");
+    let mut all: Vec<serde_json::Value> =
+        serde_json::from_slice(&std::fs::read(&entries).unwrap()).unwrap();
+    let last = all.iter().filter_map(|e| e["date"].as_i64()).max().unwrap();
+    for e in all.iter_mut() {
+        if e["date"].as_i64().unwrap() > last - 86_400_000 + 300_000 {
+            if let Some(g) = e["sgv"].as_f64() {
+                e["sgv"] = serde_json::json!((g + 120.0).min(400.0));
+            }
+        }
+    }
+    std::fs::write(&entries, serde_json::to_vec(&all).unwrap()).unwrap();
+    let profile = export.join("profile.json");
+    abba(&[
+        "person",
+        "new",
+        "--db",
+        &db_s,
+        "--name",
+        "kai",
+        "--tz",
+        "UTC",
+        "--mode",
+        "cgm",
+        "--therapy-from",
+        profile.to_str().unwrap(),
+    ]);
+    let treatments = export.join("treatments.json");
+    abba(&[
+        "import",
+        "--db",
+        &db_s,
+        "--person",
+        "kai",
+        entries.to_str().unwrap(),
+        treatments.to_str().unwrap(),
+        profile.to_str().unwrap(),
+    ]);
+    let server = Server::start(&db);
+    let base = server.url();
+    let driver = Driver::start(&tools, &dir.0);
+
+    // ---- the person, keyboard only, no JavaScript ------------------------
+    let p = Browser::open_with(&tools, &driver, &dir.0, &base, false).await;
+    p.client.set_window_size(360, 800).await.unwrap();
+    // Page scripts do not run here (WebDriver's own still do): a page
+    // whose script would change its text keeps it.
+    p.client
+        .goto("data:text/html,<p id=js>off</p><script>document.getElementById('js').textContent='on'</script>")
+        .await
+        .unwrap();
+    assert_eq!(
+        p.text("#js").await,
+        "off",
+        "JavaScript runs in this browser"
+    );
+    p.goto(&signin_link(&db, &["--person", "kai"], &base)).await;
+    // The skip link is the first stop.
+    p.client
+        .active_element()
+        .await
+        .unwrap()
+        .send_keys(TAB)
+        .await
+        .unwrap();
+    let first = p.client.active_element().await.unwrap();
+    assert_eq!(first.attr("href").await.unwrap().as_deref(), Some("#main"));
+    tab_to(&p, "form#signin-form button#signin").await;
+    p.client
+        .active_element()
+        .await
+        .unwrap()
+        .send_keys(ENTER)
+        .await
+        .unwrap();
+    wait_for_path(&p, "/").await;
+    assert_eq!(p.path().await, "/");
+    // The first setting with a suggestion to answer: accept it.
+    let section = p
+        .attr("section.card:has(form.answer)", "id")
+        .await
+        .expect("a suggestion to answer");
+    let setting = section.trim_start_matches("setting-").to_string();
+    let title = p.text(&format!("#{section} h2")).await;
+    let suggested = p.text(&format!("#{section} .suggested strong")).await;
+    assert!(
+        p.text(&format!("#{section} .made"))
+            .await
+            .starts_with("Made on 2026-11-"),
+        "the suggestion says when it was made"
+    );
+    tab_to(&p, &format!("#{section} button[value=accept]")).await;
+    p.client
+        .active_element()
+        .await
+        .unwrap()
+        .send_keys(ENTER)
+        .await
+        .unwrap();
+    wait_for_path(&p, "/?answered=").await;
+    let status = p.text("#status").await;
+    assert_eq!(
+        status,
+        format!(
+            "Saved: you accepted the suggested {}; {suggested} is in force.",
+            title.to_lowercase()
+        ),
+        "{setting}"
+    );
+    assert!(p
+        .text("#notice")
+        .await
+        .contains("research software, not a medical device"));
+    assert!(!p.exists(&format!("#{section} form.answer")).await);
+    // An own value no pump can program, typed and sent from the keyboard:
+    // refused beside its field, the value kept, the page still Today.
+    if let Some(other) = p.attr("section.card:has(form.answer)", "id").await {
+        tab_to(&p, &format!("#{other} input[name=value]")).await;
+        p.client
+            .active_element()
+            .await
+            .unwrap()
+            .send_keys("999")
+            .await
+            .unwrap();
+        tab_to(&p, &format!("#{other} button[value=override]")).await;
+        p.client
+            .active_element()
+            .await
+            .unwrap()
+            .send_keys(ENTER)
+            .await
+            .unwrap();
+        let started = std::time::Instant::now();
+        while !p.exists(&format!("#{other} .field-error")).await {
+            assert!(
+                started.elapsed() < std::time::Duration::from_secs(30),
+                "no refusal shown"
+            );
+            tokio::time::sleep(std::time::Duration::from_millis(50)).await;
+        }
+        let error = p.text(&format!("#{other} .field-error")).await;
+        assert!(error.contains("must be between"), "{error}");
+        let input = p.find(&format!("#{other} input[name=value]")).await;
+        assert_eq!(input.prop("value").await.unwrap().as_deref(), Some("999"));
+        let described = input.attr("aria-describedby").await.unwrap().unwrap();
+        assert!(p.exists(&format!("#{described}.field-error")).await);
+    }
+    let history = abba(&["history", "--db", &db_s, "--person", "kai", "--json"]);
+    let answered = history.matches("\"status\": \"accepted\"").count()
+        + history.matches("\"status\":\"accepted\"").count();
+    assert_eq!(answered, 1, "{history}");
+    p.close().await;
+
+    // ---- the clinic's page and Today, with every page check --------------
+    let mut b = Browser::open(&tools, &driver, &dir.0, &base).await;
+    b.goto(&signin_link(&db, &["--admin"], &base)).await;
+    b.click_and_wait("form#signin-form button#signin").await;
+    b.goto("/clinic/persons/1").await;
+    let copy = b.text("#persons-today").await;
+    assert!(
+        copy.contains(&format!("accepted it: {suggested} is in force")),
+        "{copy}"
+    );
+    b.check_page("clinic-person-today", 200, true).await;
+    b.goto(&signin_link(&db, &["--person", "kai"], &base)).await;
+    b.click_and_wait("form#signin-form button#signin").await;
+    b.check_page("today-keyboard", 200, true).await;
+    for path in ["/", "/history"] {
+        b.goto(path).await;
+        b.set_viewport(360, 740).await;
+        if let Some((sw, cw)) = b.sideways().await {
+            b.problems.push(format!(
+                "{path} at 360 px: scrollWidth {sw} > clientWidth {cw}"
+            ));
+        }
+    }
+    b.assert_no_problems();
+    b.close().await;
+}

@@ -100,6 +100,14 @@ fn wire_schedule(v: &Value) -> Value {
 /// new --therapy-from` would: their id and `abba advise`'s advice.
 pub(crate) fn imported_person(svc: &Svc, days: i64) -> (u64, abba_store::advise::Advice) {
     let files = export(svc.dir.path(), days);
+    person_from(svc, &files)
+}
+
+/// The person "ana" of [`imported_person`] fed by `files`.
+pub(crate) fn person_from(
+    svc: &Svc,
+    files: &[std::path::PathBuf],
+) -> (u64, abba_store::advise::Advice) {
     let mut store = Store::open(&svc.db).unwrap();
     let start = TherapySettings::new(UnitsPerHour(1.05), GramsPerUnit(10.0)).unwrap();
     let mut p = NewPerson::new("ana", "Europe/Zurich", Mode::Cgm, start);
@@ -107,7 +115,7 @@ pub(crate) fn imported_person(svc: &Svc, days: i64) -> (u64, abba_store::advise:
     p.settings.therapy_source = TherapySource::Profile;
     p.settings.pump_steps = Some(PumpSteps::default());
     let id = store.create_person(&p).unwrap().id as u64;
-    store.import_files("ana", &files, None).unwrap();
+    store.import_files("ana", files, None).unwrap();
     (id, store.advise("ana").unwrap())
 }
 

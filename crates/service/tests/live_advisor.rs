@@ -344,6 +344,8 @@ async fn one_big_batch_a_late_event_and_an_answer_agree_with_a_replay() {
     let r = post(overridden.clone()).await;
     assert_eq!(r.status, StatusCode::OK, "{}", r.text);
     assert_eq!(r.json["answered"][0]["in_force"].as_f64().unwrap(), value);
+    // The acknowledgement a person's app shows carries the notice.
+    assert_eq!(r.json["notice"], abba_api::NOTICE, "{}", r.text);
     // The same answer again (an app retrying after a lost reply): the same
     // acknowledgement, nothing stored twice.
     let stored = abba_store::testing::count_rows(&svc.db, "answer");

@@ -23,3 +23,4 @@ mod pages;
 mod person_input;
 mod refit;
 mod seq;
+mod web_parity;

@@ -26,10 +26,10 @@ const CSP: &str = "default-src 'none'; style-src 'self'; img-src 'self' data:; f
 
 /// A page's answer.
 #[derive(Debug)]
-struct Page {
-    status: StatusCode,
-    headers: axum::http::HeaderMap,
-    html: String,
+pub(crate) struct Page {
+    pub(crate) status: StatusCode,
+    pub(crate) headers: axum::http::HeaderMap,
+    pub(crate) html: String,
 }
 
 impl Page {
@@ -53,7 +53,7 @@ impl Page {
     }
 
     /// The HTML of the element starting at `start` up to its `</tag>`.
-    fn section(&self, start: &str, tag: &str) -> &str {
+    pub(crate) fn section(&self, start: &str, tag: &str) -> &str {
         let i = self
             .html
             .find(start)
@@ -65,7 +65,7 @@ impl Page {
 }
 
 /// A browser without JavaScript: a cookie jar, same-origin forms.
-struct Browser<'a> {
+pub(crate) struct Browser<'a> {
     svc: &'a Svc,
     cookies: BTreeMap<String, String>,
     origin: Option<&'static str>,
@@ -136,7 +136,7 @@ impl<'a> Browser<'a> {
         }
     }
 
-    async fn get(&mut self, path: &str) -> Page {
+    pub(crate) async fn get(&mut self, path: &str) -> Page {
         self.send(Method::GET, path, None).await
     }
 
@@ -214,7 +214,7 @@ fn link(svc: &Svc, role: Role) -> String {
 }
 
 /// A person's signed-in browser and their session's CSRF token.
-async fn signed_in<'a>(svc: &'a Svc, role: Role) -> (Browser<'a>, String) {
+pub(crate) async fn signed_in<'a>(svc: &'a Svc, role: Role) -> (Browser<'a>, String) {
     let mut b = Browser::new(svc);
     let p = b.sign_in(&link(svc, role)).await;
     assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
@@ -628,6 +628,42 @@ async fn a_post_without_the_csrf_token_or_from_another_origin_changes_nothing() 
     assert_eq!(app_events(&svc, a), 1);
 }
 
+/// The CSRF token is the session's: the person's token from their other
+/// browser, another person's or the clinic's, sent with this session's
+/// cookie, is refused (403) and nothing is stored; each session's own
+/// goes through.
+#[tokio::test]
+async fn a_csrf_token_of_another_session_is_refused() {
+    let svc = Svc::new();
+    let a = svc.person("ana").await;
+    let o = svc.person("otto").await;
+    let (mut b, csrf) = signed_in(&svc, Role::Person(a as i64)).await;
+    let (_, same_person) = signed_in(&svc, Role::Person(a as i64)).await;
+    let (_, other_person) = signed_in(&svc, Role::Person(o as i64)).await;
+    let (_, clinic) = signed_in(&svc, Role::Admin).await;
+    for token in [&same_person, &other_person, &clinic] {
+        assert_ne!(token, &csrf);
+        let key = b.get("/log").await.hidden("submission");
+        let p = b
+            .post(
+                "/log/reading",
+                &[("glucose", "120"), ("csrf", token), ("submission", &key)],
+            )
+            .await;
+        assert_eq!(p.status, StatusCode::FORBIDDEN, "{}", p.html);
+    }
+    assert_eq!(app_events(&svc, a), 0);
+    let key = b.get("/log").await.hidden("submission");
+    let p = b
+        .post(
+            "/log/reading",
+            &[("glucose", "120"), ("csrf", &csrf), ("submission", &key)],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
+    assert_eq!(app_events(&svc, a), 1);
+}
+
 #[tokio::test]
 async fn a_hostile_name_is_inert_on_every_page_that_shows_it() {
     let svc = Svc::new();
@@ -653,6 +689,107 @@ async fn a_hostile_name_is_inert_on_every_page_that_shows_it() {
         assert!(!p.html.contains("<script"), "{path}: {}", p.html);
         assert!(p.html.contains(INERT), "{path}: {}", p.html);
     }
+}
+
+/// Names a person's devices write into their exports (a Nightscout
+/// profile's name, the profile a Profile Switch names, the uploader's
+/// `enteredBy`) and their clinic's import reads: inert on the import's
+/// result, the clinic's person page, every page of the person and both
+/// reports.
+#[tokio::test]
+async fn hostile_names_in_an_imported_export_are_inert_on_every_page_and_report() {
+    const PROFILE: &str = "<img src=x onerror=alert(2)>";
+    const SWITCHED: &str = "<script>alert(3)</script>";
+    let svc = Svc::new();
+    let id = svc
+        .person_with(json!({
+            "name": "ana", "tz": "UTC", "mode": "cgm",
+            "start": {"basal_units_per_hour": 1.0, "carb_ratio_g_per_unit": [10.0, 12.0, 11.0]}
+        }))
+        .await;
+    let entries = std::fs::read(cgm_entries(&svc, "2026-11-02T00:00:00Z", 3)).unwrap();
+    let at = |day: i64, hhmm: &str| format!("2026-11-0{}T{hhmm}:00.000Z", 2 + day);
+    let mut treatments = vec![json!({"_id": "sw", "eventType": "Profile Switch",
+        "profile": SWITCHED, "duration": 0, "created_at": at(1, "10:00"), "enteredBy": HOSTILE})];
+    for day in 0..3 {
+        for (k, (hhmm, carbs)) in [("07:30", 40), ("12:30", 60), ("19:00", 70)]
+            .iter()
+            .enumerate()
+        {
+            treatments.push(
+                json!({"_id": format!("m{day}{k}"), "eventType": "Meal Bolus",
+                "carbs": carbs, "insulin": f64::from(*carbs) / 10.0,
+                "created_at": at(day, hhmm), "enteredBy": HOSTILE}),
+            );
+        }
+    }
+    let seg = |v: f64| json!([{"time": "00:00", "timeAsSeconds": 0, "value": v}]);
+    let profile = json!([{"_id": "p1", "defaultProfile": PROFILE,
+        "startDate": "2026-11-01T00:00:00.000Z", "mills": 1_761_955_200_000_i64, "units": "mg/dl",
+        "store": {PROFILE: {"basal": seg(0.9), "carbratio": seg(10.0), "sens": seg(50.0),
+            "target_low": seg(100.0), "target_high": seg(120.0), "timezone": "UTC",
+            "units": "mg/dl", "dia": 5}}}]);
+    let (treatments, profile) = (
+        serde_json::to_vec(&treatments).unwrap(),
+        serde_json::to_vec(&profile).unwrap(),
+    );
+    let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
+    let p = import_choosing(
+        &mut admin,
+        id,
+        &csrf,
+        "adopt",
+        &[
+            ("files", "entries.json", &entries),
+            ("files", "treatments.json", &treatments),
+            ("files", "profile.json", &profile),
+        ],
+    )
+    .await;
+    assert_eq!(p.status, StatusCode::OK, "{}", p.html);
+    // The import names the profiles (so the test can fail), escaped.
+    let switched = "&lt;script&gt;alert(3)&lt;&#x2f;script&gt;";
+    assert!(p.html.contains(switched), "{}", p.html);
+    let raw = |html: &str| {
+        ["<script", "<img"]
+            .into_iter()
+            .filter(|r| html.contains(r))
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(raw(&p.html), Vec::<&str>::new(), "{}", p.html);
+    for path in [
+        format!("/clinic/persons/{id}"),
+        format!("/clinic/persons/{id}/report"),
+    ] {
+        let p = admin.get(&path).await;
+        assert_eq!(p.status, StatusCode::OK, "{path}");
+        assert_eq!(raw(&p.html), Vec::<&str>::new(), "{path}: {}", p.html);
+    }
+    let (mut b, _) = signed_in(&svc, Role::Person(id as i64)).await;
+    for path in ["/", "/log", "/glucose", "/history", "/report"] {
+        let p = b.get(path).await;
+        assert_eq!(p.status, StatusCode::OK, "{path}");
+        assert_eq!(raw(&p.html), Vec::<&str>::new(), "{path}: {}", p.html);
+    }
+    // A person created from that profile: the page the form lands on.
+    let f = [
+        ("csrf", csrf.as_str()),
+        ("name", "bo"),
+        ("tz", "UTC"),
+        ("unit", "mg/dL"),
+        ("mode", "cgm"),
+    ];
+    let p = admin
+        .post_multipart(
+            "/clinic/persons",
+            &f,
+            &[("profile", "profile.json", &profile)],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
+    let p = admin.get(p.location()).await;
+    assert_eq!(p.status, StatusCode::OK);
+    assert_eq!(raw(&p.html), Vec::<&str>::new(), "{}", p.html);
 }
 
 /// A CGM person in UTC whose day 1 was `days` days before today, with the
@@ -813,15 +950,38 @@ async fn a_person_logs_a_reading_and_a_meal_and_answers_on_the_pages() {
         .await;
     assert_eq!(
         (p.status, p.location()),
-        (StatusCode::SEE_OTHER, "/?answered=accept"),
+        (
+            StatusCode::SEE_OTHER,
+            format!("/?answered={meal_sid}").as_str()
+        ),
         "{}",
         p.html
     );
     let today = b.get(p.location()).await;
+    // The acknowledgement says what the store recorded, under the notice.
+    let status = unescaped(today.section("<div id=\"status\"", "div"));
+    assert!(
+        status.contains("Saved: you accepted the suggested lunch carb ratio; ")
+            && status.contains(" g/U is in force."),
+        "{status}"
+    );
     assert!(today
-        .section("<div id=\"status\"", "div")
-        .contains("accepted"));
+        .html
+        .contains("research software, not a medical device"));
     let key = today.hidden("submission");
+    // A status link made up (or kept from before, or of an older
+    // version's form) says nothing: the basal suggestion is still open.
+    for q in [
+        format!("/?answered={basal_sid}"),
+        "/?answered=accept".into(),
+    ] {
+        let p = b.get(&q).await;
+        assert_eq!(
+            p.section("<div id=\"status\"", "div"),
+            "<div id=\"status\" role=\"status\">",
+            "{q}"
+        );
+    }
     // An own basal value outside the bounds: refused beside the field.
     let p = b
         .post(
@@ -860,9 +1020,19 @@ async fn a_person_logs_a_reading_and_a_meal_and_answers_on_the_pages() {
         .await;
     assert_eq!(
         (p.status, p.location()),
-        (StatusCode::SEE_OTHER, "/?answered=override"),
+        (
+            StatusCode::SEE_OTHER,
+            format!("/?answered={basal_sid}").as_str()
+        ),
         "{}",
         p.html
+    );
+    let today = b.get(p.location()).await;
+    assert!(
+        unescaped(today.section("<div id=\"status\"", "div"))
+            .contains("Saved: you chose your own basal rate; 1.10 U/h is in force."),
+        "{}",
+        today.html
     );
     // The store's history holds exactly those two answers.
     let h = svc
@@ -894,6 +1064,74 @@ async fn a_person_logs_a_reading_and_a_meal_and_answers_on_the_pages() {
         "{}",
         h.text
     );
+}
+
+/// An own value off the pump's step, past what pumps can program or
+/// outside the clinician's bounds: Today again (422) with the reason
+/// beside the field, the typed value kept and nothing stored.
+#[tokio::test]
+async fn an_own_value_off_the_step_past_the_limits_or_the_bounds_is_refused_beside_it() {
+    let svc = Svc::new();
+    let (id, token) = person_past_first_week(&svc, "ana", 9).await;
+    let (mut admin, acsrf) = signed_in(&svc, Role::Admin).await;
+    let path = format!("/clinic/persons/{id}");
+    for (form, fields) in [
+        ("steps", [("basal_step", "0.05"), ("cr_step", "0.1")]),
+        ("bounds", [("basal_min", "0.5"), ("basal_max", "2")]),
+    ] {
+        let mut f = vec![("csrf", acsrf.as_str())];
+        f.extend(fields);
+        let p = admin.post(&format!("{path}/{form}"), &f).await;
+        assert_eq!(p.status, StatusCode::SEE_OTHER, "{form}: {}", p.html);
+    }
+    let (mut b, csrf) = signed_in(&svc, Role::Person(id as i64)).await;
+    let today = b.get("/").await;
+    let sid = open_sid(today.section("<section id=\"setting-basal\"", "section"))
+        .expect("an open basal suggestion");
+    for (typed, why) in [
+        ("1.07", "1.07 U/h is not on the pump's basal step (0.05 U/h): the nearest values the pump can be set to are 1.05 and 1.1 U/h"),
+        ("40", "basal rate (U/h) must be between 0.025 and 35 U/h (the range pumps can program), got 40"),
+        ("2.5", "2.5 U/h is outside the clinician's bounds 0.5-2"),
+    ] {
+        let key = b.get("/").await.hidden("submission");
+        let p = b
+            .post(
+                "/answer",
+                &[
+                    ("csrf", &csrf),
+                    ("suggestion_id", &sid),
+                    ("action", "override"),
+                    ("value", typed),
+                    ("submission", &key),
+                ],
+            )
+            .await;
+        assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{typed}: {}", p.html);
+        let card = p.section("<section id=\"setting-basal\"", "section");
+        let start = format!("<p class=\"field-error\" id=\"value-error-{sid}\">");
+        let i = card
+            .find(&start)
+            .unwrap_or_else(|| panic!("{typed}: no error beside the field: {card}"));
+        let error = &card[i..i + card[i..].find("</p>").unwrap()];
+        assert!(unescaped(error).contains(why), "{typed}: {error}");
+        assert!(card.contains(&format!("value=\"{typed}\"")), "{typed} kept: {card}");
+        assert!(p.html.contains("research software, not a medical device"));
+    }
+    let h = svc
+        .call(
+            Method::GET,
+            &format!("/v1/persons/{id}/history?limit=1000"),
+            Some(&token),
+            None,
+        )
+        .await;
+    let answered = h.json["suggestions"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|s| ["accepted", "rejected", "overridden"].contains(&s["status"].as_str().unwrap()))
+        .count();
+    assert_eq!(answered, 0, "{}", h.text);
 }
 
 #[tokio::test]
@@ -1894,7 +2132,7 @@ async fn a_form_sent_twice_stores_its_event_or_answer_once() {
         let p = b.post("/answer", &answer).await;
         assert_eq!(
             (p.status, p.location()),
-            (StatusCode::SEE_OTHER, "/?answered=accept"),
+            (StatusCode::SEE_OTHER, format!("/?answered={sid}").as_str()),
             "{}",
             p.html
         );
@@ -2346,6 +2584,29 @@ async fn malformed_page_requests_get_the_services_pages() {
         .await;
     assert_eq!(r.status, StatusCode::NOT_FOUND);
     assert_eq!(r.json["code"], "not_found", "{}", r.text);
+    // A page asked with a method it does not take: a page with the
+    // pages' headers and `Allow` (it was the API's JSON);
+    // /v1 stays JSON.
+    for (method, path) in [
+        (Method::PUT, "/answer"),
+        (Method::DELETE, "/clinic"),
+        (Method::POST, "/"),
+    ] {
+        let p = admin.send(method.clone(), path, None).await;
+        is_page(&p, StatusCode::METHOD_NOT_ALLOWED, path);
+        assert_eq!(p.headers[header::CONTENT_SECURITY_POLICY], CSP, "{path}");
+        assert_eq!(p.headers[header::X_FRAME_OPTIONS], "DENY", "{path}");
+        assert!(
+            p.headers.contains_key(header::ALLOW),
+            "{method} {path}: {:?}",
+            p.headers
+        );
+    }
+    let r = svc
+        .call(Method::PUT, "/v1/persons", Some(&svc.admin), None)
+        .await;
+    assert_eq!(r.status, StatusCode::METHOD_NOT_ALLOWED);
+    assert_eq!(r.json["code"], "method_not_allowed", "{}", r.text);
 }
 
 /// Refusals name their field: bounds that leave out the value in force
@@ -2706,15 +2967,39 @@ async fn an_https_public_url_makes_every_cookie_secure() {
             .post("/signin", &[("csrf", &csrf), ("link", &secret)])
             .await;
         assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
+        // Over TLS the session cookie is `__Host-` (only this host sets it).
+        let name = if secure {
+            "__Host-abba_session="
+        } else {
+            "abba_session="
+        };
         let session = p
             .headers
             .get_all(header::SET_COOKIE)
             .iter()
             .map(|v| v.to_str().unwrap().to_string())
-            .find(|v| v.starts_with("abba_session="))
-            .unwrap();
+            .find(|v| v.starts_with(name))
+            .unwrap_or_else(|| panic!("{url}: no {name} in {:?}", p.headers));
         assert_eq!(session.contains("; Secure"), secure, "{url}: {session}");
         assert!(session.contains("HttpOnly") && session.contains("SameSite=Strict"));
+        assert!(session.contains("; Path=/;") && !session.contains("Domain"));
+        assert_eq!(b.get("/").await.status, StatusCode::OK, "{url}: signed in");
+        // The same live session under the plain name, as a site on a
+        // sibling subdomain can plant it for the whole domain (cookie
+        // tossing): over TLS it is not read, so it signs nobody in.
+        let value = session[name.len()..].split(';').next().unwrap().to_string();
+        let mut tossed = Browser::new(&svc);
+        tossed.cookies.insert("abba_session".into(), value);
+        let p = tossed.get("/").await;
+        if secure {
+            assert_eq!(
+                (p.status, p.location()),
+                (StatusCode::SEE_OTHER, "/signin"),
+                "{url}: a tossed abba_session signs in"
+            );
+        } else {
+            assert_eq!(p.status, StatusCode::OK, "{url}: {}", p.html);
+        }
     }
 }
 

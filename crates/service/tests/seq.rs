@@ -49,6 +49,7 @@ async fn repeats_conflicts_and_gaps() {
     assert_eq!(r.status, StatusCode::OK, "{}", r.text);
     assert_eq!(r.json["acked"], json!([1, 2, 3]));
     assert_eq!(r.json["stored"], 3);
+    assert_eq!(r.json["notice"], abba_api::NOTICE, "{}", r.text);
     assert_eq!(r.json["repeated"], json!([]));
     // The same batch again: acknowledged, nothing stored.
     let r = post(&svc, id, &t, batch.clone()).await;

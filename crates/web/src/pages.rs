@@ -147,6 +147,10 @@ pub struct SuggestionCard {
     pub value: String,
     /// Its change, in words (`+4.0 %`).
     pub change: String,
+    /// When it was made (local time) and the data it rests on (`.made`),
+    /// as `abba advise` says them: a suggestion shown days after its data
+    /// says so.
+    pub made: String,
     /// The reason in plain words (the advisor's first sentence: what the
     /// data showed).
     pub reason: String,

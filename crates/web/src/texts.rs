@@ -65,6 +65,10 @@ pub struct Texts {
     pub not_found_title: &'static str,
     /// A page that does not exist.
     pub not_found: &'static str,
+    /// A page asked with a method it does not take (title).
+    pub not_allowed_title: &'static str,
+    /// Its text.
+    pub not_allowed: &'static str,
     /// Title of a fault of abba.
     pub error_title: &'static str,
     /// The store is busy.
@@ -147,11 +151,14 @@ pub struct Texts {
     pub answered_rejected: &'static str,
     /// Answered: own value ({value}).
     pub answered_overridden: &'static str,
-    /// Status: accepted.
+    /// When a suggestion was made and on what data ({at}, {data}).
+    pub suggestion_made: &'static str,
+    /// Status after an answer, said from the store: accepted ({setting},
+    /// lower case, and the {value} in force).
     pub status_accepted: &'static str,
-    /// Status: rejected.
+    /// Status: rejected ({setting}, {value}).
     pub status_rejected: &'static str,
-    /// Status: own value.
+    /// Status: own value ({setting}, {value}).
     pub status_overridden: &'static str,
     /// An answer refused for a suggestion the page no longer offers to
     /// answer (answered in another tab, replaced): {reason}.
@@ -336,6 +343,8 @@ pub const EN: Texts = Texts {
     forbidden_no_session: "You are not signed in on this device any more (you signed out, or your session ended): this form was not taken and nothing was saved. Open the sign-in link (or scan the QR code) your clinic gave you to sign in again.",
     forbidden_role: "You are signed in with an account that cannot open this page.",
     not_found_title: "Not found",
+    not_allowed_title: "Not a request this page takes",
+    not_allowed: "This page is opened with a link or sent with its own form, not with this kind of request. Open abba's pages from their links.",
     not_found: "There is no such page.",
     error_title: "Something went wrong",
     busy: "abba is busy. Nothing was saved; try again in a moment.",
@@ -377,9 +386,10 @@ pub const EN: Texts = Texts {
     answered_accepted: "You accepted it: {value} is in force.",
     answered_rejected: "You kept the previous value: {value} is in force.",
     answered_overridden: "You chose your own value: {value} is in force.",
-    status_accepted: "Saved: you accepted the suggestion.",
-    status_rejected: "Saved: you kept the previous value.",
-    status_overridden: "Saved: your own value is in force.",
+    suggestion_made: "Made on {at} (local time). Data: {data}.",
+    status_accepted: "Saved: you accepted the suggested {setting}; {value} is in force.",
+    status_rejected: "Saved: you kept the previous {setting}; {value} is in force.",
+    status_overridden: "Saved: you chose your own {setting}; {value} is in force.",
     answer_not_saved: "Your answer was not saved: {reason}. The page now shows each setting as it stands.",
     log_title: "Log",
     log_reading: "A meter reading",
@@ -506,6 +516,10 @@ pub struct ClinicTexts {
     pub basal_from: &'static str,
     /// Heading: suggestions waiting.
     pub waiting_title: &'static str,
+    /// Heading: the person's Today, as they read it.
+    pub persons_today_title: &'static str,
+    /// What that section is.
+    pub persons_today_intro: &'static str,
     /// Nothing waiting.
     pub none: &'static str,
     /// Heading: bounds.
@@ -672,6 +686,8 @@ pub const CLINIC_EN: ClinicTexts = ClinicTexts {
     col_value: "Value",
     basal_from: "Basal from",
     waiting_title: "Suggestions waiting",
+    persons_today_title: "The person's Today",
+    persons_today_intro: "What the person reads on their Today page now, word for word (they answer there).",
     none: "None.",
     bounds_title: "Clinician bounds",
     save_bounds: "Save the bounds",

@@ -249,8 +249,30 @@ impl Browser {
     /// Opens headless Chromium through `driver` with a fresh profile in
     /// `dir`, for the service at `base`.
     pub async fn open(tools: &Tools, driver: &Driver, dir: &Path, base: &str) -> Browser {
-        let profile = dir.join("chromium-profile");
+        Self::open_with(tools, driver, dir, base, true).await
+    }
+
+    /// [`Browser::open`] with JavaScript off (Chromium's content setting)
+    /// when `js` is false: the pages must work as plain HTML; the page
+    /// checks (axe, sizes) need JavaScript and are not for such a browser.
+    pub async fn open_with(
+        tools: &Tools,
+        driver: &Driver,
+        dir: &Path,
+        base: &str,
+        js: bool,
+    ) -> Browser {
+        let profile = dir.join(if js {
+            "chromium-profile"
+        } else {
+            "chromium-profile-no-js"
+        });
         std::fs::create_dir_all(&profile).unwrap();
+        let prefs = if js {
+            json!({})
+        } else {
+            json!({"profile.managed_default_content_settings.javascript": 2})
+        };
         let caps = json!({
             "browserName": "chrome",
             "goog:chromeOptions": {
@@ -266,6 +288,7 @@ impl Browser {
                     "--disable-sync",
                     format!("--user-data-dir={}", profile.display()),
                 ],
+                "prefs": prefs,
             },
             "goog:loggingPrefs": {"browser": "ALL"},
         });

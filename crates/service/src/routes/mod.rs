@@ -62,24 +62,35 @@ pub fn query_u64(raw: Option<&str>, known: &[&str]) -> Result<Vec<(String, u64)>
 /// `/healthz` the API's JSON error, elsewhere the pages' 404 page.
 pub async fn not_found(uri: axum::http::Uri) -> axum::response::Response {
     use axum::response::IntoResponse;
-    let path = uri.path();
-    let first = path.trim_start_matches('/').split('/').next().unwrap_or("");
-    let api = first == "healthz"
-        || first
-            .strip_prefix('v')
-            .is_some_and(|n| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()));
-    if api {
+    if is_api(uri.path()) {
         ApiError::not_found("no such endpoint (see GET /v1/openapi.json)").into_response()
     } else {
         crate::web::page::unknown_page()
     }
 }
 
-/// 405 for a known path with another method.
-pub async fn method_not_allowed() -> ApiError {
-    ApiError::new(
-        StatusCode::METHOD_NOT_ALLOWED,
-        abba_api::ErrorCode::MethodNotAllowed,
-        "this endpoint does not take that method (see GET /v1/openapi.json)",
-    )
+/// True for a path of the API: under a version (`/v1`, `/v2`, ...) and
+/// `/healthz`; every other path is the pages'.
+fn is_api(path: &str) -> bool {
+    let first = path.trim_start_matches('/').split('/').next().unwrap_or("");
+    first == "healthz"
+        || first
+            .strip_prefix('v')
+            .is_some_and(|n| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()))
+}
+
+/// 405 for a known path with another method: the API's JSON error under
+/// the API, a page elsewhere.
+pub async fn method_not_allowed(uri: axum::http::Uri) -> axum::response::Response {
+    use axum::response::IntoResponse;
+    if is_api(uri.path()) {
+        ApiError::new(
+            StatusCode::METHOD_NOT_ALLOWED,
+            abba_api::ErrorCode::MethodNotAllowed,
+            "this endpoint does not take that method (see GET /v1/openapi.json)",
+        )
+        .into_response()
+    } else {
+        crate::web::page::not_allowed_page()
+    }
 }

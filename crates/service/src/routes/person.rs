@@ -105,6 +105,7 @@ pub fn post_batch(
         })?
     };
     Ok(EventsAck {
+        notice: abba_api::NOTICE.into(),
         acked,
         stored: posted.stored.len() as u64,
         repeated: posted.repeated,
@@ -183,7 +184,11 @@ pub fn answer_batch(
     let changed = convert::suggestions(live, |d| keys.contains(&(d.at, d.parameter)), &mut |d| {
         store.producer(id, d)
     })?;
-    Ok(AnswersAck { answered, changed })
+    Ok(AnswersAck {
+        notice: abba_api::NOTICE.into(),
+        answered,
+        changed,
+    })
 }
 
 /// Which sequence numbers the service holds.

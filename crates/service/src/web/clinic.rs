@@ -699,6 +699,9 @@ struct PersonModel {
     /// insulin records), with the records that show it; none when basal
     /// rates are suggested.
     delivery: Option<DeliveryModel>,
+    /// The person's Today as they read it (the same model and words,
+    /// shown without its answer forms).
+    today: Option<super::today::Today>,
     /// Errors beside the fields of every form.
     errors: BTreeMap<String, String>,
     /// What was typed into a refused form.
@@ -801,7 +804,11 @@ fn range_text(r: Option<Range>) -> (String, String) {
     })
 }
 
-fn person_model(store: &mut Store, id: i64) -> Result<PersonModel, ApiError> {
+fn person_model(
+    store: &mut Store,
+    id: i64,
+    fx: Option<&crate::state::EffectSource>,
+) -> Result<PersonModel, ApiError> {
     let live = store.live_read(id)?;
     let p = &live.person;
     let a = live.advice();
@@ -937,6 +944,7 @@ fn person_model(store: &mut Store, id: i64) -> Result<PersonModel, ApiError> {
                     .collect(),
             }
         }),
+        today: Some(super::today::model(&live, None, fx)),
         tokens,
         sessions,
         nightscout,
@@ -961,9 +969,10 @@ async fn show_person(
     message: Option<String>,
     edit: impl FnOnce(&mut PersonModel) + Send + 'static,
 ) -> PageResult {
+    let fx = s.effects();
     let model = s
         .store(move |store| {
-            let mut m = person_model(store, id)?;
+            let mut m = person_model(store, id, fx.as_ref())?;
             edit(&mut m);
             Ok(m)
         })

@@ -154,7 +154,24 @@ pub fn not_found() -> PageError {
 /// The answer to a URL that is no page (the router's fallback outside
 /// `/v1`): the 404 page, with the pages' headers.
 pub fn unknown_page() -> Response {
-    let mut r = not_found().into_response();
+    with_page_headers(not_found().into_response())
+}
+
+/// The answer to a page asked with a method it does not take (the
+/// router's 405 fallback outside `/v1`): a page, with the pages' headers,
+/// never the API's JSON.
+pub fn not_allowed_page() -> Response {
+    with_page_headers(message(
+        StatusCode::METHOD_NOT_ALLOWED,
+        EN.not_allowed_title,
+        EN.not_allowed,
+        None,
+    ))
+}
+
+/// `r` with the headers every page has (the pages' router layers do not
+/// run for the router's fallbacks).
+fn with_page_headers(mut r: Response) -> Response {
     let h = r.headers_mut();
     for (name, value) in [
         (header::CONTENT_SECURITY_POLICY, abba_web::CSP),

@@ -4,8 +4,8 @@
 //! - The cookie holds 256 random bits (64 hex digits); the store keeps
 //!   only their SHA-256 (abba-store's `session` module), with the
 //!   session's CSRF token and its expiry (30 days idle, 90 days at most).
-//! - `HttpOnly; SameSite=Strict; Path=/`, and `Secure` when the request
-//!   came over TLS: abba serves plain HTTP itself, so that is when a
+//! - `HttpOnly; SameSite=Strict; Path=/`, and `Secure` (the cookie then
+//!   named `__Host-abba_session`) when the request came over TLS: abba serves plain HTTP itself, so that is when a
 //!   reverse proxy on the same machine (a loopback peer) says
 //!   `X-Forwarded-Proto: https` (no other peer is trusted to say so), or
 //!   always when the service's `--public-url` is `https://`.
@@ -31,8 +31,14 @@ use axum::http::{header, HeaderMap, HeaderValue};
 use std::net::SocketAddr;
 use subtle::ConstantTimeEq;
 
-/// The session cookie's name.
+/// The session cookie's name over plain HTTP.
 pub const COOKIE: &str = "abba_session";
+/// The session cookie's name over TLS: a browser takes a `__Host-` cookie
+/// only from this host itself, `Secure`, `Path=/` and without `Domain`
+/// (RFC 6265bis, "cookie name prefixes"), so a site on a sibling
+/// subdomain cannot plant its own session in a person's browser (cookie
+/// tossing) and have them sign in, or stay signed in, as someone else.
+pub const HOST_COOKIE: &str = "__Host-abba_session";
 /// The sign-in form's double-submit cookie.
 pub const SIGNIN_COOKIE: &str = "abba_signin";
 
@@ -96,6 +102,17 @@ impl Ctx {
         None
     }
 
+    /// The session cookie's name for this request: [`HOST_COOKIE`] over
+    /// TLS, [`COOKIE`] otherwise. Over TLS a plain `abba_session` is never
+    /// read (another site may have set it for the whole domain).
+    pub fn session_cookie(&self) -> &'static str {
+        if self.https {
+            HOST_COOKIE
+        } else {
+            COOKIE
+        }
+    }
+
     /// A `Set-Cookie` value for `name` (`max_age` seconds; 0 removes it).
     pub fn set_cookie(&self, name: &str, value: &str, path: &str, max_age: i64) -> HeaderValue {
         let secure = if self.https { "; Secure" } else { "" };
@@ -157,7 +174,7 @@ pub fn now_ms() -> i64 {
 
 /// The request's live session, if any.
 pub async fn current(s: &AppState, ctx: &Ctx) -> Result<Option<WebSession>, PageError> {
-    let Some(value) = ctx.cookie(COOKIE).filter(|v| is_secret(v)) else {
+    let Some(value) = ctx.cookie(ctx.session_cookie()).filter(|v| is_secret(v)) else {
         return Ok(None);
     };
     let h = auth::hash(&value);

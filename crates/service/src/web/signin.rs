@@ -8,7 +8,7 @@
 
 use super::form::Form;
 use super::page::{forbidden_csrf, message, render, see_other, PageError, PageResult, PathText};
-use super::session::{self, Ctx, COOKIE, SIGNIN_COOKIE};
+use super::session::{self, Ctx, SIGNIN_COOKIE};
 use crate::auth;
 use crate::body::RawBody;
 use crate::state::AppState;
@@ -145,7 +145,7 @@ pub async fn post(State(s): State<AppState>, ctx: Ctx, body: RawBody) -> PageRes
     let h = r.headers_mut();
     h.append(
         header::SET_COOKIE,
-        ctx.set_cookie(COOKIE, &value, "/", ABSOLUTE_MS / 1000),
+        ctx.set_cookie(ctx.session_cookie(), &value, "/", ABSOLUTE_MS / 1000),
     );
     h.append(
         header::SET_COOKIE,
@@ -166,8 +166,10 @@ pub async fn signout(State(s): State<AppState>, ctx: Ctx, body: RawBody) -> Page
         .await
         .map_err(PageError::from)?;
     let mut r = see_other("/signin?out=1");
-    r.headers_mut()
-        .append(header::SET_COOKIE, ctx.set_cookie(COOKIE, "", "/", 0));
+    r.headers_mut().append(
+        header::SET_COOKIE,
+        ctx.set_cookie(ctx.session_cookie(), "", "/", 0),
+    );
     Ok(r)
 }
 

@@ -61,12 +61,28 @@ pub struct Today {
     pub notes: Vec<String>,
 }
 
-/// A value with its unit as the pages show it.
+/// A value with its unit as the pages show it: a basal rate with two
+/// decimals and a carb ratio with one, or with three when the value has
+/// them (a pump's 0.025 U/h step: 1.375 U/h is never shown as 1.38, a
+/// rate the pump cannot be set to; `abba advise` gives three).
 pub fn with_unit(p: Parameter, v: f64) -> String {
     match p {
-        Parameter::Basal => format!("{v:.2} U/h"),
-        Parameter::CarbRatio(_) => format!("{v:.1} g/U"),
+        Parameter::Basal => format!("{} U/h", decimals(v, 2)),
+        Parameter::CarbRatio(_) => format!("{} g/U", decimals(v, 1)),
     }
+}
+
+/// `v` to three decimals, trailing zeros dropped down to `least`.
+fn decimals(v: f64, least: usize) -> String {
+    let text = format!("{v:.3}");
+    let Some((whole, frac)) = text.split_once('.') else {
+        return text;
+    };
+    let mut frac = frac.to_string();
+    while frac.len() > least && frac.ends_with('0') {
+        frac.pop();
+    }
+    format!("{whole}.{frac}")
 }
 
 /// The setting's name.
@@ -123,7 +139,8 @@ pub fn card(
             schedule: None,
         };
     };
-    let reason = super::advice_words::for_person(&if v.reasons.is_empty() {
+    let words = super::advice_words::for_person;
+    let reason = words(&if v.reasons.is_empty() {
         v.no_update_reason.clone().unwrap_or_default()
     } else {
         v.reasons.join(" ")
@@ -176,8 +193,15 @@ pub fn card(
             },
             value: with_unit(p, v.suggested),
             change: format!("{:+.1} %", v.change_percent),
-            reason: v.reasons.first().cloned().unwrap_or_else(|| reason.clone()),
-            details: v.reasons.iter().skip(1).cloned().collect(),
+            made: fill(
+                EN.suggestion_made,
+                &[("at", &v.decided_at), ("data", &v.data)],
+            ),
+            reason: v
+                .reasons
+                .first()
+                .map_or_else(|| reason.clone(), |r| words(r)),
+            details: v.reasons.iter().skip(1).map(|r| words(r)).collect(),
             open,
             answered,
             value_error: err.map(|e| e.message.clone()),
@@ -277,6 +301,8 @@ pub fn effect_words(
 
 /// Today's model.
 pub fn model(live: &Live, err: Option<&ValueError>, fx: Option<&EffectSource>) -> Today {
+    // The advice's sentences in the person's words (no CLI flag).
+    let words = super::advice_words::for_person;
     let a = live.advice_with(fx.map(EffectSource::effects));
     let total = live.person.settings.advisor.init_days;
     let first_week = match a.phase {
@@ -301,10 +327,12 @@ pub fn model(live: &Live, err: Option<&ValueError>, fx: Option<&EffectSource>) -
     let not_designed_for = if a.delivery.basal_suggestions {
         None
     } else {
-        Some(a.delivery.note.as_deref().map_or_else(
-            || a.delivery.words.to_string(),
-            super::advice_words::for_person,
-        ))
+        Some(
+            a.delivery
+                .note
+                .as_deref()
+                .map_or_else(|| a.delivery.words.to_string(), words),
+        )
     };
     let in_force_schedule = a.therapy.basal_schedule.as_ref().map(|sch| {
         fill(
@@ -334,31 +362,52 @@ pub fn model(live: &Live, err: Option<&ValueError>, fx: Option<&EffectSource>) -
         not_designed_for,
         answer_refused: None,
         settings,
-        notes: a.notes,
+        notes: a.notes.iter().map(|n| words(n)).collect(),
     }
 }
 
-fn status_text(q: Option<&str>) -> Option<String> {
-    match q? {
-        "answered=accept" => Some(EN.status_accepted.into()),
-        "answered=reject" => Some(EN.status_rejected.into()),
-        "answered=override" => Some(EN.status_overridden.into()),
-        _ => None,
-    }
+/// The status after an answer (`?answered=SID`, where the answer form
+/// sends the person): what the store holds for that suggestion, the
+/// setting and the value in force, when it holds an answer of the person
+/// to it; nothing otherwise (a link made up or kept from another day says
+/// nothing was saved that was not).
+fn answered_status(live: &Live, q: Option<&str>) -> Option<String> {
+    let sid = q?.strip_prefix("answered=")?.parse::<u64>().ok()?;
+    let views = live.views();
+    let (d, v) = live.decisions.iter().zip(&views).find(|(d, _)| {
+        crate::convert::setting(d.parameter).suggestion_id(d.at.0.max(0) as u64) == sid
+    })?;
+    let text = match v.status.as_str() {
+        "accepted" => EN.status_accepted,
+        "rejected" => EN.status_rejected,
+        "overridden" => EN.status_overridden,
+        _ => return None,
+    };
+    Some(fill(
+        text,
+        &[
+            ("setting", &title(d.parameter).to_lowercase()),
+            ("value", &with_unit(d.parameter, v.in_force)),
+        ],
+    ))
 }
 
 /// `GET /`: Today.
 pub async fn page(State(s): State<AppState>, ctx: Ctx, RawQuery(q): RawQuery) -> PageResult {
     let (id, w) = session::person_page(&s, &ctx).await?;
     let fx = s.effects();
-    let (today, name) = s
+    let (today, name, status) = s
         .person(id, false, move |_, live| {
-            Ok((model(live, None, fx.as_ref()), live.person.name.clone()))
+            Ok((
+                model(live, None, fx.as_ref()),
+                live.person.name.clone(),
+                answered_status(live, q.as_deref()),
+            ))
         })
         .await?;
     let layout = Layout::person(EN.today_title, &w.csrf, "/")
         .signed_in_as(&name)
-        .with_status(status_text(q.as_deref()))
+        .with_status(status)
         .with_submission(session::secret()?);
     render(StatusCode::OK, "today.html", &layout, &today)
 }
@@ -455,9 +504,12 @@ pub async fn answer(State(s): State<AppState>, ctx: Ctx, body: RawBody) -> PageR
         .ok_or_else(|| crate::error::ApiError::invalid(form::SUBMISSION, EN.submission_missing))?;
     let typed = form.text("value").to_string();
     let item = answer_item(&form);
-    let action = form.text("action").to_string();
     let fx = s.effects();
-    let outcome = format!("/?answered={action}");
+    // Today names the setting and the value the store now holds.
+    let outcome = match &item {
+        Ok(a) => format!("/?answered={}", a.suggestion_id),
+        Err(_) => "/".to_string(),
+    };
     let out = s
         .person(id, true, move |store, live| {
             if let Some(first) = store.submission(id, &key)? {
@@ -538,6 +590,24 @@ mod tests {
 
     fn effect(check: CheckOutcome) -> SettingEffect {
         abba_store::testing::predicted_effect((70.0, 1.0), (71.0, 2.5), 0.5, check)
+    }
+
+    #[test]
+    fn a_value_is_shown_with_every_decimal_it_has_up_to_three() {
+        let cr = Parameter::CarbRatio(abba_core::MealSlot::Lunch);
+        for (p, v, shown) in [
+            (Parameter::Basal, 1.375, "1.375 U/h"),
+            (Parameter::Basal, 0.825, "0.825 U/h"),
+            (Parameter::Basal, 1.35, "1.35 U/h"),
+            (Parameter::Basal, 1.3, "1.30 U/h"),
+            (Parameter::Basal, 1.0437, "1.044 U/h"),
+            (cr, 22.0, "22.0 g/U"),
+            (cr, 21.9, "21.9 g/U"),
+            (cr, 21.949, "21.949 g/U"),
+            (Parameter::Basal, f64::NAN, "NaN U/h"),
+        ] {
+            assert_eq!(with_unit(p, v), shown, "{v}");
+        }
     }
 
     #[test]

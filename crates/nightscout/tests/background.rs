@@ -66,7 +66,7 @@ fn a_stalled_site_holds_its_own_slot_only() {
     let d = data(1);
     let files = export(dir.path(), &d);
     let slow = server(&d, 1000);
-    slow.with(|s| s.page_delay = Duration::from_millis(1500));
+    slow.with(|s| s.page_delay = Duration::from_millis(600));
     let quick = server(&d, 1000);
     let (db, mut store) = store_with_person(dir.path(), "bg.db", &files);
     for name in ["ben", "cy"] {

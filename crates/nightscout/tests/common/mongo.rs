@@ -287,12 +287,22 @@ pub fn sort_of(
 }
 
 /// Sorts `docs` as MongoDB does (stable: ties keep the stored order).
-pub fn sort(docs: &mut [Value], by: &[(String, i8)]) {
-    docs.sort_by(|a, b| {
-        for (f, dir) in by {
-            let x = stored(a, f).unwrap_or(Bson::Null);
-            let y = stored(b, f).unwrap_or(Bson::Null);
-            let o = x.sort_cmp(&y);
+pub fn sort(docs: &mut Vec<Value>, by: &[(String, i8)]) {
+    // Each document's sort keys typed once (a stable sort of the keys, as
+    // comparing the documents themselves would be).
+    let mut keyed: Vec<(Vec<Bson>, Value)> = std::mem::take(docs)
+        .into_iter()
+        .map(|d| {
+            let keys = by
+                .iter()
+                .map(|(f, _)| stored(&d, f).unwrap_or(Bson::Null))
+                .collect();
+            (keys, d)
+        })
+        .collect();
+    keyed.sort_by(|(a, _), (b, _)| {
+        for ((x, y), (_, dir)) in a.iter().zip(b).zip(by) {
+            let o = x.sort_cmp(y);
             let o = if *dir < 0 { o.reverse() } else { o };
             if o != Ordering::Equal {
                 return o;
@@ -300,4 +310,5 @@ pub fn sort(docs: &mut [Value], by: &[(String, i8)]) {
         }
         Ordering::Equal
     });
+    *docs = keyed.into_iter().map(|(_, d)| d).collect();
 }

@@ -598,21 +598,6 @@ async fn v1_list(
         } else {
             "created_at"
         };
-        let mut docs: Vec<Value> = site
-            .docs
-            .get(col)
-            .map(|v| {
-                v.iter()
-                    .map(|d| {
-                        let mut doc = d.doc.clone();
-                        if !d.valid {
-                            doc["isValid"] = Value::Bool(false);
-                        }
-                        doc
-                    })
-                    .collect()
-            })
-            .unwrap_or_default();
         let q: Vec<(String, String)> = if site.ignores_time_filter {
             q.into_iter()
                 .filter(|(k, _)| !k.starts_with("find[date]") && !k.starts_with("find[created_at]"))
@@ -650,24 +635,34 @@ async fn v1_list(
         // gets the last 4 days.
         let bounded =
             find.has_id() || find.names(sort) || (col == "entries" && find.names("dateString"));
-        if col != "profile" && !bounded && !site.ignores_time_filter {
+        let bound = (col != "profile" && !bounded && !site.ignores_time_filter).then(|| {
             let from = jiff::Timestamp::now().as_millisecond() - 4 * 86_400_000;
-            let bound = if col == "entries" {
+            if col == "entries" {
                 json!(from)
             } else {
                 Value::String(iso(from))
+            }
+        });
+        // The stored documents the query keeps (a deleted one shows
+        // `isValid: false`), cloned only when kept.
+        let mut docs: Vec<Value> = Vec::new();
+        for d in site.docs.get(col).into_iter().flatten() {
+            let doc = if d.valid {
+                std::borrow::Cow::Borrowed(&d.doc)
+            } else {
+                let mut doc = d.doc.clone();
+                doc["isValid"] = Value::Bool(false);
+                std::borrow::Cow::Owned(doc)
             };
-            docs.retain(|d| keep(d, sort, "$gte", &bound));
-        }
-        let mut kept = Vec::with_capacity(docs.len());
-        for d in docs {
-            match find.matches(&d) {
-                Ok(true) => kept.push(d),
+            if bound.as_ref().is_some_and(|b| !keep(&doc, sort, "$gte", b)) {
+                continue;
+            }
+            match find.matches(&doc) {
+                Ok(true) => docs.push(doc.into_owned()),
                 Ok(false) => {}
                 Err(e) => return mongo_error(&e),
             }
         }
-        let mut docs = kept;
         // MongoDB's sort: `sort[...]` as given, else the stored date
         // field, newest first (documents without it last).
         let asked: &[(String, String)] = if site.ignores_sort || site.ascending {

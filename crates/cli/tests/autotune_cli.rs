@@ -539,6 +539,29 @@ fn a_day_whose_isf_ratios_hold_nan_gives_oref0s_profile() {
     assert_oref0_printed(&json["profile"], "nan_day/autotune.json");
 }
 
+/// `abba autotune --json` on the quirk days with `extra` treatments added,
+/// newest first as Nightscout answers (oref0 skips records out of order).
+fn quirk_days_with(dir: &Path, tag: &str, extra: Vec<Value>) -> Value {
+    let e = entries_of(
+        dir,
+        ["entries.quirks.day1.json", "entries.quirks.day2.json"],
+    );
+    let mut items = read(&data("treatments.quirks.json"))
+        .as_array()
+        .unwrap()
+        .clone();
+    items.extend(extra);
+    items.sort_by(|a, b| b["created_at"].as_str().cmp(&a["created_at"].as_str()));
+    let path = dir.join(format!("treatments.{tag}.json"));
+    std::fs::write(&path, serde_json::to_string(&items).unwrap()).unwrap();
+    let mut args = files_args(&e, path.to_str().unwrap());
+    args.push("--json".into());
+    serde_json::from_str(&ok(&abba(
+        &args.iter().map(String::as_str).collect::<Vec<_>>(),
+    )))
+    .unwrap()
+}
+
 /// oref0 reads bolus insulin only from Meal Bolus, Correction Bolus, Snack
 /// Bolus and Bolus Wizard treatments (and xDrip+'s), and temps only from
 /// "Temp Basal": the quirk days with a Trio "Bolus", a Careportal "Combo
@@ -550,35 +573,21 @@ fn a_day_whose_isf_ratios_hold_nan_gives_oref0s_profile() {
 #[test]
 fn treatments_oref0_reads_no_insulin_from_are_left_out_and_said() {
     let dir = tmp("odd");
-    let e = entries_of(
+    let json = quirk_days_with(
         &dir,
-        ["entries.quirks.day1.json", "entries.quirks.day2.json"],
+        "odd",
+        vec![
+            serde_json::json!({"eventType": "Bolus", "insulin": 2.0, "type": "normal", "isSMB": false,
+                "enteredBy": "Trio", "created_at": "2026-01-10T12:30:00.000Z"}),
+            serde_json::json!({"eventType": "Combo Bolus", "insulin": 1.2, "enteredinsulin": 2.0,
+                "splitNow": 60, "splitExt": 40, "relative": 1.6, "duration": 30,
+                "enteredBy": "careportal", "created_at": "2026-01-10T18:00:00.000Z"}),
+            serde_json::json!({"eventType": "<none>", "insulin": 1.0, "enteredBy": "careportal",
+                "created_at": "2026-01-11T09:00:00.000Z"}),
+            serde_json::json!({"eventType": "Temp Basal Start", "rate": 2.0, "absolute": 2.0,
+                "duration": 60, "enteredBy": "careportal", "created_at": "2026-01-11T02:00:00.000Z"}),
+        ],
     );
-    let mut items = read(&data("treatments.quirks.json"))
-        .as_array()
-        .unwrap()
-        .clone();
-    items.extend([
-        serde_json::json!({"eventType": "Bolus", "insulin": 2.0, "type": "normal", "isSMB": false,
-            "enteredBy": "Trio", "created_at": "2026-01-10T12:30:00.000Z"}),
-        serde_json::json!({"eventType": "Combo Bolus", "insulin": 1.2, "enteredinsulin": 2.0,
-            "splitNow": 60, "splitExt": 40, "relative": 1.6, "duration": 30,
-            "enteredBy": "careportal", "created_at": "2026-01-10T18:00:00.000Z"}),
-        serde_json::json!({"eventType": "<none>", "insulin": 1.0, "enteredBy": "careportal",
-            "created_at": "2026-01-11T09:00:00.000Z"}),
-        serde_json::json!({"eventType": "Temp Basal Start", "rate": 2.0, "absolute": 2.0,
-            "duration": 60, "enteredBy": "careportal", "created_at": "2026-01-11T02:00:00.000Z"}),
-    ]);
-    // Newest first, as Nightscout answers (oref0 skips records out of order).
-    items.sort_by(|a, b| b["created_at"].as_str().cmp(&a["created_at"].as_str()));
-    let treatments = dir.join("treatments.odd.json");
-    std::fs::write(&treatments, serde_json::to_string(&items).unwrap()).unwrap();
-    let mut args = files_args(&e, treatments.to_str().unwrap());
-    args.push("--json".into());
-    let json: Value = serde_json::from_str(&ok(&abba(
-        &args.iter().map(String::as_str).collect::<Vec<_>>(),
-    )))
-    .unwrap();
     assert_oref0_printed(&json["profile"], "autotune.quirks.day2.json");
     let unused = &json["unused_records"];
     for (kind, n) in [
@@ -608,25 +617,8 @@ fn treatments_oref0_reads_no_insulin_from_are_left_out_and_said() {
 #[test]
 fn a_loop_square_bolus_is_tuned_as_oref0_reads_it() {
     let dir = tmp("square");
-    let e = entries_of(
-        &dir,
-        ["entries.quirks.day1.json", "entries.quirks.day2.json"],
-    );
-    let base = read(&data("treatments.quirks.json"))
-        .as_array()
-        .unwrap()
-        .clone();
-    let profile_with = |extra: Value, tag: &str| -> Value {
-        let mut items = base.clone();
-        items.push(extra);
-        items.sort_by(|a, b| b["created_at"].as_str().cmp(&a["created_at"].as_str()));
-        let path = dir.join(format!("treatments.{tag}.json"));
-        std::fs::write(&path, serde_json::to_string(&items).unwrap()).unwrap();
-        let mut args = files_args(&e, path.to_str().unwrap());
-        args.push("--json".into());
-        let out = ok(&abba(&args.iter().map(String::as_str).collect::<Vec<_>>()));
-        serde_json::from_str::<Value>(&out).unwrap()["profile"].clone()
-    };
+    let profile_with =
+        |extra: Value, tag: &str| quirk_days_with(&dir, tag, vec![extra])["profile"].clone();
     let bolus = serde_json::json!({"eventType": "Correction Bolus", "insulin": 2.4,
         "programmed": 2.4, "automatic": false, "enteredBy": "loop://iPhone",
         "created_at": "2026-01-10T15:30:00.000Z", "timestamp": "2026-01-10T15:30:00.000Z"});

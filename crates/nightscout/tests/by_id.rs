@@ -9,20 +9,10 @@
 
 use crate::common;
 
-use abba_nightscout::site::credential;
 use abba_nightscout::{link, sync};
-use abba_store::link::Credential;
-use common::server::{Server, Site};
+use common::server::Server;
 use common::*;
 use serde_json::{json, Value};
-
-fn secret() -> Credential {
-    credential(None, Some(SECRET)).unwrap()
-}
-
-fn reader() -> Credential {
-    credential(Some("reader-0123456789abcdef"), None).unwrap()
-}
 
 fn ms_of(text: &str) -> i64 {
     text.parse::<jiff::Timestamp>().unwrap().as_millisecond()
@@ -58,15 +48,6 @@ fn without_created_at(d: &mut Data) -> usize {
     n
 }
 
-fn site_of(d: &Data, max_count: usize) -> Site {
-    let mut site = Site::new(SECRET);
-    site.max_count = max_count;
-    site.add("entries", d.entries.clone());
-    site.add("treatments", d.treatments.clone());
-    site.add("profile", d.profile.clone());
-    site
-}
-
 #[test]
 fn more_treatments_at_one_created_at_than_a_page_holds_all_arrive() {
     let dir = tempfile::tempdir().unwrap();
@@ -76,16 +57,7 @@ fn more_treatments_at_one_created_at_than_a_page_holds_all_arrive() {
     let files = export(dir.path(), &d);
     // The server serves at most 1,000 a page.
     let srv = Server::start(site_of(&d, 1000));
-    let (_, mut synced) = store_with_person(dir.path(), "sync.db", &files);
-    link(
-        &mut synced,
-        "ana",
-        &srv.url,
-        secret(),
-        false,
-        &fast_client(),
-    )
-    .unwrap();
+    let mut synced = linked(dir.path(), "sync.db", &files, &srv.url);
     let r = sync(&mut synced, "ana", &sync_opts()).unwrap();
     assert_eq!(r.collections[1].documents, d.treatments.len(), "{r:?}");
     let log = srv.with(|s| s.log.clone());
@@ -124,16 +96,7 @@ fn a_server_that_does_not_sort_by_id_is_read_by_ranges_of_id() {
     let mut site = site_of(&d, 1000);
     site.ignores_sort = true;
     let srv = Server::start(site);
-    let (_, mut synced) = store_with_person(dir.path(), "sync.db", &files);
-    link(
-        &mut synced,
-        "ana",
-        &srv.url,
-        secret(),
-        false,
-        &fast_client(),
-    )
-    .unwrap();
+    let mut synced = linked(dir.path(), "sync.db", &files, &srv.url);
     let r = sync(&mut synced, "ana", &sync_opts()).unwrap();
     assert_eq!(r.collections[1].documents, d.treatments.len(), "{r:?}");
     let log = srv.with(|s| s.log.clone());
@@ -169,16 +132,7 @@ fn a_server_that_cannot_be_paged_by_id_fails_the_sync_and_imports_nothing() {
     site.ignores_sort = true;
     site.ignores_id_bounds = true;
     let srv = Server::start(site);
-    let (_, mut synced) = store_with_person(dir.path(), "sync.db", &files);
-    link(
-        &mut synced,
-        "ana",
-        &srv.url,
-        secret(),
-        false,
-        &fast_client(),
-    )
-    .unwrap();
+    let mut synced = linked(dir.path(), "sync.db", &files, &srv.url);
     let e = sync(&mut synced, "ana", &sync_opts()).unwrap_err();
     assert!(
         matches!(e, abba_nightscout::NsError::Incomplete { .. }),
@@ -222,16 +176,7 @@ fn a_server_that_does_not_sort_by_time_is_read_by_id() {
     let mut site = site_of(&d, 5);
     site.unsorted = true;
     let srv = Server::start(site);
-    let (_, mut synced) = store_with_person(dir.path(), "sync.db", &files);
-    link(
-        &mut synced,
-        "ana",
-        &srv.url,
-        secret(),
-        false,
-        &fast_client(),
-    )
-    .unwrap();
+    let mut synced = linked(dir.path(), "sync.db", &files, &srv.url);
     let r = sync(&mut synced, "ana", &sync_opts()).unwrap();
     assert_eq!(r.collections[1].documents, n, "{r:?}");
     let (_, mut imported) = store_with_person(dir.path(), "files.db", &files);
@@ -402,16 +347,7 @@ fn more_entries_at_one_date_than_a_page_holds_all_arrive() {
         .sort_by_key(|e| std::cmp::Reverse(e["date"].as_i64().unwrap()));
     let files = export(dir.path(), &d);
     let srv = Server::start(site_of(&d, 500));
-    let (_, mut synced) = store_with_person(dir.path(), "sync.db", &files);
-    link(
-        &mut synced,
-        "ana",
-        &srv.url,
-        secret(),
-        false,
-        &fast_client(),
-    )
-    .unwrap();
+    let mut synced = linked(dir.path(), "sync.db", &files, &srv.url);
     let r = sync(&mut synced, "ana", &sync_opts()).unwrap();
     assert_eq!(r.collections[0].documents, d.entries.len(), "{r:?}");
     let (_, mut imported) = store_with_person(dir.path(), "files.db", &files);

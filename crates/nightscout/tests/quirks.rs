@@ -9,23 +9,9 @@ use crate::common;
 
 use abba_nightscout::site::credential;
 use abba_nightscout::{link, sync, NsError};
-use abba_store::link::Credential;
 use common::server::{Fault, FaultKind, Server, Site};
 use common::*;
 use std::time::Duration;
-
-fn secret() -> Credential {
-    credential(None, Some(SECRET)).unwrap()
-}
-
-fn site_of(d: &Data, max_count: usize) -> Site {
-    let mut site = Site::new(SECRET);
-    site.max_count = max_count;
-    site.add("entries", d.entries.clone());
-    site.add("treatments", d.treatments.clone());
-    site.add("profile", d.profile.clone());
-    site
-}
 
 /// Links and syncs twice `site` holding `d`: the store holds what a file
 /// import of `d` holds, and the second sync adds nothing; the second
@@ -34,16 +20,7 @@ fn syncs_as_files_import(d: &Data, site: Site) -> abba_nightscout::SyncReport {
     let dir = tempfile::tempdir().unwrap();
     let files = export(dir.path(), d);
     let srv = Server::start(site);
-    let (_, mut synced) = store_with_person(dir.path(), "sync.db", &files);
-    link(
-        &mut synced,
-        "ana",
-        &srv.url,
-        secret(),
-        false,
-        &fast_client(),
-    )
-    .unwrap();
+    let mut synced = linked(dir.path(), "sync.db", &files, &srv.url);
     let r = sync(&mut synced, "ana", &sync_opts()).unwrap();
     assert_eq!(r.collections[0].documents, d.entries.len());
     assert_eq!(r.collections[1].documents, d.treatments.len());
@@ -148,16 +125,7 @@ fn late_entries_on_a_server_that_ignores_sort_by_id_all_arrive() {
     all.entries.extend(late.iter().cloned());
     let files = export(dir.path(), &all);
     let srv = Server::start(site);
-    let (_, mut synced) = store_with_person(dir.path(), "sync.db", &files);
-    link(
-        &mut synced,
-        "ana",
-        &srv.url,
-        secret(),
-        false,
-        &fast_client(),
-    )
-    .unwrap();
+    let mut synced = linked(dir.path(), "sync.db", &files, &srv.url);
     sync(&mut synced, "ana", &sync_opts()).unwrap();
     srv.with(|s| s.add("entries", late));
     let r = sync(&mut synced, "ana", &sync_opts()).unwrap();
@@ -174,8 +142,7 @@ fn a_503_with_retry_after_is_waited_for_and_a_longer_one_ends_the_sync() {
     let d = data(1);
     let files = export(dir.path(), &d);
     let srv = Server::start(site_of(&d, 1000));
-    let (_, mut store) = store_with_person(dir.path(), "sync.db", &files);
-    link(&mut store, "ana", &srv.url, secret(), false, &fast_client()).unwrap();
+    let mut store = linked(dir.path(), "sync.db", &files, &srv.url);
     let fault = |kind: FaultKind| Fault {
         path: "entries".into(),
         kind,
@@ -245,8 +212,7 @@ fn bg_checks_by_status_units(units: Option<&'static str>) -> (Vec<f64>, Vec<Stri
     let mut site = site_of(&d, 1000);
     site.status_units = units;
     let srv = Server::start(site);
-    let (_, mut store) = store_with_person(dir.path(), "sync.db", &files);
-    link(&mut store, "ana", &srv.url, secret(), false, &fast_client()).unwrap();
+    let mut store = linked(dir.path(), "sync.db", &files, &srv.url);
     let r = sync(&mut store, "ana", &sync_opts()).unwrap();
     let glucose = store
         .records("ana")
@@ -303,8 +269,7 @@ fn ninety_days_back_filled_interrupted_then_resumed_every_reading_once() {
     let mut site = site_of(&d, 1000);
     site.v3 = false;
     let srv = Server::start(site);
-    let (_, mut store) = store_with_person(dir.path(), "sync.db", &files);
-    link(&mut store, "ana", &srv.url, secret(), false, &fast_client()).unwrap();
+    let mut store = linked(dir.path(), "sync.db", &files, &srv.url);
     // 12 pages through, then every try of the next fails.
     srv.with(|s| {
         s.faults = vec![Fault {

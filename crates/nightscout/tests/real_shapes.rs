@@ -11,18 +11,9 @@ use crate::common;
 
 use abba_nightscout::site::credential;
 use abba_nightscout::{link, sync, NsError};
-use abba_store::link::Credential;
-use common::server::{iso, Server, Site};
+use common::server::{iso, Server};
 use common::*;
 use serde_json::{json, Value};
-
-fn secret() -> Credential {
-    credential(None, Some(SECRET)).unwrap()
-}
-
-fn reader() -> Credential {
-    credential(Some("reader-0123456789abcdef"), None).unwrap()
-}
 
 fn ms(doc: &Value, field: &str) -> i64 {
     doc[field]
@@ -93,15 +84,6 @@ fn real_shapes(blocks: i64) -> Data {
     d
 }
 
-fn site_of(d: &Data, max_count: usize) -> Site {
-    let mut site = Site::new(SECRET);
-    site.max_count = max_count;
-    site.add("entries", d.entries.clone());
-    site.add("treatments", d.treatments.clone());
-    site.add("profile", d.profile.clone());
-    site
-}
-
 #[test]
 fn treatments_in_every_stored_form_and_entries_of_every_type_sync_as_files_import() {
     let dir = tempfile::tempdir().unwrap();
@@ -109,16 +91,7 @@ fn treatments_in_every_stored_form_and_entries_of_every_type_sync_as_files_impor
     let files = export(dir.path(), &d);
     // Small pages: their boundaries fall between documents of every form.
     let srv = Server::start(site_of(&d, 12));
-    let (_, mut synced) = store_with_person(dir.path(), "sync.db", &files);
-    link(
-        &mut synced,
-        "ana",
-        &srv.url,
-        secret(),
-        false,
-        &fast_client(),
-    )
-    .unwrap();
+    let mut synced = linked(dir.path(), "sync.db", &files, &srv.url);
     let r = sync(&mut synced, "ana", &sync_opts()).unwrap();
     assert_eq!(r.collections[0].documents, d.entries.len());
     assert_eq!(r.collections[1].documents, d.treatments.len());
@@ -259,8 +232,7 @@ fn documents_deleted_through_api_v1_are_kept_and_reported() {
     let d = data(1);
     let files = export(dir.path(), &d);
     let srv = Server::start(site_of(&d, 1000));
-    let (_, mut store) = store_with_person(dir.path(), "sync.db", &files);
-    link(&mut store, "ana", &srv.url, secret(), false, &fast_client()).unwrap();
+    let mut store = linked(dir.path(), "sync.db", &files, &srv.url);
     sync(&mut store, "ana", &sync_opts()).unwrap();
     let before = records(&store);
     // The newest meal bolus and the newest entry: inside the window a sync
@@ -310,8 +282,7 @@ fn documents_deleted_through_api_v1_early_in_the_window_are_reported_too() {
     d.treatments.push(early.clone());
     let files = export(dir.path(), &d);
     let srv = Server::start(site_of(&d, 1000));
-    let (_, mut store) = store_with_person(dir.path(), "sync.db", &files);
-    link(&mut store, "ana", &srv.url, secret(), false, &fast_client()).unwrap();
+    let mut store = linked(dir.path(), "sync.db", &files, &srv.url);
     sync(&mut store, "ana", &sync_opts()).unwrap();
     let before = records(&store);
     // Deleted through v1: the temporary basal 3.6 h and the meal bolus

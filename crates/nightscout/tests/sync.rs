@@ -26,10 +26,6 @@ fn linked(
     store
 }
 
-fn secret() -> Credential {
-    credential(None, Some(SECRET)).unwrap()
-}
-
 #[test]
 fn one_sync_equals_a_file_import_and_a_second_adds_nothing() {
     let dir = tempfile::tempdir().unwrap();

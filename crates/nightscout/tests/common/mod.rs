@@ -235,3 +235,31 @@ pub fn one_instant(n: usize, at: &str) -> Vec<Value> {
     docs.sort_by_key(|(k, _)| *k);
     docs.into_iter().map(|(_, d)| d).collect()
 }
+
+/// The site's API secret as a link's credential.
+pub fn secret() -> abba_store::link::Credential {
+    abba_nightscout::site::credential(None, Some(SECRET)).unwrap()
+}
+
+/// A reader's token as a link's credential.
+pub fn reader() -> abba_store::link::Credential {
+    abba_nightscout::site::credential(Some("reader-0123456789abcdef"), None).unwrap()
+}
+
+/// A site serving `d`, at most `max_count` documents a page.
+pub fn site_of(d: &Data, max_count: usize) -> server::Site {
+    let mut site = server::Site::new(SECRET);
+    site.max_count = max_count;
+    site.add("entries", d.entries.clone());
+    site.add("treatments", d.treatments.clone());
+    site.add("profile", d.profile.clone());
+    site
+}
+
+/// A store in `dir/file` holding the person "ana" made from `files`,
+/// linked to the site at `url` with its secret.
+pub fn linked(dir: &Path, file: &str, files: &[PathBuf], url: &str) -> Store {
+    let (_, mut store) = store_with_person(dir, file, files);
+    abba_nightscout::link(&mut store, "ana", url, secret(), false, &fast_client()).unwrap();
+    store
+}

@@ -16,6 +16,15 @@ const COPIES: &str = "nightscout_treatments_aaps_copies_synthetic.json";
 const PRIMES: &str = "nightscout_treatments_primes_synthetic.json";
 
 /// The evidence abba counts for `files` (records and each file's own).
+/// One of the evidence's words holds `text`.
+fn assert_says(e: &Evidence, text: &str) {
+    assert!(
+        e.words().iter().any(|w| w.contains(text)),
+        "{:?}",
+        e.words()
+    );
+}
+
 fn evidence(files: &[(&str, Vec<u8>)]) -> Evidence {
     let b = read(files, &opts("Europe/Zurich")).unwrap();
     let mut e = Evidence::from_records(&b.records, &abba_io::time::zone("Europe/Zurich").unwrap());
@@ -51,13 +60,7 @@ fn androidaps_in_open_loop_is_open_loop_pump_therapy() {
         "{e:?}"
     );
     assert_eq!(e.delivery(), Delivery::OpenLoop, "{:?}", e.words());
-    assert!(
-        e.words()
-            .iter()
-            .any(|w| w.contains("of AndroidAPS in open loop")),
-        "{:?}",
-        e.words()
-    );
+    assert_says(&e, "of AndroidAPS in open loop");
 }
 
 #[test]
@@ -87,13 +90,7 @@ fn androidaps_closed_or_without_a_running_mode_is_a_closed_loop() {
     );
     let e = evidence(&[("t.json", both.into_bytes()), ("d.json", status.clone())]);
     assert_eq!(e.delivery(), Delivery::ClosedLoop, "{:?}", e.words());
-    assert!(
-        e.words()
-            .iter()
-            .any(|w| w.contains("but the marks above show the loop closed")),
-        "{:?}",
-        e.words()
-    );
+    assert_says(&e, "but the marks above show the loop closed");
     // An OPEN_LOOP AndroidAPS forced for a while (originalDuration) says
     // nothing of the mode after it.
     let forced = open.replace(
@@ -113,13 +110,7 @@ fn androidaps_closed_or_without_a_running_mode_is_a_closed_loop() {
     let none = serde_json::to_vec(&docs).unwrap();
     let e = evidence(&[("t.json", none), ("d.json", status.clone())]);
     assert_eq!(e.delivery(), Delivery::ClosedLoop, "{:?}", e.words());
-    assert!(
-        e.words()
-            .iter()
-            .any(|w| w.contains("no record of its running mode")),
-        "{:?}",
-        e.words()
-    );
+    assert_says(&e, "no record of its running mode");
     // In open loop, an SMB still closes it (AndroidAPS gives SMBs only closed).
     let smb = open.replacen(
         "[\n",

@@ -23,6 +23,7 @@
 pub mod advise;
 pub mod answer;
 pub mod app;
+pub mod autotune;
 pub mod backend;
 pub mod busy;
 pub mod check;

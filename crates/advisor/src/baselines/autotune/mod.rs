@@ -16,6 +16,7 @@
 //! - [`prep`]: the categorisation (oref0's autotune-prep).
 //! - [`tune`]: the nightly step (oref0's autotune-core).
 //! - [`profile`]: oref0's profile JSON.
+//! - [`history`]: which Nightscout treatments oref0 reads insulin from.
 //! - [`arm`]: the trial arm ([`Autotune`]), nightly over the previous day.
 //!
 //! A day is what `oref0-autotune.sh` downloads for it: glucose from 4 h
@@ -84,6 +85,7 @@
 
 pub mod arm;
 pub mod curve;
+pub mod history;
 pub mod iob;
 pub mod js;
 pub mod js_sort;
@@ -92,6 +94,7 @@ pub mod profile;
 pub mod tune;
 
 pub use arm::{Autotune, AutotuneConfig};
+pub use history::Oref0Reads;
 pub use prep::{categorize, Category, Prepped};
 pub use profile::Profile;
 pub use tune::{tune, Tuned};

@@ -35,6 +35,7 @@ pub mod in_force;
 pub mod link;
 pub mod live;
 pub mod log;
+pub mod one_source;
 pub mod person;
 pub mod replay;
 pub mod report;

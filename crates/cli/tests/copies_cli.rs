@@ -195,3 +195,61 @@ fn a_carelink_export_and_the_same_pump_in_nightscout_count_each_days_insulin_onc
     import(db, "c", &[&carelink, &ns]);
     assert_eq!(boluses(db, "c").0, a);
 }
+
+#[test]
+fn a_dose_edited_in_the_app_between_two_clarity_exports_replaces_the_stored_one() {
+    let dir = cli_common::tmp_path("abba-copies-clarity-", "");
+    std::fs::create_dir_all(&*dir).unwrap();
+    let db = dir.join("a.db");
+    let db = db.to_str().unwrap();
+    let first = data("clarity_g7_events_synthetic.csv");
+    // The later export: renumbered (a row more before them) and the 4 U
+    // event edited to 5 U; the other dose of that minute unchanged.
+    let text = std::fs::read_to_string(&first).unwrap();
+    let mut lines: Vec<String> = text.split("\r\n").map(String::from).collect();
+    let edited = lines
+        .iter()
+        .position(|l| l.contains("\"Insulin\"") && l.contains(",\"4\","))
+        .unwrap();
+    lines[edited] = lines[edited].replace(",\"4\",", ",\"5\",");
+    for l in lines.iter_mut().skip(1).filter(|l| !l.is_empty()) {
+        let (index, rest) = l[1..].split_once('"').unwrap();
+        *l = format!("\"{}\"{rest}", index.parse::<u32>().unwrap() + 1);
+    }
+    lines.insert(
+        1,
+        "\"1\",\"\",\"FirstName\",\"\",\"Anonymous\",\"\",\"\",\"\",\"\",\"\",\"\",\"\",\"\",\"\""
+            .into(),
+    );
+    let later = dir.join("clarity_later.csv");
+    std::fs::write(&later, lines.join("\r\n")).unwrap();
+    let later = later.to_str().unwrap();
+
+    person(db, "cl", "America/Chicago");
+    import(db, "cl", &[&first]);
+    let doses = |db: &str| -> Vec<f64> {
+        let store = abba_store::Store::open(std::path::Path::new(db)).unwrap();
+        let mut u: Vec<f64> = store
+            .records("cl")
+            .unwrap()
+            .into_iter()
+            .filter_map(|r| match r.kind {
+                abba_io::RecordKind::Bolus { units } => Some(units.0),
+                _ => None,
+            })
+            .collect();
+        u.sort_by(f64::total_cmp);
+        u
+    };
+    assert_eq!(doses(db), [1.5, 4.0]);
+    let text = import(db, "cl", &[later]);
+    assert!(
+        text.contains("1 record of the newer versions are doses or carbohydrate edited"),
+        "{text}"
+    );
+    // The edit replaced the 4 U; the other dose of the minute stayed.
+    assert_eq!(doses(db), [1.5, 5.0]);
+    // The later export again: nothing new.
+    assert!(import(db, "cl", &[later]).contains("Nothing new"));
+    assert_eq!(doses(db), [1.5, 5.0]);
+}

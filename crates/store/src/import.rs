@@ -45,6 +45,10 @@ pub struct ImportSummary {
     /// [`abba_io::read::copy_elsewhere_window_ms`]: not stored again
     /// (also counted in `known`).
     pub copies_of_stored_doses: usize,
+    /// Doses and carbs edited in the vendor's app between an earlier
+    /// export and this one ([`crate::edited`]): the stored value replaced
+    /// (also counted in `updated`).
+    pub edited: usize,
     /// Records of a kind of data whose day another source holds
     /// ([`crate::one_source`]): not stored.
     pub other_source: Vec<crate::one_source::OtherSource>,
@@ -120,6 +124,12 @@ impl ImportSummary {
                 "{} of the known records are copies of doses already stored from an earlier import or sync: the same bolus or temporary basal under another Nightscout document within {} s (AndroidAPS uploading its pump history again), counted once.",
                 records(self.copies_of_stored_doses),
                 abba_io::read::nightscout::COPY_WITHIN_S
+            ));
+        }
+        if self.edited > 0 {
+            out.push(format!(
+                "{} of the newer versions are doses or carbohydrate edited since an earlier export: the same instant and kind with another value, the earlier value no longer in this export; the stored value was replaced, not added to.",
+                records(self.edited)
             ));
         }
         for o in &self.other_source {
@@ -317,6 +327,11 @@ pub fn import_with(
     )?;
     let (mut added, mut known, mut updated) = (0usize, 0usize, 0usize);
     let mut copies_of_stored_doses = 0usize;
+    let mut edited = 0usize;
+    let exported = crate::edited::Exported::of(
+        rows.iter()
+            .map(|(source, _, at_ms, r, _, _)| (source.as_str(), *at_ms, *r)),
+    )?;
     {
         for (source, id, at_ms, record, window, is_id) in &rows {
             let kind = &serde_json::to_string(&record.kind)
@@ -369,9 +384,23 @@ pub fn import_with(
                                 ],
                             )?
                             .is_some();
+                    let edit_of = match by_content || copy {
+                        true => None,
+                        false => crate::edited::edit_of(
+                            &tx, person.id, source, *at_ms, record, import_id, &exported,
+                        )?,
+                    };
                     if by_content || copy {
                         known += 1;
                         copies_of_stored_doses += usize::from(copy);
+                    } else if let Some(old) = edit_of {
+                        tx.execute(Q::RecordDelete, args![person.id, source, &old])?;
+                        tx.execute(
+                            Q::RecordPut,
+                            args![person.id, source, id, at_ms, kind, origin, import_id],
+                        )?;
+                        updated += 1;
+                        edited += 1;
                     } else {
                         tx.execute(
                             Q::RecordPut,
@@ -409,6 +438,7 @@ pub fn import_with(
         older_versions_in_files: batch.older_versions,
         cross_upload_duplicates: batch.cross_upload.values().sum(),
         copies_of_stored_doses,
+        edited,
         other_source,
         future,
         too_old,

@@ -27,6 +27,7 @@ pub mod backend;
 pub mod busy;
 pub mod check;
 pub mod copy;
+pub mod edited;
 pub mod effect;
 pub mod error;
 pub mod history;

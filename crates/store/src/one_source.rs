@@ -8,7 +8,7 @@
 //! reading comes as mg/dL from one and rounded mmol/L from the other, and
 //! neither carries an identifier the other knows. Matching copies across
 //! routes would guess; so, for each kind of data ([`DataClass`]: CGM
-//! glucose, insulin delivery, carbohydrate), a local day of the person is
+//! glucose, meter glucose, insulin delivery, carbohydrate), a local day of the person is
 //! held by the first source that brought that kind for that day: the log's,
 //! else, within one import, the source of the first file (in the order
 //! given) that holds it. Records of that kind from another source on that
@@ -37,6 +37,9 @@ use std::collections::{BTreeMap, HashMap, HashSet};
 pub enum DataClass {
     /// CGM readings.
     Glucose,
+    /// Meter (finger-stick) readings: a linked meter's reading reaches a
+    /// pump's export and Nightscout alike.
+    Meter,
     /// Insulin delivery: boluses, extended boluses, temporary basals,
     /// suspends and resumes, long-acting injections.
     Insulin,
@@ -49,6 +52,7 @@ impl DataClass {
     pub fn words(self) -> &'static str {
         match self {
             DataClass::Glucose => "CGM glucose",
+            DataClass::Meter => "meter glucose",
             DataClass::Insulin => "insulin",
             DataClass::Carbs => "carbohydrate",
         }
@@ -62,6 +66,7 @@ impl DataClass {
     fn of_name(name: &str) -> Option<DataClass> {
         match name {
             "cgm" => Some(DataClass::Glucose),
+            "smbg" => Some(DataClass::Meter),
             "bolus" | "extended_bolus" | "temp_basal" | "suspend" | "resume" | "long_acting" => {
                 Some(DataClass::Insulin)
             }

@@ -97,6 +97,9 @@ statements! {
     /// The sources of each kind of record, by quarter hour, in a window
     /// (`abba_store::one_source`).
     RecordSourcesByQuarter = "SELECT DISTINCT source, substr(kind, 1, 24), at_ms / 900000 FROM record WHERE person_id = ?1 AND at_ms BETWEEN ?2 AND ?3";
+    /// The records of one source at one instant stored by other imports
+    /// (`abba_store::edited`).
+    RecordsAtInstant = "SELECT source_id, kind FROM record WHERE person_id = ?1 AND source = ?2 AND at_ms = ?3 AND import_id <> ?4";
     /// Record put.
     RecordPut = "INSERT INTO record (person_id, source, source_id, at_ms, kind, origin, import_id) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)";
     /// Import delete.

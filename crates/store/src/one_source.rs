@@ -16,12 +16,13 @@
 //! said with the import's summary. A day the log already holds from two
 //! sources (stored before this rule) is left open to both.
 //!
-//! Other tools decide this alike: Tidepool deduplicates only within one
-//! device's uploads (its `platform` deduplicators work per data set and
-//! device id), and Nightscout merges only documents of the same
-//! `identifier`, `_id` or the same `created_at` and `eventType`
-//! (`lib/server/treatments.js`); data of one device reaching either by a
-//! second route stays twice.
+//! Other tools do not merge across routes either: Tidepool deduplicates a
+//! later upload of one device against that device's earlier upload
+//! sessions (tidepool-org/TidepoolApi, `docs/quick-start/uploading-device-data.md`),
+//! and Nightscout merges only documents of the same `identifier`, `_id`,
+//! or `created_at` and `eventType` (cgm-remote-monitor,
+//! `lib/server/treatments.js`); one device's data reaching either by a
+//! second route is kept twice.
 
 use crate::backend::{args, Db, Q};
 use crate::error::StoreError;

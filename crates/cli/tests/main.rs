@@ -33,6 +33,7 @@ mod autotune_cli;
 mod bad_input_cli;
 mod cli_beside_service;
 mod cohort_cli;
+mod copies_cli;
 mod events_cli;
 mod metrics_cli;
 mod metrics_formats;

@@ -12,6 +12,7 @@ mod common;
 // One module per test file.
 mod background;
 mod by_id;
+mod copies;
 mod dst;
 mod loop_modes;
 mod quirks;

@@ -40,6 +40,18 @@ pub struct ImportSummary {
     pub older_versions_in_files: usize,
     /// Tidepool data carried by two uploads, kept once.
     pub cross_upload_duplicates: usize,
+    /// Nightscout doses the log already held from an earlier import or
+    /// sync under another document, within
+    /// [`abba_io::read::copy_elsewhere_window_ms`]: not stored again
+    /// (also counted in `known`).
+    pub copies_of_stored_doses: usize,
+    /// Doses and carbs edited in the vendor's app between an earlier
+    /// export and this one ([`crate::edited`]): the stored value replaced
+    /// (also counted in `updated`).
+    pub edited: usize,
+    /// Records of a kind of data whose day another source holds
+    /// ([`crate::one_source`]): not stored.
+    pub other_source: Vec<crate::one_source::OtherSource>,
     /// Records dated after the time of import: refused.
     pub future: Refused,
     /// Records dated before [`abba_io::read::RECORDS_FROM`] (1990-01-01):
@@ -107,6 +119,22 @@ impl ImportSummary {
             "Duplicates within and between the files: {} exact repeats, {} older versions of a repeated id, {} carried by two uploads seconds apart (Tidepool's pump and Apple Health, two Nightscout uploaders of one sensor).",
             self.duplicates_in_files, self.older_versions_in_files, self.cross_upload_duplicates
         ));
+        if self.copies_of_stored_doses > 0 {
+            out.push(format!(
+                "{} of the known records are copies of doses already stored from an earlier import or sync: the same bolus or temporary basal under another Nightscout document within {} s (AndroidAPS uploading its pump history again), counted once.",
+                records(self.copies_of_stored_doses),
+                abba_io::read::nightscout::COPY_WITHIN_S
+            ));
+        }
+        if self.edited > 0 {
+            out.push(format!(
+                "{} of the newer versions are doses or carbohydrate edited since an earlier export: the same instant and kind with another value, the earlier value no longer in this export; the stored value was replaced, not added to.",
+                records(self.edited)
+            ));
+        }
+        for o in &self.other_source {
+            out.push(crate::one_source::sentence(o));
+        }
         let too_old = format!("{} (refused)", abba_io::read::too_old_words());
         for (what, r) in [
             ("dated after the time of import (refused)", &self.future),
@@ -218,6 +246,7 @@ pub fn import_with(
         (None, None) => None,
     };
     let mut rows = Vec::with_capacity(batch.records.len());
+    let mut kept = Vec::with_capacity(batch.records.len());
     for r in &batch.records {
         if r.at > limit {
             note(&mut future, r);
@@ -236,19 +265,11 @@ pub fn import_with(
                 continue;
             }
         }
-        let (source, id) = key(r)?;
-        let window = match &r.kind {
-            RecordKind::Ignored { .. } => None,
-            _ => Some(abba_io::read::twice_window_ms(r)),
-        };
-        let is_id = matches!(r.id, SourceId::Id(_));
-        // The record's stored text and origin are made when it is written
-        // (a long export's would double what the import holds).
-        rows.push((source, id, r.at.as_millisecond(), r, window, is_id));
+        kept.push(r);
     }
     // A file that lies wholly in the future (a device clock set wrong, an
     // export read in the wrong zone) is an error, not an import of nothing.
-    if rows.is_empty() && future.count > 0 {
+    if kept.is_empty() && future.count > 0 {
         return Err(StoreError::Feed(format!(
             "every record of {} that abba would keep is dated after the time of import ({}): {}, the first {} ({}); check the device's clock and {}'s zone ({}). Nothing was imported",
             batch.files.join(", "),
@@ -260,14 +281,9 @@ pub fn import_with(
             person.tz.iana_name().unwrap_or("?"),
         )));
     }
-    if rows.is_empty() && too_old.count > 0 && future.count == 0 && before_day_1.count == 0 {
+    if kept.is_empty() && too_old.count > 0 && future.count == 0 && before_day_1.count == 0 {
         return Err(all_too_old(batch, &too_old));
     }
-    // In key order (stable: rows of one key keep theirs): the records'
-    // table is keyed by (source, id), and a long export's ids (content
-    // hashes) come in no order, so each look-up and insert would land on
-    // another page (a 15-year CSV: 40 -> 24 s).
-    rows.sort_by(|a, b| (&a.0, &a.1).cmp(&(&b.0, &b.1)));
     let tx = conn.transaction()?;
     if crate::app::count(&tx, person.id)? > 0 {
         return Err(StoreError::Feed(format!(
@@ -276,6 +292,31 @@ pub fn import_with(
         )));
     }
     also(&tx)?;
+    // One source per day for each kind of data (after `also`: the
+    // records of documents a sync saw deleted hold no day).
+    let holders = crate::one_source::Holders::of(&tx, person.id, &person.tz, &kept)?;
+    let mut not_stored = crate::one_source::NotStored::default();
+    for r in kept {
+        if let Some(held_by) = holders.other(&person.tz, r) {
+            not_stored.note(&person.tz, r, held_by, || batch.origin(r));
+            continue;
+        }
+        let (source, id) = key(r)?;
+        let window = match &r.kind {
+            RecordKind::Ignored { .. } => None,
+            _ => Some(abba_io::read::twice_window_ms(r)),
+        };
+        let is_id = matches!(r.id, SourceId::Id(_));
+        // The record's stored text and origin are made when it is written
+        // (a long export's would double what the import holds).
+        rows.push((source, id, r.at.as_millisecond(), r, window, is_id));
+    }
+    let other_source = not_stored.into_list();
+    // In key order (stable: rows of one key keep theirs): the records'
+    // table is keyed by (source, id), and a long export's ids (content
+    // hashes) come in no order, so each look-up and insert would land on
+    // another page (a 15-year CSV: 40 -> 24 s).
+    rows.sort_by(|a, b| (&a.0, &a.1).cmp(&(&b.0, &b.1)));
     let stamp = now.to_string();
     let files = serde_json::to_string(&batch.files).map_err(|e| StoreError::corrupt("files", e))?;
     let formats =
@@ -285,6 +326,12 @@ pub fn import_with(
         args![person.id, stamp, files, formats, rows.len() as i64],
     )?;
     let (mut added, mut known, mut updated) = (0usize, 0usize, 0usize);
+    let mut copies_of_stored_doses = 0usize;
+    let mut edited = 0usize;
+    let exported = crate::edited::Exported::of(
+        rows.iter()
+            .map(|(source, _, at_ms, r, _, _)| (source.as_str(), *at_ms, *r)),
+    )?;
     {
         for (source, id, at_ms, record, window, is_id) in &rows {
             let kind = &serde_json::to_string(&record.kind)
@@ -321,8 +368,39 @@ pub fn import_with(
                             .is_some(),
                         None => false,
                     };
-                    if by_content {
+                    let copy_window = abba_io::read::copy_elsewhere_window_ms(record);
+                    let copy = !by_content
+                        && copy_window > 0
+                        && tx
+                            .row(
+                                Q::RecordCopyElsewhere,
+                                args![
+                                    person.id,
+                                    at_ms - copy_window,
+                                    at_ms + copy_window,
+                                    source,
+                                    kind,
+                                    import_id
+                                ],
+                            )?
+                            .is_some();
+                    let edit_of = match by_content || copy {
+                        true => None,
+                        false => crate::edited::edit_of(
+                            &tx, person.id, source, *at_ms, record, import_id, &exported,
+                        )?,
+                    };
+                    if by_content || copy {
                         known += 1;
+                        copies_of_stored_doses += usize::from(copy);
+                    } else if let Some(old) = edit_of {
+                        tx.execute(Q::RecordDelete, args![person.id, source, &old])?;
+                        tx.execute(
+                            Q::RecordPut,
+                            args![person.id, source, id, at_ms, kind, origin, import_id],
+                        )?;
+                        updated += 1;
+                        edited += 1;
                     } else {
                         tx.execute(
                             Q::RecordPut,
@@ -352,13 +430,16 @@ pub fn import_with(
     Ok(ImportSummary {
         import_id,
         files: batch.files.clone(),
-        read: rows.len(),
+        read: rows.len() + other_source.iter().map(|o| o.count).sum::<usize>(),
         added,
         known,
         updated,
         duplicates_in_files: batch.duplicates.values().sum(),
         older_versions_in_files: batch.older_versions,
         cross_upload_duplicates: batch.cross_upload.values().sum(),
+        copies_of_stored_doses,
+        edited,
+        other_source,
         future,
         too_old,
         before_day_1,

@@ -19,7 +19,7 @@ use abba_io::{Record, RecordKind, Source, SourceId};
 
 /// A stored record's source, by the name serde gives it (`libre_view`,
 /// `care_link`, ...): the reader's enum is the one list of sources.
-fn parse_source(s: &str) -> Result<Source, StoreError> {
+pub(crate) fn parse_source(s: &str) -> Result<Source, StoreError> {
     use serde::de::IntoDeserializer;
     use serde::Deserialize;
     let de: serde::de::value::StrDeserializer<'_, serde::de::value::Error> = s.into_deserializer();

@@ -691,6 +691,26 @@ pub fn twice_window_ms(r: &Record) -> i64 {
     }
 }
 
+/// The window (ms) within which a stored Nightscout dose (a bolus, an
+/// extended bolus, a temporary basal) of the same kind and values but
+/// another document, stored by an earlier import or sync, is the same
+/// dose uploaded again: AndroidAPS uploads its pump history again after
+/// an NSClient reset, and its NSClient (API v1) and NSClientV3 each write
+/// one copy, dated [`nightscout::COPY_WITHIN_S`] apart at most. Within one
+/// file the reader tells copies by their pump event (`pumpId`); across
+/// imports the store has only the dose. 0 for any other record.
+pub fn copy_elsewhere_window_ms(r: &Record) -> i64 {
+    match (r.source, &r.kind) {
+        (
+            Source::Nightscout,
+            RecordKind::Bolus { .. }
+            | RecordKind::ExtendedBolus { .. }
+            | RecordKind::TempBasal { .. },
+        ) => nightscout::COPY_WITHIN_S * 1000,
+        _ => 0,
+    }
+}
+
 /// The latest instant a record read at `now` may carry:
 /// [`abba_core::limits::FUTURE_SKEW_MINUTES`] after it.
 pub fn future_limit(now: jiff::Timestamp) -> jiff::Timestamp {

@@ -548,7 +548,7 @@ fn latest_versions(ctx: &Ctx<'_>, out: &mut Vec<Record>, versions: &[Option<f64>
 /// How far apart (seconds) copies of one pump event with the same values
 /// may be and still read alike: AndroidAPS dates a dose when it sends the
 /// command and again, seconds apart, when it reads the pump's history.
-const COPY_WITHIN_S: i64 = 60;
+pub const COPY_WITHIN_S: i64 = 60;
 
 /// One event of a pump's history as AndroidAPS names it: its `eventType`
 /// and the pump's `pumpType`, `pumpSerial` and `pumpId` (the history

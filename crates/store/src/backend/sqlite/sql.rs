@@ -91,6 +91,15 @@ statements! {
     RecordReplace = "UPDATE record SET at_ms = ?4, kind = ?5, origin = ?6, import_id = ?7 WHERE person_id = ?1 AND source = ?2 AND source_id = ?3";
     /// Record same content.
     RecordSameContent = "SELECT 1 FROM record WHERE person_id = ?1 AND at_ms BETWEEN ?2 AND ?3 AND source = ?4 AND kind = ?5 LIMIT 1";
+    /// A record of the same source, kind and values within a window,
+    /// stored by another import (a copy uploaded again under another id).
+    RecordCopyElsewhere = "SELECT 1 FROM record WHERE person_id = ?1 AND at_ms BETWEEN ?2 AND ?3 AND source = ?4 AND kind = ?5 AND import_id <> ?6 LIMIT 1";
+    /// The sources of each kind of record, by quarter hour, in a window
+    /// (`abba_store::one_source`).
+    RecordSourcesByQuarter = "SELECT DISTINCT source, substr(kind, 1, 24), at_ms / 900000 FROM record WHERE person_id = ?1 AND at_ms BETWEEN ?2 AND ?3";
+    /// The records of one source at one instant stored by other imports
+    /// (`abba_store::edited`).
+    RecordsAtInstant = "SELECT source_id, kind FROM record WHERE person_id = ?1 AND source = ?2 AND at_ms = ?3 AND import_id <> ?4";
     /// Record put.
     RecordPut = "INSERT INTO record (person_id, source, source_id, at_ms, kind, origin, import_id) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)";
     /// Import delete.

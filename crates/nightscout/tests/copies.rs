@@ -1,0 +1,96 @@
+//! AndroidAPS's pump events uploaded again under other documents (an
+//! NSClient reset, NSClientV3 after NSClient) reaching the store by two
+//! syncs of the live link: each dose is stored once, and the second
+//! sync says how many copies it found (fixtures in
+//! `crates/io/tests/data`, see its PROVENANCE.md).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use crate::common;
+
+use abba_nightscout::sync;
+use common::server::{Server, Site};
+use common::*;
+use serde_json::Value;
+
+fn io_fixture(name: &str) -> Vec<Value> {
+    let path = format!("{}/../io/tests/data/{name}", env!("CARGO_MANIFEST_DIR"));
+    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
+}
+
+/// CGM entries every 5 min over 2026-11-20 to 22 UTC.
+fn entries() -> Vec<Value> {
+    let start: i64 = 1_795_132_800_000; // 2026-11-20T00:00:00Z
+    (0..3 * 288)
+        .map(|i| {
+            let t = start + i * 300_000;
+            serde_json::json!({"_id": object_id(t, i as usize), "type": "sgv",
+                "sgv": 110 + (i % 36) * 2, "date": t, "dateString": common::server::iso(t),
+                "device": "xDrip-DexcomG6"})
+        })
+        .collect()
+}
+
+fn boluses(store: &abba_store::Store) -> Vec<(jiff::Timestamp, f64)> {
+    store
+        .records("ana")
+        .unwrap()
+        .into_iter()
+        .filter_map(|r| match r.kind {
+            abba_io::RecordKind::Bolus { units } => Some((r.at, units.0)),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn androidaps_events_uploaded_again_reach_the_store_once_over_two_syncs() {
+    let dir = tempfile::tempdir().unwrap();
+    let profile = io_fixture("nightscout_profile_synthetic.json");
+    let entries = entries();
+    let before = io_fixture("nightscout_treatments_aaps_before_reset_synthetic.json");
+    let after = io_fixture("nightscout_treatments_aaps_after_reset_synthetic.json");
+    let files: Vec<std::path::PathBuf> = [("entries.json", &entries), ("profile.json", &profile)]
+        .into_iter()
+        .map(|(name, docs)| {
+            let p = dir.path().join(name);
+            std::fs::write(&p, serde_json::to_vec(docs).unwrap()).unwrap();
+            p
+        })
+        .collect();
+    let mut site = Site::new(SECRET);
+    site.add("entries", entries.clone());
+    site.add("treatments", before.clone());
+    site.add("profile", profile.clone());
+    let srv = Server::start(site);
+    let mut store = linked(dir.path(), "s.db", &files, &srv.url);
+    let first = sync(&mut store, "ana", &sync_opts()).unwrap();
+    assert!(first.import.import.is_some());
+    assert_eq!(boluses(&store).len(), before.len());
+    // NSClientV3 uploads the same pump events again, and one new.
+    srv.with(|s| s.add("treatments", after.clone()));
+    let second = sync(&mut store, "ana", &sync_opts()).unwrap();
+    let summary = second.import.import.unwrap();
+    assert_eq!(summary.added, 1, "{summary:?}");
+    // The copies were found, whichever way: against the log (the store's
+    // window) or beside the first uploads the sync read again (the
+    // reader's pump events), and said.
+    let in_batch = summary
+        .notes
+        .iter()
+        .any(|n| n.contains(&format!("{} documents repeat a pump event", before.len())));
+    assert!(
+        summary.copies_of_stored_doses == before.len() || in_batch,
+        "{summary:?}"
+    );
+    let stored = boluses(&store);
+    assert_eq!(stored.len(), after.len(), "{stored:?}");
+    let total: f64 = stored.iter().map(|b| b.1).sum();
+    let uploaded: f64 = after.iter().map(|d| d["insulin"].as_f64().unwrap()).sum();
+    assert!((total - uploaded).abs() < 1e-9, "{total} {uploaded}");
+    let events = store.events("ana").unwrap();
+    let bolus_events = events
+        .iter()
+        .filter(|e| matches!(e.kind, abba_core::EventKind::Bolus(_)))
+        .count();
+    assert_eq!(bolus_events, after.len());
+}

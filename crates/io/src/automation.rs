@@ -33,7 +33,7 @@ use crate::read::carelink;
 use crate::record::{Record, RecordKind};
 
 /// Names of loop systems as uploaders and devices spell them (lower case).
-pub const LOOP_NAMES: [&str; 13] = [
+pub const LOOP_NAMES: [&str; 11] = [
     "iaps",
     "trio",
     "loop",
@@ -44,10 +44,15 @@ pub const LOOP_NAMES: [&str; 13] = [
     "control-iq",
     "controliq",
     "camaps",
-    "780g",
     "smartguard",
-    "omnipod 5",
 ];
+
+/// Names of pumps that run in a manual mode (open-loop pump therapy) or
+/// in an automated one (lower case): the MiniMed 780G (manual mode or
+/// SmartGuard) and the Omnipod 5 (Manual Mode or Automated Mode). Their
+/// name tells nothing of the mode: their automated deliveries do
+/// (Tidepool's `deliveryType` `automated`, CareLink's `CLOSED_LOOP_*`).
+pub const DUAL_MODE_PUMPS: [&str; 2] = ["780g", "omnipod 5"];
 
 /// How the loop evidence names Nightscout Profile Switches to a pump's
 /// auto mode ([`crate::read::nightscout::is_auto_mode_switch`]).
@@ -80,11 +85,30 @@ pub struct Evidence {
     pub automated_basal: usize,
     /// Loop systems named by uploaders and devices, with counts.
     pub systems: BTreeMap<String, usize>,
+    /// Pumps named that run in a manual or an automated mode
+    /// ([`DUAL_MODE_PUMPS`]), with counts: not loop marks by themselves.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub dual_mode_pumps: BTreeMap<String, usize>,
     /// A loop app's own records of running in open loop (AndroidAPS's
     /// permanent running mode `OPEN_LOOP`, see [`running_mode`]): it
     /// suggests, the person decides.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub open_loop_modes: usize,
+    /// The latest dated record of a loop app's mode ([`running_mode`]):
+    /// a mode holds until the next one, so the latest tells the mode at
+    /// the end of the data, however old it is.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub last_mode: Option<ModeMark>,
+    /// A record of a loop app's mode without a time abba could read: the
+    /// modes cannot be ordered, and a closed one holds.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub undated_modes: bool,
+    /// The latest instant (Unix ms) of an automated delivery (an SMB or
+    /// automatic bolus, an automated basal) of a file, when every one is
+    /// dated: deliveries all before the last [`LOOP_RECENT_DAYS`] of a
+    /// person's data are a past loop even when the file goes on.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub automated_until_ms: Option<i64>,
     /// Long-acting insulin records.
     pub long_acting: usize,
     /// Injections logged in a CGM's app without their acting type
@@ -163,37 +187,103 @@ fn is_zero(n: &usize) -> bool {
 /// status documents of a loop (`devicestatus.loop`, `devicestatus.openaps`).
 const DEVICE_STATUS_MARK: &str = "devicestatus.";
 
-/// What a loop app's running-mode record says (see [`running_mode`]).
+/// What a loop app's record of its mode says (see [`running_mode`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum RunningMode {
-    /// Permanent open loop: the app suggests, the person decides.
-    Open,
-    /// Closed loop (`CLOSED_LOOP`, or `CLOSED_LOOP_LGS`: low-glucose
-    /// suspend only), permanent or not; the mode's name.
+    /// Open loop: the app suggests, the person decides; the record, in
+    /// words.
+    Open(&'static str),
+    /// Closed loop; the record, in words (the key it is counted under in
+    /// [`Evidence::systems`]).
     Closed(&'static str),
 }
 
-/// The running mode an AndroidAPS "OpenAPS Offline" treatment records
-/// (AndroidAPS 3.4 and later, `RM` in `core/data/.../model/RM.kt`, written
-/// by `nsclient/extensions/RunningModeExtension.kt` and
-/// `nsclientV3/extensions/RunningModeExtension.kt`): `mode` `OPEN_LOOP`,
-/// `CLOSED_LOOP` or `CLOSED_LOOP_LGS` with `duration` 0 and
-/// `originalDuration` its real length in ms (0: until the next mode). An
-/// `OPEN_LOOP` with an `originalDuration` is temporary (AndroidAPS forces it
-/// for a while when closing the loop is not allowed) and says nothing of
-/// the mode after it; the other modes (suspended, disconnected, disabled,
-/// superbolus) say nothing of open or closed. `None` for anything else.
+/// A dated record of a loop app's mode (see [`Evidence::last_mode`]).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ModeMark {
+    /// When (Unix ms).
+    pub at_ms: i64,
+    /// Open loop (else closed).
+    pub open: bool,
+    /// The record, in words.
+    pub what: String,
+}
+
+/// AndroidAPS's running mode `OPEN_LOOP`.
+pub const AAPS_OPEN: &str = "AndroidAPS's running mode OPEN_LOOP (\"OpenAPS Offline\")";
+/// Loop's settings with closed loop off.
+pub const LOOP_OPEN: &str =
+    "Loop's settings with closed loop off (a Nightscout profile with loopSettings.dosingEnabled false)";
+/// Loop's settings with closed loop on.
+pub const LOOP_CLOSED: &str =
+    "Loop's settings with closed loop on (a Nightscout profile with loopSettings.dosingEnabled true)";
+/// Trio's device status without `enacted`.
+pub const TRIO_OPEN: &str =
+    "Trio's device status with a suggestion and nothing enacted (Trio uploads enacted only with closed loop on)";
+/// Trio's device status with `enacted`.
+pub const TRIO_CLOSED: &str = "Trio's device status with an enacted dose (closed loop on)";
+
+/// The mode a loop app's record says it runs in, from what each app
+/// writes (read, not copied):
+///
+/// - AndroidAPS 3.4 and later, an "OpenAPS Offline" treatment (`RM` in
+///   `core/data/.../model/RM.kt`, written by
+///   `nsclient/extensions/RunningModeExtension.kt` and
+///   `nsclientV3/extensions/RunningModeExtension.kt`): `mode` `OPEN_LOOP`,
+///   `CLOSED_LOOP` or `CLOSED_LOOP_LGS` with `duration` 0 and
+///   `originalDuration` its real length in ms (0: until the next mode). An
+///   `OPEN_LOOP` with an `originalDuration` is temporary (AndroidAPS forces
+///   it for a while when closing the loop is not allowed) and says nothing
+///   of the mode after it; the other modes (suspended, disconnected,
+///   disabled, superbolus) say nothing of open or closed.
+/// - Loop, a Nightscout profile document with `loopSettings.dosingEnabled`
+///   (LoopKit/NightscoutKit at 4ec9fd1, `LoopSettings.swift` and
+///   `ProfileSet.swift`; LoopKit/NightscoutService at d839b66,
+///   `StoredSettings.swift`): Loop uploads its settings, closed loop on or
+///   off among them, each time they change. Its device status cannot
+///   tell: with closed loop off Loop still computes and uploads
+///   `automaticDoseRecommendation` and the `enacted` it would give
+///   (NightscoutService's `StoredDosingDecision.swift`, `loopStatusEnacted`;
+///   LoopKit/Loop at 710182e, `LoopDataManager.swift`, `loopInternal`).
+/// - Trio, its device status (`device` `Trio`, `openaps`): it uploads
+///   `enacted` only when closed loop is on
+///   (nightscout/Trio at 29350e3, `NightscoutManager.swift`,
+///   `enacted: settingsManager.settings.closedLoop ? ... : nil`).
+///
+/// `None` for anything else.
 pub fn running_mode(item: &Value) -> Option<RunningMode> {
-    if item.get("eventType").and_then(Value::as_str) != Some("OpenAPS Offline") {
+    let s = |k: &str| item.get(k).and_then(Value::as_str).unwrap_or("");
+    if let Some(enabled) = item
+        .get("loopSettings")
+        .and_then(|l| l.get("dosingEnabled"))
+        .and_then(Value::as_bool)
+    {
+        return Some(match enabled {
+            false => RunningMode::Open(LOOP_OPEN),
+            true => RunningMode::Closed(LOOP_CLOSED),
+        });
+    }
+    if names(&s("device").to_ascii_lowercase(), "trio") {
+        let status = item.get("openaps").filter(|o| o.is_object())?;
+        let has = |k: &str| status.get(k).is_some_and(Value::is_object);
+        return match (has("enacted"), has("suggested")) {
+            (true, _) => Some(RunningMode::Closed(TRIO_CLOSED)),
+            (false, true) => Some(RunningMode::Open(TRIO_OPEN)),
+            (false, false) => None,
+        };
+    }
+    if s("eventType") != "OpenAPS Offline" {
         return None;
     }
     let permanent = item
         .get("originalDuration")
         .is_none_or(|d| d.is_null() || d.as_f64() == Some(0.0));
-    match item.get("mode").and_then(Value::as_str)? {
-        "OPEN_LOOP" if permanent => Some(RunningMode::Open),
-        "CLOSED_LOOP" => Some(RunningMode::Closed("CLOSED_LOOP")),
-        "CLOSED_LOOP_LGS" => Some(RunningMode::Closed("CLOSED_LOOP_LGS")),
+    match s("mode") {
+        "OPEN_LOOP" if permanent => Some(RunningMode::Open(AAPS_OPEN)),
+        "CLOSED_LOOP" => Some(RunningMode::Closed("AndroidAPS's running mode CLOSED_LOOP")),
+        "CLOSED_LOOP_LGS" => Some(RunningMode::Closed(
+            "AndroidAPS's running mode CLOSED_LOOP_LGS",
+        )),
         _ => None,
     }
 }
@@ -269,19 +359,48 @@ impl Evidence {
         // AndroidAPS and API v3 mark them) is not read, nor is it evidence.
         let deleted = |item: &Value| item.get("isValid") == Some(&Value::Bool(false));
         for item in items.iter().filter(|i| !deleted(i)) {
-            let before = (e.smb, e.automated_basal, e.systems.values().sum::<usize>());
+            let delivered = |e: &Evidence| e.smb + e.automated_basal;
+            let marks = |e: &Evidence| delivered(e) + e.systems.values().sum::<usize>();
+            let before = (marks(&e), delivered(&e));
             e.count_item(item);
-            if before != (e.smb, e.automated_basal, e.systems.values().sum::<usize>()) {
-                match item_time_ms(item) {
-                    Some(ms) => {
-                        e.loop_marks_until_ms =
-                            Some(e.loop_marks_until_ms.map_or(ms, |u| u.max(ms)))
-                    }
+            let at = item_time_ms(item);
+            let mode = running_mode(item);
+            // A record of open loop names the app, but marks no loop.
+            let open = matches!(mode, Some(RunningMode::Open(_)));
+            if before.0 != marks(&e) && !open {
+                match at {
+                    Some(ms) => e.loop_marks_until_ms = e.loop_marks_until_ms.max(Some(ms)),
                     None => e.undated_loop_marks = true,
+                }
+            }
+            if before.1 != delivered(&e) {
+                e.automated_until_ms = e.automated_until_ms.max(at);
+            }
+            if let Some(mode) = mode {
+                let (open, what) = match mode {
+                    RunningMode::Open(w) => (true, w),
+                    RunningMode::Closed(w) => (false, w),
+                };
+                match at {
+                    Some(at_ms) => e.add_mode(ModeMark {
+                        at_ms,
+                        open,
+                        what: what.to_string(),
+                    }),
+                    None => e.undated_modes = true,
                 }
             }
         }
         e
+    }
+
+    /// Keeps `m` when it is the latest record of a mode (at the same
+    /// instant, a closed one: the safe side).
+    fn add_mode(&mut self, m: ModeMark) {
+        let later = |held: &ModeMark| (m.at_ms, !m.open) > (held.at_ms, !held.open);
+        if self.last_mode.as_ref().is_none_or(later) {
+            self.last_mode = Some(m);
+        }
     }
 
     /// Counts one item of a JSON export (see [`Evidence::from_file`]).
@@ -308,8 +427,13 @@ impl Evidence {
             {
                 e.smb += 1;
             }
+            // Loop writes a suspension as a Temp Basal with `reason`
+            // "suspend" and `automatic` true unless the pump said otherwise
+            // (NightscoutService's `DoseEntry.swift`, `automatic ?? true`);
+            // Loop never suspends on its own, so it is no loop's basal.
+            let suspension = s("reason") == "suspend";
             if (s("type") == "basal" && s("deliveryType") == "automated")
-                || (automatic && temp_basal)
+                || (automatic && temp_basal && !suspension)
             {
                 e.automated_basal += 1;
             }
@@ -323,11 +447,9 @@ impl Evidence {
                 }
             }
             match running_mode(item) {
-                Some(RunningMode::Open) => e.open_loop_modes += 1,
-                Some(RunningMode::Closed(mode)) => {
-                    *e.systems
-                        .entry(format!("AndroidAPS's running mode {mode}"))
-                        .or_default() += 1
+                Some(RunningMode::Open(_)) => e.open_loop_modes += 1,
+                Some(RunningMode::Closed(what)) => {
+                    *e.systems.entry(what.to_string()).or_default() += 1
                 }
                 None => {}
             }
@@ -354,6 +476,8 @@ impl Evidence {
                 };
                 if let Some(name) = LOOP_NAMES.iter().find(|n| names(&text, n)) {
                     *e.systems.entry((*name).to_string()).or_default() += 1;
+                } else if let Some(name) = DUAL_MODE_PUMPS.iter().find(|n| names(&text, n)) {
+                    *e.dual_mode_pumps.entry((*name).to_string()).or_default() += 1;
                 }
             }
         }
@@ -398,13 +522,59 @@ impl Evidence {
         e
     }
 
+    /// Adds a file's counts as a person's last [`LOOP_RECENT_DAYS`] of
+    /// data starting at `recent_from_ms` ([`recent_from_ms`]; `None`: all
+    /// of them) tell them: a file whose loop marks all end before them
+    /// only as the past loop it shows (its clock stretches, its latest
+    /// mode and the dual-mode pumps it names kept); a file whose automated deliveries all end before them,
+    /// but whose other marks go on (a loop app kept in open loop), without
+    /// those deliveries, named as a past loop.
+    pub fn add_file_since(&mut self, other: &Evidence, recent_from_ms: Option<i64>) {
+        let Some(from) = recent_from_ms else {
+            return self.add_file(other);
+        };
+        if other.loop_marks_before(from) {
+            self.past_loop_until_ms = self.past_loop_until_ms.max(other.loop_marks_until_ms);
+            self.clocks.extend_from_slice(&other.clocks);
+            self.add_modes(other);
+            for (k, v) in &other.dual_mode_pumps {
+                *self.dual_mode_pumps.entry(k.clone()).or_default() += v;
+            }
+            return;
+        }
+        let delivered_before =
+            !other.undated_loop_marks && other.automated_until_ms.is_some_and(|u| u < from);
+        if delivered_before {
+            let mut rest = other.clone();
+            rest.smb = 0;
+            rest.automated_basal = 0;
+            rest.past_loop_until_ms = rest.past_loop_until_ms.max(other.automated_until_ms);
+            rest.automated_until_ms = None;
+            return self.add_file(&rest);
+        }
+        self.add_file(other)
+    }
+
+    /// Takes `other`'s records of a loop app's mode.
+    fn add_modes(&mut self, other: &Evidence) {
+        self.undated_modes |= other.undated_modes;
+        if let Some(m) = &other.last_mode {
+            self.add_mode(m.clone());
+        }
+    }
+
     /// Adds another file's counts (records' counts are taken whole).
     pub fn add_file(&mut self, other: &Evidence) {
         self.smb += other.smb;
         self.automated_basal += other.automated_basal;
         self.open_loop_modes += other.open_loop_modes;
+        self.add_modes(other);
+        self.automated_until_ms = self.automated_until_ms.max(other.automated_until_ms);
         for (k, v) in &other.systems {
             *self.systems.entry(k.clone()).or_default() += v;
+        }
+        for (k, v) in &other.dual_mode_pumps {
+            *self.dual_mode_pumps.entry(k.clone()).or_default() += v;
         }
         self.loop_marks_until_ms = self.loop_marks_until_ms.max(other.loop_marks_until_ms);
         self.undated_loop_marks |= other.undated_loop_marks;
@@ -421,16 +591,27 @@ impl Evidence {
         }
     }
 
-    /// True when the loop marks are only AndroidAPS's name and device
-    /// status (no closed running mode, SMB, automated basal or short
-    /// temporary basals in most hours) and the app recorded running in open
-    /// loop ([`Evidence::open_loop_modes`]): open-loop pump therapy.
+    /// True when the latest record of a loop app's mode says open loop
+    /// ([`Evidence::last_mode`]; without dated ones, when an open mode and
+    /// no closed one was recorded).
+    pub fn latest_mode_open(&self) -> bool {
+        match (&self.last_mode, self.undated_modes) {
+            (Some(m), false) => m.open,
+            _ => self.open_loop_modes > 0 && !self.systems.keys().any(|k| closed_mode(k)),
+        }
+    }
+
+    /// True when the loop marks are only a loop app's name and device
+    /// status and its records of closed modes older than its latest mode
+    /// (no SMB, automated basal or short temporary basals in most hours)
+    /// and that latest mode is open loop ([`Evidence::latest_mode_open`]):
+    /// the app suggests, the person decides, open-loop pump therapy.
     pub fn app_in_open_loop(&self) -> bool {
-        self.open_loop_modes > 0
+        self.latest_mode_open()
             && self.short_temp_share() < LOOP_HOUR_SHARE
             && self.smb == 0
             && self.automated_basal == 0
-            && self.systems.keys().all(|k| app_mark(k))
+            && self.systems.keys().all(|k| app_mark(k) || closed_mode(k))
     }
 
     /// What the counts show.
@@ -481,16 +662,37 @@ impl Evidence {
                 if *v == 1 { "" } else { "s" }
             ));
         }
-        let apps_only = !self.systems.is_empty() && self.systems.keys().all(|k| app_mark(k));
+        let apps_only =
+            !self.systems.is_empty() && self.systems.keys().all(|k| app_mark(k) || closed_mode(k));
+        let latest = self.last_mode.as_ref().filter(|_| !self.undated_modes);
+        let latest_words = |m: &ModeMark| format!("{} at {}", m.what, instant(m.at_ms));
         if self.app_in_open_loop() {
+            let what = latest.map_or_else(|| AAPS_OPEN.to_string(), latest_words);
+            // A past file's records are not counted, its latest mode is.
+            let count = match self.open_loop_modes {
+                0 => String::new(),
+                1 => "1 record of open loop; ".to_string(),
+                n => format!("{n} records of open loop; "),
+            };
             out.push(format!(
-                "{} running-mode record{} of AndroidAPS in open loop (\"OpenAPS Offline\", mode OPEN_LOOP) and no closed mode: it suggests temporary basals and the person decides, open-loop pump therapy",
-                self.open_loop_modes,
-                if self.open_loop_modes == 1 { "" } else { "s" }
+                "a loop app in open loop ({count}the latest record of its mode: {what}) and no automated delivery: it suggests and the person decides, open-loop pump therapy"
+            ));
+        } else if self.latest_mode_open() {
+            let latest = latest.map_or_else(|| AAPS_OPEN.to_string(), latest_words);
+            let until = self
+                .automated_until_ms
+                .map_or_else(String::new, |ms| format!(" (the last at {})", instant(ms)));
+            out.push(format!(
+                "the loop app's latest mode is open loop ({latest}), but the marks above show the loop closed within the last {LOOP_RECENT_DAYS} days of the data{until}: taken as a closed loop until {LOOP_RECENT_DAYS} days of data pass without automated delivery"
+            ));
+        } else if let Some(m) = latest.filter(|m| !m.open && apps_only) {
+            out.push(format!(
+                "the loop app's latest mode is closed loop ({})",
+                latest_words(m)
             ));
         } else if self.open_loop_modes > 0 {
             out.push(format!(
-                "{} running-mode records of AndroidAPS in open loop (OPEN_LOOP), but the marks above show the loop closed: taken as a closed loop",
+                "{} records of a loop app in open loop, but a closed mode was recorded too and they cannot be ordered: taken as a closed loop",
                 self.open_loop_modes
             ));
         } else if apps_only
@@ -499,14 +701,22 @@ impl Evidence {
             && self.short_temp_share() < LOOP_HOUR_SHARE
         {
             out.push(
-                "AndroidAPS (or OpenAPS) is named, with no record of its running mode (AndroidAPS 3.4 and later write it as \"OpenAPS Offline\" with mode OPEN_LOOP or CLOSED_LOOP): taken as a closed loop, the safe side".into(),
+                "a loop app (AndroidAPS, OpenAPS, Loop or Trio) is named, with no record of its running mode (AndroidAPS 3.4 and later write it as \"OpenAPS Offline\" with mode OPEN_LOOP or CLOSED_LOOP, Loop as its Nightscout profile's loopSettings.dosingEnabled, Trio in its device status): taken as a closed loop, the safe side".into(),
             );
         }
-        if let Some(ms) = self.past_loop_until_ms {
-            let until = jiff::Timestamp::from_millisecond(ms)
-                .map_or_else(|_| ms.to_string(), |t| t.to_string());
+        if !self.dual_mode_pumps.is_empty() && self.delivery() != Delivery::ClosedLoop {
+            let named: Vec<String> = (self.dual_mode_pumps.iter())
+                .map(|(k, v)| format!("{k} ({v})"))
+                .collect();
             out.push(format!(
-                "loop marks in earlier files until {until}, before the last {LOOP_RECENT_DAYS} days of the data: a past loop, not counted"
+                "records naming a pump that runs in a manual or an automated mode: {}; no automated delivery counted: taken as its manual mode",
+                named.join(", ")
+            ));
+        }
+        if let Some(ms) = self.past_loop_until_ms {
+            out.push(format!(
+                "a loop's automated deliveries or marks until {}, before the last {LOOP_RECENT_DAYS} days of the data: a past loop, not counted",
+                instant(ms)
             ));
         }
         if self.long_acting > 0 {
@@ -525,6 +735,11 @@ impl Evidence {
     }
 }
 
+/// An instant (Unix ms) in words (UTC).
+fn instant(ms: i64) -> String {
+    jiff::Timestamp::from_millisecond(ms).map_or_else(|_| ms.to_string(), |t| t.to_string())
+}
+
 /// The instant of a JSON export's item (Unix ms), from the fields
 /// Nightscout and Tidepool date it with: `date` or `mills` (ms), or
 /// `created_at`, `dateString`, `timestamp`, `time` with an offset.
@@ -536,21 +751,48 @@ fn item_time_ms(item: &Value) -> Option<i64> {
             }
         }
     }
-    ["created_at", "dateString", "timestamp", "time", "date"]
-        .iter()
-        .filter_map(|k| item.get(*k).and_then(Value::as_str))
-        .find_map(|t| t.parse::<jiff::Timestamp>().ok())
-        .map(jiff::Timestamp::as_millisecond)
+    // Loop writes a profile's `mills` as a string, beside its `startDate`.
+    if let Some(ms) = item
+        .get("mills")
+        .and_then(Value::as_str)
+        .and_then(|m| m.parse::<i64>().ok())
+        .filter(|ms| *ms > 0)
+    {
+        return Some(ms);
+    }
+    [
+        "startDate",
+        "created_at",
+        "dateString",
+        "timestamp",
+        "time",
+        "date",
+    ]
+    .iter()
+    .filter_map(|k| item.get(*k).and_then(Value::as_str))
+    .find_map(|t| t.parse::<jiff::Timestamp>().ok())
+    .map(jiff::Timestamp::as_millisecond)
 }
 
-/// True when a key of [`Evidence::systems`] only names AndroidAPS (its
-/// treatments' `enteredBy` `openaps://AndroidAPS`, its running modes'
-/// `openaps://AAPS`, its device's `openaps://<phone>`) or counts its device
-/// status (`openaps`, with `suggested` and, when the person accepted one,
-/// `enacted`): what AndroidAPS writes in open loop too.
+/// True when a key of [`Evidence::systems`] only names a loop app that
+/// records its mode ([`running_mode`]) or counts its device status: what
+/// the app writes in open loop too. AndroidAPS (its treatments'
+/// `enteredBy` `openaps://AndroidAPS`, its running modes' `openaps://AAPS`,
+/// `app` `AAPS`, its device's `openaps://<phone>`, its device status
+/// `openaps` with `suggested` and, when the person accepted one,
+/// `enacted`); Loop (`enteredBy` and `device` `loop://<phone>`, its profile's
+/// `Loop`, its device status `loop`); Trio (`enteredBy` and `device`
+/// `Trio`, its device status `openaps`).
 fn app_mark(key: &str) -> bool {
-    ["androidaps", "aaps", "openaps"].contains(&key)
+    ["androidaps", "aaps", "openaps", "loop", "trio"].contains(&key)
         || key == format!("{DEVICE_STATUS_MARK}openaps")
+        || key == format!("{DEVICE_STATUS_MARK}loop")
+}
+
+/// True when a key of [`Evidence::systems`] counts a loop app's records
+/// of a closed mode ([`running_mode`]).
+fn closed_mode(key: &str) -> bool {
+    key.starts_with("AndroidAPS's running mode ") || key == LOOP_CLOSED || key == TRIO_CLOSED
 }
 
 /// True when `text` names `name` as a word (so "loop" is not found in
@@ -621,5 +863,56 @@ mod tests {
             ..Evidence::default()
         };
         assert_eq!(pump.delivery(), Delivery::OpenLoop);
+    }
+
+    /// A Tidepool export of an Omnipod 5 in Automated Mode until
+    /// 2026-10-05, then in Manual Mode (its basal `scheduled` and `temp`),
+    /// in Tidepool's data model (`type`, `deliveryType`, `time`, `duration`
+    /// in ms, the upload record's `deviceModel`).
+    fn omnipod5(automated_until: &str) -> Evidence {
+        let doc = format!(
+            r#"[{{"type":"upload","time":"2026-11-18T20:00:00.000Z","deviceManufacturers":["Insulet"],"deviceModel":"Omnipod 5","deviceTags":["insulin-pump"]}},
+                {{"type":"basal","deliveryType":"automated","time":"2026-10-01T10:00:00.000Z","duration":300000,"rate":0.6}},
+                {{"type":"basal","deliveryType":"automated","time":"{automated_until}","duration":300000,"rate":0.45}},
+                {{"type":"basal","deliveryType":"scheduled","time":"2026-11-10T00:00:00.000Z","duration":86400000,"rate":0.8}},
+                {{"type":"basal","deliveryType":"temp","time":"2026-11-12T15:00:00.000Z","duration":3600000,"rate":0.4,"percent":0.5}}]"#
+        );
+        Evidence::from_file(doc.as_bytes())
+    }
+
+    #[test]
+    fn a_dual_mode_pump_tells_its_mode_by_its_automated_deliveries_not_its_name() {
+        let ms = |t: &str| t.parse::<jiff::Timestamp>().unwrap().as_millisecond();
+        // The last 28 days of the data (ending 2026-11-18 20:00).
+        let from = Some(ms("2026-11-18T20:00:00Z") - LOOP_RECENT_DAYS * 86_400_000);
+        let pump = Evidence {
+            pump_hours: 24,
+            pump_basal: 2,
+            ..Evidence::default()
+        };
+        // Automated Mode ended 2026-10-05: before them, a past loop.
+        let file = omnipod5("2026-10-05T09:55:00.000Z");
+        assert_eq!(file.automated_basal, 2);
+        assert_eq!(file.dual_mode_pumps.get("omnipod 5"), Some(&1));
+        assert!(file.systems.is_empty(), "{file:?}");
+        let mut e = pump.clone();
+        e.add_file_since(&file, from);
+        assert_eq!((e.automated_basal, e.delivery()), (0, Delivery::OpenLoop));
+        let words = e.words().join("; ");
+        assert!(
+            words.contains("automated deliveries or marks until 2026-10-05T09:55:00Z")
+                && words.contains("omnipod 5 (1)")
+                && words.contains("taken as its manual mode"),
+            "{words}"
+        );
+        // Automated Mode until 2026-11-05: within them, held.
+        let mut e = pump.clone();
+        e.add_file_since(&omnipod5("2026-11-05T09:55:00.000Z"), from);
+        assert_eq!((e.automated_basal, e.delivery()), (2, Delivery::ClosedLoop));
+        assert!(!e.words().join("; ").contains("manual mode"));
+        // Without the person's data to tell the last days: all counted.
+        let mut e = pump;
+        e.add_file_since(&omnipod5("2026-10-05T09:55:00.000Z"), None);
+        assert_eq!(e.delivery(), Delivery::ClosedLoop);
     }
 }

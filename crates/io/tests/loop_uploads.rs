@@ -60,7 +60,7 @@ fn androidaps_in_open_loop_is_open_loop_pump_therapy() {
         "{e:?}"
     );
     assert_eq!(e.delivery(), Delivery::OpenLoop, "{:?}", e.words());
-    assert_says(&e, "of AndroidAPS in open loop");
+    assert_says(&e, "a loop app in open loop (1 record of open loop; the latest record of its mode: AndroidAPS's running mode OPEN_LOOP");
 }
 
 #[test]
@@ -90,7 +90,7 @@ fn androidaps_closed_or_without_a_running_mode_is_a_closed_loop() {
     );
     let e = evidence(&[("t.json", both.into_bytes()), ("d.json", status.clone())]);
     assert_eq!(e.delivery(), Delivery::ClosedLoop, "{:?}", e.words());
-    assert_says(&e, "but the marks above show the loop closed");
+    assert_says(&e, "latest mode is closed loop (AndroidAPS's running mode CLOSED_LOOP at 2026-11-18T21:00:00Z)");
     // An OPEN_LOOP AndroidAPS forced for a while (originalDuration) says
     // nothing of the mode after it.
     let forced = open.replace(

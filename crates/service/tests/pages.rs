@@ -2879,6 +2879,64 @@ async fn the_clinic_page_of_a_person_on_a_closed_loop_says_why_no_basal_is_sugge
     assert!(!page.html.contains("id=\"delivery-note\""), "{}", page.html);
 }
 
+/// Loop with closed loop off (its settings in Nightscout's profile
+/// collection say so; its device status carries `enacted` all the same):
+/// the clinic's page says nothing of a loop and basal rates are suggested;
+/// the same uploads without Loop's settings are taken as a closed loop and
+/// the page says why.
+#[tokio::test]
+async fn the_clinic_page_of_loop_in_open_loop_holds_no_basal() {
+    let svc = Svc::new();
+    let body = |name: &str| {
+        json!({
+            "name": name, "tz": "Europe/Zurich", "mode": "cgm",
+            "start": {"basal_units_per_hour": 0.85, "carb_ratio_g_per_unit": [10.0, 12.0, 11.0]}
+        })
+    };
+    let open = svc.person_with(body("olu")).await;
+    let unknown = svc.person_with(body("ulu")).await;
+    let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
+    let data = |f: &str| {
+        std::fs::read(format!(
+            "{}/../io/tests/data/{f}",
+            env!("CARGO_MANIFEST_DIR")
+        ))
+        .unwrap()
+    };
+    let entries = data("nightscout_entries_synthetic.json");
+    let treatments = data("nightscout_treatments_loop_open_loop_synthetic.json");
+    let status = data("nightscout_devicestatus_loop_open_loop_synthetic.json");
+    let settings = data("nightscout_profile_loop_open_loop_synthetic.json");
+    for (id, with_settings) in [(open, true), (unknown, false)] {
+        let mut files: Vec<(&str, &str, &[u8])> = vec![
+            ("files", "entries.json", &entries),
+            ("files", "treatments.json", &treatments),
+            ("files", "devicestatus.json", &status),
+        ];
+        if with_settings {
+            files.push(("files", "profile.json", &settings));
+        }
+        let p = import_choosing(&mut admin, id, &csrf, "keep", &files).await;
+        assert_eq!(p.status, StatusCode::OK, "{}", p.html);
+    }
+    let page = admin.get(&format!("/clinic/persons/{open}")).await;
+    assert_eq!(page.status, StatusCode::OK, "{}", page.html);
+    assert!(page.html.contains("olu"), "{}", page.html);
+    assert!(!page.html.contains("id=\"delivery-note\""), "{}", page.html);
+    let page = admin.get(&format!("/clinic/persons/{unknown}")).await;
+    let note = page.section("<p id=\"delivery-note\"", "p");
+    assert!(
+        note.contains("closed loop") && note.contains("suggests no basal rate"),
+        "{note}"
+    );
+    let evidence = page.section("<ul id=\"delivery-evidence\"", "ul");
+    assert!(
+        evidence.contains("no record of its running mode")
+            && evidence.contains("loopSettings.dosingEnabled"),
+        "{evidence}"
+    );
+}
+
 /// The bounds form with two unreadable fields, one in each range: both
 /// errors beside their fields at once (not one per submission), what was
 /// typed kept, nothing stored.

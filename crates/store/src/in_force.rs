@@ -501,10 +501,10 @@ pub fn profile_changes(
     Ok(out)
 }
 
-/// File evidence of loops stored at import: each file's, but a file whose
-/// loop marks all end before `recent_from_ms` (the last
-/// [`abba_io::automation::LOOP_RECENT_DAYS`] of the data) only as the
-/// past loop it shows.
+/// File evidence of loops stored at import: each file's as the last
+/// [`abba_io::automation::LOOP_RECENT_DAYS`] of the data, from
+/// `recent_from_ms`, tell it ([`Evidence::add_file_since`]: a loop that
+/// ended before them is named as past).
 pub fn file_evidence(
     conn: &dyn Db,
     person: i64,
@@ -514,12 +514,7 @@ pub fn file_evidence(
     for r in conn.rows(Q::FileEvidenceOf, args![person])? {
         let x: Evidence = serde_json::from_str(&r.text(0)?)
             .map_err(|e| StoreError::corrupt("file evidence", e))?;
-        if recent_from_ms.is_some_and(|from| x.loop_marks_before(from)) {
-            e.past_loop_until_ms = e.past_loop_until_ms.max(x.loop_marks_until_ms);
-            e.clocks.extend_from_slice(&x.clocks);
-        } else {
-            e.add_file(&x);
-        }
+        e.add_file_since(&x, recent_from_ms);
     }
     Ok(e)
 }
@@ -541,6 +536,7 @@ pub fn store_file_evidence(
     if e.smb == 0
         && e.automated_basal == 0
         && e.systems.is_empty()
+        && e.dual_mode_pumps.is_empty()
         && e.open_loop_modes == 0
         && !away
     {

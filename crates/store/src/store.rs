@@ -616,11 +616,8 @@ impl Store {
         let recent_from = abba_io::automation::recent_from_ms(&batch.records);
         let mut shown =
             Evidence::from_records_since(&batch.records, &p.tz, recent_from.unwrap_or(i64::MAX));
-        for e in evidence
-            .iter()
-            .filter(|e| !recent_from.is_some_and(|f| e.loop_marks_before(f)))
-        {
-            shown.add_file(e);
+        for e in &evidence {
+            shown.add_file_since(e, recent_from);
         }
         summary.delivery = match shown.delivery() {
             d @ (Delivery::ClosedLoop | Delivery::Injections) => Some(import::DeliveryShown {

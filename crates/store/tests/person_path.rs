@@ -486,7 +486,7 @@ fn a_loop_given_up_before_the_last_four_weeks_holds_no_advice_and_is_named_as_pa
     assert!(a.delivery.basal_suggestions);
     let ev = a.delivery.evidence.join("; ");
     assert!(
-        ev.contains("loop marks in earlier files until 2026-05-13T")
+        ev.contains("a loop's automated deliveries or marks until 2026-05-13T")
             && ev.contains("a past loop, not counted"),
         "{ev}"
     );

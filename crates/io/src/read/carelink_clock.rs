@@ -59,6 +59,10 @@ pub struct Shift {
     at: Timestamp,
 }
 
+/// How long after a change (s) a setting by its shift may still be its
+/// correction: half a year (clocks change twice a year).
+const LATE_MAX_S: i64 = 183 * 86_400;
+
 /// How far (s) a setting moves the clock to be more than one set right
 /// by minutes.
 const LARGE_S: i64 = 1800;
@@ -133,7 +137,9 @@ fn late(
     }
     // On the old clock (the offset kept), after the change.
     let at = before.to_timestamp(s.from).ok()?;
-    if at <= transition {
+    // After the change, and within half a year of it (a zone that stopped
+    // changing its clocks has no next change to bound it).
+    if at <= transition || at.duration_since(transition).as_secs() > LATE_MAX_S {
         return None;
     }
     // The section's rows begin before the change.

@@ -56,7 +56,9 @@ const DATA_EVENTS: [&str; 4] = ["EGV", "Calibration", "Insulin", "Carbs"];
 
 /// Localised event type names, mapped to Clarity's English ones (the
 /// Spanish export names its sensor readings "Niveles estimados de
-/// glucosa", as the HUPA-UCM dataset's Dexcom files show).
+/// glucosa", as the HUPA-UCM dataset's Dexcom files show; a real G7
+/// export set to Italian keeps `EGV` and writes "Calibrazione"; the
+/// other names are not verified against a real export).
 const EVENT_NAMES: [(&str, &str); 13] = [
     ("Niveles estimados de glucosa", "EGV"),
     ("Kalibrierung", "Calibration"),

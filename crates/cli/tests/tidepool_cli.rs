@@ -76,3 +76,59 @@ fn a_tidepool_workbook_through_the_cli() {
         "{err}"
     );
 }
+
+#[test]
+fn a_tidepool_workbook_of_a_pump_counting_exchanges_is_not_read_as_grams() {
+    // The workbook writes a wizard's Carb Input without its unit; the
+    // pump settings it holds say the pump counts exchanges.
+    let dir = tmp("xlsx-exchanges");
+    let xlsx = dir.join("TidepoolExport.xlsx");
+    let mut data = person_data();
+    let w = data.iter().position(|d| d["type"] == "wizard").unwrap();
+    data[w]["carbInput"] = 4.into();
+    let s = data
+        .iter()
+        .position(|d| d["type"] == "pumpSettings")
+        .unwrap();
+    data[s]["units"]["carb"] = "exchanges".into();
+    std::fs::write(&xlsx, workbook(&data, &Options::default())).unwrap();
+    let x = xlsx.to_str().unwrap();
+    let db = dir.join("abba.db");
+    let db = db.to_str().unwrap();
+    ok(&abba(&[
+        "person",
+        "new",
+        "--db",
+        db,
+        "--name",
+        "tia",
+        "--tz",
+        "Europe/Zurich",
+        "--mode",
+        "cgm",
+        "--basal",
+        "0.8",
+        "--carb-ratio",
+        "10,12,12",
+    ]));
+    let text = ok(&abba(&["import", "--db", db, "--person", "tia", x]));
+    assert!(
+        text.contains("1 bolus wizard record (`wizard`) in exchanges")
+            && text.contains("--grams-per-exchange"),
+        "{text}"
+    );
+    let wizard_grams = |extra: &[&str]| -> Vec<f64> {
+        let mut args = vec!["events", "--input", x, "--tz", "Europe/Zurich", "--json"];
+        args.extend_from_slice(extra);
+        let v: serde_json::Value = serde_json::from_str(&ok(&abba(&args))).unwrap();
+        v["records"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|r| r["kind"]["type"] == "carbs" && r["at"] == "2026-05-04T05:30:00Z")
+            .map(|r| r["kind"]["grams"].as_f64().unwrap())
+            .collect()
+    };
+    assert!(wizard_grams(&[]).is_empty());
+    assert_eq!(wizard_grams(&["--grams-per-exchange", "12"]), vec![48.0]);
+}

@@ -101,3 +101,54 @@ fn a_carelink_pump_clock_set_back_after_the_autumn_change_imports_without_a_repe
         v["mapping"]
     );
 }
+
+#[test]
+fn a_clarity_export_in_italian_imports_its_readings_below_and_above_the_range() {
+    let dir = tmp("clarity-italian");
+    let db = dir.join("i.db");
+    let db = db.to_str().unwrap();
+    let file = format!("{IO_DATA}/clarity_g7_italian_synthetic.csv");
+    ok(&abba(&[
+        "person",
+        "new",
+        "--db",
+        db,
+        "--name",
+        "paola",
+        "--tz",
+        "Europe/Rome",
+        "--mode",
+        "cgm",
+        "--basal",
+        "0.8",
+        "--carb-ratio",
+        "10,10,10",
+    ]));
+    let text = ok(&abba(&["import", "--db", db, "--person", "paola", &file]));
+    // "Basso" and "Alto" are the sensor's limits: no row left out.
+    assert!(!text.contains("could not be read"), "{text}");
+    let v = events(&file, "Europe/Rome", &[]);
+    let censors: Vec<(String, f64)> = v["records"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|r| r["kind"]["type"] == "cgm")
+        .filter(|r| r["kind"]["glucose"]["censor"] != "exact")
+        .map(|r| {
+            (
+                r["kind"]["glucose"]["censor"].as_str().unwrap().to_string(),
+                r["kind"]["glucose"]["mg_dl"].as_f64().unwrap(),
+            )
+        })
+        .collect();
+    let want: Vec<(String, f64)> = [
+        ("below", 40.0),
+        ("below", 40.0),
+        ("above", 400.0),
+        ("above", 400.0),
+    ]
+    .iter()
+    .map(|(c, v)| (c.to_string(), *v))
+    .collect();
+    assert_eq!(censors, want, "{v}");
+}

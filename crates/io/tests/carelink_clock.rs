@@ -134,3 +134,80 @@ fn the_pumps_winter_clock_after_the_spring_change_is_placed_at_its_offset() {
         b.notes
     );
 }
+
+/// The autumn export with the pump's clock set back on 2026-11-03 (nine
+/// days after the change, past the rows' end) instead of the 25th: the
+/// two setting rows moved to the top of the Pump section (newest first),
+/// and `extra` rows (newest first) above them.
+fn set_late(extra: &str) -> Vec<u8> {
+    let text = String::from_utf8(fixture(F)).unwrap();
+    let setting = [
+        "5,00000;2026/10/25;08:00:01;2026/10/25 08:00;",
+        "6,00000;2026/10/25;09:00:00;2026/10/25 08:00;",
+    ];
+    let mut out = String::new();
+    let mut pump_header = false;
+    for line in text.split_inclusive('\n') {
+        if setting.iter().any(|s| line.starts_with(s)) {
+            continue;
+        }
+        out.push_str(line);
+        if line.starts_with("Index;") && !pump_header {
+            pump_header = true;
+            out.push_str(extra);
+            let tail = ";".repeat(39);
+            out.push_str(&format!(
+                "5,00000;2026/11/03;08:00:01;2026/11/03 08:00;{tail}\r\n"
+            ));
+            out.push_str(&format!(
+                "6,00000;2026/11/03;09:00:00;2026/11/03 08:00;{tail}\r\n"
+            ));
+        }
+    }
+    assert!(!out.contains("2026/10/25 08:00;"));
+    out.into_bytes()
+}
+
+#[test]
+fn a_pump_clock_set_back_weeks_after_the_change_is_placed_at_its_offset_too() {
+    let b = read(&[(F, set_late(""))], &opts(TZ)).unwrap();
+    assert_eq!(b.unread.count, 0, "{:?}", b.notes);
+    // Every row after the change was written on the summer clock: no gap,
+    // no reading twice.
+    assert_eq!(odd_steps(&cgm_instants(&b)), vec![]);
+    // The boluses of the 25th and the 26th, on the summer clock.
+    let boluses: Vec<String> = b
+        .records
+        .iter()
+        .filter(|r| matches!(r.kind, RecordKind::Bolus { .. }))
+        .map(|r| r.at.to_string())
+        .filter(|t| t.as_str() >= "2026-10-25")
+        .collect();
+    assert_eq!(
+        boluses,
+        [
+            "2026-10-25T06:30:10Z",
+            "2026-10-25T10:30:10Z",
+            "2026-10-26T05:30:10Z"
+        ]
+    );
+    assert!(
+        b.notes.iter().any(|n| n
+            .contains("pump's clock was set from 2026-11-03T09:00:00 to 2026-11-03T08:00:00")
+            && n.contains("Sensor section")),
+        "{:?}",
+        b.notes
+    );
+    // Set forward again two days later (a trip there and back): not the
+    // change's correction, nothing moved.
+    let tail = ";".repeat(39);
+    let back = format!(
+        "7,00000;2026/11/05;19:00:01;2026/11/05 19:00;{tail}\r\n8,00000;2026/11/05;18:00:00;2026/11/05 19:00;{tail}\r\n"
+    );
+    let b = read(&[(F, set_late(&back))], &opts(TZ)).unwrap();
+    assert!(
+        !b.notes.iter().any(|n| n.contains("pump's clock was set")),
+        "{:?}",
+        b.notes
+    );
+}

@@ -781,3 +781,81 @@ fn clarity_in_spanish_reads_its_sensor_rows_and_refuses_a_glucose_it_cannot_name
         "{first}"
     );
 }
+
+#[test]
+fn clarity_in_italian_reads_basso_and_alto_as_the_sensors_limits() {
+    // A G7 export with Clarity set to Italian (`clarity_g7_italian_synthetic.csv`,
+    // the layout of a real one): quoted `;` cells, a BOM, CRLF, Italian
+    // column names, the event types `EGV` and `Calibrazione`, preamble rows
+    // `Nome`, `Cognome`, `Dispositivo`, `Avviso` one cell short, and a
+    // reading below the sensor's range written "Basso" in the glucose
+    // column (above it, "Alto").
+    let file = common::fixture("clarity_g7_italian_synthetic.csv");
+    let b = read(&[("it.csv", file)], &opts("Europe/Rome")).unwrap();
+    assert_eq!(b.formats, vec![Format::Clarity]);
+    assert_eq!(b.unread.count, 0, "{:?}", b.notes);
+    let cgm: Vec<(String, f64, Censor)> = b
+        .records
+        .iter()
+        .filter_map(|r| match &r.kind {
+            RecordKind::Cgm { glucose } => {
+                Some((r.at.to_string(), glucose.mg_dl.0, glucose.censor))
+            }
+            _ => None,
+        })
+        .collect();
+    assert_eq!(cgm.len(), 22, "{cgm:?}");
+    // 06:00:41 in Rome in November is 05:00:41 UTC.
+    assert_eq!(cgm[0], ("2026-11-03T05:00:41Z".into(), 92.0, Censor::Exact));
+    let below: Vec<&str> = cgm
+        .iter()
+        .filter(|c| c.2 == Censor::Below)
+        .map(|c| c.0.as_str())
+        .collect();
+    assert_eq!(below, ["2026-11-03T05:25:41Z", "2026-11-03T05:30:41Z"]);
+    assert!(cgm
+        .iter()
+        .filter(|c| c.2 == Censor::Below)
+        .all(|c| c.1 == 40.0));
+    let above: Vec<(&str, f64)> = cgm
+        .iter()
+        .filter(|c| c.2 == Censor::Above)
+        .map(|c| (c.0.as_str(), c.1))
+        .collect();
+    assert_eq!(
+        above,
+        [
+            ("2026-11-03T06:25:41Z", 400.0),
+            ("2026-11-03T06:30:41Z", 400.0)
+        ]
+    );
+    let smbg: Vec<f64> = b
+        .records
+        .iter()
+        .filter_map(|r| match &r.kind {
+            RecordKind::Smbg { glucose } => Some(glucose.mg_dl.0),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(smbg, [57.0]);
+    assert!(
+        b.notes.iter().any(|n| n.contains("10 rows without a time")
+            && n.contains("Avviso 7")
+            && n.contains("Nome 1")),
+        "{:?}",
+        b.notes
+    );
+    // A word abba does not know in the glucose column is reported, not
+    // read as a limit: the German export's words are not known.
+    let text = String::from_utf8(common::fixture("clarity_g7_italian_synthetic.csv")).unwrap();
+    // The first "Basso" reading (line 17), its glucose cell only.
+    let odd = text.replacen("\"iOS G7\";\"Basso\"", "\"iOS G7\";\"Niedrig\"", 1);
+    assert_ne!(odd, text);
+    let (b, first) = common::read_in_part(&[("it.csv", odd.into_bytes())], &opts("Europe/Rome"));
+    assert_eq!(b.count("cgm"), 21);
+    assert!(
+        first.starts_with("it.csv: line 17, field \"Valore del glucosio (mg/dL)\"")
+            && first.contains("Niedrig"),
+        "{first}"
+    );
+}

@@ -470,13 +470,23 @@ fn pump_settings_are_the_active_profile_and_unreadable_ones_are_noted_not_fatal(
             "{name}"
         );
         assert_eq!(b.count("cgm"), 3 * 288 + 1, "{name}");
-        assert_eq!(b.notes.len(), 1, "{name}: {:?}", b.notes);
         assert!(
             b.notes[0].contains("exchanges")
                 && b.notes[0].contains("not read as a change of therapy"),
             "{name}: {:?}",
             b.notes
         );
+        // The workbook writes the wizard's Carb Input without its unit:
+        // the settings' exchanges are its unit (see the test below); the
+        // data model's wizard, without `carbUnits`, is in grams.
+        let wizard_notes = b
+            .notes
+            .iter()
+            .filter(|n| n.contains("bolus wizard"))
+            .count();
+        let from_export = usize::from(name.ends_with(".xlsx"));
+        assert_eq!(b.notes.len(), 1 + from_export, "{name}: {:?}", b.notes);
+        assert_eq!(wizard_notes, from_export, "{name}: {:?}", b.notes);
     }
     // The workbook's note names the sheet, the row and the column.
     let b = read(
@@ -602,4 +612,116 @@ fn a_workbook_inflating_past_the_limit_is_refused_before_it_is_inflated() {
             && e.contains("shorter date range"),
         "{e}"
     );
+}
+
+/// The wizards' carbohydrate (its `Ignored` kinds counted and the grams
+/// read) of `bytes` read with `grams_per_exchange`.
+fn wizard_carbs(
+    name: &str,
+    bytes: Vec<u8>,
+    grams_per_exchange: Option<f64>,
+) -> (Vec<String>, Vec<f64>, Vec<String>) {
+    let o = ReadOptions {
+        grams_per_exchange,
+        ..opts("Europe/Zurich")
+    };
+    let b = read(&[(name, bytes)], &o).unwrap();
+    let wizard_at = "2026-05-04T05:30:00Z";
+    let ignored = b
+        .records
+        .iter()
+        .filter_map(|r| match &r.kind {
+            RecordKind::Ignored { kind } if kind.starts_with("wizard") => Some(kind.clone()),
+            _ => None,
+        })
+        .collect();
+    let grams = b
+        .records
+        .iter()
+        .filter(|r| r.at.to_string() == wizard_at)
+        .filter_map(|r| match r.kind {
+            RecordKind::Carbs { grams } => Some(grams.0),
+            _ => None,
+        })
+        .collect();
+    (ignored, grams, b.notes)
+}
+
+#[test]
+fn a_wizards_carbohydrate_in_the_export_takes_its_unit_from_the_pump_settings() {
+    // Tidepool's export writes a wizard's Carb Input without `carbUnits`:
+    // a Medtronic pump counting exchanges would have its 4 exchanges read
+    // as 4 g. Its pump settings' Carb Units say which.
+    let mut data = person_data();
+    let w = data.iter().position(|d| d["type"] == "wizard").unwrap();
+    data[w]["carbInput"] = 4.into();
+    let mut ex = data.clone();
+    let s = ex.iter().position(|d| d["type"] == "pumpSettings").unwrap();
+    ex[s]["units"]["carb"] = "exchanges".into();
+    let exports = |d: &[Value]| {
+        vec![
+            ("TidepoolExport.xlsx", workbook(d, &Options::default())),
+            (
+                "TidepoolExport.json",
+                crate::tidepool_workbook::export_json(d, "mmol/L"),
+            ),
+        ]
+    };
+    for (name, bytes) in exports(&ex) {
+        let (ignored, grams, notes) = wizard_carbs(name, bytes.clone(), None);
+        assert_eq!(
+            ignored,
+            ["wizard carbohydrate in exchanges (no --grams-per-exchange)"],
+            "{name}"
+        );
+        assert!(grams.is_empty(), "{name}: {grams:?}");
+        assert!(
+            notes
+                .iter()
+                .any(|n| n.contains("1 bolus wizard record") && n.contains("exchanges")),
+            "{name}: {notes:?}"
+        );
+        let (_, grams, _) = wizard_carbs(name, bytes, Some(12.0));
+        assert_eq!(grams, [48.0], "{name}");
+    }
+    // Settings in grams: grams, as before.
+    for (name, bytes) in exports(&data) {
+        let (ignored, grams, _) = wizard_carbs(name, bytes, None);
+        assert!(ignored.is_empty(), "{name}: {ignored:?}");
+        assert_eq!(grams, [4.0], "{name}");
+    }
+    // No settings in the export, a Medtronic pump's upload: the unit is
+    // not stated anywhere, so the carbohydrate is counted, not read.
+    let mut none = data.clone();
+    none.retain(|d| d["type"] != "pumpSettings");
+    for (name, bytes) in exports(&none) {
+        let (ignored, grams, notes) = wizard_carbs(name, bytes, Some(12.0));
+        assert_eq!(
+            ignored,
+            ["wizard carbohydrate of unstated unit (Tidepool export)"],
+            "{name}"
+        );
+        assert!(grams.is_empty(), "{name}: {grams:?}");
+        assert!(
+            notes.iter().any(|n| n.contains("1 bolus wizard record")
+                && n.contains("Medtronic")
+                && n.contains("grams are not assumed")),
+            "{name}: {notes:?}"
+        );
+    }
+    // Another maker's pump: grams, the data model's unit.
+    let mut tandem = none.clone();
+    for d in tandem.iter_mut().filter(|d| d["type"] == "upload") {
+        d["deviceManufacturers"] = serde_json::json!(["Tandem"]);
+    }
+    for (name, bytes) in exports(&tandem) {
+        let (ignored, grams, _) = wizard_carbs(name, bytes, None);
+        assert!(ignored.is_empty(), "{name}: {ignored:?}");
+        assert_eq!(grams, [4.0], "{name}");
+    }
+    // The API's data model carries `carbUnits` where it matters: without
+    // it, grams.
+    let (ignored, grams, _) = wizard_carbs("api.json", json_bytes(&none), None);
+    assert!(ignored.is_empty(), "{ignored:?}");
+    assert_eq!(grams, [4.0]);
 }

@@ -566,7 +566,8 @@ pub fn read_with_settings(
         }
         confirmed_again(&mut rows);
         if span.section == Section::Pump {
-            let found = carelink_clock::shifts(&tz, &clock_settings(&rows));
+            let found =
+                carelink_clock::shifts(&tz, &clock_settings(&rows), rows.first().map(|r| r.wall));
             clock_shifts.extend(found.into_iter().map(|s| (span.device.clone(), s)));
         }
         let own: Vec<carelink_clock::Shift> = clock_shifts

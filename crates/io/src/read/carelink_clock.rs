@@ -11,8 +11,16 @@
 //! within [`SETTING_WINDOW_S`] after a change (or before one: set the
 //! evening before) is such a correction: the rows written on the pump's
 //! clock between the change and the setting are placed at the offset
-//! that clock kept, and the file's note says which. Any other setting
-//! (a trip, a clock set right by minutes) changes nothing here.
+//! that clock kept, and the file's note says which.
+//!
+//! A setting by the zone's shift made later (weeks after the change,
+//! before the next one) is a correction too when the section shows the
+//! pump's clock across the change: its rows begin before the change, no
+//! other setting of 30 minutes or more came between the change and this
+//! one (the pump kept the old offset all along), and none after it sets
+//! the clock back the other way before the next change (a trip there and
+//! back, not a correction). Any other setting (a trip, a clock set right
+//! by minutes) changes nothing here.
 
 use jiff::civil::DateTime;
 use jiff::tz::{Offset, TimeZone};
@@ -51,13 +59,22 @@ pub struct Shift {
     at: Timestamp,
 }
 
-/// The settings among `settings` that are a daylight-saving change of
-/// `tz` (see the module documentation).
-pub fn shifts(tz: &TimeZone, settings: &[Setting]) -> Vec<Shift> {
+/// How long after a change (s) a setting by its shift may still be its
+/// correction: half a year (clocks change twice a year).
+const LATE_MAX_S: i64 = 183 * 86_400;
+
+/// How far (s) a setting moves the clock to be more than one set right
+/// by minutes.
+const LARGE_S: i64 = 1800;
+
+/// The settings among `settings` (oldest first) that are a daylight-saving
+/// change of `tz` (see the module documentation); `first_row` is the wall
+/// time of the section's oldest row.
+pub fn shifts(tz: &TimeZone, settings: &[Setting], first_row: Option<DateTime>) -> Vec<Shift> {
     let mut out = Vec::new();
-    for &s in settings {
+    for (i, &s) in settings.iter().enumerate() {
         let delta = s.to.duration_since(s.from).as_secs();
-        if delta.abs() < 1800 {
+        if delta.abs() < LARGE_S {
             continue; // a clock set right by minutes
         }
         // The zone's changes within the window around the old clock's time.
@@ -89,9 +106,73 @@ pub fn shifts(tz: &TimeZone, settings: &[Setting]) -> Vec<Shift> {
                     },
                 )
             });
-        out.extend(found);
+        match found {
+            Some(shift) => out.push(shift),
+            None => out.extend(late(tz, settings, i, first_row)),
+        }
     }
     out
+}
+
+/// The setting `settings[i]` as a correction made more than
+/// [`SETTING_WINDOW_S`] after the zone's latest change before it, when the
+/// section shows the pump's clock kept the old offset until then (see the
+/// module documentation).
+fn late(
+    tz: &TimeZone,
+    settings: &[Setting],
+    i: usize,
+    first_row: Option<DateTime>,
+) -> Option<Shift> {
+    let s = settings[i];
+    let delta = s.to.duration_since(s.from).as_secs();
+    let rough = tz.to_timestamp(s.from).ok()?;
+    let t = tz.preceding(rough).next()?;
+    let transition = t.timestamp();
+    let before = tz.to_offset(transition.checked_sub(SignedDuration::from_secs(1)).ok()?);
+    let after = t.offset();
+    let shift = i64::from(after.seconds() - before.seconds());
+    if shift == 0 || (delta - shift).abs() > SHIFT_TOLERANCE_S {
+        return None;
+    }
+    // On the old clock (the offset kept), after the change.
+    let at = before.to_timestamp(s.from).ok()?;
+    // After the change, and within half a year of it (a zone that stopped
+    // changing its clocks has no next change to bound it).
+    if at <= transition || at.duration_since(transition).as_secs() > LATE_MAX_S {
+        return None;
+    }
+    // The section's rows begin before the change.
+    let first = before.to_timestamp(first_row?).ok()?;
+    if first >= transition {
+        return None;
+    }
+    let large = |o: &Setting| o.to.duration_since(o.from).as_secs().abs() >= LARGE_S;
+    let on_old_clock = |o: &Setting| before.to_timestamp(o.from).ok();
+    // No other large setting between the change and this one.
+    if settings[..i]
+        .iter()
+        .any(|o| large(o) && on_old_clock(o).is_some_and(|a| a > transition))
+    {
+        return None;
+    }
+    // None after it sets the clock back the other way before the next
+    // change (a trip there and back).
+    let next = tz.following(transition).next().map(|n| n.timestamp());
+    let back = settings[i + 1..].iter().any(|o| {
+        let d = o.to.duration_since(o.from).as_secs();
+        (d + delta).abs() <= SHIFT_TOLERANCE_S
+            && after
+                .to_timestamp(o.from)
+                .is_ok_and(|a| next.is_none_or(|n| a < n))
+    });
+    (!back).then_some(Shift {
+        setting: s,
+        transition,
+        before,
+        after,
+        at,
+    })
 }
 
 /// Places one section's rows (in the pump's order, oldest first) by the
@@ -230,7 +311,7 @@ mod tests {
             from: datetime(2026, 10, 25, 9, 0, 0, 0),
             to: datetime(2026, 10, 25, 8, 0, 0, 0),
         };
-        let shifts = shifts(&zurich(), &[s]);
+        let shifts = shifts(&zurich(), &[s], None);
         assert_eq!(shifts.len(), 1);
         let mut p = Placer::new(&shifts);
         // Before the change: the zone places it.
@@ -254,7 +335,7 @@ mod tests {
             from: datetime(2026, 10, 24, 22, 0, 0, 0),
             to: datetime(2026, 10, 24, 21, 0, 0, 0),
         };
-        let shifts = shifts(&zurich(), &[s]);
+        let shifts = shifts(&zurich(), &[s], None);
         assert_eq!(shifts.len(), 1);
         let mut p = Placer::new(&shifts);
         assert_eq!(p.place(datetime(2026, 10, 24, 21, 55, 0, 0), 1), None);
@@ -285,6 +366,79 @@ mod tests {
             from: datetime(2026, 10, 25, 9, 0, 0, 0),
             to: datetime(2026, 10, 25, 3, 0, 0, 0),
         };
-        assert!(shifts(&zurich(), &[minutes, months_later, six_hours]).is_empty());
+        assert!(shifts(&zurich(), &[minutes, months_later, six_hours], None).is_empty());
+    }
+
+    #[test]
+    fn a_setting_by_the_shift_weeks_after_the_change_is_one_when_the_rows_show_it() {
+        // Zurich went back on 2026-10-25; the pump is set back only on
+        // 2026-11-10 at 09:00 on its summer clock.
+        let late = Setting {
+            line: 10,
+            from: datetime(2026, 11, 10, 9, 0, 0, 0),
+            to: datetime(2026, 11, 10, 8, 0, 0, 0),
+        };
+        let before_change = Some(datetime(2026, 10, 20, 0, 0, 0, 0));
+        let found = shifts(&zurich(), &[late], before_change);
+        assert_eq!(found.len(), 1);
+        let mut p = Placer::new(&found);
+        assert_eq!(p.place(datetime(2026, 10, 24, 12, 0, 0, 0), 1), None);
+        // A week after the change, 12:00 on the pump's summer clock is
+        // 10:00 UTC, not 11:00.
+        let t = p.place(datetime(2026, 11, 1, 12, 0, 0, 0), 2).unwrap();
+        assert_eq!(t.to_string(), "2026-11-01T10:00:00Z");
+        let t = p.place(datetime(2026, 11, 10, 8, 59, 0, 0), 3).unwrap();
+        assert_eq!(t.to_string(), "2026-11-10T06:59:00Z");
+        // Set: the zone's clock from here on.
+        assert_eq!(p.place(datetime(2026, 11, 10, 8, 0, 5, 0), 4), None);
+        assert_eq!(p.place(datetime(2026, 11, 10, 9, 30, 0, 0), 5), None);
+        // The rows begin after the change: the pump may have been set
+        // before them, so this may be a trip.
+        let after_change = Some(datetime(2026, 10, 28, 0, 0, 0, 0));
+        assert!(shifts(&zurich(), &[late], after_change).is_empty());
+        assert!(shifts(&zurich(), &[late], None).is_empty());
+        // Set back the other way later (a trip there and back): none.
+        let back = Setting {
+            line: 20,
+            from: datetime(2026, 11, 17, 18, 0, 0, 0),
+            to: datetime(2026, 11, 17, 19, 0, 0, 0),
+        };
+        assert!(shifts(&zurich(), &[late, back], before_change).is_empty());
+        // Another setting between the change and this one: the pump's
+        // clock was not left on the old offset all along.
+        let earlier = Setting {
+            line: 5,
+            from: datetime(2026, 11, 2, 9, 0, 0, 0),
+            to: datetime(2026, 11, 2, 11, 0, 0, 0),
+        };
+        assert!(shifts(&zurich(), &[earlier, late], before_change)
+            .iter()
+            .all(|s| s.setting != late));
+        // Set forward by the shift after the autumn change: not the
+        // change's correction.
+        let forward = Setting {
+            line: 10,
+            from: datetime(2026, 11, 10, 9, 0, 0, 0),
+            to: datetime(2026, 11, 10, 10, 0, 0, 0),
+        };
+        assert!(shifts(&zurich(), &[forward], before_change).is_empty());
+    }
+
+    #[test]
+    fn a_late_setting_after_the_spring_change_is_one() {
+        // Zurich went forward on 2026-03-29; the pump, on winter time, is
+        // set forward on 2026-04-12 at 07:00.
+        let late = Setting {
+            line: 10,
+            from: datetime(2026, 4, 12, 7, 0, 0, 0),
+            to: datetime(2026, 4, 12, 8, 0, 0, 0),
+        };
+        let found = shifts(&zurich(), &[late], Some(datetime(2026, 3, 20, 0, 0, 0, 0)));
+        assert_eq!(found.len(), 1);
+        let mut p = Placer::new(&found);
+        // 12:00 on the pump's winter clock on 2026-04-05 is 11:00 UTC.
+        let t = p.place(datetime(2026, 4, 5, 12, 0, 0, 0), 1).unwrap();
+        assert_eq!(t.to_string(), "2026-04-05T11:00:00Z");
+        assert_eq!(p.place(datetime(2026, 4, 12, 8, 0, 5, 0), 2), None);
     }
 }

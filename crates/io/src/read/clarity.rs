@@ -56,7 +56,9 @@ const DATA_EVENTS: [&str; 4] = ["EGV", "Calibration", "Insulin", "Carbs"];
 
 /// Localised event type names, mapped to Clarity's English ones (the
 /// Spanish export names its sensor readings "Niveles estimados de
-/// glucosa", as the HUPA-UCM dataset's Dexcom files show).
+/// glucosa", as the HUPA-UCM dataset's Dexcom files show; a real G7
+/// export set to Italian keeps `EGV` and writes "Calibrazione"; the
+/// other names are not verified against a real export).
 const EVENT_NAMES: [(&str, &str); 13] = [
     ("Niveles estimados de glucosa", "EGV"),
     ("Kalibrierung", "Calibration"),
@@ -380,6 +382,31 @@ fn row_kind(
     })
 }
 
+/// The words Clarity writes in the glucose column for a reading below or
+/// above the sensor's range, in the export's language: English "Low" and
+/// "High", Spanish "Nivel bajo" and "Nivel alto" (the HUPA-UCM dataset's
+/// files), Italian "Basso" and "Alto" (a real G7 export set to Italian:
+/// EGV rows with "Basso" in the glucose column; "Alto" is the word its
+/// High alert carries, as English exports name the alert and the value
+/// alike). Other languages' words are not known: such a row is reported
+/// (not a number), never guessed.
+const CENSORED: [(&str, Censor); 6] = [
+    ("low", Censor::Below),
+    ("high", Censor::Above),
+    ("nivel bajo", Censor::Below),
+    ("nivel alto", Censor::Above),
+    ("basso", Censor::Below),
+    ("alto", Censor::Above),
+];
+
+/// Whether a glucose cell is one of [`CENSORED`]'s words, and which.
+fn censored(text: &str) -> Option<Censor> {
+    CENSORED
+        .iter()
+        .find(|(word, _)| word.eq_ignore_ascii_case(text))
+        .map(|&(_, censor)| censor)
+}
+
 /// A glucose cell: a number, or Low / High at the sensor's reporting
 /// limits (40 and 400 mg/dL, 2.2 and 22.2 mmol/L), kept censored.
 fn glucose(t: &Table<'_>, c: &Columns, at: &Location, line: u64) -> Result<Glucose, IoError> {
@@ -388,11 +415,10 @@ fn glucose(t: &Table<'_>, c: &Columns, at: &Location, line: u64) -> Result<Gluco
         GlucoseUnit::MmolL => (2.2, 22.2),
     };
     let text = t.cell(c.glucose_at);
-    let (value, censor) = match text.to_ascii_lowercase().as_str() {
-        // The Spanish export writes "Nivel bajo" and "Nivel alto".
-        "low" | "nivel bajo" => (low, Censor::Below),
-        "high" | "nivel alto" => (high, Censor::Above),
-        _ => (
+    let (value, censor) = match censored(text) {
+        Some(Censor::Below) => (low, Censor::Below),
+        Some(Censor::Above) => (high, Censor::Above),
+        Some(Censor::Exact) | None => (
             required_number(
                 &at.file,
                 line,

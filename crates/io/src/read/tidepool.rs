@@ -152,7 +152,9 @@ fn export_form(
             "{file}: {pens} pen insulin doses (`insulin`) without their dose, as Tidepool Web's export writes them: counted, not read"
         ));
     }
-    Ok(Some((tidepool_xlsx::join_settings(rows), notes)))
+    let mut rows = tidepool_xlsx::join_settings(rows);
+    tidepool_xlsx::wizard_carb_units(&mut rows);
+    Ok(Some((rows, notes)))
 }
 
 /// Reads Tidepool's Excel export (see [`super::tidepool_xlsx`]): each row
@@ -184,6 +186,7 @@ pub(crate) fn read_items(
 ) -> Result<Vec<Record>, IoError> {
     let mut out = Vec::with_capacity(items.len());
     let mut exchanges = 0usize;
+    let mut unstated = 0usize;
     for item in items {
         let ty = or_skip!(
             ctx,
@@ -227,6 +230,9 @@ pub(crate) fn read_items(
         if matches!(&kind, RecordKind::Ignored { kind } if kind == WIZARD_EXCHANGES) {
             exchanges += 1;
         }
+        if matches!(&kind, RecordKind::Ignored { kind } if kind == WIZARD_UNSTATED) {
+            unstated += 1;
+        }
         out.push(Record {
             at,
             kind,
@@ -242,6 +248,16 @@ pub(crate) fn read_items(
              (--grams-per-exchange G, or the clinic page's grams-per-exchange field; 10 for the \
              Spanish raci\u{f3}n) to read it as grams",
             if exchanges == 1 { "" } else { "s" }
+        ));
+    }
+    if unstated > 0 {
+        ctx.note(format!(
+            "carbohydrate not read: {unstated} bolus wizard record{} (`wizard`) of a Medtronic \
+             pump whose unit Tidepool's export does not write (its `Carb Input` without \
+             `carbUnits`) and no pump settings in the export state (`Carb Units`): the pump may \
+             count exchanges, so grams are not assumed; export the data with its pump settings, \
+             or read Tidepool's data from its API (JSON), whose wizards carry `carbUnits`",
+            if unstated == 1 { "" } else { "s" }
         ));
     }
     Ok(out)
@@ -330,6 +346,12 @@ fn datum(
     })
 }
 
+/// The kind a wizard's carbohydrate is counted as when Tidepool's export
+/// left out its unit and nothing in the export states it (a Medtronic
+/// pump's, which may count exchanges; see
+/// [`tidepool_xlsx::wizard_carb_units`]).
+const WIZARD_UNSTATED: &str = "wizard carbohydrate of unstated unit (Tidepool export)";
+
 /// The kind a wizard's carbohydrate in exchanges is counted as without
 /// the grams of one exchange.
 const WIZARD_EXCHANGES: &str = "wizard carbohydrate in exchanges (no --grams-per-exchange)";
@@ -345,6 +367,16 @@ fn wizard(item: &Item<'_>, grams_per_exchange: Option<f64>) -> Result<RecordKind
         None => Some(1.0),
         Some(u) if u.eq_ignore_ascii_case("grams") => Some(1.0),
         Some(u) if u.eq_ignore_ascii_case("exchanges") => grams_per_exchange,
+        Some(tidepool_xlsx::CARB_UNITS_UNSTATED) => {
+            return Ok(match item.num("carbInput")? {
+                Some(v) if v > 0.0 => RecordKind::Ignored {
+                    kind: WIZARD_UNSTATED.into(),
+                },
+                _ => RecordKind::Ignored {
+                    kind: "wizard without carbohydrate".into(),
+                },
+            })
+        }
         Some(other) => {
             return Err(item.err(
                 "carbUnits",

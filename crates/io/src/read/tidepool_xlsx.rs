@@ -820,12 +820,13 @@ pub(crate) fn read(file: &str, bytes: &[u8]) -> Result<Book, IoError> {
             ),
         ));
     }
-    let rows = join_settings(
+    let mut rows = join_settings(
         out.rows
             .into_iter()
             .map(|r| (r.obj, (r.sheet, r.row)))
             .collect(),
     );
+    wizard_carb_units(&mut rows);
     out.rows = rows
         .into_iter()
         .map(|(obj, (sheet, row))| SheetRow { obj, sheet, row })
@@ -936,4 +937,63 @@ pub(crate) fn join_settings<P: Copy>(
         }
     }
     out
+}
+
+/// What a wizard's `carbUnits` is set to where Tidepool's export does not
+/// write it and nothing in the export says it: the data of a Medtronic
+/// pump, whose wizard may count exchanges (read as neither unit).
+pub(crate) const CARB_UNITS_UNSTATED: &str = "not written by Tidepool's export";
+
+/// The carbohydrate unit of the export's bolus wizards. Tidepool's export
+/// (the workbook's `Bolus Calculator` sheet, and its JSON, through the same
+/// configuration) writes a wizard's `Carb Input` without its `carbUnits`:
+/// 4 exchanges read as 4 g. The unit is taken from the pump settings the
+/// export holds (`Carb Units` of `Carb Ratios`: the settings in force at
+/// the wizard's time, else the first), which state the unit the pump's
+/// wizard counts in; without them, a wizard of an export holding a
+/// Medtronic pump's upload (the pumps whose wizards Tidepool marks as
+/// counting exchanges) is marked [`CARB_UNITS_UNSTATED`], never guessed.
+/// Wizards of other pumps without settings are grams, the data model's
+/// unit. A wizard with its own `carbUnits` keeps it.
+pub(crate) fn wizard_carb_units<P>(rows: &mut [(Map<String, Value>, P)]) {
+    let time = |obj: &Map<String, Value>| {
+        obj.get("time")
+            .and_then(Value::as_str)
+            .and_then(|t| t.parse::<jiff::Timestamp>().ok())
+    };
+    let mut settings: Vec<(Option<jiff::Timestamp>, String)> = rows
+        .iter()
+        .filter(|(obj, _)| obj.get("type").and_then(Value::as_str) == Some("pumpSettings"))
+        .filter_map(|(obj, _)| {
+            let units = obj.get("units")?;
+            let unit = units.get("carb").or_else(|| units.get("carbs"))?.as_str()?;
+            Some((time(obj), unit.to_string()))
+        })
+        .collect();
+    settings.sort_by_key(|(t, _)| *t);
+    let medtronic = rows.iter().any(|(obj, _)| {
+        obj.get("type").and_then(Value::as_str) == Some("upload")
+            && obj
+                .get("deviceManufacturers")
+                .is_some_and(|m| m.to_string().to_ascii_lowercase().contains("medtronic"))
+    });
+    for (obj, _) in rows.iter_mut() {
+        if obj.get("type").and_then(Value::as_str) != Some("wizard")
+            || obj.contains_key("carbUnits")
+        {
+            continue;
+        }
+        let at = time(obj);
+        let in_force = settings
+            .iter()
+            .rev()
+            .find(|(t, _)| at.is_some() && *t <= at)
+            .or_else(|| settings.first());
+        let unit = match in_force {
+            Some((_, unit)) => unit.clone(),
+            None if medtronic => CARB_UNITS_UNSTATED.to_string(),
+            None => continue,
+        };
+        obj.insert("carbUnits".into(), Value::String(unit));
+    }
 }

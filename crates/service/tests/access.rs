@@ -375,3 +375,56 @@ async fn a_query_parameter_an_endpoint_does_not_take_is_refused_and_changes_noth
         .await;
     assert_eq!(r.status, StatusCode::OK, "{}", r.text);
 }
+
+/// An id is read only as the service writes it: `+1`, `01` or `1 ` reach
+/// no person and no token (404, as an id nothing has), so that one person
+/// is not under many paths (past a proxy's rule on `/v1/persons/1/`).
+#[tokio::test]
+async fn an_id_not_written_as_the_service_writes_it_reaches_nothing() {
+    let svc = Svc::new();
+    let alice = svc.person("alice").await;
+    let (token_id, alice_token) = svc.token(alice).await;
+    for id in [
+        format!("+{alice}"),
+        format!("0{alice}"),
+        format!("{alice}%20"),
+        format!("%2B{alice}"),
+    ] {
+        let uri = format!("/v1/persons/{id}/advice");
+        for token in [&svc.admin, &alice_token] {
+            let r = svc.call(Method::GET, &uri, Some(token), None).await;
+            assert_eq!(r.status, StatusCode::NOT_FOUND, "{uri}: {}", r.text);
+        }
+        let r = svc
+            .call(
+                Method::POST,
+                &format!("/v1/persons/{id}/events"),
+                Some(&alice_token),
+                Some(&json!({"events": [cgm(1, 60, 150.0)]})),
+            )
+            .await;
+        assert_eq!(r.status, StatusCode::NOT_FOUND, "{id}: {}", r.text);
+    }
+    for id in [format!("+{token_id}"), format!("0{token_id}")] {
+        let r = svc
+            .call(
+                Method::DELETE,
+                &format!("/v1/tokens/{id}"),
+                Some(&svc.admin),
+                None,
+            )
+            .await;
+        assert_eq!(r.status, StatusCode::NOT_FOUND, "{id}: {}", r.text);
+    }
+    // Nothing was stored or revoked; the id as written still works.
+    let r = svc
+        .call(
+            Method::GET,
+            &format!("/v1/persons/{alice}/sync"),
+            Some(&alice_token),
+            None,
+        )
+        .await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+    assert_eq!(r.json["held"], json!([]), "{}", r.text);
+}

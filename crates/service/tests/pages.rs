@@ -3819,3 +3819,27 @@ async fn names_read_from_an_export_never_reorder_or_hide_text_on_a_page() {
         assert_eq!(unseen(&p.html), Vec::<char>::new(), "{path}: {}", p.html);
     }
 }
+
+/// The clinic's pages read a person's id only as they write it: `+1` and
+/// `01` are the 404 page, not person 1's page or report.
+#[tokio::test]
+async fn the_clinics_pages_read_an_id_only_as_they_write_it() {
+    let svc = Svc::new();
+    let id = svc.person("zelda-q").await;
+    let (mut admin, _) = signed_in(&svc, Role::Admin).await;
+    for path in [
+        format!("/clinic/persons/{id}"),
+        format!("/clinic/persons/{id}/report"),
+    ] {
+        let p = admin.get(&path).await;
+        assert_eq!(p.status, StatusCode::OK, "{path}");
+        for alias in [
+            path.replace(&format!("/{id}"), &format!("/+{id}")),
+            path.replace(&format!("/{id}"), &format!("/0{id}")),
+        ] {
+            let p = admin.get(&alias).await;
+            assert_eq!(p.status, StatusCode::NOT_FOUND, "{alias}: {}", p.html);
+            assert!(!p.html.contains("zelda-q"), "{alias}: {}", p.html);
+        }
+    }
+}

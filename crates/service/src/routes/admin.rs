@@ -224,9 +224,7 @@ pub async fn revoke_token(
     AdminPath(token_id): AdminPath,
     _query: super::NoQuery,
 ) -> Result<Json<TokenRevoked>, ApiError> {
-    let id = token_id
-        .parse::<i64>()
-        .ok()
+    let id = Some(crate::extract::parse_id(&token_id))
         .filter(|&v| v > 0)
         .ok_or_else(|| ApiError::not_found(format!("no token with id {token_id:?}")))?;
     s.store(move |store| Ok(store.revoke_token(id)?)).await?;

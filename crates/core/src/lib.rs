@@ -19,6 +19,7 @@ pub mod metrics;
 pub mod named;
 pub mod scenario;
 pub mod seed;
+pub mod text;
 pub mod therapy;
 pub mod time;
 pub mod units;

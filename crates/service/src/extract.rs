@@ -43,10 +43,18 @@ async fn path_text(parts: &mut Parts, state: &AppState) -> String {
         .unwrap_or_default()
 }
 
-/// A positive id from a path segment; anything else is an id nothing has
-/// (-1), so the answer is the same 404 as for an id that does not exist.
+/// A positive id from a path segment written as the service writes it
+/// (decimal digits, no sign, no leading zero); anything else is an id
+/// nothing has (-1), so the answer is the same 404 as for an id that does
+/// not exist. (`+1` and `01` reached person 1: one person under many
+/// paths, past a proxy's rule on `/v1/persons/1/`.)
 pub fn parse_id(text: &str) -> i64 {
-    text.parse::<i64>().ok().filter(|&v| v > 0).unwrap_or(-1)
+    let canonical = !text.starts_with('0') && text.bytes().all(|b| b.is_ascii_digit());
+    canonical
+        .then(|| text.parse::<i64>().ok())
+        .flatten()
+        .filter(|&v| v > 0)
+        .unwrap_or(-1)
 }
 
 /// Any valid token.

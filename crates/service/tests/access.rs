@@ -263,3 +263,168 @@ async fn a_revoked_admin_token_stops_working_and_ids_that_are_not_numbers_are_40
     assert_eq!(r.status, StatusCode::METHOD_NOT_ALLOWED);
     assert_eq!(r.json["code"], "method_not_allowed");
 }
+
+/// A query parameter an endpoint does not take is refused (400 naming
+/// it) before anything is done, never ignored: a probe's
+/// `POST .../events?dry_run=1` stored its events and
+/// `POST .../tokens?role=admin` issued a person's token, each with 2xx.
+/// A stranger still gets 401 first.
+#[tokio::test]
+async fn a_query_parameter_an_endpoint_does_not_take_is_refused_and_changes_nothing() {
+    let svc = Svc::new();
+    let alice = svc.person("alice").await;
+    let (token_id, alice_token) = svc.token(alice).await;
+    let events = json!({"events": [cgm(7, 60, 150.0)]});
+    // (method, URI, token, body, the parameter named)
+    type Case<'a> = (Method, String, Option<&'a str>, Option<&'a Value>, &'a str);
+    let cases: [Case; 8] = [
+        (
+            Method::POST,
+            format!("/v1/persons/{alice}/events?dry_run=1"),
+            Some(&alice_token),
+            Some(&events),
+            "dry_run",
+        ),
+        (
+            Method::POST,
+            format!("/v1/persons/{alice}/answers?validate_only"),
+            Some(&alice_token),
+            Some(&json!({"answers": []})),
+            "validate_only",
+        ),
+        (
+            Method::GET,
+            format!("/v1/persons/{alice}/advice?at=2026-01-02"),
+            Some(&alice_token),
+            None,
+            "at",
+        ),
+        (
+            Method::POST,
+            format!("/v1/persons/{alice}/tokens?role=admin"),
+            Some(&svc.admin),
+            None,
+            "role",
+        ),
+        (
+            Method::DELETE,
+            format!("/v1/tokens/{token_id}?&undo=1"),
+            Some(&svc.admin),
+            None,
+            "undo",
+        ),
+        (
+            Method::PUT,
+            format!("/v1/persons/{alice}/bounds?x"),
+            Some(&svc.admin),
+            Some(&json!({})),
+            "x",
+        ),
+        (
+            Method::POST,
+            format!("/v1/persons/{alice}/therapy?x=1"),
+            Some(&svc.admin),
+            Some(&json!({})),
+            "x",
+        ),
+        (
+            Method::POST,
+            "/v1/persons?x=1".into(),
+            Some(&svc.admin),
+            Some(&json!({})),
+            "x",
+        ),
+    ];
+    for (method, uri, token, body, key) in cases {
+        let r = svc.call(method.clone(), &uri, None, body).await;
+        assert_eq!(r.status, StatusCode::UNAUTHORIZED, "{uri}: {}", r.text);
+        let r = svc.call(method, &uri, token, body).await;
+        assert_eq!(r.status, StatusCode::BAD_REQUEST, "{uri}: {}", r.text);
+        assert_eq!(r.json["code"], "bad_query", "{uri}: {}", r.text);
+        assert_eq!(r.json["path"], key, "{uri}: {}", r.text);
+    }
+    // Nothing was stored, issued or revoked.
+    let r = svc
+        .call(
+            Method::GET,
+            &format!("/v1/persons/{alice}/sync"),
+            Some(&alice_token),
+            None,
+        )
+        .await;
+    assert_eq!(
+        r.status,
+        StatusCode::OK,
+        "the token still works: {}",
+        r.text
+    );
+    assert_eq!(r.json["held"], json!([]), "{}", r.text);
+    let store = abba_store::Store::open(&svc.db).unwrap();
+    let tokens = store
+        .tokens_of(abba_store::token::Role::Person(alice as i64))
+        .unwrap();
+    assert_eq!(tokens.len(), 1, "{tokens:?}");
+    // An empty query is no parameter.
+    let r = svc
+        .call(
+            Method::GET,
+            &format!("/v1/persons/{alice}/advice?"),
+            Some(&alice_token),
+            None,
+        )
+        .await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+}
+
+/// An id is read only as the service writes it: `+1`, `01` or `1 ` reach
+/// no person and no token (404, as an id nothing has), so that one person
+/// is not under many paths (past a proxy's rule on `/v1/persons/1/`).
+#[tokio::test]
+async fn an_id_not_written_as_the_service_writes_it_reaches_nothing() {
+    let svc = Svc::new();
+    let alice = svc.person("alice").await;
+    let (token_id, alice_token) = svc.token(alice).await;
+    for id in [
+        format!("+{alice}"),
+        format!("0{alice}"),
+        format!("{alice}%20"),
+        format!("%2B{alice}"),
+    ] {
+        let uri = format!("/v1/persons/{id}/advice");
+        for token in [&svc.admin, &alice_token] {
+            let r = svc.call(Method::GET, &uri, Some(token), None).await;
+            assert_eq!(r.status, StatusCode::NOT_FOUND, "{uri}: {}", r.text);
+        }
+        let r = svc
+            .call(
+                Method::POST,
+                &format!("/v1/persons/{id}/events"),
+                Some(&alice_token),
+                Some(&json!({"events": [cgm(1, 60, 150.0)]})),
+            )
+            .await;
+        assert_eq!(r.status, StatusCode::NOT_FOUND, "{id}: {}", r.text);
+    }
+    for id in [format!("+{token_id}"), format!("0{token_id}")] {
+        let r = svc
+            .call(
+                Method::DELETE,
+                &format!("/v1/tokens/{id}"),
+                Some(&svc.admin),
+                None,
+            )
+            .await;
+        assert_eq!(r.status, StatusCode::NOT_FOUND, "{id}: {}", r.text);
+    }
+    // Nothing was stored or revoked; the id as written still works.
+    let r = svc
+        .call(
+            Method::GET,
+            &format!("/v1/persons/{alice}/sync"),
+            Some(&alice_token),
+            None,
+        )
+        .await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+    assert_eq!(r.json["held"], json!([]), "{}", r.text);
+}

@@ -3725,3 +3725,179 @@ async fn history_says_an_answer_a_later_import_changed_and_that_it_stands() {
         assert!(table.contains(n.as_str()), "{n}\nnot in\n{table}");
     }
 }
+
+/// An uploaded file whose name holds a right-to-left override (or
+/// another control or format character) is refused beside the file field
+/// with the name escaped, never shown as it is (`entries\u{202E}nosj.exe`
+/// showed as `entriesexe.json`) and nothing is read; so is a file sent
+/// under a field the form does not have (it was dropped unread). The same
+/// bytes under a plain name are imported.
+#[tokio::test]
+async fn an_upload_whose_file_name_hides_or_reorders_text_is_refused_beside_the_field() {
+    let svc = Svc::new();
+    let id = svc.person("ana").await;
+    let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
+    let import = format!("/clinic/persons/{id}/import");
+    let entries = std::fs::read(cgm_entries(&svc, "2026-01-01T00:00:00Z", 1)).unwrap();
+    let records = || {
+        abba_service::open_store(&svc.db)
+            .unwrap()
+            .records("ana")
+            .unwrap()
+            .len()
+    };
+    for (field, name, want) in [
+        ("files", "entries\u{202E}nosj.exe", "\\u{202e}"),
+        ("files", "entries\t.json", "\\u{9}"),
+        ("files", "entries\u{200B}.json", "\\u{200b}"),
+        ("file", "entries.json", "no file field &quot;file&quot;"),
+    ] {
+        let p = admin
+            .post_multipart(&import, &[("csrf", &csrf)], &[(field, name, &entries)])
+            .await;
+        assert_eq!(
+            p.status,
+            StatusCode::UNPROCESSABLE_ENTITY,
+            "{name:?}: {}",
+            p.html
+        );
+        let error = p.section("<p class=\"field-error\" id=\"files-error\"", "p");
+        assert!(error.contains(want), "{name:?}: {error}");
+        for c in ['\u{202E}', '\u{200B}'] {
+            assert!(!p.html.contains(c), "{name:?} shown as it is: {}", p.html);
+        }
+        assert_eq!(records(), 0, "{name:?}: nothing is read");
+    }
+    let p = admin
+        .post_multipart(
+            &import,
+            &[("csrf", &csrf)],
+            &[("files", "entries.json", &entries)],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::OK, "{}", p.html);
+    assert!(records() > 0, "the same bytes under a plain name are read");
+    // The new person's form: its profile file likewise, and no person made.
+    let profile = nightscout_export().remove(0).1;
+    let f = [
+        ("csrf", csrf.as_str()),
+        ("name", "bo"),
+        ("tz", "UTC"),
+        ("unit", "mg/dL"),
+        ("mode", "cgm"),
+    ];
+    let p = admin
+        .post_multipart(
+            "/clinic/persons",
+            &f,
+            &[("profile", "profile\u{202E}nosj.exe", &profile)],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+    let error = p.section("id=\"profile-error\"", "p");
+    assert!(error.contains("\\u{202e}"), "{error}");
+    assert!(!p.html.contains('\u{202E}'), "{}", p.html);
+    let store = abba_service::open_store(&svc.db).unwrap();
+    assert!(store.person("bo").is_err(), "no person was made");
+    let p = admin
+        .post_multipart(
+            "/clinic/persons",
+            &f,
+            &[("profile", "profile.json", &profile)],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
+}
+
+/// Names read from inside an export (a Nightscout profile's, a profile
+/// switch's) that hold a right-to-left override or a zero-width space
+/// are shown with those characters as code points on the import's page,
+/// the person's page and the report, never as they are (the page showed
+/// `Default\u{202E}lmth.exe` as `Defaultexe.html`).
+#[tokio::test]
+async fn names_read_from_an_export_never_reorder_or_hide_text_on_a_page() {
+    const PROFILE: &str = "Default\u{202E}lmth.exe";
+    const SWITCHED: &str = "Sport\u{200B}\u{2066}day";
+    let svc = Svc::new();
+    let id = svc
+        .person_with(json!({
+            "name": "ana", "tz": "UTC", "mode": "cgm",
+            "start": {"basal_units_per_hour": 1.0, "carb_ratio_g_per_unit": [10.0, 12.0, 11.0]}
+        }))
+        .await;
+    let entries = std::fs::read(cgm_entries(&svc, "2026-11-02T00:00:00Z", 3)).unwrap();
+    let treatments = json!([{"_id": "sw", "eventType": "Profile Switch",
+        "profile": SWITCHED, "duration": 0, "created_at": "2026-11-03T10:00:00.000Z"}]);
+    let seg = |v: f64| json!([{"time": "00:00", "timeAsSeconds": 0, "value": v}]);
+    let profile = json!([{"_id": "p1", "defaultProfile": PROFILE,
+        "startDate": "2026-11-01T00:00:00.000Z", "mills": 1_761_955_200_000_i64, "units": "mg/dl",
+        "store": {PROFILE: {"basal": seg(0.9), "carbratio": seg(10.0), "sens": seg(50.0),
+            "target_low": seg(100.0), "target_high": seg(120.0), "timezone": "UTC",
+            "units": "mg/dl", "dia": 5}}}]);
+    let (treatments, profile) = (
+        serde_json::to_vec(&treatments).unwrap(),
+        serde_json::to_vec(&profile).unwrap(),
+    );
+    let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
+    let p = import_choosing(
+        &mut admin,
+        id,
+        &csrf,
+        "adopt",
+        &[
+            ("files", "entries.json", &entries),
+            ("files", "treatments.json", &treatments),
+            ("files", "profile.json", &profile),
+        ],
+    )
+    .await;
+    assert_eq!(p.status, StatusCode::OK, "{}", p.html);
+    let unseen = |html: &str| {
+        ['\u{202E}', '\u{200B}', '\u{2066}']
+            .into_iter()
+            .filter(|c| html.contains(*c))
+            .collect::<Vec<_>>()
+    };
+    // The import names the profiles (so the test can fail), as code points.
+    assert!(p.html.contains("Default\\u{202e}lmth.exe"), "{}", p.html);
+    assert!(p.html.contains("Sport\\u{200b}\\u{2066}day"), "{}", p.html);
+    assert_eq!(unseen(&p.html), Vec::<char>::new(), "{}", p.html);
+    for path in [
+        format!("/clinic/persons/{id}"),
+        format!("/clinic/persons/{id}/report"),
+    ] {
+        let p = admin.get(&path).await;
+        assert_eq!(p.status, StatusCode::OK, "{path}");
+        assert_eq!(unseen(&p.html), Vec::<char>::new(), "{path}: {}", p.html);
+    }
+    let (mut b, _) = signed_in(&svc, Role::Person(id as i64)).await;
+    for path in ["/", "/log", "/glucose", "/history", "/report"] {
+        let p = b.get(path).await;
+        assert_eq!(p.status, StatusCode::OK, "{path}");
+        assert_eq!(unseen(&p.html), Vec::<char>::new(), "{path}: {}", p.html);
+    }
+}
+
+/// The clinic's pages read a person's id only as they write it: `+1` and
+/// `01` are the 404 page, not person 1's page or report.
+#[tokio::test]
+async fn the_clinics_pages_read_an_id_only_as_they_write_it() {
+    let svc = Svc::new();
+    let id = svc.person("zelda-q").await;
+    let (mut admin, _) = signed_in(&svc, Role::Admin).await;
+    for path in [
+        format!("/clinic/persons/{id}"),
+        format!("/clinic/persons/{id}/report"),
+    ] {
+        let p = admin.get(&path).await;
+        assert_eq!(p.status, StatusCode::OK, "{path}");
+        for alias in [
+            path.replace(&format!("/{id}"), &format!("/+{id}")),
+            path.replace(&format!("/{id}"), &format!("/0{id}")),
+        ] {
+            let p = admin.get(&alias).await;
+            assert_eq!(p.status, StatusCode::NOT_FOUND, "{alias}: {}", p.html);
+            assert!(!p.html.contains("zelda-q"), "{alias}: {}", p.html);
+        }
+    }
+}

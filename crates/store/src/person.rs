@@ -207,38 +207,6 @@ impl Person {
 /// Longest person name, in characters.
 pub const MAX_NAME_CHARS: usize = 200;
 
-/// Characters a name may not hold although their general category
-/// alone would let them in: the ones that show nothing or change how
-/// the text around them is shown. Besides the format characters (Cf,
-/// refused by category; listed here too where the old check named them:
-/// bidirectional overrides and isolates, zero-width characters, the
-/// byte-order mark), the default-ignorable characters of other
-/// categories (DerivedCoreProperties.txt): the combining grapheme
-/// joiner, the Hangul fillers, the Khmer inherent vowels, the Mongolian
-/// and the other variation selectors, the tag characters; and the
-/// braille blank, which shows as a space.
-fn hidden(c: char) -> bool {
-    matches!(
-        c,
-        '\u{034F}'
-            | '\u{115F}'
-            | '\u{1160}'
-            | '\u{17B4}'
-            | '\u{17B5}'
-            | '\u{180B}'..='\u{180F}'
-            | '\u{200B}'..='\u{200F}'
-            | '\u{202A}'..='\u{202E}'
-            | '\u{2060}'..='\u{206F}'
-            | '\u{2800}'
-            | '\u{3164}'
-            | '\u{FE00}'..='\u{FE0F}'
-            | '\u{FEFF}'
-            | '\u{FFA0}'
-            | '\u{E0000}'..='\u{E007F}'
-            | '\u{E0100}'..='\u{E01EF}'
-    )
-}
-
 /// Why a name may not hold `c`, if it may not.
 fn refused(c: char) -> Option<&'static str> {
     use GeneralCategory as G;
@@ -253,7 +221,7 @@ fn refused(c: char) -> Option<&'static str> {
             ))
     {
         "the only white space a name may hold is the ordinary space (U+0020)"
-    } else if g == G::Format || hidden(c) {
+    } else if g == G::Format || abba_core::text::hidden(c) {
         "a name may not hold characters that show nothing or that reorder or hide text (format characters, variation selectors, tags, fillers, blank signs)"
     } else if g == G::PrivateUse {
         "a name may not hold private-use characters (each screen shows them differently, or not at all)"
@@ -262,6 +230,18 @@ fn refused(c: char) -> Option<&'static str> {
     } else {
         return None;
     })
+}
+
+/// The first character of `text` a name may not hold by its characters
+/// alone ([`check_name`]'s control, white space other than the space,
+/// format, hidden, private-use and unassigned characters): its place
+/// (from 0), the character and why. Also for other names shown on a page
+/// (an uploaded file's: a right-to-left override shows `evil\u{202E}gpj.csv`
+/// as `evilvsc.jpg`).
+pub fn refused_char(text: &str) -> Option<(usize, char, &'static str)> {
+    text.chars()
+        .enumerate()
+        .find_map(|(i, c)| refused(c).map(|why| (i, c, why)))
 }
 
 fn invalid_char(i: usize, c: char, why: &str) -> StoreError {
@@ -280,7 +260,7 @@ fn invalid_char(i: usize, c: char, why: &str) -> StoreError {
 /// overrides and isolates, zero-width characters, the soft hyphen, tags
 /// ...), line and paragraph separators (Zl, Zp), private-use (Co),
 /// unassigned (Cn) and surrogate (Cs) code points; the default-ignorable
-/// and blank characters of [`hidden`]; a combining mark as the first
+/// and blank characters of [`abba_core::text::hidden`]; a combining mark as the first
 /// character; a name without a letter or a digit. The error names the
 /// field, the character's place and its code point.
 pub fn check_name(name: &str) -> Result<String, StoreError> {
@@ -294,11 +274,7 @@ pub fn check_name(name: &str) -> Result<String, StoreError> {
         ));
     }
     // (Places are counted in the name as given, trimmed.)
-    if let Some((i, c, why)) = t
-        .chars()
-        .enumerate()
-        .find_map(|(i, c)| refused(c).map(|why| (i, c, why)))
-    {
+    if let Some((i, c, why)) = refused_char(t) {
         return Err(invalid_char(i, c, why));
     }
     if let Some(c) = t

@@ -65,8 +65,29 @@ fn env() -> &'static minijinja::Environment<'static> {
         // Escape by the name's ending (.html: HTML), the default, named
         // here so that nobody turns it off by accident.
         env.set_auto_escape_callback(minijinja::default_auto_escape_callback);
+        env.set_formatter(shown_formatter);
         add_templates(env)
     })
+}
+
+/// minijinja's escaping formatter, with each character of a text that
+/// shows nothing or reorders the text around it (a right-to-left
+/// override, a zero-width space, a control character: `abba_core::text`)
+/// written as its code point first: a device's, a profile's or a file's
+/// name read from an export is shown as it is, never reversed or hidden
+/// (`evil\u{202E}gpj.csv` showed as `evilvsc.jpg`). Markup a template
+/// marks safe (the QR code's SVG) is written as it is.
+fn shown_formatter(
+    out: &mut minijinja::Output,
+    state: &minijinja::State,
+    value: &minijinja::Value,
+) -> Result<(), minijinja::Error> {
+    if let Some(text) = value.as_str().filter(|_| !value.is_safe()) {
+        if let std::borrow::Cow::Owned(shown) = abba_core::text::shown(text) {
+            return minijinja::escape_formatter(out, state, &minijinja::Value::from(shown));
+        }
+    }
+    minijinja::escape_formatter(out, state, value)
 }
 
 /// Renders the page `page` (a template name) with the layout and its model.

@@ -87,7 +87,9 @@ pub(crate) fn render_page(
         if value.is_safe() {
             out.write_str(&text)?;
         } else {
-            out.write_str(&svg::esc(&text))?;
+            // A name read from an export with a right-to-left override
+            // or a zero-width character is shown with its code point.
+            out.write_str(&svg::esc(&abba_core::text::shown(&text)))?;
         }
         Ok(())
     });

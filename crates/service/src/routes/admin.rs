@@ -31,6 +31,7 @@ use axum::Json;
 pub async fn create_person(
     State(s): State<AppState>,
     _admin: Admin,
+    _query: super::NoQuery,
     headers: HeaderMap,
     body: RawBody,
 ) -> Result<(StatusCode, Json<PersonCreated>), ApiError> {
@@ -75,6 +76,7 @@ pub async fn create_person(
 pub async fn set_bounds(
     State(s): State<AppState>,
     AdminPath(id): AdminPath,
+    _query: super::NoQuery,
     headers: HeaderMap,
     body: RawBody,
 ) -> Result<Json<BoundsBody>, ApiError> {
@@ -105,6 +107,7 @@ pub async fn set_bounds(
 pub async fn set_therapy(
     State(s): State<AppState>,
     AdminPath(id): AdminPath,
+    _query: super::NoQuery,
     headers: HeaderMap,
     body: RawBody,
 ) -> Result<Json<TherapyChanged>, ApiError> {
@@ -179,12 +182,14 @@ fn bounds_path(a: &abba_advisor::AdvisorError) -> String {
     params(("id" = u64, Path, description = "The person's id")),
     responses(
         (status = 201, description = "The token, shown once", body = TokenIssued),
+        (status = 400, description = "A query parameter (this endpoint takes none)", body = ErrorBody),
         (status = 401, description = "No valid token", body = ErrorBody),
         (status = 403, description = "Not an admin token", body = ErrorBody),
         (status = 404, description = "No such person", body = ErrorBody)))]
 pub async fn issue_token(
     State(s): State<AppState>,
     AdminPath(id): AdminPath,
+    _query: super::NoQuery,
 ) -> Result<(StatusCode, Json<TokenIssued>), ApiError> {
     let id = parse_id(&id);
     let (token_id, token) = s
@@ -209,6 +214,7 @@ pub async fn issue_token(
     params(("token_id" = u64, Path, description = "The token's id")),
     responses(
         (status = 200, description = "Revoked", body = TokenRevoked),
+        (status = 400, description = "A query parameter (this endpoint takes none)", body = ErrorBody),
         (status = 401, description = "No valid token", body = ErrorBody),
         (status = 403, description = "Not an admin token", body = ErrorBody),
         (status = 404, description = "No such token", body = ErrorBody),
@@ -216,10 +222,9 @@ pub async fn issue_token(
 pub async fn revoke_token(
     State(s): State<AppState>,
     AdminPath(token_id): AdminPath,
+    _query: super::NoQuery,
 ) -> Result<Json<TokenRevoked>, ApiError> {
-    let id = token_id
-        .parse::<i64>()
-        .ok()
+    let id = Some(crate::extract::parse_id(&token_id))
         .filter(|&v| v > 0)
         .ok_or_else(|| ApiError::not_found(format!("no token with id {token_id:?}")))?;
     s.store(move |store| Ok(store.revoke_token(id)?)).await?;

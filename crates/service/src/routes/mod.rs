@@ -41,6 +41,13 @@ pub fn query_u64(raw: Option<&str>, known: &[&str]) -> Result<Vec<(String, u64)>
     };
     for pair in raw.unwrap_or("").split('&').filter(|p| !p.is_empty()) {
         let (k, v) = pair.split_once('=').unwrap_or((pair, ""));
+        if known.is_empty() {
+            return Err(bad(
+                k,
+                "unknown query parameter; this endpoint takes none (see GET /v1/openapi.json)"
+                    .into(),
+            ));
+        }
         if !known.contains(&k) {
             return Err(bad(
                 k,
@@ -56,6 +63,24 @@ pub fn query_u64(raw: Option<&str>, known: &[&str]) -> Result<Vec<(String, u64)>
         out.push((k.to_string(), n));
     }
     Ok(out)
+}
+
+/// An endpoint that takes no query parameter: any is 400 naming it, never
+/// ignored (a probe's `POST .../answers?dry_run=1` stored its answers, and
+/// `POST .../tokens?role=admin` issued a person's token, each with 2xx).
+/// Taken after the caller's extractor, so a stranger still gets 401.
+#[derive(Debug, Clone, Copy)]
+pub struct NoQuery;
+
+impl<S: Send + Sync> axum::extract::FromRequestParts<S> for NoQuery {
+    type Rejection = ApiError;
+
+    async fn from_request_parts(
+        parts: &mut axum::http::request::Parts,
+        _: &S,
+    ) -> Result<Self, ApiError> {
+        query_u64(parts.uri.query(), &[]).map(|_| NoQuery)
+    }
 }
 
 /// 404 for an unknown path: under an API version (`/v1`, `/v2`, ...) and

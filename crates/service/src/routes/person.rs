@@ -34,6 +34,7 @@ use std::collections::HashMap;
 pub async fn post_events(
     State(s): State<AppState>,
     PersonId(id): PersonId,
+    _query: super::NoQuery,
     headers: HeaderMap,
     body: RawBody,
 ) -> Result<Json<EventsAck>, ApiError> {
@@ -129,6 +130,7 @@ pub fn post_batch(
 pub async fn post_answers(
     State(s): State<AppState>,
     PersonId(id): PersonId,
+    _query: super::NoQuery,
     headers: HeaderMap,
     body: RawBody,
 ) -> Result<Json<AnswersAck>, ApiError> {
@@ -261,11 +263,13 @@ pub async fn suggestions(
     params(("id" = u64, Path, description = "The person's id")),
     responses(
         (status = 200, description = "The advice", body = AdviceResponse),
+        (status = 400, description = "A query parameter (this endpoint takes none)", body = ErrorBody),
         (status = 401, description = "No valid token", body = ErrorBody),
         (status = 404, description = "No such person for this token", body = ErrorBody)))]
 pub async fn advice(
     State(s): State<AppState>,
     PersonId(id): PersonId,
+    _query: super::NoQuery,
 ) -> Result<Json<AdviceResponse>, ApiError> {
     let effects = s.effects();
     s.person(id, false, move |store, live| {

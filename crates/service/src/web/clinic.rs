@@ -279,6 +279,32 @@ async fn read_multipart(m: Result<Multipart, MultipartRejection>) -> Result<Uplo
     })
 }
 
+/// The first uploaded file the form refuses, with why (shown beside the
+/// form's file field `field`): one under another field (never dropped
+/// unread), or one whose name holds a character a name may not
+/// (`abba_store::person::refused_char`: control, format such as a
+/// right-to-left override, hidden ...), said with the name escaped. Such
+/// a name is never shown or stored as it is: `evil\u{202E}gpj.csv`
+/// showed as `evilvsc.jpg` on the page that says what was read, and a
+/// file's name is kept with its evidence.
+fn refused_file(up: &Upload, field: &str) -> Option<String> {
+    up.files.iter().find_map(|(f, file, _)| {
+        if f != field {
+            return Some(format!(
+                "this form has no file field {f:?} (the file \"{}\"); expected {field}: nothing was read",
+                file.escape_debug()
+            ));
+        }
+        let (i, c, why) = abba_store::person::refused_char(file)?;
+        Some(format!(
+            "the file name \"{}\" holds {} at character {}: {why}; rename the file and upload it again (nothing was read)",
+            file.escape_debug(),
+            c.escape_unicode(),
+            i + 1
+        ))
+    })
+}
+
 /// Checks an upload's CSRF token (the session was checked before the body
 /// was read).
 fn upload_csrf(w: &abba_store::session::WebSession, up: &Upload) -> Result<(), PageError> {
@@ -609,7 +635,9 @@ pub async fn create(
     .iter()
     .map(|k| (k.to_string(), up.text.text(k).to_string()))
     .collect();
-    let np = match new_person(&up) {
+    let refused =
+        refused_file(&up, "profile").map(|e| BTreeMap::from([("profile".to_string(), e)]));
+    let np = match refused.map_or_else(|| new_person(&up), Err) {
         Ok(p) => p,
         Err(errors) => {
             return clinic_page(
@@ -1414,6 +1442,9 @@ pub async fn import(
             },
         )
     };
+    if let Some(msg) = refused_file(&up, "files") {
+        return refuse("files", msg).await;
+    }
     let grams = match grams_per_exchange(&grams_text) {
         Ok(g) => g,
         Err(e) => return refuse("grams_per_exchange", e).await,

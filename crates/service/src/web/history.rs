@@ -231,9 +231,10 @@ pub async fn clinic_report(
     PathText(id): PathText<String>,
 ) -> Result<Response, PageError> {
     let w = session::admin_page(&s, &ctx).await?;
-    let Ok(id) = id.parse::<i64>() else {
+    let id = crate::extract::parse_id(&id);
+    if id < 0 {
         return Err(super::page::not_found());
-    };
+    }
     let back = BackLink {
         href: format!("/clinic/persons/{id}"),
         label: "Back to the person's page".into(),

@@ -443,10 +443,11 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
     });
     if !profiles.is_empty() {
         let docs: Vec<&Value> = profiles.iter().collect();
-        fetched.contents.push((
-            client.site().join("/api/v1/profile.json"),
-            json_bytes(&docs)?,
-        ));
+        let bytes = json_bytes(&docs)?;
+        fetched.profile = Some(bytes.clone());
+        fetched
+            .contents
+            .push((client.site().join("/api/v1/profile.json"), bytes));
     }
     // What the paging could not prove complete (a server that does not
     // page by `_id` as Nightscout does, see [`crate::by_id`]) fails the

@@ -96,3 +96,75 @@ fn a_linked_androidaps_in_open_loop_gets_advice_until_it_closes_the_loop() {
         a["delivery"]
     );
 }
+
+/// Loop's settings (a Nightscout profile, `loopSettings.dosingEnabled`)
+/// as the fixture `nightscout_profile_loop_open_loop_synthetic.json`
+/// holds them, from `at`, closed loop on or off.
+fn loop_settings(at: &str, dosing_enabled: bool) -> Value {
+    let p = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../io/tests/data/nightscout_profile_loop_open_loop_synthetic.json"
+    );
+    let docs: Vec<Value> = serde_json::from_slice(&std::fs::read(p).unwrap()).unwrap();
+    let mut d = docs[0].clone();
+    let t: jiff::Timestamp = at.parse().unwrap();
+    d["startDate"] = at.into();
+    d["created_at"] = at.into();
+    d["mills"] = t.as_millisecond().to_string().into();
+    d["loopSettings"]["dosingEnabled"] = dosing_enabled.into();
+    d["_id"] = format!("6740{:020x}", t.as_second()).into();
+    d
+}
+
+/// A linked Loop with closed loop off: its settings, which the site's
+/// profile store holds, reach the store with the sync (they are read
+/// whole at every sync), so it gets advice as by file import; when Loop
+/// uploads its settings with closed loop on, the next sync holds the
+/// basal advice.
+#[test]
+fn a_linked_loop_in_open_loop_gets_advice_until_its_settings_close_the_loop() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut site = Site::new(SECRET);
+    site.add("entries", entries());
+    let p = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../io/tests/data/nightscout_treatments_loop_open_loop_synthetic.json"
+    );
+    let treatments: Vec<Value> = serde_json::from_slice(&std::fs::read(p).unwrap()).unwrap();
+    site.add("treatments", treatments);
+    site.add(
+        "profile",
+        vec![loop_settings("2026-11-14T18:02:00Z", false)],
+    );
+    let srv = Server::start(site);
+    let mut store = Store::open(&dir.path().join("link.db")).unwrap();
+    let start = TherapySettings::new(UnitsPerHour(0.85), GramsPerUnit(11.0)).unwrap();
+    store
+        .create_person(&NewPerson::new("ana", TZ, Mode::Cgm, start))
+        .unwrap();
+    let secret = credential(None, Some(SECRET)).unwrap();
+    link(&mut store, "ana", &srv.url, secret, false, &fast_client()).unwrap();
+    sync(&mut store, "ana", &sync_opts()).unwrap();
+    let a = advice(&mut store);
+    assert_eq!(a["delivery"]["kind"], "open_loop", "{}", a["delivery"]);
+    assert_eq!(
+        a["delivery"]["basal_suggestions"], true,
+        "{}",
+        a["delivery"]
+    );
+    // A second sync reads the same settings again: still one record of
+    // open loop, not two.
+    sync(&mut store, "ana", &sync_opts()).unwrap();
+    let again = advice(&mut store);
+    assert_eq!(again["delivery"], a["delivery"]);
+    // Loop's settings with closed loop on, uploaded at the end of the data.
+    srv.with(|s| s.add("profile", vec![loop_settings("2026-11-18T20:00:00Z", true)]));
+    sync(&mut store, "ana", &sync_opts()).unwrap();
+    let a = advice(&mut store);
+    assert_eq!(a["delivery"]["kind"], "closed_loop", "{}", a["delivery"]);
+    assert_eq!(
+        a["delivery"]["basal_suggestions"], false,
+        "{}",
+        a["delivery"]
+    );
+}

@@ -140,6 +140,9 @@ pub struct Fetched {
     /// shows it. `None`: the site does not say (such a BG Check is then
     /// reported, not read).
     pub units: Option<abba_io::units::GlucoseUnit>,
+    /// The site's profile store as read whole (a JSON array), when it has
+    /// one: what it tells of the loop's mode replaces the last sync's.
+    pub profile: Option<Vec<u8>>,
 }
 
 /// What the import of a sync did.
@@ -175,14 +178,9 @@ fn row_to_link(r: Row) -> Result<Link, StoreError> {
     })
 }
 
-/// Adds `n` to the loop evidence kept for a synced collection (one row per
-/// collection, so documents fetched again are not counted twice).
-fn add_evidence(
-    tx: &dyn Db,
-    person: &Person,
-    collection: &str,
-    bytes: &[u8],
-) -> Result<(), StoreError> {
+/// What a collection's documents tell of the delivery
+/// ([`abba_io::automation::Evidence`]); `None` when nothing.
+fn evidence_of(person: &Person, collection: &str, bytes: &[u8]) -> Option<Evidence> {
     let mut e = Evidence::from_file(bytes);
     // The device's clock away from the person's zone (abba_io::clocks):
     // only the stretches away are kept, so that the row stays small over
@@ -192,26 +190,64 @@ fn add_evidence(
         format: Some(abba_io::read::Format::Nightscout),
         ..abba_io::ReadOptions::default()
     };
-    let away = |c: &[abba_io::clocks::ClockStretch]| -> Vec<abba_io::clocks::ClockStretch> {
-        (abba_io::clocks::away(c, &person.tz).into_iter())
-            .map(|a| a.stretch)
-            .collect()
-    };
     if let Ok(read) = abba_io::read::read_bytes_noted(collection, 0, bytes, &opts) {
-        e.clocks = away(&read.clocks);
+        e.clocks = away(person, &read.clocks);
     }
-    if e.smb == 0
+    let nothing = e.smb == 0
         && e.automated_basal == 0
         && e.systems.is_empty()
+        && e.dual_mode_pumps.is_empty()
         && e.open_loop_modes == 0
-        && e.clocks.is_empty()
-    {
+        && e.last_mode.is_none()
+        && e.clocks.is_empty();
+    (!nothing).then_some(e)
+}
+
+fn away(
+    person: &Person,
+    c: &[abba_io::clocks::ClockStretch],
+) -> Vec<abba_io::clocks::ClockStretch> {
+    (abba_io::clocks::away(c, &person.tz).into_iter())
+        .map(|a| a.stretch)
+        .collect()
+}
+
+/// The key of a collection's evidence row.
+fn evidence_key(collection: &str) -> String {
+    format!("nightscout-sync:{collection}")
+}
+
+fn put_evidence(
+    tx: &dyn Db,
+    person: i64,
+    collection: &str,
+    e: &Evidence,
+) -> Result<(), StoreError> {
+    let json = serde_json::to_string(e).map_err(|e| StoreError::corrupt("file evidence", e))?;
+    tx.execute(
+        Q::FileEvidencePut,
+        args![person, evidence_key(collection), collection, json],
+    )?;
+    Ok(())
+}
+
+/// Adds what the new documents of a collection tell to what the earlier
+/// syncs' told (one row per collection; each document is new once, so
+/// documents fetched again are not counted twice).
+fn add_evidence(
+    tx: &dyn Db,
+    person: &Person,
+    collection: &str,
+    bytes: &[u8],
+) -> Result<(), StoreError> {
+    let Some(e) = evidence_of(person, collection, bytes) else {
         return Ok(());
-    }
-    let person = person.id;
-    let key = format!("nightscout-sync:{collection}");
+    };
     let held = tx
-        .row(Q::FileEvidenceOne, args![person, &key])?
+        .row(
+            Q::FileEvidenceOne,
+            args![person.id, evidence_key(collection)],
+        )?
         .map(|r| r.text(0))
         .transpose()?;
     let mut sum = match held {
@@ -220,10 +256,16 @@ fn add_evidence(
         None => Evidence::default(),
     };
     sum.add_file(&e);
-    sum.clocks = away(&sum.clocks);
-    let json = serde_json::to_string(&sum).map_err(|e| StoreError::corrupt("file evidence", e))?;
-    tx.execute(Q::FileEvidencePut, args![person, key, collection, json])?;
-    Ok(())
+    sum.clocks = away(person, &sum.clocks);
+    put_evidence(tx, person.id, collection, &sum)
+}
+
+/// What the site's profile store tells (Loop's `loopSettings`: closed
+/// loop on or off), read whole at every sync: it replaces what the last
+/// sync's told.
+fn replace_profile_evidence(tx: &dyn Db, person: &Person, bytes: &[u8]) -> Result<(), StoreError> {
+    let e = evidence_of(person, "profile", bytes).unwrap_or_default();
+    put_evidence(tx, person.id, "profile", &e)
 }
 
 /// Removes the records of the documents `ids` (and the further records
@@ -363,6 +405,9 @@ impl Store {
             deleted = delete_records(tx, p.id, &fetched.deleted)?;
             for (c, bytes) in &fetched.fresh {
                 add_evidence(tx, &p, c, bytes)?;
+            }
+            if let Some(bytes) = &fetched.profile {
+                replace_profile_evidence(tx, &p, bytes)?;
             }
             write_marks(tx, p.id, &fetched.marks)
         };

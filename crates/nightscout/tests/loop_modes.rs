@@ -46,28 +46,42 @@ fn treatments() -> Vec<Value> {
     serde_json::from_slice(&std::fs::read(p).unwrap()).unwrap()
 }
 
-#[test]
-fn a_linked_androidaps_in_open_loop_gets_advice_until_it_closes_the_loop() {
+/// `site` served, and person "ana" (CGM, 0.85 U/h, `carb_ratio` g/U)
+/// linked to it and synced once; the directory holds the store.
+fn linked_and_synced(site: Site, carb_ratio: f64) -> (tempfile::TempDir, Server, Store) {
     let dir = tempfile::tempdir().unwrap();
-    let mut site = Site::new(SECRET);
-    site.add("entries", entries());
-    site.add("treatments", treatments());
     let srv = Server::start(site);
     let mut store = Store::open(&dir.path().join("link.db")).unwrap();
-    let start = TherapySettings::new(UnitsPerHour(0.85), GramsPerUnit(10.0)).unwrap();
+    let start = TherapySettings::new(UnitsPerHour(0.85), GramsPerUnit(carb_ratio)).unwrap();
     store
         .create_person(&NewPerson::new("ana", TZ, Mode::Cgm, start))
         .unwrap();
     let secret = credential(None, Some(SECRET)).unwrap();
     link(&mut store, "ana", &srv.url, secret, false, &fast_client()).unwrap();
     sync(&mut store, "ana", &sync_opts()).unwrap();
-    let a = advice(&mut store);
-    assert_eq!(a["delivery"]["kind"], "open_loop", "{}", a["delivery"]);
+    (dir, srv, store)
+}
+
+/// The person's delivery as today's advice tells it: its kind, and
+/// whether a basal is suggested.
+fn assert_delivery(store: &mut Store, kind: &str, basal: bool) -> Value {
+    let a = advice(store);
+    assert_eq!(a["delivery"]["kind"], kind, "{}", a["delivery"]);
     assert_eq!(
-        a["delivery"]["basal_suggestions"], true,
+        a["delivery"]["basal_suggestions"], basal,
         "{}",
         a["delivery"]
     );
+    a["delivery"].clone()
+}
+
+#[test]
+fn a_linked_androidaps_in_open_loop_gets_advice_until_it_closes_the_loop() {
+    let mut site = Site::new(SECRET);
+    site.add("entries", entries());
+    site.add("treatments", treatments());
+    let (_dir, srv, mut store) = linked_and_synced(site, 10.0);
+    assert_delivery(&mut store, "open_loop", true);
     // AndroidAPS closes the loop: the running mode it uploads reaches the
     // store with the next sync.
     srv.with(|s| {
@@ -88,13 +102,7 @@ fn a_linked_androidaps_in_open_loop_gets_advice_until_it_closes_the_loop() {
         )
     });
     sync(&mut store, "ana", &sync_opts()).unwrap();
-    let a = advice(&mut store);
-    assert_eq!(a["delivery"]["kind"], "closed_loop", "{}", a["delivery"]);
-    assert_eq!(
-        a["delivery"]["basal_suggestions"], false,
-        "{}",
-        a["delivery"]
-    );
+    assert_delivery(&mut store, "closed_loop", false);
 }
 
 /// Loop's settings (a Nightscout profile, `loopSettings.dosingEnabled`)
@@ -123,7 +131,6 @@ fn loop_settings(at: &str, dosing_enabled: bool) -> Value {
 /// basal advice.
 #[test]
 fn a_linked_loop_in_open_loop_gets_advice_until_its_settings_close_the_loop() {
-    let dir = tempfile::tempdir().unwrap();
     let mut site = Site::new(SECRET);
     site.add("entries", entries());
     let p = concat!(
@@ -136,35 +143,14 @@ fn a_linked_loop_in_open_loop_gets_advice_until_its_settings_close_the_loop() {
         "profile",
         vec![loop_settings("2026-11-14T18:02:00Z", false)],
     );
-    let srv = Server::start(site);
-    let mut store = Store::open(&dir.path().join("link.db")).unwrap();
-    let start = TherapySettings::new(UnitsPerHour(0.85), GramsPerUnit(11.0)).unwrap();
-    store
-        .create_person(&NewPerson::new("ana", TZ, Mode::Cgm, start))
-        .unwrap();
-    let secret = credential(None, Some(SECRET)).unwrap();
-    link(&mut store, "ana", &srv.url, secret, false, &fast_client()).unwrap();
-    sync(&mut store, "ana", &sync_opts()).unwrap();
-    let a = advice(&mut store);
-    assert_eq!(a["delivery"]["kind"], "open_loop", "{}", a["delivery"]);
-    assert_eq!(
-        a["delivery"]["basal_suggestions"], true,
-        "{}",
-        a["delivery"]
-    );
+    let (_dir, srv, mut store) = linked_and_synced(site, 11.0);
+    let first = assert_delivery(&mut store, "open_loop", true);
     // A second sync reads the same settings again: still one record of
     // open loop, not two.
     sync(&mut store, "ana", &sync_opts()).unwrap();
-    let again = advice(&mut store);
-    assert_eq!(again["delivery"], a["delivery"]);
+    assert_eq!(assert_delivery(&mut store, "open_loop", true), first);
     // Loop's settings with closed loop on, uploaded at the end of the data.
     srv.with(|s| s.add("profile", vec![loop_settings("2026-11-18T20:00:00Z", true)]));
     sync(&mut store, "ana", &sync_opts()).unwrap();
-    let a = advice(&mut store);
-    assert_eq!(a["delivery"]["kind"], "closed_loop", "{}", a["delivery"]);
-    assert_eq!(
-        a["delivery"]["basal_suggestions"], false,
-        "{}",
-        a["delivery"]
-    );
+    assert_delivery(&mut store, "closed_loop", false);
 }

@@ -723,29 +723,10 @@ async fn hostile_names_in_an_imported_export_are_inert_on_every_page_and_report(
             );
         }
     }
-    let seg = |v: f64| json!([{"time": "00:00", "timeAsSeconds": 0, "value": v}]);
-    let profile = json!([{"_id": "p1", "defaultProfile": PROFILE,
-        "startDate": "2026-11-01T00:00:00.000Z", "mills": 1_761_955_200_000_i64, "units": "mg/dl",
-        "store": {PROFILE: {"basal": seg(0.9), "carbratio": seg(10.0), "sens": seg(50.0),
-            "target_low": seg(100.0), "target_high": seg(120.0), "timezone": "UTC",
-            "units": "mg/dl", "dia": 5}}}]);
-    let (treatments, profile) = (
-        serde_json::to_vec(&treatments).unwrap(),
-        serde_json::to_vec(&profile).unwrap(),
-    );
+    let profile = profile_store_named(PROFILE);
+    let treatments = serde_json::to_vec(&treatments).unwrap();
     let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
-    let p = import_choosing(
-        &mut admin,
-        id,
-        &csrf,
-        "adopt",
-        &[
-            ("files", "entries.json", &entries),
-            ("files", "treatments.json", &treatments),
-            ("files", "profile.json", &profile),
-        ],
-    )
-    .await;
+    let p = import_adopting(&mut admin, id, &csrf, &entries, &treatments, &profile).await;
     assert_eq!(p.status, StatusCode::OK, "{}", p.html);
     // The import names the profiles (so the test can fail), escaped.
     let switched = "&lt;script&gt;alert(3)&lt;&#x2f;script&gt;";
@@ -1668,6 +1649,46 @@ async fn import_choosing(
         &format!("/clinic/persons/{id}/import"),
         &[("csrf", csrf), ("profile_choice", choice)],
         parts,
+    )
+    .await
+}
+
+/// A Nightscout profile store whose one profile, named `name` (0.9 U/h,
+/// 10 g/U, ISF 50 mg/dL/U), is the default.
+fn profile_store_named(name: &str) -> Vec<u8> {
+    let seg = |v: f64| json!([{"time": "00:00", "timeAsSeconds": 0, "value": v}]);
+    let mut store = serde_json::Map::new();
+    store.insert(
+        name.to_string(),
+        json!({"basal": seg(0.9), "carbratio": seg(10.0), "sens": seg(50.0),
+            "target_low": seg(100.0), "target_high": seg(120.0), "timezone": "UTC",
+            "units": "mg/dl", "dia": 5}),
+    );
+    let profile = json!([{"_id": "p1", "defaultProfile": name,
+        "startDate": "2026-11-01T00:00:00.000Z", "mills": 1_761_955_200_000_i64, "units": "mg/dl",
+        "store": store}]);
+    serde_json::to_vec(&profile).unwrap()
+}
+
+/// Imports Nightscout's three files to person `id`, adopting the profile.
+async fn import_adopting(
+    b: &mut Browser<'_>,
+    id: u64,
+    csrf: &str,
+    entries: &[u8],
+    treatments: &[u8],
+    profile: &[u8],
+) -> Page {
+    import_choosing(
+        b,
+        id,
+        csrf,
+        "adopt",
+        &[
+            ("files", "entries.json", entries),
+            ("files", "treatments.json", treatments),
+            ("files", "profile.json", profile),
+        ],
     )
     .await
 }
@@ -3828,29 +3849,10 @@ async fn names_read_from_an_export_never_reorder_or_hide_text_on_a_page() {
     let entries = std::fs::read(cgm_entries(&svc, "2026-11-02T00:00:00Z", 3)).unwrap();
     let treatments = json!([{"_id": "sw", "eventType": "Profile Switch",
         "profile": SWITCHED, "duration": 0, "created_at": "2026-11-03T10:00:00.000Z"}]);
-    let seg = |v: f64| json!([{"time": "00:00", "timeAsSeconds": 0, "value": v}]);
-    let profile = json!([{"_id": "p1", "defaultProfile": PROFILE,
-        "startDate": "2026-11-01T00:00:00.000Z", "mills": 1_761_955_200_000_i64, "units": "mg/dl",
-        "store": {PROFILE: {"basal": seg(0.9), "carbratio": seg(10.0), "sens": seg(50.0),
-            "target_low": seg(100.0), "target_high": seg(120.0), "timezone": "UTC",
-            "units": "mg/dl", "dia": 5}}}]);
-    let (treatments, profile) = (
-        serde_json::to_vec(&treatments).unwrap(),
-        serde_json::to_vec(&profile).unwrap(),
-    );
+    let profile = profile_store_named(PROFILE);
+    let treatments = serde_json::to_vec(&treatments).unwrap();
     let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
-    let p = import_choosing(
-        &mut admin,
-        id,
-        &csrf,
-        "adopt",
-        &[
-            ("files", "entries.json", &entries),
-            ("files", "treatments.json", &treatments),
-            ("files", "profile.json", &profile),
-        ],
-    )
-    .await;
+    let p = import_adopting(&mut admin, id, &csrf, &entries, &treatments, &profile).await;
     assert_eq!(p.status, StatusCode::OK, "{}", p.html);
     let unseen = |html: &str| {
         ['\u{202E}', '\u{200B}', '\u{2066}']

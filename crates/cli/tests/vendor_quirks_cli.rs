@@ -13,6 +13,27 @@ fn tmp(tag: &str) -> TmpPath {
     tmp_path(&format!("abba-vendor-quirks-{tag}-"), "")
 }
 
+/// A CGM person `name` in zone `tz` with a flat `basal` (U/h) and
+/// 10 g/U, in store `db`.
+fn new_person(db: &str, name: &str, tz: &str, basal: &str) {
+    ok(&abba(&[
+        "person",
+        "new",
+        "--db",
+        db,
+        "--name",
+        name,
+        "--tz",
+        tz,
+        "--mode",
+        "cgm",
+        "--basal",
+        basal,
+        "--carb-ratio",
+        "10,10,10",
+    ]));
+}
+
 /// The `abba events --json` answer for `file` with `extra` flags.
 fn events(file: &str, tz: &str, extra: &[&str]) -> serde_json::Value {
     let mut args = vec!["events", "--tz", tz, "--json", "--input", file];
@@ -26,22 +47,7 @@ fn a_tidepool_wizard_in_exchanges_is_imported_only_with_grams_per_exchange() {
     let db = dir.join("a.db");
     let db = db.to_str().unwrap();
     let file = format!("{IO_DATA}/tidepool_medtronic_exchanges_synthetic.json");
-    ok(&abba(&[
-        "person",
-        "new",
-        "--db",
-        db,
-        "--name",
-        "ana",
-        "--tz",
-        "Europe/Madrid",
-        "--mode",
-        "cgm",
-        "--basal",
-        "0.85",
-        "--carb-ratio",
-        "10,10,10",
-    ]));
+    new_person(db, "ana", "Europe/Madrid", "0.85");
     let text = ok(&abba(&["import", "--db", db, "--person", "ana", &file]));
     assert!(
         text.contains("2 bolus wizard records (`wizard`) in exchanges")
@@ -108,22 +114,7 @@ fn a_clarity_export_in_italian_imports_its_readings_below_and_above_the_range() 
     let db = dir.join("i.db");
     let db = db.to_str().unwrap();
     let file = format!("{IO_DATA}/clarity_g7_italian_synthetic.csv");
-    ok(&abba(&[
-        "person",
-        "new",
-        "--db",
-        db,
-        "--name",
-        "paola",
-        "--tz",
-        "Europe/Rome",
-        "--mode",
-        "cgm",
-        "--basal",
-        "0.8",
-        "--carb-ratio",
-        "10,10,10",
-    ]));
+    new_person(db, "paola", "Europe/Rome", "0.8");
     let text = ok(&abba(&["import", "--db", db, "--person", "paola", &file]));
     // "Basso" and "Alto" are the sensor's limits: no row left out.
     assert!(!text.contains("could not be read"), "{text}");

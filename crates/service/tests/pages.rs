@@ -2855,6 +2855,15 @@ async fn a_form_sent_after_signing_out_says_the_person_is_signed_out() {
 /// A person whose uploaded export shows a closed loop (AndroidAPS): the
 /// clinic's page of the person says that no basal rate is suggested and
 /// why, with the records that show it (what `abba advise` says under
+/// abba-io's test file `f`.
+fn io_data(f: &str) -> Vec<u8> {
+    std::fs::read(format!(
+        "{}/../io/tests/data/{f}",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap()
+}
+
 /// "Delivery"); a person with no such data says nothing of it.
 #[tokio::test]
 async fn the_clinic_page_of_a_person_on_a_closed_loop_says_why_no_basal_is_suggested() {
@@ -2868,13 +2877,7 @@ async fn the_clinic_page_of_a_person_on_a_closed_loop_says_why_no_basal_is_sugge
     let looped = svc.person_with(body("lou")).await;
     let open = svc.person_with(body("ola")).await;
     let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
-    let data = |f: &str| {
-        std::fs::read(format!(
-            "{}/../io/tests/data/{f}",
-            env!("CARGO_MANIFEST_DIR")
-        ))
-        .unwrap()
-    };
+    let data = io_data;
     let entries = data("nightscout_entries_synthetic.json");
     let aaps = data("nightscout_treatments_aaps_synthetic.json");
     let p = import_choosing(
@@ -2917,13 +2920,7 @@ async fn the_clinic_page_of_loop_in_open_loop_holds_no_basal() {
     let open = svc.person_with(body("olu")).await;
     let unknown = svc.person_with(body("ulu")).await;
     let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
-    let data = |f: &str| {
-        std::fs::read(format!(
-            "{}/../io/tests/data/{f}",
-            env!("CARGO_MANIFEST_DIR")
-        ))
-        .unwrap()
-    };
+    let data = io_data;
     let entries = data("nightscout_entries_synthetic.json");
     let treatments = data("nightscout_treatments_loop_open_loop_synthetic.json");
     let status = data("nightscout_devicestatus_loop_open_loop_synthetic.json");
@@ -3570,13 +3567,7 @@ async fn the_clinics_import_says_times_on_the_persons_clock() {
         }))
         .await;
     let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
-    let data = |f: &str| {
-        std::fs::read(format!(
-            "{}/../io/tests/data/{f}",
-            env!("CARGO_MANIFEST_DIR")
-        ))
-        .unwrap()
-    };
+    let data = io_data;
     let path = format!("/clinic/persons/{id}/import");
     // One file through the clinic's import: the status it must get, the
     // page's text (with no UTC instant left in it).

@@ -2852,9 +2852,6 @@ async fn a_form_sent_after_signing_out_says_the_person_is_signed_out() {
     assert!(p.html.contains("not sent from abba"), "{}", p.html);
 }
 
-/// A person whose uploaded export shows a closed loop (AndroidAPS): the
-/// clinic's page of the person says that no basal rate is suggested and
-/// why, with the records that show it (what `abba advise` says under
 /// abba-io's test file `f`.
 fn io_data(f: &str) -> Vec<u8> {
     std::fs::read(format!(
@@ -2864,6 +2861,9 @@ fn io_data(f: &str) -> Vec<u8> {
     .unwrap()
 }
 
+/// A person whose uploaded export shows a closed loop (AndroidAPS): the
+/// clinic's page of the person says that no basal rate is suggested and
+/// why, with the records that show it (what `abba advise` says under
 /// "Delivery"); a person with no such data says nothing of it.
 #[tokio::test]
 async fn the_clinic_page_of_a_person_on_a_closed_loop_says_why_no_basal_is_suggested() {

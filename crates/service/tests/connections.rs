@@ -67,8 +67,11 @@ async fn connect_from(from: Ipv4Addr, to: SocketAddr) -> std::io::Result<TcpStre
 
 /// Opens connections to `to` until `stop` (or `max` of them), cycling
 /// through `from`: two in three idle, one in three a request head sent
-/// half (a slow loris); every 256, drops those the service closed. Returns
-/// how many it opened and those it still holds.
+/// half (a slow loris); every 256, drops those the service closed. At most
+/// 50 every 10 ms (5,000 a second): faster, the kernel's listen queue
+/// (`server::LISTEN_BACKLOG`) fills and drops every client's SYN alike, a
+/// second's wait the service never sees. Returns how many it opened and
+/// those it still holds.
 fn flood(
     to: SocketAddr,
     from: Vec<Ipv4Addr>,
@@ -90,6 +93,9 @@ fn flood(
             }
             opened += 1;
             held.push(s);
+            if opened % 50 == 0 {
+                tokio::time::sleep(Duration::from_millis(10)).await;
+            }
             if opened % 256 == 0 {
                 held.retain(|s| !closed(s));
             }
@@ -161,7 +167,7 @@ fn a_loopback_flood_of_idle_connections_does_not_stall_a_polite_client() {
         "{opened} flood connections from 5 loopback addresses; {open} still open; slowest polite answer {worst:?}"
     );
     assert!(
-        opened > 4 * max_connections,
+        opened > 3 * max_connections,
         "the flood went on past the limit: {opened}"
     );
     assert!(
@@ -215,7 +221,8 @@ fn a_connection_with_a_request_in_flight_is_never_evicted() {
     let chunks: Vec<&[u8]> = body.as_bytes().chunks(body.len().div_ceil(5)).collect();
     for chunk in &chunks {
         std::thread::sleep(Duration::from_millis(200));
-        slow.write_all(chunk).unwrap();
+        slow.write_all(chunk)
+            .expect("the slow upload's connection stays open");
         idle.extend((0..10).map(|_| TcpStream::connect(server.addr).unwrap()));
         let (answer, took) = timed(server.addr, &get("/healthz", ""));
         assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
@@ -287,10 +294,11 @@ fn x_forwarded_for_counts_only_behind_a_proxy() {
     assert!(same.starts_with("HTTP/1.1 503"), "{same}");
 }
 
-/// Every client on 127.0.0.1 (no proxy): one token's 40 slow requests hold
-/// at most `max_in_flight_per_token` (16) of the address's 64 slots, the
-/// rest answered 503 with `Retry-After` at once, and another person's app
-/// on the same address is served within [`POLITE`] meanwhile.
+/// Every client on 127.0.0.1 (no proxy): one token's slow requests, more
+/// than the address's 64 slots, hold at most `max_in_flight_per_token` (16)
+/// of them, the rest answered 503 with `Retry-After` at once, and another
+/// person's app on the same address is served within [`POLITE`] meanwhile
+/// (without the token's share it got 503 until the slow bodies' timeout).
 #[test]
 fn one_tokens_slow_requests_leave_room_for_another_tokens() {
     let svc = Svc::new();
@@ -301,7 +309,8 @@ fn one_tokens_slow_requests_leave_room_for_another_tokens() {
     });
     let set = ServeSettings::default();
     let server = Server::start(&svc.db, set.clone());
-    let flood: Vec<TcpStream> = (0..40)
+    let slow = set.max_in_flight_per_client + 16;
+    let flood: Vec<TcpStream> = (0..slow)
         .map(|_| {
             let mut s = TcpStream::connect(server.addr).unwrap();
             s.write_all(format!(
@@ -332,6 +341,6 @@ fn one_tokens_slow_requests_leave_room_for_another_tokens() {
             (&**s).read_exact(&mut b).is_ok() && &b == b"HTTP/1.1 503"
         })
         .count();
-    println!("one token's 40 slow requests: {refused} refused; the other token's slowest answer {worst:?}");
-    assert_eq!(refused, 40 - set.max_in_flight_per_token);
+    println!("one token's {slow} slow requests: {refused} refused; the other token's slowest answer {worst:?}");
+    assert_eq!(refused, slow - set.max_in_flight_per_token);
 }

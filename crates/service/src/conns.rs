@@ -8,7 +8,9 @@
 //! ([`ServeSettings::max_connections_per_client`]), the connection that has
 //! done nothing the longest (no request in flight: a head not yet whole,
 //! a slow-loris's half-sent one included, or idle keep-alive) is closed
-//! and the newcomer accepted. Only when every connection in the way has a
+//! and the newcomer accepted; a connection whose task has not yet read
+//! from it (a newcomer whose head waits in its socket while a flood is
+//! accepted) goes last. Only when every connection in the way has a
 //! request in flight is the newcomer refused (503). A request in flight
 //! is never cut: a connection's state changes by compare-and-swap, so
 //! either its request starts first (and the connection is not chosen) or
@@ -20,7 +22,8 @@
 //! connection leaves it when it ends or is evicted. Its lock is taken only
 //! when a connection opens or ends, never across an await and never by a
 //! request (a request changes its connection's state with atomics); an
-//! eviction scans the entries once (8,192 at most, some microseconds).
+//! eviction scans the entries once (8,192 at most: tens of microseconds,
+//! only when a limit is reached).
 //!
 //! [`ServeSettings::max_connections`]: crate::ServeSettings::max_connections
 //! [`ServeSettings::max_connections_per_client`]: crate::ServeSettings::max_connections_per_client
@@ -370,6 +373,20 @@ mod tests {
         assert_eq!(a2.conn().state(), ConnState::Evicted);
         drop((a1, a2));
         assert_eq!(r.len(), 3);
+    }
+
+    /// A connection whose task has not read from it yet goes after every
+    /// one that has, however old (its head may be waiting in its socket).
+    #[test]
+    fn a_connection_not_yet_read_goes_last() {
+        let r = Registry::new(10, 2);
+        let unread = r.admit(ip("198.51.100.7")).unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(5));
+        let read = r.admit(ip("198.51.100.7")).unwrap();
+        read.conn().mark_polled();
+        let _new = r.admit(ip("198.51.100.7")).unwrap();
+        assert_eq!(read.conn().state(), ConnState::Evicted);
+        assert_eq!(unread.conn().state(), ConnState::Fresh);
     }
 
     /// At the service's limit the longest idle connection goes, whoever's;

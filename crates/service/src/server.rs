@@ -118,24 +118,35 @@ impl PerClient {
         }
     }
 
-    /// The key of a request's credential: its `Authorization` header, else
-    /// its session cookies, else none (0). A credential that is not valid
-    /// is refused from the head (401, or 403 for a page's POST), so it
-    /// holds a slot only that long.
+    /// The key of a request's credential: its bearer token (as the token
+    /// check reads it, so that "bearer" and extra spaces make no other
+    /// key; one key for every malformed header), else its session
+    /// cookie's value, else none (0). A credential that is not valid is
+    /// refused from the head (401, or 403 for a page's POST), so it holds a
+    /// slot only that long.
     fn credential(&self, headers: &axum::http::HeaderMap) -> u64 {
         use std::hash::BuildHasher;
         if let Some(a) = headers.get(header::AUTHORIZATION) {
-            return self.hasher.hash_one((1u8, a.as_bytes())) | 1;
+            let token = a.to_str().ok().and_then(crate::auth::parse).unwrap_or("");
+            return self.hasher.hash_one((1u8, token)) | 1;
         }
-        let cookies: Vec<&[u8]> = headers
+        let names = [
+            crate::web::session::COOKIE,
+            crate::web::session::HOST_COOKIE,
+        ];
+        let sessions: Vec<&str> = headers
             .get_all(header::COOKIE)
             .iter()
-            .map(HeaderValue::as_bytes)
+            .filter_map(|v| v.to_str().ok())
+            .flat_map(|v| v.split(';'))
+            .filter_map(|pair| pair.trim().split_once('='))
+            .filter(|(name, _)| names.contains(name))
+            .map(|(_, value)| value)
             .collect();
-        if cookies.is_empty() {
+        if sessions.is_empty() {
             0
         } else {
-            self.hasher.hash_one((2u8, cookies)) | 1
+            self.hasher.hash_one((2u8, sessions)) | 1
         }
     }
 
@@ -671,6 +682,42 @@ mod per_client_tests {
             counts.client.is_empty() && counts.token.is_empty(),
             "no entry is kept for a client with nothing in flight"
         );
+    }
+
+    /// One token is one key however its header is spelled, and one
+    /// session one key whatever other cookies come with it; a request
+    /// without either is anonymous (0).
+    #[test]
+    fn a_credential_is_one_key_however_it_is_sent() {
+        let p = PerClient::new();
+        let key = |lines: &[(&str, &str)]| {
+            let mut h = axum::http::HeaderMap::new();
+            for (k, v) in lines {
+                h.append(
+                    axum::http::HeaderName::from_bytes(k.as_bytes()).unwrap(),
+                    v.parse().unwrap(),
+                );
+            }
+            p.credential(&h)
+        };
+        let token = format!("abba_{}", "0a".repeat(32));
+        let other = format!("abba_{}", "1b".repeat(32));
+        let a = key(&[("authorization", &format!("Bearer {token}"))]);
+        assert_eq!(a, key(&[("authorization", &format!("bearer   {token} "))]));
+        assert_ne!(a, key(&[("authorization", &format!("Bearer {other}"))]));
+        assert_eq!(
+            key(&[("authorization", "Bearer x")]),
+            key(&[("authorization", "Basic y")]),
+            "every malformed header is one key"
+        );
+        let s = key(&[("cookie", "abba_session=abc")]);
+        assert_eq!(
+            s,
+            key(&[("cookie", "x=1; abba_session=abc"), ("cookie", "y=2")])
+        );
+        assert_ne!(s, key(&[("cookie", "abba_session=abd")]));
+        assert_eq!(key(&[("cookie", "x=1")]), 0);
+        assert_eq!(key(&[]), 0);
     }
 }
 

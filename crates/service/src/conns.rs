@@ -14,12 +14,15 @@
 //! request in flight is the newcomer refused (503). A request in flight
 //! is never cut: a connection's state changes by compare-and-swap, so
 //! either its request starts first (and the connection is not chosen) or
-//! its eviction does (and the request, whose head arrived in that same
-//! instant, is answered 503 without being run).
+//! its eviction does; a head that arrived before the connection's task
+//! saw its eviction is still served, as that connection's last request
+//! (then it closes).
 //!
 //! Bounds: the registry holds at most `max_connections` entries (and one
-//! count per client with a connection open), each a few dozen bytes; a
-//! connection leaves it when it ends or is evicted. Its lock is taken only
+//! count per client with a connection open), each about a hundred bytes
+//! (8,192: under a megabyte); a connection leaves it when it ends or is
+//! evicted (an evicted one serving its last request is bounded by the
+//! limits of requests in flight). Its lock is taken only
 //! when a connection opens or ends, never across an await and never by a
 //! request (a request changes its connection's state with atomics); an
 //! eviction scans the entries once (8,192 at most: tens of microseconds,
@@ -40,8 +43,11 @@ const FRESH: u8 = 0;
 const IDLE: u8 = 1;
 /// A request in flight: from its head to the end of its answer's body.
 const IN_FLIGHT: u8 = 2;
-/// Chosen for eviction: closed, and never starts another request.
+/// Chosen for eviction: closed at its task's next turn.
 const EVICTED: u8 = 3;
+/// Evicted, but a request's head had arrived before its task saw the
+/// eviction: that one request is served, then the connection closed.
+const LAST: u8 = 4;
 
 /// What a connection is doing, as the registry sees it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -54,6 +60,9 @@ pub enum ConnState {
     InFlight,
     /// Closed to make room.
     Evicted,
+    /// Evicted with the one request whose head had already arrived in
+    /// flight: closed after its answer.
+    EvictedServingLast,
 }
 
 /// One connection's state, shared by the registry, the connection's task
@@ -68,6 +77,8 @@ pub struct Conn {
     /// The connection's task has read what the client sent so far at least
     /// once (a head already there is then a request in flight).
     polled: std::sync::atomic::AtomicBool,
+    /// An evicted connection's last request started: its task lets it end.
+    served_last: std::sync::atomic::AtomicBool,
 }
 
 impl Conn {
@@ -81,31 +92,49 @@ impl Conn {
             FRESH => ConnState::Fresh,
             IDLE => ConnState::Idle,
             IN_FLIGHT => ConnState::InFlight,
+            LAST => ConnState::EvictedServingLast,
             _ => ConnState::Evicted,
         }
     }
 
     /// Marks a request in flight until the returned guard is dropped (at
-    /// the end of its answer's body); `None` when the connection was
-    /// evicted (the request must not run).
+    /// the end of its answer's body). On a connection just evicted whose
+    /// task had not yet seen it (the head arrived in that same instant),
+    /// the request is its last ([`InFlight::is_last`]: answered, then the
+    /// connection closed); `None` after that one.
     pub fn start_request(self: &Arc<Self>) -> Option<InFlight> {
         let mut cur = self.state.load(Ordering::Acquire);
         loop {
-            if cur == EVICTED {
-                return None;
-            }
-            match self.state.compare_exchange_weak(
-                cur,
-                IN_FLIGHT,
-                Ordering::AcqRel,
-                Ordering::Acquire,
-            ) {
+            let next = match cur {
+                LAST => return None,
+                EVICTED if self.served_last.load(Ordering::Acquire) => return None,
+                EVICTED => LAST,
+                _ => IN_FLIGHT,
+            };
+            match self
+                .state
+                .compare_exchange_weak(cur, next, Ordering::AcqRel, Ordering::Acquire)
+            {
                 Ok(_) => break,
                 Err(now) => cur = now,
             }
         }
+        let last = cur == EVICTED;
+        if last {
+            self.served_last.store(true, Ordering::Release);
+        }
         self.since_ms.store(self.now_ms(), Ordering::Release);
-        Some(InFlight(Arc::clone(self)))
+        Some(InFlight {
+            conn: Arc::clone(self),
+            last,
+        })
+    }
+
+    /// True when the connection was evicted and its task may close it now:
+    /// no request in flight, and none served since the eviction (whose
+    /// answer may still be on its way out; hyper closes after it).
+    pub fn may_close(&self) -> bool {
+        self.state.load(Ordering::Acquire) == EVICTED && !self.served_last.load(Ordering::Acquire)
     }
 
     /// Resolves once the connection is chosen for eviction.
@@ -125,7 +154,7 @@ impl Conn {
     fn try_evict(&self) -> bool {
         let mut cur = self.state.load(Ordering::Acquire);
         loop {
-            if cur == IN_FLIGHT || cur == EVICTED {
+            if cur != FRESH && cur != IDLE {
                 return false;
             }
             match self.state.compare_exchange_weak(
@@ -149,15 +178,31 @@ impl Conn {
 /// A request in flight on its connection; the connection is idle again
 /// when this is dropped.
 #[derive(Debug)]
-pub struct InFlight(Arc<Conn>);
+pub struct InFlight {
+    conn: Arc<Conn>,
+    last: bool,
+}
+
+impl InFlight {
+    /// The connection was evicted as this request's head arrived: its
+    /// answer closes it (`Connection: close`).
+    pub fn is_last(&self) -> bool {
+        self.last
+    }
+}
 
 impl Drop for InFlight {
     fn drop(&mut self) {
-        let c = &self.0;
+        let c = &self.conn;
         c.since_ms.store(c.now_ms(), Ordering::Release);
+        let (from, to) = if self.last {
+            (LAST, EVICTED)
+        } else {
+            (IN_FLIGHT, IDLE)
+        };
         let _ = c
             .state
-            .compare_exchange(IN_FLIGHT, IDLE, Ordering::AcqRel, Ordering::Acquire);
+            .compare_exchange(from, to, Ordering::AcqRel, Ordering::Acquire);
     }
 }
 
@@ -248,6 +293,7 @@ impl Registry {
             epoch: self.epoch,
             evict: tokio::sync::Notify::new(),
             polled: std::sync::atomic::AtomicBool::new(false),
+            served_last: std::sync::atomic::AtomicBool::new(false),
         });
         conn.since_ms.store(conn.now_ms(), Ordering::Release);
         let id = g.next_id;
@@ -354,10 +400,12 @@ mod tests {
         let busy = a2.conn().start_request().unwrap();
         let a3 = r.admit(ip("198.51.100.7")).unwrap();
         assert_eq!(a1.conn().state(), ConnState::Evicted);
-        assert!(
-            a1.conn().start_request().is_none(),
-            "an evicted one runs nothing"
-        );
+        assert!(a1.conn().may_close());
+        let last = a1.conn().start_request().unwrap();
+        assert!(last.is_last(), "a head there as it was evicted is its last");
+        assert!(!a1.conn().may_close(), "its answer is let out");
+        drop(last);
+        assert!(a1.conn().start_request().is_none(), "then it runs nothing");
         assert_eq!(a2.conn().state(), ConnState::InFlight);
         assert_eq!(other.conn().state(), ConnState::Fresh);
         assert_eq!(r.len(), 3);

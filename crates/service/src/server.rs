@@ -489,15 +489,21 @@ pub async fn run_until(
             let state = Arc::clone(open.conn());
             let mut conn = std::pin::pin!(conn);
             let mut evicted = std::pin::pin!(state.evicted());
+            let mut told = false;
             // The connection first (a head already sent puts its request in
-            // flight), then marked read, then its eviction.
+            // flight), then marked read, then its eviction: closed unless a
+            // request came in that same instant (served, then closed).
             let ended = std::future::poll_fn(|cx| {
                 use std::future::Future;
                 if let std::task::Poll::Ready(r) = conn.as_mut().poll(cx) {
                     return std::task::Poll::Ready(Some(r));
                 }
                 state.mark_polled();
-                evicted.as_mut().poll(cx).map(|()| None)
+                told = told || evicted.as_mut().poll(cx).is_ready();
+                if told && state.may_close() {
+                    return std::task::Poll::Ready(None);
+                }
+                std::task::Poll::Pending
             })
             .await;
             match ended {
@@ -528,8 +534,8 @@ pub async fn run_until(
 
 /// The service of one connection: each request marks the connection busy
 /// (`crate::conns`) from its head until its answer's body is sent or
-/// dropped; a request whose connection was just evicted is answered 503
-/// and not run.
+/// dropped; the request of a connection evicted as its head arrived is
+/// served and the connection closed after it.
 fn tracked<S>(
     svc: S,
     conn: Arc<crate::conns::Conn>,
@@ -563,7 +569,13 @@ where
                     .insert(header::CONNECTION, HeaderValue::from_static("close"));
                 return Ok(r);
             };
-            let r = tower::ServiceExt::oneshot(svc, req).await?;
+            let last = busy.is_last();
+            let mut r = tower::ServiceExt::oneshot(svc, req).await?;
+            if last {
+                // Evicted as its head arrived: closed after this answer.
+                r.headers_mut()
+                    .insert(header::CONNECTION, HeaderValue::from_static("close"));
+            }
             Ok(r.map(|body| axum::body::Body::new(Held { body, _busy: busy })))
         }
     })

@@ -1,6 +1,7 @@
 //! The service's limits over real sockets: idle and slowloris connections
-//! are closed by the header-read timeout while a fresh client's `/healthz`
-//! answers; a slow body gets 408; a store held by another writer gives 503
+//! are closed (evicted past their address's share, the rest by the
+//! header-read timeout) while a fresh client's `/healthz` answers
+//! (`tests/connections.rs`: eviction itself); a slow body gets 408; a store held by another writer gives 503
 //! with Retry-After; events dated in the future are refused and an old one
 //! is removed by `remove_future`; the live-advisor cache stays bounded.
 

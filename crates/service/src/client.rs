@@ -14,7 +14,7 @@
 //! Without `--behind-proxy` the header is never read, so a client cannot
 //! pose as many clients or as another.
 
-use axum::extract::{ConnectInfo, FromRequestParts};
+use axum::extract::ConnectInfo;
 use axum::http::request::Parts;
 use axum::http::HeaderMap;
 use std::net::{IpAddr, SocketAddr};
@@ -81,16 +81,6 @@ pub fn of_parts(parts: &Parts) -> Option<IpAddr> {
                 .get::<ConnectInfo<SocketAddr>>()
                 .map(|c| c.0.ip())
         })
-}
-
-impl<S: Send + Sync> FromRequestParts<S> for ClientAddr {
-    type Rejection = std::convert::Infallible;
-
-    async fn from_request_parts(parts: &mut Parts, _: &S) -> Result<Self, Self::Rejection> {
-        Ok(Self(
-            of_parts(parts).unwrap_or(IpAddr::V4(std::net::Ipv4Addr::UNSPECIFIED)),
-        ))
-    }
 }
 
 #[cfg(test)]

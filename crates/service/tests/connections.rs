@@ -4,8 +4,9 @@
 //! idle first, while a polite client's `/healthz` and authenticated
 //! requests answer at once; a connection with a request in flight is never
 //! evicted; `X-Forwarded-For` counts only behind a proxy
-//! (`ServeSettings::behind_proxy`); one token's slow requests leave room
-//! for another's on the same address.
+//! (`ServeSettings::behind_proxy`), whose own connections are not limited
+//! per address; one token's slow requests leave room for another's on the
+//! same address.
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -352,4 +353,45 @@ fn one_tokens_slow_requests_leave_room_for_another_tokens() {
         .count();
     println!("one token's {slow} slow requests: {refused} refused; the other token's slowest answer {worst:?}");
     assert_eq!(refused, slow - set.max_in_flight_per_token);
+}
+
+/// The answer to a `/healthz` on a new loopback connection while four
+/// others each hold a request in flight (nothing to evict), with a
+/// per-address limit of two connections.
+fn healthz_beside_four_busy_connections(behind_proxy: bool) -> String {
+    let svc = Svc::new();
+    let server = Server::start(
+        &svc.db,
+        ServeSettings {
+            max_connections_per_client: 2,
+            behind_proxy,
+            ..ServeSettings::default()
+        },
+    );
+    let busy: Vec<TcpStream> = (0..4)
+        .map(|i| {
+            let mut s = TcpStream::connect(server.addr).unwrap();
+            s.write_all(format!(
+                "POST /v1/persons HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer {}\r\nX-Forwarded-For: 203.0.113.{i}\r\nContent-Type: application/json\r\nContent-Length: 100\r\n\r\n{{",
+                svc.admin
+            ).as_bytes()).unwrap();
+            s
+        })
+        .collect();
+    std::thread::sleep(Duration::from_millis(300));
+    let (answer, _) = timed(server.addr, &get("/healthz", ""));
+    drop(busy);
+    answer
+}
+
+/// Loopback holds at most its share of connections like any address; a
+/// reverse proxy on this host (`behind_proxy`) carries every client's
+/// connections, so its own are not limited per address (only by
+/// `max_connections`).
+#[test]
+fn a_local_proxys_connections_are_not_limited_per_address() {
+    let alone = healthz_beside_four_busy_connections(false);
+    assert!(alone.starts_with("HTTP/1.1 503"), "{alone}");
+    let proxied = healthz_beside_four_busy_connections(true);
+    assert!(proxied.starts_with("HTTP/1.1 200"), "{proxied}");
 }

@@ -27,20 +27,33 @@ pub struct ServeArgs {
     /// 408 when a request is not answered this many seconds after its head.
     #[arg(long, value_name = "S", default_value_t = 60.0)]
     pub request_timeout: f64,
-    /// Connections held at once (more get 503 and are closed at once).
+    /// Connections held at once; one more closes the connection idle (or
+    /// with a head not yet whole) the longest, or, when every one has a
+    /// request in flight, gets 503.
     #[arg(long, value_name = "N", default_value_t = 8192)]
     pub max_connections: usize,
-    /// Connections held at once from one client address (more get 503;
-    /// loopback, a local proxy, is not counted).
+    /// Connections held at once from one client address (loopback too,
+    /// unless --behind-proxy); one more closes that client's connection
+    /// idle the longest, or gets 503.
     #[arg(long, value_name = "N", default_value_t = 256)]
     pub max_connections_per_client: usize,
     /// Requests in flight at once (more get 503 with Retry-After).
     #[arg(long, value_name = "N", default_value_t = 256)]
     pub max_in_flight: usize,
-    /// Requests in flight at once from one client address (more get 503;
-    /// loopback, a local proxy, is not counted).
+    /// Requests in flight at once from one client address (more get 503).
     #[arg(long, value_name = "N", default_value_t = 64)]
     pub max_in_flight_per_client: usize,
+    /// Requests in flight at once from one client with one token or
+    /// session (more get 503).
+    #[arg(long, value_name = "N", default_value_t = 16)]
+    pub max_in_flight_per_token: usize,
+    /// A reverse proxy on this host forwards every client: loopback peers
+    /// get no per-address connection limit, and their requests count for
+    /// the last address of X-Forwarded-For, which the proxy must append
+    /// (nginx: $proxy_add_x_forwarded_for). Without it that header is
+    /// never read.
+    #[arg(long)]
+    pub behind_proxy: bool,
     /// Seconds requests in flight get to finish after SIGTERM or Ctrl-C.
     #[arg(long, value_name = "S", default_value_t = 10.0)]
     pub shutdown_grace: f64,
@@ -142,6 +155,11 @@ impl ServeArgs {
                 "max-in-flight-per-client",
                 self.max_in_flight_per_client,
             )?,
+            max_in_flight_per_token: count(
+                "max-in-flight-per-token",
+                self.max_in_flight_per_token,
+            )?,
+            behind_proxy: self.behind_proxy,
             shutdown_grace: seconds("shutdown-grace", self.shutdown_grace)?,
             store: StoreSettings {
                 connections: count("connections", self.connections)?,

@@ -6,10 +6,10 @@
 use crate::auth::{Caller, Need};
 use crate::error::ApiError;
 use crate::state::AppState;
-use axum::extract::{ConnectInfo, FromRequestParts, Path};
+use axum::extract::{FromRequestParts, Path};
 use axum::http::header;
 use axum::http::request::Parts;
-use std::net::{IpAddr, SocketAddr};
+use std::net::IpAddr;
 
 /// The `Authorization` header's value ("" when it is not visible ASCII,
 /// which the token check calls malformed).
@@ -20,12 +20,10 @@ fn authorization(parts: &Parts) -> Option<String> {
         .map(|v| v.to_str().map(str::to_string).unwrap_or_default())
 }
 
-/// The client's address, when the request came over a connection.
+/// The client, when the request came over a connection (behind a proxy,
+/// the client it forwarded: `crate::client`).
 fn peer(parts: &Parts) -> Option<IpAddr> {
-    parts
-        .extensions
-        .get::<ConnectInfo<SocketAddr>>()
-        .map(|c| c.0.ip())
+    crate::client::of_parts(parts)
 }
 
 async fn check(parts: &Parts, state: &AppState, need: Need) -> Result<Caller, ApiError> {

@@ -17,6 +17,8 @@
 
 pub mod auth;
 pub mod body;
+pub mod client;
+pub mod conns;
 pub mod convert;
 pub mod deadline;
 pub mod error;

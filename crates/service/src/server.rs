@@ -1,7 +1,10 @@
-//! The HTTP server: the router with its layers, and the connection loop
-//! (hyper's HTTP/1 server, its header-read timeout, a bound on
-//! connections, graceful shutdown with a deadline).
+//! The HTTP server: the router with its layers (the per-client limits of
+//! requests in flight among them), and the connection loop (hyper's
+//! HTTP/1 server, its header-read timeout, the registry of connections
+//! that evicts the longest idle one at a limit: `crate::conns`, graceful
+//! shutdown with a deadline).
 
+use crate::client::ClientAddr;
 use crate::error::{ApiError, ServiceError};
 use crate::settings::ServeSettings;
 use crate::state::AppState;
@@ -56,16 +59,44 @@ async fn refused(e: BoxError) -> Response {
     }
 }
 
-/// Requests in flight per client address ([`ServeSettings::max_in_flight_per_client`]).
-#[derive(Clone, Default)]
+/// Requests in flight per client ([`ServeSettings::max_in_flight_per_client`])
+/// and per client and credential ([`ServeSettings::max_in_flight_per_token`]).
+/// An entry lives while a request of its key is in flight, so there are
+/// never more than requests in flight (one per connection at most).
+#[derive(Clone)]
 struct PerClient {
-    counts: Arc<std::sync::Mutex<std::collections::HashMap<std::net::IpAddr, usize>>>,
+    counts: Arc<std::sync::Mutex<Counts>>,
+    /// Keys credentials (never stored): fresh per service.
+    hasher: std::hash::RandomState,
+}
+
+#[derive(Default)]
+struct Counts {
+    client: std::collections::HashMap<std::net::IpAddr, usize>,
+    token: std::collections::HashMap<(std::net::IpAddr, u64), usize>,
+}
+
+/// Which limit refused a request.
+#[derive(Debug, PartialEq, Eq)]
+enum Over {
+    Client,
+    Token,
 }
 
 /// A request counted for its client until dropped.
 struct Counted {
-    counts: Arc<std::sync::Mutex<std::collections::HashMap<std::net::IpAddr, usize>>>,
+    counts: Arc<std::sync::Mutex<Counts>>,
     key: std::net::IpAddr,
+    token: u64,
+}
+
+fn down<K: std::hash::Hash + Eq>(map: &mut std::collections::HashMap<K, usize>, key: &K) {
+    if let Some(n) = map.get_mut(key) {
+        *n -= 1;
+        if *n == 0 {
+            map.remove(key);
+        }
+    }
 }
 
 impl Drop for Counted {
@@ -74,31 +105,77 @@ impl Drop for Counted {
             .counts
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner);
-        if let Some(n) = counts.get_mut(&self.key) {
-            *n -= 1;
-            if *n == 0 {
-                counts.remove(&self.key);
-            }
-        }
+        down(&mut counts.client, &self.key);
+        down(&mut counts.token, &(self.key, self.token));
     }
 }
 
 impl PerClient {
-    /// Counts a request of `ip`, or `None` when the client is at `cap`.
-    fn enter(&self, ip: std::net::IpAddr, cap: usize) -> Option<Counted> {
+    fn new() -> Self {
+        Self {
+            counts: Arc::default(),
+            hasher: std::hash::RandomState::new(),
+        }
+    }
+
+    /// The key of a request's credential: its bearer token (as the token
+    /// check reads it, so that "bearer" and extra spaces make no other
+    /// key; one key for every malformed header), else its session
+    /// cookie's value, else none (0). A credential that is not valid is
+    /// refused from the head (401, or 403 for a page's POST), so it holds a
+    /// slot only that long.
+    fn credential(&self, headers: &axum::http::HeaderMap) -> u64 {
+        use std::hash::BuildHasher;
+        if let Some(a) = headers.get(header::AUTHORIZATION) {
+            let token = a.to_str().ok().and_then(crate::auth::parse).unwrap_or("");
+            return self.hasher.hash_one((1u8, token)) | 1;
+        }
+        let names = [
+            crate::web::session::COOKIE,
+            crate::web::session::HOST_COOKIE,
+        ];
+        let sessions: Vec<&str> = headers
+            .get_all(header::COOKIE)
+            .iter()
+            .filter_map(|v| v.to_str().ok())
+            .flat_map(|v| v.split(';'))
+            .filter_map(|pair| pair.trim().split_once('='))
+            .filter(|(name, _)| names.contains(name))
+            .map(|(_, value)| value)
+            .collect();
+        if sessions.is_empty() {
+            0
+        } else {
+            self.hasher.hash_one((2u8, sessions)) | 1
+        }
+    }
+
+    /// Counts a request of client `ip` with credential `token`, or says
+    /// which cap it is at.
+    fn enter(
+        &self,
+        ip: std::net::IpAddr,
+        token: u64,
+        cap: usize,
+        token_cap: usize,
+    ) -> Result<Counted, Over> {
         let key = crate::state::client_key(ip);
         let mut counts = self
             .counts
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner);
-        let n = counts.entry(key).or_insert(0);
-        if *n >= cap {
-            return None;
+        if counts.client.get(&key).copied().unwrap_or(0) >= cap {
+            return Err(Over::Client);
         }
-        *n += 1;
-        Some(Counted {
+        if counts.token.get(&(key, token)).copied().unwrap_or(0) >= token_cap {
+            return Err(Over::Token);
+        }
+        *counts.client.entry(key).or_insert(0) += 1;
+        *counts.token.entry((key, token)).or_insert(0) += 1;
+        Ok(Counted {
             counts: Arc::clone(&self.counts),
             key,
+            token,
         })
     }
 }
@@ -119,8 +196,10 @@ pub fn router_with(state: AppState, set: &ServeSettings) -> Router {
     use crate::routes;
     let (api, _) = crate::openapi::api().split_for_parts();
     let body_timeout = set.body_timeout;
-    let per_client = PerClient::default();
+    let per_client = PerClient::new();
     let client_cap = set.max_in_flight_per_client;
+    let token_cap = set.max_in_flight_per_token;
+    let behind_proxy = set.behind_proxy;
     let headers = ServiceBuilder::new()
         .layer(SetResponseHeaderLayer::overriding(
             header::CACHE_CONTROL,
@@ -162,28 +241,33 @@ pub fn router_with(state: AppState, set: &ServeSettings) -> Router {
         )
         // One client's share of the slots above: a probe held every slot
         // with one token's slow bodies, and another person's events got
-        // 503 for as long as it went on.
+        // 503 for as long as it went on. Loopback is a client like any
+        // other (the probe and the service on one host); behind a proxy,
+        // the client is the one it forwarded (crate::client).
         .layer(axum::middleware::from_fn(
             move |req: axum::extract::Request, next: axum::middleware::Next| {
                 let per_client = per_client.clone();
                 async move {
-                    let peer = req
-                        .extensions()
-                        .get::<ConnectInfo<SocketAddr>>()
-                        .map(|c| c.0.ip())
-                        .filter(|ip| !ip.is_loopback());
-                    let Some(ip) = peer else {
+                    let Some(client) = req.extensions().get::<ClientAddr>().copied() else {
                         return next.run(req).await;
                     };
-                    let Some(_counted) = per_client.enter(ip, client_cap) else {
-                        tracing::warn!(client = %crate::state::client_key(ip), "a client at its limit of requests in flight: 503");
-                        return ApiError::busy(
-                            "this client is at its limit of requests in flight",
-                            1,
-                        )
-                        .into_response();
-                    };
-                    next.run(req).await
+                    let token = per_client.credential(req.headers());
+                    match per_client.enter(client.0, token, client_cap, token_cap) {
+                        Ok(_counted) => next.run(req).await,
+                        Err(Over::Client) => {
+                            tracing::warn!(client = %client.key(), "a client at its limit of requests in flight: 503");
+                            ApiError::busy("this client is at its limit of requests in flight", 1)
+                                .into_response()
+                        }
+                        Err(Over::Token) => {
+                            tracing::warn!(client = %client.key(), "a client's credential at its limit of requests in flight: 503");
+                            ApiError::busy(
+                                "this client's token (or session) is at its limit of requests in flight",
+                                1,
+                            )
+                            .into_response()
+                        }
+                    }
                 }
             },
         ))
@@ -196,6 +280,21 @@ pub fn router_with(state: AppState, set: &ServeSettings) -> Router {
         .layer(TraceLayer::new_for_http().make_span_with(request_span))
         .layer(SetRequestIdLayer::x_request_id(MakeRequestUuid))
         .layer(axum::middleware::map_request(safe_request_id))
+        // Who the client is, for every limit above and the failed-token
+        // limit (crate::client).
+        .layer(axum::middleware::map_request(
+            move |mut req: axum::extract::Request| async move {
+                let peer = req
+                    .extensions()
+                    .get::<ConnectInfo<SocketAddr>>()
+                    .map(|c| c.0.ip());
+                if let Some(peer) = peer {
+                    let client = ClientAddr::of(peer, req.headers(), behind_proxy);
+                    req.extensions_mut().insert(client);
+                }
+                req
+            },
+        ))
         .with_state(state)
 }
 
@@ -333,7 +432,7 @@ pub async fn run_until(
     set: &ServeSettings,
     stop: impl std::future::Future<Output = ()>,
 ) {
-    let slots = Arc::new(tokio::sync::Semaphore::new(set.max_connections));
+    let registry = crate::conns::Registry::new(set.max_connections, set.max_connections_per_client);
     let refusals = Arc::new(tokio::sync::Semaphore::new(AT_LIMIT_ANSWERS));
     let at_limit: Arc<[u8]> = at_limit_response().into();
     let graceful = hyper_util::server::graceful::GracefulShutdown::new();
@@ -342,7 +441,6 @@ pub async fn run_until(
         .header_read_timeout(set.header_timeout)
         .keep_alive(true);
     let mut full_logged = false;
-    let per_client = PerClient::default();
     tokio::pin!(stop);
     loop {
         let (stream, peer) = tokio::select! {
@@ -357,42 +455,72 @@ pub async fn run_until(
             },
             _ = &mut stop => break,
         };
-        // One client's share of the connections (loopback, a local
-        // proxy, not counted).
-        let counted = if peer.ip().is_loopback() {
-            None
-        } else {
-            match per_client.enter(peer.ip(), set.max_connections_per_client) {
-                Some(c) => Some(c),
-                None => {
-                    tracing::debug!(client = %crate::state::client_key(peer.ip()), "a client at its limit of connections: 503");
-                    refuse_connection(stream, &refusals, &at_limit);
-                    continue;
+        // Counted for its address (loopback too: a probe on this host),
+        // but for a reverse proxy on this host (`--behind-proxy`).
+        let client = (!(set.behind_proxy && peer.ip().is_loopback()))
+            .then(|| crate::state::client_key(peer.ip()));
+        let open = match registry.admit(client) {
+            Ok(open) => open,
+            Err(crate::conns::Refused::Client) => {
+                tracing::debug!(client = %crate::state::client_key(peer.ip()), "each connection of a client at its limit has a request in flight: 503");
+                refuse_connection(stream, &refusals, &at_limit);
+                continue;
+            }
+            Err(crate::conns::Refused::Service) => {
+                if !full_logged {
+                    tracing::warn!(
+                        max = set.max_connections,
+                        "at the connection limit with a request in flight on each: new connections get 503 and are closed"
+                    );
+                    full_logged = true;
                 }
+                refuse_connection(stream, &refusals, &at_limit);
+                continue;
             }
-        };
-        let Ok(slot) = Arc::clone(&slots).try_acquire_owned() else {
-            if !full_logged {
-                tracing::warn!(
-                    max = set.max_connections,
-                    "at the connection limit: new connections get 503 and are closed"
-                );
-                full_logged = true;
-            }
-            refuse_connection(stream, &refusals, &at_limit);
-            continue;
         };
         full_logged = false;
-        let svc = Extension(ConnectInfo(peer)).layer(router.clone());
+        let svc = tracked(
+            Extension(ConnectInfo(peer)).layer(router.clone()),
+            Arc::clone(open.conn()),
+        );
         let conn = http.serve_connection(TokioIo::new(stream), TowerToHyperService::new(svc));
         let conn = graceful.watch(conn);
         tokio::spawn(async move {
-            if let Err(e) = conn.await {
-                tracing::debug!(client = %peer, error = %e, "connection ended");
+            let state = Arc::clone(open.conn());
+            let mut conn = std::pin::pin!(conn);
+            let mut evicted = std::pin::pin!(state.evicted());
+            let mut told = false;
+            // The connection first (a head already sent puts its request in
+            // flight), then marked read, then its eviction: closed unless a
+            // request came in that same instant (served, then closed).
+            let ended = std::future::poll_fn(|cx| {
+                use std::future::Future;
+                if let std::task::Poll::Ready(r) = conn.as_mut().poll(cx) {
+                    return std::task::Poll::Ready(Some(r));
+                }
+                state.mark_polled();
+                told = told || evicted.as_mut().poll(cx).is_ready();
+                if told && state.may_close() {
+                    return std::task::Poll::Ready(None);
+                }
+                std::task::Poll::Pending
+            })
+            .await;
+            match ended {
+                Some(Err(e)) => tracing::debug!(client = %peer, error = %e, "connection ended"),
+                Some(Ok(())) => {}
+                None => {
+                    tracing::debug!(client = %peer, "closed, without a request in flight, to make room for a new connection")
+                }
             }
-            drop(slot);
-            drop(counted);
+            drop(open);
         });
+        // Let the new connection read what it was sent before the next
+        // accept may evict it: a client's head already in the socket puts
+        // its request in flight at this first poll (a flood from the same
+        // address accepted 128 at a time evicted a polite newcomer before
+        // its head was read).
+        tokio::task::yield_now().await;
     }
     drop(listener);
     tracing::info!("stopping: waiting for requests in flight");
@@ -401,6 +529,82 @@ pub async fn run_until(
         _ = tokio::time::sleep(set.shutdown_grace) => {
             tracing::warn!(grace_s = set.shutdown_grace.as_secs_f64(), "grace period over: stopping with connections open");
         }
+    }
+}
+
+/// The service of one connection: each request marks the connection busy
+/// (`crate::conns`) from its head until its answer's body is sent or
+/// dropped; the request of a connection evicted as its head arrived is
+/// served and the connection closed after it.
+fn tracked<S>(
+    svc: S,
+    conn: Arc<crate::conns::Conn>,
+) -> impl tower::Service<
+    axum::http::Request<hyper::body::Incoming>,
+    Response = Response,
+    Error = std::convert::Infallible,
+    Future = impl Send,
+> + Clone
+where
+    S: tower::Service<
+            axum::http::Request<hyper::body::Incoming>,
+            Response = Response,
+            Error = std::convert::Infallible,
+        > + Clone
+        + Send
+        + 'static,
+    S::Future: Send,
+{
+    tower::service_fn(move |req| {
+        let svc = svc.clone();
+        let busy = conn.start_request();
+        async move {
+            let Some(busy) = busy else {
+                let mut r = ApiError::busy(
+                    "this connection was closed to make room; retry on a new one",
+                    1,
+                )
+                .into_response();
+                r.headers_mut()
+                    .insert(header::CONNECTION, HeaderValue::from_static("close"));
+                return Ok(r);
+            };
+            let last = busy.is_last();
+            let mut r = tower::ServiceExt::oneshot(svc, req).await?;
+            if last {
+                // Evicted as its head arrived: closed after this answer.
+                r.headers_mut()
+                    .insert(header::CONNECTION, HeaderValue::from_static("close"));
+            }
+            Ok(r.map(|body| axum::body::Body::new(Held { body, _busy: busy })))
+        }
+    })
+}
+
+/// An answer's body holding its connection busy until it is sent whole or
+/// dropped.
+struct Held {
+    body: axum::body::Body,
+    _busy: crate::conns::InFlight,
+}
+
+impl http_body::Body for Held {
+    type Data = axum::body::Bytes;
+    type Error = axum::Error;
+
+    fn poll_frame(
+        self: std::pin::Pin<&mut Self>,
+        cx: &mut std::task::Context<'_>,
+    ) -> std::task::Poll<Option<Result<http_body::Frame<Self::Data>, Self::Error>>> {
+        std::pin::Pin::new(&mut self.get_mut().body).poll_frame(cx)
+    }
+
+    fn is_end_stream(&self) -> bool {
+        self.body.is_end_stream()
+    }
+
+    fn size_hint(&self) -> http_body::SizeHint {
+        self.body.size_hint()
     }
 }
 
@@ -455,30 +659,77 @@ async fn shutdown_signal() {
 
 #[cfg(test)]
 mod per_client_tests {
-    use super::PerClient;
+    use super::{Over, PerClient};
     use std::net::IpAddr;
 
-    /// A client holds at most its cap; a slot comes back when its request
-    /// or connection ends; an IPv6 client is its /64 (one host holds a
-    /// whole /64), another address is counted apart.
+    /// A client holds at most its cap, one credential of it at most its
+    /// own; a slot comes back when its request ends; an IPv6 client is its
+    /// /64 (one host holds a whole /64), another address is counted apart.
     #[test]
-    fn a_client_holds_at_most_its_cap_and_gets_its_slots_back() {
-        let p = PerClient::default();
+    fn a_client_and_its_token_hold_at_most_their_caps_and_get_slots_back() {
+        let p = PerClient::new();
         let a: IpAddr = "2001:db8:1:2::10".parse().unwrap();
         let same_64: IpAddr = "2001:db8:1:2:ffff::1".parse().unwrap();
         let other: IpAddr = "198.51.100.9".parse().unwrap();
-        let first = p.enter(a, 2).unwrap();
-        let second = p.enter(same_64, 2).unwrap();
-        assert!(p.enter(a, 2).is_none(), "a /64 is one client");
-        assert!(p.enter(other, 2).is_some(), "another client is apart");
+        let first = p.enter(a, 1, 3, 2).unwrap();
+        let second = p.enter(same_64, 1, 3, 2).unwrap();
+        assert_eq!(
+            p.enter(a, 1, 3, 2).err(),
+            Some(Over::Token),
+            "one token's share"
+        );
+        let third = p.enter(a, 5, 3, 2).unwrap();
+        assert_eq!(
+            p.enter(a, 7, 3, 2).err(),
+            Some(Over::Client),
+            "a /64 is one client"
+        );
+        assert!(p.enter(other, 1, 3, 2).is_ok(), "another client is apart");
         drop(first);
-        let third = p.enter(same_64, 2);
-        assert!(third.is_some(), "a slot comes back");
-        drop((second, third));
+        let fourth = p.enter(same_64, 1, 3, 2);
+        assert!(fourth.is_ok(), "a slot comes back");
+        drop((second, third, fourth));
+        let counts = p.counts.lock().unwrap();
         assert!(
-            p.counts.lock().unwrap().is_empty(),
+            counts.client.is_empty() && counts.token.is_empty(),
             "no entry is kept for a client with nothing in flight"
         );
+    }
+
+    /// One token is one key however its header is spelled, and one
+    /// session one key whatever other cookies come with it; a request
+    /// without either is anonymous (0).
+    #[test]
+    fn a_credential_is_one_key_however_it_is_sent() {
+        let p = PerClient::new();
+        let key = |lines: &[(&str, &str)]| {
+            let mut h = axum::http::HeaderMap::new();
+            for (k, v) in lines {
+                h.append(
+                    axum::http::HeaderName::from_bytes(k.as_bytes()).unwrap(),
+                    v.parse().unwrap(),
+                );
+            }
+            p.credential(&h)
+        };
+        let token = format!("abba_{}", "0a".repeat(32));
+        let other = format!("abba_{}", "1b".repeat(32));
+        let a = key(&[("authorization", &format!("Bearer {token}"))]);
+        assert_eq!(a, key(&[("authorization", &format!("bearer   {token} "))]));
+        assert_ne!(a, key(&[("authorization", &format!("Bearer {other}"))]));
+        assert_eq!(
+            key(&[("authorization", "Bearer x")]),
+            key(&[("authorization", "Basic y")]),
+            "every malformed header is one key"
+        );
+        let s = key(&[("cookie", "abba_session=abc")]);
+        assert_eq!(
+            s,
+            key(&[("cookie", "x=1; abba_session=abc"), ("cookie", "y=2")])
+        );
+        assert_ne!(s, key(&[("cookie", "abba_session=abd")]));
+        assert_eq!(key(&[("cookie", "x=1")]), 0);
+        assert_eq!(key(&[]), 0);
     }
 }
 

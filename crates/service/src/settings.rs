@@ -18,24 +18,37 @@ pub struct ServeSettings {
     /// A request not answered this long after its head gets 408 (a handler
     /// that runs away; the heaviest page is far below).
     pub request_timeout: Duration,
-    /// Connections held at once; one more is accepted, answered 503 and
-    /// closed at once
-    /// (so the listen queue never fills and `/healthz` keeps answering
-    /// once timeouts free slots).
+    /// Connections held at once. One more closes the connection that has
+    /// done nothing the longest (no request in flight: a head not yet
+    /// whole, or idle keep-alive) and is served; only when every
+    /// connection has a request in flight is it answered 503 and closed
+    /// (`crate::conns`).
     pub max_connections: usize,
     /// Connections held at once from one client address (an IPv6
-    /// address's /64); one more is answered 503 and closed, so that one
-    /// client cannot take every connection (a probe opened 8,300 idle ones
-    /// in 0.3 s). Loopback, a local reverse proxy, is not counted.
+    /// address's /64), so that one client cannot take every connection (a
+    /// probe opened 8,300 idle ones in 0.3 s): one more closes that
+    /// client's connection that has done nothing the longest, or, when
+    /// each has a request in flight, is answered 503 and closed. Loopback
+    /// is counted like any address, unless `behind_proxy`.
     pub max_connections_per_client: usize,
     /// Requests in flight at once; more get 503 with `Retry-After`.
     pub max_in_flight: usize,
-    /// Requests in flight at once from one client address (an IPv6
-    /// address's /64); more get 503 with `Retry-After`, so that one client
-    /// cannot hold every slot of `max_in_flight`. Loopback is not counted:
-    /// a local reverse proxy carries every client's requests, and limits
-    /// its clients itself.
+    /// Requests in flight at once from one client (its address, an IPv6
+    /// address's /64; behind a proxy, the address the proxy forwarded);
+    /// more get 503 with `Retry-After`, so that one client cannot hold
+    /// every slot of `max_in_flight`.
     pub max_in_flight_per_client: usize,
+    /// Requests in flight at once from one client with one credential
+    /// (one bearer token, one session cookie, or none), so that one
+    /// person's app cannot hold every slot its address has (every app
+    /// behind one NAT, or on this host); more get 503 with `Retry-After`.
+    pub max_in_flight_per_token: usize,
+    /// A reverse proxy on this host forwards every client
+    /// (`abba serve --behind-proxy`): loopback peers are not limited per
+    /// address at the connection level, and a loopback peer's requests are
+    /// counted for the last address of its `X-Forwarded-For`
+    /// (`crate::client`). Off: that header is never read.
+    pub behind_proxy: bool,
     /// On SIGTERM or Ctrl-C, requests in flight get this long to finish;
     /// then the service stops anyway.
     pub shutdown_grace: Duration,
@@ -53,6 +66,8 @@ impl Default for ServeSettings {
             max_connections_per_client: 256,
             max_in_flight: 256,
             max_in_flight_per_client: 64,
+            max_in_flight_per_token: 16,
+            behind_proxy: false,
             shutdown_grace: Duration::from_secs(10),
             store: StoreSettings::default(),
         }

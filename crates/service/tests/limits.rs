@@ -1,6 +1,7 @@
 //! The service's limits over real sockets: idle and slowloris connections
-//! are closed by the header-read timeout while a fresh client's `/healthz`
-//! answers; a slow body gets 408; a store held by another writer gives 503
+//! are closed (evicted past their address's share, the rest by the
+//! header-read timeout) while a fresh client's `/healthz` answers
+//! (`tests/connections.rs`: eviction itself); a slow body gets 408; a store held by another writer gives 503
 //! with Retry-After; events dated in the future are refused and an old one
 //! is removed by `remove_future`; the live-advisor cache stays bounded.
 
@@ -721,9 +722,10 @@ async fn a_request_id_is_echoed_only_when_it_is_a_plain_token() {
     assert_ne!(id_for(long).await, long);
 }
 
-/// Past the connection limit a new client is told 503 with Retry-After
-/// (the probe's clients got a reset), and once a held connection goes the
-/// next is served.
+/// Past the connection limit, with a request in flight on every
+/// connection (nothing to evict: `tests/connections.rs`), a new client is
+/// told 503 with Retry-After (the probe's clients got a reset), and once a
+/// held connection goes the next is served.
 #[test]
 fn a_connection_past_the_limit_gets_503_not_a_reset() {
     let svc = Svc::new();
@@ -734,8 +736,16 @@ fn a_connection_past_the_limit_gets_503_not_a_reset() {
             ..ServeSettings::default()
         },
     );
+    // A valid token's body that never comes: a request in flight each.
     let held: Vec<TcpStream> = (0..4)
-        .map(|_| TcpStream::connect(server.addr).unwrap())
+        .map(|_| {
+            let mut s = TcpStream::connect(server.addr).unwrap();
+            s.write_all(format!(
+                "POST /v1/persons HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer {}\r\nContent-Type: application/json\r\nContent-Length: 100\r\n\r\n{{",
+                svc.admin
+            ).as_bytes()).unwrap();
+            s
+        })
         .collect();
     std::thread::sleep(Duration::from_millis(200));
     let r = raw(

@@ -12,6 +12,7 @@ mod common;
 // One module per test file.
 mod access;
 mod advice_parity;
+mod connections;
 mod effects;
 mod hostile;
 mod implausible;

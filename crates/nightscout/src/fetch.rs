@@ -24,6 +24,12 @@ pub enum Collection {
     /// `/api/v1/treatments.json` by `created_at` (a string): boluses,
     /// carbs, temporary basals, Profile Switches, notes...
     Treatments,
+    /// `/api/v1/devicestatus.json` by `created_at` (a string, filtered,
+    /// sorted and bounded as the treatments' are: `storage.queryOpts` of
+    /// cgm-remote-monitor's `lib/server/devicestatus.js`): what the
+    /// uploader, the pump and a loop reported each cycle. Read only for
+    /// the loop's evidence ([`crate::device_status`]), never imported.
+    DeviceStatus,
 }
 
 /// Where a page ends, in the terms the server compares: `date` as a
@@ -41,6 +47,7 @@ impl Collection {
         match self {
             Collection::Entries => "entries",
             Collection::Treatments => "treatments",
+            Collection::DeviceStatus => "devicestatus",
         }
     }
     /// The v1 path.
@@ -48,19 +55,25 @@ impl Collection {
         match self {
             Collection::Entries => "/api/v1/entries.json",
             Collection::Treatments => "/api/v1/treatments.json",
+            Collection::DeviceStatus => "/api/v1/devicestatus.json",
         }
     }
     pub(crate) fn field(self) -> &'static str {
         match self {
             Collection::Entries => "date",
-            Collection::Treatments => "created_at",
+            Collection::Treatments | Collection::DeviceStatus => "created_at",
         }
     }
+    /// Whether the server compares the date field as a string
+    /// (`created_at`), not as a number (`date`).
+    pub(crate) fn keyed_by_text(self) -> bool {
+        self != Collection::Entries
+    }
     /// The lower bound for documents at or after `ms`.
-    fn lower(self, ms: i64) -> Key {
+    pub(crate) fn lower(self, ms: i64) -> Key {
         match self {
             Collection::Entries => Key::Ms(ms),
-            Collection::Treatments => Key::Text(iso_ms(ms)),
+            Collection::Treatments | Collection::DeviceStatus => Key::Text(iso_ms(ms)),
         }
     }
     /// A document's time (ms) by this collection's field and the
@@ -77,7 +90,7 @@ impl Collection {
             Collection::Entries => num("date")
                 .or_else(|| text("dateString"))
                 .or_else(|| text("sysTime")),
-            Collection::Treatments => text("created_at")
+            Collection::Treatments | Collection::DeviceStatus => text("created_at")
                 .or_else(|| num("date"))
                 .or_else(|| num("mills"))
                 .or_else(|| text("timestamp")),
@@ -95,7 +108,7 @@ impl Collection {
                 let t = self.time_of(doc)?;
                 Some((Key::Ms(t), Key::Ms(t)))
             }
-            Collection::Treatments => {
+            Collection::Treatments | Collection::DeviceStatus => {
                 let t = self.time_of(doc);
                 let utc = t.map(iso_ms);
                 match doc.get("created_at").and_then(Value::as_str) {
@@ -234,6 +247,9 @@ pub struct Pages {
     /// said in words (late uploads on a server that cannot be read by
     /// `_id`): what was read is complete and imported, these are said.
     pub warnings: Vec<String>,
+    /// The longest page the server served (a page shorter than it holds
+    /// all that its bounds admit).
+    pub largest: usize,
 }
 
 impl Pages {
@@ -246,10 +262,11 @@ impl Pages {
             .enumerate()
             .map(|(i, d)| (doc_key(d), i))
             .collect();
+        let largest = self.largest;
         let mut col = Collector {
             out: std::mem::take(self),
             index,
-            largest: 0,
+            largest,
         };
         let fresh = docs.into_iter().filter(|d| col.take(d.clone())).count();
         *self = col.finish(c);
@@ -295,8 +312,9 @@ impl Collector {
     }
 
     /// The documents, newest first.
-    fn finish(self, c: Collection) -> Pages {
+    pub(crate) fn finish(self, c: Collection) -> Pages {
         let mut out = self.out;
+        out.largest = out.largest.max(self.largest);
         out.docs.retain(|d| !d.is_null());
         out.docs
             .sort_by_key(|d| std::cmp::Reverse(c.time_of(d).unwrap_or(i64::MIN)));
@@ -535,7 +553,7 @@ pub fn check_time_filter(client: &Client, c: Collection) -> Result<(), NsError> 
     let docs = list(client, c.path(), &q)?;
     let slack = match c {
         Collection::Entries => 1,
-        Collection::Treatments => OFFSET_SLACK_MS,
+        Collection::Treatments | Collection::DeviceStatus => OFFSET_SLACK_MS,
     };
     if let Some(t) = docs
         .iter()

@@ -75,7 +75,7 @@ pub struct SyncReport {
 /// One collection of a sync.
 #[derive(Debug, Clone, Serialize)]
 pub struct CollectionReport {
-    /// `entries`, `treatments`, `profile`.
+    /// `entries`, `treatments`, `devicestatus`, `profile`.
     pub name: &'static str,
     /// Documents received (repeats across pages included).
     pub received: usize,
@@ -339,9 +339,10 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
             .collect();
         // A treatment's `created_at` with an offset is compared as its
         // string: the bound goes as far below as an offset may read.
-        let slack = match c {
-            Collection::Entries => 0,
-            Collection::Treatments => fetch::OFFSET_SLACK_MS,
+        let slack = if c.keyed_by_text() {
+            fetch::OFFSET_SLACK_MS
+        } else {
+            0
         };
         let since = changed
             .iter()
@@ -382,6 +383,11 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
         }
         fetched.marks.insert(key, h.mark);
     }
+    let largest = fetched_pages
+        .iter()
+        .map(|(.., pages)| pages.largest)
+        .max()
+        .unwrap_or(0);
     for (c, mark, since, mut pages) in fetched_pages {
         gone.extend(gone_from(store, &link.person, &client, c, since, &pages)?);
         // abba's own Notes (write-back) are not the person's data.
@@ -432,6 +438,39 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
                 .push((client.site().join(c.path()), json_bytes(&docs)?));
         }
     }
+    // The device status, for the loop's evidence only (see
+    // [`crate::device_status`]): from its mark, or on a first sync from
+    // the last days of the data this sync holds.
+    let ds = Collection::DeviceStatus;
+    let ds_mark = marks.get(ds.name()).copied();
+    let newest_data = [Collection::Entries, Collection::Treatments]
+        .iter()
+        .filter_map(|c| fetched.marks.get(c.name()).or(marks.get(c.name())).copied())
+        .max();
+    let now_ms = now.as_millisecond();
+    let status = crate::device_status::read(
+        &client,
+        crate::device_status::start(ds_mark, newest_data, now_ms),
+        ds_mark,
+        future,
+        opts.page,
+        largest,
+        now_ms,
+    )?;
+    reports.push(CollectionReport {
+        name: ds.name(),
+        received: status.received,
+        documents: status.documents,
+        pages: status.pages,
+        own: 0,
+        without_created_at: 0,
+        late: 0,
+    });
+    unproven.extend(status.unproven);
+    fetched.marks.insert(ds.name().to_string(), status.mark);
+    fetched
+        .evidence
+        .push((ds.name().to_string(), status.evidence));
     reports.push(CollectionReport {
         name: "profile",
         received: profiles.len(),

@@ -135,6 +135,11 @@ pub struct Fetched {
     pub marks: BTreeMap<String, i64>,
     /// (collection, JSON array of its documents new since the last mark).
     pub fresh: Vec<(String, Vec<u8>)>,
+    /// (collection, what its documents new since the last mark tell of the
+    /// delivery), counted by the sync as it read them
+    /// ([`Evidence::from_file`]): a collection too large to hold whole
+    /// (Nightscout's device status) and read for this only.
+    pub evidence: Vec<(String, Evidence)>,
     /// The site's glucose unit (`settings.units` of its `status.json`):
     /// a BG Check that does not say its own `units` is in it, as the site
     /// shows it. `None`: the site does not say (such a BG Check is then
@@ -193,14 +198,18 @@ fn evidence_of(person: &Person, collection: &str, bytes: &[u8]) -> Option<Eviden
     if let Ok(read) = abba_io::read::read_bytes_noted(collection, 0, bytes, &opts) {
         e.clocks = away(person, &read.clocks);
     }
-    let nothing = e.smb == 0
+    (!no_evidence(&e)).then_some(e)
+}
+
+/// Whether `e` tells nothing of the delivery nor of the device's clock.
+fn no_evidence(e: &Evidence) -> bool {
+    e.smb == 0
         && e.automated_basal == 0
         && e.systems.is_empty()
         && e.dual_mode_pumps.is_empty()
         && e.open_loop_modes == 0
         && e.last_mode.is_none()
-        && e.clocks.is_empty();
-    (!nothing).then_some(e)
+        && e.clocks.is_empty()
 }
 
 fn away(
@@ -240,9 +249,23 @@ fn add_evidence(
     collection: &str,
     bytes: &[u8],
 ) -> Result<(), StoreError> {
-    let Some(e) = evidence_of(person, collection, bytes) else {
+    match evidence_of(person, collection, bytes) {
+        Some(e) => add_counted(tx, person, collection, &e),
+        None => Ok(()),
+    }
+}
+
+/// Adds evidence the sync counted to what the earlier syncs' told (see
+/// [`add_evidence`]).
+fn add_counted(
+    tx: &dyn Db,
+    person: &Person,
+    collection: &str,
+    e: &Evidence,
+) -> Result<(), StoreError> {
+    if no_evidence(e) {
         return Ok(());
-    };
+    }
     let held = tx
         .row(
             Q::FileEvidenceOne,
@@ -255,7 +278,7 @@ fn add_evidence(
             .map_err(|e| StoreError::corrupt("file evidence", e))?,
         None => Evidence::default(),
     };
-    sum.add_file(&e);
+    sum.add_file(e);
     sum.clocks = away(person, &sum.clocks);
     put_evidence(tx, person.id, collection, &sum)
 }
@@ -405,6 +428,9 @@ impl Store {
             deleted = delete_records(tx, p.id, &fetched.deleted)?;
             for (c, bytes) in &fetched.fresh {
                 add_evidence(tx, &p, c, bytes)?;
+            }
+            for (c, e) in &fetched.evidence {
+                add_counted(tx, &p, c, e)?;
             }
             if let Some(bytes) = &fetched.profile {
                 replace_profile_evidence(tx, &p, bytes)?;

@@ -408,13 +408,117 @@ pub fn fetch_since(
     since: Option<i64>,
     page: usize,
 ) -> Result<Pages, NsError> {
+    fetch_range(client, c, since, None, Some(since.unwrap_or(0)), page).map_err(|p| p.error)
+}
+
+/// What a read that failed part-way had read whole: paging from the
+/// newest down, every document keyed above the bound of the page that
+/// failed has come (see [`fetch_range`]).
+#[derive(Debug)]
+pub struct Partial {
+    /// The documents read before the failure.
+    pub pages: Pages,
+    /// Every document of the read dated at or after this (ms) is in
+    /// `pages`; `None`: nothing is proven (the first page failed, or the
+    /// failure came after the paging by time).
+    pub proven_from: Option<i64>,
+    /// Why the read stopped.
+    pub error: NsError,
+}
+
+/// [`fetch_since`] with an upper bound: the documents of `c` keyed at or
+/// after `since` (ms; `None`: all) and before `before` (ms; `None`: no
+/// bound); treatments without a `created_at` string are read by `_id`
+/// when `undated_since` says from which ObjectId time (`None`: not
+/// read); late uploads are looked for when the read is open above. A
+/// failure part-way says what was read whole ([`Partial`]).
+pub fn fetch_range(
+    client: &Client,
+    c: Collection,
+    since: Option<i64>,
+    before: Option<i64>,
+    undated_since: Option<i64>,
+    page: usize,
+) -> Result<Pages, Box<Partial>> {
+    let lower = since.map(|s| c.lower(s));
+    let top = before.map(|b| c.lower(b.saturating_sub(1)));
+    let mut col = Collector::default();
+    let mut upper = top.clone();
+    if let Err(error) = page_down(
+        client,
+        c,
+        lower.as_ref(),
+        top.as_ref(),
+        page,
+        &mut col,
+        &mut upper,
+    ) {
+        let proven_from = upper.as_ref().and_then(|u| match u {
+            Key::Ms(ms) => Some(ms.saturating_add(1)),
+            Key::Text(s) => abba_io::time::parse_instant(s)
+                .map(|t| t.as_millisecond().saturating_add(OFFSET_SLACK_MS)),
+        });
+        return Err(Box::new(Partial {
+            pages: col.finish(c),
+            proven_from,
+            error,
+        }));
+    }
+    let extras = (|| {
+        if let (Collection::Treatments, Some(u)) = (c, undated_since) {
+            crate::by_id::without_created_at(client, u, page, &mut col)?;
+        }
+        if let Some(s) = since.filter(|&s| s > 0 && before.is_none()) {
+            let before = col.out.unproven.len();
+            let late = crate::by_id::inserted_since(client, c, s, page, &mut col)?;
+            col.out.late += late;
+            // Late uploads are looked for beyond the window by `_id`; a server
+            // that cannot be read so leaves them unseen. The window read by
+            // time is complete all the same: said, not a failed sync.
+            let cannot: Vec<String> = col.out.unproven.drain(before..).collect();
+            col.out.warnings.extend(cannot.into_iter().map(|w| {
+                format!(
+                    "late uploads (dated before the window read again) cannot be looked for: {w}"
+                )
+            }));
+        }
+        Ok::<(), NsError>(())
+    })();
+    match extras {
+        Ok(()) => Ok(col.finish(c)),
+        Err(error) => Err(Box::new(Partial {
+            pages: col.finish(c),
+            proven_from: None,
+            error,
+        })),
+    }
+}
+
+/// The treatments without a `created_at` string whose ObjectId was made
+/// at or after `since` (ms), and every one whose `_id` is a string (see
+/// [`crate::by_id`]).
+pub fn undated_treatments(client: &Client, since: i64, page: usize) -> Result<Pages, NsError> {
+    let mut col = Collector::default();
+    crate::by_id::without_created_at(client, since, page, &mut col)?;
+    Ok(col.finish(Collection::Treatments))
+}
+
+/// The paging by time from the newest down (see [`fetch_since`]), from
+/// `top` (`$lte`; `None`: no bound) to `lower`. `upper` holds the bound of
+/// the next page: every document keyed above it has been read.
+fn page_down(
+    client: &Client,
+    c: Collection,
+    lower: Option<&Key>,
+    top: Option<&Key>,
+    page: usize,
+    col: &mut Collector,
+    upper: &mut Option<Key>,
+) -> Result<(), NsError> {
     let field = c.field();
     let gte = format!("find[{field}][$gte]");
     let lte = format!("find[{field}][$lte]");
-    let lower = since.map(|s| c.lower(s));
-    let mut col = Collector::default();
-    let mut upper: Option<Key> = None;
-    let mut largest = 0;
+    let mut largest = col.largest;
     let call = format!("GET {}", c.path());
     let protocol = |problem: String| NsError::Protocol {
         site: client.site().to_string(),
@@ -428,10 +532,10 @@ pub fn fetch_since(
             )));
         }
         let mut q: Vec<(&str, String)> = Vec::new();
-        if let Some(l) = &lower {
+        if let Some(l) = lower {
             q.push((&gte, l.query()));
         }
-        if let Some(u) = &upper {
+        if let Some(u) = upper.as_ref() {
             q.push((&lte, u.query()));
         }
         q.push(("count", page.to_string()));
@@ -455,7 +559,7 @@ pub fn fetch_since(
         let mut prev: Option<Key> = None;
         let mut unsorted = false;
         for d in docs {
-            if let (Some(t), Some(u)) = (c.time_of(&d), &upper) {
+            if let (Some(t), Some(u)) = (c.time_of(&d), upper.as_ref()) {
                 let beyond = match u {
                     Key::Ms(u) => t > *u,
                     Key::Text(u) => abba_io::time::parse_instant(u)
@@ -486,8 +590,8 @@ pub fn fetch_since(
         if unsorted {
             // Paging by time stands on that order; ranges of time need
             // none (nor any order of `_id`): the whole window is read so.
-            let from = lower.clone().unwrap_or_else(|| c.lower(0));
-            crate::by_time::window(client, c, &from, None, page, largest, &mut col)?;
+            let from = lower.cloned().unwrap_or_else(|| c.lower(0));
+            crate::by_time::window(client, c, &from, top, page, largest, col)?;
             break;
         }
         let Some((least_lo, least_hi)) = least else {
@@ -503,35 +607,20 @@ pub fn fetch_since(
         } else if whole {
             least_lo.below()
         } else {
-            let from = match &lower {
+            let from = match lower {
                 Some(l) if *l > least_lo => l.clone(),
                 _ => least_lo.clone(),
             };
-            crate::by_id::range(client, c, &from, upper.as_ref(), page, &mut col)?;
+            crate::by_id::range(client, c, &from, upper.as_ref(), page, col)?;
             least_lo.below()
         };
         let Some(next) = next else { break };
-        if lower.as_ref().is_some_and(|l| next < *l) {
+        if lower.is_some_and(|l| next < *l) {
             break;
         }
-        upper = Some(next);
+        *upper = Some(next);
     }
-    if c == Collection::Treatments {
-        crate::by_id::without_created_at(client, since.unwrap_or(0), page, &mut col)?;
-    }
-    if let Some(s) = since.filter(|&s| s > 0) {
-        let before = col.out.unproven.len();
-        let late = crate::by_id::inserted_since(client, c, s, page, &mut col)?;
-        col.out.late += late;
-        // Late uploads are looked for beyond the window by `_id`; a server
-        // that cannot be read so leaves them unseen. The window read by
-        // time is complete all the same: said, not a failed sync.
-        let cannot: Vec<String> = col.out.unproven.drain(before..).collect();
-        col.out.warnings.extend(cannot.into_iter().map(|w| {
-            format!("late uploads (dated before the window read again) cannot be looked for: {w}")
-        }));
-    }
-    Ok(col.finish(c))
+    Ok(())
 }
 
 /// Whether the site filters `c` by time as Nightscout does: asked for

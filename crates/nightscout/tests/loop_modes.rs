@@ -180,7 +180,10 @@ fn linked_and_imported(docs: &[(&'static str, Vec<Value>)]) -> (Value, Value) {
     }
     let (dir, _srv, mut linked) = linked_and_synced(site, 10.0);
     let mut files = Vec::new();
-    for (c, d) in [("entries", entries())].into_iter().chain(docs.iter().cloned()) {
+    for (c, d) in [("entries", entries())]
+        .into_iter()
+        .chain(docs.iter().cloned())
+    {
         let f = dir.path().join(format!("{c}.json"));
         std::fs::write(&f, serde_json::to_vec(&d).unwrap()).unwrap();
         files.push(f);
@@ -259,7 +262,11 @@ fn each_sync_reads_and_counts_only_the_new_device_status() {
     let first = assert_delivery(&mut store, "open_loop", true);
     srv.with(|s| s.log.clear());
     let r = sync(&mut store, "ana", &sync_opts()).unwrap();
-    let status = r.collections.iter().find(|c| c.name == "devicestatus").unwrap();
+    let status = r
+        .collections
+        .iter()
+        .find(|c| c.name == "devicestatus")
+        .unwrap();
     assert_eq!((status.documents, status.pages), (0, 1), "{status:?}");
     let asked = srv.with(|s| {
         s.log
@@ -277,7 +284,11 @@ fn each_sync_reads_and_counts_only_the_new_device_status() {
     next["openaps"]["enacted"] = next["openaps"]["suggested"].clone();
     srv.with(|s| s.add("devicestatus", vec![next]));
     let r = sync(&mut store, "ana", &sync_opts()).unwrap();
-    let status = r.collections.iter().find(|c| c.name == "devicestatus").unwrap();
+    let status = r
+        .collections
+        .iter()
+        .find(|c| c.name == "devicestatus")
+        .unwrap();
     assert_eq!(status.documents, 1, "{status:?}");
     assert_delivery(&mut store, "closed_loop", false);
 }

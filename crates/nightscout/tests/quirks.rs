@@ -249,8 +249,9 @@ fn a_bg_check_without_units_is_in_the_sites_unit_and_else_reported() {
 #[test]
 fn ninety_days_back_filled_interrupted_then_resumed_every_reading_once() {
     // 91 days of 5-minute entries on a server capping pages at 1,000; the
-    // first sync fails half-way (the site errs longer than the retries),
-    // the next one completes; a later sync reads only what is new.
+    // first sync fails half-way (the site errs longer than the retries):
+    // the whole days it read are imported and the next sync reads only
+    // the rest; a later sync reads only what is new.
     let dir = tempfile::tempdir().unwrap();
     let mut d = data(1);
     let newest = d.entries[0]["date"].as_i64().unwrap();
@@ -269,6 +270,12 @@ fn ninety_days_back_filled_interrupted_then_resumed_every_reading_once() {
     let mut site = site_of(&d, 1000);
     site.v3 = false;
     let srv = Server::start(site);
+    let entries_read = || srv.with(|s| s.log.iter().filter(|l| l.contains("entries")).count());
+    // A single clean sync, for comparison.
+    let mut clean = linked(dir.path(), "clean.db", &files, &srv.url);
+    srv.with(|s| s.log.clear());
+    sync(&mut clean, "ana", &sync_opts()).unwrap();
+    let clean_reads = entries_read();
     let mut store = linked(dir.path(), "sync.db", &files, &srv.url);
     // 12 pages through, then every try of the next fails.
     srv.with(|s| {
@@ -280,13 +287,17 @@ fn ninety_days_back_filled_interrupted_then_resumed_every_reading_once() {
         s.log.clear();
     });
     let e = sync(&mut store, "ana", &sync_opts()).unwrap_err();
-    assert!(matches!(e, NsError::GaveUp { .. }), "{e}");
-    assert!(store.records("ana").unwrap().is_empty());
-    assert!(store.link_marks("ana").unwrap().is_empty());
-    let failed_at = srv.with(|s| s.log.iter().filter(|l| l.contains("entries")).count());
+    let NsError::Resumable { error, from, .. } = &e else {
+        panic!("{e}")
+    };
+    assert!(matches!(**error, NsError::GaveUp { .. }), "{e}");
+    let failed_at = entries_read();
     assert!(failed_at >= 16, "it failed half-way: {failed_at} reads");
-    let r = sync(&mut store, "ana", &sync_opts()).unwrap();
-    assert_eq!(r.collections[0].documents, n);
+    // The whole days read are kept, from a local midnight, each reading
+    // of them; nothing is imported (no advice on a history read in part).
+    let from: jiff::Timestamp = from.parse().unwrap();
+    let midnight = from.to_zoned(jiff::tz::TimeZone::get(TZ).unwrap());
+    assert_eq!(midnight.start_of_day().unwrap(), midnight, "{from}");
     let cgm = |store: &abba_store::Store| {
         store
             .records("ana")
@@ -296,11 +307,37 @@ fn ninety_days_back_filled_interrupted_then_resumed_every_reading_once() {
             .map(|r| r.at)
             .collect::<Vec<_>>()
     };
+    assert!(store.records("ana").unwrap().is_empty());
+    let read_whole: Vec<&str> = d
+        .entries
+        .iter()
+        .filter(|e| e["date"].as_i64().unwrap() >= from.as_millisecond())
+        .map(|e| e["_id"].as_str().unwrap())
+        .collect();
+    assert!(read_whole.len() > 12 * 288 && read_whole.len() < n - 288);
+    let staged = store.staged("ana").unwrap();
+    let (_, entries) = staged.iter().find(|(c, _)| c == "entries").unwrap();
+    let kept: Vec<serde_json::Value> = serde_json::from_slice(entries).unwrap();
+    let kept: Vec<&str> = kept.iter().map(|e| e["_id"].as_str().unwrap()).collect();
+    assert_eq!(kept, read_whole);
+    // The next sync reads what is new and the rest below that midnight:
+    // not the 12 pages again.
+    srv.with(|s| s.log.clear());
+    let r = sync(&mut store, "ana", &sync_opts()).unwrap();
+    let resumed_reads = entries_read();
+    assert!(
+        resumed_reads + 12 <= clean_reads + 3,
+        "{resumed_reads} reads resumed, {clean_reads} in a clean sync"
+    );
+    assert_eq!(r.collections[0].documents, n);
+    assert_same_records(&store, &clean);
+    assert!(store.staged("ana").unwrap().is_empty());
     let mut at = cgm(&store);
     assert_eq!(at.len(), n);
     at.sort();
     at.dedup();
     assert_eq!(at.len(), n, "each reading once");
+    assert_eq!(store.link_marks("ana").unwrap()["backfill"], 0);
     // A day later: 288 new readings; the sync reads them and the window
     // read again, not the months.
     let new: Vec<serde_json::Value> = (1..=288)

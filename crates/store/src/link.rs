@@ -332,6 +332,7 @@ impl Store {
             .transpose()?;
         if old.as_deref().is_some_and(|u| u != url) {
             tx.execute(Q::NightscoutMarksDelete, args![p.id])?;
+            tx.execute(Q::NightscoutStagedDelete, args![p.id])?;
             tx.execute(Q::NightscoutWrittenDeleteAll, args![p.id])?;
         }
         tx.execute(
@@ -374,6 +375,7 @@ impl Store {
         let p = person_id(&self.conn, name)?;
         let tx = self.conn.transaction()?;
         tx.execute(Q::NightscoutMarksDelete, args![p.id])?;
+        tx.execute(Q::NightscoutStagedDelete, args![p.id])?;
         tx.execute(Q::NightscoutWrittenDeleteAll, args![p.id])?;
         let n = tx.execute(Q::NightscoutLinkDelete, args![p.id])?;
         tx.commit()?;
@@ -425,6 +427,8 @@ impl Store {
         let p = person_id(&self.conn, name)?;
         let mut deleted = 0;
         let mut also = |tx: &dyn Db| -> Result<(), StoreError> {
+            // What an interrupted first sync kept is in this import.
+            tx.execute(Q::NightscoutStagedDelete, args![p.id])?;
             deleted = delete_records(tx, p.id, &fetched.deleted)?;
             for (c, bytes) in &fetched.fresh {
                 add_evidence(tx, &p, c, bytes)?;
@@ -477,6 +481,42 @@ impl Store {
             import: Some(s),
             deleted,
         })
+    }
+
+    /// Keeps what a first sync read whole before it failed part-way
+    /// (per collection, a JSON array of its documents), with the marks of
+    /// how far that reaches, in one transaction: not imported (no day is
+    /// advised on before the whole history is read), read back by the
+    /// next sync ([`Store::staged`]) and removed by the import of all of
+    /// it ([`Store::import_synced`]).
+    pub fn stage_synced(
+        &mut self,
+        name: &str,
+        staged: &[(String, Vec<u8>)],
+        marks: &BTreeMap<String, i64>,
+    ) -> Result<(), StoreError> {
+        let p = person_id(&self.conn, name)?;
+        let tx = self.conn.transaction()?;
+        tx.execute(Q::NightscoutStagedDelete, args![p.id])?;
+        for (c, bytes) in staged {
+            let text = std::str::from_utf8(bytes)
+                .map_err(|e| StoreError::corrupt("staged documents", e))?;
+            tx.execute(Q::NightscoutStagedPut, args![p.id, c, text])?;
+        }
+        write_marks(&tx, p.id, marks)?;
+        tx.commit()?;
+        Ok(())
+    }
+
+    /// What a first sync kept for the next ([`Store::stage_synced`]):
+    /// (collection, JSON array).
+    pub fn staged(&self, name: &str) -> Result<Vec<(String, Vec<u8>)>, StoreError> {
+        let p = person_id(&self.conn, name)?;
+        self.conn
+            .rows(Q::NightscoutStagedOf, args![p.id])?
+            .into_iter()
+            .map(|r| Ok((r.text(0)?, r.text(1)?.into_bytes())))
+            .collect()
     }
 
     /// The documents whose records a sync brought from `origin` (a site's

@@ -148,6 +148,12 @@ statements! {
     NightscoutSyncSucceeded = "UPDATE nightscout_link SET last_sync_at = ?2, last_success_at = ?2, last_error = NULL, failures = 0 WHERE person_id = ?1";
     /// Nightscout sync failed.
     NightscoutSyncFailed = "UPDATE nightscout_link SET last_sync_at = ?2, last_error = ?3, failures = failures + 1 WHERE person_id = ?1";
+    /// Nightscout staged put.
+    NightscoutStagedPut = "INSERT INTO nightscout_staged (person_id, collection, docs) VALUES (?1, ?2, ?3) ON CONFLICT (person_id, collection) DO UPDATE SET docs = excluded.docs";
+    /// Nightscout staged of.
+    NightscoutStagedOf = "SELECT collection, docs FROM nightscout_staged WHERE person_id = ?1 ORDER BY collection";
+    /// Nightscout staged delete.
+    NightscoutStagedDelete = "DELETE FROM nightscout_staged WHERE person_id = ?1";
     /// Nightscout documents.
     NightscoutDocuments = "SELECT source_id FROM record WHERE person_id = ?1 AND source = 'nightscout' AND at_ms >= ?2 AND substr(origin, 1, ?4) = ?3";
     /// Nightscout written of.
@@ -282,6 +288,10 @@ statements! {
     CopyReadNightscoutMark = "SELECT person_id, collection, mark_ms FROM nightscout_mark ORDER BY person_id, collection";
     /// One row of `nightscout_mark` as read by `CopyReadNightscoutMark`.
     CopyWriteNightscoutMark = "INSERT INTO nightscout_mark (person_id, collection, mark_ms) VALUES (?1, ?2, ?3)";
+    /// Every row of `nightscout_staged`.
+    CopyReadNightscoutStaged = "SELECT person_id, collection, docs FROM nightscout_staged ORDER BY person_id, collection";
+    /// One row of `nightscout_staged` as read by `CopyReadNightscoutStaged`.
+    CopyWriteNightscoutStaged = "INSERT INTO nightscout_staged (person_id, collection, docs) VALUES (?1, ?2, ?3)";
     /// Every row of `nightscout_written`, in key order (`abba store copy`).
     CopyReadNightscoutWritten = "SELECT person_id, what, key, remote_id, content, written_at FROM nightscout_written ORDER BY person_id, what, key";
     /// One row of `nightscout_written` as read by `CopyReadNightscoutWritten`.

@@ -264,7 +264,7 @@ pub fn sync_and_record(store: &mut Store, person: &str, opts: &SyncOptions) -> A
     };
     let end = jiff::Timestamp::now();
     let recorded = match &result {
-        Ok(_) => store.record_sync(person, end, None),
+        Ok(r) => store.record_success(person, end, &r.warnings),
         Err(e) => store.record_sync(person, end, Some(&e.to_string())),
     };
     Attempt { result, recorded }

@@ -32,6 +32,10 @@ fn syncs_as_files_import(d: &Data, site: Site) -> abba_nightscout::SyncReport {
     assert_eq!((a.added, a.updated), (0, 0), "{a:?}");
     assert!(again.gone.is_empty(), "{:?}", again.gone);
     assert_same_records(&synced, &imported);
+    // What the sync could not look for is on the link (`abba link
+    // --list`, the service's link), until a sync without.
+    let link = synced.link("ana").unwrap().unwrap();
+    assert_eq!(link.warnings, again.warnings);
     again
 }
 

@@ -69,6 +69,9 @@ pub struct Link {
     pub last_error: Option<String>,
     /// Failed syncs in a row (the background sync backs off by them).
     pub failures: u32,
+    /// What the last successful sync could not look for, in words (it
+    /// imported what it read; see abba-nightscout's `SyncReport`).
+    pub warnings: Vec<String>,
 }
 
 /// A link as shown (no credential).
@@ -90,6 +93,8 @@ pub struct LinkView {
     pub last_error: Option<String>,
     /// Failed syncs in a row.
     pub failures: u32,
+    /// What the last successful sync could not look for, in words.
+    pub warnings: Vec<String>,
 }
 
 impl Link {
@@ -104,6 +109,7 @@ impl Link {
             last_success_at: self.last_success_at.clone(),
             last_error: self.last_error.clone(),
             failures: self.failures,
+            warnings: self.warnings.clone(),
         }
     }
 }
@@ -180,6 +186,10 @@ fn row_to_link(r: Row) -> Result<Link, StoreError> {
         last_success_at: r.opt_text(7)?,
         last_error: r.opt_text(8)?,
         failures: r.int(9)?.clamp(0, i64::from(u32::MAX)) as u32,
+        warnings: match r.opt_text(10)? {
+            Some(j) => serde_json::from_str(&j).map_err(|e| StoreError::corrupt("link warnings", e))?,
+            None => Vec::new(),
+        },
     })
 }
 
@@ -393,23 +403,42 @@ impl Store {
     }
 
     /// Records a sync's outcome at `at`: `None` a success (the failures
-    /// count restarts), `Some(error)` a failure.
+    /// count restarts, no warnings), `Some(error)` a failure (the last
+    /// success's warnings stay).
     pub fn record_sync(
         &mut self,
         name: &str,
         at: jiff::Timestamp,
         error: Option<&str>,
     ) -> Result<(), StoreError> {
-        let p = person_id(&self.conn, name)?;
-        let at = at.to_string();
-        match error {
-            None => self
-                .conn
-                .execute(Q::NightscoutSyncSucceeded, args![p.id, at])?,
-            Some(e) => self
-                .conn
-                .execute(Q::NightscoutSyncFailed, args![p.id, at, e])?,
+        let Some(e) = error else {
+            return self.record_success(name, at, &[]);
         };
+        let p = person_id(&self.conn, name)?;
+        self.conn
+            .execute(Q::NightscoutSyncFailed, args![p.id, at.to_string(), e])?;
+        Ok(())
+    }
+
+    /// Records a successful sync at `at` with what it could not look for
+    /// (`warnings`, in words), shown with the link until the next success.
+    pub fn record_success(
+        &mut self,
+        name: &str,
+        at: jiff::Timestamp,
+        warnings: &[String],
+    ) -> Result<(), StoreError> {
+        let p = person_id(&self.conn, name)?;
+        let json = match warnings {
+            [] => None,
+            w => Some(
+                serde_json::to_string(w).map_err(|e| StoreError::corrupt("link warnings", e))?,
+            ),
+        };
+        self.conn.execute(
+            Q::NightscoutSyncSucceeded,
+            args![p.id, at.to_string(), json],
+        )?;
         Ok(())
     }
 

@@ -49,7 +49,8 @@ pub enum Step {
     WebSubmissions,
     /// 11: what a Nightscout link's first sync read whole before it
     /// failed part-way ([`crate::link`]): kept, not imported, until the
-    /// rest is read.
+    /// rest is read; what the link's last successful sync could not look
+    /// for (its warnings, shown with the link).
     NightscoutStaged,
 }
 

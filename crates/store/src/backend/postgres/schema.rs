@@ -379,7 +379,10 @@ const NIGHTSCOUT_STAGED: &str = concat!(
     text!(),
     " NOT NULL,
         PRIMARY KEY (person_id, collection)
-    );"
+    );
+    ALTER TABLE nightscout_link ADD COLUMN last_warnings ",
+    text!(),
+    ";"
 );
 
 /// Applies every step the database does not have yet, each in its own

@@ -1256,7 +1256,12 @@ async fn the_link_shows_what_its_last_sync_could_not_look_for_escaped() {
     }
     let (_, token) = svc.token(a).await;
     let advice = svc
-        .call(Method::GET, &format!("/v1/persons/{a}/advice"), Some(&token), None)
+        .call(
+            Method::GET,
+            &format!("/v1/persons/{a}/advice"),
+            Some(&token),
+            None,
+        )
         .await;
     assert_eq!(advice.status, StatusCode::OK, "{}", advice.text);
     assert_eq!(advice.json["nightscout"]["warnings"], json!([warning]));
@@ -1278,7 +1283,12 @@ async fn the_link_shows_what_its_last_sync_could_not_look_for_escaped() {
         store.record_sync("ana", at, None).unwrap();
     }
     let advice = svc
-        .call(Method::GET, &format!("/v1/persons/{a}/advice"), Some(&token), None)
+        .call(
+            Method::GET,
+            &format!("/v1/persons/{a}/advice"),
+            Some(&token),
+            None,
+        )
         .await;
     assert_eq!(advice.json["nightscout"]["warnings"], json!([]));
     let list = admin.get("/clinic").await;

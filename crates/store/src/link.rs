@@ -187,7 +187,9 @@ fn row_to_link(r: Row) -> Result<Link, StoreError> {
         last_error: r.opt_text(8)?,
         failures: r.int(9)?.clamp(0, i64::from(u32::MAX)) as u32,
         warnings: match r.opt_text(10)? {
-            Some(j) => serde_json::from_str(&j).map_err(|e| StoreError::corrupt("link warnings", e))?,
+            Some(j) => {
+                serde_json::from_str(&j).map_err(|e| StoreError::corrupt("link warnings", e))?
+            }
             None => Vec::new(),
         },
     })

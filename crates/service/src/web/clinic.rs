@@ -1817,6 +1817,12 @@ pub fn routes() -> axum::Router<crate::state::AppState> {
         )
 }
 
+/// What the link's last successful sync could not look for, in words
+/// (`None`: nothing).
+fn link_warnings(l: &abba_store::link::Link) -> Option<String> {
+    (!l.warnings.is_empty()).then(|| fill(C.link_warnings, &[("warnings", &l.warnings.join("; "))]))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1847,10 +1853,4 @@ mod tests {
             "at 2026-11-14 03:00 (UTC-05:00)."
         );
     }
-}
-
-/// What the link's last successful sync could not look for, in words
-/// (`None`: nothing).
-fn link_warnings(l: &abba_store::link::Link) -> Option<String> {
-    (!l.warnings.is_empty()).then(|| fill(C.link_warnings, &[("warnings", &l.warnings.join("; "))]))
 }

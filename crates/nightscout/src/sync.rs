@@ -496,6 +496,45 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
         .map(|(.., pages)| pages.largest)
         .max()
         .unwrap_or(0);
+    // The device status, for the loop's evidence only (see
+    // [`crate::device_status`]): from its mark, or on a first sync from
+    // the last days of the data this sync holds. A first sync it fails
+    // keeps what it read, all of it whole, for the next.
+    let ds = Collection::DeviceStatus;
+    let ds_mark = marks.get(ds.name()).copied();
+    let newest_data = fetched_pages
+        .iter()
+        .flat_map(|(c, _, _, p)| p.docs.iter().filter_map(|d| c.time_of(d)))
+        .filter(|&t| t <= future)
+        .chain(
+            [Collection::Entries, Collection::Treatments]
+                .iter()
+                .filter_map(|c| marks.get(c.name()).copied()),
+        )
+        .max();
+    let now_ms = now.as_millisecond();
+    let status = match crate::device_status::read(
+        &client,
+        crate::device_status::start(ds_mark, newest_data, now_ms),
+        ds_mark,
+        future,
+        opts.page,
+        largest,
+        now_ms,
+    ) {
+        Ok(s) => s,
+        Err(error) if first => {
+            let staged = Staged {
+                fetched: &fetched,
+                pages: &fetched_pages,
+                pending,
+                cut: ALL_READ,
+                future,
+            };
+            return Err(staged.keep(store, &link.person, &client, error));
+        }
+        Err(e) => return Err(e),
+    };
     for (c, mark, since, mut pages) in fetched_pages {
         gone.extend(gone_from(store, &link.person, &client, c, since, &pages)?);
         // abba's own Notes (write-back) are not the person's data.
@@ -546,25 +585,6 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
                 .push((client.site().join(c.path()), json_bytes(&docs)?));
         }
     }
-    // The device status, for the loop's evidence only (see
-    // [`crate::device_status`]): from its mark, or on a first sync from
-    // the last days of the data this sync holds.
-    let ds = Collection::DeviceStatus;
-    let ds_mark = marks.get(ds.name()).copied();
-    let newest_data = [Collection::Entries, Collection::Treatments]
-        .iter()
-        .filter_map(|c| fetched.marks.get(c.name()).or(marks.get(c.name())).copied())
-        .max();
-    let now_ms = now.as_millisecond();
-    let status = crate::device_status::read(
-        &client,
-        crate::device_status::start(ds_mark, newest_data, now_ms),
-        ds_mark,
-        future,
-        opts.page,
-        largest,
-        now_ms,
-    )?;
     reports.push(CollectionReport {
         name: ds.name(),
         received: status.received,
@@ -635,6 +655,10 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
 /// earlier); 0 or none: nothing.
 pub const BACKFILL: &str = "backfill";
 
+/// The cut of a first sync interrupted after its entries and treatments
+/// were read whole: everything is kept, nothing is left below.
+const ALL_READ: i64 = 1;
+
 /// The mark of the newest document of `c` an interrupted first sync kept.
 fn staged_key(c: Collection) -> String {
     format!("staged:{}", c.name())
@@ -691,7 +715,11 @@ impl Staged<'_> {
         }
         NsError::Resumable {
             site: client.site().to_string(),
-            from: fetch::iso_ms(cut),
+            from: if cut <= ALL_READ {
+                "the first".to_string()
+            } else {
+                fetch::iso_ms(cut)
+            },
             error: Box::new(error),
         }
     }

@@ -361,3 +361,59 @@ fn ninety_days_back_filled_interrupted_then_resumed_every_reading_once() {
     assert_eq!(r.import.import.unwrap().added, 288);
     assert_eq!(cgm(&store).len(), n + 288);
 }
+
+#[test]
+fn a_first_sync_failing_at_the_device_status_keeps_every_page_it_read() {
+    // The entries and treatments are read whole, then the site errs
+    // longer than the retries: all of it is kept (nothing imported), and
+    // the next sync reads only what is new since, not the history again.
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = data(2);
+    // Six days of 5-minute entries, each ObjectId made at its time (as a
+    // server inserting it as it comes makes it).
+    let newest = d.entries[0]["date"].as_i64().unwrap();
+    d.entries = (0..6 * 288)
+        .map(|i| {
+            let at = newest - i as i64 * 300_000;
+            serde_json::json!({"_id": object_id(at, i), "type": "sgv", "sgv": 80 + (i * 13) % 120,
+                "date": at, "dateString": common::server::iso(at), "device": "xDrip-DexcomG6"})
+        })
+        .collect();
+    let files = export(dir.path(), &d);
+    let srv = Server::start(site_of(&d, 100));
+    let entries_read = || srv.with(|s| s.log.iter().filter(|l| l.contains("entries")).count());
+    let mut clean = linked(dir.path(), "clean.db", &files, &srv.url);
+    srv.with(|s| s.log.clear());
+    sync(&mut clean, "ana", &sync_opts()).unwrap();
+    let clean_reads = entries_read();
+    let mut store = linked(dir.path(), "sync.db", &files, &srv.url);
+    srv.with(|s| {
+        s.faults = vec![Fault {
+            path: "devicestatus".into(),
+            kind: FaultKind::Status(500),
+            times: 4,
+        }];
+        s.log.clear();
+    });
+    let e = sync(&mut store, "ana", &sync_opts()).unwrap_err();
+    assert!(matches!(e, NsError::Resumable { .. }), "{e}");
+    assert!(store.records("ana").unwrap().is_empty());
+    let staged = store.staged("ana").unwrap();
+    let kept = |c: &str| {
+        let (_, docs) = staged.iter().find(|(x, _)| x == c).unwrap();
+        serde_json::from_slice::<Vec<serde_json::Value>>(docs)
+            .unwrap()
+            .len()
+    };
+    assert_eq!(kept("entries"), d.entries.len());
+    assert_eq!(kept("treatments"), d.treatments.len());
+    srv.with(|s| s.log.clear());
+    sync(&mut store, "ana", &sync_opts()).unwrap();
+    let resumed_reads = entries_read();
+    assert!(
+        resumed_reads * 3 < clean_reads,
+        "{resumed_reads} reads resumed, {clean_reads} in a clean sync"
+    );
+    assert_same_records(&store, &clean);
+    assert!(store.staged("ana").unwrap().is_empty());
+}

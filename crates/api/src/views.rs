@@ -388,6 +388,11 @@ pub struct NightscoutLink {
     pub last_error: Option<String>,
     /// Failed syncs in a row.
     pub failures: u32,
+    /// What the last successful sync could not look for, in words (late
+    /// uploads on a site that cannot be read by `_id`, ...): what it read
+    /// is imported; these were not checked.
+    #[serde(default)]
+    pub warnings: Vec<String>,
 }
 
 /// `GET /healthz` (no token).

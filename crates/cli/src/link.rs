@@ -198,6 +198,9 @@ fn list(db: &std::path::Path, json: bool) -> Result<()> {
                 None => String::new(),
             }
         );
+        for w in &v.warnings {
+            println!("  not looked for by the last sync (what it read is in): {w}");
+        }
     }
     println!("{NOTICE}");
     Ok(())

@@ -250,13 +250,13 @@ fn sync_one(
             mem.clear(person);
             tracing::warn!(person, error = %e, "background Nightscout sync failed");
         }
-        (Ok(_), Err(e)) => {
+        (Ok(r), Err(e)) => {
             // The import is in; only its record is not: once
             // more on a fresh connection, else the next round
             // syncs again (and finds nothing new).
             mem.clear(person);
             let again = Store::open(db)
-                .and_then(|mut s| s.record_sync(person, jiff::Timestamp::now(), None));
+                .and_then(|mut s| s.record_success(person, jiff::Timestamp::now(), &r.warnings));
             if let Err(e2) = again {
                 tracing::warn!(person, error = %e, again = %e2, "a background Nightscout sync succeeded but could not be recorded on the link");
             }
@@ -345,6 +345,7 @@ mod tests {
             last_success_at: None,
             last_error: None,
             failures,
+            warnings: Vec::new(),
         }
     }
 

@@ -133,7 +133,7 @@ pub(crate) fn inserted_since(
 ) -> Result<usize, NsError> {
     let before = match c {
         Collection::Entries => since_ms.to_string(),
-        Collection::Treatments => {
+        Collection::Treatments | Collection::DeviceStatus => {
             crate::fetch::iso_ms(since_ms.saturating_add(crate::fetch::OFFSET_SLACK_MS))
         }
     };
@@ -468,7 +468,7 @@ fn check(c: Collection, docs: &[Value], run: &Run, from_oid: &str) -> Option<Pro
         }
         let t = c.time_of(d);
         if let Some((p, pt)) = &prev {
-            let compare = c == Collection::Treatments || *pt == t;
+            let compare = c.keyed_by_text() || *pt == t;
             if compare && p.as_str() > id.as_str() && unordered.is_none() {
                 unordered = Some(Problem::Unordered);
             }

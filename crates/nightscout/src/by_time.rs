@@ -52,7 +52,7 @@ fn ms_of(k: &Key) -> Option<i64> {
 fn key_at(c: Collection, ms: i64) -> Key {
     match c {
         Collection::Entries => Key::Ms(ms),
-        Collection::Treatments => Key::Text(iso_ms(ms)),
+        Collection::Treatments | Collection::DeviceStatus => Key::Text(iso_ms(ms)),
     }
 }
 
@@ -65,6 +65,36 @@ pub(crate) fn window(
     from: &Key,
     to: Option<&Key>,
     page: usize,
+    largest: usize,
+    col: &mut Collector,
+) -> Result<(), NsError> {
+    let top = to.map_or(Upper::Open, |t| Upper::AtOrBelow(t.clone()));
+    ranges(client, c, from, top, page, largest, col)
+}
+
+/// Every document of `c` with keys from `from` and below `below` (`None`:
+/// no upper bound), read by ranges of time as [`window`] reads: two such
+/// ranges, the second from the first's `below`, leave no stored form of
+/// the date field between them.
+pub(crate) fn range_below(
+    client: &Client,
+    c: Collection,
+    from: &Key,
+    below: Option<&Key>,
+    page: usize,
+    largest: usize,
+    col: &mut Collector,
+) -> Result<(), NsError> {
+    let top = below.map_or(Upper::Open, |t| Upper::Below(t.clone()));
+    ranges(client, c, from, top, page, largest, col)
+}
+
+fn ranges(
+    client: &Client,
+    c: Collection,
+    from: &Key,
+    top: Upper,
+    page: usize,
     mut largest: usize,
     col: &mut Collector,
 ) -> Result<(), NsError> {
@@ -72,7 +102,6 @@ pub(crate) fn window(
     let gte = format!("find[{field}][$gte]");
     let lte = format!("find[{field}][$lte]");
     let lt = format!("find[{field}][$lt]");
-    let top = to.map_or(Upper::Open, |t| Upper::AtOrBelow(t.clone()));
     let mut ranges: Vec<(Key, Upper)> = vec![(from.clone(), top)];
     let mut pages = 0;
     while let Some((lo, hi)) = ranges.pop() {

@@ -106,6 +106,17 @@ pub enum NsError {
         /// What may be missing, each in words.
         what: Vec<String>,
     },
+    /// A first sync (or its rest) failed part-way: the whole days read
+    /// are kept (not imported), the next sync reads the rest.
+    #[error("{site}: the first sync failed part-way; the days from {from} on were read whole and are kept, not imported (no advice rests on a history read in part): the next sync reads only the rest, then imports all. {error}")]
+    Resumable {
+        /// The site.
+        site: String,
+        /// From when (UTC) the data are kept.
+        from: String,
+        /// Why the read stopped.
+        error: Box<NsError>,
+    },
     /// The person has no link.
     #[error("{0} has no Nightscout link (make one with `abba link nightscout --person {0} --url ... --token ...`)")]
     NoLink(String),

@@ -24,6 +24,12 @@ pub enum Collection {
     /// `/api/v1/treatments.json` by `created_at` (a string): boluses,
     /// carbs, temporary basals, Profile Switches, notes...
     Treatments,
+    /// `/api/v1/devicestatus.json` by `created_at` (a string, filtered,
+    /// sorted and bounded as the treatments' are: `storage.queryOpts` of
+    /// cgm-remote-monitor's `lib/server/devicestatus.js`): what the
+    /// uploader, the pump and a loop reported each cycle. Read only for
+    /// the loop's evidence ([`crate::device_status`]), never imported.
+    DeviceStatus,
 }
 
 /// Where a page ends, in the terms the server compares: `date` as a
@@ -41,6 +47,7 @@ impl Collection {
         match self {
             Collection::Entries => "entries",
             Collection::Treatments => "treatments",
+            Collection::DeviceStatus => "devicestatus",
         }
     }
     /// The v1 path.
@@ -48,19 +55,25 @@ impl Collection {
         match self {
             Collection::Entries => "/api/v1/entries.json",
             Collection::Treatments => "/api/v1/treatments.json",
+            Collection::DeviceStatus => "/api/v1/devicestatus.json",
         }
     }
     pub(crate) fn field(self) -> &'static str {
         match self {
             Collection::Entries => "date",
-            Collection::Treatments => "created_at",
+            Collection::Treatments | Collection::DeviceStatus => "created_at",
         }
     }
+    /// Whether the server compares the date field as a string
+    /// (`created_at`), not as a number (`date`).
+    pub(crate) fn keyed_by_text(self) -> bool {
+        self != Collection::Entries
+    }
     /// The lower bound for documents at or after `ms`.
-    fn lower(self, ms: i64) -> Key {
+    pub(crate) fn lower(self, ms: i64) -> Key {
         match self {
             Collection::Entries => Key::Ms(ms),
-            Collection::Treatments => Key::Text(iso_ms(ms)),
+            Collection::Treatments | Collection::DeviceStatus => Key::Text(iso_ms(ms)),
         }
     }
     /// A document's time (ms) by this collection's field and the
@@ -77,7 +90,7 @@ impl Collection {
             Collection::Entries => num("date")
                 .or_else(|| text("dateString"))
                 .or_else(|| text("sysTime")),
-            Collection::Treatments => text("created_at")
+            Collection::Treatments | Collection::DeviceStatus => text("created_at")
                 .or_else(|| num("date"))
                 .or_else(|| num("mills"))
                 .or_else(|| text("timestamp")),
@@ -95,7 +108,7 @@ impl Collection {
                 let t = self.time_of(doc)?;
                 Some((Key::Ms(t), Key::Ms(t)))
             }
-            Collection::Treatments => {
+            Collection::Treatments | Collection::DeviceStatus => {
                 let t = self.time_of(doc);
                 let utc = t.map(iso_ms);
                 match doc.get("created_at").and_then(Value::as_str) {
@@ -234,6 +247,9 @@ pub struct Pages {
     /// said in words (late uploads on a server that cannot be read by
     /// `_id`): what was read is complete and imported, these are said.
     pub warnings: Vec<String>,
+    /// The longest page the server served (a page shorter than it holds
+    /// all that its bounds admit).
+    pub largest: usize,
 }
 
 impl Pages {
@@ -246,10 +262,11 @@ impl Pages {
             .enumerate()
             .map(|(i, d)| (doc_key(d), i))
             .collect();
+        let largest = self.largest;
         let mut col = Collector {
             out: std::mem::take(self),
             index,
-            largest: 0,
+            largest,
         };
         let fresh = docs.into_iter().filter(|d| col.take(d.clone())).count();
         *self = col.finish(c);
@@ -295,8 +312,9 @@ impl Collector {
     }
 
     /// The documents, newest first.
-    fn finish(self, c: Collection) -> Pages {
+    pub(crate) fn finish(self, c: Collection) -> Pages {
         let mut out = self.out;
+        out.largest = out.largest.max(self.largest);
         out.docs.retain(|d| !d.is_null());
         out.docs
             .sort_by_key(|d| std::cmp::Reverse(c.time_of(d).unwrap_or(i64::MIN)));
@@ -390,13 +408,117 @@ pub fn fetch_since(
     since: Option<i64>,
     page: usize,
 ) -> Result<Pages, NsError> {
+    fetch_range(client, c, since, None, Some(since.unwrap_or(0)), page).map_err(|p| p.error)
+}
+
+/// What a read that failed part-way had read whole: paging from the
+/// newest down, every document keyed above the bound of the page that
+/// failed has come (see [`fetch_range`]).
+#[derive(Debug)]
+pub struct Partial {
+    /// The documents read before the failure.
+    pub pages: Pages,
+    /// Every document of the read dated at or after this (ms) is in
+    /// `pages`; `None`: nothing is proven (the first page failed, or the
+    /// failure came after the paging by time).
+    pub proven_from: Option<i64>,
+    /// Why the read stopped.
+    pub error: NsError,
+}
+
+/// [`fetch_since`] with an upper bound: the documents of `c` keyed at or
+/// after `since` (ms; `None`: all) and before `before` (ms; `None`: no
+/// bound); treatments without a `created_at` string are read by `_id`
+/// when `undated_since` says from which ObjectId time (`None`: not
+/// read); late uploads are looked for when the read is open above. A
+/// failure part-way says what was read whole ([`Partial`]).
+pub fn fetch_range(
+    client: &Client,
+    c: Collection,
+    since: Option<i64>,
+    before: Option<i64>,
+    undated_since: Option<i64>,
+    page: usize,
+) -> Result<Pages, Box<Partial>> {
+    let lower = since.map(|s| c.lower(s));
+    let top = before.map(|b| c.lower(b.saturating_sub(1)));
+    let mut col = Collector::default();
+    let mut upper = top.clone();
+    if let Err(error) = page_down(
+        client,
+        c,
+        lower.as_ref(),
+        top.as_ref(),
+        page,
+        &mut col,
+        &mut upper,
+    ) {
+        let proven_from = upper.as_ref().and_then(|u| match u {
+            Key::Ms(ms) => Some(ms.saturating_add(1)),
+            Key::Text(s) => abba_io::time::parse_instant(s)
+                .map(|t| t.as_millisecond().saturating_add(OFFSET_SLACK_MS)),
+        });
+        return Err(Box::new(Partial {
+            pages: col.finish(c),
+            proven_from,
+            error,
+        }));
+    }
+    let extras = (|| {
+        if let (Collection::Treatments, Some(u)) = (c, undated_since) {
+            crate::by_id::without_created_at(client, u, page, &mut col)?;
+        }
+        if let Some(s) = since.filter(|&s| s > 0 && before.is_none()) {
+            let before = col.out.unproven.len();
+            let late = crate::by_id::inserted_since(client, c, s, page, &mut col)?;
+            col.out.late += late;
+            // Late uploads are looked for beyond the window by `_id`; a server
+            // that cannot be read so leaves them unseen. The window read by
+            // time is complete all the same: said, not a failed sync.
+            let cannot: Vec<String> = col.out.unproven.drain(before..).collect();
+            col.out.warnings.extend(cannot.into_iter().map(|w| {
+                format!(
+                    "late uploads (dated before the window read again) cannot be looked for: {w}"
+                )
+            }));
+        }
+        Ok::<(), NsError>(())
+    })();
+    match extras {
+        Ok(()) => Ok(col.finish(c)),
+        Err(error) => Err(Box::new(Partial {
+            pages: col.finish(c),
+            proven_from: None,
+            error,
+        })),
+    }
+}
+
+/// The treatments without a `created_at` string whose ObjectId was made
+/// at or after `since` (ms), and every one whose `_id` is a string (see
+/// [`crate::by_id`]).
+pub fn undated_treatments(client: &Client, since: i64, page: usize) -> Result<Pages, NsError> {
+    let mut col = Collector::default();
+    crate::by_id::without_created_at(client, since, page, &mut col)?;
+    Ok(col.finish(Collection::Treatments))
+}
+
+/// The paging by time from the newest down (see [`fetch_since`]), from
+/// `top` (`$lte`; `None`: no bound) to `lower`. `upper` holds the bound of
+/// the next page: every document keyed above it has been read.
+fn page_down(
+    client: &Client,
+    c: Collection,
+    lower: Option<&Key>,
+    top: Option<&Key>,
+    page: usize,
+    col: &mut Collector,
+    upper: &mut Option<Key>,
+) -> Result<(), NsError> {
     let field = c.field();
     let gte = format!("find[{field}][$gte]");
     let lte = format!("find[{field}][$lte]");
-    let lower = since.map(|s| c.lower(s));
-    let mut col = Collector::default();
-    let mut upper: Option<Key> = None;
-    let mut largest = 0;
+    let mut largest = col.largest;
     let call = format!("GET {}", c.path());
     let protocol = |problem: String| NsError::Protocol {
         site: client.site().to_string(),
@@ -410,10 +532,10 @@ pub fn fetch_since(
             )));
         }
         let mut q: Vec<(&str, String)> = Vec::new();
-        if let Some(l) = &lower {
+        if let Some(l) = lower {
             q.push((&gte, l.query()));
         }
-        if let Some(u) = &upper {
+        if let Some(u) = upper.as_ref() {
             q.push((&lte, u.query()));
         }
         q.push(("count", page.to_string()));
@@ -437,7 +559,7 @@ pub fn fetch_since(
         let mut prev: Option<Key> = None;
         let mut unsorted = false;
         for d in docs {
-            if let (Some(t), Some(u)) = (c.time_of(&d), &upper) {
+            if let (Some(t), Some(u)) = (c.time_of(&d), upper.as_ref()) {
                 let beyond = match u {
                     Key::Ms(u) => t > *u,
                     Key::Text(u) => abba_io::time::parse_instant(u)
@@ -468,8 +590,8 @@ pub fn fetch_since(
         if unsorted {
             // Paging by time stands on that order; ranges of time need
             // none (nor any order of `_id`): the whole window is read so.
-            let from = lower.clone().unwrap_or_else(|| c.lower(0));
-            crate::by_time::window(client, c, &from, None, page, largest, &mut col)?;
+            let from = lower.cloned().unwrap_or_else(|| c.lower(0));
+            crate::by_time::window(client, c, &from, top, page, largest, col)?;
             break;
         }
         let Some((least_lo, least_hi)) = least else {
@@ -485,35 +607,20 @@ pub fn fetch_since(
         } else if whole {
             least_lo.below()
         } else {
-            let from = match &lower {
+            let from = match lower {
                 Some(l) if *l > least_lo => l.clone(),
                 _ => least_lo.clone(),
             };
-            crate::by_id::range(client, c, &from, upper.as_ref(), page, &mut col)?;
+            crate::by_id::range(client, c, &from, upper.as_ref(), page, col)?;
             least_lo.below()
         };
         let Some(next) = next else { break };
-        if lower.as_ref().is_some_and(|l| next < *l) {
+        if lower.is_some_and(|l| next < *l) {
             break;
         }
-        upper = Some(next);
+        *upper = Some(next);
     }
-    if c == Collection::Treatments {
-        crate::by_id::without_created_at(client, since.unwrap_or(0), page, &mut col)?;
-    }
-    if let Some(s) = since.filter(|&s| s > 0) {
-        let before = col.out.unproven.len();
-        let late = crate::by_id::inserted_since(client, c, s, page, &mut col)?;
-        col.out.late += late;
-        // Late uploads are looked for beyond the window by `_id`; a server
-        // that cannot be read so leaves them unseen. The window read by
-        // time is complete all the same: said, not a failed sync.
-        let cannot: Vec<String> = col.out.unproven.drain(before..).collect();
-        col.out.warnings.extend(cannot.into_iter().map(|w| {
-            format!("late uploads (dated before the window read again) cannot be looked for: {w}")
-        }));
-    }
-    Ok(col.finish(c))
+    Ok(())
 }
 
 /// Whether the site filters `c` by time as Nightscout does: asked for
@@ -535,7 +642,7 @@ pub fn check_time_filter(client: &Client, c: Collection) -> Result<(), NsError> 
     let docs = list(client, c.path(), &q)?;
     let slack = match c {
         Collection::Entries => 1,
-        Collection::Treatments => OFFSET_SLACK_MS,
+        Collection::Treatments | Collection::DeviceStatus => OFFSET_SLACK_MS,
     };
     if let Some(t) = docs
         .iter()

@@ -11,6 +11,8 @@
 //!   `created_at` string.
 //! - [`by_time`]: API v1 read by ranges of time where the server's pages
 //!   are not in time order (oldest first, or as stored).
+//! - [`device_status`]: the loop's evidence in the site's device status,
+//!   read a day at a time from its mark and counted, never held whole.
 //! - [`sync`]: what is new into the person's store, by the same import as
 //!   files, the marks advancing in the import's transaction.
 //! - [`write_back`]: opt-in; one Note per open or answered suggestion and an `abba` profile
@@ -24,6 +26,7 @@ pub mod background;
 pub mod by_id;
 pub mod by_time;
 pub mod client;
+pub mod device_status;
 pub mod error;
 pub mod fetch;
 pub mod site;

@@ -75,7 +75,7 @@ pub struct SyncReport {
 /// One collection of a sync.
 #[derive(Debug, Clone, Serialize)]
 pub struct CollectionReport {
-    /// `entries`, `treatments`, `profile`.
+    /// `entries`, `treatments`, `devicestatus`, `profile`.
     pub name: &'static str,
     /// Documents received (repeats across pages included).
     pub received: usize,
@@ -264,7 +264,7 @@ pub fn sync_and_record(store: &mut Store, person: &str, opts: &SyncOptions) -> A
     };
     let end = jiff::Timestamp::now();
     let recorded = match &result {
-        Ok(_) => store.record_sync(person, end, None),
+        Ok(r) => store.record_success(person, end, &r.warnings),
         Err(e) => store.record_sync(person, end, Some(&e.to_string())),
     };
     Attempt { result, recorded }
@@ -327,11 +327,44 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
             }
         }
     }
+    // A first sync (no mark yet) that fails part-way keeps what it read
+    // whole, from a local midnight on, without importing it (no day is
+    // advised on before the whole history is read, and the person's day 1
+    // is the oldest reading's); the next reads what is new since and the
+    // rest below that midnight (`backfill`, kept negated: marks only
+    // rise), then imports all at once.
+    let first = [Collection::Entries, Collection::Treatments]
+        .iter()
+        .all(|c| !marks.contains_key(c.name()));
+    let pending = marks
+        .get(BACKFILL)
+        .copied()
+        .filter(|&m| first && m < 0)
+        .map(|m| -m);
+    let mut staged: Vec<(String, Vec<Value>)> = Vec::new();
+    if pending.is_some() {
+        for (c, bytes) in store.staged(&link.person)? {
+            let docs: Vec<Value> = serde_json::from_slice(&bytes).map_err(|e| {
+                NsError::Store(abba_store::StoreError::corrupt("staged documents", e))
+            })?;
+            staged.push((c, docs));
+        }
+    }
+    let tz = store.person(&link.person)?.tz;
+    let mut resume = Resume::default();
+    let mut backfilled: Vec<(Collection, Vec<Value>)> = Vec::new();
     for c in [Collection::Entries, Collection::Treatments] {
         let mark = marks.get(c.name()).copied();
+        // What was kept is read again from its newest document on.
+        let staged_mark = marks
+            .get(&staged_key(c))
+            .copied()
+            .filter(|_| pending.is_some());
         // Always a lower bound: without one, Nightscout answers only the
         // last 4 days (`deltaAgo` in `lib/server/query.js`).
-        let window = mark.map_or(0, |m| m.saturating_sub(opts.overlap_ms));
+        let window = mark
+            .or(staged_mark)
+            .map_or(0, |m| m.saturating_sub(opts.overlap_ms));
         let changed: Vec<i64> = histories
             .iter()
             .filter(|(col, _)| *col == c.name())
@@ -339,9 +372,10 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
             .collect();
         // A treatment's `created_at` with an offset is compared as its
         // string: the bound goes as far below as an offset may read.
-        let slack = match c {
-            Collection::Entries => 0,
-            Collection::Treatments => fetch::OFFSET_SLACK_MS,
+        let slack = if c.keyed_by_text() {
+            fetch::OFFSET_SLACK_MS
+        } else {
+            0
         };
         let since = changed
             .iter()
@@ -352,8 +386,41 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
         // is in the window is served whatever offset its string carries,
         // and the whole window can be compared with the store (`gone`).
         let read_from = since.saturating_sub(slack).max(0);
-        let mut pages = fetch::fetch_since(&client, c, Some(read_from), opts.page)?;
+        // After the first collection's read failed part-way, only what is
+        // above its cut.
+        let read_from = match resume.cut {
+            Some(cut) if pending.is_none() => read_from.max(cut.saturating_sub(slack)),
+            _ => read_from,
+        };
+        let undated = if first { 0 } else { read_from };
+        let mut pages =
+            match fetch::fetch_range(&client, c, Some(read_from), None, Some(undated), opts.page) {
+                Ok(p) => p,
+                Err(p) if first && pending.is_none() => {
+                    resume.failed(&client, c, *p, undated, opts.page, &tz)?
+                }
+                Err(p) => return Err(p.error),
+            };
         pages.late += changed.iter().filter(|&&t| t < window).count();
+        // The rest of an interrupted first sync: below its midnight.
+        if let Some(b) = pending {
+            let from = resume.cut.map(|cut| cut.saturating_sub(slack));
+            let undated = (c == Collection::Treatments).then_some(0);
+            let before = b.saturating_add(slack);
+            let older = match fetch::fetch_range(&client, c, from, Some(before), undated, opts.page)
+            {
+                Ok(p) => p,
+                Err(p) => resume.failed(&client, c, *p, 0, opts.page, &tz)?,
+            };
+            pages.pages += older.pages;
+            pages.received += older.received;
+            let below: Vec<Value> = older
+                .docs
+                .into_iter()
+                .filter(|d| c.time_of(d).is_some_and(|t| t < b))
+                .collect();
+            backfilled.push((c, below));
+        }
         fetched_pages.push((c, mark, Some(since), pages));
     }
     for (col, h) in histories {
@@ -382,6 +449,92 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
         }
         fetched.marks.insert(key, h.mark);
     }
+    // What was kept and what came now, each document once (the newer
+    // read wins; one deleted since is left out).
+    for (c, _, _, pages) in &mut fetched_pages {
+        let mut deleted: std::collections::HashSet<String> =
+            fetched.deleted.iter().cloned().collect();
+        deleted.extend(pages.deleted.iter().cloned());
+        let held: std::collections::HashSet<String> =
+            pages.docs.iter().map(fetch::doc_key).collect();
+        let kept = staged
+            .iter_mut()
+            .find(|(x, _)| x == c.name())
+            .map(|(_, d)| std::mem::take(d))
+            .unwrap_or_default();
+        let older = backfilled
+            .iter_mut()
+            .find(|(x, _)| x == c)
+            .map(|(_, d)| std::mem::take(d))
+            .unwrap_or_default();
+        let earlier: Vec<Value> = kept
+            .into_iter()
+            .chain(older)
+            .filter(|d| {
+                let k = fetch::doc_key(d);
+                !held.contains(&k) && !deleted.contains(&k)
+            })
+            .collect();
+        pages.add(*c, earlier);
+    }
+    if let (Some(cut), Some(error)) = (resume.cut, resume.error) {
+        let staged = Staged {
+            fetched: &fetched,
+            pages: &fetched_pages,
+            pending,
+            cut,
+            future,
+        };
+        return Err(staged.keep(store, &link.person, &client, error));
+    }
+    if pending.is_some() {
+        // Read whole: nothing is left below.
+        fetched.marks.insert(BACKFILL.to_string(), 0);
+    }
+    let largest = fetched_pages
+        .iter()
+        .map(|(.., pages)| pages.largest)
+        .max()
+        .unwrap_or(0);
+    // The device status, for the loop's evidence only (see
+    // [`crate::device_status`]): from its mark, or on a first sync from
+    // the last days of the data this sync holds. A first sync it fails
+    // keeps what it read, all of it whole, for the next.
+    let ds = Collection::DeviceStatus;
+    let ds_mark = marks.get(ds.name()).copied();
+    let newest_data = fetched_pages
+        .iter()
+        .flat_map(|(c, _, _, p)| p.docs.iter().filter_map(|d| c.time_of(d)))
+        .filter(|&t| t <= future)
+        .chain(
+            [Collection::Entries, Collection::Treatments]
+                .iter()
+                .filter_map(|c| marks.get(c.name()).copied()),
+        )
+        .max();
+    let now_ms = now.as_millisecond();
+    let status = match crate::device_status::read(
+        &client,
+        crate::device_status::start(ds_mark, newest_data, now_ms),
+        ds_mark,
+        future,
+        opts.page,
+        largest,
+        now_ms,
+    ) {
+        Ok(s) => s,
+        Err(error) if first => {
+            let staged = Staged {
+                fetched: &fetched,
+                pages: &fetched_pages,
+                pending,
+                cut: ALL_READ,
+                future,
+            };
+            return Err(staged.keep(store, &link.person, &client, error));
+        }
+        Err(e) => return Err(e),
+    };
     for (c, mark, since, mut pages) in fetched_pages {
         gone.extend(gone_from(store, &link.person, &client, c, since, &pages)?);
         // abba's own Notes (write-back) are not the person's data.
@@ -433,6 +586,20 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
         }
     }
     reports.push(CollectionReport {
+        name: ds.name(),
+        received: status.received,
+        documents: status.documents,
+        pages: status.pages,
+        own: 0,
+        without_created_at: 0,
+        late: 0,
+    });
+    unproven.extend(status.unproven);
+    fetched.marks.insert(ds.name().to_string(), status.mark);
+    fetched
+        .evidence
+        .push((ds.name().to_string(), status.evidence));
+    reports.push(CollectionReport {
         name: "profile",
         received: profiles.len(),
         documents: profiles.len(),
@@ -481,6 +648,137 @@ fn sync_link(store: &mut Store, link: &Link, opts: &SyncOptions) -> Result<SyncR
         gone,
         warnings,
     })
+}
+
+/// The mark of an interrupted first sync: the local midnight below which
+/// the rest is to be read, negated (marks only rise: the next cut is
+/// earlier); 0 or none: nothing.
+pub const BACKFILL: &str = "backfill";
+
+/// The cut of a first sync interrupted after its entries and treatments
+/// were read whole: everything is kept, nothing is left below.
+const ALL_READ: i64 = 1;
+
+/// The mark of the newest document of `c` an interrupted first sync kept.
+fn staged_key(c: Collection) -> String {
+    format!("staged:{}", c.name())
+}
+
+/// What an interrupted first sync read whole.
+struct Staged<'a> {
+    fetched: &'a Fetched,
+    pages: &'a [(Collection, Option<i64>, Option<i64>, fetch::Pages)],
+    /// The cut of an earlier interruption of the same first sync.
+    pending: Option<i64>,
+    cut: i64,
+    future: i64,
+}
+
+impl Staged<'_> {
+    /// Keeps the documents dated from the cut (a local midnight: whole
+    /// days; an earlier cut of the same first sync, the earlier), the
+    /// marks of how far they reach and the API v3 marks (what changes
+    /// after, history brings) in one transaction; the error that stopped
+    /// the sync, saying so.
+    fn keep(&self, store: &mut Store, person: &str, client: &Client, error: NsError) -> NsError {
+        let cut = self.pending.map_or(self.cut, |p| p.min(self.cut));
+        let mut marks: std::collections::BTreeMap<String, i64> = self
+            .fetched
+            .marks
+            .iter()
+            .filter(|(k, _)| k.starts_with("v3:"))
+            .map(|(k, v)| (k.clone(), *v))
+            .collect();
+        marks.insert(BACKFILL.to_string(), -cut);
+        let mut kept = Vec::new();
+        for (c, _, _, p) in self.pages {
+            let docs: Vec<&Value> = p
+                .docs
+                .iter()
+                .filter(|d| c.time_of(d).is_some_and(|t| t >= cut))
+                .collect();
+            if let Some(n) = docs
+                .iter()
+                .filter_map(|d| c.time_of(d))
+                .filter(|&t| t <= self.future)
+                .max()
+            {
+                marks.insert(staged_key(*c), n);
+            }
+            match json_bytes(&docs) {
+                Ok(b) => kept.push((c.name().to_string(), b)),
+                Err(e) => return e,
+            }
+        }
+        if let Err(e) = store.stage_synced(person, &kept, &marks) {
+            return e.into();
+        }
+        NsError::Resumable {
+            site: client.site().to_string(),
+            from: if cut <= ALL_READ {
+                "the first".to_string()
+            } else {
+                fetch::iso_ms(cut)
+            },
+            error: Box::new(error),
+        }
+    }
+}
+
+/// A read of a first sync (or of its rest) that failed part-way: why,
+/// and from when what was read is whole in every collection (a local
+/// midnight, so every day imported is whole).
+#[derive(Default)]
+struct Resume {
+    error: Option<NsError>,
+    cut: Option<i64>,
+}
+
+impl Resume {
+    /// Takes a read of `c` that failed part-way: its documents read whole
+    /// (with, for treatments, those without a `created_at` string since
+    /// `undated`), the cut raised to cover them. A failure that proves
+    /// nothing, or a second one, ends the sync with nothing imported;
+    /// so does a failure of the undated read.
+    fn failed(
+        &mut self,
+        client: &Client,
+        c: Collection,
+        p: fetch::Partial,
+        undated: i64,
+        page: usize,
+        tz: &jiff::tz::TimeZone,
+    ) -> Result<fetch::Pages, NsError> {
+        let (Some(proven), None) = (p.proven_from, &self.error) else {
+            return Err(self.error.take().unwrap_or(p.error));
+        };
+        let mut pages = p.pages;
+        if c == Collection::Treatments {
+            let undated = fetch::undated_treatments(client, undated, page)?;
+            pages.pages += undated.pages;
+            pages.received += undated.received;
+            pages.without_created_at += pages.add(c, undated.docs);
+        }
+        let cut = midnight_at_or_after(proven, tz);
+        self.cut = Some(self.cut.map_or(cut, |k| k.max(cut)));
+        self.error = Some(p.error);
+        Ok(pages)
+    }
+}
+
+/// The first local midnight in `tz` at or after `ms`.
+fn midnight_at_or_after(ms: i64, tz: &jiff::tz::TimeZone) -> i64 {
+    let Ok(t) = jiff::Timestamp::from_millisecond(ms) else {
+        return ms;
+    };
+    let z = t.to_zoned(tz.clone());
+    match z.start_of_day() {
+        Ok(d) if d.timestamp() == t => ms,
+        _ => z
+            .tomorrow()
+            .and_then(|n| n.start_of_day())
+            .map_or(ms, |n| n.timestamp().as_millisecond()),
+    }
 }
 
 /// The glucose unit a site's `status.json` names (`settings.units`:

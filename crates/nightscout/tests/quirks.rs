@@ -32,6 +32,10 @@ fn syncs_as_files_import(d: &Data, site: Site) -> abba_nightscout::SyncReport {
     assert_eq!((a.added, a.updated), (0, 0), "{a:?}");
     assert!(again.gone.is_empty(), "{:?}", again.gone);
     assert_same_records(&synced, &imported);
+    // What the sync could not look for is on the link (`abba link
+    // --list`, the service's link), until a sync without.
+    let link = synced.link("ana").unwrap().unwrap();
+    assert_eq!(link.warnings, again.warnings);
     again
 }
 
@@ -249,8 +253,9 @@ fn a_bg_check_without_units_is_in_the_sites_unit_and_else_reported() {
 #[test]
 fn ninety_days_back_filled_interrupted_then_resumed_every_reading_once() {
     // 91 days of 5-minute entries on a server capping pages at 1,000; the
-    // first sync fails half-way (the site errs longer than the retries),
-    // the next one completes; a later sync reads only what is new.
+    // first sync fails half-way (the site errs longer than the retries):
+    // the whole days it read are imported and the next sync reads only
+    // the rest; a later sync reads only what is new.
     let dir = tempfile::tempdir().unwrap();
     let mut d = data(1);
     let newest = d.entries[0]["date"].as_i64().unwrap();
@@ -269,6 +274,12 @@ fn ninety_days_back_filled_interrupted_then_resumed_every_reading_once() {
     let mut site = site_of(&d, 1000);
     site.v3 = false;
     let srv = Server::start(site);
+    let entries_read = || srv.with(|s| s.log.iter().filter(|l| l.contains("entries")).count());
+    // A single clean sync, for comparison.
+    let mut clean = linked(dir.path(), "clean.db", &files, &srv.url);
+    srv.with(|s| s.log.clear());
+    sync(&mut clean, "ana", &sync_opts()).unwrap();
+    let clean_reads = entries_read();
     let mut store = linked(dir.path(), "sync.db", &files, &srv.url);
     // 12 pages through, then every try of the next fails.
     srv.with(|s| {
@@ -280,13 +291,17 @@ fn ninety_days_back_filled_interrupted_then_resumed_every_reading_once() {
         s.log.clear();
     });
     let e = sync(&mut store, "ana", &sync_opts()).unwrap_err();
-    assert!(matches!(e, NsError::GaveUp { .. }), "{e}");
-    assert!(store.records("ana").unwrap().is_empty());
-    assert!(store.link_marks("ana").unwrap().is_empty());
-    let failed_at = srv.with(|s| s.log.iter().filter(|l| l.contains("entries")).count());
+    let NsError::Resumable { error, from, .. } = &e else {
+        panic!("{e}")
+    };
+    assert!(matches!(**error, NsError::GaveUp { .. }), "{e}");
+    let failed_at = entries_read();
     assert!(failed_at >= 16, "it failed half-way: {failed_at} reads");
-    let r = sync(&mut store, "ana", &sync_opts()).unwrap();
-    assert_eq!(r.collections[0].documents, n);
+    // The whole days read are kept, from a local midnight, each reading
+    // of them; nothing is imported (no advice on a history read in part).
+    let from: jiff::Timestamp = from.parse().unwrap();
+    let midnight = from.to_zoned(jiff::tz::TimeZone::get(TZ).unwrap());
+    assert_eq!(midnight.start_of_day().unwrap(), midnight, "{from}");
     let cgm = |store: &abba_store::Store| {
         store
             .records("ana")
@@ -296,11 +311,37 @@ fn ninety_days_back_filled_interrupted_then_resumed_every_reading_once() {
             .map(|r| r.at)
             .collect::<Vec<_>>()
     };
+    assert!(store.records("ana").unwrap().is_empty());
+    let read_whole: Vec<&str> = d
+        .entries
+        .iter()
+        .filter(|e| e["date"].as_i64().unwrap() >= from.as_millisecond())
+        .map(|e| e["_id"].as_str().unwrap())
+        .collect();
+    assert!(read_whole.len() > 12 * 288 && read_whole.len() < n - 288);
+    let staged = store.staged("ana").unwrap();
+    let (_, entries) = staged.iter().find(|(c, _)| c == "entries").unwrap();
+    let kept: Vec<serde_json::Value> = serde_json::from_slice(entries).unwrap();
+    let kept: Vec<&str> = kept.iter().map(|e| e["_id"].as_str().unwrap()).collect();
+    assert_eq!(kept, read_whole);
+    // The next sync reads what is new and the rest below that midnight:
+    // not the 12 pages again.
+    srv.with(|s| s.log.clear());
+    let r = sync(&mut store, "ana", &sync_opts()).unwrap();
+    let resumed_reads = entries_read();
+    assert!(
+        resumed_reads + 12 <= clean_reads + 3,
+        "{resumed_reads} reads resumed, {clean_reads} in a clean sync"
+    );
+    assert_eq!(r.collections[0].documents, n);
+    assert_same_records(&store, &clean);
+    assert!(store.staged("ana").unwrap().is_empty());
     let mut at = cgm(&store);
     assert_eq!(at.len(), n);
     at.sort();
     at.dedup();
     assert_eq!(at.len(), n, "each reading once");
+    assert_eq!(store.link_marks("ana").unwrap()["backfill"], 0);
     // A day later: 288 new readings; the sync reads them and the window
     // read again, not the months.
     let new: Vec<serde_json::Value> = (1..=288)
@@ -319,4 +360,60 @@ fn ninety_days_back_filled_interrupted_then_resumed_every_reading_once() {
     );
     assert_eq!(r.import.import.unwrap().added, 288);
     assert_eq!(cgm(&store).len(), n + 288);
+}
+
+#[test]
+fn a_first_sync_failing_at_the_device_status_keeps_every_page_it_read() {
+    // The entries and treatments are read whole, then the site errs
+    // longer than the retries: all of it is kept (nothing imported), and
+    // the next sync reads only what is new since, not the history again.
+    let dir = tempfile::tempdir().unwrap();
+    let mut d = data(2);
+    // Six days of 5-minute entries, each ObjectId made at its time (as a
+    // server inserting it as it comes makes it).
+    let newest = d.entries[0]["date"].as_i64().unwrap();
+    d.entries = (0..6 * 288)
+        .map(|i| {
+            let at = newest - i as i64 * 300_000;
+            serde_json::json!({"_id": object_id(at, i), "type": "sgv", "sgv": 80 + (i * 13) % 120,
+                "date": at, "dateString": common::server::iso(at), "device": "xDrip-DexcomG6"})
+        })
+        .collect();
+    let files = export(dir.path(), &d);
+    let srv = Server::start(site_of(&d, 100));
+    let entries_read = || srv.with(|s| s.log.iter().filter(|l| l.contains("entries")).count());
+    let mut clean = linked(dir.path(), "clean.db", &files, &srv.url);
+    srv.with(|s| s.log.clear());
+    sync(&mut clean, "ana", &sync_opts()).unwrap();
+    let clean_reads = entries_read();
+    let mut store = linked(dir.path(), "sync.db", &files, &srv.url);
+    srv.with(|s| {
+        s.faults = vec![Fault {
+            path: "devicestatus".into(),
+            kind: FaultKind::Status(500),
+            times: 4,
+        }];
+        s.log.clear();
+    });
+    let e = sync(&mut store, "ana", &sync_opts()).unwrap_err();
+    assert!(matches!(e, NsError::Resumable { .. }), "{e}");
+    assert!(store.records("ana").unwrap().is_empty());
+    let staged = store.staged("ana").unwrap();
+    let kept = |c: &str| {
+        let (_, docs) = staged.iter().find(|(x, _)| x == c).unwrap();
+        serde_json::from_slice::<Vec<serde_json::Value>>(docs)
+            .unwrap()
+            .len()
+    };
+    assert_eq!(kept("entries"), d.entries.len());
+    assert_eq!(kept("treatments"), d.treatments.len());
+    srv.with(|s| s.log.clear());
+    sync(&mut store, "ana", &sync_opts()).unwrap();
+    let resumed_reads = entries_read();
+    assert!(
+        resumed_reads * 3 < clean_reads,
+        "{resumed_reads} reads resumed, {clean_reads} in a clean sync"
+    );
+    assert_same_records(&store, &clean);
+    assert!(store.staged("ana").unwrap().is_empty());
 }

@@ -1230,6 +1230,71 @@ async fn a_person_without_data_sees_an_empty_chart_and_no_report_yet() {
     );
 }
 
+/// What a link's last successful sync could not look for (its
+/// warnings: a site's own `_id` may be in them) is shown where the clinic
+/// sees the link, escaped, and in the API's link, until a sync without.
+#[tokio::test]
+async fn the_link_shows_what_its_last_sync_could_not_look_for_escaped() {
+    let svc = Svc::new();
+    let a = svc.person("ana").await;
+    let warning = "late uploads (dated before the window read again) cannot be looked for: \
+                   the server served _id <b>x</b> outside the asked bound (it ignores find[_id])";
+    let at: jiff::Timestamp = "2026-12-01T08:00:00Z".parse().unwrap();
+    {
+        let mut store = abba_service::open_store(&svc.db).unwrap();
+        store
+            .set_link(
+                "ana",
+                "https://ana.example.org",
+                &abba_store::link::Credential::Token("ana-0123456789abcdef".into()),
+                false,
+            )
+            .unwrap();
+        store
+            .record_success("ana", at, &[warning.to_string()])
+            .unwrap();
+    }
+    let (_, token) = svc.token(a).await;
+    let advice = svc
+        .call(
+            Method::GET,
+            &format!("/v1/persons/{a}/advice"),
+            Some(&token),
+            None,
+        )
+        .await;
+    assert_eq!(advice.status, StatusCode::OK, "{}", advice.text);
+    assert_eq!(advice.json["nightscout"]["warnings"], json!([warning]));
+    let (mut admin, _) = signed_in(&svc, Role::Admin).await;
+    let escaped = "_id &lt;b&gt;x&lt;&#x2f;b&gt; outside";
+    let list = admin.get("/clinic").await;
+    let page = admin.get(&format!("/clinic/persons/{a}")).await;
+    for html in [&list.html, &page.html] {
+        assert!(html.contains("not looked for by the last sync"), "{html}");
+        assert!(html.contains(escaped), "{html}");
+        assert!(!html.contains("<b>x"), "{html}");
+    }
+    // A failed sync leaves them (what was imported is as it was); a sync
+    // without any takes them away.
+    {
+        let mut store = abba_service::open_store(&svc.db).unwrap();
+        store.record_sync("ana", at, Some("HTTP 500")).unwrap();
+        assert_eq!(store.link("ana").unwrap().unwrap().warnings, [warning]);
+        store.record_sync("ana", at, None).unwrap();
+    }
+    let advice = svc
+        .call(
+            Method::GET,
+            &format!("/v1/persons/{a}/advice"),
+            Some(&token),
+            None,
+        )
+        .await;
+    assert_eq!(advice.json["nightscout"]["warnings"], json!([]));
+    let list = admin.get("/clinic").await;
+    assert!(!list.html.contains("not looked for"), "{}", list.html);
+}
+
 #[tokio::test]
 async fn the_clinic_shows_each_persons_nightscout_link_and_its_last_sync_never_its_credential() {
     let svc = Svc::new();

@@ -45,6 +45,11 @@ const TABLES: &[(&str, Q, Q)] = &[
         Q::CopyWriteNightscoutMark,
     ),
     (
+        "nightscout_staged",
+        Q::CopyReadNightscoutStaged,
+        Q::CopyWriteNightscoutStaged,
+    ),
+    (
         "nightscout_written",
         Q::CopyReadNightscoutWritten,
         Q::CopyWriteNightscoutWritten,

@@ -69,6 +69,9 @@ pub struct Link {
     pub last_error: Option<String>,
     /// Failed syncs in a row (the background sync backs off by them).
     pub failures: u32,
+    /// What the last successful sync could not look for, in words (it
+    /// imported what it read; see abba-nightscout's `SyncReport`).
+    pub warnings: Vec<String>,
 }
 
 /// A link as shown (no credential).
@@ -90,6 +93,8 @@ pub struct LinkView {
     pub last_error: Option<String>,
     /// Failed syncs in a row.
     pub failures: u32,
+    /// What the last successful sync could not look for, in words.
+    pub warnings: Vec<String>,
 }
 
 impl Link {
@@ -104,6 +109,7 @@ impl Link {
             last_success_at: self.last_success_at.clone(),
             last_error: self.last_error.clone(),
             failures: self.failures,
+            warnings: self.warnings.clone(),
         }
     }
 }
@@ -135,6 +141,11 @@ pub struct Fetched {
     pub marks: BTreeMap<String, i64>,
     /// (collection, JSON array of its documents new since the last mark).
     pub fresh: Vec<(String, Vec<u8>)>,
+    /// (collection, what its documents new since the last mark tell of the
+    /// delivery), counted by the sync as it read them
+    /// ([`Evidence::from_file`]): a collection too large to hold whole
+    /// (Nightscout's device status) and read for this only.
+    pub evidence: Vec<(String, Evidence)>,
     /// The site's glucose unit (`settings.units` of its `status.json`):
     /// a BG Check that does not say its own `units` is in it, as the site
     /// shows it. `None`: the site does not say (such a BG Check is then
@@ -175,6 +186,12 @@ fn row_to_link(r: Row) -> Result<Link, StoreError> {
         last_success_at: r.opt_text(7)?,
         last_error: r.opt_text(8)?,
         failures: r.int(9)?.clamp(0, i64::from(u32::MAX)) as u32,
+        warnings: match r.opt_text(10)? {
+            Some(j) => {
+                serde_json::from_str(&j).map_err(|e| StoreError::corrupt("link warnings", e))?
+            }
+            None => Vec::new(),
+        },
     })
 }
 
@@ -193,14 +210,18 @@ fn evidence_of(person: &Person, collection: &str, bytes: &[u8]) -> Option<Eviden
     if let Ok(read) = abba_io::read::read_bytes_noted(collection, 0, bytes, &opts) {
         e.clocks = away(person, &read.clocks);
     }
-    let nothing = e.smb == 0
+    (!no_evidence(&e)).then_some(e)
+}
+
+/// Whether `e` tells nothing of the delivery nor of the device's clock.
+fn no_evidence(e: &Evidence) -> bool {
+    e.smb == 0
         && e.automated_basal == 0
         && e.systems.is_empty()
         && e.dual_mode_pumps.is_empty()
         && e.open_loop_modes == 0
         && e.last_mode.is_none()
-        && e.clocks.is_empty();
-    (!nothing).then_some(e)
+        && e.clocks.is_empty()
 }
 
 fn away(
@@ -240,9 +261,23 @@ fn add_evidence(
     collection: &str,
     bytes: &[u8],
 ) -> Result<(), StoreError> {
-    let Some(e) = evidence_of(person, collection, bytes) else {
+    match evidence_of(person, collection, bytes) {
+        Some(e) => add_counted(tx, person, collection, &e),
+        None => Ok(()),
+    }
+}
+
+/// Adds evidence the sync counted to what the earlier syncs' told (see
+/// [`add_evidence`]).
+fn add_counted(
+    tx: &dyn Db,
+    person: &Person,
+    collection: &str,
+    e: &Evidence,
+) -> Result<(), StoreError> {
+    if no_evidence(e) {
         return Ok(());
-    };
+    }
     let held = tx
         .row(
             Q::FileEvidenceOne,
@@ -255,7 +290,7 @@ fn add_evidence(
             .map_err(|e| StoreError::corrupt("file evidence", e))?,
         None => Evidence::default(),
     };
-    sum.add_file(&e);
+    sum.add_file(e);
     sum.clocks = away(person, &sum.clocks);
     put_evidence(tx, person.id, collection, &sum)
 }
@@ -309,6 +344,7 @@ impl Store {
             .transpose()?;
         if old.as_deref().is_some_and(|u| u != url) {
             tx.execute(Q::NightscoutMarksDelete, args![p.id])?;
+            tx.execute(Q::NightscoutStagedDelete, args![p.id])?;
             tx.execute(Q::NightscoutWrittenDeleteAll, args![p.id])?;
         }
         tx.execute(
@@ -351,6 +387,7 @@ impl Store {
         let p = person_id(&self.conn, name)?;
         let tx = self.conn.transaction()?;
         tx.execute(Q::NightscoutMarksDelete, args![p.id])?;
+        tx.execute(Q::NightscoutStagedDelete, args![p.id])?;
         tx.execute(Q::NightscoutWrittenDeleteAll, args![p.id])?;
         let n = tx.execute(Q::NightscoutLinkDelete, args![p.id])?;
         tx.commit()?;
@@ -368,23 +405,42 @@ impl Store {
     }
 
     /// Records a sync's outcome at `at`: `None` a success (the failures
-    /// count restarts), `Some(error)` a failure.
+    /// count restarts, no warnings), `Some(error)` a failure (the last
+    /// success's warnings stay).
     pub fn record_sync(
         &mut self,
         name: &str,
         at: jiff::Timestamp,
         error: Option<&str>,
     ) -> Result<(), StoreError> {
-        let p = person_id(&self.conn, name)?;
-        let at = at.to_string();
-        match error {
-            None => self
-                .conn
-                .execute(Q::NightscoutSyncSucceeded, args![p.id, at])?,
-            Some(e) => self
-                .conn
-                .execute(Q::NightscoutSyncFailed, args![p.id, at, e])?,
+        let Some(e) = error else {
+            return self.record_success(name, at, &[]);
         };
+        let p = person_id(&self.conn, name)?;
+        self.conn
+            .execute(Q::NightscoutSyncFailed, args![p.id, at.to_string(), e])?;
+        Ok(())
+    }
+
+    /// Records a successful sync at `at` with what it could not look for
+    /// (`warnings`, in words), shown with the link until the next success.
+    pub fn record_success(
+        &mut self,
+        name: &str,
+        at: jiff::Timestamp,
+        warnings: &[String],
+    ) -> Result<(), StoreError> {
+        let p = person_id(&self.conn, name)?;
+        let json = match warnings {
+            [] => None,
+            w => Some(
+                serde_json::to_string(w).map_err(|e| StoreError::corrupt("link warnings", e))?,
+            ),
+        };
+        self.conn.execute(
+            Q::NightscoutSyncSucceeded,
+            args![p.id, at.to_string(), json],
+        )?;
         Ok(())
     }
 
@@ -402,9 +458,14 @@ impl Store {
         let p = person_id(&self.conn, name)?;
         let mut deleted = 0;
         let mut also = |tx: &dyn Db| -> Result<(), StoreError> {
+            // What an interrupted first sync kept is in this import.
+            tx.execute(Q::NightscoutStagedDelete, args![p.id])?;
             deleted = delete_records(tx, p.id, &fetched.deleted)?;
             for (c, bytes) in &fetched.fresh {
                 add_evidence(tx, &p, c, bytes)?;
+            }
+            for (c, e) in &fetched.evidence {
+                add_counted(tx, &p, c, e)?;
             }
             if let Some(bytes) = &fetched.profile {
                 replace_profile_evidence(tx, &p, bytes)?;
@@ -451,6 +512,42 @@ impl Store {
             import: Some(s),
             deleted,
         })
+    }
+
+    /// Keeps what a first sync read whole before it failed part-way
+    /// (per collection, a JSON array of its documents), with the marks of
+    /// how far that reaches, in one transaction: not imported (no day is
+    /// advised on before the whole history is read), read back by the
+    /// next sync ([`Store::staged`]) and removed by the import of all of
+    /// it ([`Store::import_synced`]).
+    pub fn stage_synced(
+        &mut self,
+        name: &str,
+        staged: &[(String, Vec<u8>)],
+        marks: &BTreeMap<String, i64>,
+    ) -> Result<(), StoreError> {
+        let p = person_id(&self.conn, name)?;
+        let tx = self.conn.transaction()?;
+        tx.execute(Q::NightscoutStagedDelete, args![p.id])?;
+        for (c, bytes) in staged {
+            let text = std::str::from_utf8(bytes)
+                .map_err(|e| StoreError::corrupt("staged documents", e))?;
+            tx.execute(Q::NightscoutStagedPut, args![p.id, c, text])?;
+        }
+        write_marks(&tx, p.id, marks)?;
+        tx.commit()?;
+        Ok(())
+    }
+
+    /// What a first sync kept for the next ([`Store::stage_synced`]):
+    /// (collection, JSON array).
+    pub fn staged(&self, name: &str) -> Result<Vec<(String, Vec<u8>)>, StoreError> {
+        let p = person_id(&self.conn, name)?;
+        self.conn
+            .rows(Q::NightscoutStagedOf, args![p.id])?
+            .into_iter()
+            .map(|r| Ok((r.text(0)?, r.text(1)?.into_bytes())))
+            .collect()
     }
 
     /// The documents whose records a sync brought from `origin` (a site's

@@ -47,6 +47,11 @@ pub enum Step {
     /// a form sent twice (a double click, a retry after a timeout) is
     /// recognised and stores nothing twice.
     WebSubmissions,
+    /// 11: what a Nightscout link's first sync read whole before it
+    /// failed part-way ([`crate::link`]): kept, not imported, until the
+    /// rest is read; what the link's last successful sync could not look
+    /// for (its warnings, shown with the link).
+    NightscoutStaged,
 }
 
 /// The steps, oldest first.
@@ -61,6 +66,7 @@ pub const STEPS: &[Step] = &[
     Step::WebSessions,
     Step::NameLooks,
     Step::WebSubmissions,
+    Step::NightscoutStaged,
 ];
 
 /// Rust code run inside a step's transaction.

@@ -156,7 +156,8 @@ fn the_migration_rekeys_index_identities_without_losing_a_record() {
         // previous schema left it (the person revision of migration 4, the
         // therapy changes and file evidence of migration 5, the Nightscout
         // link of migration 7, the sign-in links and sessions of 8, the
-        // name skeletons of 9, the web forms' submissions of 10).
+        // name skeletons of 9, the web forms' submissions of 10, the
+        // Nightscout link's kept first sync of 11).
         let later: Vec<String> = conn
             .prepare("SELECT 'DROP TRIGGER ' || name FROM sqlite_master WHERE type = 'trigger' AND name LIKE 'rev\\_%' ESCAPE '\\'")
             .unwrap()
@@ -168,7 +169,7 @@ fn the_migration_rekeys_index_identities_without_losing_a_record() {
             conn.execute_batch(&drop).unwrap();
         }
         conn.execute_batch(
-            "DROP TABLE IF EXISTS person_rev; DROP TABLE IF EXISTS therapy_change; DROP TABLE IF EXISTS file_evidence; DROP TABLE IF EXISTS nightscout_written; DROP TABLE IF EXISTS nightscout_mark; DROP TABLE IF EXISTS nightscout_link; DROP TABLE IF EXISTS signin_link; DROP TABLE IF EXISTS web_session; DROP TABLE IF EXISTS web_submission; DROP INDEX person_by_skeleton_folded; DROP INDEX person_by_skeleton_cased; ALTER TABLE person DROP COLUMN skeleton_folded; ALTER TABLE person DROP COLUMN skeleton_cased;",
+            "DROP TABLE IF EXISTS nightscout_staged; DROP TABLE IF EXISTS person_rev; DROP TABLE IF EXISTS therapy_change; DROP TABLE IF EXISTS file_evidence; DROP TABLE IF EXISTS nightscout_written; DROP TABLE IF EXISTS nightscout_mark; DROP TABLE IF EXISTS nightscout_link; DROP TABLE IF EXISTS signin_link; DROP TABLE IF EXISTS web_session; DROP TABLE IF EXISTS web_submission; DROP INDEX person_by_skeleton_folded; DROP INDEX person_by_skeleton_cased; ALTER TABLE person DROP COLUMN skeleton_folded; ALTER TABLE person DROP COLUMN skeleton_cased;",
         )
         .unwrap();
         let before = abba_store::schema::version_of(abba_store::schema::Step::Rekey) - 1;

@@ -482,6 +482,8 @@ pub struct ClinicTexts {
     pub link_synced: &'static str,
     /// A link not synced yet.
     pub link_new: &'static str,
+    /// What the last successful sync could not look for ({warnings}).
+    pub link_warnings: &'static str,
     /// Status: bounds saved.
     pub saved_bounds: &'static str,
     /// Status: steps saved.
@@ -669,6 +671,7 @@ pub const CLINIC_EN: ClinicTexts = ClinicTexts {
     link_failed: "linked; last sync failed: {error}",
     link_synced: "linked; last sync {at}",
     link_new: "linked; not synced yet",
+    link_warnings: "not looked for by the last sync (what it read is in): {warnings}",
     saved_bounds: "Saved: the bounds.",
     saved_steps: "Saved: the pump's steps.",
     saved_age_group: "Saved: the age group (every decision replayed with its defaults).",

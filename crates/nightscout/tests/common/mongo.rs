@@ -152,7 +152,8 @@ fn typed(col: &str, field: &str, raw: &str, has_id: bool) -> Result<Bson, String
             .map_or(t.len(), |(i, _)| i);
         return Ok(Bson::Num(t[..end].parse::<f64>().unwrap_or(f64::NAN)));
     }
-    if col == "treatments" && field == "created_at" && !has_id && raw.parse::<f64>().is_err() {
+    let by_created_at = col == "treatments" || col == "devicestatus";
+    if by_created_at && field == "created_at" && !has_id && raw.parse::<f64>().is_err() {
         let t = raw
             .replace(' ', "+")
             .parse::<jiff::Timestamp>()
@@ -175,7 +176,7 @@ impl Find {
     pub fn parse(col: &str, pairs: &[(String, String)]) -> Result<Find, String> {
         let fields = nest(pairs, "find")?;
         let has_id = fields.contains_key("_id");
-        if col == "treatments" && !has_id {
+        if (col == "treatments" || col == "devicestatus") && !has_id {
             // `enforceDateFilter` rewrites every value under `created_at`
             // with string methods: an operator object there fails.
             if let Some(Value::Object(ops)) = fields.get("created_at") {

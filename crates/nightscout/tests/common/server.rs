@@ -5,7 +5,8 @@
 //! - v1 `entries`, `treatments` (`find[...]` and `sort[...]` as
 //!   `mongo.rs` evaluates them, `count` with Nightscout's defaults and a
 //!   server-side maximum, newest first unless sorted otherwise),
-//!   `profile` (newest `startDate` first), `status`; POST/PUT/DELETE of
+//!   `profile` (newest `startDate` first), `devicestatus` (by `created_at`
+//!   as treatments, `lib/server/devicestatus.js`), `status`; POST/PUT/DELETE of
 //!   treatments and PUT of profiles;
 //! - authentication: `api-secret` = SHA-1 hex of API_SECRET (admin),
 //!   access tokens (`?token=`) of subjects with roles (readable,
@@ -50,7 +51,8 @@ pub struct Site {
     pub tokens: HashMap<String, Vec<&'static str>>,
     /// The most documents a v1 page holds, whatever `count` asks.
     pub max_count: usize,
-    /// Documents by collection (`entries`, `treatments`, `profile`).
+    /// Documents by collection (`entries`, `treatments`, `devicestatus`,
+    /// `profile`).
     pub docs: HashMap<&'static str, Vec<Doc>>,
     /// Faults still to inject, first match first.
     pub faults: Vec<Fault>,
@@ -576,6 +578,8 @@ async fn v1_list(
         "entries"
     } else if path.contains("treatments") {
         "treatments"
+    } else if path.contains("devicestatus") {
+        "devicestatus"
     } else {
         "profile"
     };
@@ -685,6 +689,7 @@ async fn v1_list(
                 // `lib/api/treatments/index.js`: 1,000 with a `find`.
                 "treatments" if q.iter().any(|(k, _)| k.starts_with("find[")) => 1000,
                 "treatments" => 100,
+                // `lib/api/devicestatus/index.js`: 10, as entries.
                 _ => 10,
             })
             .min(site.max_count);
@@ -1046,6 +1051,8 @@ impl Server {
                 "/api/v1/treatments/{id}",
                 axum::routing::delete(delete_treatment),
             )
+            .route("/api/v1/devicestatus.json", get(v1_list))
+            .route("/api/v1/devicestatus", get(v1_list))
             .route("/api/v1/profile.json", get(v1_list).put(put_profile))
             .route("/api/v1/profile", get(v1_list).put(put_profile))
             .route(

@@ -284,6 +284,7 @@ pub async fn advice(
                 last_success_at: l.last_success_at,
                 last_error: l.last_error,
                 failures: l.failures,
+                warnings: l.warnings,
             });
         Ok(r)
     })

@@ -165,13 +165,17 @@ fn row(store: &mut Store, id: i64, now_ms: i64) -> Result<Row, ApiError> {
     if !matches!(a.phase, advise::Phase::Adapting) {
         flags.push(C.flag_first_week);
     }
-    let nightscout = store
-        .link(&p.name)?
-        .map(|l| match (&l.last_error, &l.last_sync_at) {
+    let nightscout = store.link(&p.name)?.map(|l| {
+        let state = match (&l.last_error, &l.last_sync_at) {
             (Some(e), _) => fill(C.link_failed, &[("error", e)]),
             (None, Some(t)) => fill(C.link_synced, &[("at", &instant_text(t, &p.tz))]),
             (None, None) => C.link_new.into(),
-        });
+        };
+        match link_warnings(&l) {
+            Some(w) => format!("{state}; {w}"),
+            None => state,
+        }
+    });
     let _ = now_ms;
     Ok(Row {
         id,
@@ -917,9 +921,12 @@ fn person_model(
                 .as_deref()
                 .map_or_else(|| "never".to_string(), |t| instant_text(t, &p.tz)),
             l.last_error
+                .as_ref()
                 .map(|e| format!(", failed: {e}"))
                 .unwrap_or_default()
-        )
+        ) + &link_warnings(&l)
+            .map(|w| format!("; {w}"))
+            .unwrap_or_default()
     });
     let unit = p.settings.units.label();
     let summary = fill(
@@ -1808,6 +1815,12 @@ pub fn routes() -> axum::Router<crate::state::AppState> {
             "/clinic/persons/{id}/sessions/{session}/revoke",
             post(revoke_session),
         )
+}
+
+/// What the link's last successful sync could not look for, in words
+/// (`None`: nothing).
+fn link_warnings(l: &abba_store::link::Link) -> Option<String> {
+    (!l.warnings.is_empty()).then(|| fill(C.link_warnings, &[("warnings", &l.warnings.join("; "))]))
 }
 
 #[cfg(test)]

@@ -37,6 +37,7 @@ pub fn ddl(step: Step) -> &'static str {
         Step::WebSessions => WEB_SESSIONS,
         Step::NameLooks => NAME_LOOKS,
         Step::WebSubmissions => WEB_SUBMISSIONS,
+        Step::NightscoutStaged => NIGHTSCOUT_STAGED,
     }
 }
 
@@ -365,6 +366,23 @@ const WEB_SUBMISSIONS: &str = concat!(
         at_ms BIGINT NOT NULL,
         PRIMARY KEY (person_id, key)
     );"
+);
+
+/// As SQLite's: what a link's first sync read whole before it failed.
+const NIGHTSCOUT_STAGED: &str = concat!(
+    "CREATE TABLE nightscout_staged (
+        person_id BIGINT NOT NULL REFERENCES person(id),
+        collection ",
+    text!(),
+    " NOT NULL,
+        docs ",
+    text!(),
+    " NOT NULL,
+        PRIMARY KEY (person_id, collection)
+    );
+    ALTER TABLE nightscout_link ADD COLUMN last_warnings ",
+    text!(),
+    ";"
 );
 
 /// Applies every step the database does not have yet, each in its own

@@ -26,6 +26,7 @@ pub fn ddl(step: Step) -> &'static str {
         Step::WebSessions => WEB_SESSIONS,
         Step::NameLooks => NAME_LOOKS,
         Step::WebSubmissions => WEB_SUBMISSIONS,
+        Step::NightscoutStaged => NIGHTSCOUT_STAGED,
     }
 }
 
@@ -269,6 +270,18 @@ const WEB_SUBMISSIONS: &str = "CREATE TABLE web_submission (
         at_ms INTEGER NOT NULL,
         PRIMARY KEY (person_id, key)
     ) WITHOUT ROWID;";
+
+/// What a link's first sync read whole before it failed part-way: per
+/// collection, the documents (a JSON array), kept until the rest is read
+/// and all are imported at once. The last successful sync's warnings (a
+/// JSON array of texts; NULL: none).
+const NIGHTSCOUT_STAGED: &str = "CREATE TABLE nightscout_staged (
+        person_id INTEGER NOT NULL REFERENCES person(id),
+        collection TEXT NOT NULL,
+        docs TEXT NOT NULL,
+        PRIMARY KEY (person_id, collection)
+    ) WITHOUT ROWID;
+    ALTER TABLE nightscout_link ADD COLUMN last_warnings TEXT;";
 
 /// Applies every step the file does not have yet, each in its own
 /// transaction with its Rust part ([`crate::schema::code`]); refuses a

@@ -137,17 +137,23 @@ statements! {
     /// Nightscout link put.
     NightscoutLinkPut = "INSERT INTO nightscout_link (person_id, url, credential_kind, credential, write_back, created_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6) ON CONFLICT (person_id) DO UPDATE SET url = excluded.url, credential_kind = excluded.credential_kind, credential = excluded.credential, write_back = excluded.write_back";
     /// Nightscout link of.
-    NightscoutLinkOf = "SELECT p.name, l.url, l.credential_kind, l.credential, l.write_back, l.created_at, l.last_sync_at, l.last_success_at, l.last_error, l.failures FROM nightscout_link l JOIN person p ON p.id = l.person_id WHERE l.person_id = ?1";
+    NightscoutLinkOf = "SELECT p.name, l.url, l.credential_kind, l.credential, l.write_back, l.created_at, l.last_sync_at, l.last_success_at, l.last_error, l.failures, l.last_warnings FROM nightscout_link l JOIN person p ON p.id = l.person_id WHERE l.person_id = ?1";
     /// Nightscout links.
-    NightscoutLinks = "SELECT p.name, l.url, l.credential_kind, l.credential, l.write_back, l.created_at, l.last_sync_at, l.last_success_at, l.last_error, l.failures FROM nightscout_link l JOIN person p ON p.id = l.person_id ORDER BY p.name";
+    NightscoutLinks = "SELECT p.name, l.url, l.credential_kind, l.credential, l.write_back, l.created_at, l.last_sync_at, l.last_success_at, l.last_error, l.failures, l.last_warnings FROM nightscout_link l JOIN person p ON p.id = l.person_id ORDER BY p.name";
     /// Nightscout link delete.
     NightscoutLinkDelete = "DELETE FROM nightscout_link WHERE person_id = ?1";
     /// Nightscout marks of.
     NightscoutMarksOf = "SELECT collection, mark_ms FROM nightscout_mark WHERE person_id = ?1";
     /// Nightscout sync succeeded.
-    NightscoutSyncSucceeded = "UPDATE nightscout_link SET last_sync_at = ?2, last_success_at = ?2, last_error = NULL, failures = 0 WHERE person_id = ?1";
+    NightscoutSyncSucceeded = "UPDATE nightscout_link SET last_sync_at = ?2, last_success_at = ?2, last_error = NULL, failures = 0, last_warnings = ?3 WHERE person_id = ?1";
     /// Nightscout sync failed.
     NightscoutSyncFailed = "UPDATE nightscout_link SET last_sync_at = ?2, last_error = ?3, failures = failures + 1 WHERE person_id = ?1";
+    /// Nightscout staged put.
+    NightscoutStagedPut = "INSERT INTO nightscout_staged (person_id, collection, docs) VALUES (?1, ?2, ?3) ON CONFLICT (person_id, collection) DO UPDATE SET docs = excluded.docs";
+    /// Nightscout staged of.
+    NightscoutStagedOf = "SELECT collection, docs FROM nightscout_staged WHERE person_id = ?1 ORDER BY collection";
+    /// Nightscout staged delete.
+    NightscoutStagedDelete = "DELETE FROM nightscout_staged WHERE person_id = ?1";
     /// Nightscout documents.
     NightscoutDocuments = "SELECT source_id FROM record WHERE person_id = ?1 AND source = 'nightscout' AND at_ms >= ?2 AND substr(origin, 1, ?4) = ?3";
     /// Nightscout written of.
@@ -275,13 +281,17 @@ statements! {
     /// One row of `file_evidence` as read by `CopyReadFileEvidence`.
     CopyWriteFileEvidence = "INSERT INTO file_evidence (person_id, file_hash, file, evidence) VALUES (?1, ?2, ?3, ?4)";
     /// Every row of `nightscout_link`, in key order (`abba store copy`).
-    CopyReadNightscoutLink = "SELECT person_id, url, credential_kind, credential, write_back, created_at, last_sync_at, last_success_at, last_error, failures FROM nightscout_link ORDER BY person_id";
+    CopyReadNightscoutLink = "SELECT person_id, url, credential_kind, credential, write_back, created_at, last_sync_at, last_success_at, last_error, failures, last_warnings FROM nightscout_link ORDER BY person_id";
     /// One row of `nightscout_link` as read by `CopyReadNightscoutLink`.
-    CopyWriteNightscoutLink = "INSERT INTO nightscout_link (person_id, url, credential_kind, credential, write_back, created_at, last_sync_at, last_success_at, last_error, failures) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10)";
+    CopyWriteNightscoutLink = "INSERT INTO nightscout_link (person_id, url, credential_kind, credential, write_back, created_at, last_sync_at, last_success_at, last_error, failures, last_warnings) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11)";
     /// Every row of `nightscout_mark`, in key order (`abba store copy`).
     CopyReadNightscoutMark = "SELECT person_id, collection, mark_ms FROM nightscout_mark ORDER BY person_id, collection";
     /// One row of `nightscout_mark` as read by `CopyReadNightscoutMark`.
     CopyWriteNightscoutMark = "INSERT INTO nightscout_mark (person_id, collection, mark_ms) VALUES (?1, ?2, ?3)";
+    /// Every row of `nightscout_staged`.
+    CopyReadNightscoutStaged = "SELECT person_id, collection, docs FROM nightscout_staged ORDER BY person_id, collection";
+    /// One row of `nightscout_staged` as read by `CopyReadNightscoutStaged`.
+    CopyWriteNightscoutStaged = "INSERT INTO nightscout_staged (person_id, collection, docs) VALUES (?1, ?2, ?3)";
     /// Every row of `nightscout_written`, in key order (`abba store copy`).
     CopyReadNightscoutWritten = "SELECT person_id, what, key, remote_id, content, written_at FROM nightscout_written ORDER BY person_id, what, key";
     /// One row of `nightscout_written` as read by `CopyReadNightscoutWritten`.

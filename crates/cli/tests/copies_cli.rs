@@ -132,11 +132,13 @@ fn androidaps_events_uploaded_again_after_a_reset_are_counted_once_across_import
 
 /// What a store holds and makes of person `name`'s log: every stored
 /// record, the events' hash ([`abba_store::replay::events_hash`]), the
-/// bolus events, and `abba advise --json`.
+/// bolus events and their insulin (boluses of one minute are one event,
+/// their units added), and `abba advise --json`.
 struct Made {
     stored: Vec<abba_io::Record>,
     events_hash: String,
     bolus_events: usize,
+    bolus_units: f64,
     advice: serde_json::Value,
 }
 
@@ -152,8 +154,30 @@ fn made(db: &str, name: &str) -> Made {
             .iter()
             .filter(|e| matches!(e.kind, abba_core::EventKind::Bolus(_)))
             .count(),
+        bolus_units: events
+            .iter()
+            .map(|e| match e.kind {
+                abba_core::EventKind::Bolus(u) => u.0,
+                _ => 0.0,
+            })
+            .sum(),
         advice,
     }
+}
+
+/// The stored boluses of `m` on the local days (in `tz`) that `keep`
+/// takes: how many, and their units.
+fn stored_boluses(m: &Made, tz: &str, keep: impl Fn(jiff::civil::Date) -> bool) -> (usize, f64) {
+    let zone = jiff::tz::TimeZone::get(tz).unwrap();
+    m.stored
+        .iter()
+        .filter_map(|r| match r.kind {
+            abba_io::RecordKind::Bolus { units } if keep(zone.to_datetime(r.at).date()) => {
+                Some(units.0)
+            }
+            _ => None,
+        })
+        .fold((0, 0.0), |(n, u), b| (n + 1, u + b))
 }
 
 /// The sources whose insulin is used, by local day in `tz`
@@ -202,26 +226,17 @@ fn a_carelink_export_and_the_same_pump_in_nightscout_count_each_days_insulin_onc
     // Each export alone.
     let (_, pump) = imported(&dir, "pump.db", tz, &[&[&carelink]]);
     let (_, uploaded) = imported(&dir, "ns.db", tz, &[&[&ns]]);
-    let bolus_days = |m: &Made| -> std::collections::BTreeSet<jiff::civil::Date> {
-        let zone = jiff::tz::TimeZone::get(tz).unwrap();
-        m.stored
-            .iter()
-            .filter(|r| matches!(r.kind, abba_io::RecordKind::Bolus { .. }))
-            .map(|r| zone.to_datetime(r.at).date())
-            .collect()
-    };
-    let pump_days = bolus_days(&pump);
-    let ns_boluses_elsewhere = uploaded
+    let zone = jiff::tz::TimeZone::get(tz).unwrap();
+    let pump_days: std::collections::BTreeSet<jiff::civil::Date> = pump
         .stored
         .iter()
         .filter(|r| matches!(r.kind, abba_io::RecordKind::Bolus { .. }))
-        .filter(|r| {
-            let zone = jiff::tz::TimeZone::get(tz).unwrap();
-            !pump_days.contains(&zone.to_datetime(r.at).date())
-        })
-        .count();
+        .map(|r| zone.to_datetime(r.at).date())
+        .collect();
+    let pump_all = stored_boluses(&pump, tz, |_| true);
+    let ns_elsewhere = stored_boluses(&uploaded, tz, |d| !pump_days.contains(&d));
     assert_eq!(uploaded.bolus_events, 7);
-    assert_eq!(ns_boluses_elsewhere, 1);
+    assert_eq!(ns_elsewhere.0, 1);
 
     // CareLink then Nightscout, Nightscout then CareLink, both in one
     // import: every record stored, the same events, the same advice.
@@ -237,8 +252,12 @@ fn a_carelink_export_and_the_same_pump_in_nightscout_count_each_days_insulin_onc
     assert_eq!(a.events_hash, c.events_hash);
     assert_eq!(a.advice, b.advice);
     assert_eq!(a.advice, c.advice);
-    // Each dose once: the pump's, and Nightscout's bolus of another day.
-    assert_eq!(a.bolus_events, pump.bolus_events + ns_boluses_elsewhere);
+    // Each dose once: the pump's, and Nightscout's bolus of another day
+    // (boluses of one minute are one event: the units tell a dose counted
+    // twice).
+    assert_eq!(a.bolus_events, pump.bolus_events + ns_elsewhere.0);
+    assert!((a.bolus_units - (pump_all.1 + ns_elsewhere.1)).abs() < 1e-9);
+    assert!((pump.bolus_units - pump_all.1).abs() < 1e-9);
     assert_eq!(a.advice["data"]["events"]["bolus"], a.bolus_events);
     // The days both hold tie (three boluses each, the same span) and take
     // the pump's export (the fixed order's first); both orders say so.
@@ -318,19 +337,13 @@ fn a_partial_export_beside_nightscouts_whole_day_uses_nightscout_that_day_only()
     assert_eq!(used, insulin_used(dir.join("b.db").to_str().unwrap(), "p", tz));
     // Each dose once: the export's boluses but that morning's, and
     // Nightscout's of 2025-03-16 and 2025-03-17.
-    let zone = jiff::tz::TimeZone::get(tz).unwrap();
-    let boluses_on = |m: &Made, days: &[&str]| {
-        m.stored
-            .iter()
-            .filter(|r| matches!(r.kind, abba_io::RecordKind::Bolus { .. }))
-            .filter(|r| days.contains(&zone.to_datetime(r.at).date().to_string().as_str()))
-            .count()
-    };
-    let expected = boluses_on(&pump, &["2025-03-13", "2025-03-14", "2025-03-15"])
-        + boluses_on(&uploaded, &["2025-03-16", "2025-03-17"]);
-    assert_eq!(a.bolus_events, expected);
-    assert_eq!(boluses_on(&uploaded, &["2025-03-16"]), 3);
-    assert_eq!(boluses_on(&pump, &["2025-03-16"]), 1);
+    let sixteenth = day("2025-03-16");
+    let earlier = stored_boluses(&pump, tz, |d| d < sixteenth);
+    let later = stored_boluses(&uploaded, tz, |d| d >= sixteenth);
+    assert_eq!(a.bolus_events, earlier.0 + later.0);
+    assert!((a.bolus_units - (earlier.1 + later.1)).abs() < 1e-9);
+    assert_eq!(stored_boluses(&uploaded, tz, |d| d == sixteenth).0, 3);
+    assert_eq!(stored_boluses(&pump, tz, |d| d == sixteenth).0, 1);
     for text in [&partial_first, &ns_first] {
         assert!(
             text.contains(
@@ -397,6 +410,8 @@ fn two_doses_typed_into_clarity_give_way_to_the_pumps_export_of_that_day() {
         std::collections::BTreeSet::from([abba_io::Source::CareLink])
     );
     assert_eq!(a.bolus_events, pump.bolus_events);
+    assert!((a.bolus_units - pump.bolus_units).abs() < 1e-9);
+    assert!((pump.bolus_units - stored_boluses(&pump, tz, |_| true).1).abs() < 1e-9);
     assert!(
         clarity_first.contains(
             "2 insulin records from clarity (2025-03-15) stored, not used: on that day carelink \

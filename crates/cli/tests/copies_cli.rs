@@ -145,8 +145,8 @@ struct Made {
 fn made(db: &str, name: &str) -> Made {
     let store = abba_store::Store::open(std::path::Path::new(db)).unwrap();
     let events = store.events(name).unwrap();
-    let advice = serde_json::from_str(&ok(&["advise", "--db", db, "--person", name, "--json"]))
-        .unwrap();
+    let advice =
+        serde_json::from_str(&ok(&["advise", "--db", db, "--person", name, "--json"])).unwrap();
     Made {
         stored: store.records(name).unwrap(),
         events_hash: abba_store::replay::events_hash(&events),
@@ -189,8 +189,7 @@ fn insulin_used(
 ) -> std::collections::BTreeMap<jiff::civil::Date, std::collections::BTreeSet<abba_io::Source>> {
     let store = abba_store::Store::open(std::path::Path::new(db)).unwrap();
     let zone = jiff::tz::TimeZone::get(tz).unwrap();
-    let mut out: std::collections::BTreeMap<_, std::collections::BTreeSet<_>> =
-        Default::default();
+    let mut out: std::collections::BTreeMap<_, std::collections::BTreeSet<_>> = Default::default();
     for r in store.used_records(name).unwrap().records {
         if abba_store::one_source::DataClass::of(&r.kind)
             == Some(abba_store::one_source::DataClass::Insulin)
@@ -274,7 +273,9 @@ fn a_carelink_export_and_the_same_pump_in_nightscout_count_each_days_insulin_onc
     }
     let notes = a.advice["notes"].to_string();
     assert!(
-        notes.contains("6 insulin records from nightscout (2 days, 2025-03-15 to 2025-03-16) stored, not used"),
+        notes.contains(
+            "6 insulin records from nightscout (2 days, 2025-03-15 to 2025-03-16) stored, not used"
+        ),
         "{notes}"
     );
 
@@ -301,8 +302,12 @@ fn carelink_until_ten(dir: &std::path::Path) -> String {
         .collect();
     assert!(kept.len() < text.lines().count());
     let path = dir.join("carelink_until_ten.csv");
-    std::fs::write(&path, kept.join("\n").replace("03/16/25 23:59:59", "03/16/25 10:00:00"))
-        .unwrap();
+    std::fs::write(
+        &path,
+        kept.join("\n")
+            .replace("03/16/25 23:59:59", "03/16/25 10:00:00"),
+    )
+    .unwrap();
     path.to_str().unwrap().to_string()
 }
 
@@ -334,7 +339,10 @@ fn a_partial_export_beside_nightscouts_whole_day_uses_nightscout_that_day_only()
     for d in ["2025-03-13", "2025-03-14", "2025-03-15"] {
         assert_eq!(used[&day(d)], only(abba_io::Source::CareLink), "{d}");
     }
-    assert_eq!(used, insulin_used(dir.join("b.db").to_str().unwrap(), "p", tz));
+    assert_eq!(
+        used,
+        insulin_used(dir.join("b.db").to_str().unwrap(), "p", tz)
+    );
     // Each dose once: the export's boluses but that morning's, and
     // Nightscout's of 2025-03-16 and 2025-03-17.
     let sixteenth = day("2025-03-16");

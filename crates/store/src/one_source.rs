@@ -187,7 +187,10 @@ impl<'a> Days<'a> {
             return self.date;
         }
         let date = self.tz.to_datetime(at).date();
-        let start = |d: Date| d.to_zoned(self.tz.clone()).map(|z| z.timestamp().as_millisecond());
+        let start = |d: Date| {
+            d.to_zoned(self.tz.clone())
+                .map(|z| z.timestamp().as_millisecond())
+        };
         match (start(date), date.tomorrow().map(start)) {
             (Ok(from), Ok(Ok(to))) if from <= ms && ms < to => {
                 (self.from_ms, self.to_ms) = (from, to);
@@ -222,7 +225,10 @@ impl Tally {
             .iter()
             .filter(|(_, s)| s.len() > 1)
             .filter_map(|(k, s)| {
-                let best = s.iter().map(|(s, c)| (*s, *c)).max_by(|a, b| fuller(*a, *b))?;
+                let best = s
+                    .iter()
+                    .map(|(s, c)| (*s, *c))
+                    .max_by(|a, b| fuller(*a, *b))?;
                 Some((*k, best.0))
             })
             .collect()
@@ -563,7 +569,11 @@ mod tests {
             assert_eq!(days.of(at), tz.to_datetime(at).date(), "{at}");
         }
         // Out of order too.
-        for at in ["2025-03-09T07:59:00Z", "2025-03-08T06:00:00Z", "2025-03-09T08:01:00Z"] {
+        for at in [
+            "2025-03-09T07:59:00Z",
+            "2025-03-08T06:00:00Z",
+            "2025-03-09T08:01:00Z",
+        ] {
             let at: Timestamp = at.parse().unwrap();
             assert_eq!(days.of(at), tz.to_datetime(at).date(), "{at}");
         }

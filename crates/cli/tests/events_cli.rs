@@ -175,3 +175,43 @@ fn metrics_reads_abbas_own_simulate_output() {
     let mean = v["mean_mg_dl"].as_f64().unwrap();
     assert!((mean - want).abs() < 1e-6, "{mean} vs {want}");
 }
+
+#[test]
+fn events_of_one_pump_by_two_routes_count_each_dose_once_and_say_what_was_set_aside() {
+    let carelink = format!("{IO_DATA}/carelink_630g_us_synthetic.csv");
+    let ns = format!("{IO_DATA}/nightscout_treatments_600series_synthetic.json");
+    let run = |files: &[&str]| -> serde_json::Value {
+        let mut args = vec!["events", "--tz", "America/Chicago", "--json", "--input"];
+        args.extend_from_slice(files);
+        serde_json::from_str(&ok(&abba(&args))).unwrap()
+    };
+    let units = |v: &serde_json::Value| -> f64 {
+        v["records"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|r| r["kind"]["type"] == "bolus")
+            .map(|r| r["kind"]["units"].as_f64().unwrap())
+            .sum()
+    };
+    let pump = run(&[&carelink]);
+    let both = run(&[&ns, &carelink]);
+    // The files' order changes where each record was read, not the events
+    // nor what was set aside.
+    let other = run(&[&carelink, &ns]);
+    assert!(both["mapping"]["events"] == other["mapping"]["events"]);
+    assert!(both["set_aside"] == other["set_aside"]);
+    // Nightscout adds only its bolus of 2025-03-17, a day the export does
+    // not reach (07:35 in Chicago, 4.8 U).
+    assert!((units(&both) - (units(&pump) + 4.8)).abs() < 1e-9);
+    assert_eq!(both["set_aside"][0]["count"], 6, "{}", both["set_aside"]);
+    let mut args = vec!["events", "--tz", "America/Chicago", "--input"];
+    args.extend([carelink.as_str(), ns.as_str()]);
+    let text = ok(&abba(&args));
+    assert!(
+        text.contains(
+            "note: 6 insulin records from nightscout (2 days, 2025-03-15 to 2025-03-16) read, not used"
+        ),
+        "{text}"
+    );
+}

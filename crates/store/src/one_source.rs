@@ -378,8 +378,14 @@ fn stored_type(prefix: &str) -> Option<&str> {
     rest.split('"').next()
 }
 
-/// A sentence for one [`SetAside`].
+/// A sentence for one [`SetAside`] of the log: "stored, not used".
 pub fn sentence(o: &SetAside) -> String {
+    sentence_as(o, "stored")
+}
+
+/// A sentence for one [`SetAside`], the records `held` ("stored" in the
+/// log, "read" from files that are not imported), not used.
+pub fn sentence_as(o: &SetAside, held: &str) -> String {
     let (days, those) = if o.days == 1 {
         (o.first_day.clone(), "that day")
     } else {
@@ -389,7 +395,7 @@ pub fn sentence(o: &SetAside) -> String {
         )
     };
     format!(
-        "{} {} record{} from {} ({days}) stored, not used: on {those} {} covers the {} more \
+        "{} {} record{} from {} ({days}) {held}, not used: on {those} {} covers the {} more \
          fully and is used (one source per day for each kind of data, so that one pump's doses \
          or one sensor's readings reaching abba by two routes are not counted twice); the \
          first: {}.",

@@ -78,9 +78,21 @@ impl DataClass {
             DataClass::Carbs => "carbohydrate",
         }
     }
-    /// The class of a record's kind, if it is taken from one source per day.
+    /// The class of a record's kind, if it is taken from one source per day
+    /// (every kind named: a new one must be placed here).
     pub fn of(kind: &RecordKind) -> Option<DataClass> {
-        Self::of_name(kind.name())
+        match kind {
+            RecordKind::Cgm { .. } => Some(DataClass::Glucose),
+            RecordKind::Smbg { .. } => Some(DataClass::Meter),
+            RecordKind::Bolus { .. }
+            | RecordKind::ExtendedBolus { .. }
+            | RecordKind::TempBasal { .. }
+            | RecordKind::Suspend { .. }
+            | RecordKind::Resume
+            | RecordKind::LongActing { .. } => Some(DataClass::Insulin),
+            RecordKind::Carbs { .. } => Some(DataClass::Carbs),
+            RecordKind::Schedule { .. } | RecordKind::Ignored { .. } => None,
+        }
     }
     /// The class of a kind by its short name ([`RecordKind::name`], which
     /// is also its stored `type`).
@@ -207,16 +219,60 @@ impl<'a> Days<'a> {
 #[derive(Default)]
 struct Tally {
     by: BTreeMap<(DataClass, Date), BTreeMap<Source, Cover>>,
+    /// For each kind, the run of records of one day and source being
+    /// counted (a log comes in order: a map look-up per run, not per
+    /// record).
+    run: [Option<(Date, Source, Cover)>; 4],
 }
 
 impl Tally {
     fn add(&mut self, class: DataClass, day: Date, source: Source, at_ms: i64) {
-        self.by
+        let run = &mut self.run[class as usize];
+        match run {
+            Some((d, s, c)) if *d == day && *s == source => c.add(at_ms),
+            _ => {
+                if let Some((d, s, c)) = run.take() {
+                    Self::put(&mut self.by, class, d, s, c);
+                }
+                let mut c = Cover::new(at_ms);
+                c.add(at_ms);
+                *run = Some((day, source, c));
+            }
+        }
+    }
+
+    fn put(
+        by: &mut BTreeMap<(DataClass, Date), BTreeMap<Source, Cover>>,
+        class: DataClass,
+        day: Date,
+        source: Source,
+        c: Cover,
+    ) {
+        let e = by
             .entry((class, day))
             .or_default()
             .entry(source)
-            .or_insert_with(|| Cover::new(at_ms))
-            .add(at_ms);
+            .or_insert_with(|| Cover::new(c.first_ms));
+        e.count += c.count;
+        e.first_ms = e.first_ms.min(c.first_ms);
+        e.last_ms = e.last_ms.max(c.last_ms);
+    }
+
+    /// Every run counted (call once all records are added).
+    fn close(&mut self) {
+        for (i, class) in [
+            DataClass::Glucose,
+            DataClass::Meter,
+            DataClass::Insulin,
+            DataClass::Carbs,
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            if let Some((d, s, c)) = self.run[i].take() {
+                Self::put(&mut self.by, class, d, s, c);
+            }
+        }
     }
 
     /// The source used for each (kind, day) that more than one source holds.
@@ -294,15 +350,12 @@ impl Chosen {
 pub fn choose(tz: &TimeZone, mut records: Vec<Record>) -> Chosen {
     let mut days = Days::new(tz);
     let mut tally = Tally::default();
-    let keys: Vec<Option<(DataClass, Date)>> = records
-        .iter()
-        .map(|r| {
-            let class = DataClass::of(&r.kind)?;
-            let day = days.of(r.at);
-            tally.add(class, day, r.source, r.at.as_millisecond());
-            Some((class, day))
-        })
-        .collect();
+    for r in &records {
+        if let Some(class) = DataClass::of(&r.kind) {
+            tally.add(class, days.of(r.at), r.source, r.at.as_millisecond());
+        }
+    }
+    tally.close();
     let used = tally.used();
     if used.is_empty() {
         return Chosen {
@@ -310,15 +363,12 @@ pub fn choose(tz: &TimeZone, mut records: Vec<Record>) -> Chosen {
             set_aside: Vec::new(),
         };
     }
-    let mut i = 0;
-    records.retain(|r| {
-        let k = keys[i];
-        i += 1;
-        match k.and_then(|k| used.get(&k)) {
+    records.retain(
+        |r| match DataClass::of(&r.kind).and_then(|c| used.get(&(c, days.of(r.at)))) {
             Some(s) => *s == r.source,
             None => true,
-        }
-    });
+        },
+    );
     Chosen {
         records,
         set_aside: tally.set_aside(None),
@@ -369,6 +419,7 @@ pub fn set_aside_on_days(
             Ok(())
         },
     )?;
+    tally.close();
     Ok(tally.set_aside(Some(&wanted)))
 }
 
@@ -563,6 +614,28 @@ mod tests {
             ]
         );
         assert_eq!(chosen.set_aside.len(), 2);
+    }
+
+    #[test]
+    fn a_kind_has_one_class_read_from_the_record_or_from_its_stored_text() {
+        let units = Units(1.0);
+        let g = abba_io::record::Glucose::exact(100.0);
+        for kind in [
+            RecordKind::Cgm { glucose: g },
+            RecordKind::Smbg { glucose: g },
+            RecordKind::Carbs {
+                grams: abba_core::Grams(10.0),
+            },
+            RecordKind::Bolus { units },
+            RecordKind::Resume,
+            RecordKind::Ignored {
+                kind: "note".into(),
+            },
+        ] {
+            let text = serde_json::to_string(&kind).unwrap();
+            let stored = stored_type(&text[..text.len().min(24)]).and_then(DataClass::of_name);
+            assert_eq!(DataClass::of(&kind), stored, "{text}");
+        }
     }
 
     #[test]

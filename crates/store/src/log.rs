@@ -72,12 +72,17 @@ pub fn rekey(conn: &dyn Db) -> Result<(), StoreError> {
     Ok(())
 }
 
+/// A source as stored (the name serde gives it, see [`parse_source`]).
+pub(crate) fn source_text(source: Source) -> Result<String, StoreError> {
+    match serde_json::to_value(source) {
+        Ok(serde_json::Value::String(s)) => Ok(s),
+        _ => Err(StoreError::corrupt("record source", "not a string")),
+    }
+}
+
 /// A record's key columns: (source, source id) as stored.
 pub fn key(r: &Record) -> Result<(String, String), StoreError> {
-    let source = match serde_json::to_value(r.source) {
-        Ok(serde_json::Value::String(s)) => s,
-        _ => return Err(StoreError::corrupt("record source", "not a string")),
-    };
+    let source = source_text(r.source)?;
     let mut id = serde_json::to_string(&r.id).map_err(|e| StoreError::corrupt("record id", e))?;
     // serde_json's buffer starts at 128 bytes; an import holds one id a row.
     id.shrink_to_fit();

@@ -109,9 +109,20 @@ impl DataClass {
     }
 }
 
+/// Every source, each once (checked against [`rank`], which names each).
+const ALL_SOURCES: [Source; 6] = [
+    Source::CareLink,
+    Source::Tidepool,
+    Source::Clarity,
+    Source::LibreView,
+    Source::Nightscout,
+    Source::PlainCsv,
+];
+
 /// The fixed order of the rule's last tie (see the module documentation):
 /// lower first.
 fn rank(s: Source) -> u8 {
+    // A new source is placed here and in `ALL_SOURCES`.
     match s {
         Source::CareLink => 0,
         Source::Tidepool => 1,
@@ -395,6 +406,19 @@ pub fn set_aside_on_days(
     }
     if wanted.is_empty() {
         return Ok(Vec::new());
+    }
+    // One source in the import and none other in the log (a person's usual
+    // case): nothing can be set aside, and a long import is not read again.
+    let sources: BTreeSet<Source> = records.iter().map(|r| r.source).collect();
+    if sources.len() == 1 {
+        let mut others = false;
+        for s in ALL_SOURCES.iter().filter(|s| !sources.contains(s)) {
+            let name = crate::log::source_text(*s)?;
+            others |= db.row(Q::RecordOfSource, args![person, name])?.is_some();
+        }
+        if !others {
+            return Ok(Vec::new());
+        }
     }
     let wanted_days: BTreeSet<Date> = wanted.iter().map(|k| k.1).collect();
     // A day of a zone is at most 26 h: a margin of two days each side

@@ -98,6 +98,9 @@ statements! {
     /// each record in a window (`abba_store::one_source`: what an import
     /// says was set aside on its days).
     RecordKindsInWindow = "SELECT source, substr(kind, 1, 24), at_ms FROM record WHERE person_id = ?1 AND at_ms BETWEEN ?2 AND ?3";
+    /// Whether the log holds any record of a source (the primary key's
+    /// prefix: no scan).
+    RecordOfSource = "SELECT 1 FROM record WHERE person_id = ?1 AND source = ?2 LIMIT 1";
     /// The records of one source at one instant stored by other imports
     /// (`abba_store::edited`).
     RecordsAtInstant = "SELECT source_id, kind FROM record WHERE person_id = ?1 AND source = ?2 AND at_ms = ?3 AND import_id <> ?4";

@@ -352,15 +352,29 @@ fn a_partial_export_beside_nightscouts_whole_day_uses_nightscout_that_day_only()
     assert!((a.bolus_units - (earlier.1 + later.1)).abs() < 1e-9);
     assert_eq!(stored_boluses(&uploaded, tz, |d| d == sixteenth).0, 3);
     assert_eq!(stored_boluses(&pump, tz, |d| d == sixteenth).0, 1);
+    let said = "1 insulin record from carelink (2025-03-16) stored, not used: on that day \
+                nightscout covers the insulin more fully and is used";
     for text in [&partial_first, &ns_first] {
-        assert!(
-            text.contains(
-                "1 insulin record from carelink (2025-03-16) stored, not used: on that day \
-                 nightscout covers the insulin more fully and is used"
-            ),
-            "{text}"
-        );
+        assert!(text.contains(said), "{text}");
     }
+    // The advice and the person's report say it too.
+    let advice = ok(&["advise", "--db", dir.join("a.db").to_str().unwrap(), "--person", "p"]);
+    assert!(advice.contains(said), "{advice}");
+    let page = dir.join("report.html");
+    ok(&[
+        "report",
+        "--db",
+        dir.join("a.db").to_str().unwrap(),
+        "--person",
+        "p",
+        "--out",
+        page.to_str().unwrap(),
+    ]);
+    let html = std::fs::read_to_string(&page).unwrap();
+    assert!(
+        html.contains("1 insulin record from carelink (2025-03-16) stored, not used"),
+        "the report's notes"
+    );
 }
 
 /// A Clarity export (Chicago): EGVs every 5 min from 06:00 to 09:00 of

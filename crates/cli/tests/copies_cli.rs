@@ -358,7 +358,13 @@ fn a_partial_export_beside_nightscouts_whole_day_uses_nightscout_that_day_only()
         assert!(text.contains(said), "{text}");
     }
     // The advice and the person's report say it too.
-    let advice = ok(&["advise", "--db", dir.join("a.db").to_str().unwrap(), "--person", "p"]);
+    let advice = ok(&[
+        "advise",
+        "--db",
+        dir.join("a.db").to_str().unwrap(),
+        "--person",
+        "p",
+    ]);
     assert!(advice.contains(said), "{advice}");
     let page = dir.join("report.html");
     ok(&[
@@ -374,6 +380,23 @@ fn a_partial_export_beside_nightscouts_whole_day_uses_nightscout_that_day_only()
     assert!(
         html.contains("1 insulin record from carelink (2025-03-16) stored, not used"),
         "the report's notes"
+    );
+    // autotune --db tunes from the records used, and says what it set aside.
+    let tuned: serde_json::Value = serde_json::from_str(&ok(&[
+        "autotune",
+        "--db",
+        dir.join("a.db").to_str().unwrap(),
+        "--person",
+        "p",
+        "--isf",
+        "50",
+        "--json",
+    ]))
+    .unwrap();
+    assert!(
+        tuned["notes"].to_string().contains(said),
+        "{}",
+        tuned["notes"]
     );
 }
 

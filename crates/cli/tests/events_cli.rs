@@ -215,3 +215,46 @@ fn events_of_one_pump_by_two_routes_count_each_dose_once_and_say_what_was_set_as
         "{text}"
     );
 }
+
+#[test]
+fn metrics_of_one_sensor_by_two_routes_count_each_reading_once() {
+    let dir = cli_common::tmp_path("abba-metrics-two-routes-", "");
+    std::fs::create_dir_all(&*dir).unwrap();
+    // 2026-05-04 in Zurich (UTC+2): Clarity's EGVs every 5 min, and the
+    // same readings in Nightscout, uploaded 20 s later.
+    let start = 1_777_845_600_000_i64; // 2026-05-04T00:00:00+02:00
+    let mut clarity = String::from(
+        "Index,Timestamp (YYYY-MM-DDThh:mm:ss),Event Type,Event Subtype,Patient Info,Device Info,Source Device ID,Glucose Value (mg/dL),Insulin Value (u),Carb Value (grams),Duration (hh:mm:ss),Glucose Rate of Change (mg/dL/min),Transmitter Time (Long Integer),Transmitter ID\r\n",
+    );
+    let mut entries = Vec::new();
+    for k in 0..288_i64 {
+        let g = 100 + (k * 7) % 90;
+        clarity.push_str(&format!(
+            "{},2026-05-04T{:02}:{:02}:00,EGV,,,,android G6,{g},,,,,{},8ABCDE\r\n",
+            k + 1,
+            k * 5 / 60,
+            k * 5 % 60,
+            4_000_000 + k * 300
+        ));
+        let ms = start + k * 300_000 + 20_000;
+        entries.push(
+            serde_json::json!({"_id": format!("{ms:024x}"), "type": "sgv", "sgv": g, "date": ms}),
+        );
+    }
+    let c = dir.join("clarity.csv");
+    let n = dir.join("entries.json");
+    std::fs::write(&c, clarity).unwrap();
+    std::fs::write(&n, serde_json::to_vec(&entries).unwrap()).unwrap();
+    let (c, n) = (c.to_str().unwrap(), n.to_str().unwrap());
+    let out = abba(&["metrics", "--tz", "Europe/Zurich", "--input", c, n]);
+    let text = ok(&out);
+    assert!(
+        text.contains("288 readings from 2026-05-04T00:00"),
+        "{text}"
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("288 CGM glucose records from nightscout (2026-05-04) read, not used: on that day clarity covers"),
+        "{err}"
+    );
+}

@@ -1,5 +1,9 @@
 //! `abba events`: the normalised records of exports and the advisor events
 //! they map to (abba-io's `to_events`), with counts and every rejection.
+//! As in a person's store, each kind of data on each local day comes from
+//! one source (`abba_store::one_source`): files of one pump or sensor by
+//! two routes count each dose and reading once, and what was set aside is
+//! said.
 use abba_io::events::PersonSettings;
 use abba_io::meals::MealWindows;
 use anyhow::{Context, Result};
@@ -43,6 +47,11 @@ pub fn run(args: Args) -> Result<()> {
         anyhow::bail!("no readings in {}", batch.files.join(", "));
     }
     let future = batch.refuse_future(jiff::Timestamp::now());
+    let chosen = abba_store::one_source::choose(&tz, std::mem::take(&mut batch.records));
+    batch.records = chosen.records;
+    let set_aside: Vec<String> = (chosen.set_aside.iter())
+        .map(|o| abba_store::one_source::sentence_as(o, "read"))
+        .collect();
     let mut person = PersonSettings::new(tz);
     person.first_day = args
         .first_day
@@ -65,6 +74,7 @@ pub fn run(args: Args) -> Result<()> {
             "cross_upload": batch.cross_upload,
             "future": future,
             "notes": batch.notes,
+            "set_aside": chosen.set_aside,
             "mapping": stream,
         });
         println!("{}", serde_json::to_string(&out)?);
@@ -75,9 +85,10 @@ pub fn run(args: Args) -> Result<()> {
         batch.files.join(", ")
     );
     println!(
-        "  formats: {:?}; {} records after merging",
+        "  formats: {:?}; {} records after merging, {} set aside (another source covers their kind and day more fully)",
         batch.formats,
-        batch.records.len()
+        batch.records.len(),
+        chosen.set_aside.iter().map(|o| o.count).sum::<usize>()
     );
     let mut kinds = std::collections::BTreeMap::<&str, usize>::new();
     for r in &batch.records {
@@ -99,7 +110,7 @@ pub fn run(args: Args) -> Result<()> {
     for f in batch.empty_files() {
         println!("  no readings in {f}");
     }
-    for n in &batch.notes {
+    for n in batch.notes.iter().chain(&set_aside) {
         println!("  note: {n}");
     }
     println!("  ignored by kind: {:?}", stream.ignored);

@@ -1,5 +1,8 @@
 //! `abba metrics`: coverage and glucose metrics (iglu's definitions, see
-//! `abba_core::metrics`) of CGM exports read by abba-io.
+//! `abba_core::metrics`) of CGM exports read by abba-io. As in a person's
+//! store, each local day's readings come from one source
+//! (`abba_store::one_source`): one sensor's export beside its readings in
+//! Nightscout counts each reading once, and what was set aside is said.
 use abba_core::metrics::{mage_timed, metrics_timed, GlucoseMetrics};
 use abba_io::coverage::{coverage, Coverage, MIN_COVERAGE_PERCENT};
 use abba_io::record::{Censor, RecordKind};
@@ -45,6 +48,11 @@ pub fn run(args: Args) -> Result<()> {
         eprintln!("note: {n}");
     }
     let tz = opts.tz.clone().unwrap_or(jiff::tz::TimeZone::UTC);
+    let chosen = abba_store::one_source::choose(&tz, std::mem::take(&mut batch.records));
+    batch.records = chosen.records;
+    for o in &chosen.set_aside {
+        eprintln!("note: {}", abba_store::one_source::sentence_as(o, "read"));
+    }
     let from = args
         .from
         .as_deref()

@@ -175,3 +175,86 @@ fn metrics_reads_abbas_own_simulate_output() {
     let mean = v["mean_mg_dl"].as_f64().unwrap();
     assert!((mean - want).abs() < 1e-6, "{mean} vs {want}");
 }
+
+#[test]
+fn events_of_one_pump_by_two_routes_count_each_dose_once_and_say_what_was_set_aside() {
+    let carelink = format!("{IO_DATA}/carelink_630g_us_synthetic.csv");
+    let ns = format!("{IO_DATA}/nightscout_treatments_600series_synthetic.json");
+    let run = |files: &[&str]| -> serde_json::Value {
+        let mut args = vec!["events", "--tz", "America/Chicago", "--json", "--input"];
+        args.extend_from_slice(files);
+        serde_json::from_str(&ok(&abba(&args))).unwrap()
+    };
+    let units = |v: &serde_json::Value| -> f64 {
+        v["records"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|r| r["kind"]["type"] == "bolus")
+            .map(|r| r["kind"]["units"].as_f64().unwrap())
+            .sum()
+    };
+    let pump = run(&[&carelink]);
+    let both = run(&[&ns, &carelink]);
+    // The files' order changes where each record was read, not the events
+    // nor what was set aside.
+    let other = run(&[&carelink, &ns]);
+    assert!(both["mapping"]["events"] == other["mapping"]["events"]);
+    assert!(both["set_aside"] == other["set_aside"]);
+    // Nightscout adds only its bolus of 2025-03-17, a day the export does
+    // not reach (07:35 in Chicago, 4.8 U).
+    assert!((units(&both) - (units(&pump) + 4.8)).abs() < 1e-9);
+    assert_eq!(both["set_aside"][0]["count"], 6, "{}", both["set_aside"]);
+    let mut args = vec!["events", "--tz", "America/Chicago", "--input"];
+    args.extend([carelink.as_str(), ns.as_str()]);
+    let text = ok(&abba(&args));
+    assert!(
+        text.contains(
+            "note: 6 insulin records from nightscout (2 days, 2025-03-15 to 2025-03-16) read, not used"
+        ),
+        "{text}"
+    );
+}
+
+#[test]
+fn metrics_of_one_sensor_by_two_routes_count_each_reading_once() {
+    let dir = cli_common::tmp_path("abba-metrics-two-routes-", "");
+    std::fs::create_dir_all(&*dir).unwrap();
+    // 2026-05-04 in Zurich (UTC+2): Clarity's EGVs every 5 min, and the
+    // same readings in Nightscout, uploaded 20 s later.
+    let start = 1_777_845_600_000_i64; // 2026-05-04T00:00:00+02:00
+    let mut clarity = String::from(
+        "Index,Timestamp (YYYY-MM-DDThh:mm:ss),Event Type,Event Subtype,Patient Info,Device Info,Source Device ID,Glucose Value (mg/dL),Insulin Value (u),Carb Value (grams),Duration (hh:mm:ss),Glucose Rate of Change (mg/dL/min),Transmitter Time (Long Integer),Transmitter ID\r\n",
+    );
+    let mut entries = Vec::new();
+    for k in 0..288_i64 {
+        let g = 100 + (k * 7) % 90;
+        clarity.push_str(&format!(
+            "{},2026-05-04T{:02}:{:02}:00,EGV,,,,android G6,{g},,,,,{},8ABCDE\r\n",
+            k + 1,
+            k * 5 / 60,
+            k * 5 % 60,
+            4_000_000 + k * 300
+        ));
+        let ms = start + k * 300_000 + 20_000;
+        entries.push(
+            serde_json::json!({"_id": format!("{ms:024x}"), "type": "sgv", "sgv": g, "date": ms}),
+        );
+    }
+    let c = dir.join("clarity.csv");
+    let n = dir.join("entries.json");
+    std::fs::write(&c, clarity).unwrap();
+    std::fs::write(&n, serde_json::to_vec(&entries).unwrap()).unwrap();
+    let (c, n) = (c.to_str().unwrap(), n.to_str().unwrap());
+    let out = abba(&["metrics", "--tz", "Europe/Zurich", "--input", c, n]);
+    let text = ok(&out);
+    assert!(
+        text.contains("288 readings from 2026-05-04T00:00"),
+        "{text}"
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("288 CGM glucose records from nightscout (2026-05-04) read, not used: on that day clarity covers"),
+        "{err}"
+    );
+}

@@ -1,8 +1,10 @@
 //! AndroidAPS's pump events uploaded again under other documents (an
 //! NSClient reset, NSClientV3 after NSClient) reaching the store by two
 //! syncs of the live link: each dose is stored once, and the second
-//! sync says how many copies it found (fixtures in
-//! `crates/io/tests/data`, see its PROVENANCE.md).
+//! sync says how many copies it found; a CareLink export beside the same
+//! pump's doses synced from Nightscout, in either order, stores both and
+//! counts each dose once (fixtures in `crates/io/tests/data`, see its
+//! PROVENANCE.md).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use crate::common;
@@ -93,4 +95,105 @@ fn androidaps_events_uploaded_again_reach_the_store_once_over_two_syncs() {
         .filter(|e| matches!(e.kind, abba_core::EventKind::Bolus(_)))
         .count();
     assert_eq!(bolus_events, after.len());
+}
+
+/// Person `ana` in Chicago (the CareLink fixture's zone) in a new store
+/// `file`, linked to the site at `url`.
+fn linked_in_chicago(
+    dir: &std::path::Path,
+    file: &str,
+    profile: &std::path::Path,
+    url: &str,
+) -> abba_store::Store {
+    let mut store = abba_store::Store::open(&dir.join(file)).unwrap();
+    let mut p = common::person(&[profile.to_path_buf()]);
+    p.tz = "America/Chicago".into();
+    store.create_person(&p).unwrap();
+    abba_nightscout::link(&mut store, "ana", url, secret(), false, &fast_client()).unwrap();
+    store
+}
+
+/// The CareLink export of the pump whose doses the 600-series uploader
+/// sent to Nightscout, imported into `store` (the store's therapy kept).
+fn import_carelink(store: &mut abba_store::Store) -> abba_store::ImportSummary {
+    let file = format!(
+        "{}/../io/tests/data/carelink_630g_us_synthetic.csv",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    store
+        .import_files_with(
+            "ana",
+            &[file.into()],
+            None,
+            abba_store::ProfileResolution::Keep,
+            None,
+        )
+        .unwrap()
+}
+
+#[test]
+fn a_carelink_export_and_a_sync_of_the_same_pump_count_each_dose_once_in_either_order() {
+    let dir = tempfile::tempdir().unwrap();
+    let profile = io_fixture("nightscout_profile_synthetic.json");
+    let treatments = io_fixture("nightscout_treatments_600series_synthetic.json");
+    let profile_file = dir.path().join("profile.json");
+    std::fs::write(&profile_file, serde_json::to_vec(&profile).unwrap()).unwrap();
+    let mut site = Site::new(SECRET);
+    site.add("entries", Vec::new());
+    site.add("treatments", treatments.clone());
+    site.add("profile", profile);
+    let srv = Server::start(site);
+
+    let mut alone = linked_in_chicago(dir.path(), "alone.db", &profile_file, &srv.url);
+    import_carelink(&mut alone);
+    let pump = boluses(&alone);
+    // The export first, then the sync.
+    let mut a = linked_in_chicago(dir.path(), "a.db", &profile_file, &srv.url);
+    import_carelink(&mut a);
+    let synced = sync(&mut a, "ana", &sync_opts()).unwrap();
+    let said = synced.import.import.unwrap().lines("ana").join("\n");
+    // The sync first, then the export.
+    let mut b = linked_in_chicago(dir.path(), "b.db", &profile_file, &srv.url);
+    sync(&mut b, "ana", &sync_opts()).unwrap();
+    let imported = import_carelink(&mut b).lines("ana").join("\n");
+
+    // Every document and every row stored, whichever came first.
+    assert_same_records(&a, &b);
+    assert_eq!(boluses(&a).len(), pump.len() + treatments.len());
+    let events = |s: &abba_store::Store| s.events("ana").unwrap();
+    assert_eq!(
+        abba_store::replay::events_hash(&events(&a)),
+        abba_store::replay::events_hash(&events(&b))
+    );
+    assert_eq!(advice(&mut a), advice(&mut b));
+    // Each dose once: the pump's, and the one bolus Nightscout has of a
+    // day the export does not reach (2025-03-17, Chicago).
+    let units = |s: &abba_store::Store| -> f64 {
+        events(s)
+            .iter()
+            .map(|e| match e.kind {
+                abba_core::EventKind::Bolus(u) => u.0,
+                _ => 0.0,
+            })
+            .sum()
+    };
+    let later: f64 = treatments
+        .iter()
+        .filter(|d| d["created_at"].as_str().unwrap() >= "2025-03-17T05:00:00Z")
+        .map(|d| d["insulin"].as_f64().unwrap())
+        .sum();
+    assert!(later > 0.0);
+    let pump_units: f64 = pump.iter().map(|b| b.1).sum();
+    assert!(
+        (units(&a) - (pump_units + later)).abs() < 1e-9,
+        "{}",
+        units(&a)
+    );
+    // The second route's records, stored and not used, said either way.
+    for text in [&said, &imported] {
+        assert!(
+            text.contains("6 insulin records from nightscout (2 days, 2025-03-15 to 2025-03-16) stored, not used"),
+            "{text}"
+        );
+    }
 }

@@ -219,10 +219,14 @@ impl Data {
     }
 
     /// The records of person `name` in `store` (shown as `db`), in the
-    /// person's zone.
+    /// person's zone: those their days are made from (one source for each
+    /// kind of data and day, [`crate::one_source`]; what was set aside is
+    /// said).
     pub fn from_store(store: &Store, db: &str, name: &str) -> Result<Data, TuneError> {
         let person = store.person(name)?;
-        let records = store.records(name)?;
+        let chosen = store.used_records(name)?;
+        let set_aside = chosen.notes();
+        let records = chosen.records;
         let who = name.to_string();
         let db = db.to_string();
         Ok(Data {
@@ -237,10 +241,12 @@ impl Data {
             }),
             tz: person.tz.clone(),
             oref0: Oref0Fields::default(),
-            said: vec![
+            said: std::iter::once(
                 "a store keeps abba's reading of each record, not every Nightscout field oref0 reads (a meal's own `timestamp`, Loop's delivered `amount`): on such uploads oref0 on the same files can differ (give --entries and --treatments for oref0's figures)"
-                    .into(),
-            ],
+                    .to_string(),
+            )
+            .chain(set_aside)
+            .collect(),
         })
     }
 }

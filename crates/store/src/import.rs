@@ -49,9 +49,11 @@ pub struct ImportSummary {
     /// export and this one ([`crate::edited`]): the stored value replaced
     /// (also counted in `updated`).
     pub edited: usize,
-    /// Records of a kind of data whose day another source holds
-    /// ([`crate::one_source`]): not stored.
-    pub other_source: Vec<crate::one_source::OtherSource>,
+    /// On the days this import touched, records of a kind of data that
+    /// the log holds (stored, this import's or an earlier one's) from a
+    /// source other than the one that covers that day more fully
+    /// ([`crate::one_source`]): stored, not used.
+    pub set_aside: Vec<crate::one_source::SetAside>,
     /// Records dated after the time of import: refused.
     pub future: Refused,
     /// Records dated before [`abba_io::read::RECORDS_FROM`] (1990-01-01):
@@ -132,7 +134,7 @@ impl ImportSummary {
                 records(self.edited)
             ));
         }
-        for o in &self.other_source {
+        for o in &self.set_aside {
             out.push(crate::one_source::sentence(o));
         }
         let too_old = format!("{} (refused)", abba_io::read::too_old_words());
@@ -292,15 +294,10 @@ pub fn import_with(
         )));
     }
     also(&tx)?;
-    // One source per day for each kind of data (after `also`: the
-    // records of documents a sync saw deleted hold no day).
-    let holders = crate::one_source::Holders::of(&tx, person.id, &person.tz, &kept)?;
-    let mut not_stored = crate::one_source::NotStored::default();
-    for r in kept {
-        if let Some(held_by) = holders.other(&person.tz, r) {
-            not_stored.note(&person.tz, r, held_by, || batch.origin(r));
-            continue;
-        }
+    // Every record is stored, whatever other source holds its day: which
+    // source's records are used is chosen when events are derived
+    // ([`crate::one_source`]), and said below.
+    for r in &kept {
         let (source, id) = key(r)?;
         let window = match &r.kind {
             RecordKind::Ignored { .. } => None,
@@ -309,9 +306,8 @@ pub fn import_with(
         let is_id = matches!(r.id, SourceId::Id(_));
         // The record's stored text and origin are made when it is written
         // (a long export's would double what the import holds).
-        rows.push((source, id, r.at.as_millisecond(), r, window, is_id));
+        rows.push((source, id, r.at.as_millisecond(), *r, window, is_id));
     }
-    let other_source = not_stored.into_list();
     // In key order (stable: rows of one key keep theirs): the records'
     // table is keyed by (source, id), and a long export's ids (content
     // hashes) come in no order, so each look-up and insert would land on
@@ -412,6 +408,10 @@ pub fn import_with(
             }
         }
     }
+    // What the log now sets aside on the days this import touched (after
+    // its writes, so that both orders of two imports say the same of the
+    // second).
+    let set_aside = crate::one_source::set_aside_on_days(&tx, person.id, &person.tz, &kept)?;
     let import_id = if added == 0 && updated == 0 {
         // Nothing new: leave no trace beyond saying so.
         tx.execute(Q::ImportDelete, args![import_id])?;
@@ -430,7 +430,7 @@ pub fn import_with(
     Ok(ImportSummary {
         import_id,
         files: batch.files.clone(),
-        read: rows.len() + other_source.iter().map(|o| o.count).sum::<usize>(),
+        read: rows.len(),
         added,
         known,
         updated,
@@ -439,7 +439,7 @@ pub fn import_with(
         cross_upload_duplicates: batch.cross_upload.values().sum(),
         copies_of_stored_doses,
         edited,
-        other_source,
+        set_aside,
         future,
         too_old,
         before_day_1,

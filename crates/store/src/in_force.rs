@@ -590,20 +590,26 @@ pub fn import_ends(person: &Person, imports: &[(i64, i64)]) -> Vec<Timestamp> {
 }
 
 /// The facts of an import-fed person's records and their events: the
-/// records are taken, made into the events ([`log::events`]) and dropped,
-/// so that a long log is never held twice.
+/// records are taken, one source chosen for each kind of data and day
+/// ([`crate::one_source`]: the profiles, the delivery's evidence and the
+/// events all read the records used), made into the events
+/// ([`log::events_of`]) and dropped, so that a long log is never held
+/// twice. `imports` (where each import left the log) reads every record:
+/// it is the history of the imports, not of the person's days.
 pub fn record_facts(
     person: &Person,
     records: Vec<Record>,
     imports: &[(i64, i64)],
 ) -> Result<(EventStream, RecordFacts), StoreError> {
-    let profile_changes = profile_changes(person, &records)?;
+    let chosen = crate::one_source::choose(&person.tz, records);
+    let records = &chosen.records;
+    let profile_changes = profile_changes(person, records)?;
     // The delivery is told by the last days of the data: a loop, or
     // injections, given up before them do not hold the advice for good.
-    let recent_from_ms = abba_io::automation::recent_from_ms(&records);
+    let recent_from_ms = abba_io::automation::recent_from_ms(records);
     let evidence =
-        Evidence::from_records_since(&records, &person.tz, recent_from_ms.unwrap_or(i64::MAX));
-    let stream = log::events(person, records)?;
+        Evidence::from_records_since(records, &person.tz, recent_from_ms.unwrap_or(i64::MAX));
+    let stream = log::events_of(person, chosen)?;
     let first_week = first_week(
         person.mode(),
         person.settings.advisor.init_days,

@@ -5,10 +5,14 @@
 //! (abba-io's [`abba_io::events::to_events`] plus, in SMBG mode, the day
 //! closes below), so importing the same data twice, or overlapping exports,
 //! cannot change them: a record already known (same source, same id) is not
-//! added again.
+//! added again. The log keeps every source's records; events are made from
+//! one source per kind of data and local day ([`crate::one_source`]), and
+//! every reader that derives the person's events or days from the log goes
+//! through [`events`] or [`used`].
 
 use crate::backend::{args, Db, Q};
 use crate::error::StoreError;
+use crate::one_source::Chosen;
 use crate::person::Person;
 use abba_advisor::Mode;
 use abba_core::{Event, EventKind, Timestamp};
@@ -68,12 +72,17 @@ pub fn rekey(conn: &dyn Db) -> Result<(), StoreError> {
     Ok(())
 }
 
+/// A source as stored (the name serde gives it, see [`parse_source`]).
+pub(crate) fn source_text(source: Source) -> Result<String, StoreError> {
+    match serde_json::to_value(source) {
+        Ok(serde_json::Value::String(s)) => Ok(s),
+        _ => Err(StoreError::corrupt("record source", "not a string")),
+    }
+}
+
 /// A record's key columns: (source, source id) as stored.
 pub fn key(r: &Record) -> Result<(String, String), StoreError> {
-    let source = match serde_json::to_value(r.source) {
-        Ok(serde_json::Value::String(s)) => s,
-        _ => return Err(StoreError::corrupt("record source", "not a string")),
-    };
+    let source = source_text(r.source)?;
     let mut id = serde_json::to_string(&r.id).map_err(|e| StoreError::corrupt("record id", e))?;
     // serde_json's buffer starts at 128 bytes; an import holds one id a row.
     id.shrink_to_fit();
@@ -82,7 +91,9 @@ pub fn key(r: &Record) -> Result<(String, String), StoreError> {
 
 /// Every record of a person, in a fixed order (instant, source, id): the
 /// same set of records always gives the same list, whatever the order in
-/// which they were imported.
+/// which they were imported. Every source's, those that
+/// [`crate::one_source`] sets aside included: the raw log, for listing or
+/// exporting what the person gave us; events and days come from [`used`].
 pub fn records(conn: &dyn Db, person: i64) -> Result<Vec<Record>, StoreError> {
     records_and_imports(conn, person).map(|(r, _)| r)
 }
@@ -147,8 +158,30 @@ pub fn records_and_imports(
     Ok((out, imports.into_iter().collect()))
 }
 
-/// The advisor's events for `records` (see the module documentation).
-pub fn events(person: &Person, mut records: Vec<Record>) -> Result<EventStream, StoreError> {
+/// The records of a person that events and days are made from: one source
+/// for each kind of data on each of their local days
+/// ([`crate::one_source::choose`]), and what was set aside.
+pub fn used(conn: &dyn Db, person: &Person) -> Result<Chosen, StoreError> {
+    Ok(crate::one_source::choose(
+        &person.tz,
+        records(conn, person.id)?,
+    ))
+}
+
+/// The advisor's events for `records`, every record of the log or a part
+/// of it: one source is chosen for each kind of data and day first
+/// ([`crate::one_source`]; what was set aside is said in the stream's
+/// notes).
+pub fn events(person: &Person, records: Vec<Record>) -> Result<EventStream, StoreError> {
+    events_of(person, crate::one_source::choose(&person.tz, records))
+}
+
+/// The advisor's events for records already chosen
+/// ([`crate::one_source::choose`]), what was set aside said first among
+/// the stream's notes (see the module documentation).
+pub fn events_of(person: &Person, chosen: Chosen) -> Result<EventStream, StoreError> {
+    let set_aside = chosen.notes();
+    let mut records = chosen.records;
     if records.is_empty() {
         return Ok(EventStream {
             first_day: person.first_day.map(|d| d.to_string()).unwrap_or_default(),
@@ -160,12 +193,13 @@ pub fn events(person: &Person, mut records: Vec<Record>) -> Result<EventStream, 
             censored: 0,
             rejected: Vec::new(),
             meal_rule: person.settings.meal_windows.rule(),
-            notes: Vec::new(),
+            notes: set_aside,
         });
     }
     // Two sources carrying one reading or dose count once, as in an import.
     merge_records(&mut records);
     let mut stream = to_events(&records, Origins::Stored, &person.mapping())?;
+    stream.notes.splice(0..0, set_aside);
     if person.mode() == Mode::Smbg {
         let minute = i64::from(person.settings.bedtime_min);
         stream.events = with_smbg_day_closes(std::mem::take(&mut stream.events), minute);

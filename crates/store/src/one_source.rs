@@ -7,14 +7,32 @@
 //! minutes apart (the pump's clock, an uploader's, a share bridge's), a
 //! reading comes as mg/dL from one and rounded mmol/L from the other, and
 //! neither carries an identifier the other knows. Matching copies across
-//! routes would guess; so, for each kind of data ([`DataClass`]: CGM
-//! glucose, meter glucose, insulin delivery, carbohydrate), a local day of the person is
-//! held by the first source that brought that kind for that day: the log's,
-//! else, within one import, the source of the first file (in the order
-//! given) that holds it. Records of that kind from another source on that
-//! day are not stored: counted by kind and source, the first named, and
-//! said with the import's summary. A day the log already holds from two
-//! sources (stored before this rule) is left open to both.
+//! routes would guess. So the import stores every record of every source,
+//! and this module chooses, whenever events are derived from the log, one
+//! source for each kind of data ([`DataClass`]: CGM glucose, meter glucose,
+//! insulin delivery, carbohydrate) on each local day of the person (in
+//! their zone): a day with one source is that source's; on a day with
+//! several, the one that covers it best is used and the others' records of
+//! that kind are kept in the log but set aside, counted and said (with the
+//! import and with the advice).
+//!
+//! The rule, the fuller source of a kind on a day:
+//! 1. the most records of that kind that day: an export that ends at 10:00,
+//!    or two doses typed into the Dexcom app, has fewer than the pump's or
+//!    the uploader's whole day, and a gap of an hour costs twelve readings;
+//! 2. on a tie, the widest span between its first and last record of that
+//!    kind that day (the one that reaches further into the day);
+//! 3. on a tie again, a fixed order: the device makers' own exports first
+//!    (CareLink, Tidepool, Clarity, LibreView: read from the device's
+//!    memory), then Nightscout (a relay of what uploaders sent), then
+//!    plain CSV.
+//!
+//! The rule reads only the stored records, never the order in which they
+//! came, so the same files imported in any order give the same choice, the
+//! same events and the same advice; a later, fuller export takes a day
+//! over from a partial one without anything being lost. Records dropped
+//! by an earlier version of this rule (which stored only the first source
+//! of each day) cannot come back: import that file again.
 //!
 //! Other tools do not merge across routes either: Tidepool deduplicates a
 //! later upload of one device against that device's earlier upload
@@ -29,10 +47,12 @@ use crate::error::StoreError;
 use abba_io::{Record, RecordKind, Source};
 use jiff::civil::Date;
 use jiff::tz::TimeZone;
+use jiff::Timestamp;
 use serde::Serialize;
-use std::collections::{BTreeMap, HashMap, HashSet};
+use std::cmp::Ordering;
+use std::collections::{BTreeMap, BTreeSet, HashSet};
 
-/// A kind of data held by one source per day.
+/// A kind of data taken from one source per day.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum DataClass {
@@ -58,9 +78,21 @@ impl DataClass {
             DataClass::Carbs => "carbohydrate",
         }
     }
-    /// The class of a record's kind, if it is held by one source per day.
+    /// The class of a record's kind, if it is taken from one source per day
+    /// (every kind named: a new one must be placed here).
     pub fn of(kind: &RecordKind) -> Option<DataClass> {
-        Self::of_name(kind.name())
+        match kind {
+            RecordKind::Cgm { .. } => Some(DataClass::Glucose),
+            RecordKind::Smbg { .. } => Some(DataClass::Meter),
+            RecordKind::Bolus { .. }
+            | RecordKind::ExtendedBolus { .. }
+            | RecordKind::TempBasal { .. }
+            | RecordKind::Suspend { .. }
+            | RecordKind::Resume
+            | RecordKind::LongActing { .. } => Some(DataClass::Insulin),
+            RecordKind::Carbs { .. } => Some(DataClass::Carbs),
+            RecordKind::Schedule { .. } | RecordKind::Ignored { .. } => None,
+        }
     }
     /// The class of a kind by its short name ([`RecordKind::name`], which
     /// is also its stored `type`).
@@ -77,177 +109,576 @@ impl DataClass {
     }
 }
 
-/// Records of a kind not stored because another source holds that kind
-/// on their day.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct OtherSource {
+/// Every source, each once (checked against [`rank`], which names each).
+const ALL_SOURCES: [Source; 6] = [
+    Source::CareLink,
+    Source::Tidepool,
+    Source::Clarity,
+    Source::LibreView,
+    Source::Nightscout,
+    Source::PlainCsv,
+];
+
+/// The fixed order of the rule's last tie (see the module documentation):
+/// lower first.
+fn rank(s: Source) -> u8 {
+    // A new source is placed here and in `ALL_SOURCES`.
+    match s {
+        Source::CareLink => 0,
+        Source::Tidepool => 1,
+        Source::Clarity => 2,
+        Source::LibreView => 3,
+        Source::Nightscout => 4,
+        Source::PlainCsv => 5,
+    }
+}
+
+/// What one source holds of one kind on one day.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Cover {
+    count: usize,
+    first_ms: i64,
+    last_ms: i64,
+}
+
+impl Cover {
+    fn new(at_ms: i64) -> Cover {
+        Cover {
+            count: 0,
+            first_ms: at_ms,
+            last_ms: at_ms,
+        }
+    }
+    fn add(&mut self, at_ms: i64) {
+        self.count += 1;
+        self.first_ms = self.first_ms.min(at_ms);
+        self.last_ms = self.last_ms.max(at_ms);
+    }
+}
+
+/// `Greater` when `a` covers its day better than `b` (the rule).
+fn fuller(a: (Source, Cover), b: (Source, Cover)) -> Ordering {
+    a.1.count
+        .cmp(&b.1.count)
+        .then_with(|| (a.1.last_ms - a.1.first_ms).cmp(&(b.1.last_ms - b.1.first_ms)))
+        .then_with(|| rank(b.0).cmp(&rank(a.0)))
+}
+
+/// Records of one kind from one source, kept in the log but not used on
+/// their days because another source covers those days better.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct SetAside {
     /// The kind of data.
     pub class: DataClass,
-    /// The source of the records not stored.
+    /// The source of the records set aside.
     pub source: Source,
-    /// The source that holds their days.
-    pub held_by: Source,
-    /// How many.
+    /// The source used on their days instead.
+    pub used: Source,
+    /// How many records.
     pub count: usize,
-    /// The days, first and last (local).
-    pub days: (String, String),
-    /// The first one's place (file and line or item) and instant.
-    pub first: String,
-    /// Its instant.
+    /// On how many local days.
+    pub days: usize,
+    /// The first of those days (local).
+    pub first_day: String,
+    /// The last of those days (local).
+    pub last_day: String,
+    /// The instant of the first record set aside.
     pub first_at: String,
 }
 
-/// The stored `type` of a record's kind, from its JSON text.
+/// The local day of instants that mostly come in order: the day's bounds
+/// are kept, so the zone is asked only when an instant leaves them.
+struct Days<'a> {
+    tz: &'a TimeZone,
+    from_ms: i64,
+    to_ms: i64,
+    date: Date,
+}
+
+impl<'a> Days<'a> {
+    fn new(tz: &'a TimeZone) -> Days<'a> {
+        Days {
+            tz,
+            from_ms: 0,
+            to_ms: 0,
+            date: Date::default(),
+        }
+    }
+    fn of(&mut self, at: Timestamp) -> Date {
+        let ms = at.as_millisecond();
+        if ms >= self.from_ms && ms < self.to_ms {
+            return self.date;
+        }
+        let date = self.tz.to_datetime(at).date();
+        let start = |d: Date| {
+            d.to_zoned(self.tz.clone())
+                .map(|z| z.timestamp().as_millisecond())
+        };
+        match (start(date), date.tomorrow().map(start)) {
+            (Ok(from), Ok(Ok(to))) if from <= ms && ms < to => {
+                (self.from_ms, self.to_ms) = (from, to);
+            }
+            // Out of the zone's range: ask again next time.
+            _ => (self.from_ms, self.to_ms) = (0, 0),
+        }
+        self.date = date;
+        date
+    }
+}
+
+/// What each source holds of each kind on each local day.
+#[derive(Default)]
+struct Tally {
+    by: BTreeMap<(DataClass, Date), BTreeMap<Source, Cover>>,
+    /// For each kind, the run of records of one day and source being
+    /// counted (a log comes in order: a map look-up per run, not per
+    /// record).
+    run: [Option<(Date, Source, Cover)>; 4],
+}
+
+impl Tally {
+    fn add(&mut self, class: DataClass, day: Date, source: Source, at_ms: i64) {
+        let run = &mut self.run[class as usize];
+        match run {
+            Some((d, s, c)) if *d == day && *s == source => c.add(at_ms),
+            _ => {
+                if let Some((d, s, c)) = run.take() {
+                    Self::put(&mut self.by, class, d, s, c);
+                }
+                let mut c = Cover::new(at_ms);
+                c.add(at_ms);
+                *run = Some((day, source, c));
+            }
+        }
+    }
+
+    fn put(
+        by: &mut BTreeMap<(DataClass, Date), BTreeMap<Source, Cover>>,
+        class: DataClass,
+        day: Date,
+        source: Source,
+        c: Cover,
+    ) {
+        let e = by
+            .entry((class, day))
+            .or_default()
+            .entry(source)
+            .or_insert_with(|| Cover::new(c.first_ms));
+        e.count += c.count;
+        e.first_ms = e.first_ms.min(c.first_ms);
+        e.last_ms = e.last_ms.max(c.last_ms);
+    }
+
+    /// Every run counted (call once all records are added).
+    fn close(&mut self) {
+        for (i, class) in [
+            DataClass::Glucose,
+            DataClass::Meter,
+            DataClass::Insulin,
+            DataClass::Carbs,
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            if let Some((d, s, c)) = self.run[i].take() {
+                Self::put(&mut self.by, class, d, s, c);
+            }
+        }
+    }
+
+    /// The source used for each (kind, day) that more than one source holds.
+    fn used(&self) -> BTreeMap<(DataClass, Date), Source> {
+        self.by
+            .iter()
+            .filter(|(_, s)| s.len() > 1)
+            .filter_map(|(k, s)| {
+                let best = s
+                    .iter()
+                    .map(|(s, c)| (*s, *c))
+                    .max_by(|a, b| fuller(*a, *b))?;
+                Some((*k, best.0))
+            })
+            .collect()
+    }
+
+    /// What is set aside on the days `only` names (all when `None`), by
+    /// kind, source and the source used.
+    fn set_aside(&self, only: Option<&HashSet<(DataClass, Date)>>) -> Vec<SetAside> {
+        let mut out: BTreeMap<(DataClass, Source, Source), SetAside> = BTreeMap::new();
+        for (key, used) in self.used() {
+            if only.is_some_and(|o| !o.contains(&key)) {
+                continue;
+            }
+            let (class, day) = key;
+            for (source, cover) in &self.by[&key] {
+                if *source == used {
+                    continue;
+                }
+                let first_at = Timestamp::from_millisecond(cover.first_ms)
+                    .map(|t| t.to_string())
+                    .unwrap_or_default();
+                let e = out
+                    .entry((class, *source, used))
+                    .or_insert_with(|| SetAside {
+                        class,
+                        source: *source,
+                        used,
+                        count: 0,
+                        days: 0,
+                        first_day: day.to_string(),
+                        last_day: day.to_string(),
+                        first_at,
+                    });
+                // Days come in order: the first seen is the first.
+                e.count += cover.count;
+                e.days += 1;
+                e.last_day = day.to_string();
+            }
+        }
+        out.into_values().collect()
+    }
+}
+
+/// The records used for events, and what was set aside.
+#[derive(Debug, Clone, Default)]
+pub struct Chosen {
+    /// The records used, in the order given.
+    pub records: Vec<Record>,
+    /// What was set aside, by kind, source and the source used.
+    pub set_aside: Vec<SetAside>,
+}
+
+impl Chosen {
+    /// A sentence for each [`SetAside`].
+    pub fn notes(&self) -> Vec<String> {
+        self.set_aside.iter().map(sentence).collect()
+    }
+}
+
+/// The records of `records` used for events, one source for each kind of
+/// data on each local day in `tz` (see the module documentation), and what
+/// was set aside. The order of `records` is kept.
+pub fn choose(tz: &TimeZone, mut records: Vec<Record>) -> Chosen {
+    let mut days = Days::new(tz);
+    let mut tally = Tally::default();
+    for r in &records {
+        if let Some(class) = DataClass::of(&r.kind) {
+            tally.add(class, days.of(r.at), r.source, r.at.as_millisecond());
+        }
+    }
+    tally.close();
+    let used = tally.used();
+    if used.is_empty() {
+        return Chosen {
+            records,
+            set_aside: Vec::new(),
+        };
+    }
+    records.retain(
+        |r| match DataClass::of(&r.kind).and_then(|c| used.get(&(c, days.of(r.at)))) {
+            Some(s) => *s == r.source,
+            None => true,
+        },
+    );
+    Chosen {
+        records,
+        set_aside: tally.set_aside(None),
+    }
+}
+
+/// What the log holds set aside, now, on the days (in `tz`) that
+/// `records` (an import's) fall on: said with that import.
+pub fn set_aside_on_days(
+    db: &dyn Db,
+    person: i64,
+    tz: &TimeZone,
+    records: &[&Record],
+) -> Result<Vec<SetAside>, StoreError> {
+    let mut days = Days::new(tz);
+    let mut wanted: HashSet<(DataClass, Date)> = HashSet::new();
+    let (mut from, mut to) = (i64::MAX, i64::MIN);
+    for r in records {
+        if let Some(class) = DataClass::of(&r.kind) {
+            wanted.insert((class, days.of(r.at)));
+            from = from.min(r.at.as_millisecond());
+            to = to.max(r.at.as_millisecond());
+        }
+    }
+    if wanted.is_empty() {
+        return Ok(Vec::new());
+    }
+    // One source in the import and none other in the log (a person's usual
+    // case): nothing can be set aside, and a long import is not read again.
+    let sources: BTreeSet<Source> = records.iter().map(|r| r.source).collect();
+    if sources.len() == 1 {
+        let mut others = false;
+        for s in ALL_SOURCES.iter().filter(|s| !sources.contains(s)) {
+            let name = crate::log::source_text(*s)?;
+            others |= db.row(Q::RecordOfSource, args![person, name])?.is_some();
+        }
+        if !others {
+            return Ok(Vec::new());
+        }
+    }
+    let wanted_days: BTreeSet<Date> = wanted.iter().map(|k| k.1).collect();
+    // A day of a zone is at most 26 h: a margin of two days each side
+    // takes in every stored record of the days touched.
+    let margin = 2 * 86_400_000;
+    let mut tally = Tally::default();
+    db.each_row(
+        Q::RecordKindsInWindow,
+        args![person, from - margin, to + margin],
+        &mut |row| {
+            let Some(class) = stored_type(row.str(1)?).and_then(DataClass::of_name) else {
+                return Ok(());
+            };
+            let at_ms = row.int(2)?;
+            let at = Timestamp::from_millisecond(at_ms)
+                .map_err(|e| StoreError::corrupt("record instant", e))?;
+            let day = days.of(at);
+            if wanted_days.contains(&day) {
+                let source = crate::log::parse_source(row.str(0)?)?;
+                tally.add(class, day, source, at_ms);
+            }
+            Ok(())
+        },
+    )?;
+    tally.close();
+    Ok(tally.set_aside(Some(&wanted)))
+}
+
+/// The stored `type` of a record's kind, from the start of its JSON text.
 fn stored_type(prefix: &str) -> Option<&str> {
     let rest = prefix.strip_prefix("{\"type\":\"")?;
     rest.split('"').next()
 }
 
-/// Which source holds each (kind of data, local day) the import touches.
-pub struct Holders {
-    held: HashMap<(DataClass, Date), Option<Source>>,
+/// A sentence for one [`SetAside`] of the log: "stored, not used".
+pub fn sentence(o: &SetAside) -> String {
+    sentence_as(o, "stored")
 }
 
-impl Holders {
-    /// The holders of the days `records` fall on: the log's (a day held
-    /// by two sources there: none), then, for days the log does not hold,
-    /// the source of the first file of the batch holding them.
-    pub fn of(
-        db: &dyn Db,
-        person: i64,
-        tz: &TimeZone,
-        records: &[&Record],
-    ) -> Result<Holders, StoreError> {
-        let mut held: HashMap<(DataClass, Date), Option<Source>> = HashMap::new();
-        let classes: Vec<(DataClass, Date, &Record)> = records
-            .iter()
-            .filter_map(|r| DataClass::of(&r.kind).map(|c| (c, tz.to_datetime(r.at).date(), *r)))
-            .collect();
-        let (Some(from), Some(to)) = (
-            classes.iter().map(|c| c.2.at).min(),
-            classes.iter().map(|c| c.2.at).max(),
-        ) else {
-            return Ok(Holders { held });
-        };
-        // A day of a zone is at most 26 h; a margin of two days each side
-        // takes in every stored record of the days touched.
-        let margin = 2 * 86_400_000;
-        let rows = db.rows(
-            Q::RecordSourcesByQuarter,
-            args![
-                person,
-                from.as_millisecond() - margin,
-                to.as_millisecond() + margin
-            ],
-        )?;
-        let wanted: HashSet<(DataClass, Date)> = classes.iter().map(|c| (c.0, c.1)).collect();
-        let mut stored: HashMap<(DataClass, Date), HashSet<Source>> = HashMap::new();
-        for row in rows {
-            let (source, prefix, quarter) = (row.text(0)?, row.text(1)?, row.int(2)?);
-            let Some(class) = stored_type(&prefix).and_then(DataClass::of_name) else {
-                continue;
-            };
-            let source = crate::log::parse_source(&source)?;
-            let at = jiff::Timestamp::from_millisecond(quarter * QUARTER_MS)
-                .map_err(|e| StoreError::corrupt("record instant", e))?;
-            // Every zone's offset is a whole number of quarter hours: a
-            // quarter lies within one local day.
-            let day = tz.to_datetime(at).date();
-            if wanted.contains(&(class, day)) {
-                stored.entry((class, day)).or_default().insert(source);
-            }
-        }
-        for (key, sources) in stored {
-            let one = (sources.len() == 1)
-                .then(|| sources.into_iter().next())
-                .flatten();
-            held.insert(key, one);
-        }
-        let mut by_file: Vec<&(DataClass, Date, &Record)> = classes.iter().collect();
-        by_file.sort_by_key(|c| c.2.origin.file);
-        for (class, day, r) in by_file {
-            held.entry((*class, *day)).or_insert(Some(r.source));
-        }
-        Ok(Holders { held })
-    }
-
-    /// The source holding `r`'s kind of data on its day, when it is not
-    /// `r`'s own (then `r` is not stored).
-    pub fn other(&self, tz: &TimeZone, r: &Record) -> Option<Source> {
-        let class = DataClass::of(&r.kind)?;
-        match self.held.get(&(class, tz.to_datetime(r.at).date())) {
-            Some(Some(s)) if *s != r.source => Some(*s),
-            _ => None,
-        }
-    }
-}
-
-/// Quarter hours, the unit in which the log's sources per day are read.
-pub const QUARTER_MS: i64 = 900_000;
-
-/// Counts of records not stored, by (kind, source, holder).
-#[derive(Default)]
-pub struct NotStored {
-    by: BTreeMap<(DataClass, Source, Source), OtherSource>,
-}
-
-impl NotStored {
-    /// One record `r` (read at `place`) not stored: `held_by` holds its day.
-    pub fn note(
-        &mut self,
-        tz: &TimeZone,
-        r: &Record,
-        held_by: Source,
-        place: impl FnOnce() -> String,
-    ) {
-        let Some(class) = DataClass::of(&r.kind) else {
-            return;
-        };
-        let day = tz.to_datetime(r.at).date().to_string();
-        let e = self
-            .by
-            .entry((class, r.source, held_by))
-            .or_insert_with(|| OtherSource {
-                class,
-                source: r.source,
-                held_by,
-                count: 0,
-                days: (day.clone(), day.clone()),
-                first: place(),
-                first_at: r.at.to_string(),
-            });
-        e.count += 1;
-        if day < e.days.0 {
-            e.days.0 = day.clone();
-        }
-        if day > e.days.1 {
-            e.days.1 = day;
-        }
-    }
-    /// What was not stored, by kind, source and holder.
-    pub fn into_list(self) -> Vec<OtherSource> {
-        self.by.into_values().collect()
-    }
-}
-
-/// A sentence for one [`OtherSource`].
-pub fn sentence(o: &OtherSource) -> String {
-    let (days, those) = if o.days.0 == o.days.1 {
-        (o.days.0.clone(), "that day's")
+/// A sentence for one [`SetAside`], the records `held` ("stored" in the
+/// log, "read" from files that are not imported), not used.
+pub fn sentence_as(o: &SetAside, held: &str) -> String {
+    let (days, those) = if o.days == 1 {
+        (o.first_day.clone(), "that day")
     } else {
-        (format!("{} to {}", o.days.0, o.days.1), "those days'")
+        (
+            format!("{} days, {} to {}", o.days, o.first_day, o.last_day),
+            "those days",
+        )
     };
     format!(
-        "{} {} record{} from {} ({days}) not stored: {those} {} comes from {} (one source per day \
-         for each kind of data, so that one pump's doses or one sensor's readings reaching abba \
-         by two routes are not counted twice); the first: {} ({}).",
+        "{} {} record{} from {} ({days}) {held}, not used: on {those} {} covers the {} more \
+         fully and is used (one source per day for each kind of data, so that one pump's doses \
+         or one sensor's readings reaching abba by two routes are not counted twice); the \
+         first: {}.",
         o.count,
         o.class.words(),
         if o.count == 1 { "" } else { "s" },
         o.source.name(),
+        o.used.name(),
         o.class.words(),
-        o.held_by.name(),
-        o.first,
         o.first_at
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use abba_core::Units;
+    use abba_io::record::{Origin, OriginAt};
+    use abba_io::SourceId;
+
+    fn zone() -> TimeZone {
+        TimeZone::get("America/Chicago").unwrap()
+    }
+
+    /// A record of `source` at local `at` (Chicago).
+    fn rec(source: Source, at: &str, kind: RecordKind) -> Record {
+        let at = at
+            .parse::<jiff::civil::DateTime>()
+            .unwrap()
+            .to_zoned(zone())
+            .unwrap()
+            .timestamp();
+        Record {
+            id: abba_io::record::content_id(source, at, &kind),
+            at,
+            kind,
+            source,
+            origin: Origin {
+                file: 0,
+                at: OriginAt::Item(0),
+            },
+        }
+    }
+
+    fn bolus(source: Source, at: &str) -> Record {
+        rec(source, at, RecordKind::Bolus { units: Units(1.0) })
+    }
+
+    fn sorted(mut r: Vec<Record>) -> Vec<(Timestamp, Source, SourceId)> {
+        let mut v: Vec<_> = r.drain(..).map(|r| (r.at, r.source, r.id)).collect();
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn a_day_goes_to_the_source_with_more_records_of_that_kind_whatever_the_order() {
+        let records = vec![
+            bolus(Source::CareLink, "2025-03-14T08:00"),
+            bolus(Source::CareLink, "2025-03-14T12:00"),
+            bolus(Source::CareLink, "2025-03-15T07:50"),
+            bolus(Source::Nightscout, "2025-03-15T07:51"),
+            bolus(Source::Nightscout, "2025-03-15T11:45"),
+            bolus(Source::Nightscout, "2025-03-15T18:00"),
+        ];
+        let mut reversed = records.clone();
+        reversed.reverse();
+        let a = choose(&zone(), records);
+        let b = choose(&zone(), reversed);
+        assert_eq!(sorted(a.records.clone()), sorted(b.records));
+        assert_eq!(a.set_aside, b.set_aside);
+        // The export's other day stays; its one bolus of the 15th gives
+        // way to Nightscout's three.
+        let used: Vec<(Source, String)> = a
+            .records
+            .iter()
+            .map(|r| (r.source, zone().to_datetime(r.at).date().to_string()))
+            .collect();
+        assert_eq!(used.len(), 5);
+        assert!(!used.contains(&(Source::CareLink, "2025-03-15".into())));
+        assert_eq!(
+            a.set_aside,
+            [SetAside {
+                class: DataClass::Insulin,
+                source: Source::CareLink,
+                used: Source::Nightscout,
+                count: 1,
+                days: 1,
+                first_day: "2025-03-15".into(),
+                last_day: "2025-03-15".into(),
+                first_at: "2025-03-15T12:50:00Z".into(),
+            }]
+        );
+    }
+
+    #[test]
+    fn a_tie_goes_to_the_wider_span_then_to_the_device_makers_export() {
+        // Two each: Nightscout's reach further into the day.
+        let wider = choose(
+            &zone(),
+            vec![
+                bolus(Source::CareLink, "2025-03-15T08:00"),
+                bolus(Source::CareLink, "2025-03-15T09:00"),
+                bolus(Source::Nightscout, "2025-03-15T08:00:30"),
+                bolus(Source::Nightscout, "2025-03-15T20:00"),
+            ],
+        );
+        assert!(wider.records.iter().all(|r| r.source == Source::Nightscout));
+        // The same count and span: CareLink, before Nightscout.
+        let same = choose(
+            &zone(),
+            vec![
+                bolus(Source::Nightscout, "2025-03-15T08:00:30"),
+                bolus(Source::Nightscout, "2025-03-15T12:00:30"),
+                bolus(Source::CareLink, "2025-03-15T08:00"),
+                bolus(Source::CareLink, "2025-03-15T12:00"),
+            ],
+        );
+        assert!(same.records.iter().all(|r| r.source == Source::CareLink));
+        assert_eq!(same.set_aside[0].count, 2);
+    }
+
+    #[test]
+    fn each_kind_of_data_is_chosen_apart() {
+        let glucose = |s, at| {
+            rec(
+                s,
+                at,
+                RecordKind::Cgm {
+                    glucose: abba_io::record::Glucose::exact(120.0),
+                },
+            )
+        };
+        let chosen = choose(
+            &zone(),
+            vec![
+                glucose(Source::Clarity, "2025-03-15T08:00"),
+                glucose(Source::Nightscout, "2025-03-15T08:01"),
+                glucose(Source::Nightscout, "2025-03-15T08:06"),
+                bolus(Source::Nightscout, "2025-03-15T08:02"),
+                bolus(Source::CareLink, "2025-03-15T08:02"),
+                bolus(Source::CareLink, "2025-03-15T12:02"),
+                // A record of no kind chosen: always kept.
+                rec(
+                    Source::Nightscout,
+                    "2025-03-15T00:00",
+                    RecordKind::Ignored {
+                        kind: "note".into(),
+                    },
+                ),
+            ],
+        );
+        let used: Vec<(&str, Source)> = chosen
+            .records
+            .iter()
+            .map(|r| (r.kind.name(), r.source))
+            .collect();
+        assert_eq!(
+            used,
+            [
+                ("cgm", Source::Nightscout),
+                ("cgm", Source::Nightscout),
+                ("bolus", Source::CareLink),
+                ("bolus", Source::CareLink),
+                ("ignored", Source::Nightscout),
+            ]
+        );
+        assert_eq!(chosen.set_aside.len(), 2);
+    }
+
+    #[test]
+    fn a_kind_has_one_class_read_from_the_record_or_from_its_stored_text() {
+        let units = Units(1.0);
+        let g = abba_io::record::Glucose::exact(100.0);
+        for kind in [
+            RecordKind::Cgm { glucose: g },
+            RecordKind::Smbg { glucose: g },
+            RecordKind::Carbs {
+                grams: abba_core::Grams(10.0),
+            },
+            RecordKind::Bolus { units },
+            RecordKind::Resume,
+            RecordKind::Ignored {
+                kind: "note".into(),
+            },
+        ] {
+            let text = serde_json::to_string(&kind).unwrap();
+            let stored = stored_type(&text[..text.len().min(24)]).and_then(DataClass::of_name);
+            assert_eq!(DataClass::of(&kind), stored, "{text}");
+        }
+    }
+
+    #[test]
+    fn local_days_are_the_zones_across_its_clock_changes() {
+        let tz = zone();
+        let mut days = Days::new(&tz);
+        let start: Timestamp = "2025-03-08T00:00:00Z".parse().unwrap();
+        for k in 0..(4 * 24 * 60 / 7) {
+            let at = start + jiff::SignedDuration::from_mins(7 * k);
+            assert_eq!(days.of(at), tz.to_datetime(at).date(), "{at}");
+        }
+        // Out of order too.
+        for at in [
+            "2025-03-09T07:59:00Z",
+            "2025-03-08T06:00:00Z",
+            "2025-03-09T08:01:00Z",
+        ] {
+            let at: Timestamp = at.parse().unwrap();
+            assert_eq!(days.of(at), tz.to_datetime(at).date(), "{at}");
+        }
+    }
 }

@@ -181,7 +181,7 @@ pub fn person_input(
     // records are dropped before the advice is built (a long log's are
     // large).
     {
-        let records = store.records(name)?;
+        let records = store.used_records(name)?.records;
         let rescue = abba_io::rescue::Rescue::new(&records);
         let clock = abba_io::clock::AdvisorClock::new(person.tz.clone(), first_day);
         for r in &records {

@@ -652,12 +652,23 @@ impl Store {
         Ok(change)
     }
 
-    /// The person's records, in the log's order.
+    /// The person's records, in the log's order: every record stored,
+    /// those set aside for a fuller source included (the raw log, as the
+    /// person gave it). Whatever derives the person's days or events reads
+    /// [`Store::used_records`].
     pub fn records(&self, name: &str) -> Result<Vec<Record>, StoreError> {
         log::records(&self.conn, self.person(name)?.id)
     }
 
-    /// The person's device events (from the records).
+    /// The person's records that their days and events are made from, in
+    /// the log's order: one source for each kind of data on each local day
+    /// ([`crate::one_source`]), with what was set aside.
+    pub fn used_records(&self, name: &str) -> Result<crate::one_source::Chosen, StoreError> {
+        log::used(&self.conn, &self.person(name)?)
+    }
+
+    /// The person's device events (from the records used, see
+    /// [`Store::used_records`]).
     pub fn events(&self, name: &str) -> Result<Vec<Event>, StoreError> {
         let p = self.person(name)?;
         if crate::app::count(&self.conn, p.id)? > 0 {

@@ -22,3 +22,4 @@ mod person_names;
 mod person_path;
 mod reexports;
 mod tidepool;
+mod two_routes;

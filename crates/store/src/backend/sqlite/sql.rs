@@ -94,9 +94,13 @@ statements! {
     /// A record of the same source, kind and values within a window,
     /// stored by another import (a copy uploaded again under another id).
     RecordCopyElsewhere = "SELECT 1 FROM record WHERE person_id = ?1 AND at_ms BETWEEN ?2 AND ?3 AND source = ?4 AND kind = ?5 AND import_id <> ?6 LIMIT 1";
-    /// The sources of each kind of record, by quarter hour, in a window
-    /// (`abba_store::one_source`).
-    RecordSourcesByQuarter = "SELECT DISTINCT source, substr(kind, 1, 24), at_ms / 900000 FROM record WHERE person_id = ?1 AND at_ms BETWEEN ?2 AND ?3";
+    /// The source, the start of the kind (its `type`) and the instant of
+    /// each record in a window (`abba_store::one_source`: what an import
+    /// says was set aside on its days).
+    RecordKindsInWindow = "SELECT source, substr(kind, 1, 24), at_ms FROM record WHERE person_id = ?1 AND at_ms BETWEEN ?2 AND ?3";
+    /// Whether the log holds any record of a source (the primary key's
+    /// prefix: no scan).
+    RecordOfSource = "SELECT 1 FROM record WHERE person_id = ?1 AND source = ?2 LIMIT 1";
     /// The records of one source at one instant stored by other imports
     /// (`abba_store::edited`).
     RecordsAtInstant = "SELECT source_id, kind FROM record WHERE person_id = ?1 AND source = ?2 AND at_ms = ?3 AND import_id <> ?4";

@@ -1,6 +1,7 @@
 //! The HTTP server: the router with its layers (the per-client limits of
 //! requests in flight among them), and the connection loop (hyper's
-//! HTTP/1 server, its header-read timeout, the registry of connections
+//! HTTP/1 server, its header-read timeout, the write timeout of each
+//! connection, the registry of connections
 //! that evicts the longest idle one at a limit: `crate::conns`, graceful
 //! shutdown with a deadline).
 
@@ -76,6 +77,11 @@ struct Counts {
     token: std::collections::HashMap<(std::net::IpAddr, u64), usize>,
 }
 
+/// The credential key of anonymous requests that carry a body (and of the
+/// sign-in form): their own share, apart from bodiless anonymous ones (0);
+/// every other key is odd.
+const ANONYMOUS_BODY: u64 = 2;
+
 /// Which limit refused a request.
 #[derive(Debug, PartialEq, Eq)]
 enum Over {
@@ -124,8 +130,20 @@ impl PerClient {
     /// cookie's value, else none (0). A credential that is not valid is
     /// refused from the head (401, or 403 for a page's POST), so it holds a
     /// slot only that long.
-    fn credential(&self, headers: &axum::http::HeaderMap) -> u64 {
+    ///
+    /// An anonymous request that carries a body, and the sign-in form
+    /// whatever cookies come with it (its session cookie is not read
+    /// before its body, so a made-up one must not buy another share), is
+    /// [`ANONYMOUS_BODY`]: slow sign-in bodies fill that share and no
+    /// other, and a bodiless anonymous request (`/healthz`, a page's GET)
+    /// still gets in (a probe's slow sign-in forms had `/healthz` answered
+    /// 503 from the same address).
+    fn credential(&self, req: &axum::extract::Request) -> u64 {
         use std::hash::BuildHasher;
+        let headers = req.headers();
+        if req.method() == axum::http::Method::POST && req.uri().path() == "/signin" {
+            return ANONYMOUS_BODY;
+        }
         if let Some(a) = headers.get(header::AUTHORIZATION) {
             let token = a.to_str().ok().and_then(crate::auth::parse).unwrap_or("");
             return self.hasher.hash_one((1u8, token)) | 1;
@@ -144,7 +162,15 @@ impl PerClient {
             .map(|(_, value)| value)
             .collect();
         if sessions.is_empty() {
-            0
+            let has_body = headers.contains_key(header::TRANSFER_ENCODING)
+                || headers
+                    .get(header::CONTENT_LENGTH)
+                    .is_some_and(|v| v.as_bytes() != b"0");
+            if has_body {
+                ANONYMOUS_BODY
+            } else {
+                0
+            }
         } else {
             self.hasher.hash_one((2u8, sessions)) | 1
         }
@@ -251,7 +277,7 @@ pub fn router_with(state: AppState, set: &ServeSettings) -> Router {
                     let Some(client) = req.extensions().get::<ClientAddr>().copied() else {
                         return next.run(req).await;
                     };
-                    let token = per_client.credential(req.headers());
+                    let token = per_client.credential(&req);
                     match per_client.enter(client.0, token, client_cap, token_cap) {
                         Ok(_counted) => next.run(req).await,
                         Err(Over::Client) => {
@@ -291,6 +317,9 @@ pub fn router_with(state: AppState, set: &ServeSettings) -> Router {
                 if let Some(peer) = peer {
                     let client = ClientAddr::of(peer, req.headers(), behind_proxy);
                     req.extensions_mut().insert(client);
+                    if behind_proxy && peer.is_loopback() {
+                        req.extensions_mut().insert(crate::client::ViaProxy);
+                    }
                 }
                 req
             },
@@ -483,7 +512,15 @@ pub async fn run_until(
             Extension(ConnectInfo(peer)).layer(router.clone()),
             Arc::clone(open.conn()),
         );
-        let conn = http.serve_connection(TokioIo::new(stream), TowerToHyperService::new(svc));
+        // A write that makes no progress for `write_timeout` ends the
+        // connection (and frees its slot): the stall of a client that asks
+        // for a large answer and never reads it.
+        let mut stream = tokio_io_timeout::TimeoutStream::new(stream);
+        stream.set_write_timeout(Some(set.write_timeout));
+        let conn = http.serve_connection(
+            TokioIo::new(Box::pin(stream)),
+            TowerToHyperService::new(svc),
+        );
         let conn = graceful.watch(conn);
         tokio::spawn(async move {
             let state = Arc::clone(open.conn());
@@ -698,20 +735,19 @@ mod per_client_tests {
 
     /// One token is one key however its header is spelled, and one
     /// session one key whatever other cookies come with it; a request
-    /// without either is anonymous (0).
+    /// without either is anonymous (0), or, with a body, in the share of
+    /// anonymous bodies.
     #[test]
     fn a_credential_is_one_key_however_it_is_sent() {
         let p = PerClient::new();
-        let key = |lines: &[(&str, &str)]| {
-            let mut h = axum::http::HeaderMap::new();
+        let req = |method: &str, path: &str, lines: &[(&str, &str)]| {
+            let mut r = axum::http::Request::builder().method(method).uri(path);
             for (k, v) in lines {
-                h.append(
-                    axum::http::HeaderName::from_bytes(k.as_bytes()).unwrap(),
-                    v.parse().unwrap(),
-                );
+                r = r.header(*k, *v);
             }
-            p.credential(&h)
+            p.credential(&r.body(axum::body::Body::empty()).unwrap())
         };
+        let key = |lines: &[(&str, &str)]| req("GET", "/", lines);
         let token = format!("abba_{}", "0a".repeat(32));
         let other = format!("abba_{}", "1b".repeat(32));
         let a = key(&[("authorization", &format!("Bearer {token}"))]);
@@ -730,6 +766,17 @@ mod per_client_tests {
         assert_ne!(s, key(&[("cookie", "abba_session=abd")]));
         assert_eq!(key(&[("cookie", "x=1")]), 0);
         assert_eq!(key(&[]), 0);
+        assert_eq!(key(&[("content-length", "0")]), 0);
+        // An anonymous body, and the sign-in form whatever its cookies,
+        // have their own share.
+        let body = super::ANONYMOUS_BODY;
+        assert_eq!(key(&[("content-length", "120")]), body);
+        assert_eq!(key(&[("transfer-encoding", "chunked")]), body);
+        assert_eq!(
+            req("POST", "/signin", &[("cookie", "abba_session=made-up")]),
+            body
+        );
+        assert_ne!(s, body);
     }
 }
 

@@ -1,0 +1,251 @@
+//! An attacker's probe from this host, round two, over real sockets: a
+//! client that asks for a large answer and never reads it is closed after
+//! the write timeout and its connection's slot freed; slow sign-in forms
+//! from one address take their own share and leave `/healthz` and the
+//! pages' GETs answered; `X-Forwarded-Proto` is read only from a proxy
+//! `--behind-proxy` trusts.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use crate::common;
+
+use abba_service::{auth, ServeSettings};
+use abba_store::token::Role;
+use axum::body::Bytes;
+use common::{Server, Svc};
+use std::io::{Read, Write};
+use std::net::{Ipv4Addr, SocketAddr, TcpStream};
+use std::time::{Duration, Instant};
+
+/// The polite client's bound: each of its answers comes within this.
+const POLITE: Duration = Duration::from_secs(1);
+
+/// A connection to `to` from the loopback address `from`, with a receive
+/// buffer of `rcvbuf` bytes when given (a client that reads nothing fills
+/// it, then the service's send buffer, sooner).
+fn connect_from(from: Ipv4Addr, to: SocketAddr, rcvbuf: Option<u32>) -> TcpStream {
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    rt.block_on(async {
+        let socket = tokio::net::TcpSocket::new_v4().unwrap();
+        if let Some(n) = rcvbuf {
+            socket.set_recv_buffer_size(n).unwrap();
+        }
+        socket.bind(SocketAddr::from((from, 0))).unwrap();
+        let stream = socket.connect(to).await.unwrap();
+        let std = stream.into_std().unwrap();
+        std.set_nonblocking(false).unwrap();
+        std
+    })
+}
+
+/// Sends `request` from `from` on a new connection and reads the whole
+/// answer (the service closes after it): the answer and how long it took.
+fn timed_from(from: Ipv4Addr, to: SocketAddr, request: &str) -> (String, Duration) {
+    let t = Instant::now();
+    let mut s = connect_from(from, to, None);
+    s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+    s.write_all(request.as_bytes()).unwrap();
+    let mut out = Vec::new();
+    let _ = s.read_to_end(&mut out);
+    (String::from_utf8_lossy(&out).to_string(), t.elapsed())
+}
+
+/// A GET with `headers` (each line ending in `\r\n`), closing after it.
+fn get(path: &str, headers: &str) -> String {
+    format!("GET {path} HTTP/1.1\r\nHost: x\r\n{headers}Connection: close\r\n\r\n")
+}
+
+/// 64 KiB of an answer.
+static CHUNK: [u8; 64 * 1024] = [b'x'; 64 * 1024];
+
+/// A large answer (`chunks` times 64 KiB), made as it is sent.
+struct Large {
+    chunks: usize,
+}
+
+impl http_body::Body for Large {
+    type Data = Bytes;
+    type Error = std::convert::Infallible;
+
+    fn poll_frame(
+        mut self: std::pin::Pin<&mut Self>,
+        _: &mut std::task::Context<'_>,
+    ) -> std::task::Poll<Option<Result<http_body::Frame<Bytes>, Self::Error>>> {
+        if self.chunks == 0 {
+            return std::task::Poll::Ready(None);
+        }
+        self.chunks -= 1;
+        std::task::Poll::Ready(Some(Ok(http_body::Frame::data(Bytes::from_static(&CHUNK)))))
+    }
+}
+
+/// A client that asks for a large answer (1 GiB) and reads none of it
+/// holds its connection with a request in flight, which is never evicted:
+/// with one connection per address, its address's next connection is
+/// refused (503) while it stalls, and another address is served at once.
+/// Within the write timeout (and a margin) the stalled connection is
+/// closed, its slot free for its address again, and the client sees its
+/// connection end without the whole answer. Without the write timeout
+/// (hyper has none) the address got 503 for as long as the client liked.
+#[test]
+fn a_client_that_never_reads_its_answer_is_closed_and_its_slot_freed() {
+    let write_timeout = Duration::from_millis(800);
+    let set = ServeSettings {
+        write_timeout,
+        max_connections_per_client: 1,
+        ..ServeSettings::default()
+    };
+    let router = axum::Router::new()
+        .route(
+            "/large",
+            axum::routing::get(|| async { axum::body::Body::new(Large { chunks: 16 * 1024 }) }),
+        )
+        .route("/small", axum::routing::get(|| async { "small" }));
+    let server = Server::start_router(router, set);
+    let (stalling, polite) = (Ipv4Addr::new(127, 0, 0, 3), Ipv4Addr::new(127, 0, 0, 4));
+    let mut stalled = connect_from(stalling, server.addr, Some(4096));
+    stalled
+        .write_all(b"GET /large HTTP/1.1\r\nHost: x\r\n\r\n")
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(200));
+    let (refused, _) = timed_from(stalling, server.addr, &get("/small", ""));
+    assert!(
+        refused.starts_with("HTTP/1.1 503"),
+        "the stalled connection is in flight, its address at its limit: {refused}"
+    );
+    let (served, took) = timed_from(polite, server.addr, &get("/small", ""));
+    assert!(served.starts_with("HTTP/1.1 200"), "{served}");
+    assert!(took < POLITE, "another client waited {took:?}");
+    let t = Instant::now();
+    loop {
+        let (answer, _) = timed_from(stalling, server.addr, &get("/small", ""));
+        if answer.starts_with("HTTP/1.1 200") {
+            break;
+        }
+        assert!(
+            t.elapsed() < write_timeout + Duration::from_secs(2),
+            "the stalled connection still holds its address's slot after {:?}: {answer}",
+            t.elapsed()
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    stalled
+        .set_read_timeout(Some(Duration::from_secs(5)))
+        .unwrap();
+    let mut got = 0usize;
+    let mut buf = vec![0u8; 1 << 16];
+    let ended = loop {
+        match stalled.read(&mut buf) {
+            Ok(0) => break true,
+            Ok(n) => got += n,
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+                ) =>
+            {
+                break false
+            }
+            Err(_) => break true,
+        }
+    };
+    assert!(ended, "the stalled connection is closed");
+    assert!(
+        got < 16 * 1024 * CHUNK.len(),
+        "it never got its whole answer ({got} bytes)"
+    );
+}
+
+/// Slow sign-in forms from one address (two without a cookie, three with
+/// made-up session cookies, each its own key before) take the share of
+/// anonymous bodies and no more: the three past it get 503 at once, and
+/// `/healthz` and the sign-in page from the same address answer 200 within
+/// [`POLITE`] while the two bodies trickle. Before, the two filled the
+/// anonymous share and `/healthz` got 503 (or the made-up cookies filled
+/// the address's cap).
+#[test]
+fn slow_sign_in_forms_leave_healthz_and_pages_answered() {
+    let svc = Svc::new();
+    let set = ServeSettings {
+        max_in_flight_per_client: 4,
+        max_in_flight_per_token: 2,
+        ..ServeSettings::default()
+    };
+    let server = Server::start(&svc.db, set);
+    let from = Ipv4Addr::new(127, 0, 0, 5);
+    let form = |cookie: &str| {
+        format!(
+            "POST /signin HTTP/1.1\r\nHost: x\r\n{cookie}Content-Type: application/x-www-form-urlencoded\r\nContent-Length: 200\r\nConnection: close\r\n\r\ncsrf="
+        )
+    };
+    let mut slow = Vec::new();
+    for i in 0..5 {
+        let cookie = if i < 2 {
+            String::new()
+        } else {
+            format!("Cookie: abba_session={}\r\n", format!("{i:x}").repeat(64))
+        };
+        let mut s = connect_from(from, server.addr, None);
+        s.write_all(form(&cookie).as_bytes()).unwrap();
+        slow.push(s);
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    std::thread::sleep(Duration::from_millis(200));
+    for path in ["/healthz", "/signin"] {
+        let (answer, took) = timed_from(from, server.addr, &get(path, ""));
+        assert!(answer.starts_with("HTTP/1.1 200"), "{path}: {answer}");
+        assert!(took < POLITE, "{path} waited {took:?}");
+    }
+    for (i, s) in slow.iter_mut().enumerate().skip(2) {
+        s.set_read_timeout(Some(POLITE)).unwrap();
+        let mut out = Vec::new();
+        let _ = s.read_to_end(&mut out);
+        let out = String::from_utf8_lossy(&out);
+        assert!(
+            out.starts_with("HTTP/1.1 503"),
+            "slow form {i} past the anonymous bodies' share: {out}"
+        );
+    }
+}
+
+/// The `Set-Cookie` of a sign-in page asked from 127.0.0.1 with
+/// `X-Forwarded-Proto: https`.
+fn signin_cookie(svc: &Svc, behind_proxy: bool) -> String {
+    let secret = {
+        let mut store = abba_service::open_store(&svc.db).unwrap();
+        auth::issue_signin(&mut store, Role::Admin).unwrap()
+    };
+    let set = ServeSettings {
+        behind_proxy,
+        ..ServeSettings::default()
+    };
+    let server = Server::start(&svc.db, set);
+    let (answer, _) = timed_from(
+        Ipv4Addr::LOCALHOST,
+        server.addr,
+        &get(&format!("/signin/{secret}"), "X-Forwarded-Proto: https\r\n"),
+    );
+    assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
+    answer
+        .lines()
+        .find(|l| l.to_ascii_lowercase().starts_with("set-cookie:"))
+        .unwrap_or_default()
+        .to_string()
+}
+
+/// `X-Forwarded-Proto: https` makes the cookies `Secure` only from a proxy
+/// `--behind-proxy` trusts; without the flag any local process (a probe on
+/// this host) could say it, and it is not read (before, every loopback
+/// peer was trusted).
+#[test]
+fn forwarded_proto_is_read_only_behind_a_proxy() {
+    let svc = Svc::new();
+    let plain = signin_cookie(&svc, false);
+    assert!(plain.contains("abba_signin="), "{plain}");
+    assert!(!plain.contains("Secure"), "without --behind-proxy: {plain}");
+    let proxied = signin_cookie(&svc, true);
+    assert!(proxied.contains("Secure"), "behind a proxy: {proxied}");
+}

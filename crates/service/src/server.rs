@@ -29,6 +29,16 @@ use tower_http::trace::TraceLayer;
 /// closed without an answer).
 const AT_LIMIT_ANSWERS: usize = 64;
 
+/// The most a request's head (its line and headers) may be: more is 431
+/// and the connection closed. A connection's buffers hold at most twice
+/// this (hyper reads ahead of its check, and reads a body in pieces no
+/// larger). hyper's default (about 400 KiB a buffer) let each of the
+/// 8,192 connections hold a head that large while its header timeout ran
+/// (a probe's 200 KB header was read and served): 3 GiB; now 512 MiB at
+/// most. A browser's head is a few KiB (nginx reads heads in buffers
+/// of 8 KiB a line by default).
+pub const MAX_HEAD_BYTES: usize = 32 * 1024;
+
 /// The whole answer to a connection past the limit: the service's 503
 /// body, `Retry-After: 1`, and the connection closed.
 fn at_limit_response() -> Vec<u8> {
@@ -468,6 +478,8 @@ pub async fn run_until(
     let mut http = hyper::server::conn::http1::Builder::new();
     http.timer(TokioTimer::new())
         .header_read_timeout(set.header_timeout)
+        .max_header_size(MAX_HEAD_BYTES)
+        .max_buf_size(2 * MAX_HEAD_BYTES)
         .keep_alive(true);
     let mut full_logged = false;
     tokio::pin!(stop);

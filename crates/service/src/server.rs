@@ -604,10 +604,21 @@ where
         + 'static,
     S::Future: Send,
 {
-    tower::service_fn(move |req| {
+    tower::service_fn(move |req: axum::http::Request<hyper::body::Incoming>| {
         let svc = svc.clone();
-        let busy = conn.start_request();
+        let bad_host = bad_host(&req);
+        let busy = bad_host.is_none().then(|| conn.start_request()).flatten();
         async move {
+            if let Some(why) = bad_host {
+                tracing::debug!(why, "a request's Host refused: 400");
+                let mut r =
+                    ApiError::new(StatusCode::BAD_REQUEST, abba_api::ErrorCode::Invalid, why)
+                        .at("Host")
+                        .into_response();
+                r.headers_mut()
+                    .insert(header::CONNECTION, HeaderValue::from_static("close"));
+                return Ok(r);
+            }
             let Some(busy) = busy else {
                 let mut r = ApiError::busy(
                     "this connection was closed to make room; retry on a new one",
@@ -628,6 +639,27 @@ where
             Ok(r.map(|body| axum::body::Body::new(Held { body, _busy: busy })))
         }
     })
+}
+
+/// Why a request's `Host` is refused (400, RFC 9112 section 3.2): an
+/// HTTP/1.1 request without one, one with more than one (which would the
+/// origin check and the sign-in links read?), or one that is not a host
+/// and port (an empty one is allowed, for a URI without authority).
+fn bad_host<B>(req: &axum::http::Request<B>) -> Option<&'static str> {
+    let mut hosts = req.headers().get_all(header::HOST).iter();
+    let Some(host) = hosts.next() else {
+        return (req.version() == axum::http::Version::HTTP_11)
+            .then_some("an HTTP/1.1 request needs a Host header");
+    };
+    if hosts.next().is_some() {
+        return Some("more than one Host header");
+    }
+    let ok = host.is_empty()
+        || host
+            .to_str()
+            .ok()
+            .is_some_and(|h| !h.contains('@') && h.parse::<axum::http::uri::Authority>().is_ok());
+    (!ok).then_some("the Host header is not a host (and port)")
 }
 
 /// An answer's body holding its connection busy until it is sent whole or

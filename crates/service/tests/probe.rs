@@ -260,7 +260,8 @@ fn forwarded_proto_is_read_only_behind_a_proxy() {
 /// 5xx; a head over [`abba_service::server::MAX_HEAD_BYTES`] is 431 (it
 /// was read whole, 200 KB of it, and served: 400 KiB per connection), and
 /// a form's body sent without a length is read no further than a form's
-/// limit (413; it was read to 1 MiB).
+/// limit (413; it was read to 1 MiB); a missing (HTTP/1.1), doubled or
+/// malformed `Host` is 400 (each was served).
 #[test]
 fn an_attackers_odd_requests_get_a_clear_answer_never_a_5xx_or_a_hang() {
     let svc = Svc::new();
@@ -286,14 +287,14 @@ fn an_attackers_odd_requests_get_a_clear_answer_never_a_5xx_or_a_hang() {
         ("a 40 KB header", get("/healthz", &format!("X-A: {}\r\n", "a".repeat(40_000))), Some(431)),
         ("a 20 KB head", get("/healthz", &format!("X-A: {}\r\n", "a".repeat(20_000))), Some(200)),
         ("500 headers", get("/healthz", &"X-A: 1\r\n".repeat(500)), Some(431)),
-        ("two Hosts", get("/healthz", "Host: y\r\n"), None),
+        ("two Hosts", get("/healthz", "Host: y\r\n"), Some(400)),
         ("two lengths", format!("POST {events} HTTP/1.1\r\nHost: x\r\n{auth}Content-Length: 2\r\nContent-Length: 3\r\n\r\n[]").into_bytes(), Some(400)),
         ("chunked and a length", format!("POST {events} HTTP/1.1\r\nHost: x\r\n{auth}Content-Type: application/json\r\nTransfer-Encoding: chunked\r\nContent-Length: 5\r\n\r\n2\r\n[]\r\n0\r\n\r\n").into_bytes(), Some(400)),
         ("an absurd length", format!("POST {events} HTTP/1.1\r\nHost: x\r\n{auth}Content-Length: 99999999999999999999999\r\n\r\n").into_bytes(), Some(400)),
         ("a negative length", format!("POST {events} HTTP/1.1\r\nHost: x\r\n{auth}Content-Length: -1\r\n\r\n").into_bytes(), Some(400)),
         ("50 MB expecting 100", format!("POST {events} HTTP/1.1\r\nHost: x\r\n{auth}Expect: 100-continue\r\nContent-Length: 50000000\r\n\r\n").into_bytes(), Some(413)),
         ("HTTP/1.0 without Host", b"GET /healthz HTTP/1.0\r\n\r\n".to_vec(), Some(200)),
-        ("HTTP/1.1 without Host", b"GET /signin HTTP/1.1\r\nConnection: close\r\n\r\n".to_vec(), None),
+        ("HTTP/1.1 without Host", b"GET /signin HTTP/1.1\r\nConnection: close\r\n\r\n".to_vec(), Some(400)),
         ("pipelined", b"GET /healthz HTTP/1.1\r\nHost: x\r\n\r\nGET /signin HTTP/1.1\r\nHost: x\r\n\r\nGET /nope HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n".to_vec(), Some(200)),
         ("NUL in the path", b"GET /sig\0nin HTTP/1.1\r\nHost: x\r\n\r\n".to_vec(), Some(400)),
         ("CR in the path", b"GET /sig\rnin HTTP/1.1\r\nHost: x\r\n\r\n".to_vec(), Some(400)),
@@ -322,7 +323,9 @@ fn an_attackers_odd_requests_get_a_clear_answer_never_a_5xx_or_a_hang() {
         ("an absolute URI", b"GET http://evil.example/healthz HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n".to_vec(), None),
         ("CONNECT", b"CONNECT evil.example:443 HTTP/1.1\r\nHost: evil.example:443\r\nConnection: close\r\n\r\n".to_vec(), None),
         ("OPTIONS *", b"OPTIONS * HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n".to_vec(), None),
-        ("Host with markup", b"GET /signin HTTP/1.1\r\nHost: <script>\r\nConnection: close\r\n\r\n".to_vec(), None),
+        ("Host with markup", b"GET /signin HTTP/1.1\r\nHost: <script>\r\nConnection: close\r\n\r\n".to_vec(), Some(400)),
+        ("Host with a user", b"GET /signin HTTP/1.1\r\nHost: evil@x\r\nConnection: close\r\n\r\n".to_vec(), Some(400)),
+        ("Host with a port", b"GET /signin HTTP/1.1\r\nHost: [::1]:8080\r\nConnection: close\r\n\r\n".to_vec(), Some(200)),
     ];
     for (name, request, want) in probes {
         let t = Instant::now();

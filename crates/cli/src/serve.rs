@@ -27,6 +27,10 @@ pub struct ServeArgs {
     /// 408 when a request is not answered this many seconds after its head.
     #[arg(long, value_name = "S", default_value_t = 60.0)]
     pub request_timeout: f64,
+    /// Close a connection whose answer makes no progress (the client reads
+    /// none of it) for this many seconds.
+    #[arg(long, value_name = "S", default_value_t = 20.0)]
+    pub write_timeout: f64,
     /// Connections held at once; one more closes the connection idle (or
     /// with a head not yet whole) the longest, or, when every one has a
     /// request in flight, gets 503.
@@ -50,8 +54,8 @@ pub struct ServeArgs {
     /// A reverse proxy on this host forwards every client: loopback peers
     /// get no per-address connection limit, and their requests count for
     /// the last address of X-Forwarded-For, which the proxy must append
-    /// (nginx: $proxy_add_x_forwarded_for). Without it that header is
-    /// never read.
+    /// (nginx: $proxy_add_x_forwarded_for); its X-Forwarded-Proto: https
+    /// makes the session cookies Secure. Without it neither header is read.
     #[arg(long)]
     pub behind_proxy: bool,
     /// Seconds requests in flight get to finish after SIGTERM or Ctrl-C.
@@ -145,6 +149,7 @@ impl ServeArgs {
             header_timeout: seconds("header-timeout", self.header_timeout)?,
             body_timeout: seconds("body-timeout", self.body_timeout)?,
             request_timeout: seconds("request-timeout", self.request_timeout)?,
+            write_timeout: seconds("write-timeout", self.write_timeout)?,
             max_connections: count("max-connections", self.max_connections)?,
             max_connections_per_client: count(
                 "max-connections-per-client",

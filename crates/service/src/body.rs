@@ -38,7 +38,9 @@ pub fn body_limit(method: &axum::http::Method, path: &str) -> usize {
 /// ([`body_limit`]) is refused at once with 413 and the connection closed,
 /// before a byte of its body is read: no `100 Continue` for a client that
 /// asked (`Expect: 100-continue`), no wait for a body that never comes.
-/// (Reading stops at the limit too, for a body without a length.)
+/// Reading stops at the limit too, for a body without a length (chunked):
+/// a form's at [`FORM_BODY_BYTES`] (413), not at the API's 1 MiB (a
+/// probe's 900 KB chunked sign-in form was read whole).
 pub async fn refuse_declared_oversize(
     req: axum::extract::Request,
     next: axum::middleware::Next,
@@ -51,7 +53,15 @@ pub async fn refuse_declared_oversize(
         .and_then(|v| v.to_str().ok())
         .and_then(|v| v.trim().parse::<u64>().ok());
     let Some(n) = declared.filter(|&n| n > limit as u64) else {
-        return next.run(req).await;
+        if limit >= abba_api::MAX_BODY_BYTES {
+            // The router's body limit (or an upload route's) applies.
+            return next.run(req).await;
+        }
+        let (parts, body) = req.into_parts();
+        let body = axum::body::Body::new(http_body_util::Limited::new(body, limit));
+        return next
+            .run(axum::extract::Request::from_parts(parts, body))
+            .await;
     };
     let e = ApiError::new(
         StatusCode::PAYLOAD_TOO_LARGE,
@@ -174,6 +184,20 @@ pub(crate) fn is_timeout(e: &BytesRejection) -> bool {
         cur = err.source();
     }
     false
+}
+
+/// True when a body was refused for its size: by axum's limit (413), or
+/// by the form's limit ([`refuse_declared_oversize`]) under the body's
+/// deadline, whose wrapping hides it from axum.
+pub(crate) fn is_too_large(e: &BytesRejection) -> bool {
+    let mut cur: Option<&(dyn std::error::Error + 'static)> = Some(e);
+    while let Some(err) = cur {
+        if err.is::<http_body_util::LengthLimitError>() {
+            return true;
+        }
+        cur = err.source();
+    }
+    e.status() == StatusCode::PAYLOAD_TOO_LARGE
 }
 
 /// Refuses a JSON text with a key twice in one object, at any depth (serde

@@ -12,12 +12,21 @@
 //! a client may write anything before it. A loopback peer without the
 //! header (a local script, the proxy's health check) is its own client.
 //! Without `--behind-proxy` the header is never read, so a client cannot
-//! pose as many clients or as another.
+//! pose as many clients or as another; neither is `X-Forwarded-Proto`
+//! ([`ViaProxy`]).
 
 use axum::extract::ConnectInfo;
 use axum::http::request::Parts;
 use axum::http::HeaderMap;
 use std::net::{IpAddr, SocketAddr};
+
+/// Put in a request's extensions when it came from a reverse proxy this
+/// service trusts: a loopback peer under `--behind-proxy`. Only then are
+/// the proxy's `X-Forwarded-For` (here) and `X-Forwarded-Proto` (the
+/// pages' `Ctx`: a session cookie `Secure`) read; without the flag any
+/// local process could say them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ViaProxy;
 
 /// The client a request is counted for (see the module's doc): put in
 /// each request's extensions by the router's outer layer.

@@ -1,6 +1,7 @@
 //! The HTTP server: the router with its layers (the per-client limits of
 //! requests in flight among them), and the connection loop (hyper's
-//! HTTP/1 server, its header-read timeout, the registry of connections
+//! HTTP/1 server, its header-read timeout, the write timeout of each
+//! connection, the registry of connections
 //! that evicts the longest idle one at a limit: `crate::conns`, graceful
 //! shutdown with a deadline).
 
@@ -27,6 +28,16 @@ use tower_http::trace::TraceLayer;
 /// Connections past the limit answered 503 at once, at most (more are
 /// closed without an answer).
 const AT_LIMIT_ANSWERS: usize = 64;
+
+/// The most a request's head (its line and headers) may be: more is 431
+/// and the connection closed. A connection's buffers hold at most twice
+/// this (hyper reads ahead of its check, and reads a body in pieces no
+/// larger). hyper's default (about 400 KiB a buffer) let each of the
+/// 8,192 connections hold a head that large while its header timeout ran
+/// (a probe's 200 KB header was read and served): 3 GiB; now 512 MiB at
+/// most. A browser's head is a few KiB (nginx reads heads in buffers
+/// of 8 KiB a line by default).
+pub const MAX_HEAD_BYTES: usize = 32 * 1024;
 
 /// The whole answer to a connection past the limit: the service's 503
 /// body, `Retry-After: 1`, and the connection closed.
@@ -76,6 +87,11 @@ struct Counts {
     token: std::collections::HashMap<(std::net::IpAddr, u64), usize>,
 }
 
+/// The credential key of anonymous requests that carry a body (and of the
+/// sign-in form): their own share, apart from bodiless anonymous ones (0);
+/// every other key is odd.
+const ANONYMOUS_BODY: u64 = 2;
+
 /// Which limit refused a request.
 #[derive(Debug, PartialEq, Eq)]
 enum Over {
@@ -124,8 +140,20 @@ impl PerClient {
     /// cookie's value, else none (0). A credential that is not valid is
     /// refused from the head (401, or 403 for a page's POST), so it holds a
     /// slot only that long.
-    fn credential(&self, headers: &axum::http::HeaderMap) -> u64 {
+    ///
+    /// An anonymous request that carries a body, and the sign-in form
+    /// whatever cookies come with it (its session cookie is not read
+    /// before its body, so a made-up one must not buy another share), is
+    /// [`ANONYMOUS_BODY`]: slow sign-in bodies fill that share and no
+    /// other, and a bodiless anonymous request (`/healthz`, a page's GET)
+    /// still gets in (a probe's slow sign-in forms had `/healthz` answered
+    /// 503 from the same address).
+    fn credential(&self, req: &axum::extract::Request) -> u64 {
         use std::hash::BuildHasher;
+        let headers = req.headers();
+        if req.method() == axum::http::Method::POST && req.uri().path() == "/signin" {
+            return ANONYMOUS_BODY;
+        }
         if let Some(a) = headers.get(header::AUTHORIZATION) {
             let token = a.to_str().ok().and_then(crate::auth::parse).unwrap_or("");
             return self.hasher.hash_one((1u8, token)) | 1;
@@ -144,7 +172,15 @@ impl PerClient {
             .map(|(_, value)| value)
             .collect();
         if sessions.is_empty() {
-            0
+            let has_body = headers.contains_key(header::TRANSFER_ENCODING)
+                || headers
+                    .get(header::CONTENT_LENGTH)
+                    .is_some_and(|v| v.as_bytes() != b"0");
+            if has_body {
+                ANONYMOUS_BODY
+            } else {
+                0
+            }
         } else {
             self.hasher.hash_one((2u8, sessions)) | 1
         }
@@ -251,7 +287,7 @@ pub fn router_with(state: AppState, set: &ServeSettings) -> Router {
                     let Some(client) = req.extensions().get::<ClientAddr>().copied() else {
                         return next.run(req).await;
                     };
-                    let token = per_client.credential(req.headers());
+                    let token = per_client.credential(&req);
                     match per_client.enter(client.0, token, client_cap, token_cap) {
                         Ok(_counted) => next.run(req).await,
                         Err(Over::Client) => {
@@ -291,6 +327,9 @@ pub fn router_with(state: AppState, set: &ServeSettings) -> Router {
                 if let Some(peer) = peer {
                     let client = ClientAddr::of(peer, req.headers(), behind_proxy);
                     req.extensions_mut().insert(client);
+                    if behind_proxy && peer.is_loopback() {
+                        req.extensions_mut().insert(crate::client::ViaProxy);
+                    }
                 }
                 req
             },
@@ -439,6 +478,8 @@ pub async fn run_until(
     let mut http = hyper::server::conn::http1::Builder::new();
     http.timer(TokioTimer::new())
         .header_read_timeout(set.header_timeout)
+        .max_header_size(MAX_HEAD_BYTES)
+        .max_buf_size(2 * MAX_HEAD_BYTES)
         .keep_alive(true);
     let mut full_logged = false;
     tokio::pin!(stop);
@@ -483,7 +524,15 @@ pub async fn run_until(
             Extension(ConnectInfo(peer)).layer(router.clone()),
             Arc::clone(open.conn()),
         );
-        let conn = http.serve_connection(TokioIo::new(stream), TowerToHyperService::new(svc));
+        // A write that makes no progress for `write_timeout` ends the
+        // connection (and frees its slot): the stall of a client that asks
+        // for a large answer and never reads it.
+        let mut stream = tokio_io_timeout::TimeoutStream::new(stream);
+        stream.set_write_timeout(Some(set.write_timeout));
+        let conn = http.serve_connection(
+            TokioIo::new(Box::pin(stream)),
+            TowerToHyperService::new(svc),
+        );
         let conn = graceful.watch(conn);
         tokio::spawn(async move {
             let state = Arc::clone(open.conn());
@@ -555,10 +604,21 @@ where
         + 'static,
     S::Future: Send,
 {
-    tower::service_fn(move |req| {
+    tower::service_fn(move |req: axum::http::Request<hyper::body::Incoming>| {
         let svc = svc.clone();
-        let busy = conn.start_request();
+        let bad_host = bad_host(&req);
+        let busy = bad_host.is_none().then(|| conn.start_request()).flatten();
         async move {
+            if let Some(why) = bad_host {
+                tracing::debug!(why, "a request's Host refused: 400");
+                let mut r =
+                    ApiError::new(StatusCode::BAD_REQUEST, abba_api::ErrorCode::Invalid, why)
+                        .at("Host")
+                        .into_response();
+                r.headers_mut()
+                    .insert(header::CONNECTION, HeaderValue::from_static("close"));
+                return Ok(r);
+            }
             let Some(busy) = busy else {
                 let mut r = ApiError::busy(
                     "this connection was closed to make room; retry on a new one",
@@ -579,6 +639,27 @@ where
             Ok(r.map(|body| axum::body::Body::new(Held { body, _busy: busy })))
         }
     })
+}
+
+/// Why a request's `Host` is refused (400, RFC 9112 section 3.2): an
+/// HTTP/1.1 request without one, one with more than one (which would the
+/// origin check and the sign-in links read?), or one that is not a host
+/// and port (an empty one is allowed, for a URI without authority).
+fn bad_host<B>(req: &axum::http::Request<B>) -> Option<&'static str> {
+    let mut hosts = req.headers().get_all(header::HOST).iter();
+    let Some(host) = hosts.next() else {
+        return (req.version() == axum::http::Version::HTTP_11)
+            .then_some("an HTTP/1.1 request needs a Host header");
+    };
+    if hosts.next().is_some() {
+        return Some("more than one Host header");
+    }
+    let ok = host.is_empty()
+        || host
+            .to_str()
+            .ok()
+            .is_some_and(|h| !h.contains('@') && h.parse::<axum::http::uri::Authority>().is_ok());
+    (!ok).then_some("the Host header is not a host (and port)")
 }
 
 /// An answer's body holding its connection busy until it is sent whole or
@@ -698,20 +779,19 @@ mod per_client_tests {
 
     /// One token is one key however its header is spelled, and one
     /// session one key whatever other cookies come with it; a request
-    /// without either is anonymous (0).
+    /// without either is anonymous (0), or, with a body, in the share of
+    /// anonymous bodies.
     #[test]
     fn a_credential_is_one_key_however_it_is_sent() {
         let p = PerClient::new();
-        let key = |lines: &[(&str, &str)]| {
-            let mut h = axum::http::HeaderMap::new();
+        let req = |method: &str, path: &str, lines: &[(&str, &str)]| {
+            let mut r = axum::http::Request::builder().method(method).uri(path);
             for (k, v) in lines {
-                h.append(
-                    axum::http::HeaderName::from_bytes(k.as_bytes()).unwrap(),
-                    v.parse().unwrap(),
-                );
+                r = r.header(*k, *v);
             }
-            p.credential(&h)
+            p.credential(&r.body(axum::body::Body::empty()).unwrap())
         };
+        let key = |lines: &[(&str, &str)]| req("GET", "/", lines);
         let token = format!("abba_{}", "0a".repeat(32));
         let other = format!("abba_{}", "1b".repeat(32));
         let a = key(&[("authorization", &format!("Bearer {token}"))]);
@@ -730,6 +810,17 @@ mod per_client_tests {
         assert_ne!(s, key(&[("cookie", "abba_session=abd")]));
         assert_eq!(key(&[("cookie", "x=1")]), 0);
         assert_eq!(key(&[]), 0);
+        assert_eq!(key(&[("content-length", "0")]), 0);
+        // An anonymous body, and the sign-in form whatever its cookies,
+        // have their own share.
+        let body = super::ANONYMOUS_BODY;
+        assert_eq!(key(&[("content-length", "120")]), body);
+        assert_eq!(key(&[("transfer-encoding", "chunked")]), body);
+        assert_eq!(
+            req("POST", "/signin", &[("cookie", "abba_session=made-up")]),
+            body
+        );
+        assert_ne!(s, body);
     }
 }
 

@@ -18,6 +18,12 @@ pub struct ServeSettings {
     /// A request not answered this long after its head gets 408 (a handler
     /// that runs away; the heaviest page is far below).
     pub request_timeout: Duration,
+    /// A connection whose answer makes no progress this long (the client
+    /// reads none of it, so the socket's buffers stay full) is closed, and
+    /// its request's slot freed: hyper has no write timeout of its own,
+    /// and a request for a large answer never read kept its connection in
+    /// flight (never evicted) for as long as the client liked.
+    pub write_timeout: Duration,
     /// Connections held at once. One more closes the connection that has
     /// done nothing the longest (no request in flight: a head not yet
     /// whole, or idle keep-alive) and is served; only when every
@@ -62,6 +68,7 @@ impl Default for ServeSettings {
             header_timeout: Duration::from_secs(10),
             body_timeout: Duration::from_secs(10),
             request_timeout: Duration::from_secs(60),
+            write_timeout: Duration::from_secs(20),
             max_connections: 8192,
             max_connections_per_client: 256,
             max_in_flight: 256,

@@ -22,6 +22,7 @@ mod mixed_load;
 mod openapi;
 mod pages;
 mod person_input;
+mod probe;
 mod refit;
 mod seq;
 mod web_parity;

@@ -20,6 +20,16 @@ impl Form {
             if crate::body::is_timeout(&e) {
                 return ApiError::timeout("the form");
             }
+            if crate::body::is_too_large(&e) {
+                return ApiError::new(
+                    StatusCode::PAYLOAD_TOO_LARGE,
+                    abba_api::ErrorCode::TooLarge,
+                    format!(
+                        "the form is larger than {} bytes",
+                        crate::body::FORM_BODY_BYTES
+                    ),
+                );
+            }
             ApiError::new(
                 e.status(),
                 abba_api::ErrorCode::BadJson,

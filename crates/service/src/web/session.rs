@@ -6,8 +6,10 @@
 //!   session's CSRF token and its expiry (30 days idle, 90 days at most).
 //! - `HttpOnly; SameSite=Strict; Path=/`, and `Secure` (the cookie then
 //!   named `__Host-abba_session`) when the request came over TLS: abba serves plain HTTP itself, so that is when a
-//!   reverse proxy on the same machine (a loopback peer) says
-//!   `X-Forwarded-Proto: https` (no other peer is trusted to say so), or
+//!   reverse proxy on the same machine (a loopback peer, with
+//!   `abba serve --behind-proxy`) says `X-Forwarded-Proto: https` (no
+//!   other peer, and no local process without that flag, is trusted to
+//!   say so), or
 //!   always when the service's `--public-url` is `https://`.
 //! - Every POST: the `Origin` (or, without one, the `Referer`) must name
 //!   this host (the request's `Host`), then the form's `csrf` must equal
@@ -25,10 +27,9 @@ use crate::error::ApiError;
 use crate::state::AppState;
 use abba_store::session::WebSession;
 use abba_store::token::Role;
-use axum::extract::{ConnectInfo, FromRequestParts};
+use axum::extract::FromRequestParts;
 use axum::http::request::Parts;
 use axum::http::{header, HeaderMap, HeaderValue};
-use std::net::SocketAddr;
 use subtle::ConstantTimeEq;
 
 /// The session cookie's name over plain HTTP.
@@ -61,10 +62,9 @@ impl FromRequestParts<AppState> for Ctx {
         parts: &mut Parts,
         state: &AppState,
     ) -> Result<Self, Self::Rejection> {
-        let loopback = parts
-            .extensions
-            .get::<ConnectInfo<SocketAddr>>()
-            .is_some_and(|c| c.0.ip().is_loopback());
+        // Only a proxy `--behind-proxy` trusts (a loopback peer) may say
+        // the request came over TLS (crate::client::ViaProxy).
+        let proxied = parts.extensions.get::<crate::client::ViaProxy>().is_some();
         let forwarded = parts
             .headers
             .get("x-forwarded-proto")
@@ -80,7 +80,7 @@ impl FromRequestParts<AppState> for Ctx {
             .is_some_and(|p| p.eq_ignore_ascii_case("https://"));
         Ok(Ctx {
             headers: parts.headers.clone(),
-            https: tls || (loopback && forwarded) || public_https,
+            https: tls || (proxied && forwarded) || public_https,
             public_authority: state.public_url().and_then(authority_of),
         })
     }

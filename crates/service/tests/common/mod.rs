@@ -179,6 +179,13 @@ impl Server {
     /// Serves `db` with `set` on a free loopback port.
     pub fn start(db: &std::path::Path, set: ServeSettings) -> Self {
         let state = AppState::open(db, set.store.clone()).unwrap();
+        let router = abba_service::router_with(state, &set);
+        Self::start_router(router, set)
+    }
+
+    /// Serves `router` (the service's or a test's own) with the
+    /// connection loop of `set` on a free loopback port.
+    pub fn start_router(router: Router, set: ServeSettings) -> Self {
         let (tx, rx) = tokio::sync::oneshot::channel::<()>();
         let (bound, addr) = std::sync::mpsc::channel();
         let thread = std::thread::spawn(move || {
@@ -192,7 +199,6 @@ impl Server {
                 // of connects waits there, not in SYN retries).
                 let listener = abba_service::server::bind("127.0.0.1:0").await.unwrap();
                 bound.send(listener.local_addr().unwrap()).unwrap();
-                let router = abba_service::router_with(state, &set);
                 abba_service::server::run_until(listener, router, &set, async {
                     let _ = rx.await;
                 })

@@ -959,8 +959,20 @@ fn profile_check(
     if profiles.is_empty() {
         return Ok(None);
     }
-    // The first reading: of the log if it has one, else of this batch.
-    let logged = conn.one(Q::RecordFirstGlucose, args![p.id])?.opt_int(0)?;
+    // The first reading: of the log if it has one from day 1 (readings
+    // before day 1 are stored, not used: [`crate::day_1`]), else of this
+    // batch.
+    let day_1_ms = match p.first_day {
+        Some(d) => d
+            .to_zoned(p.tz.clone())
+            .map_err(|e| StoreError::corrupt("day 1", e))?
+            .timestamp()
+            .as_millisecond(),
+        None => i64::MIN,
+    };
+    let logged = conn
+        .one(Q::RecordFirstGlucose, args![p.id, day_1_ms])?
+        .opt_int(0)?;
     let first = logged
         .and_then(|ms| jiff::Timestamp::from_millisecond(ms).ok())
         .or_else(|| abba_io::events::first_glucose(&batch.records).map(|r| r.at));

@@ -176,3 +176,29 @@ fn a_pumps_earlier_export_imported_after_the_sensors_is_stored_whole_and_not_use
     assert_eq!(a.records("cy").unwrap().len(), n);
     assert_eq!(advice(&mut a).0, va);
 }
+
+#[test]
+fn an_import_of_records_before_day_1_only_leaves_no_end_where_advice_was_shown() {
+    // Import 1 brought only records of the day before day 1 (stored, not
+    // used); import 2 ends on day 1 at 12:00. Only import 2's end counts:
+    // the first showed no advice (a suggestion "shown" hangs on these).
+    let (_d, mut s) = store("ends");
+    s.import_at("cy", &read(vec![clarity()]), now()).unwrap();
+    let person = s.person("cy").unwrap();
+    let zone = TimeZone::get(ZONE).unwrap();
+    let ms = |d: &str| {
+        jiff::civil::DateTime::strptime("%Y-%m-%d %H:%M", d)
+            .unwrap()
+            .to_zoned(zone.clone())
+            .unwrap()
+            .timestamp()
+            .as_millisecond()
+    };
+    let ends = abba_store::in_force::import_ends(
+        &person,
+        &[(1, ms("2025-03-14 23:55")), (2, ms("2025-03-15 12:00"))],
+    );
+    let clock = abba_io::clock::AdvisorClock::new(zone.clone(), day_1());
+    let noon = jiff::Timestamp::from_millisecond(ms("2025-03-15 12:00")).unwrap();
+    assert_eq!(ends, [clock.timestamp(noon)]);
+}

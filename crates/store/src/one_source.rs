@@ -358,10 +358,7 @@ impl Chosen {
         self.set_aside
             .iter()
             .map(sentence)
-            .chain(
-                self.before_day_1
-                    .map(|(n, d)| crate::day_1::sentence(n, d)),
-            )
+            .chain(self.before_day_1.map(|(n, d)| crate::day_1::sentence(n, d)))
             .collect()
     }
 }

@@ -122,7 +122,9 @@ fn a_pumps_earlier_export_imported_after_the_sensors_is_stored_whole_and_not_use
     );
     assert!(lines.iter().any(|l| l.starts_with(&said)), "{lines:?}");
     assert!(
-        s.set_aside.iter().all(|o| o.first_day.as_str() >= "2025-03-15"),
+        s.set_aside
+            .iter()
+            .all(|o| o.first_day.as_str() >= "2025-03-15"),
         "days before day 1 are not said set aside: {:?}",
         s.set_aside
     );
@@ -147,7 +149,12 @@ fn a_pumps_earlier_export_imported_after_the_sensors_is_stored_whole_and_not_use
             .collect()
     };
     let (ua, ub) = (used(&a), used(&b));
-    assert!(ua == ub, "{} records used, {} never imported", ua.len(), ub.len());
+    assert!(
+        ua == ub,
+        "{} records used, {} never imported",
+        ua.len(),
+        ub.len()
+    );
     let hash = |s: &Store| abba_store::replay::events_hash(&s.events("cy").unwrap());
     assert_eq!(hash(&a), hash(&b));
     let (va, notes_a) = advice(&mut a);

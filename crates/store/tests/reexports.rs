@@ -229,7 +229,11 @@ fn future_rows_are_refused_and_rows_before_day_1_stored_not_used() {
     // Zurich is UTC+2: 12:00 UTC is 14:00 local, +10 min skew: 14:10.
     assert_eq!(s.before_day_1.count, 48, "{s:?}");
     assert_eq!(s.before_day_1.first.as_deref(), Some("f.csv: line 4"));
-    assert_eq!(s.added, 48 + 14 * 12 + 3, "20:00 the day before to 14:10 inclusive");
+    assert_eq!(
+        s.added,
+        48 + 14 * 12 + 3,
+        "20:00 the day before to 14:10 inclusive"
+    );
     assert_eq!(s.future.count, 384 - s.added);
     assert!(s
         .future
@@ -261,7 +265,10 @@ fn an_export_wholly_before_day_1_is_stored_and_said_not_used() {
         "{s:?}"
     );
     let lines = s.lines("ana");
-    assert!(lines[0].starts_with("Imported 48 new records for ana"), "{lines:?}");
+    assert!(
+        lines[0].starts_with("Imported 48 new records for ana"),
+        "{lines:?}"
+    );
     assert!(
         lines.iter().any(|l| l.starts_with(
             "48 records dated before day 1 (2026-05-04): stored, not used by the advisor; the first: old.csv: line 4"

@@ -92,7 +92,7 @@ pub fn key(r: &Record) -> Result<(String, String), StoreError> {
 /// Every record of a person, in a fixed order (instant, source, id): the
 /// same set of records always gives the same list, whatever the order in
 /// which they were imported. Every source's, those that
-/// [`crate::one_source`] sets aside included: the raw log, for listing or
+/// [`crate::one_source`] sets aside and those before day 1 included: the raw log, for listing or
 /// exporting what the person gave us; events and days come from [`used`].
 pub fn records(conn: &dyn Db, person: i64) -> Result<Vec<Record>, StoreError> {
     records_and_imports(conn, person).map(|(r, _)| r)

@@ -7,9 +7,16 @@
 //! replaces the stored one, counted. Records dated after the time of
 //! import (beyond the clock skew) or before
 //! [`abba_io::read::RECORDS_FROM`] (1990-01-01: no sensor or pump logged
-//! data then) are refused, and records before the person's day 1 are not
-//! used; each is counted with the first one's place, never stored, and a
-//! refused record never sets day 1.
+//! data then) are refused: each is counted with the first one's place,
+//! never stored, and a refused record never sets day 1.
+//!
+//! Day 1 is set by the first import that brings glucose (the local date of
+//! its first reading) and never moves after. Records dated before it (a
+//! pump's export that starts before the sensor's, imported after it) are
+//! stored like any other, so that nothing the person gave is lost and the
+//! log does not depend on the order of the imports; the advisor does not
+//! use them ([`crate::day_1`]). The import counts them with the first
+//! one's place and says so.
 
 use crate::backend::{args, Conn, Db, Q};
 use crate::error::StoreError;
@@ -59,7 +66,10 @@ pub struct ImportSummary {
     /// Records dated before [`abba_io::read::RECORDS_FROM`] (1990-01-01):
     /// refused (they cannot be true).
     pub too_old: Refused,
-    /// Records before the person's day 1: not used, not stored.
+    /// Records of the files dated before the person's day 1 (profiles
+    /// excepted, which are in force on day 1): stored (new ones counted in
+    /// `added`, known ones in `known`), not used by the advisor
+    /// ([`crate::day_1`]).
     pub before_day_1: Refused,
     /// Files from which no record was read.
     pub empty_files: Vec<String>,
@@ -138,10 +148,14 @@ impl ImportSummary {
             out.push(crate::one_source::sentence(o));
         }
         let too_old = format!("{} (refused)", abba_io::read::too_old_words());
+        let before = format!(
+            "dated before day 1 ({}): stored, not used by the advisor",
+            self.first_day.as_deref().unwrap_or("?")
+        );
         for (what, r) in [
             ("dated after the time of import (refused)", &self.future),
             (too_old.as_str(), &self.too_old),
-            ("before day 1, not used", &self.before_day_1),
+            (before.as_str(), &self.before_day_1),
         ] {
             if r.count > 0 {
                 out.push(format!(
@@ -249,6 +263,9 @@ pub fn import_with(
     };
     let mut rows = Vec::with_capacity(batch.records.len());
     let mut kept = Vec::with_capacity(batch.records.len());
+    // The records kept that the advisor uses (on or after day 1): the
+    // days on which what was set aside is said.
+    let mut from_day_1 = Vec::with_capacity(batch.records.len());
     for r in &batch.records {
         if r.at > limit {
             note(&mut future, r);
@@ -258,14 +275,10 @@ pub fn import_with(
             note(&mut too_old, r);
             continue;
         }
-        // A profile before day 1 is in force on day 1: kept.
-        if let Some(d) = first_day {
-            if person.tz.to_datetime(r.at).date() < d
-                && !matches!(r.kind, RecordKind::Schedule { .. })
-            {
-                note(&mut before_day_1, r);
-                continue;
-            }
+        // Stored, not used (a profile before day 1 is in force on day 1).
+        match first_day {
+            Some(d) if crate::day_1::is_before(&person.tz, d, r) => note(&mut before_day_1, r),
+            _ => from_day_1.push(r),
         }
         kept.push(r);
     }
@@ -283,7 +296,7 @@ pub fn import_with(
             person.tz.iana_name().unwrap_or("?"),
         )));
     }
-    if kept.is_empty() && too_old.count > 0 && future.count == 0 && before_day_1.count == 0 {
+    if kept.is_empty() && too_old.count > 0 && future.count == 0 {
         return Err(all_too_old(batch, &too_old));
     }
     let tx = conn.transaction()?;
@@ -408,10 +421,10 @@ pub fn import_with(
             }
         }
     }
-    // What the log now sets aside on the days this import touched (after
-    // its writes, so that both orders of two imports say the same of the
-    // second).
-    let set_aside = crate::one_source::set_aside_on_days(&tx, person.id, &person.tz, &kept)?;
+    // What the log now sets aside on the days from day 1 this import
+    // touched (after its writes, so that both orders of two imports say the
+    // same of the second); its days before day 1 are said as such.
+    let set_aside = crate::one_source::set_aside_on_days(&tx, person.id, &person.tz, &from_day_1)?;
     let import_id = if added == 0 && updated == 0 {
         // Nothing new: leave no trace beyond saying so.
         tx.execute(Q::ImportDelete, args![import_id])?;

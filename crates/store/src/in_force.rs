@@ -581,18 +581,25 @@ pub fn import_ends(person: &Person, imports: &[(i64, i64)]) -> Vec<Timestamp> {
         if ms <= latest {
             continue; // an import of older data leaves the log where it was
         }
-        latest = ms;
-        if let Ok(at) = jiff::Timestamp::from_millisecond(ms) {
-            out.push(clock.timestamp(at));
+        let Ok(at) = jiff::Timestamp::from_millisecond(ms) else {
+            continue;
+        };
+        let at = clock.timestamp(at);
+        if at.day_index() < 0 {
+            // An import of records before day 1 only (stored, not used):
+            // it showed no advice, and leaves the log where it was.
+            continue;
         }
+        latest = ms;
+        out.push(at);
     }
     out
 }
 
 /// The facts of an import-fed person's records and their events: the
-/// records are taken, one source chosen for each kind of data and day
-/// ([`crate::one_source`]: the profiles, the delivery's evidence and the
-/// events all read the records used), made into the events
+/// records are taken, those before day 1 left out and one source chosen
+/// for each kind of data and day ([`crate::day_1::used`]: the profiles, the
+/// delivery's evidence and the events all read the records used), made into the events
 /// ([`log::events_of`]) and dropped, so that a long log is never held
 /// twice. `imports` (where each import left the log) reads every record:
 /// it is the history of the imports, not of the person's days.
@@ -601,7 +608,7 @@ pub fn record_facts(
     records: Vec<Record>,
     imports: &[(i64, i64)],
 ) -> Result<(EventStream, RecordFacts), StoreError> {
-    let chosen = crate::one_source::choose(&person.tz, records);
+    let chosen = crate::day_1::used(person, records);
     let records = &chosen.records;
     let profile_changes = profile_changes(person, records)?;
     // The delivery is told by the last days of the data: a loop, or

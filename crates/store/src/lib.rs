@@ -28,6 +28,7 @@ pub mod backend;
 pub mod busy;
 pub mod check;
 pub mod copy;
+pub mod day_1;
 pub mod edited;
 pub mod effect;
 pub mod error;

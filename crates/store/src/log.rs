@@ -92,7 +92,7 @@ pub fn key(r: &Record) -> Result<(String, String), StoreError> {
 /// Every record of a person, in a fixed order (instant, source, id): the
 /// same set of records always gives the same list, whatever the order in
 /// which they were imported. Every source's, those that
-/// [`crate::one_source`] sets aside included: the raw log, for listing or
+/// [`crate::one_source`] sets aside and those before day 1 included: the raw log, for listing or
 /// exporting what the person gave us; events and days come from [`used`].
 pub fn records(conn: &dyn Db, person: i64) -> Result<Vec<Record>, StoreError> {
     records_and_imports(conn, person).map(|(r, _)| r)
@@ -158,26 +158,23 @@ pub fn records_and_imports(
     Ok((out, imports.into_iter().collect()))
 }
 
-/// The records of a person that events and days are made from: one source
-/// for each kind of data on each of their local days
-/// ([`crate::one_source::choose`]), and what was set aside.
+/// The records of a person that events and days are made from: those on
+/// or after day 1, one source for each kind of data on each of their local
+/// days ([`crate::day_1::used`]), and what was left out.
 pub fn used(conn: &dyn Db, person: &Person) -> Result<Chosen, StoreError> {
-    Ok(crate::one_source::choose(
-        &person.tz,
-        records(conn, person.id)?,
-    ))
+    Ok(crate::day_1::used(person, records(conn, person.id)?))
 }
 
 /// The advisor's events for `records`, every record of the log or a part
-/// of it: one source is chosen for each kind of data and day first
-/// ([`crate::one_source`]; what was set aside is said in the stream's
-/// notes).
+/// of it: the records before day 1 are left out and one source is chosen
+/// for each kind of data and day first ([`crate::day_1::used`]; what was
+/// left out is said in the stream's notes).
 pub fn events(person: &Person, records: Vec<Record>) -> Result<EventStream, StoreError> {
-    events_of(person, crate::one_source::choose(&person.tz, records))
+    events_of(person, crate::day_1::used(person, records))
 }
 
 /// The advisor's events for records already chosen
-/// ([`crate::one_source::choose`]), what was set aside said first among
+/// ([`crate::day_1::used`]), what was set aside said first among
 /// the stream's notes (see the module documentation).
 pub fn events_of(person: &Person, chosen: Chosen) -> Result<EventStream, StoreError> {
     let set_aside = chosen.notes();

@@ -346,12 +346,20 @@ pub struct Chosen {
     pub records: Vec<Record>,
     /// What was set aside, by kind, source and the source used.
     pub set_aside: Vec<SetAside>,
+    /// Records left out as dated before the person's day 1, and day 1
+    /// ([`crate::day_1::used`]; `None` from [`choose`] alone).
+    pub before_day_1: Option<(usize, Date)>,
 }
 
 impl Chosen {
-    /// A sentence for each [`SetAside`].
+    /// A sentence for each [`SetAside`], then one for the records before
+    /// day 1.
     pub fn notes(&self) -> Vec<String> {
-        self.set_aside.iter().map(sentence).collect()
+        self.set_aside
+            .iter()
+            .map(sentence)
+            .chain(self.before_day_1.map(|(n, d)| crate::day_1::sentence(n, d)))
+            .collect()
     }
 }
 
@@ -371,7 +379,7 @@ pub fn choose(tz: &TimeZone, mut records: Vec<Record>) -> Chosen {
     if used.is_empty() {
         return Chosen {
             records,
-            set_aside: Vec::new(),
+            ..Chosen::default()
         };
     }
     records.retain(
@@ -383,6 +391,7 @@ pub fn choose(tz: &TimeZone, mut records: Vec<Record>) -> Chosen {
     Chosen {
         records,
         set_aside: tally.set_aside(None),
+        before_day_1: None,
     }
 }
 

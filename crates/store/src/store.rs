@@ -653,16 +653,17 @@ impl Store {
     }
 
     /// The person's records, in the log's order: every record stored,
-    /// those set aside for a fuller source included (the raw log, as the
-    /// person gave it). Whatever derives the person's days or events reads
+    /// those set aside for a fuller source and those before day 1
+    /// included (the raw log, as the person gave it). Whatever derives the person's days or events reads
     /// [`Store::used_records`].
     pub fn records(&self, name: &str) -> Result<Vec<Record>, StoreError> {
         log::records(&self.conn, self.person(name)?.id)
     }
 
     /// The person's records that their days and events are made from, in
-    /// the log's order: one source for each kind of data on each local day
-    /// ([`crate::one_source`]), with what was set aside.
+    /// the log's order: those on or after day 1, one source for each kind
+    /// of data on each local day ([`crate::day_1::used`]), with what was
+    /// left out.
     pub fn used_records(&self, name: &str) -> Result<crate::one_source::Chosen, StoreError> {
         log::used(&self.conn, &self.person(name)?)
     }
@@ -959,8 +960,20 @@ fn profile_check(
     if profiles.is_empty() {
         return Ok(None);
     }
-    // The first reading: of the log if it has one, else of this batch.
-    let logged = conn.one(Q::RecordFirstGlucose, args![p.id])?.opt_int(0)?;
+    // The first reading: of the log if it has one from day 1 (readings
+    // before day 1 are stored, not used: [`crate::day_1`]), else of this
+    // batch.
+    let day_1_ms = match p.first_day {
+        Some(d) => d
+            .to_zoned(p.tz.clone())
+            .map_err(|e| StoreError::corrupt("day 1", e))?
+            .timestamp()
+            .as_millisecond(),
+        None => i64::MIN,
+    };
+    let logged = conn
+        .one(Q::RecordFirstGlucose, args![p.id, day_1_ms])?
+        .opt_int(0)?;
     let first = logged
         .and_then(|ms| jiff::Timestamp::from_millisecond(ms).ok())
         .or_else(|| abba_io::events::first_glucose(&batch.records).map(|r| r.at));

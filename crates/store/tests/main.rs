@@ -14,6 +14,7 @@ mod tidepool_workbook;
 // One module per test file.
 mod app_events;
 mod backends;
+mod before_day_1;
 mod implausible;
 mod import_log;
 mod nightscout_670g;

@@ -215,12 +215,12 @@ fn the_migration_rekeys_index_identities_without_losing_a_record() {
 }
 
 #[test]
-fn future_rows_are_refused_and_rows_before_day_1_not_used() {
+fn future_rows_are_refused_and_rows_before_day_1_stored_not_used() {
     let dir = TempDir::new("future");
     let mut store = dir.store();
     store.create_person(&person("ana")).unwrap(); // day 1 = 2026-05-04
                                                   // 2026-05-03 20:00 .. 2026-05-05 04:00 Zurich, imported at 2026-05-04
-                                                  // 12:00 UTC: the evening before day 1 is not used, the future refused.
+                                                  // 12:00 UTC: the evening before day 1 is stored, not used; the future refused.
     let bytes = clarity(-240, 1680, false);
     let at: jiff::Timestamp = "2026-05-04T12:00:00Z".parse().unwrap();
     let s = store
@@ -229,20 +229,29 @@ fn future_rows_are_refused_and_rows_before_day_1_not_used() {
     // Zurich is UTC+2: 12:00 UTC is 14:00 local, +10 min skew: 14:10.
     assert_eq!(s.before_day_1.count, 48, "{s:?}");
     assert_eq!(s.before_day_1.first.as_deref(), Some("f.csv: line 4"));
-    assert_eq!(s.added, 14 * 12 + 3, "00:00 to 14:10 inclusive");
-    assert_eq!(s.future.count, 384 - 48 - s.added);
+    assert_eq!(
+        s.added,
+        48 + 14 * 12 + 3,
+        "20:00 the day before to 14:10 inclusive"
+    );
+    assert_eq!(s.future.count, 384 - s.added);
     assert!(s
         .future
         .first
         .as_deref()
         .unwrap()
         .starts_with("f.csv: line "));
-    let total = s.added + s.future.count + s.before_day_1.count;
+    let total = s.added + s.future.count;
     assert_eq!(total, 384, "every reading accounted for");
+    assert_eq!(store.records("ana").unwrap().len(), s.added);
+    // The advisor uses those from day 1 only.
+    let used = store.used_records("ana").unwrap();
+    assert_eq!(used.records.len(), s.added - 48);
+    assert_eq!(used.before_day_1.map(|b| b.0), Some(48));
 }
 
 #[test]
-fn an_export_wholly_before_day_1_says_nothing_was_added_and_why() {
+fn an_export_wholly_before_day_1_is_stored_and_said_not_used() {
     let dir = TempDir::new("before-day-1");
     let mut store = dir.store();
     store.create_person(&person("ana")).unwrap(); // day 1 = 2026-05-04
@@ -252,21 +261,22 @@ fn an_export_wholly_before_day_1_says_nothing_was_added_and_why() {
         .unwrap();
     assert_eq!(
         (s.added, s.known, s.before_day_1.count),
-        (0, 0, 48),
+        (48, 0, 48),
         "{s:?}"
     );
     let lines = s.lines("ana");
-    // Not "all 0 records are already in the log": none could be used.
-    assert_eq!(
-        lines[0], "Nothing was added to ana's log: no record of old.csv could be used (below).",
+    assert!(
+        lines[0].starts_with("Imported 48 new records for ana"),
         "{lines:?}"
     );
     assert!(
-        lines
-            .iter()
-            .any(|l| l.starts_with("48 records before day 1, not used; the first: old.csv: line 4")),
+        lines.iter().any(|l| l.starts_with(
+            "48 records dated before day 1 (2026-05-04): stored, not used by the advisor; the first: old.csv: line 4"
+        )),
         "{lines:?}"
     );
+    assert_eq!(store.records("ana").unwrap().len(), 48);
+    assert!(store.used_records("ana").unwrap().records.is_empty());
     // One record is one record.
     let one = store
         .import_at("ana", &read(&[("one.csv", clarity(0, 5, false))]), at)

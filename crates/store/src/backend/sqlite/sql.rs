@@ -41,8 +41,8 @@ statements! {
     SuggestionPut = "INSERT OR REPLACE INTO suggestion (person_id, at_min, parameter, old, new, skipped, decision) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)";
     /// Record count and last import.
     RecordCountAndLastImport = "SELECT count(*), coalesce(max(import_id), 0) FROM record WHERE person_id = ?1";
-    /// Record first glucose.
-    RecordFirstGlucose = "SELECT min(at_ms) FROM record WHERE person_id = ?1 AND (kind LIKE '{\"type\":\"cgm\"%' OR kind LIKE '{\"type\":\"smbg\"%')";
+    /// Record first glucose at or after ?2 (ms: the start of day 1).
+    RecordFirstGlucose = "SELECT min(at_ms) FROM record WHERE person_id = ?1 AND at_ms >= ?2 AND (kind LIKE '{\"type\":\"cgm\"%' OR kind LIKE '{\"type\":\"smbg\"%')";
     // answer
     /// Answers of.
     AnswersOf = "SELECT at_min, parameter, answer, suggested, previous, in_force, answered_at FROM answer WHERE person_id = ?1";

@@ -376,6 +376,51 @@ async fn a_query_parameter_an_endpoint_does_not_take_is_refused_and_changes_noth
     assert_eq!(r.status, StatusCode::OK, "{}", r.text);
 }
 
+/// A body an endpoint does not take is refused (400 naming `body`),
+/// never ignored: a probe's `POST .../tokens` with `{"role": "admin"}`
+/// got 201 and a person's token, the body unread. No body, white space
+/// and `{}` are none. A stranger still gets 401 first.
+#[tokio::test]
+async fn a_body_an_endpoint_does_not_take_is_refused_and_changes_nothing() {
+    let svc = Svc::new();
+    let alice = svc.person("alice").await;
+    let (token_id, _) = svc.token(alice).await;
+    let issue = format!("/v1/persons/{alice}/tokens");
+    let revoke = format!("/v1/tokens/{token_id}");
+    let bodies: [&[u8]; 4] = [br#"{"role": "admin"}"#, b"[]", b"null", &[b'x'; 200]];
+    for (method, uri) in [(Method::POST, &issue), (Method::DELETE, &revoke)] {
+        for body in bodies {
+            let r = svc
+                .raw(method.clone(), uri, None, Some(body.to_vec()))
+                .await;
+            assert_eq!(r.status, StatusCode::UNAUTHORIZED, "{uri}: {}", r.text);
+            let bearer = Some(format!("Bearer {}", svc.admin));
+            let r = svc
+                .raw(method.clone(), uri, bearer, Some(body.to_vec()))
+                .await;
+            assert_eq!(r.status, StatusCode::BAD_REQUEST, "{uri}: {}", r.text);
+            assert_eq!(r.json["path"], "body", "{uri}: {}", r.text);
+        }
+    }
+    // Nothing was issued or revoked.
+    let store = abba_store::Store::open(&svc.db).unwrap();
+    let tokens = store
+        .tokens_of(abba_store::token::Role::Person(alice as i64))
+        .unwrap();
+    assert_eq!(tokens.len(), 1, "{tokens:?}");
+    drop(store);
+    // None, white space and `{}` are no body.
+    let bearer = || Some(format!("Bearer {}", svc.admin));
+    for body in [None, Some(b" \r\n".to_vec()), Some(b"{ }".to_vec())] {
+        let r = svc.raw(Method::POST, &issue, bearer(), body).await;
+        assert_eq!(r.status, StatusCode::CREATED, "{}", r.text);
+    }
+    let r = svc
+        .raw(Method::DELETE, &revoke, bearer(), Some(b"{}".to_vec()))
+        .await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.text);
+}
+
 /// An id is read only as the service writes it: `+1`, `01` or `1 ` reach
 /// no person and no token (404, as an id nothing has), so that one person
 /// is not under many paths (past a proxy's rule on `/v1/persons/1/`).

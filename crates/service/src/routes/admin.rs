@@ -182,7 +182,7 @@ fn bounds_path(a: &abba_advisor::AdvisorError) -> String {
     params(("id" = u64, Path, description = "The person's id")),
     responses(
         (status = 201, description = "The token, shown once", body = TokenIssued),
-        (status = 400, description = "A query parameter (this endpoint takes none)", body = ErrorBody),
+        (status = 400, description = "A query parameter or a body (this endpoint takes neither)", body = ErrorBody),
         (status = 401, description = "No valid token", body = ErrorBody),
         (status = 403, description = "Not an admin token", body = ErrorBody),
         (status = 404, description = "No such person", body = ErrorBody)))]
@@ -190,6 +190,7 @@ pub async fn issue_token(
     State(s): State<AppState>,
     AdminPath(id): AdminPath,
     _query: super::NoQuery,
+    _body: super::NoBody,
 ) -> Result<(StatusCode, Json<TokenIssued>), ApiError> {
     let id = parse_id(&id);
     let (token_id, token) = s
@@ -214,7 +215,7 @@ pub async fn issue_token(
     params(("token_id" = u64, Path, description = "The token's id")),
     responses(
         (status = 200, description = "Revoked", body = TokenRevoked),
-        (status = 400, description = "A query parameter (this endpoint takes none)", body = ErrorBody),
+        (status = 400, description = "A query parameter or a body (this endpoint takes neither)", body = ErrorBody),
         (status = 401, description = "No valid token", body = ErrorBody),
         (status = 403, description = "Not an admin token", body = ErrorBody),
         (status = 404, description = "No such token", body = ErrorBody),
@@ -223,6 +224,7 @@ pub async fn revoke_token(
     State(s): State<AppState>,
     AdminPath(token_id): AdminPath,
     _query: super::NoQuery,
+    _body: super::NoBody,
 ) -> Result<Json<TokenRevoked>, ApiError> {
     let id = Some(crate::extract::parse_id(&token_id))
         .filter(|&v| v > 0)

@@ -83,6 +83,41 @@ impl<S: Send + Sync> axum::extract::FromRequestParts<S> for NoQuery {
     }
 }
 
+/// An endpoint that takes no body: a body is 400 naming it, never ignored
+/// (a probe's `POST .../tokens` with a JSON body of its own choosing got
+/// 201, the body unread). An empty body, white space or the empty JSON
+/// object `{}` (what some HTTP clients send for "no fields") is none.
+/// Taken last (it reads the body), after the caller's extractor, so a
+/// stranger still gets 401 before anything is read.
+#[derive(Debug, Clone, Copy)]
+pub struct NoBody;
+
+/// The most of a body [`NoBody`] reads to tell none from some.
+const NO_BODY_READ: usize = 64;
+
+impl<S: Send + Sync> axum::extract::FromRequest<S> for NoBody {
+    type Rejection = ApiError;
+
+    async fn from_request(req: axum::extract::Request, _: &S) -> Result<Self, ApiError> {
+        let refused = || {
+            ApiError::bad_json(
+                "body",
+                "this endpoint takes no body (send none, or {}); see GET /v1/openapi.json",
+            )
+        };
+        let bytes = axum::body::to_bytes(req.into_body(), NO_BODY_READ)
+            .await
+            .map_err(|_| refused())?;
+        let text = std::str::from_utf8(&bytes).map_err(|_| refused())?;
+        let bare: String = text.chars().filter(|c| !c.is_whitespace()).collect();
+        if bare.is_empty() || bare == "{}" {
+            Ok(NoBody)
+        } else {
+            Err(refused())
+        }
+    }
+}
+
 /// 404 for an unknown path: under an API version (`/v1`, `/v2`, ...) and
 /// `/healthz` the API's JSON error, elsewhere the pages' 404 page.
 pub async fn not_found(uri: axum::http::Uri) -> axum::response::Response {

@@ -13,6 +13,7 @@
 use crate::common;
 
 use abba_service::ServeSettings;
+use common::sock::{get, held_posts, timed};
 use common::{Server, Svc};
 use std::io::{Read, Write};
 use std::net::{Ipv4Addr, SocketAddr, TcpStream};
@@ -22,23 +23,6 @@ use std::time::{Duration, Instant};
 
 /// The polite client's bound: each of its answers comes within this.
 const POLITE: Duration = Duration::from_secs(1);
-
-/// Sends `request` on a new connection from 127.0.0.1 and reads the whole
-/// answer (the service closes after it): the answer and how long it took.
-fn timed(addr: SocketAddr, request: &str) -> (String, Duration) {
-    let t = Instant::now();
-    let mut s = TcpStream::connect(addr).unwrap();
-    s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
-    s.write_all(request.as_bytes()).unwrap();
-    let mut out = Vec::new();
-    let _ = s.read_to_end(&mut out);
-    (String::from_utf8_lossy(&out).to_string(), t.elapsed())
-}
-
-/// A GET with `headers` (each line ending in `\r\n`), closing after it.
-fn get(path: &str, headers: &str) -> String {
-    format!("GET {path} HTTP/1.1\r\nHost: x\r\n{headers}Connection: close\r\n\r\n")
-}
 
 /// True once the peer closed the connection (read gives 0 bytes or an
 /// error other than a timeout).
@@ -270,16 +254,9 @@ fn healthz_beside_a_full_share(behind_proxy: bool, forwarded: &str, probe: &str)
             ..ServeSettings::default()
         },
     );
-    let stalled: Vec<TcpStream> = (0..2)
-        .map(|_| {
-            let mut s = TcpStream::connect(server.addr).unwrap();
-            s.write_all(format!(
-                "POST /v1/persons HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer {}\r\nX-Forwarded-For: {forwarded}\r\nContent-Type: application/json\r\nContent-Length: 100\r\n\r\n{{",
-                svc.admin
-            ).as_bytes()).unwrap();
-            s
-        })
-        .collect();
+    let stalled = held_posts(server.addr, &svc.admin, 2, |_| {
+        format!("X-Forwarded-For: {forwarded}\r\n")
+    });
     std::thread::sleep(Duration::from_millis(300));
     let (answer, _) = timed(
         server.addr,
@@ -368,16 +345,9 @@ fn healthz_beside_four_busy_connections(behind_proxy: bool) -> String {
             ..ServeSettings::default()
         },
     );
-    let busy: Vec<TcpStream> = (0..4)
-        .map(|i| {
-            let mut s = TcpStream::connect(server.addr).unwrap();
-            s.write_all(format!(
-                "POST /v1/persons HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer {}\r\nX-Forwarded-For: 203.0.113.{i}\r\nContent-Type: application/json\r\nContent-Length: 100\r\n\r\n{{",
-                svc.admin
-            ).as_bytes()).unwrap();
-            s
-        })
-        .collect();
+    let busy = held_posts(server.addr, &svc.admin, 4, |i| {
+        format!("X-Forwarded-For: 203.0.113.{i}\r\n")
+    });
     std::thread::sleep(Duration::from_millis(300));
     let (answer, _) = timed(server.addr, &get("/healthz", ""));
     drop(busy);

@@ -737,16 +737,7 @@ fn a_connection_past_the_limit_gets_503_not_a_reset() {
         },
     );
     // A valid token's body that never comes: a request in flight each.
-    let held: Vec<TcpStream> = (0..4)
-        .map(|_| {
-            let mut s = TcpStream::connect(server.addr).unwrap();
-            s.write_all(format!(
-                "POST /v1/persons HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer {}\r\nContent-Type: application/json\r\nContent-Length: 100\r\n\r\n{{",
-                svc.admin
-            ).as_bytes()).unwrap();
-            s
-        })
-        .collect();
+    let held = common::sock::held_posts(server.addr, &svc.admin, 4, |_| String::new());
     std::thread::sleep(Duration::from_millis(200));
     let r = raw(
         server.addr,

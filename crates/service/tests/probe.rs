@@ -12,51 +12,14 @@ use crate::common;
 use abba_service::{auth, ServeSettings};
 use abba_store::token::Role;
 use axum::body::Bytes;
+use common::sock::{connect_from, get, timed_from};
 use common::{Server, Svc};
 use std::io::{Read, Write};
-use std::net::{Ipv4Addr, SocketAddr, TcpStream};
+use std::net::Ipv4Addr;
 use std::time::{Duration, Instant};
 
 /// The polite client's bound: each of its answers comes within this.
 const POLITE: Duration = Duration::from_secs(1);
-
-/// A connection to `to` from the loopback address `from`, with a receive
-/// buffer of `rcvbuf` bytes when given (a client that reads nothing fills
-/// it, then the service's send buffer, sooner).
-fn connect_from(from: Ipv4Addr, to: SocketAddr, rcvbuf: Option<u32>) -> TcpStream {
-    let rt = tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()
-        .unwrap();
-    rt.block_on(async {
-        let socket = tokio::net::TcpSocket::new_v4().unwrap();
-        if let Some(n) = rcvbuf {
-            socket.set_recv_buffer_size(n).unwrap();
-        }
-        socket.bind(SocketAddr::from((from, 0))).unwrap();
-        let stream = socket.connect(to).await.unwrap();
-        let std = stream.into_std().unwrap();
-        std.set_nonblocking(false).unwrap();
-        std
-    })
-}
-
-/// Sends `request` from `from` on a new connection and reads the whole
-/// answer (the service closes after it): the answer and how long it took.
-fn timed_from(from: Ipv4Addr, to: SocketAddr, request: &str) -> (String, Duration) {
-    let t = Instant::now();
-    let mut s = connect_from(from, to, None);
-    s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
-    s.write_all(request.as_bytes()).unwrap();
-    let mut out = Vec::new();
-    let _ = s.read_to_end(&mut out);
-    (String::from_utf8_lossy(&out).to_string(), t.elapsed())
-}
-
-/// A GET with `headers` (each line ending in `\r\n`), closing after it.
-fn get(path: &str, headers: &str) -> String {
-    format!("GET {path} HTTP/1.1\r\nHost: x\r\n{headers}Connection: close\r\n\r\n")
-}
 
 /// 64 KiB of an answer.
 static CHUNK: [u8; 64 * 1024] = [b'x'; 64 * 1024];

@@ -3,6 +3,8 @@
 
 #![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
 
+pub mod sock;
+
 use abba_service::{auth, AppState, ServeSettings};
 use abba_store::token::Role;
 use axum::body::Body;

@@ -50,8 +50,10 @@ pub struct ImportSummary {
     pub cross_upload_duplicates: usize,
     /// Nightscout doses the log already held from an earlier import or
     /// sync under another document, within
-    /// [`abba_io::read::copy_elsewhere_window_ms`]: not stored again
-    /// (also counted in `known`).
+    /// [`abba_io::read::copy_elsewhere_window_ms`] and, when both carry
+    /// one, with the same pump identity
+    /// ([`abba_io::read::pump_identity`]): not stored again (also counted
+    /// in `known`).
     pub copies_of_stored_doses: usize,
     /// Doses and carbs edited in the vendor's app between an earlier
     /// export and this one ([`crate::edited`]): the stored value replaced

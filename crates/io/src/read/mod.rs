@@ -713,7 +713,9 @@ pub fn twice_window_ms(r: &Record) -> i64 {
 /// an NSClient reset, and its NSClient (API v1) and NSClientV3 each write
 /// one copy, dated [`nightscout::COPY_WITHIN_S`] apart at most. Within one
 /// file the reader tells copies by their pump event (`pumpId`); across
-/// imports the store has only the dose. 0 for any other record.
+/// imports the store compares the pump identities kept with the doses
+/// ([`pump_identity`]) and, where either has none, takes the window
+/// alone. 0 for any other record.
 pub fn copy_elsewhere_window_ms(r: &Record) -> i64 {
     match (r.source, &r.kind) {
         (

@@ -101,7 +101,7 @@ fn two_identical_boluses_30_s_apart_with_other_pump_ids_in_two_imports_are_two_d
     let mut store = new_store(&dir);
     let first = v1_bolus();
     let second = moved(&first, "673f7c10a9c4e21b7f0b0099", 30, Some(41013));
-    import(&mut store, &[first.clone()]);
+    import(&mut store, std::slice::from_ref(&first));
     let summary = import(&mut store, &[second]);
     assert_eq!(
         (summary.added, summary.copies_of_stored_doses),
@@ -125,7 +125,7 @@ fn the_same_bolus_uploaded_by_nsclient_and_nsclientv3_in_two_imports_is_one_dose
     let v3 = v3_copy();
     assert_ne!(v1["_id"], v3["_id"]);
     assert_ne!(v1["date"], v3["date"]);
-    import(&mut store, &[v1.clone()]);
+    import(&mut store, std::slice::from_ref(&v1));
     let summary = import(&mut store, &[v3]);
     assert_eq!(
         (summary.added, summary.copies_of_stored_doses),
@@ -149,7 +149,7 @@ fn a_copy_without_pump_ids_keeps_the_60_s_window() {
     // Within 60 s: a copy, as before pump ids were kept; past it: a dose.
     let near = moved(&first, "673f7c10a9c4e21b7f0b0097", 30, None);
     let far = moved(&first, "673f7c10a9c4e21b7f0b0096", 61, None);
-    import(&mut store, &[first.clone()]);
+    import(&mut store, std::slice::from_ref(&first));
     let summary = import(&mut store, &[near]);
     assert_eq!(summary.copies_of_stored_doses, 1, "{summary:?}");
     let summary = import(&mut store, &[far]);

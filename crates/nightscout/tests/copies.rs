@@ -4,7 +4,8 @@
 //! sync says how many copies it found; a CareLink export beside the same
 //! pump's doses synced from Nightscout, in either order, stores both and
 //! counts each dose once (fixtures in `crates/io/tests/data`, see its
-//! PROVENANCE.md).
+//! PROVENANCE.md); a second identical bolus 30 s after the first, with
+//! its own pump id, is a second dose.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use crate::common;
@@ -196,4 +197,68 @@ fn a_carelink_export_and_a_sync_of_the_same_pump_count_each_dose_once_in_either_
             "{text}"
         );
     }
+}
+
+/// A second bolus of the same units 30 s after the first, with the pump's
+/// next event number, synced after it: two doses, both stored and both in
+/// the advisor's insulin (the pump ids tell it from a copy uploaded
+/// again; without them the 60-s window would take it as one).
+#[test]
+fn a_second_identical_bolus_30_s_later_with_its_own_pump_id_is_a_second_dose_over_two_syncs() {
+    let dir = tempfile::tempdir().unwrap();
+    let profile = io_fixture("nightscout_profile_synthetic.json");
+    let entries = entries();
+    let before = io_fixture("nightscout_treatments_aaps_before_reset_synthetic.json");
+    let first = before
+        .iter()
+        .find(|d| d["pumpId"] == 41012)
+        .unwrap()
+        .clone();
+    let mut second = first.clone();
+    let date = first["date"].as_i64().unwrap() + 30_000;
+    second["_id"] = "673f7c10a9c4e21b7f0b0099".into();
+    second["date"] = date.into();
+    second["created_at"] = common::server::iso(date).into();
+    second["pumpId"] = 41013.into();
+    let files: Vec<std::path::PathBuf> = [("entries.json", &entries), ("profile.json", &profile)]
+        .into_iter()
+        .map(|(name, docs)| {
+            let p = dir.path().join(name);
+            std::fs::write(&p, serde_json::to_vec(docs).unwrap()).unwrap();
+            p
+        })
+        .collect();
+    let mut site = Site::new(SECRET);
+    site.add("entries", entries.clone());
+    site.add("treatments", vec![first.clone()]);
+    site.add("profile", profile.clone());
+    let srv = Server::start(site);
+    let mut store = linked(dir.path(), "s.db", &files, &srv.url);
+    sync(&mut store, "ana", &sync_opts()).unwrap();
+    srv.with(|s| s.add("treatments", vec![second]));
+    let summary = sync(&mut store, "ana", &sync_opts())
+        .unwrap()
+        .import
+        .import
+        .unwrap();
+    assert_eq!(
+        (summary.added, summary.copies_of_stored_doses),
+        (1, 0),
+        "{summary:?}"
+    );
+    let given = 2.0 * first["insulin"].as_f64().unwrap();
+    assert_eq!(boluses(&store).len(), 2);
+    let insulin: f64 = store
+        .events("ana")
+        .unwrap()
+        .iter()
+        .filter_map(|e| match &e.kind {
+            abba_core::EventKind::Bolus(u) => Some(u.0),
+            _ => None,
+        })
+        .sum();
+    assert!(
+        (insulin - given).abs() < 1e-9,
+        "{insulin} U, given {given} U"
+    );
 }

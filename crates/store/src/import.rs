@@ -22,6 +22,7 @@ use crate::backend::{args, Conn, Db, Q};
 use crate::error::StoreError;
 use crate::log::key;
 use crate::person::{self, Person};
+use abba_io::read::pump_identity::PumpIdentity;
 use abba_io::read::{Batch, Refused};
 use abba_io::{RecordKind, SourceId};
 use serde::Serialize;
@@ -49,8 +50,10 @@ pub struct ImportSummary {
     pub cross_upload_duplicates: usize,
     /// Nightscout doses the log already held from an earlier import or
     /// sync under another document, within
-    /// [`abba_io::read::copy_elsewhere_window_ms`]: not stored again
-    /// (also counted in `known`).
+    /// [`abba_io::read::copy_elsewhere_window_ms`] and, when both carry
+    /// one, with the same pump identity
+    /// ([`abba_io::read::pump_identity`]): not stored again (also counted
+    /// in `known`).
     pub copies_of_stored_doses: usize,
     /// Doses and carbs edited in the vendor's app between an earlier
     /// export and this one ([`crate::edited`]): the stored value replaced
@@ -345,7 +348,11 @@ pub fn import_with(
         for (source, id, at_ms, record, window, is_id) in &rows {
             let kind = &serde_json::to_string(&record.kind)
                 .map_err(|e| StoreError::corrupt("record", e))?;
-            let origin = &batch.origin(record);
+            let pump = batch.pump_identity(record);
+            let origin = &match pump {
+                Some(p) => p.in_origin(&batch.origin(record)),
+                None => batch.origin(record),
+            };
             let stored = match tx.row(Q::RecordHeld, args![person.id, source, id])? {
                 Some(r) => Some((r.int(0)?, r.text(1)?)),
                 None => None,
@@ -378,10 +385,13 @@ pub fn import_with(
                         None => false,
                     };
                     let copy_window = abba_io::read::copy_elsewhere_window_ms(record);
+                    // A copy: the same dose within the window, unless both
+                    // carry the pump's identity and the two differ
+                    // (abba_io::read::pump_identity).
                     let copy = !by_content
                         && copy_window > 0
                         && tx
-                            .row(
+                            .rows(
                                 Q::RecordCopyElsewhere,
                                 args![
                                     person.id,
@@ -392,7 +402,16 @@ pub fn import_with(
                                     import_id
                                 ],
                             )?
-                            .is_some();
+                            .iter()
+                            .map(|row| row.text(0))
+                            .collect::<Result<Vec<String>, _>>()?
+                            .iter()
+                            .any(|stored| {
+                                PumpIdentity::same_dose(
+                                    pump,
+                                    PumpIdentity::of_origin(stored).as_ref(),
+                                )
+                            });
                     let edit_of = match by_content || copy {
                         true => None,
                         false => crate::edited::edit_of(

@@ -21,6 +21,7 @@ mod nightscout_670g;
 mod person_age;
 mod person_names;
 mod person_path;
+mod pump_ids;
 mod reexports;
 mod tidepool;
 mod two_routes;

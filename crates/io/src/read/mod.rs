@@ -9,6 +9,7 @@ pub mod libreview;
 pub mod libreview_columns;
 pub mod nightscout;
 pub mod plain;
+pub mod pump_identity;
 pub mod table;
 pub mod tidepool;
 pub mod tidepool_xlsx;
@@ -145,6 +146,9 @@ pub struct Ctx<'a> {
     /// profile and no store was given to look it up in: [`read_all`]
     /// reads it again with the batch's stores.
     pub wants_stores: std::cell::Cell<bool>,
+    /// The pump identities of the file's doses, by JSON item
+    /// ([`pump_identity`]; the Nightscout reader's).
+    pub pump_identities: std::cell::RefCell<Vec<(u32, pump_identity::PumpIdentity)>>,
 }
 
 /// The rows or items of a file that could not be read: left out, the rest
@@ -403,6 +407,8 @@ pub struct FileRead {
     /// Whether the file names profiles of a store it was not given
     /// ([`Ctx::wants_stores`]).
     pub wants_stores: bool,
+    /// The pump identities of its doses, by JSON item ([`Ctx::pump_identities`]).
+    pub pump_identities: Vec<(u32, pump_identity::PumpIdentity)>,
 }
 
 /// Rows or items of the files that could not be read and were left out
@@ -445,6 +451,7 @@ pub fn read_bytes_with_stores(
         stores,
         found_stores: Default::default(),
         wants_stores: Default::default(),
+        pump_identities: Default::default(),
     };
     // A workbook (a zip) is binary: no text decoding.
     if tidepool_xlsx::is_zip(bytes) {
@@ -459,6 +466,7 @@ pub fn read_bytes_with_stores(
             clocks: crate::clocks::stretches(ctx.clocks.into_inner()),
             stores: ctx.found_stores.into_inner(),
             wants_stores: ctx.wants_stores.get(),
+            pump_identities: ctx.pump_identities.into_inner(),
         });
     }
     let decoded = decode_text(&ctx, bytes)?;
@@ -493,6 +501,7 @@ pub fn read_bytes_with_stores(
         clocks: crate::clocks::stretches(ctx.clocks.into_inner()),
         stores: ctx.found_stores.into_inner(),
         wants_stores: ctx.wants_stores.get(),
+        pump_identities: ctx.pump_identities.into_inner(),
     })
 }
 
@@ -606,6 +615,7 @@ pub fn carelink_settings_rows(
         stores: &[],
         found_stores: Default::default(),
         wants_stores: Default::default(),
+        pump_identities: Default::default(),
     };
     let decoded = decode_text(&ctx, bytes)?;
     let bytes = table::strip_bom(decoded.as_deref().unwrap_or(bytes));
@@ -660,6 +670,11 @@ pub struct Batch {
     /// the person's zone by the store's import.
     #[serde(default)]
     pub clocks: Vec<Vec<crate::clocks::ClockStretch>>,
+    /// The pump identities of the batch's Nightscout doses (AndroidAPS's
+    /// `pumpType`, `pumpSerial`, `pumpId`), by the record's file and JSON
+    /// item ([`pump_identity`], [`Batch::pump_identity`]).
+    #[serde(skip)]
+    pub pump_identities: BTreeMap<(u16, u32), pump_identity::PumpIdentity>,
 }
 
 /// How far apart (seconds) two Tidepool data of the same kind and value
@@ -698,7 +713,9 @@ pub fn twice_window_ms(r: &Record) -> i64 {
 /// an NSClient reset, and its NSClient (API v1) and NSClientV3 each write
 /// one copy, dated [`nightscout::COPY_WITHIN_S`] apart at most. Within one
 /// file the reader tells copies by their pump event (`pumpId`); across
-/// imports the store has only the dose. 0 for any other record.
+/// imports the store compares the pump identities kept with the doses
+/// ([`pump_identity`]) and, where either has none, takes the window
+/// alone. 0 for any other record.
 pub fn copy_elsewhere_window_ms(r: &Record) -> i64 {
     match (r.source, &r.kind) {
         (
@@ -768,6 +785,14 @@ impl Batch {
     /// Where a record was read, for messages (`file: line N` or `file: $[i]`).
     pub fn origin(&self, r: &Record) -> String {
         crate::events::Origins::Files(&self.files).of(r)
+    }
+    /// The pump's identity of a record read from a Nightscout document
+    /// that carries one ([`pump_identity`]).
+    pub fn pump_identity(&self, r: &Record) -> Option<&pump_identity::PumpIdentity> {
+        match r.origin.at {
+            crate::record::OriginAt::Item(i) => self.pump_identities.get(&(r.origin.file, i)),
+            _ => None,
+        }
     }
     /// Removes the records dated more than
     /// [`abba_core::limits::FUTURE_SKEW_MINUTES`] after `now` (the time of
@@ -866,15 +891,21 @@ pub fn read_all(inputs: &[(String, Vec<u8>)], opts: &ReadOptions) -> Result<Batc
             }
         }
     }
-    for FileRead {
-        format,
-        records: mut r,
-        notes: mut n,
-        unread: u,
-        clocks: c,
-        ..
-    } in reads
+    let mut pump_identities = BTreeMap::new();
+    for (
+        file,
+        FileRead {
+            format,
+            records: mut r,
+            notes: mut n,
+            unread: u,
+            clocks: c,
+            pump_identities: p,
+            ..
+        },
+    ) in reads.into_iter().enumerate()
     {
+        pump_identities.extend(p.into_iter().map(|(item, p)| ((file as u16, item), p)));
         clocks.push(c);
         unread.count += u.count;
         unread.first.extend(u.first);
@@ -896,6 +927,7 @@ pub fn read_all(inputs: &[(String, Vec<u8>)], opts: &ReadOptions) -> Result<Batc
     batch.notes = notes;
     batch.unread = unread;
     batch.clocks = clocks;
+    batch.pump_identities = pump_identities;
     Ok(batch)
 }
 
@@ -933,6 +965,7 @@ pub fn merge(files: Vec<String>, formats: Vec<Format>, mut records: Vec<Record>)
         too_old: Refused::default(),
         unread: Unread::default(),
         clocks: Vec::new(),
+        pump_identities: BTreeMap::new(),
     }
 }
 

@@ -89,6 +89,7 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
         }
     }
     check_error_codes(ctx, &out)?;
+    let item_indices: Vec<u32> = out.iter().map(item_of).collect();
     let copies = pump_copies(ctx, &items, &out, &versions, &pump_keys)?;
     tally.note(ctx, &out);
     temporary_switches(ctx, &mut out, &mut versions, &switches);
@@ -96,6 +97,15 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     if !copies.is_empty() {
         out.retain(|r| !copies.contains(&item_of(r)));
     }
+    // Each dose's pump identity, for the store to tell a copy stored by an
+    // earlier import from a second dose ([`super::pump_identity`]).
+    let mut kept: Vec<(u32, super::pump_identity::PumpIdentity)> = (pump_keys.iter())
+        .zip(item_indices)
+        .filter(|(_, item)| !copies.contains(item))
+        .filter_map(|(k, item)| k.as_ref().map(|k| (item, k.identity())))
+        .collect();
+    kept.dedup_by_key(|(item, _)| *item);
+    ctx.pump_identities.borrow_mut().extend(kept);
     Ok(out)
 }
 
@@ -561,6 +571,17 @@ struct PumpEvent {
     pump_type: String,
     serial: String,
     id: i64,
+}
+
+impl PumpEvent {
+    /// The pump's identity of the event, kept with its record.
+    fn identity(&self) -> super::pump_identity::PumpIdentity {
+        super::pump_identity::PumpIdentity {
+            pump_type: self.pump_type.clone(),
+            serial: self.serial.clone(),
+            id: self.id,
+        }
+    }
 }
 
 /// The pump event a document carries ([`PumpEvent`]), if it has a

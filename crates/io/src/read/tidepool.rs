@@ -780,6 +780,7 @@ pub(crate) fn pump_settings(
             stores: &[],
             found_stores: Default::default(),
             wants_stores: Default::default(),
+            pump_identities: Default::default(),
         };
         match export_form(&ctx, &items)? {
             None => Ok(each(&items)),

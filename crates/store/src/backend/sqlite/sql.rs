@@ -91,9 +91,10 @@ statements! {
     RecordReplace = "UPDATE record SET at_ms = ?4, kind = ?5, origin = ?6, import_id = ?7 WHERE person_id = ?1 AND source = ?2 AND source_id = ?3";
     /// Record same content.
     RecordSameContent = "SELECT 1 FROM record WHERE person_id = ?1 AND at_ms BETWEEN ?2 AND ?3 AND source = ?4 AND kind = ?5 LIMIT 1";
-    /// A record of the same source, kind and values within a window,
-    /// stored by another import (a copy uploaded again under another id).
-    RecordCopyElsewhere = "SELECT 1 FROM record WHERE person_id = ?1 AND at_ms BETWEEN ?2 AND ?3 AND source = ?4 AND kind = ?5 AND import_id <> ?6 LIMIT 1";
+    /// The origins of the records of the same source, kind and values
+    /// within a window stored by another import (copies uploaded again
+    /// under another id, unless their pump identities differ).
+    RecordCopyElsewhere = "SELECT origin FROM record WHERE person_id = ?1 AND at_ms BETWEEN ?2 AND ?3 AND source = ?4 AND kind = ?5 AND import_id <> ?6";
     /// The source, the start of the kind (its `type`) and the instant of
     /// each record in a window (`abba_store::one_source`: what an import
     /// says was set aside on its days).

@@ -101,6 +101,15 @@ fn smartguard_within_the_last_28_days_is_a_closed_loop() {
     assert_eq!(e.delivery(), Delivery::ClosedLoop, "{e:?}");
     assert_eq!(e.smb, 2);
     assert!(e.past_loop_until_ms.is_none(), "{e:?}");
+    // Dated: the daily total at the end of its day (Berlin, UTC+1), the
+    // automatic doses by the last of them (the 14:05 auto correction).
+    let f = Evidence::from_file_with(file.as_bytes(), &opts(BERLIN));
+    let ms = |t: &str| t.parse::<jiff::Timestamp>().unwrap().as_millisecond();
+    assert_eq!(
+        (f.loop_marks_until_ms, f.automated_until_ms),
+        (Some(ms("2026-03-14T22:59:59.999Z")), Some(ms("2026-03-14T13:05:00Z")))
+    );
+    assert!(!f.undated_loop_marks, "{f:?}");
 }
 
 #[test]

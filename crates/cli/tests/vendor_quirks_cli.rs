@@ -148,9 +148,8 @@ fn a_clarity_export_in_italian_imports_its_readings_below_and_above_the_range() 
 /// of manual mode after it (a basal rate row and a `BOLUS_WIZARD` bolus a
 /// day), newest first at the top of its Pump section as CareLink writes.
 fn smartguard_then_manual(manual_days: i64) -> String {
-    let text =
-        std::fs::read_to_string(format!("{IO_DATA}/carelink_780g_smartguard_synthetic.csv"))
-            .unwrap();
+    let text = std::fs::read_to_string(format!("{IO_DATA}/carelink_780g_smartguard_synthetic.csv"))
+        .unwrap();
     let header = text.lines().find(|l| l.starts_with("Index;")).unwrap();
     let names: Vec<&str> = header.split(';').collect();
     let col = |name: &str| names.iter().position(|h| h.starts_with(name)).unwrap();

@@ -558,7 +558,12 @@ impl Evidence {
 
     /// Dates the marks `a` of the CareLink export `raw` (see
     /// [`Evidence::from_carelink_with`]).
-    fn date_carelink_marks(&mut self, a: &carelink::AutoMode, raw: &[u8], opts: &crate::ReadOptions) {
+    fn date_carelink_marks(
+        &mut self,
+        a: &carelink::AutoMode,
+        raw: &[u8],
+        opts: &crate::ReadOptions,
+    ) {
         if a.marks.is_empty() {
             return;
         }
@@ -825,7 +830,11 @@ fn lines_in_words(lines: &[u64]) -> Option<String> {
         true => format!("line {one}"),
         false => format!(
             "lines {}",
-            first.iter().map(u64::to_string).collect::<Vec<_>>().join(", ")
+            first
+                .iter()
+                .map(u64::to_string)
+                .collect::<Vec<_>>()
+                .join(", ")
         ),
     };
     if !rest.is_empty() {

@@ -107,7 +107,10 @@ fn smartguard_within_the_last_28_days_is_a_closed_loop() {
     let ms = |t: &str| t.parse::<jiff::Timestamp>().unwrap().as_millisecond();
     assert_eq!(
         (f.loop_marks_until_ms, f.automated_until_ms),
-        (Some(ms("2026-03-14T22:59:59.999Z")), Some(ms("2026-03-14T13:05:00Z")))
+        (
+            Some(ms("2026-03-14T22:59:59.999Z")),
+            Some(ms("2026-03-14T13:05:00Z"))
+        )
     );
     assert!(!f.undated_loop_marks, "{f:?}");
 }
@@ -147,17 +150,9 @@ fn an_auto_mode_row_with_an_unreadable_date_is_taken_as_current_and_said() {
     // SmartGuard's last auto basal micro-bolus (2026/03/14 03:00:00) with
     // a date that is no date, 35 days of manual mode after it.
     let file = smartguard_then_manual(35);
-    let bad = file.replacen(
-        "2026/03/14;03:00:00",
-        "2026/14/03;03:00:00",
-        1,
-    );
+    let bad = file.replacen("2026/03/14;03:00:00", "2026/14/03;03:00:00", 1);
     assert_ne!(bad, file);
-    let line = bad
-        .lines()
-        .position(|l| l.contains("2026/14/03"))
-        .unwrap()
-        + 1;
+    let line = bad.lines().position(|l| l.contains("2026/14/03")).unwrap() + 1;
     let e = shown("bad.csv", bad.as_bytes(), &opts(BERLIN));
     assert_eq!(e.delivery(), Delivery::ClosedLoop, "{e:?}");
     let words = e.words().join("; ");

@@ -127,9 +127,12 @@ pub struct Evidence {
     /// marks always count as current).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub undated_loop_marks: bool,
-    /// The lines of a CareLink export's auto-mode rows whose date and
+    /// How many of a CareLink export's auto-mode rows have a date and
     /// time abba could not read ([`Evidence::from_file_with`]): marks
     /// taken as current, said.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub undated_marks: usize,
+    /// The lines of the first [`UNDATED_LINES_KEPT`] of them.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub undated_mark_lines: Vec<u64>,
     /// Loop marks of files left out because they all end before the last
@@ -141,6 +144,9 @@ pub struct Evidence {
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub clocks: Vec<crate::clocks::ClockStretch>,
 }
+
+/// How many lines of undated auto-mode rows the evidence keeps (and says).
+pub const UNDATED_LINES_KEPT: usize = 5;
 
 /// The days at the end of a person's data whose records and loop marks
 /// tell the delivery: a loop run only before them (a person who stopped
@@ -596,7 +602,10 @@ impl Evidence {
                 }
                 None => {
                     self.undated_loop_marks = true;
-                    self.undated_mark_lines.push(line);
+                    self.undated_marks += 1;
+                    if self.undated_mark_lines.len() < UNDATED_LINES_KEPT {
+                        self.undated_mark_lines.push(line);
+                    }
                 }
             }
         }
@@ -658,7 +667,9 @@ impl Evidence {
         }
         self.loop_marks_until_ms = self.loop_marks_until_ms.max(other.loop_marks_until_ms);
         self.undated_loop_marks |= other.undated_loop_marks;
-        (self.undated_mark_lines).extend_from_slice(&other.undated_mark_lines);
+        self.undated_marks += other.undated_marks;
+        let room = UNDATED_LINES_KEPT.saturating_sub(self.undated_mark_lines.len());
+        (self.undated_mark_lines).extend(other.undated_mark_lines.iter().take(room));
         self.past_loop_until_ms = self.past_loop_until_ms.max(other.past_loop_until_ms);
         self.clocks.extend_from_slice(&other.clocks);
     }
@@ -794,7 +805,7 @@ impl Evidence {
                 named.join(", ")
             ));
         }
-        if let Some(lines) = lines_in_words(&self.undated_mark_lines) {
+        if let Some(lines) = lines_in_words(&self.undated_mark_lines, self.undated_marks) {
             out.push(format!(
                 "SmartGuard auto-mode rows of a CareLink export without a date and time abba could read ({lines}): taken as current, a closed loop now (the safe side)"
             ));
@@ -821,10 +832,8 @@ impl Evidence {
     }
 }
 
-/// Lines in words (the first few), `None` without any.
-fn lines_in_words(lines: &[u64]) -> Option<String> {
-    const SHOWN: usize = 5;
-    let (first, rest) = lines.split_at(lines.len().min(SHOWN));
+/// `lines` (the first of `count`) in words, `None` without any.
+fn lines_in_words(first: &[u64], count: usize) -> Option<String> {
     let (&one, more) = first.split_first()?;
     let mut text = match more.is_empty() {
         true => format!("line {one}"),
@@ -837,8 +846,8 @@ fn lines_in_words(lines: &[u64]) -> Option<String> {
                 .join(", ")
         ),
     };
-    if !rest.is_empty() {
-        text.push_str(&format!(" and {} more", rest.len()));
+    if count > first.len() {
+        text.push_str(&format!(" and {} more", count - first.len()));
     }
     Some(text)
 }

@@ -160,6 +160,22 @@ fn an_auto_mode_row_with_an_unreadable_date_is_taken_as_current_and_said() {
         words.contains(&format!("(line {line})")) && words.contains("taken as current"),
         "{words}"
     );
+    // Every row of SmartGuard's day unreadable: all its marks counted,
+    // the first five lines said.
+    let all_bad = file.replace("2026/03/14;", "2026/14/03;");
+    let e = Evidence::from_file_with(all_bad.as_bytes(), &opts(BERLIN));
+    let marks = e.smb + e.systems.values().sum::<usize>();
+    assert_eq!(
+        (e.undated_marks, e.undated_mark_lines.len()),
+        (marks, 5),
+        "{e:?}"
+    );
+    assert_eq!(e.loop_marks_until_ms, None);
+    let words = e.words().join("; ");
+    assert!(
+        words.contains(&format!("and {} more)", marks - 5)),
+        "{words}"
+    );
 }
 
 #[test]

@@ -178,32 +178,50 @@ fn an_auto_mode_row_with_an_unreadable_date_is_taken_as_current_and_said() {
     );
 }
 
-#[test]
-fn a_mark_gets_the_instant_its_record_gets_across_the_pumps_clock_setting() {
-    // The autumn export (Zurich): on 2026-10-25, the day of the change,
-    // the pump kept summer time until it was set back at 09:00; its
-    // 08:30:10 bolus is 07:30:10 CET. That bolus made SmartGuard's, the
-    // others manual.
-    const F: &str = "carelink_780g_autumn_clock_synthetic.csv";
-    let text = String::from_utf8(fixture(F)).unwrap();
-    let file: String = text
+/// The instant the auto-mode evidence of `file` gives when its bolus row
+/// at `row` (date;time) is made SmartGuard's (the others manual), and
+/// the instant the reader gives that bolus's record (`expected`, UTC).
+fn mark_and_record(file: &str, row: &str, expected: &str) -> (Option<i64>, i64) {
+    let text = String::from_utf8(fixture(file)).unwrap();
+    let auto: String = text
         .split_inclusive('\n')
-        .map(|l| match l.contains("2026/10/25;08:30:10") {
+        .map(|l| match l.contains(row) {
             true => l.replace("BOLUS_WIZARD", "CLOSED_LOOP_BG_CORRECTION_AND_FOOD_BOLUS"),
             false => l.to_string(),
         })
         .collect();
-    assert_ne!(file, text);
+    assert_ne!(auto, text);
     let o = opts("Europe/Zurich");
-    let e = Evidence::from_file_with(file.as_bytes(), &o);
-    let b = read(&[(F, file.clone().into_bytes())], &o).unwrap();
+    let e = Evidence::from_file_with(auto.as_bytes(), &o);
+    assert!(!e.undated_loop_marks, "{e:?}");
+    let b = read(&[(file, auto.into_bytes())], &o).unwrap();
     let bolus = b
         .records
         .iter()
         .filter(|r| matches!(r.kind, RecordKind::Bolus { .. }))
         .map(|r| r.at)
-        .find(|t| t.to_string() == "2026-10-25T06:30:10Z")
+        .find(|t| t.to_string() == expected)
         .expect("the bolus placed by the pump's clock");
-    assert_eq!(e.loop_marks_until_ms, Some(bolus.as_millisecond()), "{e:?}");
-    assert!(!e.undated_loop_marks);
+    (e.loop_marks_until_ms, bolus.as_millisecond())
+}
+
+#[test]
+fn a_mark_gets_the_instant_its_record_gets_across_the_pumps_clock_setting() {
+    // Autumn (Zurich): on 2026-10-25, the day of the change, the pump
+    // kept summer time until it was set back at 09:00; its 08:30:10 bolus
+    // is 07:30:10 CET.
+    let (mark, record) = mark_and_record(
+        "carelink_780g_autumn_clock_synthetic.csv",
+        "2026/10/25;08:30:10",
+        "2026-10-25T06:30:10Z",
+    );
+    assert_eq!(mark, Some(record));
+    // Spring: on 2026-03-29 the pump kept winter time until set forward
+    // at 09:00; its 06:30:10 bolus is 07:30:10 CEST.
+    let (mark, record) = mark_and_record(
+        "carelink_780g_spring_clock_synthetic.csv",
+        "2026/03/29;06:30:10",
+        "2026-03-29T05:30:10Z",
+    );
+    assert_eq!(mark, Some(record));
 }

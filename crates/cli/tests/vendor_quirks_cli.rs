@@ -143,3 +143,86 @@ fn a_clarity_export_in_italian_imports_its_readings_below_and_above_the_range() 
     .collect();
     assert_eq!(censors, want, "{v}");
 }
+
+/// The SmartGuard export (2026-03-14, auto mode) with `manual_days` days
+/// of manual mode after it (a basal rate row and a `BOLUS_WIZARD` bolus a
+/// day), newest first at the top of its Pump section as CareLink writes.
+fn smartguard_then_manual(manual_days: i64) -> String {
+    let text = std::fs::read_to_string(format!("{IO_DATA}/carelink_780g_smartguard_synthetic.csv"))
+        .unwrap();
+    let header = text.lines().find(|l| l.starts_with("Index;")).unwrap();
+    let names: Vec<&str> = header.split(';').collect();
+    let col = |name: &str| names.iter().position(|h| h.starts_with(name)).unwrap();
+    let mut rows = String::new();
+    for d in (1..=manual_days).rev() {
+        let day = jiff::civil::date(2026, 3, 14)
+            .checked_add(jiff::Span::new().days(d))
+            .unwrap()
+            .strftime("%Y/%m/%d")
+            .to_string();
+        for (time, cells) in [
+            (
+                "12:20:10",
+                vec![
+                    ("Bolus Type", "Normal"),
+                    ("Bolus Volume Selected", "4,0"),
+                    ("Bolus Volume Delivered", "4,0"),
+                    ("Bolus Source", "BOLUS_WIZARD"),
+                ],
+            ),
+            ("06:00:00", vec![("Basal Rate", "0,900")]),
+        ] {
+            let mut r = vec![String::new(); names.len()];
+            (r[0], r[1], r[2]) = ("0,00000".into(), day.clone(), time.into());
+            for (name, v) in cells {
+                r[col(name)] = v.into();
+            }
+            rows.push_str(&(r.join(";") + "\r\n"));
+        }
+    }
+    let at = text.find(header).unwrap() + header.len();
+    let at = at + text[at..].find('\n').unwrap() + 1;
+    format!("{}{rows}{}", &text[..at], &text[at..])
+}
+
+/// `abba advise --json`'s delivery for a person in Berlin fed `csv`.
+fn delivery_of(tag: &str, csv: &str) -> serde_json::Value {
+    let dir = tmp(tag);
+    std::fs::create_dir_all(&*dir).unwrap();
+    let db = dir.join("s.db");
+    let db = db.to_str().unwrap();
+    let file = dir.join("carelink.csv");
+    std::fs::write(&file, csv).unwrap();
+    new_person(db, "sam", "Europe/Berlin", "0.8");
+    ok(&abba(&[
+        "import",
+        "--db",
+        db,
+        "--person",
+        "sam",
+        "--keep-therapy",
+        file.to_str().unwrap(),
+    ]));
+    let json = ok(&abba(&["advise", "--db", db, "--person", "sam", "--json"]));
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    v["delivery"].clone()
+}
+
+/// A MiniMed 780G whose SmartGuard ran until 2026-03-14 and then only
+/// manual mode: 35 days after it the loop is past (advice given, its last
+/// mark said: the daily auto insulin total, at the end of its day); 20
+/// days after it, a closed loop.
+#[test]
+fn a_780g_back_in_manual_mode_for_more_than_28_days_is_advised_and_its_loop_said() {
+    let v = delivery_of("smartguard-past", &smartguard_then_manual(35));
+    assert_eq!(v["kind"], "open_loop", "{v}");
+    assert_eq!(v["basal_suggestions"], true, "{v}");
+    let words = v["evidence"].to_string();
+    assert!(
+        words.contains("a loop's automated deliveries or marks until 2026-03-14T22:59:59.999Z, before the last 28 days of the data: a past loop"),
+        "{v}"
+    );
+    let v = delivery_of("smartguard-recent", &smartguard_then_manual(20));
+    assert_eq!(v["kind"], "closed_loop", "{v}");
+    assert_eq!(v["basal_suggestions"], false, "{v}");
+}

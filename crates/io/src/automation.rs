@@ -127,6 +127,14 @@ pub struct Evidence {
     /// marks always count as current).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub undated_loop_marks: bool,
+    /// How many of a CareLink export's auto-mode rows have a date and
+    /// time abba could not read ([`Evidence::from_file_with`]): marks
+    /// taken as current, said.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub undated_marks: usize,
+    /// The lines of the first [`UNDATED_LINES_KEPT`] of them.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub undated_mark_lines: Vec<u64>,
     /// Loop marks of files left out because they all end before the last
     /// [`LOOP_RECENT_DAYS`] of the data: the latest (Unix ms), for words.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -136,6 +144,9 @@ pub struct Evidence {
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub clocks: Vec<crate::clocks::ClockStretch>,
 }
+
+/// How many lines of undated auto-mode rows the evidence keeps (and says).
+pub const UNDATED_LINES_KEPT: usize = 5;
 
 /// The days at the end of a person's data whose records and loop marks
 /// tell the delivery: a loop run only before them (a person who stopped
@@ -349,11 +360,21 @@ impl Evidence {
     /// keep: SMB marks, uploader and device names, Tidepool's delivery
     /// type, CareLink's SmartGuard auto mode, see [`Evidence::from_carelink`]).
     /// Any other file adds nothing.
+    /// A CareLink export's marks are undated here (its times need the
+    /// person's zone): see [`Evidence::from_file_with`].
     pub fn from_file(bytes: &[u8]) -> Self {
+        Self::from_file_with(bytes, &crate::ReadOptions::default())
+    }
+
+    /// Like [`Evidence::from_file`], a CareLink export's auto-mode marks
+    /// dated as the reader places its rows with `opts` (the person's zone
+    /// `opts.tz`, a date order when the file does not tell), see
+    /// [`Evidence::from_carelink_with`].
+    pub fn from_file_with(bytes: &[u8], opts: &crate::ReadOptions) -> Self {
         let mut e = Evidence::default();
         // A JSON array, one object, or mongoexport's one document a line.
         let Ok(items) = crate::read::json::parse_array("", bytes) else {
-            return Self::from_carelink(bytes);
+            return Self::from_carelink_with(bytes, opts);
         };
         // A document deleted where it was written (`isValid: false`, as
         // AndroidAPS and API v3 mark them) is not read, nor is it evidence.
@@ -496,15 +517,34 @@ impl Evidence {
     /// as "SmartGuard auto mode" with the pump's name. The pump's name
     /// alone (a 780G) is not evidence: the 780G also runs in manual mode,
     /// open-loop therapy. Anything but a CareLink export adds nothing.
+    /// Its marks are undated (taken as current): see
+    /// [`Evidence::from_carelink_with`].
     pub fn from_carelink(bytes: &[u8]) -> Self {
+        Self::from_carelink_with(bytes, &crate::ReadOptions::default())
+    }
+
+    /// Like [`Evidence::from_carelink`], each mark dated by the CareLink
+    /// reader with `opts` ([`crate::read::carelink_rows_read`]): a row of
+    /// the pump at the instant its record gets (the pump's clock
+    /// corrections and daylight-saving days placed as the records' are),
+    /// a daily total of auto insulin at the end of its local day (the row
+    /// carries a date and no time; auto mode may have run until then).
+    /// The latest fills [`Evidence::loop_marks_until_ms`] (and, of the
+    /// automatic doses, [`Evidence::automated_until_ms`]), so that marks
+    /// all before a person's last [`LOOP_RECENT_DAYS`] are a past loop. A
+    /// mark the reader could not date (no zone in `opts`, a date or time
+    /// it could not read) leaves the marks undated: current, the safe
+    /// side; its line is said ([`Evidence::undated_mark_lines`]).
+    pub fn from_carelink_with(raw: &[u8], opts: &crate::ReadOptions) -> Self {
         let mut e = Evidence::default();
-        let decoded = crate::read::table::utf16_to_utf8("", bytes).ok().flatten();
-        let bytes = crate::read::table::strip_bom(decoded.as_deref().unwrap_or(bytes));
+        let decoded = crate::read::table::utf16_to_utf8("", raw).ok().flatten();
+        let bytes = crate::read::table::strip_bom(decoded.as_deref().unwrap_or(raw));
         let head = String::from_utf8_lossy(&bytes[..bytes.len().min(4096)]);
         if !carelink::looks_like(&head) {
             return e;
         }
         let a = carelink::auto_mode(bytes);
+        e.date_carelink_marks(&a, raw, opts);
         let device = a.device.map_or(String::new(), |d| format!(", {d}"));
         e.smb = a.automatic_doses;
         if a.auto_mode_boluses > 0 {
@@ -520,6 +560,55 @@ impl Evidence {
             );
         }
         e
+    }
+
+    /// Dates the marks `a` of the CareLink export `raw` (see
+    /// [`Evidence::from_carelink_with`]).
+    fn date_carelink_marks(
+        &mut self,
+        a: &carelink::AutoMode,
+        raw: &[u8],
+        opts: &crate::ReadOptions,
+    ) {
+        if a.marks.is_empty() {
+            return;
+        }
+        let Some(tz) = opts.tz.as_ref() else {
+            self.undated_loop_marks = true;
+            return;
+        };
+        let rows = crate::read::carelink_rows_read("", raw, opts).unwrap_or_default();
+        let mut dated: BTreeMap<u64, i64> = rows
+            .closed_loop
+            .iter()
+            .map(|&(t, line)| (line, t.as_millisecond()))
+            .collect();
+        for &(day, line) in &rows.auto_insulin_days {
+            // The last instant of the local day.
+            let end = (day.tomorrow().ok())
+                .and_then(|d| d.to_zoned(tz.clone()).ok())
+                .map(|z| z.timestamp().as_millisecond() - 1);
+            if let Some(ms) = end {
+                dated.insert(line, ms);
+            }
+        }
+        for &(line, automatic) in &a.marks {
+            match dated.get(&line) {
+                Some(&ms) => {
+                    self.loop_marks_until_ms = self.loop_marks_until_ms.max(Some(ms));
+                    if automatic {
+                        self.automated_until_ms = self.automated_until_ms.max(Some(ms));
+                    }
+                }
+                None => {
+                    self.undated_loop_marks = true;
+                    self.undated_marks += 1;
+                    if self.undated_mark_lines.len() < UNDATED_LINES_KEPT {
+                        self.undated_mark_lines.push(line);
+                    }
+                }
+            }
+        }
     }
 
     /// Adds a file's counts as a person's last [`LOOP_RECENT_DAYS`] of
@@ -578,6 +667,9 @@ impl Evidence {
         }
         self.loop_marks_until_ms = self.loop_marks_until_ms.max(other.loop_marks_until_ms);
         self.undated_loop_marks |= other.undated_loop_marks;
+        self.undated_marks += other.undated_marks;
+        let room = UNDATED_LINES_KEPT.saturating_sub(self.undated_mark_lines.len());
+        (self.undated_mark_lines).extend(other.undated_mark_lines.iter().take(room));
         self.past_loop_until_ms = self.past_loop_until_ms.max(other.past_loop_until_ms);
         self.clocks.extend_from_slice(&other.clocks);
     }
@@ -713,6 +805,11 @@ impl Evidence {
                 named.join(", ")
             ));
         }
+        if let Some(lines) = lines_in_words(&self.undated_mark_lines, self.undated_marks) {
+            out.push(format!(
+                "SmartGuard auto-mode rows of a CareLink export without a date and time abba could read ({lines}): taken as current, a closed loop now (the safe side)"
+            ));
+        }
         if let Some(ms) = self.past_loop_until_ms {
             out.push(format!(
                 "a loop's automated deliveries or marks until {}, before the last {LOOP_RECENT_DAYS} days of the data: a past loop, not counted",
@@ -733,6 +830,26 @@ impl Evidence {
         }
         out
     }
+}
+
+/// `lines` (the first of `count`) in words, `None` without any.
+fn lines_in_words(first: &[u64], count: usize) -> Option<String> {
+    let (&one, more) = first.split_first()?;
+    let mut text = match more.is_empty() {
+        true => format!("line {one}"),
+        false => format!(
+            "lines {}",
+            first
+                .iter()
+                .map(u64::to_string)
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    };
+    if count > first.len() {
+        text.push_str(&format!(" and {} more", count - first.len()));
+    }
+    Some(text)
 }
 
 /// An instant (Unix ms) in words (UTC).

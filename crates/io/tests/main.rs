@@ -16,6 +16,7 @@ mod aaps;
 mod boundary;
 mod carelink_clock;
 mod carelink_layouts;
+mod carelink_loop_dates;
 mod careportal;
 mod device_clocks;
 mod dst;

@@ -595,7 +595,7 @@ impl Store {
                 .enumerate()
                 .map(|(i, (_, bytes))| Evidence {
                     clocks: batch.clocks.get(i).cloned().unwrap_or_default(),
-                    ..Evidence::from_file(bytes)
+                    ..Evidence::from_file_with(bytes, &opts)
                 })
                 .collect(),
             false => Vec::new(),

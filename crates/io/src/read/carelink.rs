@@ -252,6 +252,11 @@ pub struct AutoMode {
     /// Daily auto insulin totals (`CLOSED_LOOP_*` rows of the
     /// "Aggregated Auto Insulin Data" section).
     pub auto_insulin_totals: usize,
+    /// The lines of all these rows (1-based, as the reader numbers them),
+    /// each with whether it is an automatic dose (`CLOSED_LOOP_AUTO_*`
+    /// of the Pump section): dated by the reader
+    /// ([`SettingsRows::closed_loop`], [`SettingsRows::auto_insulin_days`]).
+    pub marks: Vec<(u64, bool)>,
 }
 
 /// Reads [`AutoMode`] from a CareLink export (BOM stripped, UTF-8); a
@@ -274,17 +279,27 @@ pub fn auto_mode(bytes: &[u8]) -> AutoMode {
         ) else {
             continue;
         };
-        while let Ok(Some(_)) = t.next_row() {
+        while let Ok(Some(line)) = t.next_row() {
             let src = t.cell(source);
             if !src.starts_with("CLOSED_LOOP_") || t.cell(delivered).is_empty() {
                 continue;
             }
-            match span.section {
-                Section::Totals => out.auto_insulin_totals += 1,
-                Section::Pump if src.starts_with("CLOSED_LOOP_AUTO_") => out.automatic_doses += 1,
-                Section::Pump => out.auto_mode_boluses += 1,
-                _ => {}
-            }
+            let automatic = match span.section {
+                Section::Totals => {
+                    out.auto_insulin_totals += 1;
+                    false
+                }
+                Section::Pump if src.starts_with("CLOSED_LOOP_AUTO_") => {
+                    out.automatic_doses += 1;
+                    true
+                }
+                Section::Pump => {
+                    out.auto_mode_boluses += 1;
+                    false
+                }
+                _ => continue,
+            };
+            out.marks.push((line, automatic));
         }
     }
     out

@@ -605,6 +605,33 @@ pub fn carelink_settings_rows(
     bytes: &[u8],
     opts: &ReadOptions,
 ) -> Result<carelink::SettingsRows, IoError> {
+    let (settings, skipped) = carelink_rows(file, bytes, opts)?;
+    // The therapy is not taken from a file read in part: a row left out
+    // may be the setting itself.
+    if let Some(e) = skipped.first.into_iter().next() {
+        return Err(e);
+    }
+    Ok(settings)
+}
+
+/// The rows of one CareLink file that say what the pump's settings are,
+/// its rows that could not be read left out (their lines are those
+/// [`carelink::AutoMode::marks`] would not find dated): the instants the
+/// reader gives its records, clock corrections and daylight-saving days
+/// placed as theirs are.
+pub fn carelink_rows_read(
+    file: &str,
+    bytes: &[u8],
+    opts: &ReadOptions,
+) -> Result<carelink::SettingsRows, IoError> {
+    carelink_rows(file, bytes, opts).map(|(s, _)| s)
+}
+
+fn carelink_rows(
+    file: &str,
+    bytes: &[u8],
+    opts: &ReadOptions,
+) -> Result<(carelink::SettingsRows, Skipped), IoError> {
     let ctx = Ctx {
         file,
         index: 0,
@@ -621,12 +648,7 @@ pub fn carelink_settings_rows(
     let bytes = table::strip_bom(decoded.as_deref().unwrap_or(bytes));
     let bytes = whole_lines(&ctx, Format::CareLink, bytes)?;
     let (_, settings) = carelink::read_with_settings(&ctx, bytes)?;
-    // The therapy is not taken from a file read in part: a row left out
-    // may be the setting itself.
-    if let Some(e) = ctx.skipped.take().first.into_iter().next() {
-        return Err(e);
-    }
-    Ok(settings)
+    Ok((settings, ctx.skipped.take()))
 }
 
 /// Records of several files, merged.

@@ -20,6 +20,23 @@ fn io_fixture(name: &str) -> Vec<Value> {
     serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
 }
 
+/// `entries` and `profile` written as `entries.json` and `profile.json`
+/// in `dir`: the files a person is linked with.
+fn entries_and_profile(
+    dir: &std::path::Path,
+    entries: &[Value],
+    profile: &[Value],
+) -> Vec<std::path::PathBuf> {
+    [("entries.json", entries), ("profile.json", profile)]
+        .into_iter()
+        .map(|(name, docs)| {
+            let p = dir.join(name);
+            std::fs::write(&p, serde_json::to_vec(docs).unwrap()).unwrap();
+            p
+        })
+        .collect()
+}
+
 /// CGM entries every 5 min over 2026-11-20 to 22 UTC.
 fn entries() -> Vec<Value> {
     let start: i64 = 1_795_132_800_000; // 2026-11-20T00:00:00Z
@@ -52,14 +69,7 @@ fn androidaps_events_uploaded_again_reach_the_store_once_over_two_syncs() {
     let entries = entries();
     let before = io_fixture("nightscout_treatments_aaps_before_reset_synthetic.json");
     let after = io_fixture("nightscout_treatments_aaps_after_reset_synthetic.json");
-    let files: Vec<std::path::PathBuf> = [("entries.json", &entries), ("profile.json", &profile)]
-        .into_iter()
-        .map(|(name, docs)| {
-            let p = dir.path().join(name);
-            std::fs::write(&p, serde_json::to_vec(docs).unwrap()).unwrap();
-            p
-        })
-        .collect();
+    let files = entries_and_profile(dir.path(), &entries, &profile);
     let mut site = Site::new(SECRET);
     site.add("entries", entries.clone());
     site.add("treatments", before.clone());
@@ -220,14 +230,7 @@ fn a_second_identical_bolus_30_s_later_with_its_own_pump_id_is_a_second_dose_ove
     second["date"] = date.into();
     second["created_at"] = common::server::iso(date).into();
     second["pumpId"] = 41013.into();
-    let files: Vec<std::path::PathBuf> = [("entries.json", &entries), ("profile.json", &profile)]
-        .into_iter()
-        .map(|(name, docs)| {
-            let p = dir.path().join(name);
-            std::fs::write(&p, serde_json::to_vec(docs).unwrap()).unwrap();
-            p
-        })
-        .collect();
+    let files = entries_and_profile(dir.path(), &entries, &profile);
     let mut site = Site::new(SECRET);
     site.add("entries", entries.clone());
     site.add("treatments", vec![first.clone()]);

@@ -13,7 +13,7 @@
 use crate::common;
 
 use abba_service::ServeSettings;
-use common::sock::{get, held_posts, timed};
+use common::sock::{closed, get, held_posts, timed};
 use common::{Server, Svc};
 use std::io::{Read, Write};
 use std::net::{Ipv4Addr, SocketAddr, TcpStream};
@@ -23,21 +23,6 @@ use std::time::{Duration, Instant};
 
 /// The polite client's bound: each of its answers comes within this.
 const POLITE: Duration = Duration::from_secs(1);
-
-/// True once the peer closed the connection (read gives 0 bytes or an
-/// error other than a timeout).
-fn closed(s: &TcpStream) -> bool {
-    s.set_nonblocking(true).unwrap();
-    let mut b = [0u8; 512];
-    loop {
-        match (&*s).read(&mut b) {
-            Ok(0) => return true,
-            Ok(_) => continue,
-            Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => return false,
-            Err(_) => return true,
-        }
-    }
-}
 
 /// A connection to `to` from the loopback address `from` (all of
 /// 127.0.0.0/8 is this host's on Linux).

@@ -11,6 +11,7 @@ use crate::common;
 
 use abba_service::{AppState, ServeSettings, StoreSettings};
 use axum::http::{Method, StatusCode};
+use common::sock::closed;
 use common::{at, cgm, Server, Svc};
 use serde_json::json;
 use std::io::{Read, Write};
@@ -25,21 +26,6 @@ fn raw(addr: SocketAddr, request: &str) -> String {
     let mut out = Vec::new();
     let _ = s.read_to_end(&mut out);
     String::from_utf8_lossy(&out).to_string()
-}
-
-/// True once the peer closed the connection (read gives 0 bytes or an
-/// error other than a timeout).
-fn closed(s: &TcpStream) -> bool {
-    s.set_nonblocking(true).unwrap();
-    let mut b = [0u8; 512];
-    loop {
-        match (&*s).read(&mut b) {
-            Ok(0) => return true,
-            Ok(_) => continue,
-            Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => return false,
-            Err(_) => return true,
-        }
-    }
 }
 
 #[test]

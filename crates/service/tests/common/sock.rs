@@ -1,7 +1,7 @@
 //! Raw sockets for the tests of connections and limits: a connection from
 //! a chosen loopback address (all of 127.0.0.0/8 is this host's on
-//! Linux), a request's whole answer and how long it took, and requests
-//! held in flight by a body that never comes.
+//! Linux), a request's whole answer and how long it took, requests
+//! held in flight by a body that never comes, and whether the service closed a connection.
 
 use std::io::{Read, Write};
 use std::net::{Ipv4Addr, SocketAddr, TcpStream};
@@ -70,4 +70,19 @@ pub fn held_posts(
             s
         })
         .collect()
+}
+
+/// True once the peer closed the connection (read gives 0 bytes or an
+/// error other than a timeout).
+pub fn closed(s: &TcpStream) -> bool {
+    s.set_nonblocking(true).unwrap();
+    let mut b = [0u8; 512];
+    loop {
+        match (&*s).read(&mut b) {
+            Ok(0) => return true,
+            Ok(_) => continue,
+            Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => return false,
+            Err(_) => return true,
+        }
+    }
 }

@@ -21,22 +21,7 @@ fn data(name: &str) -> String {
 
 /// A new person `name` in `tz` in the store `db`.
 fn person(db: &str, name: &str, tz: &str) {
-    ok(&[
-        "person",
-        "new",
-        "--db",
-        db,
-        "--name",
-        name,
-        "--tz",
-        tz,
-        "--mode",
-        "cgm",
-        "--basal",
-        "0.85",
-        "--carb-ratio",
-        "10,12,11",
-    ]);
+    cli_common::new_cgm_person(db, name, tz, "0.85", "10,12,11");
 }
 
 fn import(db: &str, name: &str, files: &[&str]) -> String {

@@ -4,7 +4,7 @@
 //! until set by hand.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use crate::cli_common::{abba, ok, tmp_path, TmpPath};
+use crate::cli_common::{abba, new_cgm_person, ok, tmp_path, TmpPath};
 
 const IO_DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../io/tests/data");
 
@@ -16,22 +16,7 @@ fn tmp(tag: &str) -> TmpPath {
 /// A CGM person `name` in zone `tz` with a flat `basal` (U/h) and
 /// 10 g/U, in store `db`.
 fn new_person(db: &str, name: &str, tz: &str, basal: &str) {
-    ok(&abba(&[
-        "person",
-        "new",
-        "--db",
-        db,
-        "--name",
-        name,
-        "--tz",
-        tz,
-        "--mode",
-        "cgm",
-        "--basal",
-        basal,
-        "--carb-ratio",
-        "10,10,10",
-    ]));
+    new_cgm_person(db, name, tz, basal, "10,10,10");
 }
 
 /// The `abba events --json` answer for `file` with `extra` flags.

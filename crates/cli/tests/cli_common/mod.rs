@@ -27,6 +27,28 @@ pub fn ok(out: &Output) -> String {
     String::from_utf8(out.stdout.clone()).expect("abba's output is UTF-8")
 }
 
+/// A new CGM-mode person `name` in `tz` in the store `db`, with a basal
+/// rate of `basal` U/h and the carb ratios `carb_ratio` (g/U, three meals
+/// as `abba person new` takes them); fails the test when refused.
+pub fn new_cgm_person(db: &str, name: &str, tz: &str, basal: &str, carb_ratio: &str) {
+    ok(&abba(&[
+        "person",
+        "new",
+        "--db",
+        db,
+        "--name",
+        name,
+        "--tz",
+        tz,
+        "--mode",
+        "cgm",
+        "--basal",
+        basal,
+        "--carb-ratio",
+        carb_ratio,
+    ]));
+}
+
 /// A path `name` in a fresh temporary directory; the directory and all in
 /// it are removed when the value is dropped (the tests left tens of MB of
 /// reports in the temporary directory at every run).

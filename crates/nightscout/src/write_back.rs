@@ -148,10 +148,21 @@ pub fn write_back(
                 ),
             ));
         };
-        let created_at = crate::fetch::iso_ms(at.as_millisecond());
+        let at_ms = at.as_millisecond();
         match held {
             Some(w) => {
                 let old: Value = serde_json::from_str(&w.content).unwrap_or(Value::Null);
+                // The instant the Note was given (its decision's, or a
+                // millisecond after where another Note held that one).
+                let created_at = old
+                    .get("created_at")
+                    .and_then(Value::as_str)
+                    .filter(|t| {
+                        t.parse::<jiff::Timestamp>().is_ok_and(|t| {
+                            (0..FREE_INSTANT_TRIES).contains(&(t.as_millisecond() - at_ms))
+                        })
+                    })
+                    .map_or_else(|| crate::fetch::iso_ms(at_ms), String::from);
                 if old.get("notes").and_then(Value::as_str) == Some(notes.as_str())
                     && old.get("created_at").and_then(Value::as_str) == Some(created_at.as_str())
                 {
@@ -173,6 +184,7 @@ pub fn write_back(
                 report.notes_updated += 1;
             }
             None => {
+                let created_at = free_instant(client, at_ms, v.setting)?;
                 let doc = json!({
                     "eventType": "Note",
                     "enteredBy": ENTERED_BY,
@@ -183,7 +195,15 @@ pub fn write_back(
                 let r =
                     client.call(Method::Post, "/api/v1/treatments", &[], Some(&json!([doc])))?;
                 let id = created_id(&r).ok_or_else(|| {
-                    protocol(client, call, "expected the created treatment with its _id")
+                    protocol(
+                        client,
+                        call,
+                        format!(
+                            "expected the created treatment with its _id; an answer without \
+                             one is Nightscout's when it replaced a Note it held at {created_at} \
+                             (uploaded there since abba looked)"
+                        ),
+                    )
                 })?;
                 let mut stored = doc.as_object().cloned().unwrap_or_default();
                 stored.insert("_id".into(), Value::String(id.clone()));
@@ -205,6 +225,48 @@ pub fn write_back(
         Err(why) => report.profile_skipped = Some(why),
     }
     Ok(report)
+}
+
+/// How many milliseconds after its decision a Note may be moved to find
+/// an instant no other Note holds.
+const FREE_INSTANT_TRIES: i64 = 1000;
+
+/// The first instant from `at_ms` on (by milliseconds) at which the site
+/// holds no Note, in the `toISOString()` form Nightscout stores.
+///
+/// Nightscout's v1 POST of a treatment without `identifier` or `_id` is a
+/// replace with upsert keyed by its `created_at` and `eventType`
+/// (`upsert` / `upsertQueryFor` in `lib/server/treatments.js`; in 15.0.2
+/// and before, always by those two): a Note at an instant that already
+/// holds one (the person's own, entered at the decision's minute, or
+/// abba's for another setting decided at the same time) would replace it.
+fn free_instant(client: &Client, at_ms: i64, setting: &str) -> Result<String, NsError> {
+    let path = "/api/v1/treatments.json";
+    for step in 0..FREE_INSTANT_TRIES {
+        let t = crate::fetch::iso_ms(at_ms + step);
+        let held = crate::fetch::list(
+            client,
+            path,
+            &[
+                ("find[created_at][$gte]", t.clone()),
+                ("find[created_at][$lte]", t.clone()),
+                ("find[eventType]", "Note".into()),
+                ("count", "1".into()),
+            ],
+        )?;
+        if held.is_empty() {
+            return Ok(t);
+        }
+    }
+    Err(protocol(
+        client,
+        &format!("GET {path}"),
+        format!(
+            "every millisecond of the {FREE_INSTANT_TRIES} after the {setting} suggestion's decision \
+             ({}) holds a Note: abba writes none there, as Nightscout would replace the one it holds",
+            crate::fetch::iso_ms(at_ms)
+        ),
+    ))
 }
 
 fn created_id(v: &Value) -> Option<String> {

@@ -276,6 +276,52 @@ impl Site {
             .unwrap_or_default()
     }
 
+    /// A treatment POSTed to v1, as `lib/server/treatments.js` stores it:
+    /// `created_at` in `toISOString()` form (now when it has none), then
+    /// a replace with upsert keyed by its `identifier`, else its `_id`,
+    /// else **its `created_at` and `eventType`** (15.0.2 and before: by
+    /// those always), so a second document of one type at one
+    /// millisecond replaces the first. The answer is the document as
+    /// posted: with the new `_id` when it was inserted, without one when
+    /// it replaced a stored document (keeping that one's `_id`).
+    pub fn upsert_treatment(&mut self, mut d: Value) -> Value {
+        let at = ms_of(&d, "created_at").unwrap_or_else(|| jiff::Timestamp::now().as_millisecond());
+        d["created_at"] = Value::String(iso(at));
+        let key: (&str, Value) = if let Some(i) = d.get("identifier").filter(|v| !v.is_null()) {
+            ("identifier", i.clone())
+        } else if let Some(i) = d
+            .get("_id")
+            .filter(|v| v.as_str().is_some_and(|s| !s.is_empty()))
+        {
+            ("_id", i.clone())
+        } else {
+            ("created_at", d["created_at"].clone())
+        };
+        let event = d.get("eventType").cloned();
+        let m = self.tick();
+        let docs = self.docs.entry("treatments").or_default();
+        let matched = docs.iter_mut().find(|s| {
+            s.doc.get(key.0) == Some(&key.1)
+                && (key.0 != "created_at" || s.doc.get("eventType") == event.as_ref())
+        });
+        if let Some(stored) = matched {
+            let mut replacement = d.clone();
+            replacement["_id"] = stored.doc["_id"].clone();
+            stored.doc = replacement;
+            stored.srv_modified = m;
+            stored.valid = true;
+            return d;
+        }
+        if d.get("_id")
+            .and_then(Value::as_str)
+            .is_none_or(str::is_empty)
+        {
+            d["_id"] = Value::String(self.new_id());
+        }
+        self.add("treatments", vec![d.clone()]);
+        d
+    }
+
     fn new_id(&mut self) -> String {
         self.next_id += 1;
         format!("ab{:022x}", self.next_id)
@@ -566,6 +612,37 @@ fn denormalized(mut doc: Value, field: &str) -> Value {
     doc
 }
 
+/// A treatment as v1 serves it: `serveTreatments` in
+/// `lib/api/treatments/index.js` sets `carbs` and `insulin` of every
+/// document to JavaScript's `Number()` of the stored value, so a document
+/// without them (a Temp Basal, a Note) is served with `"carbs": null,
+/// "insulin": null` (`NaN` in JSON), `""` as `0` and a numeric string as
+/// its number. A stored `null` would be served as `0`, but v1 uploads
+/// never store one (`prepareData` deletes an empty `carbs` or `insulin`)
+/// and the fixtures' `null`s are what v1 served (`NaN`): served as they are.
+fn numbers_served(mut doc: Value) -> Value {
+    if let Some(o) = doc.as_object_mut() {
+        for k in ["carbs", "insulin"] {
+            let n = match o.get(k) {
+                None | Some(Value::Null) => None,
+                Some(Value::Bool(false)) => Some(0.0),
+                Some(Value::Bool(true)) => Some(1.0),
+                Some(Value::Number(n)) => n.as_f64(),
+                Some(Value::String(s)) if s.trim().is_empty() => Some(0.0),
+                Some(Value::String(s)) => s.trim().parse::<f64>().ok().filter(|x| x.is_finite()),
+                Some(_) => None,
+            };
+            let v = match n {
+                Some(x) if x.fract() == 0.0 && x.abs() < 9e15 => json!(x as i64),
+                Some(x) => json!(x),
+                None => Value::Null,
+            };
+            o.insert(k.to_string(), v);
+        }
+    }
+    doc
+}
+
 async fn v1_list(
     State(s): State<Shared>,
     method: Method,
@@ -710,7 +787,8 @@ async fn v1_list(
         let page: Vec<Value> = docs
             .into_iter()
             .map(|d| match (denorm, col) {
-                (true, "treatments") => denormalized(d, "created_at"),
+                (true, "treatments") => denormalized(numbers_served(d), "created_at"),
+                (_, "treatments") => numbers_served(d),
                 (true, "entries") => denormalized(d, "dateString"),
                 _ => d,
             })
@@ -784,11 +862,8 @@ async fn write_treatments(
             other => vec![other],
         };
         let mut created = Vec::new();
-        for mut d in items {
-            let id = site.new_id();
-            d["_id"] = Value::String(id);
-            created.push(d.clone());
-            site.add("treatments", vec![d]);
+        for d in items {
+            created.push(site.upsert_treatment(d));
         }
         return (StatusCode::OK, axum::Json(Value::Array(created))).into_response();
     }

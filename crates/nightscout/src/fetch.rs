@@ -689,15 +689,25 @@ pub fn has_v3(client: &Client) -> bool {
     })
 }
 
-/// API v3's `lastModified`: per collection, the newest `srvModified` (ms).
+/// API v3's `lastModified`: per collection, where `history` starts from
+/// to see what changes from now on (ms), at most the server's clock
+/// (`srvDate`).
+///
+/// Nightscout answers the newest `srvModified` or, when later, the
+/// newest `created_at` (`date` of entries) of any document
+/// (`lib/api3/specific/lastModified.js`): one dated ahead (carbs to come,
+/// an uploader's clock wrong by a year) puts it past every `srvModified`
+/// the server will give for a long while, and `history` after it would
+/// show none of the deletions made until then.
 pub fn v3_last_modified(client: &Client) -> Result<HashMap<String, i64>, NsError> {
     let v = client.get("/api/v3/lastModified", &[])?;
     let r = v.get("result").unwrap_or(&v);
+    let now = r.get("srvDate").and_then(Value::as_i64);
     let mut out = HashMap::new();
     if let Some(Value::Object(cols)) = r.get("collections") {
         for (k, v) in cols {
             if let Some(ms) = v.as_i64() {
-                out.insert(k.clone(), ms);
+                out.insert(k.clone(), now.map_or(ms, |n| ms.min(n)));
             }
         }
     }

@@ -239,6 +239,63 @@ fn a_document_deleted_through_api_v3_leaves_the_store() {
     );
 }
 
+/// API v3's `lastModified` is the newest `srvModified` or, when later,
+/// the newest `created_at` (the test server as Nightscout's
+/// `lib/api3/specific/lastModified.js`): a treatment dated a year ahead
+/// (an uploader's clock wrong) puts it past the server's clock. History
+/// starts at the server's clock (`srvDate`): an old treatment deleted
+/// after the first sync, outside the window v1 reads again, leaves the
+/// store all the same.
+#[test]
+fn a_treatment_dated_ahead_does_not_hide_later_deletions_from_api_v3() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = data(1);
+    let files = export(dir.path(), &d);
+    let srv = server(&d, 1000);
+    let ms = |t: &serde_json::Value| {
+        t["created_at"]
+            .as_str()
+            .and_then(|s| s.parse::<jiff::Timestamp>().ok())
+            .map(|t| t.as_millisecond())
+    };
+    let newest = d.treatments.iter().filter_map(ms).max().unwrap();
+    let ahead = newest + 365 * 86_400_000;
+    srv.with(|s| {
+        s.set_clock(newest + 3_600_000);
+        s.add(
+            "treatments",
+            vec![serde_json::json!({
+                "_id": object_id(newest, 99),
+                "eventType": "Note",
+                "created_at": common::server::iso(ahead),
+                "notes": "entered with the phone's clock a year ahead",
+            })],
+        );
+    });
+    let token = credential(Some("reader-0123456789abcdef"), None).unwrap();
+    let mut store = linked(dir.path(), &srv, &files, token);
+    let first = sync(&mut store, "ana", &sync_opts()).unwrap();
+    assert!(first.v3, "{first:?}");
+    // The oldest meal bolus: a day and more before the newest document,
+    // so v1 does not read it again; only v3's history tells.
+    let oldest = d
+        .treatments
+        .iter()
+        .filter(|t| t["eventType"] == "Meal Bolus")
+        .min_by_key(|t| ms(t))
+        .unwrap();
+    assert!(ms(oldest).unwrap() < newest - 2 * 86_400_000);
+    let id = oldest["_id"].as_str().unwrap().to_string();
+    srv.with(|s| s.soft_delete("treatments", &id));
+    let r = sync(&mut store, "ana", &sync_opts()).unwrap();
+    assert_eq!(r.import.deleted, 2, "{r:?}");
+    assert!(store
+        .records("ana")
+        .unwrap()
+        .iter()
+        .all(|r| !format!("{:?}", r.id).contains(&id)));
+}
+
 /// Timings for BENCHMARKS.md (not a test of speed):
 /// `cargo test --release -p abba-nightscout --test integration sync:: -- --ignored --nocapture`.
 #[test]

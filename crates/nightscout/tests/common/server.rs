@@ -206,6 +206,12 @@ impl Site {
         }
     }
 
+    /// Sets the server's clock (`srvDate`; the next `srvModified` is
+    /// after it).
+    pub fn set_clock(&mut self, ms: i64) {
+        self.clock = ms;
+    }
+
     /// The next server modification time (strictly increasing).
     fn tick(&mut self) -> i64 {
         self.clock += 1;
@@ -1022,9 +1028,23 @@ async fn v3_last_modified(State(s): State<Shared>, headers: HeaderMap) -> Respon
     if who(&mut site, &headers, &[], true) == Who::Nobody {
         return unauthorized();
     }
+    // `lib/api3/specific/lastModified.js`: the newest `srvModified`, or
+    // the newest of the collection's fallback date field (`date` of
+    // entries, else `created_at`, the greatest string read as a time)
+    // when that is later: a document dated ahead (carbs to come, a phone
+    // clock wrong) makes it later than the server's own clock.
     let mut cols = serde_json::Map::new();
     for (k, v) in &site.docs {
-        if let Some(m) = v.iter().map(|d| d.srv_modified).max() {
+        let dated = if *k == "entries" {
+            v.iter().filter_map(|d| ms_of(&d.doc, "date")).max()
+        } else {
+            v.iter()
+                .filter_map(|d| d.doc.get("created_at").and_then(Value::as_str))
+                .max()
+                .and_then(|t| t.parse::<jiff::Timestamp>().ok())
+                .map(|t| t.as_millisecond())
+        };
+        if let Some(m) = v.iter().map(|d| d.srv_modified).max().max(dated) {
             cols.insert((*k).to_string(), json!(m));
         }
     }

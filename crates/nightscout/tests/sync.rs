@@ -351,15 +351,24 @@ fn late_uploads_come_in(v3: bool) {
         "device": "xDrip-DexcomG6", "date": at.as_millisecond(),
         "dateString": "2026-01-13T10:57:30.000Z", "sgv": 141, "direction": "Flat",
         "type": "sgv", "utcOffset": 60})];
+    // AndroidAPS uploads through API v3: its own `identifier`, the
+    // ObjectId made at insertion, in v3's history. (A document uploaded
+    // through v1 is not in history: a Loop-style UUID `_id` uploaded late
+    // says nothing of when it came, and is not found; README, Known
+    // limits.)
+    let late_v3 = vec![
+        serde_json::json!({"_id": object_id(now, 3), "identifier": uuid(7),
+        "eventType": "Correction Bolus", "created_at": "2026-01-12T08:00:00.000Z",
+        "insulin": 1.2, "enteredBy": "openaps://AndroidAPS", "utcOffset": 60}),
+    ];
     if v3 {
-        // A Loop-style UUID `_id` says nothing of when it was inserted:
-        // API v3's history names it.
-        late_t.push(serde_json::json!({"_id": uuid(7),
-            "eventType": "Correction Bolus", "created_at": "2026-01-12T08:00:00.000Z",
-            "insulin": 1.2, "enteredBy": "Loop", "utcOffset": 60}));
+        late_t.extend(late_v3.clone());
     }
     srv.with(|s| {
-        s.add("treatments", late_t.clone());
+        s.add("treatments", late_t[..1].to_vec());
+        if v3 {
+            s.add_v3("treatments", late_v3);
+        }
         s.add("entries", late_e.clone());
     });
     let two = sync(&mut store, "ana", &sync_opts()).unwrap();
@@ -370,11 +379,10 @@ fn late_uploads_come_in(v3: bool) {
         "{:?}",
         two.collections
     );
-    assert!(
-        two.collections[1].late >= late_t.len(),
-        "{:?}",
-        two.collections
-    );
+    // On v3, history's AndroidAPS document takes the read by time back
+    // past the Careportal one, which then comes by time (not counted).
+    let counted = if v3 { 1 } else { late_t.len() };
+    assert!(two.collections[1].late >= counted, "{:?}", two.collections);
     let mut all = d;
     all.treatments.extend(late_t);
     all.entries.extend(late_e);

@@ -117,6 +117,12 @@ pub struct Doc {
     pub srv_modified: i64,
     /// False once deleted through v3 (soft).
     pub valid: bool,
+    /// Whether it holds a `srvModified`, which only API v3 writes (a
+    /// create, a change, a soft delete): only such a document is in v3's
+    /// `history` (a MongoDB filter on `srvModified`), so one uploaded
+    /// through v1 (Loop, Trio, xDrip+, Careportal) is not, until v3
+    /// changes or deletes it.
+    pub v3: bool,
 }
 
 /// A fault for the next request whose path contains `path`.
@@ -218,7 +224,8 @@ impl Site {
         self.clock
     }
 
-    /// Adds documents to a collection.
+    /// Adds documents to a collection as uploaded through API v1 (no
+    /// `srvModified`).
     pub fn add(&mut self, col: &'static str, docs: Vec<Value>) {
         for d in docs {
             let m = self.tick();
@@ -226,6 +233,23 @@ impl Site {
                 doc: d,
                 srv_modified: m,
                 valid: true,
+                v3: false,
+            });
+        }
+    }
+
+    /// Adds documents as uploaded through API v3 (AndroidAPS): with
+    /// `srvModified` and `srvCreated`, in `history`.
+    pub fn add_v3(&mut self, col: &'static str, docs: Vec<Value>) {
+        for mut d in docs {
+            let m = self.tick();
+            d["srvModified"] = json!(m);
+            d["srvCreated"] = json!(m);
+            self.docs.entry(col).or_default().push(Doc {
+                doc: d,
+                srv_modified: m,
+                valid: true,
+                v3: true,
             });
         }
     }
@@ -241,6 +265,7 @@ impl Site {
             {
                 d.valid = false;
                 d.srv_modified = m;
+                d.v3 = true;
             }
         }
     }
@@ -256,6 +281,7 @@ impl Site {
                 f(&mut d.doc);
                 d.doc["srvModified"] = json!(m);
                 d.srv_modified = m;
+                d.v3 = true;
             }
         }
     }
@@ -313,6 +339,7 @@ impl Site {
         if let Some(stored) = matched {
             let mut replacement = d.clone();
             replacement["_id"] = stored.doc["_id"].clone();
+            stored.v3 = replacement.get("srvModified").is_some();
             stored.doc = replacement;
             stored.srv_modified = m;
             stored.valid = true;
@@ -884,8 +911,10 @@ async fn write_treatments(
         .find(|d| d.doc.get("_id").and_then(Value::as_str) == Some(&id))
     {
         Some(d) => {
+            // A v1 replace: the `srvModified` the body holds, if any.
+            d.v3 = body.get("srvModified").is_some();
+            d.srv_modified = body.get("srvModified").and_then(Value::as_i64).unwrap_or(m);
             d.doc = body.clone();
-            d.srv_modified = m;
             (StatusCode::OK, axum::Json(body)).into_response()
         }
         None => (StatusCode::NOT_FOUND, "no such treatment").into_response(),
@@ -936,8 +965,10 @@ async fn put_profile(
         .find(|d| d.doc.get("_id").and_then(Value::as_str) == Some(&id))
     {
         Some(d) => {
+            // A v1 replace: the `srvModified` the body holds, if any.
+            d.v3 = body.get("srvModified").is_some();
+            d.srv_modified = body.get("srvModified").and_then(Value::as_i64).unwrap_or(m);
             d.doc = body.clone();
-            d.srv_modified = m;
             (StatusCode::OK, axum::Json(body)).into_response()
         }
         None => (StatusCode::NOT_FOUND, "no such profile").into_response(),
@@ -1044,7 +1075,8 @@ async fn v3_last_modified(State(s): State<Shared>, headers: HeaderMap) -> Respon
                 .and_then(|t| t.parse::<jiff::Timestamp>().ok())
                 .map(|t| t.as_millisecond())
         };
-        if let Some(m) = v.iter().map(|d| d.srv_modified).max().max(dated) {
+        let modified = v.iter().filter(|d| d.v3).map(|d| d.srv_modified).max();
+        if let Some(m) = modified.max(dated) {
             cols.insert((*k).to_string(), json!(m));
         }
     }
@@ -1084,7 +1116,11 @@ async fn v3_history(
     let mut docs: Vec<&Doc> = site
         .docs
         .get(col.as_str())
-        .map(|v| v.iter().filter(|d| d.srv_modified > since).collect())
+        .map(|v| {
+            v.iter()
+                .filter(|d| d.v3 && d.srv_modified > since)
+                .collect()
+        })
         .unwrap_or_default();
     docs.sort_by_key(|d| d.srv_modified);
     let result: Vec<Value> = docs

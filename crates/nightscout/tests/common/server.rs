@@ -12,9 +12,15 @@
 //!   access tokens (`?token=`) of subjects with roles (readable,
 //!   careportal, admin, denied), `/api/v2/authorization/request/<token>`
 //!   giving a JWT (`Authorization: Bearer`);
-//! - v3 `version`, `lastModified`, `{collection}/history/{ms}` (JWT only,
-//!   `limit` at most 1,000, ascending `srvModified`, deleted documents with
-//!   `isValid: false`);
+//! - v3 `version`, `lastModified` (the newest `srvModified` or, when
+//!   later, the newest `created_at` / `date`), `{collection}/history/{ms}`
+//!   (JWT only, `limit` at most 1,000, ascending `srvModified`, only what
+//!   v3 created, changed or deleted: v1 writes have no `srvModified`,
+//!   deleted documents with `isValid: false`);
+//! - v1 treatment uploads as `lib/server/treatments.js` stores them
+//!   (a replace with upsert keyed by `identifier`, `_id`, or `created_at`
+//!   and `eventType`), treatments served with `carbs` and `insulin` as
+//!   `Number()` makes them;
 //! - injected faults: a status (401, 500, 429 with Retry-After), a
 //!   connection cut mid-page, a slow answer, a gzip answer nobody asked for.
 //!

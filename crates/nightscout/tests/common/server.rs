@@ -377,7 +377,11 @@ enum Who {
 struct Read(bool);
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 struct Write {
+    /// `api:treatments:create` (careportal, admin).
     treatments: bool,
+    /// `api:treatments:update`, `api:treatments:delete`,
+    /// `api:profile:update` (admin only: Nightscout's careportal role
+    /// grants `api:treatments:create` alone, `lib/authorization/storage.js`).
     profile: bool,
 }
 
@@ -886,13 +890,19 @@ async fn write_treatments(
 ) -> Response {
     let mut site = s.lock().unwrap();
     site.log.push(format!("{method} {}", uri.path()));
-    match who(&mut site, &headers, &q, false) {
-        Who::Roles(
-            _,
-            Write {
-                treatments: true, ..
-            },
-        ) => {}
+    // POST needs `api:treatments:create`, PUT `api:treatments:update`
+    // (`lib/api/treatments/index.js`); v1 refuses either with a 401.
+    match (who(&mut site, &headers, &q, false), method == Method::POST) {
+        (
+            Who::Roles(
+                _,
+                Write {
+                    treatments: true, ..
+                },
+            ),
+            true,
+        )
+        | (Who::Roles(_, Write { profile: true, .. }), false) => {}
         _ => return unauthorized(),
     }
     if method == Method::POST {
@@ -935,13 +945,9 @@ async fn delete_treatment(
 ) -> Response {
     let mut site = s.lock().unwrap();
     site.log.push(format!("DELETE /api/v1/treatments/{id}"));
+    // `api:treatments:delete`.
     match who(&mut site, &headers, &q, false) {
-        Who::Roles(
-            _,
-            Write {
-                treatments: true, ..
-            },
-        ) => {}
+        Who::Roles(_, Write { profile: true, .. }) => {}
         _ => return unauthorized(),
     }
     let docs = site.docs.entry("treatments").or_default();

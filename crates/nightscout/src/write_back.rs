@@ -173,7 +173,7 @@ pub fn write_back(
                 doc.insert("created_at".into(), Value::String(created_at));
                 doc.insert("_id".into(), Value::String(w.remote_id.clone()));
                 let doc = Value::Object(doc);
-                client.call(Method::Put, "/api/v1/treatments", &[], Some(&doc))?;
+                put_treatment(client, &w.remote_id, &doc)?;
                 store.set_written(
                     person,
                     &Written {
@@ -267,6 +267,25 @@ fn free_instant(client: &Client, at_ms: i64, setting: &str) -> Result<String, Ns
             crate::fetch::iso_ms(at_ms)
         ),
     ))
+}
+
+/// Replaces abba's Note `id` on the site: Nightscout takes the PUT at
+/// `/api/v1/treatments` with the `_id` in the body (`lib/api/treatments`;
+/// it has no route at `/api/v1/treatments/<id>`, 404), a server that
+/// routes it by id only (nightscout/nocturne, `PUT
+/// /api/v1/treatments/{id}`) answers that 405 and gets it there.
+fn put_treatment(client: &Client, id: &str, doc: &Value) -> Result<Value, NsError> {
+    match client.call(Method::Put, "/api/v1/treatments", &[], Some(doc)) {
+        Err(NsError::Status {
+            status: 404 | 405, ..
+        }) => client.call(
+            Method::Put,
+            &format!("/api/v1/treatments/{}", crate::client::encode_segment(id)),
+            &[],
+            Some(doc),
+        ),
+        r => r,
+    }
 }
 
 fn created_id(v: &Value) -> Option<String> {
@@ -385,12 +404,26 @@ fn write_profile(
     let mut new_store = stores;
     new_store.insert(PROFILE_NAME.into(), ours.clone());
     new_doc.insert("store".into(), Value::Object(new_store));
-    client.call(
+    match client.call(
         Method::Put,
         "/api/v1/profile",
         &[],
         Some(&Value::Object(new_doc)),
-    )?;
+    ) {
+        Ok(_) => {}
+        // A server that takes no profile update (nightscout/nocturne has
+        // no `PUT /api/v1/profile`): the Notes are written, the profile
+        // is said to be not, and the sync does not fail on it.
+        Err(NsError::Status {
+            status: s @ (404 | 405),
+            ..
+        }) => {
+            return Ok(Err(format!(
+                "the site takes no profile update (PUT /api/v1/profile answered {s}): the {PROFILE_NAME} profile is not written there"
+            )))
+        }
+        Err(e) => return Err(e),
+    }
     store.set_written(
         person,
         &Written {

@@ -338,3 +338,44 @@ fn a_note_the_site_holds_at_a_decisions_instant_is_not_replaced() {
     assert_eq!((again.notes_created, again.notes_updated), (0, 0));
     assert_eq!(abba_notes(&srv), notes);
 }
+
+/// A server that routes PUT by id, as nightscout/nocturne (Nightscout's
+/// API rewritten in C#) does: `PUT /api/v1/treatments/{id}` only (405
+/// where Nightscout takes it), no profile update. The answered
+/// suggestions' Notes are updated there; the profile is said to be not
+/// written, and the sync does not fail on it.
+#[test]
+fn a_server_that_puts_by_id_gets_the_notes_updated_and_says_no_profile() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = data(5);
+    let files = export(dir.path(), &d);
+    let srv = server(&d, 1000);
+    srv.with(|s| s.put_by_id = true);
+    let (_, mut store) = store_with_person(dir.path(), "wb.db", &files);
+    let token = credential(Some("admin-0123456789abcdef"), None).unwrap();
+    link(&mut store, "ana", &srv.url, token, true, &fast_client()).unwrap();
+    let w = sync(&mut store, "ana", &sync_opts())
+        .unwrap()
+        .write_back
+        .unwrap();
+    assert!(w.notes_created > 0, "{w:?}");
+    assert!(!w.profile_written, "{w:?}");
+    let why = w.profile_skipped.unwrap();
+    assert!(
+        why.contains("PUT /api/v1/profile") && why.contains("405"),
+        "{why}"
+    );
+    store.answer("ana", &AnswerRequest::Accept).unwrap();
+    let answered = sync(&mut store, "ana", &sync_opts())
+        .unwrap()
+        .write_back
+        .unwrap();
+    assert!(answered.notes_updated > 0, "{answered:?}");
+    assert!(abba_notes(&srv)
+        .iter()
+        .any(|n| n["notes"].as_str().unwrap().contains("status: accepted")));
+    assert!(srv.with(|s| s
+        .log
+        .iter()
+        .any(|l| l.starts_with("PUT /api/v1/treatments/"))));
+}

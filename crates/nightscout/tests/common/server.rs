@@ -110,6 +110,11 @@ pub struct Site {
     pub profile_as_object: bool,
     /// `settings.units` in `/api/v1/status.json` (`None`: no `settings`).
     pub status_units: Option<&'static str>,
+    /// PUT as nightscout/nocturne (Nightscout's API rewritten in C#)
+    /// routes it: a treatment only at `/api/v1/treatments/{id}` (405 at
+    /// `/api/v1/treatments`, where Nightscout takes it), no profile update
+    /// (405). Nightscout answers a PUT to `/api/v1/treatments/{id}` 404.
+    pub put_by_id: bool,
     next_id: u64,
     clock: i64,
 }
@@ -213,6 +218,7 @@ impl Site {
             empty_is_404: false,
             profile_as_object: false,
             status_units: None,
+            put_by_id: false,
             next_id: 1,
             clock: 1_700_000_000_000,
         }
@@ -917,14 +923,43 @@ async fn write_treatments(
         return (StatusCode::OK, axum::Json(Value::Array(created))).into_response();
     }
     // PUT: replace by _id.
+    if site.put_by_id {
+        return StatusCode::METHOD_NOT_ALLOWED.into_response();
+    }
     let Some(id) = body.get("_id").and_then(Value::as_str).map(String::from) else {
         return (StatusCode::BAD_REQUEST, "missing _id").into_response();
     };
+    replace_treatment(&mut site, &id, body)
+}
+
+/// `PUT /api/v1/treatments/{id}`: Nocturne's route (see `put_by_id`);
+/// Nightscout has none (404, "Cannot PUT").
+async fn put_treatment_by_id(
+    State(s): State<Shared>,
+    headers: HeaderMap,
+    Path(id): Path<String>,
+    Query(q): Query<Vec<(String, String)>>,
+    axum::Json(mut body): axum::Json<Value>,
+) -> Response {
+    let mut site = s.lock().unwrap();
+    site.log.push(format!("PUT /api/v1/treatments/{id}"));
+    if !site.put_by_id {
+        return (StatusCode::NOT_FOUND, "Cannot PUT").into_response();
+    }
+    match who(&mut site, &headers, &q, false) {
+        Who::Roles(_, Write { profile: true, .. }) => {}
+        _ => return unauthorized(),
+    }
+    body["_id"] = Value::String(id.clone());
+    replace_treatment(&mut site, &id, body)
+}
+
+fn replace_treatment(site: &mut Site, id: &str, body: Value) -> Response {
     let m = site.tick();
     let docs = site.docs.entry("treatments").or_default();
     match docs
         .iter_mut()
-        .find(|d| d.doc.get("_id").and_then(Value::as_str) == Some(&id))
+        .find(|d| d.doc.get("_id").and_then(Value::as_str) == Some(id))
     {
         Some(d) => {
             // A v1 replace: the `srvModified` the body holds, if any.
@@ -963,6 +998,9 @@ async fn put_profile(
 ) -> Response {
     let mut site = s.lock().unwrap();
     site.log.push("PUT /api/v1/profile".into());
+    if site.put_by_id {
+        return StatusCode::METHOD_NOT_ALLOWED.into_response();
+    }
     match who(&mut site, &headers, &q, false) {
         Who::Roles(_, Write { profile: true, .. }) => {}
         _ => return unauthorized(),
@@ -1192,7 +1230,7 @@ impl Server {
             )
             .route(
                 "/api/v1/treatments/{id}",
-                axum::routing::delete(delete_treatment),
+                axum::routing::delete(delete_treatment).put(put_treatment_by_id),
             )
             .route("/api/v1/devicestatus.json", get(v1_list))
             .route("/api/v1/devicestatus", get(v1_list))

@@ -110,6 +110,14 @@ pub struct Site {
     pub profile_as_object: bool,
     /// `settings.units` in `/api/v1/status.json` (`None`: no `settings`).
     pub status_units: Option<&'static str>,
+    /// v1 queries as nightscout/nocturne's `QueryParser` (Nightscout's API
+    /// rewritten in C#) reads them: a condition on a field it does not map
+    /// (`_id`) or with an operator it does not know (`$type`, `$not`) is
+    /// left out, and `sort[...]` is not read (newest first by time). A
+    /// query left without a date bound gets Nocturne's last 4 days, here
+    /// everything (the fixtures are older than 4 days): either way
+    /// documents the query did not ask for.
+    pub nocturne_query: bool,
     /// PUT as nightscout/nocturne (Nightscout's API rewritten in C#)
     /// routes it: a treatment only at `/api/v1/treatments/{id}` (405 at
     /// `/api/v1/treatments`, where Nightscout takes it), no profile update
@@ -219,6 +227,7 @@ impl Site {
             profile_as_object: false,
             status_units: None,
             put_by_id: false,
+            nocturne_query: false,
             next_id: 1,
             clock: 1_700_000_000_000,
         }
@@ -756,6 +765,19 @@ async fn v1_list(
         } else {
             q
         };
+        let nocturne = site.nocturne_query;
+        let q: Vec<(String, String)> = if nocturne {
+            q.into_iter()
+                .filter(|(k, _)| {
+                    !(k.starts_with("find[_id]")
+                        || k.contains("[$type]")
+                        || k.contains("[$not]")
+                        || k.starts_with("sort["))
+                })
+                .collect()
+        } else {
+            q
+        };
         let find = match mongo::Find::parse(col, &q) {
             Ok(f) => f,
             Err(e) => return mongo_error(&e),
@@ -765,14 +787,15 @@ async fn v1_list(
         // gets the last 4 days.
         let bounded =
             find.has_id() || find.names(sort) || (col == "entries" && find.names("dateString"));
-        let bound = (col != "profile" && !bounded && !site.ignores_time_filter).then(|| {
-            let from = jiff::Timestamp::now().as_millisecond() - 4 * 86_400_000;
-            if col == "entries" {
-                json!(from)
-            } else {
-                Value::String(iso(from))
-            }
-        });
+        let bound =
+            (col != "profile" && !bounded && !site.ignores_time_filter && !nocturne).then(|| {
+                let from = jiff::Timestamp::now().as_millisecond() - 4 * 86_400_000;
+                if col == "entries" {
+                    json!(from)
+                } else {
+                    Value::String(iso(from))
+                }
+            });
         // The stored documents the query keeps (a deleted one shows
         // `isValid: false`), cloned only when kept.
         let mut docs: Vec<Value> = Vec::new();

@@ -731,6 +731,9 @@ pub struct History {
     pub mark: i64,
 }
 
+/// The least time API v3 reads as one in milliseconds (2000-01-01).
+const V3_MIN_TIMESTAMP: i64 = 946_684_800_000;
+
 /// API v3 `history` of `collection` after `since` (ms of `srvModified`).
 /// `limit` is halved while the site refuses it (400: a site's
 /// `API3_MAX_LIMIT` below Nightscout's default 1,000).
@@ -745,7 +748,11 @@ pub fn v3_history(
         ..History::default()
     };
     let mut limit = limit.max(1);
-    let path_of = |m: i64| format!("/api/v3/{collection}/history/{m}");
+    // Nightscout takes a number below 2000-01-01 (`MIN_TIMESTAMP`) as
+    // seconds, and refuses one that is still below it (`0`: the mark of a
+    // collection empty at the first sync) with a 400
+    // (`parseToMoment`, `lib/api3/shared/dateTools.js`): from 2000 on.
+    let path_of = |m: i64| format!("/api/v3/{collection}/history/{}", m.max(V3_MIN_TIMESTAMP));
     let mut pages = 0;
     while pages < MAX_PAGES {
         let path = path_of(out.mark);

@@ -296,6 +296,29 @@ fn a_treatment_dated_ahead_does_not_hide_later_deletions_from_api_v3() {
         .all(|r| !format!("{:?}", r.id).contains(&id)));
 }
 
+/// A collection the site holds nothing of at the first sync (no profile
+/// yet): API v3's `lastModified` names none, and Nightscout refuses
+/// `history/0` (400: a time before 2000 is no Last-Modified to it,
+/// `parseToMoment` in `lib/api3/shared/dateTools.js`). The next syncs
+/// read that collection's history all the same.
+#[test]
+fn a_collection_empty_at_the_first_sync_is_read_by_api_v3_after() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = data(1);
+    let files = export(dir.path(), &d);
+    let srv = server(&d, 1000);
+    let profiles = srv.with(|s| s.docs.remove("profile")).unwrap();
+    let token = credential(Some("reader-0123456789abcdef"), None).unwrap();
+    let mut store = linked(dir.path(), &srv, &files, token);
+    assert!(sync(&mut store, "ana", &sync_opts()).unwrap().v3);
+    // The person sets up a profile through API v3 (as AndroidAPS does).
+    srv.with(|s| s.add_v3("profile", profiles.iter().map(|p| p.doc.clone()).collect()));
+    let r = sync(&mut store, "ana", &sync_opts()).unwrap();
+    assert!(r.v3, "{r:?}");
+    assert_eq!(r.collections[3].documents, profiles.len(), "{r:?}");
+    assert!(sync(&mut store, "ana", &sync_opts()).is_ok());
+}
+
 /// Timings for BENCHMARKS.md (not a test of speed):
 /// `cargo test --release -p abba-nightscout --test integration sync:: -- --ignored --nocapture`.
 #[test]

@@ -1171,6 +1171,23 @@ async fn v3_history(
     if who(&mut site, &headers, &[], true) == Who::Nobody {
         return unauthorized();
     }
+    // `parseToMoment` (`lib/api3/shared/dateTools.js`): a number below
+    // MIN_TIMESTAMP (2000-01-01) is read as seconds, and refused when
+    // that is below it too (`0` among them).
+    const MIN_TIMESTAMP: i64 = 946_684_800_000;
+    let since = if since >= MIN_TIMESTAMP {
+        since
+    } else if since.saturating_mul(1000) >= MIN_TIMESTAMP {
+        since * 1000
+    } else {
+        return (
+            StatusCode::BAD_REQUEST,
+            axum::Json(
+                json!({"status": 400, "message": "Bad or missing Last-Modified header/parameter"}),
+            ),
+        )
+            .into_response();
+    };
     let limit = match q.iter().find(|(k, _)| k == "limit") {
         None => site.v3_max_limit,
         Some((_, v)) => match v.parse::<usize>() {

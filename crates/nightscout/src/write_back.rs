@@ -254,7 +254,13 @@ fn free_instant(client: &Client, at_ms: i64, setting: &str) -> Result<String, Ns
                 ("count", "1".into()),
             ],
         )?;
-        if held.is_empty() {
+        // Only a Note at that instant counts (a server that leaves a
+        // filter out serves others).
+        let taken = held.iter().any(|d| {
+            d.get("eventType").and_then(Value::as_str) == Some("Note")
+                && crate::fetch::Collection::Treatments.time_of(d) == Some(at_ms + step)
+        });
+        if !taken {
             return Ok(t);
         }
     }

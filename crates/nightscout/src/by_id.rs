@@ -156,6 +156,29 @@ pub(crate) fn inserted_since(
     )
 }
 
+/// When `filter` asks for documents without a string in a field
+/// (`find[created_at][$not][$type]=string`) and the server served one
+/// with it, how to say so: the server leaves that filter out (as
+/// nightscout/nocturne, Nightscout's API in C#, leaves out operators it
+/// does not know), so no page of it can be the documents asked for.
+fn ignored_absence(filter: &[(String, String)], docs: &[Value]) -> Option<String> {
+    let field = filter.iter().find_map(|(k, v)| {
+        (v == "string")
+            .then(|| k.strip_prefix("find[")?.strip_suffix("][$not][$type]"))
+            .flatten()
+    })?;
+    let served = docs
+        .iter()
+        .find(|d| d.get(field).is_some_and(Value::is_string))?;
+    Some(format!(
+        "asked for those without a {field} string (find[{field}][$not][$type]=string), the site \
+         served {} with {field} {}: it leaves that filter out, and those it holds with a {field} \
+         string are read by time",
+        doc_id(served).unwrap_or_else(|| "a document".into()),
+        served[field]
+    ))
+}
+
 /// Which run of `_id`s a page belongs to, and the last `_id` read in it.
 enum Run {
     Strings(Option<String>),
@@ -240,6 +263,15 @@ fn paged(
         let docs = list(client, c.path(), &q)?;
         pages += 1;
         col.out.pages += 1;
+        if let Some(ignored) = ignored_absence(filter, &docs) {
+            // Nothing it serves is what was asked, and nothing it could
+            // serve would be: said, not a failed sync (what it holds with
+            // the field is read by time).
+            col.out
+                .warnings
+                .push(format!("{what} cannot be looked for: {ignored}"));
+            return Ok(fresh);
+        }
         if docs.is_empty() {
             match run {
                 Run::Strings(_) => {
@@ -363,6 +395,15 @@ fn split(
         let docs = list(client, c.path(), &q)?;
         pages += 1;
         col.out.pages += 1;
+        if let Some(ignored) = ignored_absence(filter, &docs) {
+            // Nothing it serves is what was asked, and nothing it could
+            // serve would be: said, not a failed sync (what it holds with
+            // the field is read by time).
+            col.out
+                .warnings
+                .push(format!("{what} cannot be looked for: {ignored}"));
+            return Ok(fresh);
+        }
         col.out.received += docs.len();
         let full = !docs.is_empty() && docs.len() >= largest;
         largest = largest.max(docs.len());

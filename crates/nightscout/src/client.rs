@@ -593,7 +593,7 @@ fn describe(method: Method, path: &str, query: &[(&str, String)]) -> String {
 }
 
 /// A path segment, percent-encoded.
-fn encode_segment(s: &str) -> String {
+pub(crate) fn encode_segment(s: &str) -> String {
     let mut out = String::new();
     for b in s.bytes() {
         if b.is_ascii_alphanumeric() || b"-._~".contains(&b) {

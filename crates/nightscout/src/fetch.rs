@@ -689,15 +689,25 @@ pub fn has_v3(client: &Client) -> bool {
     })
 }
 
-/// API v3's `lastModified`: per collection, the newest `srvModified` (ms).
+/// API v3's `lastModified`: per collection, where `history` starts from
+/// to see what changes from now on (ms), at most the server's clock
+/// (`srvDate`).
+///
+/// Nightscout answers the newest `srvModified` or, when later, the
+/// newest `created_at` (`date` of entries) of any document
+/// (`lib/api3/specific/lastModified.js`): one dated ahead (carbs to come,
+/// an uploader's clock wrong by a year) puts it past every `srvModified`
+/// the server will give for a long while, and `history` after it would
+/// show none of the deletions made until then.
 pub fn v3_last_modified(client: &Client) -> Result<HashMap<String, i64>, NsError> {
     let v = client.get("/api/v3/lastModified", &[])?;
     let r = v.get("result").unwrap_or(&v);
+    let now = r.get("srvDate").and_then(Value::as_i64);
     let mut out = HashMap::new();
     if let Some(Value::Object(cols)) = r.get("collections") {
         for (k, v) in cols {
             if let Some(ms) = v.as_i64() {
-                out.insert(k.clone(), ms);
+                out.insert(k.clone(), now.map_or(ms, |n| ms.min(n)));
             }
         }
     }
@@ -721,6 +731,9 @@ pub struct History {
     pub mark: i64,
 }
 
+/// The least time API v3 reads as one in milliseconds (2000-01-01).
+const V3_MIN_TIMESTAMP: i64 = 946_684_800_000;
+
 /// API v3 `history` of `collection` after `since` (ms of `srvModified`).
 /// `limit` is halved while the site refuses it (400: a site's
 /// `API3_MAX_LIMIT` below Nightscout's default 1,000).
@@ -735,7 +748,11 @@ pub fn v3_history(
         ..History::default()
     };
     let mut limit = limit.max(1);
-    let path_of = |m: i64| format!("/api/v3/{collection}/history/{m}");
+    // Nightscout takes a number below 2000-01-01 (`MIN_TIMESTAMP`) as
+    // seconds, and refuses one that is still below it (`0`: the mark of a
+    // collection empty at the first sync) with a 400
+    // (`parseToMoment`, `lib/api3/shared/dateTools.js`): from 2000 on.
+    let path_of = |m: i64| format!("/api/v3/{collection}/history/{}", m.max(V3_MIN_TIMESTAMP));
     let mut pages = 0;
     while pages < MAX_PAGES {
         let path = path_of(out.mark);

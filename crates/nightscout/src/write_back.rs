@@ -148,10 +148,21 @@ pub fn write_back(
                 ),
             ));
         };
-        let created_at = crate::fetch::iso_ms(at.as_millisecond());
+        let at_ms = at.as_millisecond();
         match held {
             Some(w) => {
                 let old: Value = serde_json::from_str(&w.content).unwrap_or(Value::Null);
+                // The instant the Note was given (its decision's, or a
+                // millisecond after where another Note held that one).
+                let created_at = old
+                    .get("created_at")
+                    .and_then(Value::as_str)
+                    .filter(|t| {
+                        t.parse::<jiff::Timestamp>().is_ok_and(|t| {
+                            (0..FREE_INSTANT_TRIES).contains(&(t.as_millisecond() - at_ms))
+                        })
+                    })
+                    .map_or_else(|| crate::fetch::iso_ms(at_ms), String::from);
                 if old.get("notes").and_then(Value::as_str) == Some(notes.as_str())
                     && old.get("created_at").and_then(Value::as_str) == Some(created_at.as_str())
                 {
@@ -162,7 +173,7 @@ pub fn write_back(
                 doc.insert("created_at".into(), Value::String(created_at));
                 doc.insert("_id".into(), Value::String(w.remote_id.clone()));
                 let doc = Value::Object(doc);
-                client.call(Method::Put, "/api/v1/treatments", &[], Some(&doc))?;
+                put_treatment(client, &w.remote_id, &doc)?;
                 store.set_written(
                     person,
                     &Written {
@@ -173,6 +184,7 @@ pub fn write_back(
                 report.notes_updated += 1;
             }
             None => {
+                let created_at = free_instant(client, at_ms, v.setting)?;
                 let doc = json!({
                     "eventType": "Note",
                     "enteredBy": ENTERED_BY,
@@ -183,7 +195,15 @@ pub fn write_back(
                 let r =
                     client.call(Method::Post, "/api/v1/treatments", &[], Some(&json!([doc])))?;
                 let id = created_id(&r).ok_or_else(|| {
-                    protocol(client, call, "expected the created treatment with its _id")
+                    protocol(
+                        client,
+                        call,
+                        format!(
+                            "expected the created treatment with its _id; an answer without \
+                             one is Nightscout's when it replaced a Note it held at {created_at} \
+                             (uploaded there since abba looked)"
+                        ),
+                    )
                 })?;
                 let mut stored = doc.as_object().cloned().unwrap_or_default();
                 stored.insert("_id".into(), Value::String(id.clone()));
@@ -205,6 +225,73 @@ pub fn write_back(
         Err(why) => report.profile_skipped = Some(why),
     }
     Ok(report)
+}
+
+/// How many milliseconds after its decision a Note may be moved to find
+/// an instant no other Note holds.
+const FREE_INSTANT_TRIES: i64 = 1000;
+
+/// The first instant from `at_ms` on (by milliseconds) at which the site
+/// holds no Note, in the `toISOString()` form Nightscout stores.
+///
+/// Nightscout's v1 POST of a treatment without `identifier` or `_id` is a
+/// replace with upsert keyed by its `created_at` and `eventType`
+/// (`upsert` / `upsertQueryFor` in `lib/server/treatments.js`; in 15.0.2
+/// and before, always by those two): a Note at an instant that already
+/// holds one (the person's own, entered at the decision's minute, or
+/// abba's for another setting decided at the same time) would replace it.
+fn free_instant(client: &Client, at_ms: i64, setting: &str) -> Result<String, NsError> {
+    let path = "/api/v1/treatments.json";
+    for step in 0..FREE_INSTANT_TRIES {
+        let t = crate::fetch::iso_ms(at_ms + step);
+        let held = crate::fetch::list(
+            client,
+            path,
+            &[
+                ("find[created_at][$gte]", t.clone()),
+                ("find[created_at][$lte]", t.clone()),
+                ("find[eventType]", "Note".into()),
+                ("count", "1".into()),
+            ],
+        )?;
+        // Only a Note at that instant counts (a server that leaves a
+        // filter out serves others).
+        let taken = held.iter().any(|d| {
+            d.get("eventType").and_then(Value::as_str) == Some("Note")
+                && crate::fetch::Collection::Treatments.time_of(d) == Some(at_ms + step)
+        });
+        if !taken {
+            return Ok(t);
+        }
+    }
+    Err(protocol(
+        client,
+        &format!("GET {path}"),
+        format!(
+            "every millisecond of the {FREE_INSTANT_TRIES} after the {setting} suggestion's decision \
+             ({}) holds a Note: abba writes none there, as Nightscout would replace the one it holds",
+            crate::fetch::iso_ms(at_ms)
+        ),
+    ))
+}
+
+/// Replaces abba's Note `id` on the site: Nightscout takes the PUT at
+/// `/api/v1/treatments` with the `_id` in the body (`lib/api/treatments`;
+/// it has no route at `/api/v1/treatments/<id>`, 404), a server that
+/// routes it by id only (nightscout/nocturne, `PUT
+/// /api/v1/treatments/{id}`) answers that 405 and gets it there.
+fn put_treatment(client: &Client, id: &str, doc: &Value) -> Result<Value, NsError> {
+    match client.call(Method::Put, "/api/v1/treatments", &[], Some(doc)) {
+        Err(NsError::Status {
+            status: 404 | 405, ..
+        }) => client.call(
+            Method::Put,
+            &format!("/api/v1/treatments/{}", crate::client::encode_segment(id)),
+            &[],
+            Some(doc),
+        ),
+        r => r,
+    }
 }
 
 fn created_id(v: &Value) -> Option<String> {
@@ -323,12 +410,26 @@ fn write_profile(
     let mut new_store = stores;
     new_store.insert(PROFILE_NAME.into(), ours.clone());
     new_doc.insert("store".into(), Value::Object(new_store));
-    client.call(
+    match client.call(
         Method::Put,
         "/api/v1/profile",
         &[],
         Some(&Value::Object(new_doc)),
-    )?;
+    ) {
+        Ok(_) => {}
+        // A server that takes no profile update (nightscout/nocturne has
+        // no `PUT /api/v1/profile`): the Notes are written, the profile
+        // is said to be not, and the sync does not fail on it.
+        Err(NsError::Status {
+            status: s @ (404 | 405),
+            ..
+        }) => {
+            return Ok(Err(format!(
+                "the site takes no profile update (PUT /api/v1/profile answered {s}): the {PROFILE_NAME} profile is not written there"
+            )))
+        }
+        Err(e) => return Err(e),
+    }
     store.set_written(
         person,
         &Written {

@@ -94,6 +94,39 @@ fn a_server_ignoring_bounds_on_id() {
     }
 }
 
+/// nightscout/nocturne (Nightscout's API in C#) leaves out of a v1 query
+/// what it cannot map: conditions on `_id`, the operators `$type` and
+/// `$not`, `sort[...]`. What is read by time is whole and imported; what
+/// abba asks by `_id` (late uploads, treatments without a `created_at`
+/// string) cannot be, which the report says.
+#[test]
+fn a_server_leaving_out_id_type_and_not_as_nocturne_does() {
+    let d = data(1);
+    let mut site = site_of(&d, 1000);
+    site.nocturne_query = true;
+    let again = syncs_as_files_import(&d, site);
+    assert!(
+        again
+            .warnings
+            .iter()
+            .any(|w| w.contains("without a created_at string")
+                && w.contains("find[created_at][$not][$type]=string")
+                && w.contains("leaves that filter out")),
+        "{:?}",
+        again.warnings
+    );
+    for c in ["entries", "treatments"] {
+        assert!(
+            again
+                .warnings
+                .iter()
+                .any(|w| w.contains("late uploads") && w.contains(c)),
+            "{c}: {:?}",
+            again.warnings
+        );
+    }
+}
+
 #[test]
 fn late_entries_on_a_server_that_ignores_sort_by_id_all_arrive() {
     // A server that serves every page newest first by `date`, whatever

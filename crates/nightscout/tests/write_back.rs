@@ -255,3 +255,127 @@ fn the_first_write_back_writes_what_can_be_acted_on_at_its_time() {
         );
     }
 }
+
+/// Nightscout stores a POSTed treatment without `identifier` or `_id` by
+/// a replace keyed by its `created_at` and `eventType` (the test server
+/// as `lib/server/treatments.js`): a Note the person entered at a
+/// decision's minute is kept, and abba's goes a millisecond later.
+#[test]
+fn a_note_the_site_holds_at_a_decisions_instant_is_not_replaced() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = data(5);
+    let files = export(dir.path(), &d);
+    let srv = server(&d, 1000);
+    let (_, mut store) = store_with_person(dir.path(), "wb.db", &files);
+    let token = credential(Some("admin-0123456789abcdef"), None).unwrap();
+    // A first sync without write-back gives the decisions' times.
+    link(
+        &mut store,
+        "ana",
+        &srv.url,
+        token.clone(),
+        false,
+        &fast_client(),
+    )
+    .unwrap();
+    sync(&mut store, "ana", &sync_opts()).unwrap();
+    let tz = jiff::tz::TimeZone::get(TZ).unwrap();
+    let instant = |decided_at: &str| {
+        jiff::civil::DateTime::strptime("%Y-%m-%d %H:%M", decided_at)
+            .unwrap()
+            .to_zoned(tz.clone())
+            .unwrap()
+            .timestamp()
+    };
+    let open: Vec<_> = store
+        .history("ana")
+        .unwrap()
+        .into_iter()
+        .filter(|v| v.status == "open")
+        .collect();
+    assert!(!open.is_empty());
+    // The person's own Notes, entered in Careportal at those minutes.
+    let theirs: Vec<Value> = open
+        .iter()
+        .map(|v| {
+            let at = instant(&v.decided_at);
+            serde_json::json!({
+                "_id": object_id(at.as_millisecond(), 7),
+                "eventType": "Note",
+                "enteredBy": "ana",
+                "created_at": at.strftime("%Y-%m-%dT%H:%M:%S%.3fZ").to_string(),
+                "notes": format!("my own note for {}", v.setting),
+            })
+        })
+        .collect();
+    srv.with(|s| s.add("treatments", theirs.clone()));
+    link(&mut store, "ana", &srv.url, token, true, &fast_client()).unwrap();
+    let w = sync(&mut store, "ana", &sync_opts())
+        .unwrap()
+        .write_back
+        .unwrap();
+    assert_eq!(w.notes_created, open.len(), "{w:?}");
+    let held = srv.with(|s| s.valid("treatments"));
+    for t in &theirs {
+        assert!(held.contains(t), "the person's Note was replaced: {t}");
+    }
+    let notes = abba_notes(&srv);
+    assert_eq!(notes.len(), open.len());
+    for v in &open {
+        let when = (instant(&v.decided_at) + jiff::SignedDuration::from_millis(1))
+            .strftime("%Y-%m-%dT%H:%M:%S%.3fZ")
+            .to_string();
+        assert!(
+            notes.iter().any(|n| n["created_at"] == when.as_str()),
+            "no Note of abba at {when}: {notes:?}"
+        );
+    }
+    // Written once: the next sync neither writes nor moves them.
+    let again = sync(&mut store, "ana", &sync_opts())
+        .unwrap()
+        .write_back
+        .unwrap();
+    assert_eq!((again.notes_created, again.notes_updated), (0, 0));
+    assert_eq!(abba_notes(&srv), notes);
+}
+
+/// A server that routes PUT by id, as nightscout/nocturne (Nightscout's
+/// API rewritten in C#) does: `PUT /api/v1/treatments/{id}` only (405
+/// where Nightscout takes it), no profile update. The answered
+/// suggestions' Notes are updated there; the profile is said to be not
+/// written, and the sync does not fail on it.
+#[test]
+fn a_server_that_puts_by_id_gets_the_notes_updated_and_says_no_profile() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = data(5);
+    let files = export(dir.path(), &d);
+    let srv = server(&d, 1000);
+    srv.with(|s| s.put_by_id = true);
+    let (_, mut store) = store_with_person(dir.path(), "wb.db", &files);
+    let token = credential(Some("admin-0123456789abcdef"), None).unwrap();
+    link(&mut store, "ana", &srv.url, token, true, &fast_client()).unwrap();
+    let w = sync(&mut store, "ana", &sync_opts())
+        .unwrap()
+        .write_back
+        .unwrap();
+    assert!(w.notes_created > 0, "{w:?}");
+    assert!(!w.profile_written, "{w:?}");
+    let why = w.profile_skipped.unwrap();
+    assert!(
+        why.contains("PUT /api/v1/profile") && why.contains("405"),
+        "{why}"
+    );
+    store.answer("ana", &AnswerRequest::Accept).unwrap();
+    let answered = sync(&mut store, "ana", &sync_opts())
+        .unwrap()
+        .write_back
+        .unwrap();
+    assert!(answered.notes_updated > 0, "{answered:?}");
+    assert!(abba_notes(&srv)
+        .iter()
+        .any(|n| n["notes"].as_str().unwrap().contains("status: accepted")));
+    assert!(srv.with(|s| s
+        .log
+        .iter()
+        .any(|l| l.starts_with("PUT /api/v1/treatments/"))));
+}

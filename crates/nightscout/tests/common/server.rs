@@ -12,9 +12,15 @@
 //!   access tokens (`?token=`) of subjects with roles (readable,
 //!   careportal, admin, denied), `/api/v2/authorization/request/<token>`
 //!   giving a JWT (`Authorization: Bearer`);
-//! - v3 `version`, `lastModified`, `{collection}/history/{ms}` (JWT only,
-//!   `limit` at most 1,000, ascending `srvModified`, deleted documents with
-//!   `isValid: false`);
+//! - v3 `version`, `lastModified` (the newest `srvModified` or, when
+//!   later, the newest `created_at` / `date`), `{collection}/history/{ms}`
+//!   (JWT only, `limit` at most 1,000, ascending `srvModified`, only what
+//!   v3 created, changed or deleted: v1 writes have no `srvModified`,
+//!   deleted documents with `isValid: false`);
+//! - v1 treatment uploads as `lib/server/treatments.js` stores them
+//!   (a replace with upsert keyed by `identifier`, `_id`, or `created_at`
+//!   and `eventType`), treatments served with `carbs` and `insulin` as
+//!   `Number()` makes them;
 //! - injected faults: a status (401, 500, 429 with Retry-After), a
 //!   connection cut mid-page, a slow answer, a gzip answer nobody asked for.
 //!
@@ -104,6 +110,19 @@ pub struct Site {
     pub profile_as_object: bool,
     /// `settings.units` in `/api/v1/status.json` (`None`: no `settings`).
     pub status_units: Option<&'static str>,
+    /// v1 queries as nightscout/nocturne's `QueryParser` (Nightscout's API
+    /// rewritten in C#) reads them: a condition on a field it does not map
+    /// (`_id`) or with an operator it does not know (`$type`, `$not`) is
+    /// left out, and `sort[...]` is not read (newest first by time). A
+    /// query left without a date bound gets Nocturne's last 4 days, here
+    /// everything (the fixtures are older than 4 days): either way
+    /// documents the query did not ask for.
+    pub nocturne_query: bool,
+    /// PUT as nightscout/nocturne (Nightscout's API rewritten in C#)
+    /// routes it: a treatment only at `/api/v1/treatments/{id}` (405 at
+    /// `/api/v1/treatments`, where Nightscout takes it), no profile update
+    /// (405). Nightscout answers a PUT to `/api/v1/treatments/{id}` 404.
+    pub put_by_id: bool,
     next_id: u64,
     clock: i64,
 }
@@ -117,6 +136,12 @@ pub struct Doc {
     pub srv_modified: i64,
     /// False once deleted through v3 (soft).
     pub valid: bool,
+    /// Whether it holds a `srvModified`, which only API v3 writes (a
+    /// create, a change, a soft delete): only such a document is in v3's
+    /// `history` (a MongoDB filter on `srvModified`), so one uploaded
+    /// through v1 (Loop, Trio, xDrip+, Careportal) is not, until v3
+    /// changes or deletes it.
+    pub v3: bool,
 }
 
 /// A fault for the next request whose path contains `path`.
@@ -201,9 +226,17 @@ impl Site {
             empty_is_404: false,
             profile_as_object: false,
             status_units: None,
+            put_by_id: false,
+            nocturne_query: false,
             next_id: 1,
             clock: 1_700_000_000_000,
         }
+    }
+
+    /// Sets the server's clock (`srvDate`; the next `srvModified` is
+    /// after it).
+    pub fn set_clock(&mut self, ms: i64) {
+        self.clock = ms;
     }
 
     /// The next server modification time (strictly increasing).
@@ -212,7 +245,8 @@ impl Site {
         self.clock
     }
 
-    /// Adds documents to a collection.
+    /// Adds documents to a collection as uploaded through API v1 (no
+    /// `srvModified`).
     pub fn add(&mut self, col: &'static str, docs: Vec<Value>) {
         for d in docs {
             let m = self.tick();
@@ -220,6 +254,23 @@ impl Site {
                 doc: d,
                 srv_modified: m,
                 valid: true,
+                v3: false,
+            });
+        }
+    }
+
+    /// Adds documents as uploaded through API v3 (AndroidAPS): with
+    /// `srvModified` and `srvCreated`, in `history`.
+    pub fn add_v3(&mut self, col: &'static str, docs: Vec<Value>) {
+        for mut d in docs {
+            let m = self.tick();
+            d["srvModified"] = json!(m);
+            d["srvCreated"] = json!(m);
+            self.docs.entry(col).or_default().push(Doc {
+                doc: d,
+                srv_modified: m,
+                valid: true,
+                v3: true,
             });
         }
     }
@@ -235,6 +286,7 @@ impl Site {
             {
                 d.valid = false;
                 d.srv_modified = m;
+                d.v3 = true;
             }
         }
     }
@@ -250,6 +302,7 @@ impl Site {
                 f(&mut d.doc);
                 d.doc["srvModified"] = json!(m);
                 d.srv_modified = m;
+                d.v3 = true;
             }
         }
     }
@@ -276,6 +329,53 @@ impl Site {
             .unwrap_or_default()
     }
 
+    /// A treatment POSTed to v1, as `lib/server/treatments.js` stores it:
+    /// `created_at` in `toISOString()` form (now when it has none), then
+    /// a replace with upsert keyed by its `identifier`, else its `_id`,
+    /// else **its `created_at` and `eventType`** (15.0.2 and before: by
+    /// those always), so a second document of one type at one
+    /// millisecond replaces the first. The answer is the document as
+    /// posted: with the new `_id` when it was inserted, without one when
+    /// it replaced a stored document (keeping that one's `_id`).
+    pub fn upsert_treatment(&mut self, mut d: Value) -> Value {
+        let at = ms_of(&d, "created_at").unwrap_or_else(|| jiff::Timestamp::now().as_millisecond());
+        d["created_at"] = Value::String(iso(at));
+        let key: (&str, Value) = if let Some(i) = d.get("identifier").filter(|v| !v.is_null()) {
+            ("identifier", i.clone())
+        } else if let Some(i) = d
+            .get("_id")
+            .filter(|v| v.as_str().is_some_and(|s| !s.is_empty()))
+        {
+            ("_id", i.clone())
+        } else {
+            ("created_at", d["created_at"].clone())
+        };
+        let event = d.get("eventType").cloned();
+        let m = self.tick();
+        let docs = self.docs.entry("treatments").or_default();
+        let matched = docs.iter_mut().find(|s| {
+            s.doc.get(key.0) == Some(&key.1)
+                && (key.0 != "created_at" || s.doc.get("eventType") == event.as_ref())
+        });
+        if let Some(stored) = matched {
+            let mut replacement = d.clone();
+            replacement["_id"] = stored.doc["_id"].clone();
+            stored.v3 = replacement.get("srvModified").is_some();
+            stored.doc = replacement;
+            stored.srv_modified = m;
+            stored.valid = true;
+            return d;
+        }
+        if d.get("_id")
+            .and_then(Value::as_str)
+            .is_none_or(str::is_empty)
+        {
+            d["_id"] = Value::String(self.new_id());
+        }
+        self.add("treatments", vec![d.clone()]);
+        d
+    }
+
     fn new_id(&mut self) -> String {
         self.next_id += 1;
         format!("ab{:022x}", self.next_id)
@@ -292,7 +392,11 @@ enum Who {
 struct Read(bool);
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 struct Write {
+    /// `api:treatments:create` (careportal, admin).
     treatments: bool,
+    /// `api:treatments:update`, `api:treatments:delete`,
+    /// `api:profile:update` (admin only: Nightscout's careportal role
+    /// grants `api:treatments:create` alone, `lib/authorization/storage.js`).
     profile: bool,
 }
 
@@ -566,6 +670,37 @@ fn denormalized(mut doc: Value, field: &str) -> Value {
     doc
 }
 
+/// A treatment as v1 serves it: `serveTreatments` in
+/// `lib/api/treatments/index.js` sets `carbs` and `insulin` of every
+/// document to JavaScript's `Number()` of the stored value, so a document
+/// without them (a Temp Basal, a Note) is served with `"carbs": null,
+/// "insulin": null` (`NaN` in JSON), `""` as `0` and a numeric string as
+/// its number. A stored `null` would be served as `0`, but v1 uploads
+/// never store one (`prepareData` deletes an empty `carbs` or `insulin`)
+/// and the fixtures' `null`s are what v1 served (`NaN`): served as they are.
+fn numbers_served(mut doc: Value) -> Value {
+    if let Some(o) = doc.as_object_mut() {
+        for k in ["carbs", "insulin"] {
+            let n = match o.get(k) {
+                None | Some(Value::Null) => None,
+                Some(Value::Bool(false)) => Some(0.0),
+                Some(Value::Bool(true)) => Some(1.0),
+                Some(Value::Number(n)) => n.as_f64(),
+                Some(Value::String(s)) if s.trim().is_empty() => Some(0.0),
+                Some(Value::String(s)) => s.trim().parse::<f64>().ok().filter(|x| x.is_finite()),
+                Some(_) => None,
+            };
+            let v = match n {
+                Some(x) if x.fract() == 0.0 && x.abs() < 9e15 => json!(x as i64),
+                Some(x) => json!(x),
+                None => Value::Null,
+            };
+            o.insert(k.to_string(), v);
+        }
+    }
+    doc
+}
+
 async fn v1_list(
     State(s): State<Shared>,
     method: Method,
@@ -630,6 +765,19 @@ async fn v1_list(
         } else {
             q
         };
+        let nocturne = site.nocturne_query;
+        let q: Vec<(String, String)> = if nocturne {
+            q.into_iter()
+                .filter(|(k, _)| {
+                    !(k.starts_with("find[_id]")
+                        || k.contains("[$type]")
+                        || k.contains("[$not]")
+                        || k.starts_with("sort["))
+                })
+                .collect()
+        } else {
+            q
+        };
         let find = match mongo::Find::parse(col, &q) {
             Ok(f) => f,
             Err(e) => return mongo_error(&e),
@@ -639,14 +787,15 @@ async fn v1_list(
         // gets the last 4 days.
         let bounded =
             find.has_id() || find.names(sort) || (col == "entries" && find.names("dateString"));
-        let bound = (col != "profile" && !bounded && !site.ignores_time_filter).then(|| {
-            let from = jiff::Timestamp::now().as_millisecond() - 4 * 86_400_000;
-            if col == "entries" {
-                json!(from)
-            } else {
-                Value::String(iso(from))
-            }
-        });
+        let bound =
+            (col != "profile" && !bounded && !site.ignores_time_filter && !nocturne).then(|| {
+                let from = jiff::Timestamp::now().as_millisecond() - 4 * 86_400_000;
+                if col == "entries" {
+                    json!(from)
+                } else {
+                    Value::String(iso(from))
+                }
+            });
         // The stored documents the query keeps (a deleted one shows
         // `isValid: false`), cloned only when kept.
         let mut docs: Vec<Value> = Vec::new();
@@ -710,7 +859,8 @@ async fn v1_list(
         let page: Vec<Value> = docs
             .into_iter()
             .map(|d| match (denorm, col) {
-                (true, "treatments") => denormalized(d, "created_at"),
+                (true, "treatments") => denormalized(numbers_served(d), "created_at"),
+                (_, "treatments") => numbers_served(d),
                 (true, "entries") => denormalized(d, "dateString"),
                 _ => d,
             })
@@ -769,13 +919,19 @@ async fn write_treatments(
 ) -> Response {
     let mut site = s.lock().unwrap();
     site.log.push(format!("{method} {}", uri.path()));
-    match who(&mut site, &headers, &q, false) {
-        Who::Roles(
-            _,
-            Write {
-                treatments: true, ..
-            },
-        ) => {}
+    // POST needs `api:treatments:create`, PUT `api:treatments:update`
+    // (`lib/api/treatments/index.js`); v1 refuses either with a 401.
+    match (who(&mut site, &headers, &q, false), method == Method::POST) {
+        (
+            Who::Roles(
+                _,
+                Write {
+                    treatments: true, ..
+                },
+            ),
+            true,
+        )
+        | (Who::Roles(_, Write { profile: true, .. }), false) => {}
         _ => return unauthorized(),
     }
     if method == Method::POST {
@@ -784,27 +940,55 @@ async fn write_treatments(
             other => vec![other],
         };
         let mut created = Vec::new();
-        for mut d in items {
-            let id = site.new_id();
-            d["_id"] = Value::String(id);
-            created.push(d.clone());
-            site.add("treatments", vec![d]);
+        for d in items {
+            created.push(site.upsert_treatment(d));
         }
         return (StatusCode::OK, axum::Json(Value::Array(created))).into_response();
     }
     // PUT: replace by _id.
+    if site.put_by_id {
+        return StatusCode::METHOD_NOT_ALLOWED.into_response();
+    }
     let Some(id) = body.get("_id").and_then(Value::as_str).map(String::from) else {
         return (StatusCode::BAD_REQUEST, "missing _id").into_response();
     };
+    replace_treatment(&mut site, &id, body)
+}
+
+/// `PUT /api/v1/treatments/{id}`: Nocturne's route (see `put_by_id`);
+/// Nightscout has none (404, "Cannot PUT").
+async fn put_treatment_by_id(
+    State(s): State<Shared>,
+    headers: HeaderMap,
+    Path(id): Path<String>,
+    Query(q): Query<Vec<(String, String)>>,
+    axum::Json(mut body): axum::Json<Value>,
+) -> Response {
+    let mut site = s.lock().unwrap();
+    site.log.push(format!("PUT /api/v1/treatments/{id}"));
+    if !site.put_by_id {
+        return (StatusCode::NOT_FOUND, "Cannot PUT").into_response();
+    }
+    match who(&mut site, &headers, &q, false) {
+        Who::Roles(_, Write { profile: true, .. }) => {}
+        _ => return unauthorized(),
+    }
+    body["_id"] = Value::String(id.clone());
+    replace_treatment(&mut site, &id, body)
+}
+
+fn replace_treatment(site: &mut Site, id: &str, body: Value) -> Response {
     let m = site.tick();
     let docs = site.docs.entry("treatments").or_default();
     match docs
         .iter_mut()
-        .find(|d| d.doc.get("_id").and_then(Value::as_str) == Some(&id))
+        .find(|d| d.doc.get("_id").and_then(Value::as_str) == Some(id))
     {
         Some(d) => {
+            // A v1 replace: the `srvModified` the body holds, if any.
+            d.v3 = body.get("srvModified").is_some();
+            d.srv_modified = body.get("srvModified").and_then(Value::as_i64).unwrap_or(m);
             d.doc = body.clone();
-            d.srv_modified = m;
             (StatusCode::OK, axum::Json(body)).into_response()
         }
         None => (StatusCode::NOT_FOUND, "no such treatment").into_response(),
@@ -819,13 +1003,9 @@ async fn delete_treatment(
 ) -> Response {
     let mut site = s.lock().unwrap();
     site.log.push(format!("DELETE /api/v1/treatments/{id}"));
+    // `api:treatments:delete`.
     match who(&mut site, &headers, &q, false) {
-        Who::Roles(
-            _,
-            Write {
-                treatments: true, ..
-            },
-        ) => {}
+        Who::Roles(_, Write { profile: true, .. }) => {}
         _ => return unauthorized(),
     }
     let docs = site.docs.entry("treatments").or_default();
@@ -841,6 +1021,9 @@ async fn put_profile(
 ) -> Response {
     let mut site = s.lock().unwrap();
     site.log.push("PUT /api/v1/profile".into());
+    if site.put_by_id {
+        return StatusCode::METHOD_NOT_ALLOWED.into_response();
+    }
     match who(&mut site, &headers, &q, false) {
         Who::Roles(_, Write { profile: true, .. }) => {}
         _ => return unauthorized(),
@@ -855,8 +1038,10 @@ async fn put_profile(
         .find(|d| d.doc.get("_id").and_then(Value::as_str) == Some(&id))
     {
         Some(d) => {
+            // A v1 replace: the `srvModified` the body holds, if any.
+            d.v3 = body.get("srvModified").is_some();
+            d.srv_modified = body.get("srvModified").and_then(Value::as_i64).unwrap_or(m);
             d.doc = body.clone();
-            d.srv_modified = m;
             (StatusCode::OK, axum::Json(body)).into_response()
         }
         None => (StatusCode::NOT_FOUND, "no such profile").into_response(),
@@ -947,9 +1132,24 @@ async fn v3_last_modified(State(s): State<Shared>, headers: HeaderMap) -> Respon
     if who(&mut site, &headers, &[], true) == Who::Nobody {
         return unauthorized();
     }
+    // `lib/api3/specific/lastModified.js`: the newest `srvModified`, or
+    // the newest of the collection's fallback date field (`date` of
+    // entries, else `created_at`, the greatest string read as a time)
+    // when that is later: a document dated ahead (carbs to come, a phone
+    // clock wrong) makes it later than the server's own clock.
     let mut cols = serde_json::Map::new();
     for (k, v) in &site.docs {
-        if let Some(m) = v.iter().map(|d| d.srv_modified).max() {
+        let dated = if *k == "entries" {
+            v.iter().filter_map(|d| ms_of(&d.doc, "date")).max()
+        } else {
+            v.iter()
+                .filter_map(|d| d.doc.get("created_at").and_then(Value::as_str))
+                .max()
+                .and_then(|t| t.parse::<jiff::Timestamp>().ok())
+                .map(|t| t.as_millisecond())
+        };
+        let modified = v.iter().filter(|d| d.v3).map(|d| d.srv_modified).max();
+        if let Some(m) = modified.max(dated) {
             cols.insert((*k).to_string(), json!(m));
         }
     }
@@ -971,6 +1171,23 @@ async fn v3_history(
     if who(&mut site, &headers, &[], true) == Who::Nobody {
         return unauthorized();
     }
+    // `parseToMoment` (`lib/api3/shared/dateTools.js`): a number below
+    // MIN_TIMESTAMP (2000-01-01) is read as seconds, and refused when
+    // that is below it too (`0` among them).
+    const MIN_TIMESTAMP: i64 = 946_684_800_000;
+    let since = if since >= MIN_TIMESTAMP {
+        since
+    } else if since.saturating_mul(1000) >= MIN_TIMESTAMP {
+        since * 1000
+    } else {
+        return (
+            StatusCode::BAD_REQUEST,
+            axum::Json(
+                json!({"status": 400, "message": "Bad or missing Last-Modified header/parameter"}),
+            ),
+        )
+            .into_response();
+    };
     let limit = match q.iter().find(|(k, _)| k == "limit") {
         None => site.v3_max_limit,
         Some((_, v)) => match v.parse::<usize>() {
@@ -989,7 +1206,11 @@ async fn v3_history(
     let mut docs: Vec<&Doc> = site
         .docs
         .get(col.as_str())
-        .map(|v| v.iter().filter(|d| d.srv_modified > since).collect())
+        .map(|v| {
+            v.iter()
+                .filter(|d| d.v3 && d.srv_modified > since)
+                .collect()
+        })
         .unwrap_or_default();
     docs.sort_by_key(|d| d.srv_modified);
     let result: Vec<Value> = docs
@@ -1049,7 +1270,7 @@ impl Server {
             )
             .route(
                 "/api/v1/treatments/{id}",
-                axum::routing::delete(delete_treatment),
+                axum::routing::delete(delete_treatment).put(put_treatment_by_id),
             )
             .route("/api/v1/devicestatus.json", get(v1_list))
             .route("/api/v1/devicestatus", get(v1_list))

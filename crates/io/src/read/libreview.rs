@@ -58,7 +58,7 @@ fn header_line(file: &str, bytes: &[u8]) -> Result<usize, IoError> {
         format!(
             "no LibreView header in the first {HEADER_SEARCH_LINES} lines: expected a row with \
              the device time, the record type and a glucose column naming its unit (mg/dL or \
-             mmol/L), in English, German, French, Spanish, Italian or Dutch{}",
+             mmol/L), in English, German, French, Spanish, Italian, Dutch or Traditional Chinese{}",
             first.map_or(String::new(), |(i, t)| format!(
                 "; line {} is \"{}\"",
                 i + 1,

@@ -30,6 +30,8 @@ pub enum Role {
     Rapid,
     /// Long-acting insulin (U).
     Long,
+    /// The device's serial number (which device uploaded the row).
+    Serial,
     /// Meal insulin (U).
     Meal,
     /// Correction insulin (U).
@@ -41,7 +43,7 @@ pub enum Role {
     /// The person's change of the dose the reader's calculator suggested
     /// (U): read only to refuse a dose it changed without the dose itself.
     UserChange,
-    /// Known and not needed: device, serial number, notes, the
+    /// Known and not needed: device, notes, the
     /// "non-numeric" flag columns.
     Other,
     /// Not recognised.
@@ -147,15 +149,13 @@ const SERVINGS: [&str; 8] = [
     "porzion",
     "（份）",
 ];
-const OTHER: [&str; 16] = [
+const SERIAL: [&str; 4] = ["serial", "serie", "série", "序號"];
+const OTHER: [&str; 12] = [
     "device",
     "gerät",
     "dispositivo",
     "appareil",
     "apparaat",
-    "serial",
-    "serie",
-    "série",
     "note",
     "notiz",
     "notit",
@@ -163,7 +163,6 @@ const OTHER: [&str; 16] = [
     // The older French software's "Commentaires".
     "comment",
     "裝置",
-    "序號",
     "備註",
 ];
 
@@ -213,6 +212,8 @@ pub fn role(header: &str) -> (Role, Option<GlucoseUnit>) {
         Role::Long
     } else if has(&name, &RECORD_TYPE) {
         Role::RecordType
+    } else if has(&name, &SERIAL) {
+        Role::Serial
     } else if has(&name, &OTHER) || name.trim() == "id" {
         // `ID`: the older FreeStyle Libre software's row number.
         Role::Other
@@ -264,7 +265,7 @@ mod tests {
         ];
         let want = [
             Role::Other,
-            Role::Other,
+            Role::Serial,
             Role::Time,
             Role::RecordType,
             Role::Historic,
@@ -295,7 +296,7 @@ mod tests {
             got,
             [
                 Role::Other,
-                Role::Other,
+                Role::Serial,
                 Role::Time,
                 Role::RecordType,
                 Role::Historic,

@@ -71,6 +71,77 @@ fn a_section_without_rows_is_skipped_and_year_first_dates_need_no_date_order() {
     );
 }
 
+/// The same person's export of September 2018 as it was committed after a
+/// spreadsheet: the preamble and the Pump divider deleted (the header is
+/// line 1), `0` for `0.00000`, `9/26/18` for `2018/09/26`, empty rows of
+/// commas, the Sensor divider padded with commas (see PROVENANCE.md).
+const REVEL_NO_PREAMBLE: &str = "carelink_paradigm723_glugo_no_preamble.csv";
+
+#[test]
+fn a_carelink_export_whose_preamble_was_deleted_is_still_carelink() {
+    // It was taken for a plain CSV and refused for want of a "glucose"
+    // column, naming CareLink's own columns as the choice; read as
+    // CareLink (--format), its rows before the Sensor divider were all
+    // counted as "row of an unknown CareLink section": no bolus, no note.
+    // Saved as Excel's "CSV UTF-8", the file starts with a byte-order mark.
+    let bom = [b"\xef\xbb\xbf".as_slice(), &fixture(REVEL_NO_PREAMBLE)].concat();
+    let with_bom = read(&[("bom.csv", bom)], &opts(NEW_YORK)).unwrap();
+    let b = read(
+        &[(REVEL_NO_PREAMBLE, fixture(REVEL_NO_PREAMBLE))],
+        &opts(NEW_YORK),
+    )
+    .unwrap();
+    assert_eq!(with_bom.records, b.records);
+    assert_eq!(b.formats, vec![abba_io::Format::CareLink]);
+    // In the whole export the Sensor divider comes after 800 rows, beyond
+    // what detection reads: the header alone tells CareLink.
+    let pump_rows: Vec<u8> = String::from_utf8(fixture(REVEL_NO_PREAMBLE))
+        .unwrap()
+        .split_inclusive('\n')
+        .take(25)
+        .collect::<String>()
+        .into_bytes();
+    assert_eq!(
+        abba_io::read::detect("rows.csv", &pump_rows).unwrap(),
+        abba_io::Format::CareLink
+    );
+    // Its five Normal boluses (lines 2, 7, 13, 16, 24: 4.1, 2, 6.1, 1.6,
+    // 0.6 U), the wizard's carbohydrate (25, 30 and 8 g), the user's
+    // suspension (line 32) and the meter reading (line 35) are read.
+    let boluses: Vec<f64> = b
+        .records
+        .iter()
+        .filter_map(|r| match &r.kind {
+            RecordKind::Bolus { units, .. } => Some(units.0),
+            _ => None,
+        })
+        .collect();
+    let mut sorted = boluses.clone();
+    sorted.sort_by(f64::total_cmp);
+    assert_eq!(sorted, vec![0.6, 1.6, 2.0, 4.1, 6.1], "{boluses:?}");
+    let grams: Vec<f64> = carbs(&b).into_iter().map(|(_, g)| g).collect();
+    assert_eq!(grams, vec![8.0, 30.0, 25.0]);
+    assert_eq!(b.count("suspend"), 1);
+    assert_eq!(b.records.first().unwrap().at, at_ny(2018, 9, 5, 7, 45, 28));
+    assert_eq!(b.records.last().unwrap().at, at_ny(2018, 9, 26, 14, 42, 33));
+    // The section read as the pump's without its divider is named, and
+    // the Sensor section without rows, each with its header's line.
+    assert!(
+        b.notes.iter().any(|n| n.contains("its header on line 1:")
+            && n.contains("no section divider")
+            && n.contains("read as the Pump section")),
+        "{:?}",
+        b.notes
+    );
+    assert!(
+        b.notes
+            .iter()
+            .any(|n| n.contains("line 41") && n.contains("Sensor") && n.contains("no rows")),
+        "{:?}",
+        b.notes
+    );
+}
+
 /// A MiniMed 780G in SmartGuard (auto mode), European layout (synthetic
 /// values in the columns of a real 780G export; see PROVENANCE.md).
 const SMARTGUARD: &str = "carelink_780g_smartguard_synthetic.csv";

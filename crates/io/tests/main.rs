@@ -24,6 +24,7 @@ mod events_mapping;
 mod events_properties;
 mod fixtures;
 mod libreview_dates;
+mod libreview_devices;
 mod libreview_insulin;
 mod loop_uploads;
 mod never_panic;

@@ -179,12 +179,17 @@ fn a_nightscout_profile_is_in_force_from_its_start_date_not_its_upload() {
 /// A Clarity export around a phone clock change: from `change` on the
 /// written times are an hour early, the transmitter's clock goes on.
 fn clarity_clock_change(transmitter: bool) -> Vec<u8> {
+    clarity_clock_moved(transmitter, -1)
+}
+
+/// The same with the phone's clock moved by `hours` from the 81st reading.
+fn clarity_clock_moved(transmitter: bool, hours: i64) -> Vec<u8> {
     let mut s = String::from("Index,Timestamp (YYYY-MM-DDThh:mm:ss),Event Type,Event Subtype,Patient Info,Device Info,Source Device ID,Glucose Value (mg/dL),Insulin Value (u),Carb Value (grams),Duration (hh:mm:ss),Glucose Rate of Change (mg/dL/min),Transmitter Time (Long Integer),Transmitter ID\r\n");
     let start = jiff::civil::date(2024, 6, 10).at(8, 0, 0, 0);
     for i in 0..120i64 {
         let true_t = start + jiff::SignedDuration::from_mins(5 * i);
         let written = if i >= 80 {
-            true_t - jiff::SignedDuration::from_hours(1)
+            true_t + jiff::SignedDuration::from_hours(hours)
         } else {
             true_t
         };
@@ -222,7 +227,26 @@ fn a_clarity_phone_clock_change_is_placed_by_the_transmitter_clock() {
         "{}",
         b.notes[0]
     );
+    // Which way the clock moved, in words (it said "differed by 1h ago").
+    assert!(
+        b.notes[0]
+            .contains("the phone's clock was 1h behind its clock in the file's longest stretch"),
+        "{}",
+        b.notes[0]
+    );
     assert!(!b.notes[0].contains("  "), "{}", b.notes[0]);
+    // An hour ahead instead: the other word.
+    let b = read(
+        &[("c.csv", clarity_clock_moved(true, 1))],
+        &opts("Europe/Zurich"),
+    )
+    .unwrap();
+    assert!(
+        b.notes[0]
+            .contains("the phone's clock was 1h ahead of its clock in the file's longest stretch"),
+        "{}",
+        b.notes[0]
+    );
 }
 
 #[test]

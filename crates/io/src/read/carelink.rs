@@ -4,7 +4,9 @@
 //! a preamble (name, patient id, date range, device and serial number),
 //! then sections, each opened by a divider
 //! `-------;<device>;Pump|Sensor;<serial>;<title>` and its own
-//! `Index;Date;Time;...` header, rows newest first. `Index` is a
+//! `Index;Date;Time;...` header, rows newest first. A file that starts
+//! with the header (preamble and first divider deleted in a spreadsheet)
+//! is read with that first section as the Pump section, and a note says so. `Index` is a
 //! row number with decimals (`0,00000`) and never identity: records are
 //! identified by their content.
 //!
@@ -45,12 +47,31 @@ fn is_header(line: &str) -> bool {
 }
 
 /// Whether the start of a file is a CareLink export: an `Index;Date;Time`
-/// (or `,`) header after a section divider or the CareLink preamble.
+/// (or `,`) header after a section divider or the CareLink preamble, or
+/// as the first line when its fourth column is CareLink's own `New Device
+/// Time` (an export whose preamble and divider were deleted in a
+/// spreadsheet and saved again, as a real Paradigm export in the GluGo
+/// repository shows).
 pub fn looks_like(head: &str) -> bool {
     let header = head.lines().any(is_header);
     let preamble =
         head.starts_with("Last Name;First Name") || head.starts_with("Last Name,First Name");
-    header && (head.contains("-------;") || head.contains("-------,") || preamble)
+    header
+        && (head.contains("-------;")
+            || head.contains("-------,")
+            || preamble
+            || head.lines().next().is_some_and(bare_header))
+}
+
+/// A CareLink section header as a file's first line, without the preamble
+/// or divider before it: `Index`, `Date`, `Time`, `New Device Time`.
+fn bare_header(line: &str) -> bool {
+    let cells: Vec<&str> = line
+        .split([',', ';'])
+        .map(|c| c.trim().trim_matches('"'))
+        .take(4)
+        .collect();
+    cells == ["Index", "Date", "Time", "New Device Time"]
 }
 
 /// A CareLink export whose columns abba does not read: its section
@@ -166,6 +187,9 @@ struct Span {
     /// The device its divider names (`MiniMed 780G MMT-1886`), empty for a
     /// header before any divider.
     device: String,
+    /// The file starts with its header, no divider before it (the preamble
+    /// and first divider deleted): read as the Pump section.
+    undivided: bool,
     /// The divider names a Paradigm pump (its `Basal Rate` rows are the
     /// rate in effect, see [`in_effect`]).
     paradigm: bool,
@@ -199,15 +223,21 @@ fn spans(bytes: &[u8]) -> Vec<Span> {
     let mut section = Section::Other;
     let mut device = String::new();
     let mut paradigm = false;
+    // Whether a divider, or any line, came before: a header that opens
+    // the file is the Pump section's (its preamble and divider deleted).
+    let mut divided = false;
+    let mut first_line = true;
     let mut start = 0usize;
     for (i, line) in bytes.split(|&b| b == b'\n').enumerate() {
         let text = String::from_utf8_lossy(line);
-        let text = text.trim_start_matches('"');
+        // (a byte-order mark: Excel's "CSV UTF-8")
+        let text = text.trim_start_matches('\u{feff}').trim_start_matches('"');
         if text.starts_with("-------") {
             if let Some(last) = out.last_mut() {
                 last.end = last.end.min(start);
             }
             section = section_of(text);
+            divided = true;
             device = text
                 .split([';', ','])
                 .nth(1)
@@ -218,14 +248,21 @@ fn spans(bytes: &[u8]) -> Vec<Span> {
             if let Some(last) = out.last_mut() {
                 last.end = last.end.min(start);
             }
+            // CareLink writes the Pump section first: a header opening the
+            // file is that section's (had it been the Sensor section, its
+            // rows would carry no pump cell to read as such). After a
+            // preamble without a divider, the section stays unknown.
+            let undivided = !divided && first_line;
             out.push(Span {
-                section,
+                section: if undivided { Section::Pump } else { section },
                 device: device.clone(),
+                undivided,
                 paradigm,
                 header_at: i,
                 end: bytes.len(),
             });
         }
+        first_line &= text.trim().is_empty();
         start += line.len() + 1;
     }
     out
@@ -468,6 +505,14 @@ pub fn read_with_settings(
             // divider and header and no row; a second pump, its own.
             ctx.note(format!("{} has no rows: skipped", span.describe()));
             continue;
+        }
+        if span.undivided {
+            ctx.note(format!(
+                "{}: no section divider (-------,<device>,Pump,<serial>,-------) before it (the \
+                 export's first lines deleted, in a spreadsheet for instance): read as the \
+                 Pump section, the one CareLink writes first",
+                span.describe()
+            ));
         }
         let order = order.ok_or_else(|| {
             IoError::format(

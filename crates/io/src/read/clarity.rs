@@ -539,10 +539,18 @@ fn place_by_transmitter(ctx: &Ctx<'_>, out: &mut [Record], readings: &[TxReading
                     out[r.at].at = t;
                 }
             }
-            let shift = jiff::SignedDuration::from_secs(off - reference);
+            // (written later than the transmitter says: the phone's clock
+            // was ahead; a signed duration's own text would say "ago")
+            let shift = jiff::SignedDuration::from_secs((off - reference).abs());
+            let way = if off > reference {
+                "ahead of"
+            } else {
+                "behind"
+            };
             ctx.note(format!(
                 "lines {first}-{last}: {} readings of transmitter {tx_id} written {} to {} were \
-                 placed by the transmitter's clock (the phone's clock differed by {shift:#})",
+                 placed by the transmitter's clock (the phone's clock was {shift:#} {way} its \
+                 clock in the file's longest stretch)",
                 s.len(),
                 written.0,
                 written.1

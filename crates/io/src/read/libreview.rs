@@ -13,10 +13,13 @@
 //! account's language and found among the first lines
 //! ([`libreview_columns`]); numbers may use a decimal comma (`"5,6"`).
 //! Scan (type 1), ketone (3) and note (6) rows are counted, not read.
+//! One sensor's history uploaded by two devices is read once
+//! ([`libreview_devices`]).
 
 use abba_core::{Grams, MgDl, Units};
 
 use super::libreview_columns::{self, Role};
+use super::libreview_devices;
 use super::table::{number, Table};
 use super::{or_skip, Ctx};
 use crate::error::{IoError, Location, Place};
@@ -58,7 +61,7 @@ fn header_line(file: &str, bytes: &[u8]) -> Result<usize, IoError> {
         format!(
             "no LibreView header in the first {HEADER_SEARCH_LINES} lines: expected a row with \
              the device time, the record type and a glucose column naming its unit (mg/dL or \
-             mmol/L), in English, German, French, Spanish, Italian or Dutch{}",
+             mmol/L), in English, German, French, Spanish, Italian, Dutch or Traditional Chinese{}",
             first.map_or(String::new(), |(i, t)| format!(
                 "; line {} is \"{}\"",
                 i + 1,
@@ -195,6 +198,21 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
         cols.time,
         ctx.opts.date_order,
     )?;
+    // Another device's copy of the main device's historic readings.
+    let copies = match cols.serial {
+        Some(serial) => libreview_devices::find(
+            &mut Table::open(file, bytes, header_at)?,
+            serial,
+            cols.time,
+            cols.record_type,
+            cols.historic,
+            order,
+        )?,
+        None => libreview_devices::Duplicates::default(),
+    };
+    for note in &copies.notes {
+        ctx.note(note.as_str());
+    }
     let mut out = Vec::with_capacity(t.lines_left());
     let (mut historic_rows, mut scan_rows, mut scans_in_historic) = (0usize, 0usize, 0usize);
     // One location reused for every row (no allocation per row).
@@ -221,7 +239,12 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
             cols: &cols,
             at: &at,
         };
-        for kind in or_skip!(ctx, row.kinds()) {
+        for mut kind in or_skip!(ctx, row.kinds()) {
+            if matches!(kind, RecordKind::Cgm { .. }) && copies.lines.contains(&line) {
+                kind = RecordKind::Ignored {
+                    kind: libreview_devices::SECOND_DEVICE.into(),
+                };
+            }
             match &kind {
                 RecordKind::Cgm { .. } => historic_rows += 1,
                 RecordKind::Ignored { kind } if kind == SCAN => {
@@ -463,6 +486,7 @@ struct Columns {
     user_change: Option<usize>,
     carbs: Option<usize>,
     servings: Option<usize>,
+    serial: Option<usize>,
     /// Columns not recognised (checked on insulin and food rows).
     unknown: Vec<usize>,
     /// Each column's glucose unit, if it names one.
@@ -535,6 +559,7 @@ impl Columns {
             user_change: first(Role::UserChange),
             carbs: first(Role::CarbsGrams),
             servings: first(Role::CarbsServings),
+            serial: first(Role::Serial),
             unknown,
             units: roles.iter().map(|&(_, u)| u).collect(),
         })

@@ -1,7 +1,8 @@
 //! LibreView's columns in the account's language. LibreView writes its
 //! header in the language of the account (English `Device Timestamp`,
 //! German `Gerätezeitstempel`, Spanish `Sello de tiempo del dispositivo`,
-//! Dutch `Tijdstempel apparaat`, French `Horodatage de l'appareil`, ...);
+//! Dutch `Tijdstempel apparaat`, French `Horodatage de l'appareil`,
+//! Traditional Chinese `裝置時間戳記`, ...);
 //! the record types stay numbers and the glucose columns always name their
 //! unit (`mg/dL`, `mmol/L`). A column is recognised by word stems of those
 //! languages; a glucose column whose role cannot be told, or a header
@@ -29,6 +30,8 @@ pub enum Role {
     Rapid,
     /// Long-acting insulin (U).
     Long,
+    /// The device's serial number (which device uploaded the row).
+    Serial,
     /// Meal insulin (U).
     Meal,
     /// Correction insulin (U).
@@ -40,7 +43,7 @@ pub enum Role {
     /// The person's change of the dose the reader's calculator suggested
     /// (U): read only to refuse a dose it changed without the dose itself.
     UserChange,
-    /// Known and not needed: device, serial number, notes, the
+    /// Known and not needed: device, notes, the
     /// "non-numeric" flag columns.
     Other,
     /// Not recognised.
@@ -51,7 +54,7 @@ fn has(name: &str, stems: &[&str]) -> bool {
     stems.iter().any(|s| name.contains(s))
 }
 
-const TIME: [&str; 16] = [
+const TIME: [&str; 17] = [
     "timestamp",
     "zeitstempel",
     "horodatage",
@@ -68,10 +71,16 @@ const TIME: [&str; 16] = [
     "tidsstämpel",
     "tidsstempel",
     "aikaleima",
+    // Traditional Chinese (Taiwan): `裝置時間戳記`.
+    "時間戳記",
 ];
-const RECORD_TYPE: [&str; 3] = ["typ", "tipo", "type"];
-const HISTORIC: [&str; 4] = ["histor", "histór", "verlauf", "storico"];
-const SCAN: [&str; 7] = [
+// Traditional Chinese `記錄類型`, `歷史葡萄糖`, `掃描葡萄糖`, `葡萄糖試紙`,
+// `血酮`, `非數值…`, `使用者變更胰島素`, `速效`, `長效`, `餐時`, `校正`,
+// `碳水化合物（克）` and `（份）`, `裝置`, `序號`, `備註`: the names of a
+// real export of a LibreView account in Taiwan (see PROVENANCE.md).
+const RECORD_TYPE: [&str; 4] = ["typ", "tipo", "type", "類型"];
+const HISTORIC: [&str; 5] = ["histor", "histór", "verlauf", "storico", "歷史"];
+const SCAN: [&str; 8] = [
     "scan",
     // The older FreeStyle Libre software's Spanish "Glucosa leída".
     "leída",
@@ -80,8 +89,9 @@ const SCAN: [&str; 7] = [
     "numérisation",
     "numerisation",
     "digitaliz",
+    "掃描",
 ];
-const STRIP: [&str; 10] = [
+const STRIP: [&str; 11] = [
     "strip",
     "streifen",
     "tira",
@@ -94,46 +104,66 @@ const STRIP: [&str; 10] = [
     "banda",
     "électrode",
     "electrode",
+    "試紙",
 ];
 // Spanish "Cuerpos cetónicos" as LibreView writes it.
-const KETONE: [&str; 5] = ["keton", "céton", "ceton", "cetón", "cheton"];
-const NON_NUMERIC: [&str; 2] = ["numeri", "numéri"];
-const USER_CHANGE: [&str; 6] = [
+const KETONE: [&str; 6] = ["keton", "céton", "ceton", "cetón", "cheton", "酮"];
+const NON_NUMERIC: [&str; 3] = ["numeri", "numéri", "非數值"];
+const USER_CHANGE: [&str; 7] = [
     "user change",
     "änderung",
     "wijzig",
     "cambio",
     "modifi",
     "alteração",
+    "變更",
 ];
-const RAPID: [&str; 6] = ["rapid", "rápid", "schnell", "snelwerk", "snel", "kurz"];
+const RAPID: [&str; 7] = [
+    "rapid", "rápid", "schnell", "snelwerk", "snel", "kurz", "速效",
+];
 // Spanish "acción larga", French (older software) "action lente".
-const LONG: [&str; 9] = [
-    "long", "depot", "langwerk", "lenta", "lento", "lente", "larga", "prolong", "basal",
+const LONG: [&str; 10] = [
+    "long", "depot", "langwerk", "lenta", "lento", "lente", "larga", "prolong", "basal", "長效",
 ];
-const MEAL: [&str; 6] = ["meal", "mahlzeit", "maaltijd", "comida", "repas", "pasto"];
-const CORRECTION: [&str; 3] = ["correc", "korrektur", "correz"];
-const CARBS: [&str; 5] = ["carb", "kohlenhydrat", "koolhydrat", "glucide", "hidrato"];
-const GRAMS: [&str; 1] = ["gram"];
+const MEAL: [&str; 7] = [
+    "meal", "mahlzeit", "maaltijd", "comida", "repas", "pasto", "餐時",
+];
+const CORRECTION: [&str; 4] = ["correc", "korrektur", "correz", "校正"];
+const CARBS: [&str; 6] = [
+    "carb",
+    "kohlenhydrat",
+    "koolhydrat",
+    "glucide",
+    "hidrato",
+    "碳水化合物",
+];
+const GRAMS: [&str; 2] = ["gram", "（克）"];
 // Spanish "porciones".
-const SERVINGS: [&str; 7] = [
-    "serving", "portion", "portie", "porcion", "racion", "ración", "porzion",
+const SERVINGS: [&str; 8] = [
+    "serving",
+    "portion",
+    "portie",
+    "porcion",
+    "racion",
+    "ración",
+    "porzion",
+    "（份）",
 ];
-const OTHER: [&str; 13] = [
+const SERIAL: [&str; 4] = ["serial", "serie", "série", "序號"];
+const OTHER: [&str; 12] = [
     "device",
     "gerät",
     "dispositivo",
     "appareil",
     "apparaat",
-    "serial",
-    "serie",
-    "série",
     "note",
     "notiz",
     "notit",
     "nota",
     // The older French software's "Commentaires".
     "comment",
+    "裝置",
+    "備註",
 ];
 
 /// The role of a header cell, with the glucose unit it names (if any).
@@ -182,6 +212,8 @@ pub fn role(header: &str) -> (Role, Option<GlucoseUnit>) {
         Role::Long
     } else if has(&name, &RECORD_TYPE) {
         Role::RecordType
+    } else if has(&name, &SERIAL) {
+        Role::Serial
     } else if has(&name, &OTHER) || name.trim() == "id" {
         // `ID`: the older FreeStyle Libre software's row number.
         Role::Other
@@ -226,12 +258,14 @@ mod tests {
             "Device,Serial Number,Device Timestamp,Record Type,Historic Glucose mg/dL,Scan Glucose mg/dL,Non-numeric Rapid-Acting Insulin,Rapid-Acting Insulin (units),Non-numeric Food,Carbohydrates (grams),Carbohydrates (servings),Non-numeric Long-Acting Insulin,Long-Acting Insulin Value (units),Notes,Strip Glucose mg/dL,Ketone mmol/L,Meal Insulin (units),Correction Insulin (units),User Change Insulin (units)",
             // German
             "Gerät,Seriennummer,Gerätezeitstempel,Aufzeichnungstyp,Glukosewert-Verlauf mg/dL,Glukose-Scan mg/dL,Nicht numerisches schnellwirkendes Insulin,Schnellwirkendes Insulin (Einheiten),Nicht numerische Nahrungsdaten,Kohlenhydrate (Gramm),Kohlenhydrate (Portionen),Nicht numerisches Depotinsulin,Depotinsulin (Einheiten),Notizen,Glukose-Teststreifen mg/dL,Keton mmol/L,Mahlzeiteninsulin (Einheiten),Korrekturinsulin (Einheiten),Insulin-Änderung durch Anwender (Einheiten)",
+            // Traditional Chinese (a real export of an account in Taiwan)
+            "裝置,序號,裝置時間戳記,記錄類型,歷史葡萄糖 mg/dL,掃描葡萄糖 mg/dL,非數值速效胰島素,速效胰島素（單位）,非數值食品,碳水化合物（克）,碳水化合物（份）,非數值長效胰島素,長效胰島素（單位）,備註,葡萄糖試紙 mg/dL,血酮 mmol/L,餐時胰島素（單位）,校正胰島素（單位）,使用者變更胰島素（單位）",
             // Dutch
             "Apparaat,Serienummer,Tijdstempel apparaat,Gegevenstype,Historische glucose mmol/l,Scan Glucose mmol/l,Niet-numerieke snelwerkende insuline,Snelwerkende insuline (eenheden),Niet-numeriek voedsel,Koolhydraten (gram),Koolhydraten (porties),Niet-numerieke langwerkende insuline,Langwerkende insuline (eenheden),Notities,Strip Glucose mmol/l,Keton mmol/l,Maaltijdinsuline (eenheden),Correctie insuline (eenheden),Wijzigen insuline gebruiker (eenheden)",
         ];
         let want = [
             Role::Other,
-            Role::Other,
+            Role::Serial,
             Role::Time,
             Role::RecordType,
             Role::Historic,
@@ -262,7 +296,7 @@ mod tests {
             got,
             [
                 Role::Other,
-                Role::Other,
+                Role::Serial,
                 Role::Time,
                 Role::RecordType,
                 Role::Historic,

@@ -7,6 +7,7 @@ pub mod clarity;
 pub mod json;
 pub mod libreview;
 pub mod libreview_columns;
+pub mod libreview_devices;
 pub mod nightscout;
 pub mod plain;
 pub mod pump_identity;

@@ -334,3 +334,15 @@ fn a_document_rewritten_under_its_own_id_is_not_refused_as_copies() {
         )]
     );
 }
+
+/// An automatic document is an automatic bolus only when it carries a dose:
+/// Nightscout's v1 API serves `insulin` on every treatment, `null` where
+/// the uploader wrote none, so the key alone counts nothing.
+#[test]
+fn an_automatic_document_without_a_dose_is_no_automatic_bolus() {
+    let dose = br#"[{"_id":"673fd0a1b2c3d4e5f6a7b901","created_at":"2026-11-21T07:35:00.000Z","enteredBy":"loop://iPhone","eventType":"Correction Bolus","type":"normal","insulin":0.35,"programmed":0.35,"duration":0.05,"automatic":true,"carbs":null,"utcOffset":0}]"#;
+    assert_eq!(Evidence::from_file(dose).smb, 1);
+    let no_dose = br#"[{"_id":"673fd0a1b2c3d4e5f6a7b902","created_at":"2026-11-21T07:40:00.000Z","enteredBy":"loop://iPhone","eventType":"Correction Bolus","type":"normal","insulin":null,"automatic":true,"carbs":null,"utcOffset":0}]"#;
+    let e = Evidence::from_file(no_dose);
+    assert_eq!((e.smb, e.automated_basal), (0, 0), "{e:?}");
+}

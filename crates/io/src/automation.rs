@@ -922,6 +922,16 @@ fn names(text: &str, name: &str) -> bool {
     })
 }
 
+/// Whether a Nightscout treatment carries a dose: `insulin` a number above
+/// 0. Nightscout's v1 API serves `insulin` on every treatment, `null` when
+/// the uploader wrote none (cgm-remote-monitor's `lib/server/treatments.js`),
+/// so the key alone says nothing.
+fn gives_insulin(item: &Value) -> bool {
+    item.get("insulin")
+        .and_then(Value::as_f64)
+        .is_some_and(|u| u > 0.0)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1032,14 +1042,4 @@ mod tests {
         e.add_file_since(&omnipod5("2026-10-05T09:55:00.000Z"), None);
         assert_eq!(e.delivery(), Delivery::ClosedLoop);
     }
-}
-
-/// Whether a Nightscout treatment carries a dose: `insulin` a number above
-/// 0. Nightscout's v1 API serves `insulin` on every treatment, `null` when
-/// the uploader wrote none (cgm-remote-monitor's `lib/server/treatments.js`),
-/// so the key alone says nothing.
-fn gives_insulin(item: &Value) -> bool {
-    item.get("insulin")
-        .and_then(Value::as_f64)
-        .is_some_and(|u| u > 0.0)
 }

@@ -3936,8 +3936,8 @@ async fn names_read_from_an_export_never_reorder_or_hide_text_on_a_page() {
     }
 }
 
-/// The clinic's pages read a person's id only as they write it: `+1` and
-/// `01` are the 404 page, not person 1's page or report.
+/// The clinic's pages read a person's id only as they write it: `+1`,
+/// `01` and `%31` are the 404 page, not person 1's page or report.
 #[tokio::test]
 async fn the_clinics_pages_read_an_id_only_as_they_write_it() {
     let svc = Svc::new();
@@ -3952,6 +3952,16 @@ async fn the_clinics_pages_read_an_id_only_as_they_write_it() {
         for alias in [
             path.replace(&format!("/{id}"), &format!("/+{id}")),
             path.replace(&format!("/{id}"), &format!("/0{id}")),
+            path.replace(
+                &format!("/{id}"),
+                &format!(
+                    "/{}",
+                    id.to_string()
+                        .bytes()
+                        .map(|b| format!("%{b:02X}"))
+                        .collect::<String>()
+                ),
+            ),
         ] {
             let p = admin.get(&alias).await;
             assert_eq!(p.status, StatusCode::NOT_FOUND, "{alias}: {}", p.html);

@@ -606,15 +606,12 @@ where
 {
     tower::service_fn(move |req: axum::http::Request<hyper::body::Incoming>| {
         let svc = svc.clone();
-        let bad_host = bad_host(&req);
-        let busy = bad_host.is_none().then(|| conn.start_request()).flatten();
+        let refused = crate::head::refused(&req);
+        let busy = refused.is_none().then(|| conn.start_request()).flatten();
         async move {
-            if let Some(why) = bad_host {
-                tracing::debug!(why, "a request's Host refused: 400");
-                let mut r =
-                    ApiError::new(StatusCode::BAD_REQUEST, abba_api::ErrorCode::Invalid, why)
-                        .at("Host")
-                        .into_response();
+            if let Some(e) = refused {
+                tracing::debug!(why = %e.message, "a request's head refused: 400");
+                let mut r = e.into_response();
                 r.headers_mut()
                     .insert(header::CONNECTION, HeaderValue::from_static("close"));
                 return Ok(r);
@@ -639,27 +636,6 @@ where
             Ok(r.map(|body| axum::body::Body::new(Held { body, _busy: busy })))
         }
     })
-}
-
-/// Why a request's `Host` is refused (400, RFC 9112 section 3.2): an
-/// HTTP/1.1 request without one, one with more than one (which would the
-/// origin check and the sign-in links read?), or one that is not a host
-/// and port (an empty one is allowed, for a URI without authority).
-fn bad_host<B>(req: &axum::http::Request<B>) -> Option<&'static str> {
-    let mut hosts = req.headers().get_all(header::HOST).iter();
-    let Some(host) = hosts.next() else {
-        return (req.version() == axum::http::Version::HTTP_11)
-            .then_some("an HTTP/1.1 request needs a Host header");
-    };
-    if hosts.next().is_some() {
-        return Some("more than one Host header");
-    }
-    let ok = host.is_empty()
-        || host
-            .to_str()
-            .ok()
-            .is_some_and(|h| !h.contains('@') && h.parse::<axum::http::uri::Authority>().is_ok());
-    (!ok).then_some("the Host header is not a host (and port)")
 }
 
 /// An answer's body holding its connection busy until it is sent whole or

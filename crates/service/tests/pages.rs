@@ -2289,6 +2289,40 @@ async fn the_logs_numbers_never_pass_the_apis_seq_limit() {
     assert_eq!(sync.json["last_seq"].as_u64(), Some(abba_api::MAX_SEQ));
 }
 
+/// A form declared compressed (`Content-Encoding: gzip`) is refused (415
+/// naming the encoding) and nothing is stored: its bytes were read as a
+/// plain form, so a reading sent plain under that header was stored, and
+/// a form really compressed was refused as one from another origin.
+#[tokio::test]
+async fn a_form_under_a_content_coding_is_refused_and_stores_nothing() {
+    let svc = Svc::new();
+    let id = svc.person("ana").await;
+    let (mut b, csrf) = signed_in(&svc, Role::Person(id as i64)).await;
+    let key = b.get("/log").await.hidden("submission");
+    let body = form_urlencoded::Serializer::new(String::new())
+        .append_pair("csrf", &csrf)
+        .append_pair("glucose", "120")
+        .append_pair("submission", &key)
+        .finish();
+    let req = Request::builder()
+        .method(Method::POST)
+        .uri("/log/reading")
+        .header(header::HOST, HOST)
+        .header(header::ORIGIN, ORIGIN)
+        .header(header::CONTENT_TYPE, "application/x-www-form-urlencoded")
+        .header(header::CONTENT_ENCODING, "gzip")
+        .header(header::COOKIE, b.cookie_header())
+        .body(Body::from(body))
+        .unwrap();
+    let res = svc.router.clone().oneshot(req).await.unwrap();
+    let status = res.status();
+    let html =
+        String::from_utf8_lossy(&res.into_body().collect().await.unwrap().to_bytes()).to_string();
+    assert_eq!(status, StatusCode::UNSUPPORTED_MEDIA_TYPE, "{html}");
+    assert!(html.contains("Content-Encoding"), "{html}");
+    assert_eq!(app_events(&svc, id), 0, "nothing stored");
+}
+
 /// The bedtime box closes an SMBG day; a CGM day closes by itself at the
 /// first event after midnight: no box, and `bedtime=on` from a CGM person
 /// is refused on the page with nothing stored.

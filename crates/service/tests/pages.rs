@@ -1115,6 +1115,33 @@ async fn an_own_value_off_the_step_past_the_limits_or_the_bounds_is_refused_besi
     assert_eq!(answered, 0, "{}", h.text);
 }
 
+/// The Glucose page shows the range asked for or refuses the query (400
+/// naming `range`): a range it does not have, a second `range` or another
+/// parameter were answered with the last 24 hours, as if asked.
+#[tokio::test]
+async fn the_glucose_page_refuses_a_range_it_does_not_have() {
+    let svc = Svc::new();
+    let id = svc.person("gil").await;
+    let (mut b, _) = signed_in(&svc, Role::Person(id as i64)).await;
+    for path in ["/glucose", "/glucose?range=24h", "/glucose?range=14d"] {
+        assert_eq!(b.get(path).await.status, StatusCode::OK, "{path}");
+    }
+    for path in [
+        "/glucose?range=1000000d",
+        "/glucose?range=14d&range=24h",
+        "/glucose?days=1000000",
+        "/glucose?range=24h&x=1",
+    ] {
+        let p = b.get(path).await;
+        assert_eq!(p.status, StatusCode::BAD_REQUEST, "{path}: {}", p.html);
+        assert!(
+            p.html.contains("expected range=24h or range=14d"),
+            "{path}: {}",
+            p.html
+        );
+    }
+}
+
 #[tokio::test]
 async fn glucose_history_and_the_report_show_the_persons_own_data() {
     let svc = Svc::new();

@@ -59,6 +59,9 @@ struct Inner {
     pool: r2d2::Pool<StoreManager>,
     locks: Mutex<HashMap<i64, Arc<Mutex<()>>>>,
     live: moka::sync::Cache<i64, Slot>,
+    /// One permit: the request reading every person's log now
+    /// ([`AppState::every_person`]).
+    every_person: Arc<tokio::sync::Semaphore>,
     /// Failed authentications by client, at most [`MAX_FAILING_CLIENTS`].
     failures: moka::sync::Cache<IpAddr, Failures>,
     settings: StoreSettings,
@@ -144,6 +147,7 @@ impl AppState {
                 pool,
                 locks: Mutex::new(HashMap::new()),
                 live,
+                every_person: Arc::new(tokio::sync::Semaphore::new(1)),
                 failures: failures_table(settings.auth_window),
                 settings,
                 effects: std::sync::OnceLock::new(),
@@ -227,6 +231,40 @@ impl AppState {
     ) -> Result<T, ApiError> {
         let s = self.clone();
         tokio::task::spawn_blocking(move || {
+            let mut conn = s.conn()?;
+            f(&mut conn)
+        })
+        .await
+        .map_err(ApiError::internal)?
+    }
+
+    /// Runs `f`, work that reads every person's log (the clinic's list
+    /// replays each one), like [`AppState::store`] but one such request at
+    /// a time, from its start on the blocking pool to its end (past the
+    /// request's timeout, which cannot stop it); another waits at most the
+    /// busy timeout, then 503 with `Retry-After`. Its cost grows with every
+    /// person's data (fifteen persons with a year each: 2.5 s), and
+    /// sixteen clinic lists at once (one session's share of requests in
+    /// flight) held every pooled connection: another person's sync and
+    /// `/healthz` got 503 for as long.
+    pub async fn every_person<T: Send + 'static>(
+        &self,
+        f: impl FnOnce(&mut Store) -> Result<T, ApiError> + Send + 'static,
+    ) -> Result<T, ApiError> {
+        let set = &self.inner.settings;
+        let sem = Arc::clone(&self.inner.every_person);
+        let permit = tokio::time::timeout(set.busy_timeout, sem.acquire_owned())
+            .await
+            .map_err(|_| {
+                ApiError::busy(
+                    "another request is reading every person's data (the clinic's list)",
+                    set.retry_after,
+                )
+            })?
+            .map_err(ApiError::internal)?;
+        let s = self.clone();
+        tokio::task::spawn_blocking(move || {
+            let _permit = permit;
             let mut conn = s.conn()?;
             f(&mut conn)
         })

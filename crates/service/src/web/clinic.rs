@@ -206,7 +206,7 @@ async fn clinic_page(
     form: NewPersonForm,
     message: Option<String>,
 ) -> PageResult {
-    let rows = s.store(rows).await?;
+    let rows = s.every_person(rows).await?;
     let layout = Layout::clinic(EN.clinic_title, csrf, "/clinic").with_status(message);
     render(status, "clinic.html", &layout, &ClinicModel { rows, form })
 }

@@ -611,20 +611,13 @@ where
         async move {
             if let Some(e) = refused {
                 tracing::debug!(why = %e.message, "a request's head refused: 400");
-                let mut r = e.into_response();
-                r.headers_mut()
-                    .insert(header::CONNECTION, HeaderValue::from_static("close"));
-                return Ok(r);
+                return Ok(closing(e));
             }
             let Some(busy) = busy else {
-                let mut r = ApiError::busy(
+                return Ok(closing(ApiError::busy(
                     "this connection was closed to make room; retry on a new one",
                     1,
-                )
-                .into_response();
-                r.headers_mut()
-                    .insert(header::CONNECTION, HeaderValue::from_static("close"));
-                return Ok(r);
+                )));
             };
             let last = busy.is_last();
             let mut r = tower::ServiceExt::oneshot(svc, req).await?;
@@ -636,6 +629,27 @@ where
             Ok(r.map(|body| axum::body::Body::new(Held { body, _busy: busy })))
         }
     })
+}
+
+/// An error answered before the router (whose layers set the headers of
+/// every other answer): with those headers, and the connection closed
+/// after it. A refused head's 400 came without them.
+fn closing(e: ApiError) -> Response {
+    let mut r = e.into_response();
+    let h = r.headers_mut();
+    for (name, value) in [
+        (header::CONNECTION, "close"),
+        (header::CACHE_CONTROL, "no-store"),
+        (header::X_CONTENT_TYPE_OPTIONS, "nosniff"),
+        (
+            header::CONTENT_SECURITY_POLICY,
+            "default-src 'none'; frame-ancestors 'none'",
+        ),
+        (header::REFERRER_POLICY, "no-referrer"),
+    ] {
+        h.insert(name, HeaderValue::from_static(value));
+    }
+    r
 }
 
 /// An answer's body holding its connection busy until it is sent whole or

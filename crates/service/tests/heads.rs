@@ -52,6 +52,21 @@ fn a_request_target_naming_another_scheme_or_host_is_refused() {
     };
     let (status, cookies) = ask(&format!("https://{host}/signin/{secret}"));
     assert_eq!((status, &cookies), (400, &vec![]), "https target");
+    // Answered with the headers of every answer, though before the router.
+    let (answer, _) = timed(
+        server.addr,
+        &format!(
+            "GET https://{host}/healthz HTTP/1.1\r\nHost: {host}\r\nConnection: close\r\n\r\n"
+        ),
+    );
+    let head = answer.to_ascii_lowercase();
+    for line in [
+        "cache-control: no-store",
+        "x-content-type-options: nosniff",
+        "content-security-policy: default-src 'none'",
+    ] {
+        assert!(head.contains(line), "{line}: {answer}");
+    }
     let (status, _) = ask("http://evil.example/healthz");
     assert_eq!(status, 400, "another host");
     let (status, _) = ask(&format!("ftp://{host}/healthz"));

@@ -110,19 +110,7 @@ pub fn parse<T: DeserializeOwned>(headers: &HeaderMap, body: RawBody) -> Result<
             "expected Content-Type: application/json",
         ));
     }
-    // A compressed body would be read as JSON and refused as bad JSON
-    // with a misleading place: the encoding is named instead.
-    if let Some(enc) = headers
-        .get(header::CONTENT_ENCODING)
-        .map(|v| v.to_str().unwrap_or("?").trim())
-        .filter(|e| !e.is_empty() && !e.eq_ignore_ascii_case("identity"))
-    {
-        return Err(ApiError::new(
-            StatusCode::UNSUPPORTED_MEDIA_TYPE,
-            ErrorCode::UnsupportedMediaType,
-            format!("Content-Encoding \"{enc}\" is not accepted: send the JSON body uncompressed"),
-        ));
-    }
+    uncompressed(headers, "JSON body")?;
     no_duplicate_keys(&bytes)?;
     let mut de = serde_json::Deserializer::from_slice(&bytes);
     let value: T = serde_path_to_error::deserialize(&mut de).map_err(|e| {
@@ -135,7 +123,28 @@ pub fn parse<T: DeserializeOwned>(headers: &HeaderMap, body: RawBody) -> Result<
     Ok(value)
 }
 
-/// True when reading the body stopped at the body timeout.
+/// Refuses a body under a content coding (`Content-Encoding: gzip`): 415
+/// naming the encoding. Read as it came, a compressed body was refused as
+/// bad JSON with a misleading place, and a compressed form as a form from
+/// another origin (its CSRF field unreadable) or a field it does not have.
+pub fn uncompressed(headers: &HeaderMap, what: &str) -> Result<(), ApiError> {
+    match headers
+        .get(header::CONTENT_ENCODING)
+        .map(|v| v.to_str().unwrap_or("?").trim())
+        .filter(|e| !e.is_empty() && !e.eq_ignore_ascii_case("identity"))
+    {
+        None => Ok(()),
+        Some(enc) => Err(ApiError::new(
+            StatusCode::UNSUPPORTED_MEDIA_TYPE,
+            ErrorCode::UnsupportedMediaType,
+            format!(
+                "Content-Encoding \"{}\" is not accepted: send the {what} uncompressed",
+                enc.chars().take(100).collect::<String>()
+            ),
+        )),
+    }
+}
+
 /// Inside a device event the deserializer's path stops at
 /// `events[i].event` (a tagged union read whole) and the message starts
 /// with the field's own path: the path is completed with it, and the
@@ -173,6 +182,7 @@ fn locate(bytes: &[u8], path: String, message: String) -> (String, String) {
     (path, format!("{message}{which}"))
 }
 
+/// True when reading the body stopped at the body timeout.
 pub(crate) fn is_timeout(e: &BytesRejection) -> bool {
     let mut cur: Option<&(dyn std::error::Error + 'static)> = Some(e);
     while let Some(err) = cur {

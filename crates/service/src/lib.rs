@@ -23,6 +23,7 @@ pub mod convert;
 pub mod deadline;
 pub mod error;
 pub mod extract;
+pub mod head;
 pub mod openapi;
 pub mod refit;
 pub mod routes;

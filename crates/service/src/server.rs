@@ -606,28 +606,18 @@ where
 {
     tower::service_fn(move |req: axum::http::Request<hyper::body::Incoming>| {
         let svc = svc.clone();
-        let bad_host = bad_host(&req);
-        let busy = bad_host.is_none().then(|| conn.start_request()).flatten();
+        let refused = crate::head::refused(&req);
+        let busy = refused.is_none().then(|| conn.start_request()).flatten();
         async move {
-            if let Some(why) = bad_host {
-                tracing::debug!(why, "a request's Host refused: 400");
-                let mut r =
-                    ApiError::new(StatusCode::BAD_REQUEST, abba_api::ErrorCode::Invalid, why)
-                        .at("Host")
-                        .into_response();
-                r.headers_mut()
-                    .insert(header::CONNECTION, HeaderValue::from_static("close"));
-                return Ok(r);
+            if let Some(e) = refused {
+                tracing::debug!(why = %e.message, "a request's head refused: 400");
+                return Ok(closing(e));
             }
             let Some(busy) = busy else {
-                let mut r = ApiError::busy(
+                return Ok(closing(ApiError::busy(
                     "this connection was closed to make room; retry on a new one",
                     1,
-                )
-                .into_response();
-                r.headers_mut()
-                    .insert(header::CONNECTION, HeaderValue::from_static("close"));
-                return Ok(r);
+                )));
             };
             let last = busy.is_last();
             let mut r = tower::ServiceExt::oneshot(svc, req).await?;
@@ -641,25 +631,25 @@ where
     })
 }
 
-/// Why a request's `Host` is refused (400, RFC 9112 section 3.2): an
-/// HTTP/1.1 request without one, one with more than one (which would the
-/// origin check and the sign-in links read?), or one that is not a host
-/// and port (an empty one is allowed, for a URI without authority).
-fn bad_host<B>(req: &axum::http::Request<B>) -> Option<&'static str> {
-    let mut hosts = req.headers().get_all(header::HOST).iter();
-    let Some(host) = hosts.next() else {
-        return (req.version() == axum::http::Version::HTTP_11)
-            .then_some("an HTTP/1.1 request needs a Host header");
-    };
-    if hosts.next().is_some() {
-        return Some("more than one Host header");
+/// An error answered before the router (whose layers set the headers of
+/// every other answer): with those headers, and the connection closed
+/// after it. A refused head's 400 came without them.
+fn closing(e: ApiError) -> Response {
+    let mut r = e.into_response();
+    let h = r.headers_mut();
+    for (name, value) in [
+        (header::CONNECTION, "close"),
+        (header::CACHE_CONTROL, "no-store"),
+        (header::X_CONTENT_TYPE_OPTIONS, "nosniff"),
+        (
+            header::CONTENT_SECURITY_POLICY,
+            "default-src 'none'; frame-ancestors 'none'",
+        ),
+        (header::REFERRER_POLICY, "no-referrer"),
+    ] {
+        h.insert(name, HeaderValue::from_static(value));
     }
-    let ok = host.is_empty()
-        || host
-            .to_str()
-            .ok()
-            .is_some_and(|h| !h.contains('@') && h.parse::<axum::http::uri::Authority>().is_ok());
-    (!ok).then_some("the Host header is not a host (and port)")
+    r
 }
 
 /// An answer's body holding its connection busy until it is sent whole or

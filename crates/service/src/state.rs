@@ -59,7 +59,11 @@ struct Inner {
     pool: r2d2::Pool<StoreManager>,
     locks: Mutex<HashMap<i64, Arc<Mutex<()>>>>,
     live: moka::sync::Cache<i64, Slot>,
-    failures: Mutex<HashMap<IpAddr, Failures>>,
+    /// One permit: the request reading every person's log now
+    /// ([`AppState::every_person`]).
+    every_person: Arc<tokio::sync::Semaphore>,
+    /// Failed authentications by client, at most [`MAX_FAILING_CLIENTS`].
+    failures: moka::sync::Cache<IpAddr, Failures>,
     settings: StoreSettings,
     effects: std::sync::OnceLock<EffectSource>,
     refits: std::sync::OnceLock<crate::refit::RefitQueue>,
@@ -143,7 +147,8 @@ impl AppState {
                 pool,
                 locks: Mutex::new(HashMap::new()),
                 live,
-                failures: Mutex::new(HashMap::new()),
+                every_person: Arc::new(tokio::sync::Semaphore::new(1)),
+                failures: failures_table(settings.auth_window),
                 settings,
                 effects: std::sync::OnceLock::new(),
                 refits: std::sync::OnceLock::new(),
@@ -226,6 +231,40 @@ impl AppState {
     ) -> Result<T, ApiError> {
         let s = self.clone();
         tokio::task::spawn_blocking(move || {
+            let mut conn = s.conn()?;
+            f(&mut conn)
+        })
+        .await
+        .map_err(ApiError::internal)?
+    }
+
+    /// Runs `f`, work that reads every person's log (the clinic's list
+    /// replays each one), like [`AppState::store`] but one such request at
+    /// a time, from its start on the blocking pool to its end (past the
+    /// request's timeout, which cannot stop it); another waits at most the
+    /// busy timeout, then 503 with `Retry-After`. Its cost grows with every
+    /// person's data (fifteen persons with a year each: 2.5 s), and
+    /// sixteen clinic lists at once (one session's share of requests in
+    /// flight) held every pooled connection: another person's sync and
+    /// `/healthz` got 503 for as long.
+    pub async fn every_person<T: Send + 'static>(
+        &self,
+        f: impl FnOnce(&mut Store) -> Result<T, ApiError> + Send + 'static,
+    ) -> Result<T, ApiError> {
+        let set = &self.inner.settings;
+        let sem = Arc::clone(&self.inner.every_person);
+        let permit = tokio::time::timeout(set.busy_timeout, sem.acquire_owned())
+            .await
+            .map_err(|_| {
+                ApiError::busy(
+                    "another request is reading every person's data (the clinic's list)",
+                    set.retry_after,
+                )
+            })?
+            .map_err(ApiError::internal)?;
+        let s = self.clone();
+        tokio::task::spawn_blocking(move || {
+            let _permit = permit;
             let mut conn = s.conn()?;
             f(&mut conn)
         })
@@ -363,8 +402,7 @@ impl AppState {
 
     fn check_failures(&self, ip: IpAddr) -> Result<(), ApiError> {
         let set = &self.inner.settings;
-        let failures = lock(&self.inner.failures);
-        if let Some(f) = failures.get(&ip) {
+        if let Some(f) = self.inner.failures.get(&ip) {
             let elapsed = f.since.elapsed();
             if elapsed < set.auth_window && f.count >= set.auth_failures {
                 let wait = (set.auth_window - elapsed).as_secs().max(1);
@@ -376,24 +414,31 @@ impl AppState {
 
     fn note_failure(&self, ip: IpAddr) {
         let window = self.inner.settings.auth_window;
-        let mut failures = lock(&self.inner.failures);
-        if failures.len() > 100_000 {
-            failures.retain(|_, f| f.since.elapsed() < window);
-        }
-        let f = failures.entry(ip).or_insert(Failures {
-            since: Instant::now(),
-            count: 0,
-        });
-        if f.since.elapsed() >= window {
-            *f = Failures {
-                since: Instant::now(),
-                count: 0,
-            };
-        }
-        f.count += 1;
+        let f = self
+            .inner
+            .failures
+            .entry(ip)
+            .and_upsert_with(|old| match old.map(|e| e.into_value()) {
+                Some(f) if f.since.elapsed() < window => Failures {
+                    count: f.count.saturating_add(1),
+                    ..f
+                },
+                _ => Failures {
+                    since: Instant::now(),
+                    count: 1,
+                },
+            })
+            .into_value();
         if f.count == self.inner.settings.auth_failures {
             tracing::warn!(client = %ip, "too many failed authentications: slowed down");
         }
+    }
+
+    /// Clients whose failed authentications are counted now (after the
+    /// table's pending evictions ran): at most [`MAX_FAILING_CLIENTS`].
+    pub fn failing_clients(&self) -> u64 {
+        self.inner.failures.run_pending_tasks();
+        self.inner.failures.entry_count()
     }
 
     /// Whether the store answers and can be written (for `/healthz`):
@@ -438,6 +483,28 @@ fn check_writable(store: &Store, db: &Path) -> Result<(), ServiceError> {
     Ok(())
 }
 
+/// The most clients whose failed authentications are counted at once
+/// (about 100 bytes each). A table without a bound was swept whole on
+/// every failure once it held 100,000 clients of the current minute, under
+/// the lock every authentication takes: failures from that many addresses
+/// (an IPv6 /44 holds a million /64s; 127.0.0.0/8 on the service's own
+/// host sixteen million addresses) made each request wait for the sweep.
+/// Past the bound the client unseen longest is forgotten (its count starts
+/// again), each in constant time.
+pub const MAX_FAILING_CLIENTS: u64 = 100_000;
+
+/// The table of failed authentications: bounded, its entries gone a
+/// window after their last failure.
+fn failures_table(window: Duration) -> moka::sync::Cache<IpAddr, Failures> {
+    moka::sync::Cache::builder()
+        .max_capacity(MAX_FAILING_CLIENTS)
+        .time_to_live(window)
+        // LRU: a client failing now is counted (moka's default TinyLFU
+        // may refuse a newcomer, which would then never be limited).
+        .eviction_policy(moka::policy::EvictionPolicy::lru())
+        .build()
+}
+
 /// The key of a client's failed authentications: its IPv4 address, or the
 /// /64 network of an IPv6 address (one host holds a whole /64).
 pub(crate) fn client_key(ip: IpAddr) -> IpAddr {
@@ -450,5 +517,53 @@ pub(crate) fn client_key(ip: IpAddr) -> IpAddr {
                 IpAddr::V6(std::net::Ipv6Addr::new(s[0], s[1], s[2], s[3], 0, 0, 0, 0))
             }
         },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Failures from more clients than [`MAX_FAILING_CLIENTS`] within one
+    /// window (each from its own address) keep the table at its bound, and
+    /// the client failing now is still counted and limited. The unbounded
+    /// table was swept whole on each failure past 100,000 clients, under
+    /// the lock every authentication takes: these failures took a minute
+    /// (about a millisecond each past the 100,000th, the lock held).
+    #[test]
+    fn failures_from_more_clients_than_the_bound_keep_the_table_bounded() {
+        let dir = tempfile::tempdir().unwrap();
+        let db = dir.path().join("store.db");
+        let settings = StoreSettings {
+            auth_failures: 3,
+            ..StoreSettings::default()
+        };
+        let state = AppState::open(&db, settings).unwrap();
+        let clients = MAX_FAILING_CLIENTS as u32 + 50_000;
+        let start = Instant::now();
+        for i in 0..clients {
+            state.note_failure(IpAddr::V4(std::net::Ipv4Addr::from(0x0a00_0000 + i)));
+        }
+        let took = start.elapsed();
+        assert!(
+            state.failing_clients() <= MAX_FAILING_CLIENTS,
+            "{} clients counted",
+            state.failing_clients()
+        );
+        let last = IpAddr::V4(std::net::Ipv4Addr::from(0x0a00_0000 + clients - 1));
+        assert!(state.check_failures(last).is_ok(), "one failure so far");
+        state.note_failure(last);
+        state.note_failure(last);
+        assert_eq!(
+            state.check_failures(last).map_err(|e| e.status),
+            Err(axum::http::StatusCode::TOO_MANY_REQUESTS),
+            "the client failing now is limited"
+        );
+        // Each failure in constant time: well under a millisecond each
+        // (the sweep took about one each past the 100,000th).
+        assert!(
+            took < Duration::from_secs(60),
+            "{clients} failures took {took:?}"
+        );
     }
 }

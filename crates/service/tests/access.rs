@@ -421,9 +421,18 @@ async fn a_body_an_endpoint_does_not_take_is_refused_and_changes_nothing() {
     assert_eq!(r.status, StatusCode::OK, "{}", r.text);
 }
 
-/// An id is read only as the service writes it: `+1`, `01` or `1 ` reach
-/// no person and no token (404, as an id nothing has), so that one person
-/// is not under many paths (past a proxy's rule on `/v1/persons/1/`).
+/// Each character of `id` percent-encoded (`1` is `%31`).
+fn percent_encoded(id: u64) -> String {
+    id.to_string()
+        .bytes()
+        .map(|b| format!("%{b:02X}"))
+        .collect()
+}
+
+/// An id is read only as the service writes it: `+1`, `01`, `1 ` or its
+/// digits percent-encoded (`%31`) reach no person and no token (404, as an
+/// id nothing has), so that one person is not under many paths (past a
+/// proxy's rule on `/v1/persons/1/`).
 #[tokio::test]
 async fn an_id_not_written_as_the_service_writes_it_reaches_nothing() {
     let svc = Svc::new();
@@ -434,6 +443,7 @@ async fn an_id_not_written_as_the_service_writes_it_reaches_nothing() {
         format!("0{alice}"),
         format!("{alice}%20"),
         format!("%2B{alice}"),
+        percent_encoded(alice),
     ] {
         let uri = format!("/v1/persons/{id}/advice");
         for token in [&svc.admin, &alice_token] {
@@ -450,7 +460,11 @@ async fn an_id_not_written_as_the_service_writes_it_reaches_nothing() {
             .await;
         assert_eq!(r.status, StatusCode::NOT_FOUND, "{id}: {}", r.text);
     }
-    for id in [format!("+{token_id}"), format!("0{token_id}")] {
+    for id in [
+        format!("+{token_id}"),
+        format!("0{token_id}"),
+        percent_encoded(token_id),
+    ] {
         let r = svc
             .call(
                 Method::DELETE,

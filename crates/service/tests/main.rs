@@ -14,6 +14,7 @@ mod access;
 mod advice_parity;
 mod connections;
 mod effects;
+mod heads;
 mod hostile;
 mod implausible;
 mod limits;

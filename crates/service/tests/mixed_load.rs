@@ -364,3 +364,124 @@ fn late_events_on_a_long_log_do_not_hold_up_another_persons_writes() {
         pct(&light_took, 0.99)
     );
 }
+
+/// The status of a request sent whole on a new connection, and its
+/// answer's head.
+fn ask(addr: std::net::SocketAddr, request: &str) -> (u16, String) {
+    use std::io::{Read, Write};
+    let mut s = std::net::TcpStream::connect(addr).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(30))).unwrap();
+    s.write_all(request.as_bytes()).unwrap();
+    let mut out = Vec::new();
+    let _ = s.read_to_end(&mut out);
+    let text = String::from_utf8_lossy(&out).to_string();
+    let status = text.get(9..12).and_then(|c| c.parse().ok()).unwrap_or(0);
+    let head = text.split("\r\n\r\n").next().unwrap_or("").to_string();
+    (status, head)
+}
+
+/// A `Set-Cookie` value (`name=value`) of an answer's head.
+fn cookie(head: &str, name: &str) -> String {
+    head.lines()
+        .filter_map(|l| l.split_once(": "))
+        .filter(|(k, _)| k.eq_ignore_ascii_case("set-cookie"))
+        .filter_map(|(_, v)| v.split(';').next())
+        .find(|pair| pair.starts_with(&format!("{name}=")))
+        .unwrap_or_else(|| panic!("no {name} in {head}"))
+        .to_string()
+}
+
+/// The clinic's list replays every person's log: its cost grows with all
+/// their data, and lists asked at once (a clinician's tabs, or one
+/// session's share of requests in flight) held a pooled connection each.
+/// With a pool of two, six lists at once left no connection: `/healthz`
+/// (and any other person's request) got 503 while they ran. One list is
+/// built at a time now; the others wait at most the busy timeout (503
+/// with `Retry-After`), and `/healthz` is answered meanwhile.
+#[test]
+fn clinic_lists_at_once_leave_a_pooled_connection_to_others() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("store.db");
+    let busy = Duration::from_millis(150);
+    let set = ServeSettings {
+        store: abba_service::StoreSettings {
+            connections: 2,
+            busy_timeout: busy,
+            ..Default::default()
+        },
+        ..ServeSettings::default()
+    };
+    let today = jiff::Timestamp::now()
+        .to_zoned(jiff::tz::TimeZone::UTC)
+        .date();
+    let first_day = today - jiff::Span::new().days(DAYS + 1);
+    let day1 = first_day
+        .to_zoned(jiff::tz::TimeZone::UTC)
+        .unwrap()
+        .timestamp();
+    let (_, admin) = abba_service::new_admin_token(&db).unwrap();
+    let server = Server::start(&db, set);
+    let c = Client::new(&server.url(), Some(&admin)).unwrap();
+    let events = year_of_events(day1, DAYS);
+    for name in ["ines", "jon", "kai"] {
+        let id = c.create_person(&person_body(name, first_day)).unwrap().id;
+        for chunk in events.chunks(abba_api::MAX_EVENTS_PER_BATCH) {
+            c.post_events(
+                id,
+                &EventsBody {
+                    events: chunk.to_vec(),
+                },
+            )
+            .unwrap();
+        }
+    }
+    // The clinician's session.
+    let addr = server.addr;
+    let secret = abba_service::new_signin_link(&db, None).unwrap();
+    let (status, head) = ask(
+        addr,
+        &format!("GET /signin/{secret} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n"),
+    );
+    assert_eq!(status, 200, "{head}");
+    let signin = cookie(&head, "abba_signin");
+    let csrf = signin.split_once('=').unwrap().1;
+    let form = format!("csrf={csrf}&link={secret}");
+    let (status, head) = ask(
+        addr,
+        &format!(
+            "POST /signin HTTP/1.1\r\nHost: {addr}\r\nOrigin: http://{addr}\r\nCookie: {signin}\r\nContent-Type: application/x-www-form-urlencoded\r\nContent-Length: {}\r\nConnection: close\r\n\r\n{form}",
+            form.len()
+        ),
+    );
+    assert_eq!(status, 303, "{head}");
+    let session = cookie(&head, "abba_session");
+    let list = format!(
+        "GET /clinic HTTP/1.1\r\nHost: {addr}\r\nCookie: {session}\r\nConnection: close\r\n\r\n"
+    );
+    // One list takes longer than the busy timeout (else nothing here
+    // could wait for it).
+    let t = Instant::now();
+    let (status, head) = ask(addr, &list);
+    assert_eq!(status, 200, "{head}");
+    let one = t.elapsed();
+    assert!(
+        one > 2 * busy,
+        "one clinic list took {one:?}: too little data to test"
+    );
+    let lists: Vec<_> = (0..6)
+        .map(|_| {
+            let list = list.clone();
+            std::thread::spawn(move || ask(addr, &list).0)
+        })
+        .collect();
+    std::thread::sleep(one / 4);
+    let health = format!("GET /healthz HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n");
+    let (status, head) = ask(addr, &health);
+    assert_eq!(status, 200, "/healthz while six clinic lists run: {head}");
+    let statuses: Vec<u16> = lists.into_iter().map(|h| h.join().unwrap()).collect();
+    assert!(statuses.contains(&200), "{statuses:?}");
+    assert!(
+        statuses.iter().all(|s| [200, 503].contains(s)),
+        "{statuses:?}"
+    );
+}

@@ -1115,6 +1115,33 @@ async fn an_own_value_off_the_step_past_the_limits_or_the_bounds_is_refused_besi
     assert_eq!(answered, 0, "{}", h.text);
 }
 
+/// The Glucose page shows the range asked for or refuses the query (400
+/// naming `range`): a range it does not have, a second `range` or another
+/// parameter were answered with the last 24 hours, as if asked.
+#[tokio::test]
+async fn the_glucose_page_refuses_a_range_it_does_not_have() {
+    let svc = Svc::new();
+    let id = svc.person("gil").await;
+    let (mut b, _) = signed_in(&svc, Role::Person(id as i64)).await;
+    for path in ["/glucose", "/glucose?range=24h", "/glucose?range=14d"] {
+        assert_eq!(b.get(path).await.status, StatusCode::OK, "{path}");
+    }
+    for path in [
+        "/glucose?range=1000000d",
+        "/glucose?range=14d&range=24h",
+        "/glucose?days=1000000",
+        "/glucose?range=24h&x=1",
+    ] {
+        let p = b.get(path).await;
+        assert_eq!(p.status, StatusCode::BAD_REQUEST, "{path}: {}", p.html);
+        assert!(
+            p.html.contains("expected range=24h or range=14d"),
+            "{path}: {}",
+            p.html
+        );
+    }
+}
+
 #[tokio::test]
 async fn glucose_history_and_the_report_show_the_persons_own_data() {
     let svc = Svc::new();
@@ -2287,6 +2314,40 @@ async fn the_logs_numbers_never_pass_the_apis_seq_limit() {
         )
         .await;
     assert_eq!(sync.json["last_seq"].as_u64(), Some(abba_api::MAX_SEQ));
+}
+
+/// A form declared compressed (`Content-Encoding: gzip`) is refused (415
+/// naming the encoding) and nothing is stored: its bytes were read as a
+/// plain form, so a reading sent plain under that header was stored, and
+/// a form really compressed was refused as one from another origin.
+#[tokio::test]
+async fn a_form_under_a_content_coding_is_refused_and_stores_nothing() {
+    let svc = Svc::new();
+    let id = svc.person("ana").await;
+    let (mut b, csrf) = signed_in(&svc, Role::Person(id as i64)).await;
+    let key = b.get("/log").await.hidden("submission");
+    let body = form_urlencoded::Serializer::new(String::new())
+        .append_pair("csrf", &csrf)
+        .append_pair("glucose", "120")
+        .append_pair("submission", &key)
+        .finish();
+    let req = Request::builder()
+        .method(Method::POST)
+        .uri("/log/reading")
+        .header(header::HOST, HOST)
+        .header(header::ORIGIN, ORIGIN)
+        .header(header::CONTENT_TYPE, "application/x-www-form-urlencoded")
+        .header(header::CONTENT_ENCODING, "gzip")
+        .header(header::COOKIE, b.cookie_header())
+        .body(Body::from(body))
+        .unwrap();
+    let res = svc.router.clone().oneshot(req).await.unwrap();
+    let status = res.status();
+    let html =
+        String::from_utf8_lossy(&res.into_body().collect().await.unwrap().to_bytes()).to_string();
+    assert_eq!(status, StatusCode::UNSUPPORTED_MEDIA_TYPE, "{html}");
+    assert!(html.contains("Content-Encoding"), "{html}");
+    assert_eq!(app_events(&svc, id), 0, "nothing stored");
 }
 
 /// The bedtime box closes an SMBG day; a CGM day closes by itself at the
@@ -3936,8 +3997,8 @@ async fn names_read_from_an_export_never_reorder_or_hide_text_on_a_page() {
     }
 }
 
-/// The clinic's pages read a person's id only as they write it: `+1` and
-/// `01` are the 404 page, not person 1's page or report.
+/// The clinic's pages read a person's id only as they write it: `+1`,
+/// `01` and `%31` are the 404 page, not person 1's page or report.
 #[tokio::test]
 async fn the_clinics_pages_read_an_id_only_as_they_write_it() {
     let svc = Svc::new();
@@ -3952,6 +4013,16 @@ async fn the_clinics_pages_read_an_id_only_as_they_write_it() {
         for alias in [
             path.replace(&format!("/{id}"), &format!("/+{id}")),
             path.replace(&format!("/{id}"), &format!("/0{id}")),
+            path.replace(
+                &format!("/{id}"),
+                &format!(
+                    "/{}",
+                    id.to_string()
+                        .bytes()
+                        .map(|b| format!("%{b:02X}"))
+                        .collect::<String>()
+                ),
+            ),
         ] {
             let p = admin.get(&alias).await;
             assert_eq!(p.status, StatusCode::NOT_FOUND, "{alias}: {}", p.html);

@@ -206,7 +206,7 @@ async fn clinic_page(
     form: NewPersonForm,
     message: Option<String>,
 ) -> PageResult {
-    let rows = s.store(rows).await?;
+    let rows = s.every_person(rows).await?;
     let layout = Layout::clinic(EN.clinic_title, csrf, "/clinic").with_status(message);
     render(status, "clinic.html", &layout, &ClinicModel { rows, form })
 }
@@ -231,7 +231,11 @@ struct Upload {
     files: Vec<(String, String, Vec<u8>)>,
 }
 
-async fn read_multipart(m: Result<Multipart, MultipartRejection>) -> Result<Upload, ApiError> {
+async fn read_multipart(
+    ctx: &Ctx,
+    m: Result<Multipart, MultipartRejection>,
+) -> Result<Upload, ApiError> {
+    crate::body::uncompressed(&ctx.headers, "form")?;
     // Not a multipart form (another content type, no boundary): the
     // service's 415 page, not axum's plain-text rejection.
     let mut m = m.map_err(|e| {
@@ -610,7 +614,7 @@ pub async fn create(
     m: Result<Multipart, MultipartRejection>,
 ) -> PageResult {
     let w = admin_post_head(&s, &ctx).await?;
-    let up = read_multipart(m).await?;
+    let up = read_multipart(&ctx, m).await?;
     upload_csrf(&w, &up)?;
     up.text.only(&[
         "csrf",
@@ -1411,7 +1415,7 @@ pub async fn import(
 ) -> PageResult {
     let id = person_id(&id)?;
     let w = admin_post_head(&s, &ctx).await?;
-    let up = read_multipart(m).await?;
+    let up = read_multipart(&ctx, m).await?;
     upload_csrf(&w, &up)?;
     up.text.only(&[
         "csrf",

@@ -48,6 +48,7 @@ impl Form {
                 "expected a form (application/x-www-form-urlencoded)",
             ));
         }
+        crate::body::uncompressed(headers, "form")?;
         Ok(Self {
             fields: form_urlencoded::parse(&bytes)
                 .map(|(k, v)| (k.into_owned(), v.into_owned()))

@@ -8,6 +8,7 @@
 
 use super::page::{render, PageResult};
 use super::session::{self, Ctx};
+use crate::error::ApiError;
 use crate::state::AppState;
 use abba_core::units::GlucoseUnit;
 use abba_core::units::MG_DL_PER_MMOL_L;
@@ -90,10 +91,28 @@ pub enum Range {
 }
 
 impl Range {
-    fn from_query(q: Option<&str>) -> Self {
-        match q {
-            Some(q) if q.split('&').any(|p| p == "range=14d") => Range::TwoWeeks,
-            _ => Range::Day,
+    /// The range a query asks for: none (24 hours), `range=24h` or
+    /// `range=14d`; anything else is 400 naming `range`, never the 24
+    /// hours shown for a range that was not asked (`?range=1000000d`, a
+    /// second `range`, another parameter were all answered with them).
+    fn from_query(q: Option<&str>) -> Result<Self, ApiError> {
+        let pairs: Vec<&str> = q
+            .unwrap_or("")
+            .split('&')
+            .filter(|p| !p.is_empty())
+            .collect();
+        match pairs[..] {
+            [] | ["range=24h"] => Ok(Range::Day),
+            ["range=14d"] => Ok(Range::TwoWeeks),
+            _ => Err(ApiError::new(
+                StatusCode::BAD_REQUEST,
+                abba_api::ErrorCode::BadQuery,
+                format!(
+                    "expected range=24h or range=14d, got {:?}",
+                    q.unwrap_or("").chars().take(100).collect::<String>()
+                ),
+            )
+            .at("range")),
         }
     }
     fn minutes(self) -> i64 {
@@ -346,7 +365,7 @@ fn table(
 /// `GET /glucose?range=24h|14d`.
 pub async fn page(State(s): State<AppState>, ctx: Ctx, RawQuery(q): RawQuery) -> PageResult {
     let (id, w) = session::person_page(&s, &ctx).await?;
-    let range = Range::from_query(q.as_deref());
+    let range = Range::from_query(q.as_deref())?;
     let (g, name) = s
         .person(id, false, move |_, live| {
             let now = advise::clock(&live.person).map(|c| c.timestamp(jiff::Timestamp::now()));

@@ -16,8 +16,10 @@ use serde::Serialize;
 pub const REFERRER_POLICY: &str = "same-origin";
 
 /// A page path's parameters as text, "" for one that could not be decoded
-/// (invalid UTF-8 after percent-decoding): the handler answers it as any
-/// unknown id or link, with its page, never axum's plain-text 400.
+/// (invalid UTF-8 after percent-decoding) or was written with
+/// percent-encoding at all (`crate::extract::percent_encoded`: `%31` was
+/// person 1's page): the handler answers it as any unknown id or link,
+/// with its page, never axum's plain-text 400.
 #[derive(Debug, Clone)]
 pub struct PathText<T>(pub T);
 
@@ -32,6 +34,9 @@ where
         parts: &mut axum::http::request::Parts,
         state: &S,
     ) -> Result<Self, Self::Rejection> {
+        if crate::extract::percent_encoded(parts) {
+            return Ok(PathText(T::default()));
+        }
         Ok(PathText(
             axum::extract::Path::<T>::from_request_parts(parts, state)
                 .await

@@ -70,7 +70,6 @@ impl FromRequestParts<AppState> for Ctx {
             .get("x-forwarded-proto")
             .and_then(|v| v.to_str().ok())
             .is_some_and(|v| v.trim().eq_ignore_ascii_case("https"));
-        let tls = parts.uri.scheme_str() == Some("https");
         // `--public-url https://...`: persons reach the service over TLS
         // (a proxy that does not say X-Forwarded-Proto, or one on another
         // machine), so its cookies are never sent in clear.
@@ -80,7 +79,9 @@ impl FromRequestParts<AppState> for Ctx {
             .is_some_and(|p| p.eq_ignore_ascii_case("https://"));
         Ok(Ctx {
             headers: parts.headers.clone(),
-            https: tls || (proxied && forwarded) || public_https,
+            // Never the request target's scheme: a client on plain HTTP
+            // may write `GET https://...` (`crate::head` refuses it).
+            https: (proxied && forwarded) || public_https,
             public_authority: state.public_url().and_then(authority_of),
         })
     }

@@ -358,7 +358,8 @@ impl Evidence {
 
     /// Counts from an export file as it is (what normalised records do not
     /// keep: SMB marks, uploader and device names, Tidepool's delivery
-    /// type, CareLink's SmartGuard auto mode, see [`Evidence::from_carelink`]).
+    /// type and automated boluses, in its JSON or its Excel export,
+    /// CareLink's SmartGuard auto mode, see [`Evidence::from_carelink`]).
     /// Any other file adds nothing.
     /// A CareLink export's marks are undated here (its times need the
     /// person's zone): see [`Evidence::from_file_with`].
@@ -372,9 +373,24 @@ impl Evidence {
     /// [`Evidence::from_carelink_with`].
     pub fn from_file_with(bytes: &[u8], opts: &crate::ReadOptions) -> Self {
         let mut e = Evidence::default();
-        // A JSON array, one object, or mongoexport's one document a line.
-        let Ok(items) = crate::read::json::parse_array("", bytes) else {
-            return Self::from_carelink_with(bytes, opts);
+        // A JSON array, one object, or mongoexport's one document a line;
+        // Tidepool's Excel export as the data-model objects of its rows
+        // (its `Delivery Type` automated, `Sub Type` automated, `Device
+        // Model` ...), as its reader reads them.
+        let items = if crate::read::tidepool_xlsx::is_zip(bytes) {
+            match crate::read::tidepool_xlsx::read("", bytes) {
+                Ok(book) => book
+                    .rows
+                    .into_iter()
+                    .map(|r| Value::Object(r.obj))
+                    .collect(),
+                Err(_) => return e,
+            }
+        } else {
+            match crate::read::json::parse_array("", bytes) {
+                Ok(items) => items,
+                Err(_) => return Self::from_carelink_with(bytes, opts),
+            }
         };
         // A document deleted where it was written (`isValid: false`, as
         // AndroidAPS and API v3 mark them) is not read, nor is it evidence.

@@ -38,8 +38,14 @@ use crate::record::{
 use crate::time::parse_instant;
 use crate::units::{self, GLUCOSE_MAX_MG_DL, GLUCOSE_MIN_MG_DL, TIDEPOOL_MG_DL_PER_MMOL_L};
 
-/// Tidepool's data types (for format detection).
-pub const TYPES: [&str; 13] = [
+/// Tidepool's data types (for format detection): those of its device
+/// data, the loop's own (`dosingDecision`, `controllerSettings`,
+/// `controllerStatus`, `pumpStatus`, `reportedState`, `alert`, as
+/// Tidepool Loop and DIY Loop upload them: a file of a loop's data may
+/// open with one) and `water`, as Tidepool's API documentation lists them
+/// (tidepool-org/TidepoolApi, `docs/device-data/data-types`). Those abba
+/// does not read are counted by type.
+pub const TYPES: [&str; 20] = [
     "insulin",
     "cbg",
     "smbg",
@@ -53,6 +59,13 @@ pub const TYPES: [&str; 13] = [
     "deviceEvent",
     "physicalActivity",
     "bloodKetone",
+    "dosingDecision",
+    "controllerSettings",
+    "controllerStatus",
+    "pumpStatus",
+    "reportedState",
+    "alert",
+    "water",
 ];
 
 /// Reads a Tidepool export (JSON).

@@ -640,13 +640,21 @@ fn within_limits(item: &Item<'_>, profile: Profile) -> Result<Profile, IoError> 
     Ok(profile)
 }
 
+/// The active schedule Tidepool's uploader gives the settings of a MiniMed
+/// 600 series (630G to 780G) read in SmartGuard's auto mode, with an empty
+/// basal schedule of that name (tidepool-org/uploader,
+/// `lib/drivers/medtronic600/NGPHistoryParser.js`, `buildSettingsRecords`).
+const AUTO_MODE: &str = "Auto Mode";
+
 /// The settings profile of a `pumpSettings` datum, as Tidepool's data
 /// model has it: the `activeSchedule` of the named `basalSchedules` (the
 /// only one when there is one), the carb ratios of `carbRatio` (one
 /// schedule, most pumps) or of `carbRatios` (named like the basal
 /// schedules: Tandem, Omnipod 5), `start` in ms from midnight, `units.carb`
 /// grams (exchanges are refused). BG targets and sensitivities are not
-/// read. Values are checked by [`crate::therapy::PumpTherapy::from_profile`].
+/// read. A MiniMed's settings in auto mode ([`AUTO_MODE`]) have no
+/// schedule in force: refused, saying so. Values are checked by
+/// [`crate::therapy::PumpTherapy::from_profile`].
 pub fn pump_settings_profile(item: &Item<'_>) -> Result<Profile, IoError> {
     // Carb ratios in g/U: a pump counting exchanges is not read.
     let carb_unit = item
@@ -660,6 +668,15 @@ pub fn pump_settings_profile(item: &Item<'_>) -> Result<Profile, IoError> {
         ));
     }
     let active = item.get("activeSchedule").and_then(Value::as_str);
+    if active == Some(AUTO_MODE) {
+        return Err(item.err(
+            "activeSchedule",
+            format!(
+                "\"{AUTO_MODE}\": the pump was in SmartGuard's auto mode, which sets the basal \
+                 itself (no basal schedule in force), a closed loop abba is not designed for"
+            ),
+        ));
+    }
     let pick = |field: &str| -> Option<&Value> {
         let v = item.get(field)?;
         match v {

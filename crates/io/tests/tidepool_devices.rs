@@ -7,7 +7,7 @@
 //! settings is the active schedule's, never an override or auto mode's.
 
 use crate::common::{fixture, opts, read};
-use crate::tidepool_workbook::{workbook, Options};
+use crate::tidepool_workbook::{export_json, workbook, Options};
 use abba_io::automation::{Delivery, Evidence};
 use abba_io::read::{detect, Format};
 use abba_io::{Batch, RecordKind};
@@ -70,6 +70,14 @@ fn closed_loops_are_seen_in_tidepools_json_and_in_its_excel_export() {
             (json.automated_basal, json.smb),
             "{name}"
         );
+        // Tidepool Web's JSON export (the workbook's rows as JSON).
+        let data: Vec<Value> = serde_json::from_slice(&fixture(name)).unwrap();
+        let web = Evidence::from_file(&export_json(&data, "mg/dL"));
+        assert_eq!(
+            (web.delivery(), web.automated_basal, web.smb),
+            (Delivery::ClosedLoop, json.automated_basal, json.smb),
+            "{name} as Tidepool Web's JSON export"
+        );
     }
 }
 
@@ -118,7 +126,13 @@ fn the_profile_is_the_active_schedules_not_another_nor_an_override() {
     .unwrap();
     assert_eq!(schedules(&xb), schedules(&b), "{:?}", xb.notes);
     let meals = Default::default();
-    for (name, bytes) in [(TANDEM, fixture(TANDEM)), ("TidepoolExport.xlsx", x)] {
+    let data: Vec<Value> = serde_json::from_slice(&fixture(TANDEM)).unwrap();
+    let web = export_json(&data, "mg/dL");
+    for (name, bytes) in [
+        (TANDEM, fixture(TANDEM)),
+        ("TidepoolExport.xlsx", x),
+        ("TidepoolExport.json", web),
+    ] {
         let t = abba_io::therapy::tidepool_pump_settings(name, &bytes, &meals).unwrap();
         assert_eq!(t.len(), 1, "{name}");
         assert_eq!(

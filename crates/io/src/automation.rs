@@ -228,6 +228,12 @@ pub const LOOP_OPEN: &str =
 /// Loop's settings with closed loop on.
 pub const LOOP_CLOSED: &str =
     "Loop's settings with closed loop on (a Nightscout profile with loopSettings.dosingEnabled true)";
+/// Loop's settings in Tidepool with closed loop off.
+pub const TIDEPOOL_LOOP_OPEN: &str =
+    "Loop's settings in Tidepool with closed loop off (pumpSettings with automatedDelivery false)";
+/// Loop's settings in Tidepool with closed loop on.
+pub const TIDEPOOL_LOOP_CLOSED: &str =
+    "Loop's settings in Tidepool with closed loop on (pumpSettings with automatedDelivery true)";
 /// Trio's device status without `enacted`.
 pub const TRIO_OPEN: &str =
     "Trio's device status with a suggestion and nothing enacted (Trio uploads enacted only with closed loop on)";
@@ -256,6 +262,11 @@ pub const TRIO_CLOSED: &str = "Trio's device status with an enacted dose (closed
 ///   `automaticDoseRecommendation` and the `enacted` it would give
 ///   (NightscoutService's `StoredDosingDecision.swift`, `loopStatusEnacted`;
 ///   LoopKit/Loop at 710182e, `LoopDataManager.swift`, `loopInternal`).
+/// - Loop (DIY Loop, Tidepool Loop) through its Tidepool service, a
+///   Tidepool `pumpSettings` with `automatedDelivery`, Loop's closed loop
+///   on or off (`dosingEnabled`; tidepool-org/TidepoolService at 0b9dbdb,
+///   `TidepoolServiceKit/Extensions/StoredSettings.swift`), uploaded with
+///   the settings each time they change.
 /// - Trio, its device status (`device` `Trio`, `openaps`): it uploads
 ///   `enacted` only when closed loop is on
 ///   (nightscout/Trio at 29350e3, `NightscoutManager.swift`,
@@ -272,6 +283,13 @@ pub fn running_mode(item: &Value) -> Option<RunningMode> {
         return Some(match enabled {
             false => RunningMode::Open(LOOP_OPEN),
             true => RunningMode::Closed(LOOP_CLOSED),
+        });
+    }
+    if s("type") == "pumpSettings" {
+        let automated = item.get("automatedDelivery").and_then(Value::as_bool)?;
+        return Some(match automated {
+            false => RunningMode::Open(TIDEPOOL_LOOP_OPEN),
+            true => RunningMode::Closed(TIDEPOOL_LOOP_CLOSED),
         });
     }
     if names(&s("device").to_ascii_lowercase(), "trio") {
@@ -925,7 +943,8 @@ fn app_mark(key: &str) -> bool {
 /// True when a key of [`Evidence::systems`] counts a loop app's records
 /// of a closed mode ([`running_mode`]).
 fn closed_mode(key: &str) -> bool {
-    key.starts_with("AndroidAPS's running mode ") || key == LOOP_CLOSED || key == TRIO_CLOSED
+    key.starts_with("AndroidAPS's running mode ")
+        || [LOOP_CLOSED, TIDEPOOL_LOOP_CLOSED, TRIO_CLOSED].contains(&key)
 }
 
 /// True when `text` names `name` as a word (so "loop" is not found in

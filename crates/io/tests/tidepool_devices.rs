@@ -94,7 +94,16 @@ fn a_loop_upload_opening_with_a_dosing_decision_is_read_as_tidepool() {
         .filter(|r| !matches!(r.kind, RecordKind::Ignored { .. }))
         .map(|r| format!("{} {:?}", r.at, r.kind))
         .collect();
-    assert_eq!(kinds.len(), 5, "{kinds:#?}");
+    assert_eq!(kinds.len(), 6, "{kinds:#?}");
+    // Loop's settings (its one schedule, "Default") are the profile.
+    assert_eq!(
+        schedules(&b),
+        vec![(
+            "2026-11-22T07:30:00Z".into(),
+            vec![(0, 0.85), (420, 1.0)],
+            vec![(0, 10.0)]
+        )]
+    );
     assert!(b.records.iter().any(|r| matches!(r.kind,
         RecordKind::Carbs { grams } if grams.0 == 45.0)));
     assert!(b.records.iter().any(|r| matches!(r.kind,
@@ -193,4 +202,38 @@ fn a_minimed_read_in_auto_mode_has_no_schedule_in_force_and_says_why() {
                     duration_min: Some(45)
                 }
             )));
+}
+
+#[test]
+fn loops_settings_in_tidepool_tell_closed_loop_on_or_off() {
+    // Loop's data before its first automated delivery: its settings say
+    // whether closed loop is on.
+    let data: Vec<Value> = serde_json::from_slice(&fixture(LOOP)).unwrap();
+    let with = |on: bool| -> Vec<u8> {
+        let kept: Vec<Value> = data
+            .iter()
+            .filter(|d| d["deliveryType"] != "automated" && d["subType"] != "automated")
+            .cloned()
+            .map(|mut d| {
+                if d["type"] == "pumpSettings" {
+                    d["automatedDelivery"] = Value::Bool(on);
+                }
+                d
+            })
+            .collect();
+        serde_json::to_vec(&kept).unwrap()
+    };
+    let on = Evidence::from_file(&with(true));
+    assert_eq!((on.automated_basal, on.smb), (0, 0));
+    assert_eq!(on.delivery(), Delivery::ClosedLoop, "{on:?}");
+    assert!(
+        on.words()
+            .iter()
+            .any(|w| w.contains("automatedDelivery true")),
+        "{:?}",
+        on.words()
+    );
+    let off = Evidence::from_file(&with(false));
+    assert!(off.latest_mode_open(), "{off:?}");
+    assert_ne!(off.delivery(), Delivery::ClosedLoop, "{off:?}");
 }

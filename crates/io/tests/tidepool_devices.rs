@@ -1,10 +1,11 @@
 //! Tidepool's data of closed-loop pumps and the pumps' settings, in the
 //! data model as Tidepool's API gives it (hand-written fixtures, see
 //! `data/PROVENANCE.md`): a t:slim X2 with Control-IQ, DIY Loop on an
-//! Omnipod DASH (its data opening with a `dosingDecision`), a MiniMed 670G
-//! read in SmartGuard's auto mode. Each is seen as a closed loop, in JSON
-//! and in Tidepool's Excel export alike; the profile taken from the pump
-//! settings is the active schedule's, never an override or auto mode's.
+//! Omnipod DASH (its data opening with a `dosingDecision`), an Omnipod 5,
+//! a MiniMed 670G read in SmartGuard's auto mode. Each is seen as a closed
+//! loop, in JSON and in Tidepool's Excel export alike (an Omnipod 5 in
+//! Manual Mode is not); the profile taken from the pump settings is the
+//! active schedule's, never an override or auto mode's.
 
 use crate::common::{fixture, opts, read};
 use crate::tidepool_workbook::{export_json, workbook, Options};
@@ -16,6 +17,7 @@ use serde_json::Value;
 const TANDEM: &str = "tidepool_tandem_controliq_synthetic.json";
 const LOOP: &str = "tidepool_loop_dash_synthetic.json";
 const MINIMED: &str = "tidepool_minimed670g_automode_synthetic.json";
+const OMNIPOD5: &str = "tidepool_omnipod5_synthetic.json";
 
 /// The same data as Tidepool's Excel export writes it.
 fn as_workbook(name: &str) -> Vec<u8> {
@@ -54,7 +56,7 @@ fn ignored(b: &Batch, kind: &str) -> usize {
 
 #[test]
 fn closed_loops_are_seen_in_tidepools_json_and_in_its_excel_export() {
-    for name in [TANDEM, LOOP, MINIMED] {
+    for name in [TANDEM, LOOP, MINIMED, OMNIPOD5] {
         let json = Evidence::from_file(&fixture(name));
         assert_eq!(json.delivery(), Delivery::ClosedLoop, "{name}: {json:?}");
         // The workbook has no `dosingDecision` sheet; the automated
@@ -236,4 +238,39 @@ fn loops_settings_in_tidepool_tell_closed_loop_on_or_off() {
     let off = Evidence::from_file(&with(false));
     assert!(off.latest_mode_open(), "{off:?}");
     assert_ne!(off.delivery(), Delivery::ClosedLoop, "{off:?}");
+}
+
+#[test]
+fn an_omnipod_5_is_a_closed_loop_by_its_automated_basal_not_its_name() {
+    let data: Vec<Value> = serde_json::from_slice(&fixture(OMNIPOD5)).unwrap();
+    let manual: Vec<Value> = data
+        .iter()
+        .filter(|d| d["deliveryType"] != "automated")
+        .cloned()
+        .collect();
+    let tz = jiff::tz::TimeZone::get("Europe/London").unwrap();
+    for (what, data, expected) in [
+        ("Automated Mode", data.clone(), Delivery::ClosedLoop),
+        ("Manual Mode", manual, Delivery::OpenLoop),
+    ] {
+        let json = serde_json::to_vec(&data).unwrap();
+        let xlsx = workbook(&data, &Options::default());
+        for (name, bytes) in [("op5.json", json), ("op5.xlsx", xlsx)] {
+            let b = read(&[(name, bytes.clone())], &opts("Europe/London")).unwrap();
+            let mut e = Evidence::from_records(&b.records, &tz);
+            e.add_file(&Evidence::from_file(&bytes));
+            assert_eq!(e.delivery(), expected, "{what}, {name}: {e:?}");
+            assert_eq!(e.dual_mode_pumps.get("omnipod 5"), Some(&1), "{name}");
+            // The active program's rates and the one carb-ratio schedule.
+            assert_eq!(
+                schedules(&b),
+                vec![(
+                    "2026-11-26T21:00:00Z".into(),
+                    vec![(0, 0.7), (300, 0.9)],
+                    vec![(0, 11.0), (600, 13.0)]
+                )],
+                "{name}"
+            );
+        }
+    }
 }

@@ -228,12 +228,14 @@ pub const LOOP_OPEN: &str =
 /// Loop's settings with closed loop on.
 pub const LOOP_CLOSED: &str =
     "Loop's settings with closed loop on (a Nightscout profile with loopSettings.dosingEnabled true)";
-/// Loop's settings in Tidepool with closed loop off.
+/// Pump settings in Tidepool with automated delivery off (Loop's closed
+/// loop off).
 pub const TIDEPOOL_LOOP_OPEN: &str =
-    "Loop's settings in Tidepool with closed loop off (pumpSettings with automatedDelivery false)";
-/// Loop's settings in Tidepool with closed loop on.
+    "pump settings in Tidepool with automated delivery off (pumpSettings with automatedDelivery false, as Loop writes them)";
+/// Pump settings in Tidepool with automated delivery on (Loop's closed
+/// loop on).
 pub const TIDEPOOL_LOOP_CLOSED: &str =
-    "Loop's settings in Tidepool with closed loop on (pumpSettings with automatedDelivery true)";
+    "pump settings in Tidepool with automated delivery on (pumpSettings with automatedDelivery true, as Loop writes them)";
 /// Trio's device status without `enacted`.
 pub const TRIO_OPEN: &str =
     "Trio's device status with a suggestion and nothing enacted (Trio uploads enacted only with closed loop on)";

@@ -228,6 +228,14 @@ pub const LOOP_OPEN: &str =
 /// Loop's settings with closed loop on.
 pub const LOOP_CLOSED: &str =
     "Loop's settings with closed loop on (a Nightscout profile with loopSettings.dosingEnabled true)";
+/// Pump settings in Tidepool with automated delivery off (Loop's closed
+/// loop off).
+pub const TIDEPOOL_LOOP_OPEN: &str =
+    "pump settings in Tidepool with automated delivery off (pumpSettings with automatedDelivery false, as Loop writes them)";
+/// Pump settings in Tidepool with automated delivery on (Loop's closed
+/// loop on).
+pub const TIDEPOOL_LOOP_CLOSED: &str =
+    "pump settings in Tidepool with automated delivery on (pumpSettings with automatedDelivery true, as Loop writes them)";
 /// Trio's device status without `enacted`.
 pub const TRIO_OPEN: &str =
     "Trio's device status with a suggestion and nothing enacted (Trio uploads enacted only with closed loop on)";
@@ -256,6 +264,11 @@ pub const TRIO_CLOSED: &str = "Trio's device status with an enacted dose (closed
 ///   `automaticDoseRecommendation` and the `enacted` it would give
 ///   (NightscoutService's `StoredDosingDecision.swift`, `loopStatusEnacted`;
 ///   LoopKit/Loop at 710182e, `LoopDataManager.swift`, `loopInternal`).
+/// - Loop (DIY Loop, Tidepool Loop) through its Tidepool service, a
+///   Tidepool `pumpSettings` with `automatedDelivery`, Loop's closed loop
+///   on or off (`dosingEnabled`; tidepool-org/TidepoolService at 0b9dbdb,
+///   `TidepoolServiceKit/Extensions/StoredSettings.swift`), uploaded with
+///   the settings each time they change.
 /// - Trio, its device status (`device` `Trio`, `openaps`): it uploads
 ///   `enacted` only when closed loop is on
 ///   (nightscout/Trio at 29350e3, `NightscoutManager.swift`,
@@ -272,6 +285,13 @@ pub fn running_mode(item: &Value) -> Option<RunningMode> {
         return Some(match enabled {
             false => RunningMode::Open(LOOP_OPEN),
             true => RunningMode::Closed(LOOP_CLOSED),
+        });
+    }
+    if s("type") == "pumpSettings" {
+        let automated = item.get("automatedDelivery").and_then(Value::as_bool)?;
+        return Some(match automated {
+            false => RunningMode::Open(TIDEPOOL_LOOP_OPEN),
+            true => RunningMode::Closed(TIDEPOOL_LOOP_CLOSED),
         });
     }
     if names(&s("device").to_ascii_lowercase(), "trio") {
@@ -358,7 +378,8 @@ impl Evidence {
 
     /// Counts from an export file as it is (what normalised records do not
     /// keep: SMB marks, uploader and device names, Tidepool's delivery
-    /// type, CareLink's SmartGuard auto mode, see [`Evidence::from_carelink`]).
+    /// type and automated boluses, in its JSON or its Excel export,
+    /// CareLink's SmartGuard auto mode, see [`Evidence::from_carelink`]).
     /// Any other file adds nothing.
     /// A CareLink export's marks are undated here (its times need the
     /// person's zone): see [`Evidence::from_file_with`].
@@ -372,9 +393,24 @@ impl Evidence {
     /// [`Evidence::from_carelink_with`].
     pub fn from_file_with(bytes: &[u8], opts: &crate::ReadOptions) -> Self {
         let mut e = Evidence::default();
-        // A JSON array, one object, or mongoexport's one document a line.
-        let Ok(items) = crate::read::json::parse_array("", bytes) else {
-            return Self::from_carelink_with(bytes, opts);
+        // A JSON array, one object, or mongoexport's one document a line;
+        // Tidepool's Excel export as the data-model objects of its rows
+        // (its `Delivery Type` automated, `Sub Type` automated, `Device
+        // Model` ...), as its reader reads them.
+        let items = if crate::read::tidepool_xlsx::is_zip(bytes) {
+            match crate::read::tidepool_xlsx::read("", bytes) {
+                Ok(book) => book
+                    .rows
+                    .into_iter()
+                    .map(|r| Value::Object(r.obj))
+                    .collect(),
+                Err(_) => return e,
+            }
+        } else {
+            match crate::read::json::parse_array("", bytes) {
+                Ok(items) => items,
+                Err(_) => return Self::from_carelink_with(bytes, opts),
+            }
         };
         // A document deleted where it was written (`isValid: false`, as
         // AndroidAPS and API v3 mark them) is not read, nor is it evidence.
@@ -909,7 +945,8 @@ fn app_mark(key: &str) -> bool {
 /// True when a key of [`Evidence::systems`] counts a loop app's records
 /// of a closed mode ([`running_mode`]).
 fn closed_mode(key: &str) -> bool {
-    key.starts_with("AndroidAPS's running mode ") || key == LOOP_CLOSED || key == TRIO_CLOSED
+    key.starts_with("AndroidAPS's running mode ")
+        || [LOOP_CLOSED, TIDEPOOL_LOOP_CLOSED, TRIO_CLOSED].contains(&key)
 }
 
 /// True when `text` names `name` as a word (so "loop" is not found in

@@ -34,5 +34,6 @@ mod partial_files;
 mod real_carelink;
 mod real_exports;
 mod real_variants;
+mod tidepool_devices;
 mod tidepool_model;
 mod tidepool_xlsx;

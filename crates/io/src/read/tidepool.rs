@@ -38,8 +38,14 @@ use crate::record::{
 use crate::time::parse_instant;
 use crate::units::{self, GLUCOSE_MAX_MG_DL, GLUCOSE_MIN_MG_DL, TIDEPOOL_MG_DL_PER_MMOL_L};
 
-/// Tidepool's data types (for format detection).
-pub const TYPES: [&str; 13] = [
+/// Tidepool's data types (for format detection): those of its device
+/// data, the loop's own (`dosingDecision`, `controllerSettings`,
+/// `controllerStatus`, `pumpStatus`, `reportedState`, `alert`, as
+/// Tidepool Loop and DIY Loop upload them: a file of a loop's data may
+/// open with one) and `water`, as Tidepool's API documentation lists them
+/// (tidepool-org/TidepoolApi, `docs/device-data/data-types`). Those abba
+/// does not read are counted by type.
+pub const TYPES: [&str; 20] = [
     "insulin",
     "cbg",
     "smbg",
@@ -53,6 +59,13 @@ pub const TYPES: [&str; 13] = [
     "deviceEvent",
     "physicalActivity",
     "bloodKetone",
+    "dosingDecision",
+    "controllerSettings",
+    "controllerStatus",
+    "pumpStatus",
+    "reportedState",
+    "alert",
+    "water",
 ];
 
 /// Reads a Tidepool export (JSON).
@@ -627,13 +640,21 @@ fn within_limits(item: &Item<'_>, profile: Profile) -> Result<Profile, IoError> 
     Ok(profile)
 }
 
+/// The active schedule Tidepool's uploader gives the settings of a MiniMed
+/// 600 series (630G to 780G) read in SmartGuard's auto mode, with an empty
+/// basal schedule of that name (tidepool-org/uploader,
+/// `lib/drivers/medtronic600/NGPHistoryParser.js`, `buildSettingsRecords`).
+const AUTO_MODE: &str = "Auto Mode";
+
 /// The settings profile of a `pumpSettings` datum, as Tidepool's data
 /// model has it: the `activeSchedule` of the named `basalSchedules` (the
 /// only one when there is one), the carb ratios of `carbRatio` (one
 /// schedule, most pumps) or of `carbRatios` (named like the basal
 /// schedules: Tandem, Omnipod 5), `start` in ms from midnight, `units.carb`
 /// grams (exchanges are refused). BG targets and sensitivities are not
-/// read. Values are checked by [`crate::therapy::PumpTherapy::from_profile`].
+/// read. A MiniMed's settings in auto mode ([`AUTO_MODE`]) have no
+/// schedule in force: refused, saying so. Values are checked by
+/// [`crate::therapy::PumpTherapy::from_profile`].
 pub fn pump_settings_profile(item: &Item<'_>) -> Result<Profile, IoError> {
     // Carb ratios in g/U: a pump counting exchanges is not read.
     let carb_unit = item
@@ -647,6 +668,15 @@ pub fn pump_settings_profile(item: &Item<'_>) -> Result<Profile, IoError> {
         ));
     }
     let active = item.get("activeSchedule").and_then(Value::as_str);
+    if active == Some(AUTO_MODE) {
+        return Err(item.err(
+            "activeSchedule",
+            format!(
+                "\"{AUTO_MODE}\": the pump was in SmartGuard's auto mode, which sets the basal \
+                 itself (no basal schedule in force), a closed loop abba is not designed for"
+            ),
+        ));
+    }
     let pick = |field: &str| -> Option<&Value> {
         let v = item.get(field)?;
         match v {

@@ -183,6 +183,22 @@ pub const SHEETS: &[Sheet] = &[
             ("units.carb", "Carb Units"),
         ],
     ),
+    // The named carb ratios of a pump with several profiles (Tandem): the
+    // same sheet, with the schedule's name (`config.json`'s
+    // `pumpSettings.carbRatios`); a pump has one form or the other.
+    (
+        "pumpSettings.carbRatios",
+        "Carb Ratios",
+        "Tidepool Data Type",
+        &[
+            ("activeSchedule", "Active Schedule"),
+            ("scheduleName", "Schedule Name"),
+            ("carbRatio.start", "Carb Ratio Start"),
+            ("carbRatio.amount", "Carb Ratio Amount"),
+            ("units.bg", "BG Units"),
+            ("units.carb", "Carb Units"),
+        ],
+    ),
     (
         "pumpSettings.bgTarget",
         "BG Targets",
@@ -350,6 +366,16 @@ fn split(d: &Value) -> Vec<Value> {
                 json!({"carbRatio": s, "units": d["units"]}),
                 "pumpSettings.carbRatio",
             ));
+        }
+    }
+    if let Some(Value::Object(named)) = d.get("carbRatios") {
+        for (name, segs) in named {
+            for s in segs.as_array().unwrap() {
+                out.push(with(
+                    json!({"carbRatio": s, "scheduleName": name, "units": d["units"]}),
+                    "pumpSettings.carbRatios",
+                ));
+            }
         }
     }
     out

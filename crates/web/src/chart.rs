@@ -20,8 +20,8 @@ pub const HEIGHT: f64 = 320.0;
 const LEFT: f64 = 56.0;
 /// Right margin.
 const RIGHT: f64 = 12.0;
-/// Top margin (the glucose unit above the axis).
-const TOP: f64 = 30.0;
+/// Top margin (the glucose unit above the axis' top label).
+const TOP: f64 = 52.0;
 /// Bottom margin (the time axis' labels).
 const BOTTOM: f64 = 36.0;
 /// Two CGM readings further apart than this are not joined.

@@ -669,8 +669,8 @@ impl Browser {
     /// What a phone's reader cannot read although the page does not
     /// scroll sideways: a table's caption running off the screen inside
     /// its scrolling region (a caption is as wide as its table), and the
-    /// Glucose chart's labels drawn under 9 px high (the chart is 720
-    /// units wide, shrunk to the screen).
+    /// Glucose chart's labels drawn under 9 px high or over one another
+    /// (the chart is 720 units wide, shrunk to the screen).
     pub async fn unreadable_at_320(&self) -> Vec<String> {
         let v = self
             .client
@@ -682,9 +682,17 @@ impl Browser {
                      out.push('caption "' + c.textContent.slice(0, 40) + '" spans x ' + Math.round(r.left) + '-' + Math.round(r.right));
                    }
                  }
-                 for (const t of document.querySelectorAll('#glucose-chart text')) {
-                   const h = t.getBoundingClientRect().height;
-                   if (h < 9) { out.push('chart label "' + t.textContent + '" ' + h.toFixed(1) + ' px high'); }
+                 const shown = Array.from(document.querySelectorAll('#glucose-chart text'))
+                   .filter((t) => t.getClientRects().length > 0);
+                 for (const [i, t] of shown.entries()) {
+                   const r = t.getBoundingClientRect();
+                   if (r.height < 9) { out.push('chart label "' + t.textContent + '" ' + r.height.toFixed(1) + ' px high'); }
+                   for (const u of shown.slice(i + 1)) {
+                     const q = u.getBoundingClientRect();
+                     if (r.left < q.right && q.left < r.right && r.top < q.bottom && q.top < r.bottom) {
+                       out.push('chart labels "' + t.textContent + '" and "' + u.textContent + '" overlap');
+                     }
+                   }
                  }
                  return out;"#,
                 vec![],

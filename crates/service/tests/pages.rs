@@ -2909,6 +2909,9 @@ async fn an_answer_from_an_older_tab_is_refused_with_a_message() {
         "the refusal is on the page: {}",
         p.html
     );
+    // ... with the focus on it (read first), the title saying so.
+    assert_eq!(autofocused(&p.html), ["answer-refused"], "{}", p.html);
+    assert!(p.html.contains("<title>Not saved · Today"), "{}", p.html);
     assert!(
         !p.section("<section id=\"setting-basal\"", "section")
             .contains("name=\"suggestion_id\""),
@@ -4137,8 +4140,7 @@ async fn a_refused_form_puts_the_focus_on_its_first_field_in_error() {
     assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
     assert_eq!(autofocused(&p.html), [format!("value-{sid}")], "{}", p.html);
     assert!(
-        p.html
-            .contains("<title>Not saved, see the field in error · Today · abba</title>"),
+        p.html.contains("<title>Not saved · Today · abba</title>"),
         "the title, said first, says so: {}",
         p.html
     );

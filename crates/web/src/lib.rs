@@ -92,8 +92,8 @@ fn shown_formatter(
     minijinja::escape_formatter(out, state, value)
 }
 
-/// True for the first field in error of a page, false after: the macros
-/// give that field `autofocus`, so that the page a refused form comes back
+/// True for the first field in error of a page (or Today's refused
+/// answer), false after: the macros give that field `autofocus`, so that the page a refused form comes back
 /// as puts the keyboard's focus there (and a screen reader reads its label
 /// and, through `aria-describedby`, its error) with or without script,
 /// instead of at the top of a page that looks unchanged. One per render

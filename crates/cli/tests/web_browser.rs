@@ -346,6 +346,12 @@ async fn a_clinic_and_a_person_in_headless_chromium() {
         Some("tz-error")
     );
     assert!(!b.text("p.field-error#tz-error").await.is_empty());
+    let focused = b.client.active_element().await.unwrap();
+    assert_eq!(
+        focused.attr("id").await.unwrap().as_deref(),
+        Some("tz"),
+        "the focus is on the first field in error"
+    );
     b.check_page("clinic-new-person-error", 422, true).await;
     b.fill("form#new-person input[name=name]", nasty).await;
     b.fill("form#new-person input[name=tz]", "Europe/Zurich")
@@ -855,7 +861,8 @@ async fn wait_for_path(b: &Browser, prefix: &str) {
 /// A person fed by an import signs in, answers a suggestion and has an own
 /// value refused, with the keyboard only (Tab and Enter) in Chromium with
 /// JavaScript off, at a phone's width: the skip link comes first, every
-/// control is reached, each form works as plain HTML. The answer's
+/// control is reached, each form works as plain HTML, a refused value
+/// comes back with the focus on its field. The answer's
 /// acknowledgement names the setting and the value in force beside the
 /// notice. The clinic's page of that person, with its copy of Today, and
 /// Today pass every page check and fit 360 px.
@@ -1033,6 +1040,13 @@ async fn a_person_answers_with_the_keyboard_in_a_browser_without_javascript() {
         assert_eq!(input.prop("value").await.unwrap().as_deref(), Some("999"));
         let described = input.attr("aria-describedby").await.unwrap().unwrap();
         assert!(p.exists(&format!("#{described}.field-error")).await);
+        // The keyboard's focus is on the refused field (read with its
+        // error), not back at the top of the page.
+        assert_eq!(
+            p.client.active_element().await.unwrap().element_id(),
+            input.element_id(),
+            "the focus after the refusal"
+        );
     }
     let history = abba(&["history", "--db", &db_s, "--person", "kai", "--json"]);
     let answered = history.matches("\"status\": \"accepted\"").count()

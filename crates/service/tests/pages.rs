@@ -2909,6 +2909,9 @@ async fn an_answer_from_an_older_tab_is_refused_with_a_message() {
         "the refusal is on the page: {}",
         p.html
     );
+    // ... with the focus on it (read first), the title saying so.
+    assert_eq!(autofocused(&p.html), ["answer-refused"], "{}", p.html);
+    assert!(p.html.contains("<title>Not saved · Today"), "{}", p.html);
     assert!(
         !p.section("<section id=\"setting-basal\"", "section")
             .contains("name=\"suggestion_id\""),
@@ -3608,8 +3611,9 @@ async fn the_new_person_form_sent_twice_makes_one_person_and_shows_it_both_times
 
 /// A person on pens (xDrip+'s injections, crates/io/tests/data): Today
 /// says the data show injections and no basal rate is suggested, in words
-/// a person can act on, never a flag of `abba person new`; the clinic's
-/// page names the command, as its form has no such field.
+/// a person can act on, never a flag of `abba person new` (nor does their
+/// report); the clinic's page and report name the command, as its form
+/// has no such field.
 #[tokio::test]
 async fn a_person_on_injections_reads_no_command_line_flag_on_their_pages() {
     let svc = Svc::new();
@@ -3642,8 +3646,11 @@ async fn a_person_on_injections_reads_no_command_line_flag_on_their_pages() {
     let note = &note[..note.find("</p>").unwrap()];
     assert!(note.contains("multiple daily injections"), "{note}");
     assert!(note.contains("your clinic"), "{note}");
-    for page in ["/", "/history"] {
+    // The report too (its notes repeat the advice's; the person opens it
+    // from History).
+    for page in ["/", "/history", "/report"] {
         let p = b.get(page).await;
+        assert_eq!(p.status, StatusCode::OK, "{page}");
         assert!(
             !p.html.contains("--allow-closed-loop") && !p.html.contains("--meal-windows"),
             "{page} names a flag: {}",
@@ -3658,6 +3665,14 @@ async fn a_person_on_injections_reads_no_command_line_flag_on_their_pages() {
             .contains("created with `abba person new --allow-closed-loop`"),
         "{}",
         clinic.html
+    );
+    let report = admin.get(&format!("/clinic/persons/{id}/report")).await;
+    assert!(
+        report
+            .html
+            .contains("created with `abba person new --allow-closed-loop`"),
+        "{}",
+        report.html
     );
 }
 
@@ -4029,4 +4044,213 @@ async fn the_clinics_pages_read_an_id_only_as_they_write_it() {
             assert!(!p.html.contains("zelda-q"), "{alias}: {}", p.html);
         }
     }
+}
+
+/// The elements of `html` with an `autofocus` attribute, as their `id`s.
+fn autofocused(html: &str) -> Vec<String> {
+    html.split('<')
+        .filter(|tag| {
+            let head = tag.split('>').next().unwrap_or("");
+            head.split_whitespace()
+                .any(|a| a == "autofocus" || a == "autofocus=\"\"")
+        })
+        .map(|tag| {
+            tag.split("id=\"")
+                .nth(1)
+                .and_then(|rest| rest.split('"').next())
+                .unwrap_or("(no id)")
+                .to_string()
+        })
+        .collect()
+}
+
+/// A refused form comes back with the keyboard's focus on its first field
+/// in error (`autofocus`, no script): a screen reader then reads that
+/// field's label and its error (`aria-describedby`) instead of starting
+/// again at the top of a page that looks unchanged. Exactly one field,
+/// the first in the page's order, on the clinic's new-person and bounds
+/// forms, the Log and an own value on Today, whose title then starts by
+/// saying it was not saved; a page without an error or a message moves no
+/// focus, and the page after a saved form puts it on its message.
+#[tokio::test]
+async fn a_refused_form_puts_the_focus_on_its_first_field_in_error() {
+    let svc = Svc::new();
+    let (mut admin, csrf) = signed_in(&svc, Role::Admin).await;
+    assert!(autofocused(&admin.get("/clinic").await.html).is_empty());
+    let f = [
+        ("csrf", csrf.as_str()),
+        ("name", "ana"),
+        ("tz", "Mars/Olympus"),
+        ("unit", "mg/dL"),
+        ("mode", "cgm"),
+        ("age_group", "adult"),
+        ("basal", "0,8x"),
+        ("carb_ratios", "10,12,11"),
+    ];
+    let p = admin.post_multipart("/clinic/persons", &f, &[]).await;
+    assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+    assert!(p.html.contains("id=\"basal-error\""), "{}", p.html);
+    assert_eq!(autofocused(&p.html), ["tz"], "{}", p.html);
+
+    let id = svc.person("bea").await;
+    let p = admin
+        .post(
+            &format!("/clinic/persons/{id}/bounds"),
+            &[
+                ("csrf", &csrf),
+                ("basal_min", "0.5"),
+                ("basal_max", "1,2"),
+                ("cr_min", "6"),
+                ("cr_max", "NaN"),
+            ],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+    assert_eq!(autofocused(&p.html), ["cr_max"], "{}", p.html);
+
+    let (id, _) = person_past_first_week(&svc, "cy", 9).await;
+    let (mut b, csrf) = signed_in(&svc, Role::Person(id as i64)).await;
+    let today = b.get("/").await;
+    assert!(autofocused(&today.html).is_empty());
+    let key = b.get("/log").await.hidden("submission");
+    let p = b
+        .post(
+            "/log/reading",
+            &[("csrf", &csrf), ("glucose", "abc"), ("submission", &key)],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+    assert_eq!(autofocused(&p.html), ["glucose"], "{}", p.html);
+
+    let sid = open_sid(today.section("<section id=\"setting-basal\"", "section"))
+        .expect("an open basal suggestion");
+    let key = today.hidden("submission");
+    let p = b
+        .post(
+            "/answer",
+            &[
+                ("csrf", &csrf),
+                ("suggestion_id", &sid),
+                ("action", "override"),
+                ("value", "abc"),
+                ("submission", &key),
+            ],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", p.html);
+    assert_eq!(autofocused(&p.html), [format!("value-{sid}")], "{}", p.html);
+    assert!(
+        p.html.contains("<title>Not saved · Today · abba</title>"),
+        "the title, said first, says so: {}",
+        p.html
+    );
+
+    // A form saved: the page it leads to puts the focus on what was saved
+    // (the status message), its title unchanged.
+    let key = b.get("/log").await.hidden("submission");
+    let p = b
+        .post(
+            "/log/reading",
+            &[("csrf", &csrf), ("glucose", "120"), ("submission", &key)],
+        )
+        .await;
+    assert_eq!(p.status, StatusCode::SEE_OTHER, "{}", p.html);
+    let saved = b.get(p.location()).await;
+    assert!(
+        saved.html.contains("id=\"status-message\""),
+        "{}",
+        saved.html
+    );
+    assert_eq!(
+        autofocused(&saved.html),
+        ["status-message"],
+        "{}",
+        saved.html
+    );
+    assert!(
+        saved.html.contains("<title>Log · abba</title>"),
+        "{}",
+        saved.html
+    );
+}
+
+/// The Glucose chart says its unit where a sighted reader looks (over the
+/// glucose axis, not only in its accessible name), and its days as a day
+/// and a month's name: "12-02" is the 2nd of December to some and the
+/// 12th of February to others.
+#[tokio::test]
+async fn the_glucose_chart_shows_its_unit_and_unambiguous_days() {
+    let svc = Svc::new();
+    let (id, _) = person_past_first_week(&svc, "bea", 8).await;
+    let (mut b, _) = signed_in(&svc, Role::Person(id as i64)).await;
+    for path in ["/glucose?range=24h", "/glucose?range=14d"] {
+        let p = b.get(path).await;
+        let svg = p.section("<svg id=\"glucose-chart\"", "svg");
+        let texts: Vec<&str> = svg
+            .split("<text ")
+            .skip(1)
+            .filter_map(|t| t.split('>').nth(1))
+            .map(|t| t.trim_end_matches("</text"))
+            .collect();
+        assert!(
+            texts.contains(&"mg&#x2f;dL") || texts.contains(&"mg/dL"),
+            "{path}: no visible unit among {texts:?}"
+        );
+        if path.ends_with("14d") {
+            let days: Vec<&str> = svg
+                .split("text-anchor=\"middle\">")
+                .skip(1)
+                .filter_map(|t| t.split("</text>").next())
+                .collect();
+            assert!(days.len() >= 3, "{days:?}");
+            for d in days {
+                let (day, month) = d.split_once(' ').unwrap_or_else(|| panic!("{d:?}"));
+                assert!(
+                    day.parse::<u8>().is_ok_and(|n| (1..=31).contains(&n))
+                        && [
+                            "Jan", "Feb", "Mar", "Apr", "May", "Jun", "Jul", "Aug", "Sep", "Oct",
+                            "Nov", "Dec"
+                        ]
+                        .contains(&month),
+                    "{d:?}"
+                );
+            }
+        }
+    }
+}
+
+/// Every table of the person's and the clinic's pages has a name (a
+/// caption, or the heading of its card through `aria-labelledby`): a
+/// screen reader's list of tables says what each one is.
+#[tokio::test]
+async fn every_table_on_the_pages_has_a_name() {
+    let svc = Svc::new();
+    let (id, _) = person_past_first_week(&svc, "bea", 8).await;
+    let (mut b, _) = signed_in(&svc, Role::Person(id as i64)).await;
+    let (mut admin, _) = signed_in(&svc, Role::Admin).await;
+    let mut pages = Vec::new();
+    for path in ["/", "/history", "/glucose?range=14d", "/glucose?range=24h"] {
+        pages.push((path.to_string(), b.get(path).await.html));
+    }
+    for path in ["/clinic".to_string(), format!("/clinic/persons/{id}")] {
+        let html = admin.get(&path).await.html;
+        pages.push((path, html));
+    }
+    let mut tables = 0;
+    for (path, html) in &pages {
+        for rest in html.split("<table").skip(1) {
+            tables += 1;
+            let (tag, after) = rest.split_once('>').unwrap();
+            let named = tag.contains("aria-labelledby=\"") || tag.contains("aria-label=\"");
+            assert!(
+                named || after.trim_start().starts_with("<caption>"),
+                "{path}: a table without a name: <table{tag}>"
+            );
+            if let Some(by) = tag.split("aria-labelledby=\"").nth(1) {
+                let by = &by[..by.find('"').unwrap()];
+                assert!(html.contains(&format!("id=\"{by}\"")), "{path}: {by}");
+            }
+        }
+    }
+    assert!(tables >= 5, "{tables}");
 }

@@ -16,12 +16,12 @@ use serde::Serialize;
 pub const WIDTH: f64 = 720.0;
 /// Height of the drawing.
 pub const HEIGHT: f64 = 320.0;
-/// Left margin (the glucose axis' labels).
-const LEFT: f64 = 48.0;
+/// Left margin (the glucose axis' labels, at a phone's larger size).
+const LEFT: f64 = 56.0;
 /// Right margin.
 const RIGHT: f64 = 12.0;
-/// Top margin.
-const TOP: f64 = 12.0;
+/// Top margin (the glucose unit above the axis' top label).
+const TOP: f64 = 52.0;
 /// Bottom margin (the time axis' labels).
 const BOTTOM: f64 = 36.0;
 /// Two CGM readings further apart than this are not joined.

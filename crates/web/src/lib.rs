@@ -66,6 +66,8 @@ fn env() -> &'static minijinja::Environment<'static> {
         // here so that nobody turns it off by accident.
         env.set_auto_escape_callback(minijinja::default_auto_escape_callback);
         env.set_formatter(shown_formatter);
+        env.add_function("first_invalid", first_invalid);
+        env.add_function("had_invalid", had_invalid);
         add_templates(env)
     })
 }
@@ -88,6 +90,27 @@ fn shown_formatter(
         }
     }
     minijinja::escape_formatter(out, state, value)
+}
+
+/// True for the first field in error of a page (or Today's refused
+/// answer), false after: the macros give that field `autofocus`, so that the page a refused form comes back
+/// as puts the keyboard's focus there (and a screen reader reads its label
+/// and, through `aria-describedby`, its error) with or without script,
+/// instead of at the top of a page that looks unchanged. One per render
+/// (a minijinja temp): HTML allows one `autofocus` per document.
+/// base.html renders the content first, then asks once more for the
+/// status message (a saved form's "Saved: ..."), which gets the focus
+/// when no field did.
+fn first_invalid(state: &minijinja::State) -> bool {
+    state
+        .set_temp("first_invalid", minijinja::Value::from(true))
+        .is_none()
+}
+
+/// True when a field in error has claimed the focus (the title then says
+/// the form was not saved).
+fn had_invalid(state: &minijinja::State) -> bool {
+    state.get_temp("first_invalid").is_some()
 }
 
 /// Renders the page `page` (a template name) with the layout and its model.

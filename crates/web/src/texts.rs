@@ -16,6 +16,9 @@ pub struct Texts {
     pub notice: &'static str,
     /// The skip link.
     pub skip: &'static str,
+    /// Before the title of a page whose form was not saved (a field in
+    /// error, an answer refused): a screen reader says the title first.
+    pub title_error: &'static str,
     /// The navigation's name.
     pub nav_label: &'static str,
     /// Sign out.
@@ -320,6 +323,7 @@ pub const EN: Texts = Texts {
     product: "abba",
     notice: "abba is research software, not a medical device. Nothing it shows is medical advice: discuss every suggestion with your clinician before you act on it.",
     skip: "Skip to the content",
+    title_error: "Not saved",
     nav_label: "Main",
     sign_out: "Sign out",
     signed_in_as: "Signed in as {name}",

@@ -566,7 +566,9 @@ impl Browser {
     /// screenshot `target/web-screens/NAME-WxH.png`; no axe violation of
     /// any impact; no SEVERE console message (a page answered with
     /// `status` other than 200 may log that status, nothing else); no
-    /// horizontal scroll at 320 px, 390 px or 1280 px; the landmarks and
+    /// horizontal scroll at 320 px, 390 px or 1280 px, and at 320 px no
+    /// caption off the screen nor a chart label under 9 px
+    /// ([`Browser::unreadable_at_320`]); the landmarks and
     /// the notice of the contract (`app_page`: every page but the printable
     /// report). Problems are collected in [`Browser::problems`].
     pub async fn check_page(&mut self, name: &str, status: u16, app_page: bool) {
@@ -609,6 +611,12 @@ impl Browser {
                 "320x640: horizontal scroll (scrollWidth {sw} > clientWidth {cw})"
             ));
         }
+        found.extend(
+            self.unreadable_at_320()
+                .await
+                .into_iter()
+                .map(|f| format!("320x640: {f}")),
+        );
         for (w, h) in VIEWPORTS {
             self.set_viewport(w, h).await;
             self.client
@@ -656,6 +664,48 @@ impl Browser {
             self.problems.push(format!("{name} ({path}): {f}"));
         }
         self.checked.push(name.to_string());
+    }
+
+    /// What a phone's reader cannot read although the page does not
+    /// scroll sideways: a table's caption running off the screen inside
+    /// its scrolling region (a caption is as wide as its table), and the
+    /// Glucose chart's labels drawn under 9 px high or over one another
+    /// (the chart is 720 units wide, shrunk to the screen).
+    pub async fn unreadable_at_320(&self) -> Vec<String> {
+        let v = self
+            .client
+            .execute(
+                r#"const out = [];
+                 for (const c of document.querySelectorAll('caption')) {
+                   const r = c.getBoundingClientRect();
+                   if (r.width > 0 && (r.left < -1 || r.right > window.innerWidth + 1)) {
+                     out.push('caption "' + c.textContent.slice(0, 40) + '" spans x ' + Math.round(r.left) + '-' + Math.round(r.right));
+                   }
+                 }
+                 const shown = Array.from(document.querySelectorAll('#glucose-chart text'))
+                   .filter((t) => t.getClientRects().length > 0);
+                 for (const [i, t] of shown.entries()) {
+                   const r = t.getBoundingClientRect();
+                   if (r.height < 9) { out.push('chart label "' + t.textContent + '" ' + r.height.toFixed(1) + ' px high'); }
+                   for (const u of shown.slice(i + 1)) {
+                     const q = u.getBoundingClientRect();
+                     if (r.left < q.right && q.left < r.right && r.top < q.bottom && q.top < r.bottom) {
+                       out.push('chart labels "' + t.textContent + '" and "' + u.textContent + '" overlap');
+                     }
+                   }
+                 }
+                 return out;"#,
+                vec![],
+            )
+            .await
+            .unwrap();
+        v.as_array()
+            .map(|a| {
+                a.iter()
+                    .filter_map(|x| x.as_str().map(str::to_string))
+                    .collect()
+            })
+            .unwrap_or_default()
     }
 
     /// The page's width and the viewport's when the page is wider (it

@@ -49,6 +49,9 @@ pub struct Glucose {
     pub ranges: Vec<LinkChoice>,
     /// The chart's accessible name.
     pub chart_title: String,
+    /// The glucose unit, written over the chart's glucose axis (its
+    /// numbers alone do not say mg/dL or mmol/L).
+    pub unit: &'static str,
     /// The chart (none: no reading in the range).
     pub chart: Option<abba_web::chart::Chart>,
     /// The summary (time in ranges, mean, readings).
@@ -224,6 +227,7 @@ pub fn model(live: &Live, range: Range, now: Option<Timestamp>) -> Glucose {
         return Glucose {
             ranges,
             chart_title,
+            unit: unit.name,
             chart: None,
             summary: Vec::new(),
             summary_note: None,
@@ -241,7 +245,8 @@ pub fn model(live: &Live, range: Range, now: Option<Timestamp>) -> Glucose {
         })
         .collect();
     // Ticks on local wall times: every 3 hours over a day, every 2 days'
-    // midnight over two weeks.
+    // midnight over two weeks (a day and a month's name: "12-02" reads as
+    // the 12th of February to many).
     let every = match range {
         Range::Day => 180,
         Range::TwoWeeks => 2 * 1440,
@@ -254,7 +259,7 @@ pub fn model(live: &Live, range: Range, now: Option<Timestamp>) -> Glucose {
             let l = local(t);
             let label = match range {
                 Range::Day => l.get(11..16).unwrap_or(&l).to_string(),
-                Range::TwoWeeks => l.get(5..10).unwrap_or(&l).to_string(),
+                Range::TwoWeeks => day_month(&l),
             };
             (t, label)
         })
@@ -318,6 +323,7 @@ pub fn model(live: &Live, range: Range, now: Option<Timestamp>) -> Glucose {
     Glucose {
         ranges,
         chart_title,
+        unit: unit.name,
         chart: Some(c),
         summary,
         summary_note: (cgm < mg.len()).then(|| EN.summary_share.to_string()),
@@ -325,6 +331,15 @@ pub fn model(live: &Live, range: Range, now: Option<Timestamp>) -> Glucose {
         table_caption: fill(EN.table_caption, &[("unit", unit.name)]),
         table_period,
     }
+}
+
+/// A local time `YYYY-MM-DD HH:MM` as its day and month, `2 Dec`
+/// (the time itself when it is not one).
+fn day_month(local: &str) -> String {
+    local
+        .get(..10)
+        .and_then(|d| d.parse::<jiff::civil::Date>().ok())
+        .map_or_else(|| local.to_string(), |d| d.strftime("%-d %b").to_string())
 }
 
 /// The readings by `bucket` minutes (local wall time), oldest first.

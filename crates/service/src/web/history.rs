@@ -160,7 +160,16 @@ fn effect_notes(live: &Live, fx: Option<&EffectSource>, notes: &mut Vec<String>)
 /// The report of person `id` as a page: the report's own HTML (one
 /// self-contained document with its inline stylesheet), served with a CSP
 /// that allows exactly that stylesheet (by its hash) and nothing else.
-async fn report(s: &AppState, id: i64, csrf: Option<String>, back: BackLink) -> PageResult {
+/// Its notes and reasons are the advice's sentences, worded by `words`
+/// for its reader (`advice_words`: the person's report names no flag of
+/// `abba person new`, the clinic's names the command).
+async fn report(
+    s: &AppState,
+    id: i64,
+    csrf: Option<String>,
+    back: BackLink,
+    words: fn(&str) -> String,
+) -> PageResult {
     let fx = s.effects();
     let out = s
         .person(id, false, move |store, live| {
@@ -169,6 +178,12 @@ async fn report(s: &AppState, id: i64, csrf: Option<String>, back: BackLink) -> 
             match abba_store::report::person_input(store, &name, REPORT_DAYS, unit) {
                 Ok(mut input) => {
                     effect_notes(live, fx.as_ref(), &mut input.notes);
+                    for note in &mut input.notes {
+                        *note = words(note);
+                    }
+                    for line in &mut input.suggestions {
+                        line.reason = words(&line.reason);
+                    }
                     input.back = Some(back);
                     person_report_html(&input)
                         .map(Some)
@@ -221,7 +236,7 @@ pub async fn person_report(State(s): State<AppState>, ctx: Ctx) -> Result<Respon
         href: "/".into(),
         label: "Back to Today".into(),
     };
-    report(&s, id, Some(w.csrf), back).await
+    report(&s, id, Some(w.csrf), back, super::advice_words::for_person).await
 }
 
 /// `GET /clinic/persons/{id}/report`: a person's report for the clinic.
@@ -239,7 +254,7 @@ pub async fn clinic_report(
         href: format!("/clinic/persons/{id}"),
         label: "Back to the person's page".into(),
     };
-    report(&s, id, Some(w.csrf), back).await
+    report(&s, id, Some(w.csrf), back, super::advice_words::for_clinic).await
 }
 
 /// This module's routes (merged by [`super::routes`]).

@@ -1,0 +1,141 @@
+//! A glucose reading exported again in the other unit or with other
+//! rounding: the person switched their vendor app from mg/dL to mmol/L (or
+//! back) between two exports, or the vendor changed how many decimals it
+//! writes. A reading with no id of its own (LibreView, CareLink, a plain
+//! CSV) is identified by its content, and 120 mg/dL read again as
+//! 6.7 mmol/L is 120.7 mg/dL: another content, another record, and the
+//! overlapping days would hold every reading twice.
+//!
+//! So a new CGM or meter reading identified by its content is the one
+//! already stored when the log holds, at the same instant, a reading of the
+//! same source and kind (CGM or meter) with the same censoring, stored by
+//! an earlier import, whose value differs by less than one step of the
+//! coarser unit ([`SAME_READING_MG_DL`]), and the new export does not hold
+//! that stored value at that instant (two meter readings of one minute in
+//! both exports stay two); each stored reading stands for one new reading
+//! at most. The stored value is kept (nothing the person gave is replaced
+//! by a rounder copy); the new one is counted as known, and said. A
+//! reading with an id (Clarity's transmitter clock) exported again in the
+//! other unit is likewise the stored one, not a newer version of it.
+
+use crate::backend::{args, Db, Q};
+use crate::error::StoreError;
+use abba_core::units::MG_DL_PER_MMOL_L;
+use abba_io::record::{Censor, Glucose};
+use abba_io::{Record, RecordKind, SourceId};
+use std::collections::{HashMap, HashSet};
+
+/// Two values of one reading in two exports differ by less than this: one
+/// step of 0.1 mmol/L (each rounding moves a value by at most half of its
+/// step: 0.05 mmol/L = 0.9 mg/dL and 0.5 mg/dL, and vendors' factors,
+/// 18.0 to 18.0182, differ by under 0.4 mg/dL at 22.2 mmol/L).
+pub const SAME_READING_MG_DL: f64 = 0.1 * MG_DL_PER_MMOL_L;
+
+/// A reading's kind and value: `(is_cgm, censor, mg/dL)`.
+fn reading(kind: &RecordKind) -> Option<(bool, Censor, f64)> {
+    match kind {
+        RecordKind::Cgm {
+            glucose: Glucose { mg_dl, censor },
+        } => Some((true, *censor, mg_dl.0)),
+        RecordKind::Smbg {
+            glucose: Glucose { mg_dl, censor },
+        } => Some((false, *censor, mg_dl.0)),
+        _ => None,
+    }
+}
+
+/// Whether a stored record (`stored`, its kind's stored text) and a new
+/// one under the same id are one reading in two units or roundings (a
+/// Clarity export in mg/dL, then in mmol/L: each EGV keeps its
+/// transmitter's id).
+pub fn same_reading(stored: &str, new: &RecordKind) -> Result<bool, StoreError> {
+    let Some((cgm, censor, value)) = reading(new) else {
+        return Ok(false);
+    };
+    let kind: RecordKind =
+        serde_json::from_str(stored).map_err(|e| StoreError::corrupt("record", e))?;
+    Ok(reading(&kind)
+        .is_some_and(|(c, s, v)| c == cgm && s == censor && (v - value).abs() < SAME_READING_MG_DL))
+}
+
+/// Whether `r` may be a stored reading exported again: a CGM or meter
+/// reading identified by its content.
+fn may_be_reexpressed(r: &Record) -> bool {
+    matches!(r.id, SourceId::Hash(_)) && reading(&r.kind).is_some()
+}
+
+/// What the new export holds at each instant of such readings ((source,
+/// instant in ms) -> the kinds' stored text), and the stored readings
+/// already taken by a new one in this import.
+#[derive(Default)]
+pub struct Reexported {
+    at: HashMap<(String, i64), HashSet<String>>,
+    taken: HashSet<(String, String)>,
+}
+
+impl Reexported {
+    /// The readings of the import that may be stored ones exported again.
+    pub fn of<'a>(
+        rows: impl Iterator<Item = (&'a str, i64, &'a Record)>,
+    ) -> Result<Self, StoreError> {
+        let mut at: HashMap<(String, i64), HashSet<String>> = HashMap::new();
+        for (source, ms, r) in rows.filter(|(_, _, r)| may_be_reexpressed(r)) {
+            let kind =
+                serde_json::to_string(&r.kind).map_err(|e| StoreError::corrupt("record", e))?;
+            at.entry((source.to_string(), ms)).or_default().insert(kind);
+        }
+        Ok(Reexported {
+            at,
+            taken: HashSet::new(),
+        })
+    }
+
+    /// Whether the new record `r` is a reading the log holds in another
+    /// unit or rounding (see the module's words); the stored reading it
+    /// matched is taken and matches no other.
+    pub fn known_as(
+        &mut self,
+        tx: &dyn Db,
+        person: i64,
+        source: &str,
+        at_ms: i64,
+        r: &Record,
+        import_id: i64,
+    ) -> Result<bool, StoreError> {
+        if !may_be_reexpressed(r) {
+            return Ok(false);
+        }
+        let in_export = self.at.get(&(source.to_string(), at_ms));
+        for row in tx.rows(Q::RecordsAtInstant, args![person, source, at_ms, import_id])? {
+            let (id, text) = (row.text(0)?, row.text(1)?);
+            if same_reading(&text, &r.kind)?
+                && !in_export.is_some_and(|k| k.contains(&text))
+                && self.taken.insert((source.to_string(), id))
+            {
+                return Ok(true);
+            }
+        }
+        Ok(false)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_reading_rounded_to_a_tenth_of_a_mmol_is_within_one_step() {
+        // Every whole mg/dL from 40 to 400, written as mmol/L with one
+        // decimal by either factor vendors use, reads back within the step.
+        for mg in 40..=400 {
+            for factor in [18.0, MG_DL_PER_MMOL_L, 18.0182] {
+                let mmol = (f64::from(mg) / factor * 10.0).round() / 10.0;
+                let back = mmol * MG_DL_PER_MMOL_L;
+                assert!(
+                    (back - f64::from(mg)).abs() < SAME_READING_MG_DL,
+                    "{mg} {factor}"
+                );
+            }
+        }
+    }
+}

@@ -6,6 +6,7 @@ pub mod carelink_clock;
 pub mod clarity;
 pub mod json;
 pub mod libreview;
+pub mod libreview_clock;
 pub mod libreview_columns;
 pub mod libreview_devices;
 pub mod nightscout;

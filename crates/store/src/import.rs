@@ -353,6 +353,8 @@ pub fn import_with(
     let mut edited = 0usize;
     let mut other_unit = 0usize;
     let mut reexported = crate::other_unit::Reexported::of(
+        &tx,
+        person.id,
         rows.iter()
             .map(|(source, _, at_ms, r, _, _)| (source.as_str(), *at_ms, *r)),
     )?;
@@ -375,9 +377,7 @@ pub fn import_with(
             };
             match stored {
                 Some((a, k)) if a == *at_ms && &k == kind => known += 1,
-                Some((a, k))
-                    if a == *at_ms && crate::other_unit::same_reading(&k, &record.kind)? =>
-                {
+                Some((a, k)) if a == *at_ms && crate::other_unit::same_reading(&k, record)? => {
                     known += 1;
                     other_unit += 1;
                 }

@@ -22,7 +22,7 @@ use crate::backend::{args, Db, Q};
 use crate::error::StoreError;
 use abba_core::units::MG_DL_PER_MMOL_L;
 use abba_io::record::{Censor, Glucose};
-use abba_io::{Record, RecordKind, SourceId};
+use abba_io::{Record, RecordKind, Source, SourceId};
 use std::collections::{HashMap, HashSet};
 
 /// Two values of one reading in two exports differ by less than this: one
@@ -44,12 +44,24 @@ fn reading(kind: &RecordKind) -> Option<(bool, Censor, f64)> {
     }
 }
 
+/// Whether a source's exports write glucose in the unit its app shows
+/// (Clarity, LibreView, CareLink, a plain CSV), which the person may
+/// switch. Nightscout's `sgv` is always mg/dL and Tidepool's values always
+/// mmol/L: a document of theirs rewritten with another value is a newer
+/// version (an uploader's recalibration), never a re-export.
+pub fn in_display_unit(source: Source) -> bool {
+    !matches!(source, Source::Nightscout | Source::Tidepool)
+}
+
 /// Whether a stored record (`stored`, its kind's stored text) and a new
-/// one under the same id are one reading in two units or roundings (a
-/// Clarity export in mg/dL, then in mmol/L: each EGV keeps its
-/// transmitter's id).
-pub fn same_reading(stored: &str, new: &RecordKind) -> Result<bool, StoreError> {
-    let Some((cgm, censor, value)) = reading(new) else {
+/// one (`new`) under the same id are one reading in two units or
+/// roundings (a Clarity export in mg/dL, then in mmol/L: each EGV keeps
+/// its transmitter's id).
+pub fn same_reading(stored: &str, new: &Record) -> Result<bool, StoreError> {
+    if !in_display_unit(new.source) {
+        return Ok(false);
+    }
+    let Some((cgm, censor, value)) = reading(&new.kind) else {
         return Ok(false);
     };
     let kind: RecordKind =
@@ -61,31 +73,60 @@ pub fn same_reading(stored: &str, new: &RecordKind) -> Result<bool, StoreError> 
 /// Whether `r` may be a stored reading exported again: a CGM or meter
 /// reading identified by its content.
 fn may_be_reexpressed(r: &Record) -> bool {
-    matches!(r.id, SourceId::Hash(_)) && reading(&r.kind).is_some()
+    matches!(r.id, SourceId::Hash(_)) && reading(&r.kind).is_some() && in_display_unit(r.source)
 }
 
 /// What the new export holds at each instant of such readings ((source,
-/// instant in ms) -> the kinds' stored text), and the stored readings
-/// already taken by a new one in this import.
+/// instant in ms) -> the kinds' stored text), the instants at which the
+/// log held a reading of each source before the import (sorted; one query
+/// per source, not one per new reading) and the stored readings already
+/// taken by a new one in this import.
 #[derive(Default)]
 pub struct Reexported {
     at: HashMap<(String, i64), HashSet<String>>,
+    held: HashMap<String, Vec<i64>>,
     taken: HashSet<(String, String)>,
 }
 
 impl Reexported {
-    /// The readings of the import that may be stored ones exported again.
+    /// The readings of the import that may be stored ones exported
+    /// again, and what the log of `person` holds in their span (read
+    /// before the import writes).
     pub fn of<'a>(
+        tx: &dyn Db,
+        person: i64,
         rows: impl Iterator<Item = (&'a str, i64, &'a Record)>,
     ) -> Result<Self, StoreError> {
+        let rows: Vec<(&str, i64, &Record)> =
+            rows.filter(|(_, _, r)| may_be_reexpressed(r)).collect();
+        let mut span: HashMap<&str, (i64, i64)> = HashMap::new();
+        for &(source, ms, _) in &rows {
+            let s = span.entry(source).or_insert((ms, ms));
+            *s = (s.0.min(ms), s.1.max(ms));
+        }
+        let mut held: HashMap<String, Vec<i64>> = HashMap::new();
+        for (source, (from, to)) in span {
+            let mut instants = tx
+                .rows(Q::RecordGlucoseInstants, args![person, source, from, to])?
+                .iter()
+                .map(|r| r.int(0))
+                .collect::<Result<Vec<i64>, _>>()?;
+            instants.sort_unstable();
+            held.insert(source.to_string(), instants);
+        }
+        // Only the instants the log holds a reading at can match one.
         let mut at: HashMap<(String, i64), HashSet<String>> = HashMap::new();
-        for (source, ms, r) in rows.filter(|(_, _, r)| may_be_reexpressed(r)) {
+        for (source, ms, r) in rows {
+            if held[source].binary_search(&ms).is_err() {
+                continue;
+            }
             let kind =
                 serde_json::to_string(&r.kind).map_err(|e| StoreError::corrupt("record", e))?;
             at.entry((source.to_string(), ms)).or_default().insert(kind);
         }
         Ok(Reexported {
             at,
+            held,
             taken: HashSet::new(),
         })
     }
@@ -102,13 +143,14 @@ impl Reexported {
         r: &Record,
         import_id: i64,
     ) -> Result<bool, StoreError> {
-        if !may_be_reexpressed(r) {
+        let held = (self.held.get(source)).is_some_and(|h| h.binary_search(&at_ms).is_ok());
+        if !held || !may_be_reexpressed(r) {
             return Ok(false);
         }
         let in_export = self.at.get(&(source.to_string(), at_ms));
         for row in tx.rows(Q::RecordsAtInstant, args![person, source, at_ms, import_id])? {
             let (id, text) = (row.text(0)?, row.text(1)?);
-            if same_reading(&text, &r.kind)?
+            if same_reading(&text, r)?
                 && !in_export.is_some_and(|k| k.contains(&text))
                 && self.taken.insert((source.to_string(), id))
             {

@@ -489,3 +489,27 @@ fn a_clarity_reexport_in_mmol_is_neither_added_nor_a_newer_version() {
         assert!(first.iter().all(|r| after.contains(r)));
     }
 }
+
+/// Nightscout's `sgv` is always mg/dL: an entry rewritten 1 mg/dL higher
+/// (an uploader's recalibration) is a newer version, not the same reading
+/// in another unit.
+#[test]
+fn a_nightscout_entry_rewritten_by_1_mg_dl_is_a_newer_version() {
+    let dir = TempDir::new("ns_rewrite");
+    let mut store = dir.store();
+    store.create_person(&person("ana")).unwrap();
+    let entries = nightscout_entries(24, "xDrip-DexcomG6", 0, "x");
+    store
+        .import_at("ana", &read(&[("a.json", entries.clone())]), now())
+        .unwrap();
+    let mut docs: Vec<serde_json::Value> = serde_json::from_slice(&entries).unwrap();
+    docs[0]["sgv"] = (docs[0]["sgv"].as_i64().unwrap() + 1).into();
+    let b = store
+        .import_at(
+            "ana",
+            &read(&[("b.json", serde_json::to_vec(&docs).unwrap())]),
+            now(),
+        )
+        .unwrap();
+    assert_eq!((b.updated, b.known, b.other_unit), (1, 23, 0), "{b:?}");
+}

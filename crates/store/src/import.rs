@@ -136,7 +136,7 @@ impl ImportSummary {
             ));
         }
         out.push(format!(
-            "Duplicates within and between the files: {} exact repeats, {} older versions of a repeated id, {} carried by two uploads seconds apart (Tidepool's pump and Apple Health, two Nightscout uploaders of one sensor).",
+            "Duplicates within and between the files: {} repeats (the same record, or a glucose reading in two files' units), {} older versions of a repeated id, {} carried by two uploads seconds apart (Tidepool's pump and Apple Health, two Nightscout uploaders of one sensor).",
             self.duplicates_in_files, self.older_versions_in_files, self.cross_upload_duplicates
         ));
         if self.copies_of_stored_doses > 0 {

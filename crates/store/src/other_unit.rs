@@ -10,7 +10,7 @@
 //! already stored when the log holds, at the same instant, a reading of the
 //! same source and kind (CGM or meter) with the same censoring, stored by
 //! an earlier import, whose value differs by less than one step of the
-//! coarser unit ([`SAME_READING_MG_DL`]), and the new export does not hold
+//! coarser unit ([`abba_io::record::SAME_READING_MG_DL`]), and the new export does not hold
 //! that stored value at that instant (two meter readings of one minute in
 //! both exports stay two); each stored reading stands for one new reading
 //! at most. The stored value is kept (nothing the person gave is replaced
@@ -20,60 +20,32 @@
 
 use crate::backend::{args, Db, Q};
 use crate::error::StoreError;
-use abba_core::units::MG_DL_PER_MMOL_L;
-use abba_io::record::{Censor, Glucose};
-use abba_io::{Record, RecordKind, Source, SourceId};
+use abba_io::record::in_display_unit;
+use abba_io::{Record, RecordKind, SourceId};
 use std::collections::{HashMap, HashSet};
 
-/// Two values of one reading in two exports differ by less than this: one
-/// step of 0.1 mmol/L (each rounding moves a value by at most half of its
-/// step: 0.05 mmol/L = 0.9 mg/dL and 0.5 mg/dL, and vendors' factors,
-/// 18.0 to 18.0182, differ by under 0.4 mg/dL at 22.2 mmol/L).
-pub const SAME_READING_MG_DL: f64 = 0.1 * MG_DL_PER_MMOL_L;
-
-/// A reading's kind and value: `(is_cgm, censor, mg/dL)`.
-fn reading(kind: &RecordKind) -> Option<(bool, Censor, f64)> {
-    match kind {
-        RecordKind::Cgm {
-            glucose: Glucose { mg_dl, censor },
-        } => Some((true, *censor, mg_dl.0)),
-        RecordKind::Smbg {
-            glucose: Glucose { mg_dl, censor },
-        } => Some((false, *censor, mg_dl.0)),
-        _ => None,
-    }
-}
-
-/// Whether a source's exports write glucose in the unit its app shows
-/// (Clarity, LibreView, CareLink, a plain CSV), which the person may
-/// switch. Nightscout's `sgv` is always mg/dL and Tidepool's values always
-/// mmol/L: a document of theirs rewritten with another value is a newer
-/// version (an uploader's recalibration), never a re-export.
-pub fn in_display_unit(source: Source) -> bool {
-    !matches!(source, Source::Nightscout | Source::Tidepool)
-}
-
 /// Whether a stored record (`stored`, its kind's stored text) and a new
-/// one (`new`) under the same id are one reading in two units or
-/// roundings (a Clarity export in mg/dL, then in mmol/L: each EGV keeps
-/// its transmitter's id).
+/// one (`new`) are one reading in two units or roundings
+/// ([`abba_io::record::same_reading`]; a Clarity export in mg/dL, then in
+/// mmol/L: each EGV keeps its transmitter's id).
 pub fn same_reading(stored: &str, new: &Record) -> Result<bool, StoreError> {
-    if !in_display_unit(new.source) {
+    if !may_be_reading(new) {
         return Ok(false);
     }
-    let Some((cgm, censor, value)) = reading(&new.kind) else {
-        return Ok(false);
-    };
     let kind: RecordKind =
         serde_json::from_str(stored).map_err(|e| StoreError::corrupt("record", e))?;
-    Ok(reading(&kind)
-        .is_some_and(|(c, s, v)| c == cgm && s == censor && (v - value).abs() < SAME_READING_MG_DL))
+    Ok(abba_io::record::same_reading(new, &kind))
+}
+
+/// A CGM or meter reading of a source whose unit the person may switch.
+fn may_be_reading(r: &Record) -> bool {
+    matches!(r.kind, RecordKind::Cgm { .. } | RecordKind::Smbg { .. }) && in_display_unit(r.source)
 }
 
 /// Whether `r` may be a stored reading exported again: a CGM or meter
 /// reading identified by its content.
 fn may_be_reexpressed(r: &Record) -> bool {
-    matches!(r.id, SourceId::Hash(_)) && reading(&r.kind).is_some() && in_display_unit(r.source)
+    matches!(r.id, SourceId::Hash(_)) && may_be_reading(r)
 }
 
 /// What the new export holds at each instant of such readings ((source,
@@ -163,7 +135,8 @@ impl Reexported {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use abba_core::units::MG_DL_PER_MMOL_L;
+    use abba_io::record::SAME_READING_MG_DL;
 
     #[test]
     fn a_reading_rounded_to_a_tenth_of_a_mmol_is_within_one_step() {

@@ -513,3 +513,35 @@ fn a_nightscout_entry_rewritten_by_1_mg_dl_is_a_newer_version() {
         .unwrap();
     assert_eq!((b.updated, b.known, b.other_unit), (1, 23, 0), "{b:?}");
 }
+
+/// Both exports given to one import, the first in mg/dL and the second in
+/// mmol/L: the week they share is read once (the first file's values).
+#[test]
+fn two_exports_in_two_units_imported_together_give_their_union() {
+    let batch = read(&[
+        ("a.csv", libreview(0, 14, false)),
+        ("b.csv", libreview(7, 21, true)),
+    ]);
+    assert_eq!(batch.duplicates.values().sum::<usize>(), 7 * 289);
+    let dir = TempDir::new("units-together");
+    let mut store = dir.store();
+    store.create_person(&person("ana")).unwrap();
+    let s = store.import_at("ana", &batch, now()).unwrap();
+    assert_eq!(
+        (s.added, s.duplicates_in_files),
+        (21 * 289, 7 * 289),
+        "{s:?}"
+    );
+    let dir2 = TempDir::new("units-apart");
+    let mut apart = dir2.store();
+    apart.create_person(&person("ana")).unwrap();
+    for (name, bytes) in [
+        ("a.csv", libreview(0, 14, false)),
+        ("b.csv", libreview(7, 21, true)),
+    ] {
+        apart
+            .import_at("ana", &read(&[(name, bytes)]), now())
+            .unwrap();
+    }
+    assert_eq!(contents(&store, "ana"), contents(&apart, "ana"));
+}

@@ -72,6 +72,41 @@ pub fn content_id(source: Source, at: jiff::Timestamp, kind: &RecordKind) -> Sou
     ]))
 }
 
+/// Two values of one glucose reading in two exports, one in mg/dL and one
+/// in mmol/L (or with other decimals), differ by less than this: one step
+/// of 0.1 mmol/L (each rounding moves a value by at most half of its step:
+/// 0.05 mmol/L = 0.9 mg/dL and 0.5 mg/dL, and vendors' factors, 18.0 to
+/// 18.0182, differ by under 0.4 mg/dL at 22.2 mmol/L).
+pub const SAME_READING_MG_DL: f64 = 0.1 * abba_core::units::MG_DL_PER_MMOL_L;
+
+/// Whether a source's exports write glucose in the unit its app shows
+/// (Clarity, LibreView, CareLink, a plain CSV), which the person may
+/// switch. Nightscout's `sgv` is always mg/dL and Tidepool's values always
+/// mmol/L: a document of theirs with another value is another version.
+pub fn in_display_unit(source: Source) -> bool {
+    !matches!(source, Source::Nightscout | Source::Tidepool)
+}
+
+/// Whether two records of one source at one instant are one glucose
+/// reading written in two units or roundings: both CGM or both meter, the
+/// same censoring, values within [`SAME_READING_MG_DL`], from a source
+/// [`in_display_unit`].
+pub fn same_reading(a: &Record, b: &RecordKind) -> bool {
+    fn reading(kind: &RecordKind) -> Option<(bool, Censor, f64)> {
+        match kind {
+            RecordKind::Cgm { glucose } => Some((true, glucose.censor, glucose.mg_dl.0)),
+            RecordKind::Smbg { glucose } => Some((false, glucose.censor, glucose.mg_dl.0)),
+            _ => None,
+        }
+    }
+    match (in_display_unit(a.source), reading(&a.kind), reading(b)) {
+        (true, Some((c, s, v)), Some((c2, s2, v2))) => {
+            c == c2 && s == s2 && (v - v2).abs() < SAME_READING_MG_DL
+        }
+        _ => false,
+    }
+}
+
 /// Where the record was read: the file (an index into the batch's file
 /// list) and its line (text formats), array index (JSON formats) or sheet
 /// and row (workbooks).

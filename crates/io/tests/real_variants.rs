@@ -95,13 +95,16 @@ fn libreview_in_german_with_mmol_and_decimal_commas() {
 
 #[test]
 fn libreview_in_spanish_dutch_and_french_after_metadata_lines() {
+    // (Read together as one person's files: the Dutch reading is 6.8
+    // mmol/L, not within 0.1 mmol/L of the Spanish 104 mg/dL at the same
+    // minute, which would be the same reading in another unit.)
     let es = "Informe del paciente X,Generado el,05-11-2020 00:45 UTC,Generado por,Y\nX,\n\
               Dispositivo,Número de serie,Sello de tiempo del dispositivo,Tipo de registro,Historial de glucosa mg/dL,Escaneo de glucosa mg/dL,Insulina de acción rápida no numérica,Notas\n\
               FreeStyle LibreLink,,13-05-2020 08:00,0,104,,,\n\
               FreeStyle LibreLink,,13-05-2020 08:15,0,110,,,\n";
     let nl = "Glucosegegevens,Gegenereerd op,13-05-2020 09:00 UTC,Gegenereerd door,Z\n\
               Apparaat,Serienummer,Tijdstempel apparaat,Gegevenstype,Historische glucose mmol/l,Scan Glucose mmol/l,Niet-numerieke snelwerkende insuline,Snelwerkende insuline (eenheden),Niet-numeriek voedsel,Koolhydraten (gram),Koolhydraten (porties),Niet-numerieke langwerkende insuline,Langwerkende insuline (eenheden),Notities,Strip Glucose mmol/l,Keton mmol/l,Maaltijdinsuline (eenheden),Correctie insuline (eenheden),Wijzigen insuline gebruiker (eenheden)\n\
-              FreeStyle Libre,S,13-05-2020 08:00,0,\"5,8\",,,,,,,,,,,,,,\n\
+              FreeStyle Libre,S,13-05-2020 08:00,0,\"6,8\",,,,,,,,,,,,,,\n\
               FreeStyle Libre,S,13-05-2020 08:05,5,,,,,,40,,,,,,,,,\n";
     let fr = "Données de glucose,Généré le,05-13-2020 09:00 UTC,Généré par,W\n\
               Appareil,Numéro de série,Horodatage de l'appareil,Type d'enregistrement,Historique de la glycémie mg/dL,Glycémie de la numérisation mg/dL,Insuline à action rapide non numérique,Insuline à action rapide (unités),Glucides (grammes)\n\

@@ -59,6 +59,11 @@ pub struct ImportSummary {
     /// export and this one ([`crate::edited`]): the stored value replaced
     /// (also counted in `updated`).
     pub edited: usize,
+    /// CGM and meter readings the log held in another unit or rounding
+    /// (the vendor's app switched from mg/dL to mmol/L between two
+    /// exports, [`crate::other_unit`]): the stored value kept (also
+    /// counted in `known`).
+    pub other_unit: usize,
     /// On the days this import touched, records of a kind of data that
     /// the log holds (stored, this import's or an earlier one's) from a
     /// source other than the one that covers that day more fully
@@ -131,7 +136,7 @@ impl ImportSummary {
             ));
         }
         out.push(format!(
-            "Duplicates within and between the files: {} exact repeats, {} older versions of a repeated id, {} carried by two uploads seconds apart (Tidepool's pump and Apple Health, two Nightscout uploaders of one sensor).",
+            "Duplicates within and between the files: {} repeats (the same record, or a glucose reading in two files' units), {} older versions of a repeated id, {} carried by two uploads seconds apart (Tidepool's pump and Apple Health, two Nightscout uploaders of one sensor).",
             self.duplicates_in_files, self.older_versions_in_files, self.cross_upload_duplicates
         ));
         if self.copies_of_stored_doses > 0 {
@@ -139,6 +144,12 @@ impl ImportSummary {
                 "{} of the known records are copies of doses already stored from an earlier import or sync: the same bolus or temporary basal under another Nightscout document within {} s (AndroidAPS uploading its pump history again), counted once.",
                 records(self.copies_of_stored_doses),
                 abba_io::read::nightscout::COPY_WITHIN_S
+            ));
+        }
+        if self.other_unit > 0 {
+            out.push(format!(
+                "{} of the known records are glucose readings already stored in another unit or rounding (the export's app switched between mg/dL and mmol/L, or writes other decimals): the same instant, kind and reading within 0.1 mmol/L; the stored value was kept, not added to.",
+                records(self.other_unit)
             ));
         }
         if self.edited > 0 {
@@ -340,6 +351,13 @@ pub fn import_with(
     let (mut added, mut known, mut updated) = (0usize, 0usize, 0usize);
     let mut copies_of_stored_doses = 0usize;
     let mut edited = 0usize;
+    let mut other_unit = 0usize;
+    let mut reexported = crate::other_unit::Reexported::of(
+        &tx,
+        person.id,
+        rows.iter()
+            .map(|(source, _, at_ms, r, _, _)| (source.as_str(), *at_ms, *r)),
+    )?;
     let exported = crate::edited::Exported::of(
         rows.iter()
             .map(|(source, _, at_ms, r, _, _)| (source.as_str(), *at_ms, *r)),
@@ -359,6 +377,10 @@ pub fn import_with(
             };
             match stored {
                 Some((a, k)) if a == *at_ms && &k == kind => known += 1,
+                Some((a, k)) if a == *at_ms && crate::other_unit::same_reading(&k, record)? => {
+                    known += 1;
+                    other_unit += 1;
+                }
                 Some(_) if *is_id => {
                     tx.execute(
                         Q::RecordReplace,
@@ -412,15 +434,20 @@ pub fn import_with(
                                     PumpIdentity::of_origin(stored).as_ref(),
                                 )
                             });
-                    let edit_of = match by_content || copy {
+                    let reexpressed = !by_content
+                        && !copy
+                        && reexported
+                            .known_as(&tx, person.id, source, *at_ms, record, import_id)?;
+                    let edit_of = match by_content || copy || reexpressed {
                         true => None,
                         false => crate::edited::edit_of(
                             &tx, person.id, source, *at_ms, record, import_id, &exported,
                         )?,
                     };
-                    if by_content || copy {
+                    if by_content || copy || reexpressed {
                         known += 1;
                         copies_of_stored_doses += usize::from(copy);
+                        other_unit += usize::from(reexpressed);
                     } else if let Some(old) = edit_of {
                         tx.execute(Q::RecordDelete, args![person.id, source, &old])?;
                         tx.execute(
@@ -471,6 +498,7 @@ pub fn import_with(
         cross_upload_duplicates: batch.cross_upload.values().sum(),
         copies_of_stored_doses,
         edited,
+        other_unit,
         set_aside,
         future,
         too_old,

@@ -39,6 +39,7 @@ pub mod link;
 pub mod live;
 pub mod log;
 pub mod one_source;
+pub mod other_unit;
 pub mod person;
 pub mod replay;
 pub mod report;

@@ -24,4 +24,5 @@ mod person_path;
 mod pump_ids;
 mod reexports;
 mod tidepool;
+mod trips;
 mod two_routes;

@@ -14,10 +14,12 @@
 //! ([`libreview_columns`]); numbers may use a decimal comma (`"5,6"`).
 //! Scan (type 1), ketone (3) and note (6) rows are counted, not read.
 //! One sensor's history uploaded by two devices is read once
-//! ([`libreview_devices`]).
+//! ([`libreview_devices`]). A device clock set back in the file (a trip
+//! west) is reported and its repeated times not read ([`libreview_clock`]).
 
 use abba_core::{Grams, MgDl, Units};
 
+use super::libreview_clock;
 use super::libreview_columns::{self, Role};
 use super::libreview_devices;
 use super::table::{number, Table};
@@ -191,7 +193,7 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
     let mut t = Table::open(file, bytes, header_at)?;
     let cols = Columns::of(&t, ctx)?;
     let tz = ctx.require_tz("LibreView writes device times without an offset")?;
-    let mut wall = WallClock::new(tz);
+    let mut wall = WallClock::new(tz.clone());
     let time_name = t.header[cols.time].clone();
     let (order, from) = date_order(
         &mut Table::open(file, bytes, header_at)?,
@@ -261,6 +263,9 @@ pub fn read(ctx: &Ctx<'_>, bytes: &[u8]) -> Result<Vec<Record>, IoError> {
                 origin: ctx.origin_line(line),
             });
         }
+    }
+    if let Some(note) = libreview_clock::mark(&mut out, &tz) {
+        ctx.note(note);
     }
     if historic_rows == 0 && scan_rows > 0 {
         // Without a word, `metrics` would only find no CGM reading.

@@ -6,6 +6,7 @@ pub mod carelink_clock;
 pub mod clarity;
 pub mod json;
 pub mod libreview;
+pub mod libreview_clock;
 pub mod libreview_columns;
 pub mod libreview_devices;
 pub mod nightscout;
@@ -662,7 +663,10 @@ pub struct Batch {
     /// Records in time order (stable: equal instants keep file order).
     pub records: Vec<Record>,
     /// Records removed as duplicates (same instant, same kind and values,
-    /// as when two exports overlap or a row is repeated), by kind.
+    /// as when two exports overlap or a row is repeated; a glucose reading
+    /// of two files of one source within
+    /// [`crate::record::SAME_READING_MG_DL`], the files in two units), by
+    /// kind.
     pub duplicates: BTreeMap<String, usize>,
     /// Older versions of a record whose id came again with other content
     /// (Nightscout documents AndroidAPS rewrites): the latest version is
@@ -1020,8 +1024,15 @@ pub fn merge_records(records: &mut Vec<Record>) -> Removed {
             group_start = write;
         }
         let r = &records[read];
+        // Also the same glucose reading in two files of one source, one
+        // in mg/dL and one in mmol/L (the app switched between two
+        // exports): the first file's is kept.
         let duplicate = records[group_start..write].iter().any(|k| {
-            k.kind == r.kind && (!matches!(r.kind, RecordKind::Ignored { .. }) || k.id == r.id)
+            (k.kind == r.kind && (!matches!(r.kind, RecordKind::Ignored { .. }) || k.id == r.id))
+                || (k.source == r.source
+                    && k.origin.file != r.origin.file
+                    && matches!(k.id, SourceId::Hash(_))
+                    && crate::record::same_reading(k, &r.kind))
         });
         if duplicate {
             *duplicates.entry(r.kind.name().to_string()).or_default() += 1;

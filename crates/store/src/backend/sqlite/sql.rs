@@ -105,6 +105,9 @@ statements! {
     /// The records of one source at one instant stored by other imports
     /// (`abba_store::edited`).
     RecordsAtInstant = "SELECT source_id, kind FROM record WHERE person_id = ?1 AND source = ?2 AND at_ms = ?3 AND import_id <> ?4";
+    /// The instants at which the log holds a glucose reading of one
+    /// source within a window (`abba_store::other_unit`).
+    RecordGlucoseInstants = "SELECT at_ms FROM record WHERE person_id = ?1 AND source = ?2 AND at_ms BETWEEN ?3 AND ?4 AND (kind LIKE '{\"type\":\"cgm\"%' OR kind LIKE '{\"type\":\"smbg\"%')";
     /// Record put.
     RecordPut = "INSERT INTO record (person_id, source, source_id, at_ms, kind, origin, import_id) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)";
     /// Import delete.

@@ -353,11 +353,9 @@ pub fn import_with(
     let mut edited = 0usize;
     let mut other_unit = 0usize;
     let mut reexported = crate::other_unit::Reexported::of(
-        &tx,
-        person.id,
         rows.iter()
             .map(|(source, _, at_ms, r, _, _)| (source.as_str(), *at_ms, *r)),
-    )?;
+    );
     let exported = crate::edited::Exported::of(
         rows.iter()
             .map(|(source, _, at_ms, r, _, _)| (source.as_str(), *at_ms, *r)),

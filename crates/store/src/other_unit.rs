@@ -48,35 +48,42 @@ fn may_be_reexpressed(r: &Record) -> bool {
     matches!(r.id, SourceId::Hash(_)) && may_be_reading(r)
 }
 
-/// What the new export holds at each instant of such readings ((source,
-/// instant in ms) -> the kinds' stored text), the instants at which the
-/// log held a reading of each source before the import (sorted; one query
-/// per source, not one per new reading) and the stored readings already
-/// taken by a new one in this import.
+/// The import's readings that may be stored ones exported again, the
+/// stored readings already taken by a new one in this import, and, once a
+/// new reading of that kind reaches the store, the [`Index`]: a re-import
+/// whose readings are all known by their ids (years of them) builds none.
 #[derive(Default)]
-pub struct Reexported {
-    at: HashMap<(String, i64), HashSet<String>>,
-    held: HashMap<String, Vec<i64>>,
+pub struct Reexported<'a> {
+    rows: Vec<(&'a str, i64, &'a Record)>,
+    index: Option<Index<'a>>,
     taken: HashSet<(String, String)>,
 }
 
-impl Reexported {
-    /// The readings of the import that may be stored ones exported
-    /// again, and what the log of `person` holds in their span (read
-    /// before the import writes).
-    pub fn of<'a>(
+/// What the new export holds at each instant the log holds a reading of
+/// its source ((source, instant in ms) -> its readings there, borrowed from
+/// the import's rows: their kinds are written out only where a new reading
+/// meets a stored one), and those instants (sorted; one query per source,
+/// not one per new reading).
+struct Index<'a> {
+    at: HashMap<(&'a str, i64), Vec<&'a Record>>,
+    held: HashMap<&'a str, Vec<i64>>,
+}
+
+impl<'a> Index<'a> {
+    /// The index of `rows` against the log of `person`. The instants may
+    /// hold this import's own readings: they only narrow the look-up, whose
+    /// query leaves this import out.
+    fn of(
         tx: &dyn Db,
         person: i64,
-        rows: impl Iterator<Item = (&'a str, i64, &'a Record)>,
+        rows: &[(&'a str, i64, &'a Record)],
     ) -> Result<Self, StoreError> {
-        let rows: Vec<(&str, i64, &Record)> =
-            rows.filter(|(_, _, r)| may_be_reexpressed(r)).collect();
         let mut span: HashMap<&str, (i64, i64)> = HashMap::new();
-        for &(source, ms, _) in &rows {
+        for &(source, ms, _) in rows {
             let s = span.entry(source).or_insert((ms, ms));
             *s = (s.0.min(ms), s.1.max(ms));
         }
-        let mut held: HashMap<String, Vec<i64>> = HashMap::new();
+        let mut held: HashMap<&str, Vec<i64>> = HashMap::new();
         for (source, (from, to)) in span {
             let mut instants = tx
                 .rows(Q::RecordGlucoseInstants, args![person, source, from, to])?
@@ -84,28 +91,32 @@ impl Reexported {
                 .map(|r| r.int(0))
                 .collect::<Result<Vec<i64>, _>>()?;
             instants.sort_unstable();
-            held.insert(source.to_string(), instants);
+            held.insert(source, instants);
         }
         // Only the instants the log holds a reading at can match one.
-        let mut at: HashMap<(String, i64), HashSet<String>> = HashMap::new();
-        for (source, ms, r) in rows {
-            if held[source].binary_search(&ms).is_err() {
-                continue;
+        let mut at: HashMap<(&str, i64), Vec<&Record>> = HashMap::new();
+        for &(source, ms, r) in rows {
+            if held[source].binary_search(&ms).is_ok() {
+                at.entry((source, ms)).or_default().push(r);
             }
-            let kind =
-                serde_json::to_string(&r.kind).map_err(|e| StoreError::corrupt("record", e))?;
-            at.entry((source.to_string(), ms)).or_default().insert(kind);
         }
-        Ok(Reexported {
-            at,
-            held,
+        Ok(Index { at, held })
+    }
+}
+
+impl<'a> Reexported<'a> {
+    /// The readings of the import that may be stored ones exported again.
+    pub fn of(rows: impl Iterator<Item = (&'a str, i64, &'a Record)>) -> Self {
+        Reexported {
+            rows: rows.filter(|(_, _, r)| may_be_reexpressed(r)).collect(),
+            index: None,
             taken: HashSet::new(),
-        })
+        }
     }
 
-    /// Whether the new record `r` is a reading the log holds in another
-    /// unit or rounding (see the module's words); the stored reading it
-    /// matched is taken and matches no other.
+    /// Whether the new record `r` (not held under its id) is a reading the
+    /// log holds in another unit or rounding (see the module's words); the
+    /// stored reading it matched is taken and matches no other.
     pub fn known_as(
         &mut self,
         tx: &dyn Db,
@@ -115,15 +126,28 @@ impl Reexported {
         r: &Record,
         import_id: i64,
     ) -> Result<bool, StoreError> {
-        let held = (self.held.get(source)).is_some_and(|h| h.binary_search(&at_ms).is_ok());
-        if !held || !may_be_reexpressed(r) {
+        if !may_be_reexpressed(r) {
             return Ok(false);
         }
-        let in_export = self.at.get(&(source.to_string(), at_ms));
+        let index = match &mut self.index {
+            Some(index) => index,
+            none => none.insert(Index::of(tx, person, &self.rows)?),
+        };
+        let held = (index.held.get(source)).is_some_and(|h| h.binary_search(&at_ms).is_ok());
+        if !held {
+            return Ok(false);
+        }
+        // The kinds the new export holds at this instant, as stored.
+        let mut in_export = HashSet::new();
+        for e in index.at.get(&(source, at_ms)).into_iter().flatten() {
+            in_export.insert(
+                serde_json::to_string(&e.kind).map_err(|e| StoreError::corrupt("record", e))?,
+            );
+        }
         for row in tx.rows(Q::RecordsAtInstant, args![person, source, at_ms, import_id])? {
             let (id, text) = (row.text(0)?, row.text(1)?);
             if same_reading(&text, r)?
-                && !in_export.is_some_and(|k| k.contains(&text))
+                && !in_export.contains(&text)
                 && self.taken.insert((source.to_string(), id))
             {
                 return Ok(true);

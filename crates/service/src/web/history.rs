@@ -62,12 +62,13 @@ fn setting_name(key: &str) -> &'static str {
     }
 }
 
+/// A setting's value as Today shows it (`today::with_unit`): every decimal
+/// it has up to three (1.375 U/h, a pump's 0.025 U/h step, is never 1.38,
+/// a rate the pump cannot be set to), at least two for a basal rate and
+/// one for a carb ratio.
 fn value(v: f64, unit: &str) -> String {
-    if unit == "U/h" {
-        format!("{v:.2} {unit}")
-    } else {
-        format!("{v:.1} {unit}")
-    }
+    let least = if unit == "U/h" { 2 } else { 1 };
+    format!("{} {unit}", super::today::decimals(v, least))
 }
 
 fn answer(v: &SuggestionView) -> &'static str {
@@ -107,9 +108,9 @@ pub fn model(live: &Live) -> History {
                     EN.status_no_update_word.to_string()
                 } else {
                     format!(
-                        "{} ({:+.1} %)",
+                        "{} ({} %)",
                         value(v.suggested, v.unit),
-                        v.change_percent
+                        super::today::signed(v.change_percent)
                     )
                 },
                 answer: answer(v).to_string(),
@@ -269,6 +270,18 @@ pub fn routes() -> axum::Router<crate::state::AppState> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_value_is_shown_as_today_shows_it() {
+        for (v, unit, shown) in [
+            (1.375, "U/h", "1.375 U/h"),
+            (1.3, "U/h", "1.30 U/h"),
+            (10.128, "g/U", "10.128 g/U"),
+            (12.0, "g/U", "12.0 g/U"),
+        ] {
+            assert_eq!(value(v, unit), shown, "{v}");
+        }
+    }
 
     #[test]
     fn the_reports_csp_allows_its_own_stylesheet_by_hash_and_nothing_else() {

@@ -72,8 +72,15 @@ pub fn with_unit(p: Parameter, v: f64) -> String {
     }
 }
 
+/// A signed change to one decimal: "+1.2", "-0.5", and "+0.0" for a
+/// change that rounds to none (never "-0.0", which reads as a cut).
+pub fn signed(v: f64) -> String {
+    let r = (v * 10.0).round() / 10.0 + 0.0;
+    format!("{r:+.1}")
+}
+
 /// `v` to three decimals, trailing zeros dropped down to `least`.
-fn decimals(v: f64, least: usize) -> String {
+pub fn decimals(v: f64, least: usize) -> String {
     let text = format!("{v:.3}");
     let Some((whole, frac)) = text.split_once('.') else {
         return text;
@@ -192,7 +199,7 @@ pub fn card(
                 EN.last_suggestion
             },
             value: with_unit(p, v.suggested),
-            change: format!("{:+.1} %", v.change_percent),
+            change: format!("{} %", signed(v.change_percent)),
             made: fill(
                 EN.suggestion_made,
                 &[("at", &v.decided_at), ("data", &v.data)],
@@ -227,7 +234,12 @@ fn pct(b: &Band) -> String {
 }
 
 fn points(b: &Band) -> String {
-    format!("{:+.1} points, {:+.1} to {:+.1}", b.value, b.low, b.high)
+    format!(
+        "{} points, {} to {}",
+        signed(b.value),
+        signed(b.low),
+        signed(b.high)
+    )
 }
 
 /// An open suggestion's predicted effect and the twin check in words, and
@@ -590,6 +602,20 @@ mod tests {
 
     fn effect(check: CheckOutcome) -> SettingEffect {
         abba_store::testing::predicted_effect((70.0, 1.0), (71.0, 2.5), 0.5, check)
+    }
+
+    #[test]
+    fn a_change_that_rounds_to_none_is_never_minus_zero() {
+        for (v, shown) in [
+            (-0.04, "+0.0"),
+            (-0.0, "+0.0"),
+            (0.04, "+0.0"),
+            (-0.05, "-0.1"),
+            (4.96, "+5.0"),
+            (-5.0, "-5.0"),
+        ] {
+            assert_eq!(signed(v), shown, "{v}");
+        }
     }
 
     #[test]

@@ -114,10 +114,9 @@ fn pct(sorted: &[Duration], p: f64) -> Duration {
     sorted[k]
 }
 
-/// The store of `db` with a heavy person (a year of events posted by an
-/// app) and a light one: their ids and tokens, day 1 of both.
-fn heavy_and_light(db: &std::path::Path) -> (u64, u64, String, String, jiff::Timestamp) {
-    // Day 1 a year and a day ago: no event is in the future.
+/// Day 1 `DAYS` + 1 days ago (UTC), as a date and an instant: a year of
+/// events from it has none in the future.
+fn day_1_a_year_ago() -> (jiff::civil::Date, jiff::Timestamp) {
     let today = jiff::Timestamp::now()
         .to_zoned(jiff::tz::TimeZone::UTC)
         .date();
@@ -126,6 +125,13 @@ fn heavy_and_light(db: &std::path::Path) -> (u64, u64, String, String, jiff::Tim
         .to_zoned(jiff::tz::TimeZone::UTC)
         .unwrap()
         .timestamp();
+    (first_day, day1)
+}
+
+/// The store of `db` with a heavy person (a year of events posted by an
+/// app) and a light one: their ids and tokens, day 1 of both.
+fn heavy_and_light(db: &std::path::Path) -> (u64, u64, String, String, jiff::Timestamp) {
+    let (first_day, day1) = day_1_a_year_ago();
     let (_, admin) = abba_service::new_admin_token(db).unwrap();
     let (heavy, light, heavy_token, light_token) = {
         let server = Server::start(db, ServeSettings::default());
@@ -411,14 +417,7 @@ fn clinic_lists_at_once_leave_a_pooled_connection_to_others() {
         },
         ..ServeSettings::default()
     };
-    let today = jiff::Timestamp::now()
-        .to_zoned(jiff::tz::TimeZone::UTC)
-        .date();
-    let first_day = today - jiff::Span::new().days(DAYS + 1);
-    let day1 = first_day
-        .to_zoned(jiff::tz::TimeZone::UTC)
-        .unwrap()
-        .timestamp();
+    let (first_day, day1) = day_1_a_year_ago();
     let (_, admin) = abba_service::new_admin_token(&db).unwrap();
     let server = Server::start(&db, set);
     let c = Client::new(&server.url(), Some(&admin)).unwrap();
